@@ -1,0 +1,278 @@
+//! The central node: a Zenoh router hosting the system manager. This is the thin async driver that
+//! turns Zenoh traffic into [`Event`]s and carries out the [`Command`]s of [`SystemManager`].
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use mrmm_peer::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
+use mrmm_peer::proto::{self, CommandAck, ErrorReply, RobotInfo, SystemKey};
+use serde::Deserialize;
+use tokio::sync::{mpsc, oneshot};
+use tokio_util::sync::CancellationToken;
+use zenoh::bytes::Encoding;
+use zenoh::query::Query;
+use zenoh::sample::SampleKind;
+use zenoh::Session;
+
+use crate::error::ManagerError;
+use crate::system::{Command, Event, Request, SystemManager};
+
+/// Period of the manager's housekeeping tick.
+const TICK: Duration = Duration::from_millis(250);
+
+/// Config of `mrmm central` (JSON5).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CentralConfig {
+    /// Router endpoints; robots connect here.
+    #[serde(default = "default_listen")]
+    pub listen: Vec<String>,
+    /// Link lease, ms.
+    #[serde(default = "default_lease")]
+    pub lease_ms: u64,
+    /// How long to wait for a robot's answer, ms.
+    #[serde(default = "default_query_timeout")]
+    pub query_timeout_ms: u64,
+}
+
+fn default_listen() -> Vec<String> {
+    vec![DEFAULT_CENTRAL.to_string()]
+}
+fn default_lease() -> u64 {
+    DEFAULT_LEASE_MS
+}
+fn default_query_timeout() -> u64 {
+    2000
+}
+
+impl Default for CentralConfig {
+    fn default() -> Self {
+        CentralConfig { listen: default_listen(), lease_ms: default_lease(), query_timeout_ms: default_query_timeout() }
+    }
+}
+
+impl CentralConfig {
+    /// Reads and validates a central config file.
+    pub fn load(path: &Path) -> Result<Self, ManagerError> {
+        let cfg: CentralConfig = mrmm_peer::config::load_json5(path)?;
+        cfg.validate().map_err(|e| ManagerError::Config(format!("{}: {e}", path.display())))?;
+        Ok(cfg)
+    }
+
+    /// Checks every value; the error is `field: problem`.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.listen.is_empty() {
+            return Err("listen: at least one endpoint is needed".into());
+        }
+        net::validate_endpoints("listen", &self.listen)?;
+        if !(100..=60_000).contains(&self.lease_ms) {
+            return Err(format!("lease_ms: must be 100..=60000 (got {})", self.lease_ms));
+        }
+        if !(10..=60_000).contains(&self.query_timeout_ms) {
+            return Err(format!("query_timeout_ms: must be 10..=60000 (got {})", self.query_timeout_ms));
+        }
+        Ok(())
+    }
+}
+
+/// What central reports once it is serving.
+#[derive(Debug, Clone)]
+pub struct Ready {
+    pub zid: String,
+    pub endpoints: Vec<String>,
+}
+
+/// Runs central until `shutdown` is cancelled.
+pub async fn run(
+    cfg: CentralConfig,
+    shutdown: CancellationToken,
+    ready: Option<oneshot::Sender<Ready>>,
+) -> Result<(), ManagerError> {
+    cfg.validate().map_err(ManagerError::Config)?;
+    let session = net::open(net::zenoh_config(Mode::Router, &cfg.listen, &[], cfg.lease_ms)?).await?;
+    let endpoints = net::listening_endpoints(&session).await;
+    let zid = session.zid().to_string();
+    let alive = session
+        .liveliness()
+        .declare_subscriber(proto::ALL_ROBOTS_ALIVE)
+        .history(true)
+        .await
+        .map_err(ManagerError::zenoh)?;
+    let telemetry = session
+        .declare_subscriber(proto::ALL_ROBOTS_TELEMETRY)
+        .await
+        .map_err(ManagerError::zenoh)?;
+    let operator = session
+        .declare_queryable(proto::SYSTEM_ALL)
+        .await
+        .map_err(ManagerError::zenoh)?;
+    tracing::info!(%zid, ?endpoints, "central up");
+    if let Some(tx) = ready {
+        let _ = tx.send(Ready { zid: zid.clone(), endpoints });
+    }
+
+    let t0 = Instant::now();
+    let now = || t0.elapsed().as_secs_f64();
+    let mut sm = SystemManager::new(zid, now());
+    let (ev_tx, mut ev_rx) = mpsc::unbounded_channel();
+    let mut driver = Driver {
+        session: session.clone(),
+        timeout: Duration::from_millis(cfg.query_timeout_ms),
+        pending: HashMap::new(),
+        next_req: 0,
+        events: ev_tx,
+    };
+    let mut tick = tokio::time::interval(TICK);
+
+    loop {
+        let event = tokio::select! {
+            _ = shutdown.cancelled() => break,
+            _ = tick.tick() => Event::Tick,
+            s = alive.recv_async() => {
+                let Ok(s) = s else { break };
+                match proto::parse_robot_key(s.key_expr().as_str()) {
+                    Some((id, proto::RobotTopic::Alive)) => match s.kind() {
+                        SampleKind::Put => Event::RobotAlive { id: id.to_string() },
+                        SampleKind::Delete => Event::RobotGone { id: id.to_string() },
+                    },
+                    _ => {
+                        tracing::warn!("ignored liveliness token {}", s.key_expr());
+                        continue;
+                    }
+                }
+            }
+            s = telemetry.recv_async() => {
+                let Ok(s) = s else { break };
+                match proto::decode_telemetry(&s.payload().to_bytes()) {
+                    Ok(t) if proto::parse_robot_key(s.key_expr().as_str()).map(|k| k.0) == Some(t.id.as_str()) => {
+                        Event::Telemetry(t)
+                    }
+                    Ok(t) => {
+                        tracing::warn!("dropped telemetry of {:?} published on {}", t.id, s.key_expr());
+                        continue;
+                    }
+                    Err(e) => {
+                        tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+                        continue;
+                    }
+                }
+            }
+            q = operator.recv_async() => {
+                let Ok(q) = q else { break };
+                match driver.accept(q).await {
+                    Some(e) => e,
+                    None => continue,
+                }
+            }
+            Some(e) = ev_rx.recv() => e,
+        };
+        for cmd in sm.handle(now(), event) {
+            driver.execute(cmd).await;
+        }
+    }
+    tracing::info!("central shutting down");
+    drop((alive, telemetry, operator));
+    session.close().await.map_err(ManagerError::zenoh)?;
+    Ok(())
+}
+
+/// The I/O half: pending operator queries and asynchronous requests to robots.
+struct Driver {
+    session: Session,
+    timeout: Duration,
+    pending: HashMap<u64, Query>,
+    next_req: u64,
+    events: mpsc::UnboundedSender<Event>,
+}
+
+impl Driver {
+    /// Routes an operator query; unknown keys are answered here.
+    async fn accept(&mut self, q: Query) -> Option<Event> {
+        let request = match proto::parse_system_key(q.key_expr().as_str()) {
+            Some(SystemKey::Status) => Request::Status,
+            Some(SystemKey::Robots) => Request::Robots,
+            Some(SystemKey::Robot(id)) => Request::Robot(id),
+            Some(SystemKey::CmdGoto) => Request::Goto(net::query_payload(&q)),
+            None => {
+                net::reply_error(&q, &format!("unknown key {}", q.key_expr())).await;
+                return None;
+            }
+        };
+        let req = self.next_req;
+        self.next_req += 1;
+        self.pending.insert(req, q);
+        Some(Event::Operator { req, request })
+    }
+
+    async fn execute(&mut self, cmd: Command) {
+        match cmd {
+            Command::Reply { req, result } => {
+                let Some(q) = self.pending.remove(&req) else { return };
+                match result {
+                    Ok(v) => net::reply_json(&q, &v).await,
+                    Err(e) => net::reply_error(&q, &e).await,
+                }
+            }
+            Command::FetchInfo { id } => {
+                let (session, tx, timeout) = (self.session.clone(), self.events.clone(), self.timeout);
+                tokio::spawn(async move {
+                    let event = match ask::<RobotInfo>(&session, &proto::robot_info(&id), None, timeout).await {
+                        Ok(info) if info.id == id => Event::RobotRegistered(info),
+                        Ok(info) => Event::InfoFailed { id, reason: format!("answered as {:?}", info.id) },
+                        Err(reason) => Event::InfoFailed { id, reason },
+                    };
+                    let _ = tx.send(event);
+                });
+            }
+            Command::SendToRobot { req, robot, cmd } => {
+                let (session, tx, timeout) = (self.session.clone(), self.events.clone(), self.timeout);
+                tokio::spawn(async move {
+                    let result = match proto::to_json(&cmd) {
+                        Ok(body) => ask::<CommandAck>(&session, &proto::robot_cmd(&robot), Some(body), timeout).await,
+                        Err(e) => Err(e.to_string()),
+                    };
+                    let _ = tx.send(Event::RobotCommandDone { req, robot, result });
+                });
+            }
+        }
+    }
+}
+
+/// One query expecting one JSON answer: returns at the first reply (not at the timeout).
+async fn ask<T: serde::de::DeserializeOwned>(
+    session: &Session,
+    key: &str,
+    body: Option<Vec<u8>>,
+    timeout: Duration,
+) -> Result<T, String> {
+    let mut get = session.get(key).timeout(timeout);
+    if let Some(b) = body {
+        get = get.payload(b).encoding(Encoding::APPLICATION_JSON);
+    }
+    let replies = get.await.map_err(|e| format!("query {key}: {e}"))?;
+    let reply = replies
+        .recv_async()
+        .await
+        .map_err(|_| format!("no answer on {key} within {} ms", timeout.as_millis()))?;
+    match reply.result() {
+        Ok(sample) => proto::from_json(key, &sample.payload().to_bytes()).map_err(|e| e.to_string()),
+        Err(err) => Err(proto::from_json::<ErrorReply>(key, &err.payload().to_bytes())
+            .map(|e| e.error)
+            .unwrap_or_else(|_| format!("error reply on {key}"))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_errors_are_one_line() {
+        let c: CentralConfig = mrmm_peer::config::parse_json5("c.json5", "{ lease_ms: 5 }").expect("parse");
+        assert_eq!(c.validate().expect_err("lease"), "lease_ms: must be 100..=60000 (got 5)");
+        let e = mrmm_peer::config::parse_json5::<CentralConfig>("c.json5", "{ listen: 7 }").expect_err("type");
+        assert!(e.to_string().starts_with("c.json5: listen: "), "{e}");
+        assert!(CentralConfig::default().validate().is_ok());
+    }
+}

@@ -1,0 +1,24 @@
+//! The error type of the manager crate.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in a manager.
+#[derive(Debug, Error)]
+pub enum ManagerError {
+    /// A config file could not be read or is wrong; the message names the file, field and problem.
+    #[error("{0}")]
+    Config(String),
+    #[error(transparent)]
+    Peer(#[from] mrmm_peer::PeerError),
+    /// The other side answered with an error.
+    #[error("{0}")]
+    Remote(String),
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+}
+
+impl ManagerError {
+    pub fn zenoh(e: impl std::fmt::Display) -> Self {
+        ManagerError::Zenoh(e.to_string())
+    }
+}

@@ -1,0 +1,9 @@
+//! mrmm managers: the system manager (a pure state machine, [`system`]) and the central node that
+//! drives it over Zenoh ([`central`]).
+
+pub mod central;
+pub mod client;
+pub mod error;
+pub mod system;
+
+pub use error::ManagerError;

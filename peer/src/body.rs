@@ -1,0 +1,183 @@
+//! The simulated robot body: unicycle kinematics with speed and turn-rate limits.
+//!
+//! The body integrates in simulated time; the caller scales wall time by the robot's
+//! `time_scale` before calling [`Body::step`].
+
+use nalgebra::{Rotation2, Vector2};
+
+use crate::proto::{Pose, Velocity};
+
+/// Physical limits of a robot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    /// Maximum linear speed, m/s.
+    pub max_speed: f64,
+    /// Maximum turn rate, rad/s.
+    pub max_turn_rate: f64,
+}
+
+/// Distance under which a navigation goal counts as reached, metres.
+pub const ARRIVAL_TOLERANCE: f64 = 0.05;
+
+/// A unicycle robot: position, heading, and the goal it is driving to.
+#[derive(Debug, Clone)]
+pub struct Body {
+    pos: Vector2<f64>,
+    heading: f64,
+    velocity: Velocity,
+    limits: Limits,
+    goal: Option<Vector2<f64>>,
+}
+
+impl Body {
+    pub fn new(start: Pose, limits: Limits) -> Self {
+        Body {
+            pos: Vector2::new(start.x, start.y),
+            heading: wrap_angle(start.theta),
+            velocity: Velocity::default(),
+            limits,
+            goal: None,
+        }
+    }
+
+    pub fn pose(&self) -> Pose {
+        Pose { x: self.pos.x, y: self.pos.y, theta: self.heading }
+    }
+
+    pub fn velocity(&self) -> Velocity {
+        self.velocity
+    }
+
+    pub fn goal(&self) -> Option<(f64, f64)> {
+        self.goal.map(|g| (g.x, g.y))
+    }
+
+    /// Start driving to (x, y). Non-finite goals are ignored by the caller's validation.
+    pub fn navigate_to(&mut self, x: f64, y: f64) {
+        self.goal = Some(Vector2::new(x, y));
+    }
+
+    /// Stop now.
+    pub fn hold(&mut self) {
+        self.goal = None;
+        self.velocity = Velocity::default();
+    }
+
+    /// Advances the body by `dt` seconds of simulated time. Returns true when it reached its goal
+    /// during this step (the goal is then cleared).
+    pub fn step(&mut self, dt: f64) -> bool {
+        let Some(goal) = self.goal else {
+            self.velocity = Velocity::default();
+            return false;
+        };
+        if dt <= 0.0 {
+            return false;
+        }
+        let to_goal = goal - self.pos;
+        let dist = to_goal.norm();
+        if dist <= ARRIVAL_TOLERANCE {
+            self.hold();
+            return true;
+        }
+        let desired = to_goal.y.atan2(to_goal.x);
+        let err = wrap_angle(desired - self.heading);
+        let max_turn = self.limits.max_turn_rate * dt;
+        let turn = err.clamp(-max_turn, max_turn);
+        self.heading = wrap_angle(self.heading + turn);
+        // Drive only roughly facing the goal; slow down in proportion to the heading error.
+        let align = (1.0 - (err.abs() - turn.abs()) / std::f64::consts::FRAC_PI_2).clamp(0.0, 1.0);
+        let speed = self.limits.max_speed * align;
+        let advance = (speed * dt).min(dist);
+        let dir = Rotation2::new(self.heading) * Vector2::x();
+        self.pos += dir * advance;
+        self.velocity = Velocity { v: advance / dt, omega: turn / dt };
+        if (goal - self.pos).norm() <= ARRIVAL_TOLERANCE {
+            self.hold();
+            return true;
+        }
+        false
+    }
+}
+
+/// Wraps an angle to (-pi, pi].
+pub fn wrap_angle(a: f64) -> f64 {
+    let two_pi = std::f64::consts::TAU;
+    let mut r = a.rem_euclid(two_pi);
+    if r > std::f64::consts::PI {
+        r -= two_pi;
+    }
+    r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LIM: Limits = Limits { max_speed: 1.0, max_turn_rate: 2.0 };
+
+    fn run_until_arrival(b: &mut Body, dt: f64, max_steps: usize) -> Option<usize> {
+        (1..=max_steps).find(|_| b.step(dt))
+    }
+
+    #[test]
+    fn straight_line_takes_distance_over_speed() {
+        let mut b = Body::new(Pose::default(), LIM);
+        b.navigate_to(10.0, 0.0);
+        let steps = run_until_arrival(&mut b, 0.01, 10_000).expect("arrives");
+        let t = steps as f64 * 0.01;
+        assert!((t - 10.0).abs() < 0.1, "t = {t}");
+        assert!((b.pose().x - 10.0).abs() <= ARRIVAL_TOLERANCE);
+        assert_eq!(b.velocity(), Velocity::default());
+        assert!(b.goal().is_none());
+    }
+
+    #[test]
+    fn turns_first_when_goal_is_behind() {
+        let mut b = Body::new(Pose { x: 0.0, y: 0.0, theta: 0.0 }, LIM);
+        b.navigate_to(-5.0, 0.0);
+        b.step(0.1);
+        // Facing away: turns at the limit and barely moves.
+        assert!((b.pose().theta.abs() - 0.2).abs() < 1e-9);
+        assert!(b.pose().x.abs() < 1e-9);
+        let steps = run_until_arrival(&mut b, 0.01, 100_000).expect("arrives");
+        let t = steps as f64 * 0.01;
+        // Half a turn at 2 rad/s (~1.57 s) plus 5 m at 1 m/s, with some slack for blending.
+        assert!(t > 5.0 && t < 7.5, "t = {t}");
+    }
+
+    #[test]
+    fn never_exceeds_limits() {
+        let mut b = Body::new(Pose { x: 1.0, y: 2.0, theta: 2.0 }, LIM);
+        b.navigate_to(-3.0, 7.0);
+        for _ in 0..2000 {
+            let before = b.pose();
+            b.step(0.05);
+            let after = b.pose();
+            let d = ((after.x - before.x).powi(2) + (after.y - before.y).powi(2)).sqrt();
+            assert!(d <= 1.0 * 0.05 + 1e-9);
+            assert!(wrap_angle(after.theta - before.theta).abs() <= 2.0 * 0.05 + 1e-9);
+        }
+        assert!(b.goal().is_none(), "arrived");
+        assert!(((b.pose().x + 3.0).powi(2) + (b.pose().y - 7.0).powi(2)).sqrt() <= ARRIVAL_TOLERANCE);
+    }
+
+    #[test]
+    fn hold_stops() {
+        let mut b = Body::new(Pose::default(), LIM);
+        b.navigate_to(3.0, 3.0);
+        b.step(0.1);
+        b.hold();
+        let p = b.pose();
+        b.step(1.0);
+        assert_eq!(b.pose(), p);
+    }
+
+    #[test]
+    fn wrap_angle_range() {
+        for k in -20..20 {
+            let a = wrap_angle(k as f64 * 0.7);
+            assert!(a > -std::f64::consts::PI - 1e-12 && a <= std::f64::consts::PI + 1e-12);
+        }
+        assert!((wrap_angle(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,199 @@
+//! Robot configuration: a JSON5 file, validated into typed values with one-line errors.
+
+use std::path::Path;
+
+use serde::de::DeserializeOwned;
+use serde::Deserialize;
+
+use crate::body::Limits;
+use crate::error::PeerError;
+use crate::net::{validate_endpoints, ZenohSection};
+use crate::proto::{validate_id, Pose};
+
+/// Everything a robot peer needs to start (`mrmm robot --config robot.json5`).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotConfig {
+    /// Unique robot id, one key chunk.
+    pub id: String,
+    /// Robot type (e.g. `ground`, `aerial`): recipes choose behaviours per type.
+    #[serde(rename = "type")]
+    pub robot_type: String,
+    #[serde(default)]
+    pub capabilities: Vec<String>,
+    pub kinematics: Kinematics,
+    #[serde(default)]
+    pub start: StartPose,
+    /// Simulated seconds per wall-clock second.
+    #[serde(default = "default_time_scale")]
+    pub time_scale: f64,
+    /// Telemetry publications per wall-clock second.
+    #[serde(default = "default_telemetry_hz")]
+    pub telemetry_hz: f64,
+    #[serde(default)]
+    pub zenoh: ZenohSection,
+}
+
+/// Physical limits of the simulated body.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Kinematics {
+    /// m/s
+    pub max_speed: f64,
+    /// rad/s
+    pub max_turn_rate: f64,
+}
+
+/// Where the robot starts.
+#[derive(Debug, Clone, Copy, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct StartPose {
+    pub x: f64,
+    pub y: f64,
+    #[serde(default)]
+    pub theta: f64,
+}
+
+fn default_time_scale() -> f64 {
+    1.0
+}
+fn default_telemetry_hz() -> f64 {
+    5.0
+}
+
+impl RobotConfig {
+    /// Reads and validates a robot config file.
+    pub fn load(path: &Path) -> Result<Self, PeerError> {
+        let cfg: RobotConfig = load_json5(path)?;
+        cfg.validate().map_err(|e| PeerError::Config(format!("{}: {e}", path.display())))?;
+        Ok(cfg)
+    }
+
+    /// Parses and validates a config given as text (`origin` names it in errors).
+    pub fn from_json5(origin: &str, text: &str) -> Result<Self, PeerError> {
+        let cfg: RobotConfig = parse_json5(origin, text)?;
+        cfg.validate().map_err(|e| PeerError::Config(format!("{origin}: {e}")))?;
+        Ok(cfg)
+    }
+
+    /// Checks every value; the error is `field: problem`.
+    pub fn validate(&self) -> Result<(), String> {
+        validate_id(&self.id).map_err(|e| format!("id: {e}"))?;
+        validate_id(&self.robot_type).map_err(|_| {
+            format!("type: {:?} must be 1 to 64 characters of A-Z a-z 0-9 _ -", self.robot_type)
+        })?;
+        for (i, c) in self.capabilities.iter().enumerate() {
+            if c.trim().is_empty() {
+                return Err(format!("capabilities[{i}]: empty capability"));
+            }
+        }
+        positive("kinematics.max_speed", self.kinematics.max_speed, 1e3)?;
+        positive("kinematics.max_turn_rate", self.kinematics.max_turn_rate, 1e3)?;
+        for (name, v) in [("start.x", self.start.x), ("start.y", self.start.y), ("start.theta", self.start.theta)] {
+            if !v.is_finite() {
+                return Err(format!("{name}: must be a finite number (got {v})"));
+            }
+        }
+        positive("time_scale", self.time_scale, 1e3)?;
+        positive("telemetry_hz", self.telemetry_hz, 100.0)?;
+        validate_endpoints("zenoh.listen", &self.zenoh.listen)?;
+        validate_endpoints("zenoh.connect", &self.zenoh.connect)?;
+        if self.zenoh.lease_ms < 100 || self.zenoh.lease_ms > 60_000 {
+            return Err(format!("zenoh.lease_ms: must be 100..=60000 (got {})", self.zenoh.lease_ms));
+        }
+        Ok(())
+    }
+
+    pub fn limits(&self) -> Limits {
+        Limits { max_speed: self.kinematics.max_speed, max_turn_rate: self.kinematics.max_turn_rate }
+    }
+
+    pub fn start_pose(&self) -> Pose {
+        Pose { x: self.start.x, y: self.start.y, theta: self.start.theta }
+    }
+}
+
+fn positive(name: &str, v: f64, max: f64) -> Result<(), String> {
+    if v.is_finite() && v > 0.0 && v <= max {
+        Ok(())
+    } else {
+        Err(format!("{name}: must be a number in (0, {max}] (got {v})"))
+    }
+}
+
+/// Reads a JSON5 file into `T`; errors are one line naming the file, the field path and the problem.
+pub fn load_json5<T: DeserializeOwned>(path: &Path) -> Result<T, PeerError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| PeerError::Config(format!("{}: cannot read: {e}", path.display())))?;
+    parse_json5(&path.display().to_string(), &text)
+}
+
+/// Parses JSON5 text into `T`, naming `origin` and the failing field path in errors.
+pub fn parse_json5<T: DeserializeOwned>(origin: &str, text: &str) -> Result<T, PeerError> {
+    let mut de = json5::Deserializer::from_str(text)
+        .map_err(|e| PeerError::Config(format!("{origin}: {}", one_line(&e.to_string()))))?;
+    serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let path = e.path().to_string();
+        let inner = one_line(&e.inner().to_string());
+        if path.is_empty() || path == "." {
+            PeerError::Config(format!("{origin}: {inner}"))
+        } else {
+            PeerError::Config(format!("{origin}: {path}: {inner}"))
+        }
+    })
+}
+
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"{
+        id: "r1", type: "ground", capabilities: ["camera"],
+        kinematics: { max_speed: 1.2, max_turn_rate: 2.0 },
+        start: { x: 1, y: 2 },
+        zenoh: { listen: ["tcp/127.0.0.1:7501"], connect: ["tcp/127.0.0.1:7447"] },
+    }"#;
+
+    fn err(text: &str) -> String {
+        RobotConfig::from_json5("robot.json5", text).expect_err("should fail").to_string()
+    }
+
+    #[test]
+    fn good_config_loads_with_defaults() {
+        let c = RobotConfig::from_json5("robot.json5", GOOD).expect("valid");
+        assert_eq!(c.id, "r1");
+        assert_eq!(c.time_scale, 1.0);
+        assert_eq!(c.zenoh.lease_ms, 1000);
+        assert_eq!(c.start_pose(), Pose { x: 1.0, y: 2.0, theta: 0.0 });
+    }
+
+    #[test]
+    fn errors_name_file_field_and_problem() {
+        let e = err(&GOOD.replace("max_speed: 1.2", "max_speed: -1"));
+        assert!(e.starts_with("robot.json5: kinematics.max_speed: must be"), "{e}");
+        let e = err(&GOOD.replace("max_speed: 1.2", "max_speed: \"fast\""));
+        assert!(e.contains("kinematics.max_speed"), "{e}");
+        let e = err(&GOOD.replace("id: \"r1\", ", ""));
+        assert!(e.contains("missing field `id`"), "{e}");
+        let e = err(&GOOD.replace("capabilities", "capabilites"));
+        assert!(e.contains("unknown field `capabilites`"), "{e}");
+        let e = err(&GOOD.replace("\"r1\"", "\"r/1\""));
+        assert!(e.starts_with("robot.json5: id: invalid robot id"), "{e}");
+        let e = err("{ id: ");
+        assert!(e.starts_with("robot.json5: "), "{e}");
+        assert!(!e.contains('\n'));
+        let wildcard = ["0", "0", "0", "0"].join(".");
+        let e = err(&GOOD.replace("127.0.0.1:7501", &format!("{wildcard}:7501")));
+        assert!(e.contains("zenoh.listen[0]"), "{e}");
+    }
+
+    #[test]
+    fn missing_file_is_one_line() {
+        let e = RobotConfig::load(Path::new("/nonexistent/robot.json5")).expect_err("missing");
+        assert!(e.to_string().starts_with("/nonexistent/robot.json5: cannot read"));
+    }
+}

@@ -1,0 +1,193 @@
+//! Zenoh plumbing shared by every mrmm node: session configs that follow the project's network
+//! rules (explicit endpoints, no multicast scouting, 1 s lease) and JSON reply helpers.
+
+use serde::{Deserialize, Serialize};
+use zenoh::bytes::Encoding;
+use zenoh::query::Query;
+
+use crate::error::PeerError;
+use crate::proto::{to_json, ErrorReply};
+
+/// Default address of the central router.
+pub const DEFAULT_CENTRAL: &str = "tcp/127.0.0.1:7447";
+/// Default lease: a silent peer is declared gone after this long.
+pub const DEFAULT_LEASE_MS: u64 = 1000;
+
+/// The `zenoh` section of a node config.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ZenohSection {
+    /// Endpoints to listen on. Must name an explicit address (gossip advertises these to
+    /// other peers so they can link directly); port 0 picks a free port.
+    #[serde(default = "default_listen")]
+    pub listen: Vec<String>,
+    /// Endpoints to connect to (central first, then any known peers).
+    #[serde(default = "default_connect")]
+    pub connect: Vec<String>,
+    /// Link lease in milliseconds.
+    #[serde(default = "default_lease")]
+    pub lease_ms: u64,
+}
+
+impl Default for ZenohSection {
+    fn default() -> Self {
+        ZenohSection { listen: default_listen(), connect: default_connect(), lease_ms: DEFAULT_LEASE_MS }
+    }
+}
+
+fn default_listen() -> Vec<String> {
+    vec!["tcp/127.0.0.1:0".to_string()]
+}
+fn default_connect() -> Vec<String> {
+    vec![DEFAULT_CENTRAL.to_string()]
+}
+fn default_lease() -> u64 {
+    DEFAULT_LEASE_MS
+}
+
+/// Role of a node in the Zenoh network.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// The central node: routes for everyone.
+    Router,
+    /// Robots and managers: link directly to each other (gossip) and to the router.
+    Peer,
+    /// Short-lived operator tools.
+    Client,
+}
+
+impl Mode {
+    fn as_str(self) -> &'static str {
+        match self {
+            Mode::Router => "router",
+            Mode::Peer => "peer",
+            Mode::Client => "client",
+        }
+    }
+}
+
+/// Checks a list of endpoints: `tcp/<host>:<port>`, with an explicit host address.
+pub fn validate_endpoints(field: &str, eps: &[String]) -> Result<(), String> {
+    for (i, ep) in eps.iter().enumerate() {
+        validate_endpoint(ep).map_err(|e| format!("{field}[{i}]: {e}"))?;
+    }
+    Ok(())
+}
+
+/// Checks one endpoint (see [`validate_endpoints`]).
+pub fn validate_endpoint(ep: &str) -> Result<(), String> {
+    let addr = ep
+        .strip_prefix("tcp/")
+        .ok_or_else(|| format!("{ep:?}: only tcp/<address>:<port> endpoints are supported"))?;
+    let addr = addr.split('#').next().unwrap_or(addr);
+    let (host, port) = addr
+        .rsplit_once(':')
+        .ok_or_else(|| format!("{ep:?}: missing :<port>"))?;
+    port.parse::<u16>().map_err(|_| format!("{ep:?}: bad port {port:?}"))?;
+    let host = host.trim_start_matches('[').trim_end_matches(']');
+    if host.is_empty() {
+        return Err(format!("{ep:?}: missing address"));
+    }
+    if let Ok(ip) = host.parse::<std::net::IpAddr>() {
+        if ip.is_unspecified() {
+            return Err(format!(
+                "{ep:?}: a wildcard address cannot be advertised to other peers; name the interface address (e.g. 127.0.0.1)"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Builds a Zenoh config for a node: explicit endpoints, multicast scouting off, gossip on,
+/// the given lease on every link.
+pub fn zenoh_config(
+    mode: Mode,
+    listen: &[String],
+    connect: &[String],
+    lease_ms: u64,
+) -> Result<zenoh::Config, PeerError> {
+    let mut c = zenoh::Config::default();
+    let set = |c: &mut zenoh::Config, key: &str, value: String| {
+        c.insert_json5(key, &value)
+            .map_err(|e| PeerError::Config(format!("zenoh config {key}: {e}")))
+    };
+    set(&mut c, "mode", json(mode.as_str()))?;
+    set(&mut c, "listen/endpoints", json(listen))?;
+    set(&mut c, "connect/endpoints", json(connect))?;
+    set(&mut c, "scouting/multicast/enabled", "false".into())?;
+    set(&mut c, "scouting/gossip/enabled", "true".into())?;
+    set(&mut c, "transport/link/tx/lease", lease_ms.to_string())?;
+    if mode == Mode::Peer {
+        // Peers keep retrying their connect endpoints (central may be down or restarting).
+        set(&mut c, "connect/exit_on_failure", "false".into())?;
+    }
+    Ok(c)
+}
+
+/// JSON text of a string or string list (cannot fail for those).
+fn json<T: Serialize + ?Sized>(v: &T) -> String {
+    serde_json::to_string(v).unwrap_or_else(|_| "null".into())
+}
+
+/// Opens a Zenoh session, mapping the error.
+pub async fn open(config: zenoh::Config) -> Result<zenoh::Session, PeerError> {
+    zenoh::open(config).await.map_err(PeerError::zenoh)
+}
+
+/// The endpoints this session really listens on (port 0 resolved), as `tcp/…` strings.
+pub async fn listening_endpoints(session: &zenoh::Session) -> Vec<String> {
+    session.info().locators().await.iter().map(|l| l.to_string()).collect()
+}
+
+/// Replies to a query with a JSON value on the query's own key.
+pub async fn reply_json<T: Serialize>(query: &Query, value: &T) {
+    match to_json(value) {
+        Ok(bytes) => {
+            let key = query.key_expr().clone();
+            if let Err(e) = query.reply(key, bytes).encoding(Encoding::APPLICATION_JSON).await {
+                tracing::warn!("reply on {} failed: {e}", query.key_expr());
+            }
+        }
+        Err(e) => reply_error(query, &e.to_string()).await,
+    }
+}
+
+/// Replies to a query with a reply error `{"error": msg}`.
+pub async fn reply_error(query: &Query, msg: &str) {
+    let body = to_json(&ErrorReply { error: msg.to_string() }).unwrap_or_default();
+    if let Err(e) = query.reply_err(body).encoding(Encoding::APPLICATION_JSON).await {
+        tracing::warn!("error reply on {} failed: {e}", query.key_expr());
+    }
+}
+
+/// The query's payload bytes (empty when it has none).
+pub fn query_payload(query: &Query) -> Vec<u8> {
+    query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn endpoints() {
+        assert!(validate_endpoint("tcp/127.0.0.1:7447").is_ok());
+        assert!(validate_endpoint("tcp/127.0.0.1:0").is_ok());
+        assert!(validate_endpoint("tcp/[::1]:7447").is_ok());
+        assert!(validate_endpoint("udp/127.0.0.1:7447").is_err());
+        assert!(validate_endpoint("tcp/127.0.0.1").is_err());
+        assert!(validate_endpoint("tcp/127.0.0.1:99999").is_err());
+        let unspecified = format!("tcp/{}:1", ["0"; 4].join("."));
+        assert!(validate_endpoint(&unspecified).unwrap_err().contains("wildcard"));
+        assert!(validate_endpoint("tcp/[::]:1").is_err());
+    }
+
+    #[test]
+    fn config_has_no_multicast_and_our_lease() {
+        let c = zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[DEFAULT_CENTRAL.into()], 1000)
+            .expect("config");
+        assert_eq!(c.get_json("scouting/multicast/enabled").expect("key"), "false");
+        assert_eq!(c.get_json("transport/link/tx/lease").expect("key"), "1000");
+        assert!(c.get_json("listen/endpoints").expect("key").contains("127.0.0.1:0"));
+    }
+}

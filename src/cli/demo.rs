@@ -1,0 +1,181 @@
+//! `mrmm demo`: the embedded default. Starts central and a simulated fleet as child processes,
+//! drives the robots through a rotating formation, and shows the fleet live.
+
+use std::io::{IsTerminal, Write};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, Context};
+use mrmm_manager::client::Client;
+use mrmm_peer::proto::{self, GotoRequest, RobotStatus, RobotView};
+use tokio::process::Child;
+
+use super::procs;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Number of simulated robots.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=200))]
+    robots: u32,
+    /// Stop after this many seconds (default: run until Ctrl-C).
+    #[arg(long)]
+    duration: Option<f64>,
+    /// Endpoint central listens on; outside clients connect here.
+    #[arg(long, default_value = mrmm_peer::net::DEFAULT_CENTRAL)]
+    listen: String,
+    /// Simulated seconds per wall second for every robot.
+    #[arg(long, default_value_t = 1.0)]
+    time_scale: f64,
+    /// Radius of the formation circle, metres.
+    #[arg(long, default_value_t = 8.0)]
+    radius: f64,
+}
+
+const TYPES: [&str; 2] = ["ground", "aerial"];
+
+pub async fn run(args: Args) -> anyhow::Result<()> {
+    mrmm_peer::net::validate_endpoint(&args.listen).map_err(|e| anyhow!("--listen: {e}"))?;
+    if let Some(d) = args.duration {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(anyhow!("--duration: must be a positive number of seconds (got {d})"));
+        }
+    }
+    let shutdown = super::shutdown::on_signals()?;
+    let dir = std::env::temp_dir().join(format!("mrmm-demo-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut children: Vec<Child> = Vec::new();
+    let result = drive(&args, &dir, &mut children, &shutdown).await;
+    procs::stop_all(&mut children, Duration::from_secs(5)).await;
+    if result.is_ok() {
+        let _ = std::fs::remove_dir_all(&dir);
+    } else {
+        eprintln!("logs kept in {}", dir.display());
+    }
+    result
+}
+
+async fn drive(
+    args: &Args,
+    dir: &std::path::Path,
+    children: &mut Vec<Child>,
+    shutdown: &tokio_util::sync::CancellationToken,
+) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let log = dir.join("central.log");
+    let mut central = procs::spawn(&["central".into(), "--listen".into(), args.listen.clone()], &log)?;
+    let line = procs::ready_line(&mut central, "central ready", Duration::from_secs(20), &log).await;
+    children.push(central);
+    let line = line.context("central did not start")?;
+    let endpoint = procs::field(&line, "listening")
+        .and_then(|l| l.split(',').next())
+        .ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?
+        .to_string();
+
+    let n = args.robots as usize;
+    for i in 0..n {
+        let id = format!("r{}", i + 1);
+        let cfg = robot_config(&id, i, n, &endpoint, args.time_scale);
+        let path = dir.join(format!("{id}.json5"));
+        std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
+        let log = dir.join(format!("{id}.log"));
+        children.push(procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &log)?);
+    }
+
+    let client = Client::connect(std::slice::from_ref(&endpoint), Duration::from_secs(3)).await?;
+    let tty = std::io::stdout().is_terminal();
+    let deadline = args.duration.map(|d| started + Duration::from_secs_f64(d));
+    let mut ticker = tokio::time::interval(Duration::from_millis(500));
+    let mut formation = 0usize;
+    let mut last_order: Option<Instant> = None;
+    println!("mrmm demo: central on {endpoint}; query it with `mrmm op robots --connect {endpoint}`");
+    loop {
+        tokio::select! {
+            _ = shutdown.cancelled() => break,
+            _ = ticker.tick() => {}
+        }
+        if deadline.is_some_and(|d| Instant::now() >= d) {
+            break;
+        }
+        let views: Vec<RobotView> = match client.query(proto::SYSTEM_ROBOTS, None::<&()>).await {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("fleet query failed: {e}");
+                continue;
+            }
+        };
+        let live: Vec<&RobotView> = views.iter().filter(|v| v.status != RobotStatus::Lost).collect();
+        let all_in = live.len() == n;
+        let all_idle = live.iter().all(|v| v.status == RobotStatus::Idle);
+        let settled = last_order.is_none_or(|t| t.elapsed() > Duration::from_secs(1));
+        if all_in && all_idle && settled {
+            formation += 1;
+            for (slot, v) in live.iter().enumerate() {
+                let (x, y) = circle_point((slot + formation) % n, n, args.radius);
+                let req = GotoRequest { robot: v.id.clone(), x, y };
+                if let Err(e) = client.query::<serde_json::Value>(proto::SYSTEM_CMD_GOTO, Some(&req)).await {
+                    eprintln!("goto {} failed: {e}", v.id);
+                }
+            }
+            last_order = Some(Instant::now());
+        }
+        show(tty, started, &endpoint, n, formation, &views);
+    }
+    client.close().await;
+    println!("mrmm demo: stopping");
+    Ok(())
+}
+
+fn show(tty: bool, started: Instant, endpoint: &str, n: usize, formation: usize, views: &[RobotView]) {
+    let mut out = String::new();
+    if tty {
+        out.push_str("\x1b[H\x1b[2J");
+    }
+    let registered = views.len();
+    out.push_str(&format!(
+        "mrmm demo  t={:6.1}s  central {endpoint}  robots {registered}/{n}  formation #{formation}  (Ctrl-C to stop)\n",
+        started.elapsed().as_secs_f64()
+    ));
+    out.push_str(&super::table::robots(views));
+    out.push('\n');
+    let mut stdout = std::io::stdout().lock();
+    let _ = stdout.write_all(out.as_bytes());
+    let _ = stdout.flush();
+}
+
+/// Slot `k` of `n` on a circle of radius `r` around the origin.
+fn circle_point(k: usize, n: usize, r: f64) -> (f64, f64) {
+    let a = std::f64::consts::TAU * k as f64 / n.max(1) as f64;
+    ((r * a.cos() * 100.0).round() / 100.0, (r * a.sin() * 100.0).round() / 100.0)
+}
+
+/// A generated robot config: types alternate, robots start on a line.
+fn robot_config(id: &str, i: usize, n: usize, central: &str, time_scale: f64) -> String {
+    let kind = TYPES[i % TYPES.len()];
+    let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
+    let x = (i as f64 - (n as f64 - 1.0) / 2.0) * 1.5;
+    format!(
+        r#"{{
+  id: "{id}", type: "{kind}", capabilities: {caps},
+  kinematics: {{ max_speed: {speed}, max_turn_rate: {turn} }},
+  start: {{ x: {x}, y: -12, theta: 1.5708 }},
+  time_scale: {time_scale}, telemetry_hz: 5,
+  zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }},
+}}
+"#
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_configs_are_valid() {
+        for i in 0..4 {
+            let text = robot_config(&format!("r{i}"), i, 4, "tcp/127.0.0.1:7447", 2.0);
+            let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
+            assert_eq!(cfg.time_scale, 2.0);
+        }
+        let (x, y) = circle_point(1, 4, 2.0);
+        assert!((x - 0.0).abs() < 1e-9 && (y - 2.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,50 @@
+//! Command-line interface: argument parsing and dispatch, one file per subcommand.
+
+mod central;
+mod demo;
+mod op;
+mod procs;
+mod robot;
+mod shutdown;
+mod table;
+
+use clap::{Parser, Subcommand};
+
+/// Multiple Robots for Multiple Missions: run one robot fleet on several missions at once.
+#[derive(Debug, Parser)]
+#[command(name = "mrmm", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Cmd,
+}
+
+#[derive(Debug, Subcommand)]
+enum Cmd {
+    /// Run the central node: a Zenoh router hosting the system manager.
+    Central(central::Args),
+    /// Run one robot peer (simulated body) from a config file.
+    Robot(robot::Args),
+    /// Operator commands against a running fleet.
+    Op(op::Args),
+    /// Start central and a simulated fleet, drive it, and show it live.
+    Demo(demo::Args),
+}
+
+impl Cli {
+    /// Log filter used when RUST_LOG is not set.
+    pub fn default_log_filter(&self) -> &'static str {
+        match self.command {
+            Cmd::Op(_) | Cmd::Demo(_) => "warn",
+            _ => "info,zenoh=warn",
+        }
+    }
+}
+
+pub async fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Cmd::Central(a) => central::run(a).await,
+        Cmd::Robot(a) => robot::run(a).await,
+        Cmd::Op(a) => op::run(a).await,
+        Cmd::Demo(a) => demo::run(a).await,
+    }
+}

@@ -1,0 +1,89 @@
+//! `mrmm op`: operator commands; thin clients of the system manager's keys.
+
+use std::time::Duration;
+
+use mrmm_manager::client::Client;
+use mrmm_peer::net::DEFAULT_CENTRAL;
+use mrmm_peer::proto::{self, CommandAck, GotoRequest, RobotView, SystemStatus};
+use serde_json::Value;
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Central endpoint (repeatable).
+    #[arg(long, default_value = DEFAULT_CENTRAL)]
+    connect: Vec<String>,
+    /// Print the raw JSON answer instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// How long to wait for an answer.
+    #[arg(long, default_value_t = 3000)]
+    timeout_ms: u64,
+    #[command(subcommand)]
+    what: What,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum What {
+    /// The fleet table (`mrmm/system/robots`).
+    Robots,
+    /// One robot (`mrmm/system/robots/<id>`).
+    Robot { id: String },
+    /// Fleet summary (`mrmm/system/status`).
+    Status,
+    /// Drive a robot to (x, y) (`mrmm/system/cmd/robot/goto`).
+    #[command(allow_negative_numbers = true)]
+    Goto { robot: String, x: f64, y: f64 },
+}
+
+pub async fn run(args: Args) -> anyhow::Result<()> {
+    let client = Client::connect(&args.connect, Duration::from_millis(args.timeout_ms)).await?;
+    let result = exec(&client, args.what, args.json).await;
+    client.close().await;
+    result
+}
+
+async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
+    let none = None::<&()>;
+    match what {
+        What::Robots => {
+            let v: Value = client.query(proto::SYSTEM_ROBOTS, none).await?;
+            if json {
+                return print_json(&v);
+            }
+            let views: Vec<RobotView> = serde_json::from_value(v)?;
+            print!("{}", super::table::robots(&views));
+        }
+        What::Robot { id } => {
+            let v: Value = client.query(&proto::system_robot(&id), none).await?;
+            if json {
+                return print_json(&v);
+            }
+            let view: RobotView = serde_json::from_value(v)?;
+            print!("{}", super::table::robots(&[view]));
+        }
+        What::Status => {
+            let v: Value = client.query(proto::SYSTEM_STATUS, none).await?;
+            if json {
+                return print_json(&v);
+            }
+            let s: SystemStatus = serde_json::from_value(v)?;
+            println!("central {}  up {:.0} s", s.node, s.uptime_s);
+            println!("robots  {} total: {} idle, {} busy, {} lost", s.robots_total, s.idle, s.busy, s.lost);
+        }
+        What::Goto { robot, x, y } => {
+            let req = GotoRequest { robot, x, y };
+            let v: Value = client.query(proto::SYSTEM_CMD_GOTO, Some(&req)).await?;
+            if json {
+                return print_json(&v);
+            }
+            let ack: CommandAck = serde_json::from_value(v)?;
+            println!("{}: {}", ack.robot, ack.behaviour.describe());
+        }
+    }
+    Ok(())
+}
+
+fn print_json(v: &Value) -> anyhow::Result<()> {
+    println!("{}", serde_json::to_string_pretty(v)?);
+    Ok(())
+}

@@ -1,0 +1,58 @@
+//! Plain-text tables for the terminal.
+
+use mrmm_peer::proto::RobotView;
+
+/// Renders rows under a header, columns padded to their widest cell.
+pub fn render(header: &[&str], rows: &[Vec<String>]) -> String {
+    let mut widths: Vec<usize> = header.iter().map(|h| h.chars().count()).collect();
+    for row in rows {
+        for (w, cell) in widths.iter_mut().zip(row) {
+            *w = (*w).max(cell.chars().count());
+        }
+    }
+    let line = |cells: &mut dyn Iterator<Item = &str>| {
+        let s: Vec<String> = cells.zip(&widths).map(|(c, w)| format!("{c:<w$}")).collect();
+        s.join("  ").trim_end().to_string()
+    };
+    let mut out = line(&mut header.iter().copied());
+    out.push('\n');
+    for row in rows {
+        out.push_str(&line(&mut row.iter().map(String::as_str)));
+        out.push('\n');
+    }
+    out
+}
+
+/// The fleet table.
+pub fn robots(views: &[RobotView]) -> String {
+    let rows: Vec<Vec<String>> = views
+        .iter()
+        .map(|v| {
+            let pose = v
+                .pose
+                .map(|p| format!("({:7.2}, {:7.2}) {:5.0}°", p.x, p.y, p.theta.to_degrees()))
+                .unwrap_or_else(|| "-".into());
+            vec![
+                v.id.clone(),
+                v.robot_type.clone(),
+                v.status.as_str().to_string(),
+                v.mission.clone().unwrap_or_else(|| "-".into()),
+                v.behaviour.clone().unwrap_or_else(|| "-".into()),
+                pose,
+                v.capabilities.join(","),
+            ]
+        })
+        .collect();
+    render(&["ID", "TYPE", "STATUS", "MISSION", "BEHAVIOUR", "POSE (x, y) heading", "CAPABILITIES"], &rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pads_columns() {
+        let t = render(&["A", "BB"], &[vec!["xxx".into(), "y".into()]]);
+        assert_eq!(t, "A    BB\nxxx  y\n");
+    }
+}

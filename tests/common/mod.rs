@@ -1,0 +1,156 @@
+//! Test harness: real `mrmm` processes on loopback, killed on drop, and waiting helpers.
+#![allow(dead_code)]
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context};
+
+pub const EXE: &str = env!("CARGO_BIN_EXE_mrmm");
+
+/// A running `mrmm` process; SIGKILLed when dropped.
+pub struct Proc {
+    pub name: String,
+    pub child: Child,
+    pub ready: String,
+}
+
+impl Proc {
+    pub fn pid(&self) -> i32 {
+        self.child.id() as i32
+    }
+    pub fn signal(&self, sig: &str) -> anyhow::Result<()> {
+        let st = Command::new("kill").args([&format!("-{sig}"), &self.pid().to_string()]).status()?;
+        if !st.success() {
+            bail!("kill -{sig} {} failed", self.name);
+        }
+        Ok(())
+    }
+    /// SIGKILL and reap.
+    pub fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+    /// The value of `key=` in the ready line.
+    pub fn field(&self, key: &str) -> Option<String> {
+        self.ready
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix(key)?.strip_prefix('=').map(str::to_string))
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = Command::new("kill")
+            .args(["-CONT", &self.pid().to_string()])
+            .stderr(Stdio::null())
+            .status();
+        self.kill();
+    }
+}
+
+/// A scratch directory for configs and logs, removed on drop.
+pub struct Scratch(pub PathBuf);
+
+impl Scratch {
+    pub fn new(tag: &str) -> Self {
+        let n = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_nanos()).unwrap_or(0);
+        let p = std::env::temp_dir().join(format!("mrmm-test-{tag}-{}-{n}", std::process::id()));
+        std::fs::create_dir_all(&p).expect("scratch dir");
+        Scratch(p)
+    }
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        if !std::thread::panicking() {
+            let _ = std::fs::remove_dir_all(&self.0);
+        } else {
+            eprintln!("logs kept in {}", self.0.display());
+        }
+    }
+}
+
+/// Starts `mrmm <args>` with stderr to `log` and waits for a stdout line starting with `prefix`.
+pub fn start(name: &str, args: &[&str], log: &Path, prefix: &str, timeout: Duration) -> anyhow::Result<Proc> {
+    let log_file = std::fs::File::create(log)?;
+    let mut child = Command::new(EXE)
+        .args(args)
+        .env("RUST_LOG", "info,zenoh=warn")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(log_file)
+        .spawn()
+        .with_context(|| format!("spawn {name}"))?;
+    let out = child.stdout.take().ok_or_else(|| anyhow!("no stdout"))?;
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(out).lines().map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let deadline = Instant::now() + timeout;
+    let mut proc = Proc { name: name.to_string(), child, ready: String::new() };
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        match rx.recv_timeout(left) {
+            Ok(line) if line.starts_with(prefix) => {
+                proc.ready = line;
+                return Ok(proc);
+            }
+            Ok(_) => continue,
+            Err(_) => {
+                let log = std::fs::read_to_string(log).unwrap_or_default();
+                bail!("{name} not ready within {timeout:?}; log:\n{log}");
+            }
+        }
+    }
+}
+
+/// Starts central on a free loopback port; returns it and its endpoint.
+pub fn start_central(dir: &Scratch) -> anyhow::Result<(Proc, String)> {
+    let p = start("central", &["central", "--listen", "tcp/127.0.0.1:0"], &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
+    let ep = p
+        .field("listening")
+        .and_then(|l| l.split(',').next().map(str::to_string))
+        .ok_or_else(|| anyhow!("no endpoint in {:?}", p.ready))?;
+    Ok((p, ep))
+}
+
+/// Writes a robot config and starts the robot.
+pub fn start_robot(dir: &Scratch, id: &str, central: &str, x: f64, y: f64) -> anyhow::Result<Proc> {
+    let cfg = format!(
+        r#"{{ id: "{id}", type: "ground", capabilities: ["camera"],
+             kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }},
+             start: {{ x: {x}, y: {y} }}, time_scale: 5, telemetry_hz: 10,
+             zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }} }}"#
+    );
+    let path = dir.path(&format!("{id}.json5"));
+    std::fs::write(&path, cfg)?;
+    let path = path.display().to_string();
+    start(id, &["robot", "--config", &path], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))
+}
+
+/// Re-evaluates `f` every 50 ms until it returns `Some`, or fails after `timeout`.
+pub async fn eventually<T, F, Fut>(what: &str, timeout: Duration, mut f: F) -> anyhow::Result<T>
+where
+    F: FnMut() -> Fut,
+    Fut: std::future::Future<Output = Option<T>>,
+{
+    let deadline = Instant::now() + timeout;
+    loop {
+        if let Some(v) = f().await {
+            return Ok(v);
+        }
+        if Instant::now() >= deadline {
+            bail!("timed out after {timeout:?} waiting for {what}");
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}

@@ -1,0 +1,14 @@
+//! The shipped example configs load and validate.
+
+use mrmm_manager::central::CentralConfig;
+use mrmm_peer::config::RobotConfig;
+use std::path::Path;
+
+#[test]
+fn shipped_configs_are_valid() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let r = RobotConfig::load(&root.join("config/robot.json5")).expect("robot.json5");
+    assert_eq!(r.id, "r1");
+    let c = CentralConfig::load(&root.join("config/central.json5")).expect("central.json5");
+    assert_eq!(c.listen, ["tcp/127.0.0.1:7447"]);
+}
