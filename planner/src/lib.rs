@@ -1,1 +1,10 @@
-//! placeholder
+//! mrmm planning core: patrol tours, optimal assignment, blanket coverage and XML recipes.
+//! Plain data in, plain data out: no I/O, no clock, seeded randomness.
+
+pub mod error;
+pub mod geom;
+pub mod tsp;
+pub mod tsplib;
+
+pub use error::PlanError;
+pub use geom::Point;
