@@ -1,6 +1,7 @@
 //! mrmm planning core: patrol tours, optimal assignment, blanket coverage and XML recipes.
 //! Plain data in, plain data out: no I/O, no clock, seeded randomness.
 
+pub mod assign;
 pub mod error;
 pub mod geom;
 pub mod tsp;

@@ -1,5 +1,6 @@
 //! Command-line interface: argument parsing and dispatch, one file per subcommand.
 
+mod assign;
 mod central;
 mod demo;
 mod op;
@@ -7,6 +8,7 @@ mod procs;
 mod robot;
 mod shutdown;
 mod table;
+mod tour;
 
 use clap::{Parser, Subcommand};
 
@@ -28,13 +30,17 @@ enum Cmd {
     Op(op::Args),
     /// Start central and a simulated fleet, drive it, and show it live.
     Demo(demo::Args),
+    /// Near-optimal closed tour through a TSPLIB instance.
+    Tour(tour::Args),
+    /// Optimal assignment from a CSV cost matrix (rows: robots, columns: slots).
+    Assign(assign::Args),
 }
 
 impl Cli {
     /// Log filter used when RUST_LOG is not set.
     pub fn default_log_filter(&self) -> &'static str {
         match self.command {
-            Cmd::Op(_) | Cmd::Demo(_) => "warn",
+            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Tour(_) | Cmd::Assign(_) => "warn",
             _ => "info,zenoh=warn",
         }
     }
@@ -46,5 +52,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Robot(a) => robot::run(a).await,
         Cmd::Op(a) => op::run(a).await,
         Cmd::Demo(a) => demo::run(a).await,
+        Cmd::Tour(a) => tour::run(a),
+        Cmd::Assign(a) => assign::run(a),
     }
 }
