@@ -4,6 +4,8 @@
 pub mod assign;
 pub mod error;
 pub mod geom;
+pub mod patrol;
+pub mod plan;
 pub mod tsp;
 pub mod tsplib;
 

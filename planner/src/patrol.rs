@@ -1,0 +1,323 @@
+//! Circular patrol plans: a closed tour through the operator's waypoints, n robots spread
+//! uniformly in time along it, assigned to their start slots optimally, with team sync points.
+//!
+//! Rules:
+//! - **Team speed** is the slowest robot's: a circular formation keeps its spacing only if all
+//!   robots move at one speed. Predicted worst idleness is then `L / (n · v_min)`; the lower
+//!   bound for any strategy is `L / Σ v_i`.
+//! - **Slots** sit every `L / n` along the tour. Their common offset is chosen among 0 and each
+//!   robot's projection onto the tour, minimising the time until the last robot is in place,
+//!   then the total (bottleneck assignment of travel times).
+//! - **Sync points**: `q = n · ⌈L / (n · d_max)⌉` per round, every `L / q` of arc, so sync points
+//!   coincide with slots and consecutive ones are at most `d_max` apart. A robot whose speed is
+//!   off by a fraction ε drifts at most `ε · d_max` before the next barrier realigns the team,
+//!   however long the tour or large the team. Sync point 0 of round 0 is the start barrier.
+
+use serde::{Deserialize, Serialize};
+
+use crate::assign::{self, Costs};
+use crate::error::PlanError;
+use crate::geom::{check_distinct, check_finite, Point};
+use crate::plan::{RobotPlan, RobotSpec, Step};
+use crate::tsp::{self, Budget, Instance, Metric};
+
+/// Patrol parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PatrolParams {
+    pub waypoints: Vec<Point>,
+    /// Largest arc distance between two sync points, metres.
+    #[serde(default = "default_sync_spacing")]
+    pub sync_spacing_max: f64,
+    /// Rounds to patrol; None: until stopped.
+    #[serde(default)]
+    pub rounds: Option<u32>,
+    /// Seed of the tour search.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Kicks of the tour search.
+    #[serde(default = "default_kicks")]
+    pub max_kicks: u64,
+}
+
+fn default_sync_spacing() -> f64 {
+    50.0
+}
+fn default_seed() -> u64 {
+    1
+}
+fn default_kicks() -> u64 {
+    5_000
+}
+
+impl PatrolParams {
+    pub fn new(waypoints: Vec<Point>) -> Self {
+        PatrolParams {
+            waypoints,
+            sync_spacing_max: default_sync_spacing(),
+            rounds: None,
+            seed: default_seed(),
+            max_kicks: default_kicks(),
+        }
+    }
+}
+
+/// A patrol plan for a team.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PatrolPlan {
+    /// The closed tour, in visiting order.
+    pub tour: Vec<Point>,
+    pub length: f64,
+    /// Arc offset of slot 0 along the tour.
+    pub offset: f64,
+    /// Arc distance between consecutive robots.
+    pub spacing: f64,
+    pub team_speed: f64,
+    /// Sync points per round.
+    pub sync_per_round: u32,
+    /// Time until the last robot is at its slot, s.
+    pub formation_time: f64,
+    /// Predicted worst idleness of a waypoint, s.
+    pub predicted_worst_idleness: f64,
+    /// Lower bound of the worst idleness for these robots, s.
+    pub idleness_lower_bound: f64,
+    pub plans: Vec<RobotPlan>,
+}
+
+/// Plans a patrol of `robots` through `params.waypoints`.
+pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, PlanError> {
+    let wps = &params.waypoints;
+    check_finite(wps)?;
+    if wps.len() < 2 {
+        return Err(PlanError::TooFewPoints { min: 2, got: wps.len() });
+    }
+    check_distinct(wps)?;
+    RobotSpec::check(robots)?;
+    if !(params.sync_spacing_max.is_finite() && params.sync_spacing_max > 0.0) {
+        return Err(PlanError::Invalid(format!("sync_spacing_max must be positive (got {})", params.sync_spacing_max)));
+    }
+    let inst = Instance::new(wps.clone(), Metric::Euclidean)?;
+    let (t, _) = tsp::solve(&inst, &Budget { max_kicks: params.max_kicks, stop: None, seed: params.seed })?;
+    let tour: Vec<Point> = t.order.iter().map(|&i| wps[i]).collect();
+    let path = Polyline::closed(&tour);
+    let (l, n) = (path.length, robots.len());
+    let spacing = l / n as f64;
+    let team_speed = robots.iter().map(|r| r.speed).fold(f64::INFINITY, f64::min);
+    let per_slot = (spacing / params.sync_spacing_max).ceil().max(1.0) as usize;
+    let q = n * per_slot;
+
+    // Slot offset and assignment.
+    let mut candidates = vec![0.0];
+    candidates.extend(robots.iter().map(|r| path.project(Point::new(r.x, r.y)) % spacing));
+    let mut best: Option<(f64, assign::Assignment)> = None;
+    for &offset in &candidates {
+        let mut rows = Vec::with_capacity(n);
+        for r in robots {
+            let here = Point::new(r.x, r.y);
+            rows.push((0..n).map(|k| here.dist(path.at(offset + k as f64 * spacing)) / r.speed).collect());
+        }
+        let a = assign::bottleneck(&Costs::from_rows(&rows)?);
+        let better = best.as_ref().is_none_or(|(_, b)| a.max < b.max - 1e-9 || (a.max <= b.max + 1e-9 && a.total < b.total - 1e-9));
+        if better {
+            best = Some((offset, a));
+        }
+    }
+    let (offset, a) = best.ok_or_else(|| PlanError::Invalid("no slot offset".into()))?;
+
+    let plans = robots
+        .iter()
+        .zip(&a.slot)
+        .map(|(r, &slot)| RobotPlan {
+            robot: r.id.clone(),
+            robot_type: r.robot_type.clone(),
+            slot,
+            steps: robot_steps(&path, offset + slot as f64 * spacing, q, team_speed, params.rounds),
+        })
+        .collect();
+    Ok(PatrolPlan {
+        length: l,
+        tour,
+        offset,
+        spacing,
+        team_speed,
+        sync_per_round: q as u32,
+        formation_time: a.max,
+        predicted_worst_idleness: l / (n as f64 * team_speed),
+        idleness_lower_bound: l / robots.iter().map(|r| r.speed).sum::<f64>(),
+        plans,
+    })
+}
+
+/// Steps of the robot starting at arc `start`: go to the slot, start barrier, then one round
+/// of the tour with a barrier every `L / q`, looped.
+fn robot_steps(path: &Polyline, start: f64, q: usize, speed: f64, rounds: Option<u32>) -> Vec<Step> {
+    let l = path.length;
+    let p0 = path.at(start);
+    let mut steps = vec![Step::Stream, Step::Navigate { x: p0.x, y: p0.y, speed: None }, Step::Sync { point: 0 }];
+    let loop_start = steps.len();
+    // Events along one round, in arc order relative to `start`: tour vertices and sync points.
+    let mut events: Vec<(f64, Option<u32>)> = Vec::new();
+    for (i, &arc) in path.arcs.iter().enumerate().take(path.points.len()) {
+        let rel = (arc - start).rem_euclid(l);
+        if rel > 1e-9 && i < path.points.len() {
+            events.push((rel, None));
+        }
+    }
+    for j in 1..=q {
+        events.push((j as f64 * l / q as f64, Some((j % q) as u32)));
+    }
+    events.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.is_some().cmp(&b.1.is_some())));
+    let mut last: Option<Point> = Some(p0);
+    for (rel, sync) in events {
+        let p = path.at(start + rel);
+        if last.is_none_or(|lp| lp.dist(p) > 1e-9) {
+            steps.push(Step::Navigate { x: round_cm(p.x), y: round_cm(p.y), speed: Some(speed) });
+            last = Some(p);
+        }
+        if let Some(point) = sync {
+            steps.push(Step::Sync { point });
+        }
+    }
+    steps.push(Step::Loop { to: loop_start, rounds });
+    steps
+}
+
+fn round_cm(v: f64) -> f64 {
+    (v * 100.0).round() / 100.0
+}
+
+/// A closed polyline with cumulative arc lengths.
+#[derive(Debug, Clone)]
+pub struct Polyline {
+    pub points: Vec<Point>,
+    /// `arcs[i]`: arc length from point 0 to point i; `arcs[n]` = total length.
+    pub arcs: Vec<f64>,
+    pub length: f64,
+}
+
+impl Polyline {
+    pub fn closed(points: &[Point]) -> Self {
+        let mut arcs = Vec::with_capacity(points.len() + 1);
+        let mut acc = 0.0;
+        arcs.push(0.0);
+        for i in 0..points.len() {
+            acc += points[i].dist(points[(i + 1) % points.len()]);
+            arcs.push(acc);
+        }
+        Polyline { points: points.to_vec(), arcs, length: acc }
+    }
+
+    /// The point at arc length `s` (taken modulo the length).
+    pub fn at(&self, s: f64) -> Point {
+        if self.length <= 0.0 {
+            return self.points[0];
+        }
+        let s = s.rem_euclid(self.length);
+        let i = match self.arcs.binary_search_by(|a| a.total_cmp(&s)) {
+            Ok(i) => i.min(self.points.len() - 1),
+            Err(i) => i - 1,
+        };
+        let (a, b) = (self.points[i], self.points[(i + 1) % self.points.len()]);
+        let seg = self.arcs[i + 1] - self.arcs[i];
+        let t = if seg > 0.0 { (s - self.arcs[i]) / seg } else { 0.0 };
+        Point::new(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y))
+    }
+
+    /// Arc length of the point of the polyline nearest to `p`.
+    pub fn project(&self, p: Point) -> f64 {
+        let n = self.points.len();
+        let mut best = (f64::INFINITY, 0.0);
+        for i in 0..n {
+            let (a, b) = (self.points[i], self.points[(i + 1) % n]);
+            let (dx, dy) = (b.x - a.x, b.y - a.y);
+            let len2 = dx * dx + dy * dy;
+            let t = if len2 > 0.0 { (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let q = Point::new(a.x + t * dx, a.y + t * dy);
+            let d = q.dist(p);
+            if d < best.0 {
+                best = (d, self.arcs[i] + t * len2.sqrt());
+            }
+        }
+        best.1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square() -> Vec<Point> {
+        vec![Point::new(0.0, 0.0), Point::new(40.0, 0.0), Point::new(40.0, 40.0), Point::new(0.0, 40.0)]
+    }
+
+    fn robot(id: &str, x: f64, y: f64, speed: f64) -> RobotSpec {
+        RobotSpec { id: id.into(), robot_type: "ground".into(), x, y, speed }
+    }
+
+    #[test]
+    fn four_robots_on_a_square() {
+        let robots = vec![robot("a", 0.0, 0.0, 1.0), robot("b", 40.0, 0.0, 1.0), robot("c", 40.0, 40.0, 1.0), robot("d", 0.0, 40.0, 2.0)];
+        let p = plan(&PatrolParams::new(square()), &robots).expect("plan");
+        assert!((p.length - 160.0).abs() < 1e-9);
+        assert!((p.spacing - 40.0).abs() < 1e-9);
+        assert_eq!(p.team_speed, 1.0);
+        // Each robot already stands on a slot corner: formation is immediate.
+        assert!(p.formation_time < 1e-9, "formation {}", p.formation_time);
+        assert!((p.predicted_worst_idleness - 40.0).abs() < 1e-9);
+        assert!((p.idleness_lower_bound - 32.0).abs() < 1e-9);
+        assert_eq!(p.sync_per_round, 4);
+        let mut slots: Vec<usize> = p.plans.iter().map(|r| r.slot).collect();
+        slots.sort();
+        assert_eq!(slots, [0, 1, 2, 3]);
+        for rp in &p.plans {
+            let syncs: Vec<u32> = rp.steps.iter().filter_map(|s| if let Step::Sync { point } = s { Some(*point) } else { None }).collect();
+            assert_eq!(syncs, [0, 1, 2, 3, 0], "start barrier then one per slot per round");
+            assert!(matches!(rp.steps.last(), Some(Step::Loop { to: 3, rounds: None })));
+        }
+    }
+
+    #[test]
+    fn long_tours_get_more_sync_points_and_slots_are_evenly_spaced() {
+        let robots = vec![robot("a", 5.0, 5.0, 1.0), robot("b", 7.0, 5.0, 1.0), robot("c", 9.0, 5.0, 1.0)];
+        let mut params = PatrolParams::new(square());
+        params.sync_spacing_max = 15.0;
+        let p = plan(&params, &robots).expect("plan");
+        // spacing 160/3 = 53.3 → 4 sync points per slot.
+        assert_eq!(p.sync_per_round, 12);
+        let path = Polyline::closed(&p.tour);
+        let mut starts: Vec<f64> = p
+            .plans
+            .iter()
+            .map(|rp| match rp.steps[1] {
+                Step::Navigate { x, y, .. } => path.project(Point::new(x, y)),
+                _ => panic!("second step navigates to the slot"),
+            })
+            .collect();
+        starts.sort_by(f64::total_cmp);
+        for w in starts.windows(2) {
+            assert!((w[1] - w[0] - p.spacing).abs() < 1e-6, "{starts:?}");
+        }
+    }
+
+    #[test]
+    fn bad_inputs() {
+        let robots = vec![robot("a", 0.0, 0.0, 1.0)];
+        assert_eq!(plan(&PatrolParams::new(vec![]), &robots).unwrap_err(), PlanError::Empty);
+        assert!(matches!(plan(&PatrolParams::new(vec![Point::new(1.0, 1.0)]), &robots), Err(PlanError::TooFewPoints { .. })));
+        let dup = vec![Point::new(1.0, 1.0), Point::new(2.0, 2.0), Point::new(1.0, 1.0)];
+        assert!(matches!(plan(&PatrolParams::new(dup), &robots), Err(PlanError::Duplicate { a: 0, b: 2, .. })));
+        let nan = vec![Point::new(1.0, 1.0), Point::new(f64::INFINITY, 2.0)];
+        assert!(matches!(plan(&PatrolParams::new(nan), &robots), Err(PlanError::NonFinite { index: 1, .. })));
+        assert!(plan(&PatrolParams::new(square()), &[]).is_err());
+        assert!(plan(&PatrolParams::new(square()), &[robot("a", 0.0, 0.0, 0.0)]).is_err());
+        assert!(plan(&PatrolParams::new(square()), &[robot("a", 0.0, 0.0, 1.0), robot("a", 1.0, 0.0, 1.0)]).is_err());
+    }
+
+    #[test]
+    fn polyline_at_and_project_agree() {
+        let path = Polyline::closed(&square());
+        for s in [0.0, 10.0, 40.0, 95.5, 159.9, 170.0] {
+            let p = path.at(s);
+            assert!((path.project(p) - s.rem_euclid(160.0)).abs() < 1e-9, "s = {s}");
+        }
+    }
+}
