@@ -2,10 +2,12 @@
 //! Plain data in, plain data out: no I/O, no clock, seeded randomness.
 
 pub mod assign;
+pub mod coverage;
 pub mod error;
 pub mod geom;
 pub mod patrol;
 pub mod plan;
+pub mod region;
 pub mod tsp;
 pub mod tsplib;
 
