@@ -7,6 +7,7 @@ pub mod error;
 pub mod geom;
 pub mod patrol;
 pub mod plan;
+pub mod recipe;
 pub mod region;
 pub mod tsp;
 pub mod tsplib;

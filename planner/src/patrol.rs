@@ -80,6 +80,10 @@ pub struct PatrolPlan {
     pub predicted_worst_idleness: f64,
     /// Lower bound of the worst idleness for these robots, s.
     pub idleness_lower_bound: f64,
+    /// Per robot: slot, start point and one round.
+    #[serde(skip)]
+    pub assignments: Vec<PatrolAssignment>,
+    /// Plans with the default behaviour ([`PatrolAssignment::default_plan`]).
     pub plans: Vec<RobotPlan>,
 }
 
@@ -123,16 +127,21 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
     }
     let (offset, a) = best.ok_or_else(|| PlanError::Invalid("no slot offset".into()))?;
 
-    let plans = robots
+    let assignments: Vec<PatrolAssignment> = robots
         .iter()
         .zip(&a.slot)
-        .map(|(r, &slot)| RobotPlan {
-            robot: r.id.clone(),
-            robot_type: r.robot_type.clone(),
-            slot,
-            steps: robot_steps(&path, offset + slot as f64 * spacing, q, team_speed, params.rounds),
+        .map(|(r, &slot)| {
+            let start_arc = offset + slot as f64 * spacing;
+            PatrolAssignment {
+                robot: r.id.clone(),
+                robot_type: r.robot_type.clone(),
+                slot,
+                start: path.at(start_arc),
+                round: round_steps(&path, start_arc, q, team_speed),
+            }
         })
         .collect();
+    let plans = assignments.iter().map(|a| a.default_plan(params.rounds)).collect();
     Ok(PatrolPlan {
         length: l,
         tour,
@@ -143,17 +152,39 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
         formation_time: a.max,
         predicted_worst_idleness: l / (n as f64 * team_speed),
         idleness_lower_bound: l / robots.iter().map(|r| r.speed).sum::<f64>(),
+        assignments,
         plans,
     })
 }
 
-/// Steps of the robot starting at arc `start`: go to the slot, start barrier, then one round
-/// of the tour with a barrier every `L / q`, looped.
-fn robot_steps(path: &Polyline, start: f64, q: usize, speed: f64, rounds: Option<u32>) -> Vec<Step> {
+/// Where one robot starts and what one round is for it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PatrolAssignment {
+    pub robot: String,
+    pub robot_type: String,
+    pub slot: usize,
+    /// The slot's start point.
+    pub start: Point,
+    /// One round of the tour from the slot: navigation at team speed with the sync points.
+    pub round: Vec<Step>,
+}
+
+impl PatrolAssignment {
+    /// The default behaviour: stream, go to the slot, start barrier, loop the round.
+    pub fn default_plan(&self, rounds: Option<u32>) -> RobotPlan {
+        let mut steps = vec![Step::Stream, Step::Navigate { x: self.start.x, y: self.start.y, speed: None }, Step::Sync { point: 0 }];
+        steps.extend(self.round.iter().cloned());
+        steps.push(Step::Loop { to: 3, rounds });
+        RobotPlan { robot: self.robot.clone(), robot_type: self.robot_type.clone(), slot: self.slot, steps }
+    }
+}
+
+/// One round of the tour from arc `start`, with a barrier every `L / q` (the last one, at the
+/// slot again, is point 0 of the next round).
+fn round_steps(path: &Polyline, start: f64, q: usize, speed: f64) -> Vec<Step> {
     let l = path.length;
     let p0 = path.at(start);
-    let mut steps = vec![Step::Stream, Step::Navigate { x: p0.x, y: p0.y, speed: None }, Step::Sync { point: 0 }];
-    let loop_start = steps.len();
+    let mut steps = Vec::new();
     // Events along one round, in arc order relative to `start`: tour vertices and sync points.
     let mut events: Vec<(f64, Option<u32>)> = Vec::new();
     for (i, &arc) in path.arcs.iter().enumerate().take(path.points.len()) {
@@ -177,7 +208,6 @@ fn robot_steps(path: &Polyline, start: f64, q: usize, speed: f64, rounds: Option
             steps.push(Step::Sync { point });
         }
     }
-    steps.push(Step::Loop { to: loop_start, rounds });
     steps
 }
 

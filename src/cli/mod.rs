@@ -4,6 +4,7 @@ mod assign;
 mod central;
 mod demo;
 mod op;
+mod plan;
 mod procs;
 mod robot;
 mod shutdown;
@@ -34,13 +35,15 @@ enum Cmd {
     Tour(tour::Args),
     /// Optimal assignment from a CSV cost matrix (rows: robots, columns: slots).
     Assign(assign::Args),
+    /// Plan a recipe for a set of robots; prints the per-robot plans as JSON.
+    Plan(plan::Args),
 }
 
 impl Cli {
     /// Log filter used when RUST_LOG is not set.
     pub fn default_log_filter(&self) -> &'static str {
         match self.command {
-            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Tour(_) | Cmd::Assign(_) => "warn",
+            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) => "warn",
             _ => "info,zenoh=warn",
         }
     }
@@ -54,5 +57,6 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Demo(a) => demo::run(a).await,
         Cmd::Tour(a) => tour::run(a),
         Cmd::Assign(a) => assign::run(a),
+        Cmd::Plan(a) => plan::run(a),
     }
 }

@@ -1,0 +1,185 @@
+//! A minimal XML element tree with source positions, read with quick-xml, so that every later
+//! error can name line:column.
+
+use quick_xml::events::{BytesStart, Event};
+use quick_xml::Reader;
+
+use crate::error::PlanError;
+
+/// Line and column (1-based) of an element's `<`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Pos {
+    pub line: usize,
+    pub column: usize,
+}
+
+impl Pos {
+    pub fn err(self, msg: impl Into<String>) -> PlanError {
+        PlanError::Recipe { line: self.line, column: self.column, msg: msg.into() }
+    }
+}
+
+/// An element: name, attributes in order, children, text content.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Element {
+    pub name: String,
+    pub attrs: Vec<(String, String)>,
+    pub children: Vec<Element>,
+    pub text: String,
+    pub pos: Pos,
+}
+
+impl Element {
+    pub fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs.iter().find(|(k, _)| k == name).map(|(_, v)| v.as_str())
+    }
+
+    /// Errors on any attribute not in `allowed`.
+    pub fn only_attrs(&self, allowed: &[&str]) -> Result<(), PlanError> {
+        match self.attrs.iter().find(|(k, _)| !allowed.contains(&k.as_str())) {
+            Some((k, _)) => Err(self.pos.err(format!(
+                "unknown attribute `{k}` on <{}> (expected: {})",
+                self.name,
+                if allowed.is_empty() { "none".to_string() } else { allowed.join(", ") }
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    pub fn required(&self, name: &str) -> Result<&str, PlanError> {
+        self.attr(name).ok_or_else(|| self.pos.err(format!("<{}> needs attribute `{name}`", self.name)))
+    }
+
+    /// A required finite number attribute.
+    pub fn number(&self, name: &str) -> Result<f64, PlanError> {
+        let v = self.required(name)?;
+        v.trim()
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| self.pos.err(format!("<{}> attribute `{name}`: {v:?} is not a finite number", self.name)))
+    }
+
+    /// Errors if the element has text content.
+    pub fn no_text(&self) -> Result<(), PlanError> {
+        if self.text.trim().is_empty() {
+            Ok(())
+        } else {
+            Err(self.pos.err(format!("<{}> takes no text", self.name)))
+        }
+    }
+}
+
+fn line_col(src: &str, offset: usize) -> Pos {
+    let offset = offset.min(src.len());
+    let before = &src.as_bytes()[..offset];
+    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1);
+    let column = String::from_utf8_lossy(&before[line_start..]).chars().count() + 1;
+    Pos { line, column }
+}
+
+/// Position of the next `<` at or after `from`.
+fn tag_pos(src: &str, from: usize) -> Pos {
+    let at = src[from.min(src.len())..].find('<').map_or(from, |i| from + i);
+    line_col(src, at)
+}
+
+fn start(src: &str, e: &BytesStart, pos: Pos) -> Result<Element, PlanError> {
+    let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
+    let mut attrs = Vec::new();
+    for a in e.attributes() {
+        let a = a.map_err(|err| pos.err(format!("bad attribute on <{name}>: {err}")))?;
+        let key = String::from_utf8_lossy(a.key.as_ref()).into_owned();
+        let value = a.unescape_value().map_err(|err| pos.err(format!("attribute `{key}`: {err}")))?.into_owned();
+        if attrs.iter().any(|(k, _)| k == &key) {
+            return Err(pos.err(format!("attribute `{key}` given twice on <{name}>")));
+        }
+        attrs.push((key, value));
+    }
+    let _ = src;
+    Ok(Element { name, attrs, children: Vec::new(), text: String::new(), pos })
+}
+
+/// Parses a whole document into its root element.
+pub fn parse(src: &str) -> Result<Element, PlanError> {
+    let mut reader = Reader::from_str(src);
+    reader.config_mut().trim_text(true);
+    let mut stack: Vec<Element> = Vec::new();
+    let mut root: Option<Element> = None;
+    loop {
+        let before = reader.buffer_position() as usize;
+        let event = reader.read_event().map_err(|e| {
+            let p = line_col(src, reader.error_position() as usize);
+            p.err(format!("malformed XML: {e}"))
+        })?;
+        match event {
+            Event::Start(e) => {
+                let el = start(src, &e, tag_pos(src, before))?;
+                stack.push(el);
+            }
+            Event::Empty(e) => {
+                let el = start(src, &e, tag_pos(src, before))?;
+                attach(&mut stack, &mut root, el, src, before)?;
+            }
+            Event::End(_) => {
+                let el = stack.pop().ok_or_else(|| tag_pos(src, before).err("closing tag without opening tag"))?;
+                attach(&mut stack, &mut root, el, src, before)?;
+            }
+            Event::Text(t) => {
+                let text = t.unescape().map_err(|e| tag_pos(src, before).err(format!("bad text: {e}")))?;
+                match stack.last_mut() {
+                    Some(el) => el.text.push_str(&text),
+                    None if text.trim().is_empty() => {}
+                    None => return Err(line_col(src, before).err("text outside the root element")),
+                }
+            }
+            Event::CData(t) => {
+                if let Some(el) = stack.last_mut() {
+                    el.text.push_str(&String::from_utf8_lossy(&t));
+                }
+            }
+            Event::Eof => break,
+            // Declarations, comments, processing instructions, doctype.
+            _ => {}
+        }
+    }
+    if let Some(open) = stack.last() {
+        return Err(open.pos.err(format!("<{}> is never closed", open.name)));
+    }
+    root.ok_or_else(|| Pos { line: 1, column: 1 }.err("empty document: no root element"))
+}
+
+fn attach(stack: &mut [Element], root: &mut Option<Element>, el: Element, src: &str, at: usize) -> Result<(), PlanError> {
+    match stack.last_mut() {
+        Some(parent) => parent.children.push(el),
+        None if root.is_none() => *root = Some(el),
+        None => return Err(tag_pos(src, at).err("more than one root element")),
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn positions_and_structure() {
+        let doc = parse("<?xml version=\"1.0\"?>\n<a x=\"1\">\n  <b/>\n  <c>hi &amp; bye</c>\n</a>\n").expect("parse");
+        assert_eq!(doc.name, "a");
+        assert_eq!(doc.pos, Pos { line: 2, column: 1 });
+        assert_eq!(doc.children[0].pos, Pos { line: 3, column: 3 });
+        assert_eq!(doc.children[1].text, "hi & bye");
+        assert_eq!(doc.attr("x"), Some("1"));
+    }
+
+    #[test]
+    fn malformed_documents() {
+        let e = parse("<a>\n  <b>\n</a>").unwrap_err().to_string();
+        assert!(e.starts_with("3:"), "{e}");
+        assert!(parse("").unwrap_err().to_string().contains("no root"));
+        assert!(parse("<a/><b/>").unwrap_err().to_string().contains("more than one root"));
+        assert!(parse("<a x=\"1\" x=\"2\"/>").is_err());
+        assert!(parse("<a>\n<b>").unwrap_err().to_string().contains("never closed"));
+    }
+}

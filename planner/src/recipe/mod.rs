@@ -1,0 +1,333 @@
+//! XML recipes: a mission template naming its planner, its parameters and, per robot type, the
+//! behaviour sequence a plan is made of. [`parse`] reads and type-checks (unknown elements and
+//! attributes are errors), [`validate`] checks the meaning, [`build`] runs the planner and
+//! expands the behaviour templates into robot plans. Every error names line:column. The format
+//! is documented in `recipes/README.md`.
+
+mod build;
+mod dom;
+
+use std::collections::BTreeMap;
+
+use crate::error::PlanError;
+use crate::geom::Point;
+
+pub use build::{build, parse_overrides, MissionPlan};
+pub use dom::Pos;
+use dom::Element;
+
+/// The recipe bank shipped in `recipes/`, embedded: (name, XML).
+pub const BANK: &[(&str, &str)] = &[
+    ("patrol", include_str!("../../../recipes/patrol.xml")),
+    ("coverage", include_str!("../../../recipes/coverage.xml")),
+];
+
+/// The XML of a recipe of the bank.
+pub fn bank(name: &str) -> Option<&'static str> {
+    BANK.iter().find(|(n, _)| *n == name).map(|(_, x)| *x)
+}
+
+/// Which planner a recipe uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlannerKind {
+    Patrol,
+    Coverage,
+}
+
+impl PlannerKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PlannerKind::Patrol => "patrol",
+            PlannerKind::Coverage => "coverage",
+        }
+    }
+
+    /// Scalar parameters the planner understands.
+    pub fn scalar_params(self) -> &'static [&'static str] {
+        match self {
+            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks"],
+            PlannerKind::Coverage => &["samples", "lloyd_iterations", "minimax_iterations", "seed"],
+        }
+    }
+}
+
+/// A parsed recipe.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recipe {
+    pub name: String,
+    pub planner: PlannerKind,
+    pub description: String,
+    /// Scalar parameters: name → (value, where).
+    pub params: BTreeMap<String, (String, Pos)>,
+    pub waypoints: Option<(Vec<Point>, Pos)>,
+    pub region: Option<(Vec<Point>, Vec<Vec<Point>>, Pos)>,
+    pub behaviours: Vec<Behaviour>,
+    pub pos: Pos,
+}
+
+/// The behaviour sequence for one robot type (`*`: any type without its own).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Behaviour {
+    pub robot_type: String,
+    pub steps: Vec<Template>,
+    pub pos: Pos,
+}
+
+/// One element of a behaviour sequence.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Template {
+    Stream,
+    /// Go to the robot's assigned slot (patrol) or point (coverage).
+    NavigateSlot,
+    /// Go to a fixed point.
+    NavigateTo { x: f64, y: f64, speed: Option<f64> },
+    /// The team's start barrier.
+    SyncStart,
+    Hold { seconds: Option<f64> },
+    /// One round of the patrol tour, with its sync points.
+    Round(Pos),
+    /// Repeat the body; `rounds` None: the mission's `rounds` parameter (default forever).
+    Loop { rounds: Option<u32>, body: Vec<Template>, pos: Pos },
+}
+
+/// Reads a recipe. Syntax and structure only; see [`validate`].
+pub fn parse(text: &str) -> Result<Recipe, PlanError> {
+    let root = dom::parse(text)?;
+    if root.name != "recipe" {
+        return Err(root.pos.err(format!("root element must be <recipe>, found <{}>", root.name)));
+    }
+    root.only_attrs(&["name", "planner"])?;
+    root.no_text()?;
+    let name = root.required("name")?.to_string();
+    let planner = match root.required("planner")? {
+        "patrol" => PlannerKind::Patrol,
+        "coverage" => PlannerKind::Coverage,
+        other => return Err(root.pos.err(format!("unknown planner {other:?} (patrol, coverage)"))),
+    };
+    let mut recipe = Recipe {
+        name,
+        planner,
+        description: String::new(),
+        params: BTreeMap::new(),
+        waypoints: None,
+        region: None,
+        behaviours: Vec::new(),
+        pos: root.pos,
+    };
+    let mut seen_params = false;
+    for child in &root.children {
+        match child.name.as_str() {
+            "description" => {
+                child.only_attrs(&[])?;
+                recipe.description = child.text.trim().to_string();
+            }
+            "params" => {
+                if std::mem::replace(&mut seen_params, true) {
+                    return Err(child.pos.err("<params> given twice"));
+                }
+                parse_params(child, &mut recipe)?;
+            }
+            "behaviour" => {
+                child.only_attrs(&["type"])?;
+                child.no_text()?;
+                let robot_type = child.required("type")?.to_string();
+                let steps = child.children.iter().map(parse_template).collect::<Result<_, _>>()?;
+                recipe.behaviours.push(Behaviour { robot_type, steps, pos: child.pos });
+            }
+            other => return Err(child.pos.err(format!("unknown element <{other}> in <recipe> (description, params, behaviour)"))),
+        }
+    }
+    Ok(recipe)
+}
+
+fn parse_params(el: &Element, recipe: &mut Recipe) -> Result<(), PlanError> {
+    el.only_attrs(&[])?;
+    el.no_text()?;
+    for p in &el.children {
+        match p.name.as_str() {
+            "param" => {
+                p.only_attrs(&["name", "value"])?;
+                let name = p.required("name")?.to_string();
+                let value = p.required("value")?.to_string();
+                if recipe.params.insert(name.clone(), (value, p.pos)).is_some() {
+                    return Err(p.pos.err(format!("parameter {name:?} given twice")));
+                }
+            }
+            "waypoints" => {
+                p.only_attrs(&[])?;
+                if recipe.waypoints.is_some() {
+                    return Err(p.pos.err("<waypoints> given twice"));
+                }
+                recipe.waypoints = Some((points(p)?, p.pos));
+            }
+            "region" => {
+                p.only_attrs(&[])?;
+                p.no_text()?;
+                if recipe.region.is_some() {
+                    return Err(p.pos.err("<region> given twice"));
+                }
+                let mut outer = None;
+                let mut holes = Vec::new();
+                for r in &p.children {
+                    r.only_attrs(&[])?;
+                    match r.name.as_str() {
+                        "outer" if outer.is_none() => outer = Some(points(r)?),
+                        "outer" => return Err(r.pos.err("<outer> given twice")),
+                        "hole" => holes.push(points(r)?),
+                        other => return Err(r.pos.err(format!("unknown element <{other}> in <region> (outer, hole)"))),
+                    }
+                }
+                let outer = outer.ok_or_else(|| p.pos.err("<region> needs an <outer> ring"))?;
+                recipe.region = Some((outer, holes, p.pos));
+            }
+            other => return Err(p.pos.err(format!("unknown element <{other}> in <params> (param, waypoints, region)"))),
+        }
+    }
+    Ok(())
+}
+
+fn points(el: &Element) -> Result<Vec<Point>, PlanError> {
+    el.no_text()?;
+    el.children
+        .iter()
+        .map(|c| {
+            if c.name != "point" {
+                return Err(c.pos.err(format!("unknown element <{}> in <{}> (point)", c.name, el.name)));
+            }
+            c.only_attrs(&["x", "y"])?;
+            c.no_text()?;
+            Ok(Point::new(c.number("x")?, c.number("y")?))
+        })
+        .collect()
+}
+
+fn leaf(el: &Element, attrs: &[&str]) -> Result<(), PlanError> {
+    el.only_attrs(attrs)?;
+    el.no_text()?;
+    if let Some(c) = el.children.first() {
+        return Err(c.pos.err(format!("<{}> takes no child elements", el.name)));
+    }
+    Ok(())
+}
+
+fn parse_template(el: &Element) -> Result<Template, PlanError> {
+    match el.name.as_str() {
+        "stream" => leaf(el, &[]).map(|_| Template::Stream),
+        "navigate" => {
+            leaf(el, &["to", "x", "y", "speed"])?;
+            match el.attr("to") {
+                Some("slot") if el.attr("x").is_none() && el.attr("y").is_none() && el.attr("speed").is_none() => Ok(Template::NavigateSlot),
+                Some("slot") => Err(el.pos.err("<navigate to=\"slot\"> takes no x, y or speed")),
+                Some(other) => Err(el.pos.err(format!("<navigate to={other:?}>: the only target is \"slot\"; use x and y for a fixed point"))),
+                None => {
+                    let speed = match el.attr("speed") {
+                        Some(_) => Some(el.number("speed")?).filter(|s| *s > 0.0).map(Some).ok_or_else(|| el.pos.err("speed must be positive"))?,
+                        None => None,
+                    };
+                    Ok(Template::NavigateTo { x: el.number("x")?, y: el.number("y")?, speed })
+                }
+            }
+        }
+        "sync" => {
+            leaf(el, &["point"])?;
+            match el.required("point")? {
+                "start" => Ok(Template::SyncStart),
+                other => Err(el.pos.err(format!("<sync point={other:?}>: only \"start\" can be placed by hand; the sync points of a round come with <round/>"))),
+            }
+        }
+        "hold" => {
+            leaf(el, &["seconds"])?;
+            let seconds = match el.attr("seconds") {
+                Some(_) => Some(el.number("seconds")?).filter(|s| *s >= 0.0).map(Some).ok_or_else(|| el.pos.err("seconds must be ≥ 0"))?,
+                None => None,
+            };
+            Ok(Template::Hold { seconds })
+        }
+        "round" => leaf(el, &[]).map(|_| Template::Round(el.pos)),
+        "loop" => {
+            el.only_attrs(&["rounds"])?;
+            el.no_text()?;
+            let rounds = match el.attr("rounds") {
+                Some(v) => Some(v.trim().parse::<u32>().map_err(|_| el.pos.err(format!("<loop rounds={v:?}>: not a whole number")))?),
+                None => None,
+            };
+            let body = el.children.iter().map(parse_template).collect::<Result<Vec<_>, _>>()?;
+            Ok(Template::Loop { rounds, body, pos: el.pos })
+        }
+        other => Err(el.pos.err(format!("unknown behaviour <{other}> (stream, navigate, sync, hold, round, loop)"))),
+    }
+}
+
+/// Checks the meaning of a parsed recipe: known parameters with valid values, behaviours that fit
+/// the planner, no empty or nested loops, one behaviour per robot type.
+pub fn validate(r: &Recipe) -> Result<(), PlanError> {
+    for (name, (value, pos)) in &r.params {
+        check_param(r.planner, name, value).map_err(|m| pos.err(m))?;
+    }
+    if r.planner != PlannerKind::Patrol {
+        if let Some((_, pos)) = &r.waypoints {
+            return Err(pos.err(format!("<waypoints> is for patrol recipes, not {}", r.planner.as_str())));
+        }
+    }
+    if r.planner != PlannerKind::Coverage {
+        if let Some((_, _, pos)) = &r.region {
+            return Err(pos.err(format!("<region> is for coverage recipes, not {}", r.planner.as_str())));
+        }
+    }
+    if r.behaviours.is_empty() {
+        return Err(r.pos.err("a recipe needs at least one <behaviour>"));
+    }
+    for (i, b) in r.behaviours.iter().enumerate() {
+        if r.behaviours[..i].iter().any(|o| o.robot_type == b.robot_type) {
+            return Err(b.pos.err(format!("a second <behaviour> for type {:?}", b.robot_type)));
+        }
+        if b.steps.is_empty() {
+            return Err(b.pos.err("<behaviour> is empty"));
+        }
+        check_templates(r.planner, &b.steps, false)?;
+    }
+    Ok(())
+}
+
+fn check_templates(planner: PlannerKind, steps: &[Template], in_loop: bool) -> Result<(), PlanError> {
+    for t in steps {
+        match t {
+            Template::Round(pos) if planner != PlannerKind::Patrol => {
+                return Err(pos.err(format!("<round/> is for patrol recipes, not {}", planner.as_str())))
+            }
+            Template::Loop { pos, .. } if in_loop => return Err(pos.err("loops cannot be nested")),
+            Template::Loop { body, pos, .. } => {
+                if body.is_empty() {
+                    return Err(pos.err("<loop> is empty"));
+                }
+                check_templates(planner, body, true)?;
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Checks one scalar parameter's name and value.
+pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), String> {
+    let v = value.trim();
+    let positive = || v.parse::<f64>().ok().filter(|x| x.is_finite() && *x > 0.0).map(|_| ()).ok_or_else(|| format!("parameter {name}: {value:?} is not a positive number"));
+    let whole = |min: u64| v.parse::<u64>().ok().filter(|x| *x >= min).map(|_| ()).ok_or_else(|| format!("parameter {name}: {value:?} is not a whole number ≥ {min}"));
+    match (planner, name) {
+        (PlannerKind::Patrol, "sync_spacing_max") => positive(),
+        (PlannerKind::Patrol, "rounds") if v == "forever" => Ok(()),
+        (PlannerKind::Patrol, "rounds") => whole(1),
+        (PlannerKind::Patrol, "max_kicks") => whole(0),
+        (PlannerKind::Coverage, "samples") => whole(100),
+        (PlannerKind::Coverage, "lloyd_iterations" | "minimax_iterations") => whole(0),
+        (_, "seed") => whole(0),
+        _ => Err(format!(
+            "unknown parameter {name:?} for the {} planner (known: {})",
+            planner.as_str(),
+            planner.scalar_params().join(", ")
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests;

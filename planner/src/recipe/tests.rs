@@ -1,0 +1,133 @@
+//! Recipe tests: the shipped bank, every error with its position, and random input.
+
+use super::*;
+use crate::plan::{RobotSpec, Step};
+
+const PATROL: &str = include_str!("../../../recipes/patrol.xml");
+const COVERAGE: &str = include_str!("../../../recipes/coverage.xml");
+
+fn robots(types: &[&str]) -> Vec<RobotSpec> {
+    types
+        .iter()
+        .enumerate()
+        .map(|(i, t)| RobotSpec { id: format!("r{}", i + 1), robot_type: t.to_string(), x: i as f64 * 3.0, y: -3.0, speed: 1.0 + i as f64 * 0.1 })
+        .collect()
+}
+
+fn err(text: &str) -> String {
+    match parse(text).and_then(|r| validate(&r)) {
+        Ok(()) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn shipped_recipes_parse_validate_and_build() {
+    let r = parse(PATROL).expect("patrol.xml");
+    validate(&r).expect("valid");
+    assert_eq!(r.planner, PlannerKind::Patrol);
+    let plan = build(&r, &BTreeMap::new(), &robots(&["ground", "aerial", "ground"])).expect("build");
+    let MissionPlan::Patrol(p) = &plan else { panic!("patrol") };
+    assert_eq!(p.plans.len(), 3);
+    for rp in &p.plans {
+        assert_eq!(rp.steps[0], Step::Stream);
+        assert!(matches!(rp.steps[1], Step::Navigate { speed: None, .. }));
+        assert_eq!(rp.steps[2], Step::Sync { point: 0 });
+        assert!(matches!(rp.steps.last(), Some(Step::Loop { to: 3, rounds: None })));
+    }
+    let c = parse(COVERAGE).expect("coverage.xml");
+    validate(&c).expect("valid");
+    let plan = build(&c, &BTreeMap::new(), &robots(&["ground", "ground"])).expect("build");
+    let MissionPlan::Coverage(cp) = &plan else { panic!("coverage") };
+    assert_eq!(cp.points.len(), 2);
+    assert!(matches!(cp.plans[0].steps.as_slice(), [Step::Stream, Step::Navigate { .. }, Step::Hold { seconds: None }]));
+    // The JSON that travels to robots.
+    let json = serde_json::to_value(&plan).expect("json");
+    assert_eq!(json["planner"], "coverage");
+    assert!(json["plans"][0]["steps"][1]["navigate"]["x"].is_number());
+}
+
+#[test]
+fn overrides_replace_parameters() {
+    let r = parse(PATROL).expect("patrol.xml");
+    let o = parse_overrides(&["waypoints=[[0,0],[10,0],[10,10],[0,10]]".into(), "rounds=2".into()]).expect("overrides");
+    let plan = build(&r, &o, &robots(&["ground", "ground"])).expect("build");
+    let MissionPlan::Patrol(p) = &plan else { panic!("patrol") };
+    assert!((p.length - 40.0).abs() < 1e-9);
+    assert!(matches!(p.plans[0].steps.last(), Some(Step::Loop { rounds: Some(2), .. })));
+    let e = build(&r, &parse_overrides(&["rounds=0".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
+    assert!(e.contains("rounds"), "{e}");
+    let e = build(&r, &parse_overrides(&["colour=red".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
+    assert!(e.contains("unknown parameter \"colour\""), "{e}");
+    let e = build(&r, &parse_overrides(&["waypoints=[[0,0]]".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
+    assert!(e.contains("at least 2 points"), "{e}");
+    assert!(parse_overrides(&["novalue".into()]).is_err());
+    let c = parse(COVERAGE).expect("coverage.xml");
+    let o = parse_overrides(&[r#"region={"outer":[[0,0],[10,0],[10,10],[0,10]],"holes":[[[4,4],[6,4],[6,6]]]}"#.into()]).expect("o");
+    let plan = build(&c, &o, &robots(&["ground", "ground", "ground"])).expect("build");
+    assert_eq!(plan.plans().len(), 3);
+}
+
+#[test]
+fn errors_name_line_and_column() {
+    let bad = PATROL.replace("<stream/>", "<fly/>");
+    let line = PATROL.lines().position(|l| l.contains("<stream/>")).expect("line") + 1;
+    assert_eq!(err(&bad), format!("{line}:5: unknown behaviour <fly> (stream, navigate, sync, hold, round, loop)"));
+    let e = err(&PATROL.replace("value=\"forever\"", "value=\"many\""));
+    assert!(e.ends_with("parameter rounds: \"many\" is not a whole number ≥ 1"), "{e}");
+    let e = err(&PATROL.replace("<description>", "<descriptio>").replace("</description>", "</descriptio>"));
+    assert!(e.contains("unknown element <descriptio>"), "{e}");
+    let e = err(&PATROL.replace("<point x=\"20\" y=\"0\"/>", "<point x=\"20\" y=\"zero\"/>"));
+    assert!(e.contains("\"zero\" is not a finite number"), "{e}");
+    let e = err(&PATROL.replace("<round/>", "<round extra=\"1\"/>"));
+    assert!(e.contains("unknown attribute `extra` on <round>"), "{e}");
+    let e = err(&COVERAGE.replace("<hold/>", "<loop><round/></loop>"));
+    assert!(e.contains("<round/> is for patrol recipes"), "{e}");
+    let e = err(&PATROL.replace("<round/>", "<loop><round/></loop>"));
+    assert!(e.contains("nested"), "{e}");
+    let e = err(&PATROL.replace("planner=\"patrol\"", "planner=\"swarm\""));
+    assert!(e.contains("unknown planner \"swarm\""), "{e}");
+    let e = err(&PATROL.replace("</recipe>", ""));
+    assert!(e.contains("never closed") || e.contains("malformed"), "{e}");
+    let e = err("<mission/>");
+    assert_eq!(e, "1:1: root element must be <recipe>, found <mission>");
+    let e = err(&PATROL.replace("<behaviour type=\"*\">", "<behaviour type=\"*\"><stream/></behaviour><behaviour type=\"*\">"));
+    assert!(e.contains("a second <behaviour>"), "{e}");
+    // Planner errors point at the waypoints element.
+    let dup = PATROL.replace("<point x=\"20\" y=\"15\"/>", "<point x=\"0\" y=\"0\"/>");
+    let r = parse(&dup).expect("parses");
+    let e = build(&r, &BTreeMap::new(), &robots(&["ground"])).unwrap_err().to_string();
+    let wline = PATROL.lines().position(|l| l.contains("<waypoints>")).expect("line") + 1;
+    assert!(e.starts_with(&format!("{wline}:5: waypoints: points 0 and 2 are the same")), "{e}");
+}
+
+#[test]
+fn robot_type_without_behaviour() {
+    let only_aerial = PATROL.replace("type=\"*\"", "type=\"aerial\"");
+    let r = parse(&only_aerial).expect("parse");
+    let e = build(&r, &BTreeMap::new(), &robots(&["ground"])).unwrap_err().to_string();
+    assert!(e.contains("no <behaviour> for robot type \"ground\" (robot r1)"), "{e}");
+}
+
+proptest::proptest! {
+    #[test]
+    fn random_text_never_panics(s in "\\PC{0,200}") {
+        if let Ok(r) = parse(&s) {
+            let _ = validate(&r);
+        }
+    }
+
+    #[test]
+    fn mutated_recipes_never_panic(cut in 0usize..1200, insert in "[<>/=\" a-z]{0,6}") {
+        let mut text = PATROL.to_string();
+        let at = (cut % text.len()).min(text.len());
+        if text.is_char_boundary(at) {
+            text.insert_str(at, &insert);
+            if let Ok(r) = parse(&text) {
+                if validate(&r).is_ok() {
+                    let _ = build(&r, &BTreeMap::new(), &robots(&["ground"]));
+                }
+            }
+        }
+    }
+}
