@@ -1,0 +1,56 @@
+//! The README's first command: `mrmm demo` answers an outside Zenoh client with its whole fleet
+//! and stops cleanly on Ctrl-C (SIGINT), children included.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use common::{eventually, Scratch};
+use mrmm_manager::client::Client;
+use mrmm_peer::proto::{self, RobotView};
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()> {
+    let dir = Scratch::new("demo");
+    let mut demo = common::start(
+        "demo",
+        &["demo", "--robots", "6", "--duration", "60", "--listen", "tcp/127.0.0.1:0", "--time-scale", "4"],
+        &dir.path("demo.log"),
+        "mrmm demo: central on",
+        Duration::from_secs(30),
+    )?;
+    let ep = demo
+        .ready
+        .split_whitespace()
+        .find(|w| w.starts_with("tcp/"))
+        .map(|w| w.trim_end_matches(';').to_string())
+        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", demo.ready))?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+    let views = eventually("6 robots in the demo", Duration::from_secs(20), || async {
+        let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        (v.len() == 6).then_some(v)
+    })
+    .await?;
+    assert!(views.iter().any(|v| v.robot_type == "aerial") && views.iter().any(|v| v.robot_type == "ground"));
+    // The demo drives the robots: someone moves.
+    eventually("a robot moving", Duration::from_secs(20), || async {
+        let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        v.iter().any(|r| r.behaviour.as_deref().is_some_and(|b| b.starts_with("goto"))).then_some(())
+    })
+    .await?;
+    client.close().await;
+
+    demo.signal("INT")?;
+    let t = Instant::now();
+    let status = loop {
+        if let Some(s) = demo.child.try_wait()? {
+            break s;
+        }
+        anyhow::ensure!(t.elapsed() < Duration::from_secs(15), "demo did not stop after Ctrl-C");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    };
+    assert!(status.success(), "demo exit status {status}");
+    // Central is gone with it: a client can no longer reach the endpoint.
+    assert!(Client::connect(std::slice::from_ref(&ep), Duration::from_millis(500)).await.is_err());
+    Ok(())
+}
