@@ -113,7 +113,12 @@ pub fn place(region: &Region, n: usize, params: &CoverageParams) -> Result<(Vec<
         return Err(PlanError::Invalid("no robots".into()));
     }
     let area = region.area();
-    let h = (area / params.samples.max(100) as f64).sqrt();
+    // Grid spacing from the bounding box, not the area: the grid stays bounded for any shape.
+    let (lo, hi) = region.bbox();
+    let h = ((hi.x - lo.x) * (hi.y - lo.y) / params.samples.clamp(100, 1_000_000) as f64).sqrt();
+    if !(h.is_finite() && h > 0.0) {
+        return Err(PlanError::Polygon("region cannot be sampled (degenerate or too large)".into()));
+    }
     let samples = region.samples(h);
     if samples.is_empty() {
         return Err(PlanError::Polygon("region too small to sample".into()));

@@ -110,7 +110,11 @@ fn check_ring(name: &str, ring: &[Point]) -> Result<(), PlanError> {
             }
         }
     }
-    if ring_area(ring).abs() < 1e-12 {
+    let area = ring_area(ring).abs();
+    if !area.is_finite() {
+        return Err(PlanError::Polygon(format!("{name}: coordinates too large (area overflows)")));
+    }
+    if area < 1e-12 {
         return Err(PlanError::Polygon(format!("{name} has zero area")));
     }
     Ok(())

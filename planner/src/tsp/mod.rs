@@ -43,6 +43,7 @@ impl Instance {
     /// Validates the points (non-empty, finite).
     pub fn new(points: Vec<Point>, metric: Metric) -> Result<Self, PlanError> {
         check_finite(&points)?;
+        check_span(&points)?;
         Ok(Instance { points, metric })
     }
 
@@ -115,6 +116,7 @@ impl Default for Budget<'_> {
 /// Solves the tour within the budget. Exact for up to [`EXACT_MAX`] points.
 pub fn solve(inst: &Instance, budget: &Budget) -> Result<(Tour, Stats), PlanError> {
     check_finite(&inst.points)?;
+    check_span(&inst.points)?;
     let n = inst.len();
     if n <= 3 {
         let order: Vec<usize> = (0..n).collect();
@@ -131,6 +133,21 @@ pub fn solve(inst: &Instance, budget: &Budget) -> Result<(Tour, Stats), PlanErro
     let order = rotate_to_zero(order);
     let length = inst.tour_length(&order);
     Ok((Tour { order, length }, stats))
+}
+
+/// Rejects point sets whose distances would overflow (a tour length must be finite).
+fn check_span(points: &[Point]) -> Result<(), PlanError> {
+    let (mut lo, mut hi) = (Point::new(f64::INFINITY, f64::INFINITY), Point::new(f64::NEG_INFINITY, f64::NEG_INFINITY));
+    for p in points {
+        lo = Point::new(lo.x.min(p.x), lo.y.min(p.y));
+        hi = Point::new(hi.x.max(p.x), hi.y.max(p.y));
+    }
+    let span = (hi.x - lo.x).hypot(hi.y - lo.y);
+    if span.is_finite() && span * (points.len() as f64) < f64::MAX / 4.0 && (hi.x - lo.x).powi(2).is_finite() && (hi.y - lo.y).powi(2).is_finite() {
+        Ok(())
+    } else {
+        Err(PlanError::Invalid("coordinates span too large a range: distances would overflow".into()))
+    }
 }
 
 /// Checks that `order` is a permutation of 0..n.
