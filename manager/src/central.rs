@@ -7,6 +7,7 @@ use std::time::{Duration, Instant};
 
 use mrmm_peer::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
 use mrmm_peer::proto::{self, CommandAck, ErrorReply, RobotInfo, SystemKey};
+use mrmm_planner::recipe::MissionPlan;
 use serde::Deserialize;
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
@@ -20,6 +21,8 @@ use crate::system::{Command, Event, Request, SystemManager};
 
 /// Period of the manager's housekeeping tick.
 const TICK: Duration = Duration::from_millis(250);
+/// How long a planner service may take.
+const PLAN_TIMEOUT: Duration = Duration::from_secs(20);
 
 /// Config of `mrmm central` (JSON5).
 #[derive(Debug, Clone, Deserialize)]
@@ -107,6 +110,12 @@ pub async fn run(
         .declare_queryable(proto::SYSTEM_ALL)
         .await
         .map_err(ManagerError::zenoh)?;
+    let marginal = session
+        .declare_queryable(proto::ALL_MISSIONS_MARGINAL)
+        .await
+        .map_err(ManagerError::zenoh)?;
+    // The default planner service lives here too.
+    let planners = tokio::spawn(crate::planner_service::serve(session.clone(), shutdown.child_token()));
     tracing::info!(%zid, ?endpoints, "central up");
     if let Some(tx) = ready {
         let _ = tx.send(Ready { zid: zid.clone(), endpoints });
@@ -146,7 +155,7 @@ pub async fn run(
                 let Ok(s) = s else { break };
                 match proto::decode_telemetry(&s.payload().to_bytes()) {
                     Ok(t) if proto::parse_robot_key(s.key_expr().as_str()).map(|k| k.0) == Some(t.id.as_str()) => {
-                        Event::Telemetry(t)
+                        Event::Telemetry(Box::new(t))
                     }
                     Ok(t) => {
                         tracing::warn!("dropped telemetry of {:?} published on {}", t.id, s.key_expr());
@@ -165,6 +174,13 @@ pub async fn run(
                     None => continue,
                 }
             }
+            q = marginal.recv_async() => {
+                let Ok(q) = q else { break };
+                match driver.accept_marginal(q).await {
+                    Some(e) => e,
+                    None => continue,
+                }
+            }
             Some(e) = ev_rx.recv() => e,
         };
         for cmd in sm.handle(now(), event) {
@@ -172,7 +188,8 @@ pub async fn run(
         }
     }
     tracing::info!("central shutting down");
-    drop((alive, telemetry, operator));
+    drop((alive, telemetry, operator, marginal));
+    let _ = planners.await;
     session.close().await.map_err(ManagerError::zenoh)?;
     Ok(())
 }
@@ -193,16 +210,45 @@ impl Driver {
             Some(SystemKey::Status) => Request::Status,
             Some(SystemKey::Robots) => Request::Robots,
             Some(SystemKey::Robot(id)) => Request::Robot(id),
+            Some(SystemKey::Missions) => Request::Missions,
+            Some(SystemKey::Mission(name)) => Request::Mission(name),
             Some(SystemKey::CmdGoto) => Request::Goto(net::query_payload(&q)),
+            Some(SystemKey::CmdMove) => Request::Move(net::query_payload(&q)),
+            Some(SystemKey::CmdCreate) => Request::Create(net::query_payload(&q)),
+            Some(SystemKey::CmdTerminate) => Request::Terminate(net::query_payload(&q)),
             None => {
                 net::reply_error(&q, &format!("unknown key {}", q.key_expr())).await;
                 return None;
             }
         };
+        Some(self.pend(q, request))
+    }
+
+    /// Routes `mrmm/missions/<name>/marginal?add=k`.
+    async fn accept_marginal(&mut self, q: Query) -> Option<Event> {
+        let Some((name, "marginal")) = proto::parse_mission_key(q.key_expr().as_str()) else {
+            net::reply_error(&q, &format!("unknown key {}", q.key_expr())).await;
+            return None;
+        };
+        let name = name.to_string();
+        let add = match q.parameters().get("add") {
+            None => 1,
+            Some(v) => match v.parse::<i64>() {
+                Ok(a) if a != 0 && a.abs() <= 1000 => a,
+                _ => {
+                    net::reply_error(&q, &format!("add={v}: give a non-zero whole number, e.g. add=1 or add=-1")).await;
+                    return None;
+                }
+            },
+        };
+        Some(self.pend(q, Request::Marginal { mission: name, add }))
+    }
+
+    fn pend(&mut self, q: Query, request: Request) -> Event {
         let req = self.next_req;
         self.next_req += 1;
         self.pending.insert(req, q);
-        Some(Event::Operator { req, request })
+        Event::Operator { req, request }
     }
 
     async fn execute(&mut self, cmd: Command) {
@@ -235,6 +281,24 @@ impl Driver {
                     let _ = tx.send(Event::RobotCommandDone { req, robot, result });
                 });
             }
+            Command::RequestPlan { mission, epoch, kind, request } => {
+                let (session, tx) = (self.session.clone(), self.events.clone());
+                tokio::spawn(async move {
+                    let result = match proto::to_json(&request) {
+                        Ok(body) => ask::<MissionPlan>(&session, &proto::planner(kind.as_str()), Some(body), PLAN_TIMEOUT).await,
+                        Err(e) => Err(e.to_string()),
+                    };
+                    let _ = tx.send(Event::PlanResult { mission, epoch, result: result.map(Box::new) });
+                });
+            }
+            Command::Publish { key, value } => match serde_json::to_vec(&value) {
+                Ok(bytes) => {
+                    if let Err(e) = self.session.put(&key, bytes).encoding(Encoding::APPLICATION_JSON).await {
+                        tracing::warn!("publication on {key} failed: {e}");
+                    }
+                }
+                Err(e) => tracing::warn!("cannot encode {key}: {e}"),
+            },
         }
     }
 }

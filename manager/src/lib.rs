@@ -4,6 +4,8 @@
 pub mod central;
 pub mod client;
 pub mod error;
+pub mod mission;
+pub mod planner_service;
 pub mod system;
 
 pub use error::ManagerError;

@@ -27,6 +27,8 @@ pub struct Body {
     velocity: Velocity,
     limits: Limits,
     goal: Option<Vector2<f64>>,
+    /// Speed cap of the current goal (a plan's team speed), below the robot's maximum.
+    cap: Option<f64>,
 }
 
 impl Body {
@@ -37,6 +39,7 @@ impl Body {
             velocity: Velocity::default(),
             limits,
             goal: None,
+            cap: None,
         }
     }
 
@@ -55,6 +58,13 @@ impl Body {
     /// Start driving to (x, y). Non-finite goals are ignored by the caller's validation.
     pub fn navigate_to(&mut self, x: f64, y: f64) {
         self.goal = Some(Vector2::new(x, y));
+        self.cap = None;
+    }
+
+    /// Drive to (x, y) no faster than `speed` (m/s).
+    pub fn navigate_capped(&mut self, x: f64, y: f64, speed: Option<f64>) {
+        self.goal = Some(Vector2::new(x, y));
+        self.cap = speed.filter(|s| s.is_finite() && *s > 0.0);
     }
 
     /// Stop now.
@@ -86,7 +96,8 @@ impl Body {
         self.heading = wrap_angle(self.heading + turn);
         // Drive only roughly facing the goal; slow down in proportion to the heading error.
         let align = (1.0 - (err.abs() - turn.abs()) / std::f64::consts::FRAC_PI_2).clamp(0.0, 1.0);
-        let speed = self.limits.max_speed * align;
+        let max = self.cap.map_or(self.limits.max_speed, |c| c.min(self.limits.max_speed));
+        let speed = max * align;
         let advance = (speed * dt).min(dist);
         let dir = Rotation2::new(self.heading) * Vector2::x();
         self.pos += dir * advance;
@@ -159,6 +170,14 @@ mod tests {
         }
         assert!(b.goal().is_none(), "arrived");
         assert!(((b.pose().x + 3.0).powi(2) + (b.pose().y - 7.0).powi(2)).sqrt() <= ARRIVAL_TOLERANCE);
+    }
+
+    #[test]
+    fn speed_cap_slows_down() {
+        let mut b = Body::new(Pose::default(), LIM);
+        b.navigate_capped(5.0, 0.0, Some(0.5));
+        let steps = run_until_arrival(&mut b, 0.01, 10_000).expect("arrives");
+        assert!((steps as f64 * 0.01 - 10.0).abs() < 0.2);
     }
 
     #[test]

@@ -11,7 +11,8 @@
 //! - **Sync points**: `q = n · ⌈L / (n · d_max)⌉` per round, every `L / q` of arc, so sync points
 //!   coincide with slots and consecutive ones are at most `d_max` apart. A robot whose speed is
 //!   off by a fraction ε drifts at most `ε · d_max` before the next barrier realigns the team,
-//!   however long the tour or large the team. Sync point 0 of round 0 is the start barrier.
+//!   however long the tour or large the team. Sync point 0 is the start barrier; a round's
+//!   points are 1..=q.
 
 use serde::{Deserialize, Serialize};
 
@@ -179,8 +180,8 @@ impl PatrolAssignment {
     }
 }
 
-/// One round of the tour from arc `start`, with a barrier every `L / q` (the last one, at the
-/// slot again, is point 0 of the next round).
+/// One round of the tour from arc `start`, with barriers 1..=q every `L / q` (the last one at the
+/// slot again); point 0 is the start barrier. Barrier `(point, round)` is unique in a plan.
 fn round_steps(path: &Polyline, start: f64, q: usize, speed: f64) -> Vec<Step> {
     let l = path.length;
     let p0 = path.at(start);
@@ -194,7 +195,7 @@ fn round_steps(path: &Polyline, start: f64, q: usize, speed: f64) -> Vec<Step> {
         }
     }
     for j in 1..=q {
-        events.push((j as f64 * l / q as f64, Some((j % q) as u32)));
+        events.push((j as f64 * l / q as f64, Some(j as u32)));
     }
     events.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.is_some().cmp(&b.1.is_some())));
     let mut last: Option<Point> = Some(p0);
@@ -300,7 +301,7 @@ mod tests {
         assert_eq!(slots, [0, 1, 2, 3]);
         for rp in &p.plans {
             let syncs: Vec<u32> = rp.steps.iter().filter_map(|s| if let Step::Sync { point } = s { Some(*point) } else { None }).collect();
-            assert_eq!(syncs, [0, 1, 2, 3, 0], "start barrier then one per slot per round");
+            assert_eq!(syncs, [0, 1, 2, 3, 4], "start barrier, then points 1..=q of each round");
             assert!(matches!(rp.steps.last(), Some(Step::Loop { to: 3, rounds: None })));
         }
     }

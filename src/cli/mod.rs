@@ -5,6 +5,7 @@ mod central;
 mod demo;
 mod op;
 mod plan;
+mod planner_service;
 mod procs;
 mod robot;
 mod shutdown;
@@ -37,6 +38,8 @@ enum Cmd {
     Assign(assign::Args),
     /// Plan a recipe for a set of robots; prints the per-robot plans as JSON.
     Plan(plan::Args),
+    /// Run planner services (`mrmm/planner/<kind>`) in their own process.
+    PlannerService(planner_service::Args),
 }
 
 impl Cli {
@@ -58,5 +61,6 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Tour(a) => tour::run(a),
         Cmd::Assign(a) => assign::run(a),
         Cmd::Plan(a) => plan::run(a),
+        Cmd::PlannerService(a) => planner_service::run(a).await,
     }
 }

@@ -1,10 +1,12 @@
 //! `mrmm op`: operator commands; thin clients of the system manager's keys.
 
+pub mod mission;
+
 use std::time::Duration;
 
 use mrmm_manager::client::Client;
 use mrmm_peer::net::DEFAULT_CENTRAL;
-use mrmm_peer::proto::{self, CommandAck, GotoRequest, RobotView, SystemStatus};
+use mrmm_peer::proto::{self, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
 use serde_json::Value;
 
 #[derive(Debug, clap::Args)]
@@ -33,6 +35,14 @@ enum What {
     /// Drive a robot to (x, y) (`mrmm/system/cmd/robot/goto`).
     #[command(allow_negative_numbers = true)]
     Goto { robot: String, x: f64, y: f64 },
+    /// Move a robot to another mission, or out of its mission with `none`
+    /// (`mrmm/system/cmd/robot/move`).
+    Move { robot: String, to: String },
+    /// Missions: create, terminate, list, show, marginal.
+    #[command(subcommand)]
+    Mission(mission::Mission),
+    /// The missions table (same as `mission list`).
+    Missions,
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
@@ -79,11 +89,21 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             let ack: CommandAck = serde_json::from_value(v)?;
             println!("{}: {}", ack.robot, ack.behaviour.describe());
         }
+        What::Move { robot, to } => {
+            let to = (to != "none").then_some(to);
+            let v: Value = client.query(proto::SYSTEM_CMD_MOVE, Some(&RobotMove { robot, to })).await?;
+            if json {
+                return print_json(&v);
+            }
+            println!("{}: {} → {}", v["robot"].as_str().unwrap_or("?"), v["from"].as_str().unwrap_or("none"), v["to"].as_str().unwrap_or("none"));
+        }
+        What::Mission(m) => mission::exec(client, m, json).await?,
+        What::Missions => mission::exec(client, mission::Mission::List, json).await?,
     }
     Ok(())
 }
 
-fn print_json(v: &Value) -> anyhow::Result<()> {
+pub fn print_json(v: &Value) -> anyhow::Result<()> {
     println!("{}", serde_json::to_string_pretty(v)?);
     Ok(())
 }

@@ -4,23 +4,43 @@
 //!
 //! | key | kind | payload | encoding |
 //! |---|---|---|---|
-//! | `mrmm/robots/<id>/alive` | liveliness token | none | — |
+//! | `mrmm/robots/<id>/alive` | liveliness token of a robot | — | — |
 //! | `mrmm/robots/<id>/info` | queryable on the robot | [`RobotInfo`] | JSON |
 //! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`Telemetry`] | bincode behind [`TELEMETRY_MAGIC`] |
-//! | `mrmm/robots/<id>/cmd` | queryable on the robot | query: [`RobotCommand`], reply: [`CommandAck`] | JSON |
+//! | `mrmm/robots/<id>/cmd` | queryable on the robot | query [`RobotCommand`], reply [`CommandAck`] | JSON |
+//! | `mrmm/team/<mission>/<type>/member/<id>` | liveliness token of a team member | — | — |
+//! | `mrmm/team/<mission>/sync/<point>/<round>` | publication by each member at a barrier | [`SyncArrival`] | JSON |
+//! | `mrmm/planner/<kind>` | queryable of a planner service (`patrol`, `coverage`) | query [`PlanRequest`], reply `MissionPlan` | JSON |
+//! | `mrmm/planner/<kind>/alive/<zid>` | liveliness token of a planner service | — | — |
+//! | `mrmm/missions/<name>/marginal?add=±k` | queryable of the mission manager | [`Marginal`] | JSON |
+//! | `mrmm/missions/<name>/status` | publication of the mission manager, 1 Hz | [`MissionView`] | JSON |
 //! | `mrmm/system/status` | queryable on the system manager | [`SystemStatus`] | JSON |
-//! | `mrmm/system/robots` | queryable on the system manager | `[`[`RobotView`]`]` | JSON |
-//! | `mrmm/system/robots/<id>` | queryable on the system manager | [`RobotView`] | JSON |
-//! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | query: [`GotoRequest`], reply: [`CommandAck`] | JSON |
+//! | `mrmm/system/robots`, `…/robots/<id>` | queryable on the system manager | [`RobotView`] list / one | JSON |
+//! | `mrmm/system/missions`, `…/missions/<name>` | queryable on the system manager | [`MissionView`] list / one with plans | JSON |
+//! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | query [`GotoRequest`] | JSON |
+//! | `mrmm/system/cmd/robot/move` | queryable on the system manager | query [`RobotMove`] | JSON |
+//! | `mrmm/system/cmd/mission/create` | queryable on the system manager | query [`MissionCreate`] | JSON |
+//! | `mrmm/system/cmd/mission/terminate` | queryable on the system manager | query [`MissionTerminate`] | JSON |
 //!
 //! Every error reply on an operator key is a Zenoh reply error whose payload is [`ErrorReply`]
 //! (`{"error": "…"}`), JSON.
 //!
-//! Robot ids are single key chunks: 1 to 64 characters of `[A-Za-z0-9_-]`.
+//! Robot ids and mission names are single key chunks: 1 to 64 characters of `[A-Za-z0-9_-]`.
 
+mod operator;
+mod robot;
+mod team;
+
+use std::collections::BTreeMap;
+
+use mrmm_planner::plan::RobotSpec;
 use serde::{Deserialize, Serialize};
 
 use crate::error::PeerError;
+
+pub use operator::*;
+pub use robot::*;
+pub use team::*;
 
 /// First chunk of every mrmm key.
 pub const ROOT: &str = "mrmm";
@@ -34,19 +54,27 @@ pub const SYSTEM_ALL: &str = "mrmm/system/**";
 pub const SYSTEM_STATUS: &str = "mrmm/system/status";
 /// Fleet table.
 pub const SYSTEM_ROBOTS: &str = "mrmm/system/robots";
+/// Missions table.
+pub const SYSTEM_MISSIONS: &str = "mrmm/system/missions";
 /// Operator command: drive a robot to a point.
 pub const SYSTEM_CMD_GOTO: &str = "mrmm/system/cmd/robot/goto";
+/// Operator command: move a robot to another mission.
+pub const SYSTEM_CMD_MOVE: &str = "mrmm/system/cmd/robot/move";
+/// Operator command: create a mission.
+pub const SYSTEM_CMD_CREATE: &str = "mrmm/system/cmd/mission/create";
+/// Operator command: terminate a mission.
+pub const SYSTEM_CMD_TERMINATE: &str = "mrmm/system/cmd/mission/terminate";
+/// Marginal-benefit queries of every mission.
+pub const ALL_MISSIONS_MARGINAL: &str = "mrmm/missions/*/marginal";
 /// Media type of every JSON payload.
 pub const JSON: &str = "application/json";
 /// Prefix of a bincode telemetry payload: protocol name and version.
-pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM1";
+pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM2";
 
-/// Checks that `id` can be used as a robot id (one key chunk, no wildcard or separator).
+/// Checks that `id` can be used as a robot id or mission name (one key chunk, no wildcard).
 pub fn validate_id(id: &str) -> Result<(), PeerError> {
     let ok_len = !id.is_empty() && id.len() <= 64;
-    let ok_chars = id
-        .chars()
-        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+    let ok_chars = id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
     if ok_len && ok_chars {
         Ok(())
     } else {
@@ -73,6 +101,54 @@ pub fn robot_cmd(id: &str) -> String {
 /// `mrmm/system/robots/<id>`
 pub fn system_robot(id: &str) -> String {
     format!("{SYSTEM_ROBOTS}/{id}")
+}
+/// `mrmm/system/missions/<name>`
+pub fn system_mission(name: &str) -> String {
+    format!("{SYSTEM_MISSIONS}/{name}")
+}
+/// `mrmm/team/<subteam>/member/<id>` (subteam = `<mission>/<type>`)
+pub fn team_member(subteam: &str, id: &str) -> String {
+    format!("{ROOT}/team/{subteam}/member/{id}")
+}
+/// Every member token of a team: `mrmm/team/<team>/*/member/*`
+pub fn team_members(team: &str) -> String {
+    format!("{ROOT}/team/{team}/*/member/*")
+}
+/// `mrmm/team/<team>/sync/<point>/<round>`
+pub fn team_sync(team: &str, point: u32, round: u32) -> String {
+    format!("{ROOT}/team/{team}/sync/{point}/{round}")
+}
+/// Every barrier of a team: `mrmm/team/<team>/sync/**`
+pub fn team_sync_all(team: &str) -> String {
+    format!("{ROOT}/team/{team}/sync/**")
+}
+/// The robot id of a team member token key.
+pub fn parse_team_member(key: &str) -> Option<&str> {
+    let id = key.rsplit('/').next()?;
+    let rest = key.strip_suffix(id)?.strip_suffix("/member/")?;
+    rest.starts_with("mrmm/team/").then_some(id).filter(|id| validate_id(id).is_ok())
+}
+/// `mrmm/planner/<kind>`
+pub fn planner(kind: &str) -> String {
+    format!("{ROOT}/planner/{kind}")
+}
+/// `mrmm/planner/<kind>/alive/<zid>`
+pub fn planner_alive(kind: &str, zid: &str) -> String {
+    format!("{ROOT}/planner/{kind}/alive/{zid}")
+}
+/// `mrmm/missions/<name>/marginal`
+pub fn mission_marginal(name: &str) -> String {
+    format!("{ROOT}/missions/{name}/marginal")
+}
+/// `mrmm/missions/<name>/status`
+pub fn mission_status(name: &str) -> String {
+    format!("{ROOT}/missions/{name}/status")
+}
+/// The mission name of a `mrmm/missions/<name>/<topic>` key.
+pub fn parse_mission_key(key: &str) -> Option<(&str, &str)> {
+    let rest = key.strip_prefix("mrmm/missions/")?;
+    let (name, topic) = rest.split_once('/')?;
+    (validate_id(name).is_ok() && !topic.contains('/')).then_some((name, topic))
 }
 
 /// What a robot key is about.
@@ -110,7 +186,12 @@ pub enum SystemKey {
     Status,
     Robots,
     Robot(String),
+    Missions,
+    Mission(String),
     CmdGoto,
+    CmdMove,
+    CmdCreate,
+    CmdTerminate,
 }
 
 /// Parses a key under `mrmm/system/`.
@@ -119,63 +200,32 @@ pub fn parse_system_key(key: &str) -> Option<SystemKey> {
     match rest {
         "status" => Some(SystemKey::Status),
         "robots" => Some(SystemKey::Robots),
+        "missions" => Some(SystemKey::Missions),
         "cmd/robot/goto" => Some(SystemKey::CmdGoto),
+        "cmd/robot/move" => Some(SystemKey::CmdMove),
+        "cmd/mission/create" => Some(SystemKey::CmdCreate),
+        "cmd/mission/terminate" => Some(SystemKey::CmdTerminate),
         _ => {
-            let id = rest.strip_prefix("robots/")?;
-            validate_id(id).ok()?;
-            Some(SystemKey::Robot(id.to_string()))
+            if let Some(id) = rest.strip_prefix("robots/") {
+                validate_id(id).ok()?;
+                Some(SystemKey::Robot(id.to_string()))
+            } else {
+                let name = rest.strip_prefix("missions/")?;
+                validate_id(name).ok()?;
+                Some(SystemKey::Mission(name.to_string()))
+            }
         }
     }
 }
 
-/// A planar pose: position in metres, heading in radians (counter-clockwise from +x).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
-pub struct Pose {
-    pub x: f64,
-    pub y: f64,
-    pub theta: f64,
-}
-
-/// Linear (m/s) and angular (rad/s) velocity.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
-pub struct Velocity {
-    pub v: f64,
-    pub omega: f64,
-}
-
-/// What a robot is doing right now. Externally tagged (bincode cannot carry internal tags):
-/// JSON `"hold"` or `{"navigate": {"x": 1.0, "y": 2.0}}`.
+/// Query payload of a planner service: a recipe (bank name or XML), overrides, robots.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Behaviour {
-    /// Standing still.
-    Hold,
-    /// Driving to a point.
-    Navigate { x: f64, y: f64 },
-}
-
-impl Behaviour {
-    /// Short human-readable form for tables.
-    pub fn describe(&self) -> String {
-        match self {
-            Behaviour::Hold => "hold".to_string(),
-            Behaviour::Navigate { x, y } => format!("goto({x:.1},{y:.1})"),
-        }
-    }
-}
-
-/// Periodic state of one robot, on `mrmm/robots/<id>/telemetry`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Telemetry {
-    pub id: String,
-    /// Sequence number, +1 per publication.
-    pub seq: u64,
-    /// Simulated time of the robot, seconds since it started.
-    pub t: f64,
-    pub pose: Pose,
-    pub velocity: Velocity,
-    pub behaviour: Behaviour,
-    pub mission: Option<String>,
+#[serde(deny_unknown_fields)]
+pub struct PlanRequest {
+    pub recipe: String,
+    #[serde(default)]
+    pub params: BTreeMap<String, String>,
+    pub robots: Vec<RobotSpec>,
 }
 
 /// Largest telemetry payload we accept: a garbage length prefix cannot make us allocate more.
@@ -198,7 +248,7 @@ pub fn encode_telemetry(t: &Telemetry) -> Result<Vec<u8>, PeerError> {
 pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, PeerError> {
     let body = bytes
         .strip_prefix(&TELEMETRY_MAGIC[..])
-        .ok_or_else(|| PeerError::Decode("telemetry without the MRM1 prefix".into()))?;
+        .ok_or_else(|| PeerError::Decode("telemetry without the MRM2 prefix".into()))?;
     let (t, used): (Telemetry, usize) =
         bincode::serde::decode_from_slice(body, wire_config())
             .map_err(|e| PeerError::Decode(format!("telemetry: {e}")))?;
@@ -212,101 +262,6 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, PeerError> {
         return Err(PeerError::Decode("telemetry: non-finite pose".into()));
     }
     Ok(t)
-}
-
-/// What a robot says about itself when it registers (answer of `mrmm/robots/<id>/info`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RobotInfo {
-    pub id: String,
-    #[serde(rename = "type")]
-    pub robot_type: String,
-    pub capabilities: Vec<String>,
-    /// Maximum linear speed, m/s.
-    pub max_speed: f64,
-    /// Zenoh endpoints the robot listens on.
-    pub endpoints: Vec<String>,
-}
-
-/// A command to one robot, query payload on `mrmm/robots/<id>/cmd`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
-pub enum RobotCommand {
-    /// Drive to (x, y) and hold there.
-    Goto { x: f64, y: f64 },
-    /// Stop where you are.
-    Hold,
-}
-
-/// Positive answer to a command.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CommandAck {
-    pub ok: bool,
-    pub robot: String,
-    pub behaviour: Behaviour,
-}
-
-/// Operator command `mrmm/system/cmd/robot/goto`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GotoRequest {
-    pub robot: String,
-    pub x: f64,
-    pub y: f64,
-}
-
-/// Registry status of a robot as the operator sees it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum RobotStatus {
-    /// Alive, in no mission, not moving on an order.
-    Idle,
-    /// Alive and executing a behaviour or a mission.
-    Busy,
-    /// Liveliness lost.
-    Lost,
-}
-
-impl RobotStatus {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            RobotStatus::Idle => "idle",
-            RobotStatus::Busy => "busy",
-            RobotStatus::Lost => "lost",
-        }
-    }
-}
-
-/// One row of the fleet table (`mrmm/system/robots`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RobotView {
-    pub id: String,
-    #[serde(rename = "type")]
-    pub robot_type: String,
-    pub capabilities: Vec<String>,
-    pub status: RobotStatus,
-    pub mission: Option<String>,
-    pub pose: Option<Pose>,
-    /// What the robot reported doing last (`hold`, `goto(x,y)`).
-    #[serde(default)]
-    pub behaviour: Option<String>,
-}
-
-/// Fleet summary (`mrmm/system/status`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct SystemStatus {
-    /// Zenoh id of the system manager's session.
-    pub node: String,
-    pub uptime_s: f64,
-    pub robots_total: usize,
-    pub idle: usize,
-    pub busy: usize,
-    pub lost: usize,
-}
-
-/// Error payload of every reply error on an operator key.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ErrorReply {
-    pub error: String,
 }
 
 /// Parses a JSON payload, with the type's name in the error.
@@ -333,6 +288,16 @@ mod tests {
             velocity: Velocity { v: 0.5, omega: 0.1 },
             behaviour: Behaviour::Navigate { x: 3.0, y: 4.0 },
             mission: Some("patrol-1".into()),
+            progress: Some(Progress {
+                mission: "patrol-1".into(),
+                epoch: 3,
+                step: 4,
+                round: 1,
+                syncs_passed: 5,
+                sync_msgs: 6,
+                waiting: Some((2, 1)),
+                done: false,
+            }),
         }
     }
 
@@ -340,7 +305,7 @@ mod tests {
     fn telemetry_round_trips() {
         let t = sample();
         let bytes = encode_telemetry(&t).expect("encode");
-        assert_eq!(&bytes[..4], b"MRM1");
+        assert_eq!(&bytes[..4], b"MRM2");
         assert_eq!(decode_telemetry(&bytes).expect("decode"), t);
     }
 
@@ -371,6 +336,13 @@ mod tests {
         assert_eq!(parse_system_key(SYSTEM_STATUS), Some(SystemKey::Status));
         assert_eq!(parse_system_key("mrmm/system/robots/a/b"), None);
         assert_eq!(parse_system_key("mrmm/system/nope"), None);
+        assert_eq!(parse_system_key(&system_mission("p1")), Some(SystemKey::Mission("p1".into())));
+        assert_eq!(parse_system_key(SYSTEM_CMD_CREATE), Some(SystemKey::CmdCreate));
+        assert_eq!(parse_team_member(&team_member("p1/ground", "r3")), Some("r3"));
+        assert_eq!(parse_team_member("mrmm/team/p1/ground/member/*"), None);
+        assert_eq!(team_sync("p1", 2, 7), "mrmm/team/p1/sync/2/7");
+        assert_eq!(parse_mission_key(&mission_marginal("p1")), Some(("p1", "marginal")));
+        assert_eq!(parse_mission_key("mrmm/missions/*/marginal"), None);
     }
 
     #[test]
@@ -387,6 +359,10 @@ mod tests {
         assert_eq!(c, RobotCommand::Goto { x: 1.0, y: 2.0 });
         assert!(from_json::<RobotCommand>("cmd", br#"{"cmd":"fly"}"#).is_err());
         assert!(from_json::<GotoRequest>("goto", br#"{"robot":"r1","x":1}"#).is_err());
+        let plan = r#"{"cmd":"plan","mission":"m","epoch":1,"team":"m","subteam":"m/ground","members":["r1"],
+            "plan":{"robot":"r1","type":"ground","slot":0,"steps":["stream",{"sync":{"point":0}}]}}"#;
+        let c: RobotCommand = from_json("cmd", plan.as_bytes()).expect("plan");
+        assert!(matches!(c, RobotCommand::Plan(ref a) if a.plan.steps.len() == 2));
         let v = serde_json::to_value(RobotStatus::Lost).expect("json");
         assert_eq!(v, serde_json::json!("lost"));
     }

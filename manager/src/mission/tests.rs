@@ -1,0 +1,146 @@
+//! Mission manager flows, asserting the emitted commands: initiate, leave, join, lose, stale
+//! plans, metrics.
+
+use super::*;
+use mrmm_peer::proto::{Behaviour, Pose, Velocity};
+use mrmm_planner::recipe;
+
+fn spec() -> MissionSpec {
+    let xml = recipe::bank("patrol").expect("bank").to_string();
+    MissionSpec {
+        name: "p1".into(),
+        recipe_name: "patrol".into(),
+        recipe_xml: xml,
+        planner: PlannerKind::Patrol,
+        params: BTreeMap::from([("waypoints".to_string(), "[[0,0],[20,0],[20,20],[0,20]]".to_string())]),
+    }
+}
+
+fn robot(id: &str, t: &str, x: f64) -> RobotSpec {
+    RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0 }
+}
+
+/// Runs the planner as a planner service would.
+fn plan_for(cmds: &[MCommand]) -> (u64, MissionPlan) {
+    let Some(MCommand::RequestPlan { epoch, request, .. }) = cmds.iter().find(|c| matches!(c, MCommand::RequestPlan { .. })) else {
+        panic!("expected a plan request in {cmds:?}");
+    };
+    let r = recipe::parse(&request.recipe).expect("recipe");
+    (*epoch, recipe::build(&r, &request.params, &request.robots).expect("plan"))
+}
+
+fn sent_to(cmds: &[MCommand]) -> Vec<(String, u64, usize)> {
+    cmds.iter()
+        .filter_map(|c| match c {
+            MCommand::SendPlan { robot, assignment } => Some((robot.clone(), assignment.epoch, assignment.members.len())),
+            _ => None,
+        })
+        .collect()
+}
+
+fn started() -> MissionManager {
+    let mut m = MissionManager::new(spec(), "node".into(), vec![robot("a", "ground", 0.0), robot("b", "ground", 5.0), robot("c", "aerial", 10.0)]);
+    let cmds = m.handle(MEvent::Start);
+    let (epoch, plan) = plan_for(&cmds);
+    assert_eq!(epoch, 1);
+    let cmds = m.handle(MEvent::PlanReady { epoch, plan: Box::new(plan) });
+    assert_eq!(sent_to(&cmds), [("a".into(), 1, 3), ("b".into(), 1, 3), ("c".into(), 1, 3)]);
+    assert_eq!(cmds.last(), Some(&MCommand::Started));
+    m
+}
+
+#[test]
+fn initiating_builds_teams_and_sends_plans() {
+    let m = started();
+    let v = m.view(true);
+    assert_eq!(v.status, MissionStatus::Running);
+    assert_eq!(v.teams["p1/ground"], ["a", "b"]);
+    assert_eq!(v.teams["p1/aerial"], ["c"]);
+    assert_eq!(v.plans.as_ref().map(Vec::len), Some(3));
+    assert!(v.summary.get("plans").is_none());
+    assert!(v.summary["length"].as_f64().is_some_and(|l| (l - 80.0).abs() < 1e-9));
+}
+
+#[test]
+fn leaving_replans_for_the_rest_and_old_plans_are_ignored() {
+    let mut m = started();
+    let cmds = m.handle(MEvent::Left { ids: vec!["b".into()] });
+    let (epoch, plan) = plan_for(&cmds);
+    assert_eq!(epoch, 2);
+    // A late plan of epoch 1 changes nothing.
+    let (_, old) = plan_for(&[MCommand::RequestPlan {
+        epoch: 1,
+        kind: PlannerKind::Patrol,
+        request: PlanRequest { recipe: spec().recipe_xml, params: spec().params, robots: vec![robot("a", "ground", 0.0)] },
+    }]);
+    assert!(m.handle(MEvent::PlanReady { epoch: 1, plan: Box::new(old) }).is_empty());
+    let cmds = m.handle(MEvent::PlanReady { epoch, plan: Box::new(plan.clone()) });
+    assert_eq!(sent_to(&cmds), [("a".into(), 2, 2), ("c".into(), 2, 2)]);
+    assert!(!cmds.contains(&MCommand::Started), "started only once");
+    // Two robots, evenly spaced: spacing L/2.
+    let MissionPlan::Patrol(p) = plan else { panic!() };
+    assert!((p.spacing - 40.0).abs() < 1e-9);
+    // Unknown robots leaving change nothing.
+    assert!(m.handle(MEvent::Left { ids: vec!["zz".into()] }).is_empty());
+}
+
+#[test]
+fn joining_replans_including_the_newcomer() {
+    let mut m = started();
+    let cmds = m.handle(MEvent::Joined(robot("d", "ground", 3.0)));
+    let (epoch, plan) = plan_for(&cmds);
+    let cmds = m.handle(MEvent::PlanReady { epoch, plan: Box::new(plan) });
+    assert_eq!(sent_to(&cmds).len(), 4);
+    assert_eq!(m.view(false).teams["p1/ground"], ["a", "b", "d"]);
+}
+
+#[test]
+fn losing_everyone_stalls_and_a_failed_first_plan_fails() {
+    let mut m = started();
+    for id in ["a", "b"] {
+        assert!(!m.handle(MEvent::Left { ids: vec![id.into()] }).is_empty());
+    }
+    assert!(m.handle(MEvent::Left { ids: vec!["c".into()] }).is_empty(), "no plan for nobody");
+    assert_eq!(m.view(false).status, MissionStatus::Stalled);
+
+    let mut f = MissionManager::new(spec(), "n".into(), vec![robot("a", "ground", 0.0)]);
+    let cmds = f.handle(MEvent::Start);
+    let (epoch, _) = plan_for(&cmds);
+    assert_eq!(f.handle(MEvent::PlanFailed { epoch, error: "boom".into() }), vec![MCommand::Failed { error: "boom".into() }]);
+    assert_eq!(f.view(false).status, MissionStatus::Failed);
+}
+
+#[test]
+fn metrics_from_telemetry() {
+    let mut m = started();
+    let tel = |id: &str, x: f64, y: f64, syncs: u32, round: u32| Telemetry {
+        id: id.into(),
+        seq: 1,
+        t: 0.0,
+        pose: Pose { x, y, theta: 0.0 },
+        velocity: Velocity::default(),
+        behaviour: Behaviour::Hold,
+        mission: Some("p1".into()),
+        progress: Some(Progress { mission: "p1".into(), epoch: 1, step: 3, round, syncs_passed: syncs, sync_msgs: syncs, waiting: None, done: false }),
+    };
+    // Not yet past the start barrier: no visit counted.
+    m.handle(MEvent::Telemetry { now: 0.0, t: Box::new(tel("a", 0.0, 0.0, 0, 0)) });
+    assert_eq!(m.metrics().visits.iter().sum::<u32>(), 0);
+    m.handle(MEvent::Telemetry { now: 1.0, t: Box::new(tel("a", 0.0, 0.0, 1, 0)) });
+    m.handle(MEvent::Telemetry { now: 1.2, t: Box::new(tel("a", 0.1, 0.0, 1, 0)) }); // debounced
+    m.handle(MEvent::Telemetry { now: 11.0, t: Box::new(tel("b", 0.0, 0.5, 2, 0)) });
+    m.handle(MEvent::Telemetry { now: 12.0, t: Box::new(tel("c", 50.0, 50.0, 3, 1)) });
+    let x = m.metrics();
+    assert_eq!(x.visits.iter().sum::<u32>(), 2);
+    assert_eq!(x.avg_idleness, Some(10.0));
+    assert_eq!(x.worst_idleness, Some(10.0));
+    assert_eq!(x.sync_points_passed, 1);
+    assert_eq!(x.rounds, 0);
+    assert_eq!(x.messages["plan"], 3);
+    assert_eq!(x.messages["sync"], 6);
+    // Marginal benefit: L / (n v).
+    let g = m.marginal(1).expect("marginal");
+    assert_eq!((g.robots, g.with_robots), (3, 4));
+    assert!((g.predicted - 20.0).abs() < 1e-9 && (g.current - 80.0 / 3.0).abs() < 1e-9);
+    assert!(m.marginal(-3).is_err());
+}

@@ -1,0 +1,212 @@
+//! Operator commands on missions: create (validated in full, with a dry-run plan, before anything
+//! changes), terminate, and moving robots between missions.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use mrmm_peer::proto::{self, MissionCreate, MissionTerminate, RobotCommand, RobotMove};
+use mrmm_planner::plan::RobotSpec;
+use mrmm_planner::recipe::{self, PlannerKind};
+use serde_json::{json, Value};
+
+use super::{to_value, Command, SystemManager};
+use crate::mission::{MEvent, MissionManager, MissionSpec};
+
+impl SystemManager {
+    pub(super) fn create(&mut self, req: u64, bytes: &[u8]) -> Vec<Command> {
+        match self.check_create(bytes) {
+            Ok((spec, robots, steal)) => {
+                let name = spec.name.clone();
+                let mut out = Vec::new();
+                // Robots taken from running missions leave them first (those missions replan).
+                let mut leaving: BTreeMap<String, Vec<String>> = BTreeMap::new();
+                for (id, from) in steal {
+                    self.assignment.remove(&id);
+                    leaving.entry(from).or_default().push(id);
+                }
+                for (from, ids) in leaving {
+                    out.extend(self.mission_event(&from, MEvent::Left { ids }));
+                }
+                for r in &robots {
+                    self.assignment.insert(r.id.clone(), name.clone());
+                }
+                tracing::info!(mission = %name, robots = robots.len(), "mission created");
+                self.missions.insert(name.clone(), MissionManager::new(spec, self.node.clone(), robots));
+                self.pending_create.insert(name.clone(), req);
+                out.extend(self.mission_event(&name, MEvent::Start));
+                out
+            }
+            Err(e) => vec![Command::Reply { req, result: Err(e) }],
+        }
+    }
+
+    /// Everything a create needs, or the first problem. Changes nothing.
+    #[allow(clippy::type_complexity)]
+    fn check_create(&self, bytes: &[u8]) -> Result<(MissionSpec, Vec<RobotSpec>, Vec<(String, String)>), String> {
+        let c: MissionCreate = proto::from_json("mission create request", bytes).map_err(|e| e.to_string())?;
+        proto::validate_id(&c.name).map_err(|_| format!("mission name {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", c.name))?;
+        if self.missions.contains_key(&c.name) {
+            return Err(format!("mission {:?} already exists", c.name));
+        }
+        let (recipe_name, xml) = match recipe::bank(&c.recipe) {
+            Some(xml) => (c.recipe.clone(), xml.to_string()),
+            None if c.recipe.trim_start().starts_with('<') => ("custom".to_string(), c.recipe.clone()),
+            None => return Err(format!("unknown recipe {:?}: give patrol, coverage, or a recipe XML document", c.recipe)),
+        };
+        let r = recipe::parse(&xml).map_err(|e| format!("recipe {recipe_name}: {e}"))?;
+        recipe::validate(&r).map_err(|e| format!("recipe {recipe_name}: {e}"))?;
+        let params: BTreeMap<String, String> = c
+            .params
+            .iter()
+            .map(|(k, v)| (k.clone(), match v {
+                Value::String(s) => s.clone(),
+                other => other.to_string(),
+            }))
+            .collect();
+
+        let (ids, steal) = match (&c.robots, c.count) {
+            (Some(_), Some(_)) => return Err("give robots or count, not both".into()),
+            (Some(list), None) => {
+                let mut seen = BTreeSet::new();
+                for id in list {
+                    self.live_robot(id)?;
+                    if !seen.insert(id) {
+                        return Err(format!("robot {id:?} listed twice"));
+                    }
+                    if let Some(m) = self.assignment.get(id) {
+                        return Err(format!("robot {id:?} is in mission {m}: move it (robot move) or leave it out"));
+                    }
+                }
+                (list.clone(), vec![])
+            }
+            (None, Some(k)) => {
+                let idle = self.idle_robots();
+                if k == 0 || k > idle.len() {
+                    return Err(format!("count {k}: {} idle robots available", idle.len()));
+                }
+                (idle.into_iter().take(k).collect(), vec![])
+            }
+            (None, None) => self.equal_share()?,
+        };
+        if ids.is_empty() {
+            return Err("a mission needs at least one robot".into());
+        }
+        let specs: Vec<RobotSpec> = ids.iter().filter_map(|id| self.spec(id)).collect();
+        // Dry run with little effort: catches bad waypoints, regions and parameters now.
+        let mut dry = params.clone();
+        match r.planner {
+            PlannerKind::Patrol => {
+                dry.insert("max_kicks".into(), "10".into());
+            }
+            PlannerKind::Coverage => {
+                for (k, v) in [("samples", "200"), ("lloyd_iterations", "1"), ("minimax_iterations", "1")] {
+                    dry.insert(k.into(), v.into());
+                }
+            }
+        }
+        recipe::build(&r, &dry, &specs).map_err(|e| format!("mission {}: {e}", c.name))?;
+        let spec = MissionSpec { name: c.name, recipe_name, recipe_xml: xml, planner: r.planner, params };
+        Ok((spec, specs, steal))
+    }
+
+    /// Alive, registered robots in no mission, by id.
+    fn idle_robots(&self) -> Vec<String> {
+        self.robots
+            .iter()
+            .filter(|(id, r)| r.alive && r.info.is_some() && !self.assignment.contains_key(*id))
+            .map(|(id, _)| id.clone())
+            .collect()
+    }
+
+    /// The paper's default: the fleet split equally over the missions, the new one included.
+    /// Idle robots first; then robots taken from the largest missions, never below their share.
+    fn equal_share(&self) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+        let alive = self.robots.values().filter(|r| r.alive && r.info.is_some()).count();
+        let share = (alive / (self.missions.len() + 1)).max(1);
+        let mut chosen: Vec<String> = self.idle_robots().into_iter().take(share).collect();
+        let mut steal = Vec::new();
+        let mut sizes: BTreeMap<String, Vec<String>> =
+            self.missions.iter().map(|(n, m)| (n.clone(), m.members().cloned().collect())).collect();
+        while chosen.len() < share {
+            let Some((name, members)) = sizes.iter_mut().filter(|(_, v)| v.len() > share).max_by_key(|(_, v)| v.len()) else {
+                break;
+            };
+            let Some(id) = members.pop() else { break };
+            chosen.push(id.clone());
+            steal.push((id, name.clone()));
+        }
+        if chosen.is_empty() {
+            return Err("no robot available: every robot is lost or in a mission that cannot spare one".into());
+        }
+        Ok((chosen, steal))
+    }
+
+    pub(super) fn terminate(&mut self, req: u64, bytes: &[u8]) -> Vec<Command> {
+        let t: MissionTerminate = match proto::from_json("mission terminate request", bytes) {
+            Ok(t) => t,
+            Err(e) => return vec![Command::Reply { req, result: Err(e.to_string()) }],
+        };
+        let Some(m) = self.missions.remove(&t.name) else {
+            return vec![Command::Reply { req, result: Err(format!("unknown mission {:?}", t.name)) }];
+        };
+        let robots: Vec<String> = m.members().cloned().collect();
+        let mut out = Vec::new();
+        for id in &robots {
+            self.assignment.remove(id);
+            out.push(Command::SendToRobot {
+                req: None,
+                robot: id.clone(),
+                cmd: RobotCommand::Leave { mission: t.name.clone(), epoch: m.epoch() },
+            });
+        }
+        if let Some(pending) = self.pending_create.remove(&t.name) {
+            out.push(Command::Reply { req: pending, result: Err(format!("mission {} was terminated", t.name)) });
+        }
+        tracing::info!(mission = %t.name, "mission terminated");
+        out.push(Command::Reply { req, result: Ok(json!({"ok": true, "mission": t.name, "robots": robots})) });
+        out
+    }
+
+    pub(super) fn move_robot(&mut self, req: u64, bytes: &[u8]) -> Vec<Command> {
+        let mv: RobotMove = match proto::from_json("robot move request", bytes) {
+            Ok(m) => m,
+            Err(e) => return vec![Command::Reply { req, result: Err(e.to_string()) }],
+        };
+        if let Err(e) = self.live_robot(&mv.robot) {
+            return vec![Command::Reply { req, result: Err(e) }];
+        }
+        let from = self.assignment.get(&mv.robot).cloned();
+        if let Some(to) = &mv.to {
+            if !self.missions.contains_key(to) {
+                return vec![Command::Reply { req, result: Err(format!("unknown mission {to:?}")) }];
+            }
+            if from.as_ref() == Some(to) {
+                return vec![Command::Reply { req, result: Err(format!("robot {:?} is already in mission {to}", mv.robot)) }];
+            }
+        } else if from.is_none() {
+            return vec![Command::Reply { req, result: Err(format!("robot {:?} is in no mission", mv.robot)) }];
+        }
+        let Some(spec) = self.spec(&mv.robot) else {
+            return vec![Command::Reply { req, result: Err(format!("unknown robot {:?}", mv.robot)) }];
+        };
+        let mut out = Vec::new();
+        if let Some(f) = &from {
+            self.assignment.remove(&mv.robot);
+            let epoch = self.missions.get(f).map_or(0, MissionManager::epoch);
+            out.extend(self.mission_event(f, MEvent::Left { ids: vec![mv.robot.clone()] }));
+            if mv.to.is_none() {
+                out.push(Command::SendToRobot {
+                    req: None,
+                    robot: mv.robot.clone(),
+                    cmd: RobotCommand::Leave { mission: f.clone(), epoch },
+                });
+            }
+        }
+        if let Some(to) = &mv.to {
+            self.assignment.insert(mv.robot.clone(), to.clone());
+            out.extend(self.mission_event(to, MEvent::Joined(spec)));
+        }
+        tracing::info!(robot = %mv.robot, ?from, to = ?mv.to, "robot moved");
+        out.push(Command::Reply { req, result: to_value(&json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to})) });
+        out
+    }
+}

@@ -1,0 +1,400 @@
+//! The system manager as a state machine: it knows every robot and every mission, answers
+//! operator requests, creates and terminates missions and moves robots between them. Missions
+//! are run by [`MissionManager`]s it owns. No I/O: [`SystemManager::handle`] takes an [`Event`]
+//! and returns the [`Command`]s the driver must carry out.
+
+mod missions;
+
+use std::collections::BTreeMap;
+
+use mrmm_peer::proto::{
+    self, CommandAck, GotoRequest, PlanRequest, RobotCommand, RobotInfo, RobotStatus, RobotView, SystemStatus, Telemetry,
+};
+use mrmm_planner::plan::RobotSpec;
+use mrmm_planner::recipe::{MissionPlan, PlannerKind};
+use serde_json::Value;
+
+use crate::mission::{MCommand, MEvent, MissionManager};
+
+/// Seconds between two info requests to a robot that is alive but not yet registered.
+pub const INFO_RETRY_S: f64 = 1.0;
+/// Seconds between two publications of each mission's status.
+pub const STATUS_PERIOD_S: f64 = 1.0;
+/// Seconds between two leave orders to a robot still running a plan it should not have.
+pub const LEAVE_RETRY_S: f64 = 2.0;
+
+/// An operator request, already routed by key; payloads not yet parsed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Request {
+    Status,
+    Robots,
+    Robot(String),
+    Missions,
+    Mission(String),
+    Goto(Vec<u8>),
+    Move(Vec<u8>),
+    Create(Vec<u8>),
+    Terminate(Vec<u8>),
+    Marginal { mission: String, add: i64 },
+}
+
+/// Something that happened.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// A robot's liveliness token appeared.
+    RobotAlive { id: String },
+    /// A robot's liveliness token disappeared (crash, freeze past the lease, or clean exit).
+    RobotGone { id: String },
+    /// A robot answered its info query.
+    RobotRegistered(RobotInfo),
+    /// An info query failed.
+    InfoFailed { id: String, reason: String },
+    Telemetry(Box<Telemetry>),
+    /// An operator query `req` arrived.
+    Operator { req: u64, request: Request },
+    /// A command to a robot completed; `req` is the operator query it answers, if any.
+    RobotCommandDone { req: Option<u64>, robot: String, result: Result<CommandAck, String> },
+    /// A planner service answered for `mission` at `epoch`.
+    PlanResult { mission: String, epoch: u64, result: Result<Box<MissionPlan>, String> },
+    /// Periodic tick.
+    Tick,
+}
+
+/// Something the driver must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Ask robot `id` for its [`RobotInfo`].
+    FetchInfo { id: String },
+    /// Send `cmd` to `robot`; report back with [`Event::RobotCommandDone`].
+    SendToRobot { req: Option<u64>, robot: String, cmd: RobotCommand },
+    /// Answer operator query `req` with JSON, or with a reply error.
+    Reply { req: u64, result: Result<Value, String> },
+    /// Ask a planner service; report back with [`Event::PlanResult`].
+    RequestPlan { mission: String, epoch: u64, kind: PlannerKind, request: PlanRequest },
+    /// Publish JSON on `key`.
+    Publish { key: String, value: Value },
+}
+
+#[derive(Debug, Clone)]
+struct Record {
+    info: Option<RobotInfo>,
+    alive: bool,
+    last: Option<Telemetry>,
+    /// When the last info request went out (seconds, driver clock).
+    info_asked: Option<f64>,
+    /// Set when the robot (re)appears: its sequence numbers may restart from 1.
+    fresh: bool,
+    /// When we last ordered it out of a plan it should not run.
+    leave_sent: Option<f64>,
+}
+
+/// The registry of robots and missions, and the operator-facing logic.
+#[derive(Debug)]
+pub struct SystemManager {
+    node: String,
+    started: f64,
+    now: f64,
+    robots: BTreeMap<String, Record>,
+    missions: BTreeMap<String, MissionManager>,
+    /// Robot → mission: every robot is in at most one mission.
+    assignment: BTreeMap<String, String>,
+    /// Missions whose create request waits for the first plan.
+    pending_create: BTreeMap<String, u64>,
+    last_publish: f64,
+}
+
+impl SystemManager {
+    /// `node` is the Zenoh id shown to operators; `now` the driver clock in seconds.
+    pub fn new(node: String, now: f64) -> Self {
+        SystemManager {
+            node,
+            started: now,
+            now,
+            robots: BTreeMap::new(),
+            missions: BTreeMap::new(),
+            assignment: BTreeMap::new(),
+            pending_create: BTreeMap::new(),
+            last_publish: now,
+        }
+    }
+
+    /// Handles one event.
+    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+        self.now = self.now.max(now);
+        match event {
+            Event::RobotAlive { id } => {
+                let rec = self.robots.entry(id.clone()).or_insert(Record {
+                    info: None,
+                    alive: false,
+                    last: None,
+                    info_asked: None,
+                    fresh: true,
+                    leave_sent: None,
+                });
+                rec.alive = true;
+                rec.fresh = true;
+                // Ask again even if known: a restarted robot may have changed type or endpoints.
+                rec.info_asked = Some(now);
+                vec![Command::FetchInfo { id }]
+            }
+            Event::RobotGone { id } => {
+                if let Some(rec) = self.robots.get_mut(&id) {
+                    if rec.alive {
+                        tracing::warn!(robot = %id, "robot lost");
+                    }
+                    rec.alive = false;
+                }
+                match self.assignment.remove(&id) {
+                    Some(m) => self.mission_event(&m, MEvent::Left { ids: vec![id] }),
+                    None => vec![],
+                }
+            }
+            Event::RobotRegistered(info) => {
+                match self.robots.get_mut(&info.id) {
+                    Some(rec) => {
+                        if rec.info.is_none() {
+                            tracing::info!(robot = %info.id, r#type = %info.robot_type, "robot registered");
+                        }
+                        rec.info = Some(info);
+                    }
+                    None => tracing::debug!(robot = %info.id, "info from a robot with no liveliness: ignored"),
+                }
+                vec![]
+            }
+            Event::InfoFailed { id, reason } => {
+                tracing::debug!(robot = %id, "info request failed: {reason}");
+                vec![]
+            }
+            Event::Telemetry(t) => self.telemetry(now, *t),
+            Event::Tick => self.tick(now),
+            Event::Operator { req, request } => self.operator(now, req, request),
+            Event::RobotCommandDone { req, robot, result } => match req {
+                Some(req) => {
+                    let result = match result {
+                        Ok(ack) => serde_json::to_value(ack).map_err(|e| e.to_string()),
+                        Err(e) => Err(format!("robot {robot}: {e}")),
+                    };
+                    vec![Command::Reply { req, result }]
+                }
+                None => {
+                    if let Err(e) = result {
+                        tracing::warn!(robot = %robot, "command failed: {e}");
+                    }
+                    vec![]
+                }
+            },
+            Event::PlanResult { mission, epoch, result } => {
+                let ev = match result {
+                    Ok(plan) => MEvent::PlanReady { epoch, plan },
+                    Err(error) => MEvent::PlanFailed { epoch, error },
+                };
+                self.mission_event(&mission, ev)
+            }
+        }
+    }
+
+    fn telemetry(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
+        let Some(rec) = self.robots.get_mut(&t.id) else { return vec![] };
+        let newer = rec.fresh || rec.last.as_ref().is_none_or(|old| t.seq > old.seq);
+        if !newer {
+            return vec![];
+        }
+        rec.fresh = false;
+        let mut out = Vec::new();
+        // A robot running a plan of a mission it is not in (it was lost and came back, or missed
+        // a leave order) is told to leave it.
+        if let Some(running) = &t.mission {
+            let assigned = self.assignment.get(&t.id);
+            let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
+            if assigned != Some(running) && retry {
+                rec.leave_sent = Some(now);
+                let epoch = t.progress.as_ref().map_or(u64::MAX, |p| p.epoch);
+                out.push(Command::SendToRobot {
+                    req: None,
+                    robot: t.id.clone(),
+                    cmd: RobotCommand::Leave { mission: running.clone(), epoch },
+                });
+            }
+        }
+        rec.last = Some(t.clone());
+        // Mission clocks run in robot time (wall time × time scale) like the planners' predictions.
+        let scale = rec.info.as_ref().map_or(1.0, |i| i.time_scale);
+        if let Some(m) = self.assignment.get(&t.id).cloned() {
+            out.extend(self.mission_event(&m, MEvent::Telemetry { now: now * scale, t: Box::new(t) }));
+        }
+        out
+    }
+
+    fn tick(&mut self, now: f64) -> Vec<Command> {
+        let mut out: Vec<Command> = self
+            .robots
+            .iter_mut()
+            .filter(|(_, r)| r.alive && r.info.is_none())
+            .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
+            .map(|(id, r)| {
+                r.info_asked = Some(now);
+                Command::FetchInfo { id: id.clone() }
+            })
+            .collect();
+        if now - self.last_publish >= STATUS_PERIOD_S {
+            self.last_publish = now;
+            for m in self.missions.values() {
+                if let Ok(value) = serde_json::to_value(m.view(false)) {
+                    out.push(Command::Publish { key: proto::mission_status(m.name()), value });
+                }
+            }
+        }
+        out
+    }
+
+    fn operator(&mut self, now: f64, req: u64, request: Request) -> Vec<Command> {
+        let reply = |result| vec![Command::Reply { req, result }];
+        match request {
+            Request::Status => reply(to_value(&self.status(now))),
+            Request::Robots => reply(to_value(&self.views())),
+            Request::Robot(id) => match self.view(&id) {
+                Some(v) => reply(to_value(&v)),
+                None => reply(Err(format!("unknown robot {id:?}"))),
+            },
+            Request::Missions => reply(to_value(&self.missions.values().map(|m| m.view(false)).collect::<Vec<_>>())),
+            Request::Mission(name) => match self.missions.get(&name) {
+                Some(m) => reply(to_value(&m.view(true))),
+                None => reply(Err(format!("unknown mission {name:?}"))),
+            },
+            Request::Marginal { mission, add } => match self.missions.get(&mission) {
+                Some(m) => reply(m.marginal(add).and_then(|g| to_value(&g))),
+                None => reply(Err(format!("unknown mission {mission:?}"))),
+            },
+            Request::Goto(bytes) => match self.check_goto(&bytes) {
+                Ok(g) => vec![Command::SendToRobot {
+                    req: Some(req),
+                    robot: g.robot,
+                    cmd: RobotCommand::Goto { x: g.x, y: g.y },
+                }],
+                Err(e) => reply(Err(e)),
+            },
+            Request::Create(bytes) => self.create(req, &bytes),
+            Request::Terminate(bytes) => self.terminate(req, &bytes),
+            Request::Move(bytes) => self.move_robot(req, &bytes),
+        }
+    }
+
+    /// Runs one mission event and turns its commands into ours.
+    fn mission_event(&mut self, name: &str, ev: MEvent) -> Vec<Command> {
+        let Some(m) = self.missions.get_mut(name) else { return vec![] };
+        let mut out = Vec::new();
+        for c in m.handle(ev) {
+            match c {
+                MCommand::RequestPlan { epoch, kind, request } => {
+                    out.push(Command::RequestPlan { mission: name.to_string(), epoch, kind, request })
+                }
+                MCommand::SendPlan { robot, assignment } => {
+                    out.push(Command::SendToRobot { req: None, robot, cmd: RobotCommand::Plan(assignment) })
+                }
+                MCommand::Started => {
+                    tracing::info!(mission = %name, "mission running");
+                    if let Some(req) = self.pending_create.remove(name) {
+                        let view = self.missions.get(name).map(|m| m.view(false));
+                        out.push(Command::Reply { req, result: to_value(&view) });
+                    }
+                }
+                MCommand::Failed { error } => {
+                    // The mission never ran: remove it, free its robots.
+                    self.missions.remove(name);
+                    self.assignment.retain(|_, m| m != name);
+                    if let Some(req) = self.pending_create.remove(name) {
+                        out.push(Command::Reply { req, result: Err(format!("mission {name}: planning failed: {error}")) });
+                    }
+                    break;
+                }
+            }
+        }
+        out
+    }
+
+    fn check_goto(&self, bytes: &[u8]) -> Result<GotoRequest, String> {
+        let g: GotoRequest = proto::from_json("goto request", bytes).map_err(|e| e.to_string())?;
+        self.live_robot(&g.robot)?;
+        if let Some(m) = self.assignment.get(&g.robot) {
+            return Err(format!("robot {:?} is in mission {m}: move it out first (robot move {} none)", g.robot, g.robot));
+        }
+        if !(g.x.is_finite() && g.y.is_finite()) {
+            return Err("x and y must be finite numbers".into());
+        }
+        Ok(g)
+    }
+
+    /// The robot's record if it is registered and alive.
+    fn live_robot(&self, id: &str) -> Result<&RobotInfo, String> {
+        let rec = self.robots.get(id).filter(|r| r.info.is_some()).ok_or_else(|| format!("unknown robot {id:?}"))?;
+        if !rec.alive {
+            return Err(format!("robot {id:?} is lost"));
+        }
+        rec.info.as_ref().ok_or_else(|| format!("unknown robot {id:?}"))
+    }
+
+    /// What a planner needs to know about a robot.
+    fn spec(&self, id: &str) -> Option<RobotSpec> {
+        let rec = self.robots.get(id)?;
+        let info = rec.info.as_ref()?;
+        let pose = rec.last.as_ref().map(|t| t.pose).unwrap_or_default();
+        Some(RobotSpec { id: id.to_string(), robot_type: info.robot_type.clone(), x: pose.x, y: pose.y, speed: info.max_speed })
+    }
+
+    /// Registered robots, sorted by id.
+    pub fn views(&self) -> Vec<RobotView> {
+        self.robots.keys().filter_map(|id| self.view(id)).collect()
+    }
+
+    /// One registered robot.
+    pub fn view(&self, id: &str) -> Option<RobotView> {
+        let rec = self.robots.get(id)?;
+        let info = rec.info.as_ref()?;
+        let mission = self.assignment.get(id).cloned();
+        let moving = rec.last.as_ref().is_some_and(|t| t.behaviour != proto::Behaviour::Hold);
+        let status = if !rec.alive {
+            RobotStatus::Lost
+        } else if mission.is_some() || moving {
+            RobotStatus::Busy
+        } else {
+            RobotStatus::Idle
+        };
+        let behaviour = rec.last.as_ref().map(|t| match &t.progress {
+            Some(p) if p.waiting.is_some() => format!("sync {:?}", p.waiting.unwrap_or_default()),
+            Some(p) if p.done => "plan done".to_string(),
+            Some(p) => format!("step {} {}", p.step, t.behaviour.describe()),
+            None => t.behaviour.describe(),
+        });
+        Some(RobotView {
+            id: info.id.clone(),
+            robot_type: info.robot_type.clone(),
+            capabilities: info.capabilities.clone(),
+            status,
+            mission,
+            pose: rec.last.as_ref().map(|t| t.pose),
+            behaviour,
+        })
+    }
+
+    /// Fleet summary.
+    pub fn status(&self, now: f64) -> SystemStatus {
+        let views = self.views();
+        let count = |s| views.iter().filter(|v| v.status == s).count();
+        SystemStatus {
+            node: self.node.clone(),
+            uptime_s: now - self.started,
+            robots_total: views.len(),
+            idle: count(RobotStatus::Idle),
+            busy: count(RobotStatus::Busy),
+            lost: count(RobotStatus::Lost),
+            missions: self.missions.len(),
+        }
+    }
+}
+
+pub(crate) fn to_value<T: serde::Serialize>(v: &T) -> Result<Value, String> {
+    serde_json::to_value(v).map_err(|e| e.to_string())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,128 @@
+//! A robot's view of its team's barriers: who must arrive, who has. No I/O.
+//!
+//! A barrier `(point, round)` of epoch `e` releases for a member once every *required* member has
+//! arrived there or beyond. Required members are the plan's members minus those whose liveliness
+//! was lost while this plan ran (dead, moved out, or left). Members arrive in the same order of
+//! barriers, so an arrival at a later barrier implies the earlier ones: a member that joins the
+//! topic late, or missed a publication, never blocks the team.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use crate::proto::SyncArrival;
+
+/// Barrier bookkeeping for one plan (one epoch of one team).
+#[derive(Debug, Clone)]
+pub struct Barrier {
+    me: String,
+    epoch: u64,
+    members: BTreeSet<String>,
+    gone: BTreeSet<String>,
+    /// Furthest barrier (round, point) each member reported.
+    furthest: BTreeMap<String, (u32, u32)>,
+}
+
+impl Barrier {
+    pub fn new(me: &str, epoch: u64, members: &[String]) -> Self {
+        Barrier {
+            me: me.to_string(),
+            epoch,
+            members: members.iter().cloned().collect(),
+            gone: BTreeSet::new(),
+            furthest: BTreeMap::new(),
+        }
+    }
+
+    /// Records an arrival; other epochs and non-members are ignored. Returns whether it counted.
+    pub fn arrival(&mut self, a: &SyncArrival) -> bool {
+        if a.epoch != self.epoch || !self.members.contains(&a.robot) {
+            return false;
+        }
+        let at = (a.round, a.point);
+        let e = self.furthest.entry(a.robot.clone()).or_insert(at);
+        if at > *e {
+            *e = at;
+        }
+        true
+    }
+
+    /// A member's liveliness token appeared.
+    pub fn member_alive(&mut self, id: &str) {
+        self.gone.remove(id);
+    }
+
+    /// A member's liveliness token disappeared: it no longer holds anyone up.
+    pub fn member_gone(&mut self, id: &str) {
+        if self.members.contains(id) && id != self.me {
+            self.gone.insert(id.to_string());
+        }
+    }
+
+    /// Whether barrier `(point, round)` is released (our own arrival must be recorded first).
+    pub fn released(&self, point: u32, round: u32) -> bool {
+        self.members
+            .iter()
+            .filter(|m| !self.gone.contains(*m))
+            .all(|m| self.furthest.get(m).is_some_and(|&f| f >= (round, point)))
+    }
+
+    /// Members still required.
+    pub fn required(&self) -> usize {
+        self.members.len() - self.gone.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn arr(robot: &str, epoch: u64, point: u32, round: u32) -> SyncArrival {
+        SyncArrival { robot: robot.into(), epoch, point, round }
+    }
+
+    fn team() -> Barrier {
+        Barrier::new("a", 1, &["a".into(), "b".into(), "c".into()])
+    }
+
+    #[test]
+    fn releases_when_all_arrived() {
+        let mut b = team();
+        b.arrival(&arr("a", 1, 1, 0));
+        b.arrival(&arr("b", 1, 1, 0));
+        assert!(!b.released(1, 0));
+        b.arrival(&arr("c", 1, 1, 0));
+        assert!(b.released(1, 0));
+        assert!(!b.released(2, 0));
+    }
+
+    #[test]
+    fn a_lost_member_releases_at_once_and_a_returning_one_counts_again() {
+        let mut b = team();
+        b.arrival(&arr("a", 1, 1, 0));
+        b.arrival(&arr("b", 1, 1, 0));
+        b.member_gone("c");
+        assert!(b.released(1, 0));
+        assert_eq!(b.required(), 2);
+        b.member_alive("c");
+        assert!(!b.released(1, 0));
+    }
+
+    #[test]
+    fn later_arrivals_imply_earlier_ones_and_foreign_epochs_do_not_count() {
+        let mut b = team();
+        b.arrival(&arr("a", 1, 0, 0));
+        b.arrival(&arr("b", 1, 3, 0));
+        b.arrival(&arr("c", 1, 1, 1));
+        assert!(b.released(0, 0));
+        assert!(!b.released(3, 0), "we ourselves are only at barrier 0");
+        b.arrival(&arr("a", 1, 3, 0));
+        assert!(b.released(3, 0));
+        assert!(!b.arrival(&arr("a", 2, 9, 9)));
+        assert!(!b.arrival(&arr("zz", 1, 9, 9)));
+        // An older arrival never moves a member back.
+        b.arrival(&arr("c", 1, 0, 0));
+        assert!(b.released(3, 0));
+        // We never remove ourselves.
+        b.member_gone("a");
+        assert_eq!(b.required(), 3);
+    }
+}

@@ -1,0 +1,242 @@
+//! Plan execution on a robot: walks the plan's steps, asks the body to move, and takes part in
+//! team barriers. No I/O: [`Executor::tick`] returns [`Action`]s for the driver.
+
+use std::collections::BTreeMap;
+
+use mrmm_planner::plan::Step;
+
+use crate::barrier::Barrier;
+use crate::proto::{PlanAssignment, Progress, SyncArrival};
+
+/// Seconds (simulated) between two re-publications of an arrival while waiting at a barrier,
+/// for members that subscribed after the first one.
+pub const REPUBLISH_S: f64 = 0.5;
+/// Instantaneous steps taken at most per tick (a loop of such steps cannot spin for ever).
+const MAX_STEPS_PER_TICK: usize = 64;
+
+/// What the driver must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Action {
+    /// Drive to (x, y), speed capped at `speed` (None: the robot's maximum).
+    Navigate { x: f64, y: f64, speed: Option<f64> },
+    /// Stop.
+    Hold,
+    /// Publish this barrier arrival.
+    Publish(SyncArrival),
+}
+
+/// The execution state of one plan.
+#[derive(Debug, Clone)]
+pub struct Executor {
+    pub assignment: PlanAssignment,
+    pub barrier: Barrier,
+    pc: usize,
+    round: u32,
+    loops: BTreeMap<usize, u32>,
+    syncs_passed: u32,
+    sync_msgs: u32,
+    waiting: Option<(u32, u32)>,
+    last_publish: f64,
+    hold_until: Option<f64>,
+    navigating: bool,
+    done: bool,
+}
+
+impl Executor {
+    pub fn new(assignment: PlanAssignment) -> Self {
+        let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &assignment.members);
+        Executor {
+            assignment,
+            barrier,
+            pc: 0,
+            round: 0,
+            loops: BTreeMap::new(),
+            syncs_passed: 0,
+            sync_msgs: 0,
+            waiting: None,
+            last_publish: 0.0,
+            hold_until: None,
+            navigating: false,
+            done: false,
+        }
+    }
+
+    pub fn mission(&self) -> &str {
+        &self.assignment.mission
+    }
+
+    pub fn epoch(&self) -> u64 {
+        self.assignment.epoch
+    }
+
+    /// Progress for telemetry.
+    pub fn progress(&self) -> Progress {
+        Progress {
+            mission: self.assignment.mission.clone(),
+            epoch: self.assignment.epoch,
+            step: self.pc as u32,
+            round: self.round,
+            syncs_passed: self.syncs_passed,
+            sync_msgs: self.sync_msgs,
+            waiting: self.waiting,
+            done: self.done,
+        }
+    }
+
+    /// Advances the plan. `now`: simulated seconds; `body_idle`: the body has no goal (arrived).
+    pub fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Action> {
+        let mut out = Vec::new();
+        let me = self.assignment.plan.robot.clone();
+        for _ in 0..MAX_STEPS_PER_TICK {
+            if self.done {
+                break;
+            }
+            let Some(step) = self.assignment.plan.steps.get(self.pc).cloned() else {
+                self.done = true;
+                out.push(Action::Hold);
+                break;
+            };
+            match step {
+                Step::Stream => self.pc += 1,
+                Step::Navigate { x, y, speed } => {
+                    if !self.navigating {
+                        self.navigating = true;
+                        out.push(Action::Navigate { x, y, speed });
+                        break;
+                    }
+                    if !body_idle {
+                        break;
+                    }
+                    self.navigating = false;
+                    self.pc += 1;
+                }
+                Step::Sync { point } => {
+                    let at = (point, self.round);
+                    let arrival = SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round };
+                    if self.waiting != Some(at) {
+                        self.waiting = Some(at);
+                        self.barrier.arrival(&arrival);
+                        self.sync_msgs += 1;
+                        self.last_publish = now;
+                        out.push(Action::Publish(arrival));
+                    }
+                    if !self.barrier.released(point, self.round) {
+                        if now - self.last_publish >= REPUBLISH_S {
+                            self.sync_msgs += 1;
+                            self.last_publish = now;
+                            out.push(Action::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round }));
+                        }
+                        break;
+                    }
+                    self.waiting = None;
+                    self.syncs_passed += 1;
+                    self.pc += 1;
+                }
+                Step::Hold { seconds } => {
+                    let until = *self.hold_until.get_or_insert_with(|| {
+                        out.push(Action::Hold);
+                        seconds.map_or(f64::INFINITY, |s| now + s)
+                    });
+                    if now < until {
+                        break;
+                    }
+                    self.hold_until = None;
+                    self.pc += 1;
+                }
+                Step::Loop { to, rounds } => {
+                    let count = self.loops.entry(self.pc).or_insert(0);
+                    *count += 1;
+                    self.round += 1;
+                    if rounds.is_some_and(|r| *count >= r) || to >= self.pc {
+                        self.pc += 1;
+                    } else {
+                        self.pc = to;
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mrmm_planner::plan::RobotPlan;
+
+    fn exec(steps: Vec<Step>, members: &[&str]) -> Executor {
+        Executor::new(PlanAssignment {
+            mission: "m".into(),
+            epoch: 2,
+            team: "m".into(),
+            subteam: "m/ground".into(),
+            members: members.iter().map(|s| s.to_string()).collect(),
+            plan: RobotPlan { robot: "a".into(), robot_type: "ground".into(), slot: 0, steps },
+        })
+    }
+
+    fn nav(x: f64) -> Step {
+        Step::Navigate { x, y: 0.0, speed: Some(1.0) }
+    }
+
+    #[test]
+    fn navigates_step_by_step_then_holds_at_the_end() {
+        let mut e = exec(vec![Step::Stream, nav(1.0), nav(2.0)], &["a"]);
+        assert_eq!(e.tick(0.0, true), vec![Action::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+        assert!(e.tick(0.1, false).is_empty(), "still driving");
+        assert_eq!(e.tick(0.2, true), vec![Action::Navigate { x: 2.0, y: 0.0, speed: Some(1.0) }]);
+        assert_eq!(e.tick(0.3, true), vec![Action::Hold]);
+        assert!(e.progress().done);
+        assert!(e.tick(0.4, true).is_empty());
+    }
+
+    #[test]
+    fn barrier_waits_republishes_and_releases() {
+        let mut e = exec(vec![Step::Sync { point: 0 }, nav(1.0)], &["a", "b"]);
+        let acts = e.tick(0.0, true);
+        assert_eq!(acts, vec![Action::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 })]);
+        assert_eq!(e.progress().waiting, Some((0, 0)));
+        assert!(e.tick(0.1, true).is_empty());
+        assert_eq!(e.tick(0.6, true).len(), 1, "re-published while waiting");
+        e.barrier.arrival(&SyncArrival { robot: "b".into(), epoch: 2, point: 0, round: 0 });
+        assert_eq!(e.tick(0.7, true), vec![Action::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+        let p = e.progress();
+        assert_eq!((p.syncs_passed, p.sync_msgs, p.waiting), (1, 2, None));
+    }
+
+    #[test]
+    fn a_lost_teammate_does_not_block() {
+        let mut e = exec(vec![Step::Sync { point: 0 }, Step::Hold { seconds: None }], &["a", "b"]);
+        e.tick(0.0, true);
+        e.barrier.member_gone("b");
+        assert_eq!(e.tick(0.1, true), vec![Action::Hold]);
+    }
+
+    #[test]
+    fn loops_count_rounds_and_barriers_are_per_round() {
+        let steps = vec![Step::Sync { point: 0 }, nav(1.0), Step::Sync { point: 1 }, Step::Loop { to: 1, rounds: Some(2) }];
+        let mut e = exec(steps, &["a"]);
+        let mut published = Vec::new();
+        for i in 0..20 {
+            for a in e.tick(i as f64, true) {
+                if let Action::Publish(s) = a {
+                    published.push((s.point, s.round));
+                }
+            }
+        }
+        assert_eq!(published, [(0, 0), (1, 0), (1, 1)]);
+        let p = e.progress();
+        assert!(p.done);
+        assert_eq!((p.round, p.syncs_passed), (2, 3));
+    }
+
+    #[test]
+    fn timed_hold_and_endless_loop_of_instant_steps_do_not_spin() {
+        let mut e = exec(vec![Step::Hold { seconds: Some(1.0) }, Step::Stream, Step::Loop { to: 1, rounds: None }], &["a"]);
+        assert_eq!(e.tick(0.0, true), vec![Action::Hold]);
+        assert!(e.tick(0.5, true).is_empty());
+        // Past the hold: an endless loop of instantaneous steps is bounded per tick.
+        assert!(e.tick(1.5, true).is_empty());
+        assert!(e.progress().round > 0);
+    }
+}

@@ -1,0 +1,179 @@
+//! Operator-facing payloads: requests and answers of the system manager's keys (JSON).
+
+use std::collections::BTreeMap;
+
+use mrmm_planner::plan::RobotPlan;
+use serde::{Deserialize, Serialize};
+
+use super::robot::Pose;
+
+/// Operator command `mrmm/system/cmd/robot/goto`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GotoRequest {
+    pub robot: String,
+    pub x: f64,
+    pub y: f64,
+}
+
+/// Registry status of a robot as the operator sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RobotStatus {
+    /// Alive, in no mission, not moving on an order.
+    Idle,
+    /// Alive and executing a behaviour or a mission.
+    Busy,
+    /// Liveliness lost.
+    Lost,
+}
+
+impl RobotStatus {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RobotStatus::Idle => "idle",
+            RobotStatus::Busy => "busy",
+            RobotStatus::Lost => "lost",
+        }
+    }
+}
+
+/// One row of the fleet table (`mrmm/system/robots`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RobotView {
+    pub id: String,
+    #[serde(rename = "type")]
+    pub robot_type: String,
+    pub capabilities: Vec<String>,
+    pub status: RobotStatus,
+    /// The mission the system manager assigned the robot to.
+    pub mission: Option<String>,
+    pub pose: Option<Pose>,
+    /// What the robot reported doing last (`hold`, `goto(x,y)`, `plan step 4`).
+    #[serde(default)]
+    pub behaviour: Option<String>,
+}
+
+/// Fleet summary (`mrmm/system/status`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SystemStatus {
+    /// Zenoh id of the system manager's session.
+    pub node: String,
+    pub uptime_s: f64,
+    pub robots_total: usize,
+    pub idle: usize,
+    pub busy: usize,
+    pub lost: usize,
+    #[serde(default)]
+    pub missions: usize,
+}
+
+/// Error payload of every reply error on an operator key.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrorReply {
+    pub error: String,
+}
+
+/// `mrmm/system/cmd/mission/create`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct MissionCreate {
+    pub name: String,
+    /// A recipe of the bank (`patrol`, `coverage`) or a whole recipe XML document.
+    pub recipe: String,
+    /// Exactly these robots.
+    #[serde(default)]
+    pub robots: Option<Vec<String>>,
+    /// Or this many idle robots.
+    #[serde(default)]
+    pub count: Option<usize>,
+    /// Recipe parameter overrides: scalars, `waypoints` `[[x, y], …]`, `region`.
+    #[serde(default)]
+    pub params: BTreeMap<String, serde_json::Value>,
+}
+
+/// `mrmm/system/cmd/mission/terminate`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MissionTerminate {
+    pub name: String,
+}
+
+/// `mrmm/system/cmd/robot/move`: `to` a mission, or `null` to free the robot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotMove {
+    pub robot: String,
+    pub to: Option<String>,
+}
+
+/// Lifecycle of a mission.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MissionStatus {
+    /// Waiting for plans.
+    Planning,
+    Running,
+    /// No robot left.
+    Stalled,
+    /// Planning failed; the reason is in `error`.
+    Failed,
+}
+
+/// Mission metrics computed from telemetry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct MissionMetrics {
+    /// Rounds completed by every member (patrol).
+    pub rounds: u32,
+    /// Mean time between two visits of a waypoint, robot seconds (wall seconds × the robots'
+    /// time scale; 1 for real robots) like the planner's predictions (patrol).
+    pub avg_idleness: Option<f64>,
+    /// Longest time a waypoint went unvisited, robot seconds (patrol).
+    pub worst_idleness: Option<f64>,
+    /// Visits per waypoint, in tour order (patrol).
+    pub visits: Vec<u32>,
+    /// Barriers passed by the whole team.
+    pub sync_points_passed: u32,
+    /// Coordination messages sent, per kind (`plan`, `leave`, `sync`).
+    pub messages: BTreeMap<String, u64>,
+}
+
+/// The mission manager's identity.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManagerView {
+    pub node: String,
+    pub epoch: u64,
+}
+
+/// One mission (`mrmm/system/missions`, `mrmm/system/missions/<name>`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MissionView {
+    pub name: String,
+    pub recipe: String,
+    pub planner: String,
+    pub status: MissionStatus,
+    pub robots: Vec<String>,
+    /// Sub-team path → members.
+    pub teams: BTreeMap<String, Vec<String>>,
+    pub manager: ManagerView,
+    pub metrics: MissionMetrics,
+    /// Planner figures (tour length, predicted idleness, coverage radius, …).
+    pub summary: serde_json::Value,
+    #[serde(default)]
+    pub error: Option<String>,
+    /// Per-robot plans (only on `mrmm/system/missions/<name>`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plans: Option<Vec<RobotPlan>>,
+}
+
+/// Answer of `mrmm/missions/<name>/marginal?add=±k`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Marginal {
+    pub mission: String,
+    /// `worst_idleness` (patrol, seconds) or `coverage_radius` (coverage, metres).
+    pub metric: String,
+    pub robots: usize,
+    pub current: f64,
+    pub with_robots: usize,
+    pub predicted: f64,
+}

@@ -1,0 +1,144 @@
+//! `mrmm op mission …`: create, terminate, list and inspect missions, and ask what one more robot
+//! would bring.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{anyhow, Context};
+use mrmm_manager::client::Client;
+use mrmm_peer::proto::{self, Marginal, MissionCreate, MissionTerminate, MissionView};
+use serde_json::Value;
+
+#[derive(Debug, clap::Subcommand)]
+pub enum Mission {
+    /// Create a mission (`mrmm/system/cmd/mission/create`).
+    Create {
+        name: String,
+        /// A recipe of the bank (patrol, coverage) or a recipe file (sent inline).
+        #[arg(long)]
+        recipe: String,
+        /// Exactly these robots (comma-separated).
+        #[arg(long, value_delimiter = ',')]
+        robots: Vec<String>,
+        /// Or this many idle robots. Neither: an equal share of the fleet.
+        #[arg(long)]
+        count: Option<usize>,
+        /// Patrol waypoints as JSON, e.g. '[[0,0],[20,0],[20,15]]'.
+        #[arg(long)]
+        waypoints: Option<String>,
+        /// Coverage region as JSON, e.g. '[[0,0],[30,0],[30,30],[0,30]]'.
+        #[arg(long)]
+        region: Option<String>,
+        /// Other recipe parameters (repeatable): key=value.
+        #[arg(long = "param")]
+        params: Vec<String>,
+    },
+    /// Terminate a mission; its robots become idle.
+    Terminate { name: String },
+    /// The missions table (`mrmm/system/missions`).
+    List,
+    /// One mission with its per-robot plans (`mrmm/system/missions/<name>`).
+    Show { name: String },
+    /// Predicted metric with `add` robots more (negative: fewer) (`mrmm/missions/<name>/marginal`).
+    #[command(allow_negative_numbers = true)]
+    Marginal {
+        name: String,
+        #[arg(long, default_value_t = 1)]
+        add: i64,
+    },
+}
+
+pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()> {
+    let none = None::<&()>;
+    match m {
+        Mission::Create { name, recipe, robots, count, waypoints, region, params } => {
+            let recipe = if Path::new(&recipe).is_file() {
+                std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))?
+            } else {
+                recipe
+            };
+            let mut p: BTreeMap<String, Value> = BTreeMap::new();
+            for (k, v) in [("waypoints", waypoints), ("region", region)] {
+                if let Some(v) = v {
+                    p.insert(k.into(), serde_json::from_str(&v).with_context(|| format!("--{k}: not JSON"))?);
+                }
+            }
+            for kv in params {
+                let (k, v) = kv.split_once('=').ok_or_else(|| anyhow!("--param {kv:?}: expected key=value"))?;
+                p.insert(k.into(), Value::String(v.into()));
+            }
+            let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p };
+            let v: Value = client.query(proto::SYSTEM_CMD_CREATE, Some(&req)).await?;
+            if json {
+                return super::print_json(&v);
+            }
+            let m: MissionView = serde_json::from_value(v)?;
+            println!("mission {} {}: {} robots ({})", m.name, status(&m), m.robots.len(), m.robots.join(", "));
+        }
+        Mission::Terminate { name } => {
+            let v: Value = client.query(proto::SYSTEM_CMD_TERMINATE, Some(&MissionTerminate { name })).await?;
+            if json {
+                return super::print_json(&v);
+            }
+            println!("terminated {}; idle again: {}", v["mission"].as_str().unwrap_or("?"), v["robots"]);
+        }
+        Mission::List => {
+            let v: Value = client.query(proto::SYSTEM_MISSIONS, none).await?;
+            if json {
+                return super::print_json(&v);
+            }
+            let ms: Vec<MissionView> = serde_json::from_value(v)?;
+            print!("{}", table(&ms));
+        }
+        Mission::Show { name } => {
+            let v: Value = client.query(&proto::system_mission(&name), none).await?;
+            if json {
+                return super::print_json(&v);
+            }
+            let m: MissionView = serde_json::from_value(v)?;
+            print!("{}", table(std::slice::from_ref(&m)));
+            for (team, ids) in &m.teams {
+                println!("team {team}: {}", ids.join(", "));
+            }
+            for p in m.plans.iter().flatten() {
+                println!("plan {} (slot {}): {} steps", p.robot, p.slot, p.steps.len());
+            }
+        }
+        Mission::Marginal { name, add } => {
+            let key = format!("{}?add={add}", proto::mission_marginal(&name));
+            let v: Value = client.query(&key, none).await?;
+            if json {
+                return super::print_json(&v);
+            }
+            let g: Marginal = serde_json::from_value(v)?;
+            println!("{}: {} {:.2} with {} robots → {:.2} with {}", g.mission, g.metric, g.current, g.robots, g.predicted, g.with_robots);
+        }
+    }
+    Ok(())
+}
+
+fn status(m: &MissionView) -> String {
+    serde_json::to_value(m.status).ok().and_then(|v| v.as_str().map(str::to_string)).unwrap_or_default()
+}
+
+/// The missions table.
+pub fn table(ms: &[MissionView]) -> String {
+    let f = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.1}"));
+    let rows: Vec<Vec<String>> = ms
+        .iter()
+        .map(|m| {
+            vec![
+                m.name.clone(),
+                m.recipe.clone(),
+                status(m),
+                m.robots.join(","),
+                m.manager.epoch.to_string(),
+                m.metrics.rounds.to_string(),
+                m.metrics.sync_points_passed.to_string(),
+                f(m.metrics.avg_idleness),
+                f(m.metrics.worst_idleness),
+            ]
+        })
+        .collect();
+    super::super::table::render(&["MISSION", "RECIPE", "STATUS", "ROBOTS", "EPOCH", "ROUNDS", "SYNCS", "AVG IDLE s", "WORST IDLE s"], &rows)
+}
