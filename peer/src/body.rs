@@ -18,6 +18,8 @@ pub struct Limits {
 
 /// Distance under which a navigation goal counts as reached, metres.
 pub const ARRIVAL_TOLERANCE: f64 = 0.05;
+/// Near the goal, the body drives only when facing it within this angle, radians.
+const NEAR_ALIGN: f64 = 0.2;
 
 /// A unicycle robot: position, heading, and the goal it is driving to.
 #[derive(Debug, Clone)]
@@ -94,9 +96,21 @@ impl Body {
         let max_turn = self.limits.max_turn_rate * dt;
         let turn = err.clamp(-max_turn, max_turn);
         self.heading = wrap_angle(self.heading + turn);
-        // Drive only roughly facing the goal; slow down in proportion to the heading error.
-        let align = (1.0 - (err.abs() - turn.abs()) / std::f64::consts::FRAC_PI_2).clamp(0.0, 1.0);
+        let left = (err - turn).abs();
         let max = self.cap.map_or(self.limits.max_speed, |c| c.min(self.limits.max_speed));
+        // Near the goal (within two turning radii) a unicycle that drives while misaligned can
+        // orbit the goal for ever: turn in place until facing it, then close in. Further away,
+        // slow down in proportion to the heading error.
+        let turning_radius = max / self.limits.max_turn_rate;
+        let align = if dist < 2.0 * turning_radius {
+            if left > NEAR_ALIGN {
+                0.0
+            } else {
+                left.cos()
+            }
+        } else {
+            (1.0 - left / std::f64::consts::FRAC_PI_2).clamp(0.0, 1.0)
+        };
         let speed = max * align;
         let advance = (speed * dt).min(dist);
         let dir = Rotation2::new(self.heading) * Vector2::x();
@@ -178,6 +192,20 @@ mod tests {
         b.navigate_capped(5.0, 0.0, Some(0.5));
         let steps = run_until_arrival(&mut b, 0.01, 10_000).expect("arrives");
         assert!((steps as f64 * 0.01 - 10.0).abs() < 0.2);
+    }
+
+    #[test]
+    fn reaches_near_goals_at_coarse_time_steps_without_orbiting() {
+        // A 0.2 s step (time scale 10 at 50 Hz): goals closer than the turning radius, at every
+        // bearing, are reached.
+        for k in 0..16 {
+            let a = k as f64 * std::f64::consts::TAU / 16.0;
+            for d in [0.1, 0.3, 0.6, 1.5] {
+                let mut b = Body::new(Pose { x: 0.0, y: 0.0, theta: 0.0 }, LIM);
+                b.navigate_capped(d * a.cos(), d * a.sin(), Some(1.0));
+                assert!(run_until_arrival(&mut b, 0.2, 200).is_some(), "bearing {a:.2}, distance {d}");
+            }
+        }
     }
 
     #[test]

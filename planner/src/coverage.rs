@@ -113,9 +113,12 @@ pub fn place(region: &Region, n: usize, params: &CoverageParams) -> Result<(Vec<
         return Err(PlanError::Invalid("no robots".into()));
     }
     let area = region.area();
-    // Grid spacing from the bounding box, not the area: the grid stays bounded for any shape.
+    // Grid spacing from the bounding box, not the area, and never below longest side / samples:
+    // at most `samples` grid points and `samples` per ring edge, for any shape.
     let (lo, hi) = region.bbox();
-    let h = ((hi.x - lo.x) * (hi.y - lo.y) / params.samples.clamp(100, 1_000_000) as f64).sqrt();
+    let m = params.samples.clamp(100, 1_000_000) as f64;
+    let (w, t) = (hi.x - lo.x, hi.y - lo.y);
+    let h = (w * t / m).sqrt().max(w.max(t) / m);
     if !(h.is_finite() && h > 0.0) {
         return Err(PlanError::Polygon("region cannot be sampled (degenerate or too large)".into()));
     }

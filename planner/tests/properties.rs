@@ -70,3 +70,46 @@ proptest! {
         }
     }
 }
+
+/// Star-shaped polygons (always simple), stretched to extreme scales and aspect ratios.
+fn star_polygon() -> impl Strategy<Value = Vec<Point>> {
+    (
+        prop::collection::vec((0.0..1.0f64, 0.2..1.0f64), 3..9),
+        prop::sample::select(vec![1e-6, 1e-3, 1.0, 50.0, 1e4]),
+        prop::sample::select(vec![1e-9, 0.01, 1.0, 100.0, 1e9]),
+    )
+        .prop_map(|(mut pts, scale, aspect)| {
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            pts.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-3);
+            let n = pts.len() as f64;
+            pts.iter()
+                .enumerate()
+                .map(|(i, &(jitter, r))| {
+                    let a = std::f64::consts::TAU * (i as f64 + 0.5 * jitter) / n;
+                    Point::new(scale * r * a.cos(), scale * aspect * r * a.sin())
+                })
+                .collect()
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn coverage_of_valid_regions_at_any_scale(outer in star_polygon(), n in 1usize..6) {
+        if let Ok(region) = Region::new(outer, vec![]) {
+            let mut params = CoverageParams::new(region.clone());
+            params.samples = 300;
+            params.lloyd_iterations = 3;
+            params.minimax_iterations = 3;
+            let rs: Vec<RobotSpec> = (0..n).map(|i| RobotSpec { id: format!("r{i}"), robot_type: "g".into(), x: 0.0, y: 0.0, speed: 1.0 }).collect();
+            match coverage::plan(&params, &rs) {
+                Ok(p) => {
+                    prop_assert_eq!(p.points.len(), n);
+                    prop_assert!(p.points.iter().all(|q| q.is_finite()));
+                }
+                Err(e) => prop_assert!(!e.to_string().is_empty()),
+            }
+        }
+    }
+}

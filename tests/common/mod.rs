@@ -123,12 +123,17 @@ pub fn start_central(dir: &Scratch) -> anyhow::Result<(Proc, String)> {
     Ok((p, ep))
 }
 
-/// Writes a robot config and starts the robot.
+/// Writes a robot config and starts the robot (time scale 5).
 pub fn start_robot(dir: &Scratch, id: &str, central: &str, x: f64, y: f64) -> anyhow::Result<Proc> {
+    start_robot_scaled(dir, id, central, x, y, 5.0)
+}
+
+/// Writes a robot config and starts the robot.
+pub fn start_robot_scaled(dir: &Scratch, id: &str, central: &str, x: f64, y: f64, time_scale: f64) -> anyhow::Result<Proc> {
     let cfg = format!(
         r#"{{ id: "{id}", type: "ground", capabilities: ["camera"],
              kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }},
-             start: {{ x: {x}, y: {y} }}, time_scale: 5, telemetry_hz: 10,
+             start: {{ x: {x}, y: {y} }}, time_scale: {time_scale}, telemetry_hz: 10,
              zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }} }}"#
     );
     let path = dir.path(&format!("{id}.json5"));
