@@ -5,6 +5,9 @@ use serde::{Deserialize, Serialize};
 use crate::error::PlanError;
 use crate::geom::Point;
 
+/// Largest coordinate magnitude of a region: squared distances stay finite.
+pub const MAX_COORD: f64 = 1e100;
+
 /// A polygon (outer ring, either orientation) with optional holes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Region {
@@ -94,6 +97,9 @@ fn check_ring(name: &str, ring: &[Point]) -> Result<(), PlanError> {
     }
     if let Some(i) = ring.iter().position(|p| !p.is_finite()) {
         return Err(PlanError::Polygon(format!("{name} vertex {} is not finite", i + 1)));
+    }
+    if let Some(i) = ring.iter().position(|p| p.x.abs() > MAX_COORD || p.y.abs() > MAX_COORD) {
+        return Err(PlanError::Polygon(format!("{name} vertex {}: coordinates beyond ±{MAX_COORD:e} are not supported", i + 1)));
     }
     let n = ring.len();
     for i in 0..n {
