@@ -1,5 +1,5 @@
 //! The README's first command: `mrmm demo` answers an outside Zenoh client with its whole fleet
-//! and stops cleanly on Ctrl-C (SIGINT), children included.
+//! and its two missions, and stops cleanly on Ctrl-C (SIGINT), children included.
 
 mod common;
 
@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use common::{eventually, Scratch};
 use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, RobotView};
+use mrmm_peer::proto::{self, MissionStatus, MissionView, RobotView};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()> {
@@ -32,10 +32,17 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     })
     .await?;
     assert!(views.iter().any(|v| v.robot_type == "aerial") && views.iter().any(|v| v.robot_type == "ground"));
-    // The demo drives the robots: someone moves.
-    eventually("a robot moving", Duration::from_secs(20), || async {
+    // Two concurrent missions share the fleet.
+    let missions = eventually("two running missions", Duration::from_secs(20), || async {
+        let m: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
+        (m.len() == 2 && m.iter().all(|m| m.status == MissionStatus::Running)).then_some(m)
+    })
+    .await?;
+    assert_eq!(missions.iter().map(|m| m.robots.len()).sum::<usize>(), 6);
+    assert_eq!(missions.iter().map(|m| m.planner.as_str()).collect::<Vec<_>>(), ["coverage", "patrol"]);
+    eventually("robots moving on their plans", Duration::from_secs(20), || async {
         let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
-        v.iter().any(|r| r.behaviour.as_deref().is_some_and(|b| b.starts_with("goto"))).then_some(())
+        v.iter().any(|r| r.behaviour.as_deref().is_some_and(|b| b.contains("goto"))).then_some(())
     })
     .await?;
     client.close().await;

@@ -1,12 +1,14 @@
 //! `mrmm demo`: the embedded default. Starts central and a simulated fleet as child processes,
-//! drives the robots through a rotating formation, and shows the fleet live.
+//! runs two concurrent missions on it (a patrol and a blanket coverage), and shows the fleet and
+//! the missions live. `--formation` instead drives the robots through a rotating formation.
 
 use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context};
 use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, GotoRequest, RobotStatus, RobotView};
+use mrmm_peer::proto::{self, GotoRequest, MissionCreate, MissionView, RobotStatus, RobotView};
+use serde_json::json;
 use tokio::process::Child;
 
 use super::procs;
@@ -28,6 +30,9 @@ pub struct Args {
     /// Radius of the formation circle, metres.
     #[arg(long, default_value_t = 8.0)]
     radius: f64,
+    /// No missions: drive the robots through a rotating formation with plain gotos.
+    #[arg(long)]
+    formation: bool,
 }
 
 const TYPES: [&str; 2] = ["ground", "aerial"];
@@ -80,12 +85,13 @@ async fn drive(
         children.push(procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &log)?);
     }
 
-    let client = Client::connect(std::slice::from_ref(&endpoint), Duration::from_secs(3)).await?;
+    let client = Client::connect(std::slice::from_ref(&endpoint), Duration::from_secs(10)).await?;
     let tty = std::io::stdout().is_terminal();
     let deadline = args.duration.map(|d| started + Duration::from_secs_f64(d));
     let mut ticker = tokio::time::interval(Duration::from_millis(500));
     let mut formation = 0usize;
     let mut last_order: Option<Instant> = None;
+    let mut missions_started = false;
     println!("mrmm demo: central on {endpoint}; query it with `mrmm op robots --connect {endpoint}`");
     loop {
         tokio::select! {
@@ -104,9 +110,18 @@ async fn drive(
         };
         let live: Vec<&RobotView> = views.iter().filter(|v| v.status != RobotStatus::Lost).collect();
         let all_in = live.len() == n;
+        if all_in && !args.formation && !missions_started {
+            missions_started = true;
+            start_missions(&client, n).await;
+        }
+        let missions: Vec<MissionView> = if args.formation {
+            vec![]
+        } else {
+            client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.unwrap_or_default()
+        };
         let all_idle = live.iter().all(|v| v.status == RobotStatus::Idle);
         let settled = last_order.is_none_or(|t| t.elapsed() > Duration::from_secs(1));
-        if all_in && all_idle && settled {
+        if args.formation && all_in && all_idle && settled {
             formation += 1;
             for (slot, v) in live.iter().enumerate() {
                 let (x, y) = circle_point((slot + formation) % n, n, args.radius);
@@ -117,28 +132,61 @@ async fn drive(
             }
             last_order = Some(Instant::now());
         }
-        show(tty, started, &endpoint, n, formation, &views);
+        show(tty, started, &endpoint, n, &views, &missions);
     }
     client.close().await;
     println!("mrmm demo: stopping");
     Ok(())
 }
 
-fn show(tty: bool, started: Instant, endpoint: &str, n: usize, formation: usize, views: &[RobotView]) {
+fn show(tty: bool, started: Instant, endpoint: &str, n: usize, views: &[RobotView], missions: &[MissionView]) {
     let mut out = String::new();
     if tty {
         out.push_str("\x1b[H\x1b[2J");
     }
-    let registered = views.len();
     out.push_str(&format!(
-        "mrmm demo  t={:6.1}s  central {endpoint}  robots {registered}/{n}  formation #{formation}  (Ctrl-C to stop)\n",
-        started.elapsed().as_secs_f64()
+        "mrmm demo  t={:6.1}s  central {endpoint}  robots {}/{n}  missions {}  (Ctrl-C to stop)\n",
+        started.elapsed().as_secs_f64(),
+        views.len(),
+        missions.len()
     ));
     out.push_str(&super::table::robots(views));
+    if !missions.is_empty() {
+        out.push('\n');
+        out.push_str(&super::op::mission::table(missions));
+    }
     out.push('\n');
     let mut stdout = std::io::stdout().lock();
     let _ = stdout.write_all(out.as_bytes());
     let _ = stdout.flush();
+}
+
+/// The demo's two missions: a patrol of the north waypoints with half the fleet (rounded up) and
+/// a coverage of the southern field with the rest.
+async fn start_missions(client: &Client, n: usize) {
+    let ids: Vec<String> = (1..=n).map(|i| format!("r{i}")).collect();
+    let half = n.div_ceil(2);
+    let mut wanted = vec![MissionCreate {
+        name: "patrol-1".into(),
+        recipe: "patrol".into(),
+        robots: Some(ids[..half].to_vec()),
+        params: [("waypoints".to_string(), json!([[-15, 4], [-6, 14], [5, 17], [15, 9], [11, 1], [0, 0]]))].into(),
+        ..MissionCreate::default()
+    }];
+    if n > half {
+        wanted.push(MissionCreate {
+            name: "coverage-1".into(),
+            recipe: "coverage".into(),
+            robots: Some(ids[half..].to_vec()),
+            params: [("region".to_string(), json!([[-20, -34], [20, -34], [20, -18], [-20, -18]]))].into(),
+            ..MissionCreate::default()
+        });
+    }
+    for m in wanted {
+        if let Err(e) = client.query::<serde_json::Value>(proto::SYSTEM_CMD_CREATE, Some(&m)).await {
+            eprintln!("cannot create mission {}: {e}", m.name);
+        }
+    }
 }
 
 /// Slot `k` of `n` on a circle of radius `r` around the origin.

@@ -3,7 +3,7 @@
 mod assign;
 mod central;
 mod demo;
-mod op;
+pub mod op;
 mod plan;
 mod planner_service;
 mod procs;
