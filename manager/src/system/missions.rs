@@ -30,6 +30,7 @@ impl SystemManager {
                     self.assignment.insert(r.id.clone(), name.clone());
                 }
                 tracing::info!(mission = %name, robots = robots.len(), "mission created");
+                self.terminated.remove(&name);
                 self.missions.insert(name.clone(), MissionManager::new(spec, self.node.clone(), robots));
                 self.pending_create.insert(name.clone(), req);
                 out.extend(self.mission_event(&name, MEvent::Start));
@@ -149,6 +150,7 @@ impl SystemManager {
             return vec![Command::Reply { req, result: Err(format!("unknown mission {:?}", t.name)) }];
         };
         let robots: Vec<String> = m.members().cloned().collect();
+        self.terminated.insert(t.name.clone());
         let mut out = Vec::new();
         for id in &robots {
             self.assignment.remove(id);

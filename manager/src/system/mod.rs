@@ -100,6 +100,8 @@ pub struct SystemManager {
     assignment: BTreeMap<String, String>,
     /// Missions whose create request waits for the first plan.
     pending_create: BTreeMap<String, u64>,
+    /// Missions terminated here: robots still running them are ordered out.
+    terminated: std::collections::BTreeSet<String>,
     last_publish: f64,
 }
 
@@ -114,6 +116,7 @@ impl SystemManager {
             missions: BTreeMap::new(),
             assignment: BTreeMap::new(),
             pending_create: BTreeMap::new(),
+            terminated: Default::default(),
             last_publish: now,
         }
     }
@@ -202,11 +205,13 @@ impl SystemManager {
         rec.fresh = false;
         let mut out = Vec::new();
         // A robot running a plan of a mission it is not in (it was lost and came back, or missed
-        // a leave order) is told to leave it.
+        // a leave order) is told to leave it — but only for missions this manager knows or
+        // terminated: after a restart of central, missions it never heard of keep running.
         if let Some(running) = &t.mission {
             let assigned = self.assignment.get(&t.id);
+            let known = self.missions.contains_key(running) || self.terminated.contains(running);
             let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
-            if assigned != Some(running) && retry {
+            if assigned != Some(running) && known && retry {
                 rec.leave_sent = Some(now);
                 let epoch = t.progress.as_ref().map_or(u64::MAX, |p| p.epoch);
                 out.push(Command::SendToRobot {

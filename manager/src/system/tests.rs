@@ -277,15 +277,23 @@ mod missions {
 
     #[test]
     fn a_robot_running_a_foreign_plan_is_told_to_leave() {
-        let mut sm = registered(&["r1"]);
+        let mut sm = registered(&["r1", "r2"]);
         let mut t = telemetry("r1", 1, Behaviour::Hold);
         t.mission = Some("old".into());
+        // A mission this manager never heard of (central restarted): left alone.
+        assert!(sm.handle(0.5, Event::Telemetry(Box::new(t.clone()))).is_empty());
+        create_settled(&mut sm, 1, r#"{"name": "old", "recipe": "patrol", "robots": ["r2"]}"#);
+        t.seq = 2;
         let cmds = sm.handle(1.0, Event::Telemetry(Box::new(t.clone())));
         assert!(matches!(cmds.as_slice(), [Command::SendToRobot { cmd: RobotCommand::Leave { .. }, .. }]));
-        t.seq = 2;
-        assert!(sm.handle(1.5, Event::Telemetry(Box::new(t.clone()))).is_empty(), "not again so soon");
         t.seq = 3;
-        assert_eq!(sm.handle(4.0, Event::Telemetry(Box::new(t))).len(), 1);
+        assert!(sm.handle(1.5, Event::Telemetry(Box::new(t.clone()))).is_empty(), "not again so soon");
+        t.seq = 4;
+        assert_eq!(sm.handle(4.0, Event::Telemetry(Box::new(t.clone()))).len(), 1);
+        // Terminated missions stay known: stragglers are still ordered out.
+        sm.handle(5.0, Event::Operator { req: 9, request: Request::Terminate(br#"{"name": "old"}"#.to_vec()) });
+        t.seq = 5;
+        assert_eq!(sm.handle(9.0, Event::Telemetry(Box::new(t))).len(), 1);
     }
 
     #[test]

@@ -1,0 +1,85 @@
+//! Router loss: central is SIGKILLed mid-patrol; the robots, linked directly to each other by
+//! gossip on their explicit loopback endpoints, keep passing their team barriers and streaming
+//! telemetry. Observed from a peer attached to one robot (central's API is gone with it).
+
+mod common;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::time::{Duration, Instant};
+
+use common::{eventually, start_central, start_robot_scaled, Scratch};
+use mrmm_manager::client::Client;
+use mrmm_peer::net::{self, Mode};
+use mrmm_peer::proto::{self, MissionCreate, MissionView, SyncArrival};
+use serde_json::json;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
+    let dir = Scratch::new("router-loss");
+    let (mut central, ep) = start_central(&dir)?;
+    let mut robots = Vec::new();
+    for i in 1..=3 {
+        robots.push(start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)?);
+    }
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    eventually("3 registered robots", Duration::from_secs(15), || async {
+        let v: Vec<proto::RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        (v.len() == 3 && v.iter().all(|r| r.pose.is_some())).then_some(())
+    })
+    .await?;
+    let create = MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        count: Some(3),
+        params: [("waypoints".to_string(), json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
+        ..MissionCreate::default()
+    };
+    let _: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&create)).await?;
+    eventually("the patrol past its first barriers", Duration::from_secs(30), || async {
+        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        (m.metrics.sync_points_passed >= 2).then_some(())
+    })
+    .await?;
+    client.close().await;
+
+    // A peer attached to r1 only.
+    let r1_ep = robots[0].field("listening").ok_or_else(|| anyhow::anyhow!("no endpoint for r1"))?;
+    let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[r1_ep], 1000)?).await?;
+    let arrivals = observer.declare_subscriber(proto::team_sync_all("p")).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let telemetry = observer.declare_subscriber(proto::ALL_ROBOTS_TELEMETRY).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    eventually("telemetry of all 3 robots through r1", Duration::from_secs(10), || async {
+        let mut seen = BTreeSet::new();
+        while let Ok(Some(s)) = telemetry.try_recv() {
+            if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
+                seen.insert(t.id);
+            }
+        }
+        (seen.len() == 3).then_some(())
+    })
+    .await?;
+
+    central.kill();
+    let killed = Instant::now();
+    // Every robot reaches at least two more barriers: each one released for the whole team.
+    let mut passed: BTreeMap<String, BTreeSet<(u32, u32)>> = BTreeMap::new();
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while passed.len() < 3 || passed.values().any(|b| b.len() < 2) {
+        let left = deadline.saturating_duration_since(Instant::now());
+        anyhow::ensure!(!left.is_zero(), "barriers stalled after central died: {passed:?}");
+        let Ok(Ok(s)) = tokio::time::timeout(left, arrivals.recv_async()).await else { continue };
+        if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
+            passed.entry(a.robot).or_default().insert((a.round, a.point));
+        }
+    }
+    println!("central SIGKILLed: every robot passed 2 more barriers within {:?}", killed.elapsed());
+    // Telemetry still flows from all three.
+    let mut seen = BTreeSet::new();
+    while seen.len() < 3 {
+        let s = tokio::time::timeout(Duration::from_secs(5), telemetry.recv_async()).await?.map_err(|e| anyhow::anyhow!("{e}"))?;
+        if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
+            seen.insert(t.id);
+        }
+    }
+    let _ = observer.close().await;
+    Ok(())
+}
