@@ -176,26 +176,7 @@ pub fn place(region: &Region, n: usize, params: &CoverageParams) -> Result<(Vec<
 
 /// Hexagonal lattice with about n points inside, completed or thinned to exactly n.
 fn hex_start(region: &Region, n: usize, area: f64, samples: &[Point], rng: &mut ChaCha8Rng) -> Vec<Point> {
-    let (lo, hi) = region.bbox();
-    let lattice = |d: f64| {
-        let mut pts = Vec::new();
-        let dy = d * 3f64.sqrt() / 2.0;
-        let mut row = 0;
-        let mut y = lo.y + dy / 2.0;
-        while y < hi.y {
-            let mut x = lo.x + if row % 2 == 0 { d / 2.0 } else { d };
-            while x < hi.x {
-                let p = Point::new(x, y);
-                if region.contains(p) {
-                    pts.push(p);
-                }
-                x += d;
-            }
-            y += dy;
-            row += 1;
-        }
-        pts
-    };
+    let lattice = |d: f64| region.lattice(d, d * 3f64.sqrt() / 2.0, true);
     let mut d = (2.0 * area / (3f64.sqrt() * n as f64)).sqrt();
     let mut pts = lattice(d);
     for _ in 0..20 {

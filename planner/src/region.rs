@@ -60,23 +60,32 @@ impl Region {
         (lo, hi)
     }
 
-    /// Grid samples inside the region (cell centres, spacing `h`) plus samples every `h` along
-    /// every ring, so that the boundary is covered too.
-    pub fn samples(&self, h: f64) -> Vec<Point> {
+    /// Points of a lattice over the bounding box that fall inside the region: rows `dy` apart,
+    /// points `dx` apart in a row, every other row shifted by `dx / 2` when `stagger` (hexagonal).
+    pub fn lattice(&self, dx: f64, dy: f64, stagger: bool) -> Vec<Point> {
         let (lo, hi) = self.bbox();
         let mut out = Vec::new();
-        let mut y = lo.y + h / 2.0;
+        let mut y = lo.y + dy / 2.0;
+        let mut row = 0usize;
         while y < hi.y {
-            let mut x = lo.x + h / 2.0;
+            let mut x = lo.x + dx / 2.0 + if stagger && row % 2 == 1 { dx / 2.0 } else { 0.0 };
             while x < hi.x {
                 let p = Point::new(x, y);
                 if self.contains(p) {
                     out.push(p);
                 }
-                x += h;
+                x += dx;
             }
-            y += h;
+            y += dy;
+            row += 1;
         }
+        out
+    }
+
+    /// Grid samples inside the region (cell centres, spacing `h`) plus samples every `h` along
+    /// every ring, so that the boundary is covered too.
+    pub fn samples(&self, h: f64) -> Vec<Point> {
+        let mut out = self.lattice(h, h, false);
         for ring in std::iter::once(&self.outer).chain(&self.holes) {
             for i in 0..ring.len() {
                 let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);

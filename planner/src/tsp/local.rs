@@ -360,13 +360,11 @@ pub fn optimise(inst: &Instance, start: Vec<usize>, budget: &Budget) -> (Vec<usi
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::Point;
-    use crate::tsp::{is_permutation, Metric};
+    use crate::tsp::is_permutation;
+    use crate::tsp::tests::random_instance;
 
     fn random(n: usize, seed: u64) -> Instance {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let pts = (0..n).map(|_| Point::new(rng.gen_range(0.0..1000.0), rng.gen_range(0.0..1000.0))).collect();
-        Instance::new(pts, Metric::Euclidean).expect("valid")
+        random_instance(n, seed, 1000.0)
     }
 
     #[test]

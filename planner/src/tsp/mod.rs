@@ -167,15 +167,20 @@ fn rotate_to_zero(mut order: Vec<usize>) -> Vec<usize> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    fn random(n: usize, seed: u64) -> Instance {
+    /// `n` uniform random points in a `side` × `side` square (shared by the tsp tests).
+    pub(crate) fn random_instance(n: usize, seed: u64, side: f64) -> Instance {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let pts = (0..n).map(|_| Point::new(rng.gen_range(0.0..100.0), rng.gen_range(0.0..100.0))).collect();
+        let pts = (0..n).map(|_| Point::new(rng.gen_range(0.0..side), rng.gen_range(0.0..side))).collect();
         Instance::new(pts, Metric::Euclidean).expect("valid")
+    }
+
+    fn random(n: usize, seed: u64) -> Instance {
+        random_instance(n, seed, 100.0)
     }
 
     #[test]
