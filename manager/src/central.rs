@@ -6,8 +6,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use mrmm_peer::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
-use mrmm_peer::proto::{self, CommandAck, ErrorReply, RobotInfo, SystemKey};
-use mrmm_planner::recipe::MissionPlan;
+use mrmm_peer::proto::{self, CommandAck, CtlAck, ErrorReply, MissionView, RobotInfo, SystemKey};
 use serde::Deserialize;
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
@@ -21,8 +20,8 @@ use crate::system::{Command, Event, Request, SystemManager};
 
 /// Period of the manager's housekeeping tick.
 const TICK: Duration = Duration::from_millis(250);
-/// How long a planner service may take.
-const PLAN_TIMEOUT: Duration = Duration::from_secs(20);
+/// How long a mission host may take to plan a new mission.
+const START_TIMEOUT: Duration = Duration::from_secs(25);
 
 /// Config of `mrmm central` (JSON5).
 #[derive(Debug, Clone, Deserialize)]
@@ -110,12 +109,16 @@ pub async fn run(
         .declare_queryable(proto::SYSTEM_ALL)
         .await
         .map_err(ManagerError::zenoh)?;
-    let marginal = session
-        .declare_queryable(proto::ALL_MISSIONS_MARGINAL)
+    let statuses = session.declare_subscriber(proto::ALL_MISSIONS_STATUS).await.map_err(ManagerError::zenoh)?;
+    let hosts = session
+        .liveliness()
+        .declare_subscriber(proto::ALL_HOSTS_ALIVE)
+        .history(true)
         .await
         .map_err(ManagerError::zenoh)?;
-    // The default planner service lives here too.
+    // The default planner service and mission host live here too.
     let planners = tokio::spawn(crate::planner_service::serve(session.clone(), shutdown.child_token()));
+    let missions = tokio::spawn(crate::host::serve(session.clone(), proto::CENTRAL_HOST.to_string(), shutdown.child_token()));
     tracing::info!(%zid, ?endpoints, "central up");
     if let Some(tx) = ready {
         let _ = tx.send(Ready { zid: zid.clone(), endpoints });
@@ -174,10 +177,23 @@ pub async fn run(
                     None => continue,
                 }
             }
-            q = marginal.recv_async() => {
-                let Ok(q) = q else { break };
-                match driver.accept_marginal(q).await {
-                    Some(e) => e,
+            s = statuses.recv_async() => {
+                let Ok(s) = s else { break };
+                match proto::from_json::<MissionView>("mission status", &s.payload().to_bytes()) {
+                    Ok(v) => Event::MissionStatus(Box::new(v)),
+                    Err(e) => {
+                        tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+                        continue;
+                    }
+                }
+            }
+            s = hosts.recv_async() => {
+                let Ok(s) = s else { break };
+                match proto::parse_host_alive(s.key_expr().as_str()) {
+                    Some(node) => match s.kind() {
+                        SampleKind::Put => Event::HostAlive { node: node.to_string() },
+                        SampleKind::Delete => Event::HostGone { node: node.to_string() },
+                    },
                     None => continue,
                 }
             }
@@ -188,8 +204,9 @@ pub async fn run(
         }
     }
     tracing::info!("central shutting down");
-    drop((alive, telemetry, operator, marginal));
+    drop((alive, telemetry, operator, statuses, hosts));
     let _ = planners.await;
+    let _ = missions.await;
     session.close().await.map_err(ManagerError::zenoh)?;
     Ok(())
 }
@@ -222,26 +239,6 @@ impl Driver {
             }
         };
         Some(self.pend(q, request))
-    }
-
-    /// Routes `mrmm/missions/<name>/marginal?add=k`.
-    async fn accept_marginal(&mut self, q: Query) -> Option<Event> {
-        let Some((name, "marginal")) = proto::parse_mission_key(q.key_expr().as_str()) else {
-            net::reply_error(&q, &format!("unknown key {}", q.key_expr())).await;
-            return None;
-        };
-        let name = name.to_string();
-        let add = match q.parameters().get("add") {
-            None => 1,
-            Some(v) => match v.parse::<i64>() {
-                Ok(a) if a != 0 && a.abs() <= 1000 => a,
-                _ => {
-                    net::reply_error(&q, &format!("add={v}: give a non-zero whole number, e.g. add=1 or add=-1")).await;
-                    return None;
-                }
-            },
-        };
-        Some(self.pend(q, Request::Marginal { mission: name, add }))
     }
 
     fn pend(&mut self, q: Query, request: Request) -> Event {
@@ -281,30 +278,45 @@ impl Driver {
                     let _ = tx.send(Event::RobotCommandDone { req, robot, result });
                 });
             }
-            Command::RequestPlan { mission, epoch, kind, request } => {
+            Command::StartMission { host, start } => {
                 let (session, tx) = (self.session.clone(), self.events.clone());
                 tokio::spawn(async move {
-                    let result = match proto::to_json(&request) {
-                        Ok(body) => ask::<MissionPlan>(&session, &proto::planner(kind.as_str()), Some(body), PLAN_TIMEOUT).await,
+                    let mission = start.spec.name.clone();
+                    let result = match proto::to_json(&start) {
+                        Ok(body) => ask::<MissionView>(&session, &proto::host_start(&host), Some(body), START_TIMEOUT).await,
                         Err(e) => Err(e.to_string()),
                     };
-                    let _ = tx.send(Event::PlanResult { mission, epoch, result: result.map(Box::new) });
+                    let _ = tx.send(Event::MissionStarted { mission, result: result.map(Box::new) });
                 });
             }
-            Command::Publish { key, value } => match serde_json::to_vec(&value) {
-                Ok(bytes) => {
-                    if let Err(e) = self.session.put(&key, bytes).encoding(Encoding::APPLICATION_JSON).await {
-                        tracing::warn!("publication on {key} failed: {e}");
+            Command::Ctl { mission, ctl } => {
+                let (session, timeout) = (self.session.clone(), self.timeout);
+                tokio::spawn(async move {
+                    let result = match proto::to_json(&ctl) {
+                        Ok(body) => ask::<CtlAck>(&session, &proto::mission_ctl(&mission), Some(body), timeout).await,
+                        Err(e) => Err(e.to_string()),
+                    };
+                    if let Err(e) = result {
+                        tracing::warn!(%mission, "mission control {ctl:?} failed: {e}");
                     }
-                }
-                Err(e) => tracing::warn!("cannot encode {key}: {e}"),
-            },
+                });
+            }
+            Command::Forward { req, key } => {
+                let Some(q) = self.pending.remove(&req) else { return };
+                let (session, timeout) = (self.session.clone(), self.timeout);
+                tokio::spawn(async move {
+                    match ask::<serde_json::Value>(&session, &key, None, timeout).await {
+                        Ok(v) => net::reply_json(&q, &v).await,
+                        Err(e) => net::reply_error(&q, &e).await,
+                    }
+                });
+            }
         }
     }
 }
 
 /// One query expecting one JSON answer: returns at the first reply (not at the timeout).
-async fn ask<T: serde::de::DeserializeOwned>(
+pub async fn ask<T: serde::de::DeserializeOwned>(
     session: &Session,
     key: &str,
     body: Option<Vec<u8>>,

@@ -4,6 +4,7 @@
 pub mod central;
 pub mod client;
 pub mod error;
+pub mod host;
 pub mod mission;
 pub mod planner_service;
 pub mod system;

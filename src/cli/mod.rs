@@ -3,6 +3,7 @@
 mod assign;
 mod central;
 mod demo;
+mod mission_host;
 pub mod op;
 mod plan;
 mod planner_service;
@@ -40,6 +41,8 @@ enum Cmd {
     Plan(plan::Args),
     /// Run planner services (`mrmm/planner/<kind>`) in their own process.
     PlannerService(planner_service::Args),
+    /// Run a mission host (mission managers) in its own process.
+    MissionHost(mission_host::Args),
 }
 
 impl Cli {
@@ -62,5 +65,6 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Assign(a) => assign::run(a),
         Cmd::Plan(a) => plan::run(a),
         Cmd::PlannerService(a) => planner_service::run(a).await,
+        Cmd::MissionHost(a) => mission_host::run(a).await,
     }
 }

@@ -27,6 +27,28 @@ pub struct MissionSpec {
     pub params: BTreeMap<String, String>,
 }
 
+impl MissionSpec {
+    pub fn to_wire(&self) -> mrmm_peer::proto::MissionSpecWire {
+        mrmm_peer::proto::MissionSpecWire {
+            name: self.name.clone(),
+            recipe_name: self.recipe_name.clone(),
+            recipe_xml: self.recipe_xml.clone(),
+            planner: self.planner.as_str().to_string(),
+            params: self.params.clone(),
+        }
+    }
+
+    pub fn from_wire(w: mrmm_peer::proto::MissionSpecWire) -> Result<Self, String> {
+        let planner = match w.planner.as_str() {
+            "patrol" => PlannerKind::Patrol,
+            "coverage" => PlannerKind::Coverage,
+            other => return Err(format!("unknown planner {other:?}")),
+        };
+        mrmm_peer::proto::validate_id(&w.name).map_err(|e| e.to_string())?;
+        Ok(MissionSpec { name: w.name, recipe_name: w.recipe_name, recipe_xml: w.recipe_xml, planner, params: w.params })
+    }
+}
+
 /// Something that happened to the mission.
 #[derive(Debug, Clone, PartialEq)]
 pub enum MEvent {

@@ -3,18 +3,18 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_peer::proto::{self, MissionCreate, MissionTerminate, RobotCommand, RobotMove};
+use mrmm_peer::proto::{self, MissionCreate, MissionCtl, MissionStart, MissionTerminate, RobotCommand, RobotMove};
 use mrmm_planner::plan::RobotSpec;
 use mrmm_planner::recipe::{self, PlannerKind};
 use serde_json::{json, Value};
 
-use super::{to_value, Command, SystemManager};
-use crate::mission::{MEvent, MissionManager, MissionSpec};
+use super::{to_value, Command, MissionRecord, SystemManager};
+use crate::mission::MissionSpec;
 
 impl SystemManager {
     pub(super) fn create(&mut self, req: u64, bytes: &[u8]) -> Vec<Command> {
         match self.check_create(bytes) {
-            Ok((spec, robots, steal)) => {
+            Ok((spec, host, robots, steal)) => {
                 let name = spec.name.clone();
                 let mut out = Vec::new();
                 // Robots taken from running missions leave them first (those missions replan).
@@ -24,16 +24,20 @@ impl SystemManager {
                     leaving.entry(from).or_default().push(id);
                 }
                 for (from, ids) in leaving {
-                    out.extend(self.mission_event(&from, MEvent::Left { ids }));
+                    out.push(Command::Ctl { mission: from, ctl: MissionCtl::Left { ids } });
                 }
+                let members = robots.iter().filter_map(|r| self.member(&r.id)).collect();
                 for r in &robots {
                     self.assignment.insert(r.id.clone(), name.clone());
                 }
-                tracing::info!(mission = %name, robots = robots.len(), "mission created");
+                tracing::info!(mission = %name, %host, robots = robots.len(), "mission created");
                 self.terminated.remove(&name);
-                self.missions.insert(name.clone(), MissionManager::new(spec, self.node.clone(), robots));
-                self.pending_create.insert(name.clone(), req);
-                out.extend(self.mission_event(&name, MEvent::Start));
+                self.missions.insert(
+                    name.clone(),
+                    MissionRecord { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), view: None },
+                );
+                self.pending_create.insert(name, req);
+                out.push(Command::StartMission { host, start: Box::new(MissionStart { spec: spec.to_wire(), members }) });
                 out
             }
             Err(e) => vec![Command::Reply { req, result: Err(e) }],
@@ -42,11 +46,16 @@ impl SystemManager {
 
     /// Everything a create needs, or the first problem. Changes nothing.
     #[allow(clippy::type_complexity)]
-    fn check_create(&self, bytes: &[u8]) -> Result<(MissionSpec, Vec<RobotSpec>, Vec<(String, String)>), String> {
+    fn check_create(&self, bytes: &[u8]) -> Result<(MissionSpec, String, Vec<RobotSpec>, Vec<(String, String)>), String> {
         let c: MissionCreate = proto::from_json("mission create request", bytes).map_err(|e| e.to_string())?;
         proto::validate_id(&c.name).map_err(|_| format!("mission name {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", c.name))?;
         if self.missions.contains_key(&c.name) {
             return Err(format!("mission {:?} already exists", c.name));
+        }
+        let host = c.host.clone().unwrap_or_else(|| proto::CENTRAL_HOST.to_string());
+        if !self.hosts.contains(&host) {
+            let known: Vec<&str> = self.hosts.iter().map(String::as_str).collect();
+            return Err(format!("no mission host {host:?} (hosts up: {})", if known.is_empty() { "none".into() } else { known.join(", ") }));
         }
         let (recipe_name, xml) = match recipe::bank(&c.recipe) {
             Some(xml) => (c.recipe.clone(), xml.to_string()),
@@ -106,7 +115,7 @@ impl SystemManager {
         }
         recipe::build(&r, &dry, &specs).map_err(|e| format!("mission {}: {e}", c.name))?;
         let spec = MissionSpec { name: c.name, recipe_name, recipe_xml: xml, planner: r.planner, params };
-        Ok((spec, specs, steal))
+        Ok((spec, host, specs, steal))
     }
 
     /// Alive, registered robots in no mission, by id.
@@ -125,8 +134,10 @@ impl SystemManager {
         let share = (alive / (self.missions.len() + 1)).max(1);
         let mut chosen: Vec<String> = self.idle_robots().into_iter().take(share).collect();
         let mut steal = Vec::new();
-        let mut sizes: BTreeMap<String, Vec<String>> =
-            self.missions.iter().map(|(n, m)| (n.clone(), m.members().cloned().collect())).collect();
+        let mut sizes: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        for (robot, m) in &self.assignment {
+            sizes.entry(m.clone()).or_default().push(robot.clone());
+        }
         while chosen.len() < share {
             let Some((name, members)) = sizes.iter_mut().filter(|(_, v)| v.len() > share).max_by_key(|(_, v)| v.len()) else {
                 break;
@@ -146,18 +157,18 @@ impl SystemManager {
             Ok(t) => t,
             Err(e) => return vec![Command::Reply { req, result: Err(e.to_string()) }],
         };
-        let Some(m) = self.missions.remove(&t.name) else {
+        if self.missions.remove(&t.name).is_none() {
             return vec![Command::Reply { req, result: Err(format!("unknown mission {:?}", t.name)) }];
-        };
-        let robots: Vec<String> = m.members().cloned().collect();
+        }
+        let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == t.name).map(|(r, _)| r.clone()).collect();
         self.terminated.insert(t.name.clone());
-        let mut out = Vec::new();
+        let mut out = vec![Command::Ctl { mission: t.name.clone(), ctl: MissionCtl::Terminate }];
         for id in &robots {
             self.assignment.remove(id);
             out.push(Command::SendToRobot {
                 req: None,
                 robot: id.clone(),
-                cmd: RobotCommand::Leave { mission: t.name.clone(), epoch: m.epoch() },
+                cmd: RobotCommand::Leave { mission: t.name.clone(), epoch: u64::MAX },
             });
         }
         if let Some(pending) = self.pending_create.remove(&t.name) {
@@ -187,25 +198,24 @@ impl SystemManager {
         } else if from.is_none() {
             return vec![Command::Reply { req, result: Err(format!("robot {:?} is in no mission", mv.robot)) }];
         }
-        let Some(spec) = self.spec(&mv.robot) else {
+        let Some(member) = self.member(&mv.robot) else {
             return vec![Command::Reply { req, result: Err(format!("unknown robot {:?}", mv.robot)) }];
         };
         let mut out = Vec::new();
         if let Some(f) = &from {
             self.assignment.remove(&mv.robot);
-            let epoch = self.missions.get(f).map_or(0, MissionManager::epoch);
-            out.extend(self.mission_event(f, MEvent::Left { ids: vec![mv.robot.clone()] }));
+            out.push(Command::Ctl { mission: f.clone(), ctl: MissionCtl::Left { ids: vec![mv.robot.clone()] } });
             if mv.to.is_none() {
                 out.push(Command::SendToRobot {
                     req: None,
                     robot: mv.robot.clone(),
-                    cmd: RobotCommand::Leave { mission: f.clone(), epoch },
+                    cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX },
                 });
             }
         }
         if let Some(to) = &mv.to {
             self.assignment.insert(mv.robot.clone(), to.clone());
-            out.extend(self.mission_event(to, MEvent::Joined(spec)));
+            out.push(Command::Ctl { mission: to.clone(), ctl: MissionCtl::Joined { member } });
         }
         tracing::info!(robot = %mv.robot, ?from, to = ?mv.to, "robot moved");
         out.push(Command::Reply { req, result: to_value(&json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to})) });

@@ -1,25 +1,25 @@
-//! The system manager as a state machine: it knows every robot and every mission, answers
-//! operator requests, creates and terminates missions and moves robots between them. Missions
-//! are run by [`MissionManager`]s it owns. No I/O: [`SystemManager::handle`] takes an [`Event`]
-//! and returns the [`Command`]s the driver must carry out.
+//! The system manager as a state machine: it knows every robot, every mission and every mission
+//! host, answers operator requests, creates and terminates missions and moves robots between
+//! them. Missions are run by mission managers on mission hosts (see `host.rs`); the system
+//! manager owns the membership (every robot in at most one mission) and steers hosts with
+//! [`MissionCtl`]s. No I/O: [`SystemManager::handle`] takes an [`Event`] and returns the
+//! [`Command`]s the driver must carry out.
 
 mod missions;
 
 use std::collections::BTreeMap;
 
+use std::collections::BTreeSet;
+
 use mrmm_peer::proto::{
-    self, CommandAck, GotoRequest, PlanRequest, RobotCommand, RobotInfo, RobotStatus, RobotView, SystemStatus, Telemetry,
+    self, CommandAck, GotoRequest, ManagerView, Member, MissionCtl, MissionMetrics, MissionStart, MissionStatus, MissionView,
+    RobotCommand, RobotInfo, RobotStatus, RobotView, SystemStatus, Telemetry,
 };
 use mrmm_planner::plan::RobotSpec;
-use mrmm_planner::recipe::{MissionPlan, PlannerKind};
 use serde_json::Value;
-
-use crate::mission::{MCommand, MEvent, MissionManager};
 
 /// Seconds between two info requests to a robot that is alive but not yet registered.
 pub const INFO_RETRY_S: f64 = 1.0;
-/// Seconds between two publications of each mission's status.
-pub const STATUS_PERIOD_S: f64 = 1.0;
 /// Seconds between two leave orders to a robot still running a plan it should not have.
 pub const LEAVE_RETRY_S: f64 = 2.0;
 
@@ -35,7 +35,6 @@ pub enum Request {
     Move(Vec<u8>),
     Create(Vec<u8>),
     Terminate(Vec<u8>),
-    Marginal { mission: String, add: i64 },
 }
 
 /// Something that happened.
@@ -54,8 +53,14 @@ pub enum Event {
     Operator { req: u64, request: Request },
     /// A command to a robot completed; `req` is the operator query it answers, if any.
     RobotCommandDone { req: Option<u64>, robot: String, result: Result<CommandAck, String> },
-    /// A planner service answered for `mission` at `epoch`.
-    PlanResult { mission: String, epoch: u64, result: Result<Box<MissionPlan>, String> },
+    /// A mission host answered a start: the first plans are out, or planning failed.
+    MissionStarted { mission: String, result: Result<Box<MissionView>, String> },
+    /// A mission host published a mission's status.
+    MissionStatus(Box<MissionView>),
+    /// A mission host's liveliness token appeared.
+    HostAlive { node: String },
+    /// A mission host's liveliness token disappeared.
+    HostGone { node: String },
     /// Periodic tick.
     Tick,
 }
@@ -69,10 +74,22 @@ pub enum Command {
     SendToRobot { req: Option<u64>, robot: String, cmd: RobotCommand },
     /// Answer operator query `req` with JSON, or with a reply error.
     Reply { req: u64, result: Result<Value, String> },
-    /// Ask a planner service; report back with [`Event::PlanResult`].
-    RequestPlan { mission: String, epoch: u64, kind: PlannerKind, request: PlanRequest },
-    /// Publish JSON on `key`.
-    Publish { key: String, value: Value },
+    /// Start a mission on a host; report back with [`Event::MissionStarted`].
+    StartMission { host: String, start: Box<MissionStart> },
+    /// Steer a mission through its host.
+    Ctl { mission: String, ctl: MissionCtl },
+    /// Answer operator query `req` with whatever `key` answers (a host's mission view).
+    Forward { req: u64, key: String },
+}
+
+/// What the system manager knows of a mission.
+#[derive(Debug, Clone)]
+pub(crate) struct MissionRecord {
+    host: String,
+    recipe: String,
+    planner: String,
+    /// The host's latest view.
+    view: Option<MissionView>,
 }
 
 #[derive(Debug, Clone)]
@@ -95,14 +112,15 @@ pub struct SystemManager {
     started: f64,
     now: f64,
     robots: BTreeMap<String, Record>,
-    missions: BTreeMap<String, MissionManager>,
+    missions: BTreeMap<String, MissionRecord>,
+    /// Mission hosts alive.
+    hosts: BTreeSet<String>,
     /// Robot → mission: every robot is in at most one mission.
     assignment: BTreeMap<String, String>,
     /// Missions whose create request waits for the first plan.
     pending_create: BTreeMap<String, u64>,
     /// Missions terminated here: robots still running them are ordered out.
-    terminated: std::collections::BTreeSet<String>,
-    last_publish: f64,
+    terminated: BTreeSet<String>,
 }
 
 impl SystemManager {
@@ -114,10 +132,10 @@ impl SystemManager {
             now,
             robots: BTreeMap::new(),
             missions: BTreeMap::new(),
+            hosts: BTreeSet::new(),
             assignment: BTreeMap::new(),
             pending_create: BTreeMap::new(),
             terminated: Default::default(),
-            last_publish: now,
         }
     }
 
@@ -148,7 +166,7 @@ impl SystemManager {
                     rec.alive = false;
                 }
                 match self.assignment.remove(&id) {
-                    Some(m) => self.mission_event(&m, MEvent::Left { ids: vec![id] }),
+                    Some(m) => vec![Command::Ctl { mission: m, ctl: MissionCtl::Left { ids: vec![id] } }],
                     None => vec![],
                 }
             }
@@ -186,12 +204,30 @@ impl SystemManager {
                     vec![]
                 }
             },
-            Event::PlanResult { mission, epoch, result } => {
-                let ev = match result {
-                    Ok(plan) => MEvent::PlanReady { epoch, plan },
-                    Err(error) => MEvent::PlanFailed { epoch, error },
-                };
-                self.mission_event(&mission, ev)
+            Event::MissionStarted { mission, result } => self.started(&mission, result),
+            Event::MissionStatus(view) => {
+                if let Some(rec) = self.missions.get_mut(&view.name) {
+                    if rec.view.is_some() || view.status != MissionStatus::Planning {
+                        rec.view = Some(*view);
+                    }
+                }
+                vec![]
+            }
+            Event::HostAlive { node } => {
+                tracing::info!(%node, "mission host up");
+                self.hosts.insert(node);
+                vec![]
+            }
+            Event::HostGone { node } => {
+                tracing::warn!(%node, "mission host lost");
+                self.hosts.remove(&node);
+                for rec in self.missions.values_mut().filter(|r| r.host == node) {
+                    if let Some(v) = rec.view.as_mut() {
+                        v.status = MissionStatus::Stalled;
+                        v.error = Some(format!("mission host {node} lost; its robots keep their last plans"));
+                    }
+                }
+                vec![]
             }
         }
     }
@@ -221,18 +257,12 @@ impl SystemManager {
                 });
             }
         }
-        rec.last = Some(t.clone());
-        // Mission clocks run in robot time (wall time × time scale) like the planners' predictions.
-        let scale = rec.info.as_ref().map_or(1.0, |i| i.time_scale);
-        if let Some(m) = self.assignment.get(&t.id).cloned() {
-            out.extend(self.mission_event(&m, MEvent::Telemetry { now: now * scale, t: Box::new(t) }));
-        }
+        rec.last = Some(t);
         out
     }
 
     fn tick(&mut self, now: f64) -> Vec<Command> {
-        let mut out: Vec<Command> = self
-            .robots
+        self.robots
             .iter_mut()
             .filter(|(_, r)| r.alive && r.info.is_none())
             .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
@@ -240,16 +270,7 @@ impl SystemManager {
                 r.info_asked = Some(now);
                 Command::FetchInfo { id: id.clone() }
             })
-            .collect();
-        if now - self.last_publish >= STATUS_PERIOD_S {
-            self.last_publish = now;
-            for m in self.missions.values() {
-                if let Ok(value) = serde_json::to_value(m.view(false)) {
-                    out.push(Command::Publish { key: proto::mission_status(m.name()), value });
-                }
-            }
-        }
-        out
+            .collect()
     }
 
     fn operator(&mut self, now: f64, req: u64, request: Request) -> Vec<Command> {
@@ -261,14 +282,13 @@ impl SystemManager {
                 Some(v) => reply(to_value(&v)),
                 None => reply(Err(format!("unknown robot {id:?}"))),
             },
-            Request::Missions => reply(to_value(&self.missions.values().map(|m| m.view(false)).collect::<Vec<_>>())),
+            Request::Missions => reply(to_value(&self.missions.keys().map(|n| self.mission_view(n)).collect::<Vec<_>>())),
             Request::Mission(name) => match self.missions.get(&name) {
-                Some(m) => reply(to_value(&m.view(true))),
+                Some(r) if r.view.as_ref().is_some_and(|v| v.status != MissionStatus::Stalled) => {
+                    vec![Command::Forward { req, key: proto::mission_view(&name) }]
+                }
+                Some(_) => reply(to_value(&self.mission_view(&name))),
                 None => reply(Err(format!("unknown mission {name:?}"))),
-            },
-            Request::Marginal { mission, add } => match self.missions.get(&mission) {
-                Some(m) => reply(m.marginal(add).and_then(|g| to_value(&g))),
-                None => reply(Err(format!("unknown mission {mission:?}"))),
             },
             Request::Goto(bytes) => match self.check_goto(&bytes) {
                 Ok(g) => vec![Command::SendToRobot {
@@ -284,37 +304,65 @@ impl SystemManager {
         }
     }
 
-    /// Runs one mission event and turns its commands into ours.
-    fn mission_event(&mut self, name: &str, ev: MEvent) -> Vec<Command> {
-        let Some(m) = self.missions.get_mut(name) else { return vec![] };
-        let mut out = Vec::new();
-        for c in m.handle(ev) {
-            match c {
-                MCommand::RequestPlan { epoch, kind, request } => {
-                    out.push(Command::RequestPlan { mission: name.to_string(), epoch, kind, request })
+    /// A mission as the operator sees it: the host's latest view, with the membership this
+    /// manager holds; a placeholder while the host is planning.
+    fn mission_view(&self, name: &str) -> MissionView {
+        let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
+        let rec = self.missions.get(name);
+        match rec.and_then(|r| r.view.clone()) {
+            Some(mut v) => {
+                v.robots = robots;
+                v
+            }
+            None => MissionView {
+                name: name.to_string(),
+                recipe: rec.map(|r| r.recipe.clone()).unwrap_or_default(),
+                planner: rec.map(|r| r.planner.clone()).unwrap_or_default(),
+                status: MissionStatus::Planning,
+                robots,
+                teams: BTreeMap::new(),
+                manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0 },
+                metrics: MissionMetrics::default(),
+                summary: Value::Null,
+                error: None,
+                plans: None,
+            },
+        }
+    }
+
+    /// The first plans of a mission are out, or its planning failed.
+    fn started(&mut self, name: &str, result: Result<Box<MissionView>, String>) -> Vec<Command> {
+        let req = self.pending_create.remove(name);
+        match result {
+            Ok(view) => {
+                tracing::info!(mission = %name, "mission running");
+                if let Some(rec) = self.missions.get_mut(name) {
+                    rec.view = Some(*view);
                 }
-                MCommand::SendPlan { robot, assignment } => {
-                    out.push(Command::SendToRobot { req: None, robot, cmd: RobotCommand::Plan(assignment) })
+                match req {
+                    Some(req) => vec![Command::Reply { req, result: to_value(&self.mission_view(name)) }],
+                    None => vec![],
                 }
-                MCommand::Started => {
-                    tracing::info!(mission = %name, "mission running");
-                    if let Some(req) = self.pending_create.remove(name) {
-                        let view = self.missions.get(name).map(|m| m.view(false));
-                        out.push(Command::Reply { req, result: to_value(&view) });
-                    }
+            }
+            Err(error) => {
+                // The mission never ran: forget it, free its robots.
+                if self.missions.remove(name).is_none() {
+                    return vec![];
                 }
-                MCommand::Failed { error } => {
-                    // The mission never ran: remove it, free its robots.
-                    self.missions.remove(name);
-                    self.assignment.retain(|_, m| m != name);
-                    if let Some(req) = self.pending_create.remove(name) {
-                        out.push(Command::Reply { req, result: Err(format!("mission {name}: planning failed: {error}")) });
-                    }
-                    break;
+                self.assignment.retain(|_, m| m != name);
+                tracing::warn!(mission = %name, "mission failed: {error}");
+                match req {
+                    Some(req) => vec![Command::Reply { req, result: Err(error) }],
+                    None => vec![],
                 }
             }
         }
-        out
+    }
+
+    /// What a mission manager needs to know about a robot.
+    fn member(&self, id: &str) -> Option<Member> {
+        let time_scale = self.robots.get(id)?.info.as_ref()?.time_scale;
+        Some(Member { spec: self.spec(id)?, time_scale })
     }
 
     fn check_goto(&self, bytes: &[u8]) -> Result<GotoRequest, String> {

@@ -131,72 +131,100 @@ fn operator_queries_answer_json() {
 
 mod missions {
     use super::*;
-    use mrmm_planner::recipe;
+    use mrmm_peer::proto::{ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView};
 
     const WAYPOINTS: &str = r#""params": {"waypoints": [[0,0],[20,0],[20,20],[0,20]]}"#;
 
-    fn create(sm: &mut SystemManager, req: u64, body: &str) -> Vec<Command> {
-        sm.handle(1.0, Event::Operator { req, request: Request::Create(body.as_bytes().to_vec()) })
+    /// What the fake hosts and robots saw.
+    #[derive(Debug, Default)]
+    struct Seen {
+        starts: Vec<(String, String, Vec<String>)>,
+        ctls: Vec<(String, MissionCtl)>,
+        leaves: Vec<String>,
+        replies: Vec<(u64, Result<Value, String>)>,
+        forwards: Vec<String>,
     }
 
-    fn create_settled(sm: &mut SystemManager, req: u64, body: &str) -> (Vec<(String, String, u64)>, Vec<(u64, Result<Value, String>)>) {
-        let cmds = create(sm, req, body);
-        settle(sm, cmds)
+    fn with_host(ids: &[&str]) -> SystemManager {
+        let mut sm = registered(ids);
+        assert!(sm.handle(0.0, Event::HostAlive { node: "central".into() }).is_empty());
+        sm
     }
 
-    fn mv_settled(sm: &mut SystemManager, body: &str) -> (Vec<(String, String, u64)>, Vec<(u64, Result<Value, String>)>) {
-        let cmds = sm.handle(5.0, Event::Operator { req: 9, request: Request::Move(body.as_bytes().to_vec()) });
-        settle(sm, cmds)
-    }
-
-    /// Plays the planner service and the robots: answers plan requests until quiet; returns the
-    /// plan sends (robot, mission, epoch) and the replies.
-    fn settle(sm: &mut SystemManager, mut cmds: Vec<Command>) -> (Vec<(String, String, u64)>, Vec<(u64, Result<Value, String>)>) {
-        let (mut sends, mut replies) = (Vec::new(), Vec::new());
+    /// Plays the mission hosts: every start succeeds at once.
+    fn settle(sm: &mut SystemManager, mut cmds: Vec<Command>) -> Seen {
+        let mut seen = Seen::default();
         while let Some(c) = cmds.pop() {
             match c {
-                Command::RequestPlan { mission, epoch, request, .. } => {
-                    let r = recipe::parse(&request.recipe).expect("recipe");
-                    let result = recipe::build(&r, &request.params, &request.robots).map(Box::new).map_err(|e| e.to_string());
-                    cmds.extend(sm.handle(2.0, Event::PlanResult { mission, epoch, result }));
+                Command::StartMission { host, start } => {
+                    let robots: Vec<String> = start.members.iter().map(|m| m.spec.id.clone()).collect();
+                    seen.starts.push((host.clone(), start.spec.name.clone(), robots.clone()));
+                    let view = MissionView {
+                        name: start.spec.name.clone(),
+                        recipe: start.spec.recipe_name.clone(),
+                        planner: start.spec.planner.clone(),
+                        status: MissionStatus::Running,
+                        robots,
+                        teams: Default::default(),
+                        manager: ManagerView { node: host, epoch: 1 },
+                        metrics: MissionMetrics::default(),
+                        summary: Value::Null,
+                        error: None,
+                        plans: None,
+                    };
+                    cmds.extend(sm.handle(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
                 }
-                Command::SendToRobot { robot, cmd: RobotCommand::Plan(a), .. } => sends.push((robot, a.mission.clone(), a.epoch)),
-                Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } => sends.push((robot, format!("leave {mission}"), 0)),
-                Command::Reply { req, result } => replies.push((req, result)),
+                Command::Ctl { mission, ctl } => seen.ctls.push((mission, ctl)),
+                Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } => seen.leaves.push(format!("{robot} {mission}")),
+                Command::Reply { req, result } => seen.replies.push((req, result)),
+                Command::Forward { key, .. } => seen.forwards.push(key),
                 _ => {}
             }
         }
-        sends.sort();
-        (sends, replies)
+        seen.leaves.sort();
+        seen
+    }
+
+    fn create(sm: &mut SystemManager, req: u64, body: &str) -> Seen {
+        let cmds = sm.handle(1.0, Event::Operator { req, request: Request::Create(body.as_bytes().to_vec()) });
+        settle(sm, cmds)
+    }
+
+    fn mv(sm: &mut SystemManager, body: &str) -> Seen {
+        let cmds = sm.handle(5.0, Event::Operator { req: 9, request: Request::Move(body.as_bytes().to_vec()) });
+        settle(sm, cmds)
     }
 
     fn mission_of(sm: &SystemManager, id: &str) -> Option<String> {
         sm.view(id).and_then(|v| v.mission)
     }
 
+    fn left(ids: &[&str]) -> MissionCtl {
+        MissionCtl::Left { ids: ids.iter().map(|s| s.to_string()).collect() }
+    }
+
     #[test]
-    fn create_with_robots_then_terminate() {
-        let mut sm = registered(&["r1", "r2", "r3"]);
-        let cmds = create(&mut sm, 1, &format!(r#"{{"name": "p1", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
-        let (sends, replies) = settle(&mut sm, cmds);
-        assert_eq!(sends, [("r1".into(), "p1".into(), 1), ("r2".into(), "p1".into(), 1)]);
-        assert_eq!(replies.len(), 1);
-        let v = replies[0].1.as_ref().expect("created");
+    fn create_starts_on_a_host_then_terminate_frees_the_robots() {
+        let mut sm = with_host(&["r1", "r2", "r3"]);
+        let seen = create(&mut sm, 1, &format!(r#"{{"name": "p1", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
+        assert_eq!(seen.starts, [("central".into(), "p1".into(), vec!["r1".into(), "r2".into()])]);
+        let v = seen.replies[0].1.as_ref().expect("created");
         assert_eq!(v["status"], "running");
         assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"));
         assert_eq!(sm.view("r3").map(|v| v.status), Some(RobotStatus::Idle));
 
         let cmds = sm.handle(3.0, Event::Operator { req: 2, request: Request::Terminate(br#"{"name": "p1"}"#.to_vec()) });
-        let (sends, replies) = settle(&mut sm, cmds);
-        assert_eq!(sends, [("r1".into(), "leave p1".into(), 0), ("r2".into(), "leave p1".into(), 0)]);
-        assert!(replies[0].1.is_ok());
+        let seen = settle(&mut sm, cmds);
+        assert_eq!(seen.ctls, [("p1".into(), MissionCtl::Terminate)]);
+        assert_eq!(seen.leaves, ["r1 p1", "r2 p1"]);
+        assert!(seen.replies[0].1.is_ok());
         assert_eq!(mission_of(&sm, "r1"), None);
         assert_eq!(sm.status(3.0).missions, 0);
     }
 
     #[test]
     fn bad_creates_change_nothing() {
-        let mut sm = registered(&["r1", "r2"]);
+        let mut sm = with_host(&["r1", "r2"]);
         let cases = [
             (r#"{"name": "p/1", "recipe": "patrol"}"#, "mission name"),
             (r#"{"name": "p1", "recipe": "swarm"}"#, "unknown recipe"),
@@ -209,80 +237,88 @@ mod missions {
             (r#"{"name": "p1", "recipe": "coverage", "params": {"region": [[0,0],[1,1],[0,1],[1,0]]}}"#, "self-intersecting"),
             (r#"{"name": "p1", "recipe": "<recipe name='x' planner='patrol'><fly/></recipe>"}"#, "unknown element <fly>"),
             (r#"{"name": "p1", "recipe": "patrol", "colour": "red"}"#, "unknown field"),
+            (r#"{"name": "p1", "recipe": "patrol", "host": "elsewhere"}"#, "no mission host \"elsewhere\""),
             ("garbage", "mission create request"),
         ];
         for (i, (body, want)) in cases.iter().enumerate() {
-            let cmds = create(&mut sm, i as u64, body);
-            let (sends, replies) = settle(&mut sm, cmds);
-            assert!(sends.is_empty(), "{body}");
-            let e = replies[0].1.as_ref().expect_err(body);
+            let seen = create(&mut sm, i as u64, body);
+            assert!(seen.starts.is_empty() && seen.ctls.is_empty(), "{body}");
+            let e = seen.replies[0].1.as_ref().expect_err(body);
             assert!(e.contains(want), "{body}: {e}");
         }
         assert_eq!(sm.status(1.0).missions, 0);
         assert!(sm.views().iter().all(|v| v.mission.is_none()));
-        // Duplicate name.
-        let (_, r) = create_settled(&mut sm, 50, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#);
-        assert!(r[0].1.is_ok());
-        let (_, r) = create_settled(&mut sm, 51, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#);
-        assert!(r[0].1.as_ref().expect_err("dup").contains("already exists"));
+        assert!(create(&mut sm, 50, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#).replies[0].1.is_ok());
+        let e = create(&mut sm, 51, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#).replies[0].1.clone();
+        assert!(e.expect_err("dup").contains("already exists"));
+    }
+
+    #[test]
+    fn a_failed_start_frees_the_robots() {
+        let mut sm = with_host(&["r1"]);
+        let cmds = sm.handle(1.0, Event::Operator { req: 1, request: Request::Create(br#"{"name": "p", "recipe": "patrol", "count": 1}"#.to_vec()) });
+        assert!(matches!(cmds.as_slice(), [Command::StartMission { .. }]));
+        assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
+        let v = reply(sm.handle(2.0, Event::Operator { req: 2, request: Request::Missions })).expect("missions");
+        assert_eq!(v[0]["status"], "planning");
+        let r = sm.handle(3.0, Event::MissionStarted { mission: "p".into(), result: Err("no planner service".into()) });
+        assert_eq!(reply(r).expect_err("failed"), "no planner service");
+        assert_eq!(mission_of(&sm, "r1"), None);
+        assert_eq!(sm.status(3.0).missions, 0);
     }
 
     #[test]
     fn default_split_is_equal_and_takes_from_running_missions() {
-        let mut sm = registered(&["r1", "r2", "r3", "r4", "r5", "r6"]);
-        let (sends, _) = create_settled(&mut sm, 1, r#"{"name": "a", "recipe": "patrol"}"#);
-        assert_eq!(sends.len(), 6, "alone, a mission gets the whole fleet");
-        let (sends, replies) = create_settled(&mut sm, 2, r#"{"name": "b", "recipe": "coverage"}"#);
-        assert!(replies[0].1.is_ok());
-        let in_b: Vec<_> = sm.views().into_iter().filter(|v| v.mission.as_deref() == Some("b")).collect();
-        let in_a: Vec<_> = sm.views().into_iter().filter(|v| v.mission.as_deref() == Some("a")).collect();
-        assert_eq!((in_a.len(), in_b.len()), (3, 3));
-        // a replanned (epoch 2) for its 3, b planned (epoch 1) for its 3.
-        assert_eq!(sends.iter().filter(|s| s.1 == "a" && s.2 == 2).count(), 3);
-        assert_eq!(sends.iter().filter(|s| s.1 == "b" && s.2 == 1).count(), 3);
+        let mut sm = with_host(&["r1", "r2", "r3", "r4", "r5", "r6"]);
+        let seen = create(&mut sm, 1, r#"{"name": "a", "recipe": "patrol"}"#);
+        assert_eq!(seen.starts[0].2.len(), 6, "alone, a mission gets the whole fleet");
+        let seen = create(&mut sm, 2, r#"{"name": "b", "recipe": "coverage"}"#);
+        assert!(seen.replies[0].1.is_ok());
+        assert_eq!(seen.starts[0].2, ["r6", "r5", "r4"]);
+        assert_eq!(seen.ctls, [("a".into(), left(&["r6", "r5", "r4"]))], "one replan for all three");
+        let count = |m: &str| sm.views().into_iter().filter(|v| v.mission.as_deref() == Some(m)).count();
+        assert_eq!((count("a"), count("b")), (3, 3));
     }
 
     #[test]
-    fn move_and_loss_replan_both_missions() {
-        let mut sm = registered(&["r1", "r2", "r3", "r4", "r5", "r6"]);
-        create_settled(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1","r2","r3","r4"], {WAYPOINTS}}}"#));
-        create_settled(&mut sm, 2, r#"{"name": "c", "recipe": "coverage", "robots": ["r5","r6"]}"#);
-        let (sends, replies) = mv_settled(&mut sm, r#"{"robot": "r4", "to": "c"}"#);
-        assert_eq!(replies[0].1.as_ref().expect("moved")["from"], "p");
-        assert_eq!(sends.iter().filter(|s| s.1 == "p").count(), 3, "patrol replanned for 3");
-        assert_eq!(sends.iter().filter(|s| s.1 == "c").count(), 3, "coverage replanned for 3");
-        let p: Value = sm.missions["p"].view(false).summary;
-        assert!((p["spacing"].as_f64().expect("spacing") - 80.0 / 3.0).abs() < 1e-9, "evenly spaced");
-        // Errors.
+    fn move_and_loss_steer_both_missions() {
+        let mut sm = with_host(&["r1", "r2", "r3", "r4", "r5", "r6"]);
+        create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1","r2","r3","r4"], {WAYPOINTS}}}"#));
+        create(&mut sm, 2, r#"{"name": "c", "recipe": "coverage", "robots": ["r5","r6"]}"#);
+        let seen = mv(&mut sm, r#"{"robot": "r4", "to": "c"}"#);
+        assert_eq!(seen.replies[0].1.as_ref().expect("moved")["from"], "p");
+        assert_eq!(seen.ctls.len(), 2);
+        assert!(seen.ctls.contains(&("p".into(), left(&["r4"]))));
+        assert!(matches!(&seen.ctls.iter().find(|c| c.0 == "c").expect("joined").1, MissionCtl::Joined { member } if member.spec.id == "r4"));
+        assert!(seen.leaves.is_empty(), "the new plan replaces the old one");
         for (body, want) in [
             (r#"{"robot": "r4", "to": "c"}"#, "already in mission c"),
             (r#"{"robot": "r4", "to": "zz"}"#, "unknown mission"),
             (r#"{"robot": "zz", "to": "c"}"#, "unknown robot"),
         ] {
-            let (_, r) = mv_settled(&mut sm, body);
-            assert!(r[0].1.as_ref().expect_err(body).contains(want), "{body}");
+            assert!(mv(&mut sm, body).replies[0].1.as_ref().expect_err(body).contains(want), "{body}");
         }
-        // A patrol robot is lost: replanned to 2 without it.
+        // A patrol robot is lost: its mission is told.
         let cmds = sm.handle(6.0, Event::RobotGone { id: "r1".into() });
-        let (sends, _) = settle(&mut sm, cmds);
-        assert_eq!(sends.iter().map(|s| s.0.as_str()).collect::<Vec<_>>(), ["r2", "r3"]);
-        assert_eq!(sm.missions["p"].view(false).robots, ["r2", "r3"]);
+        assert_eq!(settle(&mut sm, cmds).ctls, [("p".into(), left(&["r1"]))]);
+        let v = reply(sm.handle(6.5, Event::Operator { req: 4, request: Request::Missions })).expect("missions");
+        assert_eq!(v[1]["robots"], serde_json::json!(["r2", "r3"]));
         // A goto on a mission robot is refused; moving it out frees it.
         let g = sm.handle(7.0, Event::Operator { req: 3, request: Request::Goto(br#"{"robot":"r2","x":0,"y":0}"#.to_vec()) });
         assert!(reply(g).expect_err("in mission").contains("in mission p"));
-        let (sends, _) = mv_settled(&mut sm, r#"{"robot": "r2", "to": null}"#);
-        assert!(sends.contains(&("r2".into(), "leave p".into(), 0)));
+        let seen = mv(&mut sm, r#"{"robot": "r2", "to": null}"#);
+        assert_eq!(seen.leaves, ["r2 p"]);
         assert_eq!(mission_of(&sm, "r2"), None);
     }
 
     #[test]
     fn a_robot_running_a_foreign_plan_is_told_to_leave() {
-        let mut sm = registered(&["r1", "r2"]);
+        let mut sm = with_host(&["r1", "r2"]);
         let mut t = telemetry("r1", 1, Behaviour::Hold);
         t.mission = Some("old".into());
         // A mission this manager never heard of (central restarted): left alone.
         assert!(sm.handle(0.5, Event::Telemetry(Box::new(t.clone()))).is_empty());
-        create_settled(&mut sm, 1, r#"{"name": "old", "recipe": "patrol", "robots": ["r2"]}"#);
+        create(&mut sm, 1, r#"{"name": "old", "recipe": "patrol", "robots": ["r2"]}"#);
         t.seq = 2;
         let cmds = sm.handle(1.0, Event::Telemetry(Box::new(t.clone())));
         assert!(matches!(cmds.as_slice(), [Command::SendToRobot { cmd: RobotCommand::Leave { .. }, .. }]));
@@ -297,20 +333,24 @@ mod missions {
     }
 
     #[test]
-    fn mission_queries_and_marginal() {
-        let mut sm = registered(&["r1", "r2"]);
-        create_settled(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "count": 2, {WAYPOINTS}}}"#));
-        let v = reply(sm.handle(2.0, Event::Operator { req: 2, request: Request::Missions })).expect("missions");
-        assert_eq!(v[0]["name"], "p");
-        assert!(v[0].get("plans").is_none());
-        let v = reply(sm.handle(2.0, Event::Operator { req: 3, request: Request::Mission("p".into()) })).expect("mission");
-        assert_eq!(v["plans"].as_array().map(Vec::len), Some(2));
-        assert_eq!(v["manager"]["epoch"], 1);
-        let g = reply(sm.handle(2.0, Event::Operator { req: 4, request: Request::Marginal { mission: "p".into(), add: 1 } })).expect("marginal");
-        assert_eq!(g["with_robots"], 3);
+    fn mission_views_follow_host_publications_and_host_loss() {
+        let mut sm = with_host(&["r1", "r2"]);
+        create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "count": 2, {WAYPOINTS}}}"#));
+        // Details come from the host.
+        let cmds = sm.handle(2.0, Event::Operator { req: 3, request: Request::Mission("p".into()) });
+        assert_eq!(settle(&mut sm, cmds).forwards, ["mrmm/missions/p/view"]);
         assert!(reply(sm.handle(2.0, Event::Operator { req: 5, request: Request::Mission("q".into()) })).is_err());
-        // Status is published about once a second.
-        let cmds = sm.handle(3.5, Event::Tick);
-        assert!(cmds.iter().any(|c| matches!(c, Command::Publish { key, .. } if key == "mrmm/missions/p/status")));
+        // Status publications update the table.
+        let mut v: MissionView = serde_json::from_value(reply(sm.handle(2.0, Event::Operator { req: 2, request: Request::Missions })).expect("m")[0].clone()).expect("view");
+        v.metrics.rounds = 7;
+        v.manager.epoch = 4;
+        sm.handle(3.0, Event::MissionStatus(Box::new(v)));
+        let m = reply(sm.handle(3.0, Event::Operator { req: 4, request: Request::Missions })).expect("missions");
+        assert_eq!((m[0]["metrics"]["rounds"].as_u64(), m[0]["manager"]["epoch"].as_u64()), (Some(7), Some(4)));
+        // The host dies: the mission is stalled, the operator is told why.
+        sm.handle(4.0, Event::HostGone { node: "central".into() });
+        let m = reply(sm.handle(4.0, Event::Operator { req: 6, request: Request::Missions })).expect("missions");
+        assert_eq!(m[0]["status"], "stalled");
+        assert!(m[0]["error"].as_str().is_some_and(|e| e.contains("host central lost")));
     }
 }

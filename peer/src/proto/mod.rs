@@ -12,8 +12,12 @@
 //! | `mrmm/team/<mission>/sync/<point>/<round>` | publication by each member at a barrier | [`SyncArrival`] | JSON |
 //! | `mrmm/planner/<kind>` | queryable of a planner service (`patrol`, `coverage`) | query [`PlanRequest`], reply `MissionPlan` | JSON |
 //! | `mrmm/planner/<kind>/alive/<zid>` | liveliness token of a planner service | — | — |
-//! | `mrmm/missions/<name>/marginal?add=±k` | queryable of the mission manager | [`Marginal`] | JSON |
-//! | `mrmm/missions/<name>/status` | publication of the mission manager, 1 Hz | [`MissionView`] | JSON |
+//! | `mrmm/hosts/<node>/alive` | liveliness token of a mission host | — | — |
+//! | `mrmm/hosts/<node>/start` | queryable of a mission host | query [`MissionStart`], reply [`MissionView`] once planned | JSON |
+//! | `mrmm/missions/<name>/ctl` | queryable of the mission's host | query [`MissionCtl`], reply [`CtlAck`] | JSON |
+//! | `mrmm/missions/<name>/view` | queryable of the mission's host | [`MissionView`] with plans | JSON |
+//! | `mrmm/missions/<name>/marginal?add=±k` | queryable of the mission's host | [`Marginal`] | JSON |
+//! | `mrmm/missions/<name>/status` | publication of the mission's host, 1 Hz | [`MissionView`] | JSON |
 //! | `mrmm/system/status` | queryable on the system manager | [`SystemStatus`] | JSON |
 //! | `mrmm/system/robots`, `…/robots/<id>` | queryable on the system manager | [`RobotView`] list / one | JSON |
 //! | `mrmm/system/missions`, `…/missions/<name>` | queryable on the system manager | [`MissionView`] list / one with plans | JSON |
@@ -27,6 +31,7 @@
 //!
 //! Robot ids and mission names are single key chunks: 1 to 64 characters of `[A-Za-z0-9_-]`.
 
+mod mission;
 mod operator;
 mod robot;
 mod team;
@@ -38,6 +43,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::PeerError;
 
+pub use mission::*;
 pub use operator::*;
 pub use robot::*;
 pub use team::*;
@@ -64,8 +70,12 @@ pub const SYSTEM_CMD_MOVE: &str = "mrmm/system/cmd/robot/move";
 pub const SYSTEM_CMD_CREATE: &str = "mrmm/system/cmd/mission/create";
 /// Operator command: terminate a mission.
 pub const SYSTEM_CMD_TERMINATE: &str = "mrmm/system/cmd/mission/terminate";
-/// Marginal-benefit queries of every mission.
-pub const ALL_MISSIONS_MARGINAL: &str = "mrmm/missions/*/marginal";
+/// Status publications of every mission.
+pub const ALL_MISSIONS_STATUS: &str = "mrmm/missions/*/status";
+/// Liveliness tokens of every mission host.
+pub const ALL_HOSTS_ALIVE: &str = "mrmm/hosts/*/alive";
+/// Name of the mission host inside central.
+pub const CENTRAL_HOST: &str = "central";
 /// Media type of every JSON payload.
 pub const JSON: &str = "application/json";
 /// Prefix of a bincode telemetry payload: protocol name and version.
@@ -139,6 +149,27 @@ pub fn planner_alive(kind: &str, zid: &str) -> String {
 /// `mrmm/missions/<name>/marginal`
 pub fn mission_marginal(name: &str) -> String {
     format!("{ROOT}/missions/{name}/marginal")
+}
+/// `mrmm/missions/<name>/ctl`
+pub fn mission_ctl(name: &str) -> String {
+    format!("{ROOT}/missions/{name}/ctl")
+}
+/// `mrmm/missions/<name>/view`
+pub fn mission_view(name: &str) -> String {
+    format!("{ROOT}/missions/{name}/view")
+}
+/// `mrmm/hosts/<node>/alive`
+pub fn host_alive(node: &str) -> String {
+    format!("{ROOT}/hosts/{node}/alive")
+}
+/// `mrmm/hosts/<node>/start`
+pub fn host_start(node: &str) -> String {
+    format!("{ROOT}/hosts/{node}/start")
+}
+/// The node name of a `mrmm/hosts/<node>/alive` key.
+pub fn parse_host_alive(key: &str) -> Option<&str> {
+    let node = key.strip_prefix("mrmm/hosts/")?.strip_suffix("/alive")?;
+    validate_id(node).is_ok().then_some(node)
 }
 /// `mrmm/missions/<name>/status`
 pub fn mission_status(name: &str) -> String {

@@ -90,6 +90,9 @@ pub struct MissionCreate {
     /// Recipe parameter overrides: scalars, `waypoints` `[[x, y], …]`, `region`.
     #[serde(default)]
     pub params: BTreeMap<String, serde_json::Value>,
+    /// The mission host to run the manager on (default: `central`).
+    #[serde(default)]
+    pub host: Option<String>,
 }
 
 /// `mrmm/system/cmd/mission/terminate`.
@@ -141,6 +144,7 @@ pub struct MissionMetrics {
 /// The mission manager's identity.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ManagerView {
+    /// The mission host running it.
     pub node: String,
     pub epoch: u64,
 }

@@ -32,6 +32,9 @@ pub enum Mission {
         /// Other recipe parameters (repeatable): key=value.
         #[arg(long = "param")]
         params: Vec<String>,
+        /// The mission host to run its manager on (default: central).
+        #[arg(long)]
+        host: Option<String>,
     },
     /// Terminate a mission; its robots become idle.
     Terminate { name: String },
@@ -51,7 +54,7 @@ pub enum Mission {
 pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()> {
     let none = None::<&()>;
     match m {
-        Mission::Create { name, recipe, robots, count, waypoints, region, params } => {
+        Mission::Create { name, recipe, robots, count, waypoints, region, params, host } => {
             let recipe = if Path::new(&recipe).is_file() {
                 std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))?
             } else {
@@ -67,13 +70,13 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
                 let (k, v) = kv.split_once('=').ok_or_else(|| anyhow!("--param {kv:?}: expected key=value"))?;
                 p.insert(k.into(), Value::String(v.into()));
             }
-            let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p };
+            let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host };
             let v: Value = client.query(proto::SYSTEM_CMD_CREATE, Some(&req)).await?;
             if json {
                 return super::print_json(&v);
             }
             let m: MissionView = serde_json::from_value(v)?;
-            println!("mission {} {}: {} robots ({})", m.name, status(&m), m.robots.len(), m.robots.join(", "));
+            println!("mission {} {} on {}: {} robots ({})", m.name, status(&m), m.manager.node, m.robots.len(), m.robots.join(", "));
         }
         Mission::Terminate { name } => {
             let v: Value = client.query(proto::SYSTEM_CMD_TERMINATE, Some(&MissionTerminate { name })).await?;
@@ -132,7 +135,7 @@ pub fn table(ms: &[MissionView]) -> String {
                 m.recipe.clone(),
                 status(m),
                 m.robots.join(","),
-                m.manager.epoch.to_string(),
+                format!("{}/{}", m.manager.node, m.manager.epoch),
                 m.metrics.rounds.to_string(),
                 m.metrics.sync_points_passed.to_string(),
                 f(m.metrics.avg_idleness),
@@ -140,5 +143,5 @@ pub fn table(ms: &[MissionView]) -> String {
             ]
         })
         .collect();
-    super::super::table::render(&["MISSION", "RECIPE", "STATUS", "ROBOTS", "EPOCH", "ROUNDS", "SYNCS", "AVG IDLE s", "WORST IDLE s"], &rows)
+    super::super::table::render(&["MISSION", "RECIPE", "STATUS", "ROBOTS", "MANAGER/EPOCH", "ROUNDS", "SYNCS", "AVG IDLE s", "WORST IDLE s"], &rows)
 }

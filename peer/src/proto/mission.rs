@@ -1,0 +1,54 @@
+//! Mission-host payloads: starting a mission on a host and steering it (JSON).
+
+use std::collections::BTreeMap;
+
+use mrmm_planner::plan::RobotSpec;
+use serde::{Deserialize, Serialize};
+
+/// A robot as a mission manager needs it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Member {
+    pub spec: RobotSpec,
+    /// The robot's simulated seconds per wall second (1 for real robots).
+    pub time_scale: f64,
+}
+
+/// What a mission is (the part every replica of its manager needs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MissionSpecWire {
+    pub name: String,
+    /// Bank name, or `custom`.
+    pub recipe_name: String,
+    pub recipe_xml: String,
+    /// `patrol` or `coverage`.
+    pub planner: String,
+    pub params: BTreeMap<String, String>,
+}
+
+/// Query payload of `mrmm/hosts/<node>/start`; answered with the `MissionView` once the first
+/// plans are out (or a reply error if planning failed).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MissionStart {
+    pub spec: MissionSpecWire,
+    pub members: Vec<Member>,
+}
+
+/// Query payload of `mrmm/missions/<name>/ctl`, answered with [`CtlAck`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "ctl", rename_all = "snake_case", deny_unknown_fields)]
+pub enum MissionCtl {
+    /// A robot joins the team (replan including it).
+    Joined { member: Member },
+    /// Robots leave the team (replan without them).
+    Left { ids: Vec<String> },
+    /// Stop managing the mission.
+    Terminate,
+}
+
+/// Answer of a [`MissionCtl`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CtlAck {
+    pub ok: bool,
+    pub epoch: u64,
+}

@@ -1,0 +1,28 @@
+//! `mrmm mission-host`: a mission host (runs mission managers) in its own process.
+
+use mrmm_peer::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Host name: missions are started on it with `"host": NAME`.
+    #[arg(long)]
+    name: String,
+    /// Endpoints to connect to (repeatable).
+    #[arg(long, default_value = DEFAULT_CENTRAL)]
+    connect: Vec<String>,
+    /// Endpoint to listen on (explicit address; port 0 picks one).
+    #[arg(long, default_value = "tcp/127.0.0.1:0")]
+    listen: Vec<String>,
+}
+
+pub async fn run(args: Args) -> anyhow::Result<()> {
+    mrmm_peer::proto::validate_id(&args.name).map_err(|e| anyhow::anyhow!("--name: {e}"))?;
+    net::validate_endpoints("--connect", &args.connect).map_err(anyhow::Error::msg)?;
+    net::validate_endpoints("--listen", &args.listen).map_err(anyhow::Error::msg)?;
+    let session = net::open(net::zenoh_config(Mode::Peer, &args.listen, &args.connect, DEFAULT_LEASE_MS)?).await?;
+    println!("mission-host ready name={} zid={} listening={}", args.name, session.zid(), net::listening_endpoints(&session).await.join(","));
+    let shutdown = super::shutdown::on_signals()?;
+    mrmm_manager::host::serve(session.clone(), args.name, shutdown).await?;
+    let _ = session.close().await;
+    Ok(())
+}

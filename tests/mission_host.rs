@@ -1,0 +1,71 @@
+//! A mission managed on another node: `mrmm mission-host --name h2` in its own process runs the
+//! mission's manager (plans, barriers, metrics, marginal benefit); when that process is killed the
+//! mission shows as stalled with the reason, and its robots keep executing their last plans.
+
+mod common;
+
+use std::time::Duration;
+
+use common::{eventually, start, start_central, start_robot_scaled, Scratch};
+use mrmm_manager::client::Client;
+use mrmm_peer::proto::{self, Marginal, MissionCreate, MissionStatus, MissionView, RobotView};
+use serde_json::json;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
+    let dir = Scratch::new("host");
+    let (_central, ep) = start_central(&dir)?;
+    let mut host = start("h2", &["mission-host", "--name", "h2", "--connect", &ep], &dir.path("h2.log"), "mission-host ready", Duration::from_secs(20))?;
+    let _robots: Vec<_> = (1..=3).map(|i| start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    eventually("3 registered robots", Duration::from_secs(15), || async {
+        let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        (v.len() == 3 && v.iter().all(|r| r.pose.is_some())).then_some(())
+    })
+    .await?;
+    let create = MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        count: Some(3),
+        host: Some("h2".into()),
+        params: [("waypoints".to_string(), json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
+        ..MissionCreate::default()
+    };
+    // The system manager learns of h2 through its liveliness token.
+    let created = eventually("the mission created on h2", Duration::from_secs(15), || async {
+        client.query::<MissionView>(proto::SYSTEM_CMD_CREATE, Some(&create)).await.ok()
+    })
+    .await?;
+    assert_eq!(created.manager.node, "h2");
+    eventually("the team passing barriers under h2's manager", Duration::from_secs(30), || async {
+        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        (m.metrics.sync_points_passed >= 2 && m.plans.as_ref().is_some_and(|p| p.len() == 3)).then_some(())
+    })
+    .await?;
+    let g: Marginal = client.query(&format!("{}?add=1", proto::mission_marginal("p")), None::<&()>).await?;
+    assert_eq!((g.robots, g.with_robots), (3, 4));
+    assert!(g.predicted < g.current);
+    let bad = client.query::<Marginal>(&format!("{}?add=zero", proto::mission_marginal("p")), None::<&()>).await;
+    assert!(bad.expect_err("bad add").to_string().contains("add=zero"));
+
+    host.kill();
+    let m = eventually("the mission stalled with its reason", Duration::from_secs(10), || async {
+        let ms: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
+        ms.into_iter().find(|m| m.name == "p" && m.status == MissionStatus::Stalled)
+    })
+    .await?;
+    assert!(m.error.as_deref().is_some_and(|e| e.contains("h2 lost")), "{:?}", m.error);
+    // The robots keep executing their last plans.
+    let before: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await?;
+    eventually("robots still moving", Duration::from_secs(10), || async {
+        let now: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        let moved = now.iter().zip(&before).filter(|(a, b)| {
+            let (p, q) = (a.pose.unwrap_or_default(), b.pose.unwrap_or_default());
+            (p.x - q.x).hypot(p.y - q.y) > 1.0
+        });
+        (moved.count() == 3).then_some(())
+    })
+    .await?;
+    client.close().await;
+    Ok(())
+}
