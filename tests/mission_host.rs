@@ -69,3 +69,47 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     client.close().await;
     Ok(())
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_restarted_central_adopts_the_missions_of_surviving_hosts() -> anyhow::Result<()> {
+    let dir = Scratch::new("restart");
+    let (mut central, ep) = start_central(&dir)?;
+    let _host = start("h2", &["mission-host", "--name", "h2", "--connect", &ep], &dir.path("h2.log"), "mission-host ready", Duration::from_secs(20))?;
+    let _robots: Vec<_> = (1..=3).map(|i| start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let create = MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        count: Some(3),
+        host: Some("h2".into()),
+        params: [("waypoints".to_string(), json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
+        ..MissionCreate::default()
+    };
+    eventually("the mission created on h2", Duration::from_secs(20), || async {
+        client.query::<MissionView>(proto::SYSTEM_CMD_CREATE, Some(&create)).await.ok()
+    })
+    .await?;
+    client.close().await;
+
+    // Central dies and comes back on the same endpoint.
+    central.kill();
+    let log = dir.path("central2.log");
+    let _central = start("central2", &["central", "--listen", &ep], &log, "central ready", Duration::from_secs(20))?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let m = eventually("the mission adopted from h2's report", Duration::from_secs(20), || async {
+        let ms: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
+        ms.into_iter().find(|m| m.name == "p" && m.robots.len() == 3 && m.status == MissionStatus::Running)
+    })
+    .await?;
+    assert_eq!(m.manager.node, "h2");
+    let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await?;
+    assert!(v.iter().all(|r| r.mission.as_deref() == Some("p")), "{v:?}");
+    let before = m.metrics.sync_points_passed;
+    eventually("the team still passing barriers", Duration::from_secs(20), || async {
+        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        (m.metrics.sync_points_passed > before).then_some(())
+    })
+    .await?;
+    client.close().await;
+    Ok(())
+}

@@ -205,14 +205,7 @@ impl SystemManager {
                 }
             },
             Event::MissionStarted { mission, result } => self.started(&mission, result),
-            Event::MissionStatus(view) => {
-                if let Some(rec) = self.missions.get_mut(&view.name) {
-                    if rec.view.is_some() || view.status != MissionStatus::Planning {
-                        rec.view = Some(*view);
-                    }
-                }
-                vec![]
-            }
+            Event::MissionStatus(view) => self.mission_status(*view),
             Event::HostAlive { node } => {
                 tracing::info!(%node, "mission host up");
                 self.hosts.insert(node);
@@ -328,6 +321,40 @@ impl SystemManager {
                 plans: None,
             },
         }
+    }
+
+    /// A host reported a mission. A mission this manager does not know (it restarted while the
+    /// host kept running it) is adopted: record, host and membership come from the report, for
+    /// robots not already in another mission.
+    fn mission_status(&mut self, view: MissionView) -> Vec<Command> {
+        if let Some(rec) = self.missions.get_mut(&view.name) {
+            if rec.view.is_some() || view.status != MissionStatus::Planning {
+                rec.view = Some(view);
+            }
+            return vec![];
+        }
+        if self.terminated.contains(&view.name) || !self.hosts.contains(&view.manager.node) {
+            return vec![];
+        }
+        tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its host's report");
+        let mut out = Vec::new();
+        let mut strangers = Vec::new();
+        for id in &view.robots {
+            match self.assignment.get(id) {
+                Some(other) if other != &view.name => strangers.push(id.clone()),
+                _ => {
+                    self.assignment.insert(id.clone(), view.name.clone());
+                }
+            }
+        }
+        if !strangers.is_empty() {
+            out.push(Command::Ctl { mission: view.name.clone(), ctl: MissionCtl::Left { ids: strangers } });
+        }
+        self.missions.insert(
+            view.name.clone(),
+            MissionRecord { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), view: Some(view) },
+        );
+        out
     }
 
     /// The first plans of a mission are out, or its planning failed.

@@ -353,4 +353,34 @@ mod missions {
         assert_eq!(m[0]["status"], "stalled");
         assert!(m[0]["error"].as_str().is_some_and(|e| e.contains("host central lost")));
     }
+
+    #[test]
+    fn a_restarted_manager_adopts_missions_its_hosts_report() {
+        let mut sm = with_host(&["r1", "r2", "r3"]);
+        sm.handle(0.0, Event::HostAlive { node: "h2".into() });
+        create(&mut sm, 1, r#"{"name": "mine", "recipe": "patrol", "robots": ["r3"]}"#);
+        let report = |name: &str, host: &str, robots: &[&str]| MissionView {
+            name: name.into(),
+            recipe: "patrol".into(),
+            planner: "patrol".into(),
+            status: MissionStatus::Running,
+            robots: robots.iter().map(|s| s.to_string()).collect(),
+            teams: Default::default(),
+            manager: ManagerView { node: host.into(), epoch: 5 },
+            metrics: MissionMetrics::default(),
+            summary: Value::Null,
+            error: None,
+            plans: None,
+        };
+        // r3 is already in "mine": the host is told to let it go; r1 and r2 are adopted.
+        let cmds = sm.handle(1.0, Event::MissionStatus(Box::new(report("p", "h2", &["r1", "r2", "r3"]))));
+        assert_eq!(cmds, vec![Command::Ctl { mission: "p".into(), ctl: left(&["r3"]) }]);
+        assert_eq!((mission_of(&sm, "r1").as_deref(), mission_of(&sm, "r3").as_deref()), (Some("p"), Some("mine")));
+        let m = reply(sm.handle(2.0, Event::Operator { req: 2, request: Request::Missions })).expect("missions");
+        assert_eq!(m[1]["manager"]["node"], "h2");
+        assert_eq!(m[1]["robots"], serde_json::json!(["r1", "r2"]));
+        // Reports from unknown hosts or of terminated missions are not adopted.
+        assert!(sm.handle(3.0, Event::MissionStatus(Box::new(report("q", "ghost", &["r1"])))).is_empty());
+        assert_eq!(sm.status(3.0).missions, 2);
+    }
 }
