@@ -15,11 +15,14 @@ use zenoh::query::Query;
 use zenoh::sample::SampleKind;
 use zenoh::Session;
 
+use crate::agent::{Agent, AgentCommand, AgentConfig, AgentEvent};
 use crate::error::ManagerError;
 use crate::system::{Command, Event, Request, SystemManager};
 
 /// Period of the manager's housekeeping tick.
 const TICK: Duration = Duration::from_millis(250);
+/// The agent looks at the fleet every this many ticks (1 s).
+const AGENT_EVERY: u64 = 4;
 /// How long a mission host may take to plan a new mission.
 const START_TIMEOUT: Duration = Duration::from_secs(25);
 
@@ -36,6 +39,9 @@ pub struct CentralConfig {
     /// How long to wait for a robot's answer, ms.
     #[serde(default = "default_query_timeout")]
     pub query_timeout_ms: u64,
+    /// The advising agent.
+    #[serde(default)]
+    pub agent: AgentConfig,
 }
 
 fn default_listen() -> Vec<String> {
@@ -50,7 +56,12 @@ fn default_query_timeout() -> u64 {
 
 impl Default for CentralConfig {
     fn default() -> Self {
-        CentralConfig { listen: default_listen(), lease_ms: default_lease(), query_timeout_ms: default_query_timeout() }
+        CentralConfig {
+            listen: default_listen(),
+            lease_ms: default_lease(),
+            query_timeout_ms: default_query_timeout(),
+            agent: AgentConfig::default(),
+        }
     }
 }
 
@@ -74,7 +85,7 @@ impl CentralConfig {
         if !(10..=60_000).contains(&self.query_timeout_ms) {
             return Err(format!("query_timeout_ms: must be 10..=60000 (got {})", self.query_timeout_ms));
         }
-        Ok(())
+        self.agent.validate()
     }
 }
 
@@ -110,6 +121,7 @@ pub async fn run(
         .await
         .map_err(ManagerError::zenoh)?;
     let statuses = session.declare_subscriber(proto::ALL_MISSIONS_STATUS).await.map_err(ManagerError::zenoh)?;
+    let advice = session.declare_queryable(proto::AGENT_ADVICE).await.map_err(ManagerError::zenoh)?;
     let hosts = session
         .liveliness()
         .declare_subscriber(proto::ALL_HOSTS_ALIVE)
@@ -136,11 +148,37 @@ pub async fn run(
         events: ev_tx,
     };
     let mut tick = tokio::time::interval(TICK);
+    let mut agent = Agent::new(cfg.agent.clone());
+    let mut ticks = 0u64;
 
     loop {
         let event = tokio::select! {
             _ = shutdown.cancelled() => break,
-            _ = tick.tick() => Event::Tick,
+            _ = tick.tick() => {
+                ticks += 1;
+                if ticks % AGENT_EVERY == 0 {
+                    let snapshot = AgentEvent::Snapshot { robots: sm.views(), missions: sm.mission_views() };
+                    for c in agent.handle(now(), snapshot) {
+                        match c {
+                            AgentCommand::Publish(ev) => driver.publish(proto::AGENT_ADVICE_LIVE, &ev).await,
+                            AgentCommand::Move(mv) => {
+                                tracing::info!(robot = %mv.robot, to = ?mv.to, "agent acts");
+                                let req = driver.internal_req();
+                                let bytes = proto::to_json(&mv).unwrap_or_default();
+                                for cmd in sm.handle(now(), Event::Operator { req, request: Request::Move(bytes) }) {
+                                    driver.execute(cmd).await;
+                                }
+                            }
+                        }
+                    }
+                }
+                Event::Tick
+            }
+            q = advice.recv_async() => {
+                let Ok(q) = q else { break };
+                net::reply_json(&q, &agent.advice()).await;
+                continue;
+            }
             s = alive.recv_async() => {
                 let Ok(s) = s else { break };
                 match proto::parse_robot_key(s.key_expr().as_str()) {
@@ -173,7 +211,12 @@ pub async fn run(
             q = operator.recv_async() => {
                 let Ok(q) = q else { break };
                 match driver.accept(q).await {
-                    Some(e) => e,
+                    Some(e) => {
+                        if let Event::Operator { request: Request::Goto(_) | Request::Move(_) | Request::Create(_) | Request::Terminate(_), .. } = &e {
+                            agent.handle(now(), AgentEvent::OperatorCommand);
+                        }
+                        e
+                    }
                     None => continue,
                 }
             }
@@ -204,7 +247,7 @@ pub async fn run(
         }
     }
     tracing::info!("central shutting down");
-    drop((alive, telemetry, operator, statuses, hosts));
+    drop((alive, telemetry, operator, statuses, hosts, advice));
     let _ = planners.await;
     let _ = missions.await;
     session.close().await.map_err(ManagerError::zenoh)?;
@@ -239,6 +282,23 @@ impl Driver {
             }
         };
         Some(self.pend(q, request))
+    }
+
+    /// A request id for the manager's own commands: nobody waits for its reply.
+    fn internal_req(&mut self) -> u64 {
+        self.next_req += 1;
+        self.next_req - 1
+    }
+
+    async fn publish<T: serde::Serialize>(&self, key: &str, value: &T) {
+        match proto::to_json(value) {
+            Ok(bytes) => {
+                if let Err(e) = self.session.put(key, bytes).encoding(Encoding::APPLICATION_JSON).await {
+                    tracing::warn!("publication on {key} failed: {e}");
+                }
+            }
+            Err(e) => tracing::warn!("cannot encode for {key}: {e}"),
+        }
     }
 
     fn pend(&mut self, q: Query, request: Request) -> Event {

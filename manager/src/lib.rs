@@ -1,6 +1,7 @@
 //! mrmm managers: the system manager (a pure state machine, [`system`]) and the central node that
 //! drives it over Zenoh ([`central`]).
 
+pub mod agent;
 pub mod central;
 pub mod client;
 pub mod error;

@@ -332,6 +332,7 @@ impl MissionManager {
             manager: ManagerView { node: self.node.clone(), epoch: self.epoch },
             metrics: self.metrics(),
             summary,
+            params: self.spec.params.clone(),
             error: self.error.clone(),
             plans: with_plans.then(|| self.plan.as_ref().map(|(_, p)| p.plans().to_vec()).unwrap_or_default()),
         }

@@ -317,6 +317,7 @@ impl SystemManager {
                 manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0 },
                 metrics: MissionMetrics::default(),
                 summary: Value::Null,
+                params: BTreeMap::new(),
                 error: None,
                 plans: None,
             },
@@ -419,6 +420,11 @@ impl SystemManager {
         let info = rec.info.as_ref()?;
         let pose = rec.last.as_ref().map(|t| t.pose).unwrap_or_default();
         Some(RobotSpec { id: id.to_string(), robot_type: info.robot_type.clone(), x: pose.x, y: pose.y, speed: info.max_speed })
+    }
+
+    /// Every mission as the operator sees it, by name.
+    pub fn mission_views(&self) -> Vec<MissionView> {
+        self.missions.keys().map(|n| self.mission_view(n)).collect()
     }
 
     /// Registered robots, sorted by id.

@@ -169,6 +169,7 @@ mod missions {
                         manager: ManagerView { node: host, epoch: 1 },
                         metrics: MissionMetrics::default(),
                         summary: Value::Null,
+                        params: Default::default(),
                         error: None,
                         plans: None,
                     };
@@ -369,6 +370,7 @@ mod missions {
             manager: ManagerView { node: host.into(), epoch: 5 },
             metrics: MissionMetrics::default(),
             summary: Value::Null,
+            params: Default::default(),
             error: None,
             plans: None,
         };

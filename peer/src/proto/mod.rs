@@ -18,6 +18,8 @@
 //! | `mrmm/missions/<name>/view` | queryable of the mission's host | [`MissionView`] with plans | JSON |
 //! | `mrmm/missions/<name>/marginal?add=±k` | queryable of the mission's host | [`Marginal`] | JSON |
 //! | `mrmm/missions/<name>/status` | publication of the mission's host, 1 Hz | [`MissionView`] | JSON |
+//! | `mrmm/agent/advice` | queryable of the advising agent | `[`[`Advice`]`]` standing advice | JSON |
+//! | `mrmm/agent/advice/live` | publication of the advising agent | [`AdviceEvent`] | JSON |
 //! | `mrmm/system/status` | queryable on the system manager | [`SystemStatus`] | JSON |
 //! | `mrmm/system/robots`, `…/robots/<id>` | queryable on the system manager | [`RobotView`] list / one | JSON |
 //! | `mrmm/system/missions`, `…/missions/<name>` | queryable on the system manager | [`MissionView`] list / one with plans | JSON |
@@ -31,6 +33,7 @@
 //!
 //! Robot ids and mission names are single key chunks: 1 to 64 characters of `[A-Za-z0-9_-]`.
 
+mod agent;
 mod mission;
 mod operator;
 mod robot;
@@ -43,6 +46,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::PeerError;
 
+pub use agent::*;
 pub use mission::*;
 pub use operator::*;
 pub use robot::*;
@@ -70,6 +74,10 @@ pub const SYSTEM_CMD_MOVE: &str = "mrmm/system/cmd/robot/move";
 pub const SYSTEM_CMD_CREATE: &str = "mrmm/system/cmd/mission/create";
 /// Operator command: terminate a mission.
 pub const SYSTEM_CMD_TERMINATE: &str = "mrmm/system/cmd/mission/terminate";
+/// Standing advice (queryable).
+pub const AGENT_ADVICE: &str = "mrmm/agent/advice";
+/// Advice changes (publication).
+pub const AGENT_ADVICE_LIVE: &str = "mrmm/agent/advice/live";
 /// Status publications of every mission.
 pub const ALL_MISSIONS_STATUS: &str = "mrmm/missions/*/status";
 /// Liveliness tokens of every mission host.

@@ -163,6 +163,9 @@ pub struct MissionView {
     pub metrics: MissionMetrics,
     /// Planner figures (tour length, predicted idleness, coverage radius, …).
     pub summary: serde_json::Value,
+    /// The mission's recipe parameters (overrides included).
+    #[serde(default)]
+    pub params: BTreeMap<String, String>,
     #[serde(default)]
     pub error: Option<String>,
     /// Per-robot plans (only on `mrmm/system/missions/<name>`).

@@ -45,7 +45,7 @@ impl PlannerKind {
     /// Scalar parameters the planner understands.
     pub fn scalar_params(self) -> &'static [&'static str] {
         match self {
-            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks"],
+            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness"],
             PlannerKind::Coverage => &["samples", "lloyd_iterations", "minimax_iterations", "seed"],
         }
     }
@@ -318,6 +318,8 @@ pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), 
         (PlannerKind::Patrol, "rounds") if v == "forever" => Ok(()),
         (PlannerKind::Patrol, "rounds") => whole(1),
         (PlannerKind::Patrol, "max_kicks") => whole(0),
+        // The mission's standard, watched by the advising agent (robot seconds).
+        (PlannerKind::Patrol, "max_worst_idleness") => positive(),
         (PlannerKind::Coverage, "samples") => whole(100),
         (PlannerKind::Coverage, "lloyd_iterations" | "minimax_iterations") => whole(0),
         (_, "seed") => whole(0),

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use mrmm_manager::client::Client;
 use mrmm_peer::net::DEFAULT_CENTRAL;
-use mrmm_peer::proto::{self, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
+use mrmm_peer::proto::{self, Advice, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
 use serde_json::Value;
 
 #[derive(Debug, clap::Args)]
@@ -43,6 +43,8 @@ enum What {
     Mission(mission::Mission),
     /// The missions table (same as `mission list`).
     Missions,
+    /// The advising agent's standing advice, most urgent first (`mrmm/agent/advice`).
+    Advice,
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
@@ -99,6 +101,23 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
         }
         What::Mission(m) => mission::exec(client, m, json).await?,
         What::Missions => mission::exec(client, mission::Mission::List, json).await?,
+        What::Advice => {
+            let v: Value = client.query(proto::AGENT_ADVICE, none).await?;
+            if json {
+                return print_json(&v);
+            }
+            let advice: Vec<Advice> = serde_json::from_value(v)?;
+            if advice.is_empty() {
+                println!("no advice");
+            }
+            for a in advice {
+                let level = serde_json::to_value(a.priority).ok().and_then(|p| p.as_str().map(str::to_uppercase)).unwrap_or_default();
+                println!("{level:<8} {}", a.reason);
+                if let Some(s) = a.suggestion {
+                    println!("         → {s}");
+                }
+            }
+        }
     }
     Ok(())
 }

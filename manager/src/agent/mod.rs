@@ -1,0 +1,183 @@
+//! The advising agent as a state machine: it watches snapshots of the fleet and its missions and
+//! raises advice for the operator — robot lost, mission below its standard (with the predicted
+//! benefit of one more robot), idle robots available, mission manager lost or moved, robot stuck —
+//! each with a priority, a one-line reason, the numbers, and a ready-to-run command.
+//!
+//! Attention management: the same advice is not raised again while it stands; while the operator
+//! is busy (a command in the last `busy_window_s`) only critical advice interrupts and the rest
+//! waits; advice whose situation is over is withdrawn. At autonomy `act`, the agent runs its own
+//! robot moves and says so. No I/O: [`Agent::handle`] returns [`AgentCommand`]s.
+
+mod rules;
+
+use std::collections::BTreeMap;
+
+use mrmm_peer::proto::{Advice, AdviceEvent, MissionView, Pose, Priority, RobotMove, RobotView};
+use serde::{Deserialize, Serialize};
+
+/// How far the agent may go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Autonomy {
+    /// Advise only (default).
+    #[default]
+    Advise,
+    /// Run its own suggestions (robot moves) and say so.
+    Act,
+}
+
+/// Agent settings (the `agent` section of central's config).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AgentConfig {
+    pub autonomy: Autonomy,
+    /// After an operator command, only critical advice interrupts for this long, seconds.
+    pub busy_window_s: f64,
+    /// A robot driving somewhere that has moved less than `stuck_distance` for this long is stuck.
+    pub stuck_after_s: f64,
+    /// Metres.
+    pub stuck_distance: f64,
+    /// How long an event-like advice (manager moved) stands, seconds.
+    pub event_advice_s: f64,
+}
+
+impl Default for AgentConfig {
+    fn default() -> Self {
+        AgentConfig { autonomy: Autonomy::Advise, busy_window_s: 10.0, stuck_after_s: 10.0, stuck_distance: 0.2, event_advice_s: 30.0 }
+    }
+}
+
+impl AgentConfig {
+    /// Checks every value; the error is `agent.field: problem`.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v, max) in [
+            ("busy_window_s", self.busy_window_s, 3600.0),
+            ("stuck_after_s", self.stuck_after_s, 3600.0),
+            ("stuck_distance", self.stuck_distance, 1000.0),
+            ("event_advice_s", self.event_advice_s, 86400.0),
+        ] {
+            if !(v.is_finite() && v >= 0.0 && v <= max) {
+                return Err(format!("agent.{name}: must be a number in [0, {max}] (got {v})"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// What the agent is told.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AgentEvent {
+    /// The fleet and missions now.
+    Snapshot { robots: Vec<RobotView>, missions: Vec<MissionView> },
+    /// The operator issued a command.
+    OperatorCommand,
+}
+
+/// What the agent wants done.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AgentCommand {
+    /// Publish on `mrmm/agent/advice/live`.
+    Publish(AdviceEvent),
+    /// Autonomy `act`: move a robot.
+    Move(RobotMove),
+}
+
+/// A candidate piece of advice from the rules, with the action `act` may take.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Candidate {
+    pub advice: Advice,
+    pub action: Option<RobotMove>,
+}
+
+/// Memory the rules need across snapshots.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Memory {
+    /// Last mission of every robot seen alive in one.
+    pub last_mission: BTreeMap<String, String>,
+    /// Where each robot was when it last moved, and when.
+    pub last_moved: BTreeMap<String, (Pose, f64)>,
+    /// Last manager (node, epoch) of each mission, and event advice with its expiry.
+    pub managers: BTreeMap<String, String>,
+    pub events: BTreeMap<String, (Candidate, f64)>,
+}
+
+/// The advising agent.
+#[derive(Debug, Clone)]
+pub struct Agent {
+    cfg: AgentConfig,
+    standing: BTreeMap<String, Advice>,
+    queued: BTreeMap<String, Candidate>,
+    acted: std::collections::BTreeSet<String>,
+    last_operator: Option<f64>,
+    memory: Memory,
+}
+
+impl Agent {
+    pub fn new(cfg: AgentConfig) -> Self {
+        Agent { cfg, standing: BTreeMap::new(), queued: BTreeMap::new(), acted: Default::default(), last_operator: None, memory: Memory::default() }
+    }
+
+    /// Standing advice, most urgent first.
+    pub fn advice(&self) -> Vec<Advice> {
+        let mut v: Vec<Advice> = self.standing.values().cloned().collect();
+        v.sort_by(|a, b| b.priority.cmp(&a.priority).then(a.since.total_cmp(&b.since)).then(a.id.cmp(&b.id)));
+        v
+    }
+
+    /// Handles one event at `now` (seconds).
+    pub fn handle(&mut self, now: f64, ev: AgentEvent) -> Vec<AgentCommand> {
+        match ev {
+            AgentEvent::OperatorCommand => {
+                self.last_operator = Some(now);
+                vec![]
+            }
+            AgentEvent::Snapshot { robots, missions } => {
+                let fresh = rules::evaluate(&self.cfg, &mut self.memory, now, &robots, &missions);
+                self.reconcile(now, fresh)
+            }
+        }
+    }
+
+    fn busy(&self, now: f64) -> bool {
+        self.last_operator.is_some_and(|t| now - t < self.cfg.busy_window_s)
+    }
+
+    /// Raises what is new (or queues it while the operator is busy), withdraws what is over.
+    fn reconcile(&mut self, now: f64, fresh: BTreeMap<String, Candidate>) -> Vec<AgentCommand> {
+        let mut out = Vec::new();
+        let over: Vec<String> = self.standing.keys().filter(|id| !fresh.contains_key(*id)).cloned().collect();
+        for id in over {
+            self.standing.remove(&id);
+            self.acted.remove(&id);
+            out.push(AgentCommand::Publish(AdviceEvent::Withdrawn { id, reason: "resolved".into() }));
+        }
+        self.queued.retain(|id, _| fresh.contains_key(id));
+        let busy = self.busy(now);
+        for (id, mut c) in fresh {
+            if let Some(s) = self.standing.get_mut(&id) {
+                // Still standing: keep its identity and time, refresh the numbers quietly.
+                s.evidence = c.advice.evidence;
+                continue;
+            }
+            if busy && c.advice.priority < Priority::Critical {
+                self.queued.insert(id, c);
+                continue;
+            }
+            self.queued.remove(&id);
+            if self.cfg.autonomy == Autonomy::Act && !self.acted.contains(&id) {
+                if let Some(mv) = c.action.take() {
+                    self.acted.insert(id.clone());
+                    c.advice.acted = true;
+                    c.advice.reason = format!("acting: {}", c.advice.reason);
+                    out.push(AgentCommand::Move(mv));
+                }
+            }
+            self.standing.insert(id, c.advice.clone());
+            out.push(AgentCommand::Publish(AdviceEvent::Raised(c.advice)));
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests;

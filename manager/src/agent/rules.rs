@@ -1,0 +1,156 @@
+//! The agent's rules: from a snapshot (and a little memory) to candidate advice, keyed by a stable
+//! id per situation.
+
+use std::collections::BTreeMap;
+
+use mrmm_peer::proto::{Advice, MissionStatus, MissionView, Priority, RobotMove, RobotStatus, RobotView};
+use serde_json::json;
+
+use super::{AgentConfig, Candidate, Memory};
+
+fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
+    let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_deref().unwrap_or("none")));
+    Candidate { advice: Advice { id, priority, reason, evidence, suggestion, since: now, acted: false }, action }
+}
+
+/// Patrol worst idleness predicted with `n` robots: `L / (n · v)` from the mission's plan.
+fn patrol_prediction(m: &MissionView, n: usize) -> Option<f64> {
+    let l = m.summary.get("length")?.as_f64()?;
+    let v = m.summary.get("team_speed")?.as_f64()?;
+    (m.planner == "patrol" && n > 0 && v > 0.0).then(|| l / (n as f64 * v))
+}
+
+/// A robot that can be spared for `target`: an idle one first, else one from the largest other
+/// mission that keeps at least one robot (coverage missions before patrols).
+fn donor(robots: &[RobotView], missions: &[MissionView], target: &str) -> Option<(String, Option<String>)> {
+    if let Some(r) = robots.iter().find(|r| r.status == RobotStatus::Idle) {
+        return Some((r.id.clone(), None));
+    }
+    missions
+        .iter()
+        .filter(|m| m.name != target && m.robots.len() >= 2 && m.status == MissionStatus::Running)
+        .max_by_key(|m| (m.planner == "coverage", m.robots.len()))
+        .and_then(|m| m.robots.last().map(|r| (r.clone(), Some(m.name.clone()))))
+}
+
+/// All candidate advice for this snapshot.
+pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[RobotView], missions: &[MissionView]) -> BTreeMap<String, Candidate> {
+    let mut out = BTreeMap::new();
+    let by_name: BTreeMap<&str, &MissionView> = missions.iter().map(|m| (m.name.as_str(), m)).collect();
+
+    // Robot lost, and what was done about it.
+    for r in robots {
+        if r.status != RobotStatus::Lost {
+            if let Some(m) = &r.mission {
+                mem.last_mission.insert(r.id.clone(), m.clone());
+            }
+            continue;
+        }
+        let was_in = mem.last_mission.get(&r.id).cloned();
+        let (reason, evidence, action) = match was_in.as_deref().and_then(|m| by_name.get(m).map(|v| (m, v))) {
+            Some((m, v)) => {
+                let action = donor(robots, missions, m).filter(|(_, from)| from.is_none()).map(|(id, _)| RobotMove { robot: id, to: Some(m.to_string()) });
+                (
+                    format!("robot {} lost; mission {m} replanned for its {} remaining robots", r.id, v.robots.len()),
+                    json!({"robot": r.id, "mission": m, "remaining": v.robots.len(), "epoch": v.manager.epoch}),
+                    action,
+                )
+            }
+            None => (format!("robot {} lost", r.id), json!({"robot": r.id}), None),
+        };
+        out.insert(format!("lost/{}", r.id), candidate(format!("lost/{}", r.id), Priority::Critical, reason, evidence, now, action));
+    }
+
+    // Mission below its standard, with the predicted benefit of one more robot.
+    for m in missions {
+        let (Some(limit), Some(worst)) = (m.params.get("max_worst_idleness").and_then(|v| v.parse::<f64>().ok()), m.metrics.worst_idleness) else {
+            continue;
+        };
+        if worst <= limit {
+            continue;
+        }
+        let n = m.robots.len();
+        let predicted = patrol_prediction(m, n + 1);
+        let give = donor(robots, missions, &m.name);
+        let reason = match (&give, predicted) {
+            (Some((id, from)), Some(p)) => format!(
+                "{} below standard (worst idleness {worst:.0} s > {limit:.0} s): move {id}{} to {}: predicted worst idleness {worst:.0} s → {p:.0} s",
+                m.name,
+                from.as_ref().map(|f| format!(" from {f}")).unwrap_or_default(),
+                m.name
+            ),
+            _ => format!("{} below standard (worst idleness {worst:.0} s > {limit:.0} s) and no robot to spare", m.name),
+        };
+        let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()) });
+        let evidence = json!({"mission": m.name, "worst_idleness": worst, "standard": limit, "robots": n,
+                              "predicted_with_one_more": predicted, "donor": give.as_ref().map(|g| &g.0), "donor_mission": give.and_then(|g| g.1)});
+        let id = format!("standard/{}", m.name);
+        out.insert(id.clone(), candidate(id, Priority::Warning, reason, evidence, now, action));
+    }
+
+    // Idle robots while missions run: where one would help most.
+    let idle: Vec<&RobotView> = robots.iter().filter(|r| r.status == RobotStatus::Idle).collect();
+    let running: Vec<&MissionView> = missions.iter().filter(|m| m.status == MissionStatus::Running).collect();
+    if !idle.is_empty() && !running.is_empty() {
+        let best = running
+            .iter()
+            .filter_map(|m| Some((m, patrol_prediction(m, m.robots.len())? - patrol_prediction(m, m.robots.len() + 1)?)))
+            .max_by(|a, b| a.1.total_cmp(&b.1));
+        let ids: Vec<&str> = idle.iter().map(|r| r.id.as_str()).collect();
+        let (reason, action, gain) = match best {
+            Some((m, gain)) => (
+                format!("{} idle robot(s) ({}): adding {} to {} cuts its predicted worst idleness by {gain:.0} s", ids.len(), ids.join(", "), ids[0], m.name),
+                Some(RobotMove { robot: ids[0].to_string(), to: Some(m.name.clone()) }),
+                Some(gain),
+            ),
+            None => (format!("{} idle robot(s) available ({})", ids.len(), ids.join(", ")), None, None),
+        };
+        out.insert("idle".into(), candidate("idle".into(), Priority::Info, reason, json!({"idle": ids, "gain_s": gain}), now, action));
+    }
+
+    // Mission managers: host lost (stands while stalled), or moved to another node (an event).
+    for m in missions {
+        if m.status == MissionStatus::Stalled {
+            if let Some(e) = &m.error {
+                let id = format!("manager/{}", m.name);
+                out.insert(id.clone(), candidate(id, Priority::Critical, format!("mission {}: {e}", m.name), json!({"mission": m.name, "node": m.manager.node}), now, None));
+            }
+        }
+        let prev = mem.managers.insert(m.name.clone(), m.manager.node.clone());
+        if let Some(prev) = prev.filter(|p| *p != m.manager.node) {
+            let id = format!("failover/{}", m.name);
+            let c = candidate(
+                id.clone(),
+                Priority::Warning,
+                format!("mission {}: manager moved from {prev} to {} (epoch {})", m.name, m.manager.node, m.manager.epoch),
+                json!({"mission": m.name, "from": prev, "to": m.manager.node, "epoch": m.manager.epoch}),
+                now,
+                None,
+            );
+            mem.events.insert(id, (c, now + cfg.event_advice_s));
+        }
+    }
+    mem.events.retain(|_, (_, until)| *until > now);
+    for (id, (c, _)) in &mem.events {
+        out.insert(id.clone(), c.clone());
+    }
+
+    // Robots driving somewhere without getting anywhere.
+    for r in robots {
+        let Some(pose) = r.pose else { continue };
+        let driving = r.status == RobotStatus::Busy && r.behaviour.as_deref().is_some_and(|b| b.contains("goto"));
+        let entry = mem.last_moved.entry(r.id.clone()).or_insert((pose, now));
+        let moved = (pose.x - entry.0.x).hypot(pose.y - entry.0.y) > cfg.stuck_distance;
+        if moved || !driving {
+            *entry = (pose, now);
+            continue;
+        }
+        let still = now - entry.1;
+        if still >= cfg.stuck_after_s {
+            let id = format!("stuck/{}", r.id);
+            let reason = format!("robot {} has not moved for {still:.0} s while {}", r.id, r.behaviour.as_deref().unwrap_or("driving"));
+            out.insert(id.clone(), candidate(id, Priority::Warning, reason, json!({"robot": r.id, "still_s": still, "x": pose.x, "y": pose.y}), now, None));
+        }
+    }
+    out
+}

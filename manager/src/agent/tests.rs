@@ -1,0 +1,156 @@
+//! Agent rules and attention management, asserting the emitted commands.
+
+use super::*;
+use mrmm_peer::proto::{ManagerView, MissionMetrics, MissionStatus, RobotStatus};
+use serde_json::json;
+
+fn robot(id: &str, status: RobotStatus, mission: Option<&str>, x: f64, behaviour: &str) -> RobotView {
+    RobotView {
+        id: id.into(),
+        robot_type: "ground".into(),
+        capabilities: vec![],
+        status,
+        mission: mission.map(String::from),
+        pose: Some(Pose { x, y: 0.0, theta: 0.0 }),
+        behaviour: Some(behaviour.into()),
+    }
+}
+
+fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, standard: Option<f64>) -> MissionView {
+    MissionView {
+        name: name.into(),
+        recipe: planner.into(),
+        planner: planner.into(),
+        status: MissionStatus::Running,
+        robots: robots.iter().map(|s| s.to_string()).collect(),
+        teams: Default::default(),
+        manager: ManagerView { node: "central".into(), epoch: 1 },
+        metrics: MissionMetrics { worst_idleness: worst, ..MissionMetrics::default() },
+        summary: json!({"length": 120.0, "team_speed": 1.0}),
+        params: standard.map(|s| [("max_worst_idleness".to_string(), s.to_string())].into()).unwrap_or_default(),
+        error: None,
+        plans: None,
+    }
+}
+
+fn raised(cmds: &[AgentCommand]) -> Vec<(String, Priority)> {
+    cmds.iter()
+        .filter_map(|c| match c {
+            AgentCommand::Publish(AdviceEvent::Raised(a)) => Some((a.id.clone(), a.priority)),
+            _ => None,
+        })
+        .collect()
+}
+
+fn withdrawn(cmds: &[AgentCommand]) -> Vec<String> {
+    cmds.iter()
+        .filter_map(|c| match c {
+            AgentCommand::Publish(AdviceEvent::Withdrawn { id, .. }) => Some(id.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+fn snap(robots: Vec<RobotView>, missions: Vec<MissionView>) -> AgentEvent {
+    AgentEvent::Snapshot { robots, missions }
+}
+
+#[test]
+fn robot_lost_is_critical_once_and_withdrawn_when_back() {
+    let mut a = Agent::new(AgentConfig::default());
+    let p = || mission("p", "patrol", &["r1", "r2"], None, None);
+    a.handle(0.0, snap(vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), robot("r3", RobotStatus::Busy, Some("p"), 2.0, "step 1")], vec![mission("p", "patrol", &["r1", "r2", "r3"], None, None)]));
+    let lost = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), robot("r3", RobotStatus::Lost, None, 2.0, "step 1")];
+    let cmds = a.handle(1.0, snap(lost.clone(), vec![p()]));
+    assert_eq!(raised(&cmds), [("lost/r3".into(), Priority::Critical)]);
+    let adv = a.advice();
+    assert_eq!(adv[0].reason, "robot r3 lost; mission p replanned for its 2 remaining robots");
+    assert_eq!(adv[0].evidence["remaining"], 2);
+    // Not repeated while it stands.
+    assert!(raised(&a.handle(2.0, snap(lost, vec![p()]))).is_empty());
+    // Back: withdrawn.
+    let back = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), robot("r3", RobotStatus::Idle, None, 2.0, "hold")];
+    let cmds = a.handle(3.0, snap(back, vec![p()]));
+    assert_eq!(withdrawn(&cmds), ["lost/r3"]);
+}
+
+#[test]
+fn below_standard_names_the_donor_and_the_predicted_gain() {
+    let mut a = Agent::new(AgentConfig::default());
+    let robots = vec![
+        robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"),
+        robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 2"),
+        robot("r6", RobotStatus::Busy, Some("c"), 5.0, "hold"),
+        robot("r7", RobotStatus::Busy, Some("c"), 6.0, "hold"),
+    ];
+    let missions = vec![mission("p", "patrol", &["r1", "r2"], Some(70.0), Some(50.0)), mission("c", "coverage", &["r6", "r7"], None, None)];
+    let cmds = a.handle(0.0, snap(robots, missions));
+    assert_eq!(raised(&cmds), [("standard/p".into(), Priority::Warning)]);
+    let adv = &a.advice()[0];
+    assert_eq!(adv.reason, "p below standard (worst idleness 70 s > 50 s): move r7 from c to p: predicted worst idleness 70 s → 40 s");
+    assert_eq!(adv.suggestion.as_deref(), Some("mrmm op move r7 p"));
+    assert_eq!(adv.evidence["predicted_with_one_more"], 40.0);
+}
+
+#[test]
+fn idle_robots_are_pointed_where_they_help_most() {
+    let mut a = Agent::new(AgentConfig::default());
+    let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold")];
+    let cmds = a.handle(0.0, snap(robots, vec![mission("p", "patrol", &["r1"], None, None), mission("c", "coverage", &[], None, None)]));
+    assert_eq!(raised(&cmds), [("idle".into(), Priority::Info)]);
+    let adv = &a.advice()[0];
+    assert_eq!(adv.reason, "1 idle robot(s) (r4): adding r4 to p cuts its predicted worst idleness by 60 s");
+    assert_eq!(adv.suggestion.as_deref(), Some("mrmm op move r4 p"));
+}
+
+#[test]
+fn while_the_operator_is_busy_only_critical_advice_interrupts() {
+    let mut a = Agent::new(AgentConfig { busy_window_s: 10.0, ..AgentConfig::default() });
+    a.handle(0.0, AgentEvent::OperatorCommand);
+    let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold"), robot("r5", RobotStatus::Lost, None, 9.0, "hold")];
+    let ms = vec![mission("p", "patrol", &["r1"], None, None)];
+    let cmds = a.handle(1.0, snap(robots.clone(), ms.clone()));
+    assert_eq!(raised(&cmds), [("lost/r5".into(), Priority::Critical)], "info waits");
+    assert!(raised(&a.handle(5.0, snap(robots.clone(), ms.clone()))).is_empty());
+    // The operator is done: the queued advice comes out.
+    assert_eq!(raised(&a.handle(11.0, snap(robots, ms))), [("idle".into(), Priority::Info)]);
+}
+
+#[test]
+fn act_runs_the_move_and_says_so_once() {
+    let mut a = Agent::new(AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() });
+    let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold")];
+    let ms = vec![mission("p", "patrol", &["r1"], None, None)];
+    let cmds = a.handle(0.0, snap(robots.clone(), ms.clone()));
+    assert!(cmds.contains(&AgentCommand::Move(RobotMove { robot: "r4".into(), to: Some("p".into()) })));
+    let adv = &a.advice()[0];
+    assert!(adv.acted && adv.reason.starts_with("acting: "));
+    assert!(!a.handle(1.0, snap(robots, ms)).iter().any(|c| matches!(c, AgentCommand::Move(_))), "acts once");
+}
+
+#[test]
+fn manager_loss_and_failover_and_stuck_robots() {
+    let mut a = Agent::new(AgentConfig { stuck_after_s: 10.0, event_advice_s: 30.0, ..AgentConfig::default() });
+    let mut p = mission("p", "patrol", &["r1"], None, None);
+    let r = |x: f64| vec![robot("r1", RobotStatus::Busy, Some("p"), x, "step 4 goto(9.0,0.0)")];
+    a.handle(0.0, snap(r(0.0), vec![p.clone()]));
+    // Stuck: not moving for 10 s while driving.
+    assert!(raised(&a.handle(5.0, snap(r(0.05), vec![p.clone()]))).is_empty());
+    assert_eq!(raised(&a.handle(10.5, snap(r(0.1), vec![p.clone()]))), [("stuck/r1".into(), Priority::Warning)]);
+    assert_eq!(withdrawn(&a.handle(11.0, snap(r(3.0), vec![p.clone()]))), ["stuck/r1"]);
+    // The manager moves: an event advice that stands for a while.
+    p.manager = ManagerView { node: "r2".into(), epoch: 2 };
+    assert_eq!(raised(&a.handle(12.0, snap(r(4.0), vec![p.clone()]))), [("failover/p".into(), Priority::Warning)]);
+    assert_eq!(withdrawn(&a.handle(43.0, snap(r(5.0), vec![p.clone()]))), ["failover/p"]);
+    // The manager's host is lost: critical while stalled.
+    p.status = MissionStatus::Stalled;
+    p.error = Some("mission host r2 lost; its robots keep their last plans".into());
+    assert_eq!(raised(&a.handle(44.0, snap(r(6.0), vec![p]))), [("manager/p".into(), Priority::Critical)]);
+}
+
+#[test]
+fn config_is_validated() {
+    assert!(AgentConfig::default().validate().is_ok());
+    let bad = AgentConfig { stuck_after_s: f64::NAN, ..AgentConfig::default() };
+    assert!(bad.validate().expect_err("nan").starts_with("agent.stuck_after_s"));
+}

@@ -1,0 +1,39 @@
+//! Advising-agent payloads (JSON).
+
+use serde::{Deserialize, Serialize};
+
+/// How urgent a piece of advice is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Priority {
+    Info,
+    Warning,
+    Critical,
+}
+
+/// One piece of advice: what, why, the numbers, and the command that would act on it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Advice {
+    /// Stable identity: the same situation keeps the same id while it stands.
+    pub id: String,
+    pub priority: Priority,
+    /// One line for the operator.
+    pub reason: String,
+    /// The numbers behind it.
+    pub evidence: serde_json::Value,
+    /// A command ready to run (`mrmm op …`), if there is one.
+    pub suggestion: Option<String>,
+    /// Raised at (seconds since central started).
+    pub since: f64,
+    /// `act` autonomy ran the suggestion.
+    #[serde(default)]
+    pub acted: bool,
+}
+
+/// A change in the advice, published on `mrmm/agent/advice/live`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum AdviceEvent {
+    Raised(Advice),
+    Withdrawn { id: String, reason: String },
+}
