@@ -33,6 +33,12 @@ pub struct Args {
     /// No missions: drive the robots through a rotating formation with plain gotos.
     #[arg(long)]
     formation: bool,
+    /// Record the fleet view to this .rrd file (open it with `rerun FILE.rrd`).
+    #[arg(long)]
+    rrd: Option<std::path::PathBuf>,
+    /// Stream the fleet view to a running Rerun viewer, e.g. rerun+http://127.0.0.1:9876/proxy.
+    #[arg(long)]
+    viewer: Option<String>,
 }
 
 const TYPES: [&str; 2] = ["ground", "aerial"];
@@ -86,6 +92,14 @@ async fn drive(
     }
 
     let client = Client::connect(std::slice::from_ref(&endpoint), Duration::from_secs(10)).await?;
+    // The fleet view runs here, on the client's session.
+    let viz = if args.rrd.is_some() || args.viewer.is_some() {
+        let sink = super::viz::sink(args.viewer.clone(), args.rrd.clone(), false);
+        let stop = shutdown.child_token();
+        Some((tokio::spawn(mrmm_viz::run(client.session().clone(), sink, stop.clone())), stop))
+    } else {
+        None
+    };
     let tty = std::io::stdout().is_terminal();
     let deadline = args.duration.map(|d| started + Duration::from_secs_f64(d));
     let mut ticker = tokio::time::interval(Duration::from_millis(500));
@@ -134,6 +148,18 @@ async fn drive(
         }
         show(tty, started, &endpoint, n, &views, &missions);
     }
+    if let Some((task, stop)) = viz {
+        stop.cancel();
+        match task.await {
+            Ok(Ok(())) => {
+                if let Some(p) = &args.rrd {
+                    println!("mrmm demo: fleet view recorded to {}", p.display());
+                }
+            }
+            Ok(Err(e)) => eprintln!("fleet view: {e}"),
+            Err(e) => eprintln!("fleet view: {e}"),
+        }
+    }
     client.close().await;
     println!("mrmm demo: stopping");
     Ok(())
@@ -170,7 +196,12 @@ async fn start_missions(client: &Client, n: usize) {
         name: "patrol-1".into(),
         recipe: "patrol".into(),
         robots: Some(ids[..half].to_vec()),
-        params: [("waypoints".to_string(), json!([[-15, 4], [-6, 14], [5, 17], [15, 9], [11, 1], [0, 0]]))].into(),
+        params: [
+            ("waypoints".to_string(), json!([[-15, 4], [-6, 14], [5, 17], [15, 9], [11, 1], [0, 0]])),
+            // The mission's standard: the advising agent speaks up when the patrol misses it.
+            ("max_worst_idleness".to_string(), json!(15)),
+        ]
+        .into(),
         ..MissionCreate::default()
     }];
     if n > half {

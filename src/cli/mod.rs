@@ -12,6 +12,7 @@ mod robot;
 mod shutdown;
 mod table;
 mod tour;
+mod viz;
 
 use clap::{Parser, Subcommand};
 
@@ -43,13 +44,15 @@ enum Cmd {
     PlannerService(planner_service::Args),
     /// Run a mission host (mission managers) in its own process.
     MissionHost(mission_host::Args),
+    /// Live fleet view in Rerun: a viewer, a spawned viewer, or an .rrd file.
+    Viz(viz::Args),
 }
 
 impl Cli {
     /// Log filter used when RUST_LOG is not set.
     pub fn default_log_filter(&self) -> &'static str {
         match self.command {
-            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) => "warn",
+            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Viz(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) => "warn",
             _ => "info,zenoh=warn",
         }
     }
@@ -66,5 +69,6 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Plan(a) => plan::run(a),
         Cmd::PlannerService(a) => planner_service::run(a).await,
         Cmd::MissionHost(a) => mission_host::run(a).await,
+        Cmd::Viz(a) => viz::run(a).await,
     }
 }

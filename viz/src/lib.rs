@@ -1,1 +1,22 @@
-//! placeholder
+//! mrmm fleet view: subscribes to the fleet over Zenoh and streams it to Rerun — the map (patrol
+//! tours, waypoints, coverage points), each robot's pose, heading and trail coloured by mission,
+//! team membership, barrier events, the advising agent's advice, and per-mission scalars, all on
+//! one `fleet_time` timeline. Only this crate depends on rerun.
+
+pub mod bridge;
+pub mod paths;
+
+use thiserror::Error;
+
+pub use bridge::{run, Sink};
+
+/// Everything that can go wrong in the viewer bridge.
+#[derive(Debug, Error)]
+pub enum VizError {
+    #[error("rerun: {0}")]
+    Rerun(String),
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+    #[error("{0}")]
+    Config(String),
+}

@@ -155,8 +155,12 @@ impl Agent {
         let busy = self.busy(now);
         for (id, mut c) in fresh {
             if let Some(s) = self.standing.get_mut(&id) {
-                // Still standing: keep its identity and time, refresh the numbers quietly.
+                // Still standing: keep its identity and time, refresh text and numbers quietly.
                 s.evidence = c.advice.evidence;
+                s.reason = if s.acted { format!("acting: {}", c.advice.reason) } else { c.advice.reason };
+                if !s.acted {
+                    s.suggestion = c.advice.suggestion;
+                }
                 continue;
             }
             if busy && c.advice.priority < Priority::Critical {

@@ -71,10 +71,11 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
         }
         let n = m.robots.len();
         let predicted = patrol_prediction(m, n + 1);
+        let predicted_now = patrol_prediction(m, n);
         let give = donor(robots, missions, &m.name);
-        let reason = match (&give, predicted) {
-            (Some((id, from)), Some(p)) => format!(
-                "{} below standard (worst idleness {worst:.0} s > {limit:.0} s): move {id}{} to {}: predicted worst idleness {worst:.0} s → {p:.0} s",
+        let reason = match (&give, predicted_now, predicted) {
+            (Some((id, from)), Some(now_p), Some(p)) => format!(
+                "{} below standard (worst idleness {worst:.0} s > {limit:.0} s): move {id}{} to {}: predicted worst idleness {now_p:.0} s → {p:.0} s",
                 m.name,
                 from.as_ref().map(|f| format!(" from {f}")).unwrap_or_default(),
                 m.name
@@ -83,7 +84,7 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
         };
         let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()) });
         let evidence = json!({"mission": m.name, "worst_idleness": worst, "standard": limit, "robots": n,
-                              "predicted_with_one_more": predicted, "donor": give.as_ref().map(|g| &g.0), "donor_mission": give.and_then(|g| g.1)});
+                              "predicted": predicted_now, "predicted_with_one_more": predicted, "donor": give.as_ref().map(|g| &g.0), "donor_mission": give.and_then(|g| g.1)});
         let id = format!("standard/{}", m.name);
         out.insert(id.clone(), candidate(id, Priority::Warning, reason, evidence, now, action));
     }

@@ -66,8 +66,11 @@ fn robot_lost_is_critical_once_and_withdrawn_when_back() {
     let adv = a.advice();
     assert_eq!(adv[0].reason, "robot r3 lost; mission p replanned for its 2 remaining robots");
     assert_eq!(adv[0].evidence["remaining"], 2);
-    // Not repeated while it stands.
-    assert!(raised(&a.handle(2.0, snap(lost, vec![p()]))).is_empty());
+    // Not repeated while it stands; its text follows the situation quietly.
+    let mut shrunk = p();
+    shrunk.robots.pop();
+    assert!(a.handle(2.0, snap(lost, vec![shrunk])).is_empty());
+    assert_eq!(a.advice()[0].reason, "robot r3 lost; mission p replanned for its 1 remaining robots");
     // Back: withdrawn.
     let back = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), robot("r3", RobotStatus::Idle, None, 2.0, "hold")];
     let cmds = a.handle(3.0, snap(back, vec![p()]));
@@ -87,7 +90,7 @@ fn below_standard_names_the_donor_and_the_predicted_gain() {
     let cmds = a.handle(0.0, snap(robots, missions));
     assert_eq!(raised(&cmds), [("standard/p".into(), Priority::Warning)]);
     let adv = &a.advice()[0];
-    assert_eq!(adv.reason, "p below standard (worst idleness 70 s > 50 s): move r7 from c to p: predicted worst idleness 70 s → 40 s");
+    assert_eq!(adv.reason, "p below standard (worst idleness 70 s > 50 s): move r7 from c to p: predicted worst idleness 60 s → 40 s");
     assert_eq!(adv.suggestion.as_deref(), Some("mrmm op move r7 p"));
     assert_eq!(adv.evidence["predicted_with_one_more"], 40.0);
 }

@@ -45,6 +45,12 @@ enum What {
     Missions,
     /// The advising agent's standing advice, most urgent first (`mrmm/agent/advice`).
     Advice,
+    /// Live console: fleet, missions and advice, redrawn in place every second (Ctrl-C stops).
+    Watch {
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
@@ -107,17 +113,62 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
                 return print_json(&v);
             }
             let advice: Vec<Advice> = serde_json::from_value(v)?;
-            if advice.is_empty() {
-                println!("no advice");
-            }
-            for a in advice {
-                let level = serde_json::to_value(a.priority).ok().and_then(|p| p.as_str().map(str::to_uppercase)).unwrap_or_default();
-                println!("{level:<8} {}", a.reason);
-                if let Some(s) = a.suggestion {
-                    println!("         → {s}");
-                }
-            }
+            print!("{}", advice_lines(&advice));
         }
+        What::Watch { duration } => watch(client, duration).await?,
+    }
+    Ok(())
+}
+
+/// Advice as lines: level, reason, and the suggested command under it.
+fn advice_lines(advice: &[Advice]) -> String {
+    if advice.is_empty() {
+        return "no advice\n".into();
+    }
+    let mut out = String::new();
+    for a in advice {
+        let level = serde_json::to_value(a.priority).ok().and_then(|p| p.as_str().map(str::to_uppercase)).unwrap_or_default();
+        out.push_str(&format!("{level:<8} {}\n", a.reason));
+        if let Some(s) = &a.suggestion {
+            out.push_str(&format!("         → {s}\n"));
+        }
+    }
+    out
+}
+
+/// The live console.
+async fn watch(client: &Client, duration: Option<f64>) -> anyhow::Result<()> {
+    use std::io::{IsTerminal, Write};
+    let start = std::time::Instant::now();
+    let tty = std::io::stdout().is_terminal();
+    let shutdown = super::shutdown::on_signals()?;
+    let mut tick = tokio::time::interval(Duration::from_secs(1));
+    loop {
+        tokio::select! {
+            _ = shutdown.cancelled() => break,
+            _ = tick.tick() => {}
+        }
+        if duration.is_some_and(|d| start.elapsed().as_secs_f64() >= d) {
+            break;
+        }
+        let none = None::<&()>;
+        let robots: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, none).await.unwrap_or_default();
+        let missions: Vec<proto::MissionView> = client.query(proto::SYSTEM_MISSIONS, none).await.unwrap_or_default();
+        let advice: Vec<Advice> = client.query(proto::AGENT_ADVICE, none).await.unwrap_or_default();
+        let mut out = String::new();
+        if tty {
+            out.push_str("\x1b[H\x1b[2J");
+        }
+        out.push_str(&format!("mrmm watch  t={:.0}s  robots {}  missions {}  advice {}  (Ctrl-C to stop)\n\n", start.elapsed().as_secs_f64(), robots.len(), missions.len(), advice.len()));
+        out.push_str(&super::table::robots(&robots));
+        out.push('\n');
+        out.push_str(&mission::table(&missions));
+        out.push('\n');
+        out.push_str(&advice_lines(&advice));
+        out.push('\n');
+        let mut stdout = std::io::stdout().lock();
+        stdout.write_all(out.as_bytes())?;
+        stdout.flush()?;
     }
     Ok(())
 }

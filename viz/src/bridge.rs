@@ -1,0 +1,255 @@
+//! The Zenoh → Rerun bridge.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::net::ToSocketAddrs;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use mrmm_peer::proto::{self, AdviceEvent, MissionView, Priority, SyncArrival, Telemetry};
+use rerun::RecordingStream;
+use tokio_util::sync::CancellationToken;
+use zenoh::Session;
+
+use crate::{paths, VizError};
+
+/// Positions kept in a robot's trail.
+const TRAIL: usize = 60;
+/// How often to check that a viewer is reachable (`--connect`).
+const PROBE_EVERY: Duration = Duration::from_secs(5);
+
+/// Where the recording goes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Sink {
+    /// A running viewer, e.g. `rerun+http://127.0.0.1:9876/proxy`.
+    Connect(String),
+    /// An `.rrd` file.
+    Save(PathBuf),
+    /// Spawn a viewer (needs `rerun` on PATH).
+    Spawn,
+}
+
+fn rr(e: impl std::fmt::Display) -> VizError {
+    VizError::Rerun(e.to_string())
+}
+
+/// Streams the fleet seen on `session` to `sink` until `shutdown`; flushes before returning.
+pub async fn run(session: Session, sink: Sink, shutdown: CancellationToken) -> Result<(), VizError> {
+    let builder = rerun::RecordingStreamBuilder::new("mrmm_fleet");
+    let rec = match &sink {
+        Sink::Save(p) => builder.save(p).map_err(rr)?,
+        Sink::Spawn => builder.spawn().map_err(rr)?,
+        Sink::Connect(url) => builder.connect_grpc_opts(url.clone()).map_err(rr)?,
+    };
+    let probe = match &sink {
+        Sink::Connect(url) => Some(viewer_addr(url)?),
+        _ => None,
+    };
+    let z = |e: zenoh::Error| VizError::Zenoh(e.to_string());
+    let telemetry = session.declare_subscriber(proto::ALL_ROBOTS_TELEMETRY).await.map_err(z)?;
+    let statuses = session.declare_subscriber(proto::ALL_MISSIONS_STATUS).await.map_err(z)?;
+    let advice = session.declare_subscriber(proto::AGENT_ADVICE_LIVE).await.map_err(z)?;
+    let syncs = session.declare_subscriber("mrmm/team/*/sync/**").await.map_err(z)?;
+    let mut view = View::new(rec.clone());
+    let mut probe_tick = tokio::time::interval(PROBE_EVERY);
+    let mut reachable: Option<bool> = None;
+    loop {
+        tokio::select! {
+            _ = shutdown.cancelled() => break,
+            _ = probe_tick.tick(), if probe.is_some() => {
+                let addr = probe.clone().unwrap_or_default();
+                let ok = tokio::time::timeout(Duration::from_secs(1), tokio::net::TcpStream::connect(&addr)).await.is_ok_and(|r| r.is_ok());
+                if reachable != Some(ok) {
+                    if ok {
+                        tracing::info!("Rerun viewer reachable at {addr}");
+                    } else {
+                        tracing::warn!("no Rerun viewer at {addr} yet; buffering and retrying (start one with `rerun`)");
+                        eprintln!("mrmm viz: no Rerun viewer at {addr} yet; retrying every {} s", PROBE_EVERY.as_secs());
+                    }
+                    reachable = Some(ok);
+                }
+            }
+            s = telemetry.recv_async() => {
+                let Ok(s) = s else { break };
+                match proto::decode_telemetry(&s.payload().to_bytes()) {
+                    Ok(t) => view.robot(&t),
+                    Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
+                }
+            }
+            s = statuses.recv_async() => {
+                let Ok(s) = s else { break };
+                match proto::from_json::<MissionView>("mission status", &s.payload().to_bytes()) {
+                    Ok(m) => view.mission(&m),
+                    Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
+                }
+            }
+            s = advice.recv_async() => {
+                let Ok(s) = s else { break };
+                match proto::from_json::<AdviceEvent>("advice", &s.payload().to_bytes()) {
+                    Ok(a) => view.advice(&a),
+                    Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
+                }
+            }
+            s = syncs.recv_async() => {
+                let Ok(s) = s else { break };
+                if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
+                    let team = s.key_expr().as_str().split('/').nth(2).unwrap_or("?").to_string();
+                    view.sync(&team, &a);
+                }
+            }
+        }
+    }
+    rec.flush_blocking().map_err(rr)?;
+    Ok(())
+}
+
+/// `host:port` of a `rerun+http://host:port/proxy` URL, checked to resolve.
+fn viewer_addr(url: &str) -> Result<String, VizError> {
+    let rest = url.split("://").nth(1).ok_or_else(|| VizError::Config(format!("viewer URL {url:?}: expected rerun+http://HOST:PORT/proxy")))?;
+    let addr = rest.split('/').next().unwrap_or(rest).to_string();
+    addr.to_socket_addrs().map_err(|e| VizError::Config(format!("viewer URL {url:?}: {e}")))?;
+    Ok(addr)
+}
+
+/// What has been drawn, to draw only changes.
+struct View {
+    rec: RecordingStream,
+    t0: Instant,
+    trails: BTreeMap<String, VecDeque<[f32; 2]>>,
+    missions: BTreeMap<String, MissionView>,
+    colors: BTreeMap<String, [u8; 3]>,
+    teams: BTreeMap<String, String>,
+    messages: BTreeMap<String, (f64, u64)>,
+}
+
+const PALETTE: [[u8; 3]; 8] = [[230, 159, 0], [86, 180, 233], [0, 158, 115], [240, 228, 66], [0, 114, 178], [213, 94, 0], [204, 121, 167], [160, 160, 160]];
+const IDLE: [u8; 3] = [200, 200, 200];
+
+impl View {
+    fn new(rec: RecordingStream) -> Self {
+        View { rec, t0: Instant::now(), trails: BTreeMap::new(), missions: BTreeMap::new(), colors: BTreeMap::new(), teams: BTreeMap::new(), messages: BTreeMap::new() }
+    }
+
+    fn now(&self) {
+        self.rec.set_duration_secs(paths::TIMELINE, self.t0.elapsed().as_secs_f64());
+    }
+
+    fn color(&mut self, mission: Option<&str>) -> [u8; 3] {
+        let Some(m) = mission else { return IDLE };
+        let n = self.colors.len();
+        *self.colors.entry(m.to_string()).or_insert(PALETTE[n % PALETTE.len()])
+    }
+
+    fn log(&self, path: &str, what: &impl rerun::AsComponents) {
+        if let Err(e) = self.rec.log(path, what) {
+            tracing::warn!("rerun log {path}: {e}");
+        }
+    }
+
+    fn robot(&mut self, t: &Telemetry) {
+        self.now();
+        let [r, g, b] = self.color(t.mission.as_deref());
+        let color = rerun::Color::from_rgb(r, g, b);
+        let p = [t.pose.x as f32, t.pose.y as f32];
+        let team = self.teams.get(&t.id).cloned();
+        let label = match (&t.mission, team) {
+            (Some(_), Some(team)) => format!("{} · {team}", t.id),
+            (Some(m), None) => format!("{} · {m}", t.id),
+            _ => t.id.clone(),
+        };
+        self.log(&paths::robot(&t.id), &rerun::Points2D::new([p]).with_colors([color]).with_radii([0.5]).with_labels([label]));
+        let dir = [(t.pose.theta.cos() * 1.2) as f32, (t.pose.theta.sin() * 1.2) as f32];
+        self.log(&paths::robot_heading(&t.id), &rerun::Arrows2D::from_vectors([dir]).with_origins([p]).with_colors([color]));
+        let trail = self.trails.entry(t.id.clone()).or_default();
+        trail.push_back(p);
+        while trail.len() > TRAIL {
+            trail.pop_front();
+        }
+        let strip: Vec<[f32; 2]> = trail.iter().copied().collect();
+        self.log(&paths::robot_trail(&t.id), &rerun::LineStrips2D::new([strip]).with_colors([color]).with_radii([0.08]));
+    }
+
+    fn mission(&mut self, m: &MissionView) {
+        self.now();
+        let [r, g, b] = self.color(Some(&m.name));
+        let color = rerun::Color::from_rgb(r, g, b);
+        let points = |key: &str| -> Vec<[f32; 2]> {
+            m.summary
+                .get(key)
+                .and_then(|v| v.as_array())
+                .map(|a| a.iter().filter_map(|p| Some([p.get("x")?.as_f64()? as f32, p.get("y")?.as_f64()? as f32])).collect())
+                .unwrap_or_default()
+        };
+        let changed = self.missions.get(&m.name).is_none_or(|old| old.summary != m.summary || old.manager != m.manager || old.teams != m.teams);
+        if changed {
+            let tour = points("tour");
+            if !tour.is_empty() {
+                let mut closed = tour.clone();
+                closed.push(tour[0]);
+                self.log(&paths::mission_tour(&m.name), &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.clone()]));
+                self.log(&paths::mission_waypoints(&m.name), &rerun::Points2D::new(tour).with_colors([color]).with_radii([0.3]));
+            }
+            let cov = points("points");
+            if !cov.is_empty() {
+                self.log(&paths::mission_points(&m.name), &rerun::Points2D::new(cov).with_colors([color]).with_radii([0.35]).with_labels([m.name.clone()]));
+            }
+            for (team, ids) in &m.teams {
+                for id in ids {
+                    self.teams.insert(id.clone(), team.clone());
+                }
+                let text = format!("{team}: {} (manager {} epoch {})", ids.join(", "), m.manager.node, m.manager.epoch);
+                self.log(paths::TEAMS_LOG, &rerun::TextLog::new(text).with_level(rerun::TextLogLevel::INFO));
+            }
+        }
+        if let Some(w) = m.metrics.worst_idleness {
+            self.log(&paths::metric(&m.name, "worst_idleness"), &rerun::Scalars::new([w]));
+        }
+        if let Some(a) = m.metrics.avg_idleness {
+            self.log(&paths::metric(&m.name, "avg_idleness"), &rerun::Scalars::new([a]));
+        }
+        let total: u64 = m.metrics.messages.values().sum();
+        let now = self.t0.elapsed().as_secs_f64();
+        if let Some((t, n)) = self.messages.insert(m.name.clone(), (now, total)) {
+            if now > t && total >= n {
+                self.log(&paths::metric(&m.name, "coordination_msgs_per_s"), &rerun::Scalars::new([(total - n) as f64 / (now - t)]));
+            }
+        }
+        self.missions.insert(m.name.clone(), m.clone());
+    }
+
+    fn advice(&mut self, a: &AdviceEvent) {
+        self.now();
+        let (text, level) = match a {
+            AdviceEvent::Raised(a) => {
+                let level = match a.priority {
+                    Priority::Critical => rerun::TextLogLevel::CRITICAL,
+                    Priority::Warning => rerun::TextLogLevel::WARN,
+                    Priority::Info => rerun::TextLogLevel::INFO,
+                };
+                let text = match &a.suggestion {
+                    Some(s) => format!("{} → {s}", a.reason),
+                    None => a.reason.clone(),
+                };
+                (text, level)
+            }
+            AdviceEvent::Withdrawn { id, reason } => (format!("withdrawn {id}: {reason}"), rerun::TextLogLevel::DEBUG),
+        };
+        self.log(paths::ADVICE_LOG, &rerun::TextLog::new(text).with_level(level));
+    }
+
+    fn sync(&mut self, team: &str, a: &SyncArrival) {
+        self.now();
+        let text = format!("{} reached {team} barrier {} of round {} (epoch {})", a.robot, a.point, a.round, a.epoch);
+        self.log(paths::SYNC_LOG, &rerun::TextLog::new(text).with_level(rerun::TextLogLevel::DEBUG));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn viewer_urls() {
+        assert_eq!(viewer_addr("rerun+http://127.0.0.1:9876/proxy").expect("ok"), "127.0.0.1:9876");
+        assert!(viewer_addr("127.0.0.1:9876").is_err());
+    }
+}

@@ -1,0 +1,45 @@
+//! Every Rerun entity path of the fleet view, built here only.
+//!
+//! | path | archetype | what |
+//! |---|---|---|
+//! | `fleet/robots/<id>` | Points2D | robot position, coloured by mission, labelled `id · mission/type` |
+//! | `fleet/robots/<id>/heading` | Arrows2D | heading |
+//! | `fleet/robots/<id>/trail` | LineStrips2D | last positions |
+//! | `fleet/missions/<name>/tour` | LineStrips2D | closed patrol tour |
+//! | `fleet/missions/<name>/waypoints` | Points2D | patrol waypoints |
+//! | `fleet/missions/<name>/points` | Points2D | coverage points |
+//! | `events/teams` | TextLog | team membership changes |
+//! | `events/sync` | TextLog | barrier arrivals |
+//! | `advice` | TextLog | advising agent, level = priority |
+//! | `metrics/<name>/worst_idleness`, `…/avg_idleness` | Scalars | patrol idleness, robot seconds |
+//! | `metrics/<name>/coordination_msgs_per_s` | Scalars | plan + sync messages per second |
+//!
+//! Timeline: `fleet_time`, seconds since the bridge started.
+
+/// The one timeline.
+pub const TIMELINE: &str = "fleet_time";
+pub const TEAMS_LOG: &str = "events/teams";
+pub const SYNC_LOG: &str = "events/sync";
+pub const ADVICE_LOG: &str = "advice";
+
+pub fn robot(id: &str) -> String {
+    format!("fleet/robots/{id}")
+}
+pub fn robot_heading(id: &str) -> String {
+    format!("fleet/robots/{id}/heading")
+}
+pub fn robot_trail(id: &str) -> String {
+    format!("fleet/robots/{id}/trail")
+}
+pub fn mission_tour(name: &str) -> String {
+    format!("fleet/missions/{name}/tour")
+}
+pub fn mission_waypoints(name: &str) -> String {
+    format!("fleet/missions/{name}/waypoints")
+}
+pub fn mission_points(name: &str) -> String {
+    format!("fleet/missions/{name}/points")
+}
+pub fn metric(name: &str, metric: &str) -> String {
+    format!("metrics/{name}/{metric}")
+}
