@@ -125,6 +125,14 @@ fn bad_config_stops_start_up_with_one_line() -> anyhow::Result<()> {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/robot.json5: cannot read"));
 
+    let central = dir.path("central.json5");
+    std::fs::write(&central, r#"{ agent: { autonomy: "yolo" } }"#)?;
+    let out = std::process::Command::new(common::EXE).args(["central", "--config"]).arg(&central).output()?;
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("central.json5: agent.autonomy: unknown variant `yolo`"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+
     let out = std::process::Command::new(common::EXE)
         .args(["central", "--listen", "udp/127.0.0.1:1"])
         .output()?;

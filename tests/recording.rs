@@ -1,7 +1,8 @@
-//! The fleet view recorded: `mrmm demo --rrd` for a short run, with one robot killed on the way,
-//! writes a Rerun recording whose entities include every robot, the missions' map and scalars,
-//! and the advice log with the agent's critical "robot lost" entry. Decoded with Rerun's own
-//! decoder.
+//! The operator layer's scripted run: `mrmm demo --robots 6 --rrd` (central, 6 robots, a patrol
+//! held to a standard and a coverage), one robot killed, garbage published on the viewer's keys.
+//! Through the public API: a critical "robot lost" advice, a "below standard" advice with the
+//! marginal-benefit numbers; and a Rerun recording (decoded with Rerun's own decoder) whose
+//! entities include every robot, the missions' map and scalars, and the advice log.
 
 mod common;
 
@@ -9,34 +10,78 @@ use std::collections::BTreeMap;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::{start, Scratch};
+use common::{eventually, start, Scratch};
+use mrmm_manager::client::Client;
+use mrmm_peer::proto::{self, Advice, AdviceEvent, MissionView, Priority};
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
 
-#[test]
-fn demo_records_robots_missions_and_advice() -> anyhow::Result<()> {
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let dir = Scratch::new("rrd");
     let rrd = dir.path("fleet.rrd");
     let rrd_s = rrd.display().to_string();
     let mut demo = start(
         "demo",
-        &["demo", "--robots", "4", "--duration", "14", "--listen", "tcp/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s],
+        &["demo", "--robots", "6", "--duration", "40", "--listen", "tcp/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s],
         &dir.path("demo.log"),
         "mrmm demo: central on",
         Duration::from_secs(30),
     )?;
-    // Kill robot r2 once the missions run (its config lives in the demo's scratch directory).
-    std::thread::sleep(Duration::from_secs(6));
+    let ep = demo
+        .ready
+        .split_whitespace()
+        .find(|w| w.starts_with("tcp/"))
+        .map(|w| w.trim_end_matches(';').to_string())
+        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", demo.ready))?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let live = client.session().declare_subscriber(proto::AGENT_ADVICE_LIVE).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    eventually("two running missions", Duration::from_secs(20), || async {
+        let m: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
+        (m.len() == 2 && m.iter().all(|m| m.manager.epoch >= 1)).then_some(())
+    })
+    .await?;
+    // Garbage on the keys the viewer bridge and the system manager listen to.
+    for key in [proto::robot_telemetry("r3"), proto::AGENT_ADVICE_LIVE.to_string(), proto::mission_status("patrol-1"), proto::team_sync("patrol-1", 1, 0)] {
+        client.session().put(key, b"\x00\xffgarbage".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+
+    // Kill robot r2 (a patrol robot; its config lives in the demo's scratch directory).
+    while live.try_recv().ok().flatten().is_some() {}
     let pattern = format!("mrmm-demo-{}/r2.json5", demo.pid());
-    let st = Command::new("pkill").args(["-9", "-f", &pattern]).status()?;
-    anyhow::ensure!(st.success(), "could not kill r2 ({pattern})");
+    anyhow::ensure!(Command::new("pkill").args(["-9", "-f", &pattern]).status()?.success(), "could not kill r2");
+    let killed = Instant::now();
+    let lost = loop {
+        let left = Duration::from_secs(10).saturating_sub(killed.elapsed());
+        anyhow::ensure!(!left.is_zero(), "no robot-lost advice within 10 s");
+        let Ok(Ok(s)) = tokio::time::timeout(left, live.recv_async()).await else { continue };
+        if let Ok(AdviceEvent::Raised(a)) = proto::from_json::<AdviceEvent>("advice", &s.payload().to_bytes()) {
+            if a.id == "lost/r2" {
+                break a;
+            }
+        }
+    };
+    println!("robot SIGKILL → critical advice published: {:?}", killed.elapsed());
+    assert_eq!(lost.priority, Priority::Critical);
+    assert!(lost.reason.starts_with("robot r2 lost; mission patrol-1 replanned for its 2 remaining robots"), "{}", lost.reason);
+    let below = eventually("below-standard advice", Duration::from_secs(30), || async {
+        let a: Vec<Advice> = client.query(proto::AGENT_ADVICE, None::<&()>).await.ok()?;
+        a.into_iter().find(|a| a.id == "standard/patrol-1")
+    })
+    .await?;
+    assert!(below.reason.contains("to patrol-1: predicted worst idleness"), "{}", below.reason);
+    assert!(below.evidence["predicted_with_one_more"].as_f64().is_some_and(|p| p < below.evidence["predicted"].as_f64().unwrap_or(0.0)));
+    println!("advice: {} / {}", lost.reason, below.reason);
+    client.close().await;
+
+    demo.signal("INT")?;
     let t = Instant::now();
     let status = loop {
         if let Some(s) = demo.child.try_wait()? {
             break s;
         }
-        anyhow::ensure!(t.elapsed() < Duration::from_secs(40), "demo did not end");
-        std::thread::sleep(Duration::from_millis(100));
+        anyhow::ensure!(t.elapsed() < Duration::from_secs(20), "demo did not end");
+        tokio::time::sleep(Duration::from_millis(100)).await;
     };
     assert!(status.success(), "demo exit status {status}");
 
@@ -49,14 +94,30 @@ fn demo_records_robots_missions_and_advice() -> anyhow::Result<()> {
         }
     }
     let has = |p: &str| rows.get(p).copied().unwrap_or(0);
-    for r in 1..=4 {
-        assert!(has(&format!("/fleet/robots/r{r}")) > 0, "robot r{r} missing: {:?}", rows.keys().collect::<Vec<_>>());
-        assert!(has(&format!("/fleet/robots/r{r}/trail")) > 0);
+    let keys = || rows.keys().cloned().collect::<Vec<_>>();
+    for r in 1..=6 {
+        assert!(has(&format!("/fleet/robots/r{r}")) > 0, "robot r{r} missing: {:?}", keys());
+        assert!(has(&format!("/fleet/robots/r{r}/heading")) > 0 && has(&format!("/fleet/robots/r{r}/trail")) > 0);
     }
-    assert!(has("/fleet/missions/patrol-1/tour") > 0, "{:?}", rows.keys().collect::<Vec<_>>());
-    assert!(has("/fleet/missions/coverage-1/points") > 0);
-    assert!(has("/advice") > 0, "no advice logged: {:?}", rows.keys().collect::<Vec<_>>());
+    assert!(has("/fleet/missions/patrol-1/tour") > 0 && has("/fleet/missions/coverage-1/points") > 0, "{:?}", keys());
+    assert!(has("/advice") >= 2, "advice log: {:?}", keys());
     assert!(has("/events/teams") > 0 && has("/events/sync") > 0);
-    assert!(rows.keys().any(|k| k.starts_with("/metrics/patrol-1/")));
+    assert!(has("/metrics/patrol-1/worst_idleness") > 0, "{:?}", keys());
+    Ok(())
+}
+
+#[test]
+fn viz_without_a_viewer_says_so_and_keeps_going() -> anyhow::Result<()> {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+    let url = format!("rerun+http://127.0.0.1:{port}/proxy");
+    let out = Command::new(common::EXE)
+        .args(["viz", "--connect", &url, "--central", "tcp/127.0.0.1:1", "--duration", "2"])
+        .output()?;
+    assert!(out.status.success(), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no Rerun viewer at 127.0.0.1:"), "{err}");
+    let bad = Command::new(common::EXE).args(["viz", "--connect", "not-a-url", "--duration", "1"]).output()?;
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("viewer URL"));
     Ok(())
 }

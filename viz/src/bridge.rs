@@ -34,15 +34,15 @@ fn rr(e: impl std::fmt::Display) -> VizError {
 
 /// Streams the fleet seen on `session` to `sink` until `shutdown`; flushes before returning.
 pub async fn run(session: Session, sink: Sink, shutdown: CancellationToken) -> Result<(), VizError> {
+    let probe = match &sink {
+        Sink::Connect(url) => Some(viewer_addr(url)?),
+        _ => None,
+    };
     let builder = rerun::RecordingStreamBuilder::new("mrmm_fleet");
     let rec = match &sink {
         Sink::Save(p) => builder.save(p).map_err(rr)?,
         Sink::Spawn => builder.spawn().map_err(rr)?,
-        Sink::Connect(url) => builder.connect_grpc_opts(url.clone()).map_err(rr)?,
-    };
-    let probe = match &sink {
-        Sink::Connect(url) => Some(viewer_addr(url)?),
-        _ => None,
+        Sink::Connect(url) => builder.connect_grpc_opts(url.clone()).map_err(|e| VizError::Config(format!("viewer URL {url:?}: {e}")))?,
     };
     let z = |e: zenoh::Error| VizError::Zenoh(e.to_string());
     let telemetry = session.declare_subscriber(proto::ALL_ROBOTS_TELEMETRY).await.map_err(z)?;
@@ -98,8 +98,16 @@ pub async fn run(session: Session, sink: Sink, shutdown: CancellationToken) -> R
             }
         }
     }
-    rec.flush_blocking().map_err(rr)?;
-    Ok(())
+    match (rec.flush_blocking(), &sink) {
+        (Ok(()), _) => Ok(()),
+        // A viewer that never came: say so, it is not a failure of the bridge.
+        (Err(e), Sink::Connect(url)) => {
+            tracing::warn!("the fleet view was not delivered to {url}: {e}");
+            eprintln!("mrmm viz: no Rerun viewer took the recording at {url}");
+            Ok(())
+        }
+        (Err(e), _) => Err(rr(e)),
+    }
 }
 
 /// `host:port` of a `rerun+http://host:port/proxy` URL, checked to resolve.
