@@ -46,6 +46,13 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     })
     .await?;
     client.close().await;
+    // The live console shows the fleet, the missions and the advice.
+    let watch = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "watch", "--duration", "1.5"]).output()?;
+    assert!(watch.status.success(), "{watch:?}");
+    let screen = String::from_utf8_lossy(&watch.stdout);
+    for want in ["mrmm watch", "STATUS", "patrol-1", "coverage-1", "MANAGER/EPOCH"] {
+        assert!(screen.contains(want), "{want} missing from:\n{screen}");
+    }
 
     demo.signal("INT")?;
     let t = Instant::now();

@@ -100,6 +100,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
         assert!(has(&format!("/fleet/robots/r{r}/heading")) > 0 && has(&format!("/fleet/robots/r{r}/trail")) > 0);
     }
     assert!(has("/fleet/missions/patrol-1/tour") > 0 && has("/fleet/missions/coverage-1/points") > 0, "{:?}", keys());
+    assert!(has("/fleet/missions/coverage-1/region") > 0, "{:?}", keys());
     assert!(has("/advice") >= 2, "advice log: {:?}", keys());
     assert!(has("/events/teams") > 0 && has("/events/sync") > 0);
     assert!(has("/metrics/patrol-1/worst_idleness") > 0, "{:?}", keys());

@@ -59,6 +59,8 @@ impl CoverageParams {
 /// A coverage plan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CoveragePlan {
+    /// The region covered.
+    pub region: Region,
     pub points: Vec<Point>,
     /// Largest distance from a sample of the region to its nearest robot, metres.
     pub coverage_radius: f64,
@@ -95,6 +97,7 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
         .collect();
     Ok(CoveragePlan {
         hexagonal_bound: hexagonal_bound(region.area(), robots.len()),
+        region: region.clone(),
         points,
         coverage_radius: radius,
         formation_time: a.max,

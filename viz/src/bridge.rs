@@ -196,6 +196,24 @@ impl View {
                 self.log(&paths::mission_tour(&m.name), &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.clone()]));
                 self.log(&paths::mission_waypoints(&m.name), &rerun::Points2D::new(tour).with_colors([color]).with_radii([0.3]));
             }
+            if let Some(region) = m.summary.get("region") {
+                let ring = |v: &serde_json::Value| -> Vec<[f32; 2]> {
+                    let mut pts: Vec<[f32; 2]> = v
+                        .as_array()
+                        .map(|a| a.iter().filter_map(|p| Some([p.get("x")?.as_f64()? as f32, p.get("y")?.as_f64()? as f32])).collect())
+                        .unwrap_or_default();
+                    if let Some(first) = pts.first().copied() {
+                        pts.push(first);
+                    }
+                    pts
+                };
+                let mut rings = vec![ring(&region["outer"])];
+                rings.extend(region["holes"].as_array().into_iter().flatten().map(ring));
+                rings.retain(|r| r.len() > 2);
+                if !rings.is_empty() {
+                    self.log(&paths::mission_region(&m.name), &rerun::LineStrips2D::new(rings).with_colors([color]).with_radii([0.1]));
+                }
+            }
             let cov = points("points");
             if !cov.is_empty() {
                 self.log(&paths::mission_points(&m.name), &rerun::Points2D::new(cov).with_colors([color]).with_radii([0.35]).with_labels([m.name.clone()]));

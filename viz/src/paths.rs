@@ -8,6 +8,7 @@
 //! | `fleet/missions/<name>/tour` | LineStrips2D | closed patrol tour |
 //! | `fleet/missions/<name>/waypoints` | Points2D | patrol waypoints |
 //! | `fleet/missions/<name>/points` | Points2D | coverage points |
+//! | `fleet/missions/<name>/region` | LineStrips2D | coverage region: outer ring and holes |
 //! | `events/teams` | TextLog | team membership changes |
 //! | `events/sync` | TextLog | barrier arrivals |
 //! | `advice` | TextLog | advising agent, level = priority |
@@ -39,6 +40,9 @@ pub fn mission_waypoints(name: &str) -> String {
 }
 pub fn mission_points(name: &str) -> String {
     format!("fleet/missions/{name}/points")
+}
+pub fn mission_region(name: &str) -> String {
+    format!("fleet/missions/{name}/region")
 }
 pub fn metric(name: &str, metric: &str) -> String {
     format!("metrics/{name}/{metric}")

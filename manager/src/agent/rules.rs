@@ -46,7 +46,7 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
             }
             continue;
         }
-        let was_in = mem.last_mission.get(&r.id).cloned();
+        let was_in = r.last_mission.clone().or_else(|| mem.last_mission.get(&r.id).cloned());
         let (reason, evidence, action) = match was_in.as_deref().and_then(|m| by_name.get(m).map(|v| (m, v))) {
             Some((m, v)) => {
                 let action = donor(robots, missions, m).filter(|(_, from)| from.is_none()).map(|(id, _)| RobotMove { robot: id, to: Some(m.to_string()) });

@@ -13,6 +13,7 @@ fn robot(id: &str, status: RobotStatus, mission: Option<&str>, x: f64, behaviour
         mission: mission.map(String::from),
         pose: Some(Pose { x, y: 0.0, theta: 0.0 }),
         behaviour: Some(behaviour.into()),
+        last_mission: None,
     }
 }
 
@@ -75,6 +76,15 @@ fn robot_lost_is_critical_once_and_withdrawn_when_back() {
     let back = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), robot("r3", RobotStatus::Idle, None, 2.0, "hold")];
     let cmds = a.handle(3.0, snap(back, vec![p()]));
     assert_eq!(withdrawn(&cmds), ["lost/r3"]);
+}
+
+#[test]
+fn a_robot_lost_before_the_agent_ever_saw_it_working_still_says_what_was_done() {
+    let mut a = Agent::new(AgentConfig::default());
+    let mut r3 = robot("r3", RobotStatus::Lost, None, 2.0, "step 1");
+    r3.last_mission = Some("p".into());
+    a.handle(0.0, snap(vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), r3], vec![mission("p", "patrol", &["r1"], None, None)]));
+    assert_eq!(a.advice()[0].reason, "robot r3 lost; mission p replanned for its 1 remaining robots");
 }
 
 #[test]

@@ -103,6 +103,8 @@ struct Record {
     fresh: bool,
     /// When we last ordered it out of a plan it should not run.
     leave_sent: Option<f64>,
+    /// The mission it was taken out of when it was lost.
+    last_mission: Option<String>,
 }
 
 /// The registry of robots and missions, and the operator-facing logic.
@@ -151,9 +153,11 @@ impl SystemManager {
                     info_asked: None,
                     fresh: true,
                     leave_sent: None,
+                    last_mission: None,
                 });
                 rec.alive = true;
                 rec.fresh = true;
+                rec.last_mission = None;
                 // Ask again even if known: a restarted robot may have changed type or endpoints.
                 rec.info_asked = Some(now);
                 vec![Command::FetchInfo { id }]
@@ -166,7 +170,12 @@ impl SystemManager {
                     rec.alive = false;
                 }
                 match self.assignment.remove(&id) {
-                    Some(m) => vec![Command::Ctl { mission: m, ctl: MissionCtl::Left { ids: vec![id] } }],
+                    Some(m) => {
+                        if let Some(rec) = self.robots.get_mut(&id) {
+                            rec.last_mission = Some(m.clone());
+                        }
+                        vec![Command::Ctl { mission: m, ctl: MissionCtl::Left { ids: vec![id] } }]
+                    }
                     None => vec![],
                 }
             }
@@ -459,6 +468,7 @@ impl SystemManager {
             mission,
             pose: rec.last.as_ref().map(|t| t.pose),
             behaviour,
+            last_mission: if rec.alive { None } else { rec.last_mission.clone() },
         })
     }
 

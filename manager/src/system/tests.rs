@@ -302,6 +302,7 @@ mod missions {
         // A patrol robot is lost: its mission is told.
         let cmds = sm.handle(6.0, Event::RobotGone { id: "r1".into() });
         assert_eq!(settle(&mut sm, cmds).ctls, [("p".into(), left(&["r1"]))]);
+        assert_eq!(sm.view("r1").and_then(|v| v.last_mission).as_deref(), Some("p"));
         let v = reply(sm.handle(6.5, Event::Operator { req: 4, request: Request::Missions })).expect("missions");
         assert_eq!(v[1]["robots"], serde_json::json!(["r2", "r3"]));
         // A goto on a mission robot is refused; moving it out frees it.

@@ -52,6 +52,9 @@ pub struct RobotView {
     /// What the robot reported doing last (`hold`, `goto(x,y)`, `plan step 4`).
     #[serde(default)]
     pub behaviour: Option<String>,
+    /// For a lost robot: the mission it was taken out of.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub last_mission: Option<String>,
 }
 
 /// Fleet summary (`mrmm/system/status`).
