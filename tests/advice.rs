@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, start_robot_scaled, Scratch};
 use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, Advice, AdviceEvent, MissionCreate, MissionView, Priority, RobotView};
+use mrmm_peer::proto::{self, Advice, MissionCreate, MissionView, Priority};
 use serde_json::json;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -18,11 +18,7 @@ async fn advice_for_a_lost_robot_and_a_mission_below_standard() -> anyhow::Resul
     let mut robots: Vec<_> = (1..=5).map(|i| start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     let live = client.session().declare_subscriber(proto::AGENT_ADVICE_LIVE).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    eventually("5 registered robots", Duration::from_secs(15), || async {
-        let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
-        (v.len() == 5 && v.iter().all(|r| r.pose.is_some())).then_some(())
-    })
-    .await?;
+    common::wait_robots(&client, 5).await?;
     let patrol = MissionCreate {
         name: "p".into(),
         recipe: "patrol".into(),
@@ -55,16 +51,7 @@ async fn advice_for_a_lost_robot_and_a_mission_below_standard() -> anyhow::Resul
     while live.try_recv().ok().flatten().is_some() {}
     let killed = Instant::now();
     robots[3].kill();
-    let lost = loop {
-        let left = Duration::from_secs(10).saturating_sub(killed.elapsed());
-        anyhow::ensure!(!left.is_zero(), "no robot-lost advice within 10 s");
-        let Ok(Ok(s)) = tokio::time::timeout(left, live.recv_async()).await else { continue };
-        if let Ok(AdviceEvent::Raised(a)) = proto::from_json::<AdviceEvent>("advice", &s.payload().to_bytes()) {
-            if a.id == "lost/r4" {
-                break a;
-            }
-        }
-    };
+    let lost = common::wait_raised(&live, "lost/r4", Duration::from_secs(10)).await?;
     println!("robot SIGKILL → critical advice published: {:?}", killed.elapsed());
     assert_eq!(lost.priority, Priority::Critical);
     assert!(lost.reason.starts_with("robot r4 lost; mission c replanned"), "{}", lost.reason);

@@ -3,7 +3,7 @@
 
 mod common;
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use common::{eventually, Scratch};
 use mrmm_manager::client::Client;
@@ -12,19 +12,7 @@ use mrmm_peer::proto::{self, MissionStatus, MissionView, RobotView};
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()> {
     let dir = Scratch::new("demo");
-    let mut demo = common::start(
-        "demo",
-        &["demo", "--robots", "6", "--duration", "60", "--listen", "tcp/127.0.0.1:0", "--time-scale", "4"],
-        &dir.path("demo.log"),
-        "mrmm demo: central on",
-        Duration::from_secs(30),
-    )?;
-    let ep = demo
-        .ready
-        .split_whitespace()
-        .find(|w| w.starts_with("tcp/"))
-        .map(|w| w.trim_end_matches(';').to_string())
-        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", demo.ready))?;
+    let (mut demo, ep) = common::start_demo(&dir, &["--robots", "6", "--duration", "60", "--listen", "tcp/127.0.0.1:0", "--time-scale", "4"])?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
     let views = eventually("6 robots in the demo", Duration::from_secs(20), || async {
         let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
@@ -55,14 +43,7 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     }
 
     demo.signal("INT")?;
-    let t = Instant::now();
-    let status = loop {
-        if let Some(s) = demo.child.try_wait()? {
-            break s;
-        }
-        anyhow::ensure!(t.elapsed() < Duration::from_secs(15), "demo did not stop after Ctrl-C");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    };
+    let status = common::wait_exit(&mut demo, Duration::from_secs(15)).await?;
     assert!(status.success(), "demo exit status {status}");
     // Central is gone with it: a client can no longer reach the endpoint.
     assert!(Client::connect(std::slice::from_ref(&ep), Duration::from_millis(500)).await.is_err());

@@ -18,11 +18,7 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     let mut host = start("h2", &["mission-host", "--name", "h2", "--connect", &ep], &dir.path("h2.log"), "mission-host ready", Duration::from_secs(20))?;
     let _robots: Vec<_> = (1..=3).map(|i| start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    eventually("3 registered robots", Duration::from_secs(15), || async {
-        let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
-        (v.len() == 3 && v.iter().all(|r| r.pose.is_some())).then_some(())
-    })
-    .await?;
+    common::wait_robots(&client, 3).await?;
     let create = MissionCreate {
         name: "p".into(),
         recipe: "patrol".into(),

@@ -10,9 +10,9 @@ use std::collections::BTreeMap;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use common::{eventually, start, Scratch};
+use common::{eventually, Scratch};
 use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, Advice, AdviceEvent, MissionView, Priority};
+use mrmm_peer::proto::{self, Advice, MissionView, Priority};
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
 
@@ -21,19 +21,10 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let dir = Scratch::new("rrd");
     let rrd = dir.path("fleet.rrd");
     let rrd_s = rrd.display().to_string();
-    let mut demo = start(
-        "demo",
-        &["demo", "--robots", "6", "--duration", "40", "--listen", "tcp/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s],
-        &dir.path("demo.log"),
-        "mrmm demo: central on",
-        Duration::from_secs(30),
+    let (mut demo, ep) = common::start_demo(
+        &dir,
+        &["--robots", "6", "--duration", "40", "--listen", "tcp/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s],
     )?;
-    let ep = demo
-        .ready
-        .split_whitespace()
-        .find(|w| w.starts_with("tcp/"))
-        .map(|w| w.trim_end_matches(';').to_string())
-        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", demo.ready))?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     let live = client.session().declare_subscriber(proto::AGENT_ADVICE_LIVE).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("two running missions", Duration::from_secs(20), || async {
@@ -51,16 +42,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let pattern = format!("mrmm-demo-{}/r2.json5", demo.pid());
     anyhow::ensure!(Command::new("pkill").args(["-9", "-f", &pattern]).status()?.success(), "could not kill r2");
     let killed = Instant::now();
-    let lost = loop {
-        let left = Duration::from_secs(10).saturating_sub(killed.elapsed());
-        anyhow::ensure!(!left.is_zero(), "no robot-lost advice within 10 s");
-        let Ok(Ok(s)) = tokio::time::timeout(left, live.recv_async()).await else { continue };
-        if let Ok(AdviceEvent::Raised(a)) = proto::from_json::<AdviceEvent>("advice", &s.payload().to_bytes()) {
-            if a.id == "lost/r2" {
-                break a;
-            }
-        }
-    };
+    let lost = common::wait_raised(&live, "lost/r2", Duration::from_secs(10)).await?;
     println!("robot SIGKILL → critical advice published: {:?}", killed.elapsed());
     assert_eq!(lost.priority, Priority::Critical);
     assert!(lost.reason.starts_with("robot r2 lost; mission patrol-1 replanned for its 2 remaining robots"), "{}", lost.reason);
@@ -75,14 +57,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     client.close().await;
 
     demo.signal("INT")?;
-    let t = Instant::now();
-    let status = loop {
-        if let Some(s) = demo.child.try_wait()? {
-            break s;
-        }
-        anyhow::ensure!(t.elapsed() < Duration::from_secs(20), "demo did not end");
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    };
+    let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
     assert!(status.success(), "demo exit status {status}");
 
     let file = std::io::BufReader::new(std::fs::File::open(&rrd)?);

@@ -22,11 +22,7 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
         robots.push(start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)?);
     }
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    eventually("3 registered robots", Duration::from_secs(15), || async {
-        let v: Vec<proto::RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
-        (v.len() == 3 && v.iter().all(|r| r.pose.is_some())).then_some(())
-    })
-    .await?;
+    common::wait_robots(&client, 3).await?;
     let create = MissionCreate {
         name: "p".into(),
         recipe: "patrol".into(),

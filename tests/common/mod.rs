@@ -159,3 +159,57 @@ where
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
 }
+
+/// Starts `mrmm demo <args>` and returns it with the central endpoint from its first line.
+pub fn start_demo(dir: &Scratch, args: &[&str]) -> anyhow::Result<(Proc, String)> {
+    let mut all = vec!["demo"];
+    all.extend_from_slice(args);
+    let demo = start("demo", &all, &dir.path("demo.log"), "mrmm demo: central on", Duration::from_secs(30))?;
+    let ep = demo
+        .ready
+        .split_whitespace()
+        .find(|w| w.starts_with("tcp/"))
+        .map(|w| w.trim_end_matches(';').to_string())
+        .ok_or_else(|| anyhow!("no endpoint in {:?}", demo.ready))?;
+    Ok((demo, ep))
+}
+
+/// Waits until `n` robots are registered and have reported a pose.
+pub async fn wait_robots(client: &mrmm_manager::client::Client, n: usize) -> anyhow::Result<Vec<mrmm_peer::proto::RobotView>> {
+    eventually(&format!("{n} registered robots"), Duration::from_secs(15), || async {
+        let v: Vec<mrmm_peer::proto::RobotView> = client.query(mrmm_peer::proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        (v.len() == n && v.iter().all(|r| r.pose.is_some())).then_some(v)
+    })
+    .await
+}
+
+/// Waits for advice `id` to be raised on `mrmm/agent/advice/live`.
+pub async fn wait_raised(
+    live: &zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>,
+    id: &str,
+    timeout: Duration,
+) -> anyhow::Result<mrmm_peer::proto::Advice> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        anyhow::ensure!(!left.is_zero(), "no advice {id} within {timeout:?}");
+        let Ok(Ok(s)) = tokio::time::timeout(left, live.recv_async()).await else { continue };
+        if let Ok(mrmm_peer::proto::AdviceEvent::Raised(a)) = mrmm_peer::proto::from_json("advice", &s.payload().to_bytes()) {
+            if a.id == id {
+                return Ok(a);
+            }
+        }
+    }
+}
+
+/// Waits for a process to exit and returns its status.
+pub async fn wait_exit(p: &mut Proc, timeout: Duration) -> anyhow::Result<std::process::ExitStatus> {
+    let t = Instant::now();
+    loop {
+        if let Some(s) = p.child.try_wait()? {
+            return Ok(s);
+        }
+        anyhow::ensure!(t.elapsed() < timeout, "{} did not exit within {timeout:?}", p.name);
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
