@@ -6,27 +6,19 @@ mod common;
 
 use std::time::Duration;
 
-use common::{eventually, start, start_central, start_robot_scaled, Scratch};
+use common::{eventually, start, start_central, Scratch};
 use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, Marginal, MissionCreate, MissionStatus, MissionView, RobotView};
-use serde_json::json;
+use mrmm_peer::proto::{self, Marginal, MissionStatus, MissionView, RobotView};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     let dir = Scratch::new("host");
     let (_central, ep) = start_central(&dir)?;
-    let mut host = start("h2", &["mission-host", "--name", "h2", "--connect", &ep], &dir.path("h2.log"), "mission-host ready", Duration::from_secs(20))?;
-    let _robots: Vec<_> = (1..=3).map(|i| start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let mut host = common::start_host(&dir, "h2", &ep)?;
+    let _robots = common::start_robots(&dir, &ep, 3)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 3).await?;
-    let create = MissionCreate {
-        name: "p".into(),
-        recipe: "patrol".into(),
-        count: Some(3),
-        host: Some("h2".into()),
-        params: [("waypoints".to_string(), json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
-        ..MissionCreate::default()
-    };
+    let create = common::square_patrol(3, Some("h2"));
     // The system manager learns of h2 through its liveliness token.
     let created = eventually("the mission created on h2", Duration::from_secs(15), || async {
         client.query::<MissionView>(proto::SYSTEM_CMD_CREATE, Some(&create)).await.ok()
@@ -70,17 +62,10 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
 async fn a_restarted_central_adopts_the_missions_of_surviving_hosts() -> anyhow::Result<()> {
     let dir = Scratch::new("restart");
     let (mut central, ep) = start_central(&dir)?;
-    let _host = start("h2", &["mission-host", "--name", "h2", "--connect", &ep], &dir.path("h2.log"), "mission-host ready", Duration::from_secs(20))?;
-    let _robots: Vec<_> = (1..=3).map(|i| start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let _host = common::start_host(&dir, "h2", &ep)?;
+    let _robots = common::start_robots(&dir, &ep, 3)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    let create = MissionCreate {
-        name: "p".into(),
-        recipe: "patrol".into(),
-        count: Some(3),
-        host: Some("h2".into()),
-        params: [("waypoints".to_string(), json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
-        ..MissionCreate::default()
-    };
+    let create = common::square_patrol(3, Some("h2"));
     eventually("the mission created on h2", Duration::from_secs(20), || async {
         client.query::<MissionView>(proto::SYSTEM_CMD_CREATE, Some(&create)).await.ok()
     })

