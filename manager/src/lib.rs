@@ -2,6 +2,7 @@
 //! drives it over Zenoh ([`central`]).
 
 pub mod agent;
+pub mod chain;
 pub mod central;
 pub mod client;
 pub mod error;

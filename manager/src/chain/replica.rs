@@ -1,0 +1,479 @@
+//! One node's replica of one chain-replicated value: follower, candidate or head.
+
+use std::collections::BTreeSet;
+
+use super::{Command, Config, Event, Msg, Params, Version};
+
+/// What a node is doing for the value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Role {
+    Follower,
+    /// Standing for `proposal.epoch`; `was_head` when the head is changing its own chain.
+    Candidate { proposal: Config, grants: BTreeSet<String>, since: f64, was_head: bool },
+    /// Leading `config`; `committed` is the highest seq of this epoch on every chain node.
+    Head { committed: Option<u64>, last_sent: f64, last_change: f64 },
+    /// Ending the value: waiting for the chain to forget it.
+    Ending { epoch: u64, last_sent: f64, since: f64 },
+}
+
+/// One node's replica.
+#[derive(Debug, Clone)]
+pub struct Replica<S> {
+    me: String,
+    p: Params,
+    /// When this node (process) started: it does not vote during `p.quarantine`.
+    born: f64,
+    /// Highest epoch voted for or followed; never goes back.
+    promised: u64,
+    voted_for: Option<String>,
+    config: Option<Config>,
+    state: Option<(Version, S)>,
+    /// A state proposed while a chain change is being voted; replicated once it is won.
+    queued: Option<S>,
+    role: Role,
+    alive: BTreeSet<String>,
+    gone: BTreeSet<String>,
+    pool: Vec<String>,
+    /// Last time a head was heard from.
+    last_heard: f64,
+    /// Highest promise others told us of.
+    seen: u64,
+}
+
+impl<S: Clone> Replica<S> {
+    /// A replica on node `me`, started at `born`, that already promised `promised` (from a
+    /// previous replica of the same value on this node).
+    pub fn new(me: &str, p: Params, born: f64, now: f64, promised: u64) -> Self {
+        Replica {
+            me: me.to_string(),
+            p,
+            born,
+            promised,
+            voted_for: None,
+            config: None,
+            state: None,
+            queued: None,
+            role: Role::Follower,
+            alive: BTreeSet::new(),
+            gone: BTreeSet::new(),
+            pool: Vec::new(),
+            last_heard: now,
+            seen: 0,
+        }
+    }
+
+    pub fn role(&self) -> &Role {
+        &self.role
+    }
+    pub fn is_head(&self) -> bool {
+        matches!(self.role, Role::Head { .. })
+    }
+    /// Whether this node leads or is changing the chain it leads.
+    pub fn leads(&self) -> bool {
+        matches!(self.role, Role::Head { .. } | Role::Candidate { was_head: true, .. })
+    }
+    pub fn config(&self) -> Option<&Config> {
+        self.config.as_ref()
+    }
+    pub fn state(&self) -> Option<&S> {
+        self.state.as_ref().map(|(_, s)| s)
+    }
+    pub fn version(&self) -> Version {
+        self.state.as_ref().map_or((0, 0), |(v, _)| *v)
+    }
+    pub fn promised(&self) -> u64 {
+        self.promised
+    }
+    /// The highest committed seq of the current epoch, when leading.
+    pub fn committed(&self) -> Option<u64> {
+        match self.role {
+            Role::Head { committed, .. } => committed,
+            _ => None,
+        }
+    }
+
+    /// Handles one event at time `now` (seconds).
+    pub fn handle(&mut self, now: f64, ev: Event<S>) -> Vec<Command<S>> {
+        match ev {
+            Event::Tick => self.tick(now),
+            Event::Recv { from, msg } => self.recv(now, from, msg),
+            Event::Alive(n) => {
+                self.gone.remove(&n);
+                self.alive.insert(n);
+                vec![]
+            }
+            Event::Gone(n) => {
+                self.alive.remove(&n);
+                self.gone.insert(n);
+                self.tick(now)
+            }
+            Event::Create { replicas, state } => {
+                let mut chain = vec![self.me.clone()];
+                for r in replicas {
+                    if !chain.contains(&r) {
+                        chain.push(r);
+                    }
+                }
+                // The first configuration needs no vote: nobody else can create this value. A
+                // node that remembers a higher promise answers `Stale` and we re-elect above it.
+                let epoch = self.promised.max(self.seen) + 1;
+                self.promised = epoch;
+                self.voted_for = Some(self.me.clone());
+                let config = Config { epoch, chain };
+                self.config = Some(config.clone());
+                self.state = Some(((epoch, 0), state.clone()));
+                self.role = Role::Head { committed: None, last_sent: f64::NEG_INFINITY, last_change: now };
+                let mut out = vec![Command::Lead { config, state }];
+                out.extend(self.tick(now));
+                out
+            }
+            Event::Propose(s) => match &mut self.role {
+                Role::Head { .. } => {
+                    let (e, seq) = self.version();
+                    self.state = Some(((e, seq + 1), s));
+                    if let Role::Head { last_sent, .. } = &mut self.role {
+                        *last_sent = f64::NEG_INFINITY;
+                    }
+                    self.tick(now)
+                }
+                Role::Candidate { was_head: true, .. } => {
+                    self.queued = Some(s);
+                    vec![]
+                }
+                _ => vec![],
+            },
+            Event::Pool(pool) => {
+                self.pool = pool;
+                vec![]
+            }
+            Event::End => {
+                if !self.leads() {
+                    return vec![];
+                }
+                let epoch = self.promised;
+                self.role = Role::Ending { epoch, last_sent: f64::NEG_INFINITY, since: now };
+                self.tick(now)
+            }
+        }
+    }
+
+    fn tick(&mut self, now: f64) -> Vec<Command<S>> {
+        match self.role.clone() {
+            Role::Head { committed, last_sent, last_change } => self.head_tick(now, committed, last_sent, last_change),
+            Role::Candidate { since, ref proposal, .. } if now - since > self.vote_timeout(proposal.epoch) => self.retry(now),
+            Role::Candidate { .. } => vec![],
+            Role::Follower => self.maybe_stand(now),
+            Role::Ending { epoch, last_sent, since } => {
+                let next = self.config.as_ref().and_then(|c| c.next(&self.me)).map(str::to_string);
+                match next {
+                    Some(_) if now - since > 4.0 * self.p.silence => self.retire(),
+                    Some(n) if now - last_sent >= self.p.beat => {
+                        self.role = Role::Ending { epoch, last_sent: now, since };
+                        vec![Command::Send { to: n, msg: Msg::End { epoch } }]
+                    }
+                    Some(_) => vec![],
+                    None => self.retire(),
+                }
+            }
+        }
+    }
+
+    fn head_tick(&mut self, now: f64, committed: Option<u64>, last_sent: f64, last_change: f64) -> Vec<Command<S>> {
+        let Some(config) = self.config.clone() else { return vec![] };
+        let Some(((e, seq), state)) = self.state.clone() else { return vec![] };
+        let mut out = Vec::new();
+        if now - last_sent >= self.p.beat {
+            match config.next(&self.me) {
+                Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq, state } }),
+                None if committed < Some(seq) => {
+                    // Alone in the chain: on every node already.
+                    self.role = Role::Head { committed: Some(seq), last_sent: now, last_change };
+                    out.push(Command::Committed { epoch: e, seq });
+                    return out;
+                }
+                None => {}
+            }
+            self.role = Role::Head { committed, last_sent: now, last_change };
+        }
+        // Repair: once this epoch's chain holds our state, replace lost nodes and fill up to k.
+        if committed.is_some() && now - last_change >= self.p.vote_timeout {
+            let chain = self.live_chain(&config, true);
+            if chain != config.chain {
+                let epoch = self.next_epoch();
+                out.extend(self.stand(now, Config { epoch, chain }, true));
+            }
+        }
+        out
+    }
+
+    /// How long to wait for votes before trying the next epoch: longer further down the chain,
+    /// plus a jitter drawn from (node, epoch), so two candidates do not split votes forever.
+    fn vote_timeout(&self, epoch: u64) -> f64 {
+        let pos = self.config.as_ref().and_then(|c| c.chain.iter().position(|n| *n == self.me)).unwrap_or(0);
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325 ^ epoch.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        for b in self.me.bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+        }
+        let jitter = (h >> 11) as f64 / (1u64 << 53) as f64;
+        self.p.vote_timeout * (1.0 + 0.5 * pos as f64 + jitter)
+    }
+
+    fn next_epoch(&self) -> u64 {
+        self.promised.max(self.seen).max(self.config.as_ref().map_or(0, |c| c.epoch)) + 1
+    }
+
+    /// A follower of a chain stands when the head is gone and every node before it too, or when
+    /// no head was heard from for `silence` times its position.
+    fn maybe_stand(&mut self, now: f64) -> Vec<Command<S>> {
+        let Some(config) = self.config.clone() else { return vec![] };
+        let Some(pos) = config.chain.iter().position(|n| *n == self.me) else { return vec![] };
+        if pos == 0 || self.state.is_none() {
+            return vec![];
+        }
+        let before_gone = config.chain[..pos].iter().all(|n| self.gone.contains(n));
+        let silent = now - self.last_heard > self.p.silence * pos as f64;
+        if !before_gone && !silent {
+            return vec![];
+        }
+        let chain = self.live_chain(&config, false);
+        let epoch = self.next_epoch();
+        self.stand(now, Config { epoch, chain }, false)
+    }
+
+    /// This node first, then the nodes of `base` not known to be gone, then (for a head) live
+    /// nodes of the pool, up to `k + 1`.
+    fn live_chain(&self, base: &Config, from_pool: bool) -> Vec<String> {
+        let mut chain = vec![self.me.clone()];
+        chain.extend(base.chain.iter().filter(|n| **n != self.me && !self.gone.contains(*n)).cloned());
+        if from_pool {
+            for n in &self.pool {
+                if chain.len() > self.p.k {
+                    break;
+                }
+                if self.alive.contains(n) && !chain.contains(n) {
+                    chain.push(n.clone());
+                }
+            }
+        }
+        chain.truncate((self.p.k + 1).max(chain.len().min(base.chain.len())));
+        chain
+    }
+
+    /// Tries again with the next epoch, with the nodes that are alive now.
+    fn retry(&mut self, now: f64) -> Vec<Command<S>> {
+        let Role::Candidate { proposal, was_head, .. } = self.role.clone() else { return vec![] };
+        let base = self.config.clone().unwrap_or(proposal);
+        let chain = self.live_chain(&base, was_head);
+        let epoch = self.next_epoch();
+        let out = self.stand(now, Config { epoch, chain }, was_head);
+        if out.is_empty() {
+            // Not enough of the chain alive to stand: keep waiting as a candidate.
+            if let Role::Candidate { since, .. } = &mut self.role {
+                *since = now;
+            }
+        }
+        out
+    }
+
+    fn stand(&mut self, now: f64, proposal: Config, was_head: bool) -> Vec<Command<S>> {
+        let base = self.config.clone().unwrap_or_else(|| proposal.clone());
+        if !base.majority(|n| proposal.contains(n)) {
+            // Too few of the current chain left to carry its commits into a new one: wait.
+            return vec![];
+        }
+        self.promised = proposal.epoch;
+        self.voted_for = Some(self.me.clone());
+        let last = self.version();
+        let mut to: BTreeSet<&String> = base.chain.iter().collect();
+        to.extend(proposal.chain.iter());
+        let mut out: Vec<Command<S>> = to
+            .into_iter()
+            .filter(|n| **n != self.me)
+            .map(|n| Command::Send { to: n.clone(), msg: Msg::Vote { proposal: proposal.clone(), base: base.chain.clone(), last } })
+            .collect();
+        let grants = BTreeSet::from([self.me.clone()]);
+        self.role = Role::Candidate { proposal, grants, since: now, was_head };
+        out.extend(self.check_win(now));
+        out
+    }
+
+    fn check_win(&mut self, now: f64) -> Vec<Command<S>> {
+        let Role::Candidate { proposal, grants, was_head, .. } = &self.role else { return vec![] };
+        let base = self.config.as_ref().unwrap_or(proposal);
+        if !(base.majority(|n| grants.contains(n)) && proposal.majority(|n| grants.contains(n))) {
+            return vec![];
+        }
+        let (config, was_head) = (proposal.clone(), *was_head);
+        let Some((_, state)) = self.state.take() else { return vec![] };
+        let state = self.queued.take().unwrap_or(state);
+        self.config = Some(config.clone());
+        self.state = Some(((config.epoch, 0), state.clone()));
+        self.role = Role::Head { committed: None, last_sent: f64::NEG_INFINITY, last_change: now };
+        let mut out = Vec::new();
+        if !was_head {
+            out.push(Command::Lead { config, state });
+        }
+        out.extend(self.tick(now));
+        out
+    }
+
+    fn step_down(&mut self) -> Vec<Command<S>> {
+        let leading = self.leads();
+        self.role = Role::Follower;
+        self.queued = None;
+        if leading {
+            vec![Command::StepDown]
+        } else {
+            vec![]
+        }
+    }
+
+    /// Out of the chain for good: forget the value (the promise stays with the caller).
+    fn retire(&mut self) -> Vec<Command<S>> {
+        let mut out = self.step_down();
+        self.config = None;
+        self.state = None;
+        out.push(Command::Retired);
+        out
+    }
+
+    fn recv(&mut self, now: f64, from: String, msg: Msg<S>) -> Vec<Command<S>> {
+        match msg {
+            Msg::Vote { proposal, base, last } => self.on_vote(now, from, proposal, &base, last),
+            Msg::Grant { epoch } => {
+                if let Role::Candidate { proposal, grants, .. } = &mut self.role {
+                    if proposal.epoch == epoch {
+                        grants.insert(from);
+                        return self.check_win(now);
+                    }
+                }
+                vec![]
+            }
+            Msg::Refuse { epoch, promised, last } => {
+                let Role::Candidate { proposal, .. } = &self.role else { return vec![] };
+                if proposal.epoch != epoch {
+                    return vec![];
+                }
+                self.seen = self.seen.max(promised);
+                if last > self.version() {
+                    // Someone holds a newer state than ours: we must never lead it.
+                    return self.retire();
+                }
+                vec![]
+            }
+            Msg::Update { config, seq, state } => self.on_update(now, from, config, seq, state),
+            Msg::Ack { epoch, seq } => {
+                let (e, mine) = self.version();
+                if let Role::Head { committed, .. } = &mut self.role {
+                    let seq = seq.min(mine);
+                    if epoch == e && *committed < Some(seq) {
+                        *committed = Some(seq);
+                        return vec![Command::Committed { epoch, seq }];
+                    }
+                }
+                vec![]
+            }
+            Msg::Stale { promised, last } => {
+                if !self.leads() {
+                    return vec![];
+                }
+                self.seen = self.seen.max(promised);
+                if last > self.version() {
+                    return self.retire();
+                }
+                if let (Role::Head { .. }, Some(config)) = (&self.role, self.config.clone()) {
+                    // Someone promised a higher epoch to a candidate that cannot hold a newer
+                    // state than ours: lead again above it.
+                    let epoch = self.next_epoch();
+                    let chain = config.chain.iter().filter(|n| **n == self.me || !self.gone.contains(*n)).cloned().collect();
+                    return self.stand(now, Config { epoch, chain }, true);
+                }
+                vec![]
+            }
+            Msg::End { epoch } => {
+                if epoch < self.config.as_ref().map_or(0, |c| c.epoch) {
+                    return vec![];
+                }
+                let mut out = Vec::new();
+                if let Some(c) = &self.config {
+                    match c.next(&self.me) {
+                        Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::End { epoch } }),
+                        None => out.push(Command::Send { to: c.head().to_string(), msg: Msg::EndAck { epoch } }),
+                    }
+                }
+                out.extend(self.retire());
+                out
+            }
+            Msg::EndAck { epoch } => match self.role {
+                Role::Ending { epoch: e, .. } if e == epoch => self.retire(),
+                _ => vec![],
+            },
+        }
+    }
+
+    fn on_vote(&mut self, now: f64, from: String, proposal: Config, base: &[String], last: Version) -> Vec<Command<S>> {
+        let e = proposal.epoch;
+        let epoch_ok = e > self.promised || (e == self.promised && self.voted_for.as_deref() == Some(from.as_str()));
+        // A member of the candidate's chain that holds nothing lost its state (restart): its vote
+        // must not count as that of the member who held it.
+        let lost = self.state.is_none() && base.contains(&self.me);
+        // A new chain keeps a majority of the current one, so a later candidate that missed this
+        // change always meets a node that holds a newer state than its own.
+        let keeps = 2 * base.iter().filter(|n| proposal.contains(n)).count() > base.len();
+        let grant = epoch_ok && !lost && keeps && last >= self.version() && now - self.born >= self.p.quarantine;
+        if !grant {
+            return vec![Command::Send { to: from, msg: Msg::Refuse { epoch: e, promised: self.promised, last: self.version() } }];
+        }
+        if e > self.promised {
+            self.promised = e;
+            self.voted_for = Some(from.clone());
+        }
+        let mut out = if matches!(self.role, Role::Ending { .. }) { vec![] } else { self.step_down() };
+        self.last_heard = now;
+        out.push(Command::Send { to: from, msg: Msg::Grant { epoch: e } });
+        out
+    }
+
+    fn on_update(&mut self, now: f64, _from: String, config: Config, seq: u64, state: S) -> Vec<Command<S>> {
+        let e = config.epoch;
+        if e < self.promised {
+            return vec![Command::Send {
+                to: config.head().to_string(),
+                msg: Msg::Stale { promised: self.promised, last: self.version() },
+            }];
+        }
+        if config.head() == self.me {
+            return vec![];
+        }
+        let mut out = Vec::new();
+        if matches!(self.role, Role::Ending { .. }) {
+            return out;
+        }
+        // A head of epoch `e ≥ promised` exists: whatever we stood for is over.
+        out.extend(self.step_down());
+        if e > self.promised {
+            self.promised = e;
+            self.voted_for = None;
+        }
+        if !config.contains(&self.me) {
+            out.extend(self.retire());
+            return out;
+        }
+        if self.config.as_ref().is_none_or(|c| c.epoch <= e) {
+            self.config = Some(config.clone());
+        }
+        if (e, seq) > self.version() {
+            self.state = Some(((e, seq), state));
+        }
+        self.last_heard = now;
+        let Some(((se, sseq), s)) = self.state.clone() else { return out };
+        if se != e {
+            return out;
+        }
+        match config.next(&self.me) {
+            Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq: sseq, state: s } }),
+            None => out.push(Command::Send { to: config.head().to_string(), msg: Msg::Ack { epoch: e, seq: sseq } }),
+        }
+        out
+    }
+}

@@ -1,0 +1,515 @@
+//! A seeded, deterministic message-level simulation of chain replicas: an in-memory network with
+//! delay, loss, duplication, partitions, crashes and restarts (a restart loses memory), hosts that
+//! behave like `host.rs` (replicas created on the first message, promises kept while the process
+//! lives), and heads that keep proposing. The invariants are checked in [`Invariants`]; a run
+//! returns the first violation with the seed that replays it.
+
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BTreeSet, BinaryHeap};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::{Command, Config, Event, Msg, Params, Replica, Version};
+
+/// The value replicated in the simulation: the ids of every update, in order.
+pub type Log = Vec<u64>;
+
+/// How hostile the simulated world is.
+#[derive(Debug, Clone, Copy)]
+pub struct World {
+    pub nodes: usize,
+    /// Simulated seconds with faults, then `quiet` seconds healed.
+    pub duration: f64,
+    pub quiet: f64,
+    pub loss: f64,
+    pub duplicate: f64,
+    /// Message delay, uniform in `[0, max_delay]` seconds.
+    pub max_delay: f64,
+    /// Mean seconds between two crashes (of one node, restarted later), 0 for none.
+    pub crash_every: f64,
+    /// Mean seconds between two partitions, 0 for none.
+    pub partition_every: f64,
+    /// How long a partition lasts at most.
+    pub partition_for: f64,
+    /// Liveliness loss is seen this late after a partition (the lease).
+    pub lease: f64,
+}
+
+impl World {
+    /// A world for seed `seed`: a mix of faults drawn from the seed.
+    pub fn for_seed(seed: u64) -> World {
+        let mut r = ChaCha8Rng::seed_from_u64(seed ^ 0x9e37_79b9_7f4a_7c15);
+        World {
+            nodes: r.gen_range(3..=6),
+            duration: 30.0,
+            quiet: 20.0,
+            loss: [0.0, 0.01, 0.05, 0.2][r.gen_range(0..4)],
+            duplicate: [0.0, 0.02][r.gen_range(0..2)],
+            max_delay: [0.002, 0.02, 0.2][r.gen_range(0..3)],
+            crash_every: [0.0, 3.0, 8.0][r.gen_range(0..3)],
+            partition_every: [0.0, 4.0, 10.0][r.gen_range(0..3)],
+            partition_for: 6.0,
+            lease: 1.0,
+        }
+    }
+}
+
+/// What a run found.
+#[derive(Debug, Clone, Default)]
+pub struct Report {
+    pub seed: u64,
+    pub leads: usize,
+    pub commits: usize,
+    pub crashes: usize,
+    pub partitions: usize,
+    pub messages: u64,
+    /// Heads at the end, after the quiet period.
+    pub heads_at_end: usize,
+    /// Whether a majority of the final chain kept its memory (else the value may be lost).
+    pub recoverable: bool,
+    /// The trace, when asked for with [`Sim::with_trace`].
+    pub trace: Vec<String>,
+}
+
+/// The invariants, each checked in one place.
+#[derive(Debug, Default)]
+pub struct Invariants {
+    heads: BTreeMap<u64, String>,
+    committed: BTreeSet<u64>,
+}
+
+impl Invariants {
+    /// At most one head per epoch; a new head holds every committed update.
+    pub fn lead(&mut self, node: &str, config: &Config, state: &Log) -> Result<(), String> {
+        if let Some(other) = self.heads.get(&config.epoch).filter(|o| *o != node) {
+            return Err(format!("two heads in epoch {}: {other} and {node}", config.epoch));
+        }
+        self.heads.insert(config.epoch, node.to_string());
+        self.holds_committed(node, state)
+    }
+
+    /// No acknowledged update is ever lost: every commit extends all earlier ones.
+    pub fn commit(&mut self, node: &str, state: &Log) -> Result<(), String> {
+        self.holds_committed(node, state)?;
+        self.committed.extend(state.iter().copied());
+        Ok(())
+    }
+
+    fn holds_committed(&self, node: &str, state: &Log) -> Result<(), String> {
+        let have: BTreeSet<u64> = state.iter().copied().collect();
+        match self.committed.iter().find(|id| !have.contains(id)) {
+            Some(id) => Err(format!("{node} leads or commits without committed update {id}")),
+            None => Ok(()),
+        }
+    }
+}
+
+enum Delivery {
+    Msg { from: usize, to: usize, msg: Msg<Log> },
+    Live { at: usize, about: usize, up: bool },
+    Restart(usize),
+    Heal,
+}
+
+struct Node {
+    name: String,
+    up: bool,
+    born: f64,
+    replica: Option<Replica<Log>>,
+    /// Promise of a retired replica, kept while the process lives.
+    tomb: u64,
+    /// States this node proposed or led with, by version (to check commits).
+    history: BTreeMap<Version, Log>,
+    sees: BTreeSet<usize>,
+    next_proposal: f64,
+}
+
+/// One simulation run.
+pub struct Sim {
+    seed: u64,
+    w: World,
+    p: Params,
+    rng: ChaCha8Rng,
+    now: f64,
+    nodes: Vec<Node>,
+    queue: BinaryHeap<(Reverse<u64>, Reverse<u64>, usize)>,
+    pending: Vec<Option<Delivery>>,
+    seq: u64,
+    side: Vec<bool>,
+    partitioned: bool,
+    inv: Invariants,
+    next_id: u64,
+    report: Report,
+    /// Per pair, the time of the last scheduled liveliness change (keeps them in order).
+    live_at: BTreeMap<(usize, usize), f64>,
+    trace: Option<Vec<String>>,
+}
+
+const TICK: f64 = 0.01;
+
+fn ns(t: f64) -> u64 {
+    (t * 1e9) as u64
+}
+
+impl Sim {
+    pub fn new(seed: u64, w: World, p: Params) -> Sim {
+        let nodes = (0..w.nodes)
+            .map(|i| Node {
+                name: format!("n{i}"),
+                up: true,
+                born: -10.0,
+                replica: None,
+                tomb: 0,
+                history: BTreeMap::new(),
+                sees: (0..w.nodes).filter(|j| *j != i).collect(),
+                next_proposal: 0.0,
+            })
+            .collect();
+        Sim {
+            seed,
+            w,
+            p,
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            now: 0.0,
+            nodes,
+            queue: BinaryHeap::new(),
+            pending: Vec::new(),
+            seq: 0,
+            side: vec![false; w.nodes],
+            partitioned: false,
+            inv: Invariants::default(),
+            next_id: 1,
+            report: Report { seed, ..Report::default() },
+            live_at: BTreeMap::new(),
+            trace: None,
+        }
+    }
+
+    /// Keeps a readable trace of the run (for replaying a failing seed).
+    pub fn with_trace(mut self) -> Self {
+        self.trace = Some(Vec::new());
+        self
+    }
+    pub fn trace(&self) -> &[String] {
+        self.trace.as_deref().unwrap_or(&[])
+    }
+
+    fn log(&mut self, f: impl FnOnce() -> String) {
+        if let Some(t) = &mut self.trace {
+            t.push(format!("{:8.3} {}", self.now, f()));
+        }
+    }
+
+    fn schedule(&mut self, at: f64, d: Delivery) {
+        self.seq += 1;
+        self.pending.push(Some(d));
+        self.queue.push((Reverse(ns(at)), Reverse(self.seq), self.pending.len() - 1));
+    }
+
+    fn connected(&self, a: usize, b: usize) -> bool {
+        self.nodes[a].up && self.nodes[b].up && (!self.partitioned || self.side[a] == self.side[b])
+    }
+
+    /// Re-evaluates who sees whom; changes reach each observer after `delay`.
+    fn liveliness_changed(&mut self, delay: f64) {
+        for a in 0..self.nodes.len() {
+            for b in 0..self.nodes.len() {
+                if a == b || !self.nodes[a].up {
+                    continue;
+                }
+                let up = self.connected(a, b);
+                let at = (self.now + delay).max(self.live_at.get(&(a, b)).copied().unwrap_or(0.0) + 1e-6);
+                self.live_at.insert((a, b), at);
+                self.schedule(at, Delivery::Live { at: a, about: b, up });
+            }
+        }
+    }
+
+    /// Runs the simulation; `Err` names the violated invariant, the seed and the time.
+    pub fn run(mut self) -> Result<Report, (String, Vec<String>)> {
+        match self.run_inner() {
+            Ok(()) => {
+                self.report.trace = self.trace.take().unwrap_or_default();
+                Ok(self.report)
+            }
+            Err(e) => {
+                let msg = format!("seed {} at t={:.3}: {e}", self.seed, self.now);
+                Err((msg, self.trace.take().unwrap_or_default()))
+            }
+        }
+    }
+
+    fn run_inner(&mut self) -> Result<(), String> {
+        let end = self.w.duration + self.w.quiet;
+        let first: Vec<String> = self.nodes.iter().skip(1).take(self.p.k).map(|n| n.name.clone()).collect();
+        let cmds = self.replica(0).handle(0.0, Event::Create { replicas: first, state: vec![] });
+        self.nodes[0].history.insert((1, 0), vec![]);
+        self.apply(0, cmds)?;
+        let mut next_crash = self.draw(self.w.crash_every);
+        let mut next_partition = self.draw(self.w.partition_every);
+        let mut next_tick = TICK;
+        let mut crashes_in_a_row = 0;
+        while self.now < end {
+            // Next thing: a delivery or a tick.
+            let next_delivery = self.queue.peek().map(|(Reverse(t), _, _)| *t as f64 / 1e9);
+            if next_delivery.is_some_and(|t| t <= next_tick) {
+                let Some((Reverse(t), _, i)) = self.queue.pop() else { break };
+                self.now = t as f64 / 1e9;
+                if let Some(d) = self.pending[i].take() {
+                    self.deliver(d)?;
+                }
+                continue;
+            }
+            self.now = next_tick;
+            next_tick += TICK;
+            let faulty = self.now < self.w.duration;
+            if faulty && self.now >= next_crash {
+                next_crash = self.now + self.draw(self.w.crash_every);
+                // At most one node down at a time, so the chain's majority keeps its memory.
+                if self.nodes.iter().all(|n| n.up) {
+                    let i = self.rng.gen_range(0..self.nodes.len());
+                    self.crash(i);
+                    crashes_in_a_row += 1;
+                    let back = self.now + self.rng.gen_range(0.5..4.0);
+                    self.schedule(back, Delivery::Restart(i));
+                }
+            }
+            if faulty && self.now >= next_partition && !self.partitioned {
+                next_partition = self.now + self.draw(self.w.partition_every);
+                let n = self.nodes.len();
+                self.side = (0..n).map(|_| self.rng.gen_bool(0.5)).collect();
+                self.partitioned = true;
+                self.report.partitions += 1;
+                self.log(|| "partition".to_string());
+                let lease = self.w.lease;
+                self.liveliness_changed(lease);
+                let heal = self.now + self.rng.gen_range(0.5..self.w.partition_for);
+                self.schedule(heal.min(self.w.duration), Delivery::Heal);
+            }
+            for i in 0..self.nodes.len() {
+                if !self.nodes[i].up {
+                    continue;
+                }
+                let cmds = match self.nodes[i].replica.as_mut() {
+                    Some(r) => r.handle(self.now, Event::Tick),
+                    None => continue,
+                };
+                self.apply(i, cmds)?;
+                self.maybe_propose(i)?;
+            }
+        }
+        let _ = crashes_in_a_row;
+        self.finish()
+    }
+
+    fn draw(&mut self, mean: f64) -> f64 {
+        if mean <= 0.0 {
+            return f64::INFINITY;
+        }
+        self.rng.gen_range(0.2 * mean..1.8 * mean)
+    }
+
+    fn finish(&mut self) -> Result<(), String> {
+        let heads: Vec<&Node> = self.nodes.iter().filter(|n| n.up && n.replica.as_ref().is_some_and(|r| r.is_head())).collect();
+        self.report.heads_at_end = heads.len();
+        // The newest configuration any node knows, and whether a majority of it kept its state.
+        let newest = self.nodes.iter().filter_map(|n| n.replica.as_ref()?.config().cloned()).max_by_key(|c| c.epoch);
+        self.report.recoverable = newest.is_some_and(|c| {
+            c.majority(|m| self.nodes.iter().any(|n| n.name == m && n.replica.as_ref().is_some_and(|r| r.state().is_some())))
+        });
+        if heads.len() > 1 {
+            let names: Vec<String> = heads.iter().map(|n| n.name.clone()).collect();
+            return Err(format!("{} heads after healing: {}", heads.len(), names.join(", ")));
+        }
+        Ok(())
+    }
+
+    fn replica(&mut self, i: usize) -> &mut Replica<Log> {
+        let (p, now) = (self.p, self.now);
+        let n = &mut self.nodes[i];
+        if n.replica.is_none() {
+            let mut r = Replica::new(&n.name, p, n.born, now, n.tomb);
+            let names: Vec<String> = n.sees.iter().map(|j| format!("n{j}")).collect();
+            for name in names {
+                let _ = r.handle(now, Event::Alive(name));
+            }
+            n.replica = Some(r);
+        }
+        n.replica.as_mut().expect("just created")
+    }
+
+    fn crash(&mut self, i: usize) {
+        self.report.crashes += 1;
+        let n = &mut self.nodes[i];
+        n.up = false;
+        n.replica = None;
+        n.tomb = 0;
+        n.history.clear();
+        n.sees.clear();
+        let name = n.name.clone();
+        self.log(|| format!("crash {name}"));
+        self.liveliness_changed(0.05);
+    }
+
+    fn deliver(&mut self, d: Delivery) -> Result<(), String> {
+        match d {
+            Delivery::Msg { from, to, msg } => {
+                if !self.connected(from, to) {
+                    return Ok(());
+                }
+                self.report.messages += 1;
+                let from_name = self.nodes[from].name.clone();
+                if let Some(t) = &mut self.trace {
+                    t.push(format!("{:8.3} {from_name} -> n{to}: {}", self.now, short(&msg)));
+                }
+                let now = self.now;
+                let cmds = self.replica(to).handle(now, Event::Recv { from: from_name, msg });
+                self.apply(to, cmds)
+            }
+            Delivery::Live { at, about, up } => {
+                if !self.nodes[at].up {
+                    return Ok(());
+                }
+                let name = self.nodes[about].name.clone();
+                if up {
+                    self.nodes[at].sees.insert(about);
+                } else {
+                    self.nodes[at].sees.remove(&about);
+                }
+                let now = self.now;
+                let cmds = match self.nodes[at].replica.as_mut() {
+                    Some(r) => r.handle(now, if up { Event::Alive(name) } else { Event::Gone(name) }),
+                    None => return Ok(()),
+                };
+                self.apply(at, cmds)
+            }
+            Delivery::Restart(i) => {
+                let now = self.now;
+                let n = &mut self.nodes[i];
+                n.up = true;
+                n.born = now;
+                let name = n.name.clone();
+                self.log(|| format!("restart {name}"));
+                for j in 0..self.nodes.len() {
+                    if j != i && self.connected(i, j) {
+                        self.nodes[i].sees.insert(j);
+                    }
+                }
+                self.liveliness_changed(0.05);
+                Ok(())
+            }
+            Delivery::Heal => {
+                self.partitioned = false;
+                self.log(|| "heal".to_string());
+                self.liveliness_changed(0.05);
+                Ok(())
+            }
+        }
+    }
+
+    fn maybe_propose(&mut self, i: usize) -> Result<(), String> {
+        let now = self.now;
+        let leads = self.nodes[i].replica.as_ref().is_some_and(|r| r.leads());
+        if !leads || now < self.nodes[i].next_proposal {
+            return Ok(());
+        }
+        let gap = self.rng.gen_range(0.05..0.5);
+        self.nodes[i].next_proposal = now + gap;
+        let id = self.next_id;
+        self.next_id += 1;
+        let Some(r) = self.nodes[i].replica.as_mut() else { return Ok(()) };
+        let mut log = r.state().cloned().unwrap_or_default();
+        log.push(id);
+        let cmds = r.handle(now, Event::Propose(log.clone()));
+        let v = r.version();
+        if r.is_head() {
+            self.nodes[i].history.insert(v, log);
+        }
+        self.apply(i, cmds)
+    }
+
+    fn apply(&mut self, i: usize, cmds: Vec<Command<Log>>) -> Result<(), String> {
+        // Remember what a leading node holds at each version, to check what it later commits.
+        if let Some(r) = self.nodes[i].replica.as_ref().filter(|r| r.leads()) {
+            if let Some(s) = r.state() {
+                let (v, s) = (r.version(), s.clone());
+                self.nodes[i].history.entry(v).or_insert(s);
+            }
+        }
+        for c in cmds {
+            match c {
+                Command::Send { to, msg } => {
+                    let Some(j) = to.strip_prefix('n').and_then(|s| s.parse::<usize>().ok()).filter(|j| *j < self.nodes.len()) else {
+                        return Err(format!("message to unknown node {to}"));
+                    };
+                    if self.rng.gen_bool(self.w.loss.min(1.0)) {
+                        continue;
+                    }
+                    let copies = if self.rng.gen_bool(self.w.duplicate.min(1.0)) { 2 } else { 1 };
+                    for _ in 0..copies {
+                        let at = self.now + self.rng.gen_range(0.0..=self.w.max_delay);
+                        self.schedule(at, Delivery::Msg { from: i, to: j, msg: msg.clone() });
+                    }
+                }
+                Command::Lead { config, state } => {
+                    self.report.leads += 1;
+                    let name = self.nodes[i].name.clone();
+                    self.log(|| format!("{name} leads epoch {} chain {:?}", config.epoch, config.chain));
+                    self.inv.lead(&name, &config, &state)?;
+                    self.nodes[i].history.insert((config.epoch, 0), state);
+                    // Heads learn the pool from the system: every node but themselves.
+                    let pool: Vec<String> = (0..self.nodes.len()).filter(|j| *j != i).map(|j| format!("n{j}")).collect();
+                    if let Some(r) = self.nodes[i].replica.as_mut() {
+                        let _ = r.handle(self.now, Event::Pool(pool));
+                    }
+                }
+                Command::Committed { epoch, seq } => {
+                    self.report.commits += 1;
+                    let name = self.nodes[i].name.clone();
+                    // A head that changed its own chain keeps proposing: its state at (epoch, 0)
+                    // is its newest one.
+                    let state = match self.nodes[i].history.get(&(epoch, seq)) {
+                        Some(s) => s.clone(),
+                        None => match self.nodes[i].replica.as_ref().filter(|r| r.version() == (epoch, seq)).and_then(|r| r.state()) {
+                            Some(s) => s.clone(),
+                            None => return Err(format!("{name} committed ({epoch}, {seq}) it never held")),
+                        },
+                    };
+                    self.inv.commit(&name, &state)?;
+                }
+                Command::StepDown => {
+                    let name = self.nodes[i].name.clone();
+                    self.log(|| format!("{name} steps down"));
+                }
+                Command::Retired => {
+                    let n = &mut self.nodes[i];
+                    n.tomb = n.replica.as_ref().map_or(n.tomb, |r| r.promised());
+                    n.replica = None;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn short(m: &Msg<Log>) -> String {
+    match m {
+        Msg::Update { config, seq, state } => format!("Update e{} s{} {:?} len {}", config.epoch, seq, config.chain, state.len()),
+        other => format!("{other:?}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_calm_world_has_one_head_and_commits() {
+        let w = World { crash_every: 0.0, partition_every: 0.0, loss: 0.0, duplicate: 0.0, ..World::for_seed(1) };
+        let r = Sim::new(1, w, Params::default()).run().map_err(|e| e.0).expect("no violation");
+        assert_eq!(r.heads_at_end, 1);
+        assert_eq!(r.leads, 1);
+        assert!(r.commits > 50, "{r:?}");
+    }
+}

@@ -1,0 +1,160 @@
+//! Unit tests of the replica state machine: scripted message exchanges.
+
+use std::collections::BTreeMap;
+
+use super::*;
+
+type R = Replica<Vec<u32>>;
+
+fn p() -> Params {
+    Params { quarantine: 0.0, ..Params::default() }
+}
+
+/// Delivers every message at once, in order, between the given replicas; returns the other commands.
+fn settle(nodes: &mut BTreeMap<String, R>, now: f64, from: &str, cmds: Vec<Command<Vec<u32>>>) -> Vec<(String, Command<Vec<u32>>)> {
+    let mut queue: Vec<(String, Command<Vec<u32>>)> = cmds.into_iter().map(|c| (from.to_string(), c)).collect();
+    let mut out = Vec::new();
+    while !queue.is_empty() {
+        let (who, c) = queue.remove(0);
+        match c {
+            Command::Send { to, msg } => {
+                if let Some(r) = nodes.get_mut(&to) {
+                    let more = r.handle(now, Event::Recv { from: who.clone(), msg });
+                    queue.extend(more.into_iter().map(|c| (to.clone(), c)));
+                }
+            }
+            other => out.push((who, other)),
+        }
+    }
+    out
+}
+
+fn three() -> BTreeMap<String, R> {
+    ["a", "b", "c", "d"].iter().map(|n| (n.to_string(), R::new(n, p(), 0.0, 0.0, 0))).collect()
+}
+
+fn alive_all(nodes: &mut BTreeMap<String, R>) {
+    let names: Vec<String> = nodes.keys().cloned().collect();
+    for r in nodes.values_mut() {
+        for n in &names {
+            r.handle(0.0, Event::Alive(n.clone()));
+        }
+    }
+}
+
+#[test]
+fn create_replicates_and_commits_through_the_tail() {
+    let mut n = three();
+    alive_all(&mut n);
+    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
+    assert!(matches!(&cmds[0], Command::Lead { config, .. } if config.epoch == 1 && config.chain == ["a", "b", "c"]));
+    let out = settle(&mut n, 0.0, "a", cmds);
+    assert!(out.contains(&("a".to_string(), Command::Committed { epoch: 1, seq: 0 })), "{out:?}");
+    assert_eq!(n["c"].state(), Some(&vec![1]));
+    let cmds = n.get_mut("a").unwrap().handle(0.1, Event::Propose(vec![1, 2]));
+    let out = settle(&mut n, 0.1, "a", cmds);
+    assert!(out.contains(&("a".to_string(), Command::Committed { epoch: 1, seq: 1 })));
+    assert_eq!(n["b"].state(), Some(&vec![1, 2]));
+    assert_eq!(n["d"].state(), None);
+}
+
+#[test]
+fn first_live_successor_takes_over_with_the_next_epoch_and_repairs() {
+    let mut n = three();
+    alive_all(&mut n);
+    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
+    settle(&mut n, 0.0, "a", cmds);
+    n.remove("a");
+    // c hears first: it must wait for b, its predecessor.
+    assert!(n.get_mut("c").unwrap().handle(1.0, Event::Gone("a".into())).is_empty());
+    let cmds = n.get_mut("b").unwrap().handle(1.0, Event::Gone("a".into()));
+    let out = settle(&mut n, 1.0, "b", cmds);
+    assert!(
+        out.iter().any(|(w, c)| w == "b" && matches!(c, Command::Lead { config, state } if config.epoch == 2 && config.chain == ["b", "c"] && state == &vec![1])),
+        "{out:?}"
+    );
+    assert!(n["b"].is_head());
+    // Once its chain holds the state, the head fills the chain up from the pool.
+    n.get_mut("b").unwrap().handle(1.0, Event::Pool(vec!["a".into(), "c".into(), "d".into()]));
+    let cmds = n.get_mut("b").unwrap().handle(2.0, Event::Tick);
+    settle(&mut n, 2.0, "b", cmds);
+    assert_eq!(n["b"].config().map(|c| c.chain.clone()), Some(vec!["b".to_string(), "c".to_string(), "d".to_string()]));
+    assert_eq!(n["d"].state(), Some(&vec![1]));
+}
+
+#[test]
+fn an_old_head_is_fenced_and_steps_down() {
+    let mut n = three();
+    alive_all(&mut n);
+    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
+    settle(&mut n, 0.0, "a", cmds);
+    // a is cut off; b takes over with c.
+    let old = n.remove("a").unwrap();
+    let cmds = n.get_mut("b").unwrap().handle(1.0, Event::Gone("a".into()));
+    settle(&mut n, 1.0, "b", cmds);
+    n.insert("a".into(), old);
+    // The old head proposes: b refuses the old epoch, a learns of a newer state and steps down.
+    let cmds = n.get_mut("a").unwrap().handle(2.0, Event::Propose(vec![1, 9]));
+    let out = settle(&mut n, 2.0, "a", cmds);
+    assert!(out.contains(&("a".to_string(), Command::StepDown)), "{out:?}");
+    assert!(!out.iter().any(|(w, c)| w == "a" && matches!(c, Command::Committed { .. })));
+    assert!(!n["a"].is_head());
+    assert!(n["b"].is_head());
+    assert_eq!(n["c"].state(), Some(&vec![1]));
+}
+
+#[test]
+fn a_lone_replica_cannot_take_over() {
+    let mut n = three();
+    alive_all(&mut n);
+    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
+    settle(&mut n, 0.0, "a", cmds);
+    // b is cut from everyone: its votes go nowhere.
+    let b = n.get_mut("b").unwrap();
+    b.handle(1.0, Event::Gone("a".into()));
+    let cmds = b.handle(1.0, Event::Gone("c".into()));
+    assert!(cmds.iter().all(|c| matches!(c, Command::Send { msg: Msg::Vote { .. }, .. })));
+    assert!(!n["b"].is_head());
+}
+
+#[test]
+fn votes_need_an_up_to_date_candidate_and_one_per_epoch() {
+    let mut v = R::new("v", p(), 0.0, 0.0, 0);
+    let prop = |e: u64| Config { epoch: e, chain: vec!["x".into(), "v".into()] };
+    let vote = |e: u64, last: Version| Msg::Vote { proposal: prop(e), base: vec!["x".into(), "v".into()], last };
+    // No state and a member of the candidate's chain: a restarted node does not vote.
+    let out = v.handle(0.0, Event::Recv { from: "x".into(), msg: vote(3, (1, 4)) });
+    assert!(matches!(out[0], Command::Send { msg: Msg::Refuse { .. }, .. }));
+    // With state: one vote per epoch, never backwards, never for an older state.
+    v.handle(0.0, Event::Recv { from: "h".into(), msg: Msg::Update { config: Config { epoch: 1, chain: vec!["h".into(), "v".into()] }, seq: 4, state: vec![1] } });
+    let grant = |out: &Vec<Command<Vec<u32>>>| matches!(out.last(), Some(Command::Send { msg: Msg::Grant { .. }, .. }));
+    assert!(grant(&v.handle(0.0, Event::Recv { from: "x".into(), msg: vote(3, (1, 4)) })));
+    assert!(grant(&v.handle(0.0, Event::Recv { from: "x".into(), msg: vote(3, (1, 4)) })), "the same candidate again");
+    assert!(!grant(&v.handle(0.0, Event::Recv { from: "y".into(), msg: vote(3, (1, 4)) })));
+    assert!(!grant(&v.handle(0.0, Event::Recv { from: "y".into(), msg: vote(2, (1, 4)) })));
+    assert!(!grant(&v.handle(0.0, Event::Recv { from: "y".into(), msg: vote(4, (1, 3)) })));
+    assert!(grant(&v.handle(0.0, Event::Recv { from: "y".into(), msg: vote(4, (1, 4)) })));
+}
+
+#[test]
+fn quarantine_blocks_votes_of_a_fresh_process() {
+    let mut v = R::new("v", Params::default(), 10.0, 10.5, 0);
+    let msg = Msg::Vote { proposal: Config { epoch: 1, chain: vec!["x".into(), "v".into()] }, base: vec!["x".into()], last: (0, 0) };
+    let out = v.handle(10.5, Event::Recv { from: "x".into(), msg: msg.clone() });
+    assert!(matches!(out[0], Command::Send { msg: Msg::Refuse { .. }, .. }));
+    let out = v.handle(12.5, Event::Recv { from: "x".into(), msg });
+    assert!(matches!(out[0], Command::Send { msg: Msg::Grant { epoch: 1 }, .. }));
+}
+
+#[test]
+fn ending_reaches_the_tail_and_retires_everyone() {
+    let mut n = three();
+    alive_all(&mut n);
+    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
+    settle(&mut n, 0.0, "a", cmds);
+    let cmds = n.get_mut("a").unwrap().handle(1.0, Event::End);
+    let out = settle(&mut n, 1.0, "a", cmds);
+    for who in ["a", "b", "c"] {
+        assert!(out.contains(&(who.to_string(), Command::Retired)), "{who}: {out:?}");
+    }
+}
