@@ -1,6 +1,7 @@
 //! A mission managed on another node: `mrmm mission-host --name h2` in its own process runs the
-//! mission's manager (plans, barriers, metrics, marginal benefit); when that process is killed the
-//! mission shows as stalled with the reason, and its robots keep executing their last plans.
+//! mission's manager (plans, barriers, metrics, marginal benefit). Its state is replicated on two
+//! of its robots: when h2 is SIGKILLed, the first replica takes over with a higher chain epoch,
+//! the robots go on, and the operator reaches the manager on its new node.
 
 mod common;
 
@@ -36,14 +37,42 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     let bad = client.query::<Marginal>(&format!("{}?add=zero", proto::mission_marginal("p")), None::<&()>).await;
     assert!(bad.expect_err("bad add").to_string().contains("add=zero"));
 
+    let before: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await?;
+    assert_eq!(before.manager.chain.len(), 3, "head and two replicas: {:?}", before.manager);
+    assert_eq!(before.manager.chain[0], "h2");
+    let successor = before.manager.chain[1].clone();
+    // Watch the mission's status publications: the first one from another node is the takeover.
+    let statuses = client.session().declare_subscriber(proto::mission_status("p")).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     host.kill();
-    let m = eventually("the mission stalled with its reason", Duration::from_secs(10), || async {
-        let ms: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
-        ms.into_iter().find(|m| m.name == "p" && m.status == MissionStatus::Stalled)
+    let killed = std::time::Instant::now();
+    let took_over = tokio::time::timeout(Duration::from_secs(10), async {
+        loop {
+            let s = statuses.recv_async().await.ok()?;
+            let v: MissionView = serde_json::from_slice(&s.payload().to_bytes()).ok()?;
+            if v.manager.node != "h2" {
+                return Some(v);
+            }
+        }
+    })
+    .await
+    .ok()
+    .flatten()
+    .ok_or_else(|| anyhow::anyhow!("no replica took the mission over"))?;
+    println!("takeover: {} ms after SIGKILL of the head, by {}", killed.elapsed().as_millis(), took_over.manager.node);
+    assert_eq!(took_over.manager.node, successor, "the first live successor takes over");
+    assert!(took_over.manager.chain_epoch > before.manager.chain_epoch);
+    assert_eq!(took_over.robots.len(), 3);
+    assert_eq!(took_over.manager.epoch, before.manager.epoch, "same plans: the robots are not disturbed");
+    // The operator reaches the manager on its new node; the chain is repaired to two replicas.
+    let m = eventually("the system manager following the new head", Duration::from_secs(10), || async {
+        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        (m.manager.node == successor && m.status == MissionStatus::Running && m.manager.chain.len() == 3).then_some(m)
     })
     .await?;
-    assert!(m.error.as_deref().is_some_and(|e| e.contains("h2 lost")), "{:?}", m.error);
-    // The robots keep executing their last plans.
+    assert!(!m.manager.chain.contains(&"h2".to_string()), "{:?}", m.manager);
+    let g: Marginal = client.query(&format!("{}?add=1", proto::mission_marginal("p")), None::<&()>).await?;
+    assert_eq!(g.robots, 3);
+    // The robots keep executing their plans.
     let before: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await?;
     eventually("robots still moving", Duration::from_secs(10), || async {
         let now: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;

@@ -89,6 +89,10 @@ impl Robot {
                     if e.mission() == a.mission && e.epoch() > a.epoch {
                         return Err(format!("stale epoch {} for mission {} (running epoch {})", a.epoch, a.mission, e.epoch()));
                     }
+                    if e.assignment == **a {
+                        // The same plan again (a new head re-sending after a takeover): go on.
+                        return Ok((CommandAck { ok: true, robot: self.cfg.id.clone(), behaviour: self.behaviour() }, change));
+                    }
                 }
                 tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
                 self.body.hold();
@@ -219,8 +223,24 @@ pub async fn run(
     shutdown: CancellationToken,
     ready: Option<oneshot::Sender<Ready>>,
 ) -> Result<(), PeerError> {
+    let session = open(&cfg).await?;
+    run_on(session, cfg, shutdown, ready).await
+}
+
+/// Opens the robot's Zenoh session as its config says.
+pub async fn open(cfg: &RobotConfig) -> Result<Session, PeerError> {
     let z = &cfg.zenoh;
-    let session = net::open(net::zenoh_config(Mode::Peer, &z.listen, &z.connect, z.lease_ms)?).await?;
+    net::open(net::zenoh_config(Mode::Peer, &z.listen, &z.connect, z.lease_ms)?).await
+}
+
+/// Runs a robot on an open session (shared with other services of the same process, such as
+/// a mission host).
+pub async fn run_on(
+    session: Session,
+    cfg: RobotConfig,
+    shutdown: CancellationToken,
+    ready: Option<oneshot::Sender<Ready>>,
+) -> Result<(), PeerError> {
     let id = cfg.id.clone();
     let mut robot = Robot::new(cfg.clone());
     let endpoints = net::listening_endpoints(&session).await;

@@ -25,7 +25,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         status: MissionStatus::Running,
         robots: robots.iter().map(|s| s.to_string()).collect(),
         teams: Default::default(),
-        manager: ManagerView { node: "central".into(), epoch: 1 },
+        manager: ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec![] },
         metrics: MissionMetrics { worst_idleness: worst, ..MissionMetrics::default() },
         summary: json!({"length": 120.0, "team_speed": 1.0}),
         params: standard.map(|s| [("max_worst_idleness".to_string(), s.to_string())].into()).unwrap_or_default(),
@@ -152,7 +152,7 @@ fn manager_loss_and_failover_and_stuck_robots() {
     assert_eq!(raised(&a.handle(10.5, snap(r(0.1), vec![p.clone()]))), [("stuck/r1".into(), Priority::Warning)]);
     assert_eq!(withdrawn(&a.handle(11.0, snap(r(3.0), vec![p.clone()]))), ["stuck/r1"]);
     // The manager moves: an event advice that stands for a while.
-    p.manager = ManagerView { node: "r2".into(), epoch: 2 };
+    p.manager = ManagerView { node: "r2".into(), epoch: 2, chain_epoch: 1, chain: vec![] };
     assert_eq!(raised(&a.handle(12.0, snap(r(4.0), vec![p.clone()]))), [("failover/p".into(), Priority::Warning)]);
     assert_eq!(withdrawn(&a.handle(43.0, snap(r(5.0), vec![p.clone()]))), ["failover/p"]);
     // The manager's host is lost: critical while stalled.

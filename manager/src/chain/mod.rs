@@ -126,8 +126,9 @@ pub enum Event<S> {
     Create { replicas: Vec<String>, state: S },
     /// Head only: replicate a new state.
     Propose(S),
-    /// Head only: nodes that may join the chain when one is missing, best first.
-    Pool(Vec<String>),
+    /// Head only: nodes that may join the chain when one is missing, best first, and how many
+    /// replicas the chain should have.
+    Pool { nodes: Vec<String>, k: usize },
     /// Head only: end the replicated value on every node of the chain.
     End,
 }

@@ -38,6 +38,8 @@ pub struct Replica<S> {
     last_heard: f64,
     /// Highest promise others told us of.
     seen: u64,
+    /// The value was ended (terminated), not just left.
+    ended: bool,
 }
 
 impl<S: Clone> Replica<S> {
@@ -59,6 +61,7 @@ impl<S: Clone> Replica<S> {
             pool: Vec::new(),
             last_heard: now,
             seen: 0,
+            ended: false,
         }
     }
 
@@ -83,6 +86,10 @@ impl<S: Clone> Replica<S> {
     }
     pub fn promised(&self) -> u64 {
         self.promised
+    }
+    /// Whether the value was ended (rather than this node leaving its chain).
+    pub fn ended(&self) -> bool {
+        self.ended
     }
     /// The highest committed seq of the current epoch, when leading.
     pub fn committed(&self) -> Option<u64> {
@@ -142,8 +149,9 @@ impl<S: Clone> Replica<S> {
                 }
                 _ => vec![],
             },
-            Event::Pool(pool) => {
-                self.pool = pool;
+            Event::Pool { nodes, k } => {
+                self.pool = nodes;
+                self.p.k = k;
                 vec![]
             }
             Event::End => {
@@ -151,6 +159,7 @@ impl<S: Clone> Replica<S> {
                     return vec![];
                 }
                 let epoch = self.promised;
+                self.ended = true;
                 self.role = Role::Ending { epoch, last_sent: f64::NEG_INFINITY, since: now };
                 self.tick(now)
             }
@@ -395,6 +404,7 @@ impl<S: Clone> Replica<S> {
                     return vec![];
                 }
                 let mut out = Vec::new();
+                self.ended = true;
                 if let Some(c) = &self.config {
                     match c.next(&self.me) {
                         Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::End { epoch } }),

@@ -461,7 +461,7 @@ impl Sim {
                     // Heads learn the pool from the system: every node but themselves.
                     let pool: Vec<String> = (0..self.nodes.len()).filter(|j| *j != i).map(|j| format!("n{j}")).collect();
                     if let Some(r) = self.nodes[i].replica.as_mut() {
-                        let _ = r.handle(self.now, Event::Pool(pool));
+                        let _ = r.handle(self.now, Event::Pool { nodes: pool, k: self.p.k });
                     }
                 }
                 Command::Committed { epoch, seq } => {

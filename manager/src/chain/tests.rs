@@ -75,7 +75,7 @@ fn first_live_successor_takes_over_with_the_next_epoch_and_repairs() {
     );
     assert!(n["b"].is_head());
     // Once its chain holds the state, the head fills the chain up from the pool.
-    n.get_mut("b").unwrap().handle(1.0, Event::Pool(vec!["a".into(), "c".into(), "d".into()]));
+    n.get_mut("b").unwrap().handle(1.0, Event::Pool { nodes: vec!["a".into(), "c".into(), "d".into()], k: 2 });
     let cmds = n.get_mut("b").unwrap().handle(2.0, Event::Tick);
     settle(&mut n, 2.0, "b", cmds);
     assert_eq!(n["b"].config().map(|c| c.chain.clone()), Some(vec!["b".to_string(), "c".to_string(), "d".to_string()]));

@@ -5,8 +5,10 @@
 use std::collections::BTreeMap;
 
 use mrmm_peer::proto::{
-    ManagerView, Marginal, MissionMetrics, MissionStatus, MissionView, PlanAssignment, PlanRequest, Progress, Telemetry,
+    ManagerView, Marginal, Member, MissionMetrics, MissionSpecWire, MissionStatus, MissionView, PlanAssignment, PlanRequest,
+    Progress, Telemetry,
 };
+use serde::{Deserialize, Serialize};
 use mrmm_planner::geom::Point;
 use mrmm_planner::plan::RobotSpec;
 use mrmm_planner::recipe::{MissionPlan, PlannerKind};
@@ -25,6 +27,8 @@ pub struct MissionSpec {
     pub recipe_xml: String,
     pub planner: PlannerKind,
     pub params: BTreeMap<String, String>,
+    /// Replicas of the manager's state after the head.
+    pub replicas: usize,
 }
 
 impl MissionSpec {
@@ -35,6 +39,7 @@ impl MissionSpec {
             recipe_xml: self.recipe_xml.clone(),
             planner: self.planner.as_str().to_string(),
             params: self.params.clone(),
+            replicas: self.replicas,
         }
     }
 
@@ -45,7 +50,17 @@ impl MissionSpec {
             other => return Err(format!("unknown planner {other:?}")),
         };
         mrmm_peer::proto::validate_id(&w.name).map_err(|e| e.to_string())?;
-        Ok(MissionSpec { name: w.name, recipe_name: w.recipe_name, recipe_xml: w.recipe_xml, planner, params: w.params })
+        if w.replicas > mrmm_peer::proto::MAX_REPLICAS {
+            return Err(format!("replicas: at most {} (got {})", mrmm_peer::proto::MAX_REPLICAS, w.replicas));
+        }
+        Ok(MissionSpec {
+            name: w.name,
+            recipe_name: w.recipe_name,
+            recipe_xml: w.recipe_xml,
+            planner,
+            params: w.params,
+            replicas: w.replicas,
+        })
     }
 }
 
@@ -56,8 +71,10 @@ pub enum MEvent {
     Start,
     /// A robot joins (created with it, moved in).
     Joined(RobotSpec),
-    /// Robots leave (moved out, ordered out) or are lost; one replan for all of them.
+    /// Robots leave (moved out, ordered out); one replan for all of them.
     Left { ids: Vec<String> },
+    /// Robots were lost (liveliness): like `Left`, but they are remembered and may rejoin.
+    Lost { ids: Vec<String> },
     PlanReady { epoch: u64, plan: Box<MissionPlan> },
     PlanFailed { epoch: u64, error: String },
     Telemetry { now: f64, t: Box<Telemetry> },
@@ -85,6 +102,23 @@ struct Idleness {
     worst: f64,
 }
 
+/// The state a mission manager replicates along its chain (JSON in chain messages): enough for a
+/// successor to go on. Metrics are not in it: a new head counts from its takeover.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MissionSnapshot {
+    pub spec: MissionSpecWire,
+    pub members: Vec<Member>,
+    /// Members lost through liveliness; they rejoin when they come back.
+    pub lost: Vec<Member>,
+    pub epoch: u64,
+    pub plan: Option<(u64, MissionPlan)>,
+    pub started: bool,
+    pub status: MissionStatus,
+    pub error: Option<String>,
+    pub plan_msgs: u64,
+    pub sync_msgs_left: u64,
+}
+
 /// One mission's manager.
 #[derive(Debug, Clone)]
 pub struct MissionManager {
@@ -102,6 +136,10 @@ pub struct MissionManager {
     plan_msgs: u64,
     idleness: Idleness,
     last_now: f64,
+    /// Members lost through liveliness, kept so they can rejoin.
+    lost: BTreeMap<String, RobotSpec>,
+    /// Simulated seconds per wall second, per robot.
+    time_scales: BTreeMap<String, f64>,
 }
 
 impl MissionManager {
@@ -120,11 +158,74 @@ impl MissionManager {
             plan_msgs: 0,
             idleness: Idleness::default(),
             last_now: 0.0,
+            lost: BTreeMap::new(),
+            time_scales: BTreeMap::new(),
         }
+    }
+
+    /// The replicated state, with each robot's time scale.
+    pub fn snapshot(&self) -> MissionSnapshot {
+        let member = |spec: &RobotSpec| Member { spec: spec.clone(), time_scale: self.time_scale(&spec.id) };
+        MissionSnapshot {
+            spec: self.spec.to_wire(),
+            members: self.members.values().map(member).collect(),
+            lost: self.lost.values().map(member).collect(),
+            epoch: self.epoch,
+            plan: self.plan.clone(),
+            started: self.started,
+            status: self.status,
+            error: self.error.clone(),
+            plan_msgs: self.plan_msgs,
+            sync_msgs_left: self.sync_msgs_left,
+        }
+    }
+
+    /// A manager on `node` going on from a replicated state.
+    pub fn restore(snap: MissionSnapshot, node: String) -> Result<Self, String> {
+        let spec = MissionSpec::from_wire(snap.spec)?;
+        let mut mm = MissionManager::new(spec, node, snap.members.iter().map(|m| m.spec.clone()).collect());
+        for m in snap.members.iter().chain(&snap.lost) {
+            mm.time_scales.insert(m.spec.id.clone(), m.time_scale);
+        }
+        mm.lost = snap.lost.into_iter().map(|m| (m.spec.id.clone(), m.spec)).collect();
+        mm.epoch = snap.epoch;
+        if let Some((_, MissionPlan::Patrol(p))) = &snap.plan {
+            mm.idleness = Idleness { last_visit: vec![None; p.tour.len()], visits: vec![0; p.tour.len()], ..Idleness::default() };
+        }
+        mm.plan = snap.plan;
+        mm.started = snap.started;
+        mm.status = snap.status;
+        mm.error = snap.error;
+        mm.plan_msgs = snap.plan_msgs;
+        mm.sync_msgs_left = snap.sync_msgs_left;
+        Ok(mm)
+    }
+
+    pub fn set_time_scale(&mut self, id: &str, scale: f64) {
+        self.time_scales.insert(id.to_string(), scale);
+    }
+    pub fn time_scale(&self, id: &str) -> f64 {
+        self.time_scales.get(id).copied().unwrap_or(1.0)
+    }
+    /// A lost member that may rejoin.
+    pub fn lost(&self, id: &str) -> Option<&RobotSpec> {
+        self.lost.get(id)
+    }
+    /// Whether the first plan is still being made (a new head must ask again).
+    pub fn planning(&self) -> bool {
+        self.plan.as_ref().is_none_or(|(e, _)| *e != self.epoch) && !self.members.is_empty()
+    }
+    /// Asks for a plan again at a new epoch (a new head whose predecessor died while planning).
+    pub fn replan_now(&mut self) -> Vec<MCommand> {
+        self.replan()
     }
 
     pub fn name(&self) -> &str {
         &self.spec.name
+    }
+    /// Replicas of this manager's state after the head.
+    pub fn replicas(&self) -> usize {
+        self.spec.replicas
     }
     pub fn epoch(&self) -> u64 {
         self.epoch
@@ -141,54 +242,34 @@ impl MissionManager {
         match event {
             MEvent::Start => self.replan(),
             MEvent::Joined(spec) => {
+                self.lost.remove(&spec.id);
+                if self.members.contains_key(&spec.id) {
+                    return vec![]; // already in: nothing changes
+                }
                 self.members.insert(spec.id.clone(), spec);
                 self.replan()
             }
-            MEvent::Left { ids } => {
-                let mut any = false;
-                for id in ids {
-                    if self.members.remove(&id).is_some() {
-                        any = true;
-                        if let Some(p) = self.progress.remove(&id) {
-                            self.sync_msgs_left += p.sync_msgs as u64;
-                        }
+            MEvent::Left { ids } | MEvent::Lost { ids } if ids.is_empty() => vec![],
+            MEvent::Lost { ids } => {
+                for id in &ids {
+                    if let Some(spec) = self.members.get(id) {
+                        self.lost.insert(id.clone(), spec.clone());
                     }
                 }
-                if any {
-                    self.replan()
-                } else {
-                    vec![]
+                self.remove(ids)
+            }
+            MEvent::Left { ids } => {
+                for id in &ids {
+                    self.lost.remove(id);
                 }
+                self.remove(ids)
             }
             MEvent::PlanReady { epoch, plan } => {
                 if epoch != self.epoch {
                     return vec![]; // superseded by a newer team
                 }
-                let mut out = Vec::new();
-                let teams = self.teams();
-                let members: Vec<String> = self.members.keys().cloned().collect();
-                for rp in plan.plans() {
-                    if !self.members.contains_key(&rp.robot) {
-                        continue;
-                    }
-                    let subteam = teams
-                        .iter()
-                        .find(|(_, ids)| ids.contains(&rp.robot))
-                        .map(|(t, _)| t.clone())
-                        .unwrap_or_else(|| format!("{}/all", self.spec.name));
-                    self.plan_msgs += 1;
-                    out.push(MCommand::SendPlan {
-                        robot: rp.robot.clone(),
-                        assignment: Box::new(PlanAssignment {
-                            mission: self.spec.name.clone(),
-                            epoch,
-                            team: self.spec.name.clone(),
-                            subteam,
-                            members: members.clone(),
-                            plan: rp.clone(),
-                        }),
-                    });
-                }
+                let mut out = self.assignments(epoch, &plan);
+                self.plan_msgs += out.len() as u64;
                 let waypoints = match plan.as_ref() {
                     MissionPlan::Patrol(p) => p.tour.len(),
                     MissionPlan::Coverage(_) => 0,
@@ -222,6 +303,61 @@ impl MissionManager {
                 self.telemetry(now, &t);
                 vec![]
             }
+        }
+    }
+
+    /// One `SendPlan` per member with a plan.
+    fn assignments(&self, epoch: u64, plan: &MissionPlan) -> Vec<MCommand> {
+        let teams = self.teams();
+        let members: Vec<String> = self.members.keys().cloned().collect();
+        plan.plans()
+            .iter()
+            .filter(|rp| self.members.contains_key(&rp.robot))
+            .map(|rp| {
+                let subteam = teams
+                    .iter()
+                    .find(|(_, ids)| ids.contains(&rp.robot))
+                    .map(|(t, _)| t.clone())
+                    .unwrap_or_else(|| format!("{}/all", self.spec.name));
+                MCommand::SendPlan {
+                    robot: rp.robot.clone(),
+                    assignment: Box::new(PlanAssignment {
+                        mission: self.spec.name.clone(),
+                        epoch,
+                        team: self.spec.name.clone(),
+                        subteam,
+                        members: members.clone(),
+                        plan: rp.clone(),
+                    }),
+                }
+            })
+            .collect()
+    }
+
+    /// The current plans again (a new head re-sends them after a takeover; robots already
+    /// running them go on undisturbed).
+    pub fn current_assignments(&self) -> Vec<MCommand> {
+        match &self.plan {
+            Some((e, p)) if *e == self.epoch => self.assignments(*e, p),
+            _ => vec![],
+        }
+    }
+
+    /// Takes members out; one replan if any was in.
+    fn remove(&mut self, ids: Vec<String>) -> Vec<MCommand> {
+        let mut any = false;
+        for id in ids {
+            if self.members.remove(&id).is_some() {
+                any = true;
+                if let Some(p) = self.progress.remove(&id) {
+                    self.sync_msgs_left += p.sync_msgs as u64;
+                }
+            }
+        }
+        if any {
+            self.replan()
+        } else {
+            vec![]
         }
     }
 
@@ -329,7 +465,7 @@ impl MissionManager {
             status: self.status,
             robots: self.members.keys().cloned().collect(),
             teams: self.teams(),
-            manager: ManagerView { node: self.node.clone(), epoch: self.epoch },
+            manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![] },
             metrics: self.metrics(),
             summary,
             params: self.spec.params.clone(),

@@ -13,6 +13,7 @@ fn spec() -> MissionSpec {
         recipe_xml: xml,
         planner: PlannerKind::Patrol,
         params: BTreeMap::from([("waypoints".to_string(), "[[0,0],[20,0],[20,20],[0,20]]".to_string())]),
+        replicas: 2,
     }
 }
 

@@ -21,6 +21,7 @@ impl SystemManager {
                 let mut leaving: BTreeMap<String, Vec<String>> = BTreeMap::new();
                 for (id, from) in steal {
                     self.assignment.remove(&id);
+                    self.released.insert(id.clone(), (from.clone(), self.now));
                     leaving.entry(from).or_default().push(id);
                 }
                 for (from, ids) in leaving {
@@ -114,7 +115,11 @@ impl SystemManager {
             }
         }
         recipe::build(&r, &dry, &specs).map_err(|e| format!("mission {}: {e}", c.name))?;
-        let spec = MissionSpec { name: c.name, recipe_name, recipe_xml: xml, planner: r.planner, params };
+        let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
+        if replicas > proto::MAX_REPLICAS {
+            return Err(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS));
+        }
+        let spec = MissionSpec { name: c.name, recipe_name, recipe_xml: xml, planner: r.planner, params, replicas };
         Ok((spec, host, specs, steal))
     }
 
@@ -165,6 +170,7 @@ impl SystemManager {
         let mut out = vec![Command::Ctl { mission: t.name.clone(), ctl: MissionCtl::Terminate }];
         for id in &robots {
             self.assignment.remove(id);
+            self.released.insert(id.clone(), (t.name.clone(), self.now));
             out.push(Command::SendToRobot {
                 req: None,
                 robot: id.clone(),
@@ -204,6 +210,7 @@ impl SystemManager {
         let mut out = Vec::new();
         if let Some(f) = &from {
             self.assignment.remove(&mv.robot);
+            self.released.insert(mv.robot.clone(), (f.clone(), self.now));
             out.push(Command::Ctl { mission: f.clone(), ctl: MissionCtl::Left { ids: vec![mv.robot.clone()] } });
             if mv.to.is_none() {
                 out.push(Command::SendToRobot {

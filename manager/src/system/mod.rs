@@ -22,6 +22,9 @@ use serde_json::Value;
 pub const INFO_RETRY_S: f64 = 1.0;
 /// Seconds between two leave orders to a robot still running a plan it should not have.
 pub const LEAVE_RETRY_S: f64 = 2.0;
+/// For this long after taking a robot out of a mission, that mission's reports listing it are
+/// taken as older than the order.
+pub const RELEASE_GRACE_S: f64 = 5.0;
 
 /// An operator request, already routed by key; payloads not yet parsed.
 #[derive(Debug, Clone, PartialEq)]
@@ -123,6 +126,8 @@ pub struct SystemManager {
     pending_create: BTreeMap<String, u64>,
     /// Missions terminated here: robots still running them are ordered out.
     terminated: BTreeSet<String>,
+    /// Robot → (mission, when) it was taken out of by this manager.
+    released: BTreeMap<String, (String, f64)>,
 }
 
 impl SystemManager {
@@ -138,6 +143,7 @@ impl SystemManager {
             assignment: BTreeMap::new(),
             pending_create: BTreeMap::new(),
             terminated: Default::default(),
+            released: BTreeMap::new(),
         }
     }
 
@@ -226,7 +232,7 @@ impl SystemManager {
                 for rec in self.missions.values_mut().filter(|r| r.host == node) {
                     if let Some(v) = rec.view.as_mut() {
                         v.status = MissionStatus::Stalled;
-                        v.error = Some(format!("mission host {node} lost; its robots keep their last plans"));
+                        v.error = Some(format!("mission manager's node {node} lost; a replica takes over, robots keep their plans"));
                     }
                 }
                 vec![]
@@ -323,7 +329,7 @@ impl SystemManager {
                 status: MissionStatus::Planning,
                 robots,
                 teams: BTreeMap::new(),
-                manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0 },
+                manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0, chain_epoch: 0, chain: vec![] },
                 metrics: MissionMetrics::default(),
                 summary: Value::Null,
                 params: BTreeMap::new(),
@@ -338,12 +344,27 @@ impl SystemManager {
     /// robots not already in another mission.
     fn mission_status(&mut self, view: MissionView) -> Vec<Command> {
         if let Some(rec) = self.missions.get_mut(&view.name) {
-            if rec.view.is_some() || view.status != MissionStatus::Planning {
-                rec.view = Some(view);
+            // A report of an older chain epoch is from a manager that was replaced.
+            let known = rec.view.as_ref().map_or(0, |v| v.manager.chain_epoch);
+            if view.manager.chain_epoch < known {
+                return vec![];
             }
-            return vec![];
+            if rec.host != view.manager.node {
+                tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
+                rec.host = view.manager.node.clone();
+            }
+            if rec.view.is_none() && view.status == MissionStatus::Planning {
+                return vec![];
+            }
+            let name = view.name.clone();
+            let robots = view.robots.clone();
+            rec.view = Some(view);
+            return self.reconcile(&name, &robots);
         }
         if self.terminated.contains(&view.name) || !self.hosts.contains(&view.manager.node) {
+            return vec![];
+        }
+        if self.pending_create.contains_key(&view.name) {
             return vec![];
         }
         tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its host's report");
@@ -365,6 +386,34 @@ impl SystemManager {
             MissionRecord { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), view: Some(view) },
         );
         out
+    }
+
+    /// A mission's manager lists `robots` (it may have taken back a lost robot that returned while
+    /// central was away): robots in no mission are recorded in it; robots this manager put in
+    /// another mission are taken out of it. Robots missing from the list are left alone — the
+    /// report may predate a join this manager ordered.
+    fn reconcile(&mut self, name: &str, robots: &[String]) -> Vec<Command> {
+        let mut strangers = Vec::new();
+        let now = self.now;
+        self.released.retain(|_, (_, when)| now - *when < RELEASE_GRACE_S);
+        for id in robots {
+            if self.released.get(id).is_some_and(|(m, _)| m == name) {
+                continue;
+            }
+            match self.assignment.get(id) {
+                Some(m) if m == name => {}
+                Some(_) => strangers.push(id.clone()),
+                None => {
+                    tracing::info!(mission = %name, robot = %id, "robot rejoined its mission");
+                    self.assignment.insert(id.clone(), name.to_string());
+                }
+            }
+        }
+        if strangers.is_empty() {
+            vec![]
+        } else {
+            vec![Command::Ctl { mission: name.to_string(), ctl: MissionCtl::Left { ids: strangers } }]
+        }
     }
 
     /// The first plans of a mission are out, or its planning failed.

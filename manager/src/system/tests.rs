@@ -166,7 +166,7 @@ mod missions {
                         status: MissionStatus::Running,
                         robots,
                         teams: Default::default(),
-                        manager: ManagerView { node: host, epoch: 1 },
+                        manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![] },
                         metrics: MissionMetrics::default(),
                         summary: Value::Null,
                         params: Default::default(),
@@ -353,7 +353,7 @@ mod missions {
         sm.handle(4.0, Event::HostGone { node: "central".into() });
         let m = reply(sm.handle(4.0, Event::Operator { req: 6, request: Request::Missions })).expect("missions");
         assert_eq!(m[0]["status"], "stalled");
-        assert!(m[0]["error"].as_str().is_some_and(|e| e.contains("host central lost")));
+        assert!(m[0]["error"].as_str().is_some_and(|e| e.contains("central lost")));
     }
 
     #[test]
@@ -368,7 +368,7 @@ mod missions {
             status: MissionStatus::Running,
             robots: robots.iter().map(|s| s.to_string()).collect(),
             teams: Default::default(),
-            manager: ManagerView { node: host.into(), epoch: 5 },
+            manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![] },
             metrics: MissionMetrics::default(),
             summary: Value::Null,
             params: Default::default(),

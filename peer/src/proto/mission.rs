@@ -23,6 +23,18 @@ pub struct MissionSpecWire {
     /// `patrol` or `coverage`.
     pub planner: String,
     pub params: BTreeMap<String, String>,
+    /// Replicas of the mission manager's state after the head (the chain's `k`).
+    #[serde(default = "default_replicas")]
+    pub replicas: usize,
+}
+
+/// Replicas of a mission manager's state, unless the mission says otherwise.
+pub const DEFAULT_REPLICAS: usize = 2;
+/// At most this many replicas per mission.
+pub const MAX_REPLICAS: usize = 8;
+
+fn default_replicas() -> usize {
+    DEFAULT_REPLICAS
 }
 
 /// Query payload of `mrmm/hosts/<node>/start`; answered with the `MissionView` once the first

@@ -13,6 +13,7 @@
 //! | `mrmm/planner/<kind>` | queryable of a planner service (`patrol`, `coverage`) | query [`PlanRequest`], reply `MissionPlan` | JSON |
 //! | `mrmm/planner/<kind>/alive/<zid>` | liveliness token of a planner service | — | — |
 //! | `mrmm/hosts/<node>/alive` | liveliness token of a mission host | — | — |
+//! | `mrmm/hosts/<node>/chain` | publication to a mission host: chain replication of mission managers | `mrmm_manager::host::ChainEnvelope` | JSON |
 //! | `mrmm/hosts/<node>/start` | queryable of a mission host | query [`MissionStart`], reply [`MissionView`] once planned | JSON |
 //! | `mrmm/missions/<name>/ctl` | queryable of the mission's host | query [`MissionCtl`], reply [`CtlAck`] | JSON |
 //! | `mrmm/missions/<name>/view` | queryable of the mission's host | [`MissionView`] with plans | JSON |
@@ -169,6 +170,10 @@ pub fn mission_view(name: &str) -> String {
 /// `mrmm/hosts/<node>/alive`
 pub fn host_alive(node: &str) -> String {
     format!("{ROOT}/hosts/{node}/alive")
+}
+/// `mrmm/hosts/<node>/chain`
+pub fn host_chain(node: &str) -> String {
+    format!("{ROOT}/hosts/{node}/chain")
 }
 /// `mrmm/hosts/<node>/start`
 pub fn host_start(node: &str) -> String {

@@ -96,6 +96,9 @@ pub struct MissionCreate {
     /// The mission host to run the manager on (default: `central`).
     #[serde(default)]
     pub host: Option<String>,
+    /// Robots replicating the mission manager's state (default 2, at most 8).
+    #[serde(default)]
+    pub replicas: Option<usize>,
 }
 
 /// `mrmm/system/cmd/mission/terminate`.
@@ -147,9 +150,16 @@ pub struct MissionMetrics {
 /// The mission manager's identity.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ManagerView {
-    /// The mission host running it.
+    /// The node running the mission manager (the head of its chain).
     pub node: String,
+    /// Plan epoch: robots refuse plans of an older one.
     pub epoch: u64,
+    /// Epoch of the manager's chain: it grows with every takeover or chain change.
+    #[serde(default)]
+    pub chain_epoch: u64,
+    /// The chain replicating the manager's state: head first.
+    #[serde(default)]
+    pub chain: Vec<String>,
 }
 
 /// One mission (`mrmm/system/missions`, `mrmm/system/missions/<name>`).

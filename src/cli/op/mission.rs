@@ -35,6 +35,10 @@ pub enum Mission {
         /// The mission host to run its manager on (default: central).
         #[arg(long)]
         host: Option<String>,
+        /// Robots replicating the mission manager's state; the first takes over if the manager's
+        /// node dies (default 2).
+        #[arg(long)]
+        replicas: Option<usize>,
     },
     /// Terminate a mission; its robots become idle.
     Terminate { name: String },
@@ -54,7 +58,7 @@ pub enum Mission {
 pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()> {
     let none = None::<&()>;
     match m {
-        Mission::Create { name, recipe, robots, count, waypoints, region, params, host } => {
+        Mission::Create { name, recipe, robots, count, waypoints, region, params, host, replicas } => {
             let recipe = if Path::new(&recipe).is_file() {
                 std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))?
             } else {
@@ -70,7 +74,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
                 let (k, v) = kv.split_once('=').ok_or_else(|| anyhow!("--param {kv:?}: expected key=value"))?;
                 p.insert(k.into(), Value::String(v.into()));
             }
-            let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host };
+            let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host, replicas };
             let v: Value = client.query(proto::SYSTEM_CMD_CREATE, Some(&req)).await?;
             if json {
                 return super::print_json(&v);
