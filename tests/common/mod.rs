@@ -79,8 +79,18 @@ impl Drop for Scratch {
 
 /// Starts `mrmm <args>` with stderr to `log` and waits for a stdout line starting with `prefix`.
 pub fn start(name: &str, args: &[&str], log: &Path, prefix: &str, timeout: Duration) -> anyhow::Result<Proc> {
+    start_wrapped(&[], name, args, log, prefix, timeout)
+}
+
+/// Like [`start`], with `mrmm` run through `wrapper` (e.g. `ip netns exec <ns>`).
+pub fn start_wrapped(wrapper: &[&str], name: &str, args: &[&str], log: &Path, prefix: &str, timeout: Duration) -> anyhow::Result<Proc> {
     let log_file = std::fs::File::create(log)?;
-    let mut child = Command::new(EXE)
+    let (program, pre): (&str, Vec<&str>) = match wrapper.split_first() {
+        Some((p, rest)) => (p, rest.iter().copied().chain([EXE]).collect()),
+        None => (EXE, vec![]),
+    };
+    let mut child = Command::new(program)
+        .args(pre)
         .args(args)
         .env("RUST_LOG", "info,zenoh=warn")
         .stdin(Stdio::null())
@@ -130,11 +140,17 @@ pub fn start_robot(dir: &Scratch, id: &str, central: &str, x: f64, y: f64) -> an
 
 /// Writes a robot config and starts the robot.
 pub fn start_robot_scaled(dir: &Scratch, id: &str, central: &str, x: f64, y: f64, time_scale: f64) -> anyhow::Result<Proc> {
+    start_robot_with(dir, id, &[central.to_string()], x, y, time_scale)
+}
+
+/// Writes a robot config connecting to `connect` (central and/or peers) and starts the robot.
+pub fn start_robot_with(dir: &Scratch, id: &str, connect: &[String], x: f64, y: f64, time_scale: f64) -> anyhow::Result<Proc> {
+    let connect = serde_json::to_string(connect)?;
     let cfg = format!(
         r#"{{ id: "{id}", type: "ground", capabilities: ["camera"],
              kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }},
              start: {{ x: {x}, y: {y} }}, time_scale: {time_scale}, telemetry_hz: 10,
-             zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }} }}"#
+             zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: {connect}, lease_ms: 1000 }} }}"#
     );
     let path = dir.path(&format!("{id}.json5"));
     std::fs::write(&path, cfg)?;
