@@ -65,6 +65,17 @@ impl Barrier {
             .all(|m| self.furthest.get(m).is_some_and(|&f| f >= (round, point)))
     }
 
+    /// Our own furthest arrival, as (round, point).
+    pub fn mine(&self) -> Option<(u32, u32)> {
+        self.furthest.get(&self.me).copied()
+    }
+
+    /// Whether another member's arrival `a` is at or before our own furthest arrival: if we are
+    /// not waiting there ourselves, its sender may be waiting for an arrival of ours it missed.
+    pub fn at_or_behind_us(&self, a: &SyncArrival) -> bool {
+        a.epoch == self.epoch && a.robot != self.me && self.mine().is_some_and(|m| (a.round, a.point) <= m)
+    }
+
     /// Members still required.
     pub fn required(&self) -> usize {
         self.members.len() - self.gone.len()

@@ -37,6 +37,9 @@ pub struct Executor {
     sync_msgs: u32,
     waiting: Option<(u32, u32)>,
     last_publish: f64,
+    /// A teammate seems to wait for an arrival of ours it missed: publish our furthest again.
+    echo_due: bool,
+    last_echo: f64,
     hold_until: Option<f64>,
     navigating: bool,
     done: bool,
@@ -55,6 +58,8 @@ impl Executor {
             sync_msgs: 0,
             waiting: None,
             last_publish: 0.0,
+            echo_due: false,
+            last_echo: f64::NEG_INFINITY,
             hold_until: None,
             navigating: false,
             done: false,
@@ -83,10 +88,31 @@ impl Executor {
         }
     }
 
+    /// A teammate's arrival. One at or before our own furthest arrival, where we are not waiting
+    /// ourselves, means its sender has not heard of ours (it re-publishes only while it waits):
+    /// we publish ours again (at most every `REPUBLISH_S`). In the normal case this never happens,
+    /// so the team still sends one message per member per barrier — and a member that missed
+    /// the last arrivals of a finite plan is not left waiting for ever.
+    pub fn heard(&mut self, a: &SyncArrival) -> bool {
+        let counted = self.barrier.arrival(a);
+        if counted && self.barrier.at_or_behind_us(a) && self.waiting != Some((a.point, a.round)) {
+            self.echo_due = true;
+        }
+        counted
+    }
+
     /// Advances the plan. `now`: simulated seconds; `body_idle`: the body has no goal (arrived).
     pub fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Action> {
         let mut out = Vec::new();
         let me = self.assignment.plan.robot.clone();
+        if self.echo_due && now - self.last_echo >= REPUBLISH_S {
+            if let Some((round, point)) = self.barrier.mine() {
+                self.echo_due = false;
+                self.last_echo = now;
+                self.sync_msgs += 1;
+                out.push(Action::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round }));
+            }
+        }
         for _ in 0..MAX_STEPS_PER_TICK {
             if self.done {
                 break;
@@ -202,6 +228,22 @@ mod tests {
         assert_eq!(e.tick(0.7, true), vec![Action::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
         let p = e.progress();
         assert_eq!((p.syncs_passed, p.sync_msgs, p.waiting), (1, 2, None));
+    }
+
+    #[test]
+    fn a_teammate_that_missed_our_last_arrival_gets_it_again() {
+        let arrival = |robot: &str| SyncArrival { robot: robot.into(), epoch: 2, point: 0, round: 0 };
+        let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]);
+        e.tick(0.0, true);
+        // b's arrival while we wait there ourselves: the normal case, no echo.
+        e.heard(&arrival("b"));
+        assert_eq!(e.tick(0.1, true), vec![Action::Hold], "released: the plan is over");
+        // b publishes that arrival again: it is still waiting, it missed ours. We say it again.
+        e.heard(&arrival("b"));
+        assert_eq!(e.tick(0.2, true), vec![Action::Publish(arrival("a"))]);
+        e.heard(&arrival("b"));
+        assert!(e.tick(0.3, true).is_empty(), "at most every REPUBLISH_S");
+        assert_eq!(e.tick(0.8, true), vec![Action::Publish(arrival("a"))]);
     }
 
     #[test]

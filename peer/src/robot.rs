@@ -344,7 +344,7 @@ fn on_arrival(robot: &mut Robot, s: Sample) {
     match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
         Ok(a) => {
             if let Some(e) = robot.executor() {
-                e.barrier.arrival(&a);
+                e.heard(&a);
             }
         }
         Err(e) => tracing::warn!("dropped payload on {}: {e}", s.key_expr()),
