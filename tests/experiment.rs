@@ -146,6 +146,7 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     })
     .await?;
     assert_eq!(m.manager.node, manager, "central does not take the mission back");
+    assert_eq!(m.manager.epoch, v.manager.epoch, "central's return does not disturb the running plans");
     let rv = eventually("central seeing every robot in the mission", Duration::from_secs(20), || async {
         let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
         (v.len() == 4 && v.iter().all(|r| r.mission.as_deref() == Some("p"))).then_some(v)

@@ -123,6 +123,11 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     .await?;
     let missions: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await?;
     assert_eq!(missions.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(), ["p"]);
+    // The end reached the coverage's replicas: none of them takes the dead mission over (a
+    // replica that never heard of the end would stand after 3 s of silence).
+    let statuses = client.session().declare_subscriber(proto::mission_status("c")).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let zombie = tokio::time::timeout(Duration::from_secs(5), statuses.recv_async()).await;
+    assert!(zombie.is_err(), "a terminated mission came back: {zombie:?}");
     client.close().await;
     Ok(())
 }

@@ -69,7 +69,7 @@ impl Scratch {
 
 impl Drop for Scratch {
     fn drop(&mut self) {
-        if !std::thread::panicking() {
+        if !std::thread::panicking() && std::env::var_os("MRMM_KEEP_LOGS").is_none() {
             let _ = std::fs::remove_dir_all(&self.0);
         } else {
             eprintln!("logs kept in {}", self.0.display());
@@ -92,7 +92,7 @@ pub fn start_wrapped(wrapper: &[&str], name: &str, args: &[&str], log: &Path, pr
     let mut child = Command::new(program)
         .args(pre)
         .args(args)
-        .env("RUST_LOG", "info,zenoh=warn")
+        .env("RUST_LOG", "info,zenoh=warn,mrmm_manager::chain=debug,mrmm_manager::host=trace")
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(log_file)

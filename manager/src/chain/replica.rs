@@ -293,6 +293,7 @@ impl<S: Clone> Replica<S> {
         self.promised = proposal.epoch;
         self.voted_for = Some(self.me.clone());
         let last = self.version();
+        tracing::debug!(node = %self.me, epoch = proposal.epoch, chain = ?proposal.chain, was_head, "chain: standing");
         let mut to: BTreeSet<&String> = base.chain.iter().collect();
         to.extend(proposal.chain.iter());
         let mut out: Vec<Command<S>> = to
@@ -313,6 +314,7 @@ impl<S: Clone> Replica<S> {
             return vec![];
         }
         let (config, was_head) = (proposal.clone(), *was_head);
+        tracing::info!(node = %self.me, epoch = config.epoch, chain = ?config.chain, "chain: leading");
         let Some((_, state)) = self.state.take() else { return vec![] };
         let state = self.queued.take().unwrap_or(state);
         self.config = Some(config.clone());
@@ -328,6 +330,9 @@ impl<S: Clone> Replica<S> {
 
     fn step_down(&mut self) -> Vec<Command<S>> {
         let leading = self.leads();
+        if !matches!(self.role, Role::Follower) {
+            tracing::info!(node = %self.me, promised = self.promised, "chain: following");
+        }
         self.role = Role::Follower;
         self.queued = None;
         if leading {
@@ -335,6 +340,18 @@ impl<S: Clone> Replica<S> {
         } else {
             vec![]
         }
+    }
+
+    /// Someone holds a newer state (`last`) than ours: we must not lead. If it is of a newer
+    /// epoch, our configuration is outdated and our state must not count in its votes: retire.
+    /// If it is of our epoch, we are still a member of the current chain (its head may need our
+    /// vote): follow, keep the state, and give the head time to be heard.
+    fn outdone(&mut self, now: f64, last: Version) -> Vec<Command<S>> {
+        if last.0 > self.config.as_ref().map_or(0, |c| c.epoch) {
+            return self.retire();
+        }
+        self.last_heard = now;
+        self.step_down()
     }
 
     /// Out of the chain for good: forget the value (the promise stays with the caller).
@@ -365,8 +382,7 @@ impl<S: Clone> Replica<S> {
                 }
                 self.seen = self.seen.max(promised);
                 if last > self.version() {
-                    // Someone holds a newer state than ours: we must never lead it.
-                    return self.retire();
+                    return self.outdone(now, last);
                 }
                 vec![]
             }
@@ -388,7 +404,7 @@ impl<S: Clone> Replica<S> {
                 }
                 self.seen = self.seen.max(promised);
                 if last > self.version() {
-                    return self.retire();
+                    return self.outdone(now, last);
                 }
                 if let (Role::Head { .. }, Some(config)) = (&self.role, self.config.clone()) {
                     // Someone promised a higher epoch to a candidate that cannot hold a newer

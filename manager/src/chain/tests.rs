@@ -158,3 +158,25 @@ fn ending_reaches_the_tail_and_retires_everyone() {
         assert!(out.contains(&(who.to_string(), Command::Retired)), "{who}: {out:?}");
     }
 }
+
+#[test]
+fn refused_for_an_older_state_a_candidate_keeps_it_unless_its_chain_is_outdated() {
+    let update = |e: u64, seq: u64| Msg::Update { config: Config { epoch: e, chain: vec!["h".into(), "c".into(), "d".into()] }, seq, state: vec![1] };
+    let stand = |c: &mut R| {
+        c.handle(0.0, Event::Recv { from: "h".into(), msg: update(1, 2) });
+        c.handle(0.0, Event::Gone("h".into()));
+        assert!(matches!(c.role(), Role::Candidate { .. }));
+    };
+    // Same epoch, the head has more: follow, keep the state (the head needs this vote).
+    let mut c = R::new("c", p(), 0.0, 0.0, 0);
+    stand(&mut c);
+    let out = c.handle(0.1, Event::Recv { from: "h".into(), msg: Msg::Refuse { epoch: 2, promised: 2, last: (1, 5) } });
+    assert!(!out.contains(&Command::Retired));
+    assert_eq!((c.role(), c.version()), (&Role::Follower, (1, 2)));
+    // A newer epoch exists: this chain is outdated, its state must not count any more.
+    let mut c = R::new("c", p(), 0.0, 0.0, 0);
+    stand(&mut c);
+    let out = c.handle(0.1, Event::Recv { from: "x".into(), msg: Msg::Refuse { epoch: 2, promised: 7, last: (6, 0) } });
+    assert!(out.contains(&Command::Retired));
+    assert_eq!(c.state(), None);
+}

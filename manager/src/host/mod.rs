@@ -47,6 +47,20 @@ pub struct ChainEnvelope {
 
 type ChainCmd = chain::Command<MissionSnapshot>;
 
+/// A chain message's kind and epoch, for traces.
+fn msg_kind(m: &Msg<MissionSnapshot>) -> String {
+    match m {
+        Msg::Vote { proposal, .. } => format!("vote e{}", proposal.epoch),
+        Msg::Grant { epoch } => format!("grant e{epoch}"),
+        Msg::Refuse { epoch, promised, .. } => format!("refuse e{epoch} p{promised}"),
+        Msg::Update { config, seq, .. } => format!("update e{} s{seq}", config.epoch),
+        Msg::Ack { epoch, seq } => format!("ack e{epoch} s{seq}"),
+        Msg::Stale { promised, .. } => format!("stale p{promised}"),
+        Msg::End { epoch } => format!("end e{epoch}"),
+        Msg::EndAck { epoch } => format!("end-ack e{epoch}"),
+    }
+}
+
 enum Input {
     Start(Query),
     Ctl(String, Query),
@@ -248,6 +262,7 @@ impl Host {
             return;
         }
         let name = env.mission.clone();
+        tracing::trace!(mission = %name, from = %env.from, msg = msg_kind(&env.msg), "chain: received");
         if !self.replicas.contains_key(&name) {
             match (&env.msg, self.tombs.get(&name)) {
                 // A replica that missed the end of its mission is told again.
@@ -270,6 +285,7 @@ impl Host {
     }
 
     async fn send(&self, mission: &str, to: &str, msg: Msg<MissionSnapshot>) {
+        tracing::trace!(%mission, %to, msg = msg_kind(&msg), "chain: sending");
         let env = ChainEnvelope { mission: mission.to_string(), from: self.node.clone(), msg };
         match serde_json::to_vec(&env) {
             Ok(bytes) => {
