@@ -117,12 +117,6 @@ pub fn zenoh_config(
     set(&mut c, "scouting/multicast/enabled", "false".into())?;
     set(&mut c, "scouting/gossip/enabled", "true".into())?;
     set(&mut c, "transport/link/tx/lease", lease_ms.to_string())?;
-    // A node that must push a blocking message (a declaration) to a link that just died waits
-    // this long for queue space before closing the link — and meanwhile routes nothing else
-    // (zenoh #1876). Zenoh's default, 5 s per dead link, held a router's traffic to the robots
-    // on its side of a partition for 10 s (two dead links). Half a lease: the lease decides
-    // about dead links anyway.
-    set(&mut c, "transport/link/tx/queue/congestion_control/block/wait_before_close", (lease_ms * 500).to_string())?;
     if mode == Mode::Peer {
         // Peers keep retrying their connect endpoints (central may be down or restarting).
         set(&mut c, "connect/exit_on_failure", "false".into())?;
