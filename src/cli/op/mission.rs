@@ -104,6 +104,9 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             }
             let m: MissionView = serde_json::from_value(v)?;
             print!("{}", table(std::slice::from_ref(&m)));
+            if !m.manager.chain.is_empty() {
+                println!("manager chain (epoch {}): {}", m.manager.chain_epoch, m.manager.chain.join(" → "));
+            }
             for (team, ids) in &m.teams {
                 println!("team {team}: {}", ids.join(", "));
             }
