@@ -1,10 +1,14 @@
 //! The paper's communication-loss experiment (its section 4.3), step by step, with real processes:
-//! 1. four robots start and register; 2. the operator defines waypoints; 3. the patrol is planned
-//! (TSP tour, optimal start assignment) and runs; 4. central is SIGKILLed: the patrol and its
-//! barriers go on, a robot replica takes the mission manager over; 5. a robot is SIGKILLed: the
-//! team goes on without waiting for it; 6. the robot restarts (connecting to its peers only, central
-//! is still down) and rejoins the mission and the team; 7. central restarts and sees everything
-//! again, without fighting the mission's new manager.
+//!
+//! 1. four robots start and register;
+//! 2. the operator defines waypoints;
+//! 3. the patrol is planned (TSP tour, optimal start assignment) and runs;
+//! 4. central is SIGKILLed: the patrol and its barriers go on, a robot replica takes the mission
+//!    manager over;
+//! 5. a robot is SIGKILLed: the team goes on without waiting for it;
+//! 6. the robot restarts (connecting to its peers only, central is still down) and rejoins the
+//!    mission and the team;
+//! 7. central restarts and sees everything again, without fighting the mission's new manager.
 //!
 //! Observed from a peer attached to two robots (central's API is gone for most of the test).
 

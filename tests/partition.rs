@@ -152,7 +152,7 @@ fn scenario(net: &Net, dir: &Scratch) -> anyhow::Result<()> {
         "central ready",
         Duration::from_secs(20),
     )?;
-    let _robots = vec![
+    let _robots = [
         robot(dir, &net.a, "r1", A_IP, &central_ep, 2.0)?,
         robot(dir, &net.b, "r2", B_IP, &central_ep, 4.0)?,
         robot(dir, &net.a, "r3", A_IP, &central_ep, 6.0)?,

@@ -249,7 +249,6 @@ impl Sim {
         let mut next_crash = self.draw(self.w.crash_every);
         let mut next_partition = self.draw(self.w.partition_every);
         let mut next_tick = TICK;
-        let mut crashes_in_a_row = 0;
         while self.now < end {
             // Next thing: a delivery or a tick.
             let next_delivery = self.queue.peek().map(|(Reverse(t), _, _)| *t as f64 / 1e9);
@@ -270,7 +269,6 @@ impl Sim {
                 if self.nodes.iter().all(|n| n.up) {
                     let i = self.rng.gen_range(0..self.nodes.len());
                     self.crash(i);
-                    crashes_in_a_row += 1;
                     let back = self.now + self.rng.gen_range(0.5..4.0);
                     self.schedule(back, Delivery::Restart(i));
                 }
@@ -299,7 +297,6 @@ impl Sim {
                 self.maybe_propose(i)?;
             }
         }
-        let _ = crashes_in_a_row;
         self.finish()
     }
 

@@ -132,7 +132,7 @@ pub async fn serve_with(session: Session, node: String, params: Params, shutdown
     let _robots = live(proto::ALL_ROBOTS_ALIVE, Input::RobotLive).await?;
     let _planners = live(ALL_PLANNERS_ALIVE, Input::PlannerLive).await?;
     let _token = session.liveliness().declare_token(proto::host_alive(&node)).await.map_err(ManagerError::zenoh)?;
-    tracing::info!(%node, k = params.k, "mission host up");
+    tracing::info!(%node, "mission host up");
     let mut host = Host {
         session: session.clone(),
         node,
