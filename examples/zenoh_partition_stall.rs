@@ -6,7 +6,8 @@
 //! Seen on this machine (zenoh 1.10.2): one second after the cut, the router's publications to
 //! the peer on its own side stop and arrive 10.0–10.2 s late, in one burst. Without liveliness
 //! (`NOLIV=1`): the same. With one peer in B: the same. With gossip off on the peers
-//! (`NOGOSSIP=1`): 4 ms. With `OPEN_TIMEOUT=1000` (ms, on the peers): the same 10 s.
+//! (`NOGOSSIP=1`): 4 ms. With `OPEN_TIMEOUT=1000` (ms, on the peers): the same 10 s. With the
+//! peers gossiping to routers only (`GOSSIP_TARGET='["router"]'`): 1 ms.
 //!
 //! `zenoh_partition_stall router <listen>` | `zenoh_partition_stall peer <listen> <connect>`
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -36,6 +37,9 @@ async fn main() -> anyhow::Result<()> {
     let mut c = net::zenoh_config(Mode::Peer, &[listen], &[a[2].clone()], 1000)?;
     if let Ok(ms) = std::env::var("OPEN_TIMEOUT") {
         c.insert_json5("transport/unicast/open_timeout", &ms).map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
+    if let Ok(t) = std::env::var("GOSSIP_TARGET") {
+        c.insert_json5("scouting/gossip/target", &t).map_err(|e| anyhow::anyhow!("{e}"))?;
     }
     if std::env::var_os("NOGOSSIP").is_some() {
         c.insert_json5("scouting/gossip/enabled", "false").map_err(|e| anyhow::anyhow!("{e}"))?;
