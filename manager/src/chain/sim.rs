@@ -244,7 +244,6 @@ impl Sim {
         let end = self.w.duration + self.w.quiet;
         let first: Vec<String> = self.nodes.iter().skip(1).take(self.p.k).map(|n| n.name.clone()).collect();
         let cmds = self.replica(0).handle(0.0, Event::Create { replicas: first, state: vec![] });
-        self.nodes[0].history.insert((1, 0), vec![]);
         self.apply(0, cmds)?;
         let mut next_crash = self.draw(self.w.crash_every);
         let mut next_partition = self.draw(self.w.partition_every);
@@ -418,16 +417,13 @@ impl Sim {
         let Some(r) = self.nodes[i].replica.as_mut() else { return Ok(()) };
         let mut log = r.state().cloned().unwrap_or_default();
         log.push(id);
-        let cmds = r.handle(now, Event::Propose(log.clone()));
-        let v = r.version();
-        if r.is_head() {
-            self.nodes[i].history.insert(v, log);
-        }
+        let cmds = r.handle(now, Event::Propose(log));
         self.apply(i, cmds)
     }
 
     fn apply(&mut self, i: usize, cmds: Vec<Command<Log>>) -> Result<(), String> {
-        // Remember what a leading node holds at each version, to check what it later commits.
+        // Remember what a leading node holds at each version, to check what it later commits
+        // (every change of its state is a `handle` whose commands come here).
         if let Some(r) = self.nodes[i].replica.as_ref().filter(|r| r.leads()) {
             if let Some(s) = r.state() {
                 let (v, s) = (r.version(), s.clone());
@@ -454,7 +450,6 @@ impl Sim {
                     let name = self.nodes[i].name.clone();
                     self.log(|| format!("{name} leads epoch {} chain {:?}", config.epoch, config.chain));
                     self.inv.lead(&name, &config, &state)?;
-                    self.nodes[i].history.insert((config.epoch, 0), state);
                     // Heads learn the pool from the system: every node but themselves.
                     let pool: Vec<String> = (0..self.nodes.len()).filter(|j| *j != i).map(|j| format!("n{j}")).collect();
                     if let Some(r) = self.nodes[i].replica.as_mut() {

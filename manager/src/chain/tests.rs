@@ -33,6 +33,15 @@ fn three() -> BTreeMap<String, R> {
     ["a", "b", "c", "d"].iter().map(|n| (n.to_string(), R::new(n, p(), 0.0, 0.0, 0))).collect()
 }
 
+/// Nodes a, b, c, d, all alive to each other, with a leading the chain a → b → c holding [1].
+fn created() -> BTreeMap<String, R> {
+    let mut n = three();
+    alive_all(&mut n);
+    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
+    settle(&mut n, 0.0, "a", cmds);
+    n
+}
+
 fn alive_all(nodes: &mut BTreeMap<String, R>) {
     let names: Vec<String> = nodes.keys().cloned().collect();
     for r in nodes.values_mut() {
@@ -60,10 +69,7 @@ fn create_replicates_and_commits_through_the_tail() {
 
 #[test]
 fn first_live_successor_takes_over_with_the_next_epoch_and_repairs() {
-    let mut n = three();
-    alive_all(&mut n);
-    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
-    settle(&mut n, 0.0, "a", cmds);
+    let mut n = created();
     n.remove("a");
     // c hears first: it must wait for b, its predecessor.
     assert!(n.get_mut("c").unwrap().handle(1.0, Event::Gone("a".into())).is_empty());
@@ -84,10 +90,7 @@ fn first_live_successor_takes_over_with_the_next_epoch_and_repairs() {
 
 #[test]
 fn an_old_head_is_fenced_and_steps_down() {
-    let mut n = three();
-    alive_all(&mut n);
-    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
-    settle(&mut n, 0.0, "a", cmds);
+    let mut n = created();
     // a is cut off; b takes over with c.
     let old = n.remove("a").unwrap();
     let cmds = n.get_mut("b").unwrap().handle(1.0, Event::Gone("a".into()));
@@ -105,10 +108,7 @@ fn an_old_head_is_fenced_and_steps_down() {
 
 #[test]
 fn a_lone_replica_cannot_take_over() {
-    let mut n = three();
-    alive_all(&mut n);
-    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
-    settle(&mut n, 0.0, "a", cmds);
+    let mut n = created();
     // b is cut from everyone: its votes go nowhere.
     let b = n.get_mut("b").unwrap();
     b.handle(1.0, Event::Gone("a".into()));
@@ -148,10 +148,7 @@ fn quarantine_blocks_votes_of_a_fresh_process() {
 
 #[test]
 fn ending_reaches_the_tail_and_retires_everyone() {
-    let mut n = three();
-    alive_all(&mut n);
-    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
-    settle(&mut n, 0.0, "a", cmds);
+    let mut n = created();
     let cmds = n.get_mut("a").unwrap().handle(1.0, Event::End);
     let out = settle(&mut n, 1.0, "a", cmds);
     for who in ["a", "b", "c"] {
