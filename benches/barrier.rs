@@ -10,8 +10,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use mrmm_peer::barrier::Barrier;
-use mrmm_peer::net::{self, Mode};
-use mrmm_peer::proto::{self, SyncArrival};
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::{self as proto, SyncArrival};
 use rand::{Rng, SeedableRng};
 use tokio::sync::{mpsc, Barrier as Gate};
 
@@ -52,14 +52,14 @@ async fn run(n: usize, rounds: u32) -> anyhow::Result<()> {
         let (s, tx, ready, members) = (session.clone(), tx.clone(), ready.clone(), members.clone());
         tokio::spawn(async move {
             let me = members[i].clone();
-            let sub = s.declare_subscriber(proto::team_sync_all(TEAM)).await.expect("subscriber");
-            let tokens = s.liveliness().declare_subscriber(proto::team_members(TEAM)).history(true).await.expect("liveliness");
-            let _token = s.liveliness().declare_token(proto::team_member(&format!("{TEAM}/all"), &me)).await.expect("token");
+            let sub = s.declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string()).await.expect("subscriber");
+            let tokens = s.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await.expect("liveliness");
+            let _token = s.liveliness().declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await.expect("token");
             // Wait until every member's token is visible.
             let mut seen = std::collections::BTreeSet::new();
             while seen.len() < members.len() {
                 if let Ok(t) = tokens.recv_async().await {
-                    if let Some(id) = proto::parse_team_member(t.key_expr().as_str()) {
+                    if let Some(proto::Key::TeamMember { robot: id, .. }) = proto::Key::parse(t.key_expr().as_str()) {
                         seen.insert(id.to_string());
                     }
                 }
@@ -74,7 +74,7 @@ async fn run(n: usize, rounds: u32) -> anyhow::Result<()> {
                         let a = SyncArrival { robot: me.clone(), epoch: 1, point, round: 0 };
                         barrier.arrival(&a);
                         let bytes = proto::to_json(&a).expect("json");
-                        let _ = s.put(proto::team_sync(TEAM, point, 0), bytes).await;
+                        let _ = s.put(proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), bytes).await;
                         waiting = Some(point);
                     }
                     smp = sub.recv_async() => {

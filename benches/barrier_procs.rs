@@ -14,8 +14,8 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use mrmm_peer::barrier::Barrier;
-use mrmm_peer::net::{self, Mode};
-use mrmm_peer::proto::{self, SyncArrival};
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::{self as proto, SyncArrival};
 use rand::{Rng, SeedableRng};
 
 const TEAM: &str = "bench";
@@ -110,15 +110,15 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
     let session = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &router, 1000)?).await?;
     let members: Vec<String> = (0..n).map(|j| format!("p{j}")).collect();
     let me = members[i].clone();
-    let sub = session.declare_subscriber(proto::team_sync_all(TEAM)).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    let tokens = session.liveliness().declare_subscriber(proto::team_members(TEAM)).history(true).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    let _token = session.liveliness().declare_token(proto::team_member(&format!("{TEAM}/all"), &me)).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let sub = session.declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let tokens = session.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let _token = session.liveliness().declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut seen = std::collections::BTreeSet::new();
     while seen.len() < n {
         let t = tokio::time::timeout(Duration::from_secs(30), tokens.recv_async()).await;
         match t {
             Ok(Ok(t)) => {
-                if let Some(id) = proto::parse_team_member(t.key_expr().as_str()) {
+                if let Some(proto::Key::TeamMember { robot: id, .. }) = proto::Key::parse(t.key_expr().as_str()) {
                     seen.insert(id.to_string());
                 }
             }
@@ -141,7 +141,7 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
         let a = SyncArrival { robot: me.clone(), epoch: 1, point, round: 0 };
         barrier.arrival(&a);
         let arrived = now_ns();
-        let _ = session.put(proto::team_sync(TEAM, point, 0), proto::to_json(&a)?).await;
+        let _ = session.put(proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), proto::to_json(&a)?).await;
         // As the robots' executor: re-publish every 0.5 s while waiting.
         let mut waited = 0;
         while !barrier.released(point, 0) {
@@ -157,7 +157,7 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
                         println!("E {me}: barrier {k} not released in 10 s");
                         return Ok(());
                     }
-                    let _ = session.put(proto::team_sync(TEAM, point, 0), proto::to_json(&a)?).await;
+                    let _ = session.put(proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), proto::to_json(&a)?).await;
                 }
             }
         }

@@ -19,9 +19,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::anyhow;
 use common::{eventually, start_central, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::net::{self, Mode};
-use mrmm_peer::proto::{self, MissionCreate, MissionTerminate, MissionView, SyncArrival};
+use mrmm_proto::client::Client;
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::{self as proto, MissionCreate, MissionTerminate, MissionView, SyncArrival};
 
 /// Simulated seconds per wall second in the stall run (a barrier every 2 s of wall time).
 const SCALE: f64 = 5.0;
@@ -72,17 +72,17 @@ async fn takeover(trials: usize) -> anyhow::Result<()> {
             let name = format!("m{}{t}", signal.to_lowercase());
             let create = square(&name, &host_name);
             eventually("the mission on its host", Duration::from_secs(20), || async {
-                client.query::<MissionView>(proto::SYSTEM_CMD_CREATE, Some(&create)).await.ok()
+                client.query::<MissionView>(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await.ok()
             })
             .await?;
             // A fresh host may start the chain short (it has not heard of every robot's host
             // yet); it fills it up within a vote.
             eventually("a chain of three", Duration::from_secs(10), || async {
-                let m: MissionView = client.query(&proto::system_mission(&name), None::<&()>).await.ok()?;
+                let m: MissionView = client.query(proto::Key::SystemMission(name.to_string()), None::<&()>).await.ok()?;
                 (m.manager.chain.len() == 3 && m.manager.node == host_name).then_some(())
             })
             .await?;
-            let statuses = client.session().declare_subscriber(proto::mission_status(&name)).await.map_err(|e| anyhow!("{e}"))?;
+            let statuses = client.session().declare_subscriber(proto::Key::MissionStatus(name.to_string()).to_string()).await.map_err(|e| anyhow!("{e}"))?;
             host.signal(signal)?;
             let t0 = Instant::now();
             let took = tokio::time::timeout(Duration::from_secs(10), async {
@@ -100,7 +100,7 @@ async fn takeover(trials: usize) -> anyhow::Result<()> {
             .ok_or_else(|| anyhow!("no takeover after SIG{signal}"))?;
             times.push(took.as_secs_f64() * 1e3);
             host.kill();
-            let _: serde_json::Value = client.query(proto::SYSTEM_CMD_TERMINATE, Some(&MissionTerminate { name })).await?;
+            let _: serde_json::Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name })).await?;
         }
         stats(&format!("SIG{signal}"), times);
     }
@@ -117,17 +117,17 @@ async fn stall() -> anyhow::Result<()> {
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 4).await?;
     tokio::time::sleep(Duration::from_secs(2)).await;
-    let _: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&square("p", "central"))).await?;
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&square("p", "central"))).await?;
     eventually("the patrol on its rounds", Duration::from_secs(60), || async {
-        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= 2).then_some(())
     })
     .await?;
     client.close().await;
     let peers: Vec<String> = robots.iter().filter_map(|r| r.field("listening")).collect();
     let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &peers, 1000)?).await?;
-    let telemetry = observer.declare_subscriber(proto::ALL_ROBOTS_TELEMETRY).await.map_err(|e| anyhow!("{e}"))?;
-    let arrivals = observer.declare_subscriber(proto::team_sync_all("p")).await.map_err(|e| anyhow!("{e}"))?;
+    let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry.to_string()).await.map_err(|e| anyhow!("{e}"))?;
+    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).await.map_err(|e| anyhow!("{e}"))?;
     let window = Duration::from_secs(15);
     let t0 = Instant::now();
     let mut killed: Option<f64> = None;

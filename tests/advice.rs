@@ -7,8 +7,8 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, start_robot_scaled, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, Advice, MissionCreate, MissionView, Priority};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, Advice, MissionCreate, MissionView, Priority};
 use serde_json::json;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -17,7 +17,7 @@ async fn advice_for_a_lost_robot_and_a_mission_below_standard() -> anyhow::Resul
     let (_central, ep) = start_central(&dir)?;
     let mut robots: Vec<_> = (1..=5).map(|i| start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    let live = client.session().declare_subscriber(proto::AGENT_ADVICE_LIVE).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     common::wait_robots(&client, 5).await?;
     let patrol = MissionCreate {
         name: "p".into(),
@@ -26,7 +26,7 @@ async fn advice_for_a_lost_robot_and_a_mission_below_standard() -> anyhow::Resul
         params: [("waypoints".to_string(), json!([[0, 0], [30, 0], [30, 30], [0, 30]])), ("max_worst_idleness".to_string(), json!(5))].into(),
         ..MissionCreate::default()
     };
-    let _: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&patrol)).await?;
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol)).await?;
     let coverage = MissionCreate {
         name: "c".into(),
         recipe: "coverage".into(),
@@ -34,11 +34,11 @@ async fn advice_for_a_lost_robot_and_a_mission_below_standard() -> anyhow::Resul
         params: [("region".to_string(), json!([[-30, -30], [-10, -30], [-10, -10], [-30, -10]]))].into(),
         ..MissionCreate::default()
     };
-    let _: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&coverage)).await?;
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&coverage)).await?;
 
     // Below standard, with the numbers: the predicted worst idleness with one robot more.
     let below = eventually("below-standard advice", Duration::from_secs(40), || async {
-        let a: Vec<Advice> = client.query(proto::AGENT_ADVICE, None::<&()>).await.ok()?;
+        let a: Vec<Advice> = client.query(proto::Key::AgentAdvice, None::<&()>).await.ok()?;
         a.into_iter().find(|a| a.id == "standard/p")
     })
     .await?;

@@ -6,8 +6,8 @@ mod common;
 use std::time::Duration;
 
 use common::{eventually, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, MissionStatus, MissionView, RobotView};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, MissionStatus, MissionView, RobotView};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()> {
@@ -15,21 +15,21 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     let (mut demo, ep) = common::start_demo(&dir, &["--robots", "6", "--duration", "60", "--listen", "tcp/127.0.0.1:0", "--time-scale", "4"])?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
     let views = eventually("6 robots in the demo", Duration::from_secs(20), || async {
-        let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
         (v.len() == 6).then_some(v)
     })
     .await?;
     assert!(views.iter().any(|v| v.robot_type == "aerial") && views.iter().any(|v| v.robot_type == "ground"));
     // Two concurrent missions share the fleet.
     let missions = eventually("two running missions", Duration::from_secs(20), || async {
-        let m: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
+        let m: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
         (m.len() == 2 && m.iter().all(|m| m.status == MissionStatus::Running)).then_some(m)
     })
     .await?;
     assert_eq!(missions.iter().map(|m| m.robots.len()).sum::<usize>(), 6);
     assert_eq!(missions.iter().map(|m| m.planner.as_str()).collect::<Vec<_>>(), ["coverage", "patrol"]);
     eventually("robots moving on their plans", Duration::from_secs(20), || async {
-        let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
         v.iter().any(|r| r.behaviour.as_deref().is_some_and(|b| b.contains("goto"))).then_some(())
     })
     .await?;

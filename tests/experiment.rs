@@ -19,9 +19,9 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, ensure};
 use common::{eventually, start, start_central, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::net::{self, Mode};
-use mrmm_peer::proto::{self, MissionCreate, MissionStatus, MissionView, RobotView, SyncArrival};
+use mrmm_proto::client::Client;
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::{self as proto, MissionCreate, MissionStatus, MissionView, RobotView, SyncArrival};
 use zenoh::handlers::FifoChannelHandler;
 use zenoh::pubsub::Subscriber;
 use zenoh::sample::Sample;
@@ -78,11 +78,12 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
         params: [("waypoints".to_string(), serde_json::json!([[0, 0], [8, 0], [14, 6], [8, 12], [0, 12], [-4, 6]]))].into(),
         ..Default::default()
     };
-    let m: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&create)).await?;
+    let m: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
     assert_eq!(m.robots.len(), 4);
-    assert!(m.summary["length"].as_f64().is_some_and(|l| l > 40.0), "a tour through the waypoints: {}", m.summary);
+    let length = m.summary.as_ref().and_then(|s| s.patrol()).map_or(0.0, |p| p.length);
+    assert!(length > 40.0, "a tour through the waypoints: {:?}", m.summary);
     let m = eventually("the patrol past its first barriers", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= 2).then_some(m)
     })
     .await?;
@@ -95,8 +96,8 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     let peers: Vec<String> = robots[2..].iter().filter_map(|r| r.field("listening")).collect();
     let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &peers, 1000)?).await?;
     let zerr = |e: zenoh::Error| anyhow!("{e}");
-    let arrivals = observer.declare_subscriber(proto::team_sync_all("p")).await.map_err(zerr)?;
-    let statuses = observer.declare_subscriber(proto::mission_status("p")).await.map_err(zerr)?;
+    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).await.map_err(zerr)?;
+    let statuses = observer.declare_subscriber(proto::Key::MissionStatus("p".to_string()).to_string()).await.map_err(zerr)?;
     // Linked to every robot (gossip): arrivals of all four come through.
     barriers(&arrivals, &["r1", "r2", "r3", "r4"], 1, plan_epoch, Duration::from_secs(20)).await?;
 
@@ -145,14 +146,14 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     let _central = start("central2", &["central", "--listen", &ep], &dir.path("central2.log"), "central ready", Duration::from_secs(20))?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     let m = eventually("central seeing the mission again", Duration::from_secs(20), || async {
-        let ms: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
+        let ms: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
         ms.into_iter().find(|m| m.name == "p" && m.robots.len() == 4 && m.status == MissionStatus::Running)
     })
     .await?;
     assert_eq!(m.manager.node, manager, "central does not take the mission back");
     assert_eq!(m.manager.epoch, v.manager.epoch, "central's return does not disturb the running plans");
     let rv = eventually("central seeing every robot in the mission", Duration::from_secs(20), || async {
-        let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
         (v.len() == 4 && v.iter().all(|r| r.mission.as_deref() == Some("p"))).then_some(v)
     })
     .await?;

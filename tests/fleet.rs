@@ -6,16 +6,16 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, start_robot, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, GotoRequest, RobotStatus, RobotView, SystemStatus};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, GotoRequest, RobotStatus, RobotView, SystemStatus};
 use serde_json::Value;
 
 async fn robots(c: &Client) -> Vec<RobotView> {
-    c.query(proto::SYSTEM_ROBOTS, None::<&()>).await.unwrap_or_default()
+    c.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default()
 }
 
 async fn status_of(c: &Client, id: &str) -> Option<RobotStatus> {
-    c.query::<RobotView>(&proto::system_robot(id), None::<&()>).await.ok().map(|v| v.status)
+    c.query::<RobotView>(proto::Key::SystemRobot(id.to_string()), None::<&()>).await.ok().map(|v| v.status)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -38,16 +38,16 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
     assert_eq!(views.iter().map(|v| v.id.as_str()).collect::<Vec<_>>(), ["r1", "r2", "r3"]);
     assert_eq!(views[1].robot_type, "ground");
     assert_eq!(views[1].capabilities, ["camera"]);
-    let st: SystemStatus = client.query(proto::SYSTEM_STATUS, None::<&()>).await?;
+    let st: SystemStatus = client.query(proto::Key::SystemStatus, None::<&()>).await?;
     assert_eq!((st.robots_total, st.idle, st.lost), (3, 3, 0));
 
     // goto: the pose arrives.
     let ack: Value = client
-        .query(proto::SYSTEM_CMD_GOTO, Some(&GotoRequest { robot: "r1".into(), x: 3.0, y: 4.0 }))
+        .query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r1".into(), x: 3.0, y: 4.0 }))
         .await?;
     assert_eq!(ack["ok"], true);
     eventually("r1 at (3, 4) and idle", Duration::from_secs(20), || async {
-        let v: RobotView = client.query(&proto::system_robot("r1"), None::<&()>).await.ok()?;
+        let v: RobotView = client.query(proto::Key::SystemRobot("r1".to_string()), None::<&()>).await.ok()?;
         let p = v.pose?;
         let near = ((p.x - 3.0).powi(2) + (p.y - 4.0).powi(2)).sqrt() < 0.1;
         (near && v.status == RobotStatus::Idle).then_some(())
@@ -56,16 +56,16 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
 
     // Bad input: unknown robot, garbage request, garbage telemetry; central keeps answering.
     let e = client
-        .query::<Value>(proto::SYSTEM_CMD_GOTO, Some(&GotoRequest { robot: "nope".into(), x: 0.0, y: 0.0 }))
+        .query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "nope".into(), x: 0.0, y: 0.0 }))
         .await
         .expect_err("unknown robot");
     assert!(e.to_string().contains("unknown robot \"nope\""), "{e}");
-    let e = client.query::<Value>(proto::SYSTEM_CMD_GOTO, Some(&"hello")).await.expect_err("garbage");
+    let e = client.query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&"hello")).await.expect_err("garbage");
     assert!(e.to_string().contains("goto request"), "{e}");
-    let e = client.query::<Value>(&proto::system_robot("nope"), None::<&()>).await.expect_err("unknown");
+    let e = client.query::<Value>(proto::Key::SystemRobot("nope".to_string()), None::<&()>).await.expect_err("unknown");
     assert!(e.to_string().contains("unknown robot"), "{e}");
-    client.session().put(proto::robot_telemetry("r2"), b"\xff\x00garbage".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    client.session().put(proto::robot_telemetry("r2"), b"MRM1\x05\x05".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    client.session().put(proto::Key::RobotTelemetry("r2".to_string()).to_string(), b"\xff\x00garbage".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    client.session().put(proto::Key::RobotTelemetry("r2".to_string()).to_string(), b"MRM1\x05\x05".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     assert_eq!(robots(&client).await.len(), 3, "central still answers after garbage");
 
     // SIGKILL: lost.
@@ -95,11 +95,11 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
 
     // A goto to a lost robot is refused.
     let e = client
-        .query::<Value>(proto::SYSTEM_CMD_GOTO, Some(&GotoRequest { robot: "r3".into(), x: 0.0, y: 0.0 }))
+        .query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r3".into(), x: 0.0, y: 0.0 }))
         .await
         .expect_err("lost");
     assert!(e.to_string().contains("lost"), "{e}");
-    let st: SystemStatus = client.query(proto::SYSTEM_STATUS, None::<&()>).await?;
+    let st: SystemStatus = client.query(proto::Key::SystemStatus, None::<&()>).await?;
     assert_eq!((st.robots_total, st.lost), (3, 1));
 
     r1.kill();

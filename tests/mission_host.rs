@@ -8,8 +8,8 @@ mod common;
 use std::time::Duration;
 
 use common::{eventually, start, start_central, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, Marginal, MissionStatus, MissionView, RobotView};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, Marginal, MissionStatus, MissionView, RobotView};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
@@ -22,27 +22,27 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     let create = common::square_patrol(3, Some("h2"));
     // The system manager learns of h2 through its liveliness token.
     let created = eventually("the mission created on h2", Duration::from_secs(15), || async {
-        client.query::<MissionView>(proto::SYSTEM_CMD_CREATE, Some(&create)).await.ok()
+        client.query::<MissionView>(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await.ok()
     })
     .await?;
     assert_eq!(created.manager.node, "h2");
     eventually("the team passing barriers under h2's manager", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= 2 && m.plans.as_ref().is_some_and(|p| p.len() == 3)).then_some(())
     })
     .await?;
-    let g: Marginal = client.query(&format!("{}?add=1", proto::mission_marginal("p")), None::<&()>).await?;
+    let g: Marginal = client.query(proto::keys::marginal_selector("p", 1), None::<&()>).await?;
     assert_eq!((g.robots, g.with_robots), (3, 4));
     assert!(g.predicted < g.current);
-    let bad = client.query::<Marginal>(&format!("{}?add=zero", proto::mission_marginal("p")), None::<&()>).await;
+    let bad = client.query::<Marginal>(format!("{}?add=zero", proto::Key::MissionMarginal("p".into())), None::<&()>).await;
     assert!(bad.expect_err("bad add").to_string().contains("add=zero"));
 
-    let before: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await?;
+    let before: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await?;
     assert_eq!(before.manager.chain.len(), 3, "head and two replicas: {:?}", before.manager);
     assert_eq!(before.manager.chain[0], "h2");
     let successor = before.manager.chain[1].clone();
     // Watch the mission's status publications: the first one from another node is the takeover.
-    let statuses = client.session().declare_subscriber(proto::mission_status("p")).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let statuses = client.session().declare_subscriber(proto::Key::MissionStatus("p".to_string()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     host.kill();
     let killed = std::time::Instant::now();
     let took_over = tokio::time::timeout(Duration::from_secs(10), async {
@@ -65,17 +65,17 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     assert_eq!(took_over.manager.epoch, before.manager.epoch, "same plans: the robots are not disturbed");
     // The operator reaches the manager on its new node; the chain is repaired to two replicas.
     let m = eventually("the system manager following the new head", Duration::from_secs(10), || async {
-        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
         (m.manager.node == successor && m.status == MissionStatus::Running && m.manager.chain.len() == 3).then_some(m)
     })
     .await?;
     assert!(!m.manager.chain.contains(&"h2".to_string()), "{:?}", m.manager);
-    let g: Marginal = client.query(&format!("{}?add=1", proto::mission_marginal("p")), None::<&()>).await?;
+    let g: Marginal = client.query(proto::keys::marginal_selector("p", 1), None::<&()>).await?;
     assert_eq!(g.robots, 3);
     // The robots keep executing their plans.
-    let before: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await?;
+    let before: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
     eventually("robots still moving", Duration::from_secs(10), || async {
-        let now: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        let now: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
         let moved = now.iter().zip(&before).filter(|(a, b)| {
             let (p, q) = (a.pose.unwrap_or_default(), b.pose.unwrap_or_default());
             (p.x - q.x).hypot(p.y - q.y) > 1.0
@@ -96,7 +96,7 @@ async fn a_restarted_central_adopts_the_missions_of_surviving_hosts() -> anyhow:
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     let create = common::square_patrol(3, Some("h2"));
     eventually("the mission created on h2", Duration::from_secs(20), || async {
-        client.query::<MissionView>(proto::SYSTEM_CMD_CREATE, Some(&create)).await.ok()
+        client.query::<MissionView>(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await.ok()
     })
     .await?;
     client.close().await;
@@ -107,16 +107,16 @@ async fn a_restarted_central_adopts_the_missions_of_surviving_hosts() -> anyhow:
     let _central = start("central2", &["central", "--listen", &ep], &log, "central ready", Duration::from_secs(20))?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     let m = eventually("the mission adopted from h2's report", Duration::from_secs(20), || async {
-        let ms: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
+        let ms: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
         ms.into_iter().find(|m| m.name == "p" && m.robots.len() == 3 && m.status == MissionStatus::Running)
     })
     .await?;
     assert_eq!(m.manager.node, "h2");
-    let v: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, None::<&()>).await?;
+    let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
     assert!(v.iter().all(|r| r.mission.as_deref() == Some("p")), "{v:?}");
     let before = m.metrics.sync_points_passed;
     eventually("the team still passing barriers", Duration::from_secs(20), || async {
-        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed > before).then_some(())
     })
     .await?;

@@ -8,16 +8,16 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, start_robot_scaled, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotStatus, RobotView};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotStatus, RobotView};
 use serde_json::{json, Value};
 
 async fn mission(c: &Client, name: &str) -> Option<MissionView> {
-    c.query(&proto::system_mission(name), None::<&()>).await.ok()
+    c.query(proto::Key::SystemMission(name.to_string()), None::<&()>).await.ok()
 }
 
 async fn robots(c: &Client) -> Vec<RobotView> {
-    c.query(proto::SYSTEM_ROBOTS, None::<&()>).await.unwrap_or_default()
+    c.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -44,7 +44,7 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
         params: [("waypoints".to_string(), json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
         ..MissionCreate::default()
     };
-    let created: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&patrol)).await?;
+    let created: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol)).await?;
     assert_eq!(created.robots, ["r1", "r2", "r3", "r4"]);
     eventually("all patrol robots moving", Duration::from_secs(10), || async {
         let v = robots(&client).await;
@@ -60,8 +60,8 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
         params: [("region".to_string(), json!([[-30, -30], [-10, -30], [-10, -10], [-30, -10]]))].into(),
         ..MissionCreate::default()
     };
-    let c: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&coverage)).await?;
-    assert_eq!(c.summary["points"].as_array().map(Vec::len), Some(2));
+    let c: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&coverage)).await?;
+    assert_eq!(c.summary.as_ref().and_then(|s| s.coverage()).map(|c| c.points.len()), Some(2));
 
     // The patrol completes a round with sync: start barrier + 4 per round.
     let p = eventually("a full patrol round with its sync points", Duration::from_secs(40), || async {
@@ -72,27 +72,28 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     assert_eq!(p.manager.epoch, 1);
     assert!(p.metrics.visits.iter().all(|&v| v >= 1), "every waypoint visited: {:?}", p.metrics.visits);
     assert!(p.metrics.messages["sync"] >= 20, "{:?}", p.metrics.messages);
-    let predicted = p.summary["predicted_worst_idleness"].as_f64().unwrap_or(0.0);
+    let predicted = p.summary.as_ref().and_then(|s| s.patrol()).map_or(0.0, |p| p.predicted_worst_idleness);
     println!("patrol round: worst idleness {:?} s, average {:?} s, predicted {predicted} s", p.metrics.worst_idleness, p.metrics.avg_idleness);
 
     // Move r4 to the coverage: patrol replanned to 3 evenly spaced, coverage to 3 points.
-    let moved: Value = client.query(proto::SYSTEM_CMD_MOVE, Some(&RobotMove { robot: "r4".into(), to: Some("c".into()) })).await?;
+    let moved: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: "r4".into(), to: Some("c".into()) })).await?;
     assert_eq!(moved["from"], "p");
     let p = eventually("patrol replanned for 3", Duration::from_secs(10), || async {
         let m = mission(&client, "p").await?;
         (m.robots.len() == 3 && m.manager.epoch == 2 && m.plans.as_ref().is_some_and(|p| p.len() == 3)).then_some(m)
     })
     .await?;
-    let (length, spacing) = (p.summary["length"].as_f64().unwrap_or(0.0), p.summary["spacing"].as_f64().unwrap_or(0.0));
+    let summary = p.summary.as_ref().and_then(|s| s.patrol()).cloned().ok_or_else(|| anyhow::anyhow!("no patrol summary"))?;
+    let (length, spacing) = (summary.length, summary.spacing);
     assert!((length - 40.0).abs() < 1e-6 && (spacing - 40.0 / 3.0).abs() < 1e-6, "L {length}, spacing {spacing}");
     let c = eventually("coverage replanned for 3", Duration::from_secs(10), || async {
         let m = mission(&client, "c").await?;
-        (m.robots == ["r4", "r5", "r6"] && m.summary["points"].as_array().map(Vec::len) == Some(3)).then_some(m)
+        (m.robots == ["r4", "r5", "r6"] && m.summary.as_ref().and_then(|s| s.coverage()).map(|c| c.points.len()) == Some(3)).then_some(m)
     })
     .await?;
     assert_eq!(c.manager.epoch, 2);
     eventually("r4 executing the coverage plan", Duration::from_secs(10), || async {
-        let v: RobotView = client.query(&proto::system_robot("r4"), None::<&()>).await.ok()?;
+        let v: RobotView = client.query(proto::Key::SystemRobot("r4".to_string()), None::<&()>).await.ok()?;
         (v.mission.as_deref() == Some("c") && v.behaviour.as_deref().is_some_and(|b| b.starts_with("step"))).then_some(())
     })
     .await?;
@@ -113,7 +114,7 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     .await?;
 
     // Terminate the coverage: its robots are idle again.
-    let t: Value = client.query(proto::SYSTEM_CMD_TERMINATE, Some(&MissionTerminate { name: "c".into() })).await?;
+    let t: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: "c".into() })).await?;
     assert_eq!(t["robots"], json!(["r4", "r5", "r6"]));
     eventually("coverage robots idle", Duration::from_secs(10), || async {
         let v = robots(&client).await;
@@ -121,11 +122,11 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
         (idle == 3).then_some(())
     })
     .await?;
-    let missions: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await?;
+    let missions: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await?;
     assert_eq!(missions.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(), ["p"]);
     // The end reached the coverage's replicas: none of them takes the dead mission over (a
     // replica that never heard of the end would stand after 3 s of silence).
-    let statuses = client.session().declare_subscriber(proto::mission_status("c")).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let statuses = client.session().declare_subscriber(proto::Key::MissionStatus("c".to_string()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let zombie = tokio::time::timeout(Duration::from_secs(5), statuses.recv_async()).await;
     assert!(zombie.is_err(), "a terminated mission came back: {zombie:?}");
     client.close().await;

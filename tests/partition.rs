@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{bail, ensure, Context};
 use common::{start_wrapped, Proc, Scratch};
-use mrmm_peer::proto::{MissionView, RobotView};
+use mrmm_proto::{MissionView, RobotView};
 
 const A_IP: &str = "10.199.0.1";
 const B_IP: &str = "10.199.0.2";

@@ -11,8 +11,8 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use common::{eventually, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, Advice, MissionView, Priority};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, Advice, MissionView, Priority};
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
 
@@ -26,14 +26,14 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
         &["--robots", "6", "--duration", "40", "--listen", "tcp/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s],
     )?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    let live = client.session().declare_subscriber(proto::AGENT_ADVICE_LIVE).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("two running missions", Duration::from_secs(20), || async {
-        let m: Vec<MissionView> = client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.ok()?;
+        let m: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
         (m.len() == 2 && m.iter().all(|m| m.manager.epoch >= 1)).then_some(())
     })
     .await?;
     // Garbage on the keys the viewer bridge and the system manager listen to.
-    for key in [proto::robot_telemetry("r3"), proto::AGENT_ADVICE_LIVE.to_string(), proto::mission_status("patrol-1"), proto::team_sync("patrol-1", 1, 0)] {
+    for key in [proto::Key::RobotTelemetry("r3".to_string()).to_string(), proto::Key::AgentAdviceLive.to_string(), proto::Key::MissionStatus("patrol-1".to_string()).to_string(), proto::Key::TeamSync { team: "patrol-1".into(), point: 1, round: 0 }.to_string()] {
         client.session().put(key, b"\x00\xffgarbage".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     }
 
@@ -47,7 +47,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     assert_eq!(lost.priority, Priority::Critical);
     assert!(lost.reason.starts_with("robot r2 lost; mission patrol-1 replanned for its 2 remaining robots"), "{}", lost.reason);
     let below = eventually("below-standard advice", Duration::from_secs(30), || async {
-        let a: Vec<Advice> = client.query(proto::AGENT_ADVICE, None::<&()>).await.ok()?;
+        let a: Vec<Advice> = client.query(proto::Key::AgentAdvice, None::<&()>).await.ok()?;
         a.into_iter().find(|a| a.id == "standard/patrol-1")
     })
     .await?;

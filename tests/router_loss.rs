@@ -8,9 +8,9 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, Scratch};
-use mrmm_manager::client::Client;
-use mrmm_peer::net::{self, Mode};
-use mrmm_peer::proto::{self, MissionView, SyncArrival};
+use mrmm_proto::client::Client;
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::{self as proto, MissionView, SyncArrival};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
@@ -20,9 +20,9 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 3).await?;
     let create = common::square_patrol(3, None);
-    let _: MissionView = client.query(proto::SYSTEM_CMD_CREATE, Some(&create)).await?;
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
     eventually("the patrol past its first barriers", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(&proto::system_mission("p"), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= 2).then_some(())
     })
     .await?;
@@ -31,8 +31,8 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     // A peer attached to r1 only.
     let r1_ep = robots[0].field("listening").ok_or_else(|| anyhow::anyhow!("no endpoint for r1"))?;
     let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[r1_ep], 1000)?).await?;
-    let arrivals = observer.declare_subscriber(proto::team_sync_all("p")).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    let telemetry = observer.declare_subscriber(proto::ALL_ROBOTS_TELEMETRY).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("telemetry of all 3 robots through r1", Duration::from_secs(10), || async {
         let mut seen = BTreeSet::new();
         while let Ok(Some(s)) = telemetry.try_recv() {

@@ -8,11 +8,11 @@ pub enum ManagerError {
     /// A config file could not be read or is wrong; the message names the file, field and problem.
     #[error("{0}")]
     Config(String),
-    #[error(transparent)]
-    Peer(#[from] mrmm_peer::PeerError),
-    /// The other side answered with an error.
+    /// Another node on the mesh already uses this node's name.
     #[error("{0}")]
-    Remote(String),
+    NameTaken(String),
+    #[error(transparent)]
+    Proto(#[from] mrmm_proto::ProtoError),
     #[error("zenoh: {0}")]
     Zenoh(String),
 }

@@ -1,14 +1,40 @@
-//! mrmm managers: the system manager (a pure state machine, [`system`]) and the central node that
-//! drives it over Zenoh ([`central`]).
+//! mrmm managers: every decision of the system's managers as a pure state machine, and the thin
+//! drivers that run them over Zenoh.
+//!
+//! | machine | what it decides | driver |
+//! |---|---|---|
+//! | [`system::SystemManager`] | membership, operator commands, mission lifecycle | [`central`] |
+//! | [`agent::Agent`] | advice to the operator, its own moves (`act`) | [`central`] |
+//! | [`central::CentralCore`] | the two above, composed | [`central`] |
+//! | [`mission::MissionManager`] | one mission's team, plans, metrics | [`host`] |
+//! | [`chain::Replica`], [`chain::Registry`] | chain replication of mission managers | [`host`] |
+//! | [`host::HostCore`] | the missions a node replicates and leads | [`host`] |
+//!
+//! Each machine is module `x` with `x::Event`, `x::Command` and `X::handle(now, Event) ->
+//! Vec<Command>`; the simulations in `sim/` drive these same machines.
 
 pub mod agent;
-pub mod chain;
 pub mod central;
-pub mod client;
+pub mod chain;
 pub mod error;
 pub mod host;
 pub mod mission;
 pub mod planner_service;
 pub mod system;
+pub mod wire;
 
 pub use error::ManagerError;
+
+/// Why a request to another node has no result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failure {
+    /// Nobody answered (the node died, or is unreachable): asking again may work.
+    pub retryable: bool,
+    pub error: String,
+}
+
+impl From<mrmm_proto::net::QueryError> for Failure {
+    fn from(e: mrmm_proto::net::QueryError) -> Self {
+        Failure { retryable: e.retryable(), error: e.to_string() }
+    }
+}

@@ -2,17 +2,23 @@
 //! announce themselves with a liveliness token and can run in any process (inside central by
 //! default, or `mrmm planner-service`). Planning runs on the blocking pool.
 
-use mrmm_peer::net;
-use mrmm_peer::proto::{self, PlanRequest};
-use mrmm_planner::recipe::{self, MissionPlan, PlannerKind};
+use mrmm_planner::recipe::{self, PlannerKind};
+use mrmm_proto::net;
+use mrmm_proto::{self as proto, Key, MissionPlan, PlanRequest};
 use tokio_util::sync::CancellationToken;
 use zenoh::query::Query;
 use zenoh::Session;
 
 use crate::error::ManagerError;
+use crate::wire;
 
 /// Every planner kind a service offers.
 pub const KINDS: [PlannerKind; 2] = [PlannerKind::Patrol, PlannerKind::Coverage];
+
+/// The planner kind named `name` on the wire.
+pub fn kind(name: &str) -> Option<PlannerKind> {
+    KINDS.into_iter().find(|k| k.as_str() == name)
+}
 
 /// Plans a request with the planner library, checking that the recipe is of `kind`.
 pub fn plan(kind: PlannerKind, req: &PlanRequest) -> Result<MissionPlan, String> {
@@ -21,7 +27,9 @@ pub fn plan(kind: PlannerKind, req: &PlanRequest) -> Result<MissionPlan, String>
     if r.planner != kind {
         return Err(format!("this is the {} planner; the recipe needs {}", kind.as_str(), r.planner.as_str()));
     }
-    recipe::build(&r, &req.params, &req.robots).map_err(|e| e.to_string())
+    let robots: Vec<_> = req.robots.iter().map(wire::robot_spec).collect();
+    let planned = recipe::build(&r, &req.params, &robots).map_err(|e| e.to_string())?;
+    Ok(wire::mission_plan(&planned))
 }
 
 /// Serves planning queries on `session` until `shutdown`.
@@ -30,8 +38,10 @@ pub async fn serve(session: Session, shutdown: CancellationToken) -> Result<(), 
     let mut queryables = Vec::new();
     let mut tokens = Vec::new();
     for kind in KINDS {
-        queryables.push((kind, session.declare_queryable(proto::planner(kind.as_str())).await.map_err(ManagerError::zenoh)?));
-        tokens.push(session.liveliness().declare_token(proto::planner_alive(kind.as_str(), &zid)).await.map_err(ManagerError::zenoh)?);
+        let name = kind.as_str().to_string();
+        queryables.push((kind, session.declare_queryable(Key::Planner(name.clone()).to_string()).await.map_err(ManagerError::zenoh)?));
+        let alive = Key::PlannerAlive { kind: name, zid: zid.clone() };
+        tokens.push(session.liveliness().declare_token(alive.to_string()).await.map_err(ManagerError::zenoh)?);
     }
     tracing::info!(%zid, "planner service up");
     let (patrol, coverage) = (&queryables[0].1, &queryables[1].1);

@@ -8,7 +8,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use crate::proto::SyncArrival;
+use mrmm_proto::SyncArrival;
 
 /// Barrier bookkeeping for one plan (one epoch of one team).
 #[derive(Debug, Clone)]

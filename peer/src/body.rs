@@ -5,7 +5,7 @@
 
 use nalgebra::{Rotation2, Vector2};
 
-use crate::proto::{Pose, Velocity};
+use mrmm_proto::{Pose, Velocity};
 
 /// Physical limits of a robot.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -2,13 +2,13 @@
 
 use std::path::Path;
 
-use serde::de::DeserializeOwned;
+use mrmm_proto::config::{load_json5, parse_json5, positive};
+use mrmm_proto::net::{validate_endpoints, ZenohSection};
+use mrmm_proto::{validate_id, Pose};
 use serde::Deserialize;
 
 use crate::body::Limits;
 use crate::error::PeerError;
-use crate::net::{validate_endpoints, ZenohSection};
-use crate::proto::{validate_id, Pose};
 
 /// Everything a robot peer needs to start (`mrmm robot --config robot.json5`).
 #[derive(Debug, Clone, Deserialize)]
@@ -78,7 +78,7 @@ impl RobotConfig {
 
     /// Checks every value; the error is `field: problem`.
     pub fn validate(&self) -> Result<(), String> {
-        validate_id(&self.id).map_err(|e| format!("id: {e}"))?;
+        validate_id(&self.id).map_err(|_| format!("id: invalid robot id {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", self.id))?;
         validate_id(&self.robot_type).map_err(|_| {
             format!("type: {:?} must be 1 to 64 characters of A-Z a-z 0-9 _ -", self.robot_type)
         })?;
@@ -111,40 +111,6 @@ impl RobotConfig {
     pub fn start_pose(&self) -> Pose {
         Pose { x: self.start.x, y: self.start.y, theta: self.start.theta }
     }
-}
-
-fn positive(name: &str, v: f64, max: f64) -> Result<(), String> {
-    if v.is_finite() && v > 0.0 && v <= max {
-        Ok(())
-    } else {
-        Err(format!("{name}: must be a number in (0, {max}] (got {v})"))
-    }
-}
-
-/// Reads a JSON5 file into `T`; errors are one line naming the file, the field path and the problem.
-pub fn load_json5<T: DeserializeOwned>(path: &Path) -> Result<T, PeerError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| PeerError::Config(format!("{}: cannot read: {e}", path.display())))?;
-    parse_json5(&path.display().to_string(), &text)
-}
-
-/// Parses JSON5 text into `T`, naming `origin` and the failing field path in errors.
-pub fn parse_json5<T: DeserializeOwned>(origin: &str, text: &str) -> Result<T, PeerError> {
-    let mut de = json5::Deserializer::from_str(text)
-        .map_err(|e| PeerError::Config(format!("{origin}: {}", one_line(&e.to_string()))))?;
-    serde_path_to_error::deserialize(&mut de).map_err(|e| {
-        let path = e.path().to_string();
-        let inner = one_line(&e.inner().to_string());
-        if path.is_empty() || path == "." {
-            PeerError::Config(format!("{origin}: {inner}"))
-        } else {
-            PeerError::Config(format!("{origin}: {path}: {inner}"))
-        }
-    })
-}
-
-fn one_line(s: &str) -> String {
-    s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 #[cfg(test)]

@@ -2,18 +2,17 @@
 
 use thiserror::Error;
 
-/// Everything that can go wrong in a robot peer or on the wire.
+/// Everything that can go wrong in a robot peer.
 #[derive(Debug, Error)]
 pub enum PeerError {
     /// A config file could not be read or is wrong; the message names the file, field and problem.
     #[error("{0}")]
     Config(String),
-    #[error("invalid robot id {0:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -")]
-    BadId(String),
-    #[error("cannot decode payload: {0}")]
-    Decode(String),
-    #[error("cannot encode payload: {0}")]
-    Encode(String),
+    /// Another node on the mesh already uses this robot's id.
+    #[error("{0}")]
+    NameTaken(String),
+    #[error(transparent)]
+    Proto(#[from] mrmm_proto::ProtoError),
     #[error("zenoh: {0}")]
     Zenoh(String),
 }

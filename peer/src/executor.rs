@@ -1,12 +1,12 @@
 //! Plan execution on a robot: walks the plan's steps, asks the body to move, and takes part in
-//! team barriers. No I/O: [`Executor::tick`] returns [`Action`]s for the driver.
+//! team barriers. No I/O: [`Executor::handle`] takes the time and an [`Event`] and returns the
+//! [`Command`]s for the robot.
 
 use std::collections::BTreeMap;
 
-use mrmm_planner::plan::Step;
+use mrmm_proto::{PlanAssignment, Progress, Step, SyncArrival};
 
 use crate::barrier::Barrier;
-use crate::proto::{PlanAssignment, Progress, SyncArrival};
 
 /// Seconds (simulated) between two re-publications of an arrival while waiting at a barrier,
 /// for members that subscribed after the first one.
@@ -14,9 +14,22 @@ pub const REPUBLISH_S: f64 = 0.5;
 /// Instantaneous steps taken at most per tick (a loop of such steps cannot spin for ever).
 const MAX_STEPS_PER_TICK: usize = 64;
 
-/// What the driver must do.
+/// Something that happened to the plan's robot.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Action {
+pub enum Event {
+    /// Time passed; `body_idle`: the body has no goal (it arrived, or holds).
+    Tick { body_idle: bool },
+    /// A teammate's barrier arrival was heard.
+    Heard(SyncArrival),
+    /// A teammate's membership token appeared.
+    MemberAlive(String),
+    /// A teammate's membership token disappeared: it no longer holds anyone up.
+    MemberGone(String),
+}
+
+/// What the robot must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
     /// Drive to (x, y), speed capped at `speed` (None: the robot's maximum).
     Navigate { x: f64, y: f64, speed: Option<f64> },
     /// Stop.
@@ -29,7 +42,7 @@ pub enum Action {
 #[derive(Debug, Clone)]
 pub struct Executor {
     pub assignment: PlanAssignment,
-    pub barrier: Barrier,
+    barrier: Barrier,
     pc: usize,
     round: u32,
     loops: BTreeMap<usize, u32>,
@@ -74,6 +87,11 @@ impl Executor {
         self.assignment.epoch
     }
 
+    /// The team's barriers as this robot sees them.
+    pub fn barrier(&self) -> &Barrier {
+        &self.barrier
+    }
+
     /// Progress for telemetry.
     pub fn progress(&self) -> Progress {
         Progress {
@@ -88,21 +106,39 @@ impl Executor {
         }
     }
 
+    /// Handles one event at `now` (the robot's simulated seconds).
+    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+        match ev {
+            Event::Tick { body_idle } => self.tick(now, body_idle),
+            Event::Heard(a) => {
+                self.heard(&a);
+                vec![]
+            }
+            Event::MemberAlive(id) => {
+                self.barrier.member_alive(&id);
+                vec![]
+            }
+            Event::MemberGone(id) => {
+                self.barrier.member_gone(&id);
+                vec![]
+            }
+        }
+    }
+
     /// A teammate's arrival. One at or before our own furthest arrival, where we are not waiting
     /// ourselves, means its sender has not heard of ours (it re-publishes only while it waits):
-    /// we publish ours again (at most every `REPUBLISH_S`). In the normal case this never happens,
-    /// so the team still sends one message per member per barrier — and a member that missed
-    /// the last arrivals of a finite plan is not left waiting for ever.
-    pub fn heard(&mut self, a: &SyncArrival) -> bool {
+    /// we publish ours again (at most every `REPUBLISH_S`, at the next tick). In the normal case
+    /// this never happens, so the team still sends one message per member per barrier — and a
+    /// member that missed the last arrivals of a finite plan is not left waiting for ever.
+    fn heard(&mut self, a: &SyncArrival) {
         let counted = self.barrier.arrival(a);
         if counted && self.barrier.at_or_behind_us(a) && self.waiting != Some((a.point, a.round)) {
             self.echo_due = true;
         }
-        counted
     }
 
     /// Advances the plan. `now`: simulated seconds; `body_idle`: the body has no goal (arrived).
-    pub fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Action> {
+    fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Command> {
         let mut out = Vec::new();
         let me = self.assignment.plan.robot.clone();
         if self.echo_due && now - self.last_echo >= REPUBLISH_S {
@@ -110,7 +146,7 @@ impl Executor {
                 self.echo_due = false;
                 self.last_echo = now;
                 self.sync_msgs += 1;
-                out.push(Action::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round }));
+                out.push(Command::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round }));
             }
         }
         for _ in 0..MAX_STEPS_PER_TICK {
@@ -119,7 +155,7 @@ impl Executor {
             }
             let Some(step) = self.assignment.plan.steps.get(self.pc).cloned() else {
                 self.done = true;
-                out.push(Action::Hold);
+                out.push(Command::Hold);
                 break;
             };
             match step {
@@ -127,7 +163,7 @@ impl Executor {
                 Step::Navigate { x, y, speed } => {
                     if !self.navigating {
                         self.navigating = true;
-                        out.push(Action::Navigate { x, y, speed });
+                        out.push(Command::Navigate { x, y, speed });
                         break;
                     }
                     if !body_idle {
@@ -144,13 +180,13 @@ impl Executor {
                         self.barrier.arrival(&arrival);
                         self.sync_msgs += 1;
                         self.last_publish = now;
-                        out.push(Action::Publish(arrival));
+                        out.push(Command::Publish(arrival));
                     }
                     if !self.barrier.released(point, self.round) {
                         if now - self.last_publish >= REPUBLISH_S {
                             self.sync_msgs += 1;
                             self.last_publish = now;
-                            out.push(Action::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round }));
+                            out.push(Command::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round }));
                         }
                         break;
                     }
@@ -160,7 +196,7 @@ impl Executor {
                 }
                 Step::Hold { seconds } => {
                     let until = *self.hold_until.get_or_insert_with(|| {
-                        out.push(Action::Hold);
+                        out.push(Command::Hold);
                         seconds.map_or(f64::INFINITY, |s| now + s)
                     });
                     if now < until {
@@ -188,7 +224,11 @@ impl Executor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mrmm_planner::plan::RobotPlan;
+    use mrmm_proto::RobotPlan;
+
+    fn tick(e: &mut Executor, now: f64, body_idle: bool) -> Vec<Command> {
+        e.handle(now, Event::Tick { body_idle })
+    }
 
     fn exec(steps: Vec<Step>, members: &[&str]) -> Executor {
         Executor::new(PlanAssignment {
@@ -208,24 +248,24 @@ mod tests {
     #[test]
     fn navigates_step_by_step_then_holds_at_the_end() {
         let mut e = exec(vec![Step::Stream, nav(1.0), nav(2.0)], &["a"]);
-        assert_eq!(e.tick(0.0, true), vec![Action::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
-        assert!(e.tick(0.1, false).is_empty(), "still driving");
-        assert_eq!(e.tick(0.2, true), vec![Action::Navigate { x: 2.0, y: 0.0, speed: Some(1.0) }]);
-        assert_eq!(e.tick(0.3, true), vec![Action::Hold]);
+        assert_eq!(tick(&mut e, 0.0, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+        assert!(tick(&mut e, 0.1, false).is_empty(), "still driving");
+        assert_eq!(tick(&mut e, 0.2, true), vec![Command::Navigate { x: 2.0, y: 0.0, speed: Some(1.0) }]);
+        assert_eq!(tick(&mut e, 0.3, true), vec![Command::Hold]);
         assert!(e.progress().done);
-        assert!(e.tick(0.4, true).is_empty());
+        assert!(tick(&mut e, 0.4, true).is_empty());
     }
 
     #[test]
     fn barrier_waits_republishes_and_releases() {
         let mut e = exec(vec![Step::Sync { point: 0 }, nav(1.0)], &["a", "b"]);
-        let acts = e.tick(0.0, true);
-        assert_eq!(acts, vec![Action::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 })]);
+        let acts = tick(&mut e, 0.0, true);
+        assert_eq!(acts, vec![Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 })]);
         assert_eq!(e.progress().waiting, Some((0, 0)));
-        assert!(e.tick(0.1, true).is_empty());
-        assert_eq!(e.tick(0.6, true).len(), 1, "re-published while waiting");
-        e.barrier.arrival(&SyncArrival { robot: "b".into(), epoch: 2, point: 0, round: 0 });
-        assert_eq!(e.tick(0.7, true), vec![Action::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+        assert!(tick(&mut e, 0.1, true).is_empty());
+        assert_eq!(tick(&mut e, 0.6, true).len(), 1, "re-published while waiting");
+        e.handle(0.65, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point: 0, round: 0 }));
+        assert_eq!(tick(&mut e, 0.7, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
         let p = e.progress();
         assert_eq!((p.syncs_passed, p.sync_msgs, p.waiting), (1, 2, None));
     }
@@ -234,24 +274,24 @@ mod tests {
     fn a_teammate_that_missed_our_last_arrival_gets_it_again() {
         let arrival = |robot: &str| SyncArrival { robot: robot.into(), epoch: 2, point: 0, round: 0 };
         let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]);
-        e.tick(0.0, true);
+        tick(&mut e, 0.0, true);
         // b's arrival while we wait there ourselves: the normal case, no echo.
-        e.heard(&arrival("b"));
-        assert_eq!(e.tick(0.1, true), vec![Action::Hold], "released: the plan is over");
+        e.handle(0.0, Event::Heard(arrival("b")));
+        assert_eq!(tick(&mut e, 0.1, true), vec![Command::Hold], "released: the plan is over");
         // b publishes that arrival again: it is still waiting, it missed ours. We say it again.
-        e.heard(&arrival("b"));
-        assert_eq!(e.tick(0.2, true), vec![Action::Publish(arrival("a"))]);
-        e.heard(&arrival("b"));
-        assert!(e.tick(0.3, true).is_empty(), "at most every REPUBLISH_S");
-        assert_eq!(e.tick(0.8, true), vec![Action::Publish(arrival("a"))]);
+        e.handle(0.0, Event::Heard(arrival("b")));
+        assert_eq!(tick(&mut e, 0.2, true), vec![Command::Publish(arrival("a"))]);
+        e.handle(0.0, Event::Heard(arrival("b")));
+        assert!(tick(&mut e, 0.3, true).is_empty(), "at most every REPUBLISH_S");
+        assert_eq!(tick(&mut e, 0.8, true), vec![Command::Publish(arrival("a"))]);
     }
 
     #[test]
     fn a_lost_teammate_does_not_block() {
         let mut e = exec(vec![Step::Sync { point: 0 }, Step::Hold { seconds: None }], &["a", "b"]);
-        e.tick(0.0, true);
-        e.barrier.member_gone("b");
-        assert_eq!(e.tick(0.1, true), vec![Action::Hold]);
+        tick(&mut e, 0.0, true);
+        e.handle(0.05, Event::MemberGone("b".into()));
+        assert_eq!(tick(&mut e, 0.1, true), vec![Command::Hold]);
     }
 
     #[test]
@@ -260,8 +300,8 @@ mod tests {
         let mut e = exec(steps, &["a"]);
         let mut published = Vec::new();
         for i in 0..20 {
-            for a in e.tick(i as f64, true) {
-                if let Action::Publish(s) = a {
+            for a in tick(&mut e, i as f64, true) {
+                if let Command::Publish(s) = a {
                     published.push((s.point, s.round));
                 }
             }
@@ -275,10 +315,10 @@ mod tests {
     #[test]
     fn timed_hold_and_endless_loop_of_instant_steps_do_not_spin() {
         let mut e = exec(vec![Step::Hold { seconds: Some(1.0) }, Step::Stream, Step::Loop { to: 1, rounds: None }], &["a"]);
-        assert_eq!(e.tick(0.0, true), vec![Action::Hold]);
-        assert!(e.tick(0.5, true).is_empty());
+        assert_eq!(tick(&mut e, 0.0, true), vec![Command::Hold]);
+        assert!(tick(&mut e, 0.5, true).is_empty());
         // Past the hold: an endless loop of instantaneous steps is bounded per tick.
-        assert!(e.tick(1.5, true).is_empty());
+        assert!(tick(&mut e, 1.5, true).is_empty());
         assert!(e.progress().round > 0);
     }
 }

@@ -1,15 +1,16 @@
-//! mrmm robot peer: the wire protocol, node configuration, the simulated body and the robot runtime.
+//! mrmm robot peer: the robot's configuration, its simulated body, plan execution with team
+//! barriers ([`executor`], [`barrier`]), the robot as a state machine ([`robot`]) and the runtime
+//! that drives it over Zenoh ([`runtime`]).
 //!
 //! A robot is a Zenoh peer. It registers with the system manager through a liveliness token and an
-//! info queryable, streams telemetry, and executes commands (see [`proto`] for the key space).
+//! info queryable, streams telemetry, and executes commands (see `mrmm_proto::keys`).
 
 pub mod barrier;
 pub mod body;
 pub mod config;
 pub mod error;
 pub mod executor;
-pub mod net;
-pub mod proto;
 pub mod robot;
+pub mod runtime;
 
 pub use error::PeerError;

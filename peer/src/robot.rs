@@ -1,26 +1,48 @@
-//! The robot peer runtime: a synchronous [`Robot`] (body, behaviour, plan) driven by a thin
-//! async loop that does the Zenoh I/O.
+//! A robot as a state machine: its body, what it was told to do, and the plan it executes. No
+//! I/O: [`Robot::handle`] takes the wall-clock time and an [`Event`] and returns the
+//! [`Command`]s the runtime (`runtime.rs`) or a simulation carries out.
 
-use std::time::{Duration, Instant};
-
-use tokio::sync::oneshot;
-use tokio_util::sync::CancellationToken;
-use zenoh::bytes::Encoding;
-use zenoh::handlers::FifoChannelHandler;
-use zenoh::liveliness::LivelinessToken;
-use zenoh::pubsub::Subscriber;
-use zenoh::sample::{Sample, SampleKind};
-use zenoh::Session;
+use mrmm_proto::{self as proto, Behaviour, CommandAck, PlanAssignment, RobotCommand, RobotInfo, Step, SyncArrival, Telemetry};
 
 use crate::body::Body;
 use crate::config::RobotConfig;
-use crate::error::PeerError;
-use crate::executor::{Action, Executor};
-use crate::net::{self, Mode};
-use crate::proto::{self, Behaviour, CommandAck, PlanAssignment, RobotCommand, RobotInfo, SyncArrival, Telemetry};
+use crate::executor::{self, Executor};
 
-/// Physics step period (wall time).
-const PHYSICS_PERIOD: Duration = Duration::from_millis(20);
+/// Steps a plan may have at most.
+pub const MAX_PLAN_STEPS: usize = 100_000;
+
+/// Something that happened to the robot.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// Time passed: the body moves and the plan advances.
+    Tick,
+    /// A command arrived (query on `mrmm/robots/<id>/cmd`); answered with [`Command::Reply`].
+    Command(RobotCommand),
+    /// A teammate's barrier arrival.
+    Heard(SyncArrival),
+    /// A teammate's membership token appeared.
+    MemberAlive(String),
+    /// A teammate's membership token disappeared.
+    MemberGone(String),
+    /// Time to publish telemetry.
+    TelemetryDue,
+}
+
+/// What the runtime must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Answer the command being handled.
+    Reply(Result<CommandAck, String>),
+    /// Join a team: member token in `subteam`, subscriptions to `team`'s barriers and members
+    /// (leaving any other team).
+    JoinTeam { team: String, subteam: String },
+    /// Leave the current team.
+    LeaveTeam,
+    /// Publish a barrier arrival on the current team.
+    Publish(SyncArrival),
+    /// Publish telemetry.
+    Telemetry(Telemetry),
+}
 
 /// A robot's state, independent of the network.
 #[derive(Debug)]
@@ -28,24 +50,17 @@ pub struct Robot {
     cfg: RobotConfig,
     body: Body,
     seq: u64,
+    /// Simulated seconds since start.
     sim_t: f64,
+    /// Wall-clock time of the last tick.
+    last_tick: Option<f64>,
     exec: Option<Executor>,
-}
-
-/// What changed about the robot's plan after a command (the driver updates its subscriptions).
-#[derive(Debug, Clone, PartialEq)]
-pub enum PlanChange {
-    None,
-    /// A new plan: join this team.
-    Joined { team: String, subteam: String },
-    /// The plan ended by command.
-    Left,
 }
 
 impl Robot {
     pub fn new(cfg: RobotConfig) -> Self {
         let body = Body::new(cfg.start_pose(), cfg.limits());
-        Robot { cfg, body, seq: 0, sim_t: 0.0, exec: None }
+        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None }
     }
 
     pub fn id(&self) -> &str {
@@ -60,26 +75,78 @@ impl Robot {
         }
     }
 
-    pub fn executor(&mut self) -> Option<&mut Executor> {
-        self.exec.as_mut()
+    /// The plan being executed, if any.
+    pub fn executor(&self) -> Option<&Executor> {
+        self.exec.as_ref()
     }
 
-    /// Applies a command. Direct orders (goto, hold) end any plan.
-    pub fn command(&mut self, cmd: &RobotCommand) -> Result<(CommandAck, PlanChange), String> {
-        let mut change = PlanChange::None;
+    /// The registration record (answer of `mrmm/robots/<id>/info`).
+    pub fn info(&self, endpoints: Vec<String>) -> RobotInfo {
+        RobotInfo {
+            id: self.cfg.id.clone(),
+            robot_type: self.cfg.robot_type.clone(),
+            capabilities: self.cfg.capabilities.clone(),
+            max_speed: self.cfg.kinematics.max_speed,
+            endpoints,
+            time_scale: self.cfg.time_scale,
+        }
+    }
+
+    /// Handles one event at wall-clock time `now` (seconds, any origin, never going back).
+    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+        match ev {
+            Event::Tick => self.tick(now),
+            Event::Command(cmd) => {
+                let mut out = Vec::new();
+                match self.command(&cmd) {
+                    Ok(change) => {
+                        out.extend(change);
+                        out.push(Command::Reply(Ok(self.ack())));
+                        // Tell the fleet at once, not at the next telemetry tick.
+                        out.push(Command::Telemetry(self.telemetry()));
+                    }
+                    Err(e) => out.push(Command::Reply(Err(e))),
+                }
+                out
+            }
+            Event::Heard(a) => self.plan_event(executor::Event::Heard(a)),
+            Event::MemberAlive(id) => self.plan_event(executor::Event::MemberAlive(id)),
+            Event::MemberGone(id) => self.plan_event(executor::Event::MemberGone(id)),
+            Event::TelemetryDue => vec![Command::Telemetry(self.telemetry())],
+        }
+    }
+
+    fn ack(&self) -> CommandAck {
+        CommandAck { ok: true, robot: self.cfg.id.clone(), behaviour: self.behaviour() }
+    }
+
+    fn plan_event(&mut self, ev: executor::Event) -> Vec<Command> {
+        let sim_t = self.sim_t;
+        match self.exec.as_mut() {
+            Some(e) => {
+                let out = e.handle(sim_t, ev);
+                self.carry_out(out)
+            }
+            None => vec![],
+        }
+    }
+
+    /// Applies a command; returns the team change it makes. Direct orders (goto, hold) end any plan.
+    fn command(&mut self, cmd: &RobotCommand) -> Result<Option<Command>, String> {
+        let mut change = None;
         match cmd {
             RobotCommand::Goto { x, y } => {
                 if !(x.is_finite() && y.is_finite()) {
                     return Err(format!("goto: coordinates must be finite (got {x}, {y})"));
                 }
                 if self.exec.take().is_some() {
-                    change = PlanChange::Left;
+                    change = Some(Command::LeaveTeam);
                 }
                 self.body.navigate_to(*x, *y);
             }
             RobotCommand::Hold => {
                 if self.exec.take().is_some() {
-                    change = PlanChange::Left;
+                    change = Some(Command::LeaveTeam);
                 }
                 self.body.hold();
             }
@@ -90,13 +157,13 @@ impl Robot {
                         return Err(format!("stale epoch {} for mission {} (running epoch {})", a.epoch, a.mission, e.epoch()));
                     }
                     if e.assignment == **a {
-                        // The same plan again (a new head re-sending after a takeover): go on.
-                        return Ok((CommandAck { ok: true, robot: self.cfg.id.clone(), behaviour: self.behaviour() }, change));
+                        // The same plan again (a re-send, or a new head after a takeover): go on.
+                        return Ok(None);
                     }
                 }
                 tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
                 self.body.hold();
-                change = PlanChange::Joined { team: a.team.clone(), subteam: a.subteam.clone() };
+                change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone() });
                 self.exec = Some(Executor::new((**a).clone()));
             }
             RobotCommand::Leave { mission, epoch } => {
@@ -105,13 +172,15 @@ impl Robot {
                     tracing::info!(robot = %self.cfg.id, %mission, "left mission");
                     self.exec = None;
                     self.body.hold();
-                    change = PlanChange::Left;
+                    change = Some(Command::LeaveTeam);
                 }
             }
         }
-        Ok((CommandAck { ok: true, robot: self.cfg.id.clone(), behaviour: self.behaviour() }, change))
+        Ok(change)
     }
 
+    /// Everything in a plan that could hurt: another robot's plan, bad names, numbers that are
+    /// not finite, loops that point nowhere.
     fn check_plan(&self, a: &PlanAssignment) -> Result<(), String> {
         if a.plan.robot != self.cfg.id {
             return Err(format!("plan is for robot {:?}, this is {:?}", a.plan.robot, self.cfg.id));
@@ -119,43 +188,53 @@ impl Robot {
         for id in [&a.mission, &a.team] {
             proto::validate_id(id).map_err(|e| e.to_string())?;
         }
-        if !a.subteam.split('/').all(|c| proto::validate_id(c).is_ok()) {
-            return Err(format!("bad sub-team path {:?}", a.subteam));
-        }
+        proto::validate_subteam(&a.subteam).map_err(|_| format!("bad sub-team path {:?}", a.subteam))?;
         if !a.members.contains(&self.cfg.id) {
             return Err("plan's member list does not include this robot".into());
         }
-        for s in &a.plan.steps {
-            if let mrmm_planner::plan::Step::Navigate { x, y, .. } = s {
-                if !(x.is_finite() && y.is_finite()) {
-                    return Err("plan has a non-finite navigation target".into());
-                }
+        if a.plan.steps.len() > MAX_PLAN_STEPS {
+            return Err(format!("plan has {} steps (at most {MAX_PLAN_STEPS})", a.plan.steps.len()));
+        }
+        for (i, s) in a.plan.steps.iter().enumerate() {
+            let ok = match s {
+                Step::Navigate { x, y, speed } => x.is_finite() && y.is_finite() && speed.is_none_or(|v| v.is_finite() && v > 0.0),
+                Step::Hold { seconds } => seconds.is_none_or(|v| v.is_finite() && v >= 0.0),
+                Step::Loop { to, .. } => *to <= i,
+                Step::Sync { .. } | Step::Stream => true,
+            };
+            if !ok {
+                return Err(format!("plan step {i} is invalid: {s:?}"));
             }
         }
         Ok(())
     }
 
-    /// Advances the simulation by `wall_dt` wall-clock seconds (scaled by `time_scale`) and the
-    /// plan; returns the barrier arrivals to publish.
-    pub fn advance(&mut self, wall_dt: f64) -> Vec<SyncArrival> {
+    /// Advances the body by the wall time since the last tick (scaled by `time_scale`) and the plan.
+    fn tick(&mut self, now: f64) -> Vec<Command> {
+        let wall_dt = self.last_tick.map_or(0.0, |t| (now - t).max(0.0));
+        self.last_tick = Some(now);
         let dt = wall_dt * self.cfg.time_scale;
         self.sim_t += dt;
         self.body.step(dt);
-        let mut publish = Vec::new();
-        if let Some(e) = self.exec.as_mut() {
-            for a in e.tick(self.sim_t, self.body.goal().is_none()) {
-                match a {
-                    Action::Navigate { x, y, speed } => self.body.navigate_capped(x, y, speed),
-                    Action::Hold => self.body.hold(),
-                    Action::Publish(s) => publish.push(s),
-                }
+        let body_idle = self.body.goal().is_none();
+        self.plan_event(executor::Event::Tick { body_idle })
+    }
+
+    /// Carries out the plan's commands on the body; arrivals go out.
+    fn carry_out(&mut self, cmds: Vec<executor::Command>) -> Vec<Command> {
+        let mut out = Vec::new();
+        for c in cmds {
+            match c {
+                executor::Command::Navigate { x, y, speed } => self.body.navigate_capped(x, y, speed),
+                executor::Command::Hold => self.body.hold(),
+                executor::Command::Publish(s) => out.push(Command::Publish(s)),
             }
         }
-        publish
+        out
     }
 
     /// The next telemetry message.
-    pub fn telemetry(&mut self) -> Telemetry {
+    fn telemetry(&mut self) -> Telemetry {
         self.seq += 1;
         Telemetry {
             id: self.cfg.id.clone(),
@@ -168,228 +247,12 @@ impl Robot {
             progress: self.exec.as_ref().map(Executor::progress),
         }
     }
-
-    /// The registration record.
-    pub fn info(&self, endpoints: Vec<String>) -> RobotInfo {
-        RobotInfo {
-            id: self.cfg.id.clone(),
-            robot_type: self.cfg.robot_type.clone(),
-            capabilities: self.cfg.capabilities.clone(),
-            max_speed: self.cfg.kinematics.max_speed,
-            endpoints,
-            time_scale: self.cfg.time_scale,
-        }
-    }
-}
-
-/// What a started robot reports once it is on the network.
-#[derive(Debug, Clone)]
-pub struct Ready {
-    pub id: String,
-    pub zid: String,
-    pub endpoints: Vec<String>,
-}
-
-/// The Zenoh side of team membership: member token, barrier and membership subscriptions.
-struct TeamLink {
-    team: String,
-    _token: LivelinessToken,
-    arrivals: Subscriber<FifoChannelHandler<Sample>>,
-    members: Subscriber<FifoChannelHandler<Sample>>,
-}
-
-impl TeamLink {
-    async fn join(session: &Session, id: &str, team: &str, subteam: &str) -> Result<Self, PeerError> {
-        let members = session
-            .liveliness()
-            .declare_subscriber(proto::team_members(team))
-            .history(true)
-            .await
-            .map_err(PeerError::zenoh)?;
-        let arrivals = session.declare_subscriber(proto::team_sync_all(team)).await.map_err(PeerError::zenoh)?;
-        let token = session
-            .liveliness()
-            .declare_token(proto::team_member(subteam, id))
-            .await
-            .map_err(PeerError::zenoh)?;
-        Ok(TeamLink { team: team.to_string(), _token: token, arrivals, members })
-    }
-}
-
-/// Runs a robot peer until `shutdown` is cancelled. `ready` is told once the robot is registered
-/// on the network (queryables and liveliness token declared).
-pub async fn run(
-    cfg: RobotConfig,
-    shutdown: CancellationToken,
-    ready: Option<oneshot::Sender<Ready>>,
-) -> Result<(), PeerError> {
-    let session = open(&cfg).await?;
-    run_on(session, cfg, shutdown, ready).await
-}
-
-/// Opens the robot's Zenoh session as its config says.
-pub async fn open(cfg: &RobotConfig) -> Result<Session, PeerError> {
-    let z = &cfg.zenoh;
-    net::open(net::zenoh_config(Mode::Peer, &z.listen, &z.connect, z.lease_ms)?).await
-}
-
-/// Runs a robot on an open session (shared with other services of the same process, such as
-/// a mission host).
-pub async fn run_on(
-    session: Session,
-    cfg: RobotConfig,
-    shutdown: CancellationToken,
-    ready: Option<oneshot::Sender<Ready>>,
-) -> Result<(), PeerError> {
-    let id = cfg.id.clone();
-    let mut robot = Robot::new(cfg.clone());
-    let endpoints = net::listening_endpoints(&session).await;
-
-    let info_q = session.declare_queryable(proto::robot_info(&id)).await.map_err(PeerError::zenoh)?;
-    let cmd_q = session.declare_queryable(proto::robot_cmd(&id)).await.map_err(PeerError::zenoh)?;
-    let telemetry_pub = session
-        .declare_publisher(proto::robot_telemetry(&id))
-        .encoding(Encoding::APPLICATION_OCTET_STREAM)
-        .await
-        .map_err(PeerError::zenoh)?;
-    // Declared last: once others see the token, the queryables answer.
-    let token = session.liveliness().declare_token(proto::robot_alive(&id)).await.map_err(PeerError::zenoh)?;
-    tracing::info!(robot = %id, zid = %session.zid(), ?endpoints, "robot up");
-    if let Some(tx) = ready {
-        let _ = tx.send(Ready { id: id.clone(), zid: session.zid().to_string(), endpoints: endpoints.clone() });
-    }
-
-    let mut physics = tokio::time::interval(PHYSICS_PERIOD);
-    physics.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut telemetry = tokio::time::interval(Duration::from_secs_f64(1.0 / cfg.telemetry_hz));
-    telemetry.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut last = Instant::now();
-    let mut team: Option<TeamLink> = None;
-
-    loop {
-        tokio::select! {
-            _ = shutdown.cancelled() => break,
-            _ = physics.tick() => {
-                let now = Instant::now();
-                let arrivals = robot.advance((now - last).as_secs_f64());
-                last = now;
-                if let Some(t) = &team {
-                    for a in arrivals {
-                        publish_arrival(&session, &t.team, &a).await;
-                    }
-                }
-            }
-            _ = telemetry.tick() => publish(&telemetry_pub, &mut robot).await,
-            q = info_q.recv_async() => match q {
-                Ok(q) => net::reply_json(&q, &robot.info(endpoints.clone())).await,
-                Err(_) => break,
-            },
-            q = cmd_q.recv_async() => match q {
-                Ok(q) => {
-                    let bytes = net::query_payload(&q);
-                    let outcome = proto::from_json::<RobotCommand>("robot command", &bytes)
-                        .map_err(|e| e.to_string())
-                        .and_then(|cmd| robot.command(&cmd));
-                    match outcome {
-                        Ok((ack, change)) => {
-                            match change {
-                                PlanChange::None => {}
-                                PlanChange::Left => team = None,
-                                PlanChange::Joined { team: t, subteam } => {
-                                    team = None;
-                                    match TeamLink::join(&session, &id, &t, &subteam).await {
-                                        Ok(link) => team = Some(link),
-                                        Err(e) => tracing::warn!(robot = %id, "cannot join team {t}: {e}"),
-                                    }
-                                }
-                            }
-                            net::reply_json(&q, &ack).await;
-                            // Tell the fleet at once, not at the next telemetry tick.
-                            publish(&telemetry_pub, &mut robot).await;
-                        }
-                        Err(e) => {
-                            tracing::warn!(robot = %id, "refused command: {e}");
-                            net::reply_error(&q, &e).await;
-                        }
-                    }
-                }
-                Err(_) => break,
-            },
-            s = recv_team(&team, true) => on_arrival(&mut robot, s),
-            s = recv_team(&team, false) => on_member(&mut robot, s),
-        }
-    }
-    tracing::info!(robot = %id, "shutting down");
-    drop(team);
-    drop(token);
-    session.close().await.map_err(PeerError::zenoh)?;
-    Ok(())
-}
-
-/// The next sample of the team's arrivals (or members) subscription; pending when not in a team.
-async fn recv_team(team: &Option<TeamLink>, arrivals: bool) -> Sample {
-    match team {
-        Some(t) => {
-            let sub = if arrivals { &t.arrivals } else { &t.members };
-            match sub.recv_async().await {
-                Ok(s) => s,
-                Err(_) => std::future::pending().await,
-            }
-        }
-        None => std::future::pending().await,
-    }
-}
-
-fn on_arrival(robot: &mut Robot, s: Sample) {
-    match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
-        Ok(a) => {
-            if let Some(e) = robot.executor() {
-                e.heard(&a);
-            }
-        }
-        Err(e) => tracing::warn!("dropped payload on {}: {e}", s.key_expr()),
-    }
-}
-
-fn on_member(robot: &mut Robot, s: Sample) {
-    let Some(member) = proto::parse_team_member(s.key_expr().as_str()) else {
-        tracing::warn!("ignored token {}", s.key_expr());
-        return;
-    };
-    if let Some(e) = robot.executor() {
-        match s.kind() {
-            SampleKind::Put => e.barrier.member_alive(member),
-            SampleKind::Delete => e.barrier.member_gone(member),
-        }
-    }
-}
-
-async fn publish_arrival(session: &Session, team: &str, a: &SyncArrival) {
-    match proto::to_json(a) {
-        Ok(bytes) => {
-            if let Err(e) = session.put(proto::team_sync(team, a.point, a.round), bytes).encoding(Encoding::APPLICATION_JSON).await {
-                tracing::warn!("arrival publication failed: {e}");
-            }
-        }
-        Err(e) => tracing::warn!("arrival encoding failed: {e}"),
-    }
-}
-
-async fn publish(publisher: &zenoh::pubsub::Publisher<'_>, robot: &mut Robot) {
-    match proto::encode_telemetry(&robot.telemetry()) {
-        Ok(bytes) => {
-            if let Err(e) = publisher.put(bytes).await {
-                tracing::warn!("telemetry publication failed: {e}");
-            }
-        }
-        Err(e) => tracing::warn!("telemetry encoding failed: {e}"),
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mrmm_planner::plan::{RobotPlan, Step};
+    use mrmm_proto::RobotPlan;
 
     fn cfg() -> RobotConfig {
         RobotConfig::from_json5(
@@ -410,47 +273,79 @@ mod tests {
         }))
     }
 
-    #[test]
-    fn goto_then_arrive_with_time_scale() {
-        let mut r = Robot::new(cfg());
-        let (ack, _) = r.command(&RobotCommand::Goto { x: 8.0, y: 0.0 }).expect("ack");
-        assert_eq!(ack.behaviour, Behaviour::Navigate { x: 8.0, y: 0.0 });
-        // 8 m at 2 m/s = 4 simulated s = 1 wall s at time scale 4.
-        for _ in 0..110 {
-            r.advance(0.01);
+    /// The reply and the team change of a command.
+    fn cmd(r: &mut Robot, c: RobotCommand) -> (Result<CommandAck, String>, Option<Command>) {
+        let out = r.handle(0.0, Event::Command(c));
+        let reply = out.iter().find_map(|c| match c {
+            Command::Reply(r) => Some(r.clone()),
+            _ => None,
+        });
+        let change = out.into_iter().find(|c| matches!(c, Command::JoinTeam { .. } | Command::LeaveTeam));
+        (reply.expect("a reply"), change)
+    }
+
+    fn telemetry(r: &mut Robot, now: f64) -> Telemetry {
+        match r.handle(now, Event::TelemetryDue).pop() {
+            Some(Command::Telemetry(t)) => t,
+            other => panic!("no telemetry: {other:?}"),
         }
-        let t = r.telemetry();
-        assert_eq!(t.behaviour, Behaviour::Hold);
-        assert!((t.pose.x - 8.0).abs() <= crate::body::ARRIVAL_TOLERANCE);
-        assert!((t.t - 4.4).abs() < 1e-9);
-        assert_eq!(t.seq, 1);
     }
 
     #[test]
-    fn rejects_non_finite_goal() {
+    fn goto_then_arrive_with_time_scale() {
         let mut r = Robot::new(cfg());
-        assert!(r.command(&RobotCommand::Goto { x: f64::NAN, y: 0.0 }).is_err());
+        let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 8.0, y: 0.0 });
+        assert_eq!(ack.expect("ack").behaviour, Behaviour::Navigate { x: 8.0, y: 0.0 });
+        // 8 m at 2 m/s = 4 simulated s = 1 wall s at time scale 4.
+        for i in 0..=110 {
+            r.handle(i as f64 * 0.01, Event::Tick);
+        }
+        let t = telemetry(&mut r, 1.1);
+        assert_eq!(t.behaviour, Behaviour::Hold);
+        assert!((t.pose.x - 8.0).abs() <= crate::body::ARRIVAL_TOLERANCE);
+        assert!((t.t - 4.4).abs() < 1e-9);
+        assert_eq!(t.seq, 2, "one telemetry after the command, one now");
+    }
+
+    #[test]
+    fn rejects_non_finite_goal_and_hostile_plans() {
+        let mut r = Robot::new(cfg());
+        assert!(cmd(&mut r, RobotCommand::Goto { x: f64::NAN, y: 0.0 }).0.is_err());
         assert_eq!(r.behaviour(), Behaviour::Hold);
+        for bad in [
+            Step::Navigate { x: 1.0, y: 0.0, speed: Some(f64::NAN) },
+            Step::Navigate { x: 1.0, y: 0.0, speed: Some(-1.0) },
+            Step::Hold { seconds: Some(f64::INFINITY) },
+            Step::Loop { to: 5, rounds: None },
+        ] {
+            let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
+            a.plan.steps.push(bad.clone());
+            let (reply, change) = cmd(&mut r, RobotCommand::Plan(a));
+            assert!(reply.is_err(), "{bad:?} accepted");
+            assert!(change.is_none());
+        }
     }
 
     #[test]
     fn plans_epochs_and_leaving() {
         let mut r = Robot::new(cfg());
-        let (_, change) = r.command(&plan("m", 2)).expect("plan");
-        assert_eq!(change, PlanChange::Joined { team: "m".into(), subteam: "m/ground".into() });
-        r.advance(0.01);
-        assert_eq!(r.telemetry().mission.as_deref(), Some("m"));
-        assert!(r.command(&plan("m", 1)).unwrap_err().contains("stale epoch"));
+        let (_, change) = cmd(&mut r, plan("m", 2));
+        assert_eq!(change, Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into() }));
+        r.handle(0.01, Event::Tick);
+        assert_eq!(telemetry(&mut r, 0.01).mission.as_deref(), Some("m"));
+        assert!(cmd(&mut r, plan("m", 1)).0.unwrap_err().contains("stale epoch"));
+        // The same plan again changes nothing.
+        assert_eq!(cmd(&mut r, plan("m", 2)), (Ok(r.ack()), None));
         // A leave for an older epoch or another mission is ignored.
-        assert_eq!(r.command(&RobotCommand::Leave { mission: "m".into(), epoch: 1 }).expect("ok").1, PlanChange::None);
-        assert_eq!(r.command(&RobotCommand::Leave { mission: "x".into(), epoch: 9 }).expect("ok").1, PlanChange::None);
+        assert_eq!(cmd(&mut r, RobotCommand::Leave { mission: "m".into(), epoch: 1 }).1, None);
+        assert_eq!(cmd(&mut r, RobotCommand::Leave { mission: "x".into(), epoch: 9 }).1, None);
         // Another mission's plan replaces this one (a move).
-        assert!(matches!(r.command(&plan("n", 1)).expect("move").1, PlanChange::Joined { .. }));
-        assert_eq!(r.command(&RobotCommand::Leave { mission: "n".into(), epoch: 1 }).expect("ok").1, PlanChange::Left);
-        assert_eq!(r.telemetry().mission, None);
+        assert!(matches!(cmd(&mut r, plan("n", 1)).1, Some(Command::JoinTeam { .. })));
+        assert_eq!(cmd(&mut r, RobotCommand::Leave { mission: "n".into(), epoch: 1 }).1, Some(Command::LeaveTeam));
+        assert_eq!(telemetry(&mut r, 0.02).mission, None);
         // A plan for somebody else is refused.
         let RobotCommand::Plan(mut a) = plan("m", 3) else { unreachable!() };
         a.plan.robot = "r2".into();
-        assert!(r.command(&RobotCommand::Plan(a)).is_err());
+        assert!(cmd(&mut r, RobotCommand::Plan(a)).0.is_err());
     }
 }

@@ -6,8 +6,8 @@ use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context};
-use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, GotoRequest, MissionCreate, MissionView, RobotStatus, RobotView};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, GotoRequest, MissionCreate, MissionView, RobotStatus, RobotView};
 use serde_json::json;
 use tokio::process::Child;
 
@@ -22,7 +22,7 @@ pub struct Args {
     #[arg(long)]
     duration: Option<f64>,
     /// Endpoint central listens on; outside clients connect here.
-    #[arg(long, default_value = mrmm_peer::net::DEFAULT_CENTRAL)]
+    #[arg(long, default_value = mrmm_proto::net::DEFAULT_CENTRAL)]
     listen: String,
     /// Simulated seconds per wall second for every robot.
     #[arg(long, default_value_t = 1.0)]
@@ -44,7 +44,7 @@ pub struct Args {
 const TYPES: [&str; 2] = ["ground", "aerial"];
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
-    mrmm_peer::net::validate_endpoint(&args.listen).map_err(|e| anyhow!("--listen: {e}"))?;
+    mrmm_proto::net::validate_endpoint(&args.listen).map_err(|e| anyhow!("--listen: {e}"))?;
     if let Some(d) = args.duration {
         if !(d.is_finite() && d > 0.0) {
             return Err(anyhow!("--duration: must be a positive number of seconds (got {d})"));
@@ -115,7 +115,7 @@ async fn drive(
         if deadline.is_some_and(|d| Instant::now() >= d) {
             break;
         }
-        let views: Vec<RobotView> = match client.query(proto::SYSTEM_ROBOTS, None::<&()>).await {
+        let views: Vec<RobotView> = match client.query(proto::Key::SystemRobots, None::<&()>).await {
             Ok(v) => v,
             Err(e) => {
                 eprintln!("fleet query failed: {e}");
@@ -131,7 +131,7 @@ async fn drive(
         let missions: Vec<MissionView> = if args.formation {
             vec![]
         } else {
-            client.query(proto::SYSTEM_MISSIONS, None::<&()>).await.unwrap_or_default()
+            client.query(proto::Key::SystemMissions, None::<&()>).await.unwrap_or_default()
         };
         let all_idle = live.iter().all(|v| v.status == RobotStatus::Idle);
         let settled = last_order.is_none_or(|t| t.elapsed() > Duration::from_secs(1));
@@ -140,7 +140,7 @@ async fn drive(
             for (slot, v) in live.iter().enumerate() {
                 let (x, y) = circle_point((slot + formation) % n, n, args.radius);
                 let req = GotoRequest { robot: v.id.clone(), x, y };
-                if let Err(e) = client.query::<serde_json::Value>(proto::SYSTEM_CMD_GOTO, Some(&req)).await {
+                if let Err(e) = client.query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&req)).await {
                     eprintln!("goto {} failed: {e}", v.id);
                 }
             }
@@ -214,7 +214,7 @@ async fn start_missions(client: &Client, n: usize) {
         });
     }
     for m in wanted {
-        if let Err(e) = client.query::<serde_json::Value>(proto::SYSTEM_CMD_CREATE, Some(&m)).await {
+        if let Err(e) = client.query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await {
             eprintln!("cannot create mission {}: {e}", m.name);
         }
     }

@@ -1,6 +1,6 @@
 //! `mrmm mission-host`: a mission host (runs mission managers) in its own process.
 
-use mrmm_peer::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
+use mrmm_proto::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -16,7 +16,7 @@ pub struct Args {
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
-    mrmm_peer::proto::validate_id(&args.name).map_err(|e| anyhow::anyhow!("--name: {e}"))?;
+    mrmm_proto::validate_id(&args.name).map_err(|e| anyhow::anyhow!("--name: {e}"))?;
     net::validate_endpoints("--connect", &args.connect).map_err(anyhow::Error::msg)?;
     net::validate_endpoints("--listen", &args.listen).map_err(anyhow::Error::msg)?;
     let session = net::open(net::zenoh_config(Mode::Peer, &args.listen, &args.connect, DEFAULT_LEASE_MS)?).await?;

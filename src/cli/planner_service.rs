@@ -1,6 +1,6 @@
 //! `mrmm planner-service`: planner services (`mrmm/planner/<kind>`) in their own process.
 
-use mrmm_peer::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
+use mrmm_proto::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -34,12 +34,12 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     }
     cfg.validate().map_err(|e| anyhow::anyhow!("{} (with command-line overrides): {e}", args.config.display()))?;
     let shutdown = super::shutdown::on_signals()?;
-    let session = mrmm_peer::robot::open(&cfg).await?;
+    let session = mrmm_peer::runtime::open(&cfg).await?;
     // Every robot is also a mission host: it replicates the managers of its missions and takes
     // one over when its head dies.
     let host = tokio::spawn(mrmm_manager::host::serve(session.clone(), cfg.id.clone(), shutdown.clone()));
     let (tx, rx) = oneshot::channel();
-    let task = tokio::spawn(mrmm_peer::robot::run_on(session.clone(), cfg, shutdown.clone(), Some(tx)));
+    let task = tokio::spawn(mrmm_peer::runtime::run_on(session.clone(), cfg, shutdown.clone(), Some(tx)));
     if let Ok(r) = rx.await {
         println!("robot ready id={} zid={} listening={}", r.id, r.zid, r.endpoints.join(","));
     }

@@ -1,6 +1,6 @@
 //! Plain-text tables for the terminal.
 
-use mrmm_peer::proto::RobotView;
+use mrmm_proto::RobotView;
 
 /// Renders rows under a header, columns padded to their widest cell.
 pub fn render(header: &[&str], rows: &[Vec<String>]) -> String {

@@ -191,9 +191,9 @@ pub fn start_demo(dir: &Scratch, args: &[&str]) -> anyhow::Result<(Proc, String)
 }
 
 /// Waits until `n` robots are registered and have reported a pose.
-pub async fn wait_robots(client: &mrmm_manager::client::Client, n: usize) -> anyhow::Result<Vec<mrmm_peer::proto::RobotView>> {
+pub async fn wait_robots(client: &mrmm_proto::client::Client, n: usize) -> anyhow::Result<Vec<mrmm_proto::RobotView>> {
     eventually(&format!("{n} registered robots"), Duration::from_secs(15), || async {
-        let v: Vec<mrmm_peer::proto::RobotView> = client.query(mrmm_peer::proto::SYSTEM_ROBOTS, None::<&()>).await.ok()?;
+        let v: Vec<mrmm_proto::RobotView> = client.query(mrmm_proto::Key::SystemRobots, None::<&()>).await.ok()?;
         (v.len() == n && v.iter().all(|r| r.pose.is_some())).then_some(v)
     })
     .await
@@ -204,13 +204,13 @@ pub async fn wait_raised(
     live: &zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<zenoh::sample::Sample>>,
     id: &str,
     timeout: Duration,
-) -> anyhow::Result<mrmm_peer::proto::Advice> {
+) -> anyhow::Result<mrmm_proto::Advice> {
     let deadline = Instant::now() + timeout;
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
         anyhow::ensure!(!left.is_zero(), "no advice {id} within {timeout:?}");
         let Ok(Ok(s)) = tokio::time::timeout(left, live.recv_async()).await else { continue };
-        if let Ok(mrmm_peer::proto::AdviceEvent::Raised(a)) = mrmm_peer::proto::from_json("advice", &s.payload().to_bytes()) {
+        if let Ok(mrmm_proto::AdviceEvent::Raised(a)) = mrmm_proto::from_json("advice", &s.payload().to_bytes()) {
             if a.id == id {
                 return Ok(a);
             }
@@ -236,8 +236,8 @@ pub fn start_robots(dir: &Scratch, central: &str, n: usize) -> anyhow::Result<Ve
 }
 
 /// A patrol of `count` robots on a 10 m square, optionally on mission host `host`.
-pub fn square_patrol(count: usize, host: Option<&str>) -> mrmm_peer::proto::MissionCreate {
-    mrmm_peer::proto::MissionCreate {
+pub fn square_patrol(count: usize, host: Option<&str>) -> mrmm_proto::MissionCreate {
+    mrmm_proto::MissionCreate {
         name: "p".into(),
         recipe: "patrol".into(),
         count: Some(count),

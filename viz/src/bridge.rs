@@ -5,7 +5,8 @@ use std::net::ToSocketAddrs;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use mrmm_peer::proto::{self, AdviceEvent, MissionView, Priority, SyncArrival, Telemetry};
+use mrmm_proto::plan::Point;
+use mrmm_proto::{self as proto, AdviceEvent, Key, MissionView, Pattern, PlanSummary, Priority, SyncArrival, Telemetry};
 use rerun::RecordingStream;
 use tokio_util::sync::CancellationToken;
 use zenoh::Session;
@@ -45,10 +46,10 @@ pub async fn run(session: Session, sink: Sink, shutdown: CancellationToken) -> R
         Sink::Connect(url) => builder.connect_grpc_opts(url.clone()).map_err(|e| VizError::Config(format!("viewer URL {url:?}: {e}")))?,
     };
     let z = |e: zenoh::Error| VizError::Zenoh(e.to_string());
-    let telemetry = session.declare_subscriber(proto::ALL_ROBOTS_TELEMETRY).await.map_err(z)?;
-    let statuses = session.declare_subscriber(proto::ALL_MISSIONS_STATUS).await.map_err(z)?;
-    let advice = session.declare_subscriber(proto::AGENT_ADVICE_LIVE).await.map_err(z)?;
-    let syncs = session.declare_subscriber("mrmm/team/*/sync/**").await.map_err(z)?;
+    let telemetry = session.declare_subscriber(Pattern::AllTelemetry.to_string()).await.map_err(z)?;
+    let statuses = session.declare_subscriber(Pattern::AllMissionStatus.to_string()).await.map_err(z)?;
+    let advice = session.declare_subscriber(Key::AgentAdviceLive.to_string()).await.map_err(z)?;
+    let syncs = session.declare_subscriber(Pattern::AllTeamSync.to_string()).await.map_err(z)?;
     let mut view = View::new(rec.clone());
     let mut probe_tick = tokio::time::interval(PROBE_EVERY);
     let mut reachable: Option<bool> = None;
@@ -91,8 +92,11 @@ pub async fn run(session: Session, sink: Sink, shutdown: CancellationToken) -> R
             }
             s = syncs.recv_async() => {
                 let Ok(s) = s else { break };
+                let team = match Key::parse(s.key_expr().as_str()) {
+                    Some(Key::TeamSync { team, .. }) => team,
+                    _ => continue,
+                };
                 if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-                    let team = s.key_expr().as_str().split('/').nth(2).unwrap_or("?").to_string();
                     view.sync(&team, &a);
                 }
             }
@@ -116,6 +120,11 @@ fn viewer_addr(url: &str) -> Result<String, VizError> {
     let addr = rest.split('/').next().unwrap_or(rest).to_string();
     addr.to_socket_addrs().map_err(|e| VizError::Config(format!("viewer URL {url:?}: {e}")))?;
     Ok(addr)
+}
+
+/// Points as Rerun positions.
+fn xy(points: &[Point]) -> Vec<[f32; 2]> {
+    points.iter().map(|p| [p.x as f32, p.y as f32]).collect()
 }
 
 /// What has been drawn, to draw only changes.
@@ -180,43 +189,35 @@ impl View {
         self.now();
         let [r, g, b] = self.color(Some(&m.name));
         let color = rerun::Color::from_rgb(r, g, b);
-        let points = |key: &str| -> Vec<[f32; 2]> {
-            m.summary
-                .get(key)
-                .and_then(|v| v.as_array())
-                .map(|a| a.iter().filter_map(|p| Some([p.get("x")?.as_f64()? as f32, p.get("y")?.as_f64()? as f32])).collect())
-                .unwrap_or_default()
-        };
         let changed = self.missions.get(&m.name).is_none_or(|old| old.summary != m.summary || old.manager != m.manager || old.teams != m.teams);
         if changed {
-            let tour = points("tour");
-            if !tour.is_empty() {
-                let mut closed = tour.clone();
-                closed.push(tour[0]);
-                self.log(&paths::mission_tour(&m.name), &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.clone()]));
-                self.log(&paths::mission_waypoints(&m.name), &rerun::Points2D::new(tour).with_colors([color]).with_radii([0.3]));
-            }
-            if let Some(region) = m.summary.get("region") {
-                let ring = |v: &serde_json::Value| -> Vec<[f32; 2]> {
-                    let mut pts: Vec<[f32; 2]> = v
-                        .as_array()
-                        .map(|a| a.iter().filter_map(|p| Some([p.get("x")?.as_f64()? as f32, p.get("y")?.as_f64()? as f32])).collect())
-                        .unwrap_or_default();
-                    if let Some(first) = pts.first().copied() {
-                        pts.push(first);
-                    }
-                    pts
-                };
-                let mut rings = vec![ring(&region["outer"])];
-                rings.extend(region["holes"].as_array().into_iter().flatten().map(ring));
-                rings.retain(|r| r.len() > 2);
-                if !rings.is_empty() {
-                    self.log(&paths::mission_region(&m.name), &rerun::LineStrips2D::new(rings).with_colors([color]).with_radii([0.1]));
+            match &m.summary {
+                Some(PlanSummary::Patrol(p)) if !p.tour.is_empty() => {
+                    let tour = xy(&p.tour);
+                    let mut closed = tour.clone();
+                    closed.push(tour[0]);
+                    self.log(&paths::mission_tour(&m.name), &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.clone()]));
+                    self.log(&paths::mission_waypoints(&m.name), &rerun::Points2D::new(tour).with_colors([color]).with_radii([0.3]));
                 }
-            }
-            let cov = points("points");
-            if !cov.is_empty() {
-                self.log(&paths::mission_points(&m.name), &rerun::Points2D::new(cov).with_colors([color]).with_radii([0.35]).with_labels([m.name.clone()]));
+                Some(PlanSummary::Coverage(c)) => {
+                    let ring = |pts: &[Point]| {
+                        let mut r = xy(pts);
+                        if let Some(first) = r.first().copied() {
+                            r.push(first);
+                        }
+                        r
+                    };
+                    let mut rings = vec![ring(&c.region.outer)];
+                    rings.extend(c.region.holes.iter().map(|h| ring(h)));
+                    rings.retain(|r| r.len() > 2);
+                    if !rings.is_empty() {
+                        self.log(&paths::mission_region(&m.name), &rerun::LineStrips2D::new(rings).with_colors([color]).with_radii([0.1]));
+                    }
+                    if !c.points.is_empty() {
+                        self.log(&paths::mission_points(&m.name), &rerun::Points2D::new(xy(&c.points)).with_colors([color]).with_radii([0.35]).with_labels([m.name.clone()]));
+                    }
+                }
+                _ => {}
             }
             for (team, ids) in &m.teams {
                 for id in ids {

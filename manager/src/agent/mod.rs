@@ -6,13 +6,14 @@
 //! Attention management: the same advice is not raised again while it stands; while the operator
 //! is busy (a command in the last `busy_window_s`) only critical advice interrupts and the rest
 //! waits; advice whose situation is over is withdrawn. At autonomy `act`, the agent runs its own
-//! robot moves and says so. No I/O: [`Agent::handle`] returns [`AgentCommand`]s.
+//! robot moves and says so, and records how each went. No I/O: [`Agent::handle`] takes the time
+//! and an [`Event`] and returns [`Command`]s.
 
 mod rules;
 
 use std::collections::BTreeMap;
 
-use mrmm_peer::proto::{Advice, AdviceEvent, MissionView, Pose, Priority, RobotMove, RobotView};
+use mrmm_proto::{Advice, AdviceEvent, MissionView, Pose, Priority, RobotMove, RobotView};
 use serde::{Deserialize, Serialize};
 
 /// How far the agent may go.
@@ -66,20 +67,22 @@ impl AgentConfig {
 
 /// What the agent is told.
 #[derive(Debug, Clone, PartialEq)]
-pub enum AgentEvent {
+pub enum Event {
     /// The fleet and missions now.
     Snapshot { robots: Vec<RobotView>, missions: Vec<MissionView> },
     /// The operator issued a command.
     OperatorCommand,
+    /// How a move the agent ran for advice `advice` went.
+    Acted { advice: String, result: Result<(), String> },
 }
 
 /// What the agent wants done.
 #[derive(Debug, Clone, PartialEq)]
-pub enum AgentCommand {
+pub enum Command {
     /// Publish on `mrmm/agent/advice/live`.
     Publish(AdviceEvent),
-    /// Autonomy `act`: move a robot.
-    Move(RobotMove),
+    /// Autonomy `act`: move a robot, for advice `advice` (answer with [`Event::Acted`]).
+    Move { advice: String, mv: RobotMove },
 }
 
 /// A candidate piece of advice from the rules, with the action `act` may take.
@@ -125,15 +128,28 @@ impl Agent {
     }
 
     /// Handles one event at `now` (seconds).
-    pub fn handle(&mut self, now: f64, ev: AgentEvent) -> Vec<AgentCommand> {
+    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
         match ev {
-            AgentEvent::OperatorCommand => {
+            Event::OperatorCommand => {
                 self.last_operator = Some(now);
                 vec![]
             }
-            AgentEvent::Snapshot { robots, missions } => {
+            Event::Snapshot { robots, missions } => {
                 let fresh = rules::evaluate(&self.cfg, &mut self.memory, now, &robots, &missions);
                 self.reconcile(now, fresh)
+            }
+            Event::Acted { advice, result } => {
+                let Some(a) = self.standing.get_mut(&advice) else { return vec![] };
+                match result {
+                    Ok(()) => a.outcome = Some("done".into()),
+                    Err(e) => {
+                        tracing::warn!(%advice, "the agent's move failed: {e}");
+                        a.acted = false;
+                        a.reason = a.reason.strip_prefix("acting: ").unwrap_or(&a.reason).to_string();
+                        a.outcome = Some(format!("failed: {e}"));
+                    }
+                }
+                vec![Command::Publish(AdviceEvent::Raised(a.clone()))]
             }
         }
     }
@@ -143,13 +159,13 @@ impl Agent {
     }
 
     /// Raises what is new (or queues it while the operator is busy), withdraws what is over.
-    fn reconcile(&mut self, now: f64, fresh: BTreeMap<String, Candidate>) -> Vec<AgentCommand> {
+    fn reconcile(&mut self, now: f64, fresh: BTreeMap<String, Candidate>) -> Vec<Command> {
         let mut out = Vec::new();
         let over: Vec<String> = self.standing.keys().filter(|id| !fresh.contains_key(*id)).cloned().collect();
         for id in over {
             self.standing.remove(&id);
             self.acted.remove(&id);
-            out.push(AgentCommand::Publish(AdviceEvent::Withdrawn { id, reason: "resolved".into() }));
+            out.push(Command::Publish(AdviceEvent::Withdrawn { id, reason: "resolved".into() }));
         }
         self.queued.retain(|id, _| fresh.contains_key(id));
         let busy = self.busy(now);
@@ -173,11 +189,11 @@ impl Agent {
                     self.acted.insert(id.clone());
                     c.advice.acted = true;
                     c.advice.reason = format!("acting: {}", c.advice.reason);
-                    out.push(AgentCommand::Move(mv));
+                    out.push(Command::Move { advice: id.clone(), mv });
                 }
             }
             self.standing.insert(id, c.advice.clone());
-            out.push(AgentCommand::Publish(AdviceEvent::Raised(c.advice)));
+            out.push(Command::Publish(AdviceEvent::Raised(c.advice)));
         }
         out
     }

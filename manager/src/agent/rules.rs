@@ -3,21 +3,22 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_peer::proto::{Advice, MissionStatus, MissionView, Priority, RobotMove, RobotStatus, RobotView};
+use mrmm_proto::{Advice, MissionStatus, MissionView, PlanSummary, Priority, RobotMove, RobotStatus, RobotView};
 use serde_json::json;
 
 use super::{AgentConfig, Candidate, Memory};
 
 fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
     let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_deref().unwrap_or("none")));
-    Candidate { advice: Advice { id, priority, reason, evidence, suggestion, since: now, acted: false }, action }
+    Candidate { advice: Advice { id, priority, reason, evidence, suggestion, since: now, acted: false, outcome: None }, action }
 }
 
 /// Patrol worst idleness predicted with `n` robots: `L / (n · v)` from the mission's plan.
 fn patrol_prediction(m: &MissionView, n: usize) -> Option<f64> {
-    let l = m.summary.get("length")?.as_f64()?;
-    let v = m.summary.get("team_speed")?.as_f64()?;
-    (m.planner == "patrol" && n > 0 && v > 0.0).then(|| l / (n as f64 * v))
+    match &m.summary {
+        Some(PlanSummary::Patrol(p)) if n > 0 && p.team_speed > 0.0 => Some(p.length / (n as f64 * p.team_speed)),
+        _ => None,
+    }
 }
 
 /// A robot that can be spared for `target`: an idle one first, else one from the largest other

@@ -1,8 +1,8 @@
 //! Agent rules and attention management, asserting the emitted commands.
 
 use super::*;
-use mrmm_peer::proto::{ManagerView, MissionMetrics, MissionStatus, RobotStatus};
-use serde_json::json;
+use mrmm_proto::plan::PatrolSummary;
+use mrmm_proto::{ManagerView, MissionMetrics, MissionStatus, PlanSummary, RobotStatus};
 
 fn robot(id: &str, status: RobotStatus, mission: Option<&str>, x: f64, behaviour: &str) -> RobotView {
     RobotView {
@@ -27,33 +27,45 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         teams: Default::default(),
         manager: ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec![] },
         metrics: MissionMetrics { worst_idleness: worst, ..MissionMetrics::default() },
-        summary: json!({"length": 120.0, "team_speed": 1.0}),
+        summary: (planner == "patrol").then(|| {
+            PlanSummary::Patrol(PatrolSummary {
+                tour: vec![],
+                length: 120.0,
+                offset: 0.0,
+                spacing: 0.0,
+                team_speed: 1.0,
+                sync_per_round: 1,
+                formation_time: 0.0,
+                predicted_worst_idleness: 0.0,
+                idleness_lower_bound: 0.0,
+            })
+        }),
         params: standard.map(|s| [("max_worst_idleness".to_string(), s.to_string())].into()).unwrap_or_default(),
         error: None,
         plans: None,
     }
 }
 
-fn raised(cmds: &[AgentCommand]) -> Vec<(String, Priority)> {
+fn raised(cmds: &[Command]) -> Vec<(String, Priority)> {
     cmds.iter()
         .filter_map(|c| match c {
-            AgentCommand::Publish(AdviceEvent::Raised(a)) => Some((a.id.clone(), a.priority)),
+            Command::Publish(AdviceEvent::Raised(a)) => Some((a.id.clone(), a.priority)),
             _ => None,
         })
         .collect()
 }
 
-fn withdrawn(cmds: &[AgentCommand]) -> Vec<String> {
+fn withdrawn(cmds: &[Command]) -> Vec<String> {
     cmds.iter()
         .filter_map(|c| match c {
-            AgentCommand::Publish(AdviceEvent::Withdrawn { id, .. }) => Some(id.clone()),
+            Command::Publish(AdviceEvent::Withdrawn { id, .. }) => Some(id.clone()),
             _ => None,
         })
         .collect()
 }
 
-fn snap(robots: Vec<RobotView>, missions: Vec<MissionView>) -> AgentEvent {
-    AgentEvent::Snapshot { robots, missions }
+fn snap(robots: Vec<RobotView>, missions: Vec<MissionView>) -> Event {
+    Event::Snapshot { robots, missions }
 }
 
 #[test]
@@ -119,7 +131,7 @@ fn idle_robots_are_pointed_where_they_help_most() {
 #[test]
 fn while_the_operator_is_busy_only_critical_advice_interrupts() {
     let mut a = Agent::new(AgentConfig { busy_window_s: 10.0, ..AgentConfig::default() });
-    a.handle(0.0, AgentEvent::OperatorCommand);
+    a.handle(0.0, Event::OperatorCommand);
     let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold"), robot("r5", RobotStatus::Lost, None, 9.0, "hold")];
     let ms = vec![mission("p", "patrol", &["r1"], None, None)];
     let cmds = a.handle(1.0, snap(robots.clone(), ms.clone()));
@@ -135,10 +147,16 @@ fn act_runs_the_move_and_says_so_once() {
     let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold")];
     let ms = vec![mission("p", "patrol", &["r1"], None, None)];
     let cmds = a.handle(0.0, snap(robots.clone(), ms.clone()));
-    assert!(cmds.contains(&AgentCommand::Move(RobotMove { robot: "r4".into(), to: Some("p".into()) })));
+    assert!(cmds.contains(&Command::Move { advice: "idle".into(), mv: RobotMove { robot: "r4".into(), to: Some("p".into()) } }));
     let adv = &a.advice()[0];
     assert!(adv.acted && adv.reason.starts_with("acting: "));
-    assert!(!a.handle(1.0, snap(robots, ms)).iter().any(|c| matches!(c, AgentCommand::Move(_))), "acts once");
+    assert!(!a.handle(1.0, snap(robots.clone(), ms.clone())).iter().any(|c| matches!(c, Command::Move { .. })), "acts once");
+    // The move's result is recorded on the advice and published.
+    let cmds = a.handle(1.5, Event::Acted { advice: "idle".into(), result: Err("robot \"r4\" is lost".into()) });
+    let [Command::Publish(AdviceEvent::Raised(adv))] = cmds.as_slice() else { panic!("{cmds:?}") };
+    assert!(!adv.acted && !adv.reason.starts_with("acting: "));
+    assert_eq!(adv.outcome.as_deref(), Some("failed: robot \"r4\" is lost"));
+    assert!(!a.handle(2.0, snap(robots, ms)).iter().any(|c| matches!(c, Command::Move { .. })), "a failed move is not retried on its own");
 }
 
 #[test]

@@ -32,18 +32,20 @@
 //!   candidate's current chain (it lost what it held there; a restarted node is not its former
 //!   self), and no node votes during its first `quarantine` seconds, so a vote given before a
 //!   crash cannot be given again to another candidate of that epoch.
+//!
+//! A node holds one replica per mission in a [`Registry`], which also remembers, for missions it
+//! no longer replicates, the promise it made and whether the mission ended (so stragglers are told).
+//! The messages and configurations are wire types: `mrmm_proto::chain`.
 
+mod registry;
 mod replica;
 pub mod sim;
 #[cfg(test)]
 mod tests;
 
-use serde::{Deserialize, Serialize};
-
+pub use mrmm_proto::chain::{Config, Msg, Version};
+pub use registry::Registry;
 pub use replica::{Replica, Role};
-
-/// A state's version: `(epoch, seq)`, compared lexicographically.
-pub type Version = (u64, u64);
 
 /// Timing and size of a chain.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,52 +66,6 @@ impl Default for Params {
     fn default() -> Self {
         Params { k: 2, beat: 0.25, vote_timeout: 0.5, silence: 3.0, quarantine: 2.0 }
     }
-}
-
-/// Who holds the mission: `chain[0]` is the head.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Config {
-    pub epoch: u64,
-    pub chain: Vec<String>,
-}
-
-impl Config {
-    pub fn head(&self) -> &str {
-        self.chain.first().map(String::as_str).unwrap_or("")
-    }
-    /// The node after `node` in the chain.
-    pub fn next(&self, node: &str) -> Option<&str> {
-        let i = self.chain.iter().position(|n| n == node)?;
-        self.chain.get(i + 1).map(String::as_str)
-    }
-    pub fn contains(&self, node: &str) -> bool {
-        self.chain.iter().any(|n| n == node)
-    }
-    /// Whether `votes` hold a strict majority of this chain.
-    pub fn majority(&self, votes: impl Fn(&str) -> bool) -> bool {
-        2 * self.chain.iter().filter(|n| votes(n)).count() > self.chain.len()
-    }
-}
-
-/// A message between the nodes of a chain.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Msg<S> {
-    /// Vote for me as head of `proposal` (epoch `proposal.epoch`); my state is at `last`, my
-    /// current chain is `base`.
-    Vote { proposal: Config, base: Vec<String>, last: Version },
-    Grant { epoch: u64 },
-    /// Not granted: I promised `promised`, my state is at `last`.
-    Refuse { epoch: u64, promised: u64, last: Version },
-    /// The head's state at `(config.epoch, seq)`.
-    Update { config: Config, seq: u64, state: S },
-    /// The tail holds `(epoch, seq)`.
-    Ack { epoch: u64, seq: u64 },
-    /// Your update is of an old epoch: I promised `promised`, my state is at `last`.
-    Stale { promised: u64, last: Version },
-    /// The replicated value ended (the mission was terminated): forget it, forward down the chain.
-    End { epoch: u64 },
-    /// The tail forgot the value of `epoch`.
-    EndAck { epoch: u64 },
 }
 
 /// Something that happened to a replica.

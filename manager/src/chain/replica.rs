@@ -4,6 +4,7 @@ use std::collections::BTreeSet;
 
 use super::{Command, Config, Event, Msg, Params, Version};
 
+
 /// What a node is doing for the value.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Role {
@@ -123,7 +124,7 @@ impl<S: Clone> Replica<S> {
                 }
                 // The first configuration needs no vote: nobody else can create this value. A
                 // node that remembers a higher promise answers `Stale` and we re-elect above it.
-                let epoch = self.promised.max(self.seen) + 1;
+                let epoch = self.promised.max(self.seen).saturating_add(1);
                 self.promised = epoch;
                 self.voted_for = Some(self.me.clone());
                 let config = Config { epoch, chain };
@@ -228,7 +229,7 @@ impl<S: Clone> Replica<S> {
     }
 
     fn next_epoch(&self) -> u64 {
-        self.promised.max(self.seen).max(self.config.as_ref().map_or(0, |c| c.epoch)) + 1
+        self.promised.max(self.seen).max(self.config.as_ref().map_or(0, |c| c.epoch)).saturating_add(1)
     }
 
     /// A follower of a chain stands when the head is gone and every node before it too, or when

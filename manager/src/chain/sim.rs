@@ -1,7 +1,8 @@
-//! A seeded, deterministic message-level simulation of chain replicas: an in-memory network with
-//! delay, loss, duplication, partitions, crashes and restarts (a restart loses memory), hosts that
-//! behave like `host.rs` (replicas created on the first message, promises kept while the process
-//! lives), and heads that keep proposing. The invariants are checked in [`Invariants`]; a run
+//! A seeded, deterministic message-level simulation of chain replication: an in-memory network
+//! with delay, loss, duplication, partitions, crashes and restarts (a restart loses memory); each
+//! node is the production [`Registry`] (the one mission hosts use: replicas created for votes and
+//! updates, promises and ends remembered while the process lives), and heads keep proposing new
+//! states of a log, so a lost commit is visible. The invariants are checked in [`Invariants`]; a run
 //! returns the first violation with the seed that replays it.
 
 use std::cmp::Reverse;
@@ -10,7 +11,7 @@ use std::collections::{BTreeMap, BTreeSet, BinaryHeap};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{Command, Config, Event, Msg, Params, Replica, Version};
+use super::{Command, Config, Event, Msg, Params, Registry, Replica, Version};
 
 /// The value replicated in the simulation: the ids of every update, in order.
 pub type Log = Vec<u64>;
@@ -116,12 +117,10 @@ struct Node {
     name: String,
     up: bool,
     born: f64,
-    replica: Option<Replica<Log>>,
-    /// Promise of a retired replica, kept while the process lives.
-    tomb: u64,
+    /// The node's replicas (one mission, [`MISSION`]); lost in a crash.
+    registry: Registry<Log>,
     /// States this node proposed or led with, by version (to check commits).
     history: BTreeMap<Version, Log>,
-    sees: BTreeSet<usize>,
     next_proposal: f64,
 }
 
@@ -147,6 +146,14 @@ pub struct Sim {
 }
 
 const TICK: f64 = 0.01;
+/// The one value the simulation replicates.
+const MISSION: &str = "m";
+
+impl Node {
+    fn replica(&self) -> Option<&Replica<Log>> {
+        self.registry.replica(MISSION)
+    }
+}
 
 fn ns(t: f64) -> u64 {
     (t * 1e9) as u64
@@ -159,13 +166,18 @@ impl Sim {
                 name: format!("n{i}"),
                 up: true,
                 born: -10.0,
-                replica: None,
-                tomb: 0,
+                registry: Registry::new(&format!("n{i}"), p, -10.0),
                 history: BTreeMap::new(),
-                sees: (0..w.nodes).filter(|j| *j != i).collect(),
                 next_proposal: 0.0,
             })
-            .collect();
+            .collect::<Vec<Node>>();
+        let mut nodes = nodes;
+        let names: Vec<String> = nodes.iter().map(|n| n.name.clone()).collect();
+        for n in nodes.iter_mut() {
+            for other in &names {
+                let _ = n.registry.liveliness(0.0, other, true);
+            }
+        }
         Sim {
             seed,
             w,
@@ -243,7 +255,7 @@ impl Sim {
     fn run_inner(&mut self) -> Result<(), String> {
         let end = self.w.duration + self.w.quiet;
         let first: Vec<String> = self.nodes.iter().skip(1).take(self.p.k).map(|n| n.name.clone()).collect();
-        let cmds = self.replica(0).handle(0.0, Event::Create { replicas: first, state: vec![] });
+        let cmds = self.nodes[0].registry.create(0.0, MISSION, first, vec![]);
         self.apply(0, cmds)?;
         let mut next_crash = self.draw(self.w.crash_every);
         let mut next_partition = self.draw(self.w.partition_every);
@@ -288,11 +300,9 @@ impl Sim {
                 if !self.nodes[i].up {
                     continue;
                 }
-                let cmds = match self.nodes[i].replica.as_mut() {
-                    Some(r) => r.handle(self.now, Event::Tick),
-                    None => continue,
-                };
-                self.apply(i, cmds)?;
+                for (_, cmds) in self.nodes[i].registry.tick(self.now) {
+                    self.apply(i, cmds)?;
+                }
                 self.maybe_propose(i)?;
             }
         }
@@ -307,12 +317,12 @@ impl Sim {
     }
 
     fn finish(&mut self) -> Result<(), String> {
-        let heads: Vec<&Node> = self.nodes.iter().filter(|n| n.up && n.replica.as_ref().is_some_and(|r| r.is_head())).collect();
+        let heads: Vec<&Node> = self.nodes.iter().filter(|n| n.up && n.replica().is_some_and(|r| r.is_head())).collect();
         self.report.heads_at_end = heads.len();
         // The newest configuration any node knows, and whether a majority of it kept its state.
-        let newest = self.nodes.iter().filter_map(|n| n.replica.as_ref()?.config().cloned()).max_by_key(|c| c.epoch);
+        let newest = self.nodes.iter().filter_map(|n| n.replica()?.config().cloned()).max_by_key(|c| c.epoch);
         self.report.recoverable = newest.is_some_and(|c| {
-            c.majority(|m| self.nodes.iter().any(|n| n.name == m && n.replica.as_ref().is_some_and(|r| r.state().is_some())))
+            c.majority(|m| self.nodes.iter().any(|n| n.name == m && n.replica().is_some_and(|r| r.state().is_some())))
         });
         if heads.len() > 1 {
             let names: Vec<String> = heads.iter().map(|n| n.name.clone()).collect();
@@ -321,28 +331,12 @@ impl Sim {
         Ok(())
     }
 
-    fn replica(&mut self, i: usize) -> &mut Replica<Log> {
-        let (p, now) = (self.p, self.now);
-        let n = &mut self.nodes[i];
-        if n.replica.is_none() {
-            let mut r = Replica::new(&n.name, p, n.born, now, n.tomb);
-            let names: Vec<String> = n.sees.iter().map(|j| format!("n{j}")).collect();
-            for name in names {
-                let _ = r.handle(now, Event::Alive(name));
-            }
-            n.replica = Some(r);
-        }
-        n.replica.as_mut().expect("just created")
-    }
-
     fn crash(&mut self, i: usize) {
         self.report.crashes += 1;
         let n = &mut self.nodes[i];
         n.up = false;
-        n.replica = None;
-        n.tomb = 0;
+        n.registry = Registry::new(&n.name, self.p, f64::NAN);
         n.history.clear();
-        n.sees.clear();
         let name = n.name.clone();
         self.log(|| format!("crash {name}"));
         self.liveliness_changed(0.05);
@@ -360,7 +354,7 @@ impl Sim {
                     t.push(format!("{:8.3} {from_name} -> n{to}: {}", self.now, short(&msg)));
                 }
                 let now = self.now;
-                let cmds = self.replica(to).handle(now, Event::Recv { from: from_name, msg });
+                let cmds = self.nodes[to].registry.receive(now, MISSION, from_name, msg);
                 self.apply(to, cmds)
             }
             Delivery::Live { at, about, up } => {
@@ -368,28 +362,25 @@ impl Sim {
                     return Ok(());
                 }
                 let name = self.nodes[about].name.clone();
-                if up {
-                    self.nodes[at].sees.insert(about);
-                } else {
-                    self.nodes[at].sees.remove(&about);
-                }
                 let now = self.now;
-                let cmds = match self.nodes[at].replica.as_mut() {
-                    Some(r) => r.handle(now, if up { Event::Alive(name) } else { Event::Gone(name) }),
-                    None => return Ok(()),
-                };
-                self.apply(at, cmds)
+                for (_, cmds) in self.nodes[at].registry.liveliness(now, &name, up) {
+                    self.apply(at, cmds)?;
+                }
+                Ok(())
             }
             Delivery::Restart(i) => {
                 let now = self.now;
+                let p = self.p;
                 let n = &mut self.nodes[i];
                 n.up = true;
                 n.born = now;
+                n.registry = Registry::new(&n.name, p, now);
                 let name = n.name.clone();
                 self.log(|| format!("restart {name}"));
                 for j in 0..self.nodes.len() {
                     if j != i && self.connected(i, j) {
-                        self.nodes[i].sees.insert(j);
+                        let other = self.nodes[j].name.clone();
+                        let _ = self.nodes[i].registry.liveliness(now, &other, true);
                     }
                 }
                 self.liveliness_changed(0.05);
@@ -406,7 +397,7 @@ impl Sim {
 
     fn maybe_propose(&mut self, i: usize) -> Result<(), String> {
         let now = self.now;
-        let leads = self.nodes[i].replica.as_ref().is_some_and(|r| r.leads());
+        let leads = self.nodes[i].replica().is_some_and(|r| r.leads());
         if !leads || now < self.nodes[i].next_proposal {
             return Ok(());
         }
@@ -414,17 +405,16 @@ impl Sim {
         self.nodes[i].next_proposal = now + gap;
         let id = self.next_id;
         self.next_id += 1;
-        let Some(r) = self.nodes[i].replica.as_mut() else { return Ok(()) };
-        let mut log = r.state().cloned().unwrap_or_default();
+        let mut log = self.nodes[i].replica().and_then(|r| r.state()).cloned().unwrap_or_default();
         log.push(id);
-        let cmds = r.handle(now, Event::Propose(log));
+        let cmds = self.nodes[i].registry.handle(now, MISSION, Event::Propose(log));
         self.apply(i, cmds)
     }
 
     fn apply(&mut self, i: usize, cmds: Vec<Command<Log>>) -> Result<(), String> {
         // Remember what a leading node holds at each version, to check what it later commits
         // (every change of its state is a `handle` whose commands come here).
-        if let Some(r) = self.nodes[i].replica.as_ref().filter(|r| r.leads()) {
+        if let Some(r) = self.nodes[i].replica().filter(|r| r.leads()) {
             if let Some(s) = r.state() {
                 let (v, s) = (r.version(), s.clone());
                 self.nodes[i].history.entry(v).or_insert(s);
@@ -452,9 +442,7 @@ impl Sim {
                     self.inv.lead(&name, &config, &state)?;
                     // Heads learn the pool from the system: every node but themselves.
                     let pool: Vec<String> = (0..self.nodes.len()).filter(|j| *j != i).map(|j| format!("n{j}")).collect();
-                    if let Some(r) = self.nodes[i].replica.as_mut() {
-                        let _ = r.handle(self.now, Event::Pool { nodes: pool, k: self.p.k });
-                    }
+                    let _ = self.nodes[i].registry.handle(self.now, MISSION, Event::Pool { nodes: pool, k: self.p.k });
                 }
                 Command::Committed { epoch, seq } => {
                     self.report.commits += 1;
@@ -463,7 +451,7 @@ impl Sim {
                     // is its newest one.
                     let state = match self.nodes[i].history.get(&(epoch, seq)) {
                         Some(s) => s.clone(),
-                        None => match self.nodes[i].replica.as_ref().filter(|r| r.version() == (epoch, seq)).and_then(|r| r.state()) {
+                        None => match self.nodes[i].replica().filter(|r| r.version() == (epoch, seq)).and_then(|r| r.state()) {
                             Some(s) => s.clone(),
                             None => return Err(format!("{name} committed ({epoch}, {seq}) it never held")),
                         },
@@ -474,11 +462,8 @@ impl Sim {
                     let name = self.nodes[i].name.clone();
                     self.log(|| format!("{name} steps down"));
                 }
-                Command::Retired => {
-                    let n = &mut self.nodes[i];
-                    n.tomb = n.replica.as_ref().map_or(n.tomb, |r| r.promised());
-                    n.replica = None;
-                }
+                // The registry keeps the promise and forgets the replica.
+                Command::Retired => {}
             }
         }
         Ok(())

@@ -1,84 +1,53 @@
-//! Mission hosts: the runtime that runs mission managers, replicates them and does their I/O.
-//! Every robot runs one (named after the robot), central runs `central`, and
-//! `mrmm mission-host --name N` runs one anywhere. A host announces itself with a liveliness
-//! token, starts missions on `mrmm/hosts/<node>/start`, and holds chain replicas of mission
-//! managers ([`crate::chain`]): chain messages arrive on `mrmm/hosts/<node>/chain`. The head of a
-//! mission's chain runs its [`MissionManager`] (see `head.rs`): it answers `…/ctl`, `…/view` and
-//! `…/marginal`, follows its members' telemetry and liveliness, asks planner services for plans
-//! (or plans itself when none is alive), and acts only on state its chain has committed.
+//! Mission hosts: the runtime that runs mission managers and replicates them. Every robot runs
+//! one (named after the robot), central runs `central`, and `mrmm mission-host --name N` runs one
+//! anywhere. Every decision is in [`HostCore`] (`core.rs`, with the led missions in `head.rs`);
+//! this file is its driver: it turns Zenoh traffic into [`Event`]s, holds queries under an id,
+//! and carries out the [`Command`]s.
 
+mod core;
 mod head;
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
-use mrmm_peer::proto;
-use mrmm_planner::recipe::MissionPlan;
-use serde::{Deserialize, Serialize};
+use mrmm_proto::net::{self, QueryError};
+use mrmm_proto::{self as proto, ChainEnvelope, CommandAck, Key, MissionPlan, Pattern, RobotCommand};
 use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
-use zenoh::query::Query;
+use zenoh::query::{Query, Queryable};
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
-use crate::chain::{self, Msg, Params, Replica};
+pub use self::core::{Command, Event, HostCore};
+pub use self::head::{PLAN_RETRIES, REDELIVER_S};
+use crate::chain::Params;
 use crate::error::ManagerError;
-use crate::mission::MissionSnapshot;
-
-use head::Head;
+use crate::Failure;
 
 /// How long a planner service may take.
 pub const PLAN_TIMEOUT: Duration = Duration::from_secs(20);
+/// How long a robot may take to accept a plan.
+const ROBOT_TIMEOUT: Duration = Duration::from_secs(3);
 /// Seconds between two status publications of each mission.
 const STATUS_PERIOD: Duration = Duration::from_secs(1);
 /// Period of the chain replicas' clock.
 const CHAIN_TICK: Duration = Duration::from_millis(50);
-/// Liveliness of every planner service.
-const ALL_PLANNERS_ALIVE: &str = "mrmm/planner/*/alive/*";
 
-/// Payload of `mrmm/hosts/<node>/chain` (JSON): one chain message of one mission.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ChainEnvelope {
-    pub mission: String,
-    pub from: String,
-    pub msg: Msg<MissionSnapshot>,
-}
-
-type ChainCmd = chain::Command<MissionSnapshot>;
-
-/// A chain message's kind and epoch, for traces.
-fn msg_kind(m: &Msg<MissionSnapshot>) -> String {
-    match m {
-        Msg::Vote { proposal, .. } => format!("vote e{}", proposal.epoch),
-        Msg::Grant { epoch } => format!("grant e{epoch}"),
-        Msg::Refuse { epoch, promised, .. } => format!("refuse e{epoch} p{promised}"),
-        Msg::Update { config, seq, .. } => format!("update e{} s{seq}", config.epoch),
-        Msg::Ack { epoch, seq } => format!("ack e{epoch} s{seq}"),
-        Msg::Stale { promised, .. } => format!("stale p{promised}"),
-        Msg::End { epoch } => format!("end e{epoch}"),
-        Msg::EndAck { epoch } => format!("end-ack e{epoch}"),
-    }
-}
-
+/// What the Zenoh callbacks and spawned tasks hand the loop.
 enum Input {
-    Start(Query),
-    Ctl(String, Query),
-    View(String, Query),
-    Marginal(String, Query),
-    Telemetry(Sample),
-    Planned { mission: String, epoch: u64, result: Result<Box<MissionPlan>, String> },
-    Chain(Sample),
-    HostLive(Sample),
-    RobotLive(Sample),
-    PlannerLive(Sample),
+    /// A query on one of our queryables, with what kind of query it is.
+    Query(Query, QueryKind),
+    Sample(Sample),
+    Event(Event),
 }
 
-/// What a host remembers of a mission it no longer replicates.
-#[derive(Debug, Clone, Copy, Default)]
-struct Tomb {
-    promised: u64,
-    ended: bool,
+#[derive(Clone)]
+enum QueryKind {
+    Start,
+    Ctl(String),
+    View(String),
+    Marginal(String),
 }
 
 /// Hosts missions on `session` as `node` until `shutdown`, with the default chain parameters.
@@ -89,250 +58,226 @@ pub async fn serve(session: Session, node: String, shutdown: CancellationToken) 
 /// Hosts missions with chain parameters `params` (`params.k` replicas per mission).
 pub async fn serve_with(session: Session, node: String, params: Params, shutdown: CancellationToken) -> Result<(), ManagerError> {
     proto::validate_id(&node).map_err(|e| ManagerError::Config(format!("mission host name: {e}")))?;
+    if net::already_alive(&session, &Key::HostAlive(node.clone()).to_string(), net::NAME_CHECK_TIMEOUT).await? {
+        return Err(ManagerError::NameTaken(format!(
+            "mission host {node:?} is already alive on the mesh; give every host and robot its own name"
+        )));
+    }
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
-    let sub = |key: String, f: fn(Sample) -> Input| {
-        let t = tx.clone();
-        let session = session.clone();
-        async move {
-            session
-                .declare_subscriber(key)
-                .callback(move |s| {
-                    let _ = t.send(f(s));
-                })
-                .await
-                .map_err(ManagerError::zenoh)
-        }
-    };
-    let live = |key: &'static str, f: fn(Sample) -> Input| {
-        let t = tx.clone();
-        let session = session.clone();
-        async move {
-            session
-                .liveliness()
-                .declare_subscriber(key)
-                .history(true)
-                .callback(move |s| {
-                    let _ = t.send(f(s));
-                })
-                .await
-                .map_err(ManagerError::zenoh)
-        }
-    };
     let t = tx.clone();
     let _start = session
-        .declare_queryable(proto::host_start(&node))
+        .declare_queryable(Key::HostStart(node.clone()).to_string())
         .callback(move |q| {
-            let _ = t.send(Input::Start(q));
+            let _ = t.send(Input::Query(q, QueryKind::Start));
         })
         .await
         .map_err(ManagerError::zenoh)?;
-    let _telemetry = sub(proto::ALL_ROBOTS_TELEMETRY.to_string(), Input::Telemetry).await?;
-    let _chain = sub(proto::host_chain(&node), Input::Chain).await?;
-    let _hosts = live(proto::ALL_HOSTS_ALIVE, Input::HostLive).await?;
-    let _robots = live(proto::ALL_ROBOTS_ALIVE, Input::RobotLive).await?;
-    let _planners = live(ALL_PLANNERS_ALIVE, Input::PlannerLive).await?;
-    let _token = session.liveliness().declare_token(proto::host_alive(&node)).await.map_err(ManagerError::zenoh)?;
+    let mut subs = Vec::new();
+    for key in [Pattern::AllTelemetry.to_string(), Key::HostChain(node.clone()).to_string()] {
+        let t = tx.clone();
+        subs.push(session.declare_subscriber(key).callback(move |s| {
+            let _ = t.send(Input::Sample(s));
+        }).await.map_err(ManagerError::zenoh)?);
+    }
+    for pattern in [Pattern::AllHostsAlive, Pattern::AllRobotsAlive, Pattern::AllPlannersAlive] {
+        let t = tx.clone();
+        subs.push(session.liveliness().declare_subscriber(pattern.to_string()).history(true).callback(move |s| {
+            let _ = t.send(Input::Sample(s));
+        }).await.map_err(ManagerError::zenoh)?);
+    }
+    let _token = session.liveliness().declare_token(Key::HostAlive(node.clone()).to_string()).await.map_err(ManagerError::zenoh)?;
     tracing::info!(%node, "mission host up");
-    let mut host = Host {
-        session: session.clone(),
-        node,
-        tx,
-        t0: Instant::now(),
-        params,
-        heads: BTreeMap::new(),
-        replicas: BTreeMap::new(),
-        tombs: BTreeMap::new(),
-        hosts: BTreeSet::new(),
-        robots: BTreeSet::new(),
-        planners: BTreeSet::new(),
-    };
+    let t0 = Instant::now();
+    let mut core = HostCore::new(&node, params, 0.0);
+    let mut io = Io { session: session.clone(), tx, queries: HashMap::new(), next: 0, served: HashMap::new() };
     let mut status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {
-        tokio::select! {
+        let event = tokio::select! {
             _ = shutdown.cancelled() => break,
-            _ = status.tick() => host.status_tick().await,
-            _ = tick.tick() => host.chain_tick().await,
+            _ = status.tick() => Event::StatusTick,
+            _ = tick.tick() => Event::Tick,
             i = rx.recv() => match i {
-                Some(i) => host.input(i).await,
+                Some(Input::Query(q, kind)) => match io.query(q, kind).await {
+                    Some(e) => e,
+                    None => continue,
+                },
+                Some(Input::Sample(s)) => match decode(&s) {
+                    Some(e) => e,
+                    None => continue,
+                },
+                Some(Input::Event(e)) => e,
                 None => break,
             },
+        };
+        for c in core.handle(t0.elapsed().as_secs_f64(), event) {
+            io.execute(c).await;
         }
     }
     Ok(())
 }
 
-pub(crate) struct Host {
-    session: Session,
-    node: String,
-    tx: mpsc::UnboundedSender<Input>,
-    t0: Instant,
-    params: Params,
-    /// Missions this node leads.
-    heads: BTreeMap<String, Head>,
-    /// This node's chain replica of each mission it is in.
-    replicas: BTreeMap<String, Replica<MissionSnapshot>>,
-    tombs: BTreeMap<String, Tomb>,
-    /// Hosts alive (robots included).
-    hosts: BTreeSet<String>,
-    robots: BTreeSet<String>,
-    /// Liveliness keys of the planner services alive.
-    planners: BTreeSet<String>,
-}
-
-impl Host {
-    fn now(&self) -> f64 {
-        self.t0.elapsed().as_secs_f64()
-    }
-
-    async fn input(&mut self, i: Input) {
-        match i {
-            Input::Start(q) => self.start(q).await,
-            Input::Ctl(name, q) => self.ctl(&name, q).await,
-            Input::View(name, q) => self.answer_view(&name, q).await,
-            Input::Marginal(name, q) => self.answer_marginal(&name, q).await,
-            Input::Telemetry(s) => self.telemetry(s).await,
-            Input::Planned { mission, epoch, result } => self.planned(&mission, epoch, result).await,
-            Input::Chain(s) => self.chain_in(s).await,
-            Input::HostLive(s) => {
-                let Some(node) = proto::parse_host_alive(s.key_expr().as_str()).map(str::to_string) else { return };
-                if node == self.node {
-                    return;
-                }
-                let up = s.kind() == SampleKind::Put;
-                if up {
-                    self.hosts.insert(node.clone());
-                } else {
-                    self.hosts.remove(&node);
-                }
-                let now = self.now();
-                let names: Vec<String> = self.replicas.keys().cloned().collect();
-                for name in names {
-                    let ev = if up { chain::Event::Alive(node.clone()) } else { chain::Event::Gone(node.clone()) };
-                    let cmds = self.replicas.get_mut(&name).map(|r| r.handle(now, ev)).unwrap_or_default();
-                    self.apply(&name, cmds).await;
-                }
+/// A publication or liveliness change as the core's event; `None` (logged) for anything foreign.
+fn decode(s: &Sample) -> Option<Event> {
+    let up = s.kind() == SampleKind::Put;
+    let key = s.key_expr().as_str();
+    match Key::parse(key) {
+        Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
+            Ok(t) if t.id == id => Some(Event::Telemetry(Box::new(t))),
+            Ok(t) => {
+                tracing::debug!("dropped telemetry of {:?} published on {key}", t.id);
+                None
             }
-            Input::RobotLive(s) => {
-                let Some((id, proto::RobotTopic::Alive)) = proto::parse_robot_key(s.key_expr().as_str()) else { return };
-                let id = id.to_string();
-                let up = s.kind() == SampleKind::Put;
-                if up {
-                    self.robots.insert(id.clone());
-                } else {
-                    self.robots.remove(&id);
-                }
-                self.robot_liveliness(&id, up).await;
-            }
-            Input::PlannerLive(s) => {
-                let key = s.key_expr().to_string();
-                match s.kind() {
-                    SampleKind::Put => self.planners.insert(key),
-                    SampleKind::Delete => self.planners.remove(&key),
-                };
-            }
-        }
-    }
-
-    /// The replica of `name`, created on first use with what this process remembers of it.
-    fn replica(&mut self, name: &str) -> &mut Replica<MissionSnapshot> {
-        let now = self.now();
-        let promised = self.tombs.get(name).map_or(0, |t| t.promised);
-        let (me, p, hosts) = (&self.node, self.params, &self.hosts);
-        self.replicas.entry(name.to_string()).or_insert_with(|| {
-            let mut r = Replica::new(me, p, 0.0, now, promised);
-            for h in hosts {
-                let _ = r.handle(now, chain::Event::Alive(h.clone()));
-            }
-            r
-        })
-    }
-
-    async fn chain_in(&mut self, s: Sample) {
-        let env: ChainEnvelope = match serde_json::from_slice(&s.payload().to_bytes()) {
-            Ok(e) => e,
             Err(e) => {
-                tracing::debug!("dropped chain message on {}: {e}", s.key_expr());
-                return;
+                tracing::debug!("dropped payload on {key}: {e}");
+                None
             }
-        };
-        if proto::validate_id(&env.mission).is_err() || proto::validate_id(&env.from).is_err() {
-            tracing::debug!("dropped chain message with a bad mission or node name");
-            return;
-        }
-        let name = env.mission.clone();
-        tracing::trace!(mission = %name, from = %env.from, msg = msg_kind(&env.msg), "chain: received");
-        if !self.replicas.contains_key(&name) {
-            match (&env.msg, self.tombs.get(&name)) {
-                // A replica that missed the end of its mission is told again.
-                (Msg::Vote { .. }, Some(t)) if t.ended => {
-                    self.send(&name, &env.from, Msg::End { epoch: u64::MAX }).await;
-                    return;
-                }
-                // A head replicating to us: we are (again) in its chain.
-                (Msg::Update { .. }, Some(_)) => {
-                    self.tombs.remove(&name);
-                }
-                (Msg::Vote { .. } | Msg::Update { .. }, _) => {}
-                // Anything else is for a replica we no longer have.
-                _ => return,
+        },
+        Some(Key::HostChain(_)) => match proto::from_json::<ChainEnvelope>("chain message", &s.payload().to_bytes()) {
+            Ok(env) if proto::validate_id(&env.mission).is_ok() && proto::validate_id(&env.from).is_ok() => Some(Event::Chain(Box::new(env))),
+            Ok(_) => {
+                tracing::debug!("dropped a chain message with a bad mission or node name");
+                None
             }
-        }
-        let now = self.now();
-        let cmds = self.replica(&name).handle(now, chain::Event::Recv { from: env.from, msg: env.msg });
-        self.apply(&name, cmds).await;
-    }
-
-    async fn send(&self, mission: &str, to: &str, msg: Msg<MissionSnapshot>) {
-        tracing::trace!(%mission, %to, msg = msg_kind(&msg), "chain: sending");
-        let env = ChainEnvelope { mission: mission.to_string(), from: self.node.clone(), msg };
-        match serde_json::to_vec(&env) {
-            Ok(bytes) => {
-                if let Err(e) = self.session.put(proto::host_chain(to), bytes).encoding(Encoding::APPLICATION_JSON).await {
-                    tracing::warn!(%to, "chain message not sent: {e}");
-                }
+            Err(e) => {
+                tracing::debug!("dropped chain message on {key}: {e}");
+                None
             }
-            Err(e) => tracing::warn!("cannot encode a chain message: {e}"),
-        }
-    }
-
-    /// Carries out a replica's commands (and those they lead to).
-    async fn apply(&mut self, name: &str, cmds: Vec<ChainCmd>) {
-        let mut queue: VecDeque<ChainCmd> = cmds.into();
-        while let Some(c) = queue.pop_front() {
-            match c {
-                chain::Command::Send { to, msg } => self.send(name, &to, msg).await,
-                chain::Command::Lead { config, state } => {
-                    let more = self.lead(name, config, state).await;
-                    queue.extend(more);
-                }
-                chain::Command::Committed { .. } => {
-                    let more = self.flush(name).await;
-                    queue.extend(more);
-                }
-                chain::Command::StepDown => self.step_down(name, "a newer manager took over").await,
-                chain::Command::Retired => {
-                    if let Some(r) = self.replicas.remove(name) {
-                        let t = self.tombs.entry(name.to_string()).or_default();
-                        t.promised = t.promised.max(r.promised());
-                        // Retired by an end: remember it, so stragglers are told.
-                        t.ended |= r.ended();
-                    }
-                    self.step_down(name, "this node left the mission's chain").await;
-                }
-            }
-        }
-    }
-
-    async fn chain_tick(&mut self) {
-        let now = self.now();
-        let names: Vec<String> = self.replicas.keys().cloned().collect();
-        for name in names {
-            let cmds = self.replicas.get_mut(&name).map(|r| r.handle(now, chain::Event::Tick)).unwrap_or_default();
-            if !cmds.is_empty() {
-                self.apply(&name, cmds).await;
-            }
+        },
+        Some(Key::HostAlive(node)) => Some(if up { Event::HostAlive(node) } else { Event::HostGone(node) }),
+        Some(Key::RobotAlive(id)) => Some(if up { Event::RobotAlive(id) } else { Event::RobotGone(id) }),
+        Some(Key::PlannerAlive { kind, zid }) => Some(if up { Event::PlannerAlive { kind, zid } } else { Event::PlannerGone { kind, zid } }),
+        _ => {
+            tracing::debug!("ignored {key}");
+            None
         }
     }
 }
+
+/// The I/O half: queries held under ids, the served mission queryables, requests in flight.
+struct Io {
+    session: Session,
+    tx: mpsc::UnboundedSender<Input>,
+    queries: HashMap<u64, Query>,
+    next: u64,
+    served: HashMap<String, Vec<Queryable<()>>>,
+}
+
+impl Io {
+    /// Decodes a query into the core's event and holds it; malformed ones are answered here.
+    async fn query(&mut self, q: Query, kind: QueryKind) -> Option<Event> {
+        let query = self.next;
+        let payload = net::query_payload(&q);
+        let event = match kind {
+            QueryKind::Start => proto::from_json("mission start", &payload).map(|start| Event::Start { query, start: Box::new(start) }).map_err(|e| e.to_string()),
+            QueryKind::Ctl(mission) => proto::from_json("mission control", &payload).map(|ctl| Event::Ctl { query, mission, ctl }).map_err(|e| e.to_string()),
+            QueryKind::View(mission) => Ok(Event::View { query, mission }),
+            QueryKind::Marginal(mission) => match q.parameters().get("add") {
+                None => Ok(Event::Marginal { query, mission, add: 1 }),
+                Some(v) => v
+                    .parse::<i64>()
+                    .map(|add| Event::Marginal { query, mission, add })
+                    .map_err(|_| format!("add={v}: give a non-zero whole number, e.g. add=1 or add=-1")),
+            },
+        };
+        match event {
+            Ok(e) => {
+                self.next += 1;
+                self.queries.insert(query, q);
+                Some(e)
+            }
+            Err(e) => {
+                net::reply_error(&q, &e).await;
+                None
+            }
+        }
+    }
+
+    async fn execute(&mut self, c: Command) {
+        match c {
+            Command::Chain { to, envelope } => {
+                let key = Key::HostChain(to.clone()).to_string();
+                match proto::to_json(&envelope) {
+                    Ok(bytes) => {
+                        if let Err(e) = self.session.put(key, bytes).encoding(Encoding::APPLICATION_JSON).await {
+                            tracing::warn!(%to, "chain message not sent: {e}");
+                        }
+                    }
+                    Err(e) => tracing::warn!("cannot encode a chain message: {e}"),
+                }
+            }
+            Command::Reply { query, result } => {
+                let Some(q) = self.queries.remove(&query) else { return };
+                match result {
+                    Ok(v) => net::reply_json(&q, &v).await,
+                    Err(e) => net::reply_error(&q, &e).await,
+                }
+            }
+            Command::Drop { query } => {
+                self.queries.remove(&query);
+            }
+            Command::Serve { mission } => {
+                let mut qs = Vec::new();
+                for (key, kind) in [
+                    (Key::MissionCtl(mission.clone()), QueryKind::Ctl(mission.clone())),
+                    (Key::MissionView(mission.clone()), QueryKind::View(mission.clone())),
+                    (Key::MissionMarginal(mission.clone()), QueryKind::Marginal(mission.clone())),
+                ] {
+                    let tx = self.tx.clone();
+                    match self.session.declare_queryable(key.to_string()).callback(move |q| {
+                        let _ = tx.send(Input::Query(q, kind.clone()));
+                    }).await {
+                        Ok(q) => qs.push(q),
+                        Err(e) => tracing::warn!(%mission, "cannot serve {key}: {e}"),
+                    }
+                }
+                self.served.insert(mission, qs);
+            }
+            Command::Unserve { mission } => {
+                self.served.remove(&mission);
+            }
+            Command::RequestPlan { mission, epoch, kind, request, local } => {
+                let (session, tx) = (self.session.clone(), self.tx.clone());
+                tokio::spawn(async move {
+                    let result = if local {
+                        tokio::task::spawn_blocking(move || crate::planner_service::plan(kind, &request))
+                            .await
+                            .unwrap_or_else(|e| Err(format!("planner crashed: {e}")))
+                            .map_err(|error| Failure { retryable: false, error })
+                    } else {
+                        let key = Key::Planner(kind.as_str().to_string()).to_string();
+                        match proto::to_json(&request) {
+                            Ok(body) => net::query::<MissionPlan>(&session, &key, Some(body), PLAN_TIMEOUT).await.map_err(failure),
+                            Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
+                        }
+                    };
+                    let _ = tx.send(Input::Event(Event::Planned { mission, epoch, result: result.map(Box::new) }));
+                });
+            }
+            Command::SendPlan { mission, robot, assignment } => {
+                let (session, tx) = (self.session.clone(), self.tx.clone());
+                tokio::spawn(async move {
+                    let epoch = assignment.epoch;
+                    let key = Key::RobotCmd(robot.clone()).to_string();
+                    let result = match proto::to_json(&RobotCommand::Plan(assignment)) {
+                        Ok(body) => net::query::<CommandAck>(&session, &key, Some(body), ROBOT_TIMEOUT).await.map(|_| ()).map_err(failure),
+                        Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
+                    };
+                    if let Err(f) = &result {
+                        tracing::debug!(%robot, "plan not delivered: {}", f.error);
+                    }
+                    let _ = tx.send(Input::Event(Event::PlanDelivered { mission, robot, epoch, result }));
+                });
+            }
+            Command::Status(view) => net::publish_json(&self.session, &Key::MissionStatus(view.name.clone()).to_string(), &view).await,
+        }
+    }
+}
+
+fn failure(e: QueryError) -> Failure {
+    Failure::from(e)
+}
+
+#[cfg(test)]
+mod tests;

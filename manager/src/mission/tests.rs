@@ -2,8 +2,8 @@
 //! plans, metrics.
 
 use super::*;
-use mrmm_peer::proto::{Behaviour, Pose, Velocity};
 use mrmm_planner::recipe;
+use mrmm_proto::{Behaviour, Pose, Progress, Velocity};
 
 fn spec() -> MissionSpec {
     let xml = recipe::bank("patrol").expect("bank").to_string();
@@ -17,23 +17,24 @@ fn spec() -> MissionSpec {
     }
 }
 
-fn robot(id: &str, t: &str, x: f64) -> RobotSpec {
-    RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0 }
+fn robot(id: &str, t: &str, x: f64) -> Member {
+    Member { spec: RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0 }, time_scale: 1.0 }
 }
 
 /// Runs the planner as a planner service would.
-fn plan_for(cmds: &[MCommand]) -> (u64, MissionPlan) {
-    let Some(MCommand::RequestPlan { epoch, request, .. }) = cmds.iter().find(|c| matches!(c, MCommand::RequestPlan { .. })) else {
+fn plan_for(cmds: &[Command]) -> (u64, MissionPlan) {
+    let Some(Command::RequestPlan { epoch, request, .. }) = cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })) else {
         panic!("expected a plan request in {cmds:?}");
     };
     let r = recipe::parse(&request.recipe).expect("recipe");
-    (*epoch, recipe::build(&r, &request.params, &request.robots).expect("plan"))
+    let robots: Vec<_> = request.robots.iter().map(crate::wire::robot_spec).collect();
+    (*epoch, crate::wire::mission_plan(&recipe::build(&r, &request.params, &robots).expect("plan")))
 }
 
-fn sent_to(cmds: &[MCommand]) -> Vec<(String, u64, usize)> {
+fn sent_to(cmds: &[Command]) -> Vec<(String, u64, usize)> {
     cmds.iter()
         .filter_map(|c| match c {
-            MCommand::SendPlan { robot, assignment } => Some((robot.clone(), assignment.epoch, assignment.members.len())),
+            Command::SendPlan { robot, assignment } => Some((robot.clone(), assignment.epoch, assignment.members.len())),
             _ => None,
         })
         .collect()
@@ -41,12 +42,12 @@ fn sent_to(cmds: &[MCommand]) -> Vec<(String, u64, usize)> {
 
 fn started() -> MissionManager {
     let mut m = MissionManager::new(spec(), "node".into(), vec![robot("a", "ground", 0.0), robot("b", "ground", 5.0), robot("c", "aerial", 10.0)]);
-    let cmds = m.handle(MEvent::Start);
+    let cmds = m.handle(0.0, Event::Start);
     let (epoch, plan) = plan_for(&cmds);
     assert_eq!(epoch, 1);
-    let cmds = m.handle(MEvent::PlanReady { epoch, plan: Box::new(plan) });
+    let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
     assert_eq!(sent_to(&cmds), [("a".into(), 1, 3), ("b".into(), 1, 3), ("c".into(), 1, 3)]);
-    assert_eq!(cmds.last(), Some(&MCommand::Started));
+    assert_eq!(cmds.last(), Some(&Command::Started));
     m
 }
 
@@ -58,39 +59,40 @@ fn initiating_builds_teams_and_sends_plans() {
     assert_eq!(v.teams["p1/ground"], ["a", "b"]);
     assert_eq!(v.teams["p1/aerial"], ["c"]);
     assert_eq!(v.plans.as_ref().map(Vec::len), Some(3));
-    assert!(v.summary.get("plans").is_none());
-    assert!(v.summary["length"].as_f64().is_some_and(|l| (l - 80.0).abs() < 1e-9));
+    let Some(PlanSummary::Patrol(p)) = &v.summary else { panic!("a patrol summary") };
+    assert!((p.length - 80.0).abs() < 1e-9);
+    assert!(serde_json::to_value(&v).expect("json")["summary"].get("plans").is_none());
 }
 
 #[test]
 fn leaving_replans_for_the_rest_and_old_plans_are_ignored() {
     let mut m = started();
-    let cmds = m.handle(MEvent::Left { ids: vec!["b".into()] });
+    let cmds = m.handle(0.0, Event::Left { ids: vec!["b".into()] });
     let (epoch, plan) = plan_for(&cmds);
     assert_eq!(epoch, 2);
     // A late plan of epoch 1 changes nothing.
-    let (_, old) = plan_for(&[MCommand::RequestPlan {
+    let (_, old) = plan_for(&[Command::RequestPlan {
         epoch: 1,
         kind: PlannerKind::Patrol,
-        request: PlanRequest { recipe: spec().recipe_xml, params: spec().params, robots: vec![robot("a", "ground", 0.0)] },
+        request: PlanRequest { recipe: spec().recipe_xml, params: spec().params, robots: vec![robot("a", "ground", 0.0).spec] },
     }]);
-    assert!(m.handle(MEvent::PlanReady { epoch: 1, plan: Box::new(old) }).is_empty());
-    let cmds = m.handle(MEvent::PlanReady { epoch, plan: Box::new(plan.clone()) });
+    assert!(m.handle(0.0, Event::PlanReady { epoch: 1, plan: Box::new(old) }).is_empty());
+    let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan.clone()) });
     assert_eq!(sent_to(&cmds), [("a".into(), 2, 2), ("c".into(), 2, 2)]);
-    assert!(!cmds.contains(&MCommand::Started), "started only once");
+    assert!(!cmds.contains(&Command::Started), "started only once");
     // Two robots, evenly spaced: spacing L/2.
-    let MissionPlan::Patrol(p) = plan else { panic!() };
+    let PlanSummary::Patrol(p) = plan.summary else { panic!() };
     assert!((p.spacing - 40.0).abs() < 1e-9);
     // Unknown robots leaving change nothing.
-    assert!(m.handle(MEvent::Left { ids: vec!["zz".into()] }).is_empty());
+    assert!(m.handle(0.0, Event::Left { ids: vec!["zz".into()] }).is_empty());
 }
 
 #[test]
 fn joining_replans_including_the_newcomer() {
     let mut m = started();
-    let cmds = m.handle(MEvent::Joined(robot("d", "ground", 3.0)));
+    let cmds = m.handle(0.0, Event::Joined(robot("d", "ground", 3.0)));
     let (epoch, plan) = plan_for(&cmds);
-    let cmds = m.handle(MEvent::PlanReady { epoch, plan: Box::new(plan) });
+    let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
     assert_eq!(sent_to(&cmds).len(), 4);
     assert_eq!(m.view(false).teams["p1/ground"], ["a", "b", "d"]);
 }
@@ -99,15 +101,15 @@ fn joining_replans_including_the_newcomer() {
 fn losing_everyone_stalls_and_a_failed_first_plan_fails() {
     let mut m = started();
     for id in ["a", "b"] {
-        assert!(!m.handle(MEvent::Left { ids: vec![id.into()] }).is_empty());
+        assert!(!m.handle(0.0, Event::Left { ids: vec![id.into()] }).is_empty());
     }
-    assert!(m.handle(MEvent::Left { ids: vec!["c".into()] }).is_empty(), "no plan for nobody");
+    assert!(m.handle(0.0, Event::Left { ids: vec!["c".into()] }).is_empty(), "no plan for nobody");
     assert_eq!(m.view(false).status, MissionStatus::Stalled);
 
     let mut f = MissionManager::new(spec(), "n".into(), vec![robot("a", "ground", 0.0)]);
-    let cmds = f.handle(MEvent::Start);
+    let cmds = f.handle(0.0, Event::Start);
     let (epoch, _) = plan_for(&cmds);
-    assert_eq!(f.handle(MEvent::PlanFailed { epoch, error: "boom".into() }), vec![MCommand::Failed { error: "boom".into() }]);
+    assert_eq!(f.handle(0.0, Event::PlanFailed { epoch, error: "boom".into() }), vec![Command::Failed { error: "boom".into() }]);
     assert_eq!(f.view(false).status, MissionStatus::Failed);
 }
 
@@ -125,12 +127,12 @@ fn metrics_from_telemetry() {
         progress: Some(Progress { mission: "p1".into(), epoch: 1, step: 3, round, syncs_passed: syncs, sync_msgs: syncs, waiting: None, done: false }),
     };
     // Not yet past the start barrier: no visit counted.
-    m.handle(MEvent::Telemetry { now: 0.0, t: Box::new(tel("a", 0.0, 0.0, 0, 0)) });
+    m.handle(0.0, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 0, 0))));
     assert_eq!(m.metrics().visits.iter().sum::<u32>(), 0);
-    m.handle(MEvent::Telemetry { now: 1.0, t: Box::new(tel("a", 0.0, 0.0, 1, 0)) });
-    m.handle(MEvent::Telemetry { now: 1.2, t: Box::new(tel("a", 0.1, 0.0, 1, 0)) }); // debounced
-    m.handle(MEvent::Telemetry { now: 11.0, t: Box::new(tel("b", 0.0, 0.5, 2, 0)) });
-    m.handle(MEvent::Telemetry { now: 12.0, t: Box::new(tel("c", 50.0, 50.0, 3, 1)) });
+    m.handle(1.0, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 1, 0))));
+    m.handle(1.2, Event::Telemetry(Box::new(tel("a", 0.1, 0.0, 1, 0)))); // debounced
+    m.handle(11.0, Event::Telemetry(Box::new(tel("b", 0.0, 0.5, 2, 0))));
+    m.handle(12.0, Event::Telemetry(Box::new(tel("c", 50.0, 50.0, 3, 1))));
     let x = m.metrics();
     assert_eq!(x.visits.iter().sum::<u32>(), 2);
     assert_eq!(x.avg_idleness, Some(10.0));
@@ -144,4 +146,22 @@ fn metrics_from_telemetry() {
     assert_eq!((g.robots, g.with_robots), (3, 4));
     assert!((g.predicted - 20.0).abs() < 1e-9 && (g.current - 80.0 / 3.0).abs() < 1e-9);
     assert!(m.marginal(-3).is_err());
+}
+
+#[test]
+fn changes_are_handed_out_once_with_a_growing_revision() {
+    let mut m = started();
+    let first = m.changes().expect("the initial state");
+    assert!(m.changes().is_none(), "nothing new");
+    m.handle(1.0, Event::Left { ids: vec!["b".into()] });
+    let second = m.changes().expect("b left");
+    assert_eq!(second.revision, first.revision + 1);
+    assert_eq!(second.members.len(), 2);
+    // A new head restored from it goes on counting from there.
+    let mut n = MissionManager::restore(second.clone(), "other".into()).expect("restore");
+    assert!(n.changes().is_none());
+    n.handle(2.0, Event::Left { ids: vec!["c".into()] });
+    assert_eq!(n.changes().map(|s| s.revision), Some(second.revision + 1));
+    // Resume asks again only when the predecessor died while planning (epoch 2 has no plan).
+    assert!(matches!(n.handle(3.0, Event::Resume).as_slice(), [Command::RequestPlan { epoch: 4, .. }]));
 }

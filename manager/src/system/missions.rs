@@ -3,52 +3,54 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_peer::proto::{self, MissionCreate, MissionCtl, MissionStart, MissionTerminate, RobotCommand, RobotMove};
-use mrmm_planner::plan::RobotSpec;
 use mrmm_planner::recipe::{self, PlannerKind};
+use mrmm_proto::{self as proto, MissionCreate, MissionCtl, MissionStart, MissionTerminate, RobotCommand, RobotMove, RobotSpec};
 use serde_json::{json, Value};
 
-use super::{to_value, Command, MissionRecord, SystemManager};
+use super::{to_value, Command, MissionRecord, PendingStart, Released, Req, SystemManager};
 use crate::mission::MissionSpec;
+use crate::wire;
 
 impl SystemManager {
-    pub(super) fn create(&mut self, req: u64, bytes: &[u8]) -> Vec<Command> {
-        match self.check_create(bytes) {
-            Ok((spec, host, robots, steal)) => {
-                let name = spec.name.clone();
-                let mut out = Vec::new();
-                // Robots taken from running missions leave them first (those missions replan).
-                let mut leaving: BTreeMap<String, Vec<String>> = BTreeMap::new();
-                for (id, from) in steal {
-                    self.assignment.remove(&id);
-                    self.released.insert(id.clone(), (from.clone(), self.now));
-                    leaving.entry(from).or_default().push(id);
-                }
-                for (from, ids) in leaving {
-                    out.push(Command::Ctl { mission: from, ctl: MissionCtl::Left { ids } });
-                }
-                let members = robots.iter().filter_map(|r| self.member(&r.id)).collect();
-                for r in &robots {
-                    self.assignment.insert(r.id.clone(), name.clone());
-                }
-                tracing::info!(mission = %name, %host, robots = robots.len(), "mission created");
-                self.terminated.remove(&name);
-                self.missions.insert(
-                    name.clone(),
-                    MissionRecord { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), view: None },
-                );
-                self.pending_create.insert(name, req);
-                out.push(Command::StartMission { host, start: Box::new(MissionStart { spec: spec.to_wire(), members }) });
-                out
-            }
-            Err(e) => vec![Command::Reply { req, result: Err(e) }],
+    pub(super) fn create(&mut self, req: Req, c: MissionCreate) -> Vec<Command> {
+        let (spec, host, robots, steal) = match self.check_create(c) {
+            Ok(x) => x,
+            Err(e) => return vec![Command::Reply { req, result: Err(e) }],
+        };
+        let name = spec.name.clone();
+        // Robots taken from running missions leave them first (those missions replan); the new
+        // mission starts once they are let go.
+        let mut leaving: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        for (id, from) in steal {
+            self.assignment.remove(&id);
+            leaving.entry(from).or_default().push(id);
         }
+        let mut after = Vec::new();
+        for (from, ids) in leaving {
+            let ctl = self.ctls.push(&from, MissionCtl::Left { ids: ids.clone() }, None);
+            for id in ids {
+                self.released.insert(id, Released { mission: from.clone(), ctl, acked: None });
+            }
+            after.push(ctl);
+        }
+        let members = robots.iter().filter_map(|r| self.member(&r.id)).collect();
+        for r in &robots {
+            self.assignment.insert(r.id.clone(), name.clone());
+        }
+        tracing::info!(mission = %name, %host, robots = robots.len(), "mission created");
+        self.terminated.remove(&name);
+        self.missions.insert(
+            name.clone(),
+            MissionRecord { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), view: None },
+        );
+        self.pending_create.insert(name, req);
+        self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: spec.to_wire(), members }), after });
+        vec![]
     }
 
     /// Everything a create needs, or the first problem. Changes nothing.
     #[allow(clippy::type_complexity)]
-    fn check_create(&self, bytes: &[u8]) -> Result<(MissionSpec, String, Vec<RobotSpec>, Vec<(String, String)>), String> {
-        let c: MissionCreate = proto::from_json("mission create request", bytes).map_err(|e| e.to_string())?;
+    fn check_create(&self, c: MissionCreate) -> Result<(MissionSpec, String, Vec<RobotSpec>, Vec<(String, String)>), String> {
         proto::validate_id(&c.name).map_err(|_| format!("mission name {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", c.name))?;
         if self.missions.contains_key(&c.name) {
             return Err(format!("mission {:?} already exists", c.name));
@@ -68,10 +70,13 @@ impl SystemManager {
         let params: BTreeMap<String, String> = c
             .params
             .iter()
-            .map(|(k, v)| (k.clone(), match v {
-                Value::String(s) => s.clone(),
-                other => other.to_string(),
-            }))
+            .map(|(k, v)| {
+                let v = match v {
+                    Value::String(s) => s.clone(),
+                    other => other.to_string(),
+                };
+                (k.clone(), v)
+            })
             .collect();
 
         let (ids, steal) = match (&c.robots, c.count) {
@@ -114,7 +119,8 @@ impl SystemManager {
                 }
             }
         }
-        recipe::build(&r, &dry, &specs).map_err(|e| format!("mission {}: {e}", c.name))?;
+        let planner_specs: Vec<_> = specs.iter().map(wire::robot_spec).collect();
+        recipe::build(&r, &dry, &planner_specs).map_err(|e| format!("mission {}: {e}", c.name))?;
         let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
         if replicas > proto::MAX_REPLICAS {
             return Err(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS));
@@ -134,6 +140,7 @@ impl SystemManager {
 
     /// The paper's default: the fleet split equally over the missions, the new one included.
     /// Idle robots first; then robots taken from the largest missions, never below their share.
+    #[allow(clippy::type_complexity)]
     fn equal_share(&self) -> Result<(Vec<String>, Vec<(String, String)>), String> {
         let alive = self.robots.values().filter(|r| r.alive && r.info.is_some()).count();
         let share = (alive / (self.missions.len() + 1)).max(1);
@@ -141,7 +148,9 @@ impl SystemManager {
         let mut steal = Vec::new();
         let mut sizes: BTreeMap<String, Vec<String>> = BTreeMap::new();
         for (robot, m) in &self.assignment {
-            sizes.entry(m.clone()).or_default().push(robot.clone());
+            if self.robots.get(robot).is_some_and(|r| r.alive) {
+                sizes.entry(m.clone()).or_default().push(robot.clone());
+            }
         }
         while chosen.len() < share {
             let Some((name, members)) = sizes.iter_mut().filter(|(_, v)| v.len() > share).max_by_key(|(_, v)| v.len()) else {
@@ -157,25 +166,19 @@ impl SystemManager {
         Ok((chosen, steal))
     }
 
-    pub(super) fn terminate(&mut self, req: u64, bytes: &[u8]) -> Vec<Command> {
-        let t: MissionTerminate = match proto::from_json("mission terminate request", bytes) {
-            Ok(t) => t,
-            Err(e) => return vec![Command::Reply { req, result: Err(e.to_string()) }],
-        };
+    pub(super) fn terminate(&mut self, req: Req, t: MissionTerminate) -> Vec<Command> {
         if self.missions.remove(&t.name).is_none() {
             return vec![Command::Reply { req, result: Err(format!("unknown mission {:?}", t.name)) }];
         }
         let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == t.name).map(|(r, _)| r.clone()).collect();
         self.terminated.insert(t.name.clone());
-        let mut out = vec![Command::Ctl { mission: t.name.clone(), ctl: MissionCtl::Terminate }];
+        self.ctls.cancel(&t.name);
+        self.ctls.push(&t.name, MissionCtl::Terminate, None);
+        self.starts.retain(|s| s.start.spec.name != t.name);
+        let mut out = Vec::new();
         for id in &robots {
             self.assignment.remove(id);
-            self.released.insert(id.clone(), (t.name.clone(), self.now));
-            out.push(Command::SendToRobot {
-                req: None,
-                robot: id.clone(),
-                cmd: RobotCommand::Leave { mission: t.name.clone(), epoch: u64::MAX },
-            });
+            out.push(Command::SendToRobot { req: None, robot: id.clone(), cmd: RobotCommand::Leave { mission: t.name.clone(), epoch: u64::MAX } });
         }
         if let Some(pending) = self.pending_create.remove(&t.name) {
             out.push(Command::Reply { req: pending, result: Err(format!("mission {} was terminated", t.name)) });
@@ -185,44 +188,48 @@ impl SystemManager {
         out
     }
 
-    pub(super) fn move_robot(&mut self, req: u64, bytes: &[u8]) -> Vec<Command> {
-        let mv: RobotMove = match proto::from_json("robot move request", bytes) {
-            Ok(m) => m,
-            Err(e) => return vec![Command::Reply { req, result: Err(e.to_string()) }],
-        };
-        if let Err(e) = self.live_robot(&mv.robot) {
-            return vec![Command::Reply { req, result: Err(e) }];
-        }
+    /// Moves a robot to mission `to`, or frees it (`to: null`; a lost robot may be freed too).
+    pub(super) fn move_robot(&mut self, req: Req, mv: RobotMove) -> Vec<Command> {
+        let reply = |req: Req, result| vec![Command::Reply { req, result }];
         let from = self.assignment.get(&mv.robot).cloned();
+        let Some(alive) = self.robots.get(&mv.robot).filter(|r| r.info.is_some()).map(|r| r.alive) else {
+            return reply(req, Err(format!("unknown robot {:?}", mv.robot)));
+        };
+        if !alive && mv.to.is_some() {
+            return reply(req, Err(format!("robot {:?} is lost", mv.robot)));
+        }
         if let Some(to) = &mv.to {
             if !self.missions.contains_key(to) {
-                return vec![Command::Reply { req, result: Err(format!("unknown mission {to:?}")) }];
+                return reply(req, Err(format!("unknown mission {to:?}")));
             }
             if from.as_ref() == Some(to) {
-                return vec![Command::Reply { req, result: Err(format!("robot {:?} is already in mission {to}", mv.robot)) }];
+                return reply(req, Err(format!("robot {:?} is already in mission {to}", mv.robot)));
             }
         } else if from.is_none() {
-            return vec![Command::Reply { req, result: Err(format!("robot {:?} is in no mission", mv.robot)) }];
+            return reply(req, Err(format!("robot {:?} is in no mission", mv.robot)));
         }
-        let Some(member) = self.member(&mv.robot) else {
-            return vec![Command::Reply { req, result: Err(format!("unknown robot {:?}", mv.robot)) }];
+        let member = match &mv.to {
+            Some(_) => match self.member(&mv.robot) {
+                Some(m) => Some(m),
+                None => return reply(req, Err(format!("unknown robot {:?}", mv.robot))),
+            },
+            None => None,
         };
         let mut out = Vec::new();
+        let mut left = None;
         if let Some(f) = &from {
             self.assignment.remove(&mv.robot);
-            self.released.insert(mv.robot.clone(), (f.clone(), self.now));
-            out.push(Command::Ctl { mission: f.clone(), ctl: MissionCtl::Left { ids: vec![mv.robot.clone()] } });
-            if mv.to.is_none() {
-                out.push(Command::SendToRobot {
-                    req: None,
-                    robot: mv.robot.clone(),
-                    cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX },
-                });
+            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![mv.robot.clone()] }, None);
+            self.released.insert(mv.robot.clone(), Released { mission: f.clone(), ctl, acked: None });
+            left = Some(ctl);
+            if mv.to.is_none() && alive {
+                out.push(Command::SendToRobot { req: None, robot: mv.robot.clone(), cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX } });
             }
         }
-        if let Some(to) = &mv.to {
+        if let (Some(to), Some(member)) = (&mv.to, member) {
             self.assignment.insert(mv.robot.clone(), to.clone());
-            out.push(Command::Ctl { mission: to.clone(), ctl: MissionCtl::Joined { member } });
+            // It joins once its old mission let it go: never in two teams.
+            self.ctls.push(to, MissionCtl::Joined { member }, left);
         }
         tracing::info!(robot = %mv.robot, ?from, to = ?mv.to, "robot moved");
         out.push(Command::Reply { req, result: to_value(&json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to})) });

@@ -1,32 +1,42 @@
 //! The system manager as a state machine: it knows every robot, every mission and every mission
 //! host, answers operator requests, creates and terminates missions and moves robots between
-//! them. Missions are run by mission managers on mission hosts (see `host.rs`); the system
-//! manager owns the membership (every robot in at most one mission) and steers hosts with
-//! [`MissionCtl`]s. No I/O: [`SystemManager::handle`] takes an [`Event`] and returns the
-//! [`Command`]s the driver must carry out.
+//! them. Missions are run by mission managers on mission hosts (`host/`); the system manager owns
+//! the membership — every robot in at most one mission, and a lost robot keeps its place in its
+//! mission until it comes back or the operator frees it — and steers hosts with [`MissionCtl`]s
+//! that are re-sent until acknowledged (`ctl.rs`). No I/O: [`SystemManager::handle`] takes the
+//! time and an [`Event`] and returns the [`Command`]s the driver must carry out.
 
+mod ctl;
 mod missions;
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
-use std::collections::BTreeSet;
-
-use mrmm_peer::proto::{
-    self, CommandAck, GotoRequest, ManagerView, Member, MissionCtl, MissionMetrics, MissionStart, MissionStatus, MissionView,
-    RobotCommand, RobotInfo, RobotStatus, RobotView, SystemStatus, Telemetry,
+use mrmm_proto::{
+    self as proto, CommandAck, GotoRequest, Key, ManagerView, Member, MissionCreate, MissionCtl, MissionMetrics, MissionStart, MissionStatus,
+    MissionTerminate, MissionView, RobotCommand, RobotInfo, RobotMove, RobotSpec, RobotStatus, RobotView, SystemStatus, Telemetry,
 };
-use mrmm_planner::plan::RobotSpec;
 use serde_json::Value;
+
+pub use ctl::{Ctls, CTL_GIVE_UP_S, CTL_RETRY_S};
+
+use crate::Failure;
 
 /// Seconds between two info requests to a robot that is alive but not yet registered.
 pub const INFO_RETRY_S: f64 = 1.0;
 /// Seconds between two leave orders to a robot still running a plan it should not have.
 pub const LEAVE_RETRY_S: f64 = 2.0;
-/// For this long after taking a robot out of a mission, that mission's reports listing it are
-/// taken as older than the order.
+/// For this long after a mission acknowledged letting a robot go, its reports listing the robot
+/// are taken as older than the order.
 pub const RELEASE_GRACE_S: f64 = 5.0;
 
-/// An operator request, already routed by key; payloads not yet parsed.
+/// Who asked: an operator query held by the driver, or the advising agent (for an advice).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Req {
+    Query(u64),
+    Agent(String),
+}
+
+/// An operator request, decoded at the edge.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Request {
     Status,
@@ -34,10 +44,17 @@ pub enum Request {
     Robot(String),
     Missions,
     Mission(String),
-    Goto(Vec<u8>),
-    Move(Vec<u8>),
-    Create(Vec<u8>),
-    Terminate(Vec<u8>),
+    Goto(GotoRequest),
+    Move(RobotMove),
+    Create(MissionCreate),
+    Terminate(MissionTerminate),
+}
+
+impl Request {
+    /// Whether the request changes the fleet (the agent waits while the operator is busy).
+    pub fn is_command(&self) -> bool {
+        matches!(self, Request::Goto(_) | Request::Move(_) | Request::Create(_) | Request::Terminate(_))
+    }
 }
 
 /// Something that happened.
@@ -52,13 +69,15 @@ pub enum Event {
     /// An info query failed.
     InfoFailed { id: String, reason: String },
     Telemetry(Box<Telemetry>),
-    /// An operator query `req` arrived.
-    Operator { req: u64, request: Request },
-    /// A command to a robot completed; `req` is the operator query it answers, if any.
-    RobotCommandDone { req: Option<u64>, robot: String, result: Result<CommandAck, String> },
+    /// An operator request.
+    Operator { req: Req, request: Request },
+    /// A command to a robot completed; `req` is the request it answers, if any.
+    RobotCommandDone { req: Option<Req>, robot: String, result: Result<CommandAck, String> },
     /// A mission host answered a start: the first plans are out, or planning failed.
     MissionStarted { mission: String, result: Result<Box<MissionView>, String> },
-    /// A mission host published a mission's status.
+    /// The answer to [`Command::Ctl`] `id`.
+    CtlDone { id: u64, result: Result<(), Failure> },
+    /// A mission's head published its status.
     MissionStatus(Box<MissionView>),
     /// A mission host's liveliness token appeared.
     HostAlive { node: String },
@@ -71,18 +90,18 @@ pub enum Event {
 /// Something the driver must do.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {
-    /// Ask robot `id` for its [`RobotInfo`].
+    /// Ask robot `id` for its [`RobotInfo`]; answer with [`Event::RobotRegistered`] or [`Event::InfoFailed`].
     FetchInfo { id: String },
-    /// Send `cmd` to `robot`; report back with [`Event::RobotCommandDone`].
-    SendToRobot { req: Option<u64>, robot: String, cmd: RobotCommand },
-    /// Answer operator query `req` with JSON, or with a reply error.
-    Reply { req: u64, result: Result<Value, String> },
-    /// Start a mission on a host; report back with [`Event::MissionStarted`].
+    /// Send `cmd` to `robot`; answer with [`Event::RobotCommandDone`].
+    SendToRobot { req: Option<Req>, robot: String, cmd: RobotCommand },
+    /// Answer request `req` with JSON, or with a reply error.
+    Reply { req: Req, result: Result<Value, String> },
+    /// Start a mission on a host; answer with [`Event::MissionStarted`].
     StartMission { host: String, start: Box<MissionStart> },
-    /// Steer a mission through its host.
-    Ctl { mission: String, ctl: MissionCtl },
-    /// Answer operator query `req` with whatever `key` answers (a host's mission view).
-    Forward { req: u64, key: String },
+    /// Steer a mission through its head; answer with [`Event::CtlDone`].
+    Ctl { id: u64, mission: String, ctl: MissionCtl },
+    /// Answer request `req` with whatever `key` answers (a head's mission view).
+    Forward { req: Req, key: Key },
 }
 
 /// What the system manager knows of a mission.
@@ -91,7 +110,7 @@ pub(crate) struct MissionRecord {
     host: String,
     recipe: String,
     planner: String,
-    /// The host's latest view.
+    /// The head's latest view.
     view: Option<MissionView>,
 }
 
@@ -106,8 +125,23 @@ struct Record {
     fresh: bool,
     /// When we last ordered it out of a plan it should not run.
     leave_sent: Option<f64>,
-    /// The mission it was taken out of when it was lost.
-    last_mission: Option<String>,
+}
+
+/// A robot this manager took out of a mission: until the mission acknowledged it (and for a
+/// grace period after), that mission's reports listing it are older than the order.
+#[derive(Debug, Clone)]
+struct Released {
+    mission: String,
+    ctl: u64,
+    acked: Option<f64>,
+}
+
+/// A mission start waiting for the missions its robots come from to let them go.
+#[derive(Debug, Clone)]
+struct PendingStart {
+    host: String,
+    start: Box<MissionStart>,
+    after: Vec<u64>,
 }
 
 /// The registry of robots and missions, and the operator-facing logic.
@@ -120,14 +154,16 @@ pub struct SystemManager {
     missions: BTreeMap<String, MissionRecord>,
     /// Mission hosts alive.
     hosts: BTreeSet<String>,
-    /// Robot → mission: every robot is in at most one mission.
+    /// Robot → mission: every robot is in at most one mission (a lost one keeps its place).
     assignment: BTreeMap<String, String>,
     /// Missions whose create request waits for the first plan.
-    pending_create: BTreeMap<String, u64>,
-    /// Missions terminated here: robots still running them are ordered out.
+    pending_create: BTreeMap<String, Req>,
+    starts: Vec<PendingStart>,
+    /// Missions terminated here: robots still running them are ordered out, heads still
+    /// reporting them are told again.
     terminated: BTreeSet<String>,
-    /// Robot → (mission, when) it was taken out of by this manager.
-    released: BTreeMap<String, (String, f64)>,
+    released: BTreeMap<String, Released>,
+    ctls: Ctls,
 }
 
 impl SystemManager {
@@ -142,14 +178,22 @@ impl SystemManager {
             hosts: BTreeSet::new(),
             assignment: BTreeMap::new(),
             pending_create: BTreeMap::new(),
-            terminated: Default::default(),
+            starts: Vec::new(),
+            terminated: BTreeSet::new(),
             released: BTreeMap::new(),
+            ctls: Ctls::default(),
         }
     }
 
     /// Handles one event.
     pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
         self.now = self.now.max(now);
+        let mut out = self.event(now, event);
+        out.extend(self.due(now));
+        out
+    }
+
+    fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
             Event::RobotAlive { id } => {
                 let rec = self.robots.entry(id.clone()).or_insert(Record {
@@ -159,11 +203,9 @@ impl SystemManager {
                     info_asked: None,
                     fresh: true,
                     leave_sent: None,
-                    last_mission: None,
                 });
                 rec.alive = true;
                 rec.fresh = true;
-                rec.last_mission = None;
                 // Ask again even if known: a restarted robot may have changed type or endpoints.
                 rec.info_asked = Some(now);
                 vec![Command::FetchInfo { id }]
@@ -175,15 +217,9 @@ impl SystemManager {
                     }
                     rec.alive = false;
                 }
-                match self.assignment.remove(&id) {
-                    Some(m) => {
-                        if let Some(rec) = self.robots.get_mut(&id) {
-                            rec.last_mission = Some(m.clone());
-                        }
-                        vec![Command::Ctl { mission: m, ctl: MissionCtl::Left { ids: vec![id] } }]
-                    }
-                    None => vec![],
-                }
+                // Its mission's head plans around it and takes it back when it returns; its
+                // place is kept, so no other mission takes it meanwhile.
+                vec![]
             }
             Event::RobotRegistered(info) => {
                 match self.robots.get_mut(&info.id) {
@@ -207,7 +243,7 @@ impl SystemManager {
             Event::RobotCommandDone { req, robot, result } => match req {
                 Some(req) => {
                     let result = match result {
-                        Ok(ack) => serde_json::to_value(ack).map_err(|e| e.to_string()),
+                        Ok(ack) => to_value(&ack),
                         Err(e) => Err(format!("robot {robot}: {e}")),
                     };
                     vec![Command::Reply { req, result }]
@@ -220,6 +256,15 @@ impl SystemManager {
                 }
             },
             Event::MissionStarted { mission, result } => self.started(&mission, result),
+            Event::CtlDone { id, result } => {
+                self.ctls.done(now, id, result);
+                for r in self.released.values_mut().filter(|r| r.ctl == id && r.acked.is_none()) {
+                    if !self.ctls.is_pending(id) {
+                        r.acked = Some(now);
+                    }
+                }
+                vec![]
+            }
             Event::MissionStatus(view) => self.mission_status(*view),
             Event::HostAlive { node } => {
                 tracing::info!(%node, "mission host up");
@@ -240,6 +285,17 @@ impl SystemManager {
         }
     }
 
+    /// Controls and starts that can go out now.
+    fn due(&mut self, now: f64) -> Vec<Command> {
+        let mut out: Vec<Command> = self.ctls.due(now).into_iter().map(|(id, mission, ctl)| Command::Ctl { id, mission, ctl }).collect();
+        let ctls = &self.ctls;
+        let (ready, waiting): (Vec<PendingStart>, Vec<PendingStart>) =
+            std::mem::take(&mut self.starts).into_iter().partition(|s| s.after.iter().all(|id| !ctls.is_pending(*id)));
+        self.starts = waiting;
+        out.extend(ready.into_iter().map(|s| Command::StartMission { host: s.host, start: s.start }));
+        out
+    }
+
     fn telemetry(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
         let Some(rec) = self.robots.get_mut(&t.id) else { return vec![] };
         let newer = rec.fresh || rec.last.as_ref().is_none_or(|old| t.seq > old.seq);
@@ -248,9 +304,9 @@ impl SystemManager {
         }
         rec.fresh = false;
         let mut out = Vec::new();
-        // A robot running a plan of a mission it is not in (it was lost and came back, or missed
-        // a leave order) is told to leave it — but only for missions this manager knows or
-        // terminated: after a restart of central, missions it never heard of keep running.
+        // A robot running a plan of a mission it is not in (it missed a leave order, or was
+        // moved) is told to leave it — but only for missions this manager knows or terminated:
+        // after a restart of central, missions it never heard of keep running.
         if let Some(running) = &t.mission {
             let assigned = self.assignment.get(&t.id);
             let known = self.missions.contains_key(running) || self.terminated.contains(running);
@@ -258,11 +314,7 @@ impl SystemManager {
             if assigned != Some(running) && known && retry {
                 rec.leave_sent = Some(now);
                 let epoch = t.progress.as_ref().map_or(u64::MAX, |p| p.epoch);
-                out.push(Command::SendToRobot {
-                    req: None,
-                    robot: t.id.clone(),
-                    cmd: RobotCommand::Leave { mission: running.clone(), epoch },
-                });
+                out.push(Command::SendToRobot { req: None, robot: t.id.clone(), cmd: RobotCommand::Leave { mission: running.clone(), epoch } });
             }
         }
         rec.last = Some(t);
@@ -270,6 +322,8 @@ impl SystemManager {
     }
 
     fn tick(&mut self, now: f64) -> Vec<Command> {
+        let grace = |r: &Released| r.acked.is_none_or(|t| now - t < RELEASE_GRACE_S);
+        self.released.retain(|_, r| grace(r));
         self.robots
             .iter_mut()
             .filter(|(_, r)| r.alive && r.info.is_none())
@@ -281,41 +335,40 @@ impl SystemManager {
             .collect()
     }
 
-    fn operator(&mut self, now: f64, req: u64, request: Request) -> Vec<Command> {
-        let reply = |result| vec![Command::Reply { req, result }];
+    fn operator(&mut self, now: f64, req: Req, request: Request) -> Vec<Command> {
+        let reply = |req: Req, result| vec![Command::Reply { req, result }];
         match request {
-            Request::Status => reply(to_value(&self.status(now))),
-            Request::Robots => reply(to_value(&self.views())),
+            Request::Status => reply(req, to_value(&self.status(now))),
+            Request::Robots => reply(req, to_value(&self.views())),
             Request::Robot(id) => match self.view(&id) {
-                Some(v) => reply(to_value(&v)),
-                None => reply(Err(format!("unknown robot {id:?}"))),
+                Some(v) => reply(req, to_value(&v)),
+                None => reply(req, Err(format!("unknown robot {id:?}"))),
             },
-            Request::Missions => reply(to_value(&self.missions.keys().map(|n| self.mission_view(n)).collect::<Vec<_>>())),
+            Request::Missions => reply(req, to_value(&self.mission_views())),
             Request::Mission(name) => match self.missions.get(&name) {
-                Some(r) if r.view.as_ref().is_some_and(|v| v.status != MissionStatus::Stalled) => {
-                    vec![Command::Forward { req, key: proto::mission_view(&name) }]
-                }
-                Some(_) => reply(to_value(&self.mission_view(&name))),
-                None => reply(Err(format!("unknown mission {name:?}"))),
+                Some(r) if r.view.as_ref().is_some_and(|v| v.status != MissionStatus::Stalled) => vec![Command::Forward { req, key: Key::MissionView(name) }],
+                Some(_) => reply(req, to_value(&self.mission_view(&name))),
+                None => reply(req, Err(format!("unknown mission {name:?}"))),
             },
-            Request::Goto(bytes) => match self.check_goto(&bytes) {
-                Ok(g) => vec![Command::SendToRobot {
-                    req: Some(req),
-                    robot: g.robot,
-                    cmd: RobotCommand::Goto { x: g.x, y: g.y },
-                }],
-                Err(e) => reply(Err(e)),
+            Request::Goto(g) => match self.check_goto(&g) {
+                Ok(()) => vec![Command::SendToRobot { req: Some(req), robot: g.robot, cmd: RobotCommand::Goto { x: g.x, y: g.y } }],
+                Err(e) => reply(req, Err(e)),
             },
-            Request::Create(bytes) => self.create(req, &bytes),
-            Request::Terminate(bytes) => self.terminate(req, &bytes),
-            Request::Move(bytes) => self.move_robot(req, &bytes),
+            Request::Create(c) => self.create(req, c),
+            Request::Terminate(t) => self.terminate(req, t),
+            Request::Move(m) => self.move_robot(req, m),
         }
     }
 
-    /// A mission as the operator sees it: the host's latest view, with the membership this
+    /// A mission as the operator sees it: the head's latest view, with the (live) members this
     /// manager holds; a placeholder while the host is planning.
     fn mission_view(&self, name: &str) -> MissionView {
-        let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
+        let robots: Vec<String> = self
+            .assignment
+            .iter()
+            .filter(|(id, m)| *m == name && self.robots.get(*id).is_some_and(|r| r.alive))
+            .map(|(r, _)| r.clone())
+            .collect();
         let rec = self.missions.get(name);
         match rec.and_then(|r| r.view.clone()) {
             Some(mut v) => {
@@ -331,7 +384,7 @@ impl SystemManager {
                 teams: BTreeMap::new(),
                 manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0, chain_epoch: 0, chain: vec![] },
                 metrics: MissionMetrics::default(),
-                summary: Value::Null,
+                summary: None,
                 params: BTreeMap::new(),
                 error: None,
                 plans: None,
@@ -339,10 +392,17 @@ impl SystemManager {
         }
     }
 
-    /// A host reported a mission. A mission this manager does not know (it restarted while the
-    /// host kept running it) is adopted: record, host and membership come from the report, for
-    /// robots not already in another mission.
+    /// A head reported a mission. A mission this manager does not know (it restarted while the
+    /// head kept running it) is adopted: record, host and membership come from the report, for
+    /// robots not already in another mission. A mission terminated here is ended again.
     fn mission_status(&mut self, view: MissionView) -> Vec<Command> {
+        if self.terminated.contains(&view.name) {
+            if !self.ctls.has(&view.name, |c| *c == MissionCtl::Terminate) {
+                tracing::warn!(mission = %view.name, node = %view.manager.node, "a terminated mission still runs: ending it again");
+                self.ctls.push(&view.name, MissionCtl::Terminate, None);
+            }
+            return vec![];
+        }
         if let Some(rec) = self.missions.get_mut(&view.name) {
             // A report of an older chain epoch is from a manager that was replaced.
             let known = rec.view.as_ref().map_or(0, |v| v.manager.chain_epoch);
@@ -359,60 +419,44 @@ impl SystemManager {
             let name = view.name.clone();
             let robots = view.robots.clone();
             rec.view = Some(view);
-            return self.reconcile(&name, &robots);
-        }
-        if self.terminated.contains(&view.name) || !self.hosts.contains(&view.manager.node) {
+            self.reconcile(&name, &robots);
             return vec![];
         }
-        if self.pending_create.contains_key(&view.name) {
+        if !self.hosts.contains(&view.manager.node) || self.pending_create.contains_key(&view.name) {
             return vec![];
         }
-        tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its host's report");
-        let mut out = Vec::new();
-        let mut strangers = Vec::new();
-        for id in &view.robots {
-            match self.assignment.get(id) {
-                Some(other) if other != &view.name => strangers.push(id.clone()),
-                _ => {
-                    self.assignment.insert(id.clone(), view.name.clone());
-                }
-            }
-        }
-        if !strangers.is_empty() {
-            out.push(Command::Ctl { mission: view.name.clone(), ctl: MissionCtl::Left { ids: strangers } });
-        }
+        tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its head's report");
+        let name = view.name.clone();
+        let robots = view.robots.clone();
         self.missions.insert(
-            view.name.clone(),
+            name.clone(),
             MissionRecord { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), view: Some(view) },
         );
-        out
+        self.reconcile(&name, &robots);
+        vec![]
     }
 
-    /// A mission's manager lists `robots` (it may have taken back a lost robot that returned while
-    /// central was away): robots in no mission are recorded in it; robots this manager put in
-    /// another mission are taken out of it. Robots missing from the list are left alone — the
-    /// report may predate a join this manager ordered.
-    fn reconcile(&mut self, name: &str, robots: &[String]) -> Vec<Command> {
+    /// A mission's head lists `robots` (it may have taken back a lost robot while central was
+    /// away): robots in no mission are recorded in it; robots in another mission are taken out
+    /// of it. Robots missing from the list are left alone — the report may predate a join this
+    /// manager ordered.
+    fn reconcile(&mut self, name: &str, robots: &[String]) {
         let mut strangers = Vec::new();
-        let now = self.now;
-        self.released.retain(|_, (_, when)| now - *when < RELEASE_GRACE_S);
         for id in robots {
-            if self.released.get(id).is_some_and(|(m, _)| m == name) {
+            if self.released.get(id).is_some_and(|r| r.mission == name) {
                 continue;
             }
             match self.assignment.get(id) {
                 Some(m) if m == name => {}
                 Some(_) => strangers.push(id.clone()),
                 None => {
-                    tracing::info!(mission = %name, robot = %id, "robot rejoined its mission");
+                    tracing::info!(mission = %name, robot = %id, "robot recorded in its mission from its head's report");
                     self.assignment.insert(id.clone(), name.to_string());
                 }
             }
         }
-        if strangers.is_empty() {
-            vec![]
-        } else {
-            vec![Command::Ctl { mission: name.to_string(), ctl: MissionCtl::Left { ids: strangers } }]
+        if !strangers.is_empty() {
+            self.ctls.push(name, MissionCtl::Left { ids: strangers }, None);
         }
     }
 
@@ -436,6 +480,7 @@ impl SystemManager {
                     return vec![];
                 }
                 self.assignment.retain(|_, m| m != name);
+                self.ctls.cancel(name);
                 tracing::warn!(mission = %name, "mission failed: {error}");
                 match req {
                     Some(req) => vec![Command::Reply { req, result: Err(error) }],
@@ -451,8 +496,7 @@ impl SystemManager {
         Some(Member { spec: self.spec(id)?, time_scale })
     }
 
-    fn check_goto(&self, bytes: &[u8]) -> Result<GotoRequest, String> {
-        let g: GotoRequest = proto::from_json("goto request", bytes).map_err(|e| e.to_string())?;
+    fn check_goto(&self, g: &GotoRequest) -> Result<(), String> {
         self.live_robot(&g.robot)?;
         if let Some(m) = self.assignment.get(&g.robot) {
             return Err(format!("robot {:?} is in mission {m}: move it out first (robot move {} none)", g.robot, g.robot));
@@ -460,7 +504,7 @@ impl SystemManager {
         if !(g.x.is_finite() && g.y.is_finite()) {
             return Err("x and y must be finite numbers".into());
         }
-        Ok(g)
+        Ok(())
     }
 
     /// The robot's record if it is registered and alive.
@@ -490,15 +534,20 @@ impl SystemManager {
         self.robots.keys().filter_map(|id| self.view(id)).collect()
     }
 
+    /// The mission each robot is in (lost robots keep theirs).
+    pub fn assignment(&self) -> &BTreeMap<String, String> {
+        &self.assignment
+    }
+
     /// One registered robot.
     pub fn view(&self, id: &str) -> Option<RobotView> {
         let rec = self.robots.get(id)?;
         let info = rec.info.as_ref()?;
-        let mission = self.assignment.get(id).cloned();
+        let assigned = self.assignment.get(id).cloned();
         let moving = rec.last.as_ref().is_some_and(|t| t.behaviour != proto::Behaviour::Hold);
         let status = if !rec.alive {
             RobotStatus::Lost
-        } else if mission.is_some() || moving {
+        } else if assigned.is_some() || moving {
             RobotStatus::Busy
         } else {
             RobotStatus::Idle
@@ -509,6 +558,7 @@ impl SystemManager {
             Some(p) => format!("step {} {}", p.step, t.behaviour.describe()),
             None => t.behaviour.describe(),
         });
+        let (mission, last_mission) = if rec.alive { (assigned, None) } else { (None, assigned) };
         Some(RobotView {
             id: info.id.clone(),
             robot_type: info.robot_type.clone(),
@@ -517,7 +567,7 @@ impl SystemManager {
             mission,
             pose: rec.last.as_ref().map(|t| t.pose),
             behaviour,
-            last_mission: if rec.alive { None } else { rec.last_mission.clone() },
+            last_mission,
         })
     }
 

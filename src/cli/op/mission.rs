@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{anyhow, Context};
-use mrmm_manager::client::Client;
-use mrmm_peer::proto::{self, Marginal, MissionCreate, MissionTerminate, MissionView};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, Marginal, MissionCreate, MissionTerminate, MissionView};
 use serde_json::Value;
 
 #[derive(Debug, clap::Subcommand)]
@@ -75,7 +75,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
                 p.insert(k.into(), Value::String(v.into()));
             }
             let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host, replicas };
-            let v: Value = client.query(proto::SYSTEM_CMD_CREATE, Some(&req)).await?;
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&req)).await?;
             if json {
                 return super::print_json(&v);
             }
@@ -83,14 +83,14 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             println!("mission {} {} on {}: {} robots ({})", m.name, status(&m), m.manager.node, m.robots.len(), m.robots.join(", "));
         }
         Mission::Terminate { name } => {
-            let v: Value = client.query(proto::SYSTEM_CMD_TERMINATE, Some(&MissionTerminate { name })).await?;
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name })).await?;
             if json {
                 return super::print_json(&v);
             }
             println!("terminated {}; idle again: {}", v["mission"].as_str().unwrap_or("?"), v["robots"]);
         }
         Mission::List => {
-            let v: Value = client.query(proto::SYSTEM_MISSIONS, none).await?;
+            let v: Value = client.query(proto::Key::SystemMissions, none).await?;
             if json {
                 return super::print_json(&v);
             }
@@ -98,7 +98,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             print!("{}", table(&ms));
         }
         Mission::Show { name } => {
-            let v: Value = client.query(&proto::system_mission(&name), none).await?;
+            let v: Value = client.query(proto::Key::SystemMission(name.to_string()), none).await?;
             if json {
                 return super::print_json(&v);
             }
@@ -115,7 +115,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             }
         }
         Mission::Marginal { name, add } => {
-            let key = format!("{}?add={add}", proto::mission_marginal(&name));
+            let key = proto::keys::marginal_selector(&name, add);
             let v: Value = client.query(&key, none).await?;
             if json {
                 return super::print_json(&v);

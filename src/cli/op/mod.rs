@@ -4,9 +4,9 @@ pub mod mission;
 
 use std::time::Duration;
 
-use mrmm_manager::client::Client;
-use mrmm_peer::net::DEFAULT_CENTRAL;
-use mrmm_peer::proto::{self, Advice, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
+use mrmm_proto::client::Client;
+use mrmm_proto::net::DEFAULT_CENTRAL;
+use mrmm_proto::{self as proto, Advice, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
 use serde_json::Value;
 
 #[derive(Debug, clap::Args)]
@@ -64,7 +64,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
     let none = None::<&()>;
     match what {
         What::Robots => {
-            let v: Value = client.query(proto::SYSTEM_ROBOTS, none).await?;
+            let v: Value = client.query(proto::Key::SystemRobots, none).await?;
             if json {
                 return print_json(&v);
             }
@@ -72,7 +72,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             print!("{}", super::table::robots(&views));
         }
         What::Robot { id } => {
-            let v: Value = client.query(&proto::system_robot(&id), none).await?;
+            let v: Value = client.query(proto::Key::SystemRobot(id.to_string()), none).await?;
             if json {
                 return print_json(&v);
             }
@@ -80,7 +80,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             print!("{}", super::table::robots(&[view]));
         }
         What::Status => {
-            let v: Value = client.query(proto::SYSTEM_STATUS, none).await?;
+            let v: Value = client.query(proto::Key::SystemStatus, none).await?;
             if json {
                 return print_json(&v);
             }
@@ -90,7 +90,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
         }
         What::Goto { robot, x, y } => {
             let req = GotoRequest { robot, x, y };
-            let v: Value = client.query(proto::SYSTEM_CMD_GOTO, Some(&req)).await?;
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&req)).await?;
             if json {
                 return print_json(&v);
             }
@@ -99,7 +99,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
         }
         What::Move { robot, to } => {
             let to = (to != "none").then_some(to);
-            let v: Value = client.query(proto::SYSTEM_CMD_MOVE, Some(&RobotMove { robot, to })).await?;
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot, to })).await?;
             if json {
                 return print_json(&v);
             }
@@ -108,7 +108,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
         What::Mission(m) => mission::exec(client, m, json).await?,
         What::Missions => mission::exec(client, mission::Mission::List, json).await?,
         What::Advice => {
-            let v: Value = client.query(proto::AGENT_ADVICE, none).await?;
+            let v: Value = client.query(proto::Key::AgentAdvice, none).await?;
             if json {
                 return print_json(&v);
             }
@@ -152,9 +152,9 @@ async fn watch(client: &Client, duration: Option<f64>) -> anyhow::Result<()> {
             break;
         }
         let none = None::<&()>;
-        let robots: Vec<RobotView> = client.query(proto::SYSTEM_ROBOTS, none).await.unwrap_or_default();
-        let missions: Vec<proto::MissionView> = client.query(proto::SYSTEM_MISSIONS, none).await.unwrap_or_default();
-        let advice: Vec<Advice> = client.query(proto::AGENT_ADVICE, none).await.unwrap_or_default();
+        let robots: Vec<RobotView> = client.query(proto::Key::SystemRobots, none).await.unwrap_or_default();
+        let missions: Vec<proto::MissionView> = client.query(proto::Key::SystemMissions, none).await.unwrap_or_default();
+        let advice: Vec<Advice> = client.query(proto::Key::AgentAdvice, none).await.unwrap_or_default();
         let mut out = String::new();
         if tty {
             out.push_str("\x1b[H\x1b[2J");

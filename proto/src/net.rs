@@ -1,12 +1,18 @@
 //! Zenoh plumbing shared by every mrmm node: session configs that follow the project's network
-//! rules (explicit endpoints, no multicast scouting, 1 s lease) and JSON reply helpers.
+//! rules (explicit endpoints, no multicast scouting, 1 s lease), one-answer queries, publications
+//! and JSON replies.
 
+use std::time::Duration;
+
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use zenoh::bytes::Encoding;
 use zenoh::query::Query;
+use zenoh::Session;
 
-use crate::error::PeerError;
-use crate::proto::{to_json, ErrorReply};
+use crate::codec::{from_json, to_json};
+use crate::error::ProtoError;
+use crate::operator::ErrorReply;
 
 /// Default address of the central router.
 pub const DEFAULT_CENTRAL: &str = "tcp/127.0.0.1:7447";
@@ -105,11 +111,11 @@ pub fn zenoh_config(
     listen: &[String],
     connect: &[String],
     lease_ms: u64,
-) -> Result<zenoh::Config, PeerError> {
+) -> Result<zenoh::Config, ProtoError> {
     let mut c = zenoh::Config::default();
     let set = |c: &mut zenoh::Config, key: &str, value: String| {
         c.insert_json5(key, &value)
-            .map_err(|e| PeerError::Config(format!("zenoh config {key}: {e}")))
+            .map_err(|e| ProtoError::Config(format!("zenoh config {key}: {e}")))
     };
     set(&mut c, "mode", json(mode.as_str()))?;
     set(&mut c, "listen/endpoints", json(listen))?;
@@ -130,8 +136,8 @@ fn json<T: Serialize + ?Sized>(v: &T) -> String {
 }
 
 /// Opens a Zenoh session, mapping the error.
-pub async fn open(config: zenoh::Config) -> Result<zenoh::Session, PeerError> {
-    zenoh::open(config).await.map_err(PeerError::zenoh)
+pub async fn open(config: zenoh::Config) -> Result<zenoh::Session, ProtoError> {
+    zenoh::open(config).await.map_err(ProtoError::zenoh)
 }
 
 /// The endpoints this session really listens on (port 0 resolved), as `tcp/…` strings.
@@ -163,6 +169,89 @@ pub async fn reply_error(query: &Query, msg: &str) {
 /// The query's payload bytes (empty when it has none).
 pub fn query_payload(query: &Query) -> Vec<u8> {
     query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default()
+}
+
+/// Why a query has no usable answer.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum QueryError {
+    /// Nobody answered in time (nobody serves the key, or it is unreachable): worth retrying.
+    #[error("no answer on {key} within {ms} ms")]
+    NoAnswer { key: String, ms: u128 },
+    /// The other side answered with an error: final.
+    #[error("{0}")]
+    Remote(String),
+    /// The answer is not what the key promises.
+    #[error("bad answer on {key}: {why}")]
+    Decode { key: String, why: String },
+    #[error("query {key}: {why}")]
+    Zenoh { key: String, why: String },
+}
+
+impl QueryError {
+    /// Whether asking again later may succeed (nobody answered), as opposed to a final answer.
+    pub fn retryable(&self) -> bool {
+        matches!(self, QueryError::NoAnswer { .. } | QueryError::Zenoh { .. })
+    }
+}
+
+/// One query expecting one JSON answer: returns at the first reply (not at the timeout). A reply
+/// error becomes [`QueryError::Remote`] with the server's message.
+pub async fn query<T: DeserializeOwned>(
+    session: &Session,
+    selector: &str,
+    body: Option<Vec<u8>>,
+    timeout: Duration,
+) -> Result<T, QueryError> {
+    let zerr = |e: zenoh::Error| QueryError::Zenoh { key: selector.to_string(), why: e.to_string() };
+    let mut get = session.get(selector).timeout(timeout);
+    if let Some(b) = body {
+        get = get.payload(b).encoding(Encoding::APPLICATION_JSON);
+    }
+    let replies = get.await.map_err(zerr)?;
+    let reply = replies
+        .recv_async()
+        .await
+        .map_err(|_| QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() })?;
+    match reply.result() {
+        Ok(sample) => from_json(selector, &sample.payload().to_bytes())
+            .map_err(|e| QueryError::Decode { key: selector.to_string(), why: e.to_string() }),
+        Err(err) => {
+            let bytes = err.payload().to_bytes();
+            Err(QueryError::Remote(
+                from_json::<ErrorReply>(selector, &bytes)
+                    .map(|e| e.error)
+                    .unwrap_or_else(|_| String::from_utf8_lossy(&bytes).chars().take(200).collect()),
+            ))
+        }
+    }
+}
+
+/// How long a starting node asks the mesh whether its name is taken.
+pub const NAME_CHECK_TIMEOUT: Duration = Duration::from_millis(1000);
+
+/// Whether a liveliness token `key` is alive on the mesh now (another node uses the name). Asked
+/// before a node declares its own token; waits at most `timeout` (the whole of it when no router
+/// answers).
+pub async fn already_alive(session: &Session, key: &str, timeout: Duration) -> Result<bool, ProtoError> {
+    let replies = session.liveliness().get(key).timeout(timeout).await.map_err(ProtoError::zenoh)?;
+    while let Ok(reply) = replies.recv_async().await {
+        if reply.result().is_ok() {
+            return Ok(true);
+        }
+    }
+    Ok(false)
+}
+
+/// Publishes a JSON value on `key`; failures are logged (a publication has no one to answer).
+pub async fn publish_json<T: Serialize>(session: &Session, key: &str, value: &T) {
+    match to_json(value) {
+        Ok(bytes) => {
+            if let Err(e) = session.put(key, bytes).encoding(Encoding::APPLICATION_JSON).await {
+                tracing::warn!("publication on {key} failed: {e}");
+            }
+        }
+        Err(e) => tracing::warn!("cannot encode for {key}: {e}"),
+    }
 }
 
 #[cfg(test)]

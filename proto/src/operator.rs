@@ -2,10 +2,10 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_planner::plan::RobotPlan;
+use crate::plan::{PlanSummary, RobotPlan};
 use serde::{Deserialize, Serialize};
 
-use super::robot::Pose;
+use crate::robot::Pose;
 
 /// Operator command `mrmm/system/cmd/robot/goto`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -174,8 +174,9 @@ pub struct MissionView {
     pub teams: BTreeMap<String, Vec<String>>,
     pub manager: ManagerView,
     pub metrics: MissionMetrics,
-    /// Planner figures (tour length, predicted idleness, coverage radius, …).
-    pub summary: serde_json::Value,
+    /// Planner figures (tour length, predicted idleness, coverage radius, …); null before the
+    /// first plan.
+    pub summary: Option<PlanSummary>,
     /// The mission's recipe parameters (overrides included).
     #[serde(default)]
     pub params: BTreeMap<String, String>,

@@ -1,6 +1,6 @@
 //! Robot-side payloads: telemetry, registration, commands and plans.
 
-use mrmm_planner::plan::RobotPlan;
+use crate::plan::RobotPlan;
 use serde::{Deserialize, Serialize};
 
 /// A planar pose: position in metres, heading in radians (counter-clockwise from +x).

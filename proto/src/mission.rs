@@ -1,9 +1,12 @@
-//! Mission-host payloads: starting a mission on a host and steering it (JSON).
+//! Mission-host payloads: starting a mission on a host, steering it, and the state its manager
+//! replicates along its chain (JSON).
 
 use std::collections::BTreeMap;
 
-use mrmm_planner::plan::RobotSpec;
 use serde::{Deserialize, Serialize};
+
+use crate::operator::MissionStatus;
+use crate::plan::{MissionPlan, RobotSpec};
 
 /// A robot as a mission manager needs it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -28,6 +31,8 @@ pub struct MissionSpecWire {
     pub replicas: usize,
 }
 
+/// Name of the mission host inside central.
+pub const CENTRAL_HOST: &str = "central";
 /// Replicas of a mission manager's state, unless the mission says otherwise.
 pub const DEFAULT_REPLICAS: usize = 2;
 /// At most this many replicas per mission.
@@ -63,4 +68,26 @@ pub enum MissionCtl {
 pub struct CtlAck {
     pub ok: bool,
     pub epoch: u64,
+}
+
+/// The state a mission manager replicates along its chain: enough for a successor to go on.
+/// Metrics are not in it: a new head counts from its takeover.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MissionSnapshot {
+    pub spec: MissionSpecWire,
+    pub members: Vec<Member>,
+    /// Members lost through liveliness; they rejoin when they come back.
+    pub lost: Vec<Member>,
+    /// Plan epoch: robots refuse plans of an older one.
+    pub epoch: u64,
+    /// The newest plan and the epoch it was made for.
+    pub plan: Option<(u64, MissionPlan)>,
+    pub started: bool,
+    pub status: MissionStatus,
+    pub error: Option<String>,
+    pub plan_msgs: u64,
+    pub sync_msgs_left: u64,
+    /// Grows by one with every change the manager makes to this state.
+    #[serde(default)]
+    pub revision: u64,
 }

@@ -28,6 +28,9 @@ pub struct Advice {
     /// `act` autonomy ran the suggestion.
     #[serde(default)]
     pub acted: bool,
+    /// How the agent's own action went (`done`, `failed: …`), when it acted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub outcome: Option<String>,
 }
 
 /// A change in the advice, published on `mrmm/agent/advice/live`.

@@ -1,0 +1,172 @@
+//! Central's decisions as one pure machine: the system manager and the advising agent composed.
+//! The agent looks at the fleet once a second; its own moves (autonomy `act`) go through the
+//! system manager like an operator's, and their results go back to the agent, which records
+//! them on its advice. No I/O: [`CentralCore::handle`] returns [`Command`]s.
+
+use std::collections::VecDeque;
+
+use mrmm_proto::AdviceEvent;
+
+use crate::agent::{self, Agent, AgentConfig};
+use crate::system::{self, Req, Request, SystemManager};
+
+/// Seconds between two looks of the agent at the fleet.
+pub const AGENT_PERIOD_S: f64 = 1.0;
+
+/// Something that happened to central.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// Anything the system manager handles.
+    System(system::Event),
+    /// Query `query` on `mrmm/agent/advice`.
+    Advice { query: u64 },
+}
+
+/// What central's driver must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// A system manager command (its replies to the agent never come out here).
+    System(system::Command),
+    /// Publish on `mrmm/agent/advice/live`.
+    Publish(AdviceEvent),
+}
+
+/// The system manager and the advising agent.
+#[derive(Debug)]
+pub struct CentralCore {
+    system: SystemManager,
+    agent: Agent,
+    last_look: f64,
+}
+
+impl CentralCore {
+    /// Central on Zenoh node `node`, started at `now`.
+    pub fn new(node: String, agent: AgentConfig, now: f64) -> Self {
+        CentralCore { system: SystemManager::new(node, now), agent: Agent::new(agent), last_look: now }
+    }
+
+    pub fn system(&self) -> &SystemManager {
+        &self.system
+    }
+    pub fn agent(&self) -> &Agent {
+        &self.agent
+    }
+
+    /// Handles one event at `now` (seconds).
+    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+        let mut out = Vec::new();
+        match ev {
+            Event::Advice { query } => {
+                let result = serde_json::to_value(self.agent.advice()).map_err(|e| e.to_string());
+                out.push(Command::System(system::Command::Reply { req: Req::Query(query), result }));
+            }
+            Event::System(ev) => {
+                if let system::Event::Operator { req: Req::Query(_), request } = &ev {
+                    if request.is_command() {
+                        self.agent.handle(now, agent::Event::OperatorCommand);
+                    }
+                }
+                let tick = ev == system::Event::Tick;
+                let cmds = self.system.handle(now, ev);
+                self.route(now, cmds, &mut out);
+                if tick && now - self.last_look >= AGENT_PERIOD_S {
+                    self.last_look = now;
+                    let look = agent::Event::Snapshot { robots: self.system.views(), missions: self.system.mission_views() };
+                    let cmds = self.agent.handle(now, look);
+                    self.agent_commands(now, cmds, &mut out);
+                }
+            }
+        }
+        out
+    }
+
+    /// System commands go out, except answers to the agent, which go back to it.
+    fn route(&mut self, now: f64, cmds: Vec<system::Command>, out: &mut Vec<Command>) {
+        let mut queue: VecDeque<system::Command> = cmds.into();
+        while let Some(c) = queue.pop_front() {
+            match c {
+                system::Command::Reply { req: Req::Agent(advice), result } => {
+                    let cmds = self.agent.handle(now, agent::Event::Acted { advice, result: result.map(|_| ()) });
+                    self.agent_commands(now, cmds, out);
+                }
+                other => out.push(Command::System(other)),
+            }
+        }
+    }
+
+    fn agent_commands(&mut self, now: f64, cmds: Vec<agent::Command>, out: &mut Vec<Command>) {
+        for c in cmds {
+            match c {
+                agent::Command::Publish(e) => out.push(Command::Publish(e)),
+                agent::Command::Move { advice, mv } => {
+                    tracing::info!(robot = %mv.robot, to = ?mv.to, %advice, "agent acts");
+                    let cmds = self.system.handle(now, system::Event::Operator { req: Req::Agent(advice), request: Request::Move(mv) });
+                    self.route(now, cmds, out);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::agent::Autonomy;
+    use mrmm_proto::{Behaviour, Pose, RobotInfo, Telemetry, Velocity};
+
+    fn info(id: &str) -> RobotInfo {
+        RobotInfo { id: id.into(), robot_type: "ground".into(), capabilities: vec![], max_speed: 1.0, endpoints: vec![], time_scale: 1.0 }
+    }
+
+    #[test]
+    fn the_agents_moves_go_through_the_system_manager_and_their_results_are_recorded() {
+        let mut c = CentralCore::new("n".into(), AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() }, 0.0);
+        for id in ["r1", "r2"] {
+            c.handle(0.0, Event::System(system::Event::RobotAlive { id: id.into() }));
+            c.handle(0.0, Event::System(system::Event::RobotRegistered(info(id))));
+            let t = Telemetry {
+                id: id.into(),
+                seq: 1,
+                t: 0.0,
+                pose: Pose::default(),
+                velocity: Velocity::default(),
+                behaviour: Behaviour::Hold,
+                mission: None,
+                progress: None,
+            };
+            c.handle(0.0, Event::System(system::Event::Telemetry(Box::new(t))));
+        }
+        c.handle(0.0, Event::System(system::Event::HostAlive { node: "central".into() }));
+        let create = mrmm_proto::MissionCreate {
+            name: "p".into(),
+            recipe: "patrol".into(),
+            robots: Some(vec!["r1".into()]),
+            params: [("waypoints".to_string(), serde_json::json!([[0, 0], [10, 0], [10, 10]]))].into(),
+            ..Default::default()
+        };
+        let out = c.handle(0.1, Event::System(system::Event::Operator { req: Req::Query(1), request: Request::Create(create) }));
+        assert!(matches!(out.as_slice(), [Command::System(system::Command::StartMission { .. })]));
+        let mut view = Box::new(c.system().mission_views()[0].clone());
+        view.status = mrmm_proto::MissionStatus::Running;
+        view.summary = Some(mrmm_proto::PlanSummary::Patrol(mrmm_proto::plan::PatrolSummary {
+            tour: vec![],
+            length: 30.0,
+            offset: 0.0,
+            spacing: 30.0,
+            team_speed: 1.0,
+            sync_per_round: 1,
+            formation_time: 0.0,
+            predicted_worst_idleness: 30.0,
+            idleness_lower_bound: 30.0,
+        }));
+        c.handle(0.2, Event::System(system::Event::MissionStarted { mission: "p".into(), result: Ok(view) }));
+        // After the operator's busy window the agent sees r2 idle and moves it into p itself:
+        // the move goes to p's head like an operator's, and its answer never leaves central.
+        let out = c.handle(11.0, Event::System(system::Event::Tick));
+        assert!(out.iter().any(|c| matches!(c, Command::Publish(AdviceEvent::Raised(a)) if a.acted)), "{out:?}");
+        assert!(out.iter().any(|c| matches!(c, Command::System(system::Command::Ctl { mission, .. }) if mission == "p")), "{out:?}");
+        assert!(!out.iter().any(|c| matches!(c, Command::System(system::Command::Reply { .. }))), "{out:?}");
+        assert_eq!(c.system().assignment().get("r2").map(String::as_str), Some("p"));
+        assert_eq!(c.agent().advice()[0].outcome.as_deref(), Some("done"));
+    }
+}

@@ -1,0 +1,264 @@
+//! The central node: a Zenoh router hosting the system manager, the advising agent, a planner
+//! service and the mission host `central`. Every decision is in [`CentralCore`] (`core.rs`);
+//! this file is its driver: it decodes Zenoh traffic into [`Event`]s (answering malformed
+//! requests itself), holds operator queries under an id, and carries out the [`Command`]s.
+
+mod config;
+mod core;
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, MissionView, Pattern, RobotInfo, SystemCmd};
+use tokio::sync::{mpsc, oneshot};
+use tokio_util::sync::CancellationToken;
+use zenoh::query::Query;
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::Session;
+
+pub use self::config::CentralConfig;
+pub use self::core::{CentralCore, Command, Event, AGENT_PERIOD_S};
+use crate::error::ManagerError;
+use crate::system::{self, Req, Request};
+use crate::Failure;
+
+/// Period of the manager's housekeeping tick.
+const TICK: Duration = Duration::from_millis(250);
+/// How long a mission host may take to plan a new mission.
+const START_TIMEOUT: Duration = Duration::from_secs(25);
+
+/// What central reports once it is serving.
+#[derive(Debug, Clone)]
+pub struct Ready {
+    pub zid: String,
+    pub endpoints: Vec<String>,
+}
+
+enum Input {
+    Operator(Query),
+    Advice(Query),
+    Sample(Sample),
+    Event(system::Event),
+}
+
+/// Runs central until `shutdown` is cancelled.
+pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), ManagerError> {
+    cfg.validate().map_err(ManagerError::Config)?;
+    let session = net::open(net::zenoh_config(Mode::Router, &cfg.listen, &[], cfg.lease_ms)?).await?;
+    let endpoints = net::listening_endpoints(&session).await;
+    let zid = session.zid().to_string();
+    let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
+    let mut held = Vec::new();
+    for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
+        let t = tx.clone();
+        held.push(session.liveliness().declare_subscriber(pattern.to_string()).history(true).callback(move |s| {
+            let _ = t.send(Input::Sample(s));
+        }).await.map_err(ManagerError::zenoh)?);
+    }
+    for pattern in [Pattern::AllTelemetry, Pattern::AllMissionStatus] {
+        let t = tx.clone();
+        held.push(session.declare_subscriber(pattern.to_string()).callback(move |s| {
+            let _ = t.send(Input::Sample(s));
+        }).await.map_err(ManagerError::zenoh)?);
+    }
+    let t = tx.clone();
+    let _operator = session.declare_queryable(Pattern::SystemAll.to_string()).callback(move |q| {
+        let _ = t.send(Input::Operator(q));
+    }).await.map_err(ManagerError::zenoh)?;
+    let t = tx.clone();
+    let _advice = session.declare_queryable(Key::AgentAdvice.to_string()).callback(move |q| {
+        let _ = t.send(Input::Advice(q));
+    }).await.map_err(ManagerError::zenoh)?;
+    // The default planner service and mission host live here too.
+    let planners = tokio::spawn(crate::planner_service::serve(session.clone(), shutdown.child_token()));
+    let missions = tokio::spawn(crate::host::serve(session.clone(), proto::CENTRAL_HOST.to_string(), shutdown.child_token()));
+    tracing::info!(%zid, ?endpoints, "central up");
+    if let Some(tx) = ready {
+        let _ = tx.send(Ready { zid: zid.clone(), endpoints });
+    }
+
+    let t0 = Instant::now();
+    let mut core = CentralCore::new(zid, cfg.agent.clone(), 0.0);
+    let mut io = Io { session: session.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
+    let mut tick = tokio::time::interval(TICK);
+    loop {
+        let event = tokio::select! {
+            _ = shutdown.cancelled() => break,
+            _ = tick.tick() => Event::System(system::Event::Tick),
+            i = rx.recv() => match i {
+                Some(Input::Operator(q)) => match io.operator(q).await {
+                    Some(e) => e,
+                    None => continue,
+                },
+                Some(Input::Advice(q)) => Event::Advice { query: io.hold(q) },
+                Some(Input::Sample(s)) => match decode(&s) {
+                    Some(e) => Event::System(e),
+                    None => continue,
+                },
+                Some(Input::Event(e)) => Event::System(e),
+                None => break,
+            },
+        };
+        for c in core.handle(t0.elapsed().as_secs_f64(), event) {
+            io.execute(c).await;
+        }
+    }
+    tracing::info!("central shutting down");
+    drop(held);
+    let _ = planners.await;
+    let _ = missions.await;
+    session.close().await.map_err(ManagerError::zenoh)?;
+    Ok(())
+}
+
+/// A publication or liveliness change as the system manager's event; `None` (logged) for
+/// anything foreign or malformed.
+fn decode(s: &Sample) -> Option<system::Event> {
+    let key = s.key_expr().as_str();
+    let up = s.kind() == SampleKind::Put;
+    match Key::parse(key) {
+        Some(Key::RobotAlive(id)) => Some(if up { system::Event::RobotAlive { id } } else { system::Event::RobotGone { id } }),
+        Some(Key::HostAlive(node)) => Some(if up { system::Event::HostAlive { node } } else { system::Event::HostGone { node } }),
+        Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
+            Ok(t) if t.id == id => Some(system::Event::Telemetry(Box::new(t))),
+            Ok(t) => {
+                tracing::warn!("dropped telemetry of {:?} published on {key}", t.id);
+                None
+            }
+            Err(e) => {
+                tracing::warn!("dropped payload on {key}: {e}");
+                None
+            }
+        },
+        Some(Key::MissionStatus(name)) => match proto::from_json::<MissionView>("mission status", &s.payload().to_bytes()) {
+            Ok(v) if v.name == name => Some(system::Event::MissionStatus(Box::new(v))),
+            Ok(v) => {
+                tracing::warn!("dropped the status of {:?} published on {key}", v.name);
+                None
+            }
+            Err(e) => {
+                tracing::warn!("dropped payload on {key}: {e}");
+                None
+            }
+        },
+        _ => {
+            tracing::warn!("ignored {key}");
+            None
+        }
+    }
+}
+
+/// The I/O half: operator queries held under ids, and requests to robots and hosts.
+struct Io {
+    session: Session,
+    timeout: Duration,
+    queries: HashMap<u64, Query>,
+    next: u64,
+    tx: mpsc::UnboundedSender<Input>,
+}
+
+impl Io {
+    fn hold(&mut self, q: Query) -> u64 {
+        let id = self.next;
+        self.next += 1;
+        self.queries.insert(id, q);
+        id
+    }
+
+    /// Decodes an operator query into a typed request; unknown keys and malformed payloads are
+    /// answered here.
+    async fn operator(&mut self, q: Query) -> Option<Event> {
+        let payload = net::query_payload(&q);
+        let request = match Key::parse(q.key_expr().as_str()) {
+            Some(Key::SystemStatus) => Ok(Request::Status),
+            Some(Key::SystemRobots) => Ok(Request::Robots),
+            Some(Key::SystemRobot(id)) => Ok(Request::Robot(id)),
+            Some(Key::SystemMissions) => Ok(Request::Missions),
+            Some(Key::SystemMission(name)) => Ok(Request::Mission(name)),
+            Some(Key::SystemCmd(SystemCmd::Goto)) => proto::from_json("goto request", &payload).map(Request::Goto),
+            Some(Key::SystemCmd(SystemCmd::Move)) => proto::from_json("robot move request", &payload).map(Request::Move),
+            Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", &payload).map(Request::Create),
+            Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", &payload).map(Request::Terminate),
+            _ => {
+                net::reply_error(&q, &format!("unknown key {}", q.key_expr())).await;
+                return None;
+            }
+        };
+        match request {
+            Ok(request) => Some(Event::System(system::Event::Operator { req: Req::Query(self.hold(q)), request })),
+            Err(e) => {
+                net::reply_error(&q, &e.to_string()).await;
+                None
+            }
+        }
+    }
+
+    /// Runs `ask` in the background and hands its answer to the loop as an event.
+    fn spawn<F>(&self, ask: F)
+    where
+        F: std::future::Future<Output = system::Event> + Send + 'static,
+    {
+        let tx = self.tx.clone();
+        tokio::spawn(async move {
+            let _ = tx.send(Input::Event(ask.await));
+        });
+    }
+
+    async fn execute(&mut self, c: Command) {
+        let c = match c {
+            Command::Publish(e) => return net::publish_json(&self.session, &Key::AgentAdviceLive.to_string(), &e).await,
+            Command::System(c) => c,
+        };
+        let (session, timeout) = (self.session.clone(), self.timeout);
+        match c {
+            system::Command::Reply { req, result } => {
+                let Req::Query(id) = req else { return };
+                let Some(q) = self.queries.remove(&id) else { return };
+                match result {
+                    Ok(v) => net::reply_json(&q, &v).await,
+                    Err(e) => net::reply_error(&q, &e).await,
+                }
+            }
+            system::Command::FetchInfo { id } => self.spawn(async move {
+                match net::query::<RobotInfo>(&session, &Key::RobotInfo(id.clone()).to_string(), None, timeout).await {
+                    Ok(info) if info.id == id => system::Event::RobotRegistered(info),
+                    Ok(info) => system::Event::InfoFailed { id, reason: format!("answered as {:?}", info.id) },
+                    Err(e) => system::Event::InfoFailed { id, reason: e.to_string() },
+                }
+            }),
+            system::Command::SendToRobot { req, robot, cmd } => self.spawn(async move {
+                let result = match proto::to_json(&cmd) {
+                    Ok(body) => net::query::<CommandAck>(&session, &Key::RobotCmd(robot.clone()).to_string(), Some(body), timeout).await.map_err(|e| e.to_string()),
+                    Err(e) => Err(e.to_string()),
+                };
+                system::Event::RobotCommandDone { req, robot, result }
+            }),
+            system::Command::StartMission { host, start } => self.spawn(async move {
+                let mission = start.spec.name.clone();
+                let result = match proto::to_json(&start) {
+                    Ok(body) => net::query::<MissionView>(&session, &Key::HostStart(host).to_string(), Some(body), START_TIMEOUT).await.map_err(|e| e.to_string()),
+                    Err(e) => Err(e.to_string()),
+                };
+                system::Event::MissionStarted { mission, result: result.map(Box::new) }
+            }),
+            system::Command::Ctl { id, mission, ctl } => self.spawn(async move {
+                let result = match proto::to_json(&ctl) {
+                    Ok(body) => net::query::<CtlAck>(&session, &Key::MissionCtl(mission).to_string(), Some(body), timeout).await.map(|_| ()).map_err(Failure::from),
+                    Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
+                };
+                system::Event::CtlDone { id, result }
+            }),
+            system::Command::Forward { req, key } => {
+                let Req::Query(id) = req else { return };
+                let Some(q) = self.queries.remove(&id) else { return };
+                tokio::spawn(async move {
+                    match net::query::<serde_json::Value>(&session, &key.to_string(), None, timeout).await {
+                        Ok(v) => net::reply_json(&q, &v).await,
+                        Err(e) => net::reply_error(&q, &e.to_string()).await,
+                    }
+                });
+            }
+        }
+    }
+}

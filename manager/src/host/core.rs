@@ -1,0 +1,456 @@
+//! The mission host as a state machine: the chain replicas of the missions this node takes part
+//! in ([`Registry`]), the missions it leads ([`Head`]), and who is alive. Decoded messages in,
+//! [`Command`]s out: [`HostCore::handle`] never does I/O. Queries are held by the driver under an
+//! id; the core answers them (or lets them go unanswered) by that id.
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use mrmm_planner::recipe::PlannerKind;
+use mrmm_proto::{ChainEnvelope, CtlAck, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest, Telemetry};
+use serde_json::Value;
+
+use super::head::Head;
+use crate::chain::{self, Params, Registry};
+use crate::mission::{self, MissionManager, MissionSpec};
+use crate::Failure;
+
+type ChainCmd = chain::Command<MissionSnapshot>;
+
+/// Something that happened to the host.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// Time passes (every few tens of milliseconds): chains, plan re-deliveries.
+    Tick,
+    /// Once a second: status publications, chain pools.
+    StatusTick,
+    /// Query `query` on `mrmm/hosts/<node>/start`.
+    Start { query: u64, start: Box<MissionStart> },
+    /// Query `query` on `mrmm/missions/<mission>/ctl`.
+    Ctl { query: u64, mission: String, ctl: MissionCtl },
+    /// Query `query` on `mrmm/missions/<mission>/view`.
+    View { query: u64, mission: String },
+    /// Query `query` on `mrmm/missions/<mission>/marginal?add=<add>`.
+    Marginal { query: u64, mission: String, add: i64 },
+    Telemetry(Box<Telemetry>),
+    /// The answer to a [`Command::RequestPlan`].
+    Planned { mission: String, epoch: u64, result: Result<Box<MissionPlan>, Failure> },
+    /// The answer to a [`Command::SendPlan`]: `Ok`, or the robot's refusal (`retryable`: nobody
+    /// answered).
+    PlanDelivered { mission: String, robot: String, epoch: u64, result: Result<(), Failure> },
+    Chain(Box<ChainEnvelope>),
+    HostAlive(String),
+    HostGone(String),
+    RobotAlive(String),
+    RobotGone(String),
+    PlannerAlive { kind: String, zid: String },
+    PlannerGone { kind: String, zid: String },
+}
+
+/// What the driver must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Send a chain message to host `to` (on `mrmm/hosts/<to>/chain`).
+    Chain { to: String, envelope: Box<ChainEnvelope> },
+    /// Answer query `query` with JSON, or with a reply error.
+    Reply { query: u64, result: Result<Value, String> },
+    /// Let query `query` go unanswered: its asker will ask again (maybe of a newer head).
+    Drop { query: u64 },
+    /// Serve `mission`'s ctl, view and marginal queryables: this node leads it.
+    Serve { mission: String },
+    /// Stop serving them.
+    Unserve { mission: String },
+    /// Ask for a plan: of a planner service, or (`local`, none alive) with the library here.
+    /// Answer with [`Event::Planned`].
+    RequestPlan { mission: String, epoch: u64, kind: PlannerKind, request: PlanRequest, local: bool },
+    /// Hand `robot` its plan; answer with [`Event::PlanDelivered`].
+    SendPlan { mission: String, robot: String, assignment: Box<PlanAssignment> },
+    /// Publish the mission's status on `mrmm/missions/<name>/status`.
+    Status(Box<MissionView>),
+}
+
+/// The mission host of one node.
+#[derive(Debug)]
+pub struct HostCore {
+    node: String,
+    registry: Registry<MissionSnapshot>,
+    heads: BTreeMap<String, Head>,
+    robots: BTreeSet<String>,
+    /// Planner services alive: (kind, zid).
+    planners: BTreeSet<(String, String)>,
+}
+
+fn json<T: serde::Serialize>(v: &T) -> Result<Value, String> {
+    serde_json::to_value(v).map_err(|e| e.to_string())
+}
+
+impl HostCore {
+    /// The host of `node`, started at `now` (its replicas do not vote for `params.quarantine`).
+    pub fn new(node: &str, params: Params, now: f64) -> Self {
+        HostCore {
+            node: node.to_string(),
+            registry: Registry::new(node, params, now),
+            heads: BTreeMap::new(),
+            robots: BTreeSet::new(),
+            planners: BTreeSet::new(),
+        }
+    }
+
+    pub fn node(&self) -> &str {
+        &self.node
+    }
+    /// The missions this node leads.
+    pub fn heads(&self) -> impl Iterator<Item = (&String, &MissionManager)> {
+        self.heads.iter().map(|(n, h)| (n, &h.mm))
+    }
+    /// This node's chain replica of `mission`.
+    pub fn replica(&self, mission: &str) -> Option<&chain::Replica<MissionSnapshot>> {
+        self.registry.replica(mission)
+    }
+    /// Robots with a plan of `mission` still on its way.
+    pub fn undelivered(&self, mission: &str) -> Vec<String> {
+        self.heads.get(mission).map(|h| h.undelivered().cloned().collect()).unwrap_or_default()
+    }
+
+    /// Handles one event at `now` (seconds).
+    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+        let mut out = Vec::new();
+        match ev {
+            Event::Tick => {
+                for (name, cmds) in self.registry.tick(now) {
+                    self.apply(now, &name, cmds, &mut out);
+                }
+                let robots = &self.robots;
+                for (name, h) in self.heads.iter_mut() {
+                    for (robot, assignment) in h.redeliver(now, |r| robots.contains(r)) {
+                        out.push(Command::SendPlan { mission: name.clone(), robot, assignment });
+                    }
+                }
+            }
+            Event::StatusTick => {
+                let names: Vec<String> = self.heads.keys().cloned().collect();
+                for name in names {
+                    self.set_pool(now, &name);
+                    self.status(&name, &mut out);
+                }
+            }
+            Event::Start { query, start } => self.start(now, query, *start, &mut out),
+            Event::Ctl { query, mission, ctl } => self.ctl(now, query, &mission, ctl, &mut out),
+            Event::View { query, mission } => {
+                let result = self.view(&mission, true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
+                out.push(Command::Reply { query, result });
+            }
+            Event::Marginal { query, mission, add } => {
+                let result = if add == 0 || add.abs() > 1000 {
+                    Err(format!("add={add}: give a non-zero whole number, e.g. add=1 or add=-1"))
+                } else {
+                    self.heads.get(&mission).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|h| h.mm.marginal(add))
+                };
+                out.push(Command::Reply { query, result: result.and_then(|m| json(&m)) });
+            }
+            Event::Telemetry(t) => {
+                let names: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
+                for name in names {
+                    if let Some(h) = self.heads.get_mut(&name) {
+                        h.telemetry(&t);
+                    }
+                    self.run(now, &name, mission::Event::Telemetry(t.clone()), &mut out);
+                }
+            }
+            Event::Planned { mission, epoch, result } => self.planned(now, &mission, epoch, result, &mut out),
+            Event::PlanDelivered { mission, robot, epoch, result } => {
+                if let Some(h) = self.heads.get_mut(&mission) {
+                    match result {
+                        Ok(()) => h.delivered(&robot, epoch),
+                        Err(f) if f.retryable => {}
+                        Err(f) => {
+                            tracing::warn!(%mission, %robot, epoch, "plan refused: {}", f.error);
+                            h.delivered(&robot, epoch);
+                        }
+                    }
+                }
+            }
+            Event::Chain(env) => {
+                let ChainEnvelope { mission, from, msg } = *env;
+                tracing::trace!(%mission, %from, msg = msg.describe(), "chain: received");
+                let cmds = self.registry.receive(now, &mission, from, msg);
+                self.apply(now, &mission, cmds, &mut out);
+            }
+            Event::HostAlive(node) | Event::HostGone(node) if node == self.node => {}
+            Event::HostAlive(node) => self.host(now, &node, true, &mut out),
+            Event::HostGone(node) => self.host(now, &node, false, &mut out),
+            Event::RobotAlive(id) => {
+                self.robots.insert(id.clone());
+                self.robot(now, &id, true, &mut out);
+            }
+            Event::RobotGone(id) => {
+                self.robots.remove(&id);
+                self.robot(now, &id, false, &mut out);
+            }
+            Event::PlannerAlive { kind, zid } => {
+                self.planners.insert((kind, zid));
+            }
+            Event::PlannerGone { kind, zid } => {
+                self.planners.remove(&(kind, zid));
+            }
+        }
+        out
+    }
+
+    fn host(&mut self, now: f64, node: &str, up: bool, out: &mut Vec<Command>) {
+        for (name, cmds) in self.registry.liveliness(now, node, up) {
+            self.apply(now, &name, cmds, out);
+        }
+    }
+
+    /// A member lost is taken out (the team goes on without it); a lost member back rejoins.
+    fn robot(&mut self, now: f64, id: &str, up: bool, out: &mut Vec<Command>) {
+        let names: Vec<String> = self
+            .heads
+            .iter()
+            .filter(|(_, h)| if up { h.mm.lost(id).is_some() } else { h.mm.has(id) })
+            .map(|(n, _)| n.clone())
+            .collect();
+        for name in names {
+            let ev = match self.heads.get(&name).and_then(|h| h.mm.lost(id).cloned()) {
+                Some(member) if up => {
+                    tracing::info!(mission = %name, robot = %id, "lost member back: it rejoins");
+                    mission::Event::Joined(member)
+                }
+                _ => mission::Event::Lost { ids: vec![id.to_string()] },
+            };
+            self.run(now, &name, ev, out);
+        }
+    }
+
+    fn start(&mut self, now: f64, query: u64, start: MissionStart, out: &mut Vec<Command>) {
+        let spec = match MissionSpec::from_wire(start.spec) {
+            Ok(s) => s,
+            Err(e) => return out.push(Command::Reply { query, result: Err(e) }),
+        };
+        let name = spec.name.clone();
+        if self.heads.contains_key(&name) || self.registry.replica(&name).is_some_and(|r| r.config().is_some()) {
+            return out.push(Command::Reply { query, result: Err(format!("mission {name:?} is already hosted here")) });
+        }
+        let mut mm = MissionManager::new(spec, self.node.clone(), start.members.clone());
+        // The first replicas: members whose hosts are up, in id order.
+        let alive = self.registry.alive();
+        let replicas: Vec<String> =
+            start.members.iter().map(|m| m.spec.id.clone()).filter(|id| *id != self.node && alive.contains(id)).take(mm.replicas()).collect();
+        tracing::info!(mission = %name, ?replicas, "hosting mission");
+        let state = mm.changes().unwrap_or_else(|| mm.snapshot());
+        self.heads.insert(name.clone(), Head::new(mm, Some(query)));
+        out.push(Command::Serve { mission: name.clone() });
+        let cmds = self.registry.create(now, &name, replicas, state);
+        self.apply(now, &name, cmds, out);
+        self.set_pool(now, &name);
+        self.run(now, &name, mission::Event::Start, out);
+    }
+
+    fn ctl(&mut self, now: f64, query: u64, name: &str, ctl: MissionCtl, out: &mut Vec<Command>) {
+        if !self.heads.contains_key(name) {
+            // Not (or no longer) the head: the system manager asks again, of the new head.
+            return out.push(Command::Drop { query });
+        }
+        match ctl {
+            MissionCtl::Joined { member } => self.run(now, name, mission::Event::Joined(member), out),
+            MissionCtl::Left { ids } => {
+                // Robots that are gone were lost: they rejoin when they come back.
+                let (alive, dead): (Vec<String>, Vec<String>) = ids.into_iter().partition(|id| self.robots.contains(id));
+                self.run(now, name, mission::Event::Lost { ids: dead }, out);
+                self.run(now, name, mission::Event::Left { ids: alive }, out);
+            }
+            MissionCtl::Terminate => {
+                let epoch = self.heads.get(name).map_or(0, |h| h.mm.epoch());
+                if let Some(q) = self.heads.get_mut(name).and_then(|h| h.start.take()) {
+                    out.push(Command::Reply { query: q, result: Err(format!("mission {name} was terminated")) });
+                }
+                tracing::info!(mission = %name, "mission terminated");
+                self.end(now, name, out);
+                return out.push(Command::Reply { query, result: json(&CtlAck { ok: true, epoch }) });
+            }
+        }
+        // Answered once what it changed is on every node of the chain.
+        if let Some(h) = self.heads.get_mut(name) {
+            h.reply_on_commit(query);
+        }
+        self.flush(now, name, out);
+    }
+
+    fn planned(&mut self, now: f64, name: &str, epoch: u64, result: Result<Box<MissionPlan>, Failure>, out: &mut Vec<Command>) {
+        let ev = match result {
+            Ok(plan) => mission::Event::PlanReady { epoch, plan },
+            Err(f) if f.retryable && self.heads.get_mut(name).is_some_and(|h| h.retry_plan(epoch)) => {
+                tracing::warn!(mission = %name, epoch, "no plan ({}); asking again", f.error);
+                if let Some(h) = self.heads.get(name) {
+                    let kind = h.mm.planner();
+                    let request = h.mm.plan_request();
+                    out.push(self.plan_command(name, epoch, kind, request));
+                }
+                return;
+            }
+            Err(f) => mission::Event::PlanFailed { epoch, error: f.error },
+        };
+        self.run(now, name, ev, out);
+    }
+
+    fn plan_command(&self, mission: &str, epoch: u64, kind: PlannerKind, request: PlanRequest) -> Command {
+        let local = !self.planners.iter().any(|(k, _)| k == kind.as_str());
+        if local {
+            tracing::info!(%mission, "no planner service alive; planning locally");
+        }
+        Command::RequestPlan { mission: mission.to_string(), epoch, kind, request, local }
+    }
+
+    /// Runs one event of a led mission, hands the new state to the chain, acts on what is committed.
+    fn run(&mut self, now: f64, name: &str, ev: mission::Event, out: &mut Vec<Command>) {
+        let telemetry = matches!(ev, mission::Event::Telemetry(_));
+        let Some(h) = self.heads.get_mut(name) else { return };
+        let requests = h.run(now, ev);
+        for r in requests {
+            if let mission::Command::RequestPlan { epoch, kind, request } = r {
+                out.push(self.plan_command(name, epoch, kind, request));
+            }
+        }
+        if telemetry {
+            return;
+        }
+        let Some(state) = self.heads.get_mut(name).and_then(|h| h.mm.changes()) else {
+            return self.flush(now, name, out);
+        };
+        let cmds = self.registry.handle(now, name, chain::Event::Propose(state));
+        self.apply(now, name, cmds, out);
+        self.set_pool(now, name);
+        self.status(name, out);
+        self.flush(now, name, out);
+    }
+
+    /// Carries out a replica's commands (and those they lead to).
+    fn apply(&mut self, now: f64, name: &str, cmds: Vec<ChainCmd>, out: &mut Vec<Command>) {
+        let mut queue: VecDeque<ChainCmd> = cmds.into();
+        while let Some(c) = queue.pop_front() {
+            match c {
+                chain::Command::Send { to, msg } => {
+                    tracing::trace!(mission = %name, %to, msg = msg.describe(), "chain: sending");
+                    out.push(Command::Chain { to, envelope: Box::new(ChainEnvelope { mission: name.to_string(), from: self.node.clone(), msg }) });
+                }
+                chain::Command::Lead { config, state } => self.lead(now, name, config, state, out),
+                chain::Command::Committed { .. } => self.flush(now, name, out),
+                chain::Command::StepDown => self.step_down(name, "a newer manager took over", out),
+                chain::Command::Retired => self.step_down(name, "this node left the mission's chain", out),
+            }
+        }
+    }
+
+    /// This node won the mission's chain: go on from the replicated state.
+    fn lead(&mut self, now: f64, name: &str, config: chain::Config, state: MissionSnapshot, out: &mut Vec<Command>) {
+        if self.heads.contains_key(name) {
+            return;
+        }
+        let mm = match MissionManager::restore(state, self.node.clone()) {
+            Ok(mm) => mm,
+            Err(e) => return tracing::warn!(mission = %name, "cannot take over: {e}"),
+        };
+        tracing::info!(mission = %name, chain_epoch = config.epoch, chain = ?config.chain, "took over the mission");
+        // Robots already running the committed plans go on; those that missed them get them.
+        let resend = mm.current_assignments();
+        let lost: Vec<String> = mm.members().filter(|id| !self.robots.contains(*id)).cloned().collect();
+        let back: Vec<Member> = self.robots.iter().filter_map(|id| mm.lost(id).cloned()).collect();
+        let mut head = Head::new(mm, None);
+        head.defer(resend);
+        self.heads.insert(name.to_string(), head);
+        out.push(Command::Serve { mission: name.to_string() });
+        if !lost.is_empty() {
+            self.run(now, name, mission::Event::Lost { ids: lost }, out);
+        }
+        for member in back {
+            self.run(now, name, mission::Event::Joined(member), out);
+        }
+        // The predecessor died while planning, and nothing above asked again: ask.
+        if self.heads.get(name).is_some_and(|h| !h.asked_for_current()) {
+            self.run(now, name, mission::Event::Resume, out);
+        }
+        self.set_pool(now, name);
+        self.status(name, out);
+    }
+
+    fn step_down(&mut self, name: &str, why: &str, out: &mut Vec<Command>) {
+        let Some(h) = self.heads.remove(name) else { return };
+        tracing::info!(mission = %name, "no longer managing the mission: {why}");
+        out.push(Command::Unserve { mission: name.to_string() });
+        if let Some(q) = h.start {
+            out.push(Command::Reply { query: q, result: Err(format!("mission {name}: {why}")) });
+        }
+        for q in h.waiting_queries() {
+            out.push(Command::Drop { query: q });
+        }
+    }
+
+    /// Carries out what waited for the commit, once everything proposed is committed.
+    fn flush(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
+        let committed = self.registry.replica(name).is_some_and(|r| r.committed().is_some_and(|c| c == r.version().1));
+        if !committed {
+            return;
+        }
+        let view = self.view(name, false);
+        let Some(h) = self.heads.get_mut(name) else { return };
+        let (effects, replies) = h.committed();
+        for (query, ack) in replies {
+            out.push(Command::Reply { query, result: json(&ack) });
+        }
+        for c in effects {
+            match c {
+                mission::Command::SendPlan { robot, assignment } => {
+                    h.sending(now, &robot, assignment.clone());
+                    out.push(Command::SendPlan { mission: name.to_string(), robot, assignment });
+                }
+                mission::Command::Started => {
+                    if let (Some(q), Some(v)) = (h.start.take(), &view) {
+                        out.push(Command::Reply { query: q, result: json(v) });
+                    }
+                }
+                mission::Command::Failed { error } => {
+                    if let Some(q) = h.start.take() {
+                        out.push(Command::Reply { query: q, result: Err(format!("mission {name}: planning failed: {error}")) });
+                    }
+                    return self.end(now, name, out);
+                }
+                mission::Command::RequestPlan { .. } => {}
+            }
+        }
+    }
+
+    /// Ends a led mission; the chain carries the end to every node of its chain.
+    fn end(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
+        if self.heads.remove(name).is_some() {
+            out.push(Command::Unserve { mission: name.to_string() });
+        }
+        let cmds = self.registry.handle(now, name, chain::Event::End);
+        self.apply(now, name, cmds, out);
+    }
+
+    /// Tells a led mission's replica which nodes may join its chain: members with a host up.
+    fn set_pool(&mut self, now: f64, name: &str) {
+        let Some(h) = self.heads.get(name) else { return };
+        let alive = self.registry.alive();
+        let nodes: Vec<String> = h.mm.members().filter(|id| **id != self.node && alive.contains(*id)).cloned().collect();
+        let k = h.mm.replicas();
+        let _ = self.registry.handle(now, name, chain::Event::Pool { nodes, k });
+    }
+
+    fn status(&self, name: &str, out: &mut Vec<Command>) {
+        if let Some(v) = self.view(name, false) {
+            out.push(Command::Status(Box::new(v)));
+        }
+    }
+
+    /// A led mission as the operator sees it, with its chain.
+    pub fn view(&self, name: &str, with_plans: bool) -> Option<MissionView> {
+        let h = self.heads.get(name)?;
+        let mut v = h.mm.view(with_plans);
+        if let Some(c) = self.registry.replica(name).and_then(|r| r.config()) {
+            v.manager.chain_epoch = c.epoch;
+            v.manager.chain = c.chain.clone();
+        }
+        Some(v)
+    }
+}

@@ -1,0 +1,225 @@
+//! The host core, scripted: starting, committing before acting, answering control queries after
+//! the commit, re-delivering plans, re-asking planners, taking over, stepping down.
+
+use std::collections::BTreeMap;
+
+use mrmm_planner::recipe;
+use mrmm_proto::{Behaviour, Member, MissionCtl, MissionSpecWire, MissionStart, Pose, Progress, RobotSpec, Telemetry, Velocity};
+
+use super::*;
+use crate::chain::Params;
+
+fn member(id: &str, x: f64) -> Member {
+    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 1.0 }, time_scale: 1.0 }
+}
+
+fn start(name: &str, ids: &[&str]) -> Box<MissionStart> {
+    Box::new(MissionStart {
+        spec: MissionSpecWire {
+            name: name.into(),
+            recipe_name: "patrol".into(),
+            recipe_xml: recipe::bank("patrol").expect("bank").into(),
+            planner: "patrol".into(),
+            params: [("waypoints".to_string(), "[[0,0],[10,0],[10,10],[0,10]]".to_string())].into(),
+            replicas: 2,
+        },
+        members: ids.iter().enumerate().map(|(i, id)| member(id, i as f64)).collect(),
+    })
+}
+
+/// Nodes wired together: chain messages are delivered at once, in order.
+struct Mesh {
+    nodes: BTreeMap<String, HostCore>,
+    now: f64,
+    /// Every command that is not a chain message, with the node that gave it.
+    out: Vec<(String, Command)>,
+}
+
+impl Mesh {
+    fn new(names: &[&str], robots: &[&str]) -> Mesh {
+        let p = Params { quarantine: 0.0, ..Params::default() };
+        let mut m = Mesh { nodes: names.iter().map(|n| (n.to_string(), HostCore::new(n, p, 0.0))).collect(), now: 0.0, out: vec![] };
+        for a in names {
+            for b in names {
+                m.to(a, Event::HostAlive(b.to_string()));
+            }
+            for r in robots {
+                m.to(a, Event::RobotAlive(r.to_string()));
+            }
+        }
+        m
+    }
+
+    fn to(&mut self, node: &str, ev: Event) -> Vec<Command> {
+        let mut queue = vec![(node.to_string(), ev)];
+        let mut mine = Vec::new();
+        while !queue.is_empty() {
+            let (at, ev) = queue.remove(0);
+            let Some(core) = self.nodes.get_mut(&at) else { continue };
+            for c in core.handle(self.now, ev) {
+                match c {
+                    Command::Chain { to, envelope } => queue.push((to, Event::Chain(envelope))),
+                    other => {
+                        if at == node {
+                            mine.push(other.clone());
+                        }
+                        self.out.push((at.clone(), other));
+                    }
+                }
+            }
+        }
+        mine
+    }
+
+    fn tick(&mut self, dt: f64) -> Vec<(String, Command)> {
+        self.now += dt;
+        let names: Vec<String> = self.nodes.keys().cloned().collect();
+        let from = self.out.len();
+        for n in names {
+            self.to(&n, Event::Tick);
+        }
+        self.out[from..].to_vec()
+    }
+}
+
+/// Plans a request the way the planner service would.
+fn planned(cmds: &[Command]) -> Option<Event> {
+    cmds.iter().find_map(|c| match c {
+        Command::RequestPlan { mission, epoch, kind, request, .. } => Some(Event::Planned {
+            mission: mission.clone(),
+            epoch: *epoch,
+            result: crate::planner_service::plan(*kind, request).map(Box::new).map_err(|error| Failure { retryable: false, error }),
+        }),
+        _ => None,
+    })
+}
+
+fn sent_plans(cmds: &[Command]) -> Vec<(String, u64)> {
+    cmds.iter()
+        .filter_map(|c| match c {
+            Command::SendPlan { robot, assignment, .. } => Some((robot.clone(), assignment.epoch)),
+            _ => None,
+        })
+        .collect()
+}
+
+fn replies(cmds: &[Command]) -> Vec<u64> {
+    cmds.iter()
+        .filter_map(|c| match c {
+            Command::Reply { query, .. } => Some(*query),
+            _ => None,
+        })
+        .collect()
+}
+
+fn progress(id: &str, mission: &str, epoch: u64) -> Event {
+    Event::Telemetry(Box::new(Telemetry {
+        id: id.into(),
+        seq: 1,
+        t: 0.0,
+        pose: Pose::default(),
+        velocity: Velocity::default(),
+        behaviour: Behaviour::Hold,
+        mission: Some(mission.into()),
+        progress: Some(Progress { mission: mission.into(), epoch, step: 0, round: 0, syncs_passed: 0, sync_msgs: 0, waiting: None, done: false }),
+    }))
+}
+
+/// A mission `p` of r1, r2 led by `central`, replicated on r1 and r2, planned and delivered.
+fn running() -> Mesh {
+    let mut m = Mesh::new(&["central", "r1", "r2"], &["r1", "r2"]);
+    let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1", "r2"]) });
+    assert!(cmds.contains(&Command::Serve { mission: "p".into() }));
+    assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { local: true, epoch: 1, .. })));
+    assert!(replies(&cmds).is_empty(), "answered once planned");
+    let ev = planned(&cmds).expect("a plan request");
+    let cmds = m.to("central", ev);
+    // The chain acknowledged synchronously: plans go out, the start is answered.
+    assert_eq!(sent_plans(&cmds), [("r1".into(), 1), ("r2".into(), 1)]);
+    assert_eq!(replies(&cmds), [1]);
+    let v = m.nodes["central"].view("p", false).expect("led");
+    assert_eq!(v.manager.chain, ["central", "r1", "r2"]);
+    m
+}
+
+#[test]
+fn a_mission_starts_plans_once_committed_and_answers_the_start() {
+    let m = running();
+    assert!(m.nodes["r1"].replica("p").is_some_and(|r| r.state().is_some_and(|s| s.epoch == 1)));
+    assert_eq!(m.nodes["central"].undelivered("p"), ["r1", "r2"]);
+}
+
+#[test]
+fn plans_are_sent_again_until_the_robot_shows_them() {
+    let mut m = running();
+    assert!(sent_plans(&m.tick(1.0).into_iter().map(|c| c.1).collect::<Vec<_>>()).is_empty());
+    m.to("central", progress("r1", "p", 1));
+    let again: Vec<Command> = m.tick(1.1).into_iter().filter(|(n, _)| n == "central").map(|c| c.1).collect();
+    assert_eq!(sent_plans(&again), [("r2".into(), 1)], "r1 shows its plan; r2 gets it again");
+    m.to("central", Event::PlanDelivered { mission: "p".into(), robot: "r2".into(), epoch: 1, result: Ok(()) });
+    assert!(m.nodes["central"].undelivered("p").is_empty());
+    assert!(sent_plans(&m.tick(3.0).into_iter().map(|c| c.1).collect::<Vec<_>>()).is_empty());
+}
+
+#[test]
+fn a_control_is_answered_after_its_commit_and_dropped_by_a_non_head() {
+    let mut m = running();
+    // Not the head: no answer, so the system manager asks again (of the right node).
+    assert_eq!(m.to("r2", Event::Ctl { query: 7, mission: "p".into(), ctl: MissionCtl::Terminate }), vec![Command::Drop { query: 7 }]);
+    // r2 stops answering: the change cannot commit, the answer waits.
+    m.nodes.remove("r2");
+    let cmds = m.to("central", Event::Ctl { query: 8, mission: "p".into(), ctl: MissionCtl::Joined { member: member("r3", 5.0) } });
+    assert!(replies(&cmds).is_empty(), "{cmds:?}");
+    // r2 is declared gone: the chain is repaired without it and the change commits.
+    m.to("central", Event::HostGone("r2".into()));
+    m.to("r1", Event::HostGone("r2".into()));
+    let later: Vec<Command> = (0..20).flat_map(|_| m.tick(0.1)).filter(|(n, _)| n == "central").map(|c| c.1).collect();
+    assert_eq!(replies(&later), [8]);
+    assert_eq!(m.nodes["central"].view("p", false).map(|v| v.manager.chain), Some(vec!["central".to_string(), "r1".to_string()]));
+}
+
+#[test]
+fn a_planner_that_does_not_answer_is_asked_again_then_the_mission_fails() {
+    let mut m = Mesh::new(&["central"], &["r1"]);
+    m.to("central", Event::PlannerAlive { kind: "patrol".into(), zid: "z".into() });
+    let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1"]) });
+    assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { local: false, .. })));
+    let fail = || Event::Planned { mission: "p".into(), epoch: 1, result: Err(Failure { retryable: true, error: "no answer".into() }) };
+    // The service died: asked again, locally.
+    m.to("central", Event::PlannerGone { kind: "patrol".into(), zid: "z".into() });
+    for _ in 0..PLAN_RETRIES {
+        let cmds = m.to("central", fail());
+        assert!(matches!(cmds.as_slice(), [Command::RequestPlan { local: true, epoch: 1, .. }]), "{cmds:?}");
+    }
+    let cmds = m.to("central", fail());
+    let cmds: Vec<Command> = cmds.into_iter().chain(m.tick(0.1).into_iter().map(|c| c.1)).collect();
+    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { query: 1, result: Err(e) } if e.contains("planning failed"))), "{cmds:?}");
+    assert!(cmds.contains(&Command::Unserve { mission: "p".into() }));
+}
+
+#[test]
+fn the_first_replica_takes_over_and_sends_the_committed_plans_again() {
+    let mut m = running();
+    m.nodes.remove("central");
+    let cmds = m.to("r1", Event::HostGone("central".into()));
+    let cmds: Vec<Command> = cmds.into_iter().chain(m.tick(0.1).into_iter().filter(|(n, _)| n == "r1").map(|c| c.1)).collect();
+    assert!(cmds.contains(&Command::Serve { mission: "p".into() }), "{cmds:?}");
+    let v = m.nodes["r1"].view("p", false).expect("r1 leads");
+    assert_eq!((v.manager.node.as_str(), v.manager.epoch), ("r1", 1), "same plans, no replan");
+    assert!(v.manager.chain_epoch > 1);
+    assert_eq!(sent_plans(&cmds), [("r1".into(), 1), ("r2".into(), 1)]);
+}
+
+#[test]
+fn a_head_that_steps_down_lets_waiting_controls_go() {
+    let mut m = running();
+    m.nodes.remove("r2");
+    m.to("central", Event::Ctl { query: 9, mission: "p".into(), ctl: MissionCtl::Left { ids: vec!["r1".into()] } });
+    // A newer head told it so: central steps down; the waiting control is not answered
+    // (its asker will ask the new head).
+    let state = m.nodes["r1"].replica("p").and_then(|r| r.state().cloned()).expect("r1 holds the state");
+    let newer = mrmm_proto::chain::Msg::Update { config: mrmm_proto::chain::Config { epoch: 9, chain: vec!["r1".into(), "central".into()] }, seq: 3, state };
+    let cmds = m.to("central", Event::Chain(Box::new(mrmm_proto::ChainEnvelope { mission: "p".into(), from: "r1".into(), msg: newer })));
+    assert!(cmds.contains(&Command::Drop { query: 9 }), "{cmds:?}");
+    assert!(cmds.contains(&Command::Unserve { mission: "p".into() }));
+}

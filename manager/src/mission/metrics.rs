@@ -1,0 +1,98 @@
+//! A mission's metrics from its members' telemetry: visits and idleness of patrol waypoints,
+//! rounds and barriers passed by the whole team, coordination messages.
+
+use std::collections::BTreeMap;
+
+use mrmm_proto::plan::Point;
+use mrmm_proto::{MissionMetrics, Progress, Telemetry};
+
+/// A waypoint counts as visited by a robot passing within this distance, metres.
+pub const VISIT_RADIUS: f64 = 1.5;
+/// Two passes of the same waypoint closer in time than this are one visit, seconds.
+pub const VISIT_DEBOUNCE_S: f64 = 1.0;
+
+/// What the metrics remember.
+#[derive(Debug, Clone, Default)]
+pub struct Metrics {
+    last_visit: Vec<Option<(f64, String)>>,
+    visits: Vec<u32>,
+    sum: f64,
+    count: u64,
+    worst: f64,
+    /// Latest robot time seen.
+    last_now: f64,
+    /// Each member's progress on the current epoch.
+    progress: BTreeMap<String, Progress>,
+}
+
+impl Metrics {
+    /// Starts counting visits of `waypoints` afresh (a new tour, or a new head).
+    pub fn reset_tour(&mut self, waypoints: usize) {
+        if self.visits.len() != waypoints {
+            *self = Metrics { progress: std::mem::take(&mut self.progress), ..Metrics::default() };
+            self.last_visit = vec![None; waypoints];
+            self.visits = vec![0; waypoints];
+        }
+    }
+
+    /// A member left: its progress is no longer part of the team's.
+    pub fn forget(&mut self, id: &str) -> Option<Progress> {
+        self.progress.remove(id)
+    }
+
+    /// Telemetry of member `t.id` at robot time `now`; `epoch` is the mission's current one and
+    /// `tour` the patrol's waypoints (empty for other missions).
+    pub fn telemetry(&mut self, mission: &str, epoch: u64, tour: &[Point], now: f64, t: &Telemetry) {
+        self.last_now = self.last_now.max(now);
+        if let Some(p) = &t.progress {
+            if p.mission == mission && p.epoch == epoch {
+                self.progress.insert(t.id.clone(), p.clone());
+            }
+        }
+        // Only robots on their round count: the way to the slot is not patrolling.
+        let patrolling = t.progress.as_ref().is_some_and(|p| p.mission == mission && p.syncs_passed > 0);
+        if !patrolling {
+            return;
+        }
+        let here = Point { x: t.pose.x, y: t.pose.y };
+        for (i, wp) in tour.iter().enumerate() {
+            if wp.dist(here) > VISIT_RADIUS || i >= self.last_visit.len() {
+                continue;
+            }
+            match &self.last_visit[i] {
+                Some((when, _)) if now - when < VISIT_DEBOUNCE_S => {}
+                Some((when, _)) => {
+                    let gap = now - when;
+                    self.sum += gap;
+                    self.count += 1;
+                    self.worst = self.worst.max(gap);
+                    self.visits[i] += 1;
+                    self.last_visit[i] = Some((now, t.id.clone()));
+                }
+                None => {
+                    self.visits[i] += 1;
+                    self.last_visit[i] = Some((now, t.id.clone()));
+                }
+            }
+        }
+    }
+
+    /// The metrics for `members`; `plan_msgs` and `sync_msgs_left` come from the replicated state.
+    pub fn view<'a>(&self, members: impl Iterator<Item = &'a String>, plan_msgs: u64, sync_msgs_left: u64) -> MissionMetrics {
+        // Waypoints waiting right now count too: the worst idleness is never below the current wait.
+        let open = self.last_visit.iter().flatten().map(|(w, _)| self.last_now - w).fold(0.0, f64::max);
+        let any = self.visits.iter().any(|&v| v > 0);
+        let members: Vec<&String> = members.collect();
+        let current: Vec<&Progress> = members.iter().filter_map(|id| self.progress.get(*id)).collect();
+        let full = current.len() == members.len() && !current.is_empty();
+        let sync_msgs: u64 = sync_msgs_left + self.progress.values().map(|p| u64::from(p.sync_msgs)).sum::<u64>();
+        MissionMetrics {
+            rounds: if full { current.iter().map(|p| p.round).min().unwrap_or(0) } else { 0 },
+            avg_idleness: (self.count > 0).then(|| self.sum / self.count as f64),
+            worst_idleness: any.then(|| self.worst.max(open)),
+            visits: self.visits.clone(),
+            sync_points_passed: if full { current.iter().map(|p| p.syncs_passed).min().unwrap_or(0) } else { 0 },
+            messages: BTreeMap::from([("plan".to_string(), plan_msgs), ("sync".to_string(), sync_msgs)]),
+        }
+    }
+}

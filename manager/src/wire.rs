@@ -1,0 +1,83 @@
+//! Conversions between the planner library's types and the protocol's plan types: the planner
+//! can change its internals without changing what goes on the wire.
+
+use mrmm_planner::geom::Point as PPoint;
+use mrmm_planner::plan::{RobotPlan as PRobotPlan, RobotSpec as PRobotSpec, Step as PStep};
+use mrmm_planner::recipe::MissionPlan as PMissionPlan;
+use mrmm_proto::plan::{CoverageSummary, MissionPlan, PatrolSummary, PlanSummary, Point, Region, RobotPlan, RobotSpec, Step};
+
+fn point(p: PPoint) -> Point {
+    Point { x: p.x, y: p.y }
+}
+
+fn points(ps: &[PPoint]) -> Vec<Point> {
+    ps.iter().copied().map(point).collect()
+}
+
+fn step(s: &PStep) -> Step {
+    match *s {
+        PStep::Navigate { x, y, speed } => Step::Navigate { x, y, speed },
+        PStep::Sync { point } => Step::Sync { point },
+        PStep::Stream => Step::Stream,
+        PStep::Hold { seconds } => Step::Hold { seconds },
+        PStep::Loop { to, rounds } => Step::Loop { to, rounds },
+    }
+}
+
+fn robot_plan(p: &PRobotPlan) -> RobotPlan {
+    RobotPlan { robot: p.robot.clone(), robot_type: p.robot_type.clone(), slot: p.slot, steps: p.steps.iter().map(step).collect() }
+}
+
+/// A planner's mission plan as the protocol carries it.
+pub fn mission_plan(p: &PMissionPlan) -> MissionPlan {
+    let summary = match p {
+        PMissionPlan::Patrol(p) => PlanSummary::Patrol(PatrolSummary {
+            tour: points(&p.tour),
+            length: p.length,
+            offset: p.offset,
+            spacing: p.spacing,
+            team_speed: p.team_speed,
+            sync_per_round: p.sync_per_round,
+            formation_time: p.formation_time,
+            predicted_worst_idleness: p.predicted_worst_idleness,
+            idleness_lower_bound: p.idleness_lower_bound,
+        }),
+        PMissionPlan::Coverage(c) => PlanSummary::Coverage(CoverageSummary {
+            region: Region { outer: points(&c.region.outer), holes: c.region.holes.iter().map(|h| points(h)).collect() },
+            points: points(&c.points),
+            coverage_radius: c.coverage_radius,
+            hexagonal_bound: c.hexagonal_bound,
+            formation_time: c.formation_time,
+        }),
+    };
+    MissionPlan { summary, plans: p.plans().iter().map(robot_plan).collect() }
+}
+
+/// A robot of the protocol as the planner takes it.
+pub fn robot_spec(s: &RobotSpec) -> PRobotSpec {
+    PRobotSpec { id: s.id.clone(), robot_type: s.robot_type.clone(), x: s.x, y: s.y, speed: s.speed }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mrmm_planner::recipe;
+
+    #[test]
+    fn a_planned_patrol_keeps_its_figures_and_steps_on_the_wire() {
+        let r = recipe::parse(recipe::bank("patrol").expect("bank")).expect("recipe");
+        let robots = [RobotSpec { id: "a".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 }];
+        let params = [("waypoints".to_string(), "[[0,0],[10,0],[10,10]]".to_string())].into();
+        let planned = recipe::build(&r, &params, &robots.iter().map(robot_spec).collect::<Vec<_>>()).expect("plan");
+        let wire = mission_plan(&planned);
+        let PlanSummary::Patrol(p) = &wire.summary else { panic!("patrol") };
+        let PMissionPlan::Patrol(q) = &planned else { panic!("patrol") };
+        assert_eq!((p.length, p.tour.len(), p.sync_per_round), (q.length, q.tour.len(), q.sync_per_round));
+        assert_eq!(wire.plans.len(), 1);
+        assert_eq!(wire.plans[0].steps.len(), q.plans[0].steps.len());
+        // The wire JSON has the shape the planner service always answered with.
+        let a = serde_json::to_value(&wire).expect("json");
+        let b = serde_json::to_value(&planned).expect("json");
+        assert_eq!(a, b);
+    }
+}

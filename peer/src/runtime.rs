@@ -1,0 +1,214 @@
+//! The robot runtime: the thin async loop that drives a [`Robot`] over Zenoh — it turns queries,
+//! publications, liveliness changes and timers into [`Event`]s and carries out the [`Command`]s.
+
+use std::time::{Duration, Instant};
+
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::{self as proto, Key, Pattern, SyncArrival};
+use tokio::sync::oneshot;
+use tokio_util::sync::CancellationToken;
+use zenoh::bytes::Encoding;
+use zenoh::handlers::FifoChannelHandler;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::Subscriber;
+use zenoh::query::Query;
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::Session;
+
+use crate::config::RobotConfig;
+use crate::error::PeerError;
+use crate::robot::{Command, Event, Robot};
+
+/// Physics step period (wall time).
+const PHYSICS_PERIOD: Duration = Duration::from_millis(20);
+
+/// What a started robot reports once it is on the network.
+#[derive(Debug, Clone)]
+pub struct Ready {
+    pub id: String,
+    pub zid: String,
+    pub endpoints: Vec<String>,
+}
+
+/// The Zenoh side of team membership: member token, barrier and membership subscriptions.
+struct TeamLink {
+    team: String,
+    _token: LivelinessToken,
+    arrivals: Subscriber<FifoChannelHandler<Sample>>,
+    members: Subscriber<FifoChannelHandler<Sample>>,
+}
+
+impl TeamLink {
+    async fn join(session: &Session, id: &str, team: &str, subteam: &str) -> Result<Self, PeerError> {
+        let member = Key::team_member(subteam, id)?;
+        let members = session
+            .liveliness()
+            .declare_subscriber(Pattern::TeamMembers(team.to_string()).to_string())
+            .history(true)
+            .await
+            .map_err(PeerError::zenoh)?;
+        let arrivals = session.declare_subscriber(Pattern::TeamSync(team.to_string()).to_string()).await.map_err(PeerError::zenoh)?;
+        let token = session.liveliness().declare_token(member.to_string()).await.map_err(PeerError::zenoh)?;
+        Ok(TeamLink { team: team.to_string(), _token: token, arrivals, members })
+    }
+}
+
+/// Runs a robot peer until `shutdown` is cancelled. `ready` is told once the robot is registered
+/// on the network (queryables and liveliness token declared).
+pub async fn run(cfg: RobotConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), PeerError> {
+    let session = open(&cfg).await?;
+    run_on(session, cfg, shutdown, ready).await
+}
+
+/// Opens the robot's Zenoh session as its config says.
+pub async fn open(cfg: &RobotConfig) -> Result<Session, PeerError> {
+    let z = &cfg.zenoh;
+    Ok(net::open(net::zenoh_config(Mode::Peer, &z.listen, &z.connect, z.lease_ms)?).await?)
+}
+
+/// Refuses to start a second node under a name the mesh already knows alive: two robots (or two
+/// mission hosts) under one name would break the chain's majorities and the team barriers.
+pub async fn refuse_taken_name(session: &Session, key: &Key, what: &str, name: &str) -> Result<(), PeerError> {
+    if net::already_alive(session, &key.to_string(), net::NAME_CHECK_TIMEOUT).await? {
+        return Err(PeerError::NameTaken(format!(
+            "{what} {name:?} is already alive on the mesh ({key}); give every {what} its own name"
+        )));
+    }
+    Ok(())
+}
+
+/// Runs a robot on an open session (shared with other services of the same process, such as
+/// a mission host).
+pub async fn run_on(session: Session, cfg: RobotConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), PeerError> {
+    let id = cfg.id.clone();
+    refuse_taken_name(&session, &Key::RobotAlive(id.clone()), "robot", &id).await?;
+    let telemetry_hz = cfg.telemetry_hz;
+    let mut robot = Robot::new(cfg);
+    let endpoints = net::listening_endpoints(&session).await;
+
+    let info_q = session.declare_queryable(Key::RobotInfo(id.clone()).to_string()).await.map_err(PeerError::zenoh)?;
+    let cmd_q = session.declare_queryable(Key::RobotCmd(id.clone()).to_string()).await.map_err(PeerError::zenoh)?;
+    let telemetry_pub = session
+        .declare_publisher(Key::RobotTelemetry(id.clone()).to_string())
+        .encoding(Encoding::APPLICATION_OCTET_STREAM)
+        .await
+        .map_err(PeerError::zenoh)?;
+    // Declared last: once others see the token, the queryables answer.
+    let token = session.liveliness().declare_token(Key::RobotAlive(id.clone()).to_string()).await.map_err(PeerError::zenoh)?;
+    tracing::info!(robot = %id, zid = %session.zid(), ?endpoints, "robot up");
+    if let Some(tx) = ready {
+        let _ = tx.send(Ready { id: id.clone(), zid: session.zid().to_string(), endpoints: endpoints.clone() });
+    }
+
+    let mut physics = tokio::time::interval(PHYSICS_PERIOD);
+    physics.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut telemetry = tokio::time::interval(Duration::from_secs_f64(1.0 / telemetry_hz));
+    telemetry.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let t0 = Instant::now();
+    let mut io = Io { session: session.clone(), id: id.clone(), team: None, publisher: telemetry_pub };
+
+    loop {
+        let (event, query): (Event, Option<Query>) = tokio::select! {
+            _ = shutdown.cancelled() => break,
+            _ = physics.tick() => (Event::Tick, None),
+            _ = telemetry.tick() => (Event::TelemetryDue, None),
+            q = info_q.recv_async() => {
+                let Ok(q) = q else { break };
+                net::reply_json(&q, &robot.info(endpoints.clone())).await;
+                continue;
+            }
+            q = cmd_q.recv_async() => {
+                let Ok(q) = q else { break };
+                match proto::from_json("robot command", &net::query_payload(&q)) {
+                    Ok(cmd) => (Event::Command(cmd), Some(q)),
+                    Err(e) => {
+                        tracing::warn!(robot = %id, "refused command: {e}");
+                        net::reply_error(&q, &e.to_string()).await;
+                        continue;
+                    }
+                }
+            }
+            s = recv_team(&io.team, true) => match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
+                Ok(a) => (Event::Heard(a), None),
+                Err(e) => {
+                    tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+                    continue;
+                }
+            },
+            s = recv_team(&io.team, false) => match Key::parse(s.key_expr().as_str()) {
+                Some(Key::TeamMember { robot, .. }) if s.kind() == SampleKind::Put => (Event::MemberAlive(robot), None),
+                Some(Key::TeamMember { robot, .. }) => (Event::MemberGone(robot), None),
+                _ => {
+                    tracing::warn!("ignored token {}", s.key_expr());
+                    continue;
+                }
+            },
+        };
+        for c in robot.handle(t0.elapsed().as_secs_f64(), event) {
+            io.execute(c, query.as_ref()).await;
+        }
+    }
+    tracing::info!(robot = %id, "shutting down");
+    drop(io);
+    drop(token);
+    session.close().await.map_err(PeerError::zenoh)?;
+    Ok(())
+}
+
+/// The I/O half: the session, the team subscriptions and the telemetry publisher.
+struct Io {
+    session: Session,
+    id: String,
+    team: Option<TeamLink>,
+    publisher: zenoh::pubsub::Publisher<'static>,
+}
+
+impl Io {
+    async fn execute(&mut self, c: Command, query: Option<&Query>) {
+        match c {
+            Command::Reply(result) => match (query, result) {
+                (Some(q), Ok(ack)) => net::reply_json(q, &ack).await,
+                (Some(q), Err(e)) => {
+                    tracing::warn!(robot = %self.id, "refused command: {e}");
+                    net::reply_error(q, &e).await;
+                }
+                (None, _) => {}
+            },
+            Command::JoinTeam { team, subteam } => {
+                self.team = None;
+                match TeamLink::join(&self.session, &self.id, &team, &subteam).await {
+                    Ok(link) => self.team = Some(link),
+                    Err(e) => tracing::warn!(robot = %self.id, "cannot join team {team}: {e}"),
+                }
+            }
+            Command::LeaveTeam => self.team = None,
+            Command::Publish(a) => {
+                let Some(t) = &self.team else { return };
+                let key = Key::TeamSync { team: t.team.clone(), point: a.point, round: a.round }.to_string();
+                net::publish_json(&self.session, &key, &a).await;
+            }
+            Command::Telemetry(t) => match proto::encode_telemetry(&t) {
+                Ok(bytes) => {
+                    if let Err(e) = self.publisher.put(bytes).await {
+                        tracing::warn!("telemetry publication failed: {e}");
+                    }
+                }
+                Err(e) => tracing::warn!("telemetry encoding failed: {e}"),
+            },
+        }
+    }
+}
+
+/// The next sample of the team's arrivals (or members) subscription; pending when not in a team.
+async fn recv_team(team: &Option<TeamLink>, arrivals: bool) -> Sample {
+    match team {
+        Some(t) => {
+            let sub = if arrivals { &t.arrivals } else { &t.members };
+            match sub.recv_async().await {
+                Ok(s) => s,
+                Err(_) => std::future::pending().await,
+            }
+        }
+        None => std::future::pending().await,
+    }
+}

@@ -1,0 +1,354 @@
+//! Every key expression of the protocol, declared here once: a concrete key is a [`Key`], built
+//! with `Display` and parsed with [`Key::parse`]; the wildcards subscribers use are [`Pattern`]s.
+//! No other file of the workspace spells a key (a test greps for it).
+//!
+//! | key | kind | payload |
+//! |---|---|---|
+//! | `mrmm/robots/<id>/alive` | liveliness token of a robot | — |
+//! | `mrmm/robots/<id>/info` | queryable on the robot | [`crate::RobotInfo`] |
+//! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`crate::Telemetry`] (bincode behind `MRM2`) |
+//! | `mrmm/robots/<id>/cmd` | queryable on the robot | [`crate::RobotCommand`] → [`crate::CommandAck`] |
+//! | `mrmm/team/<mission>/<type>/member/<id>` | liveliness token of a team member | — |
+//! | `mrmm/team/<mission>/sync/<point>/<round>` | publication by each member at a barrier | [`crate::SyncArrival`] |
+//! | `mrmm/planner/<kind>` | queryable of a planner service | [`crate::PlanRequest`] → [`crate::MissionPlan`] |
+//! | `mrmm/planner/<kind>/alive/<zid>` | liveliness token of a planner service | — |
+//! | `mrmm/hosts/<node>/alive` | liveliness token of a mission host | — |
+//! | `mrmm/hosts/<node>/chain` | publication to a mission host | [`crate::ChainEnvelope`] |
+//! | `mrmm/hosts/<node>/start` | queryable of a mission host | [`crate::MissionStart`] → [`crate::MissionView`] |
+//! | `mrmm/missions/<name>/ctl` | queryable of the mission's head | [`crate::MissionCtl`] → [`crate::CtlAck`] |
+//! | `mrmm/missions/<name>/view` | queryable of the mission's head | [`crate::MissionView`] with plans |
+//! | `mrmm/missions/<name>/marginal?add=±k` | queryable of the mission's head | [`crate::Marginal`] |
+//! | `mrmm/missions/<name>/status` | publication of the mission's head | [`crate::MissionView`] |
+//! | `mrmm/agent/advice` | queryable of the advising agent | `[`[`crate::Advice`]`]` |
+//! | `mrmm/agent/advice/live` | publication of the advising agent | [`crate::AdviceEvent`] |
+//! | `mrmm/system/status` | queryable on the system manager | [`crate::SystemStatus`] |
+//! | `mrmm/system/robots`, `…/robots/<id>` | queryable on the system manager | [`crate::RobotView`] list / one |
+//! | `mrmm/system/missions`, `…/missions/<name>` | queryable on the system manager | [`crate::MissionView`] list / one with plans |
+//! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | [`crate::GotoRequest`] |
+//! | `mrmm/system/cmd/robot/move` | queryable on the system manager | [`crate::RobotMove`] |
+//! | `mrmm/system/cmd/mission/create` | queryable on the system manager | [`crate::MissionCreate`] |
+//! | `mrmm/system/cmd/mission/terminate` | queryable on the system manager | [`crate::MissionTerminate`] |
+//!
+//! Ids (robots, missions, hosts, robot types, planner kinds) are single key chunks: 1 to 64
+//! characters of `[A-Za-z0-9_-]`.
+
+use std::fmt;
+
+use crate::error::ProtoError;
+
+/// Checks that `id` can be a robot id, mission name, host name or robot type (one key chunk, no
+/// wildcard).
+pub fn validate_id(id: &str) -> Result<(), ProtoError> {
+    let ok_len = !id.is_empty() && id.len() <= 64;
+    let ok_chars = id.bytes().all(|c| c.is_ascii_alphanumeric() || c == b'_' || c == b'-');
+    if ok_len && ok_chars {
+        Ok(())
+    } else {
+        Err(ProtoError::BadId(id.to_string()))
+    }
+}
+
+/// Checks a sub-team path `<mission>/<type>`.
+pub fn validate_subteam(subteam: &str) -> Result<(), ProtoError> {
+    match subteam.split_once('/') {
+        Some((m, t)) if validate_id(m).is_ok() && validate_id(t).is_ok() => Ok(()),
+        _ => Err(ProtoError::BadId(subteam.to_string())),
+    }
+}
+
+/// An operator command on the system manager.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SystemCmd {
+    Goto,
+    Move,
+    Create,
+    Terminate,
+}
+
+/// A concrete key of the protocol.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Key {
+    RobotAlive(String),
+    RobotInfo(String),
+    RobotTelemetry(String),
+    RobotCmd(String),
+    /// `subteam` is `<mission>/<type>`.
+    TeamMember { subteam: String, robot: String },
+    TeamSync { team: String, point: u32, round: u32 },
+    Planner(String),
+    PlannerAlive { kind: String, zid: String },
+    HostAlive(String),
+    HostChain(String),
+    HostStart(String),
+    MissionCtl(String),
+    MissionView(String),
+    MissionMarginal(String),
+    MissionStatus(String),
+    AgentAdvice,
+    AgentAdviceLive,
+    SystemStatus,
+    SystemRobots,
+    SystemRobot(String),
+    SystemMissions,
+    SystemMission(String),
+    SystemCmd(SystemCmd),
+}
+
+impl fmt::Display for Key {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Key::RobotAlive(id) => write!(f, "mrmm/robots/{id}/alive"),
+            Key::RobotInfo(id) => write!(f, "mrmm/robots/{id}/info"),
+            Key::RobotTelemetry(id) => write!(f, "mrmm/robots/{id}/telemetry"),
+            Key::RobotCmd(id) => write!(f, "mrmm/robots/{id}/cmd"),
+            Key::TeamMember { subteam, robot } => write!(f, "mrmm/team/{subteam}/member/{robot}"),
+            Key::TeamSync { team, point, round } => write!(f, "mrmm/team/{team}/sync/{point}/{round}"),
+            Key::Planner(kind) => write!(f, "mrmm/planner/{kind}"),
+            Key::PlannerAlive { kind, zid } => write!(f, "mrmm/planner/{kind}/alive/{zid}"),
+            Key::HostAlive(n) => write!(f, "mrmm/hosts/{n}/alive"),
+            Key::HostChain(n) => write!(f, "mrmm/hosts/{n}/chain"),
+            Key::HostStart(n) => write!(f, "mrmm/hosts/{n}/start"),
+            Key::MissionCtl(m) => write!(f, "mrmm/missions/{m}/ctl"),
+            Key::MissionView(m) => write!(f, "mrmm/missions/{m}/view"),
+            Key::MissionMarginal(m) => write!(f, "mrmm/missions/{m}/marginal"),
+            Key::MissionStatus(m) => write!(f, "mrmm/missions/{m}/status"),
+            Key::AgentAdvice => f.write_str("mrmm/agent/advice"),
+            Key::AgentAdviceLive => f.write_str("mrmm/agent/advice/live"),
+            Key::SystemStatus => f.write_str("mrmm/system/status"),
+            Key::SystemRobots => f.write_str("mrmm/system/robots"),
+            Key::SystemRobot(id) => write!(f, "mrmm/system/robots/{id}"),
+            Key::SystemMissions => f.write_str("mrmm/system/missions"),
+            Key::SystemMission(m) => write!(f, "mrmm/system/missions/{m}"),
+            Key::SystemCmd(SystemCmd::Goto) => f.write_str("mrmm/system/cmd/robot/goto"),
+            Key::SystemCmd(SystemCmd::Move) => f.write_str("mrmm/system/cmd/robot/move"),
+            Key::SystemCmd(SystemCmd::Create) => f.write_str("mrmm/system/cmd/mission/create"),
+            Key::SystemCmd(SystemCmd::Terminate) => f.write_str("mrmm/system/cmd/mission/terminate"),
+        }
+    }
+}
+
+/// One id chunk, checked.
+fn id(s: &str) -> Option<String> {
+    validate_id(s).ok().map(|_| s.to_string())
+}
+
+/// A decimal chunk without sign or leading `+`.
+fn num(s: &str) -> Option<u32> {
+    (!s.is_empty() && s.bytes().all(|b| b.is_ascii_digit())).then(|| s.parse().ok()).flatten()
+}
+
+impl Key {
+    /// Parses a concrete key; `None` for anything that is not exactly one of ours (wildcards,
+    /// extra chunks, bad ids).
+    pub fn parse(key: &str) -> Option<Key> {
+        let parts: Vec<&str> = key.split('/').collect();
+        let k = match parts.as_slice() {
+            ["mrmm", "robots", r, "alive"] => Key::RobotAlive(id(r)?),
+            ["mrmm", "robots", r, "info"] => Key::RobotInfo(id(r)?),
+            ["mrmm", "robots", r, "telemetry"] => Key::RobotTelemetry(id(r)?),
+            ["mrmm", "robots", r, "cmd"] => Key::RobotCmd(id(r)?),
+            ["mrmm", "team", m, t, "member", r] => Key::TeamMember { subteam: format!("{}/{}", id(m)?, id(t)?), robot: id(r)? },
+            ["mrmm", "team", m, "sync", p, r] => Key::TeamSync { team: id(m)?, point: num(p)?, round: num(r)? },
+            ["mrmm", "planner", k] => Key::Planner(id(k)?),
+            ["mrmm", "planner", k, "alive", z] => Key::PlannerAlive { kind: id(k)?, zid: id(z)? },
+            ["mrmm", "hosts", n, "alive"] => Key::HostAlive(id(n)?),
+            ["mrmm", "hosts", n, "chain"] => Key::HostChain(id(n)?),
+            ["mrmm", "hosts", n, "start"] => Key::HostStart(id(n)?),
+            ["mrmm", "missions", m, "ctl"] => Key::MissionCtl(id(m)?),
+            ["mrmm", "missions", m, "view"] => Key::MissionView(id(m)?),
+            ["mrmm", "missions", m, "marginal"] => Key::MissionMarginal(id(m)?),
+            ["mrmm", "missions", m, "status"] => Key::MissionStatus(id(m)?),
+            ["mrmm", "agent", "advice"] => Key::AgentAdvice,
+            ["mrmm", "agent", "advice", "live"] => Key::AgentAdviceLive,
+            ["mrmm", "system", "status"] => Key::SystemStatus,
+            ["mrmm", "system", "robots"] => Key::SystemRobots,
+            ["mrmm", "system", "robots", r] => Key::SystemRobot(id(r)?),
+            ["mrmm", "system", "missions"] => Key::SystemMissions,
+            ["mrmm", "system", "missions", m] => Key::SystemMission(id(m)?),
+            ["mrmm", "system", "cmd", "robot", "goto"] => Key::SystemCmd(SystemCmd::Goto),
+            ["mrmm", "system", "cmd", "robot", "move"] => Key::SystemCmd(SystemCmd::Move),
+            ["mrmm", "system", "cmd", "mission", "create"] => Key::SystemCmd(SystemCmd::Create),
+            ["mrmm", "system", "cmd", "mission", "terminate"] => Key::SystemCmd(SystemCmd::Terminate),
+            _ => return None,
+        };
+        Some(k)
+    }
+
+    /// The team-member token of `robot` in `subteam` (`<mission>/<type>`), checked.
+    pub fn team_member(subteam: &str, robot: &str) -> Result<Key, ProtoError> {
+        validate_subteam(subteam)?;
+        validate_id(robot)?;
+        Ok(Key::TeamMember { subteam: subteam.to_string(), robot: robot.to_string() })
+    }
+}
+
+/// The selector of a marginal-benefit query: `mrmm/missions/<name>/marginal?add=<add>`.
+pub fn marginal_selector(mission: &str, add: i64) -> String {
+    format!("{}?add={add}", Key::MissionMarginal(mission.to_string()))
+}
+
+/// A wildcard key expression a node subscribes or listens to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Pattern {
+    /// `mrmm/robots/*/alive`
+    AllRobotsAlive,
+    /// `mrmm/robots/*/telemetry`
+    AllTelemetry,
+    /// `mrmm/hosts/*/alive`
+    AllHostsAlive,
+    /// `mrmm/planner/*/alive/*`
+    AllPlannersAlive,
+    /// `mrmm/missions/*/status`
+    AllMissionStatus,
+    /// Every member token of a team: `mrmm/team/<team>/*/member/*`
+    TeamMembers(String),
+    /// Every barrier of a team: `mrmm/team/<team>/sync/**`
+    TeamSync(String),
+    /// Every barrier of every team: `mrmm/team/*/sync/**`
+    AllTeamSync,
+    /// Everything the system manager answers: `mrmm/system/**`
+    SystemAll,
+}
+
+impl fmt::Display for Pattern {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Pattern::AllRobotsAlive => f.write_str("mrmm/robots/*/alive"),
+            Pattern::AllTelemetry => f.write_str("mrmm/robots/*/telemetry"),
+            Pattern::AllHostsAlive => f.write_str("mrmm/hosts/*/alive"),
+            Pattern::AllPlannersAlive => f.write_str("mrmm/planner/*/alive/*"),
+            Pattern::AllMissionStatus => f.write_str("mrmm/missions/*/status"),
+            Pattern::TeamMembers(team) => write!(f, "mrmm/team/{team}/*/member/*"),
+            Pattern::TeamSync(team) => write!(f, "mrmm/team/{team}/sync/**"),
+            Pattern::AllTeamSync => f.write_str("mrmm/team/*/sync/**"),
+            Pattern::SystemAll => f.write_str("mrmm/system/**"),
+        }
+    }
+}
+
+/// Keys and patterns go straight into Zenoh's declarations and queries.
+impl TryFrom<Key> for zenoh::key_expr::KeyExpr<'static> {
+    type Error = zenoh::Error;
+    fn try_from(k: Key) -> Result<Self, Self::Error> {
+        zenoh::key_expr::KeyExpr::try_from(k.to_string())
+    }
+}
+
+impl TryFrom<Pattern> for zenoh::key_expr::KeyExpr<'static> {
+    type Error = zenoh::Error;
+    fn try_from(p: Pattern) -> Result<Self, Self::Error> {
+        zenoh::key_expr::KeyExpr::try_from(p.to_string())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use zenoh::key_expr::KeyExpr;
+
+    fn all_keys() -> Vec<Key> {
+        let s = |v: &str| v.to_string();
+        vec![
+            Key::RobotAlive(s("r1")),
+            Key::RobotInfo(s("r-2")),
+            Key::RobotTelemetry(s("a_b")),
+            Key::RobotCmd(s("r1")),
+            Key::TeamMember { subteam: s("p1/ground"), robot: s("r3") },
+            Key::TeamMember { subteam: s("p1/sync"), robot: s("r3") },
+            Key::TeamSync { team: s("p1"), point: 2, round: 7 },
+            Key::Planner(s("patrol")),
+            Key::PlannerAlive { kind: s("coverage"), zid: s("0a1b") },
+            Key::HostAlive(s("central")),
+            Key::HostChain(s("r1")),
+            Key::HostStart(s("h2")),
+            Key::MissionCtl(s("m")),
+            Key::MissionView(s("m")),
+            Key::MissionMarginal(s("m")),
+            Key::MissionStatus(s("m")),
+            Key::AgentAdvice,
+            Key::AgentAdviceLive,
+            Key::SystemStatus,
+            Key::SystemRobots,
+            Key::SystemRobot(s("r9")),
+            Key::SystemMissions,
+            Key::SystemMission(s("p1")),
+            Key::SystemCmd(SystemCmd::Goto),
+            Key::SystemCmd(SystemCmd::Move),
+            Key::SystemCmd(SystemCmd::Create),
+            Key::SystemCmd(SystemCmd::Terminate),
+        ]
+    }
+
+    #[test]
+    fn every_key_round_trips_and_is_a_valid_key_expression() {
+        for k in all_keys() {
+            let text = k.to_string();
+            assert_eq!(Key::parse(&text), Some(k.clone()), "{text}");
+            assert!(KeyExpr::try_from(text.as_str()).is_ok(), "{text}");
+        }
+        assert_eq!(Key::RobotAlive("r1".into()).to_string(), "mrmm/robots/r1/alive");
+        assert_eq!(Key::TeamSync { team: "p1".into(), point: 2, round: 7 }.to_string(), "mrmm/team/p1/sync/2/7");
+    }
+
+    #[test]
+    fn patterns_match_the_keys_they_are_for() {
+        let matches = |p: Pattern, k: Key| {
+            let p = KeyExpr::try_from(p.to_string()).expect("pattern");
+            let k = KeyExpr::try_from(k.to_string()).expect("key");
+            p.intersects(&k)
+        };
+        let s = |v: &str| v.to_string();
+        assert!(matches(Pattern::AllRobotsAlive, Key::RobotAlive(s("r1"))));
+        assert!(!matches(Pattern::AllRobotsAlive, Key::RobotInfo(s("r1"))));
+        assert!(matches(Pattern::AllTelemetry, Key::RobotTelemetry(s("r1"))));
+        assert!(matches(Pattern::AllHostsAlive, Key::HostAlive(s("r1"))));
+        assert!(matches(Pattern::AllPlannersAlive, Key::PlannerAlive { kind: s("patrol"), zid: s("ab") }));
+        assert!(matches(Pattern::AllMissionStatus, Key::MissionStatus(s("p"))));
+        assert!(matches(Pattern::TeamMembers(s("p")), Key::TeamMember { subteam: s("p/ground"), robot: s("r1") }));
+        assert!(!matches(Pattern::TeamMembers(s("p")), Key::TeamMember { subteam: s("q/ground"), robot: s("r1") }));
+        assert!(matches(Pattern::TeamSync(s("p")), Key::TeamSync { team: s("p"), point: 0, round: 0 }));
+        assert!(matches(Pattern::AllTeamSync, Key::TeamSync { team: s("q"), point: 1, round: 3 }));
+        assert!(matches(Pattern::SystemAll, Key::SystemCmd(SystemCmd::Create)));
+        assert!(!matches(Pattern::SystemAll, Key::AgentAdvice));
+    }
+
+    #[test]
+    fn foreign_keys_are_refused() {
+        for bad in [
+            "mrmm/robots/r1/alive/x",
+            "other/robots/r1/alive",
+            "mrmm/robots/*/alive",
+            "mrmm/system/robots/a/b",
+            "mrmm/system/nope",
+            "mrmm/team/p1/ground/member/*",
+            "mrmm/team/p1/sync/-1/2",
+            "mrmm/team/p1/sync/+1/2",
+            "mrmm/team/p1/sync/99999999999/2",
+            "mrmm/missions/*/marginal",
+            "",
+        ] {
+            assert_eq!(Key::parse(bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn ids_are_single_chunks() {
+        assert!(validate_id("robot-01_a").is_ok());
+        for bad in ["", "a/b", "*", "a b", "é", &"x".repeat(65)] {
+            assert!(validate_id(bad).is_err(), "{bad:?}");
+        }
+        assert!(validate_subteam("m/ground").is_ok());
+        for bad in ["m", "m/", "/g", "m/g/x", "m/*"] {
+            assert!(validate_subteam(bad).is_err(), "{bad:?}");
+        }
+        assert_eq!(marginal_selector("p", -2), "mrmm/missions/p/marginal?add=-2");
+    }
+
+    proptest! {
+        #[test]
+        fn parse_never_panics(s in "\\PC{0,60}") {
+            let _ = Key::parse(&s);
+        }
+    }
+}

@@ -1,0 +1,51 @@
+//! The mrmm protocol, which every node and tool depends on: every key expression ([`keys`]),
+//! every payload type, the codecs with their size limits ([`codec`]), and the small Zenoh
+//! helpers every node shares ([`net`]: session configs, one-answer queries, JSON replies).
+//!
+//! Payloads are JSON (`application/json`) except telemetry, which is bincode behind the `MRM2`
+//! prefix. Every error reply on an operator key is a Zenoh reply error whose payload is
+//! [`ErrorReply`] (`{"error": "…"}`). The key space is tabled in [`keys`].
+
+pub mod agent;
+pub mod chain;
+pub mod client;
+pub mod codec;
+pub mod config;
+pub mod error;
+pub mod keys;
+pub mod mission;
+pub mod net;
+pub mod operator;
+pub mod plan;
+pub mod robot;
+pub mod team;
+
+pub use agent::*;
+pub use chain::ChainEnvelope;
+pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to_json};
+pub use error::ProtoError;
+pub use keys::{validate_id, validate_subteam, Key, Pattern, SystemCmd};
+pub use mission::*;
+pub use operator::*;
+pub use plan::{MissionPlan, PlanRequest, PlanSummary, RobotPlan, RobotSpec, Step};
+pub use robot::*;
+pub use team::*;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commands_are_tagged_json() {
+        let c: RobotCommand = from_json("cmd", br#"{"cmd":"goto","x":1,"y":2}"#).expect("goto");
+        assert_eq!(c, RobotCommand::Goto { x: 1.0, y: 2.0 });
+        assert!(from_json::<RobotCommand>("cmd", br#"{"cmd":"fly"}"#).is_err());
+        assert!(from_json::<GotoRequest>("goto", br#"{"robot":"r1","x":1}"#).is_err());
+        let plan = r#"{"cmd":"plan","mission":"m","epoch":1,"team":"m","subteam":"m/ground","members":["r1"],
+            "plan":{"robot":"r1","type":"ground","slot":0,"steps":["stream",{"sync":{"point":0}}]}}"#;
+        let c: RobotCommand = from_json("cmd", plan.as_bytes()).expect("plan");
+        assert!(matches!(c, RobotCommand::Plan(ref a) if a.plan.steps.len() == 2));
+        let v = serde_json::to_value(RobotStatus::Lost).expect("json");
+        assert_eq!(v, serde_json::json!("lost"));
+    }
+}
