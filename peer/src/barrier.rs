@@ -76,6 +76,11 @@ impl Barrier {
         a.epoch == self.epoch && a.robot != self.me && self.mine().is_some_and(|m| (a.round, a.point) <= m)
     }
 
+    /// Whether this robot believes `id` gone (its liveliness was lost while this plan ran).
+    pub fn is_gone(&self, id: &str) -> bool {
+        self.gone.contains(id)
+    }
+
     /// Members still required.
     pub fn required(&self) -> usize {
         self.members.len() - self.gone.len()

@@ -75,6 +75,11 @@ impl Robot {
         }
     }
 
+    /// Where the body is.
+    pub fn pose(&self) -> mrmm_proto::Pose {
+        self.body.pose()
+    }
+
     /// The plan being executed, if any.
     pub fn executor(&self) -> Option<&Executor> {
         self.exec.as_ref()

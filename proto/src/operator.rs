@@ -170,6 +170,9 @@ pub struct MissionView {
     pub planner: String,
     pub status: MissionStatus,
     pub robots: Vec<String>,
+    /// Members lost through liveliness: their place is kept until they come back.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lost: Vec<String>,
     /// Sub-team path → members.
     pub teams: BTreeMap<String, Vec<String>>,
     pub manager: ManagerView,

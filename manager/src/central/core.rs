@@ -120,7 +120,7 @@ mod tests {
 
     #[test]
     fn the_agents_moves_go_through_the_system_manager_and_their_results_are_recorded() {
-        let mut c = CentralCore::new("n".into(), AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() }, 0.0);
+        let mut c = CentralCore::new("n".into(), AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() }, -system::ADOPT_S);
         for id in ["r1", "r2"] {
             c.handle(0.0, Event::System(system::Event::RobotAlive { id: id.into() }));
             c.handle(0.0, Event::System(system::Event::RobotRegistered(info(id))));

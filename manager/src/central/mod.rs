@@ -50,7 +50,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let zid = session.zid().to_string();
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
     let mut held = Vec::new();
-    for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
+    for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive, Pattern::AllMissionReplicas] {
         let t = tx.clone();
         held.push(session.liveliness().declare_subscriber(pattern.to_string()).history(true).callback(move |s| {
             let _ = t.send(Input::Sample(s));
@@ -120,6 +120,7 @@ fn decode(s: &Sample) -> Option<system::Event> {
     match Key::parse(key) {
         Some(Key::RobotAlive(id)) => Some(if up { system::Event::RobotAlive { id } } else { system::Event::RobotGone { id } }),
         Some(Key::HostAlive(node)) => Some(if up { system::Event::HostAlive { node } } else { system::Event::HostGone { node } }),
+        Some(Key::MissionReplica { mission, node }) => Some(system::Event::Replica { mission, node, up }),
         Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
             Ok(t) if t.id == id => Some(system::Event::Telemetry(Box::new(t))),
             Ok(t) => {
@@ -237,8 +238,8 @@ impl Io {
             system::Command::StartMission { host, start } => self.spawn(async move {
                 let mission = start.spec.name.clone();
                 let result = match proto::to_json(&start) {
-                    Ok(body) => net::query::<MissionView>(&session, &Key::HostStart(host).to_string(), Some(body), START_TIMEOUT).await.map_err(|e| e.to_string()),
-                    Err(e) => Err(e.to_string()),
+                    Ok(body) => net::query::<MissionView>(&session, &Key::HostStart(host).to_string(), Some(body), START_TIMEOUT).await.map_err(Failure::from),
+                    Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
                 };
                 system::Event::MissionStarted { mission, result: result.map(Box::new) }
             }),

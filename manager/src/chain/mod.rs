@@ -30,8 +30,10 @@
 //!   re-elects itself.
 //! * **Restarts** lose everything. A node that holds no state refuses to vote as a member of the
 //!   candidate's current chain (it lost what it held there; a restarted node is not its former
-//!   self), and no node votes during its first `quarantine` seconds, so a vote given before a
-//!   crash cannot be given again to another candidate of that epoch.
+//!   self) — unless that chain has two nodes and the candidate is its head: every change of a
+//!   two-node chain needs both votes, so no newer configuration exists without that head — and
+//!   no node votes during its first `quarantine` seconds, so a vote given before a crash cannot
+//!   be given again to another candidate of that epoch.
 //!
 //! A node holds one replica per mission in a [`Registry`], which also remembers, for missions it
 //! no longer replicates, the promise it made and whether the mission ended (so stragglers are told).

@@ -439,11 +439,20 @@ impl<S: Clone> Replica<S> {
     }
 
     fn on_vote(&mut self, now: f64, from: String, proposal: Config, base: &[String], last: Version) -> Vec<Command<S>> {
+        if matches!(self.role, Role::Ending { .. }) {
+            // The value is being ended: a candidate that missed it ends too, rather than bring
+            // it back.
+            return vec![Command::Send { to: from, msg: Msg::End { epoch: u64::MAX } }];
+        }
         let e = proposal.epoch;
         let epoch_ok = e > self.promised || (e == self.promised && self.voted_for.as_deref() == Some(from.as_str()));
         // A member of the candidate's chain that holds nothing lost its state (restart): its vote
-        // must not count as that of the member who held it.
-        let lost = self.state.is_none() && base.contains(&self.me);
+        // must not count as that of the member who held it. Except for the head of a chain of
+        // two, standing again: every change of a two-node chain needs both votes, so no newer
+        // configuration can exist without this head, which holds the newest state — and a chain
+        // of two would otherwise never recover from its one replica restarting.
+        let head_of_two = base.len() == 2 && base.first() == Some(&from);
+        let lost = self.state.is_none() && base.contains(&self.me) && !head_of_two;
         // A new chain keeps a majority of the current one, so a later candidate that missed this
         // change always meets a node that holds a newer state than its own.
         let keeps = 2 * base.iter().filter(|n| proposal.contains(n)).count() > base.len();
@@ -455,7 +464,7 @@ impl<S: Clone> Replica<S> {
             self.promised = e;
             self.voted_for = Some(from.clone());
         }
-        let mut out = if matches!(self.role, Role::Ending { .. }) { vec![] } else { self.step_down() };
+        let mut out = self.step_down();
         self.last_heard = now;
         out.push(Command::Send { to: from, msg: Msg::Grant { epoch: e } });
         out

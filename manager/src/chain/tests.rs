@@ -122,9 +122,16 @@ fn votes_need_an_up_to_date_candidate_and_one_per_epoch() {
     let mut v = R::new("v", p(), 0.0, 0.0, 0);
     let prop = |e: u64| Config { epoch: e, chain: vec!["x".into(), "v".into()] };
     let vote = |e: u64, last: Version| Msg::Vote { proposal: prop(e), base: vec!["x".into(), "v".into()], last };
-    // No state and a member of the candidate's chain: a restarted node does not vote.
-    let out = v.handle(0.0, Event::Recv { from: "x".into(), msg: vote(3, (1, 4)) });
+    // No state and a member of the candidate's chain: a restarted node does not vote...
+    let three = Msg::Vote { proposal: prop(3), base: vec!["x".into(), "v".into(), "w".into()], last: (1, 4) };
+    let out = v.clone().handle(0.0, Event::Recv { from: "x".into(), msg: three });
     assert!(matches!(out[0], Command::Send { msg: Msg::Refuse { .. }, .. }));
+    let by_replica = Msg::Vote { proposal: prop(3), base: vec!["x".into(), "v".into()], last: (1, 4) };
+    let out = v.clone().handle(0.0, Event::Recv { from: "w".into(), msg: by_replica });
+    assert!(matches!(out[0], Command::Send { msg: Msg::Refuse { .. }, .. }), "w is not the head of the chain of two");
+    // ... except for the head of a chain of two: no other configuration can exist without it.
+    let out = v.clone().handle(0.0, Event::Recv { from: "x".into(), msg: vote(3, (1, 4)) });
+    assert!(matches!(out.last(), Some(Command::Send { msg: Msg::Grant { .. }, .. })));
     // With state: one vote per epoch, never backwards, never for an older state.
     v.handle(0.0, Event::Recv { from: "h".into(), msg: Msg::Update { config: Config { epoch: 1, chain: vec!["h".into(), "v".into()] }, seq: 4, state: vec![1] } });
     let grant = |out: &Vec<Command<Vec<u32>>>| matches!(out.last(), Some(Command::Send { msg: Msg::Grant { .. }, .. }));

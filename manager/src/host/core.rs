@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use mrmm_planner::recipe::PlannerKind;
-use mrmm_proto::{ChainEnvelope, CtlAck, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest, Telemetry};
+use mrmm_proto::{ChainEnvelope, CENTRAL_HOST, CtlAck, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest, Telemetry};
 use serde_json::Value;
 
 use super::head::Head;
@@ -66,6 +66,10 @@ pub enum Command {
     SendPlan { mission: String, robot: String, assignment: Box<PlanAssignment> },
     /// Publish the mission's status on `mrmm/missions/<name>/status`.
     Status(Box<MissionView>),
+    /// This node holds (`on`) or no longer holds a replica of `mission`: declare or undeclare
+    /// its token `mrmm/missions/<mission>/replica/<node>`, so a restarted central knows the
+    /// mission exists even while it has no head.
+    Replica { mission: String, on: bool },
 }
 
 /// The mission host of one node.
@@ -77,6 +81,8 @@ pub struct HostCore {
     robots: BTreeSet<String>,
     /// Planner services alive: (kind, zid).
     planners: BTreeSet<(String, String)>,
+    /// Missions whose replica token is declared.
+    declared: BTreeSet<String>,
 }
 
 fn json<T: serde::Serialize>(v: &T) -> Result<Value, String> {
@@ -92,6 +98,7 @@ impl HostCore {
             heads: BTreeMap::new(),
             robots: BTreeSet::new(),
             planners: BTreeSet::new(),
+            declared: BTreeSet::new(),
         }
     }
 
@@ -113,6 +120,19 @@ impl HostCore {
 
     /// Handles one event at `now` (seconds).
     pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+        let mut out = self.event(now, ev);
+        let held: BTreeSet<String> = self.registry.names().cloned().collect();
+        for m in held.difference(&self.declared) {
+            out.push(Command::Replica { mission: m.clone(), on: true });
+        }
+        for m in self.declared.difference(&held) {
+            out.push(Command::Replica { mission: m.clone(), on: false });
+        }
+        self.declared = held;
+        out
+    }
+
+    fn event(&mut self, now: f64, ev: Event) -> Vec<Command> {
         let mut out = Vec::new();
         match ev {
             Event::Tick => {
@@ -200,10 +220,28 @@ impl HostCore {
         for (name, cmds) in self.registry.liveliness(now, node, up) {
             self.apply(now, &name, cmds, out);
         }
+        if node == CENTRAL_HOST && !up {
+            // Nobody orders lost members back now: take back those alive.
+            let back: Vec<String> = self.robots.iter().cloned().collect();
+            for id in back {
+                self.robot(now, &id, true, out);
+            }
+        }
     }
 
-    /// A member lost is taken out (the team goes on without it); a lost member back rejoins.
+    /// Whether the system manager is reachable: it owns membership, so while it is, a lost
+    /// member that comes back rejoins on its order (it may have given the robot away after a
+    /// restart); while it is not, heads take their members back themselves.
+    fn central_reachable(&self) -> bool {
+        self.node == CENTRAL_HOST || self.registry.alive().contains(CENTRAL_HOST)
+    }
+
+    /// A member lost is taken out (the team goes on without it); a lost member back rejoins,
+    /// on its own while central is unreachable.
     fn robot(&mut self, now: f64, id: &str, up: bool, out: &mut Vec<Command>) {
+        if up && self.central_reachable() {
+            return;
+        }
         let names: Vec<String> = self
             .heads
             .iter()
@@ -354,7 +392,8 @@ impl HostCore {
         // Robots already running the committed plans go on; those that missed them get them.
         let resend = mm.current_assignments();
         let lost: Vec<String> = mm.members().filter(|id| !self.robots.contains(*id)).cloned().collect();
-        let back: Vec<Member> = self.robots.iter().filter_map(|id| mm.lost(id).cloned()).collect();
+        let back: Vec<Member> =
+            if self.central_reachable() { vec![] } else { self.robots.iter().filter_map(|id| mm.lost(id).cloned()).collect() };
         let mut head = Head::new(mm, None);
         head.defer(resend);
         self.heads.insert(name.to_string(), head);

@@ -89,7 +89,7 @@ pub async fn serve_with(session: Session, node: String, params: Params, shutdown
     tracing::info!(%node, "mission host up");
     let t0 = Instant::now();
     let mut core = HostCore::new(&node, params, 0.0);
-    let mut io = Io { session: session.clone(), tx, queries: HashMap::new(), next: 0, served: HashMap::new() };
+    let mut io = Io { session: session.clone(), tx, queries: HashMap::new(), next: 0, served: HashMap::new(), node: node.clone(), replicas: HashMap::new() };
     let mut status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -162,6 +162,8 @@ struct Io {
     queries: HashMap<u64, Query>,
     next: u64,
     served: HashMap<String, Vec<Queryable<()>>>,
+    node: String,
+    replicas: HashMap<String, zenoh::liveliness::LivelinessToken>,
 }
 
 impl Io {
@@ -271,6 +273,18 @@ impl Io {
                 });
             }
             Command::Status(view) => net::publish_json(&self.session, &Key::MissionStatus(view.name.clone()).to_string(), &view).await,
+            Command::Replica { mission, on: true } => {
+                let key = Key::MissionReplica { mission: mission.clone(), node: self.node.clone() };
+                match self.session.liveliness().declare_token(key).await {
+                    Ok(t) => {
+                        self.replicas.insert(mission, t);
+                    }
+                    Err(e) => tracing::warn!(%mission, "cannot declare the replica token: {e}"),
+                }
+            }
+            Command::Replica { mission, on: false } => {
+                self.replicas.remove(&mission);
+            }
         }
     }
 }

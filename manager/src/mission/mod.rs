@@ -209,6 +209,10 @@ impl MissionManager {
     pub fn lost(&self, id: &str) -> Option<&Member> {
         self.lost.get(id)
     }
+    /// Every lost member.
+    pub fn lost_members(&self) -> impl Iterator<Item = &Member> {
+        self.lost.values()
+    }
     pub fn planner(&self) -> PlannerKind {
         self.spec.planner
     }
@@ -387,6 +391,7 @@ impl MissionManager {
             planner: self.spec.planner.as_str().to_string(),
             status: self.status,
             robots: self.members.keys().cloned().collect(),
+            lost: self.lost.keys().cloned().collect(),
             teams: self.teams(),
             manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![] },
             metrics: self.metrics(),

@@ -33,6 +33,8 @@ impl SystemManager {
             }
             after.push(ctl);
         }
+        // Robots still being let go by a mission they were taken out of earlier, too.
+        after.extend(robots.iter().filter_map(|r| self.pending_release(&r.id)));
         let members = robots.iter().filter_map(|r| self.member(&r.id)).collect();
         for r in &robots {
             self.assignment.insert(r.id.clone(), name.clone());
@@ -54,6 +56,14 @@ impl SystemManager {
         proto::validate_id(&c.name).map_err(|_| format!("mission name {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", c.name))?;
         if self.missions.contains_key(&c.name) {
             return Err(format!("mission {:?} already exists", c.name));
+        }
+        if let Some(nodes) = self.replicated.get(&c.name).filter(|n| !n.is_empty() && !self.terminated.contains(&c.name)) {
+            let nodes: Vec<&str> = nodes.iter().map(String::as_str).collect();
+            return Err(format!(
+                "mission {:?} still exists on the mesh (its state is on {}) though no manager of it has reported: choose another name",
+                c.name,
+                nodes.join(", ")
+            ));
         }
         let host = c.host.clone().unwrap_or_else(|| proto::CENTRAL_HOST.to_string());
         if !self.hosts.contains(&host) {
@@ -129,11 +139,19 @@ impl SystemManager {
         Ok((spec, host, specs, steal))
     }
 
-    /// Alive, registered robots in no mission, by id.
+    /// The control letting `id` go from a mission, while not yet acknowledged.
+    fn pending_release(&self, id: &str) -> Option<u64> {
+        self.released.get(id).map(|r| r.ctl).filter(|c| self.ctls.is_pending(*c))
+    }
+
+    /// Alive, registered robots in no mission and running no plan, by id. A robot that runs a
+    /// plan of a mission this manager does not know belongs to a mission whose head has not
+    /// reported yet (after a restart of central, or a partition): it is not free.
     fn idle_robots(&self) -> Vec<String> {
         self.robots
             .iter()
             .filter(|(id, r)| r.alive && r.info.is_some() && !self.assignment.contains_key(*id))
+            .filter(|(_, r)| r.last.as_ref().is_some_and(|t| t.mission.is_none()))
             .map(|(id, _)| id.clone())
             .collect()
     }
@@ -216,7 +234,7 @@ impl SystemManager {
             None => None,
         };
         let mut out = Vec::new();
-        let mut left = None;
+        let mut left = self.pending_release(&mv.robot);
         if let Some(f) = &from {
             self.assignment.remove(&mv.robot);
             let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![mv.robot.clone()] }, None);

@@ -28,6 +28,9 @@ pub const LEAVE_RETRY_S: f64 = 2.0;
 /// For this long after a mission acknowledged letting a robot go, its reports listing the robot
 /// are taken as older than the order.
 pub const RELEASE_GRACE_S: f64 = 5.0;
+/// For this long after it starts, the system manager holds commands that assign robots, while
+/// the heads of running missions report which robots are theirs (two status periods).
+pub const ADOPT_S: f64 = 2.0;
 
 /// Who asked: an operator query held by the driver, or the advising agent (for an advice).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -73,8 +76,9 @@ pub enum Event {
     Operator { req: Req, request: Request },
     /// A command to a robot completed; `req` is the request it answers, if any.
     RobotCommandDone { req: Option<Req>, robot: String, result: Result<CommandAck, String> },
-    /// A mission host answered a start: the first plans are out, or planning failed.
-    MissionStarted { mission: String, result: Result<Box<MissionView>, String> },
+    /// A mission host answered a start: the first plans are out, or planning failed (or, when
+    /// `retryable`, nobody answered: the mission may or may not run).
+    MissionStarted { mission: String, result: Result<Box<MissionView>, Failure> },
     /// The answer to [`Command::Ctl`] `id`.
     CtlDone { id: u64, result: Result<(), Failure> },
     /// A mission's head published its status.
@@ -83,6 +87,8 @@ pub enum Event {
     HostAlive { node: String },
     /// A mission host's liveliness token disappeared.
     HostGone { node: String },
+    /// A node holds a replica of `mission` (its token appeared), or no longer does.
+    Replica { mission: String, node: String, up: bool },
     /// Periodic tick.
     Tick,
 }
@@ -164,6 +170,10 @@ pub struct SystemManager {
     terminated: BTreeSet<String>,
     released: BTreeMap<String, Released>,
     ctls: Ctls,
+    /// Commands held while the manager learns the fleet after starting.
+    held: Vec<(Req, Request)>,
+    /// Nodes holding a replica of each mission, known or not.
+    replicated: BTreeMap<String, BTreeSet<String>>,
 }
 
 impl SystemManager {
@@ -182,6 +192,8 @@ impl SystemManager {
             terminated: BTreeSet::new(),
             released: BTreeMap::new(),
             ctls: Ctls::default(),
+            held: Vec::new(),
+            replicated: BTreeMap::new(),
         }
     }
 
@@ -222,14 +234,19 @@ impl SystemManager {
                 vec![]
             }
             Event::RobotRegistered(info) => {
-                match self.robots.get_mut(&info.id) {
+                let id = info.id.clone();
+                match self.robots.get_mut(&id) {
                     Some(rec) => {
                         if rec.info.is_none() {
-                            tracing::info!(robot = %info.id, r#type = %info.robot_type, "robot registered");
+                            tracing::info!(robot = %id, r#type = %info.robot_type, "robot registered");
                         }
                         rec.info = Some(info);
                     }
-                    None => tracing::debug!(robot = %info.id, "info from a robot with no liveliness: ignored"),
+                    None => tracing::debug!(robot = %id, "info from a robot with no liveliness: ignored"),
+                }
+                // A lost member back: its mission takes it again, on our order.
+                if let Some(m) = self.assignment.get(&id).cloned() {
+                    self.rejoin(&m);
                 }
                 vec![]
             }
@@ -269,6 +286,18 @@ impl SystemManager {
             Event::HostAlive { node } => {
                 tracing::info!(%node, "mission host up");
                 self.hosts.insert(node);
+                vec![]
+            }
+            Event::Replica { mission, node, up } => {
+                let nodes = self.replicated.entry(mission.clone()).or_default();
+                if up {
+                    nodes.insert(node);
+                } else {
+                    nodes.remove(&node);
+                    if nodes.is_empty() {
+                        self.replicated.remove(&mission);
+                    }
+                }
                 vec![]
             }
             Event::HostGone { node } => {
@@ -324,7 +353,13 @@ impl SystemManager {
     fn tick(&mut self, now: f64) -> Vec<Command> {
         let grace = |r: &Released| r.acked.is_none_or(|t| now - t < RELEASE_GRACE_S);
         self.released.retain(|_, r| grace(r));
-        self.robots
+        let mut out = Vec::new();
+        if now - self.started >= ADOPT_S {
+            for (req, request) in std::mem::take(&mut self.held) {
+                out.extend(self.operator(now, req, request));
+            }
+        }
+        let fetch: Vec<Command> = self.robots
             .iter_mut()
             .filter(|(_, r)| r.alive && r.info.is_none())
             .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
@@ -332,10 +367,17 @@ impl SystemManager {
                 r.info_asked = Some(now);
                 Command::FetchInfo { id: id.clone() }
             })
-            .collect()
+            .collect();
+        out.extend(fetch);
+        out
     }
 
     fn operator(&mut self, now: f64, req: Req, request: Request) -> Vec<Command> {
+        if request.is_command() && now - self.started < ADOPT_S {
+            // Just started: the heads have not yet said which robots are theirs.
+            self.held.push((req, request));
+            return vec![];
+        }
         let reply = |req: Req, result| vec![Command::Reply { req, result }];
         match request {
             Request::Status => reply(req, to_value(&self.status(now))),
@@ -381,6 +423,7 @@ impl SystemManager {
                 planner: rec.map(|r| r.planner.clone()).unwrap_or_default(),
                 status: MissionStatus::Planning,
                 robots,
+                lost: vec![],
                 teams: BTreeMap::new(),
                 manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0, chain_epoch: 0, chain: vec![] },
                 metrics: MissionMetrics::default(),
@@ -417,9 +460,10 @@ impl SystemManager {
                 return vec![];
             }
             let name = view.name.clone();
-            let robots = view.robots.clone();
+            let (robots, lost) = (view.robots.clone(), view.lost.clone());
             rec.view = Some(view);
-            self.reconcile(&name, &robots);
+            self.reconcile(&name, &robots, &lost);
+            self.rejoin(&name);
             return vec![];
         }
         if !self.hosts.contains(&view.manager.node) || self.pending_create.contains_key(&view.name) {
@@ -427,22 +471,23 @@ impl SystemManager {
         }
         tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its head's report");
         let name = view.name.clone();
-        let robots = view.robots.clone();
+        let (robots, lost) = (view.robots.clone(), view.lost.clone());
         self.missions.insert(
             name.clone(),
             MissionRecord { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), view: Some(view) },
         );
-        self.reconcile(&name, &robots);
+        self.reconcile(&name, &robots, &lost);
+        self.rejoin(&name);
         vec![]
     }
 
-    /// A mission's head lists `robots` (it may have taken back a lost robot while central was
-    /// away): robots in no mission are recorded in it; robots in another mission are taken out
-    /// of it. Robots missing from the list are left alone — the report may predate a join this
-    /// manager ordered.
-    fn reconcile(&mut self, name: &str, robots: &[String]) {
+    /// A mission's head lists `robots` and its `lost` members (it may have taken back a lost
+    /// robot while central was away, or central restarted): robots in no mission are recorded in
+    /// it; robots in another mission are taken out of it. Robots missing from the lists are left
+    /// alone — the report may predate a join this manager ordered.
+    fn reconcile(&mut self, name: &str, robots: &[String], lost: &[String]) {
         let mut strangers = Vec::new();
-        for id in robots {
+        for id in robots.iter().chain(lost) {
             if self.released.get(id).is_some_and(|r| r.mission == name) {
                 continue;
             }
@@ -460,32 +505,61 @@ impl SystemManager {
         }
     }
 
-    /// The first plans of a mission are out, or its planning failed.
-    fn started(&mut self, name: &str, result: Result<Box<MissionView>, String>) -> Vec<Command> {
+    /// Orders `name`'s head to take back its lost members that are alive again (they kept their
+    /// place in the mission while away).
+    fn rejoin(&mut self, name: &str) {
+        let lost = self.missions.get(name).and_then(|r| r.view.as_ref()).map(|v| v.lost.clone()).unwrap_or_default();
+        for id in lost {
+            let ours = self.assignment.get(&id).is_some_and(|m| m == name);
+            let alive = self.robots.get(&id).is_some_and(|r| r.alive && r.info.is_some());
+            let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
+            if ours && alive && !pending {
+                if let Some(member) = self.member(&id) {
+                    tracing::info!(mission = %name, robot = %id, "lost member back: its mission takes it again");
+                    self.ctls.push(name, MissionCtl::Joined { member }, None);
+                }
+            }
+        }
+    }
+
+    /// The first plans of a mission are out, or its planning failed, or its host did not answer.
+    fn started(&mut self, name: &str, result: Result<Box<MissionView>, Failure>) -> Vec<Command> {
         let req = self.pending_create.remove(name);
+        let reply = |result| req.map(|req| Command::Reply { req, result }).into_iter().collect::<Vec<_>>();
         match result {
             Ok(view) => {
                 tracing::info!(mission = %name, "mission running");
                 if let Some(rec) = self.missions.get_mut(name) {
                     rec.view = Some(*view);
                 }
-                match req {
-                    Some(req) => vec![Command::Reply { req, result: to_value(&self.mission_view(name)) }],
-                    None => vec![],
-                }
+                reply(to_value(&self.mission_view(name)))
             }
-            Err(error) => {
-                // The mission never ran: forget it, free its robots.
-                if self.missions.remove(name).is_none() {
-                    return vec![];
+            Err(f) if !self.missions.contains_key(name) => reply(Err(f.error)),
+            Err(f) if f.retryable => {
+                // Nobody answered: the mission may be running. End it, and free its robots
+                // only once its head acknowledged the end — never in two missions.
+                tracing::warn!(mission = %name, "no answer to the start: ending the mission in case it started");
+                self.missions.remove(name);
+                self.terminated.insert(name.to_string());
+                self.ctls.cancel(name);
+                let end = self.ctls.push(name, MissionCtl::Terminate, None);
+                let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
+                let mut out = Vec::new();
+                for id in robots {
+                    self.assignment.remove(&id);
+                    self.released.insert(id.clone(), Released { mission: name.to_string(), ctl: end, acked: None });
+                    out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: name.to_string(), epoch: u64::MAX } });
                 }
+                out.extend(reply(Err(format!("mission {name} did not start: {}; it was ended in case it had", f.error))));
+                out
+            }
+            Err(f) => {
+                // The mission never ran: forget it, free its robots.
+                self.missions.remove(name);
                 self.assignment.retain(|_, m| m != name);
                 self.ctls.cancel(name);
-                tracing::warn!(mission = %name, "mission failed: {error}");
-                match req {
-                    Some(req) => vec![Command::Reply { req, result: Err(error) }],
-                    None => vec![],
-                }
+                tracing::warn!(mission = %name, "mission failed: {}", f.error);
+                reply(Err(f.error))
             }
         }
     }

@@ -1,7 +1,7 @@
 //! System manager: registry, operator queries and mission commands, asserting emitted commands.
 
 use super::*;
-use mrmm_proto::{Behaviour, Pose, Velocity};
+use mrmm_proto::{Behaviour, ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView, Pose, Velocity};
 
 fn info(id: &str) -> RobotInfo {
     RobotInfo {
@@ -28,10 +28,15 @@ fn telemetry(id: &str, seq: u64, behaviour: Behaviour) -> Telemetry {
 }
 
 fn registered(ids: &[&str]) -> SystemManager {
-    let mut sm = SystemManager::new("node".into(), 0.0);
+    // Started a while ago: past the adoption period, commands are not held.
+    let mut sm = SystemManager::new("node".into(), -ADOPT_S);
     for id in ids {
         assert_eq!(sm.handle(0.0, Event::RobotAlive { id: (*id).into() }), vec![Command::FetchInfo { id: (*id).into() }]);
         assert!(sm.handle(0.0, Event::RobotRegistered(info(id))).is_empty());
+        // Its first telemetry: it runs no plan.
+        let mut t = telemetry(id, 1, Behaviour::Hold);
+        t.pose = Pose::default();
+        assert!(sm.handle(0.0, Event::Telemetry(Box::new(t))).is_empty());
     }
     sm
 }
@@ -133,12 +138,61 @@ fn operator_queries_answer_json() {
     assert!(e.contains("unknown robot"));
     let v = reply(sm.handle(5.0, Event::Operator { req: Req::Query(3), request: Request::Status })).expect("status");
     assert_eq!(v["robots_total"], 1);
-    assert_eq!(v["uptime_s"], 5.0);
+    assert_eq!(v["uptime_s"], 5.0 + ADOPT_S);
+}
+
+#[test]
+fn commands_wait_while_a_fresh_manager_learns_the_fleet() {
+    let mut sm = SystemManager::new("n".into(), 0.0);
+    for id in ["r1", "r2"] {
+        sm.handle(0.0, Event::RobotAlive { id: id.into() });
+        sm.handle(0.0, Event::RobotRegistered(info(id)));
+    }
+    sm.handle(0.0, Event::HostAlive { node: "central".into() });
+    let create = Request::Create(decode(r#"{"name": "m", "recipe": "patrol", "count": 1}"#));
+    assert!(sm.handle(0.5, Event::Operator { req: Req::Query(1), request: create }).is_empty(), "held");
+    // A head reports it runs r1 (central restarted): r1 is not idle any more.
+    let mut v = MissionViewBuilder::running("p", "central", &["r1"]);
+    v.lost = vec!["r2".into()];
+    let joined = sm.handle(1.0, Event::MissionStatus(Box::new(v)));
+    // r2 is alive: p's head is ordered to take it back.
+    assert!(matches!(joined.as_slice(), [Command::Ctl { mission, ctl: MissionCtl::Joined { member }, .. }] if mission == "p" && member.spec.id == "r2"), "{joined:?}");
+    assert!(reply(sm.handle(1.5, Event::Operator { req: Req::Query(2), request: Request::Robots })).is_ok(), "queries are answered at once");
+    let cmds = sm.handle(2.1, Event::Tick);
+    // r2 keeps its place in p though lost to p's head: nobody is idle, the create fails.
+    let e = cmds.iter().find_map(|c| match c {
+        Command::Reply { req: Req::Query(1), result } => Some(result.clone()),
+        _ => None,
+    });
+    assert!(e.expect("answered after the adoption period").expect_err("no idle robot").contains("0 idle robots"));
+    assert_eq!(sm.assignment().get("r2").map(String::as_str), Some("p"));
+}
+
+/// Mission reports as heads publish them.
+struct MissionViewBuilder;
+
+impl MissionViewBuilder {
+    fn running(name: &str, host: &str, robots: &[&str]) -> MissionView {
+        MissionView {
+            name: name.into(),
+            recipe: "patrol".into(),
+            planner: "patrol".into(),
+            status: MissionStatus::Running,
+            robots: robots.iter().map(|s| s.to_string()).collect(),
+            lost: vec![],
+            teams: Default::default(),
+            manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![] },
+            metrics: MissionMetrics::default(),
+            summary: None,
+            params: Default::default(),
+            error: None,
+            plans: None,
+        }
+    }
 }
 
 mod missions {
     use super::*;
-    use mrmm_proto::{ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView};
 
     const WAYPOINTS: &str = r#""params": {"waypoints": [[0,0],[20,0],[20,20],[0,20]]}"#;
 
@@ -173,6 +227,7 @@ mod missions {
                         planner: start.spec.planner.clone(),
                         status: MissionStatus::Running,
                         robots,
+                        lost: vec![],
                         teams: Default::default(),
                         manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![] },
                         metrics: MissionMetrics::default(),
@@ -271,10 +326,30 @@ mod missions {
         assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
         let v = reply(sm.handle(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
         assert_eq!(v[0]["status"], "planning");
-        let r = sm.handle(3.0, Event::MissionStarted { mission: "p".into(), result: Err("no planner service".into()) });
+        let r = sm.handle(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure { retryable: false, error: "no planner service".into() }) });
         assert_eq!(reply(r).expect_err("failed"), "no planner service");
         assert_eq!(mission_of(&sm, "r1"), None);
         assert_eq!(sm.status(3.0).missions, 0);
+    }
+
+    #[test]
+    fn a_start_nobody_answered_is_ended_before_its_robots_go_elsewhere() {
+        let mut sm = with_host(&["r1"]);
+        let cmds = sm.handle(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
+        assert!(matches!(cmds.as_slice(), [Command::StartMission { .. }]));
+        let no_answer = Failure { retryable: true, error: "no answer".into() };
+        let cmds = sm.handle(26.0, Event::MissionStarted { mission: "p".into(), result: Err(no_answer) });
+        let end = cmds.iter().find_map(|c| match c {
+            Command::Ctl { id, mission, ctl: MissionCtl::Terminate } if mission == "p" => Some(*id),
+            _ => None,
+        });
+        let end = end.expect("the mission is ended in case it started");
+        assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Err(e), .. } if e.contains("did not start"))));
+        // r1 is free, but a new mission takes it only once p's end is acknowledged.
+        let cmds = sm.handle(27.0, Event::Operator { req: Req::Query(2), request: Request::Create(decode(r#"{"name": "q", "recipe": "patrol", "count": 1}"#)) });
+        assert!(cmds.is_empty(), "{cmds:?}");
+        let cmds = sm.handle(28.0, Event::CtlDone { id: end, result: Ok(()) });
+        assert!(matches!(cmds.as_slice(), [Command::StartMission { start, .. }] if start.spec.name == "q"), "{cmds:?}");
     }
 
     #[test]
@@ -430,6 +505,7 @@ mod missions {
             planner: "patrol".into(),
             status: MissionStatus::Running,
             robots: robots.iter().map(|s| s.to_string()).collect(),
+            lost: vec![],
             teams: Default::default(),
             manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![] },
             metrics: MissionMetrics::default(),

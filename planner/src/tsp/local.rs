@@ -329,7 +329,7 @@ pub fn optimise(inst: &Instance, start: Vec<usize>, budget: &Budget) -> (Vec<usi
     let mut best_t = s.t.clone();
     let mut best_len = s.len;
     while stats.kicks < budget.max_kicks {
-        if stats.kicks % STOP_EVERY == 0 {
+        if stats.kicks.is_multiple_of(STOP_EVERY) {
             if let Some(stop) = budget.stop {
                 if stop() {
                     break;

@@ -1,0 +1,154 @@
+//! The invariants, each checked in one place, from what the machines expose after every event.
+//!
+//! 1. **One head per mission epoch**: no two nodes lead a mission in the same chain epoch.
+//! 2. **No acknowledged update lost**: a node that starts leading a mission holds a state at
+//!    least as new (by revision) as every state a head acknowledged a control for, and every
+//!    state committed; two committed states of one revision are the same.
+//! 3. **Every robot in at most one mission**: among missions not terminated, no robot is a member
+//!    of the newest committed state of two of them.
+//! 4. **No barrier released early**: when a robot passes a barrier, every other member of its
+//!    plan has published its arrival there (or further), or this robot lost its liveliness.
+//! 5. **Eventually** (checked at the end, after the quiet period): one head per mission whose
+//!    chain kept a majority, and every live member of a running mission executes the mission's
+//!    current epoch.
+
+use std::collections::hash_map::DefaultHasher;
+use std::collections::{BTreeMap, BTreeSet};
+use std::hash::{Hash, Hasher};
+
+use mrmm_manager::host::HostCore;
+use mrmm_peer::executor::Executor;
+use mrmm_proto::chain::Version;
+use mrmm_proto::{MissionSnapshot, SyncArrival};
+
+fn digest(s: &MissionSnapshot) -> u64 {
+    let mut h = DefaultHasher::new();
+    serde_json::to_string(s).unwrap_or_default().hash(&mut h);
+    h.finish()
+}
+
+/// What the invariants remember.
+#[derive(Debug, Default)]
+pub struct Invariants {
+    /// (mission, chain epoch) → the node that led it.
+    heads: BTreeMap<(String, u64), String>,
+    /// (node, incarnation, mission) leading at the last look.
+    leading: BTreeSet<(usize, u32, String)>,
+    /// (mission, revision) → digest of the committed state.
+    committed: BTreeMap<(String, u64), u64>,
+    newest_committed: BTreeMap<String, u64>,
+    /// Highest revision a control was acknowledged at, per mission.
+    acked: BTreeMap<String, u64>,
+    /// The newest committed state's members per mission, by chain version.
+    teams: BTreeMap<String, (Version, Vec<String>)>,
+    /// Furthest (round, point) each robot published, per (mission, epoch, robot).
+    arrivals: BTreeMap<(String, u64, String), (u32, u32)>,
+    pub leads: u32,
+}
+
+impl Invariants {
+    /// Looks at one node's host after an event.
+    pub fn host(&mut self, node: usize, inc: u32, core: &HostCore) -> Result<(), String> {
+        let name = core.node();
+        let mut now_leading = BTreeSet::new();
+        for (mission, _) in core.heads() {
+            let Some(r) = core.replica(mission) else { continue };
+            let (Some(config), Some(state)) = (r.config(), r.state()) else { continue };
+            if r.is_head() {
+                let key = (mission.clone(), config.epoch);
+                match self.heads.get(&key) {
+                    Some(other) if other != name => {
+                        return Err(format!("two heads of {mission} in chain epoch {}: {other} and {name}", config.epoch));
+                    }
+                    _ => {
+                        self.heads.insert(key, name.to_string());
+                    }
+                }
+            }
+            now_leading.insert((node, inc, mission.clone()));
+            if !self.leading.contains(&(node, inc, mission.clone())) {
+                self.leads += 1;
+                let need = self.acked.get(mission).copied().unwrap_or(0).max(self.newest_committed.get(mission).copied().unwrap_or(0));
+                if state.revision < need {
+                    return Err(format!("{name} leads {mission} from revision {} but revision {need} was acknowledged or committed", state.revision));
+                }
+                if let Some(d) = self.committed.get(&(mission.clone(), state.revision)) {
+                    if *d != digest(state) {
+                        return Err(format!("{name} leads {mission} from a revision {} that differs from the committed one", state.revision));
+                    }
+                }
+            }
+            if r.committed().is_some_and(|c| c == r.version().1) {
+                let d = digest(state);
+                match self.committed.get(&(mission.clone(), state.revision)) {
+                    Some(other) if *other != d => return Err(format!("two different states of {mission} committed at revision {}", state.revision)),
+                    _ => {
+                        self.committed.insert((mission.clone(), state.revision), d);
+                    }
+                }
+                let n = self.newest_committed.entry(mission.clone()).or_insert(0);
+                *n = (*n).max(state.revision);
+                let members: Vec<String> = state.members.iter().map(|m| m.spec.id.clone()).collect();
+                let v = r.version();
+                if self.teams.get(mission).is_none_or(|(old, _)| *old <= v) {
+                    self.teams.insert(mission.clone(), (v, members));
+                }
+            }
+        }
+        self.leading.retain(|(n, i, _)| *n != node || *i != inc);
+        self.leading.extend(now_leading);
+        Ok(())
+    }
+
+    /// A node's process is gone: it leads nothing any more.
+    pub fn gone(&mut self, node: usize) {
+        self.leading.retain(|(n, _, _)| *n != node);
+    }
+
+    /// A head acknowledged a control query of `mission` at `revision`.
+    pub fn acked(&mut self, mission: &str, revision: u64) {
+        let a = self.acked.entry(mission.to_string()).or_insert(0);
+        *a = (*a).max(revision);
+    }
+
+    /// Missions no node replicates any more are over.
+    pub fn forget_missions(&mut self, alive: &BTreeSet<String>) {
+        self.teams.retain(|m, _| alive.contains(m));
+    }
+
+    /// Invariant 3: robots that are members of two missions, as (robot, mission, mission).
+    pub fn in_two_missions(&self) -> Vec<(String, String, String)> {
+        let mut seen: BTreeMap<&String, &String> = BTreeMap::new();
+        let mut out = Vec::new();
+        for (mission, (_, members)) in &self.teams {
+            for r in members {
+                if let Some(other) = seen.insert(r, mission) {
+                    out.push((r.clone(), other.clone(), mission.clone()));
+                }
+            }
+        }
+        out
+    }
+
+    /// A robot published its arrival at a barrier of `mission`.
+    pub fn arrival(&mut self, mission: &str, a: &SyncArrival) {
+        let e = self.arrivals.entry((mission.to_string(), a.epoch, a.robot.clone())).or_insert((a.round, a.point));
+        *e = (*e).max((a.round, a.point));
+    }
+
+    /// Invariant 4: `robot` just passed barriers up to its own furthest arrival.
+    pub fn barrier_passed(&self, robot: &str, e: &Executor) -> Result<(), String> {
+        let Some(mine) = e.barrier().mine() else { return Ok(()) };
+        let a = &e.assignment;
+        for m in a.members.iter().filter(|m| *m != robot) {
+            let there = self.arrivals.get(&(a.mission.clone(), a.epoch, m.clone())).is_some_and(|f| *f >= mine);
+            if !there && !e.barrier().is_gone(m) {
+                return Err(format!(
+                    "{robot} passed barrier (round {}, point {}) of {} epoch {} before {m} arrived there",
+                    mine.0, mine.1, a.mission, a.epoch
+                ));
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,84 @@
+//! The simulated operator: what it asks for, and what it was told.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use mrmm_manager::system::Request;
+use mrmm_proto::{MissionCreate, MissionTerminate, RobotMove};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use serde_json::json;
+
+/// Each create asks for a new mission name: a restarted central forgets missions (its memory is
+/// not durable yet), so a name created before may still be in use somewhere it cannot see, and
+/// the invariants key missions by name.
+fn fresh(n: u64) -> String {
+    format!("m{n}")
+}
+
+/// A cheap recipe parameter set, so thousands of seeds plan quickly.
+pub fn cheap_params(patrol: bool) -> BTreeMap<String, serde_json::Value> {
+    if patrol {
+        [("waypoints".to_string(), json!([[0, 0], [8, 0], [8, 8], [0, 8]])), ("max_kicks".to_string(), json!(20))].into()
+    } else {
+        [
+            ("region".to_string(), json!([[0, -20], [10, -20], [10, -10], [0, -10]])),
+            ("samples".to_string(), json!(120)),
+            ("lloyd_iterations".to_string(), json!(2)),
+            ("minimax_iterations".to_string(), json!(2)),
+        ]
+        .into()
+    }
+}
+
+/// The operator of a run with central: random commands, and what came back.
+#[derive(Debug, Default)]
+pub struct Operator {
+    pub next_req: u64,
+    /// Requests sent and not yet answered: id → what.
+    pub pending: BTreeMap<u64, Request>,
+    /// Missions the operator terminated (answered ok).
+    pub terminated: BTreeSet<String>,
+    pub ok: u32,
+    /// Mission names asked for so far.
+    pub names: Vec<String>,
+}
+
+impl Operator {
+    /// A random command over `robots`.
+    pub fn command(&mut self, rng: &mut ChaCha8Rng, robots: &[String]) -> (u64, Request) {
+        let known = self.names.get(rng.gen_range(0..self.names.len().max(1))).cloned();
+        let robot = robots[rng.gen_range(0..robots.len())].clone();
+        let request = match (rng.gen_range(0..10), known) {
+            (0..=3, _) | (_, None) => {
+                let name = fresh(self.names.len() as u64 + 1);
+                self.names.push(name.clone());
+                let patrol = rng.gen_bool(0.6);
+                Request::Create(MissionCreate {
+                    name,
+                    recipe: if patrol { "patrol" } else { "coverage" }.into(),
+                    count: Some(rng.gen_range(1..=2)),
+                    params: cheap_params(patrol),
+                    replicas: Some(rng.gen_range(1..=2)),
+                    ..MissionCreate::default()
+                })
+            }
+            (4..=6, Some(name)) => Request::Move(RobotMove { robot, to: Some(name) }),
+            (7, _) => Request::Move(RobotMove { robot, to: None }),
+            (_, Some(name)) => Request::Terminate(MissionTerminate { name }),
+        };
+        self.next_req += 1;
+        self.pending.insert(self.next_req, request.clone());
+        (self.next_req, request)
+    }
+
+    /// The answer to request `req`.
+    pub fn answered(&mut self, req: u64, ok: bool) {
+        let Some(request) = self.pending.remove(&req) else { return };
+        if ok {
+            self.ok += 1;
+            if let Request::Terminate(t) = request {
+                self.terminated.insert(t.name);
+            }
+        }
+    }
+}

@@ -1,0 +1,55 @@
+//! The harness every simulation test shares: many seeds on every core, or one seed replayed with
+//! its trace.
+
+use mrmm_sim::{run, run_many, Config};
+
+fn env_u64(name: &str) -> Option<u64> {
+    std::env::var(name).ok().and_then(|v| v.parse().ok())
+}
+
+/// Runs `MRMM_SIM_SEEDS` seeds (default `default`) from `MRMM_SIM_FIRST` (default 0), or replays
+/// `MRMM_SIM_SEED` with its trace; panics with the failing seed and how to replay it.
+pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
+    if let Some(seed) = env_u64("MRMM_SIM_SEED") {
+        let cfg = config(seed);
+        println!("{what} seed {seed}: {cfg:?}");
+        match run(cfg, true) {
+            Ok(r) => {
+                for line in &r.trace {
+                    println!("{line}");
+                }
+                println!("ok: {r:?}");
+            }
+            Err(v) => {
+                for line in &v.trace {
+                    println!("{line}");
+                }
+                panic!("{v}");
+            }
+        }
+        return;
+    }
+    let n = env_u64("MRMM_SIM_SEEDS").unwrap_or(default);
+    let first = env_u64("MRMM_SIM_FIRST").unwrap_or(0);
+    let started = std::time::Instant::now();
+    match run_many(first, n, config) {
+        Ok(reports) => {
+            let sum = |f: fn(&mrmm_sim::Report) -> u64| reports.iter().map(f).sum::<u64>();
+            println!(
+                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted)",
+                started.elapsed().as_secs_f64(),
+                sum(|r| r.events),
+                sum(|r| r.messages),
+                sum(|r| u64::from(r.crashes)),
+                sum(|r| u64::from(r.partitions)),
+                sum(|r| u64::from(r.suspicions)),
+                sum(|r| u64::from(r.leads)),
+                sum(|r| u64::from(r.acked)),
+                sum(|r| u64::from(r.commands_ok)),
+                sum(|r| u64::from(r.barriers)),
+                sum(|r| u64::from(r.unrecoverable)),
+            );
+        }
+        Err(v) => panic!("{what}: {v}; replay with MRMM_SIM_SEED={} cargo test -p mrmm-sim --test <this file> -- --nocapture", v.seed),
+    }
+}
