@@ -1,13 +1,13 @@
-//! Minimal reproduction of a Zenoh stall in partitions (README, known issue), with bare sessions:
+//! Minimal reproduction of a Zenoh stall in partitions (docs/zenoh.md), with bare sessions:
 //! a router publishes a timestamp every 50 ms; each peer prints, every second, the worst delay it
 //! saw. Run by `examples/zenoh_partition_stall.sh` (root: it makes two network namespaces joined by
 //! a veth pair, puts the router and one peer in A, N peers in B, cuts the link for 16 s).
 //!
-//! Seen on this machine (zenoh 1.10.2): one second after the cut, the router's publications to
-//! the peer on its own side stop and arrive 10.0–10.2 s late, in one burst. Without liveliness
-//! (`NOLIV=1`): the same. With one peer in B: the same. With gossip off on the peers
-//! (`NOGOSSIP=1`): 4 ms. With `OPEN_TIMEOUT=1000` (ms, on the peers): the same 10 s. With the
-//! peers gossiping to routers only (`GOSSIP_TARGET='["router"]'`): 1 ms.
+//! Seen on this machine (zenoh 1.10.2) with Zenoh's default TCP linger (10 s): one second after
+//! the cut, the router's publications to the peer on its own side stopped and arrived 10.0–10.2 s
+//! late, in one burst. The cause is the linger (docs/zenoh.md): closing the dead links blocked a
+//! Zenoh runtime thread in close(2). mrmm builds Zenoh with `TCP_LINGER_TIMEOUT=0`
+//! (`.cargo/config.toml`): 1–4 ms. `RLOG=zenoh=debug` on the script logs the router and the A peer.
 //!
 //! `zenoh_partition_stall router <listen>` | `zenoh_partition_stall peer <listen> <connect>`
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -20,6 +20,9 @@ fn now_ms() -> u64 {
 
 #[tokio::main(flavor = "multi_thread", worker_threads = 2)]
 async fn main() -> anyhow::Result<()> {
+    if std::env::var_os("RUST_LOG").is_some() {
+        tracing_subscriber::fmt().with_env_filter(tracing_subscriber::EnvFilter::from_default_env()).with_writer(std::io::stderr).init();
+    }
     let a: Vec<String> = std::env::args().skip(1).collect();
     let (mode, listen) = (a[0].as_str(), a[1].clone());
     if mode == "router" {

@@ -31,8 +31,10 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     // A peer attached to r1 only.
     let r1_ep = robots[0].field("listening").ok_or_else(|| anyhow::anyhow!("no endpoint for r1"))?;
     let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[r1_ep], 1000)?).await?;
-    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    // Ring channels: a full FIFO channel would block the session's receiving thread.
+    let ring = || zenoh::handlers::RingChannel::new(4096);
+    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string())).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("telemetry of all 3 robots through r1", Duration::from_secs(10), || async {
         let mut seen = BTreeSet::new();
         while let Ok(Some(s)) = telemetry.try_recv() {
@@ -44,9 +46,31 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     })
     .await?;
 
+    // Where each robot is before the kill: an arrival of each through the observer, and whatever
+    // is queued when central dies (arrivals published just after the kill count as "before":
+    // that only makes the check below stricter).
+    let mut before: BTreeMap<String, (u32, u32)> = BTreeMap::new();
+    let record = |m: &mut BTreeMap<String, (u32, u32)>, s: zenoh::sample::Sample| {
+        if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
+            let e = m.entry(a.robot).or_insert((a.round, a.point));
+            *e = (*e).max((a.round, a.point));
+        }
+    };
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while before.len() < 3 {
+        let left = deadline.saturating_duration_since(Instant::now());
+        anyhow::ensure!(!left.is_zero(), "no arrival of every robot through r1 before the kill: {before:?}");
+        if let Ok(Ok(s)) = tokio::time::timeout(left, arrivals.recv_async()).await {
+            record(&mut before, s);
+        }
+    }
     central.kill();
     let killed = Instant::now();
-    // Every robot reaches at least two more barriers: each one released for the whole team.
+    while let Ok(Some(s)) = arrivals.try_recv() {
+        record(&mut before, s);
+    }
+    // Every robot reaches at least two barriers beyond where it was: each one released for the
+    // whole team after central died.
     let mut passed: BTreeMap<String, BTreeSet<(u32, u32)>> = BTreeMap::new();
     let deadline = Instant::now() + Duration::from_secs(30);
     while passed.len() < 3 || passed.values().any(|b| b.len() < 2) {
@@ -54,11 +78,14 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
         anyhow::ensure!(!left.is_zero(), "barriers stalled after central died: {passed:?}");
         let Ok(Ok(s)) = tokio::time::timeout(left, arrivals.recv_async()).await else { continue };
         if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-            passed.entry(a.robot).or_default().insert((a.round, a.point));
+            if before.get(&a.robot).is_some_and(|b| (a.round, a.point) > *b) {
+                passed.entry(a.robot).or_default().insert((a.round, a.point));
+            }
         }
     }
     println!("central SIGKILLed: every robot passed 2 more barriers within {:?}", killed.elapsed());
-    // Telemetry still flows from all three.
+    // Telemetry still flows from all three (published after the kill: the queue is dropped).
+    while telemetry.try_recv().ok().flatten().is_some() {}
     let mut seen = BTreeSet::new();
     while seen.len() < 3 {
         let s = tokio::time::timeout(Duration::from_secs(5), telemetry.recv_async()).await?.map_err(|e| anyhow::anyhow!("{e}"))?;

@@ -19,7 +19,6 @@
 //! | `mrmm/missions/<name>/view` | queryable of the mission's head | [`crate::MissionView`] with plans |
 //! | `mrmm/missions/<name>/marginal?add=±k` | queryable of the mission's head | [`crate::Marginal`] |
 //! | `mrmm/missions/<name>/status` | publication of the mission's head | [`crate::MissionView`] |
-//! | `mrmm/missions/<name>/replica/<node>` | liveliness token of a node holding the mission's state | — |
 //! | `mrmm/agent/advice` | queryable of the advising agent | `[`[`crate::Advice`]`]` |
 //! | `mrmm/agent/advice/live` | publication of the advising agent | [`crate::AdviceEvent`] |
 //! | `mrmm/system/status` | queryable on the system manager | [`crate::SystemStatus`] |
@@ -85,7 +84,6 @@ pub enum Key {
     MissionView(String),
     MissionMarginal(String),
     MissionStatus(String),
-    MissionReplica { mission: String, node: String },
     AgentAdvice,
     AgentAdviceLive,
     SystemStatus,
@@ -114,7 +112,6 @@ impl fmt::Display for Key {
             Key::MissionView(m) => write!(f, "mrmm/missions/{m}/view"),
             Key::MissionMarginal(m) => write!(f, "mrmm/missions/{m}/marginal"),
             Key::MissionStatus(m) => write!(f, "mrmm/missions/{m}/status"),
-            Key::MissionReplica { mission, node } => write!(f, "mrmm/missions/{mission}/replica/{node}"),
             Key::AgentAdvice => f.write_str("mrmm/agent/advice"),
             Key::AgentAdviceLive => f.write_str("mrmm/agent/advice/live"),
             Key::SystemStatus => f.write_str("mrmm/system/status"),
@@ -161,7 +158,6 @@ impl Key {
             ["mrmm", "missions", m, "view"] => Key::MissionView(id(m)?),
             ["mrmm", "missions", m, "marginal"] => Key::MissionMarginal(id(m)?),
             ["mrmm", "missions", m, "status"] => Key::MissionStatus(id(m)?),
-            ["mrmm", "missions", m, "replica", n] => Key::MissionReplica { mission: id(m)?, node: id(n)? },
             ["mrmm", "agent", "advice"] => Key::AgentAdvice,
             ["mrmm", "agent", "advice", "live"] => Key::AgentAdviceLive,
             ["mrmm", "system", "status"] => Key::SystemStatus,
@@ -204,8 +200,6 @@ pub enum Pattern {
     AllPlannersAlive,
     /// `mrmm/missions/*/status`
     AllMissionStatus,
-    /// `mrmm/missions/*/replica/*`
-    AllMissionReplicas,
     /// Every member token of a team: `mrmm/team/<team>/*/member/*`
     TeamMembers(String),
     /// Every barrier of a team: `mrmm/team/<team>/sync/**`
@@ -214,6 +208,8 @@ pub enum Pattern {
     AllTeamSync,
     /// Everything the system manager answers: `mrmm/system/**`
     SystemAll,
+    /// Everything of mrmm: `mrmm/**`
+    All,
 }
 
 impl fmt::Display for Pattern {
@@ -224,11 +220,11 @@ impl fmt::Display for Pattern {
             Pattern::AllHostsAlive => f.write_str("mrmm/hosts/*/alive"),
             Pattern::AllPlannersAlive => f.write_str("mrmm/planner/*/alive/*"),
             Pattern::AllMissionStatus => f.write_str("mrmm/missions/*/status"),
-            Pattern::AllMissionReplicas => f.write_str("mrmm/missions/*/replica/*"),
             Pattern::TeamMembers(team) => write!(f, "mrmm/team/{team}/*/member/*"),
             Pattern::TeamSync(team) => write!(f, "mrmm/team/{team}/sync/**"),
             Pattern::AllTeamSync => f.write_str("mrmm/team/*/sync/**"),
             Pattern::SystemAll => f.write_str("mrmm/system/**"),
+            Pattern::All => f.write_str("mrmm/**"),
         }
     }
 }
@@ -273,7 +269,6 @@ mod tests {
             Key::MissionView(s("m")),
             Key::MissionMarginal(s("m")),
             Key::MissionStatus(s("m")),
-            Key::MissionReplica { mission: s("m"), node: s("r2") },
             Key::AgentAdvice,
             Key::AgentAdviceLive,
             Key::SystemStatus,
@@ -313,8 +308,6 @@ mod tests {
         assert!(matches(Pattern::AllHostsAlive, Key::HostAlive(s("r1"))));
         assert!(matches(Pattern::AllPlannersAlive, Key::PlannerAlive { kind: s("patrol"), zid: s("ab") }));
         assert!(matches(Pattern::AllMissionStatus, Key::MissionStatus(s("p"))));
-        assert!(matches(Pattern::AllMissionReplicas, Key::MissionReplica { mission: s("p"), node: s("r1") }));
-        assert!(!matches(Pattern::AllMissionReplicas, Key::MissionStatus(s("p"))));
         assert!(matches(Pattern::TeamMembers(s("p")), Key::TeamMember { subteam: s("p/ground"), robot: s("r1") }));
         assert!(!matches(Pattern::TeamMembers(s("p")), Key::TeamMember { subteam: s("q/ground"), robot: s("r1") }));
         assert!(matches(Pattern::TeamSync(s("p")), Key::TeamSync { team: s("p"), point: 0, round: 0 }));

@@ -16,8 +16,6 @@ pub enum Token {
     Planner,
     /// `mrmm/team/<subteam>/member/<robot>`
     Member { subteam: String, robot: String },
-    /// `mrmm/missions/<mission>/replica/<node>`
-    Replica { mission: String, node: String },
 }
 
 /// A time-ordered queue of `E` (ties in insertion order).

@@ -62,8 +62,6 @@ struct Node {
     served: BTreeSet<String>,
     /// The robot's team: (team, subteam).
     team: Option<(String, String)>,
-    /// Missions this node's host holds a replica of (their tokens).
-    replicas: BTreeSet<String>,
 }
 
 /// What a query asks of its server.
@@ -171,15 +169,15 @@ impl World {
     pub fn new(cfg: Config, trace: bool) -> World {
         let mut nodes = Vec::new();
         if cfg.central {
-            nodes.push(Node { name: CENTRAL_HOST.into(), kind: Kind::Central, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None, replicas: BTreeSet::new() });
+            nodes.push(Node { name: CENTRAL_HOST.into(), kind: Kind::Central, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None });
         }
         for i in 1..=cfg.hosts {
-            nodes.push(Node { name: format!("h{i}"), kind: Kind::Host, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None, replicas: BTreeSet::new() });
+            nodes.push(Node { name: format!("h{i}"), kind: Kind::Host, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None });
         }
         for i in 1..=cfg.robots {
             let id = format!("r{i}");
             let c = robot_cfg(&id, i as f64 * 2.0, -3.0);
-            nodes.push(Node { name: id, kind: Kind::Robot, central: None, host: None, robot: None, cfg: Some(c), served: BTreeSet::new(), team: None, replicas: BTreeSet::new() });
+            nodes.push(Node { name: id, kind: Kind::Robot, central: None, host: None, robot: None, cfg: Some(c), served: BTreeSet::new(), team: None });
         }
         let n = nodes.len();
         let mut w = World {
@@ -231,7 +229,6 @@ impl World {
         let n = &mut self.nodes[i];
         n.served.clear();
         n.team = None;
-        n.replicas.clear();
         match n.kind {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
@@ -449,7 +446,6 @@ impl World {
         n.robot = None;
         n.served.clear();
         n.team = None;
-        n.replicas.clear();
         self.inv.gone(i);
         self.liveliness(0.02);
     }
@@ -463,9 +459,6 @@ impl World {
             }
             if n.host.is_some() {
                 out.push((Token::Host(n.name.clone()), i));
-            }
-            for m in &n.replicas {
-                out.push((Token::Replica { mission: m.clone(), node: n.name.clone() }, i));
             }
             match n.kind {
                 Kind::Central => out.push((Token::Planner, i)),
@@ -485,10 +478,9 @@ impl World {
     fn liveliness(&mut self, delay: f64) {
         let tokens = self.tokens();
         let teams: Vec<Option<String>> = self.nodes.iter().map(|n| n.team.as_ref().map(|(t, _)| t.clone())).collect();
-        let kinds: Vec<(bool, bool, bool)> = self.nodes.iter().map(|n| (n.central.is_some() || n.host.is_some(), n.robot.is_some(), n.central.is_some())).collect();
+        let kinds: Vec<(bool, bool)> = self.nodes.iter().map(|n| (n.central.is_some() || n.host.is_some(), n.robot.is_some())).collect();
         let watches = |o: usize, t: &Token| match t {
             Token::Member { subteam, .. } => kinds[o].1 && teams[o].as_ref().is_some_and(|team| subteam.split('/').next() == Some(team.as_str())),
-            Token::Replica { .. } => kinds[o].2,
             _ => kinds[o].0,
         };
         for c in self.beliefs.update(self.now, delay, &self.links, &tokens, watches) {
@@ -499,7 +491,7 @@ impl World {
 
     /// A liveliness change reaches the machines of `node` that watch it.
     fn tell(&mut self, node: usize, token: &Token, up: bool) -> Result<(), String> {
-        if !matches!(token, Token::Member { .. } | Token::Replica { .. }) {
+        if !matches!(token, Token::Member { .. }) {
             let name = self.nodes[node].name.clone();
             self.log(|| format!("{name} sees {token:?} {}", if up { "up" } else { "gone" }));
         }
@@ -522,9 +514,6 @@ impl World {
                 Ok(())
             }
             Token::Member { robot, .. } => self.robot(node, if up { robot::Event::MemberAlive(robot.clone()) } else { robot::Event::MemberGone(robot.clone()) }),
-            Token::Replica { mission, node: holder } => {
-                self.central(node, central::Event::System(system::Event::Replica { mission: mission.clone(), node: holder.clone(), up }))
-            }
         }
     }
 
@@ -649,14 +638,6 @@ impl World {
             host::Command::SendPlan { mission, robot, assignment } => {
                 let epoch = assignment.epoch;
                 self.ask(Some(i), &robot.clone(), Payload::RobotCmd(RobotCommand::Plan(assignment)), Ctx::HostSendPlan { mission, robot, epoch });
-            }
-            host::Command::Replica { mission, on } => {
-                if on {
-                    self.nodes[i].replicas.insert(mission);
-                } else {
-                    self.nodes[i].replicas.remove(&mission);
-                }
-                self.liveliness(0.02);
             }
             host::Command::Status(view) => {
                 if let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) {

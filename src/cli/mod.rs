@@ -11,6 +11,7 @@ mod procs;
 mod robot;
 mod shutdown;
 mod table;
+mod tap;
 mod tour;
 mod viz;
 
@@ -46,13 +47,15 @@ enum Cmd {
     MissionHost(mission_host::Args),
     /// Live fleet view in Rerun: a viewer, a spawned viewer, or an .rrd file.
     Viz(viz::Args),
+    /// Print what is published on a key expression, as JSON lines.
+    Tap(tap::Args),
 }
 
 impl Cli {
     /// Log filter used when RUST_LOG is not set.
     pub fn default_log_filter(&self) -> &'static str {
         match self.command {
-            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Viz(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) => "warn",
+            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Viz(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) | Cmd::Tap(_) => "warn",
             _ => "info,zenoh=warn",
         }
     }
@@ -70,5 +73,6 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::PlannerService(a) => planner_service::run(a).await,
         Cmd::MissionHost(a) => mission_host::run(a).await,
         Cmd::Viz(a) => viz::run(a).await,
+        Cmd::Tap(a) => tap::run(a).await,
     }
 }

@@ -84,6 +84,11 @@ pub fn start(name: &str, args: &[&str], log: &Path, prefix: &str, timeout: Durat
 
 /// Like [`start`], with `mrmm` run through `wrapper` (e.g. `ip netns exec <ns>`).
 pub fn start_wrapped(wrapper: &[&str], name: &str, args: &[&str], log: &Path, prefix: &str, timeout: Duration) -> anyhow::Result<Proc> {
+    start_lines(wrapper, name, args, log, prefix, timeout).map(|(p, _)| p)
+}
+
+/// Like [`start_wrapped`], and returns the process's further stdout lines as they come.
+pub fn start_lines(wrapper: &[&str], name: &str, args: &[&str], log: &Path, prefix: &str, timeout: Duration) -> anyhow::Result<(Proc, mpsc::Receiver<String>)> {
     let log_file = std::fs::File::create(log)?;
     let (program, pre): (&str, Vec<&str>) = match wrapper.split_first() {
         Some((p, rest)) => (p, rest.iter().copied().chain([EXE]).collect()),
@@ -112,7 +117,7 @@ pub fn start_wrapped(wrapper: &[&str], name: &str, args: &[&str], log: &Path, pr
         match rx.recv_timeout(left) {
             Ok(line) if line.starts_with(prefix) => {
                 proc.ready = line;
-                return Ok(proc);
+                return Ok((proc, rx));
             }
             Ok(_) => continue,
             Err(_) => {

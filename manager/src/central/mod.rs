@@ -50,7 +50,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let zid = session.zid().to_string();
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
     let mut held = Vec::new();
-    for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive, Pattern::AllMissionReplicas] {
+    for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
         let t = tx.clone();
         held.push(session.liveliness().declare_subscriber(pattern.to_string()).history(true).callback(move |s| {
             let _ = t.send(Input::Sample(s));
@@ -120,7 +120,6 @@ fn decode(s: &Sample) -> Option<system::Event> {
     match Key::parse(key) {
         Some(Key::RobotAlive(id)) => Some(if up { system::Event::RobotAlive { id } } else { system::Event::RobotGone { id } }),
         Some(Key::HostAlive(node)) => Some(if up { system::Event::HostAlive { node } } else { system::Event::HostGone { node } }),
-        Some(Key::MissionReplica { mission, node }) => Some(system::Event::Replica { mission, node, up }),
         Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
             Ok(t) if t.id == id => Some(system::Event::Telemetry(Box::new(t))),
             Ok(t) => {

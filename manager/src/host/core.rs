@@ -66,10 +66,6 @@ pub enum Command {
     SendPlan { mission: String, robot: String, assignment: Box<PlanAssignment> },
     /// Publish the mission's status on `mrmm/missions/<name>/status`.
     Status(Box<MissionView>),
-    /// This node holds (`on`) or no longer holds a replica of `mission`: declare or undeclare
-    /// its token `mrmm/missions/<mission>/replica/<node>`, so a restarted central knows the
-    /// mission exists even while it has no head.
-    Replica { mission: String, on: bool },
 }
 
 /// The mission host of one node.
@@ -81,8 +77,6 @@ pub struct HostCore {
     robots: BTreeSet<String>,
     /// Planner services alive: (kind, zid).
     planners: BTreeSet<(String, String)>,
-    /// Missions whose replica token is declared.
-    declared: BTreeSet<String>,
 }
 
 fn json<T: serde::Serialize>(v: &T) -> Result<Value, String> {
@@ -98,7 +92,6 @@ impl HostCore {
             heads: BTreeMap::new(),
             robots: BTreeSet::new(),
             planners: BTreeSet::new(),
-            declared: BTreeSet::new(),
         }
     }
 
@@ -120,19 +113,6 @@ impl HostCore {
 
     /// Handles one event at `now` (seconds).
     pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
-        let mut out = self.event(now, ev);
-        let held: BTreeSet<String> = self.registry.names().cloned().collect();
-        for m in held.difference(&self.declared) {
-            out.push(Command::Replica { mission: m.clone(), on: true });
-        }
-        for m in self.declared.difference(&held) {
-            out.push(Command::Replica { mission: m.clone(), on: false });
-        }
-        self.declared = held;
-        out
-    }
-
-    fn event(&mut self, now: f64, ev: Event) -> Vec<Command> {
         let mut out = Vec::new();
         match ev {
             Event::Tick => {

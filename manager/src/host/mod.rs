@@ -89,7 +89,7 @@ pub async fn serve_with(session: Session, node: String, params: Params, shutdown
     tracing::info!(%node, "mission host up");
     let t0 = Instant::now();
     let mut core = HostCore::new(&node, params, 0.0);
-    let mut io = Io { session: session.clone(), tx, queries: HashMap::new(), next: 0, served: HashMap::new(), node: node.clone(), replicas: HashMap::new() };
+    let mut io = Io { session: session.clone(), tx, queries: HashMap::new(), next: 0, served: HashMap::new() };
     let mut status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -161,9 +161,13 @@ struct Io {
     tx: mpsc::UnboundedSender<Input>,
     queries: HashMap<u64, Query>,
     next: u64,
-    served: HashMap<String, Vec<Queryable<()>>>,
-    node: String,
-    replicas: HashMap<String, zenoh::liveliness::LivelinessToken>,
+    served: HashMap<String, Served>,
+}
+
+/// What this node declares for a mission it leads: its queryables and its status publisher.
+struct Served {
+    _queryables: Vec<Queryable<()>>,
+    status: Option<zenoh::pubsub::Publisher<'static>>,
 }
 
 impl Io {
@@ -234,7 +238,15 @@ impl Io {
                         Err(e) => tracing::warn!(%mission, "cannot serve {key}: {e}"),
                     }
                 }
-                self.served.insert(mission, qs);
+                let key = Key::MissionStatus(mission.clone());
+                let status = match self.session.declare_publisher(key).encoding(Encoding::APPLICATION_JSON).await {
+                    Ok(p) => Some(p),
+                    Err(e) => {
+                        tracing::warn!(%mission, "cannot declare the status publisher: {e}");
+                        None
+                    }
+                };
+                self.served.insert(mission, Served { _queryables: qs, status });
             }
             Command::Unserve { mission } => {
                 self.served.remove(&mission);
@@ -272,18 +284,16 @@ impl Io {
                     let _ = tx.send(Input::Event(Event::PlanDelivered { mission, robot, epoch, result }));
                 });
             }
-            Command::Status(view) => net::publish_json(&self.session, &Key::MissionStatus(view.name.clone()).to_string(), &view).await,
-            Command::Replica { mission, on: true } => {
-                let key = Key::MissionReplica { mission: mission.clone(), node: self.node.clone() };
-                match self.session.liveliness().declare_token(key).await {
-                    Ok(t) => {
-                        self.replicas.insert(mission, t);
+            Command::Status(view) => {
+                let Some(publisher) = self.served.get(&view.name).and_then(|s| s.status.as_ref()) else { return };
+                match proto::to_json(&view) {
+                    Ok(bytes) => {
+                        if let Err(e) = publisher.put(bytes).await {
+                            tracing::warn!(mission = %view.name, "status publication failed: {e}");
+                        }
                     }
-                    Err(e) => tracing::warn!(%mission, "cannot declare the replica token: {e}"),
+                    Err(e) => tracing::warn!(mission = %view.name, "cannot encode the status: {e}"),
                 }
-            }
-            Command::Replica { mission, on: false } => {
-                self.replicas.remove(&mission);
             }
         }
     }

@@ -57,12 +57,19 @@ impl SystemManager {
         if self.missions.contains_key(&c.name) {
             return Err(format!("mission {:?} already exists", c.name));
         }
-        if let Some(nodes) = self.replicated.get(&c.name).filter(|n| !n.is_empty() && !self.terminated.contains(&c.name)) {
-            let nodes: Vec<&str> = nodes.iter().map(String::as_str).collect();
+        // A mission this manager does not know (it restarted, and that mission's head is gone
+        // or has not reported) may still run on robots: its name is taken.
+        let running: Vec<&str> = self
+            .robots
+            .iter()
+            .filter(|(_, r)| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(c.name.as_str())))
+            .map(|(id, _)| id.as_str())
+            .collect();
+        if !running.is_empty() && !self.terminated.contains(&c.name) {
             return Err(format!(
-                "mission {:?} still exists on the mesh (its state is on {}) though no manager of it has reported: choose another name",
+                "mission {:?} still runs on robots {} though no manager of it has reported: choose another name",
                 c.name,
-                nodes.join(", ")
+                running.join(", ")
             ));
         }
         let host = c.host.clone().unwrap_or_else(|| proto::CENTRAL_HOST.to_string());

@@ -87,8 +87,6 @@ pub enum Event {
     HostAlive { node: String },
     /// A mission host's liveliness token disappeared.
     HostGone { node: String },
-    /// A node holds a replica of `mission` (its token appeared), or no longer does.
-    Replica { mission: String, node: String, up: bool },
     /// Periodic tick.
     Tick,
 }
@@ -172,8 +170,6 @@ pub struct SystemManager {
     ctls: Ctls,
     /// Commands held while the manager learns the fleet after starting.
     held: Vec<(Req, Request)>,
-    /// Nodes holding a replica of each mission, known or not.
-    replicated: BTreeMap<String, BTreeSet<String>>,
 }
 
 impl SystemManager {
@@ -193,7 +189,6 @@ impl SystemManager {
             released: BTreeMap::new(),
             ctls: Ctls::default(),
             held: Vec::new(),
-            replicated: BTreeMap::new(),
         }
     }
 
@@ -286,18 +281,6 @@ impl SystemManager {
             Event::HostAlive { node } => {
                 tracing::info!(%node, "mission host up");
                 self.hosts.insert(node);
-                vec![]
-            }
-            Event::Replica { mission, node, up } => {
-                let nodes = self.replicated.entry(mission.clone()).or_default();
-                if up {
-                    nodes.insert(node);
-                } else {
-                    nodes.remove(&node);
-                    if nodes.is_empty() {
-                        self.replicated.remove(&mission);
-                    }
-                }
                 vec![]
             }
             Event::HostGone { node } => {
