@@ -12,8 +12,13 @@ use mrmm_proto::{self as proto, MissionStatus, MissionView, RobotView};
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()> {
     let dir = Scratch::new("demo");
-    let (mut demo, ep) = common::start_demo(&dir, &["--robots", "6", "--duration", "60", "--listen", "tcp/127.0.0.1:0", "--time-scale", "4"])?;
-    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+    // The default: mutual TLS with a throw-away CA; the demo prints where its operator
+    // certificate is.
+    let (mut demo, ep, operator) = common::start_demo(&dir, &["--robots", "6", "--duration", "60", "--listen", "tls/127.0.0.1:0", "--time-scale", "4"])?;
+    anyhow::ensure!(ep.starts_with("tls/") && operator.is_some(), "the demo is secure by default: {ep} {operator:?}");
+    // Without a certificate there is no session with central.
+    assert!(Client::connect(std::slice::from_ref(&ep), Duration::from_millis(500)).await.is_err(), "a client without a certificate reached the secure demo");
+    let client = Client::connect_with(std::slice::from_ref(&ep), operator.clone(), Duration::from_secs(2)).await?;
     let views = eventually("6 robots in the demo", Duration::from_secs(20), || async {
         let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
         (v.len() == 6).then_some(v)
@@ -35,7 +40,8 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     .await?;
     client.close().await;
     // The live console shows the fleet, the missions and the advice.
-    let watch = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "watch", "--duration", "1.5"]).output()?;
+    let tool = demo.ready.split_whitespace().find_map(|w| w.strip_prefix("MRMM_TOOL_CONFIG=")).unwrap_or_default().to_string();
+    let watch = std::process::Command::new(common::EXE).env("MRMM_TOOL_CONFIG", &tool).args(["op", "watch", "--duration", "1.5"]).output()?;
     assert!(watch.status.success(), "{watch:?}");
     let screen = String::from_utf8_lossy(&watch.stdout);
     for want in ["mrmm watch", "STATUS", "patrol-1", "coverage-1", "MANAGER/EPOCH"] {
@@ -46,6 +52,6 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     let status = common::wait_exit(&mut demo, Duration::from_secs(15)).await?;
     assert!(status.success(), "demo exit status {status}");
     // Central is gone with it: a client can no longer reach the endpoint.
-    assert!(Client::connect(std::slice::from_ref(&ep), Duration::from_millis(500)).await.is_err());
+    assert!(Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_millis(500)).await.is_err());
     Ok(())
 }

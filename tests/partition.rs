@@ -70,7 +70,7 @@ impl Drop for Net {
 /// `mrmm op --json <what>` run in namespace `ns` against central.
 fn op<T: serde::de::DeserializeOwned>(ns: &str, central: &str, what: &[&str]) -> anyhow::Result<T> {
     let out = Command::new("ip")
-        .args(["netns", "exec", ns, common::EXE, "op", "--connect", central, "--json", "--timeout-ms", "2000"])
+        .args(["netns", "exec", ns, common::EXE, "op", "--connect", central, "--json", "--timeout-ms", "8000"])
         .args(what)
         .output()?;
     ensure!(out.status.success(), "op {what:?}: {}", String::from_utf8_lossy(&out.stderr).trim());

@@ -3,11 +3,13 @@
 //! default, or `mrmm planner-service`). Planning runs on the blocking pool.
 
 use mrmm_planner::recipe::{self, PlannerKind};
+use std::sync::Arc;
+
 use mrmm_proto::net;
-use mrmm_proto::{self as proto, Key, MissionPlan, PlanRequest};
+use mrmm_proto::{self as proto, Key, Mesh, MissionPlan, PlanRequest};
+use tokio::sync::Semaphore;
 use tokio_util::sync::CancellationToken;
 use zenoh::query::Query;
-use zenoh::Session;
 
 use crate::error::ManagerError;
 use crate::wire;
@@ -32,9 +34,18 @@ pub fn plan(kind: PlannerKind, req: &PlanRequest) -> Result<MissionPlan, String>
     Ok(wire::mission_plan(&planned))
 }
 
-/// Serves planning queries on `session` until `shutdown`.
-pub async fn serve(session: Session, shutdown: CancellationToken) -> Result<(), ManagerError> {
+/// Plans computed at once at most; a request beyond that (and a waiting line as long) is told
+/// the service is busy rather than queued without bound.
+fn capacity() -> usize {
+    std::thread::available_parallelism().map_or(2, |n| n.get()).max(1)
+}
+
+/// Serves planning queries on `mesh` until `shutdown`: only for nodes that host missions.
+pub async fn serve(mesh: Mesh, shutdown: CancellationToken) -> Result<(), ManagerError> {
+    let session = mesh.session().clone();
     let zid = session.zid().to_string();
+    let slots = Arc::new(Semaphore::new(2 * capacity()));
+    let running = Arc::new(Semaphore::new(capacity()));
     let mut queryables = Vec::new();
     let mut tokens = Vec::new();
     for kind in KINDS {
@@ -52,25 +63,39 @@ pub async fn serve(session: Session, shutdown: CancellationToken) -> Result<(), 
             q = coverage.recv_async() => (PlannerKind::Coverage, q),
         };
         let Ok(q) = q else { break };
-        tokio::spawn(answer(kind, q));
+        let Some(from) = mesh.sender_of_query("plan request", &q) else {
+            mesh.reply_error(&q, "refused: the request's seal is not this fleet's").await;
+            continue;
+        };
+        if !from.role.hosts_missions() {
+            mesh.refuse("ask for plans", &from);
+            mesh.reply_error(&q, &format!("refused: {from} may not ask for plans")).await;
+            continue;
+        }
+        let Ok(slot) = slots.clone().try_acquire_owned() else {
+            mesh.reply_error(&q, "planner service busy: try again").await;
+            continue;
+        };
+        tokio::spawn(answer(mesh.clone(), kind, q, slot, running.clone()));
     }
     drop(tokens);
     Ok(())
 }
 
-async fn answer(kind: PlannerKind, q: Query) {
+async fn answer(mesh: Mesh, kind: PlannerKind, q: Query, _slot: tokio::sync::OwnedSemaphorePermit, running: Arc<Semaphore>) {
     let req: PlanRequest = match proto::from_json("plan request", &net::query_payload(&q)) {
         Ok(r) => r,
         Err(e) => {
             tracing::warn!("dropped plan request: {e}");
-            return net::reply_error(&q, &e.to_string()).await;
+            return mesh.reply_error(&q, &e.to_string()).await;
         }
     };
+    let Ok(_run) = running.acquire_owned().await else { return };
     let started = std::time::Instant::now();
     let result = tokio::task::spawn_blocking(move || plan(kind, &req)).await.unwrap_or_else(|e| Err(format!("planner crashed: {e}")));
     tracing::info!(kind = kind.as_str(), ms = started.elapsed().as_millis() as u64, ok = result.is_ok(), "planned");
     match result {
-        Ok(p) => net::reply_json(&q, &p).await,
-        Err(e) => net::reply_error(&q, &e).await,
+        Ok(p) => mesh.reply_json(&q, &p).await,
+        Err(e) => mesh.reply_error(&q, &e).await,
     }
 }

@@ -3,8 +3,8 @@
 use std::path::Path;
 
 use mrmm_proto::config::{load_json5, parse_json5, positive};
-use mrmm_proto::net::{validate_endpoints, ZenohSection};
-use mrmm_proto::{validate_id, Pose};
+use mrmm_proto::net::{validate_endpoints_for, validate_max_message_size, ZenohSection};
+use mrmm_proto::{validate_id, Pose, SecuritySection};
 use serde::Deserialize;
 
 use crate::body::Limits;
@@ -32,6 +32,20 @@ pub struct RobotConfig {
     pub telemetry_hz: f64,
     #[serde(default)]
     pub zenoh: ZenohSection,
+    /// Certificates of this robot (`mrmm pki issue DIR --role robot --id ID`); without it the
+    /// robot runs insecure (plain TCP). Relative paths are relative to the config file.
+    #[serde(default)]
+    pub security: Option<SecuritySection>,
+}
+
+/// Makes the paths of a `security` section relative to the directory of the file it was read from.
+pub fn resolve_security_paths(section: &mut SecuritySection, config_file: &Path) {
+    let Some(dir) = config_file.parent() else { return };
+    for p in [&mut section.ca, &mut section.cert, &mut section.key] {
+        if p.is_relative() {
+            *p = dir.join(&*p);
+        }
+    }
 }
 
 /// Physical limits of the simulated body.
@@ -64,7 +78,10 @@ fn default_telemetry_hz() -> f64 {
 impl RobotConfig {
     /// Reads and validates a robot config file.
     pub fn load(path: &Path) -> Result<Self, PeerError> {
-        let cfg: RobotConfig = load_json5(path)?;
+        let mut cfg: RobotConfig = load_json5(path)?;
+        if let Some(sec) = cfg.security.as_mut() {
+            resolve_security_paths(sec, path);
+        }
         cfg.validate().map_err(|e| PeerError::Config(format!("{}: {e}", path.display())))?;
         Ok(cfg)
     }
@@ -96,8 +113,16 @@ impl RobotConfig {
         }
         positive("time_scale", self.time_scale, 1e3)?;
         positive("telemetry_hz", self.telemetry_hz, 100.0)?;
-        validate_endpoints("zenoh.listen", &self.zenoh.listen)?;
-        validate_endpoints("zenoh.connect", &self.zenoh.connect)?;
+        let secure = self.security.is_some();
+        validate_endpoints_for("zenoh.listen", &self.zenoh.listen, secure)?;
+        validate_endpoints_for("zenoh.connect", &self.zenoh.connect, secure)?;
+        validate_max_message_size("zenoh.max_message_size", self.zenoh.max_message_size)?;
+        if let Some(sec) = &self.security {
+            sec.validate("security")?;
+            if !sec.operators.is_empty() {
+                return Err("security.operators: only central's config lists operators".into());
+            }
+        }
         if self.zenoh.lease_ms < 100 || self.zenoh.lease_ms > 60_000 {
             return Err(format!("zenoh.lease_ms: must be 100..=60000 (got {})", self.zenoh.lease_ms));
         }

@@ -238,6 +238,7 @@ mod tests {
             subteam: "m/ground".into(),
             members: members.iter().map(|s| s.to_string()).collect(),
             plan: RobotPlan { robot: "a".into(), robot_type: "ground".into(), slot: 0, steps },
+            managers: vec![],
         })
     }
 

@@ -2,7 +2,7 @@
 //! I/O: [`Robot::handle`] takes the wall-clock time and an [`Event`] and returns the
 //! [`Command`]s the runtime (`runtime.rs`) or a simulation carries out.
 
-use mrmm_proto::{self as proto, Behaviour, CommandAck, PlanAssignment, RobotCommand, RobotInfo, Step, SyncArrival, Telemetry};
+use mrmm_proto::{self as proto, Behaviour, CommandAck, PlanAssignment, RobotCommand, RobotInfo, Role, Sender, Step, SyncArrival, Telemetry};
 
 use crate::body::Body;
 use crate::config::RobotConfig;
@@ -16,14 +16,17 @@ pub const MAX_PLAN_STEPS: usize = 100_000;
 pub enum Event {
     /// Time passed: the body moves and the plan advances.
     Tick,
-    /// A command arrived (query on `mrmm/robots/<id>/cmd`); answered with [`Command::Reply`].
-    Command(RobotCommand),
+    /// A command arrived (query on `mrmm/robots/<id>/cmd`) from a proven sender; answered with
+    /// [`Command::Reply`].
+    Command { cmd: RobotCommand, from: Sender },
     /// A teammate's barrier arrival.
     Heard(SyncArrival),
     /// A teammate's membership token appeared.
     MemberAlive(String),
     /// A teammate's membership token disappeared.
     MemberGone(String),
+    /// Central's liveliness appeared (`true`) or went (`false`).
+    CentralAlive(bool),
     /// Time to publish telemetry.
     TelemetryDue,
 }
@@ -33,6 +36,8 @@ pub enum Event {
 pub enum Command {
     /// Answer the command being handled.
     Reply(Result<CommandAck, String>),
+    /// Refuse the command being handled: its sender may not give it.
+    Refuse(String),
     /// Join a team: member token in `subteam`, subscriptions to `team`'s barriers and members
     /// (leaving any other team).
     JoinTeam { team: String, subteam: String },
@@ -55,12 +60,16 @@ pub struct Robot {
     /// Wall-clock time of the last tick.
     last_tick: Option<f64>,
     exec: Option<Executor>,
+    /// The mission the system manager admitted this robot to: (mission, managers, members).
+    admitted: Option<(String, Vec<String>, Vec<String>)>,
+    /// Whether central (which admits robots to missions) is reachable.
+    central_up: bool,
 }
 
 impl Robot {
     pub fn new(cfg: RobotConfig) -> Self {
         let body = Body::new(cfg.start_pose(), cfg.limits());
-        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None }
+        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: None, central_up: false }
     }
 
     pub fn id(&self) -> &str {
@@ -85,6 +94,28 @@ impl Robot {
         self.exec.as_ref()
     }
 
+    /// The missions this robot is in (by its plan) or was admitted to (by central), each with
+    /// everyone it trusts for it (teammates of its plan; members and managers of its
+    /// admission): what its mission host needs to know whom to accept chain messages from.
+    pub fn team(&self) -> Vec<(String, Vec<String>)> {
+        let mut out: Vec<(String, Vec<String>)> = Vec::new();
+        if let Some(e) = &self.exec {
+            out.push((e.mission().to_string(), e.assignment.members.iter().chain(&e.assignment.managers).cloned().collect()));
+        }
+        if let Some((m, managers, members)) = &self.admitted {
+            let ids = managers.iter().chain(members).cloned();
+            match out.iter_mut().find(|(mission, _)| mission == m) {
+                Some((_, known)) => known.extend(ids),
+                None => out.push((m.clone(), ids.collect())),
+            }
+        }
+        for (_, ids) in &mut out {
+            ids.sort();
+            ids.dedup();
+        }
+        out
+    }
+
     /// The registration record (answer of `mrmm/robots/<id>/info`).
     pub fn info(&self, endpoints: Vec<String>) -> RobotInfo {
         RobotInfo {
@@ -101,8 +132,11 @@ impl Robot {
     pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
         match ev {
             Event::Tick => self.tick(now),
-            Event::Command(cmd) => {
+            Event::Command { cmd, from } => {
                 let mut out = Vec::new();
+                if let Err(e) = self.entitled(&cmd, &from) {
+                    return vec![Command::Refuse(e)];
+                }
                 match self.command(&cmd) {
                     Ok(change) => {
                         out.extend(change);
@@ -117,6 +151,10 @@ impl Robot {
             Event::Heard(a) => self.plan_event(executor::Event::Heard(a)),
             Event::MemberAlive(id) => self.plan_event(executor::Event::MemberAlive(id)),
             Event::MemberGone(id) => self.plan_event(executor::Event::MemberGone(id)),
+            Event::CentralAlive(up) => {
+                self.central_up = up;
+                vec![]
+            }
             Event::TelemetryDue => vec![Command::Telemetry(self.telemetry())],
         }
     }
@@ -133,6 +171,47 @@ impl Robot {
                 self.carry_out(out)
             }
             None => vec![],
+        }
+    }
+
+    /// Whether `from` may give this robot `cmd`: direct orders and admissions come from central
+    /// only; plans from central, mission hosts, or a robot of this robot's mission (a teammate in
+    /// its current plan of that mission, or a manager or member of the admission central gave it).
+    fn entitled(&self, cmd: &RobotCommand, from: &Sender) -> Result<(), String> {
+        let refuse = |what: &str| Err(format!("{} {from} may not {what}", proto::REFUSED));
+        match cmd {
+            RobotCommand::Goto { .. } | RobotCommand::Hold | RobotCommand::Leave { .. } | RobotCommand::Admit { .. } => {
+                if from.role == Role::Central {
+                    Ok(())
+                } else {
+                    refuse("give this robot direct orders (only central does)")
+                }
+            }
+            RobotCommand::Plan(a) => match from.role {
+                Role::Central | Role::Host => Ok(()),
+                Role::Robot => {
+                    let teammate = self.exec.as_ref().is_some_and(|e| {
+                        e.mission() == a.mission && (e.assignment.members.contains(&from.id) || e.assignment.managers.contains(&from.id))
+                    });
+                    // Any robot of the admission may come to lead the mission (its chain is made of
+                    // its members).
+                    let admitted = self.admitted.as_ref().is_some_and(|(m, managers, members)| *m == a.mission && (managers.contains(&from.id) || members.contains(&from.id)));
+                    // While central is unreachable nobody can admit this robot: an idle robot
+                    // (restarted, say) takes its mission's plan from the robot leading it, as the
+                    // paper's robots rejoin without central. A stranger with a fleet certificate
+                    // could do the same then; see docs/security.md.
+                    let unattended = !self.central_up && self.exec.is_none();
+                    if teammate || admitted || from.id == self.cfg.id || unattended {
+                        if unattended && !teammate && !admitted {
+                            tracing::info!(robot = %self.cfg.id, from = %from, mission = %a.mission, "central unreachable: taking a plan from a robot leading the mission");
+                        }
+                        Ok(())
+                    } else {
+                        refuse(&format!("plan mission {} for this robot (neither a teammate nor a manager it was admitted under)", a.mission))
+                    }
+                }
+                Role::Operator | Role::Planner => refuse("send plans"),
+            },
         }
     }
 
@@ -161,8 +240,12 @@ impl Robot {
                     if e.mission() == a.mission && e.epoch() > a.epoch {
                         return Err(format!("stale epoch {} for mission {} (running epoch {})", a.epoch, a.mission, e.epoch()));
                     }
-                    if e.assignment == **a {
-                        // The same plan again (a re-send, or a new head after a takeover): go on.
+                    if e.assignment.same_plan(a) {
+                        // The same plan again (a re-send, or a new head after a takeover): go on,
+                        // knowing who manages it now.
+                        if let Some(e) = self.exec.as_mut() {
+                            e.assignment.managers.clone_from(&a.managers);
+                        }
                         return Ok(None);
                     }
                 }
@@ -170,6 +253,16 @@ impl Robot {
                 self.body.hold();
                 change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone() });
                 self.exec = Some(Executor::new((**a).clone()));
+            }
+            RobotCommand::Admit { mission, managers, members } => {
+                proto::validate_id(mission).map_err(|e| e.to_string())?;
+                if managers.len() > proto::MAX_REPLICAS + 2 || managers.iter().any(|m| proto::validate_id(m).is_err()) {
+                    return Err("admit: bad manager list".into());
+                }
+                if members.len() > proto::MAX_MISSION_ROBOTS || members.iter().any(|m| proto::validate_id(m).is_err()) {
+                    return Err("admit: bad member list".into());
+                }
+                self.admitted = Some((mission.clone(), managers.clone(), members.clone()));
             }
             RobotCommand::Leave { mission, epoch } => {
                 let ours = self.exec.as_ref().is_some_and(|e| e.mission() == mission && e.epoch() <= *epoch);
@@ -275,14 +368,20 @@ mod tests {
             subteam: format!("{mission}/ground"),
             members: vec!["r1".into()],
             plan: RobotPlan { robot: "r1".into(), robot_type: "ground".into(), slot: 0, steps: vec![Step::Navigate { x: 4.0, y: 0.0, speed: None }, Step::Hold { seconds: None }] },
+            managers: vec![],
         }))
     }
 
     /// The reply and the team change of a command.
     fn cmd(r: &mut Robot, c: RobotCommand) -> (Result<CommandAck, String>, Option<Command>) {
-        let out = r.handle(0.0, Event::Command(c));
+        cmd_from(r, c, Sender::new(Role::Central, "central"))
+    }
+
+    fn cmd_from(r: &mut Robot, c: RobotCommand, from: Sender) -> (Result<CommandAck, String>, Option<Command>) {
+        let out = r.handle(0.0, Event::Command { cmd: c, from });
         let reply = out.iter().find_map(|c| match c {
             Command::Reply(r) => Some(r.clone()),
+            Command::Refuse(e) => Some(Err(e.clone())),
             _ => None,
         });
         let change = out.into_iter().find(|c| matches!(c, Command::JoinTeam { .. } | Command::LeaveTeam));
@@ -352,5 +451,48 @@ mod tests {
         let RobotCommand::Plan(mut a) = plan("m", 3) else { unreachable!() };
         a.plan.robot = "r2".into();
         assert!(cmd(&mut r, RobotCommand::Plan(a)).0.is_err());
+    }
+
+    #[test]
+    fn only_central_orders_and_only_managers_of_the_mission_plan() {
+        let mut r = Robot::new(cfg());
+        r.handle(0.0, Event::CentralAlive(true));
+        let rogue = Sender::new(Role::Robot, "r9");
+        assert!(cmd_from(&mut r, RobotCommand::Goto { x: 1.0, y: 1.0 }, rogue.clone()).0.unwrap_err().contains("robot:r9 may not"));
+        assert!(cmd_from(&mut r, RobotCommand::Hold, Sender::new(Role::Operator, "op")).0.is_err());
+        // A robot that is not a teammate cannot plan for an idle robot, nor for one in a mission.
+        assert!(cmd_from(&mut r, plan("m", u64::MAX), rogue.clone()).0.is_err());
+        let host = Sender::new(Role::Host, "h1");
+        assert!(cmd_from(&mut r, plan("m", 1), host).0.is_ok());
+        assert!(cmd_from(&mut r, plan("m", u64::MAX), rogue.clone()).0.is_err(), "a stranger's huge epoch is refused");
+        // A teammate may (it may have taken the mission over).
+        let RobotCommand::Plan(mut a) = plan("m", 2) else { unreachable!() };
+        a.members.push("r2".into());
+        assert!(cmd_from(&mut r, RobotCommand::Plan(a.clone()), Sender::new(Role::Host, "h1")).0.is_ok());
+        a.epoch = 3;
+        assert!(cmd_from(&mut r, RobotCommand::Plan(a), Sender::new(Role::Robot, "r2")).0.is_ok());
+        // Another mission's robot head needs an admission from central naming it.
+        let RobotCommand::Plan(b) = plan("n", 1) else { unreachable!() };
+        let r3 = Sender::new(Role::Robot, "r3");
+        assert!(cmd_from(&mut r, RobotCommand::Plan(b.clone()), r3.clone()).0.is_err());
+        let admit = RobotCommand::Admit { mission: "n".into(), managers: vec!["r3".into()], members: vec!["r1".into(), "r4".into()] };
+        assert!(cmd_from(&mut r, admit.clone(), rogue.clone()).0.is_err());
+        assert!(cmd(&mut r, admit).0.is_ok());
+        let ids = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(r.team(), vec![("m".into(), ids(&["r1", "r2"])), ("n".into(), ids(&["r1", "r3", "r4"]))], "its plan's team and its admission's");
+        assert!(cmd_from(&mut r, RobotCommand::Plan(b.clone()), rogue).0.is_err());
+        assert!(cmd_from(&mut r, RobotCommand::Plan(b), r3).0.is_ok());
+    }
+
+    #[test]
+    fn an_idle_robot_takes_a_robot_heads_plan_only_while_central_is_unreachable() {
+        let mut r = Robot::new(cfg());
+        r.handle(0.0, Event::CentralAlive(true));
+        let head = Sender::new(Role::Robot, "r2");
+        assert!(cmd_from(&mut r, plan("m", 3), head.clone()).0.is_err(), "central admits robots while it is up");
+        r.handle(0.0, Event::CentralAlive(false));
+        assert!(cmd_from(&mut r, plan("m", 3), head).0.is_ok(), "without central, a restarted robot rejoins");
+        // Busy in a mission, it stays deaf to strangers even then.
+        assert!(cmd_from(&mut r, plan("n", 9), Sender::new(Role::Robot, "r9")).0.is_err());
     }
 }

@@ -4,7 +4,7 @@
 use std::time::{Duration, Instant};
 
 use mrmm_proto::net::{self, Mode};
-use mrmm_proto::{self as proto, Key, Pattern, SyncArrival};
+use mrmm_proto::{self as proto, Key, Mesh, NodeNet, Pattern, Role, Sender, SyncArrival};
 use tokio::sync::oneshot;
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
@@ -56,14 +56,31 @@ impl TeamLink {
 /// Runs a robot peer until `shutdown` is cancelled. `ready` is told once the robot is registered
 /// on the network (queryables and liveliness token declared).
 pub async fn run(cfg: RobotConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), PeerError> {
-    let session = open(&cfg).await?;
-    run_on(session, cfg, shutdown, ready).await
+    let mesh = open(&cfg).await?;
+    run_on(mesh, cfg, shutdown, ready, None).await
 }
 
-/// Opens the robot's Zenoh session as its config says.
-pub async fn open(cfg: &RobotConfig) -> Result<Session, PeerError> {
+/// The missions the robot is in or admitted to, each with whom it trusts for it (what its
+/// mission host needs to know whom to take chain messages from).
+pub type LocalTeam = Vec<(String, Vec<String>)>;
+
+/// How the robot of `cfg` joins the mesh.
+pub fn node_net(cfg: &RobotConfig) -> NodeNet {
     let z = &cfg.zenoh;
-    Ok(net::open(net::zenoh_config(Mode::Peer, &z.listen, &z.connect, z.lease_ms)?).await?)
+    NodeNet {
+        mode: Mode::Peer,
+        listen: z.listen.clone(),
+        connect: z.connect.clone(),
+        lease_ms: z.lease_ms,
+        max_message_size: z.max_message_size,
+        security: cfg.security.clone(),
+        me: Some(Sender::new(Role::Robot, cfg.id.clone())),
+    }
+}
+
+/// Opens the robot's session as its config says (secure with a `security` section).
+pub async fn open(cfg: &RobotConfig) -> Result<Mesh, PeerError> {
+    Ok(Mesh::open(&node_net(cfg)).await?)
 }
 
 /// Refuses to start a second node under a name the mesh already knows alive: two robots (or two
@@ -78,8 +95,15 @@ pub async fn refuse_taken_name(session: &Session, key: &Key, what: &str, name: &
 }
 
 /// Runs a robot on an open session (shared with other services of the same process, such as
-/// a mission host).
-pub async fn run_on(session: Session, cfg: RobotConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), PeerError> {
+/// a mission host, told the robot's team on `team`).
+pub async fn run_on(
+    mesh: Mesh,
+    cfg: RobotConfig,
+    shutdown: CancellationToken,
+    ready: Option<oneshot::Sender<Ready>>,
+    team: Option<tokio::sync::watch::Sender<LocalTeam>>,
+) -> Result<(), PeerError> {
+    let session = mesh.session().clone();
     let id = cfg.id.clone();
     refuse_taken_name(&session, &Key::RobotAlive(id.clone()), "robot", &id).await?;
     let telemetry_hz = cfg.telemetry_hz;
@@ -100,12 +124,20 @@ pub async fn run_on(session: Session, cfg: RobotConfig, shutdown: CancellationTo
         let _ = tx.send(Ready { id: id.clone(), zid: session.zid().to_string(), endpoints: endpoints.clone() });
     }
 
+    // Central's liveliness: while it is gone, nobody admits this robot to missions.
+    let central = session
+        .liveliness()
+        .declare_subscriber(Key::HostAlive(proto::CENTRAL_HOST.to_string()).to_string())
+        .history(true)
+        .await
+        .map_err(PeerError::zenoh)?;
     let mut physics = tokio::time::interval(PHYSICS_PERIOD);
     physics.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut telemetry = tokio::time::interval(Duration::from_secs_f64(1.0 / telemetry_hz));
     telemetry.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let t0 = Instant::now();
-    let mut io = Io { session: session.clone(), id: id.clone(), team: None, publisher: telemetry_pub };
+    let telemetry_key = Key::RobotTelemetry(id.clone()).to_string();
+    let mut io = Io { mesh: mesh.clone(), id: id.clone(), team: None, publisher: telemetry_pub, telemetry_key };
 
     loop {
         let (event, query): (Event, Option<Query>) = tokio::select! {
@@ -114,26 +146,45 @@ pub async fn run_on(session: Session, cfg: RobotConfig, shutdown: CancellationTo
             _ = telemetry.tick() => (Event::TelemetryDue, None),
             q = info_q.recv_async() => {
                 let Ok(q) = q else { break };
-                net::reply_json(&q, &robot.info(endpoints.clone())).await;
+                mesh.reply_json(&q, &robot.info(endpoints.clone())).await;
                 continue;
             }
             q = cmd_q.recv_async() => {
                 let Ok(q) = q else { break };
+                let from = match mesh.try_sender_of_query(&q) {
+                    Ok(from) => from,
+                    Err(r) => {
+                        mesh.verifier().refused.record("robot command", &r);
+                        mesh.reply_error(&q, &format!("refused: {r}")).await;
+                        continue;
+                    }
+                };
                 match proto::from_json("robot command", &net::query_payload(&q)) {
-                    Ok(cmd) => (Event::Command(cmd), Some(q)),
+                    Ok(cmd) => (Event::Command { cmd, from }, Some(q)),
                     Err(e) => {
                         tracing::warn!(robot = %id, "refused command: {e}");
-                        net::reply_error(&q, &e.to_string()).await;
+                        mesh.reply_error(&q, &e.to_string()).await;
                         continue;
                     }
                 }
             }
-            s = recv_team(&io.team, true) => match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
-                Ok(a) => (Event::Heard(a), None),
-                Err(e) => {
-                    tracing::warn!("dropped payload on {}: {e}", s.key_expr());
-                    continue;
+            s = recv_team(&io.team, true) => {
+                let Some(from) = mesh.sender_of("barrier arrival", &s) else { continue };
+                match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
+                    Ok(a) if from.is(Role::Robot, &a.robot) => (Event::Heard(a), None),
+                    Ok(a) => {
+                        mesh.refuse(&format!("publish the barrier arrival of {}", a.robot), &from);
+                        continue;
+                    }
+                    Err(e) => {
+                        tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+                        continue;
+                    }
                 }
+            },
+            s = central.recv_async() => match s {
+                Ok(s) => (Event::CentralAlive(s.kind() == SampleKind::Put), None),
+                Err(_) => break,
             },
             s = recv_team(&io.team, false) => match Key::parse(s.key_expr().as_str()) {
                 Some(Key::TeamMember { robot, .. }) if s.kind() == SampleKind::Put => (Event::MemberAlive(robot), None),
@@ -147,6 +198,16 @@ pub async fn run_on(session: Session, cfg: RobotConfig, shutdown: CancellationTo
         for c in robot.handle(t0.elapsed().as_secs_f64(), event) {
             io.execute(c, query.as_ref()).await;
         }
+        if let Some(tx) = &team {
+            let now: LocalTeam = robot.team();
+            tx.send_if_modified(|t| {
+                let changed = *t != now;
+                if changed {
+                    *t = now;
+                }
+                changed
+            });
+        }
     }
     tracing::info!(robot = %id, "shutting down");
     drop(io);
@@ -157,26 +218,36 @@ pub async fn run_on(session: Session, cfg: RobotConfig, shutdown: CancellationTo
 
 /// The I/O half: the session, the team subscriptions and the telemetry publisher.
 struct Io {
-    session: Session,
+    mesh: Mesh,
     id: String,
     team: Option<TeamLink>,
     publisher: zenoh::pubsub::Publisher<'static>,
+    telemetry_key: String,
 }
 
 impl Io {
     async fn execute(&mut self, c: Command, query: Option<&Query>) {
         match c {
             Command::Reply(result) => match (query, result) {
-                (Some(q), Ok(ack)) => net::reply_json(q, &ack).await,
+                (Some(q), Ok(ack)) => self.mesh.reply_json(q, &ack).await,
                 (Some(q), Err(e)) => {
                     tracing::warn!(robot = %self.id, "refused command: {e}");
-                    net::reply_error(q, &e).await;
+                    self.mesh.reply_error(q, &e).await;
                 }
                 (None, _) => {}
             },
+            Command::Refuse(e) => {
+                self.mesh.verifier().refused.record("robot command", &mrmm_proto::security::Refusal::NotEntitled {
+                    proven: query.and_then(|q| self.mesh.try_sender_of_query(q).ok()).unwrap_or_else(|| Sender::new(Role::Operator, "unknown")),
+                    what: e.clone(),
+                });
+                if let Some(q) = query {
+                    self.mesh.reply_error(q, &e).await;
+                }
+            }
             Command::JoinTeam { team, subteam } => {
                 self.team = None;
-                match TeamLink::join(&self.session, &self.id, &team, &subteam).await {
+                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam).await {
                     Ok(link) => self.team = Some(link),
                     Err(e) => tracing::warn!(robot = %self.id, "cannot join team {team}: {e}"),
                 }
@@ -185,11 +256,12 @@ impl Io {
             Command::Publish(a) => {
                 let Some(t) = &self.team else { return };
                 let key = Key::TeamSync { team: t.team.clone(), point: a.point, round: a.round }.to_string();
-                net::publish_json(&self.session, &key, &a).await;
+                self.mesh.publish_json(&key, &a).await;
             }
             Command::Telemetry(t) => match proto::encode_telemetry(&t) {
                 Ok(bytes) => {
-                    if let Err(e) = self.publisher.put(bytes).await {
+                    let seal = self.mesh.seal(&self.telemetry_key, &bytes);
+                    if let Err(e) = self.publisher.put(bytes).attachment(seal).await {
                         tracing::warn!("telemetry publication failed: {e}");
                     }
                 }

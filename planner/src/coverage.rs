@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::assign::{self, Costs};
 use crate::error::PlanError;
+use crate::limits;
 use crate::geom::Point;
 use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::region::Region;
@@ -73,6 +74,19 @@ pub struct CoveragePlan {
 
 /// Plans coverage of `params.region` by `robots`.
 pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePlan, PlanError> {
+    let vertices = params.region.outer.len() + params.region.holes.iter().map(Vec::len).sum::<usize>();
+    limits::at_most("region vertices", vertices, limits::MAX_REGION_VERTICES)?;
+    limits::at_most("region holes", params.region.holes.len(), limits::MAX_HOLES)?;
+    limits::at_most("robots", robots.len(), limits::MAX_ROBOTS)?;
+    for (what, v, max) in [
+        ("samples", params.samples as u64, limits::MAX_SAMPLES),
+        ("lloyd_iterations", params.lloyd_iterations as u64, limits::MAX_ITERATIONS),
+        ("minimax_iterations", params.minimax_iterations as u64, limits::MAX_ITERATIONS),
+    ] {
+        if v > max {
+            return Err(PlanError::Invalid(format!("{what}: {v} given, at most {max}")));
+        }
+    }
     let region = params.region.clone().validated()?;
     RobotSpec::check(robots)?;
     let (points, radius) = place(&region, robots.len(), params)?;

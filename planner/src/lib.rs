@@ -5,6 +5,7 @@ pub mod assign;
 pub mod coverage;
 pub mod error;
 pub mod geom;
+pub mod limits;
 pub mod patrol;
 pub mod plan;
 pub mod recipe;

@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::assign::{self, Costs};
 use crate::error::PlanError;
+use crate::limits;
 use crate::geom::{check_distinct, check_finite, Point};
 use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::tsp::{self, Budget, Instance, Metric};
@@ -91,6 +92,11 @@ pub struct PatrolPlan {
 /// Plans a patrol of `robots` through `params.waypoints`.
 pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, PlanError> {
     let wps = &params.waypoints;
+    limits::at_most("waypoints", wps.len(), limits::MAX_WAYPOINTS)?;
+    limits::at_most("robots", robots.len(), limits::MAX_ROBOTS)?;
+    if params.max_kicks > limits::MAX_KICKS {
+        return Err(PlanError::Invalid(format!("max_kicks: {} given, at most {}", params.max_kicks, limits::MAX_KICKS)));
+    }
     check_finite(wps)?;
     if wps.len() < 2 {
         return Err(PlanError::TooFewPoints { min: 2, got: wps.len() });
@@ -107,7 +113,16 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
     let (l, n) = (path.length, robots.len());
     let spacing = l / n as f64;
     let team_speed = robots.iter().map(|r| r.speed).fold(f64::INFINITY, f64::min);
-    let per_slot = (spacing / params.sync_spacing_max).ceil().max(1.0) as usize;
+    // Sync points per round: bounded before anything is allocated for them.
+    let per_slot_f = (spacing / params.sync_spacing_max).ceil().max(1.0);
+    if !per_slot_f.is_finite() || per_slot_f * n as f64 > limits::MAX_SYNC_POINTS as f64 {
+        return Err(PlanError::Invalid(format!(
+            "sync_spacing_max {} is too small for a tour of {l:.1} m and {n} robots: {per_slot_f:.0} sync points per robot per round (at most {} in all)",
+            params.sync_spacing_max,
+            limits::MAX_SYNC_POINTS
+        )));
+    }
+    let per_slot = per_slot_f as usize;
     let q = n * per_slot;
 
     // Slot offset and assignment.

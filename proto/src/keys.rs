@@ -208,6 +208,10 @@ pub enum Pattern {
     AllTeamSync,
     /// Everything the system manager answers: `mrmm/system/**`
     SystemAll,
+    /// Every operator command: `mrmm/system/cmd/**`
+    SystemCmdAll,
+    /// Everything the advising agent answers and publishes: `mrmm/agent/**`
+    AgentAll,
     /// Everything of mrmm: `mrmm/**`
     All,
 }
@@ -224,6 +228,8 @@ impl fmt::Display for Pattern {
             Pattern::TeamSync(team) => write!(f, "mrmm/team/{team}/sync/**"),
             Pattern::AllTeamSync => f.write_str("mrmm/team/*/sync/**"),
             Pattern::SystemAll => f.write_str("mrmm/system/**"),
+            Pattern::SystemCmdAll => f.write_str("mrmm/system/cmd/**"),
+            Pattern::AgentAll => f.write_str("mrmm/agent/**"),
             Pattern::All => f.write_str("mrmm/**"),
         }
     }

@@ -37,6 +37,8 @@ pub const CENTRAL_HOST: &str = "central";
 pub const DEFAULT_REPLICAS: usize = 2;
 /// At most this many replicas per mission.
 pub const MAX_REPLICAS: usize = 8;
+/// Robots one mission may have at most.
+pub const MAX_MISSION_ROBOTS: usize = 1000;
 
 fn default_replicas() -> usize {
     DEFAULT_REPLICAS

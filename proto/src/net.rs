@@ -18,6 +18,11 @@ use crate::operator::ErrorReply;
 pub const DEFAULT_CENTRAL: &str = "tcp/127.0.0.1:7447";
 /// Default lease: a silent peer is declared gone after this long.
 pub const DEFAULT_LEASE_MS: u64 = 1000;
+/// Default largest message a node accepts from the network (Zenoh's defragmentation limit; its
+/// own default is 1 GiB).
+pub const DEFAULT_MAX_MESSAGE_SIZE: usize = 1 << 20;
+/// Bounds of a configured `max_message_size`.
+pub const MAX_MESSAGE_SIZE_RANGE: (usize, usize) = (64 << 10, 64 << 20);
 
 /// The `zenoh` section of a node config.
 #[derive(Debug, Clone, Deserialize, Serialize)]
@@ -33,11 +38,28 @@ pub struct ZenohSection {
     /// Link lease in milliseconds.
     #[serde(default = "default_lease")]
     pub lease_ms: u64,
+    /// Largest message accepted from the network, bytes.
+    #[serde(default = "default_max_message_size")]
+    pub max_message_size: usize,
 }
 
 impl Default for ZenohSection {
     fn default() -> Self {
-        ZenohSection { listen: default_listen(), connect: default_connect(), lease_ms: DEFAULT_LEASE_MS }
+        ZenohSection { listen: default_listen(), connect: default_connect(), lease_ms: DEFAULT_LEASE_MS, max_message_size: DEFAULT_MAX_MESSAGE_SIZE }
+    }
+}
+
+fn default_max_message_size() -> usize {
+    DEFAULT_MAX_MESSAGE_SIZE
+}
+
+/// Checks a `max_message_size` (`field` names it in the error).
+pub fn validate_max_message_size(field: &str, v: usize) -> Result<(), String> {
+    let (lo, hi) = MAX_MESSAGE_SIZE_RANGE;
+    if (lo..=hi).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!("{field}: must be in [{lo}, {hi}] bytes (got {v})"))
     }
 }
 
@@ -72,10 +94,24 @@ impl Mode {
     }
 }
 
-/// Checks a list of endpoints: `tcp/<host>:<port>`, with an explicit host address.
+/// Checks a list of endpoints: `tcp/<host>:<port>` or `tls/<host>:<port>`, with an explicit
+/// host address.
 pub fn validate_endpoints(field: &str, eps: &[String]) -> Result<(), String> {
     for (i, ep) in eps.iter().enumerate() {
         validate_endpoint(ep).map_err(|e| format!("{field}[{i}]: {e}"))?;
+    }
+    Ok(())
+}
+
+/// Like [`validate_endpoints`], and every endpoint is `tls/` when `secure`, `tcp/` when not.
+pub fn validate_endpoints_for(field: &str, eps: &[String], secure: bool) -> Result<(), String> {
+    validate_endpoints(field, eps)?;
+    for (i, ep) in eps.iter().enumerate() {
+        match (secure, ep.starts_with("tls/")) {
+            (true, false) => return Err(format!("{field}[{i}]: {ep:?}: with a `security` section every endpoint is tls/<address>:<port>")),
+            (false, true) => return Err(format!("{field}[{i}]: {ep:?}: a tls/ endpoint needs a `security` section (certificates)")),
+            _ => {}
+        }
     }
     Ok(())
 }
@@ -84,7 +120,8 @@ pub fn validate_endpoints(field: &str, eps: &[String]) -> Result<(), String> {
 pub fn validate_endpoint(ep: &str) -> Result<(), String> {
     let addr = ep
         .strip_prefix("tcp/")
-        .ok_or_else(|| format!("{ep:?}: only tcp/<address>:<port> endpoints are supported"))?;
+        .or_else(|| ep.strip_prefix("tls/"))
+        .ok_or_else(|| format!("{ep:?}: only tcp/<address>:<port> and tls/<address>:<port> endpoints are supported"))?;
     let addr = addr.split('#').next().unwrap_or(addr);
     let (host, port) = addr
         .rsplit_once(':')
@@ -104,14 +141,38 @@ pub fn validate_endpoint(ep: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// Builds a Zenoh config for a node: explicit endpoints, multicast scouting off, gossip on,
-/// the given lease on every link.
+/// Builds a Zenoh config for an insecure node (plain TCP): explicit endpoints, multicast scouting
+/// off, gossip on, the given lease on every link, the default message size limit.
 pub fn zenoh_config(
     mode: Mode,
     listen: &[String],
     connect: &[String],
     lease_ms: u64,
 ) -> Result<zenoh::Config, ProtoError> {
+    zenoh_config_with(mode, listen, connect, lease_ms, DEFAULT_MAX_MESSAGE_SIZE, None, None)
+}
+
+/// The files of a node's TLS identity.
+#[derive(Debug, Clone, Copy)]
+pub struct Tls<'a> {
+    pub ca: &'a std::path::Path,
+    pub cert: &'a std::path::Path,
+    pub key: &'a std::path::Path,
+    pub verify_names: bool,
+}
+
+/// [`zenoh_config`] with a message size limit, mutual TLS (only `tls` links are then opened or
+/// accepted) and an `access_control` section.
+pub fn zenoh_config_with(
+    mode: Mode,
+    listen: &[String],
+    connect: &[String],
+    lease_ms: u64,
+    max_message_size: usize,
+    tls: Option<&Tls<'_>>,
+    acl: Option<&serde_json::Value>,
+) -> Result<zenoh::Config, ProtoError> {
+    validate_max_message_size("max_message_size", max_message_size).map_err(ProtoError::Config)?;
     let mut c = zenoh::Config::default();
     let set = |c: &mut zenoh::Config, key: &str, value: String| {
         c.insert_json5(key, &value)
@@ -127,6 +188,21 @@ pub fn zenoh_config(
         // Peers keep retrying their connect endpoints (central may be down or restarting).
         set(&mut c, "connect/exit_on_failure", "false".into())?;
     }
+    set(&mut c, "transport/link/rx/max_message_size", max_message_size.to_string())?;
+    if let Some(t) = tls {
+        let path = |p: &std::path::Path| json(&p.display().to_string());
+        set(&mut c, "transport/link/protocols", json(&["tls"]))?;
+        set(&mut c, "transport/link/tls/root_ca_certificate", path(t.ca))?;
+        set(&mut c, "transport/link/tls/listen_certificate", path(t.cert))?;
+        set(&mut c, "transport/link/tls/listen_private_key", path(t.key))?;
+        set(&mut c, "transport/link/tls/connect_certificate", path(t.cert))?;
+        set(&mut c, "transport/link/tls/connect_private_key", path(t.key))?;
+        set(&mut c, "transport/link/tls/enable_mtls", "true".into())?;
+        set(&mut c, "transport/link/tls/verify_name_on_connect", t.verify_names.to_string())?;
+    }
+    if let Some(acl) = acl {
+        set(&mut c, "access_control", acl.to_string())?;
+    }
     Ok(c)
 }
 
@@ -140,7 +216,7 @@ pub async fn open(config: zenoh::Config) -> Result<zenoh::Session, ProtoError> {
     zenoh::open(config).await.map_err(ProtoError::zenoh)
 }
 
-/// The endpoints this session really listens on (port 0 resolved), as `tcp/…` strings.
+/// The endpoints this session really listens on (port 0 resolved), as `tcp/…` or `tls/…` strings.
 pub async fn listening_endpoints(session: &zenoh::Session) -> Vec<String> {
     session.info().locators().await.iter().map(|l| l.to_string()).collect()
 }

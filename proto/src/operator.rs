@@ -69,6 +69,10 @@ pub struct SystemStatus {
     pub lost: usize,
     #[serde(default)]
     pub missions: usize,
+    /// Messages central refused, by reason (`signature`, `not_entitled`, …): strangers' and
+    /// impostors' attempts.
+    #[serde(default)]
+    pub refused: std::collections::BTreeMap<String, u64>,
 }
 
 /// Error payload of every reply error on an operator key.

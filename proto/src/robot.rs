@@ -95,6 +95,10 @@ fn one() -> f64 {
     1.0
 }
 
+/// How a reply error starts when the sender of a command may not give it (yet): a robot refusing
+/// a plan from a head it was not admitted under. The head keeps re-sending.
+pub const REFUSED: &str = "refused:";
+
 /// A command to one robot, query payload on `mrmm/robots/<id>/cmd`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
@@ -109,6 +113,16 @@ pub enum RobotCommand {
     Plan(Box<PlanAssignment>),
     /// Leave `mission` (ignored when the robot is not in it, or holds a newer epoch).
     Leave { mission: String, epoch: u64 },
+    /// From the system manager: this robot now belongs to `mission`, whose managers (its chain:
+    /// head first) may plan for it and whose `members` are its teammates. Plans from central and
+    /// mission hosts need no admission; a robot leading a mission can plan only for its
+    /// teammates and for robots admitted to it.
+    Admit {
+        mission: String,
+        managers: Vec<String>,
+        #[serde(default)]
+        members: Vec<String>,
+    },
 }
 
 /// A plan as delivered to a robot.
@@ -124,6 +138,23 @@ pub struct PlanAssignment {
     /// Every member of the team for this epoch.
     pub members: Vec<String>,
     pub plan: RobotPlan,
+    /// The mission's managers when the plan was sent (its chain, head first): who else the robot
+    /// takes this mission's plans from (a successor taking over comes from the chain). Not part
+    /// of the plan itself: a plan sent again with another chain is the same plan.
+    #[serde(default)]
+    pub managers: Vec<String>,
+}
+
+impl PlanAssignment {
+    /// Whether `other` is the same plan (whoever manages it now).
+    pub fn same_plan(&self, other: &PlanAssignment) -> bool {
+        self.mission == other.mission
+            && self.epoch == other.epoch
+            && self.team == other.team
+            && self.subteam == other.subteam
+            && self.members == other.members
+            && self.plan == other.plan
+    }
 }
 
 /// Positive answer to a command.

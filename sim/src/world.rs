@@ -14,7 +14,7 @@ use mrmm_peer::config::RobotConfig;
 use mrmm_peer::robot::{self, Robot};
 use mrmm_proto::{
     CommandAck, CtlAck, Member, MissionCtl, MissionPlan, MissionSpecWire, MissionStart, MissionView, PlanAssignment, PlanRequest, RobotCommand,
-    RobotInfo, RobotPlan, RobotSpec, Step, CENTRAL_HOST,
+    RobotInfo, RobotPlan, RobotSpec, Role, Sender, Step, CENTRAL_HOST,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -144,6 +144,8 @@ pub struct World {
     /// OneMission: the operator's controls, and the team it wants.
     ctls: Ctls,
     team: BTreeSet<String>,
+    /// OneMission: the mission's chain as last seen (whom admissions name as managers).
+    managers: Vec<String>,
     report: Report,
     trace: Option<Vec<String>>,
 }
@@ -194,6 +196,7 @@ impl World {
             op: Operator::default(),
             ctls: Ctls::default(),
             team: BTreeSet::new(),
+            managers: Vec::new(),
             report: Report { seed: cfg.seed, ..Report::default() },
             trace: trace.then(Vec::new),
         };
@@ -238,7 +241,7 @@ impl World {
             Kind::Host => n.host = Some(HostCore::new(&n.name, params, now)),
             Kind::Robot => {
                 if !matches!(self.cfg.ops, Ops::Barriers { .. }) {
-                    n.host = Some(HostCore::new(&n.name, params, now));
+                    n.host = Some(HostCore::new(&n.name, params, now).with_robot());
                 }
                 n.robot = n.cfg.clone().map(Robot::new);
             }
@@ -504,6 +507,9 @@ impl World {
             Token::Host(name) => {
                 let (a, b) = (system::Event::HostAlive { node: name.clone() }, system::Event::HostGone { node: name.clone() });
                 self.central(node, central::Event::System(if up { a } else { b }))?;
+                if name == CENTRAL_HOST {
+                    self.robot(node, robot::Event::CentralAlive(up))?;
+                }
                 self.host(node, if up { host::Event::HostAlive(name.clone()) } else { host::Event::HostGone(name.clone()) })
             }
             Token::Planner => {
@@ -533,6 +539,17 @@ impl World {
     }
 
     fn system_command(&mut self, i: usize, c: system::Command) -> Result<(), String> {
+        match &c {
+            system::Command::SendToRobot { robot, cmd, .. } => {
+                let line = format!("central -> {robot}: {cmd:?}").chars().take(160).collect::<String>();
+                self.log(|| line);
+            }
+            system::Command::Ctl { id, mission, ctl, .. } => {
+                let line = format!("central ctl {id} {mission}: {ctl:?}").chars().take(160).collect::<String>();
+                self.log(|| line);
+            }
+            _ => {}
+        }
         match c {
             system::Command::FetchInfo { id } => self.ask(Some(i), &id, Payload::RobotInfo, Ctx::CentralInfo(id.clone())),
             system::Command::SendToRobot { req, robot, cmd } => self.ask(Some(i), &robot.clone(), Payload::RobotCmd(cmd), Ctx::CentralRobot { req, robot }),
@@ -540,7 +557,8 @@ impl World {
                 let mission = start.spec.name.clone();
                 self.ask(Some(i), &host, Payload::HostStart(start), Ctx::CentralStart(mission))
             }
-            system::Command::Ctl { id, mission, ctl } => self.ask_mission(Some(i), &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::CentralCtl(id)),
+            system::Command::Ctl { id, mission, ctl, .. } => self.ask_mission(Some(i), &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::CentralCtl(id)),
+            system::Command::Refused { from, what } => return Err(format!("central refused {from}: {what} (no node of the simulation is a rogue)")),
             system::Command::Forward { key, .. } => {
                 if let Some(mrmm_proto::Key::MissionView(m)) = mrmm_proto::Key::parse(&key.to_string()) {
                     self.ask_mission(Some(i), &m.clone(), Payload::View(m), Ctx::CentralForward);
@@ -602,7 +620,8 @@ impl World {
                 if let Some(j) = self.index(&to) {
                     if !self.lost() {
                         let at = self.now + self.delay();
-                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Chain(envelope)) });
+                        let from = self.sender(i);
+                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Chain { envelope, from }) });
                     }
                 }
             }
@@ -639,12 +658,27 @@ impl World {
                 let epoch = assignment.epoch;
                 self.ask(Some(i), &robot.clone(), Payload::RobotCmd(RobotCommand::Plan(assignment)), Ctx::HostSendPlan { mission, robot, epoch });
             }
+            host::Command::Refused { from, what } => {
+                // Honest nodes only: a refusal is a chain message crossing a stale belief (a
+                // node that left the mission's chain). Logged, not a violation.
+                let name = self.nodes[i].name.clone();
+                self.log(|| format!("{name} refused {from}: {what}"));
+            }
             host::Command::Status(view) => {
+                let from = self.sender(i);
                 if let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) {
                     if !self.lost() {
                         let at = self.now + self.delay();
-                        let ev = central::Event::System(system::Event::MissionStatus(view));
+                        let ev = central::Event::System(system::Event::MissionStatus { view: view.clone(), from: from.clone() });
                         self.queue.push(at, Ev::Central { from: i, to: c, ev: Box::new(ev) });
+                    }
+                }
+                // Robot nodes' hosts hear it too (they learn their mission's chain from it).
+                for j in 0..self.nodes.len() {
+                    if j != i && self.nodes[j].kind == Kind::Robot && self.nodes[j].host.is_some() && !self.lost() {
+                        let at = self.now + self.delay();
+                        let ev = host::Event::MissionStatus { view: view.clone(), from: from.clone() };
+                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(ev) });
                     }
                 }
             }
@@ -671,15 +705,22 @@ impl World {
         for c in cmds {
             match c {
                 robot::Command::Reply(_) => {}
+                // An honest head planning for a robot not admitted yet: it re-sends.
+                robot::Command::Refuse(e) => {
+                    let name = self.nodes[i].name.clone();
+                    self.log(|| format!("{name} refuses: {e}"));
+                }
                 robot::Command::JoinTeam { team, subteam } => {
                     self.nodes[i].team = Some((team, subteam));
                     self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
                     self.liveliness(0.02);
+                    self.local_team(i)?;
                 }
                 robot::Command::LeaveTeam => {
                     self.nodes[i].team = None;
                     self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
                     self.liveliness(0.02);
+                    self.local_team(i)?;
                 }
                 robot::Command::Publish(a) => {
                     let Some((team, _)) = self.nodes[i].team.clone() else { continue };
@@ -710,6 +751,30 @@ impl World {
             }
         }
         Ok(())
+    }
+
+    /// The robot of node `i` changed team: its host hears of it at once (same process).
+    fn local_team(&mut self, i: usize) -> Result<(), String> {
+        if self.nodes[i].host.is_none() {
+            return Ok(());
+        }
+        let team = self.nodes[i].robot.as_ref().map(|r| r.team()).unwrap_or_default();
+        self.host(i, host::Event::LocalTeam(team))
+    }
+
+    /// Who node `i` is, as its certificate would prove; `None` (the simulation's operator) acts
+    /// as central does.
+    fn sender(&self, i: usize) -> Sender {
+        let n = &self.nodes[i];
+        match n.kind {
+            Kind::Central => Sender::new(Role::Central, n.name.clone()),
+            Kind::Host => Sender::new(Role::Host, n.name.clone()),
+            Kind::Robot => Sender::new(Role::Robot, n.name.clone()),
+        }
+    }
+
+    fn asker(&self, asker: Option<usize>) -> Sender {
+        asker.map_or_else(|| Sender::new(Role::Central, CENTRAL_HOST), |a| self.sender(a))
     }
 
     // ---- queries ---------------------------------------------------------------------------
@@ -761,17 +826,22 @@ impl World {
         }
         let Some(payload) = q.payload.clone() else { return Ok(()) };
         let now = self.now;
+        let from = self.asker(asker);
         match payload {
             Payload::RobotCmd(cmd) => {
                 let Some(r) = self.nodes[s].robot.as_mut() else { return Ok(()) };
-                let cmds = r.handle(now, robot::Event::Command(cmd));
+                let cmds = r.handle(now, robot::Event::Command { cmd, from });
+                // A refusal (its sender may not send this, yet) may be retried: as the driver does.
                 let reply = cmds.iter().find_map(|c| match c {
-                    robot::Command::Reply(r) => Some(r.clone()),
+                    robot::Command::Reply(r) => Some(r.clone().map_err(|error| Failure { retryable: false, error })),
+                    robot::Command::Refuse(e) => Some(Err(Failure { retryable: true, error: e.clone() })),
                     _ => None,
                 });
                 self.robot_commands(s, cmds)?;
+                // An admission changes whom the robot trusts: its host hears of it at once.
+                self.local_team(s)?;
                 if let Some(r) = reply {
-                    self.reply(qid, r.map(Answer::Ack).map_err(|error| Failure { retryable: false, error }));
+                    self.reply(qid, r.map(Answer::Ack));
                 }
             }
             Payload::RobotInfo => {
@@ -780,8 +850,8 @@ impl World {
                     self.reply(qid, Ok(Answer::Info(info)));
                 }
             }
-            Payload::HostStart(start) => self.host(s, host::Event::Start { query: qid, start })?,
-            Payload::Ctl { mission, ctl } => self.host(s, host::Event::Ctl { query: qid, mission, ctl })?,
+            Payload::HostStart(start) => self.host(s, host::Event::Start { query: qid, start, from })?,
+            Payload::Ctl { mission, ctl } => self.host(s, host::Event::Ctl { query: qid, mission, ctl, from })?,
             Payload::View(mission) => self.host(s, host::Event::View { query: qid, mission })?,
             Payload::Planner(request, kind) => {
                 if self.nodes[s].kind == Kind::Central {
@@ -904,7 +974,40 @@ impl World {
                 }
                 if self.now < 0.6 {
                     self.start_one_mission();
-                } else if active && self.rng.gen_bool(0.15) {
+                } else {
+                    // As central does for members that join or come back: a robot the mission's
+                    // state counts in (or lost) that does not know the whole team (it restarted,
+                    // or others joined since its plan) is admitted with the team, so robot heads
+                    // may plan for it and it takes their chain messages.
+                    let mut counted: BTreeSet<String> = BTreeSet::new();
+                    // The managers central would name: the chain of the newest configuration.
+                    let mut chain: Option<(u64, Vec<String>)> = None;
+                    for n in &self.nodes {
+                        let Some(r) = n.host.as_ref().and_then(|h| h.replica("p")) else { continue };
+                        if let Some(state) = r.state() {
+                            counted.extend(state.members.iter().chain(&state.lost).map(|m| m.spec.id.clone()));
+                        }
+                        if let Some(c) = r.config() {
+                            if chain.as_ref().is_none_or(|(e, _)| c.epoch > *e) {
+                                chain = Some((c.epoch, c.chain.clone()));
+                            }
+                        }
+                    }
+                    self.managers = chain.map(|(_, c)| c).unwrap_or_default();
+                    let unaware: Vec<String> = counted
+                        .iter()
+                        .filter(|r| {
+                            let teams = self.index(r).and_then(|i| self.nodes[i].robot.as_ref()).map(|rb| rb.team()).unwrap_or_default();
+                            !teams.iter().any(|(m, ids)| m == "p" && counted.iter().all(|c| ids.contains(c)))
+                        })
+                        .cloned()
+                        .collect();
+                    let team: Vec<String> = counted.into_iter().collect();
+                    for r in unaware {
+                        self.admit(&r, &team);
+                    }
+                }
+                if self.now >= 0.6 && active && self.rng.gen_bool(0.15) {
                     let robots = self.robot_names();
                     let r = robots[self.rng.gen_range(0..robots.len())].clone();
                     let ctl = if self.team.contains(&r) && self.team.len() > 1 {
@@ -912,6 +1015,7 @@ impl World {
                         MissionCtl::Left { ids: vec![r] }
                     } else if !self.team.contains(&r) {
                         self.team.insert(r.clone());
+                        self.admit_one(&r);
                         let spec = RobotSpec { id: r, robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 };
                         MissionCtl::Joined { member: Member { spec, time_scale: TIME_SCALE } }
                     } else {
@@ -946,7 +1050,33 @@ impl World {
             replicas: 2,
         };
         let host = self.nodes.iter().find(|n| n.kind == Kind::Host).map(|n| n.name.clone()).unwrap_or_else(|| robots[0].clone());
+        for r in &robots {
+            self.admit_one(r);
+        }
         self.ask(None, &host, Payload::HostStart(Box::new(MissionStart { spec, members })), Ctx::OpStart);
+    }
+
+    /// OneMission: admits robot `r` to mission `p` with the operator's team.
+    fn admit_one(&mut self, r: &str) {
+        let team: Vec<String> = self.team.iter().cloned().collect();
+        self.admit(r, &team);
+    }
+
+    /// Admits robot `r` to mission `p` (as the system manager does): its managers are the host
+    /// and any member of `team`, its members `team` (and `r`).
+    fn admit(&mut self, r: &str, team: &[String]) {
+        let mut team = team.to_vec();
+        if !team.iter().any(|t| t == r) {
+            team.push(r.to_string());
+        }
+        let mut managers: Vec<String> = self.nodes.iter().filter(|n| n.kind == Kind::Host).map(|n| n.name.clone()).collect();
+        managers.extend(self.managers.iter().cloned());
+        managers.extend(team.iter().cloned());
+        managers.sort();
+        managers.dedup();
+        let admit = RobotCommand::Admit { mission: "p".into(), managers, members: team };
+        self.log(|| format!("operator: admit {r} to p"));
+        self.ask(None, r, Payload::RobotCmd(admit), Ctx::OpStart);
     }
 
     /// Barriers: every robot gets the same plan of barriers with work between them.
@@ -968,9 +1098,11 @@ impl World {
                 subteam: "b/ground".into(),
                 members: robots.clone(),
                 plan: RobotPlan { robot: r.clone(), robot_type: "ground".into(), slot: i, steps },
+                managers: vec![],
             };
             let j = self.index(r).unwrap_or(0);
-            let cmds = self.nodes[j].robot.as_mut().map(|rb| rb.handle(0.0, robot::Event::Command(RobotCommand::Plan(Box::new(assignment))))).unwrap_or_default();
+            let from = Sender::new(Role::Host, "planner");
+            let cmds = self.nodes[j].robot.as_mut().map(|rb| rb.handle(0.0, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(assignment)), from })).unwrap_or_default();
             let _ = self.robot_commands(j, cmds);
         }
     }

@@ -21,9 +21,14 @@ pub struct Args {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
     duration: Option<f64>,
-    /// Endpoint central listens on; outside clients connect here.
-    #[arg(long, default_value = mrmm_proto::net::DEFAULT_CENTRAL)]
-    listen: String,
+    /// Endpoint central listens on; outside clients connect here (default tls/127.0.0.1:7447, or
+    /// tcp/127.0.0.1:7447 with --insecure).
+    #[arg(long)]
+    listen: Option<String>,
+    /// Run the fleet over plain TCP with unsigned messages (by default the demo makes a
+    /// throw-away CA and certificates and runs everything over mutual TLS).
+    #[arg(long)]
+    insecure: bool,
     /// Simulated seconds per wall second for every robot.
     #[arg(long, default_value_t = 1.0)]
     time_scale: f64,
@@ -43,8 +48,10 @@ pub struct Args {
 
 const TYPES: [&str; 2] = ["ground", "aerial"];
 
-pub async fn run(args: Args) -> anyhow::Result<()> {
-    mrmm_proto::net::validate_endpoint(&args.listen).map_err(|e| anyhow!("--listen: {e}"))?;
+pub async fn run(mut args: Args) -> anyhow::Result<()> {
+    let listen = args.listen.take().unwrap_or_else(|| if args.insecure { "tcp/127.0.0.1:7447" } else { "tls/127.0.0.1:7447" }.to_string());
+    mrmm_proto::net::validate_endpoints_for("--listen", std::slice::from_ref(&listen), !args.insecure).map_err(|e| anyhow!("{e}"))?;
+    args.listen = Some(listen);
     if let Some(d) = args.duration {
         if !(d.is_finite() && d > 0.0) {
             return Err(anyhow!("--duration: must be a positive number of seconds (got {d})"));
@@ -71,8 +78,24 @@ async fn drive(
     shutdown: &tokio_util::sync::CancellationToken,
 ) -> anyhow::Result<()> {
     let started = Instant::now();
+    let listen = args.listen.clone().unwrap_or_default();
+    // A throw-away fleet PKI: the CA, central, the operator (this demo and your tools), each robot.
+    let pki = (!args.insecure).then(|| dir.join("pki"));
+    if let Some(pki) = &pki {
+        use mrmm_proto::security::{pki as p, Role};
+        p::init(pki)?;
+        p::issue(pki, Role::Central, proto::CENTRAL_HOST, &[], 30)?;
+        p::issue(pki, Role::Operator, "operator", &[], 30)?;
+        for i in 0..args.robots {
+            p::issue(pki, Role::Robot, &format!("r{}", i + 1), &[], 30)?;
+        }
+    }
     let log = dir.join("central.log");
-    let mut central = procs::spawn(&["central".into(), "--listen".into(), args.listen.clone()], &log)?;
+    let mut central_args = vec!["central".to_string(), "--listen".into(), listen.clone()];
+    if let Some(pki) = &pki {
+        central_args.extend(["--pki".into(), pki.display().to_string(), "--operator".into(), "operator".into()]);
+    }
+    let mut central = procs::spawn(&central_args, &log)?;
     let line = procs::ready_line(&mut central, "central ready", Duration::from_secs(20), &log).await;
     children.push(central);
     let line = line.context("central did not start")?;
@@ -84,19 +107,27 @@ async fn drive(
     let n = args.robots as usize;
     for i in 0..n {
         let id = format!("r{}", i + 1);
-        let cfg = robot_config(&id, i, n, &endpoint, args.time_scale);
+        let cfg = robot_config(&id, i, n, &endpoint, args.time_scale, pki.as_deref());
         let path = dir.join(format!("{id}.json5"));
         std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
         let log = dir.join(format!("{id}.log"));
         children.push(procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &log)?);
     }
 
-    let client = Client::connect(std::slice::from_ref(&endpoint), Duration::from_secs(10)).await?;
+    let operator = pki.as_ref().map(|d| mrmm_proto::SecuritySection::from_dir(d, "operator"));
+    let client = Client::connect_with(std::slice::from_ref(&endpoint), operator.clone(), Duration::from_secs(10)).await?;
+    // Where operator tools find central and the operator's certificate.
+    let tool = dir.join("tool.json5");
+    let security = match &operator {
+        Some(s) => format!(", security: {{ ca: {:?}, cert: {:?}, key: {:?} }}", s.ca.display().to_string(), s.cert.display().to_string(), s.key.display().to_string()),
+        None => String::new(),
+    };
+    std::fs::write(&tool, format!("{{ connect: [{endpoint:?}]{security} }}\n")).with_context(|| format!("cannot write {}", tool.display()))?;
     // The fleet view runs here, on the client's session.
     let viz = if args.rrd.is_some() || args.viewer.is_some() {
         let sink = super::viz::sink(args.viewer.clone(), args.rrd.clone(), false);
         let stop = shutdown.child_token();
-        Some((tokio::spawn(mrmm_viz::run(client.session().clone(), sink, stop.clone())), stop))
+        Some((tokio::spawn(mrmm_viz::run(client.mesh().clone(), sink, stop.clone())), stop))
     } else {
         None
     };
@@ -106,7 +137,8 @@ async fn drive(
     let mut formation = 0usize;
     let mut last_order: Option<Instant> = None;
     let mut missions_started = false;
-    println!("mrmm demo: central on {endpoint}; query it with `mrmm op robots --connect {endpoint}`");
+    let how = if pki.is_some() { "mutual TLS, throw-away CA" } else { "INSECURE: plain TCP" };
+    println!("mrmm demo: central on {endpoint} ({how}); from another terminal: export {}={} and run `mrmm op robots`", super::security::TOOL_CONFIG_ENV, tool.display());
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -226,19 +258,27 @@ fn circle_point(k: usize, n: usize, r: f64) -> (f64, f64) {
     ((r * a.cos() * 100.0).round() / 100.0, (r * a.sin() * 100.0).round() / 100.0)
 }
 
-/// A generated robot config: types alternate, robots start on a line.
-fn robot_config(id: &str, i: usize, n: usize, central: &str, time_scale: f64) -> String {
+/// A generated robot config: types alternate, robots start on a line; with `pki`, its
+/// certificate and TLS endpoints.
+fn robot_config(id: &str, i: usize, n: usize, central: &str, time_scale: f64, pki: Option<&std::path::Path>) -> String {
     let kind = TYPES[i % TYPES.len()];
     let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
     let x = (i as f64 - (n as f64 - 1.0) / 2.0) * 1.5;
+    let (scheme, security) = match pki {
+        Some(d) => {
+            let f = |name: &str| format!("{:?}", d.join(name).display().to_string());
+            ("tls", format!("  security: {{ ca: {}, cert: {}, key: {} }},\n", f("ca.crt"), f(&format!("{id}.crt")), f(&format!("{id}.key"))))
+        }
+        None => ("tcp", String::new()),
+    };
     format!(
         r#"{{
   id: "{id}", type: "{kind}", capabilities: {caps},
   kinematics: {{ max_speed: {speed}, max_turn_rate: {turn} }},
   start: {{ x: {x}, y: -12, theta: 1.5708 }},
   time_scale: {time_scale}, telemetry_hz: 5,
-  zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }},
-}}
+  zenoh: {{ listen: ["{scheme}/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }},
+{security}}}
 "#
     )
 }
@@ -250,10 +290,13 @@ mod tests {
     #[test]
     fn generated_configs_are_valid() {
         for i in 0..4 {
-            let text = robot_config(&format!("r{i}"), i, 4, "tcp/127.0.0.1:7447", 2.0);
+            let text = robot_config(&format!("r{i}"), i, 4, "tcp/127.0.0.1:7447", 2.0, None);
             let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
             assert_eq!(cfg.time_scale, 2.0);
         }
+        let text = robot_config("r1", 0, 4, "tls/127.0.0.1:7447", 1.0, Some(std::path::Path::new("/p")));
+        let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid secure config");
+        assert_eq!(cfg.security.map(|s| s.cert), Some(std::path::PathBuf::from("/p/r1.crt")));
         let (x, y) = circle_point(1, 4, 2.0);
         assert!((x - 0.0).abs() < 1e-9 && (y - 2.0).abs() < 1e-9);
     }

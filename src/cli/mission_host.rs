@@ -1,6 +1,9 @@
 //! `mrmm mission-host`: a mission host (runs mission managers) in its own process.
 
-use mrmm_proto::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
+use mrmm_proto::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_proto::{Mesh, NodeNet, Role, Sender};
+
+use super::security::SecurityArgs;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -13,16 +16,26 @@ pub struct Args {
     /// Endpoint to listen on (explicit address; port 0 picks one).
     #[arg(long, default_value = "tcp/127.0.0.1:0")]
     listen: Vec<String>,
+    #[command(flatten)]
+    security: SecurityArgs,
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
     mrmm_proto::validate_id(&args.name).map_err(|e| anyhow::anyhow!("--name: {e}"))?;
-    net::validate_endpoints("--connect", &args.connect).map_err(anyhow::Error::msg)?;
-    net::validate_endpoints("--listen", &args.listen).map_err(anyhow::Error::msg)?;
-    let session = net::open(net::zenoh_config(Mode::Peer, &args.listen, &args.connect, DEFAULT_LEASE_MS)?).await?;
+    let mesh = Mesh::open(&NodeNet {
+        mode: Mode::Peer,
+        listen: args.listen,
+        connect: args.connect,
+        lease_ms: DEFAULT_LEASE_MS,
+        max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
+        security: args.security.section(&args.name),
+        me: Some(Sender::new(Role::Host, args.name.clone())),
+    })
+    .await?;
+    let session = mesh.session().clone();
     println!("mission-host ready name={} zid={} listening={}", args.name, session.zid(), net::listening_endpoints(&session).await.join(","));
     let shutdown = super::shutdown::on_signals()?;
-    mrmm_manager::host::serve(session.clone(), args.name, shutdown).await?;
+    mrmm_manager::host::serve(mesh, args.name, None, shutdown).await?;
     let _ = session.close().await;
     Ok(())
 }

@@ -7,8 +7,10 @@ mod mission_host;
 pub mod op;
 mod plan;
 mod planner_service;
+mod pki;
 mod procs;
 mod robot;
+mod security;
 mod shutdown;
 mod table;
 mod tap;
@@ -49,13 +51,15 @@ enum Cmd {
     Viz(viz::Args),
     /// Print what is published on a key expression, as JSON lines.
     Tap(tap::Args),
+    /// The fleet's certificates: `pki init DIR`, `pki issue DIR --role R --id NAME`.
+    Pki(pki::Args),
 }
 
 impl Cli {
     /// Log filter used when RUST_LOG is not set.
     pub fn default_log_filter(&self) -> &'static str {
         match self.command {
-            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Viz(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) | Cmd::Tap(_) => "warn",
+            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Viz(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) | Cmd::Tap(_) | Cmd::Pki(_) => "warn",
             _ => "info,zenoh=warn",
         }
     }
@@ -74,5 +78,17 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::MissionHost(a) => mission_host::run(a).await,
         Cmd::Viz(a) => viz::run(a).await,
         Cmd::Tap(a) => tap::run(a).await,
+        Cmd::Pki(a) => pki::run(a),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    #[test]
+    fn every_subcommand_parses_its_flags() {
+        // clap's own consistency checks (unique names, valid requirements) for every subcommand.
+        super::Cli::command().debug_assert();
     }
 }

@@ -3,7 +3,9 @@
 use std::path::PathBuf;
 
 use mrmm_peer::config::RobotConfig;
-use tokio::sync::oneshot;
+use tokio::sync::{oneshot, watch};
+
+use super::security::SecurityArgs;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -19,6 +21,9 @@ pub struct Args {
     /// Override the endpoints to listen on (repeatable).
     #[arg(long)]
     listen: Vec<String>,
+    /// Override the config's `security` section.
+    #[command(flatten)]
+    security: SecurityArgs,
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
@@ -32,14 +37,19 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     if !args.listen.is_empty() {
         cfg.zenoh.listen = args.listen;
     }
+    if let Some(sec) = args.security.section(&cfg.id) {
+        cfg.security = Some(sec);
+    }
     cfg.validate().map_err(|e| anyhow::anyhow!("{} (with command-line overrides): {e}", args.config.display()))?;
     let shutdown = super::shutdown::on_signals()?;
-    let session = mrmm_peer::runtime::open(&cfg).await?;
+    let mesh = mrmm_peer::runtime::open(&cfg).await?;
+    let session = mesh.session().clone();
     // Every robot is also a mission host: it replicates the managers of its missions and takes
-    // one over when its head dies.
-    let host = tokio::spawn(mrmm_manager::host::serve(session.clone(), cfg.id.clone(), shutdown.clone()));
+    // one over when its head dies. It learns its robot's team through `team`.
+    let (team_tx, team_rx) = watch::channel(Vec::new());
+    let host = tokio::spawn(mrmm_manager::host::serve(mesh.clone(), cfg.id.clone(), Some(team_rx), shutdown.clone()));
     let (tx, rx) = oneshot::channel();
-    let task = tokio::spawn(mrmm_peer::runtime::run_on(session.clone(), cfg, shutdown.clone(), Some(tx)));
+    let task = tokio::spawn(mrmm_peer::runtime::run_on(mesh, cfg, shutdown.clone(), Some(tx), Some(team_tx)));
     if let Ok(r) = rx.await {
         println!("robot ready id={} zid={} listening={}", r.id, r.zid, r.endpoints.join(","));
     }

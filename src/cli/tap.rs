@@ -4,41 +4,65 @@
 use std::io::Write;
 use std::time::{Duration, Instant};
 
-use mrmm_proto::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
-use mrmm_proto::{self as proto, Key};
+use mrmm_proto::net::{Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_proto::{self as proto, Key, Mesh, NodeNet};
 use serde_json::{json, Value};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Key expression to subscribe to, e.g. 'mrmm/missions/*/status' or 'mrmm/**'.
     key: String,
-    /// Nodes to link to (repeatable): central and/or robots.
-    #[arg(long, default_value = DEFAULT_CENTRAL)]
+    /// Tool config (JSON5: `connect`, `security`); default: the file `MRMM_TOOL_CONFIG` names.
+    #[arg(long)]
+    config: Option<std::path::PathBuf>,
+    /// Nodes to link to (repeatable): central and/or robots (default: the tool config's, else
+    /// tcp/127.0.0.1:7447).
+    #[arg(long)]
     connect: Vec<String>,
-    /// Endpoint to listen on (explicit address; port 0 picks one).
-    #[arg(long, default_value = "tcp/127.0.0.1:0")]
+    #[command(flatten)]
+    security: super::security::SecurityArgs,
+    /// Endpoint to listen on (explicit address; port 0 picks one; default: tcp/127.0.0.1:0, or
+    /// tls/127.0.0.1:0 with certificates).
+    #[arg(long)]
     listen: Vec<String>,
     /// Stop after this many seconds.
     #[arg(long)]
     duration: Option<f64>,
 }
 
-/// A sample as one JSON value: telemetry decoded, JSON parsed, anything else by size.
-fn line(t: f64, key: &str, bytes: &[u8]) -> Value {
+/// A sample as one JSON value: telemetry decoded, JSON parsed, anything else by size; `from` is
+/// its proven sender (`null` when its seal is refused).
+fn line(t: f64, key: &str, bytes: &[u8], from: Option<String>) -> Value {
     let payload = match Key::parse(key) {
         Some(Key::RobotTelemetry(_)) => proto::decode_telemetry(bytes).ok().and_then(|t| serde_json::to_value(t).ok()),
         _ => serde_json::from_slice::<Value>(bytes).ok(),
     };
-    json!({"t": t, "key": key, "bytes": bytes.len(), "payload": payload})
+    json!({"t": t, "key": key, "bytes": bytes.len(), "from": from, "payload": payload})
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
-    net::validate_endpoints("--connect", &args.connect).map_err(anyhow::Error::msg)?;
-    net::validate_endpoints("--listen", &args.listen).map_err(anyhow::Error::msg)?;
     if let Some(d) = args.duration {
         anyhow::ensure!(d.is_finite() && d > 0.0, "--duration: must be a positive number of seconds");
     }
-    let session = net::open(net::zenoh_config(Mode::Peer, &args.listen, &args.connect, DEFAULT_LEASE_MS)?).await?;
+    let tool = super::security::ToolConfig::load(args.config.as_deref())?;
+    let security = tool.security(&args.security, "operator");
+    let listen = if args.listen.is_empty() {
+        vec![if security.is_some() { "tls/127.0.0.1:0" } else { "tcp/127.0.0.1:0" }.to_string()]
+    } else {
+        args.listen.clone()
+    };
+    let n = NodeNet {
+        mode: Mode::Peer,
+        listen,
+        connect: tool.connect(&args.connect, DEFAULT_CENTRAL),
+        lease_ms: DEFAULT_LEASE_MS,
+        max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
+        security,
+        me: None,
+    };
+    let (config, sealer, verifier) = mrmm_proto::mesh::prepare(&n)?;
+    let session = mrmm_proto::net::open(config).await?;
+    let mesh = Mesh::from_parts(session.clone(), sealer, verifier);
     let sub = session.declare_subscriber(args.key.as_str()).await.map_err(|e| anyhow::anyhow!("--key {:?}: {e}", args.key))?;
     let shutdown = super::shutdown::on_signals()?;
     let t0 = Instant::now();
@@ -55,7 +79,8 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
             _ = sleep => {}
             s = sub.recv_async() => {
                 let Ok(s) = s else { break };
-                let l = line(t0.elapsed().as_secs_f64(), s.key_expr().as_str(), &s.payload().to_bytes());
+                let from = mesh.verifier().sender(s.key_expr().as_str(), &s.payload().to_bytes(), s.attachment().map(|a| a.to_bytes()).as_deref(), mrmm_proto::mesh::now_ms()).ok().map(|s| s.to_string());
+                let l = line(t0.elapsed().as_secs_f64(), s.key_expr().as_str(), &s.payload().to_bytes(), from);
                 let mut out = std::io::stdout().lock();
                 writeln!(out, "{l}")?;
                 out.flush()?;
@@ -72,9 +97,9 @@ mod tests {
 
     #[test]
     fn lines_decode_what_they_can() {
-        let v = line(1.0, "x/y", br#"{"a": 1}"#);
-        assert_eq!(v["payload"]["a"], 1);
-        let v = line(1.0, "x/y", b"\xff\x00");
+        let v = line(1.0, "x/y", br#"{"a": 1}"#, Some("robot:r1".into()));
+        assert_eq!((v["payload"]["a"].clone(), v["from"].clone()), (json!(1), json!("robot:r1")));
+        let v = line(1.0, "x/y", b"\xff\x00", None);
         assert_eq!((v["payload"].clone(), v["bytes"].clone()), (Value::Null, json!(2)));
     }
 }

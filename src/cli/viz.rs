@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
-use mrmm_proto::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
+use mrmm_proto::net::{Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_proto::{Mesh, NodeNet};
 use mrmm_viz::Sink;
 
 #[derive(Debug, clap::Args)]
@@ -17,9 +18,14 @@ pub struct Args {
     /// Spawn a Rerun viewer (needs `rerun` on PATH).
     #[arg(long, group = "sink")]
     spawn: bool,
-    /// Central endpoint (repeatable).
-    #[arg(long, default_value = DEFAULT_CENTRAL)]
+    /// Central endpoint (repeatable; default: the tool config's, else tcp/127.0.0.1:7447).
+    #[arg(long)]
     central: Vec<String>,
+    /// Tool config (JSON5: `connect`, `security`); default: the file `MRMM_TOOL_CONFIG` names.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    #[command(flatten)]
+    security: super::security::SecurityArgs,
     /// Stop after this many seconds.
     #[arg(long)]
     duration: Option<f64>,
@@ -36,8 +42,21 @@ pub fn sink(connect: Option<String>, save: Option<PathBuf>, spawn: bool) -> Sink
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
-    net::validate_endpoints("--central", &args.central).map_err(anyhow::Error::msg)?;
-    let session = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &args.central, DEFAULT_LEASE_MS)?).await?;
+    let tool = super::security::ToolConfig::load(args.config.as_deref())?;
+    let security = tool.security(&args.security, "operator");
+    let listen = vec![if security.is_some() { "tls/127.0.0.1:0" } else { "tcp/127.0.0.1:0" }.to_string()];
+    let n = NodeNet {
+        mode: Mode::Peer,
+        listen,
+        connect: tool.connect(&args.central, DEFAULT_CENTRAL),
+        lease_ms: DEFAULT_LEASE_MS,
+        max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
+        security,
+        me: None,
+    };
+    let (config, sealer, verifier) = mrmm_proto::mesh::prepare(&n)?;
+    let session = mrmm_proto::net::open(config).await?;
+    let mesh = Mesh::from_parts(session.clone(), sealer, verifier);
     let shutdown = super::shutdown::on_signals()?;
     if let Some(d) = args.duration {
         anyhow::ensure!(d.is_finite() && d > 0.0, "--duration: must be a positive number of seconds");
@@ -47,7 +66,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
             s.cancel();
         });
     }
-    mrmm_viz::run(session.clone(), sink(args.connect, args.save, args.spawn), shutdown).await?;
+    mrmm_viz::run(mesh, sink(args.connect, args.save, args.spawn), shutdown).await?;
     let _ = session.close().await;
     Ok(())
 }

@@ -182,17 +182,32 @@ where
 }
 
 /// Starts `mrmm demo <args>` and returns it with the central endpoint from its first line.
-pub fn start_demo(dir: &Scratch, args: &[&str]) -> anyhow::Result<(Proc, String)> {
+/// Starts `mrmm demo` with `args`; returns it, central's endpoint and the operator's
+/// certificate (the demo is secure unless `--insecure` is among `args`).
+pub fn start_demo(dir: &Scratch, args: &[&str]) -> anyhow::Result<(Proc, String, Option<mrmm_proto::SecuritySection>)> {
     let mut all = vec!["demo"];
     all.extend_from_slice(args);
     let demo = start("demo", &all, &dir.path("demo.log"), "mrmm demo: central on", Duration::from_secs(30))?;
     let ep = demo
         .ready
         .split_whitespace()
-        .find(|w| w.starts_with("tcp/"))
+        .find(|w| w.starts_with("tcp/") || w.starts_with("tls/"))
         .map(|w| w.trim_end_matches(';').to_string())
         .ok_or_else(|| anyhow!("no endpoint in {:?}", demo.ready))?;
-    Ok((demo, ep))
+    // `export MRMM_TOOL_CONFIG=<file>`: the operator tools' config, with the certificate.
+    let tool = demo.ready.split_whitespace().find_map(|w| w.strip_prefix("MRMM_TOOL_CONFIG=")).map(std::path::PathBuf::from);
+    let security = match tool {
+        Some(path) => {
+            #[derive(serde::Deserialize)]
+            struct Tool {
+                security: Option<mrmm_proto::SecuritySection>,
+            }
+            let tool: Tool = mrmm_proto::config::load_json5(&path)?;
+            tool.security
+        }
+        None => None,
+    };
+    Ok((demo, ep, security))
 }
 
 /// Waits until `n` robots are registered and have reported a pose.

@@ -6,10 +6,9 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use mrmm_proto::plan::Point;
-use mrmm_proto::{self as proto, AdviceEvent, Key, MissionView, Pattern, PlanSummary, Priority, SyncArrival, Telemetry};
+use mrmm_proto::{self as proto, AdviceEvent, Key, Mesh, MissionView, Pattern, PlanSummary, Priority, Role, SyncArrival, Telemetry};
 use rerun::RecordingStream;
 use tokio_util::sync::CancellationToken;
-use zenoh::Session;
 
 use crate::{paths, VizError};
 
@@ -33,8 +32,10 @@ fn rr(e: impl std::fmt::Display) -> VizError {
     VizError::Rerun(e.to_string())
 }
 
-/// Streams the fleet seen on `session` to `sink` until `shutdown`; flushes before returning.
-pub async fn run(session: Session, sink: Sink, shutdown: CancellationToken) -> Result<(), VizError> {
+/// Streams the fleet seen on `mesh` to `sink` until `shutdown`; flushes before returning. Only
+/// what its proven sender may publish is drawn.
+pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<(), VizError> {
+    let session = mesh.session().clone();
     let probe = match &sink {
         Sink::Connect(url) => Some(viewer_addr(url)?),
         _ => None,
@@ -71,22 +72,28 @@ pub async fn run(session: Session, sink: Sink, shutdown: CancellationToken) -> R
             }
             s = telemetry.recv_async() => {
                 let Ok(s) = s else { break };
+                let Some(from) = mesh.sender_of("telemetry", &s) else { continue };
                 match proto::decode_telemetry(&s.payload().to_bytes()) {
-                    Ok(t) => view.robot(&t),
+                    Ok(t) if from.is(Role::Robot, &t.id) => view.robot(&t),
+                    Ok(t) => mesh.refuse(&format!("publish the telemetry of {}", t.id), &from),
                     Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
                 }
             }
             s = statuses.recv_async() => {
                 let Ok(s) = s else { break };
+                let Some(from) = mesh.sender_of("mission status", &s) else { continue };
                 match proto::from_json::<MissionView>("mission status", &s.payload().to_bytes()) {
-                    Ok(m) => view.mission(&m),
+                    Ok(m) if m.manager.node == from.id && from.role.hosts_missions() => view.mission(&m),
+                    Ok(m) => mesh.refuse(&format!("report mission {} as managed by {}", m.name, m.manager.node), &from),
                     Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
                 }
             }
             s = advice.recv_async() => {
                 let Ok(s) = s else { break };
+                let Some(from) = mesh.sender_of("advice", &s) else { continue };
                 match proto::from_json::<AdviceEvent>("advice", &s.payload().to_bytes()) {
-                    Ok(a) => view.advice(&a),
+                    Ok(a) if from.role == Role::Central => view.advice(&a),
+                    Ok(_) => mesh.refuse("publish advice", &from),
                     Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
                 }
             }
@@ -96,8 +103,11 @@ pub async fn run(session: Session, sink: Sink, shutdown: CancellationToken) -> R
                     Some(Key::TeamSync { team, .. }) => team,
                     _ => continue,
                 };
+                let Some(from) = mesh.sender_of("barrier arrival", &s) else { continue };
                 if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-                    view.sync(&team, &a);
+                    if from.is(Role::Robot, &a.robot) {
+                        view.sync(&team, &a);
+                    }
                 }
             }
         }

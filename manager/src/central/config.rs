@@ -3,7 +3,8 @@
 
 use std::path::Path;
 
-use mrmm_proto::net::{self, DEFAULT_CENTRAL, DEFAULT_LEASE_MS};
+use mrmm_proto::net::{self, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_proto::SecuritySection;
 use serde::Deserialize;
 
 use crate::agent::AgentConfig;
@@ -25,6 +26,18 @@ pub struct CentralConfig {
     /// The advising agent.
     #[serde(default)]
     pub agent: AgentConfig,
+    /// Largest message accepted from the network, bytes.
+    #[serde(default = "default_max_message_size")]
+    pub max_message_size: usize,
+    /// Central's certificate and the operators allowed to command
+    /// (`{ ca, cert, key, operators: ["alice"] }`); without it central runs insecure. Relative
+    /// paths are relative to the config file.
+    #[serde(default)]
+    pub security: Option<SecuritySection>,
+}
+
+fn default_max_message_size() -> usize {
+    DEFAULT_MAX_MESSAGE_SIZE
 }
 
 fn default_listen() -> Vec<String> {
@@ -39,14 +52,28 @@ fn default_query_timeout() -> u64 {
 
 impl Default for CentralConfig {
     fn default() -> Self {
-        CentralConfig { listen: default_listen(), lease_ms: default_lease(), query_timeout_ms: default_query_timeout(), agent: AgentConfig::default() }
+        CentralConfig {
+            listen: default_listen(),
+            lease_ms: default_lease(),
+            query_timeout_ms: default_query_timeout(),
+            agent: AgentConfig::default(),
+            max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
+            security: None,
+        }
     }
 }
 
 impl CentralConfig {
     /// Reads and validates a central config file.
     pub fn load(path: &Path) -> Result<Self, ManagerError> {
-        let cfg: CentralConfig = mrmm_proto::config::load_json5(path)?;
+        let mut cfg: CentralConfig = mrmm_proto::config::load_json5(path)?;
+        if let (Some(sec), Some(dir)) = (cfg.security.as_mut(), path.parent()) {
+            for p in [&mut sec.ca, &mut sec.cert, &mut sec.key] {
+                if p.is_relative() {
+                    *p = dir.join(&*p);
+                }
+            }
+        }
         cfg.validate().map_err(|e| ManagerError::Config(format!("{}: {e}", path.display())))?;
         Ok(cfg)
     }
@@ -56,7 +83,11 @@ impl CentralConfig {
         if self.listen.is_empty() {
             return Err("listen: at least one endpoint is needed".into());
         }
-        net::validate_endpoints("listen", &self.listen)?;
+        net::validate_endpoints_for("listen", &self.listen, self.security.is_some())?;
+        net::validate_max_message_size("max_message_size", self.max_message_size)?;
+        if let Some(sec) = &self.security {
+            sec.validate("security")?;
+        }
         if !(100..=60_000).contains(&self.lease_ms) {
             return Err(format!("lease_ms: must be 100..=60000 (got {})", self.lease_ms));
         }

@@ -145,7 +145,7 @@ mod tests {
             ..Default::default()
         };
         let out = c.handle(0.1, Event::System(system::Event::Operator { req: Req::Query(1), request: Request::Create(create) }));
-        assert!(matches!(out.as_slice(), [Command::System(system::Command::StartMission { .. })]));
+        assert!(matches!(out.as_slice(), [Command::System(system::Command::SendToRobot { .. }), Command::System(system::Command::StartMission { .. })]), "{out:?}");
         let mut view = Box::new(c.system().mission_views()[0].clone());
         view.status = mrmm_proto::MissionStatus::Running;
         view.summary = Some(mrmm_proto::PlanSummary::Patrol(mrmm_proto::plan::PatrolSummary {

@@ -10,12 +10,11 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use mrmm_proto::net::{self, Mode};
-use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, MissionView, Pattern, RobotInfo, SystemCmd};
+use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, Mesh, MissionView, NodeNet, Pattern, RobotInfo, Role, Sender, SystemCmd};
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
 use zenoh::query::Query;
 use zenoh::sample::{Sample, SampleKind};
-use zenoh::Session;
 
 pub use self::config::CentralConfig;
 pub use self::core::{CentralCore, Command, Event, AGENT_PERIOD_S};
@@ -45,7 +44,17 @@ enum Input {
 /// Runs central until `shutdown` is cancelled.
 pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), ManagerError> {
     cfg.validate().map_err(ManagerError::Config)?;
-    let session = net::open(net::zenoh_config(Mode::Router, &cfg.listen, &[], cfg.lease_ms)?).await?;
+    let mesh = Mesh::open(&NodeNet {
+        mode: Mode::Router,
+        listen: cfg.listen.clone(),
+        connect: vec![],
+        lease_ms: cfg.lease_ms,
+        max_message_size: cfg.max_message_size,
+        security: cfg.security.clone(),
+        me: Some(Sender::new(Role::Central, proto::CENTRAL_HOST)),
+    })
+    .await?;
+    let session = mesh.session().clone();
     let endpoints = net::listening_endpoints(&session).await;
     let zid = session.zid().to_string();
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
@@ -71,8 +80,8 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         let _ = t.send(Input::Advice(q));
     }).await.map_err(ManagerError::zenoh)?;
     // The default planner service and mission host live here too.
-    let planners = tokio::spawn(crate::planner_service::serve(session.clone(), shutdown.child_token()));
-    let missions = tokio::spawn(crate::host::serve(session.clone(), proto::CENTRAL_HOST.to_string(), shutdown.child_token()));
+    let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), shutdown.child_token()));
+    let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, shutdown.child_token()));
     tracing::info!(%zid, ?endpoints, "central up");
     if let Some(tx) = ready {
         let _ = tx.send(Ready { zid: zid.clone(), endpoints });
@@ -80,19 +89,29 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
 
     let t0 = Instant::now();
     let mut core = CentralCore::new(zid, cfg.agent.clone(), 0.0);
-    let mut io = Io { session: session.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
+    let mut io = Io { mesh: mesh.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
     let mut tick = tokio::time::interval(TICK);
+    let mut refused = 0;
     loop {
         let event = tokio::select! {
             _ = shutdown.cancelled() => break,
-            _ = tick.tick() => Event::System(system::Event::Tick),
+            _ = tick.tick() => {
+                let total = mesh.verifier().refused.total();
+                if total != refused {
+                    refused = total;
+                    for c in core.handle(t0.elapsed().as_secs_f64(), Event::System(system::Event::Refusals(mesh.verifier().refused.counts()))) {
+                        io.execute(c).await;
+                    }
+                }
+                Event::System(system::Event::Tick)
+            }
             i = rx.recv() => match i {
                 Some(Input::Operator(q)) => match io.operator(q).await {
                     Some(e) => e,
                     None => continue,
                 },
                 Some(Input::Advice(q)) => Event::Advice { query: io.hold(q) },
-                Some(Input::Sample(s)) => match decode(&s) {
+                Some(Input::Sample(s)) => match decode(&mesh, &s) {
                     Some(e) => Event::System(e),
                     None => continue,
                 },
@@ -113,15 +132,22 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
 }
 
 /// A publication or liveliness change as the system manager's event; `None` (logged) for
-/// anything foreign or malformed.
-fn decode(s: &Sample) -> Option<system::Event> {
+/// anything foreign, malformed, or not sealed by whom it must be.
+fn decode(mesh: &Mesh, s: &Sample) -> Option<system::Event> {
     let key = s.key_expr().as_str();
     let up = s.kind() == SampleKind::Put;
     match Key::parse(key) {
         Some(Key::RobotAlive(id)) => Some(if up { system::Event::RobotAlive { id } } else { system::Event::RobotGone { id } }),
         Some(Key::HostAlive(node)) => Some(if up { system::Event::HostAlive { node } } else { system::Event::HostGone { node } }),
         Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
-            Ok(t) if t.id == id => Some(system::Event::Telemetry(Box::new(t))),
+            Ok(t) if t.id == id => {
+                let from = mesh.sender_of("telemetry", s)?;
+                if !from.is(Role::Robot, &id) {
+                    mesh.refuse(&format!("publish the telemetry of {id}"), &from);
+                    return None;
+                }
+                Some(system::Event::Telemetry(Box::new(t)))
+            }
             Ok(t) => {
                 tracing::warn!("dropped telemetry of {:?} published on {key}", t.id);
                 None
@@ -132,7 +158,10 @@ fn decode(s: &Sample) -> Option<system::Event> {
             }
         },
         Some(Key::MissionStatus(name)) => match proto::from_json::<MissionView>("mission status", &s.payload().to_bytes()) {
-            Ok(v) if v.name == name => Some(system::Event::MissionStatus(Box::new(v))),
+            Ok(v) if v.name == name => {
+                let from = mesh.sender_of("mission status", s)?;
+                Some(system::Event::MissionStatus { view: Box::new(v), from })
+            }
             Ok(v) => {
                 tracing::warn!("dropped the status of {:?} published on {key}", v.name);
                 None
@@ -151,7 +180,7 @@ fn decode(s: &Sample) -> Option<system::Event> {
 
 /// The I/O half: operator queries held under ids, and requests to robots and hosts.
 struct Io {
-    session: Session,
+    mesh: Mesh,
     timeout: Duration,
     queries: HashMap<u64, Query>,
     next: u64,
@@ -181,14 +210,14 @@ impl Io {
             Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", &payload).map(Request::Create),
             Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", &payload).map(Request::Terminate),
             _ => {
-                net::reply_error(&q, &format!("unknown key {}", q.key_expr())).await;
+                self.mesh.reply_error(&q, &format!("unknown key {}", q.key_expr())).await;
                 return None;
             }
         };
         match request {
             Ok(request) => Some(Event::System(system::Event::Operator { req: Req::Query(self.hold(q)), request })),
             Err(e) => {
-                net::reply_error(&q, &e.to_string()).await;
+                self.mesh.reply_error(&q, &e.to_string()).await;
                 None
             }
         }
@@ -207,55 +236,68 @@ impl Io {
 
     async fn execute(&mut self, c: Command) {
         let c = match c {
-            Command::Publish(e) => return net::publish_json(&self.session, &Key::AgentAdviceLive.to_string(), &e).await,
+            Command::Publish(e) => return self.mesh.publish_json(&Key::AgentAdviceLive.to_string(), &e).await,
             Command::System(c) => c,
         };
-        let (session, timeout) = (self.session.clone(), self.timeout);
+        let (mesh, timeout) = (self.mesh.clone(), self.timeout);
         match c {
             system::Command::Reply { req, result } => {
                 let Req::Query(id) = req else { return };
                 let Some(q) = self.queries.remove(&id) else { return };
                 match result {
-                    Ok(v) => net::reply_json(&q, &v).await,
-                    Err(e) => net::reply_error(&q, &e).await,
+                    Ok(v) => self.mesh.reply_json(&q, &v).await,
+                    Err(e) => self.mesh.reply_error(&q, &e).await,
                 }
             }
+            system::Command::Refused { from, what } => self.mesh.refuse(&what, &from),
             system::Command::FetchInfo { id } => self.spawn(async move {
-                match net::query::<RobotInfo>(&session, &Key::RobotInfo(id.clone()).to_string(), None, timeout).await {
-                    Ok(info) if info.id == id => system::Event::RobotRegistered(info),
-                    Ok(info) => system::Event::InfoFailed { id, reason: format!("answered as {:?}", info.id) },
+                let key = Key::RobotInfo(id.clone()).to_string();
+                match mesh.query::<RobotInfo>(&key, None, timeout, |s| s.is(Role::Robot, &id)).await {
+                    Ok((info, _)) if info.id == id => system::Event::RobotRegistered(info),
+                    Ok((info, _)) => system::Event::InfoFailed { id, reason: format!("answered as {:?}", info.id) },
                     Err(e) => system::Event::InfoFailed { id, reason: e.to_string() },
                 }
             }),
             system::Command::SendToRobot { req, robot, cmd } => self.spawn(async move {
+                let key = Key::RobotCmd(robot.clone()).to_string();
                 let result = match proto::to_json(&cmd) {
-                    Ok(body) => net::query::<CommandAck>(&session, &Key::RobotCmd(robot.clone()).to_string(), Some(body), timeout).await.map_err(|e| e.to_string()),
+                    Ok(body) => mesh.query::<CommandAck>(&key, Some(body), timeout, |s| s.is(Role::Robot, &robot)).await.map(|(a, _)| a).map_err(|e| e.to_string()),
                     Err(e) => Err(e.to_string()),
                 };
                 system::Event::RobotCommandDone { req, robot, result }
             }),
             system::Command::StartMission { host, start } => self.spawn(async move {
                 let mission = start.spec.name.clone();
+                let key = Key::HostStart(host.clone()).to_string();
                 let result = match proto::to_json(&start) {
-                    Ok(body) => net::query::<MissionView>(&session, &Key::HostStart(host).to_string(), Some(body), START_TIMEOUT).await.map_err(Failure::from),
+                    Ok(body) => mesh
+                        .query::<MissionView>(&key, Some(body), START_TIMEOUT, |s| s.id == host && s.role.hosts_missions())
+                        .await
+                        .map(|(v, _)| v)
+                        .map_err(Failure::from),
                     Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
                 };
                 system::Event::MissionStarted { mission, result: result.map(Box::new) }
             }),
-            system::Command::Ctl { id, mission, ctl } => self.spawn(async move {
+            system::Command::Ctl { id, mission, ctl, managers } => self.spawn(async move {
+                let key = Key::MissionCtl(mission).to_string();
                 let result = match proto::to_json(&ctl) {
-                    Ok(body) => net::query::<CtlAck>(&session, &Key::MissionCtl(mission).to_string(), Some(body), timeout).await.map(|_| ()).map_err(Failure::from),
+                    Ok(body) => mesh
+                        .query::<CtlAck>(&key, Some(body), timeout, |s| s.role.hosts_missions() && managers.contains(&s.id))
+                        .await
+                        .map(|_| ())
+                        .map_err(Failure::from),
                     Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
                 };
                 system::Event::CtlDone { id, result }
             }),
-            system::Command::Forward { req, key } => {
+            system::Command::Forward { req, key, managers } => {
                 let Req::Query(id) = req else { return };
                 let Some(q) = self.queries.remove(&id) else { return };
                 tokio::spawn(async move {
-                    match net::query::<serde_json::Value>(&session, &key.to_string(), None, timeout).await {
-                        Ok(v) => net::reply_json(&q, &v).await,
-                        Err(e) => net::reply_error(&q, &e.to_string()).await,
+                    match mesh.query::<serde_json::Value>(&key.to_string(), None, timeout, |s| s.role.hosts_missions() && managers.contains(&s.id)).await {
+                        Ok((v, _)) => mesh.reply_json(&q, &v).await,
+                        Err(e) => mesh.reply_error(&q, &e.to_string()).await,
                     }
                 });
             }

@@ -6,7 +6,10 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use mrmm_planner::recipe::PlannerKind;
-use mrmm_proto::{ChainEnvelope, CENTRAL_HOST, CtlAck, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest, Telemetry};
+use mrmm_proto::{
+    ChainEnvelope, CENTRAL_HOST, CtlAck, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest, Role,
+    Sender, Telemetry,
+};
 use serde_json::Value;
 
 use super::head::Head;
@@ -23,10 +26,10 @@ pub enum Event {
     Tick,
     /// Once a second: status publications, chain pools.
     StatusTick,
-    /// Query `query` on `mrmm/hosts/<node>/start`.
-    Start { query: u64, start: Box<MissionStart> },
-    /// Query `query` on `mrmm/missions/<mission>/ctl`.
-    Ctl { query: u64, mission: String, ctl: MissionCtl },
+    /// Query `query` on `mrmm/hosts/<node>/start`, from proven sender `from`.
+    Start { query: u64, start: Box<MissionStart>, from: Sender },
+    /// Query `query` on `mrmm/missions/<mission>/ctl`, from proven sender `from`.
+    Ctl { query: u64, mission: String, ctl: MissionCtl, from: Sender },
     /// Query `query` on `mrmm/missions/<mission>/view`.
     View { query: u64, mission: String },
     /// Query `query` on `mrmm/missions/<mission>/marginal?add=<add>`.
@@ -37,7 +40,15 @@ pub enum Event {
     /// The answer to a [`Command::SendPlan`]: `Ok`, or the robot's refusal (`retryable`: nobody
     /// answered).
     PlanDelivered { mission: String, robot: String, epoch: u64, result: Result<(), Failure> },
-    Chain(Box<ChainEnvelope>),
+    /// A chain message from its proven sender (the driver checked that it is the envelope's
+    /// `from`).
+    Chain { envelope: Box<ChainEnvelope>, from: Sender },
+    /// The missions this node's own robot is in or admitted to, each with whom it trusts for it
+    /// (robot nodes only).
+    LocalTeam(Vec<(String, Vec<String>)>),
+    /// A mission's head published its status (proven sender `from`): on a robot node, a head
+    /// its robot trusts tells it who else is in the mission's chain.
+    MissionStatus { view: Box<MissionView>, from: Sender },
     HostAlive(String),
     HostGone(String),
     RobotAlive(String),
@@ -66,6 +77,17 @@ pub enum Command {
     SendPlan { mission: String, robot: String, assignment: Box<PlanAssignment> },
     /// Publish the mission's status on `mrmm/missions/<name>/status`.
     Status(Box<MissionView>),
+    /// A proven sender sent what it may not: count it and say so in the log.
+    Refused { from: Sender, what: String },
+}
+
+/// What a host knows of its own node's robot.
+#[derive(Debug, Clone, PartialEq)]
+enum Local {
+    /// Central or a mission host: no robot here.
+    NoRobot,
+    /// A robot node: the missions its robot is in or admitted to, each with whom it trusts.
+    Robot(Vec<(String, Vec<String>)>),
 }
 
 /// The mission host of one node.
@@ -77,6 +99,12 @@ pub struct HostCore {
     robots: BTreeSet<String>,
     /// Planner services alive: (kind, zid).
     planners: BTreeSet<(String, String)>,
+    /// This node's own robot, if it has one: its mission and teammates.
+    local: Local,
+    /// The mission each robot's telemetry says it runs.
+    robot_missions: BTreeMap<String, String>,
+    /// The chain of each of our robot's missions, as a head our robot trusts last published it.
+    trusted_chain: BTreeMap<String, Vec<String>>,
 }
 
 fn json<T: serde::Serialize>(v: &T) -> Result<Value, String> {
@@ -92,6 +120,52 @@ impl HostCore {
             heads: BTreeMap::new(),
             robots: BTreeSet::new(),
             planners: BTreeSet::new(),
+            local: Local::NoRobot,
+            robot_missions: BTreeMap::new(),
+            trusted_chain: BTreeMap::new(),
+        }
+    }
+
+    /// The host of a robot node: it learns its robot's team from [`Event::LocalTeam`].
+    pub fn with_robot(mut self) -> Self {
+        self.local = Local::Robot(Vec::new());
+        self
+    }
+
+    /// Whether `from` may send chain messages about `mission` to this node. Central and mission
+    /// hosts may. A robot may when this node already counts it in the mission (in the chain or
+    /// the team of its replica); else, when this node's own robot is in the mission, if it is a
+    /// teammate (by the robot's plan and admission); else if its own telemetry says it runs
+    /// the mission and this node holds nothing of it yet.
+    fn may_chain(&self, mission: &str, from: &Sender) -> bool {
+        match from.role {
+            Role::Central | Role::Host => return true,
+            Role::Robot => {}
+            Role::Operator | Role::Planner => return false,
+        }
+        let id = &from.id;
+        if let Some(r) = self.registry.replica(mission) {
+            let in_chain = r.config().is_some_and(|c| c.chain.contains(id));
+            let in_team = r.state().is_some_and(|s| s.members.iter().chain(&s.lost).any(|m| m.spec.id == *id));
+            if in_chain || in_team {
+                return true;
+            }
+        }
+        let ours = match &self.local {
+            Local::Robot(teams) => teams.iter().find(|(m, _)| m == mission).map(|(_, members)| members),
+            Local::NoRobot => None,
+        };
+        match ours {
+            // Our robot is in the mission: only its team (as its plan and admission say) speaks,
+            // and the chain a head of that team last published.
+            Some(members) => members.contains(id) || self.trusted_chain.get(mission).is_some_and(|chain| chain.contains(id)),
+            // Our robot is not in it (it left, or never was) or there is none: go by what the
+            // sender's own telemetry says it runs, and only for a mission this node holds nothing
+            // of yet — a node outside a mission can still be asked to hold a replica of it.
+            _ => {
+                let holds = self.registry.replica(mission).is_some_and(|r| r.config().is_some() || r.state().is_some());
+                !holds && self.robot_missions.get(id).is_some_and(|m| m == mission)
+            }
         }
     }
 
@@ -119,9 +193,11 @@ impl HostCore {
                 for (name, cmds) in self.registry.tick(now) {
                     self.apply(now, &name, cmds, &mut out);
                 }
-                let robots = &self.robots;
+                let (robots, registry) = (&self.robots, &self.registry);
                 for (name, h) in self.heads.iter_mut() {
-                    for (robot, assignment) in h.redeliver(now, |r| robots.contains(r)) {
+                    let managers = registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
+                    for (robot, mut assignment) in h.redeliver(now, |r| robots.contains(r)) {
+                        assignment.managers.clone_from(&managers);
                         out.push(Command::SendPlan { mission: name.clone(), robot, assignment });
                     }
                 }
@@ -133,8 +209,28 @@ impl HostCore {
                     self.status(&name, &mut out);
                 }
             }
-            Event::Start { query, start } => self.start(now, query, *start, &mut out),
-            Event::Ctl { query, mission, ctl } => self.ctl(now, query, &mission, ctl, &mut out),
+            Event::Start { from, query, .. } | Event::Ctl { from, query, .. } if from.role != Role::Central => {
+                out.push(Command::Reply { query, result: Err(format!("refused: {from} may not steer missions (only central does)")) });
+                out.push(Command::Refused { what: "steer a mission (start or control)".into(), from });
+            }
+            Event::Start { query, start, .. } => self.start(now, query, *start, &mut out),
+            Event::Ctl { query, mission, ctl, .. } => self.ctl(now, query, &mission, ctl, &mut out),
+            Event::LocalTeam(teams) => {
+                if let Local::Robot(t) = &mut self.local {
+                    self.trusted_chain.retain(|m, _| teams.iter().any(|(tm, _)| tm == m));
+                    *t = teams;
+                }
+            }
+            Event::MissionStatus { view, from } => {
+                if let Local::Robot(teams) = &self.local {
+                    if let Some((_, members)) = teams.iter().find(|(m, _)| *m == view.name) {
+                        let head_trusted = from.role != Role::Robot || members.contains(&from.id);
+                        if view.manager.node == from.id && head_trusted {
+                            self.trusted_chain.insert(view.name.clone(), view.manager.chain.clone());
+                        }
+                    }
+                }
+            }
             Event::View { query, mission } => {
                 let result = self.view(&mission, true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
                 out.push(Command::Reply { query, result });
@@ -148,6 +244,14 @@ impl HostCore {
                 out.push(Command::Reply { query, result: result.and_then(|m| json(&m)) });
             }
             Event::Telemetry(t) => {
+                match &t.mission {
+                    Some(m) => {
+                        self.robot_missions.insert(t.id.clone(), m.clone());
+                    }
+                    None => {
+                        self.robot_missions.remove(&t.id);
+                    }
+                }
                 let names: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
                 for name in names {
                     if let Some(h) = self.heads.get_mut(&name) {
@@ -169,8 +273,12 @@ impl HostCore {
                     }
                 }
             }
-            Event::Chain(env) => {
-                let ChainEnvelope { mission, from, msg } = *env;
+            Event::Chain { envelope, from: sender } => {
+                let ChainEnvelope { mission, from, msg } = *envelope;
+                if sender.id != from || !self.may_chain(&mission, &sender) {
+                    out.push(Command::Refused { what: format!("send chain messages for mission {mission} as {from}"), from: sender });
+                    return out;
+                }
                 tracing::trace!(%mission, %from, msg = msg.describe(), "chain: received");
                 let cmds = self.registry.receive(now, &mission, from, msg);
                 self.apply(now, &mission, cmds, &mut out);
@@ -184,6 +292,7 @@ impl HostCore {
             }
             Event::RobotGone(id) => {
                 self.robots.remove(&id);
+                self.robot_missions.remove(&id);
                 self.robot(now, &id, false, &mut out);
             }
             Event::PlannerAlive { kind, zid } => {
@@ -411,6 +520,7 @@ impl HostCore {
             return;
         }
         let view = self.view(name, false);
+        let managers = self.registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
         let Some(h) = self.heads.get_mut(name) else { return };
         let (effects, replies) = h.committed();
         for (query, ack) in replies {
@@ -418,7 +528,8 @@ impl HostCore {
         }
         for c in effects {
             match c {
-                mission::Command::SendPlan { robot, assignment } => {
+                mission::Command::SendPlan { robot, mut assignment } => {
+                    assignment.managers = managers.clone();
                     h.sending(now, &robot, assignment.clone());
                     out.push(Command::SendPlan { mission: name.to_string(), robot, assignment });
                 }

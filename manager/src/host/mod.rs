@@ -11,13 +11,12 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use mrmm_proto::net::{self, QueryError};
-use mrmm_proto::{self as proto, ChainEnvelope, CommandAck, Key, MissionPlan, Pattern, RobotCommand};
-use tokio::sync::mpsc;
+use mrmm_proto::{self as proto, ChainEnvelope, CommandAck, Key, Mesh, MissionPlan, Pattern, RobotCommand, Role};
+use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
 use zenoh::query::{Query, Queryable};
 use zenoh::sample::{Sample, SampleKind};
-use zenoh::Session;
 
 pub use self::core::{Command, Event, HostCore};
 pub use self::head::{PLAN_RETRIES, REDELIVER_S};
@@ -50,13 +49,25 @@ enum QueryKind {
     Marginal(String),
 }
 
-/// Hosts missions on `session` as `node` until `shutdown`, with the default chain parameters.
-pub async fn serve(session: Session, node: String, shutdown: CancellationToken) -> Result<(), ManagerError> {
-    serve_with(session, node, Params::default(), shutdown).await
+/// The missions this node's own robot is in or admitted to, each with whom it trusts, as its
+/// robot runtime tells the host.
+pub type LocalTeam = Vec<(String, Vec<String>)>;
+
+/// Hosts missions on `mesh` as `node` until `shutdown`, with the default chain parameters.
+/// `local`: on a robot node, its robot's team.
+pub async fn serve(mesh: Mesh, node: String, local: Option<watch::Receiver<LocalTeam>>, shutdown: CancellationToken) -> Result<(), ManagerError> {
+    serve_with(mesh, node, Params::default(), local, shutdown).await
 }
 
 /// Hosts missions with chain parameters `params` (`params.k` replicas per mission).
-pub async fn serve_with(session: Session, node: String, params: Params, shutdown: CancellationToken) -> Result<(), ManagerError> {
+pub async fn serve_with(
+    mesh: Mesh,
+    node: String,
+    params: Params,
+    mut local: Option<watch::Receiver<LocalTeam>>,
+    shutdown: CancellationToken,
+) -> Result<(), ManagerError> {
+    let session = mesh.session().clone();
     proto::validate_id(&node).map_err(|e| ManagerError::Config(format!("mission host name: {e}")))?;
     if net::already_alive(&session, &Key::HostAlive(node.clone()).to_string(), net::NAME_CHECK_TIMEOUT).await? {
         return Err(ManagerError::NameTaken(format!(
@@ -73,7 +84,12 @@ pub async fn serve_with(session: Session, node: String, params: Params, shutdown
         .await
         .map_err(ManagerError::zenoh)?;
     let mut subs = Vec::new();
-    for key in [Pattern::AllTelemetry.to_string(), Key::HostChain(node.clone()).to_string()] {
+    let mut keys = vec![Pattern::AllTelemetry.to_string(), Key::HostChain(node.clone()).to_string()];
+    if local.is_some() {
+        // A robot node learns its mission's chain from the head's status.
+        keys.push(Pattern::AllMissionStatus.to_string());
+    }
+    for key in keys {
         let t = tx.clone();
         subs.push(session.declare_subscriber(key).callback(move |s| {
             let _ = t.send(Input::Sample(s));
@@ -89,7 +105,10 @@ pub async fn serve_with(session: Session, node: String, params: Params, shutdown
     tracing::info!(%node, "mission host up");
     let t0 = Instant::now();
     let mut core = HostCore::new(&node, params, 0.0);
-    let mut io = Io { session: session.clone(), tx, queries: HashMap::new(), next: 0, served: HashMap::new() };
+    if local.is_some() {
+        core = core.with_robot();
+    }
+    let mut io = Io { mesh: mesh.clone(), tx, queries: HashMap::new(), next: 0, served: HashMap::new() };
     let mut status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -98,12 +117,19 @@ pub async fn serve_with(session: Session, node: String, params: Params, shutdown
             _ = shutdown.cancelled() => break,
             _ = status.tick() => Event::StatusTick,
             _ = tick.tick() => Event::Tick,
+            changed = local_changed(&mut local) => match changed {
+                Some(team) => Event::LocalTeam(team),
+                None => {
+                    local = None;
+                    continue;
+                }
+            },
             i = rx.recv() => match i {
                 Some(Input::Query(q, kind)) => match io.query(q, kind).await {
                     Some(e) => e,
                     None => continue,
                 },
-                Some(Input::Sample(s)) => match decode(&s) {
+                Some(Input::Sample(s)) => match decode(&mesh, &s) {
                     Some(e) => e,
                     None => continue,
                 },
@@ -118,13 +144,32 @@ pub async fn serve_with(session: Session, node: String, params: Params, shutdown
     Ok(())
 }
 
-/// A publication or liveliness change as the core's event; `None` (logged) for anything foreign.
-fn decode(s: &Sample) -> Option<Event> {
+/// The next team of this node's robot; `None` once the robot runtime is gone (or there is none).
+async fn local_changed(local: &mut Option<watch::Receiver<LocalTeam>>) -> Option<LocalTeam> {
+    match local {
+        Some(rx) => match rx.changed().await {
+            Ok(()) => Some(rx.borrow_and_update().clone()),
+            Err(_) => None,
+        },
+        None => std::future::pending().await,
+    }
+}
+
+/// A publication or liveliness change as the core's event; `None` (logged) for anything foreign,
+/// malformed, or not sent by whom it must be.
+fn decode(mesh: &Mesh, s: &Sample) -> Option<Event> {
     let up = s.kind() == SampleKind::Put;
     let key = s.key_expr().as_str();
     match Key::parse(key) {
         Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
-            Ok(t) if t.id == id => Some(Event::Telemetry(Box::new(t))),
+            Ok(t) if t.id == id => {
+                let from = mesh.sender_of("telemetry", s)?;
+                if !from.is(Role::Robot, &id) {
+                    mesh.refuse(&format!("publish the telemetry of {id}"), &from);
+                    return None;
+                }
+                Some(Event::Telemetry(Box::new(t)))
+            }
             Ok(t) => {
                 tracing::debug!("dropped telemetry of {:?} published on {key}", t.id);
                 None
@@ -135,7 +180,14 @@ fn decode(s: &Sample) -> Option<Event> {
             }
         },
         Some(Key::HostChain(_)) => match proto::from_json::<ChainEnvelope>("chain message", &s.payload().to_bytes()) {
-            Ok(env) if proto::validate_id(&env.mission).is_ok() && proto::validate_id(&env.from).is_ok() => Some(Event::Chain(Box::new(env))),
+            Ok(env) if proto::validate_id(&env.mission).is_ok() && proto::validate_id(&env.from).is_ok() => {
+                let from = mesh.sender_of("chain message", s)?;
+                if !from.role.hosts_missions() {
+                    mesh.refuse("send chain messages", &from);
+                    return None;
+                }
+                Some(Event::Chain { envelope: Box::new(env), from })
+            }
             Ok(_) => {
                 tracing::debug!("dropped a chain message with a bad mission or node name");
                 None
@@ -144,6 +196,13 @@ fn decode(s: &Sample) -> Option<Event> {
                 tracing::debug!("dropped chain message on {key}: {e}");
                 None
             }
+        },
+        Some(Key::MissionStatus(name)) => match proto::from_json::<proto::MissionView>("mission status", &s.payload().to_bytes()) {
+            Ok(v) if v.name == name => {
+                let from = mesh.sender_of("mission status", s)?;
+                Some(Event::MissionStatus { view: Box::new(v), from })
+            }
+            _ => None,
         },
         Some(Key::HostAlive(node)) => Some(if up { Event::HostAlive(node) } else { Event::HostGone(node) }),
         Some(Key::RobotAlive(id)) => Some(if up { Event::RobotAlive(id) } else { Event::RobotGone(id) }),
@@ -157,7 +216,7 @@ fn decode(s: &Sample) -> Option<Event> {
 
 /// The I/O half: queries held under ids, the served mission queryables, requests in flight.
 struct Io {
-    session: Session,
+    mesh: Mesh,
     tx: mpsc::UnboundedSender<Input>,
     queries: HashMap<u64, Query>,
     next: u64,
@@ -175,9 +234,25 @@ impl Io {
     async fn query(&mut self, q: Query, kind: QueryKind) -> Option<Event> {
         let query = self.next;
         let payload = net::query_payload(&q);
+        if matches!(kind, QueryKind::Start | QueryKind::Ctl(_)) && self.mesh.try_sender_of_query(&q).is_err() {
+            // Counted and answered: its sender is not proven.
+            let from = self.mesh.sender_of_query("mission control", &q);
+            debug_assert!(from.is_none());
+            self.mesh.reply_error(&q, "refused: the query's seal is not this fleet's").await;
+            return None;
+        }
+        let from = || self.mesh.try_sender_of_query(&q).ok();
         let event = match kind {
-            QueryKind::Start => proto::from_json("mission start", &payload).map(|start| Event::Start { query, start: Box::new(start) }).map_err(|e| e.to_string()),
-            QueryKind::Ctl(mission) => proto::from_json("mission control", &payload).map(|ctl| Event::Ctl { query, mission, ctl }).map_err(|e| e.to_string()),
+            QueryKind::Start => match (proto::from_json("mission start", &payload), from()) {
+                (Ok(start), Some(from)) => Ok(Event::Start { query, start: Box::new(start), from }),
+                (Err(e), _) => Err(e.to_string()),
+                (_, None) => Err("refused: unproven sender".into()),
+            },
+            QueryKind::Ctl(mission) => match (proto::from_json("mission control", &payload), from()) {
+                (Ok(ctl), Some(from)) => Ok(Event::Ctl { query, mission, ctl, from }),
+                (Err(e), _) => Err(e.to_string()),
+                (_, None) => Err("refused: unproven sender".into()),
+            },
             QueryKind::View(mission) => Ok(Event::View { query, mission }),
             QueryKind::Marginal(mission) => match q.parameters().get("add") {
                 None => Ok(Event::Marginal { query, mission, add: 1 }),
@@ -194,7 +269,7 @@ impl Io {
                 Some(e)
             }
             Err(e) => {
-                net::reply_error(&q, &e).await;
+                self.mesh.reply_error(&q, &e).await;
                 None
             }
         }
@@ -205,21 +280,18 @@ impl Io {
             Command::Chain { to, envelope } => {
                 let key = Key::HostChain(to.clone()).to_string();
                 match proto::to_json(&envelope) {
-                    Ok(bytes) => {
-                        if let Err(e) = self.session.put(key, bytes).encoding(Encoding::APPLICATION_JSON).await {
-                            tracing::warn!(%to, "chain message not sent: {e}");
-                        }
-                    }
+                    Ok(bytes) => self.mesh.put(&key, bytes, Encoding::APPLICATION_JSON).await,
                     Err(e) => tracing::warn!("cannot encode a chain message: {e}"),
                 }
             }
             Command::Reply { query, result } => {
                 let Some(q) = self.queries.remove(&query) else { return };
                 match result {
-                    Ok(v) => net::reply_json(&q, &v).await,
-                    Err(e) => net::reply_error(&q, &e).await,
+                    Ok(v) => self.mesh.reply_json(&q, &v).await,
+                    Err(e) => self.mesh.reply_error(&q, &e).await,
                 }
             }
+            Command::Refused { from, what } => self.mesh.refuse(&what, &from),
             Command::Drop { query } => {
                 self.queries.remove(&query);
             }
@@ -231,7 +303,7 @@ impl Io {
                     (Key::MissionMarginal(mission.clone()), QueryKind::Marginal(mission.clone())),
                 ] {
                     let tx = self.tx.clone();
-                    match self.session.declare_queryable(key.to_string()).callback(move |q| {
+                    match self.mesh.session().declare_queryable(key.to_string()).callback(move |q| {
                         let _ = tx.send(Input::Query(q, kind.clone()));
                     }).await {
                         Ok(q) => qs.push(q),
@@ -239,7 +311,7 @@ impl Io {
                     }
                 }
                 let key = Key::MissionStatus(mission.clone());
-                let status = match self.session.declare_publisher(key).encoding(Encoding::APPLICATION_JSON).await {
+                let status = match self.mesh.session().declare_publisher(key).encoding(Encoding::APPLICATION_JSON).await {
                     Ok(p) => Some(p),
                     Err(e) => {
                         tracing::warn!(%mission, "cannot declare the status publisher: {e}");
@@ -252,7 +324,7 @@ impl Io {
                 self.served.remove(&mission);
             }
             Command::RequestPlan { mission, epoch, kind, request, local } => {
-                let (session, tx) = (self.session.clone(), self.tx.clone());
+                let (mesh, tx) = (self.mesh.clone(), self.tx.clone());
                 tokio::spawn(async move {
                     let result = if local {
                         tokio::task::spawn_blocking(move || crate::planner_service::plan(kind, &request))
@@ -262,7 +334,13 @@ impl Io {
                     } else {
                         let key = Key::Planner(kind.as_str().to_string()).to_string();
                         match proto::to_json(&request) {
-                            Ok(body) => net::query::<MissionPlan>(&session, &key, Some(body), PLAN_TIMEOUT).await.map_err(failure),
+                            // Only a planner service (central runs one) may answer: a stranger
+                            // answering first is refused and the wait goes on.
+                            Ok(body) => mesh
+                                .query::<MissionPlan>(&key, Some(body), PLAN_TIMEOUT, |s| matches!(s.role, Role::Planner | Role::Central))
+                                .await
+                                .map(|(plan, _)| plan)
+                                .map_err(failure),
                             Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
                         }
                     };
@@ -270,12 +348,21 @@ impl Io {
                 });
             }
             Command::SendPlan { mission, robot, assignment } => {
-                let (session, tx) = (self.session.clone(), self.tx.clone());
+                let (mesh, tx) = (self.mesh.clone(), self.tx.clone());
                 tokio::spawn(async move {
                     let epoch = assignment.epoch;
                     let key = Key::RobotCmd(robot.clone()).to_string();
                     let result = match proto::to_json(&RobotCommand::Plan(assignment)) {
-                        Ok(body) => net::query::<CommandAck>(&session, &key, Some(body), ROBOT_TIMEOUT).await.map(|_| ()).map_err(failure),
+                        Ok(body) => mesh
+                            .query::<CommandAck>(&key, Some(body), ROBOT_TIMEOUT, |s| s.is(Role::Robot, &robot))
+                            .await
+                            .map(|_| ())
+                            .map_err(|e| match e {
+                                // The robot does not take plans from this node yet (it awaits its
+                                // admission from central): keep re-sending.
+                                QueryError::Remote(m) if m.starts_with(proto::REFUSED) => Failure { retryable: true, error: m },
+                                e => failure(e),
+                            }),
                         Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
                     };
                     if let Err(f) = &result {
@@ -288,7 +375,8 @@ impl Io {
                 let Some(publisher) = self.served.get(&view.name).and_then(|s| s.status.as_ref()) else { return };
                 match proto::to_json(&view) {
                     Ok(bytes) => {
-                        if let Err(e) = publisher.put(bytes).await {
+                        let seal = self.mesh.seal(&Key::MissionStatus(view.name.clone()).to_string(), &bytes);
+                        if let Err(e) = publisher.put(bytes).attachment(seal).await {
                             tracing::warn!(mission = %view.name, "status publication failed: {e}");
                         }
                     }

@@ -27,6 +27,20 @@ fn start(name: &str, ids: &[&str]) -> Box<MissionStart> {
     })
 }
 
+/// The proven sender of node `name` in these scripts: central, else a mission host.
+fn sender(name: &str) -> mrmm_proto::Sender {
+    use mrmm_proto::{Role, Sender};
+    if name == "central" {
+        Sender::new(Role::Central, name)
+    } else {
+        Sender::new(Role::Host, name)
+    }
+}
+
+fn central() -> mrmm_proto::Sender {
+    sender("central")
+}
+
 /// Nodes wired together: chain messages are delivered at once, in order.
 struct Mesh {
     nodes: BTreeMap<String, HostCore>,
@@ -58,7 +72,10 @@ impl Mesh {
             let Some(core) = self.nodes.get_mut(&at) else { continue };
             for c in core.handle(self.now, ev) {
                 match c {
-                    Command::Chain { to, envelope } => queue.push((to, Event::Chain(envelope))),
+                    Command::Chain { to, envelope } => {
+                        let from = sender(&at);
+                        queue.push((to, Event::Chain { envelope, from }));
+                    }
                     other => {
                         if at == node {
                             mine.push(other.clone());
@@ -128,7 +145,7 @@ fn progress(id: &str, mission: &str, epoch: u64) -> Event {
 /// A mission `p` of r1, r2 led by `central`, replicated on r1 and r2, planned and delivered.
 fn running() -> Mesh {
     let mut m = Mesh::new(&["central", "r1", "r2"], &["r1", "r2"]);
-    let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1", "r2"]) });
+    let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1", "r2"]), from: central() });
     assert!(cmds.contains(&Command::Serve { mission: "p".into() }));
     assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { local: true, epoch: 1, .. })));
     assert!(replies(&cmds).is_empty(), "answered once planned");
@@ -165,10 +182,10 @@ fn plans_are_sent_again_until_the_robot_shows_them() {
 fn a_control_is_answered_after_its_commit_and_dropped_by_a_non_head() {
     let mut m = running();
     // Not the head: no answer, so the system manager asks again (of the right node).
-    assert_eq!(m.to("r2", Event::Ctl { query: 7, mission: "p".into(), ctl: MissionCtl::Terminate }), vec![Command::Drop { query: 7 }]);
+    assert_eq!(m.to("r2", Event::Ctl { query: 7, mission: "p".into(), ctl: MissionCtl::Terminate, from: central() }), vec![Command::Drop { query: 7 }]);
     // r2 stops answering: the change cannot commit, the answer waits.
     m.nodes.remove("r2");
-    let cmds = m.to("central", Event::Ctl { query: 8, mission: "p".into(), ctl: MissionCtl::Joined { member: member("r3", 5.0) } });
+    let cmds = m.to("central", Event::Ctl { query: 8, mission: "p".into(), ctl: MissionCtl::Joined { member: member("r3", 5.0) }, from: central() });
     assert!(replies(&cmds).is_empty(), "{cmds:?}");
     // r2 is declared gone: the chain is repaired without it and the change commits.
     m.to("central", Event::HostGone("r2".into()));
@@ -182,7 +199,7 @@ fn a_control_is_answered_after_its_commit_and_dropped_by_a_non_head() {
 fn a_planner_that_does_not_answer_is_asked_again_then_the_mission_fails() {
     let mut m = Mesh::new(&["central"], &["r1"]);
     m.to("central", Event::PlannerAlive { kind: "patrol".into(), zid: "z".into() });
-    let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1"]) });
+    let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1"]), from: central() });
     assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { local: false, .. })));
     let fail = || Event::Planned { mission: "p".into(), epoch: 1, result: Err(Failure { retryable: true, error: "no answer".into() }) };
     // The service died: asked again, locally.
@@ -214,12 +231,13 @@ fn the_first_replica_takes_over_and_sends_the_committed_plans_again() {
 fn a_head_that_steps_down_lets_waiting_controls_go() {
     let mut m = running();
     m.nodes.remove("r2");
-    m.to("central", Event::Ctl { query: 9, mission: "p".into(), ctl: MissionCtl::Left { ids: vec!["r1".into()] } });
+    m.to("central", Event::Ctl { query: 9, mission: "p".into(), ctl: MissionCtl::Left { ids: vec!["r1".into()] }, from: central() });
     // A newer head told it so: central steps down; the waiting control is not answered
     // (its asker will ask the new head).
     let state = m.nodes["r1"].replica("p").and_then(|r| r.state().cloned()).expect("r1 holds the state");
     let newer = mrmm_proto::chain::Msg::Update { config: mrmm_proto::chain::Config { epoch: 9, chain: vec!["r1".into(), "central".into()] }, seq: 3, state };
-    let cmds = m.to("central", Event::Chain(Box::new(mrmm_proto::ChainEnvelope { mission: "p".into(), from: "r1".into(), msg: newer })));
+    let envelope = Box::new(mrmm_proto::ChainEnvelope { mission: "p".into(), from: "r1".into(), msg: newer });
+    let cmds = m.to("central", Event::Chain { envelope, from: sender("r1") });
     assert!(cmds.contains(&Command::Drop { query: 9 }), "{cmds:?}");
     assert!(cmds.contains(&Command::Unserve { mission: "p".into() }));
 }

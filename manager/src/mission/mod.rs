@@ -314,6 +314,8 @@ impl MissionManager {
                         subteam: format!("{}/{}", self.spec.name, m.spec.robot_type),
                         members: members.clone(),
                         plan: rp.clone(),
+                        // Filled in by the host with the chain when the plan goes out.
+                        managers: vec![],
                     }),
                 })
             })

@@ -13,7 +13,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::{
     self as proto, CommandAck, GotoRequest, Key, ManagerView, Member, MissionCreate, MissionCtl, MissionMetrics, MissionStart, MissionStatus,
-    MissionTerminate, MissionView, RobotCommand, RobotInfo, RobotMove, RobotSpec, RobotStatus, RobotView, SystemStatus, Telemetry,
+    MissionTerminate, MissionView, Role, RobotCommand, RobotInfo, RobotMove, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
 };
 use serde_json::Value;
 
@@ -81,12 +81,14 @@ pub enum Event {
     MissionStarted { mission: String, result: Result<Box<MissionView>, Failure> },
     /// The answer to [`Command::Ctl`] `id`.
     CtlDone { id: u64, result: Result<(), Failure> },
-    /// A mission's head published its status.
-    MissionStatus(Box<MissionView>),
+    /// A mission's head published its status; `from` is its proven sender.
+    MissionStatus { view: Box<MissionView>, from: Sender },
     /// A mission host's liveliness token appeared.
     HostAlive { node: String },
     /// A mission host's liveliness token disappeared.
     HostGone { node: String },
+    /// What the driver refused so far, by reason (reported in the fleet status).
+    Refusals(BTreeMap<String, u64>),
     /// Periodic tick.
     Tick,
 }
@@ -102,10 +104,14 @@ pub enum Command {
     Reply { req: Req, result: Result<Value, String> },
     /// Start a mission on a host; answer with [`Event::MissionStarted`].
     StartMission { host: String, start: Box<MissionStart> },
-    /// Steer a mission through its head; answer with [`Event::CtlDone`].
-    Ctl { id: u64, mission: String, ctl: MissionCtl },
-    /// Answer request `req` with whatever `key` answers (a head's mission view).
-    Forward { req: Req, key: Key },
+    /// Steer a mission through its head; answer with [`Event::CtlDone`]. Only an answer from
+    /// one of `managers` (the mission's chain as last reported, or its host) counts.
+    Ctl { id: u64, mission: String, ctl: MissionCtl, managers: Vec<String> },
+    /// Answer request `req` with whatever `key` answers (a head's mission view), taking only an
+    /// answer from one of `managers`.
+    Forward { req: Req, key: Key, managers: Vec<String> },
+    /// A proven sender sent what it may not: count it and say so in the log.
+    Refused { from: Sender, what: String },
 }
 
 /// What the system manager knows of a mission.
@@ -170,6 +176,8 @@ pub struct SystemManager {
     ctls: Ctls,
     /// Commands held while the manager learns the fleet after starting.
     held: Vec<(Req, Request)>,
+    /// Messages the driver refused, by reason.
+    refused: BTreeMap<String, u64>,
 }
 
 impl SystemManager {
@@ -189,6 +197,7 @@ impl SystemManager {
             released: BTreeMap::new(),
             ctls: Ctls::default(),
             held: Vec::new(),
+            refused: BTreeMap::new(),
         }
     }
 
@@ -239,11 +248,15 @@ impl SystemManager {
                     }
                     None => tracing::debug!(robot = %id, "info from a robot with no liveliness: ignored"),
                 }
-                // A lost member back: its mission takes it again, on our order.
-                if let Some(m) = self.assignment.get(&id).cloned() {
-                    self.rejoin(&m);
+                // A lost member back: its mission takes it again, on our order — and it is
+                // admitted again (it may have restarted and forgotten).
+                match self.assignment.get(&id).cloned() {
+                    Some(m) => {
+                        self.rejoin(&m);
+                        self.admit(&m, std::slice::from_ref(&id))
+                    }
+                    None => vec![],
                 }
-                vec![]
             }
             Event::InfoFailed { id, reason } => {
                 tracing::debug!(robot = %id, "info request failed: {reason}");
@@ -277,7 +290,11 @@ impl SystemManager {
                 }
                 vec![]
             }
-            Event::MissionStatus(view) => self.mission_status(*view),
+            Event::MissionStatus { view, from } => self.mission_status(*view, from),
+            Event::Refusals(r) => {
+                self.refused = r;
+                vec![]
+            }
             Event::HostAlive { node } => {
                 tracing::info!(%node, "mission host up");
                 self.hosts.insert(node);
@@ -299,13 +316,92 @@ impl SystemManager {
 
     /// Controls and starts that can go out now.
     fn due(&mut self, now: f64) -> Vec<Command> {
-        let mut out: Vec<Command> = self.ctls.due(now).into_iter().map(|(id, mission, ctl)| Command::Ctl { id, mission, ctl }).collect();
+        let mut out = Vec::new();
+        for (id, mission, ctl) in self.ctls.due(now) {
+            let managers = self.managers(&mission);
+            if let MissionCtl::Joined { member } = &ctl {
+                // A robot leading the mission may plan for the newcomer only once it is admitted,
+                // and the members take the newcomer's chain messages only once they know it: every
+                // member hears of the new membership.
+                let view = self.missions.get(&mission).and_then(|r| r.view.as_ref());
+                let mut members: Vec<String> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
+                if !members.contains(&member.spec.id) {
+                    members.push(member.spec.id.clone());
+                }
+                for robot in &members {
+                    let admit = RobotCommand::Admit { mission: mission.clone(), managers: managers.clone(), members: members.clone() };
+                    out.push(Command::SendToRobot { req: None, robot: robot.clone(), cmd: admit });
+                }
+            }
+            out.push(Command::Ctl { id, mission, ctl, managers });
+        }
         let ctls = &self.ctls;
         let (ready, waiting): (Vec<PendingStart>, Vec<PendingStart>) =
             std::mem::take(&mut self.starts).into_iter().partition(|s| s.after.iter().all(|id| !ctls.is_pending(*id)));
         self.starts = waiting;
-        out.extend(ready.into_iter().map(|s| Command::StartMission { host: s.host, start: s.start }));
+        for s in ready {
+            let members: Vec<String> = s.start.members.iter().map(|m| m.spec.id.clone()).collect();
+            for m in &members {
+                let admit = RobotCommand::Admit { mission: s.start.spec.name.clone(), managers: vec![s.host.clone()], members: members.clone() };
+                out.push(Command::SendToRobot { req: None, robot: m.clone(), cmd: admit });
+            }
+            out.push(Command::StartMission { host: s.host, start: s.start });
+        }
         out
+    }
+
+    /// Admissions of `robots` to `mission`, naming its managers and members as known here.
+    fn admit(&self, mission: &str, robots: &[String]) -> Vec<Command> {
+        if !self.missions.contains_key(mission) {
+            return vec![];
+        }
+        let managers = self.managers(mission);
+        let view = self.missions.get(mission).and_then(|r| r.view.as_ref());
+        let mut members: Vec<String> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
+        members.extend(self.assignment.iter().filter(|(_, m)| m.as_str() == mission).map(|(id, _)| id.clone()));
+        members.sort();
+        members.dedup();
+        robots
+            .iter()
+            .map(|r| Command::SendToRobot {
+                req: None,
+                robot: r.clone(),
+                cmd: RobotCommand::Admit { mission: mission.to_string(), managers: managers.clone(), members: members.clone() },
+            })
+            .collect()
+    }
+
+    /// The nodes that may manage `mission` as this manager knows it: its host and its chain (as
+    /// last reported), head first.
+    pub fn managers(&self, mission: &str) -> Vec<String> {
+        let Some(rec) = self.missions.get(mission) else { return vec![] };
+        let mut out = vec![rec.host.clone()];
+        if let Some(v) = &rec.view {
+            for n in std::iter::once(&v.manager.node).chain(&v.manager.chain) {
+                if !out.contains(n) {
+                    out.push(n.clone());
+                }
+            }
+        }
+        out
+    }
+
+    /// Whether `from` may report on `view`'s mission: central and mission hosts may; a robot
+    /// only if this manager knows it as one of the mission's managers or members (a successor
+    /// taking over comes from the chain, and the chain is made of members).
+    fn may_report(&self, view: &MissionView, from: &Sender) -> bool {
+        if matches!(from.role, Role::Central | Role::Host) {
+            return true;
+        }
+        match self.missions.get(&view.name).and_then(|r| r.view.as_ref()) {
+            Some(known) => {
+                let id = &from.id;
+                self.managers(&view.name).contains(id) || known.robots.contains(id) || known.lost.contains(id)
+            }
+            // Not known here (this manager restarted): what the report says of other robots
+            // is checked against their own telemetry in `reconcile`.
+            None => true,
+        }
     }
 
     fn telemetry(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
@@ -321,6 +417,17 @@ impl SystemManager {
         // after a restart of central, missions it never heard of keep running.
         if let Some(running) = &t.mission {
             let assigned = self.assignment.get(&t.id);
+            // In no mission here, running one whose head lists it: the head's report and the
+            // robot's own telemetry agree — it is that mission's (see `reconcile`).
+            let listed = self.missions.get(running).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
+            let released = self.released.get(&t.id).is_some_and(|r| r.mission == *running);
+            if assigned.is_none() && listed && !released && !self.terminated.contains(running) {
+                tracing::info!(mission = %running, robot = %t.id, "robot recorded in the mission it runs and its head lists");
+                let (id, mission) = (t.id.clone(), running.clone());
+                self.assignment.insert(id.clone(), mission.clone());
+                rec.last = Some(t);
+                return self.admit(&mission, &[id]);
+            }
             let known = self.missions.contains_key(running) || self.terminated.contains(running);
             let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
             if assigned != Some(running) && known && retry {
@@ -371,7 +478,10 @@ impl SystemManager {
             },
             Request::Missions => reply(req, to_value(&self.mission_views())),
             Request::Mission(name) => match self.missions.get(&name) {
-                Some(r) if r.view.as_ref().is_some_and(|v| v.status != MissionStatus::Stalled) => vec![Command::Forward { req, key: Key::MissionView(name) }],
+                Some(r) if r.view.as_ref().is_some_and(|v| v.status != MissionStatus::Stalled) => {
+                    let managers = self.managers(&name);
+                    vec![Command::Forward { req, key: Key::MissionView(name), managers }]
+                }
                 Some(_) => reply(req, to_value(&self.mission_view(&name))),
                 None => reply(req, Err(format!("unknown mission {name:?}"))),
             },
@@ -421,7 +531,18 @@ impl SystemManager {
     /// A head reported a mission. A mission this manager does not know (it restarted while the
     /// head kept running it) is adopted: record, host and membership come from the report, for
     /// robots not already in another mission. A mission terminated here is ended again.
-    fn mission_status(&mut self, view: MissionView) -> Vec<Command> {
+    fn mission_status(&mut self, view: MissionView, from: Sender) -> Vec<Command> {
+        if view.manager.node != from.id || !from.role.hosts_missions() {
+            return vec![Command::Refused { what: format!("report mission {} as managed by {}", view.name, view.manager.node), from }];
+        }
+        // A report of an older chain epoch is from a manager that was replaced.
+        let known_epoch = self.missions.get(&view.name).and_then(|r| r.view.as_ref()).map_or(0, |v| v.manager.chain_epoch);
+        if view.manager.chain_epoch < known_epoch {
+            return vec![];
+        }
+        if !self.may_report(&view, &from) {
+            return vec![Command::Refused { what: format!("report on mission {} (not one of its managers or members)", view.name), from }];
+        }
         if self.terminated.contains(&view.name) {
             if !self.ctls.has(&view.name, |c| *c == MissionCtl::Terminate) {
                 tracing::warn!(mission = %view.name, node = %view.manager.node, "a terminated mission still runs: ending it again");
@@ -445,9 +566,9 @@ impl SystemManager {
             let name = view.name.clone();
             let (robots, lost) = (view.robots.clone(), view.lost.clone());
             rec.view = Some(view);
-            self.reconcile(&name, &robots, &lost);
+            let out = self.reconcile(&name, &robots, &lost, &from);
             self.rejoin(&name);
-            return vec![];
+            return out;
         }
         if !self.hosts.contains(&view.manager.node) || self.pending_create.contains_key(&view.name) {
             return vec![];
@@ -459,33 +580,46 @@ impl SystemManager {
             name.clone(),
             MissionRecord { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), view: Some(view) },
         );
-        self.reconcile(&name, &robots, &lost);
+        let out = self.reconcile(&name, &robots, &lost, &from);
         self.rejoin(&name);
-        vec![]
+        out
     }
 
     /// A mission's head lists `robots` and its `lost` members (it may have taken back a lost
     /// robot while central was away, or central restarted): robots in no mission are recorded in
     /// it; robots in another mission are taken out of it. Robots missing from the lists are left
     /// alone — the report may predate a join this manager ordered.
-    fn reconcile(&mut self, name: &str, robots: &[String], lost: &[String]) {
+    ///
+    /// A robot reporting as a head (after a takeover) cannot claim other robots: a robot in no
+    /// mission is recorded from its report only when its own telemetry says it runs the mission.
+    /// Central's and mission hosts' reports are trusted.
+    fn reconcile(&mut self, name: &str, robots: &[String], lost: &[String], reporter: &Sender) -> Vec<Command> {
+        let trusted = matches!(reporter.role, Role::Central | Role::Host);
         let mut strangers = Vec::new();
+        let mut recorded = Vec::new();
         for id in robots.iter().chain(lost) {
             if self.released.get(id).is_some_and(|r| r.mission == name) {
                 continue;
             }
+            let confirmed = trusted
+                || *id == reporter.id
+                || self.robots.get(id).and_then(|r| r.last.as_ref()).is_some_and(|t| t.mission.as_deref() == Some(name));
             match self.assignment.get(id) {
                 Some(m) if m == name => {}
                 Some(_) => strangers.push(id.clone()),
+                None if !confirmed => {}
                 None => {
                     tracing::info!(mission = %name, robot = %id, "robot recorded in its mission from its head's report");
                     self.assignment.insert(id.clone(), name.to_string());
+                    recorded.push(id.clone());
                 }
             }
         }
         if !strangers.is_empty() {
             self.ctls.push(name, MissionCtl::Left { ids: strangers }, None);
         }
+        // Recorded here: admitted too (this manager may have restarted; they may have too).
+        self.admit(name, &recorded)
     }
 
     /// Orders `name`'s head to take back its lost members that are alive again (they kept their
@@ -640,6 +774,7 @@ impl SystemManager {
             busy: count(RobotStatus::Busy),
             lost: count(RobotStatus::Lost),
             missions: self.missions.len(),
+            refused: self.refused.clone(),
         }
     }
 }

@@ -3,6 +3,19 @@
 use super::*;
 use mrmm_proto::{Behaviour, ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView, Pose, Velocity};
 
+/// The commands without the admissions sent to robots (they go with every start and join).
+fn no_admits(cmds: Vec<Command>) -> Vec<Command> {
+    cmds.into_iter().filter(|c| !matches!(c, Command::SendToRobot { cmd: RobotCommand::Admit { .. }, .. })).collect()
+}
+
+/// A head's report as the driver hands it over: proven to come from its manager node (central,
+/// else a mission host).
+fn status(v: MissionView) -> Event {
+    let role = if v.manager.node == "central" { mrmm_proto::Role::Central } else { mrmm_proto::Role::Host };
+    let from = mrmm_proto::Sender::new(role, v.manager.node.clone());
+    Event::MissionStatus { view: Box::new(v), from }
+}
+
 fn info(id: &str) -> RobotInfo {
     RobotInfo {
         id: id.into(),
@@ -154,7 +167,7 @@ fn commands_wait_while_a_fresh_manager_learns_the_fleet() {
     // A head reports it runs r1 (central restarted): r1 is not idle any more.
     let mut v = MissionViewBuilder::running("p", "central", &["r1"]);
     v.lost = vec!["r2".into()];
-    let joined = sm.handle(1.0, Event::MissionStatus(Box::new(v)));
+    let joined = no_admits(sm.handle(1.0, status(v)));
     // r2 is alive: p's head is ordered to take it back.
     assert!(matches!(joined.as_slice(), [Command::Ctl { mission, ctl: MissionCtl::Joined { member }, .. }] if mission == "p" && member.spec.id == "r2"), "{joined:?}");
     assert!(reply(sm.handle(1.5, Event::Operator { req: Req::Query(2), request: Request::Robots })).is_ok(), "queries are answered at once");
@@ -238,7 +251,7 @@ mod missions {
                     };
                     cmds.extend(sm.handle(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
                 }
-                Command::Ctl { id, mission, ctl } => {
+                Command::Ctl { id, mission, ctl, .. } => {
                     seen.ctls.push((mission, ctl));
                     cmds.extend(sm.handle(2.0, Event::CtlDone { id, result: Ok(()) }));
                 }
@@ -322,7 +335,9 @@ mod missions {
     fn a_failed_start_frees_the_robots() {
         let mut sm = with_host(&["r1"]);
         let cmds = sm.handle(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
-        assert!(matches!(cmds.as_slice(), [Command::StartMission { .. }]));
+        // r1 is admitted (a robot may come to lead p), then the mission starts.
+        assert!(matches!(cmds.as_slice(), [Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, managers, members }, .. }, Command::StartMission { .. }]
+            if robot == "r1" && mission == "p" && *managers == ["central"] && *members == ["r1"]), "{cmds:?}");
         assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
         let v = reply(sm.handle(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
         assert_eq!(v[0]["status"], "planning");
@@ -335,12 +350,12 @@ mod missions {
     #[test]
     fn a_start_nobody_answered_is_ended_before_its_robots_go_elsewhere() {
         let mut sm = with_host(&["r1"]);
-        let cmds = sm.handle(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
+        let cmds = no_admits(sm.handle(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) }));
         assert!(matches!(cmds.as_slice(), [Command::StartMission { .. }]));
         let no_answer = Failure { retryable: true, error: "no answer".into() };
         let cmds = sm.handle(26.0, Event::MissionStarted { mission: "p".into(), result: Err(no_answer) });
         let end = cmds.iter().find_map(|c| match c {
-            Command::Ctl { id, mission, ctl: MissionCtl::Terminate } if mission == "p" => Some(*id),
+            Command::Ctl { id, mission, ctl: MissionCtl::Terminate, .. } if mission == "p" => Some(*id),
             _ => None,
         });
         let end = end.expect("the mission is ended in case it started");
@@ -348,7 +363,7 @@ mod missions {
         // r1 is free, but a new mission takes it only once p's end is acknowledged.
         let cmds = sm.handle(27.0, Event::Operator { req: Req::Query(2), request: Request::Create(decode(r#"{"name": "q", "recipe": "patrol", "count": 1}"#)) });
         assert!(cmds.is_empty(), "{cmds:?}");
-        let cmds = sm.handle(28.0, Event::CtlDone { id: end, result: Ok(()) });
+        let cmds = no_admits(sm.handle(28.0, Event::CtlDone { id: end, result: Ok(()) }));
         assert!(matches!(cmds.as_slice(), [Command::StartMission { start, .. }] if start.spec.name == "q"), "{cmds:?}");
     }
 
@@ -432,7 +447,7 @@ mod missions {
         // While p has not acknowledged, its reports still listing r2 are older than the order.
         let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
         v.robots = vec!["r1".into(), "r2".into()];
-        assert!(ctl(&sm.handle(8.0, Event::MissionStatus(Box::new(v)))).is_empty());
+        assert!(ctl(&sm.handle(8.0, status(v))).is_empty());
         assert_eq!(mission_of(&sm, "r2").as_deref(), Some("c"));
     }
 
@@ -443,9 +458,9 @@ mod missions {
         let view = sm.mission_views()[0].clone();
         let cmds = sm.handle(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode(r#"{"name": "p"}"#)) });
         settle(&mut sm, cmds);
-        let cmds = sm.handle(4.0, Event::MissionStatus(Box::new(view.clone())));
+        let cmds = sm.handle(4.0, status(view.clone()));
         assert!(matches!(cmds.as_slice(), [Command::Ctl { ctl: MissionCtl::Terminate, .. }]), "{cmds:?}");
-        assert!(sm.handle(4.1, Event::MissionStatus(Box::new(view))).is_empty(), "once while it is pending");
+        assert!(sm.handle(4.1, status(view)).is_empty(), "once while it is pending");
         assert_eq!(sm.status(4.0).missions, 0);
     }
 
@@ -484,7 +499,7 @@ mod missions {
         let mut v: MissionView = serde_json::from_value(m[0].clone()).expect("view");
         v.metrics.rounds = 7;
         v.manager.epoch = 4;
-        sm.handle(3.0, Event::MissionStatus(Box::new(v)));
+        sm.handle(3.0, status(v));
         let m = reply(sm.handle(3.0, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
         assert_eq!((m[0]["metrics"]["rounds"].as_u64(), m[0]["manager"]["epoch"].as_u64()), (Some(7), Some(4)));
         // The host dies: the mission is stalled, the operator is told why.
@@ -514,15 +529,44 @@ mod missions {
             error: None,
             plans: None,
         };
+        // r1 and r2 say (in their own telemetry) they run p.
+        for id in ["r1", "r2"] {
+            let mut t = telemetry(id, 5, Behaviour::Hold);
+            t.mission = Some("p".into());
+            sm.handle(0.5, Event::Telemetry(Box::new(t)));
+        }
         // r3 is already in "mine": the head is told to let it go; r1 and r2 are adopted.
-        let cmds = sm.handle(1.0, Event::MissionStatus(Box::new(report("p", "h2", &["r1", "r2", "r3"]))));
+        let cmds = sm.handle(1.0, status(report("p", "h2", &["r1", "r2", "r3"])));
+        let admitted: Vec<&str> = cmds.iter().filter_map(|c| match c {
+            Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, .. }, .. } if mission == "p" => Some(robot.as_str()),
+            _ => None,
+        }).collect();
+        assert_eq!(admitted, ["r1", "r2"], "robots recorded from a report are admitted");
+        let cmds = no_admits(cmds);
         assert!(matches!(cmds.as_slice(), [Command::Ctl { mission, ctl, .. }] if mission == "p" && *ctl == left(&["r3"])), "{cmds:?}");
         assert_eq!((mission_of(&sm, "r1").as_deref(), mission_of(&sm, "r3").as_deref()), (Some("p"), Some("mine")));
         let m = reply(sm.handle(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
         assert_eq!(m[1]["manager"]["node"], "h2");
         assert_eq!(m[1]["robots"], serde_json::json!(["r1", "r2"]));
         // Reports from unknown hosts are not adopted.
-        assert!(sm.handle(3.0, Event::MissionStatus(Box::new(report("q", "ghost", &["r1"])))).is_empty());
+        assert!(sm.handle(3.0, status(report("q", "ghost", &["r1"]))).is_empty());
         assert_eq!(sm.status(3.0).missions, 2);
+    }
+
+    #[test]
+    fn a_report_cannot_claim_robots_nor_speak_for_another_manager() {
+        let mut sm = with_host(&["r1", "r2", "r3"]);
+        sm.handle(0.0, Event::HostAlive { node: "r3".into() });
+        let mut v = MissionViewBuilder::running("fake", "r3", &["r1", "r2", "r3"]);
+        v.manager.node = "r3".into();
+        // r3 reports a mission with r1 and r2 in it; their telemetry says nothing of it.
+        let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r3");
+        sm.handle(1.0, Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
+        assert_eq!((mission_of(&sm, "r1"), mission_of(&sm, "r2")), (None, None), "robots are not claimed by a report");
+        // Nor can a node report a mission as managed by someone else.
+        let mut other = MissionViewBuilder::running("p2", "central", &["r1"]);
+        other.manager.node = "central".into();
+        let cmds = sm.handle(1.1, Event::MissionStatus { view: Box::new(other), from });
+        assert!(matches!(cmds.as_slice(), [Command::Refused { .. }]), "{cmds:?}");
     }
 }

@@ -176,6 +176,7 @@ fn expand(templates: &[Template], slot: Point, round: &[Step], rounds: Option<u3
 fn json_points(name: &str, json: &str) -> Result<Vec<Point>, PlanError> {
     let raw: Vec<[f64; 2]> = serde_json::from_str(json)
         .map_err(|e| PlanError::Invalid(format!("parameter {name}: expected [[x, y], …]: {e}")))?;
+    crate::limits::at_most(name, raw.len(), crate::limits::MAX_WAYPOINTS)?;
     Ok(raw.into_iter().map(|[x, y]| Point::new(x, y)).collect())
 }
 

@@ -70,22 +70,48 @@ impl Element {
     }
 }
 
-fn line_col(src: &str, offset: usize) -> Pos {
-    let offset = offset.min(src.len());
-    let before = &src.as_bytes()[..offset];
-    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
-    let line_start = before.iter().rposition(|&b| b == b'\n').map_or(0, |p| p + 1);
-    let column = String::from_utf8_lossy(&before[line_start..]).chars().count() + 1;
-    Pos { line, column }
+/// Line and column of byte offsets in `src`, counted incrementally: positions are asked for in
+/// increasing order while parsing, so the whole document is scanned once (an earlier offset, for
+/// an error, is counted from the start).
+struct Lines<'a> {
+    src: &'a str,
+    /// The last offset counted, its line, and where that line starts.
+    at: usize,
+    line: usize,
+    line_start: usize,
 }
 
-/// Position of the next `<` at or after `from`.
-fn tag_pos(src: &str, from: usize) -> Pos {
-    let at = src[from.min(src.len())..].find('<').map_or(from, |i| from + i);
-    line_col(src, at)
+impl<'a> Lines<'a> {
+    fn new(src: &'a str) -> Self {
+        Lines { src, at: 0, line: 1, line_start: 0 }
+    }
+
+    fn pos(&mut self, offset: usize) -> Pos {
+        let offset = offset.min(self.src.len());
+        if offset < self.at {
+            *self = Lines::new(self.src);
+        }
+        let bytes = self.src.as_bytes();
+        for (i, &b) in bytes[self.at..offset].iter().enumerate() {
+            if b == b'\n' {
+                self.line += 1;
+                self.line_start = self.at + i + 1;
+            }
+        }
+        self.at = offset;
+        let column = String::from_utf8_lossy(&bytes[self.line_start..offset]).chars().count() + 1;
+        Pos { line: self.line, column }
+    }
+
+    /// Position of the next `<` at or after `from`.
+    fn tag(&mut self, from: usize) -> Pos {
+        let from = from.min(self.src.len());
+        let at = self.src[from..].find('<').map_or(from, |i| from + i);
+        self.pos(at)
+    }
 }
 
-fn start(src: &str, e: &BytesStart, pos: Pos) -> Result<Element, PlanError> {
+fn start(e: &BytesStart, pos: Pos) -> Result<Element, PlanError> {
     let name = String::from_utf8_lossy(e.name().as_ref()).into_owned();
     let mut attrs = Vec::new();
     for a in e.attributes() {
@@ -97,41 +123,57 @@ fn start(src: &str, e: &BytesStart, pos: Pos) -> Result<Element, PlanError> {
         }
         attrs.push((key, value));
     }
-    let _ = src;
     Ok(Element { name, attrs, children: Vec::new(), text: String::new(), pos })
 }
 
-/// Parses a whole document into its root element.
+/// Parses a whole document into its root element: at most
+/// [`MAX_RECIPE_DEPTH`](crate::limits::MAX_RECIPE_DEPTH) levels deep and
+/// [`MAX_RECIPE_ELEMENTS`](crate::limits::MAX_RECIPE_ELEMENTS) elements.
 pub fn parse(src: &str) -> Result<Element, PlanError> {
+    use crate::limits::{MAX_RECIPE_DEPTH, MAX_RECIPE_ELEMENTS};
     let mut reader = Reader::from_str(src);
     reader.config_mut().trim_text(true);
+    let mut lines = Lines::new(src);
     let mut stack: Vec<Element> = Vec::new();
     let mut root: Option<Element> = None;
+    let mut elements = 0usize;
     loop {
         let before = reader.buffer_position() as usize;
-        let event = reader.read_event().map_err(|e| {
-            let p = line_col(src, reader.error_position() as usize);
-            p.err(format!("malformed XML: {e}"))
-        })?;
+        let event = match reader.read_event() {
+            Ok(e) => e,
+            Err(e) => {
+                let p = lines.pos(reader.error_position() as usize);
+                return Err(p.err(format!("malformed XML: {e}")));
+            }
+        };
         match event {
+            Event::Start(e) | Event::Empty(e) if elements >= MAX_RECIPE_ELEMENTS => {
+                let _ = e;
+                return Err(lines.tag(before).err(format!("more than {MAX_RECIPE_ELEMENTS} elements")));
+            }
             Event::Start(e) => {
-                let el = start(src, &e, tag_pos(src, before))?;
+                elements += 1;
+                if stack.len() >= MAX_RECIPE_DEPTH {
+                    return Err(lines.tag(before).err(format!("elements nested deeper than {MAX_RECIPE_DEPTH} levels")));
+                }
+                let el = start(&e, lines.tag(before))?;
                 stack.push(el);
             }
             Event::Empty(e) => {
-                let el = start(src, &e, tag_pos(src, before))?;
-                attach(&mut stack, &mut root, el, src, before)?;
+                elements += 1;
+                let el = start(&e, lines.tag(before))?;
+                attach(&mut stack, &mut root, el, &mut lines, before)?;
             }
             Event::End(_) => {
-                let el = stack.pop().ok_or_else(|| tag_pos(src, before).err("closing tag without opening tag"))?;
-                attach(&mut stack, &mut root, el, src, before)?;
+                let el = stack.pop().ok_or_else(|| lines.tag(before).err("closing tag without opening tag"))?;
+                attach(&mut stack, &mut root, el, &mut lines, before)?;
             }
             Event::Text(t) => {
-                let text = t.unescape().map_err(|e| tag_pos(src, before).err(format!("bad text: {e}")))?;
+                let text = t.unescape().map_err(|e| lines.tag(before).err(format!("bad text: {e}")))?;
                 match stack.last_mut() {
                     Some(el) => el.text.push_str(&text),
                     None if text.trim().is_empty() => {}
-                    None => return Err(line_col(src, before).err("text outside the root element")),
+                    None => return Err(lines.pos(before).err("text outside the root element")),
                 }
             }
             Event::CData(t) => {
@@ -150,11 +192,11 @@ pub fn parse(src: &str) -> Result<Element, PlanError> {
     root.ok_or_else(|| Pos { line: 1, column: 1 }.err("empty document: no root element"))
 }
 
-fn attach(stack: &mut [Element], root: &mut Option<Element>, el: Element, src: &str, at: usize) -> Result<(), PlanError> {
+fn attach(stack: &mut [Element], root: &mut Option<Element>, el: Element, lines: &mut Lines<'_>, at: usize) -> Result<(), PlanError> {
     match stack.last_mut() {
         Some(parent) => parent.children.push(el),
         None if root.is_none() => *root = Some(el),
-        None => return Err(tag_pos(src, at).err("more than one root element")),
+        None => return Err(lines.tag(at).err("more than one root element")),
     }
     Ok(())
 }
@@ -181,5 +223,21 @@ mod tests {
         assert!(parse("<a/><b/>").unwrap_err().to_string().contains("more than one root"));
         assert!(parse("<a x=\"1\" x=\"2\"/>").is_err());
         assert!(parse("<a>\n<b>").unwrap_err().to_string().contains("never closed"));
+    }
+
+    #[test]
+    fn deep_or_huge_documents_are_refused_quickly_with_a_position() {
+        // 200 000 levels deep (the old parser took minutes and would recurse on drop).
+        let deep = format!("{}{}", "<a>".repeat(200_000), "</a>".repeat(200_000));
+        let t = std::time::Instant::now();
+        let e = parse(&deep).unwrap_err().to_string();
+        assert!(e.starts_with("1:97: ") && e.contains("deeper than 32"), "{e}");
+        assert!(t.elapsed().as_secs_f64() < 5.0, "refused at once, not after a scan per element");
+        let wide = format!("<r>{}</r>", "<a/>".repeat(20_000));
+        assert!(parse(&wide).unwrap_err().to_string().contains("more than 10000 elements"));
+        // Positions of a long document are right.
+        let long = format!("<r>\n{}<bad x=1/></r>", "<a/>\n".repeat(5000));
+        let e = parse(&long).unwrap_err().to_string();
+        assert!(e.starts_with("5002:"), "{e}");
     }
 }

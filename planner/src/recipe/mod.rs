@@ -10,6 +10,7 @@ mod dom;
 use std::collections::BTreeMap;
 
 use crate::error::PlanError;
+use crate::limits;
 use crate::geom::Point;
 
 pub use build::{build, parse_overrides, MissionPlan};
@@ -92,6 +93,7 @@ pub enum Template {
 
 /// Reads a recipe. Syntax and structure only; see [`validate`].
 pub fn parse(text: &str) -> Result<Recipe, PlanError> {
+    limits::at_most("recipe bytes", text.len(), limits::MAX_RECIPE_BYTES)?;
     let root = dom::parse(text)?;
     if root.name != "recipe" {
         return Err(root.pos.err(format!("root element must be <recipe>, found <{}>", root.name)));
@@ -312,17 +314,23 @@ fn check_templates(planner: PlannerKind, steps: &[Template], in_loop: bool) -> R
 pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), String> {
     let v = value.trim();
     let positive = || v.parse::<f64>().ok().filter(|x| x.is_finite() && *x > 0.0).map(|_| ()).ok_or_else(|| format!("parameter {name}: {value:?} is not a positive number"));
-    let whole = |min: u64| v.parse::<u64>().ok().filter(|x| *x >= min).map(|_| ()).ok_or_else(|| format!("parameter {name}: {value:?} is not a whole number ≥ {min}"));
+    let whole = |min: u64, max: u64| {
+        v.parse::<u64>()
+            .ok()
+            .filter(|x| (min..=max).contains(x))
+            .map(|_| ())
+            .ok_or_else(|| format!("parameter {name}: {value:?} is not a whole number in [{min}, {max}]"))
+    };
     match (planner, name) {
         (PlannerKind::Patrol, "sync_spacing_max") => positive(),
         (PlannerKind::Patrol, "rounds") if v == "forever" => Ok(()),
-        (PlannerKind::Patrol, "rounds") => whole(1),
-        (PlannerKind::Patrol, "max_kicks") => whole(0),
+        (PlannerKind::Patrol, "rounds") => whole(1, u64::from(u32::MAX)),
+        (PlannerKind::Patrol, "max_kicks") => whole(0, limits::MAX_KICKS),
         // The mission's standard, watched by the advising agent (robot seconds).
         (PlannerKind::Patrol, "max_worst_idleness") => positive(),
-        (PlannerKind::Coverage, "samples") => whole(100),
-        (PlannerKind::Coverage, "lloyd_iterations" | "minimax_iterations") => whole(0),
-        (_, "seed") => whole(0),
+        (PlannerKind::Coverage, "samples") => whole(100, limits::MAX_SAMPLES),
+        (PlannerKind::Coverage, "lloyd_iterations" | "minimax_iterations") => whole(0, limits::MAX_ITERATIONS),
+        (_, "seed") => whole(0, u64::MAX),
         _ => Err(format!(
             "unknown parameter {name:?} for the {} planner (known: {})",
             planner.as_str(),

@@ -11,9 +11,14 @@ use serde_json::Value;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// Central endpoint (repeatable).
-    #[arg(long, default_value = DEFAULT_CENTRAL)]
+    /// Tool config (JSON5: `connect`, `security`); default: the file `MRMM_TOOL_CONFIG` names.
+    #[arg(long)]
+    config: Option<std::path::PathBuf>,
+    /// Central endpoint (repeatable; default: the tool config's, else tcp/127.0.0.1:7447).
+    #[arg(long)]
     connect: Vec<String>,
+    #[command(flatten)]
+    security: super::security::SecurityArgs,
     /// Print the raw JSON answer instead of a table.
     #[arg(long)]
     json: bool,
@@ -54,7 +59,9 @@ enum What {
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
-    let client = Client::connect(&args.connect, Duration::from_millis(args.timeout_ms)).await?;
+    let tool = super::security::ToolConfig::load(args.config.as_deref())?;
+    let connect = tool.connect(&args.connect, DEFAULT_CENTRAL);
+    let client = Client::connect_with(&connect, tool.security(&args.security, "operator"), Duration::from_millis(args.timeout_ms)).await?;
     let result = exec(&client, args.what, args.json).await;
     client.close().await;
     result

@@ -1,0 +1,247 @@
+//! A node on the mesh: its Zenoh session with its seal. Everything a node sends goes out sealed
+//! (see [`crate::security::seal`]); everything it receives is taken only with the proven sender,
+//! which the node then checks against what the sender may do.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use serde::de::DeserializeOwned;
+use serde::Serialize;
+use zenoh::bytes::Encoding;
+use zenoh::query::{ConsolidationMode, Query, QueryTarget};
+use zenoh::sample::Sample;
+use zenoh::Session;
+
+use crate::codec::{from_json, to_json};
+use crate::error::ProtoError;
+use crate::net::{self, Mode, QueryError};
+use crate::operator::ErrorReply;
+use crate::security::{acl, Identity, Refusal, SecuritySection, Sealer, Sender, Verifier};
+
+/// Unix milliseconds now.
+pub fn now_ms() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
+}
+
+/// How a node joins the mesh.
+#[derive(Debug, Clone)]
+pub struct NodeNet {
+    pub mode: Mode,
+    pub listen: Vec<String>,
+    pub connect: Vec<String>,
+    pub lease_ms: u64,
+    /// Largest message accepted from the network (Zenoh's defragmentation limit).
+    pub max_message_size: usize,
+    /// `None`: insecure (plain TCP, unsigned seals).
+    pub security: Option<SecuritySection>,
+    /// Who this node is: checked against its certificate when secure, claimed when not. `None`
+    /// (tools): whoever the certificate names, or `operator:op` when insecure.
+    pub me: Option<Sender>,
+}
+
+/// A node's session with its seal and its verifier.
+#[derive(Clone)]
+pub struct Mesh {
+    session: Session,
+    sealer: Arc<Sealer>,
+    verifier: Arc<Verifier>,
+}
+
+impl std::fmt::Debug for Mesh {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Mesh").field("me", self.sealer.me()).field("secure", &self.sealer.is_secure()).finish()
+    }
+}
+
+/// The identity and Zenoh config of a node (checks the certificate against `me` and the
+/// endpoints against the mode: `tls/` when secure, `tcp/` when not).
+pub fn prepare(n: &NodeNet) -> Result<(zenoh::Config, Sealer, Verifier), ProtoError> {
+    let secure = n.security.is_some();
+    net::validate_endpoints_for("listen", &n.listen, secure).map_err(ProtoError::Config)?;
+    net::validate_endpoints_for("connect", &n.connect, secure).map_err(ProtoError::Config)?;
+    match &n.security {
+        Some(section) => {
+            let identity = Identity::load("security", section)?;
+            if let Some(me) = n.me.as_ref().filter(|me| **me != identity.me) {
+                return Err(ProtoError::Config(format!(
+                    "security.cert: {}: names {} but this node is {me} (issue it with `mrmm pki issue DIR --role {} --id {}`)",
+                    section.cert.display(),
+                    identity.me,
+                    me.role,
+                    me.id
+                )));
+            }
+            if !section.operators.is_empty() && identity.me.role != crate::security::Role::Central {
+                return Err(ProtoError::Config("security.operators: only central's config lists operators".into()));
+            }
+            let verifier = Verifier::secure(&identity.ca_der, section.max_age_s).map_err(ProtoError::Config)?;
+            let tls = net::Tls { ca: &section.ca, cert: &section.cert, key: &section.key, verify_names: section.verify_names };
+            let acl = (identity.me.role == crate::security::Role::Central).then(|| acl::central_acl(&section.operators));
+            let config = net::zenoh_config_with(n.mode, &n.listen, &n.connect, n.lease_ms, n.max_message_size, Some(&tls), acl.as_ref())?;
+            Ok((config, Sealer::secure(identity), verifier))
+        }
+        None => {
+            let config = net::zenoh_config_with(n.mode, &n.listen, &n.connect, n.lease_ms, n.max_message_size, None, None)?;
+            let me = n.me.clone().unwrap_or_else(|| Sender::new(crate::security::Role::Operator, "op"));
+            Ok((config, Sealer::insecure(me), Verifier::insecure()))
+        }
+    }
+}
+
+impl Mesh {
+    /// Opens the node's session (see [`prepare`]); logs a warning when it runs insecure.
+    pub async fn open(n: &NodeNet) -> Result<Mesh, ProtoError> {
+        let (config, sealer, verifier) = prepare(n)?;
+        if !sealer.is_secure() {
+            tracing::warn!(node = %sealer.me(), "running INSECURE: no `security` section, plain TCP and unsigned messages (development only)");
+        }
+        let session = net::open(config).await?;
+        Ok(Mesh { session, sealer: Arc::new(sealer), verifier: Arc::new(verifier) })
+    }
+
+    /// A mesh over an open session (tests and tools).
+    pub fn from_parts(session: Session, sealer: Sealer, verifier: Verifier) -> Mesh {
+        Mesh { session, sealer: Arc::new(sealer), verifier: Arc::new(verifier) }
+    }
+
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    pub fn me(&self) -> &Sender {
+        self.sealer.me()
+    }
+
+    pub fn is_secure(&self) -> bool {
+        self.sealer.is_secure()
+    }
+
+    pub fn verifier(&self) -> &Verifier {
+        &self.verifier
+    }
+
+    /// The seal of `payload` on `key`, now.
+    pub fn seal(&self, key: &str, payload: &[u8]) -> Vec<u8> {
+        self.sealer.seal(key, payload, now_ms())
+    }
+
+    /// Publishes `bytes` on `key`, sealed; failures are logged.
+    pub async fn put(&self, key: &str, bytes: Vec<u8>, encoding: Encoding) {
+        let att = self.seal(key, &bytes);
+        if let Err(e) = self.session.put(key, bytes).encoding(encoding).attachment(att).await {
+            tracing::warn!("publication on {key} failed: {e}");
+        }
+    }
+
+    /// Publishes a JSON value on `key`, sealed.
+    pub async fn publish_json<T: Serialize>(&self, key: &str, value: &T) {
+        match to_json(value) {
+            Ok(bytes) => self.put(key, bytes, Encoding::APPLICATION_JSON).await,
+            Err(e) => tracing::warn!("cannot encode for {key}: {e}"),
+        }
+    }
+
+    /// The proven sender of a sample; a refusal is counted, logged (rate-limited) and `None`.
+    pub fn sender_of(&self, what: &str, s: &Sample) -> Option<Sender> {
+        let bytes = s.payload().to_bytes();
+        let att = s.attachment().map(|a| a.to_bytes());
+        self.verifier.check(what, s.key_expr().as_str(), &bytes, att.as_deref(), now_ms())
+    }
+
+    /// The proven sender of a query (`None` when its seal is refused; counted and logged).
+    pub fn sender_of_query(&self, what: &str, q: &Query) -> Option<Sender> {
+        let payload = net::query_payload(q);
+        let att = q.attachment().map(|a| a.to_bytes());
+        self.verifier.check(what, q.key_expr().as_str(), &payload, att.as_deref(), now_ms())
+    }
+
+    /// The proven sender of a query, or the refusal (not counted).
+    pub fn try_sender_of_query(&self, q: &Query) -> Result<Sender, Refusal> {
+        let payload = net::query_payload(q);
+        let att = q.attachment().map(|a| a.to_bytes());
+        self.verifier.sender(q.key_expr().as_str(), &payload, att.as_deref(), now_ms())
+    }
+
+    /// Counts and logs a proven sender that may not do `what`.
+    pub fn refuse(&self, what: &str, proven: &Sender) {
+        self.verifier.refused.record(what, &Refusal::NotEntitled { proven: proven.clone(), what: what.to_string() });
+    }
+
+    /// Asks `selector` (optional JSON body, sealed) every server of it, and returns the first
+    /// answer whose proven sender `accept`s — not merely the first answer: a stranger answering
+    /// first is refused and the wait goes on. A reply error (which carries no seal) is returned
+    /// only when no accepted answer came.
+    pub async fn query<T: DeserializeOwned>(
+        &self,
+        selector: &str,
+        body: Option<Vec<u8>>,
+        timeout: Duration,
+        accept: impl Fn(&Sender) -> bool,
+    ) -> Result<(T, Sender), QueryError> {
+        let key = selector.split('?').next().unwrap_or(selector);
+        let payload = body.unwrap_or_default();
+        let att = self.seal(key, &payload);
+        let zerr = |e: zenoh::Error| QueryError::Zenoh { key: selector.to_string(), why: e.to_string() };
+        let mut get = self
+            .session
+            .get(selector)
+            .timeout(timeout)
+            .consolidation(ConsolidationMode::None)
+            .target(QueryTarget::All)
+            .attachment(att);
+        if !payload.is_empty() {
+            get = get.payload(payload).encoding(Encoding::APPLICATION_JSON);
+        }
+        let replies = get.await.map_err(zerr)?;
+        let mut failed: Option<QueryError> = None;
+        while let Ok(reply) = replies.recv_async().await {
+            match reply.result() {
+                Ok(sample) => {
+                    let bytes = sample.payload().to_bytes();
+                    let Some(sender) = self.sender_of("answer", sample) else { continue };
+                    if !accept(&sender) {
+                        self.refuse(&format!("answer {selector}"), &sender);
+                        continue;
+                    }
+                    match from_json(selector, &bytes) {
+                        Ok(v) => return Ok((v, sender)),
+                        Err(e) => {
+                            failed.get_or_insert(QueryError::Decode { key: selector.to_string(), why: e.to_string() });
+                        }
+                    }
+                }
+                Err(err) => {
+                    let bytes = err.payload().to_bytes();
+                    let msg = from_json::<ErrorReply>(selector, &bytes)
+                        .map(|e| e.error)
+                        .unwrap_or_else(|_| String::from_utf8_lossy(&bytes).chars().take(200).collect());
+                    failed.get_or_insert(QueryError::Remote(msg));
+                }
+            }
+        }
+        Err(failed.unwrap_or(QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() }))
+    }
+
+    /// Replies to a query with a JSON value on the query's own key, sealed.
+    pub async fn reply_json<T: Serialize>(&self, query: &Query, value: &T) {
+        match to_json(value) {
+            Ok(bytes) => {
+                let key = query.key_expr().clone();
+                let att = self.seal(key.as_str(), &bytes);
+                if let Err(e) = query.reply(key, bytes).encoding(Encoding::APPLICATION_JSON).attachment(att).await {
+                    tracing::warn!("reply on {} failed: {e}", query.key_expr());
+                }
+            }
+            Err(e) => net::reply_error(query, &e.to_string()).await,
+        }
+    }
+
+    /// Replies to a query with a reply error `{"error": msg}` (Zenoh reply errors carry no seal).
+    pub async fn reply_error(&self, query: &Query, msg: &str) {
+        net::reply_error(query, msg).await;
+    }
+
+    pub async fn close(&self) {
+        let _ = self.session.close().await;
+    }
+}

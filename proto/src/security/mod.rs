@@ -1,0 +1,232 @@
+//! Fleet identities: who a node is (role and id, proven by a certificate of the fleet's CA), the
+//! `security` section of every config, and what each message needs from its sender.
+//!
+//! Two layers, both from one key per node (Ed25519, certified by the fleet CA):
+//! - **mutual TLS on every link** (Zenoh `transport_tls`, `enable_mtls`): a process without a
+//!   certificate of this CA cannot open a session with any node; central's Zenoh access control
+//!   lets only the operators' certificates query `mrmm/system/cmd/**` ([`acl`]);
+//! - **a seal on every message that matters** ([`seal`]): a Zenoh attachment naming the sender's
+//!   role and id, with its certificate and a signature over the key, the payload and the time.
+//!   Messages are relayed by routers and peers link directly, so authenticity must hold end to
+//!   end, not per link; each receiver checks the seal and then whether the proven sender is
+//!   entitled to what it sent ([`entitled`]).
+//!
+//! Without a `security` section a node runs insecure (plain TCP, unsigned seals carrying claims
+//! only) and says so in its log: for development on one machine. See `docs/security.md` for the
+//! threat model.
+
+pub mod acl;
+pub mod pki;
+pub mod seal;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::ProtoError;
+use crate::keys::validate_id;
+
+pub use seal::{Refusal, Sealer, Verifier};
+
+/// What a node is allowed to be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// A human operator's tool: may command the fleet through central.
+    Operator,
+    /// The central node: router, system manager, agent, its own mission host and planner.
+    Central,
+    /// A robot (and the mission host every robot runs).
+    Robot,
+    /// A mission host on another node (`mrmm mission-host`).
+    Host,
+    /// A planner service (`mrmm planner-service`).
+    Planner,
+}
+
+impl Role {
+    pub const ALL: [Role; 5] = [Role::Operator, Role::Central, Role::Robot, Role::Host, Role::Planner];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Operator => "operator",
+            Role::Central => "central",
+            Role::Robot => "robot",
+            Role::Host => "host",
+            Role::Planner => "planner",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Role> {
+        Role::ALL.into_iter().find(|r| r.as_str() == s)
+    }
+
+    fn code(self) -> u8 {
+        self as u8
+    }
+
+    fn from_code(c: u8) -> Option<Role> {
+        Role::ALL.get(usize::from(c)).copied()
+    }
+
+    /// Nodes that may hold and lead mission managers (central, mission hosts, robots).
+    pub fn hosts_missions(self) -> bool {
+        matches!(self, Role::Central | Role::Host | Role::Robot)
+    }
+}
+
+impl fmt::Display for Role {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A sender: proven by its certificate in a secure fleet, claimed in an insecure one.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct Sender {
+    pub role: Role,
+    pub id: String,
+}
+
+impl Sender {
+    pub fn new(role: Role, id: impl Into<String>) -> Sender {
+        Sender { role, id: id.into() }
+    }
+
+    /// The certificate common name of this identity: `<role>:<id>` (ids never contain `:`, so a
+    /// name can only mean one role).
+    pub fn common_name(&self) -> String {
+        format!("{}:{}", self.role, self.id)
+    }
+
+    /// Parses a common name `<role>:<id>`.
+    pub fn from_common_name(cn: &str) -> Option<Sender> {
+        let (role, id) = cn.split_once(':')?;
+        validate_id(id).ok()?;
+        Some(Sender { role: Role::parse(role)?, id: id.to_string() })
+    }
+
+    pub fn is(&self, role: Role, id: &str) -> bool {
+        self.role == role && self.id == id
+    }
+}
+
+impl fmt::Display for Sender {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}:{}", self.role, self.id)
+    }
+}
+
+/// Default replay window: a sealed message older (or further in the future) than this is refused.
+pub const DEFAULT_MAX_AGE_S: u64 = 120;
+
+/// The `security` section of a node's config: where its certificate, key and the fleet CA are.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SecuritySection {
+    /// The fleet CA certificate (PEM), `ca.crt` of `mrmm pki init`.
+    pub ca: PathBuf,
+    /// This node's certificate (PEM), from `mrmm pki issue`.
+    pub cert: PathBuf,
+    /// This node's private key (PEM, PKCS#8).
+    pub key: PathBuf,
+    /// Check, when connecting, that the other node's certificate names the address dialled (its
+    /// certificate needs that address as a subject alternative name: `mrmm pki issue --san`).
+    #[serde(default)]
+    pub verify_names: bool,
+    /// Seconds a sealed message stays acceptable (and the clock difference tolerated).
+    #[serde(default = "default_max_age")]
+    pub max_age_s: u64,
+    /// Central only: ids of the operator certificates allowed to command the fleet.
+    #[serde(default)]
+    pub operators: Vec<String>,
+}
+
+fn default_max_age() -> u64 {
+    DEFAULT_MAX_AGE_S
+}
+
+impl SecuritySection {
+    /// The files of a PKI directory for identity `name` (`DIR/ca.crt`, `DIR/NAME.crt`, `DIR/NAME.key`).
+    pub fn from_dir(dir: &Path, name: &str) -> SecuritySection {
+        SecuritySection {
+            ca: dir.join("ca.crt"),
+            cert: dir.join(format!("{name}.crt")),
+            key: dir.join(format!("{name}.key")),
+            verify_names: false,
+            max_age_s: DEFAULT_MAX_AGE_S,
+            operators: vec![],
+        }
+    }
+
+    /// Checks the numbers and names of the section (files are checked by [`Identity::load`]).
+    pub fn validate(&self, field: &str) -> Result<(), String> {
+        if !(1..=86_400).contains(&self.max_age_s) {
+            return Err(format!("{field}.max_age_s: must be in [1, 86400] seconds (got {})", self.max_age_s));
+        }
+        for (i, o) in self.operators.iter().enumerate() {
+            validate_id(o).map_err(|e| format!("{field}.operators[{i}]: {e}"))?;
+        }
+        Ok(())
+    }
+}
+
+/// This node's proven identity: its certificate (checked against the fleet CA), its key, and the
+/// CA that proves everyone else.
+pub struct Identity {
+    pub me: Sender,
+    pub cert_der: Vec<u8>,
+    pub ca_der: Vec<u8>,
+    key: ring::signature::Ed25519KeyPair,
+    pub section: SecuritySection,
+}
+
+impl fmt::Debug for Identity {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Identity").field("me", &self.me).finish_non_exhaustive()
+    }
+}
+
+/// Reads a PEM file holding one block of `label`; errors name the field and the file.
+fn read_pem(field: &str, path: &Path, labels: &[&str]) -> Result<Vec<u8>, ProtoError> {
+    let text = std::fs::read(path).map_err(|e| ProtoError::Config(format!("{field}: {}: cannot read: {e}", path.display())))?;
+    let (_, pem) = x509_parser::pem::parse_x509_pem(&text)
+        .map_err(|_| ProtoError::Config(format!("{field}: {}: not a PEM file", path.display())))?;
+    if !labels.contains(&pem.label.as_str()) {
+        return Err(ProtoError::Config(format!("{field}: {}: holds a {:?}, expected {}", path.display(), pem.label, labels.join(" or "))));
+    }
+    Ok(pem.contents)
+}
+
+/// Seconds since the Unix epoch now.
+pub fn unix_now_s() -> i64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| i64::try_from(d.as_secs()).unwrap_or(i64::MAX))
+}
+
+impl Identity {
+    /// Loads and checks the files of `section`: the CA is a CA, the certificate is signed by it,
+    /// valid now, Ed25519, names `<role>:<id>`, and the key is the certificate's. `field` names
+    /// the config section in errors (one line each).
+    pub fn load(field: &str, section: &SecuritySection) -> Result<Identity, ProtoError> {
+        section.validate(field).map_err(ProtoError::Config)?;
+        let ca_der = read_pem(&format!("{field}.ca"), &section.ca, &["CERTIFICATE"])?;
+        let cert_der = read_pem(&format!("{field}.cert"), &section.cert, &["CERTIFICATE"])?;
+        let key_der = read_pem(&format!("{field}.key"), &section.key, &["PRIVATE KEY"])?;
+        let cfg = |what: &str, path: &Path, why: String| ProtoError::Config(format!("{field}.{what}: {}: {why}", path.display()));
+        let ca = seal::parse_ca(&ca_der).map_err(|e| cfg("ca", &section.ca, e))?;
+        let proven = seal::check_cert(&ca, &cert_der, unix_now_s()).map_err(|e| cfg("cert", &section.cert, e.to_string()))?;
+        let key = ring::signature::Ed25519KeyPair::from_pkcs8_maybe_unchecked(&key_der)
+            .map_err(|_| cfg("key", &section.key, "not an Ed25519 PKCS#8 key (issue one with `mrmm pki issue`)".into()))?;
+        use ring::signature::KeyPair;
+        if key.public_key().as_ref() != proven.public_key.as_slice() {
+            return Err(cfg("key", &section.key, format!("is not the key of {}", section.cert.display())));
+        }
+        Ok(Identity { me: proven.sender, cert_der, ca_der, key, section: section.clone() })
+    }
+
+    /// Signs a 32-byte digest.
+    fn sign(&self, digest: &[u8]) -> ring::signature::Signature {
+        self.key.sign(digest)
+    }
+}

@@ -1,0 +1,484 @@
+//! Seals: the Zenoh attachment every mrmm node puts on what it publishes, queries and replies,
+//! naming its sender — signed with the node's key in a secure fleet, a bare claim in an insecure
+//! one — and their checking on the receiving side.
+//!
+//! Attachment layout (all integers little-endian):
+//!
+//! | bytes | field |
+//! |---|---|
+//! | 3 | magic `MS1` |
+//! | 1 | flags: bit 0 = signed |
+//! | 1 | role (0 operator, 1 central, 2 robot, 3 host, 4 planner) |
+//! | 1 + n | id length n (1..=64), id |
+//! | 8 | time, Unix milliseconds |
+//! | 2 + c | if signed: certificate length c (1..=4096), certificate (DER) |
+//! | 64 | if signed: Ed25519 signature |
+//!
+//! The signature covers SHA-256 of `"mrmm-seal/1\0"`, role, id, time, the key expression and the
+//! payload, so a sealed message cannot be moved to another key, changed, or claimed by another
+//! node; its time bounds replays to the configured window (epochs and sequence numbers in the
+//! payloads order what happens inside it).
+
+use std::collections::HashMap;
+use std::fmt;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use ring::digest;
+use ring::signature::{UnparsedPublicKey, ED25519};
+use x509_parser::prelude::*;
+
+use super::{Identity, Role, Sender};
+
+const MAGIC: &[u8; 3] = b"MS1";
+const DOMAIN: &[u8] = b"mrmm-seal/1\0";
+/// Longest certificate a seal may carry.
+pub const MAX_CERT: usize = 4096;
+const SIG_LEN: usize = 64;
+/// Proven certificates remembered (by SHA-256 of their DER); beyond this the cache starts over.
+const CACHE_MAX: usize = 1024;
+
+/// Why a message was refused.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Refusal {
+    /// No seal at all (a plain Zenoh client, or a foreign node).
+    Missing,
+    /// The attachment is not a well-formed seal.
+    Malformed(&'static str),
+    /// A secure fleet needs a signature; this seal only claims.
+    Unsigned { claimed: Sender },
+    /// The certificate is not one of this fleet's, or not valid now.
+    Certificate { claimed: Sender, why: String },
+    /// The certificate proves someone else than the seal claims.
+    Mismatch { claimed: Sender, proven: Sender },
+    /// The signature does not match the message.
+    Signature { claimed: Sender },
+    /// Outside the replay window (or a clock far off).
+    Stale { claimed: Sender, age_ms: i64 },
+    /// A proven sender that may not send this.
+    NotEntitled { proven: Sender, what: String },
+}
+
+impl Refusal {
+    /// A short stable name, for counters.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Refusal::Missing => "missing",
+            Refusal::Malformed(_) => "malformed",
+            Refusal::Unsigned { .. } => "unsigned",
+            Refusal::Certificate { .. } => "certificate",
+            Refusal::Mismatch { .. } => "mismatch",
+            Refusal::Signature { .. } => "signature",
+            Refusal::Stale { .. } => "stale",
+            Refusal::NotEntitled { .. } => "not_entitled",
+        }
+    }
+}
+
+impl fmt::Display for Refusal {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Refusal::Missing => f.write_str("no seal"),
+            Refusal::Malformed(why) => write!(f, "malformed seal: {why}"),
+            Refusal::Unsigned { claimed } => write!(f, "unsigned seal claiming {claimed}"),
+            Refusal::Certificate { claimed, why } => write!(f, "seal claiming {claimed}: certificate refused: {why}"),
+            Refusal::Mismatch { claimed, proven } => write!(f, "seal claims {claimed} but its certificate proves {proven}"),
+            Refusal::Signature { claimed } => write!(f, "seal claiming {claimed}: bad signature"),
+            Refusal::Stale { claimed, age_ms } => write!(f, "seal of {claimed} is {age_ms} ms old (outside the replay window)"),
+            Refusal::NotEntitled { proven, what } => write!(f, "{proven} may not {what}"),
+        }
+    }
+}
+
+/// A decoded seal, borrowing the attachment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Seal<'a> {
+    pub claimed: Sender,
+    pub t_ms: u64,
+    /// Certificate and signature, when signed.
+    pub signed: Option<(&'a [u8], &'a [u8])>,
+}
+
+/// Decodes an attachment (never panics, never allocates more than the id).
+pub fn decode(att: &[u8]) -> Result<Seal<'_>, Refusal> {
+    let mut r = att;
+    let mut take = |n: usize, what: &'static str| -> Result<&[u8], Refusal> {
+        if r.len() < n {
+            return Err(Refusal::Malformed(what));
+        }
+        let (a, b) = r.split_at(n);
+        r = b;
+        Ok(a)
+    };
+    if take(3, "magic")? != MAGIC {
+        return Err(Refusal::Malformed("magic"));
+    }
+    let flags = take(1, "flags")?[0];
+    let role = Role::from_code(take(1, "role")?[0]).ok_or(Refusal::Malformed("role"))?;
+    let id_len = usize::from(take(1, "id length")?[0]);
+    let id = std::str::from_utf8(take(id_len, "id")?).map_err(|_| Refusal::Malformed("id"))?;
+    crate::keys::validate_id(id).map_err(|_| Refusal::Malformed("id"))?;
+    let mut t = [0u8; 8];
+    t.copy_from_slice(take(8, "time")?);
+    let t_ms = u64::from_le_bytes(t);
+    let signed = if flags & 1 == 1 {
+        let mut l = [0u8; 2];
+        l.copy_from_slice(take(2, "certificate length")?);
+        let cert_len = usize::from(u16::from_le_bytes(l));
+        if cert_len == 0 || cert_len > MAX_CERT {
+            return Err(Refusal::Malformed("certificate length"));
+        }
+        let cert = take(cert_len, "certificate")?;
+        let sig = take(SIG_LEN, "signature")?;
+        Some((cert, sig))
+    } else {
+        None
+    };
+    if !r.is_empty() {
+        return Err(Refusal::Malformed("trailing bytes"));
+    }
+    Ok(Seal { claimed: Sender { role, id: id.to_string() }, t_ms, signed })
+}
+
+fn digest_of(sender: &Sender, t_ms: u64, key: &str, payload: &[u8]) -> digest::Digest {
+    let mut c = digest::Context::new(&digest::SHA256);
+    c.update(DOMAIN);
+    c.update(&[sender.role.code()]);
+    c.update(&[sender.id.len() as u8]);
+    c.update(sender.id.as_bytes());
+    c.update(&t_ms.to_le_bytes());
+    c.update(&(key.len() as u64).to_le_bytes());
+    c.update(key.as_bytes());
+    c.update(payload);
+    c.finish()
+}
+
+/// Puts seals on what this node sends.
+#[derive(Debug)]
+pub struct Sealer {
+    me: Sender,
+    identity: Option<Identity>,
+}
+
+impl Sealer {
+    /// A secure node: seals are signed with the identity's key and carry its certificate.
+    pub fn secure(identity: Identity) -> Sealer {
+        Sealer { me: identity.me.clone(), identity: Some(identity) }
+    }
+
+    /// An insecure node: seals only claim `me`.
+    pub fn insecure(me: Sender) -> Sealer {
+        Sealer { me, identity: None }
+    }
+
+    pub fn me(&self) -> &Sender {
+        &self.me
+    }
+
+    pub fn is_secure(&self) -> bool {
+        self.identity.is_some()
+    }
+
+    pub fn identity(&self) -> Option<&Identity> {
+        self.identity.as_ref()
+    }
+
+    /// The attachment for `payload` on `key` at `t_ms`.
+    pub fn seal(&self, key: &str, payload: &[u8], t_ms: u64) -> Vec<u8> {
+        let id = self.me.id.as_bytes();
+        let mut out = Vec::with_capacity(16 + id.len() + self.identity.as_ref().map_or(0, |i| i.cert_der.len() + 66));
+        out.extend_from_slice(MAGIC);
+        out.push(u8::from(self.identity.is_some()));
+        out.push(self.me.role.code());
+        out.push(id.len().min(255) as u8);
+        out.extend_from_slice(id);
+        out.extend_from_slice(&t_ms.to_le_bytes());
+        if let Some(identity) = &self.identity {
+            let d = digest_of(&self.me, t_ms, key, payload);
+            let cert = &identity.cert_der;
+            out.extend_from_slice(&(cert.len().min(usize::from(u16::MAX)) as u16).to_le_bytes());
+            out.extend_from_slice(cert);
+            out.extend_from_slice(identity.sign(d.as_ref()).as_ref());
+        }
+        out
+    }
+}
+
+/// A CA parsed once: its public key (SubjectPublicKeyInfo DER).
+#[derive(Debug, Clone)]
+pub struct Ca {
+    spki_der: Vec<u8>,
+}
+
+/// Parses the fleet CA certificate (it must be a CA).
+pub fn parse_ca(der: &[u8]) -> Result<Ca, String> {
+    let (_, cert) = X509Certificate::from_der(der).map_err(|e| format!("not an X.509 certificate: {e}"))?;
+    if !cert.is_ca() {
+        return Err("not a CA certificate (use the ca.crt of `mrmm pki init`)".into());
+    }
+    Ok(Ca { spki_der: cert.public_key().raw.to_vec() })
+}
+
+/// A certificate proven to be this fleet's.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Proven {
+    pub sender: Sender,
+    /// Raw Ed25519 public key.
+    pub public_key: Vec<u8>,
+    /// Unix seconds after which it is no longer valid.
+    pub not_after: i64,
+}
+
+/// Checks that `der` is a leaf certificate signed by `ca`, valid at `now_s`, with an Ed25519 key
+/// and a common name `<role>:<id>`.
+pub fn check_cert(ca: &Ca, der: &[u8], now_s: i64) -> Result<Proven, String> {
+    let (_, cert) = X509Certificate::from_der(der).map_err(|e| format!("not an X.509 certificate: {e}"))?;
+    let (_, ca_spki) = SubjectPublicKeyInfo::from_der(&ca.spki_der).map_err(|e| format!("CA key: {e}"))?;
+    cert.verify_signature(Some(&ca_spki)).map_err(|_| "not signed by this fleet's CA".to_string())?;
+    let at = ASN1Time::from_timestamp(now_s).map_err(|e| format!("clock: {e}"))?;
+    if !cert.validity().is_valid_at(at) {
+        return Err(format!(
+            "not valid now (valid from {} to {})",
+            cert.validity().not_before,
+            cert.validity().not_after
+        ));
+    }
+    if cert.is_ca() {
+        return Err("a CA certificate cannot be a node's".into());
+    }
+    let spki = cert.public_key();
+    if spki.algorithm.algorithm != x509_parser::oid_registry::OID_SIG_ED25519 {
+        return Err("not an Ed25519 key (issue certificates with `mrmm pki issue`)".into());
+    }
+    let cn = cert
+        .subject()
+        .iter_common_name()
+        .next()
+        .and_then(|a| a.as_str().ok())
+        .ok_or_else(|| "no common name".to_string())?;
+    let sender = Sender::from_common_name(cn).ok_or_else(|| format!("common name {cn:?} is not <role>:<id>"))?;
+    Ok(Proven { sender, public_key: spki.subject_public_key.data.to_vec(), not_after: cert.validity().not_after.timestamp() })
+}
+
+/// Counters of refused messages, by kind.
+#[derive(Debug, Default)]
+pub struct Refused {
+    counts: Mutex<std::collections::BTreeMap<&'static str, u64>>,
+    logged: AtomicU64,
+    window: Mutex<Option<Instant>>,
+}
+
+/// Refusals logged at most this many times per 10 s window (the rest are counted).
+const LOG_BURST: u64 = 20;
+
+impl Refused {
+    /// Counts (and logs, rate-limited) a refusal of `what`.
+    pub fn record(&self, what: &str, r: &Refusal) {
+        if let Ok(mut c) = self.counts.lock() {
+            let n = c.entry(r.kind()).or_insert(0);
+            *n = n.saturating_add(1);
+        }
+        let fresh = match self.window.lock() {
+            Ok(mut w) => {
+                if w.is_none_or(|t| t.elapsed().as_secs() >= 10) {
+                    *w = Some(Instant::now());
+                    self.logged.store(0, Ordering::Relaxed);
+                }
+                true
+            }
+            Err(_) => false,
+        };
+        if fresh && self.logged.fetch_add(1, Ordering::Relaxed) < LOG_BURST {
+            tracing::warn!(kind = r.kind(), "refused {what}: {r}");
+        }
+    }
+
+    /// Refusals so far, by kind.
+    pub fn counts(&self) -> std::collections::BTreeMap<String, u64> {
+        self.counts.lock().map(|c| c.iter().map(|(k, v)| (k.to_string(), *v)).collect()).unwrap_or_default()
+    }
+
+    pub fn total(&self) -> u64 {
+        self.counts.lock().map(|c| c.values().sum()).unwrap_or(0)
+    }
+}
+
+/// Checks the seals of what this node receives.
+#[derive(Debug)]
+pub struct Verifier {
+    /// `None`: insecure fleet (claims are taken as they are).
+    ca: Option<Ca>,
+    max_age_ms: i64,
+    cache: Mutex<HashMap<[u8; 32], Result<Proven, String>>>,
+    pub refused: Refused,
+}
+
+impl Verifier {
+    pub fn secure(ca_der: &[u8], max_age_s: u64) -> Result<Verifier, String> {
+        Ok(Verifier {
+            ca: Some(parse_ca(ca_der)?),
+            max_age_ms: i64::try_from(max_age_s.saturating_mul(1000)).unwrap_or(i64::MAX),
+            cache: Mutex::new(HashMap::new()),
+            refused: Refused::default(),
+        })
+    }
+
+    pub fn insecure() -> Verifier {
+        Verifier { ca: None, max_age_ms: i64::MAX, cache: Mutex::new(HashMap::new()), refused: Refused::default() }
+    }
+
+    pub fn is_secure(&self) -> bool {
+        self.ca.is_some()
+    }
+
+    /// The proven certificate `der` (cached).
+    fn prove(&self, ca: &Ca, der: &[u8], now_s: i64) -> Result<Proven, String> {
+        let h = digest::digest(&digest::SHA256, der);
+        let mut key = [0u8; 32];
+        key.copy_from_slice(h.as_ref());
+        if let Ok(cache) = self.cache.lock() {
+            if let Some(r) = cache.get(&key) {
+                return match r {
+                    Ok(p) if p.not_after < now_s => Err("expired".into()),
+                    other => other.clone(),
+                };
+            }
+        }
+        let r = check_cert(ca, der, now_s);
+        if let Ok(mut cache) = self.cache.lock() {
+            if cache.len() >= CACHE_MAX {
+                cache.clear();
+            }
+            cache.insert(key, r.clone());
+        }
+        r
+    }
+
+    /// Who sent `payload` on `key` with attachment `att`, at receiver time `now_ms`. Does not
+    /// count refusals (see [`Verifier::check`]).
+    pub fn sender(&self, key: &str, payload: &[u8], att: Option<&[u8]>, now_ms: u64) -> Result<Sender, Refusal> {
+        let att = att.ok_or(Refusal::Missing)?;
+        let seal = decode(att)?;
+        let Some(ca) = &self.ca else {
+            return Ok(seal.claimed);
+        };
+        let Some((cert, sig)) = seal.signed else {
+            return Err(Refusal::Unsigned { claimed: seal.claimed });
+        };
+        let age = i64::try_from(now_ms).unwrap_or(i64::MAX).saturating_sub(i64::try_from(seal.t_ms).unwrap_or(i64::MAX));
+        if age.saturating_abs() > self.max_age_ms {
+            return Err(Refusal::Stale { claimed: seal.claimed, age_ms: age });
+        }
+        let now_s = i64::try_from(now_ms / 1000).unwrap_or(i64::MAX);
+        let proven = self.prove(ca, cert, now_s).map_err(|why| Refusal::Certificate { claimed: seal.claimed.clone(), why })?;
+        if proven.sender != seal.claimed {
+            return Err(Refusal::Mismatch { claimed: seal.claimed, proven: proven.sender });
+        }
+        let d = digest_of(&seal.claimed, seal.t_ms, key, payload);
+        UnparsedPublicKey::new(&ED25519, &proven.public_key)
+            .verify(d.as_ref(), sig)
+            .map_err(|_| Refusal::Signature { claimed: seal.claimed.clone() })?;
+        Ok(proven.sender)
+    }
+
+    /// [`Verifier::sender`], counting and logging a refusal of `what`.
+    pub fn check(&self, what: &str, key: &str, payload: &[u8], att: Option<&[u8]>, now_ms: u64) -> Option<Sender> {
+        match self.sender(key, payload, att, now_ms) {
+            Ok(s) => Some(s),
+            Err(r) => {
+                self.refused.record(&format!("{what} on {key}"), &r);
+                None
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::security::pki;
+
+    fn fleet() -> (tempdir::Dir, Verifier) {
+        let d = tempdir::Dir::new();
+        pki::init(d.path()).expect("init");
+        let v = Verifier::secure(&pki::read_ca_der(d.path()).expect("ca"), 60).expect("verifier");
+        (d, v)
+    }
+
+    mod tempdir {
+        pub struct Dir(std::path::PathBuf);
+        impl Dir {
+            pub fn new() -> Dir {
+                use std::sync::atomic::{AtomicU32, Ordering};
+                static N: AtomicU32 = AtomicU32::new(0);
+                let p = std::env::temp_dir().join(format!("mrmm-seal-{}-{}", std::process::id(), N.fetch_add(1, Ordering::Relaxed)));
+                let _ = std::fs::remove_dir_all(&p);
+                std::fs::create_dir_all(&p).expect("dir");
+                Dir(p)
+            }
+            pub fn path(&self) -> &std::path::Path {
+                &self.0
+            }
+        }
+        impl Drop for Dir {
+            fn drop(&mut self) {
+                let _ = std::fs::remove_dir_all(&self.0);
+            }
+        }
+    }
+
+    fn identity(dir: &std::path::Path, role: Role, id: &str) -> Identity {
+        pki::issue(dir, role, id, &[], 30).expect("issue");
+        Identity::load("security", &crate::security::SecuritySection::from_dir(dir, id)).expect("load")
+    }
+
+    #[test]
+    fn a_signed_seal_proves_its_sender_and_nothing_else() {
+        let (d, v) = fleet();
+        let s = Sealer::secure(identity(d.path(), Role::Robot, "r1"));
+        let t = crate::mesh::now_ms();
+        let (k1, k2) = (crate::Key::RobotTelemetry("r1".into()).to_string(), crate::Key::RobotTelemetry("r2".into()).to_string());
+        let att = s.seal(&k1, b"hello", t);
+        assert_eq!(v.sender(&k1, b"hello", Some(&att), t + 10), Ok(Sender::new(Role::Robot, "r1")));
+        // Another payload, another key, too late, no seal.
+        assert!(matches!(v.sender(&k1, b"hellO", Some(&att), t), Err(Refusal::Signature { .. })));
+        assert!(matches!(v.sender(&k2, b"hello", Some(&att), t), Err(Refusal::Signature { .. })));
+        assert!(matches!(v.sender(&k1, b"hello", Some(&att), t + 61_000), Err(Refusal::Stale { .. })));
+        assert_eq!(v.sender("k", b"", None, t), Err(Refusal::Missing));
+        // An unsigned claim is refused by a secure verifier, taken by an insecure one.
+        let claim = Sealer::insecure(Sender::new(Role::Operator, "op")).seal("k", b"x", t);
+        assert!(matches!(v.sender("k", b"x", Some(&claim), t), Err(Refusal::Unsigned { .. })));
+        assert_eq!(Verifier::insecure().sender("k", b"x", Some(&claim), t), Ok(Sender::new(Role::Operator, "op")));
+    }
+
+    #[test]
+    fn a_seal_claiming_another_id_or_another_ca_is_refused() {
+        let (d, v) = fleet();
+        let s = Sealer::secure(identity(d.path(), Role::Robot, "r1"));
+        let t = crate::mesh::now_ms();
+        // Rewrite the claimed id inside a real seal: r1's certificate, r2 claimed.
+        let mut att = s.seal("k", b"x", t);
+        let at = 3 + 1 + 1 + 1;
+        att[at + 1] = b'2';
+        assert!(matches!(v.sender("k", b"x", Some(&att), t), Err(Refusal::Mismatch { .. })));
+        // A whole other fleet.
+        let other = tempdir::Dir::new();
+        pki::init(other.path()).expect("init");
+        let rogue = Sealer::secure(identity(other.path(), Role::Operator, "op"));
+        let att = rogue.seal("k", b"x", t);
+        assert!(matches!(v.sender("k", b"x", Some(&att), t), Err(Refusal::Certificate { .. })));
+    }
+
+    #[test]
+    fn garbage_attachments_are_refused_without_panic() {
+        let v = Verifier::insecure();
+        for att in [&b""[..], b"MS1", b"XYZ\0\0\x02r1", b"MS1\x00\x09\x02r1\0\0\0\0\0\0\0\0", b"MS1\x00\x02\x02r1\0\0\0\0\0\0\0\0\0"] {
+            assert!(v.sender("k", b"", Some(att), 0).is_err(), "{att:?}");
+        }
+        let mut ok = Sealer::insecure(Sender::new(Role::Robot, "r1")).seal("k", b"", 5);
+        assert!(v.sender("k", b"", Some(&ok), 0).is_ok());
+        ok[3] = 1; // claims a signature it does not carry
+        assert!(matches!(v.sender("k", b"", Some(&ok), 0), Err(Refusal::Malformed(_))));
+    }
+}
