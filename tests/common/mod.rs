@@ -271,3 +271,50 @@ pub fn square_patrol(count: usize, host: Option<&str>) -> mrmm_proto::MissionCre
 pub fn start_host(dir: &Scratch, name: &str, central: &str) -> anyhow::Result<Proc> {
     start(name, &["mission-host", "--name", name, "--connect", central], &dir.path(&format!("{name}.log")), "mission-host ready", Duration::from_secs(20))
 }
+
+/// A fleet PKI in `dir/pki`: the CA, `central`, operator `op`, robots `r1..=rn`, and a robot `r9`
+/// (a rogue: a valid robot certificate of a robot not in the fleet's missions).
+pub fn fleet_pki(dir: &Scratch, robots: usize) -> anyhow::Result<PathBuf> {
+    use mrmm_proto::security::{pki, Role};
+    let p = dir.path("pki");
+    pki::init(&p)?;
+    pki::issue(&p, Role::Central, "central", &[], 2)?;
+    pki::issue(&p, Role::Operator, "op", &[], 2)?;
+    for i in 1..=robots {
+        pki::issue(&p, Role::Robot, &format!("r{i}"), &[], 2)?;
+    }
+    pki::issue(&p, Role::Robot, "r9", &[], 2)?;
+    Ok(p)
+}
+
+/// Starts central over mutual TLS with the certificates of `pki`; operator `op` may command.
+pub fn start_secure_central(dir: &Scratch, pki: &Path) -> anyhow::Result<(Proc, String)> {
+    let pki = pki.display().to_string();
+    let p = start(
+        "central",
+        &["central", "--listen", "tls/127.0.0.1:0", "--pki", &pki, "--operator", "op"],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let ep = p.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow!("no endpoint in {:?}", p.ready))?;
+    Ok((p, ep))
+}
+
+/// Starts robot `id` over mutual TLS (time scale 10), its certificate from `pki`.
+pub fn start_secure_robot(dir: &Scratch, pki: &Path, id: &str, central: &str, x: f64) -> anyhow::Result<Proc> {
+    let f = |name: &str| serde_json::to_string(&pki.join(name).display().to_string()).unwrap_or_default();
+    let cfg = format!(
+        r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }},
+             start: {{ x: {x}, y: -3 }}, time_scale: 10, telemetry_hz: 10,
+             zenoh: {{ listen: ["tls/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }},
+             security: {{ ca: {}, cert: {}, key: {} }} }}"#,
+        f("ca.crt"),
+        f(&format!("{id}.crt")),
+        f(&format!("{id}.key"))
+    );
+    let path = dir.path(&format!("{id}.json5"));
+    std::fs::write(&path, cfg)?;
+    let path = path.display().to_string();
+    start(id, &["robot", "--config", &path], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))
+}

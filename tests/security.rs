@@ -1,0 +1,252 @@
+//! The fleet over mutual TLS with signed messages, with real processes on loopback: strangers
+//! (no certificate, or one of another CA) cannot open a session with central or with a robot; a
+//! rogue holding a valid *robot* certificate tries every attack — operator commands, a plan with
+//! a huge epoch, forged telemetry and barrier arrivals of another robot, forged chain messages
+//! (End, Stale with a huge promise, a vote), a fake planner service answering first — and each is
+//! refused while the fleet's mission goes on; the refusals show in central's status and in the
+//! logs; the operator's certificate commands everything.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use common::{eventually, fleet_pki, start_secure_central, start_secure_robot, Scratch};
+use mrmm_proto::chain::{Config, Msg};
+use mrmm_proto::client::Client;
+use mrmm_proto::net::{Mode, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_proto::{
+    self as proto, ChainEnvelope, Key, Mesh, MissionCreate, MissionView, NodeNet, PlanRequest, RobotCommand, RobotView, SecuritySection,
+    SyncArrival, SystemStatus,
+};
+use serde_json::json;
+use zenoh::bytes::Encoding;
+
+/// A session of node `name` of `pki`, linked to `connect`.
+async fn node(pki: &std::path::Path, name: &str, connect: Vec<String>) -> anyhow::Result<Mesh> {
+    let n = NodeNet {
+        mode: Mode::Peer,
+        listen: vec!["tls/127.0.0.1:0".into()],
+        connect,
+        lease_ms: DEFAULT_LEASE_MS,
+        max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
+        security: Some(SecuritySection::from_dir(pki, name)),
+        me: None,
+    };
+    Ok(Mesh::open(&n).await?)
+}
+
+/// Opening a client session to `ep` with a hand-made TLS config (`cert`: the client's own
+/// certificate and key, if any) fails.
+async fn cannot_open(ep: &str, ca: &std::path::Path, cert: Option<(&std::path::Path, &std::path::Path)>) -> bool {
+    let mut c = zenoh::Config::default();
+    let mut set = |k: &str, v: String| c.insert_json5(k, &v).is_ok();
+    let ok = set("mode", "\"client\"".into())
+        && set("connect/endpoints", serde_json::to_string(&[ep]).unwrap_or_default())
+        && set("scouting/multicast/enabled", "false".into())
+        && set("transport/link/tls/root_ca_certificate", format!("{:?}", ca.display().to_string()))
+        && set("transport/link/tls/verify_name_on_connect", "false".into());
+    let ok = ok
+        && match cert {
+            Some((crt, key)) => {
+                set("transport/link/tls/connect_certificate", format!("{:?}", crt.display().to_string()))
+                    && set("transport/link/tls/connect_private_key", format!("{:?}", key.display().to_string()))
+                    && set("transport/link/tls/enable_mtls", "true".into())
+            }
+            None => true,
+        };
+    assert!(ok, "test config");
+    match tokio::time::timeout(Duration::from_secs(10), zenoh::open(c)).await {
+        Ok(Ok(s)) => {
+            let _ = s.close().await;
+            false
+        }
+        _ => true,
+    }
+}
+
+fn log(dir: &Scratch, name: &str) -> String {
+    std::fs::read_to_string(dir.path(&format!("{name}.log"))).unwrap_or_default()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Result<()> {
+    let dir = Scratch::new("security");
+    let pki = fleet_pki(&dir, 4)?;
+    let (_central, ep) = start_secure_central(&dir, &pki)?;
+    let robots: Vec<common::Proc> = (1..=4).map(|i| start_secure_robot(&dir, &pki, &format!("r{i}"), &ep, i as f64 * 2.0)).collect::<Result<_, _>>()?;
+    let eps: Vec<String> = robots.iter().filter_map(|r| r.field("listening")).collect();
+    let op = Client::connect_with(std::slice::from_ref(&ep), Some(SecuritySection::from_dir(&pki, "op")), Duration::from_secs(5)).await?;
+    common::wait_robots(&op, 4).await?;
+    let m: MissionView = op.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&common::square_patrol(3, None))).await?;
+    let (epoch, chain_epoch) = (m.manager.epoch, m.manager.chain_epoch);
+    eventually("the patrol past a barrier", Duration::from_secs(20), || async {
+        let m: MissionView = op.query(Key::SystemMission("p".into()), None::<&()>).await.ok()?;
+        (m.metrics.sync_points_passed >= 1).then_some(())
+    })
+    .await?;
+
+    // 1. Strangers cannot open a session, with central or with a robot.
+    let ca = pki.join("ca.crt");
+    assert!(cannot_open(&ep, &ca, None).await, "a client without a certificate reached central");
+    assert!(cannot_open(&eps[0], &ca, None).await, "a client without a certificate reached r1");
+    let plain = ep.replacen("tls/", "tcp/", 1);
+    assert!(Client::connect(std::slice::from_ref(&plain), Duration::from_millis(500)).await.is_err(), "plain TCP reached central");
+    let other = dir.path("other-pki");
+    proto::security::pki::init(&other)?;
+    proto::security::pki::issue(&other, proto::Role::Operator, "op", &[], 2)?;
+    for target in [&ep, &eps[0]] {
+        assert!(
+            cannot_open(target, &other.join("ca.crt"), Some((&other.join("op.crt"), &other.join("op.key")))).await,
+            "an operator of another CA reached {target}"
+        );
+    }
+    // The same way in with this fleet's operator certificate works (the check can fail).
+    assert!(!cannot_open(&ep, &ca, Some((&pki.join("op.crt"), &pki.join("op.key")))).await, "the fleet's own operator was refused");
+
+    // 2. A rogue with a valid robot certificate (r9, in no mission).
+    let mut links = eps.clone();
+    links.insert(0, ep.clone());
+    let rogue = node(&pki, "r9", links).await?;
+    let any = |_: &proto::Sender| true;
+    let t = Duration::from_secs(2);
+    // a. Operator commands: dropped by central's access control (no answer).
+    let mv = json!({"robot": "r1", "to": null}).to_string().into_bytes();
+    let term = json!({"name": "p"}).to_string().into_bytes();
+    let create = serde_json::to_vec(&MissionCreate { name: "evil".into(), recipe: "patrol".into(), count: Some(1), ..Default::default() })?;
+    for (cmd, body) in [(proto::SystemCmd::Move, mv), (proto::SystemCmd::Terminate, term), (proto::SystemCmd::Create, create)] {
+        let r = rogue.query::<serde_json::Value>(&Key::SystemCmd(cmd).to_string(), Some(body), t, any).await;
+        assert!(r.is_err(), "a robot certificate commanded the fleet ({cmd:?}): {r:?}");
+    }
+    // b. A plan with a huge epoch for r1: refused by r1 (r9 is not a manager of p).
+    let mut bogus = proto::PlanAssignment {
+        mission: "p".into(),
+        epoch: u64::MAX,
+        team: "p".into(),
+        subteam: "p/ground".into(),
+        members: vec!["r1".into(), "r9".into()],
+        plan: proto::RobotPlan { robot: "r1".into(), robot_type: "ground".into(), slot: 0, steps: vec![proto::Step::Hold { seconds: None }] },
+        managers: vec!["r9".into()],
+    };
+    let r = rogue.query::<serde_json::Value>(&Key::RobotCmd("r1".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus.clone())))?), t, any).await;
+    assert!(r.as_ref().is_err_and(|e| e.to_string().contains("refused")), "r1 took a rogue's plan: {r:?}");
+    bogus.mission = "q".into();
+    let r = rogue.query::<serde_json::Value>(&Key::RobotCmd("r4".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus)))?), t, any).await;
+    assert!(r.is_err(), "idle r4 took a rogue's plan while central is up: {r:?}");
+    let goto = serde_json::to_vec(&RobotCommand::Goto { x: 99.0, y: 99.0 })?;
+    assert!(rogue.query::<serde_json::Value>(&Key::RobotCmd("r2".into()).to_string(), Some(goto), t, any).await.is_err(), "r2 obeyed a robot's goto");
+    // c. Forged telemetry and arrivals of r2.
+    let forged = proto::Telemetry {
+        id: "r2".into(),
+        seq: u64::MAX,
+        t: 0.0,
+        pose: proto::Pose { x: 1000.0, y: 1000.0, theta: 0.0 },
+        velocity: proto::Velocity::default(),
+        behaviour: proto::Behaviour::Hold,
+        mission: None,
+        progress: None,
+    };
+    rogue.put(&Key::RobotTelemetry("r2".into()).to_string(), proto::encode_telemetry(&forged)?, Encoding::APPLICATION_OCTET_STREAM).await;
+    rogue.session().put(Key::RobotTelemetry("r2".into()).to_string(), proto::encode_telemetry(&forged)?).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let arrival = SyncArrival { robot: "r2".into(), epoch, point: 99, round: 99 };
+    rogue.publish_json(&Key::TeamSync { team: "p".into(), point: 99, round: 99 }.to_string(), &arrival).await;
+    // d. Chain forgeries for p, to every robot's host: an end, a huge promise, a vote.
+    let forgeries = [
+        ("r9", Msg::End { epoch: u64::MAX }),
+        ("central", Msg::Stale { promised: u64::MAX, last: (u64::MAX, u64::MAX) }),
+        ("r9", Msg::Vote { proposal: Config { epoch: u64::MAX - 1, chain: vec!["r9".into(), "r1".into(), "r2".into()] }, base: vec!["r9".into(), "r1".into()], last: (u64::MAX, u64::MAX) }),
+    ];
+    for id in ["r1", "r2", "r3", "central"] {
+        for (from, msg) in &forgeries {
+            let env = ChainEnvelope { mission: "p".into(), from: (*from).into(), msg: msg.clone() };
+            rogue.publish_json(&Key::HostChain(id.into()).to_string(), &env).await;
+        }
+    }
+    // e. A fake planner service, answering at once with a plan that moves nobody.
+    let fake = rogue.session().declare_queryable(Key::Planner("patrol".into()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let _fake_token = rogue.session().liveliness().declare_token(Key::PlannerAlive { kind: "patrol".into(), zid: "fake".into() }.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let fake_mesh = rogue.clone();
+    let answered = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let count = answered.clone();
+    let faker = tokio::spawn(async move {
+        while let Ok(q) = fake.recv_async().await {
+            let Ok(mut req) = proto::from_json::<PlanRequest>("plan request", &proto::net::query_payload(&q)) else { continue };
+            req.params.insert("max_kicks".into(), "0".into());
+            if let Ok(mut plan) = mrmm_manager::planner_service::plan(mrmm_planner::recipe::PlannerKind::Patrol, &req) {
+                plan.plans.clear();
+                fake_mesh.reply_json(&q, &plan).await;
+                count.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            }
+        }
+    });
+    // The operator creates a patrol with r4; the real planner takes a while (many kicks), the
+    // fake answers first.
+    let q = MissionCreate {
+        name: "q".into(),
+        recipe: "patrol".into(),
+        robots: Some(vec!["r4".into()]),
+        // 60 waypoints and many kicks: the real planner takes a second or so.
+        params: [
+            ("waypoints".to_string(), json!((0..60).map(|i| [f64::from(i % 10) * 3.0 + f64::from(i / 10) * 0.37, f64::from(i / 10) * 4.0]).collect::<Vec<_>>())),
+            ("max_kicks".to_string(), json!(300000)),
+        ]
+        .into(),
+        ..Default::default()
+    };
+    let started = Instant::now();
+    let qv: MissionView = op.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&q)).await?;
+    let qv: MissionView = op.query(Key::SystemMission(qv.name.clone()), None::<&()>).await?;
+    let plans = qv.plans.clone().unwrap_or_default();
+    assert!(
+        plans.len() == 1 && plans[0].steps.iter().any(|s| matches!(s, proto::Step::Navigate { .. })),
+        "mission q runs the fake planner's plan: {plans:?}"
+    );
+    let fakes = answered.load(std::sync::atomic::Ordering::SeqCst);
+    println!("mission q planned by the real planner in {:?} while a fake answered {fakes} time(s) first", started.elapsed());
+    assert!(fakes >= 1, "the fake planner never answered: the test proves nothing");
+    assert!(log(&dir, "central").contains("may not answer"), "central did not log refusing the fake planner");
+
+    // The fleet goes on: p keeps its manager, epochs and members, and passes more barriers.
+    let before: MissionView = op.query(Key::SystemMission("p".into()), None::<&()>).await?;
+    eventually("p passing two more barriers after the attacks", Duration::from_secs(30), || async {
+        let m: MissionView = op.query(Key::SystemMission("p".into()), None::<&()>).await.ok()?;
+        (m.metrics.sync_points_passed >= before.metrics.sync_points_passed + 2).then_some(m)
+    })
+    .await
+    .and_then(|m| {
+        anyhow::ensure!(
+            (m.manager.node.as_str(), m.manager.epoch, m.manager.chain_epoch, m.robots.len()) == ("central", epoch, chain_epoch, 3),
+            "the attacks changed p: {:?} robots {:?}",
+            m.manager,
+            m.robots
+        );
+        Ok(())
+    })?;
+    // r2's real telemetry still counts (the forged seq = u64::MAX did not pin it), far from the
+    // forged pose.
+    let r2 = |v: Vec<RobotView>| v.into_iter().find(|r| r.id == "r2").and_then(|r| r.pose);
+    let p1 = r2(op.query(Key::SystemRobots, None::<&()>).await?).ok_or_else(|| anyhow::anyhow!("no pose of r2"))?;
+    anyhow::ensure!(p1.x.abs() < 100.0, "central took the forged telemetry: {p1:?}");
+    eventually("r2's pose to change", Duration::from_secs(10), || async {
+        let p2 = r2(op.query(Key::SystemRobots, None::<&()>).await.ok()?)?;
+        ((p2.x - p1.x).abs() + (p2.y - p1.y).abs() > 1e-6).then_some(())
+    })
+    .await?;
+    // The refusals show: in central's status, and in the robots' logs.
+    let status: SystemStatus = op.query(Key::SystemStatus, None::<&()>).await?;
+    println!("central refused: {:?}", status.refused);
+    assert!(status.refused.values().sum::<u64>() >= 3, "central counted the refusals: {:?}", status.refused);
+    for id in ["r1", "r2"] {
+        assert!(log(&dir, id).contains("refused"), "{id} logs no refusal:\n{}", log(&dir, id));
+    }
+    faker.abort();
+
+    // 3. The operator's certificate can do everything the API offers.
+    let _: serde_json::Value = op.query(Key::SystemCmd(proto::SystemCmd::Move), Some(&json!({"robot": "r4", "to": null}))).await?;
+    let _: serde_json::Value = op.query(Key::SystemCmd(proto::SystemCmd::Goto), Some(&json!({"robot": "r4", "x": 3.0, "y": -6.0}))).await?;
+    let _: serde_json::Value = op.query(Key::SystemCmd(proto::SystemCmd::Terminate), Some(&json!({"name": "q"}))).await?;
+    let _: proto::Marginal = op.query(proto::keys::marginal_selector("p", 1), None::<&()>).await?;
+    let _: Vec<proto::Advice> = op.query(Key::AgentAdvice, None::<&()>).await?;
+    op.close().await;
+    rogue.close().await;
+    Ok(())
+}
