@@ -115,6 +115,8 @@ enum Ev {
     Robot { from: usize, to: usize, ev: Box<robot::Event> },
     /// An answer a node computed for itself (local planning).
     Local { node: usize, inc: u32, ev: Box<host::Event> },
+    /// An answer central's driver computed for it (a dry run).
+    LocalCentral { node: usize, inc: u32, ev: Box<central::Event> },
     Query(u64),
     Answer { qid: u64, result: Result<Answer, Failure> },
     Timeout(u64),
@@ -356,6 +358,11 @@ impl World {
                     self.host(node, *ev)?;
                 }
             }
+            Ev::LocalCentral { node, inc, ev } => {
+                if self.links.up[node] && self.links.inc[node] == inc {
+                    self.central(node, *ev)?;
+                }
+            }
             Ev::Query(qid) => self.serve(qid)?,
             Ev::Answer { qid, result } => self.answer(qid, result)?,
             Ev::Timeout(qid) => {
@@ -559,6 +566,13 @@ impl World {
             }
             system::Command::Ctl { id, mission, ctl, .. } => self.ask_mission(Some(i), &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::CentralCtl(id)),
             system::Command::Refused { from, what } => return Err(format!("central refused {from}: {what} (no node of the simulation is a rogue)")),
+            system::Command::DryRun(dry) => {
+                // Off central's loop in the driver: here, answered a little later.
+                let result = dry.run();
+                let at = self.now + self.rng.gen_range(0.001..0.05);
+                let inc = self.links.inc[i];
+                self.queue.push(at, Ev::LocalCentral { node: i, inc, ev: Box::new(central::Event::System(system::Event::DryRunDone { id: dry.id, result })) });
+            }
             system::Command::Forward { key, .. } => {
                 if let Some(mrmm_proto::Key::MissionView(m)) = mrmm_proto::Key::parse(&key.to_string()) {
                     self.ask_mission(Some(i), &m.clone(), Payload::View(m), Ctx::CentralForward);

@@ -11,6 +11,10 @@ fn env_u64(name: &str) -> Option<u64> {
 /// `MRMM_SIM_SEED` with its trace; panics with the failing seed and how to replay it.
 pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
     if let Some(seed) = env_u64("MRMM_SIM_SEED") {
+        // The machines' own log lines too, when asked for (RUST_LOG=info).
+        if std::env::var_os("RUST_LOG").is_some() {
+            let _ = tracing_subscriber::fmt().with_env_filter(tracing_subscriber::EnvFilter::from_default_env()).with_ansi(false).without_time().try_init();
+        }
         let cfg = config(seed);
         println!("{what} seed {seed}: {cfg:?}");
         match run(cfg, true) {

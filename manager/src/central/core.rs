@@ -145,6 +145,10 @@ mod tests {
             ..Default::default()
         };
         let out = c.handle(0.1, Event::System(system::Event::Operator { req: Req::Query(1), request: Request::Create(create) }));
+        // The dry run, as the driver makes it off the loop.
+        let [Command::System(system::Command::DryRun(dry))] = out.as_slice() else { panic!("a dry run first: {out:?}") };
+        let result = dry.run();
+        let out = c.handle(0.1, Event::System(system::Event::DryRunDone { id: dry.id, result }));
         assert!(matches!(out.as_slice(), [Command::System(system::Command::SendToRobot { .. }), Command::System(system::Command::StartMission { .. })]), "{out:?}");
         let mut view = Box::new(c.system().mission_views()[0].clone());
         view.status = mrmm_proto::MissionStatus::Running;

@@ -26,6 +26,8 @@ use crate::Failure;
 const TICK: Duration = Duration::from_millis(250);
 /// How long a mission host may take to plan a new mission.
 const START_TIMEOUT: Duration = Duration::from_secs(25);
+/// How long a create's dry-run plan may take (the planner's limits keep it far shorter).
+const DRY_RUN_DEADLINE: Duration = Duration::from_secs(10);
 
 /// What central reports once it is serving.
 #[derive(Debug, Clone)]
@@ -250,6 +252,16 @@ impl Io {
                 }
             }
             system::Command::Refused { from, what } => self.mesh.refuse(&what, &from),
+            system::Command::DryRun(dry) => self.spawn(async move {
+                let id = dry.id;
+                let run = tokio::task::spawn_blocking(move || dry.run());
+                let result = match tokio::time::timeout(DRY_RUN_DEADLINE, run).await {
+                    Ok(Ok(r)) => r,
+                    Ok(Err(e)) => Err(format!("the dry run failed: {e}")),
+                    Err(_) => Err(format!("the dry run took longer than {} s: ask for less", DRY_RUN_DEADLINE.as_secs())),
+                };
+                system::Event::DryRunDone { id, result }
+            }),
             system::Command::FetchInfo { id } => self.spawn(async move {
                 let key = Key::RobotInfo(id.clone()).to_string();
                 match mesh.query::<RobotInfo>(&key, None, timeout, |s| s.is(Role::Robot, &id)).await {

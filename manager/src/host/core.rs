@@ -255,7 +255,7 @@ impl HostCore {
                 let names: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
                 for name in names {
                     if let Some(h) = self.heads.get_mut(&name) {
-                        h.telemetry(&t);
+                        h.telemetry(now, &t);
                     }
                     self.run(now, &name, mission::Event::Telemetry(t.clone()), &mut out);
                 }
@@ -276,6 +276,19 @@ impl HostCore {
             Event::Chain { envelope, from: sender } => {
                 let ChainEnvelope { mission, from, msg } = *envelope;
                 if sender.id != from || !self.may_chain(&mission, &sender) {
+                    // A head or candidate this node no longer counts in the mission (it left the
+                    // chain while cut off, say) is told it is behind, as the chain would: it
+                    // steps down. Nothing it sent is taken.
+                    let theirs = match &msg {
+                        chain::Msg::Update { config, seq, .. } => Some((config.epoch, *seq)),
+                        chain::Msg::Vote { last, .. } => Some(*last),
+                        _ => None,
+                    };
+                    let behind = |r: &&chain::Replica<MissionSnapshot>| sender.id == from && r.config().is_some() && theirs.is_some_and(|v| r.version() > v);
+                    if let Some(r) = self.registry.replica(&mission).filter(behind) {
+                        let msg = chain::Msg::Stale { promised: r.promised(), last: r.version() };
+                        out.push(Command::Chain { to: from.clone(), envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }) });
+                    }
                     out.push(Command::Refused { what: format!("send chain messages for mission {mission} as {from}"), from: sender });
                     return out;
                 }
@@ -380,12 +393,9 @@ impl HostCore {
         }
         match ctl {
             MissionCtl::Joined { member } => self.run(now, name, mission::Event::Joined(member), out),
-            MissionCtl::Left { ids } => {
-                // Robots that are gone were lost: they rejoin when they come back.
-                let (alive, dead): (Vec<String>, Vec<String>) = ids.into_iter().partition(|id| self.robots.contains(id));
-                self.run(now, name, mission::Event::Lost { ids: dead }, out);
-                self.run(now, name, mission::Event::Left { ids: alive }, out);
-            }
+            // The system manager took these robots out (moved elsewhere or freed): out for good,
+            // alive or not — a robot lost now and back later must not come back into this team.
+            MissionCtl::Left { ids } => self.run(now, name, mission::Event::Left { ids }, out),
             MissionCtl::Terminate => {
                 let epoch = self.heads.get(name).map_or(0, |h| h.mm.epoch());
                 if let Some(q) = self.heads.get_mut(name).and_then(|h| h.start.take()) {

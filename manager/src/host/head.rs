@@ -34,11 +34,16 @@ pub struct Head {
     deliveries: BTreeMap<String, Delivery>,
     /// The epoch of the last plan request, and how often it was asked again.
     requested: Option<(u64, u32)>,
+    /// Members whose telemetry shows they do not run the current plan (they restarted, say),
+    /// and since when.
+    astray: BTreeMap<String, f64>,
+    /// The last plan sent to each robot (sent only once committed).
+    sent: BTreeMap<String, Box<PlanAssignment>>,
 }
 
 impl Head {
     pub fn new(mm: MissionManager, start: Option<u64>) -> Self {
-        Head { mm, start, pending: Vec::new(), replies: Vec::new(), deliveries: BTreeMap::new(), requested: None }
+        Head { mm, start, pending: Vec::new(), replies: Vec::new(), deliveries: BTreeMap::new(), requested: None, astray: BTreeMap::new(), sent: BTreeMap::new() }
     }
 
     /// Runs one mission event; returns the plan requests to make now (everything else waits for
@@ -98,6 +103,7 @@ impl Head {
 
     /// A plan goes out to `robot` now.
     pub fn sending(&mut self, now: f64, robot: &str, assignment: Box<PlanAssignment>) {
+        self.sent.insert(robot.to_string(), assignment.clone());
         self.deliveries.insert(robot.to_string(), Delivery { assignment, last_sent: now });
     }
 
@@ -123,12 +129,29 @@ impl Head {
         }
     }
 
-    /// Telemetry of a member: it shows the plan it runs.
-    pub fn telemetry(&mut self, t: &Telemetry) {
-        if let Some(p) = &t.progress {
-            if p.mission == self.mm.name() {
-                self.delivered(&t.id, p.epoch);
-            }
+    /// Telemetry of a member at `now`: it shows the plan it runs. A member that runs none of
+    /// this mission's current plan for [`REDELIVER_S`] while no delivery is on its way (it
+    /// restarted and forgot it, say) is handed its plan again.
+    pub fn telemetry(&mut self, now: f64, t: &Telemetry) {
+        let runs = t.progress.as_ref().filter(|p| p.mission == self.mm.name()).map(|p| p.epoch);
+        if let Some(epoch) = runs {
+            self.delivered(&t.id, epoch);
+        }
+        let current = runs.is_some_and(|e| e >= self.mm.epoch());
+        if current || !self.mm.has(&t.id) || self.deliveries.contains_key(&t.id) {
+            self.astray.remove(&t.id);
+            return;
+        }
+        let since = *self.astray.entry(t.id.clone()).or_insert(now);
+        if now - since < REDELIVER_S {
+            return;
+        }
+        // Only a plan already sent: it was committed (the manager's own may not be yet).
+        let plan = self.sent.get(&t.id).filter(|a| a.epoch == self.mm.epoch()).cloned();
+        if let Some(assignment) = plan {
+            // Due at the next redelivery round.
+            self.deliveries.insert(t.id.clone(), Delivery { assignment, last_sent: now - REDELIVER_S });
+            self.astray.remove(&t.id);
         }
     }
 

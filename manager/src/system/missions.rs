@@ -11,9 +11,64 @@ use super::{to_value, Command, MissionRecord, PendingStart, Released, Req, Syste
 use crate::mission::MissionSpec;
 use crate::wire;
 
+/// A create checked but for its dry run.
+struct Checked {
+    spec: MissionSpec,
+    host: String,
+    robots: Vec<RobotSpec>,
+    /// (robot, mission) taken from running missions.
+    steal: Vec<(String, String)>,
+    /// The parameters of the dry run (little effort) and its robots.
+    dry: BTreeMap<String, String>,
+    planner_robots: Vec<mrmm_planner::plan::RobotSpec>,
+}
+
+impl Checked {
+    fn dry_run(self, id: u64) -> DryRun {
+        DryRun { id, recipe_xml: self.spec.recipe_xml, params: self.dry, robots: self.planner_robots }
+    }
+}
+
+/// A plan to make with little effort before a create takes effect: it catches bad waypoints,
+/// regions and parameters. Made by the driver off the system manager's loop, under a deadline.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DryRun {
+    pub id: u64,
+    pub recipe_xml: String,
+    pub params: BTreeMap<String, String>,
+    pub robots: Vec<mrmm_planner::plan::RobotSpec>,
+}
+
+impl DryRun {
+    /// Plans it (pure; bounded by the planner's limits).
+    pub fn run(&self) -> Result<(), String> {
+        let r = recipe::parse(&self.recipe_xml).map_err(|e| e.to_string())?;
+        recipe::build(&r, &self.params, &self.robots).map(|_| ()).map_err(|e| e.to_string())
+    }
+}
+
 impl SystemManager {
+    /// A create: checked in full here, then dry-run planned by the driver off this loop
+    /// ([`Command::DryRun`]); it takes effect on [`SystemManager::dry_run_done`].
     pub(super) fn create(&mut self, req: Req, c: MissionCreate) -> Vec<Command> {
-        let (spec, host, robots, steal) = match self.check_create(c) {
+        let checked = match self.check_create(c.clone()) {
+            Ok(x) => x,
+            Err(e) => return vec![Command::Reply { req, result: Err(e) }],
+        };
+        let id = self.next_check;
+        self.next_check += 1;
+        self.checking.insert(id, (req, c));
+        vec![Command::DryRun(Box::new(checked.dry_run(id)))]
+    }
+
+    /// The dry run of check `id` is done: the create takes effect (checked again: the fleet may
+    /// have changed meanwhile), or its error is the answer.
+    pub(super) fn dry_run_done(&mut self, id: u64, result: Result<(), String>) -> Vec<Command> {
+        let Some((req, c)) = self.checking.remove(&id) else { return vec![] };
+        if let Err(e) = result {
+            return vec![Command::Reply { req, result: Err(format!("mission {}: {e}", c.name)) }];
+        }
+        let Checked { spec, host, robots, steal, .. } = match self.check_create(c) {
             Ok(x) => x,
             Err(e) => return vec![Command::Reply { req, result: Err(e) }],
         };
@@ -50,9 +105,8 @@ impl SystemManager {
         vec![]
     }
 
-    /// Everything a create needs, or the first problem. Changes nothing.
-    #[allow(clippy::type_complexity)]
-    fn check_create(&self, c: MissionCreate) -> Result<(MissionSpec, String, Vec<RobotSpec>, Vec<(String, String)>), String> {
+    /// Everything a create needs but its dry run, or the first problem. Changes nothing.
+    fn check_create(&self, c: MissionCreate) -> Result<Checked, String> {
         proto::validate_id(&c.name).map_err(|_| format!("mission name {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", c.name))?;
         if self.missions.contains_key(&c.name) {
             return Err(format!("mission {:?} already exists", c.name));
@@ -95,6 +149,10 @@ impl SystemManager {
                 (k.clone(), v)
             })
             .collect();
+        // Every scalar the operator gave is checked as given (the dry run below replaces some).
+        for (k, v) in params.iter().filter(|(k, _)| !matches!(k.as_str(), "waypoints" | "region")) {
+            recipe::check_param(r.planner, k, v).map_err(|e| format!("mission {}: {e}", c.name))?;
+        }
 
         let (ids, steal) = match (&c.robots, c.count) {
             (Some(_), Some(_)) => return Err("give robots or count, not both".into()),
@@ -136,18 +194,17 @@ impl SystemManager {
                 }
             }
         }
-        let planner_specs: Vec<_> = specs.iter().map(wire::robot_spec).collect();
-        recipe::build(&r, &dry, &planner_specs).map_err(|e| format!("mission {}: {e}", c.name))?;
+        let planner_robots: Vec<_> = specs.iter().map(wire::robot_spec).collect();
         let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
         if replicas > proto::MAX_REPLICAS {
             return Err(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS));
         }
         let spec = MissionSpec { name: c.name, recipe_name, recipe_xml: xml, planner: r.planner, params, replicas };
-        Ok((spec, host, specs, steal))
+        Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots })
     }
 
     /// The control letting `id` go from a mission, while not yet acknowledged.
-    fn pending_release(&self, id: &str) -> Option<u64> {
+    pub(super) fn pending_release(&self, id: &str) -> Option<u64> {
         self.released.get(id).map(|r| r.ctl).filter(|c| self.ctls.is_pending(*c))
     }
 

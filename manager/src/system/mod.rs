@@ -7,7 +7,7 @@
 //! time and an [`Event`] and returns the [`Command`]s the driver must carry out.
 
 mod ctl;
-mod missions;
+pub mod missions;
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -89,6 +89,8 @@ pub enum Event {
     HostGone { node: String },
     /// What the driver refused so far, by reason (reported in the fleet status).
     Refusals(BTreeMap<String, u64>),
+    /// The answer to [`Command::DryRun`] `id`.
+    DryRunDone { id: u64, result: Result<(), String> },
     /// Periodic tick.
     Tick,
 }
@@ -112,6 +114,8 @@ pub enum Command {
     Forward { req: Req, key: Key, managers: Vec<String> },
     /// A proven sender sent what it may not: count it and say so in the log.
     Refused { from: Sender, what: String },
+    /// Plan `DryRun` off this loop; answer with [`Event::DryRunDone`].
+    DryRun(Box<missions::DryRun>),
 }
 
 /// What the system manager knows of a mission.
@@ -178,6 +182,9 @@ pub struct SystemManager {
     held: Vec<(Req, Request)>,
     /// Messages the driver refused, by reason.
     refused: BTreeMap<String, u64>,
+    /// Creates waiting for their dry run, by check id.
+    checking: BTreeMap<u64, (Req, MissionCreate)>,
+    next_check: u64,
 }
 
 impl SystemManager {
@@ -198,6 +205,8 @@ impl SystemManager {
             ctls: Ctls::default(),
             held: Vec::new(),
             refused: BTreeMap::new(),
+            checking: BTreeMap::new(),
+            next_check: 0,
         }
     }
 
@@ -295,6 +304,7 @@ impl SystemManager {
                 self.refused = r;
                 vec![]
             }
+            Event::DryRunDone { id, result } => self.dry_run_done(id, result),
             Event::HostAlive { node } => {
                 tracing::info!(%node, "mission host up");
                 self.hosts.insert(node);
@@ -430,7 +440,10 @@ impl SystemManager {
             }
             let known = self.missions.contains_key(running) || self.terminated.contains(running);
             let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
-            if assigned != Some(running) && known && retry {
+            // Moved out of `running` but not yet let go by it: its head still counts on it, so
+            // it keeps its plan until the head has replanned without it.
+            let releasing = self.released.get(&t.id).is_some_and(|r| r.mission == *running && self.ctls.is_pending(r.ctl));
+            if assigned != Some(running) && known && retry && !releasing {
                 rec.leave_sent = Some(now);
                 let epoch = t.progress.as_ref().map_or(u64::MAX, |p| p.epoch);
                 out.push(Command::SendToRobot { req: None, robot: t.id.clone(), cmd: RobotCommand::Leave { mission: running.clone(), epoch } });
@@ -590,20 +603,24 @@ impl SystemManager {
     /// it; robots in another mission are taken out of it. Robots missing from the lists are left
     /// alone — the report may predate a join this manager ordered.
     ///
-    /// A robot reporting as a head (after a takeover) cannot claim other robots: a robot in no
-    /// mission is recorded from its report only when its own telemetry says it runs the mission.
-    /// Central's and mission hosts' reports are trusted.
+    /// A robot reporting as a head (after a takeover) cannot claim robots of other missions: a
+    /// robot in no mission is recorded from its report only when its own telemetry says it runs
+    /// that mission or none. Central's and mission hosts' reports are trusted.
     fn reconcile(&mut self, name: &str, robots: &[String], lost: &[String], reporter: &Sender) -> Vec<Command> {
         let trusted = matches!(reporter.role, Role::Central | Role::Host);
         let mut strangers = Vec::new();
         let mut recorded = Vec::new();
         for id in robots.iter().chain(lost) {
-            if self.released.get(id).is_some_and(|r| r.mission == name) {
+            // A robot being let go (by this mission or another) is in transit: this manager
+            // moved it, and decides where it goes.
+            if self.released.get(id).is_some_and(|r| r.mission == name || self.ctls.is_pending(r.ctl)) {
                 continue;
             }
+            // A robot that says it runs this mission, or nothing (it restarted and forgot):
+            // never one that says it runs another.
             let confirmed = trusted
                 || *id == reporter.id
-                || self.robots.get(id).and_then(|r| r.last.as_ref()).is_some_and(|t| t.mission.as_deref() == Some(name));
+                || self.robots.get(id).and_then(|r| r.last.as_ref()).is_some_and(|t| t.mission.is_none() || t.mission.as_deref() == Some(name));
             match self.assignment.get(id) {
                 Some(m) if m == name => {}
                 Some(_) => strangers.push(id.clone()),
@@ -633,7 +650,9 @@ impl SystemManager {
             if ours && alive && !pending {
                 if let Some(member) = self.member(&id) {
                     tracing::info!(mission = %name, robot = %id, "lost member back: its mission takes it again");
-                    self.ctls.push(name, MissionCtl::Joined { member }, None);
+                    // Never in two teams: if another mission is still letting it go, after that.
+                    let after = self.pending_release(&id);
+                    self.ctls.push(name, MissionCtl::Joined { member }, after);
                 }
             }
         }

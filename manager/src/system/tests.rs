@@ -4,6 +4,27 @@ use super::*;
 use mrmm_proto::{Behaviour, ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView, Pose, Velocity};
 
 /// The commands without the admissions sent to robots (they go with every start and join).
+/// Handling as the driver does it: dry runs (off the loop there) are carried out at once.
+trait Drive {
+    fn drive(&mut self, now: f64, ev: Event) -> Vec<Command>;
+}
+
+impl Drive for SystemManager {
+    fn drive(&mut self, now: f64, ev: Event) -> Vec<Command> {
+        let mut out = Vec::new();
+        for c in self.handle(now, ev) {
+            match c {
+                Command::DryRun(d) => {
+                    let result = d.run();
+                    out.extend(self.drive(now, Event::DryRunDone { id: d.id, result }));
+                }
+                other => out.push(other),
+            }
+        }
+        out
+    }
+}
+
 fn no_admits(cmds: Vec<Command>) -> Vec<Command> {
     cmds.into_iter().filter(|c| !matches!(c, Command::SendToRobot { cmd: RobotCommand::Admit { .. }, .. })).collect()
 }
@@ -44,12 +65,12 @@ fn registered(ids: &[&str]) -> SystemManager {
     // Started a while ago: past the adoption period, commands are not held.
     let mut sm = SystemManager::new("node".into(), -ADOPT_S);
     for id in ids {
-        assert_eq!(sm.handle(0.0, Event::RobotAlive { id: (*id).into() }), vec![Command::FetchInfo { id: (*id).into() }]);
-        assert!(sm.handle(0.0, Event::RobotRegistered(info(id))).is_empty());
+        assert_eq!(sm.drive(0.0, Event::RobotAlive { id: (*id).into() }), vec![Command::FetchInfo { id: (*id).into() }]);
+        assert!(sm.drive(0.0, Event::RobotRegistered(info(id))).is_empty());
         // Its first telemetry: it runs no plan.
         let mut t = telemetry(id, 1, Behaviour::Hold);
         t.pose = Pose::default();
-        assert!(sm.handle(0.0, Event::Telemetry(Box::new(t))).is_empty());
+        assert!(sm.drive(0.0, Event::Telemetry(Box::new(t))).is_empty());
     }
     sm
 }
@@ -76,42 +97,42 @@ fn registration_then_loss() {
     let views = sm.views();
     assert_eq!(views.len(), 2);
     assert!(views.iter().all(|v| v.status == RobotStatus::Idle));
-    sm.handle(1.0, Event::RobotGone { id: "r2".into() });
+    sm.drive(1.0, Event::RobotGone { id: "r2".into() });
     assert_eq!(sm.view("r2").map(|v| v.status), Some(RobotStatus::Lost));
     let st = sm.status(2.0);
     assert_eq!((st.robots_total, st.idle, st.lost), (2, 1, 1));
     // Comes back: alive again, info asked again.
-    assert_eq!(sm.handle(3.0, Event::RobotAlive { id: "r2".into() }), vec![Command::FetchInfo { id: "r2".into() }]);
+    assert_eq!(sm.drive(3.0, Event::RobotAlive { id: "r2".into() }), vec![Command::FetchInfo { id: "r2".into() }]);
     assert_eq!(sm.view("r2").map(|v| v.status), Some(RobotStatus::Idle));
 }
 
 #[test]
 fn unregistered_robots_are_not_listed_and_info_is_retried() {
     let mut sm = SystemManager::new("n".into(), 0.0);
-    sm.handle(0.0, Event::RobotAlive { id: "r1".into() });
+    sm.drive(0.0, Event::RobotAlive { id: "r1".into() });
     assert!(sm.views().is_empty());
-    assert!(sm.handle(0.5, Event::Tick).is_empty());
-    assert_eq!(sm.handle(1.2, Event::Tick), vec![Command::FetchInfo { id: "r1".into() }]);
-    assert!(sm.handle(1.5, Event::Tick).is_empty());
+    assert!(sm.drive(0.5, Event::Tick).is_empty());
+    assert_eq!(sm.drive(1.2, Event::Tick), vec![Command::FetchInfo { id: "r1".into() }]);
+    assert!(sm.drive(1.5, Event::Tick).is_empty());
     // Info from a robot never seen alive is ignored.
-    sm.handle(2.0, Event::RobotRegistered(info("ghost")));
+    sm.drive(2.0, Event::RobotRegistered(info("ghost")));
     assert!(sm.view("ghost").is_none());
 }
 
 #[test]
 fn telemetry_updates_pose_and_status() {
     let mut sm = registered(&["r1"]);
-    sm.handle(1.0, Event::Telemetry(Box::new(telemetry("r1", 2, Behaviour::Navigate { x: 5.0, y: 0.0 }))));
+    sm.drive(1.0, Event::Telemetry(Box::new(telemetry("r1", 2, Behaviour::Navigate { x: 5.0, y: 0.0 }))));
     let v = sm.view("r1").expect("r1");
     assert_eq!(v.status, RobotStatus::Busy);
     assert_eq!(v.pose.map(|p| p.x), Some(2.0));
     // An older message does not overwrite a newer one.
-    sm.handle(1.1, Event::Telemetry(Box::new(telemetry("r1", 1, Behaviour::Hold))));
+    sm.drive(1.1, Event::Telemetry(Box::new(telemetry("r1", 1, Behaviour::Hold))));
     assert_eq!(sm.view("r1").and_then(|v| v.pose).map(|p| p.x), Some(2.0));
-    sm.handle(1.2, Event::Telemetry(Box::new(telemetry("r1", 3, Behaviour::Hold))));
+    sm.drive(1.2, Event::Telemetry(Box::new(telemetry("r1", 3, Behaviour::Hold))));
     assert_eq!(sm.view("r1").map(|v| v.status), Some(RobotStatus::Idle));
     // Unknown robots' telemetry is dropped.
-    sm.handle(1.3, Event::Telemetry(Box::new(telemetry("zz", 1, Behaviour::Hold))));
+    sm.drive(1.3, Event::Telemetry(Box::new(telemetry("zz", 1, Behaviour::Hold))));
     assert!(sm.view("zz").is_none());
 }
 
@@ -119,7 +140,7 @@ fn telemetry_updates_pose_and_status() {
 fn goto_is_validated_then_relayed() {
     let mut sm = registered(&["r1", "r2"]);
     let go = |sm: &mut SystemManager, body: &str| {
-        sm.handle(1.0, Event::Operator { req: Req::Query(7), request: Request::Goto(decode(body)) })
+        sm.drive(1.0, Event::Operator { req: Req::Query(7), request: Request::Goto(decode(body)) })
     };
     assert_eq!(
         go(&mut sm, r#"{"robot":"r1","x":3,"y":4}"#),
@@ -127,14 +148,14 @@ fn goto_is_validated_then_relayed() {
     );
     let e = reply(go(&mut sm, r#"{"robot":"nope","x":3,"y":4}"#)).expect_err("unknown");
     assert!(e.contains("unknown robot \"nope\""), "{e}");
-    sm.handle(1.0, Event::RobotGone { id: "r2".into() });
+    sm.drive(1.0, Event::RobotGone { id: "r2".into() });
     let e = reply(go(&mut sm, r#"{"robot":"r2","x":3,"y":4}"#)).expect_err("lost");
     assert!(e.contains("lost"), "{e}");
     let ack = CommandAck { ok: true, robot: "r1".into(), behaviour: Behaviour::Navigate { x: 3.0, y: 4.0 } };
-    let v = reply(sm.handle(2.0, Event::RobotCommandDone { req: Some(Req::Query(7)), robot: "r1".into(), result: Ok(ack) }))
+    let v = reply(sm.drive(2.0, Event::RobotCommandDone { req: Some(Req::Query(7)), robot: "r1".into(), result: Ok(ack) }))
         .expect("ack");
     assert_eq!(v["ok"], Value::Bool(true));
-    let e = reply(sm.handle(2.0, Event::RobotCommandDone { req: Some(Req::Query(8)), robot: "r1".into(), result: Err("timeout".into()) }))
+    let e = reply(sm.drive(2.0, Event::RobotCommandDone { req: Some(Req::Query(8)), robot: "r1".into(), result: Err("timeout".into()) }))
         .expect_err("failed");
     assert_eq!(e, "robot r1: timeout");
 }
@@ -142,14 +163,14 @@ fn goto_is_validated_then_relayed() {
 #[test]
 fn operator_queries_answer_json() {
     let mut sm = registered(&["r1"]);
-    let v = reply(sm.handle(1.0, Event::Operator { req: Req::Query(1), request: Request::Robots })).expect("robots");
+    let v = reply(sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Robots })).expect("robots");
     assert_eq!(v[0]["id"], "r1");
     assert_eq!(v[0]["type"], "ground");
     assert_eq!(v[0]["status"], "idle");
     assert_eq!(v[0]["mission"], Value::Null);
-    let e = reply(sm.handle(1.0, Event::Operator { req: Req::Query(2), request: Request::Robot("x".into()) })).expect_err("unknown");
+    let e = reply(sm.drive(1.0, Event::Operator { req: Req::Query(2), request: Request::Robot("x".into()) })).expect_err("unknown");
     assert!(e.contains("unknown robot"));
-    let v = reply(sm.handle(5.0, Event::Operator { req: Req::Query(3), request: Request::Status })).expect("status");
+    let v = reply(sm.drive(5.0, Event::Operator { req: Req::Query(3), request: Request::Status })).expect("status");
     assert_eq!(v["robots_total"], 1);
     assert_eq!(v["uptime_s"], 5.0 + ADOPT_S);
 }
@@ -158,20 +179,20 @@ fn operator_queries_answer_json() {
 fn commands_wait_while_a_fresh_manager_learns_the_fleet() {
     let mut sm = SystemManager::new("n".into(), 0.0);
     for id in ["r1", "r2"] {
-        sm.handle(0.0, Event::RobotAlive { id: id.into() });
-        sm.handle(0.0, Event::RobotRegistered(info(id)));
+        sm.drive(0.0, Event::RobotAlive { id: id.into() });
+        sm.drive(0.0, Event::RobotRegistered(info(id)));
     }
-    sm.handle(0.0, Event::HostAlive { node: "central".into() });
+    sm.drive(0.0, Event::HostAlive { node: "central".into() });
     let create = Request::Create(decode(r#"{"name": "m", "recipe": "patrol", "count": 1}"#));
-    assert!(sm.handle(0.5, Event::Operator { req: Req::Query(1), request: create }).is_empty(), "held");
+    assert!(sm.drive(0.5, Event::Operator { req: Req::Query(1), request: create }).is_empty(), "held");
     // A head reports it runs r1 (central restarted): r1 is not idle any more.
     let mut v = MissionViewBuilder::running("p", "central", &["r1"]);
     v.lost = vec!["r2".into()];
-    let joined = no_admits(sm.handle(1.0, status(v)));
+    let joined = no_admits(sm.drive(1.0, status(v)));
     // r2 is alive: p's head is ordered to take it back.
     assert!(matches!(joined.as_slice(), [Command::Ctl { mission, ctl: MissionCtl::Joined { member }, .. }] if mission == "p" && member.spec.id == "r2"), "{joined:?}");
-    assert!(reply(sm.handle(1.5, Event::Operator { req: Req::Query(2), request: Request::Robots })).is_ok(), "queries are answered at once");
-    let cmds = sm.handle(2.1, Event::Tick);
+    assert!(reply(sm.drive(1.5, Event::Operator { req: Req::Query(2), request: Request::Robots })).is_ok(), "queries are answered at once");
+    let cmds = sm.drive(2.1, Event::Tick);
     // r2 keeps its place in p though lost to p's head: nobody is idle, the create fails.
     let e = cmds.iter().find_map(|c| match c {
         Command::Reply { req: Req::Query(1), result } => Some(result.clone()),
@@ -221,7 +242,7 @@ mod missions {
 
     fn with_host(ids: &[&str]) -> SystemManager {
         let mut sm = registered(ids);
-        assert!(sm.handle(0.0, Event::HostAlive { node: "central".into() }).is_empty());
+        assert!(sm.drive(0.0, Event::HostAlive { node: "central".into() }).is_empty());
         sm
     }
 
@@ -249,11 +270,11 @@ mod missions {
                         error: None,
                         plans: None,
                     };
-                    cmds.extend(sm.handle(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
+                    cmds.extend(sm.drive(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
                 }
                 Command::Ctl { id, mission, ctl, .. } => {
                     seen.ctls.push((mission, ctl));
-                    cmds.extend(sm.handle(2.0, Event::CtlDone { id, result: Ok(()) }));
+                    cmds.extend(sm.drive(2.0, Event::CtlDone { id, result: Ok(()) }));
                 }
                 Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } => seen.leaves.push(format!("{robot} {mission}")),
                 Command::Reply { req, result } => seen.replies.push((req, result)),
@@ -266,12 +287,12 @@ mod missions {
     }
 
     fn create(sm: &mut SystemManager, req: u64, body: &str) -> Seen {
-        let cmds = sm.handle(1.0, Event::Operator { req: Req::Query(req), request: Request::Create(decode(body)) });
+        let cmds = sm.drive(1.0, Event::Operator { req: Req::Query(req), request: Request::Create(decode(body)) });
         settle(sm, cmds)
     }
 
     fn mv(sm: &mut SystemManager, body: &str) -> Seen {
-        let cmds = sm.handle(5.0, Event::Operator { req: Req::Query(9), request: Request::Move(decode(body)) });
+        let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Move(decode(body)) });
         settle(sm, cmds)
     }
 
@@ -293,7 +314,7 @@ mod missions {
         assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"));
         assert_eq!(sm.view("r3").map(|v| v.status), Some(RobotStatus::Idle));
 
-        let cmds = sm.handle(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode_bytes(br#"{"name": "p1"}"#)) });
+        let cmds = sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode_bytes(br#"{"name": "p1"}"#)) });
         let seen = settle(&mut sm, cmds);
         assert_eq!(seen.ctls, [("p1".into(), MissionCtl::Terminate)]);
         assert_eq!(seen.leaves, ["r1 p1", "r2 p1"]);
@@ -334,14 +355,14 @@ mod missions {
     #[test]
     fn a_failed_start_frees_the_robots() {
         let mut sm = with_host(&["r1"]);
-        let cmds = sm.handle(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
+        let cmds = sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
         // r1 is admitted (a robot may come to lead p), then the mission starts.
         assert!(matches!(cmds.as_slice(), [Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, managers, members }, .. }, Command::StartMission { .. }]
             if robot == "r1" && mission == "p" && *managers == ["central"] && *members == ["r1"]), "{cmds:?}");
         assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
-        let v = reply(sm.handle(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
+        let v = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
         assert_eq!(v[0]["status"], "planning");
-        let r = sm.handle(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure { retryable: false, error: "no planner service".into() }) });
+        let r = sm.drive(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure { retryable: false, error: "no planner service".into() }) });
         assert_eq!(reply(r).expect_err("failed"), "no planner service");
         assert_eq!(mission_of(&sm, "r1"), None);
         assert_eq!(sm.status(3.0).missions, 0);
@@ -350,10 +371,10 @@ mod missions {
     #[test]
     fn a_start_nobody_answered_is_ended_before_its_robots_go_elsewhere() {
         let mut sm = with_host(&["r1"]);
-        let cmds = no_admits(sm.handle(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) }));
+        let cmds = no_admits(sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) }));
         assert!(matches!(cmds.as_slice(), [Command::StartMission { .. }]));
         let no_answer = Failure { retryable: true, error: "no answer".into() };
-        let cmds = sm.handle(26.0, Event::MissionStarted { mission: "p".into(), result: Err(no_answer) });
+        let cmds = sm.drive(26.0, Event::MissionStarted { mission: "p".into(), result: Err(no_answer) });
         let end = cmds.iter().find_map(|c| match c {
             Command::Ctl { id, mission, ctl: MissionCtl::Terminate, .. } if mission == "p" => Some(*id),
             _ => None,
@@ -361,9 +382,9 @@ mod missions {
         let end = end.expect("the mission is ended in case it started");
         assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Err(e), .. } if e.contains("did not start"))));
         // r1 is free, but a new mission takes it only once p's end is acknowledged.
-        let cmds = sm.handle(27.0, Event::Operator { req: Req::Query(2), request: Request::Create(decode(r#"{"name": "q", "recipe": "patrol", "count": 1}"#)) });
+        let cmds = sm.drive(27.0, Event::Operator { req: Req::Query(2), request: Request::Create(decode(r#"{"name": "q", "recipe": "patrol", "count": 1}"#)) });
         assert!(cmds.is_empty(), "{cmds:?}");
-        let cmds = no_admits(sm.handle(28.0, Event::CtlDone { id: end, result: Ok(()) }));
+        let cmds = no_admits(sm.drive(28.0, Event::CtlDone { id: end, result: Ok(()) }));
         assert!(matches!(cmds.as_slice(), [Command::StartMission { start, .. }] if start.spec.name == "q"), "{cmds:?}");
     }
 
@@ -400,24 +421,24 @@ mod missions {
             assert!(mv(&mut sm, body).replies[0].1.as_ref().expect_err(body).contains(want), "{body}");
         }
         // A patrol robot is lost: its head plans around it on its own; it keeps its place.
-        let cmds = sm.handle(6.0, Event::RobotGone { id: "r1".into() });
+        let cmds = sm.drive(6.0, Event::RobotGone { id: "r1".into() });
         assert!(settle(&mut sm, cmds).ctls.is_empty());
         assert_eq!(sm.view("r1").and_then(|v| v.last_mission).as_deref(), Some("p"));
-        let v = reply(sm.handle(6.5, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
+        let v = reply(sm.drive(6.5, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
         assert_eq!(v[1]["robots"], serde_json::json!(["r2", "r3"]));
         // No other mission can take it while it is away, and it is back in p when it returns.
         let e = mv(&mut sm, r#"{"robot": "r1", "to": "c"}"#).replies[0].1.clone().expect_err("lost");
         assert!(e.contains("lost"), "{e}");
-        sm.handle(7.0, Event::RobotAlive { id: "r1".into() });
+        sm.drive(7.0, Event::RobotAlive { id: "r1".into() });
         assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
         // A goto on a mission robot is refused; moving it out frees it.
-        let g = sm.handle(7.0, Event::Operator { req: Req::Query(3), request: Request::Goto(decode(r#"{"robot":"r2","x":0,"y":0}"#)) });
+        let g = sm.drive(7.0, Event::Operator { req: Req::Query(3), request: Request::Goto(decode(r#"{"robot":"r2","x":0,"y":0}"#)) });
         assert!(reply(g).expect_err("in mission").contains("in mission p"));
         let seen = mv(&mut sm, r#"{"robot": "r2", "to": null}"#);
         assert_eq!(seen.leaves, ["r2 p"]);
         assert_eq!(mission_of(&sm, "r2"), None);
         // A lost robot can be freed by the operator: its head forgets it.
-        sm.handle(8.0, Event::RobotGone { id: "r3".into() });
+        sm.drive(8.0, Event::RobotGone { id: "r3".into() });
         let seen = mv(&mut sm, r#"{"robot": "r3", "to": null}"#);
         assert_eq!(seen.ctls, [("p".into(), left(&["r3"]))]);
         assert!(seen.leaves.is_empty(), "a lost robot is not ordered anything");
@@ -429,7 +450,7 @@ mod missions {
         let mut sm = with_host(&["r1", "r2", "r3"]);
         create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1","r2"], {WAYPOINTS}}}"#));
         create(&mut sm, 2, r#"{"name": "c", "recipe": "coverage", "robots": ["r3"]}"#);
-        let cmds = sm.handle(5.0, Event::Operator { req: Req::Query(9), request: Request::Move(decode(r#"{"robot": "r2", "to": "c"}"#)) });
+        let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Move(decode(r#"{"robot": "r2", "to": "c"}"#)) });
         let ctl = |cmds: &[Command]| -> Vec<(u64, String)> {
             cmds.iter().filter_map(|c| match c {
                 Command::Ctl { id, mission, .. } => Some((*id, mission.clone())),
@@ -440,14 +461,14 @@ mod missions {
         assert_eq!(first.iter().map(|c| c.1.as_str()).collect::<Vec<_>>(), ["p"], "c waits for p to let r2 go");
         let (id, _) = first[0].clone();
         let no_answer = || Err(Failure { retryable: true, error: "no answer".into() });
-        assert!(ctl(&sm.handle(6.0, Event::CtlDone { id, result: no_answer() })).is_empty(), "not again at once");
-        assert_eq!(ctl(&sm.handle(7.0, Event::Tick)), [(id, "p".to_string())], "sent again");
-        let joined = ctl(&sm.handle(7.5, Event::CtlDone { id, result: Ok(()) }));
+        assert!(ctl(&sm.drive(6.0, Event::CtlDone { id, result: no_answer() })).is_empty(), "not again at once");
+        assert_eq!(ctl(&sm.drive(7.0, Event::Tick)), [(id, "p".to_string())], "sent again");
+        let joined = ctl(&sm.drive(7.5, Event::CtlDone { id, result: Ok(()) }));
         assert_eq!(joined.iter().map(|c| c.1.as_str()).collect::<Vec<_>>(), ["c"], "then r2 joins c");
         // While p has not acknowledged, its reports still listing r2 are older than the order.
         let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
         v.robots = vec!["r1".into(), "r2".into()];
-        assert!(ctl(&sm.handle(8.0, status(v))).is_empty());
+        assert!(ctl(&sm.drive(8.0, status(v))).is_empty());
         assert_eq!(mission_of(&sm, "r2").as_deref(), Some("c"));
     }
 
@@ -456,11 +477,11 @@ mod missions {
         let mut sm = with_host(&["r1"]);
         create(&mut sm, 1, r#"{"name": "p", "recipe": "patrol", "robots": ["r1"]}"#);
         let view = sm.mission_views()[0].clone();
-        let cmds = sm.handle(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode(r#"{"name": "p"}"#)) });
+        let cmds = sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode(r#"{"name": "p"}"#)) });
         settle(&mut sm, cmds);
-        let cmds = sm.handle(4.0, status(view.clone()));
+        let cmds = sm.drive(4.0, status(view.clone()));
         assert!(matches!(cmds.as_slice(), [Command::Ctl { ctl: MissionCtl::Terminate, .. }]), "{cmds:?}");
-        assert!(sm.handle(4.1, status(view)).is_empty(), "once while it is pending");
+        assert!(sm.drive(4.1, status(view)).is_empty(), "once while it is pending");
         assert_eq!(sm.status(4.0).missions, 0);
     }
 
@@ -470,20 +491,20 @@ mod missions {
         let mut t = telemetry("r1", 1, Behaviour::Hold);
         t.mission = Some("old".into());
         // A mission this manager never heard of (central restarted): left alone.
-        assert!(sm.handle(0.5, Event::Telemetry(Box::new(t.clone()))).is_empty());
+        assert!(sm.drive(0.5, Event::Telemetry(Box::new(t.clone()))).is_empty());
         create(&mut sm, 1, r#"{"name": "old", "recipe": "patrol", "robots": ["r2"]}"#);
         t.seq = 2;
-        let cmds = sm.handle(1.0, Event::Telemetry(Box::new(t.clone())));
+        let cmds = sm.drive(1.0, Event::Telemetry(Box::new(t.clone())));
         assert!(matches!(cmds.as_slice(), [Command::SendToRobot { cmd: RobotCommand::Leave { .. }, .. }]));
         t.seq = 3;
-        assert!(sm.handle(1.5, Event::Telemetry(Box::new(t.clone()))).is_empty(), "not again so soon");
+        assert!(sm.drive(1.5, Event::Telemetry(Box::new(t.clone()))).is_empty(), "not again so soon");
         t.seq = 4;
-        assert_eq!(sm.handle(4.0, Event::Telemetry(Box::new(t.clone()))).len(), 1);
+        assert_eq!(sm.drive(4.0, Event::Telemetry(Box::new(t.clone()))).len(), 1);
         // Terminated missions stay known: stragglers are still ordered out.
-        let cmds = sm.handle(5.0, Event::Operator { req: Req::Query(9), request: Request::Terminate(decode(r#"{"name": "old"}"#)) });
+        let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Terminate(decode(r#"{"name": "old"}"#)) });
         settle(&mut sm, cmds);
         t.seq = 5;
-        assert_eq!(sm.handle(9.0, Event::Telemetry(Box::new(t))).len(), 1);
+        assert_eq!(sm.drive(9.0, Event::Telemetry(Box::new(t))).len(), 1);
     }
 
     #[test]
@@ -491,20 +512,20 @@ mod missions {
         let mut sm = with_host(&["r1", "r2"]);
         create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "count": 2, {WAYPOINTS}}}"#));
         // Details come from the head.
-        let cmds = sm.handle(2.0, Event::Operator { req: Req::Query(3), request: Request::Mission("p".into()) });
+        let cmds = sm.drive(2.0, Event::Operator { req: Req::Query(3), request: Request::Mission("p".into()) });
         assert_eq!(settle(&mut sm, cmds).forwards, [Key::MissionView("p".into()).to_string()]);
-        assert!(reply(sm.handle(2.0, Event::Operator { req: Req::Query(5), request: Request::Mission("q".into()) })).is_err());
+        assert!(reply(sm.drive(2.0, Event::Operator { req: Req::Query(5), request: Request::Mission("q".into()) })).is_err());
         // Status publications update the table.
-        let m = reply(sm.handle(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("m");
+        let m = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("m");
         let mut v: MissionView = serde_json::from_value(m[0].clone()).expect("view");
         v.metrics.rounds = 7;
         v.manager.epoch = 4;
-        sm.handle(3.0, status(v));
-        let m = reply(sm.handle(3.0, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
+        sm.drive(3.0, status(v));
+        let m = reply(sm.drive(3.0, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
         assert_eq!((m[0]["metrics"]["rounds"].as_u64(), m[0]["manager"]["epoch"].as_u64()), (Some(7), Some(4)));
         // The host dies: the mission is stalled, the operator is told why.
-        sm.handle(4.0, Event::HostGone { node: "central".into() });
-        let m = reply(sm.handle(4.0, Event::Operator { req: Req::Query(6), request: Request::Missions })).expect("missions");
+        sm.drive(4.0, Event::HostGone { node: "central".into() });
+        let m = reply(sm.drive(4.0, Event::Operator { req: Req::Query(6), request: Request::Missions })).expect("missions");
         assert_eq!(m[0]["status"], "stalled");
         assert!(m[0]["error"].as_str().is_some_and(|e| e.contains("central lost")));
     }
@@ -512,7 +533,7 @@ mod missions {
     #[test]
     fn a_restarted_manager_adopts_missions_its_heads_report() {
         let mut sm = with_host(&["r1", "r2", "r3"]);
-        sm.handle(0.0, Event::HostAlive { node: "h2".into() });
+        sm.drive(0.0, Event::HostAlive { node: "h2".into() });
         create(&mut sm, 1, r#"{"name": "mine", "recipe": "patrol", "robots": ["r3"]}"#);
         let report = |name: &str, host: &str, robots: &[&str]| MissionView {
             name: name.into(),
@@ -533,10 +554,10 @@ mod missions {
         for id in ["r1", "r2"] {
             let mut t = telemetry(id, 5, Behaviour::Hold);
             t.mission = Some("p".into());
-            sm.handle(0.5, Event::Telemetry(Box::new(t)));
+            sm.drive(0.5, Event::Telemetry(Box::new(t)));
         }
         // r3 is already in "mine": the head is told to let it go; r1 and r2 are adopted.
-        let cmds = sm.handle(1.0, status(report("p", "h2", &["r1", "r2", "r3"])));
+        let cmds = sm.drive(1.0, status(report("p", "h2", &["r1", "r2", "r3"])));
         let admitted: Vec<&str> = cmds.iter().filter_map(|c| match c {
             Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, .. }, .. } if mission == "p" => Some(robot.as_str()),
             _ => None,
@@ -545,28 +566,33 @@ mod missions {
         let cmds = no_admits(cmds);
         assert!(matches!(cmds.as_slice(), [Command::Ctl { mission, ctl, .. }] if mission == "p" && *ctl == left(&["r3"])), "{cmds:?}");
         assert_eq!((mission_of(&sm, "r1").as_deref(), mission_of(&sm, "r3").as_deref()), (Some("p"), Some("mine")));
-        let m = reply(sm.handle(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
+        let m = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
         assert_eq!(m[1]["manager"]["node"], "h2");
         assert_eq!(m[1]["robots"], serde_json::json!(["r1", "r2"]));
         // Reports from unknown hosts are not adopted.
-        assert!(sm.handle(3.0, status(report("q", "ghost", &["r1"]))).is_empty());
+        assert!(sm.drive(3.0, status(report("q", "ghost", &["r1"]))).is_empty());
         assert_eq!(sm.status(3.0).missions, 2);
     }
 
     #[test]
     fn a_report_cannot_claim_robots_nor_speak_for_another_manager() {
         let mut sm = with_host(&["r1", "r2", "r3"]);
-        sm.handle(0.0, Event::HostAlive { node: "r3".into() });
+        sm.drive(0.0, Event::HostAlive { node: "r3".into() });
         let mut v = MissionViewBuilder::running("fake", "r3", &["r1", "r2", "r3"]);
         v.manager.node = "r3".into();
-        // r3 reports a mission with r1 and r2 in it; their telemetry says nothing of it.
+        // r3 reports a mission with r1 and r2 in it; their telemetry says they run another.
+        for id in ["r1", "r2"] {
+            let mut t = telemetry(id, 7, Behaviour::Hold);
+            t.mission = Some("other".into());
+            sm.drive(0.5, Event::Telemetry(Box::new(t)));
+        }
         let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r3");
-        sm.handle(1.0, Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
+        sm.drive(1.0, Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
         assert_eq!((mission_of(&sm, "r1"), mission_of(&sm, "r2")), (None, None), "robots are not claimed by a report");
         // Nor can a node report a mission as managed by someone else.
         let mut other = MissionViewBuilder::running("p2", "central", &["r1"]);
         other.manager.node = "central".into();
-        let cmds = sm.handle(1.1, Event::MissionStatus { view: Box::new(other), from });
+        let cmds = sm.drive(1.1, Event::MissionStatus { view: Box::new(other), from });
         assert!(matches!(cmds.as_slice(), [Command::Refused { .. }]), "{cmds:?}");
     }
 }
