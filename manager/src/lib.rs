@@ -18,6 +18,7 @@ pub mod central;
 pub mod chain;
 pub mod error;
 pub mod host;
+pub mod inbox;
 pub mod mission;
 pub mod planner_service;
 pub mod system;

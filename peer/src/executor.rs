@@ -207,8 +207,8 @@ impl Executor {
                 }
                 Step::Loop { to, rounds } => {
                     let count = self.loops.entry(self.pc).or_insert(0);
-                    *count += 1;
-                    self.round += 1;
+                    *count = count.saturating_add(1);
+                    self.round = self.round.saturating_add(1);
                     if rounds.is_some_and(|r| *count >= r) || to >= self.pc {
                         self.pc += 1;
                     } else {

@@ -11,6 +11,9 @@ use crate::executor::{self, Executor};
 /// Steps a plan may have at most.
 pub const MAX_PLAN_STEPS: usize = 100_000;
 
+
+/// Missions a robot holds admissions to at most (its mission and the ones it is moving to).
+pub const MAX_ADMISSIONS: usize = 4;
 /// Something that happened to the robot.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
@@ -60,8 +63,9 @@ pub struct Robot {
     /// Wall-clock time of the last tick.
     last_tick: Option<f64>,
     exec: Option<Executor>,
-    /// The mission the system manager admitted this robot to: (mission, managers, members).
-    admitted: Option<(String, Vec<String>, Vec<String>)>,
+    /// The missions the system manager admitted this robot to, oldest first: (mission, managers,
+    /// members). More than one while it moves between missions; at most [`MAX_ADMISSIONS`].
+    admitted: Vec<(String, Vec<String>, Vec<String>)>,
     /// Whether central (which admits robots to missions) is reachable.
     central_up: bool,
 }
@@ -69,7 +73,7 @@ pub struct Robot {
 impl Robot {
     pub fn new(cfg: RobotConfig) -> Self {
         let body = Body::new(cfg.start_pose(), cfg.limits());
-        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: None, central_up: false }
+        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: Vec::new(), central_up: false }
     }
 
     pub fn id(&self) -> &str {
@@ -102,7 +106,7 @@ impl Robot {
         if let Some(e) = &self.exec {
             out.push((e.mission().to_string(), e.assignment.members.iter().chain(&e.assignment.managers).cloned().collect()));
         }
-        if let Some((m, managers, members)) = &self.admitted {
+        for (m, managers, members) in &self.admitted {
             let ids = managers.iter().chain(members).cloned();
             match out.iter_mut().find(|(mission, _)| mission == m) {
                 Some((_, known)) => known.extend(ids),
@@ -195,7 +199,7 @@ impl Robot {
                     });
                     // Any robot of the admission may come to lead the mission (its chain is made of
                     // its members).
-                    let admitted = self.admitted.as_ref().is_some_and(|(m, managers, members)| *m == a.mission && (managers.contains(&from.id) || members.contains(&from.id)));
+                    let admitted = self.admitted.iter().any(|(m, managers, members)| *m == a.mission && (managers.contains(&from.id) || members.contains(&from.id)));
                     // While central is unreachable nobody can admit this robot: an idle robot
                     // (restarted, say) takes its mission's plan from the robot leading it, as the
                     // paper's robots rejoin without central. A stranger with a fleet certificate
@@ -262,9 +266,17 @@ impl Robot {
                 if members.len() > proto::MAX_MISSION_ROBOTS || members.iter().any(|m| proto::validate_id(m).is_err()) {
                     return Err("admit: bad member list".into());
                 }
-                self.admitted = Some((mission.clone(), managers.clone(), members.clone()));
+                // The newest admission to a mission replaces the older one; the oldest of other
+                // missions goes when there are too many.
+                self.admitted.retain(|(m, _, _)| m != mission);
+                if self.admitted.len() >= MAX_ADMISSIONS {
+                    self.admitted.remove(0);
+                }
+                self.admitted.push((mission.clone(), managers.clone(), members.clone()));
             }
             RobotCommand::Leave { mission, epoch } => {
+                // Out of the mission: its admission goes too.
+                self.admitted.retain(|(m, _, _)| m != mission);
                 let ours = self.exec.as_ref().is_some_and(|e| e.mission() == mission && e.epoch() <= *epoch);
                 if ours {
                     tracing::info!(robot = %self.cfg.id, %mission, "left mission");
@@ -343,6 +355,7 @@ impl Robot {
             behaviour: self.behaviour(),
             mission: self.exec.as_ref().map(|e| e.mission().to_string()),
             progress: self.exec.as_ref().map(Executor::progress),
+            admitted: self.admitted.iter().map(|(m, _, _)| m.clone()).collect(),
         }
     }
 }

@@ -8,7 +8,7 @@ use mrmm_proto::{self as proto, Key, Mesh, NodeNet, Pattern, Role, Sender, SyncA
 use tokio::sync::oneshot;
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
-use zenoh::handlers::FifoChannelHandler;
+use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::query::Query;
@@ -19,6 +19,9 @@ use crate::config::RobotConfig;
 use crate::error::PeerError;
 use crate::robot::{Command, Event, Robot};
 
+/// Input waiting for the robot's loop, per kind, at most: when the loop falls behind (or is
+/// flooded), the oldest is dropped — never Zenoh's receiving thread blocked.
+const QUEUE: usize = 256;
 /// Physics step period (wall time).
 const PHYSICS_PERIOD: Duration = Duration::from_millis(20);
 
@@ -34,8 +37,8 @@ pub struct Ready {
 struct TeamLink {
     team: String,
     _token: LivelinessToken,
-    arrivals: Subscriber<FifoChannelHandler<Sample>>,
-    members: Subscriber<FifoChannelHandler<Sample>>,
+    arrivals: Subscriber<RingChannelHandler<Sample>>,
+    members: Subscriber<RingChannelHandler<Sample>>,
 }
 
 impl TeamLink {
@@ -45,9 +48,10 @@ impl TeamLink {
             .liveliness()
             .declare_subscriber(Pattern::TeamMembers(team.to_string()).to_string())
             .history(true)
+            .with(RingChannel::new(QUEUE))
             .await
             .map_err(PeerError::zenoh)?;
-        let arrivals = session.declare_subscriber(Pattern::TeamSync(team.to_string()).to_string()).await.map_err(PeerError::zenoh)?;
+        let arrivals = session.declare_subscriber(Pattern::TeamSync(team.to_string()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(PeerError::zenoh)?;
         let token = session.liveliness().declare_token(member.to_string()).await.map_err(PeerError::zenoh)?;
         Ok(TeamLink { team: team.to_string(), _token: token, arrivals, members })
     }
@@ -110,8 +114,8 @@ pub async fn run_on(
     let mut robot = Robot::new(cfg);
     let endpoints = net::listening_endpoints(&session).await;
 
-    let info_q = session.declare_queryable(Key::RobotInfo(id.clone()).to_string()).await.map_err(PeerError::zenoh)?;
-    let cmd_q = session.declare_queryable(Key::RobotCmd(id.clone()).to_string()).await.map_err(PeerError::zenoh)?;
+    let info_q = session.declare_queryable(Key::RobotInfo(id.clone()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(PeerError::zenoh)?;
+    let cmd_q = session.declare_queryable(Key::RobotCmd(id.clone()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(PeerError::zenoh)?;
     let telemetry_pub = session
         .declare_publisher(Key::RobotTelemetry(id.clone()).to_string())
         .encoding(Encoding::APPLICATION_OCTET_STREAM)
@@ -129,6 +133,7 @@ pub async fn run_on(
         .liveliness()
         .declare_subscriber(Key::HostAlive(proto::CENTRAL_HOST.to_string()).to_string())
         .history(true)
+        .with(RingChannel::new(QUEUE))
         .await
         .map_err(PeerError::zenoh)?;
     let mut physics = tokio::time::interval(PHYSICS_PERIOD);

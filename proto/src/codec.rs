@@ -92,6 +92,7 @@ mod tests {
                 waiting: Some((2, 1)),
                 done: false,
             }),
+            admitted: vec!["patrol-1".into()],
         }
     }
 

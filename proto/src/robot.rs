@@ -53,6 +53,10 @@ pub struct Telemetry {
     pub mission: Option<String>,
     /// Where the robot is in its plan, when it has one.
     pub progress: Option<Progress>,
+    /// The missions central admitted this robot to (it may not run their plans yet; more than one
+    /// while it moves): a central that restarted learns from it which robots are spoken for.
+    #[serde(default)]
+    pub admitted: Vec<String>,
 }
 
 /// Progress of a robot through its plan (part of its telemetry).
@@ -98,6 +102,10 @@ fn one() -> f64 {
 /// How a reply error starts when the sender of a command may not give it (yet): a robot refusing
 /// a plan from a head it was not admitted under. The head keeps re-sending.
 pub const REFUSED: &str = "refused:";
+
+/// How a host's answer to a mission start begins when the mission was taken over by another of
+/// its managers before the start was confirmed: it runs, elsewhere.
+pub const TAKEN_OVER: &str = "taken over:";
 
 /// A command to one robot, query payload on `mrmm/robots/<id>/cmd`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

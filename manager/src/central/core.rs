@@ -133,6 +133,7 @@ mod tests {
                 behaviour: Behaviour::Hold,
                 mission: None,
                 progress: None,
+                admitted: vec![],
             };
             c.handle(0.0, Event::System(system::Event::Telemetry(Box::new(t))));
         }

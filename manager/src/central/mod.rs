@@ -10,7 +10,7 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use mrmm_proto::net::{self, Mode};
-use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, Mesh, MissionView, NodeNet, Pattern, RobotInfo, Role, Sender, SystemCmd};
+use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, Mesh, MissionView, NodeNet, Pattern, RobotInfo, Role, Sender};
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
 use zenoh::query::Query;
@@ -19,9 +19,14 @@ use zenoh::sample::{Sample, SampleKind};
 pub use self::config::CentralConfig;
 pub use self::core::{CentralCore, Command, Event, AGENT_PERIOD_S};
 use crate::error::ManagerError;
+use crate::inbox::Inbox;
 use crate::system::{self, Req, Request};
 use crate::Failure;
 
+/// Liveliness changes waiting for central's loop, at most.
+const LIVELINESS_QUEUE: usize = 65_536;
+/// Publications and queries waiting for central's loop, at most.
+const NET_QUEUE: usize = 8_192;
 /// Period of the manager's housekeeping tick.
 const TICK: Duration = Duration::from_millis(250);
 /// How long a mission host may take to plan a new mission.
@@ -59,27 +64,31 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let session = mesh.session().clone();
     let endpoints = net::listening_endpoints(&session).await;
     let zid = session.zid().to_string();
+    // Our own tasks' answers; and, bounded, what the network sends (liveliness apart: a flood
+    // of data must not push out the news that a robot died).
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
+    let (live, mut live_rx) = Inbox::new("liveliness", LIVELINESS_QUEUE);
+    let (net, mut net_rx) = Inbox::new("publications and queries", NET_QUEUE);
     let mut held = Vec::new();
     for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
-        let t = tx.clone();
+        let t = live.clone();
         held.push(session.liveliness().declare_subscriber(pattern.to_string()).history(true).callback(move |s| {
-            let _ = t.send(Input::Sample(s));
+            t.push(Input::Sample(s));
         }).await.map_err(ManagerError::zenoh)?);
     }
     for pattern in [Pattern::AllTelemetry, Pattern::AllMissionStatus] {
-        let t = tx.clone();
+        let t = net.clone();
         held.push(session.declare_subscriber(pattern.to_string()).callback(move |s| {
-            let _ = t.send(Input::Sample(s));
+            t.push(Input::Sample(s));
         }).await.map_err(ManagerError::zenoh)?);
     }
-    let t = tx.clone();
+    let t = net.clone();
     let _operator = session.declare_queryable(Pattern::SystemAll.to_string()).callback(move |q| {
-        let _ = t.send(Input::Operator(q));
+        t.push(Input::Operator(q));
     }).await.map_err(ManagerError::zenoh)?;
-    let t = tx.clone();
+    let t = net.clone();
     let _advice = session.declare_queryable(Key::AgentAdvice.to_string()).callback(move |q| {
-        let _ = t.send(Input::Advice(q));
+        t.push(Input::Advice(q));
     }).await.map_err(ManagerError::zenoh)?;
     // The default planner service and mission host live here too.
     let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), shutdown.child_token()));
@@ -107,7 +116,13 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
                 }
                 Event::System(system::Event::Tick)
             }
-            i = rx.recv() => match i {
+            i = async {
+                tokio::select! {
+                    i = live_rx.recv() => i,
+                    i = rx.recv() => i,
+                    i = net_rx.recv() => i,
+                }
+            } => match i {
                 Some(Input::Operator(q)) => match io.operator(q).await {
                     Some(e) => e,
                     None => continue,
@@ -201,25 +216,11 @@ impl Io {
     /// answered here.
     async fn operator(&mut self, q: Query) -> Option<Event> {
         let payload = net::query_payload(&q);
-        let request = match Key::parse(q.key_expr().as_str()) {
-            Some(Key::SystemStatus) => Ok(Request::Status),
-            Some(Key::SystemRobots) => Ok(Request::Robots),
-            Some(Key::SystemRobot(id)) => Ok(Request::Robot(id)),
-            Some(Key::SystemMissions) => Ok(Request::Missions),
-            Some(Key::SystemMission(name)) => Ok(Request::Mission(name)),
-            Some(Key::SystemCmd(SystemCmd::Goto)) => proto::from_json("goto request", &payload).map(Request::Goto),
-            Some(Key::SystemCmd(SystemCmd::Move)) => proto::from_json("robot move request", &payload).map(Request::Move),
-            Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", &payload).map(Request::Create),
-            Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", &payload).map(Request::Terminate),
-            _ => {
-                self.mesh.reply_error(&q, &format!("unknown key {}", q.key_expr())).await;
-                return None;
-            }
-        };
+        let request = Request::decode(q.key_expr().as_str(), &payload);
         match request {
             Ok(request) => Some(Event::System(system::Event::Operator { req: Req::Query(self.hold(q)), request })),
             Err(e) => {
-                self.mesh.reply_error(&q, &e.to_string()).await;
+                self.mesh.reply_error(&q, &e).await;
                 None
             }
         }

@@ -7,6 +7,11 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use super::{Command, Event, Msg, Params, Replica};
 
+/// Seconds a node remembers a value it no longer replicates (a straggler of an ended mission is
+/// long gone by then), and how many such values at most.
+pub const TOMB_LIFETIME_S: f64 = 3600.0;
+pub const MAX_TOMBS: usize = 10_000;
+
 /// What a node remembers of a value it no longer replicates.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Tomb {
@@ -23,13 +28,15 @@ pub struct Registry<S> {
     born: f64,
     replicas: BTreeMap<String, Replica<S>>,
     tombs: BTreeMap<String, Tomb>,
+    /// When each tomb was last written: tombs are forgotten after [`TOMB_LIFETIME_S`].
+    tomb_since: BTreeMap<String, f64>,
     /// Other nodes whose liveliness is up.
     alive: BTreeSet<String>,
 }
 
 impl<S: Clone> Registry<S> {
     pub fn new(me: &str, p: Params, born: f64) -> Self {
-        Registry { me: me.to_string(), p, born, replicas: BTreeMap::new(), tombs: BTreeMap::new(), alive: BTreeSet::new() }
+        Registry { me: me.to_string(), p, born, replicas: BTreeMap::new(), tombs: BTreeMap::new(), tomb_since: BTreeMap::new(), alive: BTreeSet::new() }
     }
 
     pub fn me(&self) -> &str {
@@ -67,7 +74,7 @@ impl<S: Clone> Registry<S> {
         self.tombs.remove(name);
         self.replicas.remove(name);
         let cmds = self.replica_mut(now, name).handle(now, Event::Create { replicas, state });
-        self.settle(name, cmds)
+        self.settle(now, name, cmds)
     }
 
     /// A chain message for `name` from `from`. A node that no longer holds the value creates a
@@ -89,7 +96,7 @@ impl<S: Clone> Registry<S> {
             }
         }
         let cmds = self.replica_mut(now, name).handle(now, Event::Recv { from, msg });
-        self.settle(name, cmds)
+        self.settle(now, name, cmds)
     }
 
     /// An event for the existing replica of `name` (`Propose`, `Pool`, `End`); nothing if none.
@@ -100,8 +107,9 @@ impl<S: Clone> Registry<S> {
         if ended {
             let t = self.tombs.entry(name.to_string()).or_default();
             t.ended = true;
+            self.tomb_since.insert(name.to_string(), now);
         }
-        self.settle(name, cmds)
+        self.settle(now, name, cmds)
     }
 
     /// Another node's liveliness changed: every replica hears of it.
@@ -117,8 +125,9 @@ impl<S: Clone> Registry<S> {
         self.each(now, |n| if up { Event::Alive(n.to_string()) } else { Event::Gone(n.to_string()) }, node)
     }
 
-    /// Time passes for every replica.
+    /// Time passes for every replica (and old tombs are forgotten).
     pub fn tick(&mut self, now: f64) -> Vec<(String, Vec<Command<S>>)> {
+        self.prune_tombs(now);
         self.each(now, |_| Event::Tick, "")
     }
 
@@ -127,7 +136,7 @@ impl<S: Clone> Registry<S> {
         let mut out = Vec::new();
         for name in names {
             let cmds = self.replicas.get_mut(&name).map(|r| r.handle(now, ev(node))).unwrap_or_default();
-            let cmds = self.settle(&name, cmds);
+            let cmds = self.settle(now, &name, cmds);
             if !cmds.is_empty() {
                 out.push((name, cmds));
             }
@@ -137,15 +146,30 @@ impl<S: Clone> Registry<S> {
 
     /// Bookkeeping the commands call for: a retired replica becomes a tomb (its promise kept,
     /// and whether it was retired by an end). The commands are returned as they are.
-    fn settle(&mut self, name: &str, cmds: Vec<Command<S>>) -> Vec<Command<S>> {
+    fn settle(&mut self, now: f64, name: &str, cmds: Vec<Command<S>>) -> Vec<Command<S>> {
         if cmds.iter().any(|c| matches!(c, Command::Retired)) {
             if let Some(r) = self.replicas.remove(name) {
                 let t = self.tombs.entry(name.to_string()).or_default();
                 t.promised = t.promised.max(r.promised());
                 t.ended |= r.ended();
+                self.tomb_since.insert(name.to_string(), now);
             }
         }
         cmds
+    }
+
+    /// Forgets tombs older than [`TOMB_LIFETIME_S`], and the oldest beyond [`MAX_TOMBS`].
+    fn prune_tombs(&mut self, now: f64) {
+        self.tomb_since.retain(|_, t| now - *t < TOMB_LIFETIME_S);
+        if self.tomb_since.len() > MAX_TOMBS {
+            let mut by_age: Vec<(f64, String)> = self.tomb_since.iter().map(|(n, t)| (*t, n.clone())).collect();
+            by_age.sort_by(|a, b| a.0.total_cmp(&b.0));
+            for (_, n) in by_age.into_iter().take(self.tomb_since.len() - MAX_TOMBS) {
+                self.tomb_since.remove(&n);
+            }
+        }
+        let keep = &self.tomb_since;
+        self.tombs.retain(|n, _| keep.contains_key(n));
     }
 }
 
@@ -182,5 +206,17 @@ mod tests {
         let vote = Msg::Vote { proposal: super::super::Config { epoch: 4, chain: vec!["c".into(), "b".into()] }, base: vec![], last: (3, 0) };
         assert_eq!(r.receive(0.2, "m", "c".into(), vote), vec![Command::Send { to: "c".into(), msg: Msg::End { epoch: u64::MAX } }]);
         assert!(r.replica("m").is_none(), "no replica for a straggler's vote");
+    }
+
+    #[test]
+    fn tombs_are_forgotten_after_their_lifetime() {
+        let mut r = Reg::new("b", p(), 0.0);
+        let cfg = super::super::Config { epoch: 3, chain: vec!["a".into(), "b".into()] };
+        r.receive(0.0, "m", "a".into(), Msg::Update { config: cfg, seq: 0, state: vec![1] });
+        r.receive(0.1, "m", "a".into(), Msg::End { epoch: 3 });
+        r.tick(100.0);
+        assert!(r.tomb("m").is_some(), "kept while stragglers may come");
+        r.tick(0.1 + TOMB_LIFETIME_S);
+        assert_eq!(r.tomb("m"), None);
     }
 }

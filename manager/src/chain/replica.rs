@@ -138,7 +138,7 @@ impl<S: Clone> Replica<S> {
             Event::Propose(s) => match &mut self.role {
                 Role::Head { .. } => {
                     let (e, seq) = self.version();
-                    self.state = Some(((e, seq + 1), s));
+                    self.state = Some(((e, seq.saturating_add(1)), s));
                     if let Role::Head { last_sent, .. } = &mut self.role {
                         *last_sent = f64::NEG_INFINITY;
                     }

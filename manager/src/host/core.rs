@@ -103,6 +103,9 @@ pub struct HostCore {
     local: Local,
     /// The mission each robot's telemetry says it runs.
     robot_missions: BTreeMap<String, String>,
+    /// Robots heard from since they last came up, with the mission central last admitted them
+    /// to (from their telemetry).
+    robot_admitted: BTreeMap<String, Vec<String>>,
     /// The chain of each of our robot's missions, as a head our robot trusts last published it.
     trusted_chain: BTreeMap<String, Vec<String>>,
 }
@@ -122,6 +125,7 @@ impl HostCore {
             planners: BTreeSet::new(),
             local: Local::NoRobot,
             robot_missions: BTreeMap::new(),
+            robot_admitted: BTreeMap::new(),
             trusted_chain: BTreeMap::new(),
         }
     }
@@ -252,6 +256,12 @@ impl HostCore {
                         self.robot_missions.remove(&t.id);
                     }
                 }
+                self.robot_admitted.insert(t.id.clone(), t.admitted.clone());
+                // A lost member heard again while central is away may rejoin now that it says
+                // where it belongs.
+                if !self.central_reachable() && self.robots.contains(&t.id) {
+                    self.robot(now, &t.id, true, &mut out);
+                }
                 let names: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
                 for name in names {
                     if let Some(h) = self.heads.get_mut(&name) {
@@ -306,6 +316,7 @@ impl HostCore {
             Event::RobotGone(id) => {
                 self.robots.remove(&id);
                 self.robot_missions.remove(&id);
+                self.robot_admitted.remove(&id);
                 self.robot(now, &id, false, &mut out);
             }
             Event::PlannerAlive { kind, zid } => {
@@ -338,6 +349,14 @@ impl HostCore {
         self.node == CENTRAL_HOST || self.registry.alive().contains(CENTRAL_HOST)
     }
 
+    /// Whether robot `id`, back, may rejoin `mission` on a head's own word: its telemetry since it
+    /// came back says it runs that mission or none, and central admitted it to that one or none
+    /// (central, on its side of a partition, may have given it to another mission).
+    fn free_for(&self, id: &str, mission: &str) -> bool {
+        let Some(admitted) = self.robot_admitted.get(id) else { return false };
+        self.robot_missions.get(id).is_none_or(|m| m == mission) && admitted.iter().all(|m| m == mission)
+    }
+
     /// A member lost is taken out (the team goes on without it); a lost member back rejoins,
     /// on its own while central is unreachable.
     fn robot(&mut self, now: f64, id: &str, up: bool, out: &mut Vec<Command>) {
@@ -347,7 +366,7 @@ impl HostCore {
         let names: Vec<String> = self
             .heads
             .iter()
-            .filter(|(_, h)| if up { h.mm.lost(id).is_some() } else { h.mm.has(id) })
+            .filter(|(n, h)| if up { h.mm.lost(id).is_some() && self.free_for(id, n) } else { h.mm.has(id) })
             .map(|(n, _)| n.clone())
             .collect();
         for name in names {
@@ -516,7 +535,8 @@ impl HostCore {
         tracing::info!(mission = %name, "no longer managing the mission: {why}");
         out.push(Command::Unserve { mission: name.to_string() });
         if let Some(q) = h.start {
-            out.push(Command::Reply { query: q, result: Err(format!("mission {name}: {why}")) });
+            // The mission goes on under another manager of its chain: it started.
+            out.push(Command::Reply { query: q, result: Err(format!("{} mission {name}: {why}", mrmm_proto::TAKEN_OVER)) });
         }
         for q in h.waiting_queries() {
             out.push(Command::Drop { query: q });

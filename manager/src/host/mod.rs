@@ -22,6 +22,7 @@ pub use self::core::{Command, Event, HostCore};
 pub use self::head::{PLAN_RETRIES, REDELIVER_S};
 use crate::chain::Params;
 use crate::error::ManagerError;
+use crate::inbox::Inbox;
 use crate::Failure;
 
 /// How long a planner service may take.
@@ -30,6 +31,10 @@ pub const PLAN_TIMEOUT: Duration = Duration::from_secs(20);
 const ROBOT_TIMEOUT: Duration = Duration::from_secs(3);
 /// Seconds between two status publications of each mission.
 const STATUS_PERIOD: Duration = Duration::from_secs(1);
+/// Liveliness changes waiting for the host's loop, at most.
+const LIVELINESS_QUEUE: usize = 65_536;
+/// Publications and queries waiting for the host's loop, at most.
+const NET_QUEUE: usize = 8_192;
 /// Period of the chain replicas' clock.
 const CHAIN_TICK: Duration = Duration::from_millis(50);
 
@@ -74,12 +79,15 @@ pub async fn serve_with(
             "mission host {node:?} is already alive on the mesh; give every host and robot its own name"
         )));
     }
+    // Our own tasks' answers; and, bounded, what the network sends (liveliness apart).
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
-    let t = tx.clone();
+    let (live, mut live_rx) = Inbox::new("liveliness", LIVELINESS_QUEUE);
+    let (net, mut net_rx) = Inbox::new("publications and queries", NET_QUEUE);
+    let t = net.clone();
     let _start = session
         .declare_queryable(Key::HostStart(node.clone()).to_string())
         .callback(move |q| {
-            let _ = t.send(Input::Query(q, QueryKind::Start));
+            t.push(Input::Query(q, QueryKind::Start));
         })
         .await
         .map_err(ManagerError::zenoh)?;
@@ -90,15 +98,15 @@ pub async fn serve_with(
         keys.push(Pattern::AllMissionStatus.to_string());
     }
     for key in keys {
-        let t = tx.clone();
+        let t = net.clone();
         subs.push(session.declare_subscriber(key).callback(move |s| {
-            let _ = t.send(Input::Sample(s));
+            t.push(Input::Sample(s));
         }).await.map_err(ManagerError::zenoh)?);
     }
     for pattern in [Pattern::AllHostsAlive, Pattern::AllRobotsAlive, Pattern::AllPlannersAlive] {
-        let t = tx.clone();
+        let t = live.clone();
         subs.push(session.liveliness().declare_subscriber(pattern.to_string()).history(true).callback(move |s| {
-            let _ = t.send(Input::Sample(s));
+            t.push(Input::Sample(s));
         }).await.map_err(ManagerError::zenoh)?);
     }
     let _token = session.liveliness().declare_token(Key::HostAlive(node.clone()).to_string()).await.map_err(ManagerError::zenoh)?;
@@ -108,7 +116,7 @@ pub async fn serve_with(
     if local.is_some() {
         core = core.with_robot();
     }
-    let mut io = Io { mesh: mesh.clone(), tx, queries: HashMap::new(), next: 0, served: HashMap::new() };
+    let mut io = Io { mesh: mesh.clone(), tx, net, queries: HashMap::new(), next: 0, served: HashMap::new() };
     let mut status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -124,7 +132,13 @@ pub async fn serve_with(
                     continue;
                 }
             },
-            i = rx.recv() => match i {
+            i = async {
+                tokio::select! {
+                    i = live_rx.recv() => i,
+                    i = rx.recv() => i,
+                    i = net_rx.recv() => i,
+                }
+            } => match i {
                 Some(Input::Query(q, kind)) => match io.query(q, kind).await {
                     Some(e) => e,
                     None => continue,
@@ -218,6 +232,8 @@ fn decode(mesh: &Mesh, s: &Sample) -> Option<Event> {
 struct Io {
     mesh: Mesh,
     tx: mpsc::UnboundedSender<Input>,
+    /// Where the mission queryables' callbacks put queries (bounded).
+    net: Inbox<Input>,
     queries: HashMap<u64, Query>,
     next: u64,
     served: HashMap<String, Served>,
@@ -302,9 +318,9 @@ impl Io {
                     (Key::MissionView(mission.clone()), QueryKind::View(mission.clone())),
                     (Key::MissionMarginal(mission.clone()), QueryKind::Marginal(mission.clone())),
                 ] {
-                    let tx = self.tx.clone();
+                    let net = self.net.clone();
                     match self.mesh.session().declare_queryable(key.to_string()).callback(move |q| {
-                        let _ = tx.send(Input::Query(q, kind.clone()));
+                        net.push(Input::Query(q, kind.clone()));
                     }).await {
                         Ok(q) => qs.push(q),
                         Err(e) => tracing::warn!(%mission, "cannot serve {key}: {e}"),

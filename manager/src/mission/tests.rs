@@ -125,6 +125,7 @@ fn metrics_from_telemetry() {
         behaviour: Behaviour::Hold,
         mission: Some("p1".into()),
         progress: Some(Progress { mission: "p1".into(), epoch: 1, step: 3, round, syncs_passed: syncs, sync_msgs: syncs, waiting: None, done: false }),
+        admitted: vec![],
     };
     // Not yet past the start barrier: no visit counted.
     m.handle(0.0, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 0, 0))));

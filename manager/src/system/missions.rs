@@ -215,7 +215,9 @@ impl SystemManager {
         self.robots
             .iter()
             .filter(|(id, r)| r.alive && r.info.is_some() && !self.assignment.contains_key(*id))
-            .filter(|(_, r)| r.last.as_ref().is_some_and(|t| t.mission.is_none()))
+            // Running no plan, and not admitted to a mission that may still count on it (a
+            // central that restarted may not know that mission yet).
+            .filter(|(_, r)| r.last.as_ref().is_some_and(|t| t.mission.is_none() && t.admitted.iter().all(|m| self.terminated.contains(m))))
             .map(|(id, _)| id.clone())
             .collect()
     }

@@ -23,6 +23,12 @@ use crate::Failure;
 
 /// Seconds between two info requests to a robot that is alive but not yet registered.
 pub const INFO_RETRY_S: f64 = 1.0;
+/// Robots the registry holds at most.
+pub const MAX_FLEET: usize = 10_000;
+/// Info queries asked again per tick at most.
+pub const FETCH_PER_TICK: usize = 64;
+/// Operator commands held at most while a fresh manager learns the fleet.
+pub const MAX_HELD: usize = 1_000;
 /// Seconds between two leave orders to a robot still running a plan it should not have.
 pub const LEAVE_RETRY_S: f64 = 2.0;
 /// For this long after a mission acknowledged letting a robot go, its reports listing the robot
@@ -54,6 +60,25 @@ pub enum Request {
 }
 
 impl Request {
+    /// The request an operator query on `key` with `payload` makes: the one decoder of operator
+    /// input (the driver answers its error to the query).
+    pub fn decode(key: &str, payload: &[u8]) -> Result<Request, String> {
+        use mrmm_proto::SystemCmd;
+        let r = match Key::parse(key) {
+            Some(Key::SystemStatus) => Ok(Request::Status),
+            Some(Key::SystemRobots) => Ok(Request::Robots),
+            Some(Key::SystemRobot(id)) => Ok(Request::Robot(id)),
+            Some(Key::SystemMissions) => Ok(Request::Missions),
+            Some(Key::SystemMission(name)) => Ok(Request::Mission(name)),
+            Some(Key::SystemCmd(SystemCmd::Goto)) => proto::from_json("goto request", payload).map(Request::Goto),
+            Some(Key::SystemCmd(SystemCmd::Move)) => proto::from_json("robot move request", payload).map(Request::Move),
+            Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", payload).map(Request::Create),
+            Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", payload).map(Request::Terminate),
+            _ => return Err(format!("unknown key {key}")),
+        };
+        r.map_err(|e| e.to_string())
+    }
+
     /// Whether the request changes the fleet (the agent waits while the operator is busy).
     pub fn is_command(&self) -> bool {
         matches!(self, Request::Goto(_) | Request::Move(_) | Request::Create(_) | Request::Terminate(_))
@@ -139,6 +164,8 @@ struct Record {
     fresh: bool,
     /// When we last ordered it out of a plan it should not run.
     leave_sent: Option<f64>,
+    /// When it was last admitted again to its mission (it restarted and forgot).
+    admit_sent: Option<f64>,
 }
 
 /// A robot this manager took out of a mission: until the mission acknowledged it (and for a
@@ -182,6 +209,8 @@ pub struct SystemManager {
     held: Vec<(Req, Request)>,
     /// Messages the driver refused, by reason.
     refused: BTreeMap<String, u64>,
+    /// New robot ids ignored because the registry is full.
+    ignored: u64,
     /// Creates waiting for their dry run, by check id.
     checking: BTreeMap<u64, (Req, MissionCreate)>,
     next_check: u64,
@@ -207,6 +236,7 @@ impl SystemManager {
             refused: BTreeMap::new(),
             checking: BTreeMap::new(),
             next_check: 0,
+            ignored: 0,
         }
     }
 
@@ -221,6 +251,15 @@ impl SystemManager {
     fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
             Event::RobotAlive { id } => {
+                // A flood of made-up tokens must not grow the registry without bound: past
+                // MAX_FLEET robots, a new id is ignored (the ones registered keep working).
+                if !self.robots.contains_key(&id) && self.robots.len() >= MAX_FLEET {
+                    self.ignored = self.ignored.saturating_add(1);
+                    if self.ignored.is_power_of_two() {
+                        tracing::warn!(robot = %id, ignored = self.ignored, "fleet registry full ({MAX_FLEET} robots): new robots ignored");
+                    }
+                    return vec![];
+                }
                 let rec = self.robots.entry(id.clone()).or_insert(Record {
                     info: None,
                     alive: false,
@@ -228,6 +267,7 @@ impl SystemManager {
                     info_asked: None,
                     fresh: true,
                     leave_sent: None,
+                    admit_sent: None,
                 });
                 rec.alive = true;
                 rec.fresh = true;
@@ -425,6 +465,41 @@ impl SystemManager {
         // A robot running a plan of a mission it is not in (it missed a leave order, or was
         // moved) is told to leave it — but only for missions this manager knows or terminated:
         // after a restart of central, missions it never heard of keep running.
+        // Admitted to a mission this manager knows it is not in (a leave order it missed):
+        // told to leave it, which clears the admission.
+        let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
+        let mut leave = Vec::new();
+        for admitted in t.admitted.iter().filter(|a| t.mission.as_ref() != Some(*a)) {
+            let known = self.missions.contains_key(admitted) || self.terminated.contains(admitted);
+            let releasing = self.released.get(&t.id).is_some_and(|r| r.mission == *admitted && self.ctls.is_pending(r.ctl));
+            // A join or leave of this robot still on its way to that mission's head: the head
+            // may be taking it into its chain; its admission must hold until the leave is done.
+            let in_transit = self.ctls.has(admitted, |c| match c {
+                MissionCtl::Joined { member } => member.spec.id == t.id,
+                MissionCtl::Left { ids } => ids.contains(&t.id),
+                _ => false,
+            });
+            if known && self.assignment.get(&t.id) != Some(admitted) && !releasing && !in_transit && retry {
+                leave.push(admitted.clone());
+            }
+        }
+        if !leave.is_empty() {
+            rec.leave_sent = Some(now);
+        }
+        for mission in leave {
+            out.push(Command::SendToRobot { req: None, robot: t.id.clone(), cmd: RobotCommand::Leave { mission, epoch: u64::MAX } });
+        }
+        // In a mission here, but neither running it nor admitted to it (it restarted and forgot
+        // its admission): admitted again, so it trusts the mission's managers when they call.
+        if let Some(m) = self.assignment.get(&t.id).filter(|m| self.missions.contains_key(*m)) {
+            let forgot = t.mission.as_ref() != Some(m) && !t.admitted.contains(m);
+            if forgot && rec.admit_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S) {
+                rec.admit_sent = Some(now);
+                let (id, m) = (t.id.clone(), m.clone());
+                out.extend(self.admit(&m, &[id]));
+            }
+        }
+        let Some(rec) = self.robots.get_mut(&t.id) else { return out };
         if let Some(running) = &t.mission {
             let assigned = self.assignment.get(&t.id);
             // In no mission here, running one whose head lists it: the head's report and the
@@ -462,10 +537,13 @@ impl SystemManager {
                 out.extend(self.operator(now, req, request));
             }
         }
+        // Robots alive that never answered their info query are asked again, a bounded number
+        // per tick (a flood of tokens costs a bounded number of queries).
         let fetch: Vec<Command> = self.robots
             .iter_mut()
             .filter(|(_, r)| r.alive && r.info.is_none())
             .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
+            .take(FETCH_PER_TICK)
             .map(|(id, r)| {
                 r.info_asked = Some(now);
                 Command::FetchInfo { id: id.clone() }
@@ -478,6 +556,9 @@ impl SystemManager {
     fn operator(&mut self, now: f64, req: Req, request: Request) -> Vec<Command> {
         if request.is_command() && now - self.started < ADOPT_S {
             // Just started: the heads have not yet said which robots are theirs.
+            if self.held.len() >= MAX_HELD {
+                return vec![Command::Reply { req, result: Err("central just started and is busy: try again in a moment".into()) }];
+            }
             self.held.push((req, request));
             return vec![];
         }
@@ -671,6 +752,11 @@ impl SystemManager {
                 reply(to_value(&self.mission_view(name)))
             }
             Err(f) if !self.missions.contains_key(name) => reply(Err(f.error)),
+            Err(f) if f.error.starts_with(proto::TAKEN_OVER) => {
+                // Another manager of its chain runs it: its head's reports will say which.
+                tracing::info!(mission = %name, "mission started; another of its managers took it over");
+                reply(to_value(&self.mission_view(name)))
+            }
             Err(f) if f.retryable => {
                 // Nobody answered: the mission may be running. End it, and free its robots
                 // only once its head acknowledged the end — never in two missions.

@@ -58,6 +58,7 @@ fn telemetry(id: &str, seq: u64, behaviour: Behaviour) -> Telemetry {
         behaviour,
         mission: None,
         progress: None,
+        admitted: vec![],
     }
 }
 
