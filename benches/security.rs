@@ -1,0 +1,301 @@
+//! What security costs: the same traffic over plain TCP with unsigned seals, then over mutual TLS
+//! with every message signed and checked (a fleet PKI made for the run). All in one process, each
+//! node its own Zenoh session on loopback, through a router that is central (with its access
+//! control when secure):
+//! - **barrier**: N robot peers run the robots' `Barrier`; every arrival is sealed, and checked
+//!   by every receiver (a robot may only arrive as itself); latency from the last arrival's
+//!   publication to each peer's release;
+//! - **telemetry**: one robot publishes sealed telemetry as fast as it can for 3 s, one host
+//!   receives and checks it: messages per second received and verified;
+//! - **operator command**: an operator peer queries central's session (sealed query, checked,
+//!   sealed 1 KB answer, checked): round trip.
+//!
+//! `cargo bench --bench security [-- N… [--rounds R]]` (default 5 20 peers, 100 barriers).
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use mrmm_peer::barrier::Barrier;
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::security::pki;
+use mrmm_proto::{self as proto, Key, Mesh, NodeNet, Role, SecuritySection, Sender, SyncArrival};
+use rand::{Rng, SeedableRng};
+use tokio::sync::{mpsc, Barrier as Gate};
+use zenoh::bytes::Encoding;
+
+const TEAM: &str = "bench";
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| a != "--bench").collect();
+    let rounds: u32 = args.iter().position(|a| a == "--rounds").and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(100);
+    let mut sizes: Vec<usize> = args.iter().filter_map(|a| a.parse().ok()).filter(|&n: &usize| n >= 2 && n != rounds as usize).collect();
+    if sizes.is_empty() {
+        sizes = vec![5, 20];
+    }
+    let dir = std::env::temp_dir().join(format!("mrmm-bench-security-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    pki::init(&dir)?;
+    pki::issue(&dir, Role::Central, "central", &[], 1)?;
+    pki::issue(&dir, Role::Operator, "op", &[], 1)?;
+    pki::issue(&dir, Role::Host, "h1", &[], 1)?;
+    for i in 0..sizes.iter().copied().max().unwrap_or(2) {
+        pki::issue(&dir, Role::Robot, &format!("p{i}"), &[], 1)?;
+    }
+    let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    let result = rt.block_on(async {
+        println!("| measure | plain TCP, unsigned | mutual TLS, signed | overhead |");
+        println!("|---|---:|---:|---:|");
+        for &n in &sizes {
+            let plain = barrier(None, n, rounds).await?;
+            let secure = barrier(Some(&dir), n, rounds).await?;
+            row(&format!("barrier release, {n} peers, p50 ms"), plain.0, secure.0);
+            row(&format!("barrier release, {n} peers, p99 ms"), plain.1, secure.1);
+        }
+        let (seal_us, check_us) = seal_cost(&dir)?;
+        println!("| sealing one telemetry message, µs | – | {seal_us:.1} | |");
+        println!("| checking one telemetry message, µs | – | {check_us:.1} | |");
+        let plain = telemetry(None).await?;
+        let secure = telemetry(Some(&dir)).await?;
+        row("telemetry received and checked, msg/s", plain, secure);
+        let plain = operator(None).await?;
+        let secure = operator(Some(&dir)).await?;
+        row("operator query round trip, p50 ms", plain.0, secure.0);
+        row("operator query round trip, p99 ms", plain.1, secure.1);
+        anyhow::Ok(())
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+fn row(what: &str, plain: f64, secure: f64) {
+    let overhead = if plain > 0.0 { (secure / plain - 1.0) * 100.0 } else { f64::NAN };
+    println!("| {what} | {plain:.2} | {secure:.2} | {overhead:+.0} % |");
+}
+
+/// A node of the bench: `name`'s certificate when secure.
+async fn node(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: &[String]) -> anyhow::Result<Mesh> {
+    let scheme = if pki.is_some() { "tls" } else { "tcp" };
+    let net = NodeNet {
+        mode,
+        listen: vec![format!("{scheme}/127.0.0.1:0")],
+        connect: connect.to_vec(),
+        lease_ms: 1000,
+        max_message_size: proto::net::DEFAULT_MAX_MESSAGE_SIZE,
+        security: pki.map(|d| {
+            let mut s = SecuritySection::from_dir(d, &me.id);
+            if me.role == Role::Central {
+                s.operators = vec!["op".into()];
+            }
+            s
+        }),
+        me: Some(me),
+    };
+    Ok(Mesh::open(&net).await?)
+}
+
+async fn router(pki: Option<&std::path::Path>) -> anyhow::Result<(Mesh, Vec<String>)> {
+    let r = node(pki, Mode::Router, Sender::new(Role::Central, "central"), &[]).await?;
+    let ep = net::listening_endpoints(r.session()).await;
+    Ok((r, ep))
+}
+
+fn quantiles(mut v: Vec<f64>) -> (f64, f64) {
+    v.sort_by(f64::total_cmp);
+    let q = |f: f64| v[((v.len() - 1) as f64 * f).round() as usize];
+    (q(0.5), q(0.99))
+}
+
+/// Barrier release latency (p50, p99) in ms.
+async fn barrier(pki: Option<&std::path::Path>, n: usize, rounds: u32) -> anyhow::Result<(f64, f64)> {
+    let (central, ep) = router(pki).await?;
+    let (tx, mut rx) = mpsc::unbounded_channel::<(u32, Instant)>();
+    let ready = Arc::new(Gate::new(n + 1));
+    let members: Vec<String> = (0..n).map(|i| format!("p{i}")).collect();
+    let mut peers = Vec::new();
+    for i in 0..n {
+        let me = members[i].clone();
+        let mesh = node(pki, Mode::Peer, Sender::new(Role::Robot, &me), &ep).await?;
+        let (arrive, mut orders) = mpsc::unbounded_channel::<u32>();
+        let (tx, ready, members, m) = (tx.clone(), ready.clone(), members.clone(), mesh.clone());
+        tokio::spawn(async move {
+            let s = m.session().clone();
+            let Ok(sub) = s.declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string()).await else { return };
+            let Ok(tokens) = s.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await else { return };
+            let Ok(_token) = s.liveliness().declare_token(Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await else { return };
+            let mut seen = std::collections::BTreeSet::new();
+            while seen.len() < members.len() {
+                if let Ok(t) = tokens.recv_async().await {
+                    if let Some(Key::TeamMember { robot: id, .. }) = Key::parse(t.key_expr().as_str()) {
+                        seen.insert(id.to_string());
+                    }
+                }
+            }
+            ready.wait().await;
+            let mut barrier = Barrier::new(&me, 1, &members);
+            let mut waiting: Option<u32> = None;
+            loop {
+                tokio::select! {
+                    o = orders.recv() => {
+                        let Some(point) = o else { break };
+                        let a = SyncArrival { robot: me.clone(), epoch: 1, point, round: 0 };
+                        barrier.arrival(&a);
+                        let Ok(bytes) = proto::to_json(&a) else { break };
+                        m.put(&Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), bytes, Encoding::APPLICATION_JSON).await;
+                        waiting = Some(point);
+                    }
+                    smp = sub.recv_async() => {
+                        let Ok(smp) = smp else { break };
+                        // As robots do: sealed by the robot it names, or dropped.
+                        let Some(from) = m.sender_of("sync arrival", &smp) else { continue };
+                        if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &smp.payload().to_bytes()) {
+                            if from.is(Role::Robot, &a.robot) {
+                                barrier.arrival(&a);
+                            }
+                        }
+                    }
+                }
+                if let Some(p) = waiting {
+                    if barrier.released(p, 0) {
+                        waiting = None;
+                        let _ = tx.send((p, Instant::now()));
+                    }
+                }
+            }
+        });
+        peers.push((mesh, arrive));
+    }
+    ready.wait().await;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(n as u64);
+    let mut lat = Vec::new();
+    for point in 0..rounds {
+        let mut last = Instant::now();
+        for (_, p) in &peers {
+            tokio::time::sleep(Duration::from_micros(rng.gen_range(0..2000))).await;
+            last = Instant::now();
+            let _ = p.send(point);
+        }
+        let mut released = 0;
+        while released < n {
+            let Ok(Some((p, at))) = tokio::time::timeout(Duration::from_secs(10), rx.recv()).await else {
+                anyhow::bail!("{n} peers: barrier {point} not released within 10 s ({released}/{n})");
+            };
+            if p == point {
+                released += 1;
+                lat.push(at.saturating_duration_since(last).as_secs_f64() * 1e3);
+            }
+        }
+    }
+    for (m, _) in peers {
+        m.close().await;
+    }
+    central.close().await;
+    Ok(quantiles(lat))
+}
+
+/// CPU time to seal and to check one telemetry message (µs each), on one thread.
+fn seal_cost(dir: &std::path::Path) -> anyhow::Result<(f64, f64)> {
+    use mrmm_proto::security::{seal, Identity};
+    let sealer = seal::Sealer::secure(Identity::load("security", &SecuritySection::from_dir(dir, "p0"))?);
+    let verifier = seal::Verifier::secure(&pki::read_ca_der(dir)?, 60).map_err(|e| anyhow::anyhow!(e))?;
+    let key = Key::RobotTelemetry("p0".into()).to_string();
+    let payload = vec![b'x'; 300];
+    let now = mrmm_proto::mesh::now_ms();
+    let n = 20_000u32;
+    let t = Instant::now();
+    let mut atts = Vec::with_capacity(n as usize);
+    for i in 0..n {
+        atts.push(sealer.seal(&key, &payload, now + u64::from(i % 1000)));
+    }
+    let seal_us = t.elapsed().as_secs_f64() * 1e6 / f64::from(n);
+    let t = Instant::now();
+    for (i, a) in atts.iter().enumerate() {
+        if verifier.sender(&key, &payload, Some(a), now + (i as u64 % 1000)).is_err() {
+            anyhow::bail!("a seal did not check");
+        }
+    }
+    Ok((seal_us, t.elapsed().as_secs_f64() * 1e6 / f64::from(n)))
+}
+
+/// Telemetry a host receives and checks from one robot publishing flat out, per second.
+async fn telemetry(pki: Option<&std::path::Path>) -> anyhow::Result<f64> {
+    let (central, ep) = router(pki).await?;
+    let robot = node(pki, Mode::Peer, Sender::new(Role::Robot, "p0"), &ep).await?;
+    let host = node(pki, Mode::Peer, Sender::new(Role::Host, "h1"), &ep).await?;
+    let key = Key::RobotTelemetry("p0".into()).to_string();
+    let sub = host.session().declare_subscriber(&key).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let count = Arc::new(AtomicU64::new(0));
+    let (h, c) = (host.clone(), count.clone());
+    let receiver = tokio::spawn(async move {
+        while let Ok(s) = sub.recv_async().await {
+            let Some(from) = h.sender_of("telemetry", &s) else { continue };
+            if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
+                if from.is(Role::Robot, &t.id) {
+                    c.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        }
+    });
+    // A robot's real telemetry (from the robot machine).
+    let cfg = mrmm_peer::config::RobotConfig::from_json5("bench", r#"{ id: "p0", type: "ground", kinematics: { max_speed: 2, max_turn_rate: 3 } }"#)?;
+    let mut r = mrmm_peer::robot::Robot::new(cfg);
+    let Some(template) = r.handle(0.0, mrmm_peer::robot::Event::TelemetryDue).into_iter().find_map(|c| match c {
+        mrmm_peer::robot::Command::Telemetry(t) => Some(t),
+        _ => None,
+    }) else {
+        anyhow::bail!("the robot machine gave no telemetry");
+    };
+    // Links settle first.
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let window = Duration::from_secs(3);
+    let start = Instant::now();
+    let before = count.load(Ordering::Relaxed);
+    let mut seq = 0u64;
+    while start.elapsed() < window {
+        seq += 1;
+        let mut t = template.clone();
+        t.seq = seq;
+        robot.put(&key, proto::encode_telemetry(&t)?, Encoding::APPLICATION_JSON).await;
+    }
+    // What is in flight lands.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    let got = count.load(Ordering::Relaxed) - before;
+    receiver.abort();
+    for m in [robot, host, central] {
+        m.close().await;
+    }
+    Ok(got as f64 / start.elapsed().as_secs_f64().max(window.as_secs_f64()))
+}
+
+/// An operator's query answered by central's session: round trip (p50, p99) in ms.
+async fn operator(pki: Option<&std::path::Path>) -> anyhow::Result<(f64, f64)> {
+    let (central, ep) = router(pki).await?;
+    let key = Key::SystemStatus.to_string();
+    let queryable = central.session().declare_queryable(&key).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let c = central.clone();
+    let server = tokio::spawn(async move {
+        let answer = serde_json::json!({ "robots": 20, "missions": 3, "padding": "x".repeat(1000) });
+        while let Ok(q) = queryable.recv_async().await {
+            if c.sender_of_query("operator query", &q).is_some() {
+                c.reply_json(&q, &answer).await;
+            }
+        }
+    });
+    let op = node(pki, Mode::Peer, Sender::new(Role::Operator, "op"), &ep).await?;
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let mut lat = Vec::new();
+    for i in 0..520 {
+        let t = Instant::now();
+        let r = op.query::<serde_json::Value>(&key, None, Duration::from_secs(5), |s| s.role == Role::Central).await;
+        if let Err(e) = r {
+            anyhow::bail!("operator query: {e}");
+        }
+        if i >= 20 {
+            lat.push(t.elapsed().as_secs_f64() * 1e3);
+        }
+    }
+    server.abort();
+    op.close().await;
+    central.close().await;
+    Ok(quantiles(lat))
+}
