@@ -7,7 +7,13 @@
 //! after the parent closed it. Like robots, a peer re-publishes its arrival every 0.5 s while it
 //! waits (a late link may have missed the first one).
 //!
-//! `cargo bench --bench barrier_procs [-- N… [--rounds R]]` (default 5 20 50 peers, 100 barriers).
+//! With `--secure`, as deployed on a shared network: a fleet PKI is made for the run, every link is
+//! mutual TLS, the router is central (with its access control), every peer is a robot with its
+//! own certificate that seals its arrivals and checks every arrival it hears (a robot may only
+//! arrive as itself) — the robots' own `Mesh`.
+//!
+//! `cargo bench --bench barrier_procs [-- N… [--rounds R] [--secure]]` (default 5 20 50 peers,
+//! 100 barriers).
 
 use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
@@ -15,7 +21,8 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use mrmm_peer::barrier::Barrier;
 use mrmm_proto::net::{self, Mode};
-use mrmm_proto::{self as proto, SyncArrival};
+use mrmm_proto::security::pki;
+use mrmm_proto::{self as proto, Mesh, NodeNet, Role, SecuritySection, Sender, SyncArrival};
 use rand::{Rng, SeedableRng};
 
 const TEAM: &str = "bench";
@@ -44,17 +51,49 @@ fn main() -> anyhow::Result<()> {
     if sizes.is_empty() {
         sizes = vec![5, 20, 50];
     }
+    let secure = args.iter().any(|a| a == "--secure");
+    let pki_dir = secure.then(|| std::env::temp_dir().join(format!("mrmm-bench-barrier-{}", std::process::id())));
+    if let Some(d) = &pki_dir {
+        std::fs::create_dir_all(d)?;
+        pki::init(d)?;
+        pki::issue(d, Role::Central, "central", &[], 1)?;
+        for i in 0..sizes.iter().copied().max().unwrap_or(2) {
+            pki::issue(d, Role::Robot, &format!("p{i}"), &[], 1)?;
+        }
+    }
     println!("| peers (processes) | router | barriers | p50 ms | p99 ms | max ms |");
     println!("|---:|---|---:|---:|---:|---:|");
+    let mut result = Ok(());
     for n in sizes {
-        rt.block_on(parent(n, rounds))?;
+        result = rt.block_on(parent(n, rounds, pki_dir.as_deref()));
+        if result.is_err() {
+            break;
+        }
     }
-    Ok(())
+    if let Some(d) = &pki_dir {
+        let _ = std::fs::remove_dir_all(d);
+    }
+    result
 }
 
-async fn parent(n: usize, rounds: u64) -> anyhow::Result<()> {
-    let router = net::open(net::zenoh_config(Mode::Router, &["tcp/127.0.0.1:0".into()], &[], 1000)?).await?;
-    let ep = net::listening_endpoints(&router).await.join(",");
+/// A node's mesh: secure with `name`'s certificate from `pki`, else plain TCP.
+async fn mesh(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: Vec<String>) -> anyhow::Result<Mesh> {
+    let scheme = if pki.is_some() { "tls" } else { "tcp" };
+    let net = NodeNet {
+        mode,
+        listen: vec![format!("{scheme}/127.0.0.1:0")],
+        connect,
+        lease_ms: 1000,
+        max_message_size: proto::net::DEFAULT_MAX_MESSAGE_SIZE,
+        security: pki.map(|d| SecuritySection::from_dir(d, &me.id)),
+        me: Some(me),
+    };
+    Ok(Mesh::open(&net).await?)
+}
+
+async fn parent(n: usize, rounds: u64, pki: Option<&std::path::Path>) -> anyhow::Result<()> {
+    let router = mesh(pki, Mode::Router, Sender::new(Role::Central, "central"), vec![]).await?;
+    let ep = net::listening_endpoints(router.session()).await.join(",");
     // Every pair of peers links directly (gossip); on 2 cores 50 processes need a while.
     let t0 = now_ns() + 4_000_000_000 + n as u64 * 400_000_000;
     let t_down = t0 + rounds * PERIOD_MS * 1_000_000 + 1_000_000_000;
@@ -63,6 +102,7 @@ async fn parent(n: usize, rounds: u64) -> anyhow::Result<()> {
     for i in 0..n {
         let child = Command::new(&exe)
             .args(["--child", &i.to_string(), &n.to_string(), &rounds.to_string(), &t0.to_string(), &t_down.to_string(), &ep])
+            .args(pki.map(|d| d.display().to_string()))
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()?;
@@ -70,7 +110,7 @@ async fn parent(n: usize, rounds: u64) -> anyhow::Result<()> {
     }
     // Close the router between the two halves.
     sleep_until_ns(t_down - 500_000_000).await;
-    router.close().await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    router.close().await;
     // (peer, barrier) → (arrival, release)
     let mut rows: Vec<(usize, u64, u64, u64)> = Vec::new();
     for mut c in children {
@@ -102,15 +142,22 @@ async fn parent(n: usize, rounds: u64) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// One peer: `--child i n rounds t0 t_down router_ep`.
+/// One peer: `--child i n rounds t0 t_down router_ep [pki_dir]`.
 async fn child(a: &[String]) -> anyhow::Result<()> {
     let num = |k: usize| a.get(k).and_then(|v| v.parse::<u64>().ok()).ok_or_else(|| anyhow::anyhow!("bad child args {a:?}"));
     let (i, n, rounds, t0, t_down) = (num(0)? as usize, num(1)? as usize, num(2)?, num(3)?, num(4)?);
     let router: Vec<String> = a.get(5).map(|s| s.split(',').map(String::from).collect()).unwrap_or_default();
-    let session = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &router, 1000)?).await?;
     let members: Vec<String> = (0..n).map(|j| format!("p{j}")).collect();
     let me = members[i].clone();
-    let sub = session.declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let pki = a.get(6).map(std::path::PathBuf::from);
+    let m = mesh(pki.as_deref(), Mode::Peer, Sender::new(Role::Robot, &me), router).await?;
+    let session = m.session().clone();
+    // As robots: teammates' arrivals only (the own one is counted before it is published).
+    let sub = session
+        .declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string())
+        .allowed_origin(zenoh::sample::Locality::Remote)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let tokens = session.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let _token = session.liveliness().declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut seen = std::collections::BTreeSet::new();
@@ -141,14 +188,18 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
         let a = SyncArrival { robot: me.clone(), epoch: 1, point, round: 0 };
         barrier.arrival(&a);
         let arrived = now_ns();
-        let _ = session.put(proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), proto::to_json(&a)?).await;
+        m.put(&proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), proto::to_json(&a)?, zenoh::bytes::Encoding::APPLICATION_JSON).await;
         // As the robots' executor: re-publish every 0.5 s while waiting.
         let mut waited = 0;
         while !barrier.released(point, 0) {
             match tokio::time::timeout(Duration::from_millis(500), sub.recv_async()).await {
                 Ok(Ok(s)) => {
+                    // As robots do: sealed by the robot it names, or dropped.
+                    let Some(from) = m.sender_of("sync arrival", &s) else { continue };
                     if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-                        barrier.arrival(&a);
+                        if from.is(Role::Robot, &a.robot) {
+                            barrier.arrival(&a);
+                        }
                     }
                 }
                 _ => {
@@ -157,7 +208,7 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
                         println!("E {me}: barrier {k} not released in 10 s");
                         return Ok(());
                     }
-                    let _ = session.put(proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), proto::to_json(&a)?).await;
+                    m.put(&proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), proto::to_json(&a)?, zenoh::bytes::Encoding::APPLICATION_JSON).await;
                 }
             }
         }

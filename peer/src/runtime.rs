@@ -51,7 +51,14 @@ impl TeamLink {
             .with(RingChannel::new(QUEUE))
             .await
             .map_err(PeerError::zenoh)?;
-        let arrivals = session.declare_subscriber(Pattern::TeamSync(team.to_string()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(PeerError::zenoh)?;
+        // Teammates' arrivals only: the robot counts its own before publishing it (not checking
+        // the seal of its own echo saves a signature check per arrival).
+        let arrivals = session
+            .declare_subscriber(Pattern::TeamSync(team.to_string()).to_string())
+            .allowed_origin(zenoh::sample::Locality::Remote)
+            .with(RingChannel::new(QUEUE))
+            .await
+            .map_err(PeerError::zenoh)?;
         let token = session.liveliness().declare_token(member.to_string()).await.map_err(PeerError::zenoh)?;
         Ok(TeamLink { team: team.to_string(), _token: token, arrivals, members })
     }
