@@ -169,6 +169,10 @@ impl Agent {
         }
         self.queued.retain(|id, _| fresh.contains_key(id));
         let busy = self.busy(now);
+        // One move per robot per look: advice that would move a robot another advice of this
+        // look already moves waits for the next look (with the fleet as it is then), instead of
+        // pulling the robot from mission to mission.
+        let mut moving = std::collections::BTreeSet::new();
         for (id, mut c) in fresh {
             if let Some(s) = self.standing.get_mut(&id) {
                 // Still standing: keep its identity and time, refresh text and numbers quietly.
@@ -184,8 +188,13 @@ impl Agent {
                 continue;
             }
             self.queued.remove(&id);
-            if self.cfg.autonomy == Autonomy::Act && !self.acted.contains(&id) {
+            let act = self.cfg.autonomy == Autonomy::Act && !self.acted.contains(&id);
+            if act && c.action.as_ref().is_some_and(|mv| moving.contains(&mv.robot)) {
+                continue;
+            }
+            if act {
                 if let Some(mv) = c.action.take() {
+                    moving.insert(mv.robot.clone());
                     self.acted.insert(id.clone());
                     c.advice.acted = true;
                     c.advice.reason = format!("acting: {}", c.advice.reason);

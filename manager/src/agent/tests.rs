@@ -186,3 +186,21 @@ fn config_is_validated() {
     let bad = AgentConfig { stuck_after_s: f64::NAN, ..AgentConfig::default() };
     assert!(bad.validate().expect_err("nan").starts_with("agent.stuck_after_s"));
 }
+
+#[test]
+fn one_robot_is_moved_once_per_look() {
+    let mut a = Agent::new(AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() });
+    // Two missions each lost a robot; one idle robot could replace either.
+    let lost = |id: &str, x: f64, m: &str| RobotView { last_mission: Some(m.into()), ..robot(id, RobotStatus::Lost, None, x, "hold") };
+    let robots = vec![
+        lost("r1", 0.0, "p"),
+        lost("r2", 1.0, "q"),
+        robot("r3", RobotStatus::Busy, Some("p"), 2.0, "step 2"),
+        robot("r4", RobotStatus::Busy, Some("q"), 3.0, "step 2"),
+        robot("r5", RobotStatus::Idle, None, 4.0, "hold"),
+    ];
+    let ms = vec![mission("p", "patrol", &["r3"], None, None), mission("q", "patrol", &["r4"], None, None)];
+    let cmds = a.handle(0.0, snap(robots, ms));
+    let moves: Vec<&RobotMove> = cmds.iter().filter_map(|c| match c { Command::Move { mv, .. } => Some(mv), _ => None }).collect();
+    assert_eq!(moves.iter().filter(|m| m.robot == "r5").count(), 1, "r5 moved once in one look: {moves:?}");
+}
