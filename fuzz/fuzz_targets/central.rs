@@ -3,12 +3,12 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mrmm_fuzz::{frames, sender, Central};
+use mrmm_fuzz::{central, frames, sender};
 use mrmm_manager::system::{Event, Request};
 use mrmm_proto::{self as proto, Key, MissionView, SystemCmd};
 
 fuzz_target!(|data: &[u8]| {
-    let mut c = Central::new();
+    let mut c = central();
     for (sel, payload) in frames(data) {
         let text = String::from_utf8_lossy(payload);
         let key = match sel % 16 {

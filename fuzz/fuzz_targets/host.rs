@@ -3,15 +3,12 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mrmm_fuzz::{frames, sender, Host};
+use mrmm_fuzz::{frames, hosts, sender};
 use mrmm_manager::host::Event;
 use mrmm_proto::{self as proto, ChainEnvelope, MissionCtl, MissionPlan, MissionStart, MissionView};
 
 fuzz_target!(|data: &[u8]| {
-    let mut head = Host::new("central");
-    head.start_patrol(2);
-    let mut follower = Host::new("r2");
-    follower.feed(Event::LocalTeam(vec![("p".into(), vec!["central".into(), "r1".into(), "r2".into()])]));
+    let (mut head, mut follower) = hosts();
     for (sel, payload) in frames(data) {
         let from = sender(sel / 16);
         for h in [&mut head, &mut follower] {

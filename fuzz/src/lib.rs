@@ -70,6 +70,7 @@ pub fn telemetry(r: &mut Robot, now: f64) -> Option<Telemetry> {
 
 /// Central's system manager with the fixture robots registered and central's own host up, and
 /// one patrol mission `p` of r1 and r2 running (as its host answered).
+#[derive(Clone)]
 pub struct Central {
     pub sm: SystemManager,
     pub now: f64,
@@ -173,6 +174,7 @@ pub fn member(id: &str, x: f64) -> Member {
 
 /// A mission host (`node`) running a patrol `p` of r1 and r2 that central started, with plans
 /// from the real planner; its chain replicas' messages are played back to it.
+#[derive(Clone)]
 pub struct Host {
     pub core: HostCore,
     pub now: f64,
@@ -280,4 +282,24 @@ pub fn seal_fixture() -> &'static SealFixture {
         let now_ms = std::fs::read_to_string(dir.join("now_ms")).ok().and_then(|s| s.trim().parse().ok()).unwrap_or_else(|| panic!("fixture now_ms missing"));
         SealFixture { verifier, now_ms, key: mrmm_proto::Key::RobotTelemetry("r1".into()).to_string() }
     })
+}
+
+/// Central set up once per fuzzing process (setting it up plans a patrol): each input starts from
+/// a copy.
+pub fn central() -> Central {
+    static BASE: std::sync::OnceLock<Central> = std::sync::OnceLock::new();
+    BASE.get_or_init(Central::new).clone()
+}
+
+/// The leading and the following host, set up once per fuzzing process.
+pub fn hosts() -> (Host, Host) {
+    static BASE: std::sync::OnceLock<(Host, Host)> = std::sync::OnceLock::new();
+    BASE.get_or_init(|| {
+        let mut head = Host::new("central");
+        head.start_patrol(2);
+        let mut follower = Host::new("r2");
+        follower.feed(host::Event::LocalTeam(vec![("p".into(), vec!["central".into(), "r1".into(), "r2".into()])]));
+        (head, follower)
+    })
+    .clone()
 }

@@ -91,7 +91,7 @@ enum Local {
 }
 
 /// The mission host of one node.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct HostCore {
     node: String,
     registry: Registry<MissionSnapshot>,

@@ -21,7 +21,7 @@ pub struct Delivery {
 }
 
 /// A mission this node leads.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Head {
     pub mm: MissionManager,
     /// The start query, answered once the first plans are out (and committed).

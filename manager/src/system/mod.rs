@@ -186,7 +186,7 @@ struct PendingStart {
 }
 
 /// The registry of robots and missions, and the operator-facing logic.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct SystemManager {
     node: String,
     started: f64,
