@@ -87,6 +87,9 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
             return Err(PlanError::Invalid(format!("{what}: {v} given, at most {max}")));
         }
     }
+    for p in params.region.outer.iter().chain(params.region.holes.iter().flatten()) {
+        limits::coordinate("region vertex", p.x, p.y)?;
+    }
     let region = params.region.clone().validated()?;
     RobotSpec::check(robots)?;
     let (points, radius) = place(&region, robots.len(), params)?;

@@ -29,10 +29,45 @@ pub const MAX_RECIPE_DEPTH: usize = 32;
 /// Elements of one recipe.
 pub const MAX_RECIPE_ELEMENTS: usize = 10_000;
 
+/// Largest coordinate, in metres, of a waypoint, region vertex or robot position (1 000 km from the
+/// origin): beyond it the geometry loses its precision and sampling its meaning.
+pub const MAX_COORDINATE: f64 = 1e6;
+
+/// Checks that the point `(x, y)` of `what` is finite and within [`MAX_COORDINATE`].
+pub fn coordinate(what: &str, x: f64, y: f64) -> Result<(), PlanError> {
+    if !(x.is_finite() && y.is_finite() && x.abs() <= MAX_COORDINATE && y.abs() <= MAX_COORDINATE) {
+        return Err(PlanError::Invalid(format!("{what}: ({x}, {y}) is not a point within {MAX_COORDINATE} m of the origin")));
+    }
+    Ok(())
+}
+
 /// Checks that `what` has at most `max` items.
 pub fn at_most(what: &str, got: usize, max: usize) -> Result<(), PlanError> {
     if got > max {
         return Err(PlanError::Invalid(format!("{what}: {got} given, at most {max}")));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::coverage::{self, CoverageParams};
+    use crate::geom::Point;
+    use crate::plan::RobotSpec;
+    use crate::region::Region;
+
+    /// Found by the `recipe` fuzz target: a region vertex at y = -7.7e76 held the planner for
+    /// minutes (precision lost in the geometry); points beyond a million metres are refused.
+    #[test]
+    fn far_away_coordinates_are_refused_at_once() {
+        let region = Region { outer: vec![Point::new(-20.0, -20.0), Point::new(20.0, -1e30), Point::new(20.0, 30.0), Point::new(-66.0, 20.0)], holes: vec![] };
+        let params = CoverageParams { samples: 1532, ..CoverageParams::new(region) };
+        let robots = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 }];
+        let e = coverage::plan(&params, &robots).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("region vertex") && e.contains("1000000"), "{e}");
+        let far = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 2e6, y: 0.0, speed: 1.0 }];
+        let square = Region { outer: vec![Point::new(0.0, 0.0), Point::new(10.0, 0.0), Point::new(10.0, 10.0), Point::new(0.0, 10.0)], holes: vec![] };
+        let e = coverage::plan(&CoverageParams::new(square), &far).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("robot r1 position"), "{e}");
+    }
 }

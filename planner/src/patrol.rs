@@ -98,6 +98,9 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
         return Err(PlanError::Invalid(format!("max_kicks: {} given, at most {}", params.max_kicks, limits::MAX_KICKS)));
     }
     check_finite(wps)?;
+    for w in wps {
+        limits::coordinate("waypoint", w.x, w.y)?;
+    }
     if wps.len() < 2 {
         return Err(PlanError::TooFewPoints { min: 2, got: wps.len() });
     }

@@ -49,9 +49,7 @@ impl RobotSpec {
             return Err(crate::PlanError::Invalid("no robots".into()));
         }
         for r in robots {
-            if !(r.x.is_finite() && r.y.is_finite()) {
-                return Err(crate::PlanError::Invalid(format!("robot {}: non-finite position", r.id)));
-            }
+            crate::limits::coordinate(&format!("robot {} position", r.id), r.x, r.y)?;
             if !(r.speed.is_finite() && r.speed > 0.0) {
                 return Err(crate::PlanError::Invalid(format!("robot {}: speed must be positive (got {})", r.id, r.speed)));
             }

@@ -58,6 +58,7 @@ proptest! {
 
     #[test]
     fn coverage_plans_or_errors(outer in points(7), rs in robots()) {
+        let far = outer.iter().any(|p| p.x.abs() > mrmm_planner::limits::MAX_COORDINATE || p.y.abs() > mrmm_planner::limits::MAX_COORDINATE);
         if let Ok(region) = Region::new(outer, vec![]) {
             let mut params = CoverageParams::new(region.clone());
             params.samples = 200;
@@ -97,6 +98,7 @@ proptest! {
 
     #[test]
     fn coverage_of_valid_regions_at_any_scale(outer in star_polygon(), n in 1usize..6) {
+        let far = outer.iter().any(|p| p.x.abs() > mrmm_planner::limits::MAX_COORDINATE || p.y.abs() > mrmm_planner::limits::MAX_COORDINATE);
         if let Ok(region) = Region::new(outer, vec![]) {
             let mut params = CoverageParams::new(region.clone());
             params.samples = 300;
@@ -111,9 +113,11 @@ proptest! {
                     prop_assert!(p.formation_time.is_finite() && p.formation_time >= 0.0);
                     prop_assert_eq!(p.plans.len(), n);
                 }
-                // A valid region fails only where it cannot be sampled at this scale.
+                // A valid region fails only where it cannot be sampled at this scale, or lies
+                // beyond the coordinates the planner accepts.
                 Err(e) => prop_assert!(
-                    matches!(&e, mrmm_planner::PlanError::Polygon(m) if m.contains("sample")),
+                    matches!(&e, mrmm_planner::PlanError::Polygon(m) if m.contains("sample"))
+                        || (far && matches!(&e, mrmm_planner::PlanError::Invalid(m) if m.contains("region vertex"))),
                     "a valid region failed otherwise: {e}"
                 ),
             }
