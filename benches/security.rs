@@ -62,6 +62,7 @@ fn main() -> anyhow::Result<()> {
         let secure = operator(Some(&dir)).await?;
         row("operator query round trip, p50 ms", plain.0, secure.0);
         row("operator query round trip, p99 ms", plain.1, secure.1);
+        println!("(operator queries unanswered within 1 s, both modes: {} of 1 040)", *LOST.lock().unwrap_or_else(|e| e.into_inner()));
         anyhow::Ok(())
     });
     let _ = std::fs::remove_dir_all(&dir);
@@ -267,6 +268,9 @@ async fn telemetry(pki: Option<&std::path::Path>) -> anyhow::Result<f64> {
     Ok(got as f64 / start.elapsed().as_secs_f64().max(window.as_secs_f64()))
 }
 
+/// Operator queries that got no answer (both modes together).
+static LOST: std::sync::Mutex<u32> = std::sync::Mutex::new(0);
+
 /// An operator's query answered by central's session: round trip (p50, p99) in ms.
 async fn operator(pki: Option<&std::path::Path>) -> anyhow::Result<(f64, f64)> {
     let (central, ep) = router(pki).await?;
@@ -282,13 +286,20 @@ async fn operator(pki: Option<&std::path::Path>) -> anyhow::Result<(f64, f64)> {
         }
     });
     let op = node(pki, Mode::Peer, Sender::new(Role::Operator, "op"), &ep).await?;
-    tokio::time::sleep(Duration::from_millis(500)).await;
+    // Until central answers (the link and its declarations settle).
+    let settle = Instant::now();
+    while op.query::<serde_json::Value>(&key, None, Duration::from_millis(500), |s| s.role == Role::Central).await.is_err() {
+        anyhow::ensure!(settle.elapsed() < Duration::from_secs(10), "central's session never answered");
+    }
     let mut lat = Vec::new();
     for i in 0..520 {
         let t = Instant::now();
-        let r = op.query::<serde_json::Value>(&key, None, Duration::from_secs(5), |s| s.role == Role::Central).await;
+        let r = op.query::<serde_json::Value>(&key, None, Duration::from_secs(1), |s| s.role == Role::Central).await;
         if let Err(e) = r {
-            anyhow::bail!("operator query: {e}");
+            // Counted, not timed (seen rarely in both modes: an answer that never came).
+            eprintln!("operator query {i}: {e}");
+            *LOST.lock().unwrap_or_else(|e| e.into_inner()) += 1;
+            continue;
         }
         if i >= 20 {
             lat.push(t.elapsed().as_secs_f64() * 1e3);
