@@ -247,6 +247,9 @@ impl HostCore {
                 };
                 out.push(Command::Reply { query, result: result.and_then(|m| json(&m)) });
             }
+            // Telemetry of a robot whose liveliness is gone is stale (the driver's queues do not
+            // order it against liveliness): a lost member must not seem back.
+            Event::Telemetry(t) if !self.robots.contains(&t.id) => {}
             Event::Telemetry(t) => {
                 match &t.mission {
                     Some(m) => {

@@ -105,8 +105,9 @@ impl<'a> Lines<'a> {
 
     /// Position of the next `<` at or after `from`.
     fn tag(&mut self, from: usize) -> Pos {
+        // Bytes, not str: `from` may fall inside a multi-byte character (a BOM, say).
         let from = from.min(self.src.len());
-        let at = self.src[from..].find('<').map_or(from, |i| from + i);
+        let at = self.src.as_bytes()[from..].iter().position(|&b| b == b'<').map_or(from, |i| from + i);
         self.pos(at)
     }
 }
@@ -204,6 +205,15 @@ fn attach(stack: &mut [Element], root: &mut Option<Element>, el: Element, lines:
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_position_inside_a_multibyte_character_does_not_panic() {
+        // Found by the recipe fuzz target: a byte offset inside a BOM sliced a str.
+        for text in ["\u{feff}\u{b}<<?xml version=\"0.0\"?>\n<a/>", "\u{feff}\u{feff}</x>", "\u{feff}<a>\u{feff}</b>"] {
+            let e = parse(text).err().map(|e| e.to_string()).unwrap_or_default();
+            assert!(e.starts_with("1:"), "{text:?}: {e}");
+        }
+    }
 
     #[test]
     fn positions_and_structure() {
