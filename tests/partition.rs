@@ -130,6 +130,25 @@ fn start_tap(dir: &Scratch, ns: &str, addr: &str, eps: &[String], name: &str) ->
     start_lines(&["ip", "netns", "exec", ns], name, &args, &dir.path(&format!("{name}.log")), "{\"tap\"", Duration::from_secs(20))
 }
 
+/// Central (listening on `central_ep`) and r1, r3 in A; r2, r4 in B.
+fn fleet(net: &Net, dir: &Scratch, central_ep: &str) -> anyhow::Result<(Proc, [Proc; 4])> {
+    let central = start_wrapped(
+        &["ip", "netns", "exec", &net.a],
+        "central",
+        &["central", "--listen", central_ep],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let procs = [
+        robot(dir, &net.a, "r1", A_IP, central_ep, 2.0)?,
+        robot(dir, &net.b, "r2", B_IP, central_ep, 4.0)?,
+        robot(dir, &net.a, "r3", A_IP, central_ep, 6.0)?,
+        robot(dir, &net.b, "r4", B_IP, central_ep, 8.0)?,
+    ];
+    Ok((central, procs))
+}
+
 fn robot(dir: &Scratch, ns: &str, id: &str, addr: &str, central: &str, x: f64) -> anyhow::Result<Proc> {
     let cfg = format!(
         r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }},
@@ -196,20 +215,7 @@ fn keep_logs(dir: &Scratch, result: &anyhow::Result<()>) {
 /// of the patrol (1 Hz, from the router) with no gap longer than their period plus one second.
 fn cuts(net: &Net, dir: &Scratch, n: usize) -> anyhow::Result<()> {
     let central_ep = format!("tcp/{A_IP}:17448");
-    let _central = start_wrapped(
-        &["ip", "netns", "exec", &net.a],
-        "central",
-        &["central", "--listen", &central_ep],
-        &dir.path("central.log"),
-        "central ready",
-        Duration::from_secs(20),
-    )?;
-    let procs = [
-        robot(dir, &net.a, "r1", A_IP, &central_ep, 2.0)?,
-        robot(dir, &net.b, "r2", B_IP, &central_ep, 4.0)?,
-        robot(dir, &net.a, "r3", A_IP, &central_ep, 6.0)?,
-        robot(dir, &net.b, "r4", B_IP, &central_ep, 8.0)?,
-    ];
+    let (_central, procs) = fleet(net, dir, &central_ep)?;
     eventually("4 registered robots", Duration::from_secs(20), || {
         let v: Vec<RobotView> = op(&net.a, &central_ep, &["robots"]).ok()?;
         (v.len() == 4 && v.iter().all(|r| r.pose.is_some())).then_some(())
@@ -263,20 +269,7 @@ fn cuts(net: &Net, dir: &Scratch, n: usize) -> anyhow::Result<()> {
 
 fn scenario(net: &Net, dir: &Scratch) -> anyhow::Result<()> {
     let central_ep = format!("tcp/{A_IP}:17447");
-    let _central = start_wrapped(
-        &["ip", "netns", "exec", &net.a],
-        "central",
-        &["central", "--listen", &central_ep],
-        &dir.path("central.log"),
-        "central ready",
-        Duration::from_secs(20),
-    )?;
-    let procs = [
-        robot(dir, &net.a, "r1", A_IP, &central_ep, 2.0)?,
-        robot(dir, &net.b, "r2", B_IP, &central_ep, 4.0)?,
-        robot(dir, &net.a, "r3", A_IP, &central_ep, 6.0)?,
-        robot(dir, &net.b, "r4", B_IP, &central_ep, 8.0)?,
-    ];
+    let (_central, procs) = fleet(net, dir, &central_ep)?;
     // A tap inside B, linked to B's robots only: it sees what B does while cut off.
     let b_eps: Vec<String> = [&procs[1], &procs[3]].iter().filter_map(|r| r.field("listening")).collect();
     let (_tap_b, tap) = start_tap(dir, &net.b, B_IP, &b_eps, "tap-b")?;

@@ -1,0 +1,218 @@
+//! What robots and mission heads report — telemetry and mission statuses — reconciled with the
+//! registry: who may report what, robots recorded in or told to leave missions, lost members
+//! taken back.
+
+use mrmm_proto::Role;
+
+use super::*;
+
+impl SystemManager {
+    /// Whether `from` may report on `view`'s mission: central and mission hosts may; a robot
+    /// only if this manager knows it as one of the mission's managers or members (a successor
+    /// taking over comes from the chain, and the chain is made of members).
+    pub(super) fn may_report(&self, view: &MissionView, from: &Sender) -> bool {
+        if matches!(from.role, Role::Central | Role::Host) {
+            return true;
+        }
+        match self.missions.get(&view.name).and_then(|r| r.view.as_ref()) {
+            Some(known) => {
+                let id = &from.id;
+                self.managers(&view.name).contains(id) || known.robots.contains(id) || known.lost.contains(id)
+            }
+            // Not known here (this manager restarted): what the report says of other robots
+            // is checked against their own telemetry in `reconcile`.
+            None => true,
+        }
+    }
+
+    pub(super) fn telemetry(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
+        let Some(rec) = self.robots.get_mut(&t.id) else { return vec![] };
+        let newer = rec.fresh || rec.last.as_ref().is_none_or(|old| t.seq > old.seq);
+        if !newer {
+            return vec![];
+        }
+        rec.fresh = false;
+        let mut out = Vec::new();
+        // A robot running a plan of a mission it is not in (it missed a leave order, or was
+        // moved) is told to leave it — but only for missions this manager knows or terminated:
+        // after a restart of central, missions it never heard of keep running.
+        // Admitted to a mission this manager knows it is not in (a leave order it missed):
+        // told to leave it, which clears the admission.
+        let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
+        let mut leave = Vec::new();
+        for admitted in t.admitted.iter().filter(|a| t.mission.as_ref() != Some(*a)) {
+            let known = self.missions.contains_key(admitted) || self.terminated.contains(admitted);
+            let releasing = self.released.get(&t.id).is_some_and(|r| r.mission == *admitted && self.ctls.is_pending(r.ctl));
+            // A join or leave of this robot still on its way to that mission's head: the head
+            // may be taking it into its chain; its admission must hold until the leave is done.
+            let in_transit = self.ctls.has(admitted, |c| match c {
+                MissionCtl::Joined { member } => member.spec.id == t.id,
+                MissionCtl::Left { ids } => ids.contains(&t.id),
+                _ => false,
+            });
+            if known && self.assignment.get(&t.id) != Some(admitted) && !releasing && !in_transit && retry {
+                leave.push(admitted.clone());
+            }
+        }
+        if !leave.is_empty() {
+            rec.leave_sent = Some(now);
+        }
+        for mission in leave {
+            out.push(Command::SendToRobot { req: None, robot: t.id.clone(), cmd: RobotCommand::Leave { mission, epoch: u64::MAX } });
+        }
+        // In a mission here, but neither running it nor admitted to it (it restarted and forgot
+        // its admission): admitted again, so it trusts the mission's managers when they call.
+        if let Some(m) = self.assignment.get(&t.id).filter(|m| self.missions.contains_key(*m)) {
+            let forgot = t.mission.as_ref() != Some(m) && !t.admitted.contains(m);
+            if forgot && rec.admit_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S) {
+                rec.admit_sent = Some(now);
+                let (id, m) = (t.id.clone(), m.clone());
+                out.extend(self.admit(&m, &[id]));
+            }
+        }
+        let Some(rec) = self.robots.get_mut(&t.id) else { return out };
+        if let Some(running) = &t.mission {
+            let assigned = self.assignment.get(&t.id);
+            // In no mission here, running one whose head lists it: the head's report and the
+            // robot's own telemetry agree — it is that mission's (see `reconcile`).
+            let listed = self.missions.get(running).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
+            let released = self.released.get(&t.id).is_some_and(|r| r.mission == *running);
+            if assigned.is_none() && listed && !released && !self.terminated.contains(running) {
+                tracing::info!(mission = %running, robot = %t.id, "robot recorded in the mission it runs and its head lists");
+                let (id, mission) = (t.id.clone(), running.clone());
+                self.assignment.insert(id.clone(), mission.clone());
+                rec.last = Some(t);
+                return self.admit(&mission, &[id]);
+            }
+            let known = self.missions.contains_key(running) || self.terminated.contains(running);
+            let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
+            // Moved out of `running` but not yet let go by it: its head still counts on it, so
+            // it keeps its plan until the head has replanned without it.
+            let releasing = self.released.get(&t.id).is_some_and(|r| r.mission == *running && self.ctls.is_pending(r.ctl));
+            if assigned != Some(running) && known && retry && !releasing {
+                rec.leave_sent = Some(now);
+                let epoch = t.progress.as_ref().map_or(u64::MAX, |p| p.epoch);
+                out.push(Command::SendToRobot { req: None, robot: t.id.clone(), cmd: RobotCommand::Leave { mission: running.clone(), epoch } });
+            }
+        }
+        rec.last = Some(t);
+        out
+    }
+
+    /// A head reported a mission. A mission this manager does not know (it restarted while the
+    /// head kept running it) is adopted: record, host and membership come from the report, for
+    /// robots not already in another mission. A mission terminated here is ended again.
+    pub(super) fn mission_status(&mut self, view: MissionView, from: Sender) -> Vec<Command> {
+        if view.manager.node != from.id || !from.role.hosts_missions() {
+            return vec![Command::Refused { what: format!("report mission {} as managed by {}", view.name, view.manager.node), from }];
+        }
+        // A report of an older chain epoch is from a manager that was replaced.
+        let known_epoch = self.missions.get(&view.name).and_then(|r| r.view.as_ref()).map_or(0, |v| v.manager.chain_epoch);
+        if view.manager.chain_epoch < known_epoch {
+            return vec![];
+        }
+        if !self.may_report(&view, &from) {
+            return vec![Command::Refused { what: format!("report on mission {} (not one of its managers or members)", view.name), from }];
+        }
+        if self.terminated.contains(&view.name) {
+            if !self.ctls.has(&view.name, |c| *c == MissionCtl::Terminate) {
+                tracing::warn!(mission = %view.name, node = %view.manager.node, "a terminated mission still runs: ending it again");
+                self.ctls.push(&view.name, MissionCtl::Terminate, None);
+            }
+            return vec![];
+        }
+        if let Some(rec) = self.missions.get_mut(&view.name) {
+            // A report of an older chain epoch is from a manager that was replaced.
+            let known = rec.view.as_ref().map_or(0, |v| v.manager.chain_epoch);
+            if view.manager.chain_epoch < known {
+                return vec![];
+            }
+            if rec.host != view.manager.node {
+                tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
+                rec.host = view.manager.node.clone();
+            }
+            if rec.view.is_none() && view.status == MissionStatus::Planning {
+                return vec![];
+            }
+            let name = view.name.clone();
+            let (robots, lost) = (view.robots.clone(), view.lost.clone());
+            rec.view = Some(view);
+            let out = self.reconcile(&name, &robots, &lost, &from);
+            self.rejoin(&name);
+            return out;
+        }
+        if !self.hosts.contains(&view.manager.node) || self.pending_create.contains_key(&view.name) {
+            return vec![];
+        }
+        tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its head's report");
+        let name = view.name.clone();
+        let (robots, lost) = (view.robots.clone(), view.lost.clone());
+        self.missions.insert(
+            name.clone(),
+            MissionRecord { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), view: Some(view) },
+        );
+        let out = self.reconcile(&name, &robots, &lost, &from);
+        self.rejoin(&name);
+        out
+    }
+
+    /// A mission's head lists `robots` and its `lost` members (it may have taken back a lost
+    /// robot while central was away, or central restarted): robots in no mission are recorded in
+    /// it; robots in another mission are taken out of it. Robots missing from the lists are left
+    /// alone — the report may predate a join this manager ordered.
+    ///
+    /// A robot reporting as a head (after a takeover) cannot claim robots of other missions: a
+    /// robot in no mission is recorded from its report only when its own telemetry says it runs
+    /// that mission or none. Central's and mission hosts' reports are trusted.
+    pub(super) fn reconcile(&mut self, name: &str, robots: &[String], lost: &[String], reporter: &Sender) -> Vec<Command> {
+        let trusted = matches!(reporter.role, Role::Central | Role::Host);
+        let mut strangers = Vec::new();
+        let mut recorded = Vec::new();
+        for id in robots.iter().chain(lost) {
+            // A robot being let go (by this mission or another) is in transit: this manager
+            // moved it, and decides where it goes.
+            if self.released.get(id).is_some_and(|r| r.mission == name || self.ctls.is_pending(r.ctl)) {
+                continue;
+            }
+            // A robot that says it runs this mission, or nothing (it restarted and forgot):
+            // never one that says it runs another.
+            let confirmed = trusted
+                || *id == reporter.id
+                || self.robots.get(id).and_then(|r| r.last.as_ref()).is_some_and(|t| t.mission.is_none() || t.mission.as_deref() == Some(name));
+            match self.assignment.get(id) {
+                Some(m) if m == name => {}
+                Some(_) => strangers.push(id.clone()),
+                None if !confirmed => {}
+                None => {
+                    tracing::info!(mission = %name, robot = %id, "robot recorded in its mission from its head's report");
+                    self.assignment.insert(id.clone(), name.to_string());
+                    recorded.push(id.clone());
+                }
+            }
+        }
+        if !strangers.is_empty() {
+            self.ctls.push(name, MissionCtl::Left { ids: strangers }, None);
+        }
+        // Recorded here: admitted too (this manager may have restarted; they may have too).
+        self.admit(name, &recorded)
+    }
+
+    /// Orders `name`'s head to take back its lost members that are alive again (they kept their
+    /// place in the mission while away).
+    pub(super) fn rejoin(&mut self, name: &str) {
+        let lost = self.missions.get(name).and_then(|r| r.view.as_ref()).map(|v| v.lost.clone()).unwrap_or_default();
+        for id in lost {
+            let ours = self.assignment.get(&id).is_some_and(|m| m == name);
+            let alive = self.robots.get(&id).is_some_and(|r| r.alive && r.info.is_some());
+            let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
+            if ours && alive && !pending {
+                if let Some(member) = self.member(&id) {
+                    tracing::info!(mission = %name, robot = %id, "lost member back: its mission takes it again");
+                    // Never in two teams: if another mission is still letting it go, after that.
+                    let after = self.pending_release(&id);
+                    self.ctls.push(name, MissionCtl::Joined { member }, after);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,102 @@
+//! What the system manager shows: the operator's views of robots and missions, and the fleet
+//! status.
+
+use super::*;
+
+impl SystemManager {
+    /// A mission as the operator sees it: the head's latest view, with the (live) members this
+    /// manager holds; a placeholder while the host is planning.
+    pub(super) fn mission_view(&self, name: &str) -> MissionView {
+        let robots: Vec<String> = self
+            .assignment
+            .iter()
+            .filter(|(id, m)| *m == name && self.robots.get(*id).is_some_and(|r| r.alive))
+            .map(|(r, _)| r.clone())
+            .collect();
+        let rec = self.missions.get(name);
+        match rec.and_then(|r| r.view.clone()) {
+            Some(mut v) => {
+                v.robots = robots;
+                v
+            }
+            None => MissionView {
+                name: name.to_string(),
+                recipe: rec.map(|r| r.recipe.clone()).unwrap_or_default(),
+                planner: rec.map(|r| r.planner.clone()).unwrap_or_default(),
+                status: MissionStatus::Planning,
+                robots,
+                lost: vec![],
+                teams: BTreeMap::new(),
+                manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0, chain_epoch: 0, chain: vec![] },
+                metrics: MissionMetrics::default(),
+                summary: None,
+                params: BTreeMap::new(),
+                error: None,
+                plans: None,
+            },
+        }
+    }
+
+    /// Every mission as the operator sees it, by name.
+    pub fn mission_views(&self) -> Vec<MissionView> {
+        self.missions.keys().map(|n| self.mission_view(n)).collect()
+    }
+
+    /// Registered robots, sorted by id.
+    pub fn views(&self) -> Vec<RobotView> {
+        self.robots.keys().filter_map(|id| self.view(id)).collect()
+    }
+
+    /// The mission each robot is in (lost robots keep theirs).
+    pub fn assignment(&self) -> &BTreeMap<String, String> {
+        &self.assignment
+    }
+
+    /// One registered robot.
+    pub fn view(&self, id: &str) -> Option<RobotView> {
+        let rec = self.robots.get(id)?;
+        let info = rec.info.as_ref()?;
+        let assigned = self.assignment.get(id).cloned();
+        let moving = rec.last.as_ref().is_some_and(|t| t.behaviour != proto::Behaviour::Hold);
+        let status = if !rec.alive {
+            RobotStatus::Lost
+        } else if assigned.is_some() || moving {
+            RobotStatus::Busy
+        } else {
+            RobotStatus::Idle
+        };
+        let behaviour = rec.last.as_ref().map(|t| match &t.progress {
+            Some(p) if p.waiting.is_some() => format!("sync {:?}", p.waiting.unwrap_or_default()),
+            Some(p) if p.done => "plan done".to_string(),
+            Some(p) => format!("step {} {}", p.step, t.behaviour.describe()),
+            None => t.behaviour.describe(),
+        });
+        let (mission, last_mission) = if rec.alive { (assigned, None) } else { (None, assigned) };
+        Some(RobotView {
+            id: info.id.clone(),
+            robot_type: info.robot_type.clone(),
+            capabilities: info.capabilities.clone(),
+            status,
+            mission,
+            pose: rec.last.as_ref().map(|t| t.pose),
+            behaviour,
+            last_mission,
+        })
+    }
+
+    /// Fleet summary.
+    pub fn status(&self, now: f64) -> SystemStatus {
+        let views = self.views();
+        let count = |s| views.iter().filter(|v| v.status == s).count();
+        SystemStatus {
+            node: self.node.clone(),
+            uptime_s: now - self.started,
+            robots_total: views.len(),
+            idle: count(RobotStatus::Idle),
+            busy: count(RobotStatus::Busy),
+            lost: count(RobotStatus::Lost),
+            missions: self.missions.len(),
+            refused: self.refused.clone(),
+        }
+    }
+}
