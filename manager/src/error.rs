@@ -15,6 +15,9 @@ pub enum ManagerError {
     Proto(#[from] mrmm_proto::ProtoError),
     #[error("zenoh: {0}")]
     Zenoh(String),
+    /// The journal on disk could not be opened, read or written; the message names the file.
+    #[error("{0}")]
+    Journal(String),
 }
 
 impl ManagerError {

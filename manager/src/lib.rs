@@ -19,6 +19,7 @@ pub mod chain;
 pub mod error;
 pub mod host;
 pub mod inbox;
+pub mod journal;
 pub mod mission;
 pub mod planner_service;
 pub mod system;

@@ -58,7 +58,6 @@ proptest! {
 
     #[test]
     fn coverage_plans_or_errors(outer in points(7), rs in robots()) {
-        let far = outer.iter().any(|p| p.x.abs() > mrmm_planner::limits::MAX_COORDINATE || p.y.abs() > mrmm_planner::limits::MAX_COORDINATE);
         if let Ok(region) = Region::new(outer, vec![]) {
             let mut params = CoverageParams::new(region.clone());
             params.samples = 200;

@@ -24,6 +24,7 @@
 //! | `mrmm/system/status` | queryable on the system manager | [`crate::SystemStatus`] |
 //! | `mrmm/system/robots`, `…/robots/<id>` | queryable on the system manager | [`crate::RobotView`] list / one |
 //! | `mrmm/system/missions`, `…/missions/<name>` | queryable on the system manager | [`crate::MissionView`] list / one with plans |
+//! | `mrmm/system/journal?since=SEQ` | queryable on the system manager | [`crate::JournalPage`] |
 //! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | [`crate::GotoRequest`] |
 //! | `mrmm/system/cmd/robot/move` | queryable on the system manager | [`crate::RobotMove`] |
 //! | `mrmm/system/cmd/mission/create` | queryable on the system manager | [`crate::MissionCreate`] |
@@ -91,6 +92,7 @@ pub enum Key {
     SystemRobot(String),
     SystemMissions,
     SystemMission(String),
+    SystemJournal,
     SystemCmd(SystemCmd),
 }
 
@@ -119,6 +121,7 @@ impl fmt::Display for Key {
             Key::SystemRobot(id) => write!(f, "mrmm/system/robots/{id}"),
             Key::SystemMissions => f.write_str("mrmm/system/missions"),
             Key::SystemMission(m) => write!(f, "mrmm/system/missions/{m}"),
+            Key::SystemJournal => f.write_str("mrmm/system/journal"),
             Key::SystemCmd(SystemCmd::Goto) => f.write_str("mrmm/system/cmd/robot/goto"),
             Key::SystemCmd(SystemCmd::Move) => f.write_str("mrmm/system/cmd/robot/move"),
             Key::SystemCmd(SystemCmd::Create) => f.write_str("mrmm/system/cmd/mission/create"),
@@ -165,6 +168,7 @@ impl Key {
             ["mrmm", "system", "robots", r] => Key::SystemRobot(id(r)?),
             ["mrmm", "system", "missions"] => Key::SystemMissions,
             ["mrmm", "system", "missions", m] => Key::SystemMission(id(m)?),
+            ["mrmm", "system", "journal"] => Key::SystemJournal,
             ["mrmm", "system", "cmd", "robot", "goto"] => Key::SystemCmd(SystemCmd::Goto),
             ["mrmm", "system", "cmd", "robot", "move"] => Key::SystemCmd(SystemCmd::Move),
             ["mrmm", "system", "cmd", "mission", "create"] => Key::SystemCmd(SystemCmd::Create),
@@ -282,6 +286,7 @@ mod tests {
             Key::SystemRobot(s("r9")),
             Key::SystemMissions,
             Key::SystemMission(s("p1")),
+            Key::SystemJournal,
             Key::SystemCmd(SystemCmd::Goto),
             Key::SystemCmd(SystemCmd::Move),
             Key::SystemCmd(SystemCmd::Create),

@@ -62,6 +62,8 @@ struct Node {
     served: BTreeSet<String>,
     /// The robot's team: (team, subteam).
     team: Option<(String, String)>,
+    /// Central's journal: what it committed, kept across crashes (the disk).
+    disk: mrmm_manager::system::Durable,
 }
 
 /// What a query asks of its server.
@@ -173,15 +175,15 @@ impl World {
     pub fn new(cfg: Config, trace: bool) -> World {
         let mut nodes = Vec::new();
         if cfg.central {
-            nodes.push(Node { name: CENTRAL_HOST.into(), kind: Kind::Central, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None });
+            nodes.push(Node { name: CENTRAL_HOST.into(), kind: Kind::Central, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None, disk: Default::default() });
         }
         for i in 1..=cfg.hosts {
-            nodes.push(Node { name: format!("h{i}"), kind: Kind::Host, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None });
+            nodes.push(Node { name: format!("h{i}"), kind: Kind::Host, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None, disk: Default::default() });
         }
         for i in 1..=cfg.robots {
             let id = format!("r{i}");
             let c = robot_cfg(&id, i as f64 * 2.0, -3.0);
-            nodes.push(Node { name: id, kind: Kind::Robot, central: None, host: None, robot: None, cfg: Some(c), served: BTreeSet::new(), team: None });
+            nodes.push(Node { name: id, kind: Kind::Robot, central: None, host: None, robot: None, cfg: Some(c), served: BTreeSet::new(), team: None, disk: Default::default() });
         }
         let n = nodes.len();
         let mut w = World {
@@ -237,7 +239,7 @@ impl World {
         match n.kind {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
-                n.central = Some(CentralCore::new(n.name.clone(), agent, now));
+                n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone()));
                 n.host = Some(HostCore::new(&n.name, params, now));
             }
             Kind::Host => n.host = Some(HostCore::new(&n.name, params, now)),
@@ -536,10 +538,18 @@ impl World {
         let now = self.now;
         let Some(c) = self.nodes[i].central.as_mut() else { return Ok(()) };
         let cmds = c.handle(now, ev);
+        // The journal comes first, as the driver commits it before anything else.
+        let journaled = cmds.iter().any(|c| matches!(c, central::Command::System(system::Command::Journal(_))));
         for cmd in cmds {
             match cmd {
                 central::Command::Publish(_) => {}
                 central::Command::System(s) => self.system_command(i, s)?,
+            }
+        }
+        if let (true, Some(c)) = (journaled, self.nodes[i].central.as_ref()) {
+            let want = c.system().durable();
+            if self.nodes[i].disk != want {
+                return Err(format!("central's journal replays to {:?}, but central holds {want:?}", self.nodes[i].disk));
             }
         }
         Ok(())
@@ -566,6 +576,14 @@ impl World {
             }
             system::Command::Ctl { id, mission, ctl, .. } => self.ask_mission(Some(i), &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::CentralCtl(id)),
             system::Command::Refused { from, what } => return Err(format!("central refused {from}: {what} (no node of the simulation is a rogue)")),
+            system::Command::Journal(entries) => {
+                // Committed before anything else of this event happens, as the driver does; what
+                // is on the disk must be exactly what central holds.
+                let disk = &mut self.nodes[i].disk;
+                for e in &entries {
+                    disk.apply(e);
+                }
+            }
             system::Command::DryRun(dry) => {
                 // Off central's loop in the driver: here, answered a little later.
                 let result = dry.run();

@@ -21,6 +21,22 @@ pub struct Args {
     /// with --pki or --ca, overrides the config's `security.operators`.
     #[arg(long)]
     operator: Vec<String>,
+    /// Where central keeps its journal; overrides the config's `state_dir`. Default: the
+    /// per-user data directory, `$XDG_DATA_HOME/mrmm/central` (`~/.local/share/mrmm/central`).
+    #[arg(long)]
+    state_dir: Option<PathBuf>,
+}
+
+/// The per-user data directory central keeps its journal in when nothing else is said.
+pub fn default_state_dir() -> anyhow::Result<PathBuf> {
+    let base = match std::env::var_os("XDG_DATA_HOME").filter(|v| !v.is_empty()) {
+        Some(d) => PathBuf::from(d),
+        None => match std::env::var_os("HOME").filter(|v| !v.is_empty()) {
+            Some(h) => PathBuf::from(h).join(".local").join("share"),
+            None => anyhow::bail!("--state-dir: no HOME or XDG_DATA_HOME to find the per-user data directory; give --state-dir DIR"),
+        },
+    };
+    Ok(base.join("mrmm").join("central"))
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
@@ -36,6 +52,12 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         cfg.security = Some(sec);
     } else if !args.operator.is_empty() {
         anyhow::bail!("--operator: needs certificates (--pki DIR, or --ca/--cert/--key, or a `security` section)");
+    }
+    if let Some(d) = args.state_dir {
+        cfg.state_dir = Some(d);
+    }
+    if cfg.state_dir.is_none() {
+        cfg.state_dir = Some(default_state_dir()?);
     }
     cfg.validate().map_err(|e| anyhow::anyhow!("central config: {e}"))?;
     let shutdown = super::shutdown::on_signals()?;

@@ -44,6 +44,10 @@ pub struct Args {
     /// Stream the fleet view to a running Rerun viewer, e.g. rerun+http://127.0.0.1:9876/proxy.
     #[arg(long)]
     viewer: Option<String>,
+    /// Keep central's journal here, so the demo's missions survive a restart of it (default: the
+    /// demo's scratch directory, removed when the demo ends).
+    #[arg(long)]
+    state_dir: Option<std::path::PathBuf>,
 }
 
 const TYPES: [&str; 2] = ["ground", "aerial"];
@@ -91,7 +95,8 @@ async fn drive(
         }
     }
     let log = dir.join("central.log");
-    let mut central_args = vec!["central".to_string(), "--listen".into(), listen.clone()];
+    let state = args.state_dir.clone().unwrap_or_else(|| dir.join("central-state"));
+    let mut central_args = vec!["central".to_string(), "--listen".into(), listen.clone(), "--state-dir".into(), state.display().to_string()];
     if let Some(pki) = &pki {
         central_args.extend(["--pki".into(), pki.display().to_string(), "--operator".into(), "operator".into()]);
     }

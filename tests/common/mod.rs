@@ -98,6 +98,9 @@ pub fn start_lines(wrapper: &[&str], name: &str, args: &[&str], log: &Path, pref
         .args(pre)
         .args(args)
         .env("RUST_LOG", "info,zenoh=warn,mrmm_manager::chain=debug,mrmm_manager::host=trace")
+        // Central's default state dir is per user: each test has its own (a central restarted in
+        // a test finds its journal there).
+        .env("XDG_DATA_HOME", log.parent().unwrap_or(Path::new(".")).join("data"))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(log_file)

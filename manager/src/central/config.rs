@@ -1,7 +1,7 @@
 //! Central's config file (JSON5): where it listens, its lease, how long it waits for answers,
 //! and the advising agent's settings.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use mrmm_proto::net::{self, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
 use mrmm_proto::SecuritySection;
@@ -34,6 +34,11 @@ pub struct CentralConfig {
     /// paths are relative to the config file.
     #[serde(default)]
     pub security: Option<SecuritySection>,
+    /// Where central keeps its journal (`journal.redb`): every mission, membership change and
+    /// command it said "ok" to. Relative to the config file. Without it (and without
+    /// `--state-dir`), `mrmm central` uses the per-user data directory.
+    #[serde(default)]
+    pub state_dir: Option<PathBuf>,
 }
 
 fn default_max_message_size() -> usize {
@@ -59,6 +64,7 @@ impl Default for CentralConfig {
             agent: AgentConfig::default(),
             max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
             security: None,
+            state_dir: None,
         }
     }
 }
@@ -74,6 +80,11 @@ impl CentralConfig {
                 }
             }
         }
+        if let (Some(sd), Some(dir)) = (cfg.state_dir.as_mut(), path.parent()) {
+            if sd.is_relative() {
+                *sd = dir.join(&*sd);
+            }
+        }
         cfg.validate().map_err(|e| ManagerError::Config(format!("{}: {e}", path.display())))?;
         Ok(cfg)
     }
@@ -87,6 +98,14 @@ impl CentralConfig {
         net::validate_max_message_size("max_message_size", self.max_message_size)?;
         if let Some(sec) = &self.security {
             sec.validate("security")?;
+        }
+        if let Some(d) = &self.state_dir {
+            if d.as_os_str().is_empty() {
+                return Err("state_dir: give a directory".into());
+            }
+            if d.exists() && !d.is_dir() {
+                return Err(format!("state_dir: {} is not a directory", d.display()));
+            }
         }
         if !(100..=60_000).contains(&self.lease_ms) {
             return Err(format!("lease_ms: must be 100..=60000 (got {})", self.lease_ms));

@@ -20,6 +20,7 @@ pub use self::config::CentralConfig;
 pub use self::core::{CentralCore, Command, Event, AGENT_PERIOD_S};
 use crate::error::ManagerError;
 use crate::inbox::Inbox;
+use crate::journal::Journal;
 use crate::system::{self, Req, Request};
 use crate::Failure;
 
@@ -51,6 +52,18 @@ enum Input {
 /// Runs central until `shutdown` is cancelled.
 pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), ManagerError> {
     cfg.validate().map_err(ManagerError::Config)?;
+    // The journal first: a state dir another central uses, or a damaged one, stops start-up.
+    let (mut journal, state) = match &cfg.state_dir {
+        Some(dir) => {
+            let (j, state) = Journal::open(dir)?;
+            tracing::info!(dir = %dir.display(), entries = j.last(), missions = state.missions.len(), robots = state.assignment.len(), "journal replayed");
+            (Some(j), state)
+        }
+        None => {
+            tracing::warn!("no state dir: central keeps nothing on disk, and a restart forgets every mission");
+            (None, system::Durable::default())
+        }
+    };
     let mesh = Mesh::open(&NodeNet {
         mode: Mode::Router,
         listen: cfg.listen.clone(),
@@ -99,7 +112,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     }
 
     let t0 = Instant::now();
-    let mut core = CentralCore::new(zid, cfg.agent.clone(), 0.0);
+    let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state);
     let mut io = Io { mesh: mesh.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
     let mut tick = tokio::time::interval(TICK);
     let mut refused = 0;
@@ -110,9 +123,8 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
                 let total = mesh.verifier().refused.total();
                 if total != refused {
                     refused = total;
-                    for c in core.handle(t0.elapsed().as_secs_f64(), Event::System(system::Event::Refusals(mesh.verifier().refused.counts()))) {
-                        io.execute(c).await;
-                    }
+                    let cmds = core.handle(t0.elapsed().as_secs_f64(), Event::System(system::Event::Refusals(mesh.verifier().refused.counts())));
+                    carry_out(&mut io, journal.as_mut(), cmds).await?;
                 }
                 Event::System(system::Event::Tick)
             }
@@ -123,6 +135,10 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
                     i = net_rx.recv() => i,
                 }
             } => match i {
+                Some(Input::Operator(q)) if Key::parse(q.key_expr().as_str()) == Some(Key::SystemJournal) => {
+                    answer_journal(&mesh, journal.as_ref(), q).await;
+                    continue;
+                }
                 Some(Input::Operator(q)) => match io.operator(q).await {
                     Some(e) => e,
                     None => continue,
@@ -136,9 +152,8 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
                 None => break,
             },
         };
-        for c in core.handle(t0.elapsed().as_secs_f64(), event) {
-            io.execute(c).await;
-        }
+        let cmds = core.handle(t0.elapsed().as_secs_f64(), event);
+        carry_out(&mut io, journal.as_mut(), cmds).await?;
     }
     tracing::info!("central shutting down");
     drop(held);
@@ -146,6 +161,41 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let _ = missions.await;
     session.close().await.map_err(ManagerError::zenoh)?;
     Ok(())
+}
+
+/// Carries out one event's commands: its journal entries are committed (fsync) before anything
+/// else is done or said. A journal that cannot be written stops central: it restarts from
+/// what is on disk rather than say "ok" about what is not.
+async fn carry_out(io: &mut Io, journal: Option<&mut Journal>, cmds: Vec<Command>) -> Result<(), ManagerError> {
+    let (entries, rest): (Vec<Command>, Vec<Command>) = cmds.into_iter().partition(|c| matches!(c, Command::System(system::Command::Journal(_))));
+    let events: Vec<proto::JournalEvent> = entries
+        .into_iter()
+        .flat_map(|c| match c {
+            Command::System(system::Command::Journal(e)) => e,
+            _ => vec![],
+        })
+        .collect();
+    if let (Some(j), false) = (journal, events.is_empty()) {
+        let at_ms = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64);
+        tokio::task::block_in_place(|| j.append(&events, at_ms)).inspect_err(|e| tracing::error!("{e}: central stops"))?;
+    }
+    for c in rest {
+        io.execute(c).await;
+    }
+    Ok(())
+}
+
+/// Answers `mrmm/system/journal?since=SEQ&limit=N` from the database.
+async fn answer_journal(mesh: &Mesh, journal: Option<&Journal>, q: Query) {
+    let result = match (proto::journal::journal_query(q.parameters().as_str()), journal) {
+        (Err(e), _) => Err(e),
+        (Ok(_), None) => Err("central runs without a state dir: it keeps no journal".to_string()),
+        (Ok((since, limit)), Some(j)) => tokio::task::block_in_place(|| j.page(since, limit)).map_err(|e| e.to_string()),
+    };
+    match result.and_then(|p| serde_json::to_value(p).map_err(|e| e.to_string())) {
+        Ok(v) => mesh.reply_json(&q, &v).await,
+        Err(e) => mesh.reply_error(&q, &e).await,
+    }
 }
 
 /// A publication or liveliness change as the system manager's event; `None` (logged) for
@@ -253,6 +303,8 @@ impl Io {
                 }
             }
             system::Command::Refused { from, what } => self.mesh.refuse(&what, &from),
+            // Committed by `carry_out` before anything else.
+            system::Command::Journal(_) => {}
             system::Command::DryRun(dry) => self.spawn(async move {
                 let id = dry.id;
                 let run = tokio::task::spawn_blocking(move || dry.run());

@@ -7,7 +7,7 @@ use mrmm_planner::recipe::{self, PlannerKind};
 use mrmm_proto::{self as proto, MissionCreate, MissionCtl, MissionStart, MissionTerminate, RobotCommand, RobotMove, RobotSpec};
 use serde_json::{json, Value};
 
-use super::{to_value, Command, MissionRecord, PendingStart, Released, Req, SystemManager};
+use super::{to_value, Command, MissionDef, MissionRecord, PendingStart, Released, Req, SystemManager};
 use crate::mission::MissionSpec;
 use crate::wire;
 
@@ -68,6 +68,7 @@ impl SystemManager {
         if let Err(e) = result {
             return vec![Command::Reply { req, result: Err(format!("mission {}: {e}", c.name)) }];
         }
+        let c_json = serde_json::to_value(&c).unwrap_or(Value::Null);
         let Checked { spec, host, robots, steal, .. } = match self.check_create(c) {
             Ok(x) => x,
             Err(e) => return vec![Command::Reply { req, result: Err(e) }],
@@ -96,12 +97,13 @@ impl SystemManager {
         }
         tracing::info!(mission = %name, %host, robots = robots.len(), "mission created");
         self.terminated.remove(&name);
-        self.missions.insert(
-            name.clone(),
-            MissionRecord { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), view: None },
-        );
+        let wire = spec.to_wire();
+        let def = MissionDef { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), spec: Some(wire.clone()) };
+        self.missions.insert(name.clone(), MissionRecord::new(def, None, false));
+        self.restarts.remove(&name);
+        self.note_command(&req, "mission create", &c_json);
         self.pending_create.insert(name, req);
-        self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: spec.to_wire(), members }), after });
+        self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: wire, members }), after });
         vec![]
     }
 
@@ -267,6 +269,8 @@ impl SystemManager {
         if let Some(pending) = self.pending_create.remove(&t.name) {
             out.push(Command::Reply { req: pending, result: Err(format!("mission {} was terminated", t.name)) });
         }
+        self.restarts.remove(&t.name);
+        self.note_command(&req, "mission terminate", &serde_json::to_value(&t).unwrap_or(Value::Null));
         tracing::info!(mission = %t.name, "mission terminated");
         out.push(Command::Reply { req, result: Ok(json!({"ok": true, "mission": t.name, "robots": robots})) });
         out
@@ -315,8 +319,18 @@ impl SystemManager {
             // It joins once its old mission let it go: never in two teams.
             self.ctls.push(to, MissionCtl::Joined { member }, left);
         }
+        self.note_command(&req, "robot move", &serde_json::to_value(&mv).unwrap_or(Value::Null));
         tracing::info!(robot = %mv.robot, ?from, to = ?mv.to, "robot moved");
         out.push(Command::Reply { req, result: to_value(&json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to})) });
         out
+    }
+
+    /// Records an accepted operator (or agent) command in the journal's history.
+    pub(super) fn note_command(&mut self, req: &Req, command: &str, request: &Value) {
+        let by = match req {
+            Req::Query(_) => "operator".to_string(),
+            Req::Agent(_) => "agent".to_string(),
+        };
+        self.notes.push(proto::JournalEvent::Command { by, command: command.to_string(), request: request.clone() });
     }
 }

@@ -7,19 +7,22 @@
 //! time and an [`Event`] and returns the [`Command`]s the driver must carry out.
 
 mod ctl;
+pub mod durable;
 pub mod missions;
 mod reports;
 mod views;
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
 
 use mrmm_proto::{
-    self as proto, CommandAck, GotoRequest, Key, ManagerView, Member, MissionCreate, MissionCtl, MissionMetrics, MissionStart, MissionStatus,
+    self as proto, CommandAck, GotoRequest, JournalEvent, Key, ManagerView, Member, MissionCreate, MissionCtl, MissionMetrics, MissionStart, MissionStatus,
     MissionTerminate, MissionView, RobotCommand, RobotInfo, RobotMove, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
 };
 use serde_json::Value;
 
 pub use ctl::{Ctls, CTL_GIVE_UP_S, CTL_RETRY_S};
+pub use durable::{Durable, MissionDef};
 
 use crate::Failure;
 
@@ -39,6 +42,11 @@ pub const RELEASE_GRACE_S: f64 = 5.0;
 /// For this long after it starts, the system manager holds commands that assign robots, while
 /// the heads of running missions report which robots are theirs (two status periods).
 pub const ADOPT_S: f64 = 2.0;
+/// A mission of the journal that no live manager reports this long after the system manager
+/// started (and that no robot says it runs) is started again with its live robots.
+pub const RESTART_S: f64 = 5.0;
+/// Seconds between two attempts to start a journaled mission again.
+pub const RESTART_RETRY_S: f64 = 5.0;
 
 /// Who asked: an operator query held by the driver, or the advising agent (for an advice).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -143,16 +151,39 @@ pub enum Command {
     Refused { from: Sender, what: String },
     /// Plan `DryRun` off this loop; answer with [`Event::DryRunDone`].
     DryRun(Box<missions::DryRun>),
+    /// Commit these entries to the journal (fsync) before carrying out any command after this
+    /// one: it always comes first, so nothing of a change is said or done before it is on disk.
+    Journal(Vec<JournalEvent>),
 }
 
 /// What the system manager knows of a mission.
 #[derive(Debug, Clone)]
 pub(crate) struct MissionRecord {
+    /// The node managing it as last reported (its host until a replica takes over).
     host: String,
-    recipe: String,
-    planner: String,
+    /// As defined (durable).
+    def: Arc<MissionDef>,
     /// The head's latest view.
     view: Option<MissionView>,
+    /// Adopted from its head's report since this manager started: its membership is learnt
+    /// from reports. Otherwise (created here, or restored from the journal) this manager's
+    /// assignment is the truth and heads are corrected.
+    adopted: bool,
+}
+
+impl MissionRecord {
+    fn new(def: MissionDef, view: Option<MissionView>, adopted: bool) -> MissionRecord {
+        MissionRecord { host: def.host.clone(), def: Arc::new(def), view, adopted }
+    }
+}
+
+/// A journaled mission being started again (no live manager runs it).
+#[derive(Debug, Clone, Copy)]
+struct Restart {
+    /// A start is out.
+    inflight: bool,
+    /// Not before this time.
+    next: f64,
 }
 
 #[derive(Debug, Clone)]
@@ -216,6 +247,12 @@ pub struct SystemManager {
     /// Creates waiting for their dry run, by check id.
     checking: BTreeMap<u64, (Req, MissionCreate)>,
     next_check: u64,
+    /// What the journal holds (as of the last [`Command::Journal`]).
+    journaled: Durable,
+    /// History for the journal, out with the next [`Command::Journal`].
+    notes: Vec<JournalEvent>,
+    /// Journaled missions being started again.
+    restarts: BTreeMap<String, Restart>,
 }
 
 impl SystemManager {
@@ -239,7 +276,43 @@ impl SystemManager {
             checking: BTreeMap::new(),
             next_check: 0,
             ignored: 0,
+            journaled: Durable::default(),
+            notes: Vec::new(),
+            restarts: BTreeMap::new(),
         }
+    }
+
+    /// A system manager that starts from what its journal holds: the missions it defined are
+    /// known (those no live manager reports are started again after [`RESTART_S`]), robots are
+    /// in the missions the journal says, terminated missions stay terminated.
+    pub fn restore(node: String, now: f64, state: Durable) -> Self {
+        let mut m = SystemManager::new(node, now);
+        for (name, def) in &state.missions {
+            m.missions.insert(name.clone(), MissionRecord { host: def.host.clone(), def: def.clone(), view: None, adopted: false });
+        }
+        m.assignment = state.assignment.clone();
+        m.terminated = state.terminated.clone();
+        m.notes.push(JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() });
+        m.journaled = state;
+        m
+    }
+
+    /// The durable part as it is now.
+    pub fn durable(&self) -> Durable {
+        Durable {
+            missions: self.missions.iter().map(|(n, r)| (n.clone(), r.def.clone())).collect(),
+            assignment: self.assignment.clone(),
+            terminated: self.terminated.clone(),
+        }
+    }
+
+    /// Whether the durable part differs from what the journal holds (cheap: no copies).
+    fn durable_changed(&self) -> bool {
+        let j = &self.journaled;
+        self.assignment != j.assignment
+            || self.terminated != j.terminated
+            || self.missions.len() != j.missions.len()
+            || self.missions.iter().zip(&j.missions).any(|((n, r), (jn, jd))| n != jn || !Arc::ptr_eq(&r.def, jd))
     }
 
     /// Handles one event.
@@ -247,8 +320,20 @@ impl SystemManager {
         self.now = self.now.max(now);
         let mut out = self.event(now, event);
         out.extend(self.due(now));
+        // Whatever changed goes to disk before any of it is said or done.
+        let mut entries = Vec::new();
+        if self.durable_changed() {
+            let now_state = self.durable();
+            entries = self.journaled.diff(&now_state);
+            self.journaled = now_state;
+        }
+        entries.append(&mut self.notes);
+        if !entries.is_empty() {
+            out.insert(0, Command::Journal(entries));
+        }
         out
     }
+
 
     fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
@@ -261,6 +346,9 @@ impl SystemManager {
                         tracing::warn!(robot = %id, ignored = self.ignored, "fleet registry full ({MAX_FLEET} robots): new robots ignored");
                     }
                     return vec![];
+                }
+                if self.robots.get(&id).is_some_and(|r| !r.alive) {
+                    self.notes.push(JournalEvent::RobotBack { robot: id.clone() });
                 }
                 let rec = self.robots.entry(id.clone()).or_insert(Record {
                     info: None,
@@ -281,6 +369,7 @@ impl SystemManager {
                 if let Some(rec) = self.robots.get_mut(&id) {
                     if rec.alive {
                         tracing::warn!(robot = %id, "robot lost");
+                        self.notes.push(JournalEvent::RobotLost { robot: id.clone() });
                     }
                     rec.alive = false;
                 }
@@ -460,7 +549,45 @@ impl SystemManager {
             })
             .collect();
         out.extend(fetch);
+        if now - self.started >= RESTART_S {
+            self.restart_orphans(now);
+        }
         out
+    }
+
+    /// Journaled missions that no live manager runs are started again with their live robots
+    /// (the others rejoin as they come back). A mission some robot says it runs is left alone:
+    /// its managers are alive somewhere, and will report.
+    fn restart_orphans(&mut self, now: f64) {
+        let orphans: Vec<String> = self
+            .missions
+            .iter()
+            .filter(|(_, r)| r.view.is_none() && r.def.spec.is_some())
+            .filter(|(n, _)| !self.pending_create.contains_key(*n) && !self.starts.iter().any(|s| &s.start.spec.name == *n))
+            .filter(|(n, _)| self.restarts.get(*n).is_none_or(|r| !r.inflight && now >= r.next))
+            .map(|(n, _)| n.clone())
+            .collect();
+        for name in orphans {
+            let runs = self.robots.values().any(|r| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
+            if runs {
+                continue;
+            }
+            let Some(rec) = self.missions.get(&name) else { continue };
+            let Some(spec) = rec.def.spec.clone() else { continue };
+            let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.hosts.contains(*h)).map(str::to_string);
+            let Some(host) = host else { continue };
+            let ids: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == name).map(|(r, _)| r.clone()).collect();
+            let members: Vec<Member> = ids.iter().filter(|id| self.robots.get(*id).is_some_and(|r| r.alive)).filter_map(|id| self.member(id)).collect();
+            if members.is_empty() {
+                continue;
+            }
+            let robots: Vec<String> = members.iter().map(|m| m.spec.id.clone()).collect();
+            tracing::info!(mission = %name, %host, ?robots, "no live manager runs this mission of the journal: starting it again");
+            self.notes.push(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
+            let after = robots.iter().filter_map(|id| self.pending_release(id)).collect();
+            self.restarts.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
+            self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members }), after });
+        }
     }
 
     fn operator(&mut self, now: f64, req: Req, request: Request) -> Vec<Command> {
@@ -490,7 +617,10 @@ impl SystemManager {
                 None => reply(req, Err(format!("unknown mission {name:?}"))),
             },
             Request::Goto(g) => match self.check_goto(&g) {
-                Ok(()) => vec![Command::SendToRobot { req: Some(req), robot: g.robot, cmd: RobotCommand::Goto { x: g.x, y: g.y } }],
+                Ok(()) => {
+                    self.note_command(&req, "robot goto", &serde_json::to_value(&g).unwrap_or(Value::Null));
+                    vec![Command::SendToRobot { req: Some(req), robot: g.robot, cmd: RobotCommand::Goto { x: g.x, y: g.y } }]
+                }
                 Err(e) => reply(req, Err(e)),
             },
             Request::Create(c) => self.create(req, c),
@@ -501,6 +631,24 @@ impl SystemManager {
 
     /// The first plans of a mission are out, or its planning failed, or its host did not answer.
     fn started(&mut self, name: &str, result: Result<Box<MissionView>, Failure>) -> Vec<Command> {
+        if let Some(r) = self.restarts.get_mut(name) {
+            // A journaled mission started again: it is never forgotten for failing; tried again.
+            r.inflight = false;
+            match result {
+                Ok(view) => {
+                    tracing::info!(mission = %name, "mission running again");
+                    self.restarts.remove(name);
+                    if let Some(rec) = self.missions.get_mut(name) {
+                        rec.view = Some(*view);
+                    }
+                }
+                Err(f) => {
+                    r.next = self.now + RESTART_RETRY_S;
+                    tracing::warn!(mission = %name, "starting the mission again failed ({}); trying again in {RESTART_RETRY_S} s", f.error);
+                }
+            }
+            return vec![];
+        }
         let req = self.pending_create.remove(name);
         let reply = |result| req.map(|req| Command::Reply { req, result }).into_iter().collect::<Vec<_>>();
         match result {

@@ -75,7 +75,7 @@ impl SystemManager {
             let assigned = self.assignment.get(&t.id);
             // In no mission here, running one whose head lists it: the head's report and the
             // robot's own telemetry agree — it is that mission's (see `reconcile`).
-            let listed = self.missions.get(running).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
+            let listed = self.missions.get(running).filter(|m| m.adopted).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
             let released = self.released.get(&t.id).is_some_and(|r| r.mission == *running);
             if assigned.is_none() && listed && !released && !self.terminated.contains(running) {
                 tracing::info!(mission = %running, robot = %t.id, "robot recorded in the mission it runs and its head lists");
@@ -121,6 +121,7 @@ impl SystemManager {
             }
             return vec![];
         }
+        let mut notes = Vec::new();
         if let Some(rec) = self.missions.get_mut(&view.name) {
             // A report of an older chain epoch is from a manager that was replaced.
             let known = rec.view.as_ref().map_or(0, |v| v.manager.chain_epoch);
@@ -130,13 +131,20 @@ impl SystemManager {
             if rec.host != view.manager.node {
                 tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
                 rec.host = view.manager.node.clone();
+                notes.push(JournalEvent::ManagerChanged { mission: view.name.clone(), manager: view.manager.node.clone(), chain_epoch: view.manager.chain_epoch });
             }
             if rec.view.is_none() && view.status == MissionStatus::Planning {
+                self.notes.append(&mut notes);
                 return vec![];
+            }
+            let old_epoch = rec.view.as_ref().map(|v| v.manager.epoch);
+            if old_epoch.is_some_and(|e| e < view.manager.epoch) {
+                notes.push(JournalEvent::Replanned { mission: view.name.clone(), plan_epoch: view.manager.epoch, robots: view.robots.clone() });
             }
             let name = view.name.clone();
             let (robots, lost) = (view.robots.clone(), view.lost.clone());
             rec.view = Some(view);
+            self.notes.append(&mut notes);
             let out = self.reconcile(&name, &robots, &lost, &from);
             self.rejoin(&name);
             return out;
@@ -147,10 +155,9 @@ impl SystemManager {
         tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its head's report");
         let name = view.name.clone();
         let (robots, lost) = (view.robots.clone(), view.lost.clone());
-        self.missions.insert(
-            name.clone(),
-            MissionRecord { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), view: Some(view) },
-        );
+        self.notes.push(JournalEvent::ManagerChanged { mission: name.clone(), manager: view.manager.node.clone(), chain_epoch: view.manager.chain_epoch });
+        let def = MissionDef { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), spec: None };
+        self.missions.insert(name.clone(), MissionRecord::new(def, Some(view), true));
         let out = self.reconcile(&name, &robots, &lost, &from);
         self.rejoin(&name);
         out
@@ -166,6 +173,7 @@ impl SystemManager {
     /// that mission or none. Central's and mission hosts' reports are trusted.
     pub(super) fn reconcile(&mut self, name: &str, robots: &[String], lost: &[String], reporter: &Sender) -> Vec<Command> {
         let trusted = matches!(reporter.role, Role::Central | Role::Host);
+        let adopted = self.missions.get(name).is_some_and(|r| r.adopted);
         let mut strangers = Vec::new();
         let mut recorded = Vec::new();
         for id in robots.iter().chain(lost) {
@@ -182,6 +190,8 @@ impl SystemManager {
             match self.assignment.get(id) {
                 Some(m) if m == name => {}
                 Some(_) => strangers.push(id.clone()),
+                // Created or journaled here: this manager's assignment is the truth.
+                None if !adopted => strangers.push(id.clone()),
                 None if !confirmed => {}
                 None => {
                     tracing::info!(mission = %name, robot = %id, "robot recorded in its mission from its head's report");

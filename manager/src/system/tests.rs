@@ -18,6 +18,8 @@ impl Drive for SystemManager {
                     let result = d.run();
                     out.extend(self.drive(now, Event::DryRunDone { id: d.id, result }));
                 }
+                // What goes to the journal is checked in `journal.rs`.
+                Command::Journal(_) => {}
                 other => out.push(other),
             }
         }
@@ -228,6 +230,8 @@ impl MissionViewBuilder {
 
 mod missions {
     use super::*;
+
+    mod journal;
 
     const WAYPOINTS: &str = r#""params": {"waypoints": [[0,0],[20,0],[20,20],[0,20]]}"#;
 

@@ -21,8 +21,8 @@ impl SystemManager {
             }
             None => MissionView {
                 name: name.to_string(),
-                recipe: rec.map(|r| r.recipe.clone()).unwrap_or_default(),
-                planner: rec.map(|r| r.planner.clone()).unwrap_or_default(),
+                recipe: rec.map(|r| r.def.recipe.clone()).unwrap_or_default(),
+                planner: rec.map(|r| r.def.planner.clone()).unwrap_or_default(),
                 status: MissionStatus::Planning,
                 robots,
                 lost: vec![],

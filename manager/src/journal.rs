@@ -1,0 +1,147 @@
+//! Central's journal on disk: every change of the system manager's durable state and its history,
+//! in an embedded ACID database (redb: pure Rust, crash-safe copy-on-write B-trees, every commit
+//! fsynced). One table maps sequence numbers to JSON entries ([`JournalEntry`]); central replays
+//! the state entries on start ([`Journal::open`]) and appends what each event changed before it
+//! carries out anything else ([`Journal::append`]).
+
+use std::path::{Path, PathBuf};
+
+use mrmm_proto::journal::JOURNAL_PAGE;
+use mrmm_proto::{JournalEntry, JournalEvent, JournalPage};
+use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition};
+
+use crate::error::ManagerError;
+use crate::system::Durable;
+
+const ENTRIES: TableDefinition<u64, &[u8]> = TableDefinition::new("entries");
+
+/// The database file inside the state directory.
+pub const FILE: &str = "journal.redb";
+
+/// The journal, open.
+pub struct Journal {
+    db: Database,
+    path: PathBuf,
+    last: u64,
+}
+
+impl std::fmt::Debug for Journal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Journal").field("path", &self.path).field("last", &self.last).finish()
+    }
+}
+
+impl Journal {
+    /// Opens (or creates) the journal in `dir` and replays it: the durable state it holds, and
+    /// how many entries it has. A damaged file or entry stops here with a readable error.
+    pub fn open(dir: &Path) -> Result<(Journal, Durable), ManagerError> {
+        std::fs::create_dir_all(dir).map_err(|e| ManagerError::Journal(format!("state dir {}: {e}", dir.display())))?;
+        let path = dir.join(FILE);
+        let err = |what: &str, e: &dyn std::fmt::Display| ManagerError::Journal(format!("journal {}: {what}: {e}", path.display()));
+        let db = Database::create(&path).map_err(|e| match e {
+            redb::DatabaseError::DatabaseAlreadyOpen => err("open", &"another central uses this state dir"),
+            e => err("open", &e),
+        })?;
+        // The table exists from the start, so readers never miss it.
+        let w = db.begin_write().map_err(|e| err("write", &e))?;
+        w.open_table(ENTRIES).map_err(|e| err("write", &e))?;
+        w.commit().map_err(|e| err("commit", &e))?;
+        let r = db.begin_read().map_err(|e| err("read", &e))?;
+        let table = r.open_table(ENTRIES).map_err(|e| err("read", &e))?;
+        let mut state = Durable::default();
+        let mut last = 0;
+        for item in table.iter().map_err(|e| err("read", &e))? {
+            let (k, v) = item.map_err(|e| err("read", &e))?;
+            let seq = k.value();
+            let entry: JournalEntry = serde_json::from_slice(v.value()).map_err(|e| err(&format!("entry {seq}"), &e))?;
+            state.apply(&entry.event);
+            last = seq;
+        }
+        drop(table);
+        drop(r);
+        Ok((Journal { db, path, last }, state))
+    }
+
+    /// The last sequence number committed.
+    pub fn last(&self) -> u64 {
+        self.last
+    }
+
+    /// Commits `events` as one transaction, durable (fsync) when this returns; `at_ms` is the
+    /// wall-clock time stamped on them.
+    pub fn append(&mut self, events: &[JournalEvent], at_ms: u64) -> Result<u64, ManagerError> {
+        let err = |what: &str, e: &dyn std::fmt::Display| ManagerError::Journal(format!("journal {}: {what}: {e}", self.path.display()));
+        let w = self.db.begin_write().map_err(|e| err("write", &e))?;
+        let mut seq = self.last;
+        {
+            let mut table = w.open_table(ENTRIES).map_err(|e| err("write", &e))?;
+            for event in events {
+                seq = seq.checked_add(1).ok_or_else(|| err("write", &"sequence numbers exhausted"))?;
+                let entry = JournalEntry { seq, at_ms, event: event.clone() };
+                let bytes = serde_json::to_vec(&entry).map_err(|e| err("encode", &e))?;
+                table.insert(seq, bytes.as_slice()).map_err(|e| err("write", &e))?;
+            }
+        }
+        w.commit().map_err(|e| err("commit", &e))?;
+        self.last = seq;
+        Ok(seq)
+    }
+
+    /// Entries after `since`, oldest first, at most `limit` (capped at [`JOURNAL_PAGE`]).
+    pub fn page(&self, since: u64, limit: usize) -> Result<JournalPage, ManagerError> {
+        let err = |e: &dyn std::fmt::Display| ManagerError::Journal(format!("journal {}: read: {e}", self.path.display()));
+        let limit = limit.clamp(1, JOURNAL_PAGE);
+        let r = self.db.begin_read().map_err(|e| err(&e))?;
+        let table = r.open_table(ENTRIES).map_err(|e| err(&e))?;
+        let mut entries = Vec::new();
+        let from = since.saturating_add(1);
+        for item in table.range(from..).map_err(|e| err(&e))?.take(limit) {
+            let (k, v) = item.map_err(|e| err(&e))?;
+            let entry: JournalEntry = serde_json::from_slice(v.value()).map_err(|e| err(&format!("entry {}: {e}", k.value())))?;
+            entries.push(entry);
+        }
+        let next = entries.last().map_or(since, |e| e.seq);
+        Ok(JournalPage { more: next < self.last, entries, last: self.last, next })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn what_is_appended_is_replayed_after_a_reopen_and_paged() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let (mut j, state) = Journal::open(dir.path()).expect("open");
+        assert_eq!((j.last(), state), (0, Durable::default()));
+        let events = vec![
+            JournalEvent::MissionDefined { mission: "p".into(), host: "central".into(), recipe: "patrol".into(), planner: "patrol".into(), spec: None },
+            JournalEvent::RobotAssigned { robot: "r1".into(), mission: Some("p".into()) },
+            JournalEvent::RobotLost { robot: "r1".into() },
+        ];
+        assert_eq!(j.append(&events, 5).expect("append"), 3);
+        assert_eq!(j.append(&[JournalEvent::MissionRemoved { mission: "q".into(), terminated: true }], 6).expect("append"), 4);
+        // A second central on the same directory is refused while this one runs.
+        let e = Journal::open(dir.path()).expect_err("locked");
+        assert!(e.to_string().contains("another central uses this state dir"), "{e}");
+        drop(j);
+        let (j, state) = Journal::open(dir.path()).expect("reopen");
+        assert_eq!(j.last(), 4);
+        assert_eq!(state.assignment.get("r1").map(String::as_str), Some("p"));
+        assert!(state.missions.contains_key("p") && state.terminated.contains("q"));
+        let page = j.page(1, 2).expect("page");
+        assert_eq!(page.entries.iter().map(|e| e.seq).collect::<Vec<_>>(), [2, 3]);
+        assert_eq!((page.next, page.last, page.more), (3, 4, true));
+        let page = j.page(page.next, 100).expect("page");
+        assert_eq!((page.entries.len(), page.more), (1, false));
+        assert_eq!(page.entries[0].at_ms, 6);
+    }
+
+    #[test]
+    fn a_damaged_file_is_a_readable_error() {
+        let dir = tempfile::tempdir().expect("tmp");
+        std::fs::write(dir.path().join(FILE), b"not a database at all, just some bytes").expect("write");
+        let e = Journal::open(dir.path()).expect_err("damaged");
+        assert!(e.to_string().starts_with("journal "), "{e}");
+    }
+}

@@ -1,0 +1,153 @@
+//! The journal: every change goes out first, replays to exactly what the manager holds, and a
+//! manager restored from it restarts missions no one runs, keeps terminated ones ended, and holds
+//! membership to it.
+
+use super::*;
+use mrmm_proto::JournalEvent;
+
+/// Drives like the driver: journal entries are committed to `disk` and must come first.
+fn drive_journaled(sm: &mut SystemManager, disk: &mut Durable, now: f64, ev: Event) -> Vec<Command> {
+    let cmds = sm.handle(now, ev);
+    let mut out = Vec::new();
+    for (i, c) in cmds.into_iter().enumerate() {
+        match c {
+            Command::Journal(entries) => {
+                assert_eq!(i, 0, "the journal comes before anything else");
+                for e in &entries {
+                    disk.apply(e);
+                }
+            }
+            Command::DryRun(d) => {
+                let result = d.run();
+                out.extend(drive_journaled(sm, disk, now, Event::DryRunDone { id: d.id, result }));
+            }
+            other => out.push(other),
+        }
+    }
+    assert_eq!(*disk, sm.durable(), "what the journal replays to is what the manager holds");
+    out
+}
+
+fn started_view(name: &str, host: &str, robots: &[String]) -> Box<MissionView> {
+    Box::new(MissionView {
+        name: name.into(),
+        recipe: "patrol".into(),
+        planner: "patrol".into(),
+        status: MissionStatus::Running,
+        robots: robots.to_vec(),
+        lost: vec![],
+        teams: Default::default(),
+        manager: ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![] },
+        metrics: MissionMetrics::default(),
+        summary: None,
+        params: Default::default(),
+        error: None,
+        plans: None,
+    })
+}
+
+/// A fleet of `ids` with mission `p1` (r1, r2) running and mission `gone` terminated; its disk.
+fn with_journal(ids: &[&str]) -> (SystemManager, Durable) {
+    let mut sm = with_host(ids);
+    let mut disk = Durable::default();
+    for (name, robots, req) in [("p1", r#"["r1", "r2"]"#, 1), ("gone", r#"["r3"]"#, 2)] {
+        let body = format!(r#"{{"name": "{name}", "recipe": "patrol", "robots": {robots}, {WAYPOINTS}}}"#);
+        let cmds = drive_journaled(&mut sm, &mut disk, 1.0, Event::Operator { req: Req::Query(req), request: Request::Create(decode(&body)) });
+        let start = cmds.iter().find_map(|c| match c {
+            Command::StartMission { host, start } => Some((host.clone(), start.members.iter().map(|m| m.spec.id.clone()).collect::<Vec<_>>())),
+            _ => None,
+        });
+        let (host, robots) = start.expect("a start");
+        let cmds = drive_journaled(&mut sm, &mut disk, 1.5, Event::MissionStarted { mission: name.into(), result: Ok(started_view(name, &host, &robots)) });
+        assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Ok(_), .. })), "{cmds:?}");
+    }
+    drive_journaled(&mut sm, &mut disk, 2.0, Event::Operator { req: Req::Query(3), request: Request::Terminate(decode(r#"{"name": "gone"}"#)) });
+    (sm, disk)
+}
+
+#[test]
+fn every_change_is_on_disk_before_it_is_said_and_replays_exactly() {
+    let (mut sm, mut disk) = with_journal(&["r1", "r2", "r3", "r4"]);
+    assert_eq!(disk.assignment.get("r1").map(String::as_str), Some("p1"));
+    assert!(disk.terminated.contains("gone") && !disk.missions.contains_key("gone"));
+    let spec = disk.missions.get("p1").and_then(|d| d.spec.clone()).expect("the whole spec");
+    assert!(spec.recipe_xml.contains("<recipe") && spec.params.contains_key("waypoints"), "{spec:?}");
+    // A move: the entry comes in the same batch as the reply, before it.
+    let cmds = sm.handle(3.0, Event::Operator { req: Req::Query(4), request: Request::Move(decode(r#"{"robot": "r4", "to": "p1"}"#)) });
+    let Some(Command::Journal(entries)) = cmds.first() else { panic!("journal first: {cmds:?}") };
+    assert!(entries.contains(&JournalEvent::RobotAssigned { robot: "r4".into(), mission: Some("p1".into()) }), "{entries:?}");
+    assert!(entries.iter().any(|e| matches!(e, JournalEvent::Command { command, .. } if command == "robot move")), "{entries:?}");
+    for e in entries {
+        disk.apply(e);
+    }
+    assert_eq!(disk, sm.durable());
+    // Telemetry that changes nothing durable writes nothing.
+    let cmds = sm.handle(3.5, Event::Telemetry(Box::new(telemetry("r3", 9, Behaviour::Hold))));
+    assert!(!cmds.iter().any(|c| matches!(c, Command::Journal(_))), "{cmds:?}");
+    // A loss is history.
+    let cmds = sm.handle(4.0, Event::RobotGone { id: "r2".into() });
+    assert_eq!(cmds.first(), Some(&Command::Journal(vec![JournalEvent::RobotLost { robot: "r2".into() }])));
+}
+
+/// A manager started from `disk` with `alive` robots back (running nothing) and central's host up.
+fn restored(disk: &Durable, alive: &[&str]) -> SystemManager {
+    let mut sm = SystemManager::restore("node".into(), 0.0, disk.clone());
+    sm.handle(0.0, Event::HostAlive { node: "central".into() });
+    for id in alive {
+        sm.handle(0.0, Event::RobotAlive { id: (*id).into() });
+        sm.handle(0.0, Event::RobotRegistered(info(id)));
+        sm.handle(0.0, Event::Telemetry(Box::new(telemetry(id, 1, Behaviour::Hold))));
+    }
+    sm
+}
+
+#[test]
+fn after_a_power_cycle_missions_start_again_with_their_live_robots_and_terminated_ones_stay_ended() {
+    let (_, disk) = with_journal(&["r1", "r2", "r3"]);
+    let mut sm = restored(&disk, &["r1", "r3"]);
+    assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"), "membership from the journal");
+    // Heads get their chance to report first.
+    let early: Vec<Command> = sm.handle(RESTART_S - 1.0, Event::Tick);
+    assert!(!early.iter().any(|c| matches!(c, Command::StartMission { .. })), "{early:?}");
+    let cmds = sm.handle(RESTART_S + 0.1, Event::Tick);
+    let starts: Vec<(String, Vec<String>)> = cmds
+        .iter()
+        .filter_map(|c| match c {
+            Command::StartMission { start, .. } => Some((start.spec.name.clone(), start.members.iter().map(|m| m.spec.id.clone()).collect())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(starts, [("p1".to_string(), vec!["r1".to_string()])], "p1 again with r1, the one alive; never `gone`");
+    let Some(Command::Journal(e)) = cmds.first() else { panic!("{cmds:?}") };
+    assert!(e.contains(&JournalEvent::MissionRestarted { mission: "p1".into(), robots: vec!["r1".into()] }));
+    // No second start while that one is out; a failed one is tried again, never forgotten.
+    assert!(!sm.handle(RESTART_S + 1.0, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })));
+    sm.handle(RESTART_S + 1.5, Event::MissionStarted { mission: "p1".into(), result: Err(Failure { retryable: true, error: "no answer".into() }) });
+    assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"));
+    let again = sm.handle(RESTART_S + 1.5 + RESTART_RETRY_S + 0.1, Event::Tick);
+    assert!(again.iter().any(|c| matches!(c, Command::StartMission { .. })), "{again:?}");
+    // A robot still running the terminated mission is told to leave it.
+    let mut t = telemetry("r3", 2, Behaviour::Hold);
+    t.mission = Some("gone".into());
+    let cmds = sm.handle(20.0, Event::Telemetry(Box::new(t)));
+    assert!(cmds.iter().any(|c| matches!(c, Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } if robot == "r3" && mission == "gone")), "{cmds:?}");
+    // The name of a terminated mission is free again, and a new create of it is not refused.
+}
+
+#[test]
+fn a_mission_whose_managers_live_is_adopted_not_restarted_and_membership_follows_the_journal() {
+    let (_, disk) = with_journal(&["r1", "r2", "r3", "r4"]);
+    let mut sm = restored(&disk, &["r1", "r2", "r4"]);
+    // r1 says it runs p1: its managers are alive somewhere; nothing is started.
+    let mut t = telemetry("r1", 2, Behaviour::Hold);
+    t.mission = Some("p1".into());
+    sm.handle(1.0, Event::Telemetry(Box::new(t)));
+    assert!(!sm.handle(RESTART_S + 1.0, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })));
+    // Its head reports it with r4, which the journal does not put there (the operator freed it
+    // before central went down): the head is told to let r4 go, r4 stays free.
+    let cmds = sm.handle(RESTART_S + 2.0, status(*started_view("p1", "central", &["r1".into(), "r2".into(), "r4".into()])));
+    assert!(cmds.iter().any(|c| matches!(c, Command::Ctl { mission, ctl, .. } if mission == "p1" && *ctl == left(&["r4"]))), "{cmds:?}");
+    assert_eq!(mission_of(&sm, "r4"), None);
+    assert_eq!(mission_of(&sm, "r2").as_deref(), Some("p1"));
+    assert!(!sm.handle(RESTART_S + 20.0, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })), "a reported mission is never started again");
+}
