@@ -111,6 +111,17 @@ impl Invariants {
         *a = (*a).max(revision);
     }
 
+    /// Central started `mission` again from its journal (no live node replicated it): a new
+    /// lineage, whose revisions start over.
+    pub fn started_again(&mut self, mission: &str) {
+        self.heads.retain(|(m, _), _| m != mission);
+        self.committed.retain(|(m, _), _| m != mission);
+        self.newest_committed.remove(mission);
+        self.acked.remove(mission);
+        self.teams.remove(mission);
+        self.arrivals.retain(|(m, _, _), _| m != mission);
+    }
+
     /// Missions no node replicates any more are over.
     pub fn forget_missions(&mut self, alive: &BTreeSet<String>) {
         self.teams.retain(|m, _| alive.contains(m));

@@ -64,6 +64,8 @@ struct Node {
     team: Option<(String, String)>,
     /// Central's journal: what it committed, kept across crashes (the disk).
     disk: mrmm_manager::system::Durable,
+    /// When central last crashed.
+    down: Option<f64>,
 }
 
 /// What a query asks of its server.
@@ -175,15 +177,15 @@ impl World {
     pub fn new(cfg: Config, trace: bool) -> World {
         let mut nodes = Vec::new();
         if cfg.central {
-            nodes.push(Node { name: CENTRAL_HOST.into(), kind: Kind::Central, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None, disk: Default::default() });
+            nodes.push(Node { name: CENTRAL_HOST.into(), kind: Kind::Central, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None, disk: Default::default(), down: None });
         }
         for i in 1..=cfg.hosts {
-            nodes.push(Node { name: format!("h{i}"), kind: Kind::Host, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None, disk: Default::default() });
+            nodes.push(Node { name: format!("h{i}"), kind: Kind::Host, central: None, host: None, robot: None, cfg: None, served: BTreeSet::new(), team: None, disk: Default::default(), down: None });
         }
         for i in 1..=cfg.robots {
             let id = format!("r{i}");
             let c = robot_cfg(&id, i as f64 * 2.0, -3.0);
-            nodes.push(Node { name: id, kind: Kind::Robot, central: None, host: None, robot: None, cfg: Some(c), served: BTreeSet::new(), team: None, disk: Default::default() });
+            nodes.push(Node { name: id, kind: Kind::Robot, central: None, host: None, robot: None, cfg: Some(c), served: BTreeSet::new(), team: None, disk: Default::default(), down: None });
         }
         let n = nodes.len();
         let mut w = World {
@@ -239,7 +241,8 @@ impl World {
         match n.kind {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
-                n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone()));
+                // The sim's clock is central's: its last sign of life is when it crashed.
+                n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone(), n.down));
                 n.host = Some(HostCore::new(&n.name, params, now));
             }
             Kind::Host => n.host = Some(HostCore::new(&n.name, params, now)),
@@ -453,6 +456,9 @@ impl World {
             c.start.y = t.y;
             c.start.theta = t.theta;
         }
+        if n.central.is_some() {
+            n.down = Some(self.now);
+        }
         n.central = None;
         n.host = None;
         n.robot = None;
@@ -572,6 +578,7 @@ impl World {
             system::Command::SendToRobot { req, robot, cmd } => self.ask(Some(i), &robot.clone(), Payload::RobotCmd(cmd), Ctx::CentralRobot { req, robot }),
             system::Command::StartMission { host, start } => {
                 let mission = start.spec.name.clone();
+
                 self.ask(Some(i), &host, Payload::HostStart(start), Ctx::CentralStart(mission))
             }
             system::Command::Ctl { id, mission, ctl, .. } => self.ask_mission(Some(i), &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::CentralCtl(id)),
@@ -882,7 +889,26 @@ impl World {
                     self.reply(qid, Ok(Answer::Info(info)));
                 }
             }
-            Payload::HostStart(start) => self.host(s, host::Event::Start { query: qid, start, from })?,
+            Payload::HostStart(start) => {
+                let mission = start.spec.name.clone();
+                let again = self.nodes.iter().any(|n| n.central.as_ref().is_some_and(|c| c.system().restarting(&mission)));
+                let before = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
+                // Central starts a mission again from its journal: a new lineage, which the host
+                // may take only when no other live node replicates the old one.
+                let holders: Vec<String> = (0..self.nodes.len())
+                    .filter(|n| *n != s && self.links.up[*n])
+                    .filter(|n| self.nodes[*n].host.as_ref().and_then(|h| h.replica(&mission)).is_some_and(|r| r.state().is_some()))
+                    .map(|n| self.nodes[n].name.clone())
+                    .collect();
+                if again && !before {
+                    self.inv.started_again(&mission);
+                }
+                self.host(s, host::Event::Start { query: qid, start, from })?;
+                let after = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
+                if again && !before && after && !holders.is_empty() {
+                    return Err(format!("{} started {mission} anew while {holders:?} still replicate it", self.nodes[s].name));
+                }
+            }
             Payload::Ctl { mission, ctl } => self.host(s, host::Event::Ctl { query: qid, mission, ctl, from })?,
             Payload::View(mission) => self.host(s, host::Event::View { query: qid, mission })?,
             Payload::Planner(request, kind) => {

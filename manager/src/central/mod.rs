@@ -112,13 +112,23 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     }
 
     let t0 = Instant::now();
-    let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state);
+    // When the previous central was last alive, on this loop's clock (0 = now).
+    let wall_ms = || std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64);
+    let prev_alive = journal.as_ref().and_then(|j| j.prev_alive_ms()).map(|ms| (ms as f64 - wall_ms() as f64) / 1000.0);
+    let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state, prev_alive);
+    let mut beat = tokio::time::interval(Duration::from_secs_f64(crate::journal::BEAT_S));
     let mut io = Io { mesh: mesh.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
     let mut tick = tokio::time::interval(TICK);
     let mut refused = 0;
     loop {
         let event = tokio::select! {
             _ = shutdown.cancelled() => break,
+            _ = beat.tick() => {
+                if let Some(j) = journal.as_mut() {
+                    tokio::task::block_in_place(|| j.beat(wall_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
+                }
+                continue;
+            }
             _ = tick.tick() => {
                 let total = mesh.verifier().refused.total();
                 if total != refused {

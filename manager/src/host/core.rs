@@ -108,7 +108,15 @@ pub struct HostCore {
     robot_admitted: BTreeMap<String, Vec<String>>,
     /// The chain of each of our robot's missions, as a head our robot trusts last published it.
     trusted_chain: BTreeMap<String, Vec<String>>,
+    /// Missions this node holds nothing of whose chain messages it hears: when, and from whom.
+    /// A start of such a mission (central starting it again from its journal) is refused while
+    /// they come: its old chain lives, and may take over again.
+    foreign: BTreeMap<String, (f64, String)>,
 }
+
+/// For this long after the last chain message of a mission this node holds nothing of, it
+/// refuses to start it.
+pub const FOREIGN_CHAIN_S: f64 = 3.0;
 
 fn json<T: serde::Serialize>(v: &T) -> Result<Value, String> {
     serde_json::to_value(v).map_err(|e| e.to_string())
@@ -127,6 +135,7 @@ impl HostCore {
             robot_missions: BTreeMap::new(),
             robot_admitted: BTreeMap::new(),
             trusted_chain: BTreeMap::new(),
+            foreign: BTreeMap::new(),
         }
     }
 
@@ -288,6 +297,10 @@ impl HostCore {
             }
             Event::Chain { envelope, from: sender } => {
                 let ChainEnvelope { mission, from, msg } = *envelope;
+                let holds = self.registry.replica(&mission).is_some_and(|r| r.config().is_some());
+                if !holds && !self.heads.contains_key(&mission) && self.foreign.len() < 1024 {
+                    self.foreign.insert(mission.clone(), (now, from.clone()));
+                }
                 if sender.id != from || !self.may_chain(&mission, &sender) {
                     // A head or candidate this node no longer counts in the mission (it left the
                     // chain while cut off, say) is told it is behind, as the chain would: it
@@ -392,6 +405,10 @@ impl HostCore {
         let name = spec.name.clone();
         if self.heads.contains_key(&name) || self.registry.replica(&name).is_some_and(|r| r.config().is_some()) {
             return out.push(Command::Reply { query, result: Err(format!("mission {name:?} is already hosted here")) });
+        }
+        self.foreign.retain(|_, (t, _)| now - *t < FOREIGN_CHAIN_S);
+        if let Some((_, node)) = self.foreign.get(&name) {
+            return out.push(Command::Reply { query, result: Err(format!("mission {name:?} still has a chain ({node} replicates it): not started anew")) });
         }
         let mut mm = MissionManager::new(spec, self.node.clone(), start.members.clone());
         // The first replicas: members whose hosts are up, in id order.

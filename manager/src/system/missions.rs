@@ -280,8 +280,11 @@ impl SystemManager {
     pub(super) fn move_robot(&mut self, req: Req, mv: RobotMove) -> Vec<Command> {
         let reply = |req: Req, result| vec![Command::Reply { req, result }];
         let from = self.assignment.get(&mv.robot).cloned();
-        let Some(alive) = self.robots.get(&mv.robot).filter(|r| r.info.is_some()).map(|r| r.alive) else {
-            return reply(req, Err(format!("unknown robot {:?}", mv.robot)));
+        // A robot of a mission that has not come back since central restarted may be freed too.
+        let alive = match self.robots.get(&mv.robot).filter(|r| r.info.is_some()) {
+            Some(r) => r.alive,
+            None if from.is_some() && mv.to.is_none() => false,
+            None => return reply(req, Err(format!("unknown robot {:?}", mv.robot))),
         };
         if !alive && mv.to.is_some() {
             return reply(req, Err(format!("robot {:?} is lost", mv.robot)));

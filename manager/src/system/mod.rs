@@ -47,6 +47,8 @@ pub const ADOPT_S: f64 = 2.0;
 pub const RESTART_S: f64 = 5.0;
 /// Seconds between two attempts to start a journaled mission again.
 pub const RESTART_RETRY_S: f64 = 5.0;
+/// How stale the previous manager's last sign of life may be (its heartbeat period).
+pub const RESTART_BEAT_S: f64 = 5.0;
 
 /// Who asked: an operator query held by the driver, or the advising agent (for an advice).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -253,6 +255,11 @@ pub struct SystemManager {
     notes: Vec<JournalEvent>,
     /// Journaled missions being started again.
     restarts: BTreeMap<String, Restart>,
+    /// When the previous system manager of this journal was last known alive (this manager's
+    /// clock): a robot up since before then may hold replicas of the missions it managed.
+    prev_alive: Option<f64>,
+    /// Said once that missions wait for such robots.
+    restart_blocked: bool,
 }
 
 impl SystemManager {
@@ -279,14 +286,21 @@ impl SystemManager {
             journaled: Durable::default(),
             notes: Vec::new(),
             restarts: BTreeMap::new(),
+            prev_alive: None,
+            restart_blocked: false,
         }
     }
 
     /// A system manager that starts from what its journal holds: the missions it defined are
     /// known (those no live manager reports are started again after [`RESTART_S`]), robots are
     /// in the missions the journal says, terminated missions stay terminated.
-    pub fn restore(node: String, now: f64, state: Durable) -> Self {
+    ///
+    /// `prev_alive` is when the previous manager was last known alive (this manager's clock,
+    /// within `beat` seconds): only a fleet whose live robots all started after that is known
+    /// to hold no replica of a mission, so only then is a mission started again.
+    pub fn restore(node: String, now: f64, state: Durable, prev_alive: Option<f64>) -> Self {
         let mut m = SystemManager::new(node, now);
+        m.prev_alive = prev_alive;
         for (name, def) in &state.missions {
             m.missions.insert(name.clone(), MissionRecord { host: def.host.clone(), def: def.clone(), view: None, adopted: false });
         }
@@ -295,6 +309,11 @@ impl SystemManager {
         m.notes.push(JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() });
         m.journaled = state;
         m
+    }
+
+    /// Whether `mission` is being started again from the journal (no live manager ran it).
+    pub fn restarting(&self, mission: &str) -> bool {
+        self.restarts.contains_key(mission)
     }
 
     /// The durable part as it is now.
@@ -393,6 +412,10 @@ impl SystemManager {
                 match self.assignment.get(&id).cloned() {
                     Some(m) => {
                         self.rejoin(&m);
+                        // Down when its mission was started again: its head never knew it.
+                        if self.missions.get(&m).is_some_and(|r| !r.adopted) {
+                            self.resync(&m);
+                        }
                         self.admit(&m, std::slice::from_ref(&id))
                     }
                     None => vec![],
@@ -559,6 +582,28 @@ impl SystemManager {
     /// (the others rejoin as they come back). A mission some robot says it runs is left alone:
     /// its managers are alive somewhere, and will report.
     fn restart_orphans(&mut self, now: f64) {
+        // A robot up since before the previous manager went down may replicate one of its
+        // missions (even one it left): starting that mission anew would make a second lineage
+        // beside the chain that may still take over. Every live robot's start is known from its
+        // telemetry (simulated seconds since it started, over its time scale).
+        let Some(down) = self.prev_alive else { return };
+        let old: Vec<&String> = self
+            .robots
+            .iter()
+            .filter(|(_, r)| r.alive)
+            .filter(|(_, r)| match (&r.last, &r.info) {
+                (Some(t), Some(i)) if i.time_scale > 0.0 => now - t.t / i.time_scale <= down + RESTART_BEAT_S,
+                _ => true,
+            })
+            .map(|(id, _)| id)
+            .collect();
+        if !old.is_empty() {
+            if !self.restart_blocked && self.missions.values().any(|r| r.view.is_none()) {
+                tracing::warn!(robots = ?old, "robots up since before central went down may still replicate its missions: missions no manager reports are not started anew");
+                self.restart_blocked = true;
+            }
+            return;
+        }
         let orphans: Vec<String> = self
             .missions
             .iter()
@@ -577,6 +622,12 @@ impl SystemManager {
             let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.hosts.contains(*h)).map(str::to_string);
             let Some(host) = host else { continue };
             let ids: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == name).map(|(r, _)| r.clone()).collect();
+            // Every member back: one still away may be cut off with the mission's chain, which
+            // would go on beside a new one. (Free a robot that never comes back to let its
+            // mission start without it.)
+            if !ids.iter().all(|id| self.robots.get(id).is_some_and(|r| r.alive && r.info.is_some())) {
+                continue;
+            }
             let members: Vec<Member> = ids.iter().filter(|id| self.robots.get(*id).is_some_and(|r| r.alive)).filter_map(|id| self.member(id)).collect();
             if members.is_empty() {
                 continue;
@@ -641,6 +692,7 @@ impl SystemManager {
                     if let Some(rec) = self.missions.get_mut(name) {
                         rec.view = Some(*view);
                     }
+                    self.resync(name);
                 }
                 Err(f) => {
                     r.next = self.now + RESTART_RETRY_S;

@@ -143,10 +143,16 @@ impl SystemManager {
             }
             let name = view.name.clone();
             let (robots, lost) = (view.robots.clone(), view.lost.clone());
+            // The first report since this manager started from its journal: the head may have
+            // missed joins ordered before the restart.
+            let first = rec.view.is_none() && !rec.adopted;
             rec.view = Some(view);
             self.notes.append(&mut notes);
             let out = self.reconcile(&name, &robots, &lost, &from);
             self.rejoin(&name);
+            if first && !self.pending_create.contains_key(&name) {
+                self.resync(&name);
+            }
             return out;
         }
         if !self.hosts.contains(&view.manager.node) || self.pending_create.contains_key(&view.name) {
@@ -222,6 +228,32 @@ impl SystemManager {
                     let after = self.pending_release(&id);
                     self.ctls.push(name, MissionCtl::Joined { member }, after);
                 }
+            }
+        }
+    }
+
+    /// Orders `name`'s head to take the robots this manager has in the mission that its view
+    /// lists neither as members nor as lost (joins it missed while this manager was down, or
+    /// members that were down when the mission was started again), alive and not already on
+    /// their way to it.
+    pub(super) fn resync(&mut self, name: &str) {
+        let Some(view) = self.missions.get(name).and_then(|r| r.view.as_ref()) else { return };
+        let missing: Vec<String> = self
+            .assignment
+            .iter()
+            .filter(|(id, m)| m.as_str() == name && !view.robots.contains(id) && !view.lost.contains(id))
+            .map(|(id, _)| id.clone())
+            .collect();
+        for id in missing {
+            let alive = self.robots.get(&id).is_some_and(|r| r.alive && r.info.is_some());
+            let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
+            if !alive || pending {
+                continue;
+            }
+            if let Some(member) = self.member(&id) {
+                tracing::info!(mission = %name, robot = %id, "in the mission by the journal, unknown to its head: it joins");
+                let after = self.pending_release(&id);
+                self.ctls.push(name, MissionCtl::Joined { member }, after);
             }
         }
     }

@@ -1,5 +1,6 @@
 //! `mrmm op`: operator commands; thin clients of the system manager's keys.
 
+pub mod journal;
 pub mod mission;
 
 use std::time::Duration;
@@ -50,6 +51,13 @@ enum What {
     Missions,
     /// The advising agent's standing advice, most urgent first (`mrmm/agent/advice`).
     Advice,
+    /// Central's journal: commands, membership changes, losses, takeovers, replans
+    /// (`mrmm/system/journal?since=SEQ`).
+    Journal {
+        /// Only entries after this sequence number.
+        #[arg(long, default_value_t = 0)]
+        since: u64,
+    },
     /// Live console: fleet, missions and advice, redrawn in place every second (Ctrl-C stops).
     Watch {
         /// Stop after this many seconds.
@@ -122,6 +130,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             let advice: Vec<Advice> = serde_json::from_value(v)?;
             print!("{}", advice_lines(&advice));
         }
+        What::Journal { since } => journal::exec(client, since, json).await?,
         What::Watch { duration } => watch(client, duration).await?,
     }
     Ok(())

@@ -91,7 +91,8 @@ fn every_change_is_on_disk_before_it_is_said_and_replays_exactly() {
 
 /// A manager started from `disk` with `alive` robots back (running nothing) and central's host up.
 fn restored(disk: &Durable, alive: &[&str]) -> SystemManager {
-    let mut sm = SystemManager::restore("node".into(), 0.0, disk.clone());
+    // The previous central went down long before these robots started.
+    let mut sm = SystemManager::restore("node".into(), 0.0, disk.clone(), Some(-100.0));
     sm.handle(0.0, Event::HostAlive { node: "central".into() });
     for id in alive {
         sm.handle(0.0, Event::RobotAlive { id: (*id).into() });
@@ -106,6 +107,11 @@ fn after_a_power_cycle_missions_start_again_with_their_live_robots_and_terminate
     let (_, disk) = with_journal(&["r1", "r2", "r3"]);
     let mut sm = restored(&disk, &["r1", "r3"]);
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"), "membership from the journal");
+    // r2 (of p1) does not come back: p1 waits for it — it may be cut off with p1's chain —
+    // until the operator frees it.
+    assert!(!sm.handle(RESTART_S + 0.05, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })));
+    let freed = sm.handle(RESTART_S + 0.07, Event::Operator { req: Req::Query(9), request: Request::Move(decode(r#"{"robot": "r2", "to": null}"#)) });
+    assert!(freed.iter().any(|c| matches!(c, Command::Reply { result: Ok(_), .. })), "{freed:?}");
     // Heads get their chance to report first.
     let early: Vec<Command> = sm.handle(RESTART_S - 1.0, Event::Tick);
     assert!(!early.iter().any(|c| matches!(c, Command::StartMission { .. })), "{early:?}");
@@ -150,4 +156,43 @@ fn a_mission_whose_managers_live_is_adopted_not_restarted_and_membership_follows
     assert_eq!(mission_of(&sm, "r4"), None);
     assert_eq!(mission_of(&sm, "r2").as_deref(), Some("p1"));
     assert!(!sm.handle(RESTART_S + 20.0, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })), "a reported mission is never started again");
+}
+
+#[test]
+fn a_head_that_missed_a_join_before_the_restart_is_told_again() {
+    let (_, disk) = with_journal(&["r1", "r2", "r3"]);
+    let mut sm = restored(&disk, &["r1", "r2"]);
+    // The head never got r2's join (central went down first): its first report lacks r2.
+    let cmds = sm.handle(RESTART_S - 1.0, status(*started_view("p1", "central", &["r1".into()])));
+    let joined: Vec<&str> = cmds
+        .iter()
+        .filter_map(|c| match c {
+            Command::Ctl { mission, ctl: MissionCtl::Joined { member }, .. } if mission == "p1" => Some(member.spec.id.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(joined, ["r2"], "{cmds:?}");
+}
+
+#[test]
+fn a_robot_up_since_before_central_went_down_blocks_starting_anew() {
+    let (_, disk) = with_journal(&["r1", "r2", "r3"]);
+    // Central went down at 0 (this manager's clock); r3 has been up for 100 s: it may still
+    // replicate p1, even though it left it.
+    let mut sm = SystemManager::restore("node".into(), 0.5, disk.clone(), Some(0.0));
+    sm.handle(0.5, Event::HostAlive { node: "central".into() });
+    for (id, up) in [("r1", 0.2), ("r2", 0.3), ("r3", 100.0)] {
+        sm.handle(0.5, Event::RobotAlive { id: id.into() });
+        sm.handle(0.5, Event::RobotRegistered(info(id)));
+        let mut t = telemetry(id, 1, Behaviour::Hold);
+        t.t = up;
+        sm.handle(0.5, Event::Telemetry(Box::new(t)));
+    }
+    for now in [RESTART_S + 1.0, RESTART_S + 30.0] {
+        assert!(!sm.handle(now, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })), "never while r3 may replicate");
+    }
+    // r3 restarts (its process is new): nothing can replicate p1 any more.
+    sm.handle(RESTART_S + 31.0, Event::RobotGone { id: "r3".into() });
+    let cmds = sm.handle(RESTART_S + 32.0, Event::Tick);
+    assert!(cmds.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.spec.name == "p1")), "{cmds:?}");
 }

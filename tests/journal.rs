@@ -1,0 +1,285 @@
+//! Central's journal with real processes: a power cycle of the whole fleet brings the missions
+//! back as they were, and central killed at seeded instants inside a burst of operator commands
+//! loses no command it said "ok" to and half-applies none it did not answer.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use anyhow::{bail, ensure, Context};
+use common::{eventually, start, start_robot_scaled, Proc, Scratch};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, JournalEvent, JournalPage, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotView};
+use rand::{Rng, SeedableRng};
+use serde_json::{json, Value};
+
+/// A loopback port free right now (central listens on the same one after its restart, so the
+/// robots' configs still name it).
+fn free_port() -> anyhow::Result<u16> {
+    Ok(std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
+}
+
+fn central(dir: &Scratch, ep: &str, log: &str) -> anyhow::Result<Proc> {
+    let state = dir.path("central-state").display().to_string();
+    start("central", &["central", "--listen", ep, "--state-dir", &state], &dir.path(log), "central ready", Duration::from_secs(20))
+}
+
+async fn robots(c: &Client) -> Vec<RobotView> {
+    c.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default()
+}
+
+async fn missions(c: &Client) -> Vec<MissionView> {
+    c.query(proto::Key::SystemMissions, None::<&()>).await.unwrap_or_default()
+}
+
+/// Robot → mission, as central says.
+async fn placement(c: &Client) -> BTreeMap<String, Option<String>> {
+    robots(c).await.into_iter().map(|r| (r.id, r.mission)).collect()
+}
+
+async fn journal(c: &Client) -> anyhow::Result<Vec<proto::JournalEntry>> {
+    let mut since = 0;
+    let mut all = Vec::new();
+    loop {
+        let page: JournalPage = c.query(format!("{}?since={since}", proto::Key::SystemJournal), None::<&()>).await?;
+        all.extend(page.entries);
+        if !page.more {
+            return Ok(all);
+        }
+        since = page.next;
+    }
+}
+
+/// SIGKILLs all of `procs` in one `kill` call, then reaps them.
+fn kill_all(procs: &mut [&mut Proc]) -> anyhow::Result<()> {
+    let pids: Vec<String> = procs.iter().map(|p| p.pid().to_string()).collect();
+    let st = std::process::Command::new("kill").arg("-9").args(&pids).status()?;
+    ensure!(st.success(), "kill -9 failed");
+    for p in procs.iter_mut() {
+        p.kill();
+    }
+    Ok(())
+}
+
+fn patrol(name: &str, robots: &[&str]) -> MissionCreate {
+    MissionCreate {
+        name: name.into(),
+        recipe: "patrol".into(),
+        robots: Some(robots.iter().map(|s| s.to_string()).collect()),
+        params: [("waypoints".to_string(), json!([[0, 0], [12, 0], [12, 12], [0, 12]])), ("sync_spacing_max".to_string(), json!(30))].into(),
+        ..MissionCreate::default()
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result<()> {
+    let dir = Scratch::new("power-cycle");
+    let ep = format!("tcp/127.0.0.1:{}", free_port()?);
+    let mut c = central(&dir, &ep, "central.log")?;
+    let ids = ["r1", "r2", "r3", "r4"];
+    let mut rs: Vec<Proc> = ids.iter().enumerate().map(|(i, id)| start_robot_scaled(&dir, id, &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 4).await?;
+    let cmd = |c| proto::Key::SystemCmd(c);
+    let _: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&patrol("p", &["r1", "r2", "r3"]))).await?;
+    let coverage = MissionCreate {
+        name: "c".into(),
+        recipe: "coverage".into(),
+        robots: Some(vec!["r4".into()]),
+        params: [("region".to_string(), json!([[-30, -30], [-10, -30], [-10, -10], [-30, -10]]))].into(),
+        ..MissionCreate::default()
+    };
+    let _: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&coverage)).await?;
+    let _: Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: "r3".into(), to: Some("c".into()) })).await?;
+    // A third mission takes its share (one robot, from the larger mission), and is terminated.
+    let third = MissionCreate { name: "t".into(), robots: None, ..patrol("t", &[]) };
+    let t: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&third)).await?;
+    ensure!(t.robots.len() == 1, "t takes one robot: {:?}", t.robots);
+    let _: Value = client.query(cmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: "t".into() })).await?;
+    let before = placement(&client).await;
+    let params_before: BTreeMap<String, BTreeMap<String, String>> = missions(&client).await.into_iter().map(|m| (m.name, m.params)).collect();
+    ensure!(params_before.keys().map(String::as_str).eq(["c", "p"]), "{params_before:?}");
+    println!("before the power cycle: {before:?}");
+    client.close().await;
+
+    // Power cut: every process at once.
+    {
+        let mut all: Vec<&mut Proc> = rs.iter_mut().collect();
+        all.push(&mut c);
+        kill_all(&mut all)?;
+    }
+    let t0 = std::time::Instant::now();
+    let _c = central(&dir, &ep, "central2.log")?;
+    rs = ids.iter().enumerate().map(|(i, id)| start_robot_scaled(&dir, id, &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    // Both missions run again, with the same members and parameters; t stays terminated.
+    eventually("both missions running again with their members", Duration::from_secs(30), || async {
+        let ms = missions(&client).await;
+        let running = ms.iter().filter(|m| m.status == proto::MissionStatus::Running).count();
+        let moving = robots(&client).await.iter().filter(|r| r.mission.is_some() && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync") || b.contains("step"))).count();
+        (ms.len() == 2 && running == 2 && placement(&client).await == before && moving >= 3).then_some(())
+    })
+    .await?;
+    println!("power cycle → both missions running again with their members: {:?}", t0.elapsed());
+    let after: BTreeMap<String, BTreeMap<String, String>> = missions(&client).await.into_iter().map(|m| (m.name, m.params)).collect();
+    ensure!(after == params_before, "parameters changed: {after:?} vs {params_before:?}");
+    // The journal lists it all.
+    let j = journal(&client).await?;
+    let commands: Vec<String> = j.iter().filter_map(|e| match &e.event {
+        JournalEvent::Command { command, .. } => Some(command.clone()),
+        _ => None,
+    }).collect();
+    ensure!(commands == ["mission create", "mission create", "robot move", "mission create", "mission terminate"], "{commands:?}");
+    ensure!(j.iter().any(|e| matches!(&e.event, JournalEvent::MissionRemoved { mission, terminated: true } if mission == "t")), "t terminated in the journal");
+    ensure!(j.iter().filter(|e| matches!(e.event, JournalEvent::CentralStarted { .. })).count() == 2, "two starts of central");
+    let restarted: Vec<&str> = j.iter().filter_map(|e| match &e.event {
+        JournalEvent::MissionRestarted { mission, .. } => Some(mission.as_str()),
+        _ => None,
+    }).collect();
+    ensure!(restarted.contains(&"p") && restarted.contains(&"c") && !restarted.contains(&"t"), "{restarted:?}");
+    ensure!(j.windows(2).all(|w| w[1].seq == w[0].seq + 1 && w[1].at_ms >= w[0].at_ms), "sequence numbers without gaps");
+    // `mrmm op journal` shows the same, from any terminal.
+    let out = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "journal"]).output()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    ensure!(out.status.success() && text.contains("mission t terminated") && text.contains("operator: robot move"), "{text}");
+    drop(rs);
+    Ok(())
+}
+
+/// One operator command of the burst, and how it changes robot → mission when it succeeds.
+#[derive(Debug, Clone)]
+enum Op {
+    Move { robot: String, to: Option<String> },
+    Create { name: String, robot: String },
+    Terminate { name: String },
+}
+
+type Model = (BTreeMap<String, String>, std::collections::BTreeSet<String>);
+
+fn apply(model: &mut Model, op: &Op, answer: &Value) {
+    let (placed, missions) = model;
+    match op {
+        Op::Move { robot, to: Some(m) } => {
+            placed.insert(robot.clone(), m.clone());
+        }
+        Op::Move { robot, to: None } => {
+            placed.remove(robot);
+        }
+        Op::Create { name, .. } => {
+            missions.insert(name.clone());
+            for r in answer["robots"].as_array().into_iter().flatten().filter_map(|r| r.as_str()) {
+                placed.insert(r.to_string(), name.clone());
+            }
+        }
+        Op::Terminate { name } => {
+            missions.remove(name);
+            placed.retain(|_, m| m != name);
+        }
+    }
+}
+
+async fn send(c: &Client, op: &Op) -> Result<Value, String> {
+    let r = match op {
+        Op::Move { robot, to } => c.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.clone(), to: to.clone() })).await,
+        Op::Create { name, robot } => c.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol(name, &[robot.as_str()]))).await,
+        Op::Terminate { name } => c.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: name.clone() })).await,
+    };
+    r.map_err(|e| e.to_string())
+}
+
+/// What central says now: robot → mission, and the missions.
+async fn observed(c: &Client) -> Option<Model> {
+    let rs = robots(c).await;
+    if rs.len() != 4 {
+        return None;
+    }
+    let placed = rs.into_iter().filter_map(|r| Some((r.id, r.mission?))).collect();
+    let ms = c.query::<Vec<MissionView>>(proto::Key::SystemMissions, None::<&()>).await.ok()?;
+    Some((placed, ms.into_iter().map(|m| m.name).collect()))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn central_killed_inside_a_burst_of_commands_keeps_every_ok_and_half_applies_nothing() -> anyhow::Result<()> {
+    let dir = Scratch::new("journal-crash");
+    let ep = format!("tcp/127.0.0.1:{}", free_port()?);
+    let mut c = central(&dir, &ep, "central-0.log")?;
+    let ids = ["r1", "r2", "r3", "r4"];
+    let _rs: Vec<Proc> = ids.iter().enumerate().map(|(i, id)| start_robot_scaled(&dir, id, &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+    common::wait_robots(&client, 4).await?;
+    for (name, robot) in [("a", "r1"), ("b", "r2")] {
+        let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol(name, &[robot]))).await?;
+    }
+    let mut model: Model = (BTreeMap::from([("r1".into(), "a".into()), ("r2".into(), "b".into())]), ["a".to_string(), "b".to_string()].into());
+    client.close().await;
+    let runs: u64 = std::env::var("MRMM_CRASH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(20);
+    let mut total_ok = 0;
+    for run in 0..runs {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(run);
+        let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+        // Central has the journal's view before the burst (it holds commands while it learns).
+        let seen = eventually("central answering with the state of the journal", Duration::from_secs(20), || async {
+            observed(&client).await.filter(|m| *m == model)
+        })
+        .await
+        .with_context(|| format!("run {run}: after restart central does not hold {model:?} (see central-{run}.log)"))?;
+        drop(seen);
+        // The burst: 200 commands one after another; central is killed after the k-th answer,
+        // while the next one is on its way.
+        let k = rng.gen_range(0..200usize);
+        let mut pending: Option<Op> = None;
+        for i in 0..200 {
+            let robot = ids[rng.gen_range(0..4)].to_string();
+            let op = match rng.gen_range(0..10) {
+                0 => Op::Create { name: format!("x{run}_{i}"), robot },
+                1 => match model.1.iter().filter(|m| m.starts_with('x')).next() {
+                    Some(m) => Op::Terminate { name: m.clone() },
+                    None => Op::Terminate { name: "nope".into() },
+                },
+                n => Op::Move { robot, to: match n % 3 { 0 => None, 1 => Some("a".into()), _ => Some("b".into()) } },
+            };
+            if i == k {
+                // Sent, then central dies while handling it: no answer, or an answer that came first.
+                let send_it = send(&client, &op);
+                let kill = async {
+                    tokio::time::sleep(Duration::from_micros(rng.gen_range(0..3000))).await;
+                    c.kill();
+                };
+                let (answer, ()) = tokio::join!(send_it, kill);
+                match answer {
+                    Ok(v) => apply(&mut model, &op, &v),
+                    Err(_) => pending = Some(op),
+                }
+                break;
+            }
+            match send(&client, &op).await {
+                Ok(v) => apply(&mut model, &op, &v),
+                Err(e) if e.contains("timed out") || e.contains("no answer") => bail!("run {run}: command {i} {op:?} unanswered with central up: {e}"),
+                Err(_) => {}
+            }
+        }
+        total_ok += 1;
+        client.close().await;
+        c = central(&dir, &ep, &format!("central-{}.log", run + 1))?;
+        let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+        // Every ok is in effect; the unanswered command is in effect whole, or not at all.
+        let without = model.clone();
+        let got = eventually("all four robots registered again", Duration::from_secs(20), || observed(&client)).await?;
+        if got != without {
+            let Some(op) = &pending else { bail!("run {run}: central holds {got:?}, the answered commands make {without:?}") };
+            // The unanswered command took effect: it must be whole.
+            let mut with = without.clone();
+            let answer = match op {
+                Op::Create { .. } => json!({"robots": got.0.iter().filter(|(_, m)| matches!(op, Op::Create { name, .. } if name == *m)).map(|(r, _)| r.clone()).collect::<Vec<_>>()}),
+                _ => Value::Null,
+            };
+            apply(&mut with, op, &answer);
+            ensure!(got == with, "run {run}: central holds {got:?}: neither {without:?} (without the unanswered {op:?}) nor {with:?} (with it)");
+            model = with;
+        }
+        client.close().await;
+    }
+    println!("{total_ok} crashes inside command bursts: every answered command in effect, no unanswered one half applied");
+    Ok(())
+}
