@@ -18,7 +18,7 @@ const ENTRIES: TableDefinition<u64, &[u8]> = TableDefinition::new("entries");
 const META: TableDefinition<&str, u64> = TableDefinition::new("meta");
 const ALIVE: &str = "alive_ms";
 /// Seconds between two heartbeats.
-pub const BEAT_S: f64 = 5.0;
+pub const BEAT_S: f64 = 2.0;
 
 /// The database file inside the state directory.
 pub const FILE: &str = "journal.redb";

@@ -48,7 +48,7 @@ pub const RESTART_S: f64 = 5.0;
 /// Seconds between two attempts to start a journaled mission again.
 pub const RESTART_RETRY_S: f64 = 5.0;
 /// How stale the previous manager's last sign of life may be (its heartbeat period).
-pub const RESTART_BEAT_S: f64 = 5.0;
+pub const RESTART_BEAT_S: f64 = 2.0;
 
 /// Who asked: an operator query held by the driver, or the advising agent (for an advice).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -586,13 +586,16 @@ impl SystemManager {
         // missions (even one it left): starting that mission anew would make a second lineage
         // beside the chain that may still take over. Every live robot's start is known from its
         // telemetry (simulated seconds since it started, over its time scale).
+        // A robot started after this manager did is new: the previous one was gone by then (it
+        // held the journal until it died).
         let Some(down) = self.prev_alive else { return };
+        let before = (down + RESTART_BEAT_S).min(self.started);
         let old: Vec<&String> = self
             .robots
             .iter()
             .filter(|(_, r)| r.alive)
             .filter(|(_, r)| match (&r.last, &r.info) {
-                (Some(t), Some(i)) if i.time_scale > 0.0 => now - t.t / i.time_scale <= down + RESTART_BEAT_S,
+                (Some(t), Some(i)) if i.time_scale > 0.0 => now - t.t / i.time_scale <= before,
                 _ => true,
             })
             .map(|(id, _)| id)
