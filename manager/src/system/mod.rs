@@ -201,6 +201,11 @@ struct Record {
     leave_sent: Option<f64>,
     /// When it was last admitted again to its mission (it restarted and forgot).
     admit_sent: Option<f64>,
+    /// Seen coming (back) since a head last listed it as present: only such a robot is taken
+    /// back when its head reports it lost (a head may see a loss before this manager does).
+    back: bool,
+    /// When its liveliness last appeared.
+    alive_at: f64,
 }
 
 /// A robot this manager took out of a mission: until the mission acknowledged it (and for a
@@ -366,8 +371,9 @@ impl SystemManager {
                     }
                     return vec![];
                 }
-                if self.robots.get(&id).is_some_and(|r| !r.alive) {
+                if let Some(r) = self.robots.get_mut(&id).filter(|r| !r.alive) {
                     self.notes.push(JournalEvent::RobotBack { robot: id.clone() });
+                    r.back = true;
                 }
                 let rec = self.robots.entry(id.clone()).or_insert(Record {
                     info: None,
@@ -377,8 +383,11 @@ impl SystemManager {
                     fresh: true,
                     leave_sent: None,
                     admit_sent: None,
+                    back: true,
+                    alive_at: now,
                 });
                 rec.alive = true;
+                rec.alive_at = now;
                 rec.fresh = true;
                 // Ask again even if known: a restarted robot may have changed type or endpoints.
                 rec.info_asked = Some(now);

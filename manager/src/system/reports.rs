@@ -216,10 +216,19 @@ impl SystemManager {
     /// Orders `name`'s head to take back its lost members that are alive again (they kept their
     /// place in the mission while away).
     pub(super) fn rejoin(&mut self, name: &str) {
-        let lost = self.missions.get(name).and_then(|r| r.view.as_ref()).map(|v| v.lost.clone()).unwrap_or_default();
+        let (present, lost) = self.missions.get(name).and_then(|r| r.view.as_ref()).map(|v| (v.robots.clone(), v.lost.clone())).unwrap_or_default();
+        // A report listing it present well after it (re)appeared has seen it back.
+        let now = self.now;
+        for id in &present {
+            if let Some(r) = self.robots.get_mut(id).filter(|r| now - r.alive_at > 2.0 * ADOPT_S) {
+                r.back = false;
+            }
+        }
         for id in lost {
             let ours = self.assignment.get(&id).is_some_and(|m| m == name);
-            let alive = self.robots.get(&id).is_some_and(|r| r.alive && r.info.is_some());
+            // Seen coming back since its head counted it present: a head that saw the loss
+            // before this manager did is not answered with a rejoin of a dead robot.
+            let alive = self.robots.get(&id).is_some_and(|r| r.alive && r.info.is_some() && r.back);
             let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
             if ours && alive && !pending {
                 if let Some(member) = self.member(&id) {
@@ -227,6 +236,9 @@ impl SystemManager {
                     // Never in two teams: if another mission is still letting it go, after that.
                     let after = self.pending_release(&id);
                     self.ctls.push(name, MissionCtl::Joined { member }, after);
+                    if let Some(r) = self.robots.get_mut(&id) {
+                        r.back = false;
+                    }
                 }
             }
         }
