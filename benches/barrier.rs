@@ -54,7 +54,8 @@ async fn run(n: usize, rounds: u32) -> anyhow::Result<()> {
             let me = members[i].clone();
             let sub = s.declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string()).await.expect("subscriber");
             let tokens = s.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await.expect("liveliness");
-            let _token = s.liveliness().declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await.expect("token");
+            let _token =
+                s.liveliness().declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await.expect("token");
             // Wait until every member's token is visible.
             let mut seen = std::collections::BTreeSet::new();
             while seen.len() < members.len() {

@@ -158,8 +158,17 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
         .allowed_origin(zenoh::sample::Locality::Remote)
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let tokens = session.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    let _token = session.liveliness().declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let tokens = session
+        .liveliness()
+        .declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string())
+        .history(true)
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let _token = session
+        .liveliness()
+        .declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string())
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut seen = std::collections::BTreeSet::new();
     while seen.len() < n {
         let t = tokio::time::timeout(Duration::from_secs(30), tokens.recv_async()).await;
@@ -208,7 +217,12 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
                         println!("E {me}: barrier {k} not released in 10 s");
                         return Ok(());
                     }
-                    m.put(&proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), proto::to_json(&a)?, zenoh::bytes::Encoding::APPLICATION_JSON).await;
+                    m.put(
+                        &proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(),
+                        proto::to_json(&a)?,
+                        zenoh::bytes::Encoding::APPLICATION_JSON,
+                    )
+                    .await;
                 }
             }
         }

@@ -15,7 +15,7 @@ mod common;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use common::{eventually, start, start_robot_scaled, Proc, Scratch};
+use common::{eventually, start, Proc, Scratch};
 use mrmm_proto::client::Client;
 use mrmm_proto::{self as proto, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotView};
 
@@ -57,15 +57,11 @@ fn stats(label: &str, mut ms: Vec<f64>) {
     println!("| {label} | {} | {:.2} | {:.2} | {:.2} | {:.2} |", ms.len(), at(0.5), at(0.9), at(0.99), ms[ms.len() - 1]);
 }
 
-async fn fleet(dir: &Scratch, ep: &str, n: usize) -> anyhow::Result<Vec<Proc>> {
-    (1..=n).map(|i| start_robot_scaled(dir, &format!("r{i}"), ep, i as f64 * 2.0, -3.0, 10.0)).collect()
-}
-
 async fn latency(moves: usize, creates: usize) -> anyhow::Result<()> {
     let dir = Scratch::new("bench-journal");
     let ep = format!("tcp/127.0.0.1:{}", free_port()?);
     let _c = central(&dir, &ep, "central.log")?;
-    let _robots = fleet(&dir, &ep, 8).await?;
+    let _robots = common::start_robots(&dir, &ep, 8)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 8).await?;
     let cmd = proto::Key::SystemCmd;
@@ -119,7 +115,7 @@ async fn recovery() -> anyhow::Result<()> {
     let dir = Scratch::new("bench-recovery");
     let ep = format!("tcp/127.0.0.1:{}", free_port()?);
     let mut c = central(&dir, &ep, "central.log")?;
-    let mut robots = fleet(&dir, &ep, 8).await?;
+    let mut robots = common::start_robots(&dir, &ep, 8)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 8).await?;
     let ids = |r: &[usize]| r.iter().map(|i| format!("r{i}")).collect::<Vec<_>>();
@@ -137,7 +133,7 @@ async fn recovery() -> anyhow::Result<()> {
     c.kill();
     let t0 = Instant::now();
     let _c = central(&dir, &ep, "central2.log")?;
-    robots = fleet(&dir, &ep, 8).await?;
+    robots = common::start_robots(&dir, &ep, 8)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     eventually("three missions running again", Duration::from_secs(60), || async {
         let ms: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
@@ -145,7 +141,10 @@ async fn recovery() -> anyhow::Result<()> {
         (ms.iter().filter(|m| m.status == proto::MissionStatus::Running).count() == 3 && now == before).then_some(())
     })
     .await?;
-    println!("\nrecovery after a power cycle (8 robots, 3 missions): {:.2} s from restarting central to all three running with their members", t0.elapsed().as_secs_f64());
+    println!(
+        "\nrecovery after a power cycle (8 robots, 3 missions): {:.2} s from restarting central to all three running with their members",
+        t0.elapsed().as_secs_f64()
+    );
     drop(robots);
     Ok(())
 }

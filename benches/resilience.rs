@@ -111,9 +111,8 @@ async fn takeover(trials: usize) -> anyhow::Result<()> {
 async fn stall() -> anyhow::Result<()> {
     let dir = Scratch::new("bench-stall");
     let (mut central, ep) = start_central(&dir)?;
-    let robots: Vec<_> = (1..=4)
-        .map(|i| common::start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, SCALE))
-        .collect::<anyhow::Result<_>>()?;
+    let robots: Vec<_> =
+        (1..=4).map(|i| common::start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, SCALE)).collect::<anyhow::Result<_>>()?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 4).await?;
     tokio::time::sleep(Duration::from_secs(2)).await;

@@ -121,9 +121,14 @@ async fn barrier(pki: Option<&std::path::Path>, n: usize, rounds: u32) -> anyhow
         let (tx, ready, members, m) = (tx.clone(), ready.clone(), members.clone(), mesh.clone());
         tokio::spawn(async move {
             let s = m.session().clone();
-            let Ok(sub) = s.declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string()).allowed_origin(zenoh::sample::Locality::Remote).await else { return };
+            let Ok(sub) = s.declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string()).allowed_origin(zenoh::sample::Locality::Remote).await
+            else {
+                return;
+            };
             let Ok(tokens) = s.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await else { return };
-            let Ok(_token) = s.liveliness().declare_token(Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await else { return };
+            let Ok(_token) = s.liveliness().declare_token(Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await else {
+                return;
+            };
             let mut seen = std::collections::BTreeSet::new();
             while seen.len() < members.len() {
                 if let Ok(t) = tokens.recv_async().await {

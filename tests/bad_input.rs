@@ -27,21 +27,31 @@ async fn central_refuses_hostile_requests_clearly_and_goes_on() -> anyhow::Resul
     common::wait_robots(&client, 2).await?;
     let square = json!([[0, 0], [10, 0], [10, 10], [0, 10]]);
     let many: Vec<[f64; 2]> = (0..20_000).map(|i| [f64::from(i % 200), f64::from(i / 200) * 1.5]).collect();
-    let ring: Vec<[f64; 2]> = (0..5_000).map(|i| {
-        let a = f64::from(i) * std::f64::consts::TAU / 5000.0;
-        [100.0 * a.cos(), 100.0 * a.sin()]
-    }).collect();
+    let ring: Vec<[f64; 2]> = (0..5_000)
+        .map(|i| {
+            let a = f64::from(i) * std::f64::consts::TAU / 5000.0;
+            [100.0 * a.cos(), 100.0 * a.sin()]
+        })
+        .collect();
     let deep = |n: usize| format!("<recipe name=\"x\" planner=\"patrol\">{}{}</recipe>", "<a>".repeat(n), "</a>".repeat(n));
     let cases: Vec<(&str, MissionCreate, &str)> = vec![
         ("a sync spacing of a nanometre", create("m1", "patrol", json!({"waypoints": square, "sync_spacing_max": 1e-9})), "sync_spacing_max"),
         ("20 000 waypoints", create("m2", "patrol", json!({"waypoints": many})), "at most 2000"),
         ("a recipe nested 30 000 deep", create("m3", &deep(30_000), json!({})), "deeper than 32"),
-        ("a 300 KB recipe", create("m4", &format!("<recipe name=\"x\" planner=\"patrol\"><!-- {} --></recipe>", "x".repeat(300_000)), json!({})), "at most 262144"),
+        (
+            "a 300 KB recipe",
+            create("m4", &format!("<recipe name=\"x\" planner=\"patrol\"><!-- {} --></recipe>", "x".repeat(300_000)), json!({})),
+            "at most 262144",
+        ),
         ("a region of 5 000 vertices", create("m5", "coverage", json!({"region": ring})), "at most 2000"),
         ("a trillion kicks", create("m6", "patrol", json!({"waypoints": square, "max_kicks": 1_000_000_000_000u64})), "max_kicks"),
         ("a million Lloyd iterations", create("m7", "coverage", json!({"region": square, "lloyd_iterations": 1_000_000})), "lloyd_iterations"),
         ("a thousand replicas", MissionCreate { replicas: Some(1000), ..create("m8", "patrol", json!({"waypoints": square})) }, "replicas"),
-        ("more robots than the fleet", MissionCreate { count: Some(1_000_000), ..create("m9", "patrol", json!({"waypoints": square})) }, "idle robots available"),
+        (
+            "more robots than the fleet",
+            MissionCreate { count: Some(1_000_000), ..create("m9", "patrol", json!({"waypoints": square})) },
+            "idle robots available",
+        ),
     ];
     for (what, c, expect) in cases {
         let t = Instant::now();

@@ -42,9 +42,7 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
     assert_eq!((st.robots_total, st.idle, st.lost), (3, 3, 0));
 
     // goto: the pose arrives.
-    let ack: Value = client
-        .query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r1".into(), x: 3.0, y: 4.0 }))
-        .await?;
+    let ack: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r1".into(), x: 3.0, y: 4.0 })).await?;
     assert_eq!(ack["ok"], true);
     eventually("r1 at (3, 4) and idle", Duration::from_secs(20), || async {
         let v: RobotView = client.query(proto::Key::SystemRobot("r1".to_string()), None::<&()>).await.ok()?;
@@ -71,26 +69,18 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
     // SIGKILL: lost.
     let killed = Instant::now();
     r3.kill();
-    eventually("r3 lost", Duration::from_secs(10), || async {
-        (status_of(&client, "r3").await == Some(RobotStatus::Lost)).then_some(())
-    })
-    .await?;
+    eventually("r3 lost", Duration::from_secs(10), || async { (status_of(&client, "r3").await == Some(RobotStatus::Lost)).then_some(()) }).await?;
     println!("loss detection after SIGKILL: {:?}", killed.elapsed());
 
     // SIGSTOP: lost after the lease; SIGCONT: back, re-registered.
     let frozen = Instant::now();
     r2.signal("STOP")?;
-    eventually("r2 lost while frozen", Duration::from_secs(10), || async {
-        (status_of(&client, "r2").await == Some(RobotStatus::Lost)).then_some(())
-    })
-    .await?;
+    eventually("r2 lost while frozen", Duration::from_secs(10), || async { (status_of(&client, "r2").await == Some(RobotStatus::Lost)).then_some(()) }).await?;
     println!("loss detection after SIGSTOP: {:?}", frozen.elapsed());
     r2.signal("CONT")?;
     let thawed = Instant::now();
-    eventually("r2 back after SIGCONT", Duration::from_secs(20), || async {
-        (status_of(&client, "r2").await == Some(RobotStatus::Idle)).then_some(())
-    })
-    .await?;
+    eventually("r2 back after SIGCONT", Duration::from_secs(20), || async { (status_of(&client, "r2").await == Some(RobotStatus::Idle)).then_some(()) })
+        .await?;
     println!("re-registration after SIGCONT: {:?}", thawed.elapsed());
 
     // A goto to a lost robot is refused.
@@ -119,9 +109,7 @@ fn bad_config_stops_start_up_with_one_line() -> anyhow::Result<()> {
     assert_eq!(lines.len(), 1, "one line: {err}");
     assert!(lines[0].contains("bad.json5: kinematics.max_speed: must be"), "{err}");
 
-    let out = std::process::Command::new(common::EXE)
-        .args(["robot", "--config", "/nonexistent/robot.json5"])
-        .output()?;
+    let out = std::process::Command::new(common::EXE).args(["robot", "--config", "/nonexistent/robot.json5"]).output()?;
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/robot.json5: cannot read"));
 
@@ -133,9 +121,7 @@ fn bad_config_stops_start_up_with_one_line() -> anyhow::Result<()> {
     assert!(err.contains("central.json5: agent.autonomy: unknown variant `yolo`"), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
 
-    let out = std::process::Command::new(common::EXE)
-        .args(["central", "--listen", "udp/127.0.0.1:1"])
-        .output()?;
+    let out = std::process::Command::new(common::EXE).args(["central", "--listen", "udp/127.0.0.1:1"]).output()?;
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("listen[0]"));
     Ok(())

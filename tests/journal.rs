@@ -8,9 +8,9 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use anyhow::{bail, ensure, Context};
-use common::{eventually, start, start_robot_scaled, Proc, Scratch};
+use common::{eventually, start, Proc, Scratch};
 use mrmm_proto::client::Client;
-use mrmm_proto::{self as proto, JournalEvent, JournalPage, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotView};
+use mrmm_proto::{self as proto, JournalEvent, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotView};
 use rand::{Rng, SeedableRng};
 use serde_json::{json, Value};
 
@@ -36,19 +36,6 @@ async fn missions(c: &Client) -> Vec<MissionView> {
 /// Robot → mission, as central says.
 async fn placement(c: &Client) -> BTreeMap<String, Option<String>> {
     robots(c).await.into_iter().map(|r| (r.id, r.mission)).collect()
-}
-
-async fn journal(c: &Client) -> anyhow::Result<Vec<proto::JournalEntry>> {
-    let mut since = 0;
-    let mut all = Vec::new();
-    loop {
-        let page: JournalPage = c.query(format!("{}?since={since}", proto::Key::SystemJournal), None::<&()>).await?;
-        all.extend(page.entries);
-        if !page.more {
-            return Ok(all);
-        }
-        since = page.next;
-    }
 }
 
 /// SIGKILLs all of `procs` in one `kill` call, then reaps them.
@@ -77,8 +64,7 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
     let dir = Scratch::new("power-cycle");
     let ep = format!("tcp/127.0.0.1:{}", free_port()?);
     let mut c = central(&dir, &ep, "central.log")?;
-    let ids = ["r1", "r2", "r3", "r4"];
-    let mut rs: Vec<Proc> = ids.iter().enumerate().map(|(i, id)| start_robot_scaled(&dir, id, &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let mut rs = common::start_robots(&dir, &ep, 4)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 4).await?;
     let cmd = |c| proto::Key::SystemCmd(c);
@@ -111,13 +97,17 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
     }
     let t0 = std::time::Instant::now();
     let _c = central(&dir, &ep, "central2.log")?;
-    rs = ids.iter().enumerate().map(|(i, id)| start_robot_scaled(&dir, id, &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    rs = common::start_robots(&dir, &ep, 4)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     // Both missions run again, with the same members and parameters; t stays terminated.
     eventually("both missions running again with their members", Duration::from_secs(30), || async {
         let ms = missions(&client).await;
         let running = ms.iter().filter(|m| m.status == proto::MissionStatus::Running).count();
-        let moving = robots(&client).await.iter().filter(|r| r.mission.is_some() && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync") || b.contains("step"))).count();
+        let moving = robots(&client)
+            .await
+            .iter()
+            .filter(|r| r.mission.is_some() && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync") || b.contains("step")))
+            .count();
         (ms.len() == 2 && running == 2 && placement(&client).await == before && moving >= 3).then_some(())
     })
     .await?;
@@ -125,18 +115,24 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
     let after: BTreeMap<String, BTreeMap<String, String>> = missions(&client).await.into_iter().map(|m| (m.name, m.params)).collect();
     ensure!(after == params_before, "parameters changed: {after:?} vs {params_before:?}");
     // The journal lists it all.
-    let j = journal(&client).await?;
-    let commands: Vec<String> = j.iter().filter_map(|e| match &e.event {
-        JournalEvent::Command { command, .. } => Some(command.clone()),
-        _ => None,
-    }).collect();
+    let j = common::journal(&client).await?;
+    let commands: Vec<String> = j
+        .iter()
+        .filter_map(|e| match &e.event {
+            JournalEvent::Command { command, .. } => Some(command.clone()),
+            _ => None,
+        })
+        .collect();
     ensure!(commands == ["mission create", "mission create", "robot move", "mission create", "mission terminate"], "{commands:?}");
     ensure!(j.iter().any(|e| matches!(&e.event, JournalEvent::MissionRemoved { mission, terminated: true } if mission == "t")), "t terminated in the journal");
     ensure!(j.iter().filter(|e| matches!(e.event, JournalEvent::CentralStarted { .. })).count() == 2, "two starts of central");
-    let restarted: Vec<&str> = j.iter().filter_map(|e| match &e.event {
-        JournalEvent::MissionRestarted { mission, .. } => Some(mission.as_str()),
-        _ => None,
-    }).collect();
+    let restarted: Vec<&str> = j
+        .iter()
+        .filter_map(|e| match &e.event {
+            JournalEvent::MissionRestarted { mission, .. } => Some(mission.as_str()),
+            _ => None,
+        })
+        .collect();
     ensure!(restarted.contains(&"p") && restarted.contains(&"c") && !restarted.contains(&"t"), "{restarted:?}");
     ensure!(j.windows(2).all(|w| w[1].seq == w[0].seq + 1 && w[1].at_ms >= w[0].at_ms), "sequence numbers without gaps");
     // `mrmm op journal` shows the same, from any terminal.
@@ -197,7 +193,7 @@ async fn central_killed_inside_a_burst_of_commands_keeps_every_ok_and_half_appli
     let ep = format!("tcp/127.0.0.1:{}", free_port()?);
     let mut c = central(&dir, &ep, "central-0.log")?;
     let ids = ["r1", "r2", "r3", "r4"];
-    let _rs: Vec<Proc> = ids.iter().enumerate().map(|(i, id)| start_robot_scaled(&dir, id, &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let _rs = common::start_robots(&dir, &ep, 4)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
     common::wait_robots(&client, 4).await?;
     for (name, robot) in [("a", "r1"), ("b", "r2")] {
@@ -228,7 +224,14 @@ async fn central_killed_inside_a_burst_of_commands_keeps_every_ok_and_half_appli
             // cycle test.
             let op = match rng.gen_range(0..10) {
                 0 => Op::Terminate { name: "nope".into() },
-                n => Op::Move { robot, to: match n % 3 { 0 => None, 1 => Some("a".into()), _ => Some("b".into()) } },
+                n => Op::Move {
+                    robot,
+                    to: match n % 3 {
+                        0 => None,
+                        1 => Some("a".into()),
+                        _ => Some("b".into()),
+                    },
+                },
             };
             if i == k {
                 // Sent, then central dies while handling it: no answer, or an answer that came first.
@@ -246,7 +249,9 @@ async fn central_killed_inside_a_burst_of_commands_keeps_every_ok_and_half_appli
             }
             match send(&client, &op).await {
                 Ok(v) => apply(&mut model, &op, &v),
-                Err(e) if e.contains("timed out") || e.contains("no answer") => bail!("run {run}: command {i} {op:?} unanswered with central up: {e}"),
+                Err(e) if e.contains("timed out") || e.contains("no answer") => {
+                    bail!("run {run}: command {i} {op:?} unanswered with central up: {e}")
+                }
                 Err(_) => {}
             }
         }

@@ -48,7 +48,8 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     assert_eq!(created.robots, ["r1", "r2", "r3", "r4"]);
     eventually("all patrol robots moving", Duration::from_secs(10), || async {
         let v = robots(&client).await;
-        let moving = v.iter().filter(|r| r.mission.as_deref() == Some("p") && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync"))).count();
+        let moving =
+            v.iter().filter(|r| r.mission.as_deref() == Some("p") && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync"))).count();
         (moving == 4).then_some(())
     })
     .await?;

@@ -74,10 +74,7 @@ impl Drop for Net {
 
 /// `mrmm op --json <what>` run in namespace `ns` against central.
 fn op<T: serde::de::DeserializeOwned>(ns: &str, central: &str, what: &[&str]) -> anyhow::Result<T> {
-    let out = Command::new("ip")
-        .args(["netns", "exec", ns, common::EXE, "op", "--connect", central, "--json", "--timeout-ms", "8000"])
-        .args(what)
-        .output()?;
+    let out = Command::new("ip").args(["netns", "exec", ns, common::EXE, "op", "--connect", central, "--json", "--timeout-ms", "8000"]).args(what).output()?;
     ensure!(out.status.success(), "op {what:?}: {}", String::from_utf8_lossy(&out.stderr).trim());
     Ok(serde_json::from_slice(&out.stdout)?)
 }
@@ -168,7 +165,9 @@ static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
 fn namespaces(tag: char, name: &str) -> anyhow::Result<Option<Net>> {
     match Net::new(tag) {
         Ok(n) => Ok(Some(n)),
-        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => bail!("cannot create network namespaces under CI ({e}): CI runs as root and must run {name}"),
+        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => {
+            bail!("cannot create network namespaces under CI ({e}): CI runs as root and must run {name}")
+        }
         Err(e) => {
             println!("SKIPPED {name}: cannot create network namespaces here ({e}); run as root to test partitions");
             Ok(None)
@@ -220,7 +219,8 @@ fn cuts(net: &Net, dir: &Scratch, n: usize) -> anyhow::Result<()> {
         let v: Vec<RobotView> = op(&net.a, &central_ep, &["robots"]).ok()?;
         (v.len() == 4 && v.iter().all(|r| r.pose.is_some())).then_some(())
     })?;
-    let m: MissionView = op(&net.a, &central_ep, &["mission", "create", "p", "--recipe", "patrol", "--robots", "r1,r3", "--waypoints", "[[0,0],[10,0],[10,10]]"])?;
+    let m: MissionView =
+        op(&net.a, &central_ep, &["mission", "create", "p", "--recipe", "patrol", "--robots", "r1,r3", "--waypoints", "[[0,0],[10,0],[10,10]]"])?;
     ensure!(m.manager.node == "central", "central leads the patrol: {:?}", m.manager);
     let mut eps: Vec<String> = [&procs[0], &procs[2]].iter().filter_map(|r| r.field("listening")).collect();
     eps.push(central_ep.clone());
@@ -277,11 +277,8 @@ fn scenario(net: &Net, dir: &Scratch) -> anyhow::Result<()> {
         let v: Vec<RobotView> = op(&net.a, &central_ep, &["robots"]).ok()?;
         (v.len() == 4 && v.iter().all(|r| r.pose.is_some())).then_some(())
     })?;
-    let m: MissionView = op(
-        &net.a,
-        &central_ep,
-        &["mission", "create", "p", "--recipe", "patrol", "--count", "4", "--waypoints", "[[0,0],[10,0],[10,10],[0,10]]"],
-    )?;
+    let m: MissionView =
+        op(&net.a, &central_ep, &["mission", "create", "p", "--recipe", "patrol", "--count", "4", "--waypoints", "[[0,0],[10,0],[10,10],[0,10]]"])?;
     assert_eq!(m.manager.chain, ["central", "r1", "r2"], "the chain crosses the cut");
     eventually("the patrol past its first barriers", Duration::from_secs(30), || {
         let m: MissionView = op(&net.a, &central_ep, &["mission", "show", "p"]).ok()?;

@@ -28,10 +28,7 @@ fn python() -> Option<PathBuf> {
 fn run(py: &PathBuf, ep: &str, pki: &std::path::Path, who: &str, robot: &str) -> anyhow::Result<Value> {
     let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/py/operator_client.py");
     let f = |n: &str| pki.join(n).display().to_string();
-    let out = Command::new(py)
-        .arg(script)
-        .args([ep, &f("ca.crt"), &f(&format!("{who}.crt")), &f(&format!("{who}.key")), robot])
-        .output()?;
+    let out = Command::new(py).arg(script).args([ep, &f("ca.crt"), &f(&format!("{who}.crt")), &f(&format!("{who}.key")), robot]).output()?;
     anyhow::ensure!(out.status.success(), "python client as {who}: {}", String::from_utf8_lossy(&out.stderr));
     let line = String::from_utf8_lossy(&out.stdout);
     Ok(serde_json::from_str(line.trim())?)

@@ -21,10 +21,8 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let dir = Scratch::new("rrd");
     let rrd = dir.path("fleet.rrd");
     let rrd_s = rrd.display().to_string();
-    let (mut demo, ep, operator) = common::start_demo(
-        &dir,
-        &["--robots", "6", "--duration", "40", "--listen", "tls/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s],
-    )?;
+    let (mut demo, ep, operator) =
+        common::start_demo(&dir, &["--robots", "6", "--duration", "40", "--listen", "tls/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s])?;
     let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
     let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("two running missions", Duration::from_secs(20), || async {
@@ -33,7 +31,12 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     })
     .await?;
     // Garbage on the keys the viewer bridge and the system manager listen to.
-    for key in [proto::Key::RobotTelemetry("r3".to_string()).to_string(), proto::Key::AgentAdviceLive.to_string(), proto::Key::MissionStatus("patrol-1".to_string()).to_string(), proto::Key::TeamSync { team: "patrol-1".into(), point: 1, round: 0 }.to_string()] {
+    for key in [
+        proto::Key::RobotTelemetry("r3".to_string()).to_string(),
+        proto::Key::AgentAdviceLive.to_string(),
+        proto::Key::MissionStatus("patrol-1".to_string()).to_string(),
+        proto::Key::TeamSync { team: "patrol-1".into(), point: 1, round: 0 }.to_string(),
+    ] {
         client.session().put(key, b"\x00\xffgarbage".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     }
 
@@ -86,9 +89,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
 fn viz_without_a_viewer_says_so_and_keeps_going() -> anyhow::Result<()> {
     let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
     let url = format!("rerun+http://127.0.0.1:{port}/proxy");
-    let out = Command::new(common::EXE)
-        .args(["viz", "--connect", &url, "--central", "tcp/127.0.0.1:1", "--duration", "2"])
-        .output()?;
+    let out = Command::new(common::EXE).args(["viz", "--connect", &url, "--central", "tcp/127.0.0.1:1", "--duration", "2"]).output()?;
     assert!(out.status.success(), "{out:?}");
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("no Rerun viewer at 127.0.0.1:"), "{err}");

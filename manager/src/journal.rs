@@ -23,6 +23,12 @@ pub const BEAT_S: f64 = 2.0;
 /// The database file inside the state directory.
 pub const FILE: &str = "journal.redb";
 
+/// Wall-clock time, milliseconds since the Unix epoch (what entries and heartbeats are stamped
+/// with).
+pub fn now_ms() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64)
+}
+
 /// The journal, open.
 pub struct Journal {
     db: Database,

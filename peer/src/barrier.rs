@@ -23,13 +23,7 @@ pub struct Barrier {
 
 impl Barrier {
     pub fn new(me: &str, epoch: u64, members: &[String]) -> Self {
-        Barrier {
-            me: me.to_string(),
-            epoch,
-            members: members.iter().cloned().collect(),
-            gone: BTreeSet::new(),
-            furthest: BTreeMap::new(),
-        }
+        Barrier { me: me.to_string(), epoch, members: members.iter().cloned().collect(), gone: BTreeSet::new(), furthest: BTreeMap::new() }
     }
 
     /// Records an arrival; other epochs and non-members are ignored. Returns whether it counted.
@@ -59,10 +53,7 @@ impl Barrier {
 
     /// Whether barrier `(point, round)` is released (our own arrival must be recorded first).
     pub fn released(&self, point: u32, round: u32) -> bool {
-        self.members
-            .iter()
-            .filter(|m| !self.gone.contains(*m))
-            .all(|m| self.furthest.get(m).is_some_and(|&f| f >= (round, point)))
+        self.members.iter().filter(|m| !self.gone.contains(*m)).all(|m| self.furthest.get(m).is_some_and(|&f| f >= (round, point)))
     }
 
     /// Our own furthest arrival, as (round, point).

@@ -35,14 +35,7 @@ pub struct Body {
 
 impl Body {
     pub fn new(start: Pose, limits: Limits) -> Self {
-        Body {
-            pos: Vector2::new(start.x, start.y),
-            heading: wrap_angle(start.theta),
-            velocity: Velocity::default(),
-            limits,
-            goal: None,
-            cap: None,
-        }
+        Body { pos: Vector2::new(start.x, start.y), heading: wrap_angle(start.theta), velocity: Velocity::default(), limits, goal: None, cap: None }
     }
 
     pub fn pose(&self) -> Pose {

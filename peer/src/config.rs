@@ -96,9 +96,7 @@ impl RobotConfig {
     /// Checks every value; the error is `field: problem`.
     pub fn validate(&self) -> Result<(), String> {
         validate_id(&self.id).map_err(|_| format!("id: invalid robot id {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", self.id))?;
-        validate_id(&self.robot_type).map_err(|_| {
-            format!("type: {:?} must be 1 to 64 characters of A-Z a-z 0-9 _ -", self.robot_type)
-        })?;
+        validate_id(&self.robot_type).map_err(|_| format!("type: {:?} must be 1 to 64 characters of A-Z a-z 0-9 _ -", self.robot_type))?;
         for (i, c) in self.capabilities.iter().enumerate() {
             if c.trim().is_empty() {
                 return Err(format!("capabilities[{i}]: empty capability"));

@@ -11,7 +11,6 @@ use crate::executor::{self, Executor};
 /// Steps a plan may have at most.
 pub const MAX_PLAN_STEPS: usize = 100_000;
 
-
 /// Missions a robot holds admissions to at most (its mission and the ones it is moving to).
 pub const MAX_ADMISSIONS: usize = 4;
 /// Something that happened to the robot.
@@ -194,12 +193,14 @@ impl Robot {
             RobotCommand::Plan(a) => match from.role {
                 Role::Central | Role::Host => Ok(()),
                 Role::Robot => {
-                    let teammate = self.exec.as_ref().is_some_and(|e| {
-                        e.mission() == a.mission && (e.assignment.members.contains(&from.id) || e.assignment.managers.contains(&from.id))
-                    });
+                    let teammate = self
+                        .exec
+                        .as_ref()
+                        .is_some_and(|e| e.mission() == a.mission && (e.assignment.members.contains(&from.id) || e.assignment.managers.contains(&from.id)));
                     // Any robot of the admission may come to lead the mission (its chain is made of
                     // its members).
-                    let admitted = self.admitted.iter().any(|(m, managers, members)| *m == a.mission && (managers.contains(&from.id) || members.contains(&from.id)));
+                    let admitted =
+                        self.admitted.iter().any(|(m, managers, members)| *m == a.mission && (managers.contains(&from.id) || members.contains(&from.id)));
                     // While central is unreachable nobody can admit this robot: an idle robot
                     // (restarted, say) takes its mission's plan from the robot leading it, as the
                     // paper's robots rejoin without central. A stranger with a fleet certificate
@@ -366,11 +367,7 @@ mod tests {
     use mrmm_proto::RobotPlan;
 
     fn cfg() -> RobotConfig {
-        RobotConfig::from_json5(
-            "t",
-            r#"{ id: "r1", type: "ground", kinematics: { max_speed: 2, max_turn_rate: 3 }, time_scale: 4 }"#,
-        )
-        .expect("config")
+        RobotConfig::from_json5("t", r#"{ id: "r1", type: "ground", kinematics: { max_speed: 2, max_turn_rate: 3 }, time_scale: 4 }"#).expect("config")
     }
 
     fn plan(mission: &str, epoch: u64) -> RobotCommand {
@@ -380,7 +377,12 @@ mod tests {
             team: mission.into(),
             subteam: format!("{mission}/ground"),
             members: vec!["r1".into()],
-            plan: RobotPlan { robot: "r1".into(), robot_type: "ground".into(), slot: 0, steps: vec![Step::Navigate { x: 4.0, y: 0.0, speed: None }, Step::Hold { seconds: None }] },
+            plan: RobotPlan {
+                robot: "r1".into(),
+                robot_type: "ground".into(),
+                slot: 0,
+                steps: vec![Step::Navigate { x: 4.0, y: 0.0, speed: None }, Step::Hold { seconds: None }],
+            },
             managers: vec![],
         }))
     }

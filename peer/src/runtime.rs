@@ -98,9 +98,7 @@ pub async fn open(cfg: &RobotConfig) -> Result<Mesh, PeerError> {
 /// mission hosts) under one name would break the chain's majorities and the team barriers.
 pub async fn refuse_taken_name(session: &Session, key: &Key, what: &str, name: &str) -> Result<(), PeerError> {
     if net::already_alive(session, &key.to_string(), net::NAME_CHECK_TIMEOUT).await? {
-        return Err(PeerError::NameTaken(format!(
-            "{what} {name:?} is already alive on the mesh ({key}); give every {what} its own name"
-        )));
+        return Err(PeerError::NameTaken(format!("{what} {name:?} is already alive on the mesh ({key}); give every {what} its own name")));
     }
     Ok(())
 }
@@ -123,11 +121,8 @@ pub async fn run_on(
 
     let info_q = session.declare_queryable(Key::RobotInfo(id.clone()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(PeerError::zenoh)?;
     let cmd_q = session.declare_queryable(Key::RobotCmd(id.clone()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(PeerError::zenoh)?;
-    let telemetry_pub = session
-        .declare_publisher(Key::RobotTelemetry(id.clone()).to_string())
-        .encoding(Encoding::APPLICATION_OCTET_STREAM)
-        .await
-        .map_err(PeerError::zenoh)?;
+    let telemetry_pub =
+        session.declare_publisher(Key::RobotTelemetry(id.clone()).to_string()).encoding(Encoding::APPLICATION_OCTET_STREAM).await.map_err(PeerError::zenoh)?;
     // Declared last: once others see the token, the queryables answer.
     let token = session.liveliness().declare_token(Key::RobotAlive(id.clone()).to_string()).await.map_err(PeerError::zenoh)?;
     tracing::info!(robot = %id, zid = %session.zid(), ?endpoints, "robot up");
@@ -249,10 +244,13 @@ impl Io {
                 (None, _) => {}
             },
             Command::Refuse(e) => {
-                self.mesh.verifier().refused.record("robot command", &mrmm_proto::security::Refusal::NotEntitled {
-                    proven: query.and_then(|q| self.mesh.try_sender_of_query(q).ok()).unwrap_or_else(|| Sender::new(Role::Operator, "unknown")),
-                    what: e.clone(),
-                });
+                self.mesh.verifier().refused.record(
+                    "robot command",
+                    &mrmm_proto::security::Refusal::NotEntitled {
+                        proven: query.and_then(|q| self.mesh.try_sender_of_query(q).ok()).unwrap_or_else(|| Sender::new(Role::Operator, "unknown")),
+                        what: e.clone(),
+                    },
+                );
                 if let Some(q) = query {
                     self.mesh.reply_error(q, &e).await;
                 }

@@ -30,7 +30,13 @@ fn main() {
         let t = Instant::now();
         let b = bottleneck(&c);
         bn_ms.push(t.elapsed().as_secs_f64() * 1e3);
-        println!("seed {seed}: min-sum total {:.4} ({:.1} ms), bottleneck max {:.5} ({:.1} ms)", a.total, sum_ms[sum_ms.len() - 1], b.max, bn_ms[bn_ms.len() - 1]);
+        println!(
+            "seed {seed}: min-sum total {:.4} ({:.1} ms), bottleneck max {:.5} ({:.1} ms)",
+            a.total,
+            sum_ms[sum_ms.len() - 1],
+            b.max,
+            bn_ms[bn_ms.len() - 1]
+        );
     }
     let med = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);

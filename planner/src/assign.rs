@@ -37,11 +37,7 @@ impl Costs {
     pub fn from_rows(rows: &[Vec<f64>]) -> Result<Self, PlanError> {
         let cols = rows.first().map_or(0, Vec::len);
         if let Some(i) = rows.iter().position(|r| r.len() != cols) {
-            return Err(PlanError::Costs(format!(
-                "row {} has {} values, row 1 has {cols} (ragged matrix)",
-                i + 1,
-                rows[i].len()
-            )));
+            return Err(PlanError::Costs(format!("row {} has {} values, row 1 has {cols} (ragged matrix)", i + 1, rows[i].len())));
         }
         Costs::new(rows.len(), cols, rows.concat())
     }
@@ -58,9 +54,11 @@ impl Costs {
                 .split(',')
                 .enumerate()
                 .map(|(j, v)| {
-                    v.trim().parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                        PlanError::Costs(format!("line {} value {}: {:?} is not a finite number", i + 1, j + 1, v.trim()))
-                    })
+                    v.trim()
+                        .parse::<f64>()
+                        .ok()
+                        .filter(|x| x.is_finite())
+                        .ok_or_else(|| PlanError::Costs(format!("line {} value {}: {:?} is not a finite number", i + 1, j + 1, v.trim())))
                 })
                 .collect();
             rows.push(row?);
@@ -263,12 +261,7 @@ fn lsap<'a>(rows: usize, cols: usize, row_costs: impl Fn(usize) -> &'a [f64]) ->
 /// LAPJV's augmenting row reduction: each free row takes its cheapest reduced column, lowering
 /// that column's dual to the row's second-cheapest; the displaced row is retried. Afterwards every
 /// assigned row sits on a column of minimal reduced cost.
-fn augmenting_row_reduction<'a>(
-    n: usize,
-    row_costs: &impl Fn(usize) -> &'a [f64],
-    col: &mut [Col],
-    col4row: &mut [usize],
-) {
+fn augmenting_row_reduction<'a>(n: usize, row_costs: &impl Fn(usize) -> &'a [f64], col: &mut [Col], col4row: &mut [usize]) {
     const NONE: usize = usize::MAX;
     let mut free: Vec<usize> = (0..n).filter(|&r| col4row[r] == NONE).collect();
     let prev_free = free.len();
@@ -415,9 +408,7 @@ mod tests {
 
     fn random(rows: usize, cols: usize, seed: u64, integer: bool) -> Costs {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let data = (0..rows * cols)
-            .map(|_| if integer { rng.gen_range(0..5) as f64 } else { rng.gen_range(0.0..100.0) })
-            .collect();
+        let data = (0..rows * cols).map(|_| if integer { rng.gen_range(0..5) as f64 } else { rng.gen_range(0.0..100.0) }).collect();
         Costs::new(rows, cols, data).expect("valid")
     }
 

@@ -15,8 +15,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::assign::{self, Costs};
 use crate::error::PlanError;
-use crate::limits;
 use crate::geom::Point;
+use crate::limits;
 use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::region::Region;
 
@@ -93,10 +93,7 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
     let region = params.region.clone().validated()?;
     RobotSpec::check(robots)?;
     let (points, radius) = place(&region, robots.len(), params)?;
-    let rows: Vec<Vec<f64>> = robots
-        .iter()
-        .map(|r| points.iter().map(|p| p.dist(Point::new(r.x, r.y)) / r.speed).collect())
-        .collect();
+    let rows: Vec<Vec<f64>> = robots.iter().map(|r| points.iter().map(|p| p.dist(Point::new(r.x, r.y)) / r.speed).collect()).collect();
     let a = assign::bottleneck(&Costs::from_rows(&rows)?);
     let plans = robots
         .iter()
@@ -105,11 +102,7 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
             robot: r.id.clone(),
             robot_type: r.robot_type.clone(),
             slot,
-            steps: vec![
-                Step::Stream,
-                Step::Navigate { x: points[slot].x, y: points[slot].y, speed: None },
-                Step::Hold { seconds: None },
-            ],
+            steps: vec![Step::Stream, Step::Navigate { x: points[slot].x, y: points[slot].y, speed: None }, Step::Hold { seconds: None }],
         })
         .collect();
     Ok(CoveragePlan {
@@ -236,10 +229,7 @@ fn radius(samples: &[Point], gens: &[Point], owner: &mut [usize]) -> f64 {
 fn snap_inside(region: &Region, samples: &[Point], gens: &mut [Point]) {
     for g in gens.iter_mut() {
         if !region.contains(*g) {
-            let nearest = samples
-                .iter()
-                .filter(|s| region.contains(**s))
-                .min_by(|a, b| a.dist(*g).total_cmp(&b.dist(*g)));
+            let nearest = samples.iter().filter(|s| region.contains(**s)).min_by(|a, b| a.dist(*g).total_cmp(&b.dist(*g)));
             if let Some(s) = nearest {
                 *g = *s;
             }
@@ -324,11 +314,9 @@ mod tests {
 
     #[test]
     fn non_convex_with_hole_keeps_points_inside() {
-        let region = Region::new(
-            pts(&[(0., 0.), (60., 0.), (60., 20.), (20., 20.), (20., 60.), (0., 60.)]),
-            vec![pts(&[(5., 5.), (12., 5.), (12., 12.), (5., 12.)])],
-        )
-        .expect("region");
+        let region =
+            Region::new(pts(&[(0., 0.), (60., 0.), (60., 20.), (20., 20.), (20., 60.), (0., 60.)]), vec![pts(&[(5., 5.), (12., 5.), (12., 12.), (5., 12.)])])
+                .expect("region");
         let p = plan(&CoverageParams::new(region.clone()), &robots(6)).expect("plan");
         assert!(p.points.iter().all(|q| region.contains(*q)), "{:?}", p.points);
         assert!(p.coverage_radius < 25.0, "{}", p.coverage_radius);

@@ -39,9 +39,7 @@ pub fn check_finite(points: &[Point]) -> Result<(), PlanError> {
 /// Rejects duplicate points (exactly equal coordinates).
 pub fn check_distinct(points: &[Point]) -> Result<(), PlanError> {
     let mut idx: Vec<usize> = (0..points.len()).collect();
-    idx.sort_by(|&a, &b| {
-        points[a].x.total_cmp(&points[b].x).then(points[a].y.total_cmp(&points[b].y))
-    });
+    idx.sort_by(|&a, &b| points[a].x.total_cmp(&points[b].x).then(points[a].y.total_cmp(&points[b].y)));
     for w in idx.windows(2) {
         let (a, b) = (w[0].min(w[1]), w[0].max(w[1]));
         if points[a] == points[b] {

@@ -18,8 +18,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::assign::{self, Costs};
 use crate::error::PlanError;
-use crate::limits;
 use crate::geom::{check_distinct, check_finite, Point};
+use crate::limits;
 use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::tsp::{self, Budget, Instance, Metric};
 
@@ -53,13 +53,7 @@ fn default_kicks() -> u64 {
 
 impl PatrolParams {
     pub fn new(waypoints: Vec<Point>) -> Self {
-        PatrolParams {
-            waypoints,
-            sync_spacing_max: default_sync_spacing(),
-            rounds: None,
-            seed: default_seed(),
-            max_kicks: default_kicks(),
-        }
+        PatrolParams { waypoints, sync_spacing_max: default_sync_spacing(), rounds: None, seed: default_seed(), max_kicks: default_kicks() }
     }
 }
 

@@ -177,10 +177,7 @@ fn segments_touch(a: Point, b: Point, c: Point, d: Point) -> bool {
     if ((o1 > 0.0 && o2 < 0.0) || (o1 < 0.0 && o2 > 0.0)) && ((o3 > 0.0 && o4 < 0.0) || (o3 < 0.0 && o4 > 0.0)) {
         return true;
     }
-    (o1 == 0.0 && on_segment(a, b, c))
-        || (o2 == 0.0 && on_segment(a, b, d))
-        || (o3 == 0.0 && on_segment(c, d, a))
-        || (o4 == 0.0 && on_segment(c, d, b))
+    (o1 == 0.0 && on_segment(a, b, c)) || (o2 == 0.0 && on_segment(a, b, d)) || (o3 == 0.0 && on_segment(c, d, a)) || (o4 == 0.0 && on_segment(c, d, b))
 }
 
 /// Adjacent edges ab and cd (sharing one vertex) overlapping along a line.
@@ -189,7 +186,13 @@ fn collinear_overlap(a: Point, b: Point, c: Point, d: Point) -> bool {
         return false;
     }
     // Shared vertex: the other two endpoints on the same side means overlap.
-    let (shared, p, q) = if b == c { (b, a, d) } else if a == d { (a, b, c) } else { return true };
+    let (shared, p, q) = if b == c {
+        (b, a, d)
+    } else if a == d {
+        (a, b, c)
+    } else {
+        return true;
+    };
     (p.x - shared.x) * (q.x - shared.x) + (p.y - shared.y) * (q.y - shared.y) > 0.0
 }
 
@@ -203,8 +206,7 @@ mod tests {
 
     #[test]
     fn square_with_hole() {
-        let r = Region::new(pts(&[(0., 0.), (10., 0.), (10., 10.), (0., 10.)]), vec![pts(&[(4., 4.), (6., 4.), (6., 6.), (4., 6.)])])
-            .expect("valid");
+        let r = Region::new(pts(&[(0., 0.), (10., 0.), (10., 10.), (0., 10.)]), vec![pts(&[(4., 4.), (6., 4.), (6., 6.), (4., 6.)])]).expect("valid");
         assert!((r.area() - 96.0).abs() < 1e-12);
         assert!(r.contains(Point::new(1.0, 1.0)));
         assert!(!r.contains(Point::new(5.0, 5.0)));

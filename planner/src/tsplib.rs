@@ -62,10 +62,8 @@ pub fn parse(text: &str) -> Result<TsplibInstance, PlanError> {
             in_coords = true;
             continue;
         }
-        let (key, value) = line
-            .split_once(':')
-            .map(|(k, v)| (k.trim(), v.trim()))
-            .ok_or_else(|| err(line_no, format!("expected `KEY : value`, got {line:?}")))?;
+        let (key, value) =
+            line.split_once(':').map(|(k, v)| (k.trim(), v.trim())).ok_or_else(|| err(line_no, format!("expected `KEY : value`, got {line:?}")))?;
         match key {
             "NAME" => name = value.to_string(),
             "TYPE" => {
@@ -85,9 +83,7 @@ pub fn parse(text: &str) -> Result<TsplibInstance, PlanError> {
                     "EUC_2D" => Metric::EucRound,
                     "CEIL_2D" => Metric::Ceil,
                     "ATT" => Metric::Att,
-                    other => {
-                        return Err(err(line_no, format!("EDGE_WEIGHT_TYPE {other} not supported (EUC_2D, CEIL_2D, ATT)")))
-                    }
+                    other => return Err(err(line_no, format!("EDGE_WEIGHT_TYPE {other} not supported (EUC_2D, CEIL_2D, ATT)"))),
                 })
             }
             "COMMENT" | "NODE_COORD_TYPE" | "DISPLAY_DATA_TYPE" => {}
@@ -107,10 +103,7 @@ pub fn parse(text: &str) -> Result<TsplibInstance, PlanError> {
 
 /// Writes a tour in TSPLIB TOUR format (1-based node ids, `-1` terminator).
 pub fn write_tour(name: &str, order: &[usize], length: f64) -> String {
-    let mut out = format!(
-        "NAME : {name}.tour\nCOMMENT : Length = {length}\nTYPE : TOUR\nDIMENSION : {}\nTOUR_SECTION\n",
-        order.len()
-    );
+    let mut out = format!("NAME : {name}.tour\nCOMMENT : Length = {length}\nTYPE : TOUR\nDIMENSION : {}\nTOUR_SECTION\n", order.len());
     for &c in order {
         out.push_str(&(c + 1).to_string());
         out.push('\n');

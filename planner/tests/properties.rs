@@ -22,12 +22,8 @@ fn points(max: usize) -> impl Strategy<Value = Vec<Point>> {
 }
 
 fn robots() -> impl Strategy<Value = Vec<RobotSpec>> {
-    prop::collection::vec((coord(), coord(), prop_oneof![Just(0.0), 0.1..5.0f64, Just(-1.0)]), 0..6).prop_map(|v| {
-        v.into_iter()
-            .enumerate()
-            .map(|(i, (x, y, speed))| RobotSpec { id: format!("r{i}"), robot_type: "ground".into(), x, y, speed })
-            .collect()
-    })
+    prop::collection::vec((coord(), coord(), prop_oneof![Just(0.0), 0.1..5.0f64, Just(-1.0)]), 0..6)
+        .prop_map(|v| v.into_iter().enumerate().map(|(i, (x, y, speed))| RobotSpec { id: format!("r{i}"), robot_type: "ground".into(), x, y, speed }).collect())
 }
 
 proptest! {

@@ -38,20 +38,44 @@ impl Config {
 pub enum Msg<S> {
     /// Vote for me as head of `proposal` (epoch `proposal.epoch`); my state is at `last`, my
     /// current chain is `base`.
-    Vote { proposal: Config, base: Vec<String>, last: Version },
-    Grant { epoch: u64 },
+    Vote {
+        proposal: Config,
+        base: Vec<String>,
+        last: Version,
+    },
+    Grant {
+        epoch: u64,
+    },
     /// Not granted: I promised `promised`, my state is at `last`.
-    Refuse { epoch: u64, promised: u64, last: Version },
+    Refuse {
+        epoch: u64,
+        promised: u64,
+        last: Version,
+    },
     /// The head's state at `(config.epoch, seq)`.
-    Update { config: Config, seq: u64, state: S },
+    Update {
+        config: Config,
+        seq: u64,
+        state: S,
+    },
     /// The tail holds `(epoch, seq)`.
-    Ack { epoch: u64, seq: u64 },
+    Ack {
+        epoch: u64,
+        seq: u64,
+    },
     /// Your update is of an old epoch: I promised `promised`, my state is at `last`.
-    Stale { promised: u64, last: Version },
+    Stale {
+        promised: u64,
+        last: Version,
+    },
     /// The replicated value ended (the mission was terminated): forget it, forward down the chain.
-    End { epoch: u64 },
+    End {
+        epoch: u64,
+    },
     /// The tail forgot the value of `epoch`.
-    EndAck { epoch: u64 },
+    EndAck {
+        epoch: u64,
+    },
 }
 
 impl<S> Msg<S> {

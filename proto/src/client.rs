@@ -37,9 +37,7 @@ impl Client {
             me: None,
         };
         let (config, sealer, verifier) = crate::mesh::prepare(&n)?;
-        let session = zenoh::open(config)
-            .await
-            .map_err(|e| ProtoError::Zenoh(format!("cannot reach central at {}: {e}", endpoints.join(", "))))?;
+        let session = zenoh::open(config).await.map_err(|e| ProtoError::Zenoh(format!("cannot reach central at {}: {e}", endpoints.join(", "))))?;
         Ok(Client { mesh: Mesh::from_parts(session, sealer, verifier), timeout })
     }
 

@@ -52,11 +52,8 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
     if bytes.len() > TELEMETRY_MAX_BYTES {
         return Err(ProtoError::Decode(format!("telemetry: {} bytes", bytes.len())));
     }
-    let body = bytes
-        .strip_prefix(&TELEMETRY_MAGIC[..])
-        .ok_or_else(|| ProtoError::Decode("telemetry without the MRM2 prefix".into()))?;
-    let (t, used): (Telemetry, usize) =
-        bincode::serde::decode_from_slice(body, wire_config()).map_err(|e| ProtoError::Decode(format!("telemetry: {e}")))?;
+    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::Decode("telemetry without the MRM2 prefix".into()))?;
+    let (t, used): (Telemetry, usize) = bincode::serde::decode_from_slice(body, wire_config()).map_err(|e| ProtoError::Decode(format!("telemetry: {e}")))?;
     if used != body.len() {
         return Err(ProtoError::Decode(format!("telemetry: {} trailing bytes", body.len() - used)));
     }

@@ -9,15 +9,13 @@ use crate::error::ProtoError;
 
 /// Reads a JSON5 file into `T`; errors are one line naming the file, the field path and the problem.
 pub fn load_json5<T: DeserializeOwned>(path: &Path) -> Result<T, ProtoError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| ProtoError::Config(format!("{}: cannot read: {e}", path.display())))?;
+    let text = std::fs::read_to_string(path).map_err(|e| ProtoError::Config(format!("{}: cannot read: {e}", path.display())))?;
     parse_json5(&path.display().to_string(), &text)
 }
 
 /// Parses JSON5 text into `T`, naming `origin` and the failing field path in errors.
 pub fn parse_json5<T: DeserializeOwned>(origin: &str, text: &str) -> Result<T, ProtoError> {
-    let mut de = json5::Deserializer::from_str(text)
-        .map_err(|e| ProtoError::Config(format!("{origin}: {}", one_line(&e.to_string()))))?;
+    let mut de = json5::Deserializer::from_str(text).map_err(|e| ProtoError::Config(format!("{origin}: {}", one_line(&e.to_string()))))?;
     serde_path_to_error::deserialize(&mut de).map_err(|e| {
         let path = e.path().to_string();
         let inner = one_line(&e.inner().to_string());

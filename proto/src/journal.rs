@@ -30,24 +30,59 @@ pub enum JournalEvent {
     /// A mission exists from now on, as defined (the recipe XML and parameters it was created
     /// with; `spec` is null for a mission adopted from its head's report, whose recipe central
     /// never saw).
-    MissionDefined { mission: String, host: String, recipe: String, planner: String, spec: Option<MissionSpecWire> },
+    MissionDefined {
+        mission: String,
+        host: String,
+        recipe: String,
+        planner: String,
+        spec: Option<MissionSpecWire>,
+    },
     /// A mission is gone: terminated (it never comes back) or it never ran.
-    MissionRemoved { mission: String, terminated: bool },
+    MissionRemoved {
+        mission: String,
+        terminated: bool,
+    },
     /// A robot is in `mission` from now on, or in none.
-    RobotAssigned { robot: String, mission: Option<String> },
+    RobotAssigned {
+        robot: String,
+        mission: Option<String>,
+    },
     /// An operator command (or the agent's, `by: "agent"`) took effect, as it was given.
-    Command { by: String, command: String, request: serde_json::Value },
+    Command {
+        by: String,
+        command: String,
+        request: serde_json::Value,
+    },
     /// A robot's liveliness went away, or came back.
-    RobotLost { robot: String },
-    RobotBack { robot: String },
+    RobotLost {
+        robot: String,
+    },
+    RobotBack {
+        robot: String,
+    },
     /// Another node manages a mission now (a replica took over, or central adopted it).
-    ManagerChanged { mission: String, manager: String, chain_epoch: u64 },
+    ManagerChanged {
+        mission: String,
+        manager: String,
+        chain_epoch: u64,
+    },
     /// A mission's head replanned.
-    Replanned { mission: String, plan_epoch: u64, robots: Vec<String> },
+    Replanned {
+        mission: String,
+        plan_epoch: u64,
+        robots: Vec<String>,
+    },
     /// Central restarted a mission no live manager ran, with these robots.
-    MissionRestarted { mission: String, robots: Vec<String> },
+    MissionRestarted {
+        mission: String,
+        robots: Vec<String>,
+    },
     /// Central started and replayed its journal.
-    CentralStarted { missions: usize, robots: usize, terminated: usize },
+    CentralStarted {
+        missions: usize,
+        robots: usize,
+        terminated: usize,
+    },
 }
 
 impl JournalEvent {

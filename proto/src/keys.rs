@@ -74,10 +74,20 @@ pub enum Key {
     RobotTelemetry(String),
     RobotCmd(String),
     /// `subteam` is `<mission>/<type>`.
-    TeamMember { subteam: String, robot: String },
-    TeamSync { team: String, point: u32, round: u32 },
+    TeamMember {
+        subteam: String,
+        robot: String,
+    },
+    TeamSync {
+        team: String,
+        point: u32,
+        round: u32,
+    },
     Planner(String),
-    PlannerAlive { kind: String, zid: String },
+    PlannerAlive {
+        kind: String,
+        zid: String,
+    },
     HostAlive(String),
     HostChain(String),
     HostStart(String),

@@ -30,11 +30,11 @@ pub use error::ProtoError;
 pub use journal::{JournalEntry, JournalEvent, JournalPage};
 pub use keys::{validate_id, validate_subteam, Key, Pattern, SystemCmd};
 pub use mesh::{Mesh, NodeNet};
-pub use security::{Role, SecuritySection, Sender};
 pub use mission::*;
 pub use operator::*;
 pub use plan::{MissionPlan, PlanRequest, PlanSummary, RobotPlan, RobotSpec, Step};
 pub use robot::*;
+pub use security::{Role, SecuritySection, Sender};
 pub use team::*;
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use crate::codec::{from_json, to_json};
 use crate::error::ProtoError;
 use crate::net::{self, Mode, QueryError};
 use crate::operator::ErrorReply;
-use crate::security::{acl, Identity, Refusal, SecuritySection, Sealer, Sender, Verifier};
+use crate::security::{acl, Identity, Refusal, Sealer, SecuritySection, Sender, Verifier};
 
 /// Unix milliseconds now.
 pub fn now_ms() -> u64 {
@@ -182,13 +182,7 @@ impl Mesh {
         let payload = body.unwrap_or_default();
         let att = self.seal(key, &payload);
         let zerr = |e: zenoh::Error| QueryError::Zenoh { key: selector.to_string(), why: e.to_string() };
-        let mut get = self
-            .session
-            .get(selector)
-            .timeout(timeout)
-            .consolidation(ConsolidationMode::None)
-            .target(QueryTarget::All)
-            .attachment(att);
+        let mut get = self.session.get(selector).timeout(timeout).consolidation(ConsolidationMode::None).target(QueryTarget::All).attachment(att);
         if !payload.is_empty() {
             get = get.payload(payload).encoding(Encoding::APPLICATION_JSON);
         }

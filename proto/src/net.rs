@@ -123,9 +123,7 @@ pub fn validate_endpoint(ep: &str) -> Result<(), String> {
         .or_else(|| ep.strip_prefix("tls/"))
         .ok_or_else(|| format!("{ep:?}: only tcp/<address>:<port> and tls/<address>:<port> endpoints are supported"))?;
     let addr = addr.split('#').next().unwrap_or(addr);
-    let (host, port) = addr
-        .rsplit_once(':')
-        .ok_or_else(|| format!("{ep:?}: missing :<port>"))?;
+    let (host, port) = addr.rsplit_once(':').ok_or_else(|| format!("{ep:?}: missing :<port>"))?;
     port.parse::<u16>().map_err(|_| format!("{ep:?}: bad port {port:?}"))?;
     let host = host.trim_start_matches('[').trim_end_matches(']');
     if host.is_empty() {
@@ -133,9 +131,7 @@ pub fn validate_endpoint(ep: &str) -> Result<(), String> {
     }
     if let Ok(ip) = host.parse::<std::net::IpAddr>() {
         if ip.is_unspecified() {
-            return Err(format!(
-                "{ep:?}: a wildcard address cannot be advertised to other peers; name the interface address (e.g. 127.0.0.1)"
-            ));
+            return Err(format!("{ep:?}: a wildcard address cannot be advertised to other peers; name the interface address (e.g. 127.0.0.1)"));
         }
     }
     Ok(())
@@ -143,12 +139,7 @@ pub fn validate_endpoint(ep: &str) -> Result<(), String> {
 
 /// Builds a Zenoh config for an insecure node (plain TCP): explicit endpoints, multicast scouting
 /// off, gossip on, the given lease on every link, the default message size limit.
-pub fn zenoh_config(
-    mode: Mode,
-    listen: &[String],
-    connect: &[String],
-    lease_ms: u64,
-) -> Result<zenoh::Config, ProtoError> {
+pub fn zenoh_config(mode: Mode, listen: &[String], connect: &[String], lease_ms: u64) -> Result<zenoh::Config, ProtoError> {
     zenoh_config_with(mode, listen, connect, lease_ms, DEFAULT_MAX_MESSAGE_SIZE, None, None)
 }
 
@@ -174,10 +165,7 @@ pub fn zenoh_config_with(
 ) -> Result<zenoh::Config, ProtoError> {
     validate_max_message_size("max_message_size", max_message_size).map_err(ProtoError::Config)?;
     let mut c = zenoh::Config::default();
-    let set = |c: &mut zenoh::Config, key: &str, value: String| {
-        c.insert_json5(key, &value)
-            .map_err(|e| ProtoError::Config(format!("zenoh config {key}: {e}")))
-    };
+    let set = |c: &mut zenoh::Config, key: &str, value: String| c.insert_json5(key, &value).map_err(|e| ProtoError::Config(format!("zenoh config {key}: {e}")));
     set(&mut c, "mode", json(mode.as_str()))?;
     set(&mut c, "listen/endpoints", json(listen))?;
     set(&mut c, "connect/endpoints", json(connect))?;
@@ -272,31 +260,20 @@ impl QueryError {
 
 /// One query expecting one JSON answer: returns at the first reply (not at the timeout). A reply
 /// error becomes [`QueryError::Remote`] with the server's message.
-pub async fn query<T: DeserializeOwned>(
-    session: &Session,
-    selector: &str,
-    body: Option<Vec<u8>>,
-    timeout: Duration,
-) -> Result<T, QueryError> {
+pub async fn query<T: DeserializeOwned>(session: &Session, selector: &str, body: Option<Vec<u8>>, timeout: Duration) -> Result<T, QueryError> {
     let zerr = |e: zenoh::Error| QueryError::Zenoh { key: selector.to_string(), why: e.to_string() };
     let mut get = session.get(selector).timeout(timeout);
     if let Some(b) = body {
         get = get.payload(b).encoding(Encoding::APPLICATION_JSON);
     }
     let replies = get.await.map_err(zerr)?;
-    let reply = replies
-        .recv_async()
-        .await
-        .map_err(|_| QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() })?;
+    let reply = replies.recv_async().await.map_err(|_| QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() })?;
     match reply.result() {
-        Ok(sample) => from_json(selector, &sample.payload().to_bytes())
-            .map_err(|e| QueryError::Decode { key: selector.to_string(), why: e.to_string() }),
+        Ok(sample) => from_json(selector, &sample.payload().to_bytes()).map_err(|e| QueryError::Decode { key: selector.to_string(), why: e.to_string() }),
         Err(err) => {
             let bytes = err.payload().to_bytes();
             Err(QueryError::Remote(
-                from_json::<ErrorReply>(selector, &bytes)
-                    .map(|e| e.error)
-                    .unwrap_or_else(|_| String::from_utf8_lossy(&bytes).chars().take(200).collect()),
+                from_json::<ErrorReply>(selector, &bytes).map(|e| e.error).unwrap_or_else(|_| String::from_utf8_lossy(&bytes).chars().take(200).collect()),
             ))
         }
     }
@@ -350,8 +327,7 @@ mod tests {
 
     #[test]
     fn config_has_no_multicast_and_our_lease() {
-        let c = zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[DEFAULT_CENTRAL.into()], 1000)
-            .expect("config");
+        let c = zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[DEFAULT_CENTRAL.into()], 1000).expect("config");
         assert_eq!(c.get_json("scouting/multicast/enabled").expect("key"), "false");
         assert_eq!(c.get_json("transport/link/tx/lease").expect("key"), "1000");
         assert!(c.get_json("listen/endpoints").expect("key").contains("127.0.0.1:0"));

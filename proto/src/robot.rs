@@ -78,7 +78,6 @@ pub struct Progress {
     pub done: bool,
 }
 
-
 /// What a robot says about itself when it registers (answer of `mrmm/robots/<id>/info`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotInfo {

@@ -154,10 +154,7 @@ impl Invariants {
         for m in a.members.iter().filter(|m| *m != robot) {
             let there = self.arrivals.get(&(a.mission.clone(), a.epoch, m.clone())).is_some_and(|f| *f >= mine);
             if !there && !e.barrier().is_gone(m) {
-                return Err(format!(
-                    "{robot} passed barrier (round {}, point {}) of {} epoch {} before {m} arrived there",
-                    mine.0, mine.1, a.mission, a.epoch
-                ));
+                return Err(format!("{robot} passed barrier (round {}, point {}) of {} epoch {} before {m} arrived there", mine.0, mine.1, a.mission, a.epoch));
             }
         }
         Ok(())

@@ -228,7 +228,10 @@ pub fn run_many(first: u64, seeds: u64, config: fn(u64) -> Config) -> Result<Vec
                 })
             })
             .collect();
-        handles.into_iter().map(|h| h.join().unwrap_or_else(|_| Err(Violation { seed: first, at: 0.0, what: "a simulation thread panicked".into(), trace: vec![] }))).collect()
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err(Violation { seed: first, at: 0.0, what: "a simulation thread panicked".into(), trace: vec![] })))
+            .collect()
     });
     let mut reports = Vec::new();
     let mut first_bad: Option<Violation> = None;

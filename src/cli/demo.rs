@@ -75,12 +75,7 @@ pub async fn run(mut args: Args) -> anyhow::Result<()> {
     result
 }
 
-async fn drive(
-    args: &Args,
-    dir: &std::path::Path,
-    children: &mut Vec<Child>,
-    shutdown: &tokio_util::sync::CancellationToken,
-) -> anyhow::Result<()> {
+async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, shutdown: &tokio_util::sync::CancellationToken) -> anyhow::Result<()> {
     let started = Instant::now();
     let listen = args.listen.clone().unwrap_or_default();
     // A throw-away fleet PKI: the CA, central, the operator (this demo and your tools), each robot.
@@ -104,10 +99,8 @@ async fn drive(
     let line = procs::ready_line(&mut central, "central ready", Duration::from_secs(20), &log).await;
     children.push(central);
     let line = line.context("central did not start")?;
-    let endpoint = procs::field(&line, "listening")
-        .and_then(|l| l.split(',').next())
-        .ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?
-        .to_string();
+    let endpoint =
+        procs::field(&line, "listening").and_then(|l| l.split(',').next()).ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?.to_string();
 
     let n = args.robots as usize;
     for i in 0..n {
@@ -124,7 +117,9 @@ async fn drive(
     // Where operator tools find central and the operator's certificate.
     let tool = dir.join("tool.json5");
     let security = match &operator {
-        Some(s) => format!(", security: {{ ca: {:?}, cert: {:?}, key: {:?} }}", s.ca.display().to_string(), s.cert.display().to_string(), s.key.display().to_string()),
+        Some(s) => {
+            format!(", security: {{ ca: {:?}, cert: {:?}, key: {:?} }}", s.ca.display().to_string(), s.cert.display().to_string(), s.key.display().to_string())
+        }
         None => String::new(),
     };
     std::fs::write(&tool, format!("{{ connect: [{endpoint:?}]{security} }}\n")).with_context(|| format!("cannot write {}", tool.display()))?;
@@ -143,7 +138,11 @@ async fn drive(
     let mut last_order: Option<Instant> = None;
     let mut missions_started = false;
     let how = if pki.is_some() { "mutual TLS, throw-away CA" } else { "INSECURE: plain TCP" };
-    println!("mrmm demo: central on {endpoint} ({how}); from another terminal: export {}={} and run `mrmm op robots`", super::security::TOOL_CONFIG_ENV, tool.display());
+    println!(
+        "mrmm demo: central on {endpoint} ({how}); from another terminal: export {}={} and run `mrmm op robots`",
+        super::security::TOOL_CONFIG_ENV,
+        tool.display()
+    );
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -165,11 +164,7 @@ async fn drive(
             missions_started = true;
             start_missions(&client, n).await;
         }
-        let missions: Vec<MissionView> = if args.formation {
-            vec![]
-        } else {
-            client.query(proto::Key::SystemMissions, None::<&()>).await.unwrap_or_default()
-        };
+        let missions: Vec<MissionView> = if args.formation { vec![] } else { client.query(proto::Key::SystemMissions, None::<&()>).await.unwrap_or_default() };
         let all_idle = live.iter().all(|v| v.status == RobotStatus::Idle);
         let settled = last_order.is_none_or(|t| t.elapsed() > Duration::from_secs(1));
         if args.formation && all_in && all_idle && settled {

@@ -21,17 +21,13 @@ pub struct Args {
 pub fn run(args: Args) -> anyhow::Result<()> {
     let (origin, text) = match recipe::bank(&args.recipe) {
         Some(xml) if !Path::new(&args.recipe).exists() => (format!("recipe {}", args.recipe), xml.to_string()),
-        _ => (
-            args.recipe.clone(),
-            std::fs::read_to_string(&args.recipe).with_context(|| format!("cannot read {} (bank: patrol, coverage)", args.recipe))?,
-        ),
+        _ => (args.recipe.clone(), std::fs::read_to_string(&args.recipe).with_context(|| format!("cannot read {} (bank: patrol, coverage)", args.recipe))?),
     };
     let r = recipe::parse(&text).map_err(|e| anyhow!("{origin}: {e}"))?;
     recipe::validate(&r).map_err(|e| anyhow!("{origin}: {e}"))?;
     let robots_text = std::fs::read_to_string(&args.robots).with_context(|| format!("cannot read {}", args.robots.display()))?;
-    let robots: Vec<RobotSpec> = serde_json::from_str(&robots_text).with_context(|| {
-        format!("{}: expected [{{\"id\", \"type\", \"x\", \"y\", \"speed\"}}, …]", args.robots.display())
-    })?;
+    let robots: Vec<RobotSpec> = serde_json::from_str(&robots_text)
+        .with_context(|| format!("{}: expected [{{\"id\", \"type\", \"x\", \"y\", \"speed\"}}, …]", args.robots.display()))?;
     let overrides = recipe::parse_overrides(&args.params)?;
     let plan = recipe::build(&r, &overrides, &robots).map_err(|e| anyhow!("{origin}: {e}"))?;
     println!("{}", serde_json::to_string_pretty(&plan)?);

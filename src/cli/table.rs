@@ -28,10 +28,7 @@ pub fn robots(views: &[RobotView]) -> String {
     let rows: Vec<Vec<String>> = views
         .iter()
         .map(|v| {
-            let pose = v
-                .pose
-                .map(|p| format!("({:7.2}, {:7.2}) {:5.0}°", p.x, p.y, p.theta.to_degrees()))
-                .unwrap_or_else(|| "-".into());
+            let pose = v.pose.map(|p| format!("({:7.2}, {:7.2}) {:5.0}°", p.x, p.y, p.theta.to_degrees())).unwrap_or_else(|| "-".into());
             vec![
                 v.id.clone(),
                 v.robot_type.clone(),

@@ -46,11 +46,8 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     }
     let tool = super::security::ToolConfig::load(args.config.as_deref())?;
     let security = tool.security(&args.security, "operator");
-    let listen = if args.listen.is_empty() {
-        vec![if security.is_some() { "tls/127.0.0.1:0" } else { "tcp/127.0.0.1:0" }.to_string()]
-    } else {
-        args.listen.clone()
-    };
+    let listen =
+        if args.listen.is_empty() { vec![if security.is_some() { "tls/127.0.0.1:0" } else { "tcp/127.0.0.1:0" }.to_string()] } else { args.listen.clone() };
     let n = NodeNet {
         mode: Mode::Peer,
         listen,

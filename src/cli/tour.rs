@@ -42,8 +42,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     );
     if let Some(out) = args.out {
         let name = if inst.name.is_empty() { "tour" } else { &inst.name };
-        std::fs::write(&out, tsplib::write_tour(name, &tour.order, tour.length))
-            .with_context(|| format!("cannot write {}", out.display()))?;
+        std::fs::write(&out, tsplib::write_tour(name, &tour.order, tour.length)).with_context(|| format!("cannot write {}", out.display()))?;
     }
     Ok(())
 }

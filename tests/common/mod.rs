@@ -36,18 +36,13 @@ impl Proc {
     }
     /// The value of `key=` in the ready line.
     pub fn field(&self, key: &str) -> Option<String> {
-        self.ready
-            .split_whitespace()
-            .find_map(|w| w.strip_prefix(key)?.strip_prefix('=').map(str::to_string))
+        self.ready.split_whitespace().find_map(|w| w.strip_prefix(key)?.strip_prefix('=').map(str::to_string))
     }
 }
 
 impl Drop for Proc {
     fn drop(&mut self) {
-        let _ = Command::new("kill")
-            .args(["-CONT", &self.pid().to_string()])
-            .stderr(Stdio::null())
-            .status();
+        let _ = Command::new("kill").args(["-CONT", &self.pid().to_string()]).stderr(Stdio::null()).status();
         self.kill();
     }
 }
@@ -134,10 +129,7 @@ pub fn start_lines(wrapper: &[&str], name: &str, args: &[&str], log: &Path, pref
 /// Starts central on a free loopback port; returns it and its endpoint.
 pub fn start_central(dir: &Scratch) -> anyhow::Result<(Proc, String)> {
     let p = start("central", &["central", "--listen", "tcp/127.0.0.1:0"], &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
-    let ep = p
-        .field("listening")
-        .and_then(|l| l.split(',').next().map(str::to_string))
-        .ok_or_else(|| anyhow!("no endpoint in {:?}", p.ready))?;
+    let ep = p.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow!("no endpoint in {:?}", p.ready))?;
     Ok((p, ep))
 }
 
@@ -320,4 +312,18 @@ pub fn start_secure_robot(dir: &Scratch, pki: &Path, id: &str, central: &str, x:
     std::fs::write(&path, cfg)?;
     let path = path.display().to_string();
     start(id, &["robot", "--config", &path], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))
+}
+
+/// Every entry of central's journal, page by page.
+pub async fn journal(c: &mrmm_proto::client::Client) -> anyhow::Result<Vec<mrmm_proto::JournalEntry>> {
+    let mut since = 0;
+    let mut all = Vec::new();
+    loop {
+        let page: mrmm_proto::JournalPage = c.query(format!("{}?since={since}", mrmm_proto::Key::SystemJournal), None::<&()>).await?;
+        all.extend(page.entries);
+        if !page.more {
+            return Ok(all);
+        }
+        since = page.next;
+    }
 }

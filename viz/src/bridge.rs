@@ -153,7 +153,15 @@ const IDLE: [u8; 3] = [200, 200, 200];
 
 impl View {
     fn new(rec: RecordingStream) -> Self {
-        View { rec, t0: Instant::now(), trails: BTreeMap::new(), missions: BTreeMap::new(), colors: BTreeMap::new(), teams: BTreeMap::new(), messages: BTreeMap::new() }
+        View {
+            rec,
+            t0: Instant::now(),
+            trails: BTreeMap::new(),
+            missions: BTreeMap::new(),
+            colors: BTreeMap::new(),
+            teams: BTreeMap::new(),
+            messages: BTreeMap::new(),
+        }
     }
 
     fn now(&self) {
@@ -206,7 +214,10 @@ impl View {
                     let tour = xy(&p.tour);
                     let mut closed = tour.clone();
                     closed.push(tour[0]);
-                    self.log(&paths::mission_tour(&m.name), &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.clone()]));
+                    self.log(
+                        &paths::mission_tour(&m.name),
+                        &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.clone()]),
+                    );
                     self.log(&paths::mission_waypoints(&m.name), &rerun::Points2D::new(tour).with_colors([color]).with_radii([0.3]));
                 }
                 Some(PlanSummary::Coverage(c)) => {
@@ -224,7 +235,10 @@ impl View {
                         self.log(&paths::mission_region(&m.name), &rerun::LineStrips2D::new(rings).with_colors([color]).with_radii([0.1]));
                     }
                     if !c.points.is_empty() {
-                        self.log(&paths::mission_points(&m.name), &rerun::Points2D::new(xy(&c.points)).with_colors([color]).with_radii([0.35]).with_labels([m.name.clone()]));
+                        self.log(
+                            &paths::mission_points(&m.name),
+                            &rerun::Points2D::new(xy(&c.points)).with_colors([color]).with_radii([0.35]).with_labels([m.name.clone()]),
+                        );
                     }
                 }
                 _ => {}

@@ -115,7 +115,10 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
         if m.status == MissionStatus::Stalled {
             if let Some(e) = &m.error {
                 let id = format!("manager/{}", m.name);
-                out.insert(id.clone(), candidate(id, Priority::Critical, format!("mission {}: {e}", m.name), json!({"mission": m.name, "node": m.manager.node}), now, None));
+                out.insert(
+                    id.clone(),
+                    candidate(id, Priority::Critical, format!("mission {}: {e}", m.name), json!({"mission": m.name, "node": m.manager.node}), now, None),
+                );
             }
         }
         let prev = mem.managers.insert(m.name.clone(), m.manager.node.clone());

@@ -73,8 +73,22 @@ fn snap(robots: Vec<RobotView>, missions: Vec<MissionView>) -> Event {
 fn robot_lost_is_critical_once_and_withdrawn_when_back() {
     let mut a = Agent::new(AgentConfig::default());
     let p = || mission("p", "patrol", &["r1", "r2"], None, None);
-    a.handle(0.0, snap(vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), robot("r3", RobotStatus::Busy, Some("p"), 2.0, "step 1")], vec![mission("p", "patrol", &["r1", "r2", "r3"], None, None)]));
-    let lost = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), robot("r3", RobotStatus::Lost, None, 2.0, "step 1")];
+    a.handle(
+        0.0,
+        snap(
+            vec![
+                robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"),
+                robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"),
+                robot("r3", RobotStatus::Busy, Some("p"), 2.0, "step 1"),
+            ],
+            vec![mission("p", "patrol", &["r1", "r2", "r3"], None, None)],
+        ),
+    );
+    let lost = vec![
+        robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"),
+        robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"),
+        robot("r3", RobotStatus::Lost, None, 2.0, "step 1"),
+    ];
     let cmds = a.handle(1.0, snap(lost.clone(), vec![p()]));
     assert_eq!(raised(&cmds), [("lost/r3".into(), Priority::Critical)]);
     let adv = a.advice();
@@ -86,7 +100,11 @@ fn robot_lost_is_critical_once_and_withdrawn_when_back() {
     assert!(a.handle(2.0, snap(lost, vec![shrunk])).is_empty());
     assert_eq!(a.advice()[0].reason, "robot r3 lost; mission p replanned for its 1 remaining robots");
     // Back: withdrawn.
-    let back = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), robot("r3", RobotStatus::Idle, None, 2.0, "hold")];
+    let back = vec![
+        robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"),
+        robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"),
+        robot("r3", RobotStatus::Idle, None, 2.0, "hold"),
+    ];
     let cmds = a.handle(3.0, snap(back, vec![p()]));
     assert_eq!(withdrawn(&cmds), ["lost/r3"]);
 }
@@ -133,7 +151,11 @@ fn idle_robots_are_pointed_where_they_help_most() {
 fn while_the_operator_is_busy_only_critical_advice_interrupts() {
     let mut a = Agent::new(AgentConfig { busy_window_s: 10.0, ..AgentConfig::default() });
     a.handle(0.0, Event::OperatorCommand);
-    let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold"), robot("r5", RobotStatus::Lost, None, 9.0, "hold")];
+    let robots = vec![
+        robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"),
+        robot("r4", RobotStatus::Idle, None, 3.0, "hold"),
+        robot("r5", RobotStatus::Lost, None, 9.0, "hold"),
+    ];
     let ms = vec![mission("p", "patrol", &["r1"], None, None)];
     let cmds = a.handle(1.0, snap(robots.clone(), ms.clone()));
     assert_eq!(raised(&cmds), [("lost/r5".into(), Priority::Critical)], "info waits");
@@ -201,6 +223,12 @@ fn one_robot_is_moved_once_per_look() {
     ];
     let ms = vec![mission("p", "patrol", &["r3"], None, None), mission("q", "patrol", &["r4"], None, None)];
     let cmds = a.handle(0.0, snap(robots, ms));
-    let moves: Vec<&RobotMove> = cmds.iter().filter_map(|c| match c { Command::Move { mv, .. } => Some(mv), _ => None }).collect();
+    let moves: Vec<&RobotMove> = cmds
+        .iter()
+        .filter_map(|c| match c {
+            Command::Move { mv, .. } => Some(mv),
+            _ => None,
+        })
+        .collect();
     assert_eq!(moves.iter().filter(|m| m.robot == "r5").count(), 1, "r5 moved once in one look: {moves:?}");
 }

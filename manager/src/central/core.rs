@@ -151,15 +151,22 @@ mod tests {
             ..Default::default()
         };
         // Without the journal entries, which come first in every batch that has them.
-        let no_journal = |out: Vec<Command>| -> Vec<Command> { out.into_iter().filter(|c| !matches!(c, Command::System(system::Command::Journal(_)))).collect() };
+        let no_journal =
+            |out: Vec<Command>| -> Vec<Command> { out.into_iter().filter(|c| !matches!(c, Command::System(system::Command::Journal(_)))).collect() };
         let out = no_journal(c.handle(0.1, Event::System(system::Event::Operator { req: Req::Query(1), request: Request::Create(create) })));
         // The dry run, as the driver makes it off the loop.
         let [Command::System(system::Command::DryRun(dry))] = out.as_slice() else { panic!("a dry run first: {out:?}") };
         let result = dry.run();
         let out = c.handle(0.1, Event::System(system::Event::DryRunDone { id: dry.id, result }));
-        assert!(matches!(out.first(), Some(Command::System(system::Command::Journal(e))) if e.iter().any(|e| matches!(e, mrmm_proto::JournalEvent::MissionDefined { .. }))), "{out:?}");
+        assert!(
+            matches!(out.first(), Some(Command::System(system::Command::Journal(e))) if e.iter().any(|e| matches!(e, mrmm_proto::JournalEvent::MissionDefined { .. }))),
+            "{out:?}"
+        );
         let out = no_journal(out);
-        assert!(matches!(out.as_slice(), [Command::System(system::Command::SendToRobot { .. }), Command::System(system::Command::StartMission { .. })]), "{out:?}");
+        assert!(
+            matches!(out.as_slice(), [Command::System(system::Command::SendToRobot { .. }), Command::System(system::Command::StartMission { .. })]),
+            "{out:?}"
+        );
         let mut view = Box::new(c.system().mission_views()[0].clone());
         view.status = mrmm_proto::MissionStatus::Running;
         view.summary = Some(mrmm_proto::PlanSummary::Patrol(mrmm_proto::plan::PatrolSummary {

@@ -20,7 +20,7 @@ pub use self::config::CentralConfig;
 pub use self::core::{CentralCore, Command, Event, AGENT_PERIOD_S};
 use crate::error::ManagerError;
 use crate::inbox::Inbox;
-use crate::journal::Journal;
+use crate::journal::{now_ms, Journal, BEAT_S};
 use crate::system::{self, Req, Request};
 use crate::Failure;
 
@@ -85,24 +85,46 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let mut held = Vec::new();
     for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
         let t = live.clone();
-        held.push(session.liveliness().declare_subscriber(pattern.to_string()).history(true).callback(move |s| {
-            t.push(Input::Sample(s));
-        }).await.map_err(ManagerError::zenoh)?);
+        held.push(
+            session
+                .liveliness()
+                .declare_subscriber(pattern.to_string())
+                .history(true)
+                .callback(move |s| {
+                    t.push(Input::Sample(s));
+                })
+                .await
+                .map_err(ManagerError::zenoh)?,
+        );
     }
     for pattern in [Pattern::AllTelemetry, Pattern::AllMissionStatus] {
         let t = net.clone();
-        held.push(session.declare_subscriber(pattern.to_string()).callback(move |s| {
-            t.push(Input::Sample(s));
-        }).await.map_err(ManagerError::zenoh)?);
+        held.push(
+            session
+                .declare_subscriber(pattern.to_string())
+                .callback(move |s| {
+                    t.push(Input::Sample(s));
+                })
+                .await
+                .map_err(ManagerError::zenoh)?,
+        );
     }
     let t = net.clone();
-    let _operator = session.declare_queryable(Pattern::SystemAll.to_string()).callback(move |q| {
-        t.push(Input::Operator(q));
-    }).await.map_err(ManagerError::zenoh)?;
+    let _operator = session
+        .declare_queryable(Pattern::SystemAll.to_string())
+        .callback(move |q| {
+            t.push(Input::Operator(q));
+        })
+        .await
+        .map_err(ManagerError::zenoh)?;
     let t = net.clone();
-    let _advice = session.declare_queryable(Key::AgentAdvice.to_string()).callback(move |q| {
-        t.push(Input::Advice(q));
-    }).await.map_err(ManagerError::zenoh)?;
+    let _advice = session
+        .declare_queryable(Key::AgentAdvice.to_string())
+        .callback(move |q| {
+            t.push(Input::Advice(q));
+        })
+        .await
+        .map_err(ManagerError::zenoh)?;
     // The default planner service and mission host live here too.
     let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), shutdown.child_token()));
     let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, shutdown.child_token()));
@@ -113,10 +135,9 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
 
     let t0 = Instant::now();
     // When the previous central was last alive, on this loop's clock (0 = now).
-    let wall_ms = || std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64);
-    let prev_alive = journal.as_ref().and_then(|j| j.prev_alive_ms()).map(|ms| (ms as f64 - wall_ms() as f64) / 1000.0);
+    let prev_alive = journal.as_ref().and_then(|j| j.prev_alive_ms()).map(|ms| (ms as f64 - now_ms() as f64) / 1000.0);
     let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state, prev_alive);
-    let mut beat = tokio::time::interval(Duration::from_secs_f64(crate::journal::BEAT_S));
+    let mut beat = tokio::time::interval(Duration::from_secs_f64(BEAT_S));
     let mut io = Io { mesh: mesh.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
     let mut tick = tokio::time::interval(TICK);
     let mut refused = 0;
@@ -125,7 +146,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
             _ = shutdown.cancelled() => break,
             _ = beat.tick() => {
                 if let Some(j) = journal.as_mut() {
-                    tokio::task::block_in_place(|| j.beat(wall_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
+                    tokio::task::block_in_place(|| j.beat(now_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
                 }
                 continue;
             }
@@ -177,17 +198,15 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
 /// else is done or said. A journal that cannot be written stops central: it restarts from
 /// what is on disk rather than say "ok" about what is not.
 async fn carry_out(io: &mut Io, journal: Option<&mut Journal>, cmds: Vec<Command>) -> Result<(), ManagerError> {
-    let (entries, rest): (Vec<Command>, Vec<Command>) = cmds.into_iter().partition(|c| matches!(c, Command::System(system::Command::Journal(_))));
-    let events: Vec<proto::JournalEvent> = entries
-        .into_iter()
-        .flat_map(|c| match c {
-            Command::System(system::Command::Journal(e)) => e,
-            _ => vec![],
-        })
-        .collect();
+    let (mut events, mut rest) = (Vec::new(), Vec::new());
+    for c in cmds {
+        match c {
+            Command::System(system::Command::Journal(e)) => events.extend(e),
+            c => rest.push(c),
+        }
+    }
     if let (Some(j), false) = (journal, events.is_empty()) {
-        let at_ms = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64);
-        tokio::task::block_in_place(|| j.append(&events, at_ms)).inspect_err(|e| tracing::error!("{e}: central stops"))?;
+        tokio::task::block_in_place(|| j.append(&events, now_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
     }
     for c in rest {
         io.execute(c).await;
@@ -306,7 +325,9 @@ impl Io {
         match c {
             system::Command::Reply { req, result } => {
                 let Req::Query(id) = req else { return };
-                let Some(q) = self.queries.remove(&id) else { return };
+                let Some(q) = self.queries.remove(&id) else {
+                    return;
+                };
                 match result {
                     Ok(v) => self.mesh.reply_json(&q, &v).await,
                     Err(e) => self.mesh.reply_error(&q, &e).await,
@@ -336,7 +357,9 @@ impl Io {
             system::Command::SendToRobot { req, robot, cmd } => self.spawn(async move {
                 let key = Key::RobotCmd(robot.clone()).to_string();
                 let result = match proto::to_json(&cmd) {
-                    Ok(body) => mesh.query::<CommandAck>(&key, Some(body), timeout, |s| s.is(Role::Robot, &robot)).await.map(|(a, _)| a).map_err(|e| e.to_string()),
+                    Ok(body) => {
+                        mesh.query::<CommandAck>(&key, Some(body), timeout, |s| s.is(Role::Robot, &robot)).await.map(|(a, _)| a).map_err(|e| e.to_string())
+                    }
                     Err(e) => Err(e.to_string()),
                 };
                 system::Event::RobotCommandDone { req, robot, result }
@@ -368,7 +391,9 @@ impl Io {
             }),
             system::Command::Forward { req, key, managers } => {
                 let Req::Query(id) = req else { return };
-                let Some(q) = self.queries.remove(&id) else { return };
+                let Some(q) = self.queries.remove(&id) else {
+                    return;
+                };
                 tokio::spawn(async move {
                     match mesh.query::<serde_json::Value>(&key.to_string(), None, timeout, |s| s.role.hosts_missions() && managers.contains(&s.id)).await {
                         Ok((v, _)) => mesh.reply_json(&q, &v).await,

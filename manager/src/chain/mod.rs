@@ -75,18 +75,27 @@ impl Default for Params {
 pub enum Event<S> {
     /// Time passes (call every few tens of milliseconds).
     Tick,
-    Recv { from: String, msg: Msg<S> },
+    Recv {
+        from: String,
+        msg: Msg<S>,
+    },
     /// A node's liveliness appeared.
     Alive(String),
     /// A node's liveliness was lost.
     Gone(String),
     /// Create the replicated value with this node as head and `replicas` after it.
-    Create { replicas: Vec<String>, state: S },
+    Create {
+        replicas: Vec<String>,
+        state: S,
+    },
     /// Head only: replicate a new state.
     Propose(S),
     /// Head only: nodes that may join the chain when one is missing, best first, and how many
     /// replicas the chain should have.
-    Pool { nodes: Vec<String>, k: usize },
+    Pool {
+        nodes: Vec<String>,
+        k: usize,
+    },
     /// Head only: end the replicated value on every node of the chain.
     End,
 }
@@ -94,11 +103,20 @@ pub enum Event<S> {
 /// What the driver must do.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command<S> {
-    Send { to: String, msg: Msg<S> },
+    Send {
+        to: String,
+        msg: Msg<S>,
+    },
     /// This node now leads `config`, starting from `state` (epoch `config.epoch`, seq 0).
-    Lead { config: Config, state: S },
+    Lead {
+        config: Config,
+        state: S,
+    },
     /// Everything up to `(epoch, seq)` is on every node of the chain.
-    Committed { epoch: u64, seq: u64 },
+    Committed {
+        epoch: u64,
+        seq: u64,
+    },
     /// This node no longer leads: stop acting for the mission.
     StepDown,
     /// This node is out of the mission's chain for good and holds nothing: forget it.

@@ -4,17 +4,29 @@ use std::collections::BTreeSet;
 
 use super::{Command, Config, Event, Msg, Params, Version};
 
-
 /// What a node is doing for the value.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Role {
     Follower,
     /// Standing for `proposal.epoch`; `was_head` when the head is changing its own chain.
-    Candidate { proposal: Config, grants: BTreeSet<String>, since: f64, was_head: bool },
+    Candidate {
+        proposal: Config,
+        grants: BTreeSet<String>,
+        since: f64,
+        was_head: bool,
+    },
     /// Leading `config`; `committed` is the highest seq of this epoch on every chain node.
-    Head { committed: Option<u64>, last_sent: f64, last_change: f64 },
+    Head {
+        committed: Option<u64>,
+        last_sent: f64,
+        last_change: f64,
+    },
     /// Ending the value: waiting for the chain to forget it.
-    Ending { epoch: u64, last_sent: f64, since: f64 },
+    Ending {
+        epoch: u64,
+        last_sent: f64,
+        since: f64,
+    },
 }
 
 /// One node's replica.
@@ -473,10 +485,7 @@ impl<S: Clone> Replica<S> {
     fn on_update(&mut self, now: f64, _from: String, config: Config, seq: u64, state: S) -> Vec<Command<S>> {
         let e = config.epoch;
         if e < self.promised {
-            return vec![Command::Send {
-                to: config.head().to_string(),
-                msg: Msg::Stale { promised: self.promised, last: self.version() },
-            }];
+            return vec![Command::Send { to: config.head().to_string(), msg: Msg::Stale { promised: self.promised, last: self.version() } }];
         }
         if config.head() == self.me {
             return vec![];

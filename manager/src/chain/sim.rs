@@ -321,9 +321,8 @@ impl Sim {
         self.report.heads_at_end = heads.len();
         // The newest configuration any node knows, and whether a majority of it kept its state.
         let newest = self.nodes.iter().filter_map(|n| n.replica()?.config().cloned()).max_by_key(|c| c.epoch);
-        self.report.recoverable = newest.is_some_and(|c| {
-            c.majority(|m| self.nodes.iter().any(|n| n.name == m && n.replica().is_some_and(|r| r.state().is_some())))
-        });
+        self.report.recoverable =
+            newest.is_some_and(|c| c.majority(|m| self.nodes.iter().any(|n| n.name == m && n.replica().is_some_and(|r| r.state().is_some()))));
         if heads.len() > 1 {
             let names: Vec<String> = heads.iter().map(|n| n.name.clone()).collect();
             return Err(format!("{} heads after healing: {}", heads.len(), names.join(", ")));

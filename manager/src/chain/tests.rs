@@ -76,7 +76,8 @@ fn first_live_successor_takes_over_with_the_next_epoch_and_repairs() {
     let cmds = n.get_mut("b").unwrap().handle(1.0, Event::Gone("a".into()));
     let out = settle(&mut n, 1.0, "b", cmds);
     assert!(
-        out.iter().any(|(w, c)| w == "b" && matches!(c, Command::Lead { config, state } if config.epoch == 2 && config.chain == ["b", "c"] && state == &vec![1])),
+        out.iter()
+            .any(|(w, c)| w == "b" && matches!(c, Command::Lead { config, state } if config.epoch == 2 && config.chain == ["b", "c"] && state == &vec![1])),
         "{out:?}"
     );
     assert!(n["b"].is_head());
@@ -133,7 +134,10 @@ fn votes_need_an_up_to_date_candidate_and_one_per_epoch() {
     let out = v.clone().handle(0.0, Event::Recv { from: "x".into(), msg: vote(3, (1, 4)) });
     assert!(matches!(out.last(), Some(Command::Send { msg: Msg::Grant { .. }, .. })));
     // With state: one vote per epoch, never backwards, never for an older state.
-    v.handle(0.0, Event::Recv { from: "h".into(), msg: Msg::Update { config: Config { epoch: 1, chain: vec!["h".into(), "v".into()] }, seq: 4, state: vec![1] } });
+    v.handle(
+        0.0,
+        Event::Recv { from: "h".into(), msg: Msg::Update { config: Config { epoch: 1, chain: vec!["h".into(), "v".into()] }, seq: 4, state: vec![1] } },
+    );
     let grant = |out: &Vec<Command<Vec<u32>>>| matches!(out.last(), Some(Command::Send { msg: Msg::Grant { .. }, .. }));
     assert!(grant(&v.handle(0.0, Event::Recv { from: "x".into(), msg: vote(3, (1, 4)) })));
     assert!(grant(&v.handle(0.0, Event::Recv { from: "x".into(), msg: vote(3, (1, 4)) })), "the same candidate again");

@@ -43,7 +43,16 @@ pub struct Head {
 
 impl Head {
     pub fn new(mm: MissionManager, start: Option<u64>) -> Self {
-        Head { mm, start, pending: Vec::new(), replies: Vec::new(), deliveries: BTreeMap::new(), requested: None, astray: BTreeMap::new(), sent: BTreeMap::new() }
+        Head {
+            mm,
+            start,
+            pending: Vec::new(),
+            replies: Vec::new(),
+            deliveries: BTreeMap::new(),
+            requested: None,
+            astray: BTreeMap::new(),
+            sent: BTreeMap::new(),
+        }
     }
 
     /// Runs one mission event; returns the plan requests to make now (everything else waits for

@@ -75,9 +75,7 @@ pub async fn serve_with(
     let session = mesh.session().clone();
     proto::validate_id(&node).map_err(|e| ManagerError::Config(format!("mission host name: {e}")))?;
     if net::already_alive(&session, &Key::HostAlive(node.clone()).to_string(), net::NAME_CHECK_TIMEOUT).await? {
-        return Err(ManagerError::NameTaken(format!(
-            "mission host {node:?} is already alive on the mesh; give every host and robot its own name"
-        )));
+        return Err(ManagerError::NameTaken(format!("mission host {node:?} is already alive on the mesh; give every host and robot its own name")));
     }
     // Our own tasks' answers; and, bounded, what the network sends (liveliness apart).
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
@@ -99,15 +97,29 @@ pub async fn serve_with(
     }
     for key in keys {
         let t = net.clone();
-        subs.push(session.declare_subscriber(key).callback(move |s| {
-            t.push(Input::Sample(s));
-        }).await.map_err(ManagerError::zenoh)?);
+        subs.push(
+            session
+                .declare_subscriber(key)
+                .callback(move |s| {
+                    t.push(Input::Sample(s));
+                })
+                .await
+                .map_err(ManagerError::zenoh)?,
+        );
     }
     for pattern in [Pattern::AllHostsAlive, Pattern::AllRobotsAlive, Pattern::AllPlannersAlive] {
         let t = live.clone();
-        subs.push(session.liveliness().declare_subscriber(pattern.to_string()).history(true).callback(move |s| {
-            t.push(Input::Sample(s));
-        }).await.map_err(ManagerError::zenoh)?);
+        subs.push(
+            session
+                .liveliness()
+                .declare_subscriber(pattern.to_string())
+                .history(true)
+                .callback(move |s| {
+                    t.push(Input::Sample(s));
+                })
+                .await
+                .map_err(ManagerError::zenoh)?,
+        );
     }
     let _token = session.liveliness().declare_token(Key::HostAlive(node.clone()).to_string()).await.map_err(ManagerError::zenoh)?;
     tracing::info!(%node, "mission host up");
@@ -319,9 +331,15 @@ impl Io {
                     (Key::MissionMarginal(mission.clone()), QueryKind::Marginal(mission.clone())),
                 ] {
                     let net = self.net.clone();
-                    match self.mesh.session().declare_queryable(key.to_string()).callback(move |q| {
-                        net.push(Input::Query(q, kind.clone()));
-                    }).await {
+                    match self
+                        .mesh
+                        .session()
+                        .declare_queryable(key.to_string())
+                        .callback(move |q| {
+                            net.push(Input::Query(q, kind.clone()));
+                        })
+                        .await
+                    {
                         Ok(q) => qs.push(q),
                         Err(e) => tracing::warn!(%mission, "cannot serve {key}: {e}"),
                     }
@@ -369,16 +387,14 @@ impl Io {
                     let epoch = assignment.epoch;
                     let key = Key::RobotCmd(robot.clone()).to_string();
                     let result = match proto::to_json(&RobotCommand::Plan(assignment)) {
-                        Ok(body) => mesh
-                            .query::<CommandAck>(&key, Some(body), ROBOT_TIMEOUT, |s| s.is(Role::Robot, &robot))
-                            .await
-                            .map(|_| ())
-                            .map_err(|e| match e {
+                        Ok(body) => {
+                            mesh.query::<CommandAck>(&key, Some(body), ROBOT_TIMEOUT, |s| s.is(Role::Robot, &robot)).await.map(|_| ()).map_err(|e| match e {
                                 // The robot does not take plans from this node yet (it awaits its
                                 // admission from central): keep re-sending.
                                 QueryError::Remote(m) if m.starts_with(proto::REFUSED) => Failure { retryable: true, error: m },
                                 e => failure(e),
-                            }),
+                            })
+                        }
                         Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
                     };
                     if let Err(f) = &result {

@@ -10,8 +10,7 @@ use std::collections::BTreeMap;
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::plan::{MissionPlan, PlanSummary, Point, RobotSpec};
 use mrmm_proto::{
-    self as proto, ManagerView, Marginal, Member, MissionSnapshot, MissionSpecWire, MissionStatus, MissionView, PlanAssignment,
-    PlanRequest, Telemetry,
+    self as proto, ManagerView, Marginal, Member, MissionSnapshot, MissionSpecWire, MissionStatus, MissionView, PlanAssignment, PlanRequest, Telemetry,
 };
 
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
@@ -66,11 +65,21 @@ pub enum Event {
     /// A robot joins (moved in, or a lost member back).
     Joined(Member),
     /// Robots leave (moved out, ordered out); one replan for all of them.
-    Left { ids: Vec<String> },
+    Left {
+        ids: Vec<String>,
+    },
     /// Robots were lost (liveliness): like `Left`, but they are remembered and may rejoin.
-    Lost { ids: Vec<String> },
-    PlanReady { epoch: u64, plan: Box<MissionPlan> },
-    PlanFailed { epoch: u64, error: String },
+    Lost {
+        ids: Vec<String>,
+    },
+    PlanReady {
+        epoch: u64,
+        plan: Box<MissionPlan>,
+    },
+    PlanFailed {
+        epoch: u64,
+        error: String,
+    },
     /// A member's telemetry (the time is wall seconds; metrics run on each robot's time scale).
     Telemetry(Box<Telemetry>),
 }

@@ -56,11 +56,7 @@ impl Ctls {
     /// The controls to send now: the first of each mission's queue, if not in flight, not
     /// waiting for another, and due.
     pub fn due(&mut self, now: f64) -> Vec<(u64, String, MissionCtl)> {
-        let waiting: Vec<(String, u64)> = self
-            .queues
-            .iter()
-            .filter_map(|(m, q)| q.front().and_then(|p| p.after).map(|a| (m.clone(), a)))
-            .collect();
+        let waiting: Vec<(String, u64)> = self.queues.iter().filter_map(|(m, q)| q.front().and_then(|p| p.after).map(|a| (m.clone(), a))).collect();
         let blocked: Vec<String> = waiting.into_iter().filter(|(_, a)| self.is_pending(*a)).map(|(m, _)| m).collect();
         let mut out = Vec::new();
         for (mission, q) in self.queues.iter_mut() {

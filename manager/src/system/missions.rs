@@ -4,12 +4,13 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_planner::recipe::{self, PlannerKind};
-use mrmm_proto::{self as proto, MissionCreate, MissionCtl, MissionStart, MissionTerminate, RobotCommand, RobotMove, RobotSpec};
+use mrmm_proto::{self as proto, MissionCreate, MissionCtl, MissionStart, MissionTerminate, MissionView, RobotCommand, RobotMove, RobotSpec};
 use serde_json::{json, Value};
 
-use super::{to_value, Command, MissionDef, MissionRecord, PendingStart, Released, Req, SystemManager};
+use super::{to_value, Command, MissionDef, MissionRecord, PendingStart, Released, Req, SystemManager, RESTART_RETRY_S};
 use crate::mission::MissionSpec;
 use crate::wire;
+use crate::Failure;
 
 /// A create checked but for its dry run.
 struct Checked {
@@ -64,7 +65,9 @@ impl SystemManager {
     /// The dry run of check `id` is done: the create takes effect (checked again: the fleet may
     /// have changed meanwhile), or its error is the answer.
     pub(super) fn dry_run_done(&mut self, id: u64, result: Result<(), String>) -> Vec<Command> {
-        let Some((req, c)) = self.checking.remove(&id) else { return vec![] };
+        let Some((req, c)) = self.checking.remove(&id) else {
+            return vec![];
+        };
         if let Err(e) = result {
             return vec![Command::Reply { req, result: Err(format!("mission {}: {e}", c.name)) }];
         }
@@ -122,11 +125,7 @@ impl SystemManager {
             .map(|(id, _)| id.as_str())
             .collect();
         if !running.is_empty() && !self.terminated.contains(&c.name) {
-            return Err(format!(
-                "mission {:?} still runs on robots {} though no manager of it has reported: choose another name",
-                c.name,
-                running.join(", ")
-            ));
+            return Err(format!("mission {:?} still runs on robots {} though no manager of it has reported: choose another name", c.name, running.join(", ")));
         }
         let host = c.host.clone().unwrap_or_else(|| proto::CENTRAL_HOST.to_string());
         if !self.hosts.contains(&host) {
@@ -335,5 +334,71 @@ impl SystemManager {
             Req::Agent(_) => "agent".to_string(),
         };
         self.notes.push(proto::JournalEvent::Command { by, command: command.to_string(), request: request.clone() });
+    }
+
+    /// The first plans of a mission are out, or its planning failed, or its host did not answer.
+    pub(super) fn started(&mut self, name: &str, result: Result<Box<MissionView>, Failure>) -> Vec<Command> {
+        if let Some(r) = self.restarts.get_mut(name) {
+            // A journaled mission started again: it is never forgotten for failing; tried again.
+            r.inflight = false;
+            match result {
+                Ok(view) => {
+                    tracing::info!(mission = %name, "mission running again");
+                    self.restarts.remove(name);
+                    if let Some(rec) = self.missions.get_mut(name) {
+                        rec.view = Some(*view);
+                    }
+                    self.resync(name);
+                }
+                Err(f) => {
+                    r.next = self.now + RESTART_RETRY_S;
+                    tracing::warn!(mission = %name, "starting the mission again failed ({}); trying again in {RESTART_RETRY_S} s", f.error);
+                }
+            }
+            return vec![];
+        }
+        let req = self.pending_create.remove(name);
+        let reply = |result| req.map(|req| Command::Reply { req, result }).into_iter().collect::<Vec<_>>();
+        match result {
+            Ok(view) => {
+                tracing::info!(mission = %name, "mission running");
+                if let Some(rec) = self.missions.get_mut(name) {
+                    rec.view = Some(*view);
+                }
+                reply(to_value(&self.mission_view(name)))
+            }
+            Err(f) if !self.missions.contains_key(name) => reply(Err(f.error)),
+            Err(f) if f.error.starts_with(proto::TAKEN_OVER) => {
+                // Another manager of its chain runs it: its head's reports will say which.
+                tracing::info!(mission = %name, "mission started; another of its managers took it over");
+                reply(to_value(&self.mission_view(name)))
+            }
+            Err(f) if f.retryable => {
+                // Nobody answered: the mission may be running. End it, and free its robots
+                // only once its head acknowledged the end — never in two missions.
+                tracing::warn!(mission = %name, "no answer to the start: ending the mission in case it started");
+                self.missions.remove(name);
+                self.terminated.insert(name.to_string());
+                self.ctls.cancel(name);
+                let end = self.ctls.push(name, MissionCtl::Terminate, None);
+                let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
+                let mut out = Vec::new();
+                for id in robots {
+                    self.assignment.remove(&id);
+                    self.released.insert(id.clone(), Released { mission: name.to_string(), ctl: end, acked: None });
+                    out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: name.to_string(), epoch: u64::MAX } });
+                }
+                out.extend(reply(Err(format!("mission {name} did not start: {}; it was ended in case it had", f.error))));
+                out
+            }
+            Err(f) => {
+                // The mission never ran: forget it, free its robots.
+                self.missions.remove(name);
+                self.assignment.retain(|_, m| m != name);
+                self.ctls.cancel(name);
+                tracing::warn!(mission = %name, "mission failed: {}", f.error);
+                reply(Err(f.error))
+            }
+        }
     }
 }

@@ -9,7 +9,9 @@
 mod ctl;
 pub mod durable;
 pub mod missions;
+mod recovery;
 mod reports;
+mod steer;
 mod views;
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -43,12 +45,15 @@ pub const RELEASE_GRACE_S: f64 = 5.0;
 /// the heads of running missions report which robots are theirs (two status periods).
 pub const ADOPT_S: f64 = 2.0;
 /// A mission of the journal that no live manager reports this long after the system manager
-/// started (and that no robot says it runs) is started again with its live robots.
+/// started (and that no robot says it runs) may be started again (see `recovery.rs`).
 pub const RESTART_S: f64 = 5.0;
 /// Seconds between two attempts to start a journaled mission again.
 pub const RESTART_RETRY_S: f64 = 5.0;
 /// How stale the previous manager's last sign of life may be (its heartbeat period).
 pub const RESTART_BEAT_S: f64 = 2.0;
+/// A head's report that lists a robot present this long after the robot's liveliness appeared
+/// has seen it back (two status periods and then some).
+pub const SEEN_BACK_S: f64 = 4.0;
 
 /// Who asked: an operator query held by the driver, or the advising agent (for an advice).
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -101,33 +106,63 @@ impl Request {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
     /// A robot's liveliness token appeared.
-    RobotAlive { id: String },
+    RobotAlive {
+        id: String,
+    },
     /// A robot's liveliness token disappeared (crash, freeze past the lease, or clean exit).
-    RobotGone { id: String },
+    RobotGone {
+        id: String,
+    },
     /// A robot answered its info query.
     RobotRegistered(RobotInfo),
     /// An info query failed.
-    InfoFailed { id: String, reason: String },
+    InfoFailed {
+        id: String,
+        reason: String,
+    },
     Telemetry(Box<Telemetry>),
     /// An operator request.
-    Operator { req: Req, request: Request },
+    Operator {
+        req: Req,
+        request: Request,
+    },
     /// A command to a robot completed; `req` is the request it answers, if any.
-    RobotCommandDone { req: Option<Req>, robot: String, result: Result<CommandAck, String> },
+    RobotCommandDone {
+        req: Option<Req>,
+        robot: String,
+        result: Result<CommandAck, String>,
+    },
     /// A mission host answered a start: the first plans are out, or planning failed (or, when
     /// `retryable`, nobody answered: the mission may or may not run).
-    MissionStarted { mission: String, result: Result<Box<MissionView>, Failure> },
+    MissionStarted {
+        mission: String,
+        result: Result<Box<MissionView>, Failure>,
+    },
     /// The answer to [`Command::Ctl`] `id`.
-    CtlDone { id: u64, result: Result<(), Failure> },
+    CtlDone {
+        id: u64,
+        result: Result<(), Failure>,
+    },
     /// A mission's head published its status; `from` is its proven sender.
-    MissionStatus { view: Box<MissionView>, from: Sender },
+    MissionStatus {
+        view: Box<MissionView>,
+        from: Sender,
+    },
     /// A mission host's liveliness token appeared.
-    HostAlive { node: String },
+    HostAlive {
+        node: String,
+    },
     /// A mission host's liveliness token disappeared.
-    HostGone { node: String },
+    HostGone {
+        node: String,
+    },
     /// What the driver refused so far, by reason (reported in the fleet status).
     Refusals(BTreeMap<String, u64>),
     /// The answer to [`Command::DryRun`] `id`.
-    DryRunDone { id: u64, result: Result<(), String> },
+    DryRunDone {
+        id: u64,
+        result: Result<(), String>,
+    },
     /// Periodic tick.
     Tick,
 }
@@ -296,68 +331,18 @@ impl SystemManager {
         }
     }
 
-    /// A system manager that starts from what its journal holds: the missions it defined are
-    /// known (those no live manager reports are started again after [`RESTART_S`]), robots are
-    /// in the missions the journal says, terminated missions stay terminated.
-    ///
-    /// `prev_alive` is when the previous manager was last known alive (this manager's clock,
-    /// within `beat` seconds): only a fleet whose live robots all started after that is known
-    /// to hold no replica of a mission, so only then is a mission started again.
-    pub fn restore(node: String, now: f64, state: Durable, prev_alive: Option<f64>) -> Self {
-        let mut m = SystemManager::new(node, now);
-        m.prev_alive = prev_alive;
-        for (name, def) in &state.missions {
-            m.missions.insert(name.clone(), MissionRecord { host: def.host.clone(), def: def.clone(), view: None, adopted: false });
-        }
-        m.assignment = state.assignment.clone();
-        m.terminated = state.terminated.clone();
-        m.notes.push(JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() });
-        m.journaled = state;
-        m
-    }
-
-    /// Whether `mission` is being started again from the journal (no live manager ran it).
-    pub fn restarting(&self, mission: &str) -> bool {
-        self.restarts.contains_key(mission)
-    }
-
-    /// The durable part as it is now.
-    pub fn durable(&self) -> Durable {
-        Durable {
-            missions: self.missions.iter().map(|(n, r)| (n.clone(), r.def.clone())).collect(),
-            assignment: self.assignment.clone(),
-            terminated: self.terminated.clone(),
-        }
-    }
-
-    /// Whether the durable part differs from what the journal holds (cheap: no copies).
-    fn durable_changed(&self) -> bool {
-        let j = &self.journaled;
-        self.assignment != j.assignment
-            || self.terminated != j.terminated
-            || self.missions.len() != j.missions.len()
-            || self.missions.iter().zip(&j.missions).any(|((n, r), (jn, jd))| n != jn || !Arc::ptr_eq(&r.def, jd))
-    }
-
     /// Handles one event.
     pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
         self.now = self.now.max(now);
         let mut out = self.event(now, event);
         out.extend(self.due(now));
         // Whatever changed goes to disk before any of it is said or done.
-        let mut entries = Vec::new();
-        if self.durable_changed() {
-            let now_state = self.durable();
-            entries = self.journaled.diff(&now_state);
-            self.journaled = now_state;
-        }
-        entries.append(&mut self.notes);
+        let entries = self.journal_entries();
         if !entries.is_empty() {
             out.insert(0, Command::Journal(entries));
         }
         out
     }
-
 
     fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
@@ -414,7 +399,9 @@ impl SystemManager {
                         }
                         rec.info = Some(info);
                     }
-                    None => tracing::debug!(robot = %id, "info from a robot with no liveliness: ignored"),
+                    None => {
+                        tracing::debug!(robot = %id, "info from a robot with no liveliness: ignored")
+                    }
                 }
                 // A lost member back: its mission takes it again, on our order — and it is
                 // admitted again (it may have restarted and forgotten).
@@ -487,78 +474,6 @@ impl SystemManager {
         }
     }
 
-    /// Controls and starts that can go out now.
-    fn due(&mut self, now: f64) -> Vec<Command> {
-        let mut out = Vec::new();
-        for (id, mission, ctl) in self.ctls.due(now) {
-            let managers = self.managers(&mission);
-            if let MissionCtl::Joined { member } = &ctl {
-                // A robot leading the mission may plan for the newcomer only once it is admitted,
-                // and the members take the newcomer's chain messages only once they know it: every
-                // member hears of the new membership.
-                let view = self.missions.get(&mission).and_then(|r| r.view.as_ref());
-                let mut members: Vec<String> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
-                if !members.contains(&member.spec.id) {
-                    members.push(member.spec.id.clone());
-                }
-                for robot in &members {
-                    let admit = RobotCommand::Admit { mission: mission.clone(), managers: managers.clone(), members: members.clone() };
-                    out.push(Command::SendToRobot { req: None, robot: robot.clone(), cmd: admit });
-                }
-            }
-            out.push(Command::Ctl { id, mission, ctl, managers });
-        }
-        let ctls = &self.ctls;
-        let (ready, waiting): (Vec<PendingStart>, Vec<PendingStart>) =
-            std::mem::take(&mut self.starts).into_iter().partition(|s| s.after.iter().all(|id| !ctls.is_pending(*id)));
-        self.starts = waiting;
-        for s in ready {
-            let members: Vec<String> = s.start.members.iter().map(|m| m.spec.id.clone()).collect();
-            for m in &members {
-                let admit = RobotCommand::Admit { mission: s.start.spec.name.clone(), managers: vec![s.host.clone()], members: members.clone() };
-                out.push(Command::SendToRobot { req: None, robot: m.clone(), cmd: admit });
-            }
-            out.push(Command::StartMission { host: s.host, start: s.start });
-        }
-        out
-    }
-
-    /// Admissions of `robots` to `mission`, naming its managers and members as known here.
-    fn admit(&self, mission: &str, robots: &[String]) -> Vec<Command> {
-        if !self.missions.contains_key(mission) {
-            return vec![];
-        }
-        let managers = self.managers(mission);
-        let view = self.missions.get(mission).and_then(|r| r.view.as_ref());
-        let mut members: Vec<String> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
-        members.extend(self.assignment.iter().filter(|(_, m)| m.as_str() == mission).map(|(id, _)| id.clone()));
-        members.sort();
-        members.dedup();
-        robots
-            .iter()
-            .map(|r| Command::SendToRobot {
-                req: None,
-                robot: r.clone(),
-                cmd: RobotCommand::Admit { mission: mission.to_string(), managers: managers.clone(), members: members.clone() },
-            })
-            .collect()
-    }
-
-    /// The nodes that may manage `mission` as this manager knows it: its host and its chain (as
-    /// last reported), head first.
-    pub fn managers(&self, mission: &str) -> Vec<String> {
-        let Some(rec) = self.missions.get(mission) else { return vec![] };
-        let mut out = vec![rec.host.clone()];
-        if let Some(v) = &rec.view {
-            for n in std::iter::once(&v.manager.node).chain(&v.manager.chain) {
-                if !out.contains(n) {
-                    out.push(n.clone());
-                }
-            }
-        }
-        out
-    }
-
     fn tick(&mut self, now: f64) -> Vec<Command> {
         let grace = |r: &Released| r.acked.is_none_or(|t| now - t < RELEASE_GRACE_S);
         self.released.retain(|_, r| grace(r));
@@ -570,7 +485,8 @@ impl SystemManager {
         }
         // Robots alive that never answered their info query are asked again, a bounded number
         // per tick (a flood of tokens costs a bounded number of queries).
-        let fetch: Vec<Command> = self.robots
+        let fetch: Vec<Command> = self
+            .robots
             .iter_mut()
             .filter(|(_, r)| r.alive && r.info.is_none())
             .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
@@ -585,72 +501,6 @@ impl SystemManager {
             self.restart_orphans(now);
         }
         out
-    }
-
-    /// Journaled missions that no live manager runs are started again with their live robots
-    /// (the others rejoin as they come back). A mission some robot says it runs is left alone:
-    /// its managers are alive somewhere, and will report.
-    fn restart_orphans(&mut self, now: f64) {
-        // A robot up since before the previous manager went down may replicate one of its
-        // missions (even one it left): starting that mission anew would make a second lineage
-        // beside the chain that may still take over. Every live robot's start is known from its
-        // telemetry (simulated seconds since it started, over its time scale).
-        // A robot started after this manager did is new: the previous one was gone by then (it
-        // held the journal until it died).
-        let Some(down) = self.prev_alive else { return };
-        let before = (down + RESTART_BEAT_S).min(self.started);
-        let old: Vec<&String> = self
-            .robots
-            .iter()
-            .filter(|(_, r)| r.alive)
-            .filter(|(_, r)| match (&r.last, &r.info) {
-                (Some(t), Some(i)) if i.time_scale > 0.0 => now - t.t / i.time_scale <= before,
-                _ => true,
-            })
-            .map(|(id, _)| id)
-            .collect();
-        if !old.is_empty() {
-            if !self.restart_blocked && self.missions.values().any(|r| r.view.is_none()) {
-                tracing::warn!(robots = ?old, "robots up since before central went down may still replicate its missions: missions no manager reports are not started anew");
-                self.restart_blocked = true;
-            }
-            return;
-        }
-        let orphans: Vec<String> = self
-            .missions
-            .iter()
-            .filter(|(_, r)| r.view.is_none() && r.def.spec.is_some())
-            .filter(|(n, _)| !self.pending_create.contains_key(*n) && !self.starts.iter().any(|s| &s.start.spec.name == *n))
-            .filter(|(n, _)| self.restarts.get(*n).is_none_or(|r| !r.inflight && now >= r.next))
-            .map(|(n, _)| n.clone())
-            .collect();
-        for name in orphans {
-            let runs = self.robots.values().any(|r| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
-            if runs {
-                continue;
-            }
-            let Some(rec) = self.missions.get(&name) else { continue };
-            let Some(spec) = rec.def.spec.clone() else { continue };
-            let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.hosts.contains(*h)).map(str::to_string);
-            let Some(host) = host else { continue };
-            let ids: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == name).map(|(r, _)| r.clone()).collect();
-            // Every member back: one still away may be cut off with the mission's chain, which
-            // would go on beside a new one. (Free a robot that never comes back to let its
-            // mission start without it.)
-            if !ids.iter().all(|id| self.robots.get(id).is_some_and(|r| r.alive && r.info.is_some())) {
-                continue;
-            }
-            let members: Vec<Member> = ids.iter().filter(|id| self.robots.get(*id).is_some_and(|r| r.alive)).filter_map(|id| self.member(id)).collect();
-            if members.is_empty() {
-                continue;
-            }
-            let robots: Vec<String> = members.iter().map(|m| m.spec.id.clone()).collect();
-            tracing::info!(mission = %name, %host, ?robots, "no live manager runs this mission of the journal: starting it again");
-            self.notes.push(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
-            let after = robots.iter().filter_map(|id| self.pending_release(id)).collect();
-            self.restarts.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
-            self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members }), after });
-        }
     }
 
     fn operator(&mut self, now: f64, req: Req, request: Request) -> Vec<Command> {
@@ -692,72 +542,6 @@ impl SystemManager {
         }
     }
 
-    /// The first plans of a mission are out, or its planning failed, or its host did not answer.
-    fn started(&mut self, name: &str, result: Result<Box<MissionView>, Failure>) -> Vec<Command> {
-        if let Some(r) = self.restarts.get_mut(name) {
-            // A journaled mission started again: it is never forgotten for failing; tried again.
-            r.inflight = false;
-            match result {
-                Ok(view) => {
-                    tracing::info!(mission = %name, "mission running again");
-                    self.restarts.remove(name);
-                    if let Some(rec) = self.missions.get_mut(name) {
-                        rec.view = Some(*view);
-                    }
-                    self.resync(name);
-                }
-                Err(f) => {
-                    r.next = self.now + RESTART_RETRY_S;
-                    tracing::warn!(mission = %name, "starting the mission again failed ({}); trying again in {RESTART_RETRY_S} s", f.error);
-                }
-            }
-            return vec![];
-        }
-        let req = self.pending_create.remove(name);
-        let reply = |result| req.map(|req| Command::Reply { req, result }).into_iter().collect::<Vec<_>>();
-        match result {
-            Ok(view) => {
-                tracing::info!(mission = %name, "mission running");
-                if let Some(rec) = self.missions.get_mut(name) {
-                    rec.view = Some(*view);
-                }
-                reply(to_value(&self.mission_view(name)))
-            }
-            Err(f) if !self.missions.contains_key(name) => reply(Err(f.error)),
-            Err(f) if f.error.starts_with(proto::TAKEN_OVER) => {
-                // Another manager of its chain runs it: its head's reports will say which.
-                tracing::info!(mission = %name, "mission started; another of its managers took it over");
-                reply(to_value(&self.mission_view(name)))
-            }
-            Err(f) if f.retryable => {
-                // Nobody answered: the mission may be running. End it, and free its robots
-                // only once its head acknowledged the end — never in two missions.
-                tracing::warn!(mission = %name, "no answer to the start: ending the mission in case it started");
-                self.missions.remove(name);
-                self.terminated.insert(name.to_string());
-                self.ctls.cancel(name);
-                let end = self.ctls.push(name, MissionCtl::Terminate, None);
-                let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
-                let mut out = Vec::new();
-                for id in robots {
-                    self.assignment.remove(&id);
-                    self.released.insert(id.clone(), Released { mission: name.to_string(), ctl: end, acked: None });
-                    out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: name.to_string(), epoch: u64::MAX } });
-                }
-                out.extend(reply(Err(format!("mission {name} did not start: {}; it was ended in case it had", f.error))));
-                out
-            }
-            Err(f) => {
-                // The mission never ran: forget it, free its robots.
-                self.missions.remove(name);
-                self.assignment.retain(|_, m| m != name);
-                self.ctls.cancel(name);
-                tracing::warn!(mission = %name, "mission failed: {}", f.error);
-                reply(Err(f.error))
-            }
-        }
-    }
-
     /// What a mission manager needs to know about a robot.
     fn member(&self, id: &str) -> Option<Member> {
         let time_scale = self.robots.get(id)?.info.as_ref()?.time_scale;
@@ -791,7 +575,6 @@ impl SystemManager {
         let pose = rec.last.as_ref().map(|t| t.pose).unwrap_or_default();
         Some(RobotSpec { id: id.to_string(), robot_type: info.robot_type.clone(), x: pose.x, y: pose.y, speed: info.max_speed })
     }
-
 }
 
 pub(crate) fn to_value<T: serde::Serialize>(v: &T) -> Result<Value, String> {

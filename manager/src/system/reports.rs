@@ -26,7 +26,9 @@ impl SystemManager {
     }
 
     pub(super) fn telemetry(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
-        let Some(rec) = self.robots.get_mut(&t.id) else { return vec![] };
+        let Some(rec) = self.robots.get_mut(&t.id) else {
+            return vec![];
+        };
         let newer = rec.fresh || rec.last.as_ref().is_none_or(|old| t.seq > old.seq);
         if !newer {
             return vec![];
@@ -70,7 +72,9 @@ impl SystemManager {
                 out.extend(self.admit(&m, &[id]));
             }
         }
-        let Some(rec) = self.robots.get_mut(&t.id) else { return out };
+        let Some(rec) = self.robots.get_mut(&t.id) else {
+            return out;
+        };
         if let Some(running) = &t.mission {
             let assigned = self.assignment.get(&t.id);
             // In no mission here, running one whose head lists it: the head's report and the
@@ -121,7 +125,6 @@ impl SystemManager {
             }
             return vec![];
         }
-        let mut notes = Vec::new();
         if let Some(rec) = self.missions.get_mut(&view.name) {
             // A report of an older chain epoch is from a manager that was replaced.
             let known = rec.view.as_ref().map_or(0, |v| v.manager.chain_epoch);
@@ -131,15 +134,18 @@ impl SystemManager {
             if rec.host != view.manager.node {
                 tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
                 rec.host = view.manager.node.clone();
-                notes.push(JournalEvent::ManagerChanged { mission: view.name.clone(), manager: view.manager.node.clone(), chain_epoch: view.manager.chain_epoch });
+                self.notes.push(JournalEvent::ManagerChanged {
+                    mission: view.name.clone(),
+                    manager: view.manager.node.clone(),
+                    chain_epoch: view.manager.chain_epoch,
+                });
             }
             if rec.view.is_none() && view.status == MissionStatus::Planning {
-                self.notes.append(&mut notes);
                 return vec![];
             }
             let old_epoch = rec.view.as_ref().map(|v| v.manager.epoch);
             if old_epoch.is_some_and(|e| e < view.manager.epoch) {
-                notes.push(JournalEvent::Replanned { mission: view.name.clone(), plan_epoch: view.manager.epoch, robots: view.robots.clone() });
+                self.notes.push(JournalEvent::Replanned { mission: view.name.clone(), plan_epoch: view.manager.epoch, robots: view.robots.clone() });
             }
             let name = view.name.clone();
             let (robots, lost) = (view.robots.clone(), view.lost.clone());
@@ -147,7 +153,6 @@ impl SystemManager {
             // missed joins ordered before the restart.
             let first = rec.view.is_none() && !rec.adopted;
             rec.view = Some(view);
-            self.notes.append(&mut notes);
             let out = self.reconcile(&name, &robots, &lost, &from);
             self.rejoin(&name);
             if first && !self.pending_create.contains_key(&name) {
@@ -220,7 +225,7 @@ impl SystemManager {
         // A report listing it present well after it (re)appeared has seen it back.
         let now = self.now;
         for id in &present {
-            if let Some(r) = self.robots.get_mut(id).filter(|r| now - r.alive_at > 2.0 * ADOPT_S) {
+            if let Some(r) = self.robots.get_mut(id).filter(|r| now - r.alive_at > SEEN_BACK_S) {
                 r.back = false;
             }
         }
@@ -229,19 +234,27 @@ impl SystemManager {
             // Seen coming back since its head counted it present: a head that saw the loss
             // before this manager did is not answered with a rejoin of a dead robot.
             let alive = self.robots.get(&id).is_some_and(|r| r.alive && r.info.is_some() && r.back);
-            let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
-            if ours && alive && !pending {
-                if let Some(member) = self.member(&id) {
-                    tracing::info!(mission = %name, robot = %id, "lost member back: its mission takes it again");
-                    // Never in two teams: if another mission is still letting it go, after that.
-                    let after = self.pending_release(&id);
-                    self.ctls.push(name, MissionCtl::Joined { member }, after);
-                    if let Some(r) = self.robots.get_mut(&id) {
-                        r.back = false;
-                    }
+            if ours && alive && self.join(name, &id, "lost member back: its mission takes it again") {
+                if let Some(r) = self.robots.get_mut(&id) {
+                    r.back = false;
                 }
             }
         }
+    }
+
+    /// Orders `name`'s head to take `id` (alive and registered), unless a join of it is already
+    /// on its way; whether one was ordered. Never in two teams: if another mission is still
+    /// letting it go, after that.
+    fn join(&mut self, name: &str, id: &str, why: &str) -> bool {
+        let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
+        let alive = self.robots.get(id).is_some_and(|r| r.alive && r.info.is_some());
+        let Some(member) = self.member(id).filter(|_| alive && !pending) else {
+            return false;
+        };
+        tracing::info!(mission = %name, robot = %id, "{why}");
+        let after = self.pending_release(id);
+        self.ctls.push(name, MissionCtl::Joined { member }, after);
+        true
     }
 
     /// Orders `name`'s head to take the robots this manager has in the mission that its view
@@ -249,7 +262,9 @@ impl SystemManager {
     /// members that were down when the mission was started again), alive and not already on
     /// their way to it.
     pub(super) fn resync(&mut self, name: &str) {
-        let Some(view) = self.missions.get(name).and_then(|r| r.view.as_ref()) else { return };
+        let Some(view) = self.missions.get(name).and_then(|r| r.view.as_ref()) else {
+            return;
+        };
         let missing: Vec<String> = self
             .assignment
             .iter()
@@ -257,16 +272,7 @@ impl SystemManager {
             .map(|(id, _)| id.clone())
             .collect();
         for id in missing {
-            let alive = self.robots.get(&id).is_some_and(|r| r.alive && r.info.is_some());
-            let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
-            if !alive || pending {
-                continue;
-            }
-            if let Some(member) = self.member(&id) {
-                tracing::info!(mission = %name, robot = %id, "in the mission by the journal, unknown to its head: it joins");
-                let after = self.pending_release(&id);
-                self.ctls.push(name, MissionCtl::Joined { member }, after);
-            }
+            self.join(name, &id, "in the mission by the journal, unknown to its head: it joins");
         }
     }
 }

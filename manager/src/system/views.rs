@@ -7,12 +7,8 @@ impl SystemManager {
     /// A mission as the operator sees it: the head's latest view, with the (live) members this
     /// manager holds; a placeholder while the host is planning.
     pub(super) fn mission_view(&self, name: &str) -> MissionView {
-        let robots: Vec<String> = self
-            .assignment
-            .iter()
-            .filter(|(id, m)| *m == name && self.robots.get(*id).is_some_and(|r| r.alive))
-            .map(|(r, _)| r.clone())
-            .collect();
+        let robots: Vec<String> =
+            self.assignment.iter().filter(|(id, m)| *m == name && self.robots.get(*id).is_some_and(|r| r.alive)).map(|(r, _)| r.clone()).collect();
         let rec = self.missions.get(name);
         match rec.and_then(|r| r.view.clone()) {
             Some(mut v) => {

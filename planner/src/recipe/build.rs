@@ -34,9 +34,7 @@ impl MissionPlan {
 pub fn parse_overrides(items: &[String]) -> Result<BTreeMap<String, String>, PlanError> {
     let mut out = BTreeMap::new();
     for item in items {
-        let (k, v) = item
-            .split_once('=')
-            .ok_or_else(|| PlanError::Invalid(format!("parameter {item:?}: expected key=value")))?;
+        let (k, v) = item.split_once('=').ok_or_else(|| PlanError::Invalid(format!("parameter {item:?}: expected key=value")))?;
         out.insert(k.trim().to_string(), v.to_string());
     }
     Ok(out)
@@ -61,17 +59,18 @@ pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSp
     let whole = |k: &str| get(k).and_then(|v| v.parse::<u64>().ok());
     let rounds = get("rounds").and_then(|v| v.parse::<u32>().ok());
     for rb in robots {
-        behaviour_for(r, &rb.robot_type).ok_or_else(|| {
-            r.pos.err(format!("no <behaviour> for robot type {:?} (robot {}) and no type=\"*\"", rb.robot_type, rb.id))
-        })?;
+        behaviour_for(r, &rb.robot_type)
+            .ok_or_else(|| r.pos.err(format!("no <behaviour> for robot type {:?} (robot {}) and no type=\"*\"", rb.robot_type, rb.id)))?;
     }
     match r.planner {
         PlannerKind::Patrol => {
             let waypoints = match overrides.get("waypoints") {
                 Some(json) => json_points("waypoints", json)?,
-                None => r.waypoints.as_ref().map(|(w, _)| w.clone()).ok_or_else(|| {
-                    r.pos.err("a patrol needs waypoints: give <waypoints> in <params> or the parameter waypoints=[[x,y],…]")
-                })?,
+                None => r
+                    .waypoints
+                    .as_ref()
+                    .map(|(w, _)| w.clone())
+                    .ok_or_else(|| r.pos.err("a patrol needs waypoints: give <waypoints> in <params> or the parameter waypoints=[[x,y],…]"))?,
             };
             let mut params = PatrolParams::new(waypoints);
             params.rounds = rounds;
@@ -105,9 +104,8 @@ pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSp
             let (region, pos) = match overrides.get("region") {
                 Some(json) => (json_region(json)?, None),
                 None => {
-                    let (outer, holes, pos) = r.region.clone().ok_or_else(|| {
-                        r.pos.err("a coverage needs a region: give <region> in <params> or the parameter region=[[x,y],…]")
-                    })?;
+                    let (outer, holes, pos) =
+                        r.region.clone().ok_or_else(|| r.pos.err("a coverage needs a region: give <region> in <params> or the parameter region=[[x,y],…]"))?;
                     (Region { outer, holes }, Some(pos))
                 }
             };
@@ -140,11 +138,7 @@ pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSp
 }
 
 fn behaviour_for<'a>(r: &'a Recipe, robot_type: &str) -> Option<&'a [Template]> {
-    r.behaviours
-        .iter()
-        .find(|b| b.robot_type == robot_type)
-        .or_else(|| r.behaviours.iter().find(|b| b.robot_type == "*"))
-        .map(|b| b.steps.as_slice())
+    r.behaviours.iter().find(|b| b.robot_type == robot_type).or_else(|| r.behaviours.iter().find(|b| b.robot_type == "*")).map(|b| b.steps.as_slice())
 }
 
 fn expand_for(r: &Recipe, robot_type: &str, slot: Point, round: &[Step], rounds: Option<u32>) -> Vec<Step> {
@@ -174,8 +168,7 @@ fn expand(templates: &[Template], slot: Point, round: &[Step], rounds: Option<u3
 }
 
 fn json_points(name: &str, json: &str) -> Result<Vec<Point>, PlanError> {
-    let raw: Vec<[f64; 2]> = serde_json::from_str(json)
-        .map_err(|e| PlanError::Invalid(format!("parameter {name}: expected [[x, y], …]: {e}")))?;
+    let raw: Vec<[f64; 2]> = serde_json::from_str(json).map_err(|e| PlanError::Invalid(format!("parameter {name}: expected [[x, y], …]: {e}")))?;
     crate::limits::at_most(name, raw.len(), crate::limits::MAX_WAYPOINTS)?;
     Ok(raw.into_iter().map(|[x, y]| Point::new(x, y)).collect())
 }
@@ -192,8 +185,7 @@ fn json_region(json: &str) -> Result<Region, PlanError> {
     if let Ok(outer) = serde_json::from_str::<Vec<[f64; 2]>>(json) {
         return Ok(Region { outer: pts(outer), holes: vec![] });
     }
-    let raw: Raw = serde_json::from_str(json).map_err(|e| {
-        PlanError::Invalid(format!("parameter region: expected [[x, y], …] or {{\"outer\": […], \"holes\": [[…]]}}: {e}"))
-    })?;
+    let raw: Raw = serde_json::from_str(json)
+        .map_err(|e| PlanError::Invalid(format!("parameter region: expected [[x, y], …] or {{\"outer\": […], \"holes\": [[…]]}}: {e}")))?;
     Ok(Region { outer: pts(raw.outer), holes: raw.holes.into_iter().map(pts).collect() })
 }

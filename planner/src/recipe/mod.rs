@@ -10,18 +10,15 @@ mod dom;
 use std::collections::BTreeMap;
 
 use crate::error::PlanError;
-use crate::limits;
 use crate::geom::Point;
+use crate::limits;
 
 pub use build::{build, parse_overrides, MissionPlan};
-pub use dom::Pos;
 use dom::Element;
+pub use dom::Pos;
 
 /// The recipe bank shipped in `recipes/`, embedded: (name, XML).
-pub const BANK: &[(&str, &str)] = &[
-    ("patrol", include_str!("../../../recipes/patrol.xml")),
-    ("coverage", include_str!("../../../recipes/coverage.xml")),
-];
+pub const BANK: &[(&str, &str)] = &[("patrol", include_str!("../../../recipes/patrol.xml")), ("coverage", include_str!("../../../recipes/coverage.xml"))];
 
 /// The XML of a recipe of the bank.
 pub fn bank(name: &str) -> Option<&'static str> {
@@ -81,14 +78,24 @@ pub enum Template {
     /// Go to the robot's assigned slot (patrol) or point (coverage).
     NavigateSlot,
     /// Go to a fixed point.
-    NavigateTo { x: f64, y: f64, speed: Option<f64> },
+    NavigateTo {
+        x: f64,
+        y: f64,
+        speed: Option<f64>,
+    },
     /// The team's start barrier.
     SyncStart,
-    Hold { seconds: Option<f64> },
+    Hold {
+        seconds: Option<f64>,
+    },
     /// One round of the patrol tour, with its sync points.
     Round(Pos),
     /// Repeat the body; `rounds` None: the mission's `rounds` parameter (default forever).
-    Loop { rounds: Option<u32>, body: Vec<Template>, pos: Pos },
+    Loop {
+        rounds: Option<u32>,
+        body: Vec<Template>,
+        pos: Pos,
+    },
 }
 
 /// Reads a recipe. Syntax and structure only; see [`validate`].
@@ -106,16 +113,8 @@ pub fn parse(text: &str) -> Result<Recipe, PlanError> {
         "coverage" => PlannerKind::Coverage,
         other => return Err(root.pos.err(format!("unknown planner {other:?} (patrol, coverage)"))),
     };
-    let mut recipe = Recipe {
-        name,
-        planner,
-        description: String::new(),
-        params: BTreeMap::new(),
-        waypoints: None,
-        region: None,
-        behaviours: Vec::new(),
-        pos: root.pos,
-    };
+    let mut recipe =
+        Recipe { name, planner, description: String::new(), params: BTreeMap::new(), waypoints: None, region: None, behaviours: Vec::new(), pos: root.pos };
     let mut seen_params = false;
     for child in &root.children {
         match child.name.as_str() {
@@ -234,7 +233,9 @@ fn parse_template(el: &Element) -> Result<Template, PlanError> {
             leaf(el, &["point"])?;
             match el.required("point")? {
                 "start" => Ok(Template::SyncStart),
-                other => Err(el.pos.err(format!("<sync point={other:?}>: only \"start\" can be placed by hand; the sync points of a round come with <round/>"))),
+                other => {
+                    Err(el.pos.err(format!("<sync point={other:?}>: only \"start\" can be placed by hand; the sync points of a round come with <round/>")))
+                }
             }
         }
         "hold" => {
@@ -294,9 +295,7 @@ pub fn validate(r: &Recipe) -> Result<(), PlanError> {
 fn check_templates(planner: PlannerKind, steps: &[Template], in_loop: bool) -> Result<(), PlanError> {
     for t in steps {
         match t {
-            Template::Round(pos) if planner != PlannerKind::Patrol => {
-                return Err(pos.err(format!("<round/> is for patrol recipes, not {}", planner.as_str())))
-            }
+            Template::Round(pos) if planner != PlannerKind::Patrol => return Err(pos.err(format!("<round/> is for patrol recipes, not {}", planner.as_str()))),
             Template::Loop { pos, .. } if in_loop => return Err(pos.err("loops cannot be nested")),
             Template::Loop { body, pos, .. } => {
                 if body.is_empty() {
@@ -313,7 +312,9 @@ fn check_templates(planner: PlannerKind, steps: &[Template], in_loop: bool) -> R
 /// Checks one scalar parameter's name and value.
 pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), String> {
     let v = value.trim();
-    let positive = || v.parse::<f64>().ok().filter(|x| x.is_finite() && *x > 0.0).map(|_| ()).ok_or_else(|| format!("parameter {name}: {value:?} is not a positive number"));
+    let positive = || {
+        v.parse::<f64>().ok().filter(|x| x.is_finite() && *x > 0.0).map(|_| ()).ok_or_else(|| format!("parameter {name}: {value:?} is not a positive number"))
+    };
     let whole = |min: u64, max: u64| {
         v.parse::<u64>()
             .ok()
@@ -331,11 +332,7 @@ pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), 
         (PlannerKind::Coverage, "samples") => whole(100, limits::MAX_SAMPLES),
         (PlannerKind::Coverage, "lloyd_iterations" | "minimax_iterations") => whole(0, limits::MAX_ITERATIONS),
         (_, "seed") => whole(0, u64::MAX),
-        _ => Err(format!(
-            "unknown parameter {name:?} for the {} planner (known: {})",
-            planner.as_str(),
-            planner.scalar_params().join(", ")
-        )),
+        _ => Err(format!("unknown parameter {name:?} for the {} planner (known: {})", planner.as_str(), planner.scalar_params().join(", "))),
     }
 }
 

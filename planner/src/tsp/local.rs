@@ -85,18 +85,7 @@ impl<'a> Search<'a> {
         for (p, &c) in t.iter().enumerate() {
             pos[c as usize] = p as u32;
         }
-        Search {
-            inst,
-            n,
-            len: inst.tour_length(order),
-            t,
-            pos,
-            neigh,
-            neigh_d,
-            k,
-            queue: VecDeque::with_capacity(n),
-            queued: vec![false; n],
-        }
+        Search { inst, n, len: inst.tour_length(order), t, pos, neigh, neigh_d, k, queue: VecDeque::with_capacity(n), queued: vec![false; n] }
     }
 
     #[inline]

@@ -221,10 +221,7 @@ pub(crate) mod tests {
     #[test]
     fn tiny_and_bad_inputs() {
         assert_eq!(Instance::new(vec![], Metric::Euclidean).unwrap_err(), PlanError::Empty);
-        assert!(matches!(
-            Instance::new(vec![Point::new(f64::NAN, 0.0)], Metric::Euclidean),
-            Err(PlanError::NonFinite { index: 0, .. })
-        ));
+        assert!(matches!(Instance::new(vec![Point::new(f64::NAN, 0.0)], Metric::Euclidean), Err(PlanError::NonFinite { index: 0, .. })));
         let inst = Instance::new(vec![Point::new(0.0, 0.0), Point::new(3.0, 4.0)], Metric::Euclidean).expect("two");
         let (t, _) = solve(&inst, &Budget::default()).expect("tour");
         assert_eq!(t.length, 10.0);

@@ -191,8 +191,7 @@ impl fmt::Debug for Identity {
 /// Reads a PEM file holding one block of `label`; errors name the field and the file.
 fn read_pem(field: &str, path: &Path, labels: &[&str]) -> Result<Vec<u8>, ProtoError> {
     let text = std::fs::read(path).map_err(|e| ProtoError::Config(format!("{field}: {}: cannot read: {e}", path.display())))?;
-    let (_, pem) = x509_parser::pem::parse_x509_pem(&text)
-        .map_err(|_| ProtoError::Config(format!("{field}: {}: not a PEM file", path.display())))?;
+    let (_, pem) = x509_parser::pem::parse_x509_pem(&text).map_err(|_| ProtoError::Config(format!("{field}: {}: not a PEM file", path.display())))?;
     if !labels.contains(&pem.label.as_str()) {
         return Err(ProtoError::Config(format!("{field}: {}: holds a {:?}, expected {}", path.display(), pem.label, labels.join(" or "))));
     }

@@ -238,11 +238,7 @@ pub fn check_cert(ca: &Ca, der: &[u8], now_s: i64) -> Result<Proven, String> {
     cert.verify_signature(Some(&ca_spki)).map_err(|_| "not signed by this fleet's CA".to_string())?;
     let at = ASN1Time::from_timestamp(now_s).map_err(|e| format!("clock: {e}"))?;
     if !cert.validity().is_valid_at(at) {
-        return Err(format!(
-            "not valid now (valid from {} to {})",
-            cert.validity().not_before,
-            cert.validity().not_after
-        ));
+        return Err(format!("not valid now (valid from {} to {})", cert.validity().not_before, cert.validity().not_after));
     }
     if cert.is_ca() {
         return Err("a CA certificate cannot be a node's".into());
@@ -251,12 +247,7 @@ pub fn check_cert(ca: &Ca, der: &[u8], now_s: i64) -> Result<Proven, String> {
     if spki.algorithm.algorithm != x509_parser::oid_registry::OID_SIG_ED25519 {
         return Err("not an Ed25519 key (issue certificates with `mrmm pki issue`)".into());
     }
-    let cn = cert
-        .subject()
-        .iter_common_name()
-        .next()
-        .and_then(|a| a.as_str().ok())
-        .ok_or_else(|| "no common name".to_string())?;
+    let cn = cert.subject().iter_common_name().next().and_then(|a| a.as_str().ok()).ok_or_else(|| "no common name".to_string())?;
     let sender = Sender::from_common_name(cn).ok_or_else(|| format!("common name {cn:?} is not <role>:<id>"))?;
     Ok(Proven { sender, public_key: spki.subject_public_key.data.to_vec(), not_after: cert.validity().not_after.timestamp() })
 }
@@ -376,9 +367,7 @@ impl Verifier {
             return Err(Refusal::Mismatch { claimed: seal.claimed, proven: proven.sender });
         }
         let d = digest_of(&seal.claimed, seal.t_ms, key, payload);
-        UnparsedPublicKey::new(&ED25519, &proven.public_key)
-            .verify(d.as_ref(), sig)
-            .map_err(|_| Refusal::Signature { claimed: seal.claimed.clone() })?;
+        UnparsedPublicKey::new(&ED25519, &proven.public_key).verify(d.as_ref(), sig).map_err(|_| Refusal::Signature { claimed: seal.claimed.clone() })?;
         Ok(proven.sender)
     }
 

@@ -59,11 +59,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
     let none = None::<&()>;
     match m {
         Mission::Create { name, recipe, robots, count, waypoints, region, params, host, replicas } => {
-            let recipe = if Path::new(&recipe).is_file() {
-                std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))?
-            } else {
-                recipe
-            };
+            let recipe = if Path::new(&recipe).is_file() { std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))? } else { recipe };
             let mut p: BTreeMap<String, Value> = BTreeMap::new();
             for (k, v) in [("waypoints", waypoints), ("region", region)] {
                 if let Some(v) = v {

@@ -175,7 +175,13 @@ async fn watch(client: &Client, duration: Option<f64>) -> anyhow::Result<()> {
         if tty {
             out.push_str("\x1b[H\x1b[2J");
         }
-        out.push_str(&format!("mrmm watch  t={:.0}s  robots {}  missions {}  advice {}  (Ctrl-C to stop)\n\n", start.elapsed().as_secs_f64(), robots.len(), missions.len(), advice.len()));
+        out.push_str(&format!(
+            "mrmm watch  t={:.0}s  robots {}  missions {}  advice {}  (Ctrl-C to stop)\n\n",
+            start.elapsed().as_secs_f64(),
+            robots.len(),
+            missions.len(),
+            advice.len()
+        ));
         out.push_str(&super::table::robots(&robots));
         out.push('\n');
         out.push_str(&mission::table(&missions));

@@ -136,7 +136,10 @@ fn after_a_power_cycle_missions_start_again_with_their_live_robots_and_terminate
     let mut t = telemetry("r3", 2, Behaviour::Hold);
     t.mission = Some("gone".into());
     let cmds = sm.handle(20.0, Event::Telemetry(Box::new(t)));
-    assert!(cmds.iter().any(|c| matches!(c, Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } if robot == "r3" && mission == "gone")), "{cmds:?}");
+    assert!(
+        cmds.iter().any(|c| matches!(c, Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } if robot == "r3" && mission == "gone")),
+        "{cmds:?}"
+    );
     // The name of a terminated mission is free again, and a new create of it is not refused.
 }
 

@@ -7,8 +7,8 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::{
-    ChainEnvelope, CENTRAL_HOST, CtlAck, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest, Role,
-    Sender, Telemetry,
+    ChainEnvelope, CtlAck, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest, Role, Sender, Telemetry,
+    CENTRAL_HOST,
 };
 use serde_json::Value;
 
@@ -16,6 +16,8 @@ use super::head::Head;
 use crate::chain::{self, Params, Registry};
 use crate::mission::{self, MissionManager, MissionSpec};
 use crate::Failure;
+
+mod led;
 
 type ChainCmd = chain::Command<MissionSnapshot>;
 
@@ -27,34 +29,71 @@ pub enum Event {
     /// Once a second: status publications, chain pools.
     StatusTick,
     /// Query `query` on `mrmm/hosts/<node>/start`, from proven sender `from`.
-    Start { query: u64, start: Box<MissionStart>, from: Sender },
+    Start {
+        query: u64,
+        start: Box<MissionStart>,
+        from: Sender,
+    },
     /// Query `query` on `mrmm/missions/<mission>/ctl`, from proven sender `from`.
-    Ctl { query: u64, mission: String, ctl: MissionCtl, from: Sender },
+    Ctl {
+        query: u64,
+        mission: String,
+        ctl: MissionCtl,
+        from: Sender,
+    },
     /// Query `query` on `mrmm/missions/<mission>/view`.
-    View { query: u64, mission: String },
+    View {
+        query: u64,
+        mission: String,
+    },
     /// Query `query` on `mrmm/missions/<mission>/marginal?add=<add>`.
-    Marginal { query: u64, mission: String, add: i64 },
+    Marginal {
+        query: u64,
+        mission: String,
+        add: i64,
+    },
     Telemetry(Box<Telemetry>),
     /// The answer to a [`Command::RequestPlan`].
-    Planned { mission: String, epoch: u64, result: Result<Box<MissionPlan>, Failure> },
+    Planned {
+        mission: String,
+        epoch: u64,
+        result: Result<Box<MissionPlan>, Failure>,
+    },
     /// The answer to a [`Command::SendPlan`]: `Ok`, or the robot's refusal (`retryable`: nobody
     /// answered).
-    PlanDelivered { mission: String, robot: String, epoch: u64, result: Result<(), Failure> },
+    PlanDelivered {
+        mission: String,
+        robot: String,
+        epoch: u64,
+        result: Result<(), Failure>,
+    },
     /// A chain message from its proven sender (the driver checked that it is the envelope's
     /// `from`).
-    Chain { envelope: Box<ChainEnvelope>, from: Sender },
+    Chain {
+        envelope: Box<ChainEnvelope>,
+        from: Sender,
+    },
     /// The missions this node's own robot is in or admitted to, each with whom it trusts for it
     /// (robot nodes only).
     LocalTeam(Vec<(String, Vec<String>)>),
     /// A mission's head published its status (proven sender `from`): on a robot node, a head
     /// its robot trusts tells it who else is in the mission's chain.
-    MissionStatus { view: Box<MissionView>, from: Sender },
+    MissionStatus {
+        view: Box<MissionView>,
+        from: Sender,
+    },
     HostAlive(String),
     HostGone(String),
     RobotAlive(String),
     RobotGone(String),
-    PlannerAlive { kind: String, zid: String },
-    PlannerGone { kind: String, zid: String },
+    PlannerAlive {
+        kind: String,
+        zid: String,
+    },
+    PlannerGone {
+        kind: String,
+        zid: String,
+    },
 }
 
 /// What the driver must do.
@@ -313,7 +352,10 @@ impl HostCore {
                     let behind = |r: &&chain::Replica<MissionSnapshot>| sender.id == from && r.config().is_some() && theirs.is_some_and(|v| r.version() > v);
                     if let Some(r) = self.registry.replica(&mission).filter(behind) {
                         let msg = chain::Msg::Stale { promised: r.promised(), last: r.version() };
-                        out.push(Command::Chain { to: from.clone(), envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }) });
+                        out.push(Command::Chain {
+                            to: from.clone(),
+                            envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }),
+                        });
                     }
                     out.push(Command::Refused { what: format!("send chain messages for mission {mission} as {from}"), from: sender });
                     return out;
@@ -369,7 +411,9 @@ impl HostCore {
     /// came back says it runs that mission or none, and central admitted it to that one or none
     /// (central, on its side of a partition, may have given it to another mission).
     fn free_for(&self, id: &str, mission: &str) -> bool {
-        let Some(admitted) = self.robot_admitted.get(id) else { return false };
+        let Some(admitted) = self.robot_admitted.get(id) else {
+            return false;
+        };
         self.robot_missions.get(id).is_none_or(|m| m == mission) && admitted.iter().all(|m| m == mission)
     }
 
@@ -395,242 +439,5 @@ impl HostCore {
             };
             self.run(now, &name, ev, out);
         }
-    }
-
-    fn start(&mut self, now: f64, query: u64, start: MissionStart, out: &mut Vec<Command>) {
-        let spec = match MissionSpec::from_wire(start.spec) {
-            Ok(s) => s,
-            Err(e) => return out.push(Command::Reply { query, result: Err(e) }),
-        };
-        let name = spec.name.clone();
-        if self.heads.contains_key(&name) || self.registry.replica(&name).is_some_and(|r| r.config().is_some()) {
-            return out.push(Command::Reply { query, result: Err(format!("mission {name:?} is already hosted here")) });
-        }
-        self.foreign.retain(|_, (t, _)| now - *t < FOREIGN_CHAIN_S);
-        if let Some((_, node)) = self.foreign.get(&name) {
-            return out.push(Command::Reply { query, result: Err(format!("mission {name:?} still has a chain ({node} replicates it): not started anew")) });
-        }
-        let mut mm = MissionManager::new(spec, self.node.clone(), start.members.clone());
-        // The first replicas: members whose hosts are up, in id order.
-        let alive = self.registry.alive();
-        let replicas: Vec<String> =
-            start.members.iter().map(|m| m.spec.id.clone()).filter(|id| *id != self.node && alive.contains(id)).take(mm.replicas()).collect();
-        tracing::info!(mission = %name, ?replicas, "hosting mission");
-        let state = mm.changes().unwrap_or_else(|| mm.snapshot());
-        self.heads.insert(name.clone(), Head::new(mm, Some(query)));
-        out.push(Command::Serve { mission: name.clone() });
-        let cmds = self.registry.create(now, &name, replicas, state);
-        self.apply(now, &name, cmds, out);
-        self.set_pool(now, &name);
-        self.run(now, &name, mission::Event::Start, out);
-    }
-
-    fn ctl(&mut self, now: f64, query: u64, name: &str, ctl: MissionCtl, out: &mut Vec<Command>) {
-        if !self.heads.contains_key(name) {
-            // Not (or no longer) the head: the system manager asks again, of the new head.
-            return out.push(Command::Drop { query });
-        }
-        match ctl {
-            MissionCtl::Joined { member } => self.run(now, name, mission::Event::Joined(member), out),
-            // The system manager took these robots out (moved elsewhere or freed): out for good,
-            // alive or not — a robot lost now and back later must not come back into this team.
-            MissionCtl::Left { ids } => self.run(now, name, mission::Event::Left { ids }, out),
-            MissionCtl::Terminate => {
-                let epoch = self.heads.get(name).map_or(0, |h| h.mm.epoch());
-                if let Some(q) = self.heads.get_mut(name).and_then(|h| h.start.take()) {
-                    out.push(Command::Reply { query: q, result: Err(format!("mission {name} was terminated")) });
-                }
-                tracing::info!(mission = %name, "mission terminated");
-                self.end(now, name, out);
-                return out.push(Command::Reply { query, result: json(&CtlAck { ok: true, epoch }) });
-            }
-        }
-        // Answered once what it changed is on every node of the chain.
-        if let Some(h) = self.heads.get_mut(name) {
-            h.reply_on_commit(query);
-        }
-        self.flush(now, name, out);
-    }
-
-    fn planned(&mut self, now: f64, name: &str, epoch: u64, result: Result<Box<MissionPlan>, Failure>, out: &mut Vec<Command>) {
-        let ev = match result {
-            Ok(plan) => mission::Event::PlanReady { epoch, plan },
-            Err(f) if f.retryable && self.heads.get_mut(name).is_some_and(|h| h.retry_plan(epoch)) => {
-                tracing::warn!(mission = %name, epoch, "no plan ({}); asking again", f.error);
-                if let Some(h) = self.heads.get(name) {
-                    let kind = h.mm.planner();
-                    let request = h.mm.plan_request();
-                    out.push(self.plan_command(name, epoch, kind, request));
-                }
-                return;
-            }
-            Err(f) => mission::Event::PlanFailed { epoch, error: f.error },
-        };
-        self.run(now, name, ev, out);
-    }
-
-    fn plan_command(&self, mission: &str, epoch: u64, kind: PlannerKind, request: PlanRequest) -> Command {
-        let local = !self.planners.iter().any(|(k, _)| k == kind.as_str());
-        if local {
-            tracing::info!(%mission, "no planner service alive; planning locally");
-        }
-        Command::RequestPlan { mission: mission.to_string(), epoch, kind, request, local }
-    }
-
-    /// Runs one event of a led mission, hands the new state to the chain, acts on what is committed.
-    fn run(&mut self, now: f64, name: &str, ev: mission::Event, out: &mut Vec<Command>) {
-        let telemetry = matches!(ev, mission::Event::Telemetry(_));
-        let Some(h) = self.heads.get_mut(name) else { return };
-        let requests = h.run(now, ev);
-        for r in requests {
-            if let mission::Command::RequestPlan { epoch, kind, request } = r {
-                out.push(self.plan_command(name, epoch, kind, request));
-            }
-        }
-        if telemetry {
-            return;
-        }
-        let Some(state) = self.heads.get_mut(name).and_then(|h| h.mm.changes()) else {
-            return self.flush(now, name, out);
-        };
-        let cmds = self.registry.handle(now, name, chain::Event::Propose(state));
-        self.apply(now, name, cmds, out);
-        self.set_pool(now, name);
-        self.status(name, out);
-        self.flush(now, name, out);
-    }
-
-    /// Carries out a replica's commands (and those they lead to).
-    fn apply(&mut self, now: f64, name: &str, cmds: Vec<ChainCmd>, out: &mut Vec<Command>) {
-        let mut queue: VecDeque<ChainCmd> = cmds.into();
-        while let Some(c) = queue.pop_front() {
-            match c {
-                chain::Command::Send { to, msg } => {
-                    tracing::trace!(mission = %name, %to, msg = msg.describe(), "chain: sending");
-                    out.push(Command::Chain { to, envelope: Box::new(ChainEnvelope { mission: name.to_string(), from: self.node.clone(), msg }) });
-                }
-                chain::Command::Lead { config, state } => self.lead(now, name, config, state, out),
-                chain::Command::Committed { .. } => self.flush(now, name, out),
-                chain::Command::StepDown => self.step_down(name, "a newer manager took over", out),
-                chain::Command::Retired => self.step_down(name, "this node left the mission's chain", out),
-            }
-        }
-    }
-
-    /// This node won the mission's chain: go on from the replicated state.
-    fn lead(&mut self, now: f64, name: &str, config: chain::Config, state: MissionSnapshot, out: &mut Vec<Command>) {
-        if self.heads.contains_key(name) {
-            return;
-        }
-        let mm = match MissionManager::restore(state, self.node.clone()) {
-            Ok(mm) => mm,
-            Err(e) => return tracing::warn!(mission = %name, "cannot take over: {e}"),
-        };
-        tracing::info!(mission = %name, chain_epoch = config.epoch, chain = ?config.chain, "took over the mission");
-        // Robots already running the committed plans go on; those that missed them get them.
-        let resend = mm.current_assignments();
-        let lost: Vec<String> = mm.members().filter(|id| !self.robots.contains(*id)).cloned().collect();
-        let back: Vec<Member> =
-            if self.central_reachable() { vec![] } else { self.robots.iter().filter_map(|id| mm.lost(id).cloned()).collect() };
-        let mut head = Head::new(mm, None);
-        head.defer(resend);
-        self.heads.insert(name.to_string(), head);
-        out.push(Command::Serve { mission: name.to_string() });
-        if !lost.is_empty() {
-            self.run(now, name, mission::Event::Lost { ids: lost }, out);
-        }
-        for member in back {
-            self.run(now, name, mission::Event::Joined(member), out);
-        }
-        // The predecessor died while planning, and nothing above asked again: ask.
-        if self.heads.get(name).is_some_and(|h| !h.asked_for_current()) {
-            self.run(now, name, mission::Event::Resume, out);
-        }
-        self.set_pool(now, name);
-        self.status(name, out);
-    }
-
-    fn step_down(&mut self, name: &str, why: &str, out: &mut Vec<Command>) {
-        let Some(h) = self.heads.remove(name) else { return };
-        tracing::info!(mission = %name, "no longer managing the mission: {why}");
-        out.push(Command::Unserve { mission: name.to_string() });
-        if let Some(q) = h.start {
-            // The mission goes on under another manager of its chain: it started.
-            out.push(Command::Reply { query: q, result: Err(format!("{} mission {name}: {why}", mrmm_proto::TAKEN_OVER)) });
-        }
-        for q in h.waiting_queries() {
-            out.push(Command::Drop { query: q });
-        }
-    }
-
-    /// Carries out what waited for the commit, once everything proposed is committed.
-    fn flush(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
-        let committed = self.registry.replica(name).is_some_and(|r| r.committed().is_some_and(|c| c == r.version().1));
-        if !committed {
-            return;
-        }
-        let view = self.view(name, false);
-        let managers = self.registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
-        let Some(h) = self.heads.get_mut(name) else { return };
-        let (effects, replies) = h.committed();
-        for (query, ack) in replies {
-            out.push(Command::Reply { query, result: json(&ack) });
-        }
-        for c in effects {
-            match c {
-                mission::Command::SendPlan { robot, mut assignment } => {
-                    assignment.managers = managers.clone();
-                    h.sending(now, &robot, assignment.clone());
-                    out.push(Command::SendPlan { mission: name.to_string(), robot, assignment });
-                }
-                mission::Command::Started => {
-                    if let (Some(q), Some(v)) = (h.start.take(), &view) {
-                        out.push(Command::Reply { query: q, result: json(v) });
-                    }
-                }
-                mission::Command::Failed { error } => {
-                    if let Some(q) = h.start.take() {
-                        out.push(Command::Reply { query: q, result: Err(format!("mission {name}: planning failed: {error}")) });
-                    }
-                    return self.end(now, name, out);
-                }
-                mission::Command::RequestPlan { .. } => {}
-            }
-        }
-    }
-
-    /// Ends a led mission; the chain carries the end to every node of its chain.
-    fn end(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
-        if self.heads.remove(name).is_some() {
-            out.push(Command::Unserve { mission: name.to_string() });
-        }
-        let cmds = self.registry.handle(now, name, chain::Event::End);
-        self.apply(now, name, cmds, out);
-    }
-
-    /// Tells a led mission's replica which nodes may join its chain: members with a host up.
-    fn set_pool(&mut self, now: f64, name: &str) {
-        let Some(h) = self.heads.get(name) else { return };
-        let alive = self.registry.alive();
-        let nodes: Vec<String> = h.mm.members().filter(|id| **id != self.node && alive.contains(*id)).cloned().collect();
-        let k = h.mm.replicas();
-        let _ = self.registry.handle(now, name, chain::Event::Pool { nodes, k });
-    }
-
-    fn status(&self, name: &str, out: &mut Vec<Command>) {
-        if let Some(v) = self.view(name, false) {
-            out.push(Command::Status(Box::new(v)));
-        }
-    }
-
-    /// A led mission as the operator sees it, with its chain.
-    pub fn view(&self, name: &str, with_plans: bool) -> Option<MissionView> {
-        let h = self.heads.get(name)?;
-        let mut v = h.mm.view(with_plans);
-        if let Some(c) = self.registry.replica(name).and_then(|r| r.config()) {
-            v.manager.chain_epoch = c.epoch;
-            v.manager.chain = c.chain.clone();
-        }
-        Some(v)
     }
 }

@@ -1,0 +1,135 @@
+//! Central's journal on the system manager's side: what it holds after a restart
+//! ([`SystemManager::restore`]), what changed since the last commit
+//! ([`SystemManager::journal_entries`], see [`Durable`]), and journaled missions that no live
+//! manager runs, started anew only when that cannot make a second lineage beside a chain that
+//! still lives.
+
+use super::*;
+
+impl SystemManager {
+    /// A system manager that starts from what its journal holds: the missions it defined are
+    /// known (those no live manager reports are started again after [`RESTART_S`]), robots are
+    /// in the missions the journal says, terminated missions stay terminated.
+    ///
+    /// `prev_alive` is when the previous manager was last known alive (this manager's clock,
+    /// within `beat` seconds): only a fleet whose live robots all started after that is known
+    /// to hold no replica of a mission, so only then is a mission started again.
+    pub fn restore(node: String, now: f64, state: Durable, prev_alive: Option<f64>) -> Self {
+        let mut m = SystemManager::new(node, now);
+        m.prev_alive = prev_alive;
+        for (name, def) in &state.missions {
+            m.missions.insert(name.clone(), MissionRecord { host: def.host.clone(), def: def.clone(), view: None, adopted: false });
+        }
+        m.assignment = state.assignment.clone();
+        m.terminated = state.terminated.clone();
+        m.notes.push(JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() });
+        m.journaled = state;
+        m
+    }
+
+    /// Whether `mission` is being started again from the journal (no live manager ran it).
+    pub fn restarting(&self, mission: &str) -> bool {
+        self.restarts.contains_key(mission)
+    }
+
+    /// The durable part as it is now.
+    pub fn durable(&self) -> Durable {
+        Durable {
+            missions: self.missions.iter().map(|(n, r)| (n.clone(), r.def.clone())).collect(),
+            assignment: self.assignment.clone(),
+            terminated: self.terminated.clone(),
+        }
+    }
+
+    /// Whether the durable part differs from what the journal holds (cheap: no copies).
+    pub(super) fn durable_changed(&self) -> bool {
+        let j = &self.journaled;
+        self.assignment != j.assignment
+            || self.terminated != j.terminated
+            || self.missions.len() != j.missions.len()
+            || self.missions.iter().zip(&j.missions).any(|((n, r), (jn, jd))| n != jn || !Arc::ptr_eq(&r.def, jd))
+    }
+
+    /// The entries to commit for what the last event changed: the durable part's diff since the
+    /// last commit, then the history noted meanwhile.
+    pub(super) fn journal_entries(&mut self) -> Vec<JournalEvent> {
+        let mut entries = Vec::new();
+        if self.durable_changed() {
+            let now_state = self.durable();
+            entries = self.journaled.diff(&now_state);
+            self.journaled = now_state;
+        }
+        entries.append(&mut self.notes);
+        entries
+    }
+
+    /// Journaled missions that no live manager runs are started again, once every robot the
+    /// journal has in them is back. A mission some robot says it runs is left alone: its
+    /// managers are alive somewhere, and will report.
+    pub(super) fn restart_orphans(&mut self, now: f64) {
+        // A robot up since before the previous manager went down may replicate one of its
+        // missions (even one it left): starting that mission anew would make a second lineage
+        // beside the chain that may still take over. Every live robot's start is known from its
+        // telemetry (simulated seconds since it started, over its time scale).
+        // A robot started after this manager did is new: the previous one was gone by then (it
+        // held the journal until it died).
+        let Some(down) = self.prev_alive else { return };
+        let before = (down + RESTART_BEAT_S).min(self.started);
+        let old: Vec<&String> = self
+            .robots
+            .iter()
+            .filter(|(_, r)| r.alive)
+            .filter(|(_, r)| match (&r.last, &r.info) {
+                (Some(t), Some(i)) if i.time_scale > 0.0 => now - t.t / i.time_scale <= before,
+                _ => true,
+            })
+            .map(|(id, _)| id)
+            .collect();
+        if !old.is_empty() {
+            if !self.restart_blocked && self.missions.values().any(|r| r.view.is_none()) {
+                tracing::warn!(robots = ?old, "robots up since before central went down may still replicate its missions: missions no manager reports are not started anew");
+                self.restart_blocked = true;
+            }
+            return;
+        }
+        let orphans: Vec<String> = self
+            .missions
+            .iter()
+            .filter(|(_, r)| r.view.is_none() && r.def.spec.is_some())
+            .filter(|(n, _)| !self.pending_create.contains_key(*n) && !self.starts.iter().any(|s| &s.start.spec.name == *n))
+            .filter(|(n, _)| self.restarts.get(*n).is_none_or(|r| !r.inflight && now >= r.next))
+            .map(|(n, _)| n.clone())
+            .collect();
+        for name in orphans {
+            let runs = self.robots.values().any(|r| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
+            if runs {
+                continue;
+            }
+            let Some(rec) = self.missions.get(&name) else {
+                continue;
+            };
+            let Some(spec) = rec.def.spec.clone() else {
+                continue;
+            };
+            let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.hosts.contains(*h)).map(str::to_string);
+            let Some(host) = host else { continue };
+            let ids: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == name).map(|(r, _)| r.clone()).collect();
+            // Every member back: one still away may be cut off with the mission's chain, which
+            // would go on beside a new one. (Free a robot that never comes back to let its
+            // mission start without it.)
+            if !ids.iter().all(|id| self.robots.get(id).is_some_and(|r| r.alive && r.info.is_some())) {
+                continue;
+            }
+            let members: Vec<Member> = ids.iter().filter_map(|id| self.member(id)).collect();
+            if members.is_empty() {
+                continue;
+            }
+            let robots: Vec<String> = members.iter().map(|m| m.spec.id.clone()).collect();
+            tracing::info!(mission = %name, %host, ?robots, "no live manager runs this mission of the journal: starting it again");
+            self.notes.push(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
+            let after = robots.iter().filter_map(|id| self.pending_release(id)).collect();
+            self.restarts.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
+            self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members }), after });
+        }
+    }
+}

@@ -1,0 +1,80 @@
+//! What the system manager sends to steer missions: controls and starts that are due (with the
+//! admissions robots need first), admissions, and who may manage a mission.
+
+use super::*;
+
+impl SystemManager {
+    /// Controls and starts that can go out now.
+    pub(super) fn due(&mut self, now: f64) -> Vec<Command> {
+        let mut out = Vec::new();
+        for (id, mission, ctl) in self.ctls.due(now) {
+            let managers = self.managers(&mission);
+            if let MissionCtl::Joined { member } = &ctl {
+                // A robot leading the mission may plan for the newcomer only once it is admitted,
+                // and the members take the newcomer's chain messages only once they know it: every
+                // member hears of the new membership.
+                let view = self.missions.get(&mission).and_then(|r| r.view.as_ref());
+                let mut members: Vec<String> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
+                if !members.contains(&member.spec.id) {
+                    members.push(member.spec.id.clone());
+                }
+                for robot in &members {
+                    let admit = RobotCommand::Admit { mission: mission.clone(), managers: managers.clone(), members: members.clone() };
+                    out.push(Command::SendToRobot { req: None, robot: robot.clone(), cmd: admit });
+                }
+            }
+            out.push(Command::Ctl { id, mission, ctl, managers });
+        }
+        let ctls = &self.ctls;
+        let (ready, waiting): (Vec<PendingStart>, Vec<PendingStart>) =
+            std::mem::take(&mut self.starts).into_iter().partition(|s| s.after.iter().all(|id| !ctls.is_pending(*id)));
+        self.starts = waiting;
+        for s in ready {
+            let members: Vec<String> = s.start.members.iter().map(|m| m.spec.id.clone()).collect();
+            for m in &members {
+                let admit = RobotCommand::Admit { mission: s.start.spec.name.clone(), managers: vec![s.host.clone()], members: members.clone() };
+                out.push(Command::SendToRobot { req: None, robot: m.clone(), cmd: admit });
+            }
+            out.push(Command::StartMission { host: s.host, start: s.start });
+        }
+        out
+    }
+
+    /// Admissions of `robots` to `mission`, naming its managers and members as known here.
+    pub(super) fn admit(&self, mission: &str, robots: &[String]) -> Vec<Command> {
+        if !self.missions.contains_key(mission) {
+            return vec![];
+        }
+        let managers = self.managers(mission);
+        let view = self.missions.get(mission).and_then(|r| r.view.as_ref());
+        let mut members: Vec<String> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
+        members.extend(self.assignment.iter().filter(|(_, m)| m.as_str() == mission).map(|(id, _)| id.clone()));
+        members.sort();
+        members.dedup();
+        robots
+            .iter()
+            .map(|r| Command::SendToRobot {
+                req: None,
+                robot: r.clone(),
+                cmd: RobotCommand::Admit { mission: mission.to_string(), managers: managers.clone(), members: members.clone() },
+            })
+            .collect()
+    }
+
+    /// The nodes that may manage `mission` as this manager knows it: its host and its chain (as
+    /// last reported), head first.
+    pub fn managers(&self, mission: &str) -> Vec<String> {
+        let Some(rec) = self.missions.get(mission) else {
+            return vec![];
+        };
+        let mut out = vec![rec.host.clone()];
+        if let Some(v) = &rec.view {
+            for n in std::iter::once(&v.manager.node).chain(&v.manager.chain) {
+                if !out.contains(n) {
+                    out.push(n.clone());
+                }
+            }
+        }
+        out
+    }
+}

@@ -1,0 +1,383 @@
+//! Operator commands on missions — create, terminate, move — against fake hosts that start and acknowledge at once; and the journal (`journal.rs`).
+
+use super::*;
+
+mod journal;
+
+const WAYPOINTS: &str = r#""params": {"waypoints": [[0,0],[20,0],[20,20],[0,20]]}"#;
+
+/// What the fake hosts and robots saw.
+#[derive(Debug, Default)]
+struct Seen {
+    starts: Vec<(String, String, Vec<String>)>,
+    ctls: Vec<(String, MissionCtl)>,
+    leaves: Vec<String>,
+    replies: Vec<(Req, Result<Value, String>)>,
+    forwards: Vec<String>,
+}
+
+fn with_host(ids: &[&str]) -> SystemManager {
+    let mut sm = registered(ids);
+    assert!(sm.drive(0.0, Event::HostAlive { node: "central".into() }).is_empty());
+    sm
+}
+
+/// Plays the mission hosts: every start succeeds at once, every control is acknowledged.
+fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
+    let mut seen = Seen::default();
+    let mut cmds: std::collections::VecDeque<Command> = cmds.into();
+    while let Some(c) = cmds.pop_front() {
+        match c {
+            Command::StartMission { host, start } => {
+                let robots: Vec<String> = start.members.iter().map(|m| m.spec.id.clone()).collect();
+                seen.starts.push((host.clone(), start.spec.name.clone(), robots.clone()));
+                let view = MissionView {
+                    name: start.spec.name.clone(),
+                    recipe: start.spec.recipe_name.clone(),
+                    planner: start.spec.planner.clone(),
+                    status: MissionStatus::Running,
+                    robots,
+                    lost: vec![],
+                    teams: Default::default(),
+                    manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![] },
+                    metrics: MissionMetrics::default(),
+                    summary: None,
+                    params: Default::default(),
+                    error: None,
+                    plans: None,
+                };
+                cmds.extend(sm.drive(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
+            }
+            Command::Ctl { id, mission, ctl, .. } => {
+                seen.ctls.push((mission, ctl));
+                cmds.extend(sm.drive(2.0, Event::CtlDone { id, result: Ok(()) }));
+            }
+            Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } => seen.leaves.push(format!("{robot} {mission}")),
+            Command::Reply { req, result } => seen.replies.push((req, result)),
+            Command::Forward { key, .. } => seen.forwards.push(key.to_string()),
+            _ => {}
+        }
+    }
+    seen.leaves.sort();
+    seen
+}
+
+fn create(sm: &mut SystemManager, req: u64, body: &str) -> Seen {
+    let cmds = sm.drive(1.0, Event::Operator { req: Req::Query(req), request: Request::Create(decode(body)) });
+    settle(sm, cmds)
+}
+
+fn mv(sm: &mut SystemManager, body: &str) -> Seen {
+    let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Move(decode(body)) });
+    settle(sm, cmds)
+}
+
+fn mission_of(sm: &SystemManager, id: &str) -> Option<String> {
+    sm.view(id).and_then(|v| v.mission)
+}
+
+fn left(ids: &[&str]) -> MissionCtl {
+    MissionCtl::Left { ids: ids.iter().map(|s| s.to_string()).collect() }
+}
+
+#[test]
+fn create_starts_on_a_host_then_terminate_frees_the_robots() {
+    let mut sm = with_host(&["r1", "r2", "r3"]);
+    let seen = create(&mut sm, 1, &format!(r#"{{"name": "p1", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
+    assert_eq!(seen.starts, [("central".into(), "p1".into(), vec!["r1".into(), "r2".into()])]);
+    let v = seen.replies[0].1.as_ref().expect("created");
+    assert_eq!(v["status"], "running");
+    assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"));
+    assert_eq!(sm.view("r3").map(|v| v.status), Some(RobotStatus::Idle));
+
+    let cmds = sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode_bytes(br#"{"name": "p1"}"#)) });
+    let seen = settle(&mut sm, cmds);
+    assert_eq!(seen.ctls, [("p1".into(), MissionCtl::Terminate)]);
+    assert_eq!(seen.leaves, ["r1 p1", "r2 p1"]);
+    assert!(seen.replies[0].1.is_ok());
+    assert_eq!(mission_of(&sm, "r1"), None);
+    assert_eq!(sm.status(3.0).missions, 0);
+}
+
+#[test]
+fn bad_creates_change_nothing() {
+    let mut sm = with_host(&["r1", "r2"]);
+    let cases = [
+        (r#"{"name": "p/1", "recipe": "patrol"}"#, "mission name"),
+        (r#"{"name": "p1", "recipe": "swarm"}"#, "unknown recipe"),
+        (r#"{"name": "p1", "recipe": "patrol", "robots": ["zz"]}"#, "unknown robot"),
+        (r#"{"name": "p1", "recipe": "patrol", "robots": ["r1", "r1"]}"#, "listed twice"),
+        (r#"{"name": "p1", "recipe": "patrol", "count": 3}"#, "2 idle robots"),
+        (r#"{"name": "p1", "recipe": "patrol", "count": 1, "robots": ["r1"]}"#, "not both"),
+        (r#"{"name": "p1", "recipe": "patrol", "params": {"waypoints": [[0,0]]}}"#, "at least 2 points"),
+        (r#"{"name": "p1", "recipe": "patrol", "params": {"rounds": 0}}"#, "rounds"),
+        (r#"{"name": "p1", "recipe": "coverage", "params": {"region": [[0,0],[1,1],[0,1],[1,0]]}}"#, "self-intersecting"),
+        (r#"{"name": "p1", "recipe": "<recipe name='x' planner='patrol'><fly/></recipe>"}"#, "unknown element <fly>"),
+        (r#"{"name": "p1", "recipe": "patrol", "host": "elsewhere"}"#, "no mission host \"elsewhere\""),
+    ];
+    for (i, (body, want)) in cases.iter().enumerate() {
+        let seen = create(&mut sm, i as u64, body);
+        assert!(seen.starts.is_empty() && seen.ctls.is_empty(), "{body}");
+        let e = seen.replies[0].1.as_ref().expect_err(body);
+        assert!(e.contains(want), "{body}: {e}");
+    }
+    assert_eq!(sm.status(1.0).missions, 0);
+    assert!(sm.views().iter().all(|v| v.mission.is_none()));
+    assert!(create(&mut sm, 50, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#).replies[0].1.is_ok());
+    let e = create(&mut sm, 51, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#).replies[0].1.clone();
+    assert!(e.expect_err("dup").contains("already exists"));
+}
+
+#[test]
+fn a_failed_start_frees_the_robots() {
+    let mut sm = with_host(&["r1"]);
+    let cmds =
+        sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
+    // r1 is admitted (a robot may come to lead p), then the mission starts.
+    assert!(
+        matches!(cmds.as_slice(), [Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, managers, members }, .. }, Command::StartMission { .. }]
+        if robot == "r1" && mission == "p" && *managers == ["central"] && *members == ["r1"]),
+        "{cmds:?}"
+    );
+    assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
+    let v = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
+    assert_eq!(v[0]["status"], "planning");
+    let r = sm.drive(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure { retryable: false, error: "no planner service".into() }) });
+    assert_eq!(reply(r).expect_err("failed"), "no planner service");
+    assert_eq!(mission_of(&sm, "r1"), None);
+    assert_eq!(sm.status(3.0).missions, 0);
+}
+
+#[test]
+fn a_start_nobody_answered_is_ended_before_its_robots_go_elsewhere() {
+    let mut sm = with_host(&["r1"]);
+    let cmds =
+        no_admits(sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) }));
+    assert!(matches!(cmds.as_slice(), [Command::StartMission { .. }]));
+    let no_answer = Failure { retryable: true, error: "no answer".into() };
+    let cmds = sm.drive(26.0, Event::MissionStarted { mission: "p".into(), result: Err(no_answer) });
+    let end = cmds.iter().find_map(|c| match c {
+        Command::Ctl { id, mission, ctl: MissionCtl::Terminate, .. } if mission == "p" => Some(*id),
+        _ => None,
+    });
+    let end = end.expect("the mission is ended in case it started");
+    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Err(e), .. } if e.contains("did not start"))));
+    // r1 is free, but a new mission takes it only once p's end is acknowledged.
+    let cmds = sm.drive(27.0, Event::Operator { req: Req::Query(2), request: Request::Create(decode(r#"{"name": "q", "recipe": "patrol", "count": 1}"#)) });
+    assert!(cmds.is_empty(), "{cmds:?}");
+    let cmds = no_admits(sm.drive(28.0, Event::CtlDone { id: end, result: Ok(()) }));
+    assert!(matches!(cmds.as_slice(), [Command::StartMission { start, .. }] if start.spec.name == "q"), "{cmds:?}");
+}
+
+#[test]
+fn default_split_is_equal_and_takes_from_running_missions() {
+    let mut sm = with_host(&["r1", "r2", "r3", "r4", "r5", "r6"]);
+    let seen = create(&mut sm, 1, r#"{"name": "a", "recipe": "patrol"}"#);
+    assert_eq!(seen.starts[0].2.len(), 6, "alone, a mission gets the whole fleet");
+    let seen = create(&mut sm, 2, r#"{"name": "b", "recipe": "coverage"}"#);
+    assert!(seen.replies[0].1.is_ok());
+    assert_eq!(seen.starts[0].2, ["r6", "r5", "r4"]);
+    assert_eq!(seen.ctls, [("a".into(), left(&["r6", "r5", "r4"]))], "one replan for all three");
+    let count = |m: &str| sm.views().into_iter().filter(|v| v.mission.as_deref() == Some(m)).count();
+    assert_eq!((count("a"), count("b")), (3, 3));
+}
+
+#[test]
+fn move_and_loss_steer_both_missions() {
+    let mut sm = with_host(&["r1", "r2", "r3", "r4", "r5", "r6"]);
+    create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1","r2","r3","r4"], {WAYPOINTS}}}"#));
+    create(&mut sm, 2, r#"{"name": "c", "recipe": "coverage", "robots": ["r5","r6"]}"#);
+    let seen = mv(&mut sm, r#"{"robot": "r4", "to": "c"}"#);
+    assert_eq!(seen.replies[0].1.as_ref().expect("moved")["from"], "p");
+    // Out of p first; into c once p let it go.
+    assert_eq!(seen.ctls.len(), 2);
+    assert_eq!(seen.ctls[0], ("p".into(), left(&["r4"])));
+    assert!(matches!(&seen.ctls[1], (m, MissionCtl::Joined { member }) if m == "c" && member.spec.id == "r4"));
+    assert!(seen.leaves.is_empty(), "the new plan replaces the old one");
+    for (body, want) in [
+        (r#"{"robot": "r4", "to": "c"}"#, "already in mission c"),
+        (r#"{"robot": "r4", "to": "zz"}"#, "unknown mission"),
+        (r#"{"robot": "zz", "to": "c"}"#, "unknown robot"),
+    ] {
+        assert!(mv(&mut sm, body).replies[0].1.as_ref().expect_err(body).contains(want), "{body}");
+    }
+    // A patrol robot is lost: its head plans around it on its own; it keeps its place.
+    let cmds = sm.drive(6.0, Event::RobotGone { id: "r1".into() });
+    assert!(settle(&mut sm, cmds).ctls.is_empty());
+    assert_eq!(sm.view("r1").and_then(|v| v.last_mission).as_deref(), Some("p"));
+    let v = reply(sm.drive(6.5, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
+    assert_eq!(v[1]["robots"], serde_json::json!(["r2", "r3"]));
+    // No other mission can take it while it is away, and it is back in p when it returns.
+    let e = mv(&mut sm, r#"{"robot": "r1", "to": "c"}"#).replies[0].1.clone().expect_err("lost");
+    assert!(e.contains("lost"), "{e}");
+    sm.drive(7.0, Event::RobotAlive { id: "r1".into() });
+    assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
+    // A goto on a mission robot is refused; moving it out frees it.
+    let g = sm.drive(7.0, Event::Operator { req: Req::Query(3), request: Request::Goto(decode(r#"{"robot":"r2","x":0,"y":0}"#)) });
+    assert!(reply(g).expect_err("in mission").contains("in mission p"));
+    let seen = mv(&mut sm, r#"{"robot": "r2", "to": null}"#);
+    assert_eq!(seen.leaves, ["r2 p"]);
+    assert_eq!(mission_of(&sm, "r2"), None);
+    // A lost robot can be freed by the operator: its head forgets it.
+    sm.drive(8.0, Event::RobotGone { id: "r3".into() });
+    let seen = mv(&mut sm, r#"{"robot": "r3", "to": null}"#);
+    assert_eq!(seen.ctls, [("p".into(), left(&["r3"]))]);
+    assert!(seen.leaves.is_empty(), "a lost robot is not ordered anything");
+    assert_eq!(sm.view("r3").and_then(|v| v.last_mission), None);
+}
+
+#[test]
+fn controls_are_sent_again_until_acknowledged_and_in_order() {
+    let mut sm = with_host(&["r1", "r2", "r3"]);
+    create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1","r2"], {WAYPOINTS}}}"#));
+    create(&mut sm, 2, r#"{"name": "c", "recipe": "coverage", "robots": ["r3"]}"#);
+    let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Move(decode(r#"{"robot": "r2", "to": "c"}"#)) });
+    let ctl = |cmds: &[Command]| -> Vec<(u64, String)> {
+        cmds.iter()
+            .filter_map(|c| match c {
+                Command::Ctl { id, mission, .. } => Some((*id, mission.clone())),
+                _ => None,
+            })
+            .collect()
+    };
+    let first = ctl(&cmds);
+    assert_eq!(first.iter().map(|c| c.1.as_str()).collect::<Vec<_>>(), ["p"], "c waits for p to let r2 go");
+    let (id, _) = first[0].clone();
+    let no_answer = || Err(Failure { retryable: true, error: "no answer".into() });
+    assert!(ctl(&sm.drive(6.0, Event::CtlDone { id, result: no_answer() })).is_empty(), "not again at once");
+    assert_eq!(ctl(&sm.drive(7.0, Event::Tick)), [(id, "p".to_string())], "sent again");
+    let joined = ctl(&sm.drive(7.5, Event::CtlDone { id, result: Ok(()) }));
+    assert_eq!(joined.iter().map(|c| c.1.as_str()).collect::<Vec<_>>(), ["c"], "then r2 joins c");
+    // While p has not acknowledged, its reports still listing r2 are older than the order.
+    let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
+    v.robots = vec!["r1".into(), "r2".into()];
+    assert!(ctl(&sm.drive(8.0, status(v))).is_empty());
+    assert_eq!(mission_of(&sm, "r2").as_deref(), Some("c"));
+}
+
+#[test]
+fn a_terminated_mission_still_reporting_is_ended_again() {
+    let mut sm = with_host(&["r1"]);
+    create(&mut sm, 1, r#"{"name": "p", "recipe": "patrol", "robots": ["r1"]}"#);
+    let view = sm.mission_views()[0].clone();
+    let cmds = sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode(r#"{"name": "p"}"#)) });
+    settle(&mut sm, cmds);
+    let cmds = sm.drive(4.0, status(view.clone()));
+    assert!(matches!(cmds.as_slice(), [Command::Ctl { ctl: MissionCtl::Terminate, .. }]), "{cmds:?}");
+    assert!(sm.drive(4.1, status(view)).is_empty(), "once while it is pending");
+    assert_eq!(sm.status(4.0).missions, 0);
+}
+
+#[test]
+fn a_robot_running_a_foreign_plan_is_told_to_leave() {
+    let mut sm = with_host(&["r1", "r2"]);
+    let mut t = telemetry("r1", 1, Behaviour::Hold);
+    t.mission = Some("old".into());
+    // A mission this manager never heard of (central restarted): left alone.
+    assert!(sm.drive(0.5, Event::Telemetry(Box::new(t.clone()))).is_empty());
+    create(&mut sm, 1, r#"{"name": "old", "recipe": "patrol", "robots": ["r2"]}"#);
+    t.seq = 2;
+    let cmds = sm.drive(1.0, Event::Telemetry(Box::new(t.clone())));
+    assert!(matches!(cmds.as_slice(), [Command::SendToRobot { cmd: RobotCommand::Leave { .. }, .. }]));
+    t.seq = 3;
+    assert!(sm.drive(1.5, Event::Telemetry(Box::new(t.clone()))).is_empty(), "not again so soon");
+    t.seq = 4;
+    assert_eq!(sm.drive(4.0, Event::Telemetry(Box::new(t.clone()))).len(), 1);
+    // Terminated missions stay known: stragglers are still ordered out.
+    let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Terminate(decode(r#"{"name": "old"}"#)) });
+    settle(&mut sm, cmds);
+    t.seq = 5;
+    assert_eq!(sm.drive(9.0, Event::Telemetry(Box::new(t))).len(), 1);
+}
+
+#[test]
+fn mission_views_follow_head_publications_and_host_loss() {
+    let mut sm = with_host(&["r1", "r2"]);
+    create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "count": 2, {WAYPOINTS}}}"#));
+    // Details come from the head.
+    let cmds = sm.drive(2.0, Event::Operator { req: Req::Query(3), request: Request::Mission("p".into()) });
+    assert_eq!(settle(&mut sm, cmds).forwards, [Key::MissionView("p".into()).to_string()]);
+    assert!(reply(sm.drive(2.0, Event::Operator { req: Req::Query(5), request: Request::Mission("q".into()) })).is_err());
+    // Status publications update the table.
+    let m = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("m");
+    let mut v: MissionView = serde_json::from_value(m[0].clone()).expect("view");
+    v.metrics.rounds = 7;
+    v.manager.epoch = 4;
+    sm.drive(3.0, status(v));
+    let m = reply(sm.drive(3.0, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
+    assert_eq!((m[0]["metrics"]["rounds"].as_u64(), m[0]["manager"]["epoch"].as_u64()), (Some(7), Some(4)));
+    // The host dies: the mission is stalled, the operator is told why.
+    sm.drive(4.0, Event::HostGone { node: "central".into() });
+    let m = reply(sm.drive(4.0, Event::Operator { req: Req::Query(6), request: Request::Missions })).expect("missions");
+    assert_eq!(m[0]["status"], "stalled");
+    assert!(m[0]["error"].as_str().is_some_and(|e| e.contains("central lost")));
+}
+
+#[test]
+fn a_restarted_manager_adopts_missions_its_heads_report() {
+    let mut sm = with_host(&["r1", "r2", "r3"]);
+    sm.drive(0.0, Event::HostAlive { node: "h2".into() });
+    create(&mut sm, 1, r#"{"name": "mine", "recipe": "patrol", "robots": ["r3"]}"#);
+    let report = |name: &str, host: &str, robots: &[&str]| MissionView {
+        name: name.into(),
+        recipe: "patrol".into(),
+        planner: "patrol".into(),
+        status: MissionStatus::Running,
+        robots: robots.iter().map(|s| s.to_string()).collect(),
+        lost: vec![],
+        teams: Default::default(),
+        manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![] },
+        metrics: MissionMetrics::default(),
+        summary: None,
+        params: Default::default(),
+        error: None,
+        plans: None,
+    };
+    // r1 and r2 say (in their own telemetry) they run p.
+    for id in ["r1", "r2"] {
+        let mut t = telemetry(id, 5, Behaviour::Hold);
+        t.mission = Some("p".into());
+        sm.drive(0.5, Event::Telemetry(Box::new(t)));
+    }
+    // r3 is already in "mine": the head is told to let it go; r1 and r2 are adopted.
+    let cmds = sm.drive(1.0, status(report("p", "h2", &["r1", "r2", "r3"])));
+    let admitted: Vec<&str> = cmds
+        .iter()
+        .filter_map(|c| match c {
+            Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, .. }, .. } if mission == "p" => Some(robot.as_str()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(admitted, ["r1", "r2"], "robots recorded from a report are admitted");
+    let cmds = no_admits(cmds);
+    assert!(matches!(cmds.as_slice(), [Command::Ctl { mission, ctl, .. }] if mission == "p" && *ctl == left(&["r3"])), "{cmds:?}");
+    assert_eq!((mission_of(&sm, "r1").as_deref(), mission_of(&sm, "r3").as_deref()), (Some("p"), Some("mine")));
+    let m = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
+    assert_eq!(m[1]["manager"]["node"], "h2");
+    assert_eq!(m[1]["robots"], serde_json::json!(["r1", "r2"]));
+    // Reports from unknown hosts are not adopted.
+    assert!(sm.drive(3.0, status(report("q", "ghost", &["r1"]))).is_empty());
+    assert_eq!(sm.status(3.0).missions, 2);
+}
+
+#[test]
+fn a_report_cannot_claim_robots_nor_speak_for_another_manager() {
+    let mut sm = with_host(&["r1", "r2", "r3"]);
+    sm.drive(0.0, Event::HostAlive { node: "r3".into() });
+    let mut v = MissionViewBuilder::running("fake", "r3", &["r1", "r2", "r3"]);
+    v.manager.node = "r3".into();
+    // r3 reports a mission with r1 and r2 in it; their telemetry says they run another.
+    for id in ["r1", "r2"] {
+        let mut t = telemetry(id, 7, Behaviour::Hold);
+        t.mission = Some("other".into());
+        sm.drive(0.5, Event::Telemetry(Box::new(t)));
+    }
+    let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r3");
+    sm.drive(1.0, Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
+    assert_eq!((mission_of(&sm, "r1"), mission_of(&sm, "r2")), (None, None), "robots are not claimed by a report");
+    // Nor can a node report a mission as managed by someone else.
+    let mut other = MissionViewBuilder::running("p2", "central", &["r1"]);
+    other.manager.node = "central".into();
+    let cmds = sm.drive(1.1, Event::MissionStatus { view: Box::new(other), from });
+    assert!(matches!(cmds.as_slice(), [Command::Refused { .. }]), "{cmds:?}");
+}

@@ -1,0 +1,123 @@
+//! Faults: when they come, crashes, and the liveliness tokens the nodes see (or stop seeing).
+
+use super::*;
+
+impl World {
+    pub(super) fn schedule_faults(&mut self) {
+        let d = self.cfg.duration;
+        let first = |every: f64, rng: &mut ChaCha8Rng| (every > 0.0).then(|| rng.gen_range(0.2 * every..1.8 * every)).filter(|t| *t < d);
+        if let Some(t) = first(self.cfg.crash_every, &mut self.rng) {
+            self.queue.push(t + 2.0, Ev::Crash);
+        }
+        if let Some(t) = first(self.cfg.partition_every, &mut self.rng) {
+            self.queue.push(t + 2.0, Ev::Partition);
+        }
+        if let Some(t) = first(self.cfg.suspect_every, &mut self.rng) {
+            self.queue.push(t + 2.0, Ev::Suspect);
+        }
+    }
+
+    pub(super) fn next_fault(&mut self, every: f64, ev: Ev) {
+        let at = self.now + self.rng.gen_range(0.2 * every..1.8 * every);
+        if at < self.cfg.duration {
+            self.queue.push(at, ev);
+        }
+    }
+
+    pub(super) fn crash(&mut self, i: usize) {
+        let name = self.nodes[i].name.clone();
+        self.log(|| format!("crash {name}"));
+        self.report.crashes += 1;
+        self.links.up[i] = false;
+        let n = &mut self.nodes[i];
+        if let (Some(r), Some(c)) = (&n.robot, &mut n.cfg) {
+            // The body stays where it is: the restarted process starts from there.
+            let t = r.pose();
+            c.start.x = t.x;
+            c.start.y = t.y;
+            c.start.theta = t.theta;
+        }
+        if n.central.is_some() {
+            n.down = Some(self.now);
+        }
+        n.central = None;
+        n.host = None;
+        n.robot = None;
+        n.served.clear();
+        n.team = None;
+        self.inv.gone(i);
+        self.liveliness(0.02);
+    }
+
+    /// Every token present now, with its holder.
+    pub(super) fn tokens(&self) -> Vec<(Token, usize)> {
+        let mut out = Vec::new();
+        for (i, n) in self.nodes.iter().enumerate() {
+            if !self.links.up[i] {
+                continue;
+            }
+            if n.host.is_some() {
+                out.push((Token::Host(n.name.clone()), i));
+            }
+            match n.kind {
+                Kind::Central => out.push((Token::Planner, i)),
+                Kind::Robot => {
+                    out.push((Token::Robot(n.name.clone()), i));
+                    if let Some((_, subteam)) = &n.team {
+                        out.push((Token::Member { subteam: subteam.clone(), robot: n.name.clone() }, i));
+                    }
+                }
+                Kind::Host => {}
+            }
+        }
+        out
+    }
+
+    /// Tells every observer what changed in what it watches, `delay` from now.
+    pub(super) fn liveliness(&mut self, delay: f64) {
+        let tokens = self.tokens();
+        let teams: Vec<Option<String>> = self.nodes.iter().map(|n| n.team.as_ref().map(|(t, _)| t.clone())).collect();
+        let kinds: Vec<(bool, bool)> = self.nodes.iter().map(|n| (n.central.is_some() || n.host.is_some(), n.robot.is_some())).collect();
+        let watches = |o: usize, t: &Token| match t {
+            Token::Member { subteam, .. } => kinds[o].1 && teams[o].as_ref().is_some_and(|team| subteam.split('/').next() == Some(team.as_str())),
+            _ => kinds[o].0,
+        };
+        for c in self.beliefs.update(self.now, delay, &self.links, &tokens, watches) {
+            let inc = self.links.inc[c.observer];
+            self.queue.push(c.at, Ev::Live(c, inc));
+        }
+    }
+
+    /// A liveliness change reaches the machines of `node` that watch it.
+    pub(super) fn tell(&mut self, node: usize, token: &Token, up: bool) -> Result<(), String> {
+        if !matches!(token, Token::Member { .. }) {
+            let name = self.nodes[node].name.clone();
+            self.log(|| format!("{name} sees {token:?} {}", if up { "up" } else { "gone" }));
+        }
+        match token {
+            Token::Robot(id) => {
+                let (a, b) = (system::Event::RobotAlive { id: id.clone() }, system::Event::RobotGone { id: id.clone() });
+                self.central(node, central::Event::System(if up { a } else { b }))?;
+                self.host(node, if up { host::Event::RobotAlive(id.clone()) } else { host::Event::RobotGone(id.clone()) })
+            }
+            Token::Host(name) => {
+                let (a, b) = (system::Event::HostAlive { node: name.clone() }, system::Event::HostGone { node: name.clone() });
+                self.central(node, central::Event::System(if up { a } else { b }))?;
+                if name == CENTRAL_HOST {
+                    self.robot(node, robot::Event::CentralAlive(up))?;
+                }
+                self.host(node, if up { host::Event::HostAlive(name.clone()) } else { host::Event::HostGone(name.clone()) })
+            }
+            Token::Planner => {
+                for kind in ["patrol", "coverage"] {
+                    let (kind, zid) = (kind.to_string(), CENTRAL_HOST.to_string());
+                    self.host(node, if up { host::Event::PlannerAlive { kind, zid } } else { host::Event::PlannerGone { kind, zid } })?;
+                }
+                Ok(())
+            }
+            Token::Member { robot, .. } => {
+                self.robot(node, if up { robot::Event::MemberAlive(robot.clone()) } else { robot::Event::MemberGone(robot.clone()) })
+            }
+        }
+    }
+}

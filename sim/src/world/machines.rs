@@ -1,0 +1,289 @@
+//! The production machines on their nodes: central, mission hosts and robots, and what their commands do in the world.
+
+use super::*;
+
+impl World {
+    pub(super) fn central(&mut self, i: usize, ev: central::Event) -> Result<(), String> {
+        let now = self.now;
+        let Some(c) = self.nodes[i].central.as_mut() else {
+            return Ok(());
+        };
+        let cmds = c.handle(now, ev);
+        // The journal comes first, as the driver commits it before anything else.
+        let journaled = cmds.iter().any(|c| matches!(c, central::Command::System(system::Command::Journal(_))));
+        for cmd in cmds {
+            match cmd {
+                central::Command::Publish(_) => {}
+                central::Command::System(s) => self.system_command(i, s)?,
+            }
+        }
+        if let (true, Some(c)) = (journaled, self.nodes[i].central.as_ref()) {
+            let want = c.system().durable();
+            if self.nodes[i].disk != want {
+                return Err(format!("central's journal replays to {:?}, but central holds {want:?}", self.nodes[i].disk));
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn system_command(&mut self, i: usize, c: system::Command) -> Result<(), String> {
+        match &c {
+            system::Command::SendToRobot { robot, cmd, .. } => {
+                let line = format!("central -> {robot}: {cmd:?}").chars().take(160).collect::<String>();
+                self.log(|| line);
+            }
+            system::Command::Ctl { id, mission, ctl, .. } => {
+                let line = format!("central ctl {id} {mission}: {ctl:?}").chars().take(160).collect::<String>();
+                self.log(|| line);
+            }
+            _ => {}
+        }
+        match c {
+            system::Command::FetchInfo { id } => self.ask(Some(i), &id, Payload::RobotInfo, Ctx::CentralInfo(id.clone())),
+            system::Command::SendToRobot { req, robot, cmd } => self.ask(Some(i), &robot.clone(), Payload::RobotCmd(cmd), Ctx::CentralRobot { req, robot }),
+            system::Command::StartMission { host, start } => {
+                let mission = start.spec.name.clone();
+
+                self.ask(Some(i), &host, Payload::HostStart(start), Ctx::CentralStart(mission))
+            }
+            system::Command::Ctl { id, mission, ctl, .. } => self.ask_mission(Some(i), &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::CentralCtl(id)),
+            system::Command::Refused { from, what } => return Err(format!("central refused {from}: {what} (no node of the simulation is a rogue)")),
+            system::Command::Journal(entries) => {
+                // Committed before anything else of this event happens, as the driver does; what
+                // is on the disk must be exactly what central holds.
+                let disk = &mut self.nodes[i].disk;
+                for e in &entries {
+                    disk.apply(e);
+                }
+            }
+            system::Command::DryRun(dry) => {
+                // Off central's loop in the driver: here, answered a little later.
+                let result = dry.run();
+                let at = self.now + self.rng.gen_range(0.001..0.05);
+                let inc = self.links.inc[i];
+                self.queue.push(at, Ev::LocalCentral { node: i, inc, ev: Box::new(central::Event::System(system::Event::DryRunDone { id: dry.id, result })) });
+            }
+            system::Command::Forward { key, .. } => {
+                if let Some(mrmm_proto::Key::MissionView(m)) = mrmm_proto::Key::parse(&key.to_string()) {
+                    self.ask_mission(Some(i), &m.clone(), Payload::View(m), Ctx::CentralForward);
+                }
+            }
+            system::Command::Reply { req: Req::Query(q), result } => {
+                let short = result.as_ref().map(|_| "ok".to_string()).unwrap_or_else(|e| e.clone());
+                self.log(|| format!("operator request {q}: {short}"));
+                self.op.answered(q, result.is_ok())
+            }
+            system::Command::Reply { req: Req::Agent(_), .. } => return Err("an answer to the agent left central".into()),
+        }
+        Ok(())
+    }
+
+    pub(super) fn host(&mut self, i: usize, ev: host::Event) -> Result<(), String> {
+        let now = self.now;
+        let Some(h) = self.nodes[i].host.as_mut() else {
+            return Ok(());
+        };
+        let cmds = h.handle(now, ev);
+        for c in cmds {
+            self.host_command(i, c)?;
+        }
+        if let Some(h) = self.nodes[i].host.as_ref() {
+            self.inv.host(i, self.links.inc[i], h)?;
+        }
+        self.one_mission_per_robot()
+    }
+
+    /// Invariant 3, over missions that have a head and are neither terminated by the operator
+    /// nor unrecoverable (their chain lost a majority of its memory: they can never commit, so
+    /// never act, again).
+    pub(super) fn one_mission_per_robot(&self) -> Result<(), String> {
+        for (r, a, b) in self.inv.in_two_missions() {
+            let led = |m: &str| self.nodes.iter().any(|n| n.host.as_ref().is_some_and(|h| h.heads().any(|(x, _)| x == m)));
+            let counts = |m: &str| !self.op.terminated.contains(m) && led(m) && self.recoverable(m);
+            if counts(&a) && counts(&b) {
+                return Err(format!("robot {r} is a member of {a} and of {b}"));
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn host_command(&mut self, i: usize, c: host::Command) -> Result<(), String> {
+        if self.trace.is_some() {
+            let name = self.nodes[i].name.clone();
+            let line = match &c {
+                host::Command::Chain { to, envelope } => Some(format!("{name} -> {to}: {} {}", envelope.mission, envelope.msg.describe())),
+                host::Command::Status(_) => None,
+                host::Command::SendPlan { mission, robot, assignment } => Some(format!("{name}: plan of {mission} epoch {} to {robot}", assignment.epoch)),
+                host::Command::RequestPlan { mission, epoch, local, .. } => Some(format!("{name}: plan {mission} epoch {epoch} (local {local})")),
+                other => Some(format!("{name}: {other:?}")),
+            };
+            if let Some(l) = line {
+                self.log(|| l);
+            }
+        }
+        match c {
+            host::Command::Chain { to, envelope } => {
+                if let Some(j) = self.index(&to) {
+                    if !self.lost() {
+                        let at = self.now + self.delay();
+                        let from = self.sender(i);
+                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Chain { envelope, from }) });
+                    }
+                }
+            }
+            host::Command::Reply { query, result } => {
+                if let (Ok(_), Some(Payload::Ctl { mission, .. })) = (&result, self.queries.get(&query).and_then(|q| q.payload.as_ref())) {
+                    let mission = mission.clone();
+                    let revision = self.nodes[i].host.as_ref().and_then(|h| h.heads().find(|(m, _)| **m == mission).map(|(_, mm)| mm.revision()));
+                    if let Some(r) = revision {
+                        self.inv.acked(&mission, r);
+                        self.report.acked += 1;
+                    }
+                }
+                let result = result.map(Answer::Json).map_err(|error| Failure { retryable: false, error });
+                self.reply(query, result);
+            }
+            host::Command::Drop { query } => self.reply(query, Err(Failure { retryable: true, error: "dropped".into() })),
+            host::Command::Serve { mission } => {
+                self.nodes[i].served.insert(mission);
+            }
+            host::Command::Unserve { mission } => {
+                self.nodes[i].served.remove(&mission);
+            }
+            host::Command::RequestPlan { mission, epoch, kind, request, local } => {
+                if local {
+                    let result = mrmm_manager::planner_service::plan(kind, &request).map(Box::new).map_err(|error| Failure { retryable: false, error });
+                    let at = self.now + self.rng.gen_range(0.01..0.2);
+                    let inc = self.links.inc[i];
+                    self.queue.push(at, Ev::Local { node: i, inc, ev: Box::new(host::Event::Planned { mission, epoch, result }) });
+                } else {
+                    self.ask(Some(i), CENTRAL_HOST, Payload::Planner(request, kind), Ctx::HostPlan { mission, epoch });
+                }
+            }
+            host::Command::SendPlan { mission, robot, assignment } => {
+                let epoch = assignment.epoch;
+                self.ask(Some(i), &robot.clone(), Payload::RobotCmd(RobotCommand::Plan(assignment)), Ctx::HostSendPlan { mission, robot, epoch });
+            }
+            host::Command::Refused { from, what } => {
+                // Honest nodes only: a refusal is a chain message crossing a stale belief (a
+                // node that left the mission's chain). Logged, not a violation.
+                let name = self.nodes[i].name.clone();
+                self.log(|| format!("{name} refused {from}: {what}"));
+            }
+            host::Command::Status(view) => {
+                let from = self.sender(i);
+                if let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) {
+                    if !self.lost() {
+                        let at = self.now + self.delay();
+                        let ev = central::Event::System(system::Event::MissionStatus { view: view.clone(), from: from.clone() });
+                        self.queue.push(at, Ev::Central { from: i, to: c, ev: Box::new(ev) });
+                    }
+                }
+                // Robot nodes' hosts hear it too (they learn their mission's chain from it).
+                for j in 0..self.nodes.len() {
+                    if j != i && self.nodes[j].kind == Kind::Robot && self.nodes[j].host.is_some() && !self.lost() {
+                        let at = self.now + self.delay();
+                        let ev = host::Event::MissionStatus { view: view.clone(), from: from.clone() };
+                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(ev) });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn robot(&mut self, i: usize, ev: robot::Event) -> Result<(), String> {
+        let now = self.now;
+        let name = self.nodes[i].name.clone();
+        let Some(r) = self.nodes[i].robot.as_mut() else {
+            return Ok(());
+        };
+        let before = r.executor().map(|e| (e.mission().to_string(), e.epoch(), e.progress().syncs_passed));
+        let cmds = r.handle(now, ev);
+        if let (Some((m, epoch, passed)), Some(e)) = (before, r.executor()) {
+            if e.mission() == m && e.epoch() == epoch && e.progress().syncs_passed > passed {
+                self.report.barriers += e.progress().syncs_passed - passed;
+                self.inv.barrier_passed(&name, e)?;
+            }
+        }
+        self.robot_commands(i, cmds)
+    }
+
+    pub(super) fn robot_commands(&mut self, i: usize, cmds: Vec<robot::Command>) -> Result<(), String> {
+        for c in cmds {
+            match c {
+                robot::Command::Reply(_) => {}
+                // An honest head planning for a robot not admitted yet: it re-sends.
+                robot::Command::Refuse(e) => {
+                    let name = self.nodes[i].name.clone();
+                    self.log(|| format!("{name} refuses: {e}"));
+                }
+                robot::Command::JoinTeam { team, subteam } => {
+                    self.nodes[i].team = Some((team, subteam));
+                    self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
+                    self.liveliness(0.02);
+                    self.local_team(i)?;
+                }
+                robot::Command::LeaveTeam => {
+                    self.nodes[i].team = None;
+                    self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
+                    self.liveliness(0.02);
+                    self.local_team(i)?;
+                }
+                robot::Command::Publish(a) => {
+                    let Some((team, _)) = self.nodes[i].team.clone() else {
+                        continue;
+                    };
+                    self.inv.arrival(&team, &a);
+                    for j in 0..self.nodes.len() {
+                        let same = self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team);
+                        if j != i && same && !self.lost() {
+                            let at = self.now + self.delay();
+                            self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::Heard(a.clone())) });
+                        }
+                    }
+                }
+                robot::Command::Telemetry(t) => {
+                    for j in 0..self.nodes.len() {
+                        if self.lost() {
+                            continue;
+                        }
+                        let at = self.now + self.delay();
+                        if self.nodes[j].central.is_some() {
+                            let ev = central::Event::System(system::Event::Telemetry(Box::new(t.clone())));
+                            self.queue.push(at, Ev::Central { from: i, to: j, ev: Box::new(ev) });
+                        }
+                        if self.nodes[j].host.is_some() {
+                            self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Telemetry(Box::new(t.clone()))) });
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The robot of node `i` changed team: its host hears of it at once (same process).
+    pub(super) fn local_team(&mut self, i: usize) -> Result<(), String> {
+        if self.nodes[i].host.is_none() {
+            return Ok(());
+        }
+        let team = self.nodes[i].robot.as_ref().map(|r| r.team()).unwrap_or_default();
+        self.host(i, host::Event::LocalTeam(team))
+    }
+
+    /// Who node `i` is, as its certificate would prove; `None` (the simulation's operator) acts
+    /// as central does.
+    pub(super) fn sender(&self, i: usize) -> Sender {
+        let n = &self.nodes[i];
+        match n.kind {
+            Kind::Central => Sender::new(Role::Central, n.name.clone()),
+            Kind::Host => Sender::new(Role::Host, n.name.clone()),
+            Kind::Robot => Sender::new(Role::Robot, n.name.clone()),
+        }
+    }
+
+    pub(super) fn asker(&self, asker: Option<usize>) -> Sender {
+        asker.map_or_else(|| Sender::new(Role::Central, CENTRAL_HOST), |a| self.sender(a))
+    }
+}

@@ -1,0 +1,565 @@
+//! The simulated world: nodes running the production machines, and the event loop that plays the
+//! drivers' part — it delivers publications, routes queries to whoever serves their key and
+//! answers to whoever asked, declares liveliness tokens, ticks the machines, and injects faults.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use mrmm_manager::agent::{AgentConfig, Autonomy};
+use mrmm_manager::central::{self, CentralCore};
+use mrmm_manager::chain::Params;
+use mrmm_manager::host::{self, HostCore};
+use mrmm_manager::system::{self, Ctls, Req};
+use mrmm_manager::Failure;
+use mrmm_peer::config::RobotConfig;
+use mrmm_peer::robot::{self, Robot};
+use mrmm_proto::{
+    CommandAck, CtlAck, Member, MissionCtl, MissionPlan, MissionSpecWire, MissionStart, MissionView, PlanAssignment, PlanRequest, RobotCommand, RobotInfo,
+    RobotPlan, RobotSpec, Role, Sender, Step, CENTRAL_HOST,
+};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::invariants::Invariants;
+use crate::net::{Beliefs, Change, Links, Queue, Token};
+use crate::ops::{cheap_params, Operator};
+use crate::{Config, Ops, Report, Violation};
+
+mod faults;
+mod machines;
+mod operator;
+mod queries;
+
+/// Robots' simulated seconds per wall second.
+const TIME_SCALE: f64 = 4.0;
+/// How long a query waits for an answer (the drivers' timeouts).
+fn timeout(p: &Payload) -> f64 {
+    match p {
+        Payload::HostStart(_) => 25.0,
+        Payload::Planner(..) => 20.0,
+        _ => 2.0,
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    Central,
+    Host,
+    Robot,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum TickKind {
+    Physics,
+    Telemetry,
+    Host,
+    Status,
+    Central,
+}
+
+struct Node {
+    name: String,
+    kind: Kind,
+    central: Option<CentralCore>,
+    host: Option<HostCore>,
+    robot: Option<Robot>,
+    cfg: Option<RobotConfig>,
+    /// Missions whose queryables this node's host serves.
+    served: BTreeSet<String>,
+    /// The robot's team: (team, subteam).
+    team: Option<(String, String)>,
+    /// Central's journal: what it committed, kept across crashes (the disk).
+    disk: mrmm_manager::system::Durable,
+    /// When central last crashed.
+    down: Option<f64>,
+}
+
+/// What a query asks of its server.
+#[derive(Debug, Clone)]
+enum Payload {
+    RobotCmd(RobotCommand),
+    RobotInfo,
+    HostStart(Box<MissionStart>),
+    Ctl { mission: String, ctl: MissionCtl },
+    View(String),
+    Planner(PlanRequest, mrmm_planner::recipe::PlannerKind),
+}
+
+/// Who asked, and what the answer goes back as.
+#[derive(Debug, Clone)]
+enum Ctx {
+    CentralInfo(String),
+    CentralRobot { req: Option<Req>, robot: String },
+    CentralStart(String),
+    CentralCtl(u64),
+    CentralForward,
+    HostPlan { mission: String, epoch: u64 },
+    HostSendPlan { mission: String, robot: String, epoch: u64 },
+    OpStart,
+    OpCtl(u64),
+}
+
+/// An answer on the wire.
+#[derive(Debug, Clone)]
+enum Answer {
+    Ack(CommandAck),
+    Info(RobotInfo),
+    Json(serde_json::Value),
+    Plan(Box<MissionPlan>),
+}
+
+struct Pending {
+    /// `None`: the operator, who reaches every node.
+    asker: Option<usize>,
+    asker_inc: u32,
+    server: usize,
+    payload: Option<Payload>,
+    ctx: Ctx,
+    done: bool,
+}
+
+enum Ev {
+    Tick {
+        node: usize,
+        inc: u32,
+        kind: TickKind,
+    },
+    Host {
+        from: usize,
+        to: usize,
+        ev: Box<host::Event>,
+    },
+    Central {
+        from: usize,
+        to: usize,
+        ev: Box<central::Event>,
+    },
+    Robot {
+        from: usize,
+        to: usize,
+        ev: Box<robot::Event>,
+    },
+    /// An answer a node computed for itself (local planning).
+    Local {
+        node: usize,
+        inc: u32,
+        ev: Box<host::Event>,
+    },
+    /// An answer central's driver computed for it (a dry run).
+    LocalCentral {
+        node: usize,
+        inc: u32,
+        ev: Box<central::Event>,
+    },
+    Query(u64),
+    Answer {
+        qid: u64,
+        result: Result<Answer, Failure>,
+    },
+    Timeout(u64),
+    Live(Change, u32),
+    Crash,
+    Restart(usize),
+    Partition,
+    Heal,
+    Suspect,
+    Unsuspect(usize, usize),
+    Op,
+}
+
+/// One run.
+pub struct World {
+    cfg: Config,
+    rng: ChaCha8Rng,
+    now: f64,
+    nodes: Vec<Node>,
+    links: Links,
+    beliefs: Beliefs,
+    queue: Queue<Ev>,
+    queries: BTreeMap<u64, Pending>,
+    next_qid: u64,
+    inv: Invariants,
+    op: Operator,
+    /// OneMission: the operator's controls, and the team it wants.
+    ctls: Ctls,
+    team: BTreeSet<String>,
+    /// OneMission: the mission's chain as last seen (whom admissions name as managers).
+    managers: Vec<String>,
+    report: Report,
+    trace: Option<Vec<String>>,
+}
+
+fn robot_cfg(id: &str, x: f64, y: f64) -> RobotConfig {
+    let text = format!(
+        r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }}, start: {{ x: {x}, y: {y} }}, time_scale: {TIME_SCALE}, telemetry_hz: 5 }}"#
+    );
+    match RobotConfig::from_json5("sim", &text) {
+        Ok(c) => c,
+        Err(e) => panic!("the simulation's robot config is wrong: {e}"),
+    }
+}
+
+fn json<T: serde::de::DeserializeOwned>(a: Result<Answer, Failure>) -> Result<T, Failure> {
+    match a? {
+        Answer::Json(v) => serde_json::from_value(v).map_err(|e| Failure { retryable: false, error: e.to_string() }),
+        other => Err(Failure { retryable: false, error: format!("unexpected answer {other:?}") }),
+    }
+}
+
+impl World {
+    pub fn new(cfg: Config, trace: bool) -> World {
+        let mut nodes = Vec::new();
+        if cfg.central {
+            nodes.push(Node {
+                name: CENTRAL_HOST.into(),
+                kind: Kind::Central,
+                central: None,
+                host: None,
+                robot: None,
+                cfg: None,
+                served: BTreeSet::new(),
+                team: None,
+                disk: Default::default(),
+                down: None,
+            });
+        }
+        for i in 1..=cfg.hosts {
+            nodes.push(Node {
+                name: format!("h{i}"),
+                kind: Kind::Host,
+                central: None,
+                host: None,
+                robot: None,
+                cfg: None,
+                served: BTreeSet::new(),
+                team: None,
+                disk: Default::default(),
+                down: None,
+            });
+        }
+        for i in 1..=cfg.robots {
+            let id = format!("r{i}");
+            let c = robot_cfg(&id, i as f64 * 2.0, -3.0);
+            nodes.push(Node {
+                name: id,
+                kind: Kind::Robot,
+                central: None,
+                host: None,
+                robot: None,
+                cfg: Some(c),
+                served: BTreeSet::new(),
+                team: None,
+                disk: Default::default(),
+                down: None,
+            });
+        }
+        let n = nodes.len();
+        let mut w = World {
+            cfg,
+            rng: ChaCha8Rng::seed_from_u64(cfg.seed),
+            now: 0.0,
+            nodes,
+            links: Links::new(n),
+            beliefs: Beliefs::default(),
+            queue: Queue::new(),
+            queries: BTreeMap::new(),
+            next_qid: 0,
+            inv: Invariants::default(),
+            op: Operator::default(),
+            ctls: Ctls::default(),
+            team: BTreeSet::new(),
+            managers: Vec::new(),
+            report: Report { seed: cfg.seed, ..Report::default() },
+            trace: trace.then(Vec::new),
+        };
+        for i in 0..n {
+            w.boot(i);
+        }
+        w
+    }
+
+    fn log(&mut self, f: impl FnOnce() -> String) {
+        if let Some(t) = &mut self.trace {
+            t.push(format!("{:8.3} {}", self.now, f()));
+        }
+    }
+
+    fn index(&self, name: &str) -> Option<usize> {
+        self.nodes.iter().position(|n| n.name == name)
+    }
+
+    fn delay(&mut self) -> f64 {
+        self.rng.gen_range(0.0..=self.cfg.max_delay)
+    }
+
+    /// Whether a message is lost (never in the quiet period).
+    fn lost(&mut self) -> bool {
+        self.now < self.cfg.duration && self.cfg.loss > 0.0 && self.rng.gen_bool(self.cfg.loss.min(1.0))
+    }
+
+    /// Starts node `i`'s process: fresh machines, its timers.
+    fn boot(&mut self, i: usize) {
+        let now = self.now;
+        let params = Params::default();
+        let n = &mut self.nodes[i];
+        n.served.clear();
+        n.team = None;
+        match n.kind {
+            Kind::Central => {
+                let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
+                // The sim's clock is central's: its last sign of life is when it crashed.
+                n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone(), n.down));
+                n.host = Some(HostCore::new(&n.name, params, now));
+            }
+            Kind::Host => n.host = Some(HostCore::new(&n.name, params, now)),
+            Kind::Robot => {
+                if !matches!(self.cfg.ops, Ops::Barriers { .. }) {
+                    n.host = Some(HostCore::new(&n.name, params, now).with_robot());
+                }
+                n.robot = n.cfg.clone().map(Robot::new);
+            }
+        }
+        let inc = self.links.inc[i];
+        let kinds: &[(TickKind, f64)] = match self.nodes[i].kind {
+            Kind::Central => &[(TickKind::Central, 0.25), (TickKind::Host, 0.05), (TickKind::Status, 1.0)],
+            Kind::Host => &[(TickKind::Host, 0.05), (TickKind::Status, 1.0)],
+            Kind::Robot if self.nodes[i].host.is_some() => {
+                &[(TickKind::Physics, 0.05), (TickKind::Telemetry, 0.2), (TickKind::Host, 0.05), (TickKind::Status, 1.0)]
+            }
+            Kind::Robot => &[(TickKind::Physics, 0.05), (TickKind::Telemetry, 0.2)],
+        };
+        for &(kind, period) in kinds {
+            let phase = self.rng.gen_range(0.0..period);
+            self.queue.push(now + phase, Ev::Tick { node: i, inc, kind });
+        }
+        self.liveliness(0.02);
+    }
+
+    /// Runs the simulation to its end; the first violated invariant stops it.
+    pub fn run(mut self) -> Result<Report, Violation> {
+        match self.run_inner() {
+            Ok(()) => {
+                self.report.trace = self.trace.take().unwrap_or_default();
+                self.report.leads = self.inv.leads;
+                Ok(self.report)
+            }
+            Err(what) => Err(Violation { seed: self.cfg.seed, at: self.now, what, trace: self.trace.take().unwrap_or_default() }),
+        }
+    }
+
+    fn run_inner(&mut self) -> Result<(), String> {
+        let end = self.cfg.duration + self.cfg.quiet;
+        self.schedule_faults();
+        match self.cfg.ops {
+            Ops::Barriers { points, rounds } => self.hand_out_barrier_plans(points, rounds),
+            Ops::OneMission | Ops::Random => self.queue.push(0.5, Ev::Op),
+        }
+        while let Some(t) = self.queue.peek_time() {
+            if t > end {
+                break;
+            }
+            let Some((t, ev)) = self.queue.pop() else {
+                break;
+            };
+            self.now = t;
+            self.report.events += 1;
+            self.event(ev)?;
+        }
+        self.finish()
+    }
+
+    fn event(&mut self, ev: Ev) -> Result<(), String> {
+        match ev {
+            Ev::Tick { node, inc, kind } => {
+                if !self.links.up[node] || self.links.inc[node] != inc {
+                    return Ok(());
+                }
+                let period = match kind {
+                    TickKind::Physics | TickKind::Host => 0.05,
+                    TickKind::Telemetry => 0.2,
+                    TickKind::Central => 0.25,
+                    TickKind::Status => 1.0,
+                };
+                self.queue.push(self.now + period, Ev::Tick { node, inc, kind });
+                match kind {
+                    TickKind::Physics => self.robot(node, robot::Event::Tick)?,
+                    TickKind::Telemetry => self.robot(node, robot::Event::TelemetryDue)?,
+                    TickKind::Host => self.host(node, host::Event::Tick)?,
+                    TickKind::Status => self.host(node, host::Event::StatusTick)?,
+                    TickKind::Central => self.central(node, central::Event::System(system::Event::Tick))?,
+                }
+            }
+            Ev::Host { from, to, ev } => {
+                if self.links.connected(from, to) {
+                    self.report.messages += 1;
+                    self.host(to, *ev)?;
+                }
+            }
+            Ev::Central { from, to, ev } => {
+                if self.links.connected(from, to) {
+                    self.report.messages += 1;
+                    self.central(to, *ev)?;
+                }
+            }
+            Ev::Robot { from, to, ev } => {
+                if self.links.connected(from, to) {
+                    self.report.messages += 1;
+                    self.robot(to, *ev)?;
+                }
+            }
+            Ev::Local { node, inc, ev } => {
+                if self.links.up[node] && self.links.inc[node] == inc {
+                    self.host(node, *ev)?;
+                }
+            }
+            Ev::LocalCentral { node, inc, ev } => {
+                if self.links.up[node] && self.links.inc[node] == inc {
+                    self.central(node, *ev)?;
+                }
+            }
+            Ev::Query(qid) => self.serve(qid)?,
+            Ev::Answer { qid, result } => self.answer(qid, result)?,
+            Ev::Timeout(qid) => {
+                let pending = self.queries.get(&qid).is_some_and(|q| !q.done);
+                if pending {
+                    let error = Failure { retryable: true, error: "no answer".into() };
+                    self.answer(qid, Err(error))?;
+                }
+            }
+            Ev::Live(c, inc) => {
+                if self.links.up[c.observer] && self.links.inc[c.observer] == inc {
+                    self.tell(c.observer, &c.token, c.up)?;
+                }
+            }
+            Ev::Crash => {
+                self.next_fault(self.cfg.crash_every, Ev::Crash);
+                if self.links.up.iter().all(|u| *u) {
+                    let candidates: Vec<usize> = (0..self.nodes.len()).filter(|i| self.nodes[*i].kind != Kind::Central || self.cfg.crash_central).collect();
+                    if !candidates.is_empty() {
+                        let i = candidates[self.rng.gen_range(0..candidates.len())];
+                        self.crash(i);
+                        if self.cfg.restart {
+                            let back = self.now + self.rng.gen_range(0.5..4.0);
+                            self.queue.push(back, Ev::Restart(i));
+                        }
+                    }
+                }
+            }
+            Ev::Restart(i) => {
+                self.links.up[i] = true;
+                self.links.inc[i] += 1;
+                let name = self.nodes[i].name.clone();
+                self.log(|| format!("restart {name}"));
+                self.beliefs.forget(i, |_| false);
+                self.boot(i);
+            }
+            Ev::Partition => {
+                self.next_fault(self.cfg.partition_every, Ev::Partition);
+                if !self.links.partitioned() {
+                    let side: Vec<bool> = (0..self.nodes.len()).map(|_| self.rng.gen_bool(0.5)).collect();
+                    self.log(|| format!("partition {side:?}"));
+                    self.links.partition(side);
+                    self.report.partitions += 1;
+                    let heal = (self.now + self.rng.gen_range(0.5..6.0)).min(self.cfg.duration);
+                    self.queue.push(heal, Ev::Heal);
+                    self.liveliness(self.cfg.lease);
+                }
+            }
+            Ev::Heal => {
+                self.log(|| "heal".into());
+                self.links.heal();
+                self.liveliness(0.05);
+            }
+            Ev::Suspect => {
+                self.next_fault(self.cfg.suspect_every, Ev::Suspect);
+                let n = self.nodes.len();
+                let (a, b) = (self.rng.gen_range(0..n), self.rng.gen_range(0..n));
+                if a != b {
+                    self.log(|| format!("n{a} falsely loses n{b}"));
+                    self.report.suspicions += 1;
+                    self.links.suspect(a, b, true);
+                    let until = (self.now + self.rng.gen_range(1.5..5.0)).min(self.cfg.duration);
+                    self.queue.push(until, Ev::Unsuspect(a, b));
+                    self.liveliness(self.cfg.lease);
+                }
+            }
+            Ev::Unsuspect(a, b) => {
+                self.links.suspect(a, b, false);
+                self.liveliness(0.05);
+            }
+            Ev::Op => self.operate()?,
+        }
+        Ok(())
+    }
+
+    // ---- the end ---------------------------------------------------------------------------
+
+    /// Whether a majority of `mission`'s newest chain still holds its state.
+    fn recoverable(&self, mission: &str) -> bool {
+        let replicas: Vec<(&String, &mrmm_manager::chain::Replica<mrmm_proto::MissionSnapshot>)> =
+            self.nodes.iter().filter_map(|n| Some((&n.name, n.host.as_ref()?.replica(mission)?))).collect();
+        let Some(newest) = replicas.iter().filter_map(|(_, r)| r.config()).max_by_key(|c| c.epoch) else {
+            return false;
+        };
+        newest.majority(|node| replicas.iter().any(|(n, r)| n.as_str() == node && r.state().is_some()))
+    }
+
+    /// After the quiet period: one head per mission, every live member on its current epoch, no
+    /// robot in two missions; barrier plans finished.
+    fn finish(&mut self) -> Result<(), String> {
+        let alive: BTreeSet<String> =
+            self.nodes.iter().filter_map(|n| n.host.as_ref()).flat_map(|h| h.heads().map(|(m, _)| m.clone()).collect::<Vec<_>>()).collect();
+        self.inv.forget_missions(&alive);
+        self.one_mission_per_robot()?;
+        if let Ops::Barriers { .. } = self.cfg.ops {
+            for (i, n) in self.nodes.iter().enumerate() {
+                let done = n.robot.as_ref().and_then(|r| r.executor()).is_some_and(|e| e.progress().done);
+                if self.links.up[i] && !done {
+                    let at = n.robot.as_ref().and_then(|r| r.executor()).map(|e| e.progress());
+                    return Err(format!("{} did not finish its plan: {at:?}", n.name));
+                }
+            }
+            return Ok(());
+        }
+        let mut heads: BTreeMap<String, Vec<(String, u64, Vec<String>)>> = BTreeMap::new();
+        for n in &self.nodes {
+            let Some(h) = &n.host else { continue };
+            for (m, mm) in h.heads() {
+                heads.entry(m.clone()).or_default().push((n.name.clone(), mm.epoch(), mm.members().cloned().collect()));
+            }
+        }
+        for (m, hs) in &heads {
+            if !self.recoverable(m) {
+                // A majority of its chain restarted and lost what it held (memory is not
+                // durable yet): the chain cannot safely form again; robots keep their plans.
+                self.report.unrecoverable += 1;
+                continue;
+            }
+            if hs.len() > 1 {
+                let names: Vec<&String> = hs.iter().map(|h| &h.0).collect();
+                return Err(format!("{} heads of {m} after healing: {names:?}", hs.len()));
+            }
+            if self.op.terminated.contains(m) {
+                continue;
+            }
+            let (_, epoch, members) = &hs[0];
+            for r in members {
+                let Some(i) = self.index(r) else { continue };
+                let running = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| (e.mission().to_string(), e.epoch()));
+                if self.links.up[i] && running != Some((m.clone(), *epoch)) {
+                    let chains: Vec<String> = self
+                        .nodes
+                        .iter()
+                        .filter_map(|n| {
+                            let r = n.host.as_ref()?.replica(m)?;
+                            Some(format!("{}: {:?} {:?} v{:?} committed {:?}", n.name, r.role(), r.config(), r.version(), r.committed()))
+                        })
+                        .collect();
+                    return Err(format!("live member {r} of {m} runs {running:?}, not {m}'s epoch {epoch}, after healing; replicas: {chains:?}"));
+                }
+            }
+        }
+        self.report.missions_at_end = heads.len();
+        self.report.commands_ok = self.op.ok;
+        Ok(())
+    }
+}

@@ -1,0 +1,177 @@
+//! The operator's side: random commands, missions started directly on hosts, barrier plans handed out.
+
+use super::*;
+
+impl World {
+    pub(super) fn robot_names(&self) -> Vec<String> {
+        self.nodes.iter().filter(|n| n.kind == Kind::Robot).map(|n| n.name.clone()).collect()
+    }
+
+    pub(super) fn operate(&mut self) -> Result<(), String> {
+        let active = self.now < self.cfg.duration;
+        match self.cfg.ops {
+            Ops::Barriers { .. } => {}
+            Ops::Random => {
+                let next = self.now + self.rng.gen_range(1.0..3.0);
+                self.queue.push(next, Ev::Op);
+                let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) else {
+                    return Ok(());
+                };
+                if !active || !self.links.up[c] {
+                    return Ok(());
+                }
+                let robots = self.robot_names();
+                let (req, request) = self.op.command(&mut self.rng, &robots);
+                self.log(|| format!("operator: {request:?}"));
+                self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
+            }
+            Ops::OneMission => {
+                self.queue.push(self.now + 0.25, Ev::Op);
+                if !active {
+                    // Quiet: the operator stops, controls not yet acknowledged included.
+                    self.ctls.cancel("p");
+                }
+                if self.now < 0.6 {
+                    self.start_one_mission();
+                } else {
+                    // As central does for members that join or come back: a robot the mission's
+                    // state counts in (or lost) that does not know the whole team (it restarted,
+                    // or others joined since its plan) is admitted with the team, so robot heads
+                    // may plan for it and it takes their chain messages.
+                    let mut counted: BTreeSet<String> = BTreeSet::new();
+                    // The managers central would name: the chain of the newest configuration.
+                    let mut chain: Option<(u64, Vec<String>)> = None;
+                    for n in &self.nodes {
+                        let Some(r) = n.host.as_ref().and_then(|h| h.replica("p")) else {
+                            continue;
+                        };
+                        if let Some(state) = r.state() {
+                            counted.extend(state.members.iter().chain(&state.lost).map(|m| m.spec.id.clone()));
+                        }
+                        if let Some(c) = r.config() {
+                            if chain.as_ref().is_none_or(|(e, _)| c.epoch > *e) {
+                                chain = Some((c.epoch, c.chain.clone()));
+                            }
+                        }
+                    }
+                    self.managers = chain.map(|(_, c)| c).unwrap_or_default();
+                    let unaware: Vec<String> = counted
+                        .iter()
+                        .filter(|r| {
+                            let teams = self.index(r).and_then(|i| self.nodes[i].robot.as_ref()).map(|rb| rb.team()).unwrap_or_default();
+                            !teams.iter().any(|(m, ids)| m == "p" && counted.iter().all(|c| ids.contains(c)))
+                        })
+                        .cloned()
+                        .collect();
+                    let team: Vec<String> = counted.into_iter().collect();
+                    for r in unaware {
+                        self.admit(&r, &team);
+                    }
+                }
+                if self.now >= 0.6 && active && self.rng.gen_bool(0.15) {
+                    let robots = self.robot_names();
+                    let r = robots[self.rng.gen_range(0..robots.len())].clone();
+                    let ctl = if self.team.contains(&r) && self.team.len() > 1 {
+                        self.team.remove(&r);
+                        MissionCtl::Left { ids: vec![r] }
+                    } else if !self.team.contains(&r) {
+                        self.team.insert(r.clone());
+                        self.admit_one(&r);
+                        let spec = RobotSpec { id: r, robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 };
+                        MissionCtl::Joined { member: Member { spec, time_scale: TIME_SCALE } }
+                    } else {
+                        return Ok(());
+                    };
+                    self.ctls.push("p", ctl, None);
+                }
+                for (id, mission, ctl) in self.ctls.due(self.now) {
+                    self.ask_mission(None, &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// OneMission: mission `p` of every robot, on the first mission host.
+    pub(super) fn start_one_mission(&mut self) {
+        let robots = self.robot_names();
+        self.team = robots.iter().cloned().collect();
+        let members = robots
+            .iter()
+            .enumerate()
+            .map(|(i, r)| Member {
+                spec: RobotSpec { id: r.clone(), robot_type: "ground".into(), x: i as f64 * 2.0, y: -3.0, speed: 1.0 },
+                time_scale: TIME_SCALE,
+            })
+            .collect();
+        let params = cheap_params(true).into_iter().map(|(k, v)| (k, v.to_string())).collect();
+        let spec = MissionSpecWire {
+            name: "p".into(),
+            recipe_name: "patrol".into(),
+            recipe_xml: mrmm_planner::recipe::bank("patrol").unwrap_or_default().into(),
+            planner: "patrol".into(),
+            params,
+            replicas: 2,
+        };
+        let host = self.nodes.iter().find(|n| n.kind == Kind::Host).map(|n| n.name.clone()).unwrap_or_else(|| robots[0].clone());
+        for r in &robots {
+            self.admit_one(r);
+        }
+        self.ask(None, &host, Payload::HostStart(Box::new(MissionStart { spec, members })), Ctx::OpStart);
+    }
+
+    /// OneMission: admits robot `r` to mission `p` with the operator's team.
+    pub(super) fn admit_one(&mut self, r: &str) {
+        let team: Vec<String> = self.team.iter().cloned().collect();
+        self.admit(r, &team);
+    }
+
+    /// Admits robot `r` to mission `p` (as the system manager does): its managers are the host
+    /// and any member of `team`, its members `team` (and `r`).
+    pub(super) fn admit(&mut self, r: &str, team: &[String]) {
+        let mut team = team.to_vec();
+        if !team.iter().any(|t| t == r) {
+            team.push(r.to_string());
+        }
+        let mut managers: Vec<String> = self.nodes.iter().filter(|n| n.kind == Kind::Host).map(|n| n.name.clone()).collect();
+        managers.extend(self.managers.iter().cloned());
+        managers.extend(team.iter().cloned());
+        managers.sort();
+        managers.dedup();
+        let admit = RobotCommand::Admit { mission: "p".into(), managers, members: team };
+        self.log(|| format!("operator: admit {r} to p"));
+        self.ask(None, r, Payload::RobotCmd(admit), Ctx::OpStart);
+    }
+
+    /// Barriers: every robot gets the same plan of barriers with work between them.
+    pub(super) fn hand_out_barrier_plans(&mut self, points: u32, rounds: u32) {
+        let robots = self.robot_names();
+        for (i, r) in robots.iter().enumerate() {
+            let mut steps = vec![Step::Sync { point: 0 }];
+            for p in 1..points {
+                let x = (i as f64 + p as f64) * self.rng.gen_range(0.5..2.0);
+                steps.push(Step::Navigate { x, y: self.rng.gen_range(-3.0..3.0), speed: None });
+                steps.push(Step::Sync { point: p });
+            }
+            steps.push(Step::Hold { seconds: Some(self.rng.gen_range(0.0..2.0)) });
+            steps.push(Step::Loop { to: 1, rounds: Some(rounds) });
+            let assignment = PlanAssignment {
+                mission: "b".into(),
+                epoch: 1,
+                team: "b".into(),
+                subteam: "b/ground".into(),
+                members: robots.clone(),
+                plan: RobotPlan { robot: r.clone(), robot_type: "ground".into(), slot: i, steps },
+                managers: vec![],
+            };
+            let j = self.index(r).unwrap_or(0);
+            let from = Sender::new(Role::Host, "planner");
+            let cmds = self.nodes[j]
+                .robot
+                .as_mut()
+                .map(|rb| rb.handle(0.0, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(assignment)), from }))
+                .unwrap_or_default();
+            let _ = self.robot_commands(j, cmds);
+        }
+    }
+}

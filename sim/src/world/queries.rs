@@ -1,0 +1,202 @@
+//! Queries: routed to whoever serves their key, served by the machines, answered to whoever asked (or timed out).
+
+use super::*;
+
+impl World {
+    /// A query to the node named `server`.
+    pub(super) fn ask(&mut self, asker: Option<usize>, server: &str, payload: Payload, ctx: Ctx) {
+        let server = self.index(server);
+        self.send_query(asker, server, payload, ctx);
+    }
+
+    /// A query to whoever serves `mission` (the operator reaches every node).
+    pub(super) fn ask_mission(&mut self, asker: Option<usize>, mission: &str, payload: Payload, ctx: Ctx) {
+        let servers: Vec<usize> =
+            (0..self.nodes.len()).filter(|j| self.nodes[*j].served.contains(mission) && asker.is_none_or(|a| self.links.connected(a, *j))).collect();
+        let server = (!servers.is_empty()).then(|| servers[self.rng.gen_range(0..servers.len())]);
+        self.send_query(asker, server, payload, ctx);
+    }
+
+    pub(super) fn send_query(&mut self, asker: Option<usize>, server: Option<usize>, payload: Payload, ctx: Ctx) {
+        let qid = self.next_qid;
+        self.next_qid += 1;
+        let asker_inc = asker.map_or(0, |a| self.links.inc[a]);
+        let reachable = server.filter(|s| asker.is_none_or(|a| self.links.connected(a, *s)));
+        let wait = timeout(&payload);
+        self.queries.insert(qid, Pending { asker, asker_inc, server: server.unwrap_or(usize::MAX), payload: Some(payload), ctx, done: false });
+        match reachable {
+            // Nobody serves the key: the query ends at once, empty.
+            None => {
+                let at = self.now + self.delay();
+                self.queue.push(at, Ev::Answer { qid, result: Err(Failure { retryable: true, error: "no queryable".into() }) });
+            }
+            Some(_) => {
+                if !self.lost() {
+                    let at = self.now + self.delay();
+                    self.queue.push(at, Ev::Query(qid));
+                }
+                self.queue.push(self.now + wait, Ev::Timeout(qid));
+            }
+        }
+    }
+
+    /// The query reaches its server.
+    pub(super) fn serve(&mut self, qid: u64) -> Result<(), String> {
+        let Some(q) = self.queries.get_mut(&qid) else {
+            return Ok(());
+        };
+        let (s, asker) = (q.server, q.asker);
+        if s >= self.nodes.len() || !self.links.up[s] || asker.is_some_and(|a| !self.links.connected(a, s)) {
+            return Ok(());
+        }
+        let Some(payload) = q.payload.clone() else {
+            return Ok(());
+        };
+        let now = self.now;
+        let from = self.asker(asker);
+        match payload {
+            Payload::RobotCmd(cmd) => {
+                let Some(r) = self.nodes[s].robot.as_mut() else {
+                    return Ok(());
+                };
+                let cmds = r.handle(now, robot::Event::Command { cmd, from });
+                // A refusal (its sender may not send this, yet) may be retried: as the driver does.
+                let reply = cmds.iter().find_map(|c| match c {
+                    robot::Command::Reply(r) => Some(r.clone().map_err(|error| Failure { retryable: false, error })),
+                    robot::Command::Refuse(e) => Some(Err(Failure { retryable: true, error: e.clone() })),
+                    _ => None,
+                });
+                self.robot_commands(s, cmds)?;
+                // An admission changes whom the robot trusts: its host hears of it at once.
+                self.local_team(s)?;
+                if let Some(r) = reply {
+                    self.reply(qid, r.map(Answer::Ack));
+                }
+            }
+            Payload::RobotInfo => {
+                if let Some(r) = self.nodes[s].robot.as_ref() {
+                    let info = r.info(vec![]);
+                    self.reply(qid, Ok(Answer::Info(info)));
+                }
+            }
+            Payload::HostStart(start) => {
+                let mission = start.spec.name.clone();
+                let again = self.nodes.iter().any(|n| n.central.as_ref().is_some_and(|c| c.system().restarting(&mission)));
+                let before = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
+                // Central starts a mission again from its journal: a new lineage, which the host
+                // may take only when no other live node replicates the old one.
+                let holders: Vec<String> = (0..self.nodes.len())
+                    .filter(|n| *n != s && self.links.up[*n])
+                    .filter(|n| self.nodes[*n].host.as_ref().and_then(|h| h.replica(&mission)).is_some_and(|r| r.state().is_some()))
+                    .map(|n| self.nodes[n].name.clone())
+                    .collect();
+                if again && !before {
+                    self.inv.started_again(&mission);
+                }
+                self.host(s, host::Event::Start { query: qid, start, from })?;
+                let after = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
+                if again && !before && after && !holders.is_empty() {
+                    return Err(format!("{} started {mission} anew while {holders:?} still replicate it", self.nodes[s].name));
+                }
+            }
+            Payload::Ctl { mission, ctl } => self.host(s, host::Event::Ctl { query: qid, mission, ctl, from })?,
+            Payload::View(mission) => self.host(s, host::Event::View { query: qid, mission })?,
+            Payload::Planner(request, kind) => {
+                if self.nodes[s].kind == Kind::Central {
+                    let result = mrmm_manager::planner_service::plan(kind, &request)
+                        .map(|p| Answer::Plan(Box::new(p)))
+                        .map_err(|error| Failure { retryable: false, error });
+                    self.reply(qid, result);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The server answers query `qid` (or lets it go): the answer travels back to the asker.
+    pub(super) fn reply(&mut self, qid: u64, result: Result<Answer, Failure>) {
+        let Some(q) = self.queries.get(&qid) else {
+            return;
+        };
+        if q.done {
+            return;
+        }
+        if !self.lost() {
+            let at = self.now + self.delay();
+            self.queue.push(at, Ev::Answer { qid, result });
+        }
+    }
+
+    /// An answer reaches the asker.
+    pub(super) fn answer(&mut self, qid: u64, result: Result<Answer, Failure>) -> Result<(), String> {
+        let Some(q) = self.queries.get_mut(&qid) else {
+            return Ok(());
+        };
+        if q.done {
+            return Ok(());
+        }
+        let arrives = match q.asker {
+            None => true,
+            Some(a) => {
+                self.links.up[a] && self.links.inc[a] == q.asker_inc && (q.server >= self.nodes.len() || result.is_err() || self.links.connected(a, q.server))
+            }
+        };
+        if !arrives && result.is_ok() {
+            return Ok(());
+        }
+        q.done = true;
+        let (asker, ctx) = (q.asker, q.ctx.clone());
+        self.queries.remove(&qid);
+        if asker.is_some_and(|a| !self.links.up[a]) {
+            return Ok(());
+        }
+        let sys = |e: system::Event| central::Event::System(e);
+        match (ctx, asker) {
+            (Ctx::CentralInfo(id), Some(a)) => {
+                let ev = match result {
+                    Ok(Answer::Info(info)) if info.id == id => system::Event::RobotRegistered(info),
+                    Ok(_) => system::Event::InfoFailed { id, reason: "bad answer".into() },
+                    Err(f) => system::Event::InfoFailed { id, reason: f.error },
+                };
+                self.central(a, sys(ev))
+            }
+            (Ctx::CentralRobot { req, robot }, Some(a)) => {
+                let result = match result {
+                    Ok(Answer::Ack(ack)) => Ok(ack),
+                    Ok(other) => Err(format!("unexpected {other:?}")),
+                    Err(f) => Err(f.error),
+                };
+                self.central(a, sys(system::Event::RobotCommandDone { req, robot, result }))
+            }
+            (Ctx::CentralStart(mission), Some(a)) => {
+                let result = json::<MissionView>(result).map(Box::new);
+                self.central(a, sys(system::Event::MissionStarted { mission, result }))
+            }
+            (Ctx::CentralCtl(id), Some(a)) => {
+                let result = json::<CtlAck>(result).map(|_| ());
+                self.central(a, sys(system::Event::CtlDone { id, result }))
+            }
+            (Ctx::HostPlan { mission, epoch }, Some(a)) => {
+                let ok = result.as_ref().map(|_| ()).map_err(|f| f.error.clone());
+                self.log(|| format!("plan of {mission} epoch {epoch} answered: {ok:?}"));
+                let result = match result {
+                    Ok(Answer::Plan(p)) => Ok(p),
+                    Ok(other) => Err(Failure { retryable: false, error: format!("unexpected {other:?}") }),
+                    Err(f) => Err(f),
+                };
+                self.host(a, host::Event::Planned { mission, epoch, result })
+            }
+            (Ctx::HostSendPlan { mission, robot, epoch }, Some(a)) => {
+                let result = result.map(|_| ());
+                self.host(a, host::Event::PlanDelivered { mission, robot, epoch, result })
+            }
+            (Ctx::OpCtl(id), _) => {
+                let result = json::<CtlAck>(result).map(|_| ());
+                self.ctls.done(self.now, id, result);
+                Ok(())
+            }
+            (Ctx::OpStart, _) | (Ctx::CentralForward, _) => Ok(()),
+            (_, None) => Ok(()),
+        }
+    }
+}
