@@ -15,8 +15,8 @@ use mrmm_proto::chain::{Config, Msg};
 use mrmm_proto::client::Client;
 use mrmm_proto::net::{Mode, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
 use mrmm_proto::{
-    self as proto, ChainEnvelope, Key, Mesh, MissionCreate, MissionView, NodeNet, PlanRequest, RobotCommand, RobotView, SecuritySection,
-    SyncArrival, SystemStatus,
+    self as proto, ChainEnvelope, Key, Mesh, MissionCreate, MissionView, NodeNet, PlanRequest, RobotCommand, RobotView, SecuritySection, SyncArrival,
+    SystemStatus,
 };
 use serde_json::json;
 use zenoh::bytes::Encoding;
@@ -77,7 +77,13 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     let eps: Vec<String> = robots.iter().filter_map(|r| r.field("listening")).collect();
     let op = Client::connect_with(std::slice::from_ref(&ep), Some(SecuritySection::from_dir(&pki, "op")), Duration::from_secs(5)).await?;
     common::wait_robots(&op, 4).await?;
-    let m: MissionView = op.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&common::square_patrol(3, None))).await?;
+    // p is r1..r3 by name (r4 stays idle for q); retried while a robot's liveliness flaps under load.
+    let mut pc = common::square_patrol(3, None);
+    (pc.count, pc.robots) = (None, Some(vec!["r1".into(), "r2".into(), "r3".into()]));
+    let m: MissionView = eventually("p created with r1..r3", Duration::from_secs(10), || async {
+        op.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&pc)).await.map_err(|e| println!("create p: {e}")).ok()
+    })
+    .await?;
     let (epoch, chain_epoch) = (m.manager.epoch, m.manager.chain_epoch);
     eventually("the patrol past a barrier", Duration::from_secs(20), || async {
         let m: MissionView = op.query(Key::SystemMission("p".into()), None::<&()>).await.ok()?;
@@ -127,10 +133,14 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         plan: proto::RobotPlan { robot: "r1".into(), robot_type: "ground".into(), slot: 0, steps: vec![proto::Step::Hold { seconds: None }] },
         managers: vec!["r9".into()],
     };
-    let r = rogue.query::<serde_json::Value>(&Key::RobotCmd("r1".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus.clone())))?), t, any).await;
+    let r = rogue
+        .query::<serde_json::Value>(&Key::RobotCmd("r1".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus.clone())))?), t, any)
+        .await;
     assert!(r.as_ref().is_err_and(|e| e.to_string().contains("refused")), "r1 took a rogue's plan: {r:?}");
     bogus.mission = "q".into();
-    let r = rogue.query::<serde_json::Value>(&Key::RobotCmd("r4".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus)))?), t, any).await;
+    let r = rogue
+        .query::<serde_json::Value>(&Key::RobotCmd("r4".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus)))?), t, any)
+        .await;
     assert!(r.is_err(), "idle r4 took a rogue's plan while central is up: {r:?}");
     let goto = serde_json::to_vec(&RobotCommand::Goto { x: 99.0, y: 99.0 })?;
     assert!(rogue.query::<serde_json::Value>(&Key::RobotCmd("r2".into()).to_string(), Some(goto), t, any).await.is_err(), "r2 obeyed a robot's goto");
@@ -154,7 +164,14 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     let forgeries = [
         ("r9", Msg::End { epoch: u64::MAX }),
         ("central", Msg::Stale { promised: u64::MAX, last: (u64::MAX, u64::MAX) }),
-        ("r9", Msg::Vote { proposal: Config { epoch: u64::MAX - 1, chain: vec!["r9".into(), "r1".into(), "r2".into()] }, base: vec!["r9".into(), "r1".into()], last: (u64::MAX, u64::MAX) }),
+        (
+            "r9",
+            Msg::Vote {
+                proposal: Config { epoch: u64::MAX - 1, chain: vec!["r9".into(), "r1".into(), "r2".into()] },
+                base: vec!["r9".into(), "r1".into()],
+                last: (u64::MAX, u64::MAX),
+            },
+        ),
     ];
     for id in ["r1", "r2", "r3", "central"] {
         for (from, msg) in &forgeries {
@@ -164,7 +181,12 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     }
     // e. A fake planner service, answering at once with a plan that moves nobody.
     let fake = rogue.session().declare_queryable(Key::Planner("patrol".into()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    let _fake_token = rogue.session().liveliness().declare_token(Key::PlannerAlive { kind: "patrol".into(), zid: "fake".into() }.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let _fake_token = rogue
+        .session()
+        .liveliness()
+        .declare_token(Key::PlannerAlive { kind: "patrol".into(), zid: "fake".into() }.to_string())
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let fake_mesh = rogue.clone();
     let answered = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
     let count = answered.clone();
@@ -187,7 +209,10 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         robots: Some(vec!["r4".into()]),
         // 60 waypoints and many kicks: the real planner takes a second or so.
         params: [
-            ("waypoints".to_string(), json!((0..60).map(|i| [f64::from(i % 10) * 3.0 + f64::from(i / 10) * 0.37, f64::from(i / 10) * 4.0]).collect::<Vec<_>>())),
+            (
+                "waypoints".to_string(),
+                json!((0..60).map(|i| [f64::from(i % 10) * 3.0 + f64::from(i / 10) * 0.37, f64::from(i / 10) * 4.0]).collect::<Vec<_>>()),
+            ),
             ("max_kicks".to_string(), json!(300000)),
         ]
         .into(),
@@ -197,10 +222,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     let qv: MissionView = op.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&q)).await?;
     let qv: MissionView = op.query(Key::SystemMission(qv.name.clone()), None::<&()>).await?;
     let plans = qv.plans.clone().unwrap_or_default();
-    assert!(
-        plans.len() == 1 && plans[0].steps.iter().any(|s| matches!(s, proto::Step::Navigate { .. })),
-        "mission q runs the fake planner's plan: {plans:?}"
-    );
+    assert!(plans.len() == 1 && plans[0].steps.iter().any(|s| matches!(s, proto::Step::Navigate { .. })), "mission q runs the fake planner's plan: {plans:?}");
     let fakes = answered.load(std::sync::atomic::Ordering::SeqCst);
     println!("mission q planned by the real planner in {:?} while a fake answered {fakes} time(s) first", started.elapsed());
     assert!(fakes >= 1, "the fake planner never answered: the test proves nothing");
@@ -208,20 +230,32 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
 
     // The fleet goes on: p keeps its manager, epochs and members, and passes more barriers.
     let before: MissionView = op.query(Key::SystemMission("p".into()), None::<&()>).await?;
-    eventually("p passing two more barriers after the attacks", Duration::from_secs(30), || async {
+    let m = eventually("p passing two more barriers after the attacks", Duration::from_secs(30), || async {
         let m: MissionView = op.query(Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= before.metrics.sync_points_passed + 2).then_some(m)
     })
-    .await
-    .and_then(|m| {
-        anyhow::ensure!(
-            (m.manager.node.as_str(), m.manager.epoch, m.manager.chain_epoch, m.robots.len()) == ("central", epoch, chain_epoch, 3),
-            "the attacks changed p: {:?} robots {:?}",
-            m.manager,
-            m.robots
-        );
-        Ok(())
-    })?;
+    .await?;
+    // The attacks leave p's manager, members and epochs as they were. A member's liveliness
+    // flapping under CI load is a legitimate reason for a replan (lost, then back: two epochs);
+    // the journal says whether that happened, and the forgeries' epochs (u64::MAX) stay out.
+    let flaps: Vec<String> = common::journal(&op)
+        .await?
+        .into_iter()
+        .filter_map(|e| match e.event {
+            proto::JournalEvent::RobotLost { robot } if ["r1", "r2", "r3"].contains(&robot.as_str()) => Some(robot),
+            _ => None,
+        })
+        .collect();
+    let explained = |now: u64, then: u64| now == then || (!flaps.is_empty() && now > then && now - then <= 2 * flaps.len() as u64);
+    anyhow::ensure!(
+        m.manager.node == "central" && m.robots.len() == 3 && explained(m.manager.epoch, epoch) && explained(m.manager.chain_epoch, chain_epoch),
+        "the attacks changed p: {:?} robots {:?} (was epoch {epoch}, chain epoch {chain_epoch}; members lost meanwhile: {flaps:?})",
+        m.manager,
+        m.robots
+    );
+    if !flaps.is_empty() {
+        println!("p's members flapped under load ({flaps:?}): epoch {epoch} -> {}", m.manager.epoch);
+    }
     // r2's real telemetry still counts (the forged seq = u64::MAX did not pin it), far from the
     // forged pose.
     let r2 = |v: Vec<RobotView>| v.into_iter().find(|r| r.id == "r2").and_then(|r| r.pose);
