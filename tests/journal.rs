@@ -275,3 +275,64 @@ async fn central_killed_inside_a_burst_of_commands_keeps_every_ok_and_half_appli
     println!("{total_ok} crashes inside command bursts: every answered command in effect, no unanswered one half applied");
     Ok(())
 }
+
+/// Starts robot `id` keeping its chain state in `<scratch>/<id>-state`, logging to `log`.
+fn durable_robot(dir: &Scratch, id: &str, ep: &str, x: f64, log: &str) -> anyhow::Result<Proc> {
+    let cfg = common::robot_config(dir, id, &[ep.to_string()], x, 0.0, 5.0)?.display().to_string();
+    let state = dir.path(&format!("{id}-state")).display().to_string();
+    start(id, &["robot", "--config", &cfg, "--state-dir", &state], &dir.path(log), "robot ready", Duration::from_secs(20))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn robots_with_state_dirs_all_killed_at_once_bring_back_the_mission_they_led() -> anyhow::Result<()> {
+    // A mission hosted on its robots (chain r1, r2, r3): central never held it. Every robot is
+    // SIGKILLed at once and restarted: with their state dirs the chain comes back from disk and
+    // the mission runs again with its members and parameters; without them nothing could bring
+    // it back (central, alive throughout, never starts anew what it did not see die).
+    let dir = Scratch::new("robot-disks");
+    let ep = format!("tcp/127.0.0.1:{}", free_port()?);
+    let _c = central(&dir, &ep, "central.log")?;
+    let mut rs: Vec<Proc> =
+        ["r1", "r2", "r3"].iter().enumerate().map(|(i, id)| durable_robot(&dir, id, &ep, i as f64 * 2.0, &format!("{id}.log"))).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 3).await?;
+    let create = MissionCreate { host: Some("r1".into()), replicas: Some(2), ..patrol("p", &["r1", "r2", "r3"]) };
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
+    let before = eventually("p led by r1 past a barrier", Duration::from_secs(30), || async {
+        missions(&client).await.into_iter().find(|m| m.name == "p" && m.manager.node == "r1" && m.manager.chain.len() == 3 && m.metrics.sync_points_passed >= 1)
+    })
+    .await?;
+    let mut all: Vec<&mut Proc> = rs.iter_mut().collect();
+    kill_all(&mut all)?;
+    eventually("central to see p without a manager", Duration::from_secs(10), || async {
+        missions(&client).await.into_iter().find(|m| m.name == "p" && m.manager.node.is_empty()).map(|_| ())
+    })
+    .await
+    .ok();
+    let mut rs: Vec<Proc> =
+        ["r1", "r2", "r3"].iter().enumerate().map(|(i, id)| durable_robot(&dir, id, &ep, i as f64 * 2.0, &format!("{id}-2.log"))).collect::<Result<_, _>>()?;
+    for id in ["r1", "r2", "r3"] {
+        let log = std::fs::read_to_string(dir.path(&format!("{id}-2.log"))).unwrap_or_default();
+        // (Without the terminal colours the log is written with.)
+        let plain: String = log.split('\u{1b}').map(|part| part.find('m').filter(|_| part.starts_with('[')).map_or(part, |i| &part[i + 1..])).collect();
+        ensure!(plain.contains("chain state restored from disk") && plain.contains("missions=1"), "{id} did not restore its replica of p:\n{plain}");
+    }
+    let after = eventually("p running again under a chain of its robots", Duration::from_secs(30), || async {
+        missions(&client).await.into_iter().find(|m| {
+            m.name == "p"
+                && !m.manager.node.is_empty()
+                && m.manager.chain_epoch > before.manager.chain_epoch
+                && m.robots.len() == 3
+                && m.metrics.sync_points_passed >= 1
+        })
+    })
+    .await?;
+    ensure!(after.recipe == before.recipe && after.robots == before.robots, "p came back changed: {after:?}");
+    // The journal says the robots' chain took over, not that central started it anew.
+    let j = common::journal(&client).await?;
+    ensure!(!j.iter().any(|e| matches!(&e.event, JournalEvent::MissionRestarted { mission, .. } if mission == "p")), "central restarted p anew");
+    for r in rs.iter_mut() {
+        r.kill();
+    }
+    Ok(())
+}

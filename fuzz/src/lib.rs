@@ -57,6 +57,7 @@ pub fn info(id: &str) -> RobotInfo {
         max_speed: 2.0,
         endpoints: vec!["tcp/127.0.0.1:7450".into()],
         time_scale: 4.0,
+        durable: false,
     }
 }
 
@@ -210,6 +211,7 @@ impl Host {
                 replicas,
             },
             members: vec![member("r1", 0.0), member("r2", 1.0)],
+            anew: false,
         };
         self.next_query += 1;
         self.feed(host::Event::Start { query: self.next_query, start: Box::new(start), from: sender(0) });

@@ -74,6 +74,7 @@ fn main() {
             replicas: 1,
         },
         members: vec![mrmm_fuzz::member("r3", 2.0)],
+        anew: false,
     };
     let view = json(&started_view("central", &start));
     let joined = json(&MissionCtl::Joined { member: mrmm_fuzz::member("r3", 3.0) });

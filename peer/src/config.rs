@@ -36,6 +36,12 @@ pub struct RobotConfig {
     /// robot runs insecure (plain TCP). Relative paths are relative to the config file.
     #[serde(default)]
     pub security: Option<SecuritySection>,
+    /// Where the robot keeps its chain state (vote promises, the mission snapshots it
+    /// replicates), so a crash-restart loses nothing and votes at once. Without it the robot is
+    /// stateless: after a restart it holds nothing, waits out a 2 s quarantine before voting, and
+    /// relies on its teammates and central's journal. Relative to the config file.
+    #[serde(default)]
+    pub state_dir: Option<std::path::PathBuf>,
 }
 
 /// Makes the paths of a `security` section relative to the directory of the file it was read from.
@@ -82,6 +88,11 @@ impl RobotConfig {
         if let Some(sec) = cfg.security.as_mut() {
             resolve_security_paths(sec, path);
         }
+        if let (Some(dir), Some(base)) = (cfg.state_dir.as_mut(), path.parent()) {
+            if dir.is_relative() {
+                *dir = base.join(&*dir);
+            }
+        }
         cfg.validate().map_err(|e| PeerError::Config(format!("{}: {e}", path.display())))?;
         Ok(cfg)
     }
@@ -119,6 +130,14 @@ impl RobotConfig {
             sec.validate("security")?;
             if !sec.operators.is_empty() {
                 return Err("security.operators: only central's config lists operators".into());
+            }
+        }
+        if let Some(dir) = &self.state_dir {
+            if dir.as_os_str().is_empty() {
+                return Err("state_dir: empty path (leave it out for a stateless robot)".into());
+            }
+            if dir.is_file() {
+                return Err(format!("state_dir: {} is a file, not a directory", dir.display()));
             }
         }
         if self.zenoh.lease_ms < 100 || self.zenoh.lease_ms > 60_000 {

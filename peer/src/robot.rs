@@ -128,6 +128,7 @@ impl Robot {
             max_speed: self.cfg.kinematics.max_speed,
             endpoints,
             time_scale: self.cfg.time_scale,
+            durable: self.cfg.state_dir.is_some(),
         }
     }
 

@@ -51,6 +51,11 @@ fn default_replicas() -> usize {
 pub struct MissionStart {
     pub spec: MissionSpecWire,
     pub members: Vec<Member>,
+    /// Central starts a mission of its journal again, having made sure no robot can still
+    /// replicate it: a replica the host kept on disk from before is outdated and is replaced
+    /// (its promise kept, so the new chain's epochs are above the old one's).
+    #[serde(default)]
+    pub anew: bool,
 }
 
 /// Query payload of `mrmm/missions/<name>/ctl`, answered with [`CtlAck`].

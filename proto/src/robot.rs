@@ -92,6 +92,10 @@ pub struct RobotInfo {
     /// Simulated seconds per wall second (1 for real robots): mission clocks run at this rate.
     #[serde(default = "one")]
     pub time_scale: f64,
+    /// The robot keeps its chain state on disk (`state_dir`): after a restart it still holds the
+    /// replicas it held, so a mission it replicated comes back through its chain, not anew.
+    #[serde(default)]
+    pub durable: bool,
 }
 
 fn one() -> f64 {

@@ -63,6 +63,9 @@ pub struct Config {
     pub suspect_every: f64,
     /// Liveliness loss through a partition or a suspicion is seen this late.
     pub lease: f64,
+    /// Robots and mission hosts keep their chain state on disk (`state_dir`): a restart brings
+    /// their replicas back as they were.
+    pub disks: bool,
 }
 
 impl Config {
@@ -86,6 +89,7 @@ impl Config {
             partition_every: [0.0, 5.0, 10.0][r.gen_range(0..3)],
             suspect_every: 0.0,
             lease: 1.0,
+            disks: r.gen_bool(0.5),
         }
     }
 
@@ -108,6 +112,7 @@ impl Config {
             partition_every: 0.0,
             suspect_every: 0.0,
             lease: 1.0,
+            disks: false,
         }
     }
 
@@ -131,6 +136,7 @@ impl Config {
             partition_every: 0.0,
             suspect_every: [0.0, 6.0][r.gen_range(0..2)],
             lease: 1.0,
+            disks: false,
         }
     }
 
@@ -153,6 +159,9 @@ impl Config {
             partition_every: [0.0, 8.0, 15.0][r.gen_range(0..3)],
             suspect_every: [0.0, 8.0][r.gen_range(0..2)],
             lease: 1.0,
+            // Robots' disks with central's restarts: not yet (central's fresh host refuses the
+            // chain messages of a robot head whose chain it is in; see the README).
+            disks: false,
         }
     }
 }

@@ -145,6 +145,12 @@ pub fn start_robot_scaled(dir: &Scratch, id: &str, central: &str, x: f64, y: f64
 
 /// Writes a robot config connecting to `connect` (central and/or peers) and starts the robot.
 pub fn start_robot_with(dir: &Scratch, id: &str, connect: &[String], x: f64, y: f64, time_scale: f64) -> anyhow::Result<Proc> {
+    let path = robot_config(dir, id, connect, x, y, time_scale)?.display().to_string();
+    start(id, &["robot", "--config", &path], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))
+}
+
+/// Writes robot `id`'s config (`<scratch>/<id>.json5`) and returns its path.
+pub fn robot_config(dir: &Scratch, id: &str, connect: &[String], x: f64, y: f64, time_scale: f64) -> anyhow::Result<PathBuf> {
     let connect = serde_json::to_string(connect)?;
     let cfg = format!(
         r#"{{ id: "{id}", type: "ground", capabilities: ["camera"],
@@ -154,8 +160,7 @@ pub fn start_robot_with(dir: &Scratch, id: &str, connect: &[String], x: f64, y: 
     );
     let path = dir.path(&format!("{id}.json5"));
     std::fs::write(&path, cfg)?;
-    let path = path.display().to_string();
-    start(id, &["robot", "--config", &path], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))
+    Ok(path)
 }
 
 /// Re-evaluates `f` every 50 ms until it returns `Some`, or fails after `timeout`.

@@ -120,7 +120,7 @@ mod tests {
     use mrmm_proto::{Behaviour, Pose, RobotInfo, Telemetry, Velocity};
 
     fn info(id: &str) -> RobotInfo {
-        RobotInfo { id: id.into(), robot_type: "ground".into(), capabilities: vec![], max_speed: 1.0, endpoints: vec![], time_scale: 1.0 }
+        RobotInfo { id: id.into(), robot_type: "ground".into(), capabilities: vec![], max_speed: 1.0, endpoints: vec![], time_scale: 1.0, durable: false }
     }
 
     #[test]

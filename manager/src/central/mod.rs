@@ -64,6 +64,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
             (None, system::Durable::default())
         }
     };
+
     let mesh = Mesh::open(&NodeNet {
         mode: Mode::Router,
         listen: cfg.listen.clone(),
@@ -127,7 +128,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         .map_err(ManagerError::zenoh)?;
     // The default planner service and mission host live here too.
     let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), shutdown.child_token()));
-    let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, shutdown.child_token()));
+    let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, None, shutdown.child_token()));
     tracing::info!(%zid, ?endpoints, "central up");
     if let Some(tx) = ready {
         let _ = tx.send(Ready { zid: zid.clone(), endpoints });

@@ -28,12 +28,19 @@
 //!   `Stale`; an old head cannot commit anything once a majority of its chain moved on, so it can
 //!   never act again. A head told of a newer state steps down; one told only of a higher promise
 //!   re-elects itself.
-//! * **Restarts** lose everything. A node that holds no state refuses to vote as a member of the
-//!   candidate's current chain (it lost what it held there; a restarted node is not its former
-//!   self) — unless that chain has two nodes and the candidate is its head: every change of a
-//!   two-node chain needs both votes, so no newer configuration exists without that head — and
-//!   no node votes during its first `quarantine` seconds, so a vote given before a crash cannot
-//!   be given again to another candidate of that epoch.
+//! * **Restarts** of a node without storage lose everything. A node that holds no state refuses
+//!   to vote as a member of the candidate's current chain (it lost what it held there; a
+//!   restarted node is not its former self) — unless that chain has two nodes and the candidate
+//!   is its head: every change of a two-node chain needs both votes, so no newer configuration
+//!   exists without that head — and no node votes during its first `quarantine` seconds, so a
+//!   vote given before a crash cannot be given again to another candidate of that epoch.
+//! * **Restarts with storage** lose nothing that counts: a [`Registry`] made `durable` puts a
+//!   [`Command::Persist`] of a value's promise, vote, configuration and state *before* any
+//!   command its change leads to (a grant, an ack, a forwarded update), so the driver writes it
+//!   to disk before anything leaves the node (Raft's rule for `currentTerm`, `votedFor` and the
+//!   log). [`Registry::restore`] brings the replicas back as followers that vote at once (no
+//!   quarantine: the promise and the vote are on disk) and count as the members they were; one
+//!   that was the head stands again after its chain was silent for `silence` times its length.
 //!
 //! A node holds one replica per mission in a [`Registry`], which also remembers, for missions it
 //! no longer replicates, the promise it made and whether the mission ended (so stragglers are told).
@@ -46,7 +53,7 @@ pub mod sim;
 mod tests;
 
 pub use mrmm_proto::chain::{Config, Msg, Version};
-pub use registry::Registry;
+pub use registry::{Disk, Registry, Tomb};
 pub use replica::{Replica, Role};
 
 /// Timing and size of a chain.
@@ -121,4 +128,20 @@ pub enum Command<S> {
     StepDown,
     /// This node is out of the mission's chain for good and holds nothing: forget it.
     Retired,
+    /// Durable registries only, always before the commands the change leads to: write what this
+    /// node must remember of the value across a restart (and sync it) before going on.
+    Persist(Disk<S>),
+}
+
+/// What a replica must keep across a restart: its promise and vote, its configuration and its
+/// newest state (committed or not: it may have acknowledged it).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Stored<S> {
+    pub promised: u64,
+    pub voted_for: Option<String>,
+    pub config: Option<Config>,
+    pub state: Option<(Version, S)>,
+    /// The value is being ended: brought back as a tomb that tells stragglers so.
+    #[serde(default)]
+    pub ended: bool,
 }

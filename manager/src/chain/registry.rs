@@ -5,7 +5,8 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{Command, Event, Msg, Params, Replica};
+use super::replica::Fingerprint;
+use super::{Command, Event, Msg, Params, Replica, Stored};
 
 /// Seconds a node remembers a value it no longer replicates (a straggler of an ended mission is
 /// long gone by then), and how many such values at most.
@@ -13,10 +14,19 @@ pub const TOMB_LIFETIME_S: f64 = 3600.0;
 pub const MAX_TOMBS: usize = 10_000;
 
 /// What a node remembers of a value it no longer replicates.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Tomb {
     pub promised: u64,
     pub ended: bool,
+}
+
+/// What a durable node keeps on disk for one value, under its name.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum Disk<S> {
+    Replica(Stored<S>),
+    Tomb(Tomb),
+    /// Nothing any more (a tomb forgotten).
+    Forget,
 }
 
 /// Every replica on one node.
@@ -32,11 +42,53 @@ pub struct Registry<S> {
     tomb_since: BTreeMap<String, f64>,
     /// Other nodes whose liveliness is up.
     alive: BTreeSet<String>,
+    /// Whether every change of what a replica must remember is put out as [`Command::Persist`].
+    durable: bool,
 }
 
 impl<S: Clone> Registry<S> {
     pub fn new(me: &str, p: Params, born: f64) -> Self {
-        Registry { me: me.to_string(), p, born, replicas: BTreeMap::new(), tombs: BTreeMap::new(), tomb_since: BTreeMap::new(), alive: BTreeSet::new() }
+        Registry {
+            me: me.to_string(),
+            p,
+            born,
+            replicas: BTreeMap::new(),
+            tombs: BTreeMap::new(),
+            tomb_since: BTreeMap::new(),
+            alive: BTreeSet::new(),
+            durable: false,
+        }
+    }
+
+    /// A durable registry brought back from what it persisted (empty on a first start): every
+    /// change it makes from now on is put out as [`Command::Persist`] before what it leads to.
+    /// Its replicas vote at once: their promises were on disk, so `p.quarantine` is not needed.
+    pub fn restore(me: &str, p: Params, born: f64, now: f64, disk: impl IntoIterator<Item = (String, Disk<S>)>) -> Self {
+        let p = Params { quarantine: 0.0, ..p };
+        let mut reg = Registry::new(me, p, born);
+        reg.durable = true;
+        for (name, d) in disk {
+            match d {
+                Disk::Replica(stored) if stored.ended => {
+                    reg.tombs.insert(name.clone(), Tomb { promised: stored.promised, ended: true });
+                    reg.tomb_since.insert(name, now);
+                }
+                Disk::Replica(stored) => {
+                    reg.replicas.insert(name, Replica::restore(me, p, born, now, stored));
+                }
+                Disk::Tomb(t) => {
+                    reg.tombs.insert(name.clone(), t);
+                    reg.tomb_since.insert(name, now);
+                }
+                Disk::Forget => {}
+            }
+        }
+        reg
+    }
+
+    /// Whether this registry persists what it must remember.
+    pub fn durable(&self) -> bool {
+        self.durable
     }
 
     pub fn me(&self) -> &str {
@@ -59,9 +111,12 @@ impl<S: Clone> Registry<S> {
     /// The replica of `name`, created with what this node remembers of it.
     fn replica_mut(&mut self, now: f64, name: &str) -> &mut Replica<S> {
         let promised = self.tombs.get(name).map_or(0, |t| t.promised);
-        let (me, p, born, alive) = (&self.me, self.p, self.born, &self.alive);
+        let (me, p, born, alive, durable) = (&self.me, self.p, self.born, &self.alive, self.durable);
         self.replicas.entry(name.to_string()).or_insert_with(|| {
             let mut r = Replica::new(me, p, born, now, promised);
+            if durable {
+                r = r.durable();
+            }
             for n in alive {
                 let _ = r.handle(now, Event::Alive(n.clone()));
             }
@@ -73,8 +128,9 @@ impl<S: Clone> Registry<S> {
     pub fn create(&mut self, now: f64, name: &str, replicas: Vec<String>, state: S) -> Vec<Command<S>> {
         self.tombs.remove(name);
         self.replicas.remove(name);
+        let before = self.mark(name);
         let cmds = self.replica_mut(now, name).handle(now, Event::Create { replicas, state });
-        self.settle(now, name, cmds)
+        self.settle(now, name, before, cmds)
     }
 
     /// A chain message for `name` from `from`. A node that no longer holds the value creates a
@@ -95,13 +151,15 @@ impl<S: Clone> Registry<S> {
                 _ => return vec![],
             }
         }
+        let before = self.mark(name);
         let cmds = self.replica_mut(now, name).handle(now, Event::Recv { from, msg });
-        self.settle(now, name, cmds)
+        self.settle(now, name, before, cmds)
     }
 
     /// An event for the existing replica of `name` (`Propose`, `Pool`, `End`); nothing if none.
     pub fn handle(&mut self, now: f64, name: &str, ev: Event<S>) -> Vec<Command<S>> {
         let ended = matches!(ev, Event::End);
+        let before = self.mark(name);
         let Some(r) = self.replicas.get_mut(name) else { return vec![] };
         let cmds = r.handle(now, ev);
         if ended {
@@ -109,7 +167,23 @@ impl<S: Clone> Registry<S> {
             t.ended = true;
             self.tomb_since.insert(name.to_string(), now);
         }
-        self.settle(now, name, cmds)
+        self.settle(now, name, before, cmds)
+    }
+
+    /// Throws away this node's replica of `name` (not while it leads): it is outdated, and a new
+    /// chain is about to be created here. Its promise stays, as a tomb, so the new chain's
+    /// epochs are above every one it took part in.
+    pub fn discard(&mut self, now: f64, name: &str) -> Vec<Command<S>> {
+        if self.replicas.get(name).is_none_or(|r| r.leads()) {
+            return vec![];
+        }
+        let before = self.mark(name);
+        if let Some(r) = self.replicas.remove(name) {
+            let t = self.tombs.entry(name.to_string()).or_default();
+            t.promised = t.promised.max(r.promised());
+            self.tomb_since.insert(name.to_string(), now);
+        }
+        self.settle(now, name, before, vec![])
     }
 
     /// Another node's liveliness changed: every replica hears of it.
@@ -127,16 +201,21 @@ impl<S: Clone> Registry<S> {
 
     /// Time passes for every replica (and old tombs are forgotten).
     pub fn tick(&mut self, now: f64) -> Vec<(String, Vec<Command<S>>)> {
-        self.prune_tombs(now);
-        self.each(now, |_| Event::Tick, "")
+        let forgotten = self.prune_tombs(now);
+        let mut out = self.each(now, |_| Event::Tick, "");
+        if self.durable {
+            out.extend(forgotten.into_iter().map(|n| (n, vec![Command::Persist(Disk::Forget)])));
+        }
+        out
     }
 
     fn each(&mut self, now: f64, ev: impl Fn(&str) -> Event<S>, node: &str) -> Vec<(String, Vec<Command<S>>)> {
         let names: Vec<String> = self.replicas.keys().cloned().collect();
         let mut out = Vec::new();
         for name in names {
+            let before = self.mark(&name);
             let cmds = self.replicas.get_mut(&name).map(|r| r.handle(now, ev(node))).unwrap_or_default();
-            let cmds = self.settle(now, &name, cmds);
+            let cmds = self.settle(now, &name, before, cmds);
             if !cmds.is_empty() {
                 out.push((name, cmds));
             }
@@ -144,9 +223,26 @@ impl<S: Clone> Registry<S> {
         out
     }
 
+    /// What a durable registry holds of `name` before an event, to see what the event changed.
+    /// (A replica not there counts as a blank one with the tomb's promise: creating one for a
+    /// refused vote writes nothing.)
+    fn mark(&self, name: &str) -> Option<(Fingerprint, Option<Tomb>)> {
+        self.durable.then(|| self.fingerprint(name))
+    }
+
+    fn fingerprint(&self, name: &str) -> (Fingerprint, Option<Tomb>) {
+        let tomb = self.tombs.get(name).copied();
+        let fp = match self.replicas.get(name) {
+            Some(r) => r.fingerprint(),
+            None => Fingerprint::blank(tomb.map_or(0, |t| t.promised)),
+        };
+        (fp, tomb)
+    }
+
     /// Bookkeeping the commands call for: a retired replica becomes a tomb (its promise kept,
-    /// and whether it was retired by an end). The commands are returned as they are.
-    fn settle(&mut self, now: f64, name: &str, cmds: Vec<Command<S>>) -> Vec<Command<S>> {
+    /// and whether it was retired by an end). A durable registry puts what changed first, as
+    /// [`Command::Persist`]; the commands follow as they are.
+    fn settle(&mut self, now: f64, name: &str, before: Option<(Fingerprint, Option<Tomb>)>, mut cmds: Vec<Command<S>>) -> Vec<Command<S>> {
         if cmds.iter().any(|c| matches!(c, Command::Retired)) {
             if let Some(r) = self.replicas.remove(name) {
                 let t = self.tombs.entry(name.to_string()).or_default();
@@ -155,11 +251,22 @@ impl<S: Clone> Registry<S> {
                 self.tomb_since.insert(name.to_string(), now);
             }
         }
+        let Some(before) = before else { return cmds };
+        let after = self.fingerprint(name);
+        if after != before {
+            let disk = match (self.replicas.get(name), after.1) {
+                (Some(r), _) => Disk::Replica(r.stored()),
+                (None, Some(t)) => Disk::Tomb(t),
+                (None, None) => Disk::Forget,
+            };
+            cmds.insert(0, Command::Persist(disk));
+        }
         cmds
     }
 
-    /// Forgets tombs older than [`TOMB_LIFETIME_S`], and the oldest beyond [`MAX_TOMBS`].
-    fn prune_tombs(&mut self, now: f64) {
+    /// Forgets tombs older than [`TOMB_LIFETIME_S`], and the oldest beyond [`MAX_TOMBS`]; returns
+    /// the names forgotten.
+    fn prune_tombs(&mut self, now: f64) -> Vec<String> {
         self.tomb_since.retain(|_, t| now - *t < TOMB_LIFETIME_S);
         if self.tomb_since.len() > MAX_TOMBS {
             let mut by_age: Vec<(f64, String)> = self.tomb_since.iter().map(|(n, t)| (*t, n.clone())).collect();
@@ -169,7 +276,15 @@ impl<S: Clone> Registry<S> {
             }
         }
         let keep = &self.tomb_since;
-        self.tombs.retain(|n, _| keep.contains_key(n));
+        let mut forgotten = Vec::new();
+        self.tombs.retain(|n, _| {
+            let k = keep.contains_key(n);
+            if !k {
+                forgotten.push(n.clone());
+            }
+            k
+        });
+        forgotten
     }
 }
 
@@ -218,5 +333,94 @@ mod tests {
         assert!(r.tomb("m").is_some(), "kept while stragglers may come");
         r.tick(0.1 + TOMB_LIFETIME_S);
         assert_eq!(r.tomb("m"), None);
+    }
+
+    /// Replays a durable registry's `Persist` commands onto a disk, as a driver writes them.
+    fn write(disk: &mut BTreeMap<String, Disk<Vec<u32>>>, name: &str, cmds: &[Command<Vec<u32>>]) {
+        for c in cmds {
+            if let Command::Persist(d) = c {
+                match d {
+                    Disk::Forget => disk.remove(name),
+                    d => disk.insert(name.to_string(), d.clone()),
+                };
+            }
+        }
+    }
+
+    /// A vote of a new chain with `b` in it, from a base `b` was not part of.
+    fn vote(epoch: u64) -> Msg<Vec<u32>> {
+        Msg::Vote {
+            proposal: super::super::Config { epoch, chain: vec!["a".into(), "b".into(), "c".into()] },
+            base: vec!["a".into(), "c".into()],
+            last: (0, 0),
+        }
+    }
+
+    #[test]
+    fn a_durable_node_writes_before_it_grants_and_after_a_restart_never_votes_twice_in_an_epoch() {
+        // Default parameters: a stateless node would wait out its 2 s quarantine.
+        let mut disk = BTreeMap::new();
+        let mut r = Reg::restore("b", Params::default(), 0.0, 0.0, disk.clone());
+        let out = r.receive(0.1, "m", "a".into(), vote(5));
+        assert!(matches!(&out[0], Command::Persist(Disk::Replica(s)) if s.promised == 5 && s.voted_for.as_deref() == Some("a")), "{out:?}");
+        assert_eq!(out[1], Command::Send { to: "a".into(), msg: Msg::Grant { epoch: 5 } });
+        write(&mut disk, "m", &out);
+        // Crash, restart at once: the promise and the vote came back; another candidate of
+        // epoch 5 is refused, the same one granted again (its grant may have been lost).
+        let mut r = Reg::restore("b", Params::default(), 0.2, 0.2, disk.clone());
+        let out = r.receive(0.2, "m", "c".into(), vote(5));
+        assert!(matches!(out.last(), Some(Command::Send { msg: Msg::Refuse { promised: 5, .. }, .. })), "{out:?}");
+        let out = r.receive(0.2, "m", "a".into(), vote(5));
+        assert!(matches!(out.last(), Some(Command::Send { msg: Msg::Grant { epoch: 5 }, .. })), "{out:?}");
+        // The stateless node refuses in its quarantine: what the disk replaces.
+        let mut fresh = Reg::new("b", Params::default(), 0.2);
+        let out = fresh.receive(0.3, "m", "a".into(), vote(6));
+        assert!(matches!(out.last(), Some(Command::Send { msg: Msg::Refuse { .. }, .. })), "{out:?}");
+    }
+
+    #[test]
+    fn a_durable_node_keeps_what_it_acknowledged_and_counts_as_the_member_it_was() {
+        let mut disk = BTreeMap::new();
+        let mut r = Reg::restore("c", Params::default(), 0.0, 0.0, disk.clone());
+        let cfg = super::super::Config { epoch: 3, chain: vec!["a".into(), "b".into(), "c".into()] };
+        let out = r.receive(0.0, "m", "b".into(), Msg::Update { config: cfg, seq: 4, state: vec![1, 2] });
+        assert!(matches!(&out[0], Command::Persist(Disk::Replica(s)) if s.state == Some(((3, 4), vec![1, 2]))), "{out:?}");
+        assert_eq!(out.last(), Some(&Command::Send { to: "a".into(), msg: Msg::Ack { epoch: 3, seq: 4 } }));
+        write(&mut disk, "m", &out);
+        // A beat of the same state writes nothing.
+        let cfg = super::super::Config { epoch: 3, chain: vec!["a".into(), "b".into(), "c".into()] };
+        let out = r.receive(0.1, "m", "b".into(), Msg::Update { config: cfg, seq: 4, state: vec![1, 2] });
+        assert!(!out.iter().any(|c| matches!(c, Command::Persist(_))), "{out:?}");
+        // Restarted, it still holds (3, 4): a candidate with less is refused, and one of its
+        // chain with as much is granted (a stateless restart would refuse it as lost).
+        let mut r = Reg::restore("c", Params::default(), 1.0, 1.0, disk.clone());
+        assert_eq!(r.replica("m").map(|x| x.version()), Some((3, 4)));
+        let behind = Msg::Vote {
+            proposal: super::super::Config { epoch: 4, chain: vec!["b".into(), "c".into()] },
+            base: vec!["a".into(), "b".into(), "c".into()],
+            last: (3, 2),
+        };
+        assert!(matches!(r.receive(1.0, "m", "b".into(), behind).last(), Some(Command::Send { msg: Msg::Refuse { .. }, .. })));
+        let even = Msg::Vote {
+            proposal: super::super::Config { epoch: 5, chain: vec!["b".into(), "c".into()] },
+            base: vec!["a".into(), "b".into(), "c".into()],
+            last: (3, 4),
+        };
+        assert!(matches!(r.receive(1.0, "m", "b".into(), even).last(), Some(Command::Send { msg: Msg::Grant { epoch: 5 }, .. })));
+    }
+
+    #[test]
+    fn an_ending_durable_replica_comes_back_as_an_ended_tomb() {
+        let mut disk = BTreeMap::new();
+        let mut r = Reg::restore("a", Params::default(), 0.0, 0.0, disk.clone());
+        let out = r.create(0.0, "m", vec!["b".into()], vec![1]);
+        write(&mut disk, "m", &out);
+        let out = r.handle(0.1, "m", Event::End);
+        write(&mut disk, "m", &out);
+        assert!(matches!(disk.get("m"), Some(Disk::Replica(s)) if s.ended), "{disk:?}");
+        let mut r = Reg::restore("a", Params::default(), 1.0, 1.0, disk.clone());
+        assert!(r.replica("m").is_none());
+        assert_eq!(r.tomb("m"), Some(Tomb { promised: 1, ended: true }));
+        assert!(matches!(r.receive(1.0, "m", "b".into(), vote(9)).as_slice(), [Command::Send { msg: Msg::End { .. }, .. }]));
     }
 }

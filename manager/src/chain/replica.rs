@@ -2,7 +2,7 @@
 
 use std::collections::BTreeSet;
 
-use super::{Command, Config, Event, Msg, Params, Version};
+use super::{Command, Config, Event, Msg, Params, Stored, Version};
 
 /// What a node is doing for the value.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,6 +53,28 @@ pub struct Replica<S> {
     seen: u64,
     /// The value was ended (terminated), not just left.
     ended: bool,
+    /// Brought back from disk: it was this chain's member before the restart, and if it was the
+    /// head, it may stand again once its chain stays silent.
+    restored: bool,
+    /// Its node keeps it on disk: it never throws its state away while it is in the chain.
+    durable: bool,
+}
+
+/// What [`Replica::stored`] covers, cheap to compare: a change means a write.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Fingerprint {
+    promised: u64,
+    voted_for: Option<String>,
+    config: Option<Config>,
+    version: Option<Version>,
+    ended: bool,
+}
+
+impl Fingerprint {
+    /// What a replica just created with promise `promised` holds.
+    pub(super) fn blank(promised: u64) -> Fingerprint {
+        Fingerprint { promised, voted_for: None, config: None, version: None, ended: false }
+    }
 }
 
 impl<S: Clone> Replica<S> {
@@ -75,6 +97,40 @@ impl<S: Clone> Replica<S> {
             last_heard: now,
             seen: 0,
             ended: false,
+            restored: false,
+            durable: false,
+        }
+    }
+
+    /// Marks the replica as kept on disk by its node (see [`Replica::outdone`]).
+    pub fn durable(mut self) -> Self {
+        self.durable = true;
+        self
+    }
+
+    /// The replica this node stored before it restarted: a follower, as it was.
+    pub fn restore(me: &str, p: Params, born: f64, now: f64, stored: Stored<S>) -> Self {
+        let mut r = Replica::new(me, p, born, now, stored.promised);
+        r.voted_for = stored.voted_for;
+        r.config = stored.config;
+        r.state = stored.state;
+        r.restored = true;
+        r.durable = true;
+        r
+    }
+
+    /// What must survive a restart.
+    pub fn stored(&self) -> Stored<S> {
+        Stored { promised: self.promised, voted_for: self.voted_for.clone(), config: self.config.clone(), state: self.state.clone(), ended: self.ended }
+    }
+
+    pub(super) fn fingerprint(&self) -> Fingerprint {
+        Fingerprint {
+            promised: self.promised,
+            voted_for: self.voted_for.clone(),
+            config: self.config.clone(),
+            version: self.state.as_ref().map(|(v, _)| *v),
+            ended: self.ended,
         }
     }
 
@@ -249,11 +305,18 @@ impl<S: Clone> Replica<S> {
     fn maybe_stand(&mut self, now: f64) -> Vec<Command<S>> {
         let Some(config) = self.config.clone() else { return vec![] };
         let Some(pos) = config.chain.iter().position(|n| *n == self.me) else { return vec![] };
-        if pos == 0 || self.state.is_none() {
+        if self.state.is_none() {
             return vec![];
         }
-        let before_gone = config.chain[..pos].iter().all(|n| self.gone.contains(n));
-        let silent = now - self.last_heard > self.p.silence * pos as f64;
+        // A head that lost its lead follows its successors; one restored from disk stands again
+        // after the others had their turn.
+        let wait = match pos {
+            0 if self.restored => config.chain.len(),
+            0 => return vec![],
+            _ => pos,
+        };
+        let before_gone = pos > 0 && config.chain[..pos].iter().all(|n| self.gone.contains(n));
+        let silent = now - self.last_heard > self.p.silence * wait as f64;
         if !before_gone && !silent {
             return vec![];
         }
@@ -358,9 +421,13 @@ impl<S: Clone> Replica<S> {
     /// Someone holds a newer state (`last`) than ours: we must not lead. If it is of a newer
     /// epoch, our configuration is outdated and our state must not count in its votes: retire.
     /// If it is of our epoch, we are still a member of the current chain (its head may need our
-    /// vote): follow, keep the state, and give the head time to be heard.
+    /// vote): follow, keep the state, and give the head time to be heard. A durable replica
+    /// always keeps its state and follows: retiring would write it off for good, and a newer
+    /// chain it is part of, whose head crashed before reaching it, would then miss a member
+    /// holding state (found by the chain simulation with power cycles); the up-to-date rule
+    /// keeps its older state from winning.
     fn outdone(&mut self, now: f64, last: Version) -> Vec<Command<S>> {
-        if last.0 > self.config.as_ref().map_or(0, |c| c.epoch) {
+        if last.0 > self.config.as_ref().map_or(0, |c| c.epoch) && !self.durable {
             return self.retire();
         }
         self.last_heard = now;
@@ -490,6 +557,7 @@ impl<S: Clone> Replica<S> {
         if config.head() == self.me {
             return vec![];
         }
+        self.restored = false;
         let mut out = Vec::new();
         if matches!(self.role, Role::Ending { .. }) {
             return out;

@@ -11,7 +11,7 @@ use std::collections::{BTreeMap, BTreeSet, BinaryHeap};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{Command, Config, Event, Msg, Params, Registry, Replica, Version};
+use super::{Command, Config, Disk, Event, Msg, Params, Registry, Replica, Version};
 
 /// The value replicated in the simulation: the ids of every update, in order.
 pub type Log = Vec<u64>;
@@ -35,6 +35,10 @@ pub struct World {
     pub partition_for: f64,
     /// Liveliness loss is seen this late after a partition (the lease).
     pub lease: f64,
+    /// Nodes keep their chain state on disk (a durable [`Registry`]): a restart loses nothing
+    /// persisted, several nodes may be down at once, and now and then every node goes down
+    /// together (a power cycle).
+    pub durable: bool,
 }
 
 impl World {
@@ -52,6 +56,7 @@ impl World {
             partition_every: [0.0, 4.0, 10.0][r.gen_range(0..3)],
             partition_for: 6.0,
             lease: 1.0,
+            durable: r.gen_bool(0.5),
         }
     }
 }
@@ -69,6 +74,8 @@ pub struct Report {
     pub heads_at_end: usize,
     /// Whether a majority of the final chain kept its memory (else the value may be lost).
     pub recoverable: bool,
+    /// Whether the nodes had disks ([`World::durable`]).
+    pub durable: bool,
     /// The trace, when asked for with [`Sim::with_trace`].
     pub trace: Vec<String>,
 }
@@ -122,6 +129,8 @@ struct Node {
     /// States this node proposed or led with, by version (to check commits).
     history: BTreeMap<Version, Log>,
     next_proposal: f64,
+    /// What a durable node persisted, as its [`Command::Persist`]s wrote it; kept across crashes.
+    disk: BTreeMap<String, Disk<Log>>,
 }
 
 /// One simulation run.
@@ -166,9 +175,10 @@ impl Sim {
                 name: format!("n{i}"),
                 up: true,
                 born: -10.0,
-                registry: Registry::new(&format!("n{i}"), p, -10.0),
+                registry: if w.durable { Registry::restore(&format!("n{i}"), p, -10.0, 0.0, []) } else { Registry::new(&format!("n{i}"), p, -10.0) },
                 history: BTreeMap::new(),
                 next_proposal: 0.0,
+                disk: BTreeMap::new(),
             })
             .collect::<Vec<Node>>();
         let mut nodes = nodes;
@@ -192,7 +202,7 @@ impl Sim {
             partitioned: false,
             inv: Invariants::default(),
             next_id: 1,
-            report: Report { seed, ..Report::default() },
+            report: Report { seed, durable: w.durable, ..Report::default() },
             live_at: BTreeMap::new(),
             trace: None,
         }
@@ -276,12 +286,25 @@ impl Sim {
             let faulty = self.now < self.w.duration;
             if faulty && self.now >= next_crash {
                 next_crash = self.now + self.draw(self.w.crash_every);
-                // At most one node down at a time, so the chain's majority keeps its memory.
-                if self.nodes.iter().all(|n| n.up) {
+                if self.w.durable && self.rng.gen_bool(0.2) {
+                    // A power cycle: every node down at once, each back after its own delay.
+                    self.log(|| "power cycle".to_string());
+                    for i in 0..self.nodes.len() {
+                        if self.nodes[i].up {
+                            self.crash(i);
+                            let back = self.now + self.rng.gen_range(0.5..4.0);
+                            self.schedule(back, Delivery::Restart(i));
+                        }
+                    }
+                } else if self.w.durable || self.nodes.iter().all(|n| n.up) {
+                    // Without a disk, at most one node down at a time, so the chain's majority
+                    // keeps its memory.
                     let i = self.rng.gen_range(0..self.nodes.len());
-                    self.crash(i);
-                    let back = self.now + self.rng.gen_range(0.5..4.0);
-                    self.schedule(back, Delivery::Restart(i));
+                    if self.nodes[i].up {
+                        self.crash(i);
+                        let back = self.now + self.rng.gen_range(0.5..4.0);
+                        self.schedule(back, Delivery::Restart(i));
+                    }
                 }
             }
             if faulty && self.now >= next_partition && !self.partitioned {
@@ -373,7 +396,7 @@ impl Sim {
                 let n = &mut self.nodes[i];
                 n.up = true;
                 n.born = now;
-                n.registry = Registry::new(&n.name, p, now);
+                n.registry = if self.w.durable { Registry::restore(&n.name, p, now, now, n.disk.clone()) } else { Registry::new(&n.name, p, now) };
                 let name = n.name.clone();
                 self.log(|| format!("restart {name}"));
                 for j in 0..self.nodes.len() {
@@ -463,6 +486,15 @@ impl Sim {
                 }
                 // The registry keeps the promise and forgets the replica.
                 Command::Retired => {}
+                Command::Persist(d) => {
+                    if !self.w.durable {
+                        return Err("a registry without a disk asked to persist".into());
+                    }
+                    match d {
+                        Disk::Forget => self.nodes[i].disk.remove(MISSION),
+                        d => self.nodes[i].disk.insert(MISSION.to_string(), d),
+                    };
+                }
             }
         }
         Ok(())

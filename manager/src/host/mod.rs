@@ -6,6 +6,7 @@
 
 mod core;
 mod head;
+pub mod store;
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -59,9 +60,16 @@ enum QueryKind {
 pub type LocalTeam = Vec<(String, Vec<String>)>;
 
 /// Hosts missions on `mesh` as `node` until `shutdown`, with the default chain parameters.
-/// `local`: on a robot node, its robot's team.
-pub async fn serve(mesh: Mesh, node: String, local: Option<watch::Receiver<LocalTeam>>, shutdown: CancellationToken) -> Result<(), ManagerError> {
-    serve_with(mesh, node, Params::default(), local, shutdown).await
+/// `local`: on a robot node, its robot's team. `stored`: the chain state store opened with
+/// [`store::Store::open`] (and what it held): keep the chain state there; else in memory only.
+pub async fn serve(
+    mesh: Mesh,
+    node: String,
+    local: Option<watch::Receiver<LocalTeam>>,
+    stored: Option<store::Opened>,
+    shutdown: CancellationToken,
+) -> Result<(), ManagerError> {
+    serve_with(mesh, node, Params::default(), local, stored, shutdown).await
 }
 
 /// Hosts missions with chain parameters `params` (`params.k` replicas per mission).
@@ -70,12 +78,16 @@ pub async fn serve_with(
     node: String,
     params: Params,
     mut local: Option<watch::Receiver<LocalTeam>>,
+    stored: Option<store::Opened>,
     shutdown: CancellationToken,
 ) -> Result<(), ManagerError> {
     let session = mesh.session().clone();
     proto::validate_id(&node).map_err(|e| ManagerError::Config(format!("mission host name: {e}")))?;
     if net::already_alive(&session, &Key::HostAlive(node.clone()).to_string(), net::NAME_CHECK_TIMEOUT).await? {
         return Err(ManagerError::NameTaken(format!("mission host {node:?} is already alive on the mesh; give every host and robot its own name")));
+    }
+    if let Some((store, entries)) = &stored {
+        tracing::info!(%node, ?store, missions = entries.len(), "chain state restored from disk");
     }
     // Our own tasks' answers; and, bounded, what the network sends (liveliness apart).
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
@@ -124,7 +136,10 @@ pub async fn serve_with(
     let _token = session.liveliness().declare_token(Key::HostAlive(node.clone()).to_string()).await.map_err(ManagerError::zenoh)?;
     tracing::info!(%node, "mission host up");
     let t0 = Instant::now();
-    let mut core = HostCore::new(&node, params, 0.0);
+    let (store, mut core) = match stored {
+        Some((store, entries)) => (Some(store), HostCore::restore(&node, params, 0.0, entries)),
+        None => (None, HostCore::new(&node, params, 0.0)),
+    };
     if local.is_some() {
         core = core.with_robot();
     }
@@ -164,6 +179,19 @@ pub async fn serve_with(
             },
         };
         for c in core.handle(t0.elapsed().as_secs_f64(), event) {
+            if let Command::Persist { mission, disk } = &c {
+                // On disk before anything this change leads to leaves the node; a node that
+                // cannot keep its promises must not make any.
+                let written = match &store {
+                    Some(store) => tokio::task::block_in_place(|| store.write(mission, disk)),
+                    None => Err(ManagerError::Journal("no state dir, but the chain asked to persist".into())),
+                };
+                if let Err(e) = written {
+                    tracing::error!("{e}; the mission host stops");
+                    return Err(e);
+                }
+                continue;
+            }
             io.execute(c).await;
         }
     }
@@ -320,6 +348,8 @@ impl Io {
                 }
             }
             Command::Refused { from, what } => self.mesh.refuse(&what, &from),
+            // Carried out by the loop, before this.
+            Command::Persist { .. } => {}
             Command::Drop { query } => {
                 self.queries.remove(&query);
             }

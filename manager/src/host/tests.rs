@@ -24,6 +24,7 @@ fn start(name: &str, ids: &[&str]) -> Box<MissionStart> {
             replicas: 2,
         },
         members: ids.iter().enumerate().map(|(i, id)| member(id, i as f64)).collect(),
+        anew: false,
     })
 }
 

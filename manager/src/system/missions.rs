@@ -106,7 +106,7 @@ impl SystemManager {
         self.restarts.remove(&name);
         self.note_command(&req, "mission create", &c_json);
         self.pending_create.insert(name, req);
-        self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: wire, members }), after });
+        self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: wire, members, anew: false }), after });
         vec![]
     }
 

@@ -72,7 +72,7 @@ impl SystemManager {
         // beside the chain that may still take over. Every live robot's start is known from its
         // telemetry (simulated seconds since it started, over its time scale).
         // A robot started after this manager did is new: the previous one was gone by then (it
-        // held the journal until it died).
+        // held the journal until it died). A robot with a state dir is never new in this sense.
         let Some(down) = self.prev_alive else { return };
         let before = (down + RESTART_BEAT_S).min(self.started);
         let old: Vec<&String> = self
@@ -80,6 +80,9 @@ impl SystemManager {
             .iter()
             .filter(|(_, r)| r.alive)
             .filter(|(_, r)| match (&r.last, &r.info) {
+                // A robot with a state dir kept its replicas across any restart: its missions
+                // come back through their chains.
+                (_, Some(i)) if i.durable => true,
                 (Some(t), Some(i)) if i.time_scale > 0.0 => now - t.t / i.time_scale <= before,
                 _ => true,
             })
@@ -129,7 +132,7 @@ impl SystemManager {
             self.notes.push(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
             let after = robots.iter().filter_map(|id| self.pending_release(id)).collect();
             self.restarts.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
-            self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members }), after });
+            self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members, anew: true }), after });
         }
     }
 }

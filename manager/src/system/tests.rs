@@ -40,7 +40,15 @@ fn status(v: MissionView) -> Event {
 }
 
 fn info(id: &str) -> RobotInfo {
-    RobotInfo { id: id.into(), robot_type: "ground".into(), capabilities: vec!["camera".into()], max_speed: 1.0, endpoints: vec![], time_scale: 1.0 }
+    RobotInfo {
+        id: id.into(),
+        robot_type: "ground".into(),
+        capabilities: vec!["camera".into()],
+        max_speed: 1.0,
+        endpoints: vec![],
+        time_scale: 1.0,
+        durable: false,
+    }
 }
 
 fn telemetry(id: &str, seq: u64, behaviour: Behaviour) -> Telemetry {

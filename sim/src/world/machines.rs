@@ -122,6 +122,15 @@ impl World {
             }
         }
         match c {
+            host::Command::Persist { mission, disk } => {
+                if !self.cfg.disks || self.nodes[i].kind == Kind::Central {
+                    return Err(format!("{} has no disk but was asked to persist {mission}", self.nodes[i].name));
+                }
+                match *disk {
+                    mrmm_manager::chain::Disk::Forget => self.nodes[i].chain_disk.remove(&mission),
+                    d => self.nodes[i].chain_disk.insert(mission, d),
+                };
+            }
             host::Command::Chain { to, envelope } => {
                 if let Some(j) = self.index(&to) {
                     if !self.lost() {

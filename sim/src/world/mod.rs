@@ -71,6 +71,8 @@ struct Node {
     disk: mrmm_manager::system::Durable,
     /// When central last crashed.
     down: Option<f64>,
+    /// A robot's or mission host's chain state on disk ([`Config::disks`]), kept across crashes.
+    chain_disk: BTreeMap<String, mrmm_manager::chain::Disk<mrmm_proto::MissionSnapshot>>,
 }
 
 /// What a query asks of its server.
@@ -220,6 +222,7 @@ impl World {
                 team: None,
                 disk: Default::default(),
                 down: None,
+                chain_disk: BTreeMap::new(),
             });
         }
         for i in 1..=cfg.hosts {
@@ -234,11 +237,16 @@ impl World {
                 team: None,
                 disk: Default::default(),
                 down: None,
+                chain_disk: BTreeMap::new(),
             });
         }
         for i in 1..=cfg.robots {
             let id = format!("r{i}");
-            let c = robot_cfg(&id, i as f64 * 2.0, -3.0);
+            let mut c = robot_cfg(&id, i as f64 * 2.0, -3.0);
+            if cfg.disks {
+                // Only its presence matters here: the simulated disk is `chain_disk`.
+                c.state_dir = Some(format!("/sim/{id}").into());
+            }
             nodes.push(Node {
                 name: id,
                 kind: Kind::Robot,
@@ -250,6 +258,7 @@ impl World {
                 team: None,
                 disk: Default::default(),
                 down: None,
+                chain_disk: BTreeMap::new(),
             });
         }
         let n = nodes.len();
@@ -310,10 +319,16 @@ impl World {
                 n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone(), n.down));
                 n.host = Some(HostCore::new(&n.name, params, now));
             }
+            Kind::Host if self.cfg.disks => n.host = Some(HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())),
             Kind::Host => n.host = Some(HostCore::new(&n.name, params, now)),
             Kind::Robot => {
                 if !matches!(self.cfg.ops, Ops::Barriers { .. }) {
-                    n.host = Some(HostCore::new(&n.name, params, now).with_robot());
+                    let host = if self.cfg.disks {
+                        HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())
+                    } else {
+                        HostCore::new(&n.name, params, now)
+                    };
+                    n.host = Some(host.with_robot());
                 }
                 n.robot = n.cfg.clone().map(Robot::new);
             }
@@ -529,8 +544,11 @@ impl World {
         }
         for (m, hs) in &heads {
             if !self.recoverable(m) {
-                // A majority of its chain restarted and lost what it held (memory is not
-                // durable yet): the chain cannot safely form again; robots keep their plans.
+                if self.cfg.disks {
+                    return Err(format!("{m}'s chain lost its memory although every node of it keeps its chain state on disk"));
+                }
+                // A majority of its chain restarted and lost what it held (without disks): the
+                // chain cannot safely form again; robots keep their plans.
                 self.report.unrecoverable += 1;
                 continue;
             }

@@ -10,6 +10,14 @@ impl HostCore {
             Err(e) => return out.push(Command::Reply { query, result: Err(e) }),
         };
         let name = spec.name.clone();
+        let replaced = start.anew && !self.heads.contains_key(&name) && self.registry.replica(&name).is_some_and(|r| !r.leads());
+        if replaced {
+            // Central made sure nobody else can replicate it: what this node kept from before
+            // is outdated.
+            tracing::info!(mission = %name, "replacing the outdated replica kept from before: the mission starts anew");
+            let cmds = self.registry.discard(now, &name);
+            self.apply(now, &name, cmds, out);
+        }
         if self.heads.contains_key(&name) || self.registry.replica(&name).is_some_and(|r| r.config().is_some()) {
             return out.push(Command::Reply { query, result: Err(format!("mission {name:?} is already hosted here")) });
         }
@@ -122,6 +130,7 @@ impl HostCore {
                 chain::Command::Committed { .. } => self.flush(now, name, out),
                 chain::Command::StepDown => self.step_down(name, "a newer manager took over", out),
                 chain::Command::Retired => self.step_down(name, "this node left the mission's chain", out),
+                chain::Command::Persist(disk) => out.push(Command::Persist { mission: name.to_string(), disk: Box::new(disk) }),
             }
         }
     }

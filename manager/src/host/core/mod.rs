@@ -118,6 +118,9 @@ pub enum Command {
     Status(Box<MissionView>),
     /// A proven sender sent what it may not: count it and say so in the log.
     Refused { from: Sender, what: String },
+    /// Durable hosts only: write what this node must remember of `mission`'s chain, and sync it,
+    /// before carrying out the commands after this one.
+    Persist { mission: String, disk: Box<chain::Disk<MissionSnapshot>> },
 }
 
 /// What a host knows of its own node's robot.
@@ -176,6 +179,15 @@ impl HostCore {
             trusted_chain: BTreeMap::new(),
             foreign: BTreeMap::new(),
         }
+    }
+
+    /// A durable host of `node`, started at `now`, going on from what it persisted (nothing on a
+    /// first start): its chain replicas come back as they were and vote at once, and it puts out
+    /// [`Command::Persist`] for every change they must remember.
+    pub fn restore(node: &str, params: Params, now: f64, disk: Vec<(String, chain::Disk<MissionSnapshot>)>) -> Self {
+        let mut h = HostCore::new(node, params, now);
+        h.registry = Registry::restore(node, params, now, now, disk);
+        h
     }
 
     /// The host of a robot node: it learns its robot's team from [`Event::LocalTeam`].
