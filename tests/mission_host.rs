@@ -37,6 +37,19 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     let bad = client.query::<Marginal>(format!("{}?add=zero", proto::Key::MissionMarginal("p".into())), None::<&()>).await;
     assert!(bad.expect_err("bad add").to_string().contains("add=zero"));
 
+    // Visits counted so far, then two more barriers (seconds: the metrics are checkpointed into
+    // the chain once a second), so the replicas hold at least these.
+    let counted = eventually("waypoints visited", Duration::from_secs(30), || async {
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let n: u32 = m.metrics.visits.iter().sum();
+        (n >= 2).then_some((n, m.metrics.sync_points_passed))
+    })
+    .await?;
+    eventually("two more barriers", Duration::from_secs(30), || async {
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        (m.metrics.sync_points_passed >= counted.1 + 2).then_some(())
+    })
+    .await?;
     let before: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await?;
     assert_eq!(before.manager.chain.len(), 3, "head and two replicas: {:?}", before.manager);
     assert_eq!(before.manager.chain[0], "h2");
@@ -63,6 +76,8 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     assert!(took_over.manager.chain_epoch > before.manager.chain_epoch);
     assert_eq!(took_over.robots.len(), 3);
     assert_eq!(took_over.manager.epoch, before.manager.epoch, "same plans: the robots are not disturbed");
+    let kept: u32 = took_over.metrics.visits.iter().sum();
+    assert!(kept >= counted.0, "the new head counts visits afresh: {kept} < {} counted before the takeover", counted.0);
     // The operator reaches the manager on its new node; the chain is repaired to two replicas.
     let m = eventually("the system manager following the new head", Duration::from_secs(10), || async {
         let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;

@@ -76,6 +76,11 @@ pub enum Msg<S> {
     EndAck {
         epoch: u64,
     },
+    /// I will not replicate this value for you (I do not count you in it): leave me out of the
+    /// chain of `epoch`.
+    Decline {
+        epoch: u64,
+    },
 }
 
 impl<S> Msg<S> {
@@ -90,6 +95,7 @@ impl<S> Msg<S> {
             Msg::Stale { promised, .. } => format!("stale p{promised}"),
             Msg::End { epoch } => format!("end e{epoch}"),
             Msg::EndAck { epoch } => format!("end-ack e{epoch}"),
+            Msg::Decline { epoch } => format!("decline e{epoch}"),
         }
     }
 }

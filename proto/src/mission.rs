@@ -97,4 +97,37 @@ pub struct MissionSnapshot {
     /// Grows by one with every change the manager makes to this state.
     #[serde(default)]
     pub revision: u64,
+    /// The patrol metrics as last checkpointed (once a second): a new head goes on counting.
+    #[serde(default)]
+    pub tally: Option<MetricsTally>,
+}
+
+/// What a mission's visit metrics have accumulated, replicated with its state so a takeover does
+/// not reset them. Times are ages (robot seconds before the checkpoint), since every host has
+/// its own clock.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MetricsTally {
+    /// Visits of each tour waypoint.
+    pub visits: Vec<u32>,
+    /// Seconds since each waypoint's last visit, if it had one.
+    pub since_visit: Vec<Option<f64>>,
+    /// Sum, count and largest of the gaps between two visits of a waypoint, seconds.
+    pub gap_sum: f64,
+    pub gaps: u64,
+    pub worst_gap: f64,
+}
+
+impl MetricsTally {
+    /// Whether it is fit to go on from for a tour of `waypoints` points: sizes match, every time
+    /// finite and not negative, the count and the sum agree.
+    pub fn fits(&self, waypoints: usize) -> bool {
+        let ok = |v: f64| v.is_finite() && v >= 0.0;
+        self.visits.len() == waypoints
+            && self.since_visit.len() == waypoints
+            && self.since_visit.iter().flatten().all(|v| ok(*v))
+            && ok(self.gap_sum)
+            && ok(self.worst_gap)
+            && (self.gaps > 0 || self.gap_sum == 0.0)
+    }
 }

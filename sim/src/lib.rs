@@ -159,9 +159,7 @@ impl Config {
             partition_every: [0.0, 8.0, 15.0][r.gen_range(0..3)],
             suspect_every: [0.0, 8.0][r.gen_range(0..2)],
             lease: 1.0,
-            // Robots' disks with central's restarts: not yet (central's fresh host refuses the
-            // chain messages of a robot head whose chain it is in; see the README).
-            disks: false,
+            disks: r.gen_bool(0.5),
         }
     }
 }

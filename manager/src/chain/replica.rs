@@ -58,6 +58,8 @@ pub struct Replica<S> {
     restored: bool,
     /// Its node keeps it on disk: it never throws its state away while it is in the chain.
     durable: bool,
+    /// Nodes that declined to replicate for this head (until their liveliness comes again).
+    declined: BTreeSet<String>,
 }
 
 /// What [`Replica::stored`] covers, cheap to compare: a change means a write.
@@ -99,6 +101,7 @@ impl<S: Clone> Replica<S> {
             ended: false,
             restored: false,
             durable: false,
+            declined: BTreeSet::new(),
         }
     }
 
@@ -175,6 +178,7 @@ impl<S: Clone> Replica<S> {
             Event::Recv { from, msg } => self.recv(now, from, msg),
             Event::Alive(n) => {
                 self.gone.remove(&n);
+                self.declined.remove(&n);
                 self.alive.insert(n);
                 vec![]
             }
@@ -329,13 +333,13 @@ impl<S: Clone> Replica<S> {
     /// nodes of the pool, up to `k + 1`.
     fn live_chain(&self, base: &Config, from_pool: bool) -> Vec<String> {
         let mut chain = vec![self.me.clone()];
-        chain.extend(base.chain.iter().filter(|n| **n != self.me && !self.gone.contains(*n)).cloned());
+        chain.extend(base.chain.iter().filter(|n| **n != self.me && !self.gone.contains(*n) && !self.declined.contains(*n)).cloned());
         if from_pool {
             for n in &self.pool {
                 if chain.len() > self.p.k {
                     break;
                 }
-                if self.alive.contains(n) && !chain.contains(n) {
+                if self.alive.contains(n) && !chain.contains(n) && !self.declined.contains(n) {
                     chain.push(n.clone());
                 }
             }
@@ -514,6 +518,18 @@ impl<S: Clone> Replica<S> {
                 Role::Ending { epoch: e, .. } if e == epoch => self.retire(),
                 _ => vec![],
             },
+            Msg::Decline { epoch } => {
+                // A node of our chain will never acknowledge: without a new chain nothing would
+                // ever commit. Stand at once for one without it (safe as any election).
+                let Some(config) = self.config.clone().filter(|c| c.epoch == epoch && c.contains(&from)) else { return vec![] };
+                if from == self.me || !matches!(self.role, Role::Head { .. }) || !self.declined.insert(from.clone()) {
+                    return vec![];
+                }
+                tracing::info!(node = %self.me, epoch, %from, "chain: a node declined to replicate; changing the chain without it");
+                let chain = self.live_chain(&config, true);
+                let next = self.next_epoch();
+                self.stand(now, Config { epoch: next, chain }, true)
+            }
         }
     }
 

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use mrmm_proto::plan::Point;
-use mrmm_proto::{MissionMetrics, Progress, Telemetry};
+use mrmm_proto::{MetricsTally, MissionMetrics, Progress, Telemetry};
 
 /// A waypoint counts as visited by a robot passing within this distance, metres.
 pub const VISIT_RADIUS: f64 = 1.5;
@@ -23,16 +23,43 @@ pub struct Metrics {
     last_now: f64,
     /// Each member's progress on the current epoch.
     progress: BTreeMap<String, Progress>,
+    /// Ages of the last visits a predecessor checkpointed, placed on this clock at the next
+    /// telemetry.
+    ages: Option<Vec<Option<f64>>>,
 }
 
 impl Metrics {
     /// Starts counting visits of `waypoints` afresh (a new tour, or a new head).
     pub fn reset_tour(&mut self, waypoints: usize) {
         if self.visits.len() != waypoints {
-            *self = Metrics { progress: std::mem::take(&mut self.progress), ..Metrics::default() };
+            *self = Metrics { progress: std::mem::take(&mut self.progress), last_now: self.last_now, ..Metrics::default() };
             self.last_visit = vec![None; waypoints];
             self.visits = vec![0; waypoints];
         }
+    }
+
+    /// What the visit metrics accumulated, as ages on no particular clock (for the chain).
+    pub fn tally(&self) -> MetricsTally {
+        MetricsTally {
+            visits: self.visits.clone(),
+            since_visit: self.last_visit.iter().map(|v| v.as_ref().map(|(when, _)| (self.last_now - when).max(0.0))).collect(),
+            gap_sum: self.sum,
+            gaps: self.count,
+            worst_gap: self.worst,
+        }
+    }
+
+    /// Goes on from a predecessor's tally of the same tour (one that does not fit is ignored:
+    /// counting starts afresh). The last visits' times are placed at the next telemetry.
+    pub fn restore(&mut self, t: &MetricsTally) {
+        if !t.fits(self.visits.len()) {
+            return;
+        }
+        self.visits.clone_from(&t.visits);
+        self.sum = t.gap_sum;
+        self.count = t.gaps;
+        self.worst = t.worst_gap;
+        self.ages = Some(t.since_visit.clone());
     }
 
     /// A member left: its progress is no longer part of the team's.
@@ -43,6 +70,9 @@ impl Metrics {
     /// Telemetry of member `t.id` at robot time `now`; `epoch` is the mission's current one and
     /// `tour` the patrol's waypoints (empty for other missions).
     pub fn telemetry(&mut self, mission: &str, epoch: u64, tour: &[Point], now: f64, t: &Telemetry) {
+        if let Some(ages) = self.ages.take() {
+            self.last_visit = ages.into_iter().map(|a| a.map(|a| (now - a, String::new()))).collect();
+        }
         self.last_now = self.last_now.max(now);
         if let Some(p) = &t.progress {
             if p.mission == mission && p.epoch == epoch {

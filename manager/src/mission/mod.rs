@@ -82,6 +82,9 @@ pub enum Event {
     },
     /// A member's telemetry (the time is wall seconds; metrics run on each robot's time scale).
     Telemetry(Box<Telemetry>),
+    /// Put the metrics into the replicated state (once a second: telemetry alone never makes
+    /// the chain replicate).
+    Checkpoint,
 }
 
 /// What the mission manager needs done.
@@ -117,6 +120,8 @@ pub struct MissionManager {
     /// The replicated state as last handed out by [`MissionManager::changes`].
     replicated: Option<MissionSnapshot>,
     revision: u64,
+    /// The metrics as last checkpointed into the replicated state.
+    tally: Option<proto::MetricsTally>,
 }
 
 impl MissionManager {
@@ -136,6 +141,7 @@ impl MissionManager {
             metrics: metrics::Metrics::default(),
             replicated: None,
             revision: 0,
+            tally: None,
         }
     }
 
@@ -147,7 +153,11 @@ impl MissionManager {
         mm.epoch = snap.epoch;
         if let Some((_, p)) = &snap.plan {
             mm.metrics.reset_tour(tour(p).len());
+            if let Some(t) = &snap.tally {
+                mm.metrics.restore(t);
+            }
         }
+        mm.tally.clone_from(&snap.tally);
         mm.plan = snap.plan.clone();
         mm.started = snap.started;
         mm.status = snap.status;
@@ -173,6 +183,7 @@ impl MissionManager {
             plan_msgs: self.plan_msgs,
             sync_msgs_left: self.sync_msgs_left,
             revision: self.revision,
+            tally: self.tally.clone(),
         }
     }
 
@@ -285,6 +296,14 @@ impl MissionManager {
                 let robot_now = now * self.time_scale(&t.id);
                 let tour = self.plan.as_ref().map(|(_, p)| tour(p)).unwrap_or(&[]);
                 self.metrics.telemetry(&self.spec.name, self.epoch, tour, robot_now, &t);
+                vec![]
+            }
+            Event::Checkpoint => {
+                let tally = self.metrics.tally();
+                // Nothing counted yet (no tour, or no visit): nothing worth replicating.
+                if tally.visits.iter().any(|v| *v > 0) {
+                    self.tally = Some(tally);
+                }
                 vec![]
             }
         }

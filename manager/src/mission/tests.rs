@@ -113,10 +113,8 @@ fn losing_everyone_stalls_and_a_failed_first_plan_fails() {
     assert_eq!(f.view(false).status, MissionStatus::Failed);
 }
 
-#[test]
-fn metrics_from_telemetry() {
-    let mut m = started();
-    let tel = |id: &str, x: f64, y: f64, syncs: u32, round: u32| Telemetry {
+fn tel(id: &str, x: f64, y: f64, syncs: u32, round: u32) -> Telemetry {
+    Telemetry {
         id: id.into(),
         seq: 1,
         t: 0.0,
@@ -126,7 +124,12 @@ fn metrics_from_telemetry() {
         mission: Some("p1".into()),
         progress: Some(Progress { mission: "p1".into(), epoch: 1, step: 3, round, syncs_passed: syncs, sync_msgs: syncs, waiting: None, done: false }),
         admitted: vec![],
-    };
+    }
+}
+
+#[test]
+fn metrics_from_telemetry() {
+    let mut m = started();
     // Not yet past the start barrier: no visit counted.
     m.handle(0.0, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 0, 0))));
     assert_eq!(m.metrics().visits.iter().sum::<u32>(), 0);
@@ -165,4 +168,38 @@ fn changes_are_handed_out_once_with_a_growing_revision() {
     assert_eq!(n.changes().map(|s| s.revision), Some(second.revision + 1));
     // Resume asks again only when the predecessor died while planning (epoch 2 has no plan).
     assert!(matches!(n.handle(3.0, Event::Resume).as_slice(), [Command::RequestPlan { epoch: 4, .. }]));
+}
+
+#[test]
+fn metrics_survive_a_takeover_through_the_replicated_state() {
+    let mut m = started();
+    m.handle(1.0, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 1, 0))));
+    m.handle(11.0, Event::Telemetry(Box::new(tel("b", 0.0, 0.5, 2, 0))));
+    m.handle(12.0, Event::Telemetry(Box::new(tel("c", 20.0, 0.0, 3, 1))));
+    // Telemetry alone does not touch the replicated state; the checkpoint does.
+    let before = m.changes();
+    assert!(before.as_ref().is_some_and(|s| s.tally.is_none()), "{before:?}");
+    m.handle(12.5, Event::Checkpoint);
+    let snap = m.changes().expect("the checkpoint changed the replicated state");
+    assert_eq!(snap.tally.as_ref().map(|t| t.visits.iter().sum::<u32>()), Some(3));
+    assert!(m.changes().is_none(), "nothing new to replicate");
+    // A new head on another node (its own clock: 1000 s there is 12.5 s here).
+    let mut n = MissionManager::restore(snap.clone(), "other".into()).expect("restore");
+    assert_eq!(n.metrics().visits, m.metrics().visits);
+    assert_eq!(n.metrics().avg_idleness, Some(10.0));
+    n.handle(1000.0, Event::Telemetry(Box::new(tel("a", 5.0, 5.0, 4, 1))));
+    // (0, 0) was last visited 1 s before the last telemetry of the old head; the new head places
+    // that at its first telemetry (1000 s): a visit at 1014 s is a 15 s gap.
+    n.handle(1014.0, Event::Telemetry(Box::new(tel("b", 0.0, 0.0, 4, 1))));
+    let x = n.metrics();
+    assert_eq!(x.visits.iter().sum::<u32>(), 4);
+    assert_eq!(x.worst_idleness, Some(15.0));
+    assert_eq!(x.avg_idleness, Some(12.5));
+    // A tally that does not fit the tour (or holds nonsense) is ignored: counting starts afresh.
+    let mut bad = snap;
+    if let Some(t) = bad.tally.as_mut() {
+        t.since_visit[0] = Some(f64::NAN);
+    }
+    let k = MissionManager::restore(bad, "third".into()).expect("restore");
+    assert_eq!(k.metrics().visits.iter().sum::<u32>(), 0);
 }

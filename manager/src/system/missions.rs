@@ -385,7 +385,11 @@ impl SystemManager {
                 let mut out = Vec::new();
                 for id in robots {
                     self.assignment.remove(&id);
-                    self.released.insert(id.clone(), Released { mission: name.to_string(), ctl: end, acked: None });
+                    // A robot still being let go by the mission it was moved out of stays held by
+                    // that release (its head may still count it; found by the system sim, seed 3516).
+                    if self.pending_release(&id).is_none() {
+                        self.released.insert(id.clone(), Released { mission: name.to_string(), ctl: end, acked: None });
+                    }
                     out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: name.to_string(), epoch: u64::MAX } });
                 }
                 out.extend(reply(Err(format!("mission {name} did not start: {}; it was ended in case it had", f.error))));

@@ -212,7 +212,13 @@ impl SystemManager {
             }
         }
         if !strangers.is_empty() {
-            self.ctls.push(name, MissionCtl::Left { ids: strangers }, None);
+            let ctl = self.ctls.push(name, MissionCtl::Left { ids: strangers.clone() }, None);
+            // Until the head lets them go they are still its members: not free for a create.
+            for id in strangers {
+                if self.pending_release(&id).is_none() {
+                    self.released.insert(id, Released { mission: name.to_string(), ctl, acked: None });
+                }
+            }
         }
         // Recorded here: admitted too (this manager may have restarted; they may have too).
         self.admit(name, &recorded)

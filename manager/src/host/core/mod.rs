@@ -269,6 +269,8 @@ impl HostCore {
             Event::StatusTick => {
                 let names: Vec<String> = self.heads.keys().cloned().collect();
                 for name in names {
+                    // The metrics into the chain (replicated only if they changed).
+                    self.run(now, &name, mission::Event::Checkpoint, &mut out);
                     self.set_pool(now, &name);
                     self.status(&name, &mut out);
                 }
@@ -368,6 +370,17 @@ impl HostCore {
                             to: from.clone(),
                             envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }),
                         });
+                    } else if let chain::Msg::Update { config, .. } = &msg {
+                        // A head that counts this node in its chain would wait for an ack that
+                        // never comes (this node restarted, say, and knows nothing of it): tell
+                        // it no, so it changes its chain without us.
+                        if sender.id == from && config.contains(&self.node) && config.head() != self.node {
+                            let msg = chain::Msg::Decline { epoch: config.epoch };
+                            out.push(Command::Chain {
+                                to: config.head().to_string(),
+                                envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }),
+                            });
+                        }
                     }
                     out.push(Command::Refused { what: format!("send chain messages for mission {mission} as {from}"), from: sender });
                     return out;
