@@ -53,6 +53,12 @@ pub enum JournalEvent {
         command: String,
         request: serde_json::Value,
     },
+    /// A robot is being let go from `mission` (moved or taken out; its head has not acknowledged
+    /// yet), or no longer (`None`): until then it is not free, even across a restart of central.
+    RobotReleasing {
+        robot: String,
+        mission: Option<String>,
+    },
     /// A robot's liveliness went away, or came back.
     RobotLost {
         robot: String,
@@ -88,7 +94,13 @@ pub enum JournalEvent {
 impl JournalEvent {
     /// Whether central replays it (the others are history only).
     pub fn is_state(&self) -> bool {
-        matches!(self, JournalEvent::MissionDefined { .. } | JournalEvent::MissionRemoved { .. } | JournalEvent::RobotAssigned { .. })
+        matches!(
+            self,
+            JournalEvent::MissionDefined { .. }
+                | JournalEvent::MissionRemoved { .. }
+                | JournalEvent::RobotAssigned { .. }
+                | JournalEvent::RobotReleasing { .. }
+        )
     }
 }
 

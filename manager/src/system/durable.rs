@@ -1,5 +1,5 @@
 //! What of the system manager survives a restart — missions as defined, the mission each robot
-//! is in, missions terminated — as a value ([`Durable`]), the journal entries that take one such
+//! is in, missions terminated, robots being let go — as a value ([`Durable`]), the journal entries that take one such
 //! value to another ([`Durable::diff`]) and their replay ([`Durable::apply`]). The system
 //! manager diffs after every event, so whatever changed is committed before anything of it is
 //! said or done (see [`super::Command::Journal`]).
@@ -27,6 +27,8 @@ pub struct Durable {
     /// Robot → mission (a lost robot keeps its place).
     pub assignment: BTreeMap<String, String>,
     pub terminated: BTreeSet<String>,
+    /// Robot → the mission letting it go, until its head acknowledges.
+    pub releasing: BTreeMap<String, String>,
 }
 
 impl Durable {
@@ -51,6 +53,12 @@ impl Durable {
             }
             JournalEvent::RobotAssigned { robot, mission: None } => {
                 self.assignment.remove(robot);
+            }
+            JournalEvent::RobotReleasing { robot, mission: Some(m) } => {
+                self.releasing.insert(robot.clone(), m.clone());
+            }
+            JournalEvent::RobotReleasing { robot, mission: None } => {
+                self.releasing.remove(robot);
             }
             _ => {}
         }
@@ -88,6 +96,13 @@ impl Durable {
             let (old, now) = (self.assignment.get(robot), new.assignment.get(robot));
             if old != now {
                 out.push(JournalEvent::RobotAssigned { robot: robot.clone(), mission: now.cloned() });
+            }
+        }
+        let robots: BTreeSet<&String> = self.releasing.keys().chain(new.releasing.keys()).collect();
+        for robot in robots {
+            let (old, now) = (self.releasing.get(robot), new.releasing.get(robot));
+            if old != now {
+                out.push(JournalEvent::RobotReleasing { robot: robot.clone(), mission: now.cloned() });
             }
         }
         out
@@ -133,6 +148,9 @@ mod tests {
         for r in 0..6 {
             if rng.gen_bool(0.6) {
                 d.assignment.insert(format!("r{r}"), names[rng.gen_range(0..names.len())].into());
+            }
+            if rng.gen_bool(0.3) {
+                d.releasing.insert(format!("r{r}"), names[rng.gen_range(0..names.len())].into());
             }
         }
         d

@@ -22,6 +22,13 @@ impl SystemManager {
         }
         m.assignment = state.assignment.clone();
         m.terminated = state.terminated.clone();
+        // Robots whose head had not let them go yet: told again, and held until it does.
+        for (robot, mission) in &state.releasing {
+            if m.missions.contains_key(mission) {
+                let ctl = m.ctls.push(mission, MissionCtl::Left { ids: vec![robot.clone()] }, None);
+                m.released.insert(robot.clone(), Released { mission: mission.clone(), ctl, acked: None });
+            }
+        }
         m.notes.push(JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() });
         m.journaled = state;
         m
@@ -38,7 +45,13 @@ impl SystemManager {
             missions: self.missions.iter().map(|(n, r)| (n.clone(), r.def.clone())).collect(),
             assignment: self.assignment.clone(),
             terminated: self.terminated.clone(),
+            releasing: self.releasing(),
         }
+    }
+
+    /// Robot → the mission letting it go, while its head has not acknowledged.
+    fn releasing(&self) -> BTreeMap<String, String> {
+        self.released.iter().filter(|(_, r)| self.ctls.is_pending(r.ctl)).map(|(id, r)| (id.clone(), r.mission.clone())).collect()
     }
 
     /// Whether the durable part differs from what the journal holds (cheap: no copies).
@@ -46,6 +59,7 @@ impl SystemManager {
         let j = &self.journaled;
         self.assignment != j.assignment
             || self.terminated != j.terminated
+            || self.releasing() != j.releasing
             || self.missions.len() != j.missions.len()
             || self.missions.iter().zip(&j.missions).any(|((n, r), (jn, jd))| n != jn || !Arc::ptr_eq(&r.def, jd))
     }

@@ -41,6 +41,8 @@ pub fn line(e: &JournalEntry) -> String {
         JournalEvent::MissionRemoved { mission, terminated: false } => format!("mission {mission} removed (it never ran)"),
         JournalEvent::RobotAssigned { robot, mission: Some(m) } => format!("robot {robot} in mission {m}"),
         JournalEvent::RobotAssigned { robot, mission: None } => format!("robot {robot} in no mission"),
+        JournalEvent::RobotReleasing { robot, mission: Some(m) } => format!("robot {robot} being let go by {m}"),
+        JournalEvent::RobotReleasing { robot, mission: None } => format!("robot {robot} let go"),
         JournalEvent::Command { by, command, request } => format!("{by}: {command} {request}"),
         JournalEvent::RobotLost { robot } => format!("robot {robot} lost"),
         JournalEvent::RobotBack { robot } => format!("robot {robot} back"),
