@@ -207,38 +207,33 @@ fn json<T: serde::de::DeserializeOwned>(a: Result<Answer, Failure>) -> Result<T,
     }
 }
 
+impl Node {
+    /// A node whose process has not started yet (see `World::boot`).
+    fn new(name: String, kind: Kind, cfg: Option<RobotConfig>) -> Node {
+        Node {
+            name,
+            kind,
+            central: None,
+            host: None,
+            robot: None,
+            cfg,
+            served: BTreeSet::new(),
+            team: None,
+            disk: Default::default(),
+            down: None,
+            chain_disk: BTreeMap::new(),
+        }
+    }
+}
+
 impl World {
     pub fn new(cfg: Config, trace: bool) -> World {
         let mut nodes = Vec::new();
         if cfg.central {
-            nodes.push(Node {
-                name: CENTRAL_HOST.into(),
-                kind: Kind::Central,
-                central: None,
-                host: None,
-                robot: None,
-                cfg: None,
-                served: BTreeSet::new(),
-                team: None,
-                disk: Default::default(),
-                down: None,
-                chain_disk: BTreeMap::new(),
-            });
+            nodes.push(Node::new(CENTRAL_HOST.into(), Kind::Central, None));
         }
         for i in 1..=cfg.hosts {
-            nodes.push(Node {
-                name: format!("h{i}"),
-                kind: Kind::Host,
-                central: None,
-                host: None,
-                robot: None,
-                cfg: None,
-                served: BTreeSet::new(),
-                team: None,
-                disk: Default::default(),
-                down: None,
-                chain_disk: BTreeMap::new(),
-            });
+            nodes.push(Node::new(format!("h{i}"), Kind::Host, None));
         }
         for i in 1..=cfg.robots {
             let id = format!("r{i}");
@@ -247,19 +242,7 @@ impl World {
                 // Only its presence matters here: the simulated disk is `chain_disk`.
                 c.state_dir = Some(format!("/sim/{id}").into());
             }
-            nodes.push(Node {
-                name: id,
-                kind: Kind::Robot,
-                central: None,
-                host: None,
-                robot: None,
-                cfg: Some(c),
-                served: BTreeSet::new(),
-                team: None,
-                disk: Default::default(),
-                down: None,
-                chain_disk: BTreeMap::new(),
-            });
+            nodes.push(Node::new(id, Kind::Robot, Some(c)));
         }
         let n = nodes.len();
         let mut w = World {
@@ -309,6 +292,15 @@ impl World {
     fn boot(&mut self, i: usize) {
         let now = self.now;
         let params = Params::default();
+        let disks = self.cfg.disks;
+        // A robot's or mission host's host: from its disk when it has one.
+        let host = |n: &Node| {
+            if disks {
+                HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())
+            } else {
+                HostCore::new(&n.name, params, now)
+            }
+        };
         let n = &mut self.nodes[i];
         n.served.clear();
         n.team = None;
@@ -319,16 +311,10 @@ impl World {
                 n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone(), n.down));
                 n.host = Some(HostCore::new(&n.name, params, now));
             }
-            Kind::Host if self.cfg.disks => n.host = Some(HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())),
-            Kind::Host => n.host = Some(HostCore::new(&n.name, params, now)),
+            Kind::Host => n.host = Some(host(n)),
             Kind::Robot => {
                 if !matches!(self.cfg.ops, Ops::Barriers { .. }) {
-                    let host = if self.cfg.disks {
-                        HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())
-                    } else {
-                        HostCore::new(&n.name, params, now)
-                    };
-                    n.host = Some(host.with_robot());
+                    n.host = Some(host(n).with_robot());
                 }
                 n.robot = n.cfg.clone().map(Robot::new);
             }

@@ -269,10 +269,14 @@ impl HostCore {
             Event::StatusTick => {
                 let names: Vec<String> = self.heads.keys().cloned().collect();
                 for name in names {
-                    // The metrics into the chain (replicated only if they changed).
+                    // The metrics into the chain (replicated only if they changed, and then the
+                    // status is published with the change).
+                    let before = out.len();
                     self.run(now, &name, mission::Event::Checkpoint, &mut out);
-                    self.set_pool(now, &name);
-                    self.status(&name, &mut out);
+                    if !out[before..].iter().any(|c| matches!(c, Command::Status(_))) {
+                        self.set_pool(now, &name);
+                        self.status(&name, &mut out);
+                    }
                 }
             }
             Event::Start { from, query, .. } | Event::Ctl { from, query, .. } if from.role != Role::Central => {

@@ -318,21 +318,7 @@ fn a_restarted_manager_adopts_missions_its_heads_report() {
     let mut sm = with_host(&["r1", "r2", "r3"]);
     sm.drive(0.0, Event::HostAlive { node: "h2".into() });
     create(&mut sm, 1, r#"{"name": "mine", "recipe": "patrol", "robots": ["r3"]}"#);
-    let report = |name: &str, host: &str, robots: &[&str]| MissionView {
-        name: name.into(),
-        recipe: "patrol".into(),
-        planner: "patrol".into(),
-        status: MissionStatus::Running,
-        robots: robots.iter().map(|s| s.to_string()).collect(),
-        lost: vec![],
-        teams: Default::default(),
-        manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![] },
-        metrics: MissionMetrics::default(),
-        summary: None,
-        params: Default::default(),
-        error: None,
-        plans: None,
-    };
+    let report = MissionViewBuilder::running;
     // r1 and r2 say (in their own telemetry) they run p.
     for id in ["r1", "r2"] {
         let mut t = telemetry(id, 5, Behaviour::Hold);

@@ -1,0 +1,165 @@
+//! What a replica does with each chain message it receives: votes, grants and refusals,
+//! updates and acknowledgements, stale notices, ends and declines.
+
+use super::{Command, Config, Msg, Replica, Role, Version};
+
+impl<S: Clone> Replica<S> {
+    pub(super) fn recv(&mut self, now: f64, from: String, msg: Msg<S>) -> Vec<Command<S>> {
+        match msg {
+            Msg::Vote { proposal, base, last } => self.on_vote(now, from, proposal, &base, last),
+            Msg::Grant { epoch } => {
+                if let Role::Candidate { proposal, grants, .. } = &mut self.role {
+                    if proposal.epoch == epoch {
+                        grants.insert(from);
+                        return self.check_win(now);
+                    }
+                }
+                vec![]
+            }
+            Msg::Refuse { epoch, promised, last } => {
+                let Role::Candidate { proposal, .. } = &self.role else { return vec![] };
+                if proposal.epoch != epoch {
+                    return vec![];
+                }
+                self.seen = self.seen.max(promised);
+                if last > self.version() {
+                    return self.outdone(now, last);
+                }
+                vec![]
+            }
+            Msg::Update { config, seq, state } => self.on_update(now, from, config, seq, state),
+            Msg::Ack { epoch, seq } => {
+                let (e, mine) = self.version();
+                if let Role::Head { committed, .. } = &mut self.role {
+                    let seq = seq.min(mine);
+                    if epoch == e && *committed < Some(seq) {
+                        *committed = Some(seq);
+                        return vec![Command::Committed { epoch, seq }];
+                    }
+                }
+                vec![]
+            }
+            Msg::Stale { promised, last } => {
+                if !self.leads() {
+                    return vec![];
+                }
+                self.seen = self.seen.max(promised);
+                if last > self.version() {
+                    return self.outdone(now, last);
+                }
+                if let (Role::Head { .. }, Some(config)) = (&self.role, self.config.clone()) {
+                    // Someone promised a higher epoch to a candidate that cannot hold a newer
+                    // state than ours: lead again above it.
+                    let epoch = self.next_epoch();
+                    let chain = config.chain.iter().filter(|n| **n == self.me || !self.gone.contains(*n)).cloned().collect();
+                    return self.stand(now, Config { epoch, chain }, true);
+                }
+                vec![]
+            }
+            Msg::End { epoch } => {
+                if epoch < self.config.as_ref().map_or(0, |c| c.epoch) {
+                    return vec![];
+                }
+                let mut out = Vec::new();
+                self.ended = true;
+                if let Some(c) = &self.config {
+                    match c.next(&self.me) {
+                        Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::End { epoch } }),
+                        None => out.push(Command::Send { to: c.head().to_string(), msg: Msg::EndAck { epoch } }),
+                    }
+                }
+                out.extend(self.retire());
+                out
+            }
+            Msg::EndAck { epoch } => match self.role {
+                Role::Ending { epoch: e, .. } if e == epoch => self.retire(),
+                _ => vec![],
+            },
+            Msg::Decline { epoch } => {
+                // A node of our chain will never acknowledge: without a new chain nothing would
+                // ever commit. Stand at once for one without it (safe as any election).
+                let Some(config) = self.config.clone().filter(|c| c.epoch == epoch && c.contains(&from)) else { return vec![] };
+                if from == self.me || !matches!(self.role, Role::Head { .. }) || !self.declined.insert(from.clone()) {
+                    return vec![];
+                }
+                tracing::info!(node = %self.me, epoch, %from, "chain: a node declined to replicate; changing the chain without it");
+                let chain = self.live_chain(&config, true);
+                let next = self.next_epoch();
+                self.stand(now, Config { epoch: next, chain }, true)
+            }
+        }
+    }
+
+    fn on_vote(&mut self, now: f64, from: String, proposal: Config, base: &[String], last: Version) -> Vec<Command<S>> {
+        if matches!(self.role, Role::Ending { .. }) {
+            // The value is being ended: a candidate that missed it ends too, rather than bring
+            // it back.
+            return vec![Command::Send { to: from, msg: Msg::End { epoch: u64::MAX } }];
+        }
+        let e = proposal.epoch;
+        let epoch_ok = e > self.promised || (e == self.promised && self.voted_for.as_deref() == Some(from.as_str()));
+        // A member of the candidate's chain that holds nothing lost its state (restart): its vote
+        // must not count as that of the member who held it. Except for the head of a chain of
+        // two, standing again: every change of a two-node chain needs both votes, so no newer
+        // configuration can exist without this head, which holds the newest state — and a chain
+        // of two would otherwise never recover from its one replica restarting.
+        let head_of_two = base.len() == 2 && base.first() == Some(&from);
+        let lost = self.state.is_none() && base.contains(&self.me) && !head_of_two;
+        // A new chain keeps a majority of the current one, so a later candidate that missed this
+        // change always meets a node that holds a newer state than its own.
+        let keeps = 2 * base.iter().filter(|n| proposal.contains(n)).count() > base.len();
+        let grant = epoch_ok && !lost && keeps && last >= self.version() && now - self.born >= self.p.quarantine;
+        if !grant {
+            return vec![Command::Send { to: from, msg: Msg::Refuse { epoch: e, promised: self.promised, last: self.version() } }];
+        }
+        if e > self.promised {
+            self.promised = e;
+            self.voted_for = Some(from.clone());
+        }
+        let mut out = self.step_down();
+        self.last_heard = now;
+        out.push(Command::Send { to: from, msg: Msg::Grant { epoch: e } });
+        out
+    }
+
+    fn on_update(&mut self, now: f64, _from: String, config: Config, seq: u64, state: S) -> Vec<Command<S>> {
+        let e = config.epoch;
+        if e < self.promised {
+            return vec![Command::Send { to: config.head().to_string(), msg: Msg::Stale { promised: self.promised, last: self.version() } }];
+        }
+        if config.head() == self.me {
+            return vec![];
+        }
+        self.restored = false;
+        let mut out = Vec::new();
+        if matches!(self.role, Role::Ending { .. }) {
+            return out;
+        }
+        // A head of epoch `e ≥ promised` exists: whatever we stood for is over.
+        out.extend(self.step_down());
+        if e > self.promised {
+            self.promised = e;
+            self.voted_for = None;
+        }
+        if !config.contains(&self.me) {
+            out.extend(self.retire());
+            return out;
+        }
+        if self.config.as_ref().is_none_or(|c| c.epoch <= e) {
+            self.config = Some(config.clone());
+        }
+        if (e, seq) > self.version() {
+            self.state = Some(((e, seq), state));
+        }
+        self.last_heard = now;
+        let Some(((se, sseq), s)) = self.state.clone() else { return out };
+        if se != e {
+            return out;
+        }
+        match config.next(&self.me) {
+            Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq: sseq, state: s } }),
+            None => out.push(Command::Send { to: config.head().to_string(), msg: Msg::Ack { epoch: e, seq: sseq } }),
+        }
+        out
+    }
+}
