@@ -58,6 +58,17 @@ pub enum Msg<S> {
         seq: u64,
         state: S,
     },
+    /// The head's state is still `(config.epoch, seq)`, which the whole chain has acknowledged:
+    /// an [`Msg::Update`] without the state, sent as the heartbeat while nothing changes (a
+    /// node that does not hold that state answers [`Msg::Behind`]).
+    Beat {
+        config: Config,
+        seq: u64,
+    },
+    /// I do not hold the state of your beat of `epoch`: send it again.
+    Behind {
+        epoch: u64,
+    },
     /// The tail holds `(epoch, seq)`.
     Ack {
         epoch: u64,
@@ -91,6 +102,8 @@ impl<S> Msg<S> {
             Msg::Grant { epoch } => format!("grant e{epoch}"),
             Msg::Refuse { epoch, promised, .. } => format!("refuse e{epoch} p{promised}"),
             Msg::Update { config, seq, .. } => format!("update e{} s{seq}", config.epoch),
+            Msg::Beat { config, seq } => format!("beat e{} s{seq}", config.epoch),
+            Msg::Behind { epoch } => format!("behind e{epoch}"),
             Msg::Ack { epoch, seq } => format!("ack e{epoch} s{seq}"),
             Msg::Stale { promised, .. } => format!("stale p{promised}"),
             Msg::End { epoch } => format!("end e{epoch}"),

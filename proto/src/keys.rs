@@ -49,6 +49,34 @@ pub fn validate_id(id: &str) -> Result<(), ProtoError> {
     }
 }
 
+/// Orders ids as a person would: runs of digits by their value, so `r2` comes before `r10`.
+pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
+    use std::cmp::Ordering;
+    let (mut a, mut b) = (a.as_bytes(), b.as_bytes());
+    loop {
+        match (a.first(), b.first()) {
+            (None, None) => return Ordering::Equal,
+            (None, Some(_)) => return Ordering::Less,
+            (Some(_), None) => return Ordering::Greater,
+            (Some(x), Some(y)) if x.is_ascii_digit() && y.is_ascii_digit() => {
+                let run = |s: &[u8]| s.iter().take_while(|c| c.is_ascii_digit()).count();
+                let (na, nb) = (run(a), run(b));
+                let (da, db) = (&a[..na], &b[..nb]);
+                let strip = |d: &[u8]| d.iter().position(|c| *c != b'0').map_or(0, |p| d.len() - p);
+                // The longer number (leading zeros aside) is the larger; then digit by digit;
+                // then fewer leading zeros first.
+                let ord = strip(da).cmp(&strip(db)).then_with(|| da[na - strip(da)..].cmp(&db[nb - strip(db)..])).then(na.cmp(&nb));
+                if ord != Ordering::Equal {
+                    return ord;
+                }
+                (a, b) = (&a[na..], &b[nb..]);
+            }
+            (Some(x), Some(y)) if x != y => return x.cmp(y),
+            _ => (a, b) = (&a[1..], &b[1..]),
+        }
+    }
+}
+
 /// Checks a sub-team path `<mission>/<type>`.
 pub fn validate_subteam(subteam: &str) -> Result<(), ProtoError> {
     match subteam.split_once('/') {
@@ -269,6 +297,21 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
     use zenoh::key_expr::KeyExpr;
+
+    #[test]
+    fn ids_sort_naturally() {
+        let mut ids = vec!["r10", "r2", "r1", "r100", "a", "r02", "r9b", "r9a", "x-3", "x-20", "r"];
+        ids.sort_by(|a, b| natural_cmp(a, b));
+        assert_eq!(ids, vec!["a", "r", "r1", "r2", "r02", "r9a", "r9b", "r10", "r100", "x-3", "x-20"]);
+    }
+
+    proptest! {
+        #[test]
+        fn natural_order_is_total(a in "[a-c0-9]{0,6}", b in "[a-c0-9]{0,6}") {
+            prop_assert_eq!(natural_cmp(&a, &b), natural_cmp(&b, &a).reverse());
+            prop_assert_eq!(natural_cmp(&a, &b) == std::cmp::Ordering::Equal, a == b);
+        }
+    }
 
     fn all_keys() -> Vec<Key> {
         let s = |v: &str| v.to_string();

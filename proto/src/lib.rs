@@ -28,7 +28,7 @@ pub use chain::ChainEnvelope;
 pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to_json};
 pub use error::ProtoError;
 pub use journal::{JournalEntry, JournalEvent, JournalPage};
-pub use keys::{validate_id, validate_subteam, Key, Pattern, SystemCmd};
+pub use keys::{natural_cmp, validate_id, validate_subteam, Key, Pattern, SystemCmd};
 pub use mesh::{Mesh, NodeNet};
 pub use mission::*;
 pub use operator::*;

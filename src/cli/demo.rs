@@ -103,6 +103,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         procs::field(&line, "listening").and_then(|l| l.split(',').next()).ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?.to_string();
 
     let n = args.robots as usize;
+    let bar = progress(n, "starting robots");
     for i in 0..n {
         let id = format!("r{}", i + 1);
         let cfg = robot_config(&id, i, n, &endpoint, args.time_scale, pki.as_deref());
@@ -110,7 +111,10 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
         let log = dir.join(format!("{id}.log"));
         children.push(procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &log)?);
+        bar.inc(1);
     }
+    bar.finish_and_clear();
+    let registering = progress(n, "robots registered");
 
     let operator = pki.as_ref().map(|d| mrmm_proto::SecuritySection::from_dir(d, "operator"));
     let client = Client::connect_with(std::slice::from_ref(&endpoint), operator.clone(), Duration::from_secs(10)).await?;
@@ -160,6 +164,15 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         };
         let live: Vec<&RobotView> = views.iter().filter(|v| v.status != RobotStatus::Lost).collect();
         let all_in = live.len() == n;
+        if !registering.is_finished() {
+            registering.set_position(live.len() as u64);
+            if all_in {
+                registering.finish_and_clear();
+                println!("mrmm demo: {n} robots registered {:.1} s after the start", started.elapsed().as_secs_f64());
+            } else {
+                continue;
+            }
+        }
         if all_in && !args.formation && !missions_started {
             missions_started = true;
             start_missions(&client, n).await;
@@ -208,7 +221,11 @@ fn show(tty: bool, started: Instant, endpoint: &str, n: usize, views: &[RobotVie
         views.len(),
         missions.len()
     ));
-    out.push_str(&super::table::robots(views));
+    if n <= TABLE_MAX {
+        out.push_str(&super::table::robots(views));
+    } else {
+        out.push_str(&summary(views));
+    }
     if !missions.is_empty() {
         out.push('\n');
         out.push_str(&super::op::mission::table(missions));
@@ -217,6 +234,44 @@ fn show(tty: bool, started: Instant, endpoint: &str, n: usize, views: &[RobotVie
     let mut stdout = std::io::stdout().lock();
     let _ = stdout.write_all(out.as_bytes());
     let _ = stdout.flush();
+}
+
+/// Up to this many robots the demo shows the fleet table; beyond, a summary.
+const TABLE_MAX: usize = 16;
+
+/// A progress bar on stderr (hidden when stderr is not a terminal).
+fn progress(n: usize, what: &'static str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(n as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{prefix:>18} [{bar:40}] {pos}/{len} {elapsed}") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_prefix(what);
+    bar
+}
+
+/// The fleet in a few lines: robots per status and per mission, and the robots needing attention.
+fn summary(views: &[RobotView]) -> String {
+    let count = |s: RobotStatus| views.iter().filter(|v| v.status == s).count();
+    let mut per_mission: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+    for v in views {
+        *per_mission.entry(v.mission.as_deref().unwrap_or("(none)")).or_default() += 1;
+    }
+    let mut out = format!(
+        "robots: {} registered — {} busy, {} idle, {} lost\n",
+        views.len(),
+        count(RobotStatus::Busy),
+        count(RobotStatus::Idle),
+        count(RobotStatus::Lost)
+    );
+    let missions: Vec<String> = per_mission.iter().map(|(m, k)| format!("{m} {k}")).collect();
+    out.push_str(&format!("by mission: {}\n", missions.join(", ")));
+    let lost: Vec<&str> = views.iter().filter(|v| v.status == RobotStatus::Lost).map(|v| v.id.as_str()).collect();
+    if !lost.is_empty() {
+        let more = if lost.len() > 12 { format!(" and {} more", lost.len() - 12) } else { String::new() };
+        out.push_str(&format!("lost: {}{more}\n", lost[..lost.len().min(12)].join(", ")));
+    }
+    out.push_str("(`mrmm op robots` lists every robot)\n");
+    out
 }
 
 /// The demo's two missions: a patrol of the north waypoints with half the fleet (rounded up) and

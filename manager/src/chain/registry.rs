@@ -136,7 +136,7 @@ impl<S: Clone> Registry<S> {
     /// A chain message for `name` from `from`. A node that no longer holds the value creates a
     /// replica only for a vote or an update (it is being asked to join a chain); a vote for a
     /// value that ended here is answered with the end; anything else for a value it does not
-    /// hold is dropped.
+    /// hold is dropped. (A beat counts as an update: the node then asks for the state.)
     pub fn receive(&mut self, now: f64, name: &str, from: String, msg: Msg<S>) -> Vec<Command<S>> {
         if !self.replicas.contains_key(name) {
             match (&msg, self.tombs.get(name)) {
@@ -144,10 +144,10 @@ impl<S: Clone> Registry<S> {
                     return vec![Command::Send { to: from, msg: Msg::End { epoch: u64::MAX } }];
                 }
                 // A head replicating to us: we are (again) in its chain.
-                (Msg::Update { .. }, Some(_)) => {
+                (Msg::Update { .. } | Msg::Beat { .. }, Some(_)) => {
                     self.tombs.remove(name);
                 }
-                (Msg::Vote { .. } | Msg::Update { .. }, _) => {}
+                (Msg::Vote { .. } | Msg::Update { .. } | Msg::Beat { .. }, _) => {}
                 _ => return vec![],
             }
         }

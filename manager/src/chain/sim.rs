@@ -504,6 +504,7 @@ impl Sim {
 fn short(m: &Msg<Log>) -> String {
     match m {
         Msg::Update { config, seq, state } => format!("Update e{} s{} {:?} len {}", config.epoch, seq, config.chain, state.len()),
+        Msg::Beat { config, seq } => format!("Beat e{} s{} {:?}", config.epoch, seq, config.chain),
         other => format!("{other:?}"),
     }
 }

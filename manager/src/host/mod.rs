@@ -7,6 +7,7 @@
 mod core;
 mod head;
 pub mod store;
+mod subs;
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -102,12 +103,10 @@ pub async fn serve_with(
         .await
         .map_err(ManagerError::zenoh)?;
     let mut subs = Vec::new();
-    let mut keys = vec![Pattern::AllTelemetry.to_string(), Key::HostChain(node.clone()).to_string()];
-    if local.is_some() {
-        // A robot node learns its mission's chain from the head's status.
-        keys.push(Pattern::AllMissionStatus.to_string());
-    }
-    for key in keys {
+    // Telemetry of the robots the core watches, and (robot nodes: they learn their mission's chain
+    // from the head's status) the status of the robot's missions: subscribed one by one.
+    let mut follow = subs::Subs::new(session.clone(), net.clone());
+    for key in [Key::HostChain(node.clone()).to_string()] {
         let t = net.clone();
         subs.push(
             session
@@ -178,7 +177,16 @@ pub async fn serve_with(
                 None => break,
             },
         };
-        for c in core.handle(t0.elapsed().as_secs_f64(), event) {
+        // Telemetry does not change whom the core watches; everything else may.
+        let (telemetry, team) = (matches!(event, Event::Telemetry(_)), if let Event::LocalTeam(t) = &event { Some(t.clone()) } else { None });
+        let commands = core.handle(t0.elapsed().as_secs_f64(), event);
+        if !telemetry {
+            follow.follow(&core).await;
+        }
+        if let Some(team) = team {
+            follow.follow_team(&team).await;
+        }
+        for c in commands {
             if let Command::Persist { mission, disk } = &c {
                 // On disk before anything this change leads to leaves the node; a node that
                 // cannot keep its promises must not make any.

@@ -1,6 +1,6 @@
 //! Steering mission hosts reliably: every [`MissionCtl`] is sent until the mission's head
-//! acknowledges it (it acknowledges once its chain committed the change), in order per mission,
-//! one at a time; a control may wait for another to be acknowledged first (a robot joins its new
+//! acknowledges it (it acknowledges once its chain committed the change), one at a time per
+//! mission, in order for each robot; a control may wait for another to be acknowledged first (a robot joins its new
 //! mission only once its old one let it go, so it is never in two teams). Pure bookkeeping.
 
 use std::collections::{BTreeMap, VecDeque};
@@ -53,15 +53,38 @@ impl Ctls {
         self.queues.get(mission).is_some_and(|q| q.iter().any(|p| pred(&p.ctl)))
     }
 
-    /// The controls to send now: the first of each mission's queue, if not in flight, not
-    /// waiting for another, and due.
+    /// The controls to send now: per mission, the first of its queue that is not waiting for
+    /// another control and concerns no robot of a waiting one before it (a control waiting for
+    /// another mission does not hold up the controls of other robots behind it), if none is in
+    /// flight and it is due.
     pub fn due(&mut self, now: f64) -> Vec<(u64, String, MissionCtl)> {
-        let waiting: Vec<(String, u64)> = self.queues.iter().filter_map(|(m, q)| q.front().and_then(|p| p.after).map(|a| (m.clone(), a))).collect();
-        let blocked: Vec<String> = waiting.into_iter().filter(|(_, a)| self.is_pending(*a)).map(|(m, _)| m).collect();
+        let pending: std::collections::BTreeSet<u64> = self.queues.values().flatten().map(|p| p.id).collect();
         let mut out = Vec::new();
         for (mission, q) in self.queues.iter_mut() {
-            let Some(p) = q.front_mut() else { continue };
-            if p.in_flight || p.retry_at > now || blocked.contains(mission) {
+            if q.iter().any(|p| p.in_flight) {
+                continue;
+            }
+            let mut held: Vec<&str> = Vec::new();
+            let mut pick = None;
+            for (i, p) in q.iter().enumerate() {
+                let robots = robots(&p.ctl);
+                let clear = match &robots {
+                    Some(r) => r.iter().all(|id| !held.contains(id)),
+                    None => held.is_empty(),
+                };
+                if p.after.is_some_and(|a| pending.contains(&a)) || !clear {
+                    match robots {
+                        Some(r) => held.extend(r),
+                        // A terminate holds up everything after it.
+                        None => break,
+                    }
+                    continue;
+                }
+                pick = Some(i);
+                break;
+            }
+            let Some(p) = pick.and_then(|i| q.get_mut(i)) else { continue };
+            if p.retry_at > now {
                 continue;
             }
             p.in_flight = true;
@@ -73,18 +96,19 @@ impl Ctls {
 
     /// The answer to control `id`: done (acknowledged, or refused for good), or to be sent again.
     pub fn done(&mut self, now: f64, id: u64, result: Result<(), Failure>) {
-        let Some((mission, q)) = self.queues.iter_mut().find(|(_, q)| q.front().is_some_and(|p| p.id == id)) else { return };
+        let Some((mission, q)) = self.queues.iter_mut().find(|(_, q)| q.iter().any(|p| p.id == id)) else { return };
         let mission = mission.clone();
+        let Some(at) = q.iter().position(|p| p.id == id) else { return };
         match result {
             Ok(()) => {
-                q.pop_front();
+                q.remove(at);
             }
             Err(f) => {
-                let Some(p) = q.front_mut() else { return };
+                let Some(p) = q.get_mut(at) else { return };
                 let given_up = p.first.is_some_and(|t| now - t >= CTL_GIVE_UP_S);
                 if !f.retryable || given_up {
                     tracing::warn!(%mission, ctl = ?p.ctl, "mission control given up: {}", f.error);
-                    q.pop_front();
+                    q.remove(at);
                 } else {
                     tracing::debug!(%mission, "mission control not answered ({}); again in {CTL_RETRY_S} s", f.error);
                     p.in_flight = false;
@@ -100,6 +124,29 @@ impl Ctls {
     /// Forgets every control of `mission` (it is gone).
     pub fn cancel(&mut self, mission: &str) {
         self.queues.remove(mission);
+    }
+
+    /// Forgets every control of `mission`; returns their ids.
+    pub fn cancel_ids(&mut self, mission: &str) -> Vec<u64> {
+        self.queues.remove(mission).map(|q| q.iter().map(|p| p.id).collect()).unwrap_or_default()
+    }
+
+    /// Makes the controls that wait for one of `gone` wait for control `instead`.
+    pub fn wait_instead(&mut self, gone: &[u64], instead: u64) {
+        for p in self.queues.values_mut().flatten() {
+            if p.after.is_some_and(|a| gone.contains(&a)) {
+                p.after = Some(instead);
+            }
+        }
+    }
+}
+
+/// The robots a control concerns; `None`: the whole mission.
+fn robots(ctl: &MissionCtl) -> Option<Vec<&str>> {
+    match ctl {
+        MissionCtl::Joined { member } => Some(vec![member.spec.id.as_str()]),
+        MissionCtl::Left { ids } => Some(ids.iter().map(String::as_str).collect()),
+        MissionCtl::Terminate => None,
     }
 }
 
@@ -142,5 +189,27 @@ mod tests {
         assert_eq!(c.due(61.0).iter().map(|d| d.0).collect::<Vec<_>>(), [j], "given up after a minute");
         c.cancel("m2");
         assert!(c.due(70.0).is_empty());
+    }
+
+    #[test]
+    fn a_control_waiting_for_another_mission_holds_up_only_its_robots() {
+        let mut c = Ctls::default();
+        let x = c.push("other", left("r1"), None);
+        let a = c.push("m", left("r1"), Some(x));
+        let b = c.push("m", left("r1"), None);
+        let d = c.push("m", left("r2"), None);
+        let due = |c: &mut Ctls, now| c.due(now).iter().map(|d| d.0).collect::<Vec<_>>();
+        assert_eq!(due(&mut c, 0.0), [d, x], "r2's control goes past r1's waiting ones");
+        c.done(0.1, d, Ok(()));
+        assert!(due(&mut c, 0.2).is_empty(), "b stays behind a (same robot)");
+        // The other mission is gone; its end (answered at once here) stands in for its control.
+        let gone = c.cancel_ids("other");
+        let end = c.push("other", MissionCtl::Terminate, None);
+        c.wait_instead(&gone, end);
+        assert_eq!(due(&mut c, 0.3), [end]);
+        c.done(0.4, end, Ok(()));
+        assert_eq!(due(&mut c, 0.5), [a]);
+        c.done(0.6, a, Ok(()));
+        assert_eq!(due(&mut c, 0.7), [b]);
     }
 }

@@ -309,7 +309,10 @@ impl SystemManager {
         let mut left = self.pending_release(&mv.robot);
         if let Some(f) = &from {
             self.assignment.remove(&mv.robot);
-            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![mv.robot.clone()] }, None);
+            // After the release still pending from the mission before (whose head may still
+            // count it: found by the system sim, seed 375 with digest beats), so that it joins
+            // its next mission only once every mission it was in let it go.
+            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![mv.robot.clone()] }, left);
             self.released.insert(mv.robot.clone(), Released { mission: f.clone(), ctl, acked: None });
             left = Some(ctl);
             if mv.to.is_none() && alive {
@@ -379,8 +382,11 @@ impl SystemManager {
                 tracing::warn!(mission = %name, "no answer to the start: ending the mission in case it started");
                 self.missions.remove(name);
                 self.terminated.insert(name.to_string());
-                self.ctls.cancel(name);
+                // What waited for this mission's controls (a robot moved out of it, released by
+                // it before joining another) now waits for its end.
+                let gone = self.ctls.cancel_ids(name);
                 let end = self.ctls.push(name, MissionCtl::Terminate, None);
+                self.ctls.wait_instead(&gone, end);
                 let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
                 let mut out = Vec::new();
                 for id in robots {

@@ -38,9 +38,11 @@ impl SystemManager {
         self.missions.keys().map(|n| self.mission_view(n)).collect()
     }
 
-    /// Registered robots, sorted by id.
+    /// Registered robots, sorted by id (naturally: r2 before r10).
     pub fn views(&self) -> Vec<RobotView> {
-        self.robots.keys().filter_map(|id| self.view(id)).collect()
+        let mut v: Vec<RobotView> = self.robots.keys().filter_map(|id| self.view(id)).collect();
+        v.sort_by(|a, b| proto::natural_cmp(&a.id, &b.id));
+        v
     }
 
     /// The mission each robot is in (lost robots keep theirs).

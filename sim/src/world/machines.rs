@@ -262,7 +262,8 @@ impl World {
                             let ev = central::Event::System(system::Event::Telemetry(Box::new(t.clone())));
                             self.queue.push(at, Ev::Central { from: i, to: j, ev: Box::new(ev) });
                         }
-                        if self.nodes[j].host.is_some() {
+                        // Hosts subscribe to the robots they watch, as their drivers do.
+                        if self.nodes[j].host.as_ref().is_some_and(|h| h.watches(&t.id)) {
                             self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Telemetry(Box::new(t.clone()))) });
                         }
                     }

@@ -268,6 +268,8 @@ impl<S: Clone> Replica<S> {
         let mut out = Vec::new();
         if now - last_sent >= self.p.beat {
             match config.next(&self.me) {
+                // Once the whole chain holds the state, beats go without it.
+                Some(n) if committed == Some(seq) => out.push(Command::Send { to: n.to_string(), msg: Msg::Beat { config: config.clone(), seq } }),
                 Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq, state } }),
                 None if committed < Some(seq) => {
                     // Alone in the chain: on every node already.

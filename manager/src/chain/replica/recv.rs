@@ -27,7 +27,19 @@ impl<S: Clone> Replica<S> {
                 }
                 vec![]
             }
-            Msg::Update { config, seq, state } => self.on_update(now, from, config, seq, state),
+            Msg::Update { config, seq, state } => self.on_update(now, from, config, seq, Some(state)),
+            Msg::Beat { config, seq } => self.on_update(now, from, config, seq, None),
+            Msg::Behind { epoch } => {
+                // A node of our chain lost the state (it restarted): send it down the chain again.
+                if let (Role::Head { .. }, Some(config), Some(((e, seq), state))) = (&self.role, &self.config, &self.state) {
+                    if config.epoch == epoch && *e == epoch {
+                        if let Some(n) = config.next(&self.me) {
+                            return vec![Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq: *seq, state: state.clone() } }];
+                        }
+                    }
+                }
+                vec![]
+            }
             Msg::Ack { epoch, seq } => {
                 let (e, mine) = self.version();
                 if let Role::Head { committed, .. } = &mut self.role {
@@ -122,7 +134,8 @@ impl<S: Clone> Replica<S> {
         out
     }
 
-    fn on_update(&mut self, now: f64, _from: String, config: Config, seq: u64, state: S) -> Vec<Command<S>> {
+    /// An update (`state`), or a beat (`None`: the head's state is still `(epoch, seq)`).
+    fn on_update(&mut self, now: f64, _from: String, config: Config, seq: u64, state: Option<S>) -> Vec<Command<S>> {
         let e = config.epoch;
         if e < self.promised {
             return vec![Command::Send { to: config.head().to_string(), msg: Msg::Stale { promised: self.promised, last: self.version() } }];
@@ -148,15 +161,22 @@ impl<S: Clone> Replica<S> {
         if self.config.as_ref().is_none_or(|c| c.epoch <= e) {
             self.config = Some(config.clone());
         }
-        if (e, seq) > self.version() {
+        let beat = state.is_none();
+        if let Some(state) = state.filter(|_| (e, seq) > self.version()) {
             self.state = Some(((e, seq), state));
         }
         self.last_heard = now;
+        if beat && (self.state.is_none() || self.version() < (e, seq)) {
+            // We lack what the whole chain was thought to hold.
+            out.push(Command::Send { to: config.head().to_string(), msg: Msg::Behind { epoch: e } });
+            return out;
+        }
         let Some(((se, sseq), s)) = self.state.clone() else { return out };
         if se != e {
             return out;
         }
         match config.next(&self.me) {
+            Some(n) if beat && sseq == seq => out.push(Command::Send { to: n.to_string(), msg: Msg::Beat { config: config.clone(), seq } }),
             Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq: sseq, state: s } }),
             None => out.push(Command::Send { to: config.head().to_string(), msg: Msg::Ack { epoch: e, seq: sseq } }),
         }

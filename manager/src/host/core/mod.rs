@@ -18,6 +18,7 @@ use crate::mission::{self, MissionManager, MissionSpec};
 use crate::Failure;
 
 mod led;
+mod watch;
 
 type ChainCmd = chain::Command<MissionSnapshot>;
 
@@ -154,6 +155,9 @@ pub struct HostCore {
     /// A start of such a mission (central starting it again from its journal) is refused while
     /// they come: its old chain lives, and may take over again.
     foreign: BTreeMap<String, (f64, String)>,
+    /// Robots whose chain messages this node judges by their telemetry, and when it last
+    /// needed it (see `watch.rs`).
+    unjudged: BTreeMap<String, f64>,
 }
 
 /// For this long after the last chain message of a mission this node holds nothing of, it
@@ -178,6 +182,7 @@ impl HostCore {
             robot_admitted: BTreeMap::new(),
             trusted_chain: BTreeMap::new(),
             foreign: BTreeMap::new(),
+            unjudged: BTreeMap::new(),
         }
     }
 
@@ -254,6 +259,7 @@ impl HostCore {
         let mut out = Vec::new();
         match ev {
             Event::Tick => {
+                self.prune_unwatched(now);
                 for (name, cmds) in self.registry.tick(now) {
                     self.apply(now, &name, cmds, &mut out);
                 }
@@ -358,12 +364,16 @@ impl HostCore {
                 if !holds && !self.heads.contains_key(&mission) && self.foreign.len() < 1024 {
                     self.foreign.insert(mission.clone(), (now, from.clone()));
                 }
+                if sender.id == from && !self.may_chain(&mission, &sender) && self.awaits_telemetry(now, &mission, &sender) {
+                    tracing::debug!(%mission, %from, "chain message held back until its sender's telemetry is heard");
+                    return out;
+                }
                 if sender.id != from || !self.may_chain(&mission, &sender) {
                     // A head or candidate this node no longer counts in the mission (it left the
                     // chain while cut off, say) is told it is behind, as the chain would: it
                     // steps down. Nothing it sent is taken.
                     let theirs = match &msg {
-                        chain::Msg::Update { config, seq, .. } => Some((config.epoch, *seq)),
+                        chain::Msg::Update { config, seq, .. } | chain::Msg::Beat { config, seq } => Some((config.epoch, *seq)),
                         chain::Msg::Vote { last, .. } => Some(*last),
                         _ => None,
                     };
@@ -374,7 +384,7 @@ impl HostCore {
                             to: from.clone(),
                             envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }),
                         });
-                    } else if let chain::Msg::Update { config, .. } = &msg {
+                    } else if let chain::Msg::Update { config, .. } | chain::Msg::Beat { config, .. } = &msg {
                         // A head that counts this node in its chain would wait for an ack that
                         // never comes (this node restarted, say, and knows nothing of it): tell
                         // it no, so it changes its chain without us.

@@ -1,0 +1,265 @@
+//! What a fleet of N robots costs on this machine, one `mrmm robot` process per robot, as
+//! deployed and as `mrmm demo` runs them: mutual TLS, signed messages, telemetry at 5 Hz, lease
+//! 1000 ms, every robot connecting to central only (the robots find each other by gossip and form
+//! a clique).
+//!
+//! For each N: the time until every process is up (ready line) and until central has registered
+//! them all; memory (RSS) per robot process and of central; CPU of the whole fleet while idle
+//! (no mission) over 10 s; the number of Zenoh links (established loopback TCP connections
+//! between the fleet's processes) and loopback packets per second while idle (keep-alives,
+//! telemetry, liveliness); the latency from a mission create of N/2 robots to every one of them
+//! moving (seen in their telemetry, 5 Hz: ±200 ms); operator query round trips while that mission
+//! runs; and the time from a member's SIGKILL to the mission's new plan without it.
+//!
+//! `cargo bench --bench scale -- 25 50 100` (sizes; default 10 25).
+
+#[path = "../tests/common/mod.rs"]
+#[allow(dead_code)]
+mod common;
+
+use std::collections::BTreeSet;
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, Context};
+use common::{eventually, Scratch};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, MissionCreate, MissionView, RobotStatus, RobotView};
+
+/// A child killed on drop.
+struct Kid(Child);
+
+impl Drop for Kid {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn main() -> anyhow::Result<()> {
+    let mut sizes: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).filter(|&n: &usize| n >= 2).collect();
+    if sizes.is_empty() {
+        sizes = vec![10, 25];
+    }
+    let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?;
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|s| s.trim().to_string()))
+        .unwrap_or_default();
+    println!("\n### Scale: one process per robot ({cpu}, {} cores)\n", std::thread::available_parallelism().map_or(0, |n| n.get()));
+    println!("| N | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | SIGKILL→replanned s |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for n in sizes {
+        rt.block_on(run(n))?;
+    }
+    Ok(())
+}
+
+fn spawn(args: &[&str], log: &Path) -> anyhow::Result<Child> {
+    Command::new(common::EXE)
+        .args(args)
+        .env("RUST_LOG", "info,zenoh=warn")
+        .env("XDG_DATA_HOME", log.parent().unwrap_or(Path::new(".")).join("data"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(std::fs::File::create(log)?)
+        .spawn()
+        .context("spawn mrmm")
+}
+
+/// Waits for each child's line starting with `prefix`; returns the lines.
+fn ready_lines(kids: &mut [Kid], prefix: &str, timeout: Duration) -> anyhow::Result<Vec<String>> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    for (i, k) in kids.iter_mut().enumerate() {
+        let out = k.0.stdout.take().ok_or_else(|| anyhow!("no stdout"))?;
+        let (tx, prefix) = (tx.clone(), prefix.to_string());
+        std::thread::spawn(move || {
+            for line in BufReader::new(out).lines().map_while(Result::ok) {
+                if line.starts_with(&prefix) {
+                    let _ = tx.send((i, line));
+                }
+            }
+        });
+    }
+    let mut lines = vec![String::new(); kids.len()];
+    let deadline = Instant::now() + timeout;
+    for _ in 0..kids.len() {
+        let (i, l) =
+            rx.recv_timeout(deadline.saturating_duration_since(Instant::now())).map_err(|_| anyhow!("not every process was ready within {timeout:?}"))?;
+        lines[i] = l;
+    }
+    Ok(lines)
+}
+
+fn rss_mib(pid: u32) -> f64 {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    s.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.split_whitespace().next()?.parse::<f64>().ok()).unwrap_or(0.0) / 1024.0
+}
+
+/// utime + stime of `pid`, in clock ticks.
+fn cpu_ticks(pid: u32) -> u64 {
+    let s = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+    // Fields after the command name (which may hold spaces) start after the last ')'.
+    let rest = s.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let get = |i: usize| f.get(i).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+    // utime and stime are fields 14 and 15 of stat; here 0-based after ')' : 11 and 12.
+    get(11) + get(12)
+}
+
+fn lo_packets() -> u64 {
+    std::fs::read_to_string("/sys/class/net/lo/statistics/tx_packets").ok().and_then(|s| s.trim().parse().ok()).unwrap_or(0)
+}
+
+/// Established TCP connections between two of `pids`: Zenoh links (each has two ends here).
+fn links(pids: &[u32]) -> usize {
+    let mut inodes = BTreeSet::new();
+    for pid in pids {
+        let Ok(fds) = std::fs::read_dir(format!("/proc/{pid}/fd")) else { continue };
+        for fd in fds.flatten() {
+            if let Ok(t) = std::fs::read_link(fd.path()) {
+                if let Some(i) = t.to_str().and_then(|s| s.strip_prefix("socket:[")).and_then(|s| s.strip_suffix(']')) {
+                    inodes.insert(i.to_string());
+                }
+            }
+        }
+    }
+    let tcp = std::fs::read_to_string("/proc/net/tcp").unwrap_or_default();
+    let ends = tcp
+        .lines()
+        .skip(1)
+        .filter(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            f.get(3) == Some(&"01") && f.get(9).is_some_and(|i| inodes.contains(*i))
+        })
+        .count();
+    ends / 2
+}
+
+fn quantile(v: &mut [f64], q: f64) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(((v.len().saturating_sub(1)) as f64 * q).round() as usize).copied().unwrap_or(f64::NAN)
+}
+
+async fn run(n: usize) -> anyhow::Result<()> {
+    let dir = Scratch::new(&format!("bench-scale-{n}"));
+    let pki = common::fleet_pki(&dir, n)?;
+    let p = pki.display().to_string();
+    let mut central = vec![Kid(spawn(&["central", "--listen", "tls/127.0.0.1:0", "--pki", &p, "--operator", "op"], &dir.path("central.log"))?)];
+    let line = ready_lines(&mut central, "central ready", Duration::from_secs(30))?.remove(0);
+    let ep = line
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("listening="))
+        .and_then(|l| l.split(',').next())
+        .ok_or_else(|| anyhow!("no endpoint in {line}"))?
+        .to_string();
+    let t0 = Instant::now();
+    let mut robots = Vec::new();
+    for i in 1..=n {
+        let id = format!("r{i}");
+        let f = |name: &str| serde_json::to_string(&pki.join(name).display().to_string()).unwrap_or_default();
+        let cfg = format!(
+            r#"{{ id: "{id}", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1.0, max_turn_rate: 1.5 }},
+                 start: {{ x: {x}, y: -12, theta: 1.5708 }}, time_scale: 1, telemetry_hz: 5,
+                 zenoh: {{ listen: ["tls/127.0.0.1:0"], connect: ["{ep}"], lease_ms: 1000 }},
+                 security: {{ ca: {}, cert: {}, key: {} }} }}"#,
+            f("ca.crt"),
+            f(&format!("{id}.crt")),
+            f(&format!("{id}.key")),
+            x = (i as f64 - n as f64 / 2.0) * 1.5,
+        );
+        let path = dir.path(&format!("{id}.json5"));
+        std::fs::write(&path, cfg)?;
+        robots.push(Kid(spawn(&["robot", "--config", &path.display().to_string()], &dir.path(&format!("{id}.log")))?));
+    }
+    ready_lines(&mut robots, "robot ready", Duration::from_secs(300))?;
+    let up = t0.elapsed().as_secs_f64();
+    let op = mrmm_proto::SecuritySection::from_dir(&pki, "op");
+    let client = Client::connect_with(std::slice::from_ref(&ep), Some(op), Duration::from_secs(10)).await?;
+    let live = |v: &[RobotView]| v.iter().filter(|r| r.status != RobotStatus::Lost).count();
+    eventually("every robot registered", Duration::from_secs(300), || async {
+        let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
+        (live(&v) == n).then_some(())
+    })
+    .await?;
+    let registered = t0.elapsed().as_secs_f64();
+    // Let start-up work (link set-up, liveliness histories) settle before measuring the idle
+    // fleet.
+    tokio::time::sleep(Duration::from_secs(5)).await;
+    let pids: Vec<u32> = robots.iter().chain(&central).map(|k| k.0.id()).collect();
+    let rss: Vec<f64> = robots.iter().map(|k| rss_mib(k.0.id())).collect();
+    let rss_central = rss_mib(central[0].0.id());
+    let ticks0: u64 = pids.iter().map(|p| cpu_ticks(*p)).sum();
+    let (pk0, w0) = (lo_packets(), Instant::now());
+    tokio::time::sleep(Duration::from_secs(10)).await;
+    let ticks1: u64 = pids.iter().map(|p| cpu_ticks(*p)).sum();
+    let window = w0.elapsed().as_secs_f64();
+    let hz = 100.0; // USER_HZ on Linux
+    let idle_cpu = (ticks1.saturating_sub(ticks0)) as f64 / hz / window * 100.0;
+    let pkts = (lo_packets().saturating_sub(pk0)) as f64 / window;
+    let nlinks = links(&pids);
+
+    // One mission of N/2 robots: from the create to every member moving.
+    let half = n / 2;
+    let mission = MissionCreate {
+        name: "scale".into(),
+        recipe: "patrol".into(),
+        count: Some(half),
+        params: [("waypoints".to_string(), serde_json::json!([[-15, 4], [-6, 14], [5, 17], [15, 9], [11, 1], [0, 0]]))].into(),
+        ..Default::default()
+    };
+    let telemetry = client.session().declare_subscriber(proto::Pattern::AllTelemetry.to_string()).await.map_err(|e| anyhow!("{e}"))?;
+    let c0 = Instant::now();
+    let created: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&mission)).await?;
+    let members: BTreeSet<String> = created.robots.iter().cloned().collect();
+    let mut moving = BTreeSet::new();
+    let deadline = c0 + Duration::from_secs(60);
+    while moving.len() < members.len() && Instant::now() < deadline {
+        let Ok(Ok(s)) = tokio::time::timeout(Duration::from_secs(1), telemetry.recv_async()).await else { continue };
+        if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
+            if members.contains(&t.id) && t.mission.as_deref() == Some("scale") && t.behaviour != proto::Behaviour::Hold {
+                moving.insert(t.id);
+            }
+        }
+    }
+    let to_moving =
+        if moving.len() == members.len() { format!("{:.2}", c0.elapsed().as_secs_f64()) } else { format!("{}/{} in 60 s", moving.len(), members.len()) };
+    drop(telemetry);
+
+    // Operator queries while the mission runs.
+    let mut rtt = Vec::new();
+    for _ in 0..100 {
+        let q0 = Instant::now();
+        let _: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
+        rtt.push(q0.elapsed().as_secs_f64() * 1e3);
+    }
+
+    // A member SIGKILLed: time until the mission's status shows a plan without it.
+    let victim = created.robots.first().cloned().ok_or_else(|| anyhow!("the mission has no robots"))?;
+    let status = client.session().declare_subscriber(proto::Key::MissionStatus("scale".into()).to_string()).await.map_err(|e| anyhow!("{e}"))?;
+    let idx: usize = victim.trim_start_matches('r').parse::<usize>().context("robot id")? - 1;
+    let k0 = Instant::now();
+    let _ = robots[idx].0.kill();
+    let mut replanned = String::from("not in 30 s");
+    let deadline = k0 + Duration::from_secs(30);
+    while Instant::now() < deadline {
+        let Ok(Ok(s)) = tokio::time::timeout(Duration::from_secs(1), status.recv_async()).await else { continue };
+        if let Ok(v) = proto::from_json::<MissionView>("status", &s.payload().to_bytes()) {
+            if !v.robots.contains(&victim) && v.status == proto::MissionStatus::Running {
+                replanned = format!("{:.2}", k0.elapsed().as_secs_f64());
+                break;
+            }
+        }
+    }
+    let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
+    let max = rss.iter().copied().fold(0.0, f64::max);
+    println!(
+        "| {n} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1} | {replanned} |",
+        quantile(&mut rtt.clone(), 0.5),
+        quantile(&mut rtt, 0.99)
+    );
+    client.close().await;
+    Ok(())
+}

@@ -1,0 +1,85 @@
+//! Whose telemetry a host needs, so that its driver subscribes to those robots only (a fleet of n
+//! robots where every host heard every robot would deliver n² telemetry messages).
+//!
+//! A host needs the telemetry of the members (current and lost) of the missions it leads and of
+//! the missions it replicates (it may take them over), and, for a short while, of a robot that
+//! sent it chain messages about a mission it knows nothing of: its telemetry says whether it runs
+//! that mission ([`HostCore::may_chain`]'s last resort).
+
+use std::collections::BTreeSet;
+
+use super::*;
+
+/// For this long after a chain message it could not judge, a host listens to its sender's
+/// telemetry; once heard, the sender's next message is judged by it.
+pub const UNJUDGED_S: f64 = 5.0;
+/// Senders waiting for judgement, at most (a flood of them costs bounded subscriptions).
+const UNJUDGED_MAX: usize = 64;
+
+impl HostCore {
+    /// Whether this host needs `robot`'s telemetry.
+    pub fn watches(&self, robot: &str) -> bool {
+        self.unjudged.contains_key(robot)
+            || self.heads.values().any(|h| h.mm.has(robot) || h.mm.lost(robot).is_some())
+            || self.replicated().any(|s| s.members.iter().chain(&s.lost).any(|m| m.spec.id == robot))
+    }
+
+    /// Every robot whose telemetry this host needs.
+    pub fn watched(&self) -> BTreeSet<String> {
+        let mut ids: BTreeSet<String> = self.unjudged.keys().cloned().collect();
+        for h in self.heads.values() {
+            ids.extend(h.mm.members().cloned());
+            ids.extend(h.mm.lost_members().map(|m| m.spec.id.clone()));
+        }
+        for s in self.replicated() {
+            ids.extend(s.members.iter().chain(&s.lost).map(|m| m.spec.id.clone()));
+        }
+        ids
+    }
+
+    fn replicated(&self) -> impl Iterator<Item = &MissionSnapshot> {
+        self.registry.names().filter_map(|n| self.registry.replica(n)).filter_map(|r| r.state())
+    }
+
+    /// Whether a chain message about `mission` from robot `from` can only be judged by the
+    /// robot's own telemetry, which this host has not heard yet: it then listens for it (for
+    /// [`UNJUDGED_S`] at least, and as long as the robot keeps sending such messages) and drops
+    /// the message meanwhile (the head sends again).
+    pub(super) fn awaits_telemetry(&mut self, now: f64, mission: &str, from: &Sender) -> bool {
+        if from.role != Role::Robot {
+            return false;
+        }
+        let ours = matches!(&self.local, Local::Robot(teams) if teams.iter().any(|(m, _)| m == mission));
+        let holds = self.registry.replica(mission).is_some_and(|r| r.config().is_some() || r.state().is_some());
+        if ours || holds {
+            return false;
+        }
+        let heard = self.robot_admitted.contains_key(&from.id);
+        let room = self.unjudged.len() < UNJUDGED_MAX;
+        match self.unjudged.get_mut(&from.id) {
+            Some(since) if heard => {
+                *since = now;
+                false
+            }
+            Some(since) => now - *since < UNJUDGED_S,
+            None if heard => false,
+            None if room => {
+                self.unjudged.insert(from.id.clone(), now);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Forgets what it heard of robots it no longer watches (what they said may be outdated by
+    /// the time it matters again), and robots that stopped sending what only their telemetry
+    /// can judge.
+    pub(super) fn prune_unwatched(&mut self, now: f64) {
+        self.unjudged.retain(|_, since| now - *since < 2.0 * UNJUDGED_S);
+        let gone: Vec<String> = self.robot_admitted.keys().filter(|id| !self.watches(id)).cloned().collect();
+        for id in gone {
+            self.robot_admitted.remove(&id);
+            self.robot_missions.remove(&id);
+        }
+    }
+}
