@@ -188,3 +188,27 @@ fn refused_for_an_older_state_a_candidate_keeps_it_unless_its_chain_is_outdated(
     assert!(out.contains(&Command::Retired));
     assert_eq!(c.state(), None);
 }
+
+#[test]
+fn beats_carry_no_state_once_the_chain_holds_it_and_a_node_that_lost_it_gets_it_again() {
+    let mut n = created();
+    let beat = |n: &mut BTreeMap<String, R>, now: f64| n.get_mut("a").unwrap().handle(now, Event::Tick);
+    // Committed through the tail: the next heartbeat has no state.
+    let cmds = beat(&mut n, 1.0);
+    assert!(matches!(cmds.as_slice(), [Command::Send { msg: Msg::Beat { seq: 0, .. }, .. }]), "{cmds:?}");
+    settle(&mut n, 1.0, "a", cmds);
+    // c restarts without memory: on the next beat it says so and gets the state back.
+    n.insert("c".into(), R::new("c", p(), 1.5, 1.5, 0));
+    let cmds = beat(&mut n, 2.0);
+    let mut sent = Vec::new();
+    let mut queue: Vec<(String, Command<Vec<u32>>)> = cmds.into_iter().map(|c| ("a".to_string(), c)).collect();
+    while let Some((who, c)) = queue.pop() {
+        if let Command::Send { to, msg } = c {
+            sent.push(msg.describe());
+            let more = n.get_mut(&to).map(|r| r.handle(2.0, Event::Recv { from: who.clone(), msg })).unwrap_or_default();
+            queue.extend(more.into_iter().map(|c| (to.clone(), c)));
+        }
+    }
+    assert!(sent.iter().any(|m| m.starts_with("behind")) && sent.iter().filter(|m| m.starts_with("update")).count() >= 2, "{sent:?}");
+    assert_eq!(n["c"].state(), Some(&vec![1]));
+}

@@ -20,7 +20,7 @@ use zenoh::bytes::Encoding;
 use zenoh::query::{Query, Queryable};
 use zenoh::sample::{Sample, SampleKind};
 
-pub use self::core::{Command, Event, HostCore};
+pub use self::core::{Command, Event, HostCore, UNJUDGED_S};
 pub use self::head::{PLAN_RETRIES, REDELIVER_S};
 use crate::chain::Params;
 use crate::error::ManagerError;

@@ -243,3 +243,36 @@ fn a_head_that_steps_down_lets_waiting_controls_go() {
     assert!(cmds.contains(&Command::Drop { query: 9 }), "{cmds:?}");
     assert!(cmds.contains(&Command::Unserve { mission: "p".into() }));
 }
+
+#[test]
+fn a_host_watches_the_robots_of_the_missions_it_leads_or_replicates_and_no_other() {
+    use std::collections::BTreeSet;
+    let mut m = Mesh::new(&["central", "r1", "r2", "h"], &["r1", "r2", "r3"]);
+    let set = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<BTreeSet<String>>();
+    assert!(m.nodes["central"].watched().is_empty(), "no mission: nobody to watch");
+    let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1", "r2"]), from: central() });
+    let ev = planned(&cmds).expect("a plan request");
+    m.to("central", ev);
+    assert_eq!(m.nodes["central"].watched(), set(&["r1", "r2"]), "the head watches its members");
+    assert_eq!(m.nodes["r1"].watched(), set(&["r1", "r2"]), "a replica watches them too (it may take over)");
+    assert!(m.nodes["h"].watched().is_empty() && !m.nodes["h"].watches("r1"), "a host outside the mission watches nobody");
+    // A lost member stays watched: its telemetry says when it may rejoin.
+    m.to("central", Event::RobotGone("r2".into()));
+    assert!(m.nodes["central"].watches("r2"));
+    // A robot sends chain messages about a mission this node knows nothing of: held back until
+    // its telemetry (now watched) says whether it runs that mission.
+    let cfg = mrmm_proto::chain::Config { epoch: 1, chain: vec!["r3".into(), "h".into()] };
+    let msg = mrmm_proto::chain::Msg::Beat { config: cfg, seq: 0 };
+    let envelope = Box::new(mrmm_proto::ChainEnvelope { mission: "q".into(), from: "r3".into(), msg });
+    let robot = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r3");
+    let cmds = m.to("h", Event::Chain { envelope: envelope.clone(), from: robot.clone() });
+    assert!(cmds.is_empty() && m.nodes["h"].watches("r3"), "{cmds:?}");
+    // Its telemetry says it runs another mission: refused, and h leaves the chain it was put in.
+    m.to("h", progress("r3", "other", 1));
+    let cmds = m.to("h", Event::Chain { envelope, from: robot });
+    assert!(cmds.iter().any(|c| matches!(c, Command::Refused { .. })), "{cmds:?}");
+    // Once it stops, h forgets it.
+    m.tick(2.0 * UNJUDGED_S);
+    m.tick(0.1);
+    assert!(!m.nodes["h"].watches("r3"));
+}

@@ -20,6 +20,8 @@ use crate::Failure;
 mod led;
 mod watch;
 
+pub use watch::UNJUDGED_S;
+
 type ChainCmd = chain::Command<MissionSnapshot>;
 
 /// Something that happened to the host.
