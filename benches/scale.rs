@@ -11,7 +11,9 @@
 //! moving (seen in their telemetry, 5 Hz: ±200 ms); operator query round trips while that mission
 //! runs; and the time from a member's SIGKILL to the mission's new plan without it.
 //!
-//! `cargo bench --bench scale -- 25 50 100` (sizes; default 10 25).
+//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R]` (sizes, default 10 25; the
+//! robots' lease, default as `mrmm demo` sets it: 1000 ms, 4000 ms beyond 40 robots; robots
+//! started R per second, default 20 as the demo does, 0 = all at once).
 
 #[path = "../tests/common/mod.rs"]
 #[allow(dead_code)]
@@ -39,7 +41,17 @@ impl Drop for Kid {
 }
 
 fn main() -> anyhow::Result<()> {
-    let mut sizes: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).filter(|&n: &usize| n >= 2).collect();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let opt = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<u64>().ok());
+    let lease = opt("--lease");
+    let rate = opt("--rate").unwrap_or(20);
+    let mut sizes: Vec<usize> = args
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i == 0 || !args[i - 1].starts_with("--"))
+        .filter_map(|(_, a)| a.parse().ok())
+        .filter(|&n: &usize| n >= 2)
+        .collect();
     if sizes.is_empty() {
         sizes = vec![10, 25];
     }
@@ -48,11 +60,16 @@ fn main() -> anyhow::Result<()> {
         .ok()
         .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|s| s.trim().to_string()))
         .unwrap_or_default();
-    println!("\n### Scale: one process per robot ({cpu}, {} cores)\n", std::thread::available_parallelism().map_or(0, |n| n.get()));
-    println!("| N | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | SIGKILL→replanned s |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!(
+        "\n### Scale: one process per robot ({cpu}, {} cores; lease {}; robots started {})\n",
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
+        lease.map_or("as the demo: 1000 ms, 4000 ms beyond 40 robots".to_string(), |l| format!("{l} ms")),
+        if rate == 0 { "at once".to_string() } else { format!("{rate} per second") }
+    );
+    println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | SIGKILL→replanned s |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in sizes {
-        rt.block_on(run(n))?;
+        rt.block_on(run(n, lease.unwrap_or(if n > 40 { 4000 } else { 1000 }), rate))?;
     }
     Ok(())
 }
@@ -143,9 +160,18 @@ fn quantile(v: &mut [f64], q: f64) -> f64 {
     v.get(((v.len().saturating_sub(1)) as f64 * q).round() as usize).copied().unwrap_or(f64::NAN)
 }
 
-async fn run(n: usize) -> anyhow::Result<()> {
+async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
     let dir = Scratch::new(&format!("bench-scale-{n}"));
-    let pki = common::fleet_pki(&dir, n)?;
+    let pki = dir.path("pki");
+    {
+        use mrmm_proto::security::{pki as p, Role};
+        p::init(&pki)?;
+        p::issue(&pki, Role::Central, "central", &[], 2)?;
+        p::issue(&pki, Role::Operator, "op", &[], 2)?;
+        for i in 1..=n {
+            p::issue(&pki, Role::Robot, &format!("r{i}"), &[], 2)?;
+        }
+    }
     let p = pki.display().to_string();
     let mut central = vec![Kid(spawn(&["central", "--listen", "tls/127.0.0.1:0", "--pki", &p, "--operator", "op"], &dir.path("central.log"))?)];
     let line = ready_lines(&mut central, "central ready", Duration::from_secs(30))?.remove(0);
@@ -163,7 +189,7 @@ async fn run(n: usize) -> anyhow::Result<()> {
         let cfg = format!(
             r#"{{ id: "{id}", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1.0, max_turn_rate: 1.5 }},
                  start: {{ x: {x}, y: -12, theta: 1.5708 }}, time_scale: 1, telemetry_hz: 5,
-                 zenoh: {{ listen: ["tls/127.0.0.1:0"], connect: ["{ep}"], lease_ms: 1000 }},
+                 zenoh: {{ listen: ["tls/127.0.0.1:0"], connect: ["{ep}"], lease_ms: {lease} }},
                  security: {{ ca: {}, cert: {}, key: {} }} }}"#,
             f("ca.crt"),
             f(&format!("{id}.crt")),
@@ -173,11 +199,14 @@ async fn run(n: usize) -> anyhow::Result<()> {
         let path = dir.path(&format!("{id}.json5"));
         std::fs::write(&path, cfg)?;
         robots.push(Kid(spawn(&["robot", "--config", &path.display().to_string()], &dir.path(&format!("{id}.log")))?));
+        if rate > 0 {
+            tokio::time::sleep(Duration::from_secs_f64(1.0 / rate as f64)).await;
+        }
     }
     ready_lines(&mut robots, "robot ready", Duration::from_secs(300))?;
     let up = t0.elapsed().as_secs_f64();
     let op = mrmm_proto::SecuritySection::from_dir(&pki, "op");
-    let client = Client::connect_with(std::slice::from_ref(&ep), Some(op), Duration::from_secs(10)).await?;
+    let client = Client::connect_with(std::slice::from_ref(&ep), Some(op), Duration::from_secs(10)).await.context("operator client")?;
     let live = |v: &[RobotView]| v.iter().filter(|r| r.status != RobotStatus::Lost).count();
     eventually("every robot registered", Duration::from_secs(300), || async {
         let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
@@ -191,13 +220,17 @@ async fn run(n: usize) -> anyhow::Result<()> {
     let pids: Vec<u32> = robots.iter().chain(&central).map(|k| k.0.id()).collect();
     let rss: Vec<f64> = robots.iter().map(|k| rss_mib(k.0.id())).collect();
     let rss_central = rss_mib(central[0].0.id());
+    let central_pid = central[0].0.id();
     let ticks0: u64 = pids.iter().map(|p| cpu_ticks(*p)).sum();
+    let central0 = cpu_ticks(central_pid);
     let (pk0, w0) = (lo_packets(), Instant::now());
     tokio::time::sleep(Duration::from_secs(10)).await;
     let ticks1: u64 = pids.iter().map(|p| cpu_ticks(*p)).sum();
+    let central1 = cpu_ticks(central_pid);
     let window = w0.elapsed().as_secs_f64();
     let hz = 100.0; // USER_HZ on Linux
     let idle_cpu = (ticks1.saturating_sub(ticks0)) as f64 / hz / window * 100.0;
+    let idle_central = (central1.saturating_sub(central0)) as f64 / hz / window * 100.0;
     let pkts = (lo_packets().saturating_sub(pk0)) as f64 / window;
     let nlinks = links(&pids);
 
@@ -210,9 +243,24 @@ async fn run(n: usize) -> anyhow::Result<()> {
         params: [("waypoints".to_string(), serde_json::json!([[-15, 4], [-6, 14], [5, 17], [15, 9], [11, 1], [0, 0]]))].into(),
         ..Default::default()
     };
-    let telemetry = client.session().declare_subscriber(proto::Pattern::AllTelemetry.to_string()).await.map_err(|e| anyhow!("{e}"))?;
+    // A ring, not a FIFO: a full FIFO would block the session (and the create's reply) while
+    // the create is awaited.
+    let telemetry = client
+        .session()
+        .declare_subscriber(proto::Pattern::AllTelemetry.to_string())
+        .with(zenoh::handlers::RingChannel::new(4096))
+        .await
+        .map_err(|e| anyhow!("{e}"))?;
     let c0 = Instant::now();
-    let created: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&mission)).await?;
+    let created: MissionView = match client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&mission)).await {
+        Ok(v) => v,
+        Err(e) => {
+            let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
+            println!("| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | create failed: {e} | | |");
+            client.close().await;
+            return Ok(());
+        }
+    };
     let members: BTreeSet<String> = created.robots.iter().cloned().collect();
     let mut moving = BTreeSet::new();
     let deadline = c0 + Duration::from_secs(60);
@@ -232,13 +280,18 @@ async fn run(n: usize) -> anyhow::Result<()> {
     let mut rtt = Vec::new();
     for _ in 0..100 {
         let q0 = Instant::now();
-        let _: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
+        let _: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.context("fleet query")?;
         rtt.push(q0.elapsed().as_secs_f64() * 1e3);
     }
 
     // A member SIGKILLed: time until the mission's status shows a plan without it.
     let victim = created.robots.first().cloned().ok_or_else(|| anyhow!("the mission has no robots"))?;
-    let status = client.session().declare_subscriber(proto::Key::MissionStatus("scale".into()).to_string()).await.map_err(|e| anyhow!("{e}"))?;
+    let status = client
+        .session()
+        .declare_subscriber(proto::Key::MissionStatus("scale".into()).to_string())
+        .with(zenoh::handlers::RingChannel::new(256))
+        .await
+        .map_err(|e| anyhow!("{e}"))?;
     let idx: usize = victim.trim_start_matches('r').parse::<usize>().context("robot id")? - 1;
     let k0 = Instant::now();
     let _ = robots[idx].0.kill();
@@ -256,7 +309,7 @@ async fn run(n: usize) -> anyhow::Result<()> {
     let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
     let max = rss.iter().copied().fold(0.0, f64::max);
     println!(
-        "| {n} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1} | {replanned} |",
+        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1} | {replanned} |",
         quantile(&mut rtt.clone(), 0.5),
         quantile(&mut rtt, 0.99)
     );

@@ -175,6 +175,9 @@ pub fn zenoh_config_with(
     if mode == Mode::Peer {
         // Peers keep retrying their connect endpoints (central may be down or restarting).
         set(&mut c, "connect/exit_on_failure", "false".into())?;
+        // Of two peers that learn of each other by gossip, only one connects: with both
+        // connecting, a fleet kept two links per pair (twice the keep-alives of a clique).
+        set(&mut c, "scouting/gossip/autoconnect_strategy", r#"{ peer: { to_router: "always", to_peer: "greater-zid" } }"#.into())?;
     }
     set(&mut c, "transport/link/rx/max_message_size", max_message_size.to_string())?;
     if let Some(t) = tls {

@@ -32,6 +32,11 @@ pub struct Args {
     /// Simulated seconds per wall second for every robot.
     #[arg(long, default_value_t = 1.0)]
     time_scale: f64,
+    /// The robots' link lease in ms: how long a silent robot takes to be declared lost (default
+    /// 1000, and 4000 beyond 40 robots: every robot keeps a link to every other, and on a small
+    /// machine the keep-alives of a large clique alone fill the CPU; see the README's scale table).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(200..=60_000))]
+    lease_ms: Option<u64>,
     /// Radius of the formation circle, metres.
     #[arg(long, default_value_t = 8.0)]
     radius: f64,
@@ -103,15 +108,21 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         procs::field(&line, "listening").and_then(|l| l.split(',').next()).ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?.to_string();
 
     let n = args.robots as usize;
+    let lease = args.lease_ms.unwrap_or(if n > LARGE_FLEET { 4000 } else { 1000 });
     let bar = progress(n, "starting robots");
     for i in 0..n {
         let id = format!("r{}", i + 1);
-        let cfg = robot_config(&id, i, n, &endpoint, args.time_scale, pki.as_deref());
+        let cfg = robot_config(&id, i, n, &endpoint, args.time_scale, lease, pki.as_deref());
         let path = dir.join(format!("{id}.json5"));
         std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
         let log = dir.join(format!("{id}.log"));
         children.push(procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &log)?);
         bar.inc(1);
+        // A large fleet starts gradually: every robot opens a link (a TLS handshake) to every
+        // robot before it, and a burst of thousands starves the leases.
+        if n > LARGE_FLEET {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
     }
     bar.finish_and_clear();
     let registering = progress(n, "robots registered");
@@ -236,6 +247,9 @@ fn show(tty: bool, started: Instant, endpoint: &str, n: usize, views: &[RobotVie
     let _ = stdout.flush();
 }
 
+/// Beyond this many robots the demo starts them gradually, with a longer lease.
+const LARGE_FLEET: usize = 40;
+
 /// Up to this many robots the demo shows the fleet table; beyond, a summary.
 const TABLE_MAX: usize = 16;
 
@@ -315,7 +329,7 @@ fn circle_point(k: usize, n: usize, r: f64) -> (f64, f64) {
 
 /// A generated robot config: types alternate, robots start on a line; with `pki`, its
 /// certificate and TLS endpoints.
-fn robot_config(id: &str, i: usize, n: usize, central: &str, time_scale: f64, pki: Option<&std::path::Path>) -> String {
+fn robot_config(id: &str, i: usize, n: usize, central: &str, time_scale: f64, lease_ms: u64, pki: Option<&std::path::Path>) -> String {
     let kind = TYPES[i % TYPES.len()];
     let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
     let x = (i as f64 - (n as f64 - 1.0) / 2.0) * 1.5;
@@ -332,7 +346,7 @@ fn robot_config(id: &str, i: usize, n: usize, central: &str, time_scale: f64, pk
   kinematics: {{ max_speed: {speed}, max_turn_rate: {turn} }},
   start: {{ x: {x}, y: -12, theta: 1.5708 }},
   time_scale: {time_scale}, telemetry_hz: 5,
-  zenoh: {{ listen: ["{scheme}/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }},
+  zenoh: {{ listen: ["{scheme}/127.0.0.1:0"], connect: ["{central}"], lease_ms: {lease_ms} }},
 {security}}}
 "#
     )
@@ -345,11 +359,11 @@ mod tests {
     #[test]
     fn generated_configs_are_valid() {
         for i in 0..4 {
-            let text = robot_config(&format!("r{i}"), i, 4, "tcp/127.0.0.1:7447", 2.0, None);
+            let text = robot_config(&format!("r{i}"), i, 4, "tcp/127.0.0.1:7447", 2.0, 1000, None);
             let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
             assert_eq!(cfg.time_scale, 2.0);
         }
-        let text = robot_config("r1", 0, 4, "tls/127.0.0.1:7447", 1.0, Some(std::path::Path::new("/p")));
+        let text = robot_config("r1", 0, 4, "tls/127.0.0.1:7447", 1.0, 1000, Some(std::path::Path::new("/p")));
         let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid secure config");
         assert_eq!(cfg.security.map(|s| s.cert), Some(std::path::PathBuf::from("/p/r1.crt")));
         let (x, y) = circle_point(1, 4, 2.0);

@@ -128,6 +128,16 @@ fn status(m: &MissionView) -> String {
 }
 
 /// The missions table.
+/// A mission's robots in one cell: sorted naturally, the middle elided beyond eight.
+fn robots_cell(ids: &[String]) -> String {
+    let mut ids: Vec<&str> = ids.iter().map(String::as_str).collect();
+    ids.sort_by(|a, b| mrmm_proto::natural_cmp(a, b));
+    match ids.len() {
+        0..=8 => ids.join(","),
+        n => format!("{},…,{} ({n})", ids[..3].join(","), ids[n - 1]),
+    }
+}
+
 pub fn table(ms: &[MissionView]) -> String {
     let f = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x:.1}"));
     let rows: Vec<Vec<String>> = ms
@@ -137,7 +147,7 @@ pub fn table(ms: &[MissionView]) -> String {
                 m.name.clone(),
                 m.recipe.clone(),
                 status(m),
-                m.robots.join(","),
+                robots_cell(&m.robots),
                 format!("{}/{}", m.manager.node, m.manager.epoch),
                 m.metrics.rounds.to_string(),
                 m.metrics.sync_points_passed.to_string(),
@@ -147,4 +157,17 @@ pub fn table(ms: &[MissionView]) -> String {
         })
         .collect();
     super::super::table::render(&["MISSION", "RECIPE", "STATUS", "ROBOTS", "MANAGER/EPOCH", "ROUNDS", "SYNCS", "AVG IDLE s", "WORST IDLE s"], &rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::robots_cell;
+
+    #[test]
+    fn robots_are_listed_naturally_and_elided_beyond_eight() {
+        let ids = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(robots_cell(&ids(&["r10", "r2", "r1"])), "r1,r2,r10");
+        let many: Vec<String> = (1..=50).rev().map(|i| format!("r{i}")).collect();
+        assert_eq!(robots_cell(&many), "r1,r2,r3,…,r50 (50)");
+    }
 }
