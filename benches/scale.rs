@@ -278,11 +278,18 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
 
     // Operator queries while the mission runs.
     let mut rtt = Vec::new();
+    let mut failed = 0;
     for _ in 0..100 {
         let q0 = Instant::now();
-        let _: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.context("fleet query")?;
-        rtt.push(q0.elapsed().as_secs_f64() * 1e3);
+        match client.query::<Vec<RobotView>>(proto::Key::SystemRobots, None::<&()>).await {
+            Ok(_) => rtt.push(q0.elapsed().as_secs_f64() * 1e3),
+            Err(e) => {
+                failed += 1;
+                eprintln!("fleet query failed after {:.1} s: {e}", q0.elapsed().as_secs_f64());
+            }
+        }
     }
+    let failed = if failed > 0 { format!(" ({failed} failed)") } else { String::new() };
 
     // A member SIGKILLed: time until the mission's status shows a plan without it.
     let victim = created.robots.first().cloned().ok_or_else(|| anyhow!("the mission has no robots"))?;
@@ -309,7 +316,7 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
     let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
     let max = rss.iter().copied().fold(0.0, f64::max);
     println!(
-        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1} | {replanned} |",
+        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1}{failed} | {replanned} |",
         quantile(&mut rtt.clone(), 0.5),
         quantile(&mut rtt, 0.99)
     );
