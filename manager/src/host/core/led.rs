@@ -71,11 +71,14 @@ impl HostCore {
         let ev = match result {
             Ok(plan) => mission::Event::PlanReady { epoch, plan },
             Err(f) if f.retryable && self.heads.get_mut(name).is_some_and(|h| h.retry_plan(epoch)) => {
-                tracing::warn!(mission = %name, epoch, "no plan ({}); asking again", f.error);
+                // Planned here this time: a planner service that does not answer (cut off, or
+                // gone while its liveliness has not expired yet) must not leave the team on an
+                // outdated plan (system sim seed 1482: four immediate asks of an unreachable
+                // service, and the replan was given up).
+                tracing::warn!(mission = %name, epoch, "no plan ({}); planning here", f.error);
                 if let Some(h) = self.heads.get(name) {
-                    let kind = h.mm.planner();
-                    let request = h.mm.plan_request();
-                    out.push(self.plan_command(name, epoch, kind, request));
+                    let (kind, request) = (h.mm.planner(), h.mm.plan_request());
+                    out.push(Command::RequestPlan { mission: name.to_string(), epoch, kind, request, local: true });
                 }
                 return;
             }
