@@ -1,6 +1,7 @@
 //! The shipped example configs load and validate.
 
 use mrmm_manager::central::CentralConfig;
+use mrmm_manager::site_router::RouterConfig;
 use mrmm_peer::config::RobotConfig;
 use std::path::Path;
 
@@ -11,4 +12,6 @@ fn shipped_configs_are_valid() {
     assert_eq!(r.id, "r1");
     let c = CentralConfig::load(&root.join("config/central.json5")).expect("central.json5");
     assert_eq!(c.listen, ["tcp/127.0.0.1:7447"]);
+    let s = RouterConfig::load(&root.join("config/router.json5")).expect("router.json5");
+    assert_eq!(s.connect, ["tcp/127.0.0.1:7447"]);
 }

@@ -16,26 +16,16 @@
 
 mod common;
 
-use std::process::Command;
 use std::time::{Duration, Instant};
 
-use std::sync::mpsc::Receiver;
-
-use anyhow::{bail, ensure, Context};
-use common::{start_lines, start_wrapped, Proc, Scratch};
-use mrmm_proto::{Key, MissionView, Pattern, RobotView};
+use anyhow::ensure;
+use common::netns::{drain, eventually, ip, namespaces, op, start_tap, tap_until};
+use common::{start_wrapped, Proc, Scratch};
+use mrmm_proto::{Key, MissionView, RobotView};
 use serde_json::Value;
 
 const A_IP: &str = "10.199.0.1";
 const B_IP: &str = "10.199.0.2";
-
-fn ip(args: &[&str]) -> anyhow::Result<()> {
-    let out = Command::new("ip").args(args).output().context("run ip")?;
-    if !out.status.success() {
-        bail!("ip {}: {}", args.join(" "), String::from_utf8_lossy(&out.stderr).trim());
-    }
-    Ok(())
-}
 
 /// Two namespaces and their veth link; deleted on drop.
 struct Net {
@@ -72,59 +62,10 @@ impl Drop for Net {
     }
 }
 
-/// `mrmm op --json <what>` run in namespace `ns` against central.
-fn op<T: serde::de::DeserializeOwned>(ns: &str, central: &str, what: &[&str]) -> anyhow::Result<T> {
-    let out = Command::new("ip").args(["netns", "exec", ns, common::EXE, "op", "--connect", central, "--json", "--timeout-ms", "8000"]).args(what).output()?;
-    ensure!(out.status.success(), "op {what:?}: {}", String::from_utf8_lossy(&out.stderr).trim());
-    Ok(serde_json::from_slice(&out.stdout)?)
-}
-
-fn eventually<T>(what: &str, timeout: Duration, mut f: impl FnMut() -> Option<T>) -> anyhow::Result<T> {
-    let deadline = Instant::now() + timeout;
-    loop {
-        if let Some(v) = f() {
-            return Ok(v);
-        }
-        ensure!(Instant::now() < deadline, "timed out after {timeout:?} waiting for {what}");
-        std::thread::sleep(Duration::from_millis(200));
-    }
-}
-
-/// The lines a tap printed so far, as JSON.
-fn drain(tap: &Receiver<String>) -> Vec<Value> {
-    tap.try_iter().filter_map(|l| serde_json::from_str(&l).ok()).collect()
-}
-
-/// Reads the tap until `done` says so (it sees every line), or fails after `timeout`.
-fn tap_until(tap: &Receiver<String>, what: &str, timeout: Duration, mut done: impl FnMut(&Value) -> bool) -> anyhow::Result<()> {
-    let deadline = Instant::now() + timeout;
-    loop {
-        let left = deadline.saturating_duration_since(Instant::now());
-        ensure!(!left.is_zero(), "timed out after {timeout:?} waiting for {what}");
-        if let Ok(line) = tap.recv_timeout(left) {
-            if let Ok(v) = serde_json::from_str::<Value>(&line) {
-                if done(&v) {
-                    return Ok(());
-                }
-            }
-        }
-    }
-}
-
 /// The manager node of a status line of mission `p`, if it is one.
 fn status_head(v: &Value) -> Option<String> {
     let key = Key::parse(v["key"].as_str()?)?;
     (key == Key::MissionStatus("p".into())).then(|| v["payload"]["manager"]["node"].as_str().map(String::from)).flatten()
-}
-
-/// `mrmm tap mrmm/**` in namespace `ns`, linked to `eps`; its output lines as they come.
-fn start_tap(dir: &Scratch, ns: &str, addr: &str, eps: &[String], name: &str) -> anyhow::Result<(Proc, Receiver<String>)> {
-    let mut args = vec!["tap".to_string(), Pattern::All.to_string(), "--listen".into(), format!("tcp/{addr}:0")];
-    for ep in eps {
-        args.extend(["--connect".to_string(), ep.clone()]);
-    }
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    start_lines(&["ip", "netns", "exec", ns], name, &args, &dir.path(&format!("{name}.log")), "{\"tap\"", Duration::from_secs(20))
 }
 
 /// Central (listening on `central_ep`) and r1, r3 in A; r2, r4 in B.
@@ -161,24 +102,10 @@ fn robot(dir: &Scratch, ns: &str, id: &str, addr: &str, central: &str, x: f64) -
 /// The tests of this file one at a time (each runs five processes and namespaces of its own).
 static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-/// Namespaces for test `name`, or `None` (said) where they cannot be made — a failure under CI.
-fn namespaces(tag: char, name: &str) -> anyhow::Result<Option<Net>> {
-    match Net::new(tag) {
-        Ok(n) => Ok(Some(n)),
-        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => {
-            bail!("cannot create network namespaces under CI ({e}): CI runs as root and must run {name}")
-        }
-        Err(e) => {
-            println!("SKIPPED {name}: cannot create network namespaces here ({e}); run as root to test partitions");
-            Ok(None)
-        }
-    }
-}
-
 #[test]
 fn a_two_two_partition_heals_with_one_head() -> anyhow::Result<()> {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
-    let Some(net) = namespaces('p', "a_two_two_partition_heals_with_one_head")? else { return Ok(()) };
+    let Some(net) = namespaces("a_two_two_partition_heals_with_one_head", || Net::new('p'))? else { return Ok(()) };
     let dir = Scratch::new("partition");
     let result = scenario(&net, &dir);
     keep_logs(&dir, &result);
@@ -188,7 +115,7 @@ fn a_two_two_partition_heals_with_one_head() -> anyhow::Result<()> {
 #[test]
 fn twenty_cuts_never_hold_up_what_still_connects() -> anyhow::Result<()> {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
-    let Some(net) = namespaces('c', "twenty_cuts_never_hold_up_what_still_connects")? else { return Ok(()) };
+    let Some(net) = namespaces("twenty_cuts_never_hold_up_what_still_connects", || Net::new('c'))? else { return Ok(()) };
     let dir = Scratch::new("partition-cuts");
     let result = cuts(&net, &dir, 20);
     keep_logs(&dir, &result);

@@ -285,3 +285,46 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     rogue.close().await;
     Ok(())
 }
+
+/// A site router (`mrmm router`) in a secure fleet: it needs a router certificate of the fleet's
+/// CA (a robot's is refused at start-up, and so is a router certificate of another CA); a robot
+/// that knows only the router joins the fleet through it; an operator tool linked to the router
+/// reads the fleet, but cannot command it there — operator authority is checked by central on
+/// its own links, and the router's link is not an operator's.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_site_router_carries_the_fleet_but_no_commands() -> anyhow::Result<()> {
+    use mrmm_proto::security::pki;
+    let dir = Scratch::new("security-router");
+    let pki_dir = fleet_pki(&dir, 1)?;
+    pki::issue(&pki_dir, proto::Role::Router, "site-b", &[], 2)?;
+    let (_central, ep) = start_secure_central(&dir, &pki_dir)?;
+    let cfg = dir.path("router.json5");
+    std::fs::write(&cfg, format!(r#"{{ id: "site-b", listen: ["tls/127.0.0.1:0"], connect: ["{ep}"] }}"#))?;
+    let (cfg_s, pki_s) = (cfg.display().to_string(), pki_dir.display().to_string());
+    // A robot's certificate is not a router's.
+    let out = std::process::Command::new(common::EXE).args(["router", "--config", &cfg_s, "--pki", &pki_s, "--as", "r1"]).output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("names robot:r1 but this node is router:site-b"), "router with a robot certificate: {err}");
+    let router = common::start("router", &["router", "--config", &cfg_s, "--pki", &pki_s], &dir.path("router.log"), "router ready", Duration::from_secs(20))?;
+    let rep = router
+        .field("listening")
+        .and_then(|l| l.split(',').next().map(str::to_string))
+        .ok_or_else(|| anyhow::anyhow!("router: {:?}", router.field("listening")))?;
+    // A stranger cannot link to the router.
+    assert!(cannot_open(&rep, &pki_dir.join("ca.crt"), None).await, "a client without a certificate reached the router");
+    let _r1 = start_secure_robot(&dir, &pki_dir, "r1", &rep, 2.0)?;
+    let op = Client::connect_with(std::slice::from_ref(&ep), Some(SecuritySection::from_dir(&pki_dir, "op")), Duration::from_secs(5)).await?;
+    common::wait_robots(&op, 1).await?;
+    // The operator's certificate, linked to the router only: reads pass, commands do not.
+    let via_router = Client::connect_with(std::slice::from_ref(&rep), Some(SecuritySection::from_dir(&pki_dir, "op")), Duration::from_secs(5)).await?;
+    let robots: Vec<RobotView> = via_router.query(Key::SystemRobots, None::<&()>).await?;
+    assert_eq!(robots.len(), 1, "the fleet read through the router");
+    let mut pc = common::square_patrol(1, None);
+    pc.name = "through-router".into();
+    let r = via_router.query::<MissionView>(Key::SystemCmd(proto::SystemCmd::Create), Some(&pc)).await;
+    assert!(r.is_err(), "a command through a site router was obeyed: {r:?}");
+    // The same command linked to central works (the check can fail).
+    let m: MissionView = op.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&pc)).await?;
+    assert_eq!(m.robots, ["r1"]);
+    Ok(())
+}

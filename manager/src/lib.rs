@@ -22,6 +22,7 @@ pub mod inbox;
 pub mod journal;
 pub mod mission;
 pub mod planner_service;
+pub mod site_router;
 pub mod system;
 pub mod wire;
 

@@ -216,7 +216,7 @@ impl Robot {
                         refuse(&format!("plan mission {} for this robot (neither a teammate nor a manager it was admitted under)", a.mission))
                     }
                 }
-                Role::Operator | Role::Planner => refuse("send plans"),
+                Role::Operator | Role::Planner | Role::Router => refuse("send plans"),
             },
         }
     }

@@ -10,6 +10,7 @@ mod plan;
 mod planner_service;
 mod procs;
 mod robot;
+mod router;
 mod security;
 mod shutdown;
 mod table;
@@ -33,6 +34,8 @@ enum Cmd {
     Central(central::Args),
     /// Run one robot peer (simulated body) from a config file.
     Robot(robot::Args),
+    /// Run a site router of a multi-site fleet (robots of the site are its peers).
+    Router(router::Args),
     /// Operator commands against a running fleet.
     Op(op::Args),
     /// Start central and a simulated fleet, drive it, and show it live.
@@ -69,6 +72,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Cmd::Central(a) => central::run(a).await,
         Cmd::Robot(a) => robot::run(a).await,
+        Cmd::Router(a) => router::run(a).await,
         Cmd::Op(a) => op::run(a).await,
         Cmd::Demo(a) => demo::run(a).await,
         Cmd::Tour(a) => tour::run(a),

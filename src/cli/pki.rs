@@ -18,7 +18,7 @@ enum What {
     /// Issue a node's certificate and key, signed by the CA of DIR: DIR/NAME.crt and DIR/NAME.key.
     Issue {
         dir: PathBuf,
-        /// operator | central | robot | host | planner
+        /// operator | central | robot | host | planner | router
         #[arg(long)]
         role: String,
         /// The node's id (a robot's id, a mission host's name, an operator's name; `central`).
@@ -40,7 +40,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             println!("fleet CA: {} (give it to every node), {} (keep it off the fleet)", crt.display(), key.display());
         }
         What::Issue { dir, role, id, san, days } => {
-            let r = Role::parse(&role).ok_or_else(|| anyhow::anyhow!("--role: {role:?} is not one of operator, central, robot, host, planner"))?;
+            let r = Role::parse(&role).ok_or_else(|| anyhow::anyhow!("--role: {role:?} is not one of operator, central, robot, host, planner, router"))?;
             let (crt, key) = pki::issue(&dir, r, &id, &san, days)?;
             println!("{r}:{id}: {} and {} (with {}/ca.crt, in the node's `security` section)", crt.display(), key.display(), dir.display());
         }

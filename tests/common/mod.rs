@@ -9,6 +9,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Context};
 
+pub mod netns;
+
 pub const EXE: &str = env!("CARGO_BIN_EXE_mrmm");
 
 /// A running `mrmm` process; SIGKILLed when dropped.

@@ -43,10 +43,12 @@ pub enum Role {
     Host,
     /// A planner service (`mrmm planner-service`).
     Planner,
+    /// A site router (`mrmm router`): routes between sites, has no authority of its own.
+    Router,
 }
 
 impl Role {
-    pub const ALL: [Role; 5] = [Role::Operator, Role::Central, Role::Robot, Role::Host, Role::Planner];
+    pub const ALL: [Role; 6] = [Role::Operator, Role::Central, Role::Robot, Role::Host, Role::Planner, Role::Router];
 
     pub fn as_str(self) -> &'static str {
         match self {
@@ -55,6 +57,7 @@ impl Role {
             Role::Robot => "robot",
             Role::Host => "host",
             Role::Planner => "planner",
+            Role::Router => "router",
         }
     }
 

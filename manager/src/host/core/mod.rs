@@ -212,7 +212,7 @@ impl HostCore {
         match from.role {
             Role::Central | Role::Host => return true,
             Role::Robot => {}
-            Role::Operator | Role::Planner => return false,
+            Role::Operator | Role::Planner | Role::Router => return false,
         }
         let id = &from.id;
         if let Some(r) = self.registry.replica(mission) {
