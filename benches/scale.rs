@@ -1,5 +1,6 @@
 //! What a fleet of N robots costs on this machine, one `mrmm robot` process per robot, as
-//! deployed and as `mrmm demo` runs them: mutual TLS, signed messages, telemetry at 5 Hz, lease
+//! deployed and as `mrmm demo` runs them: mutual TLS, signed messages, telemetry at 5 Hz (bodies
+//! simulated 5× faster than real time, for more barriers in the measured window), lease
 //! 1000 ms, every robot connecting to central only (the robots find each other by gossip and form
 //! a clique).
 //!
@@ -9,11 +10,21 @@
 //! between the fleet's processes) and loopback packets per second while idle (keep-alives,
 //! telemetry, liveliness); the latency from a mission create of N/2 robots to every one of them
 //! moving (seen in their telemetry, 5 Hz: ±200 ms); operator query round trips while that mission
-//! runs; and the time from a member's SIGKILL to the mission's new plan without it.
+//! runs; barrier release latency in that mission (each member logs the instant it releases; the
+//! last member to arrive releases at once, in the tick it publishes its arrival, so every other
+//! member's latency is its release minus that first release — one machine's clock, 20 ms ticks);
+//! and the time from a member's SIGKILL to the mission's new plan without it.
 //!
-//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R]` (sizes, default 10 25; the
-//! robots' lease, default as `mrmm demo` sets it: 1000 ms, 4000 ms beyond 40 robots; robots
-//! started R per second, default 20 as the demo does, 0 = all at once).
+//! With `--sites K`, the multi-site layout (docs/deployment.md): K − 1 site routers
+//! (`mrmm router`, linked to central), robot i a peer of site i mod K (site 0 is central's); the
+//! routers count with the fleet (CPU, links).
+//!
+//! With `--insecure`: plain TCP and unsigned messages (what security costs at scale). `BENCH_LOG`
+//! replaces the processes' `RUST_LOG` (their logs are in the run's scratch directory).
+//!
+//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--insecure]` (sizes, default
+//! 10 25; the robots' lease, default as `mrmm demo` sets it: 1000 ms, 4000 ms beyond 40 robots;
+//! robots started R per second, default 20 as the demo does, 0 = all at once; default 1 site).
 
 #[path = "../tests/common/mod.rs"]
 #[allow(dead_code)]
@@ -45,6 +56,8 @@ fn main() -> anyhow::Result<()> {
     let opt = |name: &str| args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse::<u64>().ok());
     let lease = opt("--lease");
     let rate = opt("--rate").unwrap_or(20);
+    let sites = opt("--sites").unwrap_or(1).max(1) as usize;
+    let insecure = args.iter().any(|a| a == "--insecure");
     let mut sizes: Vec<usize> = args
         .iter()
         .enumerate()
@@ -61,15 +74,17 @@ fn main() -> anyhow::Result<()> {
         .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|s| s.trim().to_string()))
         .unwrap_or_default();
     println!(
-        "\n### Scale: one process per robot ({cpu}, {} cores; lease {}; robots started {})\n",
+        "\n### Scale: one process per robot ({cpu}, {} cores; {}; lease {}; robots started {}{})\n",
         std::thread::available_parallelism().map_or(0, |n| n.get()),
+        if sites == 1 { "one clique".to_string() } else { format!("{sites} sites") },
         lease.map_or("as the demo: 1000 ms, 4000 ms beyond 40 robots".to_string(), |l| format!("{l} ms")),
-        if rate == 0 { "at once".to_string() } else { format!("{rate} per second") }
+        if rate == 0 { "at once".to_string() } else { format!("{rate} per second") },
+        if insecure { "; INSECURE: plain TCP, unsigned" } else { "" }
     );
-    println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | SIGKILL→replanned s |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | barrier release p50/p99 ms | SIGKILL→replanned s |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in sizes {
-        rt.block_on(run(n, lease.unwrap_or(if n > 40 { 4000 } else { 1000 }), rate))?;
+        rt.block_on(run(n, lease.unwrap_or(if n > 40 { 4000 } else { 1000 }), rate, sites, insecure))?;
     }
     Ok(())
 }
@@ -77,7 +92,8 @@ fn main() -> anyhow::Result<()> {
 fn spawn(args: &[&str], log: &Path) -> anyhow::Result<Child> {
     Command::new(common::EXE)
         .args(args)
-        .env("RUST_LOG", "info,zenoh=warn")
+        .env("RUST_LOG", std::env::var("BENCH_LOG").unwrap_or("info,zenoh=warn,mrmm_peer::barrier=debug".into()))
+        .env("NO_COLOR", "1")
         .env("XDG_DATA_HOME", log.parent().unwrap_or(Path::new(".")).join("data"))
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -160,7 +176,56 @@ fn quantile(v: &mut [f64], q: f64) -> f64 {
     v.get(((v.len().saturating_sub(1)) as f64 * q).round() as usize).copied().unwrap_or(f64::NAN)
 }
 
-async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
+/// Seconds since midnight (UTC) of a log line's timestamp (`2026-11-24T19:45:12.123456Z …`).
+fn log_time(line: &str) -> Option<f64> {
+    let clean: String = {
+        // Strip ANSI colour codes, should the log have them.
+        let mut out = String::new();
+        let mut esc = false;
+        for c in line.chars() {
+            match (esc, c) {
+                (false, '\u{1b}') => esc = true,
+                (true, 'm') => esc = false,
+                (true, _) => {}
+                (false, c) => out.push(c),
+            }
+        }
+        out
+    };
+    let ts = clean.split_whitespace().next()?;
+    let time = ts.split_once('T')?.1.trim_end_matches('Z');
+    let mut parts = time.split(':');
+    let (h, m, s) = (parts.next()?.parse::<f64>().ok()?, parts.next()?.parse::<f64>().ok()?, parts.next()?.parse::<f64>().ok()?);
+    Some(h * 3600.0 + m * 60.0 + s)
+}
+
+/// Barrier release latencies (ms) of mission `mission` at plan epoch `epoch`, from the robots'
+/// logs: per barrier, every member's release minus the first release (the last arriver's).
+fn barrier_latencies(logs: &[std::path::PathBuf], mission: &str, epoch: u64) -> Vec<f64> {
+    let mut by_barrier: std::collections::BTreeMap<(u64, u64), Vec<f64>> = Default::default();
+    let (m, e) = (format!("mission={mission}"), format!("epoch={epoch}"));
+    let field = |line: &str, k: &str| line.split_whitespace().find_map(|w| w.strip_prefix(k)).and_then(|v| v.parse::<u64>().ok());
+    for log in logs {
+        for line in std::fs::read_to_string(log).unwrap_or_default().lines() {
+            if !(line.contains("released") && line.contains(&m) && line.split_whitespace().any(|w| w == e)) {
+                continue;
+            }
+            if let (Some(t), Some(p), Some(r)) = (log_time(line), field(line, "point="), field(line, "round=")) {
+                by_barrier.entry((r, p)).or_default().push(t);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for times in by_barrier.values_mut() {
+        times.sort_by(f64::total_cmp);
+        if let Some((first, rest)) = times.split_first() {
+            out.extend(rest.iter().map(|t| (t - first) * 1e3));
+        }
+    }
+    out
+}
+
+async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool) -> anyhow::Result<()> {
     let dir = Scratch::new(&format!("bench-scale-{n}"));
     let pki = dir.path("pki");
     {
@@ -171,9 +236,24 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
         for i in 1..=n {
             p::issue(&pki, Role::Robot, &format!("r{i}"), &[], 2)?;
         }
+        for s in 1..sites {
+            p::issue(&pki, Role::Router, &format!("site{s}"), &[], 2)?;
+        }
     }
     let p = pki.display().to_string();
-    let mut central = vec![Kid(spawn(&["central", "--listen", "tls/127.0.0.1:0", "--pki", &p, "--operator", "op"], &dir.path("central.log"))?)];
+    let proto_ = if insecure { "tcp" } else { "tls" };
+    let listen = format!("{proto_}/127.0.0.1:0");
+    // Certificates on the command line (`--pki DIR [--operator op]`), unless insecure.
+    let pki_args = |extra: &[&'static str]| -> Vec<String> {
+        if insecure {
+            vec![]
+        } else {
+            ["--pki", p.as_str()].iter().chain(extra).map(|s| s.to_string()).collect()
+        }
+    };
+    let central_args: Vec<String> = ["central", "--listen", &listen].iter().map(|s| s.to_string()).chain(pki_args(&["--operator", "op"])).collect();
+    let central_args: Vec<&str> = central_args.iter().map(String::as_str).collect();
+    let mut central = vec![Kid(spawn(&central_args, &dir.path("central.log"))?)];
     let line = ready_lines(&mut central, "central ready", Duration::from_secs(30))?.remove(0);
     let ep = line
         .split_whitespace()
@@ -181,20 +261,37 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
         .and_then(|l| l.split(',').next())
         .ok_or_else(|| anyhow!("no endpoint in {line}"))?
         .to_string();
+    // Site routers: robots of site s > 0 connect to router s, which links to central.
+    let mut routers = Vec::new();
+    for s in 1..sites {
+        let cfg = dir.path(&format!("site{s}.json5"));
+        std::fs::write(&cfg, format!(r#"{{ id: "site{s}", listen: ["{listen}"], connect: ["{ep}"], lease_ms: {lease} }}"#))?;
+        let args: Vec<String> = ["router".to_string(), "--config".into(), cfg.display().to_string()].into_iter().chain(pki_args(&[])).collect();
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        routers.push(Kid(spawn(&args, &dir.path(&format!("site{s}.log")))?));
+    }
+    let mut site_eps = vec![ep.clone()];
+    for line in ready_lines(&mut routers, "router ready", Duration::from_secs(30))? {
+        let rep = line.split_whitespace().find_map(|w| w.strip_prefix("listening=")).and_then(|l| l.split(',').next()).ok_or_else(|| anyhow!("{line}"))?;
+        site_eps.push(rep.to_string());
+    }
     let t0 = Instant::now();
     let mut robots = Vec::new();
     for i in 1..=n {
         let id = format!("r{i}");
         let f = |name: &str| serde_json::to_string(&pki.join(name).display().to_string()).unwrap_or_default();
+        let security = if insecure {
+            String::new()
+        } else {
+            format!("security: {{ ca: {}, cert: {}, key: {} }},", f("ca.crt"), f(&format!("{id}.crt")), f(&format!("{id}.key")))
+        };
         let cfg = format!(
             r#"{{ id: "{id}", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1.0, max_turn_rate: 1.5 }},
-                 start: {{ x: {x}, y: -12, theta: 1.5708 }}, time_scale: 1, telemetry_hz: 5,
-                 zenoh: {{ listen: ["tls/127.0.0.1:0"], connect: ["{ep}"], lease_ms: {lease} }},
-                 security: {{ ca: {}, cert: {}, key: {} }} }}"#,
-            f("ca.crt"),
-            f(&format!("{id}.crt")),
-            f(&format!("{id}.key")),
+                 start: {{ x: {x}, y: -12, theta: 1.5708 }}, time_scale: 5, telemetry_hz: 5,
+                 zenoh: {{ listen: ["{listen}"], connect: ["{site}"], lease_ms: {lease} }},
+                 {security} }}"#,
             x = (i as f64 - n as f64 / 2.0) * 1.5,
+            site = site_eps[i % sites],
         );
         let path = dir.path(&format!("{id}.json5"));
         std::fs::write(&path, cfg)?;
@@ -205,8 +302,8 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
     }
     ready_lines(&mut robots, "robot ready", Duration::from_secs(300))?;
     let up = t0.elapsed().as_secs_f64();
-    let op = mrmm_proto::SecuritySection::from_dir(&pki, "op");
-    let client = Client::connect_with(std::slice::from_ref(&ep), Some(op), Duration::from_secs(10)).await.context("operator client")?;
+    let op = (!insecure).then(|| mrmm_proto::SecuritySection::from_dir(&pki, "op"));
+    let client = Client::connect_with(std::slice::from_ref(&ep), op, Duration::from_secs(10)).await.context("operator client")?;
     let live = |v: &[RobotView]| v.iter().filter(|r| r.status != RobotStatus::Lost).count();
     eventually("every robot registered", Duration::from_secs(300), || async {
         let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
@@ -217,7 +314,7 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
     // Let start-up work (link set-up, liveliness histories) settle before measuring the idle
     // fleet.
     tokio::time::sleep(Duration::from_secs(5)).await;
-    let pids: Vec<u32> = robots.iter().chain(&central).map(|k| k.0.id()).collect();
+    let pids: Vec<u32> = robots.iter().chain(&central).chain(&routers).map(|k| k.0.id()).collect();
     let rss: Vec<f64> = robots.iter().map(|k| rss_mib(k.0.id())).collect();
     let rss_central = rss_mib(central[0].0.id());
     let central_pid = central[0].0.id();
@@ -256,7 +353,7 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
         Ok(v) => v,
         Err(e) => {
             let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
-            println!("| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | create failed: {e} | | |");
+            println!("| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | create failed: {e} | | | |");
             client.close().await;
             return Ok(());
         }
@@ -290,6 +387,15 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
         }
     }
     let failed = if failed > 0 { format!(" ({failed} failed)") } else { String::new() };
+    // Barriers: 20 s of the mission at least, then every member's releases from its log.
+    tokio::time::sleep(Duration::from_secs(20).saturating_sub(c0.elapsed())).await;
+    let logs: Vec<std::path::PathBuf> = created.robots.iter().map(|id| dir.path(&format!("{id}.log"))).collect();
+    let mut lat = barrier_latencies(&logs, "scale", created.manager.epoch);
+    let barriers = if lat.is_empty() {
+        "none".to_string()
+    } else {
+        format!("{:.1} / {:.1} ({} releases)", quantile(&mut lat.clone(), 0.5), quantile(&mut lat, 0.99), lat.len())
+    };
 
     // A member SIGKILLed: time until the mission's status shows a plan without it.
     let victim = created.robots.first().cloned().ok_or_else(|| anyhow!("the mission has no robots"))?;
@@ -316,7 +422,7 @@ async fn run(n: usize, lease: u64, rate: u64) -> anyhow::Result<()> {
     let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
     let max = rss.iter().copied().fold(0.0, f64::max);
     println!(
-        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1}{failed} | {replanned} |",
+        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1}{failed} | {barriers} | {replanned} |",
         quantile(&mut rtt.clone(), 0.5),
         quantile(&mut rtt, 0.99)
     );

@@ -192,6 +192,8 @@ impl Executor {
                     }
                     self.waiting = None;
                     self.syncs_passed += 1;
+                    // The release instant, for latency measurements (`benches/scale.rs`).
+                    tracing::debug!(target: "mrmm_peer::barrier", mission = %self.assignment.mission, epoch = self.assignment.epoch, point, round = self.round, "released");
                     self.pc += 1;
                 }
                 Step::Hold { seconds } => {
