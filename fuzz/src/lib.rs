@@ -162,6 +162,7 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
         manager: mrmm_proto::ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![host.into()] },
         metrics: Default::default(),
         summary: None,
+        summary_unchanged: false,
         params: Default::default(),
         error: None,
         plans: None,

@@ -182,8 +182,14 @@ pub struct MissionView {
     pub manager: ManagerView,
     pub metrics: MissionMetrics,
     /// Planner figures (tour length, predicted idleness, coverage radius, …); null before the
-    /// first plan.
+    /// first plan, and in a status that says `summary_unchanged`.
     pub summary: Option<PlanSummary>,
+    /// In a mission status (`mrmm/missions/<name>/status`): the summary is the one this mission's
+    /// status last carried, left out to keep the once-a-second status small (it carries the
+    /// summary when it changes, and every [`SUMMARY_REFRESH_S`] seconds for late subscribers).
+    /// Never set in operator answers.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub summary_unchanged: bool,
     /// The mission's recipe parameters (overrides included).
     #[serde(default)]
     pub params: BTreeMap<String, String>,
@@ -192,6 +198,22 @@ pub struct MissionView {
     /// Per-robot plans (only on `mrmm/system/missions/<name>`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub plans: Option<Vec<RobotPlan>>,
+}
+
+/// Seconds between two mission statuses that carry the planner's summary although it did not
+/// change.
+pub const SUMMARY_REFRESH_S: f64 = 10.0;
+
+impl MissionView {
+    /// Fills in a status's left-out summary (`summary_unchanged`) from `previous`, the last view
+    /// of this mission the reader holds; without one the summary stays unknown (null) until the
+    /// next status that carries it.
+    pub fn carry_summary(&mut self, previous: Option<&MissionView>) {
+        if self.summary_unchanged {
+            self.summary = previous.filter(|p| p.name == self.name).and_then(|p| p.summary.clone());
+            self.summary_unchanged = false;
+        }
+    }
 }
 
 /// Answer of `mrmm/missions/<name>/marginal?add=±k`.
@@ -204,4 +226,35 @@ pub struct Marginal {
     pub current: f64,
     pub with_robots: usize,
     pub predicted: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_left_out_summary_is_carried_from_the_last_view() {
+        let full: MissionView = serde_json::from_value(serde_json::json!({
+            "name": "p", "recipe": "patrol", "planner": "patrol", "status": "running", "robots": ["r1"], "teams": {},
+            "manager": { "node": "central", "epoch": 3, "chain_epoch": 1, "chain": [] },
+            "metrics": { "rounds": 0, "sync_points_passed": 0, "visits": [], "messages": {} },
+            "summary": { "planner": "coverage", "region": { "outer": [] }, "points": [{ "x": 1.0, "y": 2.0 }],
+                         "coverage_radius": 1.0, "hexagonal_bound": 1.0, "formation_time": 0.0 },
+        }))
+        .expect("a view");
+        assert!(!serde_json::to_string(&full).expect("json").contains("summary_unchanged"), "never on the wire unless set");
+        let mut status = full.clone();
+        (status.summary, status.summary_unchanged) = (None, true);
+        let text = serde_json::to_string(&status).expect("json");
+        assert!(text.contains("\"summary_unchanged\":true"), "{text}");
+        let mut s: MissionView = serde_json::from_str(&text).expect("back");
+        s.carry_summary(Some(&full));
+        assert_eq!((s.summary.as_ref(), s.summary_unchanged), (full.summary.as_ref(), false));
+        // No earlier view (or another mission's): unknown until a status carries it.
+        let mut s: MissionView = serde_json::from_str(&text).expect("back");
+        let mut other = full.clone();
+        other.name = "q".into();
+        s.carry_summary(Some(&other));
+        assert_eq!((s.summary, s.summary_unchanged), (None, false));
+    }
 }

@@ -204,6 +204,15 @@ impl View {
     }
 
     fn mission(&mut self, m: &MissionView) {
+        // A status that leaves out an unchanged summary keeps the one drawn.
+        let mut full;
+        let m = if m.summary_unchanged {
+            full = m.clone();
+            full.carry_summary(self.missions.get(&m.name));
+            &full
+        } else {
+            m
+        };
         self.now();
         let [r, g, b] = self.color(Some(&m.name));
         let color = rerun::Color::from_rgb(r, g, b);

@@ -41,6 +41,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
                 idleness_lower_bound: 0.0,
             })
         }),
+        summary_unchanged: false,
         params: standard.map(|s| [("max_worst_idleness".to_string(), s.to_string())].into()).unwrap_or_default(),
         error: None,
         plans: None,

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{CtlAck, PlanAssignment, Telemetry};
+use mrmm_proto::{CtlAck, PlanAssignment, PlanSummary, Telemetry, SUMMARY_REFRESH_S};
 
 use crate::mission::{self, MissionManager};
 
@@ -39,6 +39,31 @@ pub struct Head {
     astray: BTreeMap<String, f64>,
     /// The last plan sent to each robot (sent only once committed).
     sent: BTreeMap<String, Box<PlanAssignment>>,
+    /// What the mission's status last carried of the planner's summary.
+    summary: SummaryGate,
+}
+
+/// Decides which statuses carry the planner's summary (the tour, the coverage points: O(team)
+/// bytes): the one after it changed, and one every [`SUMMARY_REFRESH_S`] seconds for subscribers
+/// that came later. Holds the summary last carried and when.
+#[derive(Debug, Clone, Default)]
+pub struct SummaryGate(Option<(PlanSummary, f64)>);
+
+impl SummaryGate {
+    /// Whether the status published at `now`, whose summary is `summary`, carries it.
+    pub fn carries(&mut self, now: f64, summary: Option<&PlanSummary>) -> bool {
+        let Some(s) = summary else {
+            self.0 = None;
+            return true;
+        };
+        match &self.0 {
+            Some((last, at)) if last == s && now - at < SUMMARY_REFRESH_S => false,
+            _ => {
+                self.0 = Some((s.clone(), now));
+                true
+            }
+        }
+    }
 }
 
 impl Head {
@@ -52,7 +77,13 @@ impl Head {
             requested: None,
             astray: BTreeMap::new(),
             sent: BTreeMap::new(),
+            summary: SummaryGate::default(),
         }
+    }
+
+    /// Whether the mission's status published at `now` carries the planner's summary.
+    pub fn carries_summary(&mut self, now: f64, summary: Option<&PlanSummary>) -> bool {
+        self.summary.carries(now, summary)
     }
 
     /// Runs one mission event; returns the plan requests to make now (everything else waits for
@@ -167,5 +198,37 @@ impl Head {
     /// Robots with a plan still on its way.
     pub fn undelivered(&self) -> impl Iterator<Item = &String> {
         self.deliveries.keys()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use mrmm_proto::plan::{CoverageSummary, Point, Region};
+
+    use super::*;
+
+    fn summary(points: usize) -> PlanSummary {
+        let points = (0..points).map(|i| Point { x: i as f64, y: 0.0 }).collect();
+        PlanSummary::Coverage(CoverageSummary {
+            region: Region { outer: vec![], holes: vec![] },
+            points,
+            coverage_radius: 1.0,
+            hexagonal_bound: 1.0,
+            formation_time: 0.0,
+        })
+    }
+
+    #[test]
+    fn the_status_carries_the_summary_when_it_changes_and_every_refresh_period() {
+        let (a, b) = (summary(2), summary(3));
+        let mut h = SummaryGate::default();
+        assert!(h.carries(0.0, Some(&a)), "the first status carries it");
+        assert!(!h.carries(1.0, Some(&a)), "unchanged: left out");
+        assert!(!h.carries(SUMMARY_REFRESH_S - 0.1, Some(&a)));
+        assert!(h.carries(SUMMARY_REFRESH_S, Some(&a)), "due again for late subscribers");
+        assert!(h.carries(SUMMARY_REFRESH_S + 1.0, Some(&b)), "a new plan: carried at once");
+        assert!(!h.carries(SUMMARY_REFRESH_S + 2.0, Some(&b)));
+        assert!(h.carries(SUMMARY_REFRESH_S + 3.0, None), "no plan: nothing to leave out");
+        assert!(h.carries(SUMMARY_REFRESH_S + 4.0, Some(&b)), "after no plan, the plan again");
     }
 }

@@ -426,6 +426,7 @@ impl MissionManager {
             manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![] },
             metrics: self.metrics(),
             summary: self.plan.as_ref().map(|(_, p)| p.summary.clone()),
+            summary_unchanged: false,
             params: self.spec.params.clone(),
             error: self.error.clone(),
             plans: with_plans.then(|| self.plan.as_ref().map(|(_, p)| p.plans.clone()).unwrap_or_default()),

@@ -106,7 +106,8 @@ impl SystemManager {
     /// A head reported a mission. A mission this manager does not know (it restarted while the
     /// head kept running it) is adopted: record, host and membership come from the report, for
     /// robots not already in another mission. A mission terminated here is ended again.
-    pub(super) fn mission_status(&mut self, view: MissionView, from: Sender) -> Vec<Command> {
+    pub(super) fn mission_status(&mut self, mut view: MissionView, from: Sender) -> Vec<Command> {
+        view.carry_summary(self.missions.get(&view.name).and_then(|r| r.view.as_ref()));
         if view.manager.node != from.id || !from.role.hosts_missions() {
             return vec![Command::Refused { what: format!("report mission {} as managed by {}", view.name, view.manager.node), from }];
         }

@@ -221,6 +221,7 @@ impl MissionViewBuilder {
             manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![] },
             metrics: MissionMetrics::default(),
             summary: None,
+            summary_unchanged: false,
             params: Default::default(),
             error: None,
             plans: None,

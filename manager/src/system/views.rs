@@ -26,6 +26,7 @@ impl SystemManager {
                 manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0, chain_epoch: 0, chain: vec![] },
                 metrics: MissionMetrics::default(),
                 summary: None,
+                summary_unchanged: false,
                 params: BTreeMap::new(),
                 error: None,
                 plans: None,

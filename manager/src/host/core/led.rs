@@ -116,7 +116,7 @@ impl HostCore {
         let cmds = self.registry.handle(now, name, chain::Event::Propose(state));
         self.apply(now, name, cmds, out);
         self.set_pool(now, name);
-        self.status(name, out);
+        self.status(now, name, out);
         self.flush(now, name, out);
     }
 
@@ -167,7 +167,7 @@ impl HostCore {
             self.run(now, name, mission::Event::Resume, out);
         }
         self.set_pool(now, name);
-        self.status(name, out);
+        self.status(now, name, out);
     }
 
     pub(super) fn step_down(&mut self, name: &str, why: &str, out: &mut Vec<Command>) {
@@ -243,10 +243,16 @@ impl HostCore {
         let _ = self.registry.handle(now, name, chain::Event::Pool { nodes, k });
     }
 
-    pub(super) fn status(&self, name: &str, out: &mut Vec<Command>) {
-        if let Some(v) = self.view(name, false) {
-            out.push(Command::Status(Box::new(v)));
+    /// The mission's status, with the planner's summary only when it changed (or is due again).
+    pub(super) fn status(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
+        let Some(mut v) = self.view(name, false) else { return };
+        if let Some(h) = self.heads.get_mut(name) {
+            if !h.carries_summary(now, v.summary.as_ref()) {
+                v.summary = None;
+                v.summary_unchanged = true;
+            }
         }
+        out.push(Command::Status(Box::new(v)));
     }
 
     /// A led mission as the operator sees it, with its chain.

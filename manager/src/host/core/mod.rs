@@ -283,7 +283,7 @@ impl HostCore {
                     self.run(now, &name, mission::Event::Checkpoint, &mut out);
                     if !out[before..].iter().any(|c| matches!(c, Command::Status(_))) {
                         self.set_pool(now, &name);
-                        self.status(&name, &mut out);
+                        self.status(now, &name, &mut out);
                     }
                 }
             }

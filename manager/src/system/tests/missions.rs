@@ -42,6 +42,7 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                     manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![] },
                     metrics: MissionMetrics::default(),
                     summary: None,
+                    summary_unchanged: false,
                     params: Default::default(),
                     error: None,
                     plans: None,

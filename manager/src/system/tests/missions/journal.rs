@@ -40,6 +40,7 @@ fn started_view(name: &str, host: &str, robots: &[String]) -> Box<MissionView> {
         manager: ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![] },
         metrics: MissionMetrics::default(),
         summary: None,
+        summary_unchanged: false,
         params: Default::default(),
         error: None,
         plans: None,
