@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use common::{eventually, Scratch};
 use mrmm_proto::client::Client;
-use mrmm_proto::{self as proto, Advice, MissionView, Priority};
+use mrmm_proto::{self as proto, Advice, MissionView, Priority, RobotView};
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
 
@@ -49,11 +49,35 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     println!("robot SIGKILL → critical advice published: {:?}", killed.elapsed());
     assert_eq!(lost.priority, Priority::Critical);
     assert!(lost.reason.starts_with("robot r2 lost; mission patrol-1 replanned for its 2 remaining robots"), "{}", lost.reason);
-    let below = eventually("below-standard advice", Duration::from_secs(30), || async {
+    let below = match eventually("below-standard advice", Duration::from_secs(30), || async {
         let a: Vec<Advice> = client.query(proto::Key::AgentAdvice, None::<&()>).await.ok()?;
         a.into_iter().find(|a| a.id == "standard/patrol-1")
     })
-    .await?;
+    .await
+    {
+        Ok(b) => b,
+        Err(e) => {
+            // What the agent saw: the missions and the advice standing.
+            let m: Result<Vec<MissionView>, _> = client.query(proto::Key::SystemMissions, None::<&()>).await;
+            let a: Result<Vec<Advice>, _> = client.query(proto::Key::AgentAdvice, None::<&()>).await;
+            let r: Result<Vec<RobotView>, _> = client.query(proto::Key::SystemRobots, None::<&()>).await;
+            // The robots' own telemetry (plan epochs, admissions), a second of it.
+            let mut progress = BTreeMap::new();
+            if let Ok(sub) = client.session().declare_subscriber(proto::Pattern::AllTelemetry.to_string()).await {
+                let until = Instant::now() + Duration::from_secs(1);
+                while let Ok(Ok(s)) = tokio::time::timeout(until.saturating_duration_since(Instant::now()), sub.recv_async()).await {
+                    if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
+                        progress.insert(t.id.clone(), format!("{:?} admitted {:?}", t.progress, t.admitted));
+                    }
+                }
+            }
+            return Err(e.context(format!(
+                "telemetry: {progress:?}\nmissions: {}\nrobots: {}\nadvice: {a:?}",
+                serde_json::to_string(&m.ok()).unwrap_or_default(),
+                serde_json::to_string(&r.ok()).unwrap_or_default()
+            )));
+        }
+    };
     assert!(below.reason.contains("to patrol-1: predicted worst idleness"), "{}", below.reason);
     assert!(below.evidence["predicted_with_one_more"].as_f64().is_some_and(|p| p < below.evidence["predicted"].as_f64().unwrap_or(0.0)));
     println!("advice: {} / {}", lost.reason, below.reason);

@@ -198,6 +198,24 @@ fn a_control_is_answered_after_its_commit_and_dropped_by_a_non_head() {
 }
 
 #[test]
+fn a_robot_central_takes_back_while_it_is_gone_here_is_kept_lost_until_it_is_back() {
+    let mut m = running();
+    let joined = |q: u64| Event::Ctl { query: q, mission: "p".into(), ctl: MissionCtl::Joined { member: member("r3", 5.0) }, from: central() };
+    // Central's order came from a report older than r3's loss: r3 keeps its place as lost, and
+    // the team is not replanned around a robot that would hold every barrier.
+    let cmds = m.to("central", joined(8));
+    assert!(!cmds.iter().any(|c| matches!(c, Command::RequestPlan { .. })), "{cmds:?}");
+    assert_eq!(replies(&cmds), [8], "answered: the change is committed");
+    let v = m.nodes["central"].view("p", false).expect("led");
+    assert_eq!((v.robots, v.lost), (vec!["r1".to_string(), "r2".to_string()], vec!["r3".to_string()]));
+    // r3 is back: central's next order takes it in, and the team is replanned with it.
+    m.to("central", Event::RobotAlive("r3".into()));
+    let cmds = m.to("central", joined(9));
+    assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { epoch: 2, .. })), "{cmds:?}");
+    assert_eq!(m.nodes["central"].view("p", false).map(|v| v.robots), Some(vec!["r1".to_string(), "r2".to_string(), "r3".to_string()]));
+}
+
+#[test]
 fn a_planner_that_does_not_answer_is_asked_again_then_the_mission_fails() {
     let mut m = Mesh::new(&["central"], &["r1"]);
     m.to("central", Event::PlannerAlive { kind: "patrol".into(), zid: "z".into() });

@@ -64,6 +64,10 @@ pub enum Event {
     Resume,
     /// A robot joins (moved in, or a lost member back).
     Joined(Member),
+    /// A robot the system manager put in this mission whose liveliness the head does not see
+    /// (a late report made central think it was back): it is kept as a lost member — its place
+    /// kept, no replan — and joins when it comes back.
+    Absent(Member),
     /// Robots leave (moved out, ordered out); one replan for all of them.
     Left {
         ids: Vec<String>,
@@ -259,6 +263,12 @@ impl MissionManager {
                 }
                 self.members.insert(member.spec.id.clone(), member);
                 self.replan()
+            }
+            Event::Absent(member) => {
+                if !self.members.contains_key(&member.spec.id) {
+                    self.lost.insert(member.spec.id.clone(), member);
+                }
+                vec![]
             }
             Event::Left { ids } | Event::Lost { ids } if ids.is_empty() => vec![],
             Event::Lost { ids } => {

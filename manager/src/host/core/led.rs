@@ -46,6 +46,13 @@ impl HostCore {
             return out.push(Command::Drop { query });
         }
         match ctl {
+            // Only a robot whose liveliness this node sees joins the team: one that is gone (the
+            // order came from a report older than its loss) would hold every barrier of the new
+            // plan (its teammates wait for a member they never saw leave).
+            MissionCtl::Joined { member } if !self.robots.contains(&member.spec.id) => {
+                tracing::info!(mission = %name, robot = %member.spec.id, "told to take back a robot that is gone here: kept as lost");
+                self.run(now, name, mission::Event::Absent(member), out)
+            }
             MissionCtl::Joined { member } => self.run(now, name, mission::Event::Joined(member), out),
             // The system manager took these robots out (moved elsewhere or freed): out for good,
             // alive or not — a robot lost now and back later must not come back into this team.
