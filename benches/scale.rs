@@ -22,7 +22,9 @@
 //! With `--insecure`: plain TCP and unsigned messages (what security costs at scale). `BENCH_LOG`
 //! replaces the processes' `RUST_LOG` (their logs are in the run's scratch directory).
 //!
-//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--insecure]` (sizes, default
+//! With `--quic-uplinks`: the routers link to central over QUIC (the robots' links stay TLS).
+//!
+//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--insecure] [--quic-uplinks]` (sizes, default
 //! 10 25; the robots' lease, default as `mrmm demo` sets it: 1000 ms, 4000 ms beyond 40 robots;
 //! robots started R per second, default 20 as the demo does, 0 = all at once; default 1 site).
 
@@ -58,6 +60,7 @@ fn main() -> anyhow::Result<()> {
     let rate = opt("--rate").unwrap_or(20);
     let sites = opt("--sites").unwrap_or(1).max(1) as usize;
     let insecure = args.iter().any(|a| a == "--insecure");
+    let quic = args.iter().any(|a| a == "--quic-uplinks");
     let mut sizes: Vec<usize> = args
         .iter()
         .enumerate()
@@ -79,12 +82,18 @@ fn main() -> anyhow::Result<()> {
         if sites == 1 { "one clique".to_string() } else { format!("{sites} sites") },
         lease.map_or("as the demo: 1000 ms, 4000 ms beyond 40 robots".to_string(), |l| format!("{l} ms")),
         if rate == 0 { "at once".to_string() } else { format!("{rate} per second") },
-        if insecure { "; INSECURE: plain TCP, unsigned" } else { "" }
+        if insecure {
+            "; INSECURE: plain TCP, unsigned"
+        } else if quic {
+            "; routers linked to central over QUIC"
+        } else {
+            ""
+        }
     );
     println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | barrier release p50/p99 ms | SIGKILL→replanned s |");
     println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in sizes {
-        rt.block_on(run(n, lease.unwrap_or(if n > 40 { 4000 } else { 1000 }), rate, sites, insecure))?;
+        rt.block_on(run(n, lease.unwrap_or(if n > 40 { 4000 } else { 1000 }), rate, sites, insecure, quic))?;
     }
     Ok(())
 }
@@ -171,6 +180,11 @@ fn links(pids: &[u32]) -> usize {
     ends / 2
 }
 
+/// `--quic`: every link over QUIC (mutual TLS 1.3 over UDP) instead of TLS over TCP.
+fn args_quic_all() -> bool {
+    std::env::args().any(|a| a == "--quic")
+}
+
 fn quantile(v: &mut [f64], q: f64) -> f64 {
     v.sort_by(f64::total_cmp);
     v.get(((v.len().saturating_sub(1)) as f64 * q).round() as usize).copied().unwrap_or(f64::NAN)
@@ -225,7 +239,7 @@ fn barrier_latencies(logs: &[std::path::PathBuf], mission: &str, epoch: u64) -> 
     out
 }
 
-async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool) -> anyhow::Result<()> {
+async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic: bool) -> anyhow::Result<()> {
     let dir = Scratch::new(&format!("bench-scale-{n}"));
     let pki = dir.path("pki");
     {
@@ -241,7 +255,14 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool) -> a
         }
     }
     let p = pki.display().to_string();
-    let proto_ = if insecure { "tcp" } else { "tls" };
+    let all_quic = args_quic_all();
+    let proto_ = if insecure {
+        "tcp"
+    } else if all_quic {
+        "quic"
+    } else {
+        "tls"
+    };
     let listen = format!("{proto_}/127.0.0.1:0");
     // Certificates on the command line (`--pki DIR [--operator op]`), unless insecure.
     let pki_args = |extra: &[&'static str]| -> Vec<String> {
@@ -251,7 +272,9 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool) -> a
             ["--pki", p.as_str()].iter().chain(extra).map(|s| s.to_string()).collect()
         }
     };
-    let central_args: Vec<String> = ["central", "--listen", &listen].iter().map(|s| s.to_string()).chain(pki_args(&["--operator", "op"])).collect();
+    let quic_listen = if quic && !insecure { vec!["--listen".to_string(), "quic/127.0.0.1:0".to_string()] } else { vec![] };
+    let central_args: Vec<String> =
+        ["central", "--listen", &listen].iter().map(|s| s.to_string()).chain(quic_listen).chain(pki_args(&["--operator", "op"])).collect();
     let central_args: Vec<&str> = central_args.iter().map(String::as_str).collect();
     let mut central = vec![Kid(spawn(&central_args, &dir.path("central.log"))?)];
     let line = ready_lines(&mut central, "central ready", Duration::from_secs(30))?.remove(0);
@@ -261,11 +284,17 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool) -> a
         .and_then(|l| l.split(',').next())
         .ok_or_else(|| anyhow!("no endpoint in {line}"))?
         .to_string();
+    // Where routers link to central: its QUIC endpoint with --quic-uplinks.
+    let uplink = line
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("listening="))
+        .and_then(|l| l.split(',').find(|e| e.starts_with("quic/")))
+        .map_or(ep.clone(), str::to_string);
     // Site routers: robots of site s > 0 connect to router s, which links to central.
     let mut routers = Vec::new();
     for s in 1..sites {
         let cfg = dir.path(&format!("site{s}.json5"));
-        std::fs::write(&cfg, format!(r#"{{ id: "site{s}", listen: ["{listen}"], connect: ["{ep}"], lease_ms: {lease} }}"#))?;
+        std::fs::write(&cfg, format!(r#"{{ id: "site{s}", listen: ["{listen}"], connect: ["{uplink}"], lease_ms: {lease} }}"#))?;
         let args: Vec<String> = ["router".to_string(), "--config".into(), cfg.display().to_string()].into_iter().chain(pki_args(&[])).collect();
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         routers.push(Kid(spawn(&args, &dir.path(&format!("site{s}.log")))?));

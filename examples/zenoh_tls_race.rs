@@ -16,7 +16,8 @@
 //!
 //! `cargo run --release --example zenoh_tls_race [-- SECONDS [PAYLOAD_BYTES]]` (default 30 s,
 //! 200 bytes): makes a throw-away fleet CA in a temporary directory and re-runs itself as the two
-//! processes. `--tcp` runs the same over plain TCP for comparison.
+//! processes. `--tcp` runs the same over plain TCP, `--quic` over Zenoh's QUIC link (mutual TLS
+//! 1.3, the same certificates), for comparison.
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -32,7 +33,8 @@ async fn main() -> anyhow::Result<()> {
     }
     let a: Vec<String> = std::env::args().skip(1).collect();
     let tcp = a.iter().any(|x| x == "--tcp");
-    let a: Vec<String> = a.into_iter().filter(|x| x != "--tcp").collect();
+    let quic = a.iter().any(|x| x == "--quic");
+    let a: Vec<String> = a.into_iter().filter(|x| x != "--tcp" && x != "--quic").collect();
     if a.first().map(String::as_str) == Some("node") {
         // node <router|peer> <dir> <listen> <connect|-> <seconds> <bytes>
         return node(&a[1], &a[2], &a[3], &a[4], a[5].parse()?, a[6].parse()?, tcp).await;
@@ -44,7 +46,13 @@ async fn main() -> anyhow::Result<()> {
     pki::issue(&dir, Role::Central, "router", &[], 1)?;
     pki::issue(&dir, Role::Robot, "peer", &[], 1)?;
     let port = 17000 + (std::process::id() % 2000) as u16;
-    let proto = if tcp { "tcp" } else { "tls" };
+    let proto = if tcp {
+        "tcp"
+    } else if quic {
+        "quic"
+    } else {
+        "tls"
+    };
     let ep = format!("{proto}/127.0.0.1:{port}");
     let exe = std::env::current_exe()?;
     let d = dir.display().to_string();
@@ -52,6 +60,9 @@ async fn main() -> anyhow::Result<()> {
     let mut extra = vec![];
     if tcp {
         extra.push("--tcp");
+    }
+    if quic {
+        extra.push("--quic");
     }
     let mut router = Command::new(&exe).args(["node", "router", &d, &ep, "-", &s, &b]).args(&extra).stdout(Stdio::inherit()).spawn()?;
     std::thread::sleep(Duration::from_millis(500));

@@ -286,8 +286,8 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     Ok(())
 }
 
-/// A site router (`mrmm router`) in a secure fleet: it needs a router certificate of the fleet's
-/// CA (a robot's is refused at start-up, and so is a router certificate of another CA); a robot
+/// A site router (`mrmm router`) in a secure fleet, its uplink to central over QUIC: it needs a
+/// router certificate of the fleet's CA (a robot's is refused at start-up); a robot
 /// that knows only the router joins the fleet through it; an operator tool linked to the router
 /// reads the fleet, but cannot command it there — operator authority is checked by central on
 /// its own links, and the router's link is not an operator's.
@@ -297,9 +297,21 @@ async fn a_site_router_carries_the_fleet_but_no_commands() -> anyhow::Result<()>
     let dir = Scratch::new("security-router");
     let pki_dir = fleet_pki(&dir, 1)?;
     pki::issue(&pki_dir, proto::Role::Router, "site-b", &[], 2)?;
-    let (_central, ep) = start_secure_central(&dir, &pki_dir)?;
+    // Central listens on TLS for the operator and on QUIC for the router's uplink (a busy uplink
+    // needs QUIC: docs/zenoh.md); its access control must hold on both.
+    let p = pki_dir.display().to_string();
+    let central = common::start(
+        "central",
+        &["central", "--listen", "tls/127.0.0.1:0", "--listen", "quic/127.0.0.1:0", "--pki", &p, "--operator", "op"],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let eps: Vec<String> = central.field("listening").map(|l| l.split(',').map(String::from).collect()).unwrap_or_default();
+    let ep = eps.iter().find(|e| e.starts_with("tls/")).cloned().ok_or_else(|| anyhow::anyhow!("central: {eps:?}"))?;
+    let uplink = eps.iter().find(|e| e.starts_with("quic/")).cloned().ok_or_else(|| anyhow::anyhow!("central: {eps:?}"))?;
     let cfg = dir.path("router.json5");
-    std::fs::write(&cfg, format!(r#"{{ id: "site-b", listen: ["tls/127.0.0.1:0"], connect: ["{ep}"] }}"#))?;
+    std::fs::write(&cfg, format!(r#"{{ id: "site-b", listen: ["tls/127.0.0.1:0"], connect: ["{uplink}"] }}"#))?;
     let (cfg_s, pki_s) = (cfg.display().to_string(), pki_dir.display().to_string());
     // A robot's certificate is not a router's.
     let out = std::process::Command::new(common::EXE).args(["router", "--config", &cfg_s, "--pki", &pki_s, "--as", "r1"]).output()?;

@@ -103,13 +103,19 @@ pub fn validate_endpoints(field: &str, eps: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-/// Like [`validate_endpoints`], and every endpoint is `tls/` when `secure`, `tcp/` when not.
+/// Like [`validate_endpoints`], and every endpoint is `tls/` (or `quic/`) when `secure`, `tcp/`
+/// when not.
 pub fn validate_endpoints_for(field: &str, eps: &[String], secure: bool) -> Result<(), String> {
     validate_endpoints(field, eps)?;
     for (i, ep) in eps.iter().enumerate() {
-        match (secure, ep.starts_with("tls/")) {
-            (true, false) => return Err(format!("{field}[{i}]: {ep:?}: with a `security` section every endpoint is tls/<address>:<port>")),
-            (false, true) => return Err(format!("{field}[{i}]: {ep:?}: a tls/ endpoint needs a `security` section (certificates)")),
+        let encrypted = ep.starts_with("tls/") || ep.starts_with("quic/");
+        match (secure, encrypted) {
+            (true, false) => {
+                return Err(format!("{field}[{i}]: {ep:?}: with a `security` section every endpoint is tls/<address>:<port> (or quic/<address>:<port>)"))
+            }
+            (false, true) => {
+                return Err(format!("{field}[{i}]: {ep:?}: a {} endpoint needs a `security` section (certificates)", &ep[..ep.find('/').unwrap_or(0) + 1]))
+            }
             _ => {}
         }
     }
@@ -121,7 +127,8 @@ pub fn validate_endpoint(ep: &str) -> Result<(), String> {
     let addr = ep
         .strip_prefix("tcp/")
         .or_else(|| ep.strip_prefix("tls/"))
-        .ok_or_else(|| format!("{ep:?}: only tcp/<address>:<port> and tls/<address>:<port> endpoints are supported"))?;
+        .or_else(|| ep.strip_prefix("quic/"))
+        .ok_or_else(|| format!("{ep:?}: only tcp/<address>:<port>, tls/<address>:<port> and quic/<address>:<port> endpoints are supported"))?;
     let addr = addr.split('#').next().unwrap_or(addr);
     let (host, port) = addr.rsplit_once(':').ok_or_else(|| format!("{ep:?}: missing :<port>"))?;
     port.parse::<u16>().map_err(|_| format!("{ep:?}: bad port {port:?}"))?;
@@ -182,7 +189,9 @@ pub fn zenoh_config_with(
     set(&mut c, "transport/link/rx/max_message_size", max_message_size.to_string())?;
     if let Some(t) = tls {
         let path = |p: &std::path::Path| json(&p.display().to_string());
-        set(&mut c, "transport/link/protocols", json(&["tls"]))?;
+        // QUIC (mutual TLS 1.3 over UDP, the same certificates) where a busy link needs it:
+        // Zenoh's TLS link closes under heavy two-way load (docs/zenoh.md).
+        set(&mut c, "transport/link/protocols", json(&["tls", "quic"]))?;
         set(&mut c, "transport/link/tls/root_ca_certificate", path(t.ca))?;
         set(&mut c, "transport/link/tls/listen_certificate", path(t.cert))?;
         set(&mut c, "transport/link/tls/listen_private_key", path(t.key))?;
@@ -326,6 +335,17 @@ mod tests {
         assert!(validate_endpoint(&unspecified).unwrap_err().contains("wildcard"));
         let unspecified_v6 = format!("tcp/[{}]:1", "::");
         assert!(validate_endpoint(&unspecified_v6).is_err());
+    }
+
+    #[test]
+    fn secure_endpoints_are_tls_or_quic_and_plain_ones_tcp() {
+        let eps = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert!(validate_endpoints_for("listen", &eps(&["tls/127.0.0.1:0", "quic/127.0.0.1:0"]), true).is_ok());
+        assert!(validate_endpoints_for("listen", &eps(&["tcp/127.0.0.1:0"]), false).is_ok());
+        let e = validate_endpoints_for("listen", &eps(&["tls/127.0.0.1:0", "tcp/127.0.0.1:0"]), true).expect_err("plain in a secure node");
+        assert!(e.starts_with("listen[1]: "), "{e}");
+        let e = validate_endpoints_for("connect", &eps(&["quic/127.0.0.1:7447"]), false).expect_err("quic without certificates");
+        assert_eq!(e, "connect[0]: \"quic/127.0.0.1:7447\": a quic/ endpoint needs a `security` section (certificates)");
     }
 
     #[test]

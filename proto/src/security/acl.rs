@@ -18,7 +18,7 @@ use crate::keys::Pattern;
 /// `operators` (ids of operator certificates) query `mrmm/system/cmd/**`.
 pub fn central_acl(operators: &[String]) -> Value {
     let cns: Vec<String> = operators.iter().map(|o| Sender::new(Role::Operator, o.clone()).common_name()).collect();
-    let mut subjects = vec![json!({ "id": "fleet", "link_protocols": ["tls"] })];
+    let mut subjects = vec![json!({ "id": "fleet", "link_protocols": ["tls", "quic"] })];
     let mut policies = vec![json!({ "rules": ["no-commands", "no-operator-api"], "subjects": ["fleet"] })];
     if !cns.is_empty() {
         subjects.push(json!({ "id": "operators", "cert_common_names": cns }));
