@@ -55,3 +55,36 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     assert!(Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_millis(500)).await.is_err());
     Ok(())
 }
+
+/// `mrmm demo --sites 3`: central and two site routers (their uplinks over QUIC), the robots
+/// spread over the three sites (each robot's config names its site's router); every robot
+/// registers with central through the routers, and the patrol, whose robots sit in different
+/// sites, passes barriers across them.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn demo_runs_a_fleet_of_several_sites() -> anyhow::Result<()> {
+    let dir = Scratch::new("demo-sites");
+    let (mut demo, ep, operator) =
+        common::start_demo(&dir, &["--robots", "6", "--sites", "3", "--duration", "60", "--listen", "tls/127.0.0.1:0", "--time-scale", "5"])?;
+    // Robot i is a peer of site i mod 3: r1 of central, r2 and r3 of the two routers.
+    let cfg = |id: &str| std::fs::read_to_string(std::env::temp_dir().join(format!("mrmm-demo-{}/{id}.json5", demo.pid()))).unwrap_or_default();
+    let connect = |id: &str| cfg(id).lines().find(|l| l.contains("connect:")).unwrap_or_default().to_string();
+    assert!(connect("r1").contains(&ep), "r1 connects to central: {}", connect("r1"));
+    for id in ["r2", "r3"] {
+        assert!(!connect(id).contains(&ep) && connect(id).contains("tls/127.0.0.1:"), "{id} connects to its site's router: {}", connect(id));
+    }
+    assert_ne!(connect("r2"), connect("r3"), "two sites, two routers");
+    let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 6).await?;
+    let patrol = eventually("the patrol, across the sites, past two barriers", Duration::from_secs(40), || async {
+        let m: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
+        m.into_iter().find(|m| m.planner == "patrol" && m.metrics.sync_points_passed >= 2)
+    })
+    .await?;
+    let sites: std::collections::BTreeSet<String> = patrol.robots.iter().map(|r| connect(r)).collect();
+    assert!(sites.len() >= 2, "the patrol spans sites: {:?} → {sites:?}", patrol.robots);
+    client.close().await;
+    demo.signal("INT")?;
+    let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
+    assert!(status.success(), "demo exit status {status}");
+    Ok(())
+}

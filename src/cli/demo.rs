@@ -49,6 +49,11 @@ pub struct Args {
     /// Stream the fleet view to a running Rerun viewer, e.g. rerun+http://127.0.0.1:9876/proxy.
     #[arg(long)]
     viewer: Option<String>,
+    /// Split the fleet into this many sites (docs/deployment.md): one `mrmm router` per site
+    /// beyond central's, linked to central (over QUIC when secure), robot i a peer of site
+    /// i mod SITES. Default 1: one clique.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
+    sites: u32,
     /// Keep central's journal here, so the demo's missions survive a restart of it (default: the
     /// demo's scratch directory, removed when the demo ends).
     #[arg(long)]
@@ -93,26 +98,36 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         for i in 0..args.robots {
             p::issue(pki, Role::Robot, &format!("r{}", i + 1), &[], 30)?;
         }
+        for s in 1..args.sites {
+            p::issue(pki, Role::Router, &format!("site{s}"), &[], 30)?;
+        }
     }
     let log = dir.join("central.log");
     let state = args.state_dir.clone().unwrap_or_else(|| dir.join("central-state"));
     let mut central_args = vec!["central".to_string(), "--listen".into(), listen.clone(), "--state-dir".into(), state.display().to_string()];
     if let Some(pki) = &pki {
         central_args.extend(["--pki".into(), pki.display().to_string(), "--operator".into(), "operator".into()]);
+        if args.sites > 1 {
+            // The routers' uplinks: QUIC (Zenoh's TLS link closes under heavy load, docs/zenoh.md).
+            central_args.extend(["--listen".into(), "quic/127.0.0.1:0".into()]);
+        }
     }
     let mut central = procs::spawn(&central_args, &log)?;
     let line = procs::ready_line(&mut central, "central ready", Duration::from_secs(20), &log).await;
     children.push(central);
     let line = line.context("central did not start")?;
-    let endpoint =
-        procs::field(&line, "listening").and_then(|l| l.split(',').next()).ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?.to_string();
+    let scheme = if pki.is_some() { "tls/" } else { "tcp/" };
+    let listening: Vec<String> = procs::field(&line, "listening").map(|l| l.split(',').map(String::from).collect()).unwrap_or_default();
+    let endpoint = listening.iter().find(|e| e.starts_with(scheme)).cloned().ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?;
+    let uplink = listening.iter().find(|e| e.starts_with("quic/")).cloned().unwrap_or_else(|| endpoint.clone());
+    let sites = start_routers(args, dir, children, &endpoint, &uplink, pki.as_deref()).await?;
 
     let n = args.robots as usize;
     let lease = args.lease_ms.unwrap_or(if n > LARGE_FLEET { 4000 } else { 1000 });
     let bar = progress(n, "starting robots");
     for i in 0..n {
         let id = format!("r{}", i + 1);
-        let cfg = robot_config(&id, i, n, &endpoint, args.time_scale, lease, pki.as_deref());
+        let cfg = robot_config(&id, i, n, &sites[i % sites.len()], args.time_scale, lease, pki.as_deref());
         let path = dir.join(format!("{id}.json5"));
         std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
         let log = dir.join(format!("{id}.log"));
@@ -329,6 +344,40 @@ fn circle_point(k: usize, n: usize, r: f64) -> (f64, f64) {
 
 /// A generated robot config: types alternate, robots start on a line; with `pki`, its
 /// certificate and TLS endpoints.
+/// The site routers (`--sites`): their endpoints, central's first. Each links to central's `uplink`.
+async fn start_routers(
+    args: &Args,
+    dir: &std::path::Path,
+    children: &mut Vec<Child>,
+    central: &str,
+    uplink: &str,
+    pki: Option<&std::path::Path>,
+) -> anyhow::Result<Vec<String>> {
+    let mut sites = vec![central.to_string()];
+    let scheme = if pki.is_some() { "tls" } else { "tcp" };
+    for s in 1..args.sites {
+        let id = format!("site{s}");
+        let path = dir.join(format!("{id}.json5"));
+        std::fs::write(&path, format!("{{ id: {id:?}, listen: [\"{scheme}/127.0.0.1:0\"], connect: [{uplink:?}] }}\n"))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        let mut cmd = vec!["router".to_string(), "--config".into(), path.display().to_string()];
+        if let Some(pki) = pki {
+            cmd.extend(["--pki".into(), pki.display().to_string()]);
+        }
+        let log = dir.join(format!("{id}.log"));
+        let mut router = procs::spawn(&cmd, &log)?;
+        let line = procs::ready_line(&mut router, "router ready", Duration::from_secs(20), &log).await;
+        children.push(router);
+        let line = line.with_context(|| format!("router {id} did not start"))?;
+        let ep = procs::field(&line, "listening").and_then(|l| l.split(',').next()).ok_or_else(|| anyhow!("router ready line without endpoint: {line}"))?;
+        sites.push(ep.to_string());
+    }
+    if args.sites > 1 {
+        println!("mrmm demo: {} sites: central and {} routers, robot i in site i mod {}", args.sites, args.sites - 1, args.sites);
+    }
+    Ok(sites)
+}
+
 fn robot_config(id: &str, i: usize, n: usize, central: &str, time_scale: f64, lease_ms: u64, pki: Option<&std::path::Path>) -> String {
     let kind = TYPES[i % TYPES.len()];
     let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
