@@ -36,7 +36,12 @@ impl Client {
             security,
             me: None,
         };
-        let (config, sealer, verifier) = crate::mesh::prepare(&n)?;
+        let (mut config, sealer, verifier) = crate::mesh::prepare(&n)?;
+        // Zenoh's client tries its endpoints once by default: one failed handshake (a busy
+        // central, a router still starting) would fail the tool. Retry with back-off for as long
+        // as the caller is willing to wait for an answer.
+        let ms = u64::try_from(timeout.as_millis()).unwrap_or(u64::MAX).max(1);
+        config.insert_json5("connect/timeout_ms", &ms.to_string()).map_err(|e| ProtoError::Config(format!("zenoh config connect/timeout_ms: {e}")))?;
         let session = zenoh::open(config).await.map_err(|e| ProtoError::Zenoh(format!("cannot reach central at {}: {e}", endpoints.join(", "))))?;
         Ok(Client { mesh: Mesh::from_parts(session, sealer, verifier), timeout })
     }
@@ -76,5 +81,35 @@ impl Client {
 
     pub async fn close(self) {
         self.mesh.close().await;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn free_port() -> u16 {
+        std::net::TcpListener::bind("127.0.0.1:0").and_then(|l| l.local_addr()).map(|a| a.port()).expect("a free loopback port")
+    }
+
+    /// A tool started a moment before central (or during one failed handshake) still connects:
+    /// the client retries until its timeout instead of giving up after one try.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_client_waits_for_a_central_that_comes_up_within_its_timeout() {
+        let ep = format!("tcp/127.0.0.1:{}", free_port());
+        let listen = [ep.clone()];
+        let router = tokio::spawn(async move {
+            tokio::time::sleep(Duration::from_millis(400)).await;
+            let c = net::zenoh_config(Mode::Router, &listen, &[], net::DEFAULT_LEASE_MS).expect("router config");
+            zenoh::open(c).await.expect("router")
+        });
+        let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await;
+        assert!(client.is_ok(), "gave up before central came up: {:?}", client.err());
+        router.await.expect("router task").close().await.expect("close");
+        // And one that never comes up still fails, after the timeout.
+        let nobody = format!("tcp/127.0.0.1:{}", free_port());
+        let t = std::time::Instant::now();
+        assert!(Client::connect(std::slice::from_ref(&nobody), Duration::from_millis(300)).await.is_err());
+        assert!(t.elapsed() < Duration::from_secs(5));
     }
 }
