@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 secs=${1:-1800}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -gt 0 ] || targets=(recipe central host robot seal)
+[ ${#targets[@]} -gt 0 ] || targets=(recipe central host robot seal ros2)
 for t in "${targets[@]}"; do
   mkdir -p "fuzz/corpus/$t"
   cargo +nightly fuzz run -O --target-dir "${FUZZ_TARGET_DIR:-fuzz/target}" "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \

@@ -10,6 +10,8 @@ fn shipped_configs_are_valid() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let r = RobotConfig::load(&root.join("config/robot.json5")).expect("robot.json5");
     assert_eq!(r.id, "r1");
+    let ros = RobotConfig::load(&root.join("config/robot-ros2.json5")).expect("robot-ros2.json5");
+    assert!(matches!(ros.body, mrmm_peer::config::BodySection::Ros2(_)));
     let c = CentralConfig::load(&root.join("config/central.json5")).expect("central.json5");
     assert_eq!(c.listen, ["tcp/127.0.0.1:7447"]);
     let s = RouterConfig::load(&root.join("config/router.json5")).expect("router.json5");

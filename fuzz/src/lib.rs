@@ -48,6 +48,15 @@ pub fn robot(id: &str) -> Robot {
     }
 }
 
+/// A robot with a ROS 2 body (nothing is opened: the machine only).
+pub fn ros_robot(id: &str) -> Robot {
+    let text = format!(r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1, max_turn_rate: 2 }}, body: {{ kind: "ros2" }} }}"#);
+    match RobotConfig::from_json5("fuzz", &text) {
+        Ok(cfg) => Robot::new(cfg),
+        Err(e) => panic!("fixture robot config: {e}"),
+    }
+}
+
 /// A robot's registration record.
 pub fn info(id: &str) -> RobotInfo {
     RobotInfo {

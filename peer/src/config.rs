@@ -42,6 +42,21 @@ pub struct RobotConfig {
     /// relies on its teammates and central's journal. Relative to the config file.
     #[serde(default)]
     pub state_dir: Option<std::path::PathBuf>,
+    /// The body: `{ kind: "sim" }` (the default, a simulated unicycle) or `{ kind: "ros2", … }`
+    /// (a ROS 2 robot reached over rmw_zenoh, see docs/ros2.md).
+    #[serde(default)]
+    pub body: BodySection,
+}
+
+/// Which body the robot drives.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum BodySection {
+    /// The simulated unicycle (kinematics, start pose and time scale apply).
+    #[default]
+    Sim,
+    /// A ROS 2 robot: its graph over rmw_zenoh.
+    Ros2(Box<mrmm_ros2::Ros2Body>),
 }
 
 /// Makes the paths of a `security` section relative to the directory of the file it was read from.
@@ -140,6 +155,12 @@ impl RobotConfig {
                 return Err(format!("state_dir: {} is a file, not a directory", dir.display()));
             }
         }
+        if let BodySection::Ros2(b) = &self.body {
+            b.validate().map_err(|e| e.to_string())?;
+            if self.time_scale != 1.0 {
+                return Err(format!("time_scale: a ROS 2 body runs in real time: leave time_scale out or set it to 1 (got {})", self.time_scale));
+            }
+        }
         if self.zenoh.lease_ms < 100 || self.zenoh.lease_ms > 60_000 {
             return Err(format!("zenoh.lease_ms: must be 100..=60000 (got {})", self.zenoh.lease_ms));
         }
@@ -197,6 +218,30 @@ mod tests {
         let wildcard = ["0", "0", "0", "0"].join(".");
         let e = err(&GOOD.replace("127.0.0.1:7501", &format!("{wildcard}:7501")));
         assert!(e.contains("zenoh.listen[0]"), "{e}");
+    }
+
+    #[test]
+    fn a_ros2_body_is_checked_field_by_field() {
+        let ros = |body: &str| GOOD.replace("start: { x: 1, y: 2 },", &format!("start: {{ x: 1, y: 2 }}, body: {body},"));
+        let c = RobotConfig::from_json5("robot.json5", &ros(r#"{ kind: "ros2", namespace: "/robot1", odom_topic: "odom" }"#)).expect("valid");
+        let BodySection::Ros2(b) = &c.body else { panic!("{:?}", c.body) };
+        assert_eq!((b.router.as_str(), b.cmd_vel_topic.as_str(), b.odom_timeout_ms), ("tcp/127.0.0.1:7447", "/cmd_vel", 500));
+        assert!(matches!(RobotConfig::from_json5("r", GOOD).expect("valid").body, BodySection::Sim));
+        for (body, expect) in [
+            (r#"{ kind: "ros3" }"#, "body"),
+            (r#"{ kind: "ros2", router: "udp/127.0.0.1:7447" }"#, "body.router:"),
+            (r#"{ kind: "ros2", cmd_vel_topic: "/cmd vel" }"#, "body.cmd_vel_topic:"),
+            (r#"{ kind: "ros2", namespace: "robot1" }"#, "body.namespace:"),
+            (r#"{ kind: "ros2", odom_timeout_ms: 5 }"#, "body.odom_timeout_ms:"),
+            (r#"{ kind: "ros2", domain_id: 300 }"#, "body.domain_id:"),
+            (r#"{ kind: "ros2", drive: "teleport" }"#, "body"),
+            (r#"{ kind: "ros2", odom_topc: "/odom" }"#, "odom_topc"),
+        ] {
+            let e = err(&ros(body));
+            assert!(e.contains(expect) && !e.contains('\n'), "{body}: {e}");
+        }
+        let e = err(&ros(r#"{ kind: "ros2" }"#).replace("start:", "time_scale: 4, start:"));
+        assert!(e.contains("time_scale: a ROS 2 body runs in real time"), "{e}");
     }
 
     #[test]

@@ -15,6 +15,9 @@ pub enum PeerError {
     Proto(#[from] mrmm_proto::ProtoError),
     #[error("zenoh: {0}")]
     Zenoh(String),
+    /// The ROS 2 body could not start.
+    #[error(transparent)]
+    Ros2(#[from] mrmm_ros2::Ros2Error),
 }
 
 impl PeerError {

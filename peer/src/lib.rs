@@ -1,4 +1,4 @@
-//! mrmm robot peer: the robot's configuration, its simulated body, plan execution with team
+//! mrmm robot peer: the robot's configuration, its body (simulated, or a ROS 2 robot), plan execution with team
 //! barriers ([`executor`], [`barrier`]), the robot as a state machine ([`robot`]) and the runtime
 //! that drives it over Zenoh ([`runtime`]).
 //!
@@ -8,9 +8,11 @@
 pub mod barrier;
 pub mod body;
 pub mod config;
+pub mod drive;
 pub mod error;
 pub mod executor;
 pub mod robot;
+pub mod ros_body;
 pub mod runtime;
 
 pub use error::PeerError;

@@ -5,8 +5,10 @@
 use mrmm_proto::{self as proto, Behaviour, CommandAck, PlanAssignment, RobotCommand, RobotInfo, Role, Sender, Step, SyncArrival, Telemetry};
 
 use crate::body::Body;
-use crate::config::RobotConfig;
+use crate::config::{BodySection, RobotConfig};
+use crate::drive::Drive;
 use crate::executor::{self, Executor};
+use crate::ros_body::RosDrive;
 
 /// Steps a plan may have at most.
 pub const MAX_PLAN_STEPS: usize = 100_000;
@@ -31,6 +33,12 @@ pub enum Event {
     CentralAlive(bool),
     /// Time to publish telemetry.
     TelemetryDue,
+    /// A ROS 2 body's odometry (ignored by a simulated body).
+    Odometry { pose: mrmm_proto::Pose, velocity: mrmm_proto::Velocity },
+    /// A ROS 2 body's localiser pose.
+    LocalisedPose(mrmm_proto::Pose),
+    /// The robot's session has links to other fleet nodes (`true`) or none left.
+    FleetLink(bool),
 }
 
 /// What the runtime must do.
@@ -49,13 +57,15 @@ pub enum Command {
     Publish(SyncArrival),
     /// Publish telemetry.
     Telemetry(Telemetry),
+    /// Send a ROS 2 body this velocity command (`cmd_vel`).
+    Drive(mrmm_proto::Velocity),
 }
 
 /// A robot's state, independent of the network.
 #[derive(Debug)]
 pub struct Robot {
     cfg: RobotConfig,
-    body: Body,
+    body: Drive,
     seq: u64,
     /// Simulated seconds since start.
     sim_t: f64,
@@ -71,7 +81,12 @@ pub struct Robot {
 
 impl Robot {
     pub fn new(cfg: RobotConfig) -> Self {
-        let body = Body::new(cfg.start_pose(), cfg.limits());
+        let body = match &cfg.body {
+            BodySection::Sim => Drive::Sim(Body::new(cfg.start_pose(), cfg.limits())),
+            BodySection::Ros2(b) => {
+                Drive::Ros(RosDrive::new(cfg.start_pose(), cfg.limits(), b.odom_timeout_ms as f64 / 1000.0, b.stop_on_fleet_loss, b.pose_topic.is_some()))
+            }
+        };
         Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: Vec::new(), central_up: false }
     }
 
@@ -160,6 +175,24 @@ impl Robot {
                 vec![]
             }
             Event::TelemetryDue => vec![Command::Telemetry(self.telemetry())],
+            Event::Odometry { pose, velocity } => {
+                if let Drive::Ros(r) = &mut self.body {
+                    r.on_odometry(now, pose, velocity);
+                }
+                vec![]
+            }
+            Event::LocalisedPose(pose) => {
+                if let Drive::Ros(r) = &mut self.body {
+                    r.on_pose(pose);
+                }
+                vec![]
+            }
+            Event::FleetLink(up) => {
+                if let Drive::Ros(r) = &mut self.body {
+                    r.set_fleet(up);
+                }
+                vec![]
+            }
         }
     }
 
@@ -232,7 +265,7 @@ impl Robot {
                 if self.exec.take().is_some() {
                     change = Some(Command::LeaveTeam);
                 }
-                self.body.navigate_to(*x, *y);
+                self.body.navigate_capped(*x, *y, None);
             }
             RobotCommand::Hold => {
                 if self.exec.take().is_some() {
@@ -327,9 +360,20 @@ impl Robot {
         self.last_tick = Some(now);
         let dt = wall_dt * self.cfg.time_scale;
         self.sim_t += dt;
-        self.body.step(dt);
+        let step = self.body.step(now, dt);
+        if let Some(halt) = step.halt_changed {
+            match halt {
+                Some(why) => tracing::warn!(robot = %self.cfg.id, ?why, "ROS 2 body halted: zero twist until the cause is gone"),
+                None => tracing::info!(robot = %self.cfg.id, "ROS 2 body driving"),
+            }
+        }
         let body_idle = self.body.goal().is_none();
-        self.plan_event(executor::Event::Tick { body_idle })
+        let mut out = self.plan_event(executor::Event::Tick { body_idle });
+        // (A goal the plan gives now is driven to from the next tick, 20 ms on.)
+        if let Some(t) = step.twist {
+            out.push(Command::Drive(t));
+        }
+        out
     }
 
     /// Carries out the plan's commands on the body; arrivals go out.

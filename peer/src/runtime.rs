@@ -15,15 +15,20 @@ use zenoh::query::Query;
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
-use crate::config::RobotConfig;
+use crate::config::{BodySection, RobotConfig};
 use crate::error::PeerError;
 use crate::robot::{Command, Event, Robot};
+use mrmm_proto::Velocity;
+use mrmm_ros2::msgs::Twist;
+use mrmm_ros2::{Input as RosInput, RosLink};
 
 /// Input waiting for the robot's loop, per kind, at most: when the loop falls behind (or is
 /// flooded), the oldest is dropped — never Zenoh's receiving thread blocked.
 const QUEUE: usize = 256;
-/// Physics step period (wall time).
+/// Physics step period (wall time); a ROS 2 body's control period.
 const PHYSICS_PERIOD: Duration = Duration::from_millis(20);
+/// How often a ROS 2 body's robot checks that it still has fleet links.
+const FLEET_CHECK_PERIOD: Duration = Duration::from_millis(100);
 
 /// What a started robot reports once it is on the network.
 #[derive(Debug, Clone)]
@@ -116,6 +121,11 @@ pub async fn run_on(
     let id = cfg.id.clone();
     refuse_taken_name(&session, &Key::RobotAlive(id.clone()), "robot", &id).await?;
     let telemetry_hz = cfg.telemetry_hz;
+    // A ROS 2 body: its own session to the robot's ROS router, opened before the robot shows up.
+    let ros = match &cfg.body {
+        BodySection::Ros2(b) => Some(RosLink::open(b, &id).await?),
+        BodySection::Sim => None,
+    };
     let mut robot = Robot::new(cfg);
     let endpoints = net::listening_endpoints(&session).await;
 
@@ -144,13 +154,40 @@ pub async fn run_on(
     telemetry.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let t0 = Instant::now();
     let telemetry_key = Key::RobotTelemetry(id.clone()).to_string();
-    let mut io = Io { mesh: mesh.clone(), id: id.clone(), team: None, publisher: telemetry_pub, telemetry_key };
+    let mut io = Io { mesh: mesh.clone(), id: id.clone(), team: None, publisher: telemetry_pub, telemetry_key, ros };
+    // Whether the robot's session has a link to any other fleet node (a ROS 2 body stops
+    // without one); checked a few times a second.
+    let mut fleet_check = tokio::time::interval(FLEET_CHECK_PERIOD);
+    fleet_check.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut fleet_up = true;
+    let mut malformed = 0u64;
 
     loop {
         let (event, query): (Event, Option<Query>) = tokio::select! {
             _ = shutdown.cancelled() => break,
             _ = physics.tick() => (Event::Tick, None),
             _ = telemetry.tick() => (Event::TelemetryDue, None),
+            _ = fleet_check.tick(), if io.ros.is_some() => {
+                let info = session.info();
+                let up = info.routers_zid().await.next().is_some() || info.peers_zid().await.next().is_some();
+                if up == fleet_up {
+                    continue;
+                }
+                fleet_up = up;
+                tracing::warn!(robot = %id, up, "fleet link changed");
+                (Event::FleetLink(up), None)
+            }
+            input = recv_ros(&io.ros) => match input {
+                RosInput::Odometry { pose, v, omega } => (Event::Odometry { pose: ros_pose(pose), velocity: Velocity { v, omega } }, None),
+                RosInput::Pose(pose) => (Event::LocalisedPose(ros_pose(pose)), None),
+                RosInput::Malformed { topic, error } => {
+                    malformed += 1;
+                    if malformed.is_power_of_two() {
+                        tracing::warn!(robot = %id, %topic, count = malformed, "dropped a malformed ROS 2 message: {error}");
+                    }
+                    continue;
+                }
+            },
             q = info_q.recv_async() => {
                 let Ok(q) = q else { break };
                 mesh.reply_json(&q, &robot.info(endpoints.clone())).await;
@@ -217,6 +254,9 @@ pub async fn run_on(
         }
     }
     tracing::info!(robot = %id, "shutting down");
+    if let Some(ros) = io.ros.take() {
+        ros.close().await;
+    }
     drop(io);
     drop(token);
     session.close().await.map_err(PeerError::zenoh)?;
@@ -230,6 +270,8 @@ struct Io {
     team: Option<TeamLink>,
     publisher: zenoh::pubsub::Publisher<'static>,
     telemetry_key: String,
+    /// A ROS 2 body's link.
+    ros: Option<RosLink>,
 }
 
 impl Io {
@@ -277,8 +319,27 @@ impl Io {
                 }
                 Err(e) => tracing::warn!("telemetry encoding failed: {e}"),
             },
+            Command::Drive(v) => {
+                if let Some(ros) = self.ros.as_mut() {
+                    if let Err(e) = ros.send_twist(Twist::planar(v.v, v.omega)).await {
+                        tracing::warn!(robot = %self.id, "cmd_vel publication failed: {e}");
+                    }
+                }
+            }
         }
     }
+}
+
+/// The next input of a ROS 2 body; pending without one.
+async fn recv_ros(ros: &Option<RosLink>) -> RosInput {
+    match ros {
+        Some(r) => r.recv().await,
+        None => std::future::pending().await,
+    }
+}
+
+fn ros_pose(p: mrmm_ros2::Pose2) -> proto::Pose {
+    proto::Pose { x: p.x, y: p.y, theta: p.theta }
 }
 
 /// The next sample of the team's arrivals (or members) subscription; pending when not in a team.

@@ -252,6 +252,8 @@ impl World {
                         }
                     }
                 }
+                // The simulated fleet's robots have simulated bodies: no velocity commands.
+                robot::Command::Drive(_) => {}
                 robot::Command::Telemetry(t) => {
                     for j in 0..self.nodes.len() {
                         if self.lost() {

@@ -1,0 +1,59 @@
+//! The robot's body, whichever it is: the simulated unicycle ([`Body`]) or a ROS 2 robot
+//! ([`RosDrive`]). The robot's state machine talks to this, not to either body.
+
+use mrmm_proto::{Pose, Velocity};
+
+use crate::body::Body;
+use crate::ros_body::{RosDrive, Step};
+
+#[derive(Debug, Clone)]
+pub enum Drive {
+    Sim(Body),
+    Ros(RosDrive),
+}
+
+impl Drive {
+    pub fn pose(&self) -> Pose {
+        match self {
+            Drive::Sim(b) => b.pose(),
+            Drive::Ros(r) => r.pose(),
+        }
+    }
+
+    pub fn velocity(&self) -> Velocity {
+        match self {
+            Drive::Sim(b) => b.velocity(),
+            Drive::Ros(r) => r.velocity(),
+        }
+    }
+
+    pub fn goal(&self) -> Option<(f64, f64)> {
+        match self {
+            Drive::Sim(b) => b.goal(),
+            Drive::Ros(r) => r.goal(),
+        }
+    }
+
+    pub fn navigate_capped(&mut self, x: f64, y: f64, speed: Option<f64>) {
+        match self {
+            Drive::Sim(b) => b.navigate_capped(x, y, speed),
+            Drive::Ros(r) => r.navigate_capped(x, y, speed),
+        }
+    }
+
+    pub fn hold(&mut self) {
+        match self {
+            Drive::Sim(b) => b.hold(),
+            Drive::Ros(r) => r.hold(),
+        }
+    }
+
+    /// Advances the body: the simulated one by `dt` simulated seconds, the ROS one's controller
+    /// at wall time `now` (its twist, if any, is returned).
+    pub fn step(&mut self, now: f64, dt: f64) -> Step {
+        match self {
+            Drive::Sim(b) => Step { arrived: b.step(dt), ..Step::default() },
+            Drive::Ros(r) => r.step(now),
+        }
+    }
+}

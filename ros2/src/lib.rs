@@ -1,0 +1,16 @@
+//! mrmm's ROS 2 side: a robot body that is a ROS 2 robot, reached natively over rmw_zenoh (no ROS
+//! installation, no bridge). [`msgs`] and [`cdr`] are the messages on the wire, [`graph`] the key
+//! expressions and graph tokens, [`attachment`] what rmw_zenoh attaches to each message,
+//! [`config`] the robot config's `body` section, [`link`] the session to the robot's ROS router.
+
+pub mod attachment;
+pub mod cdr;
+pub mod config;
+pub mod error;
+pub mod graph;
+pub mod link;
+pub mod msgs;
+
+pub use config::{DriveMode, Ros2Body};
+pub use error::Ros2Error;
+pub use link::{Input, Pose2, RosLink};

@@ -1,0 +1,205 @@
+"""A stand-in ROS 2 robot for mrmm's tests, on the ecosystem's own rmw_zenoh implementation in
+Python (zenoh-ros2-sdk, by a robot vendor) — no mrmm code.
+
+It runs the robot's Zenoh router (as rmw_zenohd would, loopback only), subscribes to /cmd_vel
+(geometry_msgs/msg/Twist), integrates a unicycle that keeps its last command (no watchdog of its
+own: a robot mrmm forgets to stop runs away) and publishes /odom (nav_msgs/msg/Odometry).
+
+Message definitions come from rosbags' ROS 2 Jazzy type store, written as .msg files for the SDK
+(it cannot download them here); the SDK computes the type hashes itself.
+
+Output: one JSON object per line on stdout. Input: one command per line on stdin:
+  graph            -> {"event": "graph", "cmd_vel": {...}, "odom": {...}} (ros2 topic info -v)
+  state            -> {"event": "state", ...}
+  garbage          publishes malformed payloads on /odom's key
+  pause_odom / resume_odom
+  hashes T1 T2 ... -> {"event": "hashes", "sdk": {...}, "rosbags": {...}}
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+import tempfile
+import threading
+import time
+
+import numpy as np
+import zenoh
+from rosbags.typesys import Stores, get_typestore
+
+STORE = get_typestore(Stores.ROS2_JAZZY)
+
+
+def msg_text(typename):
+    """A .msg definition of `typename` from rosbags' field definitions (no comments)."""
+    consts, fields = STORE.fielddefs[typename]
+    lines = [f"{t} {n}={v}" for n, t, v in consts]
+
+    def spell(node):
+        kind, detail = node
+        if kind.name == "BASE":
+            name, bound = detail
+            return f"{name}<={bound}" if bound else name
+        if kind.name == "NAME":
+            return detail
+        if kind.name == "ARRAY":
+            sub, count = detail
+            return f"{spell(sub)}[{count}]"
+        if kind.name == "SEQUENCE":
+            sub, bound = detail
+            return f"{spell(sub)}[<={bound}]" if bound else f"{spell(sub)}[]"
+        raise ValueError(f"{typename}: field kind {kind}")
+
+    for name, node in fields:
+        lines.append(f"{spell(node)} {name}")
+    return "\n".join(lines) + "\n"
+
+
+def write_definitions(root, typenames):
+    """Writes `typenames` and everything they use as <root>/<pkg>/msg/<Name>.msg."""
+    todo, done = list(typenames), set()
+    while todo:
+        t = todo.pop()
+        if t in done:
+            continue
+        done.add(t)
+        pkg, _, name = t.split("/")
+        os.makedirs(os.path.join(root, pkg, "msg"), exist_ok=True)
+        with open(os.path.join(root, pkg, "msg", f"{name}.msg"), "w") as f:
+            f.write(msg_text(t))
+        for _, node in STORE.fielddefs[t][1]:
+            while node[0].name in ("ARRAY", "SEQUENCE"):
+                node = node[1][0]
+            if node[0].name == "NAME":
+                todo.append(node[1])
+
+
+def emit(**kw):
+    sys.stdout.write(json.dumps(kw) + "\n")
+    sys.stdout.flush()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--port", type=int, required=True, help="the robot's router listens here")
+    ap.add_argument("--x", type=float, default=0.0)
+    ap.add_argument("--y", type=float, default=0.0)
+    ap.add_argument("--theta", type=float, default=0.0)
+    ap.add_argument("--odom-hz", type=float, default=30.0)
+    args = ap.parse_args()
+
+    # The robot's router, as rmw_zenohd: loopback only, no multicast scouting.
+    conf = zenoh.Config()
+    conf.insert_json5("mode", '"router"')
+    conf.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{args.port}"]))
+    conf.insert_json5("scouting/multicast/enabled", "false")
+    router = zenoh.open(conf)
+
+    # The SDK's own session (peer, connecting to the router above), loopback only.
+    os.environ["ZENOH_CONFIG_OVERRIDE"] = 'scouting/multicast/enabled=false;listen/endpoints=["tcp/127.0.0.1:0"]'
+    msgdir = tempfile.mkdtemp(prefix="ros2-msgs-")
+    write_definitions(msgdir, ["geometry_msgs/msg/Twist", "nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseWithCovarianceStamped"])
+    from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber, get_registry
+    from zenoh_ros2_sdk.discovery import get_topic_info
+
+    registry = get_registry(msgdir)
+    at = {"router_ip": "127.0.0.1", "router_port": args.port}
+
+    lock = threading.Lock()
+    st = {"x": args.x, "y": args.y, "theta": args.theta, "v": 0.0, "omega": 0.0, "twists": 0, "zeros": 0, "moving": False, "odom": True}
+
+    def on_twist(msg):
+        v, w = float(msg.linear.x), float(msg.angular.z)
+        with lock:
+            st["twists"] += 1
+            st["v"], st["omega"] = v, w
+            if v == 0.0 and w == 0.0:
+                st["zeros"] += 1
+                if st["moving"]:
+                    st["moving"] = False
+                    emit(event="zero", t=time.time(), x=st["x"], y=st["y"])
+            elif not st["moving"]:
+                st["moving"] = True
+                emit(event="moving", t=time.time(), v=v, omega=w)
+
+    sub = ROS2Subscriber(topic="/cmd_vel", msg_type="geometry_msgs/msg/Twist", callback=on_twist, node_name="standin_base", **at)
+    odom = ROS2Publisher(topic="/odom", msg_type="nav_msgs/msg/Odometry", node_name="standin_odometry", **at)
+    types = odom.session_mgr.store.types
+    Header, Time = types["std_msgs/msg/Header"], types["builtin_interfaces/msg/Time"]
+    PoseWC, Pose = types["geometry_msgs/msg/PoseWithCovariance"], types["geometry_msgs/msg/Pose"]
+    Point, Quat = types["geometry_msgs/msg/Point"], types["geometry_msgs/msg/Quaternion"]
+    TwistWC, Twist, Vec3 = types["geometry_msgs/msg/TwistWithCovariance"], types["geometry_msgs/msg/Twist"], types["geometry_msgs/msg/Vector3"]
+
+    stop = threading.Event()
+
+    def physics():
+        dt = 1.0 / args.odom_hz
+        nxt = time.monotonic()
+        while not stop.is_set():
+            with lock:
+                st["theta"] = math.atan2(math.sin(st["theta"] + st["omega"] * dt), math.cos(st["theta"] + st["omega"] * dt))
+                st["x"] += st["v"] * dt * math.cos(st["theta"])
+                st["y"] += st["v"] * dt * math.sin(st["theta"])
+                x, y, th, v, w, send = st["x"], st["y"], st["theta"], st["v"], st["omega"], st["odom"]
+            if send:
+                now = time.time()
+                odom.publish(
+                    header=Header(stamp=Time(sec=int(now), nanosec=int((now % 1) * 1e9)), frame_id="odom"),
+                    child_frame_id="base_link",
+                    pose=PoseWC(pose=Pose(position=Point(x=x, y=y, z=0.0), orientation=Quat(x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2))), covariance=np.zeros(36)),
+                    twist=TwistWC(twist=Twist(linear=Vec3(x=v, y=0.0, z=0.0), angular=Vec3(x=0.0, y=0.0, z=w)), covariance=np.zeros(36)),
+                )
+            nxt += dt
+            time.sleep(max(0.0, nxt - time.monotonic()))
+
+    threading.Thread(target=physics, daemon=True).start()
+    emit(event="ready", odom_key=odom.keyexpr, cmd_vel_key=sub.keyexpr if hasattr(sub, "keyexpr") else None)
+
+    def info(topic):
+        t = get_topic_info(topic, verbose=True, timeout=1.0, **at)
+        if t is None:
+            return None
+        ends = lambda eps: [{"node": e.node_name, "namespace": e.node_namespace, "type": e.topic_type, "hash": e.type_hash} for e in eps]
+        return {"types": t.topic_types, "publishers": ends(t.publishers), "subscribers": ends(t.subscribers)}
+
+    for line in sys.stdin:
+        cmd = line.split()
+        if not cmd:
+            continue
+        if cmd[0] == "graph":
+            emit(event="graph", cmd_vel=info("/cmd_vel"), odom=info("/odom"))
+        elif cmd[0] == "state":
+            with lock:
+                emit(event="state", **{k: st[k] for k in ("x", "y", "theta", "v", "omega", "twists", "zeros")})
+        elif cmd[0] == "garbage":
+            session = odom.session_mgr.session
+            for payload in [b"", b"\x00\x01\x00\x00\x01", b"\x07\x07\x00\x00" + b"\xff" * 300, b"\x00\x01\x00\x00" + b"\xff\xff\xff\xff" * 100]:
+                session.put(odom.keyexpr, payload)
+            emit(event="garbage_sent", count=4)
+        elif cmd[0] == "pause_odom":
+            with lock:
+                st["odom"] = False
+            emit(event="odom_paused")
+        elif cmd[0] == "resume_odom":
+            with lock:
+                st["odom"] = True
+            emit(event="odom_resumed")
+        elif cmd[0] == "hashes":
+            from zenoh_ros2_sdk.utils import get_type_hash, load_dependencies_recursive
+            sdk, bags = {}, {}
+            for t in cmd[1:]:
+                text = open(registry.get_msg_file_path(t)).read()
+                deps = load_dependencies_recursive(t, text, registry)
+                sdk[t] = get_type_hash(t, msg_definition=text, dependencies=deps)
+                bags[t] = STORE.hash_rihs01(t)
+            emit(event="hashes", sdk=sdk, rosbags=bags)
+        else:
+            emit(event="error", error=f"unknown command {cmd[0]!r}")
+    stop.set()
+    router.close()
+
+
+if __name__ == "__main__":
+    main()
