@@ -9,7 +9,6 @@
 //! `cargo bench --bench journal [-- --moves N --creates N]`.
 
 #[path = "../tests/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 
 use std::collections::BTreeMap;

@@ -11,7 +11,6 @@
 //! `cargo bench --bench resilience [-- --trials N]` (default 10 takeover trials per signal).
 
 #[path = "../tests/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 
 use std::collections::BTreeMap;

@@ -29,7 +29,6 @@
 //! robots started R per second, default 20 as the demo does, 0 = all at once; default 1 site).
 
 #[path = "../tests/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 
 use std::collections::BTreeSet;

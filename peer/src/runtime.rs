@@ -161,6 +161,7 @@ pub async fn run_on(
     fleet_check.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut fleet_up = true;
     let mut malformed = 0u64;
+    let mut mismatched = 0u64;
 
     loop {
         let (event, query): (Event, Option<Query>) = tokio::select! {
@@ -180,6 +181,13 @@ pub async fn run_on(
             input = recv_ros(&io.ros) => match input {
                 RosInput::Odometry { pose, v, omega } => (Event::Odometry { pose: ros_pose(pose), velocity: Velocity { v, omega } }, None),
                 RosInput::Pose(pose) => (Event::LocalisedPose(ros_pose(pose)), None),
+                RosInput::Mismatch(why) => {
+                    mismatched += 1;
+                    if mismatched.is_power_of_two() {
+                        tracing::warn!(robot = %id, count = mismatched, "ROS 2 graph: {why}");
+                    }
+                    continue;
+                }
                 RosInput::Malformed { topic, error } => {
                     malformed += 1;
                     if malformed.is_power_of_two() {

@@ -171,11 +171,11 @@ fn lsap<'a>(rows: usize, cols: usize, row_costs: impl Fn(usize) -> &'a [f64]) ->
                 c.v = 0.0;
             }
         } else {
-            for r in 0..rows {
+            for (r, assigned) in col4row.iter_mut().enumerate().take(rows) {
                 let row = row_costs(r);
                 if let Some(j) = (0..cols).find(|&j| row[j] == col[j].v && col[j].row == NONE) {
                     col[j].row = r;
-                    col4row[r] = j;
+                    *assigned = j;
                 }
             }
             augmenting_row_reduction(rows, &row_costs, &mut col, &mut col4row);

@@ -135,6 +135,64 @@ impl Node {
     }
 }
 
+/// A publisher or subscription another node announces in the graph.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Endpoint {
+    pub node: String,
+    pub kind: EntityKind,
+    /// Fully qualified topic name.
+    pub topic: String,
+    /// DDS type name.
+    pub dds_type: String,
+    pub hash: String,
+}
+
+/// Reads a graph token's key expression; `None` for nodes, other domains and anything malformed.
+pub fn parse_endpoint(domain_id: u32, key: &str) -> Option<Endpoint> {
+    let parts: Vec<&str> = key.split('/').collect();
+    if parts.len() < 12 || parts[0] != ADMIN_SPACE || parts[1].parse::<u32>().ok()? != domain_id {
+        return None;
+    }
+    let kind = match parts[5] {
+        "MP" => EntityKind::Publisher,
+        "MS" => EntityKind::Subscription,
+        "SS" => EntityKind::ServiceServer,
+        "SC" => EntityKind::ServiceClient,
+        _ => return None,
+    };
+    let demangle = |s: &str| if s == "%" { "/".to_string() } else { s.replace('%', "/") };
+    Some(Endpoint {
+        node: demangle(parts[8]).trim_start_matches('/').to_string(),
+        kind,
+        topic: demangle(parts[9]),
+        dds_type: parts[10].to_string(),
+        hash: parts[11].to_string(),
+    })
+}
+
+/// What is wrong between a peer's endpoint and the type this node speaks on `topic` (fully
+/// qualified), if anything: the same topic with another type or another hash carries nothing
+/// between the two (rmw_zenoh's keys differ), so it deserves a clear warning.
+pub fn mismatch<T: RosMessage>(topic: &str, e: &Endpoint) -> Option<String> {
+    if e.topic != topic || !matches!(e.kind, EntityKind::Publisher | EntityKind::Subscription) {
+        return None;
+    }
+    let ours = dds_type_name(T::TYPE);
+    if e.dds_type != ours {
+        Some(format!("node {} has {topic} as {}, mrmm speaks {} there: nothing flows between them", e.node, e.dds_type, T::TYPE))
+    } else if e.hash != T::HASH {
+        Some(format!(
+            "node {} has {topic} with type hash {}, mrmm speaks {} ({}, ROS 2 Jazzy and later): another ROS 2 distribution or type definition, nothing flows between them",
+            e.node,
+            e.hash,
+            T::HASH,
+            T::TYPE
+        ))
+    } else {
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -157,6 +215,22 @@ mod tests {
         assert_eq!(r.topic_key::<Twist>("cmd_vel"), format!("0/robot1/cmd_vel/geometry_msgs::msg::dds_::Twist_/{}", Twist::HASH));
         assert!(r.token().ends_with("/NN/%/%robot1/mrmm_r1"));
         assert_eq!(Qos::SENSOR.encode(), "2::,5:,:,:,,");
+    }
+
+    #[test]
+    fn peers_with_another_type_hash_are_named() {
+        let n = node("/");
+        let ours = n.entity_token::<Twist>(3, EntityKind::Publisher, "/cmd_vel", Qos::DEFAULT);
+        let e = parse_endpoint(0, &ours).expect("parses");
+        assert_eq!((e.node.as_str(), e.topic.as_str(), e.kind), ("mrmm_r1", "/cmd_vel", EntityKind::Publisher));
+        assert_eq!(mismatch::<Twist>("/cmd_vel", &e), None);
+        let other = ours.replace(Twist::HASH, "RIHS01_00");
+        let why = mismatch::<Twist>("/cmd_vel", &parse_endpoint(0, &other).expect("parses")).expect("a mismatch");
+        assert!(why.contains("RIHS01_00") && why.contains("mrmm_r1"), "{why}");
+        assert_eq!(mismatch::<Twist>("/odom", &e), None, "another topic");
+        assert_eq!(parse_endpoint(1, &ours), None, "another domain");
+        assert_eq!(parse_endpoint(0, &n.token()), None, "a node");
+        assert_eq!(parse_endpoint(0, "@ros2_lv/x/y"), None);
     }
 
     #[test]

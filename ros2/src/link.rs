@@ -15,7 +15,7 @@ use crate::attachment::{new_gid, Attachment, Gid};
 use crate::cdr;
 use crate::config::Ros2Body;
 use crate::error::Ros2Error;
-use crate::graph::{EntityKind, Node, Qos};
+use crate::graph::{mismatch, parse_endpoint, qualify, EntityKind, Node, Qos, ADMIN_SPACE};
 use crate::msgs::{Odometry, PoseWithCovarianceStamped, RosMessage, Twist};
 
 /// Samples waiting per subscription at most (the newest win: only the latest pose matters).
@@ -38,6 +38,9 @@ pub enum Input {
     Pose(Pose2),
     /// A payload that could not be read (logged and dropped by the caller).
     Malformed { topic: String, error: String },
+    /// A node of the graph has one of our topics with another type or type hash: nothing flows
+    /// between it and mrmm (the caller warns).
+    Mismatch(String),
 }
 
 /// The open link.
@@ -51,6 +54,10 @@ pub struct RosLink {
     pose: Option<Subscriber<RingChannelHandler<Sample>>>,
     odom_topic: String,
     pose_topic: Option<String>,
+    /// The graph's tokens, to spot peers that speak another type on our topics.
+    graph: Subscriber<RingChannelHandler<Sample>>,
+    /// Our topics, fully qualified: cmd_vel, odometry, pose.
+    topics: (String, String, Option<String>),
     _tokens: Vec<LivelinessToken>,
 }
 
@@ -98,6 +105,18 @@ impl RosLink {
             }
             None => None,
         };
+        let graph = session
+            .liveliness()
+            .declare_subscriber(format!("{ADMIN_SPACE}/{}/**", body.domain_id))
+            .history(true)
+            .with(RingChannel::new(QUEUE * 8))
+            .await
+            .map_err(Ros2Error::zenoh)?;
+        let topics = (
+            qualify(&node.namespace, &body.cmd_vel_topic),
+            qualify(&node.namespace, &body.odom_topic),
+            body.pose_topic.as_ref().map(|t| qualify(&node.namespace, t)),
+        );
         tracing::info!(node = %node.name, namespace = %node.namespace, router = %body.router, "ROS 2 body: node declared (rmw_zenoh)");
         Ok(RosLink {
             session,
@@ -109,6 +128,8 @@ impl RosLink {
             pose,
             odom_topic: body.odom_topic.clone(),
             pose_topic: body.pose_topic.clone(),
+            graph,
+            topics,
             _tokens: tokens,
         })
     }
@@ -128,13 +149,21 @@ impl RosLink {
     /// The next input from the ROS graph (cancellation-safe: nothing is lost when another branch
     /// of a `select!` wins).
     pub async fn recv(&self) -> Input {
+        loop {
+            if let Some(input) = self.recv_one().await {
+                return input;
+            }
+        }
+    }
+
+    async fn recv_one(&self) -> Option<Input> {
         let pose = async {
             match &self.pose {
                 Some(s) => s.recv_async().await.ok(),
                 None => std::future::pending().await,
             }
         };
-        tokio::select! {
+        Some(tokio::select! {
             s = self.odom.recv_async() => match s {
                 Ok(s) => decode_odometry(&s.payload().to_bytes()).unwrap_or_else(|error| Input::Malformed { topic: self.odom_topic.clone(), error }),
                 Err(_) => std::future::pending().await,
@@ -143,7 +172,19 @@ impl RosLink {
                 Ok(p) => pose2(&p.pose.pose).map(Input::Pose).unwrap_or_else(|error| Input::Malformed { topic: self.pose_topic.clone().unwrap_or_default(), error }),
                 Err(e) => Input::Malformed { topic: self.pose_topic.clone().unwrap_or_default(), error: e.to_string() },
             },
-        }
+            s = self.graph.recv_async() => {
+                let Ok(s) = s else { return std::future::pending().await };
+                if s.kind() != zenoh::sample::SampleKind::Put {
+                    return None;
+                }
+                let e = parse_endpoint(self.node.domain_id, s.key_expr().as_str())?;
+                let (cmd_vel, odom, pose) = &self.topics;
+                let why = mismatch::<Twist>(cmd_vel, &e)
+                    .or_else(|| mismatch::<Odometry>(odom, &e))
+                    .or_else(|| pose.as_ref().and_then(|p| mismatch::<PoseWithCovarianceStamped>(p, &e)))?;
+                Input::Mismatch(why)
+            }
+        })
     }
 
     /// Stops the robot and closes the session (tokens go, so the node leaves the graph).

@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, bail, Context};
 
 pub mod netns;
+pub mod standin;
 
 pub const EXE: &str = env!("CARGO_BIN_EXE_mrmm");
 

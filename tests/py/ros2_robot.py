@@ -12,6 +12,7 @@ Output: one JSON object per line on stdout. Input: one command per line on stdin
   graph            -> {"event": "graph", "cmd_vel": {...}, "odom": {...}} (ros2 topic info -v)
   state            -> {"event": "state", ...}
   garbage          publishes malformed payloads on /odom's key
+  wrong_odom       declares a second /odom publisher with another type hash
   pause_odom / resume_odom
   hashes T1 T2 ... -> {"event": "hashes", "sdk": {...}, "rosbags": {...}}
 """
@@ -178,6 +179,10 @@ def main():
             for payload in [b"", b"\x00\x01\x00\x00\x01", b"\x07\x07\x00\x00" + b"\xff" * 300, b"\x00\x01\x00\x00" + b"\xff\xff\xff\xff" * 100]:
                 session.put(odom.keyexpr, payload)
             emit(event="garbage_sent", count=4)
+        elif cmd[0] == "wrong_odom":
+            # A node that speaks /odom with another type hash (another ROS 2 distribution).
+            wrong = ROS2Publisher(topic="/odom", msg_type="nav_msgs/msg/Odometry", node_name="old_distro_odometry", type_hash="RIHS01_" + "0" * 64, **at)
+            emit(event="wrong_odom", key=wrong.keyexpr)
         elif cmd[0] == "pause_odom":
             with lock:
                 st["odom"] = False
