@@ -9,7 +9,7 @@ mod common;
 
 use std::time::{Duration, Instant};
 
-use common::standin::{python_or_skip, ros_robot_config, StandIn};
+use common::standin::{python_or_skip, ros_robot_config, ros_robot_config_driven, StandIn};
 use common::{eventually, start, start_central, start_robot_scaled, Scratch};
 use mrmm_proto::client::Client;
 use mrmm_proto::{self as proto, GotoRequest, MissionCreate, MissionView, RobotView};
@@ -131,5 +131,109 @@ async fn a_ros2_robot_drives_patrols_with_simulated_ones_and_stops_without_its_f
     }
     let log = std::fs::read_to_string(dir.path("r3.log"))?;
     assert!(log.contains("FleetLost"), "r3 did not say why it stopped");
+    Ok(())
+}
+
+/// The graph tokens of the stand-in's router whose key contains `part`.
+fn tokens_with(standin: &mut StandIn, part: &str) -> anyhow::Result<Vec<String>> {
+    let t = standin.ask("tokens", "tokens")?;
+    Ok(t["keys"].as_array().into_iter().flatten().filter_map(Value::as_str).filter(|k| k.contains(part)).map(String::from).collect())
+}
+
+/// The last chunk but one of a graph token: the type hash.
+fn hash_of(token: &str) -> &str {
+    token.rsplit('/').nth(1).unwrap_or_default()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn nav2_gets_goals_cancels_them_on_replan_and_fleet_loss_and_refusals_are_reported() -> anyhow::Result<()> {
+    let Some(py) = python_or_skip()? else { return Ok(()) };
+    let dir = Scratch::new("ros2-nav2");
+    let mut standin = StandIn::start_with(&py, &dir, &["--nav2"])?;
+    let (mut central, ep) = start_central(&dir)?;
+    let cfg = ros_robot_config_driven(&dir, "r3", &ep, standin.port, "nav2")?.display().to_string();
+    let _r3 = start("r3", &["robot", "--config", &cfg], &dir.path("r3.log"), "robot ready", Duration::from_secs(20))?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 1).await?;
+
+    // mrmm_r3's three action clients are in the graph, with the hashes the server announces (not
+    // Jazzy's: the stand-in's SDK hashes action services its own way, and mrmm follows the server).
+    let deadline = Instant::now() + Duration::from_secs(10);
+    for service in ["send_goal", "get_result", "cancel_goal"] {
+        let part = format!("%navigate_to_pose%_action%{service}/");
+        loop {
+            let toks = tokens_with(&mut standin, &part)?;
+            let server = toks.iter().find(|k| k.contains("/SS/"));
+            let client = toks.iter().find(|k| k.contains("/SC/") && k.contains("/mrmm_r3/"));
+            if let (Some(s), Some(c)) = (server, client) {
+                assert_eq!(hash_of(s), hash_of(c), "{service}: server {s}, client {c}");
+                break;
+            }
+            anyhow::ensure!(Instant::now() < deadline, "no client of {service} from mrmm_r3: {toks:?}");
+        }
+    }
+
+    // A goto is a goal in the map frame; Nav2 drives there and mrmm reports the robot there.
+    let goto = |x: f64, y: f64| {
+        let client = &client;
+        async move { client.query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r3".into(), x, y })).await }
+    };
+    goto(1.5, 0.5).await?;
+    let g = standin.wait("goal", Duration::from_secs(10), |_| true)?;
+    assert_eq!((g["accepted"].as_bool(), g["x"].as_f64(), g["y"].as_f64(), g["frame"].as_str()), (Some(true), Some(1.5), Some(0.5), Some("map")), "{g}");
+    let r = standin.wait("result", Duration::from_secs(30), |_| true)?;
+    assert_eq!(r["status"], 4, "{r}");
+    eventually("mrmm reporting r3 at its goal, not stuck", Duration::from_secs(10), || async {
+        let v = robot(&client, "r3").await?;
+        let p = v.pose?;
+        ((p.x - 1.5).hypot(p.y - 0.5) < 0.2 && v.stuck.is_none() && v.behaviour.as_deref() == Some("hold")).then_some(())
+    })
+    .await?;
+
+    // A new goto while driving: the running goal is cancelled and the new one sent.
+    goto(4.0, 0.5).await?;
+    standin.wait("goal", Duration::from_secs(10), |g| g["x"] == 4.0)?;
+    goto(0.0, 2.0).await?;
+    // The cancel and the new goal go out together: whichever the navigator takes first, the old
+    // goal ends cancelled (by the cancel, or preempted by the new goal, then the cancel finds it
+    // over: code 3) and the new one is driven.
+    let (mut cancelled, mut ended, mut sent) = (false, false, false);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !(cancelled && ended && sent) {
+        let e = standin.lines.recv_timeout(deadline.saturating_duration_since(Instant::now()))?;
+        cancelled |= e["event"] == "cancel" && (e["code"] == 0 || e["code"] == 3);
+        ended |= e["event"] == "result" && e["status"] == 5;
+        sent |= e["event"] == "goal" && e["x"] == 0.0 && e["y"] == 2.0;
+    }
+    standin.wait("result", Duration::from_secs(40), |r| r["status"] == 4)?;
+
+    // A rejected goal and an aborted one are reported (the robot says why), and tried again.
+    standin.ask("nav2 reject", "nav2_mode")?;
+    goto(1.0, 1.0).await?;
+    standin.wait("goal", Duration::from_secs(10), |g| g["accepted"] == false)?;
+    let why =
+        eventually("r3 reported stuck: rejected", Duration::from_secs(10), || async { robot(&client, "r3").await?.stuck.filter(|s| s.contains("rejected")) })
+            .await?;
+    println!("stuck: {why}");
+    standin.ask("nav2 abort", "nav2_mode")?;
+    standin.wait("result", Duration::from_secs(15), |r| r["status"] == 6)?;
+    eventually("r3 reported stuck: aborted", Duration::from_secs(10), || async { robot(&client, "r3").await?.stuck.filter(|s| s.contains("aborted")) }).await?;
+    standin.ask("nav2 ok", "nav2_mode")?;
+    standin.wait("result", Duration::from_secs(30), |r| r["status"] == 4)?;
+    eventually("r3 no longer stuck", Duration::from_secs(10), || async { robot(&client, "r3").await.filter(|v| v.stuck.is_none()).map(|_| ()) }).await?;
+
+    // The fleet goes while Nav2 drives: the goal is cancelled (the robot stops) within a lease.
+    goto(6.0, 6.0).await?;
+    standin.wait("goal", Duration::from_secs(10), |g| g["x"] == 6.0)?;
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while standin.ask("state", "state")?["v"].as_f64().is_none_or(|v| v < 0.05) {
+        anyhow::ensure!(Instant::now() < deadline, "the robot never drove to (6, 6)");
+    }
+    let cut = Instant::now();
+    central.kill();
+    let c = standin.wait("cancel", Duration::from_millis(1500), |_| true)?;
+    println!("goal cancelled {:.0} ms after the fleet went: {c}", cut.elapsed().as_secs_f64() * 1000.0);
+    let st = standin.ask("state", "state")?;
+    assert_eq!((st["v"].as_f64(), st["omega"].as_f64()), (Some(0.0), Some(0.0)), "{st}");
     Ok(())
 }

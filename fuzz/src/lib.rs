@@ -50,7 +50,12 @@ pub fn robot(id: &str) -> Robot {
 
 /// A robot with a ROS 2 body (nothing is opened: the machine only).
 pub fn ros_robot(id: &str) -> Robot {
-    let text = format!(r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1, max_turn_rate: 2 }}, body: {{ kind: "ros2" }} }}"#);
+    ros_robot_driven(id, "cmd_vel")
+}
+
+/// [`ros_robot`] with `drive` `cmd_vel` or `nav2`.
+pub fn ros_robot_driven(id: &str, drive: &str) -> Robot {
+    let text = format!(r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1, max_turn_rate: 2 }}, body: {{ kind: "ros2", drive: "{drive}" }} }}"#);
     match RobotConfig::from_json5("fuzz", &text) {
         Ok(cfg) => Robot::new(cfg),
         Err(e) => panic!("fixture robot config: {e}"),

@@ -9,7 +9,7 @@ use crate::ros_body::{RosDrive, Step};
 #[derive(Debug, Clone)]
 pub enum Drive {
     Sim(Body),
-    Ros(RosDrive),
+    Ros(Box<RosDrive>),
 }
 
 impl Drive {
@@ -38,6 +38,14 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.navigate_capped(x, y, speed),
             Drive::Ros(r) => r.navigate_capped(x, y, speed),
+        }
+    }
+
+    /// Why a ROS 2 body cannot get to its goal (Nav2 rejected or aborted it, no Nav2 server).
+    pub fn stuck(&self) -> Option<&str> {
+        match self {
+            Drive::Sim(_) => None,
+            Drive::Ros(r) => r.stuck(),
         }
     }
 

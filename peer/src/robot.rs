@@ -8,7 +8,10 @@ use crate::body::Body;
 use crate::config::{BodySection, RobotConfig};
 use crate::drive::Drive;
 use crate::executor::{self, Executor};
+use crate::nav_goals::{Nav2Goals, NavCommand};
 use crate::ros_body::RosDrive;
+use mrmm_ros2::nav2::{GoalEvent, GoalId};
+use mrmm_ros2::DriveMode;
 
 /// Steps a plan may have at most.
 pub const MAX_PLAN_STEPS: usize = 100_000;
@@ -39,6 +42,10 @@ pub enum Event {
     LocalisedPose(mrmm_proto::Pose),
     /// The robot's session has links to other fleet nodes (`true`) or none left.
     FleetLink(bool),
+    /// Nav2's action server appeared in the robot's ROS graph or left it.
+    Nav2Server(bool),
+    /// What became of a goal sent to Nav2.
+    Nav2Goal { id: GoalId, event: GoalEvent },
 }
 
 /// What the runtime must do.
@@ -59,6 +66,8 @@ pub enum Command {
     Telemetry(Telemetry),
     /// Send a ROS 2 body this velocity command (`cmd_vel`).
     Drive(mrmm_proto::Velocity),
+    /// Send Nav2 a goal or cancel one.
+    Nav(NavCommand),
 }
 
 /// A robot's state, independent of the network.
@@ -84,7 +93,9 @@ impl Robot {
         let body = match &cfg.body {
             BodySection::Sim => Drive::Sim(Body::new(cfg.start_pose(), cfg.limits())),
             BodySection::Ros2(b) => {
-                Drive::Ros(RosDrive::new(cfg.start_pose(), cfg.limits(), b.odom_timeout_ms as f64 / 1000.0, b.stop_on_fleet_loss, b.pose_topic.is_some()))
+                let d = RosDrive::new(cfg.start_pose(), cfg.limits(), b.odom_timeout_ms as f64 / 1000.0, b.stop_on_fleet_loss, b.pose_topic.is_some());
+                // Goal ids must not repeat across restarts (the server keeps finished goals).
+                Drive::Ros(Box::new(if b.drive == DriveMode::Nav2 { d.with_nav2(Nav2Goals::new(&b.nav2_action, rand::random())) } else { d }))
             }
         };
         Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: Vec::new(), central_up: false }
@@ -193,6 +204,25 @@ impl Robot {
                 }
                 vec![]
             }
+            Event::Nav2Server(up) => {
+                if let Some(n) = self.nav2() {
+                    n.set_server(up);
+                }
+                vec![]
+            }
+            Event::Nav2Goal { id, event } => {
+                if let Some(n) = self.nav2() {
+                    n.on_event(now, id, event);
+                }
+                vec![]
+            }
+        }
+    }
+
+    fn nav2(&mut self) -> Option<&mut Nav2Goals> {
+        match &mut self.body {
+            Drive::Ros(r) => r.nav2_mut(),
+            Drive::Sim(_) => None,
         }
     }
 
@@ -373,6 +403,7 @@ impl Robot {
         if let Some(t) = step.twist {
             out.push(Command::Drive(t));
         }
+        out.extend(step.nav.into_iter().map(Command::Nav));
         out
     }
 
@@ -402,6 +433,7 @@ impl Robot {
             mission: self.exec.as_ref().map(|e| e.mission().to_string()),
             progress: self.exec.as_ref().map(Executor::progress),
             admitted: self.admitted.iter().map(|(m, _, _)| m.clone()).collect(),
+            stuck: self.body.stuck().map(str::to_string),
         }
     }
 }

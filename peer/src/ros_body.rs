@@ -6,6 +6,7 @@
 use mrmm_proto::{Pose, Velocity};
 
 use crate::body::{wrap_angle, Limits, ARRIVAL_TOLERANCE};
+use crate::nav_goals::{Nav2Goals, NavCommand};
 
 /// Turn rate per radian of heading error, 1/s.
 const TURN_GAIN: f64 = 2.0;
@@ -26,10 +27,12 @@ pub enum Halt {
 }
 
 /// What the drive tells the robot at a tick.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Step {
     /// The velocity command to publish, if any.
     pub twist: Option<Velocity>,
+    /// Goals to send to Nav2 or cancel (`drive: "nav2"`).
+    pub nav: Vec<NavCommand>,
     /// The goal was reached at this tick.
     pub arrived: bool,
     /// The drive started or stopped a halt at this tick (for the log).
@@ -52,6 +55,8 @@ pub struct RosDrive {
     fleet_up: bool,
     zeros_left: u8,
     halt: Option<Halt>,
+    /// With `drive: "nav2"`: Nav2 drives, mrmm sends it goals (and zero twists to stop).
+    nav2: Option<Nav2Goals>,
 }
 
 impl RosDrive {
@@ -70,7 +75,24 @@ impl RosDrive {
             fleet_up: true,
             zeros_left: 0,
             halt: None,
+            nav2: None,
         }
+    }
+
+    /// Goals go to Nav2 instead of mrmm's controller.
+    pub fn with_nav2(mut self, goals: Nav2Goals) -> Self {
+        self.nav2 = Some(goals);
+        self
+    }
+
+    /// The Nav2 goals, with `drive: "nav2"`.
+    pub fn nav2_mut(&mut self) -> Option<&mut Nav2Goals> {
+        self.nav2.as_mut()
+    }
+
+    /// Why the robot cannot get to its goal, while that lasts.
+    pub fn stuck(&self) -> Option<&str> {
+        self.nav2.as_ref().and_then(Nav2Goals::stuck)
     }
 
     pub fn pose(&self) -> Pose {
@@ -136,6 +158,21 @@ impl RosDrive {
             out.halt_changed = Some(halt);
         }
         self.halt = halt;
+        if let Some(n) = &mut self.nav2 {
+            let (cmds, arrived) = n.step(now, self.goal, halt.is_some(), self.pose);
+            out.nav = cmds;
+            if arrived {
+                self.goal = None;
+                out.arrived = true;
+                // Nav2's controller stopped the robot; mrmm's zero twists only follow a hold.
+                return out;
+            }
+            if halt.is_some() && self.goal.is_some() {
+                out.twist = Some(Velocity::default());
+                return out;
+            }
+            return self.stopping(out);
+        }
         let Some((gx, gy)) = self.goal else {
             return self.stopping(out);
         };

@@ -22,6 +22,8 @@ use mrmm_proto::Velocity;
 use mrmm_ros2::msgs::Twist;
 use mrmm_ros2::{Input as RosInput, RosLink};
 
+use crate::nav_goals::NavCommand;
+
 /// Input waiting for the robot's loop, per kind, at most: when the loop falls behind (or is
 /// flooded), the oldest is dropped — never Zenoh's receiving thread blocked.
 const QUEUE: usize = 256;
@@ -181,6 +183,16 @@ pub async fn run_on(
             input = recv_ros(&io.ros) => match input {
                 RosInput::Odometry { pose, v, omega } => (Event::Odometry { pose: ros_pose(pose), velocity: Velocity { v, omega } }, None),
                 RosInput::Pose(pose) => (Event::LocalisedPose(ros_pose(pose)), None),
+                RosInput::Nav2Server(up) => {
+                    if !up {
+                        tracing::warn!(robot = %id, "ROS 2 graph: Nav2's action server left");
+                    }
+                    (Event::Nav2Server(up), None)
+                }
+                RosInput::Goal { id: goal, event } => {
+                    tracing::info!(robot = %id, ?event, "Nav2 goal");
+                    (Event::Nav2Goal { id: goal, event }, None)
+                }
                 RosInput::Mismatch(why) => {
                     mismatched += 1;
                     if mismatched.is_power_of_two() {
@@ -327,6 +339,17 @@ impl Io {
                 }
                 Err(e) => tracing::warn!("telemetry encoding failed: {e}"),
             },
+            Command::Nav(NavCommand::Send { id, x, y, yaw }) => {
+                if let Some(ros) = &self.ros {
+                    tracing::info!(robot = %self.id, x, y, "Nav2 goal sent");
+                    ros.send_goal(id, x, y, yaw);
+                }
+            }
+            Command::Nav(NavCommand::Cancel(id)) => {
+                if let Some(ros) = &self.ros {
+                    ros.cancel_goal(id);
+                }
+            }
             Command::Drive(v) => {
                 if let Some(ros) = self.ros.as_mut() {
                     if let Err(e) = ros.send_twist(Twist::planar(v.v, v.omega)).await {

@@ -90,6 +90,7 @@ mod tests {
                 done: false,
             }),
             admitted: vec!["patrol-1".into()],
+            stuck: Some("Nav2 rejected the goal".into()),
         }
     }
 

@@ -55,6 +55,10 @@ pub struct RobotView {
     /// For a lost robot: the mission it was taken out of.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub last_mission: Option<String>,
+    /// Why the robot cannot get to its goal, as it reports it (a real body's navigator refused
+    /// or aborted the goal, or is not running).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stuck: Option<String>,
 }
 
 /// Fleet summary (`mrmm/system/status`).

@@ -57,6 +57,10 @@ pub struct Telemetry {
     /// while it moves): a central that restarted learns from it which robots are spoken for.
     #[serde(default)]
     pub admitted: Vec<String>,
+    /// Why the robot cannot get to its goal, while that lasts (a real body's navigator rejected
+    /// or aborted the goal, or is not running); at most a few hundred characters.
+    #[serde(default)]
+    pub stuck: Option<String>,
 }
 
 /// Progress of a robot through its plan (part of its telemetry).

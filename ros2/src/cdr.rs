@@ -2,6 +2,8 @@
 //! endian) and the message in plain CDR (the `cdr-encoding` crate does the encoding).
 
 use cdr_encoding::{from_bytes, to_vec};
+use serde::de::DeserializeOwned;
+use serde::Serialize;
 
 use crate::error::Ros2Error;
 use crate::msgs::RosMessage;
@@ -15,7 +17,12 @@ const CDR_BE: [u8; 2] = [0x00, 0x00];
 
 /// Encodes a message with its encapsulation header (little endian, what ROS 2 sends).
 pub fn encode<T: RosMessage>(msg: &T) -> Result<Vec<u8>, Ros2Error> {
-    let body = to_vec::<T, byteorder::LittleEndian>(msg).map_err(|e| Ros2Error::Encode(format!("{}: {e}", T::TYPE)))?;
+    encode_named(T::TYPE, msg)
+}
+
+/// [`encode`] for a type without a fixed hash (an action's service messages); `name` is for errors.
+pub fn encode_named<T: Serialize>(name: &str, msg: &T) -> Result<Vec<u8>, Ros2Error> {
+    let body = to_vec::<T, byteorder::LittleEndian>(msg).map_err(|e| Ros2Error::Encode(format!("{name}: {e}")))?;
     let mut out = Vec::with_capacity(CDR_LE.len() + body.len());
     out.extend_from_slice(&CDR_LE);
     out.extend_from_slice(&body);
@@ -25,7 +32,14 @@ pub fn encode<T: RosMessage>(msg: &T) -> Result<Vec<u8>, Ros2Error> {
 /// Decodes a payload: checks its size and header, then the message. Any problem is an error
 /// naming the type, never a panic.
 pub fn decode<T: RosMessage>(bytes: &[u8]) -> Result<T, Ros2Error> {
-    let bad = |why: String| Ros2Error::Decode(format!("{}: {why}", T::TYPE));
+    decode_named(T::TYPE, bytes)
+}
+
+/// [`decode`] for a type without a fixed hash; `name` is for errors. Bytes after the message
+/// are ignored, so a prefix of a longer message can be read (the first fields of a result whose
+/// tail differs between releases).
+pub fn decode_named<T: DeserializeOwned>(name: &str, bytes: &[u8]) -> Result<T, Ros2Error> {
+    let bad = |why: String| Ros2Error::Decode(format!("{name}: {why}"));
     if bytes.len() > MAX_PAYLOAD {
         return Err(bad(format!("{} bytes (at most {MAX_PAYLOAD})", bytes.len())));
     }

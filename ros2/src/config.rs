@@ -122,9 +122,6 @@ impl Ros2Body {
         if !(50..=10_000).contains(&self.odom_timeout_ms) {
             return Err(cfg(format!("body.odom_timeout_ms: must be 50..=10000 (got {})", self.odom_timeout_ms)));
         }
-        if self.drive == DriveMode::Nav2 {
-            return Err(cfg("body.drive: \"nav2\" is not supported yet; use \"cmd_vel\" (mrmm's controller on odometry)".into()));
-        }
         Ok(())
     }
 

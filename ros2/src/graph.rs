@@ -119,6 +119,18 @@ impl Node {
 
     /// The liveliness token of one of the node's publishers or subscriptions.
     pub fn entity_token<T: RosMessage>(&self, entity_id: u32, kind: EntityKind, topic: &str, qos: Qos) -> String {
+        self.token_for(entity_id, kind, topic, &dds_type_name(T::TYPE), T::HASH, qos)
+    }
+
+    /// The key expression of a service (or an action's service) whose type and hash are known
+    /// only at run time: `<domain>/<fully qualified name without its leading />/<DDS type>/<hash>`.
+    pub fn service_key(&self, name: &str, dds_type: &str, hash: &str) -> String {
+        let fq = qualify(&self.namespace, name);
+        format!("{}/{}/{dds_type}/{hash}", self.domain_id, fq.trim_start_matches('/'))
+    }
+
+    /// The liveliness token of any entity of the node, its type given as a DDS type name.
+    pub fn token_for(&self, entity_id: u32, kind: EntityKind, topic: &str, dds_type: &str, hash: &str, qos: Qos) -> String {
         format!(
             "{ADMIN_SPACE}/{}/{}/{}/{entity_id}/{}/%/{}/{}/{}/{}/{}/{}",
             self.domain_id,
@@ -128,8 +140,8 @@ impl Node {
             mangle(&self.namespace),
             mangle(&self.name),
             mangle(&qualify(&self.namespace, topic)),
-            dds_type_name(T::TYPE),
-            T::HASH,
+            dds_type,
+            hash,
             qos.encode()
         )
     }

@@ -2,7 +2,9 @@
 //! installation, no bridge). [`msgs`] and [`cdr`] are the messages on the wire, [`graph`] the key
 //! expressions and graph tokens, [`attachment`] what rmw_zenoh attaches to each message,
 //! [`config`] the robot config's `body` section, [`link`] the session to the robot's ROS router.
+//! [`nav2`] is Nav2's `NavigateToPose` action.
 
+pub mod action;
 pub mod attachment;
 pub mod cdr;
 pub mod config;
@@ -10,6 +12,7 @@ pub mod error;
 pub mod graph;
 pub mod link;
 pub mod msgs;
+pub mod nav2;
 
 pub use config::{DriveMode, Ros2Body};
 pub use error::Ros2Error;

@@ -11,12 +11,15 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::sample::Sample;
 use zenoh::Session;
 
+use crate::action::NavClient;
 use crate::attachment::{new_gid, Attachment, Gid};
 use crate::cdr;
+use crate::config::DriveMode;
 use crate::config::Ros2Body;
 use crate::error::Ros2Error;
 use crate::graph::{mismatch, parse_endpoint, qualify, EntityKind, Node, Qos, ADMIN_SPACE};
 use crate::msgs::{Odometry, PoseWithCovarianceStamped, RosMessage, Twist};
+use crate::nav2::{GoalEvent, GoalId};
 
 /// Samples waiting per subscription at most (the newest win: only the latest pose matters).
 const QUEUE: usize = 16;
@@ -41,6 +44,10 @@ pub enum Input {
     /// A node of the graph has one of our topics with another type or type hash: nothing flows
     /// between it and mrmm (the caller warns).
     Mismatch(String),
+    /// Nav2's action server (all three of its services) appeared in the graph or left it.
+    Nav2Server(bool),
+    /// What became of a goal sent to Nav2.
+    Goal { id: GoalId, event: GoalEvent },
 }
 
 /// The open link.
@@ -58,6 +65,8 @@ pub struct RosLink {
     graph: Subscriber<RingChannelHandler<Sample>>,
     /// Our topics, fully qualified: cmd_vel, odometry, pose.
     topics: (String, String, Option<String>),
+    /// The Nav2 action client, with `drive: "nav2"`.
+    nav: Option<NavClient>,
     _tokens: Vec<LivelinessToken>,
 }
 
@@ -117,6 +126,7 @@ impl RosLink {
             qualify(&node.namespace, &body.odom_topic),
             body.pose_topic.as_ref().map(|t| qualify(&node.namespace, t)),
         );
+        let nav = (body.drive == DriveMode::Nav2).then(|| NavClient::new(session.clone(), node.clone(), &body.nav2_action, &body.frame_id));
         tracing::info!(node = %node.name, namespace = %node.namespace, router = %body.router, "ROS 2 body: node declared (rmw_zenoh)");
         Ok(RosLink {
             session,
@@ -130,6 +140,7 @@ impl RosLink {
             pose_topic: body.pose_topic.clone(),
             graph,
             topics,
+            nav,
             _tokens: tokens,
         })
     }
@@ -144,6 +155,20 @@ impl RosLink {
         self.seq = self.seq.saturating_add(1);
         let attachment = Attachment { sequence_number: self.seq, source_timestamp: now_ns(), source_gid: self.cmd_vel_gid };
         self.cmd_vel.put(cdr::encode(&t)?).attachment(attachment.to_zbytes()).await.map_err(Ros2Error::zenoh)
+    }
+
+    /// Sends a Nav2 goal (answers come through [`Self::recv`]); nothing without a Nav2 drive.
+    pub fn send_goal(&self, id: GoalId, x: f64, y: f64, yaw: f64) {
+        if let Some(n) = &self.nav {
+            n.send_goal(id, x, y, yaw);
+        }
+    }
+
+    /// Cancels a Nav2 goal.
+    pub fn cancel_goal(&self, id: GoalId) {
+        if let Some(n) = &self.nav {
+            n.cancel_goal(id);
+        }
     }
 
     /// The next input from the ROS graph (cancellation-safe: nothing is lost when another branch
@@ -163,7 +188,14 @@ impl RosLink {
                 None => std::future::pending().await,
             }
         };
+        let goal = async {
+            match &self.nav {
+                Some(n) => n.next().await,
+                None => std::future::pending().await,
+            }
+        };
         Some(tokio::select! {
+            input = goal => input,
             s = self.odom.recv_async() => match s {
                 Ok(s) => decode_odometry(&s.payload().to_bytes()).unwrap_or_else(|error| Input::Malformed { topic: self.odom_topic.clone(), error }),
                 Err(_) => std::future::pending().await,
@@ -174,10 +206,16 @@ impl RosLink {
             },
             s = self.graph.recv_async() => {
                 let Ok(s) = s else { return std::future::pending().await };
-                if s.kind() != zenoh::sample::SampleKind::Put {
+                let e = parse_endpoint(self.node.domain_id, s.key_expr().as_str())?;
+                let gone = s.kind() != zenoh::sample::SampleKind::Put;
+                if let Some(n) = &self.nav {
+                    if let Some(input) = n.on_graph(&e, gone).await {
+                        return Some(input);
+                    }
+                }
+                if gone {
                     return None;
                 }
-                let e = parse_endpoint(self.node.domain_id, s.key_expr().as_str())?;
                 let (cmd_vel, odom, pose) = &self.topics;
                 let why = mismatch::<Twist>(cmd_vel, &e)
                     .or_else(|| mismatch::<Odometry>(odom, &e))
@@ -190,6 +228,9 @@ impl RosLink {
     /// Stops the robot and closes the session (tokens go, so the node leaves the graph).
     pub async fn close(mut self) {
         let _ = self.send_twist(Twist::default()).await;
+        if let Some(n) = &self.nav {
+            n.cancel_active().await;
+        }
         let _ = tokio::time::timeout(Duration::from_secs(2), self.session.close()).await;
     }
 }
@@ -215,7 +256,7 @@ fn pose2(p: &crate::msgs::Pose) -> Result<Pose2, String> {
     }
 }
 
-fn now_ns() -> i64 {
+pub(crate) fn now_ns() -> i64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| i64::try_from(d.as_nanos()).unwrap_or(i64::MAX))
 }
 

@@ -47,11 +47,17 @@ pub struct StandIn {
 
 impl StandIn {
     pub fn start(py: &PathBuf, dir: &Scratch) -> anyhow::Result<Self> {
+        Self::start_with(py, dir, &[])
+    }
+
+    /// With extra arguments (`--nav2`: also a Nav2 navigator).
+    pub fn start_with(py: &PathBuf, dir: &Scratch, extra: &[&str]) -> anyhow::Result<Self> {
         let port = free_port()?;
         let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/py/ros2_robot.py");
         let mut child = Command::new(py)
             .arg(script)
             .args(["--port", &port.to_string()])
+            .args(extra)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(std::fs::File::create(dir.path("standin.log"))?)
@@ -105,11 +111,16 @@ impl Drop for StandIn {
 
 /// A robot config with a `ros2` body on the stand-in's router.
 pub fn ros_robot_config(dir: &Scratch, id: &str, central: &str, router_port: u16) -> anyhow::Result<PathBuf> {
+    ros_robot_config_driven(dir, id, central, router_port, "cmd_vel")
+}
+
+/// [`ros_robot_config`] with `drive` `cmd_vel` or `nav2`.
+pub fn ros_robot_config_driven(dir: &Scratch, id: &str, central: &str, router_port: u16, drive: &str) -> anyhow::Result<PathBuf> {
     let cfg = format!(
         r#"{{ id: "{id}", type: "ground", capabilities: ["camera"],
              kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }},
              telemetry_hz: 10,
-             body: {{ kind: "ros2", router: "tcp/127.0.0.1:{router_port}", odom_topic: "/odom", cmd_vel_topic: "/cmd_vel", odom_timeout_ms: 500 }},
+             body: {{ kind: "ros2", router: "tcp/127.0.0.1:{router_port}", drive: "{drive}", odom_topic: "/odom", cmd_vel_topic: "/cmd_vel", odom_timeout_ms: 500 }},
              zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }} }}"#
     );
     let path = dir.path(&format!("{id}.json5"));

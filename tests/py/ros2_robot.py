@@ -15,6 +15,15 @@ Output: one JSON object per line on stdout. Input: one command per line on stdin
   wrong_odom       declares a second /odom publisher with another type hash
   pause_odom / resume_odom
   hashes T1 T2 ... -> {"event": "hashes", "sdk": {...}, "rosbags": {...}}
+  tokens           -> {"event": "tokens", "keys": [...]} (every graph liveliness token)
+  nav2 ok|reject|abort   how the Nav2 stand-in treats the next goals (with --nav2)
+
+With --nav2 it is also a Nav2 navigator: the NavigateToPose action on /navigate_to_pose, made of
+the SDK's service servers (send_goal, get_result, cancel_goal). An accepted goal is driven to by
+the stand-in's own controller (as Nav2's would) and succeeds within 0.1 m; `abort` aborts goals
+after half a second of driving. The SDK names an action's services' nested types as if they
+were a package's services, so the hashes it announces for NavigateToPose are not Jazzy's: mrmm
+uses the hashes the server announces, which this checks.
 """
 
 import argparse
@@ -77,6 +86,135 @@ def write_definitions(root, typenames):
                 todo.append(node[1])
 
 
+NAV2_DEFINITIONS = {
+    # nav2_msgs/action/NavigateToPose (Jazzy), split as rosidl splits an action.
+    "nav2_msgs/msg/NavigateToPose_Goal": "geometry_msgs/PoseStamped pose\nstring behavior_tree\n",
+    "nav2_msgs/msg/NavigateToPose_Result": "uint16 NONE=0\nuint16 UNKNOWN=9000\nuint16 error_code\nstring error_msg\n",
+}
+SEND_GOAL = ("unique_identifier_msgs/UUID goal_id\nnav2_msgs/NavigateToPose_Goal goal\n", "bool accepted\nbuiltin_interfaces/Time stamp\n")
+GET_RESULT = ("unique_identifier_msgs/UUID goal_id\n", "int8 status\nnav2_msgs/NavigateToPose_Result result\n")
+CANCEL_GOAL = (
+    "action_msgs/GoalInfo goal_info\n",
+    "int8 ERROR_NONE=0\nint8 ERROR_REJECTED=1\nint8 ERROR_UNKNOWN_GOAL_ID=2\nint8 ERROR_GOAL_TERMINATED=3\nint8 return_code\naction_msgs/GoalInfo[] goals_canceling\n",
+)
+SUCCEEDED, CANCELED, ABORTED = 4, 5, 6
+
+
+def write_nav2_definitions(root):
+    for t, text in NAV2_DEFINITIONS.items():
+        pkg, _, name = t.split("/")
+        os.makedirs(os.path.join(root, pkg, "msg"), exist_ok=True)
+        with open(os.path.join(root, pkg, "msg", f"{name}.msg"), "w") as f:
+            f.write(text)
+
+
+def nav2_control(st, dt):
+    """The stand-in navigator's controller: turn towards the goal and drive (called under the lock)."""
+    g = st["goal"]
+    dx, dy = g["x"] - st["x"], g["y"] - st["y"]
+    dist = math.hypot(dx, dy)
+    g["driven"] += dt
+    if st["nav2"] == "abort" and g["driven"] > 0.5:
+        finish(st, ABORTED)
+    elif dist < 0.1:
+        finish(st, SUCCEEDED)
+    else:
+        err = math.atan2(math.sin(math.atan2(dy, dx) - st["theta"]), math.cos(math.atan2(dy, dx) - st["theta"]))
+        st["omega"] = max(-1.5, min(1.5, 2.0 * err))
+        st["v"] = min(0.5, dist) * max(0.0, math.cos(err))
+
+
+def finish(st, status):
+    """Ends the running goal with `status` (called under the lock): the robot stops, the result goes out."""
+    g = st["goal"]
+    st["goal"], st["v"], st["omega"] = None, 0.0, 0.0
+    g["status"] = status
+    emit(event="result", status=status, x=st["x"], y=st["y"], t=time.time())
+    if g["waiting"] is not None:
+        g["reply"](g["waiting"], status)
+        g["waiting"] = None
+
+
+def serve_nav2(at, st, lock):
+    """NavigateToPose on /navigate_to_pose from three SDK service servers (queue mode, so a
+    result can be answered when the goal ends)."""
+    from zenoh_ros2_sdk import ROS2ServiceServer
+    from zenoh_ros2_sdk.session import ZenohSession
+
+    # The action's own messages first, so that its services' messages can nest them.
+    mgr = ZenohSession.get_instance(at["router_ip"], at["router_port"])
+    for t in NAV2_DEFINITIONS:
+        mgr.register_message_type(None, t)
+
+    def server(name, srv_type, defs):
+        return ROS2ServiceServer(service_name=f"/navigate_to_pose/_action/{name}", srv_type=srv_type, request_definition=defs[0],
+                                 response_definition=defs[1], node_name="bt_navigator", mode="queue", **at)
+
+    send = server("send_goal", "nav2_msgs/action/NavigateToPose_SendGoal", SEND_GOAL)
+    result = server("get_result", "nav2_msgs/action/NavigateToPose_GetResult", GET_RESULT)
+    cancel = server("cancel_goal", "action_msgs/srv/CancelGoal", CANCEL_GOAL)
+    types = send.session_mgr.store.types
+    Time = types["builtin_interfaces/msg/Time"]
+    goals = {}
+
+    def reply_result(key, status):
+        Result = result.session_mgr.register_message_type(None, "nav2_msgs/msg/NavigateToPose_Result")
+        result.send_response(key, result.response_msg_class(status=status, result=Result(error_code=9000 if status == ABORTED else 0, error_msg="stand-in" if status == ABORTED else "")))
+
+    def on_send():
+        while True:
+            key, req = send.take_request()
+            gid = bytes(req.goal_id.uuid)
+            p = req.goal.pose.pose.position
+            now = time.time()
+            with lock:
+                accept = st["nav2"] != "reject"
+                if accept:
+                    if st["goal"] is not None:
+                        finish(st, CANCELED)
+                    g = {"id": gid, "x": float(p.x), "y": float(p.y), "driven": 0.0, "status": None, "waiting": None, "reply": reply_result}
+                    goals[gid] = g
+                    st["goal"] = g
+                    st["goals"] += 1
+            send.send_response(key, send.response_msg_class(accepted=accept, stamp=Time(sec=int(now), nanosec=0)))
+            emit(event="goal", accepted=accept, x=float(p.x), y=float(p.y), frame=req.goal.pose.header.frame_id, t=now)
+
+    def on_result():
+        while True:
+            key, req = result.take_request()
+            with lock:
+                g = goals.get(bytes(req.goal_id.uuid))
+                if g is None:
+                    reply_result(key, 0)
+                elif g["status"] is not None:
+                    reply_result(key, g["status"])
+                else:
+                    g["waiting"] = key
+
+    def on_cancel():
+        GoalInfo = cancel.session_mgr.register_message_type(None, "action_msgs/msg/GoalInfo")
+        while True:
+            key, req = cancel.take_request()
+            gid = bytes(req.goal_info.goal_id.uuid)
+            with lock:
+                g = goals.get(gid)
+                if g is None:
+                    code = 2
+                elif g["status"] is not None:
+                    code = 3
+                else:
+                    code = 0
+                    st["cancels"] += 1
+                    finish(st, CANCELED)
+            canceling = [GoalInfo(goal_id=req.goal_info.goal_id, stamp=req.goal_info.stamp)] if code == 0 else []
+            cancel.send_response(key, cancel.response_msg_class(return_code=code, goals_canceling=canceling))
+            emit(event="cancel", code=code, t=time.time())
+
+    for f in (on_send, on_result, on_cancel):
+        threading.Thread(target=f, daemon=True).start()
+    emit(event="nav2_ready", send_goal=send.keyexpr, get_result=result.keyexpr, cancel_goal=cancel.keyexpr)
+
+
 def emit(**kw):
     sys.stdout.write(json.dumps(kw) + "\n")
     sys.stdout.flush()
@@ -89,6 +227,7 @@ def main():
     ap.add_argument("--y", type=float, default=0.0)
     ap.add_argument("--theta", type=float, default=0.0)
     ap.add_argument("--odom-hz", type=float, default=30.0)
+    ap.add_argument("--nav2", action="store_true", help="also serve Nav2's NavigateToPose action")
     args = ap.parse_args()
 
     # The robot's router, as rmw_zenohd: loopback only, no multicast scouting.
@@ -102,6 +241,9 @@ def main():
     os.environ["ZENOH_CONFIG_OVERRIDE"] = 'scouting/multicast/enabled=false;listen/endpoints=["tcp/127.0.0.1:0"]'
     msgdir = tempfile.mkdtemp(prefix="ros2-msgs-")
     write_definitions(msgdir, ["geometry_msgs/msg/Twist", "nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseWithCovarianceStamped"])
+    if args.nav2:
+        write_definitions(msgdir, ["geometry_msgs/msg/PoseStamped", "action_msgs/msg/GoalInfo", "unique_identifier_msgs/msg/UUID"])
+        write_nav2_definitions(msgdir)
     from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber, get_registry
     from zenoh_ros2_sdk.discovery import get_topic_info
 
@@ -109,7 +251,8 @@ def main():
     at = {"router_ip": "127.0.0.1", "router_port": args.port}
 
     lock = threading.Lock()
-    st = {"x": args.x, "y": args.y, "theta": args.theta, "v": 0.0, "omega": 0.0, "twists": 0, "zeros": 0, "moving": False, "odom": True}
+    st = {"x": args.x, "y": args.y, "theta": args.theta, "v": 0.0, "omega": 0.0, "twists": 0, "zeros": 0, "moving": False, "odom": True,
+          "goal": None, "nav2": "ok", "goals": 0, "cancels": 0}
 
     def on_twist(msg):
         v, w = float(msg.linear.x), float(msg.angular.z)
@@ -140,6 +283,8 @@ def main():
         nxt = time.monotonic()
         while not stop.is_set():
             with lock:
+                if st["goal"] is not None:
+                    nav2_control(st, dt)
                 st["theta"] = math.atan2(math.sin(st["theta"] + st["omega"] * dt), math.cos(st["theta"] + st["omega"] * dt))
                 st["x"] += st["v"] * dt * math.cos(st["theta"])
                 st["y"] += st["v"] * dt * math.sin(st["theta"])
@@ -156,6 +301,8 @@ def main():
             time.sleep(max(0.0, nxt - time.monotonic()))
 
     threading.Thread(target=physics, daemon=True).start()
+    if args.nav2:
+        serve_nav2(at, st, lock)
     emit(event="ready", odom_key=odom.keyexpr, cmd_vel_key=sub.keyexpr if hasattr(sub, "keyexpr") else None)
 
     def info(topic):
@@ -173,7 +320,7 @@ def main():
             emit(event="graph", cmd_vel=info("/cmd_vel"), odom=info("/odom"))
         elif cmd[0] == "state":
             with lock:
-                emit(event="state", **{k: st[k] for k in ("x", "y", "theta", "v", "omega", "twists", "zeros")})
+                emit(event="state", **{k: st[k] for k in ("x", "y", "theta", "v", "omega", "twists", "zeros", "goals", "cancels")})
         elif cmd[0] == "garbage":
             session = odom.session_mgr.session
             for payload in [b"", b"\x00\x01\x00\x00\x01", b"\x07\x07\x00\x00" + b"\xff" * 300, b"\x00\x01\x00\x00" + b"\xff\xff\xff\xff" * 100]:
@@ -191,6 +338,13 @@ def main():
             with lock:
                 st["odom"] = True
             emit(event="odom_resumed")
+        elif cmd[0] == "tokens":
+            keys = [str(r.ok.key_expr) for r in router.liveliness().get("@ros2_lv/**", timeout=2.0) if r.ok is not None]
+            emit(event="tokens", keys=keys)
+        elif cmd[0] == "nav2" and len(cmd) == 2 and cmd[1] in ("ok", "reject", "abort"):
+            with lock:
+                st["nav2"] = cmd[1]
+            emit(event="nav2_mode", mode=cmd[1])
         elif cmd[0] == "hashes":
             from zenoh_ros2_sdk.utils import get_type_hash, load_dependencies_recursive
             sdk, bags = {}, {}

@@ -142,6 +142,13 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
 
     // Robots driving somewhere without getting anywhere.
     for r in robots {
+        if let Some(why) = &r.stuck {
+            // The robot says so itself (its navigator refused or aborted the goal).
+            let id = format!("stuck/{}", r.id);
+            let reason = format!("robot {} cannot get to its goal: {why}", r.id);
+            out.insert(id.clone(), candidate(id, Priority::Warning, reason, json!({"robot": r.id, "why": why}), now, None));
+            continue;
+        }
         let Some(pose) = r.pose else { continue };
         let driving = r.status == RobotStatus::Busy && r.behaviour.as_deref().is_some_and(|b| b.contains("goto"));
         let entry = mem.last_moved.entry(r.id.clone()).or_insert((pose, now));

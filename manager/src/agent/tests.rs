@@ -14,6 +14,7 @@ fn robot(id: &str, status: RobotStatus, mission: Option<&str>, x: f64, behaviour
         pose: Some(Pose { x, y: 0.0, theta: 0.0 }),
         behaviour: Some(behaviour.into()),
         last_mission: None,
+        stuck: None,
     }
 }
 
@@ -193,6 +194,18 @@ fn manager_loss_and_failover_and_stuck_robots() {
     assert!(raised(&a.handle(5.0, snap(r(0.05), vec![p.clone()]))).is_empty());
     assert_eq!(raised(&a.handle(10.5, snap(r(0.1), vec![p.clone()]))), [("stuck/r1".into(), Priority::Warning)]);
     assert_eq!(withdrawn(&a.handle(11.0, snap(r(3.0), vec![p.clone()]))), ["stuck/r1"]);
+    // A robot that says it is stuck (its navigator refused the goal) is raised at once, with its
+    // reason, and withdrawn when it no longer says so.
+    let says = |x: f64| {
+        vec![RobotView {
+            stuck: Some("Nav2 (/navigate_to_pose) rejected the goal to (3.00, 0.00)".into()),
+            ..robot("r1", RobotStatus::Busy, Some("p"), x, "goto(3.00,0.00)")
+        }]
+    };
+    let cmds = a.handle(11.5, snap(says(3.5), vec![p.clone()]));
+    assert_eq!(raised(&cmds), [("stuck/r1".into(), Priority::Warning)]);
+    assert!(format!("{cmds:?}").contains("rejected the goal"), "{cmds:?}");
+    assert_eq!(withdrawn(&a.handle(12.0, snap(r(3.6), vec![p.clone()]))), ["stuck/r1"]);
     // The manager moves: an event advice that stands for a while.
     p.manager = ManagerView { node: "r2".into(), epoch: 2, chain_epoch: 1, chain: vec![] };
     assert_eq!(raised(&a.handle(12.0, snap(r(4.0), vec![p.clone()]))), [("failover/p".into(), Priority::Warning)]);

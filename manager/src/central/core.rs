@@ -139,6 +139,7 @@ mod tests {
                 mission: None,
                 progress: None,
                 admitted: vec![],
+                stuck: None,
             };
             c.handle(0.0, Event::System(system::Event::Telemetry(Box::new(t))));
         }

@@ -141,6 +141,7 @@ fn progress(id: &str, mission: &str, epoch: u64) -> Event {
         mission: Some(mission.into()),
         progress: Some(Progress { mission: mission.into(), epoch, step: 0, round: 0, syncs_passed: 0, sync_msgs: 0, waiting: None, done: false }),
         admitted: vec![],
+        stuck: None,
     }))
 }
 

@@ -124,6 +124,7 @@ fn tel(id: &str, x: f64, y: f64, syncs: u32, round: u32) -> Telemetry {
         mission: Some("p1".into()),
         progress: Some(Progress { mission: "p1".into(), epoch: 1, step: 3, round, syncs_passed: syncs, sync_msgs: syncs, waiting: None, done: false }),
         admitted: vec![],
+        stuck: None,
     }
 }
 

@@ -62,6 +62,7 @@ fn telemetry(id: &str, seq: u64, behaviour: Behaviour) -> Telemetry {
         mission: None,
         progress: None,
         admitted: vec![],
+        stuck: None,
     }
 }
 

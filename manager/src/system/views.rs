@@ -80,6 +80,7 @@ impl SystemManager {
             pose: rec.last.as_ref().map(|t| t.pose),
             behaviour,
             last_mission,
+            stuck: rec.last.as_ref().and_then(|t| t.stuck.clone()).filter(|_| rec.alive),
         })
     }
 

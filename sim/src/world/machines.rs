@@ -253,7 +253,8 @@ impl World {
                     }
                 }
                 // The simulated fleet's robots have simulated bodies: no velocity commands.
-                robot::Command::Drive(_) => {}
+                // Simulated bodies give no ROS 2 commands.
+                robot::Command::Drive(_) | robot::Command::Nav(_) => {}
                 robot::Command::Telemetry(t) => {
                     for j in 0..self.nodes.len() {
                         if self.lost() {
