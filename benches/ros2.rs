@@ -113,7 +113,9 @@ async fn main() -> anyhow::Result<()> {
             }
         };
         let (a, b, c) = tokio::join!(goto("sim"), goto("ros"), goto("nav"));
-        (a?, b?, c?);
+        a?;
+        b?;
+        c?;
         let (mut s_at, mut r_at, mut n_at) = (None, None, None);
         while (s_at.is_none() || r_at.is_none() || n_at.is_none()) && sent.elapsed() < Duration::from_secs(5) {
             let Ok(Ok(s)) = tokio::time::timeout(Duration::from_millis(200), telemetry.recv_async()).await else { continue };

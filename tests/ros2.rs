@@ -134,6 +134,10 @@ async fn a_ros2_robot_drives_patrols_with_simulated_ones_and_stops_without_its_f
     Ok(())
 }
 
+async fn mission(client: &Client, name: &str) -> Option<MissionView> {
+    client.query(proto::Key::SystemMission(name.to_string()), None::<&()>).await.ok()
+}
+
 /// The graph tokens of the stand-in's router whose key contains `part`.
 fn tokens_with(standin: &mut StandIn, part: &str) -> anyhow::Result<Vec<String>> {
     let t = standin.ask("tokens", "tokens")?;
@@ -146,7 +150,7 @@ fn hash_of(token: &str) -> &str {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn nav2_gets_goals_cancels_them_on_replan_and_fleet_loss_and_refusals_are_reported() -> anyhow::Result<()> {
+async fn nav2_gets_goals_cancels_them_on_replan_and_fleet_loss_and_refusals_and_recoveries_are_reported() -> anyhow::Result<()> {
     let Some(py) = python_or_skip()? else { return Ok(()) };
     let dir = Scratch::new("ros2-nav2");
     let mut standin = StandIn::start_with(&py, &dir, &["--nav2"])?;
@@ -159,12 +163,14 @@ async fn nav2_gets_goals_cancels_them_on_replan_and_fleet_loss_and_refusals_are_
     // mrmm_r3's three action clients are in the graph, with the hashes the server announces (not
     // Jazzy's: the stand-in's SDK hashes action services its own way, and mrmm follows the server).
     let deadline = Instant::now() + Duration::from_secs(10);
-    for service in ["send_goal", "get_result", "cancel_goal"] {
+    for (service, server_kind, client_kind) in
+        [("send_goal", "/SS/", "/SC/"), ("get_result", "/SS/", "/SC/"), ("cancel_goal", "/SS/", "/SC/"), ("feedback", "/MP/", "/MS/")]
+    {
         let part = format!("%navigate_to_pose%_action%{service}/");
         loop {
             let toks = tokens_with(&mut standin, &part)?;
-            let server = toks.iter().find(|k| k.contains("/SS/"));
-            let client = toks.iter().find(|k| k.contains("/SC/") && k.contains("/mrmm_r3/"));
+            let server = toks.iter().find(|k| k.contains(server_kind));
+            let client = toks.iter().find(|k| k.contains(client_kind) && k.contains("/mrmm_r3/"));
             if let (Some(s), Some(c)) = (server, client) {
                 assert_eq!(hash_of(s), hash_of(c), "{service}: server {s}, client {c}");
                 break;
@@ -207,17 +213,46 @@ async fn nav2_gets_goals_cancels_them_on_replan_and_fleet_loss_and_refusals_are_
     }
     standin.wait("result", Duration::from_secs(40), |r| r["status"] == 4)?;
 
-    // A rejected goal and an aborted one are reported (the robot says why), and tried again.
+    // In a mission (a one-robot patrol), a rejected goal and an aborted one are reported — the
+    // robot says why, in its view and in its mission's — and tried again.
     standin.ask("nav2 reject", "nav2_mode")?;
-    goto(1.0, 1.0).await?;
-    standin.wait("goal", Duration::from_secs(10), |g| g["accepted"] == false)?;
+    let create = MissionCreate {
+        name: "n".into(),
+        recipe: "patrol".into(),
+        robots: Some(vec!["r3".into()]),
+        params: [("waypoints".to_string(), serde_json::json!([[1, 1], [2, 1]]))].into(),
+        ..Default::default()
+    };
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
+    standin.wait("goal", Duration::from_secs(15), |g| g["accepted"] == false)?;
     let why =
         eventually("r3 reported stuck: rejected", Duration::from_secs(10), || async { robot(&client, "r3").await?.stuck.filter(|s| s.contains("rejected")) })
             .await?;
     println!("stuck: {why}");
+    eventually("mission n shows r3 stuck", Duration::from_secs(10), || async {
+        mission(&client, "n").await?.stuck.get("r3").filter(|s| s.contains("rejected")).cloned()
+    })
+    .await?;
     standin.ask("nav2 abort", "nav2_mode")?;
     standin.wait("result", Duration::from_secs(15), |r| r["status"] == 6)?;
     eventually("r3 reported stuck: aborted", Duration::from_secs(10), || async { robot(&client, "r3").await?.stuck.filter(|s| s.contains("aborted")) }).await?;
+    standin.ask("nav2 ok", "nav2_mode")?;
+    standin.wait("result", Duration::from_secs(30), |r| r["status"] == 4)?;
+    eventually("r3 no longer stuck", Duration::from_secs(10), || async { robot(&client, "r3").await.filter(|v| v.stuck.is_none()).map(|_| ()) }).await?;
+    eventually("mission n without stuck members", Duration::from_secs(10), || async { mission(&client, "n").await.filter(|m| m.stuck.is_empty()).map(|_| ()) })
+        .await?;
+    let _: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&proto::MissionTerminate { name: "n".into() })).await?;
+    eventually("r3 free again", Duration::from_secs(10), || async { robot(&client, "r3").await.filter(|v| v.mission.is_none()).map(|_| ()) }).await?;
+
+    // Nav2 recovering again and again (a blocked path) is reported before any abort, from its
+    // feedback, and the report goes once the goal is reached.
+    standin.ask("nav2 recover", "nav2_mode")?;
+    goto(3.0, 3.0).await?;
+    standin.wait("goal", Duration::from_secs(10), |g| g["x"] == 3.0)?;
+    let why =
+        eventually("r3 reported recovering", Duration::from_secs(10), || async { robot(&client, "r3").await?.stuck.filter(|s| s.contains("recovering")) })
+            .await?;
+    println!("stuck: {why}");
     standin.ask("nav2 ok", "nav2_mode")?;
     standin.wait("result", Duration::from_secs(30), |r| r["status"] == 4)?;
     eventually("r3 no longer stuck", Duration::from_secs(10), || async { robot(&client, "r3").await.filter(|v| v.stuck.is_none()).map(|_| ()) }).await?;

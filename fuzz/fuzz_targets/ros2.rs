@@ -24,10 +24,11 @@ fuzz_target!(|data: &[u8]| {
                 for (d, s) in id.iter_mut().zip(payload) {
                     *d = *s;
                 }
-                let event = match sel / 8 % 4 {
+                let event = match sel / 8 % 5 {
                     0 => nav2::decode_accepted(payload).map(|a| if a { GoalEvent::Accepted } else { GoalEvent::Rejected }),
                     1 => nav2::decode_status(payload).map(GoalEvent::Finished),
                     2 => nav2::decode_cancel(payload).map(GoalEvent::Finished),
+                    3 => nav2::decode_feedback(payload).map(|(_, e)| e),
                     _ => Ok(GoalEvent::Failed(String::from_utf8_lossy(payload).into_owned())),
                 };
                 match event {

@@ -172,6 +172,7 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
         status: mrmm_proto::MissionStatus::Running,
         robots: start.members.iter().map(|m| m.spec.id.clone()).collect(),
         lost: vec![],
+        stuck: Default::default(),
         teams: Default::default(),
         manager: mrmm_proto::ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![host.into()] },
         metrics: Default::default(),

@@ -8,6 +8,9 @@ use mrmm_ros2::nav2::{status, GoalEvent, GoalId};
 /// A goal Nav2 rejected or aborted is sent again after this long, seconds (its recoveries may
 /// have cleared the way; a new target is sent at once).
 pub const RETRY_S: f64 = 5.0;
+/// Recovery behaviours Nav2 may run on the way to one goal before the robot is reported as not
+/// getting there (it may still make it: the report goes once the goal is reached or replaced).
+pub const RECOVERIES_REPORTED: u16 = 3;
 /// Longest reason reported (telemetry stays small).
 const MAX_REASON: usize = 200;
 
@@ -72,6 +75,15 @@ impl Nav2Goals {
         let failed = match event {
             GoalEvent::Accepted => {
                 self.stuck = None;
+                None
+            }
+            GoalEvent::Feedback { recoveries, distance_remaining } => {
+                if recoveries >= RECOVERIES_REPORTED {
+                    self.stuck = Some(format!(
+                        "Nav2 ({}) is recovering on the way to ({x:.2}, {y:.2}): {recoveries} recoveries, {distance_remaining:.1} m left",
+                        self.action
+                    ));
+                }
                 None
             }
             GoalEvent::Finished(status::SUCCEEDED) => {
@@ -215,6 +227,22 @@ mod tests {
         assert!(n.stuck().is_some_and(|s| s.len() <= MAX_REASON));
         n.on_event(7.3, [9; 16], GoalEvent::Finished(status::SUCCEEDED));
         assert!(!n.step(7.4, Some((5.0, 5.0)), false, Pose::default()).1, "a stranger's goal id changes nothing");
+    }
+
+    #[test]
+    fn repeated_recoveries_are_reported_until_the_goal_is_reached() {
+        let mut n = Nav2Goals::new("/nav", [6; 16]);
+        n.set_server(true);
+        let a = sent(&n.step(0.0, Some((1.0, 0.0)), false, Pose::default()).0).expect("sent");
+        n.on_event(0.1, a, GoalEvent::Accepted);
+        n.on_event(1.0, a, GoalEvent::Feedback { recoveries: RECOVERIES_REPORTED - 1, distance_remaining: 0.8 });
+        assert_eq!(n.stuck(), None);
+        n.on_event(2.0, a, GoalEvent::Feedback { recoveries: RECOVERIES_REPORTED, distance_remaining: 0.8 });
+        assert!(n.stuck().is_some_and(|s| s.contains("recovering") && s.contains("0.8 m left")), "{:?}", n.stuck());
+        assert_eq!(n.step(2.1, Some((1.0, 0.0)), false, Pose::default()), (vec![], false), "the goal is not given up");
+        n.on_event(3.0, [0; 16], GoalEvent::Feedback { recoveries: 9, distance_remaining: 1.0 });
+        n.on_event(4.0, a, GoalEvent::Finished(status::SUCCEEDED));
+        assert_eq!(n.stuck(), None);
     }
 
     #[test]

@@ -20,6 +20,7 @@ use crate::error::PeerError;
 use crate::robot::{Command, Event, Robot};
 use mrmm_proto::Velocity;
 use mrmm_ros2::msgs::Twist;
+use mrmm_ros2::nav2::GoalEvent;
 use mrmm_ros2::{Input as RosInput, RosLink};
 
 use crate::nav_goals::NavCommand;
@@ -190,7 +191,11 @@ pub async fn run_on(
                     (Event::Nav2Server(up), None)
                 }
                 RosInput::Goal { id: goal, event } => {
-                    tracing::info!(robot = %id, ?event, "Nav2 goal");
+                    if matches!(event, GoalEvent::Feedback { .. }) {
+                        tracing::debug!(robot = %id, ?event, "Nav2 feedback");
+                    } else {
+                        tracing::info!(robot = %id, ?event, "Nav2 goal");
+                    }
                     (Event::Nav2Goal { id: goal, event }, None)
                 }
                 RosInput::Mismatch(why) => {

@@ -181,6 +181,11 @@ pub struct MissionView {
     /// Members lost through liveliness: their place is kept until they come back.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub lost: Vec<String>,
+    /// Members that report they cannot get to their goal (a real robot's navigator rejected or
+    /// aborted it, or keeps recovering), with why. They keep their place: the operator decides
+    /// (move them out and the mission replans without them).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub stuck: BTreeMap<String, String>,
     /// Sub-team path → members.
     pub teams: BTreeMap<String, Vec<String>>,
     pub manager: ManagerView,

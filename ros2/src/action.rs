@@ -8,7 +8,10 @@ use std::sync::Mutex;
 use std::time::Duration;
 
 use tokio::sync::mpsc;
+use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::Subscriber;
+use zenoh::sample::Sample;
 use zenoh::Session;
 
 use crate::attachment::{new_gid, Attachment, Gid};
@@ -18,8 +21,8 @@ use crate::graph::{Endpoint, EntityKind, Node, Qos};
 use crate::link::{now_ns, Input};
 use crate::msgs::Time;
 use crate::nav2::{
-    decode_accepted, decode_cancel, decode_status, goal_request, ActionNames, CancelGoalRequest, GetResultRequest, GoalEvent, GoalId, GoalInfo, ServerHashes,
-    CANCEL_GOAL_TYPE, GET_RESULT_TYPE, SEND_GOAL_TYPE,
+    decode_accepted, decode_cancel, decode_feedback, decode_status, goal_request, ActionNames, CancelGoalRequest, GetResultRequest, GoalEvent, GoalId,
+    GoalInfo, ServerHashes, CANCEL_GOAL_TYPE, FEEDBACK_TYPE, GET_RESULT_TYPE, SEND_GOAL_TYPE,
 };
 
 /// How long the server may take to accept or reject a goal, or to answer a cancel.
@@ -45,13 +48,19 @@ pub struct NavClient {
     active: Mutex<Option<GoalId>>,
     tx: mpsc::Sender<Input>,
     rx: tokio::sync::Mutex<mpsc::Receiver<Input>>,
+    /// The navigator's feedback, whatever its hash (only the newest few matter).
+    feedback: Subscriber<RingChannelHandler<Sample>>,
 }
 
 impl NavClient {
-    pub fn new(session: Session, node: Node, action: &str, frame_id: &str) -> Self {
+    pub async fn new(session: Session, node: Node, action: &str, frame_id: &str) -> Result<Self, Ros2Error> {
         let (tx, rx) = mpsc::channel(QUEUE);
-        NavClient {
-            names: ActionNames::new(&node.namespace, action),
+        let names = ActionNames::new(&node.namespace, action);
+        let feedback =
+            session.declare_subscriber(node.service_key(&names.feedback, FEEDBACK_TYPE, "*")).with(RingChannel::new(8)).await.map_err(Ros2Error::zenoh)?;
+        Ok(NavClient {
+            names,
+            feedback,
             session,
             node,
             frame_id: frame_id.to_string(),
@@ -62,7 +71,7 @@ impl NavClient {
             active: Mutex::new(None),
             tx,
             rx: tokio::sync::Mutex::new(rx),
-        }
+        })
     }
 
     /// A graph token appeared (or went, `gone`): learns the server's hashes; when the server
@@ -84,8 +93,10 @@ impl NavClient {
                 (&self.names.get_result, GET_RESULT_TYPE, &hashes.get_result),
                 (&self.names.cancel_goal, CANCEL_GOAL_TYPE, &hashes.cancel_goal),
             ];
-            for (i, (name, dds, hash)) in (0u32..).zip(ours) {
-                let key = self.node.token_for(FIRST_ENTITY + i, EntityKind::ServiceClient, name, dds, hash.as_deref().unwrap_or_default(), Qos::DEFAULT);
+            let clients = ours.into_iter().map(|(name, dds, hash)| (EntityKind::ServiceClient, name, dds, hash));
+            let feedback = hashes.feedback.is_some().then_some((EntityKind::Subscription, &self.names.feedback, FEEDBACK_TYPE, &hashes.feedback));
+            for (i, (kind, name, dds, hash)) in (0u32..).zip(clients.chain(feedback)) {
+                let key = self.node.token_for(FIRST_ENTITY + i, kind, name, dds, hash.as_deref().unwrap_or_default(), Qos::DEFAULT);
                 match self.session.liveliness().declare_token(key).await {
                     Ok(t) => tokens.push(t),
                     Err(e) => tracing::warn!("ROS 2 body: cannot announce the Nav2 client: {e}"),
@@ -96,11 +107,29 @@ impl NavClient {
         (was != now).then_some(Input::Nav2Server(now))
     }
 
-    /// The next answer about a goal.
+    /// The next answer or feedback about a goal.
     pub async fn next(&self) -> Input {
-        match self.rx.lock().await.recv().await {
-            Some(i) => i,
-            None => std::future::pending().await,
+        let answers = async {
+            match self.rx.lock().await.recv().await {
+                Some(i) => i,
+                None => std::future::pending().await,
+            }
+        };
+        let feedback = async {
+            match self.feedback.recv_async().await {
+                Ok(s) if s.payload().len() > cdr::MAX_PAYLOAD => {
+                    Input::Malformed { topic: self.names.feedback.clone(), error: format!("{} bytes", s.payload().len()) }
+                }
+                Ok(s) => match decode_feedback(&s.payload().to_bytes()) {
+                    Ok((id, event)) => Input::Goal { id, event },
+                    Err(e) => Input::Malformed { topic: self.names.feedback.clone(), error: e.to_string() },
+                },
+                Err(_) => std::future::pending().await,
+            }
+        };
+        tokio::select! {
+            i = answers => i,
+            i = feedback => i,
         }
     }
 

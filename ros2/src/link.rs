@@ -126,7 +126,10 @@ impl RosLink {
             qualify(&node.namespace, &body.odom_topic),
             body.pose_topic.as_ref().map(|t| qualify(&node.namespace, t)),
         );
-        let nav = (body.drive == DriveMode::Nav2).then(|| NavClient::new(session.clone(), node.clone(), &body.nav2_action, &body.frame_id));
+        let nav = match body.drive {
+            DriveMode::Nav2 => Some(NavClient::new(session.clone(), node.clone(), &body.nav2_action, &body.frame_id).await?),
+            DriveMode::CmdVel => None,
+        };
         tracing::info!(node = %node.name, namespace = %node.namespace, router = %body.router, "ROS 2 body: node declared (rmw_zenoh)");
         Ok(RosLink {
             session,

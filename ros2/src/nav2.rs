@@ -17,12 +17,14 @@ use crate::msgs::{Header, Point, Pose, Quaternion, Time};
 pub const SEND_GOAL_TYPE: &str = "nav2_msgs::action::dds_::NavigateToPose_SendGoal_";
 pub const GET_RESULT_TYPE: &str = "nav2_msgs::action::dds_::NavigateToPose_GetResult_";
 pub const CANCEL_GOAL_TYPE: &str = "action_msgs::srv::dds_::CancelGoal_";
+/// DDS type name of the action's feedback topic.
+pub const FEEDBACK_TYPE: &str = "nav2_msgs::action::dds_::NavigateToPose_FeedbackMessage_";
 
 /// A goal's id (`unique_identifier_msgs/msg/UUID`).
 pub type GoalId = [u8; 16];
 
 /// What became of a goal, as the link learns it.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum GoalEvent {
     /// The server accepted the goal.
     Accepted,
@@ -32,6 +34,8 @@ pub enum GoalEvent {
     Finished(i8),
     /// No answer or an unreadable one: the goal's fate is unknown.
     Failed(String),
+    /// The navigator's feedback: recovery behaviours run so far, metres left.
+    Feedback { recoveries: u16, distance_remaining: f32 },
 }
 
 /// `action_msgs/msg/GoalStatus` codes.
@@ -64,6 +68,7 @@ pub struct ActionNames {
     pub send_goal: String,
     pub get_result: String,
     pub cancel_goal: String,
+    pub feedback: String,
 }
 
 impl ActionNames {
@@ -73,6 +78,7 @@ impl ActionNames {
             send_goal: format!("{base}/_action/send_goal"),
             get_result: format!("{base}/_action/get_result"),
             cancel_goal: format!("{base}/_action/cancel_goal"),
+            feedback: format!("{base}/_action/feedback"),
         }
     }
 }
@@ -83,6 +89,8 @@ pub struct ServerHashes {
     pub send_goal: Option<String>,
     pub get_result: Option<String>,
     pub cancel_goal: Option<String>,
+    /// The feedback publisher's hash (not needed to send goals).
+    pub feedback: Option<String>,
 }
 
 impl ServerHashes {
@@ -95,10 +103,15 @@ impl ServerHashes {
     /// well-formed hash (a hostile token cannot put wildcards into our keys). `gone` is a token
     /// that went away. Returns whether anything changed.
     pub fn learn(&mut self, names: &ActionNames, e: &Endpoint, gone: bool) -> bool {
-        if e.kind != EntityKind::ServiceServer || !valid_hash(&e.hash) {
+        if !valid_hash(&e.hash) {
             return false;
         }
-        let slot = if e.topic == names.send_goal && e.dds_type == SEND_GOAL_TYPE {
+        let server = e.kind == EntityKind::ServiceServer;
+        let slot = if e.kind == EntityKind::Publisher && e.topic == names.feedback && e.dds_type == FEEDBACK_TYPE {
+            &mut self.feedback
+        } else if !server {
+            return false;
+        } else if e.topic == names.send_goal && e.dds_type == SEND_GOAL_TYPE {
             &mut self.send_goal
         } else if e.topic == names.get_result && e.dds_type == GET_RESULT_TYPE {
             &mut self.get_result
@@ -153,6 +166,32 @@ pub struct GetResultRequest {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct GetResultStatus {
     pub status: i8,
+}
+
+/// `builtin_interfaces/msg/Duration`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RosDuration {
+    pub sec: i32,
+    pub nanosec: u32,
+}
+
+/// `nav2_msgs/action/NavigateToPose_FeedbackMessage` (the same from Humble to Jazzy).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FeedbackMessage {
+    pub goal_id: GoalId,
+    pub current_pose: PoseStamped,
+    pub navigation_time: RosDuration,
+    pub estimated_time_remaining: RosDuration,
+    pub number_of_recoveries: i16,
+    pub distance_remaining: f32,
+}
+
+/// Reads a feedback message: the goal it is about and what it says.
+pub fn decode_feedback(bytes: &[u8]) -> Result<(GoalId, GoalEvent), Ros2Error> {
+    let f = cdr::decode_named::<FeedbackMessage>("NavigateToPose_FeedbackMessage", bytes)?;
+    let recoveries = u16::try_from(f.number_of_recoveries).unwrap_or(0);
+    let distance_remaining = if f.distance_remaining.is_finite() { f.distance_remaining } else { 0.0 };
+    Ok((f.goal_id, GoalEvent::Feedback { recoveries, distance_remaining }))
 }
 
 /// `action_msgs/msg/GoalInfo`.
@@ -229,6 +268,11 @@ mod tests {
         assert!(h.learn(&names, &server(&names.get_result, GET_RESULT_TYPE, H), false));
         assert!(h.learn(&names, &server(&names.cancel_goal, CANCEL_GOAL_TYPE, H), false));
         assert!(h.complete());
+        let mut fb = server(&names.feedback, FEEDBACK_TYPE, H);
+        assert!(!h.learn(&names, &fb, false), "feedback comes from a publisher");
+        fb.kind = EntityKind::Publisher;
+        assert!(h.learn(&names, &fb, false));
+        assert_eq!(h.feedback.as_deref(), Some(H));
         assert!(h.learn(&names, &server(&names.send_goal, SEND_GOAL_TYPE, H), true), "server gone");
         assert!(!h.complete());
         // From a real token.
@@ -256,5 +300,18 @@ mod tests {
         assert!(decode_status(&[0, 1, 0]).is_err());
         assert!(decode_accepted(&[9, 9, 0, 0, 1]).is_err());
         assert!(goal_request([0; 16], "map", Time::default(), f64::NAN, 0.0, 0.0).is_err());
+        let fb = FeedbackMessage {
+            goal_id: [3; 16],
+            current_pose: PoseStamped::default(),
+            navigation_time: RosDuration { sec: 4, nanosec: 0 },
+            estimated_time_remaining: RosDuration { sec: 2, nanosec: 0 },
+            number_of_recoveries: 2,
+            distance_remaining: 1.25,
+        };
+        let bytes = cdr::encode_named("f", &fb).expect("encode");
+        assert_eq!(decode_feedback(&bytes).ok(), Some(([3; 16], GoalEvent::Feedback { recoveries: 2, distance_remaining: 1.25 })));
+        let bad = FeedbackMessage { number_of_recoveries: -5, distance_remaining: f32::NAN, ..fb };
+        let bytes = cdr::encode_named("f", &bad).expect("encode");
+        assert_eq!(decode_feedback(&bytes).ok(), Some(([3; 16], GoalEvent::Feedback { recoveries: 0, distance_remaining: 0.0 })));
     }
 }

@@ -16,12 +16,14 @@ Output: one JSON object per line on stdout. Input: one command per line on stdin
   pause_odom / resume_odom
   hashes T1 T2 ... -> {"event": "hashes", "sdk": {...}, "rosbags": {...}}
   tokens           -> {"event": "tokens", "keys": [...]} (every graph liveliness token)
-  nav2 ok|reject|abort   how the Nav2 stand-in treats the next goals (with --nav2)
+  nav2 ok|reject|abort|recover   how the Nav2 stand-in treats goals (with --nav2)
 
 With --nav2 it is also a Nav2 navigator: the NavigateToPose action on /navigate_to_pose, made of
-the SDK's service servers (send_goal, get_result, cancel_goal). An accepted goal is driven to by
-the stand-in's own controller (as Nav2's would) and succeeds within 0.1 m; `abort` aborts goals
-after half a second of driving. The SDK names an action's services' nested types as if they
+the SDK's service servers (send_goal, get_result, cancel_goal) and its publisher (feedback at
+10 Hz: distance left, recoveries). An accepted goal is driven to by the stand-in's own controller
+(as Nav2's would) and succeeds within 0.1 m; `abort` aborts goals after half a second of driving;
+`recover` holds the robot in place running a recovery every 0.3 s (a blocked path) until the mode
+changes. The SDK names an action's services' nested types as if they
 were a package's services, so the hashes it announces for NavigateToPose are not Jazzy's: mrmm
 uses the hashes the server announces, which this checks.
 """
@@ -90,6 +92,11 @@ NAV2_DEFINITIONS = {
     # nav2_msgs/action/NavigateToPose (Jazzy), split as rosidl splits an action.
     "nav2_msgs/msg/NavigateToPose_Goal": "geometry_msgs/PoseStamped pose\nstring behavior_tree\n",
     "nav2_msgs/msg/NavigateToPose_Result": "uint16 NONE=0\nuint16 UNKNOWN=9000\nuint16 error_code\nstring error_msg\n",
+    "nav2_msgs/msg/NavigateToPose_Feedback": (
+        "geometry_msgs/PoseStamped current_pose\nbuiltin_interfaces/Duration navigation_time\n"
+        "builtin_interfaces/Duration estimated_time_remaining\nint16 number_of_recoveries\nfloat32 distance_remaining\n"
+    ),
+    "nav2_msgs/action/NavigateToPose_FeedbackMessage": "unique_identifier_msgs/UUID goal_id\nnav2_msgs/NavigateToPose_Feedback feedback\n",
 }
 SEND_GOAL = ("unique_identifier_msgs/UUID goal_id\nnav2_msgs/NavigateToPose_Goal goal\n", "bool accepted\nbuiltin_interfaces/Time stamp\n")
 GET_RESULT = ("unique_identifier_msgs/UUID goal_id\n", "int8 status\nnav2_msgs/NavigateToPose_Result result\n")
@@ -102,9 +109,9 @@ SUCCEEDED, CANCELED, ABORTED = 4, 5, 6
 
 def write_nav2_definitions(root):
     for t, text in NAV2_DEFINITIONS.items():
-        pkg, _, name = t.split("/")
-        os.makedirs(os.path.join(root, pkg, "msg"), exist_ok=True)
-        with open(os.path.join(root, pkg, "msg", f"{name}.msg"), "w") as f:
+        pkg, kind, name = t.split("/")
+        os.makedirs(os.path.join(root, pkg, kind), exist_ok=True)
+        with open(os.path.join(root, pkg, kind, f"{name}.msg"), "w") as f:
             f.write(text)
 
 
@@ -114,7 +121,14 @@ def nav2_control(st, dt):
     dx, dy = g["x"] - st["x"], g["y"] - st["y"]
     dist = math.hypot(dx, dy)
     g["driven"] += dt
-    if st["nav2"] == "abort" and g["driven"] > 0.5:
+    g["dist"] = dist
+    if st["nav2"] == "recover":
+        st["v"], st["omega"] = 0.0, 0.0
+        g["recovering"] += dt
+        if g["recovering"] >= 0.3:
+            g["recovering"] = 0.0
+            g["recoveries"] += 1
+    elif st["nav2"] == "abort" and g["driven"] > 0.5:
         finish(st, ABORTED)
     elif dist < 0.1:
         finish(st, SUCCEEDED)
@@ -172,7 +186,8 @@ def serve_nav2(at, st, lock):
                 if accept:
                     if st["goal"] is not None:
                         finish(st, CANCELED)
-                    g = {"id": gid, "x": float(p.x), "y": float(p.y), "driven": 0.0, "status": None, "waiting": None, "reply": reply_result}
+                    g = {"id": gid, "x": float(p.x), "y": float(p.y), "driven": 0.0, "status": None, "waiting": None, "reply": reply_result,
+                         "dist": 0.0, "recovering": 0.0, "recoveries": 0}
                     goals[gid] = g
                     st["goal"] = g
                     st["goals"] += 1
@@ -210,9 +225,37 @@ def serve_nav2(at, st, lock):
             cancel.send_response(key, cancel.response_msg_class(return_code=code, goals_canceling=canceling))
             emit(event="cancel", code=code, t=time.time())
 
+    from zenoh_ros2_sdk import ROS2Publisher
+
+    fb = ROS2Publisher(topic="/navigate_to_pose/_action/feedback", msg_type="nav2_msgs/action/NavigateToPose_FeedbackMessage", node_name="bt_navigator", **at)
+    UUID = mgr.register_message_type(None, "unique_identifier_msgs/msg/UUID")
+    Feedback = mgr.register_message_type(None, "nav2_msgs/msg/NavigateToPose_Feedback")
+    PoseStamped = mgr.register_message_type(None, "geometry_msgs/msg/PoseStamped")
+    Header = mgr.register_message_type(None, "std_msgs/msg/Header")
+    Pose = mgr.register_message_type(None, "geometry_msgs/msg/Pose")
+    Point = mgr.register_message_type(None, "geometry_msgs/msg/Point")
+    Quat = mgr.register_message_type(None, "geometry_msgs/msg/Quaternion")
+    Duration = mgr.register_message_type(None, "builtin_interfaces/msg/Duration")
+
+    def feedback():
+        while True:
+            time.sleep(0.1)
+            with lock:
+                g = st["goal"]
+                if g is None:
+                    continue
+                gid, x, y, dist, rec, driven = g["id"], st["x"], st["y"], g["dist"], g["recoveries"], g["driven"]
+            pose = PoseStamped(header=Header(stamp=Time(sec=int(time.time()), nanosec=0), frame_id="map"),
+                               pose=Pose(position=Point(x=x, y=y, z=0.0), orientation=Quat(x=0.0, y=0.0, z=0.0, w=1.0)))
+            fb.publish(goal_id=UUID(uuid=np.frombuffer(gid, dtype=np.uint8)),
+                       feedback=Feedback(current_pose=pose, navigation_time=Duration(sec=int(driven), nanosec=0),
+                                         estimated_time_remaining=Duration(sec=int(dist / 0.5), nanosec=0),
+                                         number_of_recoveries=rec, distance_remaining=float(dist)))
+
+    threading.Thread(target=feedback, daemon=True).start()
     for f in (on_send, on_result, on_cancel):
         threading.Thread(target=f, daemon=True).start()
-    emit(event="nav2_ready", send_goal=send.keyexpr, get_result=result.keyexpr, cancel_goal=cancel.keyexpr)
+    emit(event="nav2_ready", send_goal=send.keyexpr, get_result=result.keyexpr, cancel_goal=cancel.keyexpr, feedback=fb.keyexpr)
 
 
 def emit(**kw):
@@ -242,7 +285,7 @@ def main():
     msgdir = tempfile.mkdtemp(prefix="ros2-msgs-")
     write_definitions(msgdir, ["geometry_msgs/msg/Twist", "nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseWithCovarianceStamped"])
     if args.nav2:
-        write_definitions(msgdir, ["geometry_msgs/msg/PoseStamped", "action_msgs/msg/GoalInfo", "unique_identifier_msgs/msg/UUID"])
+        write_definitions(msgdir, ["geometry_msgs/msg/PoseStamped", "action_msgs/msg/GoalInfo", "unique_identifier_msgs/msg/UUID", "builtin_interfaces/msg/Duration"])
         write_nav2_definitions(msgdir)
     from zenoh_ros2_sdk import ROS2Publisher, ROS2Subscriber, get_registry
     from zenoh_ros2_sdk.discovery import get_topic_info
@@ -341,7 +384,7 @@ def main():
         elif cmd[0] == "tokens":
             keys = [str(r.ok.key_expr) for r in router.liveliness().get("@ros2_lv/**", timeout=2.0) if r.ok is not None]
             emit(event="tokens", keys=keys)
-        elif cmd[0] == "nav2" and len(cmd) == 2 and cmd[1] in ("ok", "reject", "abort"):
+        elif cmd[0] == "nav2" and len(cmd) == 2 and cmd[1] in ("ok", "reject", "abort", "recover"):
             with lock:
                 st["nav2"] = cmd[1]
             emit(event="nav2_mode", mode=cmd[1])

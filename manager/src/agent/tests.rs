@@ -26,6 +26,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         status: MissionStatus::Running,
         robots: robots.iter().map(|s| s.to_string()).collect(),
         lost: vec![],
+        stuck: Default::default(),
         teams: Default::default(),
         manager: ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec![] },
         metrics: MissionMetrics { worst_idleness: worst, ..MissionMetrics::default() },

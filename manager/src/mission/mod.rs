@@ -54,6 +54,9 @@ impl MissionSpec {
     }
 }
 
+/// Longest reason kept for a stuck member.
+const MAX_STUCK_REASON: usize = 300;
+
 /// Something that happened to the mission.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
@@ -126,6 +129,9 @@ pub struct MissionManager {
     revision: u64,
     /// The metrics as last checkpointed into the replicated state.
     tally: Option<proto::MetricsTally>,
+    /// Members that report they cannot get to their goal, with why (from their telemetry; not
+    /// replicated: a new head hears it again within a telemetry period).
+    stuck: BTreeMap<String, String>,
 }
 
 impl MissionManager {
@@ -146,6 +152,7 @@ impl MissionManager {
             replicated: None,
             revision: 0,
             tally: None,
+            stuck: BTreeMap::new(),
         }
     }
 
@@ -303,6 +310,20 @@ impl MissionManager {
                 let Some(m) = self.members.get_mut(&t.id) else { return vec![] };
                 m.spec.x = t.pose.x;
                 m.spec.y = t.pose.y;
+                match &t.stuck {
+                    Some(why) if self.stuck.get(&t.id) != Some(why) => {
+                        if !self.stuck.contains_key(&t.id) {
+                            tracing::warn!(mission = %self.spec.name, robot = %t.id, "member cannot get to its goal: {why}");
+                        }
+                        self.stuck.insert(t.id.clone(), why.chars().take(MAX_STUCK_REASON).collect());
+                    }
+                    Some(_) => {}
+                    None => {
+                        if self.stuck.remove(&t.id).is_some() {
+                            tracing::info!(mission = %self.spec.name, robot = %t.id, "member on its way again");
+                        }
+                    }
+                }
                 let robot_now = now * self.time_scale(&t.id);
                 let tour = self.plan.as_ref().map(|(_, p)| tour(p)).unwrap_or(&[]);
                 self.metrics.telemetry(&self.spec.name, self.epoch, tour, robot_now, &t);
@@ -373,6 +394,7 @@ impl MissionManager {
     fn remove(&mut self, ids: Vec<String>) -> Vec<Command> {
         let mut any = false;
         for id in ids {
+            self.stuck.remove(&id);
             if self.members.remove(&id).is_some() {
                 any = true;
                 if let Some(p) = self.metrics.forget(&id) {
@@ -432,6 +454,7 @@ impl MissionManager {
             status: self.status,
             robots: self.members.keys().cloned().collect(),
             lost: self.lost.keys().cloned().collect(),
+            stuck: self.stuck.clone(),
             teams: self.teams(),
             manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![] },
             metrics: self.metrics(),

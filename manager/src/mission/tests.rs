@@ -154,6 +154,23 @@ fn metrics_from_telemetry() {
 }
 
 #[test]
+fn stuck_members_are_shown_keep_their_place_and_go_when_they_move_again_or_leave() {
+    let mut m = started();
+    let stuck = |id: &str, why: &str| Telemetry { stuck: Some(why.into()), ..tel(id, 0.0, 0.0, 0, 0) };
+    assert!(m.handle(1.0, Event::Telemetry(Box::new(stuck("a", "Nav2 (/navigate_to_pose) rejected the goal to (1.00, 0.00)")))).is_empty(), "no replan");
+    m.handle(1.1, Event::Telemetry(Box::new(stuck("b", &"x".repeat(5000)))));
+    m.handle(1.2, Event::Telemetry(Box::new(stuck("z", "not a member"))));
+    let v = m.view(false);
+    assert_eq!(v.stuck.keys().collect::<Vec<_>>(), ["a", "b"]);
+    assert!(v.stuck["a"].contains("rejected") && v.stuck["b"].len() <= MAX_STUCK_REASON);
+    assert_eq!(v.robots, ["a", "b", "c"], "they keep their place");
+    m.handle(2.0, Event::Telemetry(Box::new(tel("a", 0.5, 0.0, 0, 0))));
+    let cmds = m.handle(2.1, Event::Left { ids: vec!["b".into()] });
+    assert!(!cmds.is_empty(), "b leaving replans");
+    assert!(m.view(false).stuck.is_empty(), "a moves again, b left");
+}
+
+#[test]
 fn changes_are_handed_out_once_with_a_growing_revision() {
     let mut m = started();
     let first = m.changes().expect("the initial state");

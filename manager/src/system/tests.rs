@@ -218,6 +218,7 @@ impl MissionViewBuilder {
             status: MissionStatus::Running,
             robots: robots.iter().map(|s| s.to_string()).collect(),
             lost: vec![],
+            stuck: Default::default(),
             teams: Default::default(),
             manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![] },
             metrics: MissionMetrics::default(),

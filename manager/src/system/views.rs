@@ -22,6 +22,7 @@ impl SystemManager {
                 status: MissionStatus::Planning,
                 robots,
                 lost: vec![],
+                stuck: Default::default(),
                 teams: BTreeMap::new(),
                 manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0, chain_epoch: 0, chain: vec![] },
                 metrics: MissionMetrics::default(),

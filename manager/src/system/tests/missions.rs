@@ -38,6 +38,7 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                     status: MissionStatus::Running,
                     robots,
                     lost: vec![],
+                    stuck: Default::default(),
                     teams: Default::default(),
                     manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![] },
                     metrics: MissionMetrics::default(),

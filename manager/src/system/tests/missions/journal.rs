@@ -36,6 +36,7 @@ fn started_view(name: &str, host: &str, robots: &[String]) -> Box<MissionView> {
         status: MissionStatus::Running,
         robots: robots.to_vec(),
         lost: vec![],
+        stuck: Default::default(),
         teams: Default::default(),
         manager: ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![] },
         metrics: MissionMetrics::default(),
