@@ -16,6 +16,7 @@ mod common;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{anyhow, Context};
+use common::measure::{cpu_s, quantile};
 use common::standin::{python, StandIn};
 use common::{start, start_central, Scratch};
 use mrmm_proto::client::Client;
@@ -29,20 +30,6 @@ fn config(dir: &Scratch, id: &str, central: &str, body: &str) -> anyhow::Result<
     let path = dir.path(&format!("{id}.json5"));
     std::fs::write(&path, cfg)?;
     Ok(path.display().to_string())
-}
-
-/// utime + stime of `pid`, in seconds.
-fn cpu_s(pid: u32) -> f64 {
-    let s = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
-    let rest = s.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let get = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
-    (get(11) + get(12)) / 100.0
-}
-
-fn pct(v: &mut [f64], p: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(((v.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(f64::NAN)
 }
 
 fn unix_s() -> f64 {
@@ -151,7 +138,7 @@ async fn main() -> anyhow::Result<()> {
     println!("ros2 body vs simulated body; {trials} gotos each; {} cores, {cpu}", std::thread::available_parallelism().map_or(0, |n| n.get()));
     println!("| measure | simulated body | ROS 2 body, cmd_vel | ROS 2 body, Nav2 |");
     println!("|---|---:|---:|---:|");
-    let p = |v: &[f64]| format!("{:.1} / {:.1}", pct(&mut v.to_vec(), 0.5), pct(&mut v.to_vec(), 0.9));
+    let p = |v: &[f64]| format!("{:.1} / {:.1}", quantile(&mut v.to_vec(), 0.5), quantile(&mut v.to_vec(), 0.9));
     println!("| goto → telemetry shows motion, p50 / p90 ms | {} | {} | {} |", p(&sim_lat), p(&ros_lat), p(&nav_lat));
     println!("| goto → first twist / goal at the robot, p50 / p90 ms | – | {} | {} |", p(&ros_twist), p(&nav_goal));
     println!("| telemetry received, Hz (configured 50) | {:.1} | {:.1} | {:.1} |", rate.0, rate.1, rate.2);

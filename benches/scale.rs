@@ -38,6 +38,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context};
+use common::measure::{cpu_ticks, quantile, USER_HZ};
 use common::{eventually, Scratch};
 use mrmm_proto::client::Client;
 use mrmm_proto::{self as proto, MissionCreate, MissionView, RobotStatus, RobotView};
@@ -139,17 +140,6 @@ fn rss_mib(pid: u32) -> f64 {
     s.lines().find_map(|l| l.strip_prefix("VmRSS:")).and_then(|v| v.split_whitespace().next()?.parse::<f64>().ok()).unwrap_or(0.0) / 1024.0
 }
 
-/// utime + stime of `pid`, in clock ticks.
-fn cpu_ticks(pid: u32) -> u64 {
-    let s = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
-    // Fields after the command name (which may hold spaces) start after the last ')'.
-    let rest = s.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let get = |i: usize| f.get(i).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
-    // utime and stime are fields 14 and 15 of stat; here 0-based after ')' : 11 and 12.
-    get(11) + get(12)
-}
-
 fn lo_packets() -> u64 {
     std::fs::read_to_string("/sys/class/net/lo/statistics/tx_packets").ok().and_then(|s| s.trim().parse().ok()).unwrap_or(0)
 }
@@ -182,11 +172,6 @@ fn links(pids: &[u32]) -> usize {
 /// `--quic`: every link over QUIC (mutual TLS 1.3 over UDP) instead of TLS over TCP.
 fn args_quic_all() -> bool {
     std::env::args().any(|a| a == "--quic")
-}
-
-fn quantile(v: &mut [f64], q: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(((v.len().saturating_sub(1)) as f64 * q).round() as usize).copied().unwrap_or(f64::NAN)
 }
 
 /// Seconds since midnight (UTC) of a log line's timestamp (`2026-11-24T19:45:12.123456Z …`).
@@ -353,7 +338,7 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     let ticks1: u64 = pids.iter().map(|p| cpu_ticks(*p)).sum();
     let central1 = cpu_ticks(central_pid);
     let window = w0.elapsed().as_secs_f64();
-    let hz = 100.0; // USER_HZ on Linux
+    let hz = USER_HZ;
     let idle_cpu = (ticks1.saturating_sub(ticks0)) as f64 / hz / window * 100.0;
     let idle_central = (central1.saturating_sub(central0)) as f64 / hz / window * 100.0;
     let pkts = (lo_packets().saturating_sub(pk0)) as f64 / window;

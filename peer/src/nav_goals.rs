@@ -155,6 +155,14 @@ impl Nav2Goals {
 mod tests {
     use super::*;
 
+    /// Goals with the server up and a first goal sent, to (1, 0) at t = 0.
+    fn sending(seed: GoalId) -> (Nav2Goals, GoalId) {
+        let mut n = Nav2Goals::new("/nav", seed);
+        n.set_server(true);
+        let a = sent(&n.step(0.0, Some((1.0, 0.0)), false, Pose::default()).0).expect("sent");
+        (n, a)
+    }
+
     fn sent(cmds: &[NavCommand]) -> Option<GoalId> {
         cmds.iter().find_map(|c| match c {
             NavCommand::Send { id, .. } => Some(*id),
@@ -181,9 +189,7 @@ mod tests {
 
     #[test]
     fn a_success_does_not_end_a_newer_target() {
-        let mut n = Nav2Goals::new("/nav", [5; 16]);
-        n.set_server(true);
-        let a = sent(&n.step(0.0, Some((1.0, 0.0)), false, Pose::default()).0).expect("sent");
+        let (mut n, a) = sending([5; 16]);
         n.on_event(1.0, a, GoalEvent::Finished(status::SUCCEEDED));
         // A goto lands between the result and the next tick.
         let (cmds, arrived) = n.step(1.01, Some((2.0, 2.0)), false, Pose::default());
@@ -193,9 +199,7 @@ mod tests {
 
     #[test]
     fn a_new_target_hold_or_halt_cancels_the_goal() {
-        let mut n = Nav2Goals::new("/nav", [2; 16]);
-        n.set_server(true);
-        let a = sent(&n.step(0.0, Some((1.0, 0.0)), false, Pose::default()).0).expect("sent");
+        let (mut n, a) = sending([2; 16]);
         let (cmds, _) = n.step(0.1, Some((2.0, 0.0)), false, Pose::default());
         assert_eq!(cmds[0], NavCommand::Cancel(a));
         let b = sent(&cmds).expect("the new goal");
@@ -210,9 +214,7 @@ mod tests {
 
     #[test]
     fn rejected_or_aborted_goals_are_reported_and_retried() {
-        let mut n = Nav2Goals::new("/nav", [3; 16]);
-        n.set_server(true);
-        let a = sent(&n.step(0.0, Some((1.0, 0.0)), false, Pose::default()).0).expect("sent");
+        let (mut n, a) = sending([3; 16]);
         n.on_event(0.1, a, GoalEvent::Rejected);
         assert!(n.stuck().is_some_and(|s| s.contains("rejected")));
         assert_eq!(n.step(1.0, Some((1.0, 0.0)), false, Pose::default()).0, vec![], "not before the retry");
@@ -231,9 +233,7 @@ mod tests {
 
     #[test]
     fn repeated_recoveries_are_reported_until_the_goal_is_reached() {
-        let mut n = Nav2Goals::new("/nav", [6; 16]);
-        n.set_server(true);
-        let a = sent(&n.step(0.0, Some((1.0, 0.0)), false, Pose::default()).0).expect("sent");
+        let (mut n, a) = sending([6; 16]);
         n.on_event(0.1, a, GoalEvent::Accepted);
         n.on_event(1.0, a, GoalEvent::Feedback { recoveries: RECOVERIES_REPORTED - 1, distance_remaining: 0.8 });
         assert_eq!(n.stuck(), None);
@@ -247,9 +247,7 @@ mod tests {
 
     #[test]
     fn a_server_that_leaves_takes_its_goal() {
-        let mut n = Nav2Goals::new("/nav", [4; 16]);
-        n.set_server(true);
-        let a = sent(&n.step(0.0, Some((1.0, 0.0)), false, Pose::default()).0).expect("sent");
+        let (mut n, a) = sending([4; 16]);
         n.set_server(false);
         assert_eq!(n.step(0.1, Some((1.0, 0.0)), false, Pose::default()).0, vec![]);
         assert!(n.stuck().is_some());

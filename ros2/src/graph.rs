@@ -108,8 +108,7 @@ impl Node {
     /// The key expression of `topic`'s data for messages of type `T`:
     /// `<domain>/<fully qualified topic without its leading />/<DDS type>/<type hash>`.
     pub fn topic_key<T: RosMessage>(&self, topic: &str) -> String {
-        let fq = qualify(&self.namespace, topic);
-        format!("{}/{}/{}/{}", self.domain_id, fq.trim_start_matches('/'), dds_type_name(T::TYPE), T::HASH)
+        self.service_key(topic, &dds_type_name(T::TYPE), T::HASH)
     }
 
     /// The node's own liveliness token.
@@ -122,8 +121,9 @@ impl Node {
         self.token_for(entity_id, kind, topic, &dds_type_name(T::TYPE), T::HASH, qos)
     }
 
-    /// The key expression of a service (or an action's service) whose type and hash are known
-    /// only at run time: `<domain>/<fully qualified name without its leading />/<DDS type>/<hash>`.
+    /// The key expression of a topic or service (or an action's service) whose type and hash
+    /// are known only at run time: `<domain>/<fully qualified name without its leading />/<DDS
+    /// type>/<hash>`.
     pub fn service_key(&self, name: &str, dds_type: &str, hash: &str) -> String {
         let fq = qualify(&self.namespace, name);
         format!("{}/{}/{dds_type}/{hash}", self.domain_id, fq.trim_start_matches('/'))
