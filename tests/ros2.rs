@@ -33,6 +33,30 @@ fn type_hashes_agree_with_two_independent_implementations() -> anyhow::Result<()
     Ok(())
 }
 
+/// RIHS01 hashes from real ROS 2 builds, the ground truth for the derivation the Nav2 stand-in
+/// uses (tests/py/rihs.py): AddTwoInts from rmw_zenoh's design document (its key example);
+/// CancelGoal and NavigateToPose's from rosidl_generator_c output of ROS 2 Jazzy-era builds
+/// (`*__description.c`; nav2_msgs with `error_code`/`error_msg` in the result and five feedback
+/// fields, as Jazzy's NavigateToPose has).
+const ADD_TWO_INTS: &str = "RIHS01_e118de6bf5eeb66a2491b5bda11202e7b68f198d6f67922cf30364858239c81a";
+const CANCEL_GOAL: &str = "RIHS01_573d8b0a534451d7bc2ac8c5ffde8ac14b8593b7001175d0cd6516dcbeb8689a";
+const NAV2_SEND_GOAL: &str = "RIHS01_a4fcb3bee1bf32e21a0e541a943b221aa0826996e2c98f079b47022b256f48b5";
+const NAV2_GET_RESULT: &str = "RIHS01_c407920357d566771e8882b4ef4d1f1a84ee922d609920ccd57faa6d6e391dc5";
+const NAV2_FEEDBACK: &str = "RIHS01_9d1f6fa2eb975ce733b419ac2e97b134d8ff92b6478b6559feed9a50bdfd82b3";
+
+#[test]
+fn action_hashes_derived_with_rosbags_are_those_of_a_ros_build() -> anyhow::Result<()> {
+    let Some(py) = python_or_skip()? else { return Ok(()) };
+    let dir = Scratch::new("ros2-rihs");
+    let mut standin = StandIn::start(&py, &dir)?;
+    let got = standin.ask("rihs", "rihs")?;
+    assert_eq!(got["add_two_ints"], ADD_TWO_INTS, "{got}");
+    assert_eq!(got["cancel_goal"], CANCEL_GOAL, "{got}");
+    let nav = &got["navigate_to_pose"];
+    assert_eq!((&nav["send_goal"], &nav["get_result"], &nav["feedback"]), (&NAV2_SEND_GOAL.into(), &NAV2_GET_RESULT.into(), &NAV2_FEEDBACK.into()), "{got}");
+    Ok(())
+}
+
 async fn robot(client: &Client, id: &str) -> Option<RobotView> {
     let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
     v.into_iter().find(|r| r.id == id)
@@ -160,19 +184,22 @@ async fn nav2_gets_goals_cancels_them_on_replan_and_fleet_loss_and_refusals_and_
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 1).await?;
 
-    // mrmm_r3's three action clients are in the graph, with the hashes the server announces (not
-    // Jazzy's: the stand-in's SDK hashes action services its own way, and mrmm follows the server).
+    // mrmm_r3's three action clients and its feedback subscriber are in the graph, with the
+    // hashes the server announces: Jazzy's (mrmm compiles none in; it follows the server).
     let deadline = Instant::now() + Duration::from_secs(10);
-    for (service, server_kind, client_kind) in
-        [("send_goal", "/SS/", "/SC/"), ("get_result", "/SS/", "/SC/"), ("cancel_goal", "/SS/", "/SC/"), ("feedback", "/MP/", "/MS/")]
-    {
+    for (service, server_kind, client_kind, jazzy) in [
+        ("send_goal", "/SS/", "/SC/", NAV2_SEND_GOAL),
+        ("get_result", "/SS/", "/SC/", NAV2_GET_RESULT),
+        ("cancel_goal", "/SS/", "/SC/", CANCEL_GOAL),
+        ("feedback", "/MP/", "/MS/", NAV2_FEEDBACK),
+    ] {
         let part = format!("%navigate_to_pose%_action%{service}/");
         loop {
             let toks = tokens_with(&mut standin, &part)?;
             let server = toks.iter().find(|k| k.contains(server_kind));
             let client = toks.iter().find(|k| k.contains(client_kind) && k.contains("/mrmm_r3/"));
             if let (Some(s), Some(c)) = (server, client) {
-                assert_eq!(hash_of(s), hash_of(c), "{service}: server {s}, client {c}");
+                assert_eq!((hash_of(s), hash_of(c)), (jazzy, jazzy), "{service}: server {s}, client {c}");
                 break;
             }
             anyhow::ensure!(Instant::now() < deadline, "no client of {service} from mrmm_r3: {toks:?}");

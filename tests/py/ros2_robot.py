@@ -15,6 +15,7 @@ Output: one JSON object per line on stdout. Input: one command per line on stdin
   wrong_odom       declares a second /odom publisher with another type hash
   pause_odom / resume_odom
   hashes T1 T2 ... -> {"event": "hashes", "sdk": {...}, "rosbags": {...}}
+  rihs             -> {"event": "rihs", ...} service and action hashes derived by rihs.py
   tokens           -> {"event": "tokens", "keys": [...]} (every graph liveliness token)
   nav2 ok|reject|abort|recover   how the Nav2 stand-in treats goals (with --nav2)
 
@@ -23,9 +24,10 @@ the SDK's service servers (send_goal, get_result, cancel_goal) and its publisher
 10 Hz: distance left, recoveries). An accepted goal is driven to by the stand-in's own controller
 (as Nav2's would) and succeeds within 0.1 m; `abort` aborts goals after half a second of driving;
 `recover` holds the robot in place running a recovery every 0.3 s (a blocked path) until the mode
-changes. The SDK names an action's services' nested types as if they
-were a package's services, so the hashes it announces for NavigateToPose are not Jazzy's: mrmm
-uses the hashes the server announces, which this checks.
+changes. The SDK would name an action's services' nested types as if they were a package's
+services (wrong hashes), so the navigator announces the hashes rosidl gives Jazzy's
+NavigateToPose, derived with rosbags by rihs.py (`rihs` prints them; tests/ros2.rs checks them
+against a real ROS 2 build's).
 """
 
 import argparse
@@ -40,6 +42,8 @@ import time
 import numpy as np
 import zenoh
 from rosbags.typesys import Stores, get_typestore
+
+import rihs
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 
@@ -98,6 +102,8 @@ NAV2_DEFINITIONS = {
     ),
     "nav2_msgs/action/NavigateToPose_FeedbackMessage": "unique_identifier_msgs/UUID goal_id\nnav2_msgs/NavigateToPose_Feedback feedback\n",
 }
+# The three parts of Jazzy's NavigateToPose.action (constants left out: they are not hashed).
+NAVIGATE_TO_POSE = tuple(NAV2_DEFINITIONS[f"nav2_msgs/msg/NavigateToPose_{p}"] for p in ("Goal", "Result", "Feedback"))
 SEND_GOAL = ("unique_identifier_msgs/UUID goal_id\nnav2_msgs/NavigateToPose_Goal goal\n", "bool accepted\nbuiltin_interfaces/Time stamp\n")
 GET_RESULT = ("unique_identifier_msgs/UUID goal_id\n", "int8 status\nnav2_msgs/NavigateToPose_Result result\n")
 CANCEL_GOAL = (
@@ -105,6 +111,16 @@ CANCEL_GOAL = (
     "int8 ERROR_NONE=0\nint8 ERROR_REJECTED=1\nint8 ERROR_UNKNOWN_GOAL_ID=2\nint8 ERROR_GOAL_TERMINATED=3\nint8 return_code\naction_msgs/GoalInfo[] goals_canceling\n",
 )
 SUCCEEDED, CANCELED, ABORTED = 4, 5, 6
+
+
+def derived_hashes():
+    """What rihs.py derives: the rmw_zenoh design document's example service, action_msgs'
+    CancelGoal and Jazzy's NavigateToPose."""
+    return {
+        "add_two_ints": rihs.service_hash("example_interfaces/srv/AddTwoInts", "int64 a\nint64 b\n", "int64 sum\n"),
+        "cancel_goal": rihs.service_hash("action_msgs/srv/CancelGoal", *CANCEL_GOAL),
+        "navigate_to_pose": rihs.action_hashes("nav2_msgs/action/NavigateToPose", *NAVIGATE_TO_POSE),
+    }
 
 
 def write_nav2_definitions(root):
@@ -160,13 +176,16 @@ def serve_nav2(at, st, lock):
     for t in NAV2_DEFINITIONS:
         mgr.register_message_type(None, t)
 
-    def server(name, srv_type, defs):
-        return ROS2ServiceServer(service_name=f"/navigate_to_pose/_action/{name}", srv_type=srv_type, request_definition=defs[0],
-                                 response_definition=defs[1], node_name="bt_navigator", mode="queue", **at)
+    hashes = derived_hashes()
+    nav = hashes["navigate_to_pose"]
 
-    send = server("send_goal", "nav2_msgs/action/NavigateToPose_SendGoal", SEND_GOAL)
-    result = server("get_result", "nav2_msgs/action/NavigateToPose_GetResult", GET_RESULT)
-    cancel = server("cancel_goal", "action_msgs/srv/CancelGoal", CANCEL_GOAL)
+    def server(name, srv_type, defs, type_hash):
+        return ROS2ServiceServer(service_name=f"/navigate_to_pose/_action/{name}", srv_type=srv_type, request_definition=defs[0],
+                                 response_definition=defs[1], node_name="bt_navigator", mode="queue", type_hash=type_hash, **at)
+
+    send = server("send_goal", "nav2_msgs/action/NavigateToPose_SendGoal", SEND_GOAL, nav["send_goal"])
+    result = server("get_result", "nav2_msgs/action/NavigateToPose_GetResult", GET_RESULT, nav["get_result"])
+    cancel = server("cancel_goal", "action_msgs/srv/CancelGoal", CANCEL_GOAL, hashes["cancel_goal"])
     types = send.session_mgr.store.types
     Time = types["builtin_interfaces/msg/Time"]
     goals = {}
@@ -227,7 +246,8 @@ def serve_nav2(at, st, lock):
 
     from zenoh_ros2_sdk import ROS2Publisher
 
-    fb = ROS2Publisher(topic="/navigate_to_pose/_action/feedback", msg_type="nav2_msgs/action/NavigateToPose_FeedbackMessage", node_name="bt_navigator", **at)
+    fb = ROS2Publisher(topic="/navigate_to_pose/_action/feedback", msg_type="nav2_msgs/action/NavigateToPose_FeedbackMessage", node_name="bt_navigator",
+                       type_hash=nav["feedback"], **at)
     UUID = mgr.register_message_type(None, "unique_identifier_msgs/msg/UUID")
     Feedback = mgr.register_message_type(None, "nav2_msgs/msg/NavigateToPose_Feedback")
     PoseStamped = mgr.register_message_type(None, "geometry_msgs/msg/PoseStamped")
@@ -397,6 +417,8 @@ def main():
                 sdk[t] = get_type_hash(t, msg_definition=text, dependencies=deps)
                 bags[t] = STORE.hash_rihs01(t)
             emit(event="hashes", sdk=sdk, rosbags=bags)
+        elif cmd[0] == "rihs":
+            emit(event="rihs", **derived_hashes())
         else:
             emit(event="error", error=f"unknown command {cmd[0]!r}")
     stop.set()
