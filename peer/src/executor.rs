@@ -8,8 +8,9 @@ use mrmm_proto::{PlanAssignment, Progress, Step, SyncArrival};
 
 use crate::barrier::Barrier;
 
-/// Seconds (simulated) between two re-publications of an arrival while waiting at a barrier,
-/// for members that subscribed after the first one.
+/// Wall seconds between two re-publications of an arrival while waiting at a barrier, for
+/// members that subscribed after the first one (a network matter: it does not speed up with
+/// the simulated clock; see [`Executor::with_time_scale`]).
 pub const REPUBLISH_S: f64 = 0.5;
 /// Instantaneous steps taken at most per tick (a loop of such steps cannot spin for ever).
 const MAX_STEPS_PER_TICK: usize = 64;
@@ -49,7 +50,13 @@ pub struct Executor {
     syncs_passed: u32,
     sync_msgs: u32,
     waiting: Option<(u32, u32)>,
+    /// When the robot arrived at the barrier it waits at (simulated seconds).
+    waiting_since: f64,
+    /// Simulated seconds spent waiting at barriers that released, since the plan started.
+    sync_wait: f64,
     last_publish: f64,
+    /// [`REPUBLISH_S`] in simulated seconds.
+    republish: f64,
     /// A teammate seems to wait for an arrival of ours it missed: publish our furthest again.
     echo_due: bool,
     last_echo: f64,
@@ -70,13 +77,25 @@ impl Executor {
             syncs_passed: 0,
             sync_msgs: 0,
             waiting: None,
+            waiting_since: 0.0,
+            sync_wait: 0.0,
             last_publish: 0.0,
+            republish: REPUBLISH_S,
             echo_due: false,
             last_echo: f64::NEG_INFINITY,
             hold_until: None,
             navigating: false,
             done: false,
         }
+    }
+
+    /// For a robot whose clock runs `scale` times faster than the wall: re-publications keep
+    /// their wall-clock period (at a time scale of 10 they would otherwise go out at 20 Hz).
+    pub fn with_time_scale(mut self, scale: f64) -> Self {
+        if scale.is_finite() && scale > 0.0 {
+            self.republish = REPUBLISH_S * scale;
+        }
+        self
     }
 
     pub fn mission(&self) -> &str {
@@ -102,6 +121,7 @@ impl Executor {
             syncs_passed: self.syncs_passed,
             sync_msgs: self.sync_msgs,
             waiting: self.waiting,
+            sync_wait_s: self.sync_wait,
             done: self.done,
         }
     }
@@ -141,7 +161,7 @@ impl Executor {
     fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Command> {
         let mut out = Vec::new();
         let me = self.assignment.plan.robot.clone();
-        if self.echo_due && now - self.last_echo >= REPUBLISH_S {
+        if self.echo_due && now - self.last_echo >= self.republish {
             if let Some((round, point)) = self.barrier.mine() {
                 self.echo_due = false;
                 self.last_echo = now;
@@ -177,13 +197,14 @@ impl Executor {
                     let arrival = SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round };
                     if self.waiting != Some(at) {
                         self.waiting = Some(at);
+                        self.waiting_since = now;
                         self.barrier.arrival(&arrival);
                         self.sync_msgs += 1;
                         self.last_publish = now;
                         out.push(Command::Publish(arrival));
                     }
                     if !self.barrier.released(point, self.round) {
-                        if now - self.last_publish >= REPUBLISH_S {
+                        if now - self.last_publish >= self.republish {
                             self.sync_msgs += 1;
                             self.last_publish = now;
                             out.push(Command::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round }));
@@ -191,6 +212,7 @@ impl Executor {
                         break;
                     }
                     self.waiting = None;
+                    self.sync_wait += (now - self.waiting_since).max(0.0);
                     self.syncs_passed += 1;
                     // The release instant, for latency measurements (`benches/scale.rs`).
                     tracing::debug!(target: "mrmm_peer::barrier", mission = %self.assignment.mission, epoch = self.assignment.epoch, point, round = self.round, "released");
@@ -271,6 +293,15 @@ mod tests {
         assert_eq!(tick(&mut e, 0.7, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
         let p = e.progress();
         assert_eq!((p.syncs_passed, p.sync_msgs, p.waiting), (1, 2, None));
+        assert!((p.sync_wait_s - 0.7).abs() < 1e-9, "waited from 0.0 to the release at 0.7: {}", p.sync_wait_s);
+    }
+
+    #[test]
+    fn republication_keeps_its_wall_clock_period_on_a_fast_clock() {
+        let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]).with_time_scale(10.0);
+        assert_eq!(tick(&mut e, 0.0, true).len(), 1, "the arrival");
+        assert!(tick(&mut e, 1.0, true).is_empty(), "0.1 wall seconds later: not yet");
+        assert_eq!(tick(&mut e, 5.0, true).len(), 1, "0.5 wall seconds later: again");
     }
 
     #[test]

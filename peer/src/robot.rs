@@ -321,7 +321,7 @@ impl Robot {
                 tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
                 self.body.hold();
                 change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone() });
-                self.exec = Some(Executor::new((**a).clone()));
+                self.exec = Some(Executor::new((**a).clone()).with_time_scale(self.cfg.time_scale));
             }
             RobotCommand::Admit { mission, managers, members } => {
                 proto::validate_id(mission).map_err(|e| e.to_string())?;

@@ -87,6 +87,7 @@ mod tests {
                 syncs_passed: 5,
                 sync_msgs: 6,
                 waiting: Some((2, 1)),
+                sync_wait_s: 1.5,
                 done: false,
             }),
             admitted: vec!["patrol-1".into()],

@@ -153,6 +153,10 @@ pub struct MissionMetrics {
     pub sync_points_passed: u32,
     /// Coordination messages sent, per kind (`plan`, `leave`, `sync`).
     pub messages: BTreeMap<String, u64>,
+    /// Robot seconds the members spent waiting at barriers under the current plan, summed over
+    /// members (it restarts with a replan).
+    #[serde(default)]
+    pub sync_wait_s: f64,
 }
 
 /// The mission manager's identity.

@@ -3,6 +3,7 @@
 mod assign;
 mod central;
 mod demo;
+mod experiment;
 mod mission_host;
 pub mod op;
 mod pki;
@@ -40,6 +41,9 @@ enum Cmd {
     Op(op::Args),
     /// Start central and a simulated fleet, drive it, and show it live.
     Demo(demo::Args),
+    /// The paper's evaluation on the real system: messages, idleness, environment (figures,
+    /// results.csv, summary.md).
+    Experiment(experiment::Args),
     /// Near-optimal closed tour through a TSPLIB instance.
     Tour(tour::Args),
     /// Optimal assignment from a CSV cost matrix (rows: robots, columns: slots).
@@ -62,7 +66,7 @@ impl Cli {
     /// Log filter used when RUST_LOG is not set.
     pub fn default_log_filter(&self) -> &'static str {
         match self.command {
-            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Viz(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) | Cmd::Tap(_) | Cmd::Pki(_) => "warn",
+            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Experiment(_) | Cmd::Viz(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) | Cmd::Tap(_) | Cmd::Pki(_) => "warn",
             _ => "info,zenoh=warn",
         }
     }
@@ -75,6 +79,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Router(a) => router::run(a).await,
         Cmd::Op(a) => op::run(a).await,
         Cmd::Demo(a) => demo::run(a).await,
+        Cmd::Experiment(a) => experiment::run(a).await,
         Cmd::Tour(a) => tour::run(a),
         Cmd::Assign(a) => assign::run(a),
         Cmd::Plan(a) => plan::run(a),

@@ -139,7 +139,17 @@ fn progress(id: &str, mission: &str, epoch: u64) -> Event {
         velocity: Velocity::default(),
         behaviour: Behaviour::Hold,
         mission: Some(mission.into()),
-        progress: Some(Progress { mission: mission.into(), epoch, step: 0, round: 0, syncs_passed: 0, sync_msgs: 0, waiting: None, done: false }),
+        progress: Some(Progress {
+            mission: mission.into(),
+            epoch,
+            step: 0,
+            round: 0,
+            syncs_passed: 0,
+            sync_msgs: 0,
+            waiting: None,
+            sync_wait_s: 0.0,
+            done: false,
+        }),
         admitted: vec![],
         stuck: None,
     }))

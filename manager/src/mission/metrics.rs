@@ -8,13 +8,18 @@ use mrmm_proto::{MetricsTally, MissionMetrics, Progress, Telemetry};
 
 /// A waypoint counts as visited by a robot passing within this distance, metres.
 pub const VISIT_RADIUS: f64 = 1.5;
-/// Two passes of the same waypoint closer in time than this are one visit, seconds.
+/// Two passes of the same waypoint closer in time than this are one visit, seconds: a robot
+/// seen there again within it is still there (a robot lingering at a waypoint, waiting at a
+/// barrier, is one visit, not one per second).
 pub const VISIT_DEBOUNCE_S: f64 = 1.0;
 
 /// What the metrics remember.
 #[derive(Debug, Clone, Default)]
 pub struct Metrics {
     last_visit: Vec<Option<(f64, String)>>,
+    /// Whether a waypoint's last visitor is still within reach of it (seen there, not seen away
+    /// since).
+    present: Vec<bool>,
     visits: Vec<u32>,
     sum: f64,
     count: u64,
@@ -85,12 +90,25 @@ impl Metrics {
             return;
         }
         let here = Point { x: t.pose.x, y: t.pose.y };
-        for (i, wp) in tour.iter().enumerate() {
-            if wp.dist(here) > VISIT_RADIUS || i >= self.last_visit.len() {
+        if self.present.len() != self.last_visit.len() {
+            self.present = vec![false; self.last_visit.len()];
+        }
+        for (i, wp) in tour.iter().enumerate().take(self.last_visit.len()) {
+            let by_this_robot = self.last_visit[i].as_ref().is_some_and(|(_, who)| *who == t.id);
+            if wp.dist(here) > VISIT_RADIUS {
+                if by_this_robot {
+                    self.present[i] = false;
+                }
                 continue;
             }
             match &self.last_visit[i] {
-                Some((when, _)) if now - when < VISIT_DEBOUNCE_S => {}
+                // The last visitor never left (however far apart its samples are in robot time:
+                // telemetry comes at a wall-clock rate), or another robot came at the same
+                // instant: still one visit, whose idleness starts when the robot leaves.
+                Some((when, who)) if (by_this_robot && self.present[i]) || now - when < VISIT_DEBOUNCE_S => {
+                    let who = who.clone();
+                    self.last_visit[i] = Some((now, who));
+                }
                 Some((when, _)) => {
                     let gap = now - when;
                     self.sum += gap;
@@ -104,6 +122,7 @@ impl Metrics {
                     self.last_visit[i] = Some((now, t.id.clone()));
                 }
             }
+            self.present[i] = self.last_visit[i].as_ref().is_some_and(|(_, who)| *who == t.id);
         }
     }
 
@@ -123,6 +142,8 @@ impl Metrics {
             visits: self.visits.clone(),
             sync_points_passed: if full { current.iter().map(|p| p.syncs_passed).min().unwrap_or(0) } else { 0 },
             messages: BTreeMap::from([("plan".to_string(), plan_msgs), ("sync".to_string(), sync_msgs)]),
+            // A wild value from one robot must not make the sum unrepresentable in JSON.
+            sync_wait_s: current.iter().map(|p| p.sync_wait_s).filter(|w| (0.0..=1e9).contains(w)).sum(),
         }
     }
 }

@@ -122,10 +122,49 @@ fn tel(id: &str, x: f64, y: f64, syncs: u32, round: u32) -> Telemetry {
         velocity: Velocity::default(),
         behaviour: Behaviour::Hold,
         mission: Some("p1".into()),
-        progress: Some(Progress { mission: "p1".into(), epoch: 1, step: 3, round, syncs_passed: syncs, sync_msgs: syncs, waiting: None, done: false }),
+        progress: Some(Progress {
+            mission: "p1".into(),
+            epoch: 1,
+            step: 3,
+            round,
+            syncs_passed: syncs,
+            sync_msgs: syncs,
+            waiting: None,
+            sync_wait_s: 0.0,
+            done: false,
+        }),
         admitted: vec![],
         stuck: None,
     }
+}
+
+#[test]
+fn a_robot_lingering_at_a_waypoint_is_one_visit_and_idleness_starts_when_it_leaves() {
+    let mut m = started();
+    // a waits at waypoint 0 (a barrier there) from 1 s to 5 s, seen at 5 Hz; b comes at 15 s.
+    for k in 0..=20 {
+        let t = 1.0 + f64::from(k) * 0.2;
+        m.handle(t, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 1, 0))));
+    }
+    m.handle(15.0, Event::Telemetry(Box::new(tel("b", 0.0, 0.3, 1, 0))));
+    let x = m.metrics();
+    assert_eq!(x.visits[0], 2, "{x:?}");
+    assert!(x.avg_idleness.is_some_and(|i| (i - 10.0).abs() < 1e-9), "idle from a's departure at 5 s to b at 15 s: {x:?}");
+}
+
+#[test]
+fn sparse_samples_of_one_pass_are_one_visit_and_a_return_is_another() {
+    // Telemetry comes at a wall-clock rate: at a time scale of 10, 5 Hz is a sample every 2
+    // robot seconds, farther apart than the debounce.
+    let mut m = started();
+    m.handle(1.0, Event::Telemetry(Box::new(tel("a", -1.0, 0.0, 1, 0))));
+    m.handle(3.0, Event::Telemetry(Box::new(tel("a", 1.0, 0.0, 1, 0))));
+    m.handle(5.0, Event::Telemetry(Box::new(tel("a", 3.0, 0.0, 1, 0))));
+    assert_eq!(m.metrics().visits[0], 1, "one pass");
+    m.handle(25.0, Event::Telemetry(Box::new(tel("a", 0.5, 0.0, 1, 1))));
+    let x = m.metrics();
+    assert_eq!(x.visits[0], 2, "a came back: {x:?}");
+    assert!(x.avg_idleness.is_some_and(|i| (i - 22.0).abs() < 1e-9), "idle from 3 s to 25 s: {x:?}");
 }
 
 #[test]
@@ -140,8 +179,9 @@ fn metrics_from_telemetry() {
     m.handle(12.0, Event::Telemetry(Box::new(tel("c", 50.0, 50.0, 3, 1))));
     let x = m.metrics();
     assert_eq!(x.visits.iter().sum::<u32>(), 2);
-    assert_eq!(x.avg_idleness, Some(10.0));
-    assert_eq!(x.worst_idleness, Some(10.0));
+    // a was last there at 1.2: the waypoint was idle from then until b came.
+    assert!(x.avg_idleness.is_some_and(|i| (i - 9.8).abs() < 1e-9), "{x:?}");
+    assert!(x.worst_idleness.is_some_and(|i| (i - 9.8).abs() < 1e-9), "{x:?}");
     assert_eq!(x.sync_points_passed, 1);
     assert_eq!(x.rounds, 0);
     assert_eq!(x.messages["plan"], 3);

@@ -1,0 +1,129 @@
+//! The experiments' fleet: central and `n` identical simulated robots as real `mrmm` processes
+//! on loopback (plain TCP: the paper's figures measure coordination, not cryptography), reused
+//! by every run of an experiment.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, Context};
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, RobotStatus, RobotView};
+use tokio::process::Child;
+
+use super::super::procs;
+
+/// Every robot's top speed, m/s: the idleness bound is L / (n · SPEED).
+pub const SPEED: f64 = 1.0;
+
+/// Beyond this many robots the lease is longer (the keep-alives of a large clique on a small
+/// machine; README's scale section).
+const LARGE_FLEET: usize = 40;
+
+pub struct Fleet {
+    pub client: Client,
+    pub ids: Vec<String>,
+    children: Vec<Child>,
+    pub dir: PathBuf,
+}
+
+impl Fleet {
+    /// Starts central and `n` robots (r1…rn) in `dir` and waits until all are registered.
+    pub async fn start(dir: &Path, n: usize, time_scale: f64) -> anyhow::Result<Fleet> {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let mut children = Vec::new();
+        match Self::boot(dir, n, time_scale, &mut children).await {
+            Ok((client, ids)) => Ok(Fleet { client, ids, children, dir: dir.to_path_buf() }),
+            Err(e) => {
+                procs::stop_all(&mut children, Duration::from_secs(3)).await;
+                Err(e.context(format!("logs in {}", dir.display())))
+            }
+        }
+    }
+
+    async fn boot(dir: &Path, n: usize, time_scale: f64, children: &mut Vec<Child>) -> anyhow::Result<(Client, Vec<String>)> {
+        let log = dir.join("central.log");
+        let state = dir.join("central-state");
+        let args: Vec<String> =
+            ["central", "--listen", "tcp/127.0.0.1:0", "--state-dir"].iter().map(|s| s.to_string()).chain([state.display().to_string()]).collect();
+        let mut central = procs::spawn(&args, &log)?;
+        let line = procs::ready_line(&mut central, "central ready", Duration::from_secs(30), &log).await;
+        children.push(central);
+        let line = line.context("central did not start")?;
+        let endpoint = procs::field(&line, "listening")
+            .and_then(|l| l.split(',').find(|e| e.starts_with("tcp/")))
+            .map(String::from)
+            .ok_or_else(|| anyhow!("central ready line without a TCP endpoint: {line}"))?;
+        let lease = if n > LARGE_FLEET { 4000 } else { 1000 };
+        let ids: Vec<String> = (1..=n).map(|i| format!("r{i}")).collect();
+        for (i, id) in ids.iter().enumerate() {
+            let path = dir.join(format!("{id}.json5"));
+            std::fs::write(&path, robot_config(id, i, &endpoint, time_scale, lease)).with_context(|| format!("cannot write {}", path.display()))?;
+            children.push(procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &dir.join(format!("{id}.log")))?);
+            if n > LARGE_FLEET {
+                // Every robot opens a link to every robot before it: a burst starves the leases.
+                tokio::time::sleep(Duration::from_millis(50)).await;
+            }
+        }
+        let client = Client::connect(std::slice::from_ref(&endpoint), Duration::from_secs(10)).await?;
+        let deadline = Instant::now() + Duration::from_secs(30 + n as u64);
+        loop {
+            let views: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default();
+            if views.iter().filter(|v| v.status == RobotStatus::Idle).count() == n {
+                return Ok((client, ids));
+            }
+            if Instant::now() > deadline {
+                return Err(anyhow!("only {} of {n} robots registered", views.len()));
+            }
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+    }
+
+    /// Waits until every robot is idle again (after a run's missions were terminated).
+    pub async fn settle(&self, timeout: Duration) -> anyhow::Result<()> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let views: Vec<RobotView> = self.client.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default();
+            let idle = views.iter().filter(|v| v.status == RobotStatus::Idle).count();
+            if idle == self.ids.len() {
+                return Ok(());
+            }
+            if Instant::now() > deadline {
+                return Err(anyhow!("{idle} of {} robots idle {} s after the run", self.ids.len(), timeout.as_secs()));
+            }
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+    }
+
+    pub async fn stop(mut self) {
+        self.client.close().await;
+        procs::stop_all(&mut self.children, Duration::from_secs(5)).await;
+    }
+}
+
+/// Identical ground robots on a line south of the field.
+fn robot_config(id: &str, i: usize, central: &str, time_scale: f64, lease_ms: u64) -> String {
+    let x = i as f64 * 1.0;
+    // Visits are seen in telemetry: samples must stay about a robot second apart (a robot is
+    // within a waypoint's 1.5 m for 3 s), whatever the time scale.
+    let hz = time_scale.clamp(5.0, 20.0);
+    format!(
+        r#"{{
+  id: "{id}", type: "ground", capabilities: ["camera"],
+  kinematics: {{ max_speed: {SPEED}, max_turn_rate: 3.0 }},
+  start: {{ x: {x}, y: -4, theta: 1.5708 }},
+  time_scale: {time_scale}, telemetry_hz: {hz},
+  zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: {lease_ms} }},
+}}
+"#
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn generated_configs_are_valid() {
+        let text = super::robot_config("r1", 0, "tcp/127.0.0.1:7447", 10.0, 1000);
+        let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
+        assert_eq!((cfg.time_scale, cfg.kinematics.max_speed), (10.0, super::SPEED));
+    }
+}

@@ -1,0 +1,165 @@
+//! `mrmm experiment`: the paper's evaluation on the real system — real `mrmm` processes with
+//! time-scaled simulated bodies — one command per figure, written to a directory as
+//! `results.csv`, one PNG per experiment and `summary.md`.
+
+mod fleet;
+mod plot;
+mod report;
+mod run;
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{anyhow, bail};
+
+use run::{Row, Spec};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Kind {
+    /// Messages over a run, eventless and with robots extracted after the first round (Fig. 4).
+    Messages,
+    /// Idleness as the team grows, beside the bound L/(n·v) (Fig. 5).
+    Idleness,
+    /// Idleness of two team sizes as the environment grows (Fig. 6).
+    Environment,
+    /// All three.
+    All,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Which experiment.
+    #[arg(value_enum)]
+    kind: Kind,
+    /// Where results.csv, the figures and summary.md go (created; runs' logs under logs/).
+    #[arg(long, default_value = "results")]
+    out: PathBuf,
+    /// Team sizes (default per experiment: messages 5,10,15,20 — eventless for all but the largest,
+    /// extraction for those above --extract; idleness 5,10,15,20,30,40,50; environment 15,20).
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=200))]
+    sizes: Option<Vec<u32>>,
+    /// Rounds of the patrol per run (default: messages 5, idleness 3, environment 2).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    rounds: Option<u32>,
+    /// Simulated seconds per wall second for every robot.
+    #[arg(long, default_value_t = 10.0)]
+    time_scale: f64,
+    /// Seed of what is chosen at random (which robots are extracted).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Robots moved to a coverage mission after the first round in the messages experiment.
+    #[arg(long, default_value_t = 5)]
+    extract: u32,
+    /// Environment scales of the environment experiment.
+    #[arg(long, value_delimiter = ',', default_values_t = vec![1.0, 2.5, 5.0, 10.0])]
+    scales: Vec<f64>,
+}
+
+impl Kind {
+    fn name(self) -> &'static str {
+        match self {
+            Kind::Messages => "messages",
+            Kind::Idleness => "idleness",
+            Kind::Environment => "environment",
+            Kind::All => "all",
+        }
+    }
+}
+
+/// The runs of one experiment.
+fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
+    let sizes = |default: &[u32]| -> Vec<usize> { a.sizes.as_deref().unwrap_or(default).iter().map(|&n| n as usize).collect() };
+    let spec = |experiment, robots, extract, env_scale, rounds| Spec { experiment, robots, extract, env_scale, rounds, time_scale: a.time_scale, seed: a.seed };
+    Ok(match kind {
+        Kind::Messages => {
+            let s = sizes(&[5, 10, 15, 20]);
+            let largest = s.iter().copied().max().unwrap_or(0);
+            let rounds = a.rounds.unwrap_or(5);
+            let k = a.extract as usize;
+            let eventless = s.iter().filter(|&&n| n < largest || s.len() == 1).map(|&n| spec("messages", n, 0, 1.0, rounds));
+            let extraction = s.iter().filter(|&&n| k > 0 && n > k).map(|&n| spec("messages", n, k, 1.0, rounds.max(2)));
+            eventless.chain(extraction).collect()
+        }
+        Kind::Idleness => sizes(&[5, 10, 15, 20, 30, 40, 50]).into_iter().map(|n| spec("idleness", n, 0, 1.0, a.rounds.unwrap_or(3))).collect(),
+        Kind::Environment => {
+            let mut v = Vec::new();
+            for &scale in &a.scales {
+                if !(scale.is_finite() && (0.1..=100.0).contains(&scale)) {
+                    bail!("--scales: each scale must be between 0.1 and 100 (got {scale})");
+                }
+                for n in sizes(&[15, 20]) {
+                    v.push(spec("environment", n, 0, scale, a.rounds.unwrap_or(2)));
+                }
+            }
+            v
+        }
+        Kind::All => bail!("internal: `all` is not one experiment"),
+    })
+}
+
+pub async fn run(a: Args) -> anyhow::Result<()> {
+    if !(a.time_scale.is_finite() && a.time_scale > 0.0 && a.time_scale <= 1000.0) {
+        bail!("--time-scale: must be a number in (0, 1000] (got {})", a.time_scale);
+    }
+    let kinds = if a.kind == Kind::All { vec![Kind::Messages, Kind::Idleness, Kind::Environment] } else { vec![a.kind] };
+    let mut plans = Vec::new();
+    for k in &kinds {
+        plans.push((*k, plan(*k, &a)?));
+    }
+    std::fs::create_dir_all(&a.out).map_err(|e| anyhow!("cannot create {}: {e}", a.out.display()))?;
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let mut rows: Vec<Row> = Vec::new();
+    let mut figures = Vec::new();
+    for (kind, specs) in plans {
+        let n = specs.iter().map(|s| s.robots).max().unwrap_or(0);
+        if n == 0 {
+            continue;
+        }
+        let bar = progress(specs.len(), kind.name());
+        bar.set_message(format!("starting {n} robots"));
+        let fleet = fleet::Fleet::start(&a.out.join("logs").join(kind.name()), n, a.time_scale).await?;
+        let mut failed = None;
+        for (i, spec) in specs.iter().enumerate() {
+            bar.set_message(format!("run {} ({} robots, ×{} environment, {} rounds)", spec.label(), spec.robots, spec.env_scale, spec.rounds));
+            match run::run(&fleet, &format!("{}-{}", kind.name(), i + 1), spec).await {
+                Ok(row) => rows.push(row),
+                Err(e) => {
+                    failed = Some(e);
+                    break;
+                }
+            }
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+        let logs = fleet.dir.clone();
+        fleet.stop().await;
+        if let Some(e) = failed {
+            // What ran is still written: a failed run should not cost the others.
+            write(&a, &command, &rows, &figures)?;
+            return Err(e.context(format!("{} experiment failed (logs in {})", kind.name(), logs.display())));
+        }
+        let these: Vec<&Row> = rows.iter().filter(|r| r.spec.experiment == kind.name()).collect();
+        if let Some(f) = report::figure(&a.out, kind.name(), &these)? {
+            figures.push(f);
+        }
+        println!("{}: {} runs done", kind.name(), these.len());
+    }
+    write(&a, &command, &rows, &figures)?;
+    println!("results in {}: results.csv, summary.md, {}", a.out.display(), figures.join(", "));
+    Ok(())
+}
+
+fn write(a: &Args, command: &str, rows: &[Row], figures: &[String]) -> anyhow::Result<()> {
+    report::csv(&a.out.join("results.csv"), rows)?;
+    report::summary(&a.out.join("summary.md"), command, rows, figures)
+}
+
+fn progress(n: usize, what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(n as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{prefix:>12} [{bar:30}] {pos}/{len} {elapsed} {msg}") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_prefix(what.to_string());
+    bar.enable_steady_tick(Duration::from_millis(500));
+    bar
+}
