@@ -52,7 +52,8 @@ pub struct Executor {
     waiting: Option<(u32, u32)>,
     /// When the robot arrived at the barrier it waits at (simulated seconds).
     waiting_since: f64,
-    /// Simulated seconds spent waiting at barriers that released, since the plan started.
+    /// Simulated seconds spent waiting at barriers that released since the first (the
+    /// formation's) under this plan.
     sync_wait: f64,
     last_publish: f64,
     /// [`REPUBLISH_S`] in simulated seconds.
@@ -212,7 +213,11 @@ impl Executor {
                         break;
                     }
                     self.waiting = None;
-                    self.sync_wait += (now - self.waiting_since).max(0.0);
+                    // The first barrier gathers the team at its slots (the formation): its wait
+                    // is not the cost of synchronising the rounds.
+                    if self.syncs_passed > 0 {
+                        self.sync_wait += (now - self.waiting_since).max(0.0);
+                    }
                     self.syncs_passed += 1;
                     // The release instant, for latency measurements (`benches/scale.rs`).
                     tracing::debug!(target: "mrmm_peer::barrier", mission = %self.assignment.mission, epoch = self.assignment.epoch, point, round = self.round, "released");
@@ -293,7 +298,22 @@ mod tests {
         assert_eq!(tick(&mut e, 0.7, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
         let p = e.progress();
         assert_eq!((p.syncs_passed, p.sync_msgs, p.waiting), (1, 2, None));
-        assert!((p.sync_wait_s - 0.7).abs() < 1e-9, "waited from 0.0 to the release at 0.7: {}", p.sync_wait_s);
+        assert_eq!(p.sync_wait_s, 0.0, "the first barrier is the formation's");
+    }
+
+    #[test]
+    fn barrier_wait_is_counted_after_the_formation() {
+        let mut e = exec(vec![Step::Sync { point: 0 }, Step::Sync { point: 1 }], &["a", "b"]);
+        let heard = |e: &mut Executor, t: f64, point: u32| e.handle(t, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point, round: 0 }));
+        tick(&mut e, 0.0, true);
+        heard(&mut e, 2.0, 0);
+        tick(&mut e, 2.0, true);
+        tick(&mut e, 3.0, true);
+        heard(&mut e, 3.5, 1);
+        tick(&mut e, 3.7, true);
+        let p = e.progress();
+        assert_eq!(p.syncs_passed, 2);
+        assert!((p.sync_wait_s - 1.7).abs() < 1e-9, "waited at the second barrier from 2.0 to 3.7: {}", p.sync_wait_s);
     }
 
     #[test]

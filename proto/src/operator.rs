@@ -153,8 +153,8 @@ pub struct MissionMetrics {
     pub sync_points_passed: u32,
     /// Coordination messages sent, per kind (`plan`, `leave`, `sync`).
     pub messages: BTreeMap<String, u64>,
-    /// Robot seconds the members spent waiting at barriers under the current plan, summed over
-    /// members (it restarts with a replan).
+    /// Robot seconds the members spent waiting at barriers under the current plan, after its
+    /// first barrier (the formation's), summed over members (it restarts with a replan).
     #[serde(default)]
     pub sync_wait_s: f64,
 }

@@ -78,8 +78,8 @@ pub struct Progress {
     pub sync_msgs: u32,
     /// The barrier (point, round) the robot is waiting at, if any.
     pub waiting: Option<(u32, u32)>,
-    /// Simulated seconds spent waiting at barriers that released, since the plan started (the
-    /// cost of synchronisation; the evaluation's figures show it).
+    /// Simulated seconds spent waiting at barriers that released, after the plan's first (the
+    /// formation's): the cost of synchronisation, which the evaluation's figures show.
     #[serde(default)]
     pub sync_wait_s: f64,
     /// The plan ran to its end.

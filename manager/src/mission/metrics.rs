@@ -1,25 +1,26 @@
 //! A mission's metrics from its members' telemetry: visits and idleness of patrol waypoints,
 //! rounds and barriers passed by the whole team, coordination messages.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::plan::Point;
 use mrmm_proto::{MetricsTally, MissionMetrics, Progress, Telemetry};
 
 /// A waypoint counts as visited by a robot passing within this distance, metres.
 pub const VISIT_RADIUS: f64 = 1.5;
-/// Two passes of the same waypoint closer in time than this are one visit, seconds: a robot
-/// seen there again within it is still there (a robot lingering at a waypoint, waiting at a
-/// barrier, is one visit, not one per second).
+/// Two robots arriving at a waypoint closer in time than this are one visit, seconds. A robot
+/// at a waypoint it has not left since its arrival is still on that visit, however long it
+/// lingers (waiting at a barrier) and however sparse its samples, and whichever robots came
+/// after it. Idleness is the time between two visits' arrivals, as in the patrolling literature
+/// and the bound L / (n · v).
 pub const VISIT_DEBOUNCE_S: f64 = 1.0;
 
 /// What the metrics remember.
 #[derive(Debug, Clone, Default)]
 pub struct Metrics {
     last_visit: Vec<Option<(f64, String)>>,
-    /// Whether a waypoint's last visitor is still within reach of it (seen there, not seen away
-    /// since).
-    present: Vec<bool>,
+    /// The robots at each waypoint (seen within reach of it, not seen away since).
+    present: Vec<BTreeSet<String>>,
     visits: Vec<u32>,
     sum: f64,
     count: u64,
@@ -69,46 +70,53 @@ impl Metrics {
 
     /// A member left: its progress is no longer part of the team's.
     pub fn forget(&mut self, id: &str) -> Option<Progress> {
+        for p in &mut self.present {
+            p.remove(id);
+        }
         self.progress.remove(id)
     }
 
     /// Telemetry of member `t.id` at robot time `now`; `epoch` is the mission's current one and
-    /// `tour` the patrol's waypoints (empty for other missions).
-    pub fn telemetry(&mut self, mission: &str, epoch: u64, tour: &[Point], now: f64, t: &Telemetry) {
+    /// `tour` the patrol's waypoints (empty for other missions). Returns the barrier messages
+    /// the member had sent under an earlier plan, now replaced by its progress on this one (the
+    /// caller keeps them: the mission's count must not fall with a replan).
+    pub fn telemetry(&mut self, mission: &str, epoch: u64, tour: &[Point], now: f64, t: &Telemetry) -> u64 {
+        let mut carried = 0;
         if let Some(ages) = self.ages.take() {
             self.last_visit = ages.into_iter().map(|a| a.map(|a| (now - a, String::new()))).collect();
         }
         self.last_now = self.last_now.max(now);
         if let Some(p) = &t.progress {
             if p.mission == mission && p.epoch == epoch {
-                self.progress.insert(t.id.clone(), p.clone());
+                if let Some(old) = self.progress.insert(t.id.clone(), p.clone()) {
+                    if old.epoch < p.epoch {
+                        carried = u64::from(old.sync_msgs);
+                    }
+                }
             }
         }
         // Only robots on their round count: the way to the slot is not patrolling.
         let patrolling = t.progress.as_ref().is_some_and(|p| p.mission == mission && p.syncs_passed > 0);
         if !patrolling {
-            return;
+            return carried;
         }
         let here = Point { x: t.pose.x, y: t.pose.y };
         if self.present.len() != self.last_visit.len() {
-            self.present = vec![false; self.last_visit.len()];
+            self.present = vec![BTreeSet::new(); self.last_visit.len()];
         }
         for (i, wp) in tour.iter().enumerate().take(self.last_visit.len()) {
-            let by_this_robot = self.last_visit[i].as_ref().is_some_and(|(_, who)| *who == t.id);
             if wp.dist(here) > VISIT_RADIUS {
-                if by_this_robot {
-                    self.present[i] = false;
-                }
+                self.present[i].remove(&t.id);
+                continue;
+            }
+            // A robot seen at a waypoint it has not left since it came is still on that visit,
+            // however long it lingers (waiting at a barrier) and however sparse its samples.
+            if !self.present[i].insert(t.id.clone()) {
                 continue;
             }
             match &self.last_visit[i] {
-                // The last visitor never left (however far apart its samples are in robot time:
-                // telemetry comes at a wall-clock rate), or another robot came at the same
-                // instant: still one visit, whose idleness starts when the robot leaves.
-                Some((when, who)) if (by_this_robot && self.present[i]) || now - when < VISIT_DEBOUNCE_S => {
-                    let who = who.clone();
-                    self.last_visit[i] = Some((now, who));
-                }
+                // Another robot came at the same instant: one visit.
+                Some((when, _)) if now - when < VISIT_DEBOUNCE_S => {}
                 Some((when, _)) => {
                     let gap = now - when;
                     self.sum += gap;
@@ -122,14 +130,22 @@ impl Metrics {
                     self.last_visit[i] = Some((now, t.id.clone()));
                 }
             }
-            self.present[i] = self.last_visit[i].as_ref().is_some_and(|(_, who)| *who == t.id);
         }
+        carried
     }
 
     /// The metrics for `members`; `plan_msgs` and `sync_msgs_left` come from the replicated state.
     pub fn view<'a>(&self, members: impl Iterator<Item = &'a String>, plan_msgs: u64, sync_msgs_left: u64) -> MissionMetrics {
         // Waypoints waiting right now count too: the worst idleness is never below the current wait.
-        let open = self.last_visit.iter().flatten().map(|(w, _)| self.last_now - w).fold(0.0, f64::max);
+        // (Not those a robot is at: they are being visited.)
+        let open = self
+            .last_visit
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| self.present.get(*i).is_none_or(BTreeSet::is_empty))
+            .filter_map(|(_, v)| v.as_ref())
+            .map(|(w, _)| self.last_now - w)
+            .fold(0.0, f64::max);
         let any = self.visits.iter().any(|&v| v > 0);
         let members: Vec<&String> = members.collect();
         let current: Vec<&Progress> = members.iter().filter_map(|id| self.progress.get(*id)).collect();

@@ -326,7 +326,8 @@ impl MissionManager {
                 }
                 let robot_now = now * self.time_scale(&t.id);
                 let tour = self.plan.as_ref().map(|(_, p)| tour(p)).unwrap_or(&[]);
-                self.metrics.telemetry(&self.spec.name, self.epoch, tour, robot_now, &t);
+                let carried = self.metrics.telemetry(&self.spec.name, self.epoch, tour, robot_now, &t);
+                self.sync_msgs_left = self.sync_msgs_left.saturating_add(carried);
                 vec![]
             }
             Event::Checkpoint => {

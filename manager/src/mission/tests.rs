@@ -139,7 +139,7 @@ fn tel(id: &str, x: f64, y: f64, syncs: u32, round: u32) -> Telemetry {
 }
 
 #[test]
-fn a_robot_lingering_at_a_waypoint_is_one_visit_and_idleness_starts_when_it_leaves() {
+fn a_robot_lingering_at_a_waypoint_is_one_visit() {
     let mut m = started();
     // a waits at waypoint 0 (a barrier there) from 1 s to 5 s, seen at 5 Hz; b comes at 15 s.
     for k in 0..=20 {
@@ -149,7 +149,22 @@ fn a_robot_lingering_at_a_waypoint_is_one_visit_and_idleness_starts_when_it_leav
     m.handle(15.0, Event::Telemetry(Box::new(tel("b", 0.0, 0.3, 1, 0))));
     let x = m.metrics();
     assert_eq!(x.visits[0], 2, "{x:?}");
-    assert!(x.avg_idleness.is_some_and(|i| (i - 10.0).abs() < 1e-9), "idle from a's departure at 5 s to b at 15 s: {x:?}");
+    assert!(x.avg_idleness.is_some_and(|i| (i - 14.0).abs() < 1e-9), "from a's arrival at 1 s to b's at 15 s: {x:?}");
+}
+
+#[test]
+fn robots_side_by_side_at_a_waypoint_are_one_arrival_each() {
+    let mut m = started();
+    m.handle(1.0, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 1, 0))));
+    m.handle(3.0, Event::Telemetry(Box::new(tel("b", 0.5, 0.0, 1, 0))));
+    // a is still there (it waits at a barrier), sampled again after b came: not a new arrival.
+    for t in [4.0, 6.0, 8.0] {
+        m.handle(t, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 1, 0))));
+        m.handle(t, Event::Telemetry(Box::new(tel("b", 0.5, 0.0, 1, 0))));
+    }
+    let x = m.metrics();
+    assert_eq!(x.visits[0], 2, "{x:?}");
+    assert_eq!(x.avg_idleness, Some(2.0), "{x:?}");
 }
 
 #[test]
@@ -164,7 +179,7 @@ fn sparse_samples_of_one_pass_are_one_visit_and_a_return_is_another() {
     m.handle(25.0, Event::Telemetry(Box::new(tel("a", 0.5, 0.0, 1, 1))));
     let x = m.metrics();
     assert_eq!(x.visits[0], 2, "a came back: {x:?}");
-    assert!(x.avg_idleness.is_some_and(|i| (i - 22.0).abs() < 1e-9), "idle from 3 s to 25 s: {x:?}");
+    assert!(x.avg_idleness.is_some_and(|i| (i - 24.0).abs() < 1e-9), "from the arrival at 1 s to the next at 25 s: {x:?}");
 }
 
 #[test]
@@ -179,9 +194,8 @@ fn metrics_from_telemetry() {
     m.handle(12.0, Event::Telemetry(Box::new(tel("c", 50.0, 50.0, 3, 1))));
     let x = m.metrics();
     assert_eq!(x.visits.iter().sum::<u32>(), 2);
-    // a was last there at 1.2: the waypoint was idle from then until b came.
-    assert!(x.avg_idleness.is_some_and(|i| (i - 9.8).abs() < 1e-9), "{x:?}");
-    assert!(x.worst_idleness.is_some_and(|i| (i - 9.8).abs() < 1e-9), "{x:?}");
+    assert_eq!(x.avg_idleness, Some(10.0));
+    assert_eq!(x.worst_idleness, Some(10.0));
     assert_eq!(x.sync_points_passed, 1);
     assert_eq!(x.rounds, 0);
     assert_eq!(x.messages["plan"], 3);
@@ -260,4 +274,25 @@ fn metrics_survive_a_takeover_through_the_replicated_state() {
     }
     let k = MissionManager::restore(bad, "third".into()).expect("restore");
     assert_eq!(k.metrics().visits.iter().sum::<u32>(), 0);
+}
+
+#[test]
+fn barrier_messages_of_an_earlier_plan_still_count_after_a_replan() {
+    let mut m = started();
+    for id in ["a", "b", "c"] {
+        m.handle(1.0, Event::Telemetry(Box::new(tel(id, 50.0, 50.0, 4, 1))));
+    }
+    assert_eq!(m.metrics().messages["sync"], 12);
+    // c leaves: 4 of its own stay counted; a and b go on under epoch 2, from 0.
+    let cmds = m.handle(2.0, Event::Left { ids: vec!["c".into()] });
+    let (epoch, plan) = plan_for(&cmds);
+    m.handle(2.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    for id in ["a", "b"] {
+        let mut t = tel(id, 50.0, 50.0, 1, 0);
+        if let Some(p) = t.progress.as_mut() {
+            p.epoch = epoch;
+        }
+        m.handle(3.0, Event::Telemetry(Box::new(t)));
+    }
+    assert_eq!(m.metrics().messages["sync"], 12 + 2, "{:?}", m.metrics().messages);
 }

@@ -80,7 +80,17 @@ fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
             let extraction = s.iter().filter(|&&n| k > 0 && n > k).map(|&n| spec("messages", n, k, 1.0, rounds.max(2)));
             eventless.chain(extraction).collect()
         }
-        Kind::Idleness => sizes(&[5, 10, 15, 20, 30, 40, 50]).into_iter().map(|n| spec("idleness", n, 0, 1.0, a.rounds.unwrap_or(3))).collect(),
+        Kind::Idleness => {
+            let s = sizes(&[5, 10, 15, 20, 30, 40, 50]);
+            let rounds = a.rounds.unwrap_or(3);
+            let mut v: Vec<Spec> = s.iter().map(|&n| spec("idleness", n, 0, 1.0, rounds)).collect();
+            // Time scaling checked: one size (10, or the smallest asked for) again at a quarter
+            // of the time scale, on a fleet of its own.
+            if let Some(n) = if s.contains(&10) { Some(10) } else { s.iter().copied().min() } {
+                v.push(Spec { time_scale: a.time_scale / 4.0, ..spec("timescale", n, 0, 1.0, rounds) });
+            }
+            v
+        }
         Kind::Environment => {
             let mut v = Vec::new();
             for &scale in &a.scales {
@@ -110,34 +120,51 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let mut rows: Vec<Row> = Vec::new();
     let mut figures = Vec::new();
+    let mut runs = 0usize;
     for (kind, specs) in plans {
-        let n = specs.iter().map(|s| s.robots).max().unwrap_or(0);
-        if n == 0 {
-            continue;
-        }
         let bar = progress(specs.len(), kind.name());
-        bar.set_message(format!("starting {n} robots"));
-        let fleet = fleet::Fleet::start(&a.out.join("logs").join(kind.name()), n, a.time_scale).await?;
-        let mut failed = None;
-        for (i, spec) in specs.iter().enumerate() {
-            bar.set_message(format!("run {} ({} robots, ×{} environment, {} rounds)", spec.label(), spec.robots, spec.env_scale, spec.rounds));
-            match run::run(&fleet, &format!("{}-{}", kind.name(), i + 1), spec).await {
-                Ok(row) => rows.push(row),
-                Err(e) => {
-                    failed = Some(e);
-                    break;
-                }
+        // One fleet per time scale (a robot's clock is set by its config).
+        let mut scales: Vec<f64> = Vec::new();
+        for s in &specs {
+            if !scales.contains(&s.time_scale) {
+                scales.push(s.time_scale);
             }
-            bar.inc(1);
+        }
+        for scale in scales {
+            let group: Vec<&Spec> = specs.iter().filter(|s| s.time_scale == scale).collect();
+            let n = group.iter().map(|s| s.robots).max().unwrap_or(0);
+            bar.set_message(format!("starting {n} robots (time scale {scale})"));
+            let fleet = fleet::Fleet::start(&a.out.join("logs").join(format!("{}-x{scale}", kind.name())), n, scale).await?;
+            let mut failed = None;
+            for spec in &group {
+                bar.set_message(format!(
+                    "{} run {} ({} robots, ×{} environment, {} rounds)",
+                    spec.experiment,
+                    spec.label(),
+                    spec.robots,
+                    spec.env_scale,
+                    spec.rounds
+                ));
+                runs += 1;
+                match run::run(&fleet, &format!("{}-{runs}", spec.experiment), spec).await {
+                    Ok(row) => rows.push(row),
+                    Err(e) => {
+                        failed = Some(e);
+                        break;
+                    }
+                }
+                bar.inc(1);
+            }
+            let logs = fleet.dir.clone();
+            fleet.stop().await;
+            if let Some(e) = failed {
+                bar.finish_and_clear();
+                // What ran is still written: a failed run should not cost the others.
+                write(&a, &command, &rows, &figures)?;
+                return Err(e.context(format!("{} experiment failed (logs in {})", kind.name(), logs.display())));
+            }
         }
         bar.finish_and_clear();
-        let logs = fleet.dir.clone();
-        fleet.stop().await;
-        if let Some(e) = failed {
-            // What ran is still written: a failed run should not cost the others.
-            write(&a, &command, &rows, &figures)?;
-            return Err(e.context(format!("{} experiment failed (logs in {})", kind.name(), logs.display())));
-        }
         let these: Vec<&Row> = rows.iter().filter(|r| r.spec.experiment == kind.name()).collect();
         if let Some(f) = report::figure(&a.out, kind.name(), &these)? {
             figures.push(f);
