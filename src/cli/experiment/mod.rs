@@ -117,7 +117,7 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         plans.push((*k, plan(*k, &a)?));
     }
     std::fs::create_dir_all(&a.out).map_err(|e| anyhow!("cannot create {}: {e}", a.out.display()))?;
-    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let command = command_line(&a);
     let mut rows: Vec<Row> = Vec::new();
     let mut figures = Vec::new();
     let mut runs = 0usize;
@@ -176,6 +176,20 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The command that reproduces this run, every setting spelled out.
+fn command_line(a: &Args) -> String {
+    let list = |v: &[String]| v.join(",");
+    let mut c = format!("mrmm experiment {} --out {} --time-scale {} --seed {} --extract {}", a.kind.name(), a.out.display(), a.time_scale, a.seed, a.extract);
+    if let Some(s) = &a.sizes {
+        c.push_str(&format!(" --sizes {}", list(&s.iter().map(u32::to_string).collect::<Vec<_>>())));
+    }
+    if let Some(r) = a.rounds {
+        c.push_str(&format!(" --rounds {r}"));
+    }
+    c.push_str(&format!(" --scales {}", list(&a.scales.iter().map(f64::to_string).collect::<Vec<_>>())));
+    c
+}
+
 fn write(a: &Args, command: &str, rows: &[Row], figures: &[String]) -> anyhow::Result<()> {
     report::csv(&a.out.join("results.csv"), rows)?;
     report::summary(&a.out.join("summary.md"), command, rows, figures)
@@ -189,4 +203,43 @@ fn progress(n: usize, what: &str) -> indicatif::ProgressBar {
     bar.set_prefix(what.to_string());
     bar.enable_steady_tick(Duration::from_millis(500));
     bar
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(subcommand)]
+        cmd: Sub,
+    }
+
+    #[derive(Debug, clap::Subcommand)]
+    enum Sub {
+        Experiment(super::Args),
+    }
+
+    fn parse(line: &str) -> super::Args {
+        let Sub::Experiment(a) = Cli::try_parse_from(line.split_whitespace()).expect("parses").cmd;
+        a
+    }
+
+    #[test]
+    fn the_written_command_reproduces_the_run() {
+        let a = parse("mrmm experiment idleness --sizes 2,4 --rounds 2 --time-scale 5 --out /tmp/x");
+        let line = super::command_line(&a);
+        assert_eq!(line, "mrmm experiment idleness --out /tmp/x --time-scale 5 --seed 1 --extract 5 --sizes 2,4 --rounds 2 --scales 1,2.5,5,10");
+        assert_eq!(super::command_line(&parse(&line)), line);
+    }
+
+    #[test]
+    fn plans_follow_the_paper() {
+        let a = parse("mrmm experiment all");
+        let m = super::plan(super::Kind::Messages, &a).expect("plan");
+        assert_eq!(m.iter().map(|s| s.label()).collect::<Vec<_>>(), ["5", "10", "15", "10→5", "15→10", "20→15"]);
+        let i = super::plan(super::Kind::Idleness, &a).expect("plan");
+        assert_eq!(i.last().map(|s| (s.experiment, s.robots, s.time_scale)), Some(("timescale", 10, 2.5)));
+        assert!(super::plan(super::Kind::Environment, &parse("mrmm experiment environment --scales 0")).is_err());
+    }
 }
