@@ -65,38 +65,38 @@ impl Fleet {
             }
         }
         let client = Client::connect(std::slice::from_ref(&endpoint), Duration::from_secs(10)).await?;
-        let deadline = Instant::now() + Duration::from_secs(30 + n as u64);
-        loop {
-            let views: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default();
-            if views.iter().filter(|v| v.status == RobotStatus::Idle).count() == n {
-                return Ok((client, ids));
-            }
-            if Instant::now() > deadline {
-                return Err(anyhow!("only {} of {n} robots registered", views.len()));
-            }
-            tokio::time::sleep(Duration::from_millis(200)).await;
+        match all_idle(&client, n, Duration::from_secs(30 + n as u64)).await {
+            Ok(()) => Ok((client, ids)),
+            Err(idle) => Err(anyhow!("only {idle} of {n} robots registered and idle")),
         }
     }
 
     /// Waits until every robot is idle again (after a run's missions were terminated).
     pub async fn settle(&self, timeout: Duration) -> anyhow::Result<()> {
-        let deadline = Instant::now() + timeout;
-        loop {
-            let views: Vec<RobotView> = self.client.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default();
-            let idle = views.iter().filter(|v| v.status == RobotStatus::Idle).count();
-            if idle == self.ids.len() {
-                return Ok(());
-            }
-            if Instant::now() > deadline {
-                return Err(anyhow!("{idle} of {} robots idle {} s after the run", self.ids.len(), timeout.as_secs()));
-            }
-            tokio::time::sleep(Duration::from_millis(200)).await;
-        }
+        all_idle(&self.client, self.ids.len(), timeout)
+            .await
+            .map_err(|idle| anyhow!("{idle} of {} robots idle {} s after the run", self.ids.len(), timeout.as_secs()))
     }
 
     pub async fn stop(mut self) {
         self.client.close().await;
         procs::stop_all(&mut self.children, Duration::from_secs(5)).await;
+    }
+}
+
+/// Waits until `n` robots are idle; on timeout, how many were.
+async fn all_idle(client: &Client, n: usize, timeout: Duration) -> Result<(), usize> {
+    let deadline = Instant::now() + timeout;
+    loop {
+        let views: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default();
+        let idle = views.iter().filter(|v| v.status == RobotStatus::Idle).count();
+        if idle == n {
+            return Ok(());
+        }
+        if Instant::now() > deadline {
+            return Err(idle);
+        }
+        tokio::time::sleep(Duration::from_millis(200)).await;
     }
 }
 
