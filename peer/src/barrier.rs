@@ -5,10 +5,16 @@
 //! was lost while this plan ran (dead, moved out, or left). Members arrive in the same order of
 //! barriers, so an arrival at a later barrier implies the earlier ones: a member that joins the
 //! topic late, or missed a publication, never blocks the team.
+//!
+//! Under [`BarrierMode::Leader`] only the leader (the lowest id among the members not gone)
+//! hears arrivals; the others learn from its releases, each of which releases every barrier up
+//! to it. A release is safe to announce by anyone who has seen every required member arrive, or
+//! who has itself been released there — so a new leader, or two members briefly both believing
+//! they lead, never release a barrier early.
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::SyncArrival;
+use mrmm_proto::{BarrierMode, SyncArrival, SyncRelease};
 
 /// Barrier bookkeeping for one plan (one epoch of one team).
 #[derive(Debug, Clone)]
@@ -19,11 +25,71 @@ pub struct Barrier {
     gone: BTreeSet<String>,
     /// Furthest barrier (round, point) each member reported.
     furthest: BTreeMap<String, (u32, u32)>,
+    mode: BarrierMode,
+    /// The furthest barrier (round, point) known released: by a leader's release, or because
+    /// this robot passed it.
+    released: Option<(u32, u32)>,
 }
 
 impl Barrier {
     pub fn new(me: &str, epoch: u64, members: &[String]) -> Self {
-        Barrier { me: me.to_string(), epoch, members: members.iter().cloned().collect(), gone: BTreeSet::new(), furthest: BTreeMap::new() }
+        Barrier {
+            me: me.to_string(),
+            epoch,
+            members: members.iter().cloned().collect(),
+            gone: BTreeSet::new(),
+            furthest: BTreeMap::new(),
+            mode: BarrierMode::Mesh,
+            released: None,
+        }
+    }
+
+    /// The same barrier run in `mode`.
+    pub fn with_mode(mut self, mode: BarrierMode) -> Self {
+        self.mode = mode;
+        self
+    }
+
+    pub fn mode(&self) -> BarrierMode {
+        self.mode
+    }
+
+    /// Records a leader's release; other epochs and non-members are ignored. Returns whether it
+    /// counted.
+    pub fn release_heard(&mut self, r: &SyncRelease) -> bool {
+        if r.epoch != self.epoch || !self.members.contains(&r.leader) {
+            return false;
+        }
+        self.passed((r.round, r.point));
+        true
+    }
+
+    /// This robot passed (or learnt released) barrier `(round, point)`.
+    pub fn passed(&mut self, at: (u32, u32)) {
+        if self.released.is_none_or(|r| at > r) {
+            self.released = Some(at);
+        }
+    }
+
+    /// The lowest id among the members still required: the team's leader as this robot sees it.
+    pub fn leader(&self) -> &str {
+        self.members.iter().find(|m| !self.gone.contains(*m)).map_or(self.me.as_str(), String::as_str)
+    }
+
+    /// Whether this robot leads the team's barriers (always false in [`BarrierMode::Mesh`]).
+    pub fn leading(&self) -> bool {
+        self.mode == BarrierMode::Leader && self.leader() == self.me
+    }
+
+    /// The furthest barrier (round, point) every required member has reached.
+    fn frontier(&self) -> Option<(u32, u32)> {
+        self.members.iter().filter(|m| !self.gone.contains(*m)).map(|m| self.furthest.get(m).copied()).min().flatten()
+    }
+
+    /// The furthest barrier (round, point) this robot knows released, by what it heard or saw
+    /// everyone reach: what a leader announces.
+    pub fn releasable(&self) -> Option<(u32, u32)> {
+        self.frontier().max(self.released)
     }
 
     /// Records an arrival; other epochs and non-members are ignored. Returns whether it counted.
@@ -53,7 +119,7 @@ impl Barrier {
 
     /// Whether barrier `(point, round)` is released (our own arrival must be recorded first).
     pub fn released(&self, point: u32, round: u32) -> bool {
-        self.members.iter().filter(|m| !self.gone.contains(*m)).all(|m| self.furthest.get(m).is_some_and(|&f| f >= (round, point)))
+        self.releasable().is_some_and(|r| r >= (round, point))
     }
 
     /// Our own furthest arrival, as (round, point).
@@ -125,11 +191,60 @@ mod tests {
         assert!(b.released(3, 0));
         assert!(!b.arrival(&arr("a", 2, 9, 9)));
         assert!(!b.arrival(&arr("zz", 1, 9, 9)));
+        assert!(b.released(3, 0));
         // An older arrival never moves a member back.
         b.arrival(&arr("c", 1, 0, 0));
         assert!(b.released(3, 0));
         // We never remove ourselves.
         b.member_gone("a");
         assert_eq!(b.required(), 3);
+    }
+
+    fn rel(leader: &str, epoch: u64, point: u32, round: u32) -> SyncRelease {
+        SyncRelease { leader: leader.into(), epoch, point, round }
+    }
+
+    #[test]
+    fn the_leader_is_the_lowest_member_still_required() {
+        let mut b = Barrier::new("b", 1, &["c".into(), "a".into(), "b".into()]).with_mode(BarrierMode::Leader);
+        assert_eq!(b.leader(), "a");
+        assert!(!b.leading());
+        b.member_gone("a");
+        assert!(b.leading());
+        b.member_alive("a");
+        assert!(!b.leading());
+        let mesh = Barrier::new("a", 1, &["a".into(), "b".into()]);
+        assert!(!mesh.leading(), "nobody leads a mesh barrier");
+    }
+
+    #[test]
+    fn a_release_frees_every_barrier_up_to_it_and_foreign_ones_do_not_count() {
+        let mut b = Barrier::new("b", 1, &["a".into(), "b".into(), "c".into()]).with_mode(BarrierMode::Leader);
+        b.arrival(&arr("b", 1, 2, 0));
+        assert!(!b.released(2, 0), "a member hears no arrivals: only its own");
+        assert!(!b.release_heard(&rel("a", 2, 2, 0)), "another epoch");
+        assert!(!b.release_heard(&rel("zz", 1, 2, 0)), "not a member");
+        assert!(!b.released(2, 0));
+        assert!(b.release_heard(&rel("c", 1, 2, 0)), "any member may announce what it knows released");
+        assert!(b.released(2, 0) && b.released(0, 0));
+        assert!(!b.released(3, 0));
+        // An older release never takes one back.
+        b.release_heard(&rel("a", 1, 1, 0));
+        assert!(b.released(2, 0));
+    }
+
+    #[test]
+    fn what_a_leader_announces_is_what_everyone_required_reached_or_it_passed() {
+        let mut b = team().with_mode(BarrierMode::Leader);
+        assert_eq!(b.releasable(), None);
+        b.arrival(&arr("a", 1, 2, 0));
+        b.arrival(&arr("b", 1, 1, 0));
+        assert_eq!(b.releasable(), None, "c has not arrived anywhere");
+        b.arrival(&arr("c", 1, 3, 0));
+        assert_eq!(b.releasable(), Some((0, 1)), "b is the furthest behind");
+        b.member_gone("b");
+        assert_eq!(b.releasable(), Some((0, 2)));
+        b.passed((1, 0));
+        assert_eq!(b.releasable(), Some((1, 0)), "a barrier it passed was released by someone who knew");
     }
 }

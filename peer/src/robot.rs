@@ -2,7 +2,9 @@
 //! I/O: [`Robot::handle`] takes the wall-clock time and an [`Event`] and returns the
 //! [`Command`]s the runtime (`runtime.rs`) or a simulation carries out.
 
-use mrmm_proto::{self as proto, Behaviour, CommandAck, PlanAssignment, RobotCommand, RobotInfo, Role, Sender, Step, SyncArrival, Telemetry};
+use mrmm_proto::{
+    self as proto, BarrierMode, Behaviour, CommandAck, PlanAssignment, RobotCommand, RobotInfo, Role, Sender, Step, SyncArrival, SyncRelease, Telemetry,
+};
 
 use crate::body::Body;
 use crate::config::{BodySection, RobotConfig};
@@ -28,6 +30,8 @@ pub enum Event {
     Command { cmd: RobotCommand, from: Sender },
     /// A teammate's barrier arrival.
     Heard(SyncArrival),
+    /// A leader's barrier release.
+    Released(SyncRelease),
     /// A teammate's membership token appeared.
     MemberAlive(String),
     /// A teammate's membership token disappeared.
@@ -55,13 +59,17 @@ pub enum Command {
     Reply(Result<CommandAck, String>),
     /// Refuse the command being handled: its sender may not give it.
     Refuse(String),
-    /// Join a team: member token in `subteam`, subscriptions to `team`'s barriers and members
-    /// (leaving any other team).
-    JoinTeam { team: String, subteam: String },
+    /// Join a team: member token in `subteam`, subscriptions to `team`'s barriers (as `barrier`
+    /// runs them) and members (leaving any other team).
+    JoinTeam { team: String, subteam: String, barrier: BarrierMode },
     /// Leave the current team.
     LeaveTeam,
     /// Publish a barrier arrival on the current team.
     Publish(SyncArrival),
+    /// Announce a release on the current team (its leader).
+    Release(SyncRelease),
+    /// Hear the current team's arrivals (this robot leads its barriers) or stop.
+    Lead(bool),
     /// Publish telemetry.
     Telemetry(Telemetry),
     /// Send a ROS 2 body this velocity command (`cmd_vel`).
@@ -179,6 +187,7 @@ impl Robot {
                 out
             }
             Event::Heard(a) => self.plan_event(executor::Event::Heard(a)),
+            Event::Released(r) => self.plan_event(executor::Event::Released(r)),
             Event::MemberAlive(id) => self.plan_event(executor::Event::MemberAlive(id)),
             Event::MemberGone(id) => self.plan_event(executor::Event::MemberGone(id)),
             Event::CentralAlive(up) => {
@@ -320,7 +329,7 @@ impl Robot {
                 }
                 tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
                 self.body.hold();
-                change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone() });
+                change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier });
                 self.exec = Some(Executor::new((**a).clone()).with_time_scale(self.cfg.time_scale));
             }
             RobotCommand::Admit { mission, managers, members } => {
@@ -415,6 +424,8 @@ impl Robot {
                 executor::Command::Navigate { x, y, speed } => self.body.navigate_capped(x, y, speed),
                 executor::Command::Hold => self.body.hold(),
                 executor::Command::Publish(s) => out.push(Command::Publish(s)),
+                executor::Command::Release(r) => out.push(Command::Release(r)),
+                executor::Command::Lead(on) => out.push(Command::Lead(on)),
             }
         }
         out
@@ -461,6 +472,7 @@ mod tests {
                 steps: vec![Step::Navigate { x: 4.0, y: 0.0, speed: None }, Step::Hold { seconds: None }],
             },
             managers: vec![],
+            barrier: BarrierMode::Mesh,
         }))
     }
 
@@ -526,7 +538,7 @@ mod tests {
     fn plans_epochs_and_leaving() {
         let mut r = Robot::new(cfg());
         let (_, change) = cmd(&mut r, plan("m", 2));
-        assert_eq!(change, Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into() }));
+        assert_eq!(change, Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into(), barrier: BarrierMode::Mesh }));
         r.handle(0.01, Event::Tick);
         assert_eq!(telemetry(&mut r, 0.01).mission.as_deref(), Some("m"));
         assert!(cmd(&mut r, plan("m", 1)).0.unwrap_err().contains("stale epoch"));

@@ -4,7 +4,7 @@
 use std::time::{Duration, Instant};
 
 use mrmm_proto::net::{self, Mode};
-use mrmm_proto::{self as proto, Key, Mesh, NodeNet, Pattern, Role, Sender, SyncArrival};
+use mrmm_proto::{self as proto, BarrierMode, Key, Mesh, NodeNet, Pattern, Role, Sender, SyncArrival, SyncRelease};
 use tokio::sync::oneshot;
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
@@ -44,13 +44,29 @@ pub struct Ready {
 /// The Zenoh side of team membership: member token, barrier and membership subscriptions.
 struct TeamLink {
     team: String,
+    mode: BarrierMode,
     _token: LivelinessToken,
-    arrivals: Subscriber<RingChannelHandler<Sample>>,
+    /// Teammates' arrivals: every member's under [`BarrierMode::Mesh`], the leader's only under
+    /// [`BarrierMode::Leader`].
+    arrivals: Option<Subscriber<RingChannelHandler<Sample>>>,
+    /// The leader's releases ([`BarrierMode::Leader`]).
+    releases: Option<Subscriber<RingChannelHandler<Sample>>>,
     members: Subscriber<RingChannelHandler<Sample>>,
 }
 
+/// Subscribes to teammates' samples on `pattern` (not our own: the robot counts its own
+/// arrivals before publishing them, which also saves a signature check each).
+async fn team_subscriber(session: &Session, pattern: Pattern) -> Result<Subscriber<RingChannelHandler<Sample>>, PeerError> {
+    session
+        .declare_subscriber(pattern.to_string())
+        .allowed_origin(zenoh::sample::Locality::Remote)
+        .with(RingChannel::new(QUEUE))
+        .await
+        .map_err(PeerError::zenoh)
+}
+
 impl TeamLink {
-    async fn join(session: &Session, id: &str, team: &str, subteam: &str) -> Result<Self, PeerError> {
+    async fn join(session: &Session, id: &str, team: &str, subteam: &str, mode: BarrierMode) -> Result<Self, PeerError> {
         let member = Key::team_member(subteam, id)?;
         let members = session
             .liveliness()
@@ -59,16 +75,30 @@ impl TeamLink {
             .with(RingChannel::new(QUEUE))
             .await
             .map_err(PeerError::zenoh)?;
-        // Teammates' arrivals only: the robot counts its own before publishing it (not checking
-        // the seal of its own echo saves a signature check per arrival).
-        let arrivals = session
-            .declare_subscriber(Pattern::TeamSync(team.to_string()).to_string())
-            .allowed_origin(zenoh::sample::Locality::Remote)
-            .with(RingChannel::new(QUEUE))
-            .await
-            .map_err(PeerError::zenoh)?;
+        let (arrivals, releases) = match mode {
+            BarrierMode::Mesh => (Some(team_subscriber(session, Pattern::TeamSync(team.to_string())).await?), None),
+            // Arrivals once the plan says this robot leads (Command::Lead).
+            BarrierMode::Leader => (None, Some(team_subscriber(session, Pattern::TeamRelease(team.to_string())).await?)),
+        };
         let token = session.liveliness().declare_token(member.to_string()).await.map_err(PeerError::zenoh)?;
-        Ok(TeamLink { team: team.to_string(), _token: token, arrivals, members })
+        Ok(TeamLink { team: team.to_string(), mode, _token: token, arrivals, releases, members })
+    }
+
+    /// Starts (`true`) or stops hearing the team's arrivals as its leader.
+    async fn lead(&mut self, session: &Session, on: bool) -> Result<(), PeerError> {
+        if self.mode != BarrierMode::Leader {
+            return Ok(());
+        }
+        self.arrivals = if on { Some(team_subscriber(session, Pattern::TeamArrive(self.team.clone())).await?) } else { None };
+        Ok(())
+    }
+
+    /// Where this robot's arrival at (point, round) goes.
+    fn arrival_key(&self, point: u32, round: u32) -> Key {
+        match self.mode {
+            BarrierMode::Mesh => Key::TeamSync { team: self.team.clone(), point, round },
+            BarrierMode::Leader => Key::TeamArrive { team: self.team.clone(), point, round },
+        }
     }
 }
 
@@ -237,7 +267,7 @@ pub async fn run_on(
                     }
                 }
             }
-            s = recv_team(&io.team, true) => {
+            s = recv_team(&io.team, Sub::Arrivals) => {
                 let Some(from) = mesh.sender_of("barrier arrival", &s) else { continue };
                 match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
                     Ok(a) if from.is(Role::Robot, &a.robot) => (Event::Heard(a), None),
@@ -255,7 +285,21 @@ pub async fn run_on(
                 Ok(s) => (Event::CentralAlive(s.kind() == SampleKind::Put), None),
                 Err(_) => break,
             },
-            s = recv_team(&io.team, false) => match Key::parse(s.key_expr().as_str()) {
+            s = recv_team(&io.team, Sub::Releases) => {
+                let Some(from) = mesh.sender_of("barrier release", &s) else { continue };
+                match proto::from_json::<SyncRelease>("sync release", &s.payload().to_bytes()) {
+                    Ok(r) if from.is(Role::Robot, &r.leader) => (Event::Released(r), None),
+                    Ok(r) => {
+                        mesh.refuse(&format!("publish the barrier release of {}", r.leader), &from);
+                        continue;
+                    }
+                    Err(e) => {
+                        tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+                        continue;
+                    }
+                }
+            },
+            s = recv_team(&io.team, Sub::Members) => match Key::parse(s.key_expr().as_str()) {
                 Some(Key::TeamMember { robot, .. }) if s.kind() == SampleKind::Put => (Event::MemberAlive(robot), None),
                 Some(Key::TeamMember { robot, .. }) => (Event::MemberGone(robot), None),
                 _ => {
@@ -322,9 +366,9 @@ impl Io {
                     self.mesh.reply_error(q, &e).await;
                 }
             }
-            Command::JoinTeam { team, subteam } => {
+            Command::JoinTeam { team, subteam, barrier } => {
                 self.team = None;
-                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam).await {
+                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam, barrier).await {
                     Ok(link) => self.team = Some(link),
                     Err(e) => tracing::warn!(robot = %self.id, "cannot join team {team}: {e}"),
                 }
@@ -332,8 +376,22 @@ impl Io {
             Command::LeaveTeam => self.team = None,
             Command::Publish(a) => {
                 let Some(t) = &self.team else { return };
-                let key = Key::TeamSync { team: t.team.clone(), point: a.point, round: a.round }.to_string();
+                let key = t.arrival_key(a.point, a.round).to_string();
                 self.mesh.publish_json(&key, &a).await;
+            }
+            Command::Release(r) => {
+                let Some(t) = &self.team else { return };
+                let key = Key::TeamRelease { team: t.team.clone(), point: r.point, round: r.round }.to_string();
+                self.mesh.publish_json(&key, &r).await;
+            }
+            Command::Lead(on) => {
+                if let Some(t) = self.team.as_mut() {
+                    if let Err(e) = t.lead(self.mesh.session(), on).await {
+                        tracing::warn!(robot = %self.id, "cannot hear the team's arrivals as its leader: {e}");
+                    } else {
+                        tracing::info!(robot = %self.id, team = %t.team, on, "leads the team's barriers");
+                    }
+                }
             }
             Command::Telemetry(t) => match proto::encode_telemetry(&t) {
                 Ok(bytes) => {
@@ -378,16 +436,26 @@ fn ros_pose(p: mrmm_ros2::Pose2) -> proto::Pose {
     proto::Pose { x: p.x, y: p.y, theta: p.theta }
 }
 
-/// The next sample of the team's arrivals (or members) subscription; pending when not in a team.
-async fn recv_team(team: &Option<TeamLink>, arrivals: bool) -> Sample {
-    match team {
-        Some(t) => {
-            let sub = if arrivals { &t.arrivals } else { &t.members };
-            match sub.recv_async().await {
-                Ok(s) => s,
-                Err(_) => std::future::pending().await,
-            }
-        }
+/// A subscription of the team link.
+#[derive(Clone, Copy)]
+enum Sub {
+    Arrivals,
+    Releases,
+    Members,
+}
+
+/// The next sample of one of the team's subscriptions; pending when not in a team or without it.
+async fn recv_team(team: &Option<TeamLink>, which: Sub) -> Sample {
+    let sub = team.as_ref().and_then(|t| match which {
+        Sub::Arrivals => t.arrivals.as_ref(),
+        Sub::Releases => t.releases.as_ref(),
+        Sub::Members => Some(&t.members),
+    });
+    match sub {
+        Some(sub) => match sub.recv_async().await {
+            Ok(s) => s,
+            Err(_) => std::future::pending().await,
+        },
         None => std::future::pending().await,
     }
 }

@@ -111,6 +111,18 @@ pub enum Key {
         point: u32,
         round: u32,
     },
+    /// A member's arrival for the team's leader (barrier mode `leader`).
+    TeamArrive {
+        team: String,
+        point: u32,
+        round: u32,
+    },
+    /// The leader's release of the team's barriers up to `(round, point)` (barrier mode `leader`).
+    TeamRelease {
+        team: String,
+        point: u32,
+        round: u32,
+    },
     Planner(String),
     PlannerAlive {
         kind: String,
@@ -143,6 +155,8 @@ impl fmt::Display for Key {
             Key::RobotCmd(id) => write!(f, "mrmm/robots/{id}/cmd"),
             Key::TeamMember { subteam, robot } => write!(f, "mrmm/team/{subteam}/member/{robot}"),
             Key::TeamSync { team, point, round } => write!(f, "mrmm/team/{team}/sync/{point}/{round}"),
+            Key::TeamArrive { team, point, round } => write!(f, "mrmm/team/{team}/arrive/{point}/{round}"),
+            Key::TeamRelease { team, point, round } => write!(f, "mrmm/team/{team}/release/{point}/{round}"),
             Key::Planner(kind) => write!(f, "mrmm/planner/{kind}"),
             Key::PlannerAlive { kind, zid } => write!(f, "mrmm/planner/{kind}/alive/{zid}"),
             Key::HostAlive(n) => write!(f, "mrmm/hosts/{n}/alive"),
@@ -190,6 +204,8 @@ impl Key {
             ["mrmm", "robots", r, "cmd"] => Key::RobotCmd(id(r)?),
             ["mrmm", "team", m, t, "member", r] => Key::TeamMember { subteam: format!("{}/{}", id(m)?, id(t)?), robot: id(r)? },
             ["mrmm", "team", m, "sync", p, r] => Key::TeamSync { team: id(m)?, point: num(p)?, round: num(r)? },
+            ["mrmm", "team", m, "arrive", p, r] => Key::TeamArrive { team: id(m)?, point: num(p)?, round: num(r)? },
+            ["mrmm", "team", m, "release", p, r] => Key::TeamRelease { team: id(m)?, point: num(p)?, round: num(r)? },
             ["mrmm", "planner", k] => Key::Planner(id(k)?),
             ["mrmm", "planner", k, "alive", z] => Key::PlannerAlive { kind: id(k)?, zid: id(z)? },
             ["mrmm", "hosts", n, "alive"] => Key::HostAlive(id(n)?),
@@ -248,6 +264,10 @@ pub enum Pattern {
     TeamSync(String),
     /// Every barrier of every team: `mrmm/team/*/sync/**`
     AllTeamSync,
+    /// Every arrival for a team's leader: `mrmm/team/<team>/arrive/**`
+    TeamArrive(String),
+    /// Every release of a team's leader: `mrmm/team/<team>/release/**`
+    TeamRelease(String),
     /// Everything the system manager answers: `mrmm/system/**`
     SystemAll,
     /// Every operator command: `mrmm/system/cmd/**`
@@ -269,6 +289,8 @@ impl fmt::Display for Pattern {
             Pattern::TeamMembers(team) => write!(f, "mrmm/team/{team}/*/member/*"),
             Pattern::TeamSync(team) => write!(f, "mrmm/team/{team}/sync/**"),
             Pattern::AllTeamSync => f.write_str("mrmm/team/*/sync/**"),
+            Pattern::TeamArrive(team) => write!(f, "mrmm/team/{team}/arrive/**"),
+            Pattern::TeamRelease(team) => write!(f, "mrmm/team/{team}/release/**"),
             Pattern::SystemAll => f.write_str("mrmm/system/**"),
             Pattern::SystemCmdAll => f.write_str("mrmm/system/cmd/**"),
             Pattern::AgentAll => f.write_str("mrmm/agent/**"),
@@ -323,6 +345,8 @@ mod tests {
             Key::TeamMember { subteam: s("p1/ground"), robot: s("r3") },
             Key::TeamMember { subteam: s("p1/sync"), robot: s("r3") },
             Key::TeamSync { team: s("p1"), point: 2, round: 7 },
+            Key::TeamArrive { team: s("p1"), point: 2, round: 7 },
+            Key::TeamRelease { team: s("p1"), point: 0, round: 3 },
             Key::Planner(s("patrol")),
             Key::PlannerAlive { kind: s("coverage"), zid: s("0a1b") },
             Key::HostAlive(s("central")),
@@ -376,6 +400,10 @@ mod tests {
         assert!(!matches(Pattern::TeamMembers(s("p")), Key::TeamMember { subteam: s("q/ground"), robot: s("r1") }));
         assert!(matches(Pattern::TeamSync(s("p")), Key::TeamSync { team: s("p"), point: 0, round: 0 }));
         assert!(matches(Pattern::AllTeamSync, Key::TeamSync { team: s("q"), point: 1, round: 3 }));
+        assert!(matches(Pattern::TeamArrive(s("p")), Key::TeamArrive { team: s("p"), point: 1, round: 3 }));
+        assert!(!matches(Pattern::TeamArrive(s("p")), Key::TeamRelease { team: s("p"), point: 1, round: 3 }));
+        assert!(matches(Pattern::TeamRelease(s("p")), Key::TeamRelease { team: s("p"), point: 1, round: 3 }));
+        assert!(!matches(Pattern::TeamMembers(s("p")), Key::TeamArrive { team: s("p"), point: 1, round: 3 }));
         assert!(matches(Pattern::SystemAll, Key::SystemCmd(SystemCmd::Create)));
         assert!(!matches(Pattern::SystemAll, Key::AgentAdvice));
     }

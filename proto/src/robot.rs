@@ -162,6 +162,9 @@ pub struct PlanAssignment {
     /// of the plan itself: a plan sent again with another chain is the same plan.
     #[serde(default)]
     pub managers: Vec<String>,
+    /// How the team runs its barriers.
+    #[serde(default)]
+    pub barrier: crate::BarrierMode,
 }
 
 impl PlanAssignment {
@@ -172,6 +175,7 @@ impl PlanAssignment {
             && self.team == other.team
             && self.subteam == other.subteam
             && self.members == other.members
+            && self.barrier == other.barrier
             && self.plan == other.plan
     }
 }

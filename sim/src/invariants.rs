@@ -7,7 +7,9 @@
 //! 3. **Every robot in at most one mission**: among missions not terminated, no robot is a member
 //!    of the newest committed state of two of them.
 //! 4. **No barrier released early**: when a robot passes a barrier, every other member of its
-//!    plan has published its arrival there (or further), or this robot lost its liveliness.
+//!    plan has published its arrival there (or further), or this robot lost its liveliness; or
+//!    (leader barrier) a leader released it when every member had reached it, the leader's
+//!    liveliness view excepted.
 //! 5. **Eventually** (checked at the end, after the quiet period): one head per mission whose
 //!    chain kept a majority, and every live member of a running mission executes the mission's
 //!    current epoch.
@@ -19,7 +21,7 @@ use std::hash::{Hash, Hasher};
 use mrmm_manager::host::HostCore;
 use mrmm_peer::executor::Executor;
 use mrmm_proto::chain::Version;
-use mrmm_proto::{MissionSnapshot, SyncArrival};
+use mrmm_proto::{MissionSnapshot, SyncArrival, SyncRelease};
 
 fn digest(s: &MissionSnapshot) -> u64 {
     let mut h = DefaultHasher::new();
@@ -43,6 +45,8 @@ pub struct Invariants {
     teams: BTreeMap<String, (Version, Vec<String>)>,
     /// Furthest (round, point) each robot published, per (mission, epoch, robot).
     arrivals: BTreeMap<(String, u64, String), (u32, u32)>,
+    /// Furthest release a leader announced (and the invariant justified), per (mission, epoch).
+    releases: BTreeMap<(String, u64), (u32, u32)>,
     pub leads: u32,
 }
 
@@ -120,6 +124,7 @@ impl Invariants {
         self.acked.remove(mission);
         self.teams.remove(mission);
         self.arrivals.retain(|(m, _, _), _| m != mission);
+        self.releases.retain(|(m, _), _| m != mission);
     }
 
     /// Missions no node replicates any more are over.
@@ -147,10 +152,38 @@ impl Invariants {
         *e = (*e).max((a.round, a.point));
     }
 
+    /// Invariant 4 for the leader barrier: `leader` announces a release only of barriers every
+    /// member reached (the leader itself by its own arrival), except those it believes gone, or of
+    /// barriers released before.
+    pub fn release(&mut self, leader: &str, e: &Executor, r: &SyncRelease) -> Result<(), String> {
+        let a = &e.assignment;
+        let at = (r.round, r.point);
+        let key = (a.mission.clone(), a.epoch);
+        if self.releases.get(&key).is_some_and(|f| *f >= at) {
+            return Ok(());
+        }
+        for m in &a.members {
+            let there = if m == leader {
+                e.barrier().mine().is_some_and(|f| f >= at)
+            } else {
+                self.arrivals.get(&(a.mission.clone(), a.epoch, m.clone())).is_some_and(|f| *f >= at)
+            };
+            if !there && !e.barrier().is_gone(m) {
+                return Err(format!("{leader} released barrier (round {}, point {}) of {} epoch {} before {m} arrived there", at.0, at.1, a.mission, a.epoch));
+            }
+        }
+        self.releases.insert(key, at);
+        Ok(())
+    }
+
     /// Invariant 4: `robot` just passed barriers up to its own furthest arrival.
     pub fn barrier_passed(&self, robot: &str, e: &Executor) -> Result<(), String> {
         let Some(mine) = e.barrier().mine() else { return Ok(()) };
         let a = &e.assignment;
+        // A release justified when announced (leader barrier).
+        if self.releases.get(&(a.mission.clone(), a.epoch)).is_some_and(|f| *f >= mine) {
+            return Ok(());
+        }
         for m in a.members.iter().filter(|m| *m != robot) {
             let there = self.arrivals.get(&(a.mission.clone(), a.epoch, m.clone())).is_some_and(|f| *f >= mine);
             if !there && !e.barrier().is_gone(m) {

@@ -26,7 +26,8 @@ pub use world::World;
 pub enum Ops {
     /// No managers: every robot is handed the same plan of `points` barriers per round for
     /// `rounds` rounds, with random work between barriers.
-    Barriers { points: u32, rounds: u32 },
+    /// `mode`: how the team runs them.
+    Barriers { points: u32, rounds: u32, mode: mrmm_proto::BarrierMode },
     /// One mission started on the first mission host, then random joins and leaves sent to its
     /// head (re-sent until acknowledged, as the system manager does).
     OneMission,
@@ -101,7 +102,8 @@ impl Config {
             central: false,
             robots: r.gen_range(2..=7),
             hosts: 0,
-            ops: Ops::Barriers { points: 3, rounds: 4 },
+            // Odd seeds run the paper's leader barrier, even ones the mesh barrier.
+            ops: Ops::Barriers { points: 3, rounds: 4, mode: if seed % 2 == 1 { mrmm_proto::BarrierMode::Leader } else { mrmm_proto::BarrierMode::Mesh } },
             duration: 40.0,
             quiet: 80.0,
             loss: [0.0, 0.1, 0.4][r.gen_range(0..3)],

@@ -53,11 +53,16 @@ impl Operator {
                 let name = fresh(self.names.len() as u64 + 1);
                 self.names.push(name.clone());
                 let patrol = rng.gen_bool(0.6);
+                let mut params = cheap_params(patrol);
+                // Every other mission runs the paper's leader barrier (no draw: seeds keep their runs).
+                if patrol && self.names.len() % 2 == 1 {
+                    params.insert("barrier".to_string(), json!("leader"));
+                }
                 Request::Create(MissionCreate {
                     name,
                     recipe: if patrol { "patrol" } else { "coverage" }.into(),
                     count: Some(rng.gen_range(1..=2)),
-                    params: cheap_params(patrol),
+                    params,
                     replicas: Some(rng.gen_range(1..=2)),
                     ..MissionCreate::default()
                 })

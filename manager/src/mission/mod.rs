@@ -10,7 +10,8 @@ use std::collections::BTreeMap;
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::plan::{MissionPlan, PlanSummary, Point, RobotSpec};
 use mrmm_proto::{
-    self as proto, ManagerView, Marginal, Member, MissionSnapshot, MissionSpecWire, MissionStatus, MissionView, PlanAssignment, PlanRequest, Telemetry,
+    self as proto, BarrierMode, ManagerView, Marginal, Member, MissionSnapshot, MissionSpecWire, MissionStatus, MissionView, PlanAssignment, PlanRequest,
+    Telemetry,
 };
 
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
@@ -376,10 +377,16 @@ impl MissionManager {
                         plan: rp.clone(),
                         // Filled in by the host with the chain when the plan goes out.
                         managers: vec![],
+                        barrier: self.barrier(),
                     }),
                 })
             })
             .collect()
+    }
+
+    /// How the mission's team runs its barriers (patrol parameter `barrier`, checked on create).
+    fn barrier(&self) -> BarrierMode {
+        self.spec.params.get("barrier").and_then(|v| BarrierMode::parse(v)).unwrap_or_default()
     }
 
     /// The current plans again (a new head re-sends them after a takeover; robots already

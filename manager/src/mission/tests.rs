@@ -296,3 +296,22 @@ fn barrier_messages_of_an_earlier_plan_still_count_after_a_replan() {
     }
     assert_eq!(m.metrics().messages["sync"], 12 + 2, "{:?}", m.metrics().messages);
 }
+
+#[test]
+fn the_barrier_mode_of_the_mission_goes_out_with_every_plan() {
+    let modes = |spec: MissionSpec| -> Vec<BarrierMode> {
+        let mut m = MissionManager::new(spec, "node".into(), vec![robot("a", "ground", 0.0), robot("b", "ground", 5.0)]);
+        let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
+        m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) })
+            .iter()
+            .filter_map(|c| match c {
+                Command::SendPlan { assignment, .. } => Some(assignment.barrier),
+                _ => None,
+            })
+            .collect()
+    };
+    assert_eq!(modes(spec()), [BarrierMode::Mesh, BarrierMode::Mesh]);
+    let mut leader = spec();
+    leader.params.insert("barrier".into(), "leader".into());
+    assert_eq!(modes(leader), [BarrierMode::Leader, BarrierMode::Leader]);
+}

@@ -43,7 +43,7 @@ impl PlannerKind {
     /// Scalar parameters the planner understands.
     pub fn scalar_params(self) -> &'static [&'static str] {
         match self {
-            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness"],
+            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness", "barrier"],
             PlannerKind::Coverage => &["samples", "lloyd_iterations", "minimax_iterations", "seed"],
         }
     }
@@ -329,6 +329,14 @@ pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), 
         (PlannerKind::Patrol, "max_kicks") => whole(0, limits::MAX_KICKS),
         // The mission's standard, watched by the advising agent (robot seconds).
         (PlannerKind::Patrol, "max_worst_idleness") => positive(),
+        // How the team runs its barriers (the mission manager's, not the planner's).
+        (PlannerKind::Patrol, "barrier") => {
+            if matches!(v, "mesh" | "leader") {
+                Ok(())
+            } else {
+                Err(format!("parameter {name}: {value:?} is neither \"mesh\" nor \"leader\""))
+            }
+        }
         (PlannerKind::Coverage, "samples") => whole(100, limits::MAX_SAMPLES),
         (PlannerKind::Coverage, "lloyd_iterations" | "minimax_iterations") => whole(0, limits::MAX_ITERATIONS),
         (_, "seed") => whole(0, u64::MAX),

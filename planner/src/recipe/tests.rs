@@ -59,6 +59,10 @@ fn overrides_replace_parameters() {
     assert!(e.contains("rounds"), "{e}");
     let e = build(&r, &parse_overrides(&["colour=red".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
     assert!(e.contains("unknown parameter \"colour\""), "{e}");
+    // The barrier mode is the mission manager's: checked here, no change to the plan.
+    assert!(build(&r, &parse_overrides(&["barrier=leader".into()]).expect("o"), &robots(&["ground"])).is_ok());
+    let e = build(&r, &parse_overrides(&["barrier=ring".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
+    assert!(e.contains("neither \"mesh\" nor \"leader\""), "{e}");
     let e = build(&r, &parse_overrides(&["waypoints=[[0,0]]".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
     assert!(e.contains("at least 2 points"), "{e}");
     assert!(parse_overrides(&["novalue".into()]).is_err());

@@ -227,14 +227,17 @@ impl World {
                     let name = self.nodes[i].name.clone();
                     self.log(|| format!("{name} refuses: {e}"));
                 }
-                robot::Command::JoinTeam { team, subteam } => {
+                robot::Command::JoinTeam { team, subteam, barrier } => {
                     self.nodes[i].team = Some((team, subteam));
+                    self.nodes[i].barrier = barrier;
+                    self.nodes[i].leading = false;
                     self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
                     self.liveliness(0.02);
                     self.local_team(i)?;
                 }
                 robot::Command::LeaveTeam => {
                     self.nodes[i].team = None;
+                    self.nodes[i].leading = false;
                     self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
                     self.liveliness(0.02);
                     self.local_team(i)?;
@@ -244,11 +247,30 @@ impl World {
                         continue;
                     };
                     self.inv.arrival(&team, &a);
+                    // Under the leader barrier only the members leading hear arrivals.
+                    let leader = self.nodes[i].barrier == mrmm_proto::BarrierMode::Leader;
+                    for j in 0..self.nodes.len() {
+                        let same = self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team) && (!leader || self.nodes[j].leading);
+                        if j != i && same && !self.lost() {
+                            let at = self.now + self.delay();
+                            self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::Heard(a.clone())) });
+                        }
+                    }
+                }
+                robot::Command::Lead(on) => self.nodes[i].leading = on,
+                robot::Command::Release(r) => {
+                    let Some((team, _)) = self.nodes[i].team.clone() else {
+                        continue;
+                    };
+                    let name = self.nodes[i].name.clone();
+                    if let Some(e) = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()) {
+                        self.inv.release(&name, e, &r)?;
+                    }
                     for j in 0..self.nodes.len() {
                         let same = self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team);
                         if j != i && same && !self.lost() {
                             let at = self.now + self.delay();
-                            self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::Heard(a.clone())) });
+                            self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::Released(r.clone())) });
                         }
                     }
                 }

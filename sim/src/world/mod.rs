@@ -67,6 +67,9 @@ struct Node {
     served: BTreeSet<String>,
     /// The robot's team: (team, subteam).
     team: Option<(String, String)>,
+    /// How its team runs barriers, and whether it hears the team's arrivals as their leader.
+    barrier: mrmm_proto::BarrierMode,
+    leading: bool,
     /// Central's journal: what it committed, kept across crashes (the disk).
     disk: mrmm_manager::system::Durable,
     /// When central last crashed.
@@ -219,6 +222,8 @@ impl Node {
             cfg,
             served: BTreeSet::new(),
             team: None,
+            barrier: mrmm_proto::BarrierMode::Mesh,
+            leading: false,
             disk: Default::default(),
             down: None,
             chain_disk: BTreeMap::new(),
@@ -351,7 +356,7 @@ impl World {
         let end = self.cfg.duration + self.cfg.quiet;
         self.schedule_faults();
         match self.cfg.ops {
-            Ops::Barriers { points, rounds } => self.hand_out_barrier_plans(points, rounds),
+            Ops::Barriers { points, rounds, mode } => self.hand_out_barrier_plans(points, rounds, mode),
             Ops::OneMission | Ops::Random => self.queue.push(0.5, Ev::Op),
         }
         while let Some(t) = self.queue.peek_time() {

@@ -144,7 +144,7 @@ impl World {
     }
 
     /// Barriers: every robot gets the same plan of barriers with work between them.
-    pub(super) fn hand_out_barrier_plans(&mut self, points: u32, rounds: u32) {
+    pub(super) fn hand_out_barrier_plans(&mut self, points: u32, rounds: u32, barrier: mrmm_proto::BarrierMode) {
         let robots = self.robot_names();
         for (i, r) in robots.iter().enumerate() {
             let mut steps = vec![Step::Sync { point: 0 }];
@@ -163,6 +163,7 @@ impl World {
                 members: robots.clone(),
                 plan: RobotPlan { robot: r.clone(), robot_type: "ground".into(), slot: i, steps },
                 managers: vec![],
+                barrier,
             };
             let j = self.index(r).unwrap_or(0);
             let from = Sender::new(Role::Host, "planner");

@@ -1,10 +1,10 @@
 //! Plan execution on a robot: walks the plan's steps, asks the body to move, and takes part in
-//! team barriers. No I/O: [`Executor::handle`] takes the time and an [`Event`] and returns the
-//! [`Command`]s for the robot.
+//! team barriers (either mode of [`BarrierMode`]). No I/O: [`Executor::handle`] takes the time
+//! and an [`Event`] and returns the [`Command`]s for the robot.
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{PlanAssignment, Progress, Step, SyncArrival};
+use mrmm_proto::{BarrierMode, PlanAssignment, Progress, Step, SyncArrival, SyncRelease};
 
 use crate::barrier::Barrier;
 
@@ -22,6 +22,8 @@ pub enum Event {
     Tick { body_idle: bool },
     /// A teammate's barrier arrival was heard.
     Heard(SyncArrival),
+    /// A leader's release was heard ([`BarrierMode::Leader`]).
+    Released(SyncRelease),
     /// A teammate's membership token appeared.
     MemberAlive(String),
     /// A teammate's membership token disappeared: it no longer holds anyone up.
@@ -37,6 +39,10 @@ pub enum Command {
     Hold,
     /// Publish this barrier arrival.
     Publish(SyncArrival),
+    /// Announce this release to the team (this robot leads its barriers).
+    Release(SyncRelease),
+    /// This robot now leads the team's barriers (`true`: hear the team's arrivals) or no longer.
+    Lead(bool),
 }
 
 /// The execution state of one plan.
@@ -64,11 +70,20 @@ pub struct Executor {
     hold_until: Option<f64>,
     navigating: bool,
     done: bool,
+    /// What the runtime was last told by [`Command::Lead`].
+    leading: bool,
+    /// The furthest release this robot announced as leader, and when it last announced one.
+    announced: Option<(u32, u32)>,
+    last_release: f64,
+    /// A member asked for a barrier already released: announce it again.
+    release_echo_due: bool,
+    /// The leader known to have our furthest arrival (it released up to it).
+    acked_by: Option<String>,
 }
 
 impl Executor {
     pub fn new(assignment: PlanAssignment) -> Self {
-        let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &assignment.members);
+        let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &assignment.members).with_mode(assignment.barrier);
         Executor {
             assignment,
             barrier,
@@ -87,6 +102,11 @@ impl Executor {
             hold_until: None,
             navigating: false,
             done: false,
+            leading: false,
+            announced: None,
+            last_release: f64::NEG_INFINITY,
+            release_echo_due: false,
+            acked_by: None,
         }
     }
 
@@ -133,17 +153,51 @@ impl Executor {
             Event::Tick { body_idle } => self.tick(now, body_idle),
             Event::Heard(a) => {
                 self.heard(&a);
+                self.lead(now)
+            }
+            Event::Released(r) => {
+                if self.barrier.release_heard(&r) && r.leader == self.barrier.leader() && self.barrier.mine().is_none_or(|m| m <= (r.round, r.point)) {
+                    self.acked_by = Some(r.leader);
+                }
                 vec![]
             }
             Event::MemberAlive(id) => {
                 self.barrier.member_alive(&id);
-                vec![]
+                self.lead(now)
             }
             Event::MemberGone(id) => {
                 self.barrier.member_gone(&id);
-                vec![]
+                self.lead(now)
             }
         }
+    }
+
+    /// The leader's part ([`BarrierMode::Leader`]): tells the runtime when this robot starts or
+    /// stops leading, and announces every barrier it knows released — once when it is, and again
+    /// (at most every `REPUBLISH_S`) when a member asks for one already released.
+    fn lead(&mut self, now: f64) -> Vec<Command> {
+        let mut out = Vec::new();
+        if self.barrier.mode() != BarrierMode::Leader {
+            return out;
+        }
+        let leading = self.barrier.leading();
+        if leading != self.leading {
+            self.leading = leading;
+            out.push(Command::Lead(leading));
+        }
+        if !leading {
+            return out;
+        }
+        let Some(r) = self.barrier.releasable() else { return out };
+        let news = self.announced.is_none_or(|a| r > a);
+        if news || (self.release_echo_due && now - self.last_release >= self.republish) {
+            self.announced = Some(r);
+            self.last_release = now;
+            self.release_echo_due = false;
+            self.sync_msgs += 1;
+            out.push(Command::Release(SyncRelease { leader: self.assignment.plan.robot.clone(), epoch: self.assignment.epoch, point: r.1, round: r.0 }));
+        }
+        out
     }
 
     /// A teammate's arrival. One at or before our own furthest arrival, where we are not waiting
@@ -153,15 +207,48 @@ impl Executor {
     /// member that missed the last arrivals of a finite plan is not left waiting for ever.
     fn heard(&mut self, a: &SyncArrival) {
         let counted = self.barrier.arrival(a);
-        if counted && self.barrier.at_or_behind_us(a) && self.waiting != Some((a.point, a.round)) {
-            self.echo_due = true;
+        match self.barrier.mode() {
+            BarrierMode::Mesh => {
+                if counted && self.barrier.at_or_behind_us(a) && self.waiting != Some((a.point, a.round)) {
+                    self.echo_due = true;
+                }
+            }
+            // Its sender waits for a release it missed.
+            BarrierMode::Leader => {
+                if counted && a.robot != self.assignment.plan.robot && self.barrier.releasable().is_some_and(|r| r >= (a.round, a.point)) {
+                    self.release_echo_due = true;
+                }
+            }
         }
+    }
+
+    /// Publishes our arrival `at` (round, point) unless we lead (the leader's own arrival is
+    /// counted where it is heard: here).
+    fn publish(&mut self, now: f64, at: (u32, u32), out: &mut Vec<Command>) {
+        self.last_publish = now;
+        if self.barrier.leading() {
+            return;
+        }
+        self.sync_msgs += 1;
+        out.push(Command::Publish(SyncArrival { robot: self.assignment.plan.robot.clone(), epoch: self.assignment.epoch, point: at.1, round: at.0 }));
     }
 
     /// Advances the plan. `now`: simulated seconds; `body_idle`: the body has no goal (arrived).
     fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Command> {
-        let mut out = Vec::new();
+        let mut out = self.lead(now);
         let me = self.assignment.plan.robot.clone();
+        // A member whose leader changed re-sends its furthest arrival until the new leader has
+        // released up to it: the new leader may need it for a barrier others still wait at.
+        if self.barrier.mode() == BarrierMode::Leader
+            && !self.barrier.leading()
+            && self.waiting.is_none()
+            && self.acked_by.as_deref() != Some(self.barrier.leader())
+            && now - self.last_publish >= self.republish
+        {
+            if let Some(at) = self.barrier.mine() {
+                self.publish(now, at, &mut out);
+            }
+        }
         if self.echo_due && now - self.last_echo >= self.republish {
             if let Some((round, point)) = self.barrier.mine() {
                 self.echo_due = false;
@@ -200,18 +287,16 @@ impl Executor {
                         self.waiting = Some(at);
                         self.waiting_since = now;
                         self.barrier.arrival(&arrival);
-                        self.sync_msgs += 1;
-                        self.last_publish = now;
-                        out.push(Command::Publish(arrival));
+                        self.publish(now, (self.round, point), &mut out);
+                        out.extend(self.lead(now));
                     }
                     if !self.barrier.released(point, self.round) {
                         if now - self.last_publish >= self.republish {
-                            self.sync_msgs += 1;
-                            self.last_publish = now;
-                            out.push(Command::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round }));
+                            self.publish(now, (self.round, point), &mut out);
                         }
                         break;
                     }
+                    self.barrier.passed((self.round, point));
                     self.waiting = None;
                     // The first barrier gathers the team at its slots (the formation): its wait
                     // is not the cost of synchronising the rounds.
@@ -251,128 +336,4 @@ impl Executor {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use mrmm_proto::RobotPlan;
-
-    fn tick(e: &mut Executor, now: f64, body_idle: bool) -> Vec<Command> {
-        e.handle(now, Event::Tick { body_idle })
-    }
-
-    fn exec(steps: Vec<Step>, members: &[&str]) -> Executor {
-        Executor::new(PlanAssignment {
-            mission: "m".into(),
-            epoch: 2,
-            team: "m".into(),
-            subteam: "m/ground".into(),
-            members: members.iter().map(|s| s.to_string()).collect(),
-            plan: RobotPlan { robot: "a".into(), robot_type: "ground".into(), slot: 0, steps },
-            managers: vec![],
-        })
-    }
-
-    fn nav(x: f64) -> Step {
-        Step::Navigate { x, y: 0.0, speed: Some(1.0) }
-    }
-
-    #[test]
-    fn navigates_step_by_step_then_holds_at_the_end() {
-        let mut e = exec(vec![Step::Stream, nav(1.0), nav(2.0)], &["a"]);
-        assert_eq!(tick(&mut e, 0.0, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
-        assert!(tick(&mut e, 0.1, false).is_empty(), "still driving");
-        assert_eq!(tick(&mut e, 0.2, true), vec![Command::Navigate { x: 2.0, y: 0.0, speed: Some(1.0) }]);
-        assert_eq!(tick(&mut e, 0.3, true), vec![Command::Hold]);
-        assert!(e.progress().done);
-        assert!(tick(&mut e, 0.4, true).is_empty());
-    }
-
-    #[test]
-    fn barrier_waits_republishes_and_releases() {
-        let mut e = exec(vec![Step::Sync { point: 0 }, nav(1.0)], &["a", "b"]);
-        let acts = tick(&mut e, 0.0, true);
-        assert_eq!(acts, vec![Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 })]);
-        assert_eq!(e.progress().waiting, Some((0, 0)));
-        assert!(tick(&mut e, 0.1, true).is_empty());
-        assert_eq!(tick(&mut e, 0.6, true).len(), 1, "re-published while waiting");
-        e.handle(0.65, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point: 0, round: 0 }));
-        assert_eq!(tick(&mut e, 0.7, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
-        let p = e.progress();
-        assert_eq!((p.syncs_passed, p.sync_msgs, p.waiting), (1, 2, None));
-        assert_eq!(p.sync_wait_s, 0.0, "the first barrier is the formation's");
-    }
-
-    #[test]
-    fn barrier_wait_is_counted_after_the_formation() {
-        let mut e = exec(vec![Step::Sync { point: 0 }, Step::Sync { point: 1 }], &["a", "b"]);
-        let heard = |e: &mut Executor, t: f64, point: u32| e.handle(t, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point, round: 0 }));
-        tick(&mut e, 0.0, true);
-        heard(&mut e, 2.0, 0);
-        tick(&mut e, 2.0, true);
-        tick(&mut e, 3.0, true);
-        heard(&mut e, 3.5, 1);
-        tick(&mut e, 3.7, true);
-        let p = e.progress();
-        assert_eq!(p.syncs_passed, 2);
-        assert!((p.sync_wait_s - 1.7).abs() < 1e-9, "waited at the second barrier from 2.0 to 3.7: {}", p.sync_wait_s);
-    }
-
-    #[test]
-    fn republication_keeps_its_wall_clock_period_on_a_fast_clock() {
-        let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]).with_time_scale(10.0);
-        assert_eq!(tick(&mut e, 0.0, true).len(), 1, "the arrival");
-        assert!(tick(&mut e, 1.0, true).is_empty(), "0.1 wall seconds later: not yet");
-        assert_eq!(tick(&mut e, 5.0, true).len(), 1, "0.5 wall seconds later: again");
-    }
-
-    #[test]
-    fn a_teammate_that_missed_our_last_arrival_gets_it_again() {
-        let arrival = |robot: &str| SyncArrival { robot: robot.into(), epoch: 2, point: 0, round: 0 };
-        let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]);
-        tick(&mut e, 0.0, true);
-        // b's arrival while we wait there ourselves: the normal case, no echo.
-        e.handle(0.0, Event::Heard(arrival("b")));
-        assert_eq!(tick(&mut e, 0.1, true), vec![Command::Hold], "released: the plan is over");
-        // b publishes that arrival again: it is still waiting, it missed ours. We say it again.
-        e.handle(0.0, Event::Heard(arrival("b")));
-        assert_eq!(tick(&mut e, 0.2, true), vec![Command::Publish(arrival("a"))]);
-        e.handle(0.0, Event::Heard(arrival("b")));
-        assert!(tick(&mut e, 0.3, true).is_empty(), "at most every REPUBLISH_S");
-        assert_eq!(tick(&mut e, 0.8, true), vec![Command::Publish(arrival("a"))]);
-    }
-
-    #[test]
-    fn a_lost_teammate_does_not_block() {
-        let mut e = exec(vec![Step::Sync { point: 0 }, Step::Hold { seconds: None }], &["a", "b"]);
-        tick(&mut e, 0.0, true);
-        e.handle(0.05, Event::MemberGone("b".into()));
-        assert_eq!(tick(&mut e, 0.1, true), vec![Command::Hold]);
-    }
-
-    #[test]
-    fn loops_count_rounds_and_barriers_are_per_round() {
-        let steps = vec![Step::Sync { point: 0 }, nav(1.0), Step::Sync { point: 1 }, Step::Loop { to: 1, rounds: Some(2) }];
-        let mut e = exec(steps, &["a"]);
-        let mut published = Vec::new();
-        for i in 0..20 {
-            for a in tick(&mut e, i as f64, true) {
-                if let Command::Publish(s) = a {
-                    published.push((s.point, s.round));
-                }
-            }
-        }
-        assert_eq!(published, [(0, 0), (1, 0), (1, 1)]);
-        let p = e.progress();
-        assert!(p.done);
-        assert_eq!((p.round, p.syncs_passed), (2, 3));
-    }
-
-    #[test]
-    fn timed_hold_and_endless_loop_of_instant_steps_do_not_spin() {
-        let mut e = exec(vec![Step::Hold { seconds: Some(1.0) }, Step::Stream, Step::Loop { to: 1, rounds: None }], &["a"]);
-        assert_eq!(tick(&mut e, 0.0, true), vec![Command::Hold]);
-        assert!(tick(&mut e, 0.5, true).is_empty());
-        // Past the hold: an endless loop of instantaneous steps is bounded per tick.
-        assert!(tick(&mut e, 1.5, true).is_empty());
-        assert!(e.progress().round > 0);
-    }
-}
+mod tests;

@@ -1,0 +1,220 @@
+//! Unit tests of plan execution and of both barrier modes.
+
+use super::*;
+use mrmm_proto::RobotPlan;
+
+fn tick(e: &mut Executor, now: f64, body_idle: bool) -> Vec<Command> {
+    e.handle(now, Event::Tick { body_idle })
+}
+
+fn exec(steps: Vec<Step>, members: &[&str]) -> Executor {
+    exec_as("a", BarrierMode::Mesh, steps, members)
+}
+
+fn exec_as(me: &str, barrier: BarrierMode, steps: Vec<Step>, members: &[&str]) -> Executor {
+    Executor::new(PlanAssignment {
+        mission: "m".into(),
+        epoch: 2,
+        team: "m".into(),
+        subteam: "m/ground".into(),
+        members: members.iter().map(|s| s.to_string()).collect(),
+        plan: RobotPlan { robot: me.into(), robot_type: "ground".into(), slot: 0, steps },
+        managers: vec![],
+        barrier,
+    })
+}
+
+fn nav(x: f64) -> Step {
+    Step::Navigate { x, y: 0.0, speed: Some(1.0) }
+}
+
+#[test]
+fn navigates_step_by_step_then_holds_at_the_end() {
+    let mut e = exec(vec![Step::Stream, nav(1.0), nav(2.0)], &["a"]);
+    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    assert!(tick(&mut e, 0.1, false).is_empty(), "still driving");
+    assert_eq!(tick(&mut e, 0.2, true), vec![Command::Navigate { x: 2.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(tick(&mut e, 0.3, true), vec![Command::Hold]);
+    assert!(e.progress().done);
+    assert!(tick(&mut e, 0.4, true).is_empty());
+}
+
+#[test]
+fn barrier_waits_republishes_and_releases() {
+    let mut e = exec(vec![Step::Sync { point: 0 }, nav(1.0)], &["a", "b"]);
+    let acts = tick(&mut e, 0.0, true);
+    assert_eq!(acts, vec![Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 })]);
+    assert_eq!(e.progress().waiting, Some((0, 0)));
+    assert!(tick(&mut e, 0.1, true).is_empty());
+    assert_eq!(tick(&mut e, 0.6, true).len(), 1, "re-published while waiting");
+    e.handle(0.65, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point: 0, round: 0 }));
+    assert_eq!(tick(&mut e, 0.7, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    let p = e.progress();
+    assert_eq!((p.syncs_passed, p.sync_msgs, p.waiting), (1, 2, None));
+    assert_eq!(p.sync_wait_s, 0.0, "the first barrier is the formation's");
+}
+
+#[test]
+fn barrier_wait_is_counted_after_the_formation() {
+    let mut e = exec(vec![Step::Sync { point: 0 }, Step::Sync { point: 1 }], &["a", "b"]);
+    let heard = |e: &mut Executor, t: f64, point: u32| e.handle(t, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point, round: 0 }));
+    tick(&mut e, 0.0, true);
+    heard(&mut e, 2.0, 0);
+    tick(&mut e, 2.0, true);
+    tick(&mut e, 3.0, true);
+    heard(&mut e, 3.5, 1);
+    tick(&mut e, 3.7, true);
+    let p = e.progress();
+    assert_eq!(p.syncs_passed, 2);
+    assert!((p.sync_wait_s - 1.7).abs() < 1e-9, "waited at the second barrier from 2.0 to 3.7: {}", p.sync_wait_s);
+}
+
+#[test]
+fn republication_keeps_its_wall_clock_period_on_a_fast_clock() {
+    let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]).with_time_scale(10.0);
+    assert_eq!(tick(&mut e, 0.0, true).len(), 1, "the arrival");
+    assert!(tick(&mut e, 1.0, true).is_empty(), "0.1 wall seconds later: not yet");
+    assert_eq!(tick(&mut e, 5.0, true).len(), 1, "0.5 wall seconds later: again");
+}
+
+#[test]
+fn a_teammate_that_missed_our_last_arrival_gets_it_again() {
+    let arrival = |robot: &str| SyncArrival { robot: robot.into(), epoch: 2, point: 0, round: 0 };
+    let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]);
+    tick(&mut e, 0.0, true);
+    // b's arrival while we wait there ourselves: the normal case, no echo.
+    e.handle(0.0, Event::Heard(arrival("b")));
+    assert_eq!(tick(&mut e, 0.1, true), vec![Command::Hold], "released: the plan is over");
+    // b publishes that arrival again: it is still waiting, it missed ours. We say it again.
+    e.handle(0.0, Event::Heard(arrival("b")));
+    assert_eq!(tick(&mut e, 0.2, true), vec![Command::Publish(arrival("a"))]);
+    e.handle(0.0, Event::Heard(arrival("b")));
+    assert!(tick(&mut e, 0.3, true).is_empty(), "at most every REPUBLISH_S");
+    assert_eq!(tick(&mut e, 0.8, true), vec![Command::Publish(arrival("a"))]);
+}
+
+#[test]
+fn a_lost_teammate_does_not_block() {
+    let mut e = exec(vec![Step::Sync { point: 0 }, Step::Hold { seconds: None }], &["a", "b"]);
+    tick(&mut e, 0.0, true);
+    e.handle(0.05, Event::MemberGone("b".into()));
+    assert_eq!(tick(&mut e, 0.1, true), vec![Command::Hold]);
+}
+
+#[test]
+fn loops_count_rounds_and_barriers_are_per_round() {
+    let steps = vec![Step::Sync { point: 0 }, nav(1.0), Step::Sync { point: 1 }, Step::Loop { to: 1, rounds: Some(2) }];
+    let mut e = exec(steps, &["a"]);
+    let mut published = Vec::new();
+    for i in 0..20 {
+        for a in tick(&mut e, i as f64, true) {
+            if let Command::Publish(s) = a {
+                published.push((s.point, s.round));
+            }
+        }
+    }
+    assert_eq!(published, [(0, 0), (1, 0), (1, 1)]);
+    let p = e.progress();
+    assert!(p.done);
+    assert_eq!((p.round, p.syncs_passed), (2, 3));
+}
+
+#[test]
+fn timed_hold_and_endless_loop_of_instant_steps_do_not_spin() {
+    let mut e = exec(vec![Step::Hold { seconds: Some(1.0) }, Step::Stream, Step::Loop { to: 1, rounds: None }], &["a"]);
+    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Hold]);
+    assert!(tick(&mut e, 0.5, true).is_empty());
+    // Past the hold: an endless loop of instantaneous steps is bounded per tick.
+    assert!(tick(&mut e, 1.5, true).is_empty());
+    assert!(e.progress().round > 0);
+}
+
+fn arrival(robot: &str, point: u32, round: u32) -> SyncArrival {
+    SyncArrival { robot: robot.into(), epoch: 2, point, round }
+}
+
+fn release(leader: &str, point: u32, round: u32) -> SyncRelease {
+    SyncRelease { leader: leader.into(), epoch: 2, point, round }
+}
+
+#[test]
+fn the_leader_hears_every_arrival_and_announces_the_release_once() {
+    let steps = vec![Step::Sync { point: 0 }, nav(1.0)];
+    let mut a = exec_as("a", BarrierMode::Leader, steps.clone(), &["a", "b", "c"]);
+    // Leading: the runtime starts hearing arrivals; its own arrival is not published.
+    assert_eq!(tick(&mut a, 0.0, true), vec![Command::Lead(true)]);
+    assert_eq!(a.progress().waiting, Some((0, 0)));
+    assert!(a.handle(0.1, Event::Heard(arrival("b", 0, 0))).is_empty(), "c is missing");
+    assert_eq!(a.handle(0.2, Event::Heard(arrival("c", 0, 0))), vec![Command::Release(release("a", 0, 0))], "at once, not at the next tick");
+    assert_eq!(tick(&mut a, 0.3, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(a.progress().sync_msgs, 1, "the leader sends one message per barrier");
+    // b missed the release and asks again: the leader repeats it, at most every REPUBLISH_S.
+    assert_eq!(a.handle(0.8, Event::Heard(arrival("b", 0, 0))), vec![Command::Release(release("a", 0, 0))]);
+    assert!(a.handle(0.9, Event::Heard(arrival("b", 0, 0))).is_empty());
+    assert!(tick(&mut a, 1.0, false).is_empty());
+    assert_eq!(tick(&mut a, 1.35, false), vec![Command::Release(release("a", 0, 0))], "due, sent with the next tick");
+    assert!(tick(&mut a, 2.0, false).is_empty(), "once");
+}
+
+#[test]
+fn a_member_publishes_to_the_leader_waits_for_its_release_and_is_quiet_after() {
+    let steps = vec![Step::Sync { point: 0 }, nav(1.0), Step::Sync { point: 1 }];
+    let mut b = exec_as("b", BarrierMode::Leader, steps, &["a", "b", "c"]);
+    assert_eq!(tick(&mut b, 0.0, true), vec![Command::Publish(arrival("b", 0, 0))], "not leading: no Lead");
+    assert!(tick(&mut b, 0.1, true).is_empty());
+    assert_eq!(tick(&mut b, 0.6, true), vec![Command::Publish(arrival("b", 0, 0))], "re-published while waiting");
+    // Arrivals reach a member only when it leads; one that did would count, but c is missing.
+    b.handle(0.6, Event::Heard(arrival("a", 0, 0)));
+    b.handle(0.7, Event::Released(release("zz", 0, 0)));
+    b.handle(0.7, Event::Released(SyncRelease { epoch: 1, ..release("a", 0, 0) }));
+    assert!(tick(&mut b, 0.8, true).is_empty(), "foreign releases release nothing");
+    b.handle(0.9, Event::Released(release("a", 0, 0)));
+    assert_eq!(tick(&mut b, 1.0, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    // Driving to the next barrier, the leader has our arrival: nothing more to say.
+    for t in [1.5, 2.0, 3.0] {
+        assert!(tick(&mut b, t, false).is_empty());
+    }
+    assert_eq!(tick(&mut b, 3.1, true), vec![Command::Publish(arrival("b", 1, 0))]);
+    b.handle(3.2, Event::Released(release("a", 1, 0)));
+    assert_eq!(tick(&mut b, 3.3, true), vec![Command::Hold]);
+    assert_eq!(b.progress().sync_msgs, 3);
+}
+
+#[test]
+fn when_the_leader_dies_the_next_lowest_takes_over_and_learns_every_arrival() {
+    let steps = vec![Step::Sync { point: 0 }, nav(1.0), Step::Sync { point: 1 }];
+    let mut b = exec_as("b", BarrierMode::Leader, steps.clone(), &["a", "b", "c"]);
+    let mut c = exec_as("c", BarrierMode::Leader, steps, &["a", "b", "c"]);
+    tick(&mut b, 0.0, true);
+    tick(&mut c, 0.0, true);
+    // a released barrier 0; b and c drive on.
+    b.handle(0.1, Event::Released(release("a", 0, 0)));
+    c.handle(0.1, Event::Released(release("a", 0, 0)));
+    tick(&mut b, 0.2, true);
+    tick(&mut c, 0.2, true);
+    // a dies: b leads. c has not heard from b: it re-sends its furthest arrival until b releases it.
+    assert_eq!(b.handle(0.3, Event::MemberGone("a".into())), vec![Command::Lead(true), Command::Release(release("b", 0, 0))]);
+    assert!(c.handle(0.3, Event::MemberGone("a".into())).is_empty());
+    assert_eq!(tick(&mut c, 0.8, false), vec![Command::Publish(arrival("c", 0, 0))]);
+    assert!(tick(&mut c, 0.9, false).is_empty(), "at most every REPUBLISH_S");
+    assert_eq!(tick(&mut c, 1.3, false), vec![Command::Publish(arrival("c", 0, 0))]);
+    c.handle(1.4, Event::Released(release("b", 0, 0)));
+    assert!(tick(&mut c, 2.0, false).is_empty(), "b has it");
+    // Both reach barrier 1; b releases once it hears c.
+    assert!(tick(&mut b, 2.1, true).is_empty(), "b leads: it does not publish its arrival");
+    assert_eq!(tick(&mut c, 2.2, true), vec![Command::Publish(arrival("c", 1, 0))]);
+    assert_eq!(b.handle(2.3, Event::Heard(arrival("c", 1, 0))), vec![Command::Release(release("b", 1, 0))]);
+    c.handle(2.4, Event::Released(release("b", 1, 0)));
+    assert_eq!(tick(&mut b, 2.5, true), vec![Command::Hold]);
+    assert_eq!(tick(&mut c, 2.5, true), vec![Command::Hold]);
+    // a comes back (with this plan's epoch): it leads again, b stops hearing arrivals.
+    assert_eq!(b.handle(3.0, Event::MemberAlive("a".into())), vec![Command::Lead(false)]);
+}
+
+#[test]
+fn a_lone_survivor_leads_and_releases_itself() {
+    let mut b = exec_as("b", BarrierMode::Leader, vec![Step::Sync { point: 0 }, Step::Hold { seconds: None }], &["a", "b"]);
+    assert_eq!(tick(&mut b, 0.0, true), vec![Command::Publish(arrival("b", 0, 0))]);
+    assert_eq!(b.handle(0.1, Event::MemberGone("a".into())), vec![Command::Lead(true), Command::Release(release("b", 0, 0))]);
+    assert_eq!(tick(&mut b, 0.2, true), vec![Command::Hold]);
+}
