@@ -87,6 +87,7 @@ async fn mesh(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: Ve
         max_message_size: proto::net::DEFAULT_MAX_MESSAGE_SIZE,
         security: pki.map(|d| SecuritySection::from_dir(d, &me.id)),
         me: Some(me),
+        wire_stats: false,
     };
     Ok(Mesh::open(&net).await?)
 }

@@ -91,6 +91,7 @@ async fn node(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: &[
             s
         }),
         me: Some(me),
+        wire_stats: false,
     };
     Ok(Mesh::open(&net).await?)
 }

@@ -1,7 +1,9 @@
 //! `mrmm experiment` in a tiny configuration (2 sizes, 2 rounds, 2 environment scales), so that
 //! the evaluation does not rot: every experiment runs on real processes, writes its rows, its
-//! figure and the summary, and the numbers are those of a patrol (idleness near L/(n·v), more
-//! robots less idle, more messages with more robots).
+//! figures and the summary, and the numbers are those of a patrol (idleness near L/(n·v), more
+//! robots less idle, more messages with more robots), with both barriers: the mesh barrier's
+//! messages reach every teammate, the leader barrier's only the leader (counted by Zenoh on the
+//! wire); and the communication-loss run goes through its four events.
 
 mod common;
 
@@ -40,26 +42,31 @@ fn every_experiment_runs_tiny_and_writes_rows_figures_and_summary() -> anyhow::R
     let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
     let rows: Vec<BTreeMap<&str, &str>> = lines.map(|l| header.iter().copied().zip(l.split(',')).collect()).collect();
     let num = |r: &BTreeMap<&str, &str>, k: &str| -> f64 { r.get(k).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN) };
-    let labels: Vec<String> = rows.iter().map(|r| format!("{}:{}:{}", r["experiment"], r["label"], r["env_scale"])).collect();
+    let labels: Vec<String> = rows.iter().map(|r| format!("{}:{}:{}:{}", r["experiment"], r["label"], r["barrier"], r["env_scale"])).collect();
     assert_eq!(
         labels,
         [
-            "messages:2:1",
-            "messages:4→2:1",
-            "idleness:2:1",
-            "idleness:4:1",
-            "timescale:2:1",
-            "environment:2:1",
-            "environment:4:1",
-            "environment:2:2",
-            "environment:4:2"
+            "messages:2:mesh:1",
+            "messages:4→2:mesh:1",
+            "messages:2:leader:1",
+            "messages:4→2:leader:1",
+            "idleness:2:mesh:1",
+            "idleness:4:mesh:1",
+            "idleness:2:leader:1",
+            "idleness:4:leader:1",
+            "timescale:2:mesh:1",
+            "environment:2:mesh:1",
+            "environment:4:mesh:1",
+            "environment:2:mesh:2",
+            "environment:4:mesh:2",
+            "comm-loss:4:mesh:1"
         ],
         "{csv}"
     );
     for r in &rows {
         let (idle, bound) = (num(r, "avg_idleness_s"), num(r, "bound_s"));
         assert!(num(r, "msgs_total") > 0.0 && num(r, "sync_points") > 0.0, "{r:?}");
-        if r["extracted"] == "0" {
+        if r["extracted"] == "0" && r["experiment"] != "comm-loss" {
             // Idleness is the time no robot is within a waypoint's 1.5 m: a little under the
             // point-visit bound plus what the barriers cost. Counting one robot's pass twice (or
             // a robot waiting at a waypoint once a second) puts it far below.
@@ -67,18 +74,44 @@ fn every_experiment_runs_tiny_and_writes_rows_figures_and_summary() -> anyhow::R
         }
     }
     let get = |e: &str, label: &str, scale: &str| rows.iter().find(|r| r["experiment"] == e && r["label"] == label && r["env_scale"] == scale);
+    // Barrier messages between robots per sync point, as Zenoh counted them on the links: the
+    // mesh barrier's n(n−1) against the leader's 2(n−1) (4 robots: 12 against 6).
+    let per_point = |barrier: &str| {
+        let r = rows.iter().find(|r| r["experiment"] == "idleness" && r["label"] == "4" && r["barrier"] == barrier).expect("row");
+        (num(r, "wire_barrier") - num(r, "wire_barrier_to_central")) / num(r, "sync_points")
+    };
+    let (mesh, leader) = (per_point("mesh"), per_point("leader"));
+    assert!((9.0..16.0).contains(&mesh) && (4.5..8.0).contains(&leader), "per sync point: mesh {mesh}, leader {leader}: {csv}");
     let (two, four) = (get("idleness", "2", "1").expect("row"), get("idleness", "4", "1").expect("row"));
     assert!(num(four, "avg_idleness_s") < num(two, "avg_idleness_s"), "four robots less idle than two: {csv}");
     assert!(num(four, "msgs_sync") > num(two, "msgs_sync"), "more robots, more barrier arrivals: {csv}");
     let (small, big) = (get("environment", "2", "1").expect("row"), get("environment", "2", "2").expect("row"));
     assert!(num(big, "tour_m") > 1.9 * num(small, "tour_m"), "the environment is scaled: {csv}");
 
-    for f in ["messages.png", "idleness.png", "environment.png"] {
+    for f in ["messages.png", "messages-wire.png", "idleness.png", "environment.png", "comm-loss.png"] {
         let png = std::fs::read(out.join(f))?;
         assert!(png.len() > 10_000 && &png[1..4] == b"PNG", "{f}: {} bytes", png.len());
     }
     let summary = std::fs::read_to_string(out.join("summary.md"))?;
-    for part in ["![messages.png](messages.png)", "## The paper's claims", "Fig. 4", "Fig. 5", "Fig. 6", "Time scaling", "Machine:"] {
+    let timeline = std::fs::read_to_string(out.join("comm-loss-timeline.csv"))?;
+    for event in ["central killed", "killed", "back", "central back"] {
+        assert!(
+            timeline.contains(event),
+            "comm-loss-timeline.csv lacks {event:?}:
+{timeline}"
+        );
+    }
+    for part in [
+        "![messages.png](messages.png)",
+        "## The paper's claims",
+        "Fig. 4",
+        "Fig. 5",
+        "Fig. 6",
+        "Time scaling",
+        "Communication loss",
+        "leader barrier",
+        "Machine:",
+    ] {
         assert!(summary.contains(part), "summary.md lacks {part:?}:\n{summary}");
     }
     Ok(())

@@ -31,6 +31,7 @@ async fn node(pki: &std::path::Path, name: &str, connect: Vec<String>) -> anyhow
         max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
         security: Some(SecuritySection::from_dir(pki, name)),
         me: None,
+        wire_stats: false,
     };
     Ok(Mesh::open(&n).await?)
 }

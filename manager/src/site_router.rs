@@ -103,6 +103,7 @@ pub async fn run(cfg: RouterConfig, shutdown: CancellationToken, ready: Option<o
         max_message_size: cfg.max_message_size,
         security: cfg.security.clone(),
         me: Some(Sender::new(Role::Router, cfg.id.clone())),
+        wire_stats: false,
     };
     let mesh = Mesh::open(&node).await?;
     let session = mesh.session();

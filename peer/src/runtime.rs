@@ -122,6 +122,7 @@ pub fn node_net(cfg: &RobotConfig) -> NodeNet {
         connect: z.connect.clone(),
         lease_ms: z.lease_ms,
         max_message_size: z.max_message_size,
+        wire_stats: z.wire_stats,
         security: cfg.security.clone(),
         me: Some(Sender::new(Role::Robot, cfg.id.clone())),
     }

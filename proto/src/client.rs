@@ -35,6 +35,7 @@ impl Client {
             max_message_size: net::DEFAULT_MAX_MESSAGE_SIZE,
             security,
             me: None,
+            wire_stats: false,
         };
         let (mut config, sealer, verifier) = crate::mesh::prepare(&n)?;
         // Zenoh's client tries its endpoints once by default: one failed handshake (a busy

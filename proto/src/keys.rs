@@ -245,6 +245,26 @@ pub fn marginal_selector(mission: &str, add: i64) -> String {
     format!("{}?add={add}", Key::MissionMarginal(mission.to_string()))
 }
 
+/// What the experiments count on the wire, by kind: (kind, key expression). Zenoh counts the
+/// messages each node sends and receives on these ([`crate::net::enable_wire_stats`]).
+pub const WIRE_KINDS: [(&str, &str); 8] = [
+    ("sync", "mrmm/team/*/sync/**"),
+    ("arrive", "mrmm/team/*/arrive/**"),
+    ("release", "mrmm/team/*/release/**"),
+    ("telemetry", "mrmm/robots/*/telemetry"),
+    // Plans, orders and admissions (queries) and their answers.
+    ("command", "mrmm/robots/*/cmd"),
+    ("chain", "mrmm/hosts/*/chain"),
+    ("mission", "mrmm/missions/**"),
+    ("system", "mrmm/system/**"),
+];
+
+/// The selector of every node's admin-space record with its wire statistics (peers and
+/// routers): `@/*/<whatami>?_stats=true`.
+pub fn wire_stats_selector(whatami: &str) -> String {
+    format!("@/*/{whatami}?_stats=true")
+}
+
 /// A wildcard key expression a node subscribes or listens to.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Pattern {

@@ -37,6 +37,9 @@ pub struct NodeNet {
     /// Who this node is: checked against its certificate when secure, claimed when not. `None`
     /// (tools): whoever the certificate names, or `operator:op` when insecure.
     pub me: Option<Sender>,
+    /// Count messages on the wire per kind ([`crate::keys::WIRE_KINDS`]) in Zenoh's stats,
+    /// readable by anyone on the mesh through the admin space (experiments only).
+    pub wire_stats: bool,
 }
 
 /// A node's session with its seal and its verifier.
@@ -91,7 +94,11 @@ pub fn prepare(n: &NodeNet) -> Result<(zenoh::Config, Sealer, Verifier), ProtoEr
 impl Mesh {
     /// Opens the node's session (see [`prepare`]); logs a warning when it runs insecure.
     pub async fn open(n: &NodeNet) -> Result<Mesh, ProtoError> {
-        let (config, sealer, verifier) = prepare(n)?;
+        let (mut config, sealer, verifier) = prepare(n)?;
+        if n.wire_stats {
+            net::enable_wire_stats(&mut config)?;
+            tracing::warn!(node = %sealer.me(), "wire statistics on: the admin space is readable by the mesh (experiments only)");
+        }
         if !sealer.is_secure() {
             tracing::warn!(node = %sealer.me(), "running INSECURE: no `security` section, plain TCP and unsigned messages (development only)");
         }

@@ -41,11 +41,21 @@ pub struct ZenohSection {
     /// Largest message accepted from the network, bytes.
     #[serde(default = "default_max_message_size")]
     pub max_message_size: usize,
+    /// Count messages on the wire per kind, readable through the admin space (experiments
+    /// only: it opens the admin space to reads from the mesh).
+    #[serde(default)]
+    pub wire_stats: bool,
 }
 
 impl Default for ZenohSection {
     fn default() -> Self {
-        ZenohSection { listen: default_listen(), connect: default_connect(), lease_ms: DEFAULT_LEASE_MS, max_message_size: DEFAULT_MAX_MESSAGE_SIZE }
+        ZenohSection {
+            listen: default_listen(),
+            connect: default_connect(),
+            lease_ms: DEFAULT_LEASE_MS,
+            max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
+            wire_stats: false,
+        }
     }
 }
 
@@ -204,6 +214,17 @@ pub fn zenoh_config_with(
         set(&mut c, "access_control", acl.to_string())?;
     }
     Ok(c)
+}
+
+/// Turns on Zenoh's per-kind message counters ([`crate::keys::WIRE_KINDS`]) and a read-only
+/// admin space to read them from ([`crate::keys::wire_stats_selector`]).
+pub fn enable_wire_stats(c: &mut zenoh::Config) -> Result<(), ProtoError> {
+    let set = |c: &mut zenoh::Config, key: &str, value: String| c.insert_json5(key, &value).map_err(|e| ProtoError::Config(format!("zenoh config {key}: {e}")));
+    set(c, "adminspace/enabled", "true".into())?;
+    set(c, "adminspace/permissions/read", "true".into())?;
+    set(c, "adminspace/permissions/write", "false".into())?;
+    let filters: Vec<serde_json::Value> = crate::keys::WIRE_KINDS.iter().map(|(_, key)| serde_json::json!({ "key": key })).collect();
+    set(c, "stats/filters", serde_json::Value::from(filters).to_string())
 }
 
 /// JSON text of a string or string list (cannot fail for those).

@@ -25,6 +25,10 @@ pub struct Args {
     /// per-user data directory, `$XDG_DATA_HOME/mrmm/central` (`~/.local/share/mrmm/central`).
     #[arg(long)]
     state_dir: Option<PathBuf>,
+    /// Count messages on the wire per kind, readable by the mesh through the admin space
+    /// (experiments only); overrides the config's `wire_stats`.
+    #[arg(long)]
+    wire_stats: bool,
 }
 
 /// The per-user data directory central keeps its journal in when nothing else is said.
@@ -52,6 +56,9 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         cfg.security = Some(sec);
     } else if !args.operator.is_empty() {
         anyhow::bail!("--operator: needs certificates (--pki DIR, or --ca/--cert/--key, or a `security` section)");
+    }
+    if args.wire_stats {
+        cfg.wire_stats = true;
     }
     if let Some(d) = args.state_dir {
         cfg.state_dir = Some(d);

@@ -30,6 +30,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
         security: args.security.section(&args.name),
         me: Some(Sender::new(Role::Planner, args.name.clone())),
+        wire_stats: false,
     })
     .await?;
     let session = mesh.session().clone();

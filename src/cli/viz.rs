@@ -53,6 +53,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
         security,
         me: None,
+        wire_stats: false,
     };
     let (config, sealer, verifier) = mrmm_proto::mesh::prepare(&n)?;
     let session = mrmm_proto::net::open(config).await?;

@@ -39,6 +39,9 @@ pub struct CentralConfig {
     /// `--state-dir`), `mrmm central` uses the per-user data directory.
     #[serde(default)]
     pub state_dir: Option<PathBuf>,
+    /// Count messages on the wire per kind, readable through the admin space (experiments only).
+    #[serde(default)]
+    pub wire_stats: bool,
 }
 
 fn default_max_message_size() -> usize {
@@ -65,6 +68,7 @@ impl Default for CentralConfig {
             max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
             security: None,
             state_dir: None,
+            wire_stats: false,
         }
     }
 }

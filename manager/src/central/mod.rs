@@ -73,6 +73,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         max_message_size: cfg.max_message_size,
         security: cfg.security.clone(),
         me: Some(Sender::new(Role::Central, proto::CENTRAL_HOST)),
+        wire_stats: cfg.wire_stats,
     })
     .await?;
     let session = mesh.session().clone();

@@ -2,17 +2,38 @@
 //! time-scaled simulated bodies — one command per figure, written to a directory as
 //! `results.csv`, one PNG per experiment and `summary.md`.
 
+mod comm_loss;
 mod fleet;
 mod plot;
 mod report;
 mod run;
+mod wire;
 
 use std::path::PathBuf;
 use std::time::Duration;
 
 use anyhow::{anyhow, bail};
+use mrmm_proto::BarrierMode;
 
 use run::{Row, Spec};
+
+/// A barrier mode on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Barrier {
+    /// Every member tells every other (mrmm's default).
+    Mesh,
+    /// The paper's: members tell a leader, the leader tells all.
+    Leader,
+}
+
+impl Barrier {
+    fn mode(self) -> BarrierMode {
+        match self {
+            Barrier::Mesh => BarrierMode::Mesh,
+            Barrier::Leader => BarrierMode::Leader,
+        }
+    }
+}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Kind {
@@ -22,7 +43,9 @@ pub enum Kind {
     Idleness,
     /// Idleness of two team sizes as the environment grows (Fig. 6).
     Environment,
-    /// All three.
+    /// The paper's communication-loss run: central and a robot killed and back, over time.
+    CommLoss,
+    /// All four.
     All,
 }
 
@@ -35,7 +58,8 @@ pub struct Args {
     #[arg(long, default_value = "results")]
     out: PathBuf,
     /// Team sizes (default per experiment: messages 5,10,15,20 — eventless for all but the largest,
-    /// extraction for those above --extract; idleness 5,10,15,20,30,40,50; environment 15,20).
+    /// extraction for those above --extract; idleness 5,10,15,20,30,40,50; environment 15,20;
+    /// comm-loss 5, the largest given).
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=200))]
     sizes: Option<Vec<u32>>,
     /// Rounds of the patrol per run (default: messages 5, idleness 3, environment 2).
@@ -53,6 +77,10 @@ pub struct Args {
     /// Environment scales of the environment experiment.
     #[arg(long, value_delimiter = ',', default_values_t = vec![1.0, 2.5, 5.0, 10.0])]
     scales: Vec<f64>,
+    /// Barrier modes: the messages and idleness experiments run each; the environment and
+    /// time-scale runs the first.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = vec![Barrier::Mesh, Barrier::Leader])]
+    barrier: Vec<Barrier>,
 }
 
 impl Kind {
@@ -61,6 +89,7 @@ impl Kind {
             Kind::Messages => "messages",
             Kind::Idleness => "idleness",
             Kind::Environment => "environment",
+            Kind::CommLoss => "comm-loss",
             Kind::All => "all",
         }
     }
@@ -69,7 +98,20 @@ impl Kind {
 /// The runs of one experiment.
 fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
     let sizes = |default: &[u32]| -> Vec<usize> { a.sizes.as_deref().unwrap_or(default).iter().map(|&n| n as usize).collect() };
-    let spec = |experiment, robots, extract, env_scale, rounds| Spec { experiment, robots, extract, env_scale, rounds, time_scale: a.time_scale, seed: a.seed };
+    let modes: Vec<BarrierMode> = a.barrier.iter().map(|b| b.mode()).collect();
+    let first = modes.first().copied().unwrap_or_default();
+    let spec = |experiment, robots, extract, env_scale, rounds| Spec {
+        experiment,
+        robots,
+        extract,
+        env_scale,
+        rounds,
+        time_scale: a.time_scale,
+        seed: a.seed,
+        barrier: first,
+    };
+    // Every run of `runs` once per barrier mode, mode by mode.
+    let per_mode = |runs: Vec<Spec>| -> Vec<Spec> { modes.iter().flat_map(|&barrier| runs.iter().map(move |s| Spec { barrier, ..s.clone() })).collect() };
     Ok(match kind {
         Kind::Messages => {
             let s = sizes(&[5, 10, 15, 20]);
@@ -78,12 +120,12 @@ fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
             let k = a.extract as usize;
             let eventless = s.iter().filter(|&&n| n < largest || s.len() == 1).map(|&n| spec("messages", n, 0, 1.0, rounds));
             let extraction = s.iter().filter(|&&n| k > 0 && n > k).map(|&n| spec("messages", n, k, 1.0, rounds.max(2)));
-            eventless.chain(extraction).collect()
+            per_mode(eventless.chain(extraction).collect())
         }
         Kind::Idleness => {
             let s = sizes(&[5, 10, 15, 20, 30, 40, 50]);
             let rounds = a.rounds.unwrap_or(3);
-            let mut v: Vec<Spec> = s.iter().map(|&n| spec("idleness", n, 0, 1.0, rounds)).collect();
+            let mut v: Vec<Spec> = per_mode(s.iter().map(|&n| spec("idleness", n, 0, 1.0, rounds)).collect());
             // Time scaling checked: one size (10, or the smallest asked for) again at a quarter
             // of the time scale, on a fleet of its own.
             if let Some(n) = if s.contains(&10) { Some(10) } else { s.iter().copied().min() } {
@@ -103,15 +145,25 @@ fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
             }
             v
         }
+        Kind::CommLoss => {
+            let n = sizes(&[5]).into_iter().max().unwrap_or(5);
+            if n < 3 {
+                bail!("--sizes: comm-loss needs at least 3 robots (a chain of 3 and one to lose)");
+            }
+            vec![spec("comm-loss", n, 0, 1.0, 1)]
+        }
         Kind::All => bail!("internal: `all` is not one experiment"),
     })
 }
 
 pub async fn run(a: Args) -> anyhow::Result<()> {
+    if a.barrier.is_empty() {
+        bail!("--barrier: name at least one of mesh, leader");
+    }
     if !(a.time_scale.is_finite() && a.time_scale > 0.0 && a.time_scale <= 1000.0) {
         bail!("--time-scale: must be a number in (0, 1000] (got {})", a.time_scale);
     }
-    let kinds = if a.kind == Kind::All { vec![Kind::Messages, Kind::Idleness, Kind::Environment] } else { vec![a.kind] };
+    let kinds = if a.kind == Kind::All { vec![Kind::Messages, Kind::Idleness, Kind::Environment, Kind::CommLoss] } else { vec![a.kind] };
     let mut plans = Vec::new();
     for k in &kinds {
         plans.push((*k, plan(*k, &a)?));
@@ -134,19 +186,29 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
             let group: Vec<&Spec> = specs.iter().filter(|s| s.time_scale == scale).collect();
             let n = group.iter().map(|s| s.robots).max().unwrap_or(0);
             bar.set_message(format!("starting {n} robots (time scale {scale})"));
-            let fleet = fleet::Fleet::start(&a.out.join("logs").join(format!("{}-x{scale}", kind.name())), n, scale).await?;
+            let mut fleet = fleet::Fleet::start(&a.out.join("logs").join(format!("{}-x{scale}", kind.name())), n, scale).await?;
             let mut failed = None;
             for spec in &group {
                 bar.set_message(format!(
-                    "{} run {} ({} robots, ×{} environment, {} rounds)",
+                    "{} run {} ({} robots, {} barrier, ×{} environment, {} rounds)",
                     spec.experiment,
                     spec.label(),
                     spec.robots,
+                    spec.barrier.as_str(),
                     spec.env_scale,
                     spec.rounds
                 ));
                 runs += 1;
-                match run::run(&fleet, &format!("{}-{runs}", spec.experiment), spec).await {
+                let name = format!("{}-{runs}", spec.experiment);
+                let result = if kind == Kind::CommLoss {
+                    comm_loss::run(&mut fleet, &name, spec).await.and_then(|(row, timeline)| {
+                        figures.extend(report::timeline(&a.out, &timeline)?);
+                        Ok(row)
+                    })
+                } else {
+                    run::run(&fleet, &name, spec).await
+                };
+                match result {
                     Ok(row) => rows.push(row),
                     Err(e) => {
                         failed = Some(e);
@@ -166,9 +228,7 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         }
         bar.finish_and_clear();
         let these: Vec<&Row> = rows.iter().filter(|r| r.spec.experiment == kind.name()).collect();
-        if let Some(f) = report::figure(&a.out, kind.name(), &these)? {
-            figures.push(f);
-        }
+        figures.extend(report::figures(&a.out, kind.name(), &these)?);
         println!("{}: {} runs done", kind.name(), these.len());
     }
     write(&a, &command, &rows, &figures)?;
@@ -187,6 +247,7 @@ fn command_line(a: &Args) -> String {
         c.push_str(&format!(" --rounds {r}"));
     }
     c.push_str(&format!(" --scales {}", list(&a.scales.iter().map(f64::to_string).collect::<Vec<_>>())));
+    c.push_str(&format!(" --barrier {}", list(&a.barrier.iter().map(|b| b.mode().as_str().to_string()).collect::<Vec<_>>())));
     c
 }
 
@@ -229,7 +290,10 @@ mod tests {
     fn the_written_command_reproduces_the_run() {
         let a = parse("mrmm experiment idleness --sizes 2,4 --rounds 2 --time-scale 5 --out /tmp/x");
         let line = super::command_line(&a);
-        assert_eq!(line, "mrmm experiment idleness --out /tmp/x --time-scale 5 --seed 1 --extract 5 --sizes 2,4 --rounds 2 --scales 1,2.5,5,10");
+        assert_eq!(
+            line,
+            "mrmm experiment idleness --out /tmp/x --time-scale 5 --seed 1 --extract 5 --sizes 2,4 --rounds 2 --scales 1,2.5,5,10 --barrier mesh,leader"
+        );
         assert_eq!(super::command_line(&parse(&line)), line);
     }
 
@@ -237,9 +301,14 @@ mod tests {
     fn plans_follow_the_paper() {
         let a = parse("mrmm experiment all");
         let m = super::plan(super::Kind::Messages, &a).expect("plan");
-        assert_eq!(m.iter().map(|s| s.label()).collect::<Vec<_>>(), ["5", "10", "15", "10→5", "15→10", "20→15"]);
+        let labels = ["5", "10", "15", "10→5", "15→10", "20→15"];
+        assert_eq!(m.iter().map(|s| s.label()).collect::<Vec<_>>(), [labels, labels].concat(), "once per barrier");
+        assert!(m[..6].iter().all(|s| s.barrier == super::BarrierMode::Mesh) && m[6..].iter().all(|s| s.barrier == super::BarrierMode::Leader));
         let i = super::plan(super::Kind::Idleness, &a).expect("plan");
-        assert_eq!(i.last().map(|s| (s.experiment, s.robots, s.time_scale)), Some(("timescale", 10, 2.5)));
+        assert_eq!(i.len(), 15);
+        assert_eq!(i.last().map(|s| (s.experiment, s.robots, s.time_scale, s.barrier)), Some(("timescale", 10, 2.5, super::BarrierMode::Mesh)));
+        let e = super::plan(super::Kind::Environment, &parse("mrmm experiment environment --barrier leader")).expect("plan");
+        assert!(e.iter().all(|s| s.barrier == super::BarrierMode::Leader));
         assert!(super::plan(super::Kind::Environment, &parse("mrmm experiment environment --scales 0")).is_err());
     }
 }

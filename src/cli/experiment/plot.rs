@@ -42,7 +42,8 @@ fn svg(b: &Bars) -> Result<String, Box<dyn std::error::Error>> {
         let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
         root.fill(&WHITE)?;
         let values = b.groups.iter().flat_map(|g| g.values.iter()).chain(b.lines.iter().flat_map(|(_, v)| v.iter()));
-        let top = values.copied().filter(|v| v.is_finite()).fold(0.0_f64, f64::max).max(1e-9) * 1.2;
+        // Headroom for the notes above the bars and the legend in the upper right corner.
+        let top = values.copied().filter(|v| v.is_finite()).fold(0.0_f64, f64::max).max(1e-9) * 1.4;
         let n = b.groups.len();
         let k = b.series.len().max(1);
         let mut chart = ChartBuilder::on(&root)
@@ -93,7 +94,82 @@ fn svg(b: &Bars) -> Result<String, Box<dyn std::error::Error>> {
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], colour.stroke_width(2)));
             chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 4, colour.filled())))?;
         }
-        chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).label_font(("sans-serif", 14)).draw()?;
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()?;
+        root.present()?;
+    }
+    Ok(out)
+}
+
+/// A time series: name and (t, value) points.
+pub type Series<'a> = (&'a str, Vec<(f64, f64)>);
+
+/// Panels stacked over a shared time axis, each with its line series, and events marked by
+/// vertical lines labelled at the top.
+pub struct Timeline<'a> {
+    pub title: &'a str,
+    pub x_label: &'a str,
+    /// (y label, series) per panel, top first.
+    pub panels: Vec<(&'a str, Vec<Series<'a>>)>,
+    pub events: &'a [(f64, String)],
+}
+
+/// Draws `t` to `path` (PNG).
+pub fn timeline(path: &Path, t: &Timeline) -> anyhow::Result<()> {
+    let svg = timeline_svg(t).map_err(|e| anyhow!("drawing {}: {e}", path.display()))?;
+    png(&svg, path)
+}
+
+fn timeline_svg(t: &Timeline) -> Result<String, Box<dyn std::error::Error>> {
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE)?;
+        let root = root.titled(t.title, ("sans-serif", 22))?;
+        let end =
+            t.panels.iter().flat_map(|(_, s)| s.iter().flat_map(|(_, p)| p.iter().map(|p| p.0))).chain(t.events.iter().map(|e| e.0)).fold(1.0_f64, f64::max);
+        let areas = root.split_evenly((t.panels.len().max(1), 1));
+        for (i, ((y_label, series), area)) in t.panels.iter().zip(&areas).enumerate() {
+            let top = series.iter().flat_map(|(_, p)| p.iter().map(|p| p.1)).filter(|v| v.is_finite()).fold(1e-9_f64, f64::max) * 1.25;
+            let mut chart = ChartBuilder::on(area).margin(12).x_label_area_size(36).y_label_area_size(64).build_cartesian_2d(0.0..end, 0.0..top)?;
+            let last = i + 1 == t.panels.len();
+            chart
+                .configure_mesh()
+                .x_desc(if last { t.x_label } else { "" })
+                .y_desc(*y_label)
+                .label_style(("sans-serif", 13))
+                .axis_desc_style(("sans-serif", 15))
+                .draw()?;
+            for (s, (name, pts)) in series.iter().enumerate() {
+                let colour = COLOURS[s % COLOURS.len()];
+                let pts: Vec<(f64, f64)> = pts.iter().copied().filter(|p| p.1.is_finite()).collect();
+                chart
+                    .draw_series(LineSeries::new(pts, colour.stroke_width(2)))?
+                    .label(*name)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 14, y)], colour.stroke_width(2)));
+            }
+            for (k, (at, what)) in t.events.iter().enumerate() {
+                let colour = LINE_COLOURS[0];
+                chart.draw_series(std::iter::once(PathElement::new(vec![(*at, 0.0), (*at, top)], colour.stroke_width(1))))?;
+                if i == 0 {
+                    // Labels staggered so that close events stay readable.
+                    let y = top * (0.95 - 0.09 * (k % 3) as f64);
+                    chart.draw_series(std::iter::once(Text::new(what.clone(), (*at + end * 0.005, y), ("sans-serif", 13).into_font().color(&colour))))?;
+                }
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()?;
+        }
         root.present()?;
     }
     Ok(out)
@@ -129,6 +205,10 @@ mod tests {
         bars(&path, &Bars { title: "t", y_label: "y", x_label: "x", series: &["a", "b"], groups, lines: vec![("bound", vec![8.0, 4.0])] }).expect("drawn");
         let png = std::fs::read(&path).expect("written");
         assert_eq!(&png[1..4], b"PNG");
+        let events = [(3.0, "central killed".to_string())];
+        let t = Timeline { title: "t", x_label: "s", panels: vec![("y", vec![("a", vec![(0.0, 1.0), (5.0, 2.0)])]), ("z", vec![])], events: &events };
+        timeline(&dir.join("u.png"), &t).expect("drawn");
+        assert_eq!(&std::fs::read(dir.join("u.png")).expect("written")[1..4], b"PNG");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

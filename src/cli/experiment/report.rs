@@ -6,10 +6,12 @@ use std::path::Path;
 
 use anyhow::Context;
 
+use mrmm_proto::BarrierMode;
+
 use super::plot::{self, Bars, Group};
 use super::run::Row;
 
-const HEADER: &str = "experiment,label,robots,robots_after,extracted,env_scale,rounds,time_scale,seed,tour_m,sync_per_round,wall_s,avg_idleness_s,worst_idleness_s,bound_s,sync_points,sync_wait_per_round_s,msgs_plan,msgs_sync,msgs_total";
+const HEADER: &str = "experiment,label,barrier,robots,robots_after,extracted,env_scale,rounds,time_scale,seed,tour_m,sync_per_round,wall_s,avg_idleness_s,worst_idleness_s,bound_s,sync_points,sync_wait_per_round_s,msgs_plan,msgs_sync,msgs_total,wire_command,wire_barrier,wire_barrier_to_central,wire_telemetry,wire_chain,wire_mission,wire_system,wire_total";
 
 pub fn csv(path: &Path, rows: &[Row]) -> anyhow::Result<()> {
     let mut out = String::from(HEADER);
@@ -18,9 +20,10 @@ pub fn csv(path: &Path, rows: &[Row]) -> anyhow::Result<()> {
         let s = &r.spec;
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{},{:.2},{},{:.1},{:.3},{:.3},{:.3},{},{:.3},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{:.2},{},{:.1},{:.3},{:.3},{:.3},{},{:.3},{},{},{},{},{},{},{},{},{},{},{}",
             s.experiment,
             s.label(),
+            s.barrier.as_str(),
             s.robots,
             r.robots_after,
             s.extract,
@@ -38,48 +41,115 @@ pub fn csv(path: &Path, rows: &[Row]) -> anyhow::Result<()> {
             r.sync_wait_per_round_s,
             r.msgs_plan,
             r.msgs_sync,
-            r.msgs_total()
+            r.msgs_total(),
+            r.wire.get("command"),
+            r.wire.barrier(),
+            r.wire.barrier() - r.wire.barrier_between_robots(),
+            r.wire.get("telemetry"),
+            r.wire.get("chain"),
+            r.wire.get("mission"),
+            r.wire.get("system"),
+            r.wire.total()
         );
     }
     std::fs::write(path, out).with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Draws the figure of `experiment` from its rows into `dir`; returns the file name.
-pub fn figure(dir: &Path, experiment: &str, rows: &[&Row]) -> anyhow::Result<Option<String>> {
-    if rows.is_empty() {
-        return Ok(None);
+/// The barrier modes among `rows`, in the order they ran.
+fn modes(rows: &[&Row]) -> Vec<BarrierMode> {
+    let mut m: Vec<BarrierMode> = Vec::new();
+    for r in rows {
+        if !m.contains(&r.spec.barrier) {
+            m.push(r.spec.barrier);
+        }
     }
-    let file = format!("{experiment}.png");
-    let path = dir.join(&file);
+    m
+}
+
+/// One group per configuration label (in run order), one value per barrier mode.
+fn by_label(rows: &[&Row], modes: &[BarrierMode], value: impl Fn(&Row) -> f64, note: impl Fn(&[Option<&Row>]) -> Option<String>) -> Vec<Group> {
+    let mut labels: Vec<String> = Vec::new();
+    for r in rows {
+        if !labels.contains(&r.spec.label()) {
+            labels.push(r.spec.label());
+        }
+    }
+    labels
+        .into_iter()
+        .map(|label| {
+            let of: Vec<Option<&Row>> = modes.iter().map(|m| rows.iter().copied().find(|r| r.spec.label() == label && r.spec.barrier == *m)).collect();
+            Group { values: of.iter().map(|r| r.map_or(f64::NAN, &value)).collect(), note: note(&of), label }
+        })
+        .collect()
+}
+
+/// Draws the figures of `experiment` from its rows into `dir`; returns their file names.
+pub fn figures(dir: &Path, experiment: &str, rows: &[&Row]) -> anyhow::Result<Vec<String>> {
+    if rows.is_empty() {
+        return Ok(vec![]);
+    }
+    let modes = modes(rows);
+    let names: Vec<String> = modes.iter().map(|m| format!("{} barrier", m.as_str())).collect();
+    let series: Vec<&str> = names.iter().map(String::as_str).collect();
+    let mut files = Vec::new();
+    let mut draw = |file: String, bars: Bars| -> anyhow::Result<()> {
+        plot::bars(&dir.join(&file), &bars)?;
+        files.push(file);
+        Ok(())
+    };
     match experiment {
-        "messages" => plot::bars(
-            &path,
-            &Bars {
-                title: "Messages over a run (paper's Fig. 4)",
-                y_label: "messages published",
-                x_label: "robots (a→b: a−b moved to a coverage after round 1)",
-                series: &["plans", "sync arrivals"],
-                groups: rows
-                    .iter()
-                    .map(|r| Group { label: r.spec.label(), values: vec![r.msgs_plan as f64, r.msgs_sync as f64], note: Some(r.msgs_total().to_string()) })
-                    .collect(),
-                lines: vec![],
-            },
-        )?,
-        "idleness" => plot::bars(
-            &path,
-            &Bars {
-                title: "Average idleness as robots grow (paper's Fig. 5)",
-                y_label: "idleness, robot seconds",
-                x_label: "robots (above the bars: barrier wait per robot per round)",
-                series: &["measured"],
-                groups: rows
-                    .iter()
-                    .map(|r| Group { label: r.spec.label(), values: vec![r.avg_idleness_s], note: Some(format!("sync {:.1} s", r.sync_wait_per_round_s)) })
-                    .collect(),
-                lines: vec![("bound L/(n·v)", rows.iter().map(|r| r.bound_s).collect())],
-            },
-        )?,
+        "messages" => {
+            let x_label = "robots (a→b: a−b moved to a coverage after round 1)";
+            draw(
+                "messages.png".into(),
+                Bars {
+                    title: "Plans and barrier messages published over a run (paper's Fig. 4)",
+                    y_label: "messages published",
+                    x_label,
+                    series: &series,
+                    groups: by_label(rows, &modes, |r| r.msgs_total() as f64, |_| None),
+                    lines: vec![],
+                },
+            )?;
+            draw(
+                "messages-wire.png".into(),
+                Bars {
+                    title: "The same messages on the wire (a publication to k nodes is k)",
+                    y_label: "plan and barrier messages sent on links",
+                    x_label,
+                    series: &series,
+                    groups: by_label(rows, &modes, |r| (r.wire.get("command") + r.wire.barrier()) as f64, |_| None),
+                    lines: vec![],
+                },
+            )?;
+        }
+        "idleness" => {
+            // The bound depends on the team only: one line, from whichever mode ran the size.
+            let groups = by_label(
+                rows,
+                &modes,
+                |r| r.avg_idleness_s,
+                |of| {
+                    let waits: Vec<String> = of.iter().map(|r| r.map_or("–".into(), |r| format!("{:.1}", r.sync_wait_per_round_s))).collect();
+                    Some(format!("{} s", waits.join("/")))
+                },
+            );
+            let bound: Vec<f64> = groups.iter().map(|g| rows.iter().find(|r| r.spec.label() == g.label).map_or(f64::NAN, |r| r.bound_s)).collect();
+            draw(
+                "idleness.png".into(),
+                Bars {
+                    title: "Average idleness as robots grow (paper's Fig. 5)",
+                    y_label: "idleness, robot seconds",
+                    x_label: &format!(
+                        "robots (above the bars: barrier wait per robot per round, {})",
+                        modes.iter().map(|m| m.as_str()).collect::<Vec<_>>().join("/")
+                    ),
+                    series: &series,
+                    groups,
+                    lines: vec![("bound L/(n·v)", bound)],
+                },
+            )?;
+        }
         "environment" => {
             // One group per scale, one bar per team size; idleness divided by the scale so that
             // the groups share an axis.
@@ -100,9 +170,9 @@ pub fn figure(dir: &Path, experiment: &str, rows: &[&Row]) -> anyhow::Result<Opt
                     note: None,
                 })
                 .collect();
-            plot::bars(
-                &path,
-                &Bars {
+            draw(
+                "environment.png".into(),
+                Bars {
                     title: "Idleness in larger environments (paper's Fig. 6)",
                     y_label: "idleness ÷ environment scale, robot seconds",
                     x_label: "environment scale",
@@ -110,11 +180,33 @@ pub fn figure(dir: &Path, experiment: &str, rows: &[&Row]) -> anyhow::Result<Opt
                     groups,
                     lines: vec![],
                 },
-            )?
+            )?;
         }
-        _ => return Ok(None),
+        _ => {}
     }
-    Ok(Some(file))
+    Ok(files)
+}
+
+/// The communication-loss run's timeline: `comm-loss-timeline.csv` and `comm-loss.png`;
+/// returns the figure's file name.
+pub fn timeline(dir: &Path, t: &super::comm_loss::Timeline) -> anyhow::Result<Vec<String>> {
+    let csv = dir.join("comm-loss-timeline.csv");
+    std::fs::write(&csv, super::comm_loss::timeline_csv(t)).with_context(|| format!("cannot write {}", csv.display()))?;
+    let series = |f: &dyn Fn(&super::comm_loss::Point) -> Option<f64>| -> Vec<(f64, f64)> { t.points.iter().filter_map(|p| f(p).map(|v| (p.t, v))).collect() };
+    let file = "comm-loss.png".to_string();
+    plot::timeline(
+        &dir.join(&file),
+        &plot::Timeline {
+            title: "Communication loss (the paper's section 4.3): the patrol over time",
+            x_label: "robot seconds since the mission was created",
+            panels: vec![
+                ("idleness, robot s", vec![("worst so far", series(&|p| p.worst_idleness)), ("average so far", series(&|p| p.avg_idleness))]),
+                ("barriers passed", vec![("by the team, every plan", series(&|p| Some(p.barriers as f64)))]),
+            ],
+            events: &t.events,
+        },
+    )?;
+    Ok(vec![file])
 }
 
 /// The machine, for the summary.
@@ -138,25 +230,31 @@ pub fn summary(path: &Path, command: &str, rows: &[Row], figures: &[String]) -> 
     out.push_str(
         "Setup: central and identical simulated ground robots (1 m/s) as real `mrmm` processes on loopback (plain TCP), \
          a circular patrol of eight waypoints (tour ≈ 50 m at scale 1) planned by the patrol planner with its default sync \
-         spacing, mesh barrier. Times are robot seconds (wall × time scale). Messages are publications by mrmm's code \
-         (plans sent by the mission manager, barrier arrivals by the robots), as the mission reports them; the barrier wait \
-         is counted after the formation (the first barrier gathers the team at its slots); deliveries on \
-         the wire are not counted yet.\n\n",
+         spacing; the barrier mode of each run is in its row (`mesh`: every member tells every other; `leader`: the paper's, \
+         members tell the lowest live id, which tells all). Times are robot seconds (wall × time scale); the barrier wait is \
+         counted after the formation (the first barrier gathers the team at its slots). Messages are counted twice: as \
+         *published* by mrmm's code (plans sent by the mission manager, barrier arrivals and releases by the robots, as the \
+         mission reports them), and as *sent on the wire*: every node counts, in Zenoh's own statistics (`stats` feature, \
+         per key expression, read from each node's admin space), the messages it sends on its links — a publication to k \
+         other nodes is k messages. Wire kinds: command (plans, orders and their answers), barrier, telemetry, chain \
+         (manager replication), mission (controls, status), system (operator API).\n\n",
     );
     for f in figures {
         let _ = writeln!(out, "![{f}]({f})\n");
     }
     out.push_str(
-        "| experiment | run | robots after | env × | rounds | idleness s | bound s | sync wait s/round | sync points | messages (plan + sync) | wall s |\n",
+        "| experiment | run | barrier | robots after | env × | rounds | idleness s | bound s | sync wait s/round | sync points | published (plan + sync) | wire: plan, barrier, telemetry, chain, all | wall s |\n",
     );
-    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    out.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in rows {
         let s = &r.spec;
+        let w = &r.wire;
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} ({} + {}) | {:.0} |",
+            "| {} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} | {} | {} ({} + {}) | {}, {}, {}, {}, {} | {:.0} |",
             s.experiment,
             s.label(),
+            s.barrier.as_str(),
             r.robots_after,
             s.env_scale,
             s.rounds,
@@ -167,6 +265,11 @@ pub fn summary(path: &Path, command: &str, rows: &[Row], figures: &[String]) -> 
             r.msgs_total(),
             r.msgs_plan,
             r.msgs_sync,
+            w.get("command"),
+            w.barrier(),
+            w.get("telemetry"),
+            w.get("chain"),
+            w.total(),
             r.wall_s
         );
     }
@@ -185,10 +288,77 @@ fn verdict(ok: bool) -> &'static str {
     }
 }
 
-/// Each of the paper's findings, with whether these rows show it (and the numbers that decide).
+/// Each of the paper's findings, with whether these rows show it (and the numbers that decide),
+/// for each barrier mode; then our claims about the two barriers.
 pub fn claims(rows: &[Row]) -> Vec<String> {
+    let all: Vec<&Row> = rows.iter().collect();
+    let modes = modes(&all);
     let mut out = Vec::new();
-    let of = |e: &str, extracted: bool| -> Vec<&Row> { rows.iter().filter(|r| r.spec.experiment == e && (r.spec.extract > 0) == extracted).collect() };
+    for m in &modes {
+        let these: Vec<&Row> = all.iter().copied().filter(|r| r.spec.barrier == *m).collect();
+        for line in paper_claims(&these) {
+            out.push(if modes.len() > 1 { format!("[{} barrier] {line}", m.as_str()) } else { line });
+        }
+    }
+    out.extend(barrier_claims(&all));
+    if out.is_empty() {
+        out.push("Too few runs to check any of the paper's claims (each needs at least two configurations).".into());
+    }
+    out
+}
+
+/// Ours: the leader barrier costs about 2(n−1) messages on the wire per sync point and one more
+/// hop; the mesh barrier n−1 times as many deliveries as publications, n(n−1) per point.
+fn barrier_claims(rows: &[&Row]) -> Vec<String> {
+    let mut out = Vec::new();
+    let eventless = |m: BarrierMode| -> Vec<&Row> {
+        rows.iter().copied().filter(|r| r.spec.barrier == m && r.spec.extract == 0 && matches!(r.spec.experiment, "messages" | "idleness")).collect()
+    };
+    let per_point = |r: &Row| r.wire.barrier_between_robots() as f64 / f64::from(r.sync_points.max(1));
+    let to_router = |r: &Row| (r.wire.barrier() - r.wire.barrier_between_robots()) as f64 / f64::from(r.sync_points.max(1));
+    for (m, predicted, what) in [
+        (BarrierMode::Mesh, (|n: f64| n * (n - 1.0)) as fn(f64) -> f64, "n(n−1)"),
+        (BarrierMode::Leader, (|n: f64| 2.0 * (n - 1.0)) as fn(f64) -> f64, "2(n−1)"),
+    ] {
+        let runs = eventless(m);
+        if runs.is_empty() {
+            continue;
+        }
+        let ratios: Vec<f64> = runs.iter().map(|r| per_point(r) / predicted(r.spec.robots as f64).max(1.0)).collect();
+        let ok = ratios.iter().all(|q| (0.8..=1.6).contains(q));
+        out.push(format!(
+            "Barriers (ours) — the {} barrier sends about {what} messages between robots per sync point: {} ({}; measured ÷ predicted within 0.8–1.6 asked; besides, central received {} per point, one per publication, and dropped them).",
+            m.as_str(),
+            verdict(ok),
+            runs.iter().zip(&ratios).map(|(r, q)| format!("{} robots: {:.1} vs {:.0}, ×{q:.2}", r.spec.robots, per_point(r), predicted(r.spec.robots as f64))).collect::<Vec<_>>().join("; "),
+            runs.iter().map(|r| format!("{:.1}", to_router(r))).collect::<Vec<_>>().join(", ")
+        ));
+    }
+    // Latency: the same team waits longer per round with a leader (one more hop per barrier).
+    let pairs: Vec<(&Row, &Row)> = eventless(BarrierMode::Mesh)
+        .into_iter()
+        .filter(|r| r.spec.experiment == "idleness")
+        .filter_map(|a| {
+            eventless(BarrierMode::Leader).into_iter().find(|b| b.spec.experiment == a.spec.experiment && b.spec.robots == a.spec.robots).map(|b| (a, b))
+        })
+        .collect();
+    if !pairs.is_empty() {
+        let longer = pairs.iter().filter(|(a, b)| b.sync_wait_per_round_s >= a.sync_wait_per_round_s).count();
+        out.push(format!(
+            "Barriers (ours) — the leader's extra hop makes the team wait longer at barriers: {} in {longer} of {} team sizes (barrier wait per robot per round, mesh vs leader: {}; idleness: {}).",
+            verdict(longer * 2 > pairs.len()),
+            pairs.len(),
+            pairs.iter().map(|(a, b)| format!("{}: {:.2} vs {:.2} s", a.spec.robots, a.sync_wait_per_round_s, b.sync_wait_per_round_s)).collect::<Vec<_>>().join(", "),
+            pairs.iter().map(|(a, b)| format!("{}: {:.2} vs {:.2} s", a.spec.robots, a.avg_idleness_s, b.avg_idleness_s)).collect::<Vec<_>>().join(", ")
+        ));
+    }
+    out
+}
+
+/// The paper's findings checked against the rows of one barrier mode.
+fn paper_claims(rows: &[&Row]) -> Vec<String> {
+    let mut out = Vec::new();
+    let of = |e: &str, extracted: bool| -> Vec<&Row> { rows.iter().copied().filter(|r| r.spec.experiment == e && (r.spec.extract > 0) == extracted).collect() };
     let eventless = of("messages", false);
     if eventless.len() >= 2 {
         let (a, b) = (eventless[0], eventless[eventless.len() - 1]);
@@ -274,6 +444,17 @@ pub fn claims(rows: &[Row]) -> Vec<String> {
             ));
         }
     }
+    for c in of("comm-loss", false) {
+        out.push(format!(
+            "Communication loss (the paper's section 4.3) — the patrol goes on through central's loss, a robot's loss and return, and central's return: {} ({} barriers passed across the four events, a round between each; {} of {} robots in the team at the end; worst idleness at any moment {:.1} s against {:.1} s for the whole team; timeline in comm-loss.png and comm-loss-timeline.csv).",
+            verdict(c.sync_points > 0 && c.robots_after == c.spec.robots),
+            c.sync_points,
+            c.robots_after,
+            c.spec.robots,
+            c.worst_idleness_s,
+            c.bound_s
+        ));
+    }
     for q in of("timescale", false) {
         if let Some(r) = idle.iter().find(|r| r.spec.robots == q.spec.robots) {
             let diff = (q.avg_idleness_s / r.avg_idleness_s - 1.0) * 100.0;
@@ -287,9 +468,6 @@ pub fn claims(rows: &[Row]) -> Vec<String> {
                 q.avg_idleness_s
             ));
         }
-    }
-    if out.is_empty() {
-        out.push("Too few runs to check any of the paper's claims (each needs at least two configurations).".into());
     }
     out
 }

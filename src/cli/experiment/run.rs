@@ -5,14 +5,16 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail};
+use mrmm_proto::BarrierMode;
 use mrmm_proto::{self as proto, MissionCreate, MissionStatus, MissionTerminate, MissionView, RobotMove};
 use serde_json::json;
 
 use super::fleet::{Fleet, SPEED};
+use super::wire::{self, Wire};
 
 /// The patrolled environment at scale 1: a closed loop of eight waypoints around a 16 m × 10 m
 /// field (tour ≈ 50 m); the environment experiment multiplies every coordinate.
-const WAYPOINTS: [(f64, f64); 8] = [(0.0, 0.0), (8.0, -1.0), (16.0, 0.0), (17.0, 5.0), (16.0, 10.0), (8.0, 11.0), (0.0, 10.0), (-1.0, 5.0)];
+pub const WAYPOINTS: [(f64, f64); 8] = [(0.0, 0.0), (8.0, -1.0), (16.0, 0.0), (17.0, 5.0), (16.0, 10.0), (8.0, 11.0), (0.0, 10.0), (-1.0, 5.0)];
 
 /// What one run is.
 #[derive(Debug, Clone)]
@@ -25,6 +27,7 @@ pub struct Spec {
     pub rounds: u32,
     pub time_scale: f64,
     pub seed: u64,
+    pub barrier: BarrierMode,
 }
 
 impl Spec {
@@ -56,6 +59,8 @@ pub struct Row {
     pub sync_wait_per_round_s: f64,
     pub msgs_plan: u64,
     pub msgs_sync: u64,
+    /// Messages the fleet's nodes sent on their links during the run, per kind.
+    pub wire: Wire,
 }
 
 impl Row {
@@ -63,6 +68,9 @@ impl Row {
         self.msgs_plan.saturating_add(self.msgs_sync)
     }
 }
+
+/// How long every node has to report its wire statistics.
+const WIRE_READ: Duration = Duration::from_secs(5);
 
 /// Runs `spec` as mission `name` on `fleet` and leaves the fleet idle again.
 pub async fn run(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> {
@@ -87,9 +95,10 @@ async fn measure(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> 
         name: name.into(),
         recipe: "patrol".into(),
         robots: Some(team.clone()),
-        params: [("waypoints".to_string(), json!(waypoints))].into(),
+        params: [("waypoints".to_string(), json!(waypoints)), ("barrier".to_string(), json!(spec.barrier.as_str()))].into(),
         ..MissionCreate::default()
     };
+    let before = wire::read(&fleet.client, WIRE_READ).await?;
     command(fleet, proto::SystemCmd::Create, &create).await?;
     // A round of the tour, in wall seconds, bounds how long anything may take.
     let tour_wall = tour_length(&waypoints) / SPEED / spec.time_scale;
@@ -116,7 +125,16 @@ async fn measure(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> 
         wait_members(fleet, name, spec.robots - spec.extract, deadline).await?;
         rounds_wanted = spec.rounds.saturating_sub(1).max(1);
     }
-    let v = wait_rounds(fleet, name, rounds_wanted, deadline).await?;
+    wait_rounds(fleet, name, rounds_wanted, deadline).await?;
+    // The wire counters, then the mission's own counts right after (the mission runs on: both
+    // are read as close together as they can be).
+    let read = Instant::now();
+    let after = wire::read(&fleet.client, WIRE_READ).await?;
+    tracing::debug!("wire statistics of {} nodes read in {:?}", after.nodes, read.elapsed());
+    if after.nodes < fleet.ids.len() + 1 {
+        bail!("run {name}: only {} of {} nodes reported their wire statistics", after.nodes, fleet.ids.len() + 1);
+    }
+    let v = view(fleet, name).await.ok_or_else(|| anyhow!("mission {name} vanished"))?;
     let patrol = v.summary.as_ref().and_then(|s| s.patrol()).ok_or_else(|| anyhow!("mission {name} has no patrol summary"))?;
     let n = v.robots.len();
     let m = &v.metrics;
@@ -134,6 +152,7 @@ async fn measure(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> 
         sync_wait_per_round_s: m.sync_wait_s / (n.max(1) as f64 * f64::from(m.rounds.max(1))),
         msgs_plan: msg("plan"),
         msgs_sync: msg("sync"),
+        wire: after.since(&before),
     })
 }
 
@@ -194,7 +213,7 @@ fn extracted(team: &[String], k: usize, seed: u64) -> Vec<String> {
     order.into_iter().take(k).map(|(_, id)| id.clone()).collect()
 }
 
-fn tour_length(points: &[[f64; 2]]) -> f64 {
+pub fn tour_length(points: &[[f64; 2]]) -> f64 {
     points.iter().zip(points.iter().cycle().skip(1)).map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1])).sum()
 }
 
