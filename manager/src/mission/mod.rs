@@ -16,6 +16,9 @@ use mrmm_proto::{
 
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
 
+/// Teams of at least this many members run the leader barrier unless the mission says otherwise.
+pub const LEADER_BARRIER_FROM: usize = 30;
+
 /// What a mission is.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MissionSpec {
@@ -384,9 +387,17 @@ impl MissionManager {
             .collect()
     }
 
-    /// How the mission's team runs its barriers (patrol parameter `barrier`, checked on create).
+    /// How the mission's team runs its barriers: the patrol parameter `barrier` (checked on
+    /// create), or by the team's size — the mesh barrier up to [`LEADER_BARRIER_FROM`] members,
+    /// the leader barrier from there (README, Evaluation: equal idleness up to 20 robots with
+    /// the mesh's shorter wait; from 30 the mesh's n(n−1) deliveries per barrier cost more than
+    /// the leader's extra hop).
     fn barrier(&self) -> BarrierMode {
-        self.spec.params.get("barrier").and_then(|v| BarrierMode::parse(v)).unwrap_or_default()
+        match self.spec.params.get("barrier").and_then(|v| BarrierMode::parse(v)) {
+            Some(mode) => mode,
+            None if self.members.len() >= LEADER_BARRIER_FROM => BarrierMode::Leader,
+            None => BarrierMode::Mesh,
+        }
     }
 
     /// The current plans again (a new head re-sends them after a takeover; robots already

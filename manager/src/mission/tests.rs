@@ -314,4 +314,18 @@ fn the_barrier_mode_of_the_mission_goes_out_with_every_plan() {
     let mut leader = spec();
     leader.params.insert("barrier".into(), "leader".into());
     assert_eq!(modes(leader), [BarrierMode::Leader, BarrierMode::Leader]);
+    // Without the parameter, large teams get the leader barrier.
+    let team: Vec<Member> = (0..LEADER_BARRIER_FROM).map(|i| robot(&format!("r{i}"), "ground", i as f64)).collect();
+    let mut m = MissionManager::new(spec(), "node".into(), team);
+    let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
+    let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    let leaders = cmds.iter().filter(|c| matches!(c, Command::SendPlan { assignment, .. } if assignment.barrier == BarrierMode::Leader)).count();
+    assert_eq!(leaders, LEADER_BARRIER_FROM, "every plan of a large team runs the leader barrier");
+    let mut mesh = spec();
+    mesh.params.insert("barrier".into(), "mesh".into());
+    let team: Vec<Member> = (0..LEADER_BARRIER_FROM).map(|i| robot(&format!("r{i}"), "ground", i as f64)).collect();
+    let mut m = MissionManager::new(mesh, "node".into(), team);
+    let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
+    let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    assert!(cmds.iter().any(|c| matches!(c, Command::SendPlan { assignment, .. } if assignment.barrier == BarrierMode::Mesh)), "the parameter wins");
 }
