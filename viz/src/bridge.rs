@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use mrmm_proto::plan::Point;
-use mrmm_proto::{self as proto, AdviceEvent, Key, Mesh, MissionView, Pattern, PlanSummary, Priority, Role, SyncArrival, Telemetry};
+use mrmm_proto::{self as proto, AdviceEvent, Key, Mesh, MissionView, Pattern, PlanSummary, Priority, Role, SyncArrival, SyncRelease, Telemetry};
 use rerun::RecordingStream;
 use tokio_util::sync::CancellationToken;
 
@@ -51,6 +51,8 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     let statuses = session.declare_subscriber(Pattern::AllMissionStatus.to_string()).await.map_err(z)?;
     let advice = session.declare_subscriber(Key::AgentAdviceLive.to_string()).await.map_err(z)?;
     let syncs = session.declare_subscriber(Pattern::AllTeamSync.to_string()).await.map_err(z)?;
+    // Under the leader barrier only the leader hears arrivals: its releases show the team's progress.
+    let releases = session.declare_subscriber(Pattern::TeamRelease("*".into()).to_string()).await.map_err(z)?;
     let mut view = View::new(rec.clone());
     let mut probe_tick = tokio::time::interval(PROBE_EVERY);
     let mut reachable: Option<bool> = None;
@@ -107,6 +109,19 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                 if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
                     if from.is(Role::Robot, &a.robot) {
                         view.sync(&team, &a);
+                    }
+                }
+            }
+            s = releases.recv_async() => {
+                let Ok(s) = s else { break };
+                let team = match Key::parse(s.key_expr().as_str()) {
+                    Some(Key::TeamRelease { team, .. }) => team,
+                    _ => continue,
+                };
+                let Some(from) = mesh.sender_of("barrier release", &s) else { continue };
+                if let Ok(r) = proto::from_json::<SyncRelease>("release", &s.payload().to_bytes()) {
+                    if from.is(Role::Robot, &r.leader) {
+                        view.release(&team, &r);
                     }
                 }
             }
@@ -294,6 +309,12 @@ impl View {
             AdviceEvent::Withdrawn { id, reason } => (format!("withdrawn {id}: {reason}"), rerun::TextLogLevel::DEBUG),
         };
         self.log(paths::ADVICE_LOG, &rerun::TextLog::new(text).with_level(level));
+    }
+
+    fn release(&mut self, team: &str, r: &SyncRelease) {
+        self.now();
+        let text = format!("{} released {team} barriers up to {} of round {} (epoch {})", r.leader, r.point, r.round, r.epoch);
+        self.log(paths::SYNC_LOG, &rerun::TextLog::new(text).with_level(rerun::TextLogLevel::DEBUG));
     }
 
     fn sync(&mut self, team: &str, a: &SyncArrival) {
