@@ -312,10 +312,18 @@ async fn robots_with_state_dirs_all_killed_at_once_bring_back_the_mission_they_l
     let mut rs: Vec<Proc> =
         ["r1", "r2", "r3"].iter().enumerate().map(|(i, id)| durable_robot(&dir, id, &ep, i as f64 * 2.0, &format!("{id}-2.log"))).collect::<Result<_, _>>()?;
     for id in ["r1", "r2", "r3"] {
-        let log = std::fs::read_to_string(dir.path(&format!("{id}-2.log"))).unwrap_or_default();
-        // (Without the terminal colours the log is written with.)
-        let plain: String = log.split('\u{1b}').map(|part| part.find('m').filter(|_| part.starts_with('[')).map_or(part, |i| &part[i + 1..])).collect();
-        ensure!(plain.contains("chain state restored from disk") && plain.contains("missions=1"), "{id} did not restore its replica of p:\n{plain}");
+        let plain = || {
+            let log = std::fs::read_to_string(dir.path(&format!("{id}-2.log"))).unwrap_or_default();
+            // (Without the terminal colours the log is written with.)
+            log.split('\u{1b}').map(|part| part.find('m').filter(|_| part.starts_with('[')).map_or(part, |i| &part[i + 1..])).collect::<String>()
+        };
+        // The mission host restores its chain as it starts, which may be logged after the ready line.
+        let restored = eventually(&format!("{id} restoring its replica of p"), Duration::from_secs(10), || async {
+            let p = plain();
+            (p.contains("chain state restored from disk") && p.contains("missions=1")).then_some(())
+        })
+        .await;
+        ensure!(restored.is_ok(), "{id} did not restore its replica of p:\n{}", plain());
     }
     let after = eventually("p running again under a chain of its robots", Duration::from_secs(30), || async {
         missions(&client).await.into_iter().find(|m| {
