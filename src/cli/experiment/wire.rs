@@ -99,11 +99,12 @@ mod tests {
 
     #[test]
     fn a_node_record_adds_its_sends_per_kind() {
+        let key = |kind: &str| WIRE_KINDS.iter().find(|(k, _)| *k == kind).map(|(_, key)| *key).expect("a kind");
         let node = serde_json::json!({
             "zid": "x",
             "stats_filtered": [
-                {"key": "mrmm/team/*/sync/**", "stats": {"tx_z_put_msgs": {"admin": 0, "user": 12}, "rx_z_put_msgs": {"admin": 0, "user": 40}}},
-                {"key": "mrmm/robots/*/cmd", "stats": {"tx_z_query_msgs": {"admin": 0, "user": 2}, "tx_z_reply_msgs": {"admin": 0, "user": 3}}},
+                {"key": key("sync"), "stats": {"tx_z_put_msgs": {"admin": 0, "user": 12}, "rx_z_put_msgs": {"admin": 0, "user": 40}}},
+                {"key": key("command"), "stats": {"tx_z_query_msgs": {"admin": 0, "user": 2}, "tx_z_reply_msgs": {"admin": 0, "user": 3}}},
                 {"key": "other/**", "stats": {"tx_z_put_msgs": {"admin": 0, "user": 99}}}
             ]
         });
