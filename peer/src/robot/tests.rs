@@ -1,0 +1,150 @@
+//! Unit tests of the robot machine: commands and who may give them, plans, telemetry.
+
+use super::*;
+use mrmm_proto::RobotPlan;
+
+fn cfg() -> RobotConfig {
+    RobotConfig::from_json5("t", r#"{ id: "r1", type: "ground", kinematics: { max_speed: 2, max_turn_rate: 3 }, time_scale: 4 }"#).expect("config")
+}
+
+fn plan(mission: &str, epoch: u64) -> RobotCommand {
+    RobotCommand::Plan(Box::new(PlanAssignment {
+        mission: mission.into(),
+        epoch,
+        team: mission.into(),
+        subteam: format!("{mission}/ground"),
+        members: vec!["r1".into()],
+        plan: RobotPlan {
+            robot: "r1".into(),
+            robot_type: "ground".into(),
+            slot: 0,
+            steps: vec![Step::Navigate { x: 4.0, y: 0.0, speed: None }, Step::Hold { seconds: None }],
+        },
+        managers: vec![],
+        barrier: BarrierMode::Mesh,
+    }))
+}
+
+/// The reply and the team change of a command.
+fn cmd(r: &mut Robot, c: RobotCommand) -> (Result<CommandAck, String>, Option<Command>) {
+    cmd_from(r, c, Sender::new(Role::Central, "central"))
+}
+
+fn cmd_from(r: &mut Robot, c: RobotCommand, from: Sender) -> (Result<CommandAck, String>, Option<Command>) {
+    let out = r.handle(0.0, Event::Command { cmd: c, from });
+    let reply = out.iter().find_map(|c| match c {
+        Command::Reply(r) => Some(r.clone()),
+        Command::Refuse(e) => Some(Err(e.clone())),
+        _ => None,
+    });
+    let change = out.into_iter().find(|c| matches!(c, Command::JoinTeam { .. } | Command::LeaveTeam));
+    (reply.expect("a reply"), change)
+}
+
+fn telemetry(r: &mut Robot, now: f64) -> Telemetry {
+    match r.handle(now, Event::TelemetryDue).pop() {
+        Some(Command::Telemetry(t)) => t,
+        other => panic!("no telemetry: {other:?}"),
+    }
+}
+
+#[test]
+fn goto_then_arrive_with_time_scale() {
+    let mut r = Robot::new(cfg());
+    let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 8.0, y: 0.0 });
+    assert_eq!(ack.expect("ack").behaviour, Behaviour::Navigate { x: 8.0, y: 0.0 });
+    // 8 m at 2 m/s = 4 simulated s = 1 wall s at time scale 4.
+    for i in 0..=110 {
+        r.handle(i as f64 * 0.01, Event::Tick);
+    }
+    let t = telemetry(&mut r, 1.1);
+    assert_eq!(t.behaviour, Behaviour::Hold);
+    assert!((t.pose.x - 8.0).abs() <= crate::body::ARRIVAL_TOLERANCE);
+    assert!((t.t - 4.4).abs() < 1e-9);
+    assert_eq!(t.seq, 2, "one telemetry after the command, one now");
+}
+
+#[test]
+fn rejects_non_finite_goal_and_hostile_plans() {
+    let mut r = Robot::new(cfg());
+    assert!(cmd(&mut r, RobotCommand::Goto { x: f64::NAN, y: 0.0 }).0.is_err());
+    assert_eq!(r.behaviour(), Behaviour::Hold);
+    for bad in [
+        Step::Navigate { x: 1.0, y: 0.0, speed: Some(f64::NAN) },
+        Step::Navigate { x: 1.0, y: 0.0, speed: Some(-1.0) },
+        Step::Hold { seconds: Some(f64::INFINITY) },
+        Step::Loop { to: 5, rounds: None },
+    ] {
+        let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
+        a.plan.steps.push(bad.clone());
+        let (reply, change) = cmd(&mut r, RobotCommand::Plan(a));
+        assert!(reply.is_err(), "{bad:?} accepted");
+        assert!(change.is_none());
+    }
+}
+
+#[test]
+fn plans_epochs_and_leaving() {
+    let mut r = Robot::new(cfg());
+    let (_, change) = cmd(&mut r, plan("m", 2));
+    assert_eq!(change, Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into(), barrier: BarrierMode::Mesh }));
+    r.handle(0.01, Event::Tick);
+    assert_eq!(telemetry(&mut r, 0.01).mission.as_deref(), Some("m"));
+    assert!(cmd(&mut r, plan("m", 1)).0.unwrap_err().contains("stale epoch"));
+    // The same plan again changes nothing.
+    assert_eq!(cmd(&mut r, plan("m", 2)), (Ok(r.ack()), None));
+    // A leave for an older epoch or another mission is ignored.
+    assert_eq!(cmd(&mut r, RobotCommand::Leave { mission: "m".into(), epoch: 1 }).1, None);
+    assert_eq!(cmd(&mut r, RobotCommand::Leave { mission: "x".into(), epoch: 9 }).1, None);
+    // Another mission's plan replaces this one (a move).
+    assert!(matches!(cmd(&mut r, plan("n", 1)).1, Some(Command::JoinTeam { .. })));
+    assert_eq!(cmd(&mut r, RobotCommand::Leave { mission: "n".into(), epoch: 1 }).1, Some(Command::LeaveTeam));
+    assert_eq!(telemetry(&mut r, 0.02).mission, None);
+    // A plan for somebody else is refused.
+    let RobotCommand::Plan(mut a) = plan("m", 3) else { unreachable!() };
+    a.plan.robot = "r2".into();
+    assert!(cmd(&mut r, RobotCommand::Plan(a)).0.is_err());
+}
+
+#[test]
+fn only_central_orders_and_only_managers_of_the_mission_plan() {
+    let mut r = Robot::new(cfg());
+    r.handle(0.0, Event::CentralAlive(true));
+    let rogue = Sender::new(Role::Robot, "r9");
+    assert!(cmd_from(&mut r, RobotCommand::Goto { x: 1.0, y: 1.0 }, rogue.clone()).0.unwrap_err().contains("robot:r9 may not"));
+    assert!(cmd_from(&mut r, RobotCommand::Hold, Sender::new(Role::Operator, "op")).0.is_err());
+    // A robot that is not a teammate cannot plan for an idle robot, nor for one in a mission.
+    assert!(cmd_from(&mut r, plan("m", u64::MAX), rogue.clone()).0.is_err());
+    let host = Sender::new(Role::Host, "h1");
+    assert!(cmd_from(&mut r, plan("m", 1), host).0.is_ok());
+    assert!(cmd_from(&mut r, plan("m", u64::MAX), rogue.clone()).0.is_err(), "a stranger's huge epoch is refused");
+    // A teammate may (it may have taken the mission over).
+    let RobotCommand::Plan(mut a) = plan("m", 2) else { unreachable!() };
+    a.members.push("r2".into());
+    assert!(cmd_from(&mut r, RobotCommand::Plan(a.clone()), Sender::new(Role::Host, "h1")).0.is_ok());
+    a.epoch = 3;
+    assert!(cmd_from(&mut r, RobotCommand::Plan(a), Sender::new(Role::Robot, "r2")).0.is_ok());
+    // Another mission's robot head needs an admission from central naming it.
+    let RobotCommand::Plan(b) = plan("n", 1) else { unreachable!() };
+    let r3 = Sender::new(Role::Robot, "r3");
+    assert!(cmd_from(&mut r, RobotCommand::Plan(b.clone()), r3.clone()).0.is_err());
+    let admit = RobotCommand::Admit { mission: "n".into(), managers: vec!["r3".into()], members: vec!["r1".into(), "r4".into()] };
+    assert!(cmd_from(&mut r, admit.clone(), rogue.clone()).0.is_err());
+    assert!(cmd(&mut r, admit).0.is_ok());
+    let ids = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    assert_eq!(r.team(), vec![("m".into(), ids(&["r1", "r2"])), ("n".into(), ids(&["r1", "r3", "r4"]))], "its plan's team and its admission's");
+    assert!(cmd_from(&mut r, RobotCommand::Plan(b.clone()), rogue).0.is_err());
+    assert!(cmd_from(&mut r, RobotCommand::Plan(b), r3).0.is_ok());
+}
+
+#[test]
+fn an_idle_robot_takes_a_robot_heads_plan_only_while_central_is_unreachable() {
+    let mut r = Robot::new(cfg());
+    r.handle(0.0, Event::CentralAlive(true));
+    let head = Sender::new(Role::Robot, "r2");
+    assert!(cmd_from(&mut r, plan("m", 3), head.clone()).0.is_err(), "central admits robots while it is up");
+    r.handle(0.0, Event::CentralAlive(false));
+    assert!(cmd_from(&mut r, plan("m", 3), head).0.is_ok(), "without central, a restarted robot rejoins");
+    // Busy in a mission, it stays deaf to strangers even then.
+    assert!(cmd_from(&mut r, plan("n", 9), Sender::new(Role::Robot, "r9")).0.is_err());
+}
