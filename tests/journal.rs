@@ -344,3 +344,54 @@ async fn robots_with_state_dirs_all_killed_at_once_bring_back_the_mission_they_l
     }
     Ok(())
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn central_restarted_under_a_two_node_chain_gets_its_mission_managed_again() {
+    inner_two_node_chain().await.expect("two-node chain");
+}
+
+async fn inner_two_node_chain() -> anyhow::Result<()> {
+    // A one-robot mission hosted on central: its chain is [central, r1], and every change of a
+    // two-node chain needs both votes. Central is SIGKILLed and restarted: r1 (with a state dir)
+    // stands at once and needs central's vote; central's host keeps its chain state beside the
+    // journal, so it votes as the member it was. (When central's host forgot everything, it
+    // refused r1's vote as a member that lost its state, and r1 stood for ever: the system sim's
+    // seed 7682.)
+    let dir = Scratch::new("two-node-chain");
+    let ep = format!("tcp/127.0.0.1:{}", free_port()?);
+    let mut c = central(&dir, &ep, "central.log")?;
+    let mut r1 = durable_robot(&dir, "r1", &ep, 0.0, "r1.log")?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 1).await?;
+    let create = MissionCreate { replicas: Some(1), ..patrol("p", &["r1"]) };
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
+    let before = eventually("p led by central with r1 as its replica, past a barrier", Duration::from_secs(30), || async {
+        missions(&client)
+            .await
+            .into_iter()
+            .find(|m| m.name == "p" && m.manager.node == "central" && m.manager.chain == ["central", "r1"] && m.metrics.sync_points_passed >= 1)
+    })
+    .await?;
+    drop(client);
+    c.kill();
+    let _c = central(&dir, &ep, "central-2.log")?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let after = eventually("p managed again under a newer chain epoch, past more barriers", Duration::from_secs(30), || async {
+        missions(&client).await.into_iter().find(|m| {
+            m.name == "p"
+                && !m.manager.node.is_empty()
+                && m.manager.chain_epoch > before.manager.chain_epoch
+                && m.robots == ["r1"]
+                && m.metrics.sync_points_passed > before.metrics.sync_points_passed
+        })
+    })
+    .await
+    .with_context(|| {
+        format!("r1's log:\n{}", std::fs::read_to_string(dir.path("r1.log")).unwrap_or_default().lines().rev().take(30).collect::<Vec<_>>().join("\n"))
+    })?;
+    ensure!(after.recipe == before.recipe, "p came back changed: {after:?}");
+    let j = common::journal(&client).await?;
+    ensure!(!j.iter().any(|e| matches!(&e.event, JournalEvent::MissionRestarted { mission, .. } if mission == "p")), "central restarted p anew");
+    r1.kill();
+    Ok(())
+}

@@ -65,7 +65,7 @@ pub struct Config {
     /// Liveliness loss through a partition or a suspicion is seen this late.
     pub lease: f64,
     /// Robots and mission hosts keep their chain state on disk (`state_dir`): a restart brings
-    /// their replicas back as they were.
+    /// their replicas back as they were. Central's host always does (beside its journal).
     pub disks: bool,
 }
 

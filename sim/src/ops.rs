@@ -38,6 +38,8 @@ pub struct Operator {
     pub pending: BTreeMap<u64, Request>,
     /// Missions the operator terminated (answered ok).
     pub terminated: BTreeSet<String>,
+    /// Missions whose create was answered ok.
+    pub created: BTreeSet<String>,
     pub ok: u32,
     /// Mission names asked for so far.
     pub names: Vec<String>,
@@ -81,8 +83,14 @@ impl Operator {
         let Some(request) = self.pending.remove(&req) else { return };
         if ok {
             self.ok += 1;
-            if let Request::Terminate(t) = request {
-                self.terminated.insert(t.name);
+            match request {
+                Request::Terminate(t) => {
+                    self.terminated.insert(t.name);
+                }
+                Request::Create(c) => {
+                    self.created.insert(c.name);
+                }
+                _ => {}
             }
         }
     }

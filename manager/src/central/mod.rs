@@ -53,15 +53,19 @@ enum Input {
 pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), ManagerError> {
     cfg.validate().map_err(ManagerError::Config)?;
     // The journal first: a state dir another central uses, or a damaged one, stops start-up.
-    let (mut journal, state) = match &cfg.state_dir {
+    // Its mission host keeps its chain state beside the journal (`chain.redb`): a mission it
+    // leads or replicates comes back through its chain after a restart, as on a robot with a
+    // state dir, rather than wait for a vote the host forgot it gave.
+    let (mut journal, state, chain) = match &cfg.state_dir {
         Some(dir) => {
             let (j, state) = Journal::open(dir)?;
             tracing::info!(dir = %dir.display(), entries = j.last(), missions = state.missions.len(), robots = state.assignment.len(), "journal replayed");
-            (Some(j), state)
+            let chain = crate::host::store::Store::open(dir)?;
+            (Some(j), state, Some(chain))
         }
         None => {
             tracing::warn!("no state dir: central keeps nothing on disk, and a restart forgets every mission");
-            (None, system::Durable::default())
+            (None, system::Durable::default(), None)
         }
     };
 
@@ -129,7 +133,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         .map_err(ManagerError::zenoh)?;
     // The default planner service and mission host live here too.
     let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), shutdown.child_token()));
-    let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, None, shutdown.child_token()));
+    let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, chain, shutdown.child_token()));
     tracing::info!(%zid, ?endpoints, "central up");
     if let Some(tx) = ready {
         let _ = tx.send(Ready { zid: zid.clone(), endpoints });

@@ -132,7 +132,8 @@ impl SystemManager {
             if view.manager.chain_epoch < known {
                 return vec![];
             }
-            if rec.host != view.manager.node {
+            let moved = rec.host != view.manager.node;
+            if moved {
                 tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
                 rec.host = view.manager.node.clone();
                 self.notes.push(JournalEvent::ManagerChanged {
@@ -154,7 +155,14 @@ impl SystemManager {
             // missed joins ordered before the restart.
             let first = rec.view.is_none() && !rec.adopted;
             rec.view = Some(view);
-            let out = self.reconcile(&name, &robots, &lost, &from);
+            let mut out = self.reconcile(&name, &robots, &lost, &from);
+            if moved {
+                // Its members may know only the managers they were admitted under (a robot that
+                // restarted while central was away was admitted under the host alone, found by
+                // the system sim, seed 3928): the new head may plan for them only once they know it.
+                let members: Vec<String> = robots.iter().chain(&lost).filter(|id| self.assignment.get(*id).is_some_and(|m| *m == name)).cloned().collect();
+                out.extend(self.admit(&name, &members));
+            }
             self.rejoin(&name);
             if first && !self.pending_create.contains_key(&name) {
                 self.resync(&name);

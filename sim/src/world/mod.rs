@@ -298,9 +298,10 @@ impl World {
         let now = self.now;
         let params = Params::default();
         let disks = self.cfg.disks;
-        // A robot's or mission host's host: from its disk when it has one.
+        // A robot's or mission host's host: from its disk when it has one. Central's host keeps
+        // its chain state beside the journal (central always has a state dir here).
         let host = |n: &Node| {
-            if disks {
+            if disks || n.kind == Kind::Central {
                 HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())
             } else {
                 HostCore::new(&n.name, params, now)
@@ -314,7 +315,7 @@ impl World {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
                 // The sim's clock is central's: its last sign of life is when it crashed.
                 n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone(), n.down));
-                n.host = Some(HostCore::new(&n.name, params, now));
+                n.host = Some(host(n));
             }
             Kind::Host => n.host = Some(host(n)),
             Kind::Robot => {
@@ -535,10 +536,9 @@ impl World {
         }
         for (m, hs) in &heads {
             if !self.recoverable(m) {
-                // With disks only central's host forgets (it keeps nothing yet): a chain without
-                // it never loses its memory.
-                let newest = self.nodes.iter().filter_map(|n| n.host.as_ref()?.replica(m)?.config().cloned()).max_by_key(|c| c.epoch);
-                if self.cfg.disks && newest.is_some_and(|c| !c.contains(CENTRAL_HOST)) {
+                // With disks (central's host keeps its chain state beside its journal) a chain
+                // never loses its memory.
+                if self.cfg.disks {
                     return Err(format!("{m}'s chain lost its memory although every node of it keeps its chain state on disk"));
                 }
                 // A majority of its chain restarted and lost what it held (without disks): the
@@ -567,6 +567,26 @@ impl World {
                         })
                         .collect();
                     return Err(format!("live member {r} of {m} runs {running:?}, not {m}'s epoch {epoch}, after healing; replicas: {chains:?}"));
+                }
+            }
+        }
+        // With every chain on disk, nothing the operator was told "ok" about is lost: every
+        // mission created ok that central's journal still defines is led again after healing.
+        if self.cfg.disks {
+            if let Some(c) = self.nodes.iter().find(|n| n.kind == Kind::Central && n.central.is_some()).and_then(|n| n.central.as_ref()) {
+                let durable = c.system().durable();
+                for m in durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m)) {
+                    if !heads.contains_key(m) {
+                        let chains: Vec<String> = self
+                            .nodes
+                            .iter()
+                            .filter_map(|n| {
+                                let r = n.host.as_ref()?.replica(m)?;
+                                Some(format!("{}: {:?} {:?} v{:?}", n.name, r.role(), r.config(), r.version()))
+                            })
+                            .collect();
+                        return Err(format!("{m} is in central's journal but nobody leads it after healing; replicas: {chains:?}"));
+                    }
                 }
             }
         }

@@ -141,7 +141,14 @@ impl World {
                 self.links.up[a] && self.links.inc[a] == q.asker_inc && (q.server >= self.nodes.len() || result.is_err() || self.links.connected(a, q.server))
             }
         };
-        if !arrives && result.is_ok() {
+        // A query's end (an answer, or its timeout) reaches only the process that asked: one that
+        // restarted since is another process, which never made this query.
+        let same_process = q.asker.is_none_or(|a| self.links.inc[a] == q.asker_inc);
+        if !same_process || (!arrives && result.is_ok()) {
+            if !same_process {
+                q.done = true;
+                self.queries.remove(&qid);
+            }
             return Ok(());
         }
         q.done = true;

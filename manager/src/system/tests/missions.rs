@@ -369,3 +369,30 @@ fn a_report_cannot_claim_robots_nor_speak_for_another_manager() {
     let cmds = sm.drive(1.1, Event::MissionStatus { view: Box::new(other), from });
     assert!(matches!(cmds.as_slice(), [Command::Refused { .. }]), "{cmds:?}");
 }
+
+#[test]
+fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
+    let mut sm = with_host(&["r1", "r2", "r3"]);
+    create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
+    // Central's host replicates p on r3 (not a member: a replica left in the chain) ...
+    let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
+    v.manager = ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec!["central".into(), "r3".into()] };
+    sm.drive(2.5, status(v.clone()));
+    // ... which takes over.
+    v.manager = ManagerView { node: "r3".into(), epoch: 2, chain_epoch: 2, chain: vec!["r3".into(), "central".into()] };
+    let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r3");
+    let cmds = sm.drive(3.0, Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
+    let admitted: Vec<(String, Vec<String>)> = cmds
+        .iter()
+        .filter_map(|c| match c {
+            Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, managers, .. }, .. } if mission == "p" => Some((robot.clone(), managers.clone())),
+            _ => None,
+        })
+        .collect();
+    let robots: Vec<&str> = admitted.iter().map(|(r, _)| r.as_str()).collect();
+    assert_eq!(robots, ["r1", "r2"], "{cmds:?}");
+    assert!(admitted.iter().all(|(_, m)| m.contains(&"r3".to_string())), "the new head among the managers: {admitted:?}");
+    // Not again while the head stays.
+    let again = sm.drive(4.0, Event::MissionStatus { view: Box::new(v), from });
+    assert!(!again.iter().any(|c| matches!(c, Command::SendToRobot { cmd: RobotCommand::Admit { .. }, .. })), "{again:?}");
+}
