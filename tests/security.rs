@@ -81,8 +81,21 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     // p is r1..r3 by name (r4 stays idle for q); retried while a robot's liveliness flaps under load.
     let mut pc = common::square_patrol(3, None);
     (pc.count, pc.robots) = (None, Some(vec!["r1".into(), "r2".into(), "r3".into()]));
+    // An answer that never arrives (seen here about one run in three, over TLS: central logs the
+    // create and its reply within 10 ms, the client times out after 5 s; suspected to be the TLS
+    // link race of docs/zenoh.md) leaves p created: a retry that finds it takes its view.
     let m: MissionView = eventually("p created with r1..r3", Duration::from_secs(10), || async {
-        op.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&pc)).await.map_err(|e| println!("create p: {e}")).ok()
+        match op.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&pc)).await {
+            Ok(m) => Some(m),
+            Err(e) if e.to_string().contains("already exists") => {
+                // Once started (its head reported).
+                op.query::<MissionView>(Key::SystemMission("p".into()), None::<&()>).await.ok().filter(|m| m.manager.chain_epoch > 0)
+            }
+            Err(e) => {
+                println!("create p: {e}");
+                None
+            }
+        }
     })
     .await?;
     let (epoch, chain_epoch) = (m.manager.epoch, m.manager.chain_epoch);

@@ -41,6 +41,10 @@
 //!   log). [`Registry::restore`] brings the replicas back as followers that vote at once (no
 //!   quarantine: the promise and the vote are on disk) and count as the members they were; one
 //!   that was the head stands again after its chain was silent for `silence` times its length.
+//!   A durable replica keeps its state when a newer chain passes it over (it may be in a newer
+//!   chain whose head has not reached it yet), but each time it stands and learns of a newer
+//!   chain it waits twice as long before standing again (up to 2^[`PASSED_OVER_MAX`] times), until
+//!   a head is heard.
 //!
 //! A node holds one replica per mission in a [`Registry`], which also remembers, for missions it
 //! no longer replicates, the promise it made and whether the mission ended (so stragglers are told).
@@ -54,7 +58,7 @@ mod tests;
 
 pub use mrmm_proto::chain::{Config, Msg, Version};
 pub use registry::{Disk, Registry, Tomb};
-pub use replica::{Replica, Role};
+pub use replica::{Replica, Role, PASSED_OVER_MAX};
 
 /// Timing and size of a chain.
 #[derive(Debug, Clone, Copy, PartialEq)]

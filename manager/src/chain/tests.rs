@@ -212,3 +212,40 @@ fn beats_carry_no_state_once_the_chain_holds_it_and_a_node_that_lost_it_gets_it_
     assert!(sent.iter().any(|m| m.starts_with("behind")) && sent.iter().filter(|m| m.starts_with("update")).count() >= 2, "{sent:?}");
     assert_eq!(n["c"].state(), Some(&vec![1]));
 }
+
+#[test]
+fn a_durable_replica_left_out_of_a_newer_chain_stands_less_and_less_often() {
+    let mut n = created();
+    // c (it keeps its state on disk) is cut off; a repairs its chain without it.
+    let c = n.remove("c").unwrap().durable();
+    let cmds = n.get_mut("a").unwrap().handle(1.0, Event::Gone("c".into()));
+    settle(&mut n, 1.0, "a", cmds);
+    assert_eq!(n["a"].config().map(|c| c.chain.clone()), Some(vec!["a".to_string(), "b".to_string()]));
+    n.insert("c".into(), c);
+    // Standing as c: it hears no head, stands, and learns of the newer chain.
+    let stands = |n: &mut BTreeMap<String, R>, t: f64| {
+        let cmds = n.get_mut("c").unwrap().handle(t, Event::Tick);
+        let voted = cmds.iter().any(|c| matches!(c, Command::Send { msg: Msg::Vote { .. }, .. }));
+        settle(n, t, "c", cmds);
+        voted
+    };
+    let silence = p().silence * 2.0; // c is third in its chain
+    assert!(stands(&mut n, silence + 0.1), "a replica that hears no head stands");
+    assert_eq!(n["c"].passed_over(), 1);
+    assert!(!n["c"].leads() && n["a"].is_head(), "the up-to-date rule keeps it from winning");
+    // Then twice as long, four times as long, ... up to 2^PASSED_OVER_MAX.
+    let mut t = silence + 0.1;
+    for k in 1..=PASSED_OVER_MAX + 2 {
+        let wait = silence * f64::from(1u32 << k.min(PASSED_OVER_MAX));
+        assert!(!stands(&mut n, t + wait - 0.2), "passed over {k} times: not before {wait} s");
+        assert!(stands(&mut n, t + wait + 0.1), "passed over {k} times: after {wait} s");
+        t += wait + 0.1;
+    }
+    assert_eq!(n["c"].passed_over(), PASSED_OVER_MAX + 3);
+    // Taken back into the chain: the head's update clears it.
+    n.get_mut("a").unwrap().handle(t, Event::Alive("c".into()));
+    n.get_mut("a").unwrap().handle(t, Event::Pool { nodes: vec!["c".into()], k: 2 });
+    let cmds = n.get_mut("a").unwrap().handle(t + 1.0, Event::Tick);
+    settle(&mut n, t + 1.0, "a", cmds);
+    assert_eq!(n["c"].passed_over(), 0, "{:?}", n["c"].config());
+}

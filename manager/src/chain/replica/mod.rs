@@ -62,7 +62,15 @@ pub struct Replica<S> {
     durable: bool,
     /// Nodes that declined to replicate for this head (until their liveliness comes again).
     declined: BTreeSet<String>,
+    /// Times in a row this (durable) replica stood and learnt that a chain of a newer epoch
+    /// exists, without hearing from a head since: each doubles its wait before standing again
+    /// (up to [`PASSED_OVER_MAX`] doublings). A replica left out of a newer chain would otherwise
+    /// stand, and write its promise to disk, every `silence` seconds until it hears that chain.
+    passed_over: u32,
 }
+
+/// Doublings of a passed-over replica's wait before it stands again: at most 2⁴ × `silence`.
+pub const PASSED_OVER_MAX: u32 = 4;
 
 /// What [`Replica::stored`] covers, cheap to compare: a change means a write.
 #[derive(Debug, Clone, PartialEq)]
@@ -104,6 +112,7 @@ impl<S: Clone> Replica<S> {
             restored: false,
             durable: false,
             declined: BTreeSet::new(),
+            passed_over: 0,
         }
     }
 
@@ -160,6 +169,11 @@ impl<S: Clone> Replica<S> {
     }
     pub fn promised(&self) -> u64 {
         self.promised
+    }
+    /// Times in a row this replica learnt, standing, that a newer chain exists (see
+    /// [`PASSED_OVER_MAX`]).
+    pub fn passed_over(&self) -> u32 {
+        self.passed_over
     }
     /// Whether the value was ended (rather than this node leaving its chain).
     pub fn ended(&self) -> bool {
@@ -324,7 +338,8 @@ impl<S: Clone> Replica<S> {
             _ => pos,
         };
         let before_gone = pos > 0 && config.chain[..pos].iter().all(|n| self.gone.contains(n));
-        let silent = now - self.last_heard > self.p.silence * wait as f64;
+        let backoff = f64::from(1u32 << self.passed_over.min(PASSED_OVER_MAX));
+        let silent = now - self.last_heard > self.p.silence * wait as f64 * backoff;
         if !before_gone && !silent {
             return vec![];
         }
@@ -435,8 +450,12 @@ impl<S: Clone> Replica<S> {
     /// holding state (found by the chain simulation with power cycles); the up-to-date rule
     /// keeps its older state from winning.
     fn outdone(&mut self, now: f64, last: Version) -> Vec<Command<S>> {
-        if last.0 > self.config.as_ref().map_or(0, |c| c.epoch) && !self.durable {
+        let newer_chain = last.0 > self.config.as_ref().map_or(0, |c| c.epoch);
+        if newer_chain && !self.durable {
             return self.retire();
+        }
+        if newer_chain {
+            self.passed_over = self.passed_over.saturating_add(1);
         }
         self.last_heard = now;
         self.step_down()

@@ -144,6 +144,8 @@ impl<S: Clone> Replica<S> {
             return vec![];
         }
         self.restored = false;
+        // A head of a current chain is heard: whatever passed us over is known now.
+        self.passed_over = 0;
         let mut out = Vec::new();
         if matches!(self.role, Role::Ending { .. }) {
             return out;
