@@ -1,0 +1,102 @@
+//! The end of a run, after the quiet period: which missions could still recover, and the checks
+//! that must hold once every fault healed (one head per mission, members on its epoch, every
+//! mission the operator was told "ok" about led again when chains are on disk).
+
+use super::*;
+
+impl World {
+    /// Whether a majority of `mission`'s newest chain still holds its state.
+    pub(super) fn recoverable(&self, mission: &str) -> bool {
+        let replicas: Vec<(&String, &mrmm_manager::chain::Replica<mrmm_proto::MissionSnapshot>)> =
+            self.nodes.iter().filter_map(|n| Some((&n.name, n.host.as_ref()?.replica(mission)?))).collect();
+        let Some(newest) = replicas.iter().filter_map(|(_, r)| r.config()).max_by_key(|c| c.epoch) else {
+            return false;
+        };
+        newest.majority(|node| replicas.iter().any(|(n, r)| n.as_str() == node && r.state().is_some()))
+    }
+
+    /// After the quiet period: one head per mission, every live member on its current epoch, no
+    /// robot in two missions; barrier plans finished.
+    pub(super) fn finish(&mut self) -> Result<(), String> {
+        let alive: BTreeSet<String> =
+            self.nodes.iter().filter_map(|n| n.host.as_ref()).flat_map(|h| h.heads().map(|(m, _)| m.clone()).collect::<Vec<_>>()).collect();
+        self.inv.forget_missions(&alive);
+        self.one_mission_per_robot()?;
+        if let Ops::Barriers { .. } = self.cfg.ops {
+            for (i, n) in self.nodes.iter().enumerate() {
+                let done = n.robot.as_ref().and_then(|r| r.executor()).is_some_and(|e| e.progress().done);
+                if self.links.up[i] && !done {
+                    let at = n.robot.as_ref().and_then(|r| r.executor()).map(|e| e.progress());
+                    return Err(format!("{} did not finish its plan: {at:?}", n.name));
+                }
+            }
+            return Ok(());
+        }
+        let mut heads: BTreeMap<String, Vec<(String, u64, Vec<String>)>> = BTreeMap::new();
+        for n in &self.nodes {
+            let Some(h) = &n.host else { continue };
+            for (m, mm) in h.heads() {
+                heads.entry(m.clone()).or_default().push((n.name.clone(), mm.epoch(), mm.members().cloned().collect()));
+            }
+        }
+        for (m, hs) in &heads {
+            if !self.recoverable(m) {
+                // With disks (central's host keeps its chain state beside its journal) a chain
+                // never loses its memory.
+                if self.cfg.disks {
+                    return Err(format!("{m}'s chain lost its memory although every node of it keeps its chain state on disk"));
+                }
+                // A majority of its chain restarted and lost what it held (without disks): the
+                // chain cannot safely form again; robots keep their plans.
+                self.report.unrecoverable += 1;
+                continue;
+            }
+            if hs.len() > 1 {
+                let names: Vec<&String> = hs.iter().map(|h| &h.0).collect();
+                return Err(format!("{} heads of {m} after healing: {names:?}", hs.len()));
+            }
+            if self.op.terminated.contains(m) {
+                continue;
+            }
+            let (_, epoch, members) = &hs[0];
+            for r in members {
+                let Some(i) = self.index(r) else { continue };
+                let running = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| (e.mission().to_string(), e.epoch()));
+                if self.links.up[i] && running != Some((m.clone(), *epoch)) {
+                    let chains: Vec<String> = self
+                        .nodes
+                        .iter()
+                        .filter_map(|n| {
+                            let r = n.host.as_ref()?.replica(m)?;
+                            Some(format!("{}: {:?} {:?} v{:?} committed {:?}", n.name, r.role(), r.config(), r.version(), r.committed()))
+                        })
+                        .collect();
+                    return Err(format!("live member {r} of {m} runs {running:?}, not {m}'s epoch {epoch}, after healing; replicas: {chains:?}"));
+                }
+            }
+        }
+        // With every chain on disk, nothing the operator was told "ok" about is lost: every
+        // mission created ok that central's journal still defines is led again after healing.
+        if self.cfg.disks {
+            if let Some(c) = self.nodes.iter().find(|n| n.kind == Kind::Central && n.central.is_some()).and_then(|n| n.central.as_ref()) {
+                let durable = c.system().durable();
+                for m in durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m)) {
+                    if !heads.contains_key(m) {
+                        let chains: Vec<String> = self
+                            .nodes
+                            .iter()
+                            .filter_map(|n| {
+                                let r = n.host.as_ref()?.replica(m)?;
+                                Some(format!("{}: {:?} {:?} v{:?}", n.name, r.role(), r.config(), r.version()))
+                            })
+                            .collect();
+                        return Err(format!("{m} is in central's journal but nobody leads it after healing; replicas: {chains:?}"));
+                    }
+                }
+            }
+        }
+        self.report.missions_at_end = heads.len();
+        self.report.commands_ok = self.op.ok;
+        Ok(())
+    }
+}
