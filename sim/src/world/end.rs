@@ -15,6 +15,17 @@ impl World {
         newest.majority(|node| replicas.iter().any(|(n, r)| n.as_str() == node && r.state().is_some()))
     }
 
+    /// Every node's replica of `mission`, for a violation's message.
+    fn replicas_of(&self, mission: &str) -> Vec<String> {
+        self.nodes
+            .iter()
+            .filter_map(|n| {
+                let r = n.host.as_ref()?.replica(mission)?;
+                Some(format!("{}: {:?} {:?} v{:?} committed {:?}", n.name, r.role(), r.config(), r.version(), r.committed()))
+            })
+            .collect()
+    }
+
     /// After the quiet period: one head per mission, every live member on its current epoch, no
     /// robot in two missions; barrier plans finished.
     pub(super) fn finish(&mut self) -> Result<(), String> {
@@ -63,34 +74,21 @@ impl World {
                 let Some(i) = self.index(r) else { continue };
                 let running = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| (e.mission().to_string(), e.epoch()));
                 if self.links.up[i] && running != Some((m.clone(), *epoch)) {
-                    let chains: Vec<String> = self
-                        .nodes
-                        .iter()
-                        .filter_map(|n| {
-                            let r = n.host.as_ref()?.replica(m)?;
-                            Some(format!("{}: {:?} {:?} v{:?} committed {:?}", n.name, r.role(), r.config(), r.version(), r.committed()))
-                        })
-                        .collect();
-                    return Err(format!("live member {r} of {m} runs {running:?}, not {m}'s epoch {epoch}, after healing; replicas: {chains:?}"));
+                    return Err(format!(
+                        "live member {r} of {m} runs {running:?}, not {m}'s epoch {epoch}, after healing; replicas: {:?}",
+                        self.replicas_of(m)
+                    ));
                 }
             }
         }
         // With every chain on disk, nothing the operator was told "ok" about is lost: every
         // mission created ok that central's journal still defines is led again after healing.
         if self.cfg.disks {
-            if let Some(c) = self.nodes.iter().find(|n| n.kind == Kind::Central && n.central.is_some()).and_then(|n| n.central.as_ref()) {
+            if let Some(c) = self.nodes.iter().find_map(|n| n.central.as_ref()) {
                 let durable = c.system().durable();
                 for m in durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m)) {
                     if !heads.contains_key(m) {
-                        let chains: Vec<String> = self
-                            .nodes
-                            .iter()
-                            .filter_map(|n| {
-                                let r = n.host.as_ref()?.replica(m)?;
-                                Some(format!("{}: {:?} {:?} v{:?}", n.name, r.role(), r.config(), r.version()))
-                            })
-                            .collect();
-                        return Err(format!("{m} is in central's journal but nobody leads it after healing; replicas: {chains:?}"));
+                        return Err(format!("{m} is in central's journal but nobody leads it after healing; replicas: {:?}", self.replicas_of(m)));
                     }
                 }
             }

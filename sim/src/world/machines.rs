@@ -123,7 +123,7 @@ impl World {
         }
         match c {
             host::Command::Persist { mission, disk } => {
-                if !self.cfg.disks && self.nodes[i].kind != Kind::Central {
+                if !self.nodes[i].kind.keeps_chain_state(self.cfg.disks) {
                     return Err(format!("{} has no disk but was asked to persist {mission}", self.nodes[i].name));
                 }
                 match *disk {

@@ -48,6 +48,14 @@ enum Kind {
     Robot,
 }
 
+impl Kind {
+    /// Whether a node of this kind keeps its host's chain state on disk: central always (beside
+    /// its journal, it always has a state dir here), the others when the run has disks.
+    fn keeps_chain_state(self, disks: bool) -> bool {
+        disks || self == Kind::Central
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum TickKind {
     Physics,
@@ -299,10 +307,9 @@ impl World {
         let now = self.now;
         let params = Params::default();
         let disks = self.cfg.disks;
-        // A robot's or mission host's host: from its disk when it has one. Central's host keeps
-        // its chain state beside the journal (central always has a state dir here).
+        // A node's host: from its disk when it has one.
         let host = |n: &Node| {
-            if disks || n.kind == Kind::Central {
+            if n.kind.keeps_chain_state(disks) {
                 HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())
             } else {
                 HostCore::new(&n.name, params, now)

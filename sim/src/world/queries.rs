@@ -143,12 +143,11 @@ impl World {
         };
         // A query's end (an answer, or its timeout) reaches only the process that asked: one that
         // restarted since is another process, which never made this query.
-        let same_process = q.asker.is_none_or(|a| self.links.inc[a] == q.asker_inc);
-        if !same_process || (!arrives && result.is_ok()) {
-            if !same_process {
-                q.done = true;
-                self.queries.remove(&qid);
-            }
+        if q.asker.is_some_and(|a| self.links.inc[a] != q.asker_inc) {
+            self.queries.remove(&qid);
+            return Ok(());
+        }
+        if !arrives && result.is_ok() {
             return Ok(());
         }
         q.done = true;
