@@ -78,7 +78,7 @@ fn main() -> anyhow::Result<()> {
 
 /// A node's mesh: secure with `name`'s certificate from `pki`, else plain TCP.
 async fn mesh(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: Vec<String>) -> anyhow::Result<Mesh> {
-    let scheme = if pki.is_some() { "tls" } else { "tcp" };
+    let scheme = if pki.is_some() { "quic" } else { "tcp" };
     let net = NodeNet {
         mode,
         listen: vec![format!("{scheme}/127.0.0.1:0")],

@@ -76,7 +76,7 @@ fn row(what: &str, plain: f64, secure: f64) {
 
 /// A node of the bench: `name`'s certificate when secure.
 async fn node(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: &[String]) -> anyhow::Result<Mesh> {
-    let scheme = if pki.is_some() { "tls" } else { "tcp" };
+    let scheme = if pki.is_some() { "quic" } else { "tcp" };
     let net = NodeNet {
         mode,
         listen: vec![format!("{scheme}/127.0.0.1:0")],

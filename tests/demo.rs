@@ -12,10 +12,10 @@ use mrmm_proto::{self as proto, MissionStatus, MissionView, RobotView};
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()> {
     let dir = Scratch::new("demo");
-    // The default: mutual TLS with a throw-away CA; the demo prints where its operator
-    // certificate is.
-    let (mut demo, ep, operator) = common::start_demo(&dir, &["--robots", "6", "--duration", "60", "--listen", "tls/127.0.0.1:0", "--time-scale", "4"])?;
-    anyhow::ensure!(ep.starts_with("tls/") && operator.is_some(), "the demo is secure by default: {ep} {operator:?}");
+    // The default: mutual TLS (over QUIC) with a throw-away CA; the demo prints where its
+    // operator certificate is.
+    let (mut demo, ep, operator) = common::start_demo(&dir, &["--robots", "6", "--duration", "60", "--listen", "quic/127.0.0.1:0", "--time-scale", "4"])?;
+    anyhow::ensure!(ep.starts_with("quic/") && operator.is_some(), "the demo is secure by default: {ep} {operator:?}");
     // Without a certificate there is no session with central.
     assert!(Client::connect(std::slice::from_ref(&ep), Duration::from_millis(500)).await.is_err(), "a client without a certificate reached the secure demo");
     let client = Client::connect_with(std::slice::from_ref(&ep), operator.clone(), Duration::from_secs(2)).await?;
@@ -64,13 +64,13 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
 async fn demo_runs_a_fleet_of_several_sites() -> anyhow::Result<()> {
     let dir = Scratch::new("demo-sites");
     let (mut demo, ep, operator) =
-        common::start_demo(&dir, &["--robots", "6", "--sites", "3", "--duration", "60", "--listen", "tls/127.0.0.1:0", "--time-scale", "5"])?;
+        common::start_demo(&dir, &["--robots", "6", "--sites", "3", "--duration", "60", "--listen", "quic/127.0.0.1:0", "--time-scale", "5"])?;
     // Robot i is a peer of site i mod 3: r1 of central, r2 and r3 of the two routers.
     let cfg = |id: &str| std::fs::read_to_string(std::env::temp_dir().join(format!("mrmm-demo-{}/{id}.json5", demo.pid()))).unwrap_or_default();
     let connect = |id: &str| cfg(id).lines().find(|l| l.contains("connect:")).unwrap_or_default().to_string();
     assert!(connect("r1").contains(&ep), "r1 connects to central: {}", connect("r1"));
     for id in ["r2", "r3"] {
-        assert!(!connect(id).contains(&ep) && connect(id).contains("tls/127.0.0.1:"), "{id} connects to its site's router: {}", connect(id));
+        assert!(!connect(id).contains(&ep) && connect(id).contains("quic/127.0.0.1:"), "{id} connects to its site's router: {}", connect(id));
     }
     assert_ne!(connect("r2"), connect("r3"), "two sites, two routers");
     let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;

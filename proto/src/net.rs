@@ -113,7 +113,7 @@ pub fn validate_endpoints(field: &str, eps: &[String]) -> Result<(), String> {
     Ok(())
 }
 
-/// Like [`validate_endpoints`], and every endpoint is `tls/` (or `quic/`) when `secure`, `tcp/`
+/// Like [`validate_endpoints`], and every endpoint is `quic/` (or `tls/`) when `secure`, `tcp/`
 /// when not.
 pub fn validate_endpoints_for(field: &str, eps: &[String], secure: bool) -> Result<(), String> {
     validate_endpoints(field, eps)?;
@@ -121,7 +121,7 @@ pub fn validate_endpoints_for(field: &str, eps: &[String], secure: bool) -> Resu
         let encrypted = ep.starts_with("tls/") || ep.starts_with("quic/");
         match (secure, encrypted) {
             (true, false) => {
-                return Err(format!("{field}[{i}]: {ep:?}: with a `security` section every endpoint is tls/<address>:<port> (or quic/<address>:<port>)"))
+                return Err(format!("{field}[{i}]: {ep:?}: with a `security` section every endpoint is quic/<address>:<port> (or tls/<address>:<port>)"))
             }
             (false, true) => {
                 return Err(format!("{field}[{i}]: {ep:?}: a {} endpoint needs a `security` section (certificates)", &ep[..ep.find('/').unwrap_or(0) + 1]))
@@ -169,8 +169,8 @@ pub struct Tls<'a> {
     pub verify_names: bool,
 }
 
-/// [`zenoh_config`] with a message size limit, mutual TLS (only `tls` links are then opened or
-/// accepted) and an `access_control` section.
+/// [`zenoh_config`] with a message size limit, mutual TLS (only `quic` and `tls` links are then
+/// opened or accepted) and an `access_control` section.
 pub fn zenoh_config_with(
     mode: Mode,
     listen: &[String],
@@ -199,9 +199,16 @@ pub fn zenoh_config_with(
     set(&mut c, "transport/link/rx/max_message_size", max_message_size.to_string())?;
     if let Some(t) = tls {
         let path = |p: &std::path::Path| json(&p.display().to_string());
-        // QUIC (mutual TLS 1.3 over UDP, the same certificates) where a busy link needs it:
-        // Zenoh's TLS link closes under heavy two-way load (docs/zenoh.md).
+        // QUIC (mutual TLS 1.3 over UDP, the same certificates) is the secure transport: Zenoh
+        // 1.10's TLS link reads and writes one rustls stream from two threads at once, which
+        // closes links under load and can crash the process (docs/zenoh.md). `tls/` still works.
         set(&mut c, "transport/link/protocols", json(&["tls", "quic"]))?;
+        if let Some(ep) = listen.iter().chain(connect).find(|e| e.starts_with("tls/")) {
+            tracing::warn!(
+                endpoint = %ep,
+                "a tls/ endpoint: Zenoh 1.10's TLS link has a data race that drops links under load and can crash this process (zenoh#2557); use quic/ endpoints"
+            );
+        }
         set(&mut c, "transport/link/tls/root_ca_certificate", path(t.ca))?;
         set(&mut c, "transport/link/tls/listen_certificate", path(t.cert))?;
         set(&mut c, "transport/link/tls/listen_private_key", path(t.key))?;

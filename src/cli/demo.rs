@@ -21,12 +21,12 @@ pub struct Args {
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
     duration: Option<f64>,
-    /// Endpoint central listens on; outside clients connect here (default tls/127.0.0.1:7447, or
-    /// tcp/127.0.0.1:7447 with --insecure).
+    /// Endpoint central listens on; outside clients connect here (default quic/127.0.0.1:7447, or
+    /// tcp/127.0.0.1:7447 with --insecure). The robots and site routers listen with its scheme.
     #[arg(long)]
     listen: Option<String>,
     /// Run the fleet over plain TCP with unsigned messages (by default the demo makes a
-    /// throw-away CA and certificates and runs everything over mutual TLS).
+    /// throw-away CA and certificates and runs everything over mutual TLS 1.3: Zenoh's QUIC link).
     #[arg(long)]
     insecure: bool,
     /// Simulated seconds per wall second for every robot.
@@ -63,7 +63,7 @@ pub struct Args {
 const TYPES: [&str; 2] = ["ground", "aerial"];
 
 pub async fn run(mut args: Args) -> anyhow::Result<()> {
-    let listen = args.listen.take().unwrap_or_else(|| if args.insecure { "tcp/127.0.0.1:7447" } else { "tls/127.0.0.1:7447" }.to_string());
+    let listen = args.listen.take().unwrap_or_else(|| if args.insecure { "tcp/127.0.0.1:7447" } else { "quic/127.0.0.1:7447" }.to_string());
     mrmm_proto::net::validate_endpoints_for("--listen", std::slice::from_ref(&listen), !args.insecure).map_err(|e| anyhow!("{e}"))?;
     args.listen = Some(listen);
     if let Some(d) = args.duration {
@@ -88,6 +88,8 @@ pub async fn run(mut args: Args) -> anyhow::Result<()> {
 async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, shutdown: &tokio_util::sync::CancellationToken) -> anyhow::Result<()> {
     let started = Instant::now();
     let listen = args.listen.clone().unwrap_or_default();
+    // Every node of the demo listens with the scheme of central's endpoint (quic, tls or tcp).
+    let scheme = listen.split('/').next().unwrap_or("tcp").to_string();
     // A throw-away fleet PKI: the CA, central, the operator (this demo and your tools), each robot.
     let pki = (!args.insecure).then(|| dir.join("pki"));
     if let Some(pki) = &pki {
@@ -107,7 +109,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     let mut central_args = vec!["central".to_string(), "--listen".into(), listen.clone(), "--state-dir".into(), state.display().to_string()];
     if let Some(pki) = &pki {
         central_args.extend(["--pki".into(), pki.display().to_string(), "--operator".into(), "operator".into()]);
-        if args.sites > 1 {
+        if args.sites > 1 && scheme != "quic" {
             // The routers' uplinks: QUIC (Zenoh's TLS link closes under heavy load, docs/zenoh.md).
             central_args.extend(["--listen".into(), "quic/127.0.0.1:0".into()]);
         }
@@ -116,18 +118,18 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     let line = procs::ready_line(&mut central, "central ready", Duration::from_secs(20), &log).await;
     children.push(central);
     let line = line.context("central did not start")?;
-    let scheme = if pki.is_some() { "tls/" } else { "tcp/" };
     let listening: Vec<String> = procs::field(&line, "listening").map(|l| l.split(',').map(String::from).collect()).unwrap_or_default();
-    let endpoint = listening.iter().find(|e| e.starts_with(scheme)).cloned().ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?;
+    let endpoint =
+        listening.iter().find(|e| e.starts_with(&format!("{scheme}/"))).cloned().ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?;
     let uplink = listening.iter().find(|e| e.starts_with("quic/")).cloned().unwrap_or_else(|| endpoint.clone());
-    let sites = start_routers(args, dir, children, &endpoint, &uplink, pki.as_deref()).await?;
+    let sites = start_routers(args, dir, children, &endpoint, &uplink, &scheme, pki.as_deref()).await?;
 
     let n = args.robots as usize;
     let lease = args.lease_ms.unwrap_or(if n > LARGE_FLEET { 4000 } else { 1000 });
     let bar = progress(n, "starting robots");
     for i in 0..n {
         let id = format!("r{}", i + 1);
-        let cfg = robot_config(&id, i, n, &sites[i % sites.len()], args.time_scale, lease, pki.as_deref());
+        let cfg = robot_config(&id, i, n, &sites[i % sites.len()], &scheme, args.time_scale, lease, pki.as_deref());
         let path = dir.join(format!("{id}.json5"));
         std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
         let log = dir.join(format!("{id}.log"));
@@ -351,10 +353,10 @@ async fn start_routers(
     children: &mut Vec<Child>,
     central: &str,
     uplink: &str,
+    scheme: &str,
     pki: Option<&std::path::Path>,
 ) -> anyhow::Result<Vec<String>> {
     let mut sites = vec![central.to_string()];
-    let scheme = if pki.is_some() { "tls" } else { "tcp" };
     for s in 1..args.sites {
         let id = format!("site{s}");
         let path = dir.join(format!("{id}.json5"));
@@ -378,16 +380,17 @@ async fn start_routers(
     Ok(sites)
 }
 
-fn robot_config(id: &str, i: usize, n: usize, central: &str, time_scale: f64, lease_ms: u64, pki: Option<&std::path::Path>) -> String {
+#[allow(clippy::too_many_arguments)]
+fn robot_config(id: &str, i: usize, n: usize, central: &str, scheme: &str, time_scale: f64, lease_ms: u64, pki: Option<&std::path::Path>) -> String {
     let kind = TYPES[i % TYPES.len()];
     let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
     let x = (i as f64 - (n as f64 - 1.0) / 2.0) * 1.5;
-    let (scheme, security) = match pki {
+    let security = match pki {
         Some(d) => {
             let f = |name: &str| format!("{:?}", d.join(name).display().to_string());
-            ("tls", format!("  security: {{ ca: {}, cert: {}, key: {} }},\n", f("ca.crt"), f(&format!("{id}.crt")), f(&format!("{id}.key"))))
+            format!("  security: {{ ca: {}, cert: {}, key: {} }},\n", f("ca.crt"), f(&format!("{id}.crt")), f(&format!("{id}.key")))
         }
-        None => ("tcp", String::new()),
+        None => String::new(),
     };
     format!(
         r#"{{
@@ -408,11 +411,11 @@ mod tests {
     #[test]
     fn generated_configs_are_valid() {
         for i in 0..4 {
-            let text = robot_config(&format!("r{i}"), i, 4, "tcp/127.0.0.1:7447", 2.0, 1000, None);
+            let text = robot_config(&format!("r{i}"), i, 4, "tcp/127.0.0.1:7447", "tcp", 2.0, 1000, None);
             let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
             assert_eq!(cfg.time_scale, 2.0);
         }
-        let text = robot_config("r1", 0, 4, "tls/127.0.0.1:7447", 1.0, 1000, Some(std::path::Path::new("/p")));
+        let text = robot_config("r1", 0, 4, "quic/127.0.0.1:7447", "quic", 1.0, 1000, Some(std::path::Path::new("/p")));
         let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid secure config");
         assert_eq!(cfg.security.map(|s| s.cert), Some(std::path::PathBuf::from("/p/r1.crt")));
         let (x, y) = circle_point(1, 4, 2.0);

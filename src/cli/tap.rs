@@ -22,7 +22,7 @@ pub struct Args {
     #[command(flatten)]
     security: super::security::SecurityArgs,
     /// Endpoint to listen on (explicit address; port 0 picks one; default: tcp/127.0.0.1:0, or
-    /// tls/127.0.0.1:0 with certificates).
+    /// quic/127.0.0.1:0 with certificates).
     #[arg(long)]
     listen: Vec<String>,
     /// Stop after this many seconds.
@@ -47,7 +47,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     let tool = super::security::ToolConfig::load(args.config.as_deref())?;
     let security = tool.security(&args.security, "operator");
     let listen =
-        if args.listen.is_empty() { vec![if security.is_some() { "tls/127.0.0.1:0" } else { "tcp/127.0.0.1:0" }.to_string()] } else { args.listen.clone() };
+        if args.listen.is_empty() { vec![if security.is_some() { "quic/127.0.0.1:0" } else { "tcp/127.0.0.1:0" }.to_string()] } else { args.listen.clone() };
     let n = NodeNet {
         mode: Mode::Peer,
         listen,

@@ -44,7 +44,7 @@ pub fn sink(connect: Option<String>, save: Option<PathBuf>, spawn: bool) -> Sink
 pub async fn run(args: Args) -> anyhow::Result<()> {
     let tool = super::security::ToolConfig::load(args.config.as_deref())?;
     let security = tool.security(&args.security, "operator");
-    let listen = vec![if security.is_some() { "tls/127.0.0.1:0" } else { "tcp/127.0.0.1:0" }.to_string()];
+    let listen = vec![if security.is_some() { "quic/127.0.0.1:0" } else { "tcp/127.0.0.1:0" }.to_string()];
     let n = NodeNet {
         mode: Mode::Peer,
         listen,

@@ -195,7 +195,7 @@ pub fn start_demo(dir: &Scratch, args: &[&str]) -> anyhow::Result<(Proc, String,
     let ep = demo
         .ready
         .split_whitespace()
-        .find(|w| w.starts_with("tcp/") || w.starts_with("tls/"))
+        .find(|w| w.starts_with("tcp/") || w.starts_with("tls/") || w.starts_with("quic/"))
         .map(|w| w.trim_end_matches(';').to_string())
         .ok_or_else(|| anyhow!("no endpoint in {:?}", demo.ready))?;
     // `export MRMM_TOOL_CONFIG=<file>`: the operator tools' config, with the certificate.
@@ -291,12 +291,13 @@ pub fn fleet_pki(dir: &Scratch, robots: usize) -> anyhow::Result<PathBuf> {
     Ok(p)
 }
 
-/// Starts central over mutual TLS with the certificates of `pki`; operator `op` may command.
+/// Starts central over mutual TLS (Zenoh's QUIC link) with the certificates of `pki`; operator
+/// `op` may command.
 pub fn start_secure_central(dir: &Scratch, pki: &Path) -> anyhow::Result<(Proc, String)> {
     let pki = pki.display().to_string();
     let p = start(
         "central",
-        &["central", "--listen", "tls/127.0.0.1:0", "--pki", &pki, "--operator", "op"],
+        &["central", "--listen", "quic/127.0.0.1:0", "--pki", &pki, "--operator", "op"],
         &dir.path("central.log"),
         "central ready",
         Duration::from_secs(20),
@@ -305,13 +306,13 @@ pub fn start_secure_central(dir: &Scratch, pki: &Path) -> anyhow::Result<(Proc, 
     Ok((p, ep))
 }
 
-/// Starts robot `id` over mutual TLS (time scale 10), its certificate from `pki`.
+/// Starts robot `id` over mutual TLS (QUIC, time scale 10), its certificate from `pki`.
 pub fn start_secure_robot(dir: &Scratch, pki: &Path, id: &str, central: &str, x: f64) -> anyhow::Result<Proc> {
     let f = |name: &str| serde_json::to_string(&pki.join(name).display().to_string()).unwrap_or_default();
     let cfg = format!(
         r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }},
              start: {{ x: {x}, y: -3 }}, time_scale: 10, telemetry_hz: 10,
-             zenoh: {{ listen: ["tls/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }},
+             zenoh: {{ listen: ["quic/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }},
              security: {{ ca: {}, cert: {}, key: {} }} }}"#,
         f("ca.crt"),
         f(&format!("{id}.crt")),
