@@ -143,6 +143,58 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
     Ok(())
 }
 
+/// A power cycle after which one robot stays down: its mission starts again with the robots that
+/// are back (a new lineage: a chain of the mission cut off with the missing robot would lose to
+/// it), and the missing robot rejoins it when it comes back.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_power_cycle_with_a_robot_that_stays_down_runs_its_mission_with_the_others() -> anyhow::Result<()> {
+    let dir = Scratch::new("power-cycle-one-down");
+    let ep = format!("tcp/127.0.0.1:{}", free_port()?);
+    let mut c = central(&dir, &ep, "central.log")?;
+    let mut rs = common::start_robots(&dir, &ep, 3)?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 3).await?;
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol("p", &["r1", "r2", "r3"]))).await?;
+    client.close().await;
+    {
+        let mut all: Vec<&mut Proc> = rs.iter_mut().collect();
+        all.push(&mut c);
+        kill_all(&mut all)?;
+    }
+    let t0 = std::time::Instant::now();
+    let _c = central(&dir, &ep, "central2.log")?;
+    // r3 stays down.
+    let _back: Vec<Proc> =
+        ["r1", "r2"].iter().enumerate().map(|(i, id)| common::start_robot_scaled(&dir, id, &ep, (i + 1) as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let p = |ms: Vec<MissionView>| ms.into_iter().find(|m| m.name == "p");
+    let m = eventually("p running again with r1 and r2 and passing barriers", Duration::from_secs(30), || async {
+        p(missions(&client).await).filter(|m| m.status == proto::MissionStatus::Running && m.robots == ["r1", "r2"] && m.metrics.sync_points_passed >= 1)
+    })
+    .await?;
+    println!("power cycle, r3 down → p running with r1, r2: {:?} (chain epoch {})", t0.elapsed(), m.manager.chain_epoch);
+    ensure!(proto::chain::lineage_of(m.manager.chain_epoch) == 1, "p runs as its next lineage: chain epoch {}", m.manager.chain_epoch);
+    let j = common::journal(&client).await?;
+    ensure!(
+        j.iter().any(|e| matches!(&e.event, JournalEvent::MissionRestarted { mission, robots } if mission == "p" && robots == &["r1", "r2"])),
+        "the journal says p started again with r1 and r2"
+    );
+    // r3 comes back: it kept its place in p (the journal's), so it rejoins p, with no command.
+    let _r3 = common::start_robot_scaled(&dir, "r3", &ep, 6.0, -3.0, 10.0)?;
+    eventually("r3 back in p", Duration::from_secs(30), || async {
+        let m = p(missions(&client).await)?;
+        let moving = robots(&client).await.iter().any(|r| {
+            r.id == "r3"
+                && r.mission.as_deref() == Some("p")
+                && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync") || b.contains("step"))
+        });
+        (m.robots == ["r1", "r2", "r3"] && moving).then_some(())
+    })
+    .await?;
+    client.close().await;
+    Ok(())
+}
+
 /// One operator command of the burst, and how it changes robot → mission when it succeeds.
 #[derive(Debug, Clone)]
 enum Op {

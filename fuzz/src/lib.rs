@@ -228,6 +228,7 @@ impl Host {
             },
             members: vec![member("r1", 0.0), member("r2", 1.0)],
             anew: false,
+            lineage: 0,
         };
         self.next_query += 1;
         self.feed(host::Event::Start { query: self.next_query, start: Box::new(start), from: sender(0) });

@@ -75,6 +75,7 @@ fn main() {
         },
         members: vec![mrmm_fuzz::member("r3", 2.0)],
         anew: false,
+        lineage: 0,
     };
     let view = json(&started_view("central", &start));
     let joined = json(&MissionCtl::Joined { member: mrmm_fuzz::member("r3", 3.0) });

@@ -146,7 +146,14 @@ mod tests {
         let (mut j, state) = Journal::open(dir.path()).expect("open");
         assert_eq!((j.last(), state), (0, Durable::default()));
         let events = vec![
-            JournalEvent::MissionDefined { mission: "p".into(), host: "central".into(), recipe: "patrol".into(), planner: "patrol".into(), spec: None },
+            JournalEvent::MissionDefined {
+                mission: "p".into(),
+                host: "central".into(),
+                recipe: "patrol".into(),
+                planner: "patrol".into(),
+                spec: None,
+                lineage: 1,
+            },
             JournalEvent::RobotAssigned { robot: "r1".into(), mission: Some("p".into()) },
             JournalEvent::RobotLost { robot: "r1".into() },
         ];

@@ -8,6 +8,22 @@ use crate::mission::MissionSnapshot;
 /// A state's version: `(epoch, seq)`, compared lexicographically.
 pub type Version = (u64, u64);
 
+/// A mission's **lineage** is the high 32 bits of its chain and plan epochs. Central starts a
+/// mission of its journal anew (no live manager reported it) as the next lineage: every epoch of
+/// the new lineage is above every epoch the old one can reach, so wherever the two meet — a node
+/// of both chains, a robot given plans by both heads — the new one wins.
+pub const LINEAGE_SHIFT: u32 = 32;
+
+/// The lineage of an epoch.
+pub fn lineage_of(epoch: u64) -> u32 {
+    u32::try_from(epoch >> LINEAGE_SHIFT).unwrap_or(u32::MAX)
+}
+
+/// The first epoch of `lineage` (every epoch of it is at least this).
+pub fn lineage_floor(lineage: u32) -> u64 {
+    u64::from(lineage) << LINEAGE_SHIFT
+}
+
 /// Who holds the mission: `chain[0]` is the head.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Config {

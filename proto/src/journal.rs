@@ -36,6 +36,10 @@ pub enum JournalEvent {
         recipe: String,
         planner: String,
         spec: Option<MissionSpecWire>,
+        /// How many times central started it anew from this journal (its lineage: see
+        /// `mrmm_proto::chain::lineage_of`); 0 until then.
+        #[serde(default)]
+        lineage: u32,
     },
     /// A mission is gone: terminated (it never comes back) or it never ran.
     MissionRemoved {

@@ -56,6 +56,10 @@ pub struct MissionStart {
     /// (its promise kept, so the new chain's epochs are above the old one's).
     #[serde(default)]
     pub anew: bool,
+    /// The lineage this start begins ([`crate::chain::lineage_of`]): its first chain and plan
+    /// epochs are at least [`crate::chain::lineage_floor`] of it. 0 for a first start.
+    #[serde(default)]
+    pub lineage: u32,
 }
 
 /// Query payload of `mrmm/missions/<name>/ctl`, answered with [`CtlAck`].

@@ -3,7 +3,9 @@
 //! 1. **One head per mission epoch**: no two nodes lead a mission in the same chain epoch.
 //! 2. **No acknowledged update lost**: a node that starts leading a mission holds a state at
 //!    least as new (by revision) as every state a head acknowledged a control for, and every
-//!    state committed; two committed states of one revision are the same.
+//!    state committed; two committed states of one revision are the same — within one lineage
+//!    of the mission (`mrmm_proto::chain::lineage_of`: central starts a mission anew as its next
+//!    lineage, whose revisions start over, while the old one may still run cut off).
 //! 3. **Every robot in at most one mission**: among missions not terminated, no robot is a member
 //!    of the newest committed state of two of them.
 //! 4. **No barrier released early**: when a robot passes a barrier, every other member of its
@@ -20,7 +22,7 @@ use std::hash::{Hash, Hasher};
 
 use mrmm_manager::host::HostCore;
 use mrmm_peer::executor::Executor;
-use mrmm_proto::chain::Version;
+use mrmm_proto::chain::{lineage_of, Version};
 use mrmm_proto::{MissionSnapshot, SyncArrival, SyncRelease};
 
 fn digest(s: &MissionSnapshot) -> u64 {
@@ -36,11 +38,11 @@ pub struct Invariants {
     heads: BTreeMap<(String, u64), String>,
     /// (node, incarnation, mission) leading at the last look.
     leading: BTreeSet<(usize, u32, String)>,
-    /// (mission, revision) → digest of the committed state.
-    committed: BTreeMap<(String, u64), u64>,
-    newest_committed: BTreeMap<String, u64>,
-    /// Highest revision a control was acknowledged at, per mission.
-    acked: BTreeMap<String, u64>,
+    /// (mission, lineage, revision) → digest of the committed state.
+    committed: BTreeMap<(String, u32, u64), u64>,
+    newest_committed: BTreeMap<(String, u32), u64>,
+    /// Highest revision a control was acknowledged at, per mission and lineage.
+    acked: BTreeMap<(String, u32), u64>,
     /// The newest committed state's members per mission, by chain version.
     teams: BTreeMap<String, (Version, Vec<String>)>,
     /// Furthest (round, point) each robot published, per (mission, epoch, robot).
@@ -70,13 +72,14 @@ impl Invariants {
                 }
             }
             now_leading.insert((node, inc, mission.clone()));
+            let lin = (mission.clone(), lineage_of(config.epoch));
             if !self.leading.contains(&(node, inc, mission.clone())) {
                 self.leads += 1;
-                let need = self.acked.get(mission).copied().unwrap_or(0).max(self.newest_committed.get(mission).copied().unwrap_or(0));
+                let need = self.acked.get(&lin).copied().unwrap_or(0).max(self.newest_committed.get(&lin).copied().unwrap_or(0));
                 if state.revision < need {
                     return Err(format!("{name} leads {mission} from revision {} but revision {need} was acknowledged or committed", state.revision));
                 }
-                if let Some(d) = self.committed.get(&(mission.clone(), state.revision)) {
+                if let Some(d) = self.committed.get(&(mission.clone(), lin.1, state.revision)) {
                     if *d != digest(state) {
                         return Err(format!("{name} leads {mission} from a revision {} that differs from the committed one", state.revision));
                     }
@@ -84,13 +87,16 @@ impl Invariants {
             }
             if r.committed().is_some_and(|c| c == r.version().1) {
                 let d = digest(state);
-                match self.committed.get(&(mission.clone(), state.revision)) {
-                    Some(other) if *other != d => return Err(format!("two different states of {mission} committed at revision {}", state.revision)),
+                let lin = (mission.clone(), lineage_of(r.version().0));
+                match self.committed.get(&(mission.clone(), lin.1, state.revision)) {
+                    Some(other) if *other != d => {
+                        return Err(format!("two different states of {mission} committed at revision {} (lineage {})", state.revision, lin.1))
+                    }
                     _ => {
-                        self.committed.insert((mission.clone(), state.revision), d);
+                        self.committed.insert((mission.clone(), lin.1, state.revision), d);
                     }
                 }
-                let n = self.newest_committed.entry(mission.clone()).or_insert(0);
+                let n = self.newest_committed.entry(lin).or_insert(0);
                 *n = (*n).max(state.revision);
                 let members: Vec<String> = state.members.iter().map(|m| m.spec.id.clone()).collect();
                 let v = r.version();
@@ -109,22 +115,10 @@ impl Invariants {
         self.leading.retain(|(n, _, _)| *n != node);
     }
 
-    /// A head acknowledged a control query of `mission` at `revision`.
-    pub fn acked(&mut self, mission: &str, revision: u64) {
-        let a = self.acked.entry(mission.to_string()).or_insert(0);
+    /// A head of `mission`'s `lineage` acknowledged a control query at `revision`.
+    pub fn acked(&mut self, mission: &str, lineage: u32, revision: u64) {
+        let a = self.acked.entry((mission.to_string(), lineage)).or_insert(0);
         *a = (*a).max(revision);
-    }
-
-    /// Central started `mission` again from its journal (no live node replicated it): a new
-    /// lineage, whose revisions start over.
-    pub fn started_again(&mut self, mission: &str) {
-        self.heads.retain(|(m, _), _| m != mission);
-        self.committed.retain(|(m, _), _| m != mission);
-        self.newest_committed.remove(mission);
-        self.acked.remove(mission);
-        self.teams.remove(mission);
-        self.arrivals.retain(|(m, _, _), _| m != mission);
-        self.releases.retain(|(m, _), _| m != mission);
     }
 
     /// Missions no node replicates any more are over.

@@ -67,6 +67,11 @@ pub struct Config {
     /// Robots and mission hosts keep their chain state on disk (`state_dir`): a restart brings
     /// their replicas back as they were. Central's host always does (beside its journal).
     pub disks: bool,
+    /// During a partition, now and then every node on central's side loses power at once and
+    /// comes back (central first): a mission whose chain lives on the other side is started
+    /// anew by central — a new lineage beside the old one until the partition heals. Drawn from
+    /// a random stream of its own, so seeds without such a power cycle run as before.
+    pub side_cycles: bool,
 }
 
 impl Config {
@@ -91,6 +96,7 @@ impl Config {
             suspect_every: 0.0,
             lease: 1.0,
             disks: r.gen_bool(0.5),
+            side_cycles: false,
         }
     }
 
@@ -115,6 +121,7 @@ impl Config {
             suspect_every: 0.0,
             lease: 1.0,
             disks: false,
+            side_cycles: false,
         }
     }
 
@@ -139,6 +146,7 @@ impl Config {
             suspect_every: [0.0, 6.0][r.gen_range(0..2)],
             lease: 1.0,
             disks: false,
+            side_cycles: false,
         }
     }
 
@@ -162,6 +170,7 @@ impl Config {
             suspect_every: [0.0, 8.0][r.gen_range(0..2)],
             lease: 1.0,
             disks: r.gen_bool(0.5),
+            side_cycles: true,
         }
     }
 }
@@ -188,6 +197,12 @@ pub struct Report {
     /// Missions whose chain lost a majority of its memory (several restarts): they cannot get a
     /// head again until memory is durable, so the end checks pass over them.
     pub unrecoverable: u32,
+    /// Missions central started anew from its journal (a new lineage), and of those, how many
+    /// without every member back.
+    pub anew: u32,
+    pub anew_short: u32,
+    /// Heads of a replaced lineage fenced by central.
+    pub fenced: u32,
     /// The trace, when asked for.
     pub trace: Vec<String>,
 }

@@ -100,6 +100,10 @@ impl Links {
     pub fn partitioned(&self) -> bool {
         self.partitioned
     }
+    /// The side of the last partition `node` is on.
+    pub fn side_of(&self, node: usize) -> bool {
+        self.side.get(node).copied().unwrap_or(false)
+    }
     pub fn suspect(&mut self, observer: usize, subject: usize, on: bool) {
         if on {
             self.suspected.insert((observer, subject));

@@ -40,7 +40,7 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
         Ok(reports) => {
             let sum = |f: fn(&mrmm_sim::Report) -> u64| reports.iter().map(f).sum::<u64>();
             println!(
-                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted)",
+                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted); {} started anew ({} without every member), {} old-lineage heads fenced",
                 started.elapsed().as_secs_f64(),
                 sum(|r| r.events),
                 sum(|r| r.messages),
@@ -52,6 +52,9 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
                 sum(|r| u64::from(r.commands_ok)),
                 sum(|r| u64::from(r.barriers)),
                 sum(|r| u64::from(r.unrecoverable)),
+                sum(|r| u64::from(r.anew)),
+                sum(|r| u64::from(r.anew_short)),
+                sum(|r| u64::from(r.fenced)),
             );
         }
         Err(v) => panic!("{what}: {v}; replay with MRMM_SIM_SEED={} cargo test -p mrmm-sim --test <this file> -- --nocapture", v.seed),

@@ -94,10 +94,12 @@ pub enum Event<S> {
     Alive(String),
     /// A node's liveliness was lost.
     Gone(String),
-    /// Create the replicated value with this node as head and `replicas` after it.
+    /// Create the replicated value with this node as head and `replicas` after it, its first
+    /// epoch at least `floor` (a new lineage: `mrmm_proto::chain::lineage_floor`).
     Create {
         replicas: Vec<String>,
         state: S,
+        floor: u64,
     },
     /// Head only: replicate a new state.
     Propose(S),

@@ -5,6 +5,8 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use mrmm_proto::chain::lineage_of;
+
 use super::replica::Fingerprint;
 use super::{Command, Event, Msg, Params, Replica, Stored};
 
@@ -124,12 +126,15 @@ impl<S: Clone> Registry<S> {
         })
     }
 
-    /// Creates `name` with this node as its head (the first configuration) and `state`.
-    pub fn create(&mut self, now: f64, name: &str, replicas: Vec<String>, state: S) -> Vec<Command<S>> {
-        self.tombs.remove(name);
-        self.replicas.remove(name);
+    /// Creates `name` with this node as its head (the first configuration) and `state`, its
+    /// first epoch at least `floor`.
+    /// The first epoch is also above the promise this node remembers of an earlier value of that
+    /// name (a replica it discarded, a tomb).
+    pub fn create(&mut self, now: f64, name: &str, replicas: Vec<String>, state: S, floor: u64) -> Vec<Command<S>> {
+        let promised = self.tombs.remove(name).map_or(0, |t| t.promised).max(self.replicas.remove(name).map_or(0, |r| r.promised()));
+        let floor = floor.max(promised.saturating_add(1));
         let before = self.mark(name);
-        let cmds = self.replica_mut(now, name).handle(now, Event::Create { replicas, state });
+        let cmds = self.replica_mut(now, name).handle(now, Event::Create { replicas, state, floor });
         self.settle(now, name, before, cmds)
     }
 
@@ -140,7 +145,8 @@ impl<S: Clone> Registry<S> {
     pub fn receive(&mut self, now: f64, name: &str, from: String, msg: Msg<S>) -> Vec<Command<S>> {
         if !self.replicas.contains_key(name) {
             match (&msg, self.tombs.get(name)) {
-                (Msg::Vote { .. }, Some(t)) if t.ended => {
+                // (A vote of a newer lineage is not this ended chain's: the value started anew.)
+                (Msg::Vote { proposal, .. }, Some(t)) if t.ended && lineage_of(proposal.epoch) <= lineage_of(t.promised) => {
                     return vec![Command::Send { to: from, msg: Msg::End { epoch: u64::MAX } }];
                 }
                 // A head replicating to us: we are (again) in its chain.
@@ -413,7 +419,7 @@ mod tests {
     fn an_ending_durable_replica_comes_back_as_an_ended_tomb() {
         let mut disk = BTreeMap::new();
         let mut r = Reg::restore("a", Params::default(), 0.0, 0.0, disk.clone());
-        let out = r.create(0.0, "m", vec!["b".into()], vec![1]);
+        let out = r.create(0.0, "m", vec!["b".into()], vec![1], 0);
         write(&mut disk, "m", &out);
         let out = r.handle(0.1, "m", Event::End);
         write(&mut disk, "m", &out);

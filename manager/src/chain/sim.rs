@@ -265,7 +265,7 @@ impl Sim {
     fn run_inner(&mut self) -> Result<(), String> {
         let end = self.w.duration + self.w.quiet;
         let first: Vec<String> = self.nodes.iter().skip(1).take(self.p.k).map(|n| n.name.clone()).collect();
-        let cmds = self.nodes[0].registry.create(0.0, MISSION, first, vec![]);
+        let cmds = self.nodes[0].registry.create(0.0, MISSION, first, vec![], 0);
         self.apply(0, cmds)?;
         let mut next_crash = self.draw(self.w.crash_every);
         let mut next_partition = self.draw(self.w.partition_every);

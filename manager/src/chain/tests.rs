@@ -37,7 +37,7 @@ fn three() -> BTreeMap<String, R> {
 fn created() -> BTreeMap<String, R> {
     let mut n = three();
     alive_all(&mut n);
-    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
+    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { floor: 0, replicas: vec!["b".into(), "c".into()], state: vec![1] });
     settle(&mut n, 0.0, "a", cmds);
     n
 }
@@ -55,7 +55,7 @@ fn alive_all(nodes: &mut BTreeMap<String, R>) {
 fn create_replicates_and_commits_through_the_tail() {
     let mut n = three();
     alive_all(&mut n);
-    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { replicas: vec!["b".into(), "c".into()], state: vec![1] });
+    let cmds = n.get_mut("a").unwrap().handle(0.0, Event::Create { floor: 0, replicas: vec!["b".into(), "c".into()], state: vec![1] });
     assert!(matches!(&cmds[0], Command::Lead { config, .. } if config.epoch == 1 && config.chain == ["a", "b", "c"]));
     let out = settle(&mut n, 0.0, "a", cmds);
     assert!(out.contains(&("a".to_string(), Command::Committed { epoch: 1, seq: 0 })), "{out:?}");
@@ -248,4 +248,73 @@ fn a_durable_replica_left_out_of_a_newer_chain_stands_less_and_less_often() {
     let cmds = n.get_mut("a").unwrap().handle(t + 1.0, Event::Tick);
     settle(&mut n, t + 1.0, "a", cmds);
     assert_eq!(n["c"].passed_over(), 0, "{:?}", n["c"].config());
+}
+
+/// A mission started anew is its next lineage: the first epoch is the lineage's floor, above
+/// anything the old chain reached.
+#[test]
+fn a_new_lineage_starts_at_its_floor() {
+    let floor = mrmm_proto::chain::lineage_floor(1);
+    let mut r: Registry<Vec<u32>> = Registry::new("a", p(), 0.0);
+    let out = r.create(0.0, "m", vec![], vec![1], floor);
+    assert!(matches!(&out[0], Command::Lead { config, .. } if config.epoch == floor), "{out:?}");
+    // A node that promised more than the floor (it never does in practice) still goes above it.
+    let mut r: Registry<Vec<u32>> = Registry::new("a", p(), 0.0);
+    let _ = r.receive(
+        0.0,
+        "m",
+        "b".into(),
+        Msg::Vote { proposal: Config { epoch: floor + 7, chain: vec!["b".into(), "a".into()] }, base: vec!["b".into()], last: (1, 0) },
+    );
+    assert_eq!(r.replica("m").map(|x| x.promised()), Some(floor + 7));
+    let _ = r.discard(0.1, "m");
+    let out = r.create(0.2, "m", vec![], vec![1], floor);
+    assert!(matches!(&out[0], Command::Lead { config, .. } if config.epoch == floor + 8), "{out:?}");
+}
+
+/// The head of a replaced lineage, told by central (a `Stale` of the new lineage's floor), steps
+/// down and forgets the mission — even on a durable node, which keeps its state when only a newer
+/// chain of its own lineage passed it over.
+#[test]
+fn a_head_of_an_older_lineage_told_of_a_newer_one_retires_even_when_durable() {
+    let floor = mrmm_proto::chain::lineage_floor(1);
+    let fence = Msg::Stale { promised: floor, last: (floor, 0) };
+    for durable in [false, true] {
+        let mut r: Registry<Vec<u32>> = if durable { Registry::restore("a", p(), 0.0, 0.0, std::iter::empty()) } else { Registry::new("a", p(), 0.0) };
+        let _ = r.create(0.0, "m", vec![], vec![1], 0);
+        assert!(r.replica("m").is_some_and(|x| x.leads()));
+        let out = r.receive(0.5, "m", "central".into(), fence.clone());
+        assert!(out.contains(&Command::StepDown) && out.contains(&Command::Retired), "durable {durable}: {out:?}");
+        assert!(r.replica("m").is_none(), "durable {durable}: the old lineage's replica is gone");
+        // Within its own lineage a durable head told of a newer chain keeps its state and follows.
+        let mut r: Registry<Vec<u32>> = Registry::restore("a", p(), 0.0, 0.0, std::iter::empty());
+        let _ = r.create(0.0, "m", vec![], vec![1], 0);
+        let out = r.receive(0.5, "m", "b".into(), Msg::Stale { promised: 9, last: (9, 0) });
+        assert!(out.contains(&Command::StepDown) && !out.contains(&Command::Retired), "{out:?}");
+        assert!(r.replica("m").is_some_and(|x| x.state().is_some()));
+    }
+}
+
+/// A node where the old lineage ended answers a vote of that lineage with the end, but not a
+/// vote of a newer lineage: the mission started anew is not the ended chain's to end.
+#[test]
+fn an_ended_chain_does_not_end_a_newer_lineage() {
+    let floor = mrmm_proto::chain::lineage_floor(1);
+    let mut r: Registry<Vec<u32>> = Registry::new("a", p(), 0.0);
+    let _ = r.create(0.0, "m", vec![], vec![1], 0);
+    let _ = r.handle(0.1, "m", Event::End);
+    assert!(r.replica("m").is_none() && r.tomb("m").is_some_and(|t| t.ended));
+    let vote = |epoch: u64| Msg::Vote { proposal: Config { epoch, chain: vec!["b".into(), "a".into()] }, base: vec!["b".into(), "a".into()], last: (epoch, 0) };
+    let ends = |out: &[Command<Vec<u32>>]| out.iter().any(|c| matches!(c, Command::Send { msg: Msg::End { .. }, .. }));
+    assert!(ends(&r.receive(0.2, "m", "b".into(), vote(5))), "a straggler of the ended lineage is told to end");
+    let out = r.receive(0.3, "m", "b".into(), vote(floor + 1));
+    assert!(!ends(&out), "a newer lineage was told to end: {out:?}");
+    // A replica still ending its lineage refuses a newer lineage's candidate instead.
+    let mut r: Registry<Vec<u32>> = Registry::new("a", p(), 0.0);
+    let _ = r.create(0.0, "m", vec!["c".into()], vec![1], 0);
+    let _ = r.handle(0.1, "m", Event::End);
+    assert!(r.replica("m").is_some(), "still ending: c has not acknowledged");
+    assert!(ends(&r.receive(0.2, "m", "b".into(), vote(5))));
+    let out = r.receive(0.3, "m", "b".into(), vote(floor + 1));
+    assert!(!ends(&out) && out.iter().any(|c| matches!(c, Command::Send { msg: Msg::Refuse { .. }, .. })), "{out:?}");
 }

@@ -25,6 +25,7 @@ fn start(name: &str, ids: &[&str]) -> Box<MissionStart> {
         },
         members: ids.iter().enumerate().map(|(i, id)| member(id, i as f64)).collect(),
         anew: false,
+        lineage: 0,
     })
 }
 

@@ -160,6 +160,13 @@ impl MissionManager {
         }
     }
 
+    /// Plan epochs start above `floor` (a new lineage of the mission: its plans win over any of
+    /// an older lineage that a robot may still hold).
+    pub fn with_epoch_floor(mut self, floor: u64) -> Self {
+        self.epoch = self.epoch.max(floor);
+        self
+    }
+
     /// A manager on `node` going on from a replicated state.
     pub fn restore(snap: MissionSnapshot, node: String) -> Result<Self, String> {
         let spec = MissionSpec::from_wire(snap.spec.clone())?;

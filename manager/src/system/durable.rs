@@ -18,6 +18,10 @@ pub struct MissionDef {
     pub planner: String,
     /// `None` for a mission adopted from its head's report: it cannot be started again here.
     pub spec: Option<MissionSpecWire>,
+    /// Its lineage: how many times it was started anew from the journal (see
+    /// `mrmm_proto::chain::lineage_of`). Reports of an older lineage come from a chain that
+    /// was replaced.
+    pub lineage: u32,
 }
 
 /// The durable part of the system manager.
@@ -35,8 +39,8 @@ impl Durable {
     /// Replays one entry (history entries change nothing).
     pub fn apply(&mut self, e: &JournalEvent) {
         match e {
-            JournalEvent::MissionDefined { mission, host, recipe, planner, spec } => {
-                let def = MissionDef { host: host.clone(), recipe: recipe.clone(), planner: planner.clone(), spec: spec.clone() };
+            JournalEvent::MissionDefined { mission, host, recipe, planner, spec, lineage } => {
+                let def = MissionDef { host: host.clone(), recipe: recipe.clone(), planner: planner.clone(), spec: spec.clone(), lineage: *lineage };
                 self.missions.insert(mission.clone(), Arc::new(def));
                 self.terminated.remove(mission);
             }
@@ -76,6 +80,7 @@ impl Durable {
                     recipe: def.recipe.clone(),
                     planner: def.planner.clone(),
                     spec: def.spec.clone(),
+                    lineage: def.lineage,
                 });
             }
         }
@@ -131,14 +136,14 @@ mod tests {
             match rng.gen_range(0..4) {
                 0 => {
                     let host = if rng.gen_bool(0.5) { "central" } else { "h1" };
-                    let def = MissionDef { host: host.into(), recipe: "patrol".into(), planner: "patrol".into(), spec: None };
+                    let def = MissionDef { host: host.into(), recipe: "patrol".into(), planner: "patrol".into(), spec: None, lineage: rng.gen_range(0..2) };
                     d.missions.insert(n.into(), Arc::new(def));
                 }
                 1 => {
                     d.terminated.insert(n.into());
                 }
                 2 => {
-                    let def = MissionDef { host: "central".into(), recipe: "coverage".into(), planner: "coverage".into(), spec: None };
+                    let def = MissionDef { host: "central".into(), recipe: "coverage".into(), planner: "coverage".into(), spec: None, lineage: 0 };
                     d.missions.insert(n.into(), Arc::new(def));
                     d.terminated.insert(n.into());
                 }

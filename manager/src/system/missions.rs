@@ -101,12 +101,13 @@ impl SystemManager {
         tracing::info!(mission = %name, %host, robots = robots.len(), "mission created");
         self.terminated.remove(&name);
         let wire = spec.to_wire();
-        let def = MissionDef { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), spec: Some(wire.clone()) };
+        let def =
+            MissionDef { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), spec: Some(wire.clone()), lineage: 0 };
         self.missions.insert(name.clone(), MissionRecord::new(def, None, false));
         self.restarts.remove(&name);
         self.note_command(&req, "mission create", &c_json);
         self.pending_create.insert(name, req);
-        self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: wire, members, anew: false }), after });
+        self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: wire, members, anew: false, lineage: 0 }), after });
         vec![]
     }
 

@@ -18,8 +18,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use mrmm_proto::{
-    self as proto, CommandAck, GotoRequest, JournalEvent, Key, ManagerView, Member, MissionCreate, MissionCtl, MissionMetrics, MissionStart, MissionStatus,
-    MissionTerminate, MissionView, RobotCommand, RobotInfo, RobotMove, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
+    self as proto, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, ManagerView, Member, MissionCreate, MissionCtl, MissionMetrics, MissionStart,
+    MissionStatus, MissionTerminate, MissionView, RobotCommand, RobotInfo, RobotMove, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
 };
 use serde_json::Value;
 
@@ -191,6 +191,9 @@ pub enum Command {
     /// Commit these entries to the journal (fsync) before carrying out any command after this
     /// one: it always comes first, so nothing of a change is said or done before it is on disk.
     Journal(Vec<JournalEvent>),
+    /// Send a chain message to host `to` (on `mrmm/hosts/<to>/chain`): the head of a lineage
+    /// that was replaced is told that a newer one runs the mission, and steps down.
+    Chain { to: String, envelope: Box<ChainEnvelope> },
 }
 
 /// What the system manager knows of a mission.

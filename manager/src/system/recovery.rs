@@ -1,8 +1,9 @@
 //! Central's journal on the system manager's side: what it holds after a restart
 //! ([`SystemManager::restore`]), what changed since the last commit
 //! ([`SystemManager::journal_entries`], see [`Durable`]), and journaled missions that no live
-//! manager runs, started anew only when that cannot make a second lineage beside a chain that
-//! still lives.
+//! manager runs, started anew as their next lineage (`mrmm_proto::chain::lineage_of`) with the
+//! members alive: a chain of the old lineage still alive somewhere (with members cut off) loses
+//! wherever it meets the new one, and its head is fenced when it reports (`reports.rs`).
 
 use super::*;
 
@@ -77,9 +78,9 @@ impl SystemManager {
         entries
     }
 
-    /// Journaled missions that no live manager runs are started again, once every robot the
-    /// journal has in them is back. A mission some robot says it runs is left alone: its
-    /// managers are alive somewhere, and will report.
+    /// Journaled missions that no live manager runs are started again as their next lineage,
+    /// with the members that are back; the others rejoin as they come back. A mission some robot
+    /// says it runs is left alone: its managers are alive somewhere, and will report.
     pub(super) fn restart_orphans(&mut self, now: f64) {
         // A robot up since before the previous manager went down may replicate one of its
         // missions (even one it left): starting that mission anew would make a second lineage
@@ -130,23 +131,33 @@ impl SystemManager {
             };
             let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.hosts.contains(*h)).map(str::to_string);
             let Some(host) = host else { continue };
-            let ids: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == name).map(|(r, _)| r.clone()).collect();
-            // Every member back: one still away may be cut off with the mission's chain, which
-            // would go on beside a new one. (Free a robot that never comes back to let its
-            // mission start without it.)
-            if !ids.iter().all(|id| self.robots.get(id).is_some_and(|r| r.alive && r.info.is_some())) {
-                continue;
-            }
-            let members: Vec<Member> = ids.iter().filter_map(|id| self.member(id)).collect();
+            // The members back (a member still away may be cut off with the mission's chain: the
+            // new lineage's epochs are above all of that chain's, and its head is fenced when it
+            // reports). The others rejoin as they come back.
+            let members: Vec<Member> = self
+                .assignment
+                .iter()
+                .filter(|(id, m)| **m == name && self.robots.get(*id).is_some_and(|r| r.alive && r.info.is_some()))
+                .filter_map(|(id, _)| self.member(id))
+                .collect();
             if members.is_empty() {
                 continue;
             }
+            let Some(lineage) = rec.def.lineage.checked_add(1) else {
+                tracing::error!(mission = %name, "started anew too many times: not started again");
+                continue;
+            };
             let robots: Vec<String> = members.iter().map(|m| m.spec.id.clone()).collect();
-            tracing::info!(mission = %name, %host, ?robots, "no live manager runs this mission of the journal: starting it again");
+            tracing::info!(mission = %name, %host, ?robots, lineage, "no live manager runs this mission of the journal: starting it again");
+            // The new lineage is journaled before the start goes out (the journal comes first).
+            let def = MissionDef { lineage, ..(*rec.def).clone() };
+            if let Some(r) = self.missions.get_mut(&name) {
+                r.def = Arc::new(def);
+            }
             self.notes.push(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
             let after = robots.iter().filter_map(|id| self.pending_release(id)).collect();
             self.restarts.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
-            self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members, anew: true }), after });
+            self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members, anew: true, lineage }), after });
         }
     }
 }

@@ -2,6 +2,7 @@
 //! registry: who may report what, robots recorded in or told to leave missions, lost members
 //! taken back.
 
+use mrmm_proto::chain::{lineage_floor, lineage_of};
 use mrmm_proto::Role;
 
 use super::*;
@@ -111,6 +112,17 @@ impl SystemManager {
         if view.manager.node != from.id || !from.role.hosts_missions() {
             return vec![Command::Refused { what: format!("report mission {} as managed by {}", view.name, view.manager.node), from }];
         }
+        // The head of a lineage this manager replaced (it started the mission anew while that
+        // chain was cut off, say): told directly that a newer lineage runs the mission — the two
+        // chains may share no node, so neither would hear of the other — and it steps down.
+        let lineage = self.missions.get(&view.name).map_or(0, |r| r.def.lineage);
+        if lineage_of(view.manager.chain_epoch) < lineage {
+            tracing::warn!(mission = %view.name, node = %view.manager.node, chain_epoch = view.manager.chain_epoch, lineage, "the head of a replaced lineage still runs the mission: fenced");
+            let floor = lineage_floor(lineage);
+            let msg = mrmm_proto::chain::Msg::Stale { promised: floor, last: (floor, 0) };
+            let envelope = Box::new(ChainEnvelope { mission: view.name.clone(), from: proto::CENTRAL_HOST.to_string(), msg });
+            return vec![Command::Chain { to: view.manager.node.clone(), envelope }];
+        }
         // A report of an older chain epoch is from a manager that was replaced.
         let known_epoch = self.missions.get(&view.name).and_then(|r| r.view.as_ref()).map_or(0, |v| v.manager.chain_epoch);
         if view.manager.chain_epoch < known_epoch {
@@ -176,7 +188,13 @@ impl SystemManager {
         let name = view.name.clone();
         let (robots, lost) = (view.robots.clone(), view.lost.clone());
         self.notes.push(JournalEvent::ManagerChanged { mission: name.clone(), manager: view.manager.node.clone(), chain_epoch: view.manager.chain_epoch });
-        let def = MissionDef { host: view.manager.node.clone(), recipe: view.recipe.clone(), planner: view.planner.clone(), spec: None };
+        let def = MissionDef {
+            host: view.manager.node.clone(),
+            recipe: view.recipe.clone(),
+            planner: view.planner.clone(),
+            spec: None,
+            lineage: lineage_of(view.manager.chain_epoch),
+        };
         self.missions.insert(name.clone(), MissionRecord::new(def, Some(view), true));
         let out = self.reconcile(&name, &robots, &lost, &from);
         self.rejoin(&name);

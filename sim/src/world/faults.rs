@@ -49,6 +49,23 @@ impl World {
         self.liveliness(0.02);
     }
 
+    /// Every node on central's side of the partition goes down at once; central comes back
+    /// first, the others after it (so central counts them as started after it went down).
+    pub(super) fn cycle_side(&mut self) {
+        let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) else { return };
+        if !self.links.partitioned() || !self.links.up[c] {
+            return;
+        }
+        let side = self.links.side_of(c);
+        let nodes: Vec<usize> = (0..self.nodes.len()).filter(|i| self.links.up[*i] && self.links.side_of(*i) == side).collect();
+        self.log(|| format!("power cycle of central's side: {nodes:?}"));
+        for &i in &nodes {
+            self.crash(i);
+            let back = if i == c { self.fault_rng.gen_range(0.5..1.0) } else { self.fault_rng.gen_range(1.5..4.0) };
+            self.queue.push(self.now + back, Ev::Restart(i));
+        }
+    }
+
     /// Every token present now, with its holder.
     pub(super) fn tokens(&self) -> Vec<(Token, usize)> {
         let mut out = Vec::new();

@@ -43,11 +43,28 @@ impl World {
             system::Command::SendToRobot { req, robot, cmd } => self.ask(Some(i), &robot.clone(), Payload::RobotCmd(cmd), Ctx::CentralRobot { req, robot }),
             system::Command::StartMission { host, start } => {
                 let mission = start.spec.name.clone();
-
+                if start.anew {
+                    self.report.anew += 1;
+                    let assigned = self.nodes[i].central.as_ref().map_or(0, |c| c.system().durable().assignment.values().filter(|m| **m == mission).count());
+                    if start.members.len() < assigned {
+                        self.report.anew_short += 1;
+                    }
+                }
                 self.ask(Some(i), &host, Payload::HostStart(start), Ctx::CentralStart(mission))
             }
             system::Command::Ctl { id, mission, ctl, .. } => self.ask_mission(Some(i), &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::CentralCtl(id)),
             system::Command::Refused { from, what } => return Err(format!("central refused {from}: {what} (no node of the simulation is a rogue)")),
+            system::Command::Chain { to, envelope } => {
+                self.report.fenced += 1;
+                self.log(|| format!("central -> {to}: {} {}", envelope.mission, envelope.msg.describe()));
+                if let Some(j) = self.index(&to) {
+                    if !self.lost() {
+                        let at = self.now + self.delay();
+                        let from = self.sender(i);
+                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Chain { envelope, from }) });
+                    }
+                }
+            }
             system::Command::Journal(entries) => {
                 // Committed before anything else of this event happens, as the driver does; what
                 // is on the disk must be exactly what central holds.
@@ -143,9 +160,11 @@ impl World {
             host::Command::Reply { query, result } => {
                 if let (Ok(_), Some(Payload::Ctl { mission, .. })) = (&result, self.queries.get(&query).and_then(|q| q.payload.as_ref())) {
                     let mission = mission.clone();
-                    let revision = self.nodes[i].host.as_ref().and_then(|h| h.heads().find(|(m, _)| **m == mission).map(|(_, mm)| mm.revision()));
+                    let host = self.nodes[i].host.as_ref();
+                    let revision = host.and_then(|h| h.heads().find(|(m, _)| **m == mission).map(|(_, mm)| mm.revision()));
+                    let lineage = host.and_then(|h| h.replica(&mission)).and_then(|r| r.config()).map_or(0, |c| mrmm_proto::chain::lineage_of(c.epoch));
                     if let Some(r) = revision {
-                        self.inv.acked(&mission, r);
+                        self.inv.acked(&mission, lineage, r);
                         self.report.acked += 1;
                     }
                 }

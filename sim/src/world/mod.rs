@@ -178,12 +178,16 @@ enum Ev {
     Suspect,
     Unsuspect(usize, usize),
     Op,
+    /// Every node on central's side of the partition loses power (see `Config::side_cycles`).
+    CycleSide,
 }
 
 /// One run.
 pub struct World {
     cfg: Config,
     rng: ChaCha8Rng,
+    /// The random stream of the side power cycles (`Config::side_cycles`).
+    fault_rng: ChaCha8Rng,
     now: f64,
     nodes: Vec<Node>,
     links: Links,
@@ -262,6 +266,7 @@ impl World {
         let mut w = World {
             cfg,
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
+            fault_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x51de_c1c1e),
             now: 0.0,
             nodes,
             links: Links::new(n),
@@ -474,11 +479,17 @@ impl World {
                     self.log(|| format!("partition {side:?}"));
                     self.links.partition(side);
                     self.report.partitions += 1;
-                    let heal = (self.now + self.rng.gen_range(0.5..6.0)).min(self.cfg.duration);
+                    let mut heal = (self.now + self.rng.gen_range(0.5..6.0)).min(self.cfg.duration);
+                    if self.cfg.side_cycles && self.fault_rng.gen_bool(0.3) {
+                        // Long enough for central, back, to start anew what it cannot see.
+                        self.queue.push(self.now + self.fault_rng.gen_range(0.3..1.0), Ev::CycleSide);
+                        heal = heal.max((self.now + self.fault_rng.gen_range(9.0..15.0)).min(self.cfg.duration));
+                    }
                     self.queue.push(heal, Ev::Heal);
                     self.liveliness(self.cfg.lease);
                 }
             }
+            Ev::CycleSide => self.cycle_side(),
             Ev::Heal => {
                 self.log(|| "heal".into());
                 self.links.heal();

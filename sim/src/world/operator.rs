@@ -117,7 +117,7 @@ impl World {
         for r in &robots {
             self.admit_one(r);
         }
-        self.ask(None, &host, Payload::HostStart(Box::new(MissionStart { spec, members, anew: false })), Ctx::OpStart);
+        self.ask(None, &host, Payload::HostStart(Box::new(MissionStart { spec, members, anew: false, lineage: 0 })), Ctx::OpStart);
     }
 
     /// OneMission: admits robot `r` to mission `p` with the operator's team.

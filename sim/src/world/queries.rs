@@ -84,15 +84,20 @@ impl World {
                 let again = self.nodes.iter().any(|n| n.central.as_ref().is_some_and(|c| c.system().restarting(&mission)));
                 let before = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
                 // Central starts a mission again from its journal: a new lineage, which the host
-                // may take only when no other live node replicates the old one.
+                // may take only when no other live node replicates the same (or a newer) one — an
+                // older lineage's replicas are fenced off by the new lineage's epochs.
+                let lineage = start.lineage;
                 let holders: Vec<String> = (0..self.nodes.len())
                     .filter(|n| *n != s && self.links.up[*n])
-                    .filter(|n| self.nodes[*n].host.as_ref().and_then(|h| h.replica(&mission)).is_some_and(|r| r.state().is_some()))
+                    .filter(|n| {
+                        self.nodes[*n]
+                            .host
+                            .as_ref()
+                            .and_then(|h| h.replica(&mission))
+                            .is_some_and(|r| r.state().is_some() && mrmm_proto::chain::lineage_of(r.version().0) >= lineage)
+                    })
                     .map(|n| self.nodes[n].name.clone())
                     .collect();
-                if again && !before {
-                    self.inv.started_again(&mission);
-                }
                 self.host(s, host::Event::Start { query: qid, start, from })?;
                 let after = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
                 if again && !before && after && !holders.is_empty() {

@@ -4,6 +4,8 @@ use std::collections::BTreeSet;
 
 mod recv;
 
+use mrmm_proto::chain::lineage_of;
+
 use super::{Command, Config, Event, Msg, Params, Stored, Version};
 
 /// What a node is doing for the value.
@@ -203,7 +205,7 @@ impl<S: Clone> Replica<S> {
                 self.gone.insert(n);
                 self.tick(now)
             }
-            Event::Create { replicas, state } => {
+            Event::Create { replicas, state, floor } => {
                 let mut chain = vec![self.me.clone()];
                 for r in replicas {
                     if !chain.contains(&r) {
@@ -212,7 +214,7 @@ impl<S: Clone> Replica<S> {
                 }
                 // The first configuration needs no vote: nobody else can create this value. A
                 // node that remembers a higher promise answers `Stale` and we re-elect above it.
-                let epoch = self.promised.max(self.seen).saturating_add(1);
+                let epoch = self.promised.max(self.seen).saturating_add(1).max(floor);
                 self.promised = epoch;
                 self.voted_for = Some(self.me.clone());
                 let config = Config { epoch, chain };
@@ -384,6 +386,13 @@ impl<S: Clone> Replica<S> {
     }
 
     fn stand(&mut self, now: f64, proposal: Config, was_head: bool) -> Vec<Command<S>> {
+        // A state never crosses into a newer lineage: a replica that learnt of a promise of one
+        // (the value was started anew without this chain) would otherwise stand above it with
+        // the old lineage's state, and win against the new one (system sim seed 1473).
+        if self.state.as_ref().is_some_and(|((e, _), _)| lineage_of(proposal.epoch) > lineage_of(*e)) {
+            tracing::info!(node = %self.me, epoch = proposal.epoch, "chain: a newer lineage of this value exists; retiring");
+            return self.retire();
+        }
         let base = self.config.clone().unwrap_or_else(|| proposal.clone());
         if !base.majority(|n| proposal.contains(n)) {
             // Too few of the current chain left to carry its commits into a new one: wait.
@@ -448,10 +457,13 @@ impl<S: Clone> Replica<S> {
     /// always keeps its state and follows: retiring would write it off for good, and a newer
     /// chain it is part of, whose head crashed before reaching it, would then miss a member
     /// holding state (found by the chain simulation with power cycles); the up-to-date rule
-    /// keeps its older state from winning.
+    /// keeps its older state from winning. Except for a newer *lineage*: the value was started
+    /// anew without this chain's state, which no chain of the new lineage can ever need.
     fn outdone(&mut self, now: f64, last: Version) -> Vec<Command<S>> {
-        let newer_chain = last.0 > self.config.as_ref().map_or(0, |c| c.epoch);
-        if newer_chain && !self.durable {
+        let mine = self.config.as_ref().map_or(0, |c| c.epoch);
+        let newer_chain = last.0 > mine;
+        let newer_lineage = lineage_of(last.0) > lineage_of(mine);
+        if newer_chain && (!self.durable || newer_lineage) {
             return self.retire();
         }
         if newer_chain {

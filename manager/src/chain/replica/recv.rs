@@ -1,6 +1,8 @@
 //! What a replica does with each chain message it receives: votes, grants and refusals,
 //! updates and acknowledgements, stale notices, ends and declines.
 
+use mrmm_proto::chain::lineage_of;
+
 use super::{Command, Config, Msg, Replica, Role, Version};
 
 impl<S: Clone> Replica<S> {
@@ -103,12 +105,18 @@ impl<S: Clone> Replica<S> {
     }
 
     fn on_vote(&mut self, now: f64, from: String, proposal: Config, base: &[String], last: Version) -> Vec<Command<S>> {
-        if matches!(self.role, Role::Ending { .. }) {
-            // The value is being ended: a candidate that missed it ends too, rather than bring
-            // it back.
-            return vec![Command::Send { to: from, msg: Msg::End { epoch: u64::MAX } }];
-        }
         let e = proposal.epoch;
+        if let Role::Ending { epoch, .. } = self.role {
+            // The value is being ended: a candidate that missed it ends too, rather than bring
+            // it back — one of its lineage; a newer lineage (started anew without this chain)
+            // is not this chain's to end.
+            let msg = if lineage_of(e) <= lineage_of(epoch) {
+                Msg::End { epoch: u64::MAX }
+            } else {
+                Msg::Refuse { epoch: e, promised: self.promised, last: self.version() }
+            };
+            return vec![Command::Send { to: from, msg }];
+        }
         let epoch_ok = e > self.promised || (e == self.promised && self.voted_for.as_deref() == Some(from.as_str()));
         // A member of the candidate's chain that holds nothing lost its state (restart): its vote
         // must not count as that of the member who held it. Except for the head of a chain of

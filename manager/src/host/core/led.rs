@@ -1,6 +1,8 @@
 //! The missions this node leads: starting one, its controls, its plans, its chain's commands
 //! carried out (lead, step down, flush updates, end), and its view.
 
+use mrmm_proto::chain::lineage_floor;
+
 use super::*;
 
 impl HostCore {
@@ -25,16 +27,19 @@ impl HostCore {
         if let Some((_, node)) = self.foreign.get(&name) {
             return out.push(Command::Reply { query, result: Err(format!("mission {name:?} still has a chain ({node} replicates it): not started anew")) });
         }
-        let mut mm = MissionManager::new(spec, self.node.clone(), start.members.clone());
+        // A start anew is the mission's next lineage: its chain and plan epochs are above all of
+        // the old one's, so an old chain still alive somewhere loses wherever the two meet.
+        let floor = lineage_floor(start.lineage);
+        let mut mm = MissionManager::new(spec, self.node.clone(), start.members.clone()).with_epoch_floor(floor);
         // The first replicas: members whose hosts are up, in id order.
         let alive = self.registry.alive();
         let replicas: Vec<String> =
             start.members.iter().map(|m| m.spec.id.clone()).filter(|id| *id != self.node && alive.contains(id)).take(mm.replicas()).collect();
-        tracing::info!(mission = %name, ?replicas, "hosting mission");
+        tracing::info!(mission = %name, ?replicas, lineage = start.lineage, "hosting mission");
         let state = mm.changes().unwrap_or_else(|| mm.snapshot());
         self.heads.insert(name.clone(), Head::new(mm, Some(query)));
         out.push(Command::Serve { mission: name.clone() });
-        let cmds = self.registry.create(now, &name, replicas, state);
+        let cmds = self.registry.create(now, &name, replicas, state, floor);
         self.apply(now, &name, cmds, out);
         self.set_pool(now, &name);
         self.run(now, &name, mission::Event::Start, out);

@@ -109,31 +109,32 @@ fn after_a_power_cycle_missions_start_again_with_their_live_robots_and_terminate
     let (_, disk) = with_journal(&["r1", "r2", "r3"]);
     let mut sm = restored(&disk, &["r1", "r3"]);
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"), "membership from the journal");
-    // r2 (of p1) does not come back: p1 waits for it — it may be cut off with p1's chain —
-    // until the operator frees it.
-    assert!(!sm.handle(RESTART_S + 0.05, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })));
-    let freed = sm.handle(RESTART_S + 0.07, Event::Operator { req: Req::Query(9), request: Request::Move(decode(r#"{"robot": "r2", "to": null}"#)) });
-    assert!(freed.iter().any(|c| matches!(c, Command::Reply { result: Ok(_), .. })), "{freed:?}");
     // Heads get their chance to report first.
     let early: Vec<Command> = sm.handle(RESTART_S - 1.0, Event::Tick);
     assert!(!early.iter().any(|c| matches!(c, Command::StartMission { .. })), "{early:?}");
+    // r2 (of p1) is not back: p1 starts again without it, as its next lineage (a chain of p1
+    // cut off with r2 would lose to it wherever they meet).
     let cmds = sm.handle(RESTART_S + 0.1, Event::Tick);
-    let starts: Vec<(String, Vec<String>)> = cmds
+    let starts: Vec<(String, Vec<String>, u32)> = cmds
         .iter()
         .filter_map(|c| match c {
-            Command::StartMission { start, .. } => Some((start.spec.name.clone(), start.members.iter().map(|m| m.spec.id.clone()).collect())),
+            Command::StartMission { start, .. } => Some((start.spec.name.clone(), start.members.iter().map(|m| m.spec.id.clone()).collect(), start.lineage)),
             _ => None,
         })
         .collect();
-    assert_eq!(starts, [("p1".to_string(), vec!["r1".to_string()])], "p1 again with r1, the one alive; never `gone`");
+    assert_eq!(starts, [("p1".to_string(), vec!["r1".to_string()], 1)], "p1 again with r1, the one alive, lineage 1; never `gone`");
+    // The new lineage is on disk before the start goes out.
     let Some(Command::Journal(e)) = cmds.first() else { panic!("{cmds:?}") };
     assert!(e.contains(&JournalEvent::MissionRestarted { mission: "p1".into(), robots: vec!["r1".into()] }));
-    // No second start while that one is out; a failed one is tried again, never forgotten.
+    assert!(e.iter().any(|e| matches!(e, JournalEvent::MissionDefined { mission, lineage: 1, .. } if mission == "p1")), "{e:?}");
+    assert_eq!(sm.durable().assignment.get("r2").map(String::as_str), Some("p1"), "r2 keeps its place");
+    // No second start while that one is out; a failed one is tried again (as the next lineage
+    // again: the failed start may have run somewhere), never forgotten.
     assert!(!sm.handle(RESTART_S + 1.0, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })));
     sm.handle(RESTART_S + 1.5, Event::MissionStarted { mission: "p1".into(), result: Err(Failure { retryable: true, error: "no answer".into() }) });
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"));
     let again = sm.handle(RESTART_S + 1.5 + RESTART_RETRY_S + 0.1, Event::Tick);
-    assert!(again.iter().any(|c| matches!(c, Command::StartMission { .. })), "{again:?}");
+    assert!(again.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.lineage == 2)), "{again:?}");
     // A robot still running the terminated mission is told to leave it.
     let mut t = telemetry("r3", 2, Behaviour::Hold);
     t.mission = Some("gone".into());
@@ -200,4 +201,43 @@ fn a_robot_up_since_before_central_went_down_blocks_starting_anew() {
     sm.handle(RESTART_S + 31.0, Event::RobotGone { id: "r3".into() });
     let cmds = sm.handle(RESTART_S + 32.0, Event::Tick);
     assert!(cmds.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.spec.name == "p1")), "{cmds:?}");
+}
+
+/// After p1 started again without r2 (lineage 1): r2 back rejoins it, and a head of lineage 0
+/// that still runs p1 (cut off with r2, say) is told directly, by a chain message only central
+/// may send, that a newer lineage runs it.
+#[test]
+fn a_member_back_rejoins_the_new_lineage_and_a_head_of_the_old_one_is_fenced() {
+    let (_, disk) = with_journal(&["r1", "r2", "r3"]);
+    let mut sm = restored(&disk, &["r1", "r3"]);
+    let cmds = sm.handle(RESTART_S + 0.1, Event::Tick);
+    assert!(cmds.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.lineage == 1)), "{cmds:?}");
+    let floor = mrmm_proto::chain::lineage_floor(1);
+    let mut view = started_view("p1", "central", &["r1".into()]);
+    (view.manager.chain_epoch, view.manager.epoch) = (floor, floor + 1);
+    sm.handle(RESTART_S + 0.5, Event::MissionStarted { mission: "p1".into(), result: Ok(view) });
+    // The old lineage's head, r2's host, reports p1 at chain epoch 7: fenced, not believed.
+    let mut old = *started_view("p1", "r2", &["r2".into()]);
+    old.manager.chain_epoch = 7;
+    let cmds = sm.handle(RESTART_S + 1.0, status(old));
+    let fence: Vec<(&str, &mrmm_proto::ChainEnvelope)> = cmds
+        .iter()
+        .filter_map(|c| match c {
+            Command::Chain { to, envelope } => Some((to.as_str(), envelope.as_ref())),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        matches!(fence.as_slice(), [("r2", e)] if e.from == "central" && e.mission == "p1" && e.msg == mrmm_proto::chain::Msg::Stale { promised: floor, last: (floor, 0) }),
+        "{cmds:?}"
+    );
+    assert!(sm.missions.get("p1").and_then(|r| r.view.as_ref()).is_some_and(|v| v.manager.chain_epoch == floor), "the fenced report changed nothing");
+    // r2 back: p1's head (of the new lineage) takes it.
+    sm.handle(RESTART_S + 2.0, Event::RobotAlive { id: "r2".into() });
+    let mut cmds = sm.handle(RESTART_S + 2.0, Event::RobotRegistered(info("r2")));
+    cmds.extend(sm.handle(RESTART_S + 2.1, Event::Tick));
+    assert!(
+        cmds.iter().any(|c| matches!(c, Command::Ctl { mission, ctl: MissionCtl::Joined { member }, .. } if mission == "p1" && member.spec.id == "r2")),
+        "{cmds:?}"
+    );
 }
