@@ -49,6 +49,8 @@ pub const ADOPT_S: f64 = 2.0;
 pub const RESTART_S: f64 = 5.0;
 /// Seconds between two attempts to start a journaled mission again.
 pub const RESTART_RETRY_S: f64 = 5.0;
+/// How stale the previous manager's last sign of life may be (its heartbeat period).
+pub const RESTART_BEAT_S: f64 = 2.0;
 /// A head's report that lists a robot present this long after the robot's liveliness appeared
 /// has seen it back (two status periods and then some).
 pub const SEEN_BACK_S: f64 = 4.0;

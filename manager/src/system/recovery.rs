@@ -82,18 +82,30 @@ impl SystemManager {
     /// with the members that are back; the others rejoin as they come back. A mission some robot
     /// says it runs is left alone: its managers are alive somewhere, and will report.
     pub(super) fn restart_orphans(&mut self, now: f64) {
-        // A robot with a state dir kept its replicas across any restart: its missions come back
-        // through their chains, from its disk, so none is started anew while one lives. (A robot
-        // up since before the previous manager went down may replicate a mission too, and its
-        // chain may take over again: a new lineage wins over it wherever they meet, and its head
-        // is fenced when it reports — so that no longer holds a start back.)
-        if self.prev_alive.is_none() {
-            return;
-        }
-        let durable: Vec<&String> = self.robots.iter().filter(|(_, r)| r.alive && r.info.as_ref().is_some_and(|i| i.durable)).map(|(id, _)| id).collect();
-        if !durable.is_empty() {
+        // A robot up since before the previous manager went down may replicate one of its
+        // missions (even one it left): starting that mission anew would make a second lineage
+        // beside the chain that may still take over. Every live robot's start is known from its
+        // telemetry (simulated seconds since it started, over its time scale).
+        // A robot started after this manager did is new: the previous one was gone by then (it
+        // held the journal until it died). A robot with a state dir is never new in this sense.
+        let Some(down) = self.prev_alive else { return };
+        let before = (down + RESTART_BEAT_S).min(self.started);
+        let old: Vec<&String> = self
+            .robots
+            .iter()
+            .filter(|(_, r)| r.alive)
+            .filter(|(_, r)| match (&r.last, &r.info) {
+                // A robot with a state dir kept its replicas across any restart: its missions
+                // come back through their chains.
+                (_, Some(i)) if i.durable => true,
+                (Some(t), Some(i)) if i.time_scale > 0.0 => now - t.t / i.time_scale <= before,
+                _ => true,
+            })
+            .map(|(id, _)| id)
+            .collect();
+        if !old.is_empty() {
             if !self.restart_blocked && self.missions.values().any(|r| r.view.is_none()) {
-                tracing::warn!(robots = ?durable, "robots with a state dir may bring missions back through their chains: missions no manager reports are not started anew");
+                tracing::warn!(robots = ?old, "robots up since before central went down may still replicate its missions: missions no manager reports are not started anew");
                 self.restart_blocked = true;
             }
             return;

@@ -181,31 +181,23 @@ fn a_head_that_missed_a_join_before_the_restart_is_told_again() {
 }
 
 #[test]
-fn a_robot_with_a_state_dir_holds_starting_anew_back_and_one_up_since_before_does_not() {
+fn a_robot_up_since_before_central_went_down_blocks_starting_anew() {
     let (_, disk) = with_journal(&["r1", "r2", "r3"]);
     // Central went down at 0 (this manager's clock); r3 has been up for 100 s: it may still
-    // replicate p1 — a new lineage of p1 would win over that chain, so p1 starts anew anyway.
-    let fleet = |durable: bool| {
-        let mut sm = SystemManager::restore("node".into(), 0.5, disk.clone(), Some(0.0));
-        sm.handle(0.5, Event::HostAlive { node: "central".into() });
-        for (id, up) in [("r1", 0.2), ("r2", 0.3), ("r3", 100.0)] {
-            sm.handle(0.5, Event::RobotAlive { id: id.into() });
-            sm.handle(0.5, Event::RobotRegistered(RobotInfo { durable: durable && id == "r3", ..info(id) }));
-            let mut t = telemetry(id, 1, Behaviour::Hold);
-            t.t = up;
-            sm.handle(0.5, Event::Telemetry(Box::new(t)));
-        }
-        sm
-    };
-    let mut sm = fleet(false);
-    let cmds = sm.handle(RESTART_S + 1.0, Event::Tick);
-    assert!(cmds.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.spec.name == "p1" && start.lineage == 1)), "{cmds:?}");
-    // r3 with a state dir: p1 may come back through its chain, from r3's disk.
-    let mut sm = fleet(true);
-    for now in [RESTART_S + 1.0, RESTART_S + 30.0] {
-        assert!(!sm.handle(now, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })), "never while r3 may bring p1 back");
+    // replicate p1, even though it left it.
+    let mut sm = SystemManager::restore("node".into(), 0.5, disk.clone(), Some(0.0));
+    sm.handle(0.5, Event::HostAlive { node: "central".into() });
+    for (id, up) in [("r1", 0.2), ("r2", 0.3), ("r3", 100.0)] {
+        sm.handle(0.5, Event::RobotAlive { id: id.into() });
+        sm.handle(0.5, Event::RobotRegistered(info(id)));
+        let mut t = telemetry(id, 1, Behaviour::Hold);
+        t.t = up;
+        sm.handle(0.5, Event::Telemetry(Box::new(t)));
     }
-    // r3 gone: nothing brings p1 back from a disk any more.
+    for now in [RESTART_S + 1.0, RESTART_S + 30.0] {
+        assert!(!sm.handle(now, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })), "never while r3 may replicate");
+    }
+    // r3 restarts (its process is new): nothing can replicate p1 any more.
     sm.handle(RESTART_S + 31.0, Event::RobotGone { id: "r3".into() });
     let cmds = sm.handle(RESTART_S + 32.0, Event::Tick);
     assert!(cmds.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.spec.name == "p1")), "{cmds:?}");
