@@ -43,8 +43,11 @@ pub struct Invariants {
     newest_committed: BTreeMap<(String, u32), u64>,
     /// Highest revision a control was acknowledged at, per mission and lineage.
     acked: BTreeMap<(String, u32), u64>,
-    /// The newest committed state's members per mission, by chain version.
+    /// The newest committed state's members per mission, by chain version — of its newest
+    /// lineage (a replaced lineage, cut off, may still commit what central no longer holds).
     teams: BTreeMap<String, (Version, Vec<String>)>,
+    /// The newest lineage started per mission.
+    lineages: BTreeMap<String, u32>,
     /// Furthest (round, point) each robot published, per (mission, epoch, robot).
     arrivals: BTreeMap<(String, u64, String), (u32, u32)>,
     /// Furthest release a leader announced (and the invariant justified), per (mission, epoch).
@@ -100,7 +103,8 @@ impl Invariants {
                 *n = (*n).max(state.revision);
                 let members: Vec<String> = state.members.iter().map(|m| m.spec.id.clone()).collect();
                 let v = r.version();
-                if self.teams.get(mission).is_none_or(|(old, _)| *old <= v) {
+                let replaced = self.lineages.get(mission).is_some_and(|l| lineage_of(v.0) < *l);
+                if !replaced && self.teams.get(mission).is_none_or(|(old, _)| *old <= v) {
                     self.teams.insert(mission.clone(), (v, members));
                 }
             }
@@ -119,6 +123,15 @@ impl Invariants {
     pub fn acked(&mut self, mission: &str, lineage: u32, revision: u64) {
         let a = self.acked.entry((mission.to_string(), lineage)).or_insert(0);
         *a = (*a).max(revision);
+    }
+
+    /// Central started `mission` anew as `lineage`: the team of an older lineage no longer counts.
+    pub fn lineage_started(&mut self, mission: &str, lineage: u32) {
+        let l = self.lineages.entry(mission.to_string()).or_insert(0);
+        *l = (*l).max(lineage);
+        if self.teams.get(mission).is_some_and(|((e, _), _)| lineage_of(*e) < lineage) {
+            self.teams.remove(mission);
+        }
     }
 
     /// Missions no node replicates any more are over.

@@ -98,6 +98,9 @@ impl World {
                     })
                     .map(|n| self.nodes[n].name.clone())
                     .collect();
+                if again && !before {
+                    self.inv.lineage_started(&mission, lineage);
+                }
                 self.host(s, host::Event::Start { query: qid, start, from })?;
                 let after = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
                 if again && !before && after && !holders.is_empty() {
