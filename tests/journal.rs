@@ -38,6 +38,24 @@ async fn placement(c: &Client) -> BTreeMap<String, Option<String>> {
     robots(c).await.into_iter().map(|r| (r.id, r.mission)).collect()
 }
 
+/// Central (with a state dir, on a fixed loopback port) and robots r1..rn, all registered, and an
+/// operator client.
+async fn fleet(dir: &Scratch, n: usize) -> anyhow::Result<(String, Proc, Vec<Proc>, Client)> {
+    let ep = format!("tcp/127.0.0.1:{}", free_port()?);
+    let c = central(dir, &ep, "central.log")?;
+    let rs = common::start_robots(dir, &ep, n)?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, n).await?;
+    Ok((ep, c, rs, client))
+}
+
+/// A power cut: central and every robot SIGKILLed at once.
+fn power_cut(c: &mut Proc, rs: &mut [Proc]) -> anyhow::Result<()> {
+    let mut all: Vec<&mut Proc> = rs.iter_mut().collect();
+    all.push(c);
+    kill_all(&mut all)
+}
+
 /// SIGKILLs all of `procs` in one `kill` call, then reaps them.
 fn kill_all(procs: &mut [&mut Proc]) -> anyhow::Result<()> {
     let pids: Vec<String> = procs.iter().map(|p| p.pid().to_string()).collect();
@@ -62,11 +80,7 @@ fn patrol(name: &str, robots: &[&str]) -> MissionCreate {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result<()> {
     let dir = Scratch::new("power-cycle");
-    let ep = format!("tcp/127.0.0.1:{}", free_port()?);
-    let mut c = central(&dir, &ep, "central.log")?;
-    let mut rs = common::start_robots(&dir, &ep, 4)?;
-    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    common::wait_robots(&client, 4).await?;
+    let (ep, mut c, mut rs, client) = fleet(&dir, 4).await?;
     let cmd = |c| proto::Key::SystemCmd(c);
     let _: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&patrol("p", &["r1", "r2", "r3"]))).await?;
     let coverage = MissionCreate {
@@ -90,11 +104,7 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
     client.close().await;
 
     // Power cut: every process at once.
-    {
-        let mut all: Vec<&mut Proc> = rs.iter_mut().collect();
-        all.push(&mut c);
-        kill_all(&mut all)?;
-    }
+    power_cut(&mut c, &mut rs)?;
     let t0 = std::time::Instant::now();
     let _c = central(&dir, &ep, "central2.log")?;
     rs = common::start_robots(&dir, &ep, 4)?;
@@ -149,18 +159,10 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_power_cycle_with_a_robot_that_stays_down_runs_its_mission_with_the_others() -> anyhow::Result<()> {
     let dir = Scratch::new("power-cycle-one-down");
-    let ep = format!("tcp/127.0.0.1:{}", free_port()?);
-    let mut c = central(&dir, &ep, "central.log")?;
-    let mut rs = common::start_robots(&dir, &ep, 3)?;
-    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    common::wait_robots(&client, 3).await?;
+    let (ep, mut c, mut rs, client) = fleet(&dir, 3).await?;
     let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol("p", &["r1", "r2", "r3"]))).await?;
     client.close().await;
-    {
-        let mut all: Vec<&mut Proc> = rs.iter_mut().collect();
-        all.push(&mut c);
-        kill_all(&mut all)?;
-    }
+    power_cut(&mut c, &mut rs)?;
     let t0 = std::time::Instant::now();
     let _c = central(&dir, &ep, "central2.log")?;
     // r3 stays down.

@@ -340,10 +340,7 @@ impl Io {
                 }
             }
             system::Command::Refused { from, what } => self.mesh.refuse(&what, &from),
-            system::Command::Chain { to, envelope } => match proto::to_json(&envelope) {
-                Ok(bytes) => self.mesh.put(&Key::HostChain(to).to_string(), bytes, zenoh::bytes::Encoding::APPLICATION_JSON).await,
-                Err(e) => tracing::warn!("cannot encode a chain message: {e}"),
-            },
+            system::Command::Chain { to, envelope } => crate::host::send_chain(&self.mesh, &to, &envelope).await,
             // Committed by `carry_out` before anything else.
             system::Command::Journal(_) => {}
             system::Command::DryRun(dry) => self.spawn(async move {

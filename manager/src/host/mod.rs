@@ -63,6 +63,14 @@ pub type LocalTeam = Vec<(String, Vec<String>)>;
 /// Hosts missions on `mesh` as `node` until `shutdown`, with the default chain parameters.
 /// `local`: on a robot node, its robot's team. `stored`: the chain state store opened with
 /// [`store::Store::open`] (and what it held): keep the chain state there; else in memory only.
+/// Publishes a chain message to host `to` (on `mrmm/hosts/<to>/chain`), sealed.
+pub async fn send_chain(mesh: &Mesh, to: &str, envelope: &ChainEnvelope) {
+    match proto::to_json(envelope) {
+        Ok(bytes) => mesh.put(&Key::HostChain(to.to_string()).to_string(), bytes, Encoding::APPLICATION_JSON).await,
+        Err(e) => tracing::warn!("cannot encode a chain message: {e}"),
+    }
+}
+
 pub async fn serve(
     mesh: Mesh,
     node: String,
@@ -341,13 +349,7 @@ impl Io {
 
     async fn execute(&mut self, c: Command) {
         match c {
-            Command::Chain { to, envelope } => {
-                let key = Key::HostChain(to.clone()).to_string();
-                match proto::to_json(&envelope) {
-                    Ok(bytes) => self.mesh.put(&key, bytes, Encoding::APPLICATION_JSON).await,
-                    Err(e) => tracing::warn!("cannot encode a chain message: {e}"),
-                }
-            }
+            Command::Chain { to, envelope } => send_chain(&self.mesh, &to, &envelope).await,
             Command::Reply { query, result } => {
                 let Some(q) = self.queries.remove(&query) else { return };
                 match result {

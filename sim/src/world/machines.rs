@@ -26,6 +26,17 @@ impl World {
         Ok(())
     }
 
+    /// A chain message from node `i` to host `to`, on its way (or lost).
+    fn send_chain(&mut self, i: usize, to: &str, envelope: Box<mrmm_proto::ChainEnvelope>) {
+        if let Some(j) = self.index(to) {
+            if !self.lost() {
+                let at = self.now + self.delay();
+                let from = self.sender(i);
+                self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Chain { envelope, from }) });
+            }
+        }
+    }
+
     pub(super) fn system_command(&mut self, i: usize, c: system::Command) -> Result<(), String> {
         match &c {
             system::Command::SendToRobot { robot, cmd, .. } => {
@@ -57,13 +68,7 @@ impl World {
             system::Command::Chain { to, envelope } => {
                 self.report.fenced += 1;
                 self.log(|| format!("central -> {to}: {} {}", envelope.mission, envelope.msg.describe()));
-                if let Some(j) = self.index(&to) {
-                    if !self.lost() {
-                        let at = self.now + self.delay();
-                        let from = self.sender(i);
-                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Chain { envelope, from }) });
-                    }
-                }
+                self.send_chain(i, &to, envelope);
             }
             system::Command::Journal(entries) => {
                 // Committed before anything else of this event happens, as the driver does; what
@@ -148,15 +153,7 @@ impl World {
                     d => self.nodes[i].chain_disk.insert(mission, d),
                 };
             }
-            host::Command::Chain { to, envelope } => {
-                if let Some(j) = self.index(&to) {
-                    if !self.lost() {
-                        let at = self.now + self.delay();
-                        let from = self.sender(i);
-                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Chain { envelope, from }) });
-                    }
-                }
-            }
+            host::Command::Chain { to, envelope } => self.send_chain(i, &to, envelope),
             host::Command::Reply { query, result } => {
                 if let (Ok(_), Some(Payload::Ctl { mission, .. })) = (&result, self.queries.get(&query).and_then(|q| q.payload.as_ref())) {
                     let mission = mission.clone();
