@@ -58,10 +58,17 @@ pub enum JournalEvent {
         request: serde_json::Value,
     },
     /// A robot is being let go from `mission` (moved or taken out; its head has not acknowledged
-    /// yet), or no longer (`None`): until then it is not free, even across a restart of central.
+    /// yet): until then it is not free, even across a restart of central. A robot may be let go
+    /// by several missions at once (moved on before the first let it go). `None` (written by
+    /// older versions) means every mission let it go.
     RobotReleasing {
         robot: String,
         mission: Option<String>,
+    },
+    /// `mission` let the robot go (its head acknowledged).
+    RobotLetGo {
+        robot: String,
+        mission: String,
     },
     /// A robot's liveliness went away, or came back.
     RobotLost {
@@ -104,6 +111,7 @@ impl JournalEvent {
                 | JournalEvent::MissionRemoved { .. }
                 | JournalEvent::RobotAssigned { .. }
                 | JournalEvent::RobotReleasing { .. }
+                | JournalEvent::RobotLetGo { .. }
         )
     }
 }

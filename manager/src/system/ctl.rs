@@ -18,8 +18,8 @@ pub const CTL_GIVE_UP_S: f64 = 60.0;
 struct Pending {
     id: u64,
     ctl: MissionCtl,
-    /// Sent only once this control is done.
-    after: Option<u64>,
+    /// Sent only once these controls are done.
+    after: Vec<u64>,
     in_flight: bool,
     /// First sent at.
     first: Option<f64>,
@@ -35,8 +35,8 @@ pub struct Ctls {
 }
 
 impl Ctls {
-    /// Queues `ctl` for `mission`, after control `after` if given; returns its id.
-    pub fn push(&mut self, mission: &str, ctl: MissionCtl, after: Option<u64>) -> u64 {
+    /// Queues `ctl` for `mission`, after the controls `after`; returns its id.
+    pub fn push(&mut self, mission: &str, ctl: MissionCtl, after: Vec<u64>) -> u64 {
         let id = self.next;
         self.next += 1;
         self.queues.entry(mission.to_string()).or_default().push_back(Pending { id, ctl, after, in_flight: false, first: None, retry_at: f64::NEG_INFINITY });
@@ -72,7 +72,7 @@ impl Ctls {
                     Some(r) => r.iter().all(|id| !held.contains(id)),
                     None => held.is_empty(),
                 };
-                if p.after.is_some_and(|a| pending.contains(&a)) || !clear {
+                if p.after.iter().any(|a| pending.contains(a)) || !clear {
                     match robots {
                         Some(r) => held.extend(r),
                         // A terminate holds up everything after it.
@@ -134,8 +134,9 @@ impl Ctls {
     /// Makes the controls that wait for one of `gone` wait for control `instead`.
     pub fn wait_instead(&mut self, gone: &[u64], instead: u64) {
         for p in self.queues.values_mut().flatten() {
-            if p.after.is_some_and(|a| gone.contains(&a)) {
-                p.after = Some(instead);
+            if p.after.iter().any(|a| gone.contains(a)) {
+                p.after.retain(|a| !gone.contains(a));
+                p.after.push(instead);
             }
         }
     }
@@ -164,8 +165,8 @@ mod tests {
     #[test]
     fn one_at_a_time_per_mission_retried_until_acknowledged() {
         let mut c = Ctls::default();
-        let a = c.push("m", left("r1"), None);
-        let b = c.push("m", left("r2"), None);
+        let a = c.push("m", left("r1"), vec![]);
+        let b = c.push("m", left("r2"), vec![]);
         assert_eq!(c.due(0.0), vec![(a, "m".into(), left("r1"))]);
         assert!(c.due(0.1).is_empty(), "in flight");
         c.done(2.0, a, no_answer());
@@ -180,8 +181,8 @@ mod tests {
     #[test]
     fn a_join_waits_for_the_leave_it_depends_on_and_controls_are_given_up() {
         let mut c = Ctls::default();
-        let l = c.push("m1", left("r1"), None);
-        let j = c.push("m2", MissionCtl::Terminate, Some(l));
+        let l = c.push("m1", left("r1"), vec![]);
+        let j = c.push("m2", MissionCtl::Terminate, vec![l]);
         assert_eq!(c.due(0.0).iter().map(|d| d.0).collect::<Vec<_>>(), [l]);
         c.done(1.0, l, no_answer());
         assert!(c.due(2.0).iter().all(|d| d.0 == l), "m2 still waits");
@@ -194,17 +195,17 @@ mod tests {
     #[test]
     fn a_control_waiting_for_another_mission_holds_up_only_its_robots() {
         let mut c = Ctls::default();
-        let x = c.push("other", left("r1"), None);
-        let a = c.push("m", left("r1"), Some(x));
-        let b = c.push("m", left("r1"), None);
-        let d = c.push("m", left("r2"), None);
+        let x = c.push("other", left("r1"), vec![]);
+        let a = c.push("m", left("r1"), vec![x]);
+        let b = c.push("m", left("r1"), vec![]);
+        let d = c.push("m", left("r2"), vec![]);
         let due = |c: &mut Ctls, now| c.due(now).iter().map(|d| d.0).collect::<Vec<_>>();
         assert_eq!(due(&mut c, 0.0), [d, x], "r2's control goes past r1's waiting ones");
         c.done(0.1, d, Ok(()));
         assert!(due(&mut c, 0.2).is_empty(), "b stays behind a (same robot)");
         // The other mission is gone; its end (answered at once here) stands in for its control.
         let gone = c.cancel_ids("other");
-        let end = c.push("other", MissionCtl::Terminate, None);
+        let end = c.push("other", MissionCtl::Terminate, vec![]);
         c.wait_instead(&gone, end);
         assert_eq!(due(&mut c, 0.3), [end]);
         c.done(0.4, end, Ok(()));

@@ -31,8 +31,9 @@ pub struct Durable {
     /// Robot → mission (a lost robot keeps its place).
     pub assignment: BTreeMap<String, String>,
     pub terminated: BTreeSet<String>,
-    /// Robot → the mission letting it go, until its head acknowledges.
-    pub releasing: BTreeMap<String, String>,
+    /// (Robot, the mission letting it go), until its head acknowledges: a robot moved on again
+    /// before its first mission let it go is held by both.
+    pub releasing: BTreeSet<(String, String)>,
 }
 
 impl Durable {
@@ -59,10 +60,13 @@ impl Durable {
                 self.assignment.remove(robot);
             }
             JournalEvent::RobotReleasing { robot, mission: Some(m) } => {
-                self.releasing.insert(robot.clone(), m.clone());
+                self.releasing.insert((robot.clone(), m.clone()));
             }
             JournalEvent::RobotReleasing { robot, mission: None } => {
-                self.releasing.remove(robot);
+                self.releasing.retain(|(r, _)| r != robot);
+            }
+            JournalEvent::RobotLetGo { robot, mission } => {
+                self.releasing.remove(&(robot.clone(), mission.clone()));
             }
             _ => {}
         }
@@ -103,12 +107,11 @@ impl Durable {
                 out.push(JournalEvent::RobotAssigned { robot: robot.clone(), mission: now.cloned() });
             }
         }
-        let robots: BTreeSet<&String> = self.releasing.keys().chain(new.releasing.keys()).collect();
-        for robot in robots {
-            let (old, now) = (self.releasing.get(robot), new.releasing.get(robot));
-            if old != now {
-                out.push(JournalEvent::RobotReleasing { robot: robot.clone(), mission: now.cloned() });
-            }
+        for (robot, mission) in self.releasing.difference(&new.releasing) {
+            out.push(JournalEvent::RobotLetGo { robot: robot.clone(), mission: mission.clone() });
+        }
+        for (robot, mission) in new.releasing.difference(&self.releasing) {
+            out.push(JournalEvent::RobotReleasing { robot: robot.clone(), mission: Some(mission.clone()) });
         }
         out
     }
@@ -154,11 +157,28 @@ mod tests {
             if rng.gen_bool(0.6) {
                 d.assignment.insert(format!("r{r}"), names[rng.gen_range(0..names.len())].into());
             }
-            if rng.gen_bool(0.3) {
-                d.releasing.insert(format!("r{r}"), names[rng.gen_range(0..names.len())].into());
+            for n in names {
+                if rng.gen_bool(0.15) {
+                    d.releasing.insert((format!("r{r}"), n.into()));
+                }
             }
         }
         d
+    }
+
+    #[test]
+    fn releases_are_per_mission_and_an_older_journal_still_replays() {
+        let ev = |robot: &str, m: Option<&str>| JournalEvent::RobotReleasing { robot: robot.into(), mission: m.map(Into::into) };
+        let d = Durable::replay(&[
+            ev("r1", Some("a")),
+            ev("r1", Some("b")),
+            ev("r2", Some("a")),
+            JournalEvent::RobotLetGo { robot: "r1".into(), mission: "a".into() },
+        ]);
+        assert_eq!(d.releasing, BTreeSet::from([("r1".into(), "b".into()), ("r2".into(), "a".into())]));
+        // Written by an older version: `None` means every mission let it go.
+        let d = Durable::replay(&[ev("r1", Some("a")), ev("r1", Some("b")), ev("r2", Some("a")), ev("r1", None)]);
+        assert_eq!(d.releasing, BTreeSet::from([("r2".into(), "a".into())]));
     }
 
     #[test]

@@ -7,7 +7,7 @@ use mrmm_planner::recipe::{self, PlannerKind};
 use mrmm_proto::{self as proto, MissionCreate, MissionCtl, MissionStart, MissionTerminate, MissionView, RobotCommand, RobotMove, RobotSpec};
 use serde_json::{json, Value};
 
-use super::{to_value, Command, MissionDef, MissionRecord, PendingStart, Released, Req, SystemManager, RESTART_RETRY_S};
+use super::{to_value, Command, Ctls, MissionDef, MissionRecord, PendingStart, Released, Req, SystemManager, RESTART_RETRY_S};
 use crate::mission::MissionSpec;
 use crate::wire;
 use crate::Failure;
@@ -84,16 +84,16 @@ impl SystemManager {
             self.assignment.remove(&id);
             leaving.entry(from).or_default().push(id);
         }
-        let mut after = Vec::new();
         for (from, ids) in leaving {
-            let ctl = self.ctls.push(&from, MissionCtl::Left { ids: ids.clone() }, None);
+            let ctl = self.ctls.push(&from, MissionCtl::Left { ids: ids.clone() }, vec![]);
             for id in ids {
-                self.released.insert(id, Released { mission: from.clone(), ctl, acked: None });
+                self.release(&id, &from, ctl);
             }
-            after.push(ctl);
         }
-        // Robots still being let go by a mission they were taken out of earlier, too.
-        after.extend(robots.iter().filter_map(|r| self.pending_release(&r.id)));
+        // After every mission its robots are being let go by (just now, or earlier).
+        let mut after: Vec<u64> = robots.iter().flat_map(|r| self.pending_releases(&r.id)).collect();
+        after.sort_unstable();
+        after.dedup();
         let members = robots.iter().filter_map(|r| self.member(&r.id)).collect();
         for r in &robots {
             self.assignment.insert(r.id.clone(), name.clone());
@@ -205,9 +205,23 @@ impl SystemManager {
         Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots })
     }
 
-    /// The control letting `id` go from a mission, while not yet acknowledged.
-    pub(super) fn pending_release(&self, id: &str) -> Option<u64> {
-        self.released.get(id).map(|r| r.ctl).filter(|c| self.ctls.is_pending(*c))
+    /// The controls letting `id` go from missions, while not yet acknowledged (a robot moved
+    /// on before its first mission let it go is let go by several).
+    pub(super) fn pending_releases(&self, id: &str) -> Vec<u64> {
+        let mine = self.released.range((id.to_string(), String::new())..).take_while(|((r, _), _)| r == id);
+        mine.map(|(_, r)| r.ctl).filter(|c| self.ctls.is_pending(*c)).collect()
+    }
+
+    /// Whether `mission` let `id` go within the grace period or is letting it go; with
+    /// `pending`, only while its head has not acknowledged. (On the fields, so that it can be
+    /// asked while a robot's record is borrowed.)
+    pub(super) fn released_by(released: &BTreeMap<(String, String), Released>, ctls: &Ctls, id: &str, mission: &str, pending: bool) -> bool {
+        released.get(&(id.to_string(), mission.to_string())).is_some_and(|r| !pending || ctls.is_pending(r.ctl))
+    }
+
+    /// Records that `mission` is letting `id` go with control `ctl`.
+    pub(super) fn release(&mut self, id: &str, mission: &str, ctl: u64) {
+        self.released.insert((id.to_string(), mission.to_string()), Released { ctl, acked: None });
     }
 
     /// Alive, registered robots in no mission and running no plan, by id. A robot that runs a
@@ -259,7 +273,7 @@ impl SystemManager {
         let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == t.name).map(|(r, _)| r.clone()).collect();
         self.terminated.insert(t.name.clone());
         self.ctls.cancel(&t.name);
-        self.ctls.push(&t.name, MissionCtl::Terminate, None);
+        self.ctls.push(&t.name, MissionCtl::Terminate, vec![]);
         self.starts.retain(|s| s.start.spec.name != t.name);
         let mut out = Vec::new();
         for id in &robots {
@@ -307,15 +321,15 @@ impl SystemManager {
             None => None,
         };
         let mut out = Vec::new();
-        let mut left = self.pending_release(&mv.robot);
+        let mut left = self.pending_releases(&mv.robot);
         if let Some(f) = &from {
             self.assignment.remove(&mv.robot);
             // After the release still pending from the mission before (whose head may still
             // count it: found by the system sim, seed 375 with digest beats), so that it joins
             // its next mission only once every mission it was in let it go.
-            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![mv.robot.clone()] }, left);
-            self.released.insert(mv.robot.clone(), Released { mission: f.clone(), ctl, acked: None });
-            left = Some(ctl);
+            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![mv.robot.clone()] }, left.clone());
+            self.release(&mv.robot, f, ctl);
+            left.push(ctl);
             if mv.to.is_none() && alive {
                 out.push(Command::SendToRobot { req: None, robot: mv.robot.clone(), cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX } });
             }
@@ -386,17 +400,18 @@ impl SystemManager {
                 // What waited for this mission's controls (a robot moved out of it, released by
                 // it before joining another) now waits for its end.
                 let gone = self.ctls.cancel_ids(name);
-                let end = self.ctls.push(name, MissionCtl::Terminate, None);
+                let end = self.ctls.push(name, MissionCtl::Terminate, vec![]);
                 self.ctls.wait_instead(&gone, end);
+                for r in self.released.values_mut().filter(|r| gone.contains(&r.ctl)) {
+                    r.ctl = end;
+                }
                 let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
                 let mut out = Vec::new();
                 for id in robots {
                     self.assignment.remove(&id);
-                    // A robot still being let go by the mission it was moved out of stays held by
-                    // that release (its head may still count it; found by the system sim, seed 3516).
-                    if self.pending_release(&id).is_none() {
-                        self.released.insert(id.clone(), Released { mission: name.to_string(), ctl: end, acked: None });
-                    }
+                    // Held until the end is acknowledged (and by any release still pending from a
+                    // mission it was moved out of: its head may still count it; system sim, seed 3516).
+                    self.release(&id, name, end);
                     out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: name.to_string(), epoch: u64::MAX } });
                 }
                 out.extend(reply(Err(format!("mission {name} did not start: {}; it was ended in case it had", f.error))));

@@ -247,10 +247,10 @@ struct Record {
 }
 
 /// A robot this manager took out of a mission: until the mission acknowledged it (and for a
-/// grace period after), that mission's reports listing it are older than the order.
+/// grace period after), that mission's reports listing it are older than the order. Keyed by
+/// (robot, mission): a robot moved on again before the first mission let it go is held by both.
 #[derive(Debug, Clone)]
 struct Released {
-    mission: String,
     ctl: u64,
     acked: Option<f64>,
 }
@@ -281,7 +281,7 @@ pub struct SystemManager {
     /// Missions terminated here: robots still running them are ordered out, heads still
     /// reporting them are told again.
     terminated: BTreeSet<String>,
-    released: BTreeMap<String, Released>,
+    released: BTreeMap<(String, String), Released>,
     ctls: Ctls,
     /// Commands held while the manager learns the fleet after starting.
     held: Vec<(Req, Request)>,

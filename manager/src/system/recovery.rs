@@ -26,8 +26,8 @@ impl SystemManager {
         // Robots whose head had not let them go yet: told again, and held until it does.
         for (robot, mission) in &state.releasing {
             if m.missions.contains_key(mission) {
-                let ctl = m.ctls.push(mission, MissionCtl::Left { ids: vec![robot.clone()] }, None);
-                m.released.insert(robot.clone(), Released { mission: mission.clone(), ctl, acked: None });
+                let ctl = m.ctls.push(mission, MissionCtl::Left { ids: vec![robot.clone()] }, vec![]);
+                m.release(robot, mission, ctl);
             }
         }
         m.notes.push(JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() });
@@ -50,9 +50,9 @@ impl SystemManager {
         }
     }
 
-    /// Robot → the mission letting it go, while its head has not acknowledged.
-    fn releasing(&self) -> BTreeMap<String, String> {
-        self.released.iter().filter(|(_, r)| self.ctls.is_pending(r.ctl)).map(|(id, r)| (id.clone(), r.mission.clone())).collect()
+    /// (Robot, the mission letting it go), while its head has not acknowledged.
+    fn releasing(&self) -> BTreeSet<(String, String)> {
+        self.released.iter().filter(|(_, r)| self.ctls.is_pending(r.ctl)).map(|(k, _)| k.clone()).collect()
     }
 
     /// Whether the durable part differs from what the journal holds (cheap: no copies).
@@ -155,7 +155,7 @@ impl SystemManager {
                 r.def = Arc::new(def);
             }
             self.notes.push(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
-            let after = robots.iter().filter_map(|id| self.pending_release(id)).collect();
+            let after = robots.iter().flat_map(|id| self.pending_releases(id)).collect();
             self.restarts.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
             self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members, anew: true, lineage }), after });
         }

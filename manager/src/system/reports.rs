@@ -45,7 +45,7 @@ impl SystemManager {
         let mut leave = Vec::new();
         for admitted in t.admitted.iter().filter(|a| t.mission.as_ref() != Some(*a)) {
             let known = self.missions.contains_key(admitted) || self.terminated.contains(admitted);
-            let releasing = self.released.get(&t.id).is_some_and(|r| r.mission == *admitted && self.ctls.is_pending(r.ctl));
+            let releasing = Self::released_by(&self.released, &self.ctls, &t.id, admitted, true);
             // A join or leave of this robot still on its way to that mission's head: the head
             // may be taking it into its chain; its admission must hold until the leave is done.
             let in_transit = self.ctls.has(admitted, |c| match c {
@@ -81,7 +81,7 @@ impl SystemManager {
             // In no mission here, running one whose head lists it: the head's report and the
             // robot's own telemetry agree — it is that mission's (see `reconcile`).
             let listed = self.missions.get(running).filter(|m| m.adopted).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
-            let released = self.released.get(&t.id).is_some_and(|r| r.mission == *running);
+            let released = Self::released_by(&self.released, &self.ctls, &t.id, running, false);
             if assigned.is_none() && listed && !released && !self.terminated.contains(running) {
                 tracing::info!(mission = %running, robot = %t.id, "robot recorded in the mission it runs and its head lists");
                 let (id, mission) = (t.id.clone(), running.clone());
@@ -93,7 +93,7 @@ impl SystemManager {
             let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
             // Moved out of `running` but not yet let go by it: its head still counts on it, so
             // it keeps its plan until the head has replanned without it.
-            let releasing = self.released.get(&t.id).is_some_and(|r| r.mission == *running && self.ctls.is_pending(r.ctl));
+            let releasing = Self::released_by(&self.released, &self.ctls, &t.id, running, true);
             if assigned != Some(running) && known && retry && !releasing {
                 rec.leave_sent = Some(now);
                 let epoch = t.progress.as_ref().map_or(u64::MAX, |p| p.epoch);
@@ -134,7 +134,7 @@ impl SystemManager {
         if self.terminated.contains(&view.name) {
             if !self.ctls.has(&view.name, |c| *c == MissionCtl::Terminate) {
                 tracing::warn!(mission = %view.name, node = %view.manager.node, "a terminated mission still runs: ending it again");
-                self.ctls.push(&view.name, MissionCtl::Terminate, None);
+                self.ctls.push(&view.name, MissionCtl::Terminate, vec![]);
             }
             return vec![];
         }
@@ -217,7 +217,7 @@ impl SystemManager {
         for id in robots.iter().chain(lost) {
             // A robot being let go (by this mission or another) is in transit: this manager
             // moved it, and decides where it goes.
-            if self.released.get(id).is_some_and(|r| r.mission == name || self.ctls.is_pending(r.ctl)) {
+            if Self::released_by(&self.released, &self.ctls, id, name, false) || !self.pending_releases(id).is_empty() {
                 continue;
             }
             // A robot that says it runs this mission, or nothing (it restarted and forgot):
@@ -239,12 +239,10 @@ impl SystemManager {
             }
         }
         if !strangers.is_empty() {
-            let ctl = self.ctls.push(name, MissionCtl::Left { ids: strangers.clone() }, None);
+            let ctl = self.ctls.push(name, MissionCtl::Left { ids: strangers.clone() }, vec![]);
             // Until the head lets them go they are still its members: not free for a create.
             for id in strangers {
-                if self.pending_release(&id).is_none() {
-                    self.released.insert(id, Released { mission: name.to_string(), ctl, acked: None });
-                }
+                self.release(&id, name, ctl);
             }
         }
         // Recorded here: admitted too (this manager may have restarted; they may have too).
@@ -285,7 +283,7 @@ impl SystemManager {
             return false;
         };
         tracing::info!(mission = %name, robot = %id, "{why}");
-        let after = self.pending_release(id);
+        let after = self.pending_releases(id);
         self.ctls.push(name, MissionCtl::Joined { member }, after);
         true
     }

@@ -82,7 +82,7 @@ impl World {
                     } else {
                         return Ok(());
                     };
-                    self.ctls.push("p", ctl, None);
+                    self.ctls.push("p", ctl, vec![]);
                 }
                 for (id, mission, ctl) in self.ctls.due(self.now) {
                     self.ask_mission(None, &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id));

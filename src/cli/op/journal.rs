@@ -43,6 +43,7 @@ pub fn line(e: &JournalEntry) -> String {
         JournalEvent::RobotAssigned { robot, mission: None } => format!("robot {robot} in no mission"),
         JournalEvent::RobotReleasing { robot, mission: Some(m) } => format!("robot {robot} being let go by {m}"),
         JournalEvent::RobotReleasing { robot, mission: None } => format!("robot {robot} let go"),
+        JournalEvent::RobotLetGo { robot, mission } => format!("robot {robot} let go by {mission}"),
         JournalEvent::Command { by, command, request } => format!("{by}: {command} {request}"),
         JournalEvent::RobotLost { robot } => format!("robot {robot} lost"),
         JournalEvent::RobotBack { robot } => format!("robot {robot} back"),

@@ -241,3 +241,41 @@ fn a_member_back_rejoins_the_new_lineage_and_a_head_of_the_old_one_is_fenced() {
         "{cmds:?}"
     );
 }
+
+/// A robot moved on before its first mission let it go (p1 → p2 while p1 has no head, then
+/// p2 → none) is held by both releases, on disk too: after a restart of central both missions
+/// are told again to let it go, not only the last (system sim, seed 7743: p1 kept r4 for good).
+#[test]
+fn every_release_still_owed_survives_a_restart() {
+    let (mut sm, mut disk) = with_journal(&["r1", "r2", "r3", "r4"]);
+    let body = format!(r#"{{"name": "p2", "recipe": "patrol", "robots": ["r3"], {WAYPOINTS}}}"#);
+    drive_journaled(&mut sm, &mut disk, 3.0, Event::Operator { req: Req::Query(4), request: Request::Create(decode(&body)) });
+    drive_journaled(&mut sm, &mut disk, 3.5, Event::MissionStarted { mission: "p2".into(), result: Ok(started_view("p2", "central", &["r3".into()])) });
+    for (to, req) in [(r#""p2""#, 5), ("null", 6)] {
+        let body = format!(r#"{{"robot": "r2", "to": {to}}}"#);
+        let cmds = drive_journaled(&mut sm, &mut disk, 4.0, Event::Operator { req: Req::Query(req), request: Request::Move(decode(&body)) });
+        assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Ok(_), .. })), "{cmds:?}");
+    }
+    let owed: Vec<(&str, &str)> = disk.releasing.iter().map(|(r, m)| (r.as_str(), m.as_str())).collect();
+    assert_eq!(owed, [("r2", "p1"), ("r2", "p2")], "both releases on disk");
+    let mut sm = SystemManager::restore("node".into(), 0.0, disk.clone(), Some(-100.0));
+    let cmds = sm.handle(0.0, Event::HostAlive { node: "central".into() });
+    let mut told: Vec<&str> = cmds
+        .iter()
+        .filter_map(|c| match c {
+            Command::Ctl { mission, ctl, .. } if *ctl == left(&["r2"]) => Some(mission.as_str()),
+            _ => None,
+        })
+        .collect();
+    told.sort_unstable();
+    assert_eq!(told, ["p1", "p2"], "{cmds:?}");
+    for id in ["r1", "r2", "r3"] {
+        sm.handle(0.0, Event::RobotAlive { id: id.into() });
+        sm.handle(0.0, Event::RobotRegistered(info(id)));
+        sm.handle(0.0, Event::Telemetry(Box::new(telemetry(id, 1, Behaviour::Hold))));
+    }
+    // A create with r2 waits for both.
+    let body = format!(r#"{{"name": "p3", "recipe": "patrol", "robots": ["r2"], {WAYPOINTS}}}"#);
+    let cmds = sm.handle(ADOPT_S + 1.0, Event::Operator { req: Req::Query(7), request: Request::Create(decode(&body)) });
+    assert!(!cmds.iter().any(|c| matches!(c, Command::StartMission { .. })), "{cmds:?}");
+}
