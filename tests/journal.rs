@@ -197,6 +197,47 @@ async fn a_power_cycle_with_a_robot_that_stays_down_runs_its_mission_with_the_ot
     Ok(())
 }
 
+/// A power cut of central and of one mission's robots only: the robots of the other mission stay
+/// up (running it, up since before central went down). The mission whose chain died with central
+/// starts again with its robots when they are back, as its next lineage — robots that stayed up
+/// do not hold it back (until lineages they did, for good: a robot up since before might have
+/// replicated it) — and the other mission goes on undisturbed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn robots_that_stayed_up_do_not_hold_back_a_mission_whose_part_lost_power() -> anyhow::Result<()> {
+    let dir = Scratch::new("power-cut-part");
+    let (ep, mut c, mut rs, client) = fleet(&dir, 4).await?;
+    let cmd = |c| proto::Key::SystemCmd(c);
+    let _: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&patrol("p", &["r1", "r2"]))).await?;
+    let q = MissionCreate { name: "q".into(), ..patrol("q", &["r3", "r4"]) };
+    let _: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&q)).await?;
+    let q_before = eventually("q past a barrier", Duration::from_secs(30), || async {
+        missions(&client).await.into_iter().find(|m| m.name == "q" && m.metrics.sync_points_passed >= 1)
+    })
+    .await?;
+    client.close().await;
+    let (mut r1, mut r2) = (rs.remove(0), rs.remove(0));
+    kill_all(&mut [&mut c, &mut r1, &mut r2])?;
+    let _c = central(&dir, &ep, "central2.log")?;
+    let _back: Vec<Proc> =
+        ["r1", "r2"].iter().enumerate().map(|(i, id)| common::start_robot_scaled(&dir, id, &ep, (i + 1) as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let find = |ms: &[MissionView], n: &str| ms.iter().find(|m| m.name == n).cloned();
+    let (p, q) = eventually("p running again with r1 and r2, and q still going", Duration::from_secs(40), || async {
+        let ms = missions(&client).await;
+        let p = find(&ms, "p").filter(|m| m.status == proto::MissionStatus::Running && m.robots == ["r1", "r2"] && m.metrics.sync_points_passed >= 1)?;
+        let q = find(&ms, "q").filter(|m| m.robots == ["r3", "r4"] && m.metrics.sync_points_passed > q_before.metrics.sync_points_passed)?;
+        Some((p, q))
+    })
+    .await?;
+    ensure!(proto::chain::lineage_of(p.manager.chain_epoch) == 1, "p runs as its next lineage: chain epoch {}", p.manager.chain_epoch);
+    ensure!(proto::chain::lineage_of(q.manager.chain_epoch) == 0, "q was never started anew: chain epoch {}", q.manager.chain_epoch);
+    let j = common::journal(&client).await?;
+    ensure!(!j.iter().any(|e| matches!(&e.event, JournalEvent::MissionRestarted { mission, .. } if mission == "q")), "q restarted");
+    client.close().await;
+    drop(rs);
+    Ok(())
+}
+
 /// One operator command of the burst, and how it changes robot → mission when it succeeds.
 #[derive(Debug, Clone)]
 enum Op {

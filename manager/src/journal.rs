@@ -14,17 +14,11 @@ use crate::error::ManagerError;
 use crate::system::Durable;
 
 const ENTRIES: TableDefinition<u64, &[u8]> = TableDefinition::new("entries");
-/// Central's heartbeat: the last wall-clock time (ms) it was known alive.
-const META: TableDefinition<&str, u64> = TableDefinition::new("meta");
-const ALIVE: &str = "alive_ms";
-/// Seconds between two heartbeats.
-pub const BEAT_S: f64 = 2.0;
 
 /// The database file inside the state directory.
 pub const FILE: &str = "journal.redb";
 
-/// Wall-clock time, milliseconds since the Unix epoch (what entries and heartbeats are stamped
-/// with).
+/// Wall-clock time, milliseconds since the Unix epoch (what entries are stamped with).
 pub fn now_ms() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64)
 }
@@ -34,8 +28,6 @@ pub struct Journal {
     db: Database,
     path: PathBuf,
     last: u64,
-    /// When the previous central using this journal was last known alive (ms since the epoch).
-    prev_alive_ms: Option<u64>,
 }
 
 impl std::fmt::Debug for Journal {
@@ -58,7 +50,6 @@ impl Journal {
         // The table exists from the start, so readers never miss it.
         let w = db.begin_write().map_err(|e| err("write", &e))?;
         w.open_table(ENTRIES).map_err(|e| err("write", &e))?;
-        w.open_table(META).map_err(|e| err("write", &e))?;
         w.commit().map_err(|e| err("commit", &e))?;
         let r = db.begin_read().map_err(|e| err("read", &e))?;
         let table = r.open_table(ENTRIES).map_err(|e| err("read", &e))?;
@@ -72,25 +63,8 @@ impl Journal {
             last = seq;
         }
         drop(table);
-        let meta = r.open_table(META).map_err(|e| err("read", &e))?;
-        let prev_alive_ms = meta.get(ALIVE).map_err(|e| err("read", &e))?.map(|v| v.value());
-        drop(meta);
         drop(r);
-        Ok((Journal { db, path, last, prev_alive_ms }, state))
-    }
-
-    /// When the previous central using this journal was last known alive (ms since the epoch;
-    /// within [`BEAT_S`] of its end), if one did.
-    pub fn prev_alive_ms(&self) -> Option<u64> {
-        self.prev_alive_ms
-    }
-
-    /// Records that central is alive at `at_ms` (durable).
-    pub fn beat(&mut self, at_ms: u64) -> Result<(), ManagerError> {
-        let err = |e: &dyn std::fmt::Display| ManagerError::Journal(format!("journal {}: heartbeat: {e}", self.path.display()));
-        let w = self.db.begin_write().map_err(|e| err(&e))?;
-        w.open_table(META).map_err(|e| err(&e))?.insert(ALIVE, at_ms).map_err(|e| err(&e))?;
-        w.commit().map_err(|e| err(&e))
+        Ok((Journal { db, path, last }, state))
     }
 
     /// The last sequence number committed.
@@ -159,14 +133,12 @@ mod tests {
         ];
         assert_eq!(j.append(&events, 5).expect("append"), 3);
         assert_eq!(j.append(&[JournalEvent::MissionRemoved { mission: "q".into(), terminated: true }], 6).expect("append"), 4);
-        assert_eq!(j.prev_alive_ms(), None);
-        j.beat(77).expect("beat");
         // A second central on the same directory is refused while this one runs.
         let e = Journal::open(dir.path()).expect_err("locked");
         assert!(e.to_string().contains("another central uses this state dir"), "{e}");
         drop(j);
         let (j, state) = Journal::open(dir.path()).expect("reopen");
-        assert_eq!((j.last(), j.prev_alive_ms()), (4, Some(77)));
+        assert_eq!(j.last(), 4);
         assert_eq!(state.assignment.get("r1").map(String::as_str), Some("p"));
         assert!(state.missions.contains_key("p") && state.terminated.contains("q"));
         let page = j.page(1, 2).expect("page");

@@ -46,8 +46,8 @@ impl CentralCore {
     }
 
     /// Central restarted from its journal's `state`.
-    pub fn restore(node: String, agent: AgentConfig, now: f64, state: system::Durable, prev_alive: Option<f64>) -> Self {
-        CentralCore { system: SystemManager::restore(node, now, state, prev_alive), agent: Agent::new(agent), last_look: now }
+    pub fn restore(node: String, agent: AgentConfig, now: f64, state: system::Durable) -> Self {
+        CentralCore { system: SystemManager::restore(node, now, state), agent: Agent::new(agent), last_look: now }
     }
 
     pub fn system(&self) -> &SystemManager {

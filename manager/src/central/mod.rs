@@ -20,7 +20,7 @@ pub use self::config::CentralConfig;
 pub use self::core::{CentralCore, Command, Event, AGENT_PERIOD_S};
 use crate::error::ManagerError;
 use crate::inbox::Inbox;
-use crate::journal::{now_ms, Journal, BEAT_S};
+use crate::journal::{now_ms, Journal};
 use crate::system::{self, Req, Request};
 use crate::Failure;
 
@@ -140,22 +140,13 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     }
 
     let t0 = Instant::now();
-    // When the previous central was last alive, on this loop's clock (0 = now).
-    let prev_alive = journal.as_ref().and_then(|j| j.prev_alive_ms()).map(|ms| (ms as f64 - now_ms() as f64) / 1000.0);
-    let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state, prev_alive);
-    let mut beat = tokio::time::interval(Duration::from_secs_f64(BEAT_S));
+    let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state);
     let mut io = Io { mesh: mesh.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
     let mut tick = tokio::time::interval(TICK);
     let mut refused = 0;
     loop {
         let event = tokio::select! {
             _ = shutdown.cancelled() => break,
-            _ = beat.tick() => {
-                if let Some(j) = journal.as_mut() {
-                    tokio::task::block_in_place(|| j.beat(now_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
-                }
-                continue;
-            }
             _ = tick.tick() => {
                 let total = mesh.verifier().refused.total();
                 if total != refused {

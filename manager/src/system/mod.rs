@@ -47,10 +47,11 @@ pub const ADOPT_S: f64 = 2.0;
 /// A mission of the journal that no live manager reports this long after the system manager
 /// started (and that no robot says it runs) may be started again (see `recovery.rs`).
 pub const RESTART_S: f64 = 5.0;
+/// A mission's member with a state dir that came up this recently may still bring the mission
+/// back through its chain, from its disk: the mission is not started anew before.
+pub const DURABLE_WAIT_S: f64 = 15.0;
 /// Seconds between two attempts to start a journaled mission again.
 pub const RESTART_RETRY_S: f64 = 5.0;
-/// How stale the previous manager's last sign of life may be (its heartbeat period).
-pub const RESTART_BEAT_S: f64 = 2.0;
 /// A head's report that lists a robot present this long after the robot's liveliness appeared
 /// has seen it back (two status periods and then some).
 pub const SEEN_BACK_S: f64 = 4.0;
@@ -298,11 +299,8 @@ pub struct SystemManager {
     notes: Vec<JournalEvent>,
     /// Journaled missions being started again.
     restarts: BTreeMap<String, Restart>,
-    /// When the previous system manager of this journal was last known alive (this manager's
-    /// clock): a robot up since before then may hold replicas of the missions it managed.
-    prev_alive: Option<f64>,
-    /// Said once that missions wait for such robots.
-    restart_blocked: bool,
+    /// Missions said to wait for members with a state dir (said once each).
+    restart_held: BTreeSet<String>,
 }
 
 impl SystemManager {
@@ -329,8 +327,7 @@ impl SystemManager {
             journaled: Durable::default(),
             notes: Vec::new(),
             restarts: BTreeMap::new(),
-            prev_alive: None,
-            restart_blocked: false,
+            restart_held: BTreeSet::new(),
         }
     }
 

@@ -11,13 +11,8 @@ impl SystemManager {
     /// A system manager that starts from what its journal holds: the missions it defined are
     /// known (those no live manager reports are started again after [`RESTART_S`]), robots are
     /// in the missions the journal says, terminated missions stay terminated.
-    ///
-    /// `prev_alive` is when the previous manager was last known alive (this manager's clock,
-    /// within `beat` seconds): only a fleet whose live robots all started after that is known
-    /// to hold no replica of a mission, so only then is a mission started again.
-    pub fn restore(node: String, now: f64, state: Durable, prev_alive: Option<f64>) -> Self {
+    pub fn restore(node: String, now: f64, state: Durable) -> Self {
         let mut m = SystemManager::new(node, now);
-        m.prev_alive = prev_alive;
         for (name, def) in &state.missions {
             m.missions.insert(name.clone(), MissionRecord { host: def.host.clone(), def: def.clone(), view: None, adopted: false });
         }
@@ -82,34 +77,9 @@ impl SystemManager {
     /// with the members that are back; the others rejoin as they come back. A mission some robot
     /// says it runs is left alone: its managers are alive somewhere, and will report.
     pub(super) fn restart_orphans(&mut self, now: f64) {
-        // A robot up since before the previous manager went down may replicate one of its
-        // missions (even one it left): starting that mission anew would make a second lineage
-        // beside the chain that may still take over. Every live robot's start is known from its
-        // telemetry (simulated seconds since it started, over its time scale).
-        // A robot started after this manager did is new: the previous one was gone by then (it
-        // held the journal until it died). A robot with a state dir is never new in this sense.
-        let Some(down) = self.prev_alive else { return };
-        let before = (down + RESTART_BEAT_S).min(self.started);
-        let old: Vec<&String> = self
-            .robots
-            .iter()
-            .filter(|(_, r)| r.alive)
-            .filter(|(_, r)| match (&r.last, &r.info) {
-                // A robot with a state dir kept its replicas across any restart: its missions
-                // come back through their chains.
-                (_, Some(i)) if i.durable => true,
-                (Some(t), Some(i)) if i.time_scale > 0.0 => now - t.t / i.time_scale <= before,
-                _ => true,
-            })
-            .map(|(id, _)| id)
-            .collect();
-        if !old.is_empty() {
-            if !self.restart_blocked && self.missions.values().any(|r| r.view.is_none()) {
-                tracing::warn!(robots = ?old, "robots up since before central went down may still replicate its missions: missions no manager reports are not started anew");
-                self.restart_blocked = true;
-            }
-            return;
-        }
+        // A robot up since before the previous manager went down may replicate a mission, and
+        // its chain may take over again: a new lineage wins over it wherever they meet, and its
+        // head is fenced when it reports — so that does not hold a start back.
         let orphans: Vec<String> = self
             .missions
             .iter()
@@ -121,6 +91,21 @@ impl SystemManager {
         for name in orphans {
             let runs = self.robots.values().any(|r| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
             if runs {
+                continue;
+            }
+            // A member with a state dir that came up lately may bring the mission back through
+            // its chain, from its disk (with its metrics): it gets the time to.
+            let reforming: Vec<&String> = self
+                .robots
+                .iter()
+                .filter(|(id, r)| r.alive && now - r.alive_at < DURABLE_WAIT_S && self.assignment.get(*id) == Some(&name))
+                .filter(|(_, r)| r.info.as_ref().is_some_and(|i| i.durable))
+                .map(|(id, _)| id)
+                .collect();
+            if !reforming.is_empty() {
+                if self.restart_held.insert(name.clone()) {
+                    tracing::info!(mission = %name, robots = ?reforming, "members with a state dir are back: waiting for the mission's chain to come back from their disks before starting it anew");
+                }
                 continue;
             }
             let Some(rec) = self.missions.get(&name) else {

@@ -37,9 +37,6 @@ impl World {
             c.start.y = t.y;
             c.start.theta = t.theta;
         }
-        if n.central.is_some() {
-            n.down = Some(self.now);
-        }
         n.central = None;
         n.host = None;
         n.robot = None;

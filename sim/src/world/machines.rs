@@ -77,6 +77,9 @@ impl World {
                 for e in &entries {
                     disk.apply(e);
                 }
+                for e in entries.iter().filter(|e| matches!(e, mrmm_proto::JournalEvent::RobotReleasing { .. } | mrmm_proto::JournalEvent::RobotLetGo { .. })) {
+                    self.log(|| format!("journal: {e:?}"));
+                }
             }
             system::Command::DryRun(dry) => {
                 // Off central's loop in the driver: here, answered a little later.

@@ -81,8 +81,6 @@ struct Node {
     leading: bool,
     /// Central's journal: what it committed, kept across crashes (the disk).
     disk: mrmm_manager::system::Durable,
-    /// When central last crashed.
-    down: Option<f64>,
     /// A robot's or mission host's chain state on disk ([`Config::disks`]), kept across crashes.
     chain_disk: BTreeMap<String, mrmm_manager::chain::Disk<mrmm_proto::MissionSnapshot>>,
 }
@@ -238,7 +236,6 @@ impl Node {
             barrier: mrmm_proto::BarrierMode::Mesh,
             leading: false,
             disk: Default::default(),
-            down: None,
             chain_disk: BTreeMap::new(),
         }
     }
@@ -327,7 +324,7 @@ impl World {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
                 // The sim's clock is central's: its last sign of life is when it crashed.
-                n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone(), n.down));
+                n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone()));
                 n.host = Some(host(n));
             }
             Kind::Host => n.host = Some(host(n)),

@@ -188,6 +188,7 @@ impl World {
             }
             (Ctx::CentralCtl(id), Some(a)) => {
                 let result = json::<CtlAck>(result).map(|_| ());
+                self.log(|| format!("ctl {id} answered: {result:?}"));
                 self.central(a, sys(system::Event::CtlDone { id, result }))
             }
             (Ctx::HostPlan { mission, epoch }, Some(a)) => {

@@ -93,8 +93,7 @@ fn every_change_is_on_disk_before_it_is_said_and_replays_exactly() {
 
 /// A manager started from `disk` with `alive` robots back (running nothing) and central's host up.
 fn restored(disk: &Durable, alive: &[&str]) -> SystemManager {
-    // The previous central went down long before these robots started.
-    let mut sm = SystemManager::restore("node".into(), 0.0, disk.clone(), Some(-100.0));
+    let mut sm = SystemManager::restore("node".into(), 0.0, disk.clone());
     sm.handle(0.0, Event::HostAlive { node: "central".into() });
     for id in alive {
         sm.handle(0.0, Event::RobotAlive { id: (*id).into() });
@@ -181,26 +180,40 @@ fn a_head_that_missed_a_join_before_the_restart_is_told_again() {
 }
 
 #[test]
-fn a_robot_up_since_before_central_went_down_blocks_starting_anew() {
+fn a_member_with_a_state_dir_holds_starting_anew_back_for_a_while_and_one_up_since_before_does_not() {
     let (_, disk) = with_journal(&["r1", "r2", "r3"]);
-    // Central went down at 0 (this manager's clock); r3 has been up for 100 s: it may still
-    // replicate p1, even though it left it.
-    let mut sm = SystemManager::restore("node".into(), 0.5, disk.clone(), Some(0.0));
-    sm.handle(0.5, Event::HostAlive { node: "central".into() });
-    for (id, up) in [("r1", 0.2), ("r2", 0.3), ("r3", 100.0)] {
-        sm.handle(0.5, Event::RobotAlive { id: id.into() });
-        sm.handle(0.5, Event::RobotRegistered(info(id)));
-        let mut t = telemetry(id, 1, Behaviour::Hold);
-        t.t = up;
-        sm.handle(0.5, Event::Telemetry(Box::new(t)));
+    // Central restarted at 0.5; r2 has been up for 100 s: it may still
+    // replicate p1 — a new lineage of p1 would win over that chain, so p1 starts anew anyway.
+    let fleet = |durable: bool| {
+        let mut sm = SystemManager::restore("node".into(), 0.5, disk.clone());
+        sm.handle(0.5, Event::HostAlive { node: "central".into() });
+        for (id, up) in [("r1", 0.2), ("r2", 100.0), ("r3", 0.3)] {
+            sm.handle(0.5, Event::RobotAlive { id: id.into() });
+            sm.handle(0.5, Event::RobotRegistered(RobotInfo { durable: durable && id != "r1", ..info(id) }));
+            let mut t = telemetry(id, 1, Behaviour::Hold);
+            t.t = up;
+            sm.handle(0.5, Event::Telemetry(Box::new(t)));
+        }
+        sm
+    };
+    let starts = |cmds: &[Command]| cmds.iter().filter(|c| matches!(c, Command::StartMission { start, .. } if start.spec.name == "p1")).count();
+    let mut sm = fleet(false);
+    let cmds = sm.handle(RESTART_S + 1.0, Event::Tick);
+    assert!(cmds.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.spec.name == "p1" && start.lineage == 1)), "{cmds:?}");
+    // r2, a member of p1, with a state dir: p1 may come back through its chain, from r2's disk;
+    // it gets the time to (r3, with one too, is in no mission: it holds nothing back).
+    let mut sm = fleet(true);
+    for now in [RESTART_S + 1.0, DURABLE_WAIT_S] {
+        assert_eq!(starts(&sm.handle(now, Event::Tick)), 0, "not while r2 may bring p1 back");
     }
-    for now in [RESTART_S + 1.0, RESTART_S + 30.0] {
-        assert!(!sm.handle(now, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })), "never while r3 may replicate");
-    }
-    // r3 restarts (its process is new): nothing can replicate p1 any more.
-    sm.handle(RESTART_S + 31.0, Event::RobotGone { id: "r3".into() });
-    let cmds = sm.handle(RESTART_S + 32.0, Event::Tick);
-    assert!(cmds.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.spec.name == "p1")), "{cmds:?}");
+    // It did not: p1 starts anew with r1 and r2 (r2's old chain retires before the new lineage).
+    assert_eq!(starts(&sm.handle(DURABLE_WAIT_S + 1.0, Event::Tick)), 1);
+    // r2 gone and back (a new process with its disk): held again, for a while.
+    let mut sm = fleet(true);
+    sm.handle(RESTART_S + 2.0, Event::RobotGone { id: "r2".into() });
+    sm.handle(RESTART_S + 3.0, Event::RobotAlive { id: "r2".into() });
+    assert_eq!(starts(&sm.handle(DURABLE_WAIT_S + 1.0, Event::Tick)), 0);
+    assert_eq!(starts(&sm.handle(RESTART_S + 3.0 + DURABLE_WAIT_S + 0.1, Event::Tick)), 1);
 }
 
 /// After p1 started again without r2 (lineage 1): r2 back rejoins it, and a head of lineage 0
@@ -258,7 +271,7 @@ fn every_release_still_owed_survives_a_restart() {
     }
     let owed: Vec<(&str, &str)> = disk.releasing.iter().map(|(r, m)| (r.as_str(), m.as_str())).collect();
     assert_eq!(owed, [("r2", "p1"), ("r2", "p2")], "both releases on disk");
-    let mut sm = SystemManager::restore("node".into(), 0.0, disk.clone(), Some(-100.0));
+    let mut sm = SystemManager::restore("node".into(), 0.0, disk.clone());
     let cmds = sm.handle(0.0, Event::HostAlive { node: "central".into() });
     let mut told: Vec<&str> = cmds
         .iter()
