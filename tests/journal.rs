@@ -238,6 +238,53 @@ async fn robots_that_stayed_up_do_not_hold_back_a_mission_whose_part_lost_power(
     Ok(())
 }
 
+/// Central and the one robot replicating a patrol's chain die together; the patrol's other robot
+/// stays up, running its plan. After central's restart the chain cannot form again (its other
+/// node lost everything), so no manager ever reports the patrol: central waits a while (a head
+/// might yet report), then starts it anew with the robot that runs it, as lineage 1, and the
+/// dead robot rejoins it when it is back.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_mission_robots_run_with_no_chain_left_is_started_anew_with_them() -> anyhow::Result<()> {
+    let dir = Scratch::new("no-chain-left");
+    let (ep, mut c, mut rs, client) = fleet(&dir, 2).await?;
+    let create = MissionCreate { replicas: Some(1), ..patrol("p", &["r1", "r2"]) };
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
+    let before = eventually("p past a barrier with its chain", Duration::from_secs(30), || async {
+        missions(&client).await.into_iter().find(|m| m.name == "p" && m.manager.chain.len() == 2 && m.metrics.sync_points_passed >= 1)
+    })
+    .await?;
+    let replica = before.manager.chain.iter().find(|n| n.as_str() != proto::CENTRAL_HOST).cloned().context("a robot in p's chain")?;
+    let (dead, alive) = if replica == "r1" { ("r1", "r2") } else { ("r2", "r1") };
+    let mut gone = rs.remove(if dead == "r1" { 0 } else { 1 });
+    client.close().await;
+    kill_all(&mut [&mut c, &mut gone])?;
+    let t0 = std::time::Instant::now();
+    let _c = central(&dir, &ep, "central2.log")?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let p = |ms: Vec<MissionView>| ms.into_iter().find(|m| m.name == "p");
+    let m = eventually("p started anew with the robot that ran it", Duration::from_secs(45), || async {
+        p(missions(&client).await)
+            .filter(|m| m.status == proto::MissionStatus::Running && m.robots == [alive] && proto::chain::lineage_of(m.manager.chain_epoch) == 1)
+    })
+    .await?;
+    println!("central + p's replica killed, {alive} running p → p started anew: {:?} (chain {:?})", t0.elapsed(), m.manager.chain);
+    let j = common::journal(&client).await?;
+    ensure!(
+        j.iter().any(|e| matches!(&e.event, JournalEvent::MissionRestarted { mission, robots } if mission == "p" && robots == &[alive])),
+        "the journal says p started again with {alive}"
+    );
+    // The dead robot comes back: it kept its place in p, so it rejoins p, with no command.
+    let x = if dead == "r1" { 2.0 } else { 4.0 };
+    let _back = common::start_robot_scaled(&dir, dead, &ep, x, -3.0, 10.0)?;
+    eventually("both in p again, past more barriers", Duration::from_secs(30), || async {
+        p(missions(&client).await).filter(|m| m.robots == ["r1", "r2"] && m.metrics.sync_points_passed >= 1).map(|_| ())
+    })
+    .await?;
+    client.close().await;
+    drop(rs);
+    Ok(())
+}
+
 /// One operator command of the burst, and how it changes robot → mission when it succeeds.
 #[derive(Debug, Clone)]
 enum Op {

@@ -50,6 +50,10 @@ pub const RESTART_S: f64 = 5.0;
 /// A mission's member with a state dir that came up this recently may still bring the mission
 /// back through its chain, from its disk: the mission is not started anew before.
 pub const DURABLE_WAIT_S: f64 = 15.0;
+/// A mission of the journal that robots run but that no manager reports this long after the
+/// system manager started has no chain that can take over (it lost its majority): it is
+/// started anew too.
+pub const RUNNING_WAIT_S: f64 = 20.0;
 /// Seconds between two attempts to start a journaled mission again.
 pub const RESTART_RETRY_S: f64 = 5.0;
 /// A head's report that lists a robot present this long after the robot's liveliness appeared

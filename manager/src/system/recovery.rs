@@ -75,7 +75,8 @@ impl SystemManager {
 
     /// Journaled missions that no live manager runs are started again as their next lineage,
     /// with the members that are back; the others rejoin as they come back. A mission some robot
-    /// says it runs is left alone: its managers are alive somewhere, and will report.
+    /// says it runs is left alone for [`RUNNING_WAIT_S`]: its managers may be alive somewhere, and
+    /// report.
     pub(super) fn restart_orphans(&mut self, now: f64) {
         // A robot up since before the previous manager went down may replicate a mission, and
         // its chain may take over again: a new lineage wins over it wherever they meet, and its
@@ -89,8 +90,11 @@ impl SystemManager {
             .map(|(n, _)| n.clone())
             .collect();
         for name in orphans {
+            // A robot runs it: its managers may be alive somewhere and report soon. If none has
+            // reported for this long, its chain lost its majority: the mission is started anew,
+            // with those robots too (the new lineage's plans win at them).
             let runs = self.robots.values().any(|r| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
-            if runs {
+            if runs && now - self.started < RUNNING_WAIT_S {
                 continue;
             }
             // A member with a state dir that came up lately may bring the mission back through

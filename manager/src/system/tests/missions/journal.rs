@@ -292,3 +292,26 @@ fn every_release_still_owed_survives_a_restart() {
     let cmds = sm.handle(ADOPT_S + 1.0, Event::Operator { req: Req::Query(7), request: Request::Create(decode(&body)) });
     assert!(!cmds.iter().any(|c| matches!(c, Command::StartMission { .. })), "{cmds:?}");
 }
+
+/// A robot still runs p but no manager of p reports (its chain lost its majority with central):
+/// p is left alone a while (its head may yet report), then started anew with that robot too.
+#[test]
+fn a_mission_robots_run_but_no_manager_reports_is_started_anew_after_a_while() {
+    let (_, disk) = with_journal(&["r1", "r2", "r3"]);
+    let mut sm = restored(&disk, &["r1", "r2"]);
+    let mut t = telemetry("r2", 2, Behaviour::Hold);
+    t.mission = Some("p1".into());
+    sm.handle(1.0, Event::Telemetry(Box::new(t)));
+    let starts = |cmds: Vec<Command>| {
+        cmds.iter()
+            .filter_map(|c| match c {
+                Command::StartMission { start, .. } => Some((start.members.iter().map(|m| m.spec.id.clone()).collect::<Vec<_>>(), start.lineage)),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+    };
+    for now in [RESTART_S + 1.0, RUNNING_WAIT_S - 0.5] {
+        assert!(starts(sm.handle(now, Event::Tick)).is_empty(), "r2 runs p1: its head may yet report");
+    }
+    assert_eq!(starts(sm.handle(RUNNING_WAIT_S + 0.1, Event::Tick)), [(vec!["r1".to_string(), "r2".to_string()], 1)]);
+}
