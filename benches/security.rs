@@ -1,4 +1,5 @@
-//! What security costs: the same traffic over plain TCP with unsigned seals, then over mutual TLS
+//! What security costs: the same traffic over plain TCP with unsigned seals, over mutual TLS
+//! (Zenoh's QUIC link) with unsigned seals — what the transport alone costs — and over mutual TLS
 //! with every message signed and checked (a fleet PKI made for the run). All in one process, each
 //! node its own Zenoh session on loopback, through a router that is central (with its access
 //! control when secure):
@@ -18,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use mrmm_peer::barrier::Barrier;
 use mrmm_proto::net::{self, Mode};
-use mrmm_proto::security::pki;
+use mrmm_proto::security::{pki, seal};
 use mrmm_proto::{self as proto, Key, Mesh, NodeNet, Role, SecuritySection, Sender, SyncArrival};
 use rand::{Rng, SeedableRng};
 use tokio::sync::{mpsc, Barrier as Gate};
@@ -43,39 +44,59 @@ fn main() -> anyhow::Result<()> {
         pki::issue(&dir, Role::Robot, &format!("p{i}"), &[], 1)?;
     }
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    let (plain, quic, signed) = (Sec::Plain, Sec::Quic(&dir), Sec::Signed(&dir));
     let result = rt.block_on(async {
-        println!("| measure | plain TCP, unsigned | mutual TLS, signed | overhead |");
-        println!("|---|---:|---:|---:|");
+        println!("| measure | plain TCP, unsigned | mutual TLS (QUIC), unsigned | mutual TLS (QUIC), signed | overhead of the transport | overhead in all |");
+        println!("|---|---:|---:|---:|---:|---:|");
         for &n in &sizes {
-            let plain = barrier(None, n, rounds).await?;
-            let secure = barrier(Some(&dir), n, rounds).await?;
-            row(&format!("barrier release, {n} peers, p50 ms"), plain.0, secure.0);
-            row(&format!("barrier release, {n} peers, p99 ms"), plain.1, secure.1);
+            let (p, q, s) = (barrier(plain, n, rounds).await?, barrier(quic, n, rounds).await?, barrier(signed, n, rounds).await?);
+            row(&format!("barrier release, {n} peers, p50 ms"), p.0, q.0, s.0);
+            row(&format!("barrier release, {n} peers, p99 ms"), p.1, q.1, s.1);
         }
         let (seal_us, check_us) = seal_cost(&dir)?;
-        println!("| sealing one telemetry message, µs | – | {seal_us:.1} | |");
-        println!("| checking one telemetry message, µs | – | {check_us:.1} | |");
-        let plain = telemetry(None).await?;
-        let secure = telemetry(Some(&dir)).await?;
-        row("telemetry received and checked, msg/s", plain, secure);
-        let plain = operator(None).await?;
-        let secure = operator(Some(&dir)).await?;
-        row("operator query round trip, p50 ms", plain.0, secure.0);
-        row("operator query round trip, p99 ms", plain.1, secure.1);
-        println!("(operator queries unanswered within 1 s, both modes: {} of 1 040)", *LOST.lock().unwrap_or_else(|e| e.into_inner()));
+        println!("| sealing one telemetry message, µs | – | – | {seal_us:.1} | | |");
+        println!("| checking one telemetry message, µs | – | – | {check_us:.1} | | |");
+        let (p, q, s) = (telemetry(plain).await?, telemetry(quic).await?, telemetry(signed).await?);
+        row("telemetry received and checked, msg/s", p, q, s);
+        let (p, q, s) = (operator(plain).await?, operator(quic).await?, operator(signed).await?);
+        row("operator query round trip, p50 ms", p.0, q.0, s.0);
+        row("operator query round trip, p99 ms", p.1, q.1, s.1);
+        println!("(operator queries unanswered within 1 s, all modes: {} of 1 560)", *LOST.lock().unwrap_or_else(|e| e.into_inner()));
         anyhow::Ok(())
     });
     let _ = std::fs::remove_dir_all(&dir);
     result
 }
 
-fn row(what: &str, plain: f64, secure: f64) {
-    let overhead = if plain > 0.0 { (secure / plain - 1.0) * 100.0 } else { f64::NAN };
-    println!("| {what} | {plain:.2} | {secure:.2} | {overhead:+.0} % |");
+fn row(what: &str, plain: f64, quic: f64, signed: f64) {
+    let overhead = |x: f64| if plain > 0.0 { (x / plain - 1.0) * 100.0 } else { f64::NAN };
+    println!("| {what} | {plain:.2} | {quic:.2} | {signed:.2} | {:+.0} % | {:+.0} % |", overhead(quic), overhead(signed));
+}
+
+/// How the nodes of a run talk.
+#[derive(Debug, Clone, Copy)]
+enum Sec<'a> {
+    /// Plain TCP, seals that only claim.
+    Plain,
+    /// Mutual TLS over QUIC with the PKI in this directory, seals that only claim: what the
+    /// transport alone costs.
+    Quic(&'a std::path::Path),
+    /// Mutual TLS over QUIC, every message signed and checked: a secure fleet.
+    Signed(&'a std::path::Path),
+}
+
+impl<'a> Sec<'a> {
+    fn pki(self) -> Option<&'a std::path::Path> {
+        match self {
+            Sec::Plain => None,
+            Sec::Quic(d) | Sec::Signed(d) => Some(d),
+        }
+    }
 }
 
 /// A node of the bench: `name`'s certificate when secure.
-async fn node(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: &[String]) -> anyhow::Result<Mesh> {
+async fn node(sec: Sec<'_>, mode: Mode, me: Sender, connect: &[String]) -> anyhow::Result<Mesh> {
+    let pki = sec.pki();
     let scheme = if pki.is_some() { "quic" } else { "tcp" };
     let net = NodeNet {
         mode,
@@ -90,14 +111,19 @@ async fn node(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: &[
             }
             s
         }),
-        me: Some(me),
+        me: Some(me.clone()),
         wire_stats: false,
     };
+    if let Sec::Quic(_) = sec {
+        let (config, _, _) = mrmm_proto::mesh::prepare(&net)?;
+        let session = net::open(config).await?;
+        return Ok(Mesh::from_parts(session, seal::Sealer::insecure(me), seal::Verifier::insecure()));
+    }
     Ok(Mesh::open(&net).await?)
 }
 
-async fn router(pki: Option<&std::path::Path>) -> anyhow::Result<(Mesh, Vec<String>)> {
-    let r = node(pki, Mode::Router, Sender::new(Role::Central, "central"), &[]).await?;
+async fn router(sec: Sec<'_>) -> anyhow::Result<(Mesh, Vec<String>)> {
+    let r = node(sec, Mode::Router, Sender::new(Role::Central, "central"), &[]).await?;
     let ep = net::listening_endpoints(r.session()).await;
     Ok((r, ep))
 }
@@ -109,15 +135,15 @@ fn quantiles(mut v: Vec<f64>) -> (f64, f64) {
 }
 
 /// Barrier release latency (p50, p99) in ms.
-async fn barrier(pki: Option<&std::path::Path>, n: usize, rounds: u32) -> anyhow::Result<(f64, f64)> {
-    let (central, ep) = router(pki).await?;
+async fn barrier(sec: Sec<'_>, n: usize, rounds: u32) -> anyhow::Result<(f64, f64)> {
+    let (central, ep) = router(sec).await?;
     let (tx, mut rx) = mpsc::unbounded_channel::<(u32, Instant)>();
     let ready = Arc::new(Gate::new(n + 1));
     let members: Vec<String> = (0..n).map(|i| format!("p{i}")).collect();
     let mut peers = Vec::new();
     for i in 0..n {
         let me = members[i].clone();
-        let mesh = node(pki, Mode::Peer, Sender::new(Role::Robot, &me), &ep).await?;
+        let mesh = node(sec, Mode::Peer, Sender::new(Role::Robot, &me), &ep).await?;
         let (arrive, mut orders) = mpsc::unbounded_channel::<u32>();
         let (tx, ready, members, m) = (tx.clone(), ready.clone(), members.clone(), mesh.clone());
         tokio::spawn(async move {
@@ -140,6 +166,8 @@ async fn barrier(pki: Option<&std::path::Path>, n: usize, rounds: u32) -> anyhow
             }
             ready.wait().await;
             let mut barrier = Barrier::new(&me, 1, &members);
+            // As robots do: barrier messages are for the plan's other members.
+            let to: Vec<Sender> = members.iter().filter(|x| **x != me).map(|x| Sender::new(Role::Robot, x.clone())).collect();
             let mut waiting: Option<u32> = None;
             loop {
                 tokio::select! {
@@ -148,7 +176,7 @@ async fn barrier(pki: Option<&std::path::Path>, n: usize, rounds: u32) -> anyhow
                         let a = SyncArrival { robot: me.clone(), epoch: 1, point, round: 0 };
                         barrier.arrival(&a);
                         let Ok(bytes) = proto::to_json(&a) else { break };
-                        m.put(&Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), bytes, Encoding::APPLICATION_JSON).await;
+                        m.put_for(&Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), bytes, Encoding::APPLICATION_JSON, &to).await;
                         waiting = Some(point);
                     }
                     smp = sub.recv_async() => {
@@ -202,7 +230,7 @@ async fn barrier(pki: Option<&std::path::Path>, n: usize, rounds: u32) -> anyhow
 
 /// CPU time to seal and to check one telemetry message (µs each), on one thread.
 fn seal_cost(dir: &std::path::Path) -> anyhow::Result<(f64, f64)> {
-    use mrmm_proto::security::{seal, Identity};
+    use mrmm_proto::security::Identity;
     let sealer = seal::Sealer::secure(Identity::load("security", &SecuritySection::from_dir(dir, "p0"))?);
     let verifier = seal::Verifier::secure(&pki::read_ca_der(dir)?, 60).map_err(|e| anyhow::anyhow!(e))?;
     let key = Key::RobotTelemetry("p0".into()).to_string();
@@ -225,10 +253,10 @@ fn seal_cost(dir: &std::path::Path) -> anyhow::Result<(f64, f64)> {
 }
 
 /// Telemetry a host receives and checks from one robot publishing flat out, per second.
-async fn telemetry(pki: Option<&std::path::Path>) -> anyhow::Result<f64> {
-    let (central, ep) = router(pki).await?;
-    let robot = node(pki, Mode::Peer, Sender::new(Role::Robot, "p0"), &ep).await?;
-    let host = node(pki, Mode::Peer, Sender::new(Role::Host, "h1"), &ep).await?;
+async fn telemetry(sec: Sec<'_>) -> anyhow::Result<f64> {
+    let (central, ep) = router(sec).await?;
+    let robot = node(sec, Mode::Peer, Sender::new(Role::Robot, "p0"), &ep).await?;
+    let host = node(sec, Mode::Peer, Sender::new(Role::Host, "h1"), &ep).await?;
     let key = Key::RobotTelemetry("p0".into()).to_string();
     let sub = host.session().declare_subscriber(&key).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let count = Arc::new(AtomicU64::new(0));
@@ -278,8 +306,8 @@ async fn telemetry(pki: Option<&std::path::Path>) -> anyhow::Result<f64> {
 static LOST: std::sync::Mutex<u32> = std::sync::Mutex::new(0);
 
 /// An operator's query answered by central's session: round trip (p50, p99) in ms.
-async fn operator(pki: Option<&std::path::Path>) -> anyhow::Result<(f64, f64)> {
-    let (central, ep) = router(pki).await?;
+async fn operator(sec: Sec<'_>) -> anyhow::Result<(f64, f64)> {
+    let (central, ep) = router(sec).await?;
     let key = Key::SystemStatus.to_string();
     let queryable = central.session().declare_queryable(&key).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let c = central.clone();
@@ -291,7 +319,7 @@ async fn operator(pki: Option<&std::path::Path>) -> anyhow::Result<(f64, f64)> {
             }
         }
     });
-    let op = node(pki, Mode::Peer, Sender::new(Role::Operator, "op"), &ep).await?;
+    let op = node(sec, Mode::Peer, Sender::new(Role::Operator, "op"), &ep).await?;
     // Until central answers (the link and its declarations settle).
     let settle = Instant::now();
     while op.query::<serde_json::Value>(&key, None, Duration::from_millis(500), |s| s.role == Role::Central).await.is_err() {

@@ -297,7 +297,11 @@ pub fn seal_fixture() -> &'static SealFixture {
     F.get_or_init(|| {
         let dir = fixture_dir();
         let ca = mrmm_proto::security::pki::read_ca_der(&dir).unwrap_or_else(|e| panic!("run the seeds program first: {e}"));
-        let verifier = mrmm_proto::security::seal::Verifier::secure(&ca, 60).unwrap_or_else(|e| panic!("fixture CA: {e}"));
+        // r1's own verifier, with its pair keys: seals tagged for r1 take the tag path.
+        let me = mrmm_proto::security::Identity::load("security", &mrmm_proto::security::SecuritySection::from_dir(&dir, "r1"))
+            .unwrap_or_else(|e| panic!("fixture identity: {e}"));
+        let pairs = std::sync::Arc::new(mrmm_proto::security::pair::Pairs::new(me.pair_secret()));
+        let verifier = mrmm_proto::security::seal::Verifier::secure(&ca, 60).unwrap_or_else(|e| panic!("fixture CA: {e}")).with_pairs(pairs);
         let now_ms = std::fs::read_to_string(dir.join("now_ms")).ok().and_then(|s| s.trim().parse().ok()).unwrap_or_else(|| panic!("fixture now_ms missing"));
         SealFixture { verifier, now_ms, key: mrmm_proto::Key::RobotTelemetry("r1".into()).to_string() }
     })

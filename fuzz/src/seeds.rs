@@ -135,12 +135,22 @@ fn main() {
         Ok(i) => i,
         Err(e) => panic!("fixture identity: {e}"),
     };
+    // A seal tagged for r1 itself too (the seal target's verifier is r1's): the tag path.
+    let ca = mrmm_proto::security::seal::parse_ca(&identity.ca_der).unwrap_or_else(|e| panic!("fixture CA: {e}"));
+    let public = match mrmm_proto::security::seal::check_cert(&ca, &identity.cert_der, mrmm_proto::security::unix_now_s()) {
+        Ok(p) => p.public_key,
+        Err(e) => panic!("fixture r1.crt: {e}"),
+    };
+    let me = mrmm_proto::security::pair::Pairs::new(identity.pair_secret());
+    let tags: Vec<_> = me.key(&public).map(|k| vec![(mrmm_proto::security::pair::key_id(&public), k)]).unwrap_or_default();
     let sealer = Sealer::secure(identity);
     let key = mrmm_proto::Key::RobotTelemetry("r1".into()).to_string();
-    let att = sealer.seal(&key, &t, now_ms);
-    let mut sealed = u16::try_from(att.len()).unwrap_or(u16::MAX).to_le_bytes().to_vec();
-    sealed.extend(&att);
-    sealed.extend(&t);
-    write(&corpus, "seal", "telemetry", &sealed);
+    for (name, att) in [("telemetry", sealer.seal(&key, &t, now_ms)), ("telemetry-tagged", sealer.seal_for(&key, &t, now_ms, &tags, false))] {
+        let mut sealed = u16::try_from(att.len()).unwrap_or(u16::MAX).to_le_bytes().to_vec();
+        sealed.extend(&att);
+        sealed.extend(&t);
+        write(&corpus, "seal", name, &sealed);
+    }
     println!("corpora in {}, fixture in {}", corpus.display(), dir.display());
 }
+

@@ -45,6 +45,8 @@ pub struct Ready {
 struct TeamLink {
     team: String,
     mode: BarrierMode,
+    /// The other members of the plan: whom this robot's barrier messages are for.
+    to: Vec<Sender>,
     _token: LivelinessToken,
     /// Teammates' arrivals: every member's under [`BarrierMode::Mesh`], the leader's only under
     /// [`BarrierMode::Leader`].
@@ -66,7 +68,7 @@ async fn team_subscriber(session: &Session, pattern: Pattern) -> Result<Subscrib
 }
 
 impl TeamLink {
-    async fn join(session: &Session, id: &str, team: &str, subteam: &str, mode: BarrierMode) -> Result<Self, PeerError> {
+    async fn join(session: &Session, id: &str, team: &str, subteam: &str, mode: BarrierMode, plan_members: &[String]) -> Result<Self, PeerError> {
         let member = Key::team_member(subteam, id)?;
         let members = session
             .liveliness()
@@ -81,7 +83,8 @@ impl TeamLink {
             BarrierMode::Leader => (None, Some(team_subscriber(session, Pattern::TeamRelease(team.to_string())).await?)),
         };
         let token = session.liveliness().declare_token(member.to_string()).await.map_err(PeerError::zenoh)?;
-        Ok(TeamLink { team: team.to_string(), mode, _token: token, arrivals, releases, members })
+        let to = plan_members.iter().filter(|m| m.as_str() != id).map(|m| Sender::new(Role::Robot, m.clone())).collect();
+        Ok(TeamLink { team: team.to_string(), mode, to, _token: token, arrivals, releases, members })
     }
 
     /// Starts (`true`) or stops hearing the team's arrivals as its leader.
@@ -367,9 +370,9 @@ impl Io {
                     self.mesh.reply_error(q, &e).await;
                 }
             }
-            Command::JoinTeam { team, subteam, barrier } => {
+            Command::JoinTeam { team, subteam, barrier, members } => {
                 self.team = None;
-                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam, barrier).await {
+                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam, barrier, &members).await {
                     Ok(link) => self.team = Some(link),
                     Err(e) => tracing::warn!(robot = %self.id, "cannot join team {team}: {e}"),
                 }
@@ -378,12 +381,12 @@ impl Io {
             Command::Publish(a) => {
                 let Some(t) = &self.team else { return };
                 let key = t.arrival_key(a.point, a.round).to_string();
-                self.mesh.publish_json(&key, &a).await;
+                self.mesh.publish_json_for(&key, &a, &t.to).await;
             }
             Command::Release(r) => {
                 let Some(t) = &self.team else { return };
                 let key = Key::TeamRelease { team: t.team.clone(), point: r.point, round: r.round }.to_string();
-                self.mesh.publish_json(&key, &r).await;
+                self.mesh.publish_json_for(&key, &r, &t.to).await;
             }
             Command::Lead(on) => {
                 if let Some(t) = self.team.as_mut() {

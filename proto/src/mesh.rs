@@ -77,7 +77,8 @@ pub fn prepare(n: &NodeNet) -> Result<(zenoh::Config, Sealer, Verifier), ProtoEr
             if !section.operators.is_empty() && identity.me.role != crate::security::Role::Central {
                 return Err(ProtoError::Config("security.operators: only central's config lists operators".into()));
             }
-            let verifier = Verifier::secure(&identity.ca_der, section.max_age_s).map_err(ProtoError::Config)?;
+            let pairs = Arc::new(crate::security::pair::Pairs::new(identity.pair_secret()));
+            let verifier = Verifier::secure(&identity.ca_der, section.max_age_s).map_err(ProtoError::Config)?.with_pairs(pairs);
             let tls = net::Tls { ca: &section.ca, cert: &section.cert, key: &section.key, verify_names: section.verify_names };
             let acl = (identity.me.role == crate::security::Role::Central).then(|| acl::central_acl(&section.operators));
             let config = net::zenoh_config_with(n.mode, &n.listen, &n.connect, n.lease_ms, n.max_message_size, Some(&tls), acl.as_ref())?;
@@ -140,11 +141,49 @@ impl Mesh {
         }
     }
 
+    /// Publishes `bytes` on `key` for the receivers `to`: tagged for each of them this node
+    /// knows (see [`crate::security::seal`]), and signed as well while it does not know them all
+    /// (or `to` is empty). Other subscribers refuse it as not meant for them.
+    pub async fn put_for(&self, key: &str, bytes: Vec<u8>, encoding: Encoding, to: &[Sender]) {
+        let att = match self.verifier.pairs() {
+            Some(pairs) if !to.is_empty() => {
+                let (tags, all) = pairs.for_receivers(to);
+                self.sealer.seal_for(key, &bytes, now_ms(), &tags, !all)
+            }
+            _ => self.seal(key, &bytes),
+        };
+        if let Err(e) = self.session.put(key, bytes).encoding(encoding).attachment(att).await {
+            tracing::warn!("publication on {key} failed: {e}");
+        }
+    }
+
+    /// Publishes a JSON value on `key` for the receivers `to` (see [`Mesh::put_for`]).
+    pub async fn publish_json_for<T: Serialize>(&self, key: &str, value: &T, to: &[Sender]) {
+        match to_json(value) {
+            Ok(bytes) => self.put_for(key, bytes, Encoding::APPLICATION_JSON, to).await,
+            Err(e) => tracing::warn!("cannot encode for {key}: {e}"),
+        }
+    }
+
     /// Publishes a JSON value on `key`, sealed.
     pub async fn publish_json<T: Serialize>(&self, key: &str, value: &T) {
         match to_json(value) {
             Ok(bytes) => self.put(key, bytes, Encoding::APPLICATION_JSON).await,
             Err(e) => tracing::warn!("cannot encode for {key}: {e}"),
+        }
+    }
+
+    /// The sender of a sample for a node that only shows it (the viewer): see
+    /// [`crate::security::seal::Verifier::observed_sender`]. A refusal is counted and `None`.
+    pub fn observed_sender_of(&self, what: &str, s: &Sample) -> Option<Sender> {
+        let bytes = s.payload().to_bytes();
+        let att = s.attachment().map(|a| a.to_bytes());
+        match self.verifier.observed_sender(s.key_expr().as_str(), &bytes, att.as_deref(), now_ms()) {
+            Ok(sender) => Some(sender),
+            Err(r) => {
+                self.verifier.refused.record(&format!("{what} on {}", s.key_expr()), &r);
+                None
+            }
         }
     }
 
@@ -187,7 +226,15 @@ impl Mesh {
     ) -> Result<(T, Sender), QueryError> {
         let key = selector.split('?').next().unwrap_or(selector);
         let payload = body.unwrap_or_default();
-        let att = self.seal(key, &payload);
+        // Signed (whoever serves it can check), and tagged for the servers it would accept that
+        // this node knows, who check their tag instead.
+        let att = match self.verifier.pairs() {
+            Some(pairs) => {
+                let (tags, _) = pairs.for_receivers(&pairs.known_where(&accept));
+                self.sealer.seal_for(key, &payload, now_ms(), &tags, true)
+            }
+            None => self.seal(key, &payload),
+        };
         let zerr = |e: zenoh::Error| QueryError::Zenoh { key: selector.to_string(), why: e.to_string() };
         let mut get = self.session.get(selector).timeout(timeout).consolidation(ConsolidationMode::None).target(QueryTarget::All).attachment(att);
         if !payload.is_empty() {
@@ -223,12 +270,25 @@ impl Mesh {
         Err(failed.unwrap_or(QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() }))
     }
 
+    /// The seal of a reply: tagged for the node that asked, when this node proved it (it checked
+    /// the query's seal), signed otherwise.
+    fn seal_reply(&self, query: &Query, key: &str, bytes: &[u8]) -> Vec<u8> {
+        let asker = query.attachment().and_then(|a| crate::security::seal::decode(&a.to_bytes()).ok().map(|s| s.claimed));
+        match (self.verifier.pairs(), asker) {
+            (Some(pairs), Some(asker)) => {
+                let (tags, all) = pairs.for_receivers(std::slice::from_ref(&asker));
+                self.sealer.seal_for(key, bytes, now_ms(), &tags, !all)
+            }
+            _ => self.seal(key, bytes),
+        }
+    }
+
     /// Replies to a query with a JSON value on the query's own key, sealed.
     pub async fn reply_json<T: Serialize>(&self, query: &Query, value: &T) {
         match to_json(value) {
             Ok(bytes) => {
                 let key = query.key_expr().clone();
-                let att = self.seal(key.as_str(), &bytes);
+                let att = self.seal_reply(query, key.as_str(), &bytes);
                 if let Err(e) = query.reply(key, bytes).encoding(Encoding::APPLICATION_JSON).attachment(att).await {
                     tracing::warn!("reply on {} failed: {e}", query.key_expr());
                 }

@@ -77,7 +77,8 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
             _ = sleep => {}
             s = sub.recv_async() => {
                 let Ok(s) = s else { break };
-                let from = mesh.verifier().sender(s.key_expr().as_str(), &s.payload().to_bytes(), s.attachment().map(|a| a.to_bytes()).as_deref(), mrmm_proto::mesh::now_ms()).ok().map(|s| s.to_string());
+                // An observer: a message tagged for others shows its certificate's node.
+                let from = mesh.verifier().observed_sender(s.key_expr().as_str(), &s.payload().to_bytes(), s.attachment().map(|a| a.to_bytes()).as_deref(), mrmm_proto::mesh::now_ms()).ok().map(|s| s.to_string());
                 let l = line(t0.elapsed().as_secs_f64(), s.key_expr().as_str(), &s.payload().to_bytes(), from);
                 let mut out = std::io::stdout().lock();
                 writeln!(out, "{l}")?;

@@ -105,7 +105,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                     Some(Key::TeamSync { team, .. }) => team,
                     _ => continue,
                 };
-                let Some(from) = mesh.sender_of("barrier arrival", &s) else { continue };
+                let Some(from) = mesh.observed_sender_of("barrier arrival", &s) else { continue };
                 if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
                     if from.is(Role::Robot, &a.robot) {
                         view.sync(&team, &a);
@@ -118,7 +118,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                     Some(Key::TeamRelease { team, .. }) => team,
                     _ => continue,
                 };
-                let Some(from) = mesh.sender_of("barrier release", &s) else { continue };
+                let Some(from) = mesh.observed_sender_of("barrier release", &s) else { continue };
                 if let Ok(r) = proto::from_json::<SyncRelease>("release", &s.payload().to_bytes()) {
                     if from.is(Role::Robot, &r.leader) {
                         view.release(&team, &r);

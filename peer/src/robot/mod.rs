@@ -60,8 +60,9 @@ pub enum Command {
     /// Refuse the command being handled: its sender may not give it.
     Refuse(String),
     /// Join a team: member token in `subteam`, subscriptions to `team`'s barriers (as `barrier`
-    /// runs them) and members (leaving any other team).
-    JoinTeam { team: String, subteam: String, barrier: BarrierMode },
+    /// runs them) and members (leaving any other team); `members` (the plan's) are whom its
+    /// barrier messages are for.
+    JoinTeam { team: String, subteam: String, barrier: BarrierMode, members: Vec<String> },
     /// Leave the current team.
     LeaveTeam,
     /// Publish a barrier arrival on the current team.
@@ -329,7 +330,7 @@ impl Robot {
                 }
                 tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
                 self.body.hold();
-                change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier });
+                change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier, members: a.members.clone() });
                 self.exec = Some(Executor::new((**a).clone()).with_time_scale(self.cfg.time_scale));
             }
             RobotCommand::Admit { mission, managers, members } => {

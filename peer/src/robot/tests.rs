@@ -87,7 +87,7 @@ fn rejects_non_finite_goal_and_hostile_plans() {
 fn plans_epochs_and_leaving() {
     let mut r = Robot::new(cfg());
     let (_, change) = cmd(&mut r, plan("m", 2));
-    assert_eq!(change, Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into(), barrier: BarrierMode::Mesh }));
+    assert_eq!(change, Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into(), barrier: BarrierMode::Mesh, members: vec!["r1".into()] }));
     r.handle(0.01, Event::Tick);
     assert_eq!(telemetry(&mut r, 0.01).mission.as_deref(), Some("m"));
     assert!(cmd(&mut r, plan("m", 1)).0.unwrap_err().contains("stale epoch"));

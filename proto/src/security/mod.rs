@@ -16,6 +16,7 @@
 //! threat model.
 
 pub mod acl;
+pub mod pair;
 pub mod pki;
 pub mod seal;
 
@@ -182,6 +183,7 @@ pub struct Identity {
     pub cert_der: Vec<u8>,
     pub ca_der: Vec<u8>,
     key: ring::signature::Ed25519KeyPair,
+    pair: pair::PairSecret,
     pub section: SecuritySection,
 }
 
@@ -224,7 +226,13 @@ impl Identity {
         if key.public_key().as_ref() != proven.public_key.as_slice() {
             return Err(cfg("key", &section.key, format!("is not the key of {}", section.cert.display())));
         }
-        Ok(Identity { me: proven.sender, cert_der, ca_der, key, section: section.clone() })
+        let pair = pair::PairSecret::from_pkcs8(&key_der, &proven.public_key).map_err(|e| cfg("key", &section.key, e))?;
+        Ok(Identity { me: proven.sender, cert_der, ca_der, key, pair, section: section.clone() })
+    }
+
+    /// This node's half of its pair keys.
+    pub fn pair_secret(&self) -> pair::PairSecret {
+        self.pair.clone()
     }
 
     /// Signs a 32-byte digest.

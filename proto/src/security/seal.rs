@@ -7,17 +7,23 @@
 //! | bytes | field |
 //! |---|---|
 //! | 3 | magic `MS1` |
-//! | 1 | flags: bit 0 = signed |
+//! | 1 | flags: bit 0 = signed, bit 1 = tagged |
 //! | 1 | role (0 operator, 1 central, 2 robot, 3 host, 4 planner) |
 //! | 1 + n | id length n (1..=64), id |
 //! | 8 | time, Unix milliseconds |
-//! | 2 + c | if signed: certificate length c (1..=4096), certificate (DER) |
+//! | 2 + c | if signed or tagged: certificate length c (1..=4096), certificate (DER) |
 //! | 64 | if signed: Ed25519 signature |
+//! | 1 + 24 n | if tagged: n (1..=64), then n × (receiver key id (8), tag (16)) |
 //!
 //! The signature covers SHA-256 of `"mrmm-seal/1\0"`, role, id, time, the key expression and the
-//! payload, so a sealed message cannot be moved to another key, changed, or claimed by another
-//! node; its time bounds replays to the configured window (epochs and sequence numbers in the
-//! payloads order what happens inside it).
+//! payload (the seal digest), so a sealed message cannot be moved to another key, changed, or
+//! claimed by another node; its time bounds replays to the configured window (epochs and sequence
+//! numbers in the payloads order what happens inside it). A tag is an HMAC of the same digest
+//! under the key the sender shares with one receiver ([`super::pair`]): it proves the same to that
+//! receiver only, at a fraction of the cost. A message for receivers the sender knows (a team's
+//! barrier messages, an answer to a query) carries their tags, and a signature as well when the
+//! sender does not know them all yet; a receiver with a tag checks the tag, one without checks the
+//! signature.
 
 use std::collections::HashMap;
 use std::fmt;
@@ -29,6 +35,7 @@ use ring::digest;
 use ring::signature::{UnparsedPublicKey, ED25519};
 use x509_parser::prelude::*;
 
+use super::pair::{self, KeyId, Pairs};
 use super::{Identity, Role, Sender};
 
 const MAGIC: &[u8; 3] = b"MS1";
@@ -36,6 +43,9 @@ const DOMAIN: &[u8] = b"mrmm-seal/1\0";
 /// Longest certificate a seal may carry.
 pub const MAX_CERT: usize = 4096;
 const SIG_LEN: usize = 64;
+/// Most receivers one seal carries tags for.
+pub const MAX_TAGS: usize = 64;
+const TAG_ENTRY: usize = pair::KEY_ID_LEN + pair::TAG_LEN;
 /// Proven certificates remembered (by SHA-256 of their DER); beyond this the cache starts over.
 const CACHE_MAX: usize = 1024;
 
@@ -48,6 +58,8 @@ pub enum Refusal {
     Malformed(&'static str),
     /// A secure fleet needs a signature; this seal only claims.
     Unsigned { claimed: Sender },
+    /// Tagged for other receivers only, and not signed: not meant for this node.
+    Unaddressed { claimed: Sender },
     /// The certificate is not one of this fleet's, or not valid now.
     Certificate { claimed: Sender, why: String },
     /// The certificate proves someone else than the seal claims.
@@ -67,6 +79,7 @@ impl Refusal {
             Refusal::Missing => "missing",
             Refusal::Malformed(_) => "malformed",
             Refusal::Unsigned { .. } => "unsigned",
+            Refusal::Unaddressed { .. } => "unaddressed",
             Refusal::Certificate { .. } => "certificate",
             Refusal::Mismatch { .. } => "mismatch",
             Refusal::Signature { .. } => "signature",
@@ -82,6 +95,7 @@ impl fmt::Display for Refusal {
             Refusal::Missing => f.write_str("no seal"),
             Refusal::Malformed(why) => write!(f, "malformed seal: {why}"),
             Refusal::Unsigned { claimed } => write!(f, "unsigned seal claiming {claimed}"),
+            Refusal::Unaddressed { claimed } => write!(f, "seal of {claimed} tagged for other receivers only"),
             Refusal::Certificate { claimed, why } => write!(f, "seal claiming {claimed}: certificate refused: {why}"),
             Refusal::Mismatch { claimed, proven } => write!(f, "seal claims {claimed} but its certificate proves {proven}"),
             Refusal::Signature { claimed } => write!(f, "seal claiming {claimed}: bad signature"),
@@ -96,8 +110,18 @@ impl fmt::Display for Refusal {
 pub struct Seal<'a> {
     pub claimed: Sender,
     pub t_ms: u64,
-    /// Certificate and signature, when signed.
-    pub signed: Option<(&'a [u8], &'a [u8])>,
+    /// The certificate, when signed or tagged.
+    pub cert: Option<&'a [u8]>,
+    pub signature: Option<&'a [u8]>,
+    /// Tag entries (receiver key id, tag), back to back.
+    pub tags: &'a [u8],
+}
+
+impl Seal<'_> {
+    /// The tag for receiver `to`, if the seal carries one.
+    pub fn tag_for(&self, to: &KeyId) -> Option<&[u8]> {
+        self.tags.chunks_exact(TAG_ENTRY).find(|e| e.get(..pair::KEY_ID_LEN) == Some(to.as_slice())).and_then(|e| e.get(pair::KEY_ID_LEN..))
+    }
 }
 
 /// Decodes an attachment (never panics, never allocates more than the id).
@@ -122,23 +146,35 @@ pub fn decode(att: &[u8]) -> Result<Seal<'_>, Refusal> {
     let mut t = [0u8; 8];
     t.copy_from_slice(take(8, "time")?);
     let t_ms = u64::from_le_bytes(t);
-    let signed = if flags & 1 == 1 {
+    if flags & !3 != 0 {
+        return Err(Refusal::Malformed("flags"));
+    }
+    let (signed, tagged) = (flags & 1 == 1, flags & 2 == 2);
+    let cert = if signed || tagged {
         let mut l = [0u8; 2];
         l.copy_from_slice(take(2, "certificate length")?);
         let cert_len = usize::from(u16::from_le_bytes(l));
         if cert_len == 0 || cert_len > MAX_CERT {
             return Err(Refusal::Malformed("certificate length"));
         }
-        let cert = take(cert_len, "certificate")?;
-        let sig = take(SIG_LEN, "signature")?;
-        Some((cert, sig))
+        Some(take(cert_len, "certificate")?)
     } else {
         None
+    };
+    let signature = if signed { Some(take(SIG_LEN, "signature")?) } else { None };
+    let tags = if tagged {
+        let n = usize::from(take(1, "tag count")?[0]);
+        if n == 0 || n > MAX_TAGS {
+            return Err(Refusal::Malformed("tag count"));
+        }
+        take(n * TAG_ENTRY, "tags")?
+    } else {
+        &[]
     };
     if !r.is_empty() {
         return Err(Refusal::Malformed("trailing bytes"));
     }
-    Ok(Seal { claimed: Sender { role, id: id.to_string() }, t_ms, signed })
+    Ok(Seal { claimed: Sender { role, id: id.to_string() }, t_ms, cert, signature, tags })
 }
 
 fn digest_of(sender: &Sender, t_ms: u64, key: &str, payload: &[u8]) -> digest::Digest {
@@ -184,12 +220,25 @@ impl Sealer {
         self.identity.as_ref()
     }
 
-    /// The attachment for `payload` on `key` at `t_ms`.
+    /// The attachment for `payload` on `key` at `t_ms`, signed (when secure).
     pub fn seal(&self, key: &str, payload: &[u8], t_ms: u64) -> Vec<u8> {
+        self.seal_for(key, payload, t_ms, &[], true)
+    }
+
+    /// The attachment for `payload` on `key` at `t_ms` with a tag for each of `to` (receiver key
+    /// id, pair key; at most [`MAX_TAGS`], the rest dropped) and, if `sign`, a signature too.
+    /// Insecure: a bare claim. Secure with neither tags nor `sign`: signed anyway.
+    pub fn seal_for(&self, key: &str, payload: &[u8], t_ms: u64, to: &[(KeyId, ring::hmac::Key)], sign: bool) -> Vec<u8> {
         let id = self.me.id.as_bytes();
-        let mut out = Vec::with_capacity(16 + id.len() + self.identity.as_ref().map_or(0, |i| i.cert_der.len() + 66));
+        let to = &to[..to.len().min(MAX_TAGS)];
+        let sign = sign || to.is_empty();
+        let mut out = Vec::with_capacity(16 + id.len() + self.identity.as_ref().map_or(0, |i| i.cert_der.len() + 67 + to.len() * TAG_ENTRY));
         out.extend_from_slice(MAGIC);
-        out.push(u8::from(self.identity.is_some()));
+        let flags = match &self.identity {
+            None => 0,
+            Some(_) => u8::from(sign) | if to.is_empty() { 0 } else { 2 },
+        };
+        out.push(flags);
         out.push(self.me.role.code());
         out.push(id.len().min(255) as u8);
         out.extend_from_slice(id);
@@ -199,7 +248,16 @@ impl Sealer {
             let cert = &identity.cert_der;
             out.extend_from_slice(&(cert.len().min(usize::from(u16::MAX)) as u16).to_le_bytes());
             out.extend_from_slice(cert);
-            out.extend_from_slice(identity.sign(d.as_ref()).as_ref());
+            if sign {
+                out.extend_from_slice(identity.sign(d.as_ref()).as_ref());
+            }
+            if !to.is_empty() {
+                out.push(to.len() as u8);
+                for (rid, k) in to {
+                    out.extend_from_slice(rid);
+                    out.extend_from_slice(&pair::tag(k, d.as_ref(), rid));
+                }
+            }
         }
         out
     }
@@ -264,11 +322,16 @@ pub struct Refused {
 const LOG_BURST: u64 = 20;
 
 impl Refused {
-    /// Counts (and logs, rate-limited) a refusal of `what`.
+    /// Counts (and logs, rate-limited; not an unaddressed message) a refusal of `what`.
     pub fn record(&self, what: &str, r: &Refusal) {
         if let Ok(mut c) = self.counts.lock() {
             let n = c.entry(r.kind()).or_insert(0);
             *n = n.saturating_add(1);
+        }
+        // Messages tagged for other receivers are an everyday sight for a subscriber that is not
+        // one (counted only).
+        if matches!(r, Refusal::Unaddressed { .. }) {
+            return;
         }
         let fresh = match self.window.lock() {
             Ok(mut w) => {
@@ -302,6 +365,9 @@ pub struct Verifier {
     ca: Option<Ca>,
     max_age_ms: i64,
     cache: Mutex<HashMap<[u8; 32], Result<Proven, String>>>,
+    /// This node's pair keys (a secure node's own): tags for it are checked with them, and the
+    /// peers it proves are remembered so that it can tag what it sends them.
+    pairs: Option<std::sync::Arc<Pairs>>,
     pub refused: Refused,
 }
 
@@ -311,12 +377,23 @@ impl Verifier {
             ca: Some(parse_ca(ca_der)?),
             max_age_ms: i64::try_from(max_age_s.saturating_mul(1000)).unwrap_or(i64::MAX),
             cache: Mutex::new(HashMap::new()),
+            pairs: None,
             refused: Refused::default(),
         })
     }
 
+    /// With this node's pair keys: tags for it are checked, and peers remembered.
+    pub fn with_pairs(mut self, pairs: std::sync::Arc<Pairs>) -> Verifier {
+        self.pairs = Some(pairs);
+        self
+    }
+
+    pub fn pairs(&self) -> Option<&Pairs> {
+        self.pairs.as_deref()
+    }
+
     pub fn insecure() -> Verifier {
-        Verifier { ca: None, max_age_ms: i64::MAX, cache: Mutex::new(HashMap::new()), refused: Refused::default() }
+        Verifier { ca: None, max_age_ms: i64::MAX, cache: Mutex::new(HashMap::new()), pairs: None, refused: Refused::default() }
     }
 
     pub fn is_secure(&self) -> bool {
@@ -349,12 +426,24 @@ impl Verifier {
     /// Who sent `payload` on `key` with attachment `att`, at receiver time `now_ms`. Does not
     /// count refusals (see [`Verifier::check`]).
     pub fn sender(&self, key: &str, payload: &[u8], att: Option<&[u8]>, now_ms: u64) -> Result<Sender, Refusal> {
+        self.sender_as(key, payload, att, now_ms, false)
+    }
+
+    /// [`Verifier::sender`] for a node that only shows what it sees (the viewer): a message tagged
+    /// for other receivers only is taken as from the node its certificate proves — which proves
+    /// the certificate, *not* that this node sent this message (the certificate is public). Never
+    /// for anything a node acts on.
+    pub fn observed_sender(&self, key: &str, payload: &[u8], att: Option<&[u8]>, now_ms: u64) -> Result<Sender, Refusal> {
+        self.sender_as(key, payload, att, now_ms, true)
+    }
+
+    fn sender_as(&self, key: &str, payload: &[u8], att: Option<&[u8]>, now_ms: u64, observer: bool) -> Result<Sender, Refusal> {
         let att = att.ok_or(Refusal::Missing)?;
         let seal = decode(att)?;
         let Some(ca) = &self.ca else {
             return Ok(seal.claimed);
         };
-        let Some((cert, sig)) = seal.signed else {
+        let Some(cert) = seal.cert else {
             return Err(Refusal::Unsigned { claimed: seal.claimed });
         };
         let age = i64::try_from(now_ms).unwrap_or(i64::MAX).saturating_sub(i64::try_from(seal.t_ms).unwrap_or(i64::MAX));
@@ -367,7 +456,27 @@ impl Verifier {
             return Err(Refusal::Mismatch { claimed: seal.claimed, proven: proven.sender });
         }
         let d = digest_of(&seal.claimed, seal.t_ms, key, payload);
-        UnparsedPublicKey::new(&ED25519, &proven.public_key).verify(d.as_ref(), sig).map_err(|_| Refusal::Signature { claimed: seal.claimed.clone() })?;
+        let bad = || Refusal::Signature { claimed: seal.claimed.clone() };
+        let mine = self.pairs.as_deref().and_then(|p| seal.tag_for(&p.my_id()).map(|t| (p, t)));
+        match (mine, seal.signature) {
+            (Some((pairs, t)), _) => {
+                let key = pairs.key(&proven.public_key).ok_or_else(bad)?;
+                if !pair::same_tag(t, &pair::tag(&key, d.as_ref(), &pairs.my_id())) {
+                    return Err(bad());
+                }
+                pairs.learn(&proven.sender, &proven.public_key);
+            }
+            (None, Some(sig)) => {
+                UnparsedPublicKey::new(&ED25519, &proven.public_key).verify(d.as_ref(), sig).map_err(|_| bad())?;
+                if let Some(pairs) = self.pairs.as_deref() {
+                    pairs.learn(&proven.sender, &proven.public_key);
+                }
+            }
+            // Tagged for others only: not meant for this node (a viewer shows it as from the
+            // certificate's node).
+            (None, None) if observer => {}
+            (None, None) => return Err(Refusal::Unaddressed { claimed: seal.claimed }),
+        }
         Ok(proven.sender)
     }
 
@@ -457,6 +566,50 @@ mod tests {
         let rogue = Sealer::secure(identity(other.path(), Role::Operator, "op"));
         let att = rogue.seal("k", b"x", t);
         assert!(matches!(v.sender("k", b"x", Some(&att), t), Err(Refusal::Certificate { .. })));
+    }
+
+    #[test]
+    fn a_tagged_seal_proves_its_sender_to_its_receivers_only() {
+        use crate::security::pair::{self, Pairs};
+        let (d, _) = fleet();
+        let ca = pki::read_ca_der(d.path()).expect("ca");
+        let (a, b, c) = (identity(d.path(), Role::Robot, "r1"), identity(d.path(), Role::Robot, "r2"), identity(d.path(), Role::Robot, "r3"));
+        let verifier = |i: &Identity| Verifier::secure(&ca, 60).expect("verifier").with_pairs(std::sync::Arc::new(Pairs::new(i.pair_secret())));
+        let (va, vb, vc) = (verifier(&a), verifier(&b), verifier(&c));
+        let (sa, sb) = (Sealer::secure(a), Sealer::secure(b));
+        let (r1, r2) = (Sender::new(Role::Robot, "r1"), Sender::new(Role::Robot, "r2"));
+        let pairs = |v: &Verifier| v.pairs().expect("pairs").for_receivers(std::slice::from_ref(&r2));
+        let t = crate::mesh::now_ms();
+        // r1 has not heard r2 yet: nothing to tag with (its message is signed).
+        assert!(pairs(&va).0.is_empty() && !pairs(&va).1);
+        // r2's signed message proves it to r1 (and to r3), who learn it.
+        let att = sb.seal("k", b"x", t);
+        assert_eq!(va.sender("k", b"x", Some(&att), t), Ok(r2.clone()));
+        assert_eq!(vc.sender("k", b"x", Some(&att), t), Ok(r2.clone()));
+        let (tags, all) = pairs(&va);
+        assert!(all && tags.len() == 1);
+        let att = sa.seal_for("k", b"hello", t, &tags, false);
+        assert!(att.len() < sa.seal("k", b"hello", t).len(), "a tag is shorter than a signature");
+        assert_eq!(vb.sender("k", b"hello", Some(&att), t), Ok(r1.clone()));
+        assert!(matches!(vb.sender("k", b"hellO", Some(&att), t), Err(Refusal::Signature { .. })));
+        assert!(matches!(vb.sender("k2", b"hello", Some(&att), t), Err(Refusal::Signature { .. })));
+        assert!(matches!(vb.sender("k", b"hello", Some(&att), t + 61_000), Err(Refusal::Stale { .. })));
+        // Not for r3: refused, except as what a viewer shows (the certificate's node).
+        assert!(matches!(vc.sender("k", b"hello", Some(&att), t), Err(Refusal::Unaddressed { .. })));
+        assert_eq!(vc.observed_sender("k", b"hello", Some(&att), t), Ok(r1.clone()));
+        // r3 knows r2 too, but its key with r2 is not r1's: a tag it makes as r1 is refused.
+        let (tags3, _) = pairs(&vc);
+        let seal = decode(&att).expect("decode");
+        let forged_tag = pair::tag(&tags3[0].1, digest_of(&r1, t, "k", b"hello").as_ref(), &tags3[0].0);
+        let mut forged = att.clone();
+        let at = forged.len() - pair::TAG_LEN;
+        forged[at..].copy_from_slice(&forged_tag);
+        assert_eq!(seal.tag_for(&tags3[0].0).map(<[u8]>::len), Some(pair::TAG_LEN));
+        assert!(matches!(vb.sender("k", b"hello", Some(&forged), t), Err(Refusal::Signature { .. })));
+        // Tagged and signed (r1 did not know every receiver): r2 checks its tag, r3 the signature.
+        let att = sa.seal_for("k", b"hi", t, &tags, true);
+        assert_eq!(vb.sender("k", b"hi", Some(&att), t), Ok(r1.clone()));
+        assert_eq!(vc.sender("k", b"hi", Some(&att), t), Ok(r1));
     }
 
     #[test]

@@ -246,7 +246,7 @@ impl World {
                     let name = self.nodes[i].name.clone();
                     self.log(|| format!("{name} refuses: {e}"));
                 }
-                robot::Command::JoinTeam { team, subteam, barrier } => {
+                robot::Command::JoinTeam { team, subteam, barrier, .. } => {
                     self.nodes[i].team = Some((team, subteam));
                     self.nodes[i].barrier = barrier;
                     self.nodes[i].leading = false;
