@@ -7,7 +7,8 @@
 //!   by every receiver (a robot may only arrive as itself); latency from the last arrival's
 //!   publication to each peer's release;
 //! - **telemetry**: one robot publishes sealed telemetry as fast as it can for 3 s, one host
-//!   receives and checks it: messages per second received and verified;
+//!   receives and checks it: messages per second received and verified (sealed as robots do:
+//!   tagged for the host, which the robot has heard, and one in ten signed);
 //! - **operator command**: an operator peer queries central's session (sealed query, checked,
 //!   sealed 1 KB answer, checked): round trip.
 //!
@@ -53,9 +54,11 @@ fn main() -> anyhow::Result<()> {
             row(&format!("barrier release, {n} peers, p50 ms"), p.0, q.0, s.0);
             row(&format!("barrier release, {n} peers, p99 ms"), p.1, q.1, s.1);
         }
-        let (seal_us, check_us) = seal_cost(&dir)?;
-        println!("| sealing one telemetry message, µs | – | – | {seal_us:.1} | | |");
-        println!("| checking one telemetry message, µs | – | – | {check_us:.1} | | |");
+        let [sign_us, check_us, tag_us, check_tag_us] = seal_cost(&dir)?;
+        println!("| signing one telemetry message, µs | – | – | {sign_us:.1} | | |");
+        println!("| checking its signature, µs | – | – | {check_us:.1} | | |");
+        println!("| tagging it for one receiver, µs | – | – | {tag_us:.1} | | |");
+        println!("| checking that tag, µs | – | – | {check_tag_us:.1} | | |");
         let (p, q, s) = (telemetry(plain).await?, telemetry(quic).await?, telemetry(signed).await?);
         row("telemetry received and checked, msg/s", p, q, s);
         let (p, q, s) = (operator(plain).await?, operator(quic).await?, operator(signed).await?);
@@ -228,28 +231,42 @@ async fn barrier(sec: Sec<'_>, n: usize, rounds: u32) -> anyhow::Result<(f64, f6
     Ok(quantiles(lat))
 }
 
-/// CPU time to seal and to check one telemetry message (µs each), on one thread.
-fn seal_cost(dir: &std::path::Path) -> anyhow::Result<(f64, f64)> {
+/// CPU time (µs each, one thread) to sign and to check a signature on one telemetry message,
+/// and to tag it for one receiver and to check that tag.
+fn seal_cost(dir: &std::path::Path) -> anyhow::Result<[f64; 4]> {
+    use mrmm_proto::security::pair::{key_id, Pairs};
     use mrmm_proto::security::Identity;
-    let sealer = seal::Sealer::secure(Identity::load("security", &SecuritySection::from_dir(dir, "p0"))?);
-    let verifier = seal::Verifier::secure(&pki::read_ca_der(dir)?, 60).map_err(|e| anyhow::anyhow!(e))?;
+    let (p0, p1) = (Identity::load("security", &SecuritySection::from_dir(dir, "p0"))?, Identity::load("security", &SecuritySection::from_dir(dir, "p1"))?);
+    let ca = pki::read_ca_der(dir)?;
+    let p1_public = seal::check_cert(&seal::parse_ca(&ca).map_err(|e| anyhow::anyhow!(e))?, &p1.cert_der, mrmm_proto::security::unix_now_s())
+        .map_err(|e| anyhow::anyhow!(e))?
+        .public_key;
+    let p0_pairs = Pairs::new(p0.pair_secret());
+    let tag_key = p0_pairs.key(&p1_public).ok_or_else(|| anyhow::anyhow!("no pair key"))?;
+    let tags = [(key_id(&p1_public), tag_key)];
+    let sealer = seal::Sealer::secure(p0);
+    let verifier = seal::Verifier::secure(&ca, 60).map_err(|e| anyhow::anyhow!(e))?.with_pairs(Arc::new(Pairs::new(p1.pair_secret())));
     let key = Key::RobotTelemetry("p0".into()).to_string();
     let payload = vec![b'x'; 300];
     let now = mrmm_proto::mesh::now_ms();
     let n = 20_000u32;
-    let t = Instant::now();
-    let mut atts = Vec::with_capacity(n as usize);
-    for i in 0..n {
-        atts.push(sealer.seal(&key, &payload, now + u64::from(i % 1000)));
-    }
-    let seal_us = t.elapsed().as_secs_f64() * 1e6 / f64::from(n);
-    let t = Instant::now();
-    for (i, a) in atts.iter().enumerate() {
-        if verifier.sender(&key, &payload, Some(a), now + (i as u64 % 1000)).is_err() {
-            anyhow::bail!("a seal did not check");
+    let mut out = [0.0; 4];
+    for (k, tagged) in [false, true].into_iter().enumerate() {
+        let t = Instant::now();
+        let mut atts = Vec::with_capacity(n as usize);
+        for i in 0..n {
+            atts.push(sealer.seal_for(&key, &payload, now + u64::from(i % 1000), if tagged { &tags } else { &[] }, !tagged));
         }
+        out[2 * k] = t.elapsed().as_secs_f64() * 1e6 / f64::from(n);
+        let t = Instant::now();
+        for (i, a) in atts.iter().enumerate() {
+            if verifier.sender(&key, &payload, Some(a), now + (i as u64 % 1000)).is_err() {
+                anyhow::bail!("a seal did not check");
+            }
+        }
+        out[2 * k + 1] = t.elapsed().as_secs_f64() * 1e6 / f64::from(n);
     }
-    Ok((seal_us, t.elapsed().as_secs_f64() * 1e6 / f64::from(n)))
+    Ok(out)
 }
 
 /// Telemetry a host receives and checks from one robot publishing flat out, per second.
@@ -282,6 +299,21 @@ async fn telemetry(sec: Sec<'_>) -> anyhow::Result<f64> {
     };
     // Links settle first.
     tokio::time::sleep(Duration::from_millis(500)).await;
+    // As in a fleet, the robot has heard its mission's host (a plan, a chain message): it tags
+    // its telemetry for it, and signs one message in ten (see the robot's runtime).
+    let hello = Key::RobotCmd("p0".into()).to_string();
+    let heard = robot.session().declare_subscriber(&hello).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    // Sent again until it comes (the subscription takes a moment to reach the host).
+    let mut came = None;
+    for _ in 0..100 {
+        host.put(&hello, b"{}".to_vec(), Encoding::APPLICATION_JSON).await;
+        if let Ok(Ok(s)) = tokio::time::timeout(Duration::from_millis(100), heard.recv_async()).await {
+            came = Some(s);
+            break;
+        }
+    }
+    let s = came.ok_or_else(|| anyhow::anyhow!("the host's message never came"))?;
+    anyhow::ensure!(robot.sender_of("hello", &s).is_some(), "the host's message did not check");
     let window = Duration::from_secs(3);
     let start = Instant::now();
     let before = count.load(Ordering::Relaxed);
@@ -290,7 +322,10 @@ async fn telemetry(sec: Sec<'_>) -> anyhow::Result<f64> {
         seq += 1;
         let mut t = template.clone();
         t.seq = seq;
-        robot.put(&key, proto::encode_telemetry(&t)?, Encoding::APPLICATION_JSON).await;
+        let bytes = proto::encode_telemetry(&t)?;
+        let sign = seq % mrmm_peer::runtime::TELEMETRY_SIGN_EVERY == 1;
+        let att = robot.seal_for_known(&key, &bytes, |s| matches!(s.role, Role::Central | Role::Host), sign);
+        let _ = robot.session().put(&key, bytes).encoding(Encoding::APPLICATION_OCTET_STREAM).attachment(att).await;
     }
     // What is in flight lands.
     tokio::time::sleep(Duration::from_millis(300)).await;

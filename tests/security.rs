@@ -303,6 +303,11 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     let status: SystemStatus = op.query(Key::SystemStatus, None::<&()>).await?;
     println!("central refused: {:?}", status.refused);
     assert!(status.refused.values().sum::<u64>() >= 3, "central counted the refusals: {:?}", status.refused);
+    // The fleet's own messages reach central mostly tagged (robots' telemetry, once they heard
+    // central), some signed.
+    println!("central took: {:?}", status.proven);
+    let proven = |k: &str| status.proven.get(k).copied().unwrap_or(0);
+    assert!(proven("tag") > 0 && proven("signature") > 0, "central proves by tags and signatures: {:?}", status.proven);
     for id in ["r1", "r2"] {
         assert!(log(&dir, id).contains("refused"), "{id} logs no refusal:\n{}", log(&dir, id));
     }

@@ -191,7 +191,7 @@ pub async fn run_on(
     telemetry.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let t0 = Instant::now();
     let telemetry_key = Key::RobotTelemetry(id.clone()).to_string();
-    let mut io = Io { mesh: mesh.clone(), id: id.clone(), team: None, publisher: telemetry_pub, telemetry_key, ros };
+    let mut io = Io { mesh: mesh.clone(), id: id.clone(), team: None, publisher: telemetry_pub, telemetry_key, telemetry_sent: 0, ros };
     // Whether the robot's session has a link to any other fleet node (a ROS 2 body stops
     // without one); checked a few times a second.
     let mut fleet_check = tokio::time::interval(FLEET_CHECK_PERIOD);
@@ -336,6 +336,10 @@ pub async fn run_on(
     Ok(())
 }
 
+/// One telemetry message in this many is signed (the others carry tags only, for the receivers
+/// the robot knows): receivers it does not know yet still get a signed one every second or so.
+pub const TELEMETRY_SIGN_EVERY: u64 = 10;
+
 /// The I/O half: the session, the team subscriptions and the telemetry publisher.
 struct Io {
     mesh: Mesh,
@@ -343,6 +347,8 @@ struct Io {
     team: Option<TeamLink>,
     publisher: zenoh::pubsub::Publisher<'static>,
     telemetry_key: String,
+    /// Telemetry messages published (which of them are signed).
+    telemetry_sent: u64,
     /// A ROS 2 body's link.
     ros: Option<RosLink>,
 }
@@ -399,7 +405,14 @@ impl Io {
             }
             Command::Telemetry(t) => match proto::encode_telemetry(&t) {
                 Ok(bytes) => {
-                    let seal = self.mesh.seal(&self.telemetry_key, &bytes);
+                    // Tagged for central, mission hosts and teammates (managers of its mission
+                    // on robots) it knows; one message in TELEMETRY_SIGN_EVERY signed as well, for
+                    // everyone else (a host that takes its mission over before it knows that host).
+                    let team = self.team.as_ref().map(|t| t.to.as_slice()).unwrap_or_default();
+                    let sign = self.telemetry_sent.is_multiple_of(TELEMETRY_SIGN_EVERY);
+                    self.telemetry_sent = self.telemetry_sent.wrapping_add(1);
+                    let seal =
+                        self.mesh.seal_for_known(&self.telemetry_key, &bytes, |s| matches!(s.role, Role::Central | Role::Host) || team.contains(s), sign);
                     if let Err(e) = self.publisher.put(bytes).attachment(seal).await {
                         tracing::warn!("telemetry publication failed: {e}");
                     }

@@ -141,6 +141,20 @@ impl Mesh {
         }
     }
 
+    /// The seal of `payload` on `key` for a stream with many receivers, some of them known (a
+    /// robot's telemetry: central and its mission's managers): tagged for the known peers `pred`
+    /// accepts, who check their tag; signed as well when `sign` or when it knows none of them,
+    /// for everyone else (the others take only the signed messages of the stream).
+    pub fn seal_for_known(&self, key: &str, payload: &[u8], pred: impl Fn(&Sender) -> bool, sign: bool) -> Vec<u8> {
+        match self.verifier.pairs() {
+            Some(pairs) => {
+                let (tags, _) = pairs.for_receivers(&pairs.known_where(pred));
+                self.sealer.seal_for(key, payload, now_ms(), &tags, sign)
+            }
+            None => self.seal(key, payload),
+        }
+    }
+
     /// Publishes `bytes` on `key` for the receivers `to`: tagged for each of them this node
     /// knows (see [`crate::security::seal`]), and signed as well while it does not know them all
     /// (or `to` is empty). Other subscribers refuse it as not meant for them.

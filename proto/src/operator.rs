@@ -77,6 +77,10 @@ pub struct SystemStatus {
     /// impostors' attempts.
     #[serde(default)]
     pub refused: std::collections::BTreeMap<String, u64>,
+    /// Messages central took, by how their sender was proven: `tag` (a pair key's HMAC) or
+    /// `signature` (Ed25519); empty in an insecure fleet.
+    #[serde(default)]
+    pub proven: std::collections::BTreeMap<String, u64>,
 }
 
 /// Error payload of every reply error on an operator key.

@@ -144,6 +144,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let mut io = Io { mesh: mesh.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
     let mut tick = tokio::time::interval(TICK);
     let mut refused = 0;
+    let mut proofs_at = Instant::now();
     loop {
         let event = tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -152,6 +153,11 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
                 if total != refused {
                     refused = total;
                     let cmds = core.handle(t0.elapsed().as_secs_f64(), Event::System(system::Event::Refusals(mesh.verifier().refused.counts())));
+                    carry_out(&mut io, journal.as_mut(), cmds).await?;
+                }
+                if proofs_at.elapsed() >= Duration::from_secs(1) {
+                    proofs_at = Instant::now();
+                    let cmds = core.handle(t0.elapsed().as_secs_f64(), Event::System(system::Event::Proofs(mesh.verifier().proven.counts())));
                     carry_out(&mut io, journal.as_mut(), cmds).await?;
                 }
                 Event::System(system::Event::Tick)

@@ -163,6 +163,8 @@ pub enum Event {
     },
     /// What the driver refused so far, by reason (reported in the fleet status).
     Refusals(BTreeMap<String, u64>),
+    /// Messages the driver took, by how their sender was proven.
+    Proofs(BTreeMap<String, u64>),
     /// The answer to [`Command::DryRun`] `id`.
     DryRunDone {
         id: u64,
@@ -292,6 +294,8 @@ pub struct SystemManager {
     held: Vec<(Req, Request)>,
     /// Messages the driver refused, by reason.
     refused: BTreeMap<String, u64>,
+    /// Messages the driver took, by how their sender was proven.
+    proven: BTreeMap<String, u64>,
     /// New robot ids ignored because the registry is full.
     ignored: u64,
     /// Creates waiting for their dry run, by check id.
@@ -325,6 +329,7 @@ impl SystemManager {
             ctls: Ctls::default(),
             held: Vec::new(),
             refused: BTreeMap::new(),
+            proven: BTreeMap::new(),
             checking: BTreeMap::new(),
             next_check: 0,
             ignored: 0,
@@ -456,6 +461,10 @@ impl SystemManager {
             Event::MissionStatus { view, from } => self.mission_status(*view, from),
             Event::Refusals(r) => {
                 self.refused = r;
+                vec![]
+            }
+            Event::Proofs(p) => {
+                self.proven = p;
                 vec![]
             }
             Event::DryRunDone { id, result } => self.dry_run_done(id, result),

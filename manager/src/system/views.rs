@@ -98,6 +98,7 @@ impl SystemManager {
             lost: count(RobotStatus::Lost),
             missions: self.missions.len(),
             refused: self.refused.clone(),
+            proven: self.proven.clone(),
         }
     }
 }

@@ -358,6 +358,20 @@ impl Refused {
     }
 }
 
+/// Messages taken, by how their sender was proven.
+#[derive(Debug, Default)]
+pub struct Proofs {
+    tag: AtomicU64,
+    signature: AtomicU64,
+}
+
+impl Proofs {
+    /// `tag` and `signature` counts.
+    pub fn counts(&self) -> std::collections::BTreeMap<String, u64> {
+        [("tag", &self.tag), ("signature", &self.signature)].into_iter().map(|(k, v)| (k.to_string(), v.load(Ordering::Relaxed))).collect()
+    }
+}
+
 /// Checks the seals of what this node receives.
 #[derive(Debug)]
 pub struct Verifier {
@@ -369,6 +383,7 @@ pub struct Verifier {
     /// peers it proves are remembered so that it can tag what it sends them.
     pairs: Option<std::sync::Arc<Pairs>>,
     pub refused: Refused,
+    pub proven: Proofs,
 }
 
 impl Verifier {
@@ -379,6 +394,7 @@ impl Verifier {
             cache: Mutex::new(HashMap::new()),
             pairs: None,
             refused: Refused::default(),
+            proven: Proofs::default(),
         })
     }
 
@@ -393,7 +409,7 @@ impl Verifier {
     }
 
     pub fn insecure() -> Verifier {
-        Verifier { ca: None, max_age_ms: i64::MAX, cache: Mutex::new(HashMap::new()), pairs: None, refused: Refused::default() }
+        Verifier { ca: None, max_age_ms: i64::MAX, cache: Mutex::new(HashMap::new()), pairs: None, refused: Refused::default(), proven: Proofs::default() }
     }
 
     pub fn is_secure(&self) -> bool {
@@ -465,12 +481,14 @@ impl Verifier {
                     return Err(bad());
                 }
                 pairs.learn(&proven.sender, &proven.public_key);
+                self.proven.tag.fetch_add(1, Ordering::Relaxed);
             }
             (None, Some(sig)) => {
                 UnparsedPublicKey::new(&ED25519, &proven.public_key).verify(d.as_ref(), sig).map_err(|_| bad())?;
                 if let Some(pairs) = self.pairs.as_deref() {
                     pairs.learn(&proven.sender, &proven.public_key);
                 }
+                self.proven.signature.fetch_add(1, Ordering::Relaxed);
             }
             // Tagged for others only: not meant for this node (a viewer shows it as from the
             // certificate's node).
