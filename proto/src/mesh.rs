@@ -146,10 +146,17 @@ impl Mesh {
     /// accepts, who check their tag; signed as well when `sign` or when it knows none of them,
     /// for everyone else (the others take only the signed messages of the stream).
     pub fn seal_for_known(&self, key: &str, payload: &[u8], pred: impl Fn(&Sender) -> bool, sign: bool) -> Vec<u8> {
+        let to = self.verifier.pairs().map(|p| p.known_where(pred)).unwrap_or_default();
+        self.seal_tagged(key, payload, &to, sign)
+    }
+
+    /// The seal of `payload` on `key` tagged for those of `to` this node knows, and signed as
+    /// well when `sign` or when it does not know them all (an insecure node: a bare claim).
+    fn seal_tagged(&self, key: &str, payload: &[u8], to: &[Sender], sign: bool) -> Vec<u8> {
         match self.verifier.pairs() {
             Some(pairs) => {
-                let (tags, _) = pairs.for_receivers(&pairs.known_where(pred));
-                self.sealer.seal_for(key, payload, now_ms(), &tags, sign)
+                let (tags, all) = pairs.for_receivers(to);
+                self.sealer.seal_for(key, payload, now_ms(), &tags, sign || !all)
             }
             None => self.seal(key, payload),
         }
@@ -159,13 +166,7 @@ impl Mesh {
     /// knows (see [`crate::security::seal`]), and signed as well while it does not know them all
     /// (or `to` is empty). Other subscribers refuse it as not meant for them.
     pub async fn put_for(&self, key: &str, bytes: Vec<u8>, encoding: Encoding, to: &[Sender]) {
-        let att = match self.verifier.pairs() {
-            Some(pairs) if !to.is_empty() => {
-                let (tags, all) = pairs.for_receivers(to);
-                self.sealer.seal_for(key, &bytes, now_ms(), &tags, !all)
-            }
-            _ => self.seal(key, &bytes),
-        };
+        let att = self.seal_tagged(key, &bytes, to, false);
         if let Err(e) = self.session.put(key, bytes).encoding(encoding).attachment(att).await {
             tracing::warn!("publication on {key} failed: {e}");
         }
@@ -242,13 +243,7 @@ impl Mesh {
         let payload = body.unwrap_or_default();
         // Signed (whoever serves it can check), and tagged for the servers it would accept that
         // this node knows, who check their tag instead.
-        let att = match self.verifier.pairs() {
-            Some(pairs) => {
-                let (tags, _) = pairs.for_receivers(&pairs.known_where(&accept));
-                self.sealer.seal_for(key, &payload, now_ms(), &tags, true)
-            }
-            None => self.seal(key, &payload),
-        };
+        let att = self.seal_for_known(key, &payload, &accept, true);
         let zerr = |e: zenoh::Error| QueryError::Zenoh { key: selector.to_string(), why: e.to_string() };
         let mut get = self.session.get(selector).timeout(timeout).consolidation(ConsolidationMode::None).target(QueryTarget::All).attachment(att);
         if !payload.is_empty() {
@@ -288,13 +283,7 @@ impl Mesh {
     /// the query's seal), signed otherwise.
     fn seal_reply(&self, query: &Query, key: &str, bytes: &[u8]) -> Vec<u8> {
         let asker = query.attachment().and_then(|a| crate::security::seal::decode(&a.to_bytes()).ok().map(|s| s.claimed));
-        match (self.verifier.pairs(), asker) {
-            (Some(pairs), Some(asker)) => {
-                let (tags, all) = pairs.for_receivers(std::slice::from_ref(&asker));
-                self.sealer.seal_for(key, bytes, now_ms(), &tags, !all)
-            }
-            _ => self.seal(key, bytes),
-        }
+        self.seal_tagged(key, bytes, asker.as_slice(), false)
     }
 
     /// Replies to a query with a JSON value on the query's own key, sealed.
