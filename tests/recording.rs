@@ -21,6 +21,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let dir = Scratch::new("rrd");
     let rrd = dir.path("fleet.rrd");
     let rrd_s = rrd.display().to_string();
+    let started = Instant::now();
     let (mut demo, ep, operator) =
         common::start_demo(&dir, &["--robots", "6", "--duration", "40", "--listen", "quic/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s])?;
     let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
@@ -84,6 +85,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     client.close().await;
 
     demo.signal("INT")?;
+    let ran_s = started.elapsed().as_secs_f64();
     let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
     assert!(status.success(), "demo exit status {status}");
 
@@ -100,6 +102,12 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     for r in 1..=6 {
         assert!(has(&format!("/fleet/robots/r{r}")) > 0, "robot r{r} missing: {:?}", keys());
         assert!(has(&format!("/fleet/robots/r{r}/heading")) > 0 && has(&format!("/fleet/robots/r{r}/trail")) > 0);
+    }
+    // Every robot's telemetry is drawn (5 Hz), not only its signed messages (one per
+    // TELEMETRY_SIGN_MS): the robots tag it for the viewer, which announces itself.
+    for r in [1, 3, 4, 5, 6] {
+        let n = has(&format!("/fleet/robots/r{r}"));
+        assert!(n as f64 >= 2.0 * ran_s, "robot r{r}: {n} positions drawn in {ran_s:.1} s (only the signed ones?)");
     }
     assert!(has("/fleet/missions/patrol-1/tour") > 0 && has("/fleet/missions/coverage-1/points") > 0, "{:?}", keys());
     assert!(has("/fleet/missions/coverage-1/region") > 0, "{:?}", keys());

@@ -63,9 +63,12 @@ pub async fn serve(mesh: Mesh, shutdown: CancellationToken) -> Result<(), Manage
             q = coverage.recv_async() => (PlannerKind::Coverage, q),
         };
         let Ok(q) = q else { break };
-        let Some(from) = mesh.sender_of_query("plan request", &q) else {
-            mesh.reply_error(&q, "refused: the request's seal is not this fleet's").await;
-            continue;
+        let from = match mesh.try_sender_of_query(&q) {
+            Ok(from) => from,
+            Err(r) => {
+                mesh.refuse_unproven("plan request", &q, &r).await;
+                continue;
+            }
         };
         if !from.role.hosts_missions() {
             mesh.refuse("ask for plans", &from);

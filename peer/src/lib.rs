@@ -15,5 +15,6 @@ pub mod nav_goals;
 pub mod robot;
 pub mod ros_body;
 pub mod runtime;
+pub mod viewers;
 
 pub use error::PeerError;

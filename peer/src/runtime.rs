@@ -3,7 +3,9 @@
 
 use std::time::{Duration, Instant};
 
+use crate::viewers::{Heard, Viewers, MAX_VIEWERS};
 use mrmm_proto::net::{self, Mode};
+use mrmm_proto::security::seal::SignCadence;
 use mrmm_proto::{self as proto, BarrierMode, Key, Mesh, NodeNet, Pattern, Role, Sender, SyncArrival, SyncRelease};
 use tokio::sync::oneshot;
 use tokio_util::sync::CancellationToken;
@@ -177,6 +179,8 @@ pub async fn run_on(
         let _ = tx.send(Ready { id: id.clone(), zid: session.zid().to_string(), endpoints: endpoints.clone() });
     }
 
+    // Viewers announcing themselves: the robot's telemetry is tagged for them too.
+    let viewers = session.declare_subscriber(Pattern::AllViewers.to_string()).with(RingChannel::new(QUEUE)).await.map_err(PeerError::zenoh)?;
     // Central's liveliness: while it is gone, nobody admits this robot to missions.
     let central = session
         .liveliness()
@@ -191,7 +195,16 @@ pub async fn run_on(
     telemetry.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let t0 = Instant::now();
     let telemetry_key = Key::RobotTelemetry(id.clone()).to_string();
-    let mut io = Io { mesh: mesh.clone(), id: id.clone(), team: None, publisher: telemetry_pub, telemetry_key, telemetry_sent: 0, ros };
+    let mut io = Io {
+        mesh: mesh.clone(),
+        id: id.clone(),
+        team: None,
+        publisher: telemetry_pub,
+        telemetry_key,
+        telemetry_signs: SignCadence::new(TELEMETRY_SIGN_MS),
+        viewers: Viewers::new(proto::VIEWER_HELLO_MS),
+        ros,
+    };
     // Whether the robot's session has a link to any other fleet node (a ROS 2 body stops
     // without one); checked a few times a second.
     let mut fleet_check = tokio::time::interval(FLEET_CHECK_PERIOD);
@@ -257,8 +270,7 @@ pub async fn run_on(
                 let from = match mesh.try_sender_of_query(&q) {
                     Ok(from) => from,
                     Err(r) => {
-                        mesh.verifier().refused.record("robot command", &r);
-                        mesh.reply_error(&q, &format!("refused: {r}")).await;
+                        mesh.refuse_unproven("robot command", &q, &r).await;
                         continue;
                     }
                 };
@@ -285,6 +297,16 @@ pub async fn run_on(
                     }
                 }
             },
+            s = viewers.recv_async() => {
+                let Ok(s) = s else { break };
+                let Some(from) = mesh.sender_of("viewer announcement", &s) else { continue };
+                match io.viewers.heard(proto::mesh::now_ms(), from.clone()) {
+                    Heard::Kept => {}
+                    Heard::NotAViewer => mesh.refuse("announce a viewer", &from),
+                    Heard::Full => tracing::debug!(robot = %id, viewer = %from, "viewer not tagged for: {MAX_VIEWERS} others are current"),
+                }
+                continue;
+            }
             s = central.recv_async() => match s {
                 Ok(s) => (Event::CentralAlive(s.kind() == SampleKind::Put), None),
                 Err(_) => break,
@@ -336,9 +358,10 @@ pub async fn run_on(
     Ok(())
 }
 
-/// One telemetry message in this many is signed (the others carry tags only, for the receivers
-/// the robot knows): receivers it does not know yet still get a signed one every second or so.
-pub const TELEMETRY_SIGN_EVERY: u64 = 10;
+/// A robot's telemetry is signed (as well as tagged for the receivers it knows) once in this
+/// many milliseconds: receivers it does not know yet check one message in that time (one in ten
+/// at the demo's 5 Hz), and a robot streaming faster pays no more signatures for it.
+pub const TELEMETRY_SIGN_MS: u64 = 2000;
 
 /// The I/O half: the session, the team subscriptions and the telemetry publisher.
 struct Io {
@@ -348,7 +371,9 @@ struct Io {
     publisher: zenoh::pubsub::Publisher<'static>,
     telemetry_key: String,
     /// Telemetry messages published (which of them are signed).
-    telemetry_sent: u64,
+    telemetry_signs: SignCadence,
+    /// Viewers its telemetry is tagged for.
+    viewers: Viewers,
     /// A ROS 2 body's link.
     ros: Option<RosLink>,
 }
@@ -406,13 +431,19 @@ impl Io {
             Command::Telemetry(t) => match proto::encode_telemetry(&t) {
                 Ok(bytes) => {
                     // Tagged for central, mission hosts and teammates (managers of its mission
-                    // on robots) it knows; one message in TELEMETRY_SIGN_EVERY signed as well, for
+                    // on robots) it knows and current viewers; one message per TELEMETRY_SIGN_MS
+                    // signed as well, for
                     // everyone else (a host that takes its mission over before it knows that host).
                     let team = self.team.as_ref().map(|t| t.to.as_slice()).unwrap_or_default();
-                    let sign = self.telemetry_sent.is_multiple_of(TELEMETRY_SIGN_EVERY);
-                    self.telemetry_sent = self.telemetry_sent.wrapping_add(1);
-                    let seal =
-                        self.mesh.seal_for_known(&self.telemetry_key, &bytes, |s| matches!(s.role, Role::Central | Role::Host) || team.contains(s), sign);
+                    let now = proto::mesh::now_ms();
+                    let sign = self.telemetry_signs.due(now);
+                    let viewers = &self.viewers;
+                    let seal = self.mesh.seal_for_known(
+                        &self.telemetry_key,
+                        &bytes,
+                        |s| matches!(s.role, Role::Central | Role::Host) || team.contains(s) || viewers.is_current(now, s),
+                        sign,
+                    );
                     if let Err(e) = self.publisher.put(bytes).attachment(seal).await {
                         tracing::warn!("telemetry publication failed: {e}");
                     }

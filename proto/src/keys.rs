@@ -137,6 +137,9 @@ pub enum Key {
     MissionStatus(String),
     AgentAdvice,
     AgentAdviceLive,
+    /// A viewer's announcement (`mrmm viz`, the demo's recording): robots that hear it tag
+    /// their telemetry for it.
+    Viewer(String),
     SystemStatus,
     SystemRobots,
     SystemRobot(String),
@@ -168,6 +171,7 @@ impl fmt::Display for Key {
             Key::MissionStatus(m) => write!(f, "mrmm/missions/{m}/status"),
             Key::AgentAdvice => f.write_str("mrmm/agent/advice"),
             Key::AgentAdviceLive => f.write_str("mrmm/agent/advice/live"),
+            Key::Viewer(v) => write!(f, "mrmm/viewers/{v}"),
             Key::SystemStatus => f.write_str("mrmm/system/status"),
             Key::SystemRobots => f.write_str("mrmm/system/robots"),
             Key::SystemRobot(id) => write!(f, "mrmm/system/robots/{id}"),
@@ -217,6 +221,7 @@ impl Key {
             ["mrmm", "missions", m, "status"] => Key::MissionStatus(id(m)?),
             ["mrmm", "agent", "advice"] => Key::AgentAdvice,
             ["mrmm", "agent", "advice", "live"] => Key::AgentAdviceLive,
+            ["mrmm", "viewers", v] => Key::Viewer(id(v)?),
             ["mrmm", "system", "status"] => Key::SystemStatus,
             ["mrmm", "system", "robots"] => Key::SystemRobots,
             ["mrmm", "system", "robots", r] => Key::SystemRobot(id(r)?),
@@ -278,6 +283,8 @@ pub enum Pattern {
     AllPlannersAlive,
     /// `mrmm/missions/*/status`
     AllMissionStatus,
+    /// `mrmm/viewers/*`
+    AllViewers,
     /// Every member token of a team: `mrmm/team/<team>/*/member/*`
     TeamMembers(String),
     /// Every barrier of a team: `mrmm/team/<team>/sync/**`
@@ -306,6 +313,7 @@ impl fmt::Display for Pattern {
             Pattern::AllHostsAlive => f.write_str("mrmm/hosts/*/alive"),
             Pattern::AllPlannersAlive => f.write_str("mrmm/planner/*/alive/*"),
             Pattern::AllMissionStatus => f.write_str("mrmm/missions/*/status"),
+            Pattern::AllViewers => f.write_str("mrmm/viewers/*"),
             Pattern::TeamMembers(team) => write!(f, "mrmm/team/{team}/*/member/*"),
             Pattern::TeamSync(team) => write!(f, "mrmm/team/{team}/sync/**"),
             Pattern::AllTeamSync => f.write_str("mrmm/team/*/sync/**"),
@@ -378,6 +386,7 @@ mod tests {
             Key::MissionStatus(s("m")),
             Key::AgentAdvice,
             Key::AgentAdviceLive,
+            Key::Viewer(s("op")),
             Key::SystemStatus,
             Key::SystemRobots,
             Key::SystemRobot(s("r9")),
@@ -416,6 +425,7 @@ mod tests {
         assert!(matches(Pattern::AllHostsAlive, Key::HostAlive(s("r1"))));
         assert!(matches(Pattern::AllPlannersAlive, Key::PlannerAlive { kind: s("patrol"), zid: s("ab") }));
         assert!(matches(Pattern::AllMissionStatus, Key::MissionStatus(s("p"))));
+        assert!(matches(Pattern::AllViewers, Key::Viewer(s("op"))));
         assert!(matches(Pattern::TeamMembers(s("p")), Key::TeamMember { subteam: s("p/ground"), robot: s("r1") }));
         assert!(!matches(Pattern::TeamMembers(s("p")), Key::TeamMember { subteam: s("q/ground"), robot: s("r1") }));
         assert!(matches(Pattern::TeamSync(s("p")), Key::TeamSync { team: s("p"), point: 0, round: 0 }));

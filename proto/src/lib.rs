@@ -29,7 +29,7 @@ pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to
 pub use error::ProtoError;
 pub use journal::{JournalEntry, JournalEvent, JournalPage};
 pub use keys::{natural_cmp, validate_id, validate_subteam, Key, Pattern, SystemCmd};
-pub use mesh::{Mesh, NodeNet};
+pub use mesh::{Mesh, NodeNet, UNPROVEN};
 pub use mission::*;
 pub use operator::*;
 pub use plan::{MissionPlan, PlanRequest, PlanSummary, RobotPlan, RobotSpec, Step};

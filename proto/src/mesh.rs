@@ -18,6 +18,17 @@ use crate::net::{self, Mode, QueryError};
 use crate::operator::ErrorReply;
 use crate::security::{acl, Identity, Refusal, Sealer, SecuritySection, Sender, Verifier};
 
+/// How a reply error of a server that could not prove a query's seal starts (see
+/// [`Mesh::query`]).
+pub const UNPROVEN: &str = "refused: unproven seal:";
+
+/// How one round of a query ended without an accepted answer.
+enum Asked {
+    /// A server answered [`UNPROVEN`] to a query that was not signed: worth asking again, signed.
+    Unproven(QueryError),
+    Failed(QueryError),
+}
+
 /// Unix milliseconds now.
 pub fn now_ms() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| u64::try_from(d.as_millis()).unwrap_or(u64::MAX))
@@ -232,6 +243,11 @@ impl Mesh {
     /// answer whose proven sender `accept`s — not merely the first answer: a stranger answering
     /// first is refused and the wait goes on. A reply error (which carries no seal) is returned
     /// only when no accepted answer came.
+    ///
+    /// The query is tagged for the servers it would accept that this node knows (they check
+    /// their tag), and signed only when it knows none of them. A server that cannot prove it (its
+    /// certificate was re-issued since, or it is one this node has not heard yet) answers
+    /// [`UNPROVEN`]: the query is then asked once more, signed, within the same `timeout`.
     pub async fn query<T: DeserializeOwned>(
         &self,
         selector: &str,
@@ -239,18 +255,43 @@ impl Mesh {
         timeout: Duration,
         accept: impl Fn(&Sender) -> bool,
     ) -> Result<(T, Sender), QueryError> {
-        let key = selector.split('?').next().unwrap_or(selector);
+        let deadline = std::time::Instant::now() + timeout;
         let payload = body.unwrap_or_default();
-        // Signed (whoever serves it can check), and tagged for the servers it would accept that
-        // this node knows, who check their tag instead.
-        let att = self.seal_for_known(key, &payload, &accept, true);
-        let zerr = |e: zenoh::Error| QueryError::Zenoh { key: selector.to_string(), why: e.to_string() };
+        match self.ask(selector, &payload, timeout, &accept, false).await {
+            Err(Asked::Unproven(e)) => {
+                let left = deadline.saturating_duration_since(std::time::Instant::now());
+                match self.ask(selector, &payload, left, &accept, true).await {
+                    Ok(v) => Ok(v),
+                    Err(Asked::Unproven(_)) => Err(e),
+                    Err(Asked::Failed(e)) => Err(e),
+                }
+            }
+            Err(Asked::Failed(e)) => Err(e),
+            Ok(v) => Ok(v),
+        }
+    }
+
+    /// One round of [`Mesh::query`], signed if `sign` (or if no accepted server is known).
+    async fn ask<T: DeserializeOwned>(
+        &self,
+        selector: &str,
+        payload: &[u8],
+        timeout: Duration,
+        accept: &impl Fn(&Sender) -> bool,
+        sign: bool,
+    ) -> Result<(T, Sender), Asked> {
+        let key = selector.split('?').next().unwrap_or(selector);
+        let known = self.verifier.pairs().map(|p| p.known_where(accept)).unwrap_or_default();
+        let signed = sign || known.is_empty() || !self.is_secure();
+        let att = self.seal_tagged(key, payload, &known, sign);
+        let zerr = |e: zenoh::Error| Asked::Failed(QueryError::Zenoh { key: selector.to_string(), why: e.to_string() });
         let mut get = self.session.get(selector).timeout(timeout).consolidation(ConsolidationMode::None).target(QueryTarget::All).attachment(att);
         if !payload.is_empty() {
-            get = get.payload(payload).encoding(Encoding::APPLICATION_JSON);
+            get = get.payload(payload.to_vec()).encoding(Encoding::APPLICATION_JSON);
         }
         let replies = get.await.map_err(zerr)?;
         let mut failed: Option<QueryError> = None;
+        let mut unproven = false;
         while let Ok(reply) = replies.recv_async().await {
             match reply.result() {
                 Ok(sample) => {
@@ -272,17 +313,35 @@ impl Mesh {
                     let msg = from_json::<ErrorReply>(selector, &bytes)
                         .map(|e| e.error)
                         .unwrap_or_else(|_| String::from_utf8_lossy(&bytes).chars().take(200).collect());
+                    unproven |= msg.starts_with(UNPROVEN);
                     failed.get_or_insert(QueryError::Remote(msg));
                 }
             }
         }
-        Err(failed.unwrap_or(QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() }))
+        let e = failed.unwrap_or(QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() });
+        Err(if unproven && !signed { Asked::Unproven(e) } else { Asked::Failed(e) })
     }
 
-    /// The seal of a reply: tagged for the node that asked, when this node proved it (it checked
-    /// the query's seal), signed otherwise.
+    /// Refuses a query whose seal does not prove its sender: counted, logged (rate-limited) and
+    /// answered with [`UNPROVEN`], so that an asker whose tag was for an older certificate of
+    /// this node asks again, signed.
+    pub async fn refuse_unproven(&self, what: &str, q: &Query, r: &Refusal) {
+        self.verifier.refused.record(&format!("{what} on {}", q.key_expr()), r);
+        net::reply_error(q, &format!("{UNPROVEN} {r}")).await;
+    }
+
+    /// The seal of a reply: tagged for the node that asked when this node knows it — a server
+    /// that did not check the query's seal (central's operator API, whose authority is the
+    /// link's certificate) checks it here the first time, to learn the asker's key — signed
+    /// otherwise.
     fn seal_reply(&self, query: &Query, key: &str, bytes: &[u8]) -> Vec<u8> {
         let asker = query.attachment().and_then(|a| crate::security::seal::decode(&a.to_bytes()).ok().map(|s| s.claimed));
+        if let (Some(asker), Some(pairs)) = (&asker, self.verifier.pairs()) {
+            if !pairs.knows(asker) {
+                // Learns the asker's key if its seal proves it; refusals are not this reply's business.
+                let _ = self.try_sender_of_query(query);
+            }
+        }
         self.seal_tagged(key, bytes, asker.as_slice(), false)
     }
 
@@ -309,3 +368,6 @@ impl Mesh {
         let _ = self.session.close().await;
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -7,6 +7,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::robot::Pose;
 
+/// How often a viewer announces itself on `Key::Viewer` (robots tag their telemetry for the
+/// viewers they heard within three such periods).
+pub const VIEWER_HELLO_MS: u64 = 2000;
+
 /// Operator command `mrmm/system/cmd/robot/goto`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

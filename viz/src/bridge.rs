@@ -54,11 +54,16 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     // Under the leader barrier only the leader hears arrivals: its releases show the team's progress.
     let releases = session.declare_subscriber(Pattern::TeamRelease("*".into()).to_string()).await.map_err(z)?;
     let mut view = View::new(rec.clone());
+    // Announces itself to the robots, which tag their telemetry for it (otherwise it could
+    // check only their signed messages: one per `TELEMETRY_SIGN_MS`).
+    let mut hello = tokio::time::interval(Duration::from_millis(proto::VIEWER_HELLO_MS));
+    let hello_key = Key::Viewer(mesh.me().id.clone()).to_string();
     let mut probe_tick = tokio::time::interval(PROBE_EVERY);
     let mut reachable: Option<bool> = None;
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
+            _ = hello.tick(), if mesh.is_secure() => mesh.put(&hello_key, b"{}".to_vec(), zenoh::bytes::Encoding::APPLICATION_JSON).await,
             _ = probe_tick.tick(), if probe.is_some() => {
                 let addr = probe.clone().unwrap_or_default();
                 let ok = tokio::time::timeout(Duration::from_secs(1), tokio::net::TcpStream::connect(&addr)).await.is_ok_and(|r| r.is_ok());

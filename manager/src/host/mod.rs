@@ -306,12 +306,12 @@ impl Io {
     async fn query(&mut self, q: Query, kind: QueryKind) -> Option<Event> {
         let query = self.next;
         let payload = net::query_payload(&q);
-        if matches!(kind, QueryKind::Start | QueryKind::Ctl(_)) && self.mesh.try_sender_of_query(&q).is_err() {
-            // Counted and answered: its sender is not proven.
-            let from = self.mesh.sender_of_query("mission control", &q);
-            debug_assert!(from.is_none());
-            self.mesh.reply_error(&q, "refused: the query's seal is not this fleet's").await;
-            return None;
+        if matches!(kind, QueryKind::Start | QueryKind::Ctl(_)) {
+            if let Err(r) = self.mesh.try_sender_of_query(&q) {
+                // Counted and answered: its sender is not proven.
+                self.mesh.refuse_unproven("mission control", &q, &r).await;
+                return None;
+            }
         }
         let from = || self.mesh.try_sender_of_query(&q).ok();
         let event = match kind {

@@ -162,6 +162,11 @@ impl Pairs {
         self.known.lock().map(|m| m.keys().filter(|s| pred(s)).take(super::seal::MAX_TAGS).cloned().collect()).unwrap_or_default()
     }
 
+    /// Whether this node has learnt `sender`'s key.
+    pub fn knows(&self, sender: &Sender) -> bool {
+        self.known.lock().map(|m| m.contains_key(sender)).unwrap_or(false)
+    }
+
     /// The (key id, pair key) of each of `to` this node knows, and whether it knows them all.
     pub fn for_receivers(&self, to: &[Sender]) -> (Vec<(KeyId, hmac::Key)>, bool) {
         let publics: Vec<Option<[u8; 32]>> = match self.known.lock() {

@@ -264,6 +264,32 @@ impl Sealer {
     }
 }
 
+/// When a stream whose receivers a node does not all know (a robot's telemetry) is signed as
+/// well as tagged: its first message, then at most one every `every_ms` — a receiver not known
+/// yet can check one message in that time, whatever the stream's rate.
+#[derive(Debug, Clone)]
+pub struct SignCadence {
+    every_ms: u64,
+    last_ms: Option<u64>,
+}
+
+impl SignCadence {
+    pub fn new(every_ms: u64) -> SignCadence {
+        SignCadence { every_ms, last_ms: None }
+    }
+
+    /// Whether the message sent at `now_ms` is signed (a clock that went back signs at once).
+    pub fn due(&mut self, now_ms: u64) -> bool {
+        match self.last_ms {
+            Some(t) if now_ms >= t && now_ms - t < self.every_ms => false,
+            _ => {
+                self.last_ms = Some(now_ms);
+                true
+            }
+        }
+    }
+}
+
 /// A CA parsed once: its public key (SubjectPublicKeyInfo DER).
 #[derive(Debug, Clone)]
 pub struct Ca {

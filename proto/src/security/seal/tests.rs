@@ -133,3 +133,17 @@ fn garbage_attachments_are_refused_without_panic() {
     ok[3] = 1; // claims a signature it does not carry
     assert!(matches!(v.sender("k", b"", Some(&ok), 0), Err(Refusal::Malformed(_))));
 }
+
+#[test]
+fn a_stream_signs_its_first_message_then_one_per_interval_whatever_its_rate() {
+    let mut c = SignCadence::new(2000);
+    assert!(c.due(10_000));
+    // 1 000 messages within the interval: none signed.
+    assert!((1..1000).all(|i| !c.due(10_000 + i)));
+    assert!(c.due(12_000));
+    assert!(!c.due(12_001));
+    // A clock that went back signs at once, then counts from there.
+    assert!(c.due(5_000));
+    assert!(!c.due(6_999));
+    assert!(c.due(7_000));
+}

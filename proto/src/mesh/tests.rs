@@ -1,0 +1,113 @@
+//! Queries between secure meshes: tagged once the server is known, asked again signed when the
+//! server cannot prove the tag (its certificate was re-issued).
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Duration;
+
+use super::*;
+use crate::security::{pki, Role};
+use crate::Key;
+
+fn scratch() -> PathBuf {
+    static N: AtomicU32 = AtomicU32::new(0);
+    let p = std::env::temp_dir().join(format!("mrmm-mesh-{}-{}", std::process::id(), N.fetch_add(1, Ordering::Relaxed)));
+    let _ = std::fs::remove_dir_all(&p);
+    p
+}
+
+async fn node(dir: &Path, mode: Mode, me: Sender, connect: &[String]) -> Mesh {
+    let net = NodeNet {
+        mode,
+        listen: vec!["quic/127.0.0.1:0".into()],
+        connect: connect.to_vec(),
+        lease_ms: 1000,
+        max_message_size: net::DEFAULT_MAX_MESSAGE_SIZE,
+        security: Some(SecuritySection::from_dir(dir, &me.id)),
+        me: Some(me),
+        wire_stats: false,
+    };
+    Mesh::open(&net).await.expect("a secure mesh")
+}
+
+/// A server as mission hosts are: it answers only queries whose seal proves their sender —
+/// with the sender's id and whether the query was signed.
+fn serve(mesh: Mesh, key: String) -> tokio::task::JoinHandle<()> {
+    tokio::spawn(async move {
+        let q = mesh.session().declare_queryable(&key).await.expect("queryable");
+        while let Ok(q) = q.recv_async().await {
+            match mesh.try_sender_of_query(&q) {
+                Ok(from) => {
+                    let signed = q.attachment().and_then(|a| crate::security::seal::decode(&a.to_bytes()).ok().map(|s| s.signature.is_some()));
+                    mesh.reply_json(&q, &(from.id, signed == Some(true))).await
+                }
+                Err(r) => mesh.refuse_unproven("test query", &q, &r).await,
+            }
+        }
+    })
+}
+
+async fn ask(asker: &Mesh, key: &str) -> Result<((String, bool), Sender), QueryError> {
+    asker.query::<(String, bool)>(key, None, Duration::from_secs(3), |s| s.is(Role::Host, "h1")).await
+}
+
+/// Until the server's queryable is reachable (links and declarations settle).
+async fn first_answer(asker: &Mesh, key: &str) -> ((String, bool), Sender) {
+    for _ in 0..50 {
+        if let Ok(a) = ask(asker, key).await {
+            return a;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    panic!("the server never answered");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn queries_are_tagged_once_the_server_is_known_and_signed_again_after_a_reissue() {
+    let dir = scratch();
+    pki::init(&dir).expect("ca");
+    pki::issue(&dir, Role::Central, "central", &[], 1).expect("central");
+    pki::issue(&dir, Role::Host, "h1", &[], 1).expect("h1");
+    let asker = node(&dir, Mode::Router, Sender::new(Role::Central, "central"), &[]).await;
+    let ep = net::listening_endpoints(asker.session()).await;
+    let key = Key::HostStart("h1".into()).to_string();
+
+    let server = node(&dir, Mode::Peer, Sender::new(Role::Host, "h1"), &ep).await;
+    let task = serve(server.clone(), key.clone());
+    // Not known yet: signed. The answer teaches the asker the server's key.
+    let (who, from) = first_answer(&asker, &key).await;
+    assert_eq!((who, from), (("central".to_string(), true), Sender::new(Role::Host, "h1")));
+    let signed = server.verifier().proven.counts();
+    // Known now: tagged only — the server checks a tag, no signature.
+    let (who, _) = ask(&asker, &key).await.expect("a tagged query is answered");
+    assert_eq!(who, ("central".to_string(), false), "a query to a known server was signed");
+    let after = server.verifier().proven.counts();
+    assert_eq!(after.get("signature"), signed.get("signature"), "a query to a known server was signed: {after:?}");
+    assert_eq!(after.get("tag").copied().unwrap_or(0), signed.get("tag").copied().unwrap_or(0) + 1, "{after:?}");
+    task.abort();
+    server.close().await;
+
+    // The server comes back with a re-issued certificate (a new key): the asker's tag is for
+    // the old one. Refused as unproven, asked again signed, answered — and tagged after that.
+    for f in ["h1.crt", "h1.key"] {
+        std::fs::remove_file(dir.join(f)).expect("the old certificate");
+    }
+    pki::issue(&dir, Role::Host, "h1", &[], 1).expect("h1 again");
+    let server = node(&dir, Mode::Peer, Sender::new(Role::Host, "h1"), &ep).await;
+    let task = serve(server.clone(), key.clone());
+    let (who, _) = first_answer(&asker, &key).await;
+    assert_eq!(who, ("central".to_string(), true), "answered without the signed retry");
+    let refused = server.verifier().refused.counts();
+    assert!(refused.get("unaddressed").copied().unwrap_or(0) >= 1, "the stale tag was not refused: {refused:?}");
+    let before = server.verifier().proven.counts();
+    assert!(before.get("signature").copied().unwrap_or(0) >= 1, "{before:?}");
+    let (who, _) = ask(&asker, &key).await.expect("a tagged query to the re-issued server");
+    assert_eq!(who, ("central".to_string(), false), "the asker did not learn the new key");
+    let after = server.verifier().proven.counts();
+    assert_eq!(after.get("signature"), before.get("signature"), "{after:?}");
+    assert_eq!(after.get("tag").copied().unwrap_or(0), before.get("tag").copied().unwrap_or(0) + 1, "{after:?}");
+    task.abort();
+    server.close().await;
+    asker.close().await;
+    let _ = std::fs::remove_dir_all(&dir);
+}
