@@ -269,7 +269,7 @@ fn seal_cost(dir: &std::path::Path) -> anyhow::Result<[f64; 4]> {
         let t = Instant::now();
         let mut atts = Vec::with_capacity(n as usize);
         for i in 0..n {
-            atts.push(sealer.seal_for(&key, &payload, now + u64::from(i % 1000), if tagged { &tags } else { &[] }, !tagged));
+            atts.push(sealer.seal_for(&key, &payload, now + u64::from(i % 1000), if tagged { &tags } else { &[] }, !tagged, tagged));
         }
         out[2 * k] = t.elapsed().as_secs_f64() * 1e6 / f64::from(n);
         let t = Instant::now();

@@ -145,7 +145,11 @@ fn main() {
     let tags: Vec<_> = me.key(&public).map(|k| vec![(mrmm_proto::security::pair::key_id(&public), k)]).unwrap_or_default();
     let sealer = Sealer::secure(identity);
     let key = mrmm_proto::Key::RobotTelemetry("r1".into()).to_string();
-    for (name, att) in [("telemetry", sealer.seal(&key, &t, now_ms)), ("telemetry-tagged", sealer.seal_for(&key, &t, now_ms, &tags, false))] {
+    for (name, att) in [
+        ("telemetry", sealer.seal(&key, &t, now_ms)),
+        ("telemetry-tagged", sealer.seal_for(&key, &t, now_ms, &tags, false, false)),
+        ("telemetry-by-id", sealer.seal_for(&key, &t, now_ms, &tags, false, true)),
+    ] {
         let mut sealed = u16::try_from(att.len()).unwrap_or(u16::MAX).to_le_bytes().to_vec();
         sealed.extend(&att);
         sealed.extend(&t);

@@ -156,18 +156,27 @@ impl Mesh {
     /// robot's telemetry: central and its mission's managers): tagged for the known peers `pred`
     /// accepts, who check their tag; signed as well when `sign` or when it knows none of them,
     /// for everyone else (the others take only the signed messages of the stream).
+    ///
+    /// Its unsigned messages name the certificate by id (the signed ones carry it, and every
+    /// receiver it tags has proven it: it learnt their keys from their messages, and they take
+    /// the stream's next signed message): 16 bytes instead of ~400.
     pub fn seal_for_known(&self, key: &str, payload: &[u8], pred: impl Fn(&Sender) -> bool, sign: bool) -> Vec<u8> {
         let to = self.verifier.pairs().map(|p| p.known_where(pred)).unwrap_or_default();
-        self.seal_tagged(key, payload, &to, sign)
+        self.seal_tagged_as(key, payload, &to, sign, true)
     }
 
     /// The seal of `payload` on `key` tagged for those of `to` this node knows, and signed as
     /// well when `sign` or when it does not know them all (an insecure node: a bare claim).
     fn seal_tagged(&self, key: &str, payload: &[u8], to: &[Sender], sign: bool) -> Vec<u8> {
+        self.seal_tagged_as(key, payload, to, sign, false)
+    }
+
+    /// [`Mesh::seal_tagged`], naming the certificate by id if `cert_by_id` and not signed.
+    fn seal_tagged_as(&self, key: &str, payload: &[u8], to: &[Sender], sign: bool, cert_by_id: bool) -> Vec<u8> {
         match self.verifier.pairs() {
             Some(pairs) => {
                 let (tags, all) = pairs.for_receivers(to);
-                self.sealer.seal_for(key, payload, now_ms(), &tags, sign || !all)
+                self.sealer.seal_for(key, payload, now_ms(), &tags, sign || !all, cert_by_id)
             }
             None => self.seal(key, payload),
         }

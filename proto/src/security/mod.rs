@@ -181,6 +181,8 @@ impl SecuritySection {
 pub struct Identity {
     pub me: Sender,
     pub cert_der: Vec<u8>,
+    /// [`seal::cert_id`] of `cert_der`.
+    pub cert_id: [u8; seal::CERT_ID_LEN],
     pub ca_der: Vec<u8>,
     key: ring::signature::Ed25519KeyPair,
     pair: pair::PairSecret,
@@ -227,7 +229,7 @@ impl Identity {
             return Err(cfg("key", &section.key, format!("is not the key of {}", section.cert.display())));
         }
         let pair = pair::PairSecret::from_pkcs8(&key_der, &proven.public_key).map_err(|e| cfg("key", &section.key, e))?;
-        Ok(Identity { me: proven.sender, cert_der, ca_der, key, pair, section: section.clone() })
+        Ok(Identity { me: proven.sender, cert_id: seal::cert_id(&cert_der), cert_der, ca_der, key, pair, section: section.clone() })
     }
 
     /// This node's half of its pair keys.

@@ -7,11 +7,12 @@
 //! | bytes | field |
 //! |---|---|
 //! | 3 | magic `MS1` |
-//! | 1 | flags: bit 0 = signed, bit 1 = tagged |
+//! | 1 | flags: bit 0 = signed, bit 1 = tagged, bit 2 = certificate by id (tagged, not signed) |
 //! | 1 | role (0 operator, 1 central, 2 robot, 3 host, 4 planner) |
 //! | 1 + n | id length n (1..=64), id |
 //! | 8 | time, Unix milliseconds |
-//! | 2 + c | if signed or tagged: certificate length c (1..=4096), certificate (DER) |
+//! | 2 + c | if signed or tagged: certificate length c (1..=4096), certificate (DER) … |
+//! | 16 | … or, with bit 2, the certificate's id (the first 16 bytes of its SHA-256) |
 //! | 64 | if signed: Ed25519 signature |
 //! | 1 + 24 n | if tagged: n (1..=64), then n × (receiver key id (8), tag (16)) |
 //!
@@ -23,7 +24,9 @@
 //! receiver only, at a fraction of the cost. A message for receivers the sender knows (a team's
 //! barrier messages, an answer to a query) carries their tags, and a signature as well when the
 //! sender does not know them all yet; a receiver with a tag checks the tag, one without checks the
-//! signature.
+//! signature. A stream whose receivers have its sender's certificate already (a robot's
+//! telemetry between its signed messages, which carry it) names the certificate by its id: 16
+//! bytes instead of ~400, found in the receiver's cache of proven certificates.
 
 use std::collections::HashMap;
 use std::fmt;
@@ -46,8 +49,17 @@ const SIG_LEN: usize = 64;
 /// Most receivers one seal carries tags for.
 pub const MAX_TAGS: usize = 64;
 const TAG_ENTRY: usize = pair::KEY_ID_LEN + pair::TAG_LEN;
-/// Proven certificates remembered (by SHA-256 of their DER); beyond this the cache starts over.
+/// Proven certificates remembered (by id); beyond this the cache starts over.
 const CACHE_MAX: usize = 1024;
+/// Length of a certificate's id.
+pub const CERT_ID_LEN: usize = 16;
+
+/// A certificate's id: the first [`CERT_ID_LEN`] bytes of SHA-256 of its DER.
+pub fn cert_id(der: &[u8]) -> [u8; CERT_ID_LEN] {
+    let mut id = [0u8; CERT_ID_LEN];
+    id.copy_from_slice(&digest::digest(&digest::SHA256, der).as_ref()[..CERT_ID_LEN]);
+    id
+}
 
 /// Why a message was refused.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -60,6 +72,9 @@ pub enum Refusal {
     Unsigned { claimed: Sender },
     /// Tagged for other receivers only, and not signed: not meant for this node.
     Unaddressed { claimed: Sender },
+    /// Names its certificate by id, and this node has not proven that certificate yet (a
+    /// receiver that joined a stream: it takes the stream's next message carrying it).
+    Unseen { claimed: Sender },
     /// The certificate is not one of this fleet's, or not valid now.
     Certificate { claimed: Sender, why: String },
     /// The certificate proves someone else than the seal claims.
@@ -80,6 +95,7 @@ impl Refusal {
             Refusal::Malformed(_) => "malformed",
             Refusal::Unsigned { .. } => "unsigned",
             Refusal::Unaddressed { .. } => "unaddressed",
+            Refusal::Unseen { .. } => "unseen_certificate",
             Refusal::Certificate { .. } => "certificate",
             Refusal::Mismatch { .. } => "mismatch",
             Refusal::Signature { .. } => "signature",
@@ -96,6 +112,7 @@ impl fmt::Display for Refusal {
             Refusal::Malformed(why) => write!(f, "malformed seal: {why}"),
             Refusal::Unsigned { claimed } => write!(f, "unsigned seal claiming {claimed}"),
             Refusal::Unaddressed { claimed } => write!(f, "seal of {claimed} tagged for other receivers only"),
+            Refusal::Unseen { claimed } => write!(f, "seal of {claimed} names a certificate not seen yet"),
             Refusal::Certificate { claimed, why } => write!(f, "seal claiming {claimed}: certificate refused: {why}"),
             Refusal::Mismatch { claimed, proven } => write!(f, "seal claims {claimed} but its certificate proves {proven}"),
             Refusal::Signature { claimed } => write!(f, "seal claiming {claimed}: bad signature"),
@@ -105,13 +122,20 @@ impl fmt::Display for Refusal {
     }
 }
 
+/// The certificate a seal carries, or names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CertRef<'a> {
+    Der(&'a [u8]),
+    Id([u8; CERT_ID_LEN]),
+}
+
 /// A decoded seal, borrowing the attachment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Seal<'a> {
     pub claimed: Sender,
     pub t_ms: u64,
     /// The certificate, when signed or tagged.
-    pub cert: Option<&'a [u8]>,
+    pub cert: Option<CertRef<'a>>,
     pub signature: Option<&'a [u8]>,
     /// Tag entries (receiver key id, tag), back to back.
     pub tags: &'a [u8],
@@ -146,18 +170,25 @@ pub fn decode(att: &[u8]) -> Result<Seal<'_>, Refusal> {
     let mut t = [0u8; 8];
     t.copy_from_slice(take(8, "time")?);
     let t_ms = u64::from_le_bytes(t);
-    if flags & !3 != 0 {
+    if flags & !7 != 0 {
         return Err(Refusal::Malformed("flags"));
     }
-    let (signed, tagged) = (flags & 1 == 1, flags & 2 == 2);
-    let cert = if signed || tagged {
+    let (signed, tagged, by_id) = (flags & 1 == 1, flags & 2 == 2, flags & 4 == 4);
+    if by_id && (signed || !tagged) {
+        return Err(Refusal::Malformed("flags"));
+    }
+    let cert = if by_id {
+        let mut id = [0u8; CERT_ID_LEN];
+        id.copy_from_slice(take(CERT_ID_LEN, "certificate id")?);
+        Some(CertRef::Id(id))
+    } else if signed || tagged {
         let mut l = [0u8; 2];
         l.copy_from_slice(take(2, "certificate length")?);
         let cert_len = usize::from(u16::from_le_bytes(l));
         if cert_len == 0 || cert_len > MAX_CERT {
             return Err(Refusal::Malformed("certificate length"));
         }
-        Some(take(cert_len, "certificate")?)
+        Some(CertRef::Der(take(cert_len, "certificate")?))
     } else {
         None
     };
@@ -222,22 +253,24 @@ impl Sealer {
 
     /// The attachment for `payload` on `key` at `t_ms`, signed (when secure).
     pub fn seal(&self, key: &str, payload: &[u8], t_ms: u64) -> Vec<u8> {
-        self.seal_for(key, payload, t_ms, &[], true)
+        self.seal_for(key, payload, t_ms, &[], true, false)
     }
 
     /// The attachment for `payload` on `key` at `t_ms` with a tag for each of `to` (receiver key
     /// id, pair key) and, if `sign`, a signature too. Insecure: a bare claim. Signed anyway when
     /// there is no tag to make, or more receivers than [`MAX_TAGS`] (the first ones get tags,
-    /// the others check the signature).
-    pub fn seal_for(&self, key: &str, payload: &[u8], t_ms: u64, to: &[(KeyId, ring::hmac::Key)], sign: bool) -> Vec<u8> {
+    /// the others check the signature). `cert_by_id`: a message with tags only names the
+    /// certificate by its id (its receivers have proven it already: see [`CertRef`]).
+    pub fn seal_for(&self, key: &str, payload: &[u8], t_ms: u64, to: &[(KeyId, ring::hmac::Key)], sign: bool, cert_by_id: bool) -> Vec<u8> {
         let id = self.me.id.as_bytes();
         let sign = sign || to.is_empty() || to.len() > MAX_TAGS;
+        let by_id = cert_by_id && !sign;
         let to = &to[..to.len().min(MAX_TAGS)];
         let mut out = Vec::with_capacity(16 + id.len() + self.identity.as_ref().map_or(0, |i| i.cert_der.len() + 67 + to.len() * TAG_ENTRY));
         out.extend_from_slice(MAGIC);
         let flags = match &self.identity {
             None => 0,
-            Some(_) => u8::from(sign) | if to.is_empty() { 0 } else { 2 },
+            Some(_) => u8::from(sign) | if to.is_empty() { 0 } else { 2 } | if by_id { 4 } else { 0 },
         };
         out.push(flags);
         out.push(self.me.role.code());
@@ -246,9 +279,13 @@ impl Sealer {
         out.extend_from_slice(&t_ms.to_le_bytes());
         if let Some(identity) = &self.identity {
             let d = digest_of(&self.me, t_ms, key, payload);
-            let cert = &identity.cert_der;
-            out.extend_from_slice(&(cert.len().min(usize::from(u16::MAX)) as u16).to_le_bytes());
-            out.extend_from_slice(cert);
+            if by_id {
+                out.extend_from_slice(&identity.cert_id);
+            } else {
+                let cert = &identity.cert_der;
+                out.extend_from_slice(&(cert.len().min(usize::from(u16::MAX)) as u16).to_le_bytes());
+                out.extend_from_slice(cert);
+            }
             if sign {
                 out.extend_from_slice(identity.sign(d.as_ref()).as_ref());
             }
@@ -356,8 +393,9 @@ impl Refused {
             *n = n.saturating_add(1);
         }
         // Messages tagged for other receivers are an everyday sight for a subscriber that is not
-        // one (counted only).
-        if matches!(r, Refusal::Unaddressed { .. }) {
+        // one, and so are a stream's messages naming a certificate a receiver that just joined
+        // has not seen yet (counted only).
+        if matches!(r, Refusal::Unaddressed { .. } | Refusal::Unseen { .. }) {
             return;
         }
         let fresh = match self.window.lock() {
@@ -405,7 +443,7 @@ pub struct Verifier {
     /// `None`: insecure fleet (claims are taken as they are).
     ca: Option<Ca>,
     max_age_ms: i64,
-    cache: Mutex<HashMap<[u8; 32], Result<Proven, String>>>,
+    cache: Mutex<HashMap<[u8; CERT_ID_LEN], Result<Proven, String>>>,
     /// This node's pair keys (a secure node's own): tags for it are checked with them, and the
     /// peers it proves are remembered so that it can tag what it sends them.
     pairs: Option<std::sync::Arc<Pairs>>,
@@ -445,16 +483,9 @@ impl Verifier {
 
     /// The proven certificate `der` (cached).
     fn prove(&self, ca: &Ca, der: &[u8], now_s: i64) -> Result<Proven, String> {
-        let h = digest::digest(&digest::SHA256, der);
-        let mut key = [0u8; 32];
-        key.copy_from_slice(h.as_ref());
-        if let Ok(cache) = self.cache.lock() {
-            if let Some(r) = cache.get(&key) {
-                return match r {
-                    Ok(p) if p.not_after < now_s => Err("expired".into()),
-                    other => other.clone(),
-                };
-            }
+        let key = cert_id(der);
+        if let Some(r) = self.cached(&key, now_s) {
+            return r;
         }
         let r = check_cert(ca, der, now_s);
         if let Ok(mut cache) = self.cache.lock() {
@@ -464,6 +495,15 @@ impl Verifier {
             cache.insert(key, r.clone());
         }
         r
+    }
+
+    /// The cached proof of the certificate with id `id`, if it was seen.
+    fn cached(&self, id: &[u8; CERT_ID_LEN], now_s: i64) -> Option<Result<Proven, String>> {
+        let cache = self.cache.lock().ok()?;
+        Some(match cache.get(id)? {
+            Ok(p) if p.not_after < now_s => Err("expired".into()),
+            other => other.clone(),
+        })
     }
 
     /// Who sent `payload` on `key` with attachment `att`, at receiver time `now_ms`. Does not
@@ -494,7 +534,11 @@ impl Verifier {
             return Err(Refusal::Stale { claimed: seal.claimed, age_ms: age });
         }
         let now_s = i64::try_from(now_ms / 1000).unwrap_or(i64::MAX);
-        let proven = self.prove(ca, cert, now_s).map_err(|why| Refusal::Certificate { claimed: seal.claimed.clone(), why })?;
+        let proven = match cert {
+            CertRef::Der(der) => self.prove(ca, der, now_s),
+            CertRef::Id(id) => self.cached(&id, now_s).ok_or_else(|| Refusal::Unseen { claimed: seal.claimed.clone() })?,
+        }
+        .map_err(|why| Refusal::Certificate { claimed: seal.claimed.clone(), why })?;
         if proven.sender != seal.claimed {
             return Err(Refusal::Mismatch { claimed: seal.claimed, proven: proven.sender });
         }

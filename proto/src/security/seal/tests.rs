@@ -94,7 +94,7 @@ fn a_tagged_seal_proves_its_sender_to_its_receivers_only() {
     assert_eq!(vc.sender("k", b"x", Some(&att), t), Ok(r2.clone()));
     let (tags, all) = pairs(&va);
     assert!(all && tags.len() == 1);
-    let att = sa.seal_for("k", b"hello", t, &tags, false);
+    let att = sa.seal_for("k", b"hello", t, &tags, false, false);
     assert!(att.len() < sa.seal("k", b"hello", t).len(), "a tag is shorter than a signature");
     assert_eq!(vb.sender("k", b"hello", Some(&att), t), Ok(r1.clone()));
     assert!(matches!(vb.sender("k", b"hellO", Some(&att), t), Err(Refusal::Signature { .. })));
@@ -114,12 +114,51 @@ fn a_tagged_seal_proves_its_sender_to_its_receivers_only() {
     assert!(matches!(vb.sender("k", b"hello", Some(&forged), t), Err(Refusal::Signature { .. })));
     // More receivers than a seal has room for: the first get tags, and it is signed for the rest.
     let many: Vec<_> = std::iter::repeat_n(tags[0].clone(), MAX_TAGS + 1).collect();
-    let att = sa.seal_for("k", b"hi", t, &many, false);
+    let att = sa.seal_for("k", b"hi", t, &many, false, false);
     assert_eq!(decode(&att).map(|s| (s.signature.is_some(), s.tags.len())), Ok((true, MAX_TAGS * TAG_ENTRY)));
     // Tagged and signed (r1 did not know every receiver): r2 checks its tag, r3 the signature.
-    let att = sa.seal_for("k", b"hi", t, &tags, true);
+    let att = sa.seal_for("k", b"hi", t, &tags, true, false);
     assert_eq!(vb.sender("k", b"hi", Some(&att), t), Ok(r1.clone()));
     assert_eq!(vc.sender("k", b"hi", Some(&att), t), Ok(r1));
+}
+
+#[test]
+fn a_seal_naming_its_certificate_by_id_proves_it_only_where_that_certificate_was_proven() {
+    use crate::security::pair::Pairs;
+    let (d, _) = fleet();
+    let ca = pki::read_ca_der(d.path()).expect("ca");
+    let (a, b) = (identity(d.path(), Role::Robot, "r1"), identity(d.path(), Role::Host, "h1"));
+    let vb = Verifier::secure(&ca, 60).expect("verifier").with_pairs(std::sync::Arc::new(Pairs::new(b.pair_secret())));
+    let va = Verifier::secure(&ca, 60).expect("verifier").with_pairs(std::sync::Arc::new(Pairs::new(a.pair_secret())));
+    let (r1, h1) = (Sender::new(Role::Robot, "r1"), Sender::new(Role::Host, "h1"));
+    let (sa, sb) = (Sealer::secure(a), Sealer::secure(b));
+    let t = crate::mesh::now_ms();
+    // r1 heard h1: it can tag for h1.
+    assert_eq!(va.sender("k", b"x", Some(&sb.seal("k", b"x", t)), t), Ok(h1.clone()));
+    let (tags, _) = va.pairs().expect("pairs").for_receivers(std::slice::from_ref(&h1));
+    let by_id = sa.seal_for("k", b"pose", t, &tags, false, true);
+    let full = sa.seal_for("k", b"pose", t, &tags, false, false);
+    assert!(by_id.len() + 300 < full.len(), "{} vs {} bytes", by_id.len(), full.len());
+    assert!(matches!(decode(&by_id).map(|s| s.cert), Ok(Some(CertRef::Id(_)))));
+    // h1 has not proven r1's certificate yet: refused as unseen (not logged), then taken once it
+    // has (a message carrying it).
+    assert!(matches!(vb.sender("k", b"pose", Some(&by_id), t), Err(Refusal::Unseen { .. })));
+    assert_eq!(vb.sender("k", b"pose", Some(&full), t), Ok(r1.clone()));
+    assert_eq!(vb.sender("k", b"pose", Some(&by_id), t), Ok(r1.clone()));
+    assert!(matches!(vb.sender("k", b"posE", Some(&by_id), t), Err(Refusal::Signature { .. })));
+    // The id names the certificate, the claim must still match it.
+    let mut claim = by_id.clone();
+    claim[3 + 1 + 1 + 1 + 1] = b'2';
+    assert!(matches!(vb.sender("k", b"pose", Some(&claim), t), Err(Refusal::Mismatch { .. })));
+    // Signed seals always carry the certificate; an id with a signature, or without tags, is
+    // malformed.
+    let signed = sa.seal_for("k", b"pose", t, &tags, true, true);
+    assert!(matches!(decode(&signed).map(|s| s.cert), Ok(Some(CertRef::Der(_)))));
+    for bad_flags in [4u8, 5, 7] {
+        let mut bad = by_id.clone();
+        bad[3] = bad_flags;
+        assert_eq!(decode(&bad).err(), Some(Refusal::Malformed("flags")), "flags {bad_flags}");
+    }
 }
 
 #[test]
