@@ -22,9 +22,11 @@
 //! With `--insecure`: plain TCP and unsigned messages (what security costs at scale). `BENCH_LOG`
 //! replaces the processes' `RUST_LOG` (their logs are in the run's scratch directory).
 //!
-//! With `--quic-uplinks`: the routers link to central over QUIC (the robots' links stay TLS).
+//! Secure links are QUIC (mutual TLS 1.3 over UDP), as a secure fleet runs. With `--tls`: Zenoh's
+//! TLS link instead (it races under load, docs/zenoh.md), and with `--tls --quic-uplinks` the
+//! routers link to central over QUIC, the robots' links staying TLS.
 //!
-//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--insecure] [--quic-uplinks]` (sizes, default
+//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--insecure] [--tls [--quic-uplinks]]` (sizes, default
 //! 10 25; the robots' lease, default as `mrmm demo` sets it: 1000 ms, 4000 ms beyond 40 robots;
 //! robots started R per second, default 20 as the demo does, 0 = all at once; default 1 site).
 
@@ -84,10 +86,12 @@ fn main() -> anyhow::Result<()> {
         if rate == 0 { "at once".to_string() } else { format!("{rate} per second") },
         if insecure {
             "; INSECURE: plain TCP, unsigned"
-        } else if quic {
-            "; routers linked to central over QUIC"
+        } else if args_tls() && quic {
+            "; TLS links, routers linked to central over QUIC"
+        } else if args_tls() {
+            "; TLS links"
         } else {
-            ""
+            "; QUIC links"
         }
     );
     println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | barrier release p50/p99 ms | SIGKILL→replanned s |");
@@ -169,9 +173,10 @@ fn links(pids: &[u32]) -> usize {
     ends / 2
 }
 
-/// `--quic`: every link over QUIC (mutual TLS 1.3 over UDP) instead of TLS over TCP.
-fn args_quic_all() -> bool {
-    std::env::args().any(|a| a == "--quic")
+/// `--tls`: the secure links over Zenoh's TLS link (TLS over TCP) instead of QUIC (mutual TLS
+/// 1.3 over UDP, what a secure fleet uses: the TLS link races under load, docs/zenoh.md).
+fn args_tls() -> bool {
+    std::env::args().any(|a| a == "--tls")
 }
 
 /// Seconds since midnight (UTC) of a log line's timestamp (`2026-11-24T19:45:12.123456Z …`).
@@ -239,13 +244,12 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         }
     }
     let p = pki.display().to_string();
-    let all_quic = args_quic_all();
     let proto_ = if insecure {
         "tcp"
-    } else if all_quic {
-        "quic"
-    } else {
+    } else if args_tls() {
         "tls"
+    } else {
+        "quic"
     };
     let listen = format!("{proto_}/127.0.0.1:0");
     // Certificates on the command line (`--pki DIR [--operator op]`), unless insecure.
@@ -342,7 +346,12 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     let idle_cpu = (ticks1.saturating_sub(ticks0)) as f64 / hz / window * 100.0;
     let idle_central = (central1.saturating_sub(central0)) as f64 / hz / window * 100.0;
     let pkts = (lo_packets().saturating_sub(pk0)) as f64 / window;
-    let nlinks = links(&pids);
+    // QUIC links are UDP flows with no per-link socket to count: the TCP links only (the
+    // routers' uplinks and plain or TLS fleets).
+    let nlinks = match (links(&pids), proto_) {
+        (0, "quic") => "UDP".to_string(),
+        (n, _) => n.to_string(),
+    };
 
     // One mission of N/2 robots: from the create to every member moving.
     let half = n / 2;
