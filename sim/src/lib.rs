@@ -203,6 +203,9 @@ pub struct Report {
     pub anew_short: u32,
     /// Heads of a replaced lineage fenced by central.
     pub fenced: u32,
+    /// Missions central defines (created ok, not terminated) that nobody leads at the end
+    /// (counted without disks; with disks such a mission fails the run).
+    pub headless: u32,
     /// The trace, when asked for.
     pub trace: Vec<String>,
 }

@@ -39,8 +39,12 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
     match run_many(first, n, config) {
         Ok(reports) => {
             let sum = |f: fn(&mrmm_sim::Report) -> u64| reports.iter().map(f).sum::<u64>();
+            let headless: Vec<u64> = reports.iter().filter(|r| r.headless > 0).map(|r| r.seed).take(20).collect();
+            if !headless.is_empty() {
+                println!("seeds with missions nobody leads at the end (first 20): {headless:?}");
+            }
             println!(
-                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted); {} started anew ({} without every member), {} old-lineage heads fenced",
+                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted); {} started anew ({} without every member), {} old-lineage heads fenced; {} missions nobody leads at the end (without disks)",
                 started.elapsed().as_secs_f64(),
                 sum(|r| r.events),
                 sum(|r| r.messages),
@@ -55,6 +59,7 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
                 sum(|r| u64::from(r.anew)),
                 sum(|r| u64::from(r.anew_short)),
                 sum(|r| u64::from(r.fenced)),
+                sum(|r| u64::from(r.headless)),
             );
         }
         Err(v) => panic!("{what}: {v}; replay with MRMM_SIM_SEED={} cargo test -p mrmm-sim --test <this file> -- --nocapture", v.seed),

@@ -103,7 +103,7 @@ impl SystemManager {
         let wire = spec.to_wire();
         let def =
             MissionDef { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), spec: Some(wire.clone()), lineage: 0 };
-        self.missions.insert(name.clone(), MissionRecord::new(def, None, false));
+        self.missions.insert(name.clone(), MissionRecord::new(def, None, false, self.now));
         self.restarts.remove(&name);
         self.note_command(&req, "mission create", &c_json);
         self.pending_create.insert(name, req);
@@ -365,6 +365,7 @@ impl SystemManager {
                     self.restarts.remove(name);
                     if let Some(rec) = self.missions.get_mut(name) {
                         rec.view = Some(*view);
+                        rec.reported_at = self.now;
                     }
                     self.resync(name);
                 }
@@ -382,6 +383,7 @@ impl SystemManager {
                 tracing::info!(mission = %name, "mission running");
                 if let Some(rec) = self.missions.get_mut(name) {
                     rec.view = Some(*view);
+                    rec.reported_at = self.now;
                 }
                 reply(to_value(&self.mission_view(name)))
             }

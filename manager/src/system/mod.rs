@@ -212,6 +212,9 @@ pub(crate) struct MissionRecord {
     def: Arc<MissionDef>,
     /// The head's latest view.
     view: Option<MissionView>,
+    /// When a manager last reported it (or it was defined here): a mission none reports for
+    /// [`RUNNING_WAIT_S`] while robots still run it has lost its chain (`recovery.rs`).
+    reported_at: f64,
     /// Adopted from its head's report since this manager started: its membership is learnt
     /// from reports. Otherwise (created here, or restored from the journal) this manager's
     /// assignment is the truth and heads are corrected.
@@ -219,8 +222,8 @@ pub(crate) struct MissionRecord {
 }
 
 impl MissionRecord {
-    fn new(def: MissionDef, view: Option<MissionView>, adopted: bool) -> MissionRecord {
-        MissionRecord { host: def.host.clone(), def: Arc::new(def), view, adopted }
+    fn new(def: MissionDef, view: Option<MissionView>, adopted: bool, now: f64) -> MissionRecord {
+        MissionRecord { host: def.host.clone(), def: Arc::new(def), view, adopted, reported_at: now }
     }
 }
 

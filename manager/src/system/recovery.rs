@@ -14,7 +14,7 @@ impl SystemManager {
     pub fn restore(node: String, now: f64, state: Durable) -> Self {
         let mut m = SystemManager::new(node, now);
         for (name, def) in &state.missions {
-            m.missions.insert(name.clone(), MissionRecord { host: def.host.clone(), def: def.clone(), view: None, adopted: false });
+            m.missions.insert(name.clone(), MissionRecord { host: def.host.clone(), def: def.clone(), view: None, adopted: false, reported_at: now });
         }
         m.assignment = state.assignment.clone();
         m.terminated = state.terminated.clone();
@@ -77,6 +77,11 @@ impl SystemManager {
     /// with the members that are back; the others rejoin as they come back. A mission some robot
     /// says it runs is left alone for [`RUNNING_WAIT_S`]: its managers may be alive somewhere, and
     /// report.
+    ///
+    /// So is a mission whose managers stopped reporting while this manager ran (its chain lost
+    /// its majority): started anew once none reported for [`RUNNING_WAIT_S`], with the members
+    /// this manager still hears. A central cut off alone hears none, and leaves every mission
+    /// alone.
     pub(super) fn restart_orphans(&mut self, now: f64) {
         // A robot up since before the previous manager went down may replicate a mission, and
         // its chain may take over again: a new lineage wins over it wherever they meet, and its
@@ -84,7 +89,7 @@ impl SystemManager {
         let orphans: Vec<String> = self
             .missions
             .iter()
-            .filter(|(_, r)| r.view.is_none() && r.def.spec.is_some())
+            .filter(|(_, r)| (r.view.is_none() || now - r.reported_at >= RUNNING_WAIT_S) && r.def.spec.is_some())
             .filter(|(n, _)| !self.pending_create.contains_key(*n) && !self.starts.iter().any(|s| &s.start.spec.name == *n))
             .filter(|(n, _)| self.restarts.get(*n).is_none_or(|r| !r.inflight && now >= r.next))
             .map(|(n, _)| n.clone())
@@ -94,6 +99,7 @@ impl SystemManager {
             // reported for this long, its chain lost its majority: the mission is started anew,
             // with those robots too (the new lineage's plans win at them).
             let runs = self.robots.values().any(|r| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
+            let silent = self.missions.get(&name).is_some_and(|r| r.view.is_some());
             if runs && now - self.started < RUNNING_WAIT_S {
                 continue;
             }
@@ -137,7 +143,11 @@ impl SystemManager {
                 continue;
             };
             let robots: Vec<String> = members.iter().map(|m| m.spec.id.clone()).collect();
-            tracing::info!(mission = %name, %host, ?robots, lineage, "no live manager runs this mission of the journal: starting it again");
+            if silent {
+                tracing::warn!(mission = %name, %host, ?robots, lineage, "no manager reported this mission for {RUNNING_WAIT_S} s while central ran (its chain lost its majority): starting it again");
+            } else {
+                tracing::info!(mission = %name, %host, ?robots, lineage, "no live manager runs this mission of the journal: starting it again");
+            }
             // The new lineage is journaled before the start goes out (the journal comes first).
             let def = MissionDef { lineage, ..(*rec.def).clone() };
             if let Some(r) = self.missions.get_mut(&name) {

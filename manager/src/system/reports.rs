@@ -144,6 +144,7 @@ impl SystemManager {
             if view.manager.chain_epoch < known {
                 return vec![];
             }
+            rec.reported_at = self.now;
             let moved = rec.host != view.manager.node;
             if moved {
                 tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
@@ -195,7 +196,7 @@ impl SystemManager {
             spec: None,
             lineage: lineage_of(view.manager.chain_epoch),
         };
-        self.missions.insert(name.clone(), MissionRecord::new(def, Some(view), true));
+        self.missions.insert(name.clone(), MissionRecord::new(def, Some(view), true, self.now));
         let out = self.reconcile(&name, &robots, &lost, &from);
         self.rejoin(&name);
         out

@@ -81,6 +81,15 @@ impl World {
                 }
             }
         }
+        // Without disks, missions central defines that nobody leads are counted.
+        if !self.cfg.disks {
+            if let Some(c) = self.nodes.iter().find_map(|n| n.central.as_ref()) {
+                let durable = c.system().durable();
+                let headless =
+                    durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m) && !heads.contains_key(*m)).count();
+                self.report.headless = u32::try_from(headless).unwrap_or(u32::MAX);
+            }
+        }
         // With every chain on disk, nothing the operator was told "ok" about is lost: every
         // mission created ok that central's journal still defines is led again after healing.
         if self.cfg.disks {

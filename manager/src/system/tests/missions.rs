@@ -396,3 +396,46 @@ fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
     let again = sm.drive(4.0, Event::MissionStatus { view: Box::new(v), from });
     assert!(!again.iter().any(|c| matches!(c, Command::SendToRobot { cmd: RobotCommand::Admit { .. }, .. })), "{again:?}");
 }
+
+/// p's head stops reporting while central runs (its chain lost its majority) and its robots run
+/// on: after `RUNNING_WAIT_S` without a report, p is started anew (next lineage) with them — but
+/// not while reports come, and not by a central that hears none of p's robots (cut off itself).
+#[test]
+fn a_mission_whose_managers_fell_silent_while_central_runs_is_started_anew_with_its_robots() {
+    let run = |robots_heard: bool, reports_go_on: bool| {
+        let mut sm = with_host(&["r1", "r2", "r3"]);
+        create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
+        let m = reply(sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
+        let view: MissionView = serde_json::from_value(m[0].clone()).expect("view");
+        sm.drive(3.0, status(view.clone()));
+        for id in ["r1", "r2"] {
+            let mut t = telemetry(id, 2, Behaviour::Hold);
+            t.mission = Some("p".into());
+            sm.drive(3.0, Event::Telemetry(Box::new(t)));
+            if !robots_heard {
+                sm.drive(3.5, Event::RobotGone { id: id.into() });
+            }
+        }
+        let mut started = vec![];
+        let mut now = 4.0;
+        while now < 3.0 + RUNNING_WAIT_S + 2.0 {
+            if reports_go_on {
+                sm.drive(now, status(view.clone()));
+            }
+            for c in sm.drive(now, Event::Tick) {
+                if let Command::StartMission { start, .. } = c {
+                    started.push((now, start.members.iter().map(|m| m.spec.id.clone()).collect::<Vec<_>>(), start.lineage, start.anew));
+                }
+            }
+            now += 0.5;
+        }
+        started
+    };
+    let started = run(true, false);
+    assert_eq!(started.len(), 1, "{started:?}");
+    let (at, robots, lineage, anew) = &started[0];
+    assert!(*at >= 3.0 + RUNNING_WAIT_S, "started anew {at} s in, before the wait");
+    assert_eq!((robots.as_slice(), *lineage, *anew), (&["r1".to_string(), "r2".to_string()][..], 1, true));
+    assert!(run(true, true).is_empty(), "its head still reports");
+    assert!(run(false, false).is_empty(), "a central that hears none of its robots left it alone");
+}
