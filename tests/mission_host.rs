@@ -138,3 +138,54 @@ async fn a_restarted_central_adopts_the_missions_of_surviving_hosts() -> anyhow:
     client.close().await;
     Ok(())
 }
+
+/// The mission's host and the one robot replicating it are SIGKILLed while central runs: its chain
+/// [h2, replica] lost its majority, no manager reports it any more, and its two other robots run
+/// their plans on. After `RUNNING_WAIT_S` (20 s) without a report central starts it anew, next
+/// lineage, on its own host, with those two robots — and journals it.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_mission_whose_chain_lost_its_majority_while_central_runs_is_started_anew() -> anyhow::Result<()> {
+    let dir = Scratch::new("host-silent");
+    let (_central, ep) = start_central(&dir)?;
+    let mut host = common::start_host(&dir, "h2", &ep)?;
+    let mut robots = common::start_robots(&dir, &ep, 3)?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 3).await?;
+    let create = proto::MissionCreate { replicas: Some(1), ..common::square_patrol(3, Some("h2")) };
+    eventually("the mission created on h2", Duration::from_secs(15), || async {
+        client.query::<MissionView>(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await.ok()
+    })
+    .await?;
+    let before = eventually("p past a barrier under h2, one robot replicating it", Duration::from_secs(30), || async {
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        (m.manager.node == "h2" && m.manager.chain.len() == 2 && m.metrics.sync_points_passed >= 1).then_some(m)
+    })
+    .await?;
+    let replica = before.manager.chain[1].clone();
+    let i: usize = replica.strip_prefix('r').and_then(|n| n.parse().ok()).ok_or_else(|| anyhow::anyhow!("replica {replica} is not a robot"))?;
+    let mut alive: Vec<String> = ["r1", "r2", "r3"].iter().filter(|r| **r != replica).map(|r| r.to_string()).collect();
+    alive.sort();
+    host.kill();
+    robots[i - 1].kill();
+    let killed = std::time::Instant::now();
+    let m = eventually("p started anew on central with the two robots left", Duration::from_secs(60), || async {
+        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        (m.status == MissionStatus::Running && m.robots == alive && proto::chain::lineage_of(m.manager.chain_epoch) == 1).then_some(m)
+    })
+    .await?;
+    let after = killed.elapsed();
+    println!("h2 and replica {replica} killed → p started anew after {after:?} on {} (chain {:?})", m.manager.node, m.manager.chain);
+    assert!(after >= Duration::from_secs(15), "started anew {after:?} after the kill, well before RUNNING_WAIT_S");
+    let j = common::journal(&client).await?;
+    assert!(
+        j.iter().any(|e| matches!(&e.event, proto::JournalEvent::MissionRestarted { mission, robots } if mission == "p" && *robots == alive)),
+        "the journal says p started again with {alive:?}"
+    );
+    eventually("p past more barriers in its new lineage", Duration::from_secs(30), || async {
+        let n: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        (n.metrics.sync_points_passed >= 1 && proto::chain::lineage_of(n.manager.chain_epoch) == 1).then_some(())
+    })
+    .await?;
+    client.close().await;
+    Ok(())
+}
