@@ -1,7 +1,8 @@
 //! System manager: registry, operator queries and mission commands, asserting emitted commands.
 
 use super::*;
-use mrmm_proto::{Behaviour, ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView, Pose, Velocity};
+use crate::Failure;
+use mrmm_proto::{Behaviour, CommandAck, ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView, Pose, Velocity};
 
 /// The commands without the admissions sent to robots (they go with every start and join).
 /// Handling as the driver does it: dry runs (off the loop there) are carried out at once.

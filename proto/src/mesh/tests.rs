@@ -62,6 +62,16 @@ async fn first_answer(asker: &Mesh, key: &str) -> ((String, bool), Sender) {
     panic!("the server never answered");
 }
 
+/// One more query is answered unsigned, and the server proved it by a tag, not a signature.
+async fn tagged_only(asker: &Mesh, server: &Mesh, key: &str, why: &str) {
+    let before = server.verifier().proven.counts();
+    let (who, _) = ask(asker, key).await.expect("a tagged query is answered");
+    assert_eq!(who, ("central".to_string(), false), "{why}");
+    let after = server.verifier().proven.counts();
+    assert_eq!(after.get("signature"), before.get("signature"), "{why}: {after:?}");
+    assert_eq!(after.get("tag").copied().unwrap_or(0), before.get("tag").copied().unwrap_or(0) + 1, "{after:?}");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn queries_are_tagged_once_the_server_is_known_and_signed_again_after_a_reissue() {
     let dir = scratch();
@@ -77,13 +87,8 @@ async fn queries_are_tagged_once_the_server_is_known_and_signed_again_after_a_re
     // Not known yet: signed. The answer teaches the asker the server's key.
     let (who, from) = first_answer(&asker, &key).await;
     assert_eq!((who, from), (("central".to_string(), true), Sender::new(Role::Host, "h1")));
-    let signed = server.verifier().proven.counts();
     // Known now: tagged only — the server checks a tag, no signature.
-    let (who, _) = ask(&asker, &key).await.expect("a tagged query is answered");
-    assert_eq!(who, ("central".to_string(), false), "a query to a known server was signed");
-    let after = server.verifier().proven.counts();
-    assert_eq!(after.get("signature"), signed.get("signature"), "a query to a known server was signed: {after:?}");
-    assert_eq!(after.get("tag").copied().unwrap_or(0), signed.get("tag").copied().unwrap_or(0) + 1, "{after:?}");
+    tagged_only(&asker, &server, &key, "a query to a known server was signed").await;
     task.abort();
     server.close().await;
 
@@ -101,11 +106,7 @@ async fn queries_are_tagged_once_the_server_is_known_and_signed_again_after_a_re
     assert!(refused.get("unaddressed").copied().unwrap_or(0) >= 1, "the stale tag was not refused: {refused:?}");
     let before = server.verifier().proven.counts();
     assert!(before.get("signature").copied().unwrap_or(0) >= 1, "{before:?}");
-    let (who, _) = ask(&asker, &key).await.expect("a tagged query to the re-issued server");
-    assert_eq!(who, ("central".to_string(), false), "the asker did not learn the new key");
-    let after = server.verifier().proven.counts();
-    assert_eq!(after.get("signature"), before.get("signature"), "{after:?}");
-    assert_eq!(after.get("tag").copied().unwrap_or(0), before.get("tag").copied().unwrap_or(0) + 1, "{after:?}");
+    tagged_only(&asker, &server, &key, "the asker did not learn the new key").await;
     task.abort();
     server.close().await;
     asker.close().await;

@@ -1,0 +1,156 @@
+//! What the system manager takes and gives: operator requests, the [`Event`]s its driver hands
+//! it and the [`Command`]s it returns.
+
+use std::collections::BTreeMap;
+
+use mrmm_proto::{
+    self as proto, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, MissionCreate, MissionCtl, MissionStart, MissionTerminate, MissionView,
+    RobotCommand, RobotInfo, RobotMove, Sender, Telemetry,
+};
+use serde_json::Value;
+
+use super::missions;
+use crate::Failure;
+
+/// Who asked: an operator query held by the driver, or the advising agent (for an advice).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Req {
+    Query(u64),
+    Agent(String),
+}
+
+/// An operator request, decoded at the edge.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Request {
+    Status,
+    Robots,
+    Robot(String),
+    Missions,
+    Mission(String),
+    Goto(GotoRequest),
+    Move(RobotMove),
+    Create(MissionCreate),
+    Terminate(MissionTerminate),
+}
+
+impl Request {
+    /// The request an operator query on `key` with `payload` makes: the one decoder of operator
+    /// input (the driver answers its error to the query).
+    pub fn decode(key: &str, payload: &[u8]) -> Result<Request, String> {
+        use mrmm_proto::SystemCmd;
+        let r = match Key::parse(key) {
+            Some(Key::SystemStatus) => Ok(Request::Status),
+            Some(Key::SystemRobots) => Ok(Request::Robots),
+            Some(Key::SystemRobot(id)) => Ok(Request::Robot(id)),
+            Some(Key::SystemMissions) => Ok(Request::Missions),
+            Some(Key::SystemMission(name)) => Ok(Request::Mission(name)),
+            Some(Key::SystemCmd(SystemCmd::Goto)) => proto::from_json("goto request", payload).map(Request::Goto),
+            Some(Key::SystemCmd(SystemCmd::Move)) => proto::from_json("robot move request", payload).map(Request::Move),
+            Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", payload).map(Request::Create),
+            Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", payload).map(Request::Terminate),
+            _ => return Err(format!("unknown key {key}")),
+        };
+        r.map_err(|e| e.to_string())
+    }
+
+    /// Whether the request changes the fleet (the agent waits while the operator is busy).
+    pub fn is_command(&self) -> bool {
+        matches!(self, Request::Goto(_) | Request::Move(_) | Request::Create(_) | Request::Terminate(_))
+    }
+}
+
+/// Something that happened.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// A robot's liveliness token appeared.
+    RobotAlive {
+        id: String,
+    },
+    /// A robot's liveliness token disappeared (crash, freeze past the lease, or clean exit).
+    RobotGone {
+        id: String,
+    },
+    /// A robot answered its info query.
+    RobotRegistered(RobotInfo),
+    /// An info query failed.
+    InfoFailed {
+        id: String,
+        reason: String,
+    },
+    Telemetry(Box<Telemetry>),
+    /// An operator request.
+    Operator {
+        req: Req,
+        request: Request,
+    },
+    /// A command to a robot completed; `req` is the request it answers, if any.
+    RobotCommandDone {
+        req: Option<Req>,
+        robot: String,
+        result: Result<CommandAck, String>,
+    },
+    /// A mission host answered a start: the first plans are out, or planning failed (or, when
+    /// `retryable`, nobody answered: the mission may or may not run).
+    MissionStarted {
+        mission: String,
+        result: Result<Box<MissionView>, Failure>,
+    },
+    /// The answer to [`Command::Ctl`] `id`.
+    CtlDone {
+        id: u64,
+        result: Result<(), Failure>,
+    },
+    /// A mission's head published its status; `from` is its proven sender.
+    MissionStatus {
+        view: Box<MissionView>,
+        from: Sender,
+    },
+    /// A mission host's liveliness token appeared.
+    HostAlive {
+        node: String,
+    },
+    /// A mission host's liveliness token disappeared.
+    HostGone {
+        node: String,
+    },
+    /// What the driver refused so far, by reason (reported in the fleet status).
+    Refusals(BTreeMap<String, u64>),
+    /// Messages the driver took, by how their sender was proven.
+    Proofs(BTreeMap<String, u64>),
+    /// The answer to [`Command::DryRun`] `id`.
+    DryRunDone {
+        id: u64,
+        result: Result<(), String>,
+    },
+    /// Periodic tick.
+    Tick,
+}
+
+/// Something the driver must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Ask robot `id` for its [`RobotInfo`]; answer with [`Event::RobotRegistered`] or [`Event::InfoFailed`].
+    FetchInfo { id: String },
+    /// Send `cmd` to `robot`; answer with [`Event::RobotCommandDone`].
+    SendToRobot { req: Option<Req>, robot: String, cmd: RobotCommand },
+    /// Answer request `req` with JSON, or with a reply error.
+    Reply { req: Req, result: Result<Value, String> },
+    /// Start a mission on a host; answer with [`Event::MissionStarted`].
+    StartMission { host: String, start: Box<MissionStart> },
+    /// Steer a mission through its head; answer with [`Event::CtlDone`]. Only an answer from
+    /// one of `managers` (the mission's chain as last reported, or its host) counts.
+    Ctl { id: u64, mission: String, ctl: MissionCtl, managers: Vec<String> },
+    /// Answer request `req` with whatever `key` answers (a head's mission view), taking only an
+    /// answer from one of `managers`.
+    Forward { req: Req, key: Key, managers: Vec<String> },
+    /// A proven sender sent what it may not: count it and say so in the log.
+    Refused { from: Sender, what: String },
+    /// Plan `DryRun` off this loop; answer with [`Event::DryRunDone`].
+    DryRun(Box<missions::DryRun>),
+    /// Commit these entries to the journal (fsync) before carrying out any command after this
+    /// one: it always comes first, so nothing of a change is said or done before it is on disk.
+    Journal(Vec<JournalEvent>),
+    /// Send a chain message to host `to` (on `mrmm/hosts/<to>/chain`): the head of a lineage
+    /// that was replaced is told that a newer one runs the mission, and steps down.
+    Chain { to: String, envelope: Box<ChainEnvelope> },
+}
