@@ -300,7 +300,12 @@ pub async fn run_on(
             s = viewers.recv_async() => {
                 let Ok(s) = s else { break };
                 let Some(from) = mesh.sender_of("viewer announcement", &s) else { continue };
-                match io.viewers.heard(proto::mesh::now_ms(), from.clone()) {
+                let now = proto::mesh::now_ms();
+                let new = !io.viewers.is_current(now, &from);
+                match io.viewers.heard(now, from.clone()) {
+                    // A new viewer has not proven this robot's certificate yet: the next message
+                    // carries it (the tagged ones between signatures only name it).
+                    Heard::Kept if new => io.telemetry_signs.sign_next(),
                     Heard::Kept => {}
                     Heard::NotAViewer => mesh.refuse("announce a viewer", &from),
                     Heard::Full => tracing::debug!(robot = %id, viewer = %from, "viewer not tagged for: {MAX_VIEWERS} others are current"),

@@ -315,6 +315,11 @@ impl SignCadence {
         SignCadence { every_ms, last_ms: None }
     }
 
+    /// The next message is signed (it carries the certificate: a new receiver proves it at once).
+    pub fn sign_next(&mut self) {
+        self.last_ms = None;
+    }
+
     /// Whether the message sent at `now_ms` is signed (a clock that went back signs at once).
     pub fn due(&mut self, now_ms: u64) -> bool {
         match self.last_ms {
