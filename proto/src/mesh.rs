@@ -305,7 +305,17 @@ impl Mesh {
             match reply.result() {
                 Ok(sample) => {
                     let bytes = sample.payload().to_bytes();
-                    let Some(sender) = self.sender_of("answer", sample) else { continue };
+                    let att = sample.attachment().map(|a| a.to_bytes());
+                    let sender = match self.verifier.sender(sample.key_expr().as_str(), &bytes, att.as_deref(), now_ms()) {
+                        Ok(s) => s,
+                        Err(r) => {
+                            // An answer naming a certificate this node no longer holds (its
+                            // cache was cleared): asked again, signed, it comes with it.
+                            unproven |= matches!(r, Refusal::Unseen { .. });
+                            self.verifier.refused.record(&format!("answer on {}", sample.key_expr()), &r);
+                            continue;
+                        }
+                    };
                     if !accept(&sender) {
                         self.refuse(&format!("answer {selector}"), &sender);
                         continue;
@@ -343,15 +353,25 @@ impl Mesh {
     /// that did not check the query's seal (central's operator API, whose authority is the
     /// link's certificate) checks it here the first time, to learn the asker's key — signed
     /// otherwise.
+    ///
+    /// When the query was tagged for this node and not signed, the asker holds this node's
+    /// certificate (it learnt the key it tagged for from a message that carried it): the reply
+    /// names the certificate by id, ~400 bytes less (an operator's 1 KB answer then fits one
+    /// QUIC packet). An asker that no longer holds it refuses the answer as `unseen` and asks
+    /// again, signed, and the answer to a signed query carries the certificate.
     fn seal_reply(&self, query: &Query, key: &str, bytes: &[u8]) -> Vec<u8> {
-        let asker = query.attachment().and_then(|a| crate::security::seal::decode(&a.to_bytes()).ok().map(|s| s.claimed));
-        if let (Some(asker), Some(pairs)) = (&asker, self.verifier.pairs()) {
-            if !pairs.knows(asker) {
+        let att = query.attachment().map(|a| a.to_bytes());
+        let seal = att.as_deref().and_then(|a| crate::security::seal::decode(a).ok());
+        let asker = seal.as_ref().map(|s| s.claimed.clone());
+        let mut by_id = false;
+        if let (Some(seal), Some(pairs)) = (&seal, self.verifier.pairs()) {
+            if !pairs.knows(&seal.claimed) {
                 // Learns the asker's key if its seal proves it; refusals are not this reply's business.
                 let _ = self.try_sender_of_query(query);
             }
+            by_id = seal.signature.is_none() && seal.tag_for(&pairs.my_id()).is_some();
         }
-        self.seal_tagged(key, bytes, asker.as_slice(), false)
+        self.seal_tagged_as(key, bytes, asker.as_slice(), false, by_id)
     }
 
     /// Replies to a query with a JSON value on the query's own key, sealed.

@@ -1,11 +1,13 @@
 //! Queries between secure meshes: tagged once the server is known, asked again signed when the
-//! server cannot prove the tag (its certificate was re-issued).
+//! server cannot prove the tag (its certificate was re-issued); answers to tagged queries name
+//! the server's certificate by id, asked again signed when the asker no longer holds it.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Duration;
 
 use super::*;
+use crate::security::seal::CertRef;
 use crate::security::{pki, Role};
 use crate::Key;
 
@@ -70,6 +72,23 @@ async fn tagged_only(asker: &Mesh, server: &Mesh, key: &str, why: &str) {
     let after = server.verifier().proven.counts();
     assert_eq!(after.get("signature"), before.get("signature"), "{why}: {after:?}");
     assert_eq!(after.get("tag").copied().unwrap_or(0), before.get("tag").copied().unwrap_or(0) + 1, "{after:?}");
+    assert!(matches!(answer_cert(asker, key, false).await, CertRef::Id(_)), "{why}: the answer to a tagged query carried the certificate");
+    assert!(matches!(answer_cert(asker, key, true).await, CertRef::Der(_)), "the answer to a signed query named the certificate by id");
+}
+
+/// How the answer to a query from `asker` (tagged for the known server; signed as well if
+/// `sign`) refers to the server's certificate.
+async fn answer_cert(asker: &Mesh, key: &str, sign: bool) -> CertRef<'static> {
+    let known = asker.verifier().pairs().map(|p| p.known_where(|s| s.is(Role::Host, "h1"))).unwrap_or_default();
+    let att = asker.seal_tagged(key, &[], &known, sign);
+    let replies = asker.session().get(key).timeout(Duration::from_secs(3)).attachment(att).await.expect("get");
+    let reply = replies.recv_async().await.expect("an answer");
+    let att = reply.result().expect("not an error").attachment().expect("sealed").to_bytes().to_vec();
+    let seal = crate::security::seal::decode(&att).expect("a seal");
+    match seal.cert.expect("a certificate") {
+        CertRef::Id(id) => CertRef::Id(id),
+        CertRef::Der(_) => CertRef::Der(&[]),
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -89,6 +108,14 @@ async fn queries_are_tagged_once_the_server_is_known_and_signed_again_after_a_re
     assert_eq!((who, from), (("central".to_string(), true), Sender::new(Role::Host, "h1")));
     // Known now: tagged only — the server checks a tag, no signature.
     tagged_only(&asker, &server, &key, "a query to a known server was signed").await;
+    // The asker no longer holds the server's certificate (its cache was cleared): the answer
+    // naming it by id is refused as unseen, the query asked again signed and answered.
+    asker.verifier().forget_certificates();
+    let (who, _) = ask(&asker, &key).await.expect("answered after the signed retry");
+    assert_eq!(who, ("central".to_string(), true), "answered without the signed retry");
+    let refused = asker.verifier().refused.counts();
+    assert!(refused.get("unseen_certificate").copied().unwrap_or(0) >= 1, "{refused:?}");
+    tagged_only(&asker, &server, &key, "the asker did not prove the certificate again").await;
     task.abort();
     server.close().await;
 

@@ -478,6 +478,14 @@ impl Verifier {
         self.pairs.as_deref()
     }
 
+    /// Forgets every proven certificate (as when the cache fills up and is cleared).
+    #[cfg(test)]
+    pub(crate) fn forget_certificates(&self) {
+        if let Ok(mut cache) = self.cache.lock() {
+            cache.clear();
+        }
+    }
+
     pub fn insecure() -> Verifier {
         Verifier { ca: None, max_age_ms: i64::MAX, cache: Mutex::new(HashMap::new()), pairs: None, refused: Refused::default(), proven: Proofs::default() }
     }
