@@ -180,6 +180,12 @@ pub struct ManagerView {
     /// The chain replicating the manager's state: head first.
     #[serde(default)]
     pub chain: Vec<String>,
+    /// Seconds the head has been unable to commit (a change not on every node of its chain
+    /// yet, or its chain being changed) for a second or more; absent otherwise. A chain that lost
+    /// the memory of a majority of its nodes never commits again: the system manager starts
+    /// such a mission anew once this passes its wait.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncommitted_s: Option<f64>,
 }
 
 /// One mission (`mrmm/system/missions`, `mrmm/system/missions/<name>`).

@@ -43,6 +43,10 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
             if !headless.is_empty() {
                 println!("seeds with missions nobody leads at the end (first 20): {headless:?}");
             }
+            let unrecoverable: Vec<u64> = reports.iter().filter(|r| r.unrecoverable > 0).map(|r| r.seed).take(20).collect();
+            if !unrecoverable.is_empty() {
+                println!("seeds with unrecoverable missions at the end (first 20): {unrecoverable:?}");
+            }
             println!(
                 "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted); {} started anew ({} without every member), {} old-lineage heads fenced; {} missions nobody leads at the end (without disks)",
                 started.elapsed().as_secs_f64(),

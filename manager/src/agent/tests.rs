@@ -28,7 +28,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         lost: vec![],
         stuck: Default::default(),
         teams: Default::default(),
-        manager: ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec![] },
+        manager: ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },
         metrics: MissionMetrics { worst_idleness: worst, ..MissionMetrics::default() },
         summary: (planner == "patrol").then(|| {
             PlanSummary::Patrol(PatrolSummary {
@@ -208,7 +208,7 @@ fn manager_loss_and_failover_and_stuck_robots() {
     assert!(format!("{cmds:?}").contains("rejected the goal"), "{cmds:?}");
     assert_eq!(withdrawn(&a.handle(12.0, snap(r(3.6), vec![p.clone()]))), ["stuck/r1"]);
     // The manager moves: an event advice that stands for a while.
-    p.manager = ManagerView { node: "r2".into(), epoch: 2, chain_epoch: 1, chain: vec![] };
+    p.manager = ManagerView { node: "r2".into(), epoch: 2, chain_epoch: 1, chain: vec![], uncommitted_s: None };
     assert_eq!(raised(&a.handle(12.0, snap(r(4.0), vec![p.clone()]))), [("failover/p".into(), Priority::Warning)]);
     assert_eq!(withdrawn(&a.handle(43.0, snap(r(5.0), vec![p.clone()]))), ["failover/p"]);
     // The manager's host is lost: critical while stalled.

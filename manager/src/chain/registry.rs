@@ -183,6 +183,21 @@ impl<S: Clone> Registry<S> {
         if self.replicas.get(name).is_none_or(|r| r.leads()) {
             return vec![];
         }
+        self.throw_away(now, name)
+    }
+
+    /// Throws away this node's replica of `name` although it leads, when it has not been able
+    /// to commit for `at_least` seconds (see [`Replica::uncommitted_for`]): its chain lost the
+    /// memory of a majority of its nodes, and the value is started anew here, as its next
+    /// lineage. Such a head acted on nothing it could not commit. Its promise stays, as a tomb.
+    pub fn abandon(&mut self, now: f64, name: &str, at_least: f64) -> Vec<Command<S>> {
+        if self.replicas.get(name).and_then(|r| r.uncommitted_for(now)).is_none_or(|s| s < at_least) {
+            return vec![];
+        }
+        self.throw_away(now, name)
+    }
+
+    fn throw_away(&mut self, now: f64, name: &str) -> Vec<Command<S>> {
         let before = self.mark(name);
         if let Some(r) = self.replicas.remove(name) {
             let t = self.tombs.entry(name.to_string()).or_default();

@@ -318,3 +318,37 @@ fn an_ended_chain_does_not_end_a_newer_lineage() {
     let out = r.receive(0.3, "m", "b".into(), vote(floor + 1));
     assert!(!ends(&out) && out.iter().any(|c| matches!(c, Command::Send { msg: Msg::Refuse { .. }, .. })), "{out:?}");
 }
+
+#[test]
+fn a_head_whose_chain_lost_its_memory_says_how_long_it_could_not_commit() {
+    let mut n = created();
+    assert_eq!(n["a"].uncommitted_for(0.5), None, "everything is committed");
+    // A change is committed at once when the chain is there.
+    let cmds = n.get_mut("a").unwrap().handle(1.0, Event::Propose(vec![1, 2]));
+    settle(&mut n, 1.0, "a", cmds);
+    assert_eq!(n["a"].uncommitted_for(1.0), None);
+    // b and c restart without their disks: blank, they refuse to vote as members of the chain
+    // they held, so a's repair never wins, and nothing it proposes commits again.
+    for x in ["b", "c"] {
+        n.get_mut("a").unwrap().handle(2.0, Event::Gone(x.into()));
+        n.insert(x.to_string(), R::new(x, p(), 2.5, 2.5, 0));
+    }
+    let names: Vec<String> = n.keys().cloned().collect();
+    for r in n.values_mut() {
+        for x in &names {
+            r.handle(2.5, Event::Alive(x.clone()));
+        }
+    }
+    let cmds = n.get_mut("a").unwrap().handle(3.0, Event::Propose(vec![1, 2, 3]));
+    settle(&mut n, 3.0, "a", cmds);
+    let mut t = 3.0;
+    while t < 30.0 {
+        t += 0.25;
+        let cmds = n.get_mut("a").unwrap().handle(t, Event::Tick);
+        settle(&mut n, t, "a", cmds);
+    }
+    assert!(n["a"].leads(), "{:?}", n["a"].role());
+    let stuck = n["a"].uncommitted_for(t).expect("a head that cannot commit says so");
+    assert!((stuck - (t - 2.0)).abs() < 1e-9, "uncommitted for {stuck} s at {t} s: not since b went (2 s)");
+    assert_eq!(n["b"].state(), None, "{:?}", n["b"].role());
+}

@@ -168,7 +168,7 @@ fn running() -> Mesh {
     // The chain acknowledged synchronously: plans go out, the start is answered.
     assert_eq!(sent_plans(&cmds), [("r1".into(), 1), ("r2".into(), 1)]);
     assert_eq!(replies(&cmds), [1]);
-    let v = m.nodes["central"].view("p", false).expect("led");
+    let v = m.nodes["central"].view(m.now, "p", false).expect("led");
     assert_eq!(v.manager.chain, ["central", "r1", "r2"]);
     m
 }
@@ -206,7 +206,7 @@ fn a_control_is_answered_after_its_commit_and_dropped_by_a_non_head() {
     m.to("r1", Event::HostGone("r2".into()));
     let later: Vec<Command> = (0..20).flat_map(|_| m.tick(0.1)).filter(|(n, _)| n == "central").map(|c| c.1).collect();
     assert_eq!(replies(&later), [8]);
-    assert_eq!(m.nodes["central"].view("p", false).map(|v| v.manager.chain), Some(vec!["central".to_string(), "r1".to_string()]));
+    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.manager.chain), Some(vec!["central".to_string(), "r1".to_string()]));
 }
 
 #[test]
@@ -218,13 +218,13 @@ fn a_robot_central_takes_back_while_it_is_gone_here_is_kept_lost_until_it_is_bac
     let cmds = m.to("central", joined(8));
     assert!(!cmds.iter().any(|c| matches!(c, Command::RequestPlan { .. })), "{cmds:?}");
     assert_eq!(replies(&cmds), [8], "answered: the change is committed");
-    let v = m.nodes["central"].view("p", false).expect("led");
+    let v = m.nodes["central"].view(m.now, "p", false).expect("led");
     assert_eq!((v.robots, v.lost), (vec!["r1".to_string(), "r2".to_string()], vec!["r3".to_string()]));
     // r3 is back: central's next order takes it in, and the team is replanned with it.
     m.to("central", Event::RobotAlive("r3".into()));
     let cmds = m.to("central", joined(9));
     assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { epoch: 2, .. })), "{cmds:?}");
-    assert_eq!(m.nodes["central"].view("p", false).map(|v| v.robots), Some(vec!["r1".to_string(), "r2".to_string(), "r3".to_string()]));
+    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.robots), Some(vec!["r1".to_string(), "r2".to_string(), "r3".to_string()]));
 }
 
 #[test]
@@ -253,7 +253,7 @@ fn the_first_replica_takes_over_and_sends_the_committed_plans_again() {
     let cmds = m.to("r1", Event::HostGone("central".into()));
     let cmds: Vec<Command> = cmds.into_iter().chain(m.tick(0.1).into_iter().filter(|(n, _)| n == "r1").map(|c| c.1)).collect();
     assert!(cmds.contains(&Command::Serve { mission: "p".into() }), "{cmds:?}");
-    let v = m.nodes["r1"].view("p", false).expect("r1 leads");
+    let v = m.nodes["r1"].view(m.now, "p", false).expect("r1 leads");
     assert_eq!((v.manager.node.as_str(), v.manager.epoch), ("r1", 1), "same plans, no replan");
     assert!(v.manager.chain_epoch > 1);
     assert_eq!(sent_plans(&cmds), [("r1".into(), 1), ("r2".into(), 1)]);
@@ -305,4 +305,62 @@ fn a_host_watches_the_robots_of_the_missions_it_leads_or_replicates_and_no_other
     m.tick(2.0 * UNJUDGED_S);
     m.tick(0.1);
     assert!(!m.nodes["h"].watches("r3"));
+}
+
+#[test]
+fn a_head_whose_chain_restarted_blank_reports_it_cannot_commit_and_gives_the_mission_up_for_a_new_lineage() {
+    let mut m = running();
+    // r1 and r2 (the chain's two replicas) restart without disks while central leads; central
+    // hears of it after both came back blank (a vote it asks for is refused).
+    let p = Params { quarantine: 0.0, ..Params::default() };
+    m.tick(1.0);
+    for r in ["r1", "r2"] {
+        m.nodes.insert(r.to_string(), HostCore::new(r, p, m.now));
+    }
+    for r in ["r1", "r2"] {
+        m.to("central", Event::HostGone(r.into()));
+        m.to("central", Event::RobotGone(r.into()));
+    }
+    for a in ["central", "r1", "r2"] {
+        for b in ["central", "r1", "r2"] {
+            m.to(a, Event::HostAlive(b.to_string()));
+        }
+        for r in ["r1", "r2"] {
+            m.to(a, Event::RobotAlive(r.to_string()));
+        }
+    }
+    let since = m.now;
+    for _ in 0..250 {
+        m.tick(0.1);
+    }
+    let v = m.nodes["central"].view(m.now, "p", false).expect("still led");
+    let stuck = v.manager.uncommitted_s.expect("a head that cannot commit says so");
+    assert!(stuck >= 20.0 && stuck <= m.now - since + 0.1, "{stuck} s");
+    // Central starts p anew (lineage 1) on its host: the stuck head gives it up, and the new
+    // lineage's chain forms with the blank nodes, its plans above every epoch of the old one.
+    let mut anew = start("p", &["r1", "r2"]);
+    anew.anew = true;
+    anew.lineage = 1;
+    let cmds = m.to("central", Event::Start { query: 9, start: anew, from: central() });
+    assert!(cmds.contains(&Command::Unserve { mission: "p".into() }), "the old head stepped down: {cmds:?}");
+    assert!(cmds.contains(&Command::Serve { mission: "p".into() }), "{cmds:?}");
+    let ev = planned(&cmds).expect("a plan request");
+    let cmds = m.to("central", ev);
+    assert_eq!(replies(&cmds), [9], "{cmds:?}");
+    let floor = mrmm_proto::chain::lineage_floor(1);
+    assert!(sent_plans(&cmds).iter().all(|(_, e)| *e > floor) && sent_plans(&cmds).len() == 2, "{cmds:?}");
+    let v = m.nodes["central"].view(m.now, "p", false).expect("led anew");
+    assert_eq!((v.manager.chain, v.manager.uncommitted_s), (vec!["central".to_string(), "r1".to_string(), "r2".to_string()], None));
+    assert!(m.nodes["r2"].replica("p").is_some_and(|r| r.state().is_some()), "the new chain holds the state");
+}
+
+#[test]
+fn a_healthy_head_is_not_given_up_by_a_start_anew() {
+    let mut m = running();
+    let mut anew = start("p", &["r1", "r2"]);
+    anew.anew = true;
+    anew.lineage = 1;
+    let cmds = m.to("central", Event::Start { query: 9, start: anew, from: central() });
+    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { query: 9, result: Err(e) } if e.contains("already hosted"))), "{cmds:?}");
+    assert!(!cmds.contains(&Command::Unserve { mission: "p".into() }));
 }

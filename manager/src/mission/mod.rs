@@ -482,7 +482,7 @@ impl MissionManager {
             lost: self.lost.keys().cloned().collect(),
             stuck: self.stuck.clone(),
             teams: self.teams(),
-            manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![] },
+            manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![], uncommitted_s: None },
             metrics: self.metrics(),
             summary: self.plan.as_ref().map(|(_, p)| p.summary.clone()),
             summary_unchanged: false,

@@ -54,6 +54,11 @@ pub const DURABLE_WAIT_S: f64 = 15.0;
 /// system manager started — or that no manager has reported for this long while it ran — has no
 /// chain that can take over (it lost its majority): it is started anew too.
 pub const RUNNING_WAIT_S: f64 = 20.0;
+/// A mission whose head reports it could not commit for this long has a chain that lost the
+/// memory of a majority of its nodes (they restarted without disks): it never commits a change
+/// again, so it is started anew (see `recovery.rs`); the host of such a head gives it up for
+/// the new lineage.
+pub const UNCOMMITTED_WAIT_S: f64 = 20.0;
 /// Seconds between two attempts to start a journaled mission again.
 pub const RESTART_RETRY_S: f64 = 5.0;
 /// A head's report that lists a robot present this long after the robot's liveliness appeared

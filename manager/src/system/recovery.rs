@@ -81,15 +81,17 @@ impl SystemManager {
     /// So is a mission whose managers stopped reporting while this manager ran (its chain lost
     /// its majority): started anew once none reported for [`RUNNING_WAIT_S`], with the members
     /// this manager still hears. A central cut off alone hears none, and leaves every mission
-    /// alone.
+    /// alone. And one whose head reports it could not commit for [`UNCOMMITTED_WAIT_S`] (its
+    /// chain lost the memory of a majority of its nodes: it never commits again).
     pub(super) fn restart_orphans(&mut self, now: f64) {
         // A robot up since before the previous manager went down may replicate a mission, and
         // its chain may take over again: a new lineage wins over it wherever they meet, and its
         // head is fenced when it reports — so that does not hold a start back.
+        let stuck = |r: &MissionRecord| r.view.as_ref().and_then(|v| v.manager.uncommitted_s).is_some_and(|s| s >= UNCOMMITTED_WAIT_S);
         let orphans: Vec<String> = self
             .missions
             .iter()
-            .filter(|(_, r)| (r.view.is_none() || now - r.reported_at >= RUNNING_WAIT_S) && r.def.spec.is_some())
+            .filter(|(_, r)| (r.view.is_none() || now - r.reported_at >= RUNNING_WAIT_S || stuck(r)) && r.def.spec.is_some())
             .filter(|(n, _)| !self.pending_create.contains_key(*n) && !self.starts.iter().any(|s| &s.start.spec.name == *n))
             .filter(|(n, _)| self.restarts.get(*n).is_none_or(|r| !r.inflight && now >= r.next))
             .map(|(n, _)| n.clone())
@@ -100,6 +102,7 @@ impl SystemManager {
             // with those robots too (the new lineage's plans win at them).
             let runs = self.robots.values().any(|r| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
             let silent = self.missions.get(&name).is_some_and(|r| r.view.is_some());
+            let uncommitted = self.missions.get(&name).is_some_and(stuck);
             if runs && now - self.started < RUNNING_WAIT_S {
                 continue;
             }
@@ -143,7 +146,9 @@ impl SystemManager {
                 continue;
             };
             let robots: Vec<String> = members.iter().map(|m| m.spec.id.clone()).collect();
-            if silent {
+            if uncommitted {
+                tracing::warn!(mission = %name, %host, ?robots, lineage, "this mission's head could not commit for {UNCOMMITTED_WAIT_S} s (its chain lost the memory of a majority of its nodes): starting it again");
+            } else if silent {
                 tracing::warn!(mission = %name, %host, ?robots, lineage, "no manager reported this mission for {RUNNING_WAIT_S} s while central ran (its chain lost its majority): starting it again");
             } else {
                 tracing::info!(mission = %name, %host, ?robots, lineage, "no live manager runs this mission of the journal: starting it again");

@@ -69,6 +69,9 @@ pub struct Replica<S> {
     /// (up to [`PASSED_OVER_MAX`] doublings). A replica left out of a newer chain would otherwise
     /// stand, and write its promise to disk, every `silence` seconds until it hears that chain.
     passed_over: u32,
+    /// While leading: the last time everything this node held was committed (or when it began
+    /// to lead). See [`Replica::uncommitted_for`].
+    settled_at: f64,
 }
 
 /// Doublings of a passed-over replica's wait before it stands again: at most 2⁴ × `silence`.
@@ -115,6 +118,7 @@ impl<S: Clone> Replica<S> {
             durable: false,
             declined: BTreeSet::new(),
             passed_over: 0,
+            settled_at: now,
         }
     }
 
@@ -189,8 +193,32 @@ impl<S: Clone> Replica<S> {
         }
     }
 
+    /// Seconds this node has led the value without being able to commit: a change it holds is
+    /// not on every node of its chain yet, or it is changing its chain. `None` when it does not
+    /// lead, or everything it holds is committed. A chain that lost the memory of a majority of
+    /// its nodes (restarted without disks) never commits again: its head says so here, and
+    /// the system manager starts the value anew.
+    pub fn uncommitted_for(&self, now: f64) -> Option<f64> {
+        match &self.role {
+            Role::Head { committed, .. } if *committed == Some(self.version().1) && self.queued.is_none() => None,
+            Role::Head { .. } | Role::Candidate { was_head: true, .. } => Some((now - self.settled_at).max(0.0)),
+            _ => None,
+        }
+    }
+
     /// Handles one event at time `now` (seconds).
     pub fn handle(&mut self, now: f64, ev: Event<S>) -> Vec<Command<S>> {
+        if self.uncommitted_for(now).is_none() {
+            self.settled_at = now;
+        }
+        let out = self.step(now, ev);
+        if self.uncommitted_for(now).is_none() {
+            self.settled_at = now;
+        }
+        out
+    }
+
+    fn step(&mut self, now: f64, ev: Event<S>) -> Vec<Command<S>> {
         match ev {
             Event::Tick => self.tick(now),
             Event::Recv { from, msg } => self.recv(now, from, msg),

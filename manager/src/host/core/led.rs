@@ -12,6 +12,15 @@ impl HostCore {
             Err(e) => return out.push(Command::Reply { query, result: Err(e) }),
         };
         let name = spec.name.clone();
+        // Central starts anew a mission whose head reported it could not commit: if that head
+        // is this node's, it gives the mission up for the new lineage.
+        let stuck = crate::system::UNCOMMITTED_WAIT_S / 2.0;
+        if start.anew && self.heads.contains_key(&name) && self.registry.replica(&name).and_then(|r| r.uncommitted_for(now)).is_some_and(|s| s >= stuck) {
+            tracing::warn!(mission = %name, "giving up this node's head of the mission, which could not commit: the mission starts anew");
+            self.step_down(&name, "it could not commit, and the mission starts anew", out);
+            let cmds = self.registry.abandon(now, &name, stuck);
+            self.apply(now, &name, cmds, out);
+        }
         let replaced = start.anew && !self.heads.contains_key(&name) && self.registry.replica(&name).is_some_and(|r| !r.leads());
         if replaced {
             // Central made sure nobody else can replicate it: what this node kept from before
@@ -203,7 +212,7 @@ impl HostCore {
         if !committed {
             return;
         }
-        let view = self.view(name, false);
+        let view = self.view(now, name, false);
         let managers = self.registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
         let Some(h) = self.heads.get_mut(name) else {
             return;
@@ -257,7 +266,7 @@ impl HostCore {
 
     /// The mission's status, with the planner's summary only when it changed (or is due again).
     pub(super) fn status(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
-        let Some(mut v) = self.view(name, false) else { return };
+        let Some(mut v) = self.view(now, name, false) else { return };
         if let Some(h) = self.heads.get_mut(name) {
             if !h.carries_summary(now, v.summary.as_ref()) {
                 v.summary = None;
@@ -267,13 +276,17 @@ impl HostCore {
         out.push(Command::Status(Box::new(v)));
     }
 
-    /// A led mission as the operator sees it, with its chain.
-    pub fn view(&self, name: &str, with_plans: bool) -> Option<MissionView> {
+    /// A led mission as the operator sees it at `now`, with its chain (and how long its head
+    /// could not commit, if it cannot).
+    pub fn view(&self, now: f64, name: &str, with_plans: bool) -> Option<MissionView> {
         let h = self.heads.get(name)?;
         let mut v = h.mm.view(with_plans);
-        if let Some(c) = self.registry.replica(name).and_then(|r| r.config()) {
-            v.manager.chain_epoch = c.epoch;
-            v.manager.chain = c.chain.clone();
+        if let Some(r) = self.registry.replica(name) {
+            if let Some(c) = r.config() {
+                v.manager.chain_epoch = c.epoch;
+                v.manager.chain = c.chain.clone();
+            }
+            v.manager.uncommitted_s = r.uncommitted_for(now).filter(|s| *s >= 1.0).map(|s| (s * 10.0).round() / 10.0);
         }
         Some(v)
     }

@@ -310,7 +310,7 @@ impl HostCore {
                 }
             }
             Event::View { query, mission } => {
-                let result = self.view(&mission, true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
+                let result = self.view(now, &mission, true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
                 out.push(Command::Reply { query, result });
             }
             Event::Marginal { query, mission, add } => {

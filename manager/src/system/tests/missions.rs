@@ -40,7 +40,7 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                     lost: vec![],
                     stuck: Default::default(),
                     teams: Default::default(),
-                    manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![] },
+                    manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },
                     metrics: MissionMetrics::default(),
                     summary: None,
                     summary_unchanged: false,
@@ -376,10 +376,10 @@ fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
     create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
     // Central's host replicates p on r3 (not a member: a replica left in the chain) ...
     let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
-    v.manager = ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec!["central".into(), "r3".into()] };
+    v.manager = ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec!["central".into(), "r3".into()], uncommitted_s: None };
     sm.drive(2.5, status(v.clone()));
     // ... which takes over.
-    v.manager = ManagerView { node: "r3".into(), epoch: 2, chain_epoch: 2, chain: vec!["r3".into(), "central".into()] };
+    v.manager = ManagerView { node: "r3".into(), epoch: 2, chain_epoch: 2, chain: vec!["r3".into(), "central".into()], uncommitted_s: None };
     let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r3");
     let cmds = sm.drive(3.0, Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
     let admitted: Vec<(String, Vec<String>)> = cmds
@@ -402,7 +402,35 @@ fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
 /// not while reports come, and not by a central that hears none of p's robots (cut off itself).
 #[test]
 fn a_mission_whose_managers_fell_silent_while_central_runs_is_started_anew_with_its_robots() {
-    let run = |robots_heard: bool, reports_go_on: bool| {
+    let run = |robots_heard: bool, reports_go_on: bool| run_with(robots_heard, reports_go_on, |_| None);
+    let started = run(true, false);
+    assert_eq!(started.len(), 1, "{started:?}");
+    let (at, robots, lineage, anew) = &started[0];
+    assert!(*at >= 3.0 + RUNNING_WAIT_S, "started anew {at} s in, before the wait");
+    assert_eq!((robots.as_slice(), *lineage, *anew), (&["r1".to_string(), "r2".to_string()][..], 1, true));
+    assert!(run(true, true).is_empty(), "its head still reports");
+    assert!(run(false, false).is_empty(), "a central that hears none of its robots left it alone");
+}
+
+/// p's head goes on reporting, but says it has not been able to commit since 4 s (its chain
+/// lost the memory of a majority of its nodes): p is started anew once that reaches
+/// `UNCOMMITTED_WAIT_S` — not while its head commits again within it.
+#[test]
+fn a_mission_whose_head_cannot_commit_is_started_anew_with_its_robots() {
+    let started = run_with(true, true, |now| Some(now - 4.0).filter(|s| *s >= 1.0));
+    assert_eq!(started.len(), 1, "{started:?}");
+    let (at, robots, lineage, anew) = &started[0];
+    assert!(*at >= 4.0 + UNCOMMITTED_WAIT_S, "started anew {at} s in, before the wait");
+    assert_eq!((robots.as_slice(), *lineage, *anew), (&["r1".to_string(), "r2".to_string()][..], 1, true));
+    // A head that cannot commit for a while (a repair waiting for a vote), then commits.
+    assert!(run_with(true, true, |now| Some(now - 4.0).filter(|s| (1.0..UNCOMMITTED_WAIT_S - 2.0).contains(s))).is_empty());
+}
+
+/// Mission p of r1, r2 created; its head reports (or not) with `uncommitted(now)`, its robots
+/// are heard (or not) by central: the starts anew central orders, with when, robots, lineage.
+#[allow(clippy::type_complexity)]
+fn run_with(robots_heard: bool, reports_go_on: bool, uncommitted: impl Fn(f64) -> Option<f64>) -> Vec<(f64, Vec<String>, u32, bool)> {
+    {
         let mut sm = with_host(&["r1", "r2", "r3"]);
         create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
         let m = reply(sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
@@ -418,9 +446,11 @@ fn a_mission_whose_managers_fell_silent_while_central_runs_is_started_anew_with_
         }
         let mut started = vec![];
         let mut now = 4.0;
-        while now < 3.0 + RUNNING_WAIT_S + 2.0 {
+        while now < 4.0 + RUNNING_WAIT_S.max(UNCOMMITTED_WAIT_S) + 2.0 {
             if reports_go_on {
-                sm.drive(now, status(view.clone()));
+                let mut v = view.clone();
+                v.manager.uncommitted_s = uncommitted(now);
+                sm.drive(now, status(v));
             }
             for c in sm.drive(now, Event::Tick) {
                 if let Command::StartMission { start, .. } = c {
@@ -430,12 +460,5 @@ fn a_mission_whose_managers_fell_silent_while_central_runs_is_started_anew_with_
             now += 0.5;
         }
         started
-    };
-    let started = run(true, false);
-    assert_eq!(started.len(), 1, "{started:?}");
-    let (at, robots, lineage, anew) = &started[0];
-    assert!(*at >= 3.0 + RUNNING_WAIT_S, "started anew {at} s in, before the wait");
-    assert_eq!((robots.as_slice(), *lineage, *anew), (&["r1".to_string(), "r2".to_string()][..], 1, true));
-    assert!(run(true, true).is_empty(), "its head still reports");
-    assert!(run(false, false).is_empty(), "a central that hears none of its robots left it alone");
+    }
 }
