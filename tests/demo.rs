@@ -14,7 +14,8 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     let dir = Scratch::new("demo");
     // The default: mutual TLS (over QUIC) with a throw-away CA; the demo prints where its
     // operator certificate is.
-    let (mut demo, ep, operator) = common::start_demo(&dir, &["--robots", "6", "--duration", "60", "--listen", "quic/127.0.0.1:0", "--time-scale", "4"])?;
+    let (mut demo, ep, operator, lines) =
+        common::start_demo_lines(&dir, &["--robots", "6", "--duration", "60", "--listen", "quic/127.0.0.1:0", "--time-scale", "4"])?;
     anyhow::ensure!(ep.starts_with("quic/") && operator.is_some(), "the demo is secure by default: {ep} {operator:?}");
     // Without a certificate there is no session with central.
     assert!(Client::connect(std::slice::from_ref(&ep), Duration::from_millis(500)).await.is_err(), "a client without a certificate reached the secure demo");
@@ -39,6 +40,24 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     })
     .await?;
     client.close().await;
+    // The browser console: its URL printed, the fleet behind its token.
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    let url = loop {
+        let line = lines.recv_timeout(deadline.saturating_duration_since(std::time::Instant::now()))?;
+        if let Some(rest) = line.strip_prefix("mrmm demo: console on ") {
+            break rest.split_whitespace().next().unwrap_or_default().to_string();
+        }
+    };
+    let (base, token) = url.split_once("/#token=").ok_or_else(|| anyhow::anyhow!("no token in {url}"))?;
+    let addr = base.trim_start_matches("http://");
+    assert_eq!(common::http(addr, "GET", "/api/state", addr, None, "")?.0, 401, "the fleet without the console's token");
+    let fleet = eventually("the console's fleet", Duration::from_secs(10), || async {
+        let (code, body) = common::http(addr, "GET", "/api/state", addr, Some(token), "").ok()?;
+        let v: serde_json::Value = serde_json::from_str(&body).ok()?;
+        (code == 200 && v["robots"].as_array().is_some_and(|r| r.len() == 6) && v["missions"].as_array().is_some_and(|m| m.len() == 2)).then_some(v)
+    })
+    .await?;
+    assert_eq!(fleet["central"]["reachable"], true);
     // The live console shows the fleet, the missions and the advice.
     let tool = demo.ready.split_whitespace().find_map(|w| w.strip_prefix("MRMM_TOOL_CONFIG=")).unwrap_or_default().to_string();
     let watch = std::process::Command::new(common::EXE).env("MRMM_TOOL_CONFIG", &tool).args(["op", "watch", "--duration", "1.5"]).output()?;

@@ -58,6 +58,13 @@ pub struct Args {
     /// demo's scratch directory, removed when the demo ends).
     #[arg(long)]
     state_dir: Option<std::path::PathBuf>,
+    /// Where the browser console listens (a loopback address; port 0: a free one). The demo
+    /// prints its URL.
+    #[arg(long, default_value = "127.0.0.1:0")]
+    console: std::net::SocketAddr,
+    /// No browser console.
+    #[arg(long)]
+    no_console: bool,
 }
 
 const TYPES: [&str; 2] = ["ground", "aerial"];
@@ -175,6 +182,18 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         super::security::TOOL_CONFIG_ENV,
         tool.display()
     );
+    // The browser console, on its own operator session.
+    let console = if args.no_console {
+        None
+    } else {
+        anyhow::ensure!(args.console.ip().is_loopback(), "--console {}: the console listens on loopback only", args.console);
+        let listener = tokio::net::TcpListener::bind(args.console).await.map_err(|e| anyhow::anyhow!("--console {}: {e}", args.console))?;
+        let token = mrmm_console::new_token()?;
+        println!("mrmm demo: console on http://{}/#token={token} (open it in a browser)", listener.local_addr()?);
+        let session = Client::connect_with(std::slice::from_ref(&endpoint), operator.clone(), Duration::from_secs(10)).await?;
+        let stop = shutdown.child_token();
+        Some((tokio::spawn(mrmm_console::run(session, listener, token, stop.clone())), stop))
+    };
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -231,6 +250,14 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
             }
             Ok(Err(e)) => eprintln!("fleet view: {e}"),
             Err(e) => eprintln!("fleet view: {e}"),
+        }
+    }
+    if let Some((task, stop)) = console {
+        stop.cancel();
+        match task.await {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => eprintln!("console: {e}"),
+            Err(e) => eprintln!("console: {e}"),
         }
     }
     client.close().await;

@@ -2,6 +2,7 @@
 
 mod assign;
 mod central;
+mod console;
 mod demo;
 mod experiment;
 mod mission_host;
@@ -56,6 +57,8 @@ enum Cmd {
     MissionHost(mission_host::Args),
     /// Live fleet view in Rerun: a viewer, a spawned viewer, or an .rrd file.
     Viz(viz::Args),
+    /// The browser console: the fleet on a map; select robots and assign them to missions.
+    Console(console::Args),
     /// Print what is published on a key expression, as JSON lines.
     Tap(tap::Args),
     /// The fleet's certificates: `pki init DIR`, `pki issue DIR --role R --id NAME`.
@@ -66,7 +69,16 @@ impl Cli {
     /// Log filter used when RUST_LOG is not set.
     pub fn default_log_filter(&self) -> &'static str {
         match self.command {
-            Cmd::Op(_) | Cmd::Demo(_) | Cmd::Experiment(_) | Cmd::Viz(_) | Cmd::Tour(_) | Cmd::Assign(_) | Cmd::Plan(_) | Cmd::Tap(_) | Cmd::Pki(_) => "warn",
+            Cmd::Op(_)
+            | Cmd::Console(_)
+            | Cmd::Demo(_)
+            | Cmd::Experiment(_)
+            | Cmd::Viz(_)
+            | Cmd::Tour(_)
+            | Cmd::Assign(_)
+            | Cmd::Plan(_)
+            | Cmd::Tap(_)
+            | Cmd::Pki(_) => "warn",
             _ => "info,zenoh=warn",
         }
     }
@@ -78,6 +90,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Robot(a) => robot::run(a).await,
         Cmd::Router(a) => router::run(a).await,
         Cmd::Op(a) => op::run(a).await,
+        Cmd::Console(a) => console::run(a).await,
         Cmd::Demo(a) => demo::run(a).await,
         Cmd::Experiment(a) => experiment::run(a).await,
         Cmd::Tour(a) => tour::run(a),

@@ -189,9 +189,15 @@ where
 /// Starts `mrmm demo` with `args`; returns it, central's endpoint and the operator's
 /// certificate (the demo is secure unless `--insecure` is among `args`).
 pub fn start_demo(dir: &Scratch, args: &[&str]) -> anyhow::Result<(Proc, String, Option<mrmm_proto::SecuritySection>)> {
+    start_demo_lines(dir, args).map(|(p, ep, s, _)| (p, ep, s))
+}
+
+/// [`start_demo`], with the demo's further stdout lines as they come.
+#[allow(clippy::type_complexity)]
+pub fn start_demo_lines(dir: &Scratch, args: &[&str]) -> anyhow::Result<(Proc, String, Option<mrmm_proto::SecuritySection>, mpsc::Receiver<String>)> {
     let mut all = vec!["demo"];
     all.extend_from_slice(args);
-    let demo = start("demo", &all, &dir.path("demo.log"), "mrmm demo: central on", Duration::from_secs(30))?;
+    let (demo, lines) = start_lines(&[], "demo", &all, &dir.path("demo.log"), "mrmm demo: central on", Duration::from_secs(30))?;
     let ep = demo
         .ready
         .split_whitespace()
@@ -211,7 +217,26 @@ pub fn start_demo(dir: &Scratch, args: &[&str]) -> anyhow::Result<(Proc, String,
         }
         None => None,
     };
-    Ok((demo, ep, security))
+    Ok((demo, ep, security, lines))
+}
+
+/// One raw HTTP/1.1 request to `addr` naming it as `host`, with an optional bearer token: the
+/// status code and the body.
+pub fn http(addr: &str, method: &str, path: &str, host: &str, token: Option<&str>, body: &str) -> anyhow::Result<(u16, String)> {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr)?;
+    s.set_read_timeout(Some(Duration::from_secs(10)))?;
+    let auth = token.map(|t| format!("Authorization: Bearer {t}\r\n")).unwrap_or_default();
+    write!(
+        s,
+        "{method} {path} HTTP/1.1\r\nHost: {host}\r\n{auth}Content-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    )?;
+    let mut out = String::new();
+    s.read_to_string(&mut out)?;
+    let code = out.split_whitespace().nth(1).and_then(|c| c.parse().ok()).ok_or_else(|| anyhow!("no status in {out:?}"))?;
+    let body = out.split_once("\r\n\r\n").map(|(_, b)| b.to_string()).unwrap_or_default();
+    Ok((code, body))
 }
 
 /// Waits until `n` robots are registered and have reported a pose.

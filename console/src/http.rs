@@ -1,0 +1,202 @@
+//! The console's HTTP side: the page, the fleet as JSON and as server-sent events, and commands
+//! forwarded to central's operator API. Every request must name this server by its loopback
+//! address (a page of another site cannot reach it through a DNS name that points here), and
+//! every API call must carry the console's token (`Authorization: Bearer …`, or `?token=…` for
+//! the event stream, which browsers open without headers).
+
+use std::convert::Infallible;
+use std::sync::Arc;
+
+use axum::extract::rejection::JsonRejection;
+use axum::extract::{DefaultBodyLimit, Path, Request, State};
+use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
+use axum::middleware::{self, Next};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use futures_util::Stream;
+use mrmm_proto::client::Client;
+use mrmm_proto::net::QueryError;
+use mrmm_proto::{Key, ProtoError, RobotMove, SystemCmd};
+use serde::{Deserialize, Serialize};
+use serde_json::{json, Value};
+use tokio::sync::watch;
+
+use crate::model::Snapshot;
+
+/// Largest request body: a mission create with a few thousand waypoints fits.
+pub const MAX_BODY: usize = 256 * 1024;
+/// Most robots one assignment moves.
+pub const MAX_ASSIGN: usize = 1000;
+
+const INDEX: &str = include_str!("page/index.html");
+const SCRIPT: &str = include_str!("page/console.js");
+const STYLE: &str = include_str!("page/console.css");
+
+/// What every handler shares.
+#[derive(Clone)]
+pub struct AppState {
+    pub client: Arc<Client>,
+    pub snapshots: watch::Receiver<Arc<Snapshot>>,
+    pub token: Arc<str>,
+    /// The port this server listens on (the `Host` every request must name).
+    pub port: u16,
+}
+
+/// The console's routes.
+pub fn router(state: AppState) -> Router {
+    Router::new()
+        .route("/", get(|| async { page(INDEX, "text/html; charset=utf-8") }))
+        .route("/console.js", get(|| async { page(SCRIPT, "text/javascript; charset=utf-8") }))
+        .route("/console.css", get(|| async { page(STYLE, "text/css; charset=utf-8") }))
+        .route("/api/state", get(state_now))
+        .route("/api/events", get(events))
+        .route("/api/cmd/{group}/{verb}", post(command))
+        .route("/api/assign", post(assign))
+        .layer(middleware::from_fn_with_state(state.clone(), guard))
+        .layer(DefaultBodyLimit::max(MAX_BODY))
+        .with_state(state)
+}
+
+fn page(body: &'static str, kind: &'static str) -> Response {
+    let mut r = body.into_response();
+    let h = r.headers_mut();
+    h.insert(header::CONTENT_TYPE, HeaderValue::from_static(kind));
+    h.insert(
+        header::CONTENT_SECURITY_POLICY,
+        HeaderValue::from_static("default-src 'self'; script-src 'self'; style-src 'self'; connect-src 'self'; img-src 'self' data:; frame-ancestors 'none'"),
+    );
+    h.insert(header::X_FRAME_OPTIONS, HeaderValue::from_static("DENY"));
+    h.insert(header::REFERRER_POLICY, HeaderValue::from_static("no-referrer"));
+    h.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
+    r
+}
+
+fn error(status: StatusCode, msg: impl Into<String>) -> Response {
+    (status, Json(json!({ "error": msg.into() }))).into_response()
+}
+
+/// Whether `Host` names this server by a loopback address.
+pub fn host_ok(headers: &HeaderMap, port: u16) -> bool {
+    let Some(host) = headers.get(header::HOST).and_then(|h| h.to_str().ok()) else { return false };
+    [format!("127.0.0.1:{port}"), format!("localhost:{port}"), format!("[::1]:{port}")].iter().any(|ok| ok.eq_ignore_ascii_case(host))
+}
+
+/// The token a request presents: `Authorization: Bearer …`, else the `token` query parameter.
+fn presented<'a>(headers: &'a HeaderMap, query: Option<&'a str>) -> Option<&'a str> {
+    if let Some(v) = headers.get(header::AUTHORIZATION).and_then(|h| h.to_str().ok()) {
+        return v.strip_prefix("Bearer ");
+    }
+    query?.split('&').find_map(|kv| kv.strip_prefix("token="))
+}
+
+/// Compares in time that does not depend on where the two differ.
+fn same(a: &str, b: &str) -> bool {
+    a.len() == b.len() && a.bytes().zip(b.bytes()).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
+}
+
+async fn guard(State(st): State<AppState>, req: Request, next: Next) -> Response {
+    if !host_ok(req.headers(), st.port) {
+        return error(StatusCode::FORBIDDEN, format!("this console answers only as 127.0.0.1:{} (or localhost)", st.port));
+    }
+    if req.uri().path().starts_with("/api/") && !presented(req.headers(), req.uri().query()).is_some_and(|t| same(t, &st.token)) {
+        return error(StatusCode::UNAUTHORIZED, "missing or wrong console token: open the URL `mrmm console` printed");
+    }
+    next.run(req).await
+}
+
+async fn state_now(State(st): State<AppState>) -> Json<Snapshot> {
+    Json((**st.snapshots.borrow()).clone())
+}
+
+/// The fleet as server-sent events: `state` with the whole snapshot, now and at every change.
+async fn events(State(st): State<AppState>) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
+    let stream = futures_util::stream::unfold((st.snapshots.clone(), true), |(mut rx, first)| async move {
+        if !first && rx.changed().await.is_err() {
+            return None;
+        }
+        let snap = rx.borrow_and_update().clone();
+        let ev = Event::default().event("state").json_data(&*snap).unwrap_or_else(|e| Event::default().event("failure").data(e.to_string()));
+        Some((Ok(ev), (rx, false)))
+    });
+    Sse::new(stream).keep_alive(KeepAlive::default())
+}
+
+/// The operator API's command for `/api/cmd/<group>/<verb>`.
+fn system_cmd(group: &str, verb: &str) -> Option<SystemCmd> {
+    Some(match (group, verb) {
+        ("mission", "create") => SystemCmd::Create,
+        ("mission", "terminate") => SystemCmd::Terminate,
+        ("robot", "move") => SystemCmd::Move,
+        ("robot", "goto") => SystemCmd::Goto,
+        _ => return None,
+    })
+}
+
+/// Central's answer to a command, as an HTTP response: its JSON, or its error (400 when central
+/// refused, 502 when it could not be asked).
+async fn forward(client: &Client, cmd: SystemCmd, body: &Value) -> Result<Value, (StatusCode, String)> {
+    match client.query::<Value>(Key::SystemCmd(cmd), Some(body)).await {
+        Ok(v) => Ok(v),
+        Err(ProtoError::Query(QueryError::Remote(msg))) => Err((StatusCode::BAD_REQUEST, msg)),
+        Err(e) => Err((StatusCode::BAD_GATEWAY, e.to_string())),
+    }
+}
+
+async fn command(State(st): State<AppState>, Path((group, verb)): Path<(String, String)>, body: Result<Json<Value>, JsonRejection>) -> Response {
+    let Some(cmd) = system_cmd(&group, &verb) else {
+        return error(StatusCode::NOT_FOUND, format!("no command {group}/{verb}: mission/create, mission/terminate, robot/move, robot/goto"));
+    };
+    let Json(body) = match body {
+        Ok(b) => b,
+        Err(e) => return error(StatusCode::BAD_REQUEST, e.body_text()),
+    };
+    match forward(&st.client, cmd, &body).await {
+        Ok(v) => Json(v).into_response(),
+        Err((status, msg)) => error(status, msg),
+    }
+}
+
+/// `POST /api/assign`: moves each robot to mission `to` (or out of its mission, `null`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Assign {
+    pub robots: Vec<String>,
+    pub to: Option<String>,
+}
+
+/// One robot's move in an assignment.
+#[derive(Debug, Serialize)]
+pub struct Moved {
+    pub robot: String,
+    pub ok: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+async fn assign(State(st): State<AppState>, body: Result<Json<Assign>, JsonRejection>) -> Response {
+    let Json(a) = match body {
+        Ok(b) => b,
+        Err(e) => return error(StatusCode::BAD_REQUEST, e.body_text()),
+    };
+    if a.robots.is_empty() || a.robots.len() > MAX_ASSIGN {
+        return error(StatusCode::BAD_REQUEST, format!("robots: give 1 to {MAX_ASSIGN} robot ids"));
+    }
+    // One at a time, in order: central replans the mission after each move anyway.
+    let mut results = Vec::with_capacity(a.robots.len());
+    for robot in a.robots {
+        let mv = RobotMove { robot: robot.clone(), to: a.to.clone() };
+        let body = match serde_json::to_value(&mv) {
+            Ok(b) => b,
+            Err(e) => return error(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()),
+        };
+        let error = forward(&st.client, SystemCmd::Move, &body).await.err().map(|(_, msg)| msg);
+        results.push(Moved { robot, ok: error.is_none(), error });
+    }
+    let status = if results.iter().all(|m| m.ok) { StatusCode::OK } else { StatusCode::MULTI_STATUS };
+    (status, Json(json!({ "results": results }))).into_response()
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,121 @@
+//! The browser console against a real secure fleet (central and four robots over mutual TLS),
+//! driven in Debian's Chromium by Playwright as an operator would: robots box-selected and
+//! clicked on the map, a patrol drawn and created, a robot assigned, one released — checked
+//! through the operator API. And what the console refuses: requests without its token, or that
+//! name it by another host (DNS rebinding), or commands it does not forward.
+//!
+//! Needs Chromium (`/usr/bin/chromium`) and `playwright-core` (`tests/browser/package.json`),
+//! both installed by `.ci/run`; without them the test is skipped, except under `CI=true`.
+
+mod common;
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{anyhow, Context};
+use common::Scratch;
+use mrmm_proto::client::Client;
+use mrmm_proto::{self as proto, MissionView, RobotStatus, RobotView, SecuritySection};
+
+/// Where `playwright-core` is: `MRMM_NODE_MODULES`, else `.ci/run`'s install.
+fn node_modules() -> PathBuf {
+    std::env::var_os("MRMM_NODE_MODULES")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(std::env::var_os("HOME").unwrap_or_default()).join(".cache/mrmm/node/node_modules"))
+}
+
+/// The browser and its driver, or why they are missing.
+fn browser() -> Result<PathBuf, String> {
+    let chromium = PathBuf::from(std::env::var_os("MRMM_CHROMIUM").unwrap_or_else(|| "/usr/bin/chromium".into()));
+    if !chromium.exists() {
+        return Err(format!("no Chromium at {}", chromium.display()));
+    }
+    if std::process::Command::new("node").arg("--version").output().is_err() {
+        return Err("no node on PATH".into());
+    }
+    let modules = node_modules();
+    if !modules.join("playwright-core").exists() {
+        return Err(format!("no playwright-core in {}", modules.display()));
+    }
+    Ok(chromium)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browser() -> anyhow::Result<()> {
+    let chromium = match browser() {
+        Ok(c) => c,
+        Err(why) if std::env::var("CI").as_deref() != Ok("true") => {
+            eprintln!("skipped: {why} (`bash .ci/run` installs them)");
+            return Ok(());
+        }
+        Err(why) => anyhow::bail!("{why}: .ci/run installs Chromium and playwright-core"),
+    };
+    let dir = Scratch::new("console");
+    let pki = common::fleet_pki(&dir, 4)?;
+    let (_central, ep) = common::start_secure_central(&dir, &pki)?;
+    let mut robots = Vec::new();
+    for i in 1..=4 {
+        robots.push(common::start_secure_robot(&dir, &pki, &format!("r{i}"), &ep, i as f64 * 2.0)?);
+    }
+    let pki_s = pki.display().to_string();
+    let console = common::start(
+        "console",
+        &["console", "--listen", "127.0.0.1:0", "--connect", &ep, "--pki", &pki_s, "--as", "op"],
+        &dir.path("console.log"),
+        "mrmm console: http://",
+        Duration::from_secs(20),
+    )?;
+    let url = console.ready.split_whitespace().find(|w| w.starts_with("http://")).ok_or_else(|| anyhow!("no URL in {:?}", console.ready))?.to_string();
+    let (base, token) = url.split_once("/#token=").ok_or_else(|| anyhow!("no token in {url}"))?;
+    let addr = base.trim_start_matches("http://").to_string();
+
+    // What the console refuses, before the browser comes.
+    let (code, _) = common::http(&addr, "GET", "/api/state", &addr, None, "")?;
+    assert_eq!(code, 401, "the fleet's state without the token");
+    let (code, _) = common::http(&addr, "GET", "/api/state", &addr, Some("0123456789abcdef0123456789abcdef"), "")?;
+    assert_eq!(code, 401, "a wrong token");
+    let (code, _) = common::http(&addr, "GET", "/api/state", "fleet.evil.example", Some(token), "")?;
+    assert_eq!(code, 403, "a request naming the console by another host (DNS rebinding)");
+    let (code, _) = common::http(&addr, "POST", "/api/cmd/system/shutdown", &addr, Some(token), "{}")?;
+    assert_eq!(code, 404, "a command the operator API does not have");
+    let (code, body) = common::http(&addr, "POST", "/api/cmd/mission/create", &addr, Some(token), "{not json")?;
+    assert_eq!(code, 400, "{body}");
+    let (code, body) =
+        common::http(&addr, "POST", "/api/assign", &addr, Some(token), &format!(r#"{{"robots": [{}], "to": null}}"#, vec!["\"r1\""; 1001].join(",")))?;
+    assert_eq!(code, 400, "too many robots in one assignment: {body}");
+    let (code, body) = common::http(&addr, "GET", "/", &addr, None, "")?;
+    assert!(code == 200 && body.contains("/console.js"), "the page is served without the token: {code}");
+
+    // The operator, in Chromium.
+    let shot = dir.path("console.png");
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/browser/console.cjs");
+    let out = tokio::process::Command::new("node")
+        .arg(&script)
+        .arg(&url)
+        .arg(&shot)
+        .env("NODE_PATH", node_modules())
+        .env("MRMM_CHROMIUM", &chromium)
+        .kill_on_drop(true)
+        .output();
+    let out = tokio::time::timeout(Duration::from_secs(150), out).await.context("the browser run took over 150 s")??;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    anyhow::ensure!(out.status.success(), "browser run failed: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
+    let seen: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap_or_default()).with_context(|| format!("browser output {stdout:?}"))?;
+    assert_eq!(seen["address_without_token"], true, "{seen}");
+    assert_eq!(seen["points"], "4 points", "{seen}");
+    assert_eq!(seen["tour_drawn"], true, "the patrol's tour is on the map: {seen}");
+    assert!(seen["refused"].as_str().is_some_and(|m| m.contains("exists")), "a second mission p is refused in words: {seen}");
+    assert!(std::fs::metadata(&shot).map(|m| m.len() > 10_000).unwrap_or(false), "no screenshot");
+
+    // What central says, independently of the console.
+    let operator = SecuritySection::from_dir(&pki, "op");
+    let client = Client::connect_with(std::slice::from_ref(&ep), Some(operator), Duration::from_secs(3)).await?;
+    let missions: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await?;
+    let p = missions.iter().find(|m| m.name == "p").ok_or_else(|| anyhow!("no mission p: {missions:?}"))?;
+    assert_eq!((p.robots.clone(), p.status), (vec!["r2".to_string(), "r3".to_string()], proto::MissionStatus::Running));
+    let fleet: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
+    let status = |id: &str| fleet.iter().find(|r| r.id == id).map(|r| r.status);
+    assert_eq!((status("r1"), status("r4")), (Some(RobotStatus::Idle), Some(RobotStatus::Idle)));
+    client.close().await;
+    Ok(())
+}
