@@ -1,8 +1,9 @@
 //! The browser console against a real secure fleet (central and four robots over mutual TLS),
 //! driven in Debian's Chromium by Playwright as an operator would: robots box-selected and
-//! clicked on the map, a patrol drawn and created, a robot assigned, one released — checked
-//! through the operator API. And what the console refuses: requests without its token, or that
-//! name it by another host (DNS rebinding), or commands it does not forward.
+//! clicked on the map, a patrol drawn and created, a robot assigned, one released, the advising
+//! agent's suggestion applied — checked through the operator API. And what the console refuses:
+//! requests without its token, or that name it by another host (DNS rebinding), or commands it
+//! does not forward.
 //!
 //! Needs Chromium (`/usr/bin/chromium`) and `playwright-core` (`tests/browser/package.json`),
 //! both installed by `.ci/run`; without them the test is skipped, except under `CI=true`.
@@ -112,10 +113,12 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
     let client = Client::connect_with(std::slice::from_ref(&ep), Some(operator), Duration::from_secs(3)).await?;
     let missions: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await?;
     let p = missions.iter().find(|m| m.name == "p").ok_or_else(|| anyhow!("no mission p: {missions:?}"))?;
-    assert_eq!((p.robots.clone(), p.status), (vec!["r2".to_string(), "r3".to_string()], proto::MissionStatus::Running));
+    // r1 released, then added back by the agent's suggestion (the first idle robot).
+    assert_eq!(seen["advice"], serde_json::json!({"robot": "r1", "to": "p"}), "{seen}");
+    assert_eq!((p.robots.clone(), p.status), (vec!["r1".to_string(), "r2".to_string(), "r3".to_string()], proto::MissionStatus::Running));
     let fleet: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
     let status = |id: &str| fleet.iter().find(|r| r.id == id).map(|r| r.status);
-    assert_eq!((status("r1"), status("r4")), (Some(RobotStatus::Idle), Some(RobotStatus::Idle)));
+    assert_eq!((status("r1"), status("r4")), (Some(RobotStatus::Busy), Some(RobotStatus::Idle)));
     client.close().await;
     Ok(())
 }

@@ -23,6 +23,10 @@ pub struct Advice {
     pub evidence: serde_json::Value,
     /// A command ready to run (`mrmm op …`), if there is one.
     pub suggestion: Option<String>,
+    /// The same suggestion as the operator API's move (`mrmm/system/cmd/robot/move`), for a
+    /// client to carry out as it is (the browser console's *Apply*).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub action: Option<crate::RobotMove>,
     /// Raised at (seconds since central started).
     pub since: f64,
     /// `act` autonomy ran the suggestion.

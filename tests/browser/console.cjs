@@ -1,6 +1,7 @@
 // The browser console driven as an operator would, in Debian's Chromium (headless) through
 // Playwright: robots box-selected on the map, a patrol drawn and created with them, a robot
-// clicked on the map and assigned to it, one released. Usage: node console.cjs URL SCREENSHOT.
+// clicked on the map and assigned to it, one released, the advising agent's suggestion applied.
+// Usage: node console.cjs URL SCREENSHOT.
 // Prints one JSON line with what it saw; exits non-zero (with the reason) on any failure.
 'use strict';
 const { chromium } = require('playwright-core');
@@ -92,7 +93,13 @@ async function main() {
     // r1 picked from the robot table and released: p goes on with r2 and r3.
     await page.click('#robots tr[data-robot="r1"]');
     await page.click('#release');
-    const s = await until('r1 out of p', (s) => s.missions.some((m) => m.name === 'p' && m.robots.join() === 'r2,r3') && s.robots.some((r) => r.id === 'r1' && r.status === 'idle'));
+    await until('r1 out of p', (s) => s.missions.some((m) => m.name === 'p' && m.robots.join() === 'r2,r3') && s.robots.some((r) => r.id === 'r1' && r.status === 'idle'));
+
+    // The advising agent suggests adding an idle robot to p: applied with one click.
+    const advice = await until('advice to add an idle robot to p', (s) => s.advice.some((a) => a.id === 'idle' && a.action && a.action.to === 'p'));
+    seen.advice = advice.advice.find((a) => a.id === 'idle').action;
+    await page.click('button[data-apply="idle"]');
+    const s = await until(`${seen.advice.robot} in p`, (s) => s.missions.some((m) => m.name === 'p' && m.robots.includes(seen.advice.robot) && m.robots.length === 3));
     seen.final = s.missions.map((m) => ({ name: m.name, robots: m.robots, status: m.status }));
     seen.tour_drawn = s.missions.some((m) => m.summary && m.summary.planner === 'patrol' && m.summary.tour.length === 4);
     // A mistake gets a clear message, not a broken page.

@@ -280,6 +280,13 @@
       const li = document.createElement('li'); li.className = a.priority;
       li.textContent = a.reason;
       if (a.suggestion) { const code = document.createElement('code'); code.textContent = ` ${a.suggestion}`; li.appendChild(code); }
+      if (a.action && !a.acted) {
+        const b = document.createElement('button');
+        b.textContent = 'Apply';
+        b.dataset.apply = a.id;
+        b.addEventListener('click', () => applyAdvice(a.action));
+        li.append(' ', b);
+      }
       ul.appendChild(li);
     }
     $('points').textContent = `${points.length} point${points.length === 1 ? '' : 's'}`;
@@ -308,6 +315,15 @@
     } catch (e) { say(e.message, false); }
   }
   const assign = (name) => moveSelected(name);
+  async function applyAdvice(action) {
+    say(`Moving ${action.robot} to ${action.to || 'idle'}…`, true);
+    try {
+      const j = await api('/api/assign', { robots: [action.robot], to: action.to });
+      const failed = j.results.filter((m) => !m.ok);
+      if (failed.length) say(failed.map((m) => `${m.robot}: ${m.error}`).join('; '), false);
+      else say(`${action.robot} → ${action.to || 'idle'}`, true);
+    } catch (e) { say(e.message, false); }
+  }
   async function terminate(name) {
     if (!window.confirm(`End mission ${name}? Its robots become idle.`)) return;
     try { await api('/api/cmd/mission/terminate', { name }); say(`${name} ended`, true); } catch (e) { say(e.message, false); }

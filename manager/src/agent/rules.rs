@@ -10,7 +10,7 @@ use super::{AgentConfig, Candidate, Memory};
 
 fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
     let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_deref().unwrap_or("none")));
-    Candidate { advice: Advice { id, priority, reason, evidence, suggestion, since: now, acted: false, outcome: None }, action }
+    Candidate { advice: Advice { id, priority, reason, evidence, suggestion, action: action.clone(), since: now, acted: false, outcome: None }, action }
 }
 
 /// Patrol worst idleness predicted with `n` robots: `L / (n · v)` from the mission's plan.
