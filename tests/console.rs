@@ -105,6 +105,7 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
     assert_eq!(seen["address_without_token"], true, "{seen}");
     assert_eq!(seen["points"], "4 points", "{seen}");
     assert_eq!(seen["tour_drawn"], true, "the patrol's tour is on the map: {seen}");
+    assert!(seen["goto"].as_str().is_some_and(|b| b.starts_with("goto(")), "r4 sent to a point: {seen}");
     assert!(seen["refused"].as_str().is_some_and(|m| m.contains("exists")), "a second mission p is refused in words: {seen}");
     assert!(std::fs::metadata(&shot).map(|m| m.len() > 10_000).unwrap_or(false), "no screenshot");
 
@@ -117,8 +118,10 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
     assert_eq!(seen["advice"], serde_json::json!({"robot": "r1", "to": "p"}), "{seen}");
     assert_eq!((p.robots.clone(), p.status), (vec!["r1".to_string(), "r2".to_string(), "r3".to_string()], proto::MissionStatus::Running));
     let fleet: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
-    let status = |id: &str| fleet.iter().find(|r| r.id == id).map(|r| r.status);
-    assert_eq!((status("r1"), status("r4")), (Some(RobotStatus::Busy), Some(RobotStatus::Idle)));
+    let robot = |id: &str| fleet.iter().find(|r| r.id == id).map(|r| (r.status, r.mission.clone()));
+    assert_eq!(robot("r1"), Some((RobotStatus::Busy, Some("p".to_string()))));
+    // r4, in no mission, busy on the goto the operator clicked.
+    assert_eq!(robot("r4"), Some((RobotStatus::Busy, None)));
     client.close().await;
     Ok(())
 }

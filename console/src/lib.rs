@@ -47,7 +47,15 @@ pub async fn run(client: Client, listener: TcpListener, token: String, shutdown:
     }
     let client = Arc::new(client);
     let (tx, rx) = tokio::sync::watch::channel(Arc::new(model::Snapshot::default()));
-    let feed = tokio::spawn(feed::run(client.clone(), tx, shutdown.clone()));
+    // A feed that fails (its subscription refused) stops the console rather than serve a map
+    // that never fills.
+    let stop = shutdown.clone();
+    let fed_client = client.clone();
+    let feed = tokio::spawn(async move {
+        let r = feed::run(fed_client, tx, stop.clone()).await;
+        stop.cancel();
+        r
+    });
     let app = http::router(http::AppState { client, snapshots: rx, token: Arc::from(token.as_str()), port: addr.port() });
     let stop = shutdown.clone();
     let served = axum::serve(listener, app).with_graceful_shutdown(async move { stop.cancelled().await }).await;

@@ -1,6 +1,7 @@
 // The browser console driven as an operator would, in Debian's Chromium (headless) through
 // Playwright: robots box-selected on the map, a patrol drawn and created with them, a robot
-// clicked on the map and assigned to it, one released, the advising agent's suggestion applied.
+// clicked on the map and assigned to it, one released, the advising agent's suggestion applied,
+// an idle robot sent to a point clicked on the map.
 // Usage: node console.cjs URL SCREENSHOT.
 // Prints one JSON line with what it saw; exits non-zero (with the reason) on any failure.
 'use strict';
@@ -101,6 +102,18 @@ async function main() {
     await page.click('button[data-apply="idle"]');
     const s = await until(`${seen.advice.robot} in p`, (s) => s.missions.some((m) => m.name === 'p' && m.robots.includes(seen.advice.robot) && m.robots.length === 3));
     seen.final = s.missions.map((m) => ({ name: m.name, robots: m.robots, status: m.status }));
+
+    // The idle r4, picked in the table, sent to a point clicked on the map.
+    await page.click('#robots tr[data-robot="r4"]');
+    await page.click('#goto');
+    const target = await page.evaluate(() => window.mrmmConsole.worldOnPage(-4, -6));
+    await page.mouse.click(target.x, target.y);
+    const near = (b) => {
+      const m = /^goto\((-?[\d.]+),(-?[\d.]+)\)$/.exec(b || '');
+      return !!m && Math.abs(Number(m[1]) + 4) < 0.3 && Math.abs(Number(m[2]) + 6) < 0.3;
+    };
+    const g = await until('r4 going to the clicked point', (s) => s.robots.some((r) => r.id === 'r4' && near(r.behaviour)));
+    seen.goto = g.robots.find((r) => r.id === 'r4').behaviour;
     seen.tour_drawn = s.missions.some((m) => m.summary && m.summary.planner === 'patrol' && m.summary.tour.length === 4);
     // A mistake gets a clear message, not a broken page.
     await page.fill('#new-name', 'p');

@@ -20,6 +20,8 @@
   let snap = { robots: [], missions: [], advice: [], central: { reachable: false } };
   const selected = new Set();
   let drawing = false;
+  // The next click on the map sends the selected robot there.
+  let going = false;
   const points = [];
   let view = { cx: 0, cy: 0, scale: 20, user: false };
   let drag = null;
@@ -198,6 +200,10 @@
       const id = robotAt(d.x0, d.y0);
       if (id) {
         if (d.add) { if (selected.has(id)) selected.delete(id); else selected.add(id); } else { selected.clear(); selected.add(id); }
+      } else if (going) {
+        going = false;
+        const [x, y] = toWorld(d.x0, d.y0);
+        goto(Math.round(x * 10) / 10, Math.round(y * 10) / 10);
       } else if (drawing) {
         const [x, y] = toWorld(d.x0, d.y0);
         points.push([Math.round(x * 10) / 10, Math.round(y * 10) / 10]);
@@ -291,6 +297,7 @@
     }
     $('points').textContent = `${points.length} point${points.length === 1 ? '' : 's'}`;
     $('draw').setAttribute('aria-pressed', String(drawing));
+    $('goto').setAttribute('aria-pressed', String(going));
     redraw();
   }
 
@@ -315,6 +322,14 @@
     } catch (e) { say(e.message, false); }
   }
   const assign = (name) => moveSelected(name);
+  async function goto(x, y) {
+    const [robot] = [...selected];
+    try {
+      const j = await api('/api/cmd/robot/goto', { robot, x, y });
+      say(`${j.robot} → (${x}, ${y})`, true);
+    } catch (e) { say(e.message, false); }
+    render();
+  }
   async function applyAdvice(action) {
     say(`Moving ${action.robot} to ${action.to || 'idle'}…`, true);
     try {
@@ -347,7 +362,13 @@
   }
   $('clear').addEventListener('click', () => { selected.clear(); render(); });
   $('release').addEventListener('click', () => moveSelected(null));
-  $('draw').addEventListener('click', () => { drawing = !drawing; render(); });
+  $('draw').addEventListener('click', () => { drawing = !drawing; going = false; render(); });
+  $('goto').addEventListener('click', () => {
+    if (selected.size !== 1) { going = false; say('Select one idle robot, then click Go to… and a point on the map.', false); return render(); }
+    going = !going; drawing = false;
+    if (going) say(`Click where ${[...selected][0]} should go.`, true);
+    render();
+  });
   $('undo-point').addEventListener('click', () => { points.pop(); render(); });
   $('clear-points').addEventListener('click', () => { points.length = 0; render(); });
   $('create').addEventListener('click', create);
