@@ -182,6 +182,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         super::security::TOOL_CONFIG_ENV,
         tool.display()
     );
+    let mut banner = format!("tools    export {}={}\n", super::security::TOOL_CONFIG_ENV, tool.display());
     // The browser console, on its own operator session.
     let console = if args.no_console {
         None
@@ -189,7 +190,9 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         anyhow::ensure!(args.console.ip().is_loopback(), "--console {}: the console listens on loopback only", args.console);
         let listener = tokio::net::TcpListener::bind(args.console).await.map_err(|e| anyhow::anyhow!("--console {}: {e}", args.console))?;
         let token = mrmm_console::new_token()?;
-        println!("mrmm demo: console on http://{}/#token={token} (open it in a browser)", listener.local_addr()?);
+        let url = format!("http://{}/#token={token}", listener.local_addr()?);
+        println!("mrmm demo: console on {url} (open it in a browser)");
+        banner = format!("console  {url}\n{banner}");
         let session = Client::connect_with(std::slice::from_ref(&endpoint), operator.clone(), Duration::from_secs(10)).await?;
         let stop = shutdown.child_token();
         Some((tokio::spawn(mrmm_console::run(session, listener, token, stop.clone())), stop))
@@ -238,7 +241,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
             }
             last_order = Some(Instant::now());
         }
-        show(tty, started, &endpoint, n, &views, &missions);
+        show(tty, started, &endpoint, &banner, n, &views, &missions);
     }
     if let Some((task, stop)) = viz {
         stop.cancel();
@@ -265,7 +268,10 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     Ok(())
 }
 
-fn show(tty: bool, started: Instant, endpoint: &str, n: usize, views: &[RobotView], missions: &[MissionView]) {
+/// The demo's screen: a header, `banner` (where the console and the tool config are: the screen
+/// is redrawn in place on a terminal, so the lines printed at the start would be gone), the robots
+/// and the missions.
+fn show(tty: bool, started: Instant, endpoint: &str, banner: &str, n: usize, views: &[RobotView], missions: &[MissionView]) {
     let mut out = String::new();
     if tty {
         out.push_str("\x1b[H\x1b[2J");
@@ -276,6 +282,9 @@ fn show(tty: bool, started: Instant, endpoint: &str, n: usize, views: &[RobotVie
         views.len(),
         missions.len()
     ));
+    if tty {
+        out.push_str(banner);
+    }
     if n <= TABLE_MAX {
         out.push_str(&super::table::robots(views));
     } else {
