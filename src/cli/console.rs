@@ -37,14 +37,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     let addr = listener.local_addr()?;
     let token = mrmm_console::new_token()?;
     let shutdown = super::shutdown::on_signals()?;
-    if let Some(d) = args.duration {
-        anyhow::ensure!(d.is_finite() && d > 0.0, "--duration: must be a positive number of seconds");
-        let s = shutdown.clone();
-        tokio::spawn(async move {
-            tokio::time::sleep(Duration::from_secs_f64(d)).await;
-            s.cancel();
-        });
-    }
+    super::shutdown::cancel_after(&shutdown, args.duration)?;
     println!("mrmm console: http://{addr}/#token={token}");
     mrmm_console::run(client, listener, token, shutdown).await?;
     Ok(())

@@ -1,7 +1,6 @@
 //! `mrmm viz`: the live fleet view in Rerun (a viewer, a spawned viewer, or an `.rrd` file).
 
 use std::path::PathBuf;
-use std::time::Duration;
 
 use mrmm_proto::net::{Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
 use mrmm_proto::{Mesh, NodeNet};
@@ -59,14 +58,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     let session = mrmm_proto::net::open(config).await?;
     let mesh = Mesh::from_parts(session.clone(), sealer, verifier);
     let shutdown = super::shutdown::on_signals()?;
-    if let Some(d) = args.duration {
-        anyhow::ensure!(d.is_finite() && d > 0.0, "--duration: must be a positive number of seconds");
-        let s = shutdown.clone();
-        tokio::spawn(async move {
-            tokio::time::sleep(Duration::from_secs_f64(d)).await;
-            s.cancel();
-        });
-    }
+    super::shutdown::cancel_after(&shutdown, args.duration)?;
     mrmm_viz::run(mesh, sink(args.connect, args.save, args.spawn), shutdown).await?;
     let _ = session.close().await;
     Ok(())
