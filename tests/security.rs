@@ -188,6 +188,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         progress: None,
         admitted: vec![],
         stuck: None,
+        info_rev: 0,
     };
     rogue.put(&Key::RobotTelemetry("r2".into()).to_string(), proto::encode_telemetry(&forged)?, Encoding::APPLICATION_OCTET_STREAM).await;
     rogue.session().put(Key::RobotTelemetry("r2".into()).to_string(), proto::encode_telemetry(&forged)?).await.map_err(|e| anyhow::anyhow!("{e}"))?;

@@ -146,6 +146,7 @@ mod tests {
             progress: None,
             admitted: vec![],
             stuck: None,
+            info_rev: 0,
         }
     }
 

@@ -72,6 +72,7 @@ pub fn info(id: &str) -> RobotInfo {
         endpoints: vec!["tcp/127.0.0.1:7450".into()],
         time_scale: 4.0,
         durable: false,
+        rev: 0,
     }
 }
 
@@ -140,7 +141,7 @@ impl Central {
                     system::Command::Ctl { id, .. } => queue.push_back(system::Event::CtlDone { id, result: Ok(()) }),
                     system::Command::DryRun(dry) => queue.push_back(system::Event::DryRunDone { id: dry.id, result: dry.run() }),
                     system::Command::SendToRobot { req, robot, cmd: _ } => {
-                        let ack = CommandAck { ok: true, robot: robot.clone(), behaviour: mrmm_proto::Behaviour::Hold };
+                        let ack = CommandAck { ok: true, robot: robot.clone(), behaviour: mrmm_proto::Behaviour::Hold, capabilities: None };
                         queue.push_back(system::Event::RobotCommandDone { req, robot, result: Ok(ack) })
                     }
                     system::Command::FetchInfo { id } => {
@@ -181,6 +182,7 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
         params: Default::default(),
         error: None,
         plans: None,
+        requires: vec![],
     }
 }
 

@@ -123,10 +123,11 @@ impl RobotConfig {
     pub fn validate(&self) -> Result<(), String> {
         validate_id(&self.id).map_err(|_| format!("id: invalid robot id {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", self.id))?;
         validate_id(&self.robot_type).map_err(|_| format!("type: {:?} must be 1 to 64 characters of A-Z a-z 0-9 _ -", self.robot_type))?;
+        if self.capabilities.len() > mrmm_proto::MAX_CAPABILITIES {
+            return Err(format!("capabilities: at most {} (got {})", mrmm_proto::MAX_CAPABILITIES, self.capabilities.len()));
+        }
         for (i, c) in self.capabilities.iter().enumerate() {
-            if c.trim().is_empty() {
-                return Err(format!("capabilities[{i}]: empty capability"));
-            }
+            mrmm_proto::validate_capability(c).map_err(|e| format!("capabilities[{i}]: {e}"))?;
         }
         positive("kinematics.max_speed", self.kinematics.max_speed, 1e3)?;
         positive("kinematics.max_turn_rate", self.kinematics.max_turn_rate, 1e3)?;
@@ -210,6 +211,8 @@ mod tests {
         assert!(e.contains("missing field `id`"), "{e}");
         let e = err(&GOOD.replace("capabilities", "capabilites"));
         assert!(e.contains("unknown field `capabilites`"), "{e}");
+        let e = err(&GOOD.replace("[\"camera\"]", "[\"camera\", \"night vision\"]"));
+        assert!(e.starts_with("robot.json5: capabilities[1]: bad capability \"night vision\""), "{e}");
         let e = err(&GOOD.replace("\"r1\"", "\"r/1\""));
         assert!(e.starts_with("robot.json5: id: invalid robot id"), "{e}");
         let e = err("{ id: ");

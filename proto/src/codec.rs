@@ -13,7 +13,7 @@ pub const JSON_MAX_BYTES: usize = 4 << 20;
 /// Largest telemetry payload we accept: a garbage length prefix cannot make us allocate more.
 pub const TELEMETRY_MAX_BYTES: usize = 64 * 1024;
 /// Prefix of a bincode telemetry payload: protocol name and version.
-pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM2";
+pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM3";
 /// Media type of every JSON payload.
 pub const JSON: &str = "application/json";
 
@@ -52,7 +52,7 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
     if bytes.len() > TELEMETRY_MAX_BYTES {
         return Err(ProtoError::Decode(format!("telemetry: {} bytes", bytes.len())));
     }
-    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::Decode("telemetry without the MRM2 prefix".into()))?;
+    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::Decode("telemetry without the MRM3 prefix".into()))?;
     let (t, used): (Telemetry, usize) = bincode::serde::decode_from_slice(body, wire_config()).map_err(|e| ProtoError::Decode(format!("telemetry: {e}")))?;
     if used != body.len() {
         return Err(ProtoError::Decode(format!("telemetry: {} trailing bytes", body.len() - used)));
@@ -92,6 +92,7 @@ mod tests {
             }),
             admitted: vec!["patrol-1".into()],
             stuck: Some("Nav2 rejected the goal".into()),
+            info_rev: 0,
         }
     }
 
@@ -99,7 +100,7 @@ mod tests {
     fn telemetry_round_trips() {
         let t = sample();
         let bytes = encode_telemetry(&t).expect("encode");
-        assert_eq!(&bytes[..4], b"MRM2");
+        assert_eq!(&bytes[..4], b"MRM3");
         assert_eq!(decode_telemetry(&bytes).expect("decode"), t);
     }
 

@@ -6,7 +6,7 @@
 //! |---|---|---|
 //! | `mrmm/robots/<id>/alive` | liveliness token of a robot | — |
 //! | `mrmm/robots/<id>/info` | queryable on the robot | [`crate::RobotInfo`] |
-//! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`crate::Telemetry`] (bincode behind `MRM2`) |
+//! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`crate::Telemetry`] (bincode behind `MRM3`) |
 //! | `mrmm/robots/<id>/cmd` | queryable on the robot | [`crate::RobotCommand`] → [`crate::CommandAck`] |
 //! | `mrmm/team/<mission>/<type>/member/<id>` | liveliness token of a team member | — |
 //! | `mrmm/team/<mission>/sync/<point>/<round>` | publication by each member at a barrier | [`crate::SyncArrival`] |
@@ -27,6 +27,7 @@
 //! | `mrmm/system/journal?since=SEQ` | queryable on the system manager | [`crate::JournalPage`] |
 //! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | [`crate::GotoRequest`] |
 //! | `mrmm/system/cmd/robot/move` | queryable on the system manager | [`crate::RobotMove`] |
+//! | `mrmm/system/cmd/robot/capabilities` | queryable on the system manager | [`crate::CapabilitiesRequest`] |
 //! | `mrmm/system/cmd/mission/create` | queryable on the system manager | [`crate::MissionCreate`] |
 //! | `mrmm/system/cmd/mission/terminate` | queryable on the system manager | [`crate::MissionTerminate`] |
 //!
@@ -90,6 +91,7 @@ pub fn validate_subteam(subteam: &str) -> Result<(), ProtoError> {
 pub enum SystemCmd {
     Goto,
     Move,
+    Capabilities,
     Create,
     Terminate,
 }
@@ -180,6 +182,7 @@ impl fmt::Display for Key {
             Key::SystemJournal => f.write_str("mrmm/system/journal"),
             Key::SystemCmd(SystemCmd::Goto) => f.write_str("mrmm/system/cmd/robot/goto"),
             Key::SystemCmd(SystemCmd::Move) => f.write_str("mrmm/system/cmd/robot/move"),
+            Key::SystemCmd(SystemCmd::Capabilities) => f.write_str("mrmm/system/cmd/robot/capabilities"),
             Key::SystemCmd(SystemCmd::Create) => f.write_str("mrmm/system/cmd/mission/create"),
             Key::SystemCmd(SystemCmd::Terminate) => f.write_str("mrmm/system/cmd/mission/terminate"),
         }
@@ -230,6 +233,7 @@ impl Key {
             ["mrmm", "system", "journal"] => Key::SystemJournal,
             ["mrmm", "system", "cmd", "robot", "goto"] => Key::SystemCmd(SystemCmd::Goto),
             ["mrmm", "system", "cmd", "robot", "move"] => Key::SystemCmd(SystemCmd::Move),
+            ["mrmm", "system", "cmd", "robot", "capabilities"] => Key::SystemCmd(SystemCmd::Capabilities),
             ["mrmm", "system", "cmd", "mission", "create"] => Key::SystemCmd(SystemCmd::Create),
             ["mrmm", "system", "cmd", "mission", "terminate"] => Key::SystemCmd(SystemCmd::Terminate),
             _ => return None,
@@ -395,6 +399,7 @@ mod tests {
             Key::SystemJournal,
             Key::SystemCmd(SystemCmd::Goto),
             Key::SystemCmd(SystemCmd::Move),
+            Key::SystemCmd(SystemCmd::Capabilities),
             Key::SystemCmd(SystemCmd::Create),
             Key::SystemCmd(SystemCmd::Terminate),
         ]

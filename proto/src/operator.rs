@@ -132,6 +132,18 @@ pub struct RobotMove {
     pub to: Option<String>,
 }
 
+/// `mrmm/system/cmd/robot/capabilities`: the robot's capabilities change (names to add and to
+/// remove); it leaves a mission whose recipe requires one it no longer has.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CapabilitiesRequest {
+    pub robot: String,
+    #[serde(default)]
+    pub add: Vec<String>,
+    #[serde(default)]
+    pub remove: Vec<String>,
+}
+
 /// Lifecycle of a mission.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -194,6 +206,9 @@ pub struct MissionView {
     pub name: String,
     pub recipe: String,
     pub planner: String,
+    /// Capabilities every member must have (the recipe's `<requires>`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub requires: Vec<String>,
     pub status: MissionStatus,
     pub robots: Vec<String>,
     /// Members lost through liveliness: their place is kept until they come back.

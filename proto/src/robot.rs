@@ -61,6 +61,10 @@ pub struct Telemetry {
     /// or aborted the goal, or is not running); at most a few hundred characters.
     #[serde(default)]
     pub stuck: Option<String>,
+    /// The revision of the robot's [`RobotInfo`]: it counts up each time the robot's
+    /// capabilities change, so whoever holds an older record asks `mrmm/robots/<id>/info` again.
+    #[serde(default)]
+    pub info_rev: u32,
 }
 
 /// Progress of a robot through its plan (part of its telemetry).
@@ -104,6 +108,73 @@ pub struct RobotInfo {
     /// replicas it held, so a mission it replicated comes back through its chain, not anew.
     #[serde(default)]
     pub durable: bool,
+    /// Revision of this record (see [`Telemetry::info_rev`]): 0 as started, +1 per change of
+    /// `capabilities` at runtime.
+    #[serde(default)]
+    pub rev: u32,
+}
+
+impl RobotInfo {
+    /// Checks what a robot says about itself before anyone relies on it: its names, a bounded
+    /// list of valid capabilities, speeds and time scale that are positive numbers.
+    pub fn check(&self) -> Result<(), String> {
+        crate::validate_id(&self.id).map_err(|e| e.to_string())?;
+        crate::validate_id(&self.robot_type).map_err(|_| format!("type {:?}: not an id", self.robot_type))?;
+        check_capabilities(&self.capabilities)?;
+        if !(self.max_speed.is_finite() && self.max_speed > 0.0) {
+            return Err(format!("max_speed {}: not a positive number", self.max_speed));
+        }
+        if !(self.time_scale.is_finite() && self.time_scale > 0.0) {
+            return Err(format!("time_scale {}: not a positive number", self.time_scale));
+        }
+        if self.endpoints.len() > 64 || self.endpoints.iter().any(|e| e.len() > 256) {
+            return Err("endpoints: more than 64, or one longer than 256 characters".into());
+        }
+        Ok(())
+    }
+}
+
+/// Checks a list of capabilities: at most [`MAX_CAPABILITIES`], each a valid name.
+pub fn check_capabilities(capabilities: &[String]) -> Result<(), String> {
+    if capabilities.len() > MAX_CAPABILITIES {
+        return Err(format!("{} capabilities (at most {MAX_CAPABILITIES})", capabilities.len()));
+    }
+    capabilities.iter().try_for_each(|c| validate_capability(c))
+}
+
+/// Capabilities a robot has at most.
+pub const MAX_CAPABILITIES: usize = 32;
+
+/// Checks a capability name: 1 to 64 characters of `[A-Za-z0-9_.-]` (`camera`, `arm.gripper`).
+pub fn validate_capability(name: &str) -> Result<(), String> {
+    let ok_len = !name.is_empty() && name.len() <= 64;
+    let ok_chars = name.bytes().all(|c| c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'.'));
+    if ok_len && ok_chars {
+        Ok(())
+    } else {
+        Err(format!("bad capability {name:?}: use 1 to 64 characters of A-Z a-z 0-9 _ - ."))
+    }
+}
+
+/// `capabilities` with `add` added and `remove` removed, sorted and without repeats; checks every
+/// name and the [`MAX_CAPABILITIES`] bound.
+pub fn change_capabilities(capabilities: &[String], add: &[String], remove: &[String]) -> Result<Vec<String>, String> {
+    if add.len() > MAX_CAPABILITIES || remove.len() > MAX_CAPABILITIES {
+        return Err(format!("at most {MAX_CAPABILITIES} capabilities to add or remove at once"));
+    }
+    for c in add.iter().chain(remove) {
+        validate_capability(c)?;
+    }
+    if let Some(c) = add.iter().find(|c| remove.contains(c)) {
+        return Err(format!("capability {c:?} both added and removed"));
+    }
+    let mut out: Vec<String> = capabilities.iter().filter(|c| !remove.contains(c)).chain(add).cloned().collect();
+    out.sort();
+    out.dedup();
+    if out.len() > MAX_CAPABILITIES {
+        return Err(format!("a robot has at most {MAX_CAPABILITIES} capabilities ({} asked)", out.len()));
+    }
+    Ok(out)
 }
 
 fn one() -> f64 {
@@ -132,6 +203,14 @@ pub enum RobotCommand {
     Plan(Box<PlanAssignment>),
     /// Leave `mission` (ignored when the robot is not in it, or holds a newer epoch).
     Leave { mission: String, epoch: u64 },
+    /// From the system manager, on the operator's word: the robot's capabilities change (a
+    /// sensor broke, a tool was fitted). The robot answers with its capabilities after the change.
+    Capabilities {
+        #[serde(default)]
+        add: Vec<String>,
+        #[serde(default)]
+        remove: Vec<String>,
+    },
     /// From the system manager: this robot now belongs to `mission`, whose managers (its chain:
     /// head first) may plan for it and whose `members` are its teammates. Plans from central and
     /// mission hosts need no admission; a robot leading a mission can plan only for its
@@ -186,4 +265,7 @@ pub struct CommandAck {
     pub ok: bool,
     pub robot: String,
     pub behaviour: Behaviour,
+    /// The robot's capabilities after a capabilities command.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub capabilities: Option<Vec<String>>,
 }

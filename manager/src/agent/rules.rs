@@ -21,17 +21,44 @@ fn patrol_prediction(m: &MissionView, n: usize) -> Option<f64> {
     }
 }
 
-/// A robot that can be spared for `target`: an idle one first, else one from the largest other
-/// mission that keeps at least one robot (coverage missions before patrols).
+/// Whether robot `r` has every capability mission `m` requires.
+fn fits(r: &RobotView, m: &MissionView) -> bool {
+    m.requires.iter().all(|c| r.capabilities.contains(c))
+}
+
+/// A robot that can be spared for `target` (one with what it requires): an idle one first, else
+/// one from the largest other mission that keeps at least one robot (coverage missions before
+/// patrols).
 fn donor(robots: &[RobotView], missions: &[MissionView], target: &str) -> Option<(String, Option<String>)> {
-    if let Some(r) = robots.iter().find(|r| r.status == RobotStatus::Idle) {
+    let fit = |r: &RobotView| missions.iter().find(|m| m.name == target).is_none_or(|m| fits(r, m));
+    if let Some(r) = robots.iter().find(|r| r.status == RobotStatus::Idle && fit(r)) {
         return Some((r.id.clone(), None));
     }
+    let by_id: BTreeMap<&str, &RobotView> = robots.iter().map(|r| (r.id.as_str(), r)).collect();
+    let spare = |m: &MissionView| m.robots.iter().rev().find(|id| by_id.get(id.as_str()).is_some_and(|r| fit(r))).cloned();
     missions
         .iter()
-        .filter(|m| m.name != target && m.robots.len() >= 2 && m.status == MissionStatus::Running)
+        .filter(|m| m.name != target && m.robots.len() >= 2 && m.status == MissionStatus::Running && spare(m).is_some())
         .max_by_key(|m| (m.planner == "coverage", m.robots.len()))
-        .and_then(|m| m.robots.last().map(|r| (r.clone(), Some(m.name.clone()))))
+        .and_then(|m| spare(m).map(|r| (r, Some(m.name.clone()))))
+}
+
+/// Advice when robot `r`, out of mission `m` now, lacks what `m` requires: it was taken out for
+/// that; a robot that has it is suggested.
+fn unfit(robots: &[RobotView], missions: &[MissionView], r: &RobotView, m: &MissionView, now: f64) -> Option<Candidate> {
+    let lacks: Vec<&str> = m.requires.iter().filter(|c| !r.capabilities.contains(c)).map(String::as_str).collect();
+    if lacks.is_empty() {
+        return None;
+    }
+    let give = donor(robots, missions, &m.name);
+    let then = match &give {
+        Some((id, from)) => format!(": add {id}{}, which has {}", from.as_ref().map(|f| format!(" from {f}")).unwrap_or_default(), lacks.join(", ")),
+        None => format!(", and no robot with {} can be spared", lacks.join(", ")),
+    };
+    let reason = format!("robot {} no longer has {}, which mission {} requires: it left the mission{then}", r.id, lacks.join(", "), m.name);
+    let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()) });
+    let evidence = json!({"robot": r.id, "mission": m.name, "lacks": lacks, "robots": m.robots.len(), "donor": give.as_ref().map(|g| &g.0)});
+    Some(candidate(format!("capability/{}", r.id), Priority::Warning, reason, evidence, now, action))
 }
 
 /// All candidate advice for this snapshot.
@@ -39,11 +66,19 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
     let mut out = BTreeMap::new();
     let by_name: BTreeMap<&str, &MissionView> = missions.iter().map(|m| (m.name.as_str(), m)).collect();
 
-    // Robot lost, and what was done about it.
+    // Robot lost, and what was done about it; a robot taken out of its mission because it no
+    // longer has what the mission requires (an event).
     for r in robots {
         if r.status != RobotStatus::Lost {
-            if let Some(m) = &r.mission {
-                mem.last_mission.insert(r.id.clone(), m.clone());
+            match &r.mission {
+                Some(m) => {
+                    mem.last_mission.insert(r.id.clone(), m.clone());
+                }
+                None => {
+                    if let Some(c) = mem.last_mission.remove(&r.id).and_then(|m| unfit(robots, missions, r, by_name.get(m.as_str())?, now)) {
+                        mem.events.insert(c.advice.id.clone(), (c, now + cfg.event_advice_s));
+                    }
+                }
             }
             continue;
         }
@@ -96,13 +131,13 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
     if !idle.is_empty() && !running.is_empty() {
         let best = running
             .iter()
-            .filter_map(|m| Some((m, patrol_prediction(m, m.robots.len())? - patrol_prediction(m, m.robots.len() + 1)?)))
-            .max_by(|a, b| a.1.total_cmp(&b.1));
+            .filter_map(|m| Some((m, idle.iter().find(|r| fits(r, m))?, patrol_prediction(m, m.robots.len())? - patrol_prediction(m, m.robots.len() + 1)?)))
+            .max_by(|a, b| a.2.total_cmp(&b.2));
         let ids: Vec<&str> = idle.iter().map(|r| r.id.as_str()).collect();
         let (reason, action, gain) = match best {
-            Some((m, gain)) => (
-                format!("{} idle robot(s) ({}): adding {} to {} cuts its predicted worst idleness by {gain:.0} s", ids.len(), ids.join(", "), ids[0], m.name),
-                Some(RobotMove { robot: ids[0].to_string(), to: Some(m.name.clone()) }),
+            Some((m, r, gain)) => (
+                format!("{} idle robot(s) ({}): adding {} to {} cuts its predicted worst idleness by {gain:.0} s", ids.len(), ids.join(", "), r.id, m.name),
+                Some(RobotMove { robot: r.id.clone(), to: Some(m.name.clone()) }),
                 Some(gain),
             ),
             None => (format!("{} idle robot(s) available ({})", ids.len(), ids.join(", ")), None, None),

@@ -47,6 +47,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         params: standard.map(|s| [("max_worst_idleness".to_string(), s.to_string())].into()).unwrap_or_default(),
         error: None,
         plans: None,
+        requires: vec![],
     }
 }
 
@@ -246,4 +247,57 @@ fn one_robot_is_moved_once_per_look() {
         })
         .collect();
     assert_eq!(moves.iter().filter(|m| m.robot == "r5").count(), 1, "r5 moved once in one look: {moves:?}");
+}
+
+#[test]
+fn a_robot_that_lost_what_its_mission_requires_is_replaced_by_one_that_has_it() {
+    let mut a = Agent::new(AgentConfig::default());
+    let with = |mut r: RobotView, caps: &[&str]| {
+        r.capabilities = caps.iter().map(|c| c.to_string()).collect();
+        r
+    };
+    let mut p = mission("p", "patrol", &["r1", "r2"], None, None);
+    p.requires = vec!["camera".into()];
+    let q = mission("q", "patrol", &["r5", "r6"], None, None);
+    let before = vec![
+        with(robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), &["camera"]),
+        with(robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"), &["camera"]),
+        robot("r3", RobotStatus::Idle, None, 2.0, "hold"),
+        with(robot("r4", RobotStatus::Idle, None, 3.0, "hold"), &["camera", "lidar"]),
+        robot("r5", RobotStatus::Busy, Some("q"), 4.0, "step 1"),
+        robot("r6", RobotStatus::Busy, Some("q"), 5.0, "step 1"),
+    ];
+    a.handle(0.0, snap(before.clone(), vec![p.clone(), q.clone()]));
+    // r2's camera is gone: central took it out of p.
+    let mut after = before.clone();
+    after[1] = with(robot("r2", RobotStatus::Idle, None, 1.0, "hold"), &[]);
+    p.robots = vec!["r1".into()];
+    let cmds = a.handle(20.0, snap(after.clone(), vec![p.clone(), q.clone()]));
+    assert!(raised(&cmds).contains(&("capability/r2".into(), Priority::Warning)), "{cmds:?}");
+    let adv = a.advice().into_iter().find(|a| a.id == "capability/r2").expect("advice");
+    assert_eq!(adv.reason, "robot r2 no longer has camera, which mission p requires: it left the mission: add r4, which has camera");
+    assert_eq!(adv.action, Some(RobotMove { robot: "r4".into(), to: Some("p".into()) }), "r3 is idle too but has no camera");
+    // The idle advice, too, only points a robot where it fits: r2 and r3 (no camera) go to q.
+    let idle = a.advice().into_iter().find(|a| a.id == "idle").expect("idle advice");
+    assert!(idle.action.as_ref().is_some_and(|m| m.to.as_deref() == Some("q") || m.robot == "r4"), "{idle:?}");
+    // No idle robot with a camera: one is taken from another mission only if it has one.
+    after[3] = with(robot("r4", RobotStatus::Busy, Some("q"), 3.0, "step 1"), &["camera"]);
+    let mut q2 = q.clone();
+    q2.robots = vec!["r4".into(), "r5".into(), "r6".into()];
+    let mut b = Agent::new(AgentConfig::default());
+    b.handle(
+        0.0,
+        snap(
+            before.iter().cloned().map(|r| if r.id == "r4" { after[3].clone() } else { r }).collect(),
+            vec![mission("p", "patrol", &["r1", "r2"], None, None), q2.clone()],
+        ),
+    );
+    let mut p2 = p.clone();
+    p2.robots = vec!["r1".into()];
+    b.handle(1.0, snap(after.clone(), vec![p2, q2]));
+    let adv = b.advice().into_iter().find(|a| a.id == "capability/r2").expect("advice");
+    assert!(adv.reason.ends_with("add r4 from q, which has camera"), "{}", adv.reason);
+    // It is an event: gone after a while.
+    let cmds = a.handle(60.0, snap(after, vec![p, q]));
+    assert!(withdrawn(&cmds).contains(&"capability/r2".to_string()), "{cmds:?}");
 }

@@ -120,7 +120,16 @@ mod tests {
     use mrmm_proto::{Behaviour, Pose, RobotInfo, Telemetry, Velocity};
 
     fn info(id: &str) -> RobotInfo {
-        RobotInfo { id: id.into(), robot_type: "ground".into(), capabilities: vec![], max_speed: 1.0, endpoints: vec![], time_scale: 1.0, durable: false }
+        RobotInfo {
+            id: id.into(),
+            robot_type: "ground".into(),
+            capabilities: vec![],
+            max_speed: 1.0,
+            endpoints: vec![],
+            time_scale: 1.0,
+            durable: false,
+            rev: 0,
+        }
     }
 
     #[test]
@@ -140,6 +149,7 @@ mod tests {
                 progress: None,
                 admitted: vec![],
                 stuck: None,
+                info_rev: 0,
             };
             c.handle(0.0, Event::System(system::Event::Telemetry(Box::new(t))));
         }

@@ -353,7 +353,10 @@ impl Io {
             system::Command::FetchInfo { id } => self.spawn(async move {
                 let key = Key::RobotInfo(id.clone()).to_string();
                 match mesh.query::<RobotInfo>(&key, None, timeout, |s| s.is(Role::Robot, &id)).await {
-                    Ok((info, _)) if info.id == id => system::Event::RobotRegistered(info),
+                    Ok((info, _)) if info.id == id => match info.check() {
+                        Ok(()) => system::Event::RobotRegistered(info),
+                        Err(e) => system::Event::InfoFailed { id, reason: format!("bad info: {e}") },
+                    },
                     Ok((info, _)) => system::Event::InfoFailed { id, reason: format!("answered as {:?}", info.id) },
                     Err(e) => system::Event::InfoFailed { id, reason: e.to_string() },
                 }

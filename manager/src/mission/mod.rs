@@ -30,6 +30,8 @@ pub struct MissionSpec {
     pub params: BTreeMap<String, String>,
     /// Replicas of the manager's state after the head.
     pub replicas: usize,
+    /// Capabilities every member must have (the recipe's `<requires>`, sorted).
+    pub requires: Vec<String>,
 }
 
 impl MissionSpec {
@@ -54,7 +56,9 @@ impl MissionSpec {
         if w.replicas > proto::MAX_REPLICAS {
             return Err(format!("replicas: at most {} (got {})", proto::MAX_REPLICAS, w.replicas));
         }
-        Ok(MissionSpec { name: w.name, recipe_name: w.recipe_name, recipe_xml: w.recipe_xml, planner, params: w.params, replicas: w.replicas })
+        // A recipe that does not parse requires nothing here: planning reports its error.
+        let requires = mrmm_planner::recipe::parse(&w.recipe_xml).map(|r| r.required()).unwrap_or_default();
+        Ok(MissionSpec { name: w.name, recipe_name: w.recipe_name, recipe_xml: w.recipe_xml, planner, params: w.params, replicas: w.replicas, requires })
     }
 }
 
@@ -477,6 +481,7 @@ impl MissionManager {
             name: self.spec.name.clone(),
             recipe: self.spec.recipe_name.clone(),
             planner: self.spec.planner.as_str().to_string(),
+            requires: self.spec.requires.clone(),
             status: self.status,
             robots: self.members.keys().cloned().collect(),
             lost: self.lost.keys().cloned().collect(),

@@ -14,6 +14,7 @@ fn spec() -> MissionSpec {
         planner: PlannerKind::Patrol,
         params: BTreeMap::from([("waypoints".to_string(), "[[0,0],[20,0],[20,20],[0,20]]".to_string())]),
         replicas: 2,
+        requires: vec![],
     }
 }
 
@@ -135,6 +136,7 @@ fn tel(id: &str, x: f64, y: f64, syncs: u32, round: u32) -> Telemetry {
         }),
         admitted: vec![],
         stuck: None,
+        info_rev: 0,
     }
 }
 

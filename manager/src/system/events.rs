@@ -4,8 +4,8 @@
 use std::collections::BTreeMap;
 
 use mrmm_proto::{
-    self as proto, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, MissionCreate, MissionCtl, MissionStart, MissionTerminate, MissionView,
-    RobotCommand, RobotInfo, RobotMove, Sender, Telemetry,
+    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, MissionCreate, MissionCtl, MissionStart, MissionTerminate,
+    MissionView, RobotCommand, RobotInfo, RobotMove, Sender, Telemetry,
 };
 use serde_json::Value;
 
@@ -29,6 +29,7 @@ pub enum Request {
     Mission(String),
     Goto(GotoRequest),
     Move(RobotMove),
+    Capabilities(CapabilitiesRequest),
     Create(MissionCreate),
     Terminate(MissionTerminate),
 }
@@ -46,6 +47,7 @@ impl Request {
             Some(Key::SystemMission(name)) => Ok(Request::Mission(name)),
             Some(Key::SystemCmd(SystemCmd::Goto)) => proto::from_json("goto request", payload).map(Request::Goto),
             Some(Key::SystemCmd(SystemCmd::Move)) => proto::from_json("robot move request", payload).map(Request::Move),
+            Some(Key::SystemCmd(SystemCmd::Capabilities)) => proto::from_json("robot capabilities request", payload).map(Request::Capabilities),
             Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", payload).map(Request::Create),
             Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", payload).map(Request::Terminate),
             _ => return Err(format!("unknown key {key}")),
@@ -55,7 +57,7 @@ impl Request {
 
     /// Whether the request changes the fleet (the agent waits while the operator is busy).
     pub fn is_command(&self) -> bool {
-        matches!(self, Request::Goto(_) | Request::Move(_) | Request::Create(_) | Request::Terminate(_))
+        matches!(self, Request::Goto(_) | Request::Move(_) | Request::Capabilities(_) | Request::Create(_) | Request::Terminate(_))
     }
 }
 

@@ -4,7 +4,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_planner::recipe::{self, PlannerKind};
-use mrmm_proto::{self as proto, MissionCreate, MissionCtl, MissionStart, MissionTerminate, MissionView, RobotCommand, RobotMove, RobotSpec};
+use mrmm_proto::{self as proto, Member, MissionCreate, MissionCtl, MissionStart, MissionTerminate, MissionView, RobotCommand, RobotMove, RobotSpec};
 use serde_json::{json, Value};
 
 use super::{to_value, Command, Ctls, MissionDef, MissionRecord, PendingStart, Released, Req, SystemManager, RESTART_RETRY_S};
@@ -103,7 +103,7 @@ impl SystemManager {
         let wire = spec.to_wire();
         let def =
             MissionDef { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), spec: Some(wire.clone()), lineage: 0 };
-        self.missions.insert(name.clone(), MissionRecord::new(def, None, false, self.now));
+        self.missions.insert(name.clone(), MissionRecord::new(std::sync::Arc::new(def), None, false, self.now));
         self.restarts.remove(&name);
         self.note_command(&req, "mission create", &c_json);
         self.pending_create.insert(name, req);
@@ -156,12 +156,17 @@ impl SystemManager {
             recipe::check_param(r.planner, k, v).map_err(|e| format!("mission {}: {e}", c.name))?;
         }
 
+        let requires = r.required();
         let (ids, steal) = match (&c.robots, c.count) {
             (Some(_), Some(_)) => return Err("give robots or count, not both".into()),
             (Some(list), None) => {
                 let mut seen = BTreeSet::new();
                 for id in list {
-                    self.live_robot(id)?;
+                    let info = self.live_robot(id)?;
+                    let lacks = super::capabilities::lacking(&info.capabilities, &requires);
+                    if !lacks.is_empty() {
+                        return Err(format!("robot {id:?} lacks {} (mission {} requires {})", lacks.join(", "), c.name, requires.join(", ")));
+                    }
                     if !seen.insert(id) {
                         return Err(format!("robot {id:?} listed twice"));
                     }
@@ -172,13 +177,14 @@ impl SystemManager {
                 (list.clone(), vec![])
             }
             (None, Some(k)) => {
-                let idle = self.idle_robots();
+                let idle = self.idle_robots(&requires);
                 if k == 0 || k > idle.len() {
-                    return Err(format!("count {k}: {} idle robots available", idle.len()));
+                    let with = if requires.is_empty() { String::new() } else { format!(" with {}", requires.join(", ")) };
+                    return Err(format!("count {k}: {} idle robots{with} available", idle.len()));
                 }
                 (idle.into_iter().take(k).collect(), vec![])
             }
-            (None, None) => self.equal_share()?,
+            (None, None) => self.equal_share(&requires)?,
         };
         if ids.is_empty() {
             return Err("a mission needs at least one robot".into());
@@ -201,7 +207,7 @@ impl SystemManager {
         if replicas > proto::MAX_REPLICAS {
             return Err(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS));
         }
-        let spec = MissionSpec { name: c.name, recipe_name, recipe_xml: xml, planner: r.planner, params, replicas };
+        let spec = MissionSpec { name: c.name, recipe_name, recipe_xml: xml, planner: r.planner, params, replicas, requires: r.required() };
         Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots })
     }
 
@@ -227,10 +233,12 @@ impl SystemManager {
     /// Alive, registered robots in no mission and running no plan, by id. A robot that runs a
     /// plan of a mission this manager does not know belongs to a mission whose head has not
     /// reported yet (after a restart of central, or a partition): it is not free.
-    fn idle_robots(&self) -> Vec<String> {
+    /// Only robots with every capability of `requires`.
+    fn idle_robots(&self, requires: &[String]) -> Vec<String> {
         self.robots
             .iter()
             .filter(|(id, r)| r.alive && r.info.is_some() && !self.assignment.contains_key(*id))
+            .filter(|(_, r)| r.info.as_ref().is_some_and(|i| super::capabilities::lacking(&i.capabilities, requires).is_empty()))
             // Running no plan, and not admitted to a mission that may still count on it (a
             // central that restarted may not know that mission yet).
             .filter(|(_, r)| r.last.as_ref().is_some_and(|t| t.mission.is_none() && t.admitted.iter().all(|m| self.terminated.contains(m))))
@@ -240,11 +248,12 @@ impl SystemManager {
 
     /// The paper's default: the fleet split equally over the missions, the new one included.
     /// Idle robots first; then robots taken from the largest missions, never below their share.
+    /// Only robots with every capability of `requires` are chosen.
     #[allow(clippy::type_complexity)]
-    fn equal_share(&self) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+    fn equal_share(&self, requires: &[String]) -> Result<(Vec<String>, Vec<(String, String)>), String> {
         let alive = self.robots.values().filter(|r| r.alive && r.info.is_some()).count();
         let share = (alive / (self.missions.len() + 1)).max(1);
-        let mut chosen: Vec<String> = self.idle_robots().into_iter().take(share).collect();
+        let mut chosen: Vec<String> = self.idle_robots(requires).into_iter().take(share).collect();
         let mut steal = Vec::new();
         let mut sizes: BTreeMap<String, Vec<String>> = BTreeMap::new();
         for (robot, m) in &self.assignment {
@@ -252,13 +261,19 @@ impl SystemManager {
                 sizes.entry(m.clone()).or_default().push(robot.clone());
             }
         }
+        let capable =
+            |id: &str| self.robots.get(id).and_then(|r| r.info.as_ref()).is_some_and(|i| super::capabilities::lacking(&i.capabilities, requires).is_empty());
         while chosen.len() < share {
-            let Some((name, members)) = sizes.iter_mut().filter(|(_, v)| v.len() > share).max_by_key(|(_, v)| v.len()) else {
+            let Some((name, members)) = sizes.iter_mut().filter(|(_, v)| v.len() > share && v.iter().any(|id| capable(id))).max_by_key(|(_, v)| v.len()) else {
                 break;
             };
-            let Some(id) = members.pop() else { break };
+            let Some(at) = members.iter().rposition(|id| capable(id)) else { break };
+            let id = members.remove(at);
             chosen.push(id.clone());
             steal.push((id, name.clone()));
+        }
+        if chosen.is_empty() && !requires.is_empty() {
+            return Err(format!("no robot with {} available: every such robot is lost or in a mission that cannot spare one", requires.join(", ")));
         }
         if chosen.is_empty() {
             return Err("no robot available: every robot is lost or in a mission that cannot spare one".into());
@@ -310,6 +325,9 @@ impl SystemManager {
             if from.as_ref() == Some(to) {
                 return reply(req, Err(format!("robot {:?} is already in mission {to}", mv.robot)));
             }
+            if let Err(e) = self.check_capable(&mv.robot, to) {
+                return reply(req, Err(e));
+            }
         } else if from.is_none() {
             return reply(req, Err(format!("robot {:?} is in no mission", mv.robot)));
         }
@@ -320,28 +338,35 @@ impl SystemManager {
             },
             None => None,
         };
-        let mut out = Vec::new();
-        let mut left = self.pending_releases(&mv.robot);
-        if let Some(f) = &from {
-            self.assignment.remove(&mv.robot);
-            // After the release still pending from the mission before (whose head may still
-            // count it: found by the system sim, seed 375 with digest beats), so that it joins
-            // its next mission only once every mission it was in let it go.
-            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![mv.robot.clone()] }, left.clone());
-            self.release(&mv.robot, f, ctl);
-            left.push(ctl);
-            if mv.to.is_none() && alive {
-                out.push(Command::SendToRobot { req: None, robot: mv.robot.clone(), cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX } });
-            }
-        }
-        if let (Some(to), Some(member)) = (&mv.to, member) {
-            self.assignment.insert(mv.robot.clone(), to.clone());
-            // It joins once its old mission let it go: never in two teams.
-            self.ctls.push(to, MissionCtl::Joined { member }, left);
-        }
+        let mut out = self.apply_move(&mv.robot, from.clone(), mv.to.clone().zip(member), alive);
         self.note_command(&req, "robot move", &serde_json::to_value(&mv).unwrap_or(Value::Null));
         tracing::info!(robot = %mv.robot, ?from, to = ?mv.to, "robot moved");
         out.push(Command::Reply { req, result: to_value(&json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to})) });
+        out
+    }
+
+    /// Takes `robot` out of mission `from` (its head lets it go; an `alive` robot freed is told to
+    /// leave) and into `to` with its member record, once every mission it was in let it go.
+    pub(super) fn apply_move(&mut self, robot: &str, from: Option<String>, to: Option<(String, Member)>, alive: bool) -> Vec<Command> {
+        let mut out = Vec::new();
+        let mut left = self.pending_releases(robot);
+        if let Some(f) = &from {
+            self.assignment.remove(robot);
+            // After the release still pending from the mission before (whose head may still
+            // count it: found by the system sim, seed 375 with digest beats), so that it joins
+            // its next mission only once every mission it was in let it go.
+            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![robot.to_string()] }, left.clone());
+            self.release(robot, f, ctl);
+            left.push(ctl);
+            if to.is_none() && alive {
+                out.push(Command::SendToRobot { req: None, robot: robot.to_string(), cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX } });
+            }
+        }
+        if let Some((to, member)) = to {
+            self.assignment.insert(robot.to_string(), to.clone());
+            // It joins once its old mission let it go: never in two teams.
+            self.ctls.push(&to, MissionCtl::Joined { member }, left);
+        }
         out
     }
 

@@ -6,6 +6,7 @@
 //! that are re-sent until acknowledged (`ctl.rs`). No I/O: [`SystemManager::handle`] takes the
 //! time and an [`Event`] and returns the [`Command`]s the driver must carry out.
 
+mod capabilities;
 mod ctl;
 pub mod durable;
 mod events;
@@ -19,8 +20,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use mrmm_proto::{
-    self as proto, ChainEnvelope, GotoRequest, JournalEvent, Key, ManagerView, Member, MissionCreate, MissionCtl, MissionMetrics, MissionStart, MissionStatus,
-    MissionView, RobotCommand, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
+    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, ManagerView, Member, MissionCreate, MissionCtl,
+    MissionMetrics, MissionStart, MissionStatus, MissionView, RobotCommand, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
 };
 use serde_json::Value;
 
@@ -77,6 +78,9 @@ pub(crate) struct MissionRecord {
     /// When a manager last reported it (or it was defined here): a mission none reports for
     /// [`RUNNING_WAIT_S`] while robots still run it has lost its chain (`recovery.rs`).
     reported_at: f64,
+    /// Capabilities every member must have (from its recipe; for an adopted mission, from its
+    /// head's reports).
+    requires: Vec<String>,
     /// Adopted from its head's report since this manager started: its membership is learnt
     /// from reports. Otherwise (created here, or restored from the journal) this manager's
     /// assignment is the truth and heads are corrected.
@@ -84,8 +88,12 @@ pub(crate) struct MissionRecord {
 }
 
 impl MissionRecord {
-    fn new(def: MissionDef, view: Option<MissionView>, adopted: bool, now: f64) -> MissionRecord {
-        MissionRecord { host: def.host.clone(), def: Arc::new(def), view, adopted, reported_at: now }
+    fn new(def: Arc<MissionDef>, view: Option<MissionView>, adopted: bool, now: f64) -> MissionRecord {
+        let requires = match &view {
+            Some(v) if def.spec.is_none() => capabilities::reported(v),
+            _ => capabilities::requirements(&def),
+        };
+        MissionRecord { host: def.host.clone(), def, view, adopted, reported_at: now, requires }
     }
 }
 
@@ -268,14 +276,23 @@ impl SystemManager {
                 let id = info.id.clone();
                 match self.robots.get_mut(&id) {
                     Some(rec) => {
-                        if rec.info.is_none() {
-                            tracing::info!(robot = %id, r#type = %info.robot_type, "robot registered");
+                        match &rec.info {
+                            None => tracing::info!(robot = %id, r#type = %info.robot_type, "robot registered"),
+                            Some(old) if old.capabilities != info.capabilities => {
+                                tracing::info!(robot = %id, was = ?old.capabilities, now = ?info.capabilities, "robot capabilities changed")
+                            }
+                            Some(_) => {}
                         }
                         rec.info = Some(info);
                     }
                     None => {
                         tracing::debug!(robot = %id, "info from a robot with no liveliness: ignored")
                     }
+                }
+                // A member that came back without what its mission requires leaves it.
+                let (out, left) = self.unfit(&id);
+                if left.is_some() {
+                    return out;
                 }
                 // A lost member back: its mission takes it again, on our order — and it is
                 // admitted again (it may have restarted and forgotten).
@@ -298,21 +315,33 @@ impl SystemManager {
             Event::Telemetry(t) => self.telemetry(now, *t),
             Event::Tick => self.tick(now),
             Event::Operator { req, request } => self.operator(now, req, request),
-            Event::RobotCommandDone { req, robot, result } => match req {
-                Some(req) => {
-                    let result = match result {
-                        Ok(ack) => to_value(&ack),
-                        Err(e) => Err(format!("robot {robot}: {e}")),
-                    };
-                    vec![Command::Reply { req, result }]
-                }
-                None => {
-                    if let Err(e) = result {
-                        tracing::warn!(robot = %robot, "command failed: {e}");
+            Event::RobotCommandDone { req, robot, result } => {
+                // The answer to a change of capabilities says what the robot has now.
+                let (mut out, left) = match &result {
+                    Ok(CommandAck { capabilities: Some(c), .. }) => self.capabilities_now(&robot, c.clone()),
+                    _ => (vec![], None),
+                };
+                match req {
+                    Some(req) => {
+                        let result = match result {
+                            Ok(ack) => to_value(&ack).map(|mut v| {
+                                if let (Some(m), Some(o)) = (left, v.as_object_mut()) {
+                                    o.insert("left".into(), Value::String(m));
+                                }
+                                v
+                            }),
+                            Err(e) => Err(format!("robot {robot}: {e}")),
+                        };
+                        out.push(Command::Reply { req, result });
                     }
-                    vec![]
+                    None => {
+                        if let Err(e) = result {
+                            tracing::warn!(robot = %robot, "command failed: {e}");
+                        }
+                    }
                 }
-            },
+                out
+            }
             Event::MissionStarted { mission, result } => self.started(&mission, result),
             Event::CtlDone { id, result } => {
                 self.ctls.done(now, id, result);
@@ -417,6 +446,7 @@ impl SystemManager {
             Request::Create(c) => self.create(req, c),
             Request::Terminate(t) => self.terminate(req, t),
             Request::Move(m) => self.move_robot(req, m),
+            Request::Capabilities(c) => self.change_capabilities(req, c),
         }
     }
 

@@ -14,7 +14,7 @@ impl SystemManager {
     pub fn restore(node: String, now: f64, state: Durable) -> Self {
         let mut m = SystemManager::new(node, now);
         for (name, def) in &state.missions {
-            m.missions.insert(name.clone(), MissionRecord { host: def.host.clone(), def: def.clone(), view: None, adopted: false, reported_at: now });
+            m.missions.insert(name.clone(), MissionRecord::new(def.clone(), None, false, now));
         }
         m.assignment = state.assignment.clone();
         m.terminated = state.terminated.clone();

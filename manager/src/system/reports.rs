@@ -36,6 +36,13 @@ impl SystemManager {
         }
         rec.fresh = false;
         let mut out = Vec::new();
+        // Its info changed since we asked (its capabilities did): asked again, at most once per
+        // retry period.
+        let stale = rec.info.as_ref().is_some_and(|i| i.rev != t.info_rev);
+        if stale && rec.info_asked.is_none_or(|a| now - a >= INFO_RETRY_S) {
+            rec.info_asked = Some(now);
+            out.push(Command::FetchInfo { id: t.id.clone() });
+        }
         // A robot running a plan of a mission it is not in (it missed a leave order, or was
         // moved) is told to leave it — but only for missions this manager knows or terminated:
         // after a restart of central, missions it never heard of keep running.
@@ -167,6 +174,9 @@ impl SystemManager {
             // The first report since this manager started from its journal: the head may have
             // missed joins ordered before the restart.
             let first = rec.view.is_none() && !rec.adopted;
+            if rec.def.spec.is_none() {
+                rec.requires = super::capabilities::reported(&view);
+            }
             rec.view = Some(view);
             let mut out = self.reconcile(&name, &robots, &lost, &from);
             if moved {
@@ -196,7 +206,7 @@ impl SystemManager {
             spec: None,
             lineage: lineage_of(view.manager.chain_epoch),
         };
-        self.missions.insert(name.clone(), MissionRecord::new(def, Some(view), true, self.now));
+        self.missions.insert(name.clone(), MissionRecord::new(std::sync::Arc::new(def), Some(view), true, self.now));
         let out = self.reconcile(&name, &robots, &lost, &from);
         self.rejoin(&name);
         out

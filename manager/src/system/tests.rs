@@ -49,6 +49,7 @@ fn info(id: &str) -> RobotInfo {
         endpoints: vec![],
         time_scale: 1.0,
         durable: false,
+        rev: 0,
     }
 }
 
@@ -64,6 +65,7 @@ fn telemetry(id: &str, seq: u64, behaviour: Behaviour) -> Telemetry {
         progress: None,
         admitted: vec![],
         stuck: None,
+        info_rev: 0,
     }
 }
 
@@ -155,7 +157,7 @@ fn goto_is_validated_then_relayed() {
     sm.drive(1.0, Event::RobotGone { id: "r2".into() });
     let e = reply(go(&mut sm, r#"{"robot":"r2","x":3,"y":4}"#)).expect_err("lost");
     assert!(e.contains("lost"), "{e}");
-    let ack = CommandAck { ok: true, robot: "r1".into(), behaviour: Behaviour::Navigate { x: 3.0, y: 4.0 } };
+    let ack = CommandAck { ok: true, robot: "r1".into(), behaviour: Behaviour::Navigate { x: 3.0, y: 4.0 }, capabilities: None };
     let v = reply(sm.drive(2.0, Event::RobotCommandDone { req: Some(Req::Query(7)), robot: "r1".into(), result: Ok(ack) })).expect("ack");
     assert_eq!(v["ok"], Value::Bool(true));
     let e = reply(sm.drive(2.0, Event::RobotCommandDone { req: Some(Req::Query(8)), robot: "r1".into(), result: Err("timeout".into()) })).expect_err("failed");
@@ -228,6 +230,7 @@ impl MissionViewBuilder {
             params: Default::default(),
             error: None,
             plans: None,
+            requires: vec![],
         }
     }
 }

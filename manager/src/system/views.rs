@@ -13,12 +13,14 @@ impl SystemManager {
         match rec.and_then(|r| r.view.clone()) {
             Some(mut v) => {
                 v.robots = robots;
+                v.requires = rec.map(|r| r.requires.clone()).unwrap_or_default();
                 v
             }
             None => MissionView {
                 name: name.to_string(),
                 recipe: rec.map(|r| r.def.recipe.clone()).unwrap_or_default(),
                 planner: rec.map(|r| r.def.planner.clone()).unwrap_or_default(),
+                requires: rec.map(|r| r.requires.clone()).unwrap_or_default(),
                 status: MissionStatus::Planning,
                 robots,
                 lost: vec![],

@@ -95,6 +95,10 @@ pub struct Robot {
     admitted: Vec<(String, Vec<String>, Vec<String>)>,
     /// Whether central (which admits robots to missions) is reachable.
     central_up: bool,
+    /// What the robot can do now: its config's list, changed at runtime by capabilities commands.
+    capabilities: Vec<String>,
+    /// Revision of its info: +1 per change of `capabilities` (telemetry carries it).
+    info_rev: u32,
 }
 
 impl Robot {
@@ -107,7 +111,8 @@ impl Robot {
                 Drive::Ros(Box::new(if b.drive == DriveMode::Nav2 { d.with_nav2(Nav2Goals::new(&b.nav2_action, rand::random())) } else { d }))
             }
         };
-        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: Vec::new(), central_up: false }
+        let capabilities = cfg.capabilities.clone();
+        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: Vec::new(), central_up: false, capabilities, info_rev: 0 }
     }
 
     pub fn id(&self) -> &str {
@@ -159,11 +164,12 @@ impl Robot {
         RobotInfo {
             id: self.cfg.id.clone(),
             robot_type: self.cfg.robot_type.clone(),
-            capabilities: self.cfg.capabilities.clone(),
+            capabilities: self.capabilities.clone(),
             max_speed: self.cfg.kinematics.max_speed,
             endpoints,
             time_scale: self.cfg.time_scale,
             durable: self.cfg.state_dir.is_some(),
+            rev: self.info_rev,
         }
     }
 
@@ -179,7 +185,11 @@ impl Robot {
                 match self.command(&cmd) {
                     Ok(change) => {
                         out.extend(change);
-                        out.push(Command::Reply(Ok(self.ack())));
+                        let mut ack = self.ack();
+                        if matches!(cmd, RobotCommand::Capabilities { .. }) {
+                            ack.capabilities = Some(self.capabilities.clone());
+                        }
+                        out.push(Command::Reply(Ok(ack)));
                         // Tell the fleet at once, not at the next telemetry tick.
                         out.push(Command::Telemetry(self.telemetry()));
                     }
@@ -237,7 +247,7 @@ impl Robot {
     }
 
     fn ack(&self) -> CommandAck {
-        CommandAck { ok: true, robot: self.cfg.id.clone(), behaviour: self.behaviour() }
+        CommandAck { ok: true, robot: self.cfg.id.clone(), behaviour: self.behaviour(), capabilities: None }
     }
 
     fn plan_event(&mut self, ev: executor::Event) -> Vec<Command> {
@@ -257,7 +267,7 @@ impl Robot {
     fn entitled(&self, cmd: &RobotCommand, from: &Sender) -> Result<(), String> {
         let refuse = |what: &str| Err(format!("{} {from} may not {what}", proto::REFUSED));
         match cmd {
-            RobotCommand::Goto { .. } | RobotCommand::Hold | RobotCommand::Leave { .. } | RobotCommand::Admit { .. } => {
+            RobotCommand::Goto { .. } | RobotCommand::Hold | RobotCommand::Leave { .. } | RobotCommand::Admit { .. } | RobotCommand::Capabilities { .. } => {
                 if from.role == Role::Central {
                     Ok(())
                 } else {
@@ -360,6 +370,14 @@ impl Robot {
                     change = Some(Command::LeaveTeam);
                 }
             }
+            RobotCommand::Capabilities { add, remove } => {
+                let new = proto::change_capabilities(&self.capabilities, add, remove)?;
+                if new != self.capabilities {
+                    tracing::info!(robot = %self.cfg.id, was = ?self.capabilities, now = ?new, "capabilities changed");
+                    self.capabilities = new;
+                    self.info_rev = self.info_rev.wrapping_add(1);
+                }
+            }
         }
         Ok(change)
     }
@@ -446,6 +464,7 @@ impl Robot {
             progress: self.exec.as_ref().map(Executor::progress),
             admitted: self.admitted.iter().map(|(m, _, _)| m.clone()).collect(),
             stuck: self.body.stuck().map(str::to_string),
+            info_rev: self.info_rev,
         }
     }
 }

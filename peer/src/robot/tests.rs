@@ -148,3 +148,35 @@ fn an_idle_robot_takes_a_robot_heads_plan_only_while_central_is_unreachable() {
     // Busy in a mission, it stays deaf to strangers even then.
     assert!(cmd_from(&mut r, plan("n", 9), Sender::new(Role::Robot, "r9")).0.is_err());
 }
+
+#[test]
+fn capabilities_change_on_centrals_word_and_telemetry_says_so() {
+    let mut r = Robot::new(
+        RobotConfig::from_json5("t", r#"{ id: "r1", type: "ground", capabilities: ["camera", "lidar"], kinematics: { max_speed: 1, max_turn_rate: 1 } }"#)
+            .expect("config"),
+    );
+    assert_eq!((r.info(vec![]).rev, telemetry(&mut r, 0.0).info_rev), (0, 0));
+    let change = |add: &[&str], remove: &[&str]| RobotCommand::Capabilities {
+        add: add.iter().map(|s| s.to_string()).collect(),
+        remove: remove.iter().map(|s| s.to_string()).collect(),
+    };
+    // Only central changes them (the operator goes through central).
+    assert!(cmd_from(&mut r, change(&[], &["camera"]), Sender::new(Role::Operator, "op")).0.unwrap_err().contains("may not"));
+    assert!(cmd_from(&mut r, change(&[], &["camera"]), Sender::new(Role::Robot, "r2")).0.is_err());
+    assert_eq!(r.info(vec![]).capabilities, ["camera", "lidar"]);
+    let ack = cmd(&mut r, change(&["gripper"], &["camera"])).0.expect("ack");
+    assert_eq!(ack.capabilities.as_deref(), Some(&["gripper".to_string(), "lidar".to_string()][..]));
+    let info = r.info(vec![]);
+    assert_eq!((info.capabilities.clone(), info.rev), (vec!["gripper".to_string(), "lidar".to_string()], 1));
+    assert_eq!(telemetry(&mut r, 0.1).info_rev, 1);
+    // No change, no new revision; bad names are refused and change nothing.
+    cmd(&mut r, change(&["lidar"], &["camera"])).0.expect("ack");
+    assert_eq!(r.info(vec![]).rev, 1);
+    assert!(cmd(&mut r, change(&["night vision"], &[])).0.unwrap_err().contains("bad capability"));
+    assert!(cmd(&mut r, change(&["a"], &["a"])).0.unwrap_err().contains("both added and removed"));
+    let many: Vec<String> = (0..40).map(|i| format!("c{i}")).collect();
+    assert!(cmd(&mut r, RobotCommand::Capabilities { add: many, remove: vec![] }).0.unwrap_err().contains("at most 32"));
+    assert_eq!(r.info(vec![]).capabilities, ["gripper", "lidar"]);
+    // Any other command's answer leaves them out.
+    assert_eq!(cmd(&mut r, RobotCommand::Hold).0.expect("ack").capabilities, None);
+}

@@ -60,7 +60,28 @@ pub struct Recipe {
     pub waypoints: Option<(Vec<Point>, Pos)>,
     pub region: Option<(Vec<Point>, Vec<Vec<Point>>, Pos)>,
     pub behaviours: Vec<Behaviour>,
+    /// Capabilities every robot of the mission must have (`<requires capability="…"/>`).
+    pub requires: Vec<(String, Pos)>,
     pub pos: Pos,
+}
+
+/// Capabilities a recipe may require at most (a robot has at most as many).
+pub const MAX_REQUIRES: usize = 32;
+
+impl Recipe {
+    /// The capabilities every member must have, sorted.
+    pub fn required(&self) -> Vec<String> {
+        let mut out: Vec<String> = self.requires.iter().map(|(c, _)| c.clone()).collect();
+        out.sort();
+        out.dedup();
+        out
+    }
+}
+
+/// Whether `name` can be a capability: 1 to 64 characters of `[A-Za-z0-9_.-]` (the rule robots
+/// and the operator API apply too, `mrmm_proto::validate_capability`).
+pub fn is_capability(name: &str) -> bool {
+    !name.is_empty() && name.len() <= 64 && name.bytes().all(|c| c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-' | b'.'))
 }
 
 /// The behaviour sequence for one robot type (`*`: any type without its own).
@@ -113,8 +134,17 @@ pub fn parse(text: &str) -> Result<Recipe, PlanError> {
         "coverage" => PlannerKind::Coverage,
         other => return Err(root.pos.err(format!("unknown planner {other:?} (patrol, coverage)"))),
     };
-    let mut recipe =
-        Recipe { name, planner, description: String::new(), params: BTreeMap::new(), waypoints: None, region: None, behaviours: Vec::new(), pos: root.pos };
+    let mut recipe = Recipe {
+        name,
+        planner,
+        description: String::new(),
+        params: BTreeMap::new(),
+        waypoints: None,
+        region: None,
+        behaviours: Vec::new(),
+        requires: Vec::new(),
+        pos: root.pos,
+    };
     let mut seen_params = false;
     for child in &root.children {
         match child.name.as_str() {
@@ -135,7 +165,21 @@ pub fn parse(text: &str) -> Result<Recipe, PlanError> {
                 let steps = child.children.iter().map(parse_template).collect::<Result<_, _>>()?;
                 recipe.behaviours.push(Behaviour { robot_type, steps, pos: child.pos });
             }
-            other => return Err(child.pos.err(format!("unknown element <{other}> in <recipe> (description, params, behaviour)"))),
+            "requires" => {
+                leaf(child, &["capability"])?;
+                let name = child.required("capability")?;
+                if !is_capability(name) {
+                    return Err(child.pos.err(format!("<requires capability={name:?}>: use 1 to 64 characters of A-Z a-z 0-9 _ - .")));
+                }
+                if recipe.requires.iter().any(|(c, _)| c == name) {
+                    return Err(child.pos.err(format!("capability {name:?} required twice")));
+                }
+                if recipe.requires.len() >= MAX_REQUIRES {
+                    return Err(child.pos.err(format!("more than {MAX_REQUIRES} <requires>")));
+                }
+                recipe.requires.push((name.to_string(), child.pos));
+            }
+            other => return Err(child.pos.err(format!("unknown element <{other}> in <recipe> (description, requires, params, behaviour)"))),
         }
     }
     Ok(recipe)

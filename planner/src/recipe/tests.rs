@@ -135,3 +135,24 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn requires_lists_capabilities_with_their_errors() {
+    let with = |req: &str| PATROL.replace("  <params>", &format!("{req}\n  <params>"));
+    let r = parse(&with("  <requires capability=\"camera\"/>\n  <requires capability=\"arm.gripper\"/>")).expect("parse");
+    validate(&r).expect("valid");
+    assert_eq!(r.required(), ["arm.gripper", "camera"]);
+    assert!(parse(PATROL).expect("patrol").required().is_empty());
+    let e = err(&with("  <requires capability=\"camera\"/>\n  <requires capability=\"camera\"/>"));
+    assert!(e.contains("capability \"camera\" required twice") && e.starts_with("7:3"), "{e}");
+    let e = err(&with("  <requires capability=\"night vision\"/>"));
+    assert!(e.contains("<requires capability=\"night vision\">: use 1 to 64 characters"), "{e}");
+    let e = err(&with("  <requires/>"));
+    assert!(e.contains("capability"), "{e}");
+    let e = err(&with("  <requires capability=\"camera\"><x/></requires>"));
+    assert!(e.contains("<requires> takes no child elements"), "{e}");
+    let many: String = (0..=MAX_REQUIRES).map(|i| format!("<requires capability=\"c{i}\"/>")).collect();
+    let e = err(&with(&many));
+    assert!(e.contains("more than 32 <requires>"), "{e}");
+    assert!(is_capability("thermal-cam_2.0") && !is_capability("") && !is_capability(&"c".repeat(65)) && !is_capability("a/b"));
+}

@@ -145,7 +145,7 @@ pub fn table(ms: &[MissionView]) -> String {
         .map(|m| {
             vec![
                 m.name.clone(),
-                m.recipe.clone(),
+                if m.requires.is_empty() { m.recipe.clone() } else { format!("{} [{}]", m.recipe, m.requires.join(",")) },
                 status(m),
                 robots_cell(&m.robots),
                 format!("{}/{}", m.manager.node, m.manager.epoch),

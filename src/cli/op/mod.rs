@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use mrmm_proto::client::Client;
 use mrmm_proto::net::DEFAULT_CENTRAL;
-use mrmm_proto::{self as proto, Advice, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
+use mrmm_proto::{self as proto, Advice, CapabilitiesRequest, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
 use serde_json::Value;
 
 #[derive(Debug, clap::Args)]
@@ -44,6 +44,17 @@ enum What {
     /// Move a robot to another mission, or out of its mission with `none`
     /// (`mrmm/system/cmd/robot/move`).
     Move { robot: String, to: String },
+    /// Change what a robot can do (a sensor broke, a tool was fitted); it leaves a mission that
+    /// requires what it no longer has (`mrmm/system/cmd/robot/capabilities`).
+    Capabilities {
+        robot: String,
+        /// A capability it now has (repeatable).
+        #[arg(long)]
+        add: Vec<String>,
+        /// A capability it no longer has (repeatable).
+        #[arg(long)]
+        remove: Vec<String>,
+    },
     /// Missions: create, terminate, list, show, marginal.
     #[command(subcommand)]
     Mission(mission::Mission),
@@ -119,6 +130,22 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
                 return print_json(&v);
             }
             println!("{}: {} → {}", v["robot"].as_str().unwrap_or("?"), v["from"].as_str().unwrap_or("none"), v["to"].as_str().unwrap_or("none"));
+        }
+        What::Capabilities { robot, add, remove } => {
+            if add.is_empty() && remove.is_empty() {
+                anyhow::bail!("give --add NAME or --remove NAME (repeatable)");
+            }
+            let req = CapabilitiesRequest { robot, add, remove };
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Capabilities), Some(&req)).await?;
+            if json {
+                return print_json(&v);
+            }
+            let ack: CommandAck = serde_json::from_value(v.clone())?;
+            let has = ack.capabilities.unwrap_or_default();
+            println!("{}: {}", ack.robot, if has.is_empty() { "no capabilities".to_string() } else { has.join(", ") });
+            if let Some(m) = v["left"].as_str() {
+                println!("{} left mission {m}: it requires what the robot no longer has", ack.robot);
+            }
         }
         What::Mission(m) => mission::exec(client, m, json).await?,
         What::Missions => mission::exec(client, mission::Mission::List, json).await?,

@@ -2,6 +2,7 @@
 
 use super::*;
 
+mod capabilities;
 mod journal;
 
 const WAYPOINTS: &str = r#""params": {"waypoints": [[0,0],[20,0],[20,20],[0,20]]}"#;
@@ -47,6 +48,7 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                     params: Default::default(),
                     error: None,
                     plans: None,
+                    requires: vec![],
                 };
                 cmds.extend(sm.drive(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
             }
