@@ -106,6 +106,8 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
     assert_eq!(seen["points"], "4 points", "{seen}");
     assert_eq!(seen["tour_drawn"], true, "the patrol's tour is on the map: {seen}");
     assert!(seen["goto"].as_str().is_some_and(|b| b.starts_with("goto(")), "r4 sent to a point: {seen}");
+    assert_eq!((seen["caps_offered"].as_str(), seen["caps_cell"].as_str()), (Some(""), Some("camera, thermal")), "{seen}");
+    assert_eq!(seen["caps_message"], "r4: camera, thermal", "{seen}");
     assert!(seen["refused"].as_str().is_some_and(|m| m.contains("exists")), "a second mission p is refused in words: {seen}");
     assert!(std::fs::metadata(&shot).map(|m| m.len() > 10_000).unwrap_or(false), "no screenshot");
 
@@ -120,8 +122,9 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
     let fleet: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
     let robot = |id: &str| fleet.iter().find(|r| r.id == id).map(|r| (r.status, r.mission.clone()));
     assert_eq!(robot("r1"), Some((RobotStatus::Busy, Some("p".to_string()))));
-    // r4, in no mission, busy on the goto the operator clicked.
+    // r4, in no mission, busy on the goto the operator clicked, with the capabilities it was given.
     assert_eq!(robot("r4"), Some((RobotStatus::Busy, None)));
+    assert_eq!(fleet.iter().find(|r| r.id == "r4").map(|r| r.capabilities.clone()), Some(vec!["camera".to_string(), "thermal".to_string()]));
     client.close().await;
     Ok(())
 }

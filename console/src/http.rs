@@ -130,6 +130,7 @@ fn system_cmd(group: &str, verb: &str) -> Option<SystemCmd> {
         ("mission", "terminate") => SystemCmd::Terminate,
         ("robot", "move") => SystemCmd::Move,
         ("robot", "goto") => SystemCmd::Goto,
+        ("robot", "capabilities") => SystemCmd::Capabilities,
         _ => return None,
     })
 }
@@ -146,7 +147,10 @@ async fn forward(client: &Client, cmd: SystemCmd, body: &Value) -> Result<Value,
 
 async fn command(State(st): State<AppState>, Path((group, verb)): Path<(String, String)>, body: Result<Json<Value>, JsonRejection>) -> Response {
     let Some(cmd) = system_cmd(&group, &verb) else {
-        return error(StatusCode::NOT_FOUND, format!("no command {group}/{verb}: mission/create, mission/terminate, robot/move, robot/goto"));
+        return error(
+            StatusCode::NOT_FOUND,
+            format!("no command {group}/{verb}: mission/create, mission/terminate, robot/move, robot/goto, robot/capabilities"),
+        );
     };
     let Json(body) = match body {
         Ok(b) => b,

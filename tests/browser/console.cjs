@@ -114,6 +114,12 @@ async function main() {
     };
     const g = await until('r4 going to the clicked point', (s) => s.robots.some((r) => r.id === 'r4' && near(r.behaviour)));
     seen.goto = g.robots.find((r) => r.id === 'r4').behaviour;
+    // r4 is fitted with cameras: said in the Capabilities… dialog (its list, empty, to edit).
+    page.once('dialog', (d) => { seen.caps_offered = d.defaultValue(); d.accept('camera, thermal'); });
+    await page.click('#caps');
+    await until('r4 with a thermal camera', (s) => s.robots.some((r) => r.id === 'r4' && (r.capabilities || []).join() === 'camera,thermal'));
+    seen.caps_cell = await page.textContent('#robots tr[data-robot="r4"] td.caps');
+    seen.caps_message = await page.textContent('#message');
     seen.tour_drawn = s.missions.some((m) => m.summary && m.summary.planner === 'patrol' && m.summary.tour.length === 4);
     // A mistake gets a clear message, not a broken page.
     await page.fill('#new-name', 'p');

@@ -257,6 +257,10 @@
       const name = cell(tr, '');
       const sw = document.createElement('span'); sw.className = 'swatch'; sw.style.background = missionColour(m.name);
       name.append(sw, document.createTextNode(m.name));
+      if (m.requires && m.requires.length) {
+        const need = document.createElement('small'); need.textContent = ` needs ${m.requires.join(', ')}`; need.dataset.requires = m.requires.join(',');
+        name.appendChild(need);
+      }
       cell(tr, m.status + (m.manager && m.manager.uncommitted_s ? ' (not committing)' : ''));
       cell(tr, `${m.robots.length}${m.lost && m.lost.length ? ` +${m.lost.length} lost` : ''}`);
       cell(tr, figure(m));
@@ -271,7 +275,8 @@
       const tr = document.createElement('tr');
       tr.dataset.robot = r.id;
       if (selected.has(r.id)) tr.className = 'selected';
-      cell(tr, r.id); cell(tr, r.type); cell(tr, r.stuck ? `${r.status} (stuck)` : r.status); cell(tr, r.mission || '—');
+      cell(tr, r.id); cell(tr, r.type); cell(tr, (r.capabilities || []).join(', ') || '—', 'caps');
+      cell(tr, r.stuck ? `${r.status} (stuck)` : r.status); cell(tr, r.mission || '—');
       cell(tr, r.stuck || r.behaviour || '', 'doing').title = r.stuck || r.behaviour || '';
       tr.addEventListener('click', (e) => {
         if (!(e.shiftKey || e.ctrlKey || e.metaKey)) { const had = selected.has(r.id) && selected.size === 1; selected.clear(); if (!had) selected.add(r.id); }
@@ -330,6 +335,22 @@
     } catch (e) { say(e.message, false); }
     render();
   }
+  async function capabilities() {
+    if (selected.size !== 1) return say('Select one robot, then click Capabilities… to say what it can do now.', false);
+    const [robot] = [...selected];
+    const r = snap.robots.find((x) => x.id === robot);
+    const had = (r && r.capabilities) || [];
+    const text = window.prompt(`What can ${robot} do now? Capabilities, comma-separated (a robot leaves a mission that requires one it no longer has):`, had.join(', '));
+    if (text === null) return;
+    const now = [...new Set(text.split(',').map((c) => c.trim()).filter((c) => c))];
+    const add = now.filter((c) => !had.includes(c)), remove = had.filter((c) => !now.includes(c));
+    if (!add.length && !remove.length) return say(`${robot}: no change`, true);
+    try {
+      const j = await api('/api/cmd/robot/capabilities', { robot, add, remove });
+      const has = (j.capabilities || []).join(', ') || 'no capabilities';
+      say(`${j.robot}: ${has}${j.left ? `; it left ${j.left}, which requires what it no longer has` : ''}`, true);
+    } catch (e) { say(e.message, false); }
+  }
   async function applyAdvice(action) {
     say(`Moving ${action.robot} to ${action.to || 'idle'}…`, true);
     try {
@@ -369,6 +390,7 @@
     if (going) say(`Click where ${[...selected][0]} should go.`, true);
     render();
   });
+  $('caps').addEventListener('click', capabilities);
   $('undo-point').addEventListener('click', () => { points.pop(); render(); });
   $('clear-points').addEventListener('click', () => { points.length = 0; render(); });
   $('create').addEventListener('click', create);
