@@ -206,6 +206,8 @@ pub struct Report {
     /// Missions central defines (created ok, not terminated) that nobody leads at the end
     /// (counted without disks; with disks such a mission fails the run).
     pub headless: u32,
+    /// Live members of missions that require capabilities, checked at the end to have them.
+    pub required_checked: u32,
     /// The trace, when asked for.
     pub trace: Vec<String>,
 }

@@ -3,7 +3,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_manager::system::Request;
-use mrmm_proto::{MissionCreate, MissionTerminate, RobotMove};
+use mrmm_proto::{CapabilitiesRequest, MissionCreate, MissionTerminate, RobotMove};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde_json::json;
@@ -28,6 +28,11 @@ pub fn cheap_params(patrol: bool) -> BTreeMap<String, serde_json::Value> {
         ]
         .into()
     }
+}
+
+/// The bank's patrol, requiring a camera of every robot.
+fn camera_patrol() -> String {
+    mrmm_planner::recipe::bank("patrol").unwrap_or_default().replace("  <params>", "  <requires capability=\"camera\"/>\n  <params>")
 }
 
 /// The operator of a run with central: random commands, and what came back.
@@ -60,9 +65,16 @@ impl Operator {
                 if patrol && self.names.len() % 2 == 1 {
                     params.insert("barrier".to_string(), json!("leader"));
                 }
+                // Every third patrol requires a camera (no draw: seeds keep their runs until an
+                // operator takes a camera away).
+                let recipe = match (patrol, self.names.len() % 3 == 0) {
+                    (true, true) => camera_patrol(),
+                    (true, false) => "patrol".into(),
+                    (false, _) => "coverage".into(),
+                };
                 Request::Create(MissionCreate {
                     name,
-                    recipe: if patrol { "patrol" } else { "coverage" }.into(),
+                    recipe,
                     count: Some(rng.gen_range(1..=2)),
                     params,
                     replicas: Some(rng.gen_range(1..=2)),
@@ -73,6 +85,16 @@ impl Operator {
             (7, _) => Request::Move(RobotMove { robot, to: None }),
             (_, Some(name)) => Request::Terminate(MissionTerminate { name }),
         };
+        self.next_req += 1;
+        self.pending.insert(self.next_req, request.clone());
+        (self.next_req, request)
+    }
+
+    /// A change of `robot`'s camera: taken away if it has one, else fitted.
+    pub fn camera(&mut self, robot: String, has: bool) -> (u64, Request) {
+        let camera = vec!["camera".to_string()];
+        let (add, remove) = if has { (vec![], camera) } else { (camera, vec![]) };
+        let request = Request::Capabilities(CapabilitiesRequest { robot, add, remove });
         self.next_req += 1;
         self.pending.insert(self.next_req, request.clone());
         (self.next_req, request)

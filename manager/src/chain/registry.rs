@@ -149,6 +149,13 @@ impl<S: Clone> Registry<S> {
                 (Msg::Vote { proposal, .. }, Some(t)) if t.ended && lineage_of(proposal.epoch) <= lineage_of(t.promised) => {
                     return vec![Command::Send { to: from, msg: Msg::End { epoch: u64::MAX } }];
                 }
+                // A late update or beat of the chain that ended here (or an older one): it must
+                // not bring the value back (a replica made of it could stand and revive an ended
+                // mission: found by the system sim, seed 159 with capability changes). Declined,
+                // so that a head of a value of the same name created since goes on without us.
+                (Msg::Update { config, .. } | Msg::Beat { config, .. }, Some(t)) if t.ended && config.epoch <= t.promised => {
+                    return vec![Command::Send { to: from, msg: Msg::Decline { epoch: config.epoch } }];
+                }
                 // A head replicating to us: we are (again) in its chain.
                 (Msg::Update { .. } | Msg::Beat { .. }, Some(_)) => {
                     self.tombs.remove(name);

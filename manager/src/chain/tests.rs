@@ -319,6 +319,27 @@ fn an_ended_chain_does_not_end_a_newer_lineage() {
     assert!(!ends(&out) && out.iter().any(|c| matches!(c, Command::Send { msg: Msg::Refuse { .. }, .. })), "{out:?}");
 }
 
+/// A late update or beat of the chain that ended on a node does not bring the value back there
+/// (its replica could stand and revive the ended mission); one of a value of that name created
+/// since, with a newer epoch, is taken.
+#[test]
+fn a_late_update_of_an_ended_chain_does_not_revive_it() {
+    let mut r: Registry<Vec<u32>> = Registry::new("a", p(), 0.0);
+    let cfg = |epoch: u64| Config { epoch, chain: vec!["b".into(), "a".into()] };
+    let _ = r.receive(0.0, "m", "b".into(), Msg::Update { config: cfg(3), seq: 0, state: vec![1] });
+    let epoch = r.replica("m").and_then(|x| x.config()).map(|c| c.epoch);
+    assert_eq!(epoch, Some(3), "a replica of b's chain");
+    let _ = r.receive(0.1, "m", "b".into(), Msg::End { epoch: 3 });
+    assert!(r.replica("m").is_none() && r.tomb("m").is_some_and(|t| t.ended && t.promised >= 3));
+    for late in [Msg::Update { config: cfg(3), seq: 4, state: vec![1, 2] }, Msg::Beat { config: cfg(3), seq: 4 }] {
+        let out = r.receive(0.2, "m", "b".into(), late);
+        assert!(r.replica("m").is_none(), "revived by a straggler");
+        assert!(matches!(out.as_slice(), [Command::Send { msg: Msg::Decline { epoch: 3 }, .. }]), "{out:?}");
+    }
+    let _ = r.receive(0.3, "m", "c".into(), Msg::Update { config: Config { epoch: 9, chain: vec!["c".into(), "a".into()] }, seq: 0, state: vec![7] });
+    assert!(r.replica("m").is_some(), "a newer chain of that name is joined");
+}
+
 #[test]
 fn a_head_whose_chain_lost_its_memory_says_how_long_it_could_not_commit() {
     let mut n = created();

@@ -337,6 +337,7 @@ impl SystemManager {
                     None => {
                         if let Err(e) = result {
                             tracing::warn!(robot = %robot, "command failed: {e}");
+                            out.extend(self.admit_again(now, &robot));
                         }
                     }
                 }

@@ -40,6 +40,24 @@ impl SystemManager {
         out
     }
 
+    /// A command of ours to `robot` was lost (an admission naming its mission's new head, say):
+    /// an alive member is admitted to its mission again, as managers and members are known now —
+    /// else it may refuse the plans of a head it was never told of, for ever (found by the system
+    /// sim, seed 166 with capability changes). At most once per [`LEAVE_RETRY_S`].
+    pub(super) fn admit_again(&mut self, now: f64, robot: &str) -> Vec<Command> {
+        let Some(mission) = self.assignment.get(robot).filter(|m| self.missions.contains_key(*m)).cloned() else {
+            return vec![];
+        };
+        let Some(rec) = self.robots.get_mut(robot).filter(|r| r.alive) else {
+            return vec![];
+        };
+        if rec.admit_sent.is_some_and(|s| now - s < LEAVE_RETRY_S) {
+            return vec![];
+        }
+        rec.admit_sent = Some(now);
+        self.admit(&mission, &[robot.to_string()])
+    }
+
     /// Admissions of `robots` to `mission`, naming its managers and members as known here.
     pub(super) fn admit(&self, mission: &str, robots: &[String]) -> Vec<Command> {
         if !self.missions.contains_key(mission) {

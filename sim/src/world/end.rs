@@ -69,9 +69,21 @@ impl World {
             if self.op.terminated.contains(m) {
                 continue;
             }
-            let (_, epoch, members) = &hs[0];
+            let (head, epoch, members) = &hs[0];
+            // Every live member has what its mission requires (a member that lost it was taken out).
+            let requires = self
+                .index(head)
+                .and_then(|i| self.nodes[i].host.as_ref())
+                .and_then(|h| h.heads().find(|(n, _)| *n == m).map(|(_, mm)| mm.view(false).requires));
             for r in members {
                 let Some(i) = self.index(r) else { continue };
+                let has = self.nodes[i].robot.as_ref().map(|rb| rb.info(vec![]).capabilities).unwrap_or_default();
+                if let Some(lacks) = requires.iter().flatten().find(|c| !has.contains(c)).filter(|_| self.links.up[i]) {
+                    return Err(format!("live member {r} of {m} lacks {lacks}, which {m} requires, after healing"));
+                }
+                if requires.as_ref().is_some_and(|q| !q.is_empty()) && self.links.up[i] {
+                    self.report.required_checked += 1;
+                }
                 let running = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| (e.mission().to_string(), e.epoch()));
                 if self.links.up[i] && running != Some((m.clone(), *epoch)) {
                     return Err(format!(

@@ -186,6 +186,9 @@ pub struct World {
     rng: ChaCha8Rng,
     /// The random stream of the side power cycles (`Config::side_cycles`).
     fault_rng: ChaCha8Rng,
+    /// The operator's changes of robots' capabilities, drawn from a stream of their own so that
+    /// the other draws of a seed stay as they were.
+    caps_rng: ChaCha8Rng,
     now: f64,
     nodes: Vec<Node>,
     links: Links,
@@ -206,7 +209,7 @@ pub struct World {
 
 fn robot_cfg(id: &str, x: f64, y: f64) -> RobotConfig {
     let text = format!(
-        r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }}, start: {{ x: {x}, y: {y} }}, time_scale: {TIME_SCALE}, telemetry_hz: 5 }}"#
+        r#"{{ id: "{id}", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }}, start: {{ x: {x}, y: {y} }}, time_scale: {TIME_SCALE}, telemetry_hz: 5 }}"#
     );
     match RobotConfig::from_json5("sim", &text) {
         Ok(c) => c,
@@ -264,6 +267,7 @@ impl World {
             cfg,
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
             fault_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x51de_c1c1e),
+            caps_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xca9a_b1e5),
             now: 0.0,
             nodes,
             links: Links::new(n),

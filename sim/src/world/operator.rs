@@ -24,6 +24,17 @@ impl World {
                 let (req, request) = self.op.command(&mut self.rng, &robots);
                 self.log(|| format!("operator: {request:?}"));
                 self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
+                // Now and then a robot's camera breaks or one is fitted.
+                if self.caps_rng.gen_bool(0.3) {
+                    let robot = robots[self.caps_rng.gen_range(0..robots.len())].clone();
+                    let has = self
+                        .index(&robot)
+                        .and_then(|i| self.nodes[i].robot.as_ref())
+                        .is_some_and(|r| r.info(vec![]).capabilities.iter().any(|c| c == "camera"));
+                    let (req, request) = self.op.camera(robot, has);
+                    self.log(|| format!("operator: {request:?}"));
+                    self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
+                }
             }
             Ops::OneMission => {
                 self.queue.push(self.now + 0.25, Ev::Op);
