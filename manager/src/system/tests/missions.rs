@@ -2,6 +2,7 @@
 
 use super::*;
 
+mod admit;
 mod capabilities;
 mod journal;
 
