@@ -116,3 +116,41 @@ async fn a_robot_that_loses_what_its_mission_requires_leaves_it_and_the_mission_
     client.close().await;
     Ok(())
 }
+
+/// A robot with a state dir keeps its changed capabilities across a power cycle (SIGKILL and a
+/// restart), until its config's list changes.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn changed_capabilities_survive_a_restart_with_a_state_dir() -> anyhow::Result<()> {
+    let dir = Scratch::new("capabilities-kept");
+    let (_central, ep) = start_central(&dir)?;
+    let state = dir.path("r1-state");
+    std::fs::create_dir_all(&state)?;
+    let config = robot_config(&dir, "r1", std::slice::from_ref(&ep), 0.0, -3.0, 10.0)?;
+    let config_s = config.display().to_string();
+    let state_s = state.display().to_string();
+    let start_r1 = || start("r1", &["robot", "--config", &config_s, "--state-dir", &state_s], &dir.path("r1.log"), "robot ready", Duration::from_secs(20));
+    let mut r1 = start_r1()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 1).await?;
+    let caps = |want: Vec<&'static str>| {
+        let client = &client;
+        move || {
+            let want = want.clone();
+            async move { robot(client, "r1").await.filter(|r| r.status != proto::RobotStatus::Lost && r.capabilities == want) }
+        }
+    };
+    let (ok, out, err) = op(&ep, &["capabilities", "r1", "--remove", "camera", "--add", "thermal"])?;
+    assert!(ok && out.contains("r1: thermal"), "{out}{err}");
+    r1.kill();
+    eventually("r1 lost", Duration::from_secs(10), || async { robot(&client, "r1").await.filter(|r| r.status == proto::RobotStatus::Lost) }).await?;
+    r1 = start_r1()?;
+    eventually("r1 back with what it was left with", Duration::from_secs(15), caps(vec!["thermal"])).await?;
+    // Its config now says something else (the camera was repaired): the config wins.
+    r1.kill();
+    eventually("r1 lost again", Duration::from_secs(10), || async { robot(&client, "r1").await.filter(|r| r.status == proto::RobotStatus::Lost) }).await?;
+    std::fs::write(&config, std::fs::read_to_string(&config)?.replace(r#"capabilities: ["camera"]"#, r#"capabilities: ["camera", "gripper"]"#))?;
+    let _r1 = start_r1()?;
+    eventually("r1 back with its config's capabilities", Duration::from_secs(15), caps(vec!["camera", "gripper"])).await?;
+    client.close().await;
+    Ok(())
+}

@@ -11,6 +11,7 @@ pub mod config;
 pub mod drive;
 pub mod error;
 pub mod executor;
+pub mod kept;
 pub mod nav_goals;
 pub mod robot;
 pub mod ros_body;

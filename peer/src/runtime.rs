@@ -165,7 +165,16 @@ pub async fn run_on(
         BodySection::Ros2(b) => Some(RosLink::open(b, &id).await?),
         BodySection::Sim => None,
     };
+    // Capabilities changed before a restart come back (a broken camera stays broken).
+    let kept = match &cfg.state_dir {
+        Some(dir) => crate::kept::load(dir, &cfg.capabilities)?,
+        None => None,
+    };
+    let state_dir = cfg.state_dir.clone();
     let mut robot = Robot::new(cfg);
+    if let Some(now) = kept {
+        robot.restore_capabilities(now);
+    }
     let endpoints = net::listening_endpoints(&session).await;
 
     let info_q = session.declare_queryable(Key::RobotInfo(id.clone()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(PeerError::zenoh)?;
@@ -204,6 +213,7 @@ pub async fn run_on(
         telemetry_signs: SignCadence::new(TELEMETRY_SIGN_MS),
         viewers: Viewers::new(proto::VIEWER_HELLO_MS),
         ros,
+        state_dir,
     };
     // Whether the robot's session has a link to any other fleet node (a ROS 2 body stops
     // without one); checked a few times a second.
@@ -381,6 +391,8 @@ struct Io {
     viewers: Viewers,
     /// A ROS 2 body's link.
     ros: Option<RosLink>,
+    /// Where the robot keeps what must survive a restart.
+    state_dir: Option<std::path::PathBuf>,
 }
 
 impl Io {
@@ -464,6 +476,13 @@ impl Io {
             Command::Nav(NavCommand::Cancel(id)) => {
                 if let Some(ros) = &self.ros {
                     ros.cancel_goal(id);
+                }
+            }
+            Command::KeepCapabilities { configured, now } => {
+                if let Some(dir) = &self.state_dir {
+                    if let Err(e) = crate::kept::save(dir, &configured, &now) {
+                        tracing::warn!(robot = %self.id, "capabilities not kept across a restart: {e}");
+                    }
                 }
             }
             Command::Drive(v) => {

@@ -77,6 +77,9 @@ pub enum Command {
     Drive(mrmm_proto::Velocity),
     /// Send Nav2 a goal or cancel one.
     Nav(NavCommand),
+    /// Keep these capabilities, changed from the config's `configured`, in the state dir
+    /// ([`crate::kept`]); only for a robot with one.
+    KeepCapabilities { configured: Vec<String>, now: Vec<String> },
 }
 
 /// A robot's state, independent of the network.
@@ -99,6 +102,8 @@ pub struct Robot {
     capabilities: Vec<String>,
     /// Revision of its info: +1 per change of `capabilities` (telemetry carries it).
     info_rev: u32,
+    /// Pending [`Command::KeepCapabilities`] (out with the reply to the change).
+    keep: bool,
 }
 
 impl Robot {
@@ -112,7 +117,7 @@ impl Robot {
             }
         };
         let capabilities = cfg.capabilities.clone();
-        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: Vec::new(), central_up: false, capabilities, info_rev: 0 }
+        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: Vec::new(), central_up: false, capabilities, info_rev: 0, keep: false }
     }
 
     pub fn id(&self) -> &str {
@@ -159,6 +164,12 @@ impl Robot {
         out
     }
 
+    /// Capabilities kept from before a restart (see [`crate::kept`]) replace the config's.
+    pub fn restore_capabilities(&mut self, now: Vec<String>) {
+        tracing::info!(robot = %self.cfg.id, configured = ?self.cfg.capabilities, now = ?now, "capabilities as changed before the restart");
+        self.capabilities = now;
+    }
+
     /// The registration record (answer of `mrmm/robots/<id>/info`).
     pub fn info(&self, endpoints: Vec<String>) -> RobotInfo {
         RobotInfo {
@@ -190,6 +201,9 @@ impl Robot {
                             ack.capabilities = Some(self.capabilities.clone());
                         }
                         out.push(Command::Reply(Ok(ack)));
+                        if std::mem::take(&mut self.keep) && self.cfg.state_dir.is_some() {
+                            out.push(Command::KeepCapabilities { configured: self.cfg.capabilities.clone(), now: self.capabilities.clone() });
+                        }
                         // Tell the fleet at once, not at the next telemetry tick.
                         out.push(Command::Telemetry(self.telemetry()));
                     }
@@ -376,6 +390,7 @@ impl Robot {
                     tracing::info!(robot = %self.cfg.id, was = ?self.capabilities, now = ?new, "capabilities changed");
                     self.capabilities = new;
                     self.info_rev = self.info_rev.wrapping_add(1);
+                    self.keep = true;
                 }
             }
         }

@@ -180,3 +180,26 @@ fn capabilities_change_on_centrals_word_and_telemetry_says_so() {
     // Any other command's answer leaves them out.
     assert_eq!(cmd(&mut r, RobotCommand::Hold).0.expect("ack").capabilities, None);
 }
+
+#[test]
+fn a_robot_with_a_state_dir_keeps_changed_capabilities() {
+    let json = |dir: &str| format!(r#"{{ id: "r1", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1, max_turn_rate: 1 }} {dir} }}"#);
+    let change = RobotCommand::Capabilities { add: vec![], remove: vec!["camera".into()] };
+    let keeps = |out: &[Command]| {
+        out.iter().find_map(|c| match c {
+            Command::KeepCapabilities { configured, now } => Some((configured.clone(), now.clone())),
+            _ => None,
+        })
+    };
+    let mut stateless = Robot::new(RobotConfig::from_json5("t", &json("")).expect("config"));
+    assert_eq!(keeps(&stateless.handle(0.0, Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") })), None);
+    let mut r = Robot::new(RobotConfig::from_json5("t", &json(r#", state_dir: "/var/lib/mrmm/r1""#)).expect("config"));
+    let out = r.handle(0.0, Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") });
+    assert_eq!(keeps(&out), Some((vec!["camera".to_string()], vec![])));
+    // No change, nothing to keep.
+    assert_eq!(keeps(&r.handle(0.1, Event::Command { cmd: change, from: Sender::new(Role::Central, "central") })), None);
+    // After a restart, what was kept replaces the config's list.
+    let mut again = Robot::new(RobotConfig::from_json5("t", &json(r#", state_dir: "/var/lib/mrmm/r1""#)).expect("config"));
+    again.restore_capabilities(vec!["lidar".into()]);
+    assert_eq!(again.info(vec![]).capabilities, ["lidar"]);
+}

@@ -296,6 +296,7 @@ impl World {
                 // The simulated fleet's robots have simulated bodies: no velocity commands.
                 // Simulated bodies give no ROS 2 commands.
                 robot::Command::Drive(_) | robot::Command::Nav(_) => {}
+                robot::Command::KeepCapabilities { now, .. } => self.nodes[i].kept_caps = Some(now),
                 robot::Command::Telemetry(t) => {
                     for j in 0..self.nodes.len() {
                         if self.lost() {

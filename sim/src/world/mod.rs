@@ -83,6 +83,8 @@ struct Node {
     disk: mrmm_manager::system::Durable,
     /// A robot's or mission host's chain state on disk ([`Config::disks`]), kept across crashes.
     chain_disk: BTreeMap<String, mrmm_manager::chain::Disk<mrmm_proto::MissionSnapshot>>,
+    /// A robot's capabilities as changed at runtime, kept in its state dir ([`Config::disks`]).
+    kept_caps: Option<Vec<String>>,
 }
 
 /// What a query asks of its server.
@@ -239,6 +241,7 @@ impl Node {
             barrier: mrmm_proto::BarrierMode::Mesh,
             leading: false,
             disk: Default::default(),
+            kept_caps: None,
             chain_disk: BTreeMap::new(),
         }
     }
@@ -337,6 +340,10 @@ impl World {
                     n.host = Some(host(n).with_robot());
                 }
                 n.robot = n.cfg.clone().map(Robot::new);
+                // With its state dir, a robot comes back with the capabilities it was left with.
+                if let (Some(r), Some(now)) = (n.robot.as_mut(), n.kept_caps.clone()) {
+                    r.restore_capabilities(now);
+                }
             }
         }
         let inc = self.links.inc[i];
