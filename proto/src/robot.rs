@@ -142,6 +142,11 @@ pub fn check_capabilities(capabilities: &[String]) -> Result<(), String> {
     capabilities.iter().try_for_each(|c| validate_capability(c))
 }
 
+/// Of `requires`, what `capabilities` lacks (in `requires`' order).
+pub fn lacking<'a>(capabilities: &[String], requires: &'a [String]) -> Vec<&'a str> {
+    requires.iter().filter(|c| !capabilities.contains(c)).map(String::as_str).collect()
+}
+
 /// Capabilities a robot has at most.
 pub const MAX_CAPABILITIES: usize = 32;
 

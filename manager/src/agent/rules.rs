@@ -23,7 +23,7 @@ fn patrol_prediction(m: &MissionView, n: usize) -> Option<f64> {
 
 /// Whether robot `r` has every capability mission `m` requires.
 fn fits(r: &RobotView, m: &MissionView) -> bool {
-    m.requires.iter().all(|c| r.capabilities.contains(c))
+    mrmm_proto::lacking(&r.capabilities, &m.requires).is_empty()
 }
 
 /// A robot that can be spared for `target` (one with what it requires): an idle one first, else
@@ -46,7 +46,7 @@ fn donor(robots: &[RobotView], missions: &[MissionView], target: &str) -> Option
 /// Advice when robot `r`, out of mission `m` now, lacks what `m` requires: it was taken out for
 /// that; a robot that has it is suggested.
 fn unfit(robots: &[RobotView], missions: &[MissionView], r: &RobotView, m: &MissionView, now: f64) -> Option<Candidate> {
-    let lacks: Vec<&str> = m.requires.iter().filter(|c| !r.capabilities.contains(c)).map(String::as_str).collect();
+    let lacks = mrmm_proto::lacking(&r.capabilities, &m.requires);
     if lacks.is_empty() {
         return None;
     }

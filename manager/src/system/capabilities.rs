@@ -8,11 +8,6 @@ use serde_json::json;
 
 use super::*;
 
-/// Of `requires`, what `capabilities` lacks.
-pub(crate) fn lacking(capabilities: &[String], requires: &[String]) -> Vec<String> {
-    requires.iter().filter(|c| !capabilities.contains(c)).cloned().collect()
-}
-
 /// What a mission as defined here requires (nothing known for one adopted from its head's
 /// report: its reports say).
 pub(super) fn requirements(def: &MissionDef) -> Vec<String> {
@@ -30,6 +25,17 @@ pub(super) fn reported(view: &MissionView) -> Vec<String> {
     }
 }
 
+/// Whether robot `id` with `has` may be in `mission`, which requires `requires`; the error names
+/// what it lacks.
+pub(super) fn capable(id: &str, has: &[String], mission: &str, requires: &[String]) -> Result<(), String> {
+    let lacks = proto::lacking(has, requires);
+    if lacks.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("robot {id:?} lacks {} (mission {mission} requires {})", lacks.join(", "), requires.join(", ")))
+    }
+}
+
 impl SystemManager {
     /// The capabilities every member of `mission` must have.
     pub(super) fn requires(&self, mission: &str) -> &[String] {
@@ -38,14 +44,17 @@ impl SystemManager {
 
     /// Whether robot `id` has every capability `mission` requires; the error names what it lacks.
     pub(super) fn check_capable(&self, id: &str, mission: &str) -> Result<(), String> {
-        let requires = self.requires(mission);
-        let has = self.robots.get(id).and_then(|r| r.info.as_ref()).map(|i| i.capabilities.as_slice()).unwrap_or(&[]);
-        let lacks = lacking(has, requires);
-        if lacks.is_empty() {
-            Ok(())
-        } else {
-            Err(format!("robot {id:?} lacks {} (mission {mission} requires {})", lacks.join(", "), requires.join(", ")))
-        }
+        capable(id, self.capabilities_of(id), mission, self.requires(mission))
+    }
+
+    /// What robot `id` has (nothing while its info is unknown).
+    fn capabilities_of(&self, id: &str) -> &[String] {
+        self.robots.get(id).and_then(|r| r.info.as_ref()).map(|i| i.capabilities.as_slice()).unwrap_or(&[])
+    }
+
+    /// Whether registered robot `id` has every capability of `requires`.
+    pub(super) fn has_all(&self, id: &str, requires: &[String]) -> bool {
+        self.robots.get(id).is_some_and(|r| r.info.is_some()) && proto::lacking(self.capabilities_of(id), requires).is_empty()
     }
 
     /// The operator changes a robot's capabilities: checked here, carried out by the robot, whose

@@ -163,10 +163,7 @@ impl SystemManager {
                 let mut seen = BTreeSet::new();
                 for id in list {
                     let info = self.live_robot(id)?;
-                    let lacks = super::capabilities::lacking(&info.capabilities, &requires);
-                    if !lacks.is_empty() {
-                        return Err(format!("robot {id:?} lacks {} (mission {} requires {})", lacks.join(", "), c.name, requires.join(", ")));
-                    }
+                    super::capabilities::capable(id, &info.capabilities, &c.name, &requires)?;
                     if !seen.insert(id) {
                         return Err(format!("robot {id:?} listed twice"));
                     }
@@ -238,7 +235,7 @@ impl SystemManager {
         self.robots
             .iter()
             .filter(|(id, r)| r.alive && r.info.is_some() && !self.assignment.contains_key(*id))
-            .filter(|(_, r)| r.info.as_ref().is_some_and(|i| super::capabilities::lacking(&i.capabilities, requires).is_empty()))
+            .filter(|(id, _)| self.has_all(id, requires))
             // Running no plan, and not admitted to a mission that may still count on it (a
             // central that restarted may not know that mission yet).
             .filter(|(_, r)| r.last.as_ref().is_some_and(|t| t.mission.is_none() && t.admitted.iter().all(|m| self.terminated.contains(m))))
@@ -261,8 +258,7 @@ impl SystemManager {
                 sizes.entry(m.clone()).or_default().push(robot.clone());
             }
         }
-        let capable =
-            |id: &str| self.robots.get(id).and_then(|r| r.info.as_ref()).is_some_and(|i| super::capabilities::lacking(&i.capabilities, requires).is_empty());
+        let capable = |id: &str| self.has_all(id, requires);
         while chosen.len() < share {
             let Some((name, members)) = sizes.iter_mut().filter(|(_, v)| v.len() > share && v.iter().any(|id| capable(id))).max_by_key(|(_, v)| v.len()) else {
                 break;
