@@ -74,7 +74,7 @@ mod tests {
         assert_eq!(v.heard(5000, op.clone()), Heard::Kept);
         assert!(v.is_current(10_999, &op));
         for i in 1..MAX_VIEWERS {
-            assert_eq!(v.heard(6000, Sender::new(Role::Operator, &format!("op{i}"))), Heard::Kept);
+            assert_eq!(v.heard(6000, Sender::new(Role::Operator, format!("op{i}"))), Heard::Kept);
         }
         assert_eq!(v.heard(6000, Sender::new(Role::Central, "central")), Heard::Full);
         // Once the others fall silent, room again.

@@ -1,4 +1,4 @@
-//! TSPLIB benchmark: every instance in `../shared/tsplib/` solved with a wall-clock limit per
+//! TSPLIB benchmark: every instance in `tests/data/tsplib/` solved with a wall-clock limit per
 //! instance; prints length, excess over the known optimum and time, then the mean excess.
 //!
 //! `cargo bench -p mrmm-planner --bench tsplib [-- TIME_MS [SEED]]` (default 1000 ms, seed 1).
@@ -13,7 +13,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let limit_ms: u64 = args.first().and_then(|s| s.parse().ok()).unwrap_or(1000);
     let seed: u64 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1);
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/tsplib");
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/tsplib");
     let optima = match std::fs::read_to_string(dir.join("optima.txt")) {
         Ok(t) => t,
         Err(e) => {

@@ -1,4 +1,4 @@
-//! Every TSPLIB instance in ../shared/tsplib: parses, and the solver returns a valid closed tour
+//! Every TSPLIB instance in tests/data/tsplib (committed, with its source): parses, and the solver returns a valid closed tour
 //! (a permutation) whose reported length is the recomputed length and never below the optimum.
 //! Quality and speed are measured by `cargo bench --bench tsplib`, not asserted here.
 
@@ -9,8 +9,8 @@ use mrmm_planner::tsplib;
 
 #[test]
 fn every_instance_gives_a_valid_tour() {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/tsplib");
-    let optima = std::fs::read_to_string(dir.join("optima.txt")).expect("../shared/tsplib/optima.txt beside the repo");
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/tsplib");
+    let optima = std::fs::read_to_string(dir.join("optima.txt")).expect("tests/data/tsplib/optima.txt");
     let mut count = 0;
     for line in optima.lines().filter(|l| !l.starts_with('#') && !l.trim().is_empty()) {
         let mut it = line.split_whitespace();

@@ -67,7 +67,7 @@ impl Operator {
                 }
                 // Every third patrol requires a camera (no draw: seeds keep their runs until an
                 // operator takes a camera away).
-                let recipe = match (patrol, self.names.len() % 3 == 0) {
+                let recipe = match (patrol, self.names.len().is_multiple_of(3)) {
                     (true, true) => camera_patrol(),
                     (true, false) => "patrol".into(),
                     (false, _) => "coverage".into(),
