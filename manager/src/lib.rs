@@ -20,6 +20,7 @@ pub mod error;
 pub mod host;
 pub mod inbox;
 pub mod journal;
+pub mod maps;
 pub mod mission;
 pub mod planner_service;
 pub mod site_router;

@@ -2,6 +2,7 @@
 //! announce themselves with a liveliness token and can run in any process (inside central by
 //! default, or `mrmm planner-service`). Planning runs on the blocking pool.
 
+use mrmm_maps::Map;
 use mrmm_planner::recipe::{self, PlannerKind};
 use std::sync::Arc;
 
@@ -12,6 +13,7 @@ use tokio_util::sync::CancellationToken;
 use zenoh::query::Query;
 
 use crate::error::ManagerError;
+use crate::maps::MapStore;
 use crate::wire;
 
 /// Every planner kind a service offers.
@@ -22,16 +24,37 @@ pub fn kind(name: &str) -> Option<PlannerKind> {
     KINDS.into_iter().find(|k| k.as_str() == name)
 }
 
-/// Plans a request with the planner library, checking that the recipe is of `kind`.
+/// Plans a request with the planner library, checking that the recipe is of `kind`; a request
+/// that names a map needs [`plan_on`].
 pub fn plan(kind: PlannerKind, req: &PlanRequest) -> Result<MissionPlan, String> {
+    plan_on(kind, req, None)
+}
+
+/// Plans a request on `map`, the map it names (held by this node).
+pub fn plan_on(kind: PlannerKind, req: &PlanRequest, map: Option<&Map>) -> Result<MissionPlan, String> {
+    if let (Some(r), None) = (&req.map, map) {
+        return Err(format!("map {} ({}) is not held here", r.name, r.hash));
+    }
     let xml = recipe::bank(&req.recipe).unwrap_or(&req.recipe);
     let r = recipe::parse(xml).map_err(|e| format!("recipe: {e}"))?;
     if r.planner != kind {
         return Err(format!("this is the {} planner; the recipe needs {}", kind.as_str(), r.planner.as_str()));
     }
     let robots: Vec<_> = req.robots.iter().map(wire::robot_spec).collect();
-    let planned = recipe::build(&r, &req.params, &robots).map_err(|e| e.to_string())?;
+    let planned = recipe::build_on(&r, &req.params, &robots, map).map_err(|e| e.to_string())?;
     Ok(wire::mission_plan(&planned))
+}
+
+/// Plans `req` off the async runtime, with its map from `maps` (fetched from the fleet if this
+/// node does not hold it yet).
+pub async fn plan_fetching(mesh: &Mesh, maps: &MapStore, kind: PlannerKind, req: PlanRequest) -> Result<MissionPlan, String> {
+    let held = match &req.map {
+        Some(r) => Some(maps.fetch(mesh, r).await?),
+        None => None,
+    };
+    tokio::task::spawn_blocking(move || plan_on(kind, &req, held.as_ref().map(|h| h.map.as_ref())))
+        .await
+        .unwrap_or_else(|e| Err(format!("planner crashed: {e}")))
 }
 
 /// Plans computed at once at most; a request beyond that (and a waiting line as long) is told
@@ -40,8 +63,10 @@ fn capacity() -> usize {
     std::thread::available_parallelism().map_or(2, |n| n.get()).max(1)
 }
 
-/// Serves planning queries on `mesh` until `shutdown`: only for nodes that host missions.
-pub async fn serve(mesh: Mesh, shutdown: CancellationToken) -> Result<(), ManagerError> {
+/// Serves planning queries on `mesh` until `shutdown`: only for nodes that host missions. Maps
+/// come from `maps` (and are fetched into it).
+pub async fn serve(mesh: Mesh, maps: MapStore, shutdown: CancellationToken) -> Result<(), ManagerError> {
+    maps.start_serving(&mesh, shutdown.child_token());
     let session = mesh.session().clone();
     let zid = session.zid().to_string();
     let slots = Arc::new(Semaphore::new(2 * capacity()));
@@ -79,13 +104,13 @@ pub async fn serve(mesh: Mesh, shutdown: CancellationToken) -> Result<(), Manage
             mesh.reply_error(&q, "planner service busy: try again").await;
             continue;
         };
-        tokio::spawn(answer(mesh.clone(), kind, q, slot, running.clone()));
+        tokio::spawn(answer(mesh.clone(), maps.clone(), kind, q, slot, running.clone()));
     }
     drop(tokens);
     Ok(())
 }
 
-async fn answer(mesh: Mesh, kind: PlannerKind, q: Query, _slot: tokio::sync::OwnedSemaphorePermit, running: Arc<Semaphore>) {
+async fn answer(mesh: Mesh, maps: MapStore, kind: PlannerKind, q: Query, _slot: tokio::sync::OwnedSemaphorePermit, running: Arc<Semaphore>) {
     let req: PlanRequest = match proto::from_json("plan request", &net::query_payload(&q)) {
         Ok(r) => r,
         Err(e) => {
@@ -95,7 +120,7 @@ async fn answer(mesh: Mesh, kind: PlannerKind, q: Query, _slot: tokio::sync::Own
     };
     let Ok(_run) = running.acquire_owned().await else { return };
     let started = std::time::Instant::now();
-    let result = tokio::task::spawn_blocking(move || plan(kind, &req)).await.unwrap_or_else(|e| Err(format!("planner crashed: {e}")));
+    let result = plan_fetching(&mesh, &maps, kind, req).await;
     tracing::info!(kind = kind.as_str(), ms = started.elapsed().as_millis() as u64, ok = result.is_ok(), "planned");
     match result {
         Ok(p) => mesh.reply_json(&q, &p).await,

@@ -33,6 +33,7 @@ pub fn mission_plan(p: &PMissionPlan) -> MissionPlan {
     let summary = match p {
         PMissionPlan::Patrol(p) => PlanSummary::Patrol(PatrolSummary {
             tour: points(&p.tour),
+            waypoints: points(&p.waypoints),
             length: p.length,
             offset: p.offset,
             spacing: p.spacing,

@@ -20,6 +20,10 @@ pub struct Limits {
 pub const ARRIVAL_TOLERANCE: f64 = 0.05;
 /// Near the goal, the body drives only when facing it within this angle, radians.
 const NEAR_ALIGN: f64 = 0.2;
+/// Further away, it turns in place while its heading is off by more than this, radians, so it
+/// follows a route's straight segments instead of sweeping wide arcs at the corners (a route
+/// on a map keeps a robot radius from the walls; an arc would not).
+const FAR_ALIGN: f64 = 0.5;
 
 /// A unicycle robot: position, heading, and the goal it is driving to.
 #[derive(Debug, Clone)]
@@ -93,7 +97,7 @@ impl Body {
         let max = self.cap.map_or(self.limits.max_speed, |c| c.min(self.limits.max_speed));
         // Near the goal (within two turning radii) a unicycle that drives while misaligned can
         // orbit the goal for ever: turn in place until facing it, then close in. Further away,
-        // slow down in proportion to the heading error.
+        // slow down in proportion to the heading error, to a stop at FAR_ALIGN.
         let turning_radius = max / self.limits.max_turn_rate;
         let align = if dist < 2.0 * turning_radius {
             if left > NEAR_ALIGN {
@@ -102,7 +106,7 @@ impl Body {
                 left.cos()
             }
         } else {
-            (1.0 - left / std::f64::consts::FRAC_PI_2).clamp(0.0, 1.0)
+            (1.0 - left / FAR_ALIGN).clamp(0.0, 1.0)
         };
         let speed = max * align;
         let advance = (speed * dt).min(dist);
@@ -199,6 +203,25 @@ mod tests {
                 assert!(run_until_arrival(&mut b, 0.2, 200).is_some(), "bearing {a:.2}, distance {d}");
             }
         }
+    }
+
+    /// Driving a route's right-angle corner, the body stays close to the two segments.
+    #[test]
+    fn a_corner_is_turned_on_the_spot_not_swept() {
+        let mut b = Body::new(Pose { x: 0.0, y: 0.0, theta: 0.0 }, Limits { max_speed: 1.0, max_turn_rate: 1.5 });
+        b.navigate_to(10.0, 0.0);
+        run_until_arrival(&mut b, 0.05, 10_000).expect("first leg");
+        b.navigate_to(10.0, 10.0);
+        let mut worst: f64 = 0.0;
+        for _ in 0..10_000 {
+            let arrived = b.step(0.05);
+            let p = b.pose();
+            worst = worst.max((p.x - 10.0).abs());
+            if arrived {
+                break;
+            }
+        }
+        assert!(worst < 0.1, "strayed {worst} m off the second leg");
     }
 
     #[test]

@@ -25,4 +25,7 @@ pub enum PlanError {
     Recipe { line: usize, column: usize, msg: String },
     #[error("{0}")]
     Invalid(String),
+    /// A map refused a point or could not be read.
+    #[error("{0}")]
+    Map(#[from] mrmm_maps::MapError),
 }

@@ -1,27 +1,8 @@
 //! Plane geometry shared by the planners.
 
-use serde::{Deserialize, Serialize};
-
 use crate::error::PlanError;
 
-/// A point in the plane, metres.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
-pub struct Point {
-    pub x: f64,
-    pub y: f64,
-}
-
-impl Point {
-    pub const fn new(x: f64, y: f64) -> Self {
-        Point { x, y }
-    }
-    pub fn dist(self, o: Point) -> f64 {
-        (self.x - o.x).hypot(self.y - o.y)
-    }
-    pub fn is_finite(self) -> bool {
-        self.x.is_finite() && self.y.is_finite()
-    }
-}
+pub use mrmm_maps::Point;
 
 /// Rejects an empty list and non-finite coordinates.
 pub fn check_finite(points: &[Point]) -> Result<(), PlanError> {

@@ -3,9 +3,11 @@
 
 pub mod assign;
 pub mod coverage;
+pub mod coverage_map;
 pub mod error;
 pub mod geom;
 pub mod limits;
+pub mod onmap;
 pub mod patrol;
 pub mod plan;
 pub mod recipe;
@@ -15,3 +17,4 @@ pub mod tsplib;
 
 pub use error::PlanError;
 pub use geom::Point;
+pub use mrmm_maps as maps;

@@ -20,8 +20,10 @@ use crate::assign::{self, Costs};
 use crate::error::PlanError;
 use crate::geom::{check_distinct, check_finite, Point};
 use crate::limits;
+use crate::onmap::{self, Approach};
 use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::tsp::{self, Budget, Instance, Metric};
+use mrmm_maps::Space;
 
 /// Patrol parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -60,8 +62,12 @@ impl PatrolParams {
 /// A patrol plan for a team.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PatrolPlan {
-    /// The closed tour, in visiting order.
+    /// The closed route, in driving order: the waypoints and, on a map, every corner between
+    /// them (consecutive points joined by straight free segments or graph edges).
     pub tour: Vec<Point>,
+    /// The waypoints in visiting order (where the map put them: a graph's vertices).
+    #[serde(default)]
+    pub waypoints: Vec<Point>,
     pub length: f64,
     /// Arc offset of slot 0 along the tour.
     pub offset: f64,
@@ -83,8 +89,15 @@ pub struct PatrolPlan {
     pub plans: Vec<RobotPlan>,
 }
 
-/// Plans a patrol of `robots` through `params.waypoints`.
+/// Plans a patrol of `robots` through `params.waypoints` in the plane.
 pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, PlanError> {
+    plan_on(params, robots, None)
+}
+
+/// Plans a patrol of `robots` through `params.waypoints`: on `map` (if given) the tour is solved
+/// on shortest-path distances and follows the corridors, robots reach their slots along
+/// shortest paths; without a map, everything is straight lines in the plane.
+pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>) -> Result<PatrolPlan, PlanError> {
     let wps = &params.waypoints;
     limits::at_most("waypoints", wps.len(), limits::MAX_WAYPOINTS)?;
     limits::at_most("robots", robots.len(), limits::MAX_ROBOTS)?;
@@ -103,9 +116,20 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
     if !(params.sync_spacing_max.is_finite() && params.sync_spacing_max > 0.0) {
         return Err(PlanError::Invalid(format!("sync_spacing_max must be positive (got {})", params.sync_spacing_max)));
     }
-    let inst = Instance::new(wps.clone(), Metric::Euclidean)?;
-    let (t, _) = tsp::solve(&inst, &Budget { max_kicks: params.max_kicks, stop: None, seed: params.seed })?;
-    let tour: Vec<Point> = t.order.iter().map(|&i| wps[i]).collect();
+    let budget = Budget { max_kicks: params.max_kicks, stop: None, seed: params.seed };
+    let (waypoints, tour) = match map {
+        None => {
+            let inst = Instance::new(wps.clone(), Metric::Euclidean)?;
+            let (t, _) = tsp::solve(&inst, &budget)?;
+            let tour: Vec<Point> = t.order.iter().map(|&i| wps[i]).collect();
+            (tour.clone(), tour)
+        }
+        Some(space) => {
+            let t = onmap::tour(space, wps, &budget)?;
+            (t.waypoints, t.route)
+        }
+    };
+    limits::at_most("corners of the route", tour.len(), limits::MAX_PLAN_STEPS / 4)?;
     let path = Polyline::closed(&tour);
     let (l, n) = (path.length, robots.len());
     let spacing = l / n as f64;
@@ -122,15 +146,21 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
     let per_slot = per_slot_f as usize;
     let q = n * per_slot;
 
-    // Slot offset and assignment.
+    // Slot offset and assignment: travel times to the slots, straight or along the map.
+    let approach = Approach::new(map, robots, &path)?;
+    let here = |r: &RobotSpec| Point::new(r.x, r.y);
     let mut candidates = vec![0.0];
-    candidates.extend(robots.iter().map(|r| path.project(Point::new(r.x, r.y)) % spacing));
+    candidates.extend(robots.iter().map(|r| path.project(here(r)) % spacing));
+    if map.is_some() && candidates.len() > 16 {
+        // On a map each candidate costs n² lookups: a spread of sixteen is plenty.
+        let step = candidates.len() as f64 / 16.0;
+        candidates = (0..16).map(|k| candidates[(k as f64 * step) as usize]).collect();
+    }
     let mut best: Option<(f64, assign::Assignment)> = None;
     for &offset in &candidates {
         let mut rows = Vec::with_capacity(n);
-        for r in robots {
-            let here = Point::new(r.x, r.y);
-            rows.push((0..n).map(|k| here.dist(path.at(offset + k as f64 * spacing)) / r.speed).collect());
+        for (i, r) in robots.iter().enumerate() {
+            rows.push((0..n).map(|k| approach.cost(i, here(r), &path, offset + k as f64 * spacing).0 / r.speed).collect());
         }
         let a = assign::bottleneck(&Costs::from_rows(&rows)?);
         let better = best.as_ref().is_none_or(|(_, b)| a.max < b.max - 1e-9 || (a.max <= b.max + 1e-9 && a.total < b.total - 1e-9));
@@ -139,17 +169,24 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
         }
     }
     let (offset, a) = best.ok_or_else(|| PlanError::Invalid("no slot offset".into()))?;
+    if !a.max.is_finite() {
+        let r =
+            robots.iter().enumerate().find(|(i, r)| !approach.cost(*i, here(r), &path, offset).0.is_finite()).map(|(_, r)| r.id.clone()).unwrap_or_default();
+        return Err(PlanError::Invalid(format!("robot {r} cannot reach the patrol's route on the map")));
+    }
 
     let assignments: Vec<PatrolAssignment> = robots
         .iter()
+        .enumerate()
         .zip(&a.slot)
-        .map(|(r, &slot)| {
+        .map(|((i, r), &slot)| {
             let start_arc = offset + slot as f64 * spacing;
             PatrolAssignment {
                 robot: r.id.clone(),
                 robot_type: r.robot_type.clone(),
                 slot,
                 start: path.at(start_arc),
+                approach: approach.route(i, here(r), &path, start_arc),
                 round: round_steps(&path, start_arc, q, team_speed),
             }
         })
@@ -158,6 +195,7 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
     Ok(PatrolPlan {
         length: l,
         tour,
+        waypoints,
         offset,
         spacing,
         team_speed,
@@ -178,6 +216,9 @@ pub struct PatrolAssignment {
     pub slot: usize,
     /// The slot's start point.
     pub start: Point,
+    /// The points the robot drives through to its slot, the slot last (straight in the plane;
+    /// the route's corners on a map).
+    pub approach: Vec<Point>,
     /// One round of the tour from the slot: navigation at team speed with the sync points.
     pub round: Vec<Step>,
 }
@@ -185,9 +226,12 @@ pub struct PatrolAssignment {
 impl PatrolAssignment {
     /// The default behaviour: stream, go to the slot, start barrier, loop the round.
     pub fn default_plan(&self, rounds: Option<u32>) -> RobotPlan {
-        let mut steps = vec![Step::Stream, Step::Navigate { x: self.start.x, y: self.start.y, speed: None }, Step::Sync { point: 0 }];
+        let mut steps = vec![Step::Stream];
+        steps.extend(navigate_through(&self.approach, None));
+        steps.push(Step::Sync { point: 0 });
+        let to = steps.len();
         steps.extend(self.round.iter().cloned());
-        steps.push(Step::Loop { to: 3, rounds });
+        steps.push(Step::Loop { to, rounds });
         RobotPlan { robot: self.robot.clone(), robot_type: self.robot_type.clone(), slot: self.slot, steps }
     }
 }
@@ -222,6 +266,11 @@ fn round_steps(path: &Polyline, start: f64, q: usize, speed: f64) -> Vec<Step> {
         }
     }
     steps
+}
+
+/// One navigate step per point of a route.
+pub fn navigate_through(points: &[Point], speed: Option<f64>) -> impl Iterator<Item = Step> + '_ {
+    points.iter().map(move |p| Step::Navigate { x: p.x, y: p.y, speed })
 }
 
 fn round_cm(v: f64) -> f64 {

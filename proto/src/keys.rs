@@ -25,6 +25,8 @@
 //! | `mrmm/system/robots`, `…/robots/<id>` | queryable on the system manager | [`crate::RobotView`] list / one |
 //! | `mrmm/system/missions`, `…/missions/<name>` | queryable on the system manager | [`crate::MissionView`] list / one with plans |
 //! | `mrmm/system/journal?since=SEQ` | queryable on the system manager | [`crate::JournalPage`] |
+//! | `mrmm/system/maps` | queryable on the system manager | [`crate::MapInfo`] list |
+//! | `mrmm/maps/<hash>/<chunk>` | queryable on every node holding the map | [`crate::MapChunk`] (bincode behind `MRMP`) |
 //! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | [`crate::GotoRequest`] |
 //! | `mrmm/system/cmd/robot/move` | queryable on the system manager | [`crate::RobotMove`] |
 //! | `mrmm/system/cmd/robot/capabilities` | queryable on the system manager | [`crate::CapabilitiesRequest`] |
@@ -148,6 +150,12 @@ pub enum Key {
     SystemMissions,
     SystemMission(String),
     SystemJournal,
+    SystemMaps,
+    /// Chunk `index` of the map bundle whose SHA-256 is `hash`.
+    MapChunk {
+        hash: String,
+        index: u32,
+    },
     SystemCmd(SystemCmd),
 }
 
@@ -180,6 +188,8 @@ impl fmt::Display for Key {
             Key::SystemMissions => f.write_str("mrmm/system/missions"),
             Key::SystemMission(m) => write!(f, "mrmm/system/missions/{m}"),
             Key::SystemJournal => f.write_str("mrmm/system/journal"),
+            Key::SystemMaps => f.write_str("mrmm/system/maps"),
+            Key::MapChunk { hash, index } => write!(f, "mrmm/maps/{hash}/{index}"),
             Key::SystemCmd(SystemCmd::Goto) => f.write_str("mrmm/system/cmd/robot/goto"),
             Key::SystemCmd(SystemCmd::Move) => f.write_str("mrmm/system/cmd/robot/move"),
             Key::SystemCmd(SystemCmd::Capabilities) => f.write_str("mrmm/system/cmd/robot/capabilities"),
@@ -231,6 +241,8 @@ impl Key {
             ["mrmm", "system", "missions"] => Key::SystemMissions,
             ["mrmm", "system", "missions", m] => Key::SystemMission(id(m)?),
             ["mrmm", "system", "journal"] => Key::SystemJournal,
+            ["mrmm", "system", "maps"] => Key::SystemMaps,
+            ["mrmm", "maps", h, i] if crate::map::is_hash(h) => Key::MapChunk { hash: h.to_string(), index: num(i)? },
             ["mrmm", "system", "cmd", "robot", "goto"] => Key::SystemCmd(SystemCmd::Goto),
             ["mrmm", "system", "cmd", "robot", "move"] => Key::SystemCmd(SystemCmd::Move),
             ["mrmm", "system", "cmd", "robot", "capabilities"] => Key::SystemCmd(SystemCmd::Capabilities),
@@ -305,6 +317,8 @@ pub enum Pattern {
     SystemCmdAll,
     /// Everything the advising agent answers and publishes: `mrmm/agent/**`
     AgentAll,
+    /// Every chunk of every map: `mrmm/maps/*/*`
+    AllMapChunks,
     /// Everything of mrmm: `mrmm/**`
     All,
 }
@@ -326,6 +340,7 @@ impl fmt::Display for Pattern {
             Pattern::SystemAll => f.write_str("mrmm/system/**"),
             Pattern::SystemCmdAll => f.write_str("mrmm/system/cmd/**"),
             Pattern::AgentAll => f.write_str("mrmm/agent/**"),
+            Pattern::AllMapChunks => f.write_str("mrmm/maps/*/*"),
             Pattern::All => f.write_str("mrmm/**"),
         }
     }
@@ -397,6 +412,8 @@ mod tests {
             Key::SystemMissions,
             Key::SystemMission(s("p1")),
             Key::SystemJournal,
+            Key::SystemMaps,
+            Key::MapChunk { hash: "0f".repeat(32), index: 3 },
             Key::SystemCmd(SystemCmd::Goto),
             Key::SystemCmd(SystemCmd::Move),
             Key::SystemCmd(SystemCmd::Capabilities),

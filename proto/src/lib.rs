@@ -14,6 +14,7 @@ pub mod config;
 pub mod error;
 pub mod journal;
 pub mod keys;
+pub mod map;
 pub mod mesh;
 pub mod mission;
 pub mod net;
@@ -29,6 +30,7 @@ pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to
 pub use error::ProtoError;
 pub use journal::{JournalEntry, JournalEvent, JournalPage};
 pub use keys::{natural_cmp, validate_id, validate_subteam, Key, Pattern, SystemCmd};
+pub use map::{MapChunk, MapInfo, MapRef};
 pub use mesh::{Mesh, NodeNet, UNPROVEN};
 pub use mission::*;
 pub use operator::*;

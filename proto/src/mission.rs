@@ -29,6 +29,9 @@ pub struct MissionSpecWire {
     /// Replicas of the mission manager's state after the head (the chain's `k`).
     #[serde(default = "default_replicas")]
     pub replicas: usize,
+    /// The map the mission plans on (fetched by its hash from the fleet); none: the plane.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<crate::map::MapRef>,
 }
 
 /// Name of the mission host inside central.

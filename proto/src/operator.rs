@@ -115,6 +115,9 @@ pub struct MissionCreate {
     /// Robots replicating the mission manager's state (default 2, at most 8).
     #[serde(default)]
     pub replicas: Option<usize>,
+    /// A map central holds (`mrmm op maps`): the mission plans on it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<String>,
 }
 
 /// `mrmm/system/cmd/mission/terminate`.

@@ -72,8 +72,12 @@ pub struct Region {
 /// The patrol planner's figures.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PatrolSummary {
-    /// The closed tour, in visiting order.
+    /// The closed route, in driving order: the waypoints and, on a map, every corner between
+    /// them.
     pub tour: Vec<Point>,
+    /// The waypoints in visiting order (empty from an older planner: then `tour`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub waypoints: Vec<Point>,
     pub length: f64,
     /// Arc offset of slot 0 along the tour.
     pub offset: f64,
@@ -149,6 +153,9 @@ pub struct PlanRequest {
     #[serde(default)]
     pub params: BTreeMap<String, String>,
     pub robots: Vec<RobotSpec>,
+    /// Plan on this map (the planner gets it by its hash); none: in the plane.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<crate::map::MapRef>,
 }
 
 #[cfg(test)]

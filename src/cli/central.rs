@@ -29,6 +29,10 @@ pub struct Args {
     /// (experiments only); overrides the config's `wire_stats`.
     #[arg(long)]
     wire_stats: bool,
+    /// A map missions may plan on, NAME=FILE (repeatable; a Nav2 map's YAML, a patrolling_sim
+    /// .graph or an Open-RMF navigation graph); added to the config's `maps`.
+    #[arg(long = "map", value_name = "NAME=FILE")]
+    maps: Vec<String>,
 }
 
 /// The per-user data directory central keeps its journal in when nothing else is said.
@@ -59,6 +63,10 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     }
     if args.wire_stats {
         cfg.wire_stats = true;
+    }
+    for m in &args.maps {
+        let (name, file) = m.split_once('=').ok_or_else(|| anyhow::anyhow!("--map {m:?}: expected NAME=FILE"))?;
+        cfg.maps.insert(name.to_string(), PathBuf::from(file));
     }
     if let Some(d) = args.state_dir {
         cfg.state_dir = Some(d);

@@ -47,7 +47,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     let session = mesh.session().clone();
     println!("mission-host ready name={} zid={} listening={}", args.name, session.zid(), net::listening_endpoints(&session).await.join(","));
     let shutdown = super::shutdown::on_signals()?;
-    mrmm_manager::host::serve(mesh, args.name, None, stored, shutdown).await?;
+    mrmm_manager::host::serve(mesh, args.name, None, stored, Default::default(), shutdown).await?;
     let _ = session.close().await;
     Ok(())
 }

@@ -5,6 +5,7 @@ mod central;
 mod console;
 mod demo;
 mod experiment;
+mod map;
 mod mission_host;
 pub mod op;
 mod pki;
@@ -51,6 +52,8 @@ enum Cmd {
     Assign(assign::Args),
     /// Plan a recipe for a set of robots; prints the per-robot plans as JSON.
     Plan(plan::Args),
+    /// Maps: `map check FILE` reads one as the fleet would.
+    Map(map::Args),
     /// Run planner services (`mrmm/planner/<kind>`) in their own process.
     PlannerService(planner_service::Args),
     /// Run a mission host (mission managers) in its own process.
@@ -77,6 +80,7 @@ impl Cli {
             | Cmd::Tour(_)
             | Cmd::Assign(_)
             | Cmd::Plan(_)
+            | Cmd::Map(_)
             | Cmd::Tap(_)
             | Cmd::Pki(_) => "warn",
             _ => "info,zenoh=warn",
@@ -96,6 +100,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Tour(a) => tour::run(a),
         Cmd::Assign(a) => assign::run(a),
         Cmd::Plan(a) => plan::run(a),
+        Cmd::Map(a) => map::run(a),
         Cmd::PlannerService(a) => planner_service::run(a).await,
         Cmd::MissionHost(a) => mission_host::run(a).await,
         Cmd::Viz(a) => viz::run(a).await,

@@ -13,9 +13,14 @@ pub struct Args {
     /// JSON file: [{"id", "type", "x", "y", "speed"}, …].
     #[arg(long)]
     robots: std::path::PathBuf,
-    /// Override a recipe parameter (repeatable): key=value; waypoints and region take JSON.
+    /// Override a recipe parameter (repeatable): key=value; waypoints and region take JSON
+    /// (waypoints=all: every vertex of a graph map).
     #[arg(long = "param")]
     params: Vec<String>,
+    /// Plan on this map (a Nav2 map's YAML, a patrolling_sim .graph, an Open-RMF navigation
+    /// graph): `tour` is then the closed route along its corridors or edges, `length` its length.
+    #[arg(long)]
+    map: Option<std::path::PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -29,7 +34,11 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let robots: Vec<RobotSpec> = serde_json::from_str(&robots_text)
         .with_context(|| format!("{}: expected [{{\"id\", \"type\", \"x\", \"y\", \"speed\"}}, …]", args.robots.display()))?;
     let overrides = recipe::parse_overrides(&args.params)?;
-    let plan = recipe::build(&r, &overrides, &robots).map_err(|e| anyhow!("{origin}: {e}"))?;
+    let map = match &args.map {
+        Some(path) => Some(super::map::bundle(path)?.load().map_err(|e| anyhow!("{e}"))?.1),
+        None => None,
+    };
+    let plan = recipe::build_on(&r, &overrides, &robots, map.as_ref()).map_err(|e| anyhow!("{origin}: {e}"))?;
     println!("{}", serde_json::to_string_pretty(&plan)?);
     Ok(())
 }

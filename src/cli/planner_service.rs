@@ -36,7 +36,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     let session = mesh.session().clone();
     println!("planner-service ready zid={} listening={}", session.zid(), net::listening_endpoints(&session).await.join(","));
     let shutdown = super::shutdown::on_signals()?;
-    mrmm_manager::planner_service::serve(mesh, shutdown).await?;
+    mrmm_manager::planner_service::serve(mesh, Default::default(), shutdown).await?;
     let _ = session.close().await;
     Ok(())
 }

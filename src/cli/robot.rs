@@ -60,7 +60,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     // one over when its head dies. It learns its robot's team through `team`.
     let (team_tx, team_rx) = watch::channel(Vec::new());
     let mesh_host = mesh.clone();
-    let host = tokio::spawn(mrmm_manager::host::serve(mesh_host, cfg.id.clone(), Some(team_rx), stored, shutdown.clone()));
+    let host = tokio::spawn(mrmm_manager::host::serve(mesh_host, cfg.id.clone(), Some(team_rx), stored, Default::default(), shutdown.clone()));
     let (tx, rx) = oneshot::channel();
     let task = tokio::spawn(mrmm_peer::runtime::run_on(mesh, cfg, shutdown.clone(), Some(tx), Some(team_tx)));
     if let Ok(r) = rx.await {

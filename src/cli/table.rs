@@ -1,6 +1,6 @@
 //! Plain-text tables for the terminal.
 
-use mrmm_proto::RobotView;
+use mrmm_proto::{MapInfo, RobotView};
 
 /// Renders rows under a header, columns padded to their widest cell.
 pub fn render(header: &[&str], rows: &[Vec<String>]) -> String {
@@ -41,6 +41,27 @@ pub fn robots(views: &[RobotView]) -> String {
         })
         .collect();
     render(&["ID", "TYPE", "STATUS", "MISSION", "BEHAVIOUR", "POSE (x, y) heading", "CAPABILITIES"], &rows)
+}
+
+/// The maps table: the hash abbreviated to 12 digits (`--json` shows it whole).
+pub fn maps(maps: &[MapInfo]) -> String {
+    if maps.is_empty() {
+        return "no maps (give central --map NAME=FILE, or maps in its config)\n".into();
+    }
+    let rows: Vec<Vec<String>> = maps
+        .iter()
+        .map(|m| {
+            vec![
+                m.name.clone(),
+                m.format.clone(),
+                m.size.clone(),
+                format!("{} KiB", m.bytes.div_ceil(1024)),
+                format!("({:.1}, {:.1}) – ({:.1}, {:.1})", m.min.x, m.min.y, m.max.x, m.max.y),
+                m.hash.chars().take(12).collect(),
+            ]
+        })
+        .collect();
+    render(&["NAME", "FORMAT", "SIZE", "BYTES", "EXTENT (m)", "HASH"], &rows)
 }
 
 #[cfg(test)]

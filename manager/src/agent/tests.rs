@@ -33,6 +33,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         summary: (planner == "patrol").then(|| {
             PlanSummary::Patrol(PatrolSummary {
                 tour: vec![],
+                waypoints: vec![],
                 length: 120.0,
                 offset: 0.0,
                 spacing: 0.0,

@@ -42,6 +42,10 @@ pub struct CentralConfig {
     /// Count messages on the wire per kind, readable through the admin space (experiments only).
     #[serde(default)]
     pub wire_stats: bool,
+    /// The maps missions may plan on: `{ NAME: "path/to/map.yaml" }` (a Nav2 map's YAML, a
+    /// patrolling_sim `.graph` or an Open-RMF navigation graph). Relative to the config file.
+    #[serde(default)]
+    pub maps: std::collections::BTreeMap<String, PathBuf>,
 }
 
 fn default_max_message_size() -> usize {
@@ -69,6 +73,7 @@ impl Default for CentralConfig {
             security: None,
             state_dir: None,
             wire_stats: false,
+            maps: Default::default(),
         }
     }
 }
@@ -87,6 +92,13 @@ impl CentralConfig {
         if let (Some(sd), Some(dir)) = (cfg.state_dir.as_mut(), path.parent()) {
             if sd.is_relative() {
                 *sd = dir.join(&*sd);
+            }
+        }
+        if let Some(dir) = path.parent() {
+            for p in cfg.maps.values_mut() {
+                if p.is_relative() {
+                    *p = dir.join(&*p);
+                }
             }
         }
         cfg.validate().map_err(|e| ManagerError::Config(format!("{}: {e}", path.display())))?;
@@ -110,6 +122,9 @@ impl CentralConfig {
             if d.exists() && !d.is_dir() {
                 return Err(format!("state_dir: {} is not a directory", d.display()));
             }
+        }
+        for name in self.maps.keys() {
+            mrmm_proto::validate_id(name).map_err(|_| format!("maps: map name {name:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -"))?;
         }
         if !(100..=60_000).contains(&self.lease_ms) {
             return Err(format!("lease_ms: must be 100..=60000 (got {})", self.lease_ms));

@@ -50,6 +50,12 @@ impl CentralCore {
         CentralCore { system: SystemManager::restore(node, now, state), agent: Agent::new(agent), last_look: now }
     }
 
+    /// The maps missions may plan on, by name.
+    pub fn with_maps(mut self, maps: std::collections::BTreeMap<String, std::sync::Arc<crate::maps::Held>>) -> Self {
+        self.system = self.system.with_maps(maps);
+        self
+    }
+
     pub fn system(&self) -> &SystemManager {
         &self.system
     }
@@ -182,6 +188,7 @@ mod tests {
         view.status = mrmm_proto::MissionStatus::Running;
         view.summary = Some(mrmm_proto::PlanSummary::Patrol(mrmm_proto::plan::PatrolSummary {
             tour: vec![],
+            waypoints: vec![],
             length: 30.0,
             offset: 0.0,
             spacing: 30.0,

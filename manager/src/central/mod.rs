@@ -69,6 +69,14 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         }
     };
 
+    // The maps next: one that cannot be read stops start-up with one line naming it.
+    let maps = crate::maps::MapStore::default();
+    for (name, path) in &cfg.maps {
+        let held = tokio::task::block_in_place(|| crate::maps::load_file(name, path))?;
+        tracing::info!(map = %name, format = %held.info.format, size = %held.info.size, hash = %held.info.hash, "map loaded");
+        maps.insert(held);
+    }
+
     let mesh = Mesh::open(&NodeNet {
         mode: Mode::Router,
         listen: cfg.listen.clone(),
@@ -132,15 +140,15 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         .await
         .map_err(ManagerError::zenoh)?;
     // The default planner service and mission host live here too.
-    let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), shutdown.child_token()));
-    let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, chain, shutdown.child_token()));
+    let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), maps.clone(), shutdown.child_token()));
+    let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, chain, maps.clone(), shutdown.child_token()));
     tracing::info!(%zid, ?endpoints, "central up");
     if let Some(tx) = ready {
         let _ = tx.send(Ready { zid: zid.clone(), endpoints });
     }
 
     let t0 = Instant::now();
-    let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state);
+    let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state).with_maps(maps.by_name());
     let mut io = Io { mesh: mesh.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
     let mut tick = tokio::time::interval(TICK);
     let mut refused = 0;

@@ -25,6 +25,7 @@ pub use self::head::{PLAN_RETRIES, REDELIVER_S};
 use crate::chain::Params;
 use crate::error::ManagerError;
 use crate::inbox::Inbox;
+use crate::maps::MapStore;
 use crate::Failure;
 
 /// How long a planner service may take.
@@ -76,9 +77,10 @@ pub async fn serve(
     node: String,
     local: Option<watch::Receiver<LocalTeam>>,
     stored: Option<store::Opened>,
+    maps: MapStore,
     shutdown: CancellationToken,
 ) -> Result<(), ManagerError> {
-    serve_with(mesh, node, Params::default(), local, stored, shutdown).await
+    serve_with(mesh, node, Params::default(), local, stored, maps, shutdown).await
 }
 
 /// Hosts missions with chain parameters `params` (`params.k` replicas per mission).
@@ -88,8 +90,10 @@ pub async fn serve_with(
     params: Params,
     mut local: Option<watch::Receiver<LocalTeam>>,
     stored: Option<store::Opened>,
+    maps: MapStore,
     shutdown: CancellationToken,
 ) -> Result<(), ManagerError> {
+    maps.start_serving(&mesh, shutdown.child_token());
     let session = mesh.session().clone();
     proto::validate_id(&node).map_err(|e| ManagerError::Config(format!("mission host name: {e}")))?;
     if net::already_alive(&session, &Key::HostAlive(node.clone()).to_string(), net::NAME_CHECK_TIMEOUT).await? {
@@ -150,7 +154,7 @@ pub async fn serve_with(
     if local.is_some() {
         core = core.with_robot();
     }
-    let mut io = Io { mesh: mesh.clone(), tx, net, queries: HashMap::new(), next: 0, served: HashMap::new() };
+    let mut io = Io { mesh: mesh.clone(), tx, net, queries: HashMap::new(), next: 0, served: HashMap::new(), maps };
     let mut status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -187,7 +191,15 @@ pub async fn serve_with(
         };
         // Telemetry does not change whom the core watches; everything else may.
         let (telemetry, team) = (matches!(event, Event::Telemetry(_)), if let Event::LocalTeam(t) = &event { Some(t.clone()) } else { None });
+        let status_tick = matches!(event, Event::StatusTick);
         let commands = core.handle(t0.elapsed().as_secs_f64(), event);
+        if status_tick {
+            // Every mission this node leads or replicates has its map here before a takeover
+            // needs it (central may be gone by then).
+            for r in core.maps() {
+                io.maps.prefetch(&mesh, &r);
+            }
+        }
         if !telemetry {
             follow.follow(&core).await;
         }
@@ -293,6 +305,7 @@ struct Io {
     queries: HashMap<u64, Query>,
     next: u64,
     served: HashMap<String, Served>,
+    maps: MapStore,
 }
 
 /// What this node declares for a mission it leads: its queryables and its status publisher.
@@ -398,13 +411,10 @@ impl Io {
                 self.served.remove(&mission);
             }
             Command::RequestPlan { mission, epoch, kind, request, local } => {
-                let (mesh, tx) = (self.mesh.clone(), self.tx.clone());
+                let (mesh, tx, maps) = (self.mesh.clone(), self.tx.clone(), self.maps.clone());
                 tokio::spawn(async move {
                     let result = if local {
-                        tokio::task::spawn_blocking(move || crate::planner_service::plan(kind, &request))
-                            .await
-                            .unwrap_or_else(|e| Err(format!("planner crashed: {e}")))
-                            .map_err(|error| Failure { retryable: false, error })
+                        crate::planner_service::plan_fetching(&mesh, &maps, kind, request).await.map_err(|error| Failure { retryable: false, error })
                     } else {
                         let key = Key::Planner(kind.as_str().to_string()).to_string();
                         match proto::to_json(&request) {

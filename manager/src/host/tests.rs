@@ -22,6 +22,7 @@ fn start(name: &str, ids: &[&str]) -> Box<MissionStart> {
             planner: "patrol".into(),
             params: [("waypoints".to_string(), "[[0,0],[10,0],[10,10],[0,10]]".to_string())].into(),
             replicas: 2,
+            map: None,
         },
         members: ids.iter().enumerate().map(|(i, id)| member(id, i as f64)).collect(),
         anew: false,

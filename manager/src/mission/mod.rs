@@ -32,6 +32,8 @@ pub struct MissionSpec {
     pub replicas: usize,
     /// Capabilities every member must have (the recipe's `<requires>`, sorted).
     pub requires: Vec<String>,
+    /// The map it plans on; none: the plane.
+    pub map: Option<proto::MapRef>,
 }
 
 impl MissionSpec {
@@ -43,6 +45,7 @@ impl MissionSpec {
             planner: self.planner.as_str().to_string(),
             params: self.params.clone(),
             replicas: self.replicas,
+            map: self.map.clone(),
         }
     }
 
@@ -56,9 +59,21 @@ impl MissionSpec {
         if w.replicas > proto::MAX_REPLICAS {
             return Err(format!("replicas: at most {} (got {})", proto::MAX_REPLICAS, w.replicas));
         }
+        if let Some(m) = &w.map {
+            m.check().map_err(|e| format!("map: {e}"))?;
+        }
         // A recipe that does not parse requires nothing here: planning reports its error.
         let requires = mrmm_planner::recipe::parse(&w.recipe_xml).map(|r| r.required()).unwrap_or_default();
-        Ok(MissionSpec { name: w.name, recipe_name: w.recipe_name, recipe_xml: w.recipe_xml, planner, params: w.params, replicas: w.replicas, requires })
+        Ok(MissionSpec {
+            name: w.name,
+            recipe_name: w.recipe_name,
+            recipe_xml: w.recipe_xml,
+            planner,
+            params: w.params,
+            replicas: w.replicas,
+            requires,
+            map: w.map,
+        })
     }
 }
 
@@ -238,6 +253,11 @@ impl MissionManager {
     /// Replicas of this manager's state after the head.
     pub fn replicas(&self) -> usize {
         self.spec.replicas
+    }
+
+    /// The map the mission plans on.
+    pub fn map(&self) -> Option<&proto::MapRef> {
+        self.spec.map.as_ref()
     }
     pub fn epoch(&self) -> u64 {
         self.epoch
@@ -459,6 +479,7 @@ impl MissionManager {
             recipe: self.spec.recipe_xml.clone(),
             params: self.spec.params.clone(),
             robots: self.members.values().map(|m| m.spec.clone()).collect::<Vec<RobotSpec>>(),
+            map: self.spec.map.clone(),
         }
     }
 
@@ -515,6 +536,7 @@ impl MissionManager {
 /// A plan's patrol waypoints in tour order (none for coverage).
 fn tour(p: &MissionPlan) -> &[Point] {
     match &p.summary {
+        PlanSummary::Patrol(s) if !s.waypoints.is_empty() => &s.waypoints,
         PlanSummary::Patrol(s) => &s.tour,
         PlanSummary::Coverage(_) => &[],
     }

@@ -15,6 +15,7 @@ fn spec() -> MissionSpec {
         params: BTreeMap::from([("waypoints".to_string(), "[[0,0],[20,0],[20,20],[0,20]]".to_string())]),
         replicas: 2,
         requires: vec![],
+        map: None,
     }
 }
 
@@ -75,7 +76,7 @@ fn leaving_replans_for_the_rest_and_old_plans_are_ignored() {
     let (_, old) = plan_for(&[Command::RequestPlan {
         epoch: 1,
         kind: PlannerKind::Patrol,
-        request: PlanRequest { recipe: spec().recipe_xml, params: spec().params, robots: vec![robot("a", "ground", 0.0).spec] },
+        request: PlanRequest { recipe: spec().recipe_xml, params: spec().params, robots: vec![robot("a", "ground", 0.0).spec], map: None },
     }]);
     assert!(m.handle(0.0, Event::PlanReady { epoch: 1, plan: Box::new(old) }).is_empty());
     let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan.clone()) });

@@ -22,11 +22,12 @@ struct Checked {
     /// The parameters of the dry run (little effort) and its robots.
     dry: BTreeMap<String, String>,
     planner_robots: Vec<mrmm_planner::plan::RobotSpec>,
+    map: Option<std::sync::Arc<mrmm_maps::Map>>,
 }
 
 impl Checked {
     fn dry_run(self, id: u64) -> DryRun {
-        DryRun { id, recipe_xml: self.spec.recipe_xml, params: self.dry, robots: self.planner_robots }
+        DryRun { id, recipe_xml: self.spec.recipe_xml, params: self.dry, robots: self.planner_robots, map: self.map }
     }
 }
 
@@ -38,13 +39,15 @@ pub struct DryRun {
     pub recipe_xml: String,
     pub params: BTreeMap<String, String>,
     pub robots: Vec<mrmm_planner::plan::RobotSpec>,
+    /// The mission's map.
+    pub map: Option<std::sync::Arc<mrmm_maps::Map>>,
 }
 
 impl DryRun {
     /// Plans it (pure; bounded by the planner's limits).
     pub fn run(&self) -> Result<(), String> {
         let r = recipe::parse(&self.recipe_xml).map_err(|e| e.to_string())?;
-        recipe::build(&r, &self.params, &self.robots).map(|_| ()).map_err(|e| e.to_string())
+        recipe::build_on(&r, &self.params, &self.robots, self.map.as_deref()).map(|_| ()).map_err(|e| e.to_string())
     }
 }
 
@@ -204,8 +207,24 @@ impl SystemManager {
         if replicas > proto::MAX_REPLICAS {
             return Err(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS));
         }
-        let spec = MissionSpec { name: c.name, recipe_name, recipe_xml: xml, planner: r.planner, params, replicas, requires: r.required() };
-        Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots })
+        let held = match &c.map {
+            None => None,
+            Some(m) => Some(self.maps.get(m).cloned().ok_or_else(|| {
+                let known: Vec<&str> = self.maps.keys().map(String::as_str).collect();
+                format!("no map {m:?} (maps: {})", if known.is_empty() { "none: give central --map NAME=FILE".into() } else { known.join(", ") })
+            })?),
+        };
+        let spec = MissionSpec {
+            name: c.name,
+            recipe_name,
+            recipe_xml: xml,
+            planner: r.planner,
+            params,
+            replicas,
+            requires: r.required(),
+            map: held.as_ref().map(|h| h.map_ref()),
+        };
+        Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots, map: held.map(|h| h.map.clone()) })
     }
 
     /// The controls letting `id` go from missions, while not yet acknowledged (a robot moved

@@ -182,6 +182,8 @@ pub struct SystemManager {
     restarts: BTreeMap<String, Restart>,
     /// Missions said to wait for members with a state dir (said once each).
     restart_held: BTreeSet<String>,
+    /// The maps missions may plan on, by name (central's config).
+    maps: BTreeMap<String, Arc<crate::maps::Held>>,
 }
 
 impl SystemManager {
@@ -210,7 +212,14 @@ impl SystemManager {
             notes: Vec::new(),
             restarts: BTreeMap::new(),
             restart_held: BTreeSet::new(),
+            maps: BTreeMap::new(),
         }
+    }
+
+    /// The maps missions may plan on (`mrmm/system/maps`, a create's `map`).
+    pub fn with_maps(mut self, maps: BTreeMap<String, Arc<crate::maps::Held>>) -> Self {
+        self.maps = maps;
+        self
     }
 
     /// Handles one event.
@@ -429,6 +438,7 @@ impl SystemManager {
                 None => reply(req, Err(format!("unknown robot {id:?}"))),
             },
             Request::Missions => reply(req, to_value(&self.mission_views())),
+            Request::Maps => reply(req, to_value(&self.maps.values().map(|h| h.info.clone()).collect::<Vec<_>>())),
             Request::Mission(name) => match self.missions.get(&name) {
                 Some(r) if r.view.as_ref().is_some_and(|v| v.status != MissionStatus::Stalled) => {
                     let managers = self.managers(&name);

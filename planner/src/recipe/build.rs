@@ -7,11 +7,17 @@ use serde::{Deserialize, Serialize};
 
 use super::{check_param, validate, PlannerKind, Recipe, Template};
 use crate::coverage::{self, CoverageParams, CoveragePlan};
+use crate::coverage_map;
 use crate::error::PlanError;
 use crate::geom::Point;
 use crate::patrol::{self, PatrolParams, PatrolPlan};
 use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::region::Region;
+use mrmm_maps::{Map, Space};
+
+/// Radius of a robot, metres, unless the recipe's `robot_radius` says otherwise: obstacles of a
+/// map are inflated by it.
+pub const DEFAULT_ROBOT_RADIUS: f64 = 0.25;
 
 /// A planned mission: the planner's figures and one plan per robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -40,9 +46,16 @@ pub fn parse_overrides(items: &[String]) -> Result<BTreeMap<String, String>, Pla
     Ok(out)
 }
 
-/// Plans the recipe for `robots`; `overrides` replace the recipe's parameters (`waypoints` as
-/// JSON `[[x, y], …]`, `region` as JSON `[[x, y], …]` or `{"outer": […], "holes": [[…]]}`).
+/// Plans the recipe for `robots` in the plane; see [`build_on`].
 pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSpec]) -> Result<MissionPlan, PlanError> {
+    build_on(r, overrides, robots, None)
+}
+
+/// Plans the recipe for `robots`, on `map` if one is given (routes along its free space or its
+/// edges); `overrides` replace the recipe's parameters (`waypoints` as JSON `[[x, y], …]` or
+/// `all` (every vertex of a graph map), `region` as JSON `[[x, y], …]` or `{"outer": […],
+/// "holes": [[…]]}`).
+pub fn build_on(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSpec], map: Option<&Map>) -> Result<MissionPlan, PlanError> {
     validate(r)?;
     let mut scalars: BTreeMap<String, String> = r.params.iter().map(|(k, (v, _))| (k.clone(), v.clone())).collect();
     for (k, v) in overrides {
@@ -58,6 +71,10 @@ pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSp
     let num = |k: &str| get(k).and_then(|v| v.parse::<f64>().ok());
     let whole = |k: &str| get(k).and_then(|v| v.parse::<u64>().ok());
     let rounds = get("rounds").and_then(|v| v.parse::<u32>().ok());
+    let space = match map {
+        Some(m) => Some(Space::new(m, num("robot_radius").unwrap_or(DEFAULT_ROBOT_RADIUS))?),
+        None => None,
+    };
     for rb in robots {
         behaviour_for(r, &rb.robot_type)
             .ok_or_else(|| r.pos.err(format!("no <behaviour> for robot type {:?} (robot {}) and no type=\"*\"", rb.robot_type, rb.id)))?;
@@ -65,6 +82,10 @@ pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSp
     match r.planner {
         PlannerKind::Patrol => {
             let waypoints = match overrides.get("waypoints") {
+                Some(all) if matches!(all.trim(), "all" | "\"all\"") => match map {
+                    Some(Map::Graph(g)) => g.vertices.iter().map(|v| v.at).collect(),
+                    _ => return Err(PlanError::Invalid("waypoints: \"all\" patrols every vertex of a graph map; this mission has none".into())),
+                },
                 Some(json) => json_points("waypoints", json)?,
                 None => r
                     .waypoints
@@ -87,27 +108,24 @@ pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSp
                 (Some((_, pos)), false) => pos.err(format!("waypoints: {e}")),
                 _ => e,
             };
-            let mut plan = patrol::plan(&params, robots).map_err(at)?;
+            let mut plan = patrol::plan_on(&params, robots, space.as_ref()).map_err(at)?;
             plan.plans = plan
                 .assignments
                 .iter()
-                .map(|a| RobotPlan {
-                    robot: a.robot.clone(),
-                    robot_type: a.robot_type.clone(),
-                    slot: a.slot,
-                    steps: expand_for(r, &a.robot_type, a.start, &a.round, rounds),
+                .zip(robots)
+                .map(|(a, rb)| {
+                    let x = Expand { approach: &a.approach, round: &a.round, rounds, space: space.as_ref() };
+                    Ok(RobotPlan { robot: a.robot.clone(), robot_type: a.robot_type.clone(), slot: a.slot, steps: expand_for(r, rb, &x)? })
                 })
-                .collect();
+                .collect::<Result<_, PlanError>>()?;
             Ok(MissionPlan::Patrol(plan))
         }
         PlannerKind::Coverage => {
-            let (region, pos) = match overrides.get("region") {
-                Some(json) => (json_region(json)?, None),
-                None => {
-                    let (outer, holes, pos) =
-                        r.region.clone().ok_or_else(|| r.pos.err("a coverage needs a region: give <region> in <params> or the parameter region=[[x,y],…]"))?;
-                    (Region { outer, holes }, Some(pos))
-                }
+            let (region, pos) = match (overrides.get("region"), &r.region, map) {
+                (Some(json), _, _) => (json_region(json)?, None),
+                (None, Some((outer, holes, pos)), _) => (Region { outer: outer.clone(), holes: holes.clone() }, Some(*pos)),
+                (None, None, Some(m)) => (map_box(m), None),
+                (None, None, None) => return Err(r.pos.err("a coverage needs a region: give <region> in <params> or the parameter region=[[x,y],…]")),
             };
             let at = |e: PlanError| match pos {
                 Some(p) => p.err(format!("region: {e}")),
@@ -127,44 +145,96 @@ pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSp
             if let Some(v) = whole("seed") {
                 params.seed = v;
             }
-            let mut plan = coverage::plan(&params, robots)?;
-            let points = plan.points.clone();
-            for p in plan.plans.iter_mut() {
-                p.steps = expand_for(r, &p.robot_type, points[p.slot], &[], rounds);
+            let (mut plan, routes) = match &space {
+                Some(space) => coverage_map::plan_on(&params, robots, space)?,
+                None => {
+                    let plan = coverage::plan(&params, robots)?;
+                    let routes = plan.plans.iter().map(|p| vec![plan.points[p.slot]]).collect();
+                    (plan, routes)
+                }
+            };
+            for ((p, route), rb) in plan.plans.iter_mut().zip(&routes).zip(robots) {
+                p.steps = expand_for(r, rb, &Expand { approach: route, round: &[], rounds, space: space.as_ref() })?;
             }
             Ok(MissionPlan::Coverage(plan))
         }
     }
 }
 
+/// The box around a map, as a region (a coverage of the whole map's free space).
+fn map_box(m: &Map) -> Region {
+    let (lo, hi) = match m {
+        Map::Grid(g) => g.bounds(),
+        Map::Graph(g) => {
+            let (lo, hi) = g.bounds();
+            (Point::new(lo.x - 1.0, lo.y - 1.0), Point::new(hi.x + 1.0, hi.y + 1.0))
+        }
+    };
+    Region { outer: vec![lo, Point::new(hi.x, lo.y), hi, Point::new(lo.x, hi.y)], holes: vec![] }
+}
+
 fn behaviour_for<'a>(r: &'a Recipe, robot_type: &str) -> Option<&'a [Template]> {
     r.behaviours.iter().find(|b| b.robot_type == robot_type).or_else(|| r.behaviours.iter().find(|b| b.robot_type == "*")).map(|b| b.steps.as_slice())
 }
 
-fn expand_for(r: &Recipe, robot_type: &str, slot: Point, round: &[Step], rounds: Option<u32>) -> Vec<Step> {
-    let mut out = Vec::new();
-    if let Some(t) = behaviour_for(r, robot_type) {
-        expand(t, slot, round, rounds, &mut out);
-    }
-    out
+/// What a robot's behaviour template is expanded with.
+struct Expand<'a> {
+    /// The points the robot drives through to its slot, the slot last.
+    approach: &'a [Point],
+    round: &'a [Step],
+    rounds: Option<u32>,
+    /// The mission's map: a fixed `<navigate x y>` follows a route on it.
+    space: Option<&'a Space>,
 }
 
-fn expand(templates: &[Template], slot: Point, round: &[Step], rounds: Option<u32>, out: &mut Vec<Step>) {
+fn expand_for(r: &Recipe, robot: &RobotSpec, x: &Expand) -> Result<Vec<Step>, PlanError> {
+    let mut out = Vec::new();
+    if let Some(t) = behaviour_for(r, &robot.robot_type) {
+        let mut at = Point::new(robot.x, robot.y);
+        expand(t, x, &mut at, &mut out)?;
+    }
+    Ok(out)
+}
+
+fn expand(templates: &[Template], x: &Expand, at: &mut Point, out: &mut Vec<Step>) -> Result<(), PlanError> {
     for t in templates {
         match t {
             Template::Stream => out.push(Step::Stream),
-            Template::NavigateSlot => out.push(Step::Navigate { x: slot.x, y: slot.y, speed: None }),
-            Template::NavigateTo { x, y, speed } => out.push(Step::Navigate { x: *x, y: *y, speed: *speed }),
+            Template::NavigateSlot => {
+                out.extend(crate::patrol::navigate_through(x.approach, None));
+                *at = x.approach.last().copied().unwrap_or(*at);
+            }
+            Template::NavigateTo { x: tx, y: ty, speed } => {
+                let target = Point::new(*tx, *ty);
+                let route = match x.space {
+                    None => vec![target],
+                    Some(space) => {
+                        let (from, to) = (space.locate_robot("robot", 0, *at)?, space.locate("<navigate> point", out.len(), target)?);
+                        let mut r =
+                            space.route(&from, &to).ok_or_else(|| PlanError::Invalid(format!("<navigate x={tx} y={ty}>: cannot be reached on the map")))?;
+                        r.remove(0);
+                        r
+                    }
+                };
+                out.extend(crate::patrol::navigate_through(&route, *speed));
+                *at = target;
+            }
             Template::SyncStart => out.push(Step::Sync { point: 0 }),
             Template::Hold { seconds } => out.push(Step::Hold { seconds: *seconds }),
-            Template::Round(_) => out.extend(round.iter().cloned()),
+            Template::Round(_) => {
+                out.extend(x.round.iter().cloned());
+                if let Some(Step::Navigate { x, y, .. }) = x.round.iter().rev().find(|s| matches!(s, Step::Navigate { .. })) {
+                    *at = Point::new(*x, *y);
+                }
+            }
             Template::Loop { rounds: fixed, body, .. } => {
                 let to = out.len();
-                expand(body, slot, round, rounds, out);
-                out.push(Step::Loop { to, rounds: fixed.or(rounds) });
+                expand(body, x, at, out)?;
+                out.push(Step::Loop { to, rounds: fixed.or(x.rounds) });
             }
         }
     }
+    Ok(())
 }
 
 fn json_points(name: &str, json: &str) -> Result<Vec<Point>, PlanError> {

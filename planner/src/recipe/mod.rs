@@ -13,7 +13,7 @@ use crate::error::PlanError;
 use crate::geom::Point;
 use crate::limits;
 
-pub use build::{build, parse_overrides, MissionPlan};
+pub use build::{build, build_on, parse_overrides, MissionPlan, DEFAULT_ROBOT_RADIUS};
 use dom::Element;
 pub use dom::Pos;
 
@@ -43,8 +43,8 @@ impl PlannerKind {
     /// Scalar parameters the planner understands.
     pub fn scalar_params(self) -> &'static [&'static str] {
         match self {
-            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness", "barrier"],
-            PlannerKind::Coverage => &["samples", "lloyd_iterations", "minimax_iterations", "seed"],
+            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness", "barrier", "robot_radius"],
+            PlannerKind::Coverage => &["samples", "lloyd_iterations", "minimax_iterations", "seed", "robot_radius"],
         }
     }
 }
@@ -384,6 +384,13 @@ pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), 
         (PlannerKind::Coverage, "samples") => whole(100, limits::MAX_SAMPLES),
         (PlannerKind::Coverage, "lloyd_iterations" | "minimax_iterations") => whole(0, limits::MAX_ITERATIONS),
         (_, "seed") => whole(0, u64::MAX),
+        // Obstacles of the mission's map are inflated by it (metres; at most 10).
+        (_, "robot_radius") => v
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite() && (0.0..=10.0).contains(x))
+            .map(|_| ())
+            .ok_or_else(|| format!("parameter {name}: {value:?} is not a radius in metres from 0 to 10")),
         _ => Err(format!("unknown parameter {name:?} for the {} planner (known: {})", planner.as_str(), planner.scalar_params().join(", "))),
     }
 }

@@ -30,6 +30,8 @@ pub enum Metric {
     Ceil,
     /// TSPLIB ATT: pseudo-Euclidean.
     Att,
+    /// Given distances (shortest paths on a map): [`Instance::with_matrix`].
+    Matrix,
 }
 
 /// Points plus the metric that measures them.
@@ -37,6 +39,8 @@ pub enum Metric {
 pub struct Instance {
     pub points: Vec<Point>,
     pub metric: Metric,
+    /// With [`Metric::Matrix`]: `n × n` distances, row-major.
+    matrix: Option<std::sync::Arc<[f64]>>,
 }
 
 impl Instance {
@@ -44,7 +48,24 @@ impl Instance {
     pub fn new(points: Vec<Point>, metric: Metric) -> Result<Self, PlanError> {
         check_finite(&points)?;
         check_span(&points)?;
-        Ok(Instance { points, metric })
+        if metric == Metric::Matrix {
+            return Err(PlanError::Invalid("a matrix instance is made with Instance::with_matrix".into()));
+        }
+        Ok(Instance { points, metric, matrix: None })
+    }
+
+    /// An instance measured by `matrix` (`n × n`, row-major, symmetric, finite, not negative);
+    /// the points are where the cities are, for the neighbour lists' ties and for display.
+    pub fn with_matrix(points: Vec<Point>, matrix: Vec<f64>) -> Result<Self, PlanError> {
+        check_finite(&points)?;
+        let n = points.len();
+        if matrix.len() != n * n {
+            return Err(PlanError::Costs(format!("{} distances for {n} points", matrix.len())));
+        }
+        if let Some(i) = matrix.iter().position(|d| !(d.is_finite() && *d >= 0.0)) {
+            return Err(PlanError::Costs(format!("distance from {} to {} is {}", i / n, i % n, matrix[i])));
+        }
+        Ok(Instance { points, metric: Metric::Matrix, matrix: Some(matrix.into()) })
     }
 
     pub fn len(&self) -> usize {
@@ -58,9 +79,13 @@ impl Instance {
     /// Distance between points `i` and `j`.
     #[inline]
     pub fn d(&self, i: usize, j: usize) -> f64 {
+        if let Some(m) = &self.matrix {
+            return m[i * self.points.len() + j];
+        }
         let (a, b) = (self.points[i], self.points[j]);
         let (dx, dy) = (a.x - b.x, a.y - b.y);
         match self.metric {
+            Metric::Matrix => f64::NAN,
             Metric::Euclidean => (dx * dx + dy * dy).sqrt(),
             Metric::EucRound => ((dx * dx + dy * dy).sqrt() + 0.5).floor(),
             Metric::Ceil => (dx * dx + dy * dy).sqrt().ceil(),

@@ -123,6 +123,7 @@ impl World {
             planner: "patrol".into(),
             params,
             replicas: 2,
+            map: None,
         };
         let host = self.nodes.iter().find(|n| n.kind == Kind::Host).map(|n| n.name.clone()).unwrap_or_else(|| robots[0].clone());
         for r in &robots {

@@ -23,7 +23,8 @@ pub enum Mission {
         /// Or this many idle robots. Neither: an equal share of the fleet.
         #[arg(long)]
         count: Option<usize>,
-        /// Patrol waypoints as JSON, e.g. '[[0,0],[20,0],[20,15]]'.
+        /// Patrol waypoints as JSON, e.g. '[[0,0],[20,0],[20,15]]', or `all` (every vertex of
+        /// the mission's graph map).
         #[arg(long)]
         waypoints: Option<String>,
         /// Coverage region as JSON, e.g. '[[0,0],[30,0],[30,30],[0,30]]'.
@@ -39,6 +40,9 @@ pub enum Mission {
         /// node dies (default 2).
         #[arg(long)]
         replicas: Option<usize>,
+        /// Plan on this map of central's (`mrmm op maps`): routes along its corridors or edges.
+        #[arg(long)]
+        map: Option<String>,
     },
     /// Terminate a mission; its robots become idle.
     Terminate { name: String },
@@ -58,19 +62,25 @@ pub enum Mission {
 pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()> {
     let none = None::<&()>;
     match m {
-        Mission::Create { name, recipe, robots, count, waypoints, region, params, host, replicas } => {
+        Mission::Create { name, recipe, robots, count, waypoints, region, params, host, replicas, map } => {
             let recipe = if Path::new(&recipe).is_file() { std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))? } else { recipe };
             let mut p: BTreeMap<String, Value> = BTreeMap::new();
             for (k, v) in [("waypoints", waypoints), ("region", region)] {
-                if let Some(v) = v {
-                    p.insert(k.into(), serde_json::from_str(&v).with_context(|| format!("--{k}: not JSON"))?);
+                match v {
+                    Some(v) if v.trim() == "all" => {
+                        p.insert(k.into(), Value::String("all".into()));
+                    }
+                    Some(v) => {
+                        p.insert(k.into(), serde_json::from_str(&v).with_context(|| format!("--{k}: not JSON"))?);
+                    }
+                    None => {}
                 }
             }
             for kv in params {
                 let (k, v) = kv.split_once('=').ok_or_else(|| anyhow!("--param {kv:?}: expected key=value"))?;
                 p.insert(k.into(), Value::String(v.into()));
             }
-            let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host, replicas };
+            let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host, replicas, map };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&req)).await?;
             if json {
                 return super::print_json(&v);

@@ -60,6 +60,8 @@ enum What {
     Mission(mission::Mission),
     /// The missions table (same as `mission list`).
     Missions,
+    /// The maps missions may plan on: name, format, size, content hash (`mrmm/system/maps`).
+    Maps,
     /// The advising agent's standing advice, most urgent first (`mrmm/agent/advice`).
     Advice,
     /// Central's journal: commands, membership changes, losses, takeovers, replans
@@ -149,6 +151,14 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
         }
         What::Mission(m) => mission::exec(client, m, json).await?,
         What::Missions => mission::exec(client, mission::Mission::List, json).await?,
+        What::Maps => {
+            let v: Value = client.query(proto::Key::SystemMaps, none).await?;
+            if json {
+                return print_json(&v);
+            }
+            let maps: Vec<proto::MapInfo> = serde_json::from_value(v)?;
+            print!("{}", super::table::maps(&maps));
+        }
         What::Advice => {
             let v: Value = client.query(proto::Key::AgentAdvice, none).await?;
             if json {

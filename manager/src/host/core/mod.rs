@@ -247,6 +247,15 @@ impl HostCore {
     pub fn heads(&self) -> impl Iterator<Item = (&String, &MissionManager)> {
         self.heads.iter().map(|(n, h)| (n, &h.mm))
     }
+    /// The maps of the missions this node leads or replicates.
+    pub fn maps(&self) -> Vec<mrmm_proto::MapRef> {
+        let mut out: Vec<mrmm_proto::MapRef> = self.heads.values().filter_map(|h| h.mm.map().cloned()).collect();
+        out.extend(self.registry.names().filter_map(|n| self.registry.replica(n)?.state()?.spec.map.clone()));
+        out.sort();
+        out.dedup();
+        out
+    }
+
     /// This node's chain replica of `mission`.
     pub fn replica(&self, mission: &str) -> Option<&chain::Replica<MissionSnapshot>> {
         self.registry.replica(mission)

@@ -1,0 +1,235 @@
+//! Maps as fleet data on a node: the maps it holds (read from files by central, fetched from the
+//! fleet by everyone else), served in chunks to any node that asks by hash, and fetched the same
+//! way. A map is named by the SHA-256 of its bundle, so whoever answers, the asker checks what it
+//! got: no seal is needed, and a takeover with central gone gets the map from any node that has
+//! it.
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use mrmm_maps::{Bundle, Map, MapSummary};
+use mrmm_proto::map::{MapChunk, CHUNK_BYTES};
+use mrmm_proto::plan::Point;
+use mrmm_proto::{Key, MapInfo, MapRef, Mesh};
+use tokio_util::sync::CancellationToken;
+use zenoh::query::{ConsolidationMode, QueryTarget, Queryable};
+
+use crate::error::ManagerError;
+
+/// How long one chunk may take to arrive.
+const CHUNK_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// A map a node holds: what it is, the map itself, and its bundle's chunks as served.
+#[derive(Debug)]
+pub struct Held {
+    pub info: MapInfo,
+    pub map: Arc<Map>,
+    chunks: Vec<Vec<u8>>,
+}
+
+impl Held {
+    /// Reads the bundle (the map must load) and chunks it; `name` is the operator's name for it.
+    pub fn new(name: &str, bundle: &Bundle) -> Result<Held, mrmm_maps::MapError> {
+        let (format, map) = bundle.load()?;
+        let encoded = bundle.encode();
+        let hash = mrmm_maps::bundle::content_hash(&encoded);
+        let info = info(name, &hash, encoded.len() as u64, &map.summary(format));
+        let chunks = MapChunk::split(&encoded).iter().filter_map(|c| c.encode().ok()).collect();
+        Ok(Held { info, map: Arc::new(map), chunks })
+    }
+
+    pub fn map_ref(&self) -> MapRef {
+        self.info.map_ref()
+    }
+}
+
+/// What the operator sees of a map.
+pub fn info(name: &str, hash: &str, bytes: u64, s: &MapSummary) -> MapInfo {
+    let size = match (&s.grid, &s.graph) {
+        (Some(g), _) => format!("{} × {} cells of {} m, {:.0} m² free", g.width, g.height, g.resolution, g.free_m2),
+        (_, Some(g)) => format!("{} vertices, {} edges, {:.0} m of lanes", g.vertices, g.edges, g.length_m),
+        _ => String::new(),
+    };
+    MapInfo {
+        name: name.to_string(),
+        format: s.format.as_str().to_string(),
+        bytes,
+        hash: hash.to_string(),
+        size,
+        min: Point { x: s.min.x, y: s.min.y },
+        max: Point { x: s.max.x, y: s.max.y },
+    }
+}
+
+/// Reads the map at `path` for the fleet under `name`: one readable line if it cannot be.
+pub fn load_file(name: &str, path: &Path) -> Result<Held, ManagerError> {
+    mrmm_proto::validate_id(name).map_err(|_| ManagerError::Config(format!("map name {name:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -")))?;
+    let bundle = Bundle::collect(&path.to_string_lossy(), |p| std::fs::read(p).map_err(|e| e.to_string()))
+        .map_err(|e| ManagerError::Config(format!("map {name}: {e}")))?;
+    Held::new(name, &bundle).map_err(|e| ManagerError::Config(format!("map {name}: {e}")))
+}
+
+/// The maps of a node, by hash, shared by its tasks (system manager, planner service, mission
+/// host); it serves every one it holds.
+#[derive(Clone, Default)]
+pub struct MapStore {
+    held: Arc<Mutex<HashMap<String, Arc<Held>>>>,
+    fetching: Arc<Mutex<HashSet<String>>>,
+    /// Where newly held maps go to be served.
+    serve_tx: Arc<Mutex<Option<tokio::sync::mpsc::UnboundedSender<Arc<Held>>>>>,
+}
+
+impl std::fmt::Debug for MapStore {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("MapStore").field("held", &self.held.lock().map(|h| h.len()).unwrap_or(0)).finish()
+    }
+}
+
+impl MapStore {
+    pub fn get(&self, hash: &str) -> Option<Arc<Held>> {
+        self.held.lock().ok()?.get(hash).cloned()
+    }
+
+    /// Holds `held` (and serves it, once [`MapStore::serve`] runs).
+    pub fn insert(&self, held: Held) -> Arc<Held> {
+        let held = Arc::new(held);
+        if let Ok(mut m) = self.held.lock() {
+            m.entry(held.info.hash.clone()).or_insert_with(|| held.clone());
+        }
+        if let Some(tx) = self.serve_tx.lock().ok().and_then(|t| t.clone()) {
+            let _ = tx.send(held.clone());
+        }
+        held
+    }
+
+    /// The maps held by name (central's, from its config).
+    pub fn by_name(&self) -> BTreeMap<String, Arc<Held>> {
+        self.held.lock().map(|m| m.values().map(|h| (h.info.name.clone(), h.clone())).collect()).unwrap_or_default()
+    }
+
+    /// The map `r`: held, or fetched from the fleet by its hash (chunk by chunk, checked
+    /// against the hash, then read).
+    pub async fn fetch(&self, mesh: &Mesh, r: &MapRef) -> Result<Arc<Held>, String> {
+        if let Some(h) = self.get(&r.hash) {
+            return Ok(h);
+        }
+        r.check().map_err(|e| format!("map {}: {e}", r.name))?;
+        let first = chunk(mesh, &r.hash, 0).await?;
+        let mut bytes = Vec::with_capacity(first.total as usize * CHUNK_BYTES);
+        let total = first.total;
+        bytes.extend(first.data);
+        for i in 1..total {
+            let c = chunk(mesh, &r.hash, i).await?;
+            if c.total != total {
+                return Err(format!("map {}: chunk {i} says {} chunks, chunk 0 said {total}", r.name, c.total));
+            }
+            bytes.extend(c.data);
+        }
+        let got = mrmm_maps::bundle::content_hash(&bytes);
+        if got != r.hash {
+            return Err(format!("map {}: what arrived hashes to {got}, not {}", r.name, r.hash));
+        }
+        let bundle = Bundle::decode(&r.name, &bytes).map_err(|e| e.to_string())?;
+        let held = Held::new(&r.name, &bundle).map_err(|e| e.to_string())?;
+        tracing::info!(map = %r.name, hash = %r.hash, bytes = bytes.len(), "map fetched from the fleet");
+        Ok(self.insert(held))
+    }
+
+    /// Fetches `r` in the background if it is neither held nor on its way (a node that may take
+    /// a mission over holds its map before it needs it).
+    pub fn prefetch(&self, mesh: &Mesh, r: &MapRef) {
+        if self.get(&r.hash).is_some() || !self.fetching.lock().map(|mut f| f.insert(r.hash.clone())).unwrap_or(false) {
+            return;
+        }
+        let (store, mesh, r) = (self.clone(), mesh.clone(), r.clone());
+        tokio::spawn(async move {
+            if let Err(e) = store.fetch(&mesh, &r).await {
+                tracing::warn!(map = %r.name, "cannot fetch the map yet: {e}");
+            }
+            if let Ok(mut f) = store.fetching.lock() {
+                f.remove(&r.hash);
+            }
+        });
+    }
+
+    /// Serves every map held now or later on `mrmm/maps/<hash>/*` until `shutdown`, in the
+    /// background; a second call (the node's planner service and mission host share the store)
+    /// does nothing.
+    pub fn start_serving(&self, mesh: &Mesh, shutdown: CancellationToken) {
+        if self.serve_tx.lock().map(|t| t.is_some()).unwrap_or(true) {
+            return;
+        }
+        let (store, mesh) = (self.clone(), mesh.clone());
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        if let Ok(mut t) = self.serve_tx.lock() {
+            *t = Some(tx.clone());
+        }
+        for h in self.held.lock().map(|m| m.values().cloned().collect::<Vec<_>>()).unwrap_or_default() {
+            let _ = tx.send(h);
+        }
+        tokio::spawn(async move {
+            if let Err(e) = store.serve(mesh, rx, shutdown).await {
+                tracing::warn!("maps are not served: {e}");
+            }
+        });
+    }
+
+    async fn serve(&self, mesh: Mesh, mut rx: tokio::sync::mpsc::UnboundedReceiver<Arc<Held>>, shutdown: CancellationToken) -> Result<(), ManagerError> {
+        let mut served: HashMap<String, Queryable<()>> = HashMap::new();
+        loop {
+            let held = tokio::select! {
+                _ = shutdown.cancelled() => break,
+                h = rx.recv() => match h { Some(h) => h, None => break },
+            };
+            if served.contains_key(&held.info.hash) {
+                continue;
+            }
+            let key = format!("{}/*", Key::MapChunk { hash: held.info.hash.clone(), index: 0 }.to_string().trim_end_matches("/0"));
+            let h = held.clone();
+            let q = mesh
+                .session()
+                .declare_queryable(key)
+                .complete(true)
+                .callback(move |q| {
+                    let index = match Key::parse(q.key_expr().as_str()) {
+                        Some(Key::MapChunk { index, .. }) => index as usize,
+                        _ => return,
+                    };
+                    let Some(bytes) = h.chunks.get(index).cloned() else { return };
+                    tokio::spawn(async move {
+                        if let Err(e) = q.reply(q.key_expr().clone(), bytes).await {
+                            tracing::debug!("map chunk reply failed: {e}");
+                        }
+                    });
+                })
+                .await
+                .map_err(ManagerError::zenoh)?;
+            served.insert(held.info.hash.clone(), q);
+        }
+        Ok(())
+    }
+}
+
+/// Chunk `index` of the map `hash` from whichever node answers first (the nearest that holds
+/// it; then anyone).
+async fn chunk(mesh: &Mesh, hash: &str, index: u32) -> Result<MapChunk, String> {
+    let key = Key::MapChunk { hash: hash.to_string(), index }.to_string();
+    let mut last = format!("no node answered for {key}");
+    for target in [QueryTarget::BestMatching, QueryTarget::All] {
+        let replies =
+            mesh.session().get(&key).target(target).consolidation(ConsolidationMode::None).timeout(CHUNK_TIMEOUT).await.map_err(|e| format!("{key}: {e}"))?;
+        while let Ok(reply) = replies.recv_async().await {
+            match reply.result() {
+                Ok(s) => match MapChunk::decode(&s.payload().to_bytes()) {
+                    Ok(c) if c.index == index => return Ok(c),
+                    Ok(c) => last = format!("{key}: answered with chunk {}", c.index),
+                    Err(e) => last = format!("{key}: {e}"),
+                },
+                Err(e) => last = format!("{key}: {}", String::from_utf8_lossy(&e.payload().to_bytes()).chars().take(200).collect::<String>()),
+            }
+        }
+    }
+    Err(last)
+}

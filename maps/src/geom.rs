@@ -1,0 +1,27 @@
+//! Points in the plane, metres (the planner's and the maps' one type).
+
+use serde::{Deserialize, Serialize};
+
+/// A point in the plane, metres.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+pub struct Point {
+    pub x: f64,
+    pub y: f64,
+}
+
+impl Point {
+    pub const fn new(x: f64, y: f64) -> Self {
+        Point { x, y }
+    }
+    pub fn dist(self, o: Point) -> f64 {
+        (self.x - o.x).hypot(self.y - o.y)
+    }
+    pub fn is_finite(self) -> bool {
+        self.x.is_finite() && self.y.is_finite()
+    }
+}
+
+/// Length of an open polyline.
+pub fn length(points: &[Point]) -> f64 {
+    points.windows(2).map(|w| w[0].dist(w[1])).sum()
+}

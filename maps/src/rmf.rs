@@ -1,0 +1,61 @@
+//! Open-RMF navigation graphs (`nav_graphs/<n>.yaml`, as `rmf_building_map_tools` writes them):
+//! `levels.<name>.vertices` `[x, y, {name, …}]` and `levels.<name>.lanes` `[from, to, {…}]`,
+//! each lane one direction. mrmm reads graphs of one level.
+
+use std::collections::BTreeMap;
+
+use serde::de::IgnoredAny;
+use serde::Deserialize;
+
+use crate::error::MapError;
+use crate::geom::Point;
+use crate::graph::{Edge, NavGraph, Vertex};
+use crate::nav2::yaml;
+
+#[derive(Deserialize)]
+struct File {
+    levels: BTreeMap<String, Level>,
+}
+
+#[derive(Deserialize)]
+struct Level {
+    #[serde(default)]
+    vertices: Vec<(f64, f64, VertexProps)>,
+    #[serde(default)]
+    lanes: Vec<(u64, u64, IgnoredAny)>,
+}
+
+#[derive(Deserialize, Default)]
+struct VertexProps {
+    #[serde(default)]
+    name: Option<String>,
+}
+
+/// Reads an Open-RMF navigation graph of one level; `file` names it in errors.
+pub fn parse(file: &str, text: &str) -> Result<NavGraph, MapError> {
+    let f: File = yaml(file, text)?;
+    let mut levels = f.levels.into_iter();
+    let (level_name, level) = levels.next().ok_or_else(|| MapError::malformed(file, "field levels", "names no level"))?;
+    if let Some((other, _)) = levels.next() {
+        return Err(MapError::malformed(file, "field levels", format!("has more than one level ({level_name}, {other}, …): mrmm reads one level's graph")));
+    }
+    let mut vertices = Vec::with_capacity(level.vertices.len());
+    let mut names = std::collections::BTreeSet::new();
+    for (i, (x, y, props)) in level.vertices.into_iter().enumerate() {
+        let name = props.name.unwrap_or_default();
+        if !name.is_empty() && !names.insert(name.clone()) {
+            return Err(MapError::malformed(file, format!("levels.{level_name}.vertices[{i}]"), format!("a second vertex named {name:?}")));
+        }
+        vertices.push(Vertex { name: if name.is_empty() { i.to_string() } else { name }, at: Point::new(x, y) });
+    }
+    let n = vertices.len() as u64;
+    let mut edges = Vec::with_capacity(level.lanes.len());
+    for (i, (from, to, _)) in level.lanes.into_iter().enumerate() {
+        if from >= n || to >= n {
+            return Err(MapError::malformed(file, format!("levels.{level_name}.lanes[{i}]"), format!("joins {from} and {to}, but the level has {n} vertices")));
+        }
+        let length = vertices[from as usize].at.dist(vertices[to as usize].at);
+        edges.push(Edge { from: from as u32, to: to as u32, length });
+    }
+    NavGraph { vertices, edges }.checked(file)
+}
