@@ -175,3 +175,14 @@ fn malformed_graphs_name_the_file_the_line_and_the_problem() {
     let e = err_text(Bundle::collect("x.yaml", |_| Ok(b"hello: 1\n".to_vec())).unwrap_err());
     assert!(e.starts_with("x.yaml: top level: neither a Nav2 map"), "{e}");
 }
+
+#[test]
+fn the_demo_building_is_a_nav2_map_with_its_corridor_free() {
+    let (format, map) = bundle("building/building.yaml").load().expect("building");
+    assert_eq!(format, Format::Nav2);
+    let g = map.grid().unwrap();
+    assert_eq!((g.width, g.height, g.resolution), (420, 260, 0.1));
+    assert!(g.is_free(Point::new(0.0, 0.0)), "the corridor");
+    assert_eq!(g.at(Point::new(-4.0, 6.0)), Some(100), "an office wall");
+    assert_eq!(g.at(Point::new(-20.8, 0.0)), Some(-1), "outside is unknown");
+}

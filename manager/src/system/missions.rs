@@ -159,6 +159,13 @@ impl SystemManager {
             recipe::check_param(r.planner, k, v).map_err(|e| format!("mission {}: {e}", c.name))?;
         }
 
+        let held = match &c.map {
+            None => None,
+            Some(m) => Some(self.maps.get(m).cloned().ok_or_else(|| {
+                let known: Vec<&str> = self.maps.keys().map(String::as_str).collect();
+                format!("no map {m:?} (maps: {})", if known.is_empty() { "none: give central --map NAME=FILE".into() } else { known.join(", ") })
+            })?),
+        };
         let requires = r.required();
         let (ids, steal) = match (&c.robots, c.count) {
             (Some(_), Some(_)) => return Err("give robots or count, not both".into()),
@@ -207,13 +214,6 @@ impl SystemManager {
         if replicas > proto::MAX_REPLICAS {
             return Err(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS));
         }
-        let held = match &c.map {
-            None => None,
-            Some(m) => Some(self.maps.get(m).cloned().ok_or_else(|| {
-                let known: Vec<&str> = self.maps.keys().map(String::as_str).collect();
-                format!("no map {m:?} (maps: {})", if known.is_empty() { "none: give central --map NAME=FILE".into() } else { known.join(", ") })
-            })?),
-        };
         let spec = MissionSpec {
             name: c.name,
             recipe_name,

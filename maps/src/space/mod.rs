@@ -185,6 +185,52 @@ impl Space {
         }
     }
 
+    /// `n` points of the map reachable from `from`, nearest first along the map, each at least
+    /// `spacing` metres from the others (where robots can stand side by side: a start area).
+    pub fn spread(&self, from: Point, n: usize, spacing: f64) -> Result<Vec<Point>, MapError> {
+        let start = self.locate_robot("start", 0, from)?;
+        let f = self.field(&start, &[]);
+        let mut order: Vec<(f64, Point)> =
+            (0..self.nodes() as u32).filter_map(|i| Some((f.dist[i as usize], self.node_point(i)?))).filter(|(d, _)| d.is_finite()).collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut out: Vec<Point> = Vec::with_capacity(n);
+        for (_, p) in order {
+            if out.len() == n {
+                break;
+            }
+            if out.iter().all(|q| q.dist(p) >= spacing) {
+                out.push(p);
+            }
+        }
+        if out.len() < n {
+            return Err(MapError::Invalid(format!("the map has room for {} points {spacing} m apart around ({}, {}), not {n}", out.len(), from.x, from.y)));
+        }
+        Ok(out)
+    }
+
+    /// `n` points reachable from `from` that `keep` accepts, spread out: each the farthest along
+    /// the map from those before (the first, the farthest from `from`).
+    pub fn farthest(&self, from: Point, n: usize, keep: impl Fn(Point) -> bool) -> Result<Vec<Point>, MapError> {
+        let start = self.locate_robot("start", 0, from)?;
+        let reach = self.field(&start, &[]);
+        let cands: Vec<Node> =
+            (0..self.nodes() as u32).filter_map(|i| self.node_at(i)).filter(|v| reach.dist[v.entry as usize].is_finite() && keep(v.at)).collect();
+        let mut best: Vec<f64> = cands.iter().map(|v| reach.dist[v.entry as usize]).collect();
+        let mut out = Vec::with_capacity(n);
+        while out.len() < n {
+            let Some(k) = (0..cands.len()).filter(|&k| best[k] > 0.0).max_by(|&a, &b| best[a].total_cmp(&best[b]).then(b.cmp(&a))) else { break };
+            out.push(cands[k].at);
+            let f = self.field(&cands[k], &[]);
+            for (b, v) in best.iter_mut().zip(&cands) {
+                *b = b.min(f.dist[v.entry as usize]);
+            }
+        }
+        if out.len() < n {
+            return Err(MapError::Invalid(format!("the map has {} distinct points there, not {n}", out.len())));
+        }
+        Ok(out)
+    }
+
     /// Whether the straight segment a → b crosses no occupied, unknown or off-map cell (grid
     /// maps; always true on graphs, which say nothing of walls).
     pub fn segment_free(&self, a: Point, b: Point) -> bool {

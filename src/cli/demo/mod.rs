@@ -13,6 +13,8 @@ use tokio::process::Child;
 
 use super::procs;
 
+mod map;
+
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Number of simulated robots.
@@ -65,6 +67,11 @@ pub struct Args {
     /// No browser console.
     #[arg(long)]
     no_console: bool,
+    /// Run the fleet in this building: a Nav2 map's YAML, a patrolling_sim .graph or an Open-RMF
+    /// navigation graph (e.g. maps/data/building/building.yaml). Robots start on free cells, the
+    /// missions plan routes along the corridors.
+    #[arg(long)]
+    map: Option<std::path::PathBuf>,
 }
 
 const TYPES: [&str; 2] = ["ground", "aerial"];
@@ -77,6 +84,9 @@ pub async fn run(mut args: Args) -> anyhow::Result<()> {
         if !(d.is_finite() && d > 0.0) {
             return Err(anyhow!("--duration: must be a positive number of seconds (got {d})"));
         }
+    }
+    if args.map.is_some() && args.formation {
+        return Err(anyhow!("--formation drives robots in straight lines: it does not go with --map"));
     }
     let shutdown = super::shutdown::on_signals()?;
     let dir = std::env::temp_dir().join(format!("mrmm-demo-{}", std::process::id()));
@@ -94,6 +104,11 @@ pub async fn run(mut args: Args) -> anyhow::Result<()> {
 
 async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, shutdown: &tokio_util::sync::CancellationToken) -> anyhow::Result<()> {
     let started = Instant::now();
+    let building = args.map.as_deref().map(map::DemoMap::load).transpose()?;
+    let starts = match &building {
+        Some(b) => Some(b.starts(args.robots as usize)?),
+        None => None,
+    };
     let listen = args.listen.clone().unwrap_or_default();
     // Every node of the demo listens with the scheme of central's endpoint (quic, tls or tcp).
     let scheme = listen.split('/').next().unwrap_or("tcp").to_string();
@@ -114,6 +129,9 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     let log = dir.join("central.log");
     let state = args.state_dir.clone().unwrap_or_else(|| dir.join("central-state"));
     let mut central_args = vec!["central".to_string(), "--listen".into(), listen.clone(), "--state-dir".into(), state.display().to_string()];
+    if let Some(b) = &building {
+        central_args.extend(["--map".into(), format!("{}={}", map::NAME, b.path.display())]);
+    }
     if let Some(pki) = &pki {
         central_args.extend(["--pki".into(), pki.display().to_string(), "--operator".into(), "operator".into()]);
         if args.sites > 1 && scheme != "quic" {
@@ -136,7 +154,8 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     let bar = progress(n, "starting robots");
     for i in 0..n {
         let id = format!("r{}", i + 1);
-        let cfg = robot_config(&id, i, n, &sites[i % sites.len()], &scheme, args.time_scale, lease, pki.as_deref());
+        let at = starts.as_ref().map(|s| s[i]);
+        let cfg = robot_config(&id, i, n, at, &sites[i % sites.len()], &scheme, args.time_scale, lease, pki.as_deref());
         let path = dir.join(format!("{id}.json5"));
         std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
         let log = dir.join(format!("{id}.log"));
@@ -225,7 +244,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
         }
         if all_in && !args.formation && !missions_started {
             missions_started = true;
-            start_missions(&client, n).await;
+            start_missions(&client, n, building.as_ref()).await;
         }
         let missions: Vec<MissionView> = if args.formation { vec![] } else { client.query(proto::Key::SystemMissions, None::<&()>).await.unwrap_or_default() };
         let all_idle = live.iter().all(|v| v.status == RobotStatus::Idle);
@@ -342,20 +361,30 @@ fn summary(views: &[RobotView]) -> String {
 }
 
 /// The demo's two missions: a patrol of the north waypoints with half the fleet (rounded up) and
-/// a coverage of the southern field with the rest.
-async fn start_missions(client: &Client, n: usize) {
+/// a coverage of the southern field with the rest; on a map, of its northern and southern halves.
+async fn start_missions(client: &Client, n: usize, building: Option<&map::DemoMap>) {
     let ids: Vec<String> = (1..=n).map(|i| format!("r{i}")).collect();
     let half = n.div_ceil(2);
+    let (waypoints, region) = match building.map(map::DemoMap::params) {
+        Some(Ok((w, r))) => (w, r),
+        Some(Err(e)) => {
+            eprintln!("cannot place the missions on the map: {e}");
+            return;
+        }
+        None => (json!([[-15, 4], [-6, 14], [5, 17], [15, 9], [11, 1], [0, 0]]), Some(json!([[-20, -34], [20, -34], [20, -18], [-20, -18]]))),
+    };
+    let map = building.map(|_| map::NAME.to_string());
     let mut wanted = vec![MissionCreate {
         name: "patrol-1".into(),
         recipe: "patrol".into(),
         robots: Some(ids[..half].to_vec()),
         params: [
-            ("waypoints".to_string(), json!([[-15, 4], [-6, 14], [5, 17], [15, 9], [11, 1], [0, 0]])),
+            ("waypoints".to_string(), waypoints),
             // The mission's standard: the advising agent speaks up when the patrol misses it.
-            ("max_worst_idleness".to_string(), json!(15)),
+            ("max_worst_idleness".to_string(), json!(if building.is_some() { 60 } else { 15 })),
         ]
         .into(),
+        map: map.clone(),
         ..MissionCreate::default()
     }];
     if n > half {
@@ -363,7 +392,8 @@ async fn start_missions(client: &Client, n: usize) {
             name: "coverage-1".into(),
             recipe: "coverage".into(),
             robots: Some(ids[half..].to_vec()),
-            params: [("region".to_string(), json!([[-20, -34], [20, -34], [20, -18], [-20, -18]]))].into(),
+            params: region.map(|r| [("region".to_string(), r)].into()).unwrap_or_default(),
+            map,
             ..MissionCreate::default()
         });
     }
@@ -416,11 +446,22 @@ async fn start_routers(
     Ok(sites)
 }
 
+/// A robot's config; it starts `at` (x, y), or else on a line.
 #[allow(clippy::too_many_arguments)]
-fn robot_config(id: &str, i: usize, n: usize, central: &str, scheme: &str, time_scale: f64, lease_ms: u64, pki: Option<&std::path::Path>) -> String {
+fn robot_config(
+    id: &str,
+    i: usize,
+    n: usize,
+    at: Option<(f64, f64)>,
+    central: &str,
+    scheme: &str,
+    time_scale: f64,
+    lease_ms: u64,
+    pki: Option<&std::path::Path>,
+) -> String {
     let kind = TYPES[i % TYPES.len()];
     let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
-    let x = (i as f64 - (n as f64 - 1.0) / 2.0) * 1.5;
+    let (x, y) = at.unwrap_or(((i as f64 - (n as f64 - 1.0) / 2.0) * 1.5, -12.0));
     let security = match pki {
         Some(d) => {
             let f = |name: &str| format!("{:?}", d.join(name).display().to_string());
@@ -432,7 +473,7 @@ fn robot_config(id: &str, i: usize, n: usize, central: &str, scheme: &str, time_
         r#"{{
   id: "{id}", type: "{kind}", capabilities: {caps},
   kinematics: {{ max_speed: {speed}, max_turn_rate: {turn} }},
-  start: {{ x: {x}, y: -12, theta: 1.5708 }},
+  start: {{ x: {x}, y: {y}, theta: 1.5708 }},
   time_scale: {time_scale}, telemetry_hz: 5,
   zenoh: {{ listen: ["{scheme}/127.0.0.1:0"], connect: ["{central}"], lease_ms: {lease_ms} }},
 {security}}}
@@ -447,11 +488,11 @@ mod tests {
     #[test]
     fn generated_configs_are_valid() {
         for i in 0..4 {
-            let text = robot_config(&format!("r{i}"), i, 4, "tcp/127.0.0.1:7447", "tcp", 2.0, 1000, None);
+            let text = robot_config(&format!("r{i}"), i, 4, None, "tcp/127.0.0.1:7447", "tcp", 2.0, 1000, None);
             let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
             assert_eq!(cfg.time_scale, 2.0);
         }
-        let text = robot_config("r1", 0, 4, "quic/127.0.0.1:7447", "quic", 1.0, 1000, Some(std::path::Path::new("/p")));
+        let text = robot_config("r1", 0, 4, Some((3.5, -2.0)), "quic/127.0.0.1:7447", "quic", 1.0, 1000, Some(std::path::Path::new("/p")));
         let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid secure config");
         assert_eq!(cfg.security.map(|s| s.cert), Some(std::path::PathBuf::from("/p/r1.crt")));
         let (x, y) = circle_point(1, 4, 2.0);

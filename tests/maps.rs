@@ -1,0 +1,199 @@
+//! A fleet in a building: central holds the demo building's map (a Nav2 map), a patrol of four
+//! offices and a coverage of the southern rooms plan on it, and every pose the robots report is
+//! checked against the map — never in an occupied or unknown cell. Then, with central SIGKILLed,
+//! the mission's head is killed too: its replica takes over, replans for the robots left on the
+//! map it fetched from the fleet, and the new tour still runs through the doors.
+
+mod common;
+
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use common::{eventually, start, Scratch};
+use mrmm_maps::{Bundle, Map, OccupancyGrid, Point};
+use mrmm_proto::client::Client;
+use mrmm_proto::net::{self, Mode};
+use mrmm_proto::{self as proto, MapInfo, MissionCreate, MissionView, PlanSummary, Step};
+use serde_json::json;
+
+fn building() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/building/building.yaml")
+}
+
+fn grid() -> anyhow::Result<(Bundle, OccupancyGrid)> {
+    let b = Bundle::collect(&building().to_string_lossy(), |p| std::fs::read(p).map_err(|e| e.to_string())).map_err(|e| anyhow::anyhow!("{e}"))?;
+    match b.load().map_err(|e| anyhow::anyhow!("{e}"))?.1 {
+        Map::Grid(g) => Ok((b, g)),
+        Map::Graph(_) => anyhow::bail!("the building is a grid map"),
+    }
+}
+
+/// Four offices north of the corridor, one waypoint in each.
+fn offices() -> serde_json::Value {
+    json!([[-16, 8], [-8, 8], [0, 8], [8, 8]])
+}
+
+fn start_central(dir: &Scratch) -> anyhow::Result<(common::Proc, String)> {
+    let map = format!("building={}", building().display());
+    let p = start("central", &["central", "--listen", "tcp/127.0.0.1:0", "--map", &map], &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
+    let ep = p.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow::anyhow!("no endpoint"))?;
+    Ok((p, ep))
+}
+
+/// Whether every segment of the closed route is free on the map.
+fn free_route(g: &OccupancyGrid, tour: &[proto::plan::Point]) -> bool {
+    (0..tour.len()).all(|k| {
+        let (a, b) = (tour[k], tour[(k + 1) % tour.len()]);
+        g.segment_free(Point::new(a.x, a.y), Point::new(b.x, b.y))
+    })
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn robots_on_a_map_never_enter_a_wall() -> anyhow::Result<()> {
+    let (bundle, g) = grid()?;
+    let dir = Scratch::new("maps");
+    let (_central, ep) = start_central(&dir)?;
+    let _robots: Vec<_> = [(-16.0, 0.0), (-12.0, 0.5), (-8.0, 0.0), (-4.0, 0.5)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(x, y))| common::start_robot_scaled(&dir, &format!("r{}", i + 1), &ep, x, y, 10.0))
+        .collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 4).await?;
+    let maps: Vec<MapInfo> = client.query(proto::Key::SystemMaps, None::<&()>).await?;
+    assert_eq!(maps.len(), 1);
+    assert_eq!((maps[0].name.as_str(), maps[0].format.as_str(), maps[0].hash.clone()), ("building", "nav2", bundle.hash()));
+
+    // Telemetry from here on, every pose checked.
+    let telemetry = client
+        .session()
+        .declare_subscriber(proto::Pattern::AllTelemetry)
+        .with(zenoh::handlers::RingChannel::new(8192))
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let patrol = MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        robots: Some(vec!["r1".into(), "r2".into(), "r3".into()]),
+        params: [("waypoints".to_string(), offices())].into(),
+        map: Some("building".into()),
+        ..Default::default()
+    };
+    let created: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol)).await?;
+    assert_eq!(created.robots.len(), 3);
+    let coverage = MissionCreate {
+        name: "c".into(),
+        recipe: "coverage".into(),
+        robots: Some(vec!["r4".into()]),
+        params: [("region".to_string(), json!([[-20, -12], [0, -12], [0, -1.5], [-20, -1.5]]))].into(),
+        map: Some("building".into()),
+        ..Default::default()
+    };
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&coverage)).await?;
+    // An unknown map is refused in words.
+    let mut bad = patrol.clone();
+    bad.name = "q".into();
+    bad.map = Some("nowhere".into());
+    let e = client.query::<MissionView>(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&bad)).await.expect_err("unknown map");
+    assert!(e.to_string().contains("no map \"nowhere\" (maps: building)"), "{e}");
+
+    // The tour is planned on the map: it runs through the doors, not through the office walls.
+    let view: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
+    let Some(PlanSummary::Patrol(s)) = &view.summary else { anyhow::bail!("a patrol summary: {:?}", view.summary) };
+    assert!(free_route(&g, &s.tour), "the tour crosses a wall: {:?}", s.tour);
+    assert_eq!(s.waypoints.len(), 4);
+    assert!(s.tour.len() > 4, "corners between the offices: {:?}", s.tour);
+
+    // A round of the patrol, with every pose of every robot in a free cell.
+    let rounds_done =
+        |m: &MissionView| m.metrics.sync_points_passed >= m.summary.as_ref().and_then(PlanSummary::patrol).map_or(u32::MAX, |p| p.sync_per_round + 1);
+    let deadline = Instant::now() + Duration::from_secs(90);
+    let (mut poses, mut robots) = (0u64, BTreeSet::new());
+    loop {
+        while let Ok(Some(sample)) = telemetry.try_recv() {
+            let Ok(t) = proto::decode_telemetry(&sample.payload().to_bytes()) else { continue };
+            let at = Point::new(t.pose.x, t.pose.y);
+            let v = g.at(at);
+            assert!(matches!(v, Some(0..=49)), "{} at ({:.2}, {:.2}) is in a cell of occupancy {v:?}", t.id, at.x, at.y);
+            poses += 1;
+            robots.insert(t.id);
+        }
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
+        if rounds_done(&m) && poses > 400 {
+            println!("a round of the patrol on the map: {poses} poses of {} robots, all in free cells", robots.len());
+            break;
+        }
+        anyhow::ensure!(Instant::now() < deadline, "no round within 90 s ({} barriers, {poses} poses)", m.metrics.sync_points_passed);
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    assert_eq!(robots.len(), 4);
+    // The coverage robot stands in the hall, south of the corridor.
+    let r4: proto::RobotView = client.query(proto::Key::SystemRobot("r4".into()), None::<&()>).await?;
+    let p = r4.pose.expect("pose");
+    assert!(p.y < -1.5 && p.x < 0.0, "r4 covers the hall: {p:?}");
+    client.close().await;
+    Ok(())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_takeover_with_central_gone_replans_on_the_map() -> anyhow::Result<()> {
+    let (_, g) = grid()?;
+    let dir = Scratch::new("maps-takeover");
+    let (mut central, ep) = start_central(&dir)?;
+    let mut robots: Vec<_> = [(-16.0, 0.0), (-12.0, 0.5), (-8.0, 0.0)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(x, y))| common::start_robot_scaled(&dir, &format!("r{}", i + 1), &ep, x, y, 10.0))
+        .collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 3).await?;
+    let patrol = MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        robots: Some(vec!["r1".into(), "r2".into(), "r3".into()]),
+        host: Some("r1".into()),
+        params: [("waypoints".to_string(), offices())].into(),
+        map: Some("building".into()),
+        ..Default::default()
+    };
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol)).await?;
+    let before = eventually("the patrol past its first barriers, replicated on r2 and r3", Duration::from_secs(30), || async {
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
+        (m.metrics.sync_points_passed >= 2 && m.manager.chain.len() == 3).then_some(m)
+    })
+    .await?;
+    assert_eq!(before.manager.chain[0], "r1");
+    let successor = before.manager.chain[1].clone();
+    // The replicas hold the map before anything happens to central (they fetch it at once).
+    let log = dir.path(&format!("{successor}.log"));
+    eventually("the successor holding the map", Duration::from_secs(15), || async {
+        std::fs::read_to_string(&log).ok().filter(|l| l.contains("map fetched from the fleet")).map(|_| ())
+    })
+    .await?;
+    client.close().await;
+
+    // An observer attached to the robot that stays a member (neither the head nor the successor).
+    let stay = ["r1", "r2", "r3"].iter().position(|r| *r != "r1" && *r != successor).expect("a third robot");
+    let observer_at = robots[stay].field("listening").ok_or_else(|| anyhow::anyhow!("no endpoint"))?;
+    let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[observer_at], 1000)?).await?;
+    central.kill();
+    robots[0].kill();
+    let killed = Instant::now();
+    let key = proto::Key::MissionView("p".into()).to_string();
+    let after = eventually("the successor leading a new epoch planned without r1", Duration::from_secs(40), || async {
+        let m: MissionView = net::query(&observer, &key, None, Duration::from_secs(2)).await.ok()?;
+        (m.manager.node == successor && m.manager.epoch > before.manager.epoch && m.plans.as_ref().is_some_and(|p| p.len() == 2)).then_some(m)
+    })
+    .await?;
+    println!("central and the head SIGKILLed: {successor} replanned on the map within {:?}", killed.elapsed());
+    let Some(PlanSummary::Patrol(s)) = &after.summary else { anyhow::bail!("a patrol summary") };
+    assert!(free_route(&g, &s.tour), "the new tour crosses a wall: it was not planned on the map: {:?}", s.tour);
+    // Each robot's plan drives only along free segments.
+    for plan in after.plans.iter().flatten() {
+        let pts: Vec<Point> = plan.steps.iter().filter_map(|s| if let Step::Navigate { x, y, .. } = s { Some(Point::new(*x, *y)) } else { None }).collect();
+        assert!(pts.windows(2).all(|w| g.segment_free(w[0], w[1])), "{}: {pts:?}", plan.robot);
+    }
+    let _ = observer.close().await;
+    Ok(())
+}
