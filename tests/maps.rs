@@ -197,3 +197,66 @@ async fn a_takeover_with_central_gone_replans_on_the_map() -> anyhow::Result<()>
     let _ = observer.close().await;
     Ok(())
 }
+
+/// `mrmm demo --map`: the recording (read with Rerun's own decoder) holds the building under the
+/// fleet and the layout the viewer opens on.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_demo_on_a_map_records_the_building_and_its_layout() -> anyhow::Result<()> {
+    use rerun::external::re_log_encoding::DecoderApp;
+    use rerun::log::{Chunk, LogMsg};
+    let dir = Scratch::new("maps-rrd");
+    let rrd = dir.path("fleet.rrd");
+    let map = building().display().to_string();
+    let rrd_s = rrd.display().to_string();
+    let (mut demo, ep, _) = common::start_demo(
+        &dir,
+        &[
+            "--insecure",
+            "--robots",
+            "4",
+            "--duration",
+            "60",
+            "--listen",
+            "tcp/127.0.0.1:0",
+            "--time-scale",
+            "5",
+            "--no-console",
+            "--map",
+            &map,
+            "--rrd",
+            &rrd_s,
+        ],
+    )?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    eventually("both missions running on the map", Duration::from_secs(40), || async {
+        let m: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
+        (m.len() == 2 && m.iter().all(|m| m.map.as_ref().is_some_and(|r| r.name == "demo") && m.manager.epoch >= 1)).then_some(())
+    })
+    .await?;
+    let robots: Vec<proto::RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
+    let (_, g) = grid()?;
+    for r in &robots {
+        let p = r.pose.expect("pose");
+        assert!(g.is_free(Point::new(p.x, p.y)), "{} starts in a free cell: {p:?}", r.id);
+    }
+    // Give the viewer bridge a few statuses to fetch and draw the map.
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    client.close().await;
+    demo.signal("INT")?;
+    let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
+    assert!(status.success(), "demo exit status {status}");
+    let (mut rows, mut blueprint) = (std::collections::BTreeMap::<String, usize>::new(), false);
+    for msg in DecoderApp::decode_lazy(std::io::BufReader::new(std::fs::File::open(&rrd)?)) {
+        match msg? {
+            LogMsg::ArrowMsg(_, arrow) => {
+                let chunk = Chunk::from_arrow_msg(&arrow)?;
+                *rows.entry(chunk.entity_path().to_string()).or_default() += chunk.num_rows();
+            }
+            LogMsg::BlueprintActivationCommand(_) => blueprint = true,
+            _ => {}
+        }
+    }
+    assert!(rows.get("/fleet/map/demo").copied().unwrap_or(0) > 0, "the map is drawn: {:?}", rows.keys().collect::<Vec<_>>());
+    assert!(blueprint, "the recording carries the viewer's layout");
+    Ok(())
+}

@@ -7,19 +7,15 @@
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
 
 use mrmm_maps::{Bundle, Map, MapSummary};
-use mrmm_proto::map::{MapChunk, CHUNK_BYTES};
+use mrmm_proto::map::MapChunk;
 use mrmm_proto::plan::Point;
 use mrmm_proto::{Key, MapInfo, MapRef, Mesh};
 use tokio_util::sync::CancellationToken;
-use zenoh::query::{ConsolidationMode, QueryTarget, Queryable};
+use zenoh::query::Queryable;
 
 use crate::error::ManagerError;
-
-/// How long one chunk may take to arrive.
-const CHUNK_TIMEOUT: Duration = Duration::from_secs(5);
 
 /// A map a node holds: what it is, the map itself, and its bundle's chunks as served.
 #[derive(Debug)]
@@ -115,22 +111,7 @@ impl MapStore {
         if let Some(h) = self.get(&r.hash) {
             return Ok(h);
         }
-        r.check().map_err(|e| format!("map {}: {e}", r.name))?;
-        let first = chunk(mesh, &r.hash, 0).await?;
-        let mut bytes = Vec::with_capacity(first.total as usize * CHUNK_BYTES);
-        let total = first.total;
-        bytes.extend(first.data);
-        for i in 1..total {
-            let c = chunk(mesh, &r.hash, i).await?;
-            if c.total != total {
-                return Err(format!("map {}: chunk {i} says {} chunks, chunk 0 said {total}", r.name, c.total));
-            }
-            bytes.extend(c.data);
-        }
-        let got = mrmm_maps::bundle::content_hash(&bytes);
-        if got != r.hash {
-            return Err(format!("map {}: what arrived hashes to {got}, not {}", r.name, r.hash));
-        }
+        let bytes = mrmm_proto::map::fetch(mesh.session(), r).await?;
         let bundle = Bundle::decode(&r.name, &bytes).map_err(|e| e.to_string())?;
         let held = Held::new(&r.name, &bundle).map_err(|e| e.to_string())?;
         tracing::info!(map = %r.name, hash = %r.hash, bytes = bytes.len(), "map fetched from the fleet");
@@ -210,26 +191,4 @@ impl MapStore {
         }
         Ok(())
     }
-}
-
-/// Chunk `index` of the map `hash` from whichever node answers first (the nearest that holds
-/// it; then anyone).
-async fn chunk(mesh: &Mesh, hash: &str, index: u32) -> Result<MapChunk, String> {
-    let key = Key::MapChunk { hash: hash.to_string(), index }.to_string();
-    let mut last = format!("no node answered for {key}");
-    for target in [QueryTarget::BestMatching, QueryTarget::All] {
-        let replies =
-            mesh.session().get(&key).target(target).consolidation(ConsolidationMode::None).timeout(CHUNK_TIMEOUT).await.map_err(|e| format!("{key}: {e}"))?;
-        while let Ok(reply) = replies.recv_async().await {
-            match reply.result() {
-                Ok(s) => match MapChunk::decode(&s.payload().to_bytes()) {
-                    Ok(c) if c.index == index => return Ok(c),
-                    Ok(c) => last = format!("{key}: answered with chunk {}", c.index),
-                    Err(e) => last = format!("{key}: {e}"),
-                },
-                Err(e) => last = format!("{key}: {}", String::from_utf8_lossy(&e.payload().to_bytes()).chars().take(200).collect::<String>()),
-            }
-        }
-    }
-    Err(last)
 }

@@ -9,6 +9,7 @@
 //! by graph edges.
 
 pub mod bundle;
+pub mod data;
 pub mod error;
 pub mod geom;
 pub mod graph;

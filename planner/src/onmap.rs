@@ -17,6 +17,10 @@ pub struct MapTour {
     pub waypoints: Vec<Point>,
     /// The closed route: every corner, waypoints among them, the last joined back to the first.
     pub route: Vec<Point>,
+    /// The length of each of its segments on the map's metric (`lengths[i]`: from point i to
+    /// the next, the last back to the first): a straight line's on a grid, an edge's own length
+    /// on a graph (which may be longer than the straight line between its ends).
+    pub lengths: Vec<f64>,
 }
 
 /// Locates the waypoints (refusing any in a wall, off the map, or cut off from the others),
@@ -55,21 +59,37 @@ pub fn tour(space: &Space, waypoints: &[Point], budget: &Budget) -> Result<MapTo
     let backward: f64 = (0..n).map(|k| d[order[(k + 1) % n] * n + order[k]]).sum();
     let order: Vec<usize> = if backward < forward - 1e-9 { std::iter::once(order[0]).chain(order[1..].iter().rev().copied()).collect() } else { order };
     let mut route: Vec<Point> = Vec::new();
+    let mut lengths: Vec<f64> = Vec::new();
     for k in 0..n {
         let (a, b) = (&nodes[order[k]], &nodes[order[(k + 1) % n]]);
-        let leg = space.route(a, b).ok_or_else(|| PlanError::Invalid(format!("no route from waypoint {} to waypoint {}", order[k], order[(k + 1) % n])))?;
-        if route.is_empty() {
-            route.extend(leg);
-        } else {
-            route.extend(leg.into_iter().skip(1));
+        let (leg, lens) =
+            space.route_lengths(a, b).ok_or_else(|| PlanError::Invalid(format!("no route from waypoint {} to waypoint {}", order[k], order[(k + 1) % n])))?;
+        for (p, l) in leg.into_iter().zip(std::iter::once(0.0).chain(lens)) {
+            match route.last() {
+                None => route.push(p),
+                // The same spot again (a leg starts where the last one ended): one point.
+                Some(q) if q.dist(p) < 1e-9 => {
+                    if let Some(last) = lengths.last_mut() {
+                        *last += l;
+                    }
+                }
+                Some(_) => {
+                    route.push(p);
+                    lengths.push(l);
+                }
+            }
         }
     }
-    route.pop(); // the last point is the first again: the polyline closes itself
-    route.dedup_by(|x, y| x.dist(*y) < 1e-9);
+    // The last point is the first again: the polyline closes itself.
+    if route.len() > 1 && route[route.len() - 1].dist(route[0]) < 1e-9 {
+        route.pop();
+    } else {
+        lengths.push(route[route.len() - 1].dist(route[0]));
+    }
     if route.len() < 2 {
         return Err(PlanError::TooFewPoints { min: 2, got: route.len() });
     }
-    Ok(MapTour { waypoints: order.iter().map(|&i| nodes[i].at).collect(), route })
+    Ok(MapTour { waypoints: order.iter().map(|&i| nodes[i].at).collect(), route, lengths })
 }
 
 /// How robots get to points of a closed route: in the plane straight, on a map by the shortest

@@ -117,20 +117,25 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
         return Err(PlanError::Invalid(format!("sync_spacing_max must be positive (got {})", params.sync_spacing_max)));
     }
     let budget = Budget { max_kicks: params.max_kicks, stop: None, seed: params.seed };
-    let (waypoints, tour) = match map {
+    let (waypoints, tour, lengths) = match map {
         None => {
             let inst = Instance::new(wps.clone(), Metric::Euclidean)?;
             let (t, _) = tsp::solve(&inst, &budget)?;
             let tour: Vec<Point> = t.order.iter().map(|&i| wps[i]).collect();
-            (tour.clone(), tour)
+            (tour.clone(), tour, None)
         }
         Some(space) => {
             let t = onmap::tour(space, wps, &budget)?;
-            (t.waypoints, t.route)
+            (t.waypoints, t.route, Some(t.lengths))
         }
     };
     limits::at_most("corners of the route", tour.len(), limits::MAX_PLAN_STEPS / 4)?;
-    let path = Polyline::closed(&tour);
+    // Arc length, slots and sync points are measured on the map's metric (a graph's edges may be
+    // longer than the straight lines between their ends).
+    let path = match lengths {
+        Some(lens) => Polyline::closed_with(&tour, &lens),
+        None => Polyline::closed(&tour),
+    };
     let (l, n) = (path.length, robots.len());
     let spacing = l / n as f64;
     let team_speed = robots.iter().map(|r| r.speed).fold(f64::INFINITY, f64::min);
@@ -288,11 +293,20 @@ pub struct Polyline {
 
 impl Polyline {
     pub fn closed(points: &[Point]) -> Self {
+        let lengths: Vec<f64> = (0..points.len()).map(|i| points[i].dist(points[(i + 1) % points.len()])).collect();
+        Polyline::closed_with(points, &lengths)
+    }
+
+    /// A closed polyline whose segment i (point i to the next) is `lengths[i]` long on its
+    /// metric (a graph edge's length); positions within a segment are interpolated in
+    /// proportion. Missing or invalid lengths are the straight line's.
+    pub fn closed_with(points: &[Point], lengths: &[f64]) -> Self {
         let mut arcs = Vec::with_capacity(points.len() + 1);
         let mut acc = 0.0;
         arcs.push(0.0);
         for i in 0..points.len() {
-            acc += points[i].dist(points[(i + 1) % points.len()]);
+            let straight = points[i].dist(points[(i + 1) % points.len()]);
+            acc += lengths.get(i).copied().filter(|l| l.is_finite() && *l >= 0.0).unwrap_or(straight);
             arcs.push(acc);
         }
         Polyline { points: points.to_vec(), arcs, length: acc }
@@ -326,7 +340,7 @@ impl Polyline {
             let q = Point::new(a.x + t * dx, a.y + t * dy);
             let d = q.dist(p);
             if d < best.0 {
-                best = (d, self.arcs[i] + t * len2.sqrt());
+                best = (d, self.arcs[i] + t * (self.arcs[i + 1] - self.arcs[i]));
             }
         }
         best.1

@@ -243,6 +243,9 @@ pub struct MissionView {
     /// Per-robot plans (only on `mrmm/system/missions/<name>`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub plans: Option<Vec<RobotPlan>>,
+    /// The map the mission plans on (viewers fetch it by its hash to draw it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<crate::map::MapRef>,
 }
 
 /// Seconds between two mission statuses that carry the planner's summary although it did not

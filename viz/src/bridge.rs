@@ -53,7 +53,13 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     let syncs = session.declare_subscriber(Pattern::AllTeamSync.to_string()).await.map_err(z)?;
     // Under the leader barrier only the leader hears arrivals: its releases show the team's progress.
     let releases = session.declare_subscriber(Pattern::TeamRelease("*".into()).to_string()).await.map_err(z)?;
+    if let Err(e) = crate::map::blueprint().send(&rec, rerun::blueprint::BlueprintActivation::default()) {
+        tracing::warn!("the viewer's layout was not sent: {e}");
+    }
     let mut view = View::new(rec.clone());
+    // Maps arrive from the fleet (fetched by hash in the background), each drawn once.
+    let (maps_tx, mut maps_rx) = tokio::sync::mpsc::unbounded_channel::<(proto::MapRef, Result<mrmm_maps::Map, String>)>();
+    let mut maps_asked = std::collections::BTreeSet::new();
     // Announces itself to the robots, which tag their telemetry for it (otherwise it could
     // check only their signed messages: one per `TELEMETRY_SIGN_MS`).
     let mut hello = tokio::time::interval(Duration::from_millis(proto::VIEWER_HELLO_MS));
@@ -90,11 +96,28 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                 let Ok(s) = s else { break };
                 let Some(from) = mesh.sender_of("mission status", &s) else { continue };
                 match proto::from_json::<MissionView>("mission status", &s.payload().to_bytes()) {
-                    Ok(m) if m.manager.node == from.id && from.role.hosts_missions() => view.mission(&m),
+                    Ok(m) if m.manager.node == from.id && from.role.hosts_missions() => {
+                        if let Some(r) = m.map.clone().filter(|r| maps_asked.insert(r.hash.clone())) {
+                            fetch_map(session.clone(), r, maps_tx.clone());
+                        }
+                        view.mission(&m)
+                    }
                     Ok(m) => mesh.refuse(&format!("report mission {} as managed by {}", m.name, m.manager.node), &from),
                     Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
                 }
             }
+            Some((r, map)) = maps_rx.recv() => match map {
+                Ok(map) => {
+                    if let Err(e) = crate::map::log(&view.rec, &r.name, &map) {
+                        tracing::warn!("rerun log of map {}: {e}", r.name);
+                    }
+                }
+                Err(e) => {
+                    // Asked again at the mission's next status.
+                    tracing::warn!(map = %r.name, "cannot draw the map yet: {e}");
+                    maps_asked.remove(&r.hash);
+                }
+            },
             s = advice.recv_async() => {
                 let Ok(s) = s else { break };
                 let Some(from) = mesh.sender_of("advice", &s) else { continue };
@@ -142,6 +165,17 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
         }
         (Err(e), _) => Err(rr(e)),
     }
+}
+
+/// Fetches map `r` from the fleet and hands it to the loop.
+fn fetch_map(session: zenoh::Session, r: proto::MapRef, to: tokio::sync::mpsc::UnboundedSender<(proto::MapRef, Result<mrmm_maps::Map, String>)>) {
+    tokio::spawn(async move {
+        let loaded = match proto::map::fetch(&session, &r).await {
+            Ok(bytes) => mrmm_maps::Bundle::decode(&r.name, &bytes).and_then(|b| b.load()).map(|(_, m)| m).map_err(|e| e.to_string()),
+            Err(e) => Err(e),
+        };
+        let _ = to.send((r, loaded));
+    });
 }
 
 /// `host:port` of a `rerun+http://host:port/proxy` URL, checked to resolve.

@@ -4,6 +4,7 @@
 //! one `fleet_time` timeline. Only this crate depends on rerun.
 
 pub mod bridge;
+pub mod map;
 pub mod paths;
 
 use thiserror::Error;

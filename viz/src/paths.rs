@@ -2,6 +2,7 @@
 //!
 //! | path | archetype | what |
 //! |---|---|---|
+//! | `fleet/map/<name>` | Image (grid map, rows from the bottom, placed in metres) or LineStrips2D + Points2D (graph map: lanes, vertices) | a mission's map, logged once (static) |
 //! | `fleet/robots/<id>` | Points2D | robot position, coloured by mission, labelled `id · mission/type` |
 //! | `fleet/robots/<id>/heading` | Arrows2D | heading |
 //! | `fleet/robots/<id>/trail` | LineStrips2D | last positions |
@@ -23,6 +24,17 @@ pub const TEAMS_LOG: &str = "events/teams";
 pub const SYNC_LOG: &str = "events/sync";
 pub const ADVICE_LOG: &str = "advice";
 
+/// Where the blueprint's fleet view is rooted.
+pub const FLEET: &str = "fleet";
+pub const EVENTS: &str = "events";
+pub const METRICS: &str = "metrics";
+
+pub fn map(name: &str) -> String {
+    format!("fleet/map/{name}")
+}
+pub fn map_vertices(name: &str) -> String {
+    format!("fleet/map/{name}/vertices")
+}
 pub fn robot(id: &str) -> String {
     format!("fleet/robots/{id}")
 }

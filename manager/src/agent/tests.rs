@@ -48,6 +48,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         params: standard.map(|s| [("max_worst_idleness".to_string(), s.to_string())].into()).unwrap_or_default(),
         error: None,
         plans: None,
+        map: None,
         requires: vec![],
     }
 }

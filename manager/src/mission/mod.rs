@@ -515,6 +515,7 @@ impl MissionManager {
             params: self.spec.params.clone(),
             error: self.error.clone(),
             plans: with_plans.then(|| self.plan.as_ref().map(|(_, p)| p.plans.clone()).unwrap_or_default()),
+            map: self.spec.map.clone(),
         }
     }
 

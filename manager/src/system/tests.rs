@@ -230,6 +230,7 @@ impl MissionViewBuilder {
             params: Default::default(),
             error: None,
             plans: None,
+            map: None,
             requires: vec![],
         }
     }

@@ -33,6 +33,7 @@ impl SystemManager {
                 params: BTreeMap::new(),
                 error: None,
                 plans: None,
+                map: rec.and_then(|r| r.def.spec.as_ref()).and_then(|s| s.map.clone()),
             },
         }
     }

@@ -77,14 +77,22 @@ impl GraphSpace {
         Field { dist, owner }
     }
 
-    /// The shortest path along the edges: a's point, the vertices, b's point.
-    pub fn route(&self, a: &Node, b: &Node) -> Option<Vec<Point>> {
+    /// The shortest path along the edges: a's point, the vertices, b's point; with the length of
+    /// each segment (an edge's own length, the leads' straight lines).
+    pub fn route(&self, a: &Node, b: &Node) -> Option<(Vec<Point>, Vec<f64>)> {
         let (from, to) = (NodeIndex::new(a.entry as usize), NodeIndex::new(b.entry as usize));
         let (_, path) = petgraph::algo::astar(&self.g, from, |n| n == to, |e| *e.weight(), |_| 0.0)?;
         let mut out = Vec::with_capacity(path.len() + 2);
+        let mut lengths = Vec::with_capacity(path.len() + 1);
         out.push(a.at);
         out.extend(path.iter().map(|n| self.g[*n]));
         out.push(b.at);
-        Some(out)
+        lengths.push(a.lead);
+        for w in path.windows(2) {
+            let edge = self.g.edges_connecting(w[0], w[1]).map(|e| *e.weight()).fold(f64::INFINITY, f64::min);
+            lengths.push(edge);
+        }
+        lengths.push(b.lead);
+        Some((out, lengths))
     }
 }

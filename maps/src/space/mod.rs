@@ -145,15 +145,38 @@ impl Space {
     /// consecutive pair joined by a straight free segment (grid) or an edge (graph). None when
     /// `b` cannot be reached from `a`.
     pub fn route(&self, a: &Node, b: &Node) -> Option<Vec<Point>> {
-        let mut r = match self {
-            Space::Grid(g) => g.route(a, b)?,
+        self.route_lengths(a, b).map(|(r, _)| r)
+    }
+
+    /// [`Space::route`] with the length of each segment on the map's metric (`lengths[i]` from
+    /// point i to point i + 1): its straight line on a grid, the edge's length on a graph.
+    pub fn route_lengths(&self, a: &Node, b: &Node) -> Option<(Vec<Point>, Vec<f64>)> {
+        let (pts, lens) = match self {
+            Space::Grid(g) => {
+                let r = g.route(a, b)?;
+                let lens = r.windows(2).map(|w| w[0].dist(w[1])).collect();
+                (r, lens)
+            }
             Space::Graph(g) => g.route(a, b)?,
         };
-        r.dedup_by(|x, y| x.dist(*y) < 1e-9);
-        if r.len() == 1 {
-            r.push(r[0]);
+        // Points on the same spot are one (their segment's length joins the next one's).
+        let mut out = vec![pts[0]];
+        let mut out_lens: Vec<f64> = Vec::with_capacity(lens.len());
+        for (p, l) in pts.iter().skip(1).zip(lens) {
+            if out.last().is_some_and(|q| q.dist(*p) < 1e-9) {
+                if let Some(last) = out_lens.last_mut() {
+                    *last += l;
+                }
+                continue;
+            }
+            out.push(*p);
+            out_lens.push(l);
         }
-        Some(r)
+        if out.len() == 1 {
+            out.push(out[0]);
+            out_lens.push(0.0);
+        }
+        Some((out, out_lens))
     }
 
     /// How many search nodes there are (planning cells with room for a robot, or vertices).
@@ -216,9 +239,11 @@ impl Space {
         let cands: Vec<Node> =
             (0..self.nodes() as u32).filter_map(|i| self.node_at(i)).filter(|v| reach.dist[v.entry as usize].is_finite() && keep(v.at)).collect();
         let mut best: Vec<f64> = cands.iter().map(|v| reach.dist[v.entry as usize]).collect();
+        let mut chosen = vec![false; cands.len()];
         let mut out = Vec::with_capacity(n);
         while out.len() < n {
-            let Some(k) = (0..cands.len()).filter(|&k| best[k] > 0.0).max_by(|&a, &b| best[a].total_cmp(&best[b]).then(b.cmp(&a))) else { break };
+            let Some(k) = (0..cands.len()).filter(|&k| !chosen[k]).max_by(|&a, &b| best[a].total_cmp(&best[b]).then(b.cmp(&a))) else { break };
+            chosen[k] = true;
             out.push(cands[k].at);
             let f = self.field(&cands[k], &[]);
             for (b, v) in best.iter_mut().zip(&cands) {

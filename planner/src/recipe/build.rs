@@ -83,7 +83,16 @@ pub fn build_on(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[Robo
         PlannerKind::Patrol => {
             let waypoints = match overrides.get("waypoints") {
                 Some(all) if matches!(all.trim(), "all" | "\"all\"") => match map {
-                    Some(Map::Graph(g)) => g.vertices.iter().map(|v| v.at).collect(),
+                    // Vertices drawn on the same spot (some graphs have them) are one waypoint.
+                    Some(Map::Graph(g)) => {
+                        let mut seen = Vec::<Point>::with_capacity(g.vertices.len());
+                        for v in &g.vertices {
+                            if !seen.contains(&v.at) {
+                                seen.push(v.at);
+                            }
+                        }
+                        seen
+                    }
                     _ => return Err(PlanError::Invalid("waypoints: \"all\" patrols every vertex of a graph map; this mission has none".into())),
                 },
                 Some(json) => json_points("waypoints", json)?,

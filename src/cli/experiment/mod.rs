@@ -4,6 +4,7 @@
 
 mod comm_loss;
 mod fleet;
+mod maps;
 mod plot;
 mod report;
 mod run;
@@ -47,6 +48,9 @@ pub enum Kind {
     CommLoss,
     /// All four.
     All,
+    /// The patrolling benchmark: every vertex of patrolling_sim's maps, 1 to 12 robots, idleness
+    /// against L*/(n·v) (simulated time, no fleet; not part of `all`).
+    Maps,
 }
 
 #[derive(Debug, clap::Args)]
@@ -81,6 +85,10 @@ pub struct Args {
     /// time-scale runs the first.
     #[arg(long, value_enum, value_delimiter = ',', default_values_t = vec![Barrier::Mesh, Barrier::Leader])]
     barrier: Vec<Barrier>,
+    /// The maps experiment: the robots' turn rate, rad/s (the bound L*/(n·v) assumes turns take no
+    /// time; a real robot's do).
+    #[arg(long, default_value_t = maps::TURN)]
+    turn_rate: f64,
 }
 
 impl Kind {
@@ -91,6 +99,7 @@ impl Kind {
             Kind::Environment => "environment",
             Kind::CommLoss => "comm-loss",
             Kind::All => "all",
+            Kind::Maps => "maps",
         }
     }
 }
@@ -152,7 +161,7 @@ fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
             }
             vec![spec("comm-loss", n, 0, 1.0, 1)]
         }
-        Kind::All => bail!("internal: `all` is not one experiment"),
+        Kind::All | Kind::Maps => bail!("internal: `{}` is not a fleet experiment", kind.name()),
     })
 }
 
@@ -162,6 +171,17 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
     }
     if !(a.time_scale.is_finite() && a.time_scale > 0.0 && a.time_scale <= 1000.0) {
         bail!("--time-scale: must be a number in (0, 1000] (got {})", a.time_scale);
+    }
+    if a.kind == Kind::Maps {
+        let sizes: Vec<usize> = a.sizes.as_deref().map_or_else(|| maps::SIZES.to_vec(), |s| s.iter().map(|&n| n as usize).collect());
+        let started = std::time::Instant::now();
+        if !(a.turn_rate.is_finite() && a.turn_rate > 0.0) {
+            bail!("--turn-rate: must be a positive number of rad/s (got {})", a.turn_rate);
+        }
+        let rows = maps::run(&a.out, &sizes, a.seed, a.turn_rate)?;
+        let figures = maps::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64())?;
+        println!("results in {}: results-maps.csv, summary-maps.md, {}", a.out.display(), figures.join(", "));
+        return Ok(());
     }
     let kinds = if a.kind == Kind::All { vec![Kind::Messages, Kind::Idleness, Kind::Environment, Kind::CommLoss] } else { vec![a.kind] };
     let mut plans = Vec::new();

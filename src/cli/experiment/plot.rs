@@ -27,7 +27,8 @@ pub struct Bars<'a> {
     pub lines: Vec<(&'a str, Vec<f64>)>,
 }
 
-const COLOURS: [RGBColor; 4] = [RGBColor(52, 101, 164), RGBColor(204, 121, 40), RGBColor(78, 154, 6), RGBColor(117, 80, 123)];
+const COLOURS: [RGBColor; 6] =
+    [RGBColor(52, 101, 164), RGBColor(204, 121, 40), RGBColor(78, 154, 6), RGBColor(117, 80, 123), RGBColor(0, 150, 150), RGBColor(150, 150, 20)];
 const LINE_COLOURS: [RGBColor; 2] = [RGBColor(200, 30, 30), RGBColor(40, 40, 40)];
 
 /// Draws `bars` to `path` (PNG).

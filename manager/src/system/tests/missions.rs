@@ -49,6 +49,7 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                     params: Default::default(),
                     error: None,
                     plans: None,
+                    map: None,
                     requires: vec![],
                 };
                 cmds.extend(sm.drive(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));

@@ -45,6 +45,7 @@ fn started_view(name: &str, host: &str, robots: &[String]) -> Box<MissionView> {
         params: Default::default(),
         error: None,
         plans: None,
+        map: None,
         requires: vec![],
     })
 }

@@ -1,0 +1,363 @@
+//! `mrmm experiment maps`: the patrolling benchmark on patrolling_sim's floor plans. Teams of 1 to
+//! 12 robots patrol every vertex of each navigation graph at 1 m/s with mrmm's patrol planner,
+//! executed by the robots' own machines (the plan executor with its team barriers, the unicycle
+//! body) in simulated time; idleness as patrolling_sim's monitor measures it, against the lower
+//! bound `L*/(n·v)`, `L*` the best tour found on the graph metric. An edge is as long as the
+//! graph says (its cost × resolution, which is not always the straight line between its ends):
+//! a robot takes `length / v` to drive it.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{anyhow, Context};
+use mrmm_maps::{patrolling_sim, Map, NavGraph, Node, Space};
+use mrmm_peer::body::{Body, Limits};
+use mrmm_peer::executor::{Command as Exec, Event, Executor};
+use mrmm_planner::plan::RobotSpec;
+use mrmm_planner::recipe;
+use mrmm_planner::tsp::{self, Budget, Instance};
+use mrmm_proto::{BarrierMode, PlanAssignment, Pose};
+
+/// Team sizes by default.
+pub const SIZES: [usize; 6] = [1, 2, 4, 6, 8, 12];
+/// Robot speed along the graph's metric, m/s, and turn rate, rad/s.
+const SPEED: f64 = 1.0;
+/// The bodies' top speed: an edge shorter than the straight line between its ends is driven
+/// faster than [`SPEED`] so that it takes its length / SPEED.
+const TOP_SPEED: f64 = 10.0;
+pub const TURN: f64 = 3.0;
+/// Simulation step, s.
+const DT: f64 = 0.05;
+/// A robot within this distance of a vertex visits it, m.
+const VISIT_R: f64 = 0.3;
+/// Visits of every vertex measured after the team's start barrier, at least.
+const INTERVALS: f64 = 4.0;
+
+/// One run: a map and a team size.
+pub struct Row {
+    pub map: String,
+    pub vertices: usize,
+    pub robots: usize,
+    /// The planned tour and the best tour found, m.
+    pub tour: f64,
+    pub best: f64,
+    pub bound: f64,
+    pub avg: f64,
+    pub worst: f64,
+    pub plan_ms: f64,
+}
+
+impl Row {
+    pub fn worst_ratio(&self) -> f64 {
+        self.worst / self.bound
+    }
+    pub fn avg_ratio(&self) -> f64 {
+        self.avg / self.bound
+    }
+}
+
+/// Runs every map with every team size.
+pub fn run(out: &Path, sizes: &[usize], seed: u64, turn: f64) -> anyhow::Result<Vec<Row>> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let mut rows = Vec::new();
+    for (name, text) in mrmm_maps::data::PATROLLING_SIM {
+        let graph = patrolling_sim::parse(name, text).map_err(|e| anyhow!("{e}"))?;
+        let best = best_tour(&graph, seed)?;
+        for &n in sizes.iter().filter(|&&n| n <= graph.vertices.len()) {
+            let row = one(name, &graph, n, best, seed, turn)?;
+            println!(
+                "{name:>16} {:>3} vertices {:>2} robots: tour {:7.1} m (best {:7.1}), idleness avg {:6.1} s worst {:6.1} s, bound {:6.1} s: worst/bound {:.3}",
+                row.vertices,
+                n,
+                row.tour,
+                row.best,
+                row.avg,
+                row.worst,
+                row.bound,
+                row.worst_ratio()
+            );
+            rows.push(row);
+        }
+    }
+    Ok(rows)
+}
+
+/// The best closed tour through every vertex found on the graph metric (a long search);
+/// vertices drawn on the same spot count once, as the patrol visits them.
+fn best_tour(g: &NavGraph, seed: u64) -> anyhow::Result<f64> {
+    let space = Space::new(&Map::Graph(g.clone()), 0.0).map_err(|e| anyhow!("{e}"))?;
+    let mut nodes: Vec<Node> = Vec::new();
+    for i in 0..g.vertices.len() as u32 {
+        if let Some(v) = space.node_at(i).filter(|v| !nodes.iter().any(|n| n.at == v.at)) {
+            nodes.push(v);
+        }
+    }
+    let d = space.matrix(&nodes);
+    if d.iter().any(|v| !v.is_finite()) {
+        anyhow::bail!("the graph does not connect every vertex");
+    }
+    let n = nodes.len();
+    let sym: Vec<f64> = (0..n * n).map(|k| 0.5 * (d[k] + d[(k % n) * n + k / n])).collect();
+    let inst = Instance::with_matrix(nodes.iter().map(|v| v.at).collect(), sym)?;
+    let (t, _) = tsp::solve(&inst, &Budget { max_kicks: 200_000, stop: None, seed })?;
+    // The shorter way round on the (possibly one-way) metric.
+    let o = &t.order;
+    let forward: f64 = (0..n).map(|k| d[o[k] * n + o[(k + 1) % n]]).sum();
+    let backward: f64 = (0..n).map(|k| d[o[(k + 1) % n] * n + o[k]]).sum();
+    Ok(forward.min(backward))
+}
+
+fn one(name: &str, graph: &NavGraph, n: usize, best: f64, seed: u64, turn: f64) -> anyhow::Result<Row> {
+    let map = Map::Graph(graph.clone());
+    let space = Space::new(&map, 0.0).map_err(|e| anyhow!("{e}"))?;
+    let starts = space.farthest(graph.vertices[0].at, n, |_| true).map_err(|e| anyhow!("{e}"))?;
+    let robots: Vec<RobotSpec> =
+        starts.iter().enumerate().map(|(i, p)| RobotSpec { id: format!("r{}", i + 1), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED }).collect();
+    let r = recipe::parse(recipe::bank("patrol").unwrap_or_default())?;
+    let params = BTreeMap::from([("waypoints".to_string(), "all".to_string()), ("seed".to_string(), seed.to_string())]);
+    let t0 = Instant::now();
+    let planned = recipe::build_on(&r, &params, &robots, Some(&map)).map_err(|e| anyhow!("{name}, {n} robots: {e}"))?;
+    let plan_ms = t0.elapsed().as_secs_f64() * 1000.0;
+    let recipe::MissionPlan::Patrol(p) = &planned else { anyhow::bail!("a patrol plan") };
+    let tour = p.length;
+    let bound = best / (n as f64 * SPEED);
+    let mut wire = mrmm_manager::wire::mission_plan(&planned);
+    for (plan, r) in wire.plans.iter_mut().zip(&robots) {
+        pace(graph, &mut plan.steps, (r.x, r.y));
+    }
+    let (avg, worst) = simulate(graph, &robots, wire.plans, tour / (n as f64 * SPEED), turn)?;
+    Ok(Row { map: name.to_string(), vertices: graph.vertices.len(), robots: n, tour, best, bound, avg, worst, plan_ms })
+}
+
+/// Caps every step along an edge at the speed that drives it in its graph length / [`SPEED`]:
+/// a step to a point between two vertices (a slot, a sync point) is paced like the edge it lies
+/// on. Approach steps (uncapped) go at [`SPEED`].
+fn pace(graph: &NavGraph, steps: &mut [mrmm_proto::Step], start: (f64, f64)) {
+    let vertex = |p: (f64, f64)| graph.vertices.iter().position(|v| (v.at.x - p.0).abs() < 0.01 && (v.at.y - p.1).abs() < 0.01);
+    let targets: Vec<(usize, (f64, f64), bool)> = steps
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| if let mrmm_proto::Step::Navigate { x, y, speed } = s { Some((i, (*x, *y), speed.is_some())) } else { None })
+        .collect();
+    // For each target: the vertex before it (or the start) and the vertex after it (the round's
+    // first vertex after its last step).
+    let first_round_vertex = targets.iter().filter(|t| t.2).find_map(|t| vertex(t.1));
+    let mut before = vertex(start);
+    for (k, &(i, p, paced)) in targets.iter().enumerate() {
+        let after = vertex(p).or_else(|| targets[k + 1..].iter().find_map(|t| vertex(t.1))).or(first_round_vertex);
+        let ratio = match (before, after) {
+            (Some(a), Some(b)) if a != b => graph
+                .edges
+                .iter()
+                .filter(|e| e.from as usize == a && e.to as usize == b)
+                .map(|e| e.length)
+                .fold(None, |m: Option<f64>, l| Some(m.map_or(l, |m| m.min(l))))
+                .filter(|l| *l > 0.0)
+                .map(|l| graph.vertices[a].at.dist(graph.vertices[b].at) / l),
+            _ => None,
+        };
+        if let mrmm_proto::Step::Navigate { speed, .. } = &mut steps[i] {
+            *speed = Some(match (paced, ratio) {
+                (true, Some(r)) => (SPEED * r).min(TOP_SPEED),
+                _ => SPEED,
+            });
+        }
+        if let Some(v) = vertex(p) {
+            before = Some(v);
+        }
+    }
+}
+
+/// Runs the team's plans on their executors and bodies until every vertex has been visited
+/// [`INTERVALS`] more times after the start barrier; returns patrolling_sim's average idleness
+/// (the mean over vertices of each one's mean time between visits) and worst idleness (the
+/// longest time between two visits of a vertex), both from the start barrier on.
+fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::RobotPlan>, period: f64, turn: f64) -> anyhow::Result<(f64, f64)> {
+    let ids: Vec<String> = robots.iter().map(|r| r.id.clone()).collect();
+    let mut execs: Vec<Executor> = plans
+        .into_iter()
+        .map(|plan| {
+            Executor::new(PlanAssignment {
+                mission: "m".into(),
+                epoch: 1,
+                team: "m".into(),
+                subteam: "m/ground".into(),
+                members: ids.clone(),
+                plan,
+                managers: vec![],
+                barrier: BarrierMode::Mesh,
+            })
+        })
+        .collect();
+    let mut bodies: Vec<Body> =
+        robots.iter().map(|r| Body::new(Pose { x: r.x, y: r.y, theta: 0.0 }, Limits { max_speed: TOP_SPEED, max_turn_rate: turn })).collect();
+    let nv = graph.vertices.len();
+    // Vertices on the same spot (some graphs have them) are visited together.
+    let same: Vec<Vec<usize>> = graph.vertices.iter().map(|v| (0..nv).filter(|&w| graph.vertices[w].at == v.at).collect()).collect();
+    let mut at: Vec<Option<usize>> = vec![None; robots.len()];
+    let mut last: Vec<Option<f64>> = vec![None; nv];
+    let mut gaps: Vec<Vec<f64>> = vec![Vec::new(); nv];
+    let mut started: Option<f64> = None;
+    let horizon = 50.0 * period + 3600.0;
+    let mut t = 0.0;
+    while t < horizon {
+        let mut heard = Vec::new();
+        for (i, e) in execs.iter_mut().enumerate() {
+            for c in e.handle(t, Event::Tick { body_idle: bodies[i].goal().is_none() }) {
+                match c {
+                    Exec::Navigate { x, y, speed } => bodies[i].navigate_capped(x, y, speed),
+                    Exec::Hold => bodies[i].hold(),
+                    Exec::Publish(a) => heard.push((i, a)),
+                    Exec::Release(_) | Exec::Lead(_) => {}
+                }
+            }
+        }
+        for (from, a) in heard {
+            for (j, e) in execs.iter_mut().enumerate() {
+                if j != from {
+                    e.handle(t, Event::Heard(a.clone()));
+                }
+            }
+        }
+        if started.is_none() && execs.iter().all(|e| e.progress().syncs_passed >= 1) {
+            started = Some(t);
+        }
+        for (i, b) in bodies.iter_mut().enumerate() {
+            b.step(DT);
+            let p = b.pose();
+            let here = graph.vertices.iter().position(|v| (v.at.x - p.x).hypot(v.at.y - p.y) <= VISIT_R);
+            if here != at[i] {
+                if let (Some(v), Some(_)) = (here, started) {
+                    for &w in &same[v] {
+                        if let Some(l) = last[w] {
+                            gaps[w].push(t - l);
+                        }
+                        last[w] = Some(t);
+                    }
+                }
+                at[i] = here;
+            }
+        }
+        t += DT;
+        if started.is_some() && gaps.iter().all(|g| g.len() as f64 >= INTERVALS) {
+            break;
+        }
+    }
+    if let Some(v) = gaps.iter().position(|g| g.is_empty()) {
+        anyhow::bail!("vertex {v} was not visited twice within {horizon:.0} simulated seconds");
+    }
+    let avg = gaps.iter().map(|g| g.iter().sum::<f64>() / g.len() as f64).sum::<f64>() / nv as f64;
+    let worst = gaps.iter().flatten().copied().fold(0.0, f64::max);
+    Ok((avg, worst))
+}
+
+/// results-maps.csv, maps.png and summary-maps.md in `out`.
+pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64) -> anyhow::Result<Vec<String>> {
+    let mut csv = String::from("map,vertices,robots,tour_m,best_tour_m,bound_s,avg_idleness_s,worst_idleness_s,avg_over_bound,worst_over_bound,plan_ms\n");
+    for r in rows {
+        csv.push_str(&format!(
+            "{},{},{},{:.2},{:.2},{:.2},{:.2},{:.2},{:.4},{:.4},{:.1}\n",
+            r.map,
+            r.vertices,
+            r.robots,
+            r.tour,
+            r.best,
+            r.bound,
+            r.avg,
+            r.worst,
+            r.avg_ratio(),
+            r.worst_ratio(),
+            r.plan_ms
+        ));
+    }
+    std::fs::write(out.join("results-maps.csv"), csv)?;
+    let mut maps: Vec<&str> = Vec::new();
+    for r in rows {
+        if !maps.contains(&r.map.as_str()) {
+            maps.push(&r.map);
+        }
+    }
+    let mut sizes: Vec<usize> = rows.iter().map(|r| r.robots).collect();
+    sizes.sort_unstable();
+    sizes.dedup();
+    let labels: Vec<String> = sizes.iter().map(|n| format!("{n} robots")).collect();
+    let series: Vec<&str> = labels.iter().map(String::as_str).collect();
+    let groups = maps
+        .iter()
+        .map(|m| super::plot::Group {
+            label: m.to_string(),
+            values: sizes.iter().map(|&n| rows.iter().find(|r| r.map == *m && r.robots == n).map_or(f64::NAN, Row::worst_ratio)).collect(),
+            note: None,
+        })
+        .collect();
+    super::plot::bars(
+        &out.join("maps.png"),
+        &super::plot::Bars {
+            title: "patrolling_sim maps: worst idleness ÷ L*/(n·v)",
+            y_label: "worst idleness ÷ bound",
+            x_label: "map",
+            series: &series,
+            groups,
+            lines: vec![("target 1.10", vec![1.10; maps.len()]), ("bound", vec![1.0; maps.len()])],
+        },
+    )?;
+    let over: Vec<&Row> = rows.iter().filter(|r| r.worst_ratio() > 1.10).collect();
+    let worst = rows.iter().map(Row::worst_ratio).fold(0.0, f64::max);
+    let mut md = format!(
+        "# Patrolling benchmark on patrolling_sim's maps\n\n`{command}` — {} runs in {elapsed:.0} s.\n\n\
+         Every vertex of each graph patrolled at {SPEED} m/s by mrmm's patrol planner, executed by the \
+         robots' own executor and body in simulated time (step {DT} s, turn rate {TURN} rad/s, a visit \
+         within {VISIT_R} m of a vertex). Idleness as patrolling_sim's monitor measures it, from the \
+         team's start barrier: average = mean over vertices of each vertex's mean time between two \
+         visits, worst = the longest time between two visits of a vertex. Bound = L*/(n·v), L* the best \
+         tour through every vertex found on the graph metric (200 000 kicks of the tour search).\n\n\
+         ![maps](maps.png)\n\n| map | vertices | robots | tour m | L* m | bound s | avg s | worst s | worst ÷ bound |\n|---|---|---|---|---|---|---|---|---|\n",
+        rows.len()
+    );
+    for r in rows {
+        md.push_str(&format!(
+            "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.3} |\n",
+            r.map,
+            r.vertices,
+            r.robots,
+            r.tour,
+            r.best,
+            r.bound,
+            r.avg,
+            r.worst,
+            r.worst_ratio()
+        ));
+    }
+    md.push_str(&format!(
+        "\nLargest worst idleness ÷ bound: {worst:.3} (target ≤ 1.10: {}).\n",
+        if over.is_empty() { "met at every size".to_string() } else { format!("missed by {} runs", over.len()) }
+    ));
+    std::fs::write(out.join("summary-maps.md"), md)?;
+    Ok(vec!["maps.png".into()])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn graph(name: &str) -> NavGraph {
+        let (_, text) = mrmm_maps::data::PATROLLING_SIM.iter().find(|(n, _)| *n == name).expect("shipped");
+        patrolling_sim::parse(name, text).expect("graph")
+    }
+
+    /// With turns that take no time (the bound's own assumption) the team is within a few per
+    /// cent of L*/(n·v), never below it; real turning costs more.
+    #[test]
+    fn idleness_meets_the_bound_when_turns_are_free() {
+        let g = graph("grid");
+        let best = best_tour(&g, 1).expect("tour");
+        for n in [1, 4] {
+            let r = one("grid", &g, n, best, 1, 1000.0).expect("run");
+            assert!((0.98..=1.05).contains(&r.worst_ratio()), "{n} robots: {}", r.worst_ratio());
+            assert!(r.avg <= r.worst && (r.tour - r.best).abs() < 1e-6, "a grid's best tour is found: {} vs {}", r.tour, r.best);
+        }
+        let slow = one("grid", &g, 4, best, 1, 1.0).expect("run");
+        assert!(slow.worst_ratio() > 1.05, "turning at 1 rad/s costs time: {}", slow.worst_ratio());
+    }
+}
