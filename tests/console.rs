@@ -128,3 +128,55 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
     client.close().await;
     Ok(())
 }
+
+/// The console draws central's map under the fleet: the demo building's walls dark and its
+/// corridor light where the page puts them, and the map offered in the Create dialog.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_console_draws_the_building_under_the_fleet() -> anyhow::Result<()> {
+    let chromium = match browser() {
+        Ok(c) => c,
+        Err(why) if std::env::var("CI").as_deref() != Ok("true") => {
+            eprintln!("skipped: {why} (`bash .ci/run` installs them)");
+            return Ok(());
+        }
+        Err(why) => anyhow::bail!("{why}: .ci/run installs Chromium and playwright-core"),
+    };
+    let dir = Scratch::new("console-map");
+    let map = format!("building={}", PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/building/building.yaml").display());
+    let central = common::start(
+        "central",
+        &["central", "--listen", "tcp/127.0.0.1:0", "--map", &map],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let ep = central.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow!("no endpoint"))?;
+    let _robot = common::start_robot(&dir, "r1", &ep, -10.0, 0.0)?;
+    let console = common::start(
+        "console",
+        &["console", "--listen", "127.0.0.1:0", "--connect", &ep],
+        &dir.path("console.log"),
+        "mrmm console: http://",
+        Duration::from_secs(20),
+    )?;
+    let url = console.ready.split_whitespace().find(|w| w.starts_with("http://")).ok_or_else(|| anyhow!("no URL in {:?}", console.ready))?.to_string();
+    let shot = dir.path("map.png");
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/browser/map.cjs");
+    let out = tokio::process::Command::new("node")
+        .arg(&script)
+        .arg(&url)
+        .arg(&shot)
+        .env("NODE_PATH", node_modules())
+        .env("MRMM_CHROMIUM", &chromium)
+        .kill_on_drop(true)
+        .output();
+    let out = tokio::time::timeout(Duration::from_secs(90), out).await.context("the browser run took over 90 s")??;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    anyhow::ensure!(out.status.success(), "browser run failed: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
+    let seen: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap_or_default()).with_context(|| format!("browser output {stdout:?}"))?;
+    assert_eq!(seen["maps"], serde_json::json!(["building"]), "{seen}");
+    assert!(seen["wall"].as_f64().is_some_and(|v| v < 120.0), "an office wall is dark: {seen}");
+    assert!(seen["corridor"].as_f64().is_some_and(|v| v > 200.0), "the corridor is light: {seen}");
+    assert_eq!(seen["options"], serde_json::json!(["", "building"]), "the map is offered for a new mission: {seen}");
+    Ok(())
+}

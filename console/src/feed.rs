@@ -6,11 +6,12 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use mrmm_proto::client::Client;
-use mrmm_proto::{self as proto, Advice, Key, MissionView, Pattern, RobotView, Role};
+use mrmm_proto::{self as proto, Advice, Key, MapInfo, MapRef, MissionView, Pattern, RobotView, Role};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
 use zenoh::handlers::RingChannel;
 
+use crate::layers::{self, Layers};
 use crate::model::{Fleet, Snapshot};
 use crate::ConsoleError;
 
@@ -22,7 +23,7 @@ pub const PUBLISH: Duration = Duration::from_millis(100);
 const TELEMETRY_QUEUE: usize = 1024;
 
 /// Feeds `tx` until `shutdown`.
-pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, shutdown: CancellationToken) -> Result<(), ConsoleError> {
+pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, maps: Layers, shutdown: CancellationToken) -> Result<(), ConsoleError> {
     let mesh = client.mesh().clone();
     let telemetry = client
         .session()
@@ -37,6 +38,8 @@ pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, shutdown
     let hello_key = Key::Viewer(mesh.me().id.clone()).to_string();
     // One poll at a time, off the loop: a slow central does not hold the telemetry back.
     let mut polling: tokio::task::JoinSet<Polled> = tokio::task::JoinSet::new();
+    // Maps being fetched (by hash): each is drawn once.
+    let asked = Arc::new(std::sync::Mutex::new(std::collections::BTreeSet::new()));
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -46,7 +49,15 @@ pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, shutdown
                 polling.spawn(async move { poll_central(&c).await });
             }
             Some(done) = polling.join_next(), if !polling.is_empty() => match done {
-                Ok(Ok((robots, missions, advice))) => fleet.polled(robots, missions, advice),
+                Ok(Ok((robots, missions, advice, known))) => {
+                    fleet.polled(robots, missions, advice);
+                    for m in &known {
+                        if asked.lock().map(|mut a| a.insert(m.hash.clone())).unwrap_or(false) {
+                            tokio::spawn(fetch_layer(client.clone(), m.map_ref(), maps.clone(), asked.clone()));
+                        }
+                    }
+                    fleet.maps(known);
+                }
                 Ok(Err(why)) => fleet.unreachable(why),
                 Err(e) => fleet.unreachable(format!("poll failed: {e}")),
             },
@@ -70,15 +81,40 @@ pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, shutdown
     Ok(())
 }
 
-type Polled = Result<(Vec<RobotView>, Vec<MissionView>, Vec<Advice>), String>;
+type Polled = Result<(Vec<RobotView>, Vec<MissionView>, Vec<Advice>, Vec<MapInfo>), String>;
 
-/// Central's three tables, asked together.
+/// Central's tables, asked together (its maps: none from a central that has no such key).
 async fn poll_central(client: &Client) -> Polled {
     let none = None::<&()>;
-    let (robots, missions, advice) = tokio::join!(
+    let (robots, missions, advice, maps) = tokio::join!(
         client.query::<Vec<RobotView>>(Key::SystemRobots, none),
         client.query::<Vec<MissionView>>(Key::SystemMissions, none),
         client.query::<Vec<Advice>>(Key::AgentAdvice, none),
+        client.query::<Vec<MapInfo>>(Key::SystemMaps, none),
     );
-    Ok((robots.map_err(|e| e.to_string())?, missions.map_err(|e| e.to_string())?, advice.map_err(|e| e.to_string())?))
+    Ok((robots.map_err(|e| e.to_string())?, missions.map_err(|e| e.to_string())?, advice.map_err(|e| e.to_string())?, maps.unwrap_or_default()))
+}
+
+/// Fetches map `r` from the fleet and makes its layer; on failure it is asked again at a later
+/// poll.
+async fn fetch_layer(client: Arc<Client>, r: MapRef, maps: Layers, asked: Arc<std::sync::Mutex<std::collections::BTreeSet<String>>>) {
+    let made = match proto::map::fetch(client.session(), &r).await {
+        Ok(bytes) => {
+            mrmm_maps::Bundle::decode(&r.name, &bytes).and_then(|b| b.load()).map_err(|e| e.to_string()).and_then(|(_, m)| layers::layer(&r.name, &r.hash, &m))
+        }
+        Err(e) => Err(e),
+    };
+    match made {
+        Ok(l) => {
+            if let Ok(mut m) = maps.lock() {
+                m.insert(r.hash.clone(), l);
+            }
+        }
+        Err(e) => {
+            tracing::warn!(map = %r.name, "cannot draw the map yet: {e}");
+            if let Ok(mut a) = asked.lock() {
+                a.remove(&r.hash);
+            }
+        }
+    }
 }

@@ -42,6 +42,8 @@ pub struct AppState {
     pub token: Arc<str>,
     /// The port this server listens on (the `Host` every request must name).
     pub port: u16,
+    /// The maps' layers, as they arrive.
+    pub maps: crate::layers::Layers,
 }
 
 /// The console's routes.
@@ -54,6 +56,8 @@ pub fn router(state: AppState) -> Router {
         .route("/api/events", get(events))
         .route("/api/cmd/{group}/{verb}", post(command))
         .route("/api/assign", post(assign))
+        .route("/api/map/{hash}", get(map_layer))
+        .route("/api/map/{hash}/png", get(map_png))
         .layer(middleware::from_fn_with_state(state.clone(), guard))
         .layer(DefaultBodyLimit::max(MAX_BODY))
         .with_state(state)
@@ -159,6 +163,28 @@ async fn command(State(st): State<AppState>, Path((group, verb)): Path<(String, 
     match forward(&st.client, cmd, &body).await {
         Ok(v) => Json(v).into_response(),
         Err((status, msg)) => error(status, msg),
+    }
+}
+
+/// `GET /api/map/<hash>`: where a map lies and, for a graph, its lanes (404 while it is being
+/// fetched).
+async fn map_layer(State(st): State<AppState>, Path(hash): Path<String>) -> Response {
+    match st.maps.lock().ok().and_then(|m| m.get(&hash).map(|l| l.json.clone())) {
+        Some(v) => Json(v).into_response(),
+        None => error(StatusCode::NOT_FOUND, format!("no map {hash} (yet)")),
+    }
+}
+
+/// `GET /api/map/<hash>/png`: a grid map's image.
+async fn map_png(State(st): State<AppState>, Path(hash): Path<String>) -> Response {
+    match st.maps.lock().ok().and_then(|m| m.get(&hash).and_then(|l| l.png.clone())) {
+        Some(png) => {
+            let mut r = (*png).clone().into_response();
+            r.headers_mut().insert(header::CONTENT_TYPE, HeaderValue::from_static("image/png"));
+            r.headers_mut().insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
+            r
+        }
+        None => error(StatusCode::NOT_FOUND, format!("no image of map {hash} (yet)")),
     }
 }
 

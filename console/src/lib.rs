@@ -9,6 +9,7 @@
 
 pub mod feed;
 pub mod http;
+pub mod layers;
 pub mod model;
 
 use std::sync::Arc;
@@ -51,12 +52,14 @@ pub async fn run(client: Client, listener: TcpListener, token: String, shutdown:
     // that never fills.
     let stop = shutdown.clone();
     let fed_client = client.clone();
+    let maps = layers::Layers::default();
+    let fed_maps = maps.clone();
     let feed = tokio::spawn(async move {
-        let r = feed::run(fed_client, tx, stop.clone()).await;
+        let r = feed::run(fed_client, tx, fed_maps, stop.clone()).await;
         stop.cancel();
         r
     });
-    let app = http::router(http::AppState { client, snapshots: rx, token: Arc::from(token.as_str()), port: addr.port() });
+    let app = http::router(http::AppState { client, snapshots: rx, token: Arc::from(token.as_str()), port: addr.port(), maps });
     let stop = shutdown.clone();
     let served = axum::serve(listener, app).with_graceful_shutdown(async move { stop.cancelled().await }).await;
     shutdown.cancel();

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{Advice, MissionView, Pose, RobotView, Telemetry};
+use mrmm_proto::{Advice, MapInfo, MissionView, Pose, RobotView, Telemetry};
 use serde::Serialize;
 
 /// Robots whose telemetry the model keeps between two polls of central's table: a flood of
@@ -21,6 +21,8 @@ pub struct Snapshot {
     pub missions: Vec<MissionView>,
     /// The advising agent's standing advice, most urgent first.
     pub advice: Vec<Advice>,
+    /// Central's maps; the page fetches each one's layer (`/api/map/<hash>`) once.
+    pub maps: Vec<MapInfo>,
     pub central: CentralState,
 }
 
@@ -47,6 +49,7 @@ pub struct Fleet {
     robots: Vec<RobotView>,
     missions: Vec<MissionView>,
     advice: Vec<Advice>,
+    maps: Vec<MapInfo>,
     live: BTreeMap<String, Live>,
     central: CentralState,
     seq: u64,
@@ -54,6 +57,14 @@ pub struct Fleet {
 }
 
 impl Fleet {
+    /// Central's maps (asked with the tables; they seldom change).
+    pub fn maps(&mut self, maps: Vec<MapInfo>) {
+        if self.maps != maps {
+            self.maps = maps;
+            self.changed = true;
+        }
+    }
+
     /// Central answered a poll: its robots, missions and advice replace what was known.
     pub fn polled(&mut self, mut robots: Vec<RobotView>, missions: Vec<MissionView>, advice: Vec<Advice>) {
         robots.sort_by(|a, b| a.id.cmp(&b.id));
@@ -110,7 +121,14 @@ impl Fleet {
                 r
             })
             .collect();
-        Some(Snapshot { seq: self.seq, robots, missions: self.missions.clone(), advice: self.advice.clone(), central: self.central.clone() })
+        Some(Snapshot {
+            seq: self.seq,
+            robots,
+            missions: self.missions.clone(),
+            advice: self.advice.clone(),
+            maps: self.maps.clone(),
+            central: self.central.clone(),
+        })
     }
 }
 

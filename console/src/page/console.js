@@ -1,4 +1,5 @@
-// mrmm console: the fleet on a map (robots coloured by mission, patrol tours, coverage points),
+// mrmm console: the fleet on a map (the building's map under it, robots coloured by mission,
+// patrol tours, coverage points),
 // selection by click or box, and the operator's commands (assign, release, create, terminate).
 // Data arrives as server-sent events (`/api/events`); commands are POSTs to `/api/…`. Text from
 // the fleet is only ever set as text (never as HTML).
@@ -27,6 +28,8 @@
   let drag = null;
   // A frame is asked for and not drawn yet.
   let dirty = false;
+  // Central's maps as drawn layers, by hash: { info, json, img }.
+  const layers = {};
 
   // ---- colours -------------------------------------------------------------------------------
   function hue(name) {
@@ -71,6 +74,7 @@
       for (const p of [...sh.line, ...sh.dots, ...sh.area]) add(p.x, p.y);
     }
     for (const [x, y] of points) add(x, y);
+    for (const m of snap.maps || []) if (layers[m.hash] && layers[m.hash].json) { add(m.min.x, m.min.y); add(m.max.x, m.max.y); }
     if (!xs.length) { add(0, 0); }
     const minX = Math.min(...xs), maxX = Math.max(...xs), minY = Math.min(...ys), maxY = Math.max(...ys);
     const spanX = Math.max(maxX - minX, 10), spanY = Math.max(maxY - minY, 10);
@@ -89,6 +93,7 @@
     if (!view.user && !drawing) fit();
     ctx.clearRect(0, 0, w, h);
     grid(w, h);
+    for (const l of Object.values(layers)) drawLayer(l);
     for (const m of snap.missions) {
       const col = missionColour(m.name);
       const sh = missionShapes(m);
@@ -140,6 +145,63 @@
       ctx.strokeStyle = '#2b6cb0'; ctx.lineWidth = 1; ctx.setLineDash([3, 3]);
       ctx.strokeRect(drag.x0, drag.y0, drag.x1 - drag.x0, drag.y1 - drag.y0);
       ctx.setLineDash([]);
+    }
+  }
+  // A map under the fleet: a grid's image placed in metres (its lower-left corner at the
+  // origin, turned by its yaw), or a graph's lanes and vertices.
+  function drawLayer(l) {
+    const j = l.json;
+    if (!j) return;
+    if (j.kind === 'grid' && l.img && l.img.complete && l.img.naturalWidth) {
+      const g = j.grid, [sx, sy] = toScreen(g.origin[0], g.origin[1]);
+      const wpx = g.width * g.resolution * view.scale, hpx = g.height * g.resolution * view.scale;
+      ctx.save();
+      ctx.translate(sx, sy);
+      ctx.rotate(-g.origin[2]);
+      ctx.imageSmoothingEnabled = false;
+      ctx.globalAlpha = 0.85;
+      ctx.drawImage(l.img, 0, -hpx, wpx, hpx);
+      ctx.restore();
+      l.drawn = true;
+    } else if (j.kind === 'graph') {
+      ctx.strokeStyle = '#b6bdc9'; ctx.lineWidth = 2;
+      for (const [x1, y1, x2, y2] of j.lanes) {
+        const [a, b] = toScreen(x1, y1), [c, d] = toScreen(x2, y2);
+        ctx.beginPath(); ctx.moveTo(a, b); ctx.lineTo(c, d); ctx.stroke();
+      }
+      ctx.fillStyle = '#9aa3b2';
+      for (const [x, y] of j.vertices) { const [sx, sy] = toScreen(x, y); ctx.fillRect(sx - 2, sy - 2, 4, 4); }
+      l.drawn = true;
+    }
+  }
+  // Fetches the layers of maps not seen yet (asked again at a later snapshot if not ready).
+  function loadLayers() {
+    for (const m of snap.maps || []) {
+      const have = layers[m.hash];
+      if (have && (have.json || have.loading)) continue;
+      const l = (layers[m.hash] = { info: m, loading: true });
+      fetch(`/api/map/${m.hash}`, { headers: { Authorization: `Bearer ${token}` } })
+        .then((r) => (r.ok ? r.json() : null))
+        .then((j) => {
+          l.loading = false;
+          if (!j) return;
+          l.json = j;
+          if (j.kind === 'grid') {
+            l.img = new Image();
+            l.img.onload = () => redraw();
+            l.img.src = `/api/map/${m.hash}/png?token=${encodeURIComponent(token)}`;
+          }
+          redraw();
+        })
+        .catch(() => { l.loading = false; });
+    }
+    const sel = $('new-map');
+    const names = ['', ...(snap.maps || []).map((m) => m.name)];
+    if (sel && sel.options.length !== names.length) {
+      const keep = sel.value;
+      sel.textContent = '';
+      for (const n of names) { const o = document.createElement('option'); o.value = n; o.textContent = n || 'no map'; sel.appendChild(o); }
+      sel.value = names.includes(keep) ? keep : '';
     }
   }
   function path(pts, closed) {
@@ -375,8 +437,9 @@
       params[recipe === 'coverage' ? 'region' : 'waypoints'] = points.map(([x, y]) => [x, y]);
     }
     say(`Creating ${name} with ${robots.join(', ')}…`, true);
+    const map = $('new-map').value;
     try {
-      const v = await api('/api/cmd/mission/create', { name, recipe, robots, params });
+      const v = await api('/api/cmd/mission/create', map ? { name, recipe, robots, params, map } : { name, recipe, robots, params });
       say(`${v.name} ${v.status} with ${v.robots.join(', ')}`, true);
       points.length = 0; drawing = false; render();
     } catch (e) { say(e.message, false); }
@@ -398,7 +461,7 @@
   // ---- the feed ------------------------------------------------------------------------------
   function connect() {
     const es = new EventSource(`/api/events?token=${encodeURIComponent(token)}`);
-    es.addEventListener('state', (e) => { try { snap = JSON.parse(e.data); render(); } catch (err) { say(`bad state: ${err}`, false); } });
+    es.addEventListener('state', (e) => { try { snap = JSON.parse(e.data); loadLayers(); render(); } catch (err) { say(`bad state: ${err}`, false); } });
     es.onerror = () => { $('conn').textContent = 'console: reconnecting…'; $('conn').className = 'bad'; };
   }
   if (!token) say('No token: open the URL that `mrmm console` printed.', false);
@@ -416,6 +479,7 @@
     },
     worldOnPage(x, y) { const b = canvas.getBoundingClientRect(); const [sx, sy] = toScreen(x, y); return { x: b.left + sx, y: b.top + sy }; },
     selected: () => [...selected].sort(),
+    mapsDrawn: () => Object.values(layers).filter((l) => l.drawn).map((l) => l.info.name).sort(),
     snapshot: () => snap,
   };
 })();
