@@ -94,7 +94,7 @@ async fn main() -> anyhow::Result<()> {
             let client = &client;
             async move {
                 client
-                    .query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: robot.into(), x, y: 0.0 }))
+                    .query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: robot.into(), x, y: 0.0, map: None }))
                     .await
                     .with_context(|| format!("trial {i}: goto {robot} ({x}, 0)"))
             }

@@ -42,7 +42,7 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
     assert_eq!((st.robots_total, st.idle, st.lost), (3, 3, 0));
 
     // goto: the pose arrives.
-    let ack: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r1".into(), x: 3.0, y: 4.0 })).await?;
+    let ack: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r1".into(), x: 3.0, y: 4.0, map: None })).await?;
     assert_eq!(ack["ok"], true);
     eventually("r1 at (3, 4) and idle", Duration::from_secs(20), || async {
         let v: RobotView = client.query(proto::Key::SystemRobot("r1".to_string()), None::<&()>).await.ok()?;
@@ -54,7 +54,7 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
 
     // Bad input: unknown robot, garbage request, garbage telemetry; central keeps answering.
     let e = client
-        .query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "nope".into(), x: 0.0, y: 0.0 }))
+        .query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "nope".into(), x: 0.0, y: 0.0, map: None }))
         .await
         .expect_err("unknown robot");
     assert!(e.to_string().contains("unknown robot \"nope\""), "{e}");
@@ -85,7 +85,7 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
 
     // A goto to a lost robot is refused.
     let e = client
-        .query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r3".into(), x: 0.0, y: 0.0 }))
+        .query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r3".into(), x: 0.0, y: 0.0, map: None }))
         .await
         .expect_err("lost");
     assert!(e.to_string().contains("lost"), "{e}");

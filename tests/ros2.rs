@@ -90,7 +90,7 @@ async fn a_ros2_robot_drives_patrols_with_simulated_ones_and_stops_without_its_f
     println!("ROS graph: {graph}");
 
     // A goto: the robot drives (twists on /cmd_vel) and mrmm reports the pose odometry gives.
-    let ack: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r3".into(), x: 1.5, y: 0.5 })).await?;
+    let ack: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { map: None, robot: "r3".into(), x: 1.5, y: 0.5 })).await?;
     println!("goto: {ack}");
     standin.wait("moving", Duration::from_secs(10), |_| true)?;
     let at = standin.wait("zero", Duration::from_secs(30), |_| true)?;
@@ -209,7 +209,7 @@ async fn nav2_gets_goals_cancels_them_on_replan_and_fleet_loss_and_refusals_and_
     // A goto is a goal in the map frame; Nav2 drives there and mrmm reports the robot there.
     let goto = |x: f64, y: f64| {
         let client = &client;
-        async move { client.query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r3".into(), x, y })).await }
+        async move { client.query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { map: None, robot: "r3".into(), x, y })).await }
     };
     goto(1.5, 0.5).await?;
     let g = standin.wait("goal", Duration::from_secs(10), |_| true)?;

@@ -183,6 +183,7 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
         error: None,
         plans: None,
         requires: vec![],
+        map: None,
     }
 }
 
@@ -227,6 +228,7 @@ impl Host {
                 planner: "patrol".into(),
                 params: [("waypoints".to_string(), "[[0,0],[10,0],[10,10],[0,10]]".to_string())].into(),
                 replicas,
+                map: None,
             },
             members: vec![member("r1", 0.0), member("r2", 1.0)],
             anew: false,

@@ -23,6 +23,8 @@ pub struct Held {
     pub info: MapInfo,
     pub map: Arc<Map>,
     chunks: Vec<Vec<u8>>,
+    /// The map prepared for routes (operator gotos), made the first time one is asked.
+    space: std::sync::OnceLock<Result<mrmm_maps::Space, String>>,
 }
 
 impl Held {
@@ -33,7 +35,15 @@ impl Held {
         let hash = mrmm_maps::bundle::content_hash(&encoded);
         let info = info(name, &hash, encoded.len() as u64, &map.summary(format));
         let chunks = MapChunk::split(&encoded).iter().filter_map(|c| c.encode().ok()).collect();
-        Ok(Held { info, map: Arc::new(map), chunks })
+        Ok(Held { info, map: Arc::new(map), chunks, space: std::sync::OnceLock::new() })
+    }
+
+    /// The map prepared for robots of the default radius.
+    pub fn space(&self) -> Result<&mrmm_maps::Space, String> {
+        self.space
+            .get_or_init(|| mrmm_maps::Space::new(&self.map, mrmm_planner::recipe::DEFAULT_ROBOT_RADIUS).map_err(|e| e.to_string()))
+            .as_ref()
+            .map_err(Clone::clone)
     }
 
     pub fn map_ref(&self) -> MapRef {

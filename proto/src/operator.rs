@@ -18,6 +18,10 @@ pub struct GotoRequest {
     pub robot: String,
     pub x: f64,
     pub y: f64,
+    /// Drive there along this map of central's (`mrmm op maps`); none named: central's map if it
+    /// holds exactly one, else a straight line.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<String>,
 }
 
 /// Registry status of a robot as the operator sees it.

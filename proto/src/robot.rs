@@ -198,8 +198,14 @@ pub const TAKEN_OVER: &str = "taken over:";
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
 pub enum RobotCommand {
-    /// Drive to (x, y) and hold there (leaves any plan).
-    Goto { x: f64, y: f64 },
+    /// Drive to (x, y) through the points of `via` (a route on the fleet's map), and hold there
+    /// (leaves any plan).
+    Goto {
+        x: f64,
+        y: f64,
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        via: Vec<[f64; 2]>,
+    },
     /// Stop where you are (leaves any plan).
     Hold,
     /// Execute `plan` as a member of `team` (sub-team `subteam`) of `mission`. Replaces any

@@ -448,9 +448,9 @@ impl SystemManager {
                 None => reply(req, Err(format!("unknown mission {name:?}"))),
             },
             Request::Goto(g) => match self.check_goto(&g) {
-                Ok(()) => {
+                Ok(via) => {
                     self.note_command(&req, "robot goto", &serde_json::to_value(&g).unwrap_or(Value::Null));
-                    vec![Command::SendToRobot { req: Some(req), robot: g.robot, cmd: RobotCommand::Goto { x: g.x, y: g.y } }]
+                    vec![Command::SendToRobot { req: Some(req), robot: g.robot, cmd: RobotCommand::Goto { x: g.x, y: g.y, via } }]
                 }
                 Err(e) => reply(req, Err(e)),
             },
@@ -467,7 +467,9 @@ impl SystemManager {
         Some(Member { spec: self.spec(id)?, time_scale })
     }
 
-    fn check_goto(&self, g: &GotoRequest) -> Result<(), String> {
+    /// Checks a goto; on a map (the one it names, else central's only one), the route's corner
+    /// points between the robot and its goal.
+    fn check_goto(&self, g: &GotoRequest) -> Result<Vec<[f64; 2]>, String> {
         self.live_robot(&g.robot)?;
         if let Some(m) = self.assignment.get(&g.robot) {
             return Err(format!("robot {:?} is in mission {m}: move it out first (robot move {} none)", g.robot, g.robot));
@@ -475,7 +477,18 @@ impl SystemManager {
         if !(g.x.is_finite() && g.y.is_finite()) {
             return Err("x and y must be finite numbers".into());
         }
-        Ok(())
+        let held = match &g.map {
+            Some(name) => Some(self.maps.get(name).ok_or_else(|| format!("no map {name:?}"))?),
+            None if self.maps.len() == 1 => self.maps.values().next(),
+            None => None,
+        };
+        let (Some(held), Some(pose)) = (held, self.robots.get(&g.robot).and_then(|r| r.last.as_ref()).map(|t| t.pose)) else { return Ok(vec![]) };
+        let space = held.space()?;
+        let name = &held.info.name;
+        let from = space.locate_robot(&g.robot, 0, mrmm_maps::Point::new(pose.x, pose.y)).map_err(|e| format!("map {name}: {e}"))?;
+        let to = space.locate("goal", 0, mrmm_maps::Point::new(g.x, g.y)).map_err(|e| format!("map {name}: {e}"))?;
+        let route = space.route(&from, &to).ok_or_else(|| format!("map {name}: ({}, {}) cannot be reached from where {} is", g.x, g.y, g.robot))?;
+        Ok(route[1..route.len() - 1].iter().map(|p| [(p.x * 100.0).round() / 100.0, (p.y * 100.0).round() / 100.0]).collect())
     }
 
     /// The robot's record if it is registered and alive.

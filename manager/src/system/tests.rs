@@ -150,7 +150,7 @@ fn goto_is_validated_then_relayed() {
     let go = |sm: &mut SystemManager, body: &str| sm.drive(1.0, Event::Operator { req: Req::Query(7), request: Request::Goto(decode(body)) });
     assert_eq!(
         go(&mut sm, r#"{"robot":"r1","x":3,"y":4}"#),
-        vec![Command::SendToRobot { req: Some(Req::Query(7)), robot: "r1".into(), cmd: RobotCommand::Goto { x: 3.0, y: 4.0 } }]
+        vec![Command::SendToRobot { req: Some(Req::Query(7)), robot: "r1".into(), cmd: RobotCommand::Goto { x: 3.0, y: 4.0, via: vec![] } }]
     );
     let e = reply(go(&mut sm, r#"{"robot":"nope","x":3,"y":4}"#)).expect_err("unknown");
     assert!(e.contains("unknown robot \"nope\""), "{e}");
@@ -162,6 +162,29 @@ fn goto_is_validated_then_relayed() {
     assert_eq!(v["ok"], Value::Bool(true));
     let e = reply(sm.drive(2.0, Event::RobotCommandDone { req: Some(Req::Query(8)), robot: "r1".into(), result: Err("timeout".into()) })).expect_err("failed");
     assert_eq!(e, "robot r1: timeout");
+}
+
+/// On a map, a goto goes along its corridors: central sends the route's corners with it.
+#[test]
+fn a_goto_on_a_map_follows_a_route() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../maps/data/building/building.yaml");
+    let held = crate::maps::load_file("building", &path).expect("the demo building");
+    let grid = held.map.grid().expect("a grid").clone();
+    let mut sm = registered(&["r1"]).with_maps([("building".to_string(), std::sync::Arc::new(held))].into());
+    let go = |sm: &mut SystemManager, body: &str| sm.drive(1.0, Event::Operator { req: Req::Query(7), request: Request::Goto(decode(body)) });
+    // From the corridor (0, 0) into an office: through its door, never through a wall.
+    let out = go(&mut sm, r#"{"robot":"r1","x":-8,"y":8}"#);
+    let [Command::SendToRobot { cmd: RobotCommand::Goto { x, y, via }, .. }] = out.as_slice() else { panic!("a goto: {out:?}") };
+    assert!(!via.is_empty(), "a route, not a straight line");
+    let mut pts = vec![mrmm_maps::Point::new(0.0, 0.0)];
+    pts.extend(via.iter().map(|p| mrmm_maps::Point::new(p[0], p[1])));
+    pts.push(mrmm_maps::Point::new(*x, *y));
+    assert!(pts.windows(2).all(|w| grid.segment_free(w[0], w[1])), "{pts:?}");
+    // A goal in a wall is refused in words; a map central does not hold too.
+    let e = reply(go(&mut sm, r#"{"robot":"r1","x":-4,"y":6}"#)).expect_err("in a wall");
+    assert!(e.starts_with("map building: goal 0 at (-4, 6) is in an occupied cell"), "{e}");
+    let e = reply(go(&mut sm, r#"{"robot":"r1","x":1,"y":1,"map":"elsewhere"}"#)).expect_err("no such map");
+    assert_eq!(e, "no map \"elsewhere\"");
 }
 
 #[test]

@@ -20,6 +20,8 @@ pub const MAX_PLAN_STEPS: usize = 100_000;
 
 /// Missions a robot holds admissions to at most (its mission and the ones it is moving to).
 pub const MAX_ADMISSIONS: usize = 4;
+/// Points of a goto's route at most.
+pub const MAX_GOTO_VIA: usize = 10_000;
 /// Something that happened to the robot.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
@@ -104,6 +106,8 @@ pub struct Robot {
     info_rev: u32,
     /// Pending [`Command::KeepCapabilities`] (out with the reply to the change).
     keep: bool,
+    /// The rest of a goto's route: driven to one by one once the body is idle.
+    route: std::collections::VecDeque<(f64, f64)>,
 }
 
 impl Robot {
@@ -117,7 +121,20 @@ impl Robot {
             }
         };
         let capabilities = cfg.capabilities.clone();
-        Robot { cfg, body, seq: 0, sim_t: 0.0, last_tick: None, exec: None, admitted: Vec::new(), central_up: false, capabilities, info_rev: 0, keep: false }
+        Robot {
+            cfg,
+            body,
+            seq: 0,
+            sim_t: 0.0,
+            last_tick: None,
+            exec: None,
+            admitted: Vec::new(),
+            central_up: false,
+            capabilities,
+            info_rev: 0,
+            keep: false,
+            route: Default::default(),
+        }
     }
 
     pub fn id(&self) -> &str {
@@ -322,19 +339,26 @@ impl Robot {
     fn command(&mut self, cmd: &RobotCommand) -> Result<Option<Command>, String> {
         let mut change = None;
         match cmd {
-            RobotCommand::Goto { x, y } => {
+            RobotCommand::Goto { x, y, via } => {
                 if !(x.is_finite() && y.is_finite()) {
                     return Err(format!("goto: coordinates must be finite (got {x}, {y})"));
+                }
+                if via.len() > MAX_GOTO_VIA || via.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
+                    return Err(format!("goto: at most {MAX_GOTO_VIA} finite route points"));
                 }
                 if self.exec.take().is_some() {
                     change = Some(Command::LeaveTeam);
                 }
-                self.body.navigate_capped(*x, *y, None);
+                self.route = via.iter().map(|p| (p[0], p[1])).chain([(*x, *y)]).collect();
+                if let Some((x, y)) = self.route.pop_front() {
+                    self.body.navigate_capped(x, y, None);
+                }
             }
             RobotCommand::Hold => {
                 if self.exec.take().is_some() {
                     change = Some(Command::LeaveTeam);
                 }
+                self.route.clear();
                 self.body.hold();
             }
             RobotCommand::Plan(a) => {
@@ -353,6 +377,7 @@ impl Robot {
                     }
                 }
                 tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
+                self.route.clear();
                 self.body.hold();
                 change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier, members: a.members.clone() });
                 self.exec = Some(Executor::new((**a).clone()).with_time_scale(self.cfg.time_scale));
@@ -440,7 +465,14 @@ impl Robot {
                 None => tracing::info!(robot = %self.cfg.id, "ROS 2 body driving"),
             }
         }
-        let body_idle = self.body.goal().is_none();
+        let mut body_idle = self.body.goal().is_none();
+        // A goto's route: on to its next point.
+        if body_idle && self.exec.is_none() {
+            if let Some((x, y)) = self.route.pop_front() {
+                self.body.navigate_capped(x, y, None);
+                body_idle = false;
+            }
+        }
         let mut out = self.plan_event(executor::Event::Tick { body_idle });
         // (A goal the plan gives now is driven to from the next tick, 20 ms on.)
         if let Some(t) = step.twist {

@@ -51,7 +51,7 @@ fn telemetry(r: &mut Robot, now: f64) -> Telemetry {
 #[test]
 fn goto_then_arrive_with_time_scale() {
     let mut r = Robot::new(cfg());
-    let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 8.0, y: 0.0 });
+    let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 8.0, y: 0.0, via: vec![] });
     assert_eq!(ack.expect("ack").behaviour, Behaviour::Navigate { x: 8.0, y: 0.0 });
     // 8 m at 2 m/s = 4 simulated s = 1 wall s at time scale 4.
     for i in 0..=110 {
@@ -64,10 +64,34 @@ fn goto_then_arrive_with_time_scale() {
     assert_eq!(t.seq, 2, "one telemetry after the command, one now");
 }
 
+/// A goto with a route drives through its corners in turn, then holds at the goal.
+#[test]
+fn goto_follows_its_route() {
+    let mut r = Robot::new(cfg());
+    let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]] });
+    assert_eq!(ack.expect("ack").behaviour, Behaviour::Navigate { x: 4.0, y: 0.0 }, "the first corner first");
+    let mut farthest_x_before_turn: f64 = 0.0;
+    for i in 0..=400 {
+        r.handle(i as f64 * 0.01, Event::Tick);
+        let p = r.telemetry().pose;
+        if p.y < 0.5 {
+            farthest_x_before_turn = farthest_x_before_turn.max(p.x);
+        } else {
+            assert!(p.x > 3.5, "cut the corner: {p:?}");
+        }
+    }
+    let t = telemetry(&mut r, 4.1);
+    assert_eq!(t.behaviour, Behaviour::Hold);
+    assert!((t.pose.x - 4.0).abs() <= 0.1 && (t.pose.y - 4.0).abs() <= crate::body::ARRIVAL_TOLERANCE, "{:?}", t.pose);
+    assert!(farthest_x_before_turn > 3.9);
+    let too_many = vec![[0.0, 0.0]; MAX_GOTO_VIA + 1];
+    assert!(cmd(&mut r, RobotCommand::Goto { x: 0.0, y: 0.0, via: too_many }).0.is_err());
+}
+
 #[test]
 fn rejects_non_finite_goal_and_hostile_plans() {
     let mut r = Robot::new(cfg());
-    assert!(cmd(&mut r, RobotCommand::Goto { x: f64::NAN, y: 0.0 }).0.is_err());
+    assert!(cmd(&mut r, RobotCommand::Goto { x: f64::NAN, y: 0.0, via: vec![] }).0.is_err());
     assert_eq!(r.behaviour(), Behaviour::Hold);
     for bad in [
         Step::Navigate { x: 1.0, y: 0.0, speed: Some(f64::NAN) },
@@ -111,7 +135,7 @@ fn only_central_orders_and_only_managers_of_the_mission_plan() {
     let mut r = Robot::new(cfg());
     r.handle(0.0, Event::CentralAlive(true));
     let rogue = Sender::new(Role::Robot, "r9");
-    assert!(cmd_from(&mut r, RobotCommand::Goto { x: 1.0, y: 1.0 }, rogue.clone()).0.unwrap_err().contains("robot:r9 may not"));
+    assert!(cmd_from(&mut r, RobotCommand::Goto { x: 1.0, y: 1.0, via: vec![] }, rogue.clone()).0.unwrap_err().contains("robot:r9 may not"));
     assert!(cmd_from(&mut r, RobotCommand::Hold, Sender::new(Role::Operator, "op")).0.is_err());
     // A robot that is not a teammate cannot plan for an idle robot, nor for one in a mission.
     assert!(cmd_from(&mut r, plan("m", u64::MAX), rogue.clone()).0.is_err());

@@ -253,7 +253,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
             formation += 1;
             for (slot, v) in live.iter().enumerate() {
                 let (x, y) = circle_point((slot + formation) % n, n, args.radius);
-                let req = GotoRequest { robot: v.id.clone(), x, y };
+                let req = GotoRequest { robot: v.id.clone(), x, y, map: None };
                 if let Err(e) = client.query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&req)).await {
                     eprintln!("goto {} failed: {e}", v.id);
                 }

@@ -38,9 +38,16 @@ enum What {
     Robot { id: String },
     /// Fleet summary (`mrmm/system/status`).
     Status,
-    /// Drive a robot to (x, y) (`mrmm/system/cmd/robot/goto`).
+    /// Drive a robot to (x, y) (`mrmm/system/cmd/robot/goto`); on a map (central's only one, or
+    /// the one named) along its corridors.
     #[command(allow_negative_numbers = true)]
-    Goto { robot: String, x: f64, y: f64 },
+    Goto {
+        robot: String,
+        x: f64,
+        y: f64,
+        #[arg(long)]
+        map: Option<String>,
+    },
     /// Move a robot to another mission, or out of its mission with `none`
     /// (`mrmm/system/cmd/robot/move`).
     Move { robot: String, to: String },
@@ -116,8 +123,8 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             println!("central {}  up {:.0} s", s.node, s.uptime_s);
             println!("robots  {} total: {} idle, {} busy, {} lost", s.robots_total, s.idle, s.busy, s.lost);
         }
-        What::Goto { robot, x, y } => {
-            let req = GotoRequest { robot, x, y };
+        What::Goto { robot, x, y, map } => {
+            let req = GotoRequest { robot, x, y, map };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&req)).await?;
             if json {
                 return print_json(&v);
