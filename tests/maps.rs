@@ -228,6 +228,12 @@ async fn the_demo_on_a_map_records_the_building_and_its_layout() -> anyhow::Resu
         ],
     )?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let telemetry = client
+        .session()
+        .declare_subscriber(proto::Pattern::AllTelemetry)
+        .with(zenoh::handlers::RingChannel::new(8192))
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("both missions running on the map", Duration::from_secs(40), || async {
         let m: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
         (m.len() == 2 && m.iter().all(|m| m.map.as_ref().is_some_and(|r| r.name == "demo") && m.manager.epoch >= 1)).then_some(())
@@ -239,8 +245,21 @@ async fn the_demo_on_a_map_records_the_building_and_its_layout() -> anyhow::Resu
         let p = r.pose.expect("pose");
         assert!(g.is_free(Point::new(p.x, p.y)), "{} starts in a free cell: {p:?}", r.id);
     }
-    // Give the viewer bridge a few statuses to fetch and draw the map.
-    tokio::time::sleep(Duration::from_secs(3)).await;
+    // The demo fleet drives for a while (the viewer bridge meanwhile fetches and draws the map):
+    // every pose it reports is in a free cell of the building.
+    let (mut poses, until) = (0u64, Instant::now() + Duration::from_secs(8));
+    while Instant::now() < until {
+        match tokio::time::timeout(Duration::from_millis(500), telemetry.recv_async()).await {
+            Ok(Ok(s)) => {
+                let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) else { continue };
+                let v = g.at(Point::new(t.pose.x, t.pose.y));
+                assert!(matches!(v, Some(0..=49)), "{} at ({:.2}, {:.2}): occupancy {v:?}", t.id, t.pose.x, t.pose.y);
+                poses += 1;
+            }
+            _ => continue,
+        }
+    }
+    assert!(poses > 100, "{poses} poses checked");
     client.close().await;
     demo.signal("INT")?;
     let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
@@ -258,5 +277,40 @@ async fn the_demo_on_a_map_records_the_building_and_its_layout() -> anyhow::Resu
     }
     assert!(rows.get("/fleet/map/demo").copied().unwrap_or(0) > 0, "the map is drawn: {:?}", rows.keys().collect::<Vec<_>>());
     assert!(blueprint, "the recording carries the viewer's layout");
+    Ok(())
+}
+
+/// Offline: `mrmm plan --map` prints plans whose tour follows the corridors; `mrmm map check`
+/// says what a map is, and refuses a broken one in one line.
+#[test]
+fn plan_and_check_from_the_command_line() -> anyhow::Result<()> {
+    let (_, g) = grid()?;
+    let dir = Scratch::new("maps-cli");
+    let robots = dir.path("robots.json");
+    std::fs::write(&robots, r#"[{"id": "a", "type": "ground", "x": -16, "y": 0, "speed": 1}, {"id": "b", "type": "ground", "x": 4, "y": 0, "speed": 1}]"#)?;
+    let map = building().display().to_string();
+    let out = std::process::Command::new(common::EXE)
+        .args(["plan", "patrol", "--robots", &robots.display().to_string(), "--map", &map, "--param", "waypoints=[[-16,8],[-8,8],[0,8],[8,8]]"])
+        .output()?;
+    anyhow::ensure!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let plan: serde_json::Value = serde_json::from_slice(&out.stdout)?;
+    let tour: Vec<proto::plan::Point> = serde_json::from_value(plan["tour"].clone())?;
+    assert!(tour.len() > 4 && free_route(&g, &tour), "{tour:?}");
+    assert!(plan["length"].as_f64().is_some_and(|l| l > 60.0), "{}", plan["length"]);
+
+    let out = std::process::Command::new(common::EXE).args(["map", "check", &map]).output()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && text.contains("nav2 map") && text.contains("420 × 260 cells of 0.1 m"), "{text}");
+    let bad = dir.path("bad.yaml");
+    std::fs::write(&bad, "image: building.pgm\nresolution: 0.1\norigin: [0, 0]\noccupied_thresh: 0.65\nfree_thresh: 0.2\n")?;
+    let out = std::process::Command::new(common::EXE).args(["map", "check", &bad.display().to_string()]).output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.trim().lines().count() == 1 && err.contains("bad.yaml: field origin: has 2 elements"), "{err}");
+    // Central refuses to start with a map it cannot read, in one line.
+    let out = std::process::Command::new(common::EXE)
+        .args(["central", "--listen", "tcp/127.0.0.1:0", "--state-dir", &dir.path("state").display().to_string(), "--map", &format!("b={}", bad.display())])
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("map b: ") && err.contains("field origin"), "{err}");
     Ok(())
 }

@@ -253,7 +253,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
 }
 
 /// results-maps.csv, maps.png and summary-maps.md in `out`.
-pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64) -> anyhow::Result<Vec<String>> {
+pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, turn: f64) -> anyhow::Result<Vec<String>> {
     let mut csv = String::from("map,vertices,robots,tour_m,best_tour_m,bound_s,avg_idleness_s,worst_idleness_s,avg_over_bound,worst_over_bound,plan_ms\n");
     for r in rows {
         csv.push_str(&format!(
@@ -307,7 +307,7 @@ pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64) -> anyhow::R
     let mut md = format!(
         "# Patrolling benchmark on patrolling_sim's maps\n\n`{command}` — {} runs in {elapsed:.0} s.\n\n\
          Every vertex of each graph patrolled at {SPEED} m/s by mrmm's patrol planner, executed by the \
-         robots' own executor and body in simulated time (step {DT} s, turn rate {TURN} rad/s, a visit \
+         robots' own executor and body in simulated time (step {DT} s, turn rate {turn} rad/s, a visit \
          within {VISIT_R} m of a vertex). Idleness as patrolling_sim's monitor measures it, from the \
          team's start barrier: average = mean over vertices of each vertex's mean time between two \
          visits, worst = the longest time between two visits of a vertex. Bound = L*/(n·v), L* the best \

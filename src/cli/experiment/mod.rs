@@ -179,7 +179,7 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
             bail!("--turn-rate: must be a positive number of rad/s (got {})", a.turn_rate);
         }
         let rows = maps::run(&a.out, &sizes, a.seed, a.turn_rate)?;
-        let figures = maps::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64())?;
+        let figures = maps::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64(), a.turn_rate)?;
         println!("results in {}: results-maps.csv, summary-maps.md, {}", a.out.display(), figures.join(", "));
         return Ok(());
     }
@@ -259,6 +259,13 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
 /// The command that reproduces this run, every setting spelled out.
 fn command_line(a: &Args) -> String {
     let list = |v: &[String]| v.join(",");
+    if a.kind == Kind::Maps {
+        let mut c = format!("mrmm experiment maps --out {} --seed {} --turn-rate {}", a.out.display(), a.seed, a.turn_rate);
+        if let Some(s) = &a.sizes {
+            c.push_str(&format!(" --sizes {}", list(&s.iter().map(u32::to_string).collect::<Vec<_>>())));
+        }
+        return c;
+    }
     let mut c = format!("mrmm experiment {} --out {} --time-scale {} --seed {} --extract {}", a.kind.name(), a.out.display(), a.time_scale, a.seed, a.extract);
     if let Some(s) = &a.sizes {
         c.push_str(&format!(" --sizes {}", list(&s.iter().map(u32::to_string).collect::<Vec<_>>())));
