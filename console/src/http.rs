@@ -132,6 +132,9 @@ fn system_cmd(group: &str, verb: &str) -> Option<SystemCmd> {
     Some(match (group, verb) {
         ("mission", "create") => SystemCmd::Create,
         ("mission", "terminate") => SystemCmd::Terminate,
+        ("mission", "update") => SystemCmd::Update,
+        ("mission", "pause") => SystemCmd::Pause,
+        ("mission", "resume") => SystemCmd::Resume,
         ("robot", "move") => SystemCmd::Move,
         ("robot", "goto") => SystemCmd::Goto,
         ("robot", "capabilities") => SystemCmd::Capabilities,
@@ -153,7 +156,7 @@ async fn command(State(st): State<AppState>, Path((group, verb)): Path<(String, 
     let Some(cmd) = system_cmd(&group, &verb) else {
         return error(
             StatusCode::NOT_FOUND,
-            format!("no command {group}/{verb}: mission/create, mission/terminate, robot/move, robot/goto, robot/capabilities"),
+            format!("no command {group}/{verb}: mission/create, mission/update, mission/pause, mission/resume, mission/terminate, robot/move, robot/goto, robot/capabilities"),
         );
     };
     let Json(body) = match body {

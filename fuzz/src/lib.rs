@@ -229,6 +229,7 @@ impl Host {
                 params: [("waypoints".to_string(), "[[0,0],[10,0],[10,10],[0,10]]".to_string())].into(),
                 replicas,
                 map: None,
+                paused: false,
             },
             members: vec![member("r1", 0.0), member("r2", 1.0)],
             anew: false,

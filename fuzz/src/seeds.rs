@@ -73,6 +73,7 @@ fn main() {
             params: [("waypoints".to_string(), "[[0,0],[5,0],[5,5]]".to_string())].into(),
             replicas: 1,
             map: None,
+            paused: false,
         },
         members: vec![mrmm_fuzz::member("r3", 2.0)],
         anew: false,

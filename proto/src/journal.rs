@@ -35,7 +35,7 @@ pub enum JournalEvent {
         host: String,
         recipe: String,
         planner: String,
-        spec: Option<MissionSpecWire>,
+        spec: Option<Box<MissionSpecWire>>,
         /// How many times central started it anew from this journal (its lineage: see
         /// `mrmm_proto::chain::lineage_of`); 0 until then.
         #[serde(default)]

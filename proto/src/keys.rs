@@ -32,6 +32,8 @@
 //! | `mrmm/system/cmd/robot/capabilities` | queryable on the system manager | [`crate::CapabilitiesRequest`] |
 //! | `mrmm/system/cmd/mission/create` | queryable on the system manager | [`crate::MissionCreate`] |
 //! | `mrmm/system/cmd/mission/terminate` | queryable on the system manager | [`crate::MissionTerminate`] |
+//! | `mrmm/system/cmd/mission/update` | queryable on the system manager | [`crate::MissionUpdate`] |
+//! | `mrmm/system/cmd/mission/pause`, `…/resume` | queryable on the system manager | [`crate::MissionPause`] |
 //!
 //! Ids (robots, missions, hosts, robot types, planner kinds) are single key chunks: 1 to 64
 //! characters of `[A-Za-z0-9_-]`.
@@ -96,6 +98,9 @@ pub enum SystemCmd {
     Capabilities,
     Create,
     Terminate,
+    Update,
+    Pause,
+    Resume,
 }
 
 /// A concrete key of the protocol.
@@ -195,6 +200,9 @@ impl fmt::Display for Key {
             Key::SystemCmd(SystemCmd::Capabilities) => f.write_str("mrmm/system/cmd/robot/capabilities"),
             Key::SystemCmd(SystemCmd::Create) => f.write_str("mrmm/system/cmd/mission/create"),
             Key::SystemCmd(SystemCmd::Terminate) => f.write_str("mrmm/system/cmd/mission/terminate"),
+            Key::SystemCmd(SystemCmd::Update) => f.write_str("mrmm/system/cmd/mission/update"),
+            Key::SystemCmd(SystemCmd::Pause) => f.write_str("mrmm/system/cmd/mission/pause"),
+            Key::SystemCmd(SystemCmd::Resume) => f.write_str("mrmm/system/cmd/mission/resume"),
         }
     }
 }
@@ -248,6 +256,9 @@ impl Key {
             ["mrmm", "system", "cmd", "robot", "capabilities"] => Key::SystemCmd(SystemCmd::Capabilities),
             ["mrmm", "system", "cmd", "mission", "create"] => Key::SystemCmd(SystemCmd::Create),
             ["mrmm", "system", "cmd", "mission", "terminate"] => Key::SystemCmd(SystemCmd::Terminate),
+            ["mrmm", "system", "cmd", "mission", "update"] => Key::SystemCmd(SystemCmd::Update),
+            ["mrmm", "system", "cmd", "mission", "pause"] => Key::SystemCmd(SystemCmd::Pause),
+            ["mrmm", "system", "cmd", "mission", "resume"] => Key::SystemCmd(SystemCmd::Resume),
             _ => return None,
         };
         Some(k)
@@ -419,6 +430,9 @@ mod tests {
             Key::SystemCmd(SystemCmd::Capabilities),
             Key::SystemCmd(SystemCmd::Create),
             Key::SystemCmd(SystemCmd::Terminate),
+            Key::SystemCmd(SystemCmd::Update),
+            Key::SystemCmd(SystemCmd::Pause),
+            Key::SystemCmd(SystemCmd::Resume),
         ]
     }
 

@@ -32,6 +32,9 @@ pub struct MissionSpecWire {
     /// The map the mission plans on (fetched by its hash from the fleet); none: the plane.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub map: Option<crate::map::MapRef>,
+    /// Paused by the operator: its members hold where they are until it is resumed.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub paused: bool,
 }
 
 /// Name of the mission host inside central.
@@ -73,6 +76,9 @@ pub enum MissionCtl {
     Joined { member: Member },
     /// Robots leave the team (replan without them).
     Left { ids: Vec<String> },
+    /// The mission is now `spec` (new parameters or map: replanned as the next epoch; paused or
+    /// resumed); its members stay.
+    Update { spec: MissionSpecWire },
     /// Stop managing the mission.
     Terminate,
 }

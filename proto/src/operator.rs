@@ -131,6 +131,27 @@ pub struct MissionTerminate {
     pub name: String,
 }
 
+/// `mrmm/system/cmd/mission/update`: new parameters (merged into the mission's: `waypoints`,
+/// `region`, `rounds`, `sync_spacing_max`, `barrier`, `max_worst_idleness`, …) and/or another map
+/// of central's. Checked in full (a dry-run plan) before anything changes; the mission's manager
+/// replans its members as its next epoch.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct MissionUpdate {
+    pub name: String,
+    #[serde(default)]
+    pub params: BTreeMap<String, serde_json::Value>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<String>,
+}
+
+/// `mrmm/system/cmd/mission/pause` and `…/resume`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MissionPause {
+    pub name: String,
+}
+
 /// `mrmm/system/cmd/robot/move`: `to` a mission, or `null` to free the robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -162,6 +183,8 @@ pub enum MissionStatus {
     Stalled,
     /// Planning failed; the reason is in `error`.
     Failed,
+    /// Paused by the operator: every member holds where it is, no barrier, no idleness clock.
+    Paused,
 }
 
 /// Mission metrics computed from telemetry.

@@ -328,6 +328,8 @@
       cell(tr, figure(m));
       const act = cell(tr, '');
       button(act, 'Assign selected', () => assign(m.name), ['data-assign', m.name]);
+      if (m.status === 'paused') button(act, 'Resume', () => pause(m.name, false), ['data-resume', m.name]);
+      else button(act, 'Pause', () => pause(m.name, true), ['data-pause', m.name]);
       button(act, 'End', () => terminate(m.name), ['data-terminate', m.name]);
       mt.appendChild(tr);
     }
@@ -420,6 +422,12 @@
       const failed = j.results.filter((m) => !m.ok);
       if (failed.length) say(failed.map((m) => `${m.robot}: ${m.error}`).join('; '), false);
       else say(`${action.robot} → ${action.to || 'idle'}`, true);
+    } catch (e) { say(e.message, false); }
+  }
+  async function pause(name, paused) {
+    try {
+      await api(`/api/cmd/mission/${paused ? 'pause' : 'resume'}`, { name });
+      say(paused ? `${name} paused: its robots hold where they are` : `${name} resumed`, true);
     } catch (e) { say(e.message, false); }
   }
   async function terminate(name) {

@@ -23,6 +23,7 @@ fn start(name: &str, ids: &[&str]) -> Box<MissionStart> {
             params: [("waypoints".to_string(), "[[0,0],[10,0],[10,10],[0,10]]".to_string())].into(),
             replicas: 2,
             map: None,
+            paused: false,
         },
         members: ids.iter().enumerate().map(|(i, id)| member(id, i as f64)).collect(),
         anew: false,

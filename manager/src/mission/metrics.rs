@@ -44,6 +44,14 @@ impl Metrics {
         }
     }
 
+    /// After a pause: the next visit of each waypoint starts a new gap (the pause is no one's
+    /// idleness); what was counted stays.
+    pub fn restart_clocks(&mut self) {
+        self.last_visit.iter_mut().for_each(|v| *v = None);
+        self.present.iter_mut().for_each(std::collections::BTreeSet::clear);
+        self.ages = None;
+    }
+
     /// What the visit metrics accumulated, as ages on no particular clock (for the chain).
     pub fn tally(&self) -> MetricsTally {
         MetricsTally {

@@ -34,6 +34,8 @@ pub struct MissionSpec {
     pub requires: Vec<String>,
     /// The map it plans on; none: the plane.
     pub map: Option<proto::MapRef>,
+    /// Paused by the operator: its members hold where they are.
+    pub paused: bool,
 }
 
 impl MissionSpec {
@@ -46,6 +48,7 @@ impl MissionSpec {
             params: self.params.clone(),
             replicas: self.replicas,
             map: self.map.clone(),
+            paused: self.paused,
         }
     }
 
@@ -73,6 +76,7 @@ impl MissionSpec {
             replicas: w.replicas,
             requires,
             map: w.map,
+            paused: w.paused,
         })
     }
 }
@@ -115,6 +119,9 @@ pub enum Event {
     /// Put the metrics into the replicated state (once a second: telemetry alone never makes
     /// the chain replicate).
     Checkpoint,
+    /// The operator changed the mission (parameters, map; paused or resumed it): the members
+    /// stay, and get the next epoch's plans.
+    Update(Box<MissionSpec>),
 }
 
 /// What the mission manager needs done.
@@ -359,12 +366,17 @@ impl MissionManager {
                         }
                     }
                 }
+                if self.spec.paused {
+                    // Nobody patrols while paused: no visit, no idleness clock.
+                    return vec![];
+                }
                 let robot_now = now * self.time_scale(&t.id);
                 let tour = self.plan.as_ref().map(|(_, p)| tour(p)).unwrap_or(&[]);
                 let carried = self.metrics.telemetry(&self.spec.name, self.epoch, tour, robot_now, &t);
                 self.sync_msgs_left = self.sync_msgs_left.saturating_add(carried);
                 vec![]
             }
+            Event::Update(spec) => self.update(*spec),
             Event::Checkpoint => {
                 let tally = self.metrics.tally();
                 // Nothing counted yet (no tour, or no visit): nothing worth replicating.
@@ -376,6 +388,59 @@ impl MissionManager {
         }
     }
 
+    /// The operator's change: what it is now, and the next epoch's plans if what it plans on
+    /// changed or it was paused or resumed. The same spec again (a control re-sent) changes
+    /// nothing.
+    fn update(&mut self, spec: MissionSpec) -> Vec<Command> {
+        if spec.name != self.spec.name {
+            return vec![];
+        }
+        let replan = spec.params != self.spec.params || spec.map != self.spec.map || spec.recipe_xml != self.spec.recipe_xml || spec.paused != self.spec.paused;
+        let resumed = self.spec.paused && !spec.paused;
+        self.spec = MissionSpec { replicas: self.spec.replicas, ..spec };
+        if resumed {
+            // The gaps between visits do not count the pause.
+            self.metrics.restart_clocks();
+        }
+        tracing::info!(mission = %self.spec.name, paused = self.spec.paused, replan, "mission updated");
+        if replan {
+            self.replan()
+        } else {
+            vec![]
+        }
+    }
+
+    /// While paused: a plan that holds every member where it is, with the last plan's figures.
+    fn hold_plan(&self) -> MissionPlan {
+        let summary = match &self.plan {
+            Some((_, p)) => p.summary.clone(),
+            None => PlanSummary::Patrol(proto::plan::PatrolSummary {
+                tour: vec![],
+                waypoints: vec![],
+                length: 0.0,
+                offset: 0.0,
+                spacing: 0.0,
+                team_speed: 0.0,
+                sync_per_round: 0,
+                formation_time: 0.0,
+                predicted_worst_idleness: 0.0,
+                idleness_lower_bound: 0.0,
+            }),
+        };
+        let plans = self
+            .members
+            .values()
+            .enumerate()
+            .map(|(slot, m)| proto::RobotPlan {
+                robot: m.spec.id.clone(),
+                robot_type: m.spec.robot_type.clone(),
+                slot,
+                steps: vec![proto::Step::Stream, proto::Step::Hold { seconds: None }],
+            })
+            .collect();
+        MissionPlan { summary, plans }
+    }
+
     fn plan_ready(&mut self, epoch: u64, plan: MissionPlan) -> Vec<Command> {
         if epoch != self.epoch {
             return vec![]; // superseded by a newer team
@@ -384,7 +449,7 @@ impl MissionManager {
         self.plan_msgs = self.plan_msgs.saturating_add(out.len() as u64);
         self.metrics.reset_tour(tour(&plan).len());
         self.plan = Some((epoch, plan));
-        self.status = MissionStatus::Running;
+        self.status = if self.spec.paused { MissionStatus::Paused } else { MissionStatus::Running };
         self.error = None;
         if !self.started {
             self.started = true;
@@ -465,6 +530,11 @@ impl MissionManager {
         if self.members.is_empty() {
             self.status = MissionStatus::Stalled;
             return vec![];
+        }
+        if self.spec.paused {
+            // Paused: every member holds where it is; no planner is asked.
+            let hold = self.hold_plan();
+            return self.plan_ready(self.epoch, hold);
         }
         if self.started {
             self.status = MissionStatus::Running;

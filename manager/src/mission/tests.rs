@@ -3,7 +3,7 @@
 
 use super::*;
 use mrmm_planner::recipe;
-use mrmm_proto::{Behaviour, Pose, Progress, Velocity};
+use mrmm_proto::{Behaviour, Pose, Progress, Step, Velocity};
 
 fn spec() -> MissionSpec {
     let xml = recipe::bank("patrol").expect("bank").to_string();
@@ -16,6 +16,7 @@ fn spec() -> MissionSpec {
         replicas: 2,
         requires: vec![],
         map: None,
+        paused: false,
     }
 }
 
@@ -331,4 +332,54 @@ fn the_barrier_mode_of_the_mission_goes_out_with_every_plan() {
     let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
     let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
     assert!(cmds.iter().any(|c| matches!(c, Command::SendPlan { assignment, .. } if assignment.barrier == BarrierMode::Mesh)), "the parameter wins");
+}
+
+/// An update replans the same members as the next epoch, with the new parameters; the same
+/// spec again changes nothing.
+#[test]
+fn an_update_replans_the_same_members_as_the_next_epoch() {
+    let mut m = started();
+    let mut s = spec();
+    s.params.insert("waypoints".into(), "[[0,0],[30,0],[30,30],[0,30]]".into());
+    let cmds = m.handle(1.0, Event::Update(Box::new(s.clone())));
+    let (epoch, plan) = plan_for(&cmds);
+    assert_eq!(epoch, 2);
+    let PlanSummary::Patrol(p) = &plan.summary else { panic!("patrol") };
+    assert!((p.length - 120.0).abs() < 1e-9, "the new square: {}", p.length);
+    let cmds = m.handle(1.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    assert_eq!(sent_to(&cmds), [("a".into(), 2, 3), ("b".into(), 2, 3), ("c".into(), 2, 3)]);
+    assert_eq!(m.snapshot().spec.params["waypoints"], "[[0,0],[30,0],[30,30],[0,30]]", "replicated with the state");
+    assert!(m.handle(1.0, Event::Update(Box::new(s))).is_empty(), "the same spec re-sent");
+}
+
+/// Paused, every member holds (a plan of its own, no planner asked, no barrier), joins and
+/// leaves too; resumed, the team is planned again from where it stands.
+#[test]
+fn a_paused_mission_holds_its_members_and_resumes() {
+    let mut m = started();
+    let mut s = spec();
+    s.paused = true;
+    let cmds = m.handle(1.0, Event::Update(Box::new(s.clone())));
+    assert!(!cmds.iter().any(|c| matches!(c, Command::RequestPlan { .. })), "no planner while paused: {cmds:?}");
+    assert_eq!(sent_to(&cmds), [("a".into(), 2, 3), ("b".into(), 2, 3), ("c".into(), 2, 3)]);
+    for c in &cmds {
+        if let Command::SendPlan { assignment, .. } = c {
+            assert_eq!(assignment.plan.steps, vec![Step::Stream, Step::Hold { seconds: None }]);
+        }
+    }
+    assert_eq!(m.view(false).status, MissionStatus::Paused);
+    assert!(m.view(false).summary.is_some(), "the last plan's figures stay on show");
+    // A newcomer while paused holds too.
+    let cmds = m.handle(1.5, Event::Joined(robot("d", "ground", 3.0)));
+    assert_eq!(sent_to(&cmds).len(), 4);
+    assert!(!cmds.iter().any(|c| matches!(c, Command::RequestPlan { .. })));
+    // The paused state is replicated: a new head goes on paused.
+    let again = MissionManager::restore(m.snapshot(), "other".into()).expect("restore");
+    assert_eq!(again.view(false).status, MissionStatus::Paused);
+    s.paused = false;
+    let cmds = m.handle(2.0, Event::Update(Box::new(s)));
+    let (epoch, plan) = plan_for(&cmds);
+    assert_eq!(epoch, 4);
+    m.handle(2.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    assert_eq!(m.view(false).status, MissionStatus::Running);
 }

@@ -148,6 +148,8 @@ fn robots(ctl: &MissionCtl) -> Option<Vec<&str>> {
         MissionCtl::Joined { member } => Some(vec![member.spec.id.as_str()]),
         MissionCtl::Left { ids } => Some(ids.iter().map(String::as_str).collect()),
         MissionCtl::Terminate => None,
+        // A change of the mission itself: no robot's controls wait for it, nor it for theirs.
+        MissionCtl::Update { .. } => Some(vec![]),
     }
 }
 

@@ -41,7 +41,7 @@ impl Durable {
     pub fn apply(&mut self, e: &JournalEvent) {
         match e {
             JournalEvent::MissionDefined { mission, host, recipe, planner, spec, lineage } => {
-                let def = MissionDef { host: host.clone(), recipe: recipe.clone(), planner: planner.clone(), spec: spec.clone(), lineage: *lineage };
+                let def = MissionDef { host: host.clone(), recipe: recipe.clone(), planner: planner.clone(), spec: spec.as_deref().cloned(), lineage: *lineage };
                 self.missions.insert(mission.clone(), Arc::new(def));
                 self.terminated.remove(mission);
             }
@@ -83,7 +83,7 @@ impl Durable {
                     host: def.host.clone(),
                     recipe: def.recipe.clone(),
                     planner: def.planner.clone(),
-                    spec: def.spec.clone(),
+                    spec: def.spec.clone().map(Box::new),
                     lineage: def.lineage,
                 });
             }

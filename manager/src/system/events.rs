@@ -33,6 +33,9 @@ pub enum Request {
     Capabilities(CapabilitiesRequest),
     Create(MissionCreate),
     Terminate(MissionTerminate),
+    Update(mrmm_proto::MissionUpdate),
+    Pause(mrmm_proto::MissionPause),
+    Resume(mrmm_proto::MissionPause),
 }
 
 impl Request {
@@ -52,6 +55,9 @@ impl Request {
             Some(Key::SystemCmd(SystemCmd::Capabilities)) => proto::from_json("robot capabilities request", payload).map(Request::Capabilities),
             Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", payload).map(Request::Create),
             Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", payload).map(Request::Terminate),
+            Some(Key::SystemCmd(SystemCmd::Update)) => proto::from_json("mission update request", payload).map(Request::Update),
+            Some(Key::SystemCmd(SystemCmd::Pause)) => proto::from_json("mission pause request", payload).map(Request::Pause),
+            Some(Key::SystemCmd(SystemCmd::Resume)) => proto::from_json("mission resume request", payload).map(Request::Resume),
             _ => return Err(format!("unknown key {key}")),
         };
         r.map_err(|e| e.to_string())
@@ -59,7 +65,17 @@ impl Request {
 
     /// Whether the request changes the fleet (the agent waits while the operator is busy).
     pub fn is_command(&self) -> bool {
-        matches!(self, Request::Goto(_) | Request::Move(_) | Request::Capabilities(_) | Request::Create(_) | Request::Terminate(_))
+        matches!(
+            self,
+            Request::Goto(_)
+                | Request::Move(_)
+                | Request::Capabilities(_)
+                | Request::Create(_)
+                | Request::Terminate(_)
+                | Request::Update(_)
+                | Request::Pause(_)
+                | Request::Resume(_)
+        )
     }
 }
 

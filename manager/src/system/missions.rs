@@ -12,6 +12,36 @@ use crate::mission::MissionSpec;
 use crate::wire;
 use crate::Failure;
 
+/// The parameters of a dry run: `params` with little planning effort.
+pub(super) fn cheap(planner: PlannerKind, params: &BTreeMap<String, String>) -> BTreeMap<String, String> {
+    let mut dry = params.clone();
+    match planner {
+        PlannerKind::Patrol => {
+            dry.insert("max_kicks".into(), "10".into());
+        }
+        PlannerKind::Coverage => {
+            for (k, v) in [("samples", "200"), ("lloyd_iterations", "1"), ("minimax_iterations", "1")] {
+                dry.insert(k.into(), v.into());
+            }
+        }
+    }
+    dry
+}
+
+/// An operator's parameters as the recipe takes them: strings (JSON for the rest).
+pub(super) fn param_strings(params: &BTreeMap<String, Value>) -> BTreeMap<String, String> {
+    params
+        .iter()
+        .map(|(k, v)| {
+            let v = match v {
+                Value::String(s) => s.clone(),
+                other => other.to_string(),
+            };
+            (k.clone(), v)
+        })
+        .collect()
+}
+
 /// A create checked but for its dry run.
 struct Checked {
     spec: MissionSpec,
@@ -61,15 +91,17 @@ impl SystemManager {
         };
         let id = self.next_check;
         self.next_check += 1;
-        self.checking.insert(id, (req, c));
+        self.checking.insert(id, (req, super::Checking::Create(c)));
         vec![Command::DryRun(Box::new(checked.dry_run(id)))]
     }
 
     /// The dry run of check `id` is done: the create takes effect (checked again: the fleet may
     /// have changed meanwhile), or its error is the answer.
     pub(super) fn dry_run_done(&mut self, id: u64, result: Result<(), String>) -> Vec<Command> {
-        let Some((req, c)) = self.checking.remove(&id) else {
-            return vec![];
+        let (req, c) = match self.checking.remove(&id) {
+            Some((req, super::Checking::Create(c))) => (req, c),
+            Some((req, super::Checking::Update(u))) => return self.update_checked(req, u, result),
+            None => return vec![],
         };
         if let Err(e) = result {
             return vec![Command::Reply { req, result: Err(format!("mission {}: {e}", c.name)) }];
@@ -143,17 +175,7 @@ impl SystemManager {
         };
         let r = recipe::parse(&xml).map_err(|e| format!("recipe {recipe_name}: {e}"))?;
         recipe::validate(&r).map_err(|e| format!("recipe {recipe_name}: {e}"))?;
-        let params: BTreeMap<String, String> = c
-            .params
-            .iter()
-            .map(|(k, v)| {
-                let v = match v {
-                    Value::String(s) => s.clone(),
-                    other => other.to_string(),
-                };
-                (k.clone(), v)
-            })
-            .collect();
+        let params = param_strings(&c.params);
         // Every scalar the operator gave is checked as given (the dry run below replaces some).
         for (k, v) in params.iter().filter(|(k, _)| !matches!(k.as_str(), "waypoints" | "region")) {
             recipe::check_param(r.planner, k, v).map_err(|e| format!("mission {}: {e}", c.name))?;
@@ -198,17 +220,7 @@ impl SystemManager {
         }
         let specs: Vec<RobotSpec> = ids.iter().filter_map(|id| self.spec(id)).collect();
         // Dry run with little effort: catches bad waypoints, regions and parameters now.
-        let mut dry = params.clone();
-        match r.planner {
-            PlannerKind::Patrol => {
-                dry.insert("max_kicks".into(), "10".into());
-            }
-            PlannerKind::Coverage => {
-                for (k, v) in [("samples", "200"), ("lloyd_iterations", "1"), ("minimax_iterations", "1")] {
-                    dry.insert(k.into(), v.into());
-                }
-            }
-        }
+        let dry = cheap(r.planner, &params);
         let planner_robots: Vec<_> = specs.iter().map(wire::robot_spec).collect();
         let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
         if replicas > proto::MAX_REPLICAS {
@@ -223,6 +235,7 @@ impl SystemManager {
             replicas,
             requires: r.required(),
             map: held.as_ref().map(|h| h.map_ref()),
+            paused: false,
         };
         Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots, map: held.map(|h| h.map.clone()) })
     }

@@ -7,6 +7,7 @@
 //! time and an [`Event`] and returns the [`Command`]s the driver must carry out.
 
 mod capabilities;
+mod changes;
 mod ctl;
 pub mod durable;
 mod events;
@@ -97,6 +98,13 @@ impl MissionRecord {
     }
 }
 
+/// A command waiting for its dry run.
+#[derive(Debug, Clone)]
+enum Checking {
+    Create(MissionCreate),
+    Update(proto::MissionUpdate),
+}
+
 /// A journaled mission being started again (no live manager runs it).
 #[derive(Debug, Clone, Copy)]
 struct Restart {
@@ -171,8 +179,8 @@ pub struct SystemManager {
     proven: BTreeMap<String, u64>,
     /// New robot ids ignored because the registry is full.
     ignored: u64,
-    /// Creates waiting for their dry run, by check id.
-    checking: BTreeMap<u64, (Req, MissionCreate)>,
+    /// Creates and updates waiting for their dry run, by check id.
+    checking: BTreeMap<u64, (Req, Checking)>,
     next_check: u64,
     /// What the journal holds (as of the last [`Command::Journal`]).
     journaled: Durable,
@@ -456,6 +464,9 @@ impl SystemManager {
             },
             Request::Create(c) => self.create(req, c),
             Request::Terminate(t) => self.terminate(req, t),
+            Request::Update(u) => self.update(req, u),
+            Request::Pause(p) => self.pause(req, &p.name, true),
+            Request::Resume(p) => self.pause(req, &p.name, false),
             Request::Move(m) => self.move_robot(req, m),
             Request::Capabilities(c) => self.change_capabilities(req, c),
         }

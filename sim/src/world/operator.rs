@@ -124,6 +124,7 @@ impl World {
             params,
             replicas: 2,
             map: None,
+            paused: false,
         };
         let host = self.nodes.iter().find(|n| n.kind == Kind::Host).map(|n| n.name.clone()).unwrap_or_else(|| robots[0].clone());
         for r in &robots {

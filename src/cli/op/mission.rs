@@ -6,7 +6,7 @@ use std::path::Path;
 
 use anyhow::{anyhow, Context};
 use mrmm_proto::client::Client;
-use mrmm_proto::{self as proto, Marginal, MissionCreate, MissionTerminate, MissionView};
+use mrmm_proto::{self as proto, Marginal, MissionCreate, MissionPause, MissionTerminate, MissionUpdate, MissionView};
 use serde_json::Value;
 
 #[derive(Debug, clap::Subcommand)]
@@ -46,6 +46,27 @@ pub enum Mission {
     },
     /// Terminate a mission; its robots become idle.
     Terminate { name: String },
+    /// Change a running mission (`mrmm/system/cmd/mission/update`): checked in full, then
+    /// replanned as its next epoch; its robots stay.
+    Update {
+        name: String,
+        /// New patrol waypoints as JSON, or `all` (every vertex of its graph map).
+        #[arg(long)]
+        waypoints: Option<String>,
+        /// New coverage region as JSON.
+        #[arg(long)]
+        region: Option<String>,
+        /// Other parameters (repeatable): key=value.
+        #[arg(long = "param")]
+        params: Vec<String>,
+        /// Plan on this map of central's from now on ("" for none).
+        #[arg(long)]
+        map: Option<String>,
+    },
+    /// Pause a mission: its robots hold where they are (`mrmm/system/cmd/mission/pause`).
+    Pause { name: String },
+    /// Resume a paused mission: its team forms again from where it stands.
+    Resume { name: String },
     /// The missions table (`mrmm/system/missions`).
     List,
     /// One mission with its per-robot plans (`mrmm/system/missions/<name>`).
@@ -64,22 +85,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
     match m {
         Mission::Create { name, recipe, robots, count, waypoints, region, params, host, replicas, map } => {
             let recipe = if Path::new(&recipe).is_file() { std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))? } else { recipe };
-            let mut p: BTreeMap<String, Value> = BTreeMap::new();
-            for (k, v) in [("waypoints", waypoints), ("region", region)] {
-                match v {
-                    Some(v) if v.trim() == "all" => {
-                        p.insert(k.into(), Value::String("all".into()));
-                    }
-                    Some(v) => {
-                        p.insert(k.into(), serde_json::from_str(&v).with_context(|| format!("--{k}: not JSON"))?);
-                    }
-                    None => {}
-                }
-            }
-            for kv in params {
-                let (k, v) = kv.split_once('=').ok_or_else(|| anyhow!("--param {kv:?}: expected key=value"))?;
-                p.insert(k.into(), Value::String(v.into()));
-            }
+            let p = parameters(waypoints, region, params)?;
             let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host, replicas, map };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&req)).await?;
             if json {
@@ -87,6 +93,28 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             }
             let m: MissionView = serde_json::from_value(v)?;
             println!("mission {} {} on {}: {} robots ({})", m.name, status(&m), m.manager.node, m.robots.len(), m.robots.join(", "));
+        }
+        Mission::Update { name, waypoints, region, params, map } => {
+            let req = MissionUpdate { name, params: parameters(waypoints, region, params)?, map };
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Update), Some(&req)).await?;
+            if json {
+                return super::print_json(&v);
+            }
+            println!("mission {} updated: it replans its robots as its next epoch", v["mission"].as_str().unwrap_or("?"));
+        }
+        Mission::Pause { name } => {
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Pause), Some(&MissionPause { name })).await?;
+            if json {
+                return super::print_json(&v);
+            }
+            println!("mission {} paused: its robots hold where they are", v["mission"].as_str().unwrap_or("?"));
+        }
+        Mission::Resume { name } => {
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Resume), Some(&MissionPause { name })).await?;
+            if json {
+                return super::print_json(&v);
+            }
+            println!("mission {} resumed: its team forms again from where it stands", v["mission"].as_str().unwrap_or("?"));
         }
         Mission::Terminate { name } => {
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name })).await?;
@@ -167,6 +195,28 @@ pub fn table(ms: &[MissionView]) -> String {
         })
         .collect();
     super::super::table::render(&["MISSION", "RECIPE", "STATUS", "ROBOTS", "MANAGER/EPOCH", "ROUNDS", "SYNCS", "AVG IDLE s", "WORST IDLE s"], &rows)
+}
+
+/// The mission parameters of the command line: waypoints and region as JSON (or `all`), the rest
+/// as `key=value`.
+fn parameters(waypoints: Option<String>, region: Option<String>, params: Vec<String>) -> anyhow::Result<BTreeMap<String, Value>> {
+    let mut p: BTreeMap<String, Value> = BTreeMap::new();
+    for (k, v) in [("waypoints", waypoints), ("region", region)] {
+        match v {
+            Some(v) if v.trim() == "all" => {
+                p.insert(k.into(), Value::String("all".into()));
+            }
+            Some(v) => {
+                p.insert(k.into(), serde_json::from_str(&v).with_context(|| format!("--{k}: not JSON"))?);
+            }
+            None => {}
+        }
+    }
+    for kv in params {
+        let (k, v) = kv.split_once('=').ok_or_else(|| anyhow!("--param {kv:?}: expected key=value"))?;
+        p.insert(k.into(), Value::String(v.into()));
+    }
+    Ok(p)
 }
 
 #[cfg(test)]

@@ -71,6 +71,11 @@ impl HostCore {
             // The system manager took these robots out (moved elsewhere or freed): out for good,
             // alive or not — a robot lost now and back later must not come back into this team.
             MissionCtl::Left { ids } => self.run(now, name, mission::Event::Left { ids }, out),
+            MissionCtl::Update { spec } => match crate::mission::MissionSpec::from_wire(spec) {
+                Ok(spec) if spec.name == name => self.run(now, name, mission::Event::Update(Box::new(spec)), out),
+                Ok(spec) => return out.push(Command::Reply { query, result: Err(format!("an update of mission {:?} sent to {name}", spec.name)) }),
+                Err(e) => return out.push(Command::Reply { query, result: Err(format!("update of {name}: {e}")) }),
+            },
             MissionCtl::Terminate => {
                 let epoch = self.heads.get(name).map_or(0, |h| h.mm.epoch());
                 if let Some(q) = self.heads.get_mut(name).and_then(|h| h.start.take()) {

@@ -4,6 +4,7 @@ use super::*;
 
 mod admit;
 mod capabilities;
+mod changes;
 mod journal;
 
 const WAYPOINTS: &str = r#""params": {"waypoints": [[0,0],[20,0],[20,20],[0,20]]}"#;
