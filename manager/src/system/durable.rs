@@ -41,7 +41,8 @@ impl Durable {
     pub fn apply(&mut self, e: &JournalEvent) {
         match e {
             JournalEvent::MissionDefined { mission, host, recipe, planner, spec, lineage } => {
-                let def = MissionDef { host: host.clone(), recipe: recipe.clone(), planner: planner.clone(), spec: spec.as_deref().cloned(), lineage: *lineage };
+                let def =
+                    MissionDef { host: host.clone(), recipe: recipe.clone(), planner: planner.clone(), spec: spec.as_deref().cloned(), lineage: *lineage };
                 self.missions.insert(mission.clone(), Arc::new(def));
                 self.terminated.remove(mission);
             }
