@@ -18,6 +18,9 @@ pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
 
 /// Teams of at least this many members run the leader barrier unless the mission says otherwise.
 pub const LEADER_BARRIER_FROM: usize = 30;
+/// Members lost within this long of the first of a burst are planned around in one replan,
+/// seconds (a site's robots lost together cost one plan, not one each).
+pub const LOSS_BURST_S: f64 = 1.0;
 
 /// What a mission is.
 #[derive(Debug, Clone, PartialEq)]
@@ -119,6 +122,8 @@ pub enum Event {
     /// Put the metrics into the replicated state (once a second: telemetry alone never makes
     /// the chain replicate).
     Checkpoint,
+    /// Time passed: a replan held back for a burst of losses is due.
+    Tick,
     /// The operator changed the mission (parameters, map; paused or resumed it): the members
     /// stay, and get the next epoch's plans.
     Update(Box<MissionSpec>),
@@ -162,6 +167,9 @@ pub struct MissionManager {
     /// Members that report they cannot get to their goal, with why (from their telemetry; not
     /// replicated: a new head hears it again within a telemetry period).
     stuck: BTreeMap<String, String>,
+    /// When the replan for a burst of losses is due (its epoch is already counted, so a
+    /// successor taking over meanwhile replans).
+    replan_due: Option<f64>,
 }
 
 impl MissionManager {
@@ -183,6 +191,7 @@ impl MissionManager {
             revision: 0,
             tally: None,
             stuck: BTreeMap::new(),
+            replan_due: None,
         }
     }
 
@@ -269,6 +278,10 @@ impl MissionManager {
     pub fn epoch(&self) -> u64 {
         self.epoch
     }
+    /// When a replan held back for a burst of losses is due.
+    pub fn replan_due(&self) -> Option<f64> {
+        self.replan_due
+    }
     pub fn revision(&self) -> u64 {
         self.revision
     }
@@ -326,8 +339,27 @@ impl MissionManager {
                         self.lost.insert(id.clone(), m.clone());
                     }
                 }
-                self.remove(ids)
+                if !self.take_out(ids) {
+                    return vec![];
+                }
+                if self.members.is_empty() {
+                    return self.replan();
+                }
+                // One replan for the whole burst: the plan is outdated from now (the epoch says
+                // so, and a successor taking over replans), asked for once the burst is over.
+                if self.replan_due.is_none() {
+                    self.epoch = self.epoch.saturating_add(1);
+                    self.replan_due = Some(now + LOSS_BURST_S);
+                }
+                vec![]
             }
+            Event::Tick => match self.replan_due {
+                Some(due) if now >= due => {
+                    self.replan_due = None;
+                    self.plan_current()
+                }
+                _ => vec![],
+            },
             Event::Left { ids } => {
                 for id in &ids {
                     self.lost.remove(id);
@@ -507,6 +539,15 @@ impl MissionManager {
 
     /// Takes members out; one replan if any was in.
     fn remove(&mut self, ids: Vec<String>) -> Vec<Command> {
+        if self.take_out(ids) {
+            self.replan()
+        } else {
+            vec![]
+        }
+    }
+
+    /// Takes members out; whether any was one.
+    fn take_out(&mut self, ids: Vec<String>) -> bool {
         let mut any = false;
         for id in ids {
             self.stuck.remove(&id);
@@ -517,16 +558,18 @@ impl MissionManager {
                 }
             }
         }
-        if any {
-            self.replan()
-        } else {
-            vec![]
-        }
+        any
     }
 
     /// New epoch, new plan for the current members.
     fn replan(&mut self) -> Vec<Command> {
         self.epoch = self.epoch.saturating_add(1);
+        self.plan_current()
+    }
+
+    /// A plan of the current epoch for the current members (a replan held back is no longer).
+    fn plan_current(&mut self) -> Vec<Command> {
+        self.replan_due = None;
         if self.members.is_empty() {
             self.status = MissionStatus::Stalled;
             return vec![];

@@ -383,3 +383,28 @@ fn a_paused_mission_holds_its_members_and_resumes() {
     m.handle(2.0, Event::PlanReady { epoch, plan: Box::new(plan) });
     assert_eq!(m.view(false).status, MissionStatus::Running);
 }
+
+/// A burst of losses is planned around once: the epoch moves on at the first loss (a successor
+/// would replan), the plan is asked for when the burst is over, for the members left.
+#[test]
+fn a_burst_of_losses_costs_one_replan() {
+    let mut m = MissionManager::new(spec(), "node".into(), (0..6).map(|i| robot(&format!("r{i}"), "ground", i as f64)).collect());
+    let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
+    m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    for (i, id) in ["r1", "r2", "r3"].iter().enumerate() {
+        let out = m.handle(1.0 + 0.1 * i as f64, Event::Lost { ids: vec![id.to_string()] });
+        assert!(out.is_empty(), "no plan asked per loss: {out:?}");
+    }
+    assert_eq!(m.epoch(), 2, "the plan is outdated at once");
+    assert!(m.handle(1.8, Event::Tick).is_empty(), "the burst is not over");
+    let out = m.handle(2.1, Event::Tick);
+    let asked: Vec<&Command> = out.iter().filter(|c| matches!(c, Command::RequestPlan { .. })).collect();
+    assert_eq!(asked.len(), 1, "{out:?}");
+    let Command::RequestPlan { epoch, request, .. } = asked[0] else { unreachable!() };
+    assert_eq!((*epoch, request.robots.len()), (2, 3));
+    assert!(m.handle(2.5, Event::Tick).is_empty(), "once");
+    // A successor taking over inside a burst sees the plan outdated and replans.
+    m.handle(3.0, Event::Lost { ids: vec!["r4".into()] });
+    let again = MissionManager::restore(m.snapshot(), "other".into()).expect("restore");
+    assert_ne!(again.snapshot().plan.map(|(e, _)| e), Some(again.epoch()));
+}

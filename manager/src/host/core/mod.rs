@@ -274,6 +274,11 @@ impl HostCore {
                 for (name, cmds) in self.registry.tick(now) {
                     self.apply(now, &name, cmds, &mut out);
                 }
+                // Replans held back for a burst of losses.
+                let due: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.replan_due().is_some_and(|d| now >= d)).map(|(n, _)| n.clone()).collect();
+                for name in due {
+                    self.run(now, &name, mission::Event::Tick, &mut out);
+                }
                 let (robots, registry) = (&self.robots, &self.registry);
                 for (name, h) in self.heads.iter_mut() {
                     let managers = registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
