@@ -161,9 +161,16 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         team: "p".into(),
         subteam: "p/ground".into(),
         members: vec!["r1".into(), "r9".into()],
-        plan: proto::RobotPlan { robot: "r1".into(), robot_type: "ground".into(), slot: 0, steps: vec![proto::Step::Hold { seconds: None }] },
+        plan: proto::RobotPlan {
+            robot: "r1".into(),
+            robot_type: "ground".into(),
+            slot: 0,
+            steps: vec![proto::Step::Hold { seconds: None }],
+            team: String::new(),
+        },
         managers: vec!["r9".into()],
         barrier: proto::BarrierMode::Mesh,
+        scopes: vec![],
     };
     let r = rogue
         .query::<serde_json::Value>(&Key::RobotCmd("r1".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus.clone())))?), t, any)

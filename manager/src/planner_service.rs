@@ -41,7 +41,7 @@ pub fn plan_on(kind: PlannerKind, req: &PlanRequest, map: Option<&Map>) -> Resul
         return Err(format!("this is the {} planner; the recipe needs {}", kind.as_str(), r.planner.as_str()));
     }
     let robots: Vec<_> = req.robots.iter().map(wire::robot_spec).collect();
-    let planned = recipe::build_on(&r, &req.params, &robots, map).map_err(|e| e.to_string())?;
+    let planned = recipe::build_for(&r, &req.params, &robots, &req.capabilities, map).map_err(|e| e.to_string())?;
     Ok(wire::mission_plan(&planned))
 }
 

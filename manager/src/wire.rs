@@ -4,7 +4,7 @@
 use mrmm_planner::geom::Point as PPoint;
 use mrmm_planner::plan::{RobotPlan as PRobotPlan, RobotSpec as PRobotSpec, Step as PStep};
 use mrmm_planner::recipe::MissionPlan as PMissionPlan;
-use mrmm_proto::plan::{CoverageSummary, MissionPlan, PatrolSummary, PlanSummary, Point, Region, RobotPlan, RobotSpec, Step};
+use mrmm_proto::plan::{CoverageSummary, MissionPlan, PatrolSummary, PlanSummary, Point, Region, RobotPlan, RobotSpec, Step, TeamSummary};
 
 fn point(p: PPoint) -> Point {
     Point { x: p.x, y: p.y }
@@ -15,22 +15,35 @@ fn points(ps: &[PPoint]) -> Vec<Point> {
 }
 
 fn step(s: &PStep) -> Step {
-    match *s {
-        PStep::Navigate { x, y, speed } => Step::Navigate { x, y, speed },
-        PStep::Sync { point } => Step::Sync { point },
+    match s {
+        PStep::Navigate { x, y, speed } => Step::Navigate { x: *x, y: *y, speed: *speed },
+        PStep::Sync { point, scope } => Step::Sync { point: *point, scope: scope.clone() },
         PStep::Stream => Step::Stream,
-        PStep::Hold { seconds } => Step::Hold { seconds },
-        PStep::Loop { to, rounds } => Step::Loop { to, rounds },
+        PStep::Hold { seconds } => Step::Hold { seconds: *seconds },
+        PStep::Loop { to, rounds } => Step::Loop { to: *to, rounds: *rounds },
     }
 }
 
 fn robot_plan(p: &PRobotPlan) -> RobotPlan {
-    RobotPlan { robot: p.robot.clone(), robot_type: p.robot_type.clone(), slot: p.slot, steps: p.steps.iter().map(step).collect() }
+    RobotPlan { robot: p.robot.clone(), robot_type: p.robot_type.clone(), slot: p.slot, steps: p.steps.iter().map(step).collect(), team: p.team.clone() }
 }
 
-/// A planner's mission plan as the protocol carries it.
+/// A planner's mission plan as the protocol carries it; a mission of teams has each leaf team's
+/// figures in `teams` and the first one's in `summary`.
 pub fn mission_plan(p: &PMissionPlan) -> MissionPlan {
-    let summary = match p {
+    let plans = p.plans().into_iter().map(robot_plan).collect();
+    match p {
+        PMissionPlan::Teams { teams } => {
+            let teams: Vec<TeamSummary> = teams.iter().map(|t| TeamSummary { team: t.team.clone(), summary: summary(&t.plan) }).collect();
+            let first = teams.first().map(|t| t.summary.clone()).unwrap_or_else(|| summary(p));
+            MissionPlan { summary: first, plans, teams }
+        }
+        _ => MissionPlan { summary: summary(p), plans, teams: vec![] },
+    }
+}
+
+fn summary(p: &PMissionPlan) -> PlanSummary {
+    match p {
         PMissionPlan::Patrol(p) => PlanSummary::Patrol(PatrolSummary {
             tour: points(&p.tour),
             waypoints: points(&p.waypoints),
@@ -50,8 +63,15 @@ pub fn mission_plan(p: &PMissionPlan) -> MissionPlan {
             hexagonal_bound: c.hexagonal_bound,
             formation_time: c.formation_time,
         }),
-    };
-    MissionPlan { summary, plans: p.plans().iter().map(robot_plan).collect() }
+        // (a team's plan is never itself of teams)
+        PMissionPlan::Teams { .. } => PlanSummary::Coverage(CoverageSummary {
+            region: Region { outer: vec![], holes: vec![] },
+            points: vec![],
+            coverage_radius: 0.0,
+            hexagonal_bound: 0.0,
+            formation_time: 0.0,
+        }),
+    }
 }
 
 /// A robot of the protocol as the planner takes it.

@@ -55,7 +55,14 @@ struct TeamLink {
     arrivals: Option<Subscriber<RingChannelHandler<Sample>>>,
     /// The leader's releases ([`BarrierMode::Leader`]).
     releases: Option<Subscriber<RingChannelHandler<Sample>>>,
+    /// Membership tokens of the widest team the plan has barriers with.
     members: Subscriber<RingChannelHandler<Sample>>,
+    /// The wider teams' barriers: each one's path and whom its arrivals are for.
+    wide: Vec<(String, Vec<Sender>)>,
+    /// Arrivals at the wider teams' barriers, tagged with the team's path (one subscription per
+    /// wider team, kept alive here; a full queue drops, as a ring channel would).
+    wide_arrivals: Option<tokio::sync::Mutex<tokio::sync::mpsc::Receiver<(String, Sample)>>>,
+    _wide_subs: Vec<Subscriber<()>>,
 }
 
 /// Subscribes to teammates' samples on `pattern` (not our own: the robot counts its own
@@ -70,11 +77,21 @@ async fn team_subscriber(session: &Session, pattern: Pattern) -> Result<Subscrib
 }
 
 impl TeamLink {
-    async fn join(session: &Session, id: &str, team: &str, subteam: &str, mode: BarrierMode, plan_members: &[String]) -> Result<Self, PeerError> {
+    async fn join(
+        session: &Session,
+        id: &str,
+        team: &str,
+        subteam: &str,
+        mode: BarrierMode,
+        plan_members: &[String],
+        scopes: &[mrmm_proto::ScopeMembers],
+    ) -> Result<Self, PeerError> {
         let member = Key::team_member(subteam, id)?;
+        // Wider teams contain the robot's own: the shortest path is the widest.
+        let widest = scopes.iter().map(|s| s.team.as_str()).chain([team]).min_by_key(|t| t.len()).unwrap_or(team);
         let members = session
             .liveliness()
-            .declare_subscriber(Pattern::TeamMembers(team.to_string()).to_string())
+            .declare_subscriber(Pattern::TeamMembers(widest.to_string()).to_string())
             .history(true)
             .with(RingChannel::new(QUEUE))
             .await
@@ -85,8 +102,27 @@ impl TeamLink {
             BarrierMode::Leader => (None, Some(team_subscriber(session, Pattern::TeamRelease(team.to_string())).await?)),
         };
         let token = session.liveliness().declare_token(member.to_string()).await.map_err(PeerError::zenoh)?;
-        let to = plan_members.iter().filter(|m| m.as_str() != id).map(|m| Sender::new(Role::Robot, m.clone())).collect();
-        Ok(TeamLink { team: team.to_string(), mode, to, _token: token, arrivals, releases, members })
+        let others = |ms: &[String]| ms.iter().filter(|m| m.as_str() != id).map(|m| Sender::new(Role::Robot, m.clone())).collect::<Vec<_>>();
+        let to = others(plan_members);
+        let (mut wide, mut subs, mut wide_arrivals) = (Vec::new(), Vec::new(), None);
+        if !scopes.is_empty() {
+            let (tx, rx) = tokio::sync::mpsc::channel(QUEUE);
+            for sc in scopes {
+                let (tx, path) = (tx.clone(), sc.team.clone());
+                let sub = session
+                    .declare_subscriber(Pattern::TeamSync(sc.team.clone()).to_string())
+                    .allowed_origin(zenoh::sample::Locality::Remote)
+                    .callback(move |s| {
+                        let _ = tx.try_send((path.clone(), s));
+                    })
+                    .await
+                    .map_err(PeerError::zenoh)?;
+                subs.push(sub);
+                wide.push((sc.team.clone(), others(&sc.members)));
+            }
+            wide_arrivals = Some(tokio::sync::Mutex::new(rx));
+        }
+        Ok(TeamLink { team: team.to_string(), mode, to, _token: token, arrivals, releases, members, wide, wide_arrivals, _wide_subs: subs })
     }
 
     /// Starts (`true`) or stops hearing the team's arrivals as its leader.
@@ -340,6 +376,21 @@ pub async fn run_on(
                     }
                 }
             },
+            ws = recv_wide(&io.team) => {
+                let (team, s) = ws;
+                let Some(from) = mesh.sender_of("barrier arrival", &s) else { continue };
+                match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
+                    Ok(a) if from.is(Role::Robot, &a.robot) => (Event::HeardIn(team, a), None),
+                    Ok(a) => {
+                        mesh.refuse(&format!("publish the barrier arrival of {}", a.robot), &from);
+                        continue;
+                    }
+                    Err(e) => {
+                        tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+                        continue;
+                    }
+                }
+            },
             s = recv_team(&io.team, Sub::Members) => match Key::parse(s.key_expr().as_str()) {
                 Some(Key::TeamMember { robot, .. }) if s.kind() == SampleKind::Put => (Event::MemberAlive(robot), None),
                 Some(Key::TeamMember { robot, .. }) => (Event::MemberGone(robot), None),
@@ -418,9 +469,9 @@ impl Io {
                     self.mesh.reply_error(q, &e).await;
                 }
             }
-            Command::JoinTeam { team, subteam, barrier, members } => {
+            Command::JoinTeam { team, subteam, barrier, members, scopes } => {
                 self.team = None;
-                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam, barrier, &members).await {
+                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam, barrier, &members, &scopes).await {
                     Ok(link) => self.team = Some(link),
                     Err(e) => tracing::warn!(robot = %self.id, "cannot join team {team}: {e}"),
                 }
@@ -430,6 +481,12 @@ impl Io {
                 let Some(t) = &self.team else { return };
                 let key = t.arrival_key(a.point, a.round).to_string();
                 self.mesh.publish_json_for(&key, &a, &t.to).await;
+            }
+            Command::PublishIn(team, a) => {
+                let Some(t) = &self.team else { return };
+                let Some((_, to)) = t.wide.iter().find(|(p, _)| *p == team) else { return };
+                let key = Key::TeamSync { team, point: a.point, round: a.round }.to_string();
+                self.mesh.publish_json_for(&key, &a, to).await;
             }
             Command::Release(r) => {
                 let Some(t) = &self.team else { return };
@@ -527,6 +584,17 @@ async fn recv_team(team: &Option<TeamLink>, which: Sub) -> Sample {
         Some(sub) => match sub.recv_async().await {
             Ok(s) => s,
             Err(_) => std::future::pending().await,
+        },
+        None => std::future::pending().await,
+    }
+}
+
+/// The next arrival at a wider team's barrier, with the team's path; pending without any.
+async fn recv_wide(team: &Option<TeamLink>) -> (String, Sample) {
+    match team.as_ref().and_then(|t| t.wide_arrivals.as_ref()) {
+        Some(rx) => match rx.lock().await.recv().await {
+            Some(x) => x,
+            None => std::future::pending().await,
         },
         None => std::future::pending().await,
     }

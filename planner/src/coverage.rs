@@ -103,6 +103,7 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
             robot_type: r.robot_type.clone(),
             slot,
             steps: vec![Step::Stream, Step::Navigate { x: points[slot].x, y: points[slot].y, speed: None }, Step::Hold { seconds: None }],
+            team: String::new(),
         })
         .collect();
     Ok(CoveragePlan {

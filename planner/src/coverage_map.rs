@@ -52,7 +52,7 @@ pub fn plan_on(params: &CoverageParams, robots: &[RobotSpec], space: &Space) -> 
             steps.extend(navigate_through(&route, None));
             steps.push(Step::Hold { seconds: None });
             routes.push(route);
-            RobotPlan { robot: r.id.clone(), robot_type: r.robot_type.clone(), slot, steps }
+            RobotPlan { robot: r.id.clone(), robot_type: r.robot_type.clone(), slot, steps, team: String::new() }
         })
         .collect();
     let plan = CoveragePlan {

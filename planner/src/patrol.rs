@@ -233,11 +233,11 @@ impl PatrolAssignment {
     pub fn default_plan(&self, rounds: Option<u32>) -> RobotPlan {
         let mut steps = vec![Step::Stream];
         steps.extend(navigate_through(&self.approach, None));
-        steps.push(Step::Sync { point: 0 });
+        steps.push(Step::Sync { point: 0, scope: None });
         let to = steps.len();
         steps.extend(self.round.iter().cloned());
         steps.push(Step::Loop { to, rounds });
-        RobotPlan { robot: self.robot.clone(), robot_type: self.robot_type.clone(), slot: self.slot, steps }
+        RobotPlan { robot: self.robot.clone(), robot_type: self.robot_type.clone(), slot: self.slot, steps, team: String::new() }
     }
 }
 
@@ -267,7 +267,7 @@ fn round_steps(path: &Polyline, start: f64, q: usize, speed: f64) -> Vec<Step> {
             last = Some(p);
         }
         if let Some(point) = sync {
-            steps.push(Step::Sync { point });
+            steps.push(Step::Sync { point, scope: None });
         }
     }
     steps
@@ -375,7 +375,7 @@ mod tests {
         slots.sort();
         assert_eq!(slots, [0, 1, 2, 3]);
         for rp in &p.plans {
-            let syncs: Vec<u32> = rp.steps.iter().filter_map(|s| if let Step::Sync { point } = s { Some(*point) } else { None }).collect();
+            let syncs: Vec<u32> = rp.steps.iter().filter_map(|s| if let Step::Sync { point, .. } = s { Some(*point) } else { None }).collect();
             assert_eq!(syncs, [0, 1, 2, 3, 4], "start barrier, then points 1..=q of each round");
             assert!(matches!(rp.steps.last(), Some(Step::Loop { to: 3, rounds: None })));
         }

@@ -10,8 +10,14 @@ use serde::{Deserialize, Serialize};
 pub enum Step {
     /// Drive to (x, y); `speed` caps the robot's speed (m/s), `None` means its maximum.
     Navigate { x: f64, y: f64, speed: Option<f64> },
-    /// Team barrier number `point` of the current round: wait until every live member arrived.
-    Sync { point: u32 },
+    /// Barrier number `point` of the current round: wait until every live member of the team
+    /// arrived. `scope` names the team as a path below the mission (`""`: the whole mission);
+    /// none: the robot's own team.
+    Sync {
+        point: u32,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        scope: Option<String>,
+    },
     /// Stream telemetry (robots always do; kept so recipes can say it explicitly).
     Stream,
     /// Stay put, for `seconds` or (None) until the plan changes.
@@ -29,6 +35,9 @@ pub struct RobotPlan {
     /// Slot (patrol) or point (coverage) index the robot was assigned.
     pub slot: usize,
     pub steps: Vec<Step>,
+    /// The robot's team, as a path below the mission; empty: a recipe without teams.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub team: String,
 }
 
 /// A robot as planners see it.

@@ -8,8 +8,9 @@
 //! | `mrmm/robots/<id>/info` | queryable on the robot | [`crate::RobotInfo`] |
 //! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`crate::Telemetry`] (bincode behind `MRM3`) |
 //! | `mrmm/robots/<id>/cmd` | queryable on the robot | [`crate::RobotCommand`] → [`crate::CommandAck`] |
-//! | `mrmm/team/<mission>/<type>/member/<id>` | liveliness token of a team member | — |
-//! | `mrmm/team/<mission>/sync/<point>/<round>` | publication by each member at a barrier | [`crate::SyncArrival`] |
+//! | `mrmm/team/<team path>/<type>/member/<id>` | liveliness token of a member of a leaf team | — |
+//! | `mrmm/team/<team path>/sync/<point>/<round>` | publication by each member at a barrier of that team | [`crate::SyncArrival`] |
+//! | `mrmm/team/<team path>/arrive/…`, `…/release/…` | the same under the leader barrier | [`crate::SyncArrival`], [`crate::SyncRelease`] |
 //! | `mrmm/planner/<kind>` | queryable of a planner service | [`crate::PlanRequest`] → [`crate::MissionPlan`] |
 //! | `mrmm/planner/<kind>/alive/<zid>` | liveliness token of a planner service | — |
 //! | `mrmm/hosts/<node>/alive` | liveliness token of a mission host | — |
@@ -36,7 +37,10 @@
 //! | `mrmm/system/cmd/mission/pause`, `…/resume` | queryable on the system manager | [`crate::MissionPause`] |
 //!
 //! Ids (robots, missions, hosts, robot types, planner kinds) are single key chunks: 1 to 64
-//! characters of `[A-Za-z0-9_-]`.
+//! characters of `[A-Za-z0-9_-]`. A team path is the mission's name followed by the names of the
+//! teams down the recipe's tree (`escort/ground/north`; a recipe without teams: the mission's
+//! name alone), at most [`MAX_TEAM_DEPTH`] below the mission; team names are ids other than
+//! the words the keys use after a path ([`RESERVED_TEAM_NAMES`]).
 
 use std::fmt;
 
@@ -82,12 +86,47 @@ pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
     }
 }
 
-/// Checks a sub-team path `<mission>/<type>`.
+/// Teams nest at most this deep below the mission.
+pub const MAX_TEAM_DEPTH: usize = 8;
+
+/// Words that end a team path in a key, so no team below a mission may be named so.
+pub const RESERVED_TEAM_NAMES: [&str; 4] = ["sync", "arrive", "release", "member"];
+
+/// Whether `name` can name a team below a mission: an id, not one of [`RESERVED_TEAM_NAMES`].
+pub fn is_team_name(name: &str) -> bool {
+    validate_id(name).is_ok() && !RESERVED_TEAM_NAMES.contains(&name)
+}
+
+/// Checks a team path `<mission>[/<team>…]`: a mission name, then at most [`MAX_TEAM_DEPTH`]
+/// team names.
+pub fn validate_team_path(path: &str) -> Result<(), ProtoError> {
+    let mut parts = path.split('/');
+    let mission_ok = parts.next().is_some_and(|m| validate_id(m).is_ok());
+    let teams: Vec<&str> = parts.collect();
+    if mission_ok && teams.len() <= MAX_TEAM_DEPTH && teams.iter().all(|t| is_team_name(t)) {
+        Ok(())
+    } else {
+        Err(ProtoError::BadId(path.to_string()))
+    }
+}
+
+/// Whether team path `inner` is `outer` or lies below it.
+pub fn team_within(inner: &str, outer: &str) -> bool {
+    inner == outer || inner.strip_prefix(outer).is_some_and(|rest| rest.starts_with('/'))
+}
+
+/// Checks a sub-team path `<team path>/<type>` (the member tokens' part before `member`).
 pub fn validate_subteam(subteam: &str) -> Result<(), ProtoError> {
-    match subteam.split_once('/') {
-        Some((m, t)) if validate_id(m).is_ok() && validate_id(t).is_ok() => Ok(()),
+    match subteam.rsplit_once('/') {
+        Some((path, t)) if validate_team_path(path).is_ok() && validate_id(t).is_ok() => Ok(()),
         _ => Err(ProtoError::BadId(subteam.to_string())),
     }
+}
+
+/// A team path from key chunks, checked.
+fn team_path(chunks: &[&str]) -> Option<String> {
+    let path = chunks.join("/");
+    validate_team_path(&path).ok().map(|_| path)
 }
 
 /// An operator command on the system manager.
@@ -110,7 +149,7 @@ pub enum Key {
     RobotInfo(String),
     RobotTelemetry(String),
     RobotCmd(String),
-    /// `subteam` is `<mission>/<type>`.
+    /// `subteam` is `<team path>/<type>`.
     TeamMember {
         subteam: String,
         robot: String,
@@ -227,10 +266,14 @@ impl Key {
             ["mrmm", "robots", r, "info"] => Key::RobotInfo(id(r)?),
             ["mrmm", "robots", r, "telemetry"] => Key::RobotTelemetry(id(r)?),
             ["mrmm", "robots", r, "cmd"] => Key::RobotCmd(id(r)?),
-            ["mrmm", "team", m, t, "member", r] => Key::TeamMember { subteam: format!("{}/{}", id(m)?, id(t)?), robot: id(r)? },
-            ["mrmm", "team", m, "sync", p, r] => Key::TeamSync { team: id(m)?, point: num(p)?, round: num(r)? },
-            ["mrmm", "team", m, "arrive", p, r] => Key::TeamArrive { team: id(m)?, point: num(p)?, round: num(r)? },
-            ["mrmm", "team", m, "release", p, r] => Key::TeamRelease { team: id(m)?, point: num(p)?, round: num(r)? },
+            ["mrmm", "team", sub @ .., "member", r] => {
+                let subteam = sub.join("/");
+                validate_subteam(&subteam).ok()?;
+                Key::TeamMember { subteam, robot: id(r)? }
+            }
+            ["mrmm", "team", t @ .., "sync", p, r] => Key::TeamSync { team: team_path(t)?, point: num(p)?, round: num(r)? },
+            ["mrmm", "team", t @ .., "arrive", p, r] => Key::TeamArrive { team: team_path(t)?, point: num(p)?, round: num(r)? },
+            ["mrmm", "team", t @ .., "release", p, r] => Key::TeamRelease { team: team_path(t)?, point: num(p)?, round: num(r)? },
             ["mrmm", "planner", k] => Key::Planner(id(k)?),
             ["mrmm", "planner", k, "alive", z] => Key::PlannerAlive { kind: id(k)?, zid: id(z)? },
             ["mrmm", "hosts", n, "alive"] => Key::HostAlive(id(n)?),
@@ -264,7 +307,7 @@ impl Key {
         Some(k)
     }
 
-    /// The team-member token of `robot` in `subteam` (`<mission>/<type>`), checked.
+    /// The team-member token of `robot` in `subteam` (`<team path>/<type>`), checked.
     pub fn team_member(subteam: &str, robot: &str) -> Result<Key, ProtoError> {
         validate_subteam(subteam)?;
         validate_id(robot)?;
@@ -280,9 +323,9 @@ pub fn marginal_selector(mission: &str, add: i64) -> String {
 /// What the experiments count on the wire, by kind: (kind, key expression). Zenoh counts the
 /// messages each node sends and receives on these ([`crate::net::enable_wire_stats`]).
 pub const WIRE_KINDS: [(&str, &str); 8] = [
-    ("sync", "mrmm/team/*/sync/**"),
-    ("arrive", "mrmm/team/*/arrive/**"),
-    ("release", "mrmm/team/*/release/**"),
+    ("sync", "mrmm/team/**/sync/*/*"),
+    ("arrive", "mrmm/team/**/arrive/*/*"),
+    ("release", "mrmm/team/**/release/*/*"),
     ("telemetry", "mrmm/robots/*/telemetry"),
     // Plans, orders and admissions (queries) and their answers.
     ("command", "mrmm/robots/*/cmd"),
@@ -312,16 +355,18 @@ pub enum Pattern {
     AllMissionStatus,
     /// `mrmm/viewers/*`
     AllViewers,
-    /// Every member token of a team: `mrmm/team/<team>/*/member/*`
+    /// Every member token of a team and the teams below it: `mrmm/team/<team path>/**/member/*`
     TeamMembers(String),
-    /// Every barrier of a team: `mrmm/team/<team>/sync/**`
+    /// Every barrier of one team (not of the teams below it): `mrmm/team/<team path>/sync/*/*`
     TeamSync(String),
-    /// Every barrier of every team: `mrmm/team/*/sync/**`
+    /// Every barrier of every team: `mrmm/team/**/sync/*/*`
     AllTeamSync,
-    /// Every arrival for a team's leader: `mrmm/team/<team>/arrive/**`
+    /// Every arrival for a team's leader: `mrmm/team/<team path>/arrive/*/*`
     TeamArrive(String),
-    /// Every release of a team's leader: `mrmm/team/<team>/release/**`
+    /// Every release of a team's leader: `mrmm/team/<team path>/release/*/*`
     TeamRelease(String),
+    /// Every release of every team: `mrmm/team/**/release/*/*`
+    AllTeamRelease,
     /// Everything the system manager answers: `mrmm/system/**`
     SystemAll,
     /// Every operator command: `mrmm/system/cmd/**`
@@ -343,11 +388,12 @@ impl fmt::Display for Pattern {
             Pattern::AllPlannersAlive => f.write_str("mrmm/planner/*/alive/*"),
             Pattern::AllMissionStatus => f.write_str("mrmm/missions/*/status"),
             Pattern::AllViewers => f.write_str("mrmm/viewers/*"),
-            Pattern::TeamMembers(team) => write!(f, "mrmm/team/{team}/*/member/*"),
-            Pattern::TeamSync(team) => write!(f, "mrmm/team/{team}/sync/**"),
-            Pattern::AllTeamSync => f.write_str("mrmm/team/*/sync/**"),
-            Pattern::TeamArrive(team) => write!(f, "mrmm/team/{team}/arrive/**"),
-            Pattern::TeamRelease(team) => write!(f, "mrmm/team/{team}/release/**"),
+            Pattern::TeamMembers(team) => write!(f, "mrmm/team/{team}/**/member/*"),
+            Pattern::TeamSync(team) => write!(f, "mrmm/team/{team}/sync/*/*"),
+            Pattern::AllTeamSync => f.write_str("mrmm/team/**/sync/*/*"),
+            Pattern::TeamArrive(team) => write!(f, "mrmm/team/{team}/arrive/*/*"),
+            Pattern::TeamRelease(team) => write!(f, "mrmm/team/{team}/release/*/*"),
+            Pattern::AllTeamRelease => f.write_str("mrmm/team/**/release/*/*"),
             Pattern::SystemAll => f.write_str("mrmm/system/**"),
             Pattern::SystemCmdAll => f.write_str("mrmm/system/cmd/**"),
             Pattern::AgentAll => f.write_str("mrmm/agent/**"),
@@ -405,6 +451,11 @@ mod tests {
             Key::TeamSync { team: s("p1"), point: 2, round: 7 },
             Key::TeamArrive { team: s("p1"), point: 2, round: 7 },
             Key::TeamRelease { team: s("p1"), point: 0, round: 3 },
+            Key::TeamMember { subteam: s("p1/ground/north/drone"), robot: s("r3") },
+            Key::TeamSync { team: s("p1/ground/north"), point: 2, round: 7 },
+            Key::TeamSync { team: s("sync"), point: 2, round: 7 },
+            Key::TeamArrive { team: s("p1/air"), point: 2, round: 7 },
+            Key::TeamRelease { team: s("p1/air/a-1"), point: 0, round: 3 },
             Key::Planner(s("patrol")),
             Key::PlannerAlive { kind: s("coverage"), zid: s("0a1b") },
             Key::HostAlive(s("central")),
@@ -470,6 +521,18 @@ mod tests {
         assert!(!matches(Pattern::TeamArrive(s("p")), Key::TeamRelease { team: s("p"), point: 1, round: 3 }));
         assert!(matches(Pattern::TeamRelease(s("p")), Key::TeamRelease { team: s("p"), point: 1, round: 3 }));
         assert!(!matches(Pattern::TeamMembers(s("p")), Key::TeamArrive { team: s("p"), point: 1, round: 3 }));
+        // A team's patterns take in the teams below it for membership, never a sibling's, and
+        // only its own barriers.
+        assert!(matches(Pattern::TeamMembers(s("p")), Key::TeamMember { subteam: s("p/air/north/drone"), robot: s("r1") }));
+        assert!(matches(Pattern::TeamMembers(s("p/air")), Key::TeamMember { subteam: s("p/air/north/drone"), robot: s("r1") }));
+        assert!(!matches(Pattern::TeamMembers(s("p/air")), Key::TeamMember { subteam: s("p/ground/drone"), robot: s("r1") }));
+        assert!(!matches(Pattern::TeamMembers(s("p/air")), Key::TeamMember { subteam: s("p/air2/drone"), robot: s("r1") }));
+        assert!(!matches(Pattern::TeamSync(s("p")), Key::TeamSync { team: s("p/air"), point: 0, round: 0 }));
+        assert!(!matches(Pattern::TeamSync(s("p/air")), Key::TeamSync { team: s("p"), point: 0, round: 0 }));
+        assert!(!matches(Pattern::TeamSync(s("p/air")), Key::TeamSync { team: s("p/ground"), point: 0, round: 0 }));
+        assert!(matches(Pattern::AllTeamSync, Key::TeamSync { team: s("p/air/x"), point: 1, round: 3 }));
+        assert!(matches(Pattern::AllTeamRelease, Key::TeamRelease { team: s("p/air/x"), point: 1, round: 3 }));
+        assert!(matches(Pattern::AllTeamRelease, Key::TeamRelease { team: s("p"), point: 1, round: 3 }));
         assert!(matches(Pattern::SystemAll, Key::SystemCmd(SystemCmd::Create)));
         assert!(!matches(Pattern::SystemAll, Key::AgentAdvice));
     }
@@ -486,6 +549,10 @@ mod tests {
             "mrmm/team/p1/sync/-1/2",
             "mrmm/team/p1/sync/+1/2",
             "mrmm/team/p1/sync/99999999999/2",
+            "mrmm/team/sync/3",
+            "mrmm/team/p1/member/sync/1/2",
+            "mrmm/team/p1/a/b/c/d/e/f/g/h/i/sync/1/2",
+            "mrmm/team/member/r1",
             "mrmm/missions/*/marginal",
             "",
         ] {
@@ -500,9 +567,15 @@ mod tests {
             assert!(validate_id(bad).is_err(), "{bad:?}");
         }
         assert!(validate_subteam("m/ground").is_ok());
-        for bad in ["m", "m/", "/g", "m/g/x", "m/*"] {
+        assert!(validate_subteam("m/g/x").is_ok());
+        for bad in ["m", "m/", "/g", "m/sync/x", "m/*", "m//g"] {
             assert!(validate_subteam(bad).is_err(), "{bad:?}");
         }
+        assert!(validate_team_path("m/a/b").is_ok());
+        assert!(validate_team_path(&format!("m{}", "/t".repeat(MAX_TEAM_DEPTH))).is_ok());
+        assert!(validate_team_path(&format!("m{}", "/t".repeat(MAX_TEAM_DEPTH + 1))).is_err());
+        assert!(team_within("m/a/b", "m/a") && team_within("m/a", "m/a") && team_within("m/a", "m"));
+        assert!(!team_within("m/ab", "m/a") && !team_within("m", "m/a"));
         assert_eq!(marginal_selector("p", -2), "mrmm/missions/p/marginal?add=-2");
     }
 

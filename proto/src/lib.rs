@@ -29,12 +29,14 @@ pub use chain::ChainEnvelope;
 pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to_json};
 pub use error::ProtoError;
 pub use journal::{JournalEntry, JournalEvent, JournalPage};
-pub use keys::{natural_cmp, validate_id, validate_subteam, Key, Pattern, SystemCmd};
+pub use keys::{
+    is_team_name, natural_cmp, team_within, validate_id, validate_subteam, validate_team_path, Key, Pattern, SystemCmd, MAX_TEAM_DEPTH, RESERVED_TEAM_NAMES,
+};
 pub use map::{MapChunk, MapInfo, MapRef};
 pub use mesh::{Mesh, NodeNet, UNPROVEN};
 pub use mission::*;
 pub use operator::*;
-pub use plan::{MissionPlan, PlanRequest, PlanSummary, RobotPlan, RobotSpec, Step};
+pub use plan::{MissionPlan, PlanRequest, PlanSummary, RobotPlan, RobotSpec, Step, TeamSummary};
 pub use robot::*;
 pub use security::{Role, SecuritySection, Sender};
 pub use team::*;

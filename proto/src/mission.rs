@@ -14,6 +14,9 @@ pub struct Member {
     pub spec: RobotSpec,
     /// The robot's simulated seconds per wall second (1 for real robots).
     pub time_scale: f64,
+    /// What the robot can do (what puts it in the teams that require some).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub capabilities: Vec<String>,
 }
 
 /// What a mission is (the part every replica of its manager needs).

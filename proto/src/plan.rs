@@ -40,8 +40,14 @@ pub struct RobotSpec {
 pub enum Step {
     /// Drive to (x, y); `speed` caps the robot's speed (m/s), `None` means its maximum.
     Navigate { x: f64, y: f64, speed: Option<f64> },
-    /// Team barrier number `point` of the current round: wait until every live member arrived.
-    Sync { point: u32 },
+    /// Barrier number `point` of the current round: wait until every live member of the team
+    /// arrived. `scope` names the team, as a path below the mission (`""`: the whole mission,
+    /// `ground/north`); none: the robot's own team (its plan's `team`).
+    Sync {
+        point: u32,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        scope: Option<String>,
+    },
     /// Stream telemetry (robots always do; kept so recipes can say it explicitly).
     Stream,
     /// Stay put, for `seconds` or (None) until the plan changes.
@@ -59,6 +65,10 @@ pub struct RobotPlan {
     /// Slot (patrol) or point (coverage) index the robot was assigned.
     pub slot: usize,
     pub steps: Vec<Step>,
+    /// The robot's team, as a path below the mission (`ground/north`); empty: the mission's
+    /// own team (a recipe without teams).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub team: String,
 }
 
 /// A polygon with holes.
@@ -137,12 +147,45 @@ impl PlanSummary {
     }
 }
 
+/// One leaf team's figures in a mission of several teams.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TeamSummary {
+    /// The team's path below the mission (`ground/north`).
+    pub team: String,
+    #[serde(flatten)]
+    pub summary: PlanSummary,
+}
+
 /// A planned mission, as a planner service answers it: the figures and one plan per robot.
+/// A mission of several teams has each leaf team's figures in `teams`; `summary` is then the
+/// first leaf team's.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionPlan {
     #[serde(flatten)]
     pub summary: PlanSummary,
     pub plans: Vec<RobotPlan>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub teams: Vec<TeamSummary>,
+}
+
+impl MissionPlan {
+    /// The figures of leaf team `team` (a path below the mission; `""`: a mission without
+    /// teams).
+    pub fn team_summary(&self, team: &str) -> Option<&PlanSummary> {
+        if self.teams.is_empty() {
+            return team.is_empty().then_some(&self.summary);
+        }
+        self.teams.iter().find(|t| t.team == team).map(|t| &t.summary)
+    }
+
+    /// Every leaf team's figures: (path below the mission, figures).
+    pub fn summaries(&self) -> Vec<(&str, &PlanSummary)> {
+        if self.teams.is_empty() {
+            vec![("", &self.summary)]
+        } else {
+            self.teams.iter().map(|t| (t.team.as_str(), &t.summary)).collect()
+        }
+    }
 }
 
 /// Query payload of a planner service: a recipe (bank name or XML), overrides, robots.
@@ -156,6 +199,9 @@ pub struct PlanRequest {
     /// Plan on this map (the planner gets it by its hash); none: in the plane.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub map: Option<crate::map::MapRef>,
+    /// The robots' capabilities, by id: what puts them in the teams that require some.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub capabilities: BTreeMap<String, Vec<String>>,
 }
 
 #[cfg(test)]
@@ -172,12 +218,23 @@ mod tests {
                 hexagonal_bound: 2.5,
                 formation_time: 4.0,
             }),
-            plans: vec![RobotPlan { robot: "r1".into(), robot_type: "ground".into(), slot: 0, steps: vec![Step::Stream, Step::Sync { point: 0 }] }],
+            plans: vec![RobotPlan {
+                robot: "r1".into(),
+                robot_type: "ground".into(),
+                slot: 0,
+                steps: vec![Step::Stream, Step::Sync { point: 0, scope: None }, Step::Sync { point: 1, scope: Some(String::new()) }],
+                team: String::new(),
+            }],
+            teams: vec![],
         };
         let v = serde_json::to_value(&plan).expect("json");
         assert_eq!(v["planner"], "coverage");
         assert_eq!(v["coverage_radius"], 3.0);
         assert_eq!(v["plans"][0]["steps"][1]["sync"]["point"], 0);
+        // Older robots read a plan without teams as they always did.
+        assert_eq!(v["plans"][0]["steps"][1], serde_json::json!({"sync": {"point": 0}}));
+        assert_eq!(v["plans"][0]["steps"][2], serde_json::json!({"sync": {"point": 1, "scope": ""}}));
+        assert!(v["plans"][0].get("team").is_none() && v.get("teams").is_none());
         let back: MissionPlan = serde_json::from_value(v).expect("back");
         assert_eq!(back, plan);
         assert_eq!(back.summary.planner(), "coverage");

@@ -240,11 +240,12 @@ pub struct PlanAssignment {
     pub mission: String,
     /// The mission manager's epoch: plans and commands of older epochs are refused.
     pub epoch: u64,
-    /// Top-level team path (barriers), e.g. `patrol-1`.
+    /// The robot's leaf team: its path from the mission down (`escort/ground`; a mission without
+    /// teams: `patrol-1`). Its barriers are the plan's syncs without a scope.
     pub team: String,
-    /// Sub-team path (membership), e.g. `patrol-1/ground`.
+    /// Sub-team path (membership token), `<team>/<type>`, e.g. `escort/ground/husky`.
     pub subteam: String,
-    /// Every member of the team for this epoch.
+    /// Every member of the robot's leaf team for this epoch.
     pub members: Vec<String>,
     pub plan: RobotPlan,
     /// The mission's managers when the plan was sent (its chain, head first): who else the robot
@@ -255,9 +256,39 @@ pub struct PlanAssignment {
     /// How the team runs its barriers.
     #[serde(default)]
     pub barrier: crate::BarrierMode,
+    /// The wider teams the plan has barriers with (a parent team, the whole mission), each with
+    /// the members that take part in them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub scopes: Vec<ScopeMembers>,
+}
+
+/// The members of a team above a robot's own that take part in its barriers.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ScopeMembers {
+    /// The team's path from the mission down (`escort`, `escort/ground`).
+    pub team: String,
+    pub members: Vec<String>,
 }
 
 impl PlanAssignment {
+    /// The team path a sync step's `scope` names: its own team without one; else the mission's
+    /// path followed by the scope (`""`: the mission itself).
+    pub fn scope_path(&self, scope: Option<&str>) -> String {
+        match scope {
+            None => self.team.clone(),
+            Some("") => self.mission.clone(),
+            Some(s) => format!("{}/{s}", self.mission),
+        }
+    }
+
+    /// The members of the barriers of team path `team`, if the plan has any there.
+    pub fn scope_members(&self, team: &str) -> Option<&[String]> {
+        if team == self.team {
+            return Some(&self.members);
+        }
+        self.scopes.iter().find(|s| s.team == team).map(|s| s.members.as_slice())
+    }
+
     /// Whether `other` is the same plan (whoever manages it now).
     pub fn same_plan(&self, other: &PlanAssignment) -> bool {
         self.mission == other.mission
@@ -267,6 +298,7 @@ impl PlanAssignment {
             && self.members == other.members
             && self.barrier == other.barrier
             && self.plan == other.plan
+            && self.scopes == other.scopes
     }
 }
 

@@ -165,7 +165,7 @@ impl Invariants {
     pub fn release(&mut self, leader: &str, e: &Executor, r: &SyncRelease) -> Result<(), String> {
         let a = &e.assignment;
         let at = (r.round, r.point);
-        let key = (a.mission.clone(), a.epoch);
+        let key = (a.team.clone(), a.epoch);
         if self.releases.get(&key).is_some_and(|f| *f >= at) {
             return Ok(());
         }
@@ -173,28 +173,38 @@ impl Invariants {
             let there = if m == leader {
                 e.barrier().mine().is_some_and(|f| f >= at)
             } else {
-                self.arrivals.get(&(a.mission.clone(), a.epoch, m.clone())).is_some_and(|f| *f >= at)
+                self.arrivals.get(&(a.team.clone(), a.epoch, m.clone())).is_some_and(|f| *f >= at)
             };
             if !there && !e.barrier().is_gone(m) {
-                return Err(format!("{leader} released barrier (round {}, point {}) of {} epoch {} before {m} arrived there", at.0, at.1, a.mission, a.epoch));
+                return Err(format!("{leader} released barrier (round {}, point {}) of {} epoch {} before {m} arrived there", at.0, at.1, a.team, a.epoch));
             }
         }
         self.releases.insert(key, at);
         Ok(())
     }
 
-    /// Invariant 4: `robot` just passed barriers up to its own furthest arrival.
+    /// Invariant 4: `robot` just passed barriers up to its own furthest arrival, in its own team
+    /// and in each wider team its plan has barriers with: every member of that team (and no
+    /// one else) that is not gone had arrived there.
     pub fn barrier_passed(&self, robot: &str, e: &Executor) -> Result<(), String> {
-        let Some(mine) = e.barrier().mine() else { return Ok(()) };
         let a = &e.assignment;
-        // A release justified when announced (leader barrier).
-        if self.releases.get(&(a.mission.clone(), a.epoch)).is_some_and(|f| *f >= mine) {
-            return Ok(());
-        }
-        for m in a.members.iter().filter(|m| *m != robot) {
-            let there = self.arrivals.get(&(a.mission.clone(), a.epoch, m.clone())).is_some_and(|f| *f >= mine);
-            if !there && !e.barrier().is_gone(m) {
-                return Err(format!("{robot} passed barrier (round {}, point {}) of {} epoch {} before {m} arrived there", mine.0, mine.1, a.mission, a.epoch));
+        let mut teams = vec![(a.team.as_str(), a.members.as_slice(), e.barrier())];
+        teams.extend(a.scopes.iter().filter_map(|s| e.wide_barrier(&s.team).map(|b| (s.team.as_str(), s.members.as_slice(), b))));
+        for (team, members, b) in teams {
+            let Some(mine) = b.mine() else { continue };
+            // Arrived there but not passed (it passed another team's barrier just before).
+            if e.waiting_in(team) == Some(mine) {
+                continue;
+            }
+            // A release justified when announced (leader barrier).
+            if self.releases.get(&(team.to_string(), a.epoch)).is_some_and(|f| *f >= mine) {
+                continue;
+            }
+            for m in members.iter().filter(|m| *m != robot) {
+                let there = self.arrivals.get(&(team.to_string(), a.epoch, m.clone())).is_some_and(|f| *f >= mine);
+                if !there && !b.is_gone(m) {
+                    return Err(format!("{robot} passed barrier (round {}, point {}) of {team} epoch {} before {m} arrived there", mine.0, mine.1, a.epoch));
+                }
             }
         }
         Ok(())

@@ -26,8 +26,10 @@ pub use world::World;
 pub enum Ops {
     /// No managers: every robot is handed the same plan of `points` barriers per round for
     /// `rounds` rounds, with random work between barriers.
-    /// `mode`: how the team runs them.
-    Barriers { points: u32, rounds: u32, mode: mrmm_proto::BarrierMode },
+    /// `mode`: how the team runs them. `teams` > 1: the robots are split into that many leaf
+    /// teams of one mission, each round's barriers are each team's own, and every plan starts
+    /// with a mission-wide barrier.
+    Barriers { points: u32, rounds: u32, mode: mrmm_proto::BarrierMode, teams: u32 },
     /// One mission started on the first mission host, then random joins and leaves sent to its
     /// head (re-sent until acknowledged, as the system manager does).
     OneMission,
@@ -109,7 +111,12 @@ impl Config {
             robots: r.gen_range(2..=7),
             hosts: 0,
             // Odd seeds run the paper's leader barrier, even ones the mesh barrier.
-            ops: Ops::Barriers { points: 3, rounds: 4, mode: if seed % 2 == 1 { mrmm_proto::BarrierMode::Leader } else { mrmm_proto::BarrierMode::Mesh } },
+            ops: Ops::Barriers {
+                points: 3,
+                rounds: 4,
+                mode: if seed % 2 == 1 { mrmm_proto::BarrierMode::Leader } else { mrmm_proto::BarrierMode::Mesh },
+                teams: 1,
+            },
             duration: 40.0,
             quiet: 80.0,
             loss: [0.0, 0.1, 0.4][r.gen_range(0..3)],
@@ -123,6 +130,17 @@ impl Config {
             disks: false,
             side_cycles: false,
         }
+    }
+
+    /// The barrier simulation with a team tree: the robots of [`Config::barriers`] split into two
+    /// or three leaf teams of one mission, a mission-wide barrier first, then each team's own.
+    pub fn team_barriers(seed: u64) -> Config {
+        let mut cfg = Config::barriers(seed);
+        if let Ops::Barriers { teams, .. } = &mut cfg.ops {
+            *teams = 2 + (seed / 2 % 2) as u32;
+        }
+        cfg.robots = cfg.robots.max(3);
+        cfg
     }
 
     /// The membership simulation: central and robots (each a mission host), random operator

@@ -10,3 +10,10 @@ mod common;
 fn invariants_hold_for_every_seed() {
     common::seeds("barrier", 1000, mrmm_sim::Config::barriers);
 }
+
+/// Nested teams: a barrier never releases before every live member of its scope arrived (the
+/// mission's barrier: every robot; a team's: that team's), checked after every event.
+#[test]
+fn invariants_hold_for_every_seed_with_teams() {
+    common::seeds("team barrier", 500, mrmm_sim::Config::team_barriers);
+}

@@ -11,7 +11,7 @@ use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::plan::{MissionPlan, PlanSummary, Point, RobotSpec};
 use mrmm_proto::{
     self as proto, BarrierMode, ManagerView, Marginal, Member, MissionSnapshot, MissionSpecWire, MissionStatus, MissionView, PlanAssignment, PlanRequest,
-    Telemetry,
+    ScopeMembers, Telemetry,
 };
 
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
@@ -468,9 +468,10 @@ impl MissionManager {
                 robot_type: m.spec.robot_type.clone(),
                 slot,
                 steps: vec![proto::Step::Stream, proto::Step::Hold { seconds: None }],
+                team: self.team_of(&m.spec.id),
             })
             .collect();
-        MissionPlan { summary, plans }
+        MissionPlan { summary, plans, teams: vec![] }
     }
 
     fn plan_ready(&mut self, epoch: u64, plan: MissionPlan) -> Vec<Command> {
@@ -490,25 +491,50 @@ impl MissionManager {
         out
     }
 
-    /// One `SendPlan` per member with a plan.
+    /// One `SendPlan` per member with a plan. A member's team is its leaf team's path
+    /// (`<mission>/<team>…`, the mission's name for a recipe without teams) and its members that
+    /// leaf's; each wider team the plan has barriers with comes with the members whose plans
+    /// have barriers there too.
     fn assignments(&self, epoch: u64, plan: &MissionPlan) -> Vec<Command> {
-        let members: Vec<String> = self.members.keys().cloned().collect();
+        let mission = &self.spec.name;
+        let path = |team: &str| if team.is_empty() { mission.clone() } else { format!("{mission}/{team}") };
+        let mut leaves: BTreeMap<&str, Vec<String>> = BTreeMap::new();
+        let mut scoped: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        for rp in plan.plans.iter().filter(|rp| self.members.contains_key(&rp.robot)) {
+            leaves.entry(rp.team.as_str()).or_default().push(rp.robot.clone());
+            for scope in scopes_of(rp) {
+                let p = if scope.is_empty() { mission.clone() } else { path(&scope) };
+                scoped.entry(p).or_default().push(rp.robot.clone());
+            }
+        }
+        for v in scoped.values_mut() {
+            v.sort();
+            v.dedup();
+        }
         plan.plans
             .iter()
             .filter_map(|rp| {
                 let m = self.members.get(&rp.robot)?;
+                let team = path(&rp.team);
+                let scopes = scopes_of(rp)
+                    .into_iter()
+                    .map(|s| if s.is_empty() { mission.clone() } else { path(&s) })
+                    .filter(|p| *p != team)
+                    .map(|p| ScopeMembers { members: scoped.get(&p).cloned().unwrap_or_default(), team: p })
+                    .collect();
                 Some(Command::SendPlan {
                     robot: rp.robot.clone(),
                     assignment: Box::new(PlanAssignment {
-                        mission: self.spec.name.clone(),
+                        mission: mission.clone(),
                         epoch,
-                        team: self.spec.name.clone(),
-                        subteam: format!("{}/{}", self.spec.name, m.spec.robot_type),
-                        members: members.clone(),
+                        subteam: format!("{team}/{}", m.spec.robot_type),
+                        team,
+                        members: leaves.get(rp.team.as_str()).cloned().unwrap_or_default(),
                         plan: rp.clone(),
                         // Filled in by the host with the chain when the plan goes out.
                         managers: vec![],
                         barrier: self.barrier(),
+                        scopes,
                     }),
                 })
             })
@@ -593,14 +619,29 @@ impl MissionManager {
             params: self.spec.params.clone(),
             robots: self.members.values().map(|m| m.spec.clone()).collect::<Vec<RobotSpec>>(),
             map: self.spec.map.clone(),
+            capabilities: self.members.values().filter(|m| !m.capabilities.is_empty()).map(|m| (m.spec.id.clone(), m.capabilities.clone())).collect(),
         }
     }
 
-    /// Sub-teams by robot type: `<mission>/<type>` → members.
+    /// The leaf team member `id` was last planned in (a path below the mission; `""`: none, or
+    /// a recipe without teams).
+    fn team_of(&self, id: &str) -> String {
+        self.plan.as_ref().and_then(|(_, p)| p.plans.iter().find(|rp| rp.robot == id)).map(|rp| rp.team.clone()).unwrap_or_default()
+    }
+
+    /// Teams by path: a recipe of teams gives each leaf team (`<mission>/<team>…`) its members as
+    /// last planned (a member not planned yet is under the mission's own name); a recipe without
+    /// teams, the sub-teams by robot type (`<mission>/<type>`).
     pub fn teams(&self) -> BTreeMap<String, Vec<String>> {
         let mut teams: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        let of_teams = self.plan.as_ref().is_some_and(|(_, p)| p.plans.iter().any(|rp| !rp.team.is_empty()));
         for m in self.members.values() {
-            teams.entry(format!("{}/{}", self.spec.name, m.spec.robot_type)).or_default().push(m.spec.id.clone());
+            let key = match self.team_of(&m.spec.id) {
+                t if !t.is_empty() => format!("{}/{t}", self.spec.name),
+                _ if of_teams => self.spec.name.clone(),
+                _ => format!("{}/{}", self.spec.name, m.spec.robot_type),
+            };
+            teams.entry(key).or_default().push(m.spec.id.clone());
         }
         teams
     }
@@ -654,6 +695,16 @@ fn tour(p: &MissionPlan) -> &[Point] {
         PlanSummary::Patrol(s) => &s.tour,
         PlanSummary::Coverage(_) => &[],
     }
+}
+
+/// The scopes (team paths below the mission, `""` the mission) of a plan's barriers that are
+/// not its own team's.
+fn scopes_of(rp: &proto::RobotPlan) -> Vec<String> {
+    let mut out: Vec<String> =
+        rp.steps.iter().filter_map(|s| if let proto::Step::Sync { scope: Some(sc), .. } = s { Some(sc.clone()) } else { None }).collect();
+    out.sort();
+    out.dedup();
+    out
 }
 
 #[cfg(test)]

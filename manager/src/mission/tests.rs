@@ -21,7 +21,7 @@ fn spec() -> MissionSpec {
 }
 
 fn robot(id: &str, t: &str, x: f64) -> Member {
-    Member { spec: RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0 }, time_scale: 1.0 }
+    Member { spec: RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0 }, time_scale: 1.0, capabilities: vec![] }
 }
 
 /// Runs the planner as a planner service would.
@@ -29,9 +29,10 @@ fn plan_for(cmds: &[Command]) -> (u64, MissionPlan) {
     let Some(Command::RequestPlan { epoch, request, .. }) = cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })) else {
         panic!("expected a plan request in {cmds:?}");
     };
-    let r = recipe::parse(&request.recipe).expect("recipe");
+    let xml = recipe::bank(&request.recipe).unwrap_or(&request.recipe);
+    let r = recipe::parse(xml).expect("recipe");
     let robots: Vec<_> = request.robots.iter().map(crate::wire::robot_spec).collect();
-    (*epoch, crate::wire::mission_plan(&recipe::build(&r, &request.params, &robots).expect("plan")))
+    (*epoch, crate::wire::mission_plan(&recipe::build_for(&r, &request.params, &robots, &request.capabilities, None).expect("plan")))
 }
 
 fn sent_to(cmds: &[Command]) -> Vec<(String, u64, usize)> {
@@ -77,7 +78,13 @@ fn leaving_replans_for_the_rest_and_old_plans_are_ignored() {
     let (_, old) = plan_for(&[Command::RequestPlan {
         epoch: 1,
         kind: PlannerKind::Patrol,
-        request: PlanRequest { recipe: spec().recipe_xml, params: spec().params, robots: vec![robot("a", "ground", 0.0).spec], map: None },
+        request: PlanRequest {
+            recipe: spec().recipe_xml,
+            params: spec().params,
+            robots: vec![robot("a", "ground", 0.0).spec],
+            map: None,
+            capabilities: Default::default(),
+        },
     }]);
     assert!(m.handle(0.0, Event::PlanReady { epoch: 1, plan: Box::new(old) }).is_empty());
     let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan.clone()) });
@@ -407,4 +414,40 @@ fn a_burst_of_losses_costs_one_replan() {
     m.handle(3.0, Event::Lost { ids: vec!["r4".into()] });
     let again = MissionManager::restore(m.snapshot(), "other".into()).expect("restore");
     assert_ne!(again.snapshot().plan.map(|(e, _)| e), Some(again.epoch()));
+}
+
+#[test]
+fn a_recipe_of_teams_gives_each_robot_its_leaf_team_and_the_mission_barrier() {
+    let spec = MissionSpec {
+        name: "e".into(),
+        recipe_name: "escort".into(),
+        recipe_xml: recipe::bank("escort").expect("bank").into(),
+        params: BTreeMap::new(),
+        ..spec()
+    };
+    let members = vec![robot("a", "ground", 0.0), robot("b", "ground", 5.0), robot("c", "aerial", 10.0)];
+    let mut m = MissionManager::new(spec, "node".into(), members);
+    let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
+    let cmds = m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    let sent: BTreeMap<String, PlanAssignment> = cmds
+        .iter()
+        .filter_map(|c| match c {
+            Command::SendPlan { robot, assignment } => Some((robot.clone(), (**assignment).clone())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(sent.len(), 3);
+    // Each robot's own barriers are its leaf team's: it never waits on the sibling team.
+    assert_eq!((sent["a"].team.as_str(), sent["a"].subteam.as_str()), ("e/ground", "e/ground/ground"));
+    assert_eq!(sent["a"].members, ["a", "b"]);
+    assert_eq!((sent["c"].team.as_str(), sent["c"].members.as_slice()), ("e/air", ["c".to_string()].as_slice()));
+    // The recipe's start barrier is the whole mission's.
+    for a in sent.values() {
+        assert_eq!(a.scopes, [mrmm_proto::ScopeMembers { team: "e".into(), members: vec!["a".into(), "b".into(), "c".into()] }]);
+        assert!(a.plan.steps.contains(&Step::Sync { point: 0, scope: Some(String::new()) }));
+        assert_eq!(a.scope_path(Some("")), "e");
+    }
+    let v = m.view(false);
+    assert_eq!(v.teams["e/ground"], ["a", "b"]);
+    assert_eq!(v.teams["e/air"], ["c"]);
 }

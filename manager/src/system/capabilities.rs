@@ -48,7 +48,7 @@ impl SystemManager {
     }
 
     /// What robot `id` has (nothing while its info is unknown).
-    fn capabilities_of(&self, id: &str) -> &[String] {
+    pub(super) fn capabilities_of(&self, id: &str) -> &[String] {
         self.robots.get(id).and_then(|r| r.info.as_ref()).map(|i| i.capabilities.as_slice()).unwrap_or(&[])
     }
 

@@ -50,8 +50,8 @@ impl SystemManager {
         let mut spec = self.spec_of(&u.name)?;
         let r = recipe::parse(&spec.recipe_xml).map_err(|e| format!("mission {}: its recipe: {e}", u.name))?;
         let given = param_strings(&u.params);
-        for (k, v) in given.iter().filter(|(k, _)| !matches!(k.as_str(), "waypoints" | "region")) {
-            recipe::check_param(r.planner, k, v).map_err(|e| format!("mission {}: {e}", u.name))?;
+        for (k, v) in &given {
+            recipe::check_override(&r, k, v).map_err(|e| format!("mission {}: {e}", u.name))?;
         }
         if given.is_empty() && u.map.is_none() {
             return Err(format!("mission {}: nothing to change: give parameters or a map", u.name));
@@ -70,17 +70,14 @@ impl SystemManager {
             }
             None => spec.map.as_ref().and_then(|m| self.maps.get(&m.name).filter(|h| h.info.hash == m.hash)).map(|h| h.map.clone()),
         };
-        let robots: Vec<_> = self
-            .assignment
-            .iter()
-            .filter(|(id, m)| *m == &u.name && self.robots.get(*id).is_some_and(|r| r.alive))
-            .filter_map(|(id, _)| self.spec(id))
-            .map(|s| wire::robot_spec(&s))
-            .collect();
+        let ids: Vec<&String> =
+            self.assignment.iter().filter(|(id, m)| *m == &u.name && self.robots.get(*id).is_some_and(|r| r.alive)).map(|(id, _)| id).collect();
+        let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id)).map(|s| wire::robot_spec(&s)).collect();
+        let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
         if robots.is_empty() {
             return Err(format!("mission {} has no live robot to plan for: add robots first", u.name));
         }
-        let dry = DryRun { id: 0, recipe_xml: spec.recipe_xml.clone(), params: cheap(r.planner, &spec.params), robots, map: held };
+        let dry = DryRun { id: 0, recipe_xml: spec.recipe_xml.clone(), params: cheap(&r, &spec.params), robots, caps, map: held };
         Ok((spec, dry))
     }
 

@@ -13,15 +13,18 @@ use crate::wire;
 use crate::Failure;
 
 /// The parameters of a dry run: `params` with little planning effort.
-pub(super) fn cheap(planner: PlannerKind, params: &BTreeMap<String, String>) -> BTreeMap<String, String> {
+pub(super) fn cheap(r: &recipe::Recipe, params: &BTreeMap<String, String>) -> BTreeMap<String, String> {
     let mut dry = params.clone();
-    match planner {
-        PlannerKind::Patrol => {
-            dry.insert("max_kicks".into(), "10".into());
-        }
-        PlannerKind::Coverage => {
-            for (k, v) in [("samples", "200"), ("lloyd_iterations", "1"), ("minimax_iterations", "1")] {
-                dry.insert(k.into(), v.into());
+    for leaf in r.leaves() {
+        let key = |k: &str| if leaf.path().is_empty() { k.to_string() } else { format!("{}/{k}", leaf.path()) };
+        match leaf.recipe.planner {
+            PlannerKind::Patrol => {
+                dry.insert(key("max_kicks"), "10".into());
+            }
+            PlannerKind::Coverage => {
+                for (k, v) in [("samples", "200"), ("lloyd_iterations", "1"), ("minimax_iterations", "1")] {
+                    dry.insert(key(k), v.into());
+                }
             }
         }
     }
@@ -52,12 +55,13 @@ struct Checked {
     /// The parameters of the dry run (little effort) and its robots.
     dry: BTreeMap<String, String>,
     planner_robots: Vec<mrmm_planner::plan::RobotSpec>,
+    caps: BTreeMap<String, Vec<String>>,
     map: Option<std::sync::Arc<mrmm_maps::Map>>,
 }
 
 impl Checked {
     fn dry_run(self, id: u64) -> DryRun {
-        DryRun { id, recipe_xml: self.spec.recipe_xml, params: self.dry, robots: self.planner_robots, map: self.map }
+        DryRun { id, recipe_xml: self.spec.recipe_xml, params: self.dry, robots: self.planner_robots, caps: self.caps, map: self.map }
     }
 }
 
@@ -69,6 +73,8 @@ pub struct DryRun {
     pub recipe_xml: String,
     pub params: BTreeMap<String, String>,
     pub robots: Vec<mrmm_planner::plan::RobotSpec>,
+    /// The robots' capabilities (what puts them in a recipe's teams).
+    pub caps: BTreeMap<String, Vec<String>>,
     /// The mission's map.
     pub map: Option<std::sync::Arc<mrmm_maps::Map>>,
 }
@@ -77,7 +83,7 @@ impl DryRun {
     /// Plans it (pure; bounded by the planner's limits).
     pub fn run(&self) -> Result<(), String> {
         let r = recipe::parse(&self.recipe_xml).map_err(|e| e.to_string())?;
-        recipe::build_on(&r, &self.params, &self.robots, self.map.as_deref()).map(|_| ()).map_err(|e| e.to_string())
+        recipe::build_for(&r, &self.params, &self.robots, &self.caps, self.map.as_deref()).map(|_| ()).map_err(|e| e.to_string())
     }
 }
 
@@ -177,8 +183,8 @@ impl SystemManager {
         recipe::validate(&r).map_err(|e| format!("recipe {recipe_name}: {e}"))?;
         let params = param_strings(&c.params);
         // Every scalar the operator gave is checked as given (the dry run below replaces some).
-        for (k, v) in params.iter().filter(|(k, _)| !matches!(k.as_str(), "waypoints" | "region")) {
-            recipe::check_param(r.planner, k, v).map_err(|e| format!("mission {}: {e}", c.name))?;
+        for (k, v) in &params {
+            recipe::check_override(&r, k, v).map_err(|e| format!("mission {}: {e}", c.name))?;
         }
 
         let held = match &c.map {
@@ -206,21 +212,22 @@ impl SystemManager {
                 (list.clone(), vec![])
             }
             (None, Some(k)) => {
-                let idle = self.idle_robots(&requires);
+                let idle = self.for_teams(&r, self.idle_robots(&requires));
                 if k == 0 || k > idle.len() {
                     let with = if requires.is_empty() { String::new() } else { format!(" with {}", requires.join(", ")) };
                     return Err(format!("count {k}: {} idle robots{with} available", idle.len()));
                 }
                 (idle.into_iter().take(k).collect(), vec![])
             }
-            (None, None) => self.equal_share(&requires)?,
+            (None, None) => self.equal_share(&requires, &|id| self.fits(&r, id))?,
         };
         if ids.is_empty() {
             return Err("a mission needs at least one robot".into());
         }
         let specs: Vec<RobotSpec> = ids.iter().filter_map(|id| self.spec(id)).collect();
         // Dry run with little effort: catches bad waypoints, regions and parameters now.
-        let dry = cheap(r.planner, &params);
+        let dry = cheap(&r, &params);
+        let caps = ids.iter().map(|id| (id.clone(), self.capabilities_of(id).to_vec())).collect();
         let planner_robots: Vec<_> = specs.iter().map(wire::robot_spec).collect();
         let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
         if replicas > proto::MAX_REPLICAS {
@@ -237,7 +244,7 @@ impl SystemManager {
             map: held.as_ref().map(|h| h.map_ref()),
             paused: false,
         };
-        Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots, map: held.map(|h| h.map.clone()) })
+        Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots, caps, map: held.map(|h| h.map.clone()) })
     }
 
     /// The controls letting `id` go from missions, while not yet acknowledged (a robot moved
@@ -263,6 +270,29 @@ impl SystemManager {
     /// plan of a mission this manager does not know belongs to a mission whose head has not
     /// reported yet (after a restart of central, or a partition): it is not free.
     /// Only robots with every capability of `requires`.
+    /// Whether robot `id` fits a leaf team of `r` (any robot fits a recipe without teams).
+    fn fits(&self, r: &recipe::Recipe, id: &str) -> bool {
+        !r.has_teams() || self.spec(id).is_some_and(|s| r.leaves().iter().any(|l| l.fits(&s.robot_type, self.capabilities_of(id))))
+    }
+
+    /// The robots of `ids` that fit a team of `r`, those a team's `min` needs first (each leaf
+    /// team's minimum in turn, in document order), the others after, in their order.
+    fn for_teams(&self, r: &recipe::Recipe, ids: Vec<String>) -> Vec<String> {
+        if !r.has_teams() {
+            return ids;
+        }
+        let mut rest: Vec<String> = ids.into_iter().filter(|id| self.fits(r, id)).collect();
+        let mut first = Vec::new();
+        for leaf in r.leaves() {
+            for _ in 0..leaf.min {
+                let Some(at) = rest.iter().position(|id| self.spec(id).is_some_and(|s| leaf.fits(&s.robot_type, self.capabilities_of(id)))) else { break };
+                first.push(rest.remove(at));
+            }
+        }
+        first.extend(rest);
+        first
+    }
+
     fn idle_robots(&self, requires: &[String]) -> Vec<String> {
         self.robots
             .iter()
@@ -279,10 +309,11 @@ impl SystemManager {
     /// Idle robots first; then robots taken from the largest missions, never below their share.
     /// Only robots with every capability of `requires` are chosen.
     #[allow(clippy::type_complexity)]
-    fn equal_share(&self, requires: &[String]) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+    fn equal_share(&self, requires: &[String], fits: &dyn Fn(&str) -> bool) -> Result<(Vec<String>, Vec<(String, String)>), String> {
         let alive = self.robots.values().filter(|r| r.alive && r.info.is_some()).count();
         let share = (alive / (self.missions.len() + 1)).max(1);
-        let mut chosen: Vec<String> = self.idle_robots(requires).into_iter().take(share).collect();
+        let idle: Vec<String> = self.idle_robots(requires).into_iter().filter(|id| fits(id)).collect();
+        let mut chosen: Vec<String> = idle.into_iter().take(share).collect();
         let mut steal = Vec::new();
         let mut sizes: BTreeMap<String, Vec<String>> = BTreeMap::new();
         for (robot, m) in &self.assignment {
@@ -290,7 +321,7 @@ impl SystemManager {
                 sizes.entry(m.clone()).or_default().push(robot.clone());
             }
         }
-        let capable = |id: &str| self.has_all(id, requires);
+        let capable = |id: &str| self.has_all(id, requires) && fits(id);
         while chosen.len() < share {
             let Some((name, members)) = sizes.iter_mut().filter(|(_, v)| v.len() > share && v.iter().any(|id| capable(id))).max_by_key(|(_, v)| v.len()) else {
                 break;

@@ -474,8 +474,8 @@ impl SystemManager {
 
     /// What a mission manager needs to know about a robot.
     fn member(&self, id: &str) -> Option<Member> {
-        let time_scale = self.robots.get(id)?.info.as_ref()?.time_scale;
-        Some(Member { spec: self.spec(id)?, time_scale })
+        let info = self.robots.get(id)?.info.as_ref()?;
+        Some(Member { spec: self.spec(id)?, time_scale: info.time_scale, capabilities: info.capabilities.clone() })
     }
 
     /// Checks a goto; on a map (the one it names, else central's only one), the route's corner

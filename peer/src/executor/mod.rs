@@ -24,6 +24,9 @@ pub enum Event {
     Heard(SyncArrival),
     /// A leader's release was heard ([`BarrierMode::Leader`]).
     Released(SyncRelease),
+    /// An arrival at a barrier of a wider team (a scope of [`PlanAssignment::scopes`], by its
+    /// team path) was heard.
+    HeardIn(String, SyncArrival),
     /// A teammate's membership token appeared.
     MemberAlive(String),
     /// A teammate's membership token disappeared: it no longer holds anyone up.
@@ -39,6 +42,8 @@ pub enum Command {
     Hold,
     /// Publish this barrier arrival.
     Publish(SyncArrival),
+    /// Publish this arrival at a barrier of the wider team of this path (always a mesh barrier).
+    PublishIn(String, SyncArrival),
     /// Announce this release to the team (this robot leads its barriers).
     Release(SyncRelease),
     /// This robot now leads the team's barriers (`true`: hear the team's arrivals) or no longer.
@@ -79,12 +84,35 @@ pub struct Executor {
     release_echo_due: bool,
     /// The leader known to have our furthest arrival (it released up to it).
     acked_by: Option<String>,
+    /// Barriers of wider teams (a parent team, the whole mission), by team path.
+    wide: BTreeMap<String, Wide>,
+}
+
+/// A barrier of a team wider than the robot's own: every member of that scope hears every
+/// arrival (the mesh barrier, whatever the team's own mode).
+#[derive(Debug, Clone)]
+struct Wide {
+    barrier: Barrier,
+    waiting: Option<(u32, u32)>,
+    last_publish: f64,
+    echo_due: bool,
+    last_echo: f64,
 }
 
 impl Executor {
     pub fn new(assignment: PlanAssignment) -> Self {
         let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &assignment.members).with_mode(assignment.barrier);
+        let wide = assignment
+            .scopes
+            .iter()
+            .filter(|s| s.team != assignment.team)
+            .map(|s| {
+                let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &s.members);
+                (s.team.clone(), Wide { barrier, waiting: None, last_publish: 0.0, echo_due: false, last_echo: f64::NEG_INFINITY })
+            })
+            .collect();
         Executor {
+            wide,
             assignment,
             barrier,
             pc: 0,
@@ -132,6 +160,20 @@ impl Executor {
         &self.barrier
     }
 
+    /// The barriers of the wider team of path `team`, if the plan has any.
+    pub fn wide_barrier(&self, team: &str) -> Option<&Barrier> {
+        self.wide.get(team).map(|w| &w.barrier)
+    }
+
+    /// The barrier (round, point) this robot waits at in the team of path `team` (its own or a
+    /// wider one), if it waits there.
+    pub fn waiting_in(&self, team: &str) -> Option<(u32, u32)> {
+        if team == self.assignment.team {
+            return self.waiting.map(|(point, round)| (round, point));
+        }
+        self.wide.get(team).and_then(|w| w.waiting)
+    }
+
     /// Progress for telemetry.
     pub fn progress(&self) -> Progress {
         Progress {
@@ -141,7 +183,7 @@ impl Executor {
             round: self.round,
             syncs_passed: self.syncs_passed,
             sync_msgs: self.sync_msgs,
-            waiting: self.waiting,
+            waiting: self.waiting.or_else(|| self.wide.values().find_map(|w| w.waiting).map(|(round, point)| (point, round))),
             sync_wait_s: self.sync_wait,
             done: self.done,
         }
@@ -161,12 +203,22 @@ impl Executor {
                 }
                 vec![]
             }
+            Event::HeardIn(team, a) => {
+                if let Some(w) = self.wide.get_mut(&team) {
+                    if w.barrier.arrival(&a) && w.barrier.at_or_behind_us(&a) && w.waiting != Some((a.round, a.point)) {
+                        w.echo_due = true;
+                    }
+                }
+                vec![]
+            }
             Event::MemberAlive(id) => {
                 self.barrier.member_alive(&id);
+                self.wide.values_mut().for_each(|w| w.barrier.member_alive(&id));
                 self.lead(now)
             }
             Event::MemberGone(id) => {
                 self.barrier.member_gone(&id);
+                self.wide.values_mut().for_each(|w| w.barrier.member_gone(&id));
                 self.lead(now)
             }
         }
@@ -233,6 +285,38 @@ impl Executor {
         out.push(Command::Publish(SyncArrival { robot: self.assignment.plan.robot.clone(), epoch: self.assignment.epoch, point: at.1, round: at.0 }));
     }
 
+    /// This robot is at barrier `point` of the current round of wider team `team`: publishes its
+    /// arrival (again every `REPUBLISH_S` while it waits); whether the barrier released. A plan
+    /// whose scope has no members listed (refused when the plan comes in) passes at once.
+    fn wide_sync(&mut self, now: f64, team: &str, point: u32, out: &mut Vec<Command>) -> bool {
+        let (me, epoch, round, republish) = (self.assignment.plan.robot.clone(), self.assignment.epoch, self.round, self.republish);
+        let Some(w) = self.wide.get_mut(team) else { return true };
+        let at = (round, point);
+        let arrival = SyncArrival { robot: me, epoch, point, round };
+        let fresh = w.waiting != Some(at);
+        if fresh {
+            w.waiting = Some(at);
+            self.waiting_since = now;
+            w.barrier.arrival(&arrival);
+        }
+        if !w.barrier.released(point, round) {
+            if fresh || now - w.last_publish >= republish {
+                w.last_publish = now;
+                self.sync_msgs += 1;
+                out.push(Command::PublishIn(team.to_string(), arrival));
+            }
+            return false;
+        }
+        w.barrier.passed(at);
+        w.waiting = None;
+        if self.syncs_passed > 0 {
+            self.sync_wait += (now - self.waiting_since).max(0.0);
+        }
+        self.syncs_passed += 1;
+        tracing::debug!(target: "mrmm_peer::barrier", mission = %self.assignment.mission, team, epoch, point, round, "released");
+        true
+    }
+
     /// Advances the plan. `now`: simulated seconds; `body_idle`: the body has no goal (arrived).
     fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Command> {
         let mut out = self.lead(now);
@@ -255,6 +339,16 @@ impl Executor {
                 self.last_echo = now;
                 self.sync_msgs += 1;
                 out.push(Command::Publish(SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round }));
+            }
+        }
+        for (team, w) in &mut self.wide {
+            if w.echo_due && now - w.last_echo >= self.republish {
+                if let Some((round, point)) = w.barrier.mine() {
+                    w.echo_due = false;
+                    w.last_echo = now;
+                    self.sync_msgs += 1;
+                    out.push(Command::PublishIn(team.clone(), SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round }));
+                }
             }
         }
         for _ in 0..MAX_STEPS_PER_TICK {
@@ -280,7 +374,14 @@ impl Executor {
                     self.navigating = false;
                     self.pc += 1;
                 }
-                Step::Sync { point } => {
+                Step::Sync { point, scope: Some(scope) } if self.assignment.scope_path(Some(&scope)) != self.assignment.team => {
+                    let team = self.assignment.scope_path(Some(&scope));
+                    if !self.wide_sync(now, &team, point, &mut out) {
+                        break;
+                    }
+                    self.pc += 1;
+                }
+                Step::Sync { point, .. } => {
                     let at = (point, self.round);
                     let arrival = SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round };
                     if self.waiting != Some(at) {

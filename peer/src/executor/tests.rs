@@ -18,10 +18,63 @@ fn exec_as(me: &str, barrier: BarrierMode, steps: Vec<Step>, members: &[&str]) -
         team: "m".into(),
         subteam: "m/ground".into(),
         members: members.iter().map(|s| s.to_string()).collect(),
-        plan: RobotPlan { robot: me.into(), robot_type: "ground".into(), slot: 0, steps },
+        plan: RobotPlan { robot: me.into(), robot_type: "ground".into(), slot: 0, steps, team: String::new() },
         managers: vec![],
         barrier,
+        scopes: vec![],
     })
+}
+
+/// Robot `me` of leaf team `m/<team>` (members `mine`), whose plan also has barriers of the
+/// whole mission (members `all`).
+fn exec_in_team(me: &str, team: &str, steps: Vec<Step>, mine: &[&str], all: &[&str]) -> Executor {
+    let ids = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    Executor::new(PlanAssignment {
+        mission: "m".into(),
+        epoch: 2,
+        team: format!("m/{team}"),
+        subteam: format!("m/{team}/ground"),
+        members: ids(mine),
+        plan: RobotPlan { robot: me.into(), robot_type: "ground".into(), slot: 0, steps, team: team.into() },
+        managers: vec![],
+        barrier: BarrierMode::Mesh,
+        scopes: vec![mrmm_proto::ScopeMembers { team: "m".into(), members: ids(all) }],
+    })
+}
+
+#[test]
+fn a_team_barrier_waits_only_on_its_team_and_a_mission_barrier_on_everyone() {
+    let mission = Some(String::new());
+    let steps = vec![Step::Sync { point: 0, scope: mission.clone() }, Step::Sync { point: 1, scope: None }, nav(5.0)];
+    let mut a = exec_in_team("a", "fast", steps, &["a", "b"], &["a", "b", "c", "d"]);
+    let out = a.handle(0.0, Event::Tick { body_idle: true });
+    let arrival = |r: &str, point: u32| SyncArrival { robot: r.into(), epoch: 2, point, round: 0 };
+    // The mission's barrier: published for the mission, not the team.
+    assert_eq!(out, vec![Command::PublishIn("m".into(), arrival("a", 0))]);
+    for r in ["b", "c"] {
+        a.handle(0.1, Event::HeardIn("m".into(), arrival(r, 0)));
+    }
+    // An arrival of the team's own barrier does not count for the mission's.
+    a.handle(0.1, Event::Heard(arrival("d", 0)));
+    assert!(a.handle(0.2, Event::Tick { body_idle: true }).is_empty(), "d of the slow team has not arrived");
+    a.handle(0.3, Event::HeardIn("m".into(), arrival("d", 0)));
+    let out = a.handle(0.4, Event::Tick { body_idle: true });
+    assert_eq!(out, vec![Command::Publish(arrival("a", 1))], "past the mission's barrier, at the team's");
+    // The team's barrier: b alone completes it; c and d (the other team) are never waited for.
+    a.handle(0.5, Event::Heard(arrival("b", 1)));
+    let out = a.handle(0.6, Event::Tick { body_idle: true });
+    assert_eq!(out, vec![Command::Navigate { x: 5.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(a.progress().syncs_passed, 2);
+    // A member of the other team that is gone no longer holds the mission's barrier up.
+    let steps = vec![Step::Sync { point: 0, scope: mission }, nav(1.0)];
+    let mut c = exec_in_team("c", "slow", steps, &["c", "d"], &["a", "b", "c", "d"]);
+    c.handle(0.0, Event::Tick { body_idle: true });
+    for r in ["a", "b"] {
+        c.handle(0.1, Event::HeardIn("m".into(), arrival(r, 0)));
+    }
+    assert!(c.handle(0.2, Event::Tick { body_idle: true }).is_empty());
+    c.handle(0.3, Event::MemberGone("d".into()));
+    assert_eq!(c.handle(0.4, Event::Tick { body_idle: true }), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
 }
 
 fn nav(x: f64) -> Step {
@@ -41,7 +94,7 @@ fn navigates_step_by_step_then_holds_at_the_end() {
 
 #[test]
 fn barrier_waits_republishes_and_releases() {
-    let mut e = exec(vec![Step::Sync { point: 0 }, nav(1.0)], &["a", "b"]);
+    let mut e = exec(vec![Step::Sync { point: 0, scope: None }, nav(1.0)], &["a", "b"]);
     let acts = tick(&mut e, 0.0, true);
     assert_eq!(acts, vec![Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 })]);
     assert_eq!(e.progress().waiting, Some((0, 0)));
@@ -56,7 +109,7 @@ fn barrier_waits_republishes_and_releases() {
 
 #[test]
 fn barrier_wait_is_counted_after_the_formation() {
-    let mut e = exec(vec![Step::Sync { point: 0 }, Step::Sync { point: 1 }], &["a", "b"]);
+    let mut e = exec(vec![Step::Sync { point: 0, scope: None }, Step::Sync { point: 1, scope: None }], &["a", "b"]);
     let heard = |e: &mut Executor, t: f64, point: u32| e.handle(t, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point, round: 0 }));
     tick(&mut e, 0.0, true);
     heard(&mut e, 2.0, 0);
@@ -71,7 +124,7 @@ fn barrier_wait_is_counted_after_the_formation() {
 
 #[test]
 fn republication_keeps_its_wall_clock_period_on_a_fast_clock() {
-    let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]).with_time_scale(10.0);
+    let mut e = exec(vec![Step::Sync { point: 0, scope: None }], &["a", "b"]).with_time_scale(10.0);
     assert_eq!(tick(&mut e, 0.0, true).len(), 1, "the arrival");
     assert!(tick(&mut e, 1.0, true).is_empty(), "0.1 wall seconds later: not yet");
     assert_eq!(tick(&mut e, 5.0, true).len(), 1, "0.5 wall seconds later: again");
@@ -80,7 +133,7 @@ fn republication_keeps_its_wall_clock_period_on_a_fast_clock() {
 #[test]
 fn a_teammate_that_missed_our_last_arrival_gets_it_again() {
     let arrival = |robot: &str| SyncArrival { robot: robot.into(), epoch: 2, point: 0, round: 0 };
-    let mut e = exec(vec![Step::Sync { point: 0 }], &["a", "b"]);
+    let mut e = exec(vec![Step::Sync { point: 0, scope: None }], &["a", "b"]);
     tick(&mut e, 0.0, true);
     // b's arrival while we wait there ourselves: the normal case, no echo.
     e.handle(0.0, Event::Heard(arrival("b")));
@@ -95,7 +148,7 @@ fn a_teammate_that_missed_our_last_arrival_gets_it_again() {
 
 #[test]
 fn a_lost_teammate_does_not_block() {
-    let mut e = exec(vec![Step::Sync { point: 0 }, Step::Hold { seconds: None }], &["a", "b"]);
+    let mut e = exec(vec![Step::Sync { point: 0, scope: None }, Step::Hold { seconds: None }], &["a", "b"]);
     tick(&mut e, 0.0, true);
     e.handle(0.05, Event::MemberGone("b".into()));
     assert_eq!(tick(&mut e, 0.1, true), vec![Command::Hold]);
@@ -103,7 +156,7 @@ fn a_lost_teammate_does_not_block() {
 
 #[test]
 fn loops_count_rounds_and_barriers_are_per_round() {
-    let steps = vec![Step::Sync { point: 0 }, nav(1.0), Step::Sync { point: 1 }, Step::Loop { to: 1, rounds: Some(2) }];
+    let steps = vec![Step::Sync { point: 0, scope: None }, nav(1.0), Step::Sync { point: 1, scope: None }, Step::Loop { to: 1, rounds: Some(2) }];
     let mut e = exec(steps, &["a"]);
     let mut published = Vec::new();
     for i in 0..20 {
@@ -139,7 +192,7 @@ fn release(leader: &str, point: u32, round: u32) -> SyncRelease {
 
 #[test]
 fn the_leader_hears_every_arrival_and_announces_the_release_once() {
-    let steps = vec![Step::Sync { point: 0 }, nav(1.0)];
+    let steps = vec![Step::Sync { point: 0, scope: None }, nav(1.0)];
     let mut a = exec_as("a", BarrierMode::Leader, steps.clone(), &["a", "b", "c"]);
     // Leading: the runtime starts hearing arrivals; its own arrival is not published.
     assert_eq!(tick(&mut a, 0.0, true), vec![Command::Lead(true)]);
@@ -158,7 +211,7 @@ fn the_leader_hears_every_arrival_and_announces_the_release_once() {
 
 #[test]
 fn a_member_publishes_to_the_leader_waits_for_its_release_and_is_quiet_after() {
-    let steps = vec![Step::Sync { point: 0 }, nav(1.0), Step::Sync { point: 1 }];
+    let steps = vec![Step::Sync { point: 0, scope: None }, nav(1.0), Step::Sync { point: 1, scope: None }];
     let mut b = exec_as("b", BarrierMode::Leader, steps, &["a", "b", "c"]);
     assert_eq!(tick(&mut b, 0.0, true), vec![Command::Publish(arrival("b", 0, 0))], "not leading: no Lead");
     assert!(tick(&mut b, 0.1, true).is_empty());
@@ -182,7 +235,7 @@ fn a_member_publishes_to_the_leader_waits_for_its_release_and_is_quiet_after() {
 
 #[test]
 fn when_the_leader_dies_the_next_lowest_takes_over_and_learns_every_arrival() {
-    let steps = vec![Step::Sync { point: 0 }, nav(1.0), Step::Sync { point: 1 }];
+    let steps = vec![Step::Sync { point: 0, scope: None }, nav(1.0), Step::Sync { point: 1, scope: None }];
     let mut b = exec_as("b", BarrierMode::Leader, steps.clone(), &["a", "b", "c"]);
     let mut c = exec_as("c", BarrierMode::Leader, steps, &["a", "b", "c"]);
     tick(&mut b, 0.0, true);
@@ -213,7 +266,7 @@ fn when_the_leader_dies_the_next_lowest_takes_over_and_learns_every_arrival() {
 
 #[test]
 fn a_lone_survivor_leads_and_releases_itself() {
-    let mut b = exec_as("b", BarrierMode::Leader, vec![Step::Sync { point: 0 }, Step::Hold { seconds: None }], &["a", "b"]);
+    let mut b = exec_as("b", BarrierMode::Leader, vec![Step::Sync { point: 0, scope: None }, Step::Hold { seconds: None }], &["a", "b"]);
     assert_eq!(tick(&mut b, 0.0, true), vec![Command::Publish(arrival("b", 0, 0))]);
     assert_eq!(b.handle(0.1, Event::MemberGone("a".into())), vec![Command::Lead(true), Command::Release(release("b", 0, 0))]);
     assert_eq!(tick(&mut b, 0.2, true), vec![Command::Hold]);

@@ -34,6 +34,8 @@ pub enum Event {
     Heard(SyncArrival),
     /// A leader's barrier release.
     Released(SyncRelease),
+    /// An arrival at a barrier of the wider team of this path (a scope of the plan).
+    HeardIn(String, SyncArrival),
     /// A teammate's membership token appeared.
     MemberAlive(String),
     /// A teammate's membership token disappeared.
@@ -63,12 +65,15 @@ pub enum Command {
     Refuse(String),
     /// Join a team: member token in `subteam`, subscriptions to `team`'s barriers (as `barrier`
     /// runs them) and members (leaving any other team); `members` (the plan's) are whom its
-    /// barrier messages are for.
-    JoinTeam { team: String, subteam: String, barrier: BarrierMode, members: Vec<String> },
+    /// barrier messages are for; `scopes`: the wider teams whose barriers the plan has (their
+    /// arrivals, and the liveliness of their members, are heard too).
+    JoinTeam { team: String, subteam: String, barrier: BarrierMode, members: Vec<String>, scopes: Vec<proto::ScopeMembers> },
     /// Leave the current team.
     LeaveTeam,
     /// Publish a barrier arrival on the current team.
     Publish(SyncArrival),
+    /// Publish an arrival at a barrier of the wider team of this path.
+    PublishIn(String, SyncArrival),
     /// Announce a release on the current team (its leader).
     Release(SyncRelease),
     /// Hear the current team's arrivals (this robot leads its barriers) or stop.
@@ -230,6 +235,7 @@ impl Robot {
             }
             Event::Heard(a) => self.plan_event(executor::Event::Heard(a)),
             Event::Released(r) => self.plan_event(executor::Event::Released(r)),
+            Event::HeardIn(team, a) => self.plan_event(executor::Event::HeardIn(team, a)),
             Event::MemberAlive(id) => self.plan_event(executor::Event::MemberAlive(id)),
             Event::MemberGone(id) => self.plan_event(executor::Event::MemberGone(id)),
             Event::CentralAlive(up) => {
@@ -379,7 +385,13 @@ impl Robot {
                 tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
                 self.route.clear();
                 self.body.hold();
-                change = Some(Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier, members: a.members.clone() });
+                change = Some(Command::JoinTeam {
+                    team: a.team.clone(),
+                    subteam: a.subteam.clone(),
+                    barrier: a.barrier,
+                    members: a.members.clone(),
+                    scopes: a.scopes.clone(),
+                });
                 self.exec = Some(Executor::new((**a).clone()).with_time_scale(self.cfg.time_scale));
             }
             RobotCommand::Admit { mission, managers, members } => {
@@ -428,10 +440,35 @@ impl Robot {
         if a.plan.robot != self.cfg.id {
             return Err(format!("plan is for robot {:?}, this is {:?}", a.plan.robot, self.cfg.id));
         }
-        for id in [&a.mission, &a.team] {
-            proto::validate_id(id).map_err(|e| e.to_string())?;
+        proto::validate_id(&a.mission).map_err(|e| e.to_string())?;
+        proto::validate_team_path(&a.team).map_err(|_| format!("bad team path {:?}", a.team))?;
+        if !proto::team_within(&a.team, &a.mission) {
+            return Err(format!("team {:?} is not in mission {:?}", a.team, a.mission));
         }
         proto::validate_subteam(&a.subteam).map_err(|_| format!("bad sub-team path {:?}", a.subteam))?;
+        if a.subteam.rsplit_once('/').map(|(t, _)| t) != Some(a.team.as_str()) {
+            return Err(format!("sub-team {:?} is not in team {:?}", a.subteam, a.team));
+        }
+        if a.scopes.len() > proto::MAX_TEAM_DEPTH + 1 {
+            return Err(format!("plan has {} wider teams (at most {})", a.scopes.len(), proto::MAX_TEAM_DEPTH + 1));
+        }
+        for sc in &a.scopes {
+            proto::validate_team_path(&sc.team).map_err(|_| format!("bad team path {:?}", sc.team))?;
+            if !proto::team_within(&sc.team, &a.mission) || !proto::team_within(&a.team, &sc.team) || sc.team == a.team {
+                return Err(format!("team {:?} is not a team above {:?} in mission {:?}", sc.team, a.team, a.mission));
+            }
+            if sc.members.len() > proto::MAX_MISSION_ROBOTS || !sc.members.contains(&self.cfg.id) || sc.members.iter().any(|m| proto::validate_id(m).is_err()) {
+                return Err(format!("bad member list for team {:?}", sc.team));
+            }
+        }
+        for s in &a.plan.steps {
+            if let Step::Sync { scope: Some(scope), .. } = s {
+                let path = a.scope_path(Some(scope));
+                if a.scope_members(&path).is_none() {
+                    return Err(format!("plan has a barrier of team {path:?} but no members for it"));
+                }
+            }
+        }
         if !a.members.contains(&self.cfg.id) {
             return Err("plan's member list does not include this robot".into());
         }
@@ -490,6 +527,7 @@ impl Robot {
                 executor::Command::Navigate { x, y, speed } => self.body.navigate_capped(x, y, speed),
                 executor::Command::Hold => self.body.hold(),
                 executor::Command::Publish(s) => out.push(Command::Publish(s)),
+                executor::Command::PublishIn(team, s) => out.push(Command::PublishIn(team, s)),
                 executor::Command::Release(r) => out.push(Command::Release(r)),
                 executor::Command::Lead(on) => out.push(Command::Lead(on)),
             }

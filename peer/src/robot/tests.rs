@@ -19,9 +19,11 @@ fn plan(mission: &str, epoch: u64) -> RobotCommand {
             robot_type: "ground".into(),
             slot: 0,
             steps: vec![Step::Navigate { x: 4.0, y: 0.0, speed: None }, Step::Hold { seconds: None }],
+            team: String::new(),
         },
         managers: vec![],
         barrier: BarrierMode::Mesh,
+        scopes: vec![],
     }))
 }
 
@@ -111,7 +113,10 @@ fn rejects_non_finite_goal_and_hostile_plans() {
 fn plans_epochs_and_leaving() {
     let mut r = Robot::new(cfg());
     let (_, change) = cmd(&mut r, plan("m", 2));
-    assert_eq!(change, Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into(), barrier: BarrierMode::Mesh, members: vec!["r1".into()] }));
+    assert_eq!(
+        change,
+        Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into(), barrier: BarrierMode::Mesh, members: vec!["r1".into()], scopes: vec![] })
+    );
     r.handle(0.01, Event::Tick);
     assert_eq!(telemetry(&mut r, 0.01).mission.as_deref(), Some("m"));
     assert!(cmd(&mut r, plan("m", 1)).0.unwrap_err().contains("stale epoch"));

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::{check_param, validate, PlannerKind, Recipe, Template};
+use super::{assign, check_override, check_param, validate, PlannerKind, Recipe, Template};
 use crate::coverage::{self, CoverageParams, CoveragePlan};
 use crate::coverage_map;
 use crate::error::PlanError;
@@ -25,13 +25,36 @@ pub const DEFAULT_ROBOT_RADIUS: f64 = 0.25;
 pub enum MissionPlan {
     Patrol(PatrolPlan),
     Coverage(CoveragePlan),
+    /// A recipe of teams: each leaf team that has members, planned on its own.
+    Teams {
+        teams: Vec<TeamPlan>,
+    },
+}
+
+/// One leaf team's plan in a mission of teams.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TeamPlan {
+    /// The team's path below the mission.
+    pub team: String,
+    #[serde(flatten)]
+    pub plan: MissionPlan,
 }
 
 impl MissionPlan {
-    pub fn plans(&self) -> &[RobotPlan] {
+    /// Every robot's plan, team after team.
+    pub fn plans(&self) -> Vec<&RobotPlan> {
         match self {
-            MissionPlan::Patrol(p) => &p.plans,
-            MissionPlan::Coverage(c) => &c.plans,
+            MissionPlan::Patrol(p) => p.plans.iter().collect(),
+            MissionPlan::Coverage(c) => c.plans.iter().collect(),
+            MissionPlan::Teams { teams } => teams.iter().flat_map(|t| t.plan.plans()).collect(),
+        }
+    }
+
+    fn plans_mut(&mut self) -> Vec<&mut RobotPlan> {
+        match self {
+            MissionPlan::Patrol(p) => p.plans.iter_mut().collect(),
+            MissionPlan::Coverage(c) => c.plans.iter_mut().collect(),
+            MissionPlan::Teams { teams } => teams.iter_mut().flat_map(|t| t.plan.plans_mut()).collect(),
         }
     }
 }
@@ -51,12 +74,66 @@ pub fn build(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSp
     build_on(r, overrides, robots, None)
 }
 
+/// Plans the recipe for `robots` without capabilities; see [`build_for`].
+pub fn build_on(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSpec], map: Option<&Map>) -> Result<MissionPlan, PlanError> {
+    build_for(r, overrides, robots, &BTreeMap::new(), map)
+}
+
 /// Plans the recipe for `robots`, on `map` if one is given (routes along its free space or its
 /// edges); `overrides` replace the recipe's parameters (`waypoints` as JSON `[[x, y], …]` or
 /// `all` (every vertex of a graph map), `region` as JSON `[[x, y], …]` or `{"outer": […],
-/// "holes": [[…]]}`).
-pub fn build_on(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSpec], map: Option<&Map>) -> Result<MissionPlan, PlanError> {
+/// "holes": [[…]]}`; `<team path>/<name>` for one leaf team). A recipe of teams puts each robot
+/// in a leaf team ([`assign`], by type and `caps`, the robots' capabilities by id) and plans
+/// every leaf team on its own members.
+pub fn build_for(
+    r: &Recipe,
+    overrides: &BTreeMap<String, String>,
+    robots: &[RobotSpec],
+    caps: &BTreeMap<String, Vec<String>>,
+    map: Option<&Map>,
+) -> Result<MissionPlan, PlanError> {
     validate(r)?;
+    if !r.has_teams() {
+        return build_leaf(r, overrides, robots, map);
+    }
+    for (k, v) in overrides {
+        check_override(r, k, v).map_err(PlanError::Invalid)?;
+    }
+    let groups = assign(r, robots, caps)?;
+    let mut teams = Vec::new();
+    for (leaf, members) in r.leaves().iter().zip(groups) {
+        if members.is_empty() {
+            continue;
+        }
+        let path = leaf.path();
+        let mut mine = BTreeMap::new();
+        for (k, v) in overrides.iter().filter(|(k, _)| !k.contains('/')) {
+            let takes = match (k.as_str(), leaf.recipe.planner) {
+                ("waypoints", p) => p == PlannerKind::Patrol,
+                ("region", p) => p == PlannerKind::Coverage,
+                (_, p) => check_param(p, k, v).is_ok(),
+            };
+            if takes {
+                mine.insert(k.clone(), v.clone());
+            }
+        }
+        for (k, v) in overrides {
+            if let Some(param) = k.strip_prefix(path).and_then(|rest| rest.strip_prefix('/')) {
+                mine.insert(param.to_string(), v.clone());
+            }
+        }
+        let specs: Vec<RobotSpec> = members.iter().map(|&i| robots[i].clone()).collect();
+        let mut plan = build_leaf(leaf.recipe, &mine, &specs, map).map_err(|e| PlanError::Invalid(format!("team {path}: {e}")))?;
+        for p in plan.plans_mut() {
+            p.team = path.to_string();
+        }
+        teams.push(TeamPlan { team: path.to_string(), plan });
+    }
+    Ok(MissionPlan::Teams { teams })
+}
+
+/// Plans one team (a recipe without teams, or a leaf team) for its members.
+fn build_leaf(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotSpec], map: Option<&Map>) -> Result<MissionPlan, PlanError> {
     let mut scalars: BTreeMap<String, String> = r.params.iter().map(|(k, (v, _))| (k.clone(), v.clone())).collect();
     for (k, v) in overrides {
         match k.as_str() {
@@ -124,7 +201,7 @@ pub fn build_on(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[Robo
                 .zip(robots)
                 .map(|(a, rb)| {
                     let x = Expand { approach: &a.approach, round: &a.round, rounds, space: space.as_ref() };
-                    Ok(RobotPlan { robot: a.robot.clone(), robot_type: a.robot_type.clone(), slot: a.slot, steps: expand_for(r, rb, &x)? })
+                    Ok(RobotPlan { robot: a.robot.clone(), robot_type: a.robot_type.clone(), slot: a.slot, steps: expand_for(r, rb, &x)?, team: String::new() })
                 })
                 .collect::<Result<_, PlanError>>()?;
             Ok(MissionPlan::Patrol(plan))
@@ -200,12 +277,12 @@ fn expand_for(r: &Recipe, robot: &RobotSpec, x: &Expand) -> Result<Vec<Step>, Pl
     let mut out = Vec::new();
     if let Some(t) = behaviour_for(r, &robot.robot_type) {
         let mut at = Point::new(robot.x, robot.y);
-        expand(t, x, &mut at, &mut out)?;
+        expand(t, x, &r.path, &mut at, &mut out)?;
     }
     Ok(out)
 }
 
-fn expand(templates: &[Template], x: &Expand, at: &mut Point, out: &mut Vec<Step>) -> Result<(), PlanError> {
+fn expand(templates: &[Template], x: &Expand, path: &str, at: &mut Point, out: &mut Vec<Step>) -> Result<(), PlanError> {
     for t in templates {
         match t {
             Template::Stream => out.push(Step::Stream),
@@ -228,7 +305,7 @@ fn expand(templates: &[Template], x: &Expand, at: &mut Point, out: &mut Vec<Step
                 out.extend(crate::patrol::navigate_through(&route, *speed));
                 *at = target;
             }
-            Template::SyncStart => out.push(Step::Sync { point: 0 }),
+            Template::SyncStart(scope) => out.push(Step::Sync { point: 0, scope: scope.resolve(path) }),
             Template::Hold { seconds } => out.push(Step::Hold { seconds: *seconds }),
             Template::Round(_) => {
                 out.extend(x.round.iter().cloned());
@@ -238,7 +315,7 @@ fn expand(templates: &[Template], x: &Expand, at: &mut Point, out: &mut Vec<Step
             }
             Template::Loop { rounds: fixed, body, .. } => {
                 let to = out.len();
-                expand(body, x, at, out)?;
+                expand(body, x, path, at, out)?;
                 out.push(Step::Loop { to, rounds: fixed.or(x.rounds) });
             }
         }

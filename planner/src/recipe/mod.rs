@@ -6,6 +6,7 @@
 
 mod build;
 mod dom;
+mod teams;
 
 use std::collections::BTreeMap;
 
@@ -13,12 +14,17 @@ use crate::error::PlanError;
 use crate::geom::Point;
 use crate::limits;
 
-pub use build::{build, build_on, parse_overrides, MissionPlan, DEFAULT_ROBOT_RADIUS};
+pub use build::{build, build_for, build_on, parse_overrides, MissionPlan, TeamPlan, DEFAULT_ROBOT_RADIUS};
 use dom::Element;
 pub use dom::Pos;
+pub use teams::{assign, Leaf, Team, TeamBody, MAX_TEAMS, MAX_TEAM_DEPTH, RESERVED_TEAM_NAMES};
 
 /// The recipe bank shipped in `recipes/`, embedded: (name, XML).
-pub const BANK: &[(&str, &str)] = &[("patrol", include_str!("../../../recipes/patrol.xml")), ("coverage", include_str!("../../../recipes/coverage.xml"))];
+pub const BANK: &[(&str, &str)] = &[
+    ("patrol", include_str!("../../../recipes/patrol.xml")),
+    ("coverage", include_str!("../../../recipes/coverage.xml")),
+    ("escort", include_str!("../../../recipes/escort.xml")),
+];
 
 /// The XML of a recipe of the bank.
 pub fn bank(name: &str) -> Option<&'static str> {
@@ -60,16 +66,40 @@ pub struct Recipe {
     pub waypoints: Option<(Vec<Point>, Pos)>,
     pub region: Option<(Vec<Point>, Vec<Vec<Point>>, Pos)>,
     pub behaviours: Vec<Behaviour>,
-    /// Capabilities every robot of the mission must have (`<requires capability="…"/>`).
+    /// Capabilities every robot of the mission must have (`<requires capability="…"/>`); in a
+    /// leaf team, every robot of that team.
     pub requires: Vec<(String, Pos)>,
     pub pos: Pos,
+    /// The recipe's teams (a recipe without `planner` on its root); empty: the recipe is one
+    /// team, planned as a whole.
+    pub teams: Vec<Team>,
+    /// Where this recipe's team sits below the mission: `""` for a whole recipe, the team's
+    /// path (`ground/north`) for a leaf team's.
+    pub path: String,
 }
 
 /// Capabilities a recipe may require at most (a robot has at most as many).
 pub const MAX_REQUIRES: usize = 32;
 
 impl Recipe {
-    /// The capabilities every member must have, sorted.
+    fn empty(name: String, planner: PlannerKind, pos: Pos) -> Self {
+        Recipe {
+            name,
+            planner,
+            description: String::new(),
+            params: BTreeMap::new(),
+            waypoints: None,
+            region: None,
+            behaviours: Vec::new(),
+            requires: Vec::new(),
+            pos,
+            teams: Vec::new(),
+            path: String::new(),
+        }
+    }
+
+    /// The capabilities every member must have, sorted (in a recipe of teams, what its root
+    /// requires; each team may require more).
     pub fn required(&self) -> Vec<String> {
         let mut out: Vec<String> = self.requires.iter().map(|(c, _)| c.clone()).collect();
         out.sort();
@@ -104,8 +134,8 @@ pub enum Template {
         y: f64,
         speed: Option<f64>,
     },
-    /// The team's start barrier.
-    SyncStart,
+    /// The start barrier of a team: the robot's own, its parent's or the whole mission's.
+    SyncStart(Scope),
     Hold {
         seconds: Option<f64>,
     },
@@ -119,6 +149,38 @@ pub enum Template {
     },
 }
 
+/// Which team a `<sync>` waits for (`scope="team|parent|mission"`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scope {
+    /// The robot's own (leaf) team.
+    Team,
+    /// The team its team is in (the mission, for a top-level team).
+    Parent,
+    /// Every member of the mission.
+    Mission,
+}
+
+impl Scope {
+    /// The scope of a plan's sync step, for a robot of team `path` (below the mission): `None`
+    /// its own team, `Some("")` the mission, `Some(p)` team `p`.
+    pub fn resolve(self, path: &str) -> Option<String> {
+        match (self, path.rsplit_once('/')) {
+            (Scope::Team, _) => None,
+            _ if path.is_empty() => None,
+            (Scope::Mission, _) | (Scope::Parent, None) => Some(String::new()),
+            (Scope::Parent, Some((parent, _))) => Some(parent.to_string()),
+        }
+    }
+}
+
+pub(crate) fn planner_kind(el: &Element, name: &str) -> Result<PlannerKind, PlanError> {
+    match name {
+        "patrol" => Ok(PlannerKind::Patrol),
+        "coverage" => Ok(PlannerKind::Coverage),
+        other => Err(el.pos.err(format!("unknown planner {other:?} (patrol, coverage)"))),
+    }
+}
+
 /// Reads a recipe. Syntax and structure only; see [`validate`].
 pub fn parse(text: &str) -> Result<Recipe, PlanError> {
     limits::at_most("recipe bytes", text.len(), limits::MAX_RECIPE_BYTES)?;
@@ -129,60 +191,61 @@ pub fn parse(text: &str) -> Result<Recipe, PlanError> {
     root.only_attrs(&["name", "planner"])?;
     root.no_text()?;
     let name = root.required("name")?.to_string();
-    let planner = match root.required("planner")? {
-        "patrol" => PlannerKind::Patrol,
-        "coverage" => PlannerKind::Coverage,
-        other => return Err(root.pos.err(format!("unknown planner {other:?} (patrol, coverage)"))),
+    let Some(planner) = root.attr("planner") else {
+        return teams::parse_root(&root, Recipe::empty(name, PlannerKind::Patrol, root.pos));
     };
-    let mut recipe = Recipe {
-        name,
-        planner,
-        description: String::new(),
-        params: BTreeMap::new(),
-        waypoints: None,
-        region: None,
-        behaviours: Vec::new(),
-        requires: Vec::new(),
-        pos: root.pos,
-    };
+    let mut recipe = Recipe::empty(name, planner_kind(&root, planner)?, root.pos);
     let mut seen_params = false;
     for child in &root.children {
         match child.name.as_str() {
-            "description" => {
-                child.only_attrs(&[])?;
-                recipe.description = child.text.trim().to_string();
-            }
-            "params" => {
-                if std::mem::replace(&mut seen_params, true) {
-                    return Err(child.pos.err("<params> given twice"));
-                }
-                parse_params(child, &mut recipe)?;
-            }
-            "behaviour" => {
-                child.only_attrs(&["type"])?;
-                child.no_text()?;
-                let robot_type = child.required("type")?.to_string();
-                let steps = child.children.iter().map(parse_template).collect::<Result<_, _>>()?;
-                recipe.behaviours.push(Behaviour { robot_type, steps, pos: child.pos });
-            }
-            "requires" => {
-                leaf(child, &["capability"])?;
-                let name = child.required("capability")?;
-                if !is_capability(name) {
-                    return Err(child.pos.err(format!("<requires capability={name:?}>: use 1 to 64 characters of A-Z a-z 0-9 _ - .")));
-                }
-                if recipe.requires.iter().any(|(c, _)| c == name) {
-                    return Err(child.pos.err(format!("capability {name:?} required twice")));
-                }
-                if recipe.requires.len() >= MAX_REQUIRES {
-                    return Err(child.pos.err(format!("more than {MAX_REQUIRES} <requires>")));
-                }
-                recipe.requires.push((name.to_string(), child.pos));
-            }
-            other => return Err(child.pos.err(format!("unknown element <{other}> in <recipe> (description, requires, params, behaviour)"))),
+            "requires" => parse_requires(child, &mut recipe.requires)?,
+            "team" => return Err(child.pos.err("a recipe with teams has no planner on its <recipe>: each leaf <team> names its own")),
+            _ => parse_body(child, &mut recipe, "recipe", &mut seen_params)?,
         }
     }
     Ok(recipe)
+}
+
+/// One child of a recipe planned as a whole, or of a leaf team: description, params, behaviour.
+fn parse_body(child: &Element, recipe: &mut Recipe, parent: &str, seen_params: &mut bool) -> Result<(), PlanError> {
+    match child.name.as_str() {
+        "description" => {
+            child.only_attrs(&[])?;
+            recipe.description = child.text.trim().to_string();
+        }
+        "params" => {
+            if std::mem::replace(seen_params, true) {
+                return Err(child.pos.err("<params> given twice"));
+            }
+            parse_params(child, recipe)?;
+        }
+        "behaviour" => {
+            child.only_attrs(&["type"])?;
+            child.no_text()?;
+            let robot_type = child.required("type")?.to_string();
+            let steps = child.children.iter().map(parse_template).collect::<Result<_, _>>()?;
+            recipe.behaviours.push(Behaviour { robot_type, steps, pos: child.pos });
+        }
+        other => return Err(child.pos.err(format!("unknown element <{other}> in <{parent}> (description, requires, params, behaviour)"))),
+    }
+    Ok(())
+}
+
+/// `<requires capability="…"/>`.
+fn parse_requires(child: &Element, requires: &mut Vec<(String, Pos)>) -> Result<(), PlanError> {
+    leaf(child, &["capability"])?;
+    let name = child.required("capability")?;
+    if !is_capability(name) {
+        return Err(child.pos.err(format!("<requires capability={name:?}>: use 1 to 64 characters of A-Z a-z 0-9 _ - .")));
+    }
+    if requires.iter().any(|(c, _)| c == name) {
+        return Err(child.pos.err(format!("capability {name:?} required twice")));
+    }
+    if requires.len() >= MAX_REQUIRES {
+        return Err(child.pos.err(format!("more than {MAX_REQUIRES} <requires>")));
+    }
+    requires.push((name.to_string(), child.pos));
+    Ok(())
 }
 
 fn parse_params(el: &Element, recipe: &mut Recipe) -> Result<(), PlanError> {
@@ -274,9 +337,15 @@ fn parse_template(el: &Element) -> Result<Template, PlanError> {
             }
         }
         "sync" => {
-            leaf(el, &["point"])?;
+            leaf(el, &["point", "scope"])?;
+            let scope = match el.attr("scope").unwrap_or("team") {
+                "team" => Scope::Team,
+                "parent" => Scope::Parent,
+                "mission" => Scope::Mission,
+                other => return Err(el.pos.err(format!("<sync scope={other:?}>: team, parent or mission"))),
+            };
             match el.required("point")? {
-                "start" => Ok(Template::SyncStart),
+                "start" => Ok(Template::SyncStart(scope)),
                 other => {
                     Err(el.pos.err(format!("<sync point={other:?}>: only \"start\" can be placed by hand; the sync points of a round come with <round/>")))
                 }
@@ -308,6 +377,12 @@ fn parse_template(el: &Element) -> Result<Template, PlanError> {
 /// Checks the meaning of a parsed recipe: known parameters with valid values, behaviours that fit
 /// the planner, no empty or nested loops, one behaviour per robot type.
 pub fn validate(r: &Recipe) -> Result<(), PlanError> {
+    if r.has_teams() {
+        for leaf in r.leaves() {
+            validate(leaf.recipe)?;
+        }
+        return Ok(());
+    }
     for (name, (value, pos)) in &r.params {
         check_param(r.planner, name, value).map_err(|m| pos.err(m))?;
     }
@@ -351,6 +426,44 @@ fn check_templates(planner: PlannerKind, steps: &[Template], in_loop: bool) -> R
         }
     }
     Ok(())
+}
+
+/// Checks an operator's parameter for recipe `r`: `waypoints` and `region` (read when planned),
+/// a scalar one (in a recipe of teams, every leaf team whose planner knows it takes it), or
+/// `<team path>/<name>` for one leaf team.
+pub fn check_override(r: &Recipe, name: &str, value: &str) -> Result<(), String> {
+    let leaves = r.leaves();
+    let (targets, param): (Vec<&Leaf>, &str) = match name.rsplit_once('/') {
+        Some((path, param)) => match leaves.iter().find(|l| l.path() == path && r.has_teams()) {
+            Some(l) => (vec![l], param),
+            None => {
+                let known: Vec<&str> = leaves.iter().map(|l| l.path()).filter(|p| !p.is_empty()).collect();
+                return Err(format!("parameter {name:?}: no leaf team {path:?} (teams: {})", if known.is_empty() { "none".into() } else { known.join(", ") }));
+            }
+        },
+        None => (leaves.iter().collect(), name),
+    };
+    let mut first_err = None;
+    let mut taken = false;
+    for l in targets {
+        let res = match (param, l.recipe.planner) {
+            ("waypoints", PlannerKind::Patrol) | ("region", PlannerKind::Coverage) => Ok(()),
+            ("waypoints" | "region", p) => Err(format!("parameter {param}: not one of the {} planner's", p.as_str())),
+            _ => check_param(l.recipe.planner, param, value),
+        };
+        match res {
+            Ok(()) => taken = true,
+            Err(e) if e.starts_with("unknown parameter") || e.contains("planner's") => {
+                first_err.get_or_insert(e);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    match (taken, first_err) {
+        (true, _) => Ok(()),
+        (false, Some(e)) => Err(e),
+        (false, None) => Err(format!("parameter {name:?}: no team takes it")),
+    }
 }
 
 /// Checks one scalar parameter's name and value.

@@ -32,7 +32,7 @@ fn shipped_recipes_parse_validate_and_build() {
     for rp in &p.plans {
         assert_eq!(rp.steps[0], Step::Stream);
         assert!(matches!(rp.steps[1], Step::Navigate { speed: None, .. }));
-        assert_eq!(rp.steps[2], Step::Sync { point: 0 });
+        assert_eq!(rp.steps[2], Step::Sync { point: 0, scope: None });
         assert!(matches!(rp.steps.last(), Some(Step::Loop { to: 3, rounds: None })));
     }
     let c = parse(COVERAGE).expect("coverage.xml");

@@ -90,10 +90,12 @@ impl World {
     /// Tells every observer what changed in what it watches, `delay` from now.
     pub(super) fn liveliness(&mut self, delay: f64) {
         let tokens = self.tokens();
-        let teams: Vec<Option<String>> = self.nodes.iter().map(|n| n.team.as_ref().map(|(t, _)| t.clone())).collect();
+        // Each robot watches the members of the widest team its plan has barriers with.
+        let teams: Vec<Option<String>> =
+            self.nodes.iter().map(|n| n.team.as_ref().map(|(t, _)| n.scopes.iter().chain([t]).min_by_key(|s| s.len()).unwrap_or(t).clone())).collect();
         let kinds: Vec<(bool, bool)> = self.nodes.iter().map(|n| (n.central.is_some() || n.host.is_some(), n.robot.is_some())).collect();
         let watches = |o: usize, t: &Token| match t {
-            Token::Member { subteam, .. } => kinds[o].1 && teams[o].as_ref().is_some_and(|team| subteam.split('/').next() == Some(team.as_str())),
+            Token::Member { subteam, .. } => kinds[o].1 && teams[o].as_ref().is_some_and(|team| mrmm_proto::team_within(subteam, team)),
             _ => kinds[o].0,
         };
         for c in self.beliefs.update(self.now, delay, &self.links, &tokens, watches) {

@@ -246,8 +246,9 @@ impl World {
                     let name = self.nodes[i].name.clone();
                     self.log(|| format!("{name} refuses: {e}"));
                 }
-                robot::Command::JoinTeam { team, subteam, barrier, .. } => {
+                robot::Command::JoinTeam { team, subteam, barrier, scopes, .. } => {
                     self.nodes[i].team = Some((team, subteam));
+                    self.nodes[i].scopes = scopes.into_iter().map(|s| s.team).collect();
                     self.nodes[i].barrier = barrier;
                     self.nodes[i].leading = false;
                     self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
@@ -256,6 +257,7 @@ impl World {
                 }
                 robot::Command::LeaveTeam => {
                     self.nodes[i].team = None;
+                    self.nodes[i].scopes.clear();
                     self.nodes[i].leading = false;
                     self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
                     self.liveliness(0.02);
@@ -273,6 +275,19 @@ impl World {
                         if j != i && same && !self.lost() {
                             let at = self.now + self.delay();
                             self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::Heard(a.clone())) });
+                        }
+                    }
+                }
+                // A wider team's barrier: every robot whose plan has it hears it (mesh).
+                robot::Command::PublishIn(team, a) => {
+                    if !self.nodes[i].scopes.contains(&team) {
+                        continue;
+                    }
+                    self.inv.arrival(&team, &a);
+                    for j in 0..self.nodes.len() {
+                        if j != i && self.nodes[j].scopes.contains(&team) && !self.lost() {
+                            let at = self.now + self.delay();
+                            self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::HeardIn(team.clone(), a.clone())) });
                         }
                     }
                 }

@@ -76,6 +76,8 @@ struct Node {
     served: BTreeSet<String>,
     /// The robot's team: (team, subteam).
     team: Option<(String, String)>,
+    /// The wider teams whose barriers its plan has (their paths).
+    scopes: Vec<String>,
     /// How its team runs barriers, and whether it hears the team's arrivals as their leader.
     barrier: mrmm_proto::BarrierMode,
     leading: bool,
@@ -238,6 +240,7 @@ impl Node {
             cfg,
             served: BTreeSet::new(),
             team: None,
+            scopes: Vec::new(),
             barrier: mrmm_proto::BarrierMode::Mesh,
             leading: false,
             disk: Default::default(),
@@ -327,6 +330,7 @@ impl World {
         let n = &mut self.nodes[i];
         n.served.clear();
         n.team = None;
+        n.scopes.clear();
         match n.kind {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
@@ -378,7 +382,7 @@ impl World {
         let end = self.cfg.duration + self.cfg.quiet;
         self.schedule_faults();
         match self.cfg.ops {
-            Ops::Barriers { points, rounds, mode } => self.hand_out_barrier_plans(points, rounds, mode),
+            Ops::Barriers { points, rounds, mode, teams } => self.hand_out_barrier_plans(points, rounds, mode, teams),
             Ops::OneMission | Ops::Random => self.queue.push(0.5, Ev::Op),
         }
         while let Some(t) = self.queue.peek_time() {

@@ -89,7 +89,7 @@ impl World {
                         self.team.insert(r.clone());
                         self.admit_one(&r);
                         let spec = RobotSpec { id: r, robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 };
-                        MissionCtl::Joined { member: Member { spec, time_scale: TIME_SCALE } }
+                        MissionCtl::Joined { member: Member { spec, time_scale: TIME_SCALE, capabilities: vec![] } }
                     } else {
                         return Ok(());
                     };
@@ -113,6 +113,7 @@ impl World {
             .map(|(i, r)| Member {
                 spec: RobotSpec { id: r.clone(), robot_type: "ground".into(), x: i as f64 * 2.0, y: -3.0, speed: 1.0 },
                 time_scale: TIME_SCALE,
+                capabilities: vec![],
             })
             .collect();
         let params = cheap_params(true).into_iter().map(|(k, v)| (k, v.to_string())).collect();
@@ -156,27 +157,42 @@ impl World {
         self.ask(None, r, Payload::RobotCmd(admit), Ctx::OpStart);
     }
 
-    /// Barriers: every robot gets the same plan of barriers with work between them.
-    pub(super) fn hand_out_barrier_plans(&mut self, points: u32, rounds: u32, barrier: mrmm_proto::BarrierMode) {
+    /// Barriers: every robot gets the same plan of barriers with work between them. With
+    /// `teams` > 1 the robots are split (round robin) into leaf teams `b/t0`, `b/t1`, …: each
+    /// plan starts with a barrier of the whole mission `b`, and the rounds' barriers are each
+    /// team's own.
+    pub(super) fn hand_out_barrier_plans(&mut self, points: u32, rounds: u32, barrier: mrmm_proto::BarrierMode, teams: u32) {
         let robots = self.robot_names();
+        let teams = teams.max(1) as usize;
+        let team_of = |i: usize| if teams == 1 { "b".to_string() } else { format!("b/t{}", i % teams) };
         for (i, r) in robots.iter().enumerate() {
-            let mut steps = vec![Step::Sync { point: 0 }];
+            let mine: Vec<String> = robots.iter().enumerate().filter(|(k, _)| team_of(*k) == team_of(i)).map(|(_, r)| r.clone()).collect();
+            let mut steps = vec![];
+            let mut scopes = vec![];
+            if teams > 1 {
+                steps.push(Step::Sync { point: 0, scope: Some(String::new()) });
+                scopes.push(mrmm_proto::ScopeMembers { team: "b".into(), members: robots.clone() });
+            }
+            let first = steps.len();
+            steps.push(Step::Sync { point: 0, scope: None });
             for p in 1..points {
                 let x = (i as f64 + p as f64) * self.rng.gen_range(0.5..2.0);
                 steps.push(Step::Navigate { x, y: self.rng.gen_range(-3.0..3.0), speed: None });
-                steps.push(Step::Sync { point: p });
+                steps.push(Step::Sync { point: p, scope: None });
             }
             steps.push(Step::Hold { seconds: Some(self.rng.gen_range(0.0..2.0)) });
-            steps.push(Step::Loop { to: 1, rounds: Some(rounds) });
+            steps.push(Step::Loop { to: first + 1, rounds: Some(rounds) });
+            let team = team_of(i);
             let assignment = PlanAssignment {
                 mission: "b".into(),
                 epoch: 1,
-                team: "b".into(),
-                subteam: "b/ground".into(),
-                members: robots.clone(),
-                plan: RobotPlan { robot: r.clone(), robot_type: "ground".into(), slot: i, steps },
+                subteam: format!("{team}/ground"),
+                team: team.clone(),
+                members: mine,
+                plan: RobotPlan { robot: r.clone(), robot_type: "ground".into(), slot: i, steps, team: team.strip_prefix("b/").unwrap_or("").to_string() },
                 managers: vec![],
                 barrier,
+                scopes,
             };
             let j = self.index(r).unwrap_or(0);
             let from = Sender::new(Role::Host, "planner");

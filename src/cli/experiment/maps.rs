@@ -187,6 +187,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
                 plan,
                 managers: vec![],
                 barrier: BarrierMode::Mesh,
+                scopes: vec![],
             })
         })
         .collect();
@@ -209,7 +210,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
                     Exec::Navigate { x, y, speed } => bodies[i].navigate_capped(x, y, speed),
                     Exec::Hold => bodies[i].hold(),
                     Exec::Publish(a) => heard.push((i, a)),
-                    Exec::Release(_) | Exec::Lead(_) => {}
+                    Exec::Release(_) | Exec::Lead(_) | Exec::PublishIn(..) => {}
                 }
             }
         }
