@@ -175,6 +175,7 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
         lost: vec![],
         stuck: Default::default(),
         teams: Default::default(),
+        team_views: vec![],
         manager: mrmm_proto::ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![host.into()], uncommitted_s: None },
         metrics: Default::default(),
         summary: None,

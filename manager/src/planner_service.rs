@@ -41,7 +41,8 @@ pub fn plan_on(kind: PlannerKind, req: &PlanRequest, map: Option<&Map>) -> Resul
         return Err(format!("this is the {} planner; the recipe needs {}", kind.as_str(), r.planner.as_str()));
     }
     let robots: Vec<_> = req.robots.iter().map(wire::robot_spec).collect();
-    let planned = recipe::build_for(&r, &req.params, &robots, &req.capabilities, map).map_err(|e| e.to_string())?;
+    let bounds = if req.relax_bounds { recipe::Bounds::Relaxed } else { recipe::Bounds::Strict };
+    let planned = recipe::build_with(&r, &req.params, &robots, &req.capabilities, map, bounds).map_err(|e| e.to_string())?;
     Ok(wire::mission_plan(&planned))
 }
 

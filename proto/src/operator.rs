@@ -249,8 +249,12 @@ pub struct MissionView {
     /// (move them out and the mission replans without them).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub stuck: BTreeMap<String, String>,
-    /// Sub-team path → members.
+    /// Team path → members: each leaf team's (`escort/ground`) in a recipe of teams, the
+    /// sub-teams by robot type (`patrol-1/ground`) otherwise.
     pub teams: BTreeMap<String, Vec<String>>,
+    /// A recipe of teams: each leaf team, in the recipe's order, with its planner and progress.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub team_views: Vec<TeamView>,
     pub manager: ManagerView,
     pub metrics: MissionMetrics,
     /// Planner figures (tour length, predicted idleness, coverage radius, …); null before the
@@ -273,6 +277,29 @@ pub struct MissionView {
     /// The map the mission plans on (viewers fetch it by its hash to draw it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub map: Option<crate::map::MapRef>,
+}
+
+/// One leaf team of a mission of several.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TeamView {
+    /// Its path from the mission down (`escort/ground`).
+    pub team: String,
+    pub planner: String,
+    pub members: Vec<String>,
+    /// Barriers of its own every member has passed under the current plan.
+    pub barriers_passed: u32,
+    /// The fewest members it works with (the recipe's `min`).
+    #[serde(default)]
+    pub min: usize,
+    /// What a member must be, in words (`type ground and capabilities fly`).
+    #[serde(default)]
+    pub wants: String,
+    /// The type its members must be, if one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot_type: Option<String>,
+    /// The capabilities its members must have.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub requires: Vec<String>,
 }
 
 /// Seconds between two mission statuses that carry the planner's summary although it did not

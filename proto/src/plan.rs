@@ -202,6 +202,10 @@ pub struct PlanRequest {
     /// The robots' capabilities, by id: what puts them in the teams that require some.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub capabilities: BTreeMap<String, Vec<String>>,
+    /// A running mission replanned: a team below its `min` (or above its `max`) does not stop
+    /// the plan (the create checked them; the advising agent reports a team short of members).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub relax_bounds: bool,
 }
 
 #[cfg(test)]

@@ -52,7 +52,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     let advice = session.declare_subscriber(Key::AgentAdviceLive.to_string()).await.map_err(z)?;
     let syncs = session.declare_subscriber(Pattern::AllTeamSync.to_string()).await.map_err(z)?;
     // Under the leader barrier only the leader hears arrivals: its releases show the team's progress.
-    let releases = session.declare_subscriber(Pattern::TeamRelease("*".into()).to_string()).await.map_err(z)?;
+    let releases = session.declare_subscriber(Pattern::AllTeamRelease.to_string()).await.map_err(z)?;
     if let Err(e) = crate::map::blueprint().send(&rec, rerun::blueprint::BlueprintActivation::default()) {
         tracing::warn!("the viewer's layout was not sent: {e}");
     }

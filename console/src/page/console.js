@@ -332,15 +332,32 @@
       else button(act, 'Pause', () => pause(m.name, true), ['data-pause', m.name]);
       button(act, 'End', () => terminate(m.name), ['data-terminate', m.name]);
       mt.appendChild(tr);
+      // A mission of teams: one row per leaf team, below the mission, indented by its depth.
+      for (const t of m.team_views || []) {
+        const sub = document.createElement('tr');
+        sub.className = 'team';
+        sub.dataset.team = t.team;
+        const path = t.team.slice(m.name.length + 1);
+        cell(sub, `${'\u00a0\u00a0'.repeat(path.split('/').length)}${path}`);
+        cell(sub, t.planner);
+        cell(sub, `${t.members.length}${t.min ? ` (min ${t.min})` : ''}`, t.members.length < t.min ? 'short' : undefined);
+        cell(sub, `${t.barriers_passed} barriers`);
+        cell(sub, t.members.join(', '));
+        mt.appendChild(sub);
+      }
     }
+    const teamOf = new Map();
+    for (const m of snap.missions) for (const t of m.team_views || []) for (const id of t.members) teamOf.set(id, t.team);
     const rt = $('robots').tBodies[0];
     rt.replaceChildren();
-    for (const r of snap.robots) {
+    // Robots grouped by team (a mission's teams side by side), then by id.
+    const byTeam = [...snap.robots].sort((a, b) => (teamOf.get(a.id) || a.mission || '\uffff').localeCompare(teamOf.get(b.id) || b.mission || '\uffff'));
+    for (const r of byTeam) {
       const tr = document.createElement('tr');
       tr.dataset.robot = r.id;
       if (selected.has(r.id)) tr.className = 'selected';
       cell(tr, r.id); cell(tr, r.type); cell(tr, (r.capabilities || []).join(', ') || '—', 'caps');
-      cell(tr, r.stuck ? `${r.status} (stuck)` : r.status); cell(tr, r.mission || '—');
+      cell(tr, r.stuck ? `${r.status} (stuck)` : r.status); cell(tr, teamOf.get(r.id) || r.mission || '—');
       cell(tr, r.stuck || r.behaviour || '', 'doing').title = r.stuck || r.behaviour || '';
       tr.addEventListener('click', (e) => {
         if (!(e.shiftKey || e.ctrlKey || e.metaKey)) { const had = selected.has(r.id) && selected.size === 1; selected.clear(); if (!had) selected.add(r.id); }

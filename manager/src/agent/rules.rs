@@ -61,6 +61,36 @@ fn unfit(robots: &[RobotView], missions: &[MissionView], r: &RobotView, m: &Miss
     Some(candidate(format!("capability/{}", r.id), Priority::Warning, reason, evidence, now, action))
 }
 
+/// Advice for each leaf team of mission `m` below its `min` (after a loss: the mission goes on
+/// with the members it has): critical, with a robot that fits the team — an idle one, else one
+/// from the largest other running mission that keeps at least one.
+fn short_teams(robots: &[RobotView], missions: &[MissionView], m: &MissionView, now: f64) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    for t in m.team_views.iter().filter(|t| t.members.len() < t.min) {
+        let fit = |r: &RobotView| t.robot_type.as_ref().is_none_or(|ty| *ty == r.robot_type) && mrmm_proto::lacking(&r.capabilities, &t.requires).is_empty();
+        let idle = robots.iter().find(|r| r.status == RobotStatus::Idle && fit(r)).map(|r| (r.id.clone(), None));
+        let by_id: BTreeMap<&str, &RobotView> = robots.iter().map(|r| (r.id.as_str(), r)).collect();
+        let spare = |o: &MissionView| o.robots.iter().rev().find(|id| by_id.get(id.as_str()).is_some_and(|r| fit(r))).cloned();
+        let give = idle.or_else(|| {
+            missions
+                .iter()
+                .filter(|o| o.name != m.name && o.robots.len() >= 2 && o.status == MissionStatus::Running)
+                .filter_map(|o| Some((o.robots.len(), spare(o)?, o.name.clone())))
+                .max_by_key(|(n, _, _)| *n)
+                .map(|(_, id, from)| (id, Some(from)))
+        });
+        let then = match &give {
+            Some((id, from)) => format!(": add {id}{} ({})", from.as_ref().map(|f| format!(" from {f}")).unwrap_or_default(), t.wants),
+            None => format!(", and no robot that fits it ({}) can be spared", t.wants),
+        };
+        let reason = format!("team {} of mission {} has {} of the {} members it needs{then}", t.team, m.name, t.members.len(), t.min);
+        let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()) });
+        let evidence = json!({"mission": m.name, "team": t.team, "members": t.members, "min": t.min, "donor": give.as_ref().map(|g| &g.0)});
+        out.push(candidate(format!("team/{}", t.team), Priority::Critical, reason, evidence, now, action));
+    }
+    out
+}
+
 /// All candidate advice for this snapshot.
 pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[RobotView], missions: &[MissionView]) -> BTreeMap<String, Candidate> {
     let mut out = BTreeMap::new();
@@ -123,6 +153,13 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
                               "predicted": predicted_now, "predicted_with_one_more": predicted, "donor": give.as_ref().map(|g| &g.0), "donor_mission": give.and_then(|g| g.1)});
         let id = format!("standard/{}", m.name);
         out.insert(id.clone(), candidate(id, Priority::Warning, reason, evidence, now, action));
+    }
+
+    // Leaf teams short of members.
+    for m in missions.iter().filter(|m| matches!(m.status, MissionStatus::Running | MissionStatus::Stalled)) {
+        for c in short_teams(robots, missions, m, now) {
+            out.insert(c.advice.id.clone(), c);
+        }
     }
 
     // Idle robots while missions run: where one would help most.

@@ -28,6 +28,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         lost: vec![],
         stuck: Default::default(),
         teams: Default::default(),
+        team_views: vec![],
         manager: ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },
         metrics: MissionMetrics { worst_idleness: worst, ..MissionMetrics::default() },
         summary: (planner == "patrol").then(|| {
@@ -302,4 +303,40 @@ fn a_robot_that_lost_what_its_mission_requires_is_replaced_by_one_that_has_it() 
     // It is an event: gone after a while.
     let cmds = a.handle(60.0, snap(after, vec![p, q]));
     assert!(withdrawn(&cmds).contains(&"capability/r2".to_string()), "{cmds:?}");
+}
+
+#[test]
+fn a_leaf_team_below_its_minimum_is_critical_with_a_robot_that_fits_it() {
+    let mut a = Agent::new(AgentConfig::default());
+    let team = |name: &str, members: &[&str], min: usize, robot_type: &str| mrmm_proto::TeamView {
+        team: format!("e/{name}"),
+        planner: "patrol".into(),
+        members: members.iter().map(|s| s.to_string()).collect(),
+        barriers_passed: 3,
+        min,
+        wants: format!("type {robot_type}"),
+        robot_type: Some(robot_type.into()),
+        requires: vec![],
+    };
+    let mut e = mission("e", "patrol", &["r1", "r3"], None, None);
+    e.team_views = vec![team("ground", &["r1"], 2, "ground"), team("air", &["r3"], 1, "aerial")];
+    let mut aerial = robot("r4", RobotStatus::Idle, None, 4.0, "hold");
+    aerial.robot_type = "aerial".into();
+    let robots = vec![
+        robot("r1", RobotStatus::Busy, Some("e"), 0.0, "step 1"),
+        robot("r2", RobotStatus::Lost, None, 1.0, "step 1"),
+        robot("r3", RobotStatus::Busy, Some("e"), 2.0, "step 1"),
+        aerial,
+        robot("r5", RobotStatus::Idle, None, 5.0, "hold"),
+    ];
+    a.handle(0.0, snap(robots.clone(), vec![e.clone()]));
+    let adv = a.advice().into_iter().find(|a| a.id == "team/e/ground").expect("advice");
+    assert_eq!(adv.priority, Priority::Critical);
+    assert_eq!(adv.reason, "team e/ground of mission e has 1 of the 2 members it needs: add r5 (type ground)");
+    assert_eq!(adv.action, Some(RobotMove { robot: "r5".into(), to: Some("e".into()) }), "r4 is idle too but aerial");
+    assert!(a.advice().iter().all(|a| a.id != "team/e/air"), "a team at its minimum is fine");
+    // Filled again: withdrawn.
+    e.team_views[0].members.push("r5".into());
+    let cmds = a.handle(1.0, snap(robots, vec![e]));
+    assert!(withdrawn(&cmds).contains(&"team/e/ground".to_string()), "{cmds:?}");
 }

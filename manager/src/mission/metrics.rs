@@ -142,6 +142,17 @@ impl Metrics {
         carried
     }
 
+    /// Barriers every one of `members` has passed under the current plan (0 until each has
+    /// reported on it).
+    pub fn syncs_passed(&self, members: &[String]) -> u32 {
+        let current: Vec<u32> = members.iter().filter_map(|id| self.progress.get(id)).map(|p| p.syncs_passed).collect();
+        if current.len() == members.len() {
+            current.into_iter().min().unwrap_or(0)
+        } else {
+            0
+        }
+    }
+
     /// The metrics for `members`; `plan_msgs` and `sync_msgs_left` come from the replicated state.
     pub fn view<'a>(&self, members: impl Iterator<Item = &'a String>, plan_msgs: u64, sync_msgs_left: u64) -> MissionMetrics {
         // Waypoints waiting right now count too: the worst idleness is never below the current wait.

@@ -620,6 +620,8 @@ impl MissionManager {
             robots: self.members.values().map(|m| m.spec.clone()).collect::<Vec<RobotSpec>>(),
             map: self.spec.map.clone(),
             capabilities: self.members.values().filter(|m| !m.capabilities.is_empty()).map(|m| (m.spec.id.clone(), m.capabilities.clone())).collect(),
+            // The create (and every update) checked the teams' bounds with the members then.
+            relax_bounds: true,
         }
     }
 
@@ -646,6 +648,33 @@ impl MissionManager {
         teams
     }
 
+    /// A recipe of teams: each leaf team with its planner, members (as last planned), barriers
+    /// passed and what it needs; empty otherwise.
+    pub fn team_views(&self) -> Vec<proto::TeamView> {
+        let Ok(r) = mrmm_planner::recipe::parse(&self.spec.recipe_xml) else { return vec![] };
+        if !r.has_teams() {
+            return vec![];
+        }
+        let teams = self.teams();
+        r.leaves()
+            .iter()
+            .map(|l| {
+                let team = format!("{}/{}", self.spec.name, l.path());
+                let members = teams.get(&team).cloned().unwrap_or_default();
+                proto::TeamView {
+                    barriers_passed: self.metrics.syncs_passed(&members),
+                    planner: l.recipe.planner.as_str().into(),
+                    min: l.min,
+                    wants: l.wants(),
+                    robot_type: l.types.first().map(|t| t.to_string()),
+                    requires: l.requires.iter().map(|c| c.to_string()).collect(),
+                    members,
+                    team,
+                }
+            })
+            .collect()
+    }
+
     pub fn metrics(&self) -> proto::MissionMetrics {
         self.metrics.view(self.members.keys(), self.plan_msgs, self.sync_msgs_left)
     }
@@ -662,6 +691,7 @@ impl MissionManager {
             lost: self.lost.keys().cloned().collect(),
             stuck: self.stuck.clone(),
             teams: self.teams(),
+            team_views: self.team_views(),
             manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![], uncommitted_s: None },
             metrics: self.metrics(),
             summary: self.plan.as_ref().map(|(_, p)| p.summary.clone()),

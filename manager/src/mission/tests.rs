@@ -32,7 +32,7 @@ fn plan_for(cmds: &[Command]) -> (u64, MissionPlan) {
     let xml = recipe::bank(&request.recipe).unwrap_or(&request.recipe);
     let r = recipe::parse(xml).expect("recipe");
     let robots: Vec<_> = request.robots.iter().map(crate::wire::robot_spec).collect();
-    (*epoch, crate::wire::mission_plan(&recipe::build_for(&r, &request.params, &robots, &request.capabilities, None).expect("plan")))
+    (*epoch, crate::wire::mission_plan(&recipe::build_with(&r, &request.params, &robots, &request.capabilities, None, recipe::Bounds::Relaxed).expect("plan")))
 }
 
 fn sent_to(cmds: &[Command]) -> Vec<(String, u64, usize)> {
@@ -84,6 +84,7 @@ fn leaving_replans_for_the_rest_and_old_plans_are_ignored() {
             robots: vec![robot("a", "ground", 0.0).spec],
             map: None,
             capabilities: Default::default(),
+            relax_bounds: true,
         },
     }]);
     assert!(m.handle(0.0, Event::PlanReady { epoch: 1, plan: Box::new(old) }).is_empty());

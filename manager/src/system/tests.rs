@@ -246,6 +246,7 @@ impl MissionViewBuilder {
             lost: vec![],
             stuck: Default::default(),
             teams: Default::default(),
+            team_views: vec![],
             manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![], uncommitted_s: None },
             metrics: MissionMetrics::default(),
             summary: None,

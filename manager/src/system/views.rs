@@ -26,6 +26,7 @@ impl SystemManager {
                 lost: vec![],
                 stuck: Default::default(),
                 teams: BTreeMap::new(),
+                team_views: vec![],
                 manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0, chain_epoch: 0, chain: vec![], uncommitted_s: None },
                 metrics: MissionMetrics::default(),
                 summary: None,

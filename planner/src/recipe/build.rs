@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::{assign, check_override, check_param, validate, PlannerKind, Recipe, Template};
+use super::{assign_as, check_override, check_param, validate, Bounds, PlannerKind, Recipe, Template};
 use crate::coverage::{self, CoverageParams, CoveragePlan};
 use crate::coverage_map;
 use crate::error::PlanError;
@@ -92,6 +92,18 @@ pub fn build_for(
     caps: &BTreeMap<String, Vec<String>>,
     map: Option<&Map>,
 ) -> Result<MissionPlan, PlanError> {
+    build_with(r, overrides, robots, caps, map, Bounds::Strict)
+}
+
+/// [`build_for`], the teams' `min` and `max` applied as `bounds` says.
+pub fn build_with(
+    r: &Recipe,
+    overrides: &BTreeMap<String, String>,
+    robots: &[RobotSpec],
+    caps: &BTreeMap<String, Vec<String>>,
+    map: Option<&Map>,
+    bounds: Bounds,
+) -> Result<MissionPlan, PlanError> {
     validate(r)?;
     if !r.has_teams() {
         return build_leaf(r, overrides, robots, map);
@@ -99,7 +111,7 @@ pub fn build_for(
     for (k, v) in overrides {
         check_override(r, k, v).map_err(PlanError::Invalid)?;
     }
-    let groups = assign(r, robots, caps)?;
+    let groups = assign_as(r, robots, caps, bounds)?;
     let mut teams = Vec::new();
     for (leaf, members) in r.leaves().iter().zip(groups) {
         if members.is_empty() {

@@ -14,10 +14,10 @@ use crate::error::PlanError;
 use crate::geom::Point;
 use crate::limits;
 
-pub use build::{build, build_for, build_on, parse_overrides, MissionPlan, TeamPlan, DEFAULT_ROBOT_RADIUS};
+pub use build::{build, build_for, build_on, build_with, parse_overrides, MissionPlan, TeamPlan, DEFAULT_ROBOT_RADIUS};
 use dom::Element;
 pub use dom::Pos;
-pub use teams::{assign, Leaf, Team, TeamBody, MAX_TEAMS, MAX_TEAM_DEPTH, RESERVED_TEAM_NAMES};
+pub use teams::{assign, assign_as, Bounds, Leaf, Team, TeamBody, MAX_TEAMS, MAX_TEAM_DEPTH, RESERVED_TEAM_NAMES};
 
 /// The recipe bank shipped in `recipes/`, embedded: (name, XML).
 pub const BANK: &[(&str, &str)] = &[

@@ -252,6 +252,21 @@ fn parse_team(el: &Element, parent: &str, depth: usize, count: &mut usize) -> Re
 /// those with the fewest choices first, to the least filled leaf they fit below its `max`.
 /// `caps`: the robots' capabilities by id (a robot without an entry has none).
 pub fn assign(r: &Recipe, robots: &[RobotSpec], caps: &BTreeMap<String, Vec<String>>) -> Result<Vec<Vec<usize>>, PlanError> {
+    assign_as(r, robots, caps, Bounds::Strict)
+}
+
+/// Whether a team's `min` and `max` refuse an assignment ([`Bounds::Strict`]: a create, an
+/// update) or are met as far as the robots allow ([`Bounds::Relaxed`]: a running mission
+/// replanned after a loss keeps going with the members it has; the advising agent says which
+/// team is short).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Bounds {
+    Strict,
+    Relaxed,
+}
+
+/// [`assign`], with the teams' bounds applied as `bounds` says.
+pub fn assign_as(r: &Recipe, robots: &[RobotSpec], caps: &BTreeMap<String, Vec<String>>, bounds: Bounds) -> Result<Vec<Vec<usize>>, PlanError> {
     let leaves = r.leaves();
     let none = Vec::new();
     let fits: Vec<Vec<usize>> = robots
@@ -270,47 +285,35 @@ pub fn assign(r: &Recipe, robots: &[RobotSpec], caps: &BTreeMap<String, Vec<Stri
     let mut placed = vec![false; robots.len()];
     let needed: usize = leaves.iter().map(|l| l.min).sum();
     if needed > 0 {
-        // Vertices: 0 source, 1 sink, 2.. robots, then leaves.
-        let (n, source, sink) = (robots.len(), 0usize, 1usize);
-        let vertices: Vec<usize> = (0..2 + n + leaves.len()).collect();
-        let mut edges = Vec::new();
-        for (i, f) in fits.iter().enumerate() {
-            edges.push(((source, 2 + i), 1i64));
-            edges.extend(f.iter().filter(|&&l| leaves[l].min > 0).map(|&l| ((2 + i, 2 + n + l), 1i64)));
-        }
-        edges.extend(leaves.iter().enumerate().filter(|(_, l)| l.min > 0).map(|(l, leaf)| ((2 + n + l, sink), leaf.min as i64)));
-        let (flows, total, _) = edmonds_karp_sparse(&vertices, &source, &sink, edges);
-        if (total as usize) < needed {
-            let eligible = |l: usize| fits.iter().filter(|f| f.contains(&l)).count();
-            if let Some(l) = (0..leaves.len()).find(|&l| eligible(l) < leaves[l].min) {
-                let leaf = &leaves[l];
-                return Err(PlanError::Invalid(format!(
-                    "team {} needs at least {} members ({}); of these {} robots only {} fit it",
-                    show(leaf.path()),
-                    leaf.min,
-                    leaf.wants(),
-                    robots.len(),
-                    eligible(l)
-                )));
+        let wants: Vec<usize> = leaves.iter().map(|l| l.min).collect();
+        let (matched, total) = min_flow(&fits, &wants, &placed);
+        if total < needed {
+            if bounds == Bounds::Strict {
+                return Err(short(r, &leaves, &fits, robots.len(), needed, total));
             }
-            let mins: Vec<String> = leaves.iter().filter(|l| l.min > 0).map(|l| format!("{} {}", show(l.path()), l.min)).collect();
-            return Err(PlanError::Invalid(format!(
-                "the teams' minimums ({}) need {needed} robots that fit them; these {} robots fill at most {total}",
-                mins.join(", "),
-                robots.len()
-            )));
-        }
-        for ((from, to), f) in flows {
-            if f > 0 && from >= 2 && from < 2 + n && to >= 2 + n {
-                out[to - 2 - n].push(from - 2);
-                placed[from - 2] = true;
+            // Short of robots: every team short gets one more in turn, as far as they go.
+            loop {
+                let one: Vec<usize> = (0..leaves.len()).map(|l| usize::from(out[l].len() < leaves[l].min)).collect();
+                let (m, got) = min_flow(&fits, &one, &placed);
+                if got == 0 {
+                    break;
+                }
+                for (i, l) in m {
+                    out[l].push(i);
+                    placed[i] = true;
+                }
+            }
+        } else {
+            for (i, l) in matched {
+                out[l].push(i);
+                placed[i] = true;
             }
         }
     }
     let mut rest: Vec<usize> = (0..robots.len()).filter(|&i| !placed[i]).collect();
     rest.sort_by_key(|&i| (fits[i].len(), i));
     for i in rest {
-        let room = |l: usize| leaves[l].max.is_none_or(|m| out[l].len() < m);
+        let room = |l: usize| bounds == Bounds::Relaxed || leaves[l].max.is_none_or(|m| out[l].len() < m);
         let Some(&l) = fits[i].iter().filter(|&&l| room(l)).min_by_key(|&&l| (out[l].len(), l)) else {
             let names: Vec<String> = fits[i].iter().map(|&l| format!("{} (max {})", show(leaves[l].path()), leaves[l].max.unwrap_or(0))).collect();
             return Err(PlanError::Invalid(format!("robot {} fits only teams that are full: {}", robots[i].id, names.join(", "))));
@@ -321,6 +324,48 @@ pub fn assign(r: &Recipe, robots: &[RobotSpec], caps: &BTreeMap<String, Vec<Stri
         o.sort_unstable();
     }
     Ok(out)
+}
+
+/// A maximum flow of the robots not `placed` to the leaves they `fit`, at most `wants[l]` to
+/// leaf `l`: (robot, leaf) pairs, and how many.
+fn min_flow(fits: &[Vec<usize>], wants: &[usize], placed: &[bool]) -> (Vec<(usize, usize)>, usize) {
+    // Vertices: 0 source, 1 sink, 2.. robots, then leaves.
+    let (n, source, sink) = (fits.len(), 0usize, 1usize);
+    let vertices: Vec<usize> = (0..2 + n + wants.len()).collect();
+    let mut edges = Vec::new();
+    for (i, f) in fits.iter().enumerate().filter(|(i, _)| !placed[*i]) {
+        edges.push(((source, 2 + i), 1i64));
+        edges.extend(f.iter().filter(|&&l| wants[l] > 0).map(|&l| ((2 + i, 2 + n + l), 1i64)));
+    }
+    edges.extend(wants.iter().enumerate().filter(|(_, w)| **w > 0).map(|(l, w)| ((2 + n + l, sink), *w as i64)));
+    let (flows, total, _) = edmonds_karp_sparse(&vertices, &source, &sink, edges);
+    let pairs = flows
+        .into_iter()
+        .filter(|((from, to), f)| *f > 0 && *from >= 2 && *from < 2 + n && *to >= 2 + n)
+        .map(|((from, to), _)| (from - 2, to - 2 - n))
+        .collect();
+    (pairs, total as usize)
+}
+
+/// Why the teams' minimums cannot be met, in words.
+fn short(r: &Recipe, leaves: &[Leaf], fits: &[Vec<usize>], robots: usize, needed: usize, total: usize) -> PlanError {
+    let eligible = |l: usize| fits.iter().filter(|f| f.contains(&l)).count();
+    if let Some(l) = (0..leaves.len()).find(|&l| eligible(l) < leaves[l].min) {
+        let leaf = &leaves[l];
+        return PlanError::Invalid(format!(
+            "team {} needs at least {} members ({}); of these {robots} robots only {} fit it",
+            show(leaf.path()),
+            leaf.min,
+            leaf.wants(),
+            eligible(l)
+        ));
+    }
+    let mins: Vec<String> = leaves.iter().filter(|l| l.min > 0).map(|l| format!("{} {}", show(l.path()), l.min)).collect();
+    PlanError::Invalid(format!(
+        "the teams' minimums ({}) of recipe {} need {needed} robots that fit them; these {robots} robots fill at most {total}",
+        mins.join(", "),
+        r.name
+    ))
 }
 
 fn show(path: &str) -> String {

@@ -141,8 +141,12 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             if !m.manager.chain.is_empty() {
                 println!("manager chain (epoch {}): {}", m.manager.chain_epoch, m.manager.chain.join(" → "));
             }
-            for (team, ids) in &m.teams {
-                println!("team {team}: {}", ids.join(", "));
+            if m.team_views.is_empty() {
+                for (team, ids) in &m.teams {
+                    println!("team {team}: {}", ids.join(", "));
+                }
+            } else {
+                print!("{}", team_tree(&m));
             }
             for p in m.plans.iter().flatten() {
                 println!("plan {} (slot {}): {} steps", p.robot, p.slot, p.steps.len());
@@ -159,6 +163,34 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
         }
     }
     Ok(())
+}
+
+/// A mission's team tree: each team on its own line below its parent, a leaf team with its
+/// planner, members and barriers passed.
+fn team_tree(m: &MissionView) -> String {
+    let mut out = format!("teams of {}:\n", m.name);
+    let mut shown: Vec<&str> = vec![m.name.as_str()];
+    for t in &m.team_views {
+        // The inner teams above this leaf that are not shown yet.
+        let parts: Vec<&str> = t.team.split('/').collect();
+        for depth in 2..parts.len() {
+            let inner = &t.team[..parts[..depth].iter().map(|p| p.len() + 1).sum::<usize>() - 1];
+            if !shown.contains(&inner) {
+                shown.push(inner);
+                out += &format!("{}{}\n", "  ".repeat(depth - 1), parts[depth - 1]);
+            }
+        }
+        let members = if t.members.is_empty() { "no members".to_string() } else { t.members.join(", ") };
+        let min = if t.min > 0 { format!(", min {}", t.min) } else { String::new() };
+        out += &format!(
+            "{}{} ({}{min}): {members}; {} barriers passed\n",
+            "  ".repeat(parts.len() - 1),
+            parts.last().unwrap_or(&""),
+            t.planner,
+            t.barriers_passed
+        );
+    }
+    out
 }
 
 fn status(m: &MissionView) -> String {
@@ -221,7 +253,8 @@ fn parameters(waypoints: Option<String>, region: Option<String>, params: Vec<Str
 
 #[cfg(test)]
 mod tests {
-    use super::robots_cell;
+    use super::{robots_cell, team_tree};
+    use mrmm_proto::{MissionView, TeamView};
 
     #[test]
     fn robots_are_listed_naturally_and_elided_beyond_eight() {
@@ -229,5 +262,34 @@ mod tests {
         assert_eq!(robots_cell(&ids(&["r10", "r2", "r1"])), "r1,r2,r10");
         let many: Vec<String> = (1..=50).rev().map(|i| format!("r{i}")).collect();
         assert_eq!(robots_cell(&many), "r1,r2,r3,…,r50 (50)");
+    }
+
+    #[test]
+    fn the_team_tree_shows_inner_teams_once_and_each_leaf_below_its_parent() {
+        let leaf = |team: &str, planner: &str, members: &[&str], passed: u32, min: usize| TeamView {
+            team: team.into(),
+            planner: planner.into(),
+            members: members.iter().map(|s| s.to_string()).collect(),
+            barriers_passed: passed,
+            min,
+            wants: String::new(),
+            robot_type: None,
+            requires: vec![],
+        };
+        let mut m: MissionView = serde_json::from_value(serde_json::json!({
+            "name": "s", "recipe": "custom", "planner": "patrol", "status": "running", "robots": [], "teams": {},
+            "manager": {"node": "central", "epoch": 1, "chain_epoch": 0, "chain": []},
+            "metrics": mrmm_proto::MissionMetrics::default(), "summary": null
+        }))
+        .expect("view");
+        m.team_views = vec![
+            leaf("s/site/wing/north", "patrol", &["r1", "r2"], 7, 1),
+            leaf("s/site/wing/south", "coverage", &["r3"], 1, 0),
+            leaf("s/air", "patrol", &[], 0, 0),
+        ];
+        assert_eq!(
+            team_tree(&m),
+            "teams of s:\n  site\n    wing\n      north (patrol, min 1): r1, r2; 7 barriers passed\n      south (coverage): r3; 1 barriers passed\n  air (patrol): no members; 0 barriers passed\n"
+        );
     }
 }

@@ -43,6 +43,7 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                     lost: vec![],
                     stuck: Default::default(),
                     teams: Default::default(),
+                    team_views: vec![],
                     manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },
                     metrics: MissionMetrics::default(),
                     summary: None,

@@ -38,6 +38,7 @@ fn started_view(name: &str, host: &str, robots: &[String]) -> Box<MissionView> {
         lost: vec![],
         stuck: Default::default(),
         teams: Default::default(),
+        team_views: vec![],
         manager: ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },
         metrics: MissionMetrics::default(),
         summary: None,
