@@ -4,6 +4,8 @@
 //! rounds before both slow ones have reached their slots. After it each team runs its own
 //! barriers: the fast team's keep passing at its own pace while the slow team's come late. The
 //! mission's view lists each leaf team's members, and a robot hears no barrier of the other team.
+//! A slow robot is killed: its team falls below its `min`; the mission goes on with the members
+//! it has, and the advising agent says so (critical) and names the idle aerial robot that fits.
 
 mod common;
 
@@ -23,7 +25,7 @@ const RECIPE: &str = r#"<recipe name="two-paces">
     </params>
     <behaviour type="*"><stream/><navigate to="slot"/><sync point="start" scope="mission"/><loop><round/></loop></behaviour>
   </team>
-  <team name="slow" type="aerial" planner="patrol" min="1">
+  <team name="slow" type="aerial" planner="patrol" min="2">
     <params>
       <param name="sync_spacing_max" value="10"/>
       <waypoints><point x="30" y="0"/><point x="40" y="0"/><point x="40" y="10"/><point x="30" y="10"/></waypoints>
@@ -87,13 +89,16 @@ async fn two_teams_keep_their_own_pace_after_a_mission_wide_start() -> anyhow::R
     for (i, id) in ["r4", "r5"].iter().enumerate() {
         procs.push(robot(&dir, id, &ep, "aerial", (32.0 + i as f64 * 4.0, -9.0), (0.5, 1.0))?);
     }
+    // An idle aerial robot the mission does not take (it names its robots).
+    let _spare = robot(&dir, "r6", &ep, "aerial", (50.0, -9.0), (0.5, 1.0))?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    common::wait_robots(&client, 5).await?;
+    common::wait_robots(&client, 6).await?;
     let mut mission_tap = Tap::new(&client, proto::Pattern::TeamSync("e".into())).await?;
     let mut fast_tap = Tap::new(&client, proto::Pattern::TeamSync("e/fast".into())).await?;
     let mut slow_tap = Tap::new(&client, proto::Pattern::TeamSync("e/slow".into())).await?;
 
-    let create = MissionCreate { name: "e".into(), recipe: RECIPE.into(), count: Some(5), ..Default::default() };
+    let members = ["r1", "r2", "r3", "r4", "r5"].map(String::from).to_vec();
+    let create = MissionCreate { name: "e".into(), recipe: RECIPE.into(), robots: Some(members), ..Default::default() };
     let _: MissionView = client.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
     let view = eventually("both teams planned", Duration::from_secs(20), || async {
         let v: MissionView = client.query(Key::SystemMission("e".into()), None::<&()>).await.ok()?;
@@ -139,6 +144,23 @@ async fn two_teams_keep_their_own_pace_after_a_mission_wide_start() -> anyhow::R
     .await?;
     let v: MissionView = client.query(Key::SystemMission("e".into()), None::<&()>).await?;
     assert_eq!(v.manager.epoch, epoch, "no replan: nobody was taken for lost");
+
+    // r5 dies: the slow team has one of the two members it needs. The mission replans with the
+    // four left (the fast team too), and the agent names r6, the idle robot that fits.
+    procs[4].kill();
+    let advice = eventually("critical advice for the short team", Duration::from_secs(30), || async {
+        let a: Vec<proto::Advice> = client.query(Key::AgentAdvice, None::<&()>).await.ok()?;
+        a.into_iter().find(|a| a.id == "team/e/slow")
+    })
+    .await?;
+    assert_eq!(advice.priority, proto::Priority::Critical);
+    assert!(advice.reason.contains("has 1 of the 2 members it needs: add r6"), "{}", advice.reason);
+    let v = eventually("the mission replanned for the four left", Duration::from_secs(30), || async {
+        let v: MissionView = client.query(Key::SystemMission("e".into()), None::<&()>).await.ok()?;
+        (v.manager.epoch > epoch && v.teams.get("e/slow").is_some_and(|m| m == &["r4".to_string()])).then_some(v)
+    })
+    .await?;
+    assert_eq!(v.status, proto::MissionStatus::Running, "{:?}", v.error);
     client.close().await;
     drop(procs);
     Ok(())
