@@ -63,7 +63,8 @@ async fn update_pause_restart_and_resume() -> anyhow::Result<()> {
     assert!((tour_length(&before) - 40.0).abs() < 1e-6);
 
     // New waypoints: the same members, the next epoch, the new tour.
-    let update = MissionUpdate { name: "p".into(), params: [("waypoints".to_string(), json!([[0, 0], [20, 0], [20, 20], [0, 20]]))].into(), map: None };
+    let update =
+        MissionUpdate { name: "p".into(), params: [("waypoints".to_string(), json!([[0, 0], [20, 0], [20, 20], [0, 20]]))].into(), ..Default::default() };
     let v: Value = client.query(cmd(proto::SystemCmd::Update), Some(&update)).await?;
     assert_eq!(v["changed"], true, "{v}");
     let updated = eventually("the new tour planned", Duration::from_secs(20), || async {
@@ -73,7 +74,7 @@ async fn update_pause_restart_and_resume() -> anyhow::Result<()> {
     assert_eq!(updated.robots, before.robots, "no robot released");
     assert_eq!(updated.params["waypoints"], "[[0,0],[20,0],[20,20],[0,20]]");
     // A bad update is refused in words and changes nothing.
-    let bad = MissionUpdate { name: "p".into(), params: [("waypoints".to_string(), json!([[0, 0]]))].into(), map: None };
+    let bad = MissionUpdate { name: "p".into(), params: [("waypoints".to_string(), json!([[0, 0]]))].into(), ..Default::default() };
     let e = client.query::<Value>(cmd(proto::SystemCmd::Update), Some(&bad)).await.expect_err("one waypoint");
     assert!(e.to_string().contains("at least 2 points"), "{e}");
 

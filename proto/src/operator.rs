@@ -134,7 +134,8 @@ pub struct MissionTerminate {
 /// `mrmm/system/cmd/mission/update`: new parameters (merged into the mission's: `waypoints`,
 /// `region`, `rounds`, `sync_spacing_max`, `barrier`, `max_worst_idleness`, …) and/or another map
 /// of central's. Checked in full (a dry-run plan) before anything changes; the mission's manager
-/// replans its members as its next epoch.
+/// replans its members as its next epoch. A mission of teams takes parameters per leaf team too:
+/// `"teams": {"ground": {"rounds": 2}}` (the same as `"params": {"ground/rounds": 2}`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MissionUpdate {
@@ -143,6 +144,9 @@ pub struct MissionUpdate {
     pub params: BTreeMap<String, serde_json::Value>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub map: Option<String>,
+    /// Parameters of one leaf team, by its path below the mission.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub teams: BTreeMap<String, BTreeMap<String, serde_json::Value>>,
 }
 
 /// `mrmm/system/cmd/mission/pause` and `…/resume`.

@@ -49,7 +49,10 @@ impl SystemManager {
     fn check_update(&self, u: &MissionUpdate) -> Result<(MissionSpecWire, DryRun), String> {
         let mut spec = self.spec_of(&u.name)?;
         let r = recipe::parse(&spec.recipe_xml).map_err(|e| format!("mission {}: its recipe: {e}", u.name))?;
-        let given = param_strings(&u.params);
+        let mut given = param_strings(&u.params);
+        for (team, params) in &u.teams {
+            given.extend(param_strings(params).into_iter().map(|(k, v)| (format!("{team}/{k}"), v)));
+        }
         for (k, v) in &given {
             recipe::check_override(&r, k, v).map_err(|e| format!("mission {}: {e}", u.name))?;
         }

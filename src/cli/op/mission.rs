@@ -95,7 +95,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             println!("mission {} {} on {}: {} robots ({})", m.name, status(&m), m.manager.node, m.robots.len(), m.robots.join(", "));
         }
         Mission::Update { name, waypoints, region, params, map } => {
-            let req = MissionUpdate { name, params: parameters(waypoints, region, params)?, map };
+            let req = MissionUpdate { name, params: parameters(waypoints, region, params)?, map, teams: Default::default() };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Update), Some(&req)).await?;
             if json {
                 return super::print_json(&v);

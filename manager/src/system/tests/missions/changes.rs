@@ -62,3 +62,23 @@ fn pause_and_resume_go_to_the_head_and_into_the_definition() {
     assert!(matches!(&seen.ctls[..], [(_, MissionCtl::Update { spec })] if !spec.paused));
     assert!(pause(&mut sm, "zz", true).replies[0].1.as_ref().is_err_and(|e| e.contains("unknown mission")));
 }
+
+#[test]
+fn a_mission_of_teams_is_updated_team_by_team() {
+    let mut sm = with_host(&["r1", "r2"]);
+    assert!(create(&mut sm, 1, r#"{"name": "e", "recipe": "escort", "robots": ["r1", "r2"]}"#).replies[0].1.is_ok());
+    let seen = update(&mut sm, r#"{"name": "e", "teams": {"ground": {"rounds": 3, "waypoints": [[0,0],[9,0],[9,9]]}}}"#);
+    assert!(seen.replies[0].1.is_ok(), "{:?}", seen.replies);
+    let s = spec(&sm, "e");
+    assert_eq!((s.params["ground/rounds"].as_str(), s.params["ground/waypoints"].as_str()), ("3", "[[0,0],[9,0],[9,9]]"));
+    for (body, want) in [
+        (r#"{"name": "e", "teams": {"sea": {"rounds": 1}}}"#, "no leaf team \"sea\""),
+        (r#"{"name": "e", "teams": {"air": {"rounds": 1}}}"#, "unknown parameter \"rounds\" for the coverage planner"),
+        (r#"{"name": "e", "teams": {"ground": {"rounds": 0}}}"#, "rounds"),
+    ] {
+        let seen = update(&mut sm, body);
+        let e = seen.replies[0].1.as_ref().expect_err(body);
+        assert!(e.contains(want), "{body}: {e}");
+        assert_eq!(spec(&sm, "e"), s, "{body} changed the mission");
+    }
+}
