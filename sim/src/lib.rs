@@ -212,6 +212,8 @@ pub struct Report {
     pub barriers: u32,
     /// Missions running at the end.
     pub missions_at_end: usize,
+    /// Of those, paused ones (whose live members were checked to hold).
+    pub paused_at_end: u32,
     /// Missions whose chain lost a majority of its memory (several restarts): they cannot get a
     /// head again until memory is durable, so the end checks pass over them.
     pub unrecoverable: u32,

@@ -3,7 +3,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_manager::system::Request;
-use mrmm_proto::{CapabilitiesRequest, MissionCreate, MissionTerminate, RobotMove};
+use mrmm_proto::{CapabilitiesRequest, MissionCreate, MissionPause, MissionTerminate, MissionUpdate, RobotMove};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde_json::json;
@@ -81,6 +81,14 @@ impl Operator {
                     ..MissionCreate::default()
                 })
             }
+            // Every fourth command that would move a robot into a mission changes the mission
+            // instead: an update, a pause, a resume in turn (no draw: the rest of a seed's run
+            // keeps its commands).
+            (4..=6, Some(name)) if self.next_req % 4 == 3 => match (self.next_req / 4) % 3 {
+                0 => Request::Update(MissionUpdate { name, params: [("seed".to_string(), json!(self.next_req))].into(), ..MissionUpdate::default() }),
+                1 => Request::Pause(MissionPause { name }),
+                _ => Request::Resume(MissionPause { name }),
+            },
             (4..=6, Some(name)) => Request::Move(RobotMove { robot, to: Some(name) }),
             (7, _) => Request::Move(RobotMove { robot, to: None }),
             (_, Some(name)) => Request::Terminate(MissionTerminate { name }),

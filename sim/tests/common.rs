@@ -48,7 +48,7 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
                 println!("seeds with unrecoverable missions at the end (first 20): {unrecoverable:?}");
             }
             println!(
-                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted); {} started anew ({} without every member), {} old-lineage heads fenced; {} missions nobody leads at the end (without disks); {} live members of missions with requirements checked to have them",
+                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted); {} started anew ({} without every member), {} old-lineage heads fenced; {} missions nobody leads at the end (without disks); {} live members of missions with requirements checked to have them; {} missions paused at the end, their live members checked to hold",
                 started.elapsed().as_secs_f64(),
                 sum(|r| r.events),
                 sum(|r| r.messages),
@@ -65,6 +65,7 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
                 sum(|r| u64::from(r.fenced)),
                 sum(|r| u64::from(r.headless)),
                 sum(|r| u64::from(r.required_checked)),
+                sum(|r| u64::from(r.paused_at_end)),
             );
         }
         Err(v) => panic!("{what}: {v}; replay with MRMM_SIM_SEED={} cargo test -p mrmm-sim --test <this file> -- --nocapture", v.seed),

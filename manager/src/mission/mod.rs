@@ -543,7 +543,7 @@ impl MissionManager {
 
     /// How the mission's team runs its barriers: the patrol parameter `barrier` (checked on
     /// create), or by the team's size — the mesh barrier up to [`LEADER_BARRIER_FROM`] members,
-    /// the leader barrier from there (README, Evaluation: equal idleness up to 20 robots with
+    /// the leader barrier from there (docs/evaluation.md: equal idleness up to 20 robots with
     /// the mesh's shorter wait; from 30 the mesh's n(n−1) deliveries per barrier cost more than
     /// the leader's extra hop).
     fn barrier(&self) -> BarrierMode {

@@ -70,6 +70,23 @@ impl World {
                 continue;
             }
             let (head, epoch, members) = &hs[0];
+            // A paused mission's live members hold where they are.
+            let paused = self
+                .index(head)
+                .and_then(|i| self.nodes[i].host.as_ref())
+                .and_then(|h| h.heads().find(|(n, _)| *n == m).map(|(_, mm)| mm.view(false).status == mrmm_proto::MissionStatus::Paused))
+                .unwrap_or(false);
+            if paused {
+                self.report.paused_at_end += 1;
+                for r in members {
+                    let Some(i) = self.index(r).filter(|i| self.links.up[*i]) else { continue };
+                    let steps = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| e.assignment.plan.steps.clone());
+                    let holds = steps.as_deref().is_some_and(|s| s.iter().all(|s| matches!(s, mrmm_proto::Step::Stream | mrmm_proto::Step::Hold { seconds: None })));
+                    if !holds {
+                        return Err(format!("live member {r} of paused mission {m} does not hold: {steps:?}"));
+                    }
+                }
+            }
             // Every live member has what its mission requires (a member that lost it was taken out).
             let requires = self
                 .index(head)

@@ -36,7 +36,7 @@ pub struct Args {
     time_scale: f64,
     /// The robots' link lease in ms: how long a silent robot takes to be declared lost (default
     /// 1000, and 4000 beyond 40 robots: every robot keeps a link to every other, and on a small
-    /// machine the keep-alives of a large clique alone fill the CPU; see the README's scale table).
+    /// machine the keep-alives of a large clique alone fill the CPU; see docs/scale.md).
     #[arg(long, value_parser = clap::value_parser!(u64).range(200..=60_000))]
     lease_ms: Option<u64>,
     /// Radius of the formation circle, metres.

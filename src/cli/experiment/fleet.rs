@@ -16,7 +16,7 @@ use super::super::procs;
 pub const SPEED: f64 = 1.0;
 
 /// Beyond this many robots the lease is longer (the keep-alives of a large clique on a small
-/// machine; README's scale section).
+/// machine; docs/scale.md).
 const LARGE_FLEET: usize = 40;
 
 pub struct Fleet {
