@@ -39,6 +39,13 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
     match run_many(first, n, config) {
         Ok(reports) => {
             let sum = |f: fn(&mrmm_sim::Report) -> u64| reports.iter().map(f).sum::<u64>();
+            // A world that did nothing checks nothing: every seed must have sent messages.
+            if let Some(r) = reports.iter().find(|r| r.events == 0 || r.messages == 0) {
+                panic!("{what} seed {}: the world did nothing ({} events, {} messages)", r.seed, r.events, r.messages);
+            }
+            if what.contains("barrier") || what.contains("system") {
+                assert!(n == 0 || sum(|r| u64::from(r.barriers)) > 0, "{what}: {n} seeds passed no barrier");
+            }
             let headless: Vec<u64> = reports.iter().filter(|r| r.headless > 0).map(|r| r.seed).take(20).collect();
             if !headless.is_empty() {
                 println!("seeds with missions nobody leads at the end (first 20): {headless:?}");

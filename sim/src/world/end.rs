@@ -81,7 +81,8 @@ impl World {
                 for r in members {
                     let Some(i) = self.index(r).filter(|i| self.links.up[*i]) else { continue };
                     let steps = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| e.assignment.plan.steps.clone());
-                    let holds = steps.as_deref().is_some_and(|s| s.iter().all(|s| matches!(s, mrmm_proto::Step::Stream | mrmm_proto::Step::Hold { seconds: None })));
+                    let holds =
+                        steps.as_deref().is_some_and(|s| s.iter().all(|s| matches!(s, mrmm_proto::Step::Stream | mrmm_proto::Step::Hold { seconds: None })));
                     if !holds {
                         return Err(format!("live member {r} of paused mission {m} does not hold: {steps:?}"));
                     }

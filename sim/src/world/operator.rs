@@ -42,7 +42,10 @@ impl World {
                     // Quiet: the operator stops, controls not yet acknowledged included.
                     self.ctls.cancel("p");
                 }
-                if self.now < 0.6 {
+                // The start (a query) may be lost: asked again until some node holds the mission
+                // (a world where it never started would check nothing).
+                let started = self.nodes.iter().any(|n| n.host.as_ref().is_some_and(|h| h.replica("p").is_some()));
+                if self.now < 0.6 || (!started && self.now < 5.0) {
                     self.start_one_mission();
                 } else {
                     // As central does for members that join or come back: a robot the mission's

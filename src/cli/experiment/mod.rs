@@ -48,6 +48,9 @@ pub enum Kind {
     CommLoss,
     /// All four.
     All,
+    /// Barrier messages per robot of one team against the same robots in four teams of their own
+    /// (the team hierarchy; not part of `all`).
+    Teams,
     /// The patrolling benchmark: every vertex of patrolling_sim's maps, 1 to 12 robots, idleness
     /// against L*/(n·v) (simulated time, no fleet; not part of `all`).
     Maps,
@@ -100,6 +103,7 @@ impl Kind {
             Kind::CommLoss => "comm-loss",
             Kind::All => "all",
             Kind::Maps => "maps",
+            Kind::Teams => "teams",
         }
     }
 }
@@ -118,6 +122,7 @@ fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
         time_scale: a.time_scale,
         seed: a.seed,
         barrier: first,
+        teams: 1,
     };
     // Every run of `runs` once per barrier mode, mode by mode.
     let per_mode = |runs: Vec<Spec>| -> Vec<Spec> { modes.iter().flat_map(|&barrier| runs.iter().map(move |s| Spec { barrier, ..s.clone() })).collect() };
@@ -160,6 +165,18 @@ fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
                 bail!("--sizes: comm-loss needs at least 3 robots (a chain of 3 and one to lose)");
             }
             vec![spec("comm-loss", n, 0, 1.0, 1)]
+        }
+        Kind::Teams => {
+            let mut v = Vec::new();
+            for n in sizes(&[20]) {
+                if n < 8 || n % 4 != 0 {
+                    bail!("--sizes: the teams experiment splits the robots into four equal teams: give multiples of 4 from 8 (got {n})");
+                }
+                let rounds = a.rounds.unwrap_or(3);
+                v.push(spec("teams", n, 0, 1.0, rounds));
+                v.push(Spec { teams: 4, ..spec("teams", n, 0, 1.0, rounds) });
+            }
+            v
         }
         Kind::All | Kind::Maps => bail!("internal: `{}` is not a fleet experiment", kind.name()),
     })

@@ -273,6 +273,14 @@ pub fn summary(path: &Path, command: &str, rows: &[Row], figures: &[String]) -> 
             r.wall_s
         );
     }
+    let teams: Vec<&Row> = rows.iter().filter(|r| r.spec.experiment == "teams").collect();
+    if !teams.is_empty() {
+        out.push_str("\n## Teams: barrier messages per robot\n\nBarrier messages sent between robots on the wire (Zenoh's statistics), per robot and per barrier its team passed:\n\n| robots | teams | barriers passed | barrier messages | per robot per barrier |\n|---|---|---|---|---|\n");
+        for r in teams {
+            let per = r.wire.barrier_between_robots() as f64 / (r.spec.robots.max(1) as f64 * f64::from(r.sync_points.max(1)));
+            let _ = writeln!(out, "| {} | {} | {} | {} | {per:.1} |", r.spec.robots, r.spec.label(), r.sync_points, r.wire.barrier_between_robots());
+        }
+    }
     out.push_str("\n## The paper's claims, checked against this run\n\n");
     for line in claims(rows) {
         let _ = writeln!(out, "- {line}");

@@ -28,12 +28,17 @@ pub struct Spec {
     pub time_scale: f64,
     pub seed: u64,
     pub barrier: BarrierMode,
+    /// Leaf teams the robots are split into (a recipe of teams, each patrolling the tour with
+    /// barriers of its own); 1: the bank's patrol.
+    pub teams: usize,
 }
 
 impl Spec {
-    /// The configuration as the figures label it: `10` or `15→10`.
+    /// The configuration as the figures label it: `10`, `15→10`, or `4×5` (four teams of five).
     pub fn label(&self) -> String {
-        if self.extract > 0 {
+        if self.teams > 1 {
+            format!("{}×{}", self.teams, self.robots / self.teams)
+        } else if self.extract > 0 {
             format!("{}→{}", self.robots, self.robots - self.extract)
         } else {
             self.robots.to_string()
@@ -93,7 +98,7 @@ async fn measure(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> 
     let waypoints: Vec<[f64; 2]> = WAYPOINTS.iter().map(|(x, y)| [x * spec.env_scale, y * spec.env_scale]).collect();
     let create = MissionCreate {
         name: name.into(),
-        recipe: "patrol".into(),
+        recipe: if spec.teams > 1 { teams_recipe(spec.teams, spec.robots / spec.teams) } else { "patrol".into() },
         robots: Some(team.clone()),
         params: [("waypoints".to_string(), json!(waypoints)), ("barrier".to_string(), json!(spec.barrier.as_str()))].into(),
         ..MissionCreate::default()
@@ -213,6 +218,15 @@ fn extracted(team: &[String], k: usize, seed: u64) -> Vec<String> {
     order.into_iter().take(k).map(|(_, id)| id.clone()).collect()
 }
 
+/// A recipe of `teams` leaf patrol teams of `size` robots each (their `min` and `max`), every one
+/// patrolling the mission's waypoints with barriers of its own.
+pub fn teams_recipe(teams: usize, size: usize) -> String {
+    let behaviour = r#"<behaviour type="*"><stream/><navigate to="slot"/><sync point="start"/><loop><round/></loop></behaviour>"#;
+    let leaves: String =
+        (1..=teams).map(|t| format!(r#"<team name="t{t}" planner="patrol" min="{size}" max="{size}">{behaviour}</team>"#)).collect::<Vec<_>>().join("\n  ");
+    format!("<recipe name=\"teams\">\n  {leaves}\n</recipe>")
+}
+
 pub fn tour_length(points: &[[f64; 2]]) -> f64 {
     points.iter().zip(points.iter().cycle().skip(1)).map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1])).sum()
 }
@@ -231,6 +245,16 @@ mod tests {
         d.sort();
         d.dedup();
         assert_eq!(d.len(), 5);
+    }
+
+    #[test]
+    fn the_teams_recipe_splits_the_robots_evenly() {
+        let xml = teams_recipe(4, 5);
+        let r = mrmm_planner::recipe::parse(&xml).expect("parses");
+        let leaves = r.leaves();
+        let got: Vec<(String, usize, Option<usize>)> = leaves.iter().map(|l| (l.path().to_string(), l.min, l.max)).collect();
+        let want: Vec<(String, usize, Option<usize>)> = (1..=4).map(|t| (format!("t{t}"), 5, Some(5))).collect();
+        assert_eq!(got, want);
     }
 
     #[test]
