@@ -66,7 +66,7 @@ async fn run(updates: usize) -> anyhow::Result<()> {
     let mut times = Vec::new();
     for u in 0..updates {
         let before = client.query::<MissionView>(Key::SystemMission("p".into()), None::<&()>).await?.manager.epoch;
-        let update = MissionUpdate { name: "p".into(), params: [("waypoints".to_string(), square(10.0 + (u % 2) as f64 * 4.0))].into(), ..Default::default() };
+        let update = MissionUpdate { name: "p".into(), params: [("waypoints".to_string(), square(12.0 + (u % 2) as f64 * 4.0))].into(), ..Default::default() };
         let asked = Instant::now();
         let _: serde_json::Value = client.query(Key::SystemCmd(proto::SystemCmd::Update), Some(&update)).await?;
         let deadline = asked + Duration::from_secs(20);
