@@ -102,6 +102,16 @@ async function main() {
     await page.click('button[data-apply="idle"]');
     const s = await until(`${seen.advice.robot} in p`, (s) => s.missions.some((m) => m.name === 'p' && m.robots.includes(seen.advice.robot) && m.robots.length === 3));
     seen.final = s.missions.map((m) => ({ name: m.name, robots: m.robots, status: m.status }));
+    seen.tour_drawn = s.missions.some((m) => m.summary && m.summary.planner === 'patrol' && m.summary.tour.length === 4);
+    // p edited: a triangle drawn on the map becomes its waypoints, the same members go on.
+    await page.click('#draw');
+    for (const [x, y] of [[0, 0], [12, 0], [6, 9]]) {
+      const p = await page.evaluate(([x, y]) => window.mrmmConsole.worldOnPage(x, y), [x, y]);
+      await page.mouse.click(p.x, p.y);
+    }
+    await page.click('button[data-edit="p"]');
+    const e = await until('p replanned on the triangle', (s) => s.missions.some((m) => m.name === 'p' && m.summary && m.summary.tour && m.summary.tour.length === 3));
+    seen.edited = e.missions.filter((m) => m.name === 'p').map((m) => ({ tour: m.summary.tour.length, robots: m.robots.length }))[0];
 
     // The idle r4, picked in the table, sent to a point clicked on the map.
     await page.click('#robots tr[data-robot="r4"]');
@@ -120,7 +130,6 @@ async function main() {
     await until('r4 with a thermal camera', (s) => s.robots.some((r) => r.id === 'r4' && (r.capabilities || []).join() === 'camera,thermal'));
     seen.caps_cell = await page.textContent('#robots tr[data-robot="r4"] td.caps');
     seen.caps_message = await page.textContent('#message');
-    seen.tour_drawn = s.missions.some((m) => m.summary && m.summary.planner === 'patrol' && m.summary.tour.length === 4);
     // A mistake gets a clear message, not a broken page.
     await page.fill('#new-name', 'p');
     await page.click('#create');

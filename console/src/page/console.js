@@ -328,6 +328,7 @@
       cell(tr, figure(m));
       const act = cell(tr, '');
       button(act, 'Assign selected', () => assign(m.name), ['data-assign', m.name]);
+      button(act, 'Edit', () => editMission(m), ['data-edit', m.name]);
       if (m.status === 'paused') button(act, 'Resume', () => pause(m.name, false), ['data-resume', m.name]);
       else button(act, 'Pause', () => pause(m.name, true), ['data-pause', m.name]);
       button(act, 'End', () => terminate(m.name), ['data-terminate', m.name]);
@@ -445,6 +446,17 @@
     try {
       await api(`/api/cmd/mission/${paused ? 'pause' : 'resume'}`, { name });
       say(paused ? `${name} paused: its robots hold where they are` : `${name} resumed`, true);
+    } catch (e) { say(e.message, false); }
+  }
+  // The points drawn on the map become the mission's new waypoints (a patrol) or region (a
+  // coverage): checked by central, replanned by its head as the next epoch, same members.
+  async function editMission(m) {
+    if (points.length < 3) return say(`Draw ${m.name}'s new ${m.planner === 'coverage' ? 'region' : 'waypoints'} on the map (at least 3 points), then Edit.`, false);
+    const params = { [m.planner === 'coverage' ? 'region' : 'waypoints']: points.map(([x, y]) => [x, y]) };
+    try {
+      await api('/api/cmd/mission/update', { name: m.name, params });
+      say(`${m.name} replanned with the new ${m.planner === 'coverage' ? 'region' : 'waypoints'}`, true);
+      points.length = 0; drawing = false; render();
     } catch (e) { say(e.message, false); }
   }
   async function terminate(name) {

@@ -219,7 +219,7 @@ impl SystemManager {
                 }
                 (idle.into_iter().take(k).collect(), vec![])
             }
-            (None, None) => self.equal_share(&requires, &|id| self.fits(&r, id))?,
+            (None, None) => self.equal_share(&requires, &r)?,
         };
         if ids.is_empty() {
             return Err("a mission needs at least one robot".into());
@@ -307,13 +307,15 @@ impl SystemManager {
 
     /// The paper's default: the fleet split equally over the missions, the new one included.
     /// Idle robots first; then robots taken from the largest missions, never below their share.
-    /// Only robots with every capability of `requires` are chosen.
+    /// Only robots with every capability of `requires` that fit a team of `r` are chosen, those its
+    /// teams' minimums need first.
     #[allow(clippy::type_complexity)]
-    fn equal_share(&self, requires: &[String], fits: &dyn Fn(&str) -> bool) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+    fn equal_share(&self, requires: &[String], r: &recipe::Recipe) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+        let fits = |id: &str| self.fits(r, id);
         let alive = self.robots.values().filter(|r| r.alive && r.info.is_some()).count();
         let share = (alive / (self.missions.len() + 1)).max(1);
-        let idle: Vec<String> = self.idle_robots(requires).into_iter().filter(|id| fits(id)).collect();
-        let mut chosen: Vec<String> = idle.into_iter().take(share).collect();
+        // The robots its teams' minimums need first.
+        let mut chosen: Vec<String> = self.for_teams(r, self.idle_robots(requires)).into_iter().take(share).collect();
         let mut steal = Vec::new();
         let mut sizes: BTreeMap<String, Vec<String>> = BTreeMap::new();
         for (robot, m) in &self.assignment {
