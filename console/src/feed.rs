@@ -6,7 +6,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use mrmm_proto::client::Client;
-use mrmm_proto::{self as proto, Advice, Key, MapInfo, MapRef, MissionView, Pattern, RobotView, Role};
+use mrmm_proto::policy::Publication;
+use mrmm_proto::{self as proto, Advice, Key, MapInfo, MapRef, MissionView, Pattern, RobotView};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
 use zenoh::handlers::RingChannel;
@@ -65,8 +66,11 @@ pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, maps: La
                 let Ok(s) = s else { break };
                 let Some(from) = mesh.sender_of("telemetry", &s) else { continue };
                 match proto::decode_telemetry(&s.payload().to_bytes()) {
-                    Ok(t) if from.is(Role::Robot, &t.id) => fleet.telemetry(&t),
-                    Ok(t) => mesh.refuse(&format!("publish the telemetry of {}", t.id), &from),
+                    Ok(t) => {
+                        if mesh.entitled(Publication::Telemetry(&t.id), &from) {
+                            fleet.telemetry(&t);
+                        }
+                    }
                     Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
                 }
             }

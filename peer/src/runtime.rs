@@ -5,6 +5,7 @@ use std::time::{Duration, Instant};
 
 use crate::viewers::{Heard, Viewers, MAX_VIEWERS};
 use mrmm_proto::net::{self, Mode};
+use mrmm_proto::policy::Publication;
 use mrmm_proto::security::seal::SignCadence;
 use mrmm_proto::{self as proto, BarrierMode, Key, Mesh, NodeNet, Pattern, Role, Sender, SyncArrival, SyncRelease};
 use tokio::sync::oneshot;
@@ -329,19 +330,9 @@ pub async fn run_on(
                     }
                 }
             }
-            s = recv_team(&io.team, Sub::Arrivals) => {
-                let Some(from) = mesh.sender_of("barrier arrival", &s) else { continue };
-                match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
-                    Ok(a) if from.is(Role::Robot, &a.robot) => (Event::Heard(a), None),
-                    Ok(a) => {
-                        mesh.refuse(&format!("publish the barrier arrival of {}", a.robot), &from);
-                        continue;
-                    }
-                    Err(e) => {
-                        tracing::warn!("dropped payload on {}: {e}", s.key_expr());
-                        continue;
-                    }
-                }
+            s = recv_team(&io.team, Sub::Arrivals) => match arrival(&mesh, &s) {
+                Some(a) => (Event::Heard(a), None),
+                None => continue,
             },
             s = viewers.recv_async() => {
                 let Ok(s) = s else { break };
@@ -365,31 +356,17 @@ pub async fn run_on(
             s = recv_team(&io.team, Sub::Releases) => {
                 let Some(from) = mesh.sender_of("barrier release", &s) else { continue };
                 match proto::from_json::<SyncRelease>("sync release", &s.payload().to_bytes()) {
-                    Ok(r) if from.is(Role::Robot, &r.leader) => (Event::Released(r), None),
-                    Ok(r) => {
-                        mesh.refuse(&format!("publish the barrier release of {}", r.leader), &from);
-                        continue;
-                    }
+                    Ok(r) if mesh.entitled(Publication::Release(&r.leader), &from) => (Event::Released(r), None),
+                    Ok(_) => continue,
                     Err(e) => {
                         tracing::warn!("dropped payload on {}: {e}", s.key_expr());
                         continue;
                     }
                 }
             },
-            ws = recv_wide(&io.team) => {
-                let (team, s) = ws;
-                let Some(from) = mesh.sender_of("barrier arrival", &s) else { continue };
-                match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
-                    Ok(a) if from.is(Role::Robot, &a.robot) => (Event::HeardIn(team, a), None),
-                    Ok(a) => {
-                        mesh.refuse(&format!("publish the barrier arrival of {}", a.robot), &from);
-                        continue;
-                    }
-                    Err(e) => {
-                        tracing::warn!("dropped payload on {}: {e}", s.key_expr());
-                        continue;
-                    }
-                }
+            (team, s) = recv_wide(&io.team) => match arrival(&mesh, &s) {
+                Some(a) => (Event::HeardIn(team, a), None),
+                None => continue,
             },
             s = recv_team(&io.team, Sub::Members) => match Key::parse(s.key_expr().as_str()) {
                 Some(Key::TeamMember { robot, .. }) if s.kind() == SampleKind::Put => (Event::MemberAlive(robot), None),
@@ -586,6 +563,20 @@ async fn recv_team(team: &Option<TeamLink>, which: Sub) -> Sample {
             Err(_) => std::future::pending().await,
         },
         None => std::future::pending().await,
+    }
+}
+
+/// A teammate's barrier arrival, if its proven sender is the robot it names (a forged one is
+/// refused and recorded, a malformed one dropped).
+fn arrival(mesh: &Mesh, s: &Sample) -> Option<SyncArrival> {
+    let from = mesh.sender_of("barrier arrival", s)?;
+    match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
+        Ok(a) if mesh.entitled(Publication::Arrival(&a.robot), &from) => Some(a),
+        Ok(_) => None,
+        Err(e) => {
+            tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+            None
+        }
     }
 }
 

@@ -20,6 +20,7 @@ pub mod mission;
 pub mod net;
 pub mod operator;
 pub mod plan;
+pub mod policy;
 pub mod robot;
 pub mod security;
 pub mod team;

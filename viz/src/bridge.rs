@@ -6,7 +6,8 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use mrmm_proto::plan::Point;
-use mrmm_proto::{self as proto, AdviceEvent, Key, Mesh, MissionView, Pattern, PlanSummary, Priority, Role, SyncArrival, SyncRelease, Telemetry};
+use mrmm_proto::policy::Publication;
+use mrmm_proto::{self as proto, AdviceEvent, Key, Mesh, MissionView, Pattern, PlanSummary, Priority, SyncArrival, SyncRelease, Telemetry};
 use rerun::RecordingStream;
 use tokio_util::sync::CancellationToken;
 
@@ -87,8 +88,11 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                 let Ok(s) = s else { break };
                 let Some(from) = mesh.sender_of("telemetry", &s) else { continue };
                 match proto::decode_telemetry(&s.payload().to_bytes()) {
-                    Ok(t) if from.is(Role::Robot, &t.id) => view.robot(&t),
-                    Ok(t) => mesh.refuse(&format!("publish the telemetry of {}", t.id), &from),
+                    Ok(t) => {
+                        if mesh.entitled(Publication::Telemetry(&t.id), &from) {
+                            view.robot(&t);
+                        }
+                    }
                     Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
                 }
             }
@@ -122,8 +126,11 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                 let Ok(s) = s else { break };
                 let Some(from) = mesh.sender_of("advice", &s) else { continue };
                 match proto::from_json::<AdviceEvent>("advice", &s.payload().to_bytes()) {
-                    Ok(a) if from.role == Role::Central => view.advice(&a),
-                    Ok(_) => mesh.refuse("publish advice", &from),
+                    Ok(a) => {
+                        if mesh.entitled(Publication::Advice, &from) {
+                            view.advice(&a);
+                        }
+                    }
                     Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
                 }
             }
@@ -135,7 +142,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                 };
                 let Some(from) = mesh.observed_sender_of("barrier arrival", &s) else { continue };
                 if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-                    if from.is(Role::Robot, &a.robot) {
+                    if mesh.entitled(Publication::Arrival(&a.robot), &from) {
                         view.sync(&team, &a);
                     }
                 }
@@ -148,7 +155,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                 };
                 let Some(from) = mesh.observed_sender_of("barrier release", &s) else { continue };
                 if let Ok(r) = proto::from_json::<SyncRelease>("release", &s.payload().to_bytes()) {
-                    if from.is(Role::Robot, &r.leader) {
+                    if mesh.entitled(Publication::Release(&r.leader), &from) {
                         view.release(&team, &r);
                     }
                 }

@@ -10,6 +10,7 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use mrmm_proto::net::{self, Mode};
+use mrmm_proto::policy::Publication;
 use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, Mesh, MissionView, NodeNet, Pattern, RobotInfo, Role, Sender};
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
@@ -249,8 +250,7 @@ fn decode(mesh: &Mesh, s: &Sample) -> Option<system::Event> {
         Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
             Ok(t) if t.id == id => {
                 let from = mesh.sender_of("telemetry", s)?;
-                if !from.is(Role::Robot, &id) {
-                    mesh.refuse(&format!("publish the telemetry of {id}"), &from);
+                if !mesh.entitled(Publication::Telemetry(&id), &from) {
                     return None;
                 }
                 Some(system::Event::Telemetry(Box::new(t)))

@@ -13,6 +13,7 @@ use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
 use mrmm_proto::net::{self, QueryError};
+use mrmm_proto::policy::Publication;
 use mrmm_proto::{self as proto, ChainEnvelope, CommandAck, Key, Mesh, MissionPlan, Pattern, RobotCommand, Role};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
@@ -246,8 +247,7 @@ fn decode(mesh: &Mesh, s: &Sample) -> Option<Event> {
         Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
             Ok(t) if t.id == id => {
                 let from = mesh.sender_of("telemetry", s)?;
-                if !from.is(Role::Robot, &id) {
-                    mesh.refuse(&format!("publish the telemetry of {id}"), &from);
+                if !mesh.entitled(Publication::Telemetry(&id), &from) {
                     return None;
                 }
                 Some(Event::Telemetry(Box::new(t)))
