@@ -4,15 +4,14 @@
 //! [`Command`]s; the replicated part of its state is a [`MissionSnapshot`].
 
 mod metrics;
+mod teams;
+mod view;
 
 use std::collections::BTreeMap;
 
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::plan::{MissionPlan, PlanSummary, Point, RobotSpec};
-use mrmm_proto::{
-    self as proto, BarrierMode, ManagerView, Marginal, Member, MissionSnapshot, MissionSpecWire, MissionStatus, MissionView, PlanAssignment, PlanRequest,
-    ScopeMembers, Telemetry,
-};
+use mrmm_proto::{self as proto, Member, MissionSnapshot, MissionSpecWire, MissionStatus, PlanAssignment, PlanRequest, Telemetry};
 
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
 
@@ -170,11 +169,14 @@ pub struct MissionManager {
     /// When the replan for a burst of losses is due (its epoch is already counted, so a
     /// successor taking over meanwhile replans).
     replan_due: Option<f64>,
+    /// The recipe's leaf teams (none for a recipe planned as a whole).
+    shapes: Vec<teams::TeamShape>,
 }
 
 impl MissionManager {
     pub fn new(spec: MissionSpec, node: String, members: Vec<Member>) -> Self {
         MissionManager {
+            shapes: teams::shapes(&spec.recipe_xml),
             spec,
             node,
             epoch: 0,
@@ -430,6 +432,7 @@ impl MissionManager {
         let replan = spec.params != self.spec.params || spec.map != self.spec.map || spec.recipe_xml != self.spec.recipe_xml || spec.paused != self.spec.paused;
         let resumed = self.spec.paused && !spec.paused;
         self.spec = MissionSpec { replicas: self.spec.replicas, ..spec };
+        self.shapes = teams::shapes(&self.spec.recipe_xml);
         if resumed {
             // The gaps between visits do not count the pause.
             self.metrics.restart_clocks();
@@ -459,6 +462,7 @@ impl MissionManager {
                 idleness_lower_bound: 0.0,
             }),
         };
+        let planned = self.planned_teams();
         let plans = self
             .members
             .values()
@@ -468,7 +472,7 @@ impl MissionManager {
                 robot_type: m.spec.robot_type.clone(),
                 slot,
                 steps: vec![proto::Step::Stream, proto::Step::Hold { seconds: None }],
-                team: self.team_of(&m.spec.id),
+                team: planned.get(m.spec.id.as_str()).map(|t| t.to_string()).unwrap_or_default(),
             })
             .collect();
         MissionPlan { summary, plans, teams: vec![] }
@@ -489,69 +493,6 @@ impl MissionManager {
             out.push(Command::Started);
         }
         out
-    }
-
-    /// One `SendPlan` per member with a plan. A member's team is its leaf team's path
-    /// (`<mission>/<team>…`, the mission's name for a recipe without teams) and its members that
-    /// leaf's; each wider team the plan has barriers with comes with the members whose plans
-    /// have barriers there too.
-    fn assignments(&self, epoch: u64, plan: &MissionPlan) -> Vec<Command> {
-        let mission = &self.spec.name;
-        let path = |team: &str| if team.is_empty() { mission.clone() } else { format!("{mission}/{team}") };
-        let mut leaves: BTreeMap<&str, Vec<String>> = BTreeMap::new();
-        let mut scoped: BTreeMap<String, Vec<String>> = BTreeMap::new();
-        for rp in plan.plans.iter().filter(|rp| self.members.contains_key(&rp.robot)) {
-            leaves.entry(rp.team.as_str()).or_default().push(rp.robot.clone());
-            for scope in scopes_of(rp) {
-                let p = if scope.is_empty() { mission.clone() } else { path(&scope) };
-                scoped.entry(p).or_default().push(rp.robot.clone());
-            }
-        }
-        for v in scoped.values_mut() {
-            v.sort();
-            v.dedup();
-        }
-        plan.plans
-            .iter()
-            .filter_map(|rp| {
-                let m = self.members.get(&rp.robot)?;
-                let team = path(&rp.team);
-                let scopes = scopes_of(rp)
-                    .into_iter()
-                    .map(|s| if s.is_empty() { mission.clone() } else { path(&s) })
-                    .filter(|p| *p != team)
-                    .map(|p| ScopeMembers { members: scoped.get(&p).cloned().unwrap_or_default(), team: p })
-                    .collect();
-                Some(Command::SendPlan {
-                    robot: rp.robot.clone(),
-                    assignment: Box::new(PlanAssignment {
-                        mission: mission.clone(),
-                        epoch,
-                        subteam: format!("{team}/{}", m.spec.robot_type),
-                        team,
-                        members: leaves.get(rp.team.as_str()).cloned().unwrap_or_default(),
-                        plan: rp.clone(),
-                        // Filled in by the host with the chain when the plan goes out.
-                        managers: vec![],
-                        barrier: self.barrier(),
-                        scopes,
-                    }),
-                })
-            })
-            .collect()
-    }
-
-    /// How the mission's team runs its barriers: the patrol parameter `barrier` (checked on
-    /// create), or by the team's size — the mesh barrier up to [`LEADER_BARRIER_FROM`] members,
-    /// the leader barrier from there (docs/evaluation.md: equal idleness up to 20 robots with
-    /// the mesh's shorter wait; from 30 the mesh's n(n−1) deliveries per barrier cost more than
-    /// the leader's extra hop).
-    fn barrier(&self) -> BarrierMode {
-        match self.spec.params.get("barrier").and_then(|v| BarrierMode::parse(v)) {
-            Some(mode) => mode,
-            None if self.members.len() >= LEADER_BARRIER_FROM => BarrierMode::Leader,
-            None => BarrierMode::Mesh,
-        }
     }
 
     /// The current plans again (a new head re-sends them after a takeover; robots already
@@ -624,98 +565,6 @@ impl MissionManager {
             relax_bounds: true,
         }
     }
-
-    /// The leaf team member `id` was last planned in (a path below the mission; `""`: none, or
-    /// a recipe without teams).
-    fn team_of(&self, id: &str) -> String {
-        self.plan.as_ref().and_then(|(_, p)| p.plans.iter().find(|rp| rp.robot == id)).map(|rp| rp.team.clone()).unwrap_or_default()
-    }
-
-    /// Teams by path: a recipe of teams gives each leaf team (`<mission>/<team>…`) its members as
-    /// last planned (a member not planned yet is under the mission's own name); a recipe without
-    /// teams, the sub-teams by robot type (`<mission>/<type>`).
-    pub fn teams(&self) -> BTreeMap<String, Vec<String>> {
-        let mut teams: BTreeMap<String, Vec<String>> = BTreeMap::new();
-        let of_teams = self.plan.as_ref().is_some_and(|(_, p)| p.plans.iter().any(|rp| !rp.team.is_empty()));
-        for m in self.members.values() {
-            let key = match self.team_of(&m.spec.id) {
-                t if !t.is_empty() => format!("{}/{t}", self.spec.name),
-                _ if of_teams => self.spec.name.clone(),
-                _ => format!("{}/{}", self.spec.name, m.spec.robot_type),
-            };
-            teams.entry(key).or_default().push(m.spec.id.clone());
-        }
-        teams
-    }
-
-    /// A recipe of teams: each leaf team with its planner, members (as last planned), barriers
-    /// passed and what it needs; empty otherwise.
-    pub fn team_views(&self) -> Vec<proto::TeamView> {
-        let Ok(r) = mrmm_planner::recipe::parse(&self.spec.recipe_xml) else { return vec![] };
-        if !r.has_teams() {
-            return vec![];
-        }
-        let teams = self.teams();
-        r.leaves()
-            .iter()
-            .map(|l| {
-                let team = format!("{}/{}", self.spec.name, l.path());
-                let members = teams.get(&team).cloned().unwrap_or_default();
-                proto::TeamView {
-                    barriers_passed: self.metrics.syncs_passed(&members),
-                    planner: l.recipe.planner.as_str().into(),
-                    min: l.min,
-                    wants: l.wants(),
-                    robot_type: l.types.first().map(|t| t.to_string()),
-                    requires: l.requires.iter().map(|c| c.to_string()).collect(),
-                    members,
-                    team,
-                }
-            })
-            .collect()
-    }
-
-    pub fn metrics(&self) -> proto::MissionMetrics {
-        self.metrics.view(self.members.keys(), self.plan_msgs, self.sync_msgs_left)
-    }
-
-    /// The operator's view.
-    pub fn view(&self, with_plans: bool) -> MissionView {
-        MissionView {
-            name: self.spec.name.clone(),
-            recipe: self.spec.recipe_name.clone(),
-            planner: self.spec.planner.as_str().to_string(),
-            requires: self.spec.requires.clone(),
-            status: self.status,
-            robots: self.members.keys().cloned().collect(),
-            lost: self.lost.keys().cloned().collect(),
-            stuck: self.stuck.clone(),
-            teams: self.teams(),
-            team_views: self.team_views(),
-            manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![], uncommitted_s: None },
-            metrics: self.metrics(),
-            summary: self.plan.as_ref().map(|(_, p)| p.summary.clone()),
-            summary_unchanged: false,
-            params: self.spec.params.clone(),
-            error: self.error.clone(),
-            plans: with_plans.then(|| self.plan.as_ref().map(|(_, p)| p.plans.clone()).unwrap_or_default()),
-            map: self.spec.map.clone(),
-        }
-    }
-
-    /// Predicted metric with `add` robots more (or fewer): patrol worst idleness `L / (n·v)`,
-    /// coverage radius scaled by `√(n / n')` (radius ∝ 1/√n for a fixed area).
-    pub fn marginal(&self, add: i64) -> Result<Marginal, String> {
-        let (_, plan) = self.plan.as_ref().ok_or("the mission has no plan yet")?;
-        let n = self.members.len();
-        let with = (n as i64).checked_add(add).filter(|w| *w >= 1).ok_or_else(|| format!("the mission has {n} robots; cannot remove {}", -add))?;
-        let with = with as usize;
-        let (metric, current, predicted) = match &plan.summary {
-            PlanSummary::Patrol(p) => ("worst_idleness", p.predicted_worst_idleness, p.length / (with as f64 * p.team_speed)),
-            PlanSummary::Coverage(c) => ("coverage_radius", c.coverage_radius, c.coverage_radius * (n as f64 / with as f64).sqrt()),
-        };
-        Ok(Marginal { mission: self.spec.name.clone(), metric: metric.into(), robots: n, current, with_robots: with, predicted })
-    }
 }
 
 /// A plan's patrol waypoints in tour order (none for coverage).
@@ -725,16 +574,6 @@ fn tour(p: &MissionPlan) -> &[Point] {
         PlanSummary::Patrol(s) => &s.tour,
         PlanSummary::Coverage(_) => &[],
     }
-}
-
-/// The scopes (team paths below the mission, `""` the mission) of a plan's barriers that are
-/// not its own team's.
-fn scopes_of(rp: &proto::RobotPlan) -> Vec<String> {
-    let mut out: Vec<String> =
-        rp.steps.iter().filter_map(|s| if let proto::Step::Sync { scope: Some(sc), .. } = s { Some(sc.clone()) } else { None }).collect();
-    out.sort();
-    out.dedup();
-    out
 }
 
 #[cfg(test)]

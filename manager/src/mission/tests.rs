@@ -3,7 +3,7 @@
 
 use super::*;
 use mrmm_planner::recipe;
-use mrmm_proto::{Behaviour, Pose, Progress, Step, Velocity};
+use mrmm_proto::{BarrierMode, Behaviour, Pose, Progress, Step, Velocity};
 
 fn spec() -> MissionSpec {
     let xml = recipe::bank("patrol").expect("bank").to_string();

@@ -120,12 +120,7 @@ pub fn build_with(
         let path = leaf.path();
         let mut mine = BTreeMap::new();
         for (k, v) in overrides.iter().filter(|(k, _)| !k.contains('/')) {
-            let takes = match (k.as_str(), leaf.recipe.planner) {
-                ("waypoints", p) => p == PlannerKind::Patrol,
-                ("region", p) => p == PlannerKind::Coverage,
-                (_, p) => check_param(p, k, v).is_ok(),
-            };
-            if takes {
+            if leaf.recipe.planner.takes(k) {
                 mine.insert(k.clone(), v.clone());
             }
         }

@@ -46,6 +46,11 @@ impl PlannerKind {
         }
     }
 
+    /// Whether the planner takes parameter `name` (a scalar, or its waypoints or region).
+    pub fn takes(self, name: &str) -> bool {
+        self.scalar_params().contains(&name) || matches!((self, name), (PlannerKind::Patrol, "waypoints") | (PlannerKind::Coverage, "region"))
+    }
+
     /// Scalar parameters the planner understands.
     pub fn scalar_params(self) -> &'static [&'static str] {
         match self {
@@ -443,26 +448,18 @@ pub fn check_override(r: &Recipe, name: &str, value: &str) -> Result<(), String>
         },
         None => (leaves.iter().collect(), name),
     };
-    let mut first_err = None;
-    let mut taken = false;
-    for l in targets {
-        let res = match (param, l.recipe.planner) {
-            ("waypoints", PlannerKind::Patrol) | ("region", PlannerKind::Coverage) => Ok(()),
-            ("waypoints" | "region", p) => Err(format!("parameter {param}: not one of the {} planner's", p.as_str())),
-            _ => check_param(l.recipe.planner, param, value),
-        };
-        match res {
-            Ok(()) => taken = true,
-            Err(e) if e.starts_with("unknown parameter") || e.contains("planner's") => {
-                first_err.get_or_insert(e);
-            }
-            Err(e) => return Err(e),
-        }
+    let planner = targets[0].recipe.planner;
+    let takers: Vec<&Leaf> = targets.into_iter().filter(|l| l.recipe.planner.takes(param)).collect();
+    if takers.is_empty() {
+        return Err(match param {
+            "waypoints" | "region" => format!("parameter {param}: not one of the {} planner's", planner.as_str()),
+            _ => check_param(planner, param, value).err().unwrap_or_else(|| format!("parameter {name:?}: no team takes it")),
+        });
     }
-    match (taken, first_err) {
-        (true, _) => Ok(()),
-        (false, Some(e)) => Err(e),
-        (false, None) => Err(format!("parameter {name:?}: no team takes it")),
+    match param {
+        // Read when planned.
+        "waypoints" | "region" => Ok(()),
+        _ => takers.iter().try_for_each(|l| check_param(l.recipe.planner, param, value)),
     }
 }
 

@@ -9,6 +9,21 @@ use mrmm_proto::client::Client;
 use mrmm_proto::{self as proto, Marginal, MissionCreate, MissionPause, MissionTerminate, MissionUpdate, MissionView};
 use serde_json::Value;
 
+/// A mission's recipe parameters on the command line (a create's, or an update's new ones).
+#[derive(Debug, clap::Args)]
+pub struct Params {
+    /// Patrol waypoints as JSON, e.g. '[[0,0],[20,0],[20,15]]', or `all` (every vertex of the
+    /// mission's graph map).
+    #[arg(long)]
+    waypoints: Option<String>,
+    /// Coverage region as JSON, e.g. '[[0,0],[30,0],[30,30],[0,30]]'.
+    #[arg(long)]
+    region: Option<String>,
+    /// Other recipe parameters (repeatable): key=value (`TEAM/key=value` for one team).
+    #[arg(long = "param")]
+    params: Vec<String>,
+}
+
 #[derive(Debug, clap::Subcommand)]
 pub enum Mission {
     /// Create a mission (`mrmm/system/cmd/mission/create`).
@@ -23,16 +38,8 @@ pub enum Mission {
         /// Or this many idle robots. Neither: an equal share of the fleet.
         #[arg(long)]
         count: Option<usize>,
-        /// Patrol waypoints as JSON, e.g. '[[0,0],[20,0],[20,15]]', or `all` (every vertex of
-        /// the mission's graph map).
-        #[arg(long)]
-        waypoints: Option<String>,
-        /// Coverage region as JSON, e.g. '[[0,0],[30,0],[30,30],[0,30]]'.
-        #[arg(long)]
-        region: Option<String>,
-        /// Other recipe parameters (repeatable): key=value.
-        #[arg(long = "param")]
-        params: Vec<String>,
+        #[command(flatten)]
+        params: Params,
         /// The mission host to run its manager on (default: central).
         #[arg(long)]
         host: Option<String>,
@@ -50,15 +57,8 @@ pub enum Mission {
     /// replanned as its next epoch; its robots stay.
     Update {
         name: String,
-        /// New patrol waypoints as JSON, or `all` (every vertex of its graph map).
-        #[arg(long)]
-        waypoints: Option<String>,
-        /// New coverage region as JSON.
-        #[arg(long)]
-        region: Option<String>,
-        /// Other parameters (repeatable): key=value.
-        #[arg(long = "param")]
-        params: Vec<String>,
+        #[command(flatten)]
+        params: Params,
         /// Plan on this map of central's from now on ("" for none).
         #[arg(long)]
         map: Option<String>,
@@ -83,9 +83,9 @@ pub enum Mission {
 pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()> {
     let none = None::<&()>;
     match m {
-        Mission::Create { name, recipe, robots, count, waypoints, region, params, host, replicas, map } => {
+        Mission::Create { name, recipe, robots, count, params, host, replicas, map } => {
             let recipe = if Path::new(&recipe).is_file() { std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))? } else { recipe };
-            let p = parameters(waypoints, region, params)?;
+            let p = params.into_map()?;
             let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host, replicas, map };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&req)).await?;
             if json {
@@ -94,8 +94,8 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             let m: MissionView = serde_json::from_value(v)?;
             println!("mission {} {} on {}: {} robots ({})", m.name, status(&m), m.manager.node, m.robots.len(), m.robots.join(", "));
         }
-        Mission::Update { name, waypoints, region, params, map } => {
-            let req = MissionUpdate { name, params: parameters(waypoints, region, params)?, map, teams: Default::default() };
+        Mission::Update { name, params, map } => {
+            let req = MissionUpdate { name, params: params.into_map()?, map, teams: Default::default() };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Update), Some(&req)).await?;
             if json {
                 return super::print_json(&v);
@@ -229,26 +229,29 @@ pub fn table(ms: &[MissionView]) -> String {
     super::super::table::render(&["MISSION", "RECIPE", "STATUS", "ROBOTS", "MANAGER/EPOCH", "ROUNDS", "SYNCS", "AVG IDLE s", "WORST IDLE s"], &rows)
 }
 
-/// The mission parameters of the command line: waypoints and region as JSON (or `all`), the rest
-/// as `key=value`.
-fn parameters(waypoints: Option<String>, region: Option<String>, params: Vec<String>) -> anyhow::Result<BTreeMap<String, Value>> {
-    let mut p: BTreeMap<String, Value> = BTreeMap::new();
-    for (k, v) in [("waypoints", waypoints), ("region", region)] {
-        match v {
-            Some(v) if v.trim() == "all" => {
-                p.insert(k.into(), Value::String("all".into()));
+impl Params {
+    /// As the operator API takes them: waypoints and region as JSON (or `all`), the rest as
+    /// strings.
+    fn into_map(self) -> anyhow::Result<BTreeMap<String, Value>> {
+        let Params { waypoints, region, params } = self;
+        let mut p: BTreeMap<String, Value> = BTreeMap::new();
+        for (k, v) in [("waypoints", waypoints), ("region", region)] {
+            match v {
+                Some(v) if v.trim() == "all" => {
+                    p.insert(k.into(), Value::String("all".into()));
+                }
+                Some(v) => {
+                    p.insert(k.into(), serde_json::from_str(&v).with_context(|| format!("--{k}: not JSON"))?);
+                }
+                None => {}
             }
-            Some(v) => {
-                p.insert(k.into(), serde_json::from_str(&v).with_context(|| format!("--{k}: not JSON"))?);
-            }
-            None => {}
         }
+        for kv in params {
+            let (k, v) = kv.split_once('=').ok_or_else(|| anyhow!("--param {kv:?}: expected key=value"))?;
+            p.insert(k.into(), Value::String(v.into()));
+        }
+        Ok(p)
     }
-    for kv in params {
-        let (k, v) = kv.split_once('=').ok_or_else(|| anyhow!("--param {kv:?}: expected key=value"))?;
-        p.insert(k.into(), Value::String(v.into()));
-    }
-    Ok(p)
 }
 
 #[cfg(test)]
