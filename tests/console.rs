@@ -105,6 +105,7 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
     assert_eq!(seen["address_without_token"], true, "{seen}");
     assert_eq!(seen["points"], "4 points", "{seen}");
     assert_eq!(seen["tour_drawn"], true, "the patrol's tour is on the map: {seen}");
+    assert_eq!(seen["edit_points"], "3 points", "a click on a robot while drawing is a point: {seen}");
     assert_eq!(seen["edited"], serde_json::json!({"tour": 3, "robots": 3}), "p edited on the map, its members kept: {seen}");
     assert!(seen["goto"].as_str().is_some_and(|b| b.starts_with("goto(")), "r4 sent to a point: {seen}");
     assert_eq!((seen["caps_offered"].as_str(), seen["caps_cell"].as_str()), (Some(""), Some("camera, thermal")), "{seen}");

@@ -103,12 +103,15 @@ async function main() {
     const s = await until(`${seen.advice.robot} in p`, (s) => s.missions.some((m) => m.name === 'p' && m.robots.includes(seen.advice.robot) && m.robots.length === 3));
     seen.final = s.missions.map((m) => ({ name: m.name, robots: m.robots, status: m.status }));
     seen.tour_drawn = s.missions.some((m) => m.summary && m.summary.planner === 'patrol' && m.summary.tour.length === 4);
-    // p edited: a triangle drawn on the map becomes its waypoints, the same members go on.
+    // p edited: a triangle drawn on the map becomes its waypoints, the same members go on. Its
+    // first corner is clicked where r2 stands: while drawing, a click is a point, not a selection.
     await page.click('#draw');
-    for (const [x, y] of [[0, 0], [12, 0], [6, 9]]) {
+    const r2 = (await snap()).robots.find((r) => r.id === 'r2').pose;
+    for (const [x, y] of [[r2.x, r2.y], [5, 5], [12, 5]]) {
       const p = await page.evaluate(([x, y]) => window.mrmmConsole.worldOnPage(x, y), [x, y]);
       await page.mouse.click(p.x, p.y);
     }
+    seen.edit_points = await page.textContent('#points');
     await page.click('button[data-edit="p"]');
     const e = await until('p replanned on the triangle', (s) => s.missions.some((m) => m.name === 'p' && m.summary && m.summary.tour && m.summary.tour.length === 3));
     seen.edited = e.missions.filter((m) => m.name === 'p').map((m) => ({ tour: m.summary.tour.length, robots: m.robots.length }))[0];

@@ -259,16 +259,18 @@
         if (sx >= lx && sx <= hx && sy >= ly && sy <= hy) selected.add(r.id);
       }
     } else {
-      const id = robotAt(d.x0, d.y0);
-      if (id) {
-        if (d.add) { if (selected.has(id)) selected.delete(id); else selected.add(id); } else { selected.clear(); selected.add(id); }
-      } else if (going) {
+      // While drawing or choosing a destination a click is a point, even where a robot
+      // stands (a waypoint may be where a robot is now); otherwise it selects.
+      const id = going || drawing ? null : robotAt(d.x0, d.y0);
+      if (going) {
         going = false;
         const [x, y] = toWorld(d.x0, d.y0);
         goto(Math.round(x * 10) / 10, Math.round(y * 10) / 10);
       } else if (drawing) {
         const [x, y] = toWorld(d.x0, d.y0);
         points.push([Math.round(x * 10) / 10, Math.round(y * 10) / 10]);
+      } else if (id) {
+        if (d.add) { if (selected.has(id)) selected.delete(id); else selected.add(id); } else { selected.clear(); selected.add(id); }
       } else if (!d.add) {
         selected.clear();
       }
