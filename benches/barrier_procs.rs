@@ -19,10 +19,11 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+use mrmm_net::net::{self, Mode};
+use mrmm_net::security::pki;
+use mrmm_net::{Mesh, NodeNet};
 use mrmm_peer::barrier::Barrier;
-use mrmm_proto::net::{self, Mode};
-use mrmm_proto::security::pki;
-use mrmm_proto::{self as proto, Mesh, NodeNet, Role, SecuritySection, Sender, SyncArrival};
+use mrmm_proto::{self as proto, Role, SecuritySection, Sender, SyncArrival};
 use rand::{Rng, SeedableRng};
 
 const TEAM: &str = "bench";
@@ -84,7 +85,7 @@ async fn mesh(pki: Option<&std::path::Path>, mode: Mode, me: Sender, connect: Ve
         listen: vec![format!("{scheme}/127.0.0.1:0")],
         connect,
         lease_ms: 1000,
-        max_message_size: proto::net::DEFAULT_MAX_MESSAGE_SIZE,
+        max_message_size: mrmm_net::net::DEFAULT_MAX_MESSAGE_SIZE,
         security: pki.map(|d| SecuritySection::from_dir(d, &me.id)),
         me: Some(me),
         wire_stats: false,

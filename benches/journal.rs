@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use common::{eventually, start, Proc, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotView};
 
 fn arg(name: &str, default: usize) -> usize {

@@ -18,8 +18,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::anyhow;
 use common::{eventually, start_central, Scratch};
-use mrmm_proto::client::Client;
-use mrmm_proto::net::{self, Mode};
+use mrmm_net::client::Client;
+use mrmm_net::net::{self, Mode};
 use mrmm_proto::{self as proto, MissionCreate, MissionTerminate, MissionView, SyncArrival};
 
 /// Simulated seconds per wall second in the stall run (a barrier every 2 s of wall time).

@@ -19,7 +19,7 @@ use anyhow::{anyhow, Context};
 use common::measure::{cpu_s, quantile};
 use common::standin::{python, StandIn};
 use common::{start, start_central, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, GotoRequest, Key};
 
 fn config(dir: &Scratch, id: &str, central: &str, body: &str) -> anyhow::Result<String> {

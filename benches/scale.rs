@@ -42,7 +42,7 @@ use std::time::{Duration, Instant};
 use anyhow::{anyhow, Context};
 use common::measure::{cpu_ticks, quantile, USER_HZ};
 use common::{eventually, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionCreate, MissionView, RobotStatus, RobotView};
 
 /// A child killed on drop.
@@ -232,7 +232,7 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     let dir = Scratch::new(&format!("bench-scale-{n}"));
     let pki = dir.path("pki");
     {
-        use mrmm_proto::security::{pki as p, Role};
+        use mrmm_net::security::{pki as p, Role};
         p::init(&pki)?;
         p::issue(&pki, Role::Central, "central", &[], 2)?;
         p::issue(&pki, Role::Operator, "op", &[], 2)?;

@@ -24,11 +24,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use mrmm_net::net::{self, Mode};
+use mrmm_net::security::pki;
+use mrmm_net::security::seal::{self, SignCadence};
+use mrmm_net::{Mesh, NodeNet};
 use mrmm_peer::barrier::Barrier;
-use mrmm_proto::net::{self, Mode};
-use mrmm_proto::security::pki;
-use mrmm_proto::security::seal::{self, SignCadence};
-use mrmm_proto::{self as proto, Key, Mesh, NodeNet, Role, SecuritySection, Sender, SyncArrival};
+use mrmm_proto::{self as proto, Key, Role, SecuritySection, Sender, SyncArrival};
 use rand::{Rng, SeedableRng};
 use tokio::sync::{mpsc, Barrier as Gate};
 use zenoh::bytes::Encoding;
@@ -120,7 +121,7 @@ async fn node(sec: Sec<'_>, mode: Mode, me: Sender, connect: &[String]) -> anyho
         listen: vec![format!("{scheme}/127.0.0.1:0")],
         connect: connect.to_vec(),
         lease_ms: 1000,
-        max_message_size: proto::net::DEFAULT_MAX_MESSAGE_SIZE,
+        max_message_size: mrmm_net::net::DEFAULT_MAX_MESSAGE_SIZE,
         security: pki.map(|d| {
             let mut s = SecuritySection::from_dir(d, &me.id);
             if me.role == Role::Central {
@@ -132,7 +133,7 @@ async fn node(sec: Sec<'_>, mode: Mode, me: Sender, connect: &[String]) -> anyho
         wire_stats: false,
     };
     if let Sec::Quic(_) = sec {
-        let (config, _, _) = mrmm_proto::mesh::prepare(&net)?;
+        let (config, _, _) = mrmm_net::mesh::prepare(&net)?;
         let session = net::open(config).await?;
         return Ok(Mesh::from_parts(session, seal::Sealer::insecure(me), seal::Verifier::insecure()));
     }
@@ -248,11 +249,11 @@ async fn barrier(sec: Sec<'_>, n: usize, rounds: u32) -> anyhow::Result<(f64, f6
 /// CPU time (µs each, one thread) to sign and to check a signature on one telemetry message,
 /// and to tag it for one receiver and to check that tag.
 fn seal_cost(dir: &std::path::Path) -> anyhow::Result<[f64; 4]> {
-    use mrmm_proto::security::pair::{key_id, Pairs};
-    use mrmm_proto::security::Identity;
+    use mrmm_net::security::pair::{key_id, Pairs};
+    use mrmm_net::security::Identity;
     let (p0, p1) = (Identity::load("security", &SecuritySection::from_dir(dir, "p0"))?, Identity::load("security", &SecuritySection::from_dir(dir, "p1"))?);
     let ca = pki::read_ca_der(dir)?;
-    let p1_public = seal::check_cert(&seal::parse_ca(&ca).map_err(|e| anyhow::anyhow!(e))?, &p1.cert_der, mrmm_proto::security::unix_now_s())
+    let p1_public = seal::check_cert(&seal::parse_ca(&ca).map_err(|e| anyhow::anyhow!(e))?, &p1.cert_der, mrmm_net::security::unix_now_s())
         .map_err(|e| anyhow::anyhow!(e))?
         .public_key;
     let p0_pairs = Pairs::new(p0.pair_secret());
@@ -262,7 +263,7 @@ fn seal_cost(dir: &std::path::Path) -> anyhow::Result<[f64; 4]> {
     let verifier = seal::Verifier::secure(&ca, 60).map_err(|e| anyhow::anyhow!(e))?.with_pairs(Arc::new(Pairs::new(p1.pair_secret())));
     let key = Key::RobotTelemetry("p0".into()).to_string();
     let payload = vec![b'x'; 300];
-    let now = mrmm_proto::mesh::now_ms();
+    let now = mrmm_net::mesh::now_ms();
     let n = 20_000u32;
     let mut out = [0.0; 4];
     for (k, tagged) in [false, true].into_iter().enumerate() {
@@ -338,7 +339,7 @@ async fn telemetry(sec: Sec<'_>) -> anyhow::Result<f64> {
         let mut t = template.clone();
         t.seq = seq;
         let bytes = proto::encode_telemetry(&t)?;
-        let sign = signs.due(mrmm_proto::mesh::now_ms());
+        let sign = signs.due(mrmm_net::mesh::now_ms());
         let att = robot.seal_for_known(&key, &bytes, |s| matches!(s.role, Role::Central | Role::Host), sign);
         let _ = robot.session().put(&key, bytes).encoding(Encoding::APPLICATION_OCTET_STREAM).attachment(att).await;
     }

@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use common::{eventually, start, start_central, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, Key, MissionCreate, MissionUpdate, MissionView, Pattern};
 use serde_json::json;
 use zenoh::handlers::RingChannel;

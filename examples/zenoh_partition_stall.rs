@@ -12,7 +12,7 @@
 //! `zenoh_partition_stall router <listen>` | `zenoh_partition_stall peer <listen> <connect>`
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use mrmm_proto::net::{self, Mode};
+use mrmm_net::net::{self, Mode};
 
 fn now_ms() -> u64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64)

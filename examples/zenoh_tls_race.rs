@@ -23,8 +23,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use mrmm_proto::net::{self, Mode, Tls};
-use mrmm_proto::security::{pki, Role};
+use mrmm_net::net::{self, Mode, Tls};
+use mrmm_net::security::{pki, Role};
 
 #[tokio::main(flavor = "multi_thread", worker_threads = 2)]
 async fn main() -> anyhow::Result<()> {

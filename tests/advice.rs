@@ -7,7 +7,7 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, start_robot_scaled, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, Advice, MissionCreate, MissionView, Priority};
 use serde_json::json;
 
@@ -17,7 +17,7 @@ async fn advice_for_a_lost_robot_and_a_mission_below_standard() -> anyhow::Resul
     let (_central, ep) = start_central(&dir)?;
     let mut robots: Vec<_> = (1..=5).map(|i| start_robot_scaled(&dir, &format!("r{i}"), &ep, i as f64 * 2.0, -3.0, 10.0)).collect::<Result<_, _>>()?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     common::wait_robots(&client, 5).await?;
     let patrol = MissionCreate {
         name: "p".into(),

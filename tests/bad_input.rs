@@ -8,7 +8,7 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{start_central, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{Key, MissionCreate, MissionView, SystemCmd, SystemStatus};
 use serde_json::{json, Value};
 
@@ -63,7 +63,7 @@ async fn central_refuses_hostile_requests_clearly_and_goes_on() -> anyhow::Resul
     }
     // Malformed requests and a message over the size limit (dropped by the transport).
     let raw = |body: Vec<u8>| async {
-        mrmm_proto::net::query::<Value>(client.session(), &Key::SystemCmd(SystemCmd::Create).to_string(), Some(body), Duration::from_secs(3)).await
+        mrmm_net::net::query::<Value>(client.session(), &Key::SystemCmd(SystemCmd::Create).to_string(), Some(body), Duration::from_secs(3)).await
     };
     let e = raw(b"{\"name\": ".to_vec()).await.expect_err("truncated JSON").to_string();
     assert!(e.contains("mission create request"), "{e}");

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::time::Duration;
 
 use common::{eventually, robot_config, start, start_central, Scratch, EXE};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionView, RobotView};
 
 async fn mission(c: &Client) -> Option<MissionView> {
@@ -51,7 +51,7 @@ async fn a_robot_that_loses_what_its_mission_requires_leaves_it_and_the_mission_
     }
     robots.push(start_robot_with_caps(&dir, "r4", &ep, 8.0, r#"["lidar"]"#)?);
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     common::wait_robots(&client, 4).await?;
     let recipe = camera_recipe(&dir.path("inspect.xml"))?;
     let square = "[[0,0],[10,0],[10,10],[0,10]]";

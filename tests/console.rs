@@ -15,7 +15,7 @@ use std::time::Duration;
 
 use anyhow::{anyhow, Context};
 use common::Scratch;
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionView, RobotStatus, RobotView, SecuritySection};
 
 /// Where `playwright-core` is: `MRMM_NODE_MODULES`, else `.ci/run`'s install.

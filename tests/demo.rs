@@ -6,7 +6,7 @@ mod common;
 use std::time::Duration;
 
 use common::{eventually, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionStatus, MissionView, RobotView};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -19,8 +19,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, ensure};
 use common::{eventually, start, start_central, Scratch};
-use mrmm_proto::client::Client;
-use mrmm_proto::net::{self, Mode};
+use mrmm_net::client::Client;
+use mrmm_net::net::{self, Mode};
 use mrmm_proto::{self as proto, MissionCreate, MissionStatus, MissionView, RobotView, SyncArrival};
 use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::pubsub::Subscriber;
@@ -103,8 +103,8 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     connect.push(ep.clone());
     let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &connect, 1000)?).await?;
     let zerr = |e: zenoh::Error| anyhow!("{e}");
-    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string())).with(RingChannel::new(4096)).await.map_err(zerr)?;
-    let statuses = observer.declare_subscriber(proto::Key::MissionStatus("p".to_string())).with(RingChannel::new(256)).await.map_err(zerr)?;
+    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).with(RingChannel::new(4096)).await.map_err(zerr)?;
+    let statuses = observer.declare_subscriber(proto::Key::MissionStatus("p".to_string()).to_string()).with(RingChannel::new(256)).await.map_err(zerr)?;
     // Linked to every robot (gossip): arrivals of all four come through.
     barriers(&arrivals, &["r1", "r2", "r3", "r4"], 1, plan_epoch, Duration::from_secs(20)).await?;
 

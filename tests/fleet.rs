@@ -6,7 +6,7 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, start_robot, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, GotoRequest, RobotStatus, RobotView, SystemStatus};
 use serde_json::Value;
 

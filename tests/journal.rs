@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use anyhow::{bail, ensure, Context};
 use common::{eventually, start, Proc, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, JournalEvent, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotView};
 use rand::{Rng, SeedableRng};
 use serde_json::{json, Value};

@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 use std::time::Duration;
 
 use common::{eventually, start_central, start_robots, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionView, Pattern, SyncArrival, SyncRelease};
 use serde_json::json;
 use zenoh::handlers::RingChannel;

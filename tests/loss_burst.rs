@@ -6,7 +6,7 @@ mod common;
 use std::time::Duration;
 
 use common::{eventually, start_central, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, JournalEvent, MissionView};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

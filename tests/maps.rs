@@ -12,8 +12,8 @@ use std::time::{Duration, Instant};
 
 use common::{eventually, start, Scratch};
 use mrmm_maps::{Bundle, Map, OccupancyGrid, Point};
-use mrmm_proto::client::Client;
-use mrmm_proto::net::{self, Mode};
+use mrmm_net::client::Client;
+use mrmm_net::net::{self, Mode};
 use mrmm_proto::{self as proto, MapInfo, MissionCreate, MissionView, PlanSummary, Step};
 use serde_json::json;
 
@@ -68,7 +68,7 @@ async fn robots_on_a_map_never_enter_a_wall() -> anyhow::Result<()> {
     // Telemetry from here on, every pose checked.
     let telemetry = client
         .session()
-        .declare_subscriber(proto::Pattern::AllTelemetry)
+        .declare_subscriber(proto::Pattern::AllTelemetry.to_string())
         .with(zenoh::handlers::RingChannel::new(8192))
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
@@ -230,7 +230,7 @@ async fn the_demo_on_a_map_records_the_building_and_its_layout() -> anyhow::Resu
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     let telemetry = client
         .session()
-        .declare_subscriber(proto::Pattern::AllTelemetry)
+        .declare_subscriber(proto::Pattern::AllTelemetry.to_string())
         .with(zenoh::handlers::RingChannel::new(8192))
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;

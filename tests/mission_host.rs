@@ -8,7 +8,7 @@ mod common;
 use std::time::Duration;
 
 use common::{eventually, start, start_central, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, Marginal, MissionStatus, MissionView, RobotView};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use common::{eventually, start, Proc, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionCreate, MissionPause, MissionStatus, MissionUpdate, MissionView, PlanSummary, RobotView};
 use serde_json::{json, Value};
 

@@ -8,7 +8,7 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, start_robot_scaled, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionCreate, MissionTerminate, MissionView, RobotMove, RobotStatus, RobotView};
 use serde_json::{json, Value};
 

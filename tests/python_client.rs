@@ -11,7 +11,7 @@ use std::process::Command;
 use std::time::Duration;
 
 use common::{eventually, fleet_pki, start_secure_central, start_secure_robot, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{Key, RobotView, SecuritySection};
 use serde_json::Value;
 

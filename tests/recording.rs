@@ -11,7 +11,7 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use common::{eventually, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, Advice, MissionView, Priority, RobotView};
 use rerun::external::re_log_encoding::DecoderApp;
 use rerun::log::{Chunk, LogMsg};
@@ -25,7 +25,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let (mut demo, ep, operator) =
         common::start_demo(&dir, &["--robots", "6", "--duration", "40", "--listen", "quic/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s])?;
     let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
-    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("two running missions", Duration::from_secs(20), || async {
         let m: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
         (m.len() == 2 && m.iter().all(|m| m.manager.epoch >= 1)).then_some(())

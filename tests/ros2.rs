@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use common::standin::{python_or_skip, ros_robot_config, ros_robot_config_driven, StandIn};
 use common::{eventually, start, start_central, start_robot_scaled, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, GotoRequest, MissionCreate, MissionView, RobotView};
 use serde_json::Value;
 

@@ -8,8 +8,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
 use common::{eventually, start_central, Scratch};
-use mrmm_proto::client::Client;
-use mrmm_proto::net::{self, Mode};
+use mrmm_net::client::Client;
+use mrmm_net::net::{self, Mode};
 use mrmm_proto::{self as proto, MissionView, SyncArrival};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -33,8 +33,8 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[r1_ep], 1000)?).await?;
     // Ring channels: a full FIFO channel would block the session's receiving thread.
     let ring = || zenoh::handlers::RingChannel::new(4096);
-    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string())).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry.to_string()).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("telemetry of all 3 robots through r1", Duration::from_secs(10), || async {
         let mut seen = BTreeSet::new();
         while let Ok(Some(s)) = telemetry.try_recv() {

@@ -12,12 +12,12 @@ mod common;
 use std::time::{Duration, Instant};
 
 use common::{eventually, fleet_pki, start_secure_central, start_secure_robot, Scratch};
+use mrmm_net::client::Client;
+use mrmm_net::net::{Mode, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_net::{Mesh, NodeNet};
 use mrmm_proto::chain::{Config, Msg};
-use mrmm_proto::client::Client;
-use mrmm_proto::net::{Mode, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
 use mrmm_proto::{
-    self as proto, ChainEnvelope, Key, Mesh, MissionCreate, MissionView, NodeNet, PlanRequest, RobotCommand, RobotView, SecuritySection, SyncArrival,
-    SystemStatus,
+    self as proto, ChainEnvelope, Key, MissionCreate, MissionView, PlanRequest, RobotCommand, RobotView, SecuritySection, SyncArrival, SystemStatus,
 };
 use serde_json::json;
 use zenoh::bytes::Encoding;
@@ -127,8 +127,8 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     let plain = tls_ep.replacen("tls/", "tcp/", 1);
     assert!(Client::connect(std::slice::from_ref(&plain), Duration::from_millis(500)).await.is_err(), "plain TCP reached central");
     let other = dir.path("other-pki");
-    proto::security::pki::init(&other)?;
-    proto::security::pki::issue(&other, proto::Role::Operator, "op", &[], 2)?;
+    mrmm_net::security::pki::init(&other)?;
+    mrmm_net::security::pki::issue(&other, proto::Role::Operator, "op", &[], 2)?;
     for target in [&ep, &tls_ep, &eps[0]] {
         assert!(
             cannot_open(target, &other.join("ca.crt"), Some((&other.join("op.crt"), &other.join("op.key")))).await,
@@ -233,7 +233,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     let count = answered.clone();
     let faker = tokio::spawn(async move {
         while let Ok(q) = fake.recv_async().await {
-            let Ok(mut req) = proto::from_json::<PlanRequest>("plan request", &proto::net::query_payload(&q)) else { continue };
+            let Ok(mut req) = proto::from_json::<PlanRequest>("plan request", &mrmm_net::net::query_payload(&q)) else { continue };
             req.params.insert("max_kicks".into(), "0".into());
             if let Ok(mut plan) = mrmm_manager::planner_service::plan(mrmm_planner::recipe::PlannerKind::Patrol, &req) {
                 plan.plans.clear();
@@ -339,7 +339,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
 /// its own links, and the router's link is not an operator's.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_site_router_carries_the_fleet_but_no_commands() -> anyhow::Result<()> {
-    use mrmm_proto::security::pki;
+    use mrmm_net::security::pki;
     let dir = Scratch::new("security-router");
     let pki_dir = fleet_pki(&dir, 1)?;
     pki::issue(&pki_dir, proto::Role::Router, "site-b", &[], 2)?;

@@ -13,7 +13,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::{Duration, Instant};
 
 use common::{eventually, start, start_central, Proc, Scratch};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, Key, MissionCreate, MissionView, SyncArrival};
 use zenoh::handlers::RingChannel;
 

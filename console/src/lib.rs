@@ -14,7 +14,7 @@ pub mod model;
 
 use std::sync::Arc;
 
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use thiserror::Error;
 use tokio::net::TcpListener;
 use tokio_util::sync::CancellationToken;

@@ -286,7 +286,7 @@ impl Host {
 /// The fleet the seal target checks against: a CA and a robot certificate made once by the `seeds`
 /// program (kept in `fuzz/fixture/`, test keys only), and the instant the seeds were sealed at.
 pub struct SealFixture {
-    pub verifier: mrmm_proto::security::seal::Verifier,
+    pub verifier: mrmm_net::security::seal::Verifier,
     pub now_ms: u64,
     /// The key the seeds were sealed for.
     pub key: String,
@@ -302,12 +302,12 @@ pub fn seal_fixture() -> &'static SealFixture {
     static F: std::sync::OnceLock<SealFixture> = std::sync::OnceLock::new();
     F.get_or_init(|| {
         let dir = fixture_dir();
-        let ca = mrmm_proto::security::pki::read_ca_der(&dir).unwrap_or_else(|e| panic!("run the seeds program first: {e}"));
+        let ca = mrmm_net::security::pki::read_ca_der(&dir).unwrap_or_else(|e| panic!("run the seeds program first: {e}"));
         // r1's own verifier, with its pair keys: seals tagged for r1 take the tag path.
-        let me = mrmm_proto::security::Identity::load("security", &mrmm_proto::security::SecuritySection::from_dir(&dir, "r1"))
+        let me = mrmm_net::security::Identity::load("security", &mrmm_proto::security::SecuritySection::from_dir(&dir, "r1"))
             .unwrap_or_else(|e| panic!("fixture identity: {e}"));
-        let pairs = std::sync::Arc::new(mrmm_proto::security::pair::Pairs::new(me.pair_secret()));
-        let verifier = mrmm_proto::security::seal::Verifier::secure(&ca, 60).unwrap_or_else(|e| panic!("fixture CA: {e}")).with_pairs(pairs);
+        let pairs = std::sync::Arc::new(mrmm_net::security::pair::Pairs::new(me.pair_secret()));
+        let verifier = mrmm_net::security::seal::Verifier::secure(&ca, 60).unwrap_or_else(|e| panic!("fixture CA: {e}")).with_pairs(pairs);
         let now_ms = std::fs::read_to_string(dir.join("now_ms")).ok().and_then(|s| s.trim().parse().ok()).unwrap_or_else(|| panic!("fixture now_ms missing"));
         SealFixture { verifier, now_ms, key: mrmm_proto::Key::RobotTelemetry("r1".into()).to_string() }
     })

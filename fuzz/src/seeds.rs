@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use mrmm_fuzz::{fixture_dir, robot, started_view, telemetry, Host};
 use mrmm_peer::robot::Event as RobotEvent;
-use mrmm_proto::security::{pki, seal::Sealer, Identity, Role, SecuritySection};
+use mrmm_net::security::{pki, seal::Sealer, Identity, Role, SecuritySection};
 use mrmm_proto::{MissionCtl, RobotCommand, SyncArrival};
 
 fn json<T: serde::Serialize>(v: &T) -> Vec<u8> {
@@ -128,7 +128,7 @@ fn main() {
     let now_ms = match fs::read_to_string(dir.join("now_ms")) {
         Ok(s) => s.trim().parse().unwrap_or(0),
         Err(_) => {
-            let now = u64::try_from(mrmm_proto::security::unix_now_s()).unwrap_or(0) * 1000;
+            let now = u64::try_from(mrmm_net::security::unix_now_s()).unwrap_or(0) * 1000;
             let _ = fs::write(dir.join("now_ms"), now.to_string());
             now
         }
@@ -138,13 +138,13 @@ fn main() {
         Err(e) => panic!("fixture identity: {e}"),
     };
     // A seal tagged for r1 itself too (the seal target's verifier is r1's): the tag path.
-    let ca = mrmm_proto::security::seal::parse_ca(&identity.ca_der).unwrap_or_else(|e| panic!("fixture CA: {e}"));
-    let public = match mrmm_proto::security::seal::check_cert(&ca, &identity.cert_der, mrmm_proto::security::unix_now_s()) {
+    let ca = mrmm_net::security::seal::parse_ca(&identity.ca_der).unwrap_or_else(|e| panic!("fixture CA: {e}"));
+    let public = match mrmm_net::security::seal::check_cert(&ca, &identity.cert_der, mrmm_net::security::unix_now_s()) {
         Ok(p) => p.public_key,
         Err(e) => panic!("fixture r1.crt: {e}"),
     };
-    let me = mrmm_proto::security::pair::Pairs::new(identity.pair_secret());
-    let tags: Vec<_> = me.key(&public).map(|k| vec![(mrmm_proto::security::pair::key_id(&public), k)]).unwrap_or_default();
+    let me = mrmm_net::security::pair::Pairs::new(identity.pair_secret());
+    let tags: Vec<_> = me.key(&public).map(|k| vec![(mrmm_net::security::pair::key_id(&public), k)]).unwrap_or_default();
     let sealer = Sealer::secure(identity);
     let key = mrmm_proto::Key::RobotTelemetry("r1".into()).to_string();
     for (name, att) in [

@@ -37,8 +37,8 @@ pub struct Failure {
     pub error: String,
 }
 
-impl From<mrmm_proto::net::QueryError> for Failure {
-    fn from(e: mrmm_proto::net::QueryError) -> Self {
+impl From<mrmm_proto::QueryError> for Failure {
+    fn from(e: mrmm_proto::QueryError) -> Self {
         Failure { retryable: e.retryable(), error: e.to_string() }
     }
 }

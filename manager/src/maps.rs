@@ -9,9 +9,10 @@ use std::path::Path;
 use std::sync::{Arc, Mutex};
 
 use mrmm_maps::{Bundle, Map, MapSummary};
+use mrmm_net::Mesh;
 use mrmm_proto::map::MapChunk;
 use mrmm_proto::plan::Point;
-use mrmm_proto::{Key, MapInfo, MapRef, Mesh};
+use mrmm_proto::{Key, MapInfo, MapRef};
 use tokio_util::sync::CancellationToken;
 use zenoh::query::Queryable;
 
@@ -121,7 +122,7 @@ impl MapStore {
         if let Some(h) = self.get(&r.hash) {
             return Ok(h);
         }
-        let bytes = mrmm_proto::map::fetch(mesh.session(), r).await?;
+        let bytes = mrmm_net::map::fetch(mesh.session(), r).await?;
         let bundle = Bundle::decode(&r.name, &bytes).map_err(|e| e.to_string())?;
         let held = Held::new(&r.name, &bundle).map_err(|e| e.to_string())?;
         tracing::info!(map = %r.name, hash = %r.hash, bytes = bytes.len(), "map fetched from the fleet");

@@ -6,8 +6,9 @@ use mrmm_maps::Map;
 use mrmm_planner::recipe::{self, PlannerKind};
 use std::sync::Arc;
 
-use mrmm_proto::net;
-use mrmm_proto::{self as proto, Key, Mesh, MissionPlan, PlanRequest};
+use mrmm_net::net;
+use mrmm_net::Mesh;
+use mrmm_proto::{self as proto, Key, MissionPlan, PlanRequest};
 use tokio::sync::Semaphore;
 use tokio_util::sync::CancellationToken;
 use zenoh::query::Query;

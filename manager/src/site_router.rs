@@ -6,9 +6,10 @@
 
 use std::path::Path;
 
-use mrmm_proto::net::{self, Mode, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_net::net::{self, Mode, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
 use mrmm_proto::{validate_id, SecuritySection};
-use mrmm_proto::{Mesh, NodeNet};
+
+use mrmm_net::{Mesh, NodeNet};
 use mrmm_proto::{Role, Sender};
 use serde::Deserialize;
 use tokio::sync::oneshot;

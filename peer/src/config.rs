@@ -2,8 +2,8 @@
 
 use std::path::Path;
 
+use mrmm_net::net::{validate_endpoints_for, validate_max_message_size, ZenohSection};
 use mrmm_proto::config::{load_json5, parse_json5, positive};
-use mrmm_proto::net::{validate_endpoints_for, validate_max_message_size, ZenohSection};
 use mrmm_proto::{validate_id, Pose, SecuritySection};
 use serde::Deserialize;
 

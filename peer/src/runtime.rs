@@ -4,10 +4,11 @@
 use std::time::{Duration, Instant};
 
 use crate::viewers::{Heard, Viewers, MAX_VIEWERS};
-use mrmm_proto::net::{self, Mode};
+use mrmm_net::net::{self, Mode};
+use mrmm_net::security::seal::SignCadence;
+use mrmm_net::{Mesh, NodeNet};
 use mrmm_proto::policy::Publication;
-use mrmm_proto::security::seal::SignCadence;
-use mrmm_proto::{self as proto, BarrierMode, Key, Mesh, NodeNet, Pattern, Role, Sender, SyncArrival, SyncRelease};
+use mrmm_proto::{self as proto, BarrierMode, Key, Pattern, Role, Sender, SyncArrival, SyncRelease};
 use tokio::sync::oneshot;
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
@@ -337,7 +338,7 @@ pub async fn run_on(
             s = viewers.recv_async() => {
                 let Ok(s) = s else { break };
                 let Some(from) = mesh.sender_of("viewer announcement", &s) else { continue };
-                let now = proto::mesh::now_ms();
+                let now = mrmm_net::mesh::now_ms();
                 let new = !io.viewers.is_current(now, &from);
                 match io.viewers.heard(now, from.clone()) {
                     // A new viewer has not proven this robot's certificate yet: the next message
@@ -437,7 +438,7 @@ impl Io {
             Command::Refuse(e) => {
                 self.mesh.verifier().refused.record(
                     "robot command",
-                    &mrmm_proto::security::Refusal::NotEntitled {
+                    &mrmm_net::security::Refusal::NotEntitled {
                         proven: query.and_then(|q| self.mesh.try_sender_of_query(q).ok()).unwrap_or_else(|| Sender::new(Role::Operator, "unknown")),
                         what: e.clone(),
                     },
@@ -486,7 +487,7 @@ impl Io {
                     // signed as well, for
                     // everyone else (a host that takes its mission over before it knows that host).
                     let team = self.team.as_ref().map(|t| t.to.as_slice()).unwrap_or_default();
-                    let now = proto::mesh::now_ms();
+                    let now = mrmm_net::mesh::now_ms();
                     let sign = self.telemetry_signs.due(now);
                     let viewers = &self.viewers;
                     let seal = self.mesh.seal_for_known(

@@ -16,14 +16,37 @@ pub enum ProtoError {
     Encode(String),
     #[error("zenoh: {0}")]
     Zenoh(String),
-    /// A query got no usable answer (see [`crate::net::QueryError`]).
+    /// A query got no usable answer.
     #[error(transparent)]
-    Query(#[from] crate::net::QueryError),
+    Query(#[from] QueryError),
 }
 
 impl ProtoError {
     /// Wraps a zenoh error (zenoh's errors are boxed trait objects).
     pub fn zenoh(e: impl std::fmt::Display) -> Self {
         ProtoError::Zenoh(e.to_string())
+    }
+}
+
+/// Why a query has no usable answer.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum QueryError {
+    /// Nobody answered in time (nobody serves the key, or it is unreachable): worth retrying.
+    #[error("no answer on {key} within {ms} ms")]
+    NoAnswer { key: String, ms: u128 },
+    /// The other side answered with an error: final.
+    #[error("{0}")]
+    Remote(String),
+    /// The answer is not what the key promises.
+    #[error("bad answer on {key}: {why}")]
+    Decode { key: String, why: String },
+    #[error("query {key}: {why}")]
+    Zenoh { key: String, why: String },
+}
+
+impl QueryError {
+    /// Whether asking again later may succeed (nobody answered), as opposed to a final answer.
+    pub fn retryable(&self) -> bool {
+        matches!(self, QueryError::NoAnswer { .. } | QueryError::Zenoh { .. })
     }
 }

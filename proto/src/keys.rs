@@ -321,7 +321,7 @@ pub fn marginal_selector(mission: &str, add: i64) -> String {
 }
 
 /// What the experiments count on the wire, by kind: (kind, key expression). Zenoh counts the
-/// messages each node sends and receives on these ([`crate::net::enable_wire_stats`]).
+/// messages each node sends and receives on these (`mrmm_net::net::enable_wire_stats`).
 pub const WIRE_KINDS: [(&str, &str); 8] = [
     ("sync", "mrmm/team/**/sync/*/*"),
     ("arrive", "mrmm/team/**/arrive/*/*"),
@@ -403,25 +403,11 @@ impl fmt::Display for Pattern {
     }
 }
 
-/// Keys and patterns go straight into Zenoh's declarations and queries.
-impl TryFrom<Key> for zenoh::key_expr::KeyExpr<'static> {
-    type Error = zenoh::Error;
-    fn try_from(k: Key) -> Result<Self, Self::Error> {
-        zenoh::key_expr::KeyExpr::try_from(k.to_string())
-    }
-}
-
-impl TryFrom<Pattern> for zenoh::key_expr::KeyExpr<'static> {
-    type Error = zenoh::Error;
-    fn try_from(p: Pattern) -> Result<Self, Self::Error> {
-        zenoh::key_expr::KeyExpr::try_from(p.to_string())
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+    // Zenoh's own key expressions (a dev-dependency): every key is one, every pattern matches its keys.
     use zenoh::key_expr::KeyExpr;
 
     #[test]

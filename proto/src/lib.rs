@@ -1,6 +1,6 @@
 //! The mrmm protocol, which every node and tool depends on: every key expression ([`keys`]),
-//! every payload type, the codecs with their size limits ([`codec`]), and the small Zenoh
-//! helpers every node shares ([`net`]: session configs, one-answer queries, JSON replies).
+//! every payload type, the codecs with their size limits ([`codec`]) and the publication policy
+//! ([`policy`]). No I/O: sessions are `mrmm-net`'s.
 //!
 //! Payloads are JSON (`application/json`) except telemetry, which is bincode behind the `MRM3`
 //! prefix. Every error reply on an operator key is a Zenoh reply error whose payload is
@@ -8,16 +8,14 @@
 
 pub mod agent;
 pub mod chain;
-pub mod client;
 pub mod codec;
 pub mod config;
 pub mod error;
 pub mod journal;
 pub mod keys;
 pub mod map;
-pub mod mesh;
 pub mod mission;
-pub mod net;
+pub mod nav;
 pub mod operator;
 pub mod plan;
 pub mod policy;
@@ -28,13 +26,12 @@ pub mod team;
 pub use agent::*;
 pub use chain::ChainEnvelope;
 pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to_json};
-pub use error::ProtoError;
+pub use error::{ProtoError, QueryError};
 pub use journal::{JournalEntry, JournalEvent, JournalPage};
 pub use keys::{
     is_team_name, natural_cmp, team_within, validate_id, validate_subteam, validate_team_path, Key, Pattern, SystemCmd, MAX_TEAM_DEPTH, RESERVED_TEAM_NAMES,
 };
 pub use map::{MapChunk, MapInfo, MapRef};
-pub use mesh::{Mesh, NodeNet, UNPROVEN};
 pub use mission::*;
 pub use operator::*;
 pub use plan::{MissionPlan, PlanRequest, PlanSummary, RobotPlan, RobotSpec, Step, TeamSummary};

@@ -6,16 +6,7 @@ use serde::Deserialize;
 use crate::error::Ros2Error;
 use crate::graph::validate_name;
 
-/// How mrmm moves a ROS 2 robot.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum DriveMode {
-    /// mrmm's own controller publishes `geometry_msgs/Twist` on `cmd_vel_topic`, closing the loop
-    /// on odometry (or the localiser's pose) within the robot's kinematic limits.
-    CmdVel,
-    /// Goals go to Nav2's `NavigateToPose` action.
-    Nav2,
-}
+pub use mrmm_proto::nav::DriveMode;
 
 /// A robot body that is a ROS 2 robot speaking rmw_zenoh.
 #[derive(Debug, Clone, Deserialize)]
@@ -93,7 +84,7 @@ impl Ros2Body {
             .router
             .strip_prefix("tcp/")
             .ok_or_else(|| cfg(format!("body.router: {:?}: the robot's ROS router is a tcp/<address>:<port> endpoint", self.router)))?;
-        mrmm_proto::net::validate_endpoint(&self.router).map_err(|e| cfg(format!("body.router: {e}")))?;
+        mrmm_net::net::validate_endpoint(&self.router).map_err(|e| cfg(format!("body.router: {e}")))?;
         if addr.contains('#') {
             return Err(cfg(format!("body.router: {:?}: no endpoint options", self.router)));
         }

@@ -20,47 +20,9 @@ pub const CANCEL_GOAL_TYPE: &str = "action_msgs::srv::dds_::CancelGoal_";
 /// DDS type name of the action's feedback topic.
 pub const FEEDBACK_TYPE: &str = "nav2_msgs::action::dds_::NavigateToPose_FeedbackMessage_";
 
-/// A goal's id (`unique_identifier_msgs/msg/UUID`).
-pub type GoalId = [u8; 16];
-
-/// What became of a goal, as the link learns it.
-#[derive(Debug, Clone, PartialEq)]
-pub enum GoalEvent {
-    /// The server accepted the goal.
-    Accepted,
-    /// The server rejected it.
-    Rejected,
-    /// The goal ended with this status ([`status`]).
-    Finished(i8),
-    /// No answer or an unreadable one: the goal's fate is unknown.
-    Failed(String),
-    /// The navigator's feedback: recovery behaviours run so far, metres left.
-    Feedback { recoveries: u16, distance_remaining: f32 },
-}
-
-/// `action_msgs/msg/GoalStatus` codes.
-pub mod status {
-    pub const UNKNOWN: i8 = 0;
-    pub const ACCEPTED: i8 = 1;
-    pub const EXECUTING: i8 = 2;
-    pub const CANCELING: i8 = 3;
-    pub const SUCCEEDED: i8 = 4;
-    pub const CANCELED: i8 = 5;
-    pub const ABORTED: i8 = 6;
-
-    /// A status's name, for logs and telemetry.
-    pub fn name(s: i8) -> &'static str {
-        match s {
-            ACCEPTED => "accepted",
-            EXECUTING => "executing",
-            CANCELING => "canceling",
-            SUCCEEDED => "succeeded",
-            CANCELED => "canceled",
-            ABORTED => "aborted",
-            _ => "unknown",
-        }
-    }
-}
+/// Goal ids, events and status codes as the robot's machine hears them (declared, I/O-free, in
+/// the protocol crate).
+pub use mrmm_proto::nav::{status, GoalEvent, GoalId};
 
 /// The three services' names under an action (fully qualified in `namespace`).
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -4,8 +4,8 @@
 use std::net::SocketAddr;
 use std::time::Duration;
 
-use mrmm_proto::client::Client;
-use mrmm_proto::net::DEFAULT_CENTRAL;
+use mrmm_net::client::Client;
+use mrmm_net::net::DEFAULT_CENTRAL;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -1,7 +1,8 @@
 //! `mrmm mission-host`: a mission host (runs mission managers) in its own process.
 
-use mrmm_proto::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
-use mrmm_proto::{Mesh, NodeNet, Role, Sender};
+use mrmm_net::net::{self, Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_net::{Mesh, NodeNet};
+use mrmm_proto::{Role, Sender};
 
 use super::security::SecurityArgs;
 

@@ -1,9 +1,9 @@
 //! `mrmm pki`: the fleet PKI in two commands — `init DIR` makes the CA, `issue DIR --role R --id
-//! NAME` a node's certificate and key (see `mrmm_proto::security::pki`).
+//! NAME` a node's certificate and key (see `mrmm_net::security::pki`).
 
 use std::path::PathBuf;
 
-use mrmm_proto::security::{pki, Role};
+use mrmm_net::security::{pki, Role};
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -4,8 +4,9 @@
 use std::io::Write;
 use std::time::{Duration, Instant};
 
-use mrmm_proto::net::{Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
-use mrmm_proto::{self as proto, Key, Mesh, NodeNet};
+use mrmm_net::net::{Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_net::{Mesh, NodeNet};
+use mrmm_proto::{self as proto, Key};
 use serde_json::{json, Value};
 
 #[derive(Debug, clap::Args)]
@@ -58,8 +59,8 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         me: None,
         wire_stats: false,
     };
-    let (config, sealer, verifier) = mrmm_proto::mesh::prepare(&n)?;
-    let session = mrmm_proto::net::open(config).await?;
+    let (config, sealer, verifier) = mrmm_net::mesh::prepare(&n)?;
+    let session = mrmm_net::net::open(config).await?;
     let mesh = Mesh::from_parts(session.clone(), sealer, verifier);
     let sub = session.declare_subscriber(args.key.as_str()).await.map_err(|e| anyhow::anyhow!("--key {:?}: {e}", args.key))?;
     let shutdown = super::shutdown::on_signals()?;
@@ -78,7 +79,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
             s = sub.recv_async() => {
                 let Ok(s) = s else { break };
                 // An observer: a message tagged for others shows its certificate's node.
-                let from = mesh.verifier().observed_sender(s.key_expr().as_str(), &s.payload().to_bytes(), s.attachment().map(|a| a.to_bytes()).as_deref(), mrmm_proto::mesh::now_ms()).ok().map(|s| s.to_string());
+                let from = mesh.verifier().observed_sender(s.key_expr().as_str(), &s.payload().to_bytes(), s.attachment().map(|a| a.to_bytes()).as_deref(), mrmm_net::mesh::now_ms()).ok().map(|s| s.to_string());
                 let l = line(t0.elapsed().as_secs_f64(), s.key_expr().as_str(), &s.payload().to_bytes(), from);
                 let mut out = std::io::stdout().lock();
                 writeln!(out, "{l}")?;

@@ -2,8 +2,9 @@
 
 use std::path::PathBuf;
 
-use mrmm_proto::net::{Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
-use mrmm_proto::{Mesh, NodeNet};
+use mrmm_net::net::{Mode, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+
+use mrmm_net::{Mesh, NodeNet};
 use mrmm_viz::Sink;
 
 #[derive(Debug, clap::Args)]
@@ -54,8 +55,8 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         me: None,
         wire_stats: false,
     };
-    let (config, sealer, verifier) = mrmm_proto::mesh::prepare(&n)?;
-    let session = mrmm_proto::net::open(config).await?;
+    let (config, sealer, verifier) = mrmm_net::mesh::prepare(&n)?;
+    let session = mrmm_net::net::open(config).await?;
     let mesh = Mesh::from_parts(session.clone(), sealer, verifier);
     let shutdown = super::shutdown::on_signals()?;
     super::shutdown::cancel_after(&shutdown, args.duration)?;

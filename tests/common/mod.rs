@@ -240,7 +240,7 @@ pub fn http(addr: &str, method: &str, path: &str, host: &str, token: Option<&str
 }
 
 /// Waits until `n` robots are registered and have reported a pose.
-pub async fn wait_robots(client: &mrmm_proto::client::Client, n: usize) -> anyhow::Result<Vec<mrmm_proto::RobotView>> {
+pub async fn wait_robots(client: &mrmm_net::client::Client, n: usize) -> anyhow::Result<Vec<mrmm_proto::RobotView>> {
     eventually(&format!("{n} registered robots"), Duration::from_secs(15), || async {
         let v: Vec<mrmm_proto::RobotView> = client.query(mrmm_proto::Key::SystemRobots, None::<&()>).await.ok()?;
         (v.len() == n && v.iter().all(|r| r.pose.is_some())).then_some(v)
@@ -304,7 +304,7 @@ pub fn start_host(dir: &Scratch, name: &str, central: &str) -> anyhow::Result<Pr
 /// A fleet PKI in `dir/pki`: the CA, `central`, operator `op`, robots `r1..=rn`, and a robot `r9`
 /// (a rogue: a valid robot certificate of a robot not in the fleet's missions).
 pub fn fleet_pki(dir: &Scratch, robots: usize) -> anyhow::Result<PathBuf> {
-    use mrmm_proto::security::{pki, Role};
+    use mrmm_net::security::{pki, Role};
     let p = dir.path("pki");
     pki::init(&p)?;
     pki::issue(&p, Role::Central, "central", &[], 2)?;
@@ -350,7 +350,7 @@ pub fn start_secure_robot(dir: &Scratch, pki: &Path, id: &str, central: &str, x:
 }
 
 /// Every entry of central's journal, page by page.
-pub async fn journal(c: &mrmm_proto::client::Client) -> anyhow::Result<Vec<mrmm_proto::JournalEntry>> {
+pub async fn journal(c: &mrmm_net::client::Client) -> anyhow::Result<Vec<mrmm_proto::JournalEntry>> {
     let mut since = 0;
     let mut all = Vec::new();
     loop {

@@ -5,9 +5,10 @@ use std::net::ToSocketAddrs;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
+use mrmm_net::Mesh;
 use mrmm_proto::plan::Point;
 use mrmm_proto::policy::Publication;
-use mrmm_proto::{self as proto, AdviceEvent, Key, Mesh, MissionView, Pattern, PlanSummary, Priority, SyncArrival, SyncRelease, Telemetry};
+use mrmm_proto::{self as proto, AdviceEvent, Key, MissionView, Pattern, PlanSummary, Priority, SyncArrival, SyncRelease, Telemetry};
 use rerun::RecordingStream;
 use tokio_util::sync::CancellationToken;
 
@@ -177,7 +178,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
 /// Fetches map `r` from the fleet and hands it to the loop.
 fn fetch_map(session: zenoh::Session, r: proto::MapRef, to: tokio::sync::mpsc::UnboundedSender<(proto::MapRef, Result<mrmm_maps::Map, String>)>) {
     tokio::spawn(async move {
-        let loaded = match proto::map::fetch(&session, &r).await {
+        let loaded = match mrmm_net::map::fetch(&session, &r).await {
             Ok(bytes) => mrmm_maps::Bundle::decode(&r.name, &bytes).and_then(|b| b.load()).map(|(_, m)| m).map_err(|e| e.to_string()),
             Err(e) => Err(e),
         };

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use mrmm_proto::net::{self, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+use mrmm_net::net::{self, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
 use mrmm_proto::SecuritySection;
 use serde::Deserialize;
 

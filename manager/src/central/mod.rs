@@ -9,9 +9,10 @@ mod core;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
-use mrmm_proto::net::{self, Mode};
+use mrmm_net::net::{self, Mode};
+use mrmm_net::{Mesh, NodeNet};
 use mrmm_proto::policy::Publication;
-use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, Mesh, MissionView, NodeNet, Pattern, RobotInfo, Role, Sender};
+use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, MissionView, Pattern, RobotInfo, Role, Sender};
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
 use zenoh::query::Query;

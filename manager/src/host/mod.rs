@@ -12,9 +12,10 @@ mod subs;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
-use mrmm_proto::net::{self, QueryError};
+use mrmm_net::net::{self, QueryError};
+use mrmm_net::Mesh;
 use mrmm_proto::policy::Publication;
-use mrmm_proto::{self as proto, ChainEnvelope, CommandAck, Key, Mesh, MissionPlan, Pattern, RobotCommand, Role};
+use mrmm_proto::{self as proto, ChainEnvelope, CommandAck, Key, MissionPlan, Pattern, RobotCommand, Role};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
@@ -398,7 +399,7 @@ impl Io {
                     }
                 }
                 let key = Key::MissionStatus(mission.clone());
-                let status = match self.mesh.session().declare_publisher(key).encoding(Encoding::APPLICATION_JSON).await {
+                let status = match self.mesh.session().declare_publisher(key.to_string()).encoding(Encoding::APPLICATION_JSON).await {
                     Ok(p) => Some(p),
                     Err(e) => {
                         tracing::warn!(%mission, "cannot declare the status publisher: {e}");

@@ -6,7 +6,7 @@ use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, Context};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, GotoRequest, MissionCreate, MissionView, RobotStatus, RobotView};
 use serde_json::json;
 use tokio::process::Child;
@@ -78,7 +78,7 @@ const TYPES: [&str; 2] = ["ground", "aerial"];
 
 pub async fn run(mut args: Args) -> anyhow::Result<()> {
     let listen = args.listen.take().unwrap_or_else(|| if args.insecure { "tcp/127.0.0.1:7447" } else { "quic/127.0.0.1:7447" }.to_string());
-    mrmm_proto::net::validate_endpoints_for("--listen", std::slice::from_ref(&listen), !args.insecure).map_err(|e| anyhow!("{e}"))?;
+    mrmm_net::net::validate_endpoints_for("--listen", std::slice::from_ref(&listen), !args.insecure).map_err(|e| anyhow!("{e}"))?;
     args.listen = Some(listen);
     if let Some(d) = args.duration {
         if !(d.is_finite() && d > 0.0) {
@@ -115,7 +115,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     // A throw-away fleet PKI: the CA, central, the operator (this demo and your tools), each robot.
     let pki = (!args.insecure).then(|| dir.join("pki"));
     if let Some(pki) = &pki {
-        use mrmm_proto::security::{pki as p, Role};
+        use mrmm_net::security::{pki as p, Role};
         p::init(pki)?;
         p::issue(pki, Role::Central, proto::CENTRAL_HOST, &[], 30)?;
         p::issue(pki, Role::Operator, "operator", &[], 30)?;

@@ -8,8 +8,8 @@
 use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, ensure};
-use mrmm_proto::client::Client;
-use mrmm_proto::net::{self, Mode};
+use mrmm_net::client::Client;
+use mrmm_net::net::{self, Mode};
 use mrmm_proto::{self as proto, Key, MissionCreate, MissionStatus, MissionTerminate, MissionView};
 use serde_json::json;
 use zenoh::handlers::{RingChannel, RingChannelHandler};

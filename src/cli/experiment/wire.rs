@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use anyhow::anyhow;
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::keys::{wire_stats_selector, WIRE_KINDS};
 use zenoh::query::ConsolidationMode;
 

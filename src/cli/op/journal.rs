@@ -1,7 +1,7 @@
 //! `mrmm op journal`: central's journal (`mrmm/system/journal?since=SEQ`), page after page, as
 //! lines — or the raw entries with `--json`.
 
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{JournalEntry, JournalEvent, JournalPage, Key};
 
 /// Prints every entry after `since` (all pages).

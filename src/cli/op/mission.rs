@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::{anyhow, Context};
-use mrmm_proto::client::Client;
+use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, Marginal, MissionCreate, MissionPause, MissionTerminate, MissionUpdate, MissionView};
 use serde_json::Value;
 

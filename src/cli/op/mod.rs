@@ -5,8 +5,8 @@ pub mod mission;
 
 use std::time::Duration;
 
-use mrmm_proto::client::Client;
-use mrmm_proto::net::DEFAULT_CENTRAL;
+use mrmm_net::client::Client;
+use mrmm_net::net::DEFAULT_CENTRAL;
 use mrmm_proto::{self as proto, Advice, CapabilitiesRequest, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
 use serde_json::Value;
 

@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use rcgen::{BasicConstraints, CertificateParams, DistinguishedName, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer, KeyPair, KeyUsagePurpose, PKCS_ED25519};
 
 use super::{Role, Sender};
-use crate::error::ProtoError;
-use crate::keys::validate_id;
+use mrmm_proto::error::ProtoError;
+use mrmm_proto::keys::validate_id;
 
 /// Days a CA certificate is valid.
 pub const CA_DAYS: u32 = 3650;

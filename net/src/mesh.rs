@@ -12,11 +12,11 @@ use zenoh::query::{ConsolidationMode, Query, QueryTarget};
 use zenoh::sample::Sample;
 use zenoh::Session;
 
-use crate::codec::{from_json, to_json};
-use crate::error::ProtoError;
 use crate::net::{self, Mode, QueryError};
-use crate::operator::ErrorReply;
 use crate::security::{acl, Identity, Refusal, Sealer, SecuritySection, Sender, Verifier};
+use mrmm_proto::codec::{from_json, to_json};
+use mrmm_proto::error::ProtoError;
+use mrmm_proto::operator::ErrorReply;
 
 /// How a reply error of a server that could not prove a query's seal starts (see
 /// [`Mesh::query`]).
@@ -48,7 +48,7 @@ pub struct NodeNet {
     /// Who this node is: checked against its certificate when secure, claimed when not. `None`
     /// (tools): whoever the certificate names, or `operator:op` when insecure.
     pub me: Option<Sender>,
-    /// Count messages on the wire per kind ([`crate::keys::WIRE_KINDS`]) in Zenoh's stats,
+    /// Count messages on the wire per kind ([`mrmm_proto::keys::WIRE_KINDS`]) in Zenoh's stats,
     /// readable by anyone on the mesh through the admin space (experiments only).
     pub wire_stats: bool,
 }
@@ -244,10 +244,10 @@ impl Mesh {
     }
 
     /// Counts and logs a proven sender that may not do `what`.
-    /// Whether `from` may publish `p` (the fleet's one rule, [`crate::policy::may_publish`]); a
+    /// Whether `from` may publish `p` (the fleet's one rule, [`mrmm_proto::policy::may_publish`]); a
     /// publication it may not send is refused and recorded.
-    pub fn entitled(&self, p: crate::policy::Publication<'_>, from: &Sender) -> bool {
-        match crate::policy::may_publish(p, from) {
+    pub fn entitled(&self, p: mrmm_proto::policy::Publication<'_>, from: &Sender) -> bool {
+        match mrmm_proto::policy::may_publish(p, from) {
             Ok(()) => true,
             Err(what) => {
                 self.refuse(&what, from);

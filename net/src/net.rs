@@ -10,9 +10,9 @@ use zenoh::bytes::Encoding;
 use zenoh::query::Query;
 use zenoh::Session;
 
-use crate::codec::{from_json, to_json};
-use crate::error::ProtoError;
-use crate::operator::ErrorReply;
+use mrmm_proto::codec::{from_json, to_json};
+use mrmm_proto::error::ProtoError;
+use mrmm_proto::operator::ErrorReply;
 
 /// Default address of the central router.
 pub const DEFAULT_CENTRAL: &str = "tcp/127.0.0.1:7447";
@@ -223,14 +223,14 @@ pub fn zenoh_config_with(
     Ok(c)
 }
 
-/// Turns on Zenoh's per-kind message counters ([`crate::keys::WIRE_KINDS`]) and a read-only
-/// admin space to read them from ([`crate::keys::wire_stats_selector`]).
+/// Turns on Zenoh's per-kind message counters ([`mrmm_proto::keys::WIRE_KINDS`]) and a read-only
+/// admin space to read them from ([`mrmm_proto::keys::wire_stats_selector`]).
 pub fn enable_wire_stats(c: &mut zenoh::Config) -> Result<(), ProtoError> {
     let set = |c: &mut zenoh::Config, key: &str, value: String| c.insert_json5(key, &value).map_err(|e| ProtoError::Config(format!("zenoh config {key}: {e}")));
     set(c, "adminspace/enabled", "true".into())?;
     set(c, "adminspace/permissions/read", "true".into())?;
     set(c, "adminspace/permissions/write", "false".into())?;
-    let filters: Vec<serde_json::Value> = crate::keys::WIRE_KINDS.iter().map(|(_, key)| serde_json::json!({ "key": key })).collect();
+    let filters: Vec<serde_json::Value> = mrmm_proto::keys::WIRE_KINDS.iter().map(|(_, key)| serde_json::json!({ "key": key })).collect();
     set(c, "stats/filters", serde_json::Value::from(filters).to_string())
 }
 
@@ -275,28 +275,7 @@ pub fn query_payload(query: &Query) -> Vec<u8> {
     query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default()
 }
 
-/// Why a query has no usable answer.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum QueryError {
-    /// Nobody answered in time (nobody serves the key, or it is unreachable): worth retrying.
-    #[error("no answer on {key} within {ms} ms")]
-    NoAnswer { key: String, ms: u128 },
-    /// The other side answered with an error: final.
-    #[error("{0}")]
-    Remote(String),
-    /// The answer is not what the key promises.
-    #[error("bad answer on {key}: {why}")]
-    Decode { key: String, why: String },
-    #[error("query {key}: {why}")]
-    Zenoh { key: String, why: String },
-}
-
-impl QueryError {
-    /// Whether asking again later may succeed (nobody answered), as opposed to a final answer.
-    pub fn retryable(&self) -> bool {
-        matches!(self, QueryError::NoAnswer { .. } | QueryError::Zenoh { .. })
-    }
-}
+pub use mrmm_proto::QueryError;
 
 /// One query expecting one JSON answer: returns at the first reply (not at the timeout). A reply
 /// error becomes [`QueryError::Remote`] with the server's message.

@@ -9,7 +9,7 @@ use std::time::Duration;
 use super::*;
 use crate::security::seal::CertRef;
 use crate::security::{pki, Role};
-use crate::Key;
+use mrmm_proto::Key;
 
 fn scratch() -> PathBuf {
     static N: AtomicU32 = AtomicU32::new(0);

@@ -12,7 +12,7 @@
 use serde_json::{json, Value};
 
 use super::{Role, Sender};
-use crate::keys::Pattern;
+use mrmm_proto::keys::Pattern;
 
 /// The `access_control` section of central's Zenoh config, letting the operators named
 /// `operators` (ids of operator certificates) query `mrmm/system/cmd/**`.

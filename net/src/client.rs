@@ -7,11 +7,11 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 use zenoh::Session;
 
-use crate::codec::to_json;
-use crate::error::ProtoError;
 use crate::mesh::{Mesh, NodeNet};
 use crate::net::{self, Mode, QueryError};
 use crate::security::{Role, SecuritySection};
+use mrmm_proto::codec::to_json;
+use mrmm_proto::error::ProtoError;
 
 /// A Zenoh client session talking to central.
 pub struct Client {
@@ -61,7 +61,8 @@ impl Client {
     pub async fn query<T: DeserializeOwned>(&self, selector: impl std::fmt::Display, body: Option<&impl Serialize>) -> Result<T, ProtoError> {
         let selector = selector.to_string();
         let key = selector.split('?').next().unwrap_or(&selector);
-        let mission_key = matches!(crate::Key::parse(key), Some(crate::Key::MissionView(_) | crate::Key::MissionMarginal(_) | crate::Key::MissionCtl(_)));
+        let mission_key =
+            matches!(mrmm_proto::Key::parse(key), Some(mrmm_proto::Key::MissionView(_) | mrmm_proto::Key::MissionMarginal(_) | mrmm_proto::Key::MissionCtl(_)));
         self.query_from(&selector, body, |s| if mission_key { s.role.hosts_missions() } else { s.role == Role::Central }).await
     }
 
@@ -70,7 +71,7 @@ impl Client {
         &self,
         selector: &str,
         body: Option<&impl Serialize>,
-        accept: impl Fn(&crate::Sender) -> bool,
+        accept: impl Fn(&mrmm_proto::Sender) -> bool,
     ) -> Result<T, ProtoError> {
         let body = body.map(to_json).transpose()?;
         match self.mesh.query(selector, body, self.timeout, accept).await {

@@ -42,7 +42,7 @@ fn a_signed_seal_proves_its_sender_and_nothing_else() {
     let (d, v) = fleet();
     let s = Sealer::secure(identity(d.path(), Role::Robot, "r1"));
     let t = crate::mesh::now_ms();
-    let (k1, k2) = (crate::Key::RobotTelemetry("r1".into()).to_string(), crate::Key::RobotTelemetry("r2".into()).to_string());
+    let (k1, k2) = (mrmm_proto::Key::RobotTelemetry("r1".into()).to_string(), mrmm_proto::Key::RobotTelemetry("r2".into()).to_string());
     let att = s.seal(&k1, b"hello", t);
     assert_eq!(v.sender(&k1, b"hello", Some(&att), t + 10), Ok(Sender::new(Role::Robot, "r1")));
     // Another payload, another key, too late, no seal.

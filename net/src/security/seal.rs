@@ -166,7 +166,7 @@ pub fn decode(att: &[u8]) -> Result<Seal<'_>, Refusal> {
     let role = Role::from_code(take(1, "role")?[0]).ok_or(Refusal::Malformed("role"))?;
     let id_len = usize::from(take(1, "id length")?[0]);
     let id = std::str::from_utf8(take(id_len, "id")?).map_err(|_| Refusal::Malformed("id"))?;
-    crate::keys::validate_id(id).map_err(|_| Refusal::Malformed("id"))?;
+    mrmm_proto::keys::validate_id(id).map_err(|_| Refusal::Malformed("id"))?;
     let mut t = [0u8; 8];
     t.copy_from_slice(take(8, "time")?);
     let t_ms = u64::from_le_bytes(t);

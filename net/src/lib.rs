@@ -1,0 +1,17 @@
+//! mrmm's sessions: everything that touches the network or a key. The wire types and keys these
+//! carry are `mrmm-proto`'s (no I/O); the decisions are `mrmm-core`'s.
+//!
+//! - [`mesh`]: the Zenoh session every node opens (TLS or QUIC with mutual certificates, or plain
+//!   TCP for development), sealing what it sends and proving who sent what it receives;
+//! - [`security`]: certificates, seals, pair keys and the PKI;
+//! - [`net`]: queries, liveliness checks and wire statistics;
+//! - [`client`]: the operator's client of central;
+//! - [`map`]: map bundles fetched chunk by chunk.
+
+pub mod client;
+pub mod map;
+pub mod mesh;
+pub mod net;
+pub mod security;
+
+pub use mesh::{Mesh, NodeNet, UNPROVEN};
