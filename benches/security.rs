@@ -305,7 +305,7 @@ async fn telemetry(sec: Sec<'_>) -> anyhow::Result<f64> {
     });
     // A robot's real telemetry (from the robot machine).
     let cfg = mrmm_peer::config::RobotConfig::from_json5("bench", r#"{ id: "p0", type: "ground", kinematics: { max_speed: 2, max_turn_rate: 3 } }"#)?;
-    let mut r = mrmm_peer::robot::Robot::new(cfg);
+    let mut r = mrmm_peer::robot::Robot::new(cfg.setup());
     let Some(template) = r.handle(0.0, mrmm_peer::robot::Event::TelemetryDue).into_iter().find_map(|c| match c {
         mrmm_peer::robot::Command::Telemetry(t) => Some(t),
         _ => None,

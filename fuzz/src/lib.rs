@@ -43,7 +43,7 @@ pub const ROBOTS: [&str; 3] = ["r1", "r2", "r3"];
 pub fn robot(id: &str) -> Robot {
     let text = format!(r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 2, max_turn_rate: 3 }}, time_scale: 4 }}"#);
     match RobotConfig::from_json5("fuzz", &text) {
-        Ok(cfg) => Robot::new(cfg),
+        Ok(cfg) => Robot::new(cfg.setup()),
         Err(e) => panic!("fixture robot config: {e}"),
     }
 }
@@ -57,7 +57,7 @@ pub fn ros_robot(id: &str) -> Robot {
 pub fn ros_robot_driven(id: &str, drive: &str) -> Robot {
     let text = format!(r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1, max_turn_rate: 2 }}, body: {{ kind: "ros2", drive: "{drive}" }} }}"#);
     match RobotConfig::from_json5("fuzz", &text) {
-        Ok(cfg) => Robot::new(cfg),
+        Ok(cfg) => Robot::new(cfg.setup()),
         Err(e) => panic!("fixture robot config: {e}"),
     }
 }

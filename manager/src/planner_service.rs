@@ -2,8 +2,7 @@
 //! announce themselves with a liveliness token and can run in any process (inside central by
 //! default, or `mrmm planner-service`). Planning runs on the blocking pool.
 
-use mrmm_maps::Map;
-use mrmm_planner::recipe::{self, PlannerKind};
+use mrmm_planner::recipe::PlannerKind;
 use std::sync::Arc;
 
 use mrmm_net::net;
@@ -15,7 +14,6 @@ use zenoh::query::Query;
 
 use crate::error::ManagerError;
 use crate::maps::MapStore;
-use crate::wire;
 
 /// Every planner kind a service offers.
 pub const KINDS: [PlannerKind; 2] = [PlannerKind::Patrol, PlannerKind::Coverage];
@@ -25,27 +23,7 @@ pub fn kind(name: &str) -> Option<PlannerKind> {
     KINDS.into_iter().find(|k| k.as_str() == name)
 }
 
-/// Plans a request with the planner library, checking that the recipe is of `kind`; a request
-/// that names a map needs [`plan_on`].
-pub fn plan(kind: PlannerKind, req: &PlanRequest) -> Result<MissionPlan, String> {
-    plan_on(kind, req, None)
-}
-
-/// Plans a request on `map`, the map it names (held by this node).
-pub fn plan_on(kind: PlannerKind, req: &PlanRequest, map: Option<&Map>) -> Result<MissionPlan, String> {
-    if let (Some(r), None) = (&req.map, map) {
-        return Err(format!("map {} ({}) is not held here", r.name, r.hash));
-    }
-    let xml = recipe::bank(&req.recipe).unwrap_or(&req.recipe);
-    let r = recipe::parse(xml).map_err(|e| format!("recipe: {e}"))?;
-    if r.planner != kind {
-        return Err(format!("this is the {} planner; the recipe needs {}", kind.as_str(), r.planner.as_str()));
-    }
-    let robots: Vec<_> = req.robots.iter().map(wire::robot_spec).collect();
-    let bounds = if req.relax_bounds { recipe::Bounds::Relaxed } else { recipe::Bounds::Strict };
-    let planned = recipe::build_with(&r, &req.params, &robots, &req.capabilities, map, bounds).map_err(|e| e.to_string())?;
-    Ok(wire::mission_plan(&planned))
-}
+pub use mrmm_core::planning::{plan, plan_on};
 
 /// Plans `req` off the async runtime, with its map from `maps` (fetched from the fleet if this
 /// node does not hold it yet).

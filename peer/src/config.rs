@@ -7,8 +7,10 @@ use mrmm_proto::config::{load_json5, parse_json5, positive};
 use mrmm_proto::{validate_id, Pose, SecuritySection};
 use serde::Deserialize;
 
-use crate::body::Limits;
 use crate::error::PeerError;
+use mrmm_core::body::Limits;
+use mrmm_core::robot::{BodyKind, Nav2Setup, RobotSetup};
+use mrmm_proto::nav::DriveMode;
 
 /// Everything a robot peer needs to start (`mrmm robot --config robot.json5`).
 #[derive(Debug, Clone, Deserialize)]
@@ -174,6 +176,30 @@ impl RobotConfig {
 
     pub fn start_pose(&self) -> Pose {
         Pose { x: self.start.x, y: self.start.y, theta: self.start.theta }
+    }
+
+    /// What the robot's machine is made of (a Nav2 body's goal ids seeded at random: they must
+    /// not repeat across restarts).
+    pub fn setup(&self) -> RobotSetup {
+        let body = match &self.body {
+            BodySection::Sim => BodyKind::Sim,
+            BodySection::Ros2(b) => BodyKind::Ros {
+                odom_timeout_s: b.odom_timeout_ms as f64 / 1000.0,
+                stop_on_fleet_loss: b.stop_on_fleet_loss,
+                localised: b.pose_topic.is_some(),
+                nav2: (b.drive == DriveMode::Nav2).then(|| Nav2Setup { action: b.nav2_action.clone(), goal_seed: rand::random() }),
+            },
+        };
+        RobotSetup {
+            id: self.id.clone(),
+            robot_type: self.robot_type.clone(),
+            capabilities: self.capabilities.clone(),
+            limits: self.limits(),
+            start: self.start_pose(),
+            time_scale: self.time_scale,
+            durable: self.state_dir.is_some(),
+            body,
+        }
     }
 }
 

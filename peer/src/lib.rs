@@ -5,17 +5,11 @@
 //! A robot is a Zenoh peer. It registers with the system manager through a liveliness token and an
 //! info queryable, streams telemetry, and executes commands (see `mrmm_proto::keys`).
 
-pub mod barrier;
-pub mod body;
 pub mod config;
-pub mod drive;
 pub mod error;
-pub mod executor;
 pub mod kept;
-pub mod nav_goals;
-pub mod robot;
-pub mod ros_body;
 pub mod runtime;
-pub mod viewers;
 
 pub use error::PeerError;
+/// The robot's machines (`mrmm-core`), under the names the driver always used.
+pub use mrmm_core::{barrier, body, drive, executor, nav_goals, robot, ros_body, viewers};

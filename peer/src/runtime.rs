@@ -209,7 +209,7 @@ pub async fn run_on(
         None => None,
     };
     let state_dir = cfg.state_dir.clone();
-    let mut robot = Robot::new(cfg);
+    let mut robot = Robot::new(cfg.setup());
     if let Some(now) = kept {
         robot.restore_capabilities(now);
     }

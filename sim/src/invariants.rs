@@ -20,8 +20,8 @@ use std::collections::hash_map::DefaultHasher;
 use std::collections::{BTreeMap, BTreeSet};
 use std::hash::{Hash, Hasher};
 
-use mrmm_manager::host::HostCore;
-use mrmm_peer::executor::Executor;
+use mrmm_core::executor::Executor;
+use mrmm_core::host::HostCore;
 use mrmm_proto::chain::{lineage_of, Version};
 use mrmm_proto::{MissionSnapshot, SyncArrival, SyncRelease};
 

@@ -7,9 +7,9 @@
 //! tokens); every decision is the machines'. After every event it checks the invariants
 //! (`invariants.rs`); a run returns the first violation with the seed that replays it.
 //!
-//! [`CentralCore`]: mrmm_manager::central::CentralCore
-//! [`HostCore`]: mrmm_manager::host::HostCore
-//! [`Robot`]: mrmm_peer::robot::Robot
+//! [`CentralCore`]: mrmm_core::central::CentralCore
+//! [`HostCore`]: mrmm_core::host::HostCore
+//! [`Robot`]: mrmm_core::robot::Robot
 
 mod invariants;
 mod net;

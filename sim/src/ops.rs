@@ -2,7 +2,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_manager::system::Request;
+use mrmm_core::system::Request;
 use mrmm_proto::{CapabilitiesRequest, MissionCreate, MissionPause, MissionTerminate, MissionUpdate, RobotMove};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;

@@ -4,7 +4,6 @@
 //! requests itself), holds operator queries under an id, and carries out the [`Command`]s.
 
 mod config;
-mod core;
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -19,12 +18,12 @@ use zenoh::query::Query;
 use zenoh::sample::{Sample, SampleKind};
 
 pub use self::config::CentralConfig;
-pub use self::core::{CentralCore, Command, Event, AGENT_PERIOD_S};
 use crate::error::ManagerError;
 use crate::inbox::Inbox;
 use crate::journal::{now_ms, Journal};
 use crate::system::{self, Req, Request};
 use crate::Failure;
+pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
 
 /// Liveliness changes waiting for central's loop, at most.
 const LIVELINESS_QUEUE: usize = 65_536;

@@ -4,8 +4,6 @@
 //! this file is its driver: it turns Zenoh traffic into [`Event`]s, holds queries under an id,
 //! and carries out the [`Command`]s.
 
-mod core;
-mod head;
 pub mod store;
 mod subs;
 
@@ -22,13 +20,12 @@ use zenoh::bytes::Encoding;
 use zenoh::query::{Query, Queryable};
 use zenoh::sample::{Sample, SampleKind};
 
-pub use self::core::{Command, Event, HostCore, UNJUDGED_S};
-pub use self::head::{PLAN_RETRIES, REDELIVER_S};
 use crate::chain::Params;
 use crate::error::ManagerError;
 use crate::inbox::Inbox;
 use crate::maps::MapStore;
 use crate::Failure;
+pub use mrmm_core::host::{Command, Event, HostCore, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
 
 /// How long a planner service may take.
 pub const PLAN_TIMEOUT: Duration = Duration::from_secs(20);
@@ -473,6 +470,3 @@ impl Io {
 fn failure(e: QueryError) -> Failure {
     Failure::from(e)
 }
-
-#[cfg(test)]
-mod tests;

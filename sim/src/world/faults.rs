@@ -32,10 +32,7 @@ impl World {
         let n = &mut self.nodes[i];
         if let (Some(r), Some(c)) = (&n.robot, &mut n.cfg) {
             // The body stays where it is: the restarted process starts from there.
-            let t = r.pose();
-            c.start.x = t.x;
-            c.start.y = t.y;
-            c.start.theta = t.theta;
+            c.start = r.pose();
         }
         n.central = None;
         n.host = None;

@@ -152,7 +152,7 @@ impl World {
                     return Err(format!("{} has no disk but was asked to persist {mission}", self.nodes[i].name));
                 }
                 match *disk {
-                    mrmm_manager::chain::Disk::Forget => self.nodes[i].chain_disk.remove(&mission),
+                    mrmm_core::chain::Disk::Forget => self.nodes[i].chain_disk.remove(&mission),
                     d => self.nodes[i].chain_disk.insert(mission, d),
                 };
             }
@@ -180,7 +180,7 @@ impl World {
             }
             host::Command::RequestPlan { mission, epoch, kind, request, local } => {
                 if local {
-                    let result = mrmm_manager::planner_service::plan(kind, &request).map(Box::new).map_err(|error| Failure { retryable: false, error });
+                    let result = mrmm_core::planning::plan(kind, &request).map(Box::new).map_err(|error| Failure { retryable: false, error });
                     let at = self.now + self.rng.gen_range(0.01..0.2);
                     let inc = self.links.inc[i];
                     self.queue.push(at, Ev::Local { node: i, inc, ev: Box::new(host::Event::Planned { mission, epoch, result }) });

@@ -4,14 +4,15 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_manager::agent::{AgentConfig, Autonomy};
-use mrmm_manager::central::{self, CentralCore};
-use mrmm_manager::chain::Params;
-use mrmm_manager::host::{self, HostCore};
-use mrmm_manager::system::{self, Ctls, Req};
-use mrmm_manager::Failure;
-use mrmm_peer::config::RobotConfig;
-use mrmm_peer::robot::{self, Robot};
+use mrmm_core::agent::{AgentConfig, Autonomy};
+use mrmm_core::body::Limits;
+use mrmm_core::central::{self, CentralCore};
+use mrmm_core::chain::Params;
+use mrmm_core::host::{self, HostCore};
+use mrmm_core::robot::RobotSetup;
+use mrmm_core::robot::{self, Robot};
+use mrmm_core::system::{self, Ctls, Req};
+use mrmm_core::Failure;
 use mrmm_proto::{
     CommandAck, CtlAck, Member, MissionCtl, MissionPlan, MissionSpecWire, MissionStart, MissionView, PlanAssignment, PlanRequest, RobotCommand, RobotInfo,
     RobotPlan, RobotSpec, Role, Sender, Step, CENTRAL_HOST,
@@ -71,7 +72,7 @@ struct Node {
     central: Option<CentralCore>,
     host: Option<HostCore>,
     robot: Option<Robot>,
-    cfg: Option<RobotConfig>,
+    cfg: Option<RobotSetup>,
     /// Missions whose queryables this node's host serves.
     served: BTreeSet<String>,
     /// The robot's team: (team, subteam).
@@ -82,9 +83,9 @@ struct Node {
     barrier: mrmm_proto::BarrierMode,
     leading: bool,
     /// Central's journal: what it committed, kept across crashes (the disk).
-    disk: mrmm_manager::system::Durable,
+    disk: mrmm_core::system::Durable,
     /// A robot's or mission host's chain state on disk ([`Config::disks`]), kept across crashes.
-    chain_disk: BTreeMap<String, mrmm_manager::chain::Disk<mrmm_proto::MissionSnapshot>>,
+    chain_disk: BTreeMap<String, mrmm_core::chain::Disk<mrmm_proto::MissionSnapshot>>,
     /// A robot's capabilities as changed at runtime, kept in its state dir ([`Config::disks`]).
     kept_caps: Option<Vec<String>>,
 }
@@ -211,13 +212,11 @@ pub struct World {
     trace: Option<Vec<String>>,
 }
 
-fn robot_cfg(id: &str, x: f64, y: f64) -> RobotConfig {
-    let text = format!(
-        r#"{{ id: "{id}", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }}, start: {{ x: {x}, y: {y} }}, time_scale: {TIME_SCALE}, telemetry_hz: 5 }}"#
-    );
-    match RobotConfig::from_json5("sim", &text) {
-        Ok(c) => c,
-        Err(e) => panic!("the simulation's robot config is wrong: {e}"),
+fn robot_cfg(id: &str, x: f64, y: f64) -> RobotSetup {
+    RobotSetup {
+        capabilities: vec!["camera".to_string()],
+        time_scale: TIME_SCALE,
+        ..RobotSetup::sim(id, "ground", Limits { max_speed: 1.0, max_turn_rate: 2.0 }, mrmm_proto::Pose { x, y, theta: 0.0 })
     }
 }
 
@@ -230,7 +229,7 @@ fn json<T: serde::de::DeserializeOwned>(a: Result<Answer, Failure>) -> Result<T,
 
 impl Node {
     /// A node whose process has not started yet (see `World::boot`).
-    fn new(name: String, kind: Kind, cfg: Option<RobotConfig>) -> Node {
+    fn new(name: String, kind: Kind, cfg: Option<RobotSetup>) -> Node {
         Node {
             name,
             kind,
@@ -262,10 +261,8 @@ impl World {
         for i in 1..=cfg.robots {
             let id = format!("r{i}");
             let mut c = robot_cfg(&id, i as f64 * 2.0, -3.0);
-            if cfg.disks {
-                // Only its presence matters here: the simulated disk is `chain_disk`.
-                c.state_dir = Some(format!("/sim/{id}").into());
-            }
+            // With disks, robots keep state across restarts (the simulated disk is `chain_disk`).
+            c.durable = cfg.disks;
             nodes.push(Node::new(id, Kind::Robot, Some(c)));
         }
         let n = nodes.len();

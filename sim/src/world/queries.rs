@@ -111,9 +111,8 @@ impl World {
             Payload::View(mission) => self.host(s, host::Event::View { query: qid, mission })?,
             Payload::Planner(request, kind) => {
                 if self.nodes[s].kind == Kind::Central {
-                    let result = mrmm_manager::planner_service::plan(kind, &request)
-                        .map(|p| Answer::Plan(Box::new(p)))
-                        .map_err(|error| Failure { retryable: false, error });
+                    let result =
+                        mrmm_core::planning::plan(kind, &request).map(|p| Answer::Plan(Box::new(p))).map_err(|error| Failure { retryable: false, error });
                     self.reply(qid, result);
                 }
             }

@@ -2,8 +2,8 @@
 //! when to try a refused or failed goal again, and what to report while the robot cannot get
 //! anywhere (telemetry's `stuck`, which the advising agent raises at once).
 
+use mrmm_proto::nav::{status, GoalEvent, GoalId};
 use mrmm_proto::Pose;
-use mrmm_ros2::nav2::{status, GoalEvent, GoalId};
 
 /// A goal Nav2 rejected or aborted is sent again after this long, seconds (its recoveries may
 /// have cleared the way; a new target is sent at once).

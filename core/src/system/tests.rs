@@ -168,7 +168,8 @@ fn goto_is_validated_then_relayed() {
 #[test]
 fn a_goto_on_a_map_follows_a_route() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../maps/data/building/building.yaml");
-    let held = crate::maps::load_file("building", &path).expect("the demo building");
+    let bundle = mrmm_maps::Bundle::collect(&path.to_string_lossy(), |p| std::fs::read(p).map_err(|e| e.to_string())).expect("the demo building");
+    let held = crate::maps::Held::new("building", &bundle).expect("the demo building");
     let grid = held.map.grid().expect("a grid").clone();
     let mut sm = registered(&["r1"]).with_maps([("building".to_string(), std::sync::Arc::new(held))].into());
     let go = |sm: &mut SystemManager, body: &str| sm.drive(1.0, Event::Operator { req: Req::Query(7), request: Request::Goto(decode(body)) });

@@ -1,10 +1,20 @@
 //! Unit tests of the robot machine: commands and who may give them, plans, telemetry.
 
 use super::*;
-use mrmm_proto::RobotPlan;
+use crate::body::Limits;
+use mrmm_proto::{Pose, RobotPlan};
 
-fn cfg() -> RobotConfig {
-    RobotConfig::from_json5("t", r#"{ id: "r1", type: "ground", kinematics: { max_speed: 2, max_turn_rate: 3 }, time_scale: 4 }"#).expect("config")
+fn cfg() -> RobotSetup {
+    RobotSetup { time_scale: 4.0, ..RobotSetup::sim("r1", "ground", Limits { max_speed: 2.0, max_turn_rate: 3.0 }, Pose::default()) }
+}
+
+/// A robot of speed 1 and turn rate 1 with these capabilities, durable or not.
+fn with_capabilities(capabilities: &[&str], durable: bool) -> RobotSetup {
+    RobotSetup {
+        capabilities: capabilities.iter().map(|c| c.to_string()).collect(),
+        durable,
+        ..RobotSetup::sim("r1", "ground", Limits { max_speed: 1.0, max_turn_rate: 1.0 }, Pose::default())
+    }
 }
 
 fn plan(mission: &str, epoch: u64) -> RobotCommand {
@@ -180,10 +190,7 @@ fn an_idle_robot_takes_a_robot_heads_plan_only_while_central_is_unreachable() {
 
 #[test]
 fn capabilities_change_on_centrals_word_and_telemetry_says_so() {
-    let mut r = Robot::new(
-        RobotConfig::from_json5("t", r#"{ id: "r1", type: "ground", capabilities: ["camera", "lidar"], kinematics: { max_speed: 1, max_turn_rate: 1 } }"#)
-            .expect("config"),
-    );
+    let mut r = Robot::new(with_capabilities(&["camera", "lidar"], false));
     assert_eq!((r.info(vec![]).rev, telemetry(&mut r, 0.0).info_rev), (0, 0));
     let change = |add: &[&str], remove: &[&str]| RobotCommand::Capabilities {
         add: add.iter().map(|s| s.to_string()).collect(),
@@ -212,7 +219,6 @@ fn capabilities_change_on_centrals_word_and_telemetry_says_so() {
 
 #[test]
 fn a_robot_with_a_state_dir_keeps_changed_capabilities() {
-    let json = |dir: &str| format!(r#"{{ id: "r1", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1, max_turn_rate: 1 }} {dir} }}"#);
     let change = RobotCommand::Capabilities { add: vec![], remove: vec!["camera".into()] };
     let keeps = |out: &[Command]| {
         out.iter().find_map(|c| match c {
@@ -220,15 +226,15 @@ fn a_robot_with_a_state_dir_keeps_changed_capabilities() {
             _ => None,
         })
     };
-    let mut stateless = Robot::new(RobotConfig::from_json5("t", &json("")).expect("config"));
+    let mut stateless = Robot::new(with_capabilities(&["camera"], false));
     assert_eq!(keeps(&stateless.handle(0.0, Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") })), None);
-    let mut r = Robot::new(RobotConfig::from_json5("t", &json(r#", state_dir: "/var/lib/mrmm/r1""#)).expect("config"));
+    let mut r = Robot::new(with_capabilities(&["camera"], true));
     let out = r.handle(0.0, Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") });
     assert_eq!(keeps(&out), Some((vec!["camera".to_string()], vec![])));
     // No change, nothing to keep.
     assert_eq!(keeps(&r.handle(0.1, Event::Command { cmd: change, from: Sender::new(Role::Central, "central") })), None);
     // After a restart, what was kept replaces the config's list.
-    let mut again = Robot::new(RobotConfig::from_json5("t", &json(r#", state_dir: "/var/lib/mrmm/r1""#)).expect("config"));
+    let mut again = Robot::new(with_capabilities(&["camera"], true));
     again.restore_capabilities(vec!["lidar".into()]);
     assert_eq!(again.info(vec![]).capabilities, ["lidar"]);
 }

@@ -7,13 +7,14 @@ use mrmm_proto::{
 };
 
 use crate::body::Body;
-use crate::config::{BodySection, RobotConfig};
 use crate::drive::Drive;
 use crate::executor::{self, Executor};
 use crate::nav_goals::{Nav2Goals, NavCommand};
 use crate::ros_body::RosDrive;
-use mrmm_ros2::nav2::{GoalEvent, GoalId};
-use mrmm_ros2::DriveMode;
+use mrmm_proto::nav::{GoalEvent, GoalId};
+
+mod setup;
+pub use setup::{BodyKind, Nav2Setup, RobotSetup};
 
 /// Steps a plan may have at most.
 pub const MAX_PLAN_STEPS: usize = 100_000;
@@ -92,7 +93,7 @@ pub enum Command {
 /// A robot's state, independent of the network.
 #[derive(Debug)]
 pub struct Robot {
-    cfg: RobotConfig,
+    cfg: RobotSetup,
     body: Drive,
     seq: u64,
     /// Simulated seconds since start.
@@ -116,13 +117,15 @@ pub struct Robot {
 }
 
 impl Robot {
-    pub fn new(cfg: RobotConfig) -> Self {
+    pub fn new(cfg: RobotSetup) -> Self {
         let body = match &cfg.body {
-            BodySection::Sim => Drive::Sim(Body::new(cfg.start_pose(), cfg.limits())),
-            BodySection::Ros2(b) => {
-                let d = RosDrive::new(cfg.start_pose(), cfg.limits(), b.odom_timeout_ms as f64 / 1000.0, b.stop_on_fleet_loss, b.pose_topic.is_some());
-                // Goal ids must not repeat across restarts (the server keeps finished goals).
-                Drive::Ros(Box::new(if b.drive == DriveMode::Nav2 { d.with_nav2(Nav2Goals::new(&b.nav2_action, rand::random())) } else { d }))
+            BodyKind::Sim => Drive::Sim(Body::new(cfg.start, cfg.limits)),
+            BodyKind::Ros { odom_timeout_s, stop_on_fleet_loss, localised, nav2 } => {
+                let d = RosDrive::new(cfg.start, cfg.limits, *odom_timeout_s, *stop_on_fleet_loss, *localised);
+                Drive::Ros(Box::new(match nav2 {
+                    Some(n) => d.with_nav2(Nav2Goals::new(&n.action, n.goal_seed)),
+                    None => d,
+                }))
             }
         };
         let capabilities = cfg.capabilities.clone();
@@ -198,10 +201,10 @@ impl Robot {
             id: self.cfg.id.clone(),
             robot_type: self.cfg.robot_type.clone(),
             capabilities: self.capabilities.clone(),
-            max_speed: self.cfg.kinematics.max_speed,
+            max_speed: self.cfg.limits.max_speed,
             endpoints,
             time_scale: self.cfg.time_scale,
-            durable: self.cfg.state_dir.is_some(),
+            durable: self.cfg.durable,
             rev: self.info_rev,
         }
     }
@@ -223,7 +226,7 @@ impl Robot {
                             ack.capabilities = Some(self.capabilities.clone());
                         }
                         out.push(Command::Reply(Ok(ack)));
-                        if std::mem::take(&mut self.keep) && self.cfg.state_dir.is_some() {
+                        if std::mem::take(&mut self.keep) && self.cfg.durable {
                             out.push(Command::KeepCapabilities { configured: self.cfg.capabilities.clone(), now: self.capabilities.clone() });
                         }
                         // Tell the fleet at once, not at the next telemetry tick.

@@ -12,14 +12,18 @@ use mrmm_proto::{
 };
 use serde_json::Value;
 
-use super::head::Head;
+use self::head::Head;
 use crate::chain::{self, Params, Registry};
 use crate::mission::{self, MissionManager, MissionSpec};
 use crate::Failure;
 
+mod head;
 mod led;
+#[cfg(test)]
+mod tests;
 mod watch;
 
+pub use head::{PLAN_RETRIES, REDELIVER_S};
 pub use watch::UNJUDGED_S;
 
 type ChainCmd = chain::Command<MissionSnapshot>;

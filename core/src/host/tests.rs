@@ -109,7 +109,7 @@ fn planned(cmds: &[Command]) -> Option<Event> {
         Command::RequestPlan { mission, epoch, kind, request, .. } => Some(Event::Planned {
             mission: mission.clone(),
             epoch: *epoch,
-            result: crate::planner_service::plan(*kind, request).map(Box::new).map_err(|error| Failure { retryable: false, error }),
+            result: crate::planning::plan(*kind, request).map(Box::new).map_err(|error| Failure { retryable: false, error }),
         }),
         _ => None,
     })
