@@ -7,8 +7,7 @@ use crate::viewers::{Heard, Viewers, MAX_VIEWERS};
 use mrmm_net::net::{self, Mode};
 use mrmm_net::security::seal::SignCadence;
 use mrmm_net::{Mesh, NodeNet};
-use mrmm_proto::policy::Publication;
-use mrmm_proto::{self as proto, BarrierMode, Key, Pattern, Role, Sender, SyncArrival, SyncRelease};
+use mrmm_proto::{self as proto, BarrierMode, Key, Pattern, Role, Sender};
 use tokio::sync::oneshot;
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
@@ -21,7 +20,7 @@ use zenoh::Session;
 
 use crate::config::{BodySection, RobotConfig};
 use crate::error::PeerError;
-use crate::robot::{Command, Event, Robot};
+use crate::robot::{Command, Event, Incoming, Refused, Robot};
 use mrmm_proto::Velocity;
 use mrmm_ros2::msgs::Twist;
 use mrmm_ros2::nav2::GoalEvent;
@@ -322,8 +321,8 @@ pub async fn run_on(
                         continue;
                     }
                 };
-                match proto::from_json("robot command", &net::query_payload(&q)) {
-                    Ok(cmd) => (Event::Command { cmd, from }, Some(q)),
+                match robot.ingress(Incoming { key: q.key_expr().as_str(), payload: &net::query_payload(&q), put: true, from: Some(&from) }) {
+                    Ok(ev) => (ev, Some(q)),
                     Err(e) => {
                         tracing::warn!(robot = %id, "refused command: {e}");
                         mesh.reply_error(&q, &e.to_string()).await;
@@ -331,8 +330,8 @@ pub async fn run_on(
                     }
                 }
             }
-            s = recv_team(&io.team, Sub::Arrivals) => match arrival(&mesh, &s) {
-                Some(a) => (Event::Heard(a), None),
+            s = recv_team(&io.team, Sub::Arrivals) => match heard(&mesh, &robot, "barrier arrival", &s) {
+                Some(ev) => (ev, None),
                 None => continue,
             },
             s = viewers.recv_async() => {
@@ -351,31 +350,23 @@ pub async fn run_on(
                 continue;
             }
             s = central.recv_async() => match s {
-                Ok(s) => (Event::CentralAlive(s.kind() == SampleKind::Put), None),
+                Ok(s) => match liveliness(&robot, &s) {
+                    Some(ev) => (ev, None),
+                    None => continue,
+                },
                 Err(_) => break,
             },
-            s = recv_team(&io.team, Sub::Releases) => {
-                let Some(from) = mesh.sender_of("barrier release", &s) else { continue };
-                match proto::from_json::<SyncRelease>("sync release", &s.payload().to_bytes()) {
-                    Ok(r) if mesh.entitled(Publication::Release(&r.leader), &from) => (Event::Released(r), None),
-                    Ok(_) => continue,
-                    Err(e) => {
-                        tracing::warn!("dropped payload on {}: {e}", s.key_expr());
-                        continue;
-                    }
-                }
-            },
-            (team, s) = recv_wide(&io.team) => match arrival(&mesh, &s) {
-                Some(a) => (Event::HeardIn(team, a), None),
+            s = recv_team(&io.team, Sub::Releases) => match heard(&mesh, &robot, "barrier release", &s) {
+                Some(ev) => (ev, None),
                 None => continue,
             },
-            s = recv_team(&io.team, Sub::Members) => match Key::parse(s.key_expr().as_str()) {
-                Some(Key::TeamMember { robot, .. }) if s.kind() == SampleKind::Put => (Event::MemberAlive(robot), None),
-                Some(Key::TeamMember { robot, .. }) => (Event::MemberGone(robot), None),
-                _ => {
-                    tracing::warn!("ignored token {}", s.key_expr());
-                    continue;
-                }
+            (_, s) = recv_wide(&io.team) => match heard(&mesh, &robot, "barrier arrival", &s) {
+                Some(ev) => (ev, None),
+                None => continue,
+            },
+            s = recv_team(&io.team, Sub::Members) => match liveliness(&robot, &s) {
+                Some(ev) => (ev, None),
+                None => continue,
             },
         };
         for c in robot.handle(t0.elapsed().as_secs_f64(), event) {
@@ -567,15 +558,31 @@ async fn recv_team(team: &Option<TeamLink>, which: Sub) -> Sample {
     }
 }
 
-/// A teammate's barrier arrival, if its proven sender is the robot it names (a forged one is
-/// refused and recorded, a malformed one dropped).
-fn arrival(mesh: &Mesh, s: &Sample) -> Option<SyncArrival> {
-    let from = mesh.sender_of("barrier arrival", s)?;
-    match proto::from_json::<SyncArrival>("sync arrival", &s.payload().to_bytes()) {
-        Ok(a) if mesh.entitled(Publication::Arrival(&a.robot), &from) => Some(a),
-        Ok(_) => None,
+/// A sealed team message (an arrival or a release) as the robot's event: its seal proven here,
+/// the rest translated by the robot's own ingress (a forged one is refused and recorded, a
+/// malformed one dropped).
+fn heard(mesh: &Mesh, robot: &Robot, what: &str, s: &Sample) -> Option<Event> {
+    let from = mesh.sender_of(what, s)?;
+    let payload = s.payload().to_bytes();
+    match robot.ingress(Incoming { key: s.key_expr().as_str(), payload: &payload, put: s.kind() == SampleKind::Put, from: Some(&from) }) {
+        Ok(ev) => Some(ev),
+        Err(Refused::NotEntitled { from, what }) => {
+            mesh.refuse(&what, &from);
+            None
+        }
         Err(e) => {
             tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+            None
+        }
+    }
+}
+
+/// A liveliness token (a teammate's, central's) as the robot's event.
+fn liveliness(robot: &Robot, s: &Sample) -> Option<Event> {
+    match robot.ingress(Incoming { key: s.key_expr().as_str(), payload: &[], put: s.kind() == SampleKind::Put, from: None }) {
+        Ok(ev) => Some(ev),
+        Err(e) => {
+            tracing::warn!("ignored token {}: {e}", s.key_expr());
             None
         }
     }

@@ -228,6 +228,8 @@ pub struct Report {
     pub headless: u32,
     /// Live members of missions that require capabilities, checked at the end to have them.
     pub required_checked: u32,
+    /// Forged messages (another robot's arrival or release, an unsealed arrival) robots refused.
+    pub forged_refused: u32,
     /// The trace, when asked for.
     pub trace: Vec<String>,
 }

@@ -45,6 +45,8 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
             }
             if what.contains("barrier") || what.contains("system") {
                 assert!(n == 0 || sum(|r| u64::from(r.barriers)) > 0, "{what}: {n} seeds passed no barrier");
+                // The forger struck (and every robot refused it: a forgery taken fails the seed).
+                assert!(n < 20 || sum(|r| u64::from(r.forged_refused)) > 0, "{what}: {n} seeds and no forgery reached a robot");
             }
             let headless: Vec<u64> = reports.iter().filter(|r| r.headless > 0).map(|r| r.seed).take(20).collect();
             if !headless.is_empty() {
@@ -55,7 +57,7 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
                 println!("seeds with unrecoverable missions at the end (first 20): {unrecoverable:?}");
             }
             println!(
-                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted); {} started anew ({} without every member), {} old-lineage heads fenced; {} missions nobody leads at the end (without disks); {} live members of missions with requirements checked to have them; {} missions paused at the end, their live members checked to hold",
+                "{what}: {n} seeds in {:.1} s: {} events, {} messages, {} crashes, {} partitions, {} false suspicions, {} heads elected, {} controls acknowledged, {} operator commands ok, {} barriers passed; {} missions unrecoverable (a majority of their chain restarted); {} started anew ({} without every member), {} old-lineage heads fenced; {} missions nobody leads at the end (without disks); {} live members of missions with requirements checked to have them; {} missions paused at the end, their live members checked to hold; {} forged messages refused",
                 started.elapsed().as_secs_f64(),
                 sum(|r| r.events),
                 sum(|r| r.messages),
@@ -73,6 +75,7 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
                 sum(|r| u64::from(r.headless)),
                 sum(|r| u64::from(r.required_checked)),
                 sum(|r| u64::from(r.paused_at_end)),
+                sum(|r| u64::from(r.forged_refused)),
             );
         }
         Err(v) => panic!("{what}: {v}; replay with MRMM_SIM_SEED={} cargo test -p mrmm-sim --test <this file> -- --nocapture", v.seed),

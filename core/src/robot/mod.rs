@@ -13,7 +13,9 @@ use crate::nav_goals::{Nav2Goals, NavCommand};
 use crate::ros_body::RosDrive;
 use mrmm_proto::nav::{GoalEvent, GoalId};
 
+mod ingress;
 mod setup;
+pub use ingress::{Incoming, Refused};
 pub use setup::{BodyKind, Nav2Setup, RobotSetup};
 
 /// Steps a plan may have at most.

@@ -117,7 +117,7 @@ impl World {
                 let (a, b) = (system::Event::HostAlive { node: name.clone() }, system::Event::HostGone { node: name.clone() });
                 self.central(node, central::Event::System(if up { a } else { b }))?;
                 if name == CENTRAL_HOST {
-                    self.robot(node, robot::Event::CentralAlive(up))?;
+                    self.robot_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone()), up))?;
                 }
                 self.host(node, if up { host::Event::HostAlive(name.clone()) } else { host::Event::HostGone(name.clone()) })
             }
@@ -128,8 +128,8 @@ impl World {
                 }
                 Ok(())
             }
-            Token::Member { robot, .. } => {
-                self.robot(node, if up { robot::Event::MemberAlive(robot.clone()) } else { robot::Event::MemberGone(robot.clone()) })
+            Token::Member { subteam, robot } => {
+                self.robot_hears(node, Wire::token(mrmm_proto::Key::TeamMember { subteam: subteam.clone(), robot: robot.clone() }, up))
             }
         }
     }

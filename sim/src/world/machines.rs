@@ -270,11 +270,17 @@ impl World {
                     self.inv.arrival(&team, &a);
                     // Under the leader barrier only the members leading hear arrivals.
                     let leader = self.nodes[i].barrier == mrmm_proto::BarrierMode::Leader;
+                    let key = if leader {
+                        mrmm_proto::Key::TeamArrive { team: team.clone(), point: a.point, round: a.round }
+                    } else {
+                        mrmm_proto::Key::TeamSync { team: team.clone(), point: a.point, round: a.round }
+                    };
+                    let msg = Wire::json(key, &a, self.sender(i));
                     for j in 0..self.nodes.len() {
                         let same = self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team) && (!leader || self.nodes[j].leading);
                         if j != i && same && !self.lost() {
                             let at = self.now + self.delay();
-                            self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::Heard(a.clone())) });
+                            self.queue.push(at, Ev::Robot { from: i, to: j, msg: Box::new(msg.clone()) });
                         }
                     }
                 }
@@ -284,10 +290,11 @@ impl World {
                         continue;
                     }
                     self.inv.arrival(&team, &a);
+                    let msg = Wire::json(mrmm_proto::Key::TeamSync { team: team.clone(), point: a.point, round: a.round }, &a, self.sender(i));
                     for j in 0..self.nodes.len() {
                         if j != i && self.nodes[j].scopes.contains(&team) && !self.lost() {
                             let at = self.now + self.delay();
-                            self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::HeardIn(team.clone(), a.clone())) });
+                            self.queue.push(at, Ev::Robot { from: i, to: j, msg: Box::new(msg.clone()) });
                         }
                     }
                 }
@@ -300,11 +307,12 @@ impl World {
                     if let Some(e) = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()) {
                         self.inv.release(&name, e, &r)?;
                     }
+                    let msg = Wire::json(mrmm_proto::Key::TeamRelease { team: team.clone(), point: r.point, round: r.round }, &r, self.sender(i));
                     for j in 0..self.nodes.len() {
                         let same = self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team);
                         if j != i && same && !self.lost() {
                             let at = self.now + self.delay();
-                            self.queue.push(at, Ev::Robot { from: i, to: j, ev: Box::new(robot::Event::Released(r.clone())) });
+                            self.queue.push(at, Ev::Robot { from: i, to: j, msg: Box::new(msg.clone()) });
                         }
                     }
                 }

@@ -30,6 +30,9 @@ mod faults;
 mod machines;
 mod operator;
 mod queries;
+mod wire;
+
+use wire::Wire;
 
 /// Robots' simulated seconds per wall second.
 const TIME_SCALE: f64 = 4.0;
@@ -150,11 +153,14 @@ enum Ev {
         to: usize,
         ev: Box<central::Event>,
     },
+    /// A message to a robot, as its driver receives it: translated by the robot's own ingress.
     Robot {
         from: usize,
         to: usize,
-        ev: Box<robot::Event>,
+        msg: Box<Wire>,
     },
+    /// A forger publishes in another robot's name (never changes what honest nodes do).
+    Forge,
     /// An answer a node computed for itself (local planning).
     Local {
         node: usize,
@@ -194,6 +200,8 @@ pub struct World {
     /// The operator's changes of robots' capabilities, drawn from a stream of their own so that
     /// the other draws of a seed stay as they were.
     caps_rng: ChaCha8Rng,
+    /// The forger's stream ([`wire`]).
+    forge_rng: ChaCha8Rng,
     now: f64,
     nodes: Vec<Node>,
     links: Links,
@@ -271,6 +279,7 @@ impl World {
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
             fault_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x51de_c1c1e),
             caps_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xca9a_b1e5),
+            forge_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xf0_29e5),
             now: 0.0,
             nodes,
             links: Links::new(n),
@@ -378,6 +387,7 @@ impl World {
     fn run_inner(&mut self) -> Result<(), String> {
         let end = self.cfg.duration + self.cfg.quiet;
         self.schedule_faults();
+        self.schedule_forgery();
         match self.cfg.ops {
             Ops::Barriers { points, rounds, mode, teams } => self.hand_out_barrier_plans(points, rounds, mode, teams),
             Ops::OneMission | Ops::Random => self.queue.push(0.5, Ev::Op),
@@ -429,12 +439,13 @@ impl World {
                     self.central(to, *ev)?;
                 }
             }
-            Ev::Robot { from, to, ev } => {
+            Ev::Robot { from, to, msg } => {
                 if self.links.connected(from, to) {
                     self.report.messages += 1;
-                    self.robot(to, *ev)?;
+                    self.robot_hears(to, *msg)?;
                 }
             }
+            Ev::Forge => self.forge()?,
             Ev::Local { node, inc, ev } => {
                 if self.links.up[node] && self.links.inc[node] == inc {
                     self.host(node, *ev)?;

@@ -59,7 +59,15 @@ impl World {
                 let Some(r) = self.nodes[s].robot.as_mut() else {
                     return Ok(());
                 };
-                let cmds = r.handle(now, robot::Event::Command { cmd, from });
+                // Through the robot's ingress, as its driver takes a command query.
+                let msg = Wire::json(mrmm_proto::Key::RobotCmd(r.id().to_string()), &cmd, from);
+                let ev = r
+                    .ingress(mrmm_core::robot::Incoming { key: &msg.key, payload: &msg.payload, put: true, from: msg.from.as_ref() })
+                    .map_err(|e| format!("{} refused an honest command: {e}", self.nodes[s].name))?;
+                let Some(r) = self.nodes[s].robot.as_mut() else {
+                    return Ok(());
+                };
+                let cmds = r.handle(now, ev);
                 // A refusal (its sender may not send this, yet) may be retried: as the driver does.
                 let reply = cmds.iter().find_map(|c| match c {
                     robot::Command::Reply(r) => Some(r.clone().map_err(|error| Failure { retryable: false, error })),

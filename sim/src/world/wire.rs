@@ -1,0 +1,99 @@
+//! Messages to robots as their drivers receive them — a key, a payload, a proven sender — and
+//! translated by the robot machine's own ingress, as `mrmm_peer::runtime` does; and a forger
+//! that publishes arrivals and releases in other robots' names, which every robot must refuse.
+
+use mrmm_core::robot::{Incoming, Refused};
+use mrmm_proto::{Key, Sender, SyncArrival, SyncRelease};
+
+use super::*;
+
+/// A message on its way to a robot.
+#[derive(Debug, Clone)]
+pub(super) struct Wire {
+    pub key: String,
+    pub payload: Vec<u8>,
+    pub put: bool,
+    /// Its proven sender (liveliness tokens have none).
+    pub from: Option<Sender>,
+}
+
+impl Wire {
+    /// A sealed JSON message of `from` on `key`.
+    pub fn json<T: serde::Serialize>(key: Key, body: &T, from: Sender) -> Wire {
+        Wire { key: key.to_string(), payload: serde_json::to_vec(body).unwrap_or_default(), put: true, from: Some(from) }
+    }
+
+    /// A liveliness token appearing (`up`) or going.
+    pub fn token(key: Key, up: bool) -> Wire {
+        Wire { key: key.to_string(), payload: Vec::new(), put: up, from: None }
+    }
+}
+
+/// How often (simulated seconds, on average) the forger strikes.
+const FORGE_EVERY: f64 = 7.0;
+
+impl World {
+    /// Robot `i` hears `msg`: its ingress makes it an event, or refuses it — which no message
+    /// of an honest node of the simulation may be.
+    pub(super) fn robot_hears(&mut self, i: usize, msg: Wire) -> Result<(), String> {
+        let Some(r) = self.nodes[i].robot.as_ref() else {
+            return Ok(());
+        };
+        match r.ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
+            Ok(ev) => self.robot(i, ev),
+            Err(e) => Err(format!("{} refused an honest message on {}: {e}", self.nodes[i].name, msg.key)),
+        }
+    }
+
+    /// The next strike of the forger, from a random stream of its own (the honest nodes' draws
+    /// stay as they were).
+    pub(super) fn schedule_forgery(&mut self) {
+        if self.cfg.robots > 1 {
+            let at = self.now + self.forge_rng.gen_range(0.2 * FORGE_EVERY..1.8 * FORGE_EVERY);
+            if at < self.cfg.duration {
+                self.queue.push(at, Ev::Forge);
+            }
+        }
+    }
+
+    /// A robot in a team (proven as itself) publishes an arrival and a release in a teammate's
+    /// name, and one arrival comes unsealed: every teammate must refuse all three, and nothing
+    /// of the world changes.
+    pub(super) fn forge(&mut self) -> Result<(), String> {
+        self.schedule_forgery();
+        let teamed: Vec<usize> = (0..self.nodes.len()).filter(|&i| self.links.up[i] && self.nodes[i].team.is_some() && self.nodes[i].robot.is_some()).collect();
+        if teamed.len() < 2 {
+            return Ok(());
+        }
+        let forger = teamed[self.forge_rng.gen_range(0..teamed.len())];
+        let Some((team, _)) = self.nodes[forger].team.clone() else { return Ok(()) };
+        let victims: Vec<usize> = teamed.iter().copied().filter(|&j| j != forger && self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team)).collect();
+        let Some(&victim) = victims.first() else { return Ok(()) };
+        let (name, claimed) = (self.nodes[forger].name.clone(), self.nodes[victim].name.clone());
+        let epoch = self.nodes[victim].robot.as_ref().and_then(|r| r.executor()).map_or(0, |e| e.epoch());
+        let me = self.sender(forger);
+        let forged = [
+            Wire::json(
+                Key::TeamSync { team: team.clone(), point: 0, round: 0 },
+                &SyncArrival { robot: claimed.clone(), epoch, point: 0, round: 0 },
+                me.clone(),
+            ),
+            Wire::json(Key::TeamRelease { team: team.clone(), point: 0, round: 0 }, &SyncRelease { leader: claimed.clone(), epoch, point: 0, round: 0 }, me),
+            Wire {
+                from: None,
+                ..Wire::json(Key::TeamSync { team, point: 0, round: 0 }, &SyncArrival { robot: name.clone(), epoch, point: 0, round: 0 }, self.sender(forger))
+            },
+        ];
+        self.log(|| format!("{name} forges an arrival and a release of {claimed}"));
+        for j in victims {
+            for msg in &forged {
+                let Some(r) = self.nodes[j].robot.as_ref() else { continue };
+                match r.ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
+                    Err(Refused::NotEntitled { .. } | Refused::Unproven { .. }) => self.report.forged_refused += 1,
+                    other => return Err(format!("{} took a forgery of {name} on {}: {other:?}", self.nodes[j].name, msg.key)),
+                }
+            }
+        }
+        Ok(())
+    }
+}
