@@ -147,7 +147,7 @@ fn system_cmd(group: &str, verb: &str) -> Option<SystemCmd> {
 async fn forward(client: &Client, cmd: SystemCmd, body: &Value) -> Result<Value, (StatusCode, String)> {
     match client.query::<Value>(Key::SystemCmd(cmd), Some(body)).await {
         Ok(v) => Ok(v),
-        Err(ProtoError::Query(QueryError::Remote(msg))) => Err((StatusCode::BAD_REQUEST, msg)),
+        Err(ProtoError::Query(QueryError::Remote(e))) => Err((StatusCode::BAD_REQUEST, e.error)),
         Err(e) => Err((StatusCode::BAD_GATEWAY, e.to_string())),
     }
 }

@@ -36,13 +36,62 @@ pub mod wire;
 /// Why a request to another node has no result.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Failure {
-    /// Nobody answered (the node died, or is unreachable): asking again may work.
+    /// Nobody answered (the node died, or is unreachable), or the answer's code says so: asking
+    /// again may work.
     pub retryable: bool,
     pub error: String,
+    /// The code of the other side's error, if it gave one.
+    pub code: Option<mrmm_proto::ErrorCode>,
+}
+
+impl Failure {
+    /// No answer (or one worth asking again for).
+    pub fn retry(error: impl Into<String>) -> Failure {
+        Failure { retryable: true, error: error.into(), code: None }
+    }
+
+    /// A final answer.
+    pub fn fatal(error: impl Into<String>) -> Failure {
+        Failure { retryable: false, error: error.into(), code: None }
+    }
+
+    /// The other side's error as it answered it: final, unless it refused the sender for now
+    /// (worth re-sending).
+    pub fn answered(e: mrmm_proto::ErrorReply) -> Failure {
+        Failure { retryable: e.is(mrmm_proto::ErrorCode::Refused), error: e.error, code: e.code }
+    }
+
+    pub fn is(&self, code: mrmm_proto::ErrorCode) -> bool {
+        self.code == Some(code)
+    }
 }
 
 impl From<mrmm_proto::QueryError> for Failure {
     fn from(e: mrmm_proto::QueryError) -> Self {
-        Failure { retryable: e.retryable(), error: e.to_string() }
+        match e {
+            mrmm_proto::QueryError::Remote(reply) => Failure::answered(reply),
+            e => Failure { retryable: e.retryable(), error: e.to_string(), code: None },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mrmm_proto::{ErrorCode, ErrorReply, QueryError};
+
+    /// Whether a failure is worth another try is read from the answer's code, never its words.
+    #[test]
+    fn a_refusal_is_retried_by_its_code() {
+        let refused = Failure::from(QueryError::Remote(ErrorReply::coded(ErrorCode::Refused, "r1 may not take plans from h1 yet")));
+        assert!(refused.retryable && refused.is(ErrorCode::Refused));
+        let worded = Failure::from(QueryError::Remote(ErrorReply::from("refused: r1 may not take plans from h1 yet")));
+        assert!(!worded.retryable && worded.code.is_none());
+        assert!(Failure::from(QueryError::NoAnswer { key: "k".into(), ms: 10 }).retryable);
+        // On the wire: the code when there is one, and old answers (no code) still read.
+        assert_eq!(serde_json::to_string(&ErrorReply::from("x")).expect("json"), r#"{"error":"x"}"#);
+        assert_eq!(serde_json::to_string(&ErrorReply::coded(ErrorCode::TakenOver, "x")).expect("json"), r#"{"error":"x","code":"taken_over"}"#);
+        let old: ErrorReply = serde_json::from_str(r#"{"error":"x"}"#).expect("old answer");
+        assert_eq!(old.code, None);
     }
 }

@@ -266,7 +266,7 @@ impl Host {
                                 }
                             })
                             .map(Box::new)
-                            .map_err(|error| mrmm_manager::Failure { retryable: false, error });
+                            .map_err(mrmm_manager::Failure::fatal);
                         queue.push_back(host::Event::Planned { mission, epoch, result });
                     }
                     host::Command::SendPlan { mission, robot, assignment } => {

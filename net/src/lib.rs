@@ -14,4 +14,4 @@ pub mod mesh;
 pub mod net;
 pub mod security;
 
-pub use mesh::{Mesh, NodeNet, UNPROVEN};
+pub use mesh::{Mesh, NodeNet};

@@ -16,15 +16,12 @@ use crate::net::{self, Mode, QueryError};
 use crate::security::{acl, Identity, Refusal, Sealer, SecuritySection, Sender, Verifier};
 use mrmm_proto::codec::{from_json, to_json};
 use mrmm_proto::error::ProtoError;
-use mrmm_proto::operator::ErrorReply;
-
-/// How a reply error of a server that could not prove a query's seal starts (see
-/// [`Mesh::query`]).
-pub const UNPROVEN: &str = "refused: unproven seal:";
+use mrmm_proto::operator::{ErrorCode, ErrorReply};
 
 /// How one round of a query ended without an accepted answer.
 enum Asked {
-    /// A server answered [`UNPROVEN`] to a query that was not signed: worth asking again, signed.
+    /// A server answered [`ErrorCode::Unproven`] to a query that was not signed: worth asking
+    /// again, signed.
     Unproven(QueryError),
     Failed(QueryError),
 }
@@ -268,7 +265,7 @@ impl Mesh {
     /// The query is tagged for the servers it would accept that this node knows (they check
     /// their tag), and signed only when it knows none of them. A server that cannot prove it (its
     /// certificate was re-issued since, or it is one this node has not heard yet) answers
-    /// [`UNPROVEN`]: the query is then asked once more, signed, within the same `timeout`.
+    /// [`ErrorCode::Unproven`]: the query is then asked once more, signed, within the same `timeout`.
     pub async fn query<T: DeserializeOwned>(
         &self,
         selector: &str,
@@ -340,12 +337,9 @@ impl Mesh {
                     }
                 }
                 Err(err) => {
-                    let bytes = err.payload().to_bytes();
-                    let msg = from_json::<ErrorReply>(selector, &bytes)
-                        .map(|e| e.error)
-                        .unwrap_or_else(|_| String::from_utf8_lossy(&bytes).chars().take(200).collect());
-                    unproven |= msg.starts_with(UNPROVEN);
-                    failed.get_or_insert(QueryError::Remote(msg));
+                    let e = net::error_reply(selector, &err.payload().to_bytes());
+                    unproven |= e.is(ErrorCode::Unproven);
+                    failed.get_or_insert(QueryError::Remote(e));
                 }
             }
         }
@@ -354,11 +348,11 @@ impl Mesh {
     }
 
     /// Refuses a query whose seal does not prove its sender: counted, logged (rate-limited) and
-    /// answered with [`UNPROVEN`], so that an asker whose tag was for an older certificate of
-    /// this node asks again, signed.
+    /// answered with [`ErrorCode::Unproven`], so that an asker whose tag was for an older
+    /// certificate of this node asks again, signed.
     pub async fn refuse_unproven(&self, what: &str, q: &Query, r: &Refusal) {
         self.verifier.refused.record(&format!("{what} on {}", q.key_expr()), r);
-        net::reply_error(q, &format!("{UNPROVEN} {r}")).await;
+        net::reply_err(q, &ErrorReply::coded(ErrorCode::Unproven, format!("refused: unproven seal: {r}"))).await;
     }
 
     /// The seal of a reply: tagged for the node that asked when this node knows it — a server
@@ -403,6 +397,11 @@ impl Mesh {
     /// Replies to a query with a reply error `{"error": msg}` (Zenoh reply errors carry no seal).
     pub async fn reply_error(&self, query: &Query, msg: &str) {
         net::reply_error(query, msg).await;
+    }
+
+    /// Replies with an error and its code.
+    pub async fn reply_err(&self, query: &Query, e: &ErrorReply) {
+        net::reply_err(query, e).await;
     }
 
     pub async fn close(&self) {

@@ -264,7 +264,12 @@ pub async fn reply_json<T: Serialize>(query: &Query, value: &T) {
 
 /// Replies to a query with a reply error `{"error": msg}`.
 pub async fn reply_error(query: &Query, msg: &str) {
-    let body = to_json(&ErrorReply { error: msg.to_string() }).unwrap_or_default();
+    reply_err(query, &ErrorReply::from(msg)).await
+}
+
+/// Replies to a query with a reply error, its code included (`{"error": …, "code": …}`).
+pub async fn reply_err(query: &Query, e: &ErrorReply) {
+    let body = to_json(e).unwrap_or_default();
     if let Err(e) = query.reply_err(body).encoding(Encoding::APPLICATION_JSON).await {
         tracing::warn!("error reply on {} failed: {e}", query.key_expr());
     }
@@ -276,6 +281,11 @@ pub fn query_payload(query: &Query) -> Vec<u8> {
 }
 
 pub use mrmm_proto::QueryError;
+
+/// A reply error's payload as its server sent it (its first 200 characters, when not JSON).
+pub fn error_reply(selector: &str, bytes: &[u8]) -> ErrorReply {
+    from_json::<ErrorReply>(selector, bytes).unwrap_or_else(|_| ErrorReply::from(String::from_utf8_lossy(bytes).chars().take(200).collect::<String>()))
+}
 
 /// One query expecting one JSON answer: returns at the first reply (not at the timeout). A reply
 /// error becomes [`QueryError::Remote`] with the server's message.
@@ -289,12 +299,7 @@ pub async fn query<T: DeserializeOwned>(session: &Session, selector: &str, body:
     let reply = replies.recv_async().await.map_err(|_| QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() })?;
     match reply.result() {
         Ok(sample) => from_json(selector, &sample.payload().to_bytes()).map_err(|e| QueryError::Decode { key: selector.to_string(), why: e.to_string() }),
-        Err(err) => {
-            let bytes = err.payload().to_bytes();
-            Err(QueryError::Remote(
-                from_json::<ErrorReply>(selector, &bytes).map(|e| e.error).unwrap_or_else(|_| String::from_utf8_lossy(&bytes).chars().take(200).collect()),
-            ))
-        }
+        Err(err) => Err(QueryError::Remote(error_reply(selector, &err.payload().to_bytes()))),
     }
 }
 

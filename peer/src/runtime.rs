@@ -435,7 +435,7 @@ impl Io {
                     },
                 );
                 if let Some(q) = query {
-                    self.mesh.reply_error(q, &e).await;
+                    self.mesh.reply_err(q, &proto::ErrorReply::coded(proto::ErrorCode::Refused, e)).await;
                 }
             }
             Command::JoinTeam { team, subteam, barrier, members, scopes } => {

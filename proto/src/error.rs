@@ -34,9 +34,9 @@ pub enum QueryError {
     /// Nobody answered in time (nobody serves the key, or it is unreachable): worth retrying.
     #[error("no answer on {key} within {ms} ms")]
     NoAnswer { key: String, ms: u128 },
-    /// The other side answered with an error: final.
+    /// The other side answered with an error (final, unless its code says otherwise).
     #[error("{0}")]
-    Remote(String),
+    Remote(crate::operator::ErrorReply),
     /// The answer is not what the key promises.
     #[error("bad answer on {key}: {why}")]
     Decode { key: String, why: String },

@@ -91,10 +91,56 @@ pub struct SystemStatus {
     pub proven: std::collections::BTreeMap<String, u64>,
 }
 
-/// Error payload of every reply error on an operator key.
+/// Error payload of every reply error: what went wrong in words, and for the errors an asker acts
+/// on, a code — so that no node decides anything from the words.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ErrorReply {
     pub error: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub code: Option<ErrorCode>,
+}
+
+/// What an asker does about an error, as its code says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorCode {
+    /// The sender may not give this (yet): a robot refusing a plan from a head it was not
+    /// admitted under. The head keeps re-sending.
+    Refused,
+    /// The query's seal was not proven (its tag was for an older certificate): ask again, signed.
+    Unproven,
+    /// The mission was taken over by another of its managers before its start was confirmed: it
+    /// runs, elsewhere.
+    TakenOver,
+}
+
+impl ErrorReply {
+    /// An error with a code.
+    pub fn coded(code: ErrorCode, error: impl Into<String>) -> ErrorReply {
+        ErrorReply { error: error.into(), code: Some(code) }
+    }
+
+    pub fn is(&self, code: ErrorCode) -> bool {
+        self.code == Some(code)
+    }
+}
+
+impl From<String> for ErrorReply {
+    fn from(error: String) -> ErrorReply {
+        ErrorReply { error, code: None }
+    }
+}
+
+impl From<&str> for ErrorReply {
+    fn from(error: &str) -> ErrorReply {
+        ErrorReply { error: error.to_string(), code: None }
+    }
+}
+
+impl std::fmt::Display for ErrorReply {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.error)
+    }
 }
 
 /// `mrmm/system/cmd/mission/create`.

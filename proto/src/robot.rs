@@ -186,14 +186,6 @@ fn one() -> f64 {
     1.0
 }
 
-/// How a reply error starts when the sender of a command may not give it (yet): a robot refusing
-/// a plan from a head it was not admitted under. The head keeps re-sending.
-pub const REFUSED: &str = "refused:";
-
-/// How a host's answer to a mission start begins when the mission was taken over by another of
-/// its managers before the start was confirmed: it runs, elsewhere.
-pub const TAKEN_OVER: &str = "taken over:";
-
 /// A command to one robot, query payload on `mrmm/robots/<id>/cmd`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]

@@ -9,7 +9,7 @@ impl HostCore {
     pub(super) fn start(&mut self, now: f64, query: u64, start: MissionStart, out: &mut Vec<Command>) {
         let spec = match MissionSpec::from_wire(start.spec) {
             Ok(s) => s,
-            Err(e) => return out.push(Command::Reply { query, result: Err(e) }),
+            Err(e) => return out.push(Command::Reply { query, result: Err(e.into()) }),
         };
         let name = spec.name.clone();
         // Central starts anew a mission whose head reported it could not commit: if that head
@@ -30,11 +30,12 @@ impl HostCore {
             self.apply(now, &name, cmds, out);
         }
         if self.heads.contains_key(&name) || self.registry.replica(&name).is_some_and(|r| r.config().is_some()) {
-            return out.push(Command::Reply { query, result: Err(format!("mission {name:?} is already hosted here")) });
+            return out.push(Command::Reply { query, result: Err(format!("mission {name:?} is already hosted here").into()) });
         }
         self.foreign.retain(|_, (t, _)| now - *t < FOREIGN_CHAIN_S);
         if let Some((_, node)) = self.foreign.get(&name) {
-            return out.push(Command::Reply { query, result: Err(format!("mission {name:?} still has a chain ({node} replicates it): not started anew")) });
+            return out
+                .push(Command::Reply { query, result: Err(format!("mission {name:?} still has a chain ({node} replicates it): not started anew").into()) });
         }
         // A start anew is the mission's next lineage: its chain and plan epochs are above all of
         // the old one's, so an old chain still alive somewhere loses wherever the two meet.
@@ -73,17 +74,17 @@ impl HostCore {
             MissionCtl::Left { ids } => self.run(now, name, mission::Event::Left { ids }, out),
             MissionCtl::Update { spec } => match crate::mission::MissionSpec::from_wire(spec) {
                 Ok(spec) if spec.name == name => self.run(now, name, mission::Event::Update(Box::new(spec)), out),
-                Ok(spec) => return out.push(Command::Reply { query, result: Err(format!("an update of mission {:?} sent to {name}", spec.name)) }),
-                Err(e) => return out.push(Command::Reply { query, result: Err(format!("update of {name}: {e}")) }),
+                Ok(spec) => return out.push(Command::Reply { query, result: Err(format!("an update of mission {:?} sent to {name}", spec.name).into()) }),
+                Err(e) => return out.push(Command::Reply { query, result: Err(format!("update of {name}: {e}").into()) }),
             },
             MissionCtl::Terminate => {
                 let epoch = self.heads.get(name).map_or(0, |h| h.mm.epoch());
                 if let Some(q) = self.heads.get_mut(name).and_then(|h| h.start.take()) {
-                    out.push(Command::Reply { query: q, result: Err(format!("mission {name} was terminated")) });
+                    out.push(Command::Reply { query: q, result: Err(format!("mission {name} was terminated").into()) });
                 }
                 tracing::info!(mission = %name, "mission terminated");
                 self.end(now, name, out);
-                return out.push(Command::Reply { query, result: json(&CtlAck { ok: true, epoch }) });
+                return out.push(Command::Reply { query, result: json(&CtlAck { ok: true, epoch }).map_err(ErrorReply::from) });
             }
         }
         // Answered once what it changed is on every node of the chain.
@@ -204,7 +205,7 @@ impl HostCore {
         out.push(Command::Unserve { mission: name.to_string() });
         if let Some(q) = h.start {
             // The mission goes on under another manager of its chain: it started.
-            out.push(Command::Reply { query: q, result: Err(format!("{} mission {name}: {why}", mrmm_proto::TAKEN_OVER)) });
+            out.push(Command::Reply { query: q, result: Err(ErrorReply::coded(ErrorCode::TakenOver, format!("taken over: mission {name}: {why}"))) });
         }
         for q in h.waiting_queries() {
             out.push(Command::Drop { query: q });
@@ -224,7 +225,7 @@ impl HostCore {
         };
         let (effects, replies) = h.committed();
         for (query, ack) in replies {
-            out.push(Command::Reply { query, result: json(&ack) });
+            out.push(Command::Reply { query, result: json(&ack).map_err(ErrorReply::from) });
         }
         for c in effects {
             match c {
@@ -235,12 +236,12 @@ impl HostCore {
                 }
                 mission::Command::Started => {
                     if let (Some(q), Some(v)) = (h.start.take(), &view) {
-                        out.push(Command::Reply { query: q, result: json(v) });
+                        out.push(Command::Reply { query: q, result: json(v).map_err(ErrorReply::from) });
                     }
                 }
                 mission::Command::Failed { error } => {
                     if let Some(q) = h.start.take() {
-                        out.push(Command::Reply { query: q, result: Err(format!("mission {name}: planning failed: {error}")) });
+                        out.push(Command::Reply { query: q, result: Err(format!("mission {name}: planning failed: {error}").into()) });
                     }
                     return self.end(now, name, out);
                 }

@@ -7,8 +7,8 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::{
-    ChainEnvelope, CtlAck, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest, Role, Sender, Telemetry,
-    CENTRAL_HOST,
+    ChainEnvelope, CtlAck, ErrorCode, ErrorReply, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest,
+    Role, Sender, Telemetry, CENTRAL_HOST,
 };
 use serde_json::Value;
 
@@ -109,7 +109,7 @@ pub enum Command {
     /// Send a chain message to host `to` (on `mrmm/hosts/<to>/chain`).
     Chain { to: String, envelope: Box<ChainEnvelope> },
     /// Answer query `query` with JSON, or with a reply error.
-    Reply { query: u64, result: Result<Value, String> },
+    Reply { query: u64, result: Result<Value, ErrorReply> },
     /// Let query `query` go unanswered: its asker will ask again (maybe of a newer head).
     Drop { query: u64 },
     /// Serve `mission`'s ctl, view and marginal queryables: this node leads it.
@@ -306,7 +306,10 @@ impl HostCore {
                 }
             }
             Event::Start { from, query, .. } | Event::Ctl { from, query, .. } if from.role != Role::Central => {
-                out.push(Command::Reply { query, result: Err(format!("refused: {from} may not steer missions (only central does)")) });
+                out.push(Command::Reply {
+                    query,
+                    result: Err(ErrorReply::coded(ErrorCode::Refused, format!("refused: {from} may not steer missions (only central does)"))),
+                });
                 out.push(Command::Refused { what: "steer a mission (start or control)".into(), from });
             }
             Event::Start { query, start, .. } => self.start(now, query, *start, &mut out),
@@ -329,7 +332,7 @@ impl HostCore {
             }
             Event::View { query, mission } => {
                 let result = self.view(now, &mission, true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
-                out.push(Command::Reply { query, result });
+                out.push(Command::Reply { query, result: result.map_err(ErrorReply::from) });
             }
             Event::Marginal { query, mission, add } => {
                 let result = if add == 0 || add.abs() > 1000 {
@@ -337,7 +340,7 @@ impl HostCore {
                 } else {
                     self.heads.get(&mission).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|h| h.mm.marginal(add))
                 };
-                out.push(Command::Reply { query, result: result.and_then(|m| json(&m)) });
+                out.push(Command::Reply { query, result: result.and_then(|m| json(&m)).map_err(ErrorReply::from) });
             }
             // Telemetry of a robot whose liveliness is gone is stale (the driver's queues do not
             // order it against liveliness): a lost member must not seem back.

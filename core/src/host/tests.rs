@@ -109,7 +109,7 @@ fn planned(cmds: &[Command]) -> Option<Event> {
         Command::RequestPlan { mission, epoch, kind, request, .. } => Some(Event::Planned {
             mission: mission.clone(),
             epoch: *epoch,
-            result: crate::planning::plan(*kind, request).map(Box::new).map_err(|error| Failure { retryable: false, error }),
+            result: crate::planning::plan(*kind, request).map(Box::new).map_err(Failure::fatal),
         }),
         _ => None,
     })
@@ -236,7 +236,7 @@ fn a_planner_that_does_not_answer_is_asked_again_then_the_mission_fails() {
     m.to("central", Event::PlannerAlive { kind: "patrol".into(), zid: "z".into() });
     let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1"]), from: central() });
     assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { local: false, .. })));
-    let fail = || Event::Planned { mission: "p".into(), epoch: 1, result: Err(Failure { retryable: true, error: "no answer".into() }) };
+    let fail = || Event::Planned { mission: "p".into(), epoch: 1, result: Err(Failure::retry("no answer")) };
     // The service died: asked again, locally.
     m.to("central", Event::PlannerGone { kind: "patrol".into(), zid: "z".into() });
     for _ in 0..PLAN_RETRIES {
@@ -245,7 +245,7 @@ fn a_planner_that_does_not_answer_is_asked_again_then_the_mission_fails() {
     }
     let cmds = m.to("central", fail());
     let cmds: Vec<Command> = cmds.into_iter().chain(m.tick(0.1).into_iter().map(|c| c.1)).collect();
-    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { query: 1, result: Err(e) } if e.contains("planning failed"))), "{cmds:?}");
+    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { query: 1, result: Err(e) } if e.error.contains("planning failed"))), "{cmds:?}");
     assert!(cmds.contains(&Command::Unserve { mission: "p".into() }));
 }
 
@@ -364,6 +364,6 @@ fn a_healthy_head_is_not_given_up_by_a_start_anew() {
     anew.anew = true;
     anew.lineage = 1;
     let cmds = m.to("central", Event::Start { query: 9, start: anew, from: central() });
-    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { query: 9, result: Err(e) } if e.contains("already hosted"))), "{cmds:?}");
+    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { query: 9, result: Err(e) } if e.error.contains("already hosted"))), "{cmds:?}");
     assert!(!cmds.contains(&Command::Unserve { mission: "p".into() }));
 }

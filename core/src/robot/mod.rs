@@ -307,7 +307,7 @@ impl Robot {
     /// only; plans from central, mission hosts, or a robot of this robot's mission (a teammate in
     /// its current plan of that mission, or a manager or member of the admission central gave it).
     fn entitled(&self, cmd: &RobotCommand, from: &Sender) -> Result<(), String> {
-        let refuse = |what: &str| Err(format!("{} {from} may not {what}", proto::REFUSED));
+        let refuse = |what: &str| Err(format!("refused: {from} may not {what}"));
         match cmd {
             RobotCommand::Goto { .. } | RobotCommand::Hold | RobotCommand::Leave { .. } | RobotCommand::Admit { .. } | RobotCommand::Capabilities { .. } => {
                 if from.role == Role::Central {

@@ -161,7 +161,7 @@ mod tests {
         MissionCtl::Left { ids: vec![id.into()] }
     }
     fn no_answer() -> Result<(), Failure> {
-        Err(Failure { retryable: true, error: "no answer".into() })
+        Err(Failure::retry("no answer"))
     }
 
     #[test]
@@ -176,7 +176,7 @@ mod tests {
         assert_eq!(c.due(3.0).len(), 1);
         c.done(3.1, a, Ok(()));
         assert_eq!(c.due(3.1), vec![(b, "m".into(), left("r2"))]);
-        c.done(3.2, b, Err(Failure { retryable: false, error: "refused".into() }));
+        c.done(3.2, b, Err(Failure::fatal("refused")));
         assert!(c.due(10.0).is_empty());
     }
 

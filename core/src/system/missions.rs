@@ -474,7 +474,7 @@ impl SystemManager {
                 reply(to_value(&self.mission_view(name)))
             }
             Err(f) if !self.missions.contains_key(name) => reply(Err(f.error)),
-            Err(f) if f.error.starts_with(proto::TAKEN_OVER) => {
+            Err(f) if f.is(mrmm_proto::ErrorCode::TakenOver) => {
                 // Another manager of its chain runs it: its head's reports will say which.
                 tracing::info!(mission = %name, "mission started; another of its managers took it over");
                 reply(to_value(&self.mission_view(name)))

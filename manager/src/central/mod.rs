@@ -388,7 +388,7 @@ impl Io {
                         .await
                         .map(|(v, _)| v)
                         .map_err(Failure::from),
-                    Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
+                    Err(e) => Err(Failure::fatal(e.to_string())),
                 };
                 system::Event::MissionStarted { mission, result: result.map(Box::new) }
             }),
@@ -400,7 +400,7 @@ impl Io {
                         .await
                         .map(|_| ())
                         .map_err(Failure::from),
-                    Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
+                    Err(e) => Err(Failure::fatal(e.to_string())),
                 };
                 system::Event::CtlDone { id, result }
             }),

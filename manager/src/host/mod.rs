@@ -365,7 +365,7 @@ impl Io {
                 let Some(q) = self.queries.remove(&query) else { return };
                 match result {
                     Ok(v) => self.mesh.reply_json(&q, &v).await,
-                    Err(e) => self.mesh.reply_error(&q, &e).await,
+                    Err(e) => self.mesh.reply_err(&q, &e).await,
                 }
             }
             Command::Refused { from, what } => self.mesh.refuse(&what, &from),
@@ -412,7 +412,7 @@ impl Io {
                 let (mesh, tx, maps) = (self.mesh.clone(), self.tx.clone(), self.maps.clone());
                 tokio::spawn(async move {
                     let result = if local {
-                        crate::planner_service::plan_fetching(&mesh, &maps, kind, request).await.map_err(|error| Failure { retryable: false, error })
+                        crate::planner_service::plan_fetching(&mesh, &maps, kind, request).await.map_err(Failure::fatal)
                     } else {
                         let key = Key::Planner(kind.as_str().to_string()).to_string();
                         match proto::to_json(&request) {
@@ -423,7 +423,7 @@ impl Io {
                                 .await
                                 .map(|(plan, _)| plan)
                                 .map_err(failure),
-                            Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
+                            Err(e) => Err(Failure::fatal(e.to_string())),
                         }
                     };
                     let _ = tx.send(Input::Event(Event::Planned { mission, epoch, result: result.map(Box::new) }));
@@ -436,14 +436,11 @@ impl Io {
                     let key = Key::RobotCmd(robot.clone()).to_string();
                     let result = match proto::to_json(&RobotCommand::Plan(assignment)) {
                         Ok(body) => {
-                            mesh.query::<CommandAck>(&key, Some(body), ROBOT_TIMEOUT, |s| s.is(Role::Robot, &robot)).await.map(|_| ()).map_err(|e| match e {
-                                // The robot does not take plans from this node yet (it awaits its
-                                // admission from central): keep re-sending.
-                                QueryError::Remote(m) if m.starts_with(proto::REFUSED) => Failure { retryable: true, error: m },
-                                e => failure(e),
-                            })
+                            // A robot that does not take plans from this node yet (it awaits its
+                            // admission from central) refuses with that code: re-sent.
+                            mesh.query::<CommandAck>(&key, Some(body), ROBOT_TIMEOUT, |s| s.is(Role::Robot, &robot)).await.map(|_| ()).map_err(failure)
                         }
-                        Err(e) => Err(Failure { retryable: false, error: e.to_string() }),
+                        Err(e) => Err(Failure::fatal(e.to_string())),
                     };
                     if let Err(f) = &result {
                         tracing::debug!(%robot, "plan not delivered: {}", f.error);

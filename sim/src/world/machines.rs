@@ -168,10 +168,10 @@ impl World {
                         self.report.acked += 1;
                     }
                 }
-                let result = result.map(Answer::Json).map_err(|error| Failure { retryable: false, error });
+                let result = result.map(Answer::Json).map_err(Failure::answered);
                 self.reply(query, result);
             }
-            host::Command::Drop { query } => self.reply(query, Err(Failure { retryable: true, error: "dropped".into() })),
+            host::Command::Drop { query } => self.reply(query, Err(Failure::retry("dropped"))),
             host::Command::Serve { mission } => {
                 self.nodes[i].served.insert(mission);
             }
@@ -180,7 +180,7 @@ impl World {
             }
             host::Command::RequestPlan { mission, epoch, kind, request, local } => {
                 if local {
-                    let result = mrmm_core::planning::plan(kind, &request).map(Box::new).map_err(|error| Failure { retryable: false, error });
+                    let result = mrmm_core::planning::plan(kind, &request).map(Box::new).map_err(Failure::fatal);
                     let at = self.now + self.rng.gen_range(0.01..0.2);
                     let inc = self.links.inc[i];
                     self.queue.push(at, Ev::Local { node: i, inc, ev: Box::new(host::Event::Planned { mission, epoch, result }) });

@@ -230,8 +230,8 @@ fn robot_cfg(id: &str, x: f64, y: f64) -> RobotSetup {
 
 fn json<T: serde::de::DeserializeOwned>(a: Result<Answer, Failure>) -> Result<T, Failure> {
     match a? {
-        Answer::Json(v) => serde_json::from_value(v).map_err(|e| Failure { retryable: false, error: e.to_string() }),
-        other => Err(Failure { retryable: false, error: format!("unexpected answer {other:?}") }),
+        Answer::Json(v) => serde_json::from_value(v).map_err(|e| Failure::fatal(e.to_string())),
+        other => Err(Failure::fatal(format!("unexpected answer {other:?}"))),
     }
 }
 
@@ -461,7 +461,7 @@ impl World {
             Ev::Timeout(qid) => {
                 let pending = self.queries.get(&qid).is_some_and(|q| !q.done);
                 if pending {
-                    let error = Failure { retryable: true, error: "no answer".into() };
+                    let error = Failure::retry("no answer");
                     self.answer(qid, Err(error))?;
                 }
             }

@@ -28,7 +28,7 @@ impl World {
             // Nobody serves the key: the query ends at once, empty.
             None => {
                 let at = self.now + self.delay();
-                self.queue.push(at, Ev::Answer { qid, result: Err(Failure { retryable: true, error: "no queryable".into() }) });
+                self.queue.push(at, Ev::Answer { qid, result: Err(Failure::retry("no queryable")) });
             }
             Some(_) => {
                 if !self.lost() {
@@ -70,8 +70,8 @@ impl World {
                 let cmds = r.handle(now, ev);
                 // A refusal (its sender may not send this, yet) may be retried: as the driver does.
                 let reply = cmds.iter().find_map(|c| match c {
-                    robot::Command::Reply(r) => Some(r.clone().map_err(|error| Failure { retryable: false, error })),
-                    robot::Command::Refuse(e) => Some(Err(Failure { retryable: true, error: e.clone() })),
+                    robot::Command::Reply(r) => Some(r.clone().map_err(Failure::fatal)),
+                    robot::Command::Refuse(e) => Some(Err(Failure::answered(mrmm_proto::ErrorReply::coded(mrmm_proto::ErrorCode::Refused, e.clone())))),
                     _ => None,
                 });
                 self.robot_commands(s, cmds)?;
@@ -119,8 +119,7 @@ impl World {
             Payload::View(mission) => self.host(s, host::Event::View { query: qid, mission })?,
             Payload::Planner(request, kind) => {
                 if self.nodes[s].kind == Kind::Central {
-                    let result =
-                        mrmm_core::planning::plan(kind, &request).map(|p| Answer::Plan(Box::new(p))).map_err(|error| Failure { retryable: false, error });
+                    let result = mrmm_core::planning::plan(kind, &request).map(|p| Answer::Plan(Box::new(p))).map_err(Failure::fatal);
                     self.reply(qid, result);
                 }
             }
@@ -203,7 +202,7 @@ impl World {
                 self.log(|| format!("plan of {mission} epoch {epoch} answered: {ok:?}"));
                 let result = match result {
                     Ok(Answer::Plan(p)) => Ok(p),
-                    Ok(other) => Err(Failure { retryable: false, error: format!("unexpected {other:?}") }),
+                    Ok(other) => Err(Failure::fatal(format!("unexpected {other:?}"))),
                     Err(f) => Err(f),
                 };
                 self.host(a, host::Event::Planned { mission, epoch, result })

@@ -150,10 +150,24 @@ fn a_failed_start_frees_the_robots() {
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
     let v = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
     assert_eq!(v[0]["status"], "planning");
-    let r = sm.drive(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure { retryable: false, error: "no planner service".into() }) });
+    let r = sm.drive(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure::fatal("no planner service")) });
     assert_eq!(reply(r).expect_err("failed"), "no planner service");
     assert_eq!(mission_of(&sm, "r1"), None);
     assert_eq!(sm.status(3.0).missions, 0);
+}
+
+/// A start its host answers "taken over" (by its code, whatever the words) runs elsewhere: the
+/// mission and its robots stay; the same words without the code are a failure.
+#[test]
+fn a_start_taken_over_runs_elsewhere_by_its_code_not_its_words() {
+    for (code, runs) in [(Some(mrmm_proto::ErrorCode::TakenOver), true), (None, false)] {
+        let mut sm = with_host(&["r1"]);
+        sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
+        let e = mrmm_proto::ErrorReply { error: "taken over: mission p: a newer head".into(), code };
+        let r = sm.drive(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure::answered(e)) });
+        assert_eq!(reply(r).is_ok(), runs, "code {code:?}");
+        assert_eq!(mission_of(&sm, "r1").is_some(), runs, "code {code:?}");
+    }
 }
 
 #[test]
@@ -162,7 +176,7 @@ fn a_start_nobody_answered_is_ended_before_its_robots_go_elsewhere() {
     let cmds =
         no_admits(sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) }));
     assert!(matches!(cmds.as_slice(), [Command::StartMission { .. }]));
-    let no_answer = Failure { retryable: true, error: "no answer".into() };
+    let no_answer = Failure::retry("no answer");
     let cmds = sm.drive(26.0, Event::MissionStarted { mission: "p".into(), result: Err(no_answer) });
     let end = cmds.iter().find_map(|c| match c {
         Command::Ctl { id, mission, ctl: MissionCtl::Terminate, .. } if mission == "p" => Some(*id),
@@ -251,7 +265,7 @@ fn controls_are_sent_again_until_acknowledged_and_in_order() {
     let first = ctl(&cmds);
     assert_eq!(first.iter().map(|c| c.1.as_str()).collect::<Vec<_>>(), ["p"], "c waits for p to let r2 go");
     let (id, _) = first[0].clone();
-    let no_answer = || Err(Failure { retryable: true, error: "no answer".into() });
+    let no_answer = || Err(Failure::retry("no answer"));
     assert!(ctl(&sm.drive(6.0, Event::CtlDone { id, result: no_answer() })).is_empty(), "not again at once");
     assert_eq!(ctl(&sm.drive(7.0, Event::Tick)), [(id, "p".to_string())], "sent again");
     let joined = ctl(&sm.drive(7.5, Event::CtlDone { id, result: Ok(()) }));

@@ -133,7 +133,7 @@ fn after_a_power_cycle_missions_start_again_with_their_live_robots_and_terminate
     // No second start while that one is out; a failed one is tried again (as the next lineage
     // again: the failed start may have run somewhere), never forgotten.
     assert!(!sm.handle(RESTART_S + 1.0, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })));
-    sm.handle(RESTART_S + 1.5, Event::MissionStarted { mission: "p1".into(), result: Err(Failure { retryable: true, error: "no answer".into() }) });
+    sm.handle(RESTART_S + 1.5, Event::MissionStarted { mission: "p1".into(), result: Err(Failure::retry("no answer")) });
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"));
     let again = sm.handle(RESTART_S + 1.5 + RESTART_RETRY_S + 0.1, Event::Tick);
     assert!(again.iter().any(|c| matches!(c, Command::StartMission { start, .. } if start.lineage == 2)), "{again:?}");
