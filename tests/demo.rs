@@ -62,6 +62,10 @@ async fn demo_serves_outside_clients_and_stops_on_ctrl_c() -> anyhow::Result<()>
     let tool = demo.ready.split_whitespace().find_map(|w| w.strip_prefix("MRMM_TOOL_CONFIG=")).unwrap_or_default().to_string();
     let watch = std::process::Command::new(common::EXE).env("MRMM_TOOL_CONFIG", &tool).args(["op", "watch", "--duration", "1.5"]).output()?;
     assert!(watch.status.success(), "{watch:?}");
+    // An operator tool is quiet when nothing is wrong: no warning of Zenoh's about the fleet's
+    // own choices (the QUIC server's name is not checked: certificates name identities).
+    let said = String::from_utf8_lossy(&watch.stderr);
+    assert!(!said.contains("WARN"), "mrmm op warned on a healthy secure fleet:\n{said}");
     let screen = String::from_utf8_lossy(&watch.stdout);
     for want in ["mrmm watch", "STATUS", "patrol-1", "coverage-1", "MANAGER/EPOCH"] {
         assert!(screen.contains(want), "{want} missing from:\n{screen}");

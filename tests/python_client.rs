@@ -67,6 +67,29 @@ async fn a_plain_zenoh_client_with_an_operator_certificate_commands_and_a_robot_
         ((p.x - before.x).abs() + (p.y - before.y).abs() > 0.05).then_some(())
     })
     .await?;
+    // zenoh-cli (the ecosystem's command line, PyPI's `zenoh-cli`) with the same certificate:
+    // the fleet's status, as the docs show it (docs/api.md, "Secure fleet").
+    let cli = py.with_file_name("zenoh");
+    let f = |n: &str| format!("\"{}\"", pki.join(n).display());
+    let cfg = [
+        "scouting/multicast/enabled:false".to_string(),
+        format!("transport/link/tls/root_ca_certificate:{}", f("ca.crt")),
+        format!("transport/link/tls/connect_certificate:{}", f("op.crt")),
+        format!("transport/link/tls/connect_private_key:{}", f("op.key")),
+        "transport/link/tls/enable_mtls:true".to_string(),
+        "transport/link/tls/verify_name_on_connect:false".to_string(),
+    ];
+    let mut zenoh_cli = Command::new(&cli);
+    zenoh_cli.args(["--mode", "client", "--connect", &ep]);
+    for c in &cfg {
+        zenoh_cli.args(["--cfg", c]);
+    }
+    let out = zenoh_cli.args(["get", "--decoder", "json", "-s", "mrmm/system/status"]).output()?;
+    let said = String::from_utf8_lossy(&out.stdout);
+    println!("zenoh-cli: {said}");
+    let status: Value = serde_json::from_str(said.lines().next().unwrap_or_default())
+        .map_err(|e| anyhow::anyhow!("zenoh-cli said {said:?} ({e}); stderr: {}", String::from_utf8_lossy(&out.stderr)))?;
+    assert_eq!(status["robots_total"], 1, "{status}");
     op.close().await;
     Ok(())
 }

@@ -69,7 +69,9 @@ enum Cmd {
 }
 
 impl Cli {
-    /// Log filter used when RUST_LOG is not set.
+    /// Log filter used when RUST_LOG is not set. Zenoh warns at every secure link that it skips
+    /// the server's name check: the fleet's own choice (its certificates name identities, not
+    /// addresses; `verify_names` turns the check on), not something wrong — so not logged.
     pub fn default_log_filter(&self) -> &'static str {
         match self.command {
             Cmd::Op(_)
@@ -82,8 +84,8 @@ impl Cli {
             | Cmd::Plan(_)
             | Cmd::Map(_)
             | Cmd::Tap(_)
-            | Cmd::Pki(_) => "warn",
-            _ => "info,zenoh=warn",
+            | Cmd::Pki(_) => "warn,zenoh_link_commons::quic::utils=error,zenoh_link_tls::utils=error",
+            _ => "info,zenoh=warn,zenoh_link_commons::quic::utils=error,zenoh_link_tls::utils=error",
         }
     }
 }

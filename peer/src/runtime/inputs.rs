@@ -1,0 +1,265 @@
+//! The robot's inputs: its queryables, subscriptions, liveliness and timers, each turned into
+//! an event of its machine — through the robot's own ingress for everything from the network
+//! (`mrmm_core::robot::Robot::ingress`), after the seal proved its sender.
+
+use std::time::Duration;
+
+use mrmm_net::net;
+use mrmm_net::Mesh;
+use mrmm_proto::{self as proto, Key, Pattern, Velocity};
+use mrmm_ros2::nav2::GoalEvent;
+use mrmm_ros2::{Input as RosInput, RosLink};
+use tokio_util::sync::CancellationToken;
+use zenoh::handlers::{RingChannel, RingChannelHandler};
+use zenoh::pubsub::Subscriber;
+use zenoh::query::{Query, Queryable};
+use zenoh::sample::{Sample, SampleKind};
+use zenoh::Session;
+
+use super::io::Io;
+use super::team::{recv_team, recv_wide, Sub};
+use super::{FLEET_CHECK_PERIOD, PHYSICS_PERIOD, QUEUE};
+use crate::error::PeerError;
+use crate::robot::{Event, Incoming, Refused, Robot};
+use crate::viewers::{Heard, MAX_VIEWERS};
+
+/// Where the robot's events come from, besides its team's subscriptions (in [`Io`]).
+pub(super) struct Inputs {
+    session: Session,
+    mesh: Mesh,
+    id: String,
+    shutdown: CancellationToken,
+    info_q: Queryable<RingChannelHandler<Query>>,
+    cmd_q: Queryable<RingChannelHandler<Query>>,
+    /// Viewers announcing themselves: the robot's telemetry is tagged for them too.
+    viewers: Subscriber<RingChannelHandler<Sample>>,
+    /// Central's liveliness: while it is gone, nobody admits this robot to missions.
+    central: Subscriber<RingChannelHandler<Sample>>,
+    physics: tokio::time::Interval,
+    telemetry: tokio::time::Interval,
+    /// Whether the robot's session has a link to any other fleet node (a ROS 2 body stops
+    /// without one); checked a few times a second.
+    fleet_check: tokio::time::Interval,
+    fleet_up: bool,
+    endpoints: Vec<String>,
+    malformed: u64,
+    mismatched: u64,
+}
+
+fn interval(period: Duration) -> tokio::time::Interval {
+    let mut i = tokio::time::interval(period);
+    i.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    i
+}
+
+impl Inputs {
+    /// Declares the robot's queryables (info, commands), then the subscriptions it hears.
+    pub(super) async fn declare(mesh: &Mesh, id: &str, telemetry_hz: f64, endpoints: Vec<String>, shutdown: CancellationToken) -> Result<Inputs, PeerError> {
+        let session = mesh.session().clone();
+        let z = PeerError::zenoh;
+        let info_q = session.declare_queryable(Key::RobotInfo(id.to_string()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
+        let cmd_q = session.declare_queryable(Key::RobotCmd(id.to_string()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
+        let viewers = session.declare_subscriber(Pattern::AllViewers.to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
+        let central_key = Key::HostAlive(proto::CENTRAL_HOST.to_string()).to_string();
+        let central = session.liveliness().declare_subscriber(central_key).history(true).with(RingChannel::new(QUEUE)).await.map_err(z)?;
+        Ok(Inputs {
+            mesh: mesh.clone(),
+            session,
+            id: id.to_string(),
+            shutdown,
+            info_q,
+            cmd_q,
+            viewers,
+            central,
+            physics: interval(PHYSICS_PERIOD),
+            telemetry: interval(Duration::from_secs_f64(1.0 / telemetry_hz)),
+            fleet_check: interval(FLEET_CHECK_PERIOD),
+            fleet_up: true,
+            endpoints,
+            malformed: 0,
+            mismatched: 0,
+        })
+    }
+
+    /// The robot's next event (with the query it answers, if any); `None` once it shuts down.
+    /// What needs no event of the machine (its info, viewers' announcements, refused or
+    /// malformed input) is handled here.
+    pub(super) async fn next(&mut self, robot: &Robot, io: &mut Io) -> Option<(Event, Option<Query>)> {
+        loop {
+            let got: (Event, Option<Query>) = tokio::select! {
+                _ = self.shutdown.cancelled() => return None,
+                _ = self.physics.tick() => (Event::Tick, None),
+                _ = self.telemetry.tick() => (Event::TelemetryDue, None),
+                _ = self.fleet_check.tick(), if io.ros.is_some() => {
+                    let info = self.session.info();
+                    let up = info.routers_zid().await.next().is_some() || info.peers_zid().await.next().is_some();
+                    if up == self.fleet_up {
+                        continue;
+                    }
+                    self.fleet_up = up;
+                    tracing::warn!(robot = %self.id, up, "fleet link changed");
+                    (Event::FleetLink(up), None)
+                }
+                input = recv_ros(&io.ros) => match self.ros_event(input) {
+                    Some(ev) => (ev, None),
+                    None => continue,
+                },
+                q = self.info_q.recv_async() => {
+                    let Ok(q) = q else { return None };
+                    self.mesh.reply_json(&q, &robot.info(self.endpoints.clone())).await;
+                    continue;
+                }
+                q = self.cmd_q.recv_async() => {
+                    let Ok(q) = q else { return None };
+                    match self.command(robot, &q).await {
+                        Some(ev) => (ev, Some(q)),
+                        None => continue,
+                    }
+                }
+                s = recv_team(&io.team, Sub::Arrivals) => match heard(&self.mesh, robot, "barrier arrival", &s) {
+                    Some(ev) => (ev, None),
+                    None => continue,
+                },
+                s = self.viewers.recv_async() => {
+                    let Ok(s) = s else { return None };
+                    self.viewer(&s, io);
+                    continue;
+                }
+                s = self.central.recv_async() => match s {
+                    Ok(s) => match liveliness(robot, &s) {
+                        Some(ev) => (ev, None),
+                        None => continue,
+                    },
+                    Err(_) => return None,
+                },
+                s = recv_team(&io.team, Sub::Releases) => match heard(&self.mesh, robot, "barrier release", &s) {
+                    Some(ev) => (ev, None),
+                    None => continue,
+                },
+                (_, s) = recv_wide(&io.team) => match heard(&self.mesh, robot, "barrier arrival", &s) {
+                    Some(ev) => (ev, None),
+                    None => continue,
+                },
+                s = recv_team(&io.team, Sub::Members) => match liveliness(robot, &s) {
+                    Some(ev) => (ev, None),
+                    None => continue,
+                },
+            };
+            return Some(got);
+        }
+    }
+
+    /// A ROS 2 body's input as the machine's event; mismatched graphs and malformed messages are
+    /// counted and logged (rate-limited) instead.
+    fn ros_event(&mut self, input: RosInput) -> Option<Event> {
+        match input {
+            RosInput::Odometry { pose, v, omega } => Some(Event::Odometry { pose: ros_pose(pose), velocity: Velocity { v, omega } }),
+            RosInput::Pose(pose) => Some(Event::LocalisedPose(ros_pose(pose))),
+            RosInput::Nav2Server(up) => {
+                if !up {
+                    tracing::warn!(robot = %self.id, "ROS 2 graph: Nav2's action server left");
+                }
+                Some(Event::Nav2Server(up))
+            }
+            RosInput::Goal { id: goal, event } => {
+                if matches!(event, GoalEvent::Feedback { .. }) {
+                    tracing::debug!(robot = %self.id, ?event, "Nav2 feedback");
+                } else {
+                    tracing::info!(robot = %self.id, ?event, "Nav2 goal");
+                }
+                Some(Event::Nav2Goal { id: goal, event })
+            }
+            RosInput::Mismatch(why) => {
+                self.mismatched += 1;
+                if self.mismatched.is_power_of_two() {
+                    tracing::warn!(robot = %self.id, count = self.mismatched, "ROS 2 graph: {why}");
+                }
+                None
+            }
+            RosInput::Malformed { topic, error } => {
+                self.malformed += 1;
+                if self.malformed.is_power_of_two() {
+                    tracing::warn!(robot = %self.id, %topic, count = self.malformed, "dropped a malformed ROS 2 message: {error}");
+                }
+                None
+            }
+        }
+    }
+
+    /// A viewer announcing itself: the robot's telemetry is tagged for it from now on.
+    fn viewer(&self, s: &Sample, io: &mut Io) {
+        let Some(from) = self.mesh.sender_of("viewer announcement", s) else { return };
+        let now = mrmm_net::mesh::now_ms();
+        let new = !io.viewers.is_current(now, &from);
+        match io.viewers.heard(now, from.clone()) {
+            // A new viewer has not proven this robot's certificate yet: the next message carries
+            // it (the tagged ones between signatures only name it).
+            Heard::Kept if new => io.telemetry_signs.sign_next(),
+            Heard::Kept => {}
+            Heard::NotAViewer => self.mesh.refuse("announce a viewer", &from),
+            Heard::Full => tracing::debug!(robot = %self.id, viewer = %from, "viewer not tagged for: {MAX_VIEWERS} others are current"),
+        }
+    }
+
+    /// A command query: its seal proven, then translated by the robot's ingress; refused ones
+    /// are answered here.
+    async fn command(&mut self, robot: &Robot, q: &Query) -> Option<Event> {
+        let from = match self.mesh.try_sender_of_query(q) {
+            Ok(from) => from,
+            Err(r) => {
+                self.mesh.refuse_unproven("robot command", q, &r).await;
+                return None;
+            }
+        };
+        match robot.ingress(Incoming { key: q.key_expr().as_str(), payload: &net::query_payload(q), put: true, from: Some(&from) }) {
+            Ok(ev) => Some(ev),
+            Err(e) => {
+                tracing::warn!(robot = %self.id, "refused command: {e}");
+                self.mesh.reply_error(q, &e.to_string()).await;
+                None
+            }
+        }
+    }
+}
+
+/// The next input of a ROS 2 body; pending without one.
+async fn recv_ros(ros: &Option<RosLink>) -> RosInput {
+    match ros {
+        Some(r) => r.recv().await,
+        None => std::future::pending().await,
+    }
+}
+
+fn ros_pose(p: mrmm_ros2::Pose2) -> proto::Pose {
+    proto::Pose { x: p.x, y: p.y, theta: p.theta }
+}
+
+/// A sealed team message (an arrival or a release) as the robot's event: its seal proven here,
+/// the rest translated by the robot's own ingress (a forged one is refused and recorded, a
+/// malformed one dropped).
+fn heard(mesh: &Mesh, robot: &Robot, what: &str, s: &Sample) -> Option<Event> {
+    let from = mesh.sender_of(what, s)?;
+    let payload = s.payload().to_bytes();
+    match robot.ingress(Incoming { key: s.key_expr().as_str(), payload: &payload, put: s.kind() == SampleKind::Put, from: Some(&from) }) {
+        Ok(ev) => Some(ev),
+        Err(Refused::NotEntitled { from, what }) => {
+            mesh.refuse(&what, &from);
+            None
+        }
+        Err(e) => {
+            tracing::warn!("dropped payload on {}: {e}", s.key_expr());
+            None
+        }
+    }
+}
+
+/// A liveliness token (a teammate's, central's) as the robot's event.
+fn liveliness(robot: &Robot, s: &Sample) -> Option<Event> {
+    match robot.ingress(Incoming { key: s.key_expr().as_str(), payload: &[], put: s.kind() == SampleKind::Put, from: None }) {
+        Ok(ev) => Some(ev),
+        Err(e) => {
+            tracing::warn!("ignored token {}: {e}", s.key_expr());
+            None
+        }
+    }
+}

@@ -1,0 +1,160 @@
+//! The robot's I/O half: what each command of its machine means on the network — replies,
+//! team membership and barrier messages, telemetry, ROS 2 goals and twists, what it keeps on disk.
+
+use mrmm_net::security::seal::SignCadence;
+use mrmm_net::Mesh;
+use mrmm_proto::{self as proto, Key, Role, Sender};
+use mrmm_ros2::msgs::Twist;
+use mrmm_ros2::RosLink;
+use zenoh::query::Query;
+
+use super::team::TeamLink;
+use crate::nav_goals::NavCommand;
+use crate::robot::Command;
+use crate::viewers::Viewers;
+
+/// A robot's telemetry is signed (as well as tagged for the receivers it knows) once in this
+/// many milliseconds: receivers it does not know yet check one message in that time (one in ten
+/// at the demo's 5 Hz), and a robot streaming faster pays no more signatures for it.
+pub const TELEMETRY_SIGN_MS: u64 = 2000;
+
+/// The I/O half: the session, the team subscriptions and the telemetry publisher.
+pub(super) struct Io {
+    pub(super) mesh: Mesh,
+    pub(super) id: String,
+    pub(super) team: Option<TeamLink>,
+    pub(super) publisher: zenoh::pubsub::Publisher<'static>,
+    pub(super) telemetry_key: String,
+    /// Telemetry messages published (which of them are signed).
+    pub(super) telemetry_signs: SignCadence,
+    /// Viewers its telemetry is tagged for.
+    pub(super) viewers: Viewers,
+    /// A ROS 2 body's link.
+    pub(super) ros: Option<RosLink>,
+    /// Where the robot keeps what must survive a restart.
+    pub(super) state_dir: Option<std::path::PathBuf>,
+}
+
+impl Io {
+    pub(super) async fn execute(&mut self, c: Command, query: Option<&Query>) {
+        match c {
+            Command::Reply(result) => match (query, result) {
+                (Some(q), Ok(ack)) => self.mesh.reply_json(q, &ack).await,
+                (Some(q), Err(e)) => {
+                    tracing::warn!(robot = %self.id, "refused command: {e}");
+                    self.mesh.reply_error(q, &e).await;
+                }
+                (None, _) => {}
+            },
+            Command::Refuse(e) => {
+                self.mesh.verifier().refused.record(
+                    "robot command",
+                    &mrmm_net::security::Refusal::NotEntitled {
+                        proven: query.and_then(|q| self.mesh.try_sender_of_query(q).ok()).unwrap_or_else(|| Sender::new(Role::Operator, "unknown")),
+                        what: e.clone(),
+                    },
+                );
+                if let Some(q) = query {
+                    self.mesh.reply_err(q, &proto::ErrorReply::coded(proto::ErrorCode::Refused, e)).await;
+                }
+            }
+            c @ (Command::JoinTeam { .. } | Command::LeaveTeam | Command::Publish(_) | Command::PublishIn(..) | Command::Release(_) | Command::Lead(_)) => {
+                self.team_command(c).await
+            }
+            Command::Telemetry(t) => self.publish_telemetry(&t).await,
+            Command::Nav(NavCommand::Send { id, x, y, yaw }) => {
+                if let Some(ros) = &self.ros {
+                    tracing::info!(robot = %self.id, x, y, "Nav2 goal sent");
+                    ros.send_goal(id, x, y, yaw);
+                }
+            }
+            Command::Nav(NavCommand::Cancel(id)) => {
+                if let Some(ros) = &self.ros {
+                    ros.cancel_goal(id);
+                }
+            }
+            Command::KeepCapabilities { configured, now } => {
+                if let Some(dir) = &self.state_dir {
+                    if let Err(e) = crate::kept::save(dir, &configured, &now) {
+                        tracing::warn!(robot = %self.id, "capabilities not kept across a restart: {e}");
+                    }
+                }
+            }
+            Command::Drive(v) => {
+                if let Some(ros) = self.ros.as_mut() {
+                    if let Err(e) = ros.send_twist(Twist::planar(v.v, v.omega)).await {
+                        tracing::warn!(robot = %self.id, "cmd_vel publication failed: {e}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Telemetry, tagged for central, mission hosts and teammates (managers of its mission on
+    /// robots) it knows and current viewers; one message per [`TELEMETRY_SIGN_MS`] signed as
+    /// well, for everyone else (a host that takes its mission over before it knows that host).
+    async fn publish_telemetry(&mut self, t: &proto::Telemetry) {
+        match proto::encode_telemetry(t) {
+            Ok(bytes) => {
+                // Tagged for central, mission hosts and teammates (managers of its mission
+                // on robots) it knows and current viewers; one message per TELEMETRY_SIGN_MS
+                // signed as well, for
+                // everyone else (a host that takes its mission over before it knows that host).
+                let team = self.team.as_ref().map(|t| t.to.as_slice()).unwrap_or_default();
+                let now = mrmm_net::mesh::now_ms();
+                let sign = self.telemetry_signs.due(now);
+                let viewers = &self.viewers;
+                let seal = self.mesh.seal_for_known(
+                    &self.telemetry_key,
+                    &bytes,
+                    |s| matches!(s.role, Role::Central | Role::Host) || team.contains(s) || viewers.is_current(now, s),
+                    sign,
+                );
+                if let Err(e) = self.publisher.put(bytes).attachment(seal).await {
+                    tracing::warn!("telemetry publication failed: {e}");
+                }
+            }
+            Err(e) => tracing::warn!("telemetry encoding failed: {e}"),
+        }
+    }
+
+    /// The team's commands: join or leave it, publish arrivals and releases, lead its barriers.
+    async fn team_command(&mut self, c: Command) {
+        match c {
+            Command::JoinTeam { team, subteam, barrier, members, scopes } => {
+                self.team = None;
+                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam, barrier, &members, &scopes).await {
+                    Ok(link) => self.team = Some(link),
+                    Err(e) => tracing::warn!(robot = %self.id, "cannot join team {team}: {e}"),
+                }
+            }
+            Command::LeaveTeam => self.team = None,
+            Command::Publish(a) => {
+                let Some(t) = &self.team else { return };
+                let key = t.arrival_key(a.point, a.round).to_string();
+                self.mesh.publish_json_for(&key, &a, &t.to).await;
+            }
+            Command::PublishIn(team, a) => {
+                let Some(t) = &self.team else { return };
+                let Some((_, to)) = t.wide.iter().find(|(p, _)| *p == team) else { return };
+                let key = Key::TeamSync { team, point: a.point, round: a.round }.to_string();
+                self.mesh.publish_json_for(&key, &a, to).await;
+            }
+            Command::Release(r) => {
+                let Some(t) = &self.team else { return };
+                let key = Key::TeamRelease { team: t.team.clone(), point: r.point, round: r.round }.to_string();
+                self.mesh.publish_json_for(&key, &r, &t.to).await;
+            }
+            Command::Lead(on) => {
+                if let Some(t) = self.team.as_mut() {
+                    if let Err(e) = t.lead(self.mesh.session(), on).await {
+                        tracing::warn!(robot = %self.id, "cannot hear the team's arrivals as its leader: {e}");
+                    } else {
+                        tracing::info!(robot = %self.id, team = %t.team, on, "leads the team's barriers");
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+}

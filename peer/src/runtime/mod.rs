@@ -1,0 +1,160 @@
+//! The robot runtime: the thin async loop that drives a [`Robot`] over Zenoh — its inputs
+//! ([`inputs`]: queries, publications, liveliness, timers) become [`Event`]s through the robot's
+//! own ingress, and its [`Command`]s are carried out ([`io`]; the team's side in [`team`]).
+//!
+//! [`Event`]: crate::robot::Event
+//! [`Command`]: crate::robot::Command
+
+mod inputs;
+mod io;
+mod team;
+
+use std::time::{Duration, Instant};
+
+use mrmm_net::net::{self, Mode};
+use mrmm_net::security::seal::SignCadence;
+use mrmm_net::{Mesh, NodeNet};
+use mrmm_proto::{self as proto, Key, Role, Sender};
+use mrmm_ros2::RosLink;
+use tokio::sync::oneshot;
+use tokio_util::sync::CancellationToken;
+use zenoh::bytes::Encoding;
+use zenoh::Session;
+
+use self::inputs::Inputs;
+use self::io::Io;
+use crate::config::{BodySection, RobotConfig};
+use crate::error::PeerError;
+use crate::robot::Robot;
+use crate::viewers::Viewers;
+
+pub use self::io::TELEMETRY_SIGN_MS;
+
+/// Input waiting for the robot's loop, per kind, at most: when the loop falls behind (or is
+/// flooded), the oldest is dropped — never Zenoh's receiving thread blocked.
+const QUEUE: usize = 256;
+/// Physics step period (wall time); a ROS 2 body's control period.
+const PHYSICS_PERIOD: Duration = Duration::from_millis(20);
+/// How often a ROS 2 body's robot checks that it still has fleet links.
+const FLEET_CHECK_PERIOD: Duration = Duration::from_millis(100);
+
+/// What a started robot reports once it is on the network.
+#[derive(Debug, Clone)]
+pub struct Ready {
+    pub id: String,
+    pub zid: String,
+    pub endpoints: Vec<String>,
+}
+
+/// Runs a robot peer until `shutdown` is cancelled. `ready` is told once the robot is registered
+/// on the network (queryables and liveliness token declared).
+pub async fn run(cfg: RobotConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), PeerError> {
+    let mesh = open(&cfg).await?;
+    run_on(mesh, cfg, shutdown, ready, None).await
+}
+
+/// The missions the robot is in or admitted to, each with whom it trusts for it (what its
+/// mission host needs to know whom to take chain messages from).
+pub type LocalTeam = Vec<(String, Vec<String>)>;
+
+/// How the robot of `cfg` joins the mesh.
+pub fn node_net(cfg: &RobotConfig) -> NodeNet {
+    let z = &cfg.zenoh;
+    NodeNet {
+        mode: Mode::Peer,
+        listen: z.listen.clone(),
+        connect: z.connect.clone(),
+        lease_ms: z.lease_ms,
+        max_message_size: z.max_message_size,
+        wire_stats: z.wire_stats,
+        security: cfg.security.clone(),
+        me: Some(Sender::new(Role::Robot, cfg.id.clone())),
+    }
+}
+
+/// Opens the robot's session as its config says (secure with a `security` section).
+pub async fn open(cfg: &RobotConfig) -> Result<Mesh, PeerError> {
+    Ok(Mesh::open(&node_net(cfg)).await?)
+}
+
+/// Refuses to start a second node under a name the mesh already knows alive: two robots (or two
+/// mission hosts) under one name would break the chain's majorities and the team barriers.
+pub async fn refuse_taken_name(session: &Session, key: &Key, what: &str, name: &str) -> Result<(), PeerError> {
+    if net::already_alive(session, &key.to_string(), net::NAME_CHECK_TIMEOUT).await? {
+        return Err(PeerError::NameTaken(format!("{what} {name:?} is already alive on the mesh ({key}); give every {what} its own name")));
+    }
+    Ok(())
+}
+
+/// Runs a robot on an open session (shared with other services of the same process, such as
+/// a mission host, told the robot's team on `team`).
+pub async fn run_on(
+    mesh: Mesh,
+    cfg: RobotConfig,
+    shutdown: CancellationToken,
+    ready: Option<oneshot::Sender<Ready>>,
+    team: Option<tokio::sync::watch::Sender<LocalTeam>>,
+) -> Result<(), PeerError> {
+    let session = mesh.session().clone();
+    let id = cfg.id.clone();
+    refuse_taken_name(&session, &Key::RobotAlive(id.clone()), "robot", &id).await?;
+    // A ROS 2 body: its own session to the robot's ROS router, opened before the robot shows up.
+    let ros = match &cfg.body {
+        BodySection::Ros2(b) => Some(RosLink::open(b, &id).await?),
+        BodySection::Sim => None,
+    };
+    // Capabilities changed before a restart come back (a broken camera stays broken).
+    let kept = match &cfg.state_dir {
+        Some(dir) => crate::kept::load(dir, &cfg.capabilities)?,
+        None => None,
+    };
+    let mut robot = Robot::new(cfg.setup());
+    if let Some(now) = kept {
+        robot.restore_capabilities(now);
+    }
+    let endpoints = net::listening_endpoints(&session).await;
+    let mut inputs = Inputs::declare(&mesh, &id, cfg.telemetry_hz, endpoints.clone(), shutdown).await?;
+    let telemetry_key = Key::RobotTelemetry(id.clone()).to_string();
+    let publisher = session.declare_publisher(telemetry_key.clone()).encoding(Encoding::APPLICATION_OCTET_STREAM).await.map_err(PeerError::zenoh)?;
+    // Declared last: once others see the token, the queryables answer.
+    let token = session.liveliness().declare_token(Key::RobotAlive(id.clone()).to_string()).await.map_err(PeerError::zenoh)?;
+    tracing::info!(robot = %id, zid = %session.zid(), ?endpoints, "robot up");
+    if let Some(tx) = ready {
+        let _ = tx.send(Ready { id: id.clone(), zid: session.zid().to_string(), endpoints });
+    }
+    let mut io = Io {
+        mesh: mesh.clone(),
+        id: id.clone(),
+        team: None,
+        publisher,
+        telemetry_key,
+        telemetry_signs: SignCadence::new(TELEMETRY_SIGN_MS),
+        viewers: Viewers::new(proto::VIEWER_HELLO_MS),
+        ros,
+        state_dir: cfg.state_dir.clone(),
+    };
+    let t0 = Instant::now();
+    while let Some((event, query)) = inputs.next(&robot, &mut io).await {
+        for c in robot.handle(t0.elapsed().as_secs_f64(), event) {
+            io.execute(c, query.as_ref()).await;
+        }
+        // The mission host of this process learns whom the robot trusts for which mission.
+        if let Some(tx) = &team {
+            let now: LocalTeam = robot.team();
+            tx.send_if_modified(|t| {
+                let changed = *t != now;
+                if changed {
+                    *t = now;
+                }
+                changed
+            });
+        }
+    }
+    tracing::info!(robot = %id, "shutting down");
+    if let Some(ros) = io.ros.take() {
+        ros.close().await;
+    }
+    drop((io, inputs, token));
+    session.close().await.map_err(PeerError::zenoh)?;
+    Ok(())
+}
