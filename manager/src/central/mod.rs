@@ -53,42 +53,9 @@ enum Input {
 /// Runs central until `shutdown` is cancelled.
 pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), ManagerError> {
     cfg.validate().map_err(ManagerError::Config)?;
-    // The journal first: a state dir another central uses, or a damaged one, stops start-up.
-    // Its mission host keeps its chain state beside the journal (`chain.redb`): a mission it
-    // leads or replicates comes back through its chain after a restart, as on a robot with a
-    // state dir, rather than wait for a vote the host forgot it gave.
-    let (mut journal, state, chain) = match &cfg.state_dir {
-        Some(dir) => {
-            let (j, state) = Journal::open(dir)?;
-            tracing::info!(dir = %dir.display(), entries = j.last(), missions = state.missions.len(), robots = state.assignment.len(), "journal replayed");
-            let chain = crate::host::store::Store::open(dir)?;
-            (Some(j), state, Some(chain))
-        }
-        None => {
-            tracing::warn!("no state dir: central keeps nothing on disk, and a restart forgets every mission");
-            (None, system::Durable::default(), None)
-        }
-    };
-
-    // The maps next: one that cannot be read stops start-up with one line naming it.
-    let maps = crate::maps::MapStore::default();
-    for (name, path) in &cfg.maps {
-        let held = tokio::task::block_in_place(|| crate::maps::load_file(name, path))?;
-        tracing::info!(map = %name, format = %held.info.format, size = %held.info.size, hash = %held.info.hash, "map loaded");
-        maps.insert(held);
-    }
-
-    let mesh = Mesh::open(&NodeNet {
-        mode: Mode::Router,
-        listen: cfg.listen.clone(),
-        connect: vec![],
-        lease_ms: cfg.lease_ms,
-        max_message_size: cfg.max_message_size,
-        security: cfg.security.clone(),
-        me: Some(Sender::new(Role::Central, proto::CENTRAL_HOST)),
-        wire_stats: cfg.wire_stats,
-    })
-    .await?;
+    let (mut journal, state, chain) = open_state(&cfg)?;
+    let maps = load_maps(&cfg)?;
+    let mesh = Mesh::open(&node_net(&cfg)).await?;
     let session = mesh.session().clone();
     let endpoints = net::listening_endpoints(&session).await;
     let zid = session.zid().to_string();
@@ -97,49 +64,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
     let (live, mut live_rx) = Inbox::new("liveliness", LIVELINESS_QUEUE);
     let (net, mut net_rx) = Inbox::new("publications and queries", NET_QUEUE);
-    let mut held = Vec::new();
-    for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
-        let t = live.clone();
-        held.push(
-            session
-                .liveliness()
-                .declare_subscriber(pattern.to_string())
-                .history(true)
-                .callback(move |s| {
-                    t.push(Input::Sample(s));
-                })
-                .await
-                .map_err(ManagerError::zenoh)?,
-        );
-    }
-    for pattern in [Pattern::AllTelemetry, Pattern::AllMissionStatus] {
-        let t = net.clone();
-        held.push(
-            session
-                .declare_subscriber(pattern.to_string())
-                .callback(move |s| {
-                    t.push(Input::Sample(s));
-                })
-                .await
-                .map_err(ManagerError::zenoh)?,
-        );
-    }
-    let t = net.clone();
-    let _operator = session
-        .declare_queryable(Pattern::SystemAll.to_string())
-        .callback(move |q| {
-            t.push(Input::Operator(q));
-        })
-        .await
-        .map_err(ManagerError::zenoh)?;
-    let t = net.clone();
-    let _advice = session
-        .declare_queryable(Key::AgentAdvice.to_string())
-        .callback(move |q| {
-            t.push(Input::Advice(q));
-        })
-        .await
-        .map_err(ManagerError::zenoh)?;
+    let held = declare_inputs(&session, &live, &net).await?;
     // The default planner service and mission host live here too.
     let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), maps.clone(), shutdown.child_token()));
     let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, chain, maps.clone(), shutdown.child_token()));
@@ -152,21 +77,13 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state).with_maps(maps.by_name());
     let mut io = Io { mesh: mesh.clone(), timeout: Duration::from_millis(cfg.query_timeout_ms), queries: HashMap::new(), next: 0, tx };
     let mut tick = tokio::time::interval(TICK);
-    let mut refused = 0;
-    let mut proofs_at = Instant::now();
+    let mut seals = SealCounts { refused: 0, proofs_at: Instant::now() };
     loop {
         let event = tokio::select! {
             _ = shutdown.cancelled() => break,
             _ = tick.tick() => {
-                let total = mesh.verifier().refused.total();
-                if total != refused {
-                    refused = total;
-                    let cmds = core.handle(t0.elapsed().as_secs_f64(), Event::System(system::Event::Refusals(mesh.verifier().refused.counts())));
-                    carry_out(&mut io, journal.as_mut(), cmds).await?;
-                }
-                if proofs_at.elapsed() >= Duration::from_secs(1) {
-                    proofs_at = Instant::now();
-                    let cmds = core.handle(t0.elapsed().as_secs_f64(), Event::System(system::Event::Proofs(mesh.verifier().proven.counts())));
+                for e in seals.due(&mesh) {
+                    let cmds = core.handle(t0.elapsed().as_secs_f64(), Event::System(e));
                     carry_out(&mut io, journal.as_mut(), cmds).await?;
                 }
                 Event::System(system::Event::Tick)
@@ -208,6 +125,140 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
 
 /// Carries out one event's commands: its journal entries are committed (fsync) before anything
 /// else is done or said. A journal that cannot be written stops central: it restarts from
+/// Central's session: the fleet's router, listening where its config says.
+fn node_net(cfg: &CentralConfig) -> NodeNet {
+    NodeNet {
+        mode: Mode::Router,
+        listen: cfg.listen.clone(),
+        connect: vec![],
+        lease_ms: cfg.lease_ms,
+        max_message_size: cfg.max_message_size,
+        security: cfg.security.clone(),
+        me: Some(Sender::new(Role::Central, proto::CENTRAL_HOST)),
+        wire_stats: cfg.wire_stats,
+    }
+}
+
+/// What the seals of central's session counted, reported to the system manager: refusals as
+/// soon as there are new ones, proofs once a second.
+struct SealCounts {
+    refused: u64,
+    proofs_at: Instant,
+}
+
+impl SealCounts {
+    fn due(&mut self, mesh: &Mesh) -> Vec<system::Event> {
+        let mut out = Vec::new();
+        let total = mesh.verifier().refused.total();
+        if total != self.refused {
+            self.refused = total;
+            out.push(system::Event::Refusals(mesh.verifier().refused.counts()));
+        }
+        if self.proofs_at.elapsed() >= Duration::from_secs(1) {
+            self.proofs_at = Instant::now();
+            out.push(system::Event::Proofs(mesh.verifier().proven.counts()));
+        }
+        out
+    }
+}
+
+/// The journal (a state dir another central uses, or a damaged one, stops start-up) and the
+/// state it replays; beside it, the chain state of central's mission host (`chain.redb`): a
+/// mission it leads or replicates comes back through its chain after a restart, as on a robot
+/// with a state dir, rather than wait for a vote the host forgot it gave.
+type State = (Option<Journal>, system::Durable, Option<crate::host::store::Opened>);
+
+fn open_state(cfg: &CentralConfig) -> Result<State, ManagerError> {
+    // The journal first: a state dir another central uses, or a damaged one, stops start-up.
+    // Its mission host keeps its chain state beside the journal (`chain.redb`): a mission it
+    // leads or replicates comes back through its chain after a restart, as on a robot with a
+    // state dir, rather than wait for a vote the host forgot it gave.
+    Ok(match &cfg.state_dir {
+        Some(dir) => {
+            let (j, state) = Journal::open(dir)?;
+            tracing::info!(dir = %dir.display(), entries = j.last(), missions = state.missions.len(), robots = state.assignment.len(), "journal replayed");
+            let chain = crate::host::store::Store::open(dir)?;
+            (Some(j), state, Some(chain))
+        }
+        None => {
+            tracing::warn!("no state dir: central keeps nothing on disk, and a restart forgets every mission");
+            (None, system::Durable::default(), None)
+        }
+    })
+}
+
+/// The maps central offers: one that cannot be read stops start-up with one line naming it.
+fn load_maps(cfg: &CentralConfig) -> Result<crate::maps::MapStore, ManagerError> {
+    let maps = crate::maps::MapStore::default();
+    for (name, path) in &cfg.maps {
+        let held = tokio::task::block_in_place(|| crate::maps::load_file(name, path))?;
+        tracing::info!(map = %name, format = %held.info.format, size = %held.info.size, hash = %held.info.hash, "map loaded");
+        maps.insert(held);
+    }
+    Ok(maps)
+}
+
+/// Central's subscriptions and queryables, kept alive while it runs.
+#[derive(Default)]
+struct Held {
+    subs: Vec<zenoh::pubsub::Subscriber<()>>,
+    operator: Option<zenoh::query::Queryable<()>>,
+    advice: Option<zenoh::query::Queryable<()>>,
+}
+
+/// Robots' and hosts' liveliness (on their own inbox: a flood of data must not push out the
+/// news that a robot died), telemetry, mission status, the operator API and the advice.
+async fn declare_inputs(session: &zenoh::Session, live: &Inbox<Input>, net: &Inbox<Input>) -> Result<Held, ManagerError> {
+    let mut held = Held::default();
+    for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
+        let t = live.clone();
+        held.subs.push(
+            session
+                .liveliness()
+                .declare_subscriber(pattern.to_string())
+                .history(true)
+                .callback(move |s| {
+                    t.push(Input::Sample(s));
+                })
+                .await
+                .map_err(ManagerError::zenoh)?,
+        );
+    }
+    for pattern in [Pattern::AllTelemetry, Pattern::AllMissionStatus] {
+        let t = net.clone();
+        held.subs.push(
+            session
+                .declare_subscriber(pattern.to_string())
+                .callback(move |s| {
+                    t.push(Input::Sample(s));
+                })
+                .await
+                .map_err(ManagerError::zenoh)?,
+        );
+    }
+    let t = net.clone();
+    held.operator = Some(
+        session
+            .declare_queryable(Pattern::SystemAll.to_string())
+            .callback(move |q| {
+                t.push(Input::Operator(q));
+            })
+            .await
+            .map_err(ManagerError::zenoh)?,
+    );
+    let t = net.clone();
+    held.advice = Some(
+        session
+            .declare_queryable(Key::AgentAdvice.to_string())
+            .callback(move |q| {
+                t.push(Input::Advice(q));
+            })
+            .await
+            .map_err(ManagerError::zenoh)?,
+    );
+    Ok(held)
+}
+
 /// what is on disk rather than say "ok" about what is not.
 async fn carry_out(io: &mut Io, journal: Option<&mut Journal>, cmds: Vec<Command>) -> Result<(), ManagerError> {
     let (mut events, mut rest) = (Vec::new(), Vec::new());
