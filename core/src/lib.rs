@@ -30,6 +30,7 @@ pub mod planning;
 pub mod robot;
 pub mod ros_body;
 pub mod system;
+pub mod timeouts;
 pub mod viewers;
 pub mod wire;
 

@@ -59,7 +59,7 @@ fn default_lease() -> u64 {
     DEFAULT_LEASE_MS
 }
 fn default_query_timeout() -> u64 {
-    2000
+    (mrmm_core::timeouts::QUERY_S * 1000.0) as u64
 }
 
 impl Default for CentralConfig {

@@ -32,7 +32,7 @@ const NET_QUEUE: usize = 8_192;
 /// Period of the manager's housekeeping tick.
 const TICK: Duration = Duration::from_millis(250);
 /// How long a mission host may take to plan a new mission.
-const START_TIMEOUT: Duration = Duration::from_secs(25);
+const START_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::START_S as u64);
 /// How long a create's dry-run plan may take (the planner's limits keep it far shorter).
 const DRY_RUN_DEADLINE: Duration = Duration::from_secs(10);
 

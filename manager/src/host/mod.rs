@@ -28,9 +28,9 @@ use crate::Failure;
 pub use mrmm_core::host::{Command, Event, HostCore, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
 
 /// How long a planner service may take.
-pub const PLAN_TIMEOUT: Duration = Duration::from_secs(20);
+pub const PLAN_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::PLAN_S as u64);
 /// How long a robot may take to accept a plan.
-const ROBOT_TIMEOUT: Duration = Duration::from_secs(3);
+const ROBOT_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::ROBOT_PLAN_S as u64);
 /// Seconds between two status publications of each mission.
 const STATUS_PERIOD: Duration = Duration::from_secs(1);
 /// Liveliness changes waiting for the host's loop, at most.

@@ -36,12 +36,14 @@ use wire::Wire;
 
 /// Robots' simulated seconds per wall second.
 const TIME_SCALE: f64 = 4.0;
-/// How long a query waits for an answer (the drivers' timeouts).
-fn timeout(p: &Payload) -> f64 {
-    match p {
-        Payload::HostStart(_) => 25.0,
-        Payload::Planner(..) => 20.0,
-        _ => 2.0,
+/// How long a query waits for an answer: the drivers' own timeouts.
+fn timeout(p: &Payload, ctx: &Ctx) -> f64 {
+    use mrmm_core::timeouts;
+    match (p, ctx) {
+        (Payload::HostStart(_), _) => timeouts::START_S,
+        (Payload::Planner(..), _) => timeouts::PLAN_S,
+        (_, Ctx::HostSendPlan { .. }) => timeouts::ROBOT_PLAN_S,
+        _ => timeouts::QUERY_S,
     }
 }
 

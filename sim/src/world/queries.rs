@@ -22,7 +22,7 @@ impl World {
         self.next_qid += 1;
         let asker_inc = asker.map_or(0, |a| self.links.inc[a]);
         let reachable = server.filter(|s| asker.is_none_or(|a| self.links.connected(a, *s)));
-        let wait = timeout(&payload);
+        let wait = timeout(&payload, &ctx);
         self.queries.insert(qid, Pending { asker, asker_inc, server: server.unwrap_or(usize::MAX), payload: Some(payload), ctx, done: false });
         match reachable {
             // Nobody serves the key: the query ends at once, empty.
