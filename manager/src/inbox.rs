@@ -8,6 +8,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use tokio::sync::mpsc;
+use zenoh::pubsub::Subscriber;
+use zenoh::sample::Sample;
+use zenoh::Session;
+
+use crate::error::ManagerError;
 
 /// The sending side of a bounded queue.
 #[derive(Debug)]
@@ -43,6 +48,21 @@ impl<T> Inbox<T> {
     /// Items dropped so far.
     pub fn dropped(&self) -> u64 {
         self.dropped.load(Ordering::Relaxed)
+    }
+}
+
+impl<T: Send + 'static> Inbox<T> {
+    /// Subscribes to `key`: each sample is queued as `wrap(sample)`.
+    pub async fn subscribe(&self, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ManagerError> {
+        let t = self.clone();
+        session.declare_subscriber(key).callback(move |s| t.push(wrap(s))).await.map_err(ManagerError::zenoh)
+    }
+
+    /// Follows the liveliness tokens on `key`, those alive already included: each appearance and
+    /// disappearance is queued as `wrap(sample)`.
+    pub async fn liveliness(&self, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ManagerError> {
+        let t = self.clone();
+        session.liveliness().declare_subscriber(key).history(true).callback(move |s| t.push(wrap(s))).await.map_err(ManagerError::zenoh)
     }
 }
 

@@ -211,30 +211,10 @@ struct Held {
 async fn declare_inputs(session: &zenoh::Session, live: &Inbox<Input>, net: &Inbox<Input>) -> Result<Held, ManagerError> {
     let mut held = Held::default();
     for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
-        let t = live.clone();
-        held.subs.push(
-            session
-                .liveliness()
-                .declare_subscriber(pattern.to_string())
-                .history(true)
-                .callback(move |s| {
-                    t.push(Input::Sample(s));
-                })
-                .await
-                .map_err(ManagerError::zenoh)?,
-        );
+        held.subs.push(live.liveliness(session, pattern.to_string(), Input::Sample).await?);
     }
     for pattern in [Pattern::AllTelemetry, Pattern::AllMissionStatus] {
-        let t = net.clone();
-        held.subs.push(
-            session
-                .declare_subscriber(pattern.to_string())
-                .callback(move |s| {
-                    t.push(Input::Sample(s));
-                })
-                .await
-                .map_err(ManagerError::zenoh)?,
-        );
+        held.subs.push(net.subscribe(session, pattern.to_string(), Input::Sample).await?);
     }
     let t = net.clone();
     held.operator = Some(

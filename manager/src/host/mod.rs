@@ -117,31 +117,9 @@ pub async fn serve_with(
     // Telemetry of the robots the core watches, and (robot nodes: they learn their mission's chain
     // from the head's status) the status of the robot's missions: subscribed one by one.
     let mut follow = subs::Subs::new(session.clone(), net.clone());
-    for key in [Key::HostChain(node.clone()).to_string()] {
-        let t = net.clone();
-        subs.push(
-            session
-                .declare_subscriber(key)
-                .callback(move |s| {
-                    t.push(Input::Sample(s));
-                })
-                .await
-                .map_err(ManagerError::zenoh)?,
-        );
-    }
+    subs.push(net.subscribe(&session, Key::HostChain(node.clone()).to_string(), Input::Sample).await?);
     for pattern in [Pattern::AllHostsAlive, Pattern::AllRobotsAlive, Pattern::AllPlannersAlive] {
-        let t = live.clone();
-        subs.push(
-            session
-                .liveliness()
-                .declare_subscriber(pattern.to_string())
-                .history(true)
-                .callback(move |s| {
-                    t.push(Input::Sample(s));
-                })
-                .await
-                .map_err(ManagerError::zenoh)?,
-        );
+        subs.push(live.liveliness(&session, pattern.to_string(), Input::Sample).await?);
     }
     let _token = session.liveliness().declare_token(Key::HostAlive(node.clone()).to_string()).await.map_err(ManagerError::zenoh)?;
     tracing::info!(%node, "mission host up");
