@@ -84,7 +84,8 @@ async fn a_plain_zenoh_client_with_an_operator_certificate_commands_and_a_robot_
     for c in &cfg {
         zenoh_cli.args(["--cfg", c]);
     }
-    let out = zenoh_cli.args(["get", "--decoder", "json", "-s", "mrmm/system/status"]).output()?;
+    let status_key = Key::SystemStatus.to_string();
+    let out = zenoh_cli.args(["get", "--decoder", "json", "-s", &status_key]).output()?;
     let said = String::from_utf8_lossy(&out.stdout);
     println!("zenoh-cli: {said}");
     let status: Value = serde_json::from_str(said.lines().next().unwrap_or_default())

@@ -21,6 +21,7 @@ pub mod body;
 pub mod central;
 pub mod chain;
 pub mod drive;
+pub mod edge;
 pub mod executor;
 pub mod host;
 pub mod maps;

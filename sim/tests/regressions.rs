@@ -35,6 +35,7 @@ macro_rules! seeds {
 }
 
 seeds! {
+    seed_0 = 0: "chain: a replica's state parsed from a chain message's JSON differed from the head's by a float's last bit (serde_json without `float_roundtrip`)";
     seed_18 = 18: "chain: catches a head elected without Raft's up-to-date rule (when `Replica::on_vote` drops it)";
     seed_44 = 44: "system: catches a member left on an old epoch when an unacknowledged plan is never re-sent";
     seed_159 = 159: "system: kept from the issue's list of seeds that found bugs";

@@ -18,12 +18,14 @@ use crate::mission::{self, MissionManager, MissionSpec};
 use crate::Failure;
 
 mod head;
+pub mod ingress;
 mod led;
 #[cfg(test)]
 mod tests;
 mod watch;
 
 pub use head::{PLAN_RETRIES, REDELIVER_S};
+pub use ingress::{ingress, sealed};
 pub use watch::UNJUDGED_S;
 
 type ChainCmd = chain::Command<MissionSnapshot>;

@@ -4,47 +4,13 @@
 //! publication policy of the protocol (`mrmm_proto::policy`): a forged or malformed message is
 //! refused here, wherever it arrives.
 
-use std::fmt;
-
 use mrmm_proto::policy::{may_publish, Publication};
 use mrmm_proto::{self as proto, Key, RobotCommand, Sender, SyncArrival, SyncRelease};
 
+use crate::edge::json;
+
 use super::{Event, Robot};
-
-/// Why a message did not become an event.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Refused {
-    /// The message needs a proven sender and has none (no seal, or one that does not verify).
-    Unproven { what: &'static str },
-    /// Its proven sender may not send it (a robot speaking for another, …).
-    NotEntitled { from: Sender, what: String },
-    /// Its payload is not what its key promises (`why` names it).
-    Malformed { what: &'static str, why: String },
-    /// Nothing this robot listens to is on that key.
-    Unexpected { key: String },
-}
-
-impl fmt::Display for Refused {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Refused::Unproven { what } => write!(f, "{what} without a proven sender"),
-            Refused::NotEntitled { from, what } => write!(f, "{from} may not {what}"),
-            Refused::Malformed { why, .. } => f.write_str(why),
-            Refused::Unexpected { key } => write!(f, "nothing is expected on {key}"),
-        }
-    }
-}
-
-/// A message as the driver received it.
-#[derive(Debug, Clone, Copy)]
-pub struct Incoming<'a> {
-    pub key: &'a str,
-    pub payload: &'a [u8],
-    /// A put (or a liveliness token appearing) rather than a delete (a token gone).
-    pub put: bool,
-    /// The sender its seal proves (liveliness tokens carry none).
-    pub from: Option<&'a Sender>,
-}
+pub use crate::edge::{Incoming, Refused};
 
 impl Robot {
     /// Translates what the robot heard into an event of its machine: commands on its own command
@@ -56,18 +22,18 @@ impl Robot {
         match Key::parse(m.key) {
             Some(Key::RobotCmd(id)) if id == self.id() => {
                 let from = proven("robot command")?;
-                let cmd: RobotCommand = decode("robot command", m.payload)?;
+                let cmd: RobotCommand = json("robot command", m.payload)?;
                 Ok(Event::Command { cmd, from })
             }
             Some(Key::TeamSync { team, .. } | Key::TeamArrive { team, .. }) => {
                 let from = proven("barrier arrival")?;
-                let a: SyncArrival = decode("barrier arrival", m.payload)?;
+                let a: SyncArrival = json("barrier arrival", m.payload)?;
                 entitled(Publication::Arrival(&a.robot), &from)?;
                 Ok(if self.own_team() == Some(team.as_str()) { Event::Heard(a) } else { Event::HeardIn(team, a) })
             }
             Some(Key::TeamRelease { .. }) => {
                 let from = proven("barrier release")?;
-                let r: SyncRelease = decode("barrier release", m.payload)?;
+                let r: SyncRelease = json("barrier release", m.payload)?;
                 entitled(Publication::Release(&r.leader), &from)?;
                 Ok(Event::Released(r))
             }
@@ -81,10 +47,6 @@ impl Robot {
     fn own_team(&self) -> Option<&str> {
         self.exec.as_ref().map(|e| e.assignment.team.as_str())
     }
-}
-
-fn decode<T: serde::de::DeserializeOwned>(what: &'static str, payload: &[u8]) -> Result<T, Refused> {
-    proto::from_json(what, payload).map_err(|e| Refused::Malformed { what, why: e.to_string() })
 }
 
 #[cfg(test)]

@@ -12,7 +12,6 @@ use std::time::{Duration, Instant};
 
 use mrmm_net::net::{self, QueryError};
 use mrmm_net::Mesh;
-use mrmm_proto::policy::Publication;
 use mrmm_proto::{self as proto, ChainEnvelope, CommandAck, Key, MissionPlan, Pattern, RobotCommand, Role};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
@@ -25,6 +24,7 @@ use crate::error::ManagerError;
 use crate::inbox::Inbox;
 use crate::maps::MapStore;
 use crate::Failure;
+use mrmm_core::edge::{Incoming, Refused};
 pub use mrmm_core::host::{Command, Event, HostCore, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
 
 /// How long a planner service may take.
@@ -214,59 +214,23 @@ async fn local_changed(local: &mut Option<watch::Receiver<LocalTeam>>) -> Option
     }
 }
 
-/// A publication or liveliness change as the core's event; `None` (logged) for anything foreign,
-/// malformed, or not sent by whom it must be.
+/// A publication or liveliness change as the core's event, translated by the host's own ingress
+/// once the seal proved its sender; `None` (refusals recorded, the rest logged) otherwise.
 fn decode(mesh: &Mesh, s: &Sample) -> Option<Event> {
-    let up = s.kind() == SampleKind::Put;
     let key = s.key_expr().as_str();
-    match Key::parse(key) {
-        Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
-            Ok(t) if t.id == id => {
-                let from = mesh.sender_of("telemetry", s)?;
-                if !mesh.entitled(Publication::Telemetry(&id), &from) {
-                    return None;
-                }
-                Some(Event::Telemetry(Box::new(t)))
-            }
-            Ok(t) => {
-                tracing::debug!("dropped telemetry of {:?} published on {key}", t.id);
-                None
-            }
-            Err(e) => {
-                tracing::debug!("dropped payload on {key}: {e}");
-                None
-            }
-        },
-        Some(Key::HostChain(_)) => match proto::from_json::<ChainEnvelope>("chain message", &s.payload().to_bytes()) {
-            Ok(env) if proto::validate_id(&env.mission).is_ok() && proto::validate_id(&env.from).is_ok() => {
-                let from = mesh.sender_of("chain message", s)?;
-                if !from.role.hosts_missions() {
-                    mesh.refuse("send chain messages", &from);
-                    return None;
-                }
-                Some(Event::Chain { envelope: Box::new(env), from })
-            }
-            Ok(_) => {
-                tracing::debug!("dropped a chain message with a bad mission or node name");
-                None
-            }
-            Err(e) => {
-                tracing::debug!("dropped chain message on {key}: {e}");
-                None
-            }
-        },
-        Some(Key::MissionStatus(name)) => match proto::from_json::<proto::MissionView>("mission status", &s.payload().to_bytes()) {
-            Ok(v) if v.name == name => {
-                let from = mesh.sender_of("mission status", s)?;
-                Some(Event::MissionStatus { view: Box::new(v), from })
-            }
-            _ => None,
-        },
-        Some(Key::HostAlive(node)) => Some(if up { Event::HostAlive(node) } else { Event::HostGone(node) }),
-        Some(Key::RobotAlive(id)) => Some(if up { Event::RobotAlive(id) } else { Event::RobotGone(id) }),
-        Some(Key::PlannerAlive { kind, zid }) => Some(if up { Event::PlannerAlive { kind, zid } } else { Event::PlannerGone { kind, zid } }),
-        _ => {
-            tracing::debug!("ignored {key}");
+    let payload = s.payload().to_bytes();
+    let from = match mrmm_core::host::sealed(key) {
+        Some(what) => Some(mesh.sender_of(what, s)?),
+        None => None,
+    };
+    match mrmm_core::host::ingress(Incoming { key, payload: &payload, put: s.kind() == SampleKind::Put, from: from.as_ref() }) {
+        Ok(ev) => Some(ev),
+        Err(Refused::NotEntitled { from, what }) => {
+            mesh.refuse(&what, &from);
+            None
+        }
+        Err(e) => {
+            tracing::debug!("dropped what came on {key}: {e}");
             None
         }
     }

@@ -111,7 +111,7 @@ impl World {
             Token::Robot(id) => {
                 let (a, b) = (system::Event::RobotAlive { id: id.clone() }, system::Event::RobotGone { id: id.clone() });
                 self.central(node, central::Event::System(if up { a } else { b }))?;
-                self.host(node, if up { host::Event::RobotAlive(id.clone()) } else { host::Event::RobotGone(id.clone()) })
+                self.host_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone()), up))
             }
             Token::Host(name) => {
                 let (a, b) = (system::Event::HostAlive { node: name.clone() }, system::Event::HostGone { node: name.clone() });
@@ -119,12 +119,12 @@ impl World {
                 if name == CENTRAL_HOST {
                     self.robot_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone()), up))?;
                 }
-                self.host(node, if up { host::Event::HostAlive(name.clone()) } else { host::Event::HostGone(name.clone()) })
+                self.host_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone()), up))
             }
             Token::Planner => {
                 for kind in ["patrol", "coverage"] {
                     let (kind, zid) = (kind.to_string(), CENTRAL_HOST.to_string());
-                    self.host(node, if up { host::Event::PlannerAlive { kind, zid } } else { host::Event::PlannerGone { kind, zid } })?;
+                    self.host_hears(node, Wire::token(mrmm_proto::Key::PlannerAlive { kind, zid }, up))?;
                 }
                 Ok(())
             }

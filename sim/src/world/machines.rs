@@ -31,8 +31,8 @@ impl World {
         if let Some(j) = self.index(to) {
             if !self.lost() {
                 let at = self.now + self.delay();
-                let from = self.sender(i);
-                self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Chain { envelope, from }) });
+                let msg = Wire::json(mrmm_proto::Key::HostChain(to.to_string()), &*envelope, self.sender(i));
+                self.queue.push(at, Ev::Host { from: i, to: j, msg: Box::new(msg) });
             }
         }
     }
@@ -211,8 +211,8 @@ impl World {
                 for j in 0..self.nodes.len() {
                     if j != i && self.nodes[j].kind == Kind::Robot && self.nodes[j].host.is_some() && !self.lost() {
                         let at = self.now + self.delay();
-                        let ev = host::Event::MissionStatus { view: view.clone(), from: from.clone() };
-                        self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(ev) });
+                        let msg = Wire::json(mrmm_proto::Key::MissionStatus(view.name.clone()), &*view, from.clone());
+                        self.queue.push(at, Ev::Host { from: i, to: j, msg: Box::new(msg) });
                     }
                 }
             }
@@ -332,7 +332,8 @@ impl World {
                         }
                         // Hosts subscribe to the robots they watch, as their drivers do.
                         if self.nodes[j].host.as_ref().is_some_and(|h| h.watches(&t.id)) {
-                            self.queue.push(at, Ev::Host { from: i, to: j, ev: Box::new(host::Event::Telemetry(Box::new(t.clone()))) });
+                            let msg = Wire::telemetry(&t, self.sender(i));
+                            self.queue.push(at, Ev::Host { from: i, to: j, msg: Box::new(msg) });
                         }
                     }
                 }

@@ -145,10 +145,11 @@ enum Ev {
         inc: u32,
         kind: TickKind,
     },
+    /// A message to a mission host, as its driver receives it: translated by the host's ingress.
     Host {
         from: usize,
         to: usize,
-        ev: Box<host::Event>,
+        msg: Box<Wire>,
     },
     Central {
         from: usize,
@@ -429,10 +430,10 @@ impl World {
                     TickKind::Central => self.central(node, central::Event::System(system::Event::Tick))?,
                 }
             }
-            Ev::Host { from, to, ev } => {
+            Ev::Host { from, to, msg } => {
                 if self.links.connected(from, to) {
                     self.report.messages += 1;
-                    self.host(to, *ev)?;
+                    self.host_hears(to, *msg)?;
                 }
             }
             Ev::Central { from, to, ev } => {

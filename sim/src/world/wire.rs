@@ -23,6 +23,11 @@ impl Wire {
         Wire { key: key.to_string(), payload: serde_json::to_vec(body).unwrap_or_default(), put: true, from: Some(from) }
     }
 
+    /// A robot's telemetry, as it publishes it.
+    pub fn telemetry(t: &mrmm_proto::Telemetry, from: Sender) -> Wire {
+        Wire { key: Key::RobotTelemetry(t.id.clone()).to_string(), payload: mrmm_proto::encode_telemetry(t).unwrap_or_default(), put: true, from: Some(from) }
+    }
+
     /// A liveliness token appearing (`up`) or going.
     pub fn token(key: Key, up: bool) -> Wire {
         Wire { key: key.to_string(), payload: Vec::new(), put: up, from: None }
@@ -42,6 +47,18 @@ impl World {
         match r.ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
             Ok(ev) => self.robot(i, ev),
             Err(e) => Err(format!("{} refused an honest message on {}: {e}", self.nodes[i].name, msg.key)),
+        }
+    }
+
+    /// Host `i` hears `msg` (on the node's host, if it has one): its ingress makes it an event,
+    /// or refuses it — which no message of an honest node may be.
+    pub(super) fn host_hears(&mut self, i: usize, msg: Wire) -> Result<(), String> {
+        if self.nodes[i].host.is_none() {
+            return Ok(());
+        }
+        match host::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
+            Ok(ev) => self.host(i, ev),
+            Err(e) => Err(format!("{}'s host refused an honest message on {}: {e}", self.nodes[i].name, msg.key)),
         }
     }
 
@@ -84,7 +101,37 @@ impl World {
                 ..Wire::json(Key::TeamSync { team, point: 0, round: 0 }, &SyncArrival { robot: name.clone(), epoch, point: 0, round: 0 }, self.sender(forger))
             },
         ];
-        self.log(|| format!("{name} forges an arrival and a release of {claimed}"));
+        self.log(|| format!("{name} forges an arrival, a release and the telemetry of {claimed}, and an operator a chain message"));
+        // At every host: the victim's telemetry from the forger, a chain message from an operator.
+        let telemetry = mrmm_proto::Telemetry {
+            id: claimed.clone(),
+            seq: 0,
+            t: self.now,
+            pose: mrmm_proto::Pose::default(),
+            velocity: mrmm_proto::Velocity::default(),
+            behaviour: mrmm_proto::Behaviour::Hold,
+            mission: None,
+            progress: None,
+            admitted: vec![],
+            stuck: None,
+            info_rev: 0,
+        };
+        let at_hosts = [
+            Wire::telemetry(&telemetry, self.sender(forger)),
+            Wire::json(
+                Key::HostChain(claimed.clone()),
+                &mrmm_proto::ChainEnvelope { mission: "m".into(), from: "op".into(), msg: mrmm_proto::chain::Msg::Grant { epoch: 1 } },
+                Sender::new(mrmm_proto::Role::Operator, "op"),
+            ),
+        ];
+        for j in (0..self.nodes.len()).filter(|&j| self.nodes[j].host.is_some()) {
+            for msg in &at_hosts {
+                match host::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
+                    Err(Refused::NotEntitled { .. }) => self.report.forged_refused += 1,
+                    other => return Err(format!("{}'s host took a forgery on {}: {other:?}", self.nodes[j].name, msg.key)),
+                }
+            }
+        }
         for j in victims {
             for msg in &forged {
                 let Some(r) = self.nodes[j].robot.as_ref() else { continue };
