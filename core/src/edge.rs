@@ -45,3 +45,21 @@ pub struct Incoming<'a> {
 pub(crate) fn json<T: serde::de::DeserializeOwned>(what: &'static str, payload: &[u8]) -> Result<T, Refused> {
     proto::from_json(what, payload).map_err(|e| Refused::Malformed { what, why: e.to_string() })
 }
+
+/// A robot's telemetry at rest, for the edges' tests.
+#[cfg(test)]
+pub(crate) fn telemetry(id: &str) -> mrmm_proto::Telemetry {
+    mrmm_proto::Telemetry {
+        id: id.into(),
+        seq: 1,
+        t: 0.0,
+        pose: mrmm_proto::Pose::default(),
+        velocity: mrmm_proto::Velocity::default(),
+        behaviour: mrmm_proto::Behaviour::Hold,
+        mission: None,
+        progress: None,
+        admitted: vec![],
+        stuck: None,
+        info_rev: 0,
+    }
+}

@@ -65,23 +65,10 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mrmm_proto::{Role, Sender, Telemetry};
+    use mrmm_proto::{Role, Sender};
 
     fn telemetry(id: &str) -> Vec<u8> {
-        let t = Telemetry {
-            id: id.into(),
-            seq: 1,
-            t: 0.0,
-            pose: mrmm_proto::Pose::default(),
-            velocity: mrmm_proto::Velocity::default(),
-            behaviour: mrmm_proto::Behaviour::Hold,
-            mission: None,
-            progress: None,
-            admitted: vec![],
-            stuck: None,
-            info_rev: 0,
-        };
-        proto::encode_telemetry(&t).expect("telemetry")
+        proto::encode_telemetry(&crate::edge::telemetry(id)).expect("telemetry")
     }
 
     #[test]

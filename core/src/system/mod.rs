@@ -11,6 +11,7 @@ mod changes;
 mod ctl;
 pub mod durable;
 mod events;
+pub mod ingress;
 pub mod missions;
 mod recovery;
 mod reports;
@@ -29,6 +30,7 @@ use serde_json::Value;
 pub use ctl::{Ctls, CTL_GIVE_UP_S, CTL_RETRY_S};
 pub use durable::{Durable, MissionDef};
 pub use events::{Command, Event, Req, Request};
+pub use ingress::{ingress, sealed};
 
 /// Seconds between two info requests to a robot that is alive but not yet registered.
 pub const INFO_RETRY_S: f64 = 1.0;

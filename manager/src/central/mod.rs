@@ -10,7 +10,6 @@ use std::time::{Duration, Instant};
 
 use mrmm_net::net::{self, Mode};
 use mrmm_net::{Mesh, NodeNet};
-use mrmm_proto::policy::Publication;
 use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, MissionView, Pattern, RobotInfo, Role, Sender};
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
@@ -24,6 +23,7 @@ use crate::journal::{now_ms, Journal};
 use crate::system::{self, Req, Request};
 use crate::Failure;
 pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
+use mrmm_core::edge::{Incoming, Refused};
 
 /// Liveliness changes waiting for central's loop, at most.
 const LIVELINESS_QUEUE: usize = 65_536;
@@ -270,47 +270,23 @@ async fn answer_journal(mesh: &Mesh, journal: Option<&Journal>, q: Query) {
     }
 }
 
-/// A publication or liveliness change as the system manager's event; `None` (logged) for
-/// anything foreign, malformed, or not sealed by whom it must be.
+/// A publication or liveliness change as the system manager's event, translated by its own
+/// ingress once the seal proved its sender; `None` (refusals recorded, the rest logged) otherwise.
 fn decode(mesh: &Mesh, s: &Sample) -> Option<system::Event> {
     let key = s.key_expr().as_str();
-    let up = s.kind() == SampleKind::Put;
-    match Key::parse(key) {
-        Some(Key::RobotAlive(id)) => Some(if up { system::Event::RobotAlive { id } } else { system::Event::RobotGone { id } }),
-        Some(Key::HostAlive(node)) => Some(if up { system::Event::HostAlive { node } } else { system::Event::HostGone { node } }),
-        Some(Key::RobotTelemetry(id)) => match proto::decode_telemetry(&s.payload().to_bytes()) {
-            Ok(t) if t.id == id => {
-                let from = mesh.sender_of("telemetry", s)?;
-                if !mesh.entitled(Publication::Telemetry(&id), &from) {
-                    return None;
-                }
-                Some(system::Event::Telemetry(Box::new(t)))
-            }
-            Ok(t) => {
-                tracing::warn!("dropped telemetry of {:?} published on {key}", t.id);
-                None
-            }
-            Err(e) => {
-                tracing::warn!("dropped payload on {key}: {e}");
-                None
-            }
-        },
-        Some(Key::MissionStatus(name)) => match proto::from_json::<MissionView>("mission status", &s.payload().to_bytes()) {
-            Ok(v) if v.name == name => {
-                let from = mesh.sender_of("mission status", s)?;
-                Some(system::Event::MissionStatus { view: Box::new(v), from })
-            }
-            Ok(v) => {
-                tracing::warn!("dropped the status of {:?} published on {key}", v.name);
-                None
-            }
-            Err(e) => {
-                tracing::warn!("dropped payload on {key}: {e}");
-                None
-            }
-        },
-        _ => {
-            tracing::warn!("ignored {key}");
+    let payload = s.payload().to_bytes();
+    let from = match system::sealed(key) {
+        Some(what) => Some(mesh.sender_of(what, s)?),
+        None => None,
+    };
+    match system::ingress(Incoming { key, payload: &payload, put: s.kind() == SampleKind::Put, from: from.as_ref() }) {
+        Ok(ev) => Some(ev),
+        Err(Refused::NotEntitled { from, what }) => {
+            mesh.refuse(&what, &from);
+            None
+        }
+        Err(e) => {
+            tracing::warn!("dropped what came on {key}: {e}");
             None
         }
     }

@@ -109,13 +109,11 @@ impl World {
         }
         match token {
             Token::Robot(id) => {
-                let (a, b) = (system::Event::RobotAlive { id: id.clone() }, system::Event::RobotGone { id: id.clone() });
-                self.central(node, central::Event::System(if up { a } else { b }))?;
+                self.central_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone()), up))?;
                 self.host_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone()), up))
             }
             Token::Host(name) => {
-                let (a, b) = (system::Event::HostAlive { node: name.clone() }, system::Event::HostGone { node: name.clone() });
-                self.central(node, central::Event::System(if up { a } else { b }))?;
+                self.central_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone()), up))?;
                 if name == CENTRAL_HOST {
                     self.robot_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone()), up))?;
                 }

@@ -203,8 +203,8 @@ impl World {
                 if let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) {
                     if !self.lost() {
                         let at = self.now + self.delay();
-                        let ev = central::Event::System(system::Event::MissionStatus { view: view.clone(), from: from.clone() });
-                        self.queue.push(at, Ev::Central { from: i, to: c, ev: Box::new(ev) });
+                        let msg = Wire::json(mrmm_proto::Key::MissionStatus(view.name.clone()), &*view, from.clone());
+                        self.queue.push(at, Ev::Central { from: i, to: c, msg: Box::new(msg) });
                     }
                 }
                 // Robot nodes' hosts hear it too (they learn their mission's chain from it).
@@ -327,8 +327,7 @@ impl World {
                         }
                         let at = self.now + self.delay();
                         if self.nodes[j].central.is_some() {
-                            let ev = central::Event::System(system::Event::Telemetry(Box::new(t.clone())));
-                            self.queue.push(at, Ev::Central { from: i, to: j, ev: Box::new(ev) });
+                            self.queue.push(at, Ev::Central { from: i, to: j, msg: Box::new(Wire::telemetry(&t, self.sender(i))) });
                         }
                         // Hosts subscribe to the robots they watch, as their drivers do.
                         if self.nodes[j].host.as_ref().is_some_and(|h| h.watches(&t.id)) {

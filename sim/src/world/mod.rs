@@ -151,10 +151,11 @@ enum Ev {
         to: usize,
         msg: Box<Wire>,
     },
+    /// A message to central, as its driver receives it: translated by the system manager's ingress.
     Central {
         from: usize,
         to: usize,
-        ev: Box<central::Event>,
+        msg: Box<Wire>,
     },
     /// A message to a robot, as its driver receives it: translated by the robot's own ingress.
     Robot {
@@ -436,10 +437,10 @@ impl World {
                     self.host_hears(to, *msg)?;
                 }
             }
-            Ev::Central { from, to, ev } => {
+            Ev::Central { from, to, msg } => {
                 if self.links.connected(from, to) {
                     self.report.messages += 1;
-                    self.central(to, *ev)?;
+                    self.central_hears(to, *msg)?;
                 }
             }
             Ev::Robot { from, to, msg } => {

@@ -62,6 +62,18 @@ impl World {
         }
     }
 
+    /// Central (if node `i` runs it) hears `msg`: the system manager's ingress makes it an event,
+    /// or refuses it — which no message of an honest node may be.
+    pub(super) fn central_hears(&mut self, i: usize, msg: Wire) -> Result<(), String> {
+        if self.nodes[i].central.is_none() {
+            return Ok(());
+        }
+        match system::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
+            Ok(ev) => self.central(i, central::Event::System(ev)),
+            Err(e) => Err(format!("central refused an honest message on {}: {e}", msg.key)),
+        }
+    }
+
     /// The next strike of the forger, from a random stream of its own (the honest nodes' draws
     /// stay as they were).
     pub(super) fn schedule_forgery(&mut self) {
@@ -124,6 +136,14 @@ impl World {
                 Sender::new(mrmm_proto::Role::Operator, "op"),
             ),
         ];
+        // At central: the victim's telemetry from the forger.
+        if self.nodes.iter().any(|n| n.central.is_some()) {
+            let msg = &at_hosts[0];
+            match system::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
+                Err(Refused::NotEntitled { .. }) => self.report.forged_refused += 1,
+                other => return Err(format!("central took a forgery on {}: {other:?}", msg.key)),
+            }
+        }
         for j in (0..self.nodes.len()).filter(|&j| self.nodes[j].host.is_some()) {
             for msg in &at_hosts {
                 match host::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
