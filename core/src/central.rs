@@ -123,7 +123,7 @@ impl CentralCore {
 mod tests {
     use super::*;
     use crate::agent::Autonomy;
-    use mrmm_proto::{Behaviour, Pose, RobotInfo, Telemetry, Velocity};
+    use mrmm_proto::{RobotInfo, Telemetry};
 
     fn info(id: &str) -> RobotInfo {
         RobotInfo {
@@ -144,19 +144,7 @@ mod tests {
         for id in ["r1", "r2"] {
             c.handle(0.0, Event::System(system::Event::RobotAlive { id: id.into() }));
             c.handle(0.0, Event::System(system::Event::RobotRegistered(info(id))));
-            let t = Telemetry {
-                id: id.into(),
-                seq: 1,
-                t: 0.0,
-                pose: Pose::default(),
-                velocity: Velocity::default(),
-                behaviour: Behaviour::Hold,
-                mission: None,
-                progress: None,
-                admitted: vec![],
-                stuck: None,
-                info_rev: 0,
-            };
+            let t = Telemetry { seq: 1, ..Telemetry::resting(id, 0.0) };
             c.handle(0.0, Event::System(system::Event::Telemetry(Box::new(t))));
         }
         c.handle(0.0, Event::System(system::Event::HostAlive { node: "central".into() }));

@@ -4,7 +4,8 @@
 
 use std::fmt;
 
-use mrmm_proto::{self as proto, Sender};
+use mrmm_proto::policy::{may_publish, Publication};
+use mrmm_proto::{self as proto, MissionView, Sender};
 
 /// Why a message did not become an event.
 #[derive(Debug, Clone, PartialEq)]
@@ -46,20 +47,23 @@ pub(crate) fn json<T: serde::de::DeserializeOwned>(what: &'static str, payload: 
     proto::from_json(what, payload).map_err(|e| Refused::Malformed { what, why: e.to_string() })
 }
 
-/// A robot's telemetry at rest, for the edges' tests.
-#[cfg(test)]
-pub(crate) fn telemetry(id: &str) -> mrmm_proto::Telemetry {
-    mrmm_proto::Telemetry {
-        id: id.into(),
-        seq: 1,
-        t: 0.0,
-        pose: mrmm_proto::Pose::default(),
-        velocity: mrmm_proto::Velocity::default(),
-        behaviour: mrmm_proto::Behaviour::Hold,
-        mission: None,
-        progress: None,
-        admitted: vec![],
-        stuck: None,
-        info_rev: 0,
+/// Telemetry published on robot `id`'s key: decoded, of that robot, and from that robot.
+pub(crate) fn telemetry(m: &Incoming<'_>, id: &str) -> Result<proto::Telemetry, Refused> {
+    let t = proto::decode_telemetry(m.payload).map_err(|e| Refused::Malformed { what: "telemetry", why: e.to_string() })?;
+    if t.id != id {
+        return Err(Refused::Malformed { what: "telemetry", why: format!("telemetry of {:?} published on {}", t.id, m.key) });
     }
+    let from = m.from.cloned().ok_or(Refused::Unproven { what: "telemetry" })?;
+    may_publish(Publication::Telemetry(id), &from).map_err(|what| Refused::NotEntitled { from, what })?;
+    Ok(t)
+}
+
+/// Mission `name`'s status, with the node that published it.
+pub(crate) fn mission_status(m: &Incoming<'_>, name: &str) -> Result<(MissionView, Sender), Refused> {
+    let view: MissionView = json("mission status", m.payload)?;
+    if view.name != name {
+        return Err(Refused::Malformed { what: "mission status", why: format!("the status of {:?} published on {}", view.name, m.key) });
+    }
+    let from = m.from.cloned().ok_or(Refused::Unproven { what: "mission status" })?;
+    Ok((view, from))
 }

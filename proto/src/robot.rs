@@ -67,6 +67,25 @@ pub struct Telemetry {
     pub info_rev: u32,
 }
 
+impl Telemetry {
+    /// The telemetry of robot `id` holding still at the origin, at time `t` (first of its stream).
+    pub fn resting(id: &str, t: f64) -> Telemetry {
+        Telemetry {
+            id: id.to_string(),
+            seq: 0,
+            t,
+            pose: Pose::default(),
+            velocity: Velocity::default(),
+            behaviour: Behaviour::Hold,
+            mission: None,
+            progress: None,
+            admitted: vec![],
+            stuck: None,
+            info_rev: 0,
+        }
+    }
+}
+
 /// Progress of a robot through its plan (part of its telemetry).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Progress {

@@ -5,11 +5,10 @@
 //! (Queries — starts, controls, views — are the driver's to hold; their payloads are checked by
 //! the machine.)
 
-use mrmm_proto::policy::{may_publish, Publication};
-use mrmm_proto::{self as proto, ChainEnvelope, Key, MissionView};
+use mrmm_proto::{self as proto, ChainEnvelope, Key};
 
 use super::Event;
-use crate::edge::{json, Incoming, Refused};
+use crate::edge::{self, json, Incoming, Refused};
 
 /// What a sealed message on `key` is (for the driver to prove its sender under that name), or
 /// `None` for the liveliness tokens, which carry no seal.
@@ -27,15 +26,7 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
     let proven = |what: &'static str| m.from.cloned().ok_or(Refused::Unproven { what });
     let malformed = |what: &'static str, why: String| Refused::Malformed { what, why };
     match Key::parse(m.key) {
-        Some(Key::RobotTelemetry(id)) => {
-            let t = proto::decode_telemetry(m.payload).map_err(|e| malformed("telemetry", e.to_string()))?;
-            if t.id != id {
-                return Err(malformed("telemetry", format!("telemetry of {:?} published on {}", t.id, m.key)));
-            }
-            let from = proven("telemetry")?;
-            may_publish(Publication::Telemetry(&id), &from).map_err(|what| Refused::NotEntitled { from: from.clone(), what })?;
-            Ok(Event::Telemetry(Box::new(t)))
-        }
+        Some(Key::RobotTelemetry(id)) => Ok(Event::Telemetry(Box::new(edge::telemetry(&m, &id)?))),
         Some(Key::HostChain(_)) => {
             let env: ChainEnvelope = json("chain message", m.payload)?;
             if proto::validate_id(&env.mission).is_err() || proto::validate_id(&env.from).is_err() {
@@ -48,11 +39,7 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
             Ok(Event::Chain { envelope: Box::new(env), from })
         }
         Some(Key::MissionStatus(name)) => {
-            let view: MissionView = json("mission status", m.payload)?;
-            if view.name != name {
-                return Err(malformed("mission status", format!("the status of {:?} published on {}", view.name, m.key)));
-            }
-            let from = proven("mission status")?;
+            let (view, from) = edge::mission_status(&m, &name)?;
             Ok(Event::MissionStatus { view: Box::new(view), from })
         }
         Some(Key::HostAlive(node)) => Ok(if m.put { Event::HostAlive(node) } else { Event::HostGone(node) }),
@@ -68,7 +55,7 @@ mod tests {
     use mrmm_proto::{Role, Sender};
 
     fn telemetry(id: &str) -> Vec<u8> {
-        proto::encode_telemetry(&crate::edge::telemetry(id)).expect("telemetry")
+        proto::encode_telemetry(&proto::Telemetry::resting(id, 0.0)).expect("telemetry")
     }
 
     #[test]

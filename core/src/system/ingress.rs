@@ -4,11 +4,10 @@
 //! (`mrmm_manager::central`) and the simulations alike. (Operator queries are the driver's to
 //! hold; the machine checks their payloads.)
 
-use mrmm_proto::policy::{may_publish, Publication};
-use mrmm_proto::{self as proto, Key, MissionView};
+use mrmm_proto::Key;
 
 use super::Event;
-use crate::edge::{json, Incoming, Refused};
+use crate::edge::{self, Incoming, Refused};
 
 /// What a sealed message on `key` is (for the driver to prove its sender under that name), or
 /// `None` for the liveliness tokens, which carry no seal.
@@ -22,26 +21,12 @@ pub fn sealed(key: &str) -> Option<&'static str> {
 
 /// Translates a publication or a liveliness change into the system manager's event.
 pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
-    let proven = |what: &'static str| m.from.cloned().ok_or(Refused::Unproven { what });
-    let malformed = |what: &'static str, why: String| Refused::Malformed { what, why };
     match Key::parse(m.key) {
         Some(Key::RobotAlive(id)) => Ok(if m.put { Event::RobotAlive { id } } else { Event::RobotGone { id } }),
         Some(Key::HostAlive(node)) => Ok(if m.put { Event::HostAlive { node } } else { Event::HostGone { node } }),
-        Some(Key::RobotTelemetry(id)) => {
-            let t = proto::decode_telemetry(m.payload).map_err(|e| malformed("telemetry", e.to_string()))?;
-            if t.id != id {
-                return Err(malformed("telemetry", format!("telemetry of {:?} published on {}", t.id, m.key)));
-            }
-            let from = proven("telemetry")?;
-            may_publish(Publication::Telemetry(&id), &from).map_err(|what| Refused::NotEntitled { from: from.clone(), what })?;
-            Ok(Event::Telemetry(Box::new(t)))
-        }
+        Some(Key::RobotTelemetry(id)) => Ok(Event::Telemetry(Box::new(edge::telemetry(&m, &id)?))),
         Some(Key::MissionStatus(name)) => {
-            let view: MissionView = json("mission status", m.payload)?;
-            if view.name != name {
-                return Err(malformed("mission status", format!("the status of {:?} published on {}", view.name, m.key)));
-            }
-            let from = proven("mission status")?;
+            let (view, from) = edge::mission_status(&m, &name)?;
             Ok(Event::MissionStatus { view: Box::new(view), from })
         }
         _ => Err(Refused::Unexpected { key: m.key.chars().take(200).collect() }),
@@ -56,7 +41,7 @@ mod tests {
     #[test]
     fn central_hears_telemetry_only_from_the_robot_it_is_of() {
         let key = Key::RobotTelemetry("r1".into()).to_string();
-        let t = proto::encode_telemetry(&crate::edge::telemetry("r1")).expect("telemetry");
+        let t = mrmm_proto::encode_telemetry(&mrmm_proto::Telemetry::resting("r1", 0.0)).expect("telemetry");
         let heard = |from: Option<&Sender>| ingress(Incoming { key: &key, payload: &t, put: true, from });
         assert!(matches!(heard(Some(&Sender::new(Role::Robot, "r1"))), Ok(Event::Telemetry(_))));
         assert!(matches!(heard(Some(&Sender::new(Role::Robot, "r2"))), Err(Refused::NotEntitled { .. })));

@@ -115,19 +115,7 @@ impl World {
         ];
         self.log(|| format!("{name} forges an arrival, a release and the telemetry of {claimed}, and an operator a chain message"));
         // At every host: the victim's telemetry from the forger, a chain message from an operator.
-        let telemetry = mrmm_proto::Telemetry {
-            id: claimed.clone(),
-            seq: 0,
-            t: self.now,
-            pose: mrmm_proto::Pose::default(),
-            velocity: mrmm_proto::Velocity::default(),
-            behaviour: mrmm_proto::Behaviour::Hold,
-            mission: None,
-            progress: None,
-            admitted: vec![],
-            stuck: None,
-            info_rev: 0,
-        };
+        let telemetry = mrmm_proto::Telemetry::resting(&claimed, self.now);
         let at_hosts = [
             Wire::telemetry(&telemetry, self.sender(forger)),
             Wire::json(
