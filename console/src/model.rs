@@ -134,7 +134,7 @@ impl Fleet {
 
 #[cfg(test)]
 mod tests {
-    use mrmm_proto::{Behaviour, RobotStatus, Velocity};
+    use mrmm_proto::RobotStatus;
 
     use super::*;
 
@@ -153,19 +153,7 @@ mod tests {
     }
 
     fn telemetry(id: &str, seq: u64, x: f64) -> Telemetry {
-        Telemetry {
-            id: id.into(),
-            seq,
-            t: 0.0,
-            pose: Pose { x, y: 1.0, theta: 0.5 },
-            velocity: Velocity::default(),
-            behaviour: Behaviour::Hold,
-            mission: None,
-            progress: None,
-            admitted: vec![],
-            stuck: None,
-            info_rev: 0,
-        }
+        Telemetry { seq, pose: Pose { x, y: 1.0, theta: 0.5 }, ..Telemetry::resting(id, 0.0) }
     }
 
     #[test]

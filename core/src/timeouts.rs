@@ -10,8 +10,3 @@ pub const ROBOT_PLAN_S: f64 = 3.0;
 /// Everything else central asks (a robot's info, a command, a mission's control or view): the
 /// default of its `query_timeout_ms`.
 pub const QUERY_S: f64 = 2.0;
-
-/// A timeout in seconds as a `Duration`.
-pub fn duration(s: f64) -> std::time::Duration {
-    std::time::Duration::from_secs_f64(s)
-}

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::Failure;
-use mrmm_proto::{Behaviour, CommandAck, ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView, Pose, Velocity};
+use mrmm_proto::{Behaviour, CommandAck, ManagerView, MissionCtl, MissionMetrics, MissionStatus, MissionView, Pose};
 
 /// The commands without the admissions sent to robots (they go with every start and join).
 /// Handling as the driver does it: dry runs (off the loop there) are carried out at once.
@@ -54,19 +54,7 @@ fn info(id: &str) -> RobotInfo {
 }
 
 fn telemetry(id: &str, seq: u64, behaviour: Behaviour) -> Telemetry {
-    Telemetry {
-        id: id.into(),
-        seq,
-        t: seq as f64,
-        pose: Pose { x: seq as f64, y: 0.0, theta: 0.0 },
-        velocity: Velocity::default(),
-        behaviour,
-        mission: None,
-        progress: None,
-        admitted: vec![],
-        stuck: None,
-        info_rev: 0,
-    }
+    Telemetry { seq, t: seq as f64, pose: Pose { x: seq as f64, y: 0.0, theta: 0.0 }, behaviour, ..Telemetry::resting(id, 0.0) }
 }
 
 fn registered(ids: &[&str]) -> SystemManager {
