@@ -119,6 +119,15 @@ impl CentralCore {
     }
 }
 
+/// What command `c` publishes, if anything: the agent's advice as it changes, the system
+/// manager's chain messages.
+pub fn egress(c: &Command) -> Option<crate::egress::Out> {
+    match c {
+        Command::Publish(e) => crate::egress::Out::json(mrmm_proto::Key::AgentAdviceLive, e, crate::egress::Audience::Fleet),
+        Command::System(c) => system::egress(c),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -22,6 +22,7 @@ pub mod central;
 pub mod chain;
 pub mod drive;
 pub mod edge;
+pub mod egress;
 pub mod executor;
 pub mod host;
 pub mod maps;

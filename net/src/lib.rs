@@ -9,9 +9,11 @@
 //! - [`map`]: map bundles fetched chunk by chunk.
 
 pub mod client;
+pub mod follow;
 pub mod map;
 pub mod mesh;
 pub mod net;
 pub mod security;
 
+pub use follow::Following;
 pub use mesh::{Mesh, NodeNet};

@@ -14,6 +14,7 @@ pub mod error;
 pub mod journal;
 pub mod keys;
 pub mod map;
+pub mod matching;
 pub mod mission;
 pub mod nav;
 pub mod operator;

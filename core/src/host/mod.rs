@@ -17,6 +17,7 @@ use crate::chain::{self, Params, Registry};
 use crate::mission::{self, MissionManager, MissionSpec};
 use crate::Failure;
 
+pub mod egress;
 mod head;
 pub mod ingress;
 mod led;
@@ -24,6 +25,7 @@ mod led;
 mod tests;
 mod watch;
 
+pub use egress::egress;
 pub use head::{PLAN_RETRIES, REDELIVER_S};
 pub use ingress::{ingress, sealed};
 pub use watch::UNJUDGED_S;

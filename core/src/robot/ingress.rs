@@ -12,6 +12,16 @@ use crate::edge::json;
 use super::{Event, Robot};
 pub use crate::edge::{Incoming, Refused};
 
+/// What a sealed message on `key` is (for the driver to prove its sender under that name).
+pub fn sealed(key: &str) -> &'static str {
+    match Key::parse(key) {
+        Some(Key::TeamSync { .. } | Key::TeamArrive { .. }) => "barrier arrival",
+        Some(Key::TeamRelease { .. }) => "barrier release",
+        Some(Key::RobotCmd(_)) => "robot command",
+        _ => "message",
+    }
+}
+
 impl Robot {
     /// Translates what the robot heard into an event of its machine: commands on its own command
     /// key, its teams' barrier arrivals and releases (from whom the policy allows), its teams'

@@ -14,8 +14,10 @@ use crate::ros_body::RosDrive;
 use mrmm_proto::nav::{GoalEvent, GoalId};
 
 mod ingress;
+mod links;
 mod setup;
-pub use ingress::{Incoming, Refused};
+pub use ingress::{sealed, Incoming, Refused};
+pub use links::{Links, TeamLinks};
 pub use setup::{BodyKind, Nav2Setup, RobotSetup};
 
 /// Steps a plan may have at most.

@@ -10,6 +10,7 @@ mod capabilities;
 mod changes;
 mod ctl;
 pub mod durable;
+pub mod egress;
 mod events;
 pub mod ingress;
 pub mod missions;
@@ -29,6 +30,7 @@ use serde_json::Value;
 
 pub use ctl::{Ctls, CTL_GIVE_UP_S, CTL_RETRY_S};
 pub use durable::{Durable, MissionDef};
+pub use egress::{egress, subscriptions};
 pub use events::{Command, Event, Req, Request};
 pub use ingress::{ingress, sealed};
 

@@ -213,8 +213,8 @@ async fn declare_inputs(session: &zenoh::Session, live: &Inbox<Input>, net: &Inb
     for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
         held.subs.push(live.liveliness(session, pattern.to_string(), Input::Sample).await?);
     }
-    for pattern in [Pattern::AllTelemetry, Pattern::AllMissionStatus] {
-        held.subs.push(net.subscribe(session, pattern.to_string(), Input::Sample).await?);
+    for sub in system::subscriptions() {
+        held.subs.push(net.subscribe(session, sub.expr, Input::Sample).await?);
     }
     let t = net.clone();
     held.operator = Some(
@@ -335,10 +335,10 @@ impl Io {
     }
 
     async fn execute(&mut self, c: Command) {
-        let c = match c {
-            Command::Publish(e) => return self.mesh.publish_json(&Key::AgentAdviceLive.to_string(), &e).await,
-            Command::System(c) => c,
-        };
+        if let Some(out) = mrmm_core::central::egress(&c) {
+            return crate::host::publish(&self.mesh, out).await;
+        }
+        let Command::System(c) = c else { return };
         let (mesh, timeout) = (self.mesh.clone(), self.timeout);
         match c {
             system::Command::Reply { req, result } => {
@@ -352,7 +352,8 @@ impl Io {
                 }
             }
             system::Command::Refused { from, what } => self.mesh.refuse(&what, &from),
-            system::Command::Chain { to, envelope } => crate::host::send_chain(&self.mesh, &to, &envelope).await,
+            // Published above.
+            system::Command::Chain { .. } => {}
             // Committed by `carry_out` before anything else.
             system::Command::Journal(_) => {}
             system::Command::DryRun(dry) => self.spawn(async move {

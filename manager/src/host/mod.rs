@@ -5,14 +5,14 @@
 //! and carries out the [`Command`]s.
 
 pub mod store;
-mod subs;
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
+use mrmm_core::egress::{Audience, Out};
 use mrmm_net::net::{self, QueryError};
-use mrmm_net::Mesh;
-use mrmm_proto::{self as proto, ChainEnvelope, CommandAck, Key, MissionPlan, Pattern, RobotCommand, Role};
+use mrmm_net::{Following, Mesh};
+use mrmm_proto::{self as proto, CommandAck, Key, MissionPlan, Pattern, RobotCommand, Role};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
@@ -63,11 +63,12 @@ pub type LocalTeam = Vec<(String, Vec<String>)>;
 /// Hosts missions on `mesh` as `node` until `shutdown`, with the default chain parameters.
 /// `local`: on a robot node, its robot's team. `stored`: the chain state store opened with
 /// [`store::Store::open`] (and what it held): keep the chain state there; else in memory only.
-/// Publishes a chain message to host `to` (on `mrmm/hosts/<to>/chain`), sealed.
-pub async fn send_chain(mesh: &Mesh, to: &str, envelope: &ChainEnvelope) {
-    match proto::to_json(envelope) {
-        Ok(bytes) => mesh.put(&Key::HostChain(to.to_string()).to_string(), bytes, Encoding::APPLICATION_JSON).await,
-        Err(e) => tracing::warn!("cannot encode a chain message: {e}"),
+/// Puts a machine's publication on the network, sealed (for its receivers, if it names them).
+pub async fn publish(mesh: &Mesh, out: Out) {
+    let key = out.key.to_string();
+    match out.to {
+        Audience::Fleet => mesh.put(&key, out.payload, Encoding::APPLICATION_JSON).await,
+        Audience::Only(to) => mesh.put_for(&key, out.payload, Encoding::APPLICATION_JSON, &to).await,
     }
 }
 
@@ -114,10 +115,11 @@ pub async fn serve_with(
         .await
         .map_err(ManagerError::zenoh)?;
     let mut subs = Vec::new();
-    // Telemetry of the robots the core watches, and (robot nodes: they learn their mission's chain
-    // from the head's status) the status of the robot's missions: subscribed one by one.
-    let mut follow = subs::Subs::new(session.clone(), net.clone());
-    subs.push(net.subscribe(&session, Key::HostChain(node.clone()).to_string(), Input::Sample).await?);
+    // Its chain key, the telemetry of the robots the core watches and (robot nodes: they learn
+    // their mission's chain from the head's status) the status of the robot's missions: what
+    // the core says it listens to, subscribed one by one.
+    let n = net.clone();
+    let mut follow = Following::new(session.clone(), move |s| n.push(Input::Sample(s)));
     for pattern in [Pattern::AllHostsAlive, Pattern::AllRobotsAlive, Pattern::AllPlannersAlive] {
         subs.push(live.liveliness(&session, pattern.to_string(), Input::Sample).await?);
     }
@@ -131,6 +133,7 @@ pub async fn serve_with(
     if local.is_some() {
         core = core.with_robot();
     }
+    follow.follow(&core.subscriptions()).await;
     let mut io = Io { mesh: mesh.clone(), tx, net, queries: HashMap::new(), next: 0, served: HashMap::new(), maps };
     let mut status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
@@ -166,8 +169,8 @@ pub async fn serve_with(
                 None => break,
             },
         };
-        // Telemetry does not change whom the core watches; everything else may.
-        let (telemetry, team) = (matches!(event, Event::Telemetry(_)), if let Event::LocalTeam(t) = &event { Some(t.clone()) } else { None });
+        // Telemetry does not change what the core listens to; everything else may.
+        let telemetry = matches!(event, Event::Telemetry(_));
         let status_tick = matches!(event, Event::StatusTick);
         let commands = core.handle(t0.elapsed().as_secs_f64(), event);
         if status_tick {
@@ -178,10 +181,7 @@ pub async fn serve_with(
             }
         }
         if !telemetry {
-            follow.follow(&core).await;
-        }
-        if let Some(team) = team {
-            follow.follow_team(&team).await;
+            follow.follow(&core.subscriptions()).await;
         }
         for c in commands {
             if let Command::Persist { mission, disk } = &c {
@@ -301,8 +301,12 @@ impl Io {
     }
 
     async fn execute(&mut self, c: Command) {
+        if let Some(out) = mrmm_core::host::egress(&c) {
+            return self.publish(out).await;
+        }
         match c {
-            Command::Chain { to, envelope } => send_chain(&self.mesh, &to, &envelope).await,
+            // Published above.
+            Command::Chain { .. } | Command::Status(_) => {}
             Command::Reply { query, result } => {
                 let Some(q) = self.queries.remove(&query) else { return };
                 match result {
@@ -390,18 +394,17 @@ impl Io {
                     let _ = tx.send(Input::Event(Event::PlanDelivered { mission, robot, epoch, result }));
                 });
             }
-            Command::Status(view) => {
-                let Some(publisher) = self.served.get(&view.name).and_then(|s| s.status.as_ref()) else { return };
-                match proto::to_json(&view) {
-                    Ok(bytes) => {
-                        let seal = self.mesh.seal(&Key::MissionStatus(view.name.clone()).to_string(), &bytes);
-                        if let Err(e) = publisher.put(bytes).attachment(seal).await {
-                            tracing::warn!(mission = %view.name, "status publication failed: {e}");
-                        }
-                    }
-                    Err(e) => tracing::warn!(mission = %view.name, "cannot encode the status: {e}"),
-                }
-            }
+        }
+    }
+
+    /// A publication of the core: a mission's status through its publisher while this node
+    /// serves the mission, anything else sealed on its key.
+    async fn publish(&self, out: Out) {
+        let Key::MissionStatus(mission) = &out.key else { return publish(&self.mesh, out).await };
+        let Some(publisher) = self.served.get(mission).and_then(|s| s.status.as_ref()) else { return };
+        let seal = self.mesh.seal(&out.key.to_string(), &out.payload);
+        if let Err(e) = publisher.put(out.payload).attachment(seal).await {
+            tracing::warn!(%mission, "status publication failed: {e}");
         }
     }
 }

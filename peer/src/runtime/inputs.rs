@@ -17,7 +17,7 @@ use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
 use super::io::Io;
-use super::team::{recv_team, recv_wide, Sub};
+use super::team::{recv_data, recv_members};
 use super::{FLEET_CHECK_PERIOD, PHYSICS_PERIOD, QUEUE};
 use crate::error::PeerError;
 use crate::robot::{Event, Incoming, Refused, Robot};
@@ -116,7 +116,7 @@ impl Inputs {
                         None => continue,
                     }
                 }
-                s = recv_team(&io.team, Sub::Arrivals) => match heard(&self.mesh, robot, "barrier arrival", &s) {
+                s = recv_data(&io.team) => match heard(&self.mesh, robot, &s) {
                     Some(ev) => (ev, None),
                     None => continue,
                 },
@@ -132,15 +132,7 @@ impl Inputs {
                     },
                     Err(_) => return None,
                 },
-                s = recv_team(&io.team, Sub::Releases) => match heard(&self.mesh, robot, "barrier release", &s) {
-                    Some(ev) => (ev, None),
-                    None => continue,
-                },
-                (_, s) = recv_wide(&io.team) => match heard(&self.mesh, robot, "barrier arrival", &s) {
-                    Some(ev) => (ev, None),
-                    None => continue,
-                },
-                s = recv_team(&io.team, Sub::Members) => match liveliness(robot, &s) {
+                s = recv_members(&io.team) => match liveliness(robot, &s) {
                     Some(ev) => (ev, None),
                     None => continue,
                 },
@@ -237,8 +229,8 @@ fn ros_pose(p: mrmm_ros2::Pose2) -> proto::Pose {
 /// A sealed team message (an arrival or a release) as the robot's event: its seal proven here,
 /// the rest translated by the robot's own ingress (a forged one is refused and recorded, a
 /// malformed one dropped).
-fn heard(mesh: &Mesh, robot: &Robot, what: &str, s: &Sample) -> Option<Event> {
-    let from = mesh.sender_of(what, s)?;
+fn heard(mesh: &Mesh, robot: &Robot, s: &Sample) -> Option<Event> {
+    let from = mesh.sender_of(crate::robot::sealed(s.key_expr().as_str()), s)?;
     let payload = s.payload().to_bytes();
     match robot.ingress(Incoming { key: s.key_expr().as_str(), payload: &payload, put: s.kind() == SampleKind::Put, from: Some(&from) }) {
         Ok(ev) => Some(ev),

@@ -1,11 +1,14 @@
 //! The robot's I/O half: what each command of its machine means on the network — replies,
 //! team membership and barrier messages, telemetry, ROS 2 goals and twists, what it keeps on disk.
 
+use mrmm_core::egress::{Audience, Out};
+use mrmm_core::robot::Links;
 use mrmm_net::security::seal::SignCadence;
 use mrmm_net::Mesh;
 use mrmm_proto::{self as proto, Key, Role, Sender};
 use mrmm_ros2::msgs::Twist;
 use mrmm_ros2::RosLink;
+use zenoh::bytes::Encoding;
 use zenoh::query::Query;
 
 use super::team::TeamLink;
@@ -22,6 +25,8 @@ pub const TELEMETRY_SIGN_MS: u64 = 2000;
 pub(super) struct Io {
     pub(super) mesh: Mesh,
     pub(super) id: String,
+    /// Its team as the network sees it (what it publishes on, what it hears).
+    pub(super) links: Links,
     pub(super) team: Option<TeamLink>,
     pub(super) publisher: zenoh::pubsub::Publisher<'static>,
     pub(super) telemetry_key: String,
@@ -37,6 +42,9 @@ pub(super) struct Io {
 
 impl Io {
     pub(super) async fn execute(&mut self, c: Command, query: Option<&Query>) {
+        // What it means on the network, as the simulations route it: the links keep up with the
+        // team and say what goes out on which key, for whom.
+        let out = self.links.egress(&c);
         match c {
             Command::Reply(result) => match (query, result) {
                 (Some(q), Ok(ack)) => self.mesh.reply_json(q, &ack).await,
@@ -58,10 +66,10 @@ impl Io {
                     self.mesh.reply_err(q, &proto::ErrorReply::coded(proto::ErrorCode::Refused, e)).await;
                 }
             }
-            c @ (Command::JoinTeam { .. } | Command::LeaveTeam | Command::Publish(_) | Command::PublishIn(..) | Command::Release(_) | Command::Lead(_)) => {
-                self.team_command(c).await
-            }
-            Command::Telemetry(t) => self.publish_telemetry(&t).await,
+            Command::JoinTeam { .. } | Command::LeaveTeam => self.rejoin().await,
+            Command::Lead(on) => self.lead(on).await,
+            // Published below.
+            Command::Publish(_) | Command::PublishIn(..) | Command::Release(_) | Command::Telemetry(_) => {}
             Command::Nav(NavCommand::Send { id, x, y, yaw }) => {
                 if let Some(ros) = &self.ros {
                     tracing::info!(robot = %self.id, x, y, "Nav2 goal sent");
@@ -88,73 +96,55 @@ impl Io {
                 }
             }
         }
+        if let Some(out) = out {
+            self.publish(out).await;
+        }
+    }
+
+    /// Puts `out` on the network: telemetry through its publisher, barrier messages sealed for
+    /// their receivers.
+    async fn publish(&mut self, out: Out) {
+        match (&out.key, out.to) {
+            (Key::RobotTelemetry(_), _) => self.publish_telemetry(out.payload).await,
+            (key, Audience::Only(to)) => self.mesh.put_for(&key.to_string(), out.payload, Encoding::APPLICATION_JSON, &to).await,
+            (key, Audience::Fleet) => self.mesh.put(&key.to_string(), out.payload, Encoding::APPLICATION_JSON).await,
+        }
     }
 
     /// Telemetry, tagged for central, mission hosts and teammates (managers of its mission on
     /// robots) it knows and current viewers; one message per [`TELEMETRY_SIGN_MS`] signed as
     /// well, for everyone else (a host that takes its mission over before it knows that host).
-    async fn publish_telemetry(&mut self, t: &proto::Telemetry) {
-        match proto::encode_telemetry(t) {
-            Ok(bytes) => {
-                // Tagged for central, mission hosts and teammates (managers of its mission
-                // on robots) it knows and current viewers; one message per TELEMETRY_SIGN_MS
-                // signed as well, for
-                // everyone else (a host that takes its mission over before it knows that host).
-                let team = self.team.as_ref().map(|t| t.to.as_slice()).unwrap_or_default();
-                let now = mrmm_net::mesh::now_ms();
-                let sign = self.telemetry_signs.due(now);
-                let viewers = &self.viewers;
-                let seal = self.mesh.seal_for_known(
-                    &self.telemetry_key,
-                    &bytes,
-                    |s| matches!(s.role, Role::Central | Role::Host) || team.contains(s) || viewers.is_current(now, s),
-                    sign,
-                );
-                if let Err(e) = self.publisher.put(bytes).attachment(seal).await {
-                    tracing::warn!("telemetry publication failed: {e}");
-                }
-            }
-            Err(e) => tracing::warn!("telemetry encoding failed: {e}"),
+    async fn publish_telemetry(&mut self, bytes: Vec<u8>) {
+        let team = self.links.team().map(|t| t.to.as_slice()).unwrap_or_default();
+        let now = mrmm_net::mesh::now_ms();
+        let sign = self.telemetry_signs.due(now);
+        let viewers = &self.viewers;
+        let seal = self.mesh.seal_for_known(
+            &self.telemetry_key,
+            &bytes,
+            |s| matches!(s.role, Role::Central | Role::Host) || team.contains(s) || viewers.is_current(now, s),
+            sign,
+        );
+        if let Err(e) = self.publisher.put(bytes).attachment(seal).await {
+            tracing::warn!("telemetry publication failed: {e}");
         }
     }
 
-    /// The team's commands: join or leave it, publish arrivals and releases, lead its barriers.
-    async fn team_command(&mut self, c: Command) {
-        match c {
-            Command::JoinTeam { team, subteam, barrier, members, scopes } => {
-                self.team = None;
-                match TeamLink::join(self.mesh.session(), &self.id, &team, &subteam, barrier, &members, &scopes).await {
-                    Ok(link) => self.team = Some(link),
-                    Err(e) => tracing::warn!(robot = %self.id, "cannot join team {team}: {e}"),
-                }
-            }
-            Command::LeaveTeam => self.team = None,
-            Command::Publish(a) => {
-                let Some(t) = &self.team else { return };
-                let key = t.arrival_key(a.point, a.round).to_string();
-                self.mesh.publish_json_for(&key, &a, &t.to).await;
-            }
-            Command::PublishIn(team, a) => {
-                let Some(t) = &self.team else { return };
-                let Some((_, to)) = t.wide.iter().find(|(p, _)| *p == team) else { return };
-                let key = Key::TeamSync { team, point: a.point, round: a.round }.to_string();
-                self.mesh.publish_json_for(&key, &a, to).await;
-            }
-            Command::Release(r) => {
-                let Some(t) = &self.team else { return };
-                let key = Key::TeamRelease { team: t.team.clone(), point: r.point, round: r.round }.to_string();
-                self.mesh.publish_json_for(&key, &r, &t.to).await;
-            }
-            Command::Lead(on) => {
-                if let Some(t) = self.team.as_mut() {
-                    if let Err(e) = t.lead(self.mesh.session(), on).await {
-                        tracing::warn!(robot = %self.id, "cannot hear the team's arrivals as its leader: {e}");
-                    } else {
-                        tracing::info!(robot = %self.id, team = %t.team, on, "leads the team's barriers");
-                    }
-                }
-            }
-            _ => {}
+    /// A new plan's team (a fresh member token, and the teammates' liveliness heard from the
+    /// start), or none.
+    async fn rejoin(&mut self) {
+        self.team = None;
+        let Some(links) = self.links.team().cloned() else { return };
+        match TeamLink::join(self.mesh.session(), &self.id, &links).await {
+            Ok(link) => self.team = Some(link),
+            Err(e) => tracing::warn!(robot = %self.id, "cannot join team {}: {e}", links.team),
         }
+    }
+
+    /// Starts (`true`) or stops hearing the team's arrivals as its leader.
+    async fn lead(&mut self, on: bool) {
+        let (Some(t), Some(links)) = (self.team.as_mut(), self.links.team()) else { return };
+        t.follow(links).await;
+        tracing::info!(robot = %self.id, team = %links.team, on, "leads the team's barriers");
     }
 }

@@ -125,6 +125,7 @@ pub async fn run_on(
     let mut io = Io {
         mesh: mesh.clone(),
         id: id.clone(),
+        links: mrmm_core::robot::Links::new(&id),
         team: None,
         publisher,
         telemetry_key,

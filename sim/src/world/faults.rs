@@ -38,7 +38,7 @@ impl World {
         n.host = None;
         n.robot = None;
         n.served.clear();
-        n.team = None;
+        n.links = robot::Links::new(&n.name);
         self.inv.gone(i);
         self.liveliness(0.02);
     }
@@ -74,8 +74,8 @@ impl World {
                 Kind::Central => out.push((Token::Planner, i)),
                 Kind::Robot => {
                     out.push((Token::Robot(n.name.clone()), i));
-                    if let Some((_, subteam)) = &n.team {
-                        out.push((Token::Member { subteam: subteam.clone(), robot: n.name.clone() }, i));
+                    if let Some(t) = n.links.team() {
+                        out.push((Token::Member { subteam: t.subteam.clone(), robot: n.name.clone() }, i));
                     }
                 }
                 Kind::Host => {}
@@ -88,8 +88,7 @@ impl World {
     pub(super) fn liveliness(&mut self, delay: f64) {
         let tokens = self.tokens();
         // Each robot watches the members of the widest team its plan has barriers with.
-        let teams: Vec<Option<String>> =
-            self.nodes.iter().map(|n| n.team.as_ref().map(|(t, _)| n.scopes.iter().chain([t]).min_by_key(|s| s.len()).unwrap_or(t).clone())).collect();
+        let teams: Vec<Option<String>> = self.nodes.iter().map(|n| n.links.team().map(|t| t.widest().to_string())).collect();
         let kinds: Vec<(bool, bool)> = self.nodes.iter().map(|n| (n.central.is_some() || n.host.is_some(), n.robot.is_some())).collect();
         let watches = |o: usize, t: &Token| match t {
             Token::Member { subteam, .. } => kinds[o].1 && teams[o].as_ref().is_some_and(|team| mrmm_proto::team_within(subteam, team)),

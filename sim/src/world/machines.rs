@@ -12,6 +12,10 @@ impl World {
         // The journal comes first, as the driver commits it before anything else.
         let journaled = cmds.iter().any(|c| matches!(c, central::Command::System(system::Command::Journal(_))));
         for cmd in cmds {
+            // What it publishes goes out as the driver puts it on the network.
+            if let Some(out) = central::egress(&cmd) {
+                self.publish(i, out);
+            }
             match cmd {
                 central::Command::Publish(_) => {}
                 central::Command::System(s) => self.system_command(i, s)?,
@@ -24,17 +28,6 @@ impl World {
             }
         }
         Ok(())
-    }
-
-    /// A chain message from node `i` to host `to`, on its way (or lost).
-    fn send_chain(&mut self, i: usize, to: &str, envelope: Box<mrmm_proto::ChainEnvelope>) {
-        if let Some(j) = self.index(to) {
-            if !self.lost() {
-                let at = self.now + self.delay();
-                let msg = Wire::json(mrmm_proto::Key::HostChain(to.to_string()), &*envelope, self.sender(i));
-                self.queue.push(at, Ev::Host { from: i, to: j, msg: Box::new(msg) });
-            }
-        }
     }
 
     pub(super) fn system_command(&mut self, i: usize, c: system::Command) -> Result<(), String> {
@@ -67,8 +60,8 @@ impl World {
             system::Command::Refused { from, what } => return Err(format!("central refused {from}: {what} (no node of the simulation is a rogue)")),
             system::Command::Chain { to, envelope } => {
                 self.report.fenced += 1;
+                // Published by `central` with the other publications.
                 self.log(|| format!("central -> {to}: {} {}", envelope.mission, envelope.msg.describe()));
-                self.send_chain(i, &to, envelope);
             }
             system::Command::Journal(entries) => {
                 // Committed before anything else of this event happens, as the driver does; what
@@ -110,6 +103,9 @@ impl World {
         };
         let cmds = h.handle(now, ev);
         for c in cmds {
+            if let Some(out) = host::egress(&c) {
+                self.publish(i, out);
+            }
             self.host_command(i, c)?;
         }
         if let Some(h) = self.nodes[i].host.as_ref() {
@@ -156,7 +152,8 @@ impl World {
                     d => self.nodes[i].chain_disk.insert(mission, d),
                 };
             }
-            host::Command::Chain { to, envelope } => self.send_chain(i, &to, envelope),
+            // Published by `host`.
+            host::Command::Chain { .. } | host::Command::Status(_) => {}
             host::Command::Reply { query, result } => {
                 if let (Ok(_), Some(Payload::Ctl { mission, .. })) = (&result, self.queries.get(&query).and_then(|q| q.payload.as_ref())) {
                     let mission = mission.clone();
@@ -198,24 +195,6 @@ impl World {
                 let name = self.nodes[i].name.clone();
                 self.log(|| format!("{name} refused {from}: {what}"));
             }
-            host::Command::Status(view) => {
-                let from = self.sender(i);
-                if let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) {
-                    if !self.lost() {
-                        let at = self.now + self.delay();
-                        let msg = Wire::json(mrmm_proto::Key::MissionStatus(view.name.clone()), &*view, from.clone());
-                        self.queue.push(at, Ev::Central { from: i, to: c, msg: Box::new(msg) });
-                    }
-                }
-                // Robot nodes' hosts hear it too (they learn their mission's chain from it).
-                for j in 0..self.nodes.len() {
-                    if j != i && self.nodes[j].kind == Kind::Robot && self.nodes[j].host.is_some() && !self.lost() {
-                        let at = self.now + self.delay();
-                        let msg = Wire::json(mrmm_proto::Key::MissionStatus(view.name.clone()), &*view, from.clone());
-                        self.queue.push(at, Ev::Host { from: i, to: j, msg: Box::new(msg) });
-                    }
-                }
-            }
         }
         Ok(())
     }
@@ -239,103 +218,44 @@ impl World {
 
     pub(super) fn robot_commands(&mut self, i: usize, cmds: Vec<robot::Command>) -> Result<(), String> {
         for c in cmds {
-            match c {
-                robot::Command::Reply(_) => {}
+            // What it means on the network, as the driver carries it out: the links keep up
+            // with its team, and say what goes out on which key.
+            let out = self.nodes[i].links.egress(&c);
+            let team = out.as_ref().and_then(|o| match &o.key {
+                mrmm_proto::Key::TeamSync { team, .. } | mrmm_proto::Key::TeamArrive { team, .. } | mrmm_proto::Key::TeamRelease { team, .. } => {
+                    Some(team.clone())
+                }
+                _ => None,
+            });
+            match &c {
+                robot::Command::Reply(_) | robot::Command::Lead(_) | robot::Command::Telemetry(_) => {}
                 // An honest head planning for a robot not admitted yet: it re-sends.
                 robot::Command::Refuse(e) => {
                     let name = self.nodes[i].name.clone();
                     self.log(|| format!("{name} refuses: {e}"));
                 }
-                robot::Command::JoinTeam { team, subteam, barrier, scopes, .. } => {
-                    self.nodes[i].team = Some((team, subteam));
-                    self.nodes[i].scopes = scopes.into_iter().map(|s| s.team).collect();
-                    self.nodes[i].barrier = barrier;
-                    self.nodes[i].leading = false;
+                robot::Command::JoinTeam { .. } | robot::Command::LeaveTeam => {
                     self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
                     self.liveliness(0.02);
                     self.local_team(i)?;
                 }
-                robot::Command::LeaveTeam => {
-                    self.nodes[i].team = None;
-                    self.nodes[i].scopes.clear();
-                    self.nodes[i].leading = false;
-                    self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
-                    self.liveliness(0.02);
-                    self.local_team(i)?;
-                }
-                robot::Command::Publish(a) => {
-                    let Some((team, _)) = self.nodes[i].team.clone() else {
-                        continue;
-                    };
-                    self.inv.arrival(&team, &a);
-                    // Under the leader barrier only the members leading hear arrivals.
-                    let leader = self.nodes[i].barrier == mrmm_proto::BarrierMode::Leader;
-                    let key = if leader {
-                        mrmm_proto::Key::TeamArrive { team: team.clone(), point: a.point, round: a.round }
-                    } else {
-                        mrmm_proto::Key::TeamSync { team: team.clone(), point: a.point, round: a.round }
-                    };
-                    let msg = Wire::json(key, &a, self.sender(i));
-                    for j in 0..self.nodes.len() {
-                        let same = self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team) && (!leader || self.nodes[j].leading);
-                        if j != i && same && !self.lost() {
-                            let at = self.now + self.delay();
-                            self.queue.push(at, Ev::Robot { from: i, to: j, msg: Box::new(msg.clone()) });
-                        }
+                robot::Command::Publish(a) | robot::Command::PublishIn(_, a) => {
+                    if let Some(team) = &team {
+                        self.inv.arrival(team, a);
                     }
                 }
-                // A wider team's barrier: every robot whose plan has it hears it (mesh).
-                robot::Command::PublishIn(team, a) => {
-                    if !self.nodes[i].scopes.contains(&team) {
-                        continue;
-                    }
-                    self.inv.arrival(&team, &a);
-                    let msg = Wire::json(mrmm_proto::Key::TeamSync { team: team.clone(), point: a.point, round: a.round }, &a, self.sender(i));
-                    for j in 0..self.nodes.len() {
-                        if j != i && self.nodes[j].scopes.contains(&team) && !self.lost() {
-                            let at = self.now + self.delay();
-                            self.queue.push(at, Ev::Robot { from: i, to: j, msg: Box::new(msg.clone()) });
-                        }
-                    }
-                }
-                robot::Command::Lead(on) => self.nodes[i].leading = on,
                 robot::Command::Release(r) => {
-                    let Some((team, _)) = self.nodes[i].team.clone() else {
-                        continue;
-                    };
                     let name = self.nodes[i].name.clone();
-                    if let Some(e) = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()) {
-                        self.inv.release(&name, e, &r)?;
-                    }
-                    let msg = Wire::json(mrmm_proto::Key::TeamRelease { team: team.clone(), point: r.point, round: r.round }, &r, self.sender(i));
-                    for j in 0..self.nodes.len() {
-                        let same = self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team);
-                        if j != i && same && !self.lost() {
-                            let at = self.now + self.delay();
-                            self.queue.push(at, Ev::Robot { from: i, to: j, msg: Box::new(msg.clone()) });
-                        }
+                    if let (Some(_), Some(e)) = (&team, self.nodes[i].robot.as_ref().and_then(|rb| rb.executor())) {
+                        self.inv.release(&name, e, r)?;
                     }
                 }
-                // The simulated fleet's robots have simulated bodies: no velocity commands.
-                // Simulated bodies give no ROS 2 commands.
+                // Simulated bodies give no velocity commands, nor ROS 2 goals.
                 robot::Command::Drive(_) | robot::Command::Nav(_) => {}
-                robot::Command::KeepCapabilities { now, .. } => self.nodes[i].kept_caps = Some(now),
-                robot::Command::Telemetry(t) => {
-                    for j in 0..self.nodes.len() {
-                        if self.lost() {
-                            continue;
-                        }
-                        let at = self.now + self.delay();
-                        if self.nodes[j].central.is_some() {
-                            self.queue.push(at, Ev::Central { from: i, to: j, msg: Box::new(Wire::telemetry(&t, self.sender(i))) });
-                        }
-                        // Hosts subscribe to the robots they watch, as their drivers do.
-                        if self.nodes[j].host.as_ref().is_some_and(|h| h.watches(&t.id)) {
-                            let msg = Wire::telemetry(&t, self.sender(i));
-                            self.queue.push(at, Ev::Host { from: i, to: j, msg: Box::new(msg) });
-                        }
-                    }
-                }
+                robot::Command::KeepCapabilities { now, .. } => self.nodes[i].kept_caps = Some(now.clone()),
+            }
+            if let Some(out) = out {
+                self.publish(i, out);
             }
         }
         Ok(())

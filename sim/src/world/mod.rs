@@ -80,13 +80,8 @@ struct Node {
     cfg: Option<RobotSetup>,
     /// Missions whose queryables this node's host serves.
     served: BTreeSet<String>,
-    /// The robot's team: (team, subteam).
-    team: Option<(String, String)>,
-    /// The wider teams whose barriers its plan has (their paths).
-    scopes: Vec<String>,
-    /// How its team runs barriers, and whether it hears the team's arrivals as their leader.
-    barrier: mrmm_proto::BarrierMode,
-    leading: bool,
+    /// The robot's team as the network sees it (what it publishes on, what it hears).
+    links: robot::Links,
     /// Central's journal: what it committed, kept across crashes (the disk).
     disk: mrmm_core::system::Durable,
     /// A robot's or mission host's chain state on disk ([`Config::disks`]), kept across crashes.
@@ -242,6 +237,7 @@ fn json<T: serde::de::DeserializeOwned>(a: Result<Answer, Failure>) -> Result<T,
 impl Node {
     /// A node whose process has not started yet (see `World::boot`).
     fn new(name: String, kind: Kind, cfg: Option<RobotSetup>) -> Node {
+        let links = robot::Links::new(&name);
         Node {
             name,
             kind,
@@ -250,10 +246,7 @@ impl Node {
             robot: None,
             cfg,
             served: BTreeSet::new(),
-            team: None,
-            scopes: Vec::new(),
-            barrier: mrmm_proto::BarrierMode::Mesh,
-            leading: false,
+            links,
             disk: Default::default(),
             kept_caps: None,
             chain_disk: BTreeMap::new(),
@@ -339,8 +332,7 @@ impl World {
         };
         let n = &mut self.nodes[i];
         n.served.clear();
-        n.team = None;
-        n.scopes.clear();
+        n.links = robot::Links::new(&n.name);
         match n.kind {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };

@@ -6,6 +6,7 @@ use mrmm_core::robot::{Incoming, Refused};
 use mrmm_proto::{Key, Sender, SyncArrival, SyncRelease};
 
 use super::*;
+use mrmm_core::egress::{heard, Out};
 
 /// A message on its way to a robot.
 #[derive(Debug, Clone)]
@@ -31,6 +32,34 @@ impl Wire {
     /// A liveliness token appearing (`up`) or going.
     pub fn token(key: Key, up: bool) -> Wire {
         Wire { key: key.to_string(), payload: Vec::new(), put: up, from: None }
+    }
+}
+
+impl World {
+    /// Node `i` publishes `out`: every machine whose subscriptions take its key in hears it
+    /// (after the network's delay, unless the network loses it), as Zenoh would deliver it.
+    pub(super) fn publish(&mut self, i: usize, out: Out) {
+        let msg = Wire { key: out.key.to_string(), payload: out.payload, put: true, from: Some(self.sender(i)) };
+        let system = system::subscriptions();
+        for j in 0..self.nodes.len() {
+            let n = &self.nodes[j];
+            let local = i == j;
+            let robot = n.robot.is_some() && heard(&n.links.subscriptions(), &msg.key, local);
+            let host = n.host.as_ref().is_some_and(|h| heard(&h.subscriptions(), &msg.key, local));
+            let central = n.central.is_some() && heard(&system, &msg.key, local);
+            for (hears, machine) in [(robot, 0), (host, 1), (central, 2)] {
+                if hears && !self.lost() {
+                    let at = self.now + self.delay();
+                    let (from, to, msg) = (i, j, Box::new(msg.clone()));
+                    let ev = match machine {
+                        0 => Ev::Robot { from, to, msg },
+                        1 => Ev::Host { from, to, msg },
+                        _ => Ev::Central { from, to, msg },
+                    };
+                    self.queue.push(at, ev);
+                }
+            }
+        }
     }
 }
 
@@ -90,13 +119,14 @@ impl World {
     /// of the world changes.
     pub(super) fn forge(&mut self) -> Result<(), String> {
         self.schedule_forgery();
-        let teamed: Vec<usize> = (0..self.nodes.len()).filter(|&i| self.links.up[i] && self.nodes[i].team.is_some() && self.nodes[i].robot.is_some()).collect();
+        let teamed: Vec<usize> =
+            (0..self.nodes.len()).filter(|&i| self.links.up[i] && self.nodes[i].links.team().is_some() && self.nodes[i].robot.is_some()).collect();
         if teamed.len() < 2 {
             return Ok(());
         }
         let forger = teamed[self.forge_rng.gen_range(0..teamed.len())];
-        let Some((team, _)) = self.nodes[forger].team.clone() else { return Ok(()) };
-        let victims: Vec<usize> = teamed.iter().copied().filter(|&j| j != forger && self.nodes[j].team.as_ref().is_some_and(|(t, _)| *t == team)).collect();
+        let Some(team) = self.nodes[forger].links.team().map(|t| t.team.clone()) else { return Ok(()) };
+        let victims: Vec<usize> = teamed.iter().copied().filter(|&j| j != forger && self.nodes[j].links.team().is_some_and(|t| t.team == team)).collect();
         let Some(&victim) = victims.first() else { return Ok(()) };
         let (name, claimed) = (self.nodes[forger].name.clone(), self.nodes[victim].name.clone());
         let epoch = self.nodes[victim].robot.as_ref().and_then(|r| r.executor()).map_or(0, |e| e.epoch());
