@@ -16,6 +16,7 @@
 //! | [`executor::Executor`] | a plan's steps and team barriers ([`barrier`]) | [`robot::Robot`] |
 
 pub mod agent;
+pub mod ask;
 pub mod barrier;
 pub mod body;
 pub mod central;

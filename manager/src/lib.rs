@@ -9,6 +9,7 @@
 //! | `planning::plan_on` | [`planner_service`] |
 
 pub mod central;
+pub mod edge;
 pub mod error;
 pub mod host;
 pub mod inbox;

@@ -44,6 +44,7 @@ seeds! {
     seed_890 = 890: "system: a release waiting for another mission's control held up unrelated robots";
     seed_1473 = 1473: "system: an old head told of a higher promise re-elected itself into the new lineage's epochs with the old state";
     seed_1482 = 1482: "system: a replan whose planner service did not answer was given up during a heal";
+    seed_1948 = 1948: "system (simulation delivering by subscriptions): a straggler of a mission central ended, refused as no longer entitled, never heard the end and stood again with its old team";
     seed_2952 = 2952: "system: a restarted central started a journal mission anew while a cut-off replica lived";
     seed_3150 = 3150: "system: robots a head had to let go after central's restart were not held";
     seed_3245 = 3245: "system: without central's fence two heads remained after healing";

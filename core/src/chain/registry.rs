@@ -138,24 +138,36 @@ impl<S: Clone> Registry<S> {
         self.settle(now, name, before, cmds)
     }
 
+    /// What this node answers `msg` about `name` when the value ended here (it holds no replica of
+    /// it, only the tomb), whoever sent it: a straggler of the ended chain must learn that it
+    /// ended, or it could stand again and revive the value.
+    pub fn tomb_answer(&self, name: &str, msg: &Msg<S>) -> Option<Msg<S>> {
+        if self.replicas.contains_key(name) {
+            return None;
+        }
+        let t = self.tombs.get(name).filter(|t| t.ended)?;
+        match msg {
+            // (A vote of a newer lineage is not this ended chain's: the value started anew.)
+            Msg::Vote { proposal, .. } if lineage_of(proposal.epoch) <= lineage_of(t.promised) => Some(Msg::End { epoch: u64::MAX }),
+            // A late update or beat of the chain that ended here (or an older one): it must not
+            // bring the value back (a replica made of it could stand and revive an ended mission:
+            // found by the system sim, seed 159 with capability changes). Declined, so that a
+            // head of a value of the same name created since goes on without us.
+            Msg::Update { config, .. } | Msg::Beat { config, .. } if config.epoch <= t.promised => Some(Msg::Decline { epoch: config.epoch }),
+            _ => None,
+        }
+    }
+
     /// A chain message for `name` from `from`. A node that no longer holds the value creates a
     /// replica only for a vote or an update (it is being asked to join a chain); a vote for a
     /// value that ended here is answered with the end; anything else for a value it does not
     /// hold is dropped. (A beat counts as an update: the node then asks for the state.)
     pub fn receive(&mut self, now: f64, name: &str, from: String, msg: Msg<S>) -> Vec<Command<S>> {
         if !self.replicas.contains_key(name) {
+            if let Some(answer) = self.tomb_answer(name, &msg) {
+                return vec![Command::Send { to: from, msg: answer }];
+            }
             match (&msg, self.tombs.get(name)) {
-                // (A vote of a newer lineage is not this ended chain's: the value started anew.)
-                (Msg::Vote { proposal, .. }, Some(t)) if t.ended && lineage_of(proposal.epoch) <= lineage_of(t.promised) => {
-                    return vec![Command::Send { to: from, msg: Msg::End { epoch: u64::MAX } }];
-                }
-                // A late update or beat of the chain that ended here (or an older one): it must
-                // not bring the value back (a replica made of it could stand and revive an ended
-                // mission: found by the system sim, seed 159 with capability changes). Declined,
-                // so that a head of a value of the same name created since goes on without us.
-                (Msg::Update { config, .. } | Msg::Beat { config, .. }, Some(t)) if t.ended && config.epoch <= t.promised => {
-                    return vec![Command::Send { to: from, msg: Msg::Decline { epoch: config.epoch } }];
-                }
                 // A head replicating to us: we are (again) in its chain.
                 (Msg::Update { .. } | Msg::Beat { .. }, Some(_)) => {
                     self.tombs.remove(name);

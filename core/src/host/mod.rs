@@ -17,6 +17,7 @@ use crate::chain::{self, Params, Registry};
 use crate::mission::{self, MissionManager, MissionSpec};
 use crate::Failure;
 
+pub mod asks;
 pub mod egress;
 mod head;
 pub mod ingress;
@@ -405,7 +406,16 @@ impl HostCore {
                         _ => None,
                     };
                     let behind = |r: &&chain::Replica<MissionSnapshot>| sender.id == from && r.config().is_some() && theirs.is_some_and(|v| r.version() > v);
-                    if let Some(r) = self.registry.replica(&mission).filter(behind) {
+                    // A straggler of a chain that ended here (a robot released since) is told it
+                    // ended, as anyone would be: else it could stand again with its old team
+                    // (system sim, seed 1948).
+                    let ended = if sender.id == from { self.registry.tomb_answer(&mission, &msg) } else { None };
+                    if let Some(msg) = ended {
+                        out.push(Command::Chain {
+                            to: from.clone(),
+                            envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }),
+                        });
+                    } else if let Some(r) = self.registry.replica(&mission).filter(behind) {
                         let msg = chain::Msg::Stale { promised: r.promised(), last: r.version() };
                         out.push(Command::Chain {
                             to: from.clone(),

@@ -367,3 +367,29 @@ fn a_healthy_head_is_not_given_up_by_a_start_anew() {
     assert!(cmds.iter().any(|c| matches!(c, Command::Reply { query: 9, result: Err(e) } if e.error.contains("already hosted"))), "{cmds:?}");
     assert!(!cmds.contains(&Command::Unserve { mission: "p".into() }));
 }
+
+/// A robot released from a mission that ended here, but which never heard the end (lost), keeps
+/// a replica and votes to stand again: it is no longer entitled to speak for the mission, and is
+/// told the mission ended all the same — refused without the end, it could stand again with its
+/// old team (system sim, seed 1948).
+#[test]
+fn a_straggler_of_an_ended_mission_is_told_so_though_no_longer_entitled() {
+    let mut m = running();
+    // r2 hears nothing more: the end does not reach it.
+    m.nodes.remove("r2");
+    let cmds = m.to("central", Event::Ctl { query: 9, mission: "p".into(), ctl: MissionCtl::Terminate, from: central() });
+    assert_eq!(replies(&cmds), [9], "{cmds:?}");
+    // Central's replica ends (the end's acknowledgement never comes: it retires by itself).
+    for _ in 0..200 {
+        m.tick(0.5);
+    }
+    assert!(m.nodes["central"].replica("p").is_none(), "ended here");
+    let vote = chain::Msg::Vote { proposal: mrmm_proto::chain::Config { epoch: 5, chain: vec!["r2".into(), "central".into()] }, base: vec![], last: (1, 3) };
+    let robot = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r2");
+    // r2 runs another mission now, as its telemetry says.
+    m.to("central", progress("r2", "q", 1));
+    let core = m.nodes.get_mut("central").expect("central");
+    let out = core.handle(m.now, Event::Chain { envelope: Box::new(ChainEnvelope { mission: "p".into(), from: "r2".into(), msg: vote }), from: robot });
+    assert!(out.iter().any(|c| matches!(c, Command::Chain { to, envelope } if to == "r2" && matches!(envelope.msg, chain::Msg::End { .. }))), "{out:?}");
+    assert!(out.iter().any(|c| matches!(c, Command::Refused { .. })), "and nothing it sent is taken: {out:?}");
+}

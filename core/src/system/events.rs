@@ -115,6 +115,11 @@ pub enum Event {
         mission: String,
         result: Result<Box<MissionView>, Failure>,
     },
+    /// The answer to [`Command::Forward`], for the operator as it came.
+    Forwarded {
+        req: Req,
+        result: Result<Value, String>,
+    },
     /// The answer to [`Command::Ctl`] `id`.
     CtlDone {
         id: u64,

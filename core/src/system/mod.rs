@@ -6,6 +6,7 @@
 //! that are re-sent until acknowledged (`ctl.rs`). No I/O: [`SystemManager::handle`] takes the
 //! time and an [`Event`] and returns the [`Command`]s the driver must carry out.
 
+pub mod asks;
 mod capabilities;
 mod changes;
 mod ctl;
@@ -365,6 +366,7 @@ impl SystemManager {
                 out
             }
             Event::MissionStarted { mission, result } => self.started(&mission, result),
+            Event::Forwarded { req, result } => vec![Command::Reply { req, result }],
             Event::CtlDone { id, result } => {
                 self.ctls.done(now, id, result);
                 for r in self.released.values_mut().filter(|r| r.ctl == id && r.acked.is_none()) {

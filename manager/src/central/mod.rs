@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 use mrmm_net::net::{self, Mode};
 use mrmm_net::{Mesh, NodeNet};
-use mrmm_proto::{self as proto, CommandAck, CtlAck, Key, MissionView, Pattern, RobotInfo, Role, Sender};
+use mrmm_proto::{self as proto, Key, Pattern, Role, Sender};
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
 use zenoh::query::Query;
@@ -21,7 +21,6 @@ use crate::error::ManagerError;
 use crate::inbox::Inbox;
 use crate::journal::{now_ms, Journal};
 use crate::system::{self, Req, Request};
-use crate::Failure;
 pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
 use mrmm_core::edge::{Incoming, Refused};
 
@@ -31,8 +30,6 @@ const LIVELINESS_QUEUE: usize = 65_536;
 const NET_QUEUE: usize = 8_192;
 /// Period of the manager's housekeeping tick.
 const TICK: Duration = Duration::from_millis(250);
-/// How long a mission host may take to plan a new mission.
-const START_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::START_S as u64);
 /// How long a create's dry-run plan may take (the planner's limits keep it far shorter).
 const DRY_RUN_DEADLINE: Duration = Duration::from_secs(10);
 
@@ -336,10 +333,17 @@ impl Io {
 
     async fn execute(&mut self, c: Command) {
         if let Some(out) = mrmm_core::central::egress(&c) {
-            return crate::host::publish(&self.mesh, out).await;
+            return crate::edge::publish(&self.mesh, out).await;
         }
         let Command::System(c) = c else { return };
-        let (mesh, timeout) = (self.mesh.clone(), self.timeout);
+        if let Some(ask) = system::asks::ask(&c) {
+            let (mesh, timeout) = (self.mesh.clone(), self.timeout);
+            return self.spawn(async move {
+                let key = ask.key.to_string();
+                let result = crate::edge::answer_of(&mesh, &ask, timeout).await;
+                ask.then.answer(&key, result)
+            });
+        }
         match c {
             system::Command::Reply { req, result } => {
                 let Req::Query(id) = req else { return };
@@ -366,64 +370,12 @@ impl Io {
                 };
                 system::Event::DryRunDone { id, result }
             }),
-            system::Command::FetchInfo { id } => self.spawn(async move {
-                let key = Key::RobotInfo(id.clone()).to_string();
-                match mesh.query::<RobotInfo>(&key, None, timeout, |s| s.is(Role::Robot, &id)).await {
-                    Ok((info, _)) if info.id == id => match info.check() {
-                        Ok(()) => system::Event::RobotRegistered(info),
-                        Err(e) => system::Event::InfoFailed { id, reason: format!("bad info: {e}") },
-                    },
-                    Ok((info, _)) => system::Event::InfoFailed { id, reason: format!("answered as {:?}", info.id) },
-                    Err(e) => system::Event::InfoFailed { id, reason: e.to_string() },
-                }
-            }),
-            system::Command::SendToRobot { req, robot, cmd } => self.spawn(async move {
-                let key = Key::RobotCmd(robot.clone()).to_string();
-                let result = match proto::to_json(&cmd) {
-                    Ok(body) => {
-                        mesh.query::<CommandAck>(&key, Some(body), timeout, |s| s.is(Role::Robot, &robot)).await.map(|(a, _)| a).map_err(|e| e.to_string())
-                    }
-                    Err(e) => Err(e.to_string()),
-                };
-                system::Event::RobotCommandDone { req, robot, result }
-            }),
-            system::Command::StartMission { host, start } => self.spawn(async move {
-                let mission = start.spec.name.clone();
-                let key = Key::HostStart(host.clone()).to_string();
-                let result = match proto::to_json(&start) {
-                    Ok(body) => mesh
-                        .query::<MissionView>(&key, Some(body), START_TIMEOUT, |s| s.id == host && s.role.hosts_missions())
-                        .await
-                        .map(|(v, _)| v)
-                        .map_err(Failure::from),
-                    Err(e) => Err(Failure::fatal(e.to_string())),
-                };
-                system::Event::MissionStarted { mission, result: result.map(Box::new) }
-            }),
-            system::Command::Ctl { id, mission, ctl, managers } => self.spawn(async move {
-                let key = Key::MissionCtl(mission).to_string();
-                let result = match proto::to_json(&ctl) {
-                    Ok(body) => mesh
-                        .query::<CtlAck>(&key, Some(body), timeout, |s| s.role.hosts_missions() && managers.contains(&s.id))
-                        .await
-                        .map(|_| ())
-                        .map_err(Failure::from),
-                    Err(e) => Err(Failure::fatal(e.to_string())),
-                };
-                system::Event::CtlDone { id, result }
-            }),
-            system::Command::Forward { req, key, managers } => {
-                let Req::Query(id) = req else { return };
-                let Some(q) = self.queries.remove(&id) else {
-                    return;
-                };
-                tokio::spawn(async move {
-                    match mesh.query::<serde_json::Value>(&key.to_string(), None, timeout, |s| s.role.hosts_missions() && managers.contains(&s.id)).await {
-                        Ok((v, _)) => mesh.reply_json(&q, &v).await,
-                        Err(e) => mesh.reply_error(&q, &e.to_string()).await,
-                    }
-                });
-            }
+            // Asked above.
+            system::Command::FetchInfo { .. }
+            | system::Command::SendToRobot { .. }
+            | system::Command::StartMission { .. }
+            | system::Command::Ctl { .. }
+            | system::Command::Forward { .. } => {}
         }
     }
 }

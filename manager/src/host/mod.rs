@@ -9,10 +9,10 @@ pub mod store;
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
 
-use mrmm_core::egress::{Audience, Out};
-use mrmm_net::net::{self, QueryError};
+use mrmm_core::egress::Out;
+use mrmm_net::net;
 use mrmm_net::{Following, Mesh};
-use mrmm_proto::{self as proto, CommandAck, Key, MissionPlan, Pattern, RobotCommand, Role};
+use mrmm_proto::{self as proto, Key, Pattern};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 use zenoh::bytes::Encoding;
@@ -29,8 +29,6 @@ pub use mrmm_core::host::{Command, Event, HostCore, PLAN_RETRIES, REDELIVER_S, U
 
 /// How long a planner service may take.
 pub const PLAN_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::PLAN_S as u64);
-/// How long a robot may take to accept a plan.
-const ROBOT_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::ROBOT_PLAN_S as u64);
 /// Seconds between two status publications of each mission.
 const STATUS_PERIOD: Duration = Duration::from_secs(1);
 /// Liveliness changes waiting for the host's loop, at most.
@@ -63,15 +61,6 @@ pub type LocalTeam = Vec<(String, Vec<String>)>;
 /// Hosts missions on `mesh` as `node` until `shutdown`, with the default chain parameters.
 /// `local`: on a robot node, its robot's team. `stored`: the chain state store opened with
 /// [`store::Store::open`] (and what it held): keep the chain state there; else in memory only.
-/// Puts a machine's publication on the network, sealed (for its receivers, if it names them).
-pub async fn publish(mesh: &Mesh, out: Out) {
-    let key = out.key.to_string();
-    match out.to {
-        Audience::Fleet => mesh.put(&key, out.payload, Encoding::APPLICATION_JSON).await,
-        Audience::Only(to) => mesh.put_for(&key, out.payload, Encoding::APPLICATION_JSON, &to).await,
-    }
-}
-
 pub async fn serve(
     mesh: Mesh,
     node: String,
@@ -304,6 +293,18 @@ impl Io {
         if let Some(out) = mrmm_core::host::egress(&c) {
             return self.publish(out).await;
         }
+        if let Some(ask) = mrmm_core::host::asks::ask(&c) {
+            let (mesh, tx) = (self.mesh.clone(), self.tx.clone());
+            tokio::spawn(async move {
+                let key = ask.key.to_string();
+                let result = crate::edge::answer_of(&mesh, &ask, PLAN_TIMEOUT).await;
+                if let Err(f) = &result {
+                    tracing::debug!("{key}: no answer: {}", f.error);
+                }
+                let _ = tx.send(Input::Event(ask.then.answer(&key, result)));
+            });
+            return;
+        }
         match c {
             // Published above.
             Command::Chain { .. } | Command::Status(_) => {}
@@ -354,61 +355,26 @@ impl Io {
             Command::Unserve { mission } => {
                 self.served.remove(&mission);
             }
-            Command::RequestPlan { mission, epoch, kind, request, local } => {
+            Command::RequestPlan { mission, epoch, kind, request, local: true } => {
                 let (mesh, tx, maps) = (self.mesh.clone(), self.tx.clone(), self.maps.clone());
                 tokio::spawn(async move {
-                    let result = if local {
-                        crate::planner_service::plan_fetching(&mesh, &maps, kind, request).await.map_err(Failure::fatal)
-                    } else {
-                        let key = Key::Planner(kind.as_str().to_string()).to_string();
-                        match proto::to_json(&request) {
-                            // Only a planner service (central runs one) may answer: a stranger
-                            // answering first is refused and the wait goes on.
-                            Ok(body) => mesh
-                                .query::<MissionPlan>(&key, Some(body), PLAN_TIMEOUT, |s| matches!(s.role, Role::Planner | Role::Central))
-                                .await
-                                .map(|(plan, _)| plan)
-                                .map_err(failure),
-                            Err(e) => Err(Failure::fatal(e.to_string())),
-                        }
-                    };
+                    let result = crate::planner_service::plan_fetching(&mesh, &maps, kind, request).await.map_err(Failure::fatal);
                     let _ = tx.send(Input::Event(Event::Planned { mission, epoch, result: result.map(Box::new) }));
                 });
             }
-            Command::SendPlan { mission, robot, assignment } => {
-                let (mesh, tx) = (self.mesh.clone(), self.tx.clone());
-                tokio::spawn(async move {
-                    let epoch = assignment.epoch;
-                    let key = Key::RobotCmd(robot.clone()).to_string();
-                    let result = match proto::to_json(&RobotCommand::Plan(assignment)) {
-                        Ok(body) => {
-                            // A robot that does not take plans from this node yet (it awaits its
-                            // admission from central) refuses with that code: re-sent.
-                            mesh.query::<CommandAck>(&key, Some(body), ROBOT_TIMEOUT, |s| s.is(Role::Robot, &robot)).await.map(|_| ()).map_err(failure)
-                        }
-                        Err(e) => Err(Failure::fatal(e.to_string())),
-                    };
-                    if let Err(f) = &result {
-                        tracing::debug!(%robot, "plan not delivered: {}", f.error);
-                    }
-                    let _ = tx.send(Input::Event(Event::PlanDelivered { mission, robot, epoch, result }));
-                });
-            }
+            // Asked above.
+            Command::RequestPlan { .. } | Command::SendPlan { .. } => {}
         }
     }
 
     /// A publication of the core: a mission's status through its publisher while this node
     /// serves the mission, anything else sealed on its key.
     async fn publish(&self, out: Out) {
-        let Key::MissionStatus(mission) = &out.key else { return publish(&self.mesh, out).await };
+        let Key::MissionStatus(mission) = &out.key else { return crate::edge::publish(&self.mesh, out).await };
         let Some(publisher) = self.served.get(mission).and_then(|s| s.status.as_ref()) else { return };
         let seal = self.mesh.seal(&out.key.to_string(), &out.payload);
         if let Err(e) = publisher.put(out.payload).attachment(seal).await {
             tracing::warn!(%mission, "status publication failed: {e}");
         }
     }
-}
-
-fn failure(e: QueryError) -> Failure {
-    Failure::from(e)
 }

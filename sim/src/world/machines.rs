@@ -42,21 +42,26 @@ impl World {
             }
             _ => {}
         }
-        match c {
-            system::Command::FetchInfo { id } => self.ask(Some(i), &id, Payload::RobotInfo, Ctx::CentralInfo(id.clone())),
-            system::Command::SendToRobot { req, robot, cmd } => self.ask(Some(i), &robot.clone(), Payload::RobotCmd(cmd), Ctx::CentralRobot { req, robot }),
-            system::Command::StartMission { host, start } => {
-                let mission = start.spec.name.clone();
-                if start.anew {
-                    self.report.anew += 1;
-                    let assigned = self.nodes[i].central.as_ref().map_or(0, |c| c.system().durable().assignment.values().filter(|m| **m == mission).count());
-                    if start.members.len() < assigned {
-                        self.report.anew_short += 1;
-                    }
+        if let system::Command::StartMission { start, .. } = &c {
+            let mission = &start.spec.name;
+            if start.anew {
+                self.report.anew += 1;
+                let assigned = self.nodes[i].central.as_ref().map_or(0, |c| c.system().durable().assignment.values().filter(|m| *m == mission).count());
+                if start.members.len() < assigned {
+                    self.report.anew_short += 1;
                 }
-                self.ask(Some(i), &host, Payload::HostStart(start), Ctx::CentralStart(mission))
             }
-            system::Command::Ctl { id, mission, ctl, .. } => self.ask_mission(Some(i), &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::CentralCtl(id)),
+        }
+        // A question goes to whoever serves its key, as the driver asks it.
+        if let Some(ask) = system::asks::ask(&c) {
+            return self.ask_key(Some(i), &ask.key, ask.payload.as_deref(), ask.timeout_s, Ctx::Central(ask.then));
+        }
+        match c {
+            system::Command::FetchInfo { .. }
+            | system::Command::SendToRobot { .. }
+            | system::Command::StartMission { .. }
+            | system::Command::Ctl { .. }
+            | system::Command::Forward { .. } => {}
             system::Command::Refused { from, what } => return Err(format!("central refused {from}: {what} (no node of the simulation is a rogue)")),
             system::Command::Chain { to, envelope } => {
                 self.report.fenced += 1;
@@ -81,11 +86,6 @@ impl World {
                 let inc = self.links.inc[i];
                 self.queue.push(at, Ev::LocalCentral { node: i, inc, ev: Box::new(central::Event::System(system::Event::DryRunDone { id: dry.id, result })) });
             }
-            system::Command::Forward { key, .. } => {
-                if let Some(mrmm_proto::Key::MissionView(m)) = mrmm_proto::Key::parse(&key.to_string()) {
-                    self.ask_mission(Some(i), &m.clone(), Payload::View(m), Ctx::CentralForward);
-                }
-            }
             system::Command::Reply { req: Req::Query(q), result } => {
                 let short = result.as_ref().map(|_| "ok".to_string()).unwrap_or_else(|e| e.clone());
                 self.log(|| format!("operator request {q}: {short}"));
@@ -105,6 +105,9 @@ impl World {
         for c in cmds {
             if let Some(out) = host::egress(&c) {
                 self.publish(i, out);
+            }
+            if let Some(ask) = host::asks::ask(&c) {
+                self.ask_key(Some(i), &ask.key, ask.payload.as_deref(), ask.timeout_s, Ctx::Host(ask.then))?;
             }
             self.host_command(i, c)?;
         }
@@ -175,20 +178,15 @@ impl World {
             host::Command::Unserve { mission } => {
                 self.nodes[i].served.remove(&mission);
             }
-            host::Command::RequestPlan { mission, epoch, kind, request, local } => {
-                if local {
-                    let result = mrmm_core::planning::plan(kind, &request).map(Box::new).map_err(Failure::fatal);
-                    let at = self.now + self.rng.gen_range(0.01..0.2);
-                    let inc = self.links.inc[i];
-                    self.queue.push(at, Ev::Local { node: i, inc, ev: Box::new(host::Event::Planned { mission, epoch, result }) });
-                } else {
-                    self.ask(Some(i), CENTRAL_HOST, Payload::Planner(request, kind), Ctx::HostPlan { mission, epoch });
-                }
+            // Planned here, as the driver does when no planner service is alive.
+            host::Command::RequestPlan { mission, epoch, kind, request, local: true } => {
+                let result = mrmm_core::planning::plan(kind, &request).map(Box::new).map_err(Failure::fatal);
+                let at = self.now + self.rng.gen_range(0.01..0.2);
+                let inc = self.links.inc[i];
+                self.queue.push(at, Ev::Local { node: i, inc, ev: Box::new(host::Event::Planned { mission, epoch, result }) });
             }
-            host::Command::SendPlan { mission, robot, assignment } => {
-                let epoch = assignment.epoch;
-                self.ask(Some(i), &robot.clone(), Payload::RobotCmd(RobotCommand::Plan(assignment)), Ctx::HostSendPlan { mission, robot, epoch });
-            }
+            // Asked by `host`.
+            host::Command::RequestPlan { .. } | host::Command::SendPlan { .. } => {}
             host::Command::Refused { from, what } => {
                 // Honest nodes only: a refusal is a chain message crossing a stale belief (a
                 // node that left the mission's chain). Logged, not a violation.

@@ -14,8 +14,8 @@ use mrmm_core::robot::{self, Robot};
 use mrmm_core::system::{self, Ctls, Req};
 use mrmm_core::Failure;
 use mrmm_proto::{
-    CommandAck, CtlAck, Member, MissionCtl, MissionPlan, MissionSpecWire, MissionStart, MissionView, PlanAssignment, PlanRequest, RobotCommand, RobotInfo,
-    RobotPlan, RobotSpec, Role, Sender, Step, CENTRAL_HOST,
+    CtlAck, Member, MissionCtl, MissionSpecWire, MissionStart, PlanAssignment, PlanRequest, RobotCommand, RobotPlan, RobotSpec, Role, Sender, Step,
+    CENTRAL_HOST,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -37,16 +37,6 @@ use wire::Wire;
 /// Robots' simulated seconds per wall second.
 const TIME_SCALE: f64 = 4.0;
 /// How long a query waits for an answer: the drivers' own timeouts.
-fn timeout(p: &Payload, ctx: &Ctx) -> f64 {
-    use mrmm_core::timeouts;
-    match (p, ctx) {
-        (Payload::HostStart(_), _) => timeouts::START_S,
-        (Payload::Planner(..), _) => timeouts::PLAN_S,
-        (_, Ctx::HostSendPlan { .. }) => timeouts::ROBOT_PLAN_S,
-        _ => timeouts::QUERY_S,
-    }
-}
-
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Kind {
     Central,
@@ -104,13 +94,10 @@ enum Payload {
 /// Who asked, and what the answer goes back as.
 #[derive(Debug, Clone)]
 enum Ctx {
-    CentralInfo(String),
-    CentralRobot { req: Option<Req>, robot: String },
-    CentralStart(String),
-    CentralCtl(u64),
-    CentralForward,
-    HostPlan { mission: String, epoch: u64 },
-    HostSendPlan { mission: String, robot: String, epoch: u64 },
+    /// Central's system manager asked: the answer becomes its event.
+    Central(system::asks::Then),
+    /// A mission host asked.
+    Host(host::asks::Then),
     OpStart,
     OpCtl(u64),
 }
@@ -118,10 +105,7 @@ enum Ctx {
 /// An answer on the wire.
 #[derive(Debug, Clone)]
 enum Answer {
-    Ack(CommandAck),
-    Info(RobotInfo),
     Json(serde_json::Value),
-    Plan(Box<MissionPlan>),
 }
 
 struct Pending {
@@ -230,7 +214,6 @@ fn robot_cfg(id: &str, x: f64, y: f64) -> RobotSetup {
 fn json<T: serde::de::DeserializeOwned>(a: Result<Answer, Failure>) -> Result<T, Failure> {
     match a? {
         Answer::Json(v) => serde_json::from_value(v).map_err(|e| Failure::fatal(e.to_string())),
-        other => Err(Failure::fatal(format!("unexpected answer {other:?}"))),
     }
 }
 

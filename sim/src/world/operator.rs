@@ -99,7 +99,7 @@ impl World {
                     self.ctls.push("p", ctl, vec![]);
                 }
                 for (id, mission, ctl) in self.ctls.due(self.now) {
-                    self.ask_mission(None, &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id));
+                    self.ask_mission(None, &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id), mrmm_core::timeouts::QUERY_S);
                 }
             }
         }
@@ -134,7 +134,13 @@ impl World {
         for r in &robots {
             self.admit_one(r);
         }
-        self.ask(None, &host, Payload::HostStart(Box::new(MissionStart { spec, members, anew: false, lineage: 0 })), Ctx::OpStart);
+        self.ask(
+            None,
+            &host,
+            Payload::HostStart(Box::new(MissionStart { spec, members, anew: false, lineage: 0 })),
+            Ctx::OpStart,
+            mrmm_core::timeouts::START_S,
+        );
     }
 
     /// OneMission: admits robot `r` to mission `p` with the operator's team.
@@ -157,7 +163,7 @@ impl World {
         managers.dedup();
         let admit = RobotCommand::Admit { mission: "p".into(), managers, members: team };
         self.log(|| format!("operator: admit {r} to p"));
-        self.ask(None, r, Payload::RobotCmd(admit), Ctx::OpStart);
+        self.ask(None, r, Payload::RobotCmd(admit), Ctx::OpStart, mrmm_core::timeouts::QUERY_S);
     }
 
     /// Barriers: every robot gets the same plan of barriers with work between them. With

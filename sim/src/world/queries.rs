@@ -1,28 +1,64 @@
 //! Queries: routed to whoever serves their key, served by the machines, answered to whoever asked (or timed out).
 
+use mrmm_proto::Key;
+
 use super::*;
 
 impl World {
+    /// A machine's question (`mrmm_core::ask`), routed by its key to whoever serves it — the
+    /// robot, the host, the mission's head, the planner service — with its body decoded as that
+    /// server's driver decodes it. `wait`: its timeout (`None`: the default query timeout).
+    pub(super) fn ask_key(&mut self, asker: Option<usize>, key: &Key, body: Option<&[u8]>, wait: Option<f64>, ctx: Ctx) -> Result<(), String> {
+        let wait = wait.unwrap_or(mrmm_core::timeouts::QUERY_S);
+        let body = body.unwrap_or_default();
+        let decode = |what: &'static str| format!("{what} on {key} does not decode");
+        match key {
+            Key::RobotInfo(id) => self.ask(asker, id, Payload::RobotInfo, ctx, wait),
+            Key::RobotCmd(id) => {
+                let cmd = mrmm_proto::from_json("robot command", body).map_err(|_| decode("robot command"))?;
+                self.ask(asker, id, Payload::RobotCmd(cmd), ctx, wait)
+            }
+            Key::HostStart(host) => {
+                let start = mrmm_proto::from_json("mission start", body).map_err(|_| decode("mission start"))?;
+                self.ask(asker, host, Payload::HostStart(Box::new(start)), ctx, wait)
+            }
+            Key::MissionCtl(mission) => {
+                let ctl = mrmm_proto::from_json("mission control", body).map_err(|_| decode("mission control"))?;
+                self.ask_mission(asker, mission, Payload::Ctl { mission: mission.clone(), ctl }, ctx, wait)
+            }
+            Key::MissionView(mission) => self.ask_mission(asker, mission, Payload::View(mission.clone()), ctx, wait),
+            Key::Planner(kind) => {
+                let kind = [mrmm_planner::recipe::PlannerKind::Patrol, mrmm_planner::recipe::PlannerKind::Coverage]
+                    .into_iter()
+                    .find(|k| k.as_str() == kind)
+                    .ok_or_else(|| format!("no planner {kind}"))?;
+                let request = mrmm_proto::from_json("plan request", body).map_err(|_| decode("plan request"))?;
+                self.ask(asker, CENTRAL_HOST, Payload::Planner(request, kind), ctx, wait)
+            }
+            other => return Err(format!("a question on {other}, which nobody in the simulation serves")),
+        }
+        Ok(())
+    }
+
     /// A query to the node named `server`.
-    pub(super) fn ask(&mut self, asker: Option<usize>, server: &str, payload: Payload, ctx: Ctx) {
+    pub(super) fn ask(&mut self, asker: Option<usize>, server: &str, payload: Payload, ctx: Ctx, wait: f64) {
         let server = self.index(server);
-        self.send_query(asker, server, payload, ctx);
+        self.send_query(asker, server, payload, ctx, wait);
     }
 
     /// A query to whoever serves `mission` (the operator reaches every node).
-    pub(super) fn ask_mission(&mut self, asker: Option<usize>, mission: &str, payload: Payload, ctx: Ctx) {
+    pub(super) fn ask_mission(&mut self, asker: Option<usize>, mission: &str, payload: Payload, ctx: Ctx, wait: f64) {
         let servers: Vec<usize> =
             (0..self.nodes.len()).filter(|j| self.nodes[*j].served.contains(mission) && asker.is_none_or(|a| self.links.connected(a, *j))).collect();
         let server = (!servers.is_empty()).then(|| servers[self.rng.gen_range(0..servers.len())]);
-        self.send_query(asker, server, payload, ctx);
+        self.send_query(asker, server, payload, ctx, wait);
     }
 
-    pub(super) fn send_query(&mut self, asker: Option<usize>, server: Option<usize>, payload: Payload, ctx: Ctx) {
+    pub(super) fn send_query(&mut self, asker: Option<usize>, server: Option<usize>, payload: Payload, ctx: Ctx, wait: f64) {
         let qid = self.next_qid;
         self.next_qid += 1;
         let asker_inc = asker.map_or(0, |a| self.links.inc[a]);
         let reachable = server.filter(|s| asker.is_none_or(|a| self.links.connected(a, *s)));
-        let wait = timeout(&payload, &ctx);
         self.queries.insert(qid, Pending { asker, asker_inc, server: server.unwrap_or(usize::MAX), payload: Some(payload), ctx, done: false });
         match reachable {
             // Nobody serves the key: the query ends at once, empty.
@@ -78,13 +114,13 @@ impl World {
                 // An admission changes whom the robot trusts: its host hears of it at once.
                 self.local_team(s)?;
                 if let Some(r) = reply {
-                    self.reply(qid, r.map(Answer::Ack));
+                    self.reply(qid, r.and_then(|ack| serde_json::to_value(ack).map(Answer::Json).map_err(|e| Failure::fatal(e.to_string()))));
                 }
             }
             Payload::RobotInfo => {
                 if let Some(r) = self.nodes[s].robot.as_ref() {
-                    let info = r.info(vec![]);
-                    self.reply(qid, Ok(Answer::Info(info)));
+                    let info = serde_json::to_value(r.info(vec![])).map_err(|e| Failure::fatal(e.to_string()));
+                    self.reply(qid, info.map(Answer::Json));
                 }
             }
             Payload::HostStart(start) => {
@@ -119,7 +155,9 @@ impl World {
             Payload::View(mission) => self.host(s, host::Event::View { query: qid, mission })?,
             Payload::Planner(request, kind) => {
                 if self.nodes[s].kind == Kind::Central {
-                    let result = mrmm_core::planning::plan(kind, &request).map(|p| Answer::Plan(Box::new(p))).map_err(Failure::fatal);
+                    let result = mrmm_core::planning::plan(kind, &request)
+                        .map_err(Failure::fatal)
+                        .and_then(|p| serde_json::to_value(p).map(Answer::Json).map_err(|e| Failure::fatal(e.to_string())));
                     self.reply(qid, result);
                 }
             }
@@ -170,53 +208,30 @@ impl World {
         if asker.is_some_and(|a| !self.links.up[a]) {
             return Ok(());
         }
-        let sys = |e: system::Event| central::Event::System(e);
+        let key = "the simulation's query";
+        let value = |r: Result<Answer, Failure>| r.map(|Answer::Json(v)| v);
         match (ctx, asker) {
-            (Ctx::CentralInfo(id), Some(a)) => {
-                let ev = match result {
-                    Ok(Answer::Info(info)) if info.id == id => system::Event::RobotRegistered(info),
-                    Ok(_) => system::Event::InfoFailed { id, reason: "bad answer".into() },
-                    Err(f) => system::Event::InfoFailed { id, reason: f.error },
-                };
-                self.central(a, sys(ev))
+            (Ctx::Central(then), Some(a)) => {
+                let ev = then.answer(key, value(result));
+                if let system::Event::CtlDone { id, result } = &ev {
+                    self.log(|| format!("ctl {id} answered: {result:?}"));
+                }
+                self.central(a, central::Event::System(ev))
             }
-            (Ctx::CentralRobot { req, robot }, Some(a)) => {
-                let result = match result {
-                    Ok(Answer::Ack(ack)) => Ok(ack),
-                    Ok(other) => Err(format!("unexpected {other:?}")),
-                    Err(f) => Err(f.error),
-                };
-                self.central(a, sys(system::Event::RobotCommandDone { req, robot, result }))
-            }
-            (Ctx::CentralStart(mission), Some(a)) => {
-                let result = json::<MissionView>(result).map(Box::new);
-                self.central(a, sys(system::Event::MissionStarted { mission, result }))
-            }
-            (Ctx::CentralCtl(id), Some(a)) => {
-                let result = json::<CtlAck>(result).map(|_| ());
-                self.log(|| format!("ctl {id} answered: {result:?}"));
-                self.central(a, sys(system::Event::CtlDone { id, result }))
-            }
-            (Ctx::HostPlan { mission, epoch }, Some(a)) => {
-                let ok = result.as_ref().map(|_| ()).map_err(|f| f.error.clone());
-                self.log(|| format!("plan of {mission} epoch {epoch} answered: {ok:?}"));
-                let result = match result {
-                    Ok(Answer::Plan(p)) => Ok(p),
-                    Ok(other) => Err(Failure::fatal(format!("unexpected {other:?}"))),
-                    Err(f) => Err(f),
-                };
-                self.host(a, host::Event::Planned { mission, epoch, result })
-            }
-            (Ctx::HostSendPlan { mission, robot, epoch }, Some(a)) => {
-                let result = result.map(|_| ());
-                self.host(a, host::Event::PlanDelivered { mission, robot, epoch, result })
+            (Ctx::Host(then), Some(a)) => {
+                let ev = then.answer(key, value(result));
+                if let host::Event::Planned { mission, epoch, result } = &ev {
+                    let ok = result.as_ref().map(|_| ()).map_err(|f| f.error.clone());
+                    self.log(|| format!("plan of {mission} epoch {epoch} answered: {ok:?}"));
+                }
+                self.host(a, ev)
             }
             (Ctx::OpCtl(id), _) => {
                 let result = json::<CtlAck>(result).map(|_| ());
                 self.ctls.done(self.now, id, result);
                 Ok(())
             }
-            (Ctx::OpStart, _) | (Ctx::CentralForward, _) => Ok(()),
+            (Ctx::OpStart, _) => Ok(()),
             (_, None) => Ok(()),
         }
     }
