@@ -2,10 +2,10 @@
 //! chain messages, missions' status, and the liveliness of hosts, robots and planners become
 //! [`Event`]s of the host's machine, or a [`Refused`] saying why not — with the protocol's one
 //! publication policy, in the host's driver (`mrmm_manager::host`) and the simulations alike.
-//! (Queries — starts, controls, views — are the driver's to hold; their payloads are checked by
-//! the machine.)
+//! Questions to it — starts, controls, views, marginal values — are translated here too
+//! ([`question`]); the driver holds each under an id until the machine answers it.
 
-use mrmm_proto::{self as proto, ChainEnvelope, Key};
+use mrmm_proto::{self as proto, ChainEnvelope, Key, Sender};
 
 use super::Event;
 use crate::edge::{self, json, Incoming, Refused};
@@ -49,6 +49,56 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
     }
 }
 
+/// A question on one of this host's queryables, as its driver received it.
+#[derive(Debug, Clone, Copy)]
+pub struct Question<'a> {
+    pub key: &'a str,
+    /// The selector's parameters (`add=-1`).
+    pub params: &'a str,
+    pub payload: &'a [u8],
+    /// Its sender as its seal proves it, if it does.
+    pub from: Option<&'a Sender>,
+    /// The id the driver holds it under.
+    pub query: u64,
+}
+
+/// Whether a question on `key` is taken only from a proven sender (what it is, for the driver's
+/// refusal): a mission's start and control.
+pub fn question_sealed(key: &str) -> Option<&'static str> {
+    match Key::parse(key)? {
+        Key::HostStart(_) | Key::MissionCtl(_) => Some("mission control"),
+        _ => None,
+    }
+}
+
+/// Translates a question to this host into its event; `Err` is the error to answer it with.
+pub fn question(q: Question<'_>) -> Result<Event, String> {
+    let proven = || q.from.cloned().ok_or_else(|| "refused: unproven sender".to_string());
+    let query = q.query;
+    match Key::parse(q.key) {
+        Some(Key::HostStart(_)) => {
+            let start = proto::from_json("mission start", q.payload).map_err(|e| e.to_string())?;
+            Ok(Event::Start { query, start: Box::new(start), from: proven()? })
+        }
+        Some(Key::MissionCtl(mission)) => {
+            let ctl = proto::from_json("mission control", q.payload).map_err(|e| e.to_string())?;
+            Ok(Event::Ctl { query, mission, ctl, from: proven()? })
+        }
+        Some(Key::MissionView(mission)) => Ok(Event::View { query, mission }),
+        Some(Key::MissionMarginal(mission)) => {
+            let add = q.params.split([';', '&']).find_map(|p| p.strip_prefix("add="));
+            match add {
+                None => Ok(Event::Marginal { query, mission, add: 1 }),
+                Some(v) => v
+                    .parse::<i64>()
+                    .map(|add| Event::Marginal { query, mission, add })
+                    .map_err(|_| format!("add={v}: give a non-zero whole number, e.g. add=1 or add=-1")),
+            }
+        }
+        _ => Err(format!("nothing is asked on {}", q.key.chars().take(200).collect::<String>())),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -81,5 +131,21 @@ mod tests {
         assert_eq!(sealed(&alive), None);
         assert_eq!(sealed(&key), Some("chain message"));
         assert_eq!(ingress(Incoming { key: &alive, payload: b"", put: false, from: None }), Ok(Event::RobotGone("r1".into())));
+    }
+
+    #[test]
+    fn questions_become_events_or_the_error_to_answer() {
+        let central = Sender::new(Role::Central, "central");
+        let ask = |key: Key, params: &str, payload: &[u8], from: Option<&Sender>| question(Question { key: &key.to_string(), params, payload, from, query: 4 });
+        let ctl = serde_json::to_vec(&mrmm_proto::MissionCtl::Terminate).expect("json");
+        assert!(matches!(ask(Key::MissionCtl("p".into()), "", &ctl, Some(&central)), Ok(Event::Ctl { query: 4, ref mission, .. }) if mission == "p"));
+        assert_eq!(ask(Key::MissionCtl("p".into()), "", &ctl, None), Err("refused: unproven sender".into()));
+        assert!(ask(Key::MissionCtl("p".into()), "", b"{", Some(&central)).is_err());
+        assert_eq!(ask(Key::MissionMarginal("p".into()), "add=-2", b"", None), Ok(Event::Marginal { query: 4, mission: "p".into(), add: -2 }));
+        assert_eq!(ask(Key::MissionMarginal("p".into()), "", b"", None), Ok(Event::Marginal { query: 4, mission: "p".into(), add: 1 }));
+        assert!(ask(Key::MissionMarginal("p".into()), "add=x", b"", None).is_err());
+        assert_eq!(ask(Key::MissionView("p".into()), "", b"", None), Ok(Event::View { query: 4, mission: "p".into() }));
+        assert_eq!(question_sealed(&Key::HostStart("h".into()).to_string()), Some("mission control"));
+        assert_eq!(question_sealed(&Key::MissionView("p".into()).to_string()), None);
     }
 }

@@ -28,7 +28,7 @@ mod watch;
 
 pub use egress::egress;
 pub use head::{PLAN_RETRIES, REDELIVER_S};
-pub use ingress::{ingress, sealed};
+pub use ingress::{ingress, question, question_sealed, sealed, Question};
 pub use watch::UNJUDGED_S;
 
 type ChainCmd = chain::Command<MissionSnapshot>;

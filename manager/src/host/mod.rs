@@ -25,7 +25,7 @@ use crate::inbox::Inbox;
 use crate::maps::MapStore;
 use crate::Failure;
 use mrmm_core::edge::{Incoming, Refused};
-pub use mrmm_core::host::{Command, Event, HostCore, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
+pub use mrmm_core::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
 
 /// How long a planner service may take.
 pub const PLAN_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::PLAN_S as u64);
@@ -40,18 +40,10 @@ const CHAIN_TICK: Duration = Duration::from_millis(50);
 
 /// What the Zenoh callbacks and spawned tasks hand the loop.
 enum Input {
-    /// A query on one of our queryables, with what kind of query it is.
-    Query(Query, QueryKind),
+    /// A query on one of our queryables.
+    Query(Query),
     Sample(Sample),
     Event(Event),
-}
-
-#[derive(Clone)]
-enum QueryKind {
-    Start,
-    Ctl(String),
-    View(String),
-    Marginal(String),
 }
 
 /// The missions this node's own robot is in or admitted to, each with whom it trusts, as its
@@ -99,7 +91,7 @@ pub async fn serve_with(
     let _start = session
         .declare_queryable(Key::HostStart(node.clone()).to_string())
         .callback(move |q| {
-            t.push(Input::Query(q, QueryKind::Start));
+            t.push(Input::Query(q));
         })
         .await
         .map_err(ManagerError::zenoh)?;
@@ -146,7 +138,7 @@ pub async fn serve_with(
                     i = net_rx.recv() => i,
                 }
             } => match i {
-                Some(Input::Query(q, kind)) => match io.query(q, kind).await {
+                Some(Input::Query(q)) => match io.query(q).await {
                     Some(e) => e,
                     None => continue,
                 },
@@ -245,41 +237,27 @@ struct Served {
 
 impl Io {
     /// Decodes a query into the core's event and holds it; malformed ones are answered here.
-    async fn query(&mut self, q: Query, kind: QueryKind) -> Option<Event> {
-        let query = self.next;
-        let payload = net::query_payload(&q);
-        if matches!(kind, QueryKind::Start | QueryKind::Ctl(_)) {
-            if let Err(r) = self.mesh.try_sender_of_query(&q) {
-                // Counted and answered: its sender is not proven.
-                self.mesh.refuse_unproven("mission control", &q, &r).await;
-                return None;
-            }
-        }
-        let from = || self.mesh.try_sender_of_query(&q).ok();
-        let event = match kind {
-            QueryKind::Start => match (proto::from_json("mission start", &payload), from()) {
-                (Ok(start), Some(from)) => Ok(Event::Start { query, start: Box::new(start), from }),
-                (Err(e), _) => Err(e.to_string()),
-                (_, None) => Err("refused: unproven sender".into()),
+    /// Translates a query through the host's ingress and holds it; one whose sender is not
+    /// proven (where it must be) or that is malformed is answered here.
+    async fn query(&mut self, q: Query) -> Option<Event> {
+        let key = q.key_expr().as_str();
+        let from = match mrmm_core::host::question_sealed(key) {
+            Some(what) => match self.mesh.try_sender_of_query(&q) {
+                Ok(s) => Some(s),
+                Err(r) => {
+                    // Counted and answered: its sender is not proven.
+                    self.mesh.refuse_unproven(what, &q, &r).await;
+                    return None;
+                }
             },
-            QueryKind::Ctl(mission) => match (proto::from_json("mission control", &payload), from()) {
-                (Ok(ctl), Some(from)) => Ok(Event::Ctl { query, mission, ctl, from }),
-                (Err(e), _) => Err(e.to_string()),
-                (_, None) => Err("refused: unproven sender".into()),
-            },
-            QueryKind::View(mission) => Ok(Event::View { query, mission }),
-            QueryKind::Marginal(mission) => match q.parameters().get("add") {
-                None => Ok(Event::Marginal { query, mission, add: 1 }),
-                Some(v) => v
-                    .parse::<i64>()
-                    .map(|add| Event::Marginal { query, mission, add })
-                    .map_err(|_| format!("add={v}: give a non-zero whole number, e.g. add=1 or add=-1")),
-            },
+            None => self.mesh.try_sender_of_query(&q).ok(),
         };
-        match event {
+        let payload = net::query_payload(&q);
+        let question = Question { key, params: q.parameters().as_str(), payload: &payload, from: from.as_ref(), query: self.next };
+        match mrmm_core::host::question(question) {
             Ok(e) => {
+                self.queries.insert(self.next, q);
                 self.next += 1;
-                self.queries.insert(query, q);
                 Some(e)
             }
             Err(e) => {
@@ -323,18 +301,14 @@ impl Io {
             }
             Command::Serve { mission } => {
                 let mut qs = Vec::new();
-                for (key, kind) in [
-                    (Key::MissionCtl(mission.clone()), QueryKind::Ctl(mission.clone())),
-                    (Key::MissionView(mission.clone()), QueryKind::View(mission.clone())),
-                    (Key::MissionMarginal(mission.clone()), QueryKind::Marginal(mission.clone())),
-                ] {
+                for key in [Key::MissionCtl(mission.clone()), Key::MissionView(mission.clone()), Key::MissionMarginal(mission.clone())] {
                     let net = self.net.clone();
                     match self
                         .mesh
                         .session()
                         .declare_queryable(key.to_string())
                         .callback(move |q| {
-                            net.push(Input::Query(q, kind.clone()));
+                            net.push(Input::Query(q));
                         })
                         .await
                     {

@@ -145,14 +145,22 @@ impl World {
                 if again && !before {
                     self.inv.lineage_started(&mission, lineage);
                 }
-                self.host(s, host::Event::Start { query: qid, start, from })?;
+                let key = Key::HostStart(self.nodes[s].name.clone());
+                let ev = self.host_question(s, qid, &key, Some(&*start), &from)?;
+                self.host(s, ev)?;
                 let after = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
                 if again && !before && after && !holders.is_empty() {
                     return Err(format!("{} started {mission} anew while {holders:?} still replicate it", self.nodes[s].name));
                 }
             }
-            Payload::Ctl { mission, ctl } => self.host(s, host::Event::Ctl { query: qid, mission, ctl, from })?,
-            Payload::View(mission) => self.host(s, host::Event::View { query: qid, mission })?,
+            Payload::Ctl { mission, ctl } => {
+                let ev = self.host_question(s, qid, &Key::MissionCtl(mission), Some(&ctl), &from)?;
+                self.host(s, ev)?;
+            }
+            Payload::View(mission) => {
+                let ev = self.host_question(s, qid, &Key::MissionView(mission), None::<&()>, &from)?;
+                self.host(s, ev)?;
+            }
             Payload::Planner(request, kind) => {
                 if self.nodes[s].kind == Kind::Central {
                     let result = mrmm_core::planning::plan(kind, &request)
@@ -163,6 +171,15 @@ impl World {
             }
         }
         Ok(())
+    }
+
+    /// Question `qid` as node `s`'s host driver takes it: its body as JSON, translated by the
+    /// host's own ingress — which refuses no honest question.
+    fn host_question<B: serde::Serialize>(&self, s: usize, qid: u64, key: &Key, body: Option<&B>, from: &Sender) -> Result<host::Event, String> {
+        let payload = body.map(|b| serde_json::to_vec(b).unwrap_or_default()).unwrap_or_default();
+        let key = key.to_string();
+        host::question(host::Question { key: &key, params: "", payload: &payload, from: Some(from), query: qid })
+            .map_err(|e| format!("{}'s host refused an honest question on {key}: {e}", self.nodes[s].name))
     }
 
     /// The server answers query `qid` (or lets it go): the answer travels back to the asker.
