@@ -5,8 +5,9 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use mrmm_core::edge::{Incoming, Refused};
+use mrmm_core::observer::{self, Seen};
 use mrmm_net::client::Client;
-use mrmm_proto::policy::Publication;
 use mrmm_proto::{self as proto, Advice, Key, MapInfo, MapRef, MissionView, Pattern, RobotView};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
@@ -64,14 +65,8 @@ pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, maps: La
             },
             s = telemetry.recv_async() => {
                 let Ok(s) = s else { break };
-                let Some(from) = mesh.sender_of("telemetry", &s) else { continue };
-                match proto::decode_telemetry(&s.payload().to_bytes()) {
-                    Ok(t) => {
-                        if mesh.entitled(Publication::Telemetry(&t.id), &from) {
-                            fleet.telemetry(&t);
-                        }
-                    }
-                    Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
+                if let Some(t) = telemetry_of(&mesh, &s) {
+                    fleet.telemetry(&t);
                 }
             }
             _ = publish.tick() => {
@@ -83,6 +78,26 @@ pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, maps: La
     }
     polling.abort_all();
     Ok(())
+}
+
+/// A robot's telemetry, its sender proven and entitled by the one policy (as the viewer's,
+/// through the observer's ingress); refusals recorded, the rest logged.
+fn telemetry_of(mesh: &mrmm_net::Mesh, s: &zenoh::sample::Sample) -> Option<Box<proto::Telemetry>> {
+    let key = s.key_expr().as_str();
+    let from = mesh.sender_of("telemetry", s)?;
+    let payload = s.payload().to_bytes();
+    match observer::observe(Incoming { key, payload: &payload, put: true, from: Some(&from) }) {
+        Ok(Seen::Telemetry(t)) => Some(t),
+        Ok(_) => None,
+        Err(Refused::NotEntitled { from, what }) => {
+            mesh.refuse(&what, &from);
+            None
+        }
+        Err(e) => {
+            tracing::debug!("dropped what came on {key}: {e}");
+            None
+        }
+    }
 }
 
 type Polled = Result<(Vec<RobotView>, Vec<MissionView>, Vec<Advice>, Vec<MapInfo>), String>;

@@ -29,6 +29,7 @@ pub mod host;
 pub mod maps;
 pub mod mission;
 pub mod nav_goals;
+pub mod observer;
 pub mod planning;
 pub mod robot;
 pub mod ros_body;

@@ -241,18 +241,6 @@ impl Mesh {
     }
 
     /// Counts and logs a proven sender that may not do `what`.
-    /// Whether `from` may publish `p` (the fleet's one rule, [`mrmm_proto::policy::may_publish`]); a
-    /// publication it may not send is refused and recorded.
-    pub fn entitled(&self, p: mrmm_proto::policy::Publication<'_>, from: &Sender) -> bool {
-        match mrmm_proto::policy::may_publish(p, from) {
-            Ok(()) => true,
-            Err(what) => {
-                self.refuse(&what, from);
-                false
-            }
-        }
-    }
-
     pub fn refuse(&self, what: &str, proven: &Sender) {
         self.verifier.refused.record(what, &Refusal::NotEntitled { proven: proven.clone(), what: what.to_string() });
     }

@@ -15,6 +15,8 @@ pub enum Publication<'a> {
     Release(&'a str),
     /// The advising agent's advice.
     Advice,
+    /// A mission's status, published by its head on node `manager` (as the status says).
+    Status { manager: &'a str },
 }
 
 impl Publication<'_> {
@@ -25,6 +27,7 @@ impl Publication<'_> {
             Publication::Arrival(id) => format!("publish the barrier arrival of {id}"),
             Publication::Release(id) => format!("publish the barrier release of {id}"),
             Publication::Advice => "publish advice".to_string(),
+            Publication::Status { manager } => format!("report a mission as managed by {manager}"),
         }
     }
 }
@@ -36,6 +39,7 @@ pub fn may_publish(p: Publication<'_>, from: &Sender) -> Result<(), String> {
     let ok = match p {
         Publication::Telemetry(id) | Publication::Arrival(id) | Publication::Release(id) => from.is(Role::Robot, id),
         Publication::Advice => from.role == Role::Central,
+        Publication::Status { manager } => from.id == manager && from.role.hosts_missions(),
     };
     if ok {
         Ok(())
@@ -62,5 +66,9 @@ mod tests {
         }
         assert_eq!(may_publish(Publication::Advice, &Sender::new(Role::Central, "central")), Ok(()));
         assert_eq!(may_publish(Publication::Advice, &r1), Err("publish advice".to_string()));
+        // A mission's status comes from the node that manages it, a node that hosts missions.
+        assert_eq!(may_publish(Publication::Status { manager: "r1" }, &r1), Ok(()));
+        assert!(may_publish(Publication::Status { manager: "r2" }, &r1).is_err());
+        assert!(may_publish(Publication::Status { manager: "op" }, &Sender::new(Role::Operator, "op")).is_err());
     }
 }

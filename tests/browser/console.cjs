@@ -81,6 +81,9 @@ async function main() {
     seen.points = await page.textContent('#points');
     await page.click('#create');
     await until('mission p running with r1, r2', (s) => s.missions.some((m) => m.name === 'p' && m.status === 'running' && m.robots.join() === 'r1,r2'));
+    // The page's own answer to the create ends the drawing (the fleet's tables may show p
+    // running before it comes: until then a click on the map is still a point).
+    await page.waitForFunction(() => document.querySelector('#message').textContent.startsWith('p '), null, { timeout: 20000 });
     seen.created = await page.textContent('#message');
 
     // r3 clicked on the map (a plain click selects it alone) and assigned to p from its row.

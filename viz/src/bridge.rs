@@ -5,17 +5,21 @@ use std::net::ToSocketAddrs;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use mrmm_net::Mesh;
+use mrmm_core::edge::{Incoming, Refused};
+use mrmm_core::observer::{self, Proof, Seen};
+use mrmm_net::{Following, Mesh};
 use mrmm_proto::plan::Point;
-use mrmm_proto::policy::Publication;
-use mrmm_proto::{self as proto, AdviceEvent, Key, MissionView, Pattern, PlanSummary, Priority, SyncArrival, SyncRelease, Telemetry};
+use mrmm_proto::{self as proto, AdviceEvent, Key, MissionView, PlanSummary, Priority, SyncArrival, SyncRelease, Telemetry};
 use rerun::RecordingStream;
 use tokio_util::sync::CancellationToken;
+use zenoh::sample::Sample;
 
 use crate::{paths, VizError};
 
 /// Positions kept in a robot's trail.
 const TRAIL: usize = 60;
+/// Messages waiting for the bridge's loop, at most (a flood drops what comes).
+const QUEUE: usize = 4096;
 /// How often to check that a viewer is reachable (`--connect`).
 const PROBE_EVERY: Duration = Duration::from_secs(5);
 
@@ -38,8 +42,8 @@ fn rr(e: impl std::fmt::Display) -> VizError {
 /// what its proven sender may publish is drawn.
 pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<(), VizError> {
     let session = mesh.session().clone();
-    let probe = match &sink {
-        Sink::Connect(url) => Some(viewer_addr(url)?),
+    let mut probe = match &sink {
+        Sink::Connect(url) => Some(Probe { addr: viewer_addr(url)?, reachable: None }),
         _ => None,
     };
     let builder = rerun::RecordingStreamBuilder::new("mrmm_fleet");
@@ -48,13 +52,12 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
         Sink::Spawn => builder.spawn().map_err(rr)?,
         Sink::Connect(url) => builder.connect_grpc_opts(url.clone()).map_err(|e| VizError::Config(format!("viewer URL {url:?}: {e}")))?,
     };
-    let z = |e: zenoh::Error| VizError::Zenoh(e.to_string());
-    let telemetry = session.declare_subscriber(Pattern::AllTelemetry.to_string()).await.map_err(z)?;
-    let statuses = session.declare_subscriber(Pattern::AllMissionStatus.to_string()).await.map_err(z)?;
-    let advice = session.declare_subscriber(Key::AgentAdviceLive.to_string()).await.map_err(z)?;
-    let syncs = session.declare_subscriber(Pattern::AllTeamSync.to_string()).await.map_err(z)?;
-    // Under the leader barrier only the leader hears arrivals: its releases show the team's progress.
-    let releases = session.declare_subscriber(Pattern::AllTeamRelease.to_string()).await.map_err(z)?;
+    // What an observer hears (telemetry, missions' status, advice, barriers), in one queue.
+    let (tx, mut heard) = tokio::sync::mpsc::channel::<Sample>(QUEUE);
+    let mut follow = Following::new(session.clone(), move |s| {
+        let _ = tx.try_send(s);
+    });
+    follow.follow(&observer::subscriptions()).await;
     if let Err(e) = crate::map::blueprint().send(&rec, rerun::blueprint::BlueprintActivation::default()) {
         tracing::warn!("the viewer's layout was not sent: {e}");
     }
@@ -67,48 +70,13 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     let mut hello = tokio::time::interval(Duration::from_millis(proto::VIEWER_HELLO_MS));
     let hello_key = Key::Viewer(mesh.me().id.clone()).to_string();
     let mut probe_tick = tokio::time::interval(PROBE_EVERY);
-    let mut reachable: Option<bool> = None;
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
             _ = hello.tick(), if mesh.is_secure() => mesh.put(&hello_key, b"{}".to_vec(), zenoh::bytes::Encoding::APPLICATION_JSON).await,
             _ = probe_tick.tick(), if probe.is_some() => {
-                let addr = probe.clone().unwrap_or_default();
-                let ok = tokio::time::timeout(Duration::from_secs(1), tokio::net::TcpStream::connect(&addr)).await.is_ok_and(|r| r.is_ok());
-                if reachable != Some(ok) {
-                    if ok {
-                        tracing::info!("Rerun viewer reachable at {addr}");
-                    } else {
-                        tracing::warn!("no Rerun viewer at {addr} yet; buffering and retrying (start one with `rerun`)");
-                        eprintln!("mrmm viz: no Rerun viewer at {addr} yet; retrying every {} s", PROBE_EVERY.as_secs());
-                    }
-                    reachable = Some(ok);
-                }
-            }
-            s = telemetry.recv_async() => {
-                let Ok(s) = s else { break };
-                let Some(from) = mesh.sender_of("telemetry", &s) else { continue };
-                match proto::decode_telemetry(&s.payload().to_bytes()) {
-                    Ok(t) => {
-                        if mesh.entitled(Publication::Telemetry(&t.id), &from) {
-                            view.robot(&t);
-                        }
-                    }
-                    Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
-                }
-            }
-            s = statuses.recv_async() => {
-                let Ok(s) = s else { break };
-                let Some(from) = mesh.sender_of("mission status", &s) else { continue };
-                match proto::from_json::<MissionView>("mission status", &s.payload().to_bytes()) {
-                    Ok(m) if m.manager.node == from.id && from.role.hosts_missions() => {
-                        if let Some(r) = m.map.clone().filter(|r| maps_asked.insert(r.hash.clone())) {
-                            fetch_map(session.clone(), r, maps_tx.clone());
-                        }
-                        view.mission(&m)
-                    }
-                    Ok(m) => mesh.refuse(&format!("report mission {} as managed by {}", m.name, m.manager.node), &from),
-                    Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
+                if let Some(p) = probe.as_mut() {
+                    p.check().await;
                 }
             }
             Some((r, map)) = maps_rx.recv() => match map {
@@ -123,42 +91,20 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                     maps_asked.remove(&r.hash);
                 }
             },
-            s = advice.recv_async() => {
-                let Ok(s) = s else { break };
-                let Some(from) = mesh.sender_of("advice", &s) else { continue };
-                match proto::from_json::<AdviceEvent>("advice", &s.payload().to_bytes()) {
-                    Ok(a) => {
-                        if mesh.entitled(Publication::Advice, &from) {
-                            view.advice(&a);
+            s = heard.recv() => {
+                let Some(s) = s else { break };
+                match seen(&mesh, &s) {
+                    Some(Seen::Telemetry(t)) => view.robot(&t),
+                    Some(Seen::Mission(m)) => {
+                        if let Some(r) = m.map.clone().filter(|r| maps_asked.insert(r.hash.clone())) {
+                            fetch_map(session.clone(), r, maps_tx.clone());
                         }
+                        view.mission(&m)
                     }
-                    Err(e) => tracing::debug!("dropped payload on {}: {e}", s.key_expr()),
-                }
-            }
-            s = syncs.recv_async() => {
-                let Ok(s) = s else { break };
-                let team = match Key::parse(s.key_expr().as_str()) {
-                    Some(Key::TeamSync { team, .. }) => team,
-                    _ => continue,
-                };
-                let Some(from) = mesh.observed_sender_of("barrier arrival", &s) else { continue };
-                if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-                    if mesh.entitled(Publication::Arrival(&a.robot), &from) {
-                        view.sync(&team, &a);
-                    }
-                }
-            }
-            s = releases.recv_async() => {
-                let Ok(s) = s else { break };
-                let team = match Key::parse(s.key_expr().as_str()) {
-                    Some(Key::TeamRelease { team, .. }) => team,
-                    _ => continue,
-                };
-                let Some(from) = mesh.observed_sender_of("barrier release", &s) else { continue };
-                if let Ok(r) = proto::from_json::<SyncRelease>("release", &s.payload().to_bytes()) {
-                    if mesh.entitled(Publication::Release(&r.leader), &from) {
-                        view.release(&team, &r);
-                    }
+                    Some(Seen::Advice(a)) => view.advice(&a),
+                    Some(Seen::Arrival { team, arrival }) => view.sync(&team, &arrival),
+                    Some(Seen::Release { team, release }) => view.release(&team, &release),
+                    None => {}
                 }
             }
         }
@@ -175,6 +121,29 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     }
 }
 
+/// What the viewer heard, its sender proven as an observer can (only the signed messages of a
+/// team's barrier stream), translated with the one policy; refusals recorded, the rest logged.
+fn seen(mesh: &Mesh, s: &Sample) -> Option<Seen> {
+    let key = s.key_expr().as_str();
+    let (what, proof) = observer::proof(key)?;
+    let from = match proof {
+        Proof::Own => mesh.sender_of(what, s)?,
+        Proof::Observed => mesh.observed_sender_of(what, s)?,
+    };
+    let payload = s.payload().to_bytes();
+    match observer::observe(Incoming { key, payload: &payload, put: true, from: Some(&from) }) {
+        Ok(seen) => Some(seen),
+        Err(Refused::NotEntitled { from, what }) => {
+            mesh.refuse(&what, &from);
+            None
+        }
+        Err(e) => {
+            tracing::debug!("dropped what came on {key}: {e}");
+            None
+        }
+    }
+}
+
 /// Fetches map `r` from the fleet and hands it to the loop.
 fn fetch_map(session: zenoh::Session, r: proto::MapRef, to: tokio::sync::mpsc::UnboundedSender<(proto::MapRef, Result<mrmm_maps::Map, String>)>) {
     tokio::spawn(async move {
@@ -184,6 +153,28 @@ fn fetch_map(session: zenoh::Session, r: proto::MapRef, to: tokio::sync::mpsc::U
         };
         let _ = to.send((r, loaded));
     });
+}
+
+/// Whether the viewer the bridge connects to is there, said when it changes.
+struct Probe {
+    addr: String,
+    reachable: Option<bool>,
+}
+
+impl Probe {
+    async fn check(&mut self) {
+        let addr = &self.addr;
+        let ok = tokio::time::timeout(Duration::from_secs(1), tokio::net::TcpStream::connect(addr)).await.is_ok_and(|r| r.is_ok());
+        if self.reachable != Some(ok) {
+            if ok {
+                tracing::info!("Rerun viewer reachable at {addr}");
+            } else {
+                tracing::warn!("no Rerun viewer at {addr} yet; buffering and retrying (start one with `rerun`)");
+                eprintln!("mrmm viz: no Rerun viewer at {addr} yet; retrying every {} s", PROBE_EVERY.as_secs());
+            }
+            self.reachable = Some(ok);
+        }
+    }
 }
 
 /// `host:port` of a `rerun+http://host:port/proxy` URL, checked to resolve.

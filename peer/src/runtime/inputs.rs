@@ -6,9 +6,7 @@ use std::time::Duration;
 
 use mrmm_net::net;
 use mrmm_net::Mesh;
-use mrmm_proto::{self as proto, Key, Pattern, Velocity};
-use mrmm_ros2::nav2::GoalEvent;
-use mrmm_ros2::{Input as RosInput, RosLink};
+use mrmm_proto::{self as proto, Key, Pattern};
 use tokio_util::sync::CancellationToken;
 use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::pubsub::Subscriber;
@@ -17,10 +15,11 @@ use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
 use super::io::Io;
-use super::team::{recv_data, recv_members};
+use super::ros::{recv_ros, RosCounts};
+use super::team::{heard, recv_data, recv_members};
 use super::{FLEET_CHECK_PERIOD, PHYSICS_PERIOD, QUEUE};
 use crate::error::PeerError;
-use crate::robot::{Event, Incoming, Refused, Robot};
+use crate::robot::{Event, Incoming, Robot};
 use crate::viewers::{Heard, MAX_VIEWERS};
 
 /// Where the robot's events come from, besides its team's subscriptions (in [`Io`]).
@@ -42,8 +41,8 @@ pub(super) struct Inputs {
     fleet_check: tokio::time::Interval,
     fleet_up: bool,
     endpoints: Vec<String>,
-    malformed: u64,
-    mismatched: u64,
+    /// What a ROS 2 body sent that could not be taken, counted.
+    ros: RosCounts,
 }
 
 fn interval(period: Duration) -> tokio::time::Interval {
@@ -76,8 +75,7 @@ impl Inputs {
             fleet_check: interval(FLEET_CHECK_PERIOD),
             fleet_up: true,
             endpoints,
-            malformed: 0,
-            mismatched: 0,
+            ros: RosCounts::new(id),
         })
     }
 
@@ -100,7 +98,7 @@ impl Inputs {
                     tracing::warn!(robot = %self.id, up, "fleet link changed");
                     (Event::FleetLink(up), None)
                 }
-                input = recv_ros(&io.ros) => match self.ros_event(input) {
+                input = recv_ros(&io.ros) => match self.ros.event(input) {
                     Some(ev) => (ev, None),
                     None => continue,
                 },
@@ -141,43 +139,6 @@ impl Inputs {
         }
     }
 
-    /// A ROS 2 body's input as the machine's event; mismatched graphs and malformed messages are
-    /// counted and logged (rate-limited) instead.
-    fn ros_event(&mut self, input: RosInput) -> Option<Event> {
-        match input {
-            RosInput::Odometry { pose, v, omega } => Some(Event::Odometry { pose: ros_pose(pose), velocity: Velocity { v, omega } }),
-            RosInput::Pose(pose) => Some(Event::LocalisedPose(ros_pose(pose))),
-            RosInput::Nav2Server(up) => {
-                if !up {
-                    tracing::warn!(robot = %self.id, "ROS 2 graph: Nav2's action server left");
-                }
-                Some(Event::Nav2Server(up))
-            }
-            RosInput::Goal { id: goal, event } => {
-                if matches!(event, GoalEvent::Feedback { .. }) {
-                    tracing::debug!(robot = %self.id, ?event, "Nav2 feedback");
-                } else {
-                    tracing::info!(robot = %self.id, ?event, "Nav2 goal");
-                }
-                Some(Event::Nav2Goal { id: goal, event })
-            }
-            RosInput::Mismatch(why) => {
-                self.mismatched += 1;
-                if self.mismatched.is_power_of_two() {
-                    tracing::warn!(robot = %self.id, count = self.mismatched, "ROS 2 graph: {why}");
-                }
-                None
-            }
-            RosInput::Malformed { topic, error } => {
-                self.malformed += 1;
-                if self.malformed.is_power_of_two() {
-                    tracing::warn!(robot = %self.id, %topic, count = self.malformed, "dropped a malformed ROS 2 message: {error}");
-                }
-                None
-            }
-        }
-    }
-
     /// A viewer announcing itself: the robot's telemetry is tagged for it from now on.
     fn viewer(&self, s: &Sample, io: &mut Io) {
         let Some(from) = self.mesh.sender_of("viewer announcement", s) else { return };
@@ -210,37 +171,6 @@ impl Inputs {
                 self.mesh.reply_error(q, &e.to_string()).await;
                 None
             }
-        }
-    }
-}
-
-/// The next input of a ROS 2 body; pending without one.
-async fn recv_ros(ros: &Option<RosLink>) -> RosInput {
-    match ros {
-        Some(r) => r.recv().await,
-        None => std::future::pending().await,
-    }
-}
-
-fn ros_pose(p: mrmm_ros2::Pose2) -> proto::Pose {
-    proto::Pose { x: p.x, y: p.y, theta: p.theta }
-}
-
-/// A sealed team message (an arrival or a release) as the robot's event: its seal proven here,
-/// the rest translated by the robot's own ingress (a forged one is refused and recorded, a
-/// malformed one dropped).
-fn heard(mesh: &Mesh, robot: &Robot, s: &Sample) -> Option<Event> {
-    let from = mesh.sender_of(crate::robot::sealed(s.key_expr().as_str()), s)?;
-    let payload = s.payload().to_bytes();
-    match robot.ingress(Incoming { key: s.key_expr().as_str(), payload: &payload, put: s.kind() == SampleKind::Put, from: Some(&from) }) {
-        Ok(ev) => Some(ev),
-        Err(Refused::NotEntitled { from, what }) => {
-            mesh.refuse(&what, &from);
-            None
-        }
-        Err(e) => {
-            tracing::warn!("dropped payload on {}: {e}", s.key_expr());
-            None
         }
     }
 }

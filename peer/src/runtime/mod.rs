@@ -7,6 +7,7 @@
 
 mod inputs;
 mod io;
+mod ros;
 mod team;
 
 use std::time::{Duration, Instant};

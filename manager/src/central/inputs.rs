@@ -1,0 +1,109 @@
+//! What central hears: robots' and hosts' liveliness, telemetry and mission status (translated by
+//! the system manager's own ingress once their seals proved their senders), the operator API and
+//! the advice, and what its seals counted.
+
+use std::time::{Duration, Instant};
+
+use mrmm_core::edge::{Incoming, Refused};
+use mrmm_net::Mesh;
+use mrmm_proto::{Key, Pattern};
+use zenoh::query::Query;
+use zenoh::sample::{Sample, SampleKind};
+
+use crate::error::ManagerError;
+use crate::inbox::Inbox;
+use crate::system;
+
+/// What the Zenoh callbacks and central's own tasks hand its loop.
+pub(super) enum Input {
+    Operator(Query),
+    Advice(Query),
+    Sample(Sample),
+    Event(system::Event),
+}
+
+/// Central's subscriptions and queryables, kept alive while it runs.
+#[derive(Default)]
+pub(super) struct Held {
+    subs: Vec<zenoh::pubsub::Subscriber<()>>,
+    operator: Option<zenoh::query::Queryable<()>>,
+    advice: Option<zenoh::query::Queryable<()>>,
+}
+
+/// Robots' and hosts' liveliness (on their own inbox: a flood of data must not push out the
+/// news that a robot died), telemetry, mission status, the operator API and the advice.
+pub(super) async fn declare_inputs(session: &zenoh::Session, live: &Inbox<Input>, net: &Inbox<Input>) -> Result<Held, ManagerError> {
+    let mut held = Held::default();
+    for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
+        held.subs.push(live.liveliness(session, pattern.to_string(), Input::Sample).await?);
+    }
+    for sub in system::subscriptions() {
+        held.subs.push(net.subscribe(session, sub.expr, Input::Sample).await?);
+    }
+    let t = net.clone();
+    held.operator = Some(
+        session
+            .declare_queryable(Pattern::SystemAll.to_string())
+            .callback(move |q| {
+                t.push(Input::Operator(q));
+            })
+            .await
+            .map_err(ManagerError::zenoh)?,
+    );
+    let t = net.clone();
+    held.advice = Some(
+        session
+            .declare_queryable(Key::AgentAdvice.to_string())
+            .callback(move |q| {
+                t.push(Input::Advice(q));
+            })
+            .await
+            .map_err(ManagerError::zenoh)?,
+    );
+    Ok(held)
+}
+
+/// A publication or liveliness change as the system manager's event, translated by its own
+/// ingress once the seal proved its sender; `None` (refusals recorded, the rest logged) otherwise.
+pub(super) fn decode(mesh: &Mesh, s: &Sample) -> Option<system::Event> {
+    let key = s.key_expr().as_str();
+    let payload = s.payload().to_bytes();
+    let from = match system::sealed(key) {
+        Some(what) => Some(mesh.sender_of(what, s)?),
+        None => None,
+    };
+    match system::ingress(Incoming { key, payload: &payload, put: s.kind() == SampleKind::Put, from: from.as_ref() }) {
+        Ok(ev) => Some(ev),
+        Err(Refused::NotEntitled { from, what }) => {
+            mesh.refuse(&what, &from);
+            None
+        }
+        Err(e) => {
+            tracing::warn!("dropped what came on {key}: {e}");
+            None
+        }
+    }
+}
+
+/// What the seals of central's session counted, reported to the system manager: refusals as
+/// soon as there are new ones, proofs once a second.
+pub(super) struct SealCounts {
+    pub(super) refused: u64,
+    pub(super) proofs_at: Instant,
+}
+
+impl SealCounts {
+    pub(super) fn due(&mut self, mesh: &Mesh) -> Vec<system::Event> {
+        let mut out = Vec::new();
+        let total = mesh.verifier().refused.total();
+        if total != self.refused {
+            self.refused = total;
+            out.push(system::Event::Refusals(mesh.verifier().refused.counts()));
+        }
+        if self.proofs_at.elapsed() >= Duration::from_secs(1) {
+            self.proofs_at = Instant::now();
+            out.push(system::Event::Proofs(mesh.verifier().proven.counts()));
+        }
+        out
+    }
+}
