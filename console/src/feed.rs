@@ -5,7 +5,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use mrmm_core::edge::{Incoming, Refused};
+use mrmm_core::edge::Proof;
 use mrmm_core::observer::{self, Seen};
 use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, Advice, Key, MapInfo, MapRef, MissionView, Pattern, RobotView};
@@ -83,20 +83,9 @@ pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, maps: La
 /// A robot's telemetry, its sender proven and entitled by the one policy (as the viewer's,
 /// through the observer's ingress); refusals recorded, the rest logged.
 fn telemetry_of(mesh: &mrmm_net::Mesh, s: &zenoh::sample::Sample) -> Option<Box<proto::Telemetry>> {
-    let key = s.key_expr().as_str();
-    let from = mesh.sender_of("telemetry", s)?;
-    let payload = s.payload().to_bytes();
-    match observer::observe(Incoming { key, payload: &payload, put: true, from: Some(&from) }) {
-        Ok(Seen::Telemetry(t)) => Some(t),
-        Ok(_) => None,
-        Err(Refused::NotEntitled { from, what }) => {
-            mesh.refuse(&what, &from);
-            None
-        }
-        Err(e) => {
-            tracing::debug!("dropped what came on {key}: {e}");
-            None
-        }
+    match mesh.hear(s, Some(("telemetry", Proof::Own)), observer::observe)? {
+        Seen::Telemetry(t) => Some(t),
+        _ => None,
     }
 }
 

@@ -1,46 +1,13 @@
 //! A node's edge, shared by every machine: a message as its driver received it ([`Incoming`]) and
-//! why one did not become an event of the machine ([`Refused`]). Each machine translates what it
-//! hears itself (`Robot::ingress`, `host::ingress`), in the drivers and the simulations alike.
-
-use std::fmt;
+//! why one did not become an event of the machine ([`Refused`]) — types of the protocol crate,
+//! which the sessions use too — and the translations every machine shares. Each machine
+//! translates what it hears itself (`Robot::ingress`, `host::ingress`), in the drivers and the
+//! simulations alike.
 
 use mrmm_proto::policy::{may_publish, Publication};
 use mrmm_proto::{self as proto, MissionView, Sender};
 
-/// Why a message did not become an event.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Refused {
-    /// The message needs a proven sender and has none (no seal, or one that does not verify).
-    Unproven { what: &'static str },
-    /// Its proven sender may not send it (a robot speaking for another, …).
-    NotEntitled { from: Sender, what: String },
-    /// Its payload is not what its key promises (`why` names it).
-    Malformed { what: &'static str, why: String },
-    /// Nothing this robot listens to is on that key.
-    Unexpected { key: String },
-}
-
-impl fmt::Display for Refused {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Refused::Unproven { what } => write!(f, "{what} without a proven sender"),
-            Refused::NotEntitled { from, what } => write!(f, "{from} may not {what}"),
-            Refused::Malformed { why, .. } => f.write_str(why),
-            Refused::Unexpected { key } => write!(f, "nothing is expected on {key}"),
-        }
-    }
-}
-
-/// A message as the driver received it.
-#[derive(Debug, Clone, Copy)]
-pub struct Incoming<'a> {
-    pub key: &'a str,
-    pub payload: &'a [u8],
-    /// A put (or a liveliness token appearing) rather than a delete (a token gone).
-    pub put: bool,
-    /// The sender its seal proves (liveliness tokens carry none).
-    pub from: Option<&'a Sender>,
-}
+pub use mrmm_proto::edge::{Incoming, Proof, Refused};
 
 /// A JSON payload as `T`, or why not.
 pub(crate) fn json<T: serde::de::DeserializeOwned>(what: &'static str, payload: &[u8]) -> Result<T, Refused> {

@@ -7,7 +7,7 @@
 use mrmm_proto::policy::{may_publish, Publication};
 use mrmm_proto::{AdviceEvent, Key, MissionView, Pattern, SyncArrival, SyncRelease, Telemetry};
 
-use crate::edge::{self, json, Incoming, Refused};
+use crate::edge::{self, json, Incoming, Proof, Refused};
 use crate::egress::Sub;
 
 /// What an observer saw.
@@ -26,15 +26,6 @@ pub enum Seen {
         team: String,
         release: SyncRelease,
     },
-}
-
-/// How an observer proves the sender of a message on a key.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Proof {
-    /// Tagged for it, or signed: as any receiver.
-    Own,
-    /// Tagged for a team it is not in: only the signed messages count.
-    Observed,
 }
 
 /// What a message on `key` is and how its sender is proven; `None` for what an observer does not
@@ -108,26 +99,7 @@ mod tests {
         assert!(matches!(seen(&arrival("r2"), Some(&r1)), Err(Refused::NotEntitled { .. })));
         assert!(matches!(seen(&arrival("r1"), None), Err(Refused::Unproven { .. })));
         // A status that names another manager than its sender.
-        let view = MissionView {
-            name: "p".into(),
-            recipe: "patrol".into(),
-            planner: "patrol".into(),
-            status: mrmm_proto::MissionStatus::Running,
-            robots: vec![],
-            lost: vec![],
-            stuck: Default::default(),
-            teams: Default::default(),
-            team_views: vec![],
-            manager: mrmm_proto::ManagerView { node: "h2".into(), epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },
-            metrics: Default::default(),
-            summary: None,
-            summary_unchanged: false,
-            params: Default::default(),
-            error: None,
-            plans: None,
-            map: None,
-            requires: vec![],
-        };
+        let view = MissionView::running("p", "patrol", "h2", 1, &[]);
         let status = serde_json::to_vec(&view).expect("json");
         let key = Key::MissionStatus("p".into()).to_string();
         let h1 = Sender::new(Role::Host, "h1");

@@ -9,12 +9,13 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 use zenoh::bytes::Encoding;
 use zenoh::query::{ConsolidationMode, Query, QueryTarget};
-use zenoh::sample::Sample;
+use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
 use crate::net::{self, Mode, QueryError};
 use crate::security::{acl, Identity, Refusal, Sealer, SecuritySection, Sender, Verifier};
 use mrmm_proto::codec::{from_json, to_json};
+use mrmm_proto::edge::{Incoming, Proof, Refused};
 use mrmm_proto::error::ProtoError;
 use mrmm_proto::operator::{ErrorCode, ErrorReply};
 
@@ -224,6 +225,31 @@ impl Mesh {
         let bytes = s.payload().to_bytes();
         let att = s.attachment().map(|a| a.to_bytes());
         self.verifier.check(what, s.key_expr().as_str(), &bytes, att.as_deref(), now_ms())
+    }
+
+    /// A sample as its machine's event: its sender proven as `proof` says (`None`: a liveliness
+    /// token, which carries no seal; a seal that does not prove it is refused and counted), then
+    /// translated by the machine's own `ingress`. What its sender may not send is refused and
+    /// counted; anything else that does not translate is logged and dropped.
+    pub fn hear<T>(&self, s: &Sample, proof: Option<(&str, Proof)>, ingress: impl FnOnce(Incoming<'_>) -> Result<T, Refused>) -> Option<T> {
+        let key = s.key_expr().as_str();
+        let from = match proof {
+            None => None,
+            Some((what, Proof::Own)) => Some(self.sender_of(what, s)?),
+            Some((what, Proof::Observed)) => Some(self.observed_sender_of(what, s)?),
+        };
+        let payload = s.payload().to_bytes();
+        match ingress(Incoming { key, payload: &payload, put: s.kind() == SampleKind::Put, from: from.as_ref() }) {
+            Ok(v) => Some(v),
+            Err(Refused::NotEntitled { from, what }) => {
+                self.refuse(&what, &from);
+                None
+            }
+            Err(e) => {
+                tracing::debug!("dropped what came on {key}: {e}");
+                None
+            }
+        }
     }
 
     /// The proven sender of a query (`None` when its seal is refused; counted and logged).

@@ -10,6 +10,7 @@ pub mod agent;
 pub mod chain;
 pub mod codec;
 pub mod config;
+pub mod edge;
 pub mod error;
 pub mod journal;
 pub mod keys;

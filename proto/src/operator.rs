@@ -329,6 +329,34 @@ pub struct MissionView {
     pub map: Option<crate::map::MapRef>,
 }
 
+impl MissionView {
+    /// A running mission of `robots` managed on node `manager` (chain epoch 1, epoch `epoch`),
+    /// with nothing planned or measured yet: what a head reports before its first plan, and a
+    /// starting point for tools and tests.
+    pub fn running(name: &str, planner: &str, manager: &str, epoch: u64, robots: &[&str]) -> MissionView {
+        MissionView {
+            name: name.into(),
+            recipe: planner.into(),
+            planner: planner.into(),
+            requires: vec![],
+            status: MissionStatus::Running,
+            robots: robots.iter().map(|r| r.to_string()).collect(),
+            lost: vec![],
+            stuck: BTreeMap::new(),
+            teams: BTreeMap::new(),
+            team_views: vec![],
+            manager: ManagerView { node: manager.into(), epoch, chain_epoch: 1, chain: vec![], uncommitted_s: None },
+            metrics: MissionMetrics::default(),
+            summary: None,
+            summary_unchanged: false,
+            params: BTreeMap::new(),
+            error: None,
+            plans: None,
+            map: None,
+        }
+    }
+}
+
 /// One leaf team of a mission of several.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TeamView {

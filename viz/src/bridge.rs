@@ -5,8 +5,7 @@ use std::net::ToSocketAddrs;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-use mrmm_core::edge::{Incoming, Refused};
-use mrmm_core::observer::{self, Proof, Seen};
+use mrmm_core::observer::{self, Seen};
 use mrmm_net::{Following, Mesh};
 use mrmm_proto::plan::Point;
 use mrmm_proto::{self as proto, AdviceEvent, Key, MissionView, PlanSummary, Priority, SyncArrival, SyncRelease, Telemetry};
@@ -124,24 +123,8 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
 /// What the viewer heard, its sender proven as an observer can (only the signed messages of a
 /// team's barrier stream), translated with the one policy; refusals recorded, the rest logged.
 fn seen(mesh: &Mesh, s: &Sample) -> Option<Seen> {
-    let key = s.key_expr().as_str();
-    let (what, proof) = observer::proof(key)?;
-    let from = match proof {
-        Proof::Own => mesh.sender_of(what, s)?,
-        Proof::Observed => mesh.observed_sender_of(what, s)?,
-    };
-    let payload = s.payload().to_bytes();
-    match observer::observe(Incoming { key, payload: &payload, put: true, from: Some(&from) }) {
-        Ok(seen) => Some(seen),
-        Err(Refused::NotEntitled { from, what }) => {
-            mesh.refuse(&what, &from);
-            None
-        }
-        Err(e) => {
-            tracing::debug!("dropped what came on {key}: {e}");
-            None
-        }
-    }
+    let proof = observer::proof(s.key_expr().as_str())?;
+    mesh.hear(s, Some(proof), observer::observe)
 }
 
 /// Fetches map `r` from the fleet and hands it to the loop.

@@ -24,8 +24,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use mrmm_proto::{
-    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, ManagerView, Member, MissionCreate, MissionCtl,
-    MissionMetrics, MissionStart, MissionStatus, MissionView, RobotCommand, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
+    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, Member, MissionCreate, MissionCtl, MissionStart,
+    MissionStatus, MissionView, RobotCommand, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
 };
 use serde_json::Value;
 

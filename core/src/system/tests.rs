@@ -226,26 +226,7 @@ struct MissionViewBuilder;
 
 impl MissionViewBuilder {
     fn running(name: &str, host: &str, robots: &[&str]) -> MissionView {
-        MissionView {
-            name: name.into(),
-            recipe: "patrol".into(),
-            planner: "patrol".into(),
-            status: MissionStatus::Running,
-            robots: robots.iter().map(|s| s.to_string()).collect(),
-            lost: vec![],
-            stuck: Default::default(),
-            teams: Default::default(),
-            team_views: vec![],
-            manager: ManagerView { node: host.into(), epoch: 5, chain_epoch: 1, chain: vec![], uncommitted_s: None },
-            metrics: MissionMetrics::default(),
-            summary: None,
-            summary_unchanged: false,
-            params: Default::default(),
-            error: None,
-            plans: None,
-            map: None,
-            requires: vec![],
-        }
+        MissionView::running(name, "patrol", host, 5, robots)
     }
 }
 

@@ -16,26 +16,17 @@ impl SystemManager {
                 v.requires = rec.map(|r| r.requires.clone()).unwrap_or_default();
                 v
             }
-            None => MissionView {
-                name: name.to_string(),
-                recipe: rec.map(|r| r.def.recipe.clone()).unwrap_or_default(),
-                planner: rec.map(|r| r.def.planner.clone()).unwrap_or_default(),
-                requires: rec.map(|r| r.requires.clone()).unwrap_or_default(),
-                status: MissionStatus::Planning,
-                robots,
-                lost: vec![],
-                stuck: Default::default(),
-                teams: BTreeMap::new(),
-                team_views: vec![],
-                manager: ManagerView { node: rec.map(|r| r.host.clone()).unwrap_or_default(), epoch: 0, chain_epoch: 0, chain: vec![], uncommitted_s: None },
-                metrics: MissionMetrics::default(),
-                summary: None,
-                summary_unchanged: false,
-                params: BTreeMap::new(),
-                error: None,
-                plans: None,
-                map: rec.and_then(|r| r.def.spec.as_ref()).and_then(|s| s.map.clone()),
-            },
+            None => {
+                let (planner, host) = (rec.map(|r| r.def.planner.clone()).unwrap_or_default(), rec.map(|r| r.host.clone()).unwrap_or_default());
+                let mut v = MissionView::running(name, &planner, &host, 0, &[]);
+                v.recipe = rec.map(|r| r.def.recipe.clone()).unwrap_or_default();
+                v.requires = rec.map(|r| r.requires.clone()).unwrap_or_default();
+                v.status = MissionStatus::Planning;
+                v.robots = robots;
+                v.manager.chain_epoch = 0;
+                v.map = rec.and_then(|r| r.def.spec.as_ref()).and_then(|s| s.map.clone());
+                v
+            }
         }
     }
 

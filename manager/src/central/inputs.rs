@@ -4,11 +4,11 @@
 
 use std::time::{Duration, Instant};
 
-use mrmm_core::edge::{Incoming, Refused};
+use mrmm_core::edge::Proof;
 use mrmm_net::Mesh;
 use mrmm_proto::{Key, Pattern};
 use zenoh::query::Query;
-use zenoh::sample::{Sample, SampleKind};
+use zenoh::sample::Sample;
 
 use crate::error::ManagerError;
 use crate::inbox::Inbox;
@@ -66,23 +66,8 @@ pub(super) async fn declare_inputs(session: &zenoh::Session, live: &Inbox<Input>
 /// A publication or liveliness change as the system manager's event, translated by its own
 /// ingress once the seal proved its sender; `None` (refusals recorded, the rest logged) otherwise.
 pub(super) fn decode(mesh: &Mesh, s: &Sample) -> Option<system::Event> {
-    let key = s.key_expr().as_str();
-    let payload = s.payload().to_bytes();
-    let from = match system::sealed(key) {
-        Some(what) => Some(mesh.sender_of(what, s)?),
-        None => None,
-    };
-    match system::ingress(Incoming { key, payload: &payload, put: s.kind() == SampleKind::Put, from: from.as_ref() }) {
-        Ok(ev) => Some(ev),
-        Err(Refused::NotEntitled { from, what }) => {
-            mesh.refuse(&what, &from);
-            None
-        }
-        Err(e) => {
-            tracing::warn!("dropped what came on {key}: {e}");
-            None
-        }
-    }
+    let proof = system::sealed(s.key_expr().as_str()).map(|what| (what, Proof::Own));
+    mesh.hear(s, proof, system::ingress)
 }
 
 /// What the seals of central's session counted, reported to the system manager: refusals as

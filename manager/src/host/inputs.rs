@@ -2,7 +2,7 @@
 //! (translated by the host's own ingress once their seals proved their senders), its own tasks'
 //! answers, and its robot's team on a robot node.
 
-use mrmm_core::edge::{Incoming, Refused};
+use mrmm_core::edge::Proof;
 use mrmm_net::net;
 use mrmm_net::Mesh;
 use mrmm_proto::{self as proto, Key, Pattern};
@@ -10,7 +10,7 @@ use tokio::sync::watch;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::query::{Query, Queryable};
-use zenoh::sample::{Sample, SampleKind};
+use zenoh::sample::Sample;
 use zenoh::Session;
 
 use super::{Event, LocalTeam};
@@ -74,21 +74,6 @@ pub(super) async fn local_changed(local: &mut Option<watch::Receiver<LocalTeam>>
 /// A publication or liveliness change as the core's event, translated by the host's own ingress
 /// once the seal proved its sender; `None` (refusals recorded, the rest logged) otherwise.
 pub(super) fn decode(mesh: &Mesh, s: &Sample) -> Option<Event> {
-    let key = s.key_expr().as_str();
-    let payload = s.payload().to_bytes();
-    let from = match mrmm_core::host::sealed(key) {
-        Some(what) => Some(mesh.sender_of(what, s)?),
-        None => None,
-    };
-    match mrmm_core::host::ingress(Incoming { key, payload: &payload, put: s.kind() == SampleKind::Put, from: from.as_ref() }) {
-        Ok(ev) => Some(ev),
-        Err(Refused::NotEntitled { from, what }) => {
-            mesh.refuse(&what, &from);
-            None
-        }
-        Err(e) => {
-            tracing::debug!("dropped what came on {key}: {e}");
-            None
-        }
-    }
+    let proof = mrmm_core::host::sealed(s.key_expr().as_str()).map(|what| (what, Proof::Own));
+    mesh.hear(s, proof, mrmm_core::host::ingress)
 }

@@ -3,14 +3,15 @@
 //! team's as its barrier mode runs them, the wider teams' of its plan) — declared here exactly as
 //! the simulations route them.
 
-use mrmm_core::robot::{Event, Incoming, Refused, Robot, TeamLinks};
+use mrmm_core::edge::Proof;
+use mrmm_core::robot::{Event, Robot, TeamLinks};
 use mrmm_net::{Following, Mesh};
 use mrmm_proto::{Key, Pattern};
 use tokio::sync::{mpsc, Mutex};
 use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
-use zenoh::sample::{Sample, SampleKind};
+use zenoh::sample::Sample;
 use zenoh::Session;
 
 use super::QUEUE;
@@ -82,17 +83,6 @@ pub(super) async fn recv_members(team: &Option<TeamLink>) -> Sample {
 /// the rest translated by the robot's own ingress (a forged one is refused and recorded, a
 /// malformed one dropped).
 pub(super) fn heard(mesh: &Mesh, robot: &Robot, s: &Sample) -> Option<Event> {
-    let from = mesh.sender_of(crate::robot::sealed(s.key_expr().as_str()), s)?;
-    let payload = s.payload().to_bytes();
-    match robot.ingress(Incoming { key: s.key_expr().as_str(), payload: &payload, put: s.kind() == SampleKind::Put, from: Some(&from) }) {
-        Ok(ev) => Some(ev),
-        Err(Refused::NotEntitled { from, what }) => {
-            mesh.refuse(&what, &from);
-            None
-        }
-        Err(e) => {
-            tracing::warn!("dropped payload on {}: {e}", s.key_expr());
-            None
-        }
-    }
+    let what = mrmm_core::robot::sealed(s.key_expr().as_str());
+    mesh.hear(s, Some((what, Proof::Own)), |m| robot.ingress(m))
 }
