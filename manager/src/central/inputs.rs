@@ -26,8 +26,7 @@ pub(super) enum Input {
 #[derive(Default)]
 pub(super) struct Held {
     subs: Vec<zenoh::pubsub::Subscriber<()>>,
-    operator: Option<zenoh::query::Queryable<()>>,
-    advice: Option<zenoh::query::Queryable<()>>,
+    queryables: Vec<zenoh::query::Queryable<()>>,
 }
 
 /// Robots' and hosts' liveliness (on their own inbox: a flood of data must not push out the
@@ -40,26 +39,12 @@ pub(super) async fn declare_inputs(session: &zenoh::Session, live: &Inbox<Input>
     for sub in system::subscriptions() {
         held.subs.push(net.subscribe(session, sub.expr, Input::Sample).await?);
     }
-    let t = net.clone();
-    held.operator = Some(
-        session
-            .declare_queryable(Pattern::SystemAll.to_string())
-            .callback(move |q| {
-                t.push(Input::Operator(q));
-            })
-            .await
-            .map_err(ManagerError::zenoh)?,
-    );
-    let t = net.clone();
-    held.advice = Some(
-        session
-            .declare_queryable(Key::AgentAdvice.to_string())
-            .callback(move |q| {
-                t.push(Input::Advice(q));
-            })
-            .await
-            .map_err(ManagerError::zenoh)?,
-    );
+    let wraps: [fn(Query) -> Input; 2] = [Input::Operator, Input::Advice];
+    for (key, wrap) in [Pattern::SystemAll.to_string(), Key::AgentAdvice.to_string()].into_iter().zip(wraps) {
+        let t = net.clone();
+        let q = session.declare_queryable(key).callback(move |q| t.push(wrap(q))).await.map_err(ManagerError::zenoh)?;
+        held.queryables.push(q);
+    }
     Ok(held)
 }
 

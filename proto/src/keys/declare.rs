@@ -142,24 +142,15 @@ pub(super) fn captures<'k, 'a>(template: &[Part], key: &'k [&'a str]) -> Option<
     if (!many && key.len() != template.len()) || (many && wide == 0) {
         return None;
     }
-    let (mut at, mut out) = (0, Vec::new());
-    for p in template {
-        match p {
-            Part::Lit(l) => {
-                if key.get(at) != Some(l) {
-                    return None;
-                }
-                at += 1;
-            }
-            Part::One => {
-                out.push(key.get(at..at + 1)?);
-                at += 1;
-            }
-            Part::Many => {
-                out.push(key.get(at..at + wide)?);
-                at += wide;
-            }
-        }
+    // Each part's chunks; every key is parsed against the declarations in turn, so the literals
+    // are checked before anything is collected (most declarations fail there, allocating nothing).
+    let spans = template.iter().scan(0, |at, p| {
+        let n = if matches!(p, Part::Many) { wide } else { 1 };
+        *at += n;
+        Some((p, *at - n..*at))
+    });
+    if !spans.clone().all(|(p, r)| !matches!(p, Part::Lit(l) if key.get(r.start) != Some(l))) {
+        return None;
     }
-    Some(out)
+    spans.filter(|(p, _)| !matches!(p, Part::Lit(_))).map(|(_, r)| key.get(r)).collect()
 }
