@@ -12,6 +12,11 @@ use crate::barrier::Barrier;
 /// members that subscribed after the first one (a network matter: it does not speed up with
 /// the simulated clock; see [`Executor::with_time_scale`]).
 pub const REPUBLISH_S: f64 = 0.5;
+/// While a robot waits at one barrier, each re-publication doubles the gap before the next, up
+/// to this many times [`REPUBLISH_S`]: a long wait (a teammate still driving to its slot, a
+/// network slow to link) costs a few messages, not two a second per robot. A teammate's token
+/// appearing (it has just joined and may have missed our arrival) brings the gap back to one.
+pub const REPUBLISH_BACKOFF: f64 = 4.0;
 /// Instantaneous steps taken at most per tick (a loop of such steps cannot spin for ever).
 const MAX_STEPS_PER_TICK: usize = 64;
 
@@ -69,6 +74,8 @@ pub struct Executor {
     last_publish: f64,
     /// [`REPUBLISH_S`] in simulated seconds.
     republish: f64,
+    /// The gap before the next re-publication while waiting ([`REPUBLISH_BACKOFF`]).
+    gap: f64,
     /// A teammate seems to wait for an arrival of ours it missed: publish our furthest again.
     echo_due: bool,
     last_echo: f64,
@@ -95,6 +102,8 @@ struct Wide {
     barrier: Barrier,
     waiting: Option<(u32, u32)>,
     last_publish: f64,
+    /// As [`Executor::gap`], for this barrier.
+    gap: f64,
     echo_due: bool,
     last_echo: f64,
 }
@@ -108,7 +117,7 @@ impl Executor {
             .filter(|s| s.team != assignment.team)
             .map(|s| {
                 let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &s.members);
-                (s.team.clone(), Wide { barrier, waiting: None, last_publish: 0.0, echo_due: false, last_echo: f64::NEG_INFINITY })
+                (s.team.clone(), Wide { barrier, waiting: None, last_publish: 0.0, gap: REPUBLISH_S, echo_due: false, last_echo: f64::NEG_INFINITY })
             })
             .collect();
         Executor {
@@ -125,6 +134,7 @@ impl Executor {
             sync_wait: 0.0,
             last_publish: 0.0,
             republish: REPUBLISH_S,
+            gap: REPUBLISH_S,
             echo_due: false,
             last_echo: f64::NEG_INFINITY,
             hold_until: None,
@@ -143,6 +153,8 @@ impl Executor {
     pub fn with_time_scale(mut self, scale: f64) -> Self {
         if scale.is_finite() && scale > 0.0 {
             self.republish = REPUBLISH_S * scale;
+            self.gap = self.republish;
+            self.wide.values_mut().for_each(|w| w.gap = self.republish);
         }
         self
     }
@@ -213,7 +225,11 @@ impl Executor {
             }
             Event::MemberAlive(id) => {
                 self.barrier.member_alive(&id);
-                self.wide.values_mut().for_each(|w| w.barrier.member_alive(&id));
+                self.gap = self.republish;
+                for w in self.wide.values_mut() {
+                    w.barrier.member_alive(&id);
+                    w.gap = self.republish;
+                }
                 self.lead(now)
             }
             Event::MemberGone(id) => {
@@ -296,11 +312,15 @@ impl Executor {
         let fresh = w.waiting != Some(at);
         if fresh {
             w.waiting = Some(at);
+            w.gap = republish;
             self.waiting_since = now;
             w.barrier.arrival(&arrival);
         }
         if !w.barrier.released(point, round) {
-            if fresh || now - w.last_publish >= republish {
+            if fresh || now - w.last_publish >= w.gap {
+                if !fresh {
+                    w.gap = (w.gap * 2.0).min(republish * REPUBLISH_BACKOFF);
+                }
                 w.last_publish = now;
                 self.sync_msgs += 1;
                 out.push(Command::PublishIn(team.to_string(), arrival));
@@ -388,11 +408,13 @@ impl Executor {
                         self.waiting = Some(at);
                         self.waiting_since = now;
                         self.barrier.arrival(&arrival);
+                        self.gap = self.republish;
                         self.publish(now, (self.round, point), &mut out);
                         out.extend(self.lead(now));
                     }
                     if !self.barrier.released(point, self.round) {
-                        if now - self.last_publish >= self.republish {
+                        if now - self.last_publish >= self.gap {
+                            self.gap = (self.gap * 2.0).min(self.republish * REPUBLISH_BACKOFF);
                             self.publish(now, (self.round, point), &mut out);
                         }
                         break;

@@ -131,6 +131,17 @@ fn republication_keeps_its_wall_clock_period_on_a_fast_clock() {
 }
 
 #[test]
+fn a_long_wait_backs_off_and_a_new_teammate_brings_the_gap_back() {
+    let mut e = exec(vec![Step::Sync { point: 0, scope: None }], &["a", "b"]);
+    let sent = |e: &mut Executor, from: u32, to: u32| -> Vec<u32> { (from..to).filter(|&t| !tick(e, f64::from(t) * 0.1, true).is_empty()).collect() };
+    // Arrival at 0, then gaps 0.5, 1, 2, 2, 2 s (tenths of a second).
+    assert_eq!(sent(&mut e, 0, 100), [0, 5, 15, 35, 55, 75, 95]);
+    // A teammate's token appears: the next one comes within REPUBLISH_S of the last, then backs off again.
+    e.handle(9.6, Event::MemberAlive("b".into()));
+    assert_eq!(sent(&mut e, 100, 200), [100, 110, 130, 150, 170, 190]);
+}
+
+#[test]
 fn a_teammate_that_missed_our_last_arrival_gets_it_again() {
     let arrival = |robot: &str| SyncArrival { robot: robot.into(), epoch: 2, point: 0, round: 0 };
     let mut e = exec(vec![Step::Sync { point: 0, scope: None }], &["a", "b"]);
