@@ -10,8 +10,10 @@ fn main() -> ExitCode {
     let args = cli::Cli::parse();
     let filter = tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(args.default_log_filter()));
     tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).init();
-    // Zenoh needs a multi-thread runtime.
-    let rt = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+    // Bounded by role, not by the cores (Zenoh reads its part when it first starts a runtime).
+    let threads = args.threads();
+    threads.configure_zenoh();
+    let rt = match threads.runtime() {
         Ok(rt) => rt,
         Err(e) => {
             eprintln!("mrmm: cannot start the runtime: {e}");

@@ -18,6 +18,7 @@ mod security;
 mod shutdown;
 mod table;
 mod tap;
+pub mod threads;
 mod tour;
 mod viz;
 
@@ -27,6 +28,10 @@ use clap::{Parser, Subcommand};
 #[derive(Debug, Parser)]
 #[command(name = "mrmm", version, about)]
 pub struct Cli {
+    /// Async worker threads of this process (default: 2 for a robot, one per core otherwise).
+    /// A robot also bounds Zenoh's runtimes to 4 threads unless `ZENOH_RUNTIME` is set.
+    #[arg(long, global = true, env = "MRMM_THREADS")]
+    threads: Option<std::num::NonZeroUsize>,
     #[command(subcommand)]
     command: Cmd,
 }
@@ -69,6 +74,11 @@ enum Cmd {
 }
 
 impl Cli {
+    /// The threads this process starts (`--threads`, and its role).
+    pub fn threads(&self) -> threads::Threads {
+        threads::Threads::new(matches!(self.command, Cmd::Robot(_)), self.threads)
+    }
+
     /// Log filter used when RUST_LOG is not set. Zenoh warns at every secure link that it skips
     /// the server's name check: the fleet's own choice (its certificates name identities, not
     /// addresses; `verify_names` turns the check on), not something wrong — so not logged.

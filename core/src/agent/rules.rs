@@ -94,8 +94,24 @@ fn short_teams(robots: &[RobotView], missions: &[MissionView], m: &MissionView, 
 /// All candidate advice for this snapshot.
 pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[RobotView], missions: &[MissionView]) -> BTreeMap<String, Candidate> {
     let mut out = BTreeMap::new();
-    let by_name: BTreeMap<&str, &MissionView> = missions.iter().map(|m| (m.name.as_str(), m)).collect();
+    lost_robots(cfg, mem, robots, missions, now, &mut out);
+    below_standard(robots, missions, now, &mut out);
+    // Leaf teams short of members.
+    for m in missions.iter().filter(|m| matches!(m.status, MissionStatus::Running | MissionStatus::Stalled)) {
+        for c in short_teams(robots, missions, m, now) {
+            out.insert(c.advice.id.clone(), c);
+        }
+    }
+    idle_robots(robots, missions, now, &mut out);
+    managers(cfg, mem, missions, now, &mut out);
+    stuck_robots(cfg, mem, robots, now, &mut out);
+    out
+}
 
+/// A robot lost, and what was done about it; a robot taken out of its mission because it no longer
+/// has what the mission requires (an event).
+fn lost_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+    let by_name: BTreeMap<&str, &MissionView> = missions.iter().map(|m| (m.name.as_str(), m)).collect();
     // Robot lost, and what was done about it; a robot taken out of its mission because it no
     // longer has what the mission requires (an event).
     for r in robots {
@@ -126,8 +142,10 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
         };
         out.insert(format!("lost/{}", r.id), candidate(format!("lost/{}", r.id), Priority::Critical, reason, evidence, now, action));
     }
+}
 
-    // Mission below its standard, with the predicted benefit of one more robot.
+/// A mission below its standard, with the predicted benefit of one more robot.
+fn below_standard(robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
     for m in missions {
         let (Some(limit), Some(worst)) = (m.params.get("max_worst_idleness").and_then(|v| v.parse::<f64>().ok()), m.metrics.worst_idleness) else {
             continue;
@@ -154,15 +172,10 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
         let id = format!("standard/{}", m.name);
         out.insert(id.clone(), candidate(id, Priority::Warning, reason, evidence, now, action));
     }
+}
 
-    // Leaf teams short of members.
-    for m in missions.iter().filter(|m| matches!(m.status, MissionStatus::Running | MissionStatus::Stalled)) {
-        for c in short_teams(robots, missions, m, now) {
-            out.insert(c.advice.id.clone(), c);
-        }
-    }
-
-    // Idle robots while missions run: where one would help most.
+/// Idle robots while missions run: where one would help most.
+fn idle_robots(robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
     let idle: Vec<&RobotView> = robots.iter().filter(|r| r.status == RobotStatus::Idle).collect();
     let running: Vec<&MissionView> = missions.iter().filter(|m| m.status == MissionStatus::Running).collect();
     if !idle.is_empty() && !running.is_empty() {
@@ -181,8 +194,10 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
         };
         out.insert("idle".into(), candidate("idle".into(), Priority::Info, reason, json!({"idle": ids, "gain_s": gain}), now, action));
     }
+}
 
-    // Mission managers: host lost (stands while stalled), or moved to another node (an event).
+/// Mission managers: host lost (stands while stalled), or moved to another node (an event).
+fn managers(cfg: &AgentConfig, mem: &mut Memory, missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
     for m in missions {
         if m.status == MissionStatus::Stalled {
             if let Some(e) = &m.error {
@@ -211,8 +226,10 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
     for (id, (c, _)) in &mem.events {
         out.insert(id.clone(), c.clone());
     }
+}
 
-    // Robots driving somewhere without getting anywhere.
+/// Robots driving somewhere without getting anywhere.
+fn stuck_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], now: f64, out: &mut BTreeMap<String, Candidate>) {
     for r in robots {
         if let Some(why) = &r.stuck {
             // The robot says so itself (its navigator refused or aborted the goal).
@@ -236,5 +253,4 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
             out.insert(id.clone(), candidate(id, Priority::Warning, reason, json!({"robot": r.id, "still_s": still, "x": pose.x, "y": pose.y}), now, None));
         }
     }
-    out
 }

@@ -340,9 +340,27 @@ impl Executor {
     /// Advances the plan. `now`: simulated seconds; `body_idle`: the body has no goal (arrived).
     fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Command> {
         let mut out = self.lead(now);
-        let me = self.assignment.plan.robot.clone();
-        // A member whose leader changed re-sends its furthest arrival until the new leader has
-        // released up to it: the new leader may need it for a barrier others still wait at.
+        self.resend(now, &mut out);
+        for _ in 0..MAX_STEPS_PER_TICK {
+            if self.done {
+                break;
+            }
+            let Some(step) = self.assignment.plan.steps.get(self.pc).cloned() else {
+                self.done = true;
+                out.push(Command::Hold);
+                break;
+            };
+            if !self.step(now, body_idle, step, &mut out) {
+                break;
+            }
+        }
+        out
+    }
+
+    /// What is said again at this tick: a member whose leader changed re-sends its furthest
+    /// arrival until the new leader has released up to it (the new leader may need it for a
+    /// barrier others still wait at); echoes of our furthest arrival to teammates behind us.
+    fn resend(&mut self, now: f64, out: &mut Vec<Command>) {
         if self.barrier.mode() == BarrierMode::Leader
             && !self.barrier.leading()
             && self.waiting.is_none()
@@ -350,9 +368,10 @@ impl Executor {
             && now - self.last_publish >= self.republish
         {
             if let Some(at) = self.barrier.mine() {
-                self.publish(now, at, &mut out);
+                self.publish(now, at, out);
             }
         }
+        let me = &self.assignment.plan.robot;
         if self.echo_due && now - self.last_echo >= self.republish {
             if let Some((round, point)) = self.barrier.mine() {
                 self.echo_due = false;
@@ -371,90 +390,89 @@ impl Executor {
                 }
             }
         }
-        for _ in 0..MAX_STEPS_PER_TICK {
-            if self.done {
-                break;
+    }
+
+    /// Takes the plan's current step; false while it is not done (the tick ends there).
+    fn step(&mut self, now: f64, body_idle: bool, step: Step, out: &mut Vec<Command>) -> bool {
+        match step {
+            Step::Stream => {}
+            Step::Navigate { x, y, speed } => {
+                if !self.navigating {
+                    self.navigating = true;
+                    out.push(Command::Navigate { x, y, speed });
+                    return false;
+                }
+                if !body_idle {
+                    return false;
+                }
+                self.navigating = false;
             }
-            let Some(step) = self.assignment.plan.steps.get(self.pc).cloned() else {
-                self.done = true;
-                out.push(Command::Hold);
-                break;
-            };
-            match step {
-                Step::Stream => self.pc += 1,
-                Step::Navigate { x, y, speed } => {
-                    if !self.navigating {
-                        self.navigating = true;
-                        out.push(Command::Navigate { x, y, speed });
-                        break;
-                    }
-                    if !body_idle {
-                        break;
-                    }
-                    self.navigating = false;
-                    self.pc += 1;
+            Step::Sync { point, scope: Some(scope) } if self.assignment.scope_path(Some(&scope)) != self.assignment.team => {
+                let team = self.assignment.scope_path(Some(&scope));
+                if !self.wide_sync(now, &team, point, out) {
+                    return false;
                 }
-                Step::Sync { point, scope: Some(scope) } if self.assignment.scope_path(Some(&scope)) != self.assignment.team => {
-                    let team = self.assignment.scope_path(Some(&scope));
-                    if !self.wide_sync(now, &team, point, &mut out) {
-                        break;
-                    }
-                    self.pc += 1;
+            }
+            Step::Sync { point, .. } => {
+                if !self.own_sync(now, point, out) {
+                    return false;
                 }
-                Step::Sync { point, .. } => {
-                    let at = (point, self.round);
-                    let arrival = SyncArrival { robot: me.clone(), epoch: self.assignment.epoch, point, round: self.round };
-                    if self.waiting != Some(at) {
-                        self.waiting = Some(at);
-                        self.waiting_since = now;
-                        self.barrier.arrival(&arrival);
-                        self.gap = self.republish;
-                        self.publish(now, (self.round, point), &mut out);
-                        out.extend(self.lead(now));
-                    }
-                    if !self.barrier.released(point, self.round) {
-                        if now - self.last_publish >= self.gap {
-                            self.gap = (self.gap * 2.0).min(self.republish * REPUBLISH_BACKOFF);
-                            self.publish(now, (self.round, point), &mut out);
-                        }
-                        break;
-                    }
-                    self.barrier.passed((self.round, point));
-                    self.waiting = None;
-                    // The first barrier gathers the team at its slots (the formation): its wait
-                    // is not the cost of synchronising the rounds.
-                    if self.syncs_passed > 0 {
-                        self.sync_wait += (now - self.waiting_since).max(0.0);
-                    }
-                    self.syncs_passed += 1;
-                    // The release instant, for latency measurements (`benches/scale.rs`).
-                    tracing::debug!(target: "mrmm_peer::barrier", mission = %self.assignment.mission, epoch = self.assignment.epoch, point, round = self.round, "released");
-                    self.pc += 1;
+            }
+            Step::Hold { seconds } => {
+                let until = *self.hold_until.get_or_insert_with(|| {
+                    out.push(Command::Hold);
+                    seconds.map_or(f64::INFINITY, |s| now + s)
+                });
+                if now < until {
+                    return false;
                 }
-                Step::Hold { seconds } => {
-                    let until = *self.hold_until.get_or_insert_with(|| {
-                        out.push(Command::Hold);
-                        seconds.map_or(f64::INFINITY, |s| now + s)
-                    });
-                    if now < until {
-                        break;
-                    }
-                    self.hold_until = None;
-                    self.pc += 1;
-                }
-                Step::Loop { to, rounds } => {
-                    let count = self.loops.entry(self.pc).or_insert(0);
-                    *count = count.saturating_add(1);
-                    self.round = self.round.saturating_add(1);
-                    if rounds.is_some_and(|r| *count >= r) || to >= self.pc {
-                        self.pc += 1;
-                    } else {
-                        self.pc = to;
-                    }
+                self.hold_until = None;
+            }
+            Step::Loop { to, rounds } => {
+                let count = self.loops.entry(self.pc).or_insert(0);
+                *count = count.saturating_add(1);
+                self.round = self.round.saturating_add(1);
+                if !(rounds.is_some_and(|r| *count >= r) || to >= self.pc) {
+                    self.pc = to;
+                    return true;
                 }
             }
         }
-        out
+        self.pc += 1;
+        true
+    }
+
+    /// This robot is at barrier `point` of its own team's current round: publishes its arrival
+    /// (again while it waits, backing off); whether the barrier released.
+    fn own_sync(&mut self, now: f64, point: u32, out: &mut Vec<Command>) -> bool {
+        let at = (point, self.round);
+        if self.waiting != Some(at) {
+            self.waiting = Some(at);
+            self.waiting_since = now;
+            let arrival = SyncArrival { robot: self.assignment.plan.robot.clone(), epoch: self.assignment.epoch, point, round: self.round };
+            self.barrier.arrival(&arrival);
+            self.gap = self.republish;
+            self.publish(now, (self.round, point), out);
+            out.extend(self.lead(now));
+        }
+        if !self.barrier.released(point, self.round) {
+            if now - self.last_publish >= self.gap {
+                self.gap = (self.gap * 2.0).min(self.republish * REPUBLISH_BACKOFF);
+                self.publish(now, (self.round, point), out);
+            }
+            return false;
+        }
+        self.barrier.passed((self.round, point));
+        self.waiting = None;
+        // The first barrier gathers the team at its slots (the formation): its wait is not the
+        // cost of synchronising the rounds.
+        if self.syncs_passed > 0 {
+            self.sync_wait += (now - self.waiting_since).max(0.0);
+        }
+        self.syncs_passed += 1;
+        // The release instant, for latency measurements (`benches/scale.rs`).
+        tracing::debug!(target: "mrmm_peer::barrier", mission = %self.assignment.mission, epoch = self.assignment.epoch, point, round = self.round, "released");
+        true
     }
 }
 

@@ -64,7 +64,7 @@ impl HostCore {
             // Only a robot whose liveliness this node sees joins the team: one that is gone (the
             // order came from a report older than its loss) would hold every barrier of the new
             // plan (its teammates wait for a member they never saw leave).
-            MissionCtl::Joined { member } if !self.robots.contains(&member.spec.id) => {
+            MissionCtl::Joined { member } if !self.robots.alive(&member.spec.id) => {
                 tracing::info!(mission = %name, robot = %member.spec.id, "told to take back a robot that is gone here: kept as lost");
                 self.run(now, name, mission::Event::Absent(member), out)
             }
@@ -177,8 +177,8 @@ impl HostCore {
         tracing::info!(mission = %name, chain_epoch = config.epoch, chain = ?config.chain, "took over the mission");
         // Robots already running the committed plans go on; those that missed them get them.
         let resend = mm.current_assignments();
-        let lost: Vec<String> = mm.members().filter(|id| !self.robots.contains(*id)).cloned().collect();
-        let back: Vec<Member> = if self.central_reachable() { vec![] } else { self.robots.iter().filter_map(|id| mm.lost(id).cloned()).collect() };
+        let lost: Vec<String> = mm.members().filter(|id| !self.robots.alive(id)).cloned().collect();
+        let back: Vec<Member> = if self.central_reachable() { vec![] } else { self.robots.alive_ids().iter().filter_map(|id| mm.lost(id).cloned()).collect() };
         let mut head = Head::new(mm, None);
         head.defer(resend);
         self.heads.insert(name.to_string(), head);

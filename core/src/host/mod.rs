@@ -13,6 +13,7 @@ use mrmm_proto::{
 use serde_json::Value;
 
 use self::head::Head;
+use self::robots::Robots;
 use crate::chain::{self, Params, Registry};
 use crate::mission::{self, MissionManager, MissionSpec};
 use crate::Failure;
@@ -22,6 +23,7 @@ pub mod egress;
 mod head;
 pub mod ingress;
 mod led;
+mod robots;
 #[cfg(test)]
 mod tests;
 mod watch;
@@ -29,7 +31,7 @@ mod watch;
 pub use egress::egress;
 pub use head::{PLAN_RETRIES, REDELIVER_S};
 pub use ingress::{ingress, question, question_sealed, sealed, Question};
-pub use watch::UNJUDGED_S;
+pub use robots::UNJUDGED_S;
 
 type ChainCmd = chain::Command<MissionSnapshot>;
 
@@ -150,25 +152,18 @@ pub struct HostCore {
     node: String,
     registry: Registry<MissionSnapshot>,
     heads: BTreeMap<String, Head>,
-    robots: BTreeSet<String>,
+    /// The robots it knows of: whose token is up, what their telemetry says.
+    robots: Robots,
     /// Planner services alive: (kind, zid).
     planners: BTreeSet<(String, String)>,
     /// This node's own robot, if it has one: its mission and teammates.
     local: Local,
-    /// The mission each robot's telemetry says it runs.
-    robot_missions: BTreeMap<String, String>,
-    /// Robots heard from since they last came up, with the mission central last admitted them
-    /// to (from their telemetry).
-    robot_admitted: BTreeMap<String, Vec<String>>,
     /// The chain of each of our robot's missions, as a head our robot trusts last published it.
     trusted_chain: BTreeMap<String, Vec<String>>,
     /// Missions this node holds nothing of whose chain messages it hears: when, and from whom.
     /// A start of such a mission (central starting it again from its journal) is refused while
     /// they come: its old chain lives, and may take over again.
     foreign: BTreeMap<String, (f64, String)>,
-    /// Robots whose chain messages this node judges by their telemetry, and when it last
-    /// needed it (see `watch.rs`).
-    unjudged: BTreeMap<String, f64>,
 }
 
 /// For this long after the last chain message of a mission this node holds nothing of, it
@@ -186,14 +181,11 @@ impl HostCore {
             node: node.to_string(),
             registry: Registry::new(node, params, now),
             heads: BTreeMap::new(),
-            robots: BTreeSet::new(),
+            robots: Robots::default(),
             planners: BTreeSet::new(),
             local: Local::NoRobot,
-            robot_missions: BTreeMap::new(),
-            robot_admitted: BTreeMap::new(),
             trusted_chain: BTreeMap::new(),
             foreign: BTreeMap::new(),
-            unjudged: BTreeMap::new(),
         }
     }
 
@@ -244,7 +236,7 @@ impl HostCore {
             // of yet — a node outside a mission can still be asked to hold a replica of it.
             _ => {
                 let holds = self.registry.replica(mission).is_some_and(|r| r.config().is_some() || r.state().is_some());
-                !holds && self.robot_missions.get(id).is_some_and(|m| m == mission)
+                !holds && self.robots.runs(id, mission)
             }
         }
     }
@@ -291,7 +283,7 @@ impl HostCore {
                 let (robots, registry) = (&self.robots, &self.registry);
                 for (name, h) in self.heads.iter_mut() {
                     let managers = registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
-                    for (robot, mut assignment) in h.redeliver(now, |r| robots.contains(r)) {
+                    for (robot, mut assignment) in h.redeliver(now, |r| robots.alive(r)) {
                         assignment.managers.clone_from(&managers);
                         out.push(Command::SendPlan { mission: name.clone(), robot, assignment });
                     }
@@ -347,32 +339,7 @@ impl HostCore {
                 };
                 out.push(Command::Reply { query, result: result.and_then(|m| json(&m)).map_err(ErrorReply::from) });
             }
-            // Telemetry of a robot whose liveliness is gone is stale (the driver's queues do not
-            // order it against liveliness): a lost member must not seem back.
-            Event::Telemetry(t) if !self.robots.contains(&t.id) => {}
-            Event::Telemetry(t) => {
-                match &t.mission {
-                    Some(m) => {
-                        self.robot_missions.insert(t.id.clone(), m.clone());
-                    }
-                    None => {
-                        self.robot_missions.remove(&t.id);
-                    }
-                }
-                self.robot_admitted.insert(t.id.clone(), t.admitted.clone());
-                // A lost member heard again while central is away may rejoin now that it says
-                // where it belongs.
-                if !self.central_reachable() && self.robots.contains(&t.id) {
-                    self.robot(now, &t.id, true, &mut out);
-                }
-                let names: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
-                for name in names {
-                    if let Some(h) = self.heads.get_mut(&name) {
-                        h.telemetry(now, &t);
-                    }
-                    self.run(now, &name, mission::Event::Telemetry(t.clone()), &mut out);
-                }
-            }
+            Event::Telemetry(t) => self.telemetry(now, &t, &mut out),
             Event::Planned { mission, epoch, result } => self.planned(now, &mission, epoch, result, &mut out),
             Event::PlanDelivered { mission, robot, epoch, result } => {
                 if let Some(h) = self.heads.get_mut(&mission) {
@@ -444,13 +411,11 @@ impl HostCore {
             Event::HostAlive(node) => self.host(now, &node, true, &mut out),
             Event::HostGone(node) => self.host(now, &node, false, &mut out),
             Event::RobotAlive(id) => {
-                self.robots.insert(id.clone());
+                self.robots.up(&id);
                 self.robot(now, &id, true, &mut out);
             }
             Event::RobotGone(id) => {
-                self.robots.remove(&id);
-                self.robot_missions.remove(&id);
-                self.robot_admitted.remove(&id);
+                self.robots.down(&id);
                 self.robot(now, &id, false, &mut out);
             }
             Event::PlannerAlive { kind, zid } => {
@@ -463,13 +428,33 @@ impl HostCore {
         out
     }
 
+    /// A robot's telemetry. Of a robot whose liveliness is gone it is stale (the driver's queues
+    /// do not order it against liveliness): a lost member must not seem back.
+    fn telemetry(&mut self, now: f64, t: &Telemetry, out: &mut Vec<Command>) {
+        if !self.robots.heard(t) {
+            return;
+        }
+        // A lost member heard again while central is away may rejoin now that it says
+        // where it belongs.
+        if !self.central_reachable() {
+            self.robot(now, &t.id, true, out);
+        }
+        let names: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
+        for name in names {
+            if let Some(h) = self.heads.get_mut(&name) {
+                h.telemetry(now, t);
+            }
+            self.run(now, &name, mission::Event::Telemetry(Box::new(t.clone())), out);
+        }
+    }
+
     fn host(&mut self, now: f64, node: &str, up: bool, out: &mut Vec<Command>) {
         for (name, cmds) in self.registry.liveliness(now, node, up) {
             self.apply(now, &name, cmds, out);
         }
         if node == CENTRAL_HOST && !up {
             // Nobody orders lost members back now: take back those alive.
-            let back: Vec<String> = self.robots.iter().cloned().collect();
+            let back: Vec<String> = self.robots.alive_ids().iter().cloned().collect();
             for id in back {
                 self.robot(now, &id, true, out);
             }
@@ -483,16 +468,6 @@ impl HostCore {
         self.node == CENTRAL_HOST || self.registry.alive().contains(CENTRAL_HOST)
     }
 
-    /// Whether robot `id`, back, may rejoin `mission` on a head's own word: its telemetry since it
-    /// came back says it runs that mission or none, and central admitted it to that one or none
-    /// (central, on its side of a partition, may have given it to another mission).
-    fn free_for(&self, id: &str, mission: &str) -> bool {
-        let Some(admitted) = self.robot_admitted.get(id) else {
-            return false;
-        };
-        self.robot_missions.get(id).is_none_or(|m| m == mission) && admitted.iter().all(|m| m == mission)
-    }
-
     /// A member lost is taken out (the team goes on without it); a lost member back rejoins,
     /// on its own while central is unreachable.
     fn robot(&mut self, now: f64, id: &str, up: bool, out: &mut Vec<Command>) {
@@ -502,7 +477,7 @@ impl HostCore {
         let names: Vec<String> = self
             .heads
             .iter()
-            .filter(|(n, h)| if up { h.mm.lost(id).is_some() && self.free_for(id, n) } else { h.mm.has(id) })
+            .filter(|(n, h)| if up { h.mm.lost(id).is_some() && self.robots.free_for(id, n) } else { h.mm.has(id) })
             .map(|(n, _)| n.clone())
             .collect();
         for name in names {

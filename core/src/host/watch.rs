@@ -10,23 +10,21 @@ use std::collections::BTreeSet;
 
 use super::*;
 
-/// For this long after a chain message it could not judge, a host listens to its sender's
-/// telemetry; once heard, the sender's next message is judged by it.
-pub const UNJUDGED_S: f64 = 5.0;
-/// Senders waiting for judgement, at most (a flood of them costs bounded subscriptions).
-const UNJUDGED_MAX: usize = 64;
-
 impl HostCore {
     /// Whether this host needs `robot`'s telemetry.
     pub fn watches(&self, robot: &str) -> bool {
-        self.unjudged.contains_key(robot)
-            || self.heads.values().any(|h| h.mm.has(robot) || h.mm.lost(robot).is_some())
+        self.robots.is_unjudged(robot) || self.watches_member(robot)
+    }
+
+    /// Whether `robot` is a member (current or lost) of a mission this host leads or replicates.
+    fn watches_member(&self, robot: &str) -> bool {
+        self.heads.values().any(|h| h.mm.has(robot) || h.mm.lost(robot).is_some())
             || self.replicated().any(|s| s.members.iter().chain(&s.lost).any(|m| m.spec.id == robot))
     }
 
     /// Every robot whose telemetry this host needs.
     pub fn watched(&self) -> BTreeSet<String> {
-        let mut ids: BTreeSet<String> = self.unjudged.keys().cloned().collect();
+        let mut ids: BTreeSet<String> = self.robots.unjudged().cloned().collect();
         for h in self.heads.values() {
             ids.extend(h.mm.members().cloned());
             ids.extend(h.mm.lost_members().map(|m| m.spec.id.clone()));
@@ -43,7 +41,7 @@ impl HostCore {
 
     /// Whether a chain message about `mission` from robot `from` can only be judged by the
     /// robot's own telemetry, which this host has not heard yet: it then listens for it (for
-    /// [`UNJUDGED_S`] at least, and as long as the robot keeps sending such messages) and drops
+    /// [`super::UNJUDGED_S`] at least, and as long as the robot keeps sending such messages) and drops
     /// the message meanwhile (the head sends again).
     pub(super) fn awaits_telemetry(&mut self, now: f64, mission: &str, from: &Sender) -> bool {
         if from.role != Role::Robot {
@@ -54,32 +52,15 @@ impl HostCore {
         if ours || holds {
             return false;
         }
-        let heard = self.robot_admitted.contains_key(&from.id);
-        let room = self.unjudged.len() < UNJUDGED_MAX;
-        match self.unjudged.get_mut(&from.id) {
-            Some(since) if heard => {
-                *since = now;
-                false
-            }
-            Some(since) => now - *since < UNJUDGED_S,
-            None if heard => false,
-            None if room => {
-                self.unjudged.insert(from.id.clone(), now);
-                true
-            }
-            None => false,
-        }
+        self.robots.awaits_telemetry(now, &from.id)
     }
 
     /// Forgets what it heard of robots it no longer watches (what they said may be outdated by
     /// the time it matters again), and robots that stopped sending what only their telemetry
     /// can judge.
     pub(super) fn prune_unwatched(&mut self, now: f64) {
-        self.unjudged.retain(|_, since| now - *since < 2.0 * UNJUDGED_S);
-        let gone: Vec<String> = self.robot_admitted.keys().filter(|id| !self.watches(id)).cloned().collect();
-        for id in gone {
-            self.robot_admitted.remove(&id);
-            self.robot_missions.remove(&id);
-        }
+        let mut robots = std::mem::take(&mut self.robots);
+        robots.prune(now, |id| self.watches_member(id));
+        self.robots = robots;
     }
 }

@@ -335,26 +335,7 @@ impl MissionManager {
                 vec![]
             }
             Event::Left { ids } | Event::Lost { ids } if ids.is_empty() => vec![],
-            Event::Lost { ids } => {
-                for id in &ids {
-                    if let Some(m) = self.members.get(id) {
-                        self.lost.insert(id.clone(), m.clone());
-                    }
-                }
-                if !self.take_out(ids) {
-                    return vec![];
-                }
-                if self.members.is_empty() {
-                    return self.replan();
-                }
-                // One replan for the whole burst: the plan is outdated from now (the epoch says
-                // so, and a successor taking over replans), asked for once the burst is over.
-                if self.replan_due.is_none() {
-                    self.epoch = self.epoch.saturating_add(1);
-                    self.replan_due = Some(now + LOSS_BURST_S);
-                }
-                vec![]
-            }
+            Event::Lost { ids } => self.members_lost(now, ids),
             Event::Tick => match self.replan_due {
                 Some(due) if now >= due => {
                     self.replan_due = None;
@@ -369,45 +350,9 @@ impl MissionManager {
                 self.remove(ids)
             }
             Event::PlanReady { epoch, plan } => self.plan_ready(epoch, *plan),
-            Event::PlanFailed { epoch, error } => {
-                if epoch != self.epoch {
-                    return vec![];
-                }
-                tracing::warn!(mission = %self.spec.name, epoch, "planning failed: {error}");
-                self.error = Some(error.clone());
-                if self.started {
-                    vec![]
-                } else {
-                    self.status = MissionStatus::Failed;
-                    vec![Command::Failed { error }]
-                }
-            }
+            Event::PlanFailed { epoch, error } => self.plan_failed(epoch, error),
             Event::Telemetry(t) => {
-                let Some(m) = self.members.get_mut(&t.id) else { return vec![] };
-                m.spec.x = t.pose.x;
-                m.spec.y = t.pose.y;
-                match &t.stuck {
-                    Some(why) if self.stuck.get(&t.id) != Some(why) => {
-                        if !self.stuck.contains_key(&t.id) {
-                            tracing::warn!(mission = %self.spec.name, robot = %t.id, "member cannot get to its goal: {why}");
-                        }
-                        self.stuck.insert(t.id.clone(), why.chars().take(MAX_STUCK_REASON).collect());
-                    }
-                    Some(_) => {}
-                    None => {
-                        if self.stuck.remove(&t.id).is_some() {
-                            tracing::info!(mission = %self.spec.name, robot = %t.id, "member on its way again");
-                        }
-                    }
-                }
-                if self.spec.paused {
-                    // Nobody patrols while paused: no visit, no idleness clock.
-                    return vec![];
-                }
-                let robot_now = now * self.time_scale(&t.id);
-                let tour = self.plan.as_ref().map(|(_, p)| tour(p)).unwrap_or(&[]);
-                let carried = self.metrics.telemetry(&self.spec.name, self.epoch, tour, robot_now, &t);
-                self.sync_msgs_left = self.sync_msgs_left.saturating_add(carried);
+                self.telemetry(now, &t);
                 vec![]
             }
             Event::Update(spec) => self.update(*spec),
@@ -420,6 +365,73 @@ impl MissionManager {
                 vec![]
             }
         }
+    }
+
+    /// Members lost: out of the plan at once, and one replan for the whole burst — the plan is
+    /// outdated from now (the epoch says so, and a successor taking over replans), asked for
+    /// once the burst is over ([`LOSS_BURST_S`]).
+    fn members_lost(&mut self, now: f64, ids: Vec<String>) -> Vec<Command> {
+        for id in &ids {
+            if let Some(m) = self.members.get(id) {
+                self.lost.insert(id.clone(), m.clone());
+            }
+        }
+        if !self.take_out(ids) {
+            return vec![];
+        }
+        if self.members.is_empty() {
+            return self.replan();
+        }
+        if self.replan_due.is_none() {
+            self.epoch = self.epoch.saturating_add(1);
+            self.replan_due = Some(now + LOSS_BURST_S);
+        }
+        vec![]
+    }
+
+    /// The planner failed on the current epoch: a mission not started yet fails with it; a
+    /// running one goes on with its plans and says why.
+    fn plan_failed(&mut self, epoch: u64, error: String) -> Vec<Command> {
+        if epoch != self.epoch {
+            return vec![];
+        }
+        tracing::warn!(mission = %self.spec.name, epoch, "planning failed: {error}");
+        self.error = Some(error.clone());
+        if self.started {
+            vec![]
+        } else {
+            self.status = MissionStatus::Failed;
+            vec![Command::Failed { error }]
+        }
+    }
+
+    /// A member's telemetry: where it is (for the next plan), whether it is stuck, and its visits
+    /// (the idleness clock; none while paused).
+    fn telemetry(&mut self, now: f64, t: &Telemetry) {
+        let Some(m) = self.members.get_mut(&t.id) else { return };
+        m.spec.x = t.pose.x;
+        m.spec.y = t.pose.y;
+        match &t.stuck {
+            Some(why) if self.stuck.get(&t.id) != Some(why) => {
+                if !self.stuck.contains_key(&t.id) {
+                    tracing::warn!(mission = %self.spec.name, robot = %t.id, "member cannot get to its goal: {why}");
+                }
+                self.stuck.insert(t.id.clone(), why.chars().take(MAX_STUCK_REASON).collect());
+            }
+            Some(_) => {}
+            None => {
+                if self.stuck.remove(&t.id).is_some() {
+                    tracing::info!(mission = %self.spec.name, robot = %t.id, "member on its way again");
+                }
+            }
+        }
+        if self.spec.paused {
+            return;
+        }
+        let robot_now = now * self.time_scale(&t.id);
+        let tour = self.plan.as_ref().map(|(_, p)| tour(p)).unwrap_or(&[]);
+        let carried = self.metrics.telemetry(&self.spec.name, self.epoch, tour, robot_now, t);
+        self.sync_msgs_left = self.sync_msgs_left.saturating_add(carried);
     }
 
     /// The operator's change: what it is now, and the next epoch's plans if what it plans on

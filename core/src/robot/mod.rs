@@ -374,49 +374,8 @@ impl Robot {
                 self.route.clear();
                 self.body.hold();
             }
-            RobotCommand::Plan(a) => {
-                self.check_plan(a)?;
-                if let Some(e) = &self.exec {
-                    if e.mission() == a.mission && e.epoch() > a.epoch {
-                        return Err(format!("stale epoch {} for mission {} (running epoch {})", a.epoch, a.mission, e.epoch()));
-                    }
-                    if e.assignment.same_plan(a) {
-                        // The same plan again (a re-send, or a new head after a takeover): go on,
-                        // knowing who manages it now.
-                        if let Some(e) = self.exec.as_mut() {
-                            e.assignment.managers.clone_from(&a.managers);
-                        }
-                        return Ok(None);
-                    }
-                }
-                tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
-                self.route.clear();
-                self.body.hold();
-                change = Some(Command::JoinTeam {
-                    team: a.team.clone(),
-                    subteam: a.subteam.clone(),
-                    barrier: a.barrier,
-                    members: a.members.clone(),
-                    scopes: a.scopes.clone(),
-                });
-                self.exec = Some(Executor::new((**a).clone()).with_time_scale(self.cfg.time_scale));
-            }
-            RobotCommand::Admit { mission, managers, members } => {
-                proto::validate_id(mission).map_err(|e| e.to_string())?;
-                if managers.len() > proto::MAX_REPLICAS + 2 || managers.iter().any(|m| proto::validate_id(m).is_err()) {
-                    return Err("admit: bad manager list".into());
-                }
-                if members.len() > proto::MAX_MISSION_ROBOTS || members.iter().any(|m| proto::validate_id(m).is_err()) {
-                    return Err("admit: bad member list".into());
-                }
-                // The newest admission to a mission replaces the older one; the oldest of other
-                // missions goes when there are too many.
-                self.admitted.retain(|(m, _, _)| m != mission);
-                if self.admitted.len() >= MAX_ADMISSIONS {
-                    self.admitted.remove(0);
-                }
-                self.admitted.push((mission.clone(), managers.clone(), members.clone()));
-            }
+            RobotCommand::Plan(a) => change = self.plan(a)?,
+            RobotCommand::Admit { mission, managers, members } => self.admit(mission, managers, members)?,
             RobotCommand::Leave { mission, epoch } => {
                 // Out of the mission: its admission goes too.
                 self.admitted.retain(|(m, _, _)| m != mission);
@@ -439,6 +398,51 @@ impl Robot {
             }
         }
         Ok(change)
+    }
+
+    /// A plan from a mission's head: checked, and run unless it is older than the one running or
+    /// the same again (then only who manages it is learnt).
+    fn plan(&mut self, a: &PlanAssignment) -> Result<Option<Command>, String> {
+        self.check_plan(a)?;
+        if let Some(e) = &self.exec {
+            if e.mission() == a.mission && e.epoch() > a.epoch {
+                return Err(format!("stale epoch {} for mission {} (running epoch {})", a.epoch, a.mission, e.epoch()));
+            }
+            if e.assignment.same_plan(a) {
+                // The same plan again (a re-send, or a new head after a takeover): go on,
+                // knowing who manages it now.
+                if let Some(e) = self.exec.as_mut() {
+                    e.assignment.managers.clone_from(&a.managers);
+                }
+                return Ok(None);
+            }
+        }
+        tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
+        self.route.clear();
+        self.body.hold();
+        let join =
+            Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier, members: a.members.clone(), scopes: a.scopes.clone() };
+        self.exec = Some(Executor::new(a.clone()).with_time_scale(self.cfg.time_scale));
+        Ok(Some(join))
+    }
+
+    /// Central admits this robot to `mission`: whom to trust as its managers and teammates.
+    fn admit(&mut self, mission: &str, managers: &[String], members: &[String]) -> Result<(), String> {
+        proto::validate_id(mission).map_err(|e| e.to_string())?;
+        if managers.len() > proto::MAX_REPLICAS + 2 || managers.iter().any(|m| proto::validate_id(m).is_err()) {
+            return Err("admit: bad manager list".into());
+        }
+        if members.len() > proto::MAX_MISSION_ROBOTS || members.iter().any(|m| proto::validate_id(m).is_err()) {
+            return Err("admit: bad member list".into());
+        }
+        // The newest admission to a mission replaces the older one; the oldest of other
+        // missions goes when there are too many.
+        self.admitted.retain(|(m, _, _)| m != mission);
+        if self.admitted.len() >= MAX_ADMISSIONS {
+            self.admitted.remove(0);
+        }
+        self.admitted.push((mission.to_string(), managers.to_vec(), members.to_vec()));
+        Ok(())
     }
 
     /// Everything in a plan that could hurt: another robot's plan, bad names, numbers that are

@@ -49,12 +49,12 @@ impl SystemManager {
 
     /// What robot `id` has (nothing while its info is unknown).
     pub(super) fn capabilities_of(&self, id: &str) -> &[String] {
-        self.robots.get(id).and_then(|r| r.info.as_ref()).map(|i| i.capabilities.as_slice()).unwrap_or(&[])
+        self.fleet.capabilities_of(id)
     }
 
     /// Whether registered robot `id` has every capability of `requires`.
     pub(super) fn has_all(&self, id: &str, requires: &[String]) -> bool {
-        self.robots.get(id).is_some_and(|r| r.info.is_some()) && proto::lacking(self.capabilities_of(id), requires).is_empty()
+        self.fleet.known(id) && proto::lacking(self.capabilities_of(id), requires).is_empty()
     }
 
     /// The operator changes a robot's capabilities: checked here, carried out by the robot, whose
@@ -75,7 +75,7 @@ impl SystemManager {
             tracing::warn!(robot = %id, "capabilities in a command answer ignored: {e}");
             return (vec![], None);
         }
-        let Some(info) = self.robots.get_mut(id).and_then(|r| r.info.as_mut()) else {
+        let Some(info) = self.fleet.get_mut(id).and_then(|r| r.info.as_mut()) else {
             return (vec![], None);
         };
         if info.capabilities != capabilities {
@@ -91,14 +91,14 @@ impl SystemManager {
         let Some(mission) = self.assignment.get(id).cloned() else {
             return (vec![], None);
         };
-        if self.robots.get(id).is_none_or(|r| r.info.is_none()) {
+        if !self.fleet.known(id) {
             // Not heard what it has yet.
             return (vec![], None);
         }
         let Err(why) = self.check_capable(id, &mission) else {
             return (vec![], None);
         };
-        let alive = self.robots.get(id).is_some_and(|r| r.alive);
+        let alive = self.fleet.alive(id);
         tracing::warn!(robot = %id, %mission, "{why}: taken out of the mission");
         let request = json!({"robot": id, "to": null, "reason": why});
         self.notes.push(JournalEvent::Command { by: "central".into(), command: "robot move".into(), request });

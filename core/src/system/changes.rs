@@ -73,8 +73,7 @@ impl SystemManager {
             }
             None => spec.map.as_ref().and_then(|m| self.maps.get(&m.name).filter(|h| h.info.hash == m.hash)).map(|h| h.map.clone()),
         };
-        let ids: Vec<&String> =
-            self.assignment.iter().filter(|(id, m)| *m == &u.name && self.robots.get(*id).is_some_and(|r| r.alive)).map(|(id, _)| id).collect();
+        let ids: Vec<&String> = self.assignment.iter().filter(|(id, m)| *m == &u.name && self.fleet.alive(id)).map(|(id, _)| id).collect();
         let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id)).map(|s| wire::robot_spec(&s)).collect();
         let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
         if robots.is_empty() {

@@ -152,26 +152,64 @@ impl SystemManager {
         vec![]
     }
 
-    /// Everything a create needs but its dry run, or the first problem. Changes nothing.
-    fn check_create(&self, c: MissionCreate) -> Result<Checked, String> {
-        proto::validate_id(&c.name).map_err(|_| format!("mission name {:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -", c.name))?;
-        if self.missions.contains_key(&c.name) {
-            return Err(format!("mission {:?} already exists", c.name));
+    /// A new mission's name: valid, and neither a mission's here nor one robots still run.
+    fn check_name(&self, name: &str) -> Result<(), String> {
+        proto::validate_id(name).map_err(|_| format!("mission name {name:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -"))?;
+        if self.missions.contains_key(name) {
+            return Err(format!("mission {name:?} already exists"));
         }
         // A mission this manager does not know (it restarted, and that mission's head is gone
         // or has not reported) may still run on robots: its name is taken.
         let running: Vec<&str> = self
-            .robots
+            .fleet
             .iter()
-            .filter(|(_, r)| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(c.name.as_str())))
+            .filter(|(_, r)| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name)))
             .map(|(id, _)| id.as_str())
             .collect();
-        if !running.is_empty() && !self.terminated.contains(&c.name) {
-            return Err(format!("mission {:?} still runs on robots {} though no manager of it has reported: choose another name", c.name, running.join(", ")));
+        if !running.is_empty() && !self.terminated.contains(name) {
+            return Err(format!("mission {name:?} still runs on robots {} though no manager of it has reported: choose another name", running.join(", ")));
         }
+        Ok(())
+    }
+
+    /// The robots a create asks for (listed, a count of idle ones, or the equal share) and the
+    /// robots taken from other missions for it, or why not.
+    #[allow(clippy::type_complexity)]
+    fn choose_robots(&self, c: &MissionCreate, r: &recipe::Recipe, requires: &[String]) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+        match (&c.robots, c.count) {
+            (Some(_), Some(_)) => Err("give robots or count, not both".into()),
+            (Some(list), None) => {
+                let mut seen = BTreeSet::new();
+                for id in list {
+                    let info = self.live_robot(id)?;
+                    super::capabilities::capable(id, &info.capabilities, &c.name, requires)?;
+                    if !seen.insert(id) {
+                        return Err(format!("robot {id:?} listed twice"));
+                    }
+                    if let Some(m) = self.assignment.get(id) {
+                        return Err(format!("robot {id:?} is in mission {m}: move it (robot move) or leave it out"));
+                    }
+                }
+                Ok((list.clone(), vec![]))
+            }
+            (None, Some(k)) => {
+                let idle = self.for_teams(r, self.idle_robots(requires));
+                if k == 0 || k > idle.len() {
+                    let with = if requires.is_empty() { String::new() } else { format!(" with {}", requires.join(", ")) };
+                    return Err(format!("count {k}: {} idle robots{with} available", idle.len()));
+                }
+                Ok((idle.into_iter().take(k).collect(), vec![]))
+            }
+            (None, None) => self.equal_share(requires, r),
+        }
+    }
+
+    /// Everything a create needs but its dry run, or the first problem. Changes nothing.
+    fn check_create(&self, c: MissionCreate) -> Result<Checked, String> {
+        self.check_name(&c.name)?;
         let host = c.host.clone().unwrap_or_else(|| proto::CENTRAL_HOST.to_string());
-        if !self.hosts.contains(&host) {
-            let known: Vec<&str> = self.hosts.iter().map(String::as_str).collect();
+        if !self.fleet.has_host(&host) {
+            let known: Vec<&str> = self.fleet.hosts().iter().map(String::as_str).collect();
             return Err(format!("no mission host {host:?} (hosts up: {})", if known.is_empty() { "none".into() } else { known.join(", ") }));
         }
         let (recipe_name, xml) = match recipe::bank(&c.recipe) {
@@ -195,32 +233,7 @@ impl SystemManager {
             })?),
         };
         let requires = r.required();
-        let (ids, steal) = match (&c.robots, c.count) {
-            (Some(_), Some(_)) => return Err("give robots or count, not both".into()),
-            (Some(list), None) => {
-                let mut seen = BTreeSet::new();
-                for id in list {
-                    let info = self.live_robot(id)?;
-                    super::capabilities::capable(id, &info.capabilities, &c.name, &requires)?;
-                    if !seen.insert(id) {
-                        return Err(format!("robot {id:?} listed twice"));
-                    }
-                    if let Some(m) = self.assignment.get(id) {
-                        return Err(format!("robot {id:?} is in mission {m}: move it (robot move) or leave it out"));
-                    }
-                }
-                (list.clone(), vec![])
-            }
-            (None, Some(k)) => {
-                let idle = self.for_teams(&r, self.idle_robots(&requires));
-                if k == 0 || k > idle.len() {
-                    let with = if requires.is_empty() { String::new() } else { format!(" with {}", requires.join(", ")) };
-                    return Err(format!("count {k}: {} idle robots{with} available", idle.len()));
-                }
-                (idle.into_iter().take(k).collect(), vec![])
-            }
-            (None, None) => self.equal_share(&requires, &r)?,
-        };
+        let (ids, steal) = self.choose_robots(&c, &r, &requires)?;
         if ids.is_empty() {
             return Err("a mission needs at least one robot".into());
         }
@@ -294,9 +307,9 @@ impl SystemManager {
     }
 
     fn idle_robots(&self, requires: &[String]) -> Vec<String> {
-        self.robots
+        self.fleet
             .iter()
-            .filter(|(id, r)| r.alive && r.info.is_some() && !self.assignment.contains_key(*id))
+            .filter(|(id, r)| r.ready() && !self.assignment.contains_key(*id))
             .filter(|(id, _)| self.has_all(id, requires))
             // Running no plan, and not admitted to a mission that may still count on it (a
             // central that restarted may not know that mission yet).
@@ -312,14 +325,14 @@ impl SystemManager {
     #[allow(clippy::type_complexity)]
     fn equal_share(&self, requires: &[String], r: &recipe::Recipe) -> Result<(Vec<String>, Vec<(String, String)>), String> {
         let fits = |id: &str| self.fits(r, id);
-        let alive = self.robots.values().filter(|r| r.alive && r.info.is_some()).count();
+        let alive = self.fleet.ready_count();
         let share = (alive / (self.missions.len() + 1)).max(1);
         // The robots its teams' minimums need first.
         let mut chosen: Vec<String> = self.for_teams(r, self.idle_robots(requires)).into_iter().take(share).collect();
         let mut steal = Vec::new();
         let mut sizes: BTreeMap<String, Vec<String>> = BTreeMap::new();
         for (robot, m) in &self.assignment {
-            if self.robots.get(robot).is_some_and(|r| r.alive) {
+            if self.fleet.alive(robot) {
                 sizes.entry(m.clone()).or_default().push(robot.clone());
             }
         }
@@ -371,7 +384,7 @@ impl SystemManager {
         let reply = |req: Req, result| vec![Command::Reply { req, result }];
         let from = self.assignment.get(&mv.robot).cloned();
         // A robot of a mission that has not come back since central restarted may be freed too.
-        let alive = match self.robots.get(&mv.robot).filter(|r| r.info.is_some()) {
+        let alive = match self.fleet.get(&mv.robot).filter(|r| r.info.is_some()) {
             Some(r) => r.alive,
             None if from.is_some() && mv.to.is_none() => false,
             None => return reply(req, Err(format!("unknown robot {:?}", mv.robot))),

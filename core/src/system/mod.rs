@@ -13,6 +13,7 @@ mod ctl;
 pub mod durable;
 pub mod egress;
 mod events;
+mod fleet;
 pub mod ingress;
 pub mod missions;
 mod recovery;
@@ -33,6 +34,7 @@ pub use ctl::{Ctls, CTL_GIVE_UP_S, CTL_RETRY_S};
 pub use durable::{Durable, MissionDef};
 pub use egress::{egress, subscriptions};
 pub use events::{Command, Event, Req, Request};
+use fleet::{Appeared, Fleet};
 pub use ingress::{ingress, sealed};
 
 /// Seconds between two info requests to a robot that is alive but not yet registered.
@@ -119,26 +121,6 @@ struct Restart {
     next: f64,
 }
 
-#[derive(Debug, Clone)]
-struct Record {
-    info: Option<RobotInfo>,
-    alive: bool,
-    last: Option<Telemetry>,
-    /// When the last info request went out (seconds, driver clock).
-    info_asked: Option<f64>,
-    /// Set when the robot (re)appears: its sequence numbers may restart from 1.
-    fresh: bool,
-    /// When we last ordered it out of a plan it should not run.
-    leave_sent: Option<f64>,
-    /// When it was last admitted again to its mission (it restarted and forgot).
-    admit_sent: Option<f64>,
-    /// Seen coming (back) since a head last listed it as present: only such a robot is taken
-    /// back when its head reports it lost (a head may see a loss before this manager does).
-    back: bool,
-    /// When its liveliness last appeared.
-    alive_at: f64,
-}
-
 /// A robot this manager took out of a mission: until the mission acknowledged it (and for a
 /// grace period after), that mission's reports listing it are older than the order. Keyed by
 /// (robot, mission): a robot moved on again before the first mission let it go is held by both.
@@ -162,10 +144,8 @@ pub struct SystemManager {
     node: String,
     started: f64,
     now: f64,
-    robots: BTreeMap<String, Record>,
+    fleet: Fleet,
     missions: BTreeMap<String, MissionRecord>,
-    /// Mission hosts alive.
-    hosts: BTreeSet<String>,
     /// Robot → mission: every robot is in at most one mission (a lost one keeps its place).
     assignment: BTreeMap<String, String>,
     /// Missions whose create request waits for the first plan.
@@ -182,8 +162,6 @@ pub struct SystemManager {
     refused: BTreeMap<String, u64>,
     /// Messages the driver took, by how their sender was proven.
     proven: BTreeMap<String, u64>,
-    /// New robot ids ignored because the registry is full.
-    ignored: u64,
     /// Creates and updates waiting for their dry run, by check id.
     checking: BTreeMap<u64, (Req, Checking)>,
     next_check: u64,
@@ -206,9 +184,8 @@ impl SystemManager {
             node,
             started: now,
             now,
-            robots: BTreeMap::new(),
+            fleet: Fleet::default(),
             missions: BTreeMap::new(),
-            hosts: BTreeSet::new(),
             assignment: BTreeMap::new(),
             pending_create: BTreeMap::new(),
             starts: Vec::new(),
@@ -220,7 +197,6 @@ impl SystemManager {
             proven: BTreeMap::new(),
             checking: BTreeMap::new(),
             next_check: 0,
-            ignored: 0,
             journaled: Durable::default(),
             notes: Vec::new(),
             restarts: BTreeMap::new(),
@@ -250,86 +226,17 @@ impl SystemManager {
 
     fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
-            Event::RobotAlive { id } => {
-                // A flood of made-up tokens must not grow the registry without bound: past
-                // MAX_FLEET robots, a new id is ignored (the ones registered keep working).
-                if !self.robots.contains_key(&id) && self.robots.len() >= MAX_FLEET {
-                    self.ignored = self.ignored.saturating_add(1);
-                    if self.ignored.is_power_of_two() {
-                        tracing::warn!(robot = %id, ignored = self.ignored, "fleet registry full ({MAX_FLEET} robots): new robots ignored");
-                    }
-                    return vec![];
-                }
-                if let Some(r) = self.robots.get_mut(&id).filter(|r| !r.alive) {
-                    self.notes.push(JournalEvent::RobotBack { robot: id.clone() });
-                    r.back = true;
-                }
-                let rec = self.robots.entry(id.clone()).or_insert(Record {
-                    info: None,
-                    alive: false,
-                    last: None,
-                    info_asked: None,
-                    fresh: true,
-                    leave_sent: None,
-                    admit_sent: None,
-                    back: true,
-                    alive_at: now,
-                });
-                rec.alive = true;
-                rec.alive_at = now;
-                rec.fresh = true;
-                // Ask again even if known: a restarted robot may have changed type or endpoints.
-                rec.info_asked = Some(now);
-                vec![Command::FetchInfo { id }]
-            }
+            Event::RobotAlive { id } => self.robot_alive(id, now),
             Event::RobotGone { id } => {
-                if let Some(rec) = self.robots.get_mut(&id) {
-                    if rec.alive {
-                        tracing::warn!(robot = %id, "robot lost");
-                        self.notes.push(JournalEvent::RobotLost { robot: id.clone() });
-                    }
-                    rec.alive = false;
+                if self.fleet.disappeared(&id) {
+                    tracing::warn!(robot = %id, "robot lost");
+                    self.notes.push(JournalEvent::RobotLost { robot: id });
                 }
                 // Its mission's head plans around it and takes it back when it returns; its
                 // place is kept, so no other mission takes it meanwhile.
                 vec![]
             }
-            Event::RobotRegistered(info) => {
-                let id = info.id.clone();
-                match self.robots.get_mut(&id) {
-                    Some(rec) => {
-                        match &rec.info {
-                            None => tracing::info!(robot = %id, r#type = %info.robot_type, "robot registered"),
-                            Some(old) if old.capabilities != info.capabilities => {
-                                tracing::info!(robot = %id, was = ?old.capabilities, now = ?info.capabilities, "robot capabilities changed")
-                            }
-                            Some(_) => {}
-                        }
-                        rec.info = Some(info);
-                    }
-                    None => {
-                        tracing::debug!(robot = %id, "info from a robot with no liveliness: ignored")
-                    }
-                }
-                // A member that came back without what its mission requires leaves it.
-                let (out, left) = self.unfit(&id);
-                if left.is_some() {
-                    return out;
-                }
-                // A lost member back: its mission takes it again, on our order — and it is
-                // admitted again (it may have restarted and forgotten).
-                match self.assignment.get(&id).cloned() {
-                    Some(m) => {
-                        self.rejoin(&m);
-                        // Down when its mission was started again: its head never knew it.
-                        if self.missions.get(&m).is_some_and(|r| !r.adopted) {
-                            self.resync(&m);
-                        }
-                        self.admit(&m, std::slice::from_ref(&id))
-                    }
-                    None => vec![],
-                }
-            }
+            Event::RobotRegistered(info) => self.registered(info),
             Event::InfoFailed { id, reason } => {
                 tracing::debug!(robot = %id, "info request failed: {reason}");
                 vec![]
@@ -337,34 +244,7 @@ impl SystemManager {
             Event::Telemetry(t) => self.telemetry(now, *t),
             Event::Tick => self.tick(now),
             Event::Operator { req, request } => self.operator(now, req, request),
-            Event::RobotCommandDone { req, robot, result } => {
-                // The answer to a change of capabilities says what the robot has now.
-                let (mut out, left) = match &result {
-                    Ok(CommandAck { capabilities: Some(c), .. }) => self.capabilities_now(&robot, c.clone()),
-                    _ => (vec![], None),
-                };
-                match req {
-                    Some(req) => {
-                        let result = match result {
-                            Ok(ack) => to_value(&ack).map(|mut v| {
-                                if let (Some(m), Some(o)) = (left, v.as_object_mut()) {
-                                    o.insert("left".into(), Value::String(m));
-                                }
-                                v
-                            }),
-                            Err(e) => Err(format!("robot {robot}: {e}")),
-                        };
-                        out.push(Command::Reply { req, result });
-                    }
-                    None => {
-                        if let Err(e) = result {
-                            tracing::warn!(robot = %robot, "command failed: {e}");
-                            out.extend(self.admit_again(now, &robot));
-                        }
-                    }
-                }
-                out
-            }
+            Event::RobotCommandDone { req, robot, result } => self.command_done(now, req, &robot, result),
             Event::MissionStarted { mission, result } => self.started(&mission, result),
             Event::Forwarded { req, result } => vec![Command::Reply { req, result }],
             Event::CtlDone { id, result } => {
@@ -387,20 +267,87 @@ impl SystemManager {
             }
             Event::DryRunDone { id, result } => self.dry_run_done(id, result),
             Event::HostAlive { node } => {
-                tracing::info!(%node, "mission host up");
-                self.hosts.insert(node);
+                self.fleet.host_up(node);
                 vec![]
             }
             Event::HostGone { node } => {
-                tracing::warn!(%node, "mission host lost");
-                self.hosts.remove(&node);
-                for rec in self.missions.values_mut().filter(|r| r.host == node) {
-                    if let Some(v) = rec.view.as_mut() {
-                        v.status = MissionStatus::Stalled;
-                        v.error = Some(format!("mission manager's node {node} lost; a replica takes over, robots keep their plans"));
-                    }
-                }
+                self.fleet.host_down(&node);
+                self.host_gone(&node);
                 vec![]
+            }
+        }
+    }
+
+    /// A robot's token appeared: it is asked who it is (again: a restarted robot may have
+    /// changed type or endpoints).
+    fn robot_alive(&mut self, id: String, now: f64) -> Vec<Command> {
+        match self.fleet.appeared(&id, now) {
+            Appeared::Ignored => vec![],
+            seen => {
+                if seen == Appeared::Back {
+                    self.notes.push(JournalEvent::RobotBack { robot: id.clone() });
+                }
+                vec![Command::FetchInfo { id }]
+            }
+        }
+    }
+
+    /// A robot said who it is. A member that came back without what its mission requires
+    /// leaves it; a lost member back is taken again by its mission, on our order — and admitted
+    /// again (it may have restarted and forgotten).
+    fn registered(&mut self, info: RobotInfo) -> Vec<Command> {
+        let id = info.id.clone();
+        self.fleet.registered(info);
+        let (out, left) = self.unfit(&id);
+        if left.is_some() {
+            return out;
+        }
+        let Some(m) = self.assignment.get(&id).cloned() else { return vec![] };
+        self.rejoin(&m);
+        // Down when its mission was started again: its head never knew it.
+        if self.missions.get(&m).is_some_and(|r| !r.adopted) {
+            self.resync(&m);
+        }
+        self.admit(&m, std::slice::from_ref(&id))
+    }
+
+    /// A command to a robot answered: the operator's reply (with the mission it left, if a
+    /// change of capabilities made it leave one), or, for our own command that failed, the
+    /// robot admitted again.
+    fn command_done(&mut self, now: f64, req: Option<Req>, robot: &str, result: Result<CommandAck, String>) -> Vec<Command> {
+        // The answer to a change of capabilities says what the robot has now.
+        let (mut out, left) = match &result {
+            Ok(CommandAck { capabilities: Some(c), .. }) => self.capabilities_now(robot, c.clone()),
+            _ => (vec![], None),
+        };
+        match (req, result) {
+            (Some(req), result) => {
+                let result = match result {
+                    Ok(ack) => to_value(&ack).map(|mut v| {
+                        if let (Some(m), Some(o)) = (left, v.as_object_mut()) {
+                            o.insert("left".into(), Value::String(m));
+                        }
+                        v
+                    }),
+                    Err(e) => Err(format!("robot {robot}: {e}")),
+                };
+                out.push(Command::Reply { req, result });
+            }
+            (None, Err(e)) => {
+                tracing::warn!(robot = %robot, "command failed: {e}");
+                out.extend(self.admit_again(now, robot));
+            }
+            (None, Ok(_)) => {}
+        }
+        out
+    }
+
+    /// The missions a lost host managed are shown stalled until a replica reports.
+    fn host_gone(&mut self, node: &str) {
+        for rec in self.missions.values_mut().filter(|r| r.host == node) {
+            if let Some(v) = rec.view.as_mut() {
+                v.status = MissionStatus::Stalled;
+                v.error = Some(format!("mission manager's node {node} lost; a replica takes over, robots keep their plans"));
             }
         }
     }
@@ -414,20 +361,8 @@ impl SystemManager {
                 out.extend(self.operator(now, req, request));
             }
         }
-        // Robots alive that never answered their info query are asked again, a bounded number
-        // per tick (a flood of tokens costs a bounded number of queries).
-        let fetch: Vec<Command> = self
-            .robots
-            .iter_mut()
-            .filter(|(_, r)| r.alive && r.info.is_none())
-            .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
-            .take(FETCH_PER_TICK)
-            .map(|(id, r)| {
-                r.info_asked = Some(now);
-                Command::FetchInfo { id: id.clone() }
-            })
-            .collect();
-        out.extend(fetch);
+        // Robots alive that never answered their info query are asked again (bounded per tick).
+        out.extend(self.fleet.fetch_due(now).into_iter().map(|id| Command::FetchInfo { id }));
         if now - self.started >= RESTART_S {
             self.restart_orphans(now);
         }
@@ -480,8 +415,7 @@ impl SystemManager {
 
     /// What a mission manager needs to know about a robot.
     fn member(&self, id: &str) -> Option<Member> {
-        let info = self.robots.get(id)?.info.as_ref()?;
-        Some(Member { spec: self.spec(id)?, time_scale: info.time_scale, capabilities: info.capabilities.clone() })
+        self.fleet.member(id)
     }
 
     /// Checks a goto; on a map (the one it names, else central's only one), the route's corner
@@ -499,7 +433,7 @@ impl SystemManager {
             None if self.maps.len() == 1 => self.maps.values().next(),
             None => None,
         };
-        let (Some(held), Some(pose)) = (held, self.robots.get(&g.robot).and_then(|r| r.last.as_ref()).map(|t| t.pose)) else { return Ok(vec![]) };
+        let (Some(held), Some(pose)) = (held, self.fleet.last(&g.robot).map(|t| t.pose)) else { return Ok(vec![]) };
         let space = held.space()?;
         let name = &held.info.name;
         let from = space.locate_robot(&g.robot, 0, mrmm_maps::Point::new(pose.x, pose.y)).map_err(|e| format!("map {name}: {e}"))?;
@@ -510,19 +444,12 @@ impl SystemManager {
 
     /// The robot's record if it is registered and alive.
     fn live_robot(&self, id: &str) -> Result<&RobotInfo, String> {
-        let rec = self.robots.get(id).filter(|r| r.info.is_some()).ok_or_else(|| format!("unknown robot {id:?}"))?;
-        if !rec.alive {
-            return Err(format!("robot {id:?} is lost"));
-        }
-        rec.info.as_ref().ok_or_else(|| format!("unknown robot {id:?}"))
+        self.fleet.live_robot(id)
     }
 
     /// What a planner needs to know about a robot.
     fn spec(&self, id: &str) -> Option<RobotSpec> {
-        let rec = self.robots.get(id)?;
-        let info = rec.info.as_ref()?;
-        let pose = rec.last.as_ref().map(|t| t.pose).unwrap_or_default();
-        Some(RobotSpec { id: id.to_string(), robot_type: info.robot_type.clone(), x: pose.x, y: pose.y, speed: info.max_speed })
+        self.fleet.spec(id)
     }
 }
 

@@ -100,7 +100,7 @@ impl SystemManager {
             // A robot runs it: its managers may be alive somewhere and report soon. If none has
             // reported for this long, its chain lost its majority: the mission is started anew,
             // with those robots too (the new lineage's plans win at them).
-            let runs = self.robots.values().any(|r| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
+            let runs = self.fleet.iter().any(|(_, r)| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
             let silent = self.missions.get(&name).is_some_and(|r| r.view.is_some());
             let uncommitted = self.missions.get(&name).is_some_and(stuck);
             if runs && now - self.started < RUNNING_WAIT_S {
@@ -109,7 +109,7 @@ impl SystemManager {
             // A member with a state dir that came up lately may bring the mission back through
             // its chain, from its disk (with its metrics): it gets the time to.
             let reforming: Vec<&String> = self
-                .robots
+                .fleet
                 .iter()
                 .filter(|(id, r)| r.alive && now - r.alive_at < DURABLE_WAIT_S && self.assignment.get(*id) == Some(&name))
                 .filter(|(_, r)| r.info.as_ref().is_some_and(|i| i.durable))
@@ -127,17 +127,13 @@ impl SystemManager {
             let Some(spec) = rec.def.spec.clone() else {
                 continue;
             };
-            let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.hosts.contains(*h)).map(str::to_string);
+            let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.fleet.has_host(h)).map(str::to_string);
             let Some(host) = host else { continue };
             // The members back (a member still away may be cut off with the mission's chain: the
             // new lineage's epochs are above all of that chain's, and its head is fenced when it
             // reports). The others rejoin as they come back.
-            let members: Vec<Member> = self
-                .assignment
-                .iter()
-                .filter(|(id, m)| **m == name && self.robots.get(*id).is_some_and(|r| r.alive && r.info.is_some()))
-                .filter_map(|(id, _)| self.member(id))
-                .collect();
+            let members: Vec<Member> =
+                self.assignment.iter().filter(|(id, m)| **m == name && self.fleet.ready(id)).filter_map(|(id, _)| self.member(id)).collect();
             if members.is_empty() {
                 continue;
             }

@@ -26,8 +26,11 @@ impl SystemManager {
         }
     }
 
+    /// A robot's telemetry (newer than the last, or the first since it came up): its info asked
+    /// again if it changed, and the robot steered where it runs or is admitted to what it
+    /// should not be.
     pub(super) fn telemetry(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
-        let Some(rec) = self.robots.get_mut(&t.id) else {
+        let Some(rec) = self.fleet.get_mut(&t.id) else {
             return vec![];
         };
         let newer = rec.fresh || rec.last.as_ref().is_none_or(|old| t.seq > old.seq);
@@ -43,12 +46,17 @@ impl SystemManager {
             rec.info_asked = Some(now);
             out.push(Command::FetchInfo { id: t.id.clone() });
         }
-        // A robot running a plan of a mission it is not in (it missed a leave order, or was
-        // moved) is told to leave it — but only for missions this manager knows or terminated:
-        // after a restart of central, missions it never heard of keep running.
-        // Admitted to a mission this manager knows it is not in (a leave order it missed):
-        // told to leave it, which clears the admission.
-        let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
+        out.extend(self.leave_admissions(now, &t));
+        out.extend(self.admit_forgetful(now, &t));
+        out.extend(self.runs(now, t));
+        out
+    }
+
+    /// Admitted to a mission this manager knows (or terminated) it is not in — a leave order it
+    /// missed, or it was moved: told to leave it, which clears the admission. After a restart of
+    /// central, missions it never heard of keep running.
+    fn leave_admissions(&mut self, now: f64, t: &Telemetry) -> Vec<Command> {
+        let retry = self.fleet.get(&t.id).is_some_and(|r| r.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S));
         let mut leave = Vec::new();
         for admitted in t.admitted.iter().filter(|a| t.mission.as_ref() != Some(*a)) {
             let known = self.missions.contains_key(admitted) || self.terminated.contains(admitted);
@@ -64,29 +72,40 @@ impl SystemManager {
                 leave.push(admitted.clone());
             }
         }
-        if !leave.is_empty() {
+        if let Some(rec) = self.fleet.get_mut(&t.id).filter(|_| !leave.is_empty()) {
             rec.leave_sent = Some(now);
         }
-        for mission in leave {
-            out.push(Command::SendToRobot { req: None, robot: t.id.clone(), cmd: RobotCommand::Leave { mission, epoch: u64::MAX } });
-        }
-        // In a mission here, but neither running it nor admitted to it (it restarted and forgot
-        // its admission): admitted again, so it trusts the mission's managers when they call.
-        if let Some(m) = self.assignment.get(&t.id).filter(|m| self.missions.contains_key(*m)) {
-            let forgot = t.mission.as_ref() != Some(m) && !t.admitted.contains(m);
-            if forgot && rec.admit_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S) {
+        leave
+            .into_iter()
+            .map(|mission| Command::SendToRobot { req: None, robot: t.id.clone(), cmd: RobotCommand::Leave { mission, epoch: u64::MAX } })
+            .collect()
+    }
+
+    /// In a mission here, but neither running it nor admitted to it (it restarted and forgot
+    /// its admission): admitted again, so it trusts the mission's managers when they call.
+    fn admit_forgetful(&mut self, now: f64, t: &Telemetry) -> Vec<Command> {
+        let Some(m) = self.assignment.get(&t.id).filter(|m| self.missions.contains_key(*m)).cloned() else { return vec![] };
+        let forgot = t.mission.as_ref() != Some(&m) && !t.admitted.contains(&m);
+        match self.fleet.get_mut(&t.id) {
+            Some(rec) if forgot && rec.admit_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S) => {
                 rec.admit_sent = Some(now);
-                let (id, m) = (t.id.clone(), m.clone());
-                out.extend(self.admit(&m, &[id]));
+                self.admit(&m, std::slice::from_ref(&t.id))
             }
+            _ => vec![],
         }
-        let Some(rec) = self.robots.get_mut(&t.id) else {
+    }
+
+    /// What it runs: in no mission here, running one whose head lists it, it is recorded there
+    /// (the head's report and its own telemetry agree, see `reconcile`); running a mission this
+    /// manager knows it is not in (and not being let go by it), it is told to leave. The
+    /// telemetry is kept as its latest.
+    fn runs(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
+        let mut out = Vec::new();
+        let Some(rec) = self.fleet.get_mut(&t.id) else {
             return out;
         };
         if let Some(running) = &t.mission {
             let assigned = self.assignment.get(&t.id);
-            // In no mission here, running one whose head lists it: the head's report and the
-            // robot's own telemetry agree — it is that mission's (see `reconcile`).
             let listed = self.missions.get(running).filter(|m| m.adopted).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
             let released = Self::released_by(&self.released, &self.ctls, &t.id, running, false);
             if assigned.is_none() && listed && !released && !self.terminated.contains(running) {
@@ -145,54 +164,62 @@ impl SystemManager {
             }
             return vec![];
         }
-        if let Some(rec) = self.missions.get_mut(&view.name) {
-            // A report of an older chain epoch is from a manager that was replaced.
-            let known = rec.view.as_ref().map_or(0, |v| v.manager.chain_epoch);
-            if view.manager.chain_epoch < known {
-                return vec![];
-            }
-            rec.reported_at = self.now;
-            let moved = rec.host != view.manager.node;
-            if moved {
-                tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
-                rec.host = view.manager.node.clone();
-                self.notes.push(JournalEvent::ManagerChanged {
-                    mission: view.name.clone(),
-                    manager: view.manager.node.clone(),
-                    chain_epoch: view.manager.chain_epoch,
-                });
-            }
-            if rec.view.is_none() && view.status == MissionStatus::Planning {
-                return vec![];
-            }
-            let old_epoch = rec.view.as_ref().map(|v| v.manager.epoch);
-            if old_epoch.is_some_and(|e| e < view.manager.epoch) {
-                self.notes.push(JournalEvent::Replanned { mission: view.name.clone(), plan_epoch: view.manager.epoch, robots: view.robots.clone() });
-            }
-            let name = view.name.clone();
-            let (robots, lost) = (view.robots.clone(), view.lost.clone());
-            // The first report since this manager started from its journal: the head may have
-            // missed joins ordered before the restart.
-            let first = rec.view.is_none() && !rec.adopted;
-            if rec.def.spec.is_none() {
-                rec.requires = super::capabilities::reported(&view);
-            }
-            rec.view = Some(view);
-            let mut out = self.reconcile(&name, &robots, &lost, &from);
-            if moved {
-                // Its members may know only the managers they were admitted under (a robot that
-                // restarted while central was away was admitted under the host alone, found by
-                // the system sim, seed 3928): the new head may plan for them only once they know it.
-                let members: Vec<String> = robots.iter().chain(&lost).filter(|id| self.assignment.get(*id).is_some_and(|m| *m == name)).cloned().collect();
-                out.extend(self.admit(&name, &members));
-            }
-            self.rejoin(&name);
-            if first && !self.pending_create.contains_key(&name) {
-                self.resync(&name);
-            }
-            return out;
+        if self.missions.contains_key(&view.name) {
+            return self.reported(view, from);
         }
-        if !self.hosts.contains(&view.manager.node) || self.pending_create.contains_key(&view.name) {
+        self.adopt(view, from)
+    }
+
+    /// A report of a mission this manager knows: where its manager is now, its plan epoch, and
+    /// its membership reconciled with ours.
+    fn reported(&mut self, view: MissionView, from: Sender) -> Vec<Command> {
+        let Some(rec) = self.missions.get_mut(&view.name) else { return vec![] };
+        rec.reported_at = self.now;
+        let moved = rec.host != view.manager.node;
+        if moved {
+            tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
+            rec.host = view.manager.node.clone();
+            self.notes.push(JournalEvent::ManagerChanged {
+                mission: view.name.clone(),
+                manager: view.manager.node.clone(),
+                chain_epoch: view.manager.chain_epoch,
+            });
+        }
+        if rec.view.is_none() && view.status == MissionStatus::Planning {
+            return vec![];
+        }
+        let old_epoch = rec.view.as_ref().map(|v| v.manager.epoch);
+        if old_epoch.is_some_and(|e| e < view.manager.epoch) {
+            self.notes.push(JournalEvent::Replanned { mission: view.name.clone(), plan_epoch: view.manager.epoch, robots: view.robots.clone() });
+        }
+        let name = view.name.clone();
+        let (robots, lost) = (view.robots.clone(), view.lost.clone());
+        // The first report since this manager started from its journal: the head may have
+        // missed joins ordered before the restart.
+        let first = rec.view.is_none() && !rec.adopted;
+        if rec.def.spec.is_none() {
+            rec.requires = super::capabilities::reported(&view);
+        }
+        rec.view = Some(view);
+        let mut out = self.reconcile(&name, &robots, &lost, &from);
+        if moved {
+            // Its members may know only the managers they were admitted under (a robot that
+            // restarted while central was away was admitted under the host alone, found by
+            // the system sim, seed 3928): the new head may plan for them only once they know it.
+            let members: Vec<String> = robots.iter().chain(&lost).filter(|id| self.assignment.get(*id).is_some_and(|m| *m == name)).cloned().collect();
+            out.extend(self.admit(&name, &members));
+        }
+        self.rejoin(&name);
+        if first && !self.pending_create.contains_key(&name) {
+            self.resync(&name);
+        }
+        out
+    }
+
+    /// A mission this manager does not know, reported by a live host (central restarted while
+    /// the head kept running it): adopted — record, host and membership from the report.
+    fn adopt(&mut self, view: MissionView, from: Sender) -> Vec<Command> {
+        if !self.fleet.has_host(&view.manager.node) || self.pending_create.contains_key(&view.name) {
             return vec![];
         }
         tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its head's report");
@@ -233,9 +260,7 @@ impl SystemManager {
             }
             // A robot that says it runs this mission, or nothing (it restarted and forgot):
             // never one that says it runs another.
-            let confirmed = trusted
-                || *id == reporter.id
-                || self.robots.get(id).and_then(|r| r.last.as_ref()).is_some_and(|t| t.mission.is_none() || t.mission.as_deref() == Some(name));
+            let confirmed = trusted || *id == reporter.id || self.fleet.last(id).is_some_and(|t| t.mission.is_none() || t.mission.as_deref() == Some(name));
             match self.assignment.get(id) {
                 Some(m) if m == name => {}
                 Some(_) => strangers.push(id.clone()),
@@ -267,7 +292,7 @@ impl SystemManager {
         // A report listing it present well after it (re)appeared has seen it back.
         let now = self.now;
         for id in &present {
-            if let Some(r) = self.robots.get_mut(id).filter(|r| now - r.alive_at > SEEN_BACK_S) {
+            if let Some(r) = self.fleet.get_mut(id).filter(|r| now - r.alive_at > SEEN_BACK_S) {
                 r.back = false;
             }
         }
@@ -275,9 +300,9 @@ impl SystemManager {
             let ours = self.assignment.get(&id).is_some_and(|m| m == name);
             // Seen coming back since its head counted it present: a head that saw the loss
             // before this manager did is not answered with a rejoin of a dead robot.
-            let alive = self.robots.get(&id).is_some_and(|r| r.alive && r.info.is_some() && r.back);
+            let alive = self.fleet.get(&id).is_some_and(|r| r.ready() && r.back);
             if ours && alive && self.join(name, &id, "lost member back: its mission takes it again") {
-                if let Some(r) = self.robots.get_mut(&id) {
+                if let Some(r) = self.fleet.get_mut(&id) {
                     r.back = false;
                 }
             }
@@ -289,7 +314,7 @@ impl SystemManager {
     /// letting it go, after that.
     fn join(&mut self, name: &str, id: &str, why: &str) -> bool {
         let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
-        let alive = self.robots.get(id).is_some_and(|r| r.alive && r.info.is_some());
+        let alive = self.fleet.ready(id);
         let Some(member) = self.member(id).filter(|_| alive && !pending) else {
             return false;
         };

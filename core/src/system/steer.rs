@@ -48,7 +48,7 @@ impl SystemManager {
         let Some(mission) = self.assignment.get(robot).filter(|m| self.missions.contains_key(*m)).cloned() else {
             return vec![];
         };
-        let Some(rec) = self.robots.get_mut(robot).filter(|r| r.alive) else {
+        let Some(rec) = self.fleet.get_mut(robot).filter(|r| r.alive) else {
             return vec![];
         };
         if rec.admit_sent.is_some_and(|s| now - s < LEAVE_RETRY_S) {

@@ -7,8 +7,7 @@ impl SystemManager {
     /// A mission as the operator sees it: the head's latest view, with the (live) members this
     /// manager holds; a placeholder while the host is planning.
     pub(super) fn mission_view(&self, name: &str) -> MissionView {
-        let robots: Vec<String> =
-            self.assignment.iter().filter(|(id, m)| *m == name && self.robots.get(*id).is_some_and(|r| r.alive)).map(|(r, _)| r.clone()).collect();
+        let robots: Vec<String> = self.assignment.iter().filter(|(id, m)| *m == name && self.fleet.alive(id)).map(|(r, _)| r.clone()).collect();
         let rec = self.missions.get(name);
         match rec.and_then(|r| r.view.clone()) {
             Some(mut v) => {
@@ -37,7 +36,7 @@ impl SystemManager {
 
     /// Registered robots, sorted by id (naturally: r2 before r10).
     pub fn views(&self) -> Vec<RobotView> {
-        let mut v: Vec<RobotView> = self.robots.keys().filter_map(|id| self.view(id)).collect();
+        let mut v: Vec<RobotView> = self.fleet.iter().map(|(id, _)| id).filter_map(|id| self.view(id)).collect();
         v.sort_by(|a, b| proto::natural_cmp(&a.id, &b.id));
         v
     }
@@ -49,7 +48,7 @@ impl SystemManager {
 
     /// One registered robot.
     pub fn view(&self, id: &str) -> Option<RobotView> {
-        let rec = self.robots.get(id)?;
+        let rec = self.fleet.get(id)?;
         let info = rec.info.as_ref()?;
         let assigned = self.assignment.get(id).cloned();
         let moving = rec.last.as_ref().is_some_and(|t| t.behaviour != proto::Behaviour::Hold);

@@ -31,17 +31,7 @@ impl<S: Clone> Replica<S> {
             }
             Msg::Update { config, seq, state } => self.on_update(now, from, config, seq, Some(state)),
             Msg::Beat { config, seq } => self.on_update(now, from, config, seq, None),
-            Msg::Behind { epoch } => {
-                // A node of our chain lost the state (it restarted): send it down the chain again.
-                if let (Role::Head { .. }, Some(config), Some(((e, seq), state))) = (&self.role, &self.config, &self.state) {
-                    if config.epoch == epoch && *e == epoch {
-                        if let Some(n) = config.next(&self.me) {
-                            return vec![Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq: *seq, state: state.clone() } }];
-                        }
-                    }
-                }
-                vec![]
-            }
+            Msg::Behind { epoch } => self.on_behind(epoch),
             Msg::Ack { epoch, seq } => {
                 let (e, mine) = self.version();
                 if let Role::Head { committed, .. } = &mut self.role {
@@ -53,55 +43,76 @@ impl<S: Clone> Replica<S> {
                 }
                 vec![]
             }
-            Msg::Stale { promised, last } => {
-                if !self.leads() {
-                    return vec![];
-                }
-                self.seen = self.seen.max(promised);
-                if last > self.version() {
-                    return self.outdone(now, last);
-                }
-                if let (Role::Head { .. }, Some(config)) = (&self.role, self.config.clone()) {
-                    // Someone promised a higher epoch to a candidate that cannot hold a newer
-                    // state than ours: lead again above it.
-                    let epoch = self.next_epoch();
-                    let chain = config.chain.iter().filter(|n| **n == self.me || !self.gone.contains(*n)).cloned().collect();
-                    return self.stand(now, Config { epoch, chain }, true);
-                }
-                vec![]
-            }
-            Msg::End { epoch } => {
-                if epoch < self.config.as_ref().map_or(0, |c| c.epoch) {
-                    return vec![];
-                }
-                let mut out = Vec::new();
-                self.ended = true;
-                if let Some(c) = &self.config {
-                    match c.next(&self.me) {
-                        Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::End { epoch } }),
-                        None => out.push(Command::Send { to: c.head().to_string(), msg: Msg::EndAck { epoch } }),
-                    }
-                }
-                out.extend(self.retire());
-                out
-            }
+            Msg::Stale { promised, last } => self.on_stale(now, promised, last),
+            Msg::End { epoch } => self.on_end(epoch),
             Msg::EndAck { epoch } => match self.role {
                 Role::Ending { epoch: e, .. } if e == epoch => self.retire(),
                 _ => vec![],
             },
-            Msg::Decline { epoch } => {
-                // A node of our chain will never acknowledge: without a new chain nothing would
-                // ever commit. Stand at once for one without it (safe as any election).
-                let Some(config) = self.config.clone().filter(|c| c.epoch == epoch && c.contains(&from)) else { return vec![] };
-                if from == self.me || !matches!(self.role, Role::Head { .. }) || !self.declined.insert(from.clone()) {
-                    return vec![];
+            Msg::Decline { epoch } => self.on_decline(now, from, epoch),
+        }
+    }
+
+    /// A node of our chain will never acknowledge: without a new chain nothing would ever
+    /// commit. Stand at once for one without it (safe as any election).
+    fn on_decline(&mut self, now: f64, from: String, epoch: u64) -> Vec<Command<S>> {
+        let Some(config) = self.config.clone().filter(|c| c.epoch == epoch && c.contains(&from)) else { return vec![] };
+        if from == self.me || !matches!(self.role, Role::Head { .. }) || !self.declined.insert(from.clone()) {
+            return vec![];
+        }
+        tracing::info!(node = %self.me, epoch, %from, "chain: a node declined to replicate; changing the chain without it");
+        let chain = self.live_chain(&config, true);
+        let next = self.next_epoch();
+        self.stand(now, Config { epoch: next, chain }, true)
+    }
+
+    /// A node of our chain lost the state (it restarted): the head sends it down the chain again.
+    fn on_behind(&self, epoch: u64) -> Vec<Command<S>> {
+        if let (Role::Head { .. }, Some(config), Some(((e, seq), state))) = (&self.role, &self.config, &self.state) {
+            if config.epoch == epoch && *e == epoch {
+                if let Some(n) = config.next(&self.me) {
+                    return vec![Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq: *seq, state: state.clone() } }];
                 }
-                tracing::info!(node = %self.me, epoch, %from, "chain: a node declined to replicate; changing the chain without it");
-                let chain = self.live_chain(&config, true);
-                let next = self.next_epoch();
-                self.stand(now, Config { epoch: next, chain }, true)
             }
         }
+        vec![]
+    }
+
+    /// Someone promised a higher epoch than ours: outdone by a newer state, or, as head, lead again
+    /// above it.
+    fn on_stale(&mut self, now: f64, promised: u64, last: Version) -> Vec<Command<S>> {
+        if !self.leads() {
+            return vec![];
+        }
+        self.seen = self.seen.max(promised);
+        if last > self.version() {
+            return self.outdone(now, last);
+        }
+        if let (Role::Head { .. }, Some(config)) = (&self.role, self.config.clone()) {
+            // Someone promised a higher epoch to a candidate that cannot hold a newer
+            // state than ours: lead again above it.
+            let epoch = self.next_epoch();
+            let chain = config.chain.iter().filter(|n| **n == self.me || !self.gone.contains(*n)).cloned().collect();
+            return self.stand(now, Config { epoch, chain }, true);
+        }
+        vec![]
+    }
+
+    /// The value ends: passed down the chain (the tail acknowledges to the head), and retired.
+    fn on_end(&mut self, epoch: u64) -> Vec<Command<S>> {
+        if epoch < self.config.as_ref().map_or(0, |c| c.epoch) {
+            return vec![];
+        }
+        let mut out = Vec::new();
+        self.ended = true;
+        if let Some(c) = &self.config {
+            match c.next(&self.me) {
+                Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::End { epoch } }),
+                None => out.push(Command::Send { to: c.head().to_string(), msg: Msg::EndAck { epoch } }),
+            }
+        }
+        out.extend(self.retire());
+        out
     }
 
     fn on_vote(&mut self, now: f64, from: String, proposal: Config, base: &[String], last: Version) -> Vec<Command<S>> {

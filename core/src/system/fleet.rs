@@ -1,0 +1,277 @@
+//! The fleet as the system manager knows it: every robot's record (liveliness, what it said of
+//! itself, its latest telemetry) and the mission hosts alive — bounded, whatever the network says.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use mrmm_proto::{Member, RobotInfo, RobotSpec, Telemetry};
+
+use super::{FETCH_PER_TICK, INFO_RETRY_S, MAX_FLEET};
+
+/// One robot as the system manager knows it.
+#[derive(Debug, Clone)]
+pub(super) struct Record {
+    pub(super) info: Option<RobotInfo>,
+    pub(super) alive: bool,
+    pub(super) last: Option<Telemetry>,
+    /// When the last info request went out (seconds, driver clock).
+    pub(super) info_asked: Option<f64>,
+    /// Set when the robot (re)appears: its sequence numbers may restart from 1.
+    pub(super) fresh: bool,
+    /// When we last ordered it out of a plan it should not run.
+    pub(super) leave_sent: Option<f64>,
+    /// When it was last admitted again to its mission (it restarted and forgot).
+    pub(super) admit_sent: Option<f64>,
+    /// Seen coming (back) since a head last listed it as present: only such a robot is taken
+    /// back when its head reports it lost (a head may see a loss before this manager does).
+    pub(super) back: bool,
+    /// When its liveliness last appeared.
+    pub(super) alive_at: f64,
+}
+
+impl Record {
+    /// Alive and registered: it can be planned for.
+    pub(super) fn ready(&self) -> bool {
+        self.alive && self.info.is_some()
+    }
+}
+
+/// What a robot's token appearing meant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Appeared {
+    /// A robot never seen (or seen and forgotten).
+    New,
+    /// A robot that was lost.
+    Back,
+    /// Alive already (a repeated token).
+    Again,
+    /// The registry is full ([`MAX_FLEET`]): a new id is ignored.
+    Ignored,
+}
+
+/// Every robot and mission host the system manager knows.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Fleet {
+    robots: BTreeMap<String, Record>,
+    /// Mission hosts alive.
+    hosts: BTreeSet<String>,
+    /// New robot ids ignored because the registry is full.
+    ignored: u64,
+}
+
+impl Fleet {
+    /// A robot's token appeared at `now`: it is alive, and asked who it is (again: a restarted
+    /// robot may have changed type or endpoints). A flood of made-up tokens does not grow the
+    /// registry without bound: past [`MAX_FLEET`] robots a new id is ignored.
+    pub(super) fn appeared(&mut self, id: &str, now: f64) -> Appeared {
+        let seen = match self.robots.get(id) {
+            None if self.robots.len() >= MAX_FLEET => {
+                self.ignored = self.ignored.saturating_add(1);
+                if self.ignored.is_power_of_two() {
+                    tracing::warn!(robot = %id, ignored = self.ignored, "fleet registry full ({MAX_FLEET} robots): new robots ignored");
+                }
+                return Appeared::Ignored;
+            }
+            None => Appeared::New,
+            Some(r) if r.alive => Appeared::Again,
+            Some(_) => Appeared::Back,
+        };
+        let rec = self.robots.entry(id.to_string()).or_insert(Record {
+            info: None,
+            alive: false,
+            last: None,
+            info_asked: None,
+            fresh: true,
+            leave_sent: None,
+            admit_sent: None,
+            back: true,
+            alive_at: now,
+        });
+        rec.back |= seen == Appeared::Back;
+        rec.alive = true;
+        rec.alive_at = now;
+        rec.fresh = true;
+        rec.info_asked = Some(now);
+        seen
+    }
+
+    /// A robot's token disappeared: whether it was alive until now. Its record (and its place
+    /// in a mission, which the missions keep) stays.
+    pub(super) fn disappeared(&mut self, id: &str) -> bool {
+        self.robots.get_mut(id).is_some_and(|r| std::mem::replace(&mut r.alive, false))
+    }
+
+    /// What a robot said of itself; false if no token of it was ever seen (then ignored).
+    pub(super) fn registered(&mut self, info: RobotInfo) -> bool {
+        let Some(rec) = self.robots.get_mut(&info.id) else {
+            tracing::debug!(robot = %info.id, "info from a robot with no liveliness: ignored");
+            return false;
+        };
+        match &rec.info {
+            None => tracing::info!(robot = %info.id, r#type = %info.robot_type, "robot registered"),
+            Some(old) if old.capabilities != info.capabilities => {
+                tracing::info!(robot = %info.id, was = ?old.capabilities, now = ?info.capabilities, "robot capabilities changed")
+            }
+            Some(_) => {}
+        }
+        rec.info = Some(info);
+        true
+    }
+
+    /// Robots alive that never answered their info query, to be asked again: at most
+    /// [`FETCH_PER_TICK`] (a flood of tokens costs a bounded number of queries).
+    pub(super) fn fetch_due(&mut self, now: f64) -> Vec<String> {
+        self.robots
+            .iter_mut()
+            .filter(|(_, r)| r.alive && r.info.is_none())
+            .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
+            .take(FETCH_PER_TICK)
+            .map(|(id, r)| {
+                r.info_asked = Some(now);
+                id.clone()
+            })
+            .collect()
+    }
+
+    pub(super) fn get(&self, id: &str) -> Option<&Record> {
+        self.robots.get(id)
+    }
+
+    pub(super) fn get_mut(&mut self, id: &str) -> Option<&mut Record> {
+        self.robots.get_mut(id)
+    }
+
+    /// Every robot's record, by id.
+    pub(super) fn iter(&self) -> impl Iterator<Item = (&String, &Record)> {
+        self.robots.iter()
+    }
+
+    /// Its token is up.
+    pub(super) fn alive(&self, id: &str) -> bool {
+        self.robots.get(id).is_some_and(|r| r.alive)
+    }
+
+    /// Alive and registered.
+    pub(super) fn ready(&self, id: &str) -> bool {
+        self.robots.get(id).is_some_and(Record::ready)
+    }
+
+    /// Registered (alive or not).
+    pub(super) fn known(&self, id: &str) -> bool {
+        self.robots.get(id).is_some_and(|r| r.info.is_some())
+    }
+
+    /// How many robots are alive and registered.
+    pub(super) fn ready_count(&self) -> usize {
+        self.robots.values().filter(|r| r.ready()).count()
+    }
+
+    /// Its latest telemetry.
+    pub(super) fn last(&self, id: &str) -> Option<&Telemetry> {
+        self.robots.get(id).and_then(|r| r.last.as_ref())
+    }
+
+    /// What it has (nothing if unknown).
+    pub(super) fn capabilities_of(&self, id: &str) -> &[String] {
+        self.robots.get(id).and_then(|r| r.info.as_ref()).map(|i| i.capabilities.as_slice()).unwrap_or(&[])
+    }
+
+    /// The robot's info if it is registered and alive; else why not, in words.
+    pub(super) fn live_robot(&self, id: &str) -> Result<&RobotInfo, String> {
+        let rec = self.robots.get(id).filter(|r| r.info.is_some()).ok_or_else(|| format!("unknown robot {id:?}"))?;
+        if !rec.alive {
+            return Err(format!("robot {id:?} is lost"));
+        }
+        rec.info.as_ref().ok_or_else(|| format!("unknown robot {id:?}"))
+    }
+
+    /// What a planner needs to know about a robot.
+    pub(super) fn spec(&self, id: &str) -> Option<RobotSpec> {
+        let rec = self.robots.get(id)?;
+        let info = rec.info.as_ref()?;
+        let pose = rec.last.as_ref().map(|t| t.pose).unwrap_or_default();
+        Some(RobotSpec { id: id.to_string(), robot_type: info.robot_type.clone(), x: pose.x, y: pose.y, speed: info.max_speed })
+    }
+
+    /// What a mission manager needs to know about a robot.
+    pub(super) fn member(&self, id: &str) -> Option<Member> {
+        let info = self.robots.get(id)?.info.as_ref()?;
+        Some(Member { spec: self.spec(id)?, time_scale: info.time_scale, capabilities: info.capabilities.clone() })
+    }
+
+    /// A mission host's token appeared.
+    pub(super) fn host_up(&mut self, node: String) {
+        tracing::info!(%node, "mission host up");
+        self.hosts.insert(node);
+    }
+
+    /// A mission host's token disappeared.
+    pub(super) fn host_down(&mut self, node: &str) {
+        tracing::warn!(%node, "mission host lost");
+        self.hosts.remove(node);
+    }
+
+    pub(super) fn has_host(&self, node: &str) -> bool {
+        self.hosts.contains(node)
+    }
+
+    /// The mission hosts alive, by node id.
+    pub(super) fn hosts(&self) -> &BTreeSet<String> {
+        &self.hosts
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn info(id: &str) -> RobotInfo {
+        RobotInfo {
+            id: id.into(),
+            robot_type: "ground".into(),
+            capabilities: vec![],
+            max_speed: 1.0,
+            endpoints: vec![],
+            time_scale: 1.0,
+            durable: false,
+            rev: 0,
+        }
+    }
+
+    #[test]
+    fn a_robot_appears_registers_goes_and_comes_back() {
+        let mut f = Fleet::default();
+        assert!(!f.registered(info("r1")), "no token seen: ignored");
+        assert_eq!(f.appeared("r1", 0.0), Appeared::New);
+        assert!(f.alive("r1") && !f.ready("r1"));
+        assert!(f.registered(info("r1")));
+        assert!(f.ready("r1") && f.live_robot("r1").is_ok());
+        assert_eq!(f.appeared("r1", 1.0), Appeared::Again);
+        assert!(f.disappeared("r1") && !f.disappeared("r1"), "alive until now, then not");
+        assert_eq!(f.live_robot("r1").unwrap_err(), "robot \"r1\" is lost");
+        assert_eq!(f.appeared("r1", 2.0), Appeared::Back);
+        assert!(f.get("r1").is_some_and(|r| r.back && r.fresh && r.alive_at == 2.0));
+    }
+
+    #[test]
+    fn unanswered_info_queries_are_asked_again_bounded_per_tick() {
+        let mut f = Fleet::default();
+        for i in 0..FETCH_PER_TICK + 10 {
+            f.appeared(&format!("r{i}"), 0.0);
+        }
+        assert!(f.fetch_due(0.5).is_empty(), "asked when they appeared");
+        assert_eq!(f.fetch_due(INFO_RETRY_S).len(), FETCH_PER_TICK);
+        assert_eq!(f.fetch_due(INFO_RETRY_S).len(), 10, "the rest at the next tick");
+    }
+
+    #[test]
+    fn a_full_registry_ignores_new_ids_and_keeps_the_known_ones() {
+        let mut f = Fleet::default();
+        for i in 0..MAX_FLEET {
+            f.appeared(&format!("r{i}"), 0.0);
+        }
+        assert_eq!(f.appeared("intruder", 0.0), Appeared::Ignored);
+        assert!(f.get("intruder").is_none());
+        f.disappeared("r0");
+        assert_eq!(f.appeared("r0", 1.0), Appeared::Back, "a known robot still comes back");
+    }
+}
