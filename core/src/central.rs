@@ -135,16 +135,7 @@ mod tests {
     use mrmm_proto::{RobotInfo, Telemetry};
 
     fn info(id: &str) -> RobotInfo {
-        RobotInfo {
-            id: id.into(),
-            robot_type: "ground".into(),
-            capabilities: vec![],
-            max_speed: 1.0,
-            endpoints: vec![],
-            time_scale: 1.0,
-            durable: false,
-            rev: 0,
-        }
+        RobotInfo::new(id, "ground", 1.0)
     }
 
     #[test]

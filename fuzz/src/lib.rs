@@ -64,16 +64,7 @@ pub fn ros_robot_driven(id: &str, drive: &str) -> Robot {
 
 /// A robot's registration record.
 pub fn info(id: &str) -> RobotInfo {
-    RobotInfo {
-        id: id.into(),
-        robot_type: "ground".into(),
-        capabilities: vec![],
-        max_speed: 2.0,
-        endpoints: vec!["tcp/127.0.0.1:7450".into()],
-        time_scale: 4.0,
-        durable: false,
-        rev: 0,
-    }
+    RobotInfo { max_speed: 2.0, endpoints: vec!["tcp/127.0.0.1:7450".into()], time_scale: 4.0, ..RobotInfo::new(id, "ground", 2.0) }
 }
 
 /// A robot's current telemetry, from the robot machine itself.

@@ -134,6 +134,21 @@ pub struct RobotInfo {
 }
 
 impl RobotInfo {
+    /// A robot of `robot_type` at most `max_speed` m/s, with no capabilities, no endpoints, time
+    /// scale 1, no state dir, as started.
+    pub fn new(id: &str, robot_type: &str, max_speed: f64) -> RobotInfo {
+        RobotInfo {
+            id: id.to_string(),
+            robot_type: robot_type.to_string(),
+            capabilities: vec![],
+            max_speed,
+            endpoints: vec![],
+            time_scale: 1.0,
+            durable: false,
+            rev: 0,
+        }
+    }
+
     /// Checks what a robot says about itself before anyone relies on it: its names, a bounded
     /// list of valid capabilities, speeds and time scale that are positive numbers.
     pub fn check(&self) -> Result<(), String> {

@@ -41,16 +41,7 @@ fn status(v: MissionView) -> Event {
 }
 
 fn info(id: &str) -> RobotInfo {
-    RobotInfo {
-        id: id.into(),
-        robot_type: "ground".into(),
-        capabilities: vec!["camera".into()],
-        max_speed: 1.0,
-        endpoints: vec![],
-        time_scale: 1.0,
-        durable: false,
-        rev: 0,
-    }
+    RobotInfo { capabilities: vec!["camera".into()], ..RobotInfo::new(id, "ground", 1.0) }
 }
 
 fn telemetry(id: &str, seq: u64, behaviour: Behaviour) -> Telemetry {
