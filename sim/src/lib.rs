@@ -198,7 +198,10 @@ impl Config {
 pub struct Report {
     pub seed: u64,
     pub events: u64,
+    /// Messages delivered (after the network's losses).
     pub messages: u64,
+    /// Publications and questions sent (lost or not).
+    pub sent: u64,
     pub crashes: u32,
     pub partitions: u32,
     pub suspicions: u32,

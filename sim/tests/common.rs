@@ -39,9 +39,11 @@ pub fn seeds(what: &str, default: u64, config: fn(u64) -> Config) {
     match run_many(first, n, config) {
         Ok(reports) => {
             let sum = |f: fn(&mrmm_sim::Report) -> u64| reports.iter().map(f).sum::<u64>();
-            // A world that did nothing checks nothing: every seed must have sent messages.
-            if let Some(r) = reports.iter().find(|r| r.events == 0 || r.messages == 0) {
-                panic!("{what} seed {}: the world did nothing ({} events, {} messages)", r.seed, r.events, r.messages);
+            // A world that did nothing checks nothing: every seed must have sent messages (all
+            // of them may be lost: barrier seed 1389, two robots whose leader crashed while the
+            // network lost every re-publication of the other's arrival).
+            if let Some(r) = reports.iter().find(|r| r.events == 0 || r.sent == 0) {
+                panic!("{what} seed {}: the world did nothing ({} events, {} messages sent)", r.seed, r.events, r.sent);
             }
             if what.contains("barrier") || what.contains("system") {
                 assert!(n == 0 || sum(|r| u64::from(r.barriers)) > 0, "{what}: {n} seeds passed no barrier");

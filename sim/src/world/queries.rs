@@ -67,6 +67,7 @@ impl World {
                 self.queue.push(at, Ev::Answer { qid, result: Err(Failure::retry("no queryable")) });
             }
             Some(_) => {
+                self.report.sent += 1;
                 if !self.lost() {
                     let at = self.now + self.delay();
                     self.queue.push(at, Ev::Query(qid));
