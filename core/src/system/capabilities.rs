@@ -101,7 +101,7 @@ impl SystemManager {
         let alive = self.fleet.alive(id);
         tracing::warn!(robot = %id, %mission, "{why}: taken out of the mission");
         let request = json!({"robot": id, "to": null, "reason": why});
-        self.notes.push(JournalEvent::Command { by: "central".into(), command: "robot move".into(), request });
+        self.journal.note(JournalEvent::Command { by: "central".into(), command: "robot move".into(), request });
         (self.apply_move(id, Some(mission.clone()), None, alive), Some(mission))
     }
 }

@@ -200,13 +200,22 @@ impl Fleet {
 
     /// A mission host's token appeared.
     pub(super) fn host_up(&mut self, node: String) {
-        tracing::info!(%node, "mission host up");
+        // Every robot node is a mission host too: its own host is news only at debug.
+        if self.robots.contains_key(&node) {
+            tracing::debug!(%node, "mission host up");
+        } else {
+            tracing::info!(%node, "mission host up");
+        }
         self.hosts.insert(node);
     }
 
     /// A mission host's token disappeared.
     pub(super) fn host_down(&mut self, node: &str) {
-        tracing::warn!(%node, "mission host lost");
+        if self.robots.contains_key(node) {
+            tracing::debug!(%node, "mission host lost");
+        } else {
+            tracing::warn!(%node, "mission host lost");
+        }
         self.hosts.remove(node);
     }
 

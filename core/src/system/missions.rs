@@ -450,7 +450,7 @@ impl SystemManager {
             Req::Query(_) => "operator".to_string(),
             Req::Agent(_) => "agent".to_string(),
         };
-        self.notes.push(proto::JournalEvent::Command { by, command: command.to_string(), request: request.clone() });
+        self.journal.note(proto::JournalEvent::Command { by, command: command.to_string(), request: request.clone() });
     }
 
     /// The first plans of a mission are out, or its planning failed, or its host did not answer.

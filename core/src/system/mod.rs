@@ -15,6 +15,7 @@ pub mod egress;
 mod events;
 mod fleet;
 pub mod ingress;
+mod journal;
 pub mod missions;
 mod recovery;
 mod reports;
@@ -36,6 +37,7 @@ pub use egress::{egress, subscriptions};
 pub use events::{Command, Event, Req, Request};
 use fleet::{Appeared, Fleet};
 pub use ingress::{ingress, sealed};
+use journal::Journal;
 
 /// Seconds between two info requests to a robot that is alive but not yet registered.
 pub const INFO_RETRY_S: f64 = 1.0;
@@ -165,10 +167,8 @@ pub struct SystemManager {
     /// Creates and updates waiting for their dry run, by check id.
     checking: BTreeMap<u64, (Req, Checking)>,
     next_check: u64,
-    /// What the journal holds (as of the last [`Command::Journal`]).
-    journaled: Durable,
-    /// History for the journal, out with the next [`Command::Journal`].
-    notes: Vec<JournalEvent>,
+    /// What the journal holds, and the history to add to it.
+    journal: Journal,
     /// Journaled missions being started again.
     restarts: BTreeMap<String, Restart>,
     /// Missions said to wait for members with a state dir (said once each).
@@ -197,8 +197,7 @@ impl SystemManager {
             proven: BTreeMap::new(),
             checking: BTreeMap::new(),
             next_check: 0,
-            journaled: Durable::default(),
-            notes: Vec::new(),
+            journal: Journal::default(),
             restarts: BTreeMap::new(),
             restart_held: BTreeSet::new(),
             maps: BTreeMap::new(),
@@ -230,7 +229,7 @@ impl SystemManager {
             Event::RobotGone { id } => {
                 if self.fleet.disappeared(&id) {
                     tracing::warn!(robot = %id, "robot lost");
-                    self.notes.push(JournalEvent::RobotLost { robot: id });
+                    self.journal.note(JournalEvent::RobotLost { robot: id });
                 }
                 // Its mission's head plans around it and takes it back when it returns; its
                 // place is kept, so no other mission takes it meanwhile.
@@ -285,7 +284,7 @@ impl SystemManager {
             Appeared::Ignored => vec![],
             seen => {
                 if seen == Appeared::Back {
-                    self.notes.push(JournalEvent::RobotBack { robot: id.clone() });
+                    self.journal.note(JournalEvent::RobotBack { robot: id.clone() });
                 }
                 vec![Command::FetchInfo { id }]
             }

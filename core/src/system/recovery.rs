@@ -25,8 +25,9 @@ impl SystemManager {
                 m.release(robot, mission, ctl);
             }
         }
-        m.notes.push(JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() });
-        m.journaled = state;
+        let started = JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() };
+        m.journal = Journal::holding(state);
+        m.journal.note(started);
         m
     }
 
@@ -52,7 +53,7 @@ impl SystemManager {
 
     /// Whether the durable part differs from what the journal holds (cheap: no copies).
     pub(super) fn durable_changed(&self) -> bool {
-        let j = &self.journaled;
+        let j = self.journal.committed();
         self.assignment != j.assignment
             || self.terminated != j.terminated
             || self.releasing() != j.releasing
@@ -63,14 +64,8 @@ impl SystemManager {
     /// The entries to commit for what the last event changed: the durable part's diff since the
     /// last commit, then the history noted meanwhile.
     pub(super) fn journal_entries(&mut self) -> Vec<JournalEvent> {
-        let mut entries = Vec::new();
-        if self.durable_changed() {
-            let now_state = self.durable();
-            entries = self.journaled.diff(&now_state);
-            self.journaled = now_state;
-        }
-        entries.append(&mut self.notes);
-        entries
+        let now = self.durable_changed().then(|| self.durable());
+        self.journal.entries(now)
     }
 
     /// Journaled missions that no live manager runs are started again as their next lineage,
@@ -154,7 +149,7 @@ impl SystemManager {
             if let Some(r) = self.missions.get_mut(&name) {
                 r.def = Arc::new(def);
             }
-            self.notes.push(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
+            self.journal.note(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
             let after = robots.iter().flat_map(|id| self.pending_releases(id)).collect();
             self.restarts.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
             self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members, anew: true, lineage }), after });

@@ -179,7 +179,7 @@ impl SystemManager {
         if moved {
             tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
             rec.host = view.manager.node.clone();
-            self.notes.push(JournalEvent::ManagerChanged {
+            self.journal.note(JournalEvent::ManagerChanged {
                 mission: view.name.clone(),
                 manager: view.manager.node.clone(),
                 chain_epoch: view.manager.chain_epoch,
@@ -190,7 +190,7 @@ impl SystemManager {
         }
         let old_epoch = rec.view.as_ref().map(|v| v.manager.epoch);
         if old_epoch.is_some_and(|e| e < view.manager.epoch) {
-            self.notes.push(JournalEvent::Replanned { mission: view.name.clone(), plan_epoch: view.manager.epoch, robots: view.robots.clone() });
+            self.journal.note(JournalEvent::Replanned { mission: view.name.clone(), plan_epoch: view.manager.epoch, robots: view.robots.clone() });
         }
         let name = view.name.clone();
         let (robots, lost) = (view.robots.clone(), view.lost.clone());
@@ -225,7 +225,7 @@ impl SystemManager {
         tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its head's report");
         let name = view.name.clone();
         let (robots, lost) = (view.robots.clone(), view.lost.clone());
-        self.notes.push(JournalEvent::ManagerChanged { mission: name.clone(), manager: view.manager.node.clone(), chain_epoch: view.manager.chain_epoch });
+        self.journal.note(JournalEvent::ManagerChanged { mission: name.clone(), manager: view.manager.node.clone(), chain_epoch: view.manager.chain_epoch });
         let def = MissionDef {
             host: view.manager.node.clone(),
             recipe: view.recipe.clone(),
