@@ -26,7 +26,10 @@
 //! TLS link instead (it races under load, docs/zenoh.md), and with `--tls --quic-uplinks` the
 //! routers link to central over QUIC, the robots' links staying TLS.
 //!
-//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--insecure] [--tls [--quic-uplinks]]` (sizes, default
+//! With `--sim-fleet`: the robots of each site in one `mrmm sim-fleet` process (memory per robot
+//! is the process's over its robots; a member is crashed in its process instead of SIGKILLed).
+//!
+//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--insecure] [--tls [--quic-uplinks]] [--sim-fleet]` (sizes, default
 //! 10 25; the robots' lease, default as `mrmm demo` sets it: 1000 ms, 4000 ms beyond 40 robots;
 //! robots started R per second, default 20 as the demo does, 0 = all at once; default 1 site).
 
@@ -79,7 +82,8 @@ fn main() -> anyhow::Result<()> {
         .and_then(|s| s.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|s| s.trim().to_string()))
         .unwrap_or_default();
     println!(
-        "\n### Scale: one process per robot ({cpu}, {} cores; {}; lease {}; robots started {}{})\n",
+        "\n### Scale: {} ({cpu}, {} cores; {}; lease {}; robots started {}{})\n",
+        if sim_fleet() { "one sim-fleet process per site" } else { "one process per robot" },
         std::thread::available_parallelism().map_or(0, |n| n.get()),
         if sites == 1 { "one clique".to_string() } else { format!("{sites} sites") },
         lease.map_or("as the demo: 1000 ms, 4000 ms beyond 40 robots".to_string(), |l| format!("{l} ms")),
@@ -103,12 +107,16 @@ fn main() -> anyhow::Result<()> {
 }
 
 fn spawn(args: &[&str], log: &Path) -> anyhow::Result<Child> {
+    spawn_with(args, log, Stdio::null())
+}
+
+fn spawn_with(args: &[&str], log: &Path, stdin: Stdio) -> anyhow::Result<Child> {
     Command::new(common::EXE)
         .args(args)
         .env("RUST_LOG", std::env::var("BENCH_LOG").unwrap_or("info,zenoh=warn,mrmm_peer::barrier=debug".into()))
         .env("NO_COLOR", "1")
         .env("XDG_DATA_HOME", log.parent().unwrap_or(Path::new(".")).join("data"))
-        .stdin(Stdio::null())
+        .stdin(stdin)
         .stdout(Stdio::piped())
         .stderr(std::fs::File::create(log)?)
         .spawn()
@@ -171,6 +179,12 @@ fn links(pids: &[u32]) -> usize {
         })
         .count();
     ends / 2
+}
+
+/// `--sim-fleet`: the robots of a site in one `mrmm sim-fleet` process (each still its own
+/// peer), instead of one process per robot.
+fn sim_fleet() -> bool {
+    std::env::args().any(|a| a == "--sim-fleet")
 }
 
 /// `--tls`: the secure links over Zenoh's TLS link (TLS over TCP) instead of QUIC (mutual TLS
@@ -261,8 +275,16 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         }
     };
     let quic_listen = if quic && !insecure { vec!["--listen".to_string(), "quic/127.0.0.1:0".to_string()] } else { vec![] };
-    let central_args: Vec<String> =
-        ["central", "--listen", &listen].iter().map(|s| s.to_string()).chain(quic_listen).chain(pki_args(&["--operator", "op"])).collect();
+    // Central's lease is the fleet's too: a 1 s lease expires busy routers' uplinks.
+    let central_cfg = dir.path("central.json5");
+    std::fs::write(&central_cfg, format!("{{ lease_ms: {lease} }}"))?;
+    let central_cfg = central_cfg.display().to_string();
+    let central_args: Vec<String> = ["central", "--config", &central_cfg, "--listen", &listen]
+        .iter()
+        .map(|s| s.to_string())
+        .chain(quic_listen)
+        .chain(pki_args(&["--operator", "op"]))
+        .collect();
     let central_args: Vec<&str> = central_args.iter().map(String::as_str).collect();
     let mut central = vec![Kid(spawn(&central_args, &dir.path("central.log"))?)];
     let line = ready_lines(&mut central, "central ready", Duration::from_secs(30))?.remove(0);
@@ -294,6 +316,7 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     }
     let t0 = Instant::now();
     let mut robots = Vec::new();
+    let mut per_site: Vec<Vec<String>> = vec![Vec::new(); sites];
     for i in 1..=n {
         let id = format!("r{i}");
         let f = |name: &str| serde_json::to_string(&pki.join(name).display().to_string()).unwrap_or_default();
@@ -312,12 +335,26 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         );
         let path = dir.path(&format!("{id}.json5"));
         std::fs::write(&path, cfg)?;
+        if sim_fleet() {
+            per_site[i % sites].extend(["--config".to_string(), path.display().to_string()]);
+            continue;
+        }
         robots.push(Kid(spawn(&["robot", "--config", &path.display().to_string()], &dir.path(&format!("{id}.log")))?));
         if rate > 0 {
             tokio::time::sleep(Duration::from_secs_f64(1.0 / rate as f64)).await;
         }
     }
-    ready_lines(&mut robots, "robot ready", Duration::from_secs(300))?;
+    if sim_fleet() {
+        // One `mrmm sim-fleet` per site, starting its robots at the site's share of the rate.
+        let site_rate = if rate == 0 { 0 } else { rate.div_ceil(sites as u64) }.to_string();
+        for (s, configs) in per_site.iter().enumerate() {
+            let args: Vec<&str> = ["sim-fleet", "--rate", &site_rate].into_iter().chain(configs.iter().map(String::as_str)).collect();
+            robots.push(Kid(spawn_with(&args, &dir.path(&format!("fleet{s}.log")), Stdio::piped())?));
+        }
+        ready_lines(&mut robots, "sim-fleet ready", Duration::from_secs(600))?;
+    } else {
+        ready_lines(&mut robots, "robot ready", Duration::from_secs(300))?;
+    }
     let up = t0.elapsed().as_secs_f64();
     let op = (!insecure).then(|| mrmm_proto::SecuritySection::from_dir(&pki, "op"));
     let client = Client::connect_with(std::slice::from_ref(&ep), op, Duration::from_secs(10)).await.context("operator client")?;
@@ -332,7 +369,8 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     // fleet.
     tokio::time::sleep(Duration::from_secs(5)).await;
     let pids: Vec<u32> = robots.iter().chain(&central).chain(&routers).map(|k| k.0.id()).collect();
-    let rss: Vec<f64> = robots.iter().map(|k| rss_mib(k.0.id())).collect();
+    // Per robot: a process's memory over the robots it runs.
+    let rss: Vec<f64> = robots.iter().map(|k| rss_mib(k.0.id()) / (n as f64 / robots.len() as f64)).collect();
     let rss_central = rss_mib(central[0].0.id());
     let central_pid = central[0].0.id();
     let ticks0: u64 = pids.iter().map(|p| cpu_ticks(*p)).sum();
@@ -411,7 +449,11 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     let failed = if failed > 0 { format!(" ({failed} failed)") } else { String::new() };
     // Barriers: 20 s of the mission at least, then every member's releases from its log.
     tokio::time::sleep(Duration::from_secs(20).saturating_sub(c0.elapsed())).await;
-    let logs: Vec<std::path::PathBuf> = created.robots.iter().map(|id| dir.path(&format!("{id}.log"))).collect();
+    let logs: Vec<std::path::PathBuf> = if sim_fleet() {
+        (0..sites).map(|s| dir.path(&format!("fleet{s}.log"))).collect()
+    } else {
+        created.robots.iter().map(|id| dir.path(&format!("{id}.log"))).collect()
+    };
     let mut lat = barrier_latencies(&logs, "scale", created.manager.epoch);
     let barriers = if lat.is_empty() {
         "none".to_string()
@@ -429,7 +471,16 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         .map_err(|e| anyhow!("{e}"))?;
     let idx: usize = victim.trim_start_matches('r').parse::<usize>().context("robot id")? - 1;
     let k0 = Instant::now();
-    let _ = robots[idx].0.kill();
+    if sim_fleet() {
+        // Crashed in its process (its session closes at once, as a killed process's TCP links).
+        use std::io::Write;
+        let fleet = &mut robots[(idx + 1) % sites].0;
+        if let Some(stdin) = fleet.stdin.as_mut() {
+            writeln!(stdin, "kill {victim}")?;
+        }
+    } else {
+        let _ = robots[idx].0.kill();
+    }
     let mut replanned = String::from("not in 30 s");
     let deadline = k0 + Duration::from_secs(30);
     while Instant::now() < deadline {

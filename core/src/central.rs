@@ -22,6 +22,16 @@ pub enum Event {
     Advice { query: u64 },
 }
 
+impl Event {
+    /// What kind of event this is, for logs and the driver's load figures.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Event::System(e) => e.kind(),
+            Event::Advice { .. } => "advice",
+        }
+    }
+}
+
 /// What central's driver must do.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {

@@ -14,6 +14,7 @@ pub mod error;
 pub mod host;
 pub mod inbox;
 pub mod journal;
+pub mod load;
 pub mod maps;
 pub mod planner_service;
 pub mod site_router;

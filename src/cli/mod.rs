@@ -16,6 +16,7 @@ mod robot;
 mod router;
 mod security;
 mod shutdown;
+mod sim_fleet;
 mod table;
 mod tap;
 pub mod threads;
@@ -42,6 +43,9 @@ enum Cmd {
     Central(central::Args),
     /// Run one robot peer (simulated body) from a config file.
     Robot(robot::Args),
+    /// Run many simulated robots in one process (each its own identity and session); crash and
+    /// start them one by one from stdin (`kill ID…`, `start ID…`, `list`) or SIGUSR1.
+    SimFleet(sim_fleet::Args),
     /// Run a site router of a multi-site fleet (robots of the site are its peers).
     Router(router::Args),
     /// Operator commands against a running fleet.
@@ -104,6 +108,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Cmd::Central(a) => central::run(a).await,
         Cmd::Robot(a) => robot::run(a).await,
+        Cmd::SimFleet(a) => sim_fleet::run(a).await,
         Cmd::Router(a) => router::run(a).await,
         Cmd::Op(a) => op::run(a).await,
         Cmd::Console(a) => console::run(a).await,

@@ -50,6 +50,15 @@ pub async fn ready_line(child: &mut Child, prefix: &str, timeout: Duration, log:
     }
 }
 
+/// Reads the child's stdout in the background (its lines are not needed: a full pipe would
+/// block it).
+pub fn drain_stdout(child: &mut Child) {
+    if let Some(out) = child.stdout.take() {
+        let mut lines = BufReader::new(out).lines();
+        tokio::spawn(async move { while let Ok(Some(_)) = lines.next_line().await {} });
+    }
+}
+
 /// The value of `key=` in a ready line.
 pub fn field<'a>(line: &'a str, key: &str) -> Option<&'a str> {
     line.split_whitespace().find_map(|w| w.strip_prefix(key)?.strip_prefix('='))

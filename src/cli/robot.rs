@@ -3,7 +3,10 @@
 use std::path::PathBuf;
 
 use mrmm_peer::config::RobotConfig;
+use mrmm_peer::runtime::Ready;
 use tokio::sync::{oneshot, watch};
+use tokio::task::JoinSet;
+use tokio_util::sync::CancellationToken;
 
 use super::security::SecurityArgs;
 
@@ -48,46 +51,81 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         cfg.security = Some(sec);
     }
     cfg.validate().map_err(|e| anyhow::anyhow!("{} (with command-line overrides): {e}", args.config.display()))?;
+    let shutdown = super::shutdown::on_signals()?;
+    let mut robot = start(cfg, shutdown).await.map_err(|e| anyhow::anyhow!("{}: {e:#}", args.config.display()))?;
+    if let Some(r) = &robot.ready {
+        println!("robot ready id={} zid={} listening={}", r.id, r.zid, r.endpoints.join(","));
+    }
+    robot.finished().await
+}
+
+/// A started robot: its peer and its mission host on one session.
+pub struct Started {
+    /// What it reported once on the network (none if it stopped before).
+    pub ready: Option<Ready>,
+    session: zenoh::Session,
+    tasks: JoinSet<Outcome>,
+    /// Stops both (cancelled by the caller's shutdown, or when one of them stops).
+    stop: CancellationToken,
+}
+
+enum Outcome {
+    Robot(anyhow::Result<()>),
+    Host(anyhow::Result<()>),
+}
+
+/// Starts the robot of `cfg` (validated) and its mission host; returns once it is on the network
+/// (or has stopped). It runs until `shutdown` is cancelled or it fails.
+pub async fn start(cfg: RobotConfig, shutdown: CancellationToken) -> anyhow::Result<Started> {
     // The chain state is opened before anything starts: a locked or damaged one stops start-up.
     let stored = match &cfg.state_dir {
-        Some(dir) => Some(mrmm_manager::host::store::Store::open(dir).map_err(|e| anyhow::anyhow!("{}: state_dir: {e}", args.config.display()))?),
+        Some(dir) => Some(mrmm_manager::host::store::Store::open(dir).map_err(|e| anyhow::anyhow!("state_dir: {e}"))?),
         None => None,
     };
-    let shutdown = super::shutdown::on_signals()?;
     let mesh = mrmm_peer::runtime::open(&cfg).await?;
     let session = mesh.session().clone();
     // Every robot is also a mission host: it replicates the managers of its missions and takes
     // one over when its head dies. It learns its robot's team through `team`.
     let (team_tx, team_rx) = watch::channel(Vec::new());
+    let mut tasks = JoinSet::new();
+    let stop = shutdown.child_token();
+    let (id, host_stop, robot_stop) = (cfg.id.clone(), stop.clone(), stop.clone());
     let mesh_host = mesh.clone();
-    let host = tokio::spawn(mrmm_manager::host::serve(mesh_host, cfg.id.clone(), Some(team_rx), stored, Default::default(), shutdown.clone()));
+    tasks.spawn(async move {
+        Outcome::Host(mrmm_manager::host::serve(mesh_host, id, Some(team_rx), stored, Default::default(), host_stop).await.map_err(Into::into))
+    });
     let (tx, rx) = oneshot::channel();
-    let task = tokio::spawn(mrmm_peer::runtime::run_on(mesh, cfg, shutdown.clone(), Some(tx), Some(team_tx)));
-    if let Ok(r) = rx.await {
-        println!("robot ready id={} zid={} listening={}", r.id, r.zid, r.endpoints.join(","));
+    tasks.spawn(async move { Outcome::Robot(mrmm_peer::runtime::run_on(mesh, cfg, robot_stop, Some(tx), Some(team_tx)).await.map_err(Into::into)) });
+    let ready = rx.await.ok();
+    Ok(Started { ready, session, tasks, stop })
+}
+
+impl Started {
+    /// Waits until the robot stops. A mission host that stops (its chain state cannot be
+    /// written) stops the robot: it must not go on without keeping its promises.
+    pub async fn finished(&mut self) -> anyhow::Result<()> {
+        let mut result = Ok(());
+        let mut first = true;
+        while let Some(done) = self.tasks.join_next().await {
+            match done.map_err(|e| anyhow::anyhow!("robot task: {e}"))? {
+                Outcome::Robot(r) => result = result.and(r),
+                Outcome::Host(Err(e)) if first => result = Err(anyhow::anyhow!("mission host stopped: {e}")),
+                Outcome::Host(Err(e)) => tracing::warn!("mission host: {e}"),
+                Outcome::Host(Ok(())) => {}
+            }
+            // One stopped: the other follows.
+            first = false;
+            self.stop.cancel();
+        }
+        let _ = self.session.close().await;
+        result
     }
-    // A mission host that stops (its chain state cannot be written) stops the robot: it must
-    // not go on without keeping its promises.
-    let mut task = task;
-    let mut host = host;
-    let result = tokio::select! {
-        r = &mut task => {
-            shutdown.cancel();
-            if let Ok(Err(e)) = host.await {
-                tracing::warn!("mission host: {e}");
-            }
-            r
-        }
-        h = &mut host => {
-            shutdown.cancel();
-            let r = task.await;
-            if let Ok(Err(e)) = h {
-                anyhow::bail!("mission host stopped: {e}");
-            }
-            r
-        }
-    };
-    result??;
-    let _ = session.close().await;
-    Ok(())
+
+    /// Stops the robot at once, as a crash would: no task runs on, its session closes (its
+    /// links drop and its liveliness tokens go with them).
+    pub async fn kill(mut self) {
+        self.tasks.abort_all();
+        while self.tasks.join_next().await.is_some() {}
+        let _ = self.session.close().await;
+    }
 }

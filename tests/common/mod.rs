@@ -88,6 +88,31 @@ pub fn start_wrapped(wrapper: &[&str], name: &str, args: &[&str], log: &Path, pr
 
 /// Like [`start_wrapped`], and returns the process's further stdout lines as they come.
 pub fn start_lines(wrapper: &[&str], name: &str, args: &[&str], log: &Path, prefix: &str, timeout: Duration) -> anyhow::Result<(Proc, mpsc::Receiver<String>)> {
+    spawn_lines(wrapper, name, args, log, prefix, timeout, Stdio::null())
+}
+
+/// Like [`start_lines`], with the process's stdin to write to.
+pub fn start_piped(
+    name: &str,
+    args: &[&str],
+    log: &Path,
+    prefix: &str,
+    timeout: Duration,
+) -> anyhow::Result<(Proc, std::process::ChildStdin, mpsc::Receiver<String>)> {
+    let (mut p, rx) = spawn_lines(&[], name, args, log, prefix, timeout, Stdio::piped())?;
+    let stdin = p.child.stdin.take().ok_or_else(|| anyhow!("no stdin"))?;
+    Ok((p, stdin, rx))
+}
+
+fn spawn_lines(
+    wrapper: &[&str],
+    name: &str,
+    args: &[&str],
+    log: &Path,
+    prefix: &str,
+    timeout: Duration,
+    stdin: Stdio,
+) -> anyhow::Result<(Proc, mpsc::Receiver<String>)> {
     let log_file = std::fs::File::create(log)?;
     let (program, pre): (&str, Vec<&str>) = match wrapper.split_first() {
         Some((p, rest)) => (p, rest.iter().copied().chain([EXE]).collect()),
@@ -100,7 +125,7 @@ pub fn start_lines(wrapper: &[&str], name: &str, args: &[&str], log: &Path, pref
         // Central's default state dir is per user: each test has its own (a central restarted in
         // a test finds its journal there).
         .env("XDG_DATA_HOME", log.parent().unwrap_or(Path::new(".")).join("data"))
-        .stdin(Stdio::null())
+        .stdin(stdin)
         .stdout(Stdio::piped())
         .stderr(log_file)
         .spawn()

@@ -151,6 +151,31 @@ pub enum Event {
     Tick,
 }
 
+impl Event {
+    /// What kind of event this is, for logs and the driver's load figures.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Event::RobotAlive { .. } => "robot alive",
+            Event::RobotGone { .. } => "robot gone",
+            Event::RobotRegistered(_) => "robot registered",
+            Event::InfoFailed { .. } => "info failed",
+            Event::Telemetry(_) => "telemetry",
+            Event::Operator { .. } => "operator",
+            Event::RobotCommandDone { .. } => "robot command done",
+            Event::MissionStarted { .. } => "mission started",
+            Event::Forwarded { .. } => "forwarded",
+            Event::CtlDone { .. } => "ctl done",
+            Event::MissionStatus { .. } => "mission status",
+            Event::HostAlive { .. } => "host alive",
+            Event::HostGone { .. } => "host gone",
+            Event::Refusals(_) => "refusals",
+            Event::Proofs(_) => "proofs",
+            Event::DryRunDone { .. } => "dry run done",
+            Event::Tick => "tick",
+        }
+    }
+}
+
 /// Something the driver must do.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {

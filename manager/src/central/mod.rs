@@ -69,6 +69,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let mut io = Io::new(mesh.clone(), Duration::from_millis(cfg.query_timeout_ms), tx);
     let mut tick = tokio::time::interval(TICK);
     let mut seals = SealCounts { refused: 0, proofs_at: Instant::now() };
+    let mut load = crate::load::LoopLoad::new(proto::CENTRAL_HOST);
     loop {
         let event = tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -103,8 +104,11 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
                 None => break,
             },
         };
+        let (kind, start) = (event.kind(), Instant::now());
         let cmds = core.handle(t0.elapsed().as_secs_f64(), event);
+        let decided = Instant::now();
         carry_out(&mut io, journal.as_mut(), cmds).await?;
+        load.step(kind, decided - start, decided.elapsed());
     }
     tracing::info!("central shutting down");
     drop(held);

@@ -18,7 +18,7 @@ mod map;
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Number of simulated robots.
-    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=200))]
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1000))]
     robots: u32,
     /// Stop after this many seconds (default: run until Ctrl-C).
     #[arg(long)]
@@ -34,9 +34,10 @@ pub struct Args {
     /// Simulated seconds per wall second for every robot.
     #[arg(long, default_value_t = 1.0)]
     time_scale: f64,
-    /// The robots' link lease in ms: how long a silent robot takes to be declared lost (default
-    /// 1000, and 4000 beyond 40 robots: every robot keeps a link to every other, and on a small
-    /// machine the keep-alives of a large clique alone fill the CPU; see docs/scale.md).
+    /// The fleet's link lease in ms (robots, site routers, central): how long a silent robot
+    /// takes to be declared lost (default 1000, and 4000 beyond 40 robots: every robot keeps a
+    /// link to every robot of its site, and on a small machine the load of a large fleet makes
+    /// 1 s leases expire; see docs/scale.md).
     #[arg(long, value_parser = clap::value_parser!(u64).range(200..=60_000))]
     lease_ms: Option<u64>,
     /// Radius of the formation circle, metres.
@@ -128,7 +129,19 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     }
     let log = dir.join("central.log");
     let state = args.state_dir.clone().unwrap_or_else(|| dir.join("central-state"));
-    let mut central_args = vec!["central".to_string(), "--listen".into(), listen.clone(), "--state-dir".into(), state.display().to_string()];
+    // Central's lease too: under a large fleet's load, a 1 s lease expires the site routers'
+    // uplinks (docs/scale.md).
+    let central_cfg = dir.join("central.json5");
+    std::fs::write(&central_cfg, format!("{{ lease_ms: {} }}\n", lease(args))).with_context(|| format!("cannot write {}", central_cfg.display()))?;
+    let mut central_args = vec![
+        "central".to_string(),
+        "--config".into(),
+        central_cfg.display().to_string(),
+        "--listen".into(),
+        listen.clone(),
+        "--state-dir".into(),
+        state.display().to_string(),
+    ];
     if let Some(b) = &building {
         central_args.extend(["--map".into(), format!("{}={}", map::NAME, b.path.display())]);
     }
@@ -150,24 +163,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     let sites = start_routers(args, dir, children, &endpoint, &uplink, &scheme, pki.as_deref()).await?;
 
     let n = args.robots as usize;
-    let lease = args.lease_ms.unwrap_or(if n > LARGE_FLEET { 4000 } else { 1000 });
-    let bar = progress(n, "starting robots");
-    for i in 0..n {
-        let id = format!("r{}", i + 1);
-        let at = starts.as_ref().map(|s| s[i]);
-        let cfg = robot_config(&id, i, n, at, &sites[i % sites.len()], &scheme, args.time_scale, lease, pki.as_deref());
-        let path = dir.join(format!("{id}.json5"));
-        std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
-        let log = dir.join(format!("{id}.log"));
-        children.push(procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &log)?);
-        bar.inc(1);
-        // A large fleet starts gradually: every robot opens a link (a TLS handshake) to every
-        // robot before it, and a burst of thousands starves the leases.
-        if n > LARGE_FLEET {
-            tokio::time::sleep(Duration::from_millis(50)).await;
-        }
-    }
-    bar.finish_and_clear();
+    start_robots(args, dir, children, &sites, starts.as_deref(), &scheme, pki.as_deref())?;
     let registering = progress(n, "robots registered");
 
     let operator = pki.as_ref().map(|d| mrmm_proto::SecuritySection::from_dir(d, "operator"));
@@ -287,6 +283,49 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     Ok(())
 }
 
+/// Starts the simulated robots from a config file per robot in `dir` (robot i is on site i mod
+/// SITES): a `mrmm robot` process each up to [`LARGE_FLEET`], one `mrmm sim-fleet` per site
+/// beyond (hundreds of processes would fill a small machine with their own runtimes).
+fn start_robots(
+    args: &Args,
+    dir: &std::path::Path,
+    children: &mut Vec<Child>,
+    sites: &[String],
+    starts: Option<&[(f64, f64)]>,
+    scheme: &str,
+    pki: Option<&std::path::Path>,
+) -> anyhow::Result<()> {
+    let n = args.robots as usize;
+    let lease = lease(args);
+    let mut per_site: Vec<Vec<std::path::PathBuf>> = vec![Vec::new(); sites.len()];
+    for i in 0..n {
+        let id = format!("r{}", i + 1);
+        let at = starts.map(|s| s[i]);
+        let cfg = robot_config(&id, i, n, at, &sites[i % sites.len()], scheme, args.time_scale, lease, pki);
+        let path = dir.join(format!("{id}.json5"));
+        std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
+        per_site[i % sites.len()].push(path);
+    }
+    if n <= LARGE_FLEET {
+        // A process per robot: `pkill -f rN.json5` crashes one, as a robot's computer would.
+        for path in per_site.iter().flatten() {
+            children.push(procs::spawn(&["robot".to_string(), "--config".into(), path.display().to_string()], &path.with_extension("log"))?);
+        }
+        return Ok(());
+    }
+    // A large fleet starts gradually (20 robots a second in all): every robot opens a link (a
+    // TLS handshake) to every robot of its site, and a burst of hundreds starves the leases.
+    let rate = 20usize.div_ceil(sites.len());
+    for (k, paths) in per_site.iter().enumerate().filter(|(_, p)| !p.is_empty()) {
+        let mut argv = vec!["sim-fleet".to_string(), "--rate".into(), rate.to_string()];
+        argv.extend(paths.iter().flat_map(|p| ["--config".to_string(), p.display().to_string()]));
+        let mut child = procs::spawn(&argv, &dir.join(format!("robots-site{k}.log")))?;
+        procs::drain_stdout(&mut child);
+        children.push(child);
+    }
+    Ok(())
+}
+
 /// The demo's screen: a header, `banner` (where the console and the tool config are: the screen
 /// is redrawn in place on a terminal, so the lines printed at the start would be gone), the robots
 /// and the missions.
@@ -317,6 +356,11 @@ fn show(tty: bool, started: Instant, endpoint: &str, banner: &str, n: usize, vie
     let mut stdout = std::io::stdout().lock();
     let _ = stdout.write_all(out.as_bytes());
     let _ = stdout.flush();
+}
+
+/// The fleet's link lease, ms: robots, site routers and central.
+fn lease(args: &Args) -> u64 {
+    args.lease_ms.unwrap_or(if args.robots as usize > LARGE_FLEET { 4000 } else { 1000 })
 }
 
 /// Beyond this many robots the demo starts them gradually, with a longer lease.
@@ -410,8 +454,6 @@ fn circle_point(k: usize, n: usize, r: f64) -> (f64, f64) {
     ((r * a.cos() * 100.0).round() / 100.0, (r * a.sin() * 100.0).round() / 100.0)
 }
 
-/// A generated robot config: types alternate, robots start on a line; with `pki`, its
-/// certificate and TLS endpoints.
 /// The site routers (`--sites`): their endpoints, central's first. Each links to central's `uplink`.
 async fn start_routers(
     args: &Args,
@@ -426,7 +468,7 @@ async fn start_routers(
     for s in 1..args.sites {
         let id = format!("site{s}");
         let path = dir.join(format!("{id}.json5"));
-        std::fs::write(&path, format!("{{ id: {id:?}, listen: [\"{scheme}/127.0.0.1:0\"], connect: [{uplink:?}] }}\n"))
+        std::fs::write(&path, format!("{{ id: {id:?}, listen: [\"{scheme}/127.0.0.1:0\"], connect: [{uplink:?}], lease_ms: {} }}\n", lease(args)))
             .with_context(|| format!("cannot write {}", path.display()))?;
         let mut cmd = vec!["router".to_string(), "--config".into(), path.display().to_string()];
         if let Some(pki) = pki {
@@ -461,7 +503,9 @@ fn robot_config(
 ) -> String {
     let kind = TYPES[i % TYPES.len()];
     let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
-    let (x, y) = at.unwrap_or(((i as f64 - (n as f64 - 1.0) / 2.0) * 1.5, -12.0));
+    // Rows of at most 20, 1.5 m apart, from y = -12 down (into the coverage region).
+    let cols = n.min(20);
+    let (x, y) = at.unwrap_or((((i % cols) as f64 - (cols as f64 - 1.0) / 2.0) * 1.5, -12.0 - (i / cols) as f64 * 1.5));
     let security = match pki {
         Some(d) => {
             let f = |name: &str| format!("{:?}", d.join(name).display().to_string());
