@@ -327,10 +327,13 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         };
         let cfg = format!(
             r#"{{ id: "{id}", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1.0, max_turn_rate: 1.5 }},
-                 start: {{ x: {x}, y: -12, theta: 1.5708 }}, time_scale: 5, telemetry_hz: 5,
+                 start: {{ x: {x}, y: {y}, theta: 1.5708 }}, time_scale: 5, telemetry_hz: 5,
                  zenoh: {{ listen: ["{listen}"], connect: ["{site}"], lease_ms: {lease} }},
                  {security} }}"#,
-            x = (i as f64 - n as f64 / 2.0) * 1.5,
+            // Rows of 20, 1.5 m apart: on one line, 200 robots would span 300 m and the
+            // farthest would not reach the tour (nor its first barrier) in the measured window.
+            x = (((i - 1) % 20) as f64 - 9.5) * 1.5,
+            y = -12.0 - ((i - 1) / 20) as f64 * 1.5,
             site = site_eps[i % sites],
         );
         let path = dir.path(&format!("{id}.json5"));
