@@ -148,8 +148,7 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
             limits::MAX_SYNC_POINTS
         )));
     }
-    let per_slot = per_slot_f as usize;
-    let q = n * per_slot;
+    let q = sync_points_per_round(n, per_slot_f as usize, l, params.sync_spacing_max);
 
     // Slot offset and assignment: travel times to the slots, straight or along the map.
     let approach = Approach::new(map, robots, &path)?;
@@ -243,6 +242,24 @@ impl PatrolAssignment {
 
 /// One round of the tour from arc `start`, with barriers 1..=q every `L / q` (the last one at the
 /// slot again); point 0 is the start barrier. Barrier `(point, round)` is unique in a plan.
+/// Sync points per round beyond which they no longer coincide with the slots.
+pub const SYNC_PER_ROUND_CAP: usize = 32;
+
+/// Sync points per round for `n` robots, `per_slot` per slot, on a tour of `l` metres: one or
+/// more per slot (`n·per_slot`) up to [`SYNC_PER_ROUND_CAP`]; beyond, the cap, or as many as
+/// keep them at most `spacing_max` apart. Every member travels `l/q` between two barriers
+/// whatever `q`, so the formation holds either way; what grows with the team is the cost — a
+/// round is `q` barriers of `n` members, and each member's plan has `2q` steps — so a large team
+/// must not pass a barrier at every slot (150 robots on a 70 m tour: one every 0.47 m, 48 000
+/// arrivals a second at 1 m/s).
+fn sync_points_per_round(n: usize, per_slot: usize, l: f64, spacing_max: f64) -> usize {
+    let at_slots = n * per_slot;
+    if at_slots <= SYNC_PER_ROUND_CAP {
+        return at_slots;
+    }
+    SYNC_PER_ROUND_CAP.max((l / spacing_max).ceil() as usize)
+}
+
 fn round_steps(path: &Polyline, start: f64, q: usize, speed: f64) -> Vec<Step> {
     let l = path.length;
     let p0 = path.at(start);
@@ -379,6 +396,25 @@ mod tests {
             assert_eq!(syncs, [0, 1, 2, 3, 4], "start barrier, then points 1..=q of each round");
             assert!(matches!(rp.steps.last(), Some(Step::Loop { to: 3, rounds: None })));
         }
+    }
+
+    #[test]
+    fn a_large_team_does_not_pass_a_barrier_at_every_slot() {
+        // 150 robots on a 160 m square: a slot every 1.07 m. One barrier per slot would be 150
+        // per round, each plan 300 steps; capped, 32 per round, still evenly spaced.
+        let robots: Vec<RobotSpec> = (0..150).map(|i| robot(&format!("r{i}"), (i % 20) as f64 * 1.5, -5.0 - (i / 20) as f64 * 1.5, 1.0)).collect();
+        let p = plan(&PatrolParams::new(square()), &robots).expect("plan");
+        assert_eq!(p.sync_per_round, SYNC_PER_ROUND_CAP as u32);
+        for rp in &p.plans {
+            let syncs: Vec<u32> = rp.steps.iter().filter_map(|s| if let Step::Sync { point, .. } = s { Some(*point) } else { None }).collect();
+            assert_eq!(syncs, (0..=32).collect::<Vec<u32>>(), "start barrier, then 32 per round");
+            assert!(rp.steps.len() <= 2 * 32 + 8, "{} steps", rp.steps.len());
+        }
+        // A tour long enough that the cap would put barriers too far apart: spacing_max rules.
+        assert_eq!(sync_points_per_round(150, 1, 5_000.0, 50.0), 100);
+        // Teams up to the cap keep one per slot (the paper's figures are unchanged).
+        assert_eq!(sync_points_per_round(12, 1, 160.0, 50.0), 12);
+        assert_eq!(sync_points_per_round(3, 4, 160.0, 15.0), 12);
     }
 
     #[test]
