@@ -98,8 +98,8 @@ fn main() -> anyhow::Result<()> {
             "; QUIC links"
         }
     );
-    println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | barrier release p50/p99 ms | SIGKILL→replanned s |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | barrier release p50/p99 ms | SIGKILL→replanned s | 10 % at once → replans, s |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in sizes {
         rt.block_on(run(n, lease.unwrap_or(if n > 40 { 4000 } else { 1000 }), rate, sites, insecure, quic))?;
     }
@@ -179,6 +179,58 @@ fn links(pids: &[u32]) -> usize {
         })
         .count();
     ends / 2
+}
+
+/// Crashes `victims` at once: SIGKILL of their processes, or one `kill` line to each site's
+/// `sim-fleet` (robot `rK` is on site K mod `sites`).
+fn crash(robots: &mut [Kid], sites: usize, victims: &[String]) -> anyhow::Result<()> {
+    use std::io::Write;
+    let index = |id: &String| id.trim_start_matches('r').parse::<usize>().context("robot id");
+    if !sim_fleet() {
+        for v in victims {
+            let _ = robots[index(v)? - 1].0.kill();
+        }
+        return Ok(());
+    }
+    let mut per_site = vec![Vec::new(); sites];
+    for v in victims {
+        per_site[index(v)? % sites].push(v.as_str());
+    }
+    for (s, ids) in per_site.iter().enumerate().filter(|(_, ids)| !ids.is_empty()) {
+        if let Some(stdin) = robots[s].0.stdin.as_mut() {
+            writeln!(stdin, "kill {}", ids.join(" "))?;
+        }
+    }
+    Ok(())
+}
+
+/// Seconds from `since` until the mission's status shows it running a plan of an epoch after
+/// `epoch` without any of `victims` (within 30 s), and the last status seen 3 s later (more
+/// replans for the same losses would show there).
+async fn replanned_without(
+    status: &zenoh::pubsub::Subscriber<zenoh::handlers::RingChannelHandler<zenoh::sample::Sample>>,
+    victims: &[String],
+    epoch: u64,
+    since: Instant,
+) -> (Option<f64>, Option<MissionView>) {
+    let next = |timeout: Duration| async move {
+        let s = tokio::time::timeout(timeout, status.recv_async()).await.ok()?.ok()?;
+        proto::from_json::<MissionView>("status", &s.payload().to_bytes()).ok()
+    };
+    let deadline = since + Duration::from_secs(30);
+    while Instant::now() < deadline {
+        let Some(v) = next(Duration::from_secs(1)).await else { continue };
+        if v.manager.epoch > epoch && victims.iter().all(|id| !v.robots.contains(id)) && v.status == proto::MissionStatus::Running {
+            let at = since.elapsed().as_secs_f64();
+            let settle = Instant::now() + Duration::from_secs(3);
+            let mut last = v;
+            while let Some(v) = next(settle.saturating_duration_since(Instant::now())).await {
+                last = v;
+            }
+            return (Some(at), Some(last));
+        }
+    }
+    (None, None)
 }
 
 /// `--sim-fleet`: the robots of a site in one `mrmm sim-fleet` process (each still its own
@@ -416,7 +468,7 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         Ok(v) => v,
         Err(e) => {
             let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
-            println!("| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | create failed: {e} | | | |");
+            println!("| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | create failed: {e} | | | | |");
             client.close().await;
             return Ok(());
         }
@@ -472,33 +524,36 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         .with(zenoh::handlers::RingChannel::new(256))
         .await
         .map_err(|e| anyhow!("{e}"))?;
-    let idx: usize = victim.trim_start_matches('r').parse::<usize>().context("robot id")? - 1;
-    let k0 = Instant::now();
-    if sim_fleet() {
-        // Crashed in its process (its session closes at once, as a killed process's TCP links).
-        use std::io::Write;
-        let fleet = &mut robots[(idx + 1) % sites].0;
-        if let Some(stdin) = fleet.stdin.as_mut() {
-            writeln!(stdin, "kill {victim}")?;
-        }
-    } else {
-        let _ = robots[idx].0.kill();
-    }
-    let mut replanned = String::from("not in 30 s");
-    let deadline = k0 + Duration::from_secs(30);
-    while Instant::now() < deadline {
-        let Ok(Ok(s)) = tokio::time::timeout(Duration::from_secs(1), status.recv_async()).await else { continue };
+    // The epoch running now (the mission may have replanned since its create).
+    let mut epoch = created.manager.epoch;
+    let settle = Instant::now() + Duration::from_secs(2);
+    while let Ok(Ok(s)) = tokio::time::timeout(settle.saturating_duration_since(Instant::now()), status.recv_async()).await {
         if let Ok(v) = proto::from_json::<MissionView>("status", &s.payload().to_bytes()) {
-            if !v.robots.contains(&victim) && v.status == proto::MissionStatus::Running {
-                replanned = format!("{:.2}", k0.elapsed().as_secs_f64());
-                break;
+            epoch = epoch.max(v.manager.epoch);
+        }
+    }
+    let k0 = Instant::now();
+    crash(&mut robots, sites, std::slice::from_ref(&victim))?;
+    let (replanned, view) = replanned_without(&status, std::slice::from_ref(&victim), epoch, k0).await;
+    let replanned = replanned.map_or("not in 30 s".to_string(), |t| format!("{t:.2}"));
+    // A tenth of the members left crashed at once: one replan (the burst is debounced), and when.
+    let burst = match view {
+        Some(before) => {
+            let left: Vec<String> = before.robots.clone();
+            let victims: Vec<String> = left.iter().take(left.len().div_ceil(10)).cloned().collect();
+            let b0 = Instant::now();
+            crash(&mut robots, sites, &victims)?;
+            match replanned_without(&status, &victims, before.manager.epoch, b0).await {
+                (Some(t), Some(after)) => format!("{} crashed: {} replan(s), {t:.2}", victims.len(), after.manager.epoch - before.manager.epoch),
+                _ => format!("{} crashed: not replanned in 30 s", victims.len()),
             }
         }
-    }
+        None => "-".to_string(),
+    };
     let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
     let max = rss.iter().copied().fold(0.0, f64::max);
     println!(
-        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1}{failed} | {barriers} | {replanned} |",
+        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1}{failed} | {barriers} | {replanned} | {burst} |",
         quantile(&mut rtt.clone(), 0.5),
         quantile(&mut rtt, 0.99)
     );
