@@ -42,7 +42,7 @@ pub async fn ready_line(child: &mut Child, prefix: &str, timeout: Duration, log:
     let tail = || std::fs::read_to_string(log).unwrap_or_default().lines().last().unwrap_or("").to_string();
     match found {
         Ok(Ok(Some(line))) => {
-            tokio::spawn(async move { while let Ok(Some(_)) = lines.next_line().await {} });
+            drain(lines);
             Ok(line)
         }
         Ok(Ok(None)) | Ok(Err(_)) => Err(anyhow!("child exited before it was ready: {}", tail())),
@@ -54,9 +54,13 @@ pub async fn ready_line(child: &mut Child, prefix: &str, timeout: Duration, log:
 /// block it).
 pub fn drain_stdout(child: &mut Child) {
     if let Some(out) = child.stdout.take() {
-        let mut lines = BufReader::new(out).lines();
-        tokio::spawn(async move { while let Ok(Some(_)) = lines.next_line().await {} });
+        drain(BufReader::new(out).lines());
     }
+}
+
+/// Reads the rest of `lines` in the background.
+fn drain(mut lines: tokio::io::Lines<BufReader<tokio::process::ChildStdout>>) {
+    tokio::spawn(async move { while let Ok(Some(_)) = lines.next_line().await {} });
 }
 
 /// The value of `key=` in a ready line.

@@ -53,9 +53,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     cfg.validate().map_err(|e| anyhow::anyhow!("{} (with command-line overrides): {e}", args.config.display()))?;
     let shutdown = super::shutdown::on_signals()?;
     let mut robot = start(cfg, shutdown).await.map_err(|e| anyhow::anyhow!("{}: {e:#}", args.config.display()))?;
-    if let Some(r) = &robot.ready {
-        println!("robot ready id={} zid={} listening={}", r.id, r.zid, r.endpoints.join(","));
-    }
+    robot.announce();
     robot.finished().await
 }
 
@@ -101,6 +99,13 @@ pub async fn start(cfg: RobotConfig, shutdown: CancellationToken) -> anyhow::Res
 }
 
 impl Started {
+    /// Prints the robot's ready line (what scripts and tests wait for), once it is on the network.
+    pub fn announce(&self) {
+        if let Some(r) = &self.ready {
+            println!("robot ready id={} zid={} listening={}", r.id, r.zid, r.endpoints.join(","));
+        }
+    }
+
     /// Waits until the robot stops. A mission host that stops (its chain state cannot be
     /// written) stops the robot: it must not go on without keeping its promises.
     pub async fn finished(&mut self) -> anyhow::Result<()> {

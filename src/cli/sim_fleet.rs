@@ -264,8 +264,8 @@ async fn one(
 ) -> anyhow::Result<()> {
     let id = cfg.id.clone();
     let mut started = robot::start(cfg, shutdown).await?;
-    if let Some(r) = &started.ready {
-        println!("robot ready id={} zid={} listening={}", r.id, r.zid, r.endpoints.join(","));
+    started.announce();
+    if started.ready.is_some() {
         let _ = ready.send(id.clone());
     }
     let crashed = tokio::select! {
