@@ -93,6 +93,40 @@ async fn robots_of_one_process_are_peers_of_their_own_and_crash_one_by_one() -> 
     Ok(())
 }
 
+/// A secure fleet: the template has QUIC endpoints and no `security` section; `--pki` gives each
+/// robot its own certificate, and central admits each under its own id.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn secure_robots_of_one_process_each_prove_their_own_id() -> anyhow::Result<()> {
+    let dir = Scratch::new("sim-fleet-secure");
+    let pki = common::fleet_pki(&dir, 3)?;
+    let (_central, ep) = common::start_secure_central(&dir, &pki)?;
+    let template = dir.path("r.json5");
+    std::fs::write(
+        &template,
+        format!(
+            r#"{{ id: "r", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 1.5 }},
+                 zenoh: {{ listen: ["quic/127.0.0.1:0"], connect: ["{ep}"] }} }}"#
+        ),
+    )?;
+    let (template, pki_arg) = (template.display().to_string(), pki.display().to_string());
+    let (mut fleet, _stdin, _lines) = common::start_piped(
+        "sim-fleet",
+        &["sim-fleet", "--config", &template, "--robots", "3", "--rate", "0", "--pki", &pki_arg],
+        &dir.path("fleet.log"),
+        "sim-fleet ready",
+        Duration::from_secs(60),
+    )?;
+    let op = Client::connect_with(std::slice::from_ref(&ep), Some(proto::SecuritySection::from_dir(&pki, "op")), Duration::from_secs(5)).await?;
+    let views = common::wait_robots(&op, 3).await?;
+    let mut ids: Vec<&str> = views.iter().map(|v| v.id.as_str()).collect();
+    ids.sort();
+    assert_eq!(ids, ["r1", "r2", "r3"]);
+    fleet.signal("TERM")?;
+    assert!(common::wait_exit(&mut fleet, Duration::from_secs(20)).await?.success());
+    op.close().await;
+    Ok(())
+}
+
 #[test]
 fn a_bad_sim_fleet_command_line_stops_start_up_with_one_line() -> anyhow::Result<()> {
     let dir = Scratch::new("sim-fleet-bad");

@@ -101,6 +101,15 @@ fn default_telemetry_hz() -> f64 {
 impl RobotConfig {
     /// Reads and validates a robot config file.
     pub fn load(path: &Path) -> Result<Self, PeerError> {
+        let cfg = Self::read(path)?;
+        cfg.validate().map_err(|e| PeerError::Config(format!("{}: {e}", path.display())))?;
+        Ok(cfg)
+    }
+
+    /// Reads a config file without validating it, its relative paths resolved against the
+    /// file's directory: for a command line that overrides some of it (`--pki`, `--connect`)
+    /// and validates the result — a `quic/` endpoint's certificates may come from the flags.
+    pub fn read(path: &Path) -> Result<Self, PeerError> {
         let mut cfg: RobotConfig = load_json5(path)?;
         if let Some(sec) = cfg.security.as_mut() {
             resolve_security_paths(sec, path);
@@ -110,7 +119,6 @@ impl RobotConfig {
                 *dir = base.join(&*dir);
             }
         }
-        cfg.validate().map_err(|e| PeerError::Config(format!("{}: {e}", path.display())))?;
         Ok(cfg)
     }
 

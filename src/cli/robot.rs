@@ -34,7 +34,7 @@ pub struct Args {
 }
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
-    let mut cfg = RobotConfig::load(&args.config)?;
+    let mut cfg = RobotConfig::read(&args.config)?;
     if let Some(id) = args.id {
         cfg.id = id;
     }

@@ -117,10 +117,10 @@ fn configs(args: &Args) -> anyhow::Result<Vec<RobotConfig>> {
         Some(n) => {
             let [template] = args.configs.as_slice() else { bail!("--robots takes one --config, the template (got {})", args.configs.len()) };
             anyhow::ensure!(args.spacing.is_finite() && args.spacing > 0.0, "--spacing: must be a positive number of metres (got {})", args.spacing);
-            let cfg = RobotConfig::load(template)?;
+            let cfg = RobotConfig::read(template)?;
             expand(&cfg, n as usize, args.spacing)
         }
-        None => args.configs.iter().map(|p| RobotConfig::load(p).map_err(anyhow::Error::from)).collect::<anyhow::Result<_>>()?,
+        None => args.configs.iter().map(|p| RobotConfig::read(p).map_err(anyhow::Error::from)).collect::<anyhow::Result<_>>()?,
     };
     let mut seen = std::collections::BTreeSet::new();
     let mut ports = BTreeMap::new();
