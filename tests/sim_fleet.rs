@@ -83,6 +83,22 @@ async fn robots_of_one_process_are_peers_of_their_own_and_crash_one_by_one() -> 
         .collect();
     assert_eq!(lost, vec![victim.clone()], "only the crashed robot was ever lost");
 
+    // Crashed from the operator API (through central): it answers, then stops; it is lost and
+    // the process runs on without it.
+    let other = ["r1", "r2", "r3", "r4", "r5"].into_iter().find(|r| !before.robots.iter().any(|m| m == r)).expect("a robot outside the patrol");
+    let ack: proto::CommandAck = client.query(proto::Key::SystemCmd(proto::SystemCmd::Crash), Some(&proto::CrashRequest { robot: other.into() })).await?;
+    assert_eq!(ack.robot, other);
+    assert_eq!(lines.recv_timeout(Duration::from_secs(10))?, format!("robot crashed id={other}"));
+    eventually("the robot crashed by the operator lost", Duration::from_secs(10), || async {
+        (status_of(&client, other).await == Some(RobotStatus::Lost)).then_some(())
+    })
+    .await?;
+    writeln!(stdin, "list")?;
+    let running = lines.recv_timeout(Duration::from_secs(10))?;
+    assert!(running.starts_with("running ids=") && !running.contains(other) && running.split(',').count() == 4, "{running}");
+    writeln!(stdin, "start {other}")?;
+    assert!(lines.recv_timeout(Duration::from_secs(20))?.starts_with(&format!("robot ready id={other} ")));
+
     // `list` names the robots running; SIGTERM stops them all and the process.
     writeln!(stdin, "list")?;
     assert_eq!(lines.recv_timeout(Duration::from_secs(10))?, "running ids=r1,r2,r3,r4,r5");

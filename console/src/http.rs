@@ -138,6 +138,7 @@ fn system_cmd(group: &str, verb: &str) -> Option<SystemCmd> {
         ("robot", "move") => SystemCmd::Move,
         ("robot", "goto") => SystemCmd::Goto,
         ("robot", "capabilities") => SystemCmd::Capabilities,
+        ("robot", "crash") => SystemCmd::Crash,
         _ => return None,
     })
 }

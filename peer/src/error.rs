@@ -15,6 +15,9 @@ pub enum PeerError {
     Proto(#[from] mrmm_proto::ProtoError),
     #[error("zenoh: {0}")]
     Zenoh(String),
+    /// A simulated robot crashed on the operator's order (`mrmm op crash`).
+    #[error("robot {0} crashed on the operator's order")]
+    Crashed(String),
     /// The ROS 2 body could not start.
     #[error(transparent)]
     Ros2(#[from] mrmm_ros2::Ros2Error),

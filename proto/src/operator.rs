@@ -24,6 +24,14 @@ pub struct GotoRequest {
     pub map: Option<String>,
 }
 
+/// Operator command `mrmm/system/cmd/robot/crash`: crash a simulated robot (a test of what the
+/// fleet does when it loses one; robots with a ROS 2 body refuse).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CrashRequest {
+    pub robot: String,
+}
+
 /// Registry status of a robot as the operator sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

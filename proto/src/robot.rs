@@ -258,6 +258,10 @@ pub enum RobotCommand {
         #[serde(default)]
         members: Vec<String>,
     },
+    /// From the system manager, on the operator's word: a simulated robot stops at once, as if
+    /// its computer died (no goodbye to its teams; its links drop, its missions replan without
+    /// it). A robot with a ROS 2 body refuses: a real robot is not crashed from the fleet.
+    Crash,
 }
 
 /// A plan as delivered to a robot.

@@ -98,6 +98,11 @@ pub async fn start(cfg: RobotConfig, shutdown: CancellationToken) -> anyhow::Res
     Ok(Started { ready, session, tasks, stop })
 }
 
+/// Whether the robot stopped because it was ordered to crash.
+pub fn crashed(e: &anyhow::Error) -> bool {
+    matches!(e.downcast_ref::<mrmm_peer::PeerError>(), Some(mrmm_peer::PeerError::Crashed(_)))
+}
+
 impl Started {
     /// Prints the robot's ready line (what scripts and tests wait for), once it is on the network.
     pub fn announce(&self) {
@@ -113,6 +118,12 @@ impl Started {
         let mut first = true;
         while let Some(done) = self.tasks.join_next().await {
             match done.map_err(|e| anyhow::anyhow!("robot task: {e}"))? {
+                // Crashed on the operator's order: its mission host goes down with it, mid-step,
+                // as a crashed computer's would.
+                Outcome::Robot(Err(e)) if crashed(&e) => {
+                    self.tasks.abort_all();
+                    result = Err(e);
+                }
                 Outcome::Robot(r) => result = result.and(r),
                 Outcome::Host(Err(e)) if first => result = Err(anyhow::anyhow!("mission host stopped: {e}")),
                 Outcome::Host(Err(e)) => tracing::warn!("mission host: {e}"),

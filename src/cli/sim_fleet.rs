@@ -273,6 +273,11 @@ async fn one(
         Ok(()) = kill => None,
     };
     match crashed {
+        // Crashed on the operator's order (`mrmm op crash`): as from stdin; `start` brings it back.
+        Some(Err(e)) if robot::crashed(&e) => {
+            println!("robot crashed id={id}");
+            Ok(())
+        }
         Some(r) => r,
         None => {
             started.kill().await;

@@ -125,7 +125,7 @@ impl Links {
                     None
                 }
             },
-            Command::Reply(_) | Command::Refuse(_) | Command::Drive(_) | Command::Nav(_) | Command::KeepCapabilities { .. } => None,
+            Command::Reply(_) | Command::Refuse(_) | Command::Drive(_) | Command::Nav(_) | Command::KeepCapabilities { .. } | Command::Crash => None,
         }
     }
 

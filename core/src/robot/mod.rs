@@ -92,6 +92,9 @@ pub enum Command {
     /// Keep these capabilities, changed from the config's `configured`, in the state dir
     /// ([`crate::kept`]); only for a robot with one.
     KeepCapabilities { configured: Vec<String>, now: Vec<String> },
+    /// Stop at once, as a crashed computer would (a simulated robot, on the operator's word):
+    /// nothing more is sent, no team is told goodbye.
+    Crash,
 }
 
 /// A robot's state, independent of the network.
@@ -230,6 +233,11 @@ impl Robot {
                             ack.capabilities = Some(self.capabilities.clone());
                         }
                         out.push(Command::Reply(Ok(ack)));
+                        if matches!(cmd, RobotCommand::Crash) {
+                            // Answered first (the operator learns it was done), then nothing more.
+                            out.push(Command::Crash);
+                            return out;
+                        }
                         if std::mem::take(&mut self.keep) && self.cfg.durable {
                             out.push(Command::KeepCapabilities { configured: self.cfg.capabilities.clone(), now: self.capabilities.clone() });
                         }
@@ -311,7 +319,12 @@ impl Robot {
     fn entitled(&self, cmd: &RobotCommand, from: &Sender) -> Result<(), String> {
         let refuse = |what: &str| Err(format!("refused: {from} may not {what}"));
         match cmd {
-            RobotCommand::Goto { .. } | RobotCommand::Hold | RobotCommand::Leave { .. } | RobotCommand::Admit { .. } | RobotCommand::Capabilities { .. } => {
+            RobotCommand::Goto { .. }
+            | RobotCommand::Hold
+            | RobotCommand::Leave { .. }
+            | RobotCommand::Admit { .. }
+            | RobotCommand::Capabilities { .. }
+            | RobotCommand::Crash => {
                 if from.role == Role::Central {
                     Ok(())
                 } else {
@@ -386,6 +399,12 @@ impl Robot {
                     self.body.hold();
                     change = Some(Command::LeaveTeam);
                 }
+            }
+            RobotCommand::Crash => {
+                if !matches!(self.cfg.body, BodyKind::Sim) {
+                    return Err("crash: only a simulated robot is crashed from the fleet (this one has a ROS 2 body)".into());
+                }
+                tracing::warn!(robot = %self.cfg.id, "crashing on the operator's order");
             }
             RobotCommand::Capabilities { add, remove } => {
                 let new = proto::change_capabilities(&self.capabilities, add, remove)?;

@@ -238,3 +238,19 @@ fn a_robot_with_a_state_dir_keeps_changed_capabilities() {
     again.restore_capabilities(vec!["lidar".into()]);
     assert_eq!(again.info(vec![]).capabilities, ["lidar"]);
 }
+
+#[test]
+fn a_simulated_robot_crashes_on_centrals_word_after_answering_and_a_ros_robot_refuses() {
+    let mut r = Robot::new(cfg());
+    // Only central orders it (the operator's word reaches the robot through central).
+    assert!(cmd_from(&mut r, RobotCommand::Crash, Sender::new(Role::Operator, "op")).0.unwrap_err().contains("only central"));
+    assert!(cmd_from(&mut r, RobotCommand::Crash, Sender::new(Role::Robot, "r2")).0.is_err());
+    let out = r.handle(0.0, Event::Command { cmd: RobotCommand::Crash, from: Sender::new(Role::Central, "central") });
+    assert!(matches!(out.as_slice(), [Command::Reply(Ok(_)), Command::Crash]), "answered, then crashed, nothing else: {out:?}");
+
+    let ros = RobotSetup { body: BodyKind::Ros { odom_timeout_s: 1.0, stop_on_fleet_loss: true, localised: false, nav2: None }, ..cfg() };
+    let mut r = Robot::new(ros);
+    let out = r.handle(0.0, Event::Command { cmd: RobotCommand::Crash, from: Sender::new(Role::Central, "central") });
+    assert!(!out.iter().any(|c| matches!(c, Command::Crash)), "a real robot is not crashed: {out:?}");
+    assert!(matches!(&out[0], Command::Reply(Err(e)) if e.contains("only a simulated robot")), "{out:?}");
+}

@@ -31,6 +31,7 @@ pub enum Request {
     Goto(GotoRequest),
     Move(RobotMove),
     Capabilities(CapabilitiesRequest),
+    Crash(proto::CrashRequest),
     Create(MissionCreate),
     Terminate(MissionTerminate),
     Update(mrmm_proto::MissionUpdate),
@@ -53,6 +54,7 @@ impl Request {
             Some(Key::SystemCmd(SystemCmd::Goto)) => proto::from_json("goto request", payload).map(Request::Goto),
             Some(Key::SystemCmd(SystemCmd::Move)) => proto::from_json("robot move request", payload).map(Request::Move),
             Some(Key::SystemCmd(SystemCmd::Capabilities)) => proto::from_json("robot capabilities request", payload).map(Request::Capabilities),
+            Some(Key::SystemCmd(SystemCmd::Crash)) => proto::from_json("robot crash request", payload).map(Request::Crash),
             Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", payload).map(Request::Create),
             Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", payload).map(Request::Terminate),
             Some(Key::SystemCmd(SystemCmd::Update)) => proto::from_json("mission update request", payload).map(Request::Update),
@@ -70,6 +72,7 @@ impl Request {
             Request::Goto(_)
                 | Request::Move(_)
                 | Request::Capabilities(_)
+                | Request::Crash(_)
                 | Request::Create(_)
                 | Request::Terminate(_)
                 | Request::Update(_)

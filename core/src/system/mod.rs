@@ -409,6 +409,15 @@ impl SystemManager {
             Request::Resume(p) => self.pause(req, &p.name, false),
             Request::Move(m) => self.move_robot(req, m),
             Request::Capabilities(c) => self.change_capabilities(req, c),
+            Request::Crash(c) => match self.live_robot(&c.robot) {
+                // The robot decides whether it can be crashed (a ROS 2 robot refuses); its loss is
+                // then seen as any other's.
+                Ok(_) => {
+                    self.note_command(&req, "robot crash", &serde_json::to_value(&c).unwrap_or(Value::Null));
+                    vec![Command::SendToRobot { req: Some(req), robot: c.robot, cmd: RobotCommand::Crash }]
+                }
+                Err(e) => reply(req, Err(e)),
+            },
         }
     }
 

@@ -143,6 +143,23 @@ fn goto_is_validated_then_relayed() {
     assert_eq!(e, "robot r1: timeout");
 }
 
+/// The operator crashes a simulated robot through central: relayed to a live robot (which decides
+/// whether it can be crashed), refused for an unknown or lost one; decoded from its own key.
+#[test]
+fn a_crash_is_relayed_to_a_live_robot_only() {
+    let mut sm = registered(&["r1", "r2"]);
+    let key = Key::SystemCmd(mrmm_proto::SystemCmd::Crash).to_string();
+    let crash = |sm: &mut SystemManager, body: &str| {
+        let request = Request::decode(&key, body.as_bytes()).expect("a crash request");
+        sm.drive(1.0, Event::Operator { req: Req::Query(7), request })
+    };
+    assert_eq!(crash(&mut sm, r#"{"robot":"r1"}"#), vec![Command::SendToRobot { req: Some(Req::Query(7)), robot: "r1".into(), cmd: RobotCommand::Crash }]);
+    assert!(reply(crash(&mut sm, r#"{"robot":"nope"}"#)).expect_err("unknown").contains("unknown robot \"nope\""));
+    sm.drive(1.0, Event::RobotGone { id: "r2".into() });
+    assert!(reply(crash(&mut sm, r#"{"robot":"r2"}"#)).expect_err("lost").contains("lost"));
+    assert!(Request::decode(&key, br#"{"robot":"r1","now":true}"#).is_err(), "unknown fields are refused");
+}
+
 /// On a map, a goto goes along its corridors: central sends the route's corners with it.
 #[test]
 fn a_goto_on_a_map_follows_a_route() {

@@ -38,6 +38,8 @@ pub(super) struct Io {
     pub(super) ros: Option<RosLink>,
     /// Where the robot keeps what must survive a restart.
     pub(super) state_dir: Option<std::path::PathBuf>,
+    /// Ordered to crash (a simulated robot): the runtime stops at once.
+    pub(super) crashed: bool,
 }
 
 impl Io {
@@ -66,6 +68,7 @@ impl Io {
                     self.mesh.reply_err(q, &proto::ErrorReply::coded(proto::ErrorCode::Refused, e)).await;
                 }
             }
+            Command::Crash => self.crashed = true,
             Command::JoinTeam { .. } | Command::LeaveTeam => self.rejoin().await,
             Command::Lead(on) => self.lead(on).await,
             // Published below.

@@ -134,11 +134,16 @@ pub async fn run_on(
         viewers: Viewers::new(proto::VIEWER_HELLO_MS),
         ros,
         state_dir: cfg.state_dir.clone(),
+        crashed: false,
     };
     let t0 = Instant::now();
     while let Some((event, query)) = inputs.next(&robot, &mut io).await {
         for c in robot.handle(t0.elapsed().as_secs_f64(), event) {
             io.execute(c, query.as_ref()).await;
+        }
+        if io.crashed {
+            // No goodbye: whoever runs the robot drops its session as a crash would.
+            return Err(PeerError::Crashed(id));
         }
         // The mission host of this process learns whom the robot trusts for which mission.
         if let Some(tx) = &team {

@@ -31,6 +31,7 @@
 //! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | [`crate::GotoRequest`] |
 //! | `mrmm/system/cmd/robot/move` | queryable on the system manager | [`crate::RobotMove`] |
 //! | `mrmm/system/cmd/robot/capabilities` | queryable on the system manager | [`crate::CapabilitiesRequest`] |
+//! | `mrmm/system/cmd/robot/crash` | queryable on the system manager | [`crate::CrashRequest`] |
 //! | `mrmm/system/cmd/mission/create` | queryable on the system manager | [`crate::MissionCreate`] |
 //! | `mrmm/system/cmd/mission/terminate` | queryable on the system manager | [`crate::MissionTerminate`] |
 //! | `mrmm/system/cmd/mission/update` | queryable on the system manager | [`crate::MissionUpdate`] |
@@ -129,6 +130,7 @@ pub enum SystemCmd {
     Goto,
     Move,
     Capabilities,
+    Crash,
     Create,
     Terminate,
     Update,
@@ -247,10 +249,11 @@ declare_keys! {
 impl SystemCmd {
     /// Every operator command with its chunks after `mrmm/system/cmd/`: declared once, for
     /// building and parsing alike.
-    const ALL: [(SystemCmd, &'static str); 8] = [
+    const ALL: [(SystemCmd, &'static str); 9] = [
         (SystemCmd::Goto, "robot/goto"),
         (SystemCmd::Move, "robot/move"),
         (SystemCmd::Capabilities, "robot/capabilities"),
+        (SystemCmd::Crash, "robot/crash"),
         (SystemCmd::Create, "mission/create"),
         (SystemCmd::Terminate, "mission/terminate"),
         (SystemCmd::Update, "mission/update"),

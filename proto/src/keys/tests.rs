@@ -60,6 +60,7 @@ fn all_keys() -> Vec<Key> {
         Key::SystemCmd(SystemCmd::Goto),
         Key::SystemCmd(SystemCmd::Move),
         Key::SystemCmd(SystemCmd::Capabilities),
+        Key::SystemCmd(SystemCmd::Crash),
         Key::SystemCmd(SystemCmd::Create),
         Key::SystemCmd(SystemCmd::Terminate),
         Key::SystemCmd(SystemCmd::Update),

@@ -62,6 +62,10 @@ enum What {
         #[arg(long)]
         remove: Vec<String>,
     },
+    /// Crash a simulated robot, as if its computer died: its missions replan without it
+    /// (`mrmm/system/cmd/robot/crash`; `start ID` on its `mrmm sim-fleet` brings it back). A
+    /// robot with a ROS 2 body refuses.
+    Crash { robot: String },
     /// Missions: create, terminate, list, show, marginal.
     #[command(subcommand)]
     Mission(mission::Mission),
@@ -155,6 +159,14 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             if let Some(m) = v["left"].as_str() {
                 println!("{} left mission {m}: it requires what the robot no longer has", ack.robot);
             }
+        }
+        What::Crash { robot } => {
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Crash), Some(&proto::CrashRequest { robot })).await?;
+            if json {
+                return print_json(&v);
+            }
+            let ack: CommandAck = serde_json::from_value(v)?;
+            println!("{}: crashed", ack.robot);
         }
         What::Mission(m) => mission::exec(client, m, json).await?,
         What::Missions => mission::exec(client, mission::Mission::List, json).await?,
