@@ -331,7 +331,7 @@ impl SystemManager {
         let mut chosen: Vec<String> = self.for_teams(r, self.idle_robots(requires)).into_iter().take(share).collect();
         let mut steal = Vec::new();
         let mut sizes: BTreeMap<String, Vec<String>> = BTreeMap::new();
-        for (robot, m) in &self.assignment {
+        for (robot, m) in self.assignment.iter() {
             if self.fleet.alive(robot) {
                 sizes.entry(m.clone()).or_default().push(robot.clone());
             }

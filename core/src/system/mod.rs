@@ -20,6 +20,7 @@ pub mod missions;
 mod recovery;
 mod reports;
 mod steer;
+mod touched;
 mod views;
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -149,13 +150,13 @@ pub struct SystemManager {
     fleet: Fleet,
     missions: BTreeMap<String, MissionRecord>,
     /// Robot → mission: every robot is in at most one mission (a lost one keeps its place).
-    assignment: BTreeMap<String, String>,
+    assignment: touched::Touched<BTreeMap<String, String>>,
     /// Missions whose create request waits for the first plan.
     pending_create: BTreeMap<String, Req>,
     starts: Vec<PendingStart>,
     /// Missions terminated here: robots still running them are ordered out, heads still
     /// reporting them are told again.
-    terminated: BTreeSet<String>,
+    terminated: touched::Touched<BTreeSet<String>>,
     released: BTreeMap<(String, String), Released>,
     ctls: Ctls,
     /// Commands held while the manager learns the fleet after starting.
@@ -186,10 +187,10 @@ impl SystemManager {
             now,
             fleet: Fleet::default(),
             missions: BTreeMap::new(),
-            assignment: BTreeMap::new(),
+            assignment: touched::Touched::default(),
             pending_create: BTreeMap::new(),
             starts: Vec::new(),
-            terminated: BTreeSet::new(),
+            terminated: touched::Touched::default(),
             released: BTreeMap::new(),
             ctls: Ctls::default(),
             held: Vec::new(),

@@ -16,8 +16,8 @@ impl SystemManager {
         for (name, def) in &state.missions {
             m.missions.insert(name.clone(), MissionRecord::new(def.clone(), None, false, now));
         }
-        m.assignment = state.assignment.clone();
-        m.terminated = state.terminated.clone();
+        m.assignment = touched::Touched::new(state.assignment.clone());
+        m.terminated = touched::Touched::new(state.terminated.clone());
         // Robots whose head had not let them go yet: told again, and held until it does.
         for (robot, mission) in &state.releasing {
             if m.missions.contains_key(mission) {
@@ -40,8 +40,8 @@ impl SystemManager {
     pub fn durable(&self) -> Durable {
         Durable {
             missions: self.missions.iter().map(|(n, r)| (n.clone(), r.def.clone())).collect(),
-            assignment: self.assignment.clone(),
-            terminated: self.terminated.clone(),
+            assignment: (*self.assignment).clone(),
+            terminated: (*self.terminated).clone(),
             releasing: self.releasing(),
         }
     }
@@ -51,11 +51,12 @@ impl SystemManager {
         self.released.iter().filter(|(_, r)| self.ctls.is_pending(r.ctl)).map(|(k, _)| k.clone()).collect()
     }
 
-    /// Whether the durable part differs from what the journal holds (cheap: no copies).
+    /// Whether the durable part differs from what the journal holds (cheap: no copies; the
+    /// robot → mission map and the terminated set are compared only when an event touched them).
     pub(super) fn durable_changed(&self) -> bool {
         let j = self.journal.committed();
-        self.assignment != j.assignment
-            || self.terminated != j.terminated
+        (self.assignment.touched() && *self.assignment != j.assignment)
+            || (self.terminated.touched() && *self.terminated != j.terminated)
             || self.releasing() != j.releasing
             || self.missions.len() != j.missions.len()
             || self.missions.iter().zip(&j.missions).any(|((n, r), (jn, jd))| n != jn || !Arc::ptr_eq(&r.def, jd))
@@ -65,7 +66,11 @@ impl SystemManager {
     /// last commit, then the history noted meanwhile.
     pub(super) fn journal_entries(&mut self) -> Vec<JournalEvent> {
         let now = self.durable_changed().then(|| self.durable());
-        self.journal.entries(now)
+        let entries = self.journal.entries(now);
+        // The journal holds what they hold now.
+        self.assignment.committed();
+        self.terminated.committed();
+        entries
     }
 
     /// Journaled missions that no live manager runs are started again as their next lineage,

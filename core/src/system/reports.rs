@@ -106,9 +106,10 @@ impl SystemManager {
         };
         if let Some(running) = &t.mission {
             let assigned = self.assignment.get(&t.id);
-            let listed = self.missions.get(running).filter(|m| m.adopted).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
+            // Looked up in the head's list (O(team)) only for a robot in no mission here.
+            let listed = || self.missions.get(running).filter(|m| m.adopted).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
             let released = Self::released_by(&self.released, &self.ctls, &t.id, running, false);
-            if assigned.is_none() && listed && !released && !self.terminated.contains(running) {
+            if assigned.is_none() && !released && !self.terminated.contains(running) && listed() {
                 tracing::info!(mission = %running, robot = %t.id, "robot recorded in the mission it runs and its head lists");
                 let (id, mission) = (t.id.clone(), running.clone());
                 self.assignment.insert(id.clone(), mission.clone());
