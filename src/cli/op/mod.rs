@@ -2,12 +2,13 @@
 
 pub mod journal;
 pub mod mission;
+mod robot;
 
 use std::time::Duration;
 
 use mrmm_net::client::Client;
 use mrmm_net::net::DEFAULT_CENTRAL;
-use mrmm_proto::{self as proto, Advice, CapabilitiesRequest, CommandAck, GotoRequest, RobotMove, RobotView, SystemStatus};
+use mrmm_proto::{self as proto, Advice, RobotView, SystemStatus};
 use serde_json::Value;
 
 #[derive(Debug, clap::Args)]
@@ -38,34 +39,8 @@ enum What {
     Robot { id: String },
     /// Fleet summary (`mrmm/system/status`).
     Status,
-    /// Drive a robot to (x, y) (`mrmm/system/cmd/robot/goto`); on a map (central's only one, or
-    /// the one named) along its corridors.
-    #[command(allow_negative_numbers = true)]
-    Goto {
-        robot: String,
-        x: f64,
-        y: f64,
-        #[arg(long)]
-        map: Option<String>,
-    },
-    /// Move a robot to another mission, or out of its mission with `none`
-    /// (`mrmm/system/cmd/robot/move`).
-    Move { robot: String, to: String },
-    /// Change what a robot can do (a sensor broke, a tool was fitted); it leaves a mission that
-    /// requires what it no longer has (`mrmm/system/cmd/robot/capabilities`).
-    Capabilities {
-        robot: String,
-        /// A capability it now has (repeatable).
-        #[arg(long)]
-        add: Vec<String>,
-        /// A capability it no longer has (repeatable).
-        #[arg(long)]
-        remove: Vec<String>,
-    },
-    /// Crash a simulated robot, as if its computer died: its missions replan without it
-    /// (`mrmm/system/cmd/robot/crash`; `start ID` on its `mrmm sim-fleet` brings it back). A
-    /// robot with a ROS 2 body refuses.
-    Crash { robot: String },
+    #[command(flatten)]
+    Order(robot::Order),
     /// Missions: create, terminate, list, show, marginal.
     #[command(subcommand)]
     Mission(mission::Mission),
@@ -127,47 +102,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             println!("central {}  up {:.0} s", s.node, s.uptime_s);
             println!("robots  {} total: {} idle, {} busy, {} lost", s.robots_total, s.idle, s.busy, s.lost);
         }
-        What::Goto { robot, x, y, map } => {
-            let req = GotoRequest { robot, x, y, map };
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&req)).await?;
-            if json {
-                return print_json(&v);
-            }
-            let ack: CommandAck = serde_json::from_value(v)?;
-            println!("{}: {}", ack.robot, ack.behaviour.describe());
-        }
-        What::Move { robot, to } => {
-            let to = (to != "none").then_some(to);
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot, to })).await?;
-            if json {
-                return print_json(&v);
-            }
-            println!("{}: {} → {}", v["robot"].as_str().unwrap_or("?"), v["from"].as_str().unwrap_or("none"), v["to"].as_str().unwrap_or("none"));
-        }
-        What::Capabilities { robot, add, remove } => {
-            if add.is_empty() && remove.is_empty() {
-                anyhow::bail!("give --add NAME or --remove NAME (repeatable)");
-            }
-            let req = CapabilitiesRequest { robot, add, remove };
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Capabilities), Some(&req)).await?;
-            if json {
-                return print_json(&v);
-            }
-            let ack: CommandAck = serde_json::from_value(v.clone())?;
-            let has = ack.capabilities.unwrap_or_default();
-            println!("{}: {}", ack.robot, if has.is_empty() { "no capabilities".to_string() } else { has.join(", ") });
-            if let Some(m) = v["left"].as_str() {
-                println!("{} left mission {m}: it requires what the robot no longer has", ack.robot);
-            }
-        }
-        What::Crash { robot } => {
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Crash), Some(&proto::CrashRequest { robot })).await?;
-            if json {
-                return print_json(&v);
-            }
-            let ack: CommandAck = serde_json::from_value(v)?;
-            println!("{}: crashed", ack.robot);
-        }
+        What::Order(o) => robot::exec(client, o, json).await?,
         What::Mission(m) => mission::exec(client, m, json).await?,
         What::Missions => mission::exec(client, mission::Mission::List, json).await?,
         What::Maps => {

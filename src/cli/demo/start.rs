@@ -1,0 +1,228 @@
+//! Bringing the demo's fleet up: its throw-away PKI, central, the site routers and the robots,
+//! each a child process with its log in the demo's directory.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{anyhow, Context};
+use mrmm_proto as proto;
+use tokio::process::Child;
+
+use super::{lease, map, Args, LARGE_FLEET, START_RATE, TYPES};
+use crate::cli::procs;
+
+/// A throw-away fleet PKI in `pki`: the CA, central, the operator (this demo and your tools),
+/// each robot and each site router.
+pub(super) fn issue_pki(args: &Args, pki: &Path) -> anyhow::Result<()> {
+    use mrmm_net::security::{pki as p, Role};
+    p::init(pki)?;
+    p::issue(pki, Role::Central, proto::CENTRAL_HOST, &[], 30)?;
+    p::issue(pki, Role::Operator, "operator", &[], 30)?;
+    for i in 0..args.robots {
+        p::issue(pki, Role::Robot, &format!("r{}", i + 1), &[], 30)?;
+    }
+    for s in 1..args.sites {
+        p::issue(pki, Role::Router, &format!("site{s}"), &[], 30)?;
+    }
+    Ok(())
+}
+
+/// Where central listens: the endpoint clients and robots use (of the demo's scheme), and the one
+/// site routers link to (QUIC when secure).
+pub(super) struct CentralAt {
+    pub endpoint: String,
+    pub uplink: String,
+}
+
+/// Starts central (with the building's map, the fleet's lease, its own state dir).
+pub(super) async fn central(
+    args: &Args,
+    dir: &Path,
+    children: &mut Vec<Child>,
+    scheme: &str,
+    pki: Option<&Path>,
+    building: Option<&map::DemoMap>,
+) -> anyhow::Result<CentralAt> {
+    let listen = args.listen.clone().unwrap_or_default();
+    let log = dir.join("central.log");
+    let state = args.state_dir.clone().unwrap_or_else(|| dir.join("central-state"));
+    // Central's lease too: under a large fleet's load, a 1 s lease expires the site routers'
+    // uplinks (docs/scale.md).
+    let central_cfg = dir.join("central.json5");
+    std::fs::write(&central_cfg, format!("{{ lease_ms: {} }}\n", lease(args))).with_context(|| format!("cannot write {}", central_cfg.display()))?;
+    let mut central_args = vec![
+        "central".to_string(),
+        "--config".into(),
+        central_cfg.display().to_string(),
+        "--listen".into(),
+        listen,
+        "--state-dir".into(),
+        state.display().to_string(),
+    ];
+    if let Some(b) = building {
+        central_args.extend(["--map".into(), format!("{}={}", map::NAME, b.path.display())]);
+    }
+    if let Some(pki) = pki {
+        central_args.extend(["--pki".into(), pki.display().to_string(), "--operator".into(), "operator".into()]);
+        if args.sites > 1 && scheme != "quic" {
+            // The routers' uplinks: QUIC (Zenoh's TLS link closes under heavy load, docs/zenoh.md).
+            central_args.extend(["--listen".into(), "quic/127.0.0.1:0".into()]);
+        }
+    }
+    let mut central = procs::spawn(&central_args, &log)?;
+    let line = procs::ready_line(&mut central, "central ready", Duration::from_secs(20), &log).await;
+    children.push(central);
+    let line = line.context("central did not start")?;
+    let listening: Vec<String> = procs::field(&line, "listening").map(|l| l.split(',').map(String::from).collect()).unwrap_or_default();
+    let endpoint =
+        listening.iter().find(|e| e.starts_with(&format!("{scheme}/"))).cloned().ok_or_else(|| anyhow!("central ready line without endpoint: {line}"))?;
+    let uplink = listening.iter().find(|e| e.starts_with("quic/")).cloned().unwrap_or_else(|| endpoint.clone());
+    Ok(CentralAt { endpoint, uplink })
+}
+
+/// Where operator tools find central and the operator's certificate (`MRMM_TOOL_CONFIG`).
+pub(super) fn tool_config(dir: &Path, endpoint: &str, operator: Option<&proto::SecuritySection>) -> anyhow::Result<PathBuf> {
+    let tool = dir.join("tool.json5");
+    let security = match operator {
+        Some(s) => {
+            format!(", security: {{ ca: {:?}, cert: {:?}, key: {:?} }}", s.ca.display().to_string(), s.cert.display().to_string(), s.key.display().to_string())
+        }
+        None => String::new(),
+    };
+    std::fs::write(&tool, format!("{{ connect: [{endpoint:?}]{security} }}\n")).with_context(|| format!("cannot write {}", tool.display()))?;
+    Ok(tool)
+}
+
+/// The site routers (`--sites`): their endpoints, central's first. Each links to central's `uplink`.
+pub(super) async fn routers(
+    args: &Args,
+    dir: &Path,
+    children: &mut Vec<Child>,
+    central: &str,
+    uplink: &str,
+    scheme: &str,
+    pki: Option<&Path>,
+) -> anyhow::Result<Vec<String>> {
+    let mut sites = vec![central.to_string()];
+    for s in 1..args.sites {
+        let id = format!("site{s}");
+        let path = dir.join(format!("{id}.json5"));
+        std::fs::write(&path, format!("{{ id: {id:?}, listen: [\"{scheme}/127.0.0.1:0\"], connect: [{uplink:?}], lease_ms: {} }}\n", lease(args)))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        let mut cmd = vec!["router".to_string(), "--config".into(), path.display().to_string()];
+        if let Some(pki) = pki {
+            cmd.extend(["--pki".into(), pki.display().to_string()]);
+        }
+        let log = dir.join(format!("{id}.log"));
+        let mut router = procs::spawn(&cmd, &log)?;
+        let line = procs::ready_line(&mut router, "router ready", Duration::from_secs(20), &log).await;
+        children.push(router);
+        let line = line.with_context(|| format!("router {id} did not start"))?;
+        let ep = procs::field(&line, "listening").and_then(|l| l.split(',').next()).ok_or_else(|| anyhow!("router ready line without endpoint: {line}"))?;
+        sites.push(ep.to_string());
+    }
+    if args.sites > 1 {
+        println!("mrmm demo: {} sites: central and {} routers, robot i in site i mod {}", args.sites, args.sites - 1, args.sites);
+    }
+    Ok(sites)
+}
+
+/// Starts the simulated robots from a config file per robot in `dir` (robot i is on site i mod
+/// SITES): a `mrmm robot` process each up to [`LARGE_FLEET`], one `mrmm sim-fleet` per site
+/// beyond (hundreds of processes would fill a small machine with their own runtimes).
+pub(super) fn robots(
+    args: &Args,
+    dir: &Path,
+    children: &mut Vec<Child>,
+    sites: &[String],
+    starts: Option<&[(f64, f64)]>,
+    scheme: &str,
+    pki: Option<&Path>,
+) -> anyhow::Result<()> {
+    let n = args.robots as usize;
+    let lease = lease(args);
+    let mut per_site: Vec<Vec<PathBuf>> = vec![Vec::new(); sites.len()];
+    for i in 0..n {
+        let id = format!("r{}", i + 1);
+        let at = starts.map(|s| s[i]);
+        let cfg = robot_config(&id, i, n, at, &sites[i % sites.len()], scheme, args.time_scale, lease, pki);
+        let path = dir.join(format!("{id}.json5"));
+        std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
+        per_site[i % sites.len()].push(path);
+    }
+    if n <= LARGE_FLEET {
+        // A process per robot: `pkill -f rN.json5` crashes one, as a robot's computer would.
+        for path in per_site.iter().flatten() {
+            children.push(procs::spawn(&["robot".to_string(), "--config".into(), path.display().to_string()], &path.with_extension("log"))?);
+        }
+        return Ok(());
+    }
+    // A large fleet starts gradually, about 6 robots a second in all (one per site at least):
+    // every robot's declarations invalidate every route the routers cached, and a faster start
+    // loaded this 2-core machine until links expired and robots flapped (docs/scale.md).
+    let rate = (START_RATE / sites.len()).max(1);
+    for (k, paths) in per_site.iter().enumerate().filter(|(_, p)| !p.is_empty()) {
+        let mut argv = vec!["sim-fleet".to_string(), "--rate".into(), rate.to_string()];
+        argv.extend(paths.iter().flat_map(|p| ["--config".to_string(), p.display().to_string()]));
+        let mut child = procs::spawn(&argv, &dir.join(format!("robots-site{k}.log")))?;
+        procs::drain_stdout(&mut child);
+        children.push(child);
+    }
+    Ok(())
+}
+
+/// A robot's config; it starts `at` (x, y), or else on a line.
+#[allow(clippy::too_many_arguments)]
+fn robot_config(
+    id: &str,
+    i: usize,
+    n: usize,
+    at: Option<(f64, f64)>,
+    central: &str,
+    scheme: &str,
+    time_scale: f64,
+    lease_ms: u64,
+    pki: Option<&Path>,
+) -> String {
+    let kind = TYPES[i % TYPES.len()];
+    let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
+    // Rows of at most 20, 1.5 m apart, from y = -12 down (into the coverage region).
+    let cols = n.min(20);
+    let (x, y) = at.unwrap_or((((i % cols) as f64 - (cols as f64 - 1.0) / 2.0) * 1.5, -12.0 - (i / cols) as f64 * 1.5));
+    let security = match pki {
+        Some(d) => {
+            let f = |name: &str| format!("{:?}", d.join(name).display().to_string());
+            format!("  security: {{ ca: {}, cert: {}, key: {} }},\n", f("ca.crt"), f(&format!("{id}.crt")), f(&format!("{id}.key")))
+        }
+        None => String::new(),
+    };
+    format!(
+        r#"{{
+  id: "{id}", type: "{kind}", capabilities: {caps},
+  kinematics: {{ max_speed: {speed}, max_turn_rate: {turn} }},
+  start: {{ x: {x}, y: {y}, theta: 1.5708 }},
+  time_scale: {time_scale}, telemetry_hz: 5,
+  zenoh: {{ listen: ["{scheme}/127.0.0.1:0"], connect: ["{central}"], lease_ms: {lease_ms} }},
+{security}}}
+"#
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_configs_are_valid() {
+        for i in 0..4 {
+            let text = robot_config(&format!("r{i}"), i, 4, None, "tcp/127.0.0.1:7447", "tcp", 2.0, 1000, None);
+            let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
+            assert_eq!(cfg.time_scale, 2.0);
+        }
+        let text = robot_config("r1", 0, 4, Some((3.5, -2.0)), "quic/127.0.0.1:7447", "quic", 1.0, 1000, Some(std::path::Path::new("/p")));
+        let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid secure config");
+        assert_eq!(cfg.security.map(|s| s.cert), Some(std::path::PathBuf::from("/p/r1.crt")));
+        let (x, y) = super::super::watch::circle_point(1, 4, 2.0);
+        assert!((x - 0.0).abs() < 1e-9 && (y - 2.0).abs() < 1e-9);
+    }
+}
