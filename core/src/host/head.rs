@@ -12,12 +12,27 @@ use crate::mission::{self, MissionManager};
 pub const REDELIVER_S: f64 = 2.0;
 /// Plan requests retried at most this many times per epoch when no planner answered.
 pub const PLAN_RETRIES: u32 = 3;
+/// Plans of one mission on their way at once (sent, not answered): a 500-robot team is handed
+/// its plans 32 at a time, each answer letting the next one go, instead of 500 queries at once.
+pub const DELIVERY_WINDOW: usize = 32;
+/// A plan sent this long ago without an answer no longer holds a place in the window (its
+/// query's answer, even a timeout, was lost).
+const IN_FLIGHT_STALE_S: f64 = crate::timeouts::ROBOT_PLAN_S + REDELIVER_S;
 
 /// A plan on its way to a robot: re-sent until the robot's telemetry (or its answer) shows it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Delivery {
     pub assignment: Box<PlanAssignment>,
-    pub last_sent: f64,
+    /// When it was last sent (`None`: waiting for a place in the window).
+    pub last_sent: Option<f64>,
+    /// Sent and not answered yet: it holds a place in the window.
+    pub in_flight: bool,
+}
+
+impl Delivery {
+    fn holds_place(&self, now: f64) -> bool {
+        self.in_flight && self.last_sent.is_some_and(|t| now - t < IN_FLIGHT_STALE_S)
+    }
 }
 
 /// A mission this node leads.
@@ -141,23 +156,40 @@ impl Head {
         self.replies.iter().map(|(q, _)| *q).collect()
     }
 
-    /// A plan goes out to `robot` now.
-    pub fn sending(&mut self, now: f64, robot: &str, assignment: Box<PlanAssignment>) {
+    /// A plan for `robot` is to go out now: whether it goes at once (`false`: it waits for a
+    /// place in the window, and goes out from [`Head::redeliver`] or [`Head::answered`]).
+    pub fn sending(&mut self, now: f64, robot: &str, assignment: Box<PlanAssignment>) -> bool {
         self.sent.insert(robot.to_string(), assignment.clone());
-        self.deliveries.insert(robot.to_string(), Delivery { assignment, last_sent: now });
+        let go = self.in_flight(now) < DELIVERY_WINDOW;
+        self.deliveries.insert(robot.to_string(), Delivery { assignment, last_sent: go.then_some(now), in_flight: go });
+        go
     }
 
-    /// Plans due again: members that have not shown their plan for `REDELIVER_S` and are
-    /// alive (`alive`). Deliveries to robots no longer members are dropped.
+    /// Plans on their way that hold a place in the window.
+    fn in_flight(&self, now: f64) -> usize {
+        self.deliveries.values().filter(|d| d.holds_place(now)).count()
+    }
+
+    /// Plans due now, as many as the window has places for: those waiting for a place, then
+    /// members that have not shown their plan for `REDELIVER_S` — alive ones (`alive`).
+    /// Deliveries to robots no longer members are dropped.
     pub fn redeliver(&mut self, now: f64, alive: impl Fn(&str) -> bool) -> Vec<(String, Box<PlanAssignment>)> {
         let mm = &self.mm;
         self.deliveries.retain(|robot, d| mm.has(robot) && d.assignment.epoch == mm.epoch());
+        let mut places = DELIVERY_WINDOW.saturating_sub(self.in_flight(now));
+        let mut due: Vec<(&String, &mut Delivery)> =
+            self.deliveries.iter_mut().filter(|(r, d)| !d.holds_place(now) && d.last_sent.is_none_or(|t| now - t >= REDELIVER_S) && alive(r)).collect();
+        // Never sent first.
+        due.sort_by_key(|(_, d)| d.last_sent.is_some());
         let mut out = Vec::new();
-        for (robot, d) in self.deliveries.iter_mut() {
-            if now - d.last_sent >= REDELIVER_S && alive(robot) {
-                d.last_sent = now;
-                out.push((robot.clone(), d.assignment.clone()));
+        for (robot, d) in due {
+            if places == 0 {
+                break;
             }
+            places -= 1;
+            d.last_sent = Some(now);
+            d.in_flight = true;
+            out.push((robot.clone(), d.assignment.clone()));
         }
         out
     }
@@ -166,6 +198,20 @@ impl Head {
     pub fn delivered(&mut self, robot: &str, epoch: u64) {
         if self.deliveries.get(robot).is_some_and(|d| d.assignment.epoch <= epoch) {
             self.deliveries.remove(robot);
+        }
+    }
+
+    /// Any answer to a delivery of `epoch` to `robot` (taken, refused, or none in time): its
+    /// place in the window is free; the plans waiting for one go out (at most one per place).
+    pub fn answered(&mut self, now: f64, robot: &str, epoch: u64, alive: impl Fn(&str) -> bool) -> Vec<(String, Box<PlanAssignment>)> {
+        if let Some(d) = self.deliveries.get_mut(robot).filter(|d| d.assignment.epoch == epoch) {
+            d.in_flight = false;
+        }
+        // With none waiting, re-sends keep to the tick.
+        if self.deliveries.values().any(|d| d.last_sent.is_none()) {
+            self.redeliver(now, alive)
+        } else {
+            vec![]
         }
     }
 
@@ -190,7 +236,7 @@ impl Head {
         let plan = self.sent.get(&t.id).filter(|a| a.epoch == self.mm.epoch()).cloned();
         if let Some(assignment) = plan {
             // Due at the next redelivery round.
-            self.deliveries.insert(t.id.clone(), Delivery { assignment, last_sent: now - REDELIVER_S });
+            self.deliveries.insert(t.id.clone(), Delivery { assignment, last_sent: None, in_flight: false });
             self.astray.remove(&t.id);
         }
     }

@@ -231,8 +231,9 @@ impl HostCore {
             match c {
                 mission::Command::SendPlan { robot, mut assignment } => {
                     assignment.managers = managers.clone();
-                    h.sending(now, &robot, assignment.clone());
-                    out.push(Command::SendPlan { mission: name.to_string(), robot, assignment });
+                    if h.sending(now, &robot, assignment.clone()) {
+                        out.push(Command::SendPlan { mission: name.to_string(), robot, assignment });
+                    }
                 }
                 mission::Command::Started => {
                     if let (Some(q), Some(v)) = (h.start.take(), &view) {

@@ -342,6 +342,8 @@ impl HostCore {
             Event::Telemetry(t) => self.telemetry(now, &t, &mut out),
             Event::Planned { mission, epoch, result } => self.planned(now, &mission, epoch, result, &mut out),
             Event::PlanDelivered { mission, robot, epoch, result } => {
+                let managers = self.registry.replica(&mission).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
+                let robots = &self.robots;
                 if let Some(h) = self.heads.get_mut(&mission) {
                     match result {
                         Ok(()) => h.delivered(&robot, epoch),
@@ -350,6 +352,11 @@ impl HostCore {
                             tracing::warn!(%mission, %robot, epoch, "plan refused: {}", f.error);
                             h.delivered(&robot, epoch);
                         }
+                    }
+                    // Its place in the window goes to the next plan waiting.
+                    for (robot, mut assignment) in h.answered(now, &robot, epoch, |r| robots.alive(r)) {
+                        assignment.managers.clone_from(&managers);
+                        out.push(Command::SendPlan { mission: mission.clone(), robot, assignment });
                     }
                 }
             }

@@ -188,7 +188,11 @@ fn plans_are_sent_again_until_the_robot_shows_them() {
     let mut m = running();
     assert!(sent_plans(&m.tick(1.0).into_iter().map(|c| c.1).collect::<Vec<_>>()).is_empty());
     m.to("central", progress("r1", "p", 1));
-    let again: Vec<Command> = m.tick(1.1).into_iter().filter(|(n, _)| n == "central").map(|c| c.1).collect();
+    // r2's plan is still on its way (its query not answered yet): not sent twice at once.
+    assert!(sent_plans(&m.tick(1.1).into_iter().map(|c| c.1).collect::<Vec<_>>()).is_empty());
+    // The query timed out: r1 shows its plan, r2 gets it again.
+    m.to("central", Event::PlanDelivered { mission: "p".into(), robot: "r2".into(), epoch: 1, result: Err(Failure::retry("no answer")) });
+    let again: Vec<Command> = m.tick(0.9).into_iter().filter(|(n, _)| n == "central").map(|c| c.1).collect();
     assert_eq!(sent_plans(&again), [("r2".into(), 1)], "r1 shows its plan; r2 gets it again");
     m.to("central", Event::PlanDelivered { mission: "p".into(), robot: "r2".into(), epoch: 1, result: Ok(()) });
     assert!(m.nodes["central"].undelivered("p").is_empty());
@@ -392,4 +396,35 @@ fn a_straggler_of_an_ended_mission_is_told_so_though_no_longer_entitled() {
     let out = core.handle(m.now, Event::Chain { envelope: Box::new(ChainEnvelope { mission: "p".into(), from: "r2".into(), msg: vote }), from: robot });
     assert!(out.iter().any(|c| matches!(c, Command::Chain { to, envelope } if to == "r2" && matches!(envelope.msg, chain::Msg::End { .. }))), "{out:?}");
     assert!(out.iter().any(|c| matches!(c, Command::Refused { .. })), "and nothing it sent is taken: {out:?}");
+}
+
+/// A large team is handed its plans a window at a time: each answer lets the next plan go, the
+/// tick sends what the window has room for, and every member gets its plan once.
+#[test]
+fn a_large_team_gets_its_plans_a_window_at_a_time() {
+    let ids: Vec<String> = (1..=40).map(|i| format!("r{i}")).collect();
+    let robots: Vec<&str> = ids.iter().map(String::as_str).collect();
+    let mut m = Mesh::new(&["central"], &robots);
+    let cmds = m.to("central", Event::Start { query: 1, start: start("p", &robots), from: central() });
+    let cmds = m.to("central", planned(&cmds).expect("a plan request"));
+    let first = sent_plans(&cmds);
+    assert_eq!(first.len(), head::DELIVERY_WINDOW, "a window's worth at first");
+    // One answer: one more plan goes out at once.
+    let (done, _) = first[0].clone();
+    let next = sent_plans(&m.to("central", Event::PlanDelivered { mission: "p".into(), robot: done.clone(), epoch: 1, result: Ok(()) }));
+    assert_eq!(next.len(), 1);
+    assert!(!first.contains(&next[0]), "a robot still waiting: {next:?}");
+    // The rest answer: the others go out as places free up, none twice.
+    let mut got: Vec<String> = first.iter().chain(&next).map(|(r, _)| r.clone()).collect();
+    for (r, _) in first.iter().skip(1).chain(&next) {
+        let more = m.to("central", Event::PlanDelivered { mission: "p".into(), robot: r.clone(), epoch: 1, result: Ok(()) });
+        got.extend(sent_plans(&more).into_iter().map(|(r, _)| r));
+    }
+    let mut tick = sent_plans(&m.tick(0.1).into_iter().map(|c| c.1).collect::<Vec<_>>());
+    got.extend(tick.drain(..).map(|(r, _)| r));
+    let mut sorted = got.clone();
+    sorted.sort();
+    sorted.dedup();
+    assert_eq!(sorted.len(), got.len(), "no plan sent twice: {got:?}");
+    assert_eq!(sorted.len(), 40, "every member got its plan");
 }
