@@ -15,11 +15,74 @@ fn err(line: usize, msg: impl Into<String>) -> PlanError {
     PlanError::Tsplib { line, msg: msg.into() }
 }
 
+/// Largest DIMENSION read: the biggest instances of TSPLIB's library have 85 900 nodes; a
+/// header claiming billions would otherwise allocate them before the first coordinate.
+pub const MAX_DIMENSION: usize = 1_000_000;
+
+/// What a TSPLIB header said so far.
+#[derive(Default)]
+struct Header {
+    name: String,
+    dim: Option<usize>,
+    metric: Option<Metric>,
+}
+
+impl Header {
+    /// One `KEY : value` line of the header.
+    fn take(&mut self, line_no: usize, line: &str) -> Result<(), PlanError> {
+        let (key, value) =
+            line.split_once(':').map(|(k, v)| (k.trim(), v.trim())).ok_or_else(|| err(line_no, format!("expected `KEY : value`, got {line:?}")))?;
+        match key {
+            "NAME" => self.name = value.to_string(),
+            "TYPE" if value != "TSP" => return Err(err(line_no, format!("TYPE {value} not supported (only symmetric TSP)"))),
+            "TYPE" => {}
+            "DIMENSION" => {
+                let n: usize = value.parse().map_err(|_| err(line_no, format!("bad DIMENSION {value:?}")))?;
+                if !(1..=MAX_DIMENSION).contains(&n) {
+                    return Err(err(line_no, format!("DIMENSION must be in 1..={MAX_DIMENSION} (got {n})")));
+                }
+                self.dim = Some(n);
+            }
+            "EDGE_WEIGHT_TYPE" => {
+                self.metric = Some(match value {
+                    "EUC_2D" => Metric::EucRound,
+                    "CEIL_2D" => Metric::Ceil,
+                    "ATT" => Metric::Att,
+                    other => return Err(err(line_no, format!("EDGE_WEIGHT_TYPE {other} not supported (EUC_2D, CEIL_2D, ATT)"))),
+                })
+            }
+            "COMMENT" | "NODE_COORD_TYPE" | "DISPLAY_DATA_TYPE" => {}
+            other => return Err(err(line_no, format!("unsupported keyword {other}"))),
+        }
+        Ok(())
+    }
+}
+
+/// One `index x y` line of the NODE_COORD_SECTION into `points`.
+fn coordinate(line_no: usize, line: &str, points: &mut [Option<Point>]) -> Result<(), PlanError> {
+    let mut it = line.split_whitespace();
+    let (Some(id), Some(x), Some(y), None) = (it.next(), it.next(), it.next(), it.next()) else {
+        return Err(err(line_no, format!("expected `index x y`, got {line:?}")));
+    };
+    let n = points.len();
+    let id: usize = id.parse().map_err(|_| err(line_no, format!("bad node index {id:?}")))?;
+    if id == 0 || id > n {
+        return Err(err(line_no, format!("node index {id} outside 1..={n}")));
+    }
+    let x: f64 = x.parse().map_err(|_| err(line_no, format!("bad x coordinate {x:?}")))?;
+    let y: f64 = y.parse().map_err(|_| err(line_no, format!("bad y coordinate {y:?}")))?;
+    if !(x.is_finite() && y.is_finite()) {
+        return Err(err(line_no, "non-finite coordinate"));
+    }
+    if points[id - 1].replace(Point::new(x, y)).is_some() {
+        return Err(err(line_no, format!("node {id} given twice")));
+    }
+    Ok(())
+}
+
 /// Parses TSPLIB text. Errors name the line.
 pub fn parse(text: &str) -> Result<TsplibInstance, PlanError> {
-    let mut name = String::new();
-    let mut dim: Option<usize> = None;
-    let mut metric: Option<Metric> = None;
+    let mut header = Header::default();
     let mut points: Vec<Option<Point>> = Vec::new();
     let mut in_coords = false;
     let mut last_line = 0;
@@ -34,60 +97,16 @@ pub fn parse(text: &str) -> Result<TsplibInstance, PlanError> {
             break;
         }
         if in_coords {
-            let mut it = line.split_whitespace();
-            let (Some(id), Some(x), Some(y), None) = (it.next(), it.next(), it.next(), it.next()) else {
-                return Err(err(line_no, format!("expected `index x y`, got {line:?}")));
-            };
-            let n = points.len();
-            let id: usize = id.parse().map_err(|_| err(line_no, format!("bad node index {id:?}")))?;
-            if id == 0 || id > n {
-                return Err(err(line_no, format!("node index {id} outside 1..={n}")));
-            }
-            let x: f64 = x.parse().map_err(|_| err(line_no, format!("bad x coordinate {x:?}")))?;
-            let y: f64 = y.parse().map_err(|_| err(line_no, format!("bad y coordinate {y:?}")))?;
-            if !(x.is_finite() && y.is_finite()) {
-                return Err(err(line_no, "non-finite coordinate"));
-            }
-            if points[id - 1].replace(Point::new(x, y)).is_some() {
-                return Err(err(line_no, format!("node {id} given twice")));
-            }
-            continue;
-        }
-        if line == "NODE_COORD_SECTION" {
-            let n = dim.ok_or_else(|| err(line_no, "NODE_COORD_SECTION before DIMENSION"))?;
-            if metric.is_none() {
+            coordinate(line_no, line, &mut points)?;
+        } else if line == "NODE_COORD_SECTION" {
+            let n = header.dim.ok_or_else(|| err(line_no, "NODE_COORD_SECTION before DIMENSION"))?;
+            if header.metric.is_none() {
                 return Err(err(line_no, "NODE_COORD_SECTION before EDGE_WEIGHT_TYPE"));
             }
             points = vec![None; n];
             in_coords = true;
-            continue;
-        }
-        let (key, value) =
-            line.split_once(':').map(|(k, v)| (k.trim(), v.trim())).ok_or_else(|| err(line_no, format!("expected `KEY : value`, got {line:?}")))?;
-        match key {
-            "NAME" => name = value.to_string(),
-            "TYPE" => {
-                if value != "TSP" {
-                    return Err(err(line_no, format!("TYPE {value} not supported (only symmetric TSP)")));
-                }
-            }
-            "DIMENSION" => {
-                let n: usize = value.parse().map_err(|_| err(line_no, format!("bad DIMENSION {value:?}")))?;
-                if n == 0 {
-                    return Err(err(line_no, "DIMENSION must be at least 1"));
-                }
-                dim = Some(n);
-            }
-            "EDGE_WEIGHT_TYPE" => {
-                metric = Some(match value {
-                    "EUC_2D" => Metric::EucRound,
-                    "CEIL_2D" => Metric::Ceil,
-                    "ATT" => Metric::Att,
-                    other => return Err(err(line_no, format!("EDGE_WEIGHT_TYPE {other} not supported (EUC_2D, CEIL_2D, ATT)"))),
-                })
-            }
-            "COMMENT" | "NODE_COORD_TYPE" | "DISPLAY_DATA_TYPE" => {}
-            other => return Err(err(line_no, format!("unsupported keyword {other}"))),
+        } else {
+            header.take(line_no, line)?;
         }
     }
     if !in_coords {
@@ -97,8 +116,8 @@ pub fn parse(text: &str) -> Result<TsplibInstance, PlanError> {
     for (i, p) in points.into_iter().enumerate() {
         pts.push(p.ok_or_else(|| err(last_line, format!("node {} has no coordinates", i + 1)))?);
     }
-    let metric = metric.ok_or_else(|| err(last_line, "no EDGE_WEIGHT_TYPE"))?;
-    Ok(TsplibInstance { name, instance: Instance::new(pts, metric)? })
+    let metric = header.metric.ok_or_else(|| err(last_line, "no EDGE_WEIGHT_TYPE"))?;
+    Ok(TsplibInstance { name: header.name, instance: Instance::new(pts, metric)? })
 }
 
 /// Writes a tour in TSPLIB TOUR format (1-based node ids, `-1` terminator).
@@ -138,6 +157,9 @@ mod tests {
         assert!(parse(&bad).unwrap_err().to_string().contains("outside 1..=4"));
         assert!(parse("").is_err());
         assert!(parse("garbage").unwrap_err().to_string().starts_with("TSPLIB line 1:"));
+        // A header claiming billions of nodes is refused before anything is allocated.
+        let huge = SMALL.replace("DIMENSION : 4", "DIMENSION : 100000000000");
+        assert_eq!(parse(&huge).unwrap_err().to_string(), "TSPLIB line 3: DIMENSION must be in 1..=1000000 (got 100000000000)");
     }
 
     #[test]

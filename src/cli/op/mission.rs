@@ -136,21 +136,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             if json {
                 return super::print_json(&v);
             }
-            let m: MissionView = serde_json::from_value(v)?;
-            print!("{}", table(std::slice::from_ref(&m)));
-            if !m.manager.chain.is_empty() {
-                println!("manager chain (epoch {}): {}", m.manager.chain_epoch, m.manager.chain.join(" → "));
-            }
-            if m.team_views.is_empty() {
-                for (team, ids) in &m.teams {
-                    println!("team {team}: {}", ids.join(", "));
-                }
-            } else {
-                print!("{}", team_tree(&m));
-            }
-            for p in m.plans.iter().flatten() {
-                println!("plan {} (slot {}): {} steps", p.robot, p.slot, p.steps.len());
-            }
+            print!("{}", details(&serde_json::from_value(v)?));
         }
         Mission::Marginal { name, add } => {
             let key = proto::keys::marginal_selector(&name, add);
@@ -163,6 +149,25 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
         }
     }
     Ok(())
+}
+
+/// One mission in full: its row, its manager chain, its teams, its plans.
+fn details(m: &MissionView) -> String {
+    let mut out = table(std::slice::from_ref(m));
+    if !m.manager.chain.is_empty() {
+        out.push_str(&format!("manager chain (epoch {}): {}\n", m.manager.chain_epoch, m.manager.chain.join(" → ")));
+    }
+    if m.team_views.is_empty() {
+        for (team, ids) in &m.teams {
+            out.push_str(&format!("team {team}: {}\n", ids.join(", ")));
+        }
+    } else {
+        out.push_str(&team_tree(m));
+    }
+    for p in m.plans.iter().flatten() {
+        out.push_str(&format!("plan {} (slot {}): {} steps\n", p.robot, p.slot, p.steps.len()));
+    }
+    out
 }
 
 /// A mission's team tree: each team on its own line below its parent, a leaf team with its
