@@ -167,6 +167,23 @@ fn parse_team(el: &Element, parent: &str, depth: usize, count: &mut usize) -> Re
     if depth > MAX_TEAM_DEPTH {
         return Err(el.pos.err(format!("teams nest at most {MAX_TEAM_DEPTH} deep")));
     }
+    let name = team_name(el)?;
+    let path = if parent.is_empty() { name.clone() } else { format!("{parent}/{name}") };
+    let robot_type = match el.attr("type") {
+        Some(t) if is_capability(t) && !t.contains('.') => Some(t.to_string()),
+        Some(t) => return Err(el.pos.err(format!("<team type={t:?}>: a robot type is 1 to 64 characters of A-Z a-z 0-9 _ -"))),
+        None => None,
+    };
+    let mut requires = Vec::new();
+    let body = match el.attr("planner") {
+        Some(p) => leaf(el, &name, &path, p, &mut requires)?,
+        None => inner(el, &name, &path, depth, count, &mut requires)?,
+    };
+    Ok(Team { name, path, robot_type, requires, body, pos: el.pos })
+}
+
+/// A team's `name`: one key chunk, not a word of the network's keys.
+fn team_name(el: &Element) -> Result<String, PlanError> {
     let name = el.required("name")?.to_string();
     let id_ok = !name.is_empty() && name.len() <= 64 && name.bytes().all(|c| c.is_ascii_alphanumeric() || matches!(c, b'_' | b'-'));
     if !id_ok {
@@ -175,12 +192,11 @@ fn parse_team(el: &Element, parent: &str, depth: usize, count: &mut usize) -> Re
     if RESERVED_TEAM_NAMES.contains(&name.as_str()) {
         return Err(el.pos.err(format!("<team name={name:?}>: {} are words of the network's keys, not team names", RESERVED_TEAM_NAMES.join(", "))));
     }
-    let path = if parent.is_empty() { name.clone() } else { format!("{parent}/{name}") };
-    let robot_type = match el.attr("type") {
-        Some(t) if is_capability(t) && !t.contains('.') => Some(t.to_string()),
-        Some(t) => return Err(el.pos.err(format!("<team type={t:?}>: a robot type is 1 to 64 characters of A-Z a-z 0-9 _ -"))),
-        None => None,
-    };
+    Ok(name)
+}
+
+/// A leaf team (it has a planner): its recipe, and how many robots it takes.
+fn leaf(el: &Element, name: &str, path: &str, planner: &str, requires: &mut Vec<(String, Pos)>) -> Result<TeamBody, PlanError> {
     let bound = |a: &str| -> Result<Option<usize>, PlanError> {
         el.attr(a)
             .map(|v| {
@@ -189,61 +205,53 @@ fn parse_team(el: &Element, parent: &str, depth: usize, count: &mut usize) -> Re
             .transpose()
     };
     let (min, max) = (bound("min")?, bound("max")?);
-    let mut requires = Vec::new();
-    let body = match el.attr("planner") {
-        Some(p) => {
-            let mut recipe = Recipe::empty(name.clone(), planner_kind(el, p)?, el.pos);
-            recipe.path = path.clone();
-            let mut seen_params = false;
-            for child in &el.children {
-                match child.name.as_str() {
-                    "team" => return Err(child.pos.err(format!("team {name:?} has a planner, so it is a leaf: teams go in a team without one"))),
-                    "requires" => parse_requires(child, &mut requires)?,
-                    _ => parse_body(child, &mut recipe, "team", &mut seen_params)?,
-                }
-            }
-            if let (Some(lo), Some(hi)) = (min, max) {
-                if lo > hi {
-                    return Err(el.pos.err(format!("team {name:?}: min {lo} is above max {hi}")));
-                }
-            }
-            if max == Some(0) {
-                return Err(el.pos.err(format!("team {name:?}: max must be at least 1")));
-            }
-            TeamBody::Leaf { recipe: Box::new(recipe), min: min.unwrap_or(0), max }
+    let mut recipe = Recipe::empty(name.to_string(), planner_kind(el, planner)?, el.pos);
+    recipe.path = path.to_string();
+    let mut seen_params = false;
+    for child in &el.children {
+        match child.name.as_str() {
+            "team" => return Err(child.pos.err(format!("team {name:?} has a planner, so it is a leaf: teams go in a team without one"))),
+            "requires" => parse_requires(child, requires)?,
+            _ => parse_body(child, &mut recipe, "team", &mut seen_params)?,
         }
-        None => {
-            if min.is_some() || max.is_some() {
-                return Err(el.pos.err(format!("team {name:?}: min and max belong to leaf teams (those with a planner)")));
-            }
-            let mut inner: Vec<Team> = Vec::new();
-            for child in &el.children {
-                match child.name.as_str() {
-                    "requires" => parse_requires(child, &mut requires)?,
-                    "team" => {
-                        let t = parse_team(child, &path, depth + 1, count)?;
-                        if inner.iter().any(|o| o.name == t.name) {
-                            return Err(child.pos.err(format!("a second team named {:?} in team {name:?}", t.name)));
-                        }
-                        inner.push(t);
-                    }
-                    "params" | "behaviour" => {
-                        return Err(child
-                            .pos
-                            .err(format!("<{}> in team {name:?}, which has no planner: give it planner=\"…\" or put teams inside", child.name)))
-                    }
-                    other => {
-                        return Err(child.pos.err(format!("unknown element <{other}> in <team> (requires, team; a leaf team: requires, params, behaviour)")))
-                    }
-                }
-            }
-            if inner.is_empty() {
-                return Err(el.pos.err(format!("team {name:?} has neither a planner nor teams inside")));
-            }
-            TeamBody::Inner(inner)
+    }
+    if let (Some(lo), Some(hi)) = (min, max) {
+        if lo > hi {
+            return Err(el.pos.err(format!("team {name:?}: min {lo} is above max {hi}")));
         }
-    };
-    Ok(Team { name, path, robot_type, requires, body, pos: el.pos })
+    }
+    if max == Some(0) {
+        return Err(el.pos.err(format!("team {name:?}: max must be at least 1")));
+    }
+    Ok(TeamBody::Leaf { recipe: Box::new(recipe), min: min.unwrap_or(0), max })
+}
+
+/// A team of teams (no planner): the teams inside it.
+fn inner(el: &Element, name: &str, path: &str, depth: usize, count: &mut usize, requires: &mut Vec<(String, Pos)>) -> Result<TeamBody, PlanError> {
+    if el.attr("min").is_some() || el.attr("max").is_some() {
+        return Err(el.pos.err(format!("team {name:?}: min and max belong to leaf teams (those with a planner)")));
+    }
+    let mut inner: Vec<Team> = Vec::new();
+    for child in &el.children {
+        match child.name.as_str() {
+            "requires" => parse_requires(child, requires)?,
+            "team" => {
+                let t = parse_team(child, path, depth + 1, count)?;
+                if inner.iter().any(|o| o.name == t.name) {
+                    return Err(child.pos.err(format!("a second team named {:?} in team {name:?}", t.name)));
+                }
+                inner.push(t);
+            }
+            "params" | "behaviour" => {
+                return Err(child.pos.err(format!("<{}> in team {name:?}, which has no planner: give it planner=\"…\" or put teams inside", child.name)))
+            }
+            other => return Err(child.pos.err(format!("unknown element <{other}> in <team> (requires, team; a leaf team: requires, params, behaviour)"))),
+        }
+    }
+    if inner.is_empty() {
+        return Err(el.pos.err(format!("team {name:?} has neither a planner nor teams inside")));
+    }
+    Ok(TeamBody::Inner(inner))
 }
 
 /// Which robots go to which leaf team: for each leaf of [`Recipe::leaves`], the indexes of its
