@@ -255,6 +255,14 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
 
 /// results-maps.csv, maps.png and summary-maps.md in `out`.
 pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, turn: f64) -> anyhow::Result<Vec<String>> {
+    std::fs::write(out.join("results-maps.csv"), csv(rows))?;
+    plot(out, rows)?;
+    std::fs::write(out.join("summary-maps.md"), summary(rows, command, elapsed, turn))?;
+    Ok(vec!["maps.png".into()])
+}
+
+/// One line per run.
+fn csv(rows: &[Row]) -> String {
     let mut csv = String::from("map,vertices,robots,tour_m,best_tour_m,bound_s,avg_idleness_s,worst_idleness_s,avg_over_bound,worst_over_bound,plan_ms\n");
     for r in rows {
         csv.push_str(&format!(
@@ -272,7 +280,11 @@ pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, turn: f64) -
             r.plan_ms
         ));
     }
-    std::fs::write(out.join("results-maps.csv"), csv)?;
+    csv
+}
+
+/// Worst idleness ÷ bound per map, a bar per team size.
+fn plot(out: &Path, rows: &[Row]) -> anyhow::Result<()> {
     let mut maps: Vec<&str> = Vec::new();
     for r in rows {
         if !maps.contains(&r.map.as_str()) {
@@ -303,6 +315,11 @@ pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, turn: f64) -
             lines: vec![("target 1.10", vec![1.10; maps.len()]), ("bound", vec![1.0; maps.len()])],
         },
     )?;
+    Ok(())
+}
+
+/// The summary: how the runs were made, a row per run, against the target.
+fn summary(rows: &[Row], command: &str, elapsed: f64, turn: f64) -> String {
     let over: Vec<&Row> = rows.iter().filter(|r| r.worst_ratio() > 1.10).collect();
     let worst = rows.iter().map(Row::worst_ratio).fold(0.0, f64::max);
     let mut md = format!(
@@ -334,8 +351,7 @@ pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, turn: f64) -
         "\nLargest worst idleness ÷ bound: {worst:.3} (target ≤ 1.10: {}).\n",
         if over.is_empty() { "met at every size".to_string() } else { format!("missed by {} runs", over.len()) }
     ));
-    std::fs::write(out.join("summary-maps.md"), md)?;
-    Ok(vec!["maps.png".into()])
+    md
 }
 
 #[cfg(test)]

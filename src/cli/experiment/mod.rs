@@ -190,15 +190,7 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         bail!("--time-scale: must be a number in (0, 1000] (got {})", a.time_scale);
     }
     if a.kind == Kind::Maps {
-        let sizes: Vec<usize> = a.sizes.as_deref().map_or_else(|| maps::SIZES.to_vec(), |s| s.iter().map(|&n| n as usize).collect());
-        let started = std::time::Instant::now();
-        if !(a.turn_rate.is_finite() && a.turn_rate > 0.0) {
-            bail!("--turn-rate: must be a positive number of rad/s (got {})", a.turn_rate);
-        }
-        let rows = maps::run(&a.out, &sizes, a.seed, a.turn_rate)?;
-        let figures = maps::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64(), a.turn_rate)?;
-        println!("results in {}: results-maps.csv, summary-maps.md, {}", a.out.display(), figures.join(", "));
-        return Ok(());
+        return run_maps(&a);
     }
     let kinds = if a.kind == Kind::All { vec![Kind::Messages, Kind::Idleness, Kind::Environment, Kind::CommLoss] } else { vec![a.kind] };
     let mut plans = Vec::new();
@@ -221,46 +213,12 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         }
         for scale in scales {
             let group: Vec<&Spec> = specs.iter().filter(|s| s.time_scale == scale).collect();
-            let n = group.iter().map(|s| s.robots).max().unwrap_or(0);
-            bar.set_message(format!("starting {n} robots (time scale {scale})"));
-            let mut fleet = fleet::Fleet::start(&a.out.join("logs").join(format!("{}-x{scale}", kind.name())), n, scale).await?;
-            let mut failed = None;
-            for spec in &group {
-                bar.set_message(format!(
-                    "{} run {} ({} robots, {} barrier, ×{} environment, {} rounds)",
-                    spec.experiment,
-                    spec.label(),
-                    spec.robots,
-                    spec.barrier.as_str(),
-                    spec.env_scale,
-                    spec.rounds
-                ));
-                runs += 1;
-                let name = format!("{}-{runs}", spec.experiment);
-                let result = if kind == Kind::CommLoss {
-                    comm_loss::run(&mut fleet, &name, spec).await.and_then(|(row, timeline)| {
-                        figures.extend(report::timeline(&a.out, &timeline)?);
-                        Ok(row)
-                    })
-                } else {
-                    run::run(&fleet, &name, spec).await
-                };
-                match result {
-                    Ok(row) => rows.push(row),
-                    Err(e) => {
-                        failed = Some(e);
-                        break;
-                    }
-                }
-                bar.inc(1);
-            }
-            let logs = fleet.dir.clone();
-            fleet.stop().await;
-            if let Some(e) = failed {
+            let mut done = Done { rows: &mut rows, figures: &mut figures, runs: &mut runs };
+            if let Err(e) = run_group(&a, kind, scale, &group, &bar, &mut done).await {
                 bar.finish_and_clear();
                 // What ran is still written: a failed run should not cost the others.
                 write(&a, &command, &rows, &figures)?;
-                return Err(e.context(format!("{} experiment failed (logs in {})", kind.name(), logs.display())));
+                return Err(e);
             }
         }
         bar.finish_and_clear();
@@ -271,6 +229,70 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
     write(&a, &command, &rows, &figures)?;
     println!("results in {}: results.csv, summary.md, {}", a.out.display(), figures.join(", "));
     Ok(())
+}
+
+/// `mrmm experiment maps`: the patrolling benchmark, simulated in this process.
+fn run_maps(a: &Args) -> anyhow::Result<()> {
+    let sizes: Vec<usize> = a.sizes.as_deref().map_or_else(|| maps::SIZES.to_vec(), |s| s.iter().map(|&n| n as usize).collect());
+    let started = std::time::Instant::now();
+    if !(a.turn_rate.is_finite() && a.turn_rate > 0.0) {
+        bail!("--turn-rate: must be a positive number of rad/s (got {})", a.turn_rate);
+    }
+    let rows = maps::run(&a.out, &sizes, a.seed, a.turn_rate)?;
+    let figures = maps::write(&a.out, &rows, &command_line(a), started.elapsed().as_secs_f64(), a.turn_rate)?;
+    println!("results in {}: results-maps.csv, summary-maps.md, {}", a.out.display(), figures.join(", "));
+    Ok(())
+}
+
+/// What the runs so far produced.
+struct Done<'a> {
+    rows: &'a mut Vec<Row>,
+    figures: &'a mut Vec<String>,
+    runs: &'a mut usize,
+}
+
+/// The runs of one experiment at one time scale, on one fleet started for them (as many robots
+/// as the largest run needs) and stopped after them.
+async fn run_group(a: &Args, kind: Kind, scale: f64, group: &[&Spec], bar: &indicatif::ProgressBar, done: &mut Done<'_>) -> anyhow::Result<()> {
+    let n = group.iter().map(|s| s.robots).max().unwrap_or(0);
+    bar.set_message(format!("starting {n} robots (time scale {scale})"));
+    let mut fleet = fleet::Fleet::start(&a.out.join("logs").join(format!("{}-x{scale}", kind.name())), n, scale).await?;
+    let mut failed = None;
+    for spec in group {
+        bar.set_message(format!(
+            "{} run {} ({} robots, {} barrier, ×{} environment, {} rounds)",
+            spec.experiment,
+            spec.label(),
+            spec.robots,
+            spec.barrier.as_str(),
+            spec.env_scale,
+            spec.rounds
+        ));
+        *done.runs += 1;
+        let name = format!("{}-{}", spec.experiment, done.runs);
+        let result = if kind == Kind::CommLoss {
+            comm_loss::run(&mut fleet, &name, spec).await.and_then(|(row, timeline)| {
+                done.figures.extend(report::timeline(&a.out, &timeline)?);
+                Ok(row)
+            })
+        } else {
+            run::run(&fleet, &name, spec).await
+        };
+        match result {
+            Ok(row) => done.rows.push(row),
+            Err(e) => {
+                failed = Some(e);
+                break;
+            }
+        }
+        bar.inc(1);
+    }
+    let logs = fleet.dir.clone();
+    fleet.stop().await;
+    match failed {
+        Some(e) => Err(e.context(format!("{} experiment failed (logs in {})", kind.name(), logs.display()))),
+        None => Ok(()),
+    }
 }
 
 /// The command that reproduces this run, every setting spelled out.
