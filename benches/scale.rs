@@ -13,7 +13,11 @@
 //! runs; barrier release latency in that mission (each member logs the instant it releases; the
 //! last member to arrive releases at once, in the tick it publishes its arrival, so every other
 //! member's latency is its release minus that first release — one machine's clock, 20 ms ticks);
-//! and the time from a member's SIGKILL to the mission's new plan without it.
+//! and the time from a member's SIGKILL to the mission's new plan without it. Two missions run
+//! (a patrol and a coverage, N/2 robots each); "create→all moving" is from the first create to
+//! every member of both moving; the patrol's barriers are measured; then the fleet runs for
+//! `--run S` seconds (default 20; the "2-minute run" is `--run 120`) and the robots lost
+//! meanwhile are counted from central's journal, before any crash.
 //!
 //! With `--sites K`, the multi-site layout (docs/deployment.md): K − 1 site routers
 //! (`mrmm router`, linked to central), robot i a peer of site i mod K (site 0 is central's); the
@@ -29,7 +33,7 @@
 //! With `--sim-fleet`: the robots of each site in one `mrmm sim-fleet` process (memory per robot
 //! is the process's over its robots; a member is crashed in its process instead of SIGKILLed).
 //!
-//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--insecure] [--tls [--quic-uplinks]] [--sim-fleet]` (sizes, default
+//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--run S] [--insecure] [--tls [--quic-uplinks]] [--sim-fleet]` (sizes, default
 //! 10 25; the robots' lease, default as `mrmm demo` sets it: 1000 ms, 4000 ms beyond 40 robots;
 //! robots started R per second, default 20 as the demo does, 0 = all at once; default 1 site).
 
@@ -98,8 +102,8 @@ fn main() -> anyhow::Result<()> {
             "; QUIC links"
         }
     );
-    println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | barrier release p50/p99 ms | SIGKILL→replanned s | 10 % at once → replans, s |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| N | lease ms | all up s | all registered s | RSS/robot MiB (mean/max) | RSS central MiB | idle CPU % of a core (central) | links | idle loopback pkt/s | create→all moving s | query p50/p99 ms | barrier release p50/p99 ms | lost in the run | SIGKILL→replanned s | 10 % at once → replans, s |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for n in sizes {
         rt.block_on(run(n, lease.unwrap_or(if n > 40 { 4000 } else { 1000 }), rate, sites, insecure, quic))?;
     }
@@ -231,6 +235,18 @@ async fn replanned_without(
         }
     }
     (None, None)
+}
+
+/// `--run S`: how long the missions run before the crashes, seconds (default 20).
+fn run_secs() -> u64 {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter().position(|a| a == "--run").and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(20)
+}
+
+/// Robots central's journal records as lost so far.
+async fn lost_so_far(client: &Client) -> anyhow::Result<usize> {
+    let entries = common::journal(client).await?;
+    Ok(entries.iter().filter(|e| matches!(e.event, proto::JournalEvent::RobotLost { .. })).count())
 }
 
 /// `--sim-fleet`: the robots of a site in one `mrmm sim-fleet` process (each still its own
@@ -468,18 +484,35 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         Ok(v) => v,
         Err(e) => {
             let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
-            println!("| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | create failed: {e} | | | | |");
+            println!("| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | create failed: {e} | | | | | |");
             client.close().await;
             return Ok(());
         }
     };
-    let members: BTreeSet<String> = created.robots.iter().cloned().collect();
+    // The second mission: a coverage of the robots left.
+    let coverage = MissionCreate {
+        name: "scale-coverage".into(),
+        recipe: "coverage".into(),
+        count: Some(n - half),
+        params: [("region".to_string(), serde_json::json!([[-20, -34], [20, -34], [20, -18], [-20, -18]]))].into(),
+        ..Default::default()
+    };
+    let second: Option<MissionView> = match client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&coverage)).await {
+        Ok(v) => Some(v),
+        Err(e) => {
+            eprintln!("second mission not created: {e}");
+            None
+        }
+    };
+    let mut members: BTreeSet<String> = created.robots.iter().cloned().collect();
+    members.extend(second.iter().flat_map(|m| m.robots.iter().cloned()));
+    let missions = ["scale", "scale-coverage"];
     let mut moving = BTreeSet::new();
     let deadline = c0 + Duration::from_secs(60);
     while moving.len() < members.len() && Instant::now() < deadline {
         let Ok(Ok(s)) = tokio::time::timeout(Duration::from_secs(1), telemetry.recv_async()).await else { continue };
         if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
-            if members.contains(&t.id) && t.mission.as_deref() == Some("scale") && t.behaviour != proto::Behaviour::Hold {
+            if members.contains(&t.id) && t.mission.as_deref().is_some_and(|m| missions.contains(&m)) && t.behaviour != proto::Behaviour::Hold {
                 moving.insert(t.id);
             }
         }
@@ -502,8 +535,13 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         }
     }
     let failed = if failed > 0 { format!(" ({failed} failed)") } else { String::new() };
-    // Barriers: 20 s of the mission at least, then every member's releases from its log.
-    tokio::time::sleep(Duration::from_secs(20).saturating_sub(c0.elapsed())).await;
+    // Barriers: the run's length of the missions at least, then every member's releases from its
+    // log; the robots lost meanwhile from the journal.
+    tokio::time::sleep(Duration::from_secs(run_secs()).saturating_sub(c0.elapsed())).await;
+    let lost = match lost_so_far(&client).await {
+        Ok(k) => format!("{k} in {:.0} s", c0.elapsed().as_secs_f64()),
+        Err(e) => format!("journal: {e}"),
+    };
     let logs: Vec<std::path::PathBuf> = if sim_fleet() {
         (0..sites).map(|s| dir.path(&format!("fleet{s}.log"))).collect()
     } else {
@@ -553,7 +591,7 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     let mean = rss.iter().sum::<f64>() / rss.len().max(1) as f64;
     let max = rss.iter().copied().fold(0.0, f64::max);
     println!(
-        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1}{failed} | {barriers} | {replanned} | {burst} |",
+        "| {n} | {lease} | {up:.1} | {registered:.1} | {mean:.1} / {max:.1} | {rss_central:.1} | {idle_cpu:.0} ({idle_central:.0}) | {nlinks} | {pkts:.0} | {to_moving} | {:.1} / {:.1}{failed} | {barriers} | {lost} | {replanned} | {burst} |",
         quantile(&mut rtt.clone(), 0.5),
         quantile(&mut rtt, 0.99)
     );
