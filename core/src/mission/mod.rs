@@ -20,6 +20,13 @@ pub const LEADER_BARRIER_FROM: usize = 30;
 /// Members lost within this long of the first of a burst are planned around in one replan,
 /// seconds (a site's robots lost together cost one plan, not one each).
 pub const LOSS_BURST_S: f64 = 1.0;
+/// A loss within the burst holds its replan until this long after it: losses seen one after
+/// another (a loaded machine notices a tenth of the fleet crashed over more than a second) are
+/// still one burst.
+pub const LOSS_QUIET_S: f64 = 0.5;
+/// A burst's replan is held at most this long after its first loss, however long losses go on
+/// (new plans stay within seconds of the first).
+pub const LOSS_BURST_MAX_S: f64 = 3.0;
 
 /// What a mission is.
 #[derive(Debug, Clone, PartialEq)]
@@ -169,6 +176,8 @@ pub struct MissionManager {
     /// When the replan for a burst of losses is due (its epoch is already counted, so a
     /// successor taking over meanwhile replans).
     replan_due: Option<f64>,
+    /// When the burst the held replan is for began.
+    burst_started: f64,
     /// The recipe's leaf teams (none for a recipe planned as a whole).
     shapes: Vec<teams::TeamShape>,
 }
@@ -194,6 +203,7 @@ impl MissionManager {
             tally: None,
             stuck: BTreeMap::new(),
             replan_due: None,
+            burst_started: 0.0,
         }
     }
 
@@ -369,7 +379,8 @@ impl MissionManager {
 
     /// Members lost: out of the plan at once, and one replan for the whole burst — the plan is
     /// outdated from now (the epoch says so, and a successor taking over replans), asked for
-    /// once the burst is over ([`LOSS_BURST_S`]).
+    /// once the burst is over: [`LOSS_BURST_S`] after its first loss, [`LOSS_QUIET_S`] after its
+    /// last, [`LOSS_BURST_MAX_S`] after its first at most.
     fn members_lost(&mut self, now: f64, ids: Vec<String>) -> Vec<Command> {
         for id in &ids {
             if let Some(m) = self.members.get(id) {
@@ -382,10 +393,15 @@ impl MissionManager {
         if self.members.is_empty() {
             return self.replan();
         }
-        if self.replan_due.is_none() {
-            self.epoch = self.epoch.saturating_add(1);
-            self.replan_due = Some(now + LOSS_BURST_S);
-        }
+        self.replan_due = Some(match self.replan_due {
+            None => {
+                self.epoch = self.epoch.saturating_add(1);
+                self.burst_started = now;
+                now + LOSS_BURST_S
+            }
+            // Another loss of the burst: a moment's quiet after it, within the burst's bound.
+            Some(due) => due.max(now + LOSS_QUIET_S).min(self.burst_started + LOSS_BURST_MAX_S),
+        });
         vec![]
     }
 

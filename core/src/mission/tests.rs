@@ -417,6 +417,39 @@ fn a_burst_of_losses_costs_one_replan() {
     assert_ne!(again.snapshot().plan.map(|(e, _)| e), Some(again.epoch()));
 }
 
+/// Losses noticed one after another (each within half a second of the last) are one burst, and
+/// the replan is held at most three seconds after the first.
+#[test]
+fn losses_seen_one_after_another_are_one_burst_within_its_bound() {
+    let mut m = MissionManager::new(spec(), "node".into(), (0..12).map(|i| robot(&format!("r{i}"), "ground", i as f64)).collect());
+    let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
+    m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    let asked = |out: &[Command]| out.iter().filter(|c| matches!(c, Command::RequestPlan { .. })).count();
+    let mut replans = 0;
+    // A loss every 0.4 s from t = 1: the first burst's bound (t = 4) ends it.
+    for k in 0..10 {
+        let t = 1.0 + 0.4 * k as f64;
+        replans += asked(&m.handle(t, Event::Tick));
+        m.handle(t, Event::Lost { ids: vec![format!("r{k}")] });
+        replans += asked(&m.handle(t + 0.2, Event::Tick));
+    }
+    assert_eq!(replans, 1, "one replan for the losses up to the bound");
+    assert_eq!(m.epoch(), 3, "the losses after the bound are a burst of their own");
+    // Three losses 0.8 s apart each: one burst, planned 0.5 s after the last.
+    let mut m = MissionManager::new(spec(), "node".into(), (0..6).map(|i| robot(&format!("r{i}"), "ground", i as f64)).collect());
+    let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
+    m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    m.handle(1.0, Event::Lost { ids: vec!["r1".into()] });
+    assert_eq!(asked(&m.handle(1.8, Event::Tick)), 0);
+    m.handle(1.8, Event::Lost { ids: vec!["r2".into()] });
+    assert_eq!(asked(&m.handle(2.2, Event::Tick)), 0, "held: a loss 0.4 s ago");
+    m.handle(2.2, Event::Lost { ids: vec!["r3".into()] });
+    assert_eq!(asked(&m.handle(2.6, Event::Tick)), 0);
+    let out = m.handle(2.8, Event::Tick);
+    assert_eq!(asked(&out), 1);
+    assert_eq!(m.epoch(), 2, "one epoch for the three");
+}
+
 #[test]
 fn a_recipe_of_teams_gives_each_robot_its_leaf_team_and_the_mission_barrier() {
     let spec = MissionSpec {
