@@ -512,7 +512,10 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     while moving.len() < members.len() && Instant::now() < deadline {
         let Ok(Ok(s)) = tokio::time::timeout(Duration::from_secs(1), telemetry.recv_async()).await else { continue };
         if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
-            if members.contains(&t.id) && t.mission.as_deref().is_some_and(|m| missions.contains(&m)) && t.behaviour != proto::Behaviour::Hold {
+            // Moving, or already at a goal it stood next to (a coverage point by its start): its
+            // plan is past the first step.
+            let started = t.behaviour != proto::Behaviour::Hold || t.progress.as_ref().is_some_and(|p| p.step > 0);
+            if members.contains(&t.id) && t.mission.as_deref().is_some_and(|m| missions.contains(&m)) && started {
                 moving.insert(t.id);
             }
         }
