@@ -156,7 +156,13 @@ fn a_bad_sim_fleet_command_line_stops_start_up_with_one_line() -> anyhow::Result
     std::fs::write(&b, robot("same", 0))?;
     std::fs::write(&c, robot("fixed", 7599))?;
     let (a, b, c) = (a.display().to_string(), b.display().to_string(), c.display().to_string());
+    // A bad value is named with its file, no override claimed when there is none.
+    let d = dir.path("d.json5");
+    std::fs::write(&d, r#"{ id: "slow", type: "ground", kinematics: { max_speed: -1, max_turn_rate: 1 } }"#)?;
+    let d = d.display().to_string();
+    let bad_speed = format!("{d}: robot slow: kinematics.max_speed: must be a number in (0, 1000] (got -1)");
     for (args, wanted) in [
+        (vec!["--config", &d], bad_speed.as_str()),
         (vec!["--config", &a, "--config", &b], "robot same: two configs give this id; every robot needs its own"),
         (vec!["--config", &a, "--config", &b, "--robots", "3"], "--robots takes one --config, the template (got 2)"),
         (vec!["--config", &a, "--robots", "3", "--spacing", "0"], "--spacing: must be a positive number of metres (got 0)"),

@@ -35,6 +35,7 @@ pub struct Args {
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
     let mut cfg = RobotConfig::read(&args.config)?;
+    let mut overridden = args.id.is_some() || !args.connect.is_empty() || !args.listen.is_empty() || args.state_dir.is_some();
     if let Some(id) = args.id {
         cfg.id = id;
     }
@@ -49,8 +50,10 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     }
     if let Some(sec) = args.security.section(&cfg.id) {
         cfg.security = Some(sec);
+        overridden = true;
     }
-    cfg.validate().map_err(|e| anyhow::anyhow!("{} (with command-line overrides): {e}", args.config.display()))?;
+    let how = if overridden { " (with command-line overrides)" } else { "" };
+    cfg.validate().map_err(|e| anyhow::anyhow!("{}{how}: {e}", args.config.display()))?;
     let shutdown = super::shutdown::on_signals()?;
     let mut robot = start(cfg, shutdown).await.map_err(|e| anyhow::anyhow!("{}: {e:#}", args.config.display()))?;
     robot.announce();
@@ -117,7 +120,13 @@ impl Started {
         let mut result = Ok(());
         let mut first = true;
         while let Some(done) = self.tasks.join_next().await {
-            match done.map_err(|e| anyhow::anyhow!("robot task: {e}"))? {
+            let done = match done {
+                Ok(done) => done,
+                // Aborted after a crash order (below): the crash is what is said.
+                Err(e) if e.is_cancelled() && result.is_err() => continue,
+                Err(e) => return Err(anyhow::anyhow!("robot task: {e}")),
+            };
+            match done {
                 // Crashed on the operator's order: its mission host goes down with it, mid-step,
                 // as a crashed computer's would.
                 Outcome::Robot(Err(e)) if crashed(&e) => {

@@ -24,6 +24,7 @@ pub struct Args {
 
 pub async fn run(args: Args) -> anyhow::Result<()> {
     let mut cfg = RouterConfig::read(&args.config)?;
+    let mut overridden = !args.listen.is_empty() || !args.connect.is_empty();
     if !args.listen.is_empty() {
         cfg.listen = args.listen;
     }
@@ -32,8 +33,10 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     }
     if let Some(sec) = args.security.section(&cfg.id) {
         cfg.security = Some(sec);
+        overridden = true;
     }
-    cfg.validate().map_err(|e| anyhow::anyhow!("{} (with command-line overrides): {e}", args.config.display()))?;
+    let how = if overridden { " (with command-line overrides)" } else { "" };
+    cfg.validate().map_err(|e| anyhow::anyhow!("{}{how}: {e}", args.config.display()))?;
     let shutdown = super::shutdown::on_signals()?;
     let (tx, rx) = oneshot::channel();
     let task = tokio::spawn(site_router::run(cfg, shutdown, Some(tx)));

@@ -113,18 +113,27 @@ fn stdin_lines() -> tokio::sync::mpsc::Receiver<String> {
 
 /// The robots the flags describe, validated; ids unique.
 fn configs(args: &Args) -> anyhow::Result<Vec<RobotConfig>> {
-    let mut configs = match args.robots {
+    // Each robot's config with the file it came from (named in its errors).
+    let (mut configs, files): (Vec<RobotConfig>, Vec<&PathBuf>) = match args.robots {
         Some(n) => {
             let [template] = args.configs.as_slice() else { bail!("--robots takes one --config, the template (got {})", args.configs.len()) };
             anyhow::ensure!(args.spacing.is_finite() && args.spacing > 0.0, "--spacing: must be a positive number of metres (got {})", args.spacing);
             let cfg = RobotConfig::read(template)?;
-            expand(&cfg, n as usize, args.spacing)
+            expand(&cfg, n as usize, args.spacing).into_iter().map(|c| (c, template)).unzip()
         }
-        None => args.configs.iter().map(|p| RobotConfig::read(p).map_err(anyhow::Error::from)).collect::<anyhow::Result<_>>()?,
+        None => args
+            .configs
+            .iter()
+            .map(|p| RobotConfig::read(p).map(|c| (c, p)).map_err(anyhow::Error::from))
+            .collect::<anyhow::Result<Vec<_>>>()?
+            .into_iter()
+            .unzip(),
     };
+    let overridden = args.robots.is_some() || !args.connect.is_empty() || args.pki.is_some();
+    let how = if overridden { " (with command-line overrides)" } else { "" };
     let mut seen = std::collections::BTreeSet::new();
     let mut ports = BTreeMap::new();
-    for cfg in &mut configs {
+    for (cfg, file) in configs.iter_mut().zip(files) {
         if !args.connect.is_empty() {
             cfg.zenoh.connect = args.connect.clone();
         }
@@ -140,7 +149,7 @@ fn configs(args: &Args) -> anyhow::Result<Vec<RobotConfig>> {
                 bail!("robot {}: zenoh.listen {ep} is robot {other}'s too: give each robot its own port, or port 0", cfg.id);
             }
         }
-        cfg.validate().map_err(|e| anyhow!("robot {} (with command-line overrides): {e}", cfg.id))?;
+        cfg.validate().map_err(|e| anyhow!("{}: robot {}{how}: {e}", file.display(), cfg.id))?;
     }
     Ok(configs)
 }
