@@ -3,7 +3,9 @@
 //! from telemetry. No I/O: [`MissionManager::handle`] takes the time and an [`Event`] and returns
 //! [`Command`]s; the replicated part of its state is a [`MissionSnapshot`].
 
+mod burst;
 mod metrics;
+mod spec;
 mod teams;
 mod view;
 
@@ -11,84 +13,14 @@ use std::collections::BTreeMap;
 
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::plan::{MissionPlan, PlanSummary, Point, RobotSpec};
-use mrmm_proto::{self as proto, Member, MissionSnapshot, MissionSpecWire, MissionStatus, PlanAssignment, PlanRequest, Telemetry};
+use mrmm_proto::{self as proto, Member, MissionSnapshot, MissionStatus, PlanAssignment, PlanRequest, Telemetry};
 
+pub use burst::{LOSS_BURST_MAX_S, LOSS_BURST_S, LOSS_QUIET_S};
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
+pub use spec::MissionSpec;
 
 /// Teams of at least this many members run the leader barrier unless the mission says otherwise.
 pub const LEADER_BARRIER_FROM: usize = 30;
-/// Members lost within this long of the first of a burst are planned around in one replan,
-/// seconds (a site's robots lost together cost one plan, not one each).
-pub const LOSS_BURST_S: f64 = 1.0;
-/// A loss within the burst holds its replan until this long after it: losses seen one after
-/// another (a loaded machine notices a tenth of the fleet crashed over more than a second) are
-/// still one burst.
-pub const LOSS_QUIET_S: f64 = 0.5;
-/// A burst's replan is held at most this long after its first loss, however long losses go on
-/// (new plans stay within seconds of the first).
-pub const LOSS_BURST_MAX_S: f64 = 3.0;
-
-/// What a mission is.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MissionSpec {
-    pub name: String,
-    /// Bank name, or `custom` for an inline recipe.
-    pub recipe_name: String,
-    pub recipe_xml: String,
-    pub planner: PlannerKind,
-    pub params: BTreeMap<String, String>,
-    /// Replicas of the manager's state after the head.
-    pub replicas: usize,
-    /// Capabilities every member must have (the recipe's `<requires>`, sorted).
-    pub requires: Vec<String>,
-    /// The map it plans on; none: the plane.
-    pub map: Option<proto::MapRef>,
-    /// Paused by the operator: its members hold where they are.
-    pub paused: bool,
-}
-
-impl MissionSpec {
-    pub fn to_wire(&self) -> MissionSpecWire {
-        MissionSpecWire {
-            name: self.name.clone(),
-            recipe_name: self.recipe_name.clone(),
-            recipe_xml: self.recipe_xml.clone(),
-            planner: self.planner.as_str().to_string(),
-            params: self.params.clone(),
-            replicas: self.replicas,
-            map: self.map.clone(),
-            paused: self.paused,
-        }
-    }
-
-    pub fn from_wire(w: MissionSpecWire) -> Result<Self, String> {
-        let planner = match w.planner.as_str() {
-            "patrol" => PlannerKind::Patrol,
-            "coverage" => PlannerKind::Coverage,
-            other => return Err(format!("unknown planner {other:?}")),
-        };
-        proto::validate_id(&w.name).map_err(|e| e.to_string())?;
-        if w.replicas > proto::MAX_REPLICAS {
-            return Err(format!("replicas: at most {} (got {})", proto::MAX_REPLICAS, w.replicas));
-        }
-        if let Some(m) = &w.map {
-            m.check().map_err(|e| format!("map: {e}"))?;
-        }
-        // A recipe that does not parse requires nothing here: planning reports its error.
-        let requires = mrmm_planner::recipe::parse(&w.recipe_xml).map(|r| r.required()).unwrap_or_default();
-        Ok(MissionSpec {
-            name: w.name,
-            recipe_name: w.recipe_name,
-            recipe_xml: w.recipe_xml,
-            planner,
-            params: w.params,
-            replicas: w.replicas,
-            requires,
-            map: w.map,
-            paused: w.paused,
-        })
-    }
-}
 
 /// Longest reason kept for a stuck member.
 const MAX_STUCK_REASON: usize = 300;
@@ -173,11 +105,9 @@ pub struct MissionManager {
     /// Members that report they cannot get to their goal, with why (from their telemetry; not
     /// replicated: a new head hears it again within a telemetry period).
     stuck: BTreeMap<String, String>,
-    /// When the replan for a burst of losses is due (its epoch is already counted, so a
-    /// successor taking over meanwhile replans).
-    replan_due: Option<f64>,
-    /// When the burst the held replan is for began.
-    burst_started: f64,
+    /// The burst of losses a held replan is for (its epoch is already counted, so a successor
+    /// taking over meanwhile replans).
+    burst: burst::LossBurst,
     /// The recipe's leaf teams (none for a recipe planned as a whole).
     shapes: Vec<teams::TeamShape>,
 }
@@ -202,8 +132,7 @@ impl MissionManager {
             revision: 0,
             tally: None,
             stuck: BTreeMap::new(),
-            replan_due: None,
-            burst_started: 0.0,
+            burst: burst::LossBurst::default(),
         }
     }
 
@@ -292,7 +221,7 @@ impl MissionManager {
     }
     /// When a replan held back for a burst of losses is due.
     pub fn replan_due(&self) -> Option<f64> {
-        self.replan_due
+        self.burst.due()
     }
     pub fn revision(&self) -> u64 {
         self.revision
@@ -346,11 +275,8 @@ impl MissionManager {
             }
             Event::Left { ids } | Event::Lost { ids } if ids.is_empty() => vec![],
             Event::Lost { ids } => self.members_lost(now, ids),
-            Event::Tick => match self.replan_due {
-                Some(due) if now >= due => {
-                    self.replan_due = None;
-                    self.plan_current()
-                }
+            Event::Tick => match self.burst.due() {
+                Some(due) if now >= due => self.plan_current(),
                 _ => vec![],
             },
             Event::Left { ids } => {
@@ -393,15 +319,9 @@ impl MissionManager {
         if self.members.is_empty() {
             return self.replan();
         }
-        self.replan_due = Some(match self.replan_due {
-            None => {
-                self.epoch = self.epoch.saturating_add(1);
-                self.burst_started = now;
-                now + LOSS_BURST_S
-            }
-            // Another loss of the burst: a moment's quiet after it, within the burst's bound.
-            Some(due) => due.max(now + LOSS_QUIET_S).min(self.burst_started + LOSS_BURST_MAX_S),
-        });
+        if self.burst.loss(now) {
+            self.epoch = self.epoch.saturating_add(1);
+        }
         vec![]
     }
 
@@ -564,7 +484,7 @@ impl MissionManager {
 
     /// A plan of the current epoch for the current members (a replan held back is no longer).
     fn plan_current(&mut self) -> Vec<Command> {
-        self.replan_due = None;
+        self.burst.clear();
         if self.members.is_empty() {
             self.status = MissionStatus::Stalled;
             return vec![];
