@@ -146,16 +146,48 @@ struct Col {
 /// Shortest augmenting path LSAP on a rows ≤ cols matrix given row by row by `row_costs`;
 /// `INFINITY` forbids a pair. `None` when no complete assignment exists.
 fn lsap<'a>(rows: usize, cols: usize, row_costs: impl Fn(usize) -> &'a [f64]) -> Option<Vec<usize>> {
-    const NONE: usize = usize::MAX;
-    let mut u = vec![0.0; rows];
-    let mut col = vec![Col { v: 0.0, shortest: f64::INFINITY, path: NONE, row: NONE }; cols];
-    let mut col4row = vec![NONE; rows];
-    let mut sr = vec![false; rows];
-    let mut sc = vec![false; cols];
-    let mut remaining = vec![0usize; cols];
+    let mut s = Search {
+        u: vec![0.0; rows],
+        col: vec![Col { v: 0.0, shortest: f64::INFINITY, path: NONE, row: NONE }; cols],
+        col4row: vec![NONE; rows],
+        sr: vec![false; rows],
+        sc: vec![false; cols],
+        remaining: vec![0usize; cols],
+    };
     if rows == cols {
-        // Warm start (column reduction): v[j] = min over rows, then assign each row whose
-        // cheapest reduced column is tight and still free. Duals stay feasible.
+        s.warm_start(&row_costs);
+    }
+    for cur in 0..rows {
+        if s.col4row[cur] != NONE {
+            continue;
+        }
+        let (sink, min_val) = s.shortest_path(cur, &row_costs)?;
+        s.update_duals(cur, min_val);
+        s.augment(cur, sink);
+    }
+    Some(s.col4row)
+}
+
+/// No row or column.
+const NONE: usize = usize::MAX;
+
+/// The state of the shortest augmenting path search: row duals, columns, the assignment, and
+/// the rows and columns scanned by the current search.
+struct Search {
+    u: Vec<f64>,
+    col: Vec<Col>,
+    col4row: Vec<usize>,
+    sr: Vec<bool>,
+    sc: Vec<bool>,
+    remaining: Vec<usize>,
+}
+
+impl Search {
+    /// Warm start on a square matrix (column reduction): v[j] = min over rows, then assign each
+    /// row whose cheapest reduced column is tight and still free. Duals stay feasible.
+    fn warm_start<'a>(&mut self, row_costs: &impl Fn(usize) -> &'a [f64]) {
+        let (rows, cols) = (self.u.len(), self.col.len());
+        let col = &mut self.col;
         for c in col.iter_mut() {
             c.v = f64::INFINITY;
         }
@@ -170,45 +202,45 @@ fn lsap<'a>(rows: usize, cols: usize, row_costs: impl Fn(usize) -> &'a [f64]) ->
             for c in col.iter_mut() {
                 c.v = 0.0;
             }
-        } else {
-            for (r, assigned) in col4row.iter_mut().enumerate().take(rows) {
-                let row = row_costs(r);
-                if let Some(j) = (0..cols).find(|&j| row[j] == col[j].v && col[j].row == NONE) {
-                    col[j].row = r;
-                    *assigned = j;
-                }
+            return;
+        }
+        for (r, assigned) in self.col4row.iter_mut().enumerate().take(rows) {
+            let row = row_costs(r);
+            if let Some(j) = (0..cols).find(|&j| row[j] == col[j].v && col[j].row == NONE) {
+                col[j].row = r;
+                *assigned = j;
             }
-            augmenting_row_reduction(rows, &row_costs, &mut col, &mut col4row);
-            augmenting_row_reduction(rows, &row_costs, &mut col, &mut col4row);
-            // Row duals: each row's smallest reduced cost (assigned rows sit on theirs).
-            for (r, ur) in u.iter_mut().enumerate() {
-                *ur = row_costs(r).iter().zip(&col).map(|(&x, c)| x - c.v).fold(f64::INFINITY, f64::min);
-            }
+        }
+        augmenting_row_reduction(rows, row_costs, col, &mut self.col4row);
+        augmenting_row_reduction(rows, row_costs, col, &mut self.col4row);
+        // Row duals: each row's smallest reduced cost (assigned rows sit on theirs).
+        for (r, ur) in self.u.iter_mut().enumerate() {
+            *ur = row_costs(r).iter().zip(col.iter()).map(|(&x, c)| x - c.v).fold(f64::INFINITY, f64::min);
         }
     }
-    for cur in 0..rows {
-        if col4row[cur] != NONE {
-            continue;
-        }
-        // Dijkstra-like search for the shortest augmenting path from row `cur`.
-        sr.fill(false);
-        sc.fill(false);
-        for c in col.iter_mut() {
+
+    /// Dijkstra-like search for the shortest augmenting path from row `cur`: the free column it
+    /// ends at and its length; `None` when every column left is forbidden.
+    fn shortest_path<'a>(&mut self, cur: usize, row_costs: &impl Fn(usize) -> &'a [f64]) -> Option<(usize, f64)> {
+        let cols = self.col.len();
+        self.sr.fill(false);
+        self.sc.fill(false);
+        for c in self.col.iter_mut() {
             c.shortest = f64::INFINITY;
         }
-        for (k, r) in remaining.iter_mut().enumerate() {
+        for (k, r) in self.remaining.iter_mut().enumerate() {
             *r = cols - 1 - k;
         }
         let mut num_remaining = cols;
         let mut min_val = 0.0;
         let mut i = cur;
-        let sink = loop {
-            sr[i] = true;
+        loop {
+            self.sr[i] = true;
             let mut index = NONE;
             let mut lowest = f64::INFINITY;
-            let (ui, base, row) = (u[i], min_val, row_costs(i));
-            for (it, &j) in remaining[..num_remaining].iter().enumerate() {
-                let c = &mut col[j];
+            let (ui, base, row) = (self.u[i], min_val, row_costs(i));
+            for (it, &j) in self.remaining[..num_remaining].iter().enumerate() {
+                let c = &mut self.col[j];
                 let r = base + row[j] - ui - c.v;
                 if r < c.shortest {
                     c.path = i;
@@ -223,46 +255,50 @@ fn lsap<'a>(rows: usize, cols: usize, row_costs: impl Fn(usize) -> &'a [f64]) ->
                 return None;
             }
             min_val = lowest;
-            let j = remaining[index];
-            sc[j] = true;
+            let j = self.remaining[index];
+            self.sc[j] = true;
             num_remaining -= 1;
-            remaining[index] = remaining[num_remaining];
-            if col[j].row == NONE {
-                break j;
+            self.remaining[index] = self.remaining[num_remaining];
+            if self.col[j].row == NONE {
+                return Some((j, min_val));
             }
-            i = col[j].row;
-        };
-        // Update the duals.
-        u[cur] += min_val;
-        for r in 0..rows {
-            if sr[r] && r != cur {
-                u[r] += min_val - col[col4row[r]].shortest;
+            i = self.col[j].row;
+        }
+    }
+
+    /// The duals after a search from row `cur` of length `min_val`.
+    fn update_duals(&mut self, cur: usize, min_val: f64) {
+        self.u[cur] += min_val;
+        for r in 0..self.u.len() {
+            if self.sr[r] && r != cur {
+                self.u[r] += min_val - self.col[self.col4row[r]].shortest;
             }
         }
-        for (c, &scanned) in col.iter_mut().zip(&sc) {
+        for (c, &scanned) in self.col.iter_mut().zip(&self.sc) {
             if scanned {
                 c.v -= min_val - c.shortest;
             }
         }
-        // Augment along the path.
+    }
+
+    /// Augments along the path from row `cur` to the free column `sink`.
+    fn augment(&mut self, cur: usize, sink: usize) {
         let mut j = sink;
         loop {
-            let r = col[j].path;
-            col[j].row = r;
-            std::mem::swap(&mut col4row[r], &mut j);
+            let r = self.col[j].path;
+            self.col[j].row = r;
+            std::mem::swap(&mut self.col4row[r], &mut j);
             if r == cur {
                 break;
             }
         }
     }
-    Some(col4row)
 }
 
 /// LAPJV's augmenting row reduction: each free row takes its cheapest reduced column, lowering
 /// that column's dual to the row's second-cheapest; the displaced row is retried. Afterwards every
 /// assigned row sits on a column of minimal reduced cost.
 fn augmenting_row_reduction<'a>(n: usize, row_costs: &impl Fn(usize) -> &'a [f64], col: &mut [Col], col4row: &mut [usize]) {
-    const NONE: usize = usize::MAX;
     let mut free: Vec<usize> = (0..n).filter(|&r| col4row[r] == NONE).collect();
     let prev_free = free.len();
     let (mut current, mut new_free, mut count) = (0usize, 0usize, 0usize);

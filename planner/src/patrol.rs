@@ -98,44 +98,8 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
 /// on shortest-path distances and follows the corridors, robots reach their slots along
 /// shortest paths; without a map, everything is straight lines in the plane.
 pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>) -> Result<PatrolPlan, PlanError> {
-    let wps = &params.waypoints;
-    limits::at_most("waypoints", wps.len(), limits::MAX_WAYPOINTS)?;
-    limits::at_most("robots", robots.len(), limits::MAX_ROBOTS)?;
-    if params.max_kicks > limits::MAX_KICKS {
-        return Err(PlanError::Invalid(format!("max_kicks: {} given, at most {}", params.max_kicks, limits::MAX_KICKS)));
-    }
-    check_finite(wps)?;
-    for w in wps {
-        limits::coordinate("waypoint", w.x, w.y)?;
-    }
-    if wps.len() < 2 {
-        return Err(PlanError::TooFewPoints { min: 2, got: wps.len() });
-    }
-    check_distinct(wps)?;
-    RobotSpec::check(robots)?;
-    if !(params.sync_spacing_max.is_finite() && params.sync_spacing_max > 0.0) {
-        return Err(PlanError::Invalid(format!("sync_spacing_max must be positive (got {})", params.sync_spacing_max)));
-    }
-    let budget = Budget { max_kicks: params.max_kicks, stop: None, seed: params.seed };
-    let (waypoints, tour, lengths) = match map {
-        None => {
-            let inst = Instance::new(wps.clone(), Metric::Euclidean)?;
-            let (t, _) = tsp::solve(&inst, &budget)?;
-            let tour: Vec<Point> = t.order.iter().map(|&i| wps[i]).collect();
-            (tour.clone(), tour, None)
-        }
-        Some(space) => {
-            let t = onmap::tour(space, wps, &budget)?;
-            (t.waypoints, t.route, Some(t.lengths))
-        }
-    };
-    limits::at_most("corners of the route", tour.len(), limits::MAX_PLAN_STEPS / 4)?;
-    // Arc length, slots and sync points are measured on the map's metric (a graph's edges may be
-    // longer than the straight lines between their ends).
-    let path = match lengths {
-        Some(lens) => Polyline::closed_with(&tour, &lens),
-        None => Polyline::closed(&tour),
-    };
+    check_params(params, robots)?;
+    let (waypoints, tour, path) = route(params, map)?;
     let (l, n) = (path.length, robots.len());
     let spacing = l / n as f64;
     let team_speed = robots.iter().map(|r| r.speed).fold(f64::INFINITY, f64::min);
@@ -152,33 +116,8 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
 
     // Slot offset and assignment: travel times to the slots, straight or along the map.
     let approach = Approach::new(map, robots, &path)?;
+    let (offset, a) = slots(robots, map.is_some(), &approach, &path, spacing)?;
     let here = |r: &RobotSpec| Point::new(r.x, r.y);
-    let mut candidates = vec![0.0];
-    candidates.extend(robots.iter().map(|r| path.project(here(r)) % spacing));
-    if map.is_some() && candidates.len() > 16 {
-        // On a map each candidate costs n² lookups: a spread of sixteen is plenty.
-        let step = candidates.len() as f64 / 16.0;
-        candidates = (0..16).map(|k| candidates[(k as f64 * step) as usize]).collect();
-    }
-    let mut best: Option<(f64, assign::Assignment)> = None;
-    for &offset in &candidates {
-        let mut rows = Vec::with_capacity(n);
-        for (i, r) in robots.iter().enumerate() {
-            rows.push((0..n).map(|k| approach.cost(i, here(r), &path, offset + k as f64 * spacing).0 / r.speed).collect());
-        }
-        let a = assign::bottleneck(&Costs::from_rows(&rows)?);
-        let better = best.as_ref().is_none_or(|(_, b)| a.max < b.max - 1e-9 || (a.max <= b.max + 1e-9 && a.total < b.total - 1e-9));
-        if better {
-            best = Some((offset, a));
-        }
-    }
-    let (offset, a) = best.ok_or_else(|| PlanError::Invalid("no slot offset".into()))?;
-    if !a.max.is_finite() {
-        let r =
-            robots.iter().enumerate().find(|(i, r)| !approach.cost(*i, here(r), &path, offset).0.is_finite()).map(|(_, r)| r.id.clone()).unwrap_or_default();
-        return Err(PlanError::Invalid(format!("robot {r} cannot reach the patrol's route on the map")));
-    }
-
     let assignments: Vec<PatrolAssignment> = robots
         .iter()
         .enumerate()
@@ -210,6 +149,88 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
         assignments,
         plans,
     })
+}
+
+/// The patrol's parameters and team, within the planner's limits.
+fn check_params(params: &PatrolParams, robots: &[RobotSpec]) -> Result<(), PlanError> {
+    let wps = &params.waypoints;
+    limits::at_most("waypoints", wps.len(), limits::MAX_WAYPOINTS)?;
+    limits::at_most("robots", robots.len(), limits::MAX_ROBOTS)?;
+    if params.max_kicks > limits::MAX_KICKS {
+        return Err(PlanError::Invalid(format!("max_kicks: {} given, at most {}", params.max_kicks, limits::MAX_KICKS)));
+    }
+    check_finite(wps)?;
+    for w in wps {
+        limits::coordinate("waypoint", w.x, w.y)?;
+    }
+    if wps.len() < 2 {
+        return Err(PlanError::TooFewPoints { min: 2, got: wps.len() });
+    }
+    check_distinct(wps)?;
+    RobotSpec::check(robots)?;
+    if !(params.sync_spacing_max.is_finite() && params.sync_spacing_max > 0.0) {
+        return Err(PlanError::Invalid(format!("sync_spacing_max must be positive (got {})", params.sync_spacing_max)));
+    }
+    Ok(())
+}
+
+/// The tour: its waypoints in visiting order, the closed route's corners and the route as a
+/// polyline whose arc length is measured on the map's metric (a graph's edges may be longer
+/// than the straight lines between their ends).
+fn route(params: &PatrolParams, map: Option<&Space>) -> Result<(Vec<Point>, Vec<Point>, Polyline), PlanError> {
+    let wps = &params.waypoints;
+    let budget = Budget { max_kicks: params.max_kicks, stop: None, seed: params.seed };
+    let (waypoints, tour, lengths) = match map {
+        None => {
+            let inst = Instance::new(wps.clone(), Metric::Euclidean)?;
+            let (t, _) = tsp::solve(&inst, &budget)?;
+            let tour: Vec<Point> = t.order.iter().map(|&i| wps[i]).collect();
+            (tour.clone(), tour, None)
+        }
+        Some(space) => {
+            let t = onmap::tour(space, wps, &budget)?;
+            (t.waypoints, t.route, Some(t.lengths))
+        }
+    };
+    limits::at_most("corners of the route", tour.len(), limits::MAX_PLAN_STEPS / 4)?;
+    let path = match lengths {
+        Some(lens) => Polyline::closed_with(&tour, &lens),
+        None => Polyline::closed(&tour),
+    };
+    Ok((waypoints, tour, path))
+}
+
+/// The slot offset along the route and the robots' slots: the bottleneck assignment of travel
+/// times over candidate offsets (each robot's own projection, and 0), the smallest worst time
+/// first, then the smallest total.
+fn slots(robots: &[RobotSpec], on_map: bool, approach: &Approach, path: &Polyline, spacing: f64) -> Result<(f64, assign::Assignment), PlanError> {
+    let n = robots.len();
+    let here = |r: &RobotSpec| Point::new(r.x, r.y);
+    let mut candidates = vec![0.0];
+    candidates.extend(robots.iter().map(|r| path.project(here(r)) % spacing));
+    if on_map && candidates.len() > 16 {
+        // On a map each candidate costs n² lookups: a spread of sixteen is plenty.
+        let step = candidates.len() as f64 / 16.0;
+        candidates = (0..16).map(|k| candidates[(k as f64 * step) as usize]).collect();
+    }
+    let mut best: Option<(f64, assign::Assignment)> = None;
+    for &offset in &candidates {
+        let mut rows = Vec::with_capacity(n);
+        for (i, r) in robots.iter().enumerate() {
+            rows.push((0..n).map(|k| approach.cost(i, here(r), path, offset + k as f64 * spacing).0 / r.speed).collect());
+        }
+        let a = assign::bottleneck(&Costs::from_rows(&rows)?);
+        let better = best.as_ref().is_none_or(|(_, b)| a.max < b.max - 1e-9 || (a.max <= b.max + 1e-9 && a.total < b.total - 1e-9));
+        if better {
+            best = Some((offset, a));
+        }
+    }
+    let (offset, a) = best.ok_or_else(|| PlanError::Invalid("no slot offset".into()))?;
+    if !a.max.is_finite() {
+        let r = robots.iter().enumerate().find(|(i, r)| !approach.cost(*i, here(r), path, offset).0.is_finite()).map(|(_, r)| r.id.clone()).unwrap_or_default();
+        return Err(PlanError::Invalid(format!("robot {r} cannot reach the patrol's route on the map")));
+    }
+    Ok((offset, a))
 }
 
 /// Where one robot starts and what one round is for it.

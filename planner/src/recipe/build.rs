@@ -151,106 +151,146 @@ fn build_leaf(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotS
             }
         }
     }
-    let get = |k: &str| scalars.get(k).map(|v| v.trim().to_string());
-    let num = |k: &str| get(k).and_then(|v| v.parse::<f64>().ok());
-    let whole = |k: &str| get(k).and_then(|v| v.parse::<u64>().ok());
-    let rounds = get("rounds").and_then(|v| v.parse::<u32>().ok());
+    let scalars = Scalars(scalars);
     let space = match map {
-        Some(m) => Some(Space::new(m, num("robot_radius").unwrap_or(DEFAULT_ROBOT_RADIUS))?),
+        Some(m) => Some(Space::new(m, scalars.num("robot_radius").unwrap_or(DEFAULT_ROBOT_RADIUS))?),
         None => None,
     };
     for rb in robots {
         behaviour_for(r, &rb.robot_type)
             .ok_or_else(|| r.pos.err(format!("no <behaviour> for robot type {:?} (robot {}) and no type=\"*\"", rb.robot_type, rb.id)))?;
     }
+    let rounds = scalars.get("rounds").and_then(|v| v.parse::<u32>().ok());
+    let leaf = Leaf { r, overrides, scalars, robots, map, space, rounds };
     match r.planner {
-        PlannerKind::Patrol => {
-            let waypoints = match overrides.get("waypoints") {
-                Some(all) if matches!(all.trim(), "all" | "\"all\"") => match map {
-                    // Vertices drawn on the same spot (some graphs have them) are one waypoint.
-                    Some(Map::Graph(g)) => {
-                        let mut seen = Vec::<Point>::with_capacity(g.vertices.len());
-                        for v in &g.vertices {
-                            if !seen.contains(&v.at) {
-                                seen.push(v.at);
-                            }
+        PlannerKind::Patrol => leaf.patrol(),
+        PlannerKind::Coverage => leaf.coverage(),
+    }
+}
+
+/// A recipe's scalar parameters, with the mission's overrides applied.
+struct Scalars(BTreeMap<String, String>);
+
+impl Scalars {
+    fn get(&self, k: &str) -> Option<String> {
+        self.0.get(k).map(|v| v.trim().to_string())
+    }
+
+    fn num(&self, k: &str) -> Option<f64> {
+        self.get(k).and_then(|v| v.parse::<f64>().ok())
+    }
+
+    fn whole(&self, k: &str) -> Option<u64> {
+        self.get(k).and_then(|v| v.parse::<u64>().ok())
+    }
+}
+
+/// One team to plan: its recipe, the mission's overrides, its members and the map.
+struct Leaf<'a> {
+    r: &'a Recipe,
+    overrides: &'a BTreeMap<String, String>,
+    scalars: Scalars,
+    robots: &'a [RobotSpec],
+    map: Option<&'a Map>,
+    space: Option<Space>,
+    rounds: Option<u32>,
+}
+
+impl Leaf<'_> {
+    /// The patrol's waypoints: the override (`"all"`: every vertex of a graph map), else the recipe's.
+    fn waypoints(&self) -> Result<Vec<Point>, PlanError> {
+        match self.overrides.get("waypoints") {
+            Some(all) if matches!(all.trim(), "all" | "\"all\"") => match self.map {
+                // Vertices drawn on the same spot (some graphs have them) are one waypoint.
+                Some(Map::Graph(g)) => {
+                    let mut seen = Vec::<Point>::with_capacity(g.vertices.len());
+                    for v in &g.vertices {
+                        if !seen.contains(&v.at) {
+                            seen.push(v.at);
                         }
-                        seen
                     }
-                    _ => return Err(PlanError::Invalid("waypoints: \"all\" patrols every vertex of a graph map; this mission has none".into())),
-                },
-                Some(json) => json_points("waypoints", json)?,
-                None => r
-                    .waypoints
-                    .as_ref()
-                    .map(|(w, _)| w.clone())
-                    .ok_or_else(|| r.pos.err("a patrol needs waypoints: give <waypoints> in <params> or the parameter waypoints=[[x,y],…]"))?,
-            };
-            let mut params = PatrolParams::new(waypoints);
-            params.rounds = rounds;
-            if let Some(v) = num("sync_spacing_max") {
-                params.sync_spacing_max = v;
-            }
-            if let Some(v) = whole("seed") {
-                params.seed = v;
-            }
-            if let Some(v) = whole("max_kicks") {
-                params.max_kicks = v;
-            }
-            let at = |e: PlanError| match (&r.waypoints, overrides.contains_key("waypoints")) {
-                (Some((_, pos)), false) => pos.err(format!("waypoints: {e}")),
-                _ => e,
-            };
-            let mut plan = patrol::plan_on(&params, robots, space.as_ref()).map_err(at)?;
-            plan.plans = plan
-                .assignments
-                .iter()
-                .zip(robots)
-                .map(|(a, rb)| {
-                    let x = Expand { approach: &a.approach, round: &a.round, rounds, space: space.as_ref() };
-                    Ok(RobotPlan { robot: a.robot.clone(), robot_type: a.robot_type.clone(), slot: a.slot, steps: expand_for(r, rb, &x)?, team: String::new() })
-                })
-                .collect::<Result<_, PlanError>>()?;
-            Ok(MissionPlan::Patrol(plan))
-        }
-        PlannerKind::Coverage => {
-            let (region, pos) = match (overrides.get("region"), &r.region, map) {
-                (Some(json), _, _) => (json_region(json)?, None),
-                (None, Some((outer, holes, pos)), _) => (Region { outer: outer.clone(), holes: holes.clone() }, Some(*pos)),
-                (None, None, Some(m)) => (map_box(m), None),
-                (None, None, None) => return Err(r.pos.err("a coverage needs a region: give <region> in <params> or the parameter region=[[x,y],…]")),
-            };
-            let at = |e: PlanError| match pos {
-                Some(p) => p.err(format!("region: {e}")),
-                None => e,
-            };
-            let region = region.validated().map_err(at)?;
-            let mut params = CoverageParams::new(region);
-            if let Some(v) = whole("samples") {
-                params.samples = v as usize;
-            }
-            if let Some(v) = whole("lloyd_iterations") {
-                params.lloyd_iterations = v as usize;
-            }
-            if let Some(v) = whole("minimax_iterations") {
-                params.minimax_iterations = v as usize;
-            }
-            if let Some(v) = whole("seed") {
-                params.seed = v;
-            }
-            let (mut plan, routes) = match &space {
-                Some(space) => coverage_map::plan_on(&params, robots, space)?,
-                None => {
-                    let plan = coverage::plan(&params, robots)?;
-                    let routes = plan.plans.iter().map(|p| vec![plan.points[p.slot]]).collect();
-                    (plan, routes)
+                    Ok(seen)
                 }
-            };
-            for ((p, route), rb) in plan.plans.iter_mut().zip(&routes).zip(robots) {
-                p.steps = expand_for(r, rb, &Expand { approach: route, round: &[], rounds, space: space.as_ref() })?;
-            }
-            Ok(MissionPlan::Coverage(plan))
+                _ => Err(PlanError::Invalid("waypoints: \"all\" patrols every vertex of a graph map; this mission has none".into())),
+            },
+            Some(json) => json_points("waypoints", json),
+            None => self
+                .r
+                .waypoints
+                .as_ref()
+                .map(|(w, _)| w.clone())
+                .ok_or_else(|| self.r.pos.err("a patrol needs waypoints: give <waypoints> in <params> or the parameter waypoints=[[x,y],…]")),
         }
+    }
+
+    fn patrol(&self) -> Result<MissionPlan, PlanError> {
+        let (r, s) = (self.r, &self.scalars);
+        let mut params = PatrolParams::new(self.waypoints()?);
+        params.rounds = self.rounds;
+        if let Some(v) = s.num("sync_spacing_max") {
+            params.sync_spacing_max = v;
+        }
+        if let Some(v) = s.whole("seed") {
+            params.seed = v;
+        }
+        if let Some(v) = s.whole("max_kicks") {
+            params.max_kicks = v;
+        }
+        let at = |e: PlanError| match (&r.waypoints, self.overrides.contains_key("waypoints")) {
+            (Some((_, pos)), false) => pos.err(format!("waypoints: {e}")),
+            _ => e,
+        };
+        let mut plan = patrol::plan_on(&params, self.robots, self.space.as_ref()).map_err(at)?;
+        plan.plans = plan
+            .assignments
+            .iter()
+            .zip(self.robots)
+            .map(|(a, rb)| {
+                let x = Expand { approach: &a.approach, round: &a.round, rounds: self.rounds, space: self.space.as_ref() };
+                Ok(RobotPlan { robot: a.robot.clone(), robot_type: a.robot_type.clone(), slot: a.slot, steps: expand_for(r, rb, &x)?, team: String::new() })
+            })
+            .collect::<Result<_, PlanError>>()?;
+        Ok(MissionPlan::Patrol(plan))
+    }
+
+    fn coverage(&self) -> Result<MissionPlan, PlanError> {
+        let (r, s) = (self.r, &self.scalars);
+        let (region, pos) = match (self.overrides.get("region"), &r.region, self.map) {
+            (Some(json), _, _) => (json_region(json)?, None),
+            (None, Some((outer, holes, pos)), _) => (Region { outer: outer.clone(), holes: holes.clone() }, Some(*pos)),
+            (None, None, Some(m)) => (map_box(m), None),
+            (None, None, None) => return Err(r.pos.err("a coverage needs a region: give <region> in <params> or the parameter region=[[x,y],…]")),
+        };
+        let at = |e: PlanError| match pos {
+            Some(p) => p.err(format!("region: {e}")),
+            None => e,
+        };
+        let region = region.validated().map_err(at)?;
+        let mut params = CoverageParams::new(region);
+        if let Some(v) = s.whole("samples") {
+            params.samples = v as usize;
+        }
+        if let Some(v) = s.whole("lloyd_iterations") {
+            params.lloyd_iterations = v as usize;
+        }
+        if let Some(v) = s.whole("minimax_iterations") {
+            params.minimax_iterations = v as usize;
+        }
+        if let Some(v) = s.whole("seed") {
+            params.seed = v;
+        }
+        let (mut plan, routes) = match &self.space {
+            Some(space) => coverage_map::plan_on(&params, self.robots, space)?,
+            None => {
+                let plan = coverage::plan(&params, self.robots)?;
+                let routes = plan.plans.iter().map(|p| vec![plan.points[p.slot]]).collect();
+                (plan, routes)
+            }
+        };
+        for ((p, route), rb) in plan.plans.iter_mut().zip(&routes).zip(self.robots) {
+            p.steps = expand_for(r, rb, &Expand { approach: route, round: &[], rounds: self.rounds, space: self.space.as_ref() })?;
+        }
+        Ok(MissionPlan::Coverage(plan))
     }
 }
 

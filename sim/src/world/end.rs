@@ -34,16 +34,9 @@ impl World {
         self.inv.forget_missions(&alive);
         self.one_mission_per_robot()?;
         if let Ops::Barriers { .. } = self.cfg.ops {
-            for (i, n) in self.nodes.iter().enumerate() {
-                let done = n.robot.as_ref().and_then(|r| r.executor()).is_some_and(|e| e.progress().done);
-                if self.links.up[i] && !done {
-                    let at = n.robot.as_ref().and_then(|r| r.executor()).map(|e| e.progress());
-                    return Err(format!("{} did not finish its plan: {at:?}", n.name));
-                }
-            }
-            return Ok(());
+            return self.plans_finished();
         }
-        let mut heads: BTreeMap<String, Vec<(String, u64, Vec<String>)>> = BTreeMap::new();
+        let mut heads: Heads = BTreeMap::new();
         for n in &self.nodes {
             let Some(h) = &n.host else { continue };
             for (m, mm) in h.heads() {
@@ -66,74 +59,87 @@ impl World {
                 let names: Vec<&String> = hs.iter().map(|h| &h.0).collect();
                 return Err(format!("{} heads of {m} after healing: {names:?}", hs.len()));
             }
-            if self.op.terminated.contains(m) {
-                continue;
-            }
-            let (head, epoch, members) = &hs[0];
-            // A paused mission's live members hold where they are.
-            let paused = self
-                .index(head)
-                .and_then(|i| self.nodes[i].host.as_ref())
-                .and_then(|h| h.heads().find(|(n, _)| *n == m).map(|(_, mm)| mm.view(false).status == mrmm_proto::MissionStatus::Paused))
-                .unwrap_or(false);
-            if paused {
-                self.report.paused_at_end += 1;
-                for r in members {
-                    let Some(i) = self.index(r).filter(|i| self.links.up[*i]) else { continue };
-                    let steps = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| e.assignment.plan.steps.clone());
-                    let holds =
-                        steps.as_deref().is_some_and(|s| s.iter().all(|s| matches!(s, mrmm_proto::Step::Stream | mrmm_proto::Step::Hold { seconds: None })));
-                    if !holds {
-                        return Err(format!("live member {r} of paused mission {m} does not hold: {steps:?}"));
-                    }
-                }
-            }
-            // Every live member has what its mission requires (a member that lost it was taken out).
-            let requires = self
-                .index(head)
-                .and_then(|i| self.nodes[i].host.as_ref())
-                .and_then(|h| h.heads().find(|(n, _)| *n == m).map(|(_, mm)| mm.view(false).requires));
-            for r in members {
-                let Some(i) = self.index(r) else { continue };
-                let has = self.nodes[i].robot.as_ref().map(|rb| rb.info(vec![]).capabilities).unwrap_or_default();
-                if let Some(lacks) = requires.iter().flatten().find(|c| !has.contains(c)).filter(|_| self.links.up[i]) {
-                    return Err(format!("live member {r} of {m} lacks {lacks}, which {m} requires, after healing"));
-                }
-                if requires.as_ref().is_some_and(|q| !q.is_empty()) && self.links.up[i] {
-                    self.report.required_checked += 1;
-                }
-                let running = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| (e.mission().to_string(), e.epoch()));
-                if self.links.up[i] && running != Some((m.clone(), *epoch)) {
-                    return Err(format!(
-                        "live member {r} of {m} runs {running:?}, not {m}'s epoch {epoch}, after healing; replicas: {:?}",
-                        self.replicas_of(m)
-                    ));
-                }
+            if !self.op.terminated.contains(m) {
+                self.members_after_healing(m, &hs[0])?;
             }
         }
-        // Without disks, missions central defines that nobody leads are counted.
-        if !self.cfg.disks {
-            if let Some(c) = self.nodes.iter().find_map(|n| n.central.as_ref()) {
-                let durable = c.system().durable();
-                let headless =
-                    durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m) && !heads.contains_key(*m)).count();
-                self.report.headless = u32::try_from(headless).unwrap_or(u32::MAX);
-            }
-        }
-        // With every chain on disk, nothing the operator was told "ok" about is lost: every
-        // mission created ok that central's journal still defines is led again after healing.
-        if self.cfg.disks {
-            if let Some(c) = self.nodes.iter().find_map(|n| n.central.as_ref()) {
-                let durable = c.system().durable();
-                for m in durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m)) {
-                    if !heads.contains_key(m) {
-                        return Err(format!("{m} is in central's journal but nobody leads it after healing; replicas: {:?}", self.replicas_of(m)));
-                    }
-                }
-            }
-        }
+        self.central_missions_led(&heads)?;
         self.report.missions_at_end = heads.len();
         self.report.commands_ok = self.op.ok;
         Ok(())
     }
+
+    /// In a barrier run, every live robot finished its plan.
+    fn plans_finished(&self) -> Result<(), String> {
+        for (i, n) in self.nodes.iter().enumerate() {
+            let done = n.robot.as_ref().and_then(|r| r.executor()).is_some_and(|e| e.progress().done);
+            if self.links.up[i] && !done {
+                let at = n.robot.as_ref().and_then(|r| r.executor()).map(|e| e.progress());
+                return Err(format!("{} did not finish its plan: {at:?}", n.name));
+            }
+        }
+        Ok(())
+    }
+
+    /// The view of mission `m` its head `head` gives.
+    fn view_at(&self, head: &str, m: &str) -> Option<mrmm_proto::MissionView> {
+        self.index(head).and_then(|i| self.nodes[i].host.as_ref()).and_then(|h| h.heads().find(|(n, _)| *n == m).map(|(_, mm)| mm.view(false)))
+    }
+
+    /// Mission `m`'s live members, led by its one head: they hold if it is paused, have what it
+    /// requires, and run its current epoch.
+    fn members_after_healing(&mut self, m: &String, (head, epoch, members): &(String, u64, Vec<String>)) -> Result<(), String> {
+        let view = self.view_at(head, m);
+        // A paused mission's live members hold where they are.
+        if view.as_ref().is_some_and(|v| v.status == mrmm_proto::MissionStatus::Paused) {
+            self.report.paused_at_end += 1;
+            for r in members {
+                let Some(i) = self.index(r).filter(|i| self.links.up[*i]) else { continue };
+                let steps = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| e.assignment.plan.steps.clone());
+                let holds =
+                    steps.as_deref().is_some_and(|s| s.iter().all(|s| matches!(s, mrmm_proto::Step::Stream | mrmm_proto::Step::Hold { seconds: None })));
+                if !holds {
+                    return Err(format!("live member {r} of paused mission {m} does not hold: {steps:?}"));
+                }
+            }
+        }
+        // Every live member has what its mission requires (a member that lost it was taken out).
+        let requires = view.map(|v| v.requires);
+        for r in members {
+            let Some(i) = self.index(r) else { continue };
+            let has = self.nodes[i].robot.as_ref().map(|rb| rb.info(vec![]).capabilities).unwrap_or_default();
+            if let Some(lacks) = requires.iter().flatten().find(|c| !has.contains(c)).filter(|_| self.links.up[i]) {
+                return Err(format!("live member {r} of {m} lacks {lacks}, which {m} requires, after healing"));
+            }
+            if requires.as_ref().is_some_and(|q| !q.is_empty()) && self.links.up[i] {
+                self.report.required_checked += 1;
+            }
+            let running = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| (e.mission().to_string(), e.epoch()));
+            if self.links.up[i] && running != Some((m.clone(), *epoch)) {
+                return Err(format!("live member {r} of {m} runs {running:?}, not {m}'s epoch {epoch}, after healing; replicas: {:?}", self.replicas_of(m)));
+            }
+        }
+        Ok(())
+    }
+
+    /// Missions central's journal defines: without disks, those nobody leads are counted; with
+    /// every chain on disk, nothing the operator was told "ok" about is lost — every mission
+    /// created ok that the journal still defines is led again after healing.
+    fn central_missions_led(&mut self, heads: &Heads) -> Result<(), String> {
+        let Some(c) = self.nodes.iter().find_map(|n| n.central.as_ref()) else { return Ok(()) };
+        let durable = c.system().durable();
+        let unled: Vec<&String> =
+            durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m) && !heads.contains_key(*m)).collect();
+        if self.cfg.disks {
+            if let Some(m) = unled.first() {
+                return Err(format!("{m} is in central's journal but nobody leads it after healing; replicas: {:?}", self.replicas_of(m)));
+            }
+        } else {
+            self.report.headless = u32::try_from(unled.len()).unwrap_or(u32::MAX);
+        }
+        Ok(())
+    }
 }
+
+/// Each mission's heads: the node, its epoch, its members.
+type Heads = BTreeMap<String, Vec<(String, u64, Vec<String>)>>;

@@ -24,6 +24,71 @@ impl World {
         }
     }
 
+    /// A random node crashes (central only if the run allows it), and comes back if it restarts.
+    pub(super) fn random_crash(&mut self) {
+        self.next_fault(self.cfg.crash_every, Ev::Crash);
+        if !self.links.up.iter().all(|u| *u) {
+            return;
+        }
+        let candidates: Vec<usize> = (0..self.nodes.len()).filter(|i| self.nodes[*i].kind != Kind::Central || self.cfg.crash_central).collect();
+        if candidates.is_empty() {
+            return;
+        }
+        let i = candidates[self.rng.gen_range(0..candidates.len())];
+        self.crash(i);
+        if self.cfg.restart {
+            let back = self.now + self.rng.gen_range(0.5..4.0);
+            self.queue.push(back, Ev::Restart(i));
+        }
+    }
+
+    /// Node `i` starts again: a new incarnation, with what it had on disk.
+    pub(super) fn restart(&mut self, i: usize) {
+        self.links.up[i] = true;
+        self.links.inc[i] += 1;
+        let name = self.nodes[i].name.clone();
+        self.log(|| format!("restart {name}"));
+        self.beliefs.forget(i, |_| false);
+        self.boot(i);
+    }
+
+    /// The network splits in two random sides until it heals (and, in some runs, central's side
+    /// is power-cycled meanwhile).
+    pub(super) fn random_partition(&mut self) {
+        self.next_fault(self.cfg.partition_every, Ev::Partition);
+        if self.links.partitioned() {
+            return;
+        }
+        let side: Vec<bool> = (0..self.nodes.len()).map(|_| self.rng.gen_bool(0.5)).collect();
+        self.log(|| format!("partition {side:?}"));
+        self.links.partition(side);
+        self.report.partitions += 1;
+        let mut heal = (self.now + self.rng.gen_range(0.5..6.0)).min(self.cfg.duration);
+        if self.cfg.side_cycles && self.fault_rng.gen_bool(0.3) {
+            // Long enough for central, back, to start anew what it cannot see.
+            self.queue.push(self.now + self.fault_rng.gen_range(0.3..1.0), Ev::CycleSide);
+            heal = heal.max((self.now + self.fault_rng.gen_range(9.0..15.0)).min(self.cfg.duration));
+        }
+        self.queue.push(heal, Ev::Heal);
+        self.liveliness(self.cfg.lease);
+    }
+
+    /// One node falsely loses another for a while.
+    pub(super) fn random_suspicion(&mut self) {
+        self.next_fault(self.cfg.suspect_every, Ev::Suspect);
+        let n = self.nodes.len();
+        let (a, b) = (self.rng.gen_range(0..n), self.rng.gen_range(0..n));
+        if a == b {
+            return;
+        }
+        self.log(|| format!("n{a} falsely loses n{b}"));
+        self.report.suspicions += 1;
+        self.links.suspect(a, b, true);
+        let until = (self.now + self.rng.gen_range(1.5..5.0)).min(self.cfg.duration);
+        self.queue.push(until, Ev::Unsuspect(a, b));
+        self.liveliness(self.cfg.lease);
+    }
+
     pub(super) fn crash(&mut self, i: usize) {
         let name = self.nodes[i].name.clone();
         self.log(|| format!("crash {name}"));

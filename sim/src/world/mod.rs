@@ -387,25 +387,7 @@ impl World {
 
     fn event(&mut self, ev: Ev) -> Result<(), String> {
         match ev {
-            Ev::Tick { node, inc, kind } => {
-                if !self.links.up[node] || self.links.inc[node] != inc {
-                    return Ok(());
-                }
-                let period = match kind {
-                    TickKind::Physics | TickKind::Host => 0.05,
-                    TickKind::Telemetry => 0.2,
-                    TickKind::Central => 0.25,
-                    TickKind::Status => 1.0,
-                };
-                self.queue.push(self.now + period, Ev::Tick { node, inc, kind });
-                match kind {
-                    TickKind::Physics => self.robot(node, robot::Event::Tick)?,
-                    TickKind::Telemetry => self.robot(node, robot::Event::TelemetryDue)?,
-                    TickKind::Host => self.host(node, host::Event::Tick)?,
-                    TickKind::Status => self.host(node, host::Event::StatusTick)?,
-                    TickKind::Central => self.central(node, central::Event::System(system::Event::Tick))?,
-                }
-            }
+            Ev::Tick { node, inc, kind } => self.tick(node, inc, kind)?,
             Ev::Host { from, to, msg } => {
                 if self.links.connected(from, to) {
                     self.report.messages += 1;
@@ -449,64 +431,16 @@ impl World {
                     self.tell(c.observer, &c.token, c.up)?;
                 }
             }
-            Ev::Crash => {
-                self.next_fault(self.cfg.crash_every, Ev::Crash);
-                if self.links.up.iter().all(|u| *u) {
-                    let candidates: Vec<usize> = (0..self.nodes.len()).filter(|i| self.nodes[*i].kind != Kind::Central || self.cfg.crash_central).collect();
-                    if !candidates.is_empty() {
-                        let i = candidates[self.rng.gen_range(0..candidates.len())];
-                        self.crash(i);
-                        if self.cfg.restart {
-                            let back = self.now + self.rng.gen_range(0.5..4.0);
-                            self.queue.push(back, Ev::Restart(i));
-                        }
-                    }
-                }
-            }
-            Ev::Restart(i) => {
-                self.links.up[i] = true;
-                self.links.inc[i] += 1;
-                let name = self.nodes[i].name.clone();
-                self.log(|| format!("restart {name}"));
-                self.beliefs.forget(i, |_| false);
-                self.boot(i);
-            }
-            Ev::Partition => {
-                self.next_fault(self.cfg.partition_every, Ev::Partition);
-                if !self.links.partitioned() {
-                    let side: Vec<bool> = (0..self.nodes.len()).map(|_| self.rng.gen_bool(0.5)).collect();
-                    self.log(|| format!("partition {side:?}"));
-                    self.links.partition(side);
-                    self.report.partitions += 1;
-                    let mut heal = (self.now + self.rng.gen_range(0.5..6.0)).min(self.cfg.duration);
-                    if self.cfg.side_cycles && self.fault_rng.gen_bool(0.3) {
-                        // Long enough for central, back, to start anew what it cannot see.
-                        self.queue.push(self.now + self.fault_rng.gen_range(0.3..1.0), Ev::CycleSide);
-                        heal = heal.max((self.now + self.fault_rng.gen_range(9.0..15.0)).min(self.cfg.duration));
-                    }
-                    self.queue.push(heal, Ev::Heal);
-                    self.liveliness(self.cfg.lease);
-                }
-            }
+            Ev::Crash => self.random_crash(),
+            Ev::Restart(i) => self.restart(i),
+            Ev::Partition => self.random_partition(),
             Ev::CycleSide => self.cycle_side(),
             Ev::Heal => {
                 self.log(|| "heal".into());
                 self.links.heal();
                 self.liveliness(0.05);
             }
-            Ev::Suspect => {
-                self.next_fault(self.cfg.suspect_every, Ev::Suspect);
-                let n = self.nodes.len();
-                let (a, b) = (self.rng.gen_range(0..n), self.rng.gen_range(0..n));
-                if a != b {
-                    self.log(|| format!("n{a} falsely loses n{b}"));
-                    self.report.suspicions += 1;
-                    self.links.suspect(a, b, true);
-                    let until = (self.now + self.rng.gen_range(1.5..5.0)).min(self.cfg.duration);
-                    self.queue.push(until, Ev::Unsuspect(a, b));
-                    self.liveliness(self.cfg.lease);
-                }
-            }
+            Ev::Suspect => self.random_suspicion(),
             Ev::Unsuspect(a, b) => {
                 self.links.suspect(a, b, false);
                 self.liveliness(0.05);
@@ -514,5 +448,26 @@ impl World {
             Ev::Op => self.operate()?,
         }
         Ok(())
+    }
+
+    /// A node's periodic tick of `kind` (if it is still the same incarnation), and the next one.
+    fn tick(&mut self, node: usize, inc: u32, kind: TickKind) -> Result<(), String> {
+        if !self.links.up[node] || self.links.inc[node] != inc {
+            return Ok(());
+        }
+        let period = match kind {
+            TickKind::Physics | TickKind::Host => 0.05,
+            TickKind::Telemetry => 0.2,
+            TickKind::Central => 0.25,
+            TickKind::Status => 1.0,
+        };
+        self.queue.push(self.now + period, Ev::Tick { node, inc, kind });
+        match kind {
+            TickKind::Physics => self.robot(node, robot::Event::Tick),
+            TickKind::Telemetry => self.robot(node, robot::Event::TelemetryDue),
+            TickKind::Host => self.host(node, host::Event::Tick),
+            TickKind::Status => self.host(node, host::Event::StatusTick),
+            TickKind::Central => self.central(node, central::Event::System(system::Event::Tick)),
+        }
     }
 }

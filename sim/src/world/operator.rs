@@ -10,32 +10,8 @@ impl World {
     pub(super) fn operate(&mut self) -> Result<(), String> {
         let active = self.now < self.cfg.duration;
         match self.cfg.ops {
-            Ops::Barriers { .. } => {}
-            Ops::Random => {
-                let next = self.now + self.rng.gen_range(1.0..3.0);
-                self.queue.push(next, Ev::Op);
-                let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) else {
-                    return Ok(());
-                };
-                if !active || !self.links.up[c] {
-                    return Ok(());
-                }
-                let robots = self.robot_names();
-                let (req, request) = self.op.command(&mut self.rng, &robots);
-                self.log(|| format!("operator: {request:?}"));
-                self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
-                // Now and then a robot's camera breaks or one is fitted.
-                if self.caps_rng.gen_bool(0.3) {
-                    let robot = robots[self.caps_rng.gen_range(0..robots.len())].clone();
-                    let has = self
-                        .index(&robot)
-                        .and_then(|i| self.nodes[i].robot.as_ref())
-                        .is_some_and(|r| r.info(vec![]).capabilities.iter().any(|c| c == "camera"));
-                    let (req, request) = self.op.camera(robot, has);
-                    self.log(|| format!("operator: {request:?}"));
-                    self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
-                }
-            }
+            Ops::Barriers { .. } => Ok(()),
+            Ops::Random => self.random_command(active),
             Ops::OneMission => {
                 self.queue.push(self.now + 0.25, Ev::Op);
                 if !active {
@@ -48,62 +24,98 @@ impl World {
                 if self.now < 0.6 || (!started && self.now < 5.0) {
                     self.start_one_mission();
                 } else {
-                    // As central does for members that join or come back: a robot the mission's
-                    // state counts in (or lost) that does not know the whole team (it restarted,
-                    // or others joined since its plan) is admitted with the team, so robot heads
-                    // may plan for it and it takes their chain messages.
-                    let mut counted: BTreeSet<String> = BTreeSet::new();
-                    // The managers central would name: the chain of the newest configuration.
-                    let mut chain: Option<(u64, Vec<String>)> = None;
-                    for n in &self.nodes {
-                        let Some(r) = n.host.as_ref().and_then(|h| h.replica("p")) else {
-                            continue;
-                        };
-                        if let Some(state) = r.state() {
-                            counted.extend(state.members.iter().chain(&state.lost).map(|m| m.spec.id.clone()));
-                        }
-                        if let Some(c) = r.config() {
-                            if chain.as_ref().is_none_or(|(e, _)| c.epoch > *e) {
-                                chain = Some((c.epoch, c.chain.clone()));
-                            }
-                        }
-                    }
-                    self.managers = chain.map(|(_, c)| c).unwrap_or_default();
-                    let unaware: Vec<String> = counted
-                        .iter()
-                        .filter(|r| {
-                            let teams = self.index(r).and_then(|i| self.nodes[i].robot.as_ref()).map(|rb| rb.team()).unwrap_or_default();
-                            !teams.iter().any(|(m, ids)| m == "p" && counted.iter().all(|c| ids.contains(c)))
-                        })
-                        .cloned()
-                        .collect();
-                    let team: Vec<String> = counted.into_iter().collect();
-                    for r in unaware {
-                        self.admit(&r, &team);
-                    }
+                    self.admit_unaware();
                 }
-                if self.now >= 0.6 && active && self.rng.gen_bool(0.15) {
-                    let robots = self.robot_names();
-                    let r = robots[self.rng.gen_range(0..robots.len())].clone();
-                    let ctl = if self.team.contains(&r) && self.team.len() > 1 {
-                        self.team.remove(&r);
-                        MissionCtl::Left { ids: vec![r] }
-                    } else if !self.team.contains(&r) {
-                        self.team.insert(r.clone());
-                        self.admit_one(&r);
-                        let spec = RobotSpec { id: r, robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 };
-                        MissionCtl::Joined { member: Member { spec, time_scale: TIME_SCALE, capabilities: vec![] } }
-                    } else {
-                        return Ok(());
-                    };
-                    self.ctls.push("p", ctl, vec![]);
+                if self.now >= 0.6 && active && self.rng.gen_bool(0.15) && !self.random_ctl() {
+                    return Ok(());
                 }
                 for (id, mission, ctl) in self.ctls.due(self.now) {
                     self.ask_mission(None, &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id), mrmm_core::timeouts::QUERY_S);
                 }
+                Ok(())
             }
         }
+    }
+
+    /// Random: the operator's next command to central, and now and then a robot's camera breaks
+    /// or one is fitted.
+    fn random_command(&mut self, active: bool) -> Result<(), String> {
+        let next = self.now + self.rng.gen_range(1.0..3.0);
+        self.queue.push(next, Ev::Op);
+        let Some(c) = self.nodes.iter().position(|n| n.kind == Kind::Central) else {
+            return Ok(());
+        };
+        if !active || !self.links.up[c] {
+            return Ok(());
+        }
+        let robots = self.robot_names();
+        let (req, request) = self.op.command(&mut self.rng, &robots);
+        self.log(|| format!("operator: {request:?}"));
+        self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
+        if self.caps_rng.gen_bool(0.3) {
+            let robot = robots[self.caps_rng.gen_range(0..robots.len())].clone();
+            let has = self.index(&robot).and_then(|i| self.nodes[i].robot.as_ref()).is_some_and(|r| r.info(vec![]).capabilities.iter().any(|c| c == "camera"));
+            let (req, request) = self.op.camera(robot, has);
+            self.log(|| format!("operator: {request:?}"));
+            self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
+        }
         Ok(())
+    }
+
+    /// OneMission, as central does for members that join or come back: a robot the mission's
+    /// state counts in (or lost) that does not know the whole team (it restarted, or others
+    /// joined since its plan) is admitted with the team, so robot heads may plan for it and it
+    /// takes their chain messages.
+    fn admit_unaware(&mut self) {
+        let mut counted: BTreeSet<String> = BTreeSet::new();
+        // The managers central would name: the chain of the newest configuration.
+        let mut chain: Option<(u64, Vec<String>)> = None;
+        for n in &self.nodes {
+            let Some(r) = n.host.as_ref().and_then(|h| h.replica("p")) else {
+                continue;
+            };
+            if let Some(state) = r.state() {
+                counted.extend(state.members.iter().chain(&state.lost).map(|m| m.spec.id.clone()));
+            }
+            if let Some(c) = r.config() {
+                if chain.as_ref().is_none_or(|(e, _)| c.epoch > *e) {
+                    chain = Some((c.epoch, c.chain.clone()));
+                }
+            }
+        }
+        self.managers = chain.map(|(_, c)| c).unwrap_or_default();
+        let unaware: Vec<String> = counted
+            .iter()
+            .filter(|r| {
+                let teams = self.index(r).and_then(|i| self.nodes[i].robot.as_ref()).map(|rb| rb.team()).unwrap_or_default();
+                !teams.iter().any(|(m, ids)| m == "p" && counted.iter().all(|c| ids.contains(c)))
+            })
+            .cloned()
+            .collect();
+        let team: Vec<String> = counted.into_iter().collect();
+        for r in unaware {
+            self.admit(&r, &team);
+        }
+    }
+
+    /// OneMission: a random robot leaves the team or joins it (queued as the operator's
+    /// control); false when the draw changes nothing (the last member stays).
+    fn random_ctl(&mut self) -> bool {
+        let robots = self.robot_names();
+        let r = robots[self.rng.gen_range(0..robots.len())].clone();
+        let ctl = if self.team.contains(&r) && self.team.len() > 1 {
+            self.team.remove(&r);
+            MissionCtl::Left { ids: vec![r] }
+        } else if !self.team.contains(&r) {
+            self.team.insert(r.clone());
+            self.admit_one(&r);
+            let spec = RobotSpec { id: r, robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 };
+            MissionCtl::Joined { member: Member { spec, time_scale: TIME_SCALE, capabilities: vec![] } }
+        } else {
+            return false;
+        };
+        self.ctls.push("p", ctl, vec![]);
+        true
     }
 
     /// OneMission: mission `p` of every robot, on the first mission host.

@@ -89,71 +89,16 @@ impl World {
         let Some(payload) = q.payload.clone() else {
             return Ok(());
         };
-        let now = self.now;
         let from = self.asker(asker);
         match payload {
-            Payload::RobotCmd(cmd) => {
-                let Some(r) = self.nodes[s].robot.as_mut() else {
-                    return Ok(());
-                };
-                // Through the robot's ingress, as its driver takes a command query.
-                let msg = Wire::json(mrmm_proto::Key::RobotCmd(r.id().to_string()), &cmd, from);
-                let ev = r
-                    .ingress(mrmm_core::robot::Incoming { key: &msg.key, payload: &msg.payload, put: true, from: msg.from.as_ref() })
-                    .map_err(|e| format!("{} refused an honest command: {e}", self.nodes[s].name))?;
-                let Some(r) = self.nodes[s].robot.as_mut() else {
-                    return Ok(());
-                };
-                let cmds = r.handle(now, ev);
-                // A refusal (its sender may not send this, yet) may be retried: as the driver does.
-                let reply = cmds.iter().find_map(|c| match c {
-                    robot::Command::Reply(r) => Some(r.clone().map_err(Failure::fatal)),
-                    robot::Command::Refuse(e) => Some(Err(Failure::answered(mrmm_proto::ErrorReply::coded(mrmm_proto::ErrorCode::Refused, e.clone())))),
-                    _ => None,
-                });
-                self.robot_commands(s, cmds)?;
-                // An admission changes whom the robot trusts: its host hears of it at once.
-                self.local_team(s)?;
-                if let Some(r) = reply {
-                    self.reply(qid, r.and_then(|ack| serde_json::to_value(ack).map(Answer::Json).map_err(|e| Failure::fatal(e.to_string()))));
-                }
-            }
+            Payload::RobotCmd(cmd) => self.serve_robot_cmd(qid, s, cmd, from)?,
             Payload::RobotInfo => {
                 if let Some(r) = self.nodes[s].robot.as_ref() {
                     let info = serde_json::to_value(r.info(vec![])).map_err(|e| Failure::fatal(e.to_string()));
                     self.reply(qid, info.map(Answer::Json));
                 }
             }
-            Payload::HostStart(start) => {
-                let mission = start.spec.name.clone();
-                let again = self.nodes.iter().any(|n| n.central.as_ref().is_some_and(|c| c.system().restarting(&mission)));
-                let before = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
-                // Central starts a mission again from its journal: a new lineage, which the host
-                // may take only when no other live node replicates the same (or a newer) one — an
-                // older lineage's replicas are fenced off by the new lineage's epochs.
-                let lineage = start.lineage;
-                let holders: Vec<String> = (0..self.nodes.len())
-                    .filter(|n| *n != s && self.links.up[*n])
-                    .filter(|n| {
-                        self.nodes[*n]
-                            .host
-                            .as_ref()
-                            .and_then(|h| h.replica(&mission))
-                            .is_some_and(|r| r.state().is_some() && mrmm_proto::chain::lineage_of(r.version().0) >= lineage)
-                    })
-                    .map(|n| self.nodes[n].name.clone())
-                    .collect();
-                if again && !before {
-                    self.inv.lineage_started(&mission, lineage);
-                }
-                let key = Key::HostStart(self.nodes[s].name.clone());
-                let ev = self.host_question(s, qid, &key, Some(&*start), &from)?;
-                self.host(s, ev)?;
-                let after = self.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
-                if again && !before && after && !holders.is_empty() {
-                    return Err(format!("{} started {mission} anew while {holders:?} still replicate it", self.nodes[s].name));
-                }
-            }
+            Payload::HostStart(start) => self.serve_host_start(qid, s, &start, &from)?,
             Payload::Ctl { mission, ctl } => {
                 let ev = self.host_question(s, qid, &Key::MissionCtl(mission), Some(&ctl), &from)?;
                 self.host(s, ev)?;
@@ -170,6 +115,68 @@ impl World {
                     self.reply(qid, result);
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// A command query reaches robot node `s`: through the robot's ingress, as its driver takes
+    /// it, and answered as the driver answers.
+    fn serve_robot_cmd(&mut self, qid: u64, s: usize, cmd: RobotCommand, from: Sender) -> Result<(), String> {
+        let now = self.now;
+        let Some(r) = self.nodes[s].robot.as_mut() else {
+            return Ok(());
+        };
+        let msg = Wire::json(mrmm_proto::Key::RobotCmd(r.id().to_string()), &cmd, from);
+        let ev = r
+            .ingress(mrmm_core::robot::Incoming { key: &msg.key, payload: &msg.payload, put: true, from: msg.from.as_ref() })
+            .map_err(|e| format!("{} refused an honest command: {e}", self.nodes[s].name))?;
+        let Some(r) = self.nodes[s].robot.as_mut() else {
+            return Ok(());
+        };
+        let cmds = r.handle(now, ev);
+        // A refusal (its sender may not send this, yet) may be retried: as the driver does.
+        let reply = cmds.iter().find_map(|c| match c {
+            robot::Command::Reply(r) => Some(r.clone().map_err(Failure::fatal)),
+            robot::Command::Refuse(e) => Some(Err(Failure::answered(mrmm_proto::ErrorReply::coded(mrmm_proto::ErrorCode::Refused, e.clone())))),
+            _ => None,
+        });
+        self.robot_commands(s, cmds)?;
+        // An admission changes whom the robot trusts: its host hears of it at once.
+        self.local_team(s)?;
+        if let Some(r) = reply {
+            self.reply(qid, r.and_then(|ack| serde_json::to_value(ack).map(Answer::Json).map_err(|e| Failure::fatal(e.to_string()))));
+        }
+        Ok(())
+    }
+
+    /// A mission start reaches host node `s`. Central starts a mission again from its journal: a
+    /// new lineage, which the host may take only when no other live node replicates the same (or
+    /// a newer) one — an older lineage's replicas are fenced off by the new lineage's epochs.
+    fn serve_host_start(&mut self, qid: u64, s: usize, start: &MissionStart, from: &Sender) -> Result<(), String> {
+        let mission = start.spec.name.clone();
+        let again = self.nodes.iter().any(|n| n.central.as_ref().is_some_and(|c| c.system().restarting(&mission)));
+        let leads = |w: &World| w.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
+        let before = leads(self);
+        let lineage = start.lineage;
+        let holders: Vec<String> = (0..self.nodes.len())
+            .filter(|n| *n != s && self.links.up[*n])
+            .filter(|n| {
+                self.nodes[*n]
+                    .host
+                    .as_ref()
+                    .and_then(|h| h.replica(&mission))
+                    .is_some_and(|r| r.state().is_some() && mrmm_proto::chain::lineage_of(r.version().0) >= lineage)
+            })
+            .map(|n| self.nodes[n].name.clone())
+            .collect();
+        if again && !before {
+            self.inv.lineage_started(&mission, lineage);
+        }
+        let key = Key::HostStart(self.nodes[s].name.clone());
+        let ev = self.host_question(s, qid, &key, Some(start), from)?;
+        self.host(s, ev)?;
+        if again && !before && leads(self) && !holders.is_empty() {
+            return Err(format!("{} started {mission} anew while {holders:?} still replicate it", self.nodes[s].name));
         }
         Ok(())
     }

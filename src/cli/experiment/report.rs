@@ -92,99 +92,116 @@ pub fn figures(dir: &Path, experiment: &str, rows: &[&Row]) -> anyhow::Result<Ve
     let names: Vec<String> = modes.iter().map(|m| format!("{} barrier", m.as_str())).collect();
     let series: Vec<&str> = names.iter().map(String::as_str).collect();
     let mut files = Vec::new();
-    let mut draw = |file: String, bars: Bars| -> anyhow::Result<()> {
-        plot::bars(&dir.join(&file), &bars)?;
-        files.push(file);
+    let mut draw = |file: &str, bars: Bars| -> anyhow::Result<()> {
+        plot::bars(&dir.join(file), &bars)?;
+        files.push(file.to_string());
         Ok(())
     };
+    let by_mode = ByMode { rows, modes: &modes, series: &series };
     match experiment {
-        "messages" => {
-            let x_label = "robots (a→b: a−b moved to a coverage after round 1)";
-            draw(
-                "messages.png".into(),
-                Bars {
-                    title: "Plans and barrier messages published over a run (paper's Fig. 4)",
-                    y_label: "messages published",
-                    x_label,
-                    series: &series,
-                    groups: by_label(rows, &modes, |r| r.msgs_total() as f64, |_| None),
-                    lines: vec![],
-                },
-            )?;
-            draw(
-                "messages-wire.png".into(),
-                Bars {
-                    title: "The same messages on the wire (a publication to k nodes is k)",
-                    y_label: "plan and barrier messages sent on links",
-                    x_label,
-                    series: &series,
-                    groups: by_label(rows, &modes, |r| (r.wire.get("command") + r.wire.barrier()) as f64, |_| None),
-                    lines: vec![],
-                },
-            )?;
-        }
-        "idleness" => {
-            // The bound depends on the team only: one line, from whichever mode ran the size.
-            let groups = by_label(
-                rows,
-                &modes,
-                |r| r.avg_idleness_s,
-                |of| {
-                    let waits: Vec<String> = of.iter().map(|r| r.map_or("–".into(), |r| format!("{:.1}", r.sync_wait_per_round_s))).collect();
-                    Some(format!("{} s", waits.join("/")))
-                },
-            );
-            let bound: Vec<f64> = groups.iter().map(|g| rows.iter().find(|r| r.spec.label() == g.label).map_or(f64::NAN, |r| r.bound_s)).collect();
-            draw(
-                "idleness.png".into(),
-                Bars {
-                    title: "Average idleness as robots grow (paper's Fig. 5)",
-                    y_label: "idleness, robot seconds",
-                    x_label: &format!(
-                        "robots (above the bars: barrier wait per robot per round, {})",
-                        modes.iter().map(|m| m.as_str()).collect::<Vec<_>>().join("/")
-                    ),
-                    series: &series,
-                    groups,
-                    lines: vec![("bound L/(n·v)", bound)],
-                },
-            )?;
-        }
-        "environment" => {
-            // One group per scale, one bar per team size; idleness divided by the scale so that
-            // the groups share an axis.
-            let mut sizes: Vec<usize> = rows.iter().map(|r| r.spec.robots).collect();
-            sizes.sort_unstable();
-            sizes.dedup();
-            let mut scales: Vec<f64> = rows.iter().map(|r| r.spec.env_scale).collect();
-            scales.sort_by(f64::total_cmp);
-            scales.dedup();
-            let names: Vec<String> = sizes.iter().map(|n| format!("{n} robots")).collect();
-            let series: Vec<&str> = names.iter().map(String::as_str).collect();
-            let find = |n: usize, s: f64| rows.iter().find(|r| r.spec.robots == n && r.spec.env_scale == s);
-            let groups = scales
-                .iter()
-                .map(|&s| Group {
-                    label: format!("×{s}"),
-                    values: sizes.iter().map(|&n| find(n, s).map_or(f64::NAN, |r| r.avg_idleness_s / s)).collect(),
-                    note: None,
-                })
-                .collect();
-            draw(
-                "environment.png".into(),
-                Bars {
-                    title: "Idleness in larger environments (paper's Fig. 6)",
-                    y_label: "idleness ÷ environment scale, robot seconds",
-                    x_label: "environment scale",
-                    series: &series,
-                    groups,
-                    lines: vec![],
-                },
-            )?;
-        }
+        "messages" => by_mode.messages(&mut draw)?,
+        "idleness" => by_mode.idleness(&mut draw)?,
+        "environment" => environment(rows, &mut draw)?,
         _ => {}
     }
     Ok(files)
+}
+
+/// Draws one figure into a file of the report's directory.
+type Draw<'d> = dyn FnMut(&str, Bars) -> anyhow::Result<()> + 'd;
+
+/// Rows grouped by label, a bar per barrier mode.
+struct ByMode<'a> {
+    rows: &'a [&'a Row],
+    modes: &'a [BarrierMode],
+    series: &'a [&'a str],
+}
+
+impl ByMode<'_> {
+    /// The paper's Fig. 4: messages published, and the same on the wire.
+    fn messages(&self, draw: &mut Draw) -> anyhow::Result<()> {
+        let x_label = "robots (a→b: a−b moved to a coverage after round 1)";
+        draw(
+            "messages.png",
+            Bars {
+                title: "Plans and barrier messages published over a run (paper's Fig. 4)",
+                y_label: "messages published",
+                x_label,
+                series: self.series,
+                groups: by_label(self.rows, self.modes, |r| r.msgs_total() as f64, |_| None),
+                lines: vec![],
+            },
+        )?;
+        draw(
+            "messages-wire.png",
+            Bars {
+                title: "The same messages on the wire (a publication to k nodes is k)",
+                y_label: "plan and barrier messages sent on links",
+                x_label,
+                series: self.series,
+                groups: by_label(self.rows, self.modes, |r| (r.wire.get("command") + r.wire.barrier()) as f64, |_| None),
+                lines: vec![],
+            },
+        )
+    }
+
+    /// The paper's Fig. 5: average idleness as robots grow, with the bound.
+    fn idleness(&self, draw: &mut Draw) -> anyhow::Result<()> {
+        // The bound depends on the team only: one line, from whichever mode ran the size.
+        let groups = by_label(
+            self.rows,
+            self.modes,
+            |r| r.avg_idleness_s,
+            |of| {
+                let waits: Vec<String> = of.iter().map(|r| r.map_or("–".into(), |r| format!("{:.1}", r.sync_wait_per_round_s))).collect();
+                Some(format!("{} s", waits.join("/")))
+            },
+        );
+        let bound: Vec<f64> = groups.iter().map(|g| self.rows.iter().find(|r| r.spec.label() == g.label).map_or(f64::NAN, |r| r.bound_s)).collect();
+        draw(
+            "idleness.png",
+            Bars {
+                title: "Average idleness as robots grow (paper's Fig. 5)",
+                y_label: "idleness, robot seconds",
+                x_label: &format!(
+                    "robots (above the bars: barrier wait per robot per round, {})",
+                    self.modes.iter().map(|m| m.as_str()).collect::<Vec<_>>().join("/")
+                ),
+                series: self.series,
+                groups,
+                lines: vec![("bound L/(n·v)", bound)],
+            },
+        )
+    }
+}
+
+/// The paper's Fig. 6: one group per environment scale, one bar per team size; idleness divided
+/// by the scale so that the groups share an axis.
+fn environment(rows: &[&Row], draw: &mut Draw) -> anyhow::Result<()> {
+    let mut sizes: Vec<usize> = rows.iter().map(|r| r.spec.robots).collect();
+    sizes.sort_unstable();
+    sizes.dedup();
+    let mut scales: Vec<f64> = rows.iter().map(|r| r.spec.env_scale).collect();
+    scales.sort_by(f64::total_cmp);
+    scales.dedup();
+    let names: Vec<String> = sizes.iter().map(|n| format!("{n} robots")).collect();
+    let series: Vec<&str> = names.iter().map(String::as_str).collect();
+    let find = |n: usize, s: f64| rows.iter().find(|r| r.spec.robots == n && r.spec.env_scale == s);
+    let groups = scales
+        .iter()
+        .map(|&s| Group { label: format!("×{s}"), values: sizes.iter().map(|&n| find(n, s).map_or(f64::NAN, |r| r.avg_idleness_s / s)).collect(), note: None })
+        .collect();
+    draw(
+        "environment.png",
+        Bars {
+            title: "Idleness in larger environments (paper's Fig. 6)",
+            y_label: "idleness ÷ environment scale, robot seconds",
+            x_label: "environment scale",
+            series: &series,
+            groups,
+            lines: vec![],
+        },
+    )
 }
 
 /// The communication-loss run's timeline: `comm-loss-timeline.csv` and `comm-loss.png`;
@@ -367,7 +384,40 @@ fn barrier_claims(rows: &[&Row]) -> Vec<String> {
 fn paper_claims(rows: &[&Row]) -> Vec<String> {
     let mut out = Vec::new();
     let of = |e: &str, extracted: bool| -> Vec<&Row> { rows.iter().copied().filter(|r| r.spec.experiment == e && (r.spec.extract > 0) == extracted).collect() };
-    let eventless = of("messages", false);
+    fig4_claims(&of("messages", false), &of("messages", true), &mut out);
+    let idle = of("idleness", false);
+    fig5_claims(&idle, &mut out);
+    fig6_claims(&of("environment", false), &mut out);
+    for c in of("comm-loss", false) {
+        out.push(format!(
+            "Communication loss (the paper's section 4.3) — the patrol goes on through central's loss, a robot's loss and return, and central's return: {} ({} barriers passed across the four events, a round between each; {} of {} robots in the team at the end; worst idleness at any moment {:.1} s against {:.1} s for the whole team; timeline in comm-loss.png and comm-loss-timeline.csv).",
+            verdict(c.sync_points > 0 && c.robots_after == c.spec.robots),
+            c.sync_points,
+            c.robots_after,
+            c.spec.robots,
+            c.worst_idleness_s,
+            c.bound_s
+        ));
+    }
+    for q in of("timescale", false) {
+        if let Some(r) = idle.iter().find(|r| r.spec.robots == q.spec.robots) {
+            let diff = (q.avg_idleness_s / r.avg_idleness_s - 1.0) * 100.0;
+            out.push(format!(
+                "Time scaling (ours, not the paper's): {} robots give the same idleness at a time scale of {} as at {}: {} ({:.2} s vs {:.2} s, {diff:+.1} %; within 3 % asked).",
+                q.spec.robots,
+                r.spec.time_scale,
+                q.spec.time_scale,
+                verdict(diff.abs() <= 3.0),
+                r.avg_idleness_s,
+                q.avg_idleness_s
+            ));
+        }
+    }
+    out
+}
+
+/// Fig. 4: messages grow faster than the team; an extraction costs fewer than the smaller team.
+fn fig4_claims(eventless: &[&Row], extracted: &[&Row], out: &mut Vec<String>) {
     if eventless.len() >= 2 {
         let (a, b) = (eventless[0], eventless[eventless.len() - 1]);
         let grows = eventless.windows(2).all(|w| w[1].msgs_total() > w[0].msgs_total());
@@ -381,7 +431,7 @@ fn paper_claims(rows: &[&Row]) -> Vec<String> {
             b.spec.robots
         ));
     }
-    for x in of("messages", true) {
+    for x in extracted {
         let after = x.spec.robots - x.spec.extract;
         if let Some(e) = eventless.iter().find(|e| e.spec.robots == after) {
             out.push(format!(
@@ -394,7 +444,10 @@ fn paper_claims(rows: &[&Row]) -> Vec<String> {
             ));
         }
     }
-    let idle = of("idleness", false);
+}
+
+/// Fig. 5: idleness falls as robots are added, then reaches a plateau.
+fn fig5_claims(idle: &[&Row], out: &mut Vec<String>) {
     if idle.len() >= 2 {
         // The paper: idleness falls as robots are added up to 15, then stays.
         let early: Vec<&&Row> = idle.iter().filter(|r| r.spec.robots <= 15).collect();
@@ -426,7 +479,10 @@ fn paper_claims(rows: &[&Row]) -> Vec<String> {
             idle.iter().map(|r| format!("{} robots {:.1} s", r.spec.robots, r.sync_wait_per_round_s)).collect::<Vec<_>>().join(", ")
         ));
     }
-    let env = of("environment", false);
+}
+
+/// Fig. 6: in a larger environment synchronisation matters less and the plateau moves.
+fn fig6_claims(env: &[&Row], out: &mut Vec<String>) {
     let mut sizes: Vec<usize> = env.iter().map(|r| r.spec.robots).collect();
     sizes.sort_unstable();
     sizes.dedup();
@@ -452,30 +508,4 @@ fn paper_claims(rows: &[&Row]) -> Vec<String> {
             ));
         }
     }
-    for c in of("comm-loss", false) {
-        out.push(format!(
-            "Communication loss (the paper's section 4.3) — the patrol goes on through central's loss, a robot's loss and return, and central's return: {} ({} barriers passed across the four events, a round between each; {} of {} robots in the team at the end; worst idleness at any moment {:.1} s against {:.1} s for the whole team; timeline in comm-loss.png and comm-loss-timeline.csv).",
-            verdict(c.sync_points > 0 && c.robots_after == c.spec.robots),
-            c.sync_points,
-            c.robots_after,
-            c.spec.robots,
-            c.worst_idleness_s,
-            c.bound_s
-        ));
-    }
-    for q in of("timescale", false) {
-        if let Some(r) = idle.iter().find(|r| r.spec.robots == q.spec.robots) {
-            let diff = (q.avg_idleness_s / r.avg_idleness_s - 1.0) * 100.0;
-            out.push(format!(
-                "Time scaling (ours, not the paper's): {} robots give the same idleness at a time scale of {} as at {}: {} ({:.2} s vs {:.2} s, {diff:+.1} %; within 3 % asked).",
-                q.spec.robots,
-                r.spec.time_scale,
-                q.spec.time_scale,
-                verdict(diff.abs() <= 3.0),
-                r.avg_idleness_s,
-                q.avg_idleness_s
-            ));
-        }
-    }
-    out
 }
