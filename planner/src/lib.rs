@@ -10,6 +10,7 @@ pub mod limits;
 pub mod onmap;
 pub mod patrol;
 pub mod plan;
+pub mod polyline;
 pub mod recipe;
 pub mod region;
 pub mod tsp;

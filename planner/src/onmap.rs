@@ -6,8 +6,8 @@ use mrmm_maps::{MapError, Node, Space};
 
 use crate::error::PlanError;
 use crate::geom::Point;
-use crate::patrol::Polyline;
 use crate::plan::RobotSpec;
+use crate::polyline::Polyline;
 use crate::tsp::{self, Budget, Instance};
 
 /// A patrol tour on a map.

@@ -25,6 +25,8 @@ use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::tsp::{self, Budget, Instance, Metric};
 use mrmm_maps::Space;
 
+pub use crate::polyline::Polyline;
+
 /// Patrol parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PatrolParams {
@@ -41,6 +43,11 @@ pub struct PatrolParams {
     /// Kicks of the tour search.
     #[serde(default = "default_kicks")]
     pub max_kicks: u64,
+    /// How fast the team's slowest-turning robot turns on the spot, rad/s: slots and sync points
+    /// are then spaced by driving time with the turns at the route's corners counted, so that
+    /// robots reach each sync point together. None: turns take no time (spacing by arc length).
+    #[serde(default)]
+    pub turn_rate: Option<f64>,
 }
 
 fn default_sync_spacing() -> f64 {
@@ -55,7 +62,7 @@ fn default_kicks() -> u64 {
 
 impl PatrolParams {
     pub fn new(waypoints: Vec<Point>) -> Self {
-        PatrolParams { waypoints, sync_spacing_max: default_sync_spacing(), rounds: None, seed: default_seed(), max_kicks: default_kicks() }
+        PatrolParams { waypoints, sync_spacing_max: default_sync_spacing(), rounds: None, seed: default_seed(), max_kicks: default_kicks(), turn_rate: None }
     }
 }
 
@@ -69,16 +76,19 @@ pub struct PatrolPlan {
     #[serde(default)]
     pub waypoints: Vec<Point>,
     pub length: f64,
-    /// Arc offset of slot 0 along the tour.
+    /// Arc offset of slot 0 along the tour (with a turn rate: driving time × team speed, turns
+    /// included, as `spacing`).
     pub offset: f64,
-    /// Arc distance between consecutive robots.
+    /// Arc distance between consecutive robots (with a turn rate: the time between them × the
+    /// team's speed, turns included).
     pub spacing: f64,
     pub team_speed: f64,
     /// Sync points per round.
     pub sync_per_round: u32,
     /// Time until the last robot is at its slot, s.
     pub formation_time: f64,
-    /// Predicted worst idleness of a waypoint, s.
+    /// Predicted worst idleness of a waypoint, s (a round's driving time, turns included, over
+    /// the team).
     pub predicted_worst_idleness: f64,
     /// Lower bound of the worst idleness for these robots, s.
     pub idleness_lower_bound: f64,
@@ -99,10 +109,16 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
 /// shortest paths; without a map, everything is straight lines in the plane.
 pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>) -> Result<PatrolPlan, PlanError> {
     check_params(params, robots)?;
-    let (waypoints, tour, path) = route(params, map)?;
+    let (waypoints, tour, route) = route(params, map)?;
+    let team_speed = robots.iter().map(|r| r.speed).fold(f64::INFINITY, f64::min);
+    // Everything below is spaced along the route timed at the team's speed (its arc length is
+    // time × speed): with a turn rate, a corner takes the time of turning there.
+    let path = match params.turn_rate {
+        Some(w) => route.with_turns(team_speed, w),
+        None => route.clone(),
+    };
     let (l, n) = (path.length, robots.len());
     let spacing = l / n as f64;
-    let team_speed = robots.iter().map(|r| r.speed).fold(f64::INFINITY, f64::min);
     // Sync points per round: bounded before anything is allocated for them.
     let per_slot_f = (spacing / params.sync_spacing_max).ceil().max(1.0);
     if !per_slot_f.is_finite() || per_slot_f * n as f64 > limits::MAX_SYNC_POINTS as f64 {
@@ -136,7 +152,7 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
         .collect();
     let plans = assignments.iter().map(|a| a.default_plan(params.rounds)).collect();
     Ok(PatrolPlan {
-        length: l,
+        length: route.length,
         tour,
         waypoints,
         offset,
@@ -145,7 +161,7 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
         sync_per_round: q as u32,
         formation_time: a.max,
         predicted_worst_idleness: l / (n as f64 * team_speed),
-        idleness_lower_bound: l / robots.iter().map(|r| r.speed).sum::<f64>(),
+        idleness_lower_bound: route.length / robots.iter().map(|r| r.speed).sum::<f64>(),
         assignments,
         plans,
     })
@@ -170,6 +186,9 @@ fn check_params(params: &PatrolParams, robots: &[RobotSpec]) -> Result<(), PlanE
     RobotSpec::check(robots)?;
     if !(params.sync_spacing_max.is_finite() && params.sync_spacing_max > 0.0) {
         return Err(PlanError::Invalid(format!("sync_spacing_max must be positive (got {})", params.sync_spacing_max)));
+    }
+    if let Some(w) = params.turn_rate.filter(|w| !(w.is_finite() && *w > 0.0)) {
+        return Err(PlanError::Invalid(format!("turn_rate must be a positive number of rad/s (got {w})")));
     }
     Ok(())
 }
@@ -320,71 +339,6 @@ fn round_cm(v: f64) -> f64 {
     (v * 100.0).round() / 100.0
 }
 
-/// A closed polyline with cumulative arc lengths.
-#[derive(Debug, Clone)]
-pub struct Polyline {
-    pub points: Vec<Point>,
-    /// `arcs[i]`: arc length from point 0 to point i; `arcs[n]` = total length.
-    pub arcs: Vec<f64>,
-    pub length: f64,
-}
-
-impl Polyline {
-    pub fn closed(points: &[Point]) -> Self {
-        let lengths: Vec<f64> = (0..points.len()).map(|i| points[i].dist(points[(i + 1) % points.len()])).collect();
-        Polyline::closed_with(points, &lengths)
-    }
-
-    /// A closed polyline whose segment i (point i to the next) is `lengths[i]` long on its
-    /// metric (a graph edge's length); positions within a segment are interpolated in
-    /// proportion. Missing or invalid lengths are the straight line's.
-    pub fn closed_with(points: &[Point], lengths: &[f64]) -> Self {
-        let mut arcs = Vec::with_capacity(points.len() + 1);
-        let mut acc = 0.0;
-        arcs.push(0.0);
-        for i in 0..points.len() {
-            let straight = points[i].dist(points[(i + 1) % points.len()]);
-            acc += lengths.get(i).copied().filter(|l| l.is_finite() && *l >= 0.0).unwrap_or(straight);
-            arcs.push(acc);
-        }
-        Polyline { points: points.to_vec(), arcs, length: acc }
-    }
-
-    /// The point at arc length `s` (taken modulo the length).
-    pub fn at(&self, s: f64) -> Point {
-        if self.length <= 0.0 {
-            return self.points[0];
-        }
-        let s = s.rem_euclid(self.length);
-        let i = match self.arcs.binary_search_by(|a| a.total_cmp(&s)) {
-            Ok(i) => i.min(self.points.len() - 1),
-            Err(i) => i - 1,
-        };
-        let (a, b) = (self.points[i], self.points[(i + 1) % self.points.len()]);
-        let seg = self.arcs[i + 1] - self.arcs[i];
-        let t = if seg > 0.0 { (s - self.arcs[i]) / seg } else { 0.0 };
-        Point::new(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y))
-    }
-
-    /// Arc length of the point of the polyline nearest to `p`.
-    pub fn project(&self, p: Point) -> f64 {
-        let n = self.points.len();
-        let mut best = (f64::INFINITY, 0.0);
-        for i in 0..n {
-            let (a, b) = (self.points[i], self.points[(i + 1) % n]);
-            let (dx, dy) = (b.x - a.x, b.y - a.y);
-            let len2 = dx * dx + dy * dy;
-            let t = if len2 > 0.0 { (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-            let q = Point::new(a.x + t * dx, a.y + t * dy);
-            let d = q.dist(p);
-            if d < best.0 {
-                best = (d, self.arcs[i] + t * (self.arcs[i + 1] - self.arcs[i]));
-            }
-        }
-        best.1
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -482,5 +436,36 @@ mod tests {
             let p = path.at(s);
             assert!((path.project(p) - s.rem_euclid(160.0)).abs() < 1e-9, "s = {s}");
         }
+    }
+
+    /// With a turn rate, robots are spaced by time: on a route whose corners all lie on one side,
+    /// two robots start half a round's time apart, not half its length.
+    #[test]
+    fn robots_are_spaced_by_time_when_turns_take_time() {
+        // A 40 m straight back edge and a 40 m zigzag with 8 corners.
+        let mut wps = vec![Point::new(0.0, 0.0)];
+        for k in 1..=8 {
+            wps.push(Point::new(k as f64 * 5.0, if k % 2 == 1 { 3.0 } else { 0.0 }));
+        }
+        wps.push(Point::new(40.0, -40.0));
+        wps.push(Point::new(0.0, -40.0));
+        let robots = vec![robot("a", 0.0, 0.0, 1.0), robot("b", 40.0, -40.0, 1.0)];
+        let mut params = PatrolParams::new(wps);
+        let by_arc = plan(&params, &robots).expect("plan");
+        params.turn_rate = Some(1.0);
+        let by_time = plan(&params, &robots).expect("plan");
+        assert!((by_time.length - by_arc.length).abs() < 1e-9, "the route is the same");
+        let round = by_time.predicted_worst_idleness * 2.0;
+        assert!(round > by_arc.length + 8.0, "the zigzag's turns take time: {round} s for {} m", by_arc.length);
+        // Time from each robot's start to the other's, along the timed route.
+        let timed = Polyline::closed(&by_time.tour).with_turns(1.0, 1.0);
+        let starts: Vec<f64> = by_time.assignments.iter().map(|a| timed.project(a.start)).collect();
+        let gap = (starts[1] - starts[0]).rem_euclid(timed.length);
+        assert!((gap - timed.length / 2.0).abs() < 0.5, "half a round apart in time: {gap} of {}", timed.length);
+        // By arc length they are not: the same gap in metres is not half the time.
+        let arc = Polyline::closed(&by_arc.tour);
+        let (a0, a1) = (timed.project(by_arc.assignments[0].start), timed.project(by_arc.assignments[1].start));
+        let arc_gap = (a1 - a0).rem_euclid(timed.length);
+        assert!((arc_gap - timed.length / 2.0).abs() > 2.0, "spacing by arc is uneven in time: {arc_gap} of {} ({} m)", timed.length, arc.length);
     }
 }

@@ -23,9 +23,11 @@ pub mod egress;
 mod head;
 pub mod ingress;
 mod led;
+mod peers;
 mod robots;
 #[cfg(test)]
 mod tests;
+mod ticks;
 mod watch;
 
 pub use egress::egress;
@@ -270,38 +272,8 @@ impl HostCore {
     pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
         let mut out = Vec::new();
         match ev {
-            Event::Tick => {
-                self.prune_unwatched(now);
-                for (name, cmds) in self.registry.tick(now) {
-                    self.apply(now, &name, cmds, &mut out);
-                }
-                // Replans held back for a burst of losses.
-                let due: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.replan_due().is_some_and(|d| now >= d)).map(|(n, _)| n.clone()).collect();
-                for name in due {
-                    self.run(now, &name, mission::Event::Tick, &mut out);
-                }
-                let (robots, registry) = (&self.robots, &self.registry);
-                for (name, h) in self.heads.iter_mut() {
-                    let managers = registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
-                    for (robot, mut assignment) in h.redeliver(now, |r| robots.alive(r)) {
-                        assignment.managers.clone_from(&managers);
-                        out.push(Command::SendPlan { mission: name.clone(), robot, assignment });
-                    }
-                }
-            }
-            Event::StatusTick => {
-                let names: Vec<String> = self.heads.keys().cloned().collect();
-                for name in names {
-                    // The metrics into the chain (replicated only if they changed, and then the
-                    // status is published with the change).
-                    let before = out.len();
-                    self.run(now, &name, mission::Event::Checkpoint, &mut out);
-                    if !out[before..].iter().any(|c| matches!(c, Command::Status(_))) {
-                        self.set_pool(now, &name);
-                        self.status(now, &name, &mut out);
-                    }
-                }
-            }
+            Event::Tick => self.tick(now, &mut out),
+            Event::StatusTick => self.status_tick(now, &mut out),
             Event::Start { from, query, .. } | Event::Ctl { from, query, .. } if from.role != Role::Central => {
                 out.push(Command::Reply {
                     query,
@@ -317,16 +289,7 @@ impl HostCore {
                     *t = teams;
                 }
             }
-            Event::MissionStatus { view, from } => {
-                if let Local::Robot(teams) = &self.local {
-                    if let Some((_, members)) = teams.iter().find(|(m, _)| *m == view.name) {
-                        let head_trusted = from.role != Role::Robot || members.contains(&from.id);
-                        if view.manager.node == from.id && head_trusted {
-                            self.trusted_chain.insert(view.name.clone(), view.manager.chain.clone());
-                        }
-                    }
-                }
-            }
+            Event::MissionStatus { view, from } => self.mission_status(&view, &from),
             Event::View { query, mission } => {
                 let result = self.view(now, &mission, true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
                 out.push(Command::Reply { query, result: result.map_err(ErrorReply::from) });
@@ -341,79 +304,8 @@ impl HostCore {
             }
             Event::Telemetry(t) => self.telemetry(now, &t, &mut out),
             Event::Planned { mission, epoch, result } => self.planned(now, &mission, epoch, result, &mut out),
-            Event::PlanDelivered { mission, robot, epoch, result } => {
-                let managers = self.registry.replica(&mission).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
-                let robots = &self.robots;
-                if let Some(h) = self.heads.get_mut(&mission) {
-                    match result {
-                        Ok(()) => h.delivered(&robot, epoch),
-                        Err(f) if f.retryable => {}
-                        Err(f) => {
-                            tracing::warn!(%mission, %robot, epoch, "plan refused: {}", f.error);
-                            h.delivered(&robot, epoch);
-                        }
-                    }
-                    // Its place in the window goes to the next plan waiting.
-                    for (robot, mut assignment) in h.answered(now, &robot, epoch, |r| robots.alive(r)) {
-                        assignment.managers.clone_from(&managers);
-                        out.push(Command::SendPlan { mission: mission.clone(), robot, assignment });
-                    }
-                }
-            }
-            Event::Chain { envelope, from: sender } => {
-                let ChainEnvelope { mission, from, msg } = *envelope;
-                let holds = self.registry.replica(&mission).is_some_and(|r| r.config().is_some());
-                if !holds && !self.heads.contains_key(&mission) && self.foreign.len() < 1024 {
-                    self.foreign.insert(mission.clone(), (now, from.clone()));
-                }
-                if sender.id == from && !self.may_chain(&mission, &sender) && self.awaits_telemetry(now, &mission, &sender) {
-                    tracing::debug!(%mission, %from, "chain message held back until its sender's telemetry is heard");
-                    return out;
-                }
-                if sender.id != from || !self.may_chain(&mission, &sender) {
-                    // A head or candidate this node no longer counts in the mission (it left the
-                    // chain while cut off, say) is told it is behind, as the chain would: it
-                    // steps down. Nothing it sent is taken.
-                    let theirs = match &msg {
-                        chain::Msg::Update { config, seq, .. } | chain::Msg::Beat { config, seq } => Some((config.epoch, *seq)),
-                        chain::Msg::Vote { last, .. } => Some(*last),
-                        _ => None,
-                    };
-                    let behind = |r: &&chain::Replica<MissionSnapshot>| sender.id == from && r.config().is_some() && theirs.is_some_and(|v| r.version() > v);
-                    // A straggler of a chain that ended here (a robot released since) is told it
-                    // ended, as anyone would be: else it could stand again with its old team
-                    // (system sim, seed 1948).
-                    let ended = if sender.id == from { self.registry.tomb_answer(&mission, &msg) } else { None };
-                    if let Some(msg) = ended {
-                        out.push(Command::Chain {
-                            to: from.clone(),
-                            envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }),
-                        });
-                    } else if let Some(r) = self.registry.replica(&mission).filter(behind) {
-                        let msg = chain::Msg::Stale { promised: r.promised(), last: r.version() };
-                        out.push(Command::Chain {
-                            to: from.clone(),
-                            envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }),
-                        });
-                    } else if let chain::Msg::Update { config, .. } | chain::Msg::Beat { config, .. } = &msg {
-                        // A head that counts this node in its chain would wait for an ack that
-                        // never comes (this node restarted, say, and knows nothing of it): tell
-                        // it no, so it changes its chain without us.
-                        if sender.id == from && config.contains(&self.node) && config.head() != self.node {
-                            let msg = chain::Msg::Decline { epoch: config.epoch };
-                            out.push(Command::Chain {
-                                to: config.head().to_string(),
-                                envelope: Box::new(ChainEnvelope { mission: mission.clone(), from: self.node.clone(), msg }),
-                            });
-                        }
-                    }
-                    out.push(Command::Refused { what: format!("send chain messages for mission {mission} as {from}"), from: sender });
-                    return out;
-                }
-                tracing::trace!(%mission, %from, msg = msg.describe(), "chain: received");
-                let cmds = self.registry.receive(now, &mission, from, msg);
-                self.apply(now, &mission, cmds, &mut out);
-            }
+            Event::PlanDelivered { mission, robot, epoch, result } => self.plan_delivered(now, &mission, &robot, epoch, result, &mut out),
+            Event::Chain { envelope, from } => self.chain_message(now, *envelope, from, &mut out),
             Event::HostAlive(node) | Event::HostGone(node) if node == self.node => {}
             Event::HostAlive(node) => self.host(now, &node, true, &mut out),
             Event::HostGone(node) => self.host(now, &node, false, &mut out),
@@ -433,6 +325,19 @@ impl HostCore {
             }
         }
         out
+    }
+
+    /// A mission's status, heard on a robot's node: its head's chain is trusted if the head is
+    /// a teammate (or not a robot).
+    fn mission_status(&mut self, view: &MissionView, from: &Sender) {
+        if let Local::Robot(teams) = &self.local {
+            if let Some((_, members)) = teams.iter().find(|(m, _)| *m == view.name) {
+                let head_trusted = from.role != Role::Robot || members.contains(&from.id);
+                if view.manager.node == from.id && head_trusted {
+                    self.trusted_chain.insert(view.name.clone(), view.manager.chain.clone());
+                }
+            }
+        }
     }
 
     /// A robot's telemetry. Of a robot whose liveliness is gone it is stale (the driver's queues

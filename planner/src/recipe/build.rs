@@ -236,6 +236,7 @@ impl Leaf<'_> {
         if let Some(v) = s.whole("max_kicks") {
             params.max_kicks = v;
         }
+        params.turn_rate = s.num("turn_rate");
         let at = |e: PlanError| match (&r.waypoints, self.overrides.contains_key("waypoints")) {
             (Some((_, pos)), false) => pos.err(format!("waypoints: {e}")),
             _ => e,

@@ -54,7 +54,7 @@ impl PlannerKind {
     /// Scalar parameters the planner understands.
     pub fn scalar_params(self) -> &'static [&'static str] {
         match self {
-            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness", "barrier", "robot_radius"],
+            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness", "barrier", "robot_radius", "turn_rate"],
             PlannerKind::Coverage => &["samples", "lloyd_iterations", "minimax_iterations", "seed", "robot_radius"],
         }
     }
@@ -478,6 +478,8 @@ pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), 
     };
     match (planner, name) {
         (PlannerKind::Patrol, "sync_spacing_max") => positive(),
+        // How fast the team's slowest robot turns on the spot, rad/s: robots are spaced by time.
+        (PlannerKind::Patrol, "turn_rate") => positive(),
         (PlannerKind::Patrol, "rounds") if v == "forever" => Ok(()),
         (PlannerKind::Patrol, "rounds") => whole(1, u64::from(u32::MAX)),
         (PlannerKind::Patrol, "max_kicks") => whole(0, limits::MAX_KICKS),

@@ -1,0 +1,69 @@
+//! Time passing on a mission host: its ticks (chains, replans held back for a burst of losses,
+//! plan re-deliveries), its status ticks, and the answers to the plans it sent.
+
+use mrmm_proto::PlanAssignment;
+
+use super::{Command, HostCore};
+use crate::mission;
+use crate::Failure;
+
+impl HostCore {
+    /// Every few tens of milliseconds: chains, replans held back for a burst of losses that are
+    /// due, plans to send again.
+    pub(super) fn tick(&mut self, now: f64, out: &mut Vec<Command>) {
+        self.prune_unwatched(now);
+        for (name, cmds) in self.registry.tick(now) {
+            self.apply(now, &name, cmds, out);
+        }
+        let due: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.replan_due().is_some_and(|d| now >= d)).map(|(n, _)| n.clone()).collect();
+        for name in due {
+            self.run(now, &name, mission::Event::Tick, out);
+        }
+        let (robots, registry) = (&self.robots, &self.registry);
+        for (name, h) in self.heads.iter_mut() {
+            let managers = registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
+            for (robot, assignment) in h.redeliver(now, |r| robots.alive(r)) {
+                out.push(send_plan(name, robot, assignment, &managers));
+            }
+        }
+    }
+
+    /// Once a second: each led mission's metrics into its chain (replicated only if they
+    /// changed, and then its status is published with the change); else its pool and status.
+    pub(super) fn status_tick(&mut self, now: f64, out: &mut Vec<Command>) {
+        let names: Vec<String> = self.heads.keys().cloned().collect();
+        for name in names {
+            let before = out.len();
+            self.run(now, &name, mission::Event::Checkpoint, out);
+            if !out[before..].iter().any(|c| matches!(c, Command::Status(_))) {
+                self.set_pool(now, &name);
+                self.status(now, &name, out);
+            }
+        }
+    }
+
+    /// A robot answered the plan of `mission`'s `epoch`: delivered, refused for good, or to be
+    /// tried again; its place in the delivery window goes to the next plan waiting.
+    pub(super) fn plan_delivered(&mut self, now: f64, mission: &str, robot: &str, epoch: u64, result: Result<(), Failure>, out: &mut Vec<Command>) {
+        let managers = self.registry.replica(mission).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
+        let robots = &self.robots;
+        let Some(h) = self.heads.get_mut(mission) else { return };
+        match result {
+            Ok(()) => h.delivered(robot, epoch),
+            Err(f) if f.retryable => {}
+            Err(f) => {
+                tracing::warn!(%mission, %robot, epoch, "plan refused: {}", f.error);
+                h.delivered(robot, epoch);
+            }
+        }
+        for (next, assignment) in h.answered(now, robot, epoch, |r| robots.alive(r)) {
+            out.push(send_plan(mission, next, assignment, &managers));
+        }
+    }
+}
+
+/// A plan to send, naming the mission's chain of managers as it is now.
+fn send_plan(mission: &str, robot: String, mut assignment: Box<PlanAssignment>, managers: &[String]) -> Command {
+    assignment.managers = managers.to_vec();
+    Command::SendPlan { mission: mission.to_string(), robot, assignment }
+}
