@@ -85,8 +85,12 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     })
     .await?;
     let summary = p.summary.as_ref().and_then(|s| s.patrol()).cloned().ok_or_else(|| anyhow::anyhow!("no patrol summary"))?;
+    // Spaced a third of a round apart in time: 40 m and four quarter turns at the robots' 2 rad/s
+    // (the robots say their turn rate when they register; the planner counts the turns).
     let (length, spacing) = (summary.length, summary.spacing);
-    assert!((length - 40.0).abs() < 1e-6 && (spacing - 40.0 / 3.0).abs() < 1e-6, "L {length}, spacing {spacing}");
+    let round = 40.0 + 4.0 * std::f64::consts::FRAC_PI_2 / 2.0;
+    assert!((length - 40.0).abs() < 1e-6 && (spacing - round / 3.0).abs() < 1e-6, "L {length}, spacing {spacing}");
+    assert!((summary.predicted_worst_idleness - round / 3.0).abs() < 1e-6, "{}", summary.predicted_worst_idleness);
     let c = eventually("coverage replanned for 3", Duration::from_secs(10), || async {
         let m = mission(&client, "c").await?;
         (m.robots == ["r4", "r5", "r6"] && m.summary.as_ref().and_then(|s| s.coverage()).map(|c| c.points.len()) == Some(3)).then_some(m)

@@ -76,7 +76,7 @@ fn summary(p: &PMissionPlan) -> PlanSummary {
 
 /// A robot of the protocol as the planner takes it.
 pub fn robot_spec(s: &RobotSpec) -> PRobotSpec {
-    PRobotSpec { id: s.id.clone(), robot_type: s.robot_type.clone(), x: s.x, y: s.y, speed: s.speed }
+    PRobotSpec { id: s.id.clone(), robot_type: s.robot_type.clone(), x: s.x, y: s.y, speed: s.speed, turn_rate: s.turn_rate }
 }
 
 #[cfg(test)]
@@ -87,7 +87,7 @@ mod tests {
     #[test]
     fn a_planned_patrol_keeps_its_figures_and_steps_on_the_wire() {
         let r = recipe::parse(recipe::bank("patrol").expect("bank")).expect("recipe");
-        let robots = [RobotSpec { id: "a".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 }];
+        let robots = [RobotSpec { id: "a".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None }];
         let params = [("waypoints".to_string(), "[[0,0],[10,0],[10,10]]".to_string())].into();
         let planned = recipe::build(&r, &params, &robots.iter().map(robot_spec).collect::<Vec<_>>()).expect("plan");
         let wire = mission_plan(&planned);

@@ -12,7 +12,10 @@ fuzz_target!(|data: &[u8]| {
     if recipe::validate(&r).is_err() {
         return;
     }
-    let robots: Vec<RobotSpec> =
-        ["r1", "r2", "r3"].iter().enumerate().map(|(i, id)| RobotSpec { id: (*id).into(), robot_type: "ground".into(), x: i as f64, y: 0.0, speed: 1.0 }).collect();
+    let robots: Vec<RobotSpec> = ["r1", "r2", "r3"]
+        .iter()
+        .enumerate()
+        .map(|(i, id)| RobotSpec { id: (*id).into(), robot_type: "ground".into(), x: i as f64, y: 0.0, speed: 1.0, turn_rate: Some(1.0 + i as f64) })
+        .collect();
     let _ = recipe::build(&r, &Default::default(), &robots);
 });

@@ -181,7 +181,7 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
 
 /// A member record of a fixture robot.
 pub fn member(id: &str, x: f64) -> Member {
-    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 2.0 }, time_scale: 4.0, capabilities: vec![] }
+    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 2.0, turn_rate: None }, time_scale: 4.0, capabilities: vec![] }
 }
 
 /// A mission host (`node`) running a patrol `p` of r1 and r2 that central started, with plans

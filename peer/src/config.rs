@@ -3,7 +3,7 @@
 use std::path::Path;
 
 use mrmm_net::net::{validate_endpoints_for, validate_max_message_size, ZenohSection};
-use mrmm_proto::config::{load_json5, parse_json5, positive};
+use mrmm_proto::config::{load_json5, parse_json5, positive, within};
 use mrmm_proto::{validate_id, Pose, SecuritySection};
 use serde::Deserialize;
 
@@ -140,7 +140,7 @@ impl RobotConfig {
             mrmm_proto::validate_capability(c).map_err(|e| format!("capabilities[{i}]: {e}"))?;
         }
         positive("kinematics.max_speed", self.kinematics.max_speed, 1e3)?;
-        positive("kinematics.max_turn_rate", self.kinematics.max_turn_rate, 1e3)?;
+        within("kinematics.max_turn_rate", self.kinematics.max_turn_rate, mrmm_proto::MIN_TURN_RATE, mrmm_proto::MAX_TURN_RATE)?;
         for (name, v) in [("start.x", self.start.x), ("start.y", self.start.y), ("start.theta", self.start.theta)] {
             if !v.is_finite() {
                 return Err(format!("{name}: must be a finite number (got {v})"));
@@ -239,6 +239,8 @@ mod tests {
     fn errors_name_file_field_and_problem() {
         let e = err(&GOOD.replace("max_speed: 1.2", "max_speed: -1"));
         assert!(e.starts_with("robot.json5: kinematics.max_speed: must be"), "{e}");
+        let e = err(&GOOD.replace("max_turn_rate: 2.0", "max_turn_rate: 0.001"));
+        assert!(e.starts_with("robot.json5: kinematics.max_turn_rate: must be a number in [0.01, 1000]"), "{e}");
         let e = err(&GOOD.replace("max_speed: 1.2", "max_speed: \"fast\""));
         assert!(e.contains("kinematics.max_speed"), "{e}");
         let e = err(&GOOD.replace("id: \"r1\", ", ""));

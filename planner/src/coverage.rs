@@ -291,7 +291,7 @@ mod tests {
     }
 
     fn robots(n: usize) -> Vec<RobotSpec> {
-        (0..n).map(|i| RobotSpec { id: format!("r{i}"), robot_type: "ground".into(), x: i as f64, y: -5.0, speed: 1.0 }).collect()
+        (0..n).map(|i| RobotSpec { id: format!("r{i}"), robot_type: "ground".into(), x: i as f64, y: -5.0, speed: 1.0, turn_rate: None }).collect()
     }
 
     #[test]

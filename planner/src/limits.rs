@@ -41,6 +41,18 @@ pub fn coordinate(what: &str, x: f64, y: f64) -> Result<(), PlanError> {
     Ok(())
 }
 
+/// Slowest and fastest turn rate of a robot, rad/s (the protocol's `MIN_TURN_RATE` and
+/// `MAX_TURN_RATE`): a slower one would stretch a patrol's timed route without bound.
+pub const TURN_RATES: std::ops::RangeInclusive<f64> = 0.01..=1e3;
+
+/// Checks that `w` is a turn rate within [`TURN_RATES`].
+pub fn turn_rate(what: &str, w: f64) -> Result<(), PlanError> {
+    if !(w.is_finite() && TURN_RATES.contains(&w)) {
+        return Err(PlanError::Invalid(format!("{what}: {w} is not a turn rate from {} to {} rad/s", TURN_RATES.start(), TURN_RATES.end())));
+    }
+    Ok(())
+}
+
 /// Checks that `what` has at most `max` items.
 pub fn at_most(what: &str, got: usize, max: usize) -> Result<(), PlanError> {
     if got > max {
@@ -62,10 +74,10 @@ mod tests {
     fn far_away_coordinates_are_refused_at_once() {
         let region = Region { outer: vec![Point::new(-20.0, -20.0), Point::new(20.0, -1e30), Point::new(20.0, 30.0), Point::new(-66.0, 20.0)], holes: vec![] };
         let params = CoverageParams { samples: 1532, ..CoverageParams::new(region) };
-        let robots = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0 }];
+        let robots = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None }];
         let e = coverage::plan(&params, &robots).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("region vertex") && e.contains("1000000"), "{e}");
-        let far = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 2e6, y: 0.0, speed: 1.0 }];
+        let far = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 2e6, y: 0.0, speed: 1.0, turn_rate: None }];
         let square = Region { outer: vec![Point::new(0.0, 0.0), Point::new(10.0, 0.0), Point::new(10.0, 10.0), Point::new(0.0, 10.0)], holes: vec![] };
         let e = coverage::plan(&CoverageParams::new(square), &far).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("robot r1 position"), "{e}");

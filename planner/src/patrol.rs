@@ -187,8 +187,8 @@ fn check_params(params: &PatrolParams, robots: &[RobotSpec]) -> Result<(), PlanE
     if !(params.sync_spacing_max.is_finite() && params.sync_spacing_max > 0.0) {
         return Err(PlanError::Invalid(format!("sync_spacing_max must be positive (got {})", params.sync_spacing_max)));
     }
-    if let Some(w) = params.turn_rate.filter(|w| !(w.is_finite() && *w > 0.0)) {
-        return Err(PlanError::Invalid(format!("turn_rate must be a positive number of rad/s (got {w})")));
+    if let Some(w) = params.turn_rate {
+        limits::turn_rate("turn_rate", w)?;
     }
     Ok(())
 }
@@ -348,7 +348,7 @@ mod tests {
     }
 
     fn robot(id: &str, x: f64, y: f64, speed: f64) -> RobotSpec {
-        RobotSpec { id: id.into(), robot_type: "ground".into(), x, y, speed }
+        RobotSpec { id: id.into(), robot_type: "ground".into(), x, y, speed, turn_rate: None }
     }
 
     #[test]

@@ -50,6 +50,10 @@ pub struct RobotSpec {
     pub y: f64,
     /// Maximum speed, m/s.
     pub speed: f64,
+    /// Maximum turn rate, rad/s: a patrol spaces robots by time with the turns of the slowest
+    /// turner counted. None: not known (turns take no time).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn_rate: Option<f64>,
 }
 
 impl RobotSpec {
@@ -61,6 +65,9 @@ impl RobotSpec {
             crate::limits::coordinate(&format!("robot {} position", r.id), r.x, r.y)?;
             if !(r.speed.is_finite() && r.speed > 0.0) {
                 return Err(crate::PlanError::Invalid(format!("robot {}: speed must be positive (got {})", r.id, r.speed)));
+            }
+            if let Some(w) = r.turn_rate {
+                crate::limits::turn_rate(&format!("robot {} turn_rate", r.id), w)?;
             }
         }
         let mut ids: Vec<&str> = robots.iter().map(|r| r.id.as_str()).collect();

@@ -40,6 +40,15 @@ pub fn positive(name: &str, v: f64, max: f64) -> Result<(), String> {
     }
 }
 
+/// Checks that `v` is a finite number in `[min, max]`; the error is `name: problem`.
+pub fn within(name: &str, v: f64, min: f64, max: f64) -> Result<(), String> {
+    if v.is_finite() && (min..=max).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!("{name}: must be a number in [{min}, {max}] (got {v})"))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -30,6 +30,9 @@ pub struct RobotSpec {
     pub y: f64,
     /// Maximum speed, m/s.
     pub speed: f64,
+    /// Maximum turn rate, rad/s (None: not known; turns then take no time in its plans).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub turn_rate: Option<f64>,
 }
 
 /// One step of a robot plan. JSON is externally tagged: `{"navigate": {"x": 1, "y": 2,

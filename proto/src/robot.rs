@@ -109,6 +109,11 @@ pub struct Progress {
     pub done: bool,
 }
 
+/// Slowest turn rate a robot may have, rad/s (half a turn in 314 s).
+pub const MIN_TURN_RATE: f64 = 0.01;
+/// Fastest turn rate a robot may say it has, rad/s.
+pub const MAX_TURN_RATE: f64 = 1e3;
+
 /// What a robot says about itself when it registers (answer of `mrmm/robots/<id>/info`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotInfo {
@@ -118,6 +123,10 @@ pub struct RobotInfo {
     pub capabilities: Vec<String>,
     /// Maximum linear speed, m/s.
     pub max_speed: f64,
+    /// Maximum turn rate, rad/s: a patrol spaces its robots by time with their turns counted.
+    /// None: not said (a robot of an older version).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_turn_rate: Option<f64>,
     /// Zenoh endpoints the robot listens on.
     pub endpoints: Vec<String>,
     /// Simulated seconds per wall second (1 for real robots): mission clocks run at this rate.
@@ -142,6 +151,7 @@ impl RobotInfo {
             robot_type: robot_type.to_string(),
             capabilities: vec![],
             max_speed,
+            max_turn_rate: None,
             endpoints: vec![],
             time_scale: 1.0,
             durable: false,
@@ -160,6 +170,9 @@ impl RobotInfo {
         }
         if !(self.time_scale.is_finite() && self.time_scale > 0.0) {
             return Err(format!("time_scale {}: not a positive number", self.time_scale));
+        }
+        if let Some(w) = self.max_turn_rate.filter(|w| !(w.is_finite() && (crate::MIN_TURN_RATE..=crate::MAX_TURN_RATE).contains(w))) {
+            return Err(format!("max_turn_rate {w}: not a turn rate from {} to {} rad/s", crate::MIN_TURN_RATE, crate::MAX_TURN_RATE));
         }
         if self.endpoints.len() > 64 || self.endpoints.iter().any(|e| e.len() > 256) {
             return Err("endpoints: more than 64, or one longer than 256 characters".into());
@@ -341,4 +354,25 @@ pub struct CommandAck {
     /// The robot's capabilities after a capabilities command.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub capabilities: Option<Vec<String>>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What a robot says of its kinematics is checked before a planner relies on it: a turn rate
+    /// of none, NaN or below 0.01 rad/s would stretch a patrol's timed route without bound.
+    #[test]
+    fn a_robot_info_with_a_bad_turn_rate_is_refused() {
+        let ok = RobotInfo { max_turn_rate: Some(2.0), ..RobotInfo::new("r1", "ground", 1.0) };
+        assert_eq!(ok.check(), Ok(()));
+        assert_eq!(RobotInfo::new("r1", "ground", 1.0).check(), Ok(()), "an older robot says none");
+        for w in [0.0, 0.001, -1.0, f64::NAN, f64::INFINITY, 2e3] {
+            let e = RobotInfo { max_turn_rate: Some(w), ..ok.clone() }.check().unwrap_err();
+            assert!(e.starts_with("max_turn_rate"), "{w}: {e}");
+        }
+        // The wire form of an older robot (no max_turn_rate) still reads.
+        let old: RobotInfo = serde_json::from_str(r#"{"id":"r1","type":"ground","capabilities":[],"max_speed":1.0,"endpoints":[]}"#).expect("old");
+        assert_eq!(old.max_turn_rate, None);
+    }
 }

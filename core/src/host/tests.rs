@@ -10,7 +10,7 @@ use super::*;
 use crate::chain::Params;
 
 fn member(id: &str, x: f64) -> Member {
-    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 1.0 }, time_scale: 1.0, capabilities: vec![] }
+    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 1.0, turn_rate: None }, time_scale: 1.0, capabilities: vec![] }
 }
 
 fn start(name: &str, ids: &[&str]) -> Box<MissionStart> {

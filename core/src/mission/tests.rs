@@ -21,7 +21,7 @@ fn spec() -> MissionSpec {
 }
 
 fn robot(id: &str, t: &str, x: f64) -> Member {
-    Member { spec: RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0 }, time_scale: 1.0, capabilities: vec![] }
+    Member { spec: RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0, turn_rate: None }, time_scale: 1.0, capabilities: vec![] }
 }
 
 /// Runs the planner as a planner service would.

@@ -209,6 +209,7 @@ impl Robot {
             robot_type: self.cfg.robot_type.clone(),
             capabilities: self.capabilities.clone(),
             max_speed: self.cfg.limits.max_speed,
+            max_turn_rate: Some(self.cfg.limits.max_turn_rate),
             endpoints,
             time_scale: self.cfg.time_scale,
             durable: self.cfg.durable,

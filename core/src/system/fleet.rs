@@ -189,7 +189,7 @@ impl Fleet {
         let rec = self.robots.get(id)?;
         let info = rec.info.as_ref()?;
         let pose = rec.last.as_ref().map(|t| t.pose).unwrap_or_default();
-        Some(RobotSpec { id: id.to_string(), robot_type: info.robot_type.clone(), x: pose.x, y: pose.y, speed: info.max_speed })
+        Some(RobotSpec { id: id.to_string(), robot_type: info.robot_type.clone(), x: pose.x, y: pose.y, speed: info.max_speed, turn_rate: info.max_turn_rate })
     }
 
     /// What a mission manager needs to know about a robot.

@@ -236,7 +236,8 @@ impl Leaf<'_> {
         if let Some(v) = s.whole("max_kicks") {
             params.max_kicks = v;
         }
-        params.turn_rate = s.num("turn_rate");
+        // The recipe's turn rate, else the slowest turner's among the robots that say theirs.
+        params.turn_rate = s.num("turn_rate").or_else(|| self.robots.iter().filter_map(|r| r.turn_rate).reduce(f64::min));
         let at = |e: PlanError| match (&r.waypoints, self.overrides.contains_key("waypoints")) {
             (Some((_, pos)), false) => pos.err(format!("waypoints: {e}")),
             _ => e,

@@ -479,7 +479,12 @@ pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), 
     match (planner, name) {
         (PlannerKind::Patrol, "sync_spacing_max") => positive(),
         // How fast the team's slowest robot turns on the spot, rad/s: robots are spaced by time.
-        (PlannerKind::Patrol, "turn_rate") => positive(),
+        (PlannerKind::Patrol, "turn_rate") => v
+            .parse::<f64>()
+            .ok()
+            .filter(|x| x.is_finite() && limits::TURN_RATES.contains(x))
+            .map(|_| ())
+            .ok_or_else(|| format!("parameter {name}: {value:?} is not a turn rate from 0.01 to 1000 rad/s")),
         (PlannerKind::Patrol, "rounds") if v == "forever" => Ok(()),
         (PlannerKind::Patrol, "rounds") => whole(1, u64::from(u32::MAX)),
         (PlannerKind::Patrol, "max_kicks") => whole(0, limits::MAX_KICKS),

@@ -10,7 +10,14 @@ fn robots(types: &[&str]) -> Vec<RobotSpec> {
     types
         .iter()
         .enumerate()
-        .map(|(i, t)| RobotSpec { id: format!("r{}", i + 1), robot_type: t.to_string(), x: i as f64 * 3.0, y: -3.0, speed: 1.0 + i as f64 * 0.1 })
+        .map(|(i, t)| RobotSpec {
+            id: format!("r{}", i + 1),
+            robot_type: t.to_string(),
+            x: i as f64 * 3.0,
+            y: -3.0,
+            speed: 1.0 + i as f64 * 0.1,
+            turn_rate: None,
+        })
         .collect()
 }
 
@@ -45,6 +52,37 @@ fn shipped_recipes_parse_validate_and_build() {
     let json = serde_json::to_value(&plan).expect("json");
     assert_eq!(json["planner"], "coverage");
     assert!(json["plans"][0]["steps"][1]["navigate"]["x"].is_number());
+}
+
+/// A patrol counts its robots' turns at the slowest turner's rate, unless the recipe or the
+/// mission gives a turn rate; a rate out of range is refused, from a robot or a parameter.
+#[test]
+fn a_patrol_turns_at_its_slowest_robots_rate() {
+    let r = parse(PATROL).expect("patrol.xml");
+    let square = parse_overrides(&["waypoints=[[0,0],[10,0],[10,10],[0,10]]".into()]).expect("overrides");
+    let team = |rates: [Option<f64>; 2]| {
+        let mut rs = robots(&["ground", "ground"]);
+        for (r, w) in rs.iter_mut().zip(rates) {
+            r.speed = 1.0;
+            r.turn_rate = w;
+        }
+        rs
+    };
+    let predicted = |o: &BTreeMap<String, String>, rates| match build(&r, o, &team(rates)).expect("build") {
+        MissionPlan::Patrol(p) => p.predicted_worst_idleness,
+        _ => panic!("patrol"),
+    };
+    // Four quarter turns at 1 rad/s (the slower robot) add 2π s to the 40 s round.
+    let slowest = predicted(&square, [Some(2.0), Some(1.0)]);
+    assert!((slowest - (40.0 + std::f64::consts::TAU) / 2.0).abs() < 1e-6, "{slowest}");
+    assert!((predicted(&square, [None, None]) - 20.0).abs() < 1e-6, "turns unknown take no time");
+    let mut given = square.clone();
+    given.insert("turn_rate".into(), "4".into());
+    assert!((predicted(&given, [Some(2.0), Some(1.0)]) - (40.0 + std::f64::consts::PI / 2.0) / 2.0).abs() < 1e-6);
+    let e = build(&r, &square, &team([Some(0.0), Some(1.0)])).unwrap_err().to_string();
+    assert!(e.contains("robot r1 turn_rate: 0 is not a turn rate"), "{e}");
+    let e = build(&r, &parse_overrides(&["turn_rate=0.001".into()]).expect("o"), &team([None, None])).unwrap_err().to_string();
+    assert!(e.contains("parameter turn_rate: \"0.001\" is not a turn rate"), "{e}");
 }
 
 #[test]

@@ -112,8 +112,11 @@ fn one(name: &str, graph: &NavGraph, n: usize, best: f64, seed: u64, turn: f64) 
     let map = Map::Graph(graph.clone());
     let space = Space::new(&map, 0.0).map_err(|e| anyhow!("{e}"))?;
     let starts = space.farthest(graph.vertices[0].at, n, |_| true).map_err(|e| anyhow!("{e}"))?;
-    let robots: Vec<RobotSpec> =
-        starts.iter().enumerate().map(|(i, p)| RobotSpec { id: format!("r{}", i + 1), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED }).collect();
+    let robots: Vec<RobotSpec> = starts
+        .iter()
+        .enumerate()
+        .map(|(i, p)| RobotSpec { id: format!("r{}", i + 1), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED, turn_rate: None })
+        .collect();
     let r = recipe::parse(recipe::bank("patrol").unwrap_or_default())?;
     // The robots turn on the spot at `turn` rad/s: the plan spaces them by time, turns counted.
     let params =
