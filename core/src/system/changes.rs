@@ -23,9 +23,7 @@ impl SystemManager {
             Ok((_, dry)) => dry,
             Err(e) => return vec![Command::Reply { req, result: Err(e) }],
         };
-        let id = self.next_check;
-        self.next_check += 1;
-        self.checking.insert(id, (req, super::Checking::Update(u)));
+        let id = self.dry_runs.push(req, super::dry_runs::Checking::Update(u));
         vec![Command::DryRun(Box::new(DryRun { id, ..dry }))]
     }
 

@@ -7,6 +7,7 @@ use mrmm_planner::recipe::{self, PlannerKind};
 use mrmm_proto::{self as proto, Member, MissionCreate, MissionCtl, MissionStart, MissionTerminate, MissionView, RobotCommand, RobotMove, RobotSpec};
 use serde_json::{json, Value};
 
+use super::dry_runs::Checking;
 use super::{to_value, Command, Ctls, MissionDef, MissionRecord, PendingStart, Released, Req, SystemManager, RESTART_RETRY_S};
 use crate::mission::MissionSpec;
 use crate::wire;
@@ -95,18 +96,16 @@ impl SystemManager {
             Ok(x) => x,
             Err(e) => return vec![Command::Reply { req, result: Err(e) }],
         };
-        let id = self.next_check;
-        self.next_check += 1;
-        self.checking.insert(id, (req, super::Checking::Create(c)));
+        let id = self.dry_runs.push(req, Checking::Create(c));
         vec![Command::DryRun(Box::new(checked.dry_run(id)))]
     }
 
     /// The dry run of check `id` is done: the create takes effect (checked again: the fleet may
     /// have changed meanwhile), or its error is the answer.
     pub(super) fn dry_run_done(&mut self, id: u64, result: Result<(), String>) -> Vec<Command> {
-        let (req, c) = match self.checking.remove(&id) {
-            Some((req, super::Checking::Create(c))) => (req, c),
-            Some((req, super::Checking::Update(u))) => return self.update_checked(req, u, result),
+        let (req, c) = match self.dry_runs.take(id) {
+            Some((req, Checking::Create(c))) => (req, c),
+            Some((req, Checking::Update(u))) => return self.update_checked(req, u, result),
             None => return vec![],
         };
         if let Err(e) = result {

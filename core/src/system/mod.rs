@@ -10,6 +10,7 @@ pub mod asks;
 mod capabilities;
 mod changes;
 mod ctl;
+mod dry_runs;
 pub mod durable;
 pub mod egress;
 mod events;
@@ -27,8 +28,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use mrmm_proto::{
-    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, Member, MissionCreate, MissionCtl, MissionStart,
-    MissionStatus, MissionView, RobotCommand, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
+    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, Member, MissionCtl, MissionStart, MissionStatus,
+    MissionView, RobotCommand, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
 };
 use serde_json::Value;
 
@@ -108,22 +109,6 @@ impl MissionRecord {
     }
 }
 
-/// A command waiting for its dry run.
-#[derive(Debug, Clone)]
-enum Checking {
-    Create(MissionCreate),
-    Update(proto::MissionUpdate),
-}
-
-/// A journaled mission being started again (no live manager runs it).
-#[derive(Debug, Clone, Copy)]
-struct Restart {
-    /// A start is out.
-    inflight: bool,
-    /// Not before this time.
-    next: f64,
-}
-
 /// A robot this manager took out of a mission: until the mission acknowledged it (and for a
 /// grace period after), that mission's reports listing it are older than the order. Keyed by
 /// (robot, mission): a robot moved on again before the first mission let it go is held by both.
@@ -161,19 +146,14 @@ pub struct SystemManager {
     ctls: Ctls,
     /// Commands held while the manager learns the fleet after starting.
     held: Vec<(Req, Request)>,
-    /// Messages the driver refused, by reason.
-    refused: BTreeMap<String, u64>,
-    /// Messages the driver took, by how their sender was proven.
-    proven: BTreeMap<String, u64>,
-    /// Creates and updates waiting for their dry run, by check id.
-    checking: BTreeMap<u64, (Req, Checking)>,
-    next_check: u64,
+    /// What the driver refused and took at the node's edge, as it last said.
+    edge: views::EdgeCounts,
+    /// Creates and updates waiting for their dry run.
+    dry_runs: dry_runs::DryRuns,
     /// What the journal holds, and the history to add to it.
     journal: Journal,
-    /// Journaled missions being started again.
-    restarts: BTreeMap<String, Restart>,
-    /// Missions said to wait for members with a state dir (said once each).
-    restart_held: BTreeSet<String>,
+    /// Journaled missions being started again, and those waiting for members with a state dir.
+    restarts: recovery::Restarts,
     /// The maps missions may plan on, by name (central's config).
     maps: BTreeMap<String, Arc<crate::maps::Held>>,
 }
@@ -194,13 +174,10 @@ impl SystemManager {
             released: BTreeMap::new(),
             ctls: Ctls::default(),
             held: Vec::new(),
-            refused: BTreeMap::new(),
-            proven: BTreeMap::new(),
-            checking: BTreeMap::new(),
-            next_check: 0,
+            edge: views::EdgeCounts::default(),
+            dry_runs: dry_runs::DryRuns::default(),
             journal: Journal::default(),
-            restarts: BTreeMap::new(),
-            restart_held: BTreeSet::new(),
+            restarts: recovery::Restarts::default(),
             maps: BTreeMap::new(),
         }
     }
@@ -258,11 +235,11 @@ impl SystemManager {
             }
             Event::MissionStatus { view, from } => self.mission_status(*view, from),
             Event::Refusals(r) => {
-                self.refused = r;
+                self.edge.refused = r;
                 vec![]
             }
             Event::Proofs(p) => {
-                self.proven = p;
+                self.edge.proven = p;
                 vec![]
             }
             Event::DryRunDone { id, result } => self.dry_run_done(id, result),

@@ -33,7 +33,7 @@ impl SystemManager {
 
     /// Whether `mission` is being started again from the journal (no live manager ran it).
     pub fn restarting(&self, mission: &str) -> bool {
-        self.restarts.contains_key(mission)
+        self.restarts.inflight.contains_key(mission)
     }
 
     /// The durable part as it is now.
@@ -93,7 +93,7 @@ impl SystemManager {
             .iter()
             .filter(|(_, r)| (r.view.is_none() || now - r.reported_at >= RUNNING_WAIT_S || stuck(r)) && r.def.spec.is_some())
             .filter(|(n, _)| !self.pending_create.contains_key(*n) && !self.starts.iter().any(|s| &s.start.spec.name == *n))
-            .filter(|(n, _)| self.restarts.get(*n).is_none_or(|r| !r.inflight && now >= r.next))
+            .filter(|(n, _)| self.restarts.may_start(n, now))
             .map(|(n, _)| n.clone())
             .collect();
         for name in orphans {
@@ -116,7 +116,7 @@ impl SystemManager {
                 .map(|(id, _)| id)
                 .collect();
             if !reforming.is_empty() {
-                if self.restart_held.insert(name.clone()) {
+                if self.restarts.held.insert(name.clone()) {
                     tracing::info!(mission = %name, robots = ?reforming, "members with a state dir are back: waiting for the mission's chain to come back from their disks before starting it anew");
                 }
                 continue;
@@ -156,8 +156,43 @@ impl SystemManager {
             }
             self.journal.note(JournalEvent::MissionRestarted { mission: name.clone(), robots: robots.clone() });
             let after = robots.iter().flat_map(|id| self.pending_releases(id)).collect();
-            self.restarts.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
+            self.restarts.inflight.insert(name.clone(), Restart { inflight: true, next: now + RESTART_RETRY_S });
             self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members, anew: true, lineage }), after });
         }
+    }
+}
+
+/// A journaled mission being started again (no live manager runs it).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Restart {
+    /// A start is out.
+    pub inflight: bool,
+    /// Not before this time.
+    pub next: f64,
+}
+
+/// Journaled missions being started again, and those held for members with a state dir.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Restarts {
+    /// Missions being started again.
+    pub inflight: BTreeMap<String, Restart>,
+    /// Missions said to wait for members with a state dir (said once each).
+    pub held: BTreeSet<String>,
+}
+
+impl Restarts {
+    /// Whether `mission` may be started (again) at `now`: no start of it out, none too recent.
+    fn may_start(&self, mission: &str, now: f64) -> bool {
+        self.inflight.get(mission).is_none_or(|r| !r.inflight && now >= r.next)
+    }
+
+    /// The restart of `mission`, if one is under way.
+    pub fn get_mut(&mut self, mission: &str) -> Option<&mut Restart> {
+        self.inflight.get_mut(mission)
+    }
+
+    /// `mission` runs again, or was created or terminated by the operator: no restart of it.
+    pub fn remove(&mut self, mission: &str) {
+        self.inflight.remove(mission);
     }
 }

@@ -91,8 +91,17 @@ impl SystemManager {
             busy: count(RobotStatus::Busy),
             lost: count(RobotStatus::Lost),
             missions: self.missions.len(),
-            refused: self.refused.clone(),
-            proven: self.proven.clone(),
+            refused: self.edge.refused.clone(),
+            proven: self.edge.proven.clone(),
         }
     }
+}
+
+/// What the driver refused and took at the node's edge (reported in the system status).
+#[derive(Debug, Clone, Default)]
+pub(super) struct EdgeCounts {
+    /// Messages refused, by reason.
+    pub refused: BTreeMap<String, u64>,
+    /// Messages taken, by how their sender was proven.
+    pub proven: BTreeMap<String, u64>,
 }
