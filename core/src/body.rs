@@ -35,11 +35,22 @@ pub struct Body {
     goal: Option<Vector2<f64>>,
     /// Speed cap of the current goal (a plan's team speed), below the robot's maximum.
     cap: Option<f64>,
+    /// With no goal: a point to turn on the spot to face (the next one of the plan, while the
+    /// robot waits at a barrier).
+    facing: Option<Vector2<f64>>,
 }
 
 impl Body {
     pub fn new(start: Pose, limits: Limits) -> Self {
-        Body { pos: Vector2::new(start.x, start.y), heading: wrap_angle(start.theta), velocity: Velocity::default(), limits, goal: None, cap: None }
+        Body {
+            pos: Vector2::new(start.x, start.y),
+            heading: wrap_angle(start.theta),
+            velocity: Velocity::default(),
+            limits,
+            goal: None,
+            cap: None,
+            facing: None,
+        }
     }
 
     pub fn pose(&self) -> Pose {
@@ -56,27 +67,51 @@ impl Body {
 
     /// Start driving to (x, y). Non-finite goals are ignored by the caller's validation.
     pub fn navigate_to(&mut self, x: f64, y: f64) {
-        self.goal = Some(Vector2::new(x, y));
-        self.cap = None;
+        self.navigate_capped(x, y, None);
     }
 
     /// Drive to (x, y) no faster than `speed` (m/s).
     pub fn navigate_capped(&mut self, x: f64, y: f64, speed: Option<f64>) {
         self.goal = Some(Vector2::new(x, y));
         self.cap = speed.filter(|s| s.is_finite() && *s > 0.0);
+        self.facing = None;
     }
 
     /// Stop now.
     pub fn hold(&mut self) {
         self.goal = None;
+        self.facing = None;
         self.velocity = Velocity::default();
+    }
+
+    /// Stop, and turn on the spot to face (x, y): a robot waiting at a barrier faces where it
+    /// goes next, so that it drives off when the barrier releases (its team is spaced by time
+    /// with its turns counted). A goal given later replaces it.
+    pub fn face(&mut self, x: f64, y: f64) {
+        self.hold();
+        self.facing = Some(Vector2::new(x, y));
+    }
+
+    /// Turns towards the point to face, if any, for `dt` seconds.
+    fn turn_to_face(&mut self, dt: f64) {
+        self.velocity = Velocity::default();
+        let Some(to) = self.facing else { return };
+        let d = to - self.pos;
+        let err = wrap_angle(d.y.atan2(d.x) - self.heading);
+        if d.norm() <= ARRIVAL_TOLERANCE || err.abs() < 1e-3 || dt <= 0.0 {
+            self.facing = None;
+            return;
+        }
+        let turn = err.clamp(-self.limits.max_turn_rate * dt, self.limits.max_turn_rate * dt);
+        self.heading = wrap_angle(self.heading + turn);
+        self.velocity = Velocity { v: 0.0, omega: turn / dt };
     }
 
     /// Advances the body by `dt` seconds of simulated time. Returns true when it reached its goal
     /// during this step (the goal is then cleared).
     pub fn step(&mut self, dt: f64) -> bool {
         let Some(goal) = self.goal else {
-            self.velocity = Velocity::default();
+            self.turn_to_face(dt);
             return false;
         };
         if dt <= 0.0 {
@@ -165,6 +200,24 @@ mod tests {
         let t = steps as f64 * 0.01;
         // Half a turn at 2 rad/s (~1.57 s) plus 5 m at 1 m/s, with some slack for blending.
         assert!(t > 5.0 && t < 7.5, "t = {t}");
+    }
+
+    #[test]
+    fn faces_a_point_turning_on_the_spot() {
+        let mut b = Body::new(Pose::default(), LIM);
+        b.face(0.0, 5.0);
+        // A quarter turn at 2 rad/s: ~0.79 s, without moving; then it holds.
+        for _ in 0..100 {
+            assert!(!b.step(0.01), "facing is not a goal reached");
+        }
+        assert!((b.pose().theta - std::f64::consts::FRAC_PI_2).abs() < 1e-3, "{:?}", b.pose());
+        assert!(b.pose().x.abs() < 1e-12 && b.pose().y.abs() < 1e-12);
+        assert_eq!(b.velocity(), Velocity::default());
+        // A goal replaces it: facing the far side, then driving off.
+        b.face(0.0, -5.0);
+        b.navigate_to(5.0, 0.0);
+        b.step(0.01);
+        assert!(b.goal().is_some());
     }
 
     #[test]

@@ -56,6 +56,15 @@ impl Drive {
         }
     }
 
+    /// Stops and faces (x, y), turning on the spot: the simulated body does; a ROS 2 body stops
+    /// and keeps its heading (its own controller turns when the next goal comes).
+    pub fn face(&mut self, x: f64, y: f64) {
+        match self {
+            Drive::Sim(b) => b.face(x, y),
+            Drive::Ros(r) => r.hold(),
+        }
+    }
+
     /// Advances the body: the simulated one by `dt` simulated seconds, the ROS one's controller
     /// at wall time `now` (its twist, if any, is returned).
     pub fn step(&mut self, now: f64, dt: f64) -> Step {

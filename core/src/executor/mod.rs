@@ -45,6 +45,9 @@ pub enum Command {
     Navigate { x: f64, y: f64, speed: Option<f64> },
     /// Stop.
     Hold,
+    /// Stop and turn on the spot to face (x, y), the plan's next point: sent when the robot
+    /// starts waiting at a barrier.
+    Face { x: f64, y: f64 },
     /// Publish this barrier arrival.
     Publish(SyncArrival),
     /// Publish this arrival at a barrier of the wider team of this path (always a mesh barrier).
@@ -442,6 +445,22 @@ impl Executor {
         true
     }
 
+    /// The point the plan drives to next after the current step (through its loop), if it drives
+    /// somewhere before it holds.
+    fn next_point(&self) -> Option<(f64, f64)> {
+        let steps = &self.assignment.plan.steps;
+        let mut pc = self.pc + 1;
+        for _ in 0..=steps.len() {
+            match steps.get(pc)? {
+                Step::Navigate { x, y, .. } => return Some((*x, *y)),
+                Step::Hold { .. } => return None,
+                Step::Loop { to, .. } => pc = *to,
+                Step::Stream | Step::Sync { .. } => pc += 1,
+            }
+        }
+        None
+    }
+
     /// This robot is at barrier `point` of its own team's current round: publishes its arrival
     /// (again while it waits, backing off); whether the barrier released.
     fn own_sync(&mut self, now: f64, point: u32, out: &mut Vec<Command>) -> bool {
@@ -454,6 +473,7 @@ impl Executor {
             self.gap = self.republish;
             self.publish(now, (self.round, point), out);
             out.extend(self.lead(now));
+            out.extend(self.next_point().map(|(x, y)| Command::Face { x, y }));
         }
         if !self.barrier.released(point, self.round) {
             if now - self.last_publish >= self.gap {

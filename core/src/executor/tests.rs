@@ -59,7 +59,7 @@ fn a_team_barrier_waits_only_on_its_team_and_a_mission_barrier_on_everyone() {
     assert!(a.handle(0.2, Event::Tick { body_idle: true }).is_empty(), "d of the slow team has not arrived");
     a.handle(0.3, Event::HeardIn("m".into(), arrival("d", 0)));
     let out = a.handle(0.4, Event::Tick { body_idle: true });
-    assert_eq!(out, vec![Command::Publish(arrival("a", 1))], "past the mission's barrier, at the team's");
+    assert_eq!(out, vec![Command::Publish(arrival("a", 1)), Command::Face { x: 5.0, y: 0.0 }], "past the mission's barrier, at the team's");
     // The team's barrier: b alone completes it; c and d (the other team) are never waited for.
     a.handle(0.5, Event::Heard(arrival("b", 1)));
     let out = a.handle(0.6, Event::Tick { body_idle: true });
@@ -96,7 +96,8 @@ fn navigates_step_by_step_then_holds_at_the_end() {
 fn barrier_waits_republishes_and_releases() {
     let mut e = exec(vec![Step::Sync { point: 0, scope: None }, nav(1.0)], &["a", "b"]);
     let acts = tick(&mut e, 0.0, true);
-    assert_eq!(acts, vec![Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 })]);
+    // It faces the plan's next point while it waits.
+    assert_eq!(acts, vec![Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 }), Command::Face { x: 1.0, y: 0.0 }]);
     assert_eq!(e.progress().waiting, Some((0, 0)));
     assert!(tick(&mut e, 0.1, true).is_empty());
     assert_eq!(tick(&mut e, 0.6, true).len(), 1, "re-published while waiting");
@@ -206,7 +207,7 @@ fn the_leader_hears_every_arrival_and_announces_the_release_once() {
     let steps = vec![Step::Sync { point: 0, scope: None }, nav(1.0)];
     let mut a = exec_as("a", BarrierMode::Leader, steps.clone(), &["a", "b", "c"]);
     // Leading: the runtime starts hearing arrivals; its own arrival is not published.
-    assert_eq!(tick(&mut a, 0.0, true), vec![Command::Lead(true)]);
+    assert_eq!(tick(&mut a, 0.0, true), vec![Command::Lead(true), Command::Face { x: 1.0, y: 0.0 }]);
     assert_eq!(a.progress().waiting, Some((0, 0)));
     assert!(a.handle(0.1, Event::Heard(arrival("b", 0, 0))).is_empty(), "c is missing");
     assert_eq!(a.handle(0.2, Event::Heard(arrival("c", 0, 0))), vec![Command::Release(release("a", 0, 0))], "at once, not at the next tick");
@@ -224,7 +225,7 @@ fn the_leader_hears_every_arrival_and_announces_the_release_once() {
 fn a_member_publishes_to_the_leader_waits_for_its_release_and_is_quiet_after() {
     let steps = vec![Step::Sync { point: 0, scope: None }, nav(1.0), Step::Sync { point: 1, scope: None }];
     let mut b = exec_as("b", BarrierMode::Leader, steps, &["a", "b", "c"]);
-    assert_eq!(tick(&mut b, 0.0, true), vec![Command::Publish(arrival("b", 0, 0))], "not leading: no Lead");
+    assert_eq!(tick(&mut b, 0.0, true), vec![Command::Publish(arrival("b", 0, 0)), Command::Face { x: 1.0, y: 0.0 }], "not leading: no Lead");
     assert!(tick(&mut b, 0.1, true).is_empty());
     assert_eq!(tick(&mut b, 0.6, true), vec![Command::Publish(arrival("b", 0, 0))], "re-published while waiting");
     // Arrivals reach a member only when it leads; one that did would count, but c is missing.
@@ -281,4 +282,18 @@ fn a_lone_survivor_leads_and_releases_itself() {
     assert_eq!(tick(&mut b, 0.0, true), vec![Command::Publish(arrival("b", 0, 0))]);
     assert_eq!(b.handle(0.1, Event::MemberGone("a".into())), vec![Command::Lead(true), Command::Release(release("b", 0, 0))]);
     assert_eq!(tick(&mut b, 0.2, true), vec![Command::Hold]);
+}
+
+/// A robot that starts waiting at a barrier faces the plan's next point, following the plan's
+/// loop back to its start; before a hold it faces nothing.
+#[test]
+fn a_robot_waiting_at_a_barrier_faces_where_it_goes_next() {
+    let looped = vec![Step::Stream, nav(3.0), Step::Sync { point: 0, scope: None }, Step::Loop { to: 1, rounds: None }];
+    let mut e = exec(looped, &["a", "b"]);
+    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Navigate { x: 3.0, y: 0.0, speed: Some(1.0) }]);
+    let out = tick(&mut e, 0.1, true);
+    assert!(out.contains(&Command::Face { x: 3.0, y: 0.0 }), "through the loop: {out:?}");
+    let held = vec![Step::Sync { point: 0, scope: None }, Step::Hold { seconds: None }];
+    let mut e = exec(held, &["a", "b"]);
+    assert!(!tick(&mut e, 0.0, true).iter().any(|c| matches!(c, Command::Face { .. })), "nowhere to go next");
 }

@@ -557,6 +557,7 @@ impl Robot {
             match c {
                 executor::Command::Navigate { x, y, speed } => self.body.navigate_capped(x, y, speed),
                 executor::Command::Hold => self.body.hold(),
+                executor::Command::Face { x, y } => self.body.face(x, y),
                 executor::Command::Publish(s) => out.push(Command::Publish(s)),
                 executor::Command::PublishIn(team, s) => out.push(Command::PublishIn(team, s)),
                 executor::Command::Release(r) => out.push(Command::Release(r)),

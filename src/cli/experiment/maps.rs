@@ -214,6 +214,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
                 match c {
                     Exec::Navigate { x, y, speed } => bodies[i].navigate_capped(x, y, speed),
                     Exec::Hold => bodies[i].hold(),
+                    Exec::Face { x, y } => bodies[i].face(x, y),
                     Exec::Publish(a) => heard.push((i, a)),
                     Exec::Release(_) | Exec::Lead(_) | Exec::PublishIn(..) => {}
                 }
@@ -408,5 +409,17 @@ mod tests {
             let r = one(name, &g, 12, best, 1, 1000.0).expect("run");
             assert!(r.worst_ratio() <= 1.10, "{name}, 12 robots: {:.3}", r.worst_ratio());
         }
+    }
+
+    /// A robot waiting at a barrier faces where it goes next, so that it drives off at the
+    /// release: on ctcv at 3 rad/s, 12 robots were 12 points worse than one without it (1.19 vs
+    /// 1.07), a start barrier's half turns and the corners' turns after a sync point included.
+    #[test]
+    fn robots_face_their_next_point_at_barriers() {
+        let g = graph("ctcv");
+        let best = best_tour(&g, 1).expect("tour");
+        let one_robot = one("ctcv", &g, 1, best, 1, 3.0).expect("run").worst_ratio();
+        let team = one("ctcv", &g, 12, best, 1, 3.0).expect("run").worst_ratio();
+        assert!(team <= one_robot + 0.06, "12 robots {team:.3} vs one {one_robot:.3}");
     }
 }
