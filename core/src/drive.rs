@@ -56,12 +56,13 @@ impl Drive {
         }
     }
 
-    /// Stops and faces (x, y), turning on the spot: the simulated body does; a ROS 2 body stops
-    /// and keeps its heading (its own controller turns when the next goal comes).
+    /// Faces (x, y), turning on the spot, when the plan waits at a barrier: the simulated body
+    /// does; a ROS 2 body, already stopped there, keeps its heading (its own controller, or
+    /// Nav2, turns when the next goal comes).
     pub fn face(&mut self, x: f64, y: f64) {
         match self {
             Drive::Sim(b) => b.face(x, y),
-            Drive::Ros(r) => r.hold(),
+            Drive::Ros(_) => {}
         }
     }
 
