@@ -309,6 +309,7 @@ impl Executor {
     /// whose scope has no members listed (refused when the plan comes in) passes at once.
     fn wide_sync(&mut self, now: f64, team: &str, point: u32, out: &mut Vec<Command>) -> bool {
         let (me, epoch, round, republish) = (self.assignment.plan.robot.clone(), self.assignment.epoch, self.round, self.republish);
+        let next = self.next_point();
         let Some(w) = self.wide.get_mut(team) else { return true };
         let at = (round, point);
         let arrival = SyncArrival { robot: me, epoch, point, round };
@@ -327,6 +328,9 @@ impl Executor {
                 w.last_publish = now;
                 self.sync_msgs += 1;
                 out.push(Command::PublishIn(team.to_string(), arrival));
+            }
+            if fresh {
+                out.extend(next.map(|(x, y)| Command::Face { x, y }));
             }
             return false;
         }

@@ -49,8 +49,8 @@ fn a_team_barrier_waits_only_on_its_team_and_a_mission_barrier_on_everyone() {
     let mut a = exec_in_team("a", "fast", steps, &["a", "b"], &["a", "b", "c", "d"]);
     let out = a.handle(0.0, Event::Tick { body_idle: true });
     let arrival = |r: &str, point: u32| SyncArrival { robot: r.into(), epoch: 2, point, round: 0 };
-    // The mission's barrier: published for the mission, not the team.
-    assert_eq!(out, vec![Command::PublishIn("m".into(), arrival("a", 0))]);
+    // The mission's barrier: published for the mission, not the team; the robot faces its next point.
+    assert_eq!(out, vec![Command::PublishIn("m".into(), arrival("a", 0)), Command::Face { x: 5.0, y: 0.0 }]);
     for r in ["b", "c"] {
         a.handle(0.1, Event::HeardIn("m".into(), arrival(r, 0)));
     }
