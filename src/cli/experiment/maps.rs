@@ -390,10 +390,7 @@ mod tests {
     /// bound worse than one when spaced by arc length (1.28 vs 1.11), and are within 5 now.
     #[test]
     fn turns_cost_a_team_what_they_cost_one_robot() {
-        let g = graph("DIAG_floor1");
-        let best = best_tour(&g, 1).expect("tour");
-        let one_robot = one("DIAG_floor1", &g, 1, best, 1, 3.0).expect("run").worst_ratio();
-        let team = one("DIAG_floor1", &g, 12, best, 1, 3.0).expect("run").worst_ratio();
+        let (one_robot, team) = one_and_twelve("DIAG_floor1");
         assert!(team <= one_robot + 0.08, "12 robots {team:.3} vs one {one_robot:.3}");
     }
 
@@ -416,10 +413,15 @@ mod tests {
     /// 1.07), a start barrier's half turns and the corners' turns after a sync point included.
     #[test]
     fn robots_face_their_next_point_at_barriers() {
-        let g = graph("ctcv");
-        let best = best_tour(&g, 1).expect("tour");
-        let one_robot = one("ctcv", &g, 1, best, 1, 3.0).expect("run").worst_ratio();
-        let team = one("ctcv", &g, 12, best, 1, 3.0).expect("run").worst_ratio();
+        let (one_robot, team) = one_and_twelve("ctcv");
         assert!(team <= one_robot + 0.06, "12 robots {team:.3} vs one {one_robot:.3}");
+    }
+
+    /// The worst idleness ÷ the bound of one robot and of twelve on a map, turning at 3 rad/s.
+    fn one_and_twelve(name: &str) -> (f64, f64) {
+        let g = graph(name);
+        let best = best_tour(&g, 1).expect("tour");
+        let ratio = |n| one(name, &g, n, best, 1, 3.0).expect("run").worst_ratio();
+        (ratio(1), ratio(12))
     }
 }

@@ -175,15 +175,21 @@ impl ByMode<'_> {
     }
 }
 
-/// The paper's Fig. 6: one group per environment scale, one bar per team size; idleness divided
-/// by the scale so that the groups share an axis.
-fn environment(rows: &[&Row], draw: &mut Draw) -> anyhow::Result<()> {
+/// The team sizes and environment scales of some runs, each sorted and without repeats.
+fn sizes_and_scales(rows: &[&Row]) -> (Vec<usize>, Vec<f64>) {
     let mut sizes: Vec<usize> = rows.iter().map(|r| r.spec.robots).collect();
     sizes.sort_unstable();
     sizes.dedup();
     let mut scales: Vec<f64> = rows.iter().map(|r| r.spec.env_scale).collect();
     scales.sort_by(f64::total_cmp);
     scales.dedup();
+    (sizes, scales)
+}
+
+/// The paper's Fig. 6: one group per environment scale, one bar per team size; idleness divided
+/// by the scale so that the groups share an axis.
+fn environment(rows: &[&Row], draw: &mut Draw) -> anyhow::Result<()> {
+    let (sizes, scales) = sizes_and_scales(rows);
     let names: Vec<String> = sizes.iter().map(|n| format!("{n} robots")).collect();
     let series: Vec<&str> = names.iter().map(String::as_str).collect();
     let find = |n: usize, s: f64| rows.iter().find(|r| r.spec.robots == n && r.spec.env_scale == s);
@@ -483,12 +489,7 @@ fn fig5_claims(idle: &[&Row], out: &mut Vec<String>) {
 
 /// Fig. 6: in a larger environment synchronisation matters less and the plateau moves.
 fn fig6_claims(env: &[&Row], out: &mut Vec<String>) {
-    let mut sizes: Vec<usize> = env.iter().map(|r| r.spec.robots).collect();
-    sizes.sort_unstable();
-    sizes.dedup();
-    let mut scales: Vec<f64> = env.iter().map(|r| r.spec.env_scale).collect();
-    scales.sort_by(f64::total_cmp);
-    scales.dedup();
+    let (sizes, scales) = sizes_and_scales(env);
     if let ([first, .., last], [small, .., big]) = (scales.as_slice(), sizes.as_slice()) {
         let at = |n: usize, s: f64| env.iter().find(|r| r.spec.robots == n && r.spec.env_scale == s);
         let share = |r: &Row| r.sync_wait_per_round_s / (r.tour_m / super::fleet::SPEED);
