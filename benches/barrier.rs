@@ -54,8 +54,11 @@ async fn run(n: usize, rounds: u32) -> anyhow::Result<()> {
             let me = members[i].clone();
             let sub = s.declare_subscriber(proto::Pattern::TeamSync(TEAM.to_string()).to_string()).await.expect("subscriber");
             let tokens = s.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await.expect("liveliness");
-            let _token =
-                s.liveliness().declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await.expect("token");
+            let _token = s
+                .liveliness()
+                .declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone().into() }.to_string())
+                .await
+                .expect("token");
             // Wait until every member's token is visible.
             let mut seen = std::collections::BTreeSet::new();
             while seen.len() < members.len() {
@@ -66,13 +69,13 @@ async fn run(n: usize, rounds: u32) -> anyhow::Result<()> {
                 }
             }
             ready.wait().await;
-            let mut barrier = Barrier::new(&me, 1, &members);
+            let mut barrier = Barrier::new(&me, 1, &members.iter().map(Into::into).collect::<Vec<_>>());
             let mut waiting: Option<u32> = None;
             loop {
                 tokio::select! {
                     o = orders.recv() => {
                         let Some(point) = o else { break };
-                        let a = SyncArrival { robot: me.clone(), epoch: 1, point, round: 0 };
+                        let a = SyncArrival { robot: me.clone().into(), epoch: 1, point, round: 0 };
                         barrier.arrival(&a);
                         let bytes = proto::to_json(&a).expect("json");
                         let _ = s.put(proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), bytes).await;

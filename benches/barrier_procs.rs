@@ -168,7 +168,7 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let _token = session
         .liveliness()
-        .declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string())
+        .declare_token(proto::Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone().into() }.to_string())
         .await
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut seen = std::collections::BTreeSet::new();
@@ -190,13 +190,13 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
         println!("E {me}: ready too late");
         return Ok(());
     }
-    let mut barrier = Barrier::new(&me, 1, &members);
+    let mut barrier = Barrier::new(&me, 1, &members.iter().map(Into::into).collect::<Vec<_>>());
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(i as u64);
     for k in 0..2 * rounds {
         let start = if k < rounds { t0 + k * PERIOD_MS * 1_000_000 } else { t_down + (k - rounds) * PERIOD_MS * 1_000_000 };
         sleep_until_ns(start + rng.gen_range(0..2_000_000)).await;
         let point = k as u32;
-        let a = SyncArrival { robot: me.clone(), epoch: 1, point, round: 0 };
+        let a = SyncArrival { robot: me.clone().into(), epoch: 1, point, round: 0 };
         barrier.arrival(&a);
         let arrived = now_ns();
         m.put(&proto::Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), proto::to_json(&a)?, zenoh::bytes::Encoding::APPLICATION_JSON).await;

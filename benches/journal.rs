@@ -44,7 +44,7 @@ fn patrol(name: &str, robots: &[String]) -> MissionCreate {
     MissionCreate {
         name: name.into(),
         recipe: "patrol".into(),
-        robots: Some(robots.to_vec()),
+        robots: Some(robots.iter().map(Into::into).collect()),
         params: [("waypoints".to_string(), serde_json::json!([[0, 0], [12, 0], [12, 12], [0, 12]]))].into(),
         ..MissionCreate::default()
     }
@@ -73,13 +73,13 @@ async fn latency(moves: usize, creates: usize) -> anyhow::Result<()> {
         let robot = format!("r{}", 3 + i % 6);
         let to = if (i / 6) % 2 == 0 { "a" } else { "b" };
         let t = Instant::now();
-        let _: serde_json::Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot, to: Some(to.into()) })).await?;
+        let _: serde_json::Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.into(), to: Some(to.into()) })).await?;
         ms.push(t.elapsed().as_secs_f64() * 1000.0);
     }
     stats("robot move", ms);
     // Creates take free robots: the six movers are freed first.
     for i in 3..=8 {
-        let _: serde_json::Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: format!("r{i}"), to: None })).await?;
+        let _: serde_json::Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: format!("r{i}").into(), to: None })).await?;
     }
     eventually("six idle robots", Duration::from_secs(20), || async {
         let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
@@ -94,12 +94,12 @@ async fn latency(moves: usize, creates: usize) -> anyhow::Result<()> {
         let _: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&patrol(&name, &[robot]))).await?;
         made.push(t.elapsed().as_secs_f64() * 1000.0);
         let t = Instant::now();
-        let _: serde_json::Value = client.query(cmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name })).await?;
+        let _: serde_json::Value = client.query(cmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: name.into() })).await?;
         ended.push(t.elapsed().as_secs_f64() * 1000.0);
         // The robot must be idle again before it can be taken.
         let id = format!("r{}", 3 + i % 6);
         eventually("the robot idle again", Duration::from_secs(20), || async {
-            let v: RobotView = client.query(proto::Key::SystemRobot(id.clone()), None::<&()>).await.ok()?;
+            let v: RobotView = client.query(proto::Key::SystemRobot(id.clone().into()), None::<&()>).await.ok()?;
             (v.status == proto::RobotStatus::Idle).then_some(())
         })
         .await?;

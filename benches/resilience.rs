@@ -77,11 +77,12 @@ async fn takeover(trials: usize) -> anyhow::Result<()> {
             // A fresh host may start the chain short (it has not heard of every robot's host
             // yet); it fills it up within a vote.
             eventually("a chain of three", Duration::from_secs(10), || async {
-                let m: MissionView = client.query(proto::Key::SystemMission(name.to_string()), None::<&()>).await.ok()?;
+                let m: MissionView = client.query(proto::Key::SystemMission(name.as_str().into()), None::<&()>).await.ok()?;
                 (m.manager.chain.len() == 3 && m.manager.node == host_name).then_some(())
             })
             .await?;
-            let statuses = client.session().declare_subscriber(proto::Key::MissionStatus(name.to_string()).to_string()).await.map_err(|e| anyhow!("{e}"))?;
+            let statuses =
+                client.session().declare_subscriber(proto::Key::MissionStatus(name.as_str().into()).to_string()).await.map_err(|e| anyhow!("{e}"))?;
             host.signal(signal)?;
             let t0 = Instant::now();
             let took = tokio::time::timeout(Duration::from_secs(10), async {
@@ -99,7 +100,8 @@ async fn takeover(trials: usize) -> anyhow::Result<()> {
             .ok_or_else(|| anyhow!("no takeover after SIG{signal}"))?;
             times.push(took.as_secs_f64() * 1e3);
             host.kill();
-            let _: serde_json::Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name })).await?;
+            let _: serde_json::Value =
+                client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: name.as_str().into() })).await?;
         }
         stats(&format!("SIG{signal}"), times);
     }
@@ -117,7 +119,7 @@ async fn stall() -> anyhow::Result<()> {
     tokio::time::sleep(Duration::from_secs(2)).await;
     let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&square("p", "central"))).await?;
     eventually("the patrol on its rounds", Duration::from_secs(60), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= 2).then_some(())
     })
     .await?;
@@ -140,13 +142,13 @@ async fn stall() -> anyhow::Result<()> {
             s = telemetry.recv_async() => {
                 let Ok(s) = s else { break };
                 if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
-                    poses.entry(t.id).or_default().push((t0.elapsed().as_secs_f64(), t.pose.x, t.pose.y));
+                    poses.entry(t.id.to_string()).or_default().push((t0.elapsed().as_secs_f64(), t.pose.x, t.pose.y));
                 }
             }
             s = arrivals.recv_async() => {
                 let Ok(s) = s else { break };
                 if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-                    syncs.entry(a.robot).or_default().push(t0.elapsed().as_secs_f64());
+                    syncs.entry(a.robot.to_string()).or_default().push(t0.elapsed().as_secs_f64());
                 }
             }
             _ = tokio::time::sleep(Duration::from_millis(50)) => {}

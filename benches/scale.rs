@@ -224,7 +224,7 @@ async fn replanned_without(
     let deadline = since + Duration::from_secs(30);
     while Instant::now() < deadline {
         let Some(v) = next(Duration::from_secs(1)).await else { continue };
-        if v.manager.epoch > epoch && victims.iter().all(|id| !v.robots.contains(id)) && v.status == proto::MissionStatus::Running {
+        if v.manager.epoch > epoch && victims.iter().all(|id| !v.robots.iter().any(|r| r == id)) && v.status == proto::MissionStatus::Running {
             let at = since.elapsed().as_secs_f64();
             let settle = Instant::now() + Duration::from_secs(3);
             let mut last = v;
@@ -504,8 +504,8 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
             None
         }
     };
-    let mut members: BTreeSet<String> = created.robots.iter().cloned().collect();
-    members.extend(second.iter().flat_map(|m| m.robots.iter().cloned()));
+    let mut members: BTreeSet<String> = created.robots.iter().map(|r| r.to_string()).collect();
+    members.extend(second.iter().flat_map(|m| m.robots.iter().map(|r| r.to_string())));
     let missions = ["scale", "scale-coverage"];
     let mut moving = BTreeSet::new();
     let deadline = c0 + Duration::from_secs(60);
@@ -515,8 +515,8 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
             // Moving, or already at a goal it stood next to (a coverage point by its start): its
             // plan is past the first step.
             let started = t.behaviour != proto::Behaviour::Hold || t.progress.as_ref().is_some_and(|p| p.step > 0);
-            if members.contains(&t.id) && t.mission.as_deref().is_some_and(|m| missions.contains(&m)) && started {
-                moving.insert(t.id);
+            if members.contains(t.id.as_str()) && t.mission.as_deref().is_some_and(|m| missions.contains(&m)) && started {
+                moving.insert(t.id.to_string());
             }
         }
     }
@@ -558,7 +558,7 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     };
 
     // A member SIGKILLed: time until the mission's status shows a plan without it.
-    let victim = created.robots.first().cloned().ok_or_else(|| anyhow!("the mission has no robots"))?;
+    let victim = created.robots.first().map(|r| r.to_string()).ok_or_else(|| anyhow!("the mission has no robots"))?;
     let status = client
         .session()
         .declare_subscriber(proto::Key::MissionStatus("scale".into()).to_string())
@@ -580,7 +580,7 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     // A tenth of the members left crashed at once: one replan (the burst is debounced), and when.
     let burst = match view {
         Some(before) => {
-            let left: Vec<String> = before.robots.clone();
+            let left: Vec<String> = before.robots.iter().map(|r| r.to_string()).collect();
             let victims: Vec<String> = left.iter().take(left.len().div_ceil(10)).cloned().collect();
             let b0 = Instant::now();
             crash(&mut robots, sites, &victims)?;

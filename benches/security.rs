@@ -171,7 +171,8 @@ async fn barrier(sec: Sec<'_>, n: usize, rounds: u32) -> anyhow::Result<(f64, f6
                 return;
             };
             let Ok(tokens) = s.liveliness().declare_subscriber(proto::Pattern::TeamMembers(TEAM.into()).to_string()).history(true).await else { return };
-            let Ok(_token) = s.liveliness().declare_token(Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone() }.to_string()).await else {
+            let Ok(_token) = s.liveliness().declare_token(Key::TeamMember { subteam: format!("{TEAM}/all"), robot: me.clone().into() }.to_string()).await
+            else {
                 return;
             };
             let mut seen = std::collections::BTreeSet::new();
@@ -183,7 +184,7 @@ async fn barrier(sec: Sec<'_>, n: usize, rounds: u32) -> anyhow::Result<(f64, f6
                 }
             }
             ready.wait().await;
-            let mut barrier = Barrier::new(&me, 1, &members);
+            let mut barrier = Barrier::new(&me, 1, &members.iter().map(Into::into).collect::<Vec<_>>());
             // As robots do: barrier messages are for the plan's other members.
             let to: Vec<Sender> = members.iter().filter(|x| **x != me).map(|x| Sender::new(Role::Robot, x.clone())).collect();
             let mut waiting: Option<u32> = None;
@@ -191,7 +192,7 @@ async fn barrier(sec: Sec<'_>, n: usize, rounds: u32) -> anyhow::Result<(f64, f6
                 tokio::select! {
                     o = orders.recv() => {
                         let Some(point) = o else { break };
-                        let a = SyncArrival { robot: me.clone(), epoch: 1, point, round: 0 };
+                        let a = SyncArrival { robot: me.clone().into(), epoch: 1, point, round: 0 };
                         barrier.arrival(&a);
                         let Ok(bytes) = proto::to_json(&a) else { break };
                         m.put_for(&Key::TeamSync { team: TEAM.into(), point, round: 0 }.to_string(), bytes, Encoding::APPLICATION_JSON, &to).await;

@@ -74,7 +74,7 @@ async fn run(updates: usize) -> anyhow::Result<()> {
             while let Ok(Some(s)) = telemetry.try_recv() {
                 if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
                     if let Some(p) = t.progress.filter(|p| p.mission == "p") {
-                        epochs.insert(t.id, p.epoch);
+                        epochs.insert(t.id.to_string(), p.epoch);
                     }
                 }
             }

@@ -120,10 +120,10 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
     let p = missions.iter().find(|m| m.name == "p").ok_or_else(|| anyhow!("no mission p: {missions:?}"))?;
     // r1 released, then added back by the agent's suggestion (the first idle robot).
     assert_eq!(seen["advice"], serde_json::json!({"robot": "r1", "to": "p"}), "{seen}");
-    assert_eq!((p.robots.clone(), p.status), (vec!["r1".to_string(), "r2".to_string(), "r3".to_string()], proto::MissionStatus::Running));
+    assert_eq!((p.robots.clone(), p.status), (vec!["r1".into(), "r2".into(), "r3".into()], proto::MissionStatus::Running));
     let fleet: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
     let robot = |id: &str| fleet.iter().find(|r| r.id == id).map(|r| (r.status, r.mission.clone()));
-    assert_eq!(robot("r1"), Some((RobotStatus::Busy, Some("p".to_string()))));
+    assert_eq!(robot("r1"), Some((RobotStatus::Busy, Some("p".into()))));
     // r4, in no mission, on the goto the operator clicked (busy on its way, or idle there once it
     // arrived: the browser's last steps may outlast the drive), with the capabilities it was given.
     let r4 = fleet.iter().find(|r| r.id == "r4").ok_or_else(|| anyhow!("no r4: {fleet:?}"))?;

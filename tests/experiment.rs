@@ -57,7 +57,7 @@ async fn barriers(sub: &Sub, ids: &[&str], n: usize, epoch: u64, timeout: Durati
         let Ok(Ok(s)) = tokio::time::timeout(left, sub.recv_async()).await else { continue };
         if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
             if a.epoch >= epoch {
-                passed.entry(a.robot).or_default().insert((a.round, a.point));
+                passed.entry(a.robot.to_string()).or_default().insert((a.round, a.point));
             }
         }
     }
@@ -86,7 +86,7 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     let length = m.summary.as_ref().and_then(|s| s.patrol()).map_or(0.0, |p| p.length);
     assert!(length > 40.0, "a tour through the waypoints: {:?}", m.summary);
     let m = eventually("the patrol past its first barriers", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= 2).then_some(m)
     })
     .await?;
@@ -104,7 +104,7 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &connect, 1000)?).await?;
     let zerr = |e: zenoh::Error| anyhow!("{e}");
     let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).with(RingChannel::new(4096)).await.map_err(zerr)?;
-    let statuses = observer.declare_subscriber(proto::Key::MissionStatus("p".to_string()).to_string()).with(RingChannel::new(256)).await.map_err(zerr)?;
+    let statuses = observer.declare_subscriber(proto::Key::MissionStatus("p".into()).to_string()).with(RingChannel::new(256)).await.map_err(zerr)?;
     // Linked to every robot (gossip): arrivals of all four come through.
     barriers(&arrivals, &["r1", "r2", "r3", "r4"], 1, plan_epoch, Duration::from_secs(20)).await?;
 
@@ -125,11 +125,11 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     robots[i].kill();
     let killed = Instant::now();
     let v = status_where(&statuses, "the team without the dead robot", Duration::from_secs(20), |v| {
-        !v.robots.contains(&victim) && v.manager.epoch > plan_epoch && v.status == MissionStatus::Running
+        !v.robots.iter().any(|r| *r == victim.as_str()) && v.manager.epoch > plan_epoch && v.status == MissionStatus::Running
     })
     .await?;
     println!("step 5: {victim} SIGKILLed; replanned for {:?} in {} ms", v.robots, killed.elapsed().as_millis());
-    let rest: Vec<&str> = v.robots.iter().map(String::as_str).collect();
+    let rest: Vec<&str> = v.robots.iter().map(|r| r.as_str()).collect();
     barriers(&arrivals, &rest, 2, v.manager.epoch, Duration::from_secs(30)).await?;
     let v = status_where(&statuses, "a chain without the dead robot", Duration::from_secs(10), |v| {
         v.manager.chain.len() == 3 && !v.manager.chain.contains(&victim)
@@ -142,7 +142,7 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     connect.push(ep.clone());
     robots[i] = common::start_robot_with(&dir, &victim, &connect, 3.0, -3.0, 10.0)?;
     let v = status_where(&statuses, "the robot back in the mission", Duration::from_secs(20), |v| {
-        v.robots.contains(&victim) && v.manager.epoch > short_epoch && v.status == MissionStatus::Running
+        v.robots.iter().any(|r| *r == victim.as_str()) && v.manager.epoch > short_epoch && v.status == MissionStatus::Running
     })
     .await?;
     println!("step 6: {victim} restarted and rejoined: robots {:?}, plan epoch {}", v.robots, v.manager.epoch);

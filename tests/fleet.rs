@@ -15,7 +15,7 @@ async fn robots(c: &Client) -> Vec<RobotView> {
 }
 
 async fn status_of(c: &Client, id: &str) -> Option<RobotStatus> {
-    c.query::<RobotView>(proto::Key::SystemRobot(id.to_string()), None::<&()>).await.ok().map(|v| v.status)
+    c.query::<RobotView>(proto::Key::SystemRobot(id.into()), None::<&()>).await.ok().map(|v| v.status)
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -45,7 +45,7 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
     let ack: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r1".into(), x: 3.0, y: 4.0, map: None })).await?;
     assert_eq!(ack["ok"], true);
     eventually("r1 at (3, 4) and idle", Duration::from_secs(20), || async {
-        let v: RobotView = client.query(proto::Key::SystemRobot("r1".to_string()), None::<&()>).await.ok()?;
+        let v: RobotView = client.query(proto::Key::SystemRobot("r1".into()), None::<&()>).await.ok()?;
         let p = v.pose?;
         let near = ((p.x - 3.0).powi(2) + (p.y - 4.0).powi(2)).sqrt() < 0.1;
         (near && v.status == RobotStatus::Idle).then_some(())
@@ -60,10 +60,10 @@ async fn fleet_registers_moves_and_detects_loss() -> anyhow::Result<()> {
     assert!(e.to_string().contains("unknown robot \"nope\""), "{e}");
     let e = client.query::<Value>(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&"hello")).await.expect_err("garbage");
     assert!(e.to_string().contains("goto request"), "{e}");
-    let e = client.query::<Value>(proto::Key::SystemRobot("nope".to_string()), None::<&()>).await.expect_err("unknown");
+    let e = client.query::<Value>(proto::Key::SystemRobot("nope".into()), None::<&()>).await.expect_err("unknown");
     assert!(e.to_string().contains("unknown robot"), "{e}");
-    client.session().put(proto::Key::RobotTelemetry("r2".to_string()).to_string(), b"\xff\x00garbage".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    client.session().put(proto::Key::RobotTelemetry("r2".to_string()).to_string(), b"MRM1\x05\x05".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    client.session().put(proto::Key::RobotTelemetry("r2".into()).to_string(), b"\xff\x00garbage".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    client.session().put(proto::Key::RobotTelemetry("r2".into()).to_string(), b"MRM1\x05\x05".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     assert_eq!(robots(&client).await.len(), 3, "central still answers after garbage");
 
     // SIGKILL: lost.

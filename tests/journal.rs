@@ -35,7 +35,7 @@ async fn missions(c: &Client) -> Vec<MissionView> {
 
 /// Robot → mission, as central says.
 async fn placement(c: &Client) -> BTreeMap<String, Option<String>> {
-    robots(c).await.into_iter().map(|r| (r.id, r.mission)).collect()
+    robots(c).await.into_iter().map(|r| (r.id.to_string(), r.mission.map(Into::into))).collect()
 }
 
 /// Central (with a state dir, on a fixed loopback port) and robots r1..rn, all registered, and an
@@ -71,7 +71,7 @@ fn patrol(name: &str, robots: &[&str]) -> MissionCreate {
     MissionCreate {
         name: name.into(),
         recipe: "patrol".into(),
-        robots: Some(robots.iter().map(|s| s.to_string()).collect()),
+        robots: Some(robots.iter().map(Into::into).collect()),
         params: [("waypoints".to_string(), json!([[0, 0], [12, 0], [12, 12], [0, 12]])), ("sync_spacing_max".to_string(), json!(30))].into(),
         ..MissionCreate::default()
     }
@@ -98,7 +98,7 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
     ensure!(t.robots.len() == 1, "t takes one robot: {:?}", t.robots);
     let _: Value = client.query(cmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: "t".into() })).await?;
     let before = placement(&client).await;
-    let params_before: BTreeMap<String, BTreeMap<String, String>> = missions(&client).await.into_iter().map(|m| (m.name, m.params)).collect();
+    let params_before: BTreeMap<String, BTreeMap<String, String>> = missions(&client).await.into_iter().map(|m| (m.name.to_string(), m.params)).collect();
     ensure!(params_before.keys().map(String::as_str).eq(["c", "p"]), "{params_before:?}");
     println!("before the power cycle: {before:?}");
     client.close().await;
@@ -122,7 +122,7 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
     })
     .await?;
     println!("power cycle → both missions running again with their members: {:?}", t0.elapsed());
-    let after: BTreeMap<String, BTreeMap<String, String>> = missions(&client).await.into_iter().map(|m| (m.name, m.params)).collect();
+    let after: BTreeMap<String, BTreeMap<String, String>> = missions(&client).await.into_iter().map(|m| (m.name.to_string(), m.params)).collect();
     ensure!(after == params_before, "parameters changed: {after:?} vs {params_before:?}");
     // The journal lists it all.
     let j = common::journal(&client).await?;
@@ -312,8 +312,10 @@ fn apply(model: &mut Model, op: &Op, _answer: &Value) {
 
 async fn send(c: &Client, op: &Op) -> Result<Value, String> {
     let r = match op {
-        Op::Move { robot, to } => c.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.clone(), to: to.clone() })).await,
-        Op::Terminate { name } => c.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: name.clone() })).await,
+        Op::Move { robot, to } => {
+            c.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.clone().into(), to: to.clone().map(Into::into) })).await
+        }
+        Op::Terminate { name } => c.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: name.clone().into() })).await,
     };
     r.map_err(|e| e.to_string())
 }
@@ -324,9 +326,9 @@ async fn observed(c: &Client) -> Option<Model> {
     if rs.len() != 4 {
         return None;
     }
-    let placed = rs.into_iter().filter_map(|r| Some((r.id, r.mission?))).collect();
+    let placed = rs.into_iter().filter_map(|r| Some((r.id.to_string(), r.mission?.to_string()))).collect();
     let ms = c.query::<Vec<MissionView>>(proto::Key::SystemMissions, None::<&()>).await.ok()?;
-    Some((placed, ms.into_iter().map(|m| m.name).collect()))
+    Some((placed, ms.into_iter().map(|m| m.name.to_string()).collect()))
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

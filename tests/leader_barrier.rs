@@ -15,7 +15,7 @@ use serde_json::json;
 use zenoh::handlers::RingChannel;
 
 async fn mission(c: &Client) -> Option<MissionView> {
-    c.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()
+    c.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -46,7 +46,7 @@ async fn the_leader_gathers_arrivals_announces_releases_and_is_replaced_when_it_
         while let Ok(Some(s)) = arrivals.try_recv() {
             let a: SyncArrival = proto::from_json("arrival", &s.payload().to_bytes())?;
             if a.epoch == epoch {
-                from.insert(a.robot);
+                from.insert(a.robot.to_string());
             }
         }
         Ok(from)

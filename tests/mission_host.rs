@@ -27,7 +27,7 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     .await?;
     assert_eq!(created.manager.node, "h2");
     eventually("the team passing barriers under h2's manager", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= 2 && m.plans.as_ref().is_some_and(|p| p.len() == 3)).then_some(())
     })
     .await?;
@@ -40,22 +40,22 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     // Visits counted so far, then two more barriers (seconds: the metrics are checkpointed into
     // the chain once a second), so the replicas hold at least these.
     let counted = eventually("waypoints visited", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         let n: u32 = m.metrics.visits.iter().sum();
         (n >= 2).then_some((n, m.metrics.sync_points_passed))
     })
     .await?;
     eventually("two more barriers", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= counted.1 + 2).then_some(())
     })
     .await?;
-    let before: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await?;
+    let before: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
     assert_eq!(before.manager.chain.len(), 3, "head and two replicas: {:?}", before.manager);
     assert_eq!(before.manager.chain[0], "h2");
     let successor = before.manager.chain[1].clone();
     // Watch the mission's status publications: the first one from another node is the takeover.
-    let statuses = client.session().declare_subscriber(proto::Key::MissionStatus("p".to_string()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let statuses = client.session().declare_subscriber(proto::Key::MissionStatus("p".into()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     host.kill();
     let killed = std::time::Instant::now();
     let took_over = tokio::time::timeout(Duration::from_secs(10), async {
@@ -80,11 +80,11 @@ async fn a_mission_hosted_by_another_process() -> anyhow::Result<()> {
     assert!(kept >= counted.0, "the new head counts visits afresh: {kept} < {} counted before the takeover", counted.0);
     // The operator reaches the manager on its new node; the chain is repaired to two replicas.
     let m = eventually("the system manager following the new head", Duration::from_secs(10), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.manager.node == successor && m.status == MissionStatus::Running && m.manager.chain.len() == 3).then_some(m)
     })
     .await?;
-    assert!(!m.manager.chain.contains(&"h2".to_string()), "{:?}", m.manager);
+    assert!(!m.manager.chain.iter().any(|n| n == "h2"), "{:?}", m.manager);
     let g: Marginal = client.query(proto::keys::marginal_selector("p", 1), None::<&()>).await?;
     assert_eq!(g.robots, 3);
     // The robots keep executing their plans.
@@ -131,7 +131,7 @@ async fn a_restarted_central_adopts_the_missions_of_surviving_hosts() -> anyhow:
     assert!(v.iter().all(|r| r.mission.as_deref() == Some("p")), "{v:?}");
     let before = m.metrics.sync_points_passed;
     eventually("the team still passing barriers", Duration::from_secs(20), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed > before).then_some(())
     })
     .await?;
@@ -157,7 +157,7 @@ async fn a_mission_whose_chain_lost_its_majority_while_central_runs_is_started_a
     })
     .await?;
     let before = eventually("p past a barrier under h2, one robot replicating it", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.manager.node == "h2" && m.manager.chain.len() == 2 && m.metrics.sync_points_passed >= 1).then_some(m)
     })
     .await?;
@@ -169,7 +169,7 @@ async fn a_mission_whose_chain_lost_its_majority_while_central_runs_is_started_a
     robots[i - 1].kill();
     let killed = std::time::Instant::now();
     let m = eventually("p started anew on central with the two robots left", Duration::from_secs(60), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.status == MissionStatus::Running && m.robots == alive && proto::chain::lineage_of(m.manager.chain_epoch) == 1).then_some(m)
     })
     .await?;
@@ -182,7 +182,7 @@ async fn a_mission_whose_chain_lost_its_majority_while_central_runs_is_started_a
         "the journal says p started again with {alive:?}"
     );
     eventually("p past more barriers in its new lineage", Duration::from_secs(30), || async {
-        let n: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let n: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (n.metrics.sync_points_passed >= 1 && proto::chain::lineage_of(n.manager.chain_epoch) == 1).then_some(())
     })
     .await?;

@@ -36,7 +36,7 @@ fn tour_length(m: &MissionView) -> f64 {
 /// Where each robot is, as central says.
 async fn poses(c: &Client) -> BTreeMap<String, (f64, f64, String)> {
     let rs: Vec<RobotView> = c.query(proto::Key::SystemRobots, None::<&()>).await.unwrap_or_default();
-    rs.into_iter().filter_map(|r| Some((r.id, (r.pose?.x, r.pose?.y, r.behaviour.unwrap_or_default())))).collect()
+    rs.into_iter().filter_map(|r| Some((r.id.to_string(), (r.pose?.x, r.pose?.y, r.behaviour.unwrap_or_default())))).collect()
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

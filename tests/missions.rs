@@ -13,7 +13,7 @@ use mrmm_proto::{self as proto, MissionCreate, MissionTerminate, MissionView, Ro
 use serde_json::{json, Value};
 
 async fn mission(c: &Client, name: &str) -> Option<MissionView> {
-    c.query(proto::Key::SystemMission(name.to_string()), None::<&()>).await.ok()
+    c.query(proto::Key::SystemMission(name.into()), None::<&()>).await.ok()
 }
 
 async fn robots(c: &Client) -> Vec<RobotView> {
@@ -98,7 +98,7 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     .await?;
     assert_eq!(c.manager.epoch, 2);
     eventually("r4 executing the coverage plan", Duration::from_secs(10), || async {
-        let v: RobotView = client.query(proto::Key::SystemRobot("r4".to_string()), None::<&()>).await.ok()?;
+        let v: RobotView = client.query(proto::Key::SystemRobot("r4".into()), None::<&()>).await.ok()?;
         (v.mission.as_deref() == Some("c") && v.behaviour.as_deref().is_some_and(|b| b.starts_with("step"))).then_some(())
     })
     .await?;
@@ -131,7 +131,7 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     assert_eq!(missions.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(), ["p"]);
     // The end reached the coverage's replicas: none of them takes the dead mission over (a
     // replica that never heard of the end would stand after 3 s of silence).
-    let statuses = client.session().declare_subscriber(proto::Key::MissionStatus("c".to_string()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let statuses = client.session().declare_subscriber(proto::Key::MissionStatus("c".into()).to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let zombie = tokio::time::timeout(Duration::from_secs(5), statuses.recv_async()).await;
     assert!(zombie.is_err(), "a terminated mission came back: {zombie:?}");
     client.close().await;

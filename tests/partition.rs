@@ -239,7 +239,7 @@ fn scenario(net: &Net, dir: &Scratch) -> anyhow::Result<()> {
             b_heads.push(head);
         }
         if let Some(Key::RobotTelemetry(id)) = v["key"].as_str().and_then(Key::parse) {
-            heard.insert(id, t);
+            heard.insert(id.to_string(), t);
         }
         ["r2", "r4"].iter().all(|r| heard.get(*r).is_some_and(|t| *t - start >= stand_by))
     })?;

@@ -33,9 +33,9 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     .await?;
     // Garbage on the keys the viewer bridge and the system manager listen to.
     for key in [
-        proto::Key::RobotTelemetry("r3".to_string()).to_string(),
+        proto::Key::RobotTelemetry("r3".into()).to_string(),
         proto::Key::AgentAdviceLive.to_string(),
-        proto::Key::MissionStatus("patrol-1".to_string()).to_string(),
+        proto::Key::MissionStatus("patrol-1".into()).to_string(),
         proto::Key::TeamSync { team: "patrol-1".into(), point: 1, round: 0 }.to_string(),
     ] {
         client.session().put(key, b"\x00\xffgarbage".to_vec()).await.map_err(|e| anyhow::anyhow!("{e}"))?;

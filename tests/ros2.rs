@@ -118,7 +118,7 @@ async fn a_ros2_robot_drives_patrols_with_simulated_ones_and_stops_without_its_f
     let created: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
     assert_eq!(created.robots.len(), 3, "{created:?}");
     let m = eventually("a round of the patrol with the ROS 2 robot", Duration::from_secs(90), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.metrics.rounds >= 1 && m.metrics.sync_points_passed >= 2).then_some(m)
     })
     .await?;
@@ -159,7 +159,7 @@ async fn a_ros2_robot_drives_patrols_with_simulated_ones_and_stops_without_its_f
 }
 
 async fn mission(client: &Client, name: &str) -> Option<MissionView> {
-    client.query(proto::Key::SystemMission(name.to_string()), None::<&()>).await.ok()
+    client.query(proto::Key::SystemMission(name.into()), None::<&()>).await.ok()
 }
 
 /// The graph tokens of the stand-in's router whose key contains `part`.

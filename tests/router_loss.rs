@@ -22,7 +22,7 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     let create = common::square_patrol(3, None);
     let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
     eventually("the patrol past its first barriers", Duration::from_secs(30), || async {
-        let m: MissionView = client.query(proto::Key::SystemMission("p".to_string()), None::<&()>).await.ok()?;
+        let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.metrics.sync_points_passed >= 2).then_some(())
     })
     .await?;
@@ -52,7 +52,7 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     let mut before: BTreeMap<String, (u32, u32)> = BTreeMap::new();
     let record = |m: &mut BTreeMap<String, (u32, u32)>, s: zenoh::sample::Sample| {
         if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-            let e = m.entry(a.robot).or_insert((a.round, a.point));
+            let e = m.entry(a.robot.to_string()).or_insert((a.round, a.point));
             *e = (*e).max((a.round, a.point));
         }
     };
@@ -78,8 +78,8 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
         anyhow::ensure!(!left.is_zero(), "barriers stalled after central died: {passed:?}");
         let Ok(Ok(s)) = tokio::time::timeout(left, arrivals.recv_async()).await else { continue };
         if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-            if before.get(&a.robot).is_some_and(|b| (a.round, a.point) > *b) {
-                passed.entry(a.robot).or_default().insert((a.round, a.point));
+            if before.get(a.robot.as_str()).is_some_and(|b| (a.round, a.point) > *b) {
+                passed.entry(a.robot.to_string()).or_default().insert((a.round, a.point));
             }
         }
     }

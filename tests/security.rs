@@ -283,7 +283,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         .await?
         .into_iter()
         .filter_map(|e| match e.event {
-            proto::JournalEvent::RobotLost { robot } if ["r1", "r2", "r3"].contains(&robot.as_str()) => Some(robot),
+            proto::JournalEvent::RobotLost { robot } if ["r1", "r2", "r3"].contains(&robot.as_str()) => Some(robot.to_string()),
             _ => None,
         })
         .collect();

@@ -77,7 +77,7 @@ async fn robots_of_one_process_are_peers_of_their_own_and_crash_one_by_one() -> 
         .await?
         .into_iter()
         .filter_map(|e| match e.event {
-            JournalEvent::RobotLost { robot } => Some(robot),
+            JournalEvent::RobotLost { robot } => Some(robot.to_string()),
             _ => None,
         })
         .collect();

@@ -98,7 +98,7 @@ async fn two_teams_keep_their_own_pace_after_a_mission_wide_start() -> anyhow::R
     let mut slow_tap = Tap::new(&client, proto::Pattern::TeamSync("e/slow".into())).await?;
 
     let members = ["r1", "r2", "r3", "r4", "r5"].map(String::from).to_vec();
-    let create = MissionCreate { name: "e".into(), recipe: RECIPE.into(), robots: Some(members), ..Default::default() };
+    let create = MissionCreate { name: "e".into(), recipe: RECIPE.into(), robots: Some(members.iter().map(Into::into).collect()), ..Default::default() };
     let _: MissionView = client.query(Key::SystemCmd(proto::SystemCmd::Create), Some(&create)).await?;
     let view = eventually("both teams planned", Duration::from_secs(20), || async {
         let v: MissionView = client.query(Key::SystemMission("e".into()), None::<&()>).await.ok()?;

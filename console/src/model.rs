@@ -50,7 +50,7 @@ pub struct Fleet {
     missions: Vec<MissionView>,
     advice: Vec<Advice>,
     maps: Vec<MapInfo>,
-    live: BTreeMap<String, Live>,
+    live: BTreeMap<mrmm_proto::RobotId, Live>,
     central: CentralState,
     seq: u64,
     changed: bool,

@@ -18,7 +18,7 @@ fn fleet(n: usize) -> (SystemManager, Vec<String>) {
     sm.handle(0.0, Event::HostAlive { node: "h1".into() });
     let ids: Vec<String> = (1..=n).map(|i| format!("r{i}")).collect();
     for (i, id) in ids.iter().enumerate() {
-        sm.handle(0.0, Event::RobotAlive { id: id.clone() });
+        sm.handle(0.0, Event::RobotAlive { id: id.into() });
         sm.handle(0.0, Event::RobotRegistered(RobotInfo { capabilities: vec!["camera".into()], ..RobotInfo::new(id, "ground", 1.0) }));
         sm.handle(0.0, Event::Telemetry(Box::new(running(id, 1, mission_of(i, n)))));
     }
@@ -77,8 +77,8 @@ fn main() {
         let churn = time(2_000, |k| {
             let id = &ids[(k * 7919) % n];
             now += 0.001;
-            sm.handle(now, Event::RobotGone { id: id.clone() });
-            sm.handle(now, Event::RobotAlive { id: id.clone() });
+            sm.handle(now, Event::RobotGone { id: id.into() });
+            sm.handle(now, Event::RobotAlive { id: id.into() });
         });
         let table = time(200, |k| {
             sm.handle(now, Event::Operator { req: Req::Query(k as u64), request: Request::Robots });

@@ -3,7 +3,7 @@
 //! turns the answer's JSON into the machine's event). The drivers ask Zenoh; the simulations
 //! route the same `Ask` to whoever serves its key.
 
-use mrmm_proto::{Key, Role, Sender};
+use mrmm_proto::{Key, NodeId, RobotId, Role, Sender};
 use serde_json::Value;
 
 use crate::Failure;
@@ -27,11 +27,11 @@ pub struct Ask<T> {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Answerer {
     /// That robot.
-    Robot(String),
+    Robot(RobotId),
     /// The mission host of that node.
-    Host(String),
+    Host(NodeId),
     /// One of these mission hosts (a mission's chain, as last reported).
-    Managers(Vec<String>),
+    Managers(Vec<NodeId>),
     /// A planner service (central runs one).
     Planner,
 }
@@ -42,7 +42,7 @@ impl Answerer {
         match self {
             Answerer::Robot(id) => s.is(Role::Robot, id),
             Answerer::Host(node) => s.id == *node && s.role.hosts_missions(),
-            Answerer::Managers(nodes) => s.role.hosts_missions() && nodes.contains(&s.id),
+            Answerer::Managers(nodes) => s.role.hosts_missions() && nodes.iter().any(|n| *n == s.id),
             Answerer::Planner => matches!(s.role, Role::Planner | Role::Central),
         }
     }

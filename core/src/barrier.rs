@@ -14,17 +14,17 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::{BarrierMode, SyncArrival, SyncRelease};
+use mrmm_proto::{BarrierMode, RobotId, SyncArrival, SyncRelease};
 
 /// Barrier bookkeeping for one plan (one epoch of one team).
 #[derive(Debug, Clone)]
 pub struct Barrier {
-    me: String,
+    me: RobotId,
     epoch: u64,
-    members: BTreeSet<String>,
-    gone: BTreeSet<String>,
+    members: BTreeSet<RobotId>,
+    gone: BTreeSet<RobotId>,
     /// Furthest barrier (round, point) each member reported.
-    furthest: BTreeMap<String, (u32, u32)>,
+    furthest: BTreeMap<RobotId, (u32, u32)>,
     mode: BarrierMode,
     /// The furthest barrier (round, point) known released: by a leader's release, or because
     /// this robot passed it.
@@ -32,9 +32,9 @@ pub struct Barrier {
 }
 
 impl Barrier {
-    pub fn new(me: &str, epoch: u64, members: &[String]) -> Self {
+    pub fn new(me: &str, epoch: u64, members: &[RobotId]) -> Self {
         Barrier {
-            me: me.to_string(),
+            me: RobotId::from(me),
             epoch,
             members: members.iter().cloned().collect(),
             gone: BTreeSet::new(),
@@ -73,7 +73,7 @@ impl Barrier {
 
     /// The lowest id among the members still required: the team's leader as this robot sees it.
     pub fn leader(&self) -> &str {
-        self.members.iter().find(|m| !self.gone.contains(*m)).map_or(self.me.as_str(), String::as_str)
+        self.members.iter().find(|m| !self.gone.contains(*m)).map_or(self.me.as_str(), |m| m.as_str())
     }
 
     /// Whether this robot leads the team's barriers (always false in [`BarrierMode::Mesh`]).
@@ -113,7 +113,7 @@ impl Barrier {
     /// A member's liveliness token disappeared: it no longer holds anyone up.
     pub fn member_gone(&mut self, id: &str) {
         if self.members.contains(id) && id != self.me {
-            self.gone.insert(id.to_string());
+            self.gone.insert(RobotId::from(id));
         }
     }
 

@@ -5,7 +5,7 @@
 
 use std::collections::VecDeque;
 
-use mrmm_proto::AdviceEvent;
+use mrmm_proto::{AdviceEvent, NodeId};
 
 use crate::agent::{self, Agent, AgentConfig};
 use crate::system::{self, Req, Request, SystemManager};
@@ -51,12 +51,12 @@ pub struct CentralCore {
 
 impl CentralCore {
     /// Central on Zenoh node `node`, started at `now`.
-    pub fn new(node: String, agent: AgentConfig, now: f64) -> Self {
+    pub fn new(node: NodeId, agent: AgentConfig, now: f64) -> Self {
         CentralCore { system: SystemManager::new(node, now), agent: Agent::new(agent), last_look: now }
     }
 
     /// Central restarted from its journal's `state`.
-    pub fn restore(node: String, agent: AgentConfig, now: f64, state: system::Durable) -> Self {
+    pub fn restore(node: NodeId, agent: AgentConfig, now: f64, state: system::Durable) -> Self {
         CentralCore { system: SystemManager::restore(node, now, state), agent: Agent::new(agent), last_look: now }
     }
 
@@ -203,7 +203,7 @@ mod tests {
         assert!(out.iter().any(|c| matches!(c, Command::Publish(AdviceEvent::Raised(a)) if a.acted)), "{out:?}");
         assert!(out.iter().any(|c| matches!(c, Command::System(system::Command::Ctl { mission, .. }) if mission == "p")), "{out:?}");
         assert!(!out.iter().any(|c| matches!(c, Command::System(system::Command::Reply { .. }))), "{out:?}");
-        assert_eq!(c.system().assignment().get("r2").map(String::as_str), Some("p"));
+        assert_eq!(c.system().assignment().get("r2").map(|m| m.as_str()), Some("p"));
         assert_eq!(c.agent().advice()[0].outcome.as_deref(), Some("done"));
     }
 }

@@ -25,6 +25,7 @@ pub fn plan_on(kind: PlannerKind, req: &PlanRequest, map: Option<&Map>) -> Resul
     }
     let robots: Vec<_> = req.robots.iter().map(wire::robot_spec).collect();
     let bounds = if req.relax_bounds { recipe::Bounds::Relaxed } else { recipe::Bounds::Strict };
-    let planned = recipe::build_with(&r, &req.params, &robots, &req.capabilities, map, bounds).map_err(|e| e.to_string())?;
+    let caps = req.capabilities.iter().map(|(id, c)| (id.to_string(), c.clone())).collect();
+    let planned = recipe::build_with(&r, &req.params, &robots, &caps, map, bounds).map_err(|e| e.to_string())?;
     Ok(wire::mission_plan(&planned))
 }

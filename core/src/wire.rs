@@ -25,7 +25,13 @@ fn step(s: &PStep) -> Step {
 }
 
 fn robot_plan(p: &PRobotPlan) -> RobotPlan {
-    RobotPlan { robot: p.robot.clone(), robot_type: p.robot_type.clone(), slot: p.slot, steps: p.steps.iter().map(step).collect(), team: p.team.clone() }
+    RobotPlan {
+        robot: p.robot.as_str().into(),
+        robot_type: p.robot_type.clone(),
+        slot: p.slot,
+        steps: p.steps.iter().map(step).collect(),
+        team: p.team.clone(),
+    }
 }
 
 /// A planner's mission plan as the protocol carries it; a mission of teams has each leaf team's
@@ -76,7 +82,7 @@ fn summary(p: &PMissionPlan) -> PlanSummary {
 
 /// A robot of the protocol as the planner takes it.
 pub fn robot_spec(s: &RobotSpec) -> PRobotSpec {
-    PRobotSpec { id: s.id.clone(), robot_type: s.robot_type.clone(), x: s.x, y: s.y, speed: s.speed, turn_rate: s.turn_rate }
+    PRobotSpec { id: s.id.to_string(), robot_type: s.robot_type.clone(), x: s.x, y: s.y, speed: s.speed, turn_rate: s.turn_rate }
 }
 
 #[cfg(test)]

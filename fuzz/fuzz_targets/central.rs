@@ -14,9 +14,9 @@ fuzz_target!(|data: &[u8]| {
         let key = match sel % 16 {
             0 => Some(Key::SystemStatus.to_string()),
             1 => Some(Key::SystemRobots.to_string()),
-            2 => Some(Key::SystemRobot(text.to_string()).to_string()),
+            2 => Some(Key::SystemRobot(text.to_string().into()).to_string()),
             3 => Some(Key::SystemMissions.to_string()),
-            4 => Some(Key::SystemMission(text.to_string()).to_string()),
+            4 => Some(Key::SystemMission(text.to_string().into()).to_string()),
             5 => Some(Key::SystemCmd(SystemCmd::Goto).to_string()),
             6 => Some(Key::SystemCmd(SystemCmd::Move).to_string()),
             7 => Some(Key::SystemCmd(SystemCmd::Create).to_string()),
@@ -41,9 +41,9 @@ fuzz_target!(|data: &[u8]| {
                     c.feed(Event::MissionStatus { view: Box::new(view), from: sender(sel / 16) });
                 }
             }
-            11 => c.feed(Event::RobotGone { id: text.to_string() }),
-            12 => c.feed(Event::RobotAlive { id: text.to_string() }),
-            13 => c.feed(Event::HostGone { node: text.to_string() }),
+            11 => c.feed(Event::RobotGone { id: text.to_string().into() }),
+            12 => c.feed(Event::RobotAlive { id: text.to_string().into() }),
+            13 => c.feed(Event::HostGone { node: text.to_string().into() }),
             _ => {
                 c.now += f64::from(sel / 16) * 0.5 + 0.05;
                 c.feed(Event::Tick);

@@ -44,15 +44,15 @@ fuzz_target!(|data: &[u8]| {
                     // A planner service's answer to the last plan request (what the driver
                     // decodes once the answer's sender proved to be a planner).
                     if let (Ok(plan), Some((mission, epoch))) = (proto::from_json::<MissionPlan>("plan", payload), h.last_plan.clone()) {
-                        h.feed(Event::Planned { mission, epoch, result: Ok(Box::new(plan)) });
+                        h.feed(Event::Planned { mission: mission.into(), epoch, result: Ok(Box::new(plan)) });
                     }
                 }
-                10 => h.feed(Event::HostGone(from.id.clone())),
-                11 => h.feed(Event::HostAlive(from.id.clone())),
-                12 => h.feed(Event::RobotGone(from.id.clone())),
+                10 => h.feed(Event::HostGone(from.id.clone().into())),
+                11 => h.feed(Event::HostAlive(from.id.clone().into())),
+                12 => h.feed(Event::RobotGone(from.id.clone().into())),
                 13 => {
                     let query = h.query();
-                    h.feed(Event::View { query, mission: String::from_utf8_lossy(payload).into() });
+                    h.feed(Event::View { query, mission: String::from_utf8_lossy(payload).into_owned().into() });
                 }
                 14 => h.feed(Event::StatusTick),
                 _ => {

@@ -20,8 +20,8 @@ fuzz_target!(|data: &[u8]| {
                 Ok(a) => Event::Heard(a),
                 Err(_) => continue,
             },
-            4 => Event::MemberAlive(String::from_utf8_lossy(payload).into()),
-            5 => Event::MemberGone(String::from_utf8_lossy(payload).into()),
+            4 => Event::MemberAlive(String::from_utf8_lossy(payload).into_owned().into()),
+            5 => Event::MemberGone(String::from_utf8_lossy(payload).into_owned().into()),
             6 => Event::CentralAlive(sel / 8 % 2 == 0),
             _ => {
                 now += f64::from(sel / 8) * 0.2 + 0.05;

@@ -249,7 +249,7 @@ impl Host {
             for c in self.core.handle(self.now, ev) {
                 match c {
                     host::Command::RequestPlan { mission, epoch, kind, request, .. } => {
-                        self.last_plan = Some((mission.clone(), epoch));
+                        self.last_plan = Some((mission.to_string(), epoch));
                         let result = planner_service::plan(kind, &request)
                             .inspect(|p| {
                                 if self.plans.len() < 4 {

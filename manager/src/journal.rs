@@ -139,7 +139,7 @@ mod tests {
         drop(j);
         let (j, state) = Journal::open(dir.path()).expect("reopen");
         assert_eq!(j.last(), 4);
-        assert_eq!(state.assignment.get("r1").map(String::as_str), Some("p"));
+        assert_eq!(state.assignment.get("r1").map(|m| m.as_str()), Some("p"));
         assert!(state.missions.contains_key("p") && state.terminated.contains("q"));
         let page = j.page(1, 2).expect("page");
         assert_eq!(page.entries.iter().map(|e| e.seq).collect::<Vec<_>>(), [2, 3]);

@@ -199,7 +199,7 @@ impl RobotConfig {
             },
         };
         RobotSetup {
-            id: self.id.clone(),
+            id: self.id.as_str().into(),
             robot_type: self.robot_type.clone(),
             capabilities: self.capabilities.clone(),
             limits: self.limits(),

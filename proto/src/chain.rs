@@ -28,17 +28,17 @@ pub fn lineage_floor(lineage: u32) -> u64 {
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Config {
     pub epoch: u64,
-    pub chain: Vec<String>,
+    pub chain: Vec<crate::ids::NodeId>,
 }
 
 impl Config {
     pub fn head(&self) -> &str {
-        self.chain.first().map(String::as_str).unwrap_or("")
+        self.chain.first().map(|n| n.as_str()).unwrap_or("")
     }
     /// The node after `node` in the chain.
     pub fn next(&self, node: &str) -> Option<&str> {
         let i = self.chain.iter().position(|n| n == node)?;
-        self.chain.get(i + 1).map(String::as_str)
+        self.chain.get(i + 1).map(|n| n.as_str())
     }
     pub fn contains(&self, node: &str) -> bool {
         self.chain.iter().any(|n| n == node)
@@ -56,7 +56,7 @@ pub enum Msg<S> {
     /// current chain is `base`.
     Vote {
         proposal: Config,
-        base: Vec<String>,
+        base: Vec<crate::ids::NodeId>,
         last: Version,
     },
     Grant {
@@ -132,7 +132,7 @@ impl<S> Msg<S> {
 /// Payload of `mrmm/hosts/<node>/chain` (JSON): one chain message of one mission.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ChainEnvelope {
-    pub mission: String,
-    pub from: String,
+    pub mission: crate::ids::MissionName,
+    pub from: crate::ids::NodeId,
     pub msg: Msg<MissionSnapshot>,
 }

@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use crate::ids::{MissionName, NodeId, RobotId};
 use crate::MissionSpecWire;
 
 /// Entries one answer on `mrmm/system/journal` carries at most.
@@ -31,8 +32,8 @@ pub enum JournalEvent {
     /// with; `spec` is null for a mission adopted from its head's report, whose recipe central
     /// never saw).
     MissionDefined {
-        mission: String,
-        host: String,
+        mission: MissionName,
+        host: NodeId,
         recipe: String,
         planner: String,
         spec: Option<Box<MissionSpecWire>>,
@@ -43,13 +44,13 @@ pub enum JournalEvent {
     },
     /// A mission is gone: terminated (it never comes back) or it never ran.
     MissionRemoved {
-        mission: String,
+        mission: MissionName,
         terminated: bool,
     },
     /// A robot is in `mission` from now on, or in none.
     RobotAssigned {
-        robot: String,
-        mission: Option<String>,
+        robot: RobotId,
+        mission: Option<MissionName>,
     },
     /// An operator command (or the agent's, `by: "agent"`) took effect, as it was given.
     Command {
@@ -62,37 +63,37 @@ pub enum JournalEvent {
     /// by several missions at once (moved on before the first let it go). `None` (written by
     /// older versions) means every mission let it go.
     RobotReleasing {
-        robot: String,
-        mission: Option<String>,
+        robot: RobotId,
+        mission: Option<MissionName>,
     },
     /// `mission` let the robot go (its head acknowledged).
     RobotLetGo {
-        robot: String,
-        mission: String,
+        robot: RobotId,
+        mission: MissionName,
     },
     /// A robot's liveliness went away, or came back.
     RobotLost {
-        robot: String,
+        robot: RobotId,
     },
     RobotBack {
-        robot: String,
+        robot: RobotId,
     },
     /// Another node manages a mission now (a replica took over, or central adopted it).
     ManagerChanged {
-        mission: String,
-        manager: String,
+        mission: MissionName,
+        manager: NodeId,
         chain_epoch: u64,
     },
     /// A mission's head replanned.
     Replanned {
-        mission: String,
+        mission: MissionName,
         plan_epoch: u64,
-        robots: Vec<String>,
+        robots: Vec<RobotId>,
     },
     /// Central restarted a mission no live manager ran, with these robots.
     MissionRestarted {
-        mission: String,
-        robots: Vec<String>,
+        mission: MissionName,
+        robots: Vec<RobotId>,
     },
     /// Central started and replayed its journal.
     CentralStarted {

@@ -12,6 +12,7 @@ pub mod codec;
 pub mod config;
 pub mod edge;
 pub mod error;
+pub mod ids;
 pub mod journal;
 pub mod keys;
 pub mod map;
@@ -29,6 +30,7 @@ pub use agent::*;
 pub use chain::ChainEnvelope;
 pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to_json};
 pub use error::{ProtoError, QueryError};
+pub use ids::{MissionName, NodeId, RobotId};
 pub use journal::{JournalEntry, JournalEvent, JournalPage};
 pub use keys::{
     is_team_name, natural_cmp, team_within, validate_id, validate_subteam, validate_team_path, Key, Pattern, SystemCmd, MAX_TEAM_DEPTH, RESERVED_TEAM_NAMES,

@@ -22,7 +22,7 @@ pub struct Member {
 /// What a mission is (the part every replica of its manager needs).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionSpecWire {
-    pub name: String,
+    pub name: crate::ids::MissionName,
     /// Bank name, or `custom`.
     pub recipe_name: String,
     pub recipe_xml: String,
@@ -78,7 +78,7 @@ pub enum MissionCtl {
     /// A robot joins the team (replan including it).
     Joined { member: Member },
     /// Robots leave the team (replan without them).
-    Left { ids: Vec<String> },
+    Left { ids: Vec<crate::ids::RobotId> },
     /// The mission is now `spec` (new parameters or map: replanned as the next epoch; paused or
     /// resumed); its members stay.
     Update { spec: MissionSpecWire },

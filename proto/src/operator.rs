@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use crate::plan::{PlanSummary, RobotPlan};
 use serde::{Deserialize, Serialize};
 
+use crate::ids::{MissionName, NodeId, RobotId};
 use crate::robot::Pose;
 
 /// How often a viewer announces itself on `Key::Viewer` (robots tag their telemetry for the
@@ -15,7 +16,7 @@ pub const VIEWER_HELLO_MS: u64 = 2000;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GotoRequest {
-    pub robot: String,
+    pub robot: RobotId,
     pub x: f64,
     pub y: f64,
     /// Drive there along this map of central's (`mrmm op maps`); none named: central's map if it
@@ -29,7 +30,7 @@ pub struct GotoRequest {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CrashRequest {
-    pub robot: String,
+    pub robot: RobotId,
 }
 
 /// Registry status of a robot as the operator sees it.
@@ -57,20 +58,20 @@ impl RobotStatus {
 /// One row of the fleet table (`mrmm/system/robots`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotView {
-    pub id: String,
+    pub id: RobotId,
     #[serde(rename = "type")]
     pub robot_type: String,
     pub capabilities: Vec<String>,
     pub status: RobotStatus,
     /// The mission the system manager assigned the robot to.
-    pub mission: Option<String>,
+    pub mission: Option<MissionName>,
     pub pose: Option<Pose>,
     /// What the robot reported doing last (`hold`, `goto(x,y)`, `plan step 4`).
     #[serde(default)]
     pub behaviour: Option<String>,
     /// For a lost robot: the mission it was taken out of.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub last_mission: Option<String>,
+    pub last_mission: Option<MissionName>,
     /// Why the robot cannot get to its goal, as it reports it (a real body's navigator refused
     /// or aborted the goal, or is not running).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -81,7 +82,7 @@ pub struct RobotView {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SystemStatus {
     /// Zenoh id of the system manager's session.
-    pub node: String,
+    pub node: NodeId,
     pub uptime_s: f64,
     pub robots_total: usize,
     pub idle: usize,
@@ -155,12 +156,12 @@ impl std::fmt::Display for ErrorReply {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MissionCreate {
-    pub name: String,
+    pub name: MissionName,
     /// A recipe of the bank (`patrol`, `coverage`) or a whole recipe XML document.
     pub recipe: String,
     /// Exactly these robots.
     #[serde(default)]
-    pub robots: Option<Vec<String>>,
+    pub robots: Option<Vec<RobotId>>,
     /// Or this many idle robots.
     #[serde(default)]
     pub count: Option<usize>,
@@ -169,7 +170,7 @@ pub struct MissionCreate {
     pub params: BTreeMap<String, serde_json::Value>,
     /// The mission host to run the manager on (default: `central`).
     #[serde(default)]
-    pub host: Option<String>,
+    pub host: Option<NodeId>,
     /// Robots replicating the mission manager's state (default 2, at most 8).
     #[serde(default)]
     pub replicas: Option<usize>,
@@ -182,7 +183,7 @@ pub struct MissionCreate {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MissionTerminate {
-    pub name: String,
+    pub name: MissionName,
 }
 
 /// `mrmm/system/cmd/mission/update`: new parameters (merged into the mission's: `waypoints`,
@@ -193,7 +194,7 @@ pub struct MissionTerminate {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct MissionUpdate {
-    pub name: String,
+    pub name: MissionName,
     #[serde(default)]
     pub params: BTreeMap<String, serde_json::Value>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -207,15 +208,15 @@ pub struct MissionUpdate {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MissionPause {
-    pub name: String,
+    pub name: MissionName,
 }
 
 /// `mrmm/system/cmd/robot/move`: `to` a mission, or `null` to free the robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RobotMove {
-    pub robot: String,
-    pub to: Option<String>,
+    pub robot: RobotId,
+    pub to: Option<MissionName>,
 }
 
 /// `mrmm/system/cmd/robot/capabilities`: the robot's capabilities change (names to add and to
@@ -223,7 +224,7 @@ pub struct RobotMove {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CapabilitiesRequest {
-    pub robot: String,
+    pub robot: RobotId,
     #[serde(default)]
     pub add: Vec<String>,
     #[serde(default)]
@@ -271,7 +272,7 @@ pub struct MissionMetrics {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ManagerView {
     /// The node running the mission manager (the head of its chain).
-    pub node: String,
+    pub node: NodeId,
     /// Plan epoch: robots refuse plans of an older one.
     pub epoch: u64,
     /// Epoch of the manager's chain: it grows with every takeover or chain change.
@@ -279,7 +280,7 @@ pub struct ManagerView {
     pub chain_epoch: u64,
     /// The chain replicating the manager's state: head first.
     #[serde(default)]
-    pub chain: Vec<String>,
+    pub chain: Vec<NodeId>,
     /// Seconds the head has been unable to commit (a change not on every node of its chain
     /// yet, or its chain being changed) for a second or more; absent otherwise. A chain that lost
     /// the memory of a majority of its nodes never commits again: the system manager starts
@@ -291,25 +292,25 @@ pub struct ManagerView {
 /// One mission (`mrmm/system/missions`, `mrmm/system/missions/<name>`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MissionView {
-    pub name: String,
+    pub name: MissionName,
     pub recipe: String,
     pub planner: String,
     /// Capabilities every member must have (the recipe's `<requires>`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub requires: Vec<String>,
     pub status: MissionStatus,
-    pub robots: Vec<String>,
+    pub robots: Vec<RobotId>,
     /// Members lost through liveliness: their place is kept until they come back.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub lost: Vec<String>,
+    pub lost: Vec<RobotId>,
     /// Members that report they cannot get to their goal (a real robot's navigator rejected or
     /// aborted it, or keeps recovering), with why. They keep their place: the operator decides
     /// (move them out and the mission replans without them).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub stuck: BTreeMap<String, String>,
+    pub stuck: BTreeMap<RobotId, String>,
     /// Team path → members: each leaf team's (`escort/ground`) in a recipe of teams, the
     /// sub-teams by robot type (`patrol-1/ground`) otherwise.
-    pub teams: BTreeMap<String, Vec<String>>,
+    pub teams: BTreeMap<String, Vec<RobotId>>,
     /// A recipe of teams: each leaf team, in the recipe's order, with its planner and progress.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub team_views: Vec<TeamView>,
@@ -348,7 +349,7 @@ impl MissionView {
             planner: planner.into(),
             requires: vec![],
             status: MissionStatus::Running,
-            robots: robots.iter().map(|r| r.to_string()).collect(),
+            robots: robots.iter().map(|r| RobotId::from(*r)).collect(),
             lost: vec![],
             stuck: BTreeMap::new(),
             teams: BTreeMap::new(),
@@ -371,7 +372,7 @@ pub struct TeamView {
     /// Its path from the mission down (`escort/ground`).
     pub team: String,
     pub planner: String,
-    pub members: Vec<String>,
+    pub members: Vec<RobotId>,
     /// Barriers of its own every member has passed under the current plan.
     pub barriers_passed: u32,
     /// The fewest members it works with (the recipe's `min`).
@@ -407,7 +408,7 @@ impl MissionView {
 /// Answer of `mrmm/missions/<name>/marginal?add=±k`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Marginal {
-    pub mission: String,
+    pub mission: MissionName,
     /// `worst_idleness` (patrol, seconds) or `coverage_radius` (coverage, metres).
     pub metric: String,
     pub robots: usize,

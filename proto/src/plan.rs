@@ -23,7 +23,7 @@ impl Point {
 /// A robot as planners see it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotSpec {
-    pub id: String,
+    pub id: crate::ids::RobotId,
     #[serde(rename = "type")]
     pub robot_type: String,
     pub x: f64,
@@ -62,7 +62,7 @@ pub enum Step {
 /// The plan of one robot in a mission.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotPlan {
-    pub robot: String,
+    pub robot: crate::ids::RobotId,
     #[serde(rename = "type")]
     pub robot_type: String,
     /// Slot (patrol) or point (coverage) index the robot was assigned.
@@ -204,7 +204,7 @@ pub struct PlanRequest {
     pub map: Option<crate::map::MapRef>,
     /// The robots' capabilities, by id: what puts them in the teams that require some.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
-    pub capabilities: BTreeMap<String, Vec<String>>,
+    pub capabilities: BTreeMap<crate::ids::RobotId, Vec<String>>,
     /// A running mission replanned: a team below its `min` (or above its `max`) does not stop
     /// the plan (the create checked them; the advising agent reports a team short of members).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]

@@ -1,5 +1,6 @@
 //! Robot-side payloads: telemetry, registration, commands and plans.
 
+use crate::ids::{MissionName, NodeId, RobotId};
 use crate::plan::RobotPlan;
 use serde::{Deserialize, Serialize};
 
@@ -42,7 +43,7 @@ impl Behaviour {
 /// Periodic state of one robot, on `mrmm/robots/<id>/telemetry`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Telemetry {
-    pub id: String,
+    pub id: RobotId,
     /// Sequence number, +1 per publication.
     pub seq: u64,
     /// Simulated time of the robot, seconds since it started.
@@ -50,13 +51,13 @@ pub struct Telemetry {
     pub pose: Pose,
     pub velocity: Velocity,
     pub behaviour: Behaviour,
-    pub mission: Option<String>,
+    pub mission: Option<MissionName>,
     /// Where the robot is in its plan, when it has one.
     pub progress: Option<Progress>,
     /// The missions central admitted this robot to (it may not run their plans yet; more than one
     /// while it moves): a central that restarted learns from it which robots are spoken for.
     #[serde(default)]
-    pub admitted: Vec<String>,
+    pub admitted: Vec<MissionName>,
     /// Why the robot cannot get to its goal, while that lasts (a real body's navigator rejected
     /// or aborted the goal, or is not running); at most a few hundred characters.
     #[serde(default)]
@@ -71,7 +72,7 @@ impl Telemetry {
     /// The telemetry of robot `id` holding still at the origin, at time `t` (first of its stream).
     pub fn resting(id: &str, t: f64) -> Telemetry {
         Telemetry {
-            id: id.to_string(),
+            id: RobotId::from(id),
             seq: 0,
             t,
             pose: Pose::default(),
@@ -89,7 +90,7 @@ impl Telemetry {
 /// Progress of a robot through its plan (part of its telemetry).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Progress {
-    pub mission: String,
+    pub mission: MissionName,
     pub epoch: u64,
     /// Index of the current step.
     pub step: u32,
@@ -117,7 +118,7 @@ pub const MAX_TURN_RATE: f64 = 1e3;
 /// What a robot says about itself when it registers (answer of `mrmm/robots/<id>/info`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RobotInfo {
-    pub id: String,
+    pub id: RobotId,
     #[serde(rename = "type")]
     pub robot_type: String,
     pub capabilities: Vec<String>,
@@ -147,7 +148,7 @@ impl RobotInfo {
     /// scale 1, no state dir, as started.
     pub fn new(id: &str, robot_type: &str, max_speed: f64) -> RobotInfo {
         RobotInfo {
-            id: id.to_string(),
+            id: RobotId::from(id),
             robot_type: robot_type.to_string(),
             capabilities: vec![],
             max_speed,
@@ -252,7 +253,7 @@ pub enum RobotCommand {
     /// refused.
     Plan(Box<PlanAssignment>),
     /// Leave `mission` (ignored when the robot is not in it, or holds a newer epoch).
-    Leave { mission: String, epoch: u64 },
+    Leave { mission: MissionName, epoch: u64 },
     /// From the system manager, on the operator's word: the robot's capabilities change (a
     /// sensor broke, a tool was fitted). The robot answers with its capabilities after the change.
     Capabilities {
@@ -266,10 +267,10 @@ pub enum RobotCommand {
     /// mission hosts need no admission; a robot leading a mission can plan only for its
     /// teammates and for robots admitted to it.
     Admit {
-        mission: String,
-        managers: Vec<String>,
+        mission: MissionName,
+        managers: Vec<NodeId>,
         #[serde(default)]
-        members: Vec<String>,
+        members: Vec<RobotId>,
     },
     /// From the system manager, on the operator's word: a simulated robot stops at once, as if
     /// its computer died (no goodbye to its teams; its links drop, its missions replan without
@@ -280,7 +281,7 @@ pub enum RobotCommand {
 /// A plan as delivered to a robot.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlanAssignment {
-    pub mission: String,
+    pub mission: MissionName,
     /// The mission manager's epoch: plans and commands of older epochs are refused.
     pub epoch: u64,
     /// The robot's leaf team: its path from the mission down (`escort/ground`; a mission without
@@ -289,13 +290,13 @@ pub struct PlanAssignment {
     /// Sub-team path (membership token), `<team>/<type>`, e.g. `escort/ground/husky`.
     pub subteam: String,
     /// Every member of the robot's leaf team for this epoch.
-    pub members: Vec<String>,
+    pub members: Vec<RobotId>,
     pub plan: RobotPlan,
     /// The mission's managers when the plan was sent (its chain, head first): who else the robot
     /// takes this mission's plans from (a successor taking over comes from the chain). Not part
     /// of the plan itself: a plan sent again with another chain is the same plan.
     #[serde(default)]
-    pub managers: Vec<String>,
+    pub managers: Vec<NodeId>,
     /// How the team runs its barriers.
     #[serde(default)]
     pub barrier: crate::BarrierMode,
@@ -310,7 +311,7 @@ pub struct PlanAssignment {
 pub struct ScopeMembers {
     /// The team's path from the mission down (`escort`, `escort/ground`).
     pub team: String,
-    pub members: Vec<String>,
+    pub members: Vec<RobotId>,
 }
 
 impl PlanAssignment {
@@ -319,13 +320,13 @@ impl PlanAssignment {
     pub fn scope_path(&self, scope: Option<&str>) -> String {
         match scope {
             None => self.team.clone(),
-            Some("") => self.mission.clone(),
+            Some("") => self.mission.to_string(),
             Some(s) => format!("{}/{s}", self.mission),
         }
     }
 
     /// The members of the barriers of team path `team`, if the plan has any there.
-    pub fn scope_members(&self, team: &str) -> Option<&[String]> {
+    pub fn scope_members(&self, team: &str) -> Option<&[RobotId]> {
         if team == self.team {
             return Some(&self.members);
         }
@@ -349,7 +350,7 @@ impl PlanAssignment {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CommandAck {
     pub ok: bool,
-    pub robot: String,
+    pub robot: RobotId,
     pub behaviour: Behaviour,
     /// The robot's capabilities after a capabilities command.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 /// A member's arrival at a barrier, on `mrmm/team/<team>/sync/<point>/<round>` (JSON).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SyncArrival {
-    pub robot: String,
+    pub robot: crate::ids::RobotId,
     pub epoch: u64,
     pub point: u32,
     pub round: u32,
@@ -47,7 +47,7 @@ impl BarrierMode {
 /// `mrmm/team/<team>/release/<point>/<round>` (JSON).
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SyncRelease {
-    pub leader: String,
+    pub leader: crate::ids::RobotId,
     pub epoch: u64,
     pub point: u32,
     pub round: u32,

@@ -23,7 +23,7 @@ use std::hash::{Hash, Hasher};
 use mrmm_core::executor::Executor;
 use mrmm_core::host::HostCore;
 use mrmm_proto::chain::{lineage_of, Version};
-use mrmm_proto::{MissionSnapshot, SyncArrival, SyncRelease};
+use mrmm_proto::{MissionName, MissionSnapshot, NodeId, RobotId, SyncArrival, SyncRelease};
 
 fn digest(s: &MissionSnapshot) -> u64 {
     let mut h = DefaultHasher::new();
@@ -35,21 +35,21 @@ fn digest(s: &MissionSnapshot) -> u64 {
 #[derive(Debug, Default)]
 pub struct Invariants {
     /// (mission, chain epoch) → the node that led it.
-    heads: BTreeMap<(String, u64), String>,
+    heads: BTreeMap<(MissionName, u64), NodeId>,
     /// (node, incarnation, mission) leading at the last look.
-    leading: BTreeSet<(usize, u32, String)>,
+    leading: BTreeSet<(usize, u32, MissionName)>,
     /// (mission, lineage, revision) → digest of the committed state.
-    committed: BTreeMap<(String, u32, u64), u64>,
-    newest_committed: BTreeMap<(String, u32), u64>,
+    committed: BTreeMap<(MissionName, u32, u64), u64>,
+    newest_committed: BTreeMap<(MissionName, u32), u64>,
     /// Highest revision a control was acknowledged at, per mission and lineage.
-    acked: BTreeMap<(String, u32), u64>,
+    acked: BTreeMap<(MissionName, u32), u64>,
     /// The newest committed state's members per mission, by chain version — of its newest
     /// lineage (a replaced lineage, cut off, may still commit what central no longer holds).
-    teams: BTreeMap<String, (Version, Vec<String>)>,
+    teams: BTreeMap<MissionName, (Version, Vec<RobotId>)>,
     /// The newest lineage started per mission.
-    lineages: BTreeMap<String, u32>,
+    lineages: BTreeMap<MissionName, u32>,
     /// Furthest (round, point) each robot published, per (mission, epoch, robot).
-    arrivals: BTreeMap<(String, u64, String), (u32, u32)>,
+    arrivals: BTreeMap<(String, u64, RobotId), (u32, u32)>,
     /// Furthest release a leader announced (and the invariant justified), per (mission, epoch).
     releases: BTreeMap<(String, u64), (u32, u32)>,
     pub leads: u32,
@@ -70,7 +70,7 @@ impl Invariants {
                         return Err(format!("two heads of {mission} in chain epoch {}: {other} and {name}", config.epoch));
                     }
                     _ => {
-                        self.heads.insert(key, name.to_string());
+                        self.heads.insert(key, name.into());
                     }
                 }
             }
@@ -101,7 +101,7 @@ impl Invariants {
                 }
                 let n = self.newest_committed.entry(lin).or_insert(0);
                 *n = (*n).max(state.revision);
-                let members: Vec<String> = state.members.iter().map(|m| m.spec.id.clone()).collect();
+                let members: Vec<RobotId> = state.members.iter().map(|m| m.spec.id.clone()).collect();
                 let v = r.version();
                 let replaced = self.lineages.get(mission).is_some_and(|l| lineage_of(v.0) < *l);
                 if !replaced && self.teams.get(mission).is_none_or(|(old, _)| *old <= v) {
@@ -121,13 +121,13 @@ impl Invariants {
 
     /// A head of `mission`'s `lineage` acknowledged a control query at `revision`.
     pub fn acked(&mut self, mission: &str, lineage: u32, revision: u64) {
-        let a = self.acked.entry((mission.to_string(), lineage)).or_insert(0);
+        let a = self.acked.entry((mission.into(), lineage)).or_insert(0);
         *a = (*a).max(revision);
     }
 
     /// Central started `mission` anew as `lineage`: the team of an older lineage no longer counts.
     pub fn lineage_started(&mut self, mission: &str, lineage: u32) {
-        let l = self.lineages.entry(mission.to_string()).or_insert(0);
+        let l = self.lineages.entry(mission.into()).or_insert(0);
         *l = (*l).max(lineage);
         if self.teams.get(mission).is_some_and(|((e, _), _)| lineage_of(*e) < lineage) {
             self.teams.remove(mission);
@@ -135,13 +135,13 @@ impl Invariants {
     }
 
     /// Missions no node replicates any more are over.
-    pub fn forget_missions(&mut self, alive: &BTreeSet<String>) {
+    pub fn forget_missions(&mut self, alive: &BTreeSet<MissionName>) {
         self.teams.retain(|m, _| alive.contains(m));
     }
 
     /// Invariant 3: robots that are members of two missions, as (robot, mission, mission).
-    pub fn in_two_missions(&self) -> Vec<(String, String, String)> {
-        let mut seen: BTreeMap<&String, &String> = BTreeMap::new();
+    pub fn in_two_missions(&self) -> Vec<(RobotId, MissionName, MissionName)> {
+        let mut seen: BTreeMap<&RobotId, &MissionName> = BTreeMap::new();
         let mut out = Vec::new();
         for (mission, (_, members)) in &self.teams {
             for r in members {

@@ -3,7 +3,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_core::system::Request;
-use mrmm_proto::{CapabilitiesRequest, MissionCreate, MissionPause, MissionTerminate, MissionUpdate, RobotMove};
+use mrmm_proto::{CapabilitiesRequest, MissionCreate, MissionName, MissionPause, MissionTerminate, MissionUpdate, RobotId, RobotMove};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde_json::json;
@@ -42,9 +42,9 @@ pub struct Operator {
     /// Requests sent and not yet answered: id → what.
     pub pending: BTreeMap<u64, Request>,
     /// Missions the operator terminated (answered ok).
-    pub terminated: BTreeSet<String>,
+    pub terminated: BTreeSet<MissionName>,
     /// Missions whose create was answered ok.
-    pub created: BTreeSet<String>,
+    pub created: BTreeSet<MissionName>,
     pub ok: u32,
     /// Mission names asked for so far.
     pub names: Vec<String>,
@@ -53,8 +53,8 @@ pub struct Operator {
 impl Operator {
     /// A random command over `robots`.
     pub fn command(&mut self, rng: &mut ChaCha8Rng, robots: &[String]) -> (u64, Request) {
-        let known = self.names.get(rng.gen_range(0..self.names.len().max(1))).cloned();
-        let robot = robots[rng.gen_range(0..robots.len())].clone();
+        let known: Option<MissionName> = self.names.get(rng.gen_range(0..self.names.len().max(1))).map(MissionName::from);
+        let robot = RobotId::from(&robots[rng.gen_range(0..robots.len())]);
         let request = match (rng.gen_range(0..10), known) {
             (0..=3, _) | (_, None) => {
                 let name = fresh(self.names.len() as u64 + 1);
@@ -73,7 +73,7 @@ impl Operator {
                     (false, _) => "coverage".into(),
                 };
                 Request::Create(MissionCreate {
-                    name,
+                    name: name.into(),
                     recipe,
                     count: Some(rng.gen_range(1..=2)),
                     params,
@@ -85,7 +85,7 @@ impl Operator {
             // instead: an update, a pause, a resume in turn (no draw: the rest of a seed's run
             // keeps its commands).
             (4..=6, Some(name)) if self.next_req % 4 == 3 => match (self.next_req / 4) % 3 {
-                0 => Request::Update(MissionUpdate { name, params: [("seed".to_string(), json!(self.next_req))].into(), ..MissionUpdate::default() }),
+                0 => Request::Update(MissionUpdate { name, params: [("seed".into(), json!(self.next_req))].into(), ..MissionUpdate::default() }),
                 1 => Request::Pause(MissionPause { name }),
                 _ => Request::Resume(MissionPause { name }),
             },
@@ -102,7 +102,7 @@ impl Operator {
     pub fn camera(&mut self, robot: String, has: bool) -> (u64, Request) {
         let camera = vec!["camera".to_string()];
         let (add, remove) = if has { (vec![], camera) } else { (camera, vec![]) };
-        let request = Request::Capabilities(CapabilitiesRequest { robot, add, remove });
+        let request = Request::Capabilities(CapabilitiesRequest { robot: robot.into(), add, remove });
         self.next_req += 1;
         self.pending.insert(self.next_req, request.clone());
         (self.next_req, request)

@@ -30,10 +30,10 @@ pub fn robots(views: &[RobotView]) -> String {
         .map(|v| {
             let pose = v.pose.map(|p| format!("({:7.2}, {:7.2}) {:5.0}°", p.x, p.y, p.theta.to_degrees())).unwrap_or_else(|| "-".into());
             vec![
-                v.id.clone(),
+                v.id.to_string(),
                 v.robot_type.clone(),
                 v.status.as_str().to_string(),
-                v.mission.clone().unwrap_or_else(|| "-".into()),
+                v.mission.as_deref().unwrap_or("-").to_string(),
                 v.behaviour.clone().unwrap_or_else(|| "-".into()),
                 pose,
                 v.capabilities.join(","),

@@ -315,7 +315,7 @@ pub fn square_patrol(count: usize, host: Option<&str>) -> mrmm_proto::MissionCre
         name: "p".into(),
         recipe: "patrol".into(),
         count: Some(count),
-        host: host.map(String::from),
+        host: host.map(Into::into),
         params: [("waypoints".to_string(), serde_json::json!([[0, 0], [10, 0], [10, 10], [0, 10]]))].into(),
         ..Default::default()
     }

@@ -177,11 +177,11 @@ fn xy(points: &[Point]) -> Vec<[f32; 2]> {
 struct View {
     rec: RecordingStream,
     t0: Instant,
-    trails: BTreeMap<String, VecDeque<[f32; 2]>>,
-    missions: BTreeMap<String, MissionView>,
+    trails: BTreeMap<proto::RobotId, VecDeque<[f32; 2]>>,
+    missions: BTreeMap<proto::MissionName, MissionView>,
     colors: BTreeMap<String, [u8; 3]>,
-    teams: BTreeMap<String, String>,
-    messages: BTreeMap<String, (f64, u64)>,
+    teams: BTreeMap<proto::RobotId, String>,
+    messages: BTreeMap<proto::MissionName, (f64, u64)>,
 }
 
 const PALETTE: [[u8; 3]; 8] = [[230, 159, 0], [86, 180, 233], [0, 158, 115], [240, 228, 66], [0, 114, 178], [213, 94, 0], [204, 121, 167], [160, 160, 160]];
@@ -225,7 +225,7 @@ impl View {
         let label = match (&t.mission, team) {
             (Some(_), Some(team)) => format!("{} · {team}", t.id),
             (Some(m), None) => format!("{} · {m}", t.id),
-            _ => t.id.clone(),
+            _ => t.id.to_string(),
         };
         self.log(&paths::robot(&t.id), &rerun::Points2D::new([p]).with_colors([color]).with_radii([0.5]).with_labels([label]));
         let dir = [(t.pose.theta.cos() * 1.2) as f32, (t.pose.theta.sin() * 1.2) as f32];
@@ -261,7 +261,7 @@ impl View {
                     closed.push(tour[0]);
                     self.log(
                         &paths::mission_tour(&m.name),
-                        &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.clone()]),
+                        &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.to_string()]),
                     );
                     self.log(&paths::mission_waypoints(&m.name), &rerun::Points2D::new(tour).with_colors([color]).with_radii([0.3]));
                 }
@@ -282,7 +282,7 @@ impl View {
                     if !c.points.is_empty() {
                         self.log(
                             &paths::mission_points(&m.name),
-                            &rerun::Points2D::new(xy(&c.points)).with_colors([color]).with_radii([0.35]).with_labels([m.name.clone()]),
+                            &rerun::Points2D::new(xy(&c.points)).with_colors([color]).with_radii([0.35]).with_labels([m.name.to_string()]),
                         );
                     }
                 }

@@ -13,7 +13,7 @@ mod rules;
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{Advice, AdviceEvent, MissionView, Pose, Priority, RobotMove, RobotView};
+use mrmm_proto::{Advice, AdviceEvent, MissionName, MissionView, NodeId, Pose, Priority, RobotId, RobotMove, RobotView};
 use serde::{Deserialize, Serialize};
 
 /// How far the agent may go.
@@ -96,11 +96,11 @@ pub(crate) struct Candidate {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Memory {
     /// Last mission of every robot seen alive in one.
-    pub last_mission: BTreeMap<String, String>,
+    pub last_mission: BTreeMap<RobotId, MissionName>,
     /// Where each robot was when it last moved, and when.
-    pub last_moved: BTreeMap<String, (Pose, f64)>,
+    pub last_moved: BTreeMap<RobotId, (Pose, f64)>,
     /// Last manager (node, epoch) of each mission, and event advice with its expiry.
-    pub managers: BTreeMap<String, String>,
+    pub managers: BTreeMap<MissionName, NodeId>,
     pub events: BTreeMap<String, (Candidate, f64)>,
 }
 

@@ -3,7 +3,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{Advice, MissionStatus, MissionView, PlanSummary, Priority, RobotMove, RobotStatus, RobotView};
+use mrmm_proto::{Advice, MissionName, MissionStatus, MissionView, PlanSummary, Priority, RobotId, RobotMove, RobotStatus, RobotView};
 use serde_json::json;
 
 use super::{AgentConfig, Candidate, Memory};
@@ -29,7 +29,7 @@ fn fits(r: &RobotView, m: &MissionView) -> bool {
 /// A robot that can be spared for `target` (one with what it requires): an idle one first, else
 /// one from the largest other mission that keeps at least one robot (coverage missions before
 /// patrols).
-fn donor(robots: &[RobotView], missions: &[MissionView], target: &str) -> Option<(String, Option<String>)> {
+fn donor(robots: &[RobotView], missions: &[MissionView], target: &str) -> Option<(RobotId, Option<MissionName>)> {
     let fit = |r: &RobotView| missions.iter().find(|m| m.name == target).is_none_or(|m| fits(r, m));
     if let Some(r) = robots.iter().find(|r| r.status == RobotStatus::Idle && fit(r)) {
         return Some((r.id.clone(), None));
@@ -131,7 +131,7 @@ fn lost_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], missio
         let was_in = r.last_mission.clone().or_else(|| mem.last_mission.get(&r.id).cloned());
         let (reason, evidence, action) = match was_in.as_deref().and_then(|m| by_name.get(m).map(|v| (m, v))) {
             Some((m, v)) => {
-                let action = donor(robots, missions, m).filter(|(_, from)| from.is_none()).map(|(id, _)| RobotMove { robot: id, to: Some(m.to_string()) });
+                let action = donor(robots, missions, m).filter(|(_, from)| from.is_none()).map(|(id, _)| RobotMove { robot: id, to: Some(m.into()) });
                 (
                     format!("robot {} lost; mission {m} replanned for its {} remaining robots", r.id, v.robots.len()),
                     json!({"robot": r.id, "mission": m, "remaining": v.robots.len(), "epoch": v.manager.epoch}),

@@ -57,6 +57,7 @@ pub mod sim;
 mod tests;
 
 pub use mrmm_proto::chain::{Config, Msg, Version};
+use mrmm_proto::NodeId;
 pub use registry::{Disk, Registry, Tomb};
 pub use replica::{Replica, Role, PASSED_OVER_MAX};
 
@@ -87,17 +88,17 @@ pub enum Event<S> {
     /// Time passes (call every few tens of milliseconds).
     Tick,
     Recv {
-        from: String,
+        from: NodeId,
         msg: Msg<S>,
     },
     /// A node's liveliness appeared.
-    Alive(String),
+    Alive(NodeId),
     /// A node's liveliness was lost.
-    Gone(String),
+    Gone(NodeId),
     /// Create the replicated value with this node as head and `replicas` after it, its first
     /// epoch at least `floor` (a new lineage: `mrmm_proto::chain::lineage_floor`).
     Create {
-        replicas: Vec<String>,
+        replicas: Vec<NodeId>,
         state: S,
         floor: u64,
     },
@@ -106,7 +107,7 @@ pub enum Event<S> {
     /// Head only: nodes that may join the chain when one is missing, best first, and how many
     /// replicas the chain should have.
     Pool {
-        nodes: Vec<String>,
+        nodes: Vec<NodeId>,
         k: usize,
     },
     /// Head only: end the replicated value on every node of the chain.
@@ -117,7 +118,7 @@ pub enum Event<S> {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command<S> {
     Send {
-        to: String,
+        to: NodeId,
         msg: Msg<S>,
     },
     /// This node now leads `config`, starting from `state` (epoch `config.epoch`, seq 0).
@@ -144,7 +145,7 @@ pub enum Command<S> {
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Stored<S> {
     pub promised: u64,
-    pub voted_for: Option<String>,
+    pub voted_for: Option<NodeId>,
     pub config: Option<Config>,
     pub state: Option<(Version, S)>,
     /// The value is being ended: brought back as a tomb that tells stragglers so.

@@ -6,6 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::chain::lineage_of;
+use mrmm_proto::{MissionName, NodeId};
 
 use super::replica::Fingerprint;
 use super::{Command, Event, Msg, Params, Replica, Stored};
@@ -34,16 +35,16 @@ pub enum Disk<S> {
 /// Every replica on one node.
 #[derive(Debug, Clone)]
 pub struct Registry<S> {
-    me: String,
+    me: NodeId,
     p: Params,
     /// When this node (process) started: its replicas do not vote during `p.quarantine`.
     born: f64,
-    replicas: BTreeMap<String, Replica<S>>,
-    tombs: BTreeMap<String, Tomb>,
+    replicas: BTreeMap<MissionName, Replica<S>>,
+    tombs: BTreeMap<MissionName, Tomb>,
     /// When each tomb was last written: tombs are forgotten after [`TOMB_LIFETIME_S`].
-    tomb_since: BTreeMap<String, f64>,
+    tomb_since: BTreeMap<MissionName, f64>,
     /// Other nodes whose liveliness is up.
-    alive: BTreeSet<String>,
+    alive: BTreeSet<NodeId>,
     /// Whether every change of what a replica must remember is put out as [`Command::Persist`].
     durable: bool,
 }
@@ -51,7 +52,7 @@ pub struct Registry<S> {
 impl<S: Clone> Registry<S> {
     pub fn new(me: &str, p: Params, born: f64) -> Self {
         Registry {
-            me: me.to_string(),
+            me: me.into(),
             p,
             born,
             replicas: BTreeMap::new(),
@@ -65,7 +66,7 @@ impl<S: Clone> Registry<S> {
     /// A durable registry brought back from what it persisted (empty on a first start): every
     /// change it makes from now on is put out as [`Command::Persist`] before what it leads to.
     /// Its replicas vote at once: their promises were on disk, so `p.quarantine` is not needed.
-    pub fn restore(me: &str, p: Params, born: f64, now: f64, disk: impl IntoIterator<Item = (String, Disk<S>)>) -> Self {
+    pub fn restore(me: &str, p: Params, born: f64, now: f64, disk: impl IntoIterator<Item = (MissionName, Disk<S>)>) -> Self {
         let p = Params { quarantine: 0.0, ..p };
         let mut reg = Registry::new(me, p, born);
         reg.durable = true;
@@ -99,14 +100,14 @@ impl<S: Clone> Registry<S> {
     pub fn replica(&self, name: &str) -> Option<&Replica<S>> {
         self.replicas.get(name)
     }
-    pub fn names(&self) -> impl Iterator<Item = &String> {
+    pub fn names(&self) -> impl Iterator<Item = &MissionName> {
         self.replicas.keys()
     }
     pub fn tomb(&self, name: &str) -> Option<Tomb> {
         self.tombs.get(name).copied()
     }
     /// Other nodes alive, as the registry was told.
-    pub fn alive(&self) -> &BTreeSet<String> {
+    pub fn alive(&self) -> &BTreeSet<NodeId> {
         &self.alive
     }
 
@@ -114,7 +115,7 @@ impl<S: Clone> Registry<S> {
     fn replica_mut(&mut self, now: f64, name: &str) -> &mut Replica<S> {
         let promised = self.tombs.get(name).map_or(0, |t| t.promised);
         let (me, p, born, alive, durable) = (&self.me, self.p, self.born, &self.alive, self.durable);
-        self.replicas.entry(name.to_string()).or_insert_with(|| {
+        self.replicas.entry(name.into()).or_insert_with(|| {
             let mut r = Replica::new(me, p, born, now, promised);
             if durable {
                 r = r.durable();
@@ -130,7 +131,7 @@ impl<S: Clone> Registry<S> {
     /// first epoch at least `floor`.
     /// The first epoch is also above the promise this node remembers of an earlier value of that
     /// name (a replica it discarded, a tomb).
-    pub fn create(&mut self, now: f64, name: &str, replicas: Vec<String>, state: S, floor: u64) -> Vec<Command<S>> {
+    pub fn create(&mut self, now: f64, name: &str, replicas: Vec<NodeId>, state: S, floor: u64) -> Vec<Command<S>> {
         let promised = self.tombs.remove(name).map_or(0, |t| t.promised).max(self.replicas.remove(name).map_or(0, |r| r.promised()));
         let floor = floor.max(promised.saturating_add(1));
         let before = self.mark(name);
@@ -162,7 +163,7 @@ impl<S: Clone> Registry<S> {
     /// replica only for a vote or an update (it is being asked to join a chain); a vote for a
     /// value that ended here is answered with the end; anything else for a value it does not
     /// hold is dropped. (A beat counts as an update: the node then asks for the state.)
-    pub fn receive(&mut self, now: f64, name: &str, from: String, msg: Msg<S>) -> Vec<Command<S>> {
+    pub fn receive(&mut self, now: f64, name: &str, from: NodeId, msg: Msg<S>) -> Vec<Command<S>> {
         if !self.replicas.contains_key(name) {
             if let Some(answer) = self.tomb_answer(name, &msg) {
                 return vec![Command::Send { to: from, msg: answer }];
@@ -188,9 +189,9 @@ impl<S: Clone> Registry<S> {
         let Some(r) = self.replicas.get_mut(name) else { return vec![] };
         let cmds = r.handle(now, ev);
         if ended {
-            let t = self.tombs.entry(name.to_string()).or_default();
+            let t = self.tombs.entry(name.into()).or_default();
             t.ended = true;
-            self.tomb_since.insert(name.to_string(), now);
+            self.tomb_since.insert(name.into(), now);
         }
         self.settle(now, name, before, cmds)
     }
@@ -219,28 +220,28 @@ impl<S: Clone> Registry<S> {
     fn throw_away(&mut self, now: f64, name: &str) -> Vec<Command<S>> {
         let before = self.mark(name);
         if let Some(r) = self.replicas.remove(name) {
-            let t = self.tombs.entry(name.to_string()).or_default();
+            let t = self.tombs.entry(name.into()).or_default();
             t.promised = t.promised.max(r.promised());
-            self.tomb_since.insert(name.to_string(), now);
+            self.tomb_since.insert(name.into(), now);
         }
         self.settle(now, name, before, vec![])
     }
 
     /// Another node's liveliness changed: every replica hears of it.
-    pub fn liveliness(&mut self, now: f64, node: &str, up: bool) -> Vec<(String, Vec<Command<S>>)> {
+    pub fn liveliness(&mut self, now: f64, node: &str, up: bool) -> Vec<(MissionName, Vec<Command<S>>)> {
         if node == self.me {
             return vec![];
         }
         if up {
-            self.alive.insert(node.to_string());
+            self.alive.insert(node.into());
         } else {
             self.alive.remove(node);
         }
-        self.each(now, |n| if up { Event::Alive(n.to_string()) } else { Event::Gone(n.to_string()) }, node)
+        self.each(now, |n| if up { Event::Alive(n.into()) } else { Event::Gone(n.into()) }, node)
     }
 
     /// Time passes for every replica (and old tombs are forgotten).
-    pub fn tick(&mut self, now: f64) -> Vec<(String, Vec<Command<S>>)> {
+    pub fn tick(&mut self, now: f64) -> Vec<(MissionName, Vec<Command<S>>)> {
         let forgotten = self.prune_tombs(now);
         let mut out = self.each(now, |_| Event::Tick, "");
         if self.durable {
@@ -249,8 +250,8 @@ impl<S: Clone> Registry<S> {
         out
     }
 
-    fn each(&mut self, now: f64, ev: impl Fn(&str) -> Event<S>, node: &str) -> Vec<(String, Vec<Command<S>>)> {
-        let names: Vec<String> = self.replicas.keys().cloned().collect();
+    fn each(&mut self, now: f64, ev: impl Fn(&str) -> Event<S>, node: &str) -> Vec<(MissionName, Vec<Command<S>>)> {
+        let names: Vec<MissionName> = self.replicas.keys().cloned().collect();
         let mut out = Vec::new();
         for name in names {
             let before = self.mark(&name);
@@ -285,10 +286,10 @@ impl<S: Clone> Registry<S> {
     fn settle(&mut self, now: f64, name: &str, before: Option<(Fingerprint, Option<Tomb>)>, mut cmds: Vec<Command<S>>) -> Vec<Command<S>> {
         if cmds.iter().any(|c| matches!(c, Command::Retired)) {
             if let Some(r) = self.replicas.remove(name) {
-                let t = self.tombs.entry(name.to_string()).or_default();
+                let t = self.tombs.entry(name.into()).or_default();
                 t.promised = t.promised.max(r.promised());
                 t.ended |= r.ended();
-                self.tomb_since.insert(name.to_string(), now);
+                self.tomb_since.insert(name.into(), now);
             }
         }
         let Some(before) = before else { return cmds };
@@ -306,10 +307,10 @@ impl<S: Clone> Registry<S> {
 
     /// Forgets tombs older than [`TOMB_LIFETIME_S`], and the oldest beyond [`MAX_TOMBS`]; returns
     /// the names forgotten.
-    fn prune_tombs(&mut self, now: f64) -> Vec<String> {
+    fn prune_tombs(&mut self, now: f64) -> Vec<MissionName> {
         self.tomb_since.retain(|_, t| now - *t < TOMB_LIFETIME_S);
         if self.tomb_since.len() > MAX_TOMBS {
-            let mut by_age: Vec<(f64, String)> = self.tomb_since.iter().map(|(n, t)| (*t, n.clone())).collect();
+            let mut by_age: Vec<(f64, MissionName)> = self.tomb_since.iter().map(|(n, t)| (*t, n.clone())).collect();
             by_age.sort_by(|a, b| a.0.total_cmp(&b.0));
             for (_, n) in by_age.into_iter().take(self.tomb_since.len() - MAX_TOMBS) {
                 self.tomb_since.remove(&n);
@@ -376,12 +377,12 @@ mod tests {
     }
 
     /// Replays a durable registry's `Persist` commands onto a disk, as a driver writes them.
-    fn write(disk: &mut BTreeMap<String, Disk<Vec<u32>>>, name: &str, cmds: &[Command<Vec<u32>>]) {
+    fn write(disk: &mut BTreeMap<MissionName, Disk<Vec<u32>>>, name: &str, cmds: &[Command<Vec<u32>>]) {
         for c in cmds {
             if let Command::Persist(d) = c {
                 match d {
                     Disk::Forget => disk.remove(name),
-                    d => disk.insert(name.to_string(), d.clone()),
+                    d => disk.insert(name.into(), d.clone()),
                 };
             }
         }

@@ -12,6 +12,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::{Command, Config, Disk, Event, Msg, Params, Registry, Replica, Version};
+use mrmm_proto::{MissionName, NodeId};
 
 /// The value replicated in the simulation: the ids of every update, in order.
 pub type Log = Vec<u64>;
@@ -130,7 +131,7 @@ struct Node {
     history: BTreeMap<Version, Log>,
     next_proposal: f64,
     /// What a durable node persisted, as its [`Command::Persist`]s wrote it; kept across crashes.
-    disk: BTreeMap<String, Disk<Log>>,
+    disk: BTreeMap<MissionName, Disk<Log>>,
 }
 
 /// One simulation run.
@@ -264,7 +265,7 @@ impl Sim {
 
     fn run_inner(&mut self) -> Result<(), String> {
         let end = self.w.duration + self.w.quiet;
-        let first: Vec<String> = self.nodes.iter().skip(1).take(self.p.k).map(|n| n.name.clone()).collect();
+        let first: Vec<NodeId> = self.nodes.iter().skip(1).take(self.p.k).map(|n| NodeId::from(&n.name)).collect();
         let cmds = self.nodes[0].registry.create(0.0, MISSION, first, vec![], 0);
         self.apply(0, cmds)?;
         let mut next_crash = self.draw(self.w.crash_every);
@@ -376,7 +377,7 @@ impl Sim {
                     t.push(format!("{:8.3} {from_name} -> n{to}: {}", self.now, short(&msg)));
                 }
                 let now = self.now;
-                let cmds = self.nodes[to].registry.receive(now, MISSION, from_name, msg);
+                let cmds = self.nodes[to].registry.receive(now, MISSION, from_name.into(), msg);
                 self.apply(to, cmds)
             }
             Delivery::Live { at, about, up } => {
@@ -463,7 +464,7 @@ impl Sim {
                     self.log(|| format!("{name} leads epoch {} chain {:?}", config.epoch, config.chain));
                     self.inv.lead(&name, &config, &state)?;
                     // Heads learn the pool from the system: every node but themselves.
-                    let pool: Vec<String> = (0..self.nodes.len()).filter(|j| *j != i).map(|j| format!("n{j}")).collect();
+                    let pool: Vec<NodeId> = (0..self.nodes.len()).filter(|j| *j != i).map(|j| NodeId::from(format!("n{j}"))).collect();
                     let _ = self.nodes[i].registry.handle(self.now, MISSION, Event::Pool { nodes: pool, k: self.p.k });
                 }
                 Command::Committed { epoch, seq } => {
@@ -492,7 +493,7 @@ impl Sim {
                     }
                     match d {
                         Disk::Forget => self.nodes[i].disk.remove(MISSION),
-                        d => self.nodes[i].disk.insert(MISSION.to_string(), d),
+                        d => self.nodes[i].disk.insert(MISSION.into(), d),
                     };
                 }
             }

@@ -18,9 +18,9 @@ fn settle(nodes: &mut BTreeMap<String, R>, now: f64, from: &str, cmds: Vec<Comma
         let (who, c) = queue.remove(0);
         match c {
             Command::Send { to, msg } => {
-                if let Some(r) = nodes.get_mut(&to) {
-                    let more = r.handle(now, Event::Recv { from: who.clone(), msg });
-                    queue.extend(more.into_iter().map(|c| (to.clone(), c)));
+                if let Some(r) = nodes.get_mut(to.as_str()) {
+                    let more = r.handle(now, Event::Recv { from: who.clone().into(), msg });
+                    queue.extend(more.into_iter().map(|c| (to.to_string(), c)));
                 }
             }
             other => out.push((who, other)),
@@ -46,7 +46,7 @@ fn alive_all(nodes: &mut BTreeMap<String, R>) {
     let names: Vec<String> = nodes.keys().cloned().collect();
     for r in nodes.values_mut() {
         for n in &names {
-            r.handle(0.0, Event::Alive(n.clone()));
+            r.handle(0.0, Event::Alive(n.clone().into()));
         }
     }
 }
@@ -85,7 +85,7 @@ fn first_live_successor_takes_over_with_the_next_epoch_and_repairs() {
     n.get_mut("b").unwrap().handle(1.0, Event::Pool { nodes: vec!["a".into(), "c".into(), "d".into()], k: 2 });
     let cmds = n.get_mut("b").unwrap().handle(2.0, Event::Tick);
     settle(&mut n, 2.0, "b", cmds);
-    assert_eq!(n["b"].config().map(|c| c.chain.clone()), Some(vec!["b".to_string(), "c".to_string(), "d".to_string()]));
+    assert_eq!(n["b"].config().map(|c| c.chain.clone()), Some(vec!["b".into(), "c".into(), "d".into()]));
     assert_eq!(n["d"].state(), Some(&vec![1]));
 }
 
@@ -205,8 +205,8 @@ fn beats_carry_no_state_once_the_chain_holds_it_and_a_node_that_lost_it_gets_it_
     while let Some((who, c)) = queue.pop() {
         if let Command::Send { to, msg } = c {
             sent.push(msg.describe());
-            let more = n.get_mut(&to).map(|r| r.handle(2.0, Event::Recv { from: who.clone(), msg })).unwrap_or_default();
-            queue.extend(more.into_iter().map(|c| (to.clone(), c)));
+            let more = n.get_mut(to.as_str()).map(|r| r.handle(2.0, Event::Recv { from: who.as_str().into(), msg })).unwrap_or_default();
+            queue.extend(more.into_iter().map(|c| (to.to_string(), c)));
         }
     }
     assert!(sent.iter().any(|m| m.starts_with("behind")) && sent.iter().filter(|m| m.starts_with("update")).count() >= 2, "{sent:?}");
@@ -220,7 +220,7 @@ fn a_durable_replica_left_out_of_a_newer_chain_stands_less_and_less_often() {
     let c = n.remove("c").unwrap().durable();
     let cmds = n.get_mut("a").unwrap().handle(1.0, Event::Gone("c".into()));
     settle(&mut n, 1.0, "a", cmds);
-    assert_eq!(n["a"].config().map(|c| c.chain.clone()), Some(vec!["a".to_string(), "b".to_string()]));
+    assert_eq!(n["a"].config().map(|c| c.chain.clone()), Some(vec!["a".into(), "b".into()]));
     n.insert("c".into(), c);
     // Standing as c: it hears no head, stands, and learns of the newer chain.
     let stands = |n: &mut BTreeMap<String, R>, t: f64| {
@@ -357,7 +357,7 @@ fn a_head_whose_chain_lost_its_memory_says_how_long_it_could_not_commit() {
     let names: Vec<String> = n.keys().cloned().collect();
     for r in n.values_mut() {
         for x in &names {
-            r.handle(2.5, Event::Alive(x.clone()));
+            r.handle(2.5, Event::Alive(x.clone().into()));
         }
     }
     let cmds = n.get_mut("a").unwrap().handle(3.0, Event::Propose(vec![1, 2, 3]));

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{BarrierMode, PlanAssignment, Progress, Step, SyncArrival, SyncRelease};
+use mrmm_proto::{BarrierMode, PlanAssignment, Progress, RobotId, Step, SyncArrival, SyncRelease};
 
 use crate::barrier::Barrier;
 
@@ -33,9 +33,9 @@ pub enum Event {
     /// team path) was heard.
     HeardIn(String, SyncArrival),
     /// A teammate's membership token appeared.
-    MemberAlive(String),
+    MemberAlive(RobotId),
     /// A teammate's membership token disappeared: it no longer holds anyone up.
-    MemberGone(String),
+    MemberGone(RobotId),
 }
 
 /// What the robot must do.
@@ -93,7 +93,7 @@ pub struct Executor {
     /// A member asked for a barrier already released: announce it again.
     release_echo_due: bool,
     /// The leader known to have our furthest arrival (it released up to it).
-    acked_by: Option<String>,
+    acked_by: Option<RobotId>,
     /// Barriers of wider teams (a parent team, the whole mission), by team path.
     wide: BTreeMap<String, Wide>,
 }

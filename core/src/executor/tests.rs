@@ -17,7 +17,7 @@ fn exec_as(me: &str, barrier: BarrierMode, steps: Vec<Step>, members: &[&str]) -
         epoch: 2,
         team: "m".into(),
         subteam: "m/ground".into(),
-        members: members.iter().map(|s| s.to_string()).collect(),
+        members: members.iter().map(|s| s.into()).collect(),
         plan: RobotPlan { robot: me.into(), robot_type: "ground".into(), slot: 0, steps, team: String::new() },
         managers: vec![],
         barrier,
@@ -28,7 +28,7 @@ fn exec_as(me: &str, barrier: BarrierMode, steps: Vec<Step>, members: &[&str]) -
 /// Robot `me` of leaf team `m/<team>` (members `mine`), whose plan also has barriers of the
 /// whole mission (members `all`).
 fn exec_in_team(me: &str, team: &str, steps: Vec<Step>, mine: &[&str], all: &[&str]) -> Executor {
-    let ids = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let ids = |v: &[&str]| v.iter().map(RobotId::from).collect::<Vec<_>>();
     Executor::new(PlanAssignment {
         mission: "m".into(),
         epoch: 2,

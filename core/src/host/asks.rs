@@ -1,7 +1,7 @@
 //! A mission host's questions (see [`crate::ask`]): a plan of a planner service, a plan handed
 //! to a robot — and what each answer becomes.
 
-use mrmm_proto::{CommandAck, Key, MissionPlan, RobotCommand};
+use mrmm_proto::{CommandAck, Key, MissionName, MissionPlan, RobotCommand, RobotId};
 use serde_json::Value;
 
 use super::{Command, Event};
@@ -13,9 +13,9 @@ use crate::Failure;
 #[derive(Debug, Clone, PartialEq)]
 pub enum Then {
     /// [`Event::Planned`].
-    Plan { mission: String, epoch: u64 },
+    Plan { mission: MissionName, epoch: u64 },
     /// [`Event::PlanDelivered`].
-    Delivered { mission: String, robot: String, epoch: u64 },
+    Delivered { mission: MissionName, robot: RobotId, epoch: u64 },
 }
 
 /// The question command `c` asks, if it is one (a plan made here, with no planner service

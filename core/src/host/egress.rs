@@ -18,7 +18,7 @@ pub fn egress(c: &Command) -> Option<Out> {
 
 /// A chain message to host `to`, on its chain key.
 pub fn chain(to: &str, envelope: &mrmm_proto::ChainEnvelope) -> Option<Out> {
-    Out::json(Key::HostChain(to.to_string()), envelope, Audience::Fleet)
+    Out::json(Key::HostChain(to.into()), envelope, Audience::Fleet)
 }
 
 impl HostCore {
@@ -28,7 +28,7 @@ impl HostCore {
         let mut subs = vec![Sub::any(Key::HostChain(self.node.clone()))];
         subs.extend(self.watched().into_iter().map(|id| Sub::any(Key::RobotTelemetry(id))));
         if let Local::Robot(teams) = &self.local {
-            subs.extend(teams.iter().map(|(m, _)| Sub::any(Key::MissionStatus(m.clone()))));
+            subs.extend(teams.iter().map(|(m, _)| Sub::any(Key::MissionStatus(m.into()))));
         }
         subs
     }

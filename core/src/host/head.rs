@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{CtlAck, PlanAssignment, PlanSummary, Telemetry, SUMMARY_REFRESH_S};
+use mrmm_proto::{CtlAck, PlanAssignment, PlanSummary, RobotId, Telemetry, SUMMARY_REFRESH_S};
 
 use crate::mission::{self, MissionManager};
 
@@ -46,14 +46,14 @@ pub struct Head {
     /// Answers to control queries, waiting for the commit of what they changed.
     replies: Vec<(u64, CtlAck)>,
     /// Plans being delivered, by robot.
-    deliveries: BTreeMap<String, Delivery>,
+    deliveries: BTreeMap<RobotId, Delivery>,
     /// The epoch of the last plan request, and how often it was asked again.
     requested: Option<(u64, u32)>,
     /// Members whose telemetry shows they do not run the current plan (they restarted, say),
     /// and since when.
-    astray: BTreeMap<String, f64>,
+    astray: BTreeMap<RobotId, f64>,
     /// The last plan sent to each robot (sent only once committed).
-    sent: BTreeMap<String, Box<PlanAssignment>>,
+    sent: BTreeMap<RobotId, Box<PlanAssignment>>,
     /// What the mission's status last carried of the planner's summary.
     summary: SummaryGate,
 }
@@ -159,9 +159,9 @@ impl Head {
     /// A plan for `robot` is to go out now: whether it goes at once (`false`: it waits for a
     /// place in the window, and goes out from [`Head::redeliver`] or [`Head::answered`]).
     pub fn sending(&mut self, now: f64, robot: &str, assignment: Box<PlanAssignment>) -> bool {
-        self.sent.insert(robot.to_string(), assignment.clone());
+        self.sent.insert(robot.into(), assignment.clone());
         let go = self.in_flight(now) < DELIVERY_WINDOW;
-        self.deliveries.insert(robot.to_string(), Delivery { assignment, last_sent: go.then_some(now), in_flight: go });
+        self.deliveries.insert(robot.into(), Delivery { assignment, last_sent: go.then_some(now), in_flight: go });
         go
     }
 
@@ -173,11 +173,11 @@ impl Head {
     /// Plans due now, as many as the window has places for: those waiting for a place, then
     /// members that have not shown their plan for `REDELIVER_S` — alive ones (`alive`).
     /// Deliveries to robots no longer members are dropped.
-    pub fn redeliver(&mut self, now: f64, alive: impl Fn(&str) -> bool) -> Vec<(String, Box<PlanAssignment>)> {
+    pub fn redeliver(&mut self, now: f64, alive: impl Fn(&str) -> bool) -> Vec<(RobotId, Box<PlanAssignment>)> {
         let mm = &self.mm;
         self.deliveries.retain(|robot, d| mm.has(robot) && d.assignment.epoch == mm.epoch());
         let mut places = DELIVERY_WINDOW.saturating_sub(self.in_flight(now));
-        let mut due: Vec<(&String, &mut Delivery)> =
+        let mut due: Vec<(&RobotId, &mut Delivery)> =
             self.deliveries.iter_mut().filter(|(r, d)| !d.holds_place(now) && d.last_sent.is_none_or(|t| now - t >= REDELIVER_S) && alive(r)).collect();
         // Never sent first.
         due.sort_by_key(|(_, d)| d.last_sent.is_some());
@@ -203,7 +203,7 @@ impl Head {
 
     /// Any answer to a delivery of `epoch` to `robot` (taken, refused, or none in time): its
     /// place in the window is free; the plans waiting for one go out (at most one per place).
-    pub fn answered(&mut self, now: f64, robot: &str, epoch: u64, alive: impl Fn(&str) -> bool) -> Vec<(String, Box<PlanAssignment>)> {
+    pub fn answered(&mut self, now: f64, robot: &str, epoch: u64, alive: impl Fn(&str) -> bool) -> Vec<(RobotId, Box<PlanAssignment>)> {
         if let Some(d) = self.deliveries.get_mut(robot).filter(|d| d.assignment.epoch == epoch) {
             d.in_flight = false;
         }
@@ -242,7 +242,7 @@ impl Head {
     }
 
     /// Robots with a plan still on its way.
-    pub fn undelivered(&self) -> impl Iterator<Item = &String> {
+    pub fn undelivered(&self) -> impl Iterator<Item = &RobotId> {
         self.deliveries.keys()
     }
 }

@@ -43,8 +43,8 @@ impl HostCore {
         let mut mm = MissionManager::new(spec, self.node.clone(), start.members.clone()).with_epoch_floor(floor);
         // The first replicas: members whose hosts are up, in id order.
         let alive = self.registry.alive();
-        let replicas: Vec<String> =
-            start.members.iter().map(|m| m.spec.id.clone()).filter(|id| *id != self.node && alive.contains(id)).take(mm.replicas()).collect();
+        let replicas: Vec<NodeId> =
+            start.members.iter().map(|m| NodeId::from(m.spec.id.as_str())).filter(|id| *id != self.node && alive.contains(id)).take(mm.replicas()).collect();
         tracing::info!(mission = %name, ?replicas, lineage = start.lineage, "hosting mission");
         let state = mm.changes().unwrap_or_else(|| mm.snapshot());
         self.heads.insert(name.clone(), Head::new(mm, Some(query)));
@@ -105,7 +105,7 @@ impl HostCore {
                 tracing::warn!(mission = %name, epoch, "no plan ({}); planning here", f.error);
                 if let Some(h) = self.heads.get(name) {
                     let (kind, request) = (h.mm.planner(), h.mm.plan_request());
-                    out.push(Command::RequestPlan { mission: name.to_string(), epoch, kind, request, local: true });
+                    out.push(Command::RequestPlan { mission: name.into(), epoch, kind, request, local: true });
                 }
                 return;
             }
@@ -119,7 +119,7 @@ impl HostCore {
         if local {
             tracing::info!(%mission, "no planner service alive; planning locally");
         }
-        Command::RequestPlan { mission: mission.to_string(), epoch, kind, request, local }
+        Command::RequestPlan { mission: mission.into(), epoch, kind, request, local }
     }
 
     /// Runs one event of a led mission, hands the new state to the chain, acts on what is committed.
@@ -154,13 +154,13 @@ impl HostCore {
             match c {
                 chain::Command::Send { to, msg } => {
                     tracing::trace!(mission = %name, %to, msg = msg.describe(), "chain: sending");
-                    out.push(Command::Chain { to, envelope: Box::new(ChainEnvelope { mission: name.to_string(), from: self.node.clone(), msg }) });
+                    out.push(Command::Chain { to, envelope: Box::new(ChainEnvelope { mission: name.into(), from: self.node.clone(), msg }) });
                 }
                 chain::Command::Lead { config, state } => self.lead(now, name, config, state, out),
                 chain::Command::Committed { .. } => self.flush(now, name, out),
                 chain::Command::StepDown => self.step_down(name, "a newer manager took over", out),
                 chain::Command::Retired => self.step_down(name, "this node left the mission's chain", out),
-                chain::Command::Persist(disk) => out.push(Command::Persist { mission: name.to_string(), disk: Box::new(disk) }),
+                chain::Command::Persist(disk) => out.push(Command::Persist { mission: name.into(), disk: Box::new(disk) }),
             }
         }
     }
@@ -177,12 +177,12 @@ impl HostCore {
         tracing::info!(mission = %name, chain_epoch = config.epoch, chain = ?config.chain, "took over the mission");
         // Robots already running the committed plans go on; those that missed them get them.
         let resend = mm.current_assignments();
-        let lost: Vec<String> = mm.members().filter(|id| !self.robots.alive(id)).cloned().collect();
+        let lost: Vec<RobotId> = mm.members().filter(|id| !self.robots.alive(id)).cloned().collect();
         let back: Vec<Member> = if self.central_reachable() { vec![] } else { self.robots.alive_ids().iter().filter_map(|id| mm.lost(id).cloned()).collect() };
         let mut head = Head::new(mm, None);
         head.defer(resend);
-        self.heads.insert(name.to_string(), head);
-        out.push(Command::Serve { mission: name.to_string() });
+        self.heads.insert(name.into(), head);
+        out.push(Command::Serve { mission: name.into() });
         if !lost.is_empty() {
             self.run(now, name, mission::Event::Lost { ids: lost }, out);
         }
@@ -202,7 +202,7 @@ impl HostCore {
             return;
         };
         tracing::info!(mission = %name, "no longer managing the mission: {why}");
-        out.push(Command::Unserve { mission: name.to_string() });
+        out.push(Command::Unserve { mission: name.into() });
         if let Some(q) = h.start {
             // The mission goes on under another manager of its chain: it started.
             out.push(Command::Reply { query: q, result: Err(ErrorReply::coded(ErrorCode::TakenOver, format!("taken over: mission {name}: {why}"))) });
@@ -232,7 +232,7 @@ impl HostCore {
                 mission::Command::SendPlan { robot, mut assignment } => {
                     assignment.managers = managers.clone();
                     if h.sending(now, &robot, assignment.clone()) {
-                        out.push(Command::SendPlan { mission: name.to_string(), robot, assignment });
+                        out.push(Command::SendPlan { mission: name.into(), robot, assignment });
                     }
                 }
                 mission::Command::Started => {
@@ -254,7 +254,7 @@ impl HostCore {
     /// Ends a led mission; the chain carries the end to every node of its chain.
     pub(super) fn end(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
         if self.heads.remove(name).is_some() {
-            out.push(Command::Unserve { mission: name.to_string() });
+            out.push(Command::Unserve { mission: name.into() });
         }
         let cmds = self.registry.handle(now, name, chain::Event::End);
         self.apply(now, name, cmds, out);
@@ -266,7 +266,7 @@ impl HostCore {
             return;
         };
         let alive = self.registry.alive();
-        let nodes: Vec<String> = h.mm.members().filter(|id| **id != self.node && alive.contains(*id)).cloned().collect();
+        let nodes: Vec<NodeId> = h.mm.members().map(|id| NodeId::from(id.as_str())).filter(|id| *id != self.node && alive.contains(id)).collect();
         let k = h.mm.replicas();
         let _ = self.registry.handle(now, name, chain::Event::Pool { nodes, k });
     }

@@ -7,8 +7,8 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::{
-    ChainEnvelope, CtlAck, ErrorCode, ErrorReply, Member, MissionCtl, MissionPlan, MissionSnapshot, MissionStart, MissionView, PlanAssignment, PlanRequest,
-    Role, Sender, Telemetry, CENTRAL_HOST,
+    ChainEnvelope, CtlAck, ErrorCode, ErrorReply, Member, MissionCtl, MissionName, MissionPlan, MissionSnapshot, MissionStart, MissionView, NodeId,
+    PlanAssignment, PlanRequest, RobotId, Role, Sender, Telemetry, CENTRAL_HOST,
 };
 use serde_json::Value;
 
@@ -53,33 +53,33 @@ pub enum Event {
     /// Query `query` on `mrmm/missions/<mission>/ctl`, from proven sender `from`.
     Ctl {
         query: u64,
-        mission: String,
+        mission: MissionName,
         ctl: MissionCtl,
         from: Sender,
     },
     /// Query `query` on `mrmm/missions/<mission>/view`.
     View {
         query: u64,
-        mission: String,
+        mission: MissionName,
     },
     /// Query `query` on `mrmm/missions/<mission>/marginal?add=<add>`.
     Marginal {
         query: u64,
-        mission: String,
+        mission: MissionName,
         add: i64,
     },
     Telemetry(Box<Telemetry>),
     /// The answer to a [`Command::RequestPlan`].
     Planned {
-        mission: String,
+        mission: MissionName,
         epoch: u64,
         result: Result<Box<MissionPlan>, Failure>,
     },
     /// The answer to a [`Command::SendPlan`]: `Ok`, or the robot's refusal (`retryable`: nobody
     /// answered).
     PlanDelivered {
-        mission: String,
-        robot: String,
+        mission: MissionName,
+        robot: RobotId,
         epoch: u64,
         result: Result<(), Failure>,
     },
@@ -98,10 +98,10 @@ pub enum Event {
         view: Box<MissionView>,
         from: Sender,
     },
-    HostAlive(String),
-    HostGone(String),
-    RobotAlive(String),
-    RobotGone(String),
+    HostAlive(NodeId),
+    HostGone(NodeId),
+    RobotAlive(RobotId),
+    RobotGone(RobotId),
     PlannerAlive {
         kind: String,
         zid: String,
@@ -116,27 +116,27 @@ pub enum Event {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {
     /// Send a chain message to host `to` (on `mrmm/hosts/<to>/chain`).
-    Chain { to: String, envelope: Box<ChainEnvelope> },
+    Chain { to: NodeId, envelope: Box<ChainEnvelope> },
     /// Answer query `query` with JSON, or with a reply error.
     Reply { query: u64, result: Result<Value, ErrorReply> },
     /// Let query `query` go unanswered: its asker will ask again (maybe of a newer head).
     Drop { query: u64 },
     /// Serve `mission`'s ctl, view and marginal queryables: this node leads it.
-    Serve { mission: String },
+    Serve { mission: MissionName },
     /// Stop serving them.
-    Unserve { mission: String },
+    Unserve { mission: MissionName },
     /// Ask for a plan: of a planner service, or (`local`, none alive) with the library here.
     /// Answer with [`Event::Planned`].
-    RequestPlan { mission: String, epoch: u64, kind: PlannerKind, request: PlanRequest, local: bool },
+    RequestPlan { mission: MissionName, epoch: u64, kind: PlannerKind, request: PlanRequest, local: bool },
     /// Hand `robot` its plan; answer with [`Event::PlanDelivered`].
-    SendPlan { mission: String, robot: String, assignment: Box<PlanAssignment> },
+    SendPlan { mission: MissionName, robot: RobotId, assignment: Box<PlanAssignment> },
     /// Publish the mission's status on `mrmm/missions/<name>/status`.
     Status(Box<MissionView>),
     /// A proven sender sent what it may not: count it and say so in the log.
     Refused { from: Sender, what: String },
     /// Durable hosts only: write what this node must remember of `mission`'s chain, and sync it,
     /// before carrying out the commands after this one.
-    Persist { mission: String, disk: Box<chain::Disk<MissionSnapshot>> },
+    Persist { mission: MissionName, disk: Box<chain::Disk<MissionSnapshot>> },
 }
 
 /// What a host knows of its own node's robot.
@@ -151,9 +151,9 @@ enum Local {
 /// The mission host of one node.
 #[derive(Debug, Clone)]
 pub struct HostCore {
-    node: String,
+    node: NodeId,
     registry: Registry<MissionSnapshot>,
-    heads: BTreeMap<String, Head>,
+    heads: BTreeMap<MissionName, Head>,
     /// The robots it knows of: whose token is up, what their telemetry says.
     robots: Robots,
     /// Planner services alive: (kind, zid).
@@ -161,11 +161,11 @@ pub struct HostCore {
     /// This node's own robot, if it has one: its mission and teammates.
     local: Local,
     /// The chain of each of our robot's missions, as a head our robot trusts last published it.
-    trusted_chain: BTreeMap<String, Vec<String>>,
+    trusted_chain: BTreeMap<MissionName, Vec<NodeId>>,
     /// Missions this node holds nothing of whose chain messages it hears: when, and from whom.
     /// A start of such a mission (central starting it again from its journal) is refused while
     /// they come: its old chain lives, and may take over again.
-    foreign: BTreeMap<String, (f64, String)>,
+    foreign: BTreeMap<MissionName, (f64, NodeId)>,
 }
 
 /// For this long after the last chain message of a mission this node holds nothing of, it
@@ -180,7 +180,7 @@ impl HostCore {
     /// The host of `node`, started at `now` (its replicas do not vote for `params.quarantine`).
     pub fn new(node: &str, params: Params, now: f64) -> Self {
         HostCore {
-            node: node.to_string(),
+            node: node.into(),
             registry: Registry::new(node, params, now),
             heads: BTreeMap::new(),
             robots: Robots::default(),
@@ -194,7 +194,7 @@ impl HostCore {
     /// A durable host of `node`, started at `now`, going on from what it persisted (nothing on a
     /// first start): its chain replicas come back as they were and vote at once, and it puts out
     /// [`Command::Persist`] for every change they must remember.
-    pub fn restore(node: &str, params: Params, now: f64, disk: Vec<(String, chain::Disk<MissionSnapshot>)>) -> Self {
+    pub fn restore(node: &str, params: Params, now: f64, disk: Vec<(MissionName, chain::Disk<MissionSnapshot>)>) -> Self {
         let mut h = HostCore::new(node, params, now);
         h.registry = Registry::restore(node, params, now, now, disk);
         h
@@ -219,7 +219,7 @@ impl HostCore {
         }
         let id = &from.id;
         if let Some(r) = self.registry.replica(mission) {
-            let in_chain = r.config().is_some_and(|c| c.chain.contains(id));
+            let in_chain = r.config().is_some_and(|c| c.chain.iter().any(|n| n == id));
             let in_team = r.state().is_some_and(|s| s.members.iter().chain(&s.lost).any(|m| m.spec.id == *id));
             if in_chain || in_team {
                 return true;
@@ -232,7 +232,7 @@ impl HostCore {
         match ours {
             // Our robot is in the mission: only its team (as its plan and admission say) speaks,
             // and the chain a head of that team last published.
-            Some(members) => members.contains(id) || self.trusted_chain.get(mission).is_some_and(|chain| chain.contains(id)),
+            Some(members) => members.contains(id) || self.trusted_chain.get(mission).is_some_and(|chain| chain.iter().any(|n| n == id)),
             // Our robot is not in it (it left, or never was) or there is none: go by what the
             // sender's own telemetry says it runs, and only for a mission this node holds nothing
             // of yet — a node outside a mission can still be asked to hold a replica of it.
@@ -247,7 +247,7 @@ impl HostCore {
         &self.node
     }
     /// The missions this node leads.
-    pub fn heads(&self) -> impl Iterator<Item = (&String, &MissionManager)> {
+    pub fn heads(&self) -> impl Iterator<Item = (&MissionName, &MissionManager)> {
         self.heads.iter().map(|(n, h)| (n, &h.mm))
     }
     /// The maps of the missions this node leads or replicates.
@@ -264,7 +264,7 @@ impl HostCore {
         self.registry.replica(mission)
     }
     /// Robots with a plan of `mission` still on its way.
-    pub fn undelivered(&self, mission: &str) -> Vec<String> {
+    pub fn undelivered(&self, mission: &str) -> Vec<RobotId> {
         self.heads.get(mission).map(|h| h.undelivered().cloned().collect()).unwrap_or_default()
     }
 
@@ -351,7 +351,7 @@ impl HostCore {
         if !self.central_reachable() {
             self.robot(now, &t.id, true, out);
         }
-        let names: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
+        let names: Vec<MissionName> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
         for name in names {
             if let Some(h) = self.heads.get_mut(&name) {
                 h.telemetry(now, t);
@@ -366,7 +366,7 @@ impl HostCore {
         }
         if node == CENTRAL_HOST && !up {
             // Nobody orders lost members back now: take back those alive.
-            let back: Vec<String> = self.robots.alive_ids().iter().cloned().collect();
+            let back: Vec<RobotId> = self.robots.alive_ids().iter().cloned().collect();
             for id in back {
                 self.robot(now, &id, true, out);
             }
@@ -386,7 +386,7 @@ impl HostCore {
         if up && self.central_reachable() {
             return;
         }
-        let names: Vec<String> = self
+        let names: Vec<MissionName> = self
             .heads
             .iter()
             .filter(|(n, h)| if up { h.mm.lost(id).is_some() && self.robots.free_for(id, n) } else { h.mm.has(id) })
@@ -398,7 +398,7 @@ impl HostCore {
                     tracing::info!(mission = %name, robot = %id, "lost member back: it rejoins");
                     mission::Event::Joined(member)
                 }
-                _ => mission::Event::Lost { ids: vec![id.to_string()] },
+                _ => mission::Event::Lost { ids: vec![id.into()] },
             };
             self.run(now, &name, ev, out);
         }

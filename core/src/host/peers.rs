@@ -41,10 +41,8 @@ impl HostCore {
     /// for an ack that never comes: this node restarted, say, and knows nothing of it) is
     /// declined, so it changes its chain without us.
     fn answer_outsider(&self, mission: &str, from: &str, msg: &chain::Msg<MissionSnapshot>) -> Option<Command> {
-        let to_them = |to: &str, msg| Command::Chain {
-            to: to.to_string(),
-            envelope: Box::new(ChainEnvelope { mission: mission.to_string(), from: self.node.clone(), msg }),
-        };
+        let to_them =
+            |to: &str, msg| Command::Chain { to: to.into(), envelope: Box::new(ChainEnvelope { mission: mission.into(), from: self.node.clone(), msg }) };
         if let Some(msg) = self.registry.tomb_answer(mission, msg) {
             return Some(to_them(from, msg));
         }

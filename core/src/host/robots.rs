@@ -4,7 +4,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::Telemetry;
+use mrmm_proto::{MissionName, RobotId, Telemetry};
 
 /// For this long after a chain message it could not judge, a host listens to its sender's
 /// telemetry; once heard, the sender's next message is judged by it.
@@ -16,21 +16,21 @@ const UNJUDGED_MAX: usize = 64;
 #[derive(Debug, Clone, Default)]
 pub(super) struct Robots {
     /// Robots whose token is up.
-    alive: BTreeSet<String>,
+    alive: BTreeSet<RobotId>,
     /// The mission each robot's telemetry says it runs.
-    missions: BTreeMap<String, String>,
+    missions: BTreeMap<RobotId, MissionName>,
     /// Robots heard from since they last came up, with the missions central last admitted them
     /// to (from their telemetry).
-    admitted: BTreeMap<String, Vec<String>>,
+    admitted: BTreeMap<RobotId, Vec<MissionName>>,
     /// Robots whose chain messages this node judges by their telemetry, and when it last needed
     /// it (see `watch.rs`).
-    unjudged: BTreeMap<String, f64>,
+    unjudged: BTreeMap<RobotId, f64>,
 }
 
 impl Robots {
     /// A robot's token appeared.
     pub(super) fn up(&mut self, id: &str) {
-        self.alive.insert(id.to_string());
+        self.alive.insert(id.into());
     }
 
     /// A robot's token disappeared: what it said is forgotten (it may restart and say otherwise).
@@ -45,7 +45,7 @@ impl Robots {
     }
 
     /// The robots whose token is up.
-    pub(super) fn alive_ids(&self) -> &BTreeSet<String> {
+    pub(super) fn alive_ids(&self) -> &BTreeSet<RobotId> {
         &self.alive
     }
 
@@ -78,7 +78,7 @@ impl Robots {
     }
 
     /// Robots waiting for judgement by their telemetry.
-    pub(super) fn unjudged(&self) -> impl Iterator<Item = &String> {
+    pub(super) fn unjudged(&self) -> impl Iterator<Item = &RobotId> {
         self.unjudged.keys()
     }
 
@@ -100,7 +100,7 @@ impl Robots {
             Some(since) => now - *since < UNJUDGED_S,
             None if heard => false,
             None if room => {
-                self.unjudged.insert(id.to_string(), now);
+                self.unjudged.insert(id.into(), now);
                 true
             }
             None => false,
@@ -112,7 +112,7 @@ impl Robots {
     /// said may be outdated by the time it matters again).
     pub(super) fn prune(&mut self, now: f64, member: impl Fn(&str) -> bool) {
         self.unjudged.retain(|_, since| now - *since < 2.0 * UNJUDGED_S);
-        let gone: Vec<String> = self.admitted.keys().filter(|id| !self.unjudged.contains_key(*id) && !member(id)).cloned().collect();
+        let gone: Vec<RobotId> = self.admitted.keys().filter(|id| !self.unjudged.contains_key(*id) && !member(id)).cloned().collect();
         for id in gone {
             self.admitted.remove(&id);
             self.missions.remove(&id);
@@ -126,8 +126,8 @@ mod tests {
 
     fn telemetry(id: &str, mission: Option<&str>, admitted: &[&str]) -> Telemetry {
         let mut t = Telemetry::resting(id, 0.0);
-        t.mission = mission.map(str::to_string);
-        t.admitted = admitted.iter().map(|m| m.to_string()).collect();
+        t.mission = mission.map(Into::into);
+        t.admitted = admitted.iter().map(|m| (*m).into()).collect();
         t
     }
 

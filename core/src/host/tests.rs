@@ -59,10 +59,10 @@ impl Mesh {
         let mut m = Mesh { nodes: names.iter().map(|n| (n.to_string(), HostCore::new(n, p, 0.0))).collect(), now: 0.0, out: vec![] };
         for a in names {
             for b in names {
-                m.to(a, Event::HostAlive(b.to_string()));
+                m.to(a, Event::HostAlive(b.into()));
             }
             for r in robots {
-                m.to(a, Event::RobotAlive(r.to_string()));
+                m.to(a, Event::RobotAlive(r.into()));
             }
         }
         m
@@ -78,7 +78,7 @@ impl Mesh {
                 match c {
                     Command::Chain { to, envelope } => {
                         let from = sender(&at);
-                        queue.push((to, Event::Chain { envelope, from }));
+                        queue.push((to.to_string(), Event::Chain { envelope, from }));
                     }
                     other => {
                         if at == node {
@@ -118,7 +118,7 @@ fn planned(cmds: &[Command]) -> Option<Event> {
 fn sent_plans(cmds: &[Command]) -> Vec<(String, u64)> {
     cmds.iter()
         .filter_map(|c| match c {
-            Command::SendPlan { robot, assignment, .. } => Some((robot.clone(), assignment.epoch)),
+            Command::SendPlan { robot, assignment, .. } => Some((robot.to_string(), assignment.epoch)),
             _ => None,
         })
         .collect()
@@ -213,7 +213,7 @@ fn a_control_is_answered_after_its_commit_and_dropped_by_a_non_head() {
     m.to("r1", Event::HostGone("r2".into()));
     let later: Vec<Command> = (0..20).flat_map(|_| m.tick(0.1)).filter(|(n, _)| n == "central").map(|c| c.1).collect();
     assert_eq!(replies(&later), [8]);
-    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.manager.chain), Some(vec!["central".to_string(), "r1".to_string()]));
+    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.manager.chain), Some(vec!["central".into(), "r1".into()]));
 }
 
 #[test]
@@ -226,12 +226,12 @@ fn a_robot_central_takes_back_while_it_is_gone_here_is_kept_lost_until_it_is_bac
     assert!(!cmds.iter().any(|c| matches!(c, Command::RequestPlan { .. })), "{cmds:?}");
     assert_eq!(replies(&cmds), [8], "answered: the change is committed");
     let v = m.nodes["central"].view(m.now, "p", false).expect("led");
-    assert_eq!((v.robots, v.lost), (vec!["r1".to_string(), "r2".to_string()], vec!["r3".to_string()]));
+    assert_eq!((v.robots, v.lost), (vec!["r1".into(), "r2".into()], vec!["r3".into()]));
     // r3 is back: central's next order takes it in, and the team is replanned with it.
     m.to("central", Event::RobotAlive("r3".into()));
     let cmds = m.to("central", joined(9));
     assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { epoch: 2, .. })), "{cmds:?}");
-    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.robots), Some(vec!["r1".to_string(), "r2".to_string(), "r3".to_string()]));
+    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.robots), Some(vec!["r1".into(), "r2".into(), "r3".into()]));
 }
 
 #[test]
@@ -285,7 +285,7 @@ fn a_head_that_steps_down_lets_waiting_controls_go() {
 fn a_host_watches_the_robots_of_the_missions_it_leads_or_replicates_and_no_other() {
     use std::collections::BTreeSet;
     let mut m = Mesh::new(&["central", "r1", "r2", "h"], &["r1", "r2", "r3"]);
-    let set = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<BTreeSet<String>>();
+    let set = |v: &[&str]| v.iter().map(RobotId::from).collect::<BTreeSet<RobotId>>();
     assert!(m.nodes["central"].watched().is_empty(), "no mission: nobody to watch");
     let cmds = m.to("central", Event::Start { query: 1, start: start("p", &["r1", "r2"]), from: central() });
     let ev = planned(&cmds).expect("a plan request");
@@ -330,10 +330,10 @@ fn a_head_whose_chain_restarted_blank_reports_it_cannot_commit_and_gives_the_mis
     }
     for a in ["central", "r1", "r2"] {
         for b in ["central", "r1", "r2"] {
-            m.to(a, Event::HostAlive(b.to_string()));
+            m.to(a, Event::HostAlive(b.into()));
         }
         for r in ["r1", "r2"] {
-            m.to(a, Event::RobotAlive(r.to_string()));
+            m.to(a, Event::RobotAlive(r.into()));
         }
     }
     let since = m.now;
@@ -357,7 +357,7 @@ fn a_head_whose_chain_restarted_blank_reports_it_cannot_commit_and_gives_the_mis
     let floor = mrmm_proto::chain::lineage_floor(1);
     assert!(sent_plans(&cmds).iter().all(|(_, e)| *e > floor) && sent_plans(&cmds).len() == 2, "{cmds:?}");
     let v = m.nodes["central"].view(m.now, "p", false).expect("led anew");
-    assert_eq!((v.manager.chain, v.manager.uncommitted_s), (vec!["central".to_string(), "r1".to_string(), "r2".to_string()], None));
+    assert_eq!((v.manager.chain, v.manager.uncommitted_s), (vec!["central".into(), "r1".into(), "r2".into()], None));
     assert!(m.nodes["r2"].replica("p").is_some_and(|r| r.state().is_some()), "the new chain holds the state");
 }
 
@@ -411,13 +411,13 @@ fn a_large_team_gets_its_plans_a_window_at_a_time() {
     assert_eq!(first.len(), head::DELIVERY_WINDOW, "a window's worth at first");
     // One answer: one more plan goes out at once.
     let (done, _) = first[0].clone();
-    let next = sent_plans(&m.to("central", Event::PlanDelivered { mission: "p".into(), robot: done.clone(), epoch: 1, result: Ok(()) }));
+    let next = sent_plans(&m.to("central", Event::PlanDelivered { mission: "p".into(), robot: done.clone().into(), epoch: 1, result: Ok(()) }));
     assert_eq!(next.len(), 1);
     assert!(!first.contains(&next[0]), "a robot still waiting: {next:?}");
     // The rest answer: the others go out as places free up, none twice.
     let mut got: Vec<String> = first.iter().chain(&next).map(|(r, _)| r.clone()).collect();
     for (r, _) in first.iter().skip(1).chain(&next) {
-        let more = m.to("central", Event::PlanDelivered { mission: "p".into(), robot: r.clone(), epoch: 1, result: Ok(()) });
+        let more = m.to("central", Event::PlanDelivered { mission: "p".into(), robot: r.clone().into(), epoch: 1, result: Ok(()) });
         got.extend(sent_plans(&more).into_iter().map(|(r, _)| r));
     }
     let mut tick = sent_plans(&m.tick(0.1).into_iter().map(|c| c.1).collect::<Vec<_>>());

@@ -1,7 +1,7 @@
 //! Time passing on a mission host: its ticks (chains, replans held back for a burst of losses,
 //! plan re-deliveries), its status ticks, and the answers to the plans it sent.
 
-use mrmm_proto::PlanAssignment;
+use mrmm_proto::{MissionName, NodeId, PlanAssignment, RobotId};
 
 use super::{Command, HostCore};
 use crate::mission;
@@ -15,7 +15,7 @@ impl HostCore {
         for (name, cmds) in self.registry.tick(now) {
             self.apply(now, &name, cmds, out);
         }
-        let due: Vec<String> = self.heads.iter().filter(|(_, h)| h.mm.replan_due().is_some_and(|d| now >= d)).map(|(n, _)| n.clone()).collect();
+        let due: Vec<MissionName> = self.heads.iter().filter(|(_, h)| h.mm.replan_due().is_some_and(|d| now >= d)).map(|(n, _)| n.clone()).collect();
         for name in due {
             self.run(now, &name, mission::Event::Tick, out);
         }
@@ -31,7 +31,7 @@ impl HostCore {
     /// Once a second: each led mission's metrics into its chain (replicated only if they
     /// changed, and then its status is published with the change); else its pool and status.
     pub(super) fn status_tick(&mut self, now: f64, out: &mut Vec<Command>) {
-        let names: Vec<String> = self.heads.keys().cloned().collect();
+        let names: Vec<MissionName> = self.heads.keys().cloned().collect();
         for name in names {
             let before = out.len();
             self.run(now, &name, mission::Event::Checkpoint, out);
@@ -63,7 +63,7 @@ impl HostCore {
 }
 
 /// A plan to send, naming the mission's chain of managers as it is now.
-fn send_plan(mission: &str, robot: String, mut assignment: Box<PlanAssignment>, managers: &[String]) -> Command {
+fn send_plan(mission: &str, robot: RobotId, mut assignment: Box<PlanAssignment>, managers: &[NodeId]) -> Command {
     assignment.managers = managers.to_vec();
-    Command::SendPlan { mission: mission.to_string(), robot, assignment }
+    Command::SendPlan { mission: mission.into(), robot, assignment }
 }

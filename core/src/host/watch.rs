@@ -23,8 +23,8 @@ impl HostCore {
     }
 
     /// Every robot whose telemetry this host needs.
-    pub fn watched(&self) -> BTreeSet<String> {
-        let mut ids: BTreeSet<String> = self.robots.unjudged().cloned().collect();
+    pub fn watched(&self) -> BTreeSet<RobotId> {
+        let mut ids: BTreeSet<RobotId> = self.robots.unjudged().cloned().collect();
         for h in self.heads.values() {
             ids.extend(h.mm.members().cloned());
             ids.extend(h.mm.lost_members().map(|m| m.spec.id.clone()));

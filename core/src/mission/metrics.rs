@@ -4,6 +4,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::plan::Point;
+use mrmm_proto::RobotId;
 use mrmm_proto::{MetricsTally, MissionMetrics, Progress, Telemetry};
 
 /// A waypoint counts as visited by a robot passing within this distance, metres.
@@ -18,9 +19,9 @@ pub const VISIT_DEBOUNCE_S: f64 = 1.0;
 /// What the metrics remember.
 #[derive(Debug, Clone, Default)]
 pub struct Metrics {
-    last_visit: Vec<Option<(f64, String)>>,
+    last_visit: Vec<Option<(f64, RobotId)>>,
     /// The robots at each waypoint (seen within reach of it, not seen away since).
-    present: Vec<BTreeSet<String>>,
+    present: Vec<BTreeSet<RobotId>>,
     visits: Vec<u32>,
     sum: f64,
     count: u64,
@@ -28,7 +29,7 @@ pub struct Metrics {
     /// Latest robot time seen.
     last_now: f64,
     /// Each member's progress on the current epoch.
-    progress: BTreeMap<String, Progress>,
+    progress: BTreeMap<RobotId, Progress>,
     /// Ages of the last visits a predecessor checkpointed, placed on this clock at the next
     /// telemetry.
     ages: Option<Vec<Option<f64>>>,
@@ -91,7 +92,7 @@ impl Metrics {
     pub fn telemetry(&mut self, mission: &str, epoch: u64, tour: &[Point], now: f64, t: &Telemetry) -> u64 {
         let mut carried = 0;
         if let Some(ages) = self.ages.take() {
-            self.last_visit = ages.into_iter().map(|a| a.map(|a| (now - a, String::new()))).collect();
+            self.last_visit = ages.into_iter().map(|a| a.map(|a| (now - a, RobotId::default()))).collect();
         }
         self.last_now = self.last_now.max(now);
         if let Some(p) = &t.progress {
@@ -144,7 +145,7 @@ impl Metrics {
 
     /// Barriers every one of `members` has passed under the current plan (0 until each has
     /// reported on it).
-    pub fn syncs_passed(&self, members: &[String]) -> u32 {
+    pub fn syncs_passed(&self, members: &[RobotId]) -> u32 {
         let current: Vec<u32> = members.iter().filter_map(|id| self.progress.get(id)).map(|p| p.syncs_passed).collect();
         if current.len() == members.len() {
             current.into_iter().min().unwrap_or(0)
@@ -154,7 +155,7 @@ impl Metrics {
     }
 
     /// The metrics for `members`; `plan_msgs` and `sync_msgs_left` come from the replicated state.
-    pub fn view<'a>(&self, members: impl Iterator<Item = &'a String>, plan_msgs: u64, sync_msgs_left: u64) -> MissionMetrics {
+    pub fn view<'a>(&self, members: impl Iterator<Item = &'a RobotId>, plan_msgs: u64, sync_msgs_left: u64) -> MissionMetrics {
         // Waypoints waiting right now count too: the worst idleness is never below the current wait.
         // (Not those a robot is at: they are being visited.)
         let open = self
@@ -166,7 +167,7 @@ impl Metrics {
             .map(|(w, _)| self.last_now - w)
             .fold(0.0, f64::max);
         let any = self.visits.iter().any(|&v| v > 0);
-        let members: Vec<&String> = members.collect();
+        let members: Vec<&RobotId> = members.collect();
         let current: Vec<&Progress> = members.iter().filter_map(|id| self.progress.get(*id)).collect();
         let full = current.len() == members.len() && !current.is_empty();
         let sync_msgs: u64 = sync_msgs_left + self.progress.values().map(|p| u64::from(p.sync_msgs)).sum::<u64>();

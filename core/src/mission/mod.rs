@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::plan::{MissionPlan, PlanSummary, Point, RobotSpec};
-use mrmm_proto::{self as proto, Member, MissionSnapshot, MissionStatus, PlanAssignment, PlanRequest, Telemetry};
+use mrmm_proto::{self as proto, Member, MissionSnapshot, MissionStatus, NodeId, PlanAssignment, PlanRequest, RobotId, Telemetry};
 
 pub use burst::{LOSS_BURST_MAX_S, LOSS_BURST_S, LOSS_QUIET_S};
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
@@ -41,11 +41,11 @@ pub enum Event {
     Absent(Member),
     /// Robots leave (moved out, ordered out); one replan for all of them.
     Left {
-        ids: Vec<String>,
+        ids: Vec<RobotId>,
     },
     /// Robots were lost (liveliness): like `Left`, but they are remembered and may rejoin.
     Lost {
-        ids: Vec<String>,
+        ids: Vec<RobotId>,
     },
     PlanReady {
         epoch: u64,
@@ -73,7 +73,7 @@ pub enum Command {
     /// Ask a planner of `kind` for a plan of `epoch`.
     RequestPlan { epoch: u64, kind: PlannerKind, request: PlanRequest },
     /// Hand a robot its plan.
-    SendPlan { robot: String, assignment: Box<PlanAssignment> },
+    SendPlan { robot: RobotId, assignment: Box<PlanAssignment> },
     /// The first plan is out: the mission runs.
     Started,
     /// The first plan failed.
@@ -84,13 +84,13 @@ pub enum Command {
 #[derive(Debug, Clone)]
 pub struct MissionManager {
     spec: MissionSpec,
-    node: String,
+    node: NodeId,
     epoch: u64,
     status: MissionStatus,
     error: Option<String>,
-    members: BTreeMap<String, Member>,
+    members: BTreeMap<RobotId, Member>,
     /// Members lost through liveliness, kept so they can rejoin.
-    lost: BTreeMap<String, Member>,
+    lost: BTreeMap<RobotId, Member>,
     plan: Option<(u64, MissionPlan)>,
     started: bool,
     /// Sync publications of members that left, kept so the count never goes back.
@@ -104,7 +104,7 @@ pub struct MissionManager {
     tally: Option<proto::MetricsTally>,
     /// Members that report they cannot get to their goal, with why (from their telemetry; not
     /// replicated: a new head hears it again within a telemetry period).
-    stuck: BTreeMap<String, String>,
+    stuck: BTreeMap<RobotId, String>,
     /// The burst of losses a held replan is for (its epoch is already counted, so a successor
     /// taking over meanwhile replans).
     burst: burst::LossBurst,
@@ -113,7 +113,7 @@ pub struct MissionManager {
 }
 
 impl MissionManager {
-    pub fn new(spec: MissionSpec, node: String, members: Vec<Member>) -> Self {
+    pub fn new(spec: MissionSpec, node: NodeId, members: Vec<Member>) -> Self {
         MissionManager {
             shapes: teams::shapes(&spec.recipe_xml),
             spec,
@@ -144,7 +144,7 @@ impl MissionManager {
     }
 
     /// A manager on `node` going on from a replicated state.
-    pub fn restore(snap: MissionSnapshot, node: String) -> Result<Self, String> {
+    pub fn restore(snap: MissionSnapshot, node: NodeId) -> Result<Self, String> {
         let spec = MissionSpec::from_wire(snap.spec.clone())?;
         let mut mm = MissionManager::new(spec, node, snap.members.clone());
         mm.lost = snap.lost.iter().map(|m| (m.spec.id.clone(), m.clone())).collect();
@@ -226,7 +226,7 @@ impl MissionManager {
     pub fn revision(&self) -> u64 {
         self.revision
     }
-    pub fn members(&self) -> impl Iterator<Item = &String> {
+    pub fn members(&self) -> impl Iterator<Item = &RobotId> {
         self.members.keys()
     }
     pub fn has(&self, id: &str) -> bool {
@@ -307,7 +307,7 @@ impl MissionManager {
     /// outdated from now (the epoch says so, and a successor taking over replans), asked for
     /// once the burst is over: [`LOSS_BURST_S`] after its first loss, [`LOSS_QUIET_S`] after its
     /// last, [`LOSS_BURST_MAX_S`] after its first at most.
-    fn members_lost(&mut self, now: f64, ids: Vec<String>) -> Vec<Command> {
+    fn members_lost(&mut self, now: f64, ids: Vec<RobotId>) -> Vec<Command> {
         for id in &ids {
             if let Some(m) = self.members.get(id) {
                 self.lost.insert(id.clone(), m.clone());
@@ -453,7 +453,7 @@ impl MissionManager {
     }
 
     /// Takes members out; one replan if any was in.
-    fn remove(&mut self, ids: Vec<String>) -> Vec<Command> {
+    fn remove(&mut self, ids: Vec<RobotId>) -> Vec<Command> {
         if self.take_out(ids) {
             self.replan()
         } else {
@@ -462,7 +462,7 @@ impl MissionManager {
     }
 
     /// Takes members out; whether any was one.
-    fn take_out(&mut self, ids: Vec<String>) -> bool {
+    fn take_out(&mut self, ids: Vec<RobotId>) -> bool {
         let mut any = false;
         for id in ids {
             self.stuck.remove(&id);

@@ -8,7 +8,7 @@ use mrmm_proto::{self as proto, MissionSpecWire};
 /// What a mission is.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MissionSpec {
-    pub name: String,
+    pub name: mrmm_proto::MissionName,
     /// Bank name, or `custom` for an inline recipe.
     pub recipe_name: String,
     pub recipe_xml: String,

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 
 use mrmm_proto::plan::MissionPlan;
-use mrmm_proto::{self as proto, BarrierMode, PlanAssignment, ScopeMembers};
+use mrmm_proto::{self as proto, BarrierMode, PlanAssignment, RobotId, ScopeMembers};
 
 use super::{Command, MissionManager, LEADER_BARRIER_FROM};
 
@@ -48,13 +48,13 @@ impl MissionManager {
     /// have barriers there too.
     pub(super) fn assignments(&self, epoch: u64, plan: &MissionPlan) -> Vec<Command> {
         let mission = &self.spec.name;
-        let path = |team: &str| if team.is_empty() { mission.clone() } else { format!("{mission}/{team}") };
-        let mut leaves: BTreeMap<&str, Vec<String>> = BTreeMap::new();
-        let mut scoped: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        let path = |team: &str| if team.is_empty() { mission.to_string() } else { format!("{mission}/{team}") };
+        let mut leaves: BTreeMap<&str, Vec<RobotId>> = BTreeMap::new();
+        let mut scoped: BTreeMap<String, Vec<RobotId>> = BTreeMap::new();
         for rp in plan.plans.iter().filter(|rp| self.members.contains_key(&rp.robot)) {
             leaves.entry(rp.team.as_str()).or_default().push(rp.robot.clone());
             for scope in scopes_of(rp) {
-                let p = if scope.is_empty() { mission.clone() } else { path(&scope) };
+                let p = if scope.is_empty() { mission.to_string() } else { path(&scope) };
                 scoped.entry(p).or_default().push(rp.robot.clone());
             }
         }
@@ -69,7 +69,7 @@ impl MissionManager {
                 let team = path(&rp.team);
                 let scopes = scopes_of(rp)
                     .into_iter()
-                    .map(|s| if s.is_empty() { mission.clone() } else { path(&s) })
+                    .map(|s| if s.is_empty() { mission.to_string() } else { path(&s) })
                     .filter(|p| *p != team)
                     .map(|p| ScopeMembers { members: scoped.get(&p).cloned().unwrap_or_default(), team: p })
                     .collect();
@@ -114,14 +114,14 @@ impl MissionManager {
     /// Teams by path: a recipe of teams gives each leaf team (`<mission>/<team>…`) its members as
     /// last planned (a member not planned yet is under the mission's own name); a recipe without
     /// teams, the sub-teams by robot type (`<mission>/<type>`).
-    pub fn teams(&self) -> BTreeMap<String, Vec<String>> {
+    pub fn teams(&self) -> BTreeMap<String, Vec<RobotId>> {
         let planned = self.planned_teams();
         let of_teams = planned.values().any(|t| !t.is_empty());
-        let mut teams: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        let mut teams: BTreeMap<String, Vec<RobotId>> = BTreeMap::new();
         for m in self.members.values() {
             let key = match planned.get(m.spec.id.as_str()) {
                 Some(t) if !t.is_empty() => format!("{}/{t}", self.spec.name),
-                _ if of_teams => self.spec.name.clone(),
+                _ if of_teams => self.spec.name.to_string(),
                 _ => format!("{}/{}", self.spec.name, m.spec.robot_type),
             };
             teams.entry(key).or_default().push(m.spec.id.clone());

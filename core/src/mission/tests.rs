@@ -32,13 +32,26 @@ fn plan_for(cmds: &[Command]) -> (u64, MissionPlan) {
     let xml = recipe::bank(&request.recipe).unwrap_or(&request.recipe);
     let r = recipe::parse(xml).expect("recipe");
     let robots: Vec<_> = request.robots.iter().map(crate::wire::robot_spec).collect();
-    (*epoch, crate::wire::mission_plan(&recipe::build_with(&r, &request.params, &robots, &request.capabilities, None, recipe::Bounds::Relaxed).expect("plan")))
+    (
+        *epoch,
+        crate::wire::mission_plan(
+            &recipe::build_with(
+                &r,
+                &request.params,
+                &robots,
+                &request.capabilities.iter().map(|(k, v)| (k.to_string(), v.clone())).collect(),
+                None,
+                recipe::Bounds::Relaxed,
+            )
+            .expect("plan"),
+        ),
+    )
 }
 
 fn sent_to(cmds: &[Command]) -> Vec<(String, u64, usize)> {
     cmds.iter()
         .filter_map(|c| match c {
-            Command::SendPlan { robot, assignment } => Some((robot.clone(), assignment.epoch, assignment.members.len())),
+            Command::SendPlan { robot, assignment } => Some((robot.to_string(), assignment.epoch, assignment.members.len())),
             _ => None,
         })
         .collect()
@@ -400,7 +413,7 @@ fn a_burst_of_losses_costs_one_replan() {
     let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
     m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
     for (i, id) in ["r1", "r2", "r3"].iter().enumerate() {
-        let out = m.handle(1.0 + 0.1 * i as f64, Event::Lost { ids: vec![id.to_string()] });
+        let out = m.handle(1.0 + 0.1 * i as f64, Event::Lost { ids: vec![id.into()] });
         assert!(out.is_empty(), "no plan asked per loss: {out:?}");
     }
     assert_eq!(m.epoch(), 2, "the plan is outdated at once");
@@ -430,7 +443,7 @@ fn losses_seen_one_after_another_are_one_burst_within_its_bound() {
     for k in 0..10 {
         let t = 1.0 + 0.4 * k as f64;
         replans += asked(&m.handle(t, Event::Tick));
-        m.handle(t, Event::Lost { ids: vec![format!("r{k}")] });
+        m.handle(t, Event::Lost { ids: vec![format!("r{k}").into()] });
         replans += asked(&m.handle(t + 0.2, Event::Tick));
     }
     assert_eq!(replans, 1, "one replan for the losses up to the bound");
@@ -466,7 +479,7 @@ fn a_recipe_of_teams_gives_each_robot_its_leaf_team_and_the_mission_barrier() {
     let sent: BTreeMap<String, PlanAssignment> = cmds
         .iter()
         .filter_map(|c| match c {
-            Command::SendPlan { robot, assignment } => Some((robot.clone(), (**assignment).clone())),
+            Command::SendPlan { robot, assignment } => Some((robot.to_string(), (**assignment).clone())),
             _ => None,
         })
         .collect();
@@ -474,7 +487,7 @@ fn a_recipe_of_teams_gives_each_robot_its_leaf_team_and_the_mission_barrier() {
     // Each robot's own barriers are its leaf team's: it never waits on the sibling team.
     assert_eq!((sent["a"].team.as_str(), sent["a"].subteam.as_str()), ("e/ground", "e/ground/ground"));
     assert_eq!(sent["a"].members, ["a", "b"]);
-    assert_eq!((sent["c"].team.as_str(), sent["c"].members.as_slice()), ("e/air", ["c".to_string()].as_slice()));
+    assert_eq!((sent["c"].team.as_str(), sent["c"].members.as_slice()), ("e/air", ["c".into()].as_slice()));
     // The recipe's start barrier is the whole mission's.
     for a in sent.values() {
         assert_eq!(a.scopes, [mrmm_proto::ScopeMembers { team: "e".into(), members: vec!["a".into(), "b".into(), "c".into()] }]);

@@ -3,7 +3,7 @@
 //! [`Command`]s. The robot's driver (`mrmm_peer::runtime`) and the simulations both publish
 //! through [`Links::egress`] and subscribe to [`Links::subscriptions`].
 
-use mrmm_proto::{BarrierMode, Key, Pattern, Role, ScopeMembers, Sender};
+use mrmm_proto::{BarrierMode, Key, Pattern, RobotId, Role, ScopeMembers, Sender};
 
 use super::Command;
 use crate::egress::{Audience, Out, Sub};
@@ -26,8 +26,8 @@ pub struct TeamLinks {
 
 impl TeamLinks {
     /// Robot `id` in `team` with the plan's `members` and wider `scopes`.
-    pub fn new(id: &str, team: &str, subteam: &str, mode: BarrierMode, members: &[String], scopes: &[ScopeMembers]) -> TeamLinks {
-        let others = |ms: &[String]| ms.iter().filter(|m| m.as_str() != id).map(|m| Sender::new(Role::Robot, m.clone())).collect::<Vec<_>>();
+    pub fn new(id: &str, team: &str, subteam: &str, mode: BarrierMode, members: &[RobotId], scopes: &[ScopeMembers]) -> TeamLinks {
+        let others = |ms: &[RobotId]| ms.iter().filter(|m| m.as_str() != id).map(|m| Sender::new(Role::Robot, m.to_string())).collect::<Vec<_>>();
         TeamLinks {
             team: team.to_string(),
             subteam: subteam.to_string(),
@@ -73,13 +73,13 @@ impl TeamLinks {
 /// A robot's links: its telemetry's key, and its team while it has one.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Links {
-    id: String,
+    id: RobotId,
     team: Option<TeamLinks>,
 }
 
 impl Links {
     pub fn new(id: &str) -> Links {
-        Links { id: id.to_string(), team: None }
+        Links { id: id.into(), team: None }
     }
 
     pub fn team(&self) -> Option<&TeamLinks> {

@@ -3,7 +3,8 @@
 //! [`Command`]s the runtime (`runtime.rs`) or a simulation carries out.
 
 use mrmm_proto::{
-    self as proto, BarrierMode, Behaviour, CommandAck, PlanAssignment, RobotCommand, RobotInfo, Role, Sender, Step, SyncArrival, SyncRelease, Telemetry,
+    self as proto, BarrierMode, Behaviour, CommandAck, MissionName, NodeId, PlanAssignment, RobotCommand, RobotId, RobotInfo, Role, Sender, Step, SyncArrival,
+    SyncRelease, Telemetry,
 };
 
 use crate::body::Body;
@@ -42,9 +43,9 @@ pub enum Event {
     /// An arrival at a barrier of the wider team of this path (a scope of the plan).
     HeardIn(String, SyncArrival),
     /// A teammate's membership token appeared.
-    MemberAlive(String),
+    MemberAlive(RobotId),
     /// A teammate's membership token disappeared.
-    MemberGone(String),
+    MemberGone(RobotId),
     /// Central's liveliness appeared (`true`) or went (`false`).
     CentralAlive(bool),
     /// Time to publish telemetry.
@@ -72,7 +73,7 @@ pub enum Command {
     /// runs them) and members (leaving any other team); `members` (the plan's) are whom its
     /// barrier messages are for; `scopes`: the wider teams whose barriers the plan has (their
     /// arrivals, and the liveliness of their members, are heard too).
-    JoinTeam { team: String, subteam: String, barrier: BarrierMode, members: Vec<String>, scopes: Vec<proto::ScopeMembers> },
+    JoinTeam { team: String, subteam: String, barrier: BarrierMode, members: Vec<RobotId>, scopes: Vec<proto::ScopeMembers> },
     /// Leave the current team.
     LeaveTeam,
     /// Publish a barrier arrival on the current team.
@@ -110,7 +111,7 @@ pub struct Robot {
     exec: Option<Executor>,
     /// The missions the system manager admitted this robot to, oldest first: (mission, managers,
     /// members). More than one while it moves between missions; at most [`MAX_ADMISSIONS`].
-    admitted: Vec<(String, Vec<String>, Vec<String>)>,
+    admitted: Vec<(MissionName, Vec<NodeId>, Vec<RobotId>)>,
     /// Whether central (which admits robots to missions) is reachable.
     central_up: bool,
     /// What the robot can do now: its config's list, changed at runtime by capabilities commands.
@@ -180,13 +181,14 @@ impl Robot {
     pub fn team(&self) -> Vec<(String, Vec<String>)> {
         let mut out: Vec<(String, Vec<String>)> = Vec::new();
         if let Some(e) = &self.exec {
-            out.push((e.mission().to_string(), e.assignment.members.iter().chain(&e.assignment.managers).cloned().collect()));
+            let members = e.assignment.members.iter().map(|m| m.to_string());
+            out.push((e.mission().to_string(), members.chain(e.assignment.managers.iter().map(|m| m.to_string())).collect()));
         }
         for (m, managers, members) in &self.admitted {
-            let ids = managers.iter().chain(members).cloned();
+            let ids = managers.iter().map(|m| m.to_string()).chain(members.iter().map(|m| m.to_string()));
             match out.iter_mut().find(|(mission, _)| mission == m) {
                 Some((_, known)) => known.extend(ids),
-                None => out.push((m.clone(), ids.collect())),
+                None => out.push((m.to_string(), ids.collect())),
             }
         }
         for (_, ids) in &mut out {
@@ -335,14 +337,15 @@ impl Robot {
             RobotCommand::Plan(a) => match from.role {
                 Role::Central | Role::Host => Ok(()),
                 Role::Robot => {
-                    let teammate = self
-                        .exec
-                        .as_ref()
-                        .is_some_and(|e| e.mission() == a.mission && (e.assignment.members.contains(&from.id) || e.assignment.managers.contains(&from.id)));
+                    let teammate = self.exec.as_ref().is_some_and(|e| {
+                        e.mission() == a.mission && (e.assignment.members.iter().any(|m| *m == from.id) || e.assignment.managers.iter().any(|m| *m == from.id))
+                    });
                     // Any robot of the admission may come to lead the mission (its chain is made of
                     // its members).
-                    let admitted =
-                        self.admitted.iter().any(|(m, managers, members)| *m == a.mission && (managers.contains(&from.id) || members.contains(&from.id)));
+                    let admitted = self
+                        .admitted
+                        .iter()
+                        .any(|(m, managers, members)| *m == a.mission && (managers.iter().any(|m| *m == from.id) || members.iter().any(|m| *m == from.id)));
                     // While central is unreachable nobody can admit this robot: an idle robot
                     // (restarted, say) takes its mission's plan from the robot leading it, as the
                     // paper's robots rejoin without central. A stranger with a fleet certificate
@@ -447,7 +450,7 @@ impl Robot {
     }
 
     /// Central admits this robot to `mission`: whom to trust as its managers and teammates.
-    fn admit(&mut self, mission: &str, managers: &[String], members: &[String]) -> Result<(), String> {
+    fn admit(&mut self, mission: &str, managers: &[NodeId], members: &[RobotId]) -> Result<(), String> {
         proto::validate_id(mission).map_err(|e| e.to_string())?;
         if managers.len() > proto::MAX_REPLICAS + 2 || managers.iter().any(|m| proto::validate_id(m).is_err()) {
             return Err("admit: bad manager list".into());
@@ -461,7 +464,7 @@ impl Robot {
         if self.admitted.len() >= MAX_ADMISSIONS {
             self.admitted.remove(0);
         }
-        self.admitted.push((mission.to_string(), managers.to_vec(), members.to_vec()));
+        self.admitted.push((MissionName::from(mission), managers.to_vec(), members.to_vec()));
         Ok(())
     }
 
@@ -577,7 +580,7 @@ impl Robot {
             pose: self.body.pose(),
             velocity: self.body.velocity(),
             behaviour: self.behaviour(),
-            mission: self.exec.as_ref().map(|e| e.mission().to_string()),
+            mission: self.exec.as_ref().map(|e| MissionName::from(e.mission())),
             progress: self.exec.as_ref().map(Executor::progress),
             admitted: self.admitted.iter().map(|(m, _, _)| m.clone()).collect(),
             stuck: self.body.stuck().map(str::to_string),

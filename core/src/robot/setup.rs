@@ -9,7 +9,7 @@ use crate::body::Limits;
 /// A robot as its machine knows it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RobotSetup {
-    pub id: String,
+    pub id: mrmm_proto::RobotId,
     pub robot_type: String,
     /// What the robot can do at start (changed at runtime by capabilities commands).
     pub capabilities: Vec<String>,
@@ -53,7 +53,7 @@ impl RobotSetup {
     /// A simulated robot of `robot_type` at `start` (`time_scale` 1, no capabilities, not durable).
     pub fn sim(id: &str, robot_type: &str, limits: Limits, start: Pose) -> RobotSetup {
         RobotSetup {
-            id: id.to_string(),
+            id: id.into(),
             robot_type: robot_type.to_string(),
             capabilities: Vec::new(),
             limits,

@@ -2,7 +2,7 @@
 //! info, a command to a robot, a mission's start, a mission's control, a mission's view for the
 //! operator — and what each answer becomes.
 
-use mrmm_proto::{CommandAck, CtlAck, Key, MissionView, RobotInfo};
+use mrmm_proto::{CommandAck, CtlAck, Key, MissionName, MissionView, RobotId, RobotInfo};
 use serde_json::Value;
 
 use super::{Command, Event, Req};
@@ -14,11 +14,11 @@ use crate::Failure;
 #[derive(Debug, Clone, PartialEq)]
 pub enum Then {
     /// [`Event::RobotRegistered`] or [`Event::InfoFailed`].
-    Info { id: String },
+    Info { id: RobotId },
     /// [`Event::RobotCommandDone`].
-    Robot { req: Option<Req>, robot: String },
+    Robot { req: Option<Req>, robot: RobotId },
     /// [`Event::MissionStarted`].
-    Start { mission: String },
+    Start { mission: MissionName },
     /// [`Event::CtlDone`].
     Ctl { id: u64 },
     /// [`Event::Forwarded`]: the answer goes to the operator as it came.

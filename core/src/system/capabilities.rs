@@ -70,7 +70,7 @@ impl SystemManager {
 
     /// Robot `id` says its capabilities are now `capabilities` (its answer to a change). A member
     /// that lacks what its mission requires leaves it; returns the commands and that mission.
-    pub(super) fn capabilities_now(&mut self, id: &str, capabilities: Vec<String>) -> (Vec<Command>, Option<String>) {
+    pub(super) fn capabilities_now(&mut self, id: &str, capabilities: Vec<String>) -> (Vec<Command>, Option<MissionName>) {
         if let Err(e) = proto::check_capabilities(&capabilities) {
             tracing::warn!(robot = %id, "capabilities in a command answer ignored: {e}");
             return (vec![], None);
@@ -87,7 +87,7 @@ impl SystemManager {
 
     /// A member that lacks what its mission requires (its capabilities changed, or it came back
     /// with fewer) is taken out of the mission, as the operator would move it out.
-    pub(super) fn unfit(&mut self, id: &str) -> (Vec<Command>, Option<String>) {
+    pub(super) fn unfit(&mut self, id: &str) -> (Vec<Command>, Option<MissionName>) {
         let Some(mission) = self.assignment.get(id).cloned() else {
             return (vec![], None);
         };

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use mrmm_planner::recipe;
-use mrmm_proto::{MissionCtl, MissionSpecWire, MissionUpdate};
+use mrmm_proto::{MissionCtl, MissionSpecWire, MissionUpdate, RobotId};
 use serde_json::{json, Value};
 
 use super::missions::{cheap, param_strings, DryRun};
@@ -71,7 +71,7 @@ impl SystemManager {
             }
             None => spec.map.as_ref().and_then(|m| self.maps.get(&m.name).filter(|h| h.info.hash == m.hash)).map(|h| h.map.clone()),
         };
-        let ids: Vec<&String> = self.assignment.iter().filter(|(id, m)| *m == &u.name && self.fleet.alive(id)).map(|(id, _)| id).collect();
+        let ids: Vec<&RobotId> = self.assignment.iter().filter(|(id, m)| *m == &u.name && self.fleet.alive(id)).map(|(id, _)| id).collect();
         let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id)).map(|s| wire::robot_spec(&s)).collect();
         let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
         if robots.is_empty() {

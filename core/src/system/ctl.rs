@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use mrmm_proto::MissionCtl;
+use mrmm_proto::{MissionCtl, MissionName};
 
 use crate::Failure;
 
@@ -31,7 +31,7 @@ struct Pending {
 #[derive(Debug, Clone, Default)]
 pub struct Ctls {
     next: u64,
-    queues: BTreeMap<String, VecDeque<Pending>>,
+    queues: BTreeMap<MissionName, VecDeque<Pending>>,
 }
 
 impl Ctls {
@@ -39,7 +39,14 @@ impl Ctls {
     pub fn push(&mut self, mission: &str, ctl: MissionCtl, after: Vec<u64>) -> u64 {
         let id = self.next;
         self.next += 1;
-        self.queues.entry(mission.to_string()).or_default().push_back(Pending { id, ctl, after, in_flight: false, first: None, retry_at: f64::NEG_INFINITY });
+        self.queues.entry(MissionName::from(mission)).or_default().push_back(Pending {
+            id,
+            ctl,
+            after,
+            in_flight: false,
+            first: None,
+            retry_at: f64::NEG_INFINITY,
+        });
         id
     }
 
@@ -57,7 +64,7 @@ impl Ctls {
     /// another control and concerns no robot of a waiting one before it (a control waiting for
     /// another mission does not hold up the controls of other robots behind it), if none is in
     /// flight and it is due.
-    pub fn due(&mut self, now: f64) -> Vec<(u64, String, MissionCtl)> {
+    pub fn due(&mut self, now: f64) -> Vec<(u64, MissionName, MissionCtl)> {
         let pending: std::collections::BTreeSet<u64> = self.queues.values().flatten().map(|p| p.id).collect();
         let mut out = Vec::new();
         for (mission, q) in self.queues.iter_mut() {
@@ -146,7 +153,7 @@ impl Ctls {
 fn robots(ctl: &MissionCtl) -> Option<Vec<&str>> {
     match ctl {
         MissionCtl::Joined { member } => Some(vec![member.spec.id.as_str()]),
-        MissionCtl::Left { ids } => Some(ids.iter().map(String::as_str).collect()),
+        MissionCtl::Left { ids } => Some(ids.iter().map(|id| id.as_str()).collect()),
         MissionCtl::Terminate => None,
         // A change of the mission itself: no robot's controls wait for it, nor it for theirs.
         MissionCtl::Update { .. } => Some(vec![]),

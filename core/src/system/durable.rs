@@ -7,13 +7,13 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
-use mrmm_proto::{JournalEvent, MissionSpecWire};
+use mrmm_proto::{JournalEvent, MissionName, MissionSpecWire, NodeId, RobotId};
 
 /// A mission as it was defined: where it was created and, when central created it, its whole
 /// spec (recipe XML and parameters) — what it takes to start it again.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MissionDef {
-    pub host: String,
+    pub host: NodeId,
     pub recipe: String,
     pub planner: String,
     /// `None` for a mission adopted from its head's report: it cannot be started again here.
@@ -27,13 +27,13 @@ pub struct MissionDef {
 /// The durable part of the system manager.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Durable {
-    pub missions: BTreeMap<String, Arc<MissionDef>>,
+    pub missions: BTreeMap<MissionName, Arc<MissionDef>>,
     /// Robot → mission (a lost robot keeps its place).
-    pub assignment: BTreeMap<String, String>,
-    pub terminated: BTreeSet<String>,
+    pub assignment: BTreeMap<RobotId, MissionName>,
+    pub terminated: BTreeSet<MissionName>,
     /// (Robot, the mission letting it go), until its head acknowledges: a robot moved on again
     /// before its first mission let it go is held by both.
-    pub releasing: BTreeSet<(String, String)>,
+    pub releasing: BTreeSet<(RobotId, MissionName)>,
 }
 
 impl Durable {
@@ -90,7 +90,7 @@ impl Durable {
             }
         }
         // Missions gone, and names whose terminated mark changed without a definition.
-        let names: BTreeSet<&String> = self.missions.keys().chain(&self.terminated).chain(&new.terminated).collect();
+        let names: BTreeSet<&MissionName> = self.missions.keys().chain(&self.terminated).chain(&new.terminated).collect();
         for name in names {
             if new.missions.contains_key(name) {
                 continue;
@@ -101,7 +101,7 @@ impl Durable {
                 out.push(JournalEvent::MissionRemoved { mission: name.clone(), terminated: now });
             }
         }
-        let robots: BTreeSet<&String> = self.assignment.keys().chain(new.assignment.keys()).collect();
+        let robots: BTreeSet<&RobotId> = self.assignment.keys().chain(new.assignment.keys()).collect();
         for robot in robots {
             let (old, now) = (self.assignment.get(robot), new.assignment.get(robot));
             if old != now {
@@ -156,11 +156,11 @@ mod tests {
         }
         for r in 0..6 {
             if rng.gen_bool(0.6) {
-                d.assignment.insert(format!("r{r}"), names[rng.gen_range(0..names.len())].into());
+                d.assignment.insert(format!("r{r}").into(), names[rng.gen_range(0..names.len())].into());
             }
             for n in names {
                 if rng.gen_bool(0.15) {
-                    d.releasing.insert((format!("r{r}"), n.into()));
+                    d.releasing.insert((format!("r{r}").into(), n.into()));
                 }
             }
         }

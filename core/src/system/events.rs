@@ -4,8 +4,8 @@
 use std::collections::BTreeMap;
 
 use mrmm_proto::{
-    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, MissionCreate, MissionCtl, MissionStart, MissionTerminate,
-    MissionView, RobotCommand, RobotInfo, RobotMove, Sender, Telemetry,
+    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, MissionCreate, MissionCtl, MissionName, MissionStart,
+    MissionTerminate, MissionView, NodeId, RobotCommand, RobotId, RobotInfo, RobotMove, Sender, Telemetry,
 };
 use serde_json::Value;
 
@@ -24,9 +24,9 @@ pub enum Req {
 pub enum Request {
     Status,
     Robots,
-    Robot(String),
+    Robot(RobotId),
     Missions,
-    Mission(String),
+    Mission(MissionName),
     Maps,
     Goto(GotoRequest),
     Move(RobotMove),
@@ -87,17 +87,17 @@ impl Request {
 pub enum Event {
     /// A robot's liveliness token appeared.
     RobotAlive {
-        id: String,
+        id: RobotId,
     },
     /// A robot's liveliness token disappeared (crash, freeze past the lease, or clean exit).
     RobotGone {
-        id: String,
+        id: RobotId,
     },
     /// A robot answered its info query.
     RobotRegistered(RobotInfo),
     /// An info query failed.
     InfoFailed {
-        id: String,
+        id: RobotId,
         reason: String,
     },
     Telemetry(Box<Telemetry>),
@@ -109,13 +109,13 @@ pub enum Event {
     /// A command to a robot completed; `req` is the request it answers, if any.
     RobotCommandDone {
         req: Option<Req>,
-        robot: String,
+        robot: RobotId,
         result: Result<CommandAck, String>,
     },
     /// A mission host answered a start: the first plans are out, or planning failed (or, when
     /// `retryable`, nobody answered: the mission may or may not run).
     MissionStarted {
-        mission: String,
+        mission: MissionName,
         result: Result<Box<MissionView>, Failure>,
     },
     /// The answer to [`Command::Forward`], for the operator as it came.
@@ -135,11 +135,11 @@ pub enum Event {
     },
     /// A mission host's liveliness token appeared.
     HostAlive {
-        node: String,
+        node: NodeId,
     },
     /// A mission host's liveliness token disappeared.
     HostGone {
-        node: String,
+        node: NodeId,
     },
     /// What the driver refused so far, by reason (reported in the fleet status).
     Refusals(BTreeMap<String, u64>),
@@ -183,19 +183,19 @@ impl Event {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {
     /// Ask robot `id` for its [`RobotInfo`]; answer with [`Event::RobotRegistered`] or [`Event::InfoFailed`].
-    FetchInfo { id: String },
+    FetchInfo { id: RobotId },
     /// Send `cmd` to `robot`; answer with [`Event::RobotCommandDone`].
-    SendToRobot { req: Option<Req>, robot: String, cmd: RobotCommand },
+    SendToRobot { req: Option<Req>, robot: RobotId, cmd: RobotCommand },
     /// Answer request `req` with JSON, or with a reply error.
     Reply { req: Req, result: Result<Value, String> },
     /// Start a mission on a host; answer with [`Event::MissionStarted`].
-    StartMission { host: String, start: Box<MissionStart> },
+    StartMission { host: NodeId, start: Box<MissionStart> },
     /// Steer a mission through its head; answer with [`Event::CtlDone`]. Only an answer from
     /// one of `managers` (the mission's chain as last reported, or its host) counts.
-    Ctl { id: u64, mission: String, ctl: MissionCtl, managers: Vec<String> },
+    Ctl { id: u64, mission: MissionName, ctl: MissionCtl, managers: Vec<NodeId> },
     /// Answer request `req` with whatever `key` answers (a head's mission view), taking only an
     /// answer from one of `managers`.
-    Forward { req: Req, key: Key, managers: Vec<String> },
+    Forward { req: Req, key: Key, managers: Vec<NodeId> },
     /// A proven sender sent what it may not: count it and say so in the log.
     Refused { from: Sender, what: String },
     /// Plan `DryRun` off this loop; answer with [`Event::DryRunDone`].
@@ -205,5 +205,5 @@ pub enum Command {
     Journal(Vec<JournalEvent>),
     /// Send a chain message to host `to` (on `mrmm/hosts/<to>/chain`): the head of a lineage
     /// that was replaced is told that a newer one runs the mission, and steps down.
-    Chain { to: String, envelope: Box<ChainEnvelope> },
+    Chain { to: NodeId, envelope: Box<ChainEnvelope> },
 }

@@ -3,7 +3,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::{Member, RobotInfo, RobotSpec, Telemetry};
+use mrmm_proto::{Member, NodeId, RobotId, RobotInfo, RobotSpec, Telemetry};
 
 use super::{FETCH_PER_TICK, INFO_RETRY_S, MAX_FLEET};
 
@@ -51,9 +51,9 @@ pub(super) enum Appeared {
 /// Every robot and mission host the system manager knows.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Fleet {
-    robots: BTreeMap<String, Record>,
+    robots: BTreeMap<RobotId, Record>,
     /// Mission hosts alive.
-    hosts: BTreeSet<String>,
+    hosts: BTreeSet<NodeId>,
     /// New robot ids ignored because the registry is full.
     ignored: u64,
 }
@@ -75,7 +75,7 @@ impl Fleet {
             Some(r) if r.alive => Appeared::Again,
             Some(_) => Appeared::Back,
         };
-        let rec = self.robots.entry(id.to_string()).or_insert(Record {
+        let rec = self.robots.entry(RobotId::from(id)).or_insert(Record {
             info: None,
             alive: false,
             last: None,
@@ -119,7 +119,7 @@ impl Fleet {
 
     /// Robots alive that never answered their info query, to be asked again: at most
     /// [`FETCH_PER_TICK`] (a flood of tokens costs a bounded number of queries).
-    pub(super) fn fetch_due(&mut self, now: f64) -> Vec<String> {
+    pub(super) fn fetch_due(&mut self, now: f64) -> Vec<RobotId> {
         self.robots
             .iter_mut()
             .filter(|(_, r)| r.alive && r.info.is_none())
@@ -141,7 +141,7 @@ impl Fleet {
     }
 
     /// Every robot's record, by id.
-    pub(super) fn iter(&self) -> impl Iterator<Item = (&String, &Record)> {
+    pub(super) fn iter(&self) -> impl Iterator<Item = (&RobotId, &Record)> {
         self.robots.iter()
     }
 
@@ -189,7 +189,14 @@ impl Fleet {
         let rec = self.robots.get(id)?;
         let info = rec.info.as_ref()?;
         let pose = rec.last.as_ref().map(|t| t.pose).unwrap_or_default();
-        Some(RobotSpec { id: id.to_string(), robot_type: info.robot_type.clone(), x: pose.x, y: pose.y, speed: info.max_speed, turn_rate: info.max_turn_rate })
+        Some(RobotSpec {
+            id: RobotId::from(id),
+            robot_type: info.robot_type.clone(),
+            x: pose.x,
+            y: pose.y,
+            speed: info.max_speed,
+            turn_rate: info.max_turn_rate,
+        })
     }
 
     /// What a mission manager needs to know about a robot.
@@ -199,9 +206,9 @@ impl Fleet {
     }
 
     /// A mission host's token appeared.
-    pub(super) fn host_up(&mut self, node: String) {
+    pub(super) fn host_up(&mut self, node: NodeId) {
         // Every robot node is a mission host too: its own host is news only at debug.
-        if self.robots.contains_key(&node) {
+        if self.robots.contains_key(node.as_str()) {
             tracing::debug!(%node, "mission host up");
         } else {
             tracing::info!(%node, "mission host up");
@@ -224,7 +231,7 @@ impl Fleet {
     }
 
     /// The mission hosts alive, by node id.
-    pub(super) fn hosts(&self) -> &BTreeSet<String> {
+    pub(super) fn hosts(&self) -> &BTreeSet<NodeId> {
         &self.hosts
     }
 }

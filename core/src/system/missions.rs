@@ -4,7 +4,10 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_planner::recipe::{self, PlannerKind};
-use mrmm_proto::{self as proto, Member, MissionCreate, MissionCtl, MissionStart, MissionTerminate, MissionView, RobotCommand, RobotMove, RobotSpec};
+use mrmm_proto::{
+    self as proto, Member, MissionCreate, MissionCtl, MissionName, MissionStart, MissionTerminate, MissionView, NodeId, RobotCommand, RobotId, RobotMove,
+    RobotSpec,
+};
 use serde_json::{json, Value};
 
 use super::dry_runs::Checking;
@@ -49,10 +52,10 @@ pub(super) fn param_strings(params: &BTreeMap<String, Value>) -> BTreeMap<String
 /// A create checked but for its dry run.
 struct Checked {
     spec: MissionSpec,
-    host: String,
+    host: NodeId,
     robots: Vec<RobotSpec>,
     /// (robot, mission) taken from running missions.
-    steal: Vec<(String, String)>,
+    steal: Vec<(RobotId, MissionName)>,
     /// The parameters of the dry run (little effort) and its robots.
     dry: BTreeMap<String, String>,
     planner_robots: Vec<mrmm_planner::plan::RobotSpec>,
@@ -119,7 +122,7 @@ impl SystemManager {
         let name = spec.name.clone();
         // Robots taken from running missions leave them first (those missions replan); the new
         // mission starts once they are let go.
-        let mut leaving: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        let mut leaving: BTreeMap<MissionName, Vec<RobotId>> = BTreeMap::new();
         for (id, from) in steal {
             self.assignment.remove(&id);
             leaving.entry(from).or_default().push(id);
@@ -174,7 +177,7 @@ impl SystemManager {
     /// The robots a create asks for (listed, a count of idle ones, or the equal share) and the
     /// robots taken from other missions for it, or why not.
     #[allow(clippy::type_complexity)]
-    fn choose_robots(&self, c: &MissionCreate, r: &recipe::Recipe, requires: &[String]) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+    fn choose_robots(&self, c: &MissionCreate, r: &recipe::Recipe, requires: &[String]) -> Result<(Vec<RobotId>, Vec<(RobotId, MissionName)>), String> {
         match (&c.robots, c.count) {
             (Some(_), Some(_)) => Err("give robots or count, not both".into()),
             (Some(list), None) => {
@@ -206,9 +209,9 @@ impl SystemManager {
     /// Everything a create needs but its dry run, or the first problem. Changes nothing.
     fn check_create(&self, c: MissionCreate) -> Result<Checked, String> {
         self.check_name(&c.name)?;
-        let host = c.host.clone().unwrap_or_else(|| proto::CENTRAL_HOST.to_string());
+        let host = c.host.clone().unwrap_or_else(|| NodeId::from(proto::CENTRAL_HOST));
         if !self.fleet.has_host(&host) {
-            let known: Vec<&str> = self.fleet.hosts().iter().map(String::as_str).collect();
+            let known: Vec<&str> = self.fleet.hosts().iter().map(|h| h.as_str()).collect();
             return Err(format!("no mission host {host:?} (hosts up: {})", if known.is_empty() { "none".into() } else { known.join(", ") }));
         }
         let (recipe_name, xml) = match recipe::bank(&c.recipe) {
@@ -239,7 +242,7 @@ impl SystemManager {
         let specs: Vec<RobotSpec> = ids.iter().filter_map(|id| self.spec(id)).collect();
         // Dry run with little effort: catches bad waypoints, regions and parameters now.
         let dry = cheap(&r, &params);
-        let caps = ids.iter().map(|id| (id.clone(), self.capabilities_of(id).to_vec())).collect();
+        let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
         let planner_robots: Vec<_> = specs.iter().map(wire::robot_spec).collect();
         let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
         if replicas > proto::MAX_REPLICAS {
@@ -262,20 +265,20 @@ impl SystemManager {
     /// The controls letting `id` go from missions, while not yet acknowledged (a robot moved
     /// on before its first mission let it go is let go by several).
     pub(super) fn pending_releases(&self, id: &str) -> Vec<u64> {
-        let mine = self.released.range((id.to_string(), String::new())..).take_while(|((r, _), _)| r == id);
+        let mine = self.released.range((RobotId::from(id), MissionName::default())..).take_while(|((r, _), _)| r == id);
         mine.map(|(_, r)| r.ctl).filter(|c| self.ctls.is_pending(*c)).collect()
     }
 
     /// Whether `mission` let `id` go within the grace period or is letting it go; with
     /// `pending`, only while its head has not acknowledged. (On the fields, so that it can be
     /// asked while a robot's record is borrowed.)
-    pub(super) fn released_by(released: &BTreeMap<(String, String), Released>, ctls: &Ctls, id: &str, mission: &str, pending: bool) -> bool {
-        released.get(&(id.to_string(), mission.to_string())).is_some_and(|r| !pending || ctls.is_pending(r.ctl))
+    pub(super) fn released_by(released: &BTreeMap<(RobotId, MissionName), Released>, ctls: &Ctls, id: &str, mission: &str, pending: bool) -> bool {
+        released.get(&(RobotId::from(id), MissionName::from(mission))).is_some_and(|r| !pending || ctls.is_pending(r.ctl))
     }
 
     /// Records that `mission` is letting `id` go with control `ctl`.
     pub(super) fn release(&mut self, id: &str, mission: &str, ctl: u64) {
-        self.released.insert((id.to_string(), mission.to_string()), Released { ctl, acked: None });
+        self.released.insert((RobotId::from(id), MissionName::from(mission)), Released { ctl, acked: None });
     }
 
     /// Alive, registered robots in no mission and running no plan, by id. A robot that runs a
@@ -289,11 +292,11 @@ impl SystemManager {
 
     /// The robots of `ids` that fit a team of `r`, those a team's `min` needs first (each leaf
     /// team's minimum in turn, in document order), the others after, in their order.
-    fn for_teams(&self, r: &recipe::Recipe, ids: Vec<String>) -> Vec<String> {
+    fn for_teams(&self, r: &recipe::Recipe, ids: Vec<RobotId>) -> Vec<RobotId> {
         if !r.has_teams() {
             return ids;
         }
-        let mut rest: Vec<String> = ids.into_iter().filter(|id| self.fits(r, id)).collect();
+        let mut rest: Vec<RobotId> = ids.into_iter().filter(|id| self.fits(r, id)).collect();
         let mut first = Vec::new();
         for leaf in r.leaves() {
             for _ in 0..leaf.min {
@@ -305,7 +308,7 @@ impl SystemManager {
         first
     }
 
-    fn idle_robots(&self, requires: &[String]) -> Vec<String> {
+    fn idle_robots(&self, requires: &[String]) -> Vec<RobotId> {
         self.fleet
             .iter()
             .filter(|(id, r)| r.ready() && !self.assignment.contains_key(*id))
@@ -322,14 +325,14 @@ impl SystemManager {
     /// Only robots with every capability of `requires` that fit a team of `r` are chosen, those its
     /// teams' minimums need first.
     #[allow(clippy::type_complexity)]
-    fn equal_share(&self, requires: &[String], r: &recipe::Recipe) -> Result<(Vec<String>, Vec<(String, String)>), String> {
+    fn equal_share(&self, requires: &[String], r: &recipe::Recipe) -> Result<(Vec<RobotId>, Vec<(RobotId, MissionName)>), String> {
         let fits = |id: &str| self.fits(r, id);
         let alive = self.fleet.ready_count();
         let share = (alive / (self.missions.len() + 1)).max(1);
         // The robots its teams' minimums need first.
-        let mut chosen: Vec<String> = self.for_teams(r, self.idle_robots(requires)).into_iter().take(share).collect();
+        let mut chosen: Vec<RobotId> = self.for_teams(r, self.idle_robots(requires)).into_iter().take(share).collect();
         let mut steal = Vec::new();
-        let mut sizes: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        let mut sizes: BTreeMap<MissionName, Vec<RobotId>> = BTreeMap::new();
         for (robot, m) in self.assignment.iter() {
             if self.fleet.alive(robot) {
                 sizes.entry(m.clone()).or_default().push(robot.clone());
@@ -358,7 +361,7 @@ impl SystemManager {
         if self.missions.remove(&t.name).is_none() {
             return vec![Command::Reply { req, result: Err(format!("unknown mission {:?}", t.name)) }];
         }
-        let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| **m == t.name).map(|(r, _)| r.clone()).collect();
+        let robots: Vec<RobotId> = self.assignment.iter().filter(|(_, m)| **m == t.name).map(|(r, _)| r.clone()).collect();
         self.terminated.insert(t.name.clone());
         self.ctls.cancel(&t.name);
         self.ctls.push(&t.name, MissionCtl::Terminate, vec![]);
@@ -420,7 +423,7 @@ impl SystemManager {
 
     /// Takes `robot` out of mission `from` (its head lets it go; an `alive` robot freed is told to
     /// leave) and into `to` with its member record, once every mission it was in let it go.
-    pub(super) fn apply_move(&mut self, robot: &str, from: Option<String>, to: Option<(String, Member)>, alive: bool) -> Vec<Command> {
+    pub(super) fn apply_move(&mut self, robot: &str, from: Option<MissionName>, to: Option<(MissionName, Member)>, alive: bool) -> Vec<Command> {
         let mut out = Vec::new();
         let mut left = self.pending_releases(robot);
         if let Some(f) = &from {
@@ -428,15 +431,15 @@ impl SystemManager {
             // After the release still pending from the mission before (whose head may still
             // count it: found by the system sim, seed 375 with digest beats), so that it joins
             // its next mission only once every mission it was in let it go.
-            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![robot.to_string()] }, left.clone());
+            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![RobotId::from(robot)] }, left.clone());
             self.release(robot, f, ctl);
             left.push(ctl);
             if to.is_none() && alive {
-                out.push(Command::SendToRobot { req: None, robot: robot.to_string(), cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX } });
+                out.push(Command::SendToRobot { req: None, robot: RobotId::from(robot), cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX } });
             }
         }
         if let Some((to, member)) = to {
-            self.assignment.insert(robot.to_string(), to.clone());
+            self.assignment.insert(RobotId::from(robot), to.clone());
             // It joins once its old mission let it go: never in two teams.
             self.ctls.push(&to, MissionCtl::Joined { member }, left);
         }
@@ -496,7 +499,7 @@ impl SystemManager {
                 // only once its head acknowledged the end — never in two missions.
                 tracing::warn!(mission = %name, "no answer to the start: ending the mission in case it started");
                 self.missions.remove(name);
-                self.terminated.insert(name.to_string());
+                self.terminated.insert(MissionName::from(name));
                 // What waited for this mission's controls (a robot moved out of it, released by
                 // it before joining another) now waits for its end.
                 let gone = self.ctls.cancel_ids(name);
@@ -505,14 +508,14 @@ impl SystemManager {
                 for r in self.released.values_mut().filter(|r| gone.contains(&r.ctl)) {
                     r.ctl = end;
                 }
-                let robots: Vec<String> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
+                let robots: Vec<RobotId> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
                 let mut out = Vec::new();
                 for id in robots {
                     self.assignment.remove(&id);
                     // Held until the end is acknowledged (and by any release still pending from a
                     // mission it was moved out of: its head may still count it; system sim, seed 3516).
                     self.release(&id, name, end);
-                    out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: name.to_string(), epoch: u64::MAX } });
+                    out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: MissionName::from(name), epoch: u64::MAX } });
                 }
                 out.extend(reply(Err(format!("mission {name} did not start: {}; it was ended in case it had", f.error))));
                 out

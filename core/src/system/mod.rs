@@ -28,8 +28,8 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
 use mrmm_proto::{
-    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, Member, MissionCtl, MissionStart, MissionStatus,
-    MissionView, RobotCommand, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
+    self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, Member, MissionCtl, MissionName, MissionStart,
+    MissionStatus, MissionView, NodeId, RobotCommand, RobotId, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
 };
 use serde_json::Value;
 
@@ -82,7 +82,7 @@ pub const SEEN_BACK_S: f64 = 4.0;
 #[derive(Debug, Clone)]
 pub(crate) struct MissionRecord {
     /// The node managing it as last reported (its host until a replica takes over).
-    host: String,
+    host: NodeId,
     /// As defined (durable).
     def: Arc<MissionDef>,
     /// The head's latest view.
@@ -121,7 +121,7 @@ struct Released {
 /// A mission start waiting for the missions its robots come from to let them go.
 #[derive(Debug, Clone)]
 struct PendingStart {
-    host: String,
+    host: NodeId,
     start: Box<MissionStart>,
     after: Vec<u64>,
 }
@@ -129,20 +129,20 @@ struct PendingStart {
 /// The registry of robots and missions, and the operator-facing logic.
 #[derive(Debug, Clone)]
 pub struct SystemManager {
-    node: String,
+    node: NodeId,
     started: f64,
     now: f64,
     fleet: Fleet,
-    missions: BTreeMap<String, MissionRecord>,
+    missions: BTreeMap<MissionName, MissionRecord>,
     /// Robot → mission: every robot is in at most one mission (a lost one keeps its place).
-    assignment: touched::Touched<BTreeMap<String, String>>,
+    assignment: touched::Touched<BTreeMap<RobotId, MissionName>>,
     /// Missions whose create request waits for the first plan.
-    pending_create: BTreeMap<String, Req>,
+    pending_create: BTreeMap<MissionName, Req>,
     starts: Vec<PendingStart>,
     /// Missions terminated here: robots still running them are ordered out, heads still
     /// reporting them are told again.
-    terminated: touched::Touched<BTreeSet<String>>,
-    released: BTreeMap<(String, String), Released>,
+    terminated: touched::Touched<BTreeSet<MissionName>>,
+    released: BTreeMap<(RobotId, MissionName), Released>,
     ctls: Ctls,
     /// Commands held while the manager learns the fleet after starting.
     held: Vec<(Req, Request)>,
@@ -160,7 +160,7 @@ pub struct SystemManager {
 
 impl SystemManager {
     /// `node` is the Zenoh id shown to operators; `now` the driver clock in seconds.
-    pub fn new(node: String, now: f64) -> Self {
+    pub fn new(node: NodeId, now: f64) -> Self {
         SystemManager {
             node,
             started: now,
@@ -257,7 +257,7 @@ impl SystemManager {
 
     /// A robot's token appeared: it is asked who it is (again: a restarted robot may have
     /// changed type or endpoints).
-    fn robot_alive(&mut self, id: String, now: f64) -> Vec<Command> {
+    fn robot_alive(&mut self, id: RobotId, now: f64) -> Vec<Command> {
         match self.fleet.appeared(&id, now) {
             Appeared::Ignored => vec![],
             seen => {
@@ -302,7 +302,7 @@ impl SystemManager {
                 let result = match result {
                     Ok(ack) => to_value(&ack).map(|mut v| {
                         if let (Some(m), Some(o)) = (left, v.as_object_mut()) {
-                            o.insert("left".into(), Value::String(m));
+                            o.insert("left".into(), Value::String(m.into_string()));
                         }
                         v
                     }),

@@ -11,7 +11,7 @@ impl SystemManager {
     /// A system manager that starts from what its journal holds: the missions it defined are
     /// known (those no live manager reports are started again after [`RESTART_S`]), robots are
     /// in the missions the journal says, terminated missions stay terminated.
-    pub fn restore(node: String, now: f64, state: Durable) -> Self {
+    pub fn restore(node: NodeId, now: f64, state: Durable) -> Self {
         let mut m = SystemManager::new(node, now);
         for (name, def) in &state.missions {
             m.missions.insert(name.clone(), MissionRecord::new(def.clone(), None, false, now));
@@ -47,7 +47,7 @@ impl SystemManager {
     }
 
     /// (Robot, the mission letting it go), while its head has not acknowledged.
-    fn releasing(&self) -> BTreeSet<(String, String)> {
+    fn releasing(&self) -> BTreeSet<(RobotId, MissionName)> {
         self.released.iter().filter(|(_, r)| self.ctls.is_pending(r.ctl)).map(|(k, _)| k.clone()).collect()
     }
 
@@ -88,7 +88,7 @@ impl SystemManager {
         // its chain may take over again: a new lineage wins over it wherever they meet, and its
         // head is fenced when it reports — so that does not hold a start back.
         let stuck = |r: &MissionRecord| r.view.as_ref().and_then(|v| v.manager.uncommitted_s).is_some_and(|s| s >= UNCOMMITTED_WAIT_S);
-        let orphans: Vec<String> = self
+        let orphans: Vec<MissionName> = self
             .missions
             .iter()
             .filter(|(_, r)| (r.view.is_none() || now - r.reported_at >= RUNNING_WAIT_S || stuck(r)) && r.def.spec.is_some())
@@ -108,7 +108,7 @@ impl SystemManager {
             }
             // A member with a state dir that came up lately may bring the mission back through
             // its chain, from its disk (with its metrics): it gets the time to.
-            let reforming: Vec<&String> = self
+            let reforming: Vec<&RobotId> = self
                 .fleet
                 .iter()
                 .filter(|(id, r)| r.alive && now - r.alive_at < DURABLE_WAIT_S && self.assignment.get(*id) == Some(&name))
@@ -127,7 +127,7 @@ impl SystemManager {
             let Some(spec) = rec.def.spec.clone() else {
                 continue;
             };
-            let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.fleet.has_host(h)).map(str::to_string);
+            let host = [rec.def.host.as_str(), proto::CENTRAL_HOST].into_iter().find(|h| self.fleet.has_host(h)).map(NodeId::from);
             let Some(host) = host else { continue };
             // The members back (a member still away may be cut off with the mission's chain: the
             // new lineage's epochs are above all of that chain's, and its head is fenced when it
@@ -141,7 +141,7 @@ impl SystemManager {
                 tracing::error!(mission = %name, "started anew too many times: not started again");
                 continue;
             };
-            let robots: Vec<String> = members.iter().map(|m| m.spec.id.clone()).collect();
+            let robots: Vec<RobotId> = members.iter().map(|m| m.spec.id.clone()).collect();
             if uncommitted {
                 tracing::warn!(mission = %name, %host, ?robots, lineage, "this mission's head could not commit for {UNCOMMITTED_WAIT_S} s (its chain lost the memory of a majority of its nodes): starting it again");
             } else if silent {
@@ -175,9 +175,9 @@ pub(super) struct Restart {
 #[derive(Debug, Clone, Default)]
 pub(super) struct Restarts {
     /// Missions being started again.
-    pub inflight: BTreeMap<String, Restart>,
+    pub inflight: BTreeMap<MissionName, Restart>,
     /// Missions said to wait for members with a state dir (said once each).
-    pub held: BTreeSet<String>,
+    pub held: BTreeSet<MissionName>,
 }
 
 impl Restarts {

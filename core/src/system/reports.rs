@@ -18,7 +18,7 @@ impl SystemManager {
         match self.missions.get(&view.name).and_then(|r| r.view.as_ref()) {
             Some(known) => {
                 let id = &from.id;
-                self.managers(&view.name).contains(id) || known.robots.contains(id) || known.lost.contains(id)
+                self.managers(&view.name).iter().any(|n| n == id) || known.robots.iter().any(|r| r == id) || known.lost.iter().any(|r| r == id)
             }
             // Not known here (this manager restarted): what the report says of other robots
             // is checked against their own telemetry in `reconcile`.
@@ -147,7 +147,7 @@ impl SystemManager {
             tracing::warn!(mission = %view.name, node = %view.manager.node, chain_epoch = view.manager.chain_epoch, lineage, "the head of a replaced lineage still runs the mission: fenced");
             let floor = lineage_floor(lineage);
             let msg = mrmm_proto::chain::Msg::Stale { promised: floor, last: (floor, 0) };
-            let envelope = Box::new(ChainEnvelope { mission: view.name.clone(), from: proto::CENTRAL_HOST.to_string(), msg });
+            let envelope = Box::new(ChainEnvelope { mission: view.name.clone(), from: NodeId::from(proto::CENTRAL_HOST), msg });
             return vec![Command::Chain { to: view.manager.node.clone(), envelope }];
         }
         // A report of an older chain epoch is from a manager that was replaced.
@@ -207,7 +207,7 @@ impl SystemManager {
             // Its members may know only the managers they were admitted under (a robot that
             // restarted while central was away was admitted under the host alone, found by
             // the system sim, seed 3928): the new head may plan for them only once they know it.
-            let members: Vec<String> = robots.iter().chain(&lost).filter(|id| self.assignment.get(*id).is_some_and(|m| *m == name)).cloned().collect();
+            let members: Vec<RobotId> = robots.iter().chain(&lost).filter(|id| self.assignment.get(*id).is_some_and(|m| *m == name)).cloned().collect();
             out.extend(self.admit(&name, &members));
         }
         self.rejoin(&name);
@@ -248,7 +248,7 @@ impl SystemManager {
     /// A robot reporting as a head (after a takeover) cannot claim robots of other missions: a
     /// robot in no mission is recorded from its report only when its own telemetry says it runs
     /// that mission or none. Central's and mission hosts' reports are trusted.
-    pub(super) fn reconcile(&mut self, name: &str, robots: &[String], lost: &[String], reporter: &Sender) -> Vec<Command> {
+    pub(super) fn reconcile(&mut self, name: &str, robots: &[RobotId], lost: &[RobotId], reporter: &Sender) -> Vec<Command> {
         let trusted = matches!(reporter.role, Role::Central | Role::Host);
         let adopted = self.missions.get(name).is_some_and(|r| r.adopted);
         let mut strangers = Vec::new();
@@ -270,7 +270,7 @@ impl SystemManager {
                 None if !confirmed => {}
                 None => {
                     tracing::info!(mission = %name, robot = %id, "robot recorded in its mission from its head's report");
-                    self.assignment.insert(id.clone(), name.to_string());
+                    self.assignment.insert(id.clone(), MissionName::from(name));
                     recorded.push(id.clone());
                 }
             }
@@ -333,7 +333,7 @@ impl SystemManager {
         let Some(view) = self.missions.get(name).and_then(|r| r.view.as_ref()) else {
             return;
         };
-        let missing: Vec<String> = self
+        let missing: Vec<RobotId> = self
             .assignment
             .iter()
             .filter(|(id, m)| m.as_str() == name && !view.robots.contains(id) && !view.lost.contains(id))

@@ -14,7 +14,7 @@ impl SystemManager {
                 // and the members take the newcomer's chain messages only once they know it: every
                 // member hears of the new membership.
                 let view = self.missions.get(&mission).and_then(|r| r.view.as_ref());
-                let mut members: Vec<String> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
+                let mut members: Vec<RobotId> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
                 if !members.contains(&member.spec.id) {
                     members.push(member.spec.id.clone());
                 }
@@ -30,7 +30,7 @@ impl SystemManager {
             std::mem::take(&mut self.starts).into_iter().partition(|s| s.after.iter().all(|id| !ctls.is_pending(*id)));
         self.starts = waiting;
         for s in ready {
-            let members: Vec<String> = s.start.members.iter().map(|m| m.spec.id.clone()).collect();
+            let members: Vec<RobotId> = s.start.members.iter().map(|m| m.spec.id.clone()).collect();
             for m in &members {
                 let admit = RobotCommand::Admit { mission: s.start.spec.name.clone(), managers: vec![s.host.clone()], members: members.clone() };
                 out.push(Command::SendToRobot { req: None, robot: m.clone(), cmd: admit });
@@ -55,17 +55,17 @@ impl SystemManager {
             return vec![];
         }
         rec.admit_sent = Some(now);
-        self.admit(&mission, &[robot.to_string()])
+        self.admit(&mission, &[RobotId::from(robot)])
     }
 
     /// Admissions of `robots` to `mission`, naming its managers and members as known here.
-    pub(super) fn admit(&self, mission: &str, robots: &[String]) -> Vec<Command> {
+    pub(super) fn admit(&self, mission: &str, robots: &[RobotId]) -> Vec<Command> {
         if !self.missions.contains_key(mission) {
             return vec![];
         }
         let managers = self.managers(mission);
         let view = self.missions.get(mission).and_then(|r| r.view.as_ref());
-        let mut members: Vec<String> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
+        let mut members: Vec<RobotId> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
         members.extend(self.assignment.iter().filter(|(_, m)| m.as_str() == mission).map(|(id, _)| id.clone()));
         members.sort();
         members.dedup();
@@ -74,14 +74,14 @@ impl SystemManager {
             .map(|r| Command::SendToRobot {
                 req: None,
                 robot: r.clone(),
-                cmd: RobotCommand::Admit { mission: mission.to_string(), managers: managers.clone(), members: members.clone() },
+                cmd: RobotCommand::Admit { mission: MissionName::from(mission), managers: managers.clone(), members: members.clone() },
             })
             .collect()
     }
 
     /// The nodes that may manage `mission` as this manager knows it: its host and its chain (as
     /// last reported), head first.
-    pub fn managers(&self, mission: &str) -> Vec<String> {
+    pub fn managers(&self, mission: &str) -> Vec<NodeId> {
         let Some(rec) = self.missions.get(mission) else {
             return vec![];
         };

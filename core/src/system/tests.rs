@@ -226,7 +226,7 @@ fn commands_wait_while_a_fresh_manager_learns_the_fleet() {
         _ => None,
     });
     assert!(e.expect("answered after the adoption period").expect_err("no idle robot").contains("0 idle robots"));
-    assert_eq!(sm.assignment().get("r2").map(String::as_str), Some("p"));
+    assert_eq!(sm.assignment().get("r2").map(|m| m.as_str()), Some("p"));
 }
 
 /// Mission reports as heads publish them.

@@ -7,7 +7,7 @@ impl SystemManager {
     /// A mission as the operator sees it: the head's latest view, with the (live) members this
     /// manager holds; a placeholder while the host is planning.
     pub(super) fn mission_view(&self, name: &str) -> MissionView {
-        let robots: Vec<String> = self.assignment.iter().filter(|(id, m)| *m == name && self.fleet.alive(id)).map(|(r, _)| r.clone()).collect();
+        let robots: Vec<RobotId> = self.assignment.iter().filter(|(id, m)| *m == name && self.fleet.alive(id)).map(|(r, _)| r.clone()).collect();
         let rec = self.missions.get(name);
         match rec.and_then(|r| r.view.clone()) {
             Some(mut v) => {
@@ -42,7 +42,7 @@ impl SystemManager {
     }
 
     /// The mission each robot is in (lost robots keep theirs).
-    pub fn assignment(&self) -> &BTreeMap<String, String> {
+    pub fn assignment(&self) -> &BTreeMap<RobotId, MissionName> {
         &self.assignment
     }
 

@@ -65,7 +65,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     }
 
     let t0 = Instant::now();
-    let mut core = CentralCore::restore(zid, cfg.agent.clone(), 0.0, state).with_maps(maps.by_name());
+    let mut core = CentralCore::restore(zid.into(), cfg.agent.clone(), 0.0, state).with_maps(maps.by_name());
     let mut io = Io::new(mesh.clone(), Duration::from_millis(cfg.query_timeout_ms), tx);
     let mut tick = tokio::time::interval(TICK);
     let mut seals = SealCounts { refused: 0, proofs_at: Instant::now() };

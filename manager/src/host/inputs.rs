@@ -21,7 +21,7 @@ use crate::inbox::Inbox;
 /// refused with one line, as a bad name is.
 pub(super) async fn check_name(session: &Session, node: &str) -> Result<(), ManagerError> {
     proto::validate_id(node).map_err(|e| ManagerError::Config(format!("mission host name: {e}")))?;
-    if net::already_alive(session, &Key::HostAlive(node.to_string()).to_string(), net::NAME_CHECK_TIMEOUT).await? {
+    if net::already_alive(session, &Key::HostAlive(node.into()).to_string(), net::NAME_CHECK_TIMEOUT).await? {
         return Err(ManagerError::NameTaken(format!("mission host {node:?} is already alive on the mesh; give every host and robot its own name")));
     }
     Ok(())
@@ -38,7 +38,7 @@ pub(super) struct Held {
 pub(super) async fn declare(session: &Session, node: &str, live: &Inbox<Input>, net: &Inbox<Input>) -> Result<Held, ManagerError> {
     let t = net.clone();
     let start = session
-        .declare_queryable(Key::HostStart(node.to_string()).to_string())
+        .declare_queryable(Key::HostStart(node.into()).to_string())
         .callback(move |q| {
             t.push(Input::Query(q));
         })
@@ -48,7 +48,7 @@ pub(super) async fn declare(session: &Session, node: &str, live: &Inbox<Input>, 
     for pattern in [Pattern::AllHostsAlive, Pattern::AllRobotsAlive, Pattern::AllPlannersAlive] {
         subs.push(live.liveliness(session, pattern.to_string(), Input::Sample).await?);
     }
-    let token = session.liveliness().declare_token(Key::HostAlive(node.to_string()).to_string()).await.map_err(ManagerError::zenoh)?;
+    let token = session.liveliness().declare_token(Key::HostAlive(node.into()).to_string()).await.map_err(ManagerError::zenoh)?;
     Ok(Held { _start: start, _subs: subs, _token: token })
 }
 

@@ -49,7 +49,7 @@ pub(super) struct Io {
     net: Inbox<Input>,
     queries: HashMap<u64, Query>,
     next: u64,
-    served: HashMap<String, Served>,
+    served: HashMap<mrmm_proto::MissionName, Served>,
     maps: MapStore,
 }
 

@@ -80,7 +80,7 @@ pub async fn serve_with(
     tracing::info!(%node, "mission host up");
     let t0 = Instant::now();
     let (store, mut core) = match stored {
-        Some((store, entries)) => (Some(store), HostCore::restore(&node, params, 0.0, entries)),
+        Some((store, entries)) => (Some(store), HostCore::restore(&node, params, 0.0, entries.into_iter().map(|(m, d)| (m.into(), d)).collect())),
         None => (None, HostCore::new(&node, params, 0.0)),
     };
     if local.is_some() {

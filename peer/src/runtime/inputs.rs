@@ -56,10 +56,10 @@ impl Inputs {
     pub(super) async fn declare(mesh: &Mesh, id: &str, telemetry_hz: f64, endpoints: Vec<String>, shutdown: CancellationToken) -> Result<Inputs, PeerError> {
         let session = mesh.session().clone();
         let z = PeerError::zenoh;
-        let info_q = session.declare_queryable(Key::RobotInfo(id.to_string()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
-        let cmd_q = session.declare_queryable(Key::RobotCmd(id.to_string()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
+        let info_q = session.declare_queryable(Key::RobotInfo(id.into()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
+        let cmd_q = session.declare_queryable(Key::RobotCmd(id.into()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
         let viewers = session.declare_subscriber(Pattern::AllViewers.to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
-        let central_key = Key::HostAlive(proto::CENTRAL_HOST.to_string()).to_string();
+        let central_key = Key::HostAlive(proto::CENTRAL_HOST.into()).to_string();
         let central = session.liveliness().declare_subscriber(central_key).history(true).with(RingChannel::new(QUEUE)).await.map_err(z)?;
         Ok(Inputs {
             mesh: mesh.clone(),

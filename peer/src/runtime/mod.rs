@@ -98,7 +98,7 @@ pub async fn run_on(
 ) -> Result<(), PeerError> {
     let session = mesh.session().clone();
     let id = cfg.id.clone();
-    refuse_taken_name(&session, &Key::RobotAlive(id.clone()), "robot", &id).await?;
+    refuse_taken_name(&session, &Key::RobotAlive(id.as_str().into()), "robot", &id).await?;
     // A ROS 2 body: its own session to the robot's ROS router, opened before the robot shows up.
     let ros = match &cfg.body {
         BodySection::Ros2(b) => Some(RosLink::open(b, &id).await?),
@@ -115,10 +115,10 @@ pub async fn run_on(
     }
     let endpoints = net::listening_endpoints(&session).await;
     let mut inputs = Inputs::declare(&mesh, &id, cfg.telemetry_hz, endpoints.clone(), shutdown).await?;
-    let telemetry_key = Key::RobotTelemetry(id.clone()).to_string();
+    let telemetry_key = Key::RobotTelemetry(id.as_str().into()).to_string();
     let publisher = session.declare_publisher(telemetry_key.clone()).encoding(Encoding::APPLICATION_OCTET_STREAM).await.map_err(PeerError::zenoh)?;
     // Declared last: once others see the token, the queryables answer.
-    let token = session.liveliness().declare_token(Key::RobotAlive(id.clone()).to_string()).await.map_err(PeerError::zenoh)?;
+    let token = session.liveliness().declare_token(Key::RobotAlive(id.as_str().into()).to_string()).await.map_err(PeerError::zenoh)?;
     tracing::info!(robot = %id, zid = %session.zid(), ?endpoints, "robot up");
     if let Some(tx) = ready {
         let _ = tx.send(Ready { id: id.clone(), zid: session.zid().to_string(), endpoints });

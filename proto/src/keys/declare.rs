@@ -90,9 +90,9 @@ macro_rules! key_bind {
 }
 
 /// One id chunk, checked.
-pub(super) fn id(s: &[&str]) -> Option<String> {
+pub(super) fn id<T: From<String>>(s: &[&str]) -> Option<T> {
     let [s] = s else { return None };
-    validate_id(s).ok().map(|_| s.to_string())
+    validate_id(s).ok().map(|_| T::from(s.to_string()))
 }
 
 /// A decimal chunk without sign or leading `+`.

@@ -46,6 +46,7 @@
 use std::fmt;
 
 use crate::error::ProtoError;
+use crate::ids::{MissionName, NodeId, RobotId};
 
 /// Checks that `id` can be a robot id, mission name, host name or robot type (one key chunk, no
 /// wildcard).
@@ -150,14 +151,14 @@ pub use self::pattern::Pattern;
 /// A concrete key of the protocol (its chunks: `declare_keys!` below).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Key {
-    RobotAlive(String),
-    RobotInfo(String),
-    RobotTelemetry(String),
-    RobotCmd(String),
+    RobotAlive(RobotId),
+    RobotInfo(RobotId),
+    RobotTelemetry(RobotId),
+    RobotCmd(RobotId),
     /// `subteam` is `<team path>/<type>`.
     TeamMember {
         subteam: String,
-        robot: String,
+        robot: RobotId,
     },
     TeamSync {
         team: String,
@@ -181,13 +182,13 @@ pub enum Key {
         kind: String,
         zid: String,
     },
-    HostAlive(String),
-    HostChain(String),
-    HostStart(String),
-    MissionCtl(String),
-    MissionView(String),
-    MissionMarginal(String),
-    MissionStatus(String),
+    HostAlive(NodeId),
+    HostChain(NodeId),
+    HostStart(NodeId),
+    MissionCtl(MissionName),
+    MissionView(MissionName),
+    MissionMarginal(MissionName),
+    MissionStatus(MissionName),
     AgentAdvice,
     AgentAdviceLive,
     /// A viewer's announcement (`mrmm viz`, the demo's recording): robots that hear it tag
@@ -195,9 +196,9 @@ pub enum Key {
     Viewer(String),
     SystemStatus,
     SystemRobots,
-    SystemRobot(String),
+    SystemRobot(RobotId),
     SystemMissions,
-    SystemMission(String),
+    SystemMission(MissionName),
     SystemJournal,
     SystemMaps,
     /// Chunk `index` of the map bundle whose SHA-256 is `hash`.
@@ -282,13 +283,13 @@ impl Key {
     pub fn team_member(subteam: &str, robot: &str) -> Result<Key, ProtoError> {
         validate_subteam(subteam)?;
         validate_id(robot)?;
-        Ok(Key::TeamMember { subteam: subteam.to_string(), robot: robot.to_string() })
+        Ok(Key::TeamMember { subteam: subteam.to_string(), robot: robot.into() })
     }
 }
 
 /// The selector of a marginal-benefit query: `mrmm/missions/<name>/marginal?add=<add>`.
 pub fn marginal_selector(mission: &str, add: i64) -> String {
-    format!("{}?add={add}", Key::MissionMarginal(mission.to_string()))
+    format!("{}?add={add}", Key::MissionMarginal(mission.into()))
 }
 
 /// What the experiments count on the wire, by kind: (kind, key expression). Zenoh counts the

@@ -21,7 +21,6 @@ proptest! {
 }
 
 fn all_keys() -> Vec<Key> {
-    let s = |v: &str| v.to_string();
     vec![
         Key::RobotAlive(s("r1")),
         Key::RobotInfo(s("r-2")),
@@ -87,7 +86,7 @@ fn patterns_match_the_keys_they_are_for() {
         let k = KeyExpr::try_from(k.to_string()).expect("key");
         p.intersects(&k)
     };
-    let s = |v: &str| v.to_string();
+
     assert!(matches(Pattern::AllRobotsAlive, Key::RobotAlive(s("r1"))));
     assert!(!matches(Pattern::AllRobotsAlive, Key::RobotInfo(s("r1"))));
     assert!(matches(Pattern::AllTelemetry, Key::RobotTelemetry(s("r1"))));
@@ -191,4 +190,9 @@ proptest! {
             prop_assert_eq!(k.to_string(), text);
         }
     }
+}
+
+/// A key's field from a string: an id of any kind, or a team path.
+fn s<T: From<String>>(v: &str) -> T {
+    T::from(v.to_string())
 }

@@ -29,7 +29,7 @@ impl World {
     /// After the quiet period: one head per mission, every live member on its current epoch, no
     /// robot in two missions; barrier plans finished.
     pub(super) fn finish(&mut self) -> Result<(), String> {
-        let alive: BTreeSet<String> =
+        let alive: BTreeSet<MissionName> =
             self.nodes.iter().filter_map(|n| n.host.as_ref()).flat_map(|h| h.heads().map(|(m, _)| m.clone()).collect::<Vec<_>>()).collect();
         self.inv.forget_missions(&alive);
         self.one_mission_per_robot()?;
@@ -88,7 +88,7 @@ impl World {
 
     /// Mission `m`'s live members, led by its one head: they hold if it is paused, have what it
     /// requires, and run its current epoch.
-    fn members_after_healing(&mut self, m: &String, (head, epoch, members): &(String, u64, Vec<String>)) -> Result<(), String> {
+    fn members_after_healing(&mut self, m: &str, (head, epoch, members): &(String, u64, Vec<RobotId>)) -> Result<(), String> {
         let view = self.view_at(head, m);
         // A paused mission's live members hold where they are.
         if view.as_ref().is_some_and(|v| v.status == mrmm_proto::MissionStatus::Paused) {
@@ -115,7 +115,7 @@ impl World {
                 self.report.required_checked += 1;
             }
             let running = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| (e.mission().to_string(), e.epoch()));
-            if self.links.up[i] && running != Some((m.clone(), *epoch)) {
+            if self.links.up[i] && running != Some((m.to_string(), *epoch)) {
                 return Err(format!("live member {r} of {m} runs {running:?}, not {m}'s epoch {epoch}, after healing; replicas: {:?}", self.replicas_of(m)));
             }
         }
@@ -128,7 +128,7 @@ impl World {
     fn central_missions_led(&mut self, heads: &Heads) -> Result<(), String> {
         let Some(c) = self.nodes.iter().find_map(|n| n.central.as_ref()) else { return Ok(()) };
         let durable = c.system().durable();
-        let unled: Vec<&String> =
+        let unled: Vec<&MissionName> =
             durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m) && !heads.contains_key(*m)).collect();
         if self.cfg.disks {
             if let Some(m) = unled.first() {
@@ -142,4 +142,4 @@ impl World {
 }
 
 /// Each mission's heads: the node, its epoch, its members.
-type Heads = BTreeMap<String, Vec<(String, u64, Vec<String>)>>;
+type Heads = BTreeMap<MissionName, Vec<(String, u64, Vec<RobotId>)>>;

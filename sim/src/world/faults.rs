@@ -173,15 +173,15 @@ impl World {
         }
         match token {
             Token::Robot(id) => {
-                self.central_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone()), up))?;
-                self.host_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone()), up))
+                self.central_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone().into()), up))?;
+                self.host_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone().into()), up))
             }
             Token::Host(name) => {
-                self.central_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone()), up))?;
+                self.central_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone().into()), up))?;
                 if name == CENTRAL_HOST {
-                    self.robot_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone()), up))?;
+                    self.robot_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone().into()), up))?;
                 }
-                self.host_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone()), up))
+                self.host_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone().into()), up))
             }
             Token::Planner => {
                 for kind in ["patrol", "coverage"] {
@@ -191,7 +191,7 @@ impl World {
                 Ok(())
             }
             Token::Member { subteam, robot } => {
-                self.robot_hears(node, Wire::token(mrmm_proto::Key::TeamMember { subteam: subteam.clone(), robot: robot.clone() }, up))
+                self.robot_hears(node, Wire::token(mrmm_proto::Key::TeamMember { subteam: subteam.clone(), robot: robot.clone().into() }, up))
             }
         }
     }

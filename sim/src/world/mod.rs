@@ -14,8 +14,8 @@ use mrmm_core::robot::{self, Robot};
 use mrmm_core::system::{self, Ctls, Req};
 use mrmm_core::Failure;
 use mrmm_proto::{
-    CtlAck, Member, MissionCtl, MissionSpecWire, MissionStart, PlanAssignment, PlanRequest, RobotCommand, RobotPlan, RobotSpec, Role, Sender, Step,
-    CENTRAL_HOST,
+    CtlAck, Member, MissionCtl, MissionName, MissionSpecWire, MissionStart, NodeId, PlanAssignment, PlanRequest, RobotCommand, RobotId, RobotPlan, RobotSpec,
+    Role, Sender, Step, CENTRAL_HOST,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -69,13 +69,13 @@ struct Node {
     robot: Option<Robot>,
     cfg: Option<RobotSetup>,
     /// Missions whose queryables this node's host serves.
-    served: BTreeSet<String>,
+    served: BTreeSet<MissionName>,
     /// The robot's team as the network sees it (what it publishes on, what it hears).
     links: robot::Links,
     /// Central's journal: what it committed, kept across crashes (the disk).
     disk: mrmm_core::system::Durable,
     /// A robot's or mission host's chain state on disk ([`Config::disks`]), kept across crashes.
-    chain_disk: BTreeMap<String, mrmm_core::chain::Disk<mrmm_proto::MissionSnapshot>>,
+    chain_disk: BTreeMap<MissionName, mrmm_core::chain::Disk<mrmm_proto::MissionSnapshot>>,
     /// A robot's capabilities as changed at runtime, kept in its state dir ([`Config::disks`]).
     kept_caps: Option<Vec<String>>,
 }
@@ -86,8 +86,8 @@ enum Payload {
     RobotCmd(RobotCommand),
     RobotInfo,
     HostStart(Box<MissionStart>),
-    Ctl { mission: String, ctl: MissionCtl },
-    View(String),
+    Ctl { mission: MissionName, ctl: MissionCtl },
+    View(MissionName),
     Planner(PlanRequest, mrmm_planner::recipe::PlannerKind),
 }
 
@@ -198,7 +198,7 @@ pub struct World {
     ctls: Ctls,
     team: BTreeSet<String>,
     /// OneMission: the mission's chain as last seen (whom admissions name as managers).
-    managers: Vec<String>,
+    managers: Vec<NodeId>,
     report: Report,
     trace: Option<Vec<String>>,
 }
@@ -320,7 +320,7 @@ impl World {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
                 // The sim's clock is central's: its last sign of life is when it crashed.
-                n.central = Some(CentralCore::restore(n.name.clone(), agent, now, n.disk.clone()));
+                n.central = Some(CentralCore::restore(n.name.clone().into(), agent, now, n.disk.clone()));
                 n.host = Some(host(n));
             }
             Kind::Host => n.host = Some(host(n)),

@@ -69,13 +69,13 @@ impl World {
     fn admit_unaware(&mut self) {
         let mut counted: BTreeSet<String> = BTreeSet::new();
         // The managers central would name: the chain of the newest configuration.
-        let mut chain: Option<(u64, Vec<String>)> = None;
+        let mut chain: Option<(u64, Vec<NodeId>)> = None;
         for n in &self.nodes {
             let Some(r) = n.host.as_ref().and_then(|h| h.replica("p")) else {
                 continue;
             };
             if let Some(state) = r.state() {
-                counted.extend(state.members.iter().chain(&state.lost).map(|m| m.spec.id.clone()));
+                counted.extend(state.members.iter().chain(&state.lost).map(|m| m.spec.id.to_string()));
             }
             if let Some(c) = r.config() {
                 if chain.as_ref().is_none_or(|(e, _)| c.epoch > *e) {
@@ -105,11 +105,11 @@ impl World {
         let r = robots[self.rng.gen_range(0..robots.len())].clone();
         let ctl = if self.team.contains(&r) && self.team.len() > 1 {
             self.team.remove(&r);
-            MissionCtl::Left { ids: vec![r] }
+            MissionCtl::Left { ids: vec![r.into()] }
         } else if !self.team.contains(&r) {
             self.team.insert(r.clone());
             self.admit_one(&r);
-            let spec = RobotSpec { id: r, robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None };
+            let spec = RobotSpec { id: r.into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None };
             MissionCtl::Joined { member: Member { spec, time_scale: TIME_SCALE, capabilities: vec![] } }
         } else {
             return false;
@@ -126,7 +126,7 @@ impl World {
             .iter()
             .enumerate()
             .map(|(i, r)| Member {
-                spec: RobotSpec { id: r.clone(), robot_type: "ground".into(), x: i as f64 * 2.0, y: -3.0, speed: 1.0, turn_rate: None },
+                spec: RobotSpec { id: r.clone().into(), robot_type: "ground".into(), x: i as f64 * 2.0, y: -3.0, speed: 1.0, turn_rate: None },
                 time_scale: TIME_SCALE,
                 capabilities: vec![],
             })
@@ -168,12 +168,12 @@ impl World {
         if !team.iter().any(|t| t == r) {
             team.push(r.to_string());
         }
-        let mut managers: Vec<String> = self.nodes.iter().filter(|n| n.kind == Kind::Host).map(|n| n.name.clone()).collect();
+        let mut managers: Vec<NodeId> = self.nodes.iter().filter(|n| n.kind == Kind::Host).map(|n| NodeId::from(&n.name)).collect();
         managers.extend(self.managers.iter().cloned());
-        managers.extend(team.iter().cloned());
+        managers.extend(team.iter().map(NodeId::from));
         managers.sort();
         managers.dedup();
-        let admit = RobotCommand::Admit { mission: "p".into(), managers, members: team };
+        let admit = RobotCommand::Admit { mission: "p".into(), managers, members: team.iter().map(RobotId::from).collect() };
         self.log(|| format!("operator: admit {r} to p"));
         self.ask(None, r, Payload::RobotCmd(admit), Ctx::OpStart, mrmm_core::timeouts::QUERY_S);
     }
@@ -187,12 +187,12 @@ impl World {
         let teams = teams.max(1) as usize;
         let team_of = |i: usize| if teams == 1 { "b".to_string() } else { format!("b/t{}", i % teams) };
         for (i, r) in robots.iter().enumerate() {
-            let mine: Vec<String> = robots.iter().enumerate().filter(|(k, _)| team_of(*k) == team_of(i)).map(|(_, r)| r.clone()).collect();
+            let mine: Vec<RobotId> = robots.iter().enumerate().filter(|(k, _)| team_of(*k) == team_of(i)).map(|(_, r)| RobotId::from(r)).collect();
             let mut steps = vec![];
             let mut scopes = vec![];
             if teams > 1 {
                 steps.push(Step::Sync { point: 0, scope: Some(String::new()) });
-                scopes.push(mrmm_proto::ScopeMembers { team: "b".into(), members: robots.clone() });
+                scopes.push(mrmm_proto::ScopeMembers { team: "b".into(), members: robots.iter().map(RobotId::from).collect() });
             }
             let first = steps.len();
             steps.push(Step::Sync { point: 0, scope: None });
@@ -210,7 +210,7 @@ impl World {
                 subteam: format!("{team}/ground"),
                 team: team.clone(),
                 members: mine,
-                plan: RobotPlan { robot: r.clone(), robot_type: "ground".into(), slot: i, steps, team: team.strip_prefix("b/").unwrap_or("").to_string() },
+                plan: RobotPlan { robot: r.clone().into(), robot_type: "ground".into(), slot: i, steps, team: team.strip_prefix("b/").unwrap_or("").into() },
                 managers: vec![],
                 barrier,
                 scopes,

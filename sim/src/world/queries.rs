@@ -126,7 +126,7 @@ impl World {
         let Some(r) = self.nodes[s].robot.as_mut() else {
             return Ok(());
         };
-        let msg = Wire::json(mrmm_proto::Key::RobotCmd(r.id().to_string()), &cmd, from);
+        let msg = Wire::json(mrmm_proto::Key::RobotCmd(r.id().into()), &cmd, from);
         let ev = r
             .ingress(mrmm_core::robot::Incoming { key: &msg.key, payload: &msg.payload, put: true, from: msg.from.as_ref() })
             .map_err(|e| format!("{} refused an honest command: {e}", self.nodes[s].name))?;
@@ -172,7 +172,7 @@ impl World {
         if again && !before {
             self.inv.lineage_started(&mission, lineage);
         }
-        let key = Key::HostStart(self.nodes[s].name.clone());
+        let key = Key::HostStart(self.nodes[s].name.clone().into());
         let ev = self.host_question(s, qid, &key, Some(start), from)?;
         self.host(s, ev)?;
         if again && !before && leads(self) && !holders.is_empty() {

@@ -135,13 +135,21 @@ impl World {
         let forged = [
             Wire::json(
                 Key::TeamSync { team: team.clone(), point: 0, round: 0 },
-                &SyncArrival { robot: claimed.clone(), epoch, point: 0, round: 0 },
+                &SyncArrival { robot: claimed.clone().into(), epoch, point: 0, round: 0 },
                 me.clone(),
             ),
-            Wire::json(Key::TeamRelease { team: team.clone(), point: 0, round: 0 }, &SyncRelease { leader: claimed.clone(), epoch, point: 0, round: 0 }, me),
+            Wire::json(
+                Key::TeamRelease { team: team.clone(), point: 0, round: 0 },
+                &SyncRelease { leader: claimed.clone().into(), epoch, point: 0, round: 0 },
+                me,
+            ),
             Wire {
                 from: None,
-                ..Wire::json(Key::TeamSync { team, point: 0, round: 0 }, &SyncArrival { robot: name.clone(), epoch, point: 0, round: 0 }, self.sender(forger))
+                ..Wire::json(
+                    Key::TeamSync { team, point: 0, round: 0 },
+                    &SyncArrival { robot: name.clone().into(), epoch, point: 0, round: 0 },
+                    self.sender(forger),
+                )
             },
         ];
         self.log(|| format!("{name} forges an arrival, a release and the telemetry of {claimed}, and an operator a chain message"));
@@ -150,7 +158,7 @@ impl World {
         let at_hosts = [
             Wire::telemetry(&telemetry, self.sender(forger)),
             Wire::json(
-                Key::HostChain(claimed.clone()),
+                Key::HostChain(claimed.clone().into()),
                 &mrmm_proto::ChainEnvelope { mission: "m".into(), from: "op".into(), msg: mrmm_proto::chain::Msg::Grant { epoch: 1 } },
                 Sender::new(mrmm_proto::Role::Operator, "op"),
             ),

@@ -186,7 +186,7 @@ async fn start_missions(client: &Client, n: usize, building: Option<&map::DemoMa
     let mut wanted = vec![MissionCreate {
         name: "patrol-1".into(),
         recipe: "patrol".into(),
-        robots: Some(ids[..half].to_vec()),
+        robots: Some(ids[..half].iter().map(Into::into).collect()),
         params: [
             ("waypoints".to_string(), waypoints),
             // The mission's standard: the advising agent speaks up when the patrol misses it.
@@ -200,7 +200,7 @@ async fn start_missions(client: &Client, n: usize, building: Option<&map::DemoMa
         wanted.push(MissionCreate {
             name: "coverage-1".into(),
             recipe: "coverage".into(),
-            robots: Some(ids[half..].to_vec()),
+            robots: Some(ids[half..].iter().map(Into::into).collect()),
             params: region.map(|r| [("region".to_string(), r)].into()).unwrap_or_default(),
             map,
             ..MissionCreate::default()

@@ -90,7 +90,7 @@ impl Watch {
                 avg_idleness: v.metrics.avg_idleness,
                 barriers: self.barriers(),
                 robots: v.robots.len(),
-                manager: v.manager.node.clone(),
+                manager: v.manager.node.to_string(),
             });
             if pred(self, &v) {
                 return Ok(v);
@@ -113,11 +113,8 @@ pub async fn run(fleet: &mut Fleet, name: &str, spec: &Spec) -> anyhow::Result<(
     let mut connect = fleet.endpoints.clone();
     connect.push(fleet.central.clone());
     let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &connect, 1000)?).await?;
-    let sub = observer
-        .declare_subscriber(Key::MissionStatus(name.to_string()).to_string())
-        .with(RingChannel::new(1024))
-        .await
-        .map_err(|e| anyhow!("observer: {e}"))?;
+    let sub =
+        observer.declare_subscriber(Key::MissionStatus(name.into()).to_string()).with(RingChannel::new(1024)).await.map_err(|e| anyhow!("observer: {e}"))?;
     let result = steps(fleet, name, spec, sub).await;
     let _ = observer.close().await;
     // Whatever happened, the fleet is whole and idle again for the next run.
@@ -138,7 +135,7 @@ async fn steps(fleet: &mut Fleet, name: &str, spec: &Spec, sub: Subscriber<RingC
     let create = MissionCreate {
         name: name.into(),
         recipe: "patrol".into(),
-        robots: Some(fleet.ids.clone()),
+        robots: Some(fleet.ids.iter().map(Into::into).collect()),
         params: [("waypoints".to_string(), json!(waypoints)), ("barrier".to_string(), json!(spec.barrier.as_str()))].into(),
         ..MissionCreate::default()
     };
@@ -161,12 +158,15 @@ async fn steps(fleet: &mut Fleet, name: &str, spec: &Spec, sub: Subscriber<RingC
     let v =
         w.until("the chain repaired without central", patience, |_, v| v.manager.chain.len() >= 3 && !v.manager.chain.iter().any(|c| c == "central")).await?;
     // 5. A robot of the manager's chain dies: the team goes on without it.
-    let victim = v.manager.chain.get(1).cloned().unwrap_or_else(|| fleet.ids[n - 1].clone());
+    let victim = v.manager.chain.get(1).cloned().unwrap_or_else(|| fleet.ids[n - 1].clone().into());
     let i = fleet.ids.iter().position(|id| *id == victim).ok_or_else(|| anyhow!("no robot {victim}"))?;
     w.event(&format!("{victim} killed"));
     fleet.kill_robot(i).await;
-    let v =
-        w.until("the team without it", patience, |_, v| v.robots.len() == n - 1 && !v.robots.contains(&victim) && v.status == MissionStatus::Running).await?;
+    let v = w
+        .until("the team without it", patience, |_, v| {
+            v.robots.len() == n - 1 && !v.robots.iter().any(|r| r == victim.as_str()) && v.status == MissionStatus::Running
+        })
+        .await?;
     w.barriers_more(per_round(&v), "a round of the smaller team", patience).await?;
     // 6. It restarts, linking to its peers (central is still down), and rejoins.
     w.event(&format!("{victim} back"));
@@ -179,7 +179,7 @@ async fn steps(fleet: &mut Fleet, name: &str, spec: &Spec, sub: Subscriber<RingC
     fleet.client = Client::connect(std::slice::from_ref(&fleet.central), Duration::from_secs(10)).await?;
     let deadline = Instant::now() + patience;
     loop {
-        let seen: Option<MissionView> = fleet.client.query(Key::SystemMission(name.to_string()), None::<&()>).await.ok();
+        let seen: Option<MissionView> = fleet.client.query(Key::SystemMission(name.into()), None::<&()>).await.ok();
         if seen.is_some_and(|m| m.robots.len() == n && m.status == MissionStatus::Running) {
             break;
         }

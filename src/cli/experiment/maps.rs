@@ -188,7 +188,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
                 epoch: 1,
                 team: "m".into(),
                 subteam: "m/ground".into(),
-                members: ids.clone(),
+                members: ids.iter().map(Into::into).collect(),
                 plan,
                 managers: vec![],
                 barrier: BarrierMode::Mesh,

@@ -85,7 +85,7 @@ pub async fn run(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> 
     let started = Instant::now();
     let result = measure(fleet, name, spec).await;
     for m in [name.to_string(), format!("{name}-coverage")] {
-        let _ = fleet.client.query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: m })).await;
+        let _ = fleet.client.query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: m.into() })).await;
     }
     fleet.settle(Duration::from_secs(60)).await?;
     let mut row = result?;
@@ -99,7 +99,7 @@ async fn measure(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> 
     let create = MissionCreate {
         name: name.into(),
         recipe: if spec.teams > 1 { teams_recipe(spec.teams, spec.robots / spec.teams) } else { "patrol".into() },
-        robots: Some(team.clone()),
+        robots: Some(team.iter().map(Into::into).collect()),
         params: [("waypoints".to_string(), json!(waypoints)), ("barrier".to_string(), json!(spec.barrier.as_str()))].into(),
         ..MissionCreate::default()
     };
@@ -116,12 +116,12 @@ async fn measure(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> 
         // The leave flow for each (a create does not take robots from a running mission), then
         // the coverage mission with them.
         for r in &out {
-            command(fleet, proto::SystemCmd::Move, &RobotMove { robot: r.clone(), to: None }).await?;
+            command(fleet, proto::SystemCmd::Move, &RobotMove { robot: r.clone().into(), to: None }).await?;
         }
         let coverage = MissionCreate {
-            name: format!("{name}-coverage"),
+            name: format!("{name}-coverage").into(),
             recipe: "coverage".into(),
-            robots: Some(out),
+            robots: Some(out.iter().map(Into::into).collect()),
             params: [("region".to_string(), json!([[-30, -30], [-10, -30], [-10, -10], [-30, -10]]))].into(),
             ..MissionCreate::default()
         };
@@ -166,7 +166,7 @@ async fn command<T: serde::Serialize>(fleet: &Fleet, cmd: proto::SystemCmd, body
 }
 
 async fn view(fleet: &Fleet, name: &str) -> Option<MissionView> {
-    fleet.client.query(proto::Key::SystemMission(name.to_string()), None::<&()>).await.ok()
+    fleet.client.query(proto::Key::SystemMission(name.into()), None::<&()>).await.ok()
 }
 
 /// Waits until the patrol's whole team completed `rounds` rounds of its current plan.

@@ -86,7 +86,16 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
         Mission::Create { name, recipe, robots, count, params, host, replicas, map } => {
             let recipe = if Path::new(&recipe).is_file() { std::fs::read_to_string(&recipe).with_context(|| format!("cannot read {recipe}"))? } else { recipe };
             let p = params.into_map()?;
-            let req = MissionCreate { name, recipe, robots: (!robots.is_empty()).then_some(robots), count, params: p, host, replicas, map };
+            let req = MissionCreate {
+                name: name.into(),
+                recipe,
+                robots: (!robots.is_empty()).then_some(robots.iter().map(Into::into).collect()),
+                count,
+                params: p,
+                host: host.map(Into::into),
+                replicas,
+                map,
+            };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&req)).await?;
             if json {
                 return super::print_json(&v);
@@ -95,7 +104,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             println!("mission {} {} on {}: {} robots ({})", m.name, status(&m), m.manager.node, m.robots.len(), m.robots.join(", "));
         }
         Mission::Update { name, params, map } => {
-            let req = MissionUpdate { name, params: params.into_map()?, map, teams: Default::default() };
+            let req = MissionUpdate { name: name.into(), params: params.into_map()?, map, teams: Default::default() };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Update), Some(&req)).await?;
             if json {
                 return super::print_json(&v);
@@ -103,21 +112,21 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             println!("mission {} updated: it replans its robots as its next epoch", v["mission"].as_str().unwrap_or("?"));
         }
         Mission::Pause { name } => {
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Pause), Some(&MissionPause { name })).await?;
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Pause), Some(&MissionPause { name: name.into() })).await?;
             if json {
                 return super::print_json(&v);
             }
             println!("mission {} paused: its robots hold where they are", v["mission"].as_str().unwrap_or("?"));
         }
         Mission::Resume { name } => {
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Resume), Some(&MissionPause { name })).await?;
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Resume), Some(&MissionPause { name: name.into() })).await?;
             if json {
                 return super::print_json(&v);
             }
             println!("mission {} resumed: its team forms again from where it stands", v["mission"].as_str().unwrap_or("?"));
         }
         Mission::Terminate { name } => {
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name })).await?;
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: name.into() })).await?;
             if json {
                 return super::print_json(&v);
             }
@@ -132,7 +141,7 @@ pub async fn exec(client: &Client, m: Mission, json: bool) -> anyhow::Result<()>
             print!("{}", table(&ms));
         }
         Mission::Show { name } => {
-            let v: Value = client.query(proto::Key::SystemMission(name.to_string()), none).await?;
+            let v: Value = client.query(proto::Key::SystemMission(name.into()), none).await?;
             if json {
                 return super::print_json(&v);
             }
@@ -204,8 +213,8 @@ fn status(m: &MissionView) -> String {
 
 /// The missions table.
 /// A mission's robots in one cell: sorted naturally, the middle elided beyond eight.
-fn robots_cell(ids: &[String]) -> String {
-    let mut ids: Vec<&str> = ids.iter().map(String::as_str).collect();
+fn robots_cell(ids: &[mrmm_proto::RobotId]) -> String {
+    let mut ids: Vec<&str> = ids.iter().map(|id| id.as_str()).collect();
     ids.sort_by(|a, b| mrmm_proto::natural_cmp(a, b));
     match ids.len() {
         0..=8 => ids.join(","),
@@ -219,7 +228,7 @@ pub fn table(ms: &[MissionView]) -> String {
         .iter()
         .map(|m| {
             vec![
-                m.name.clone(),
+                m.name.to_string(),
                 if m.requires.is_empty() { m.recipe.clone() } else { format!("{} [{}]", m.recipe, m.requires.join(",")) },
                 status(m),
                 robots_cell(&m.robots),
@@ -266,9 +275,9 @@ mod tests {
 
     #[test]
     fn robots_are_listed_naturally_and_elided_beyond_eight() {
-        let ids = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let ids = |v: &[&str]| v.iter().map(Into::into).collect::<Vec<mrmm_proto::RobotId>>();
         assert_eq!(robots_cell(&ids(&["r10", "r2", "r1"])), "r1,r2,r10");
-        let many: Vec<String> = (1..=50).rev().map(|i| format!("r{i}")).collect();
+        let many: Vec<mrmm_proto::RobotId> = (1..=50).rev().map(|i| format!("r{i}").into()).collect();
         assert_eq!(robots_cell(&many), "r1,r2,r3,…,r50 (50)");
     }
 
@@ -277,7 +286,7 @@ mod tests {
         let leaf = |team: &str, planner: &str, members: &[&str], passed: u32, min: usize| TeamView {
             team: team.into(),
             planner: planner.into(),
-            members: members.iter().map(|s| s.to_string()).collect(),
+            members: members.iter().map(Into::into).collect(),
             barriers_passed: passed,
             min,
             wants: String::new(),

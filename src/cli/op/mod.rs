@@ -86,7 +86,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             print!("{}", super::table::robots(&views));
         }
         What::Robot { id } => {
-            let v: Value = client.query(proto::Key::SystemRobot(id.to_string()), none).await?;
+            let v: Value = client.query(proto::Key::SystemRobot(id.into()), none).await?;
             if json {
                 return print_json(&v);
             }

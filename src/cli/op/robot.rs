@@ -41,7 +41,7 @@ pub(super) enum Order {
 pub(super) async fn exec(client: &Client, order: Order, json: bool) -> anyhow::Result<()> {
     match order {
         Order::Goto { robot, x, y, map } => {
-            let req = GotoRequest { robot, x, y, map };
+            let req = GotoRequest { robot: robot.into(), x, y, map };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&req)).await?;
             if json {
                 return print_json(&v);
@@ -51,7 +51,8 @@ pub(super) async fn exec(client: &Client, order: Order, json: bool) -> anyhow::R
         }
         Order::Move { robot, to } => {
             let to = (to != "none").then_some(to);
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot, to })).await?;
+            let v: Value =
+                client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.into(), to: to.map(Into::into) })).await?;
             if json {
                 return print_json(&v);
             }
@@ -61,7 +62,7 @@ pub(super) async fn exec(client: &Client, order: Order, json: bool) -> anyhow::R
             if add.is_empty() && remove.is_empty() {
                 anyhow::bail!("give --add NAME or --remove NAME (repeatable)");
             }
-            let req = CapabilitiesRequest { robot, add, remove };
+            let req = CapabilitiesRequest { robot: robot.into(), add, remove };
             let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Capabilities), Some(&req)).await?;
             if json {
                 return print_json(&v);
@@ -74,7 +75,7 @@ pub(super) async fn exec(client: &Client, order: Order, json: bool) -> anyhow::R
             }
         }
         Order::Crash { robot } => {
-            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Crash), Some(&proto::CrashRequest { robot })).await?;
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Crash), Some(&proto::CrashRequest { robot: robot.into() })).await?;
             if json {
                 return print_json(&v);
             }

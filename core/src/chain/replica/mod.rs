@@ -5,6 +5,7 @@ use std::collections::BTreeSet;
 mod recv;
 
 use mrmm_proto::chain::lineage_of;
+use mrmm_proto::NodeId;
 
 use super::{Command, Config, Event, Msg, Params, Stored, Version};
 
@@ -15,7 +16,7 @@ pub enum Role {
     /// Standing for `proposal.epoch`; `was_head` when the head is changing its own chain.
     Candidate {
         proposal: Config,
-        grants: BTreeSet<String>,
+        grants: BTreeSet<NodeId>,
         since: f64,
         was_head: bool,
     },
@@ -36,21 +37,21 @@ pub enum Role {
 /// One node's replica.
 #[derive(Debug, Clone)]
 pub struct Replica<S> {
-    me: String,
+    me: NodeId,
     p: Params,
     /// When this node (process) started: it does not vote during `p.quarantine`.
     born: f64,
     /// Highest epoch voted for or followed; never goes back.
     promised: u64,
-    voted_for: Option<String>,
+    voted_for: Option<NodeId>,
     config: Option<Config>,
     state: Option<(Version, S)>,
     /// A state proposed while a chain change is being voted; replicated once it is won.
     queued: Option<S>,
     role: Role,
-    alive: BTreeSet<String>,
-    gone: BTreeSet<String>,
-    pool: Vec<String>,
+    alive: BTreeSet<NodeId>,
+    gone: BTreeSet<NodeId>,
+    pool: Vec<NodeId>,
     /// Last time a head was heard from.
     last_heard: f64,
     /// Highest promise others told us of.
@@ -63,7 +64,7 @@ pub struct Replica<S> {
     /// Its node keeps it on disk: it never throws its state away while it is in the chain.
     durable: bool,
     /// Nodes that declined to replicate for this head (until their liveliness comes again).
-    declined: BTreeSet<String>,
+    declined: BTreeSet<NodeId>,
     /// Times in a row this (durable) replica stood and learnt that a chain of a newer epoch
     /// exists, without hearing from a head since: each doubles its wait before standing again
     /// (up to [`PASSED_OVER_MAX`] doublings). A replica left out of a newer chain would otherwise
@@ -81,7 +82,7 @@ pub const PASSED_OVER_MAX: u32 = 4;
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Fingerprint {
     promised: u64,
-    voted_for: Option<String>,
+    voted_for: Option<NodeId>,
     config: Option<Config>,
     version: Option<Version>,
     ended: bool,
@@ -99,7 +100,7 @@ impl<S: Clone> Replica<S> {
     /// previous replica of the same value on this node).
     pub fn new(me: &str, p: Params, born: f64, now: f64, promised: u64) -> Self {
         Replica {
-            me: me.to_string(),
+            me: me.into(),
             p,
             born,
             promised,
@@ -292,7 +293,7 @@ impl<S: Clone> Replica<S> {
             Role::Candidate { .. } => vec![],
             Role::Follower => self.maybe_stand(now),
             Role::Ending { epoch, last_sent, since } => {
-                let next = self.config.as_ref().and_then(|c| c.next(&self.me)).map(str::to_string);
+                let next = self.config.as_ref().and_then(|c| c.next(&self.me)).map(NodeId::from);
                 match next {
                     Some(_) if now - since > 4.0 * self.p.silence => self.retire(),
                     Some(n) if now - last_sent >= self.p.beat => {
@@ -313,8 +314,8 @@ impl<S: Clone> Replica<S> {
         if now - last_sent >= self.p.beat {
             match config.next(&self.me) {
                 // Once the whole chain holds the state, beats go without it.
-                Some(n) if committed == Some(seq) => out.push(Command::Send { to: n.to_string(), msg: Msg::Beat { config: config.clone(), seq } }),
-                Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq, state } }),
+                Some(n) if committed == Some(seq) => out.push(Command::Send { to: n.into(), msg: Msg::Beat { config: config.clone(), seq } }),
+                Some(n) => out.push(Command::Send { to: n.into(), msg: Msg::Update { config: config.clone(), seq, state } }),
                 None if committed < Some(seq) => {
                     // Alone in the chain: on every node already.
                     self.role = Role::Head { committed: Some(seq), last_sent: now, last_change };
@@ -380,7 +381,7 @@ impl<S: Clone> Replica<S> {
 
     /// This node first, then the nodes of `base` not known to be gone, then (for a head) live
     /// nodes of the pool, up to `k + 1`.
-    fn live_chain(&self, base: &Config, from_pool: bool) -> Vec<String> {
+    fn live_chain(&self, base: &Config, from_pool: bool) -> Vec<NodeId> {
         let mut chain = vec![self.me.clone()];
         chain.extend(base.chain.iter().filter(|n| **n != self.me && !self.gone.contains(*n) && !self.declined.contains(*n)).cloned());
         if from_pool {
@@ -430,7 +431,7 @@ impl<S: Clone> Replica<S> {
         self.voted_for = Some(self.me.clone());
         let last = self.version();
         tracing::debug!(node = %self.me, epoch = proposal.epoch, chain = ?proposal.chain, was_head, "chain: standing");
-        let mut to: BTreeSet<&String> = base.chain.iter().collect();
+        let mut to: BTreeSet<&NodeId> = base.chain.iter().collect();
         to.extend(proposal.chain.iter());
         let mut out: Vec<Command<S>> = to
             .into_iter()

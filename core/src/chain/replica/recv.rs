@@ -2,11 +2,12 @@
 //! updates and acknowledgements, stale notices, ends and declines.
 
 use mrmm_proto::chain::lineage_of;
+use mrmm_proto::NodeId;
 
 use super::{Command, Config, Msg, Replica, Role, Version};
 
 impl<S: Clone> Replica<S> {
-    pub(super) fn recv(&mut self, now: f64, from: String, msg: Msg<S>) -> Vec<Command<S>> {
+    pub(super) fn recv(&mut self, now: f64, from: NodeId, msg: Msg<S>) -> Vec<Command<S>> {
         match msg {
             Msg::Vote { proposal, base, last } => self.on_vote(now, from, proposal, &base, last),
             Msg::Grant { epoch } => {
@@ -55,7 +56,7 @@ impl<S: Clone> Replica<S> {
 
     /// A node of our chain will never acknowledge: without a new chain nothing would ever
     /// commit. Stand at once for one without it (safe as any election).
-    fn on_decline(&mut self, now: f64, from: String, epoch: u64) -> Vec<Command<S>> {
+    fn on_decline(&mut self, now: f64, from: NodeId, epoch: u64) -> Vec<Command<S>> {
         let Some(config) = self.config.clone().filter(|c| c.epoch == epoch && c.contains(&from)) else { return vec![] };
         if from == self.me || !matches!(self.role, Role::Head { .. }) || !self.declined.insert(from.clone()) {
             return vec![];
@@ -71,7 +72,7 @@ impl<S: Clone> Replica<S> {
         if let (Role::Head { .. }, Some(config), Some(((e, seq), state))) = (&self.role, &self.config, &self.state) {
             if config.epoch == epoch && *e == epoch {
                 if let Some(n) = config.next(&self.me) {
-                    return vec![Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq: *seq, state: state.clone() } }];
+                    return vec![Command::Send { to: n.into(), msg: Msg::Update { config: config.clone(), seq: *seq, state: state.clone() } }];
                 }
             }
         }
@@ -107,15 +108,15 @@ impl<S: Clone> Replica<S> {
         self.ended = true;
         if let Some(c) = &self.config {
             match c.next(&self.me) {
-                Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::End { epoch } }),
-                None => out.push(Command::Send { to: c.head().to_string(), msg: Msg::EndAck { epoch } }),
+                Some(n) => out.push(Command::Send { to: n.into(), msg: Msg::End { epoch } }),
+                None => out.push(Command::Send { to: c.head().into(), msg: Msg::EndAck { epoch } }),
             }
         }
         out.extend(self.retire());
         out
     }
 
-    fn on_vote(&mut self, now: f64, from: String, proposal: Config, base: &[String], last: Version) -> Vec<Command<S>> {
+    fn on_vote(&mut self, now: f64, from: NodeId, proposal: Config, base: &[NodeId], last: Version) -> Vec<Command<S>> {
         let e = proposal.epoch;
         if let Role::Ending { epoch, .. } = self.role {
             // The value is being ended: a candidate that missed it ends too, rather than bring
@@ -154,10 +155,10 @@ impl<S: Clone> Replica<S> {
     }
 
     /// An update (`state`), or a beat (`None`: the head's state is still `(epoch, seq)`).
-    fn on_update(&mut self, now: f64, _from: String, config: Config, seq: u64, state: Option<S>) -> Vec<Command<S>> {
+    fn on_update(&mut self, now: f64, _from: NodeId, config: Config, seq: u64, state: Option<S>) -> Vec<Command<S>> {
         let e = config.epoch;
         if e < self.promised {
-            return vec![Command::Send { to: config.head().to_string(), msg: Msg::Stale { promised: self.promised, last: self.version() } }];
+            return vec![Command::Send { to: config.head().into(), msg: Msg::Stale { promised: self.promised, last: self.version() } }];
         }
         if config.head() == self.me {
             return vec![];
@@ -189,7 +190,7 @@ impl<S: Clone> Replica<S> {
         self.last_heard = now;
         if beat && (self.state.is_none() || self.version() < (e, seq)) {
             // We lack what the whole chain was thought to hold.
-            out.push(Command::Send { to: config.head().to_string(), msg: Msg::Behind { epoch: e } });
+            out.push(Command::Send { to: config.head().into(), msg: Msg::Behind { epoch: e } });
             return out;
         }
         let Some(((se, sseq), s)) = self.state.clone() else { return out };
@@ -197,9 +198,9 @@ impl<S: Clone> Replica<S> {
             return out;
         }
         match config.next(&self.me) {
-            Some(n) if beat && sseq == seq => out.push(Command::Send { to: n.to_string(), msg: Msg::Beat { config: config.clone(), seq } }),
-            Some(n) => out.push(Command::Send { to: n.to_string(), msg: Msg::Update { config: config.clone(), seq: sseq, state: s } }),
-            None => out.push(Command::Send { to: config.head().to_string(), msg: Msg::Ack { epoch: e, seq: sseq } }),
+            Some(n) if beat && sseq == seq => out.push(Command::Send { to: n.into(), msg: Msg::Beat { config: config.clone(), seq } }),
+            Some(n) => out.push(Command::Send { to: n.into(), msg: Msg::Update { config: config.clone(), seq: sseq, state: s } }),
+            None => out.push(Command::Send { to: config.head().into(), msg: Msg::Ack { epoch: e, seq: sseq } }),
         }
         out
     }

@@ -32,14 +32,14 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
     while let Some(c) = cmds.pop_front() {
         match c {
             Command::StartMission { host, start } => {
-                let robots: Vec<String> = start.members.iter().map(|m| m.spec.id.clone()).collect();
-                seen.starts.push((host.clone(), start.spec.name.clone(), robots.clone()));
+                let robots: Vec<String> = start.members.iter().map(|m| m.spec.id.to_string()).collect();
+                seen.starts.push((host.to_string(), start.spec.name.to_string(), robots.clone()));
                 let view = MissionView {
                     name: start.spec.name.clone(),
                     recipe: start.spec.recipe_name.clone(),
                     planner: start.spec.planner.clone(),
                     status: MissionStatus::Running,
-                    robots,
+                    robots: robots.iter().map(Into::into).collect(),
                     lost: vec![],
                     stuck: Default::default(),
                     teams: Default::default(),
@@ -57,7 +57,7 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                 cmds.extend(sm.drive(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
             }
             Command::Ctl { id, mission, ctl, .. } => {
-                seen.ctls.push((mission, ctl));
+                seen.ctls.push((mission.to_string(), ctl));
                 cmds.extend(sm.drive(2.0, Event::CtlDone { id, result: Ok(()) }));
             }
             Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } => seen.leaves.push(format!("{robot} {mission}")),
@@ -81,11 +81,11 @@ fn mv(sm: &mut SystemManager, body: &str) -> Seen {
 }
 
 fn mission_of(sm: &SystemManager, id: &str) -> Option<String> {
-    sm.view(id).and_then(|v| v.mission)
+    sm.view(id).and_then(|v| v.mission).map(Into::into)
 }
 
 fn left(ids: &[&str]) -> MissionCtl {
-    MissionCtl::Left { ids: ids.iter().map(|s| s.to_string()).collect() }
+    MissionCtl::Left { ids: ids.iter().map(|s| s.into()).collect() }
 }
 
 #[test]
@@ -257,7 +257,7 @@ fn controls_are_sent_again_until_acknowledged_and_in_order() {
     let ctl = |cmds: &[Command]| -> Vec<(u64, String)> {
         cmds.iter()
             .filter_map(|c| match c {
-                Command::Ctl { id, mission, .. } => Some((*id, mission.clone())),
+                Command::Ctl { id, mission, .. } => Some((*id, mission.to_string())),
                 _ => None,
             })
             .collect()
@@ -405,7 +405,9 @@ fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
     let admitted: Vec<(String, Vec<String>)> = cmds
         .iter()
         .filter_map(|c| match c {
-            Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, managers, .. }, .. } if mission == "p" => Some((robot.clone(), managers.clone())),
+            Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, managers, .. }, .. } if mission == "p" => {
+                Some((robot.to_string(), managers.iter().map(|m| m.to_string()).collect()))
+            }
             _ => None,
         })
         .collect();
@@ -474,7 +476,7 @@ fn run_with(robots_heard: bool, reports_go_on: bool, uncommitted: impl Fn(f64) -
             }
             for c in sm.drive(now, Event::Tick) {
                 if let Command::StartMission { start, .. } = c {
-                    started.push((now, start.members.iter().map(|m| m.spec.id.clone()).collect::<Vec<_>>(), start.lineage, start.anew));
+                    started.push((now, start.members.iter().map(|m| m.spec.id.to_string()).collect::<Vec<_>>(), start.lineage, start.anew));
                 }
             }
             now += 0.5;

@@ -34,7 +34,7 @@ fn started_view(name: &str, host: &str, robots: &[String]) -> Box<MissionView> {
         recipe: "patrol".into(),
         planner: "patrol".into(),
         status: MissionStatus::Running,
-        robots: robots.to_vec(),
+        robots: robots.iter().map(Into::into).collect(),
         lost: vec![],
         stuck: Default::default(),
         teams: Default::default(),
@@ -59,7 +59,7 @@ fn with_journal(ids: &[&str]) -> (SystemManager, Durable) {
         let body = format!(r#"{{"name": "{name}", "recipe": "patrol", "robots": {robots}, {WAYPOINTS}}}"#);
         let cmds = drive_journaled(&mut sm, &mut disk, 1.0, Event::Operator { req: Req::Query(req), request: Request::Create(decode(&body)) });
         let start = cmds.iter().find_map(|c| match c {
-            Command::StartMission { host, start } => Some((host.clone(), start.members.iter().map(|m| m.spec.id.clone()).collect::<Vec<_>>())),
+            Command::StartMission { host, start } => Some((host.to_string(), start.members.iter().map(|m| m.spec.id.to_string()).collect::<Vec<_>>())),
             _ => None,
         });
         let (host, robots) = start.expect("a start");
@@ -73,7 +73,7 @@ fn with_journal(ids: &[&str]) -> (SystemManager, Durable) {
 #[test]
 fn every_change_is_on_disk_before_it_is_said_and_replays_exactly() {
     let (mut sm, mut disk) = with_journal(&["r1", "r2", "r3", "r4"]);
-    assert_eq!(disk.assignment.get("r1").map(String::as_str), Some("p1"));
+    assert_eq!(disk.assignment.get("r1").map(|m| m.as_str()), Some("p1"));
     assert!(disk.terminated.contains("gone") && !disk.missions.contains_key("gone"));
     let spec = disk.missions.get("p1").and_then(|d| d.spec.clone()).expect("the whole spec");
     assert!(spec.recipe_xml.contains("<recipe") && spec.params.contains_key("waypoints"), "{spec:?}");
@@ -120,7 +120,9 @@ fn after_a_power_cycle_missions_start_again_with_their_live_robots_and_terminate
     let starts: Vec<(String, Vec<String>, u32)> = cmds
         .iter()
         .filter_map(|c| match c {
-            Command::StartMission { start, .. } => Some((start.spec.name.clone(), start.members.iter().map(|m| m.spec.id.clone()).collect(), start.lineage)),
+            Command::StartMission { start, .. } => {
+                Some((start.spec.name.to_string(), start.members.iter().map(|m| m.spec.id.to_string()).collect(), start.lineage))
+            }
             _ => None,
         })
         .collect();
@@ -129,7 +131,7 @@ fn after_a_power_cycle_missions_start_again_with_their_live_robots_and_terminate
     let Some(Command::Journal(e)) = cmds.first() else { panic!("{cmds:?}") };
     assert!(e.contains(&JournalEvent::MissionRestarted { mission: "p1".into(), robots: vec!["r1".into()] }));
     assert!(e.iter().any(|e| matches!(e, JournalEvent::MissionDefined { mission, lineage: 1, .. } if mission == "p1")), "{e:?}");
-    assert_eq!(sm.durable().assignment.get("r2").map(String::as_str), Some("p1"), "r2 keeps its place");
+    assert_eq!(sm.durable().assignment.get("r2").map(|m| m.as_str()), Some("p1"), "r2 keeps its place");
     // No second start while that one is out; a failed one is tried again (as the next lineage
     // again: the failed start may have run somewhere), never forgotten.
     assert!(!sm.handle(RESTART_S + 1.0, Event::Tick).iter().any(|c| matches!(c, Command::StartMission { .. })));
@@ -308,7 +310,7 @@ fn a_mission_robots_run_but_no_manager_reports_is_started_anew_after_a_while() {
     let starts = |cmds: Vec<Command>| {
         cmds.iter()
             .filter_map(|c| match c {
-                Command::StartMission { start, .. } => Some((start.members.iter().map(|m| m.spec.id.clone()).collect::<Vec<_>>(), start.lineage)),
+                Command::StartMission { start, .. } => Some((start.members.iter().map(|m| m.spec.id.to_string()).collect::<Vec<_>>(), start.lineage)),
                 _ => None,
             })
             .collect::<Vec<_>>()
