@@ -271,6 +271,15 @@ impl Mesh {
         self.verifier.refused.record(what, &Refusal::NotEntitled { proven: proven.clone(), what: what.to_string() });
     }
 
+    /// What a machine refused ([`Refused`]): a proven sender that may not do what it did is
+    /// counted and logged as [`Mesh::refuse`] does; anything else is dropped with a debug line.
+    pub fn refused(&self, r: &Refused) {
+        match r {
+            Refused::NotEntitled { from, what } => self.refuse(what, from),
+            other => tracing::debug!("dropped: {other}"),
+        }
+    }
+
     /// Asks `selector` (optional JSON body, sealed) every server of it, and returns the first
     /// answer whose proven sender `accept`s — not merely the first answer: a stranger answering
     /// first is refused and the wait goes on. A reply error (which carries no seal) is returned

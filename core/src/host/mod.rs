@@ -6,6 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use mrmm_planner::recipe::PlannerKind;
+use mrmm_proto::edge::Refused;
 use mrmm_proto::{
     ChainEnvelope, CtlAck, ErrorCode, ErrorReply, Member, MissionCtl, MissionName, MissionPlan, MissionSnapshot, MissionStart, MissionView, NodeId,
     PlanAssignment, PlanRequest, RobotId, Role, Sender, Telemetry, CENTRAL_HOST,
@@ -132,8 +133,9 @@ pub enum Command {
     SendPlan { mission: MissionName, robot: RobotId, assignment: Box<PlanAssignment> },
     /// Publish the mission's status on `mrmm/missions/<name>/status`.
     Status(Box<MissionView>),
-    /// A proven sender sent what it may not: count it and say so in the log.
-    Refused { from: Sender, what: String },
+    /// A proven sender sent what it may not: count it and say so in the log (always
+    /// [`Refused::NotEntitled`]: the machine judges only proven senders).
+    Refused(Refused),
     /// Durable hosts only: write what this node must remember of `mission`'s chain, and sync it,
     /// before carrying out the commands after this one.
     Persist { mission: MissionName, disk: Box<chain::Disk<MissionSnapshot>> },
@@ -279,7 +281,7 @@ impl HostCore {
                     query,
                     result: Err(ErrorReply::coded(ErrorCode::Refused, format!("refused: {from} may not steer missions (only central does)"))),
                 });
-                out.push(Command::Refused { what: "steer a mission (start or control)".into(), from });
+                out.push(Command::Refused(Refused::NotEntitled { what: "steer a mission (start or control)".into(), from }));
             }
             Event::Start { query, start, .. } => self.start(now, query, *start, &mut out),
             Event::Ctl { query, mission, ctl, .. } => self.ctl(now, query, &mission, ctl, &mut out),

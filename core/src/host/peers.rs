@@ -2,6 +2,7 @@
 //! them; otherwise refused, and the sender told what it should know (the mission ended here, it
 //! is behind, or this node is not in its chain).
 
+use mrmm_proto::edge::Refused;
 use mrmm_proto::{ChainEnvelope, MissionSnapshot, Sender};
 
 use super::{Command, HostCore};
@@ -25,7 +26,7 @@ impl HostCore {
                     out.push(answer);
                 }
             }
-            out.push(Command::Refused { what: format!("send chain messages for mission {mission} as {from}"), from: sender });
+            out.push(Command::Refused(Refused::NotEntitled { what: format!("send chain messages for mission {mission} as {from}"), from: sender }));
             return;
         }
         tracing::trace!(%mission, %from, msg = msg.describe(), "chain: received");

@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use mrmm_proto::edge::Refused;
 use mrmm_proto::{
     self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, MissionCreate, MissionCtl, MissionName, MissionStart,
     MissionTerminate, MissionView, NodeId, RobotCommand, RobotId, RobotInfo, RobotMove, Sender, Telemetry,
@@ -196,8 +197,9 @@ pub enum Command {
     /// Answer request `req` with whatever `key` answers (a head's mission view), taking only an
     /// answer from one of `managers`.
     Forward { req: Req, key: Key, managers: Vec<NodeId> },
-    /// A proven sender sent what it may not: count it and say so in the log.
-    Refused { from: Sender, what: String },
+    /// A proven sender sent what it may not: count it and say so in the log (always
+    /// [`Refused::NotEntitled`]: the machine judges only proven senders).
+    Refused(Refused),
     /// Plan `DryRun` off this loop; answer with [`Event::DryRunDone`].
     DryRun(Box<missions::DryRun>),
     /// Commit these entries to the journal (fsync) before carrying out any command after this

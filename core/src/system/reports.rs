@@ -3,6 +3,7 @@
 //! taken back.
 
 use mrmm_proto::chain::{lineage_floor, lineage_of};
+use mrmm_proto::edge::Refused;
 use mrmm_proto::Role;
 
 use super::*;
@@ -137,7 +138,7 @@ impl SystemManager {
     pub(super) fn mission_status(&mut self, mut view: MissionView, from: Sender) -> Vec<Command> {
         view.carry_summary(self.missions.get(&view.name).and_then(|r| r.view.as_ref()));
         if view.manager.node != from.id || !from.role.hosts_missions() {
-            return vec![Command::Refused { what: format!("report mission {} as managed by {}", view.name, view.manager.node), from }];
+            return vec![Command::Refused(Refused::NotEntitled { what: format!("report mission {} as managed by {}", view.name, view.manager.node), from })];
         }
         // The head of a lineage this manager replaced (it started the mission anew while that
         // chain was cut off, say): told directly that a newer lineage runs the mission — the two
@@ -156,7 +157,10 @@ impl SystemManager {
             return vec![];
         }
         if !self.may_report(&view, &from) {
-            return vec![Command::Refused { what: format!("report on mission {} (not one of its managers or members)", view.name), from }];
+            return vec![Command::Refused(Refused::NotEntitled {
+                what: format!("report on mission {} (not one of its managers or members)", view.name),
+                from,
+            })];
         }
         if self.terminated.contains(&view.name) {
             if !self.ctls.has(&view.name, |c| *c == MissionCtl::Terminate) {

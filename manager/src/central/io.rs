@@ -120,7 +120,7 @@ impl Io {
                     Err(e) => self.mesh.reply_error(&q, &e).await,
                 }
             }
-            system::Command::Refused { from, what } => self.mesh.refuse(&what, &from),
+            system::Command::Refused(r) => self.mesh.refused(&r),
             // Published above.
             system::Command::Chain { .. } => {}
             // Committed by `carry_out` before anything else.

@@ -127,7 +127,7 @@ impl Io {
                     Err(e) => self.mesh.reply_err(&q, &e).await,
                 }
             }
-            Command::Refused { from, what } => self.mesh.refuse(&what, &from),
+            Command::Refused(r) => self.mesh.refused(&r),
             // Carried out by the loop, before this.
             Command::Persist { .. } => {}
             Command::Drop { query } => {

@@ -62,7 +62,7 @@ impl World {
             | system::Command::StartMission { .. }
             | system::Command::Ctl { .. }
             | system::Command::Forward { .. } => {}
-            system::Command::Refused { from, what } => return Err(format!("central refused {from}: {what} (no node of the simulation is a rogue)")),
+            system::Command::Refused(r) => return Err(format!("central refused: {r} (no node of the simulation is a rogue)")),
             system::Command::Chain { to, envelope } => {
                 self.report.fenced += 1;
                 // Published by `central` with the other publications.
@@ -187,11 +187,11 @@ impl World {
             }
             // Asked by `host`.
             host::Command::RequestPlan { .. } | host::Command::SendPlan { .. } => {}
-            host::Command::Refused { from, what } => {
+            host::Command::Refused(r) => {
                 // Honest nodes only: a refusal is a chain message crossing a stale belief (a
                 // node that left the mission's chain). Logged, not a violation.
                 let name = self.nodes[i].name.clone();
-                self.log(|| format!("{name} refused {from}: {what}"));
+                self.log(|| format!("{name} refused: {r}"));
             }
         }
         Ok(())

@@ -386,8 +386,8 @@ fn a_report_cannot_claim_robots_nor_speak_for_another_manager() {
     // Nor can a node report a mission as managed by someone else.
     let mut other = MissionViewBuilder::running("p2", "central", &["r1"]);
     other.manager.node = "central".into();
-    let cmds = sm.drive(1.1, Event::MissionStatus { view: Box::new(other), from });
-    assert!(matches!(cmds.as_slice(), [Command::Refused { .. }]), "{cmds:?}");
+    let cmds = sm.drive(1.1, Event::MissionStatus { view: Box::new(other), from: from.clone() });
+    assert!(matches!(cmds.as_slice(), [Command::Refused(mrmm_proto::edge::Refused::NotEntitled { from: f, .. })] if *f == from), "{cmds:?}");
 }
 
 #[test]
