@@ -1,5 +1,8 @@
-//! The fleet as the system manager knows it: every robot's record (liveliness, what it said of
-//! itself, its latest telemetry) and the mission hosts alive — bounded, whatever the network says.
+//! The registry: the fleet as the system manager knows it — every robot's record (liveliness,
+//! what it said of itself, its latest telemetry) and the mission hosts alive, bounded whatever the
+//! network says. A machine of its own: [`Fleet::handle`] takes what was heard of robots and hosts
+//! ([`Heard`]) and returns what it decided ([`Fact`]: ask a robot who it is, a robot lost or back,
+//! newer telemetry to act on); the missions' side of the system manager acts on the facts.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -48,6 +51,45 @@ pub(super) enum Appeared {
     Ignored,
 }
 
+/// What the registry hears: the robot and host events of the system manager.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Heard {
+    /// A robot's liveliness token appeared.
+    Alive(RobotId),
+    /// A robot's liveliness token disappeared.
+    Gone(RobotId),
+    /// A robot answered its info query.
+    Info(RobotInfo),
+    /// An info query failed.
+    InfoFailed { id: RobotId, reason: String },
+    /// A robot's telemetry.
+    Telemetry(Box<Telemetry>),
+    /// A mission host's token appeared.
+    HostAlive(NodeId),
+    /// A mission host's token disappeared.
+    HostGone(NodeId),
+    /// Time passed: info queries left unanswered are asked again.
+    Tick,
+}
+
+/// What the registry decided, for the system manager to act on, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Fact {
+    /// Ask the robot who it is.
+    Fetch(RobotId),
+    /// A robot that was lost is alive again (asked who it is next).
+    Back(RobotId),
+    /// A robot alive until now lost its token; its record stays.
+    Lost(RobotId),
+    /// A robot said who it is (its record holds what it said, when its token was seen).
+    Registered(RobotId),
+    /// A robot's telemetry newer than what the registry holds: what it runs is for the
+    /// missions to check; then it is kept as the robot's latest ([`Fleet::keep`]).
+    Heard(Box<Telemetry>),
+    /// A mission host's token went away.
+    HostLost(NodeId),
+}
+
 /// Every robot and mission host the system manager knows.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Fleet {
@@ -59,10 +101,73 @@ pub(super) struct Fleet {
 }
 
 impl Fleet {
+    /// Takes one thing heard of a robot or a host at `now`; returns what it decided.
+    pub(super) fn handle(&mut self, now: f64, heard: Heard) -> Vec<Fact> {
+        match heard {
+            Heard::Alive(id) => match self.appeared(&id, now) {
+                Appeared::Ignored => vec![],
+                Appeared::Back => vec![Fact::Back(id.clone()), Fact::Fetch(id)],
+                Appeared::New | Appeared::Again => vec![Fact::Fetch(id)],
+            },
+            Heard::Gone(id) => match self.disappeared(&id) {
+                true => vec![Fact::Lost(id)],
+                false => vec![],
+            },
+            Heard::Info(info) => {
+                let id = info.id.clone();
+                self.registered(info);
+                vec![Fact::Registered(id)]
+            }
+            Heard::InfoFailed { id, reason } => {
+                tracing::debug!(robot = %id, "info request failed: {reason}");
+                vec![]
+            }
+            Heard::Telemetry(t) => self.telemetry(now, t),
+            Heard::HostAlive(node) => {
+                self.host_up(node);
+                vec![]
+            }
+            Heard::HostGone(node) => {
+                self.host_down(&node);
+                vec![Fact::HostLost(node)]
+            }
+            Heard::Tick => self.fetch_due(now).into_iter().map(Fact::Fetch).collect(),
+        }
+    }
+
+    /// A robot's telemetry: only one newer than the last counts (a robot that came back counts
+    /// again from its first); a robot whose info changed since it was asked (its capabilities
+    /// did) is asked again, at most once per [`INFO_RETRY_S`].
+    fn telemetry(&mut self, now: f64, t: Box<Telemetry>) -> Vec<Fact> {
+        let Some(rec) = self.robots.get_mut(&t.id) else {
+            return vec![];
+        };
+        let newer = rec.fresh || rec.last.as_ref().is_none_or(|old| t.seq > old.seq);
+        if !newer {
+            return vec![];
+        }
+        rec.fresh = false;
+        let mut out = Vec::new();
+        let stale = rec.info.as_ref().is_some_and(|i| i.rev != t.info_rev);
+        if stale && rec.info_asked.is_none_or(|a| now - a >= INFO_RETRY_S) {
+            rec.info_asked = Some(now);
+            out.push(Fact::Fetch(t.id.clone()));
+        }
+        out.push(Fact::Heard(t));
+        out
+    }
+
+    /// Keeps `t` as its robot's latest telemetry (after [`Fact::Heard`] was acted on).
+    pub(super) fn keep(&mut self, t: Telemetry) {
+        if let Some(rec) = self.robots.get_mut(&t.id) {
+            rec.last = Some(t);
+        }
+    }
+
     /// A robot's token appeared at `now`: it is alive, and asked who it is (again: a restarted
     /// robot may have changed type or endpoints). A flood of made-up tokens does not grow the
     /// registry without bound: past [`MAX_FLEET`] robots a new id is ignored.
-    pub(super) fn appeared(&mut self, id: &str, now: f64) -> Appeared {
+    fn appeared(&mut self, id: &str, now: f64) -> Appeared {
         let seen = match self.robots.get(id) {
             None if self.robots.len() >= MAX_FLEET => {
                 self.ignored = self.ignored.saturating_add(1);
@@ -96,12 +201,12 @@ impl Fleet {
 
     /// A robot's token disappeared: whether it was alive until now. Its record (and its place
     /// in a mission, which the missions keep) stays.
-    pub(super) fn disappeared(&mut self, id: &str) -> bool {
+    fn disappeared(&mut self, id: &str) -> bool {
         self.robots.get_mut(id).is_some_and(|r| std::mem::replace(&mut r.alive, false))
     }
 
     /// What a robot said of itself; false if no token of it was ever seen (then ignored).
-    pub(super) fn registered(&mut self, info: RobotInfo) -> bool {
+    fn registered(&mut self, info: RobotInfo) -> bool {
         let Some(rec) = self.robots.get_mut(&info.id) else {
             tracing::debug!(robot = %info.id, "info from a robot with no liveliness: ignored");
             return false;
@@ -119,7 +224,7 @@ impl Fleet {
 
     /// Robots alive that never answered their info query, to be asked again: at most
     /// [`FETCH_PER_TICK`] (a flood of tokens costs a bounded number of queries).
-    pub(super) fn fetch_due(&mut self, now: f64) -> Vec<RobotId> {
+    fn fetch_due(&mut self, now: f64) -> Vec<RobotId> {
         self.robots
             .iter_mut()
             .filter(|(_, r)| r.alive && r.info.is_none())
@@ -206,7 +311,7 @@ impl Fleet {
     }
 
     /// A mission host's token appeared.
-    pub(super) fn host_up(&mut self, node: NodeId) {
+    fn host_up(&mut self, node: NodeId) {
         // Every robot node is a mission host too: its own host is news only at debug.
         if self.robots.contains_key(node.as_str()) {
             tracing::debug!(%node, "mission host up");
@@ -217,7 +322,7 @@ impl Fleet {
     }
 
     /// A mission host's token disappeared.
-    pub(super) fn host_down(&mut self, node: &str) {
+    fn host_down(&mut self, node: &str) {
         if self.robots.contains_key(node) {
             tracing::debug!(%node, "mission host lost");
         } else {
@@ -280,5 +385,40 @@ mod tests {
         assert!(f.get("intruder").is_none());
         f.disappeared("r0");
         assert_eq!(f.appeared("r0", 1.0), Appeared::Back, "a known robot still comes back");
+    }
+
+    fn seen(f: &mut Fleet, now: f64, id: &str, seq: u64, info_rev: u32) -> Vec<Fact> {
+        let t = Telemetry { seq, info_rev, ..Telemetry::resting(id, now) };
+        let facts = f.handle(now, Heard::Telemetry(Box::new(t.clone())));
+        if facts.iter().any(|x| matches!(x, Fact::Heard(_))) {
+            f.keep(t);
+        }
+        facts
+    }
+
+    /// The registry as a machine: what it hears of a robot becomes the facts the missions act on,
+    /// in order — asked who it is, lost, back and asked again, newer telemetry only.
+    #[test]
+    fn the_registry_decides_what_a_robot_heard_of_means() {
+        let mut f = Fleet::default();
+        let r1 = RobotId::from("r1");
+        assert_eq!(f.handle(0.0, Heard::Alive(r1.clone())), vec![Fact::Fetch(r1.clone())]);
+        assert_eq!(f.handle(0.1, Heard::Info(info("r1"))), vec![Fact::Registered(r1.clone())]);
+        assert!(matches!(seen(&mut f, 0.2, "r1", 5, 0).as_slice(), [Fact::Heard(t)] if t.seq == 5));
+        assert!(seen(&mut f, 0.3, "r1", 4, 0).is_empty(), "older telemetry is not news");
+        // Its info changed (a capability): asked again, once per retry period.
+        assert!(matches!(seen(&mut f, 1.5, "r1", 6, 1).as_slice(), [Fact::Fetch(id), Fact::Heard(_)] if *id == r1));
+        assert!(matches!(seen(&mut f, 1.6, "r1", 7, 1).as_slice(), [Fact::Heard(_)]));
+        assert_eq!(f.handle(2.0, Heard::Gone(r1.clone())), vec![Fact::Lost(r1.clone())]);
+        assert!(f.handle(2.1, Heard::Gone(r1.clone())).is_empty(), "lost once");
+        assert_eq!(f.handle(3.0, Heard::Alive(r1.clone())), vec![Fact::Back(r1.clone()), Fact::Fetch(r1.clone())]);
+        // Back, it counts again from its first telemetry (a restart starts its sequence anew).
+        assert!(matches!(seen(&mut f, 3.1, "r1", 1, 1).as_slice(), [Fact::Heard(_)]));
+        assert!(f.last("r1").is_some_and(|t| t.seq == 1));
+        // Hosts, and the tick that asks again what was not answered.
+        assert!(f.handle(4.0, Heard::HostAlive("h1".into())).is_empty() && f.has_host("h1"));
+        assert_eq!(f.handle(4.1, Heard::HostGone("h1".into())), vec![Fact::HostLost("h1".into())]);
+        f.handle(4.2, Heard::Alive("r2".into()));
+        assert_eq!(f.handle(4.2 + INFO_RETRY_S, Heard::Tick), vec![Fact::Fetch("r2".into())]);
     }
 }

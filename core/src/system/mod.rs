@@ -37,7 +37,7 @@ pub use ctl::{Ctls, CTL_GIVE_UP_S, CTL_RETRY_S};
 pub use durable::{Durable, MissionDef};
 pub use egress::{egress, subscriptions};
 pub use events::{Command, Event, Req, Request};
-use fleet::{Appeared, Fleet};
+use fleet::{Fact, Fleet, Heard};
 pub use ingress::{ingress, sealed};
 use journal::Journal;
 
@@ -203,22 +203,13 @@ impl SystemManager {
 
     fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
-            Event::RobotAlive { id } => self.robot_alive(id, now),
-            Event::RobotGone { id } => {
-                if self.fleet.disappeared(&id) {
-                    tracing::warn!(robot = %id, "robot lost");
-                    self.journal.note(JournalEvent::RobotLost { robot: id });
-                }
-                // Its mission's head plans around it and takes it back when it returns; its
-                // place is kept, so no other mission takes it meanwhile.
-                vec![]
-            }
-            Event::RobotRegistered(info) => self.registered(info),
-            Event::InfoFailed { id, reason } => {
-                tracing::debug!(robot = %id, "info request failed: {reason}");
-                vec![]
-            }
-            Event::Telemetry(t) => self.telemetry(now, *t),
+            Event::RobotAlive { id } => self.registry(now, Heard::Alive(id)),
+            Event::RobotGone { id } => self.registry(now, Heard::Gone(id)),
+            Event::RobotRegistered(info) => self.registry(now, Heard::Info(info)),
+            Event::InfoFailed { id, reason } => self.registry(now, Heard::InfoFailed { id, reason }),
+            Event::Telemetry(t) => self.registry(now, Heard::Telemetry(t)),
+            Event::HostAlive { node } => self.registry(now, Heard::HostAlive(node)),
+            Event::HostGone { node } => self.registry(now, Heard::HostGone(node)),
             Event::Tick => self.tick(now),
             Event::Operator { req, request } => self.operator(now, req, request),
             Event::RobotCommandDone { req, robot, result } => self.command_done(now, req, &robot, result),
@@ -243,49 +234,45 @@ impl SystemManager {
                 vec![]
             }
             Event::DryRunDone { id, result } => self.dry_run_done(id, result),
-            Event::HostAlive { node } => {
-                self.fleet.host_up(node);
-                vec![]
-            }
-            Event::HostGone { node } => {
-                self.fleet.host_down(&node);
-                self.host_gone(&node);
-                vec![]
-            }
         }
     }
 
-    /// A robot's token appeared: it is asked who it is (again: a restarted robot may have
-    /// changed type or endpoints).
-    fn robot_alive(&mut self, id: RobotId, now: f64) -> Vec<Command> {
-        match self.fleet.appeared(&id, now) {
-            Appeared::Ignored => vec![],
-            seen => {
-                if seen == Appeared::Back {
-                    self.journal.note(JournalEvent::RobotBack { robot: id.clone() });
+    /// Hands what was heard of a robot or a host to the registry, and acts on what it decided.
+    fn registry(&mut self, now: f64, heard: Heard) -> Vec<Command> {
+        let mut out = Vec::new();
+        for fact in self.fleet.handle(now, heard) {
+            match fact {
+                Fact::Fetch(id) => out.push(Command::FetchInfo { id }),
+                Fact::Back(robot) => self.journal.note(JournalEvent::RobotBack { robot }),
+                Fact::Lost(robot) => {
+                    // Its mission's head plans around it and takes it back when it returns; its
+                    // place is kept, so no other mission takes it meanwhile.
+                    tracing::warn!(robot = %robot, "robot lost");
+                    self.journal.note(JournalEvent::RobotLost { robot });
                 }
-                vec![Command::FetchInfo { id }]
+                Fact::Registered(id) => out.extend(self.registered(&id)),
+                Fact::Heard(t) => out.extend(self.heard(now, *t)),
+                Fact::HostLost(node) => self.host_gone(&node),
             }
         }
+        out
     }
 
     /// A robot said who it is. A member that came back without what its mission requires
     /// leaves it; a lost member back is taken again by its mission, on our order — and admitted
     /// again (it may have restarted and forgotten).
-    fn registered(&mut self, info: RobotInfo) -> Vec<Command> {
-        let id = info.id.clone();
-        self.fleet.registered(info);
-        let (out, left) = self.unfit(&id);
+    fn registered(&mut self, id: &RobotId) -> Vec<Command> {
+        let (out, left) = self.unfit(id);
         if left.is_some() {
             return out;
         }
-        let Some(m) = self.assignment.get(&id).cloned() else { return vec![] };
+        let Some(m) = self.assignment.get(id).cloned() else { return vec![] };
         self.rejoin(&m);
         // Down when its mission was started again: its head never knew it.
         if self.missions.get(&m).is_some_and(|r| !r.adopted) {
             self.resync(&m);
         }
-        self.admit(&m, std::slice::from_ref(&id))
+        self.admit(&m, std::slice::from_ref(id))
     }
 
     /// A command to a robot answered: the operator's reply (with the mission it left, if a
@@ -339,7 +326,7 @@ impl SystemManager {
             }
         }
         // Robots alive that never answered their info query are asked again (bounded per tick).
-        out.extend(self.fleet.fetch_due(now).into_iter().map(|id| Command::FetchInfo { id }));
+        out.extend(self.registry(now, Heard::Tick));
         if now - self.started >= RESTART_S {
             self.restart_orphans(now);
         }

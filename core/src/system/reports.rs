@@ -27,27 +27,11 @@ impl SystemManager {
         }
     }
 
-    /// A robot's telemetry (newer than the last, or the first since it came up): its info asked
-    /// again if it changed, and the robot steered where it runs or is admitted to what it
-    /// should not be.
-    pub(super) fn telemetry(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
-        let Some(rec) = self.fleet.get_mut(&t.id) else {
-            return vec![];
-        };
-        let newer = rec.fresh || rec.last.as_ref().is_none_or(|old| t.seq > old.seq);
-        if !newer {
-            return vec![];
-        }
-        rec.fresh = false;
-        let mut out = Vec::new();
-        // Its info changed since we asked (its capabilities did): asked again, at most once per
-        // retry period.
-        let stale = rec.info.as_ref().is_some_and(|i| i.rev != t.info_rev);
-        if stale && rec.info_asked.is_none_or(|a| now - a >= INFO_RETRY_S) {
-            rec.info_asked = Some(now);
-            out.push(Command::FetchInfo { id: t.id.clone() });
-        }
-        out.extend(self.leave_admissions(now, &t));
+    /// A robot's telemetry the registry took (newer than the last, or the first since it came
+    /// up): the robot steered where it runs or is admitted to what it should not be; then the
+    /// registry keeps it as the robot's latest.
+    pub(super) fn heard(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
+        let mut out = self.leave_admissions(now, &t);
         out.extend(self.admit_forgetful(now, &t));
         out.extend(self.runs(now, t));
         out
@@ -114,7 +98,7 @@ impl SystemManager {
                 tracing::info!(mission = %running, robot = %t.id, "robot recorded in the mission it runs and its head lists");
                 let (id, mission) = (t.id.clone(), running.clone());
                 self.assignment.insert(id.clone(), mission.clone());
-                rec.last = Some(t);
+                self.fleet.keep(t);
                 return self.admit(&mission, &[id]);
             }
             let known = self.missions.contains_key(running) || self.terminated.contains(running);
@@ -128,7 +112,7 @@ impl SystemManager {
                 out.push(Command::SendToRobot { req: None, robot: t.id.clone(), cmd: RobotCommand::Leave { mission: running.clone(), epoch } });
             }
         }
-        rec.last = Some(t);
+        self.fleet.keep(t);
         out
     }
 
