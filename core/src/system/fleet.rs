@@ -18,6 +18,10 @@ pub(super) struct Record {
     pub(super) last: Option<Telemetry>,
     /// When the last info request went out (seconds, driver clock).
     pub(super) info_asked: Option<f64>,
+    /// It answered its info query since its token last appeared: until then it is asked again
+    /// (a robot back from a restart may have changed type or capabilities, and the answer to
+    /// the first question may be lost, leaving the record it had before).
+    pub(super) answered: bool,
     /// Set when the robot (re)appears: its sequence numbers may restart from 1.
     pub(super) fresh: bool,
     /// When we last ordered it out of a plan it should not run.
@@ -185,6 +189,7 @@ impl Fleet {
             alive: false,
             last: None,
             info_asked: None,
+            answered: false,
             fresh: true,
             leave_sent: None,
             admit_sent: None,
@@ -196,6 +201,7 @@ impl Fleet {
         rec.alive_at = now;
         rec.fresh = true;
         rec.info_asked = Some(now);
+        rec.answered = false;
         seen
     }
 
@@ -219,15 +225,17 @@ impl Fleet {
             Some(_) => {}
         }
         rec.info = Some(info);
+        rec.answered = true;
         true
     }
 
-    /// Robots alive that never answered their info query, to be asked again: at most
-    /// [`FETCH_PER_TICK`] (a flood of tokens costs a bounded number of queries).
+    /// Robots alive that have not answered their info query since their token appeared, to be
+    /// asked again: at most [`FETCH_PER_TICK`] (a flood of tokens costs a bounded number of
+    /// queries).
     fn fetch_due(&mut self, now: f64) -> Vec<RobotId> {
         self.robots
             .iter_mut()
-            .filter(|(_, r)| r.alive && r.info.is_none())
+            .filter(|(_, r)| r.alive && !r.answered)
             .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
             .take(FETCH_PER_TICK)
             .map(|(id, r)| {
@@ -415,10 +423,27 @@ mod tests {
         // Back, it counts again from its first telemetry (a restart starts its sequence anew).
         assert!(matches!(seen(&mut f, 3.1, "r1", 1, 1).as_slice(), [Fact::Heard(_)]));
         assert!(f.last("r1").is_some_and(|t| t.seq == 1));
+        f.handle(3.2, Heard::Info(info("r1")));
         // Hosts, and the tick that asks again what was not answered.
         assert!(f.handle(4.0, Heard::HostAlive("h1".into())).is_empty() && f.has_host("h1"));
         assert_eq!(f.handle(4.1, Heard::HostGone("h1".into())), vec![Fact::HostLost("h1".into())]);
         f.handle(4.2, Heard::Alive("r2".into()));
         assert_eq!(f.handle(4.2 + INFO_RETRY_S, Heard::Tick), vec![Fact::Fetch("r2".into())]);
+    }
+
+    /// A robot back whose first info answer is lost is asked again: the record from before its
+    /// restart (another type, other capabilities) is not taken for its answer.
+    #[test]
+    fn a_robot_back_is_asked_again_until_it_answers() {
+        let mut f = Fleet::default();
+        let r1 = RobotId::from("r1");
+        f.handle(0.0, Heard::Alive(r1.clone()));
+        f.handle(0.1, Heard::Info(info("r1")));
+        f.handle(1.0, Heard::Gone(r1.clone()));
+        assert_eq!(f.handle(2.0, Heard::Alive(r1.clone())), vec![Fact::Back(r1.clone()), Fact::Fetch(r1.clone())]);
+        assert!(f.handle(2.5, Heard::InfoFailed { id: r1.clone(), reason: "timeout".into() }).is_empty());
+        assert_eq!(f.handle(2.0 + INFO_RETRY_S, Heard::Tick), vec![Fact::Fetch(r1.clone())], "asked again");
+        f.handle(3.1, Heard::Info(info("r1")));
+        assert!(f.handle(5.0, Heard::Tick).is_empty(), "answered: not asked again");
     }
 }
