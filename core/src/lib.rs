@@ -6,12 +6,12 @@
 //!
 //! | machine | what it decides | driven by |
 //! |---|---|---|
-//! | [`system::SystemManager`] | membership, operator commands, mission lifecycle | `mrmm_manager::central` |
+//! | [`system::SystemManager`] | membership, operator commands, mission lifecycle; composes three machines of its own: the registry (`system/fleet.rs`), controls and releases (`system/controls.rs`), recovery (`system/recovery.rs`) | `mrmm_manager::central` |
 //! | [`agent::Agent`] | advice to the operator, its own moves (`act`) | `mrmm_manager::central` |
 //! | [`central::CentralCore`] | the two above, composed | `mrmm_manager::central` |
 //! | [`mission::MissionManager`] | one mission's teams, plans, metrics | `mrmm_manager::host` |
 //! | [`chain::Replica`], [`chain::Registry`] | chain replication of mission managers | `mrmm_manager::host` |
-//! | [`host::HostCore`] | the missions a node replicates and leads | `mrmm_manager::host` |
+//! | [`host::HostCore`] | the missions a node replicates and leads; whom it trusts with their chains (`host/trust.rs`) | `mrmm_manager::host` |
 //! | [`robot::Robot`] | one robot: commands, plans, its body | `mrmm_peer::runtime` |
 //! | [`executor::Executor`] | a plan's steps and team barriers ([`barrier`]) | [`robot::Robot`] |
 

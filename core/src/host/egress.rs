@@ -4,7 +4,7 @@
 
 use mrmm_proto::Key;
 
-use super::{Command, HostCore, Local};
+use super::{Command, HostCore};
 use crate::egress::{Audience, Out, Sub};
 
 /// What command `c` publishes, if anything (queries, replies and the disk are the driver's).
@@ -27,9 +27,7 @@ impl HostCore {
     pub fn subscriptions(&self) -> Vec<Sub> {
         let mut subs = vec![Sub::any(Key::HostChain(self.node.clone()))];
         subs.extend(self.watched().into_iter().map(|id| Sub::any(Key::RobotTelemetry(id))));
-        if let Local::Robot(teams) = &self.local {
-            subs.extend(teams.iter().map(|(m, _)| Sub::any(Key::MissionStatus(m.into()))));
-        }
+        subs.extend(self.trust.teams().iter().map(|(m, _)| Sub::any(Key::MissionStatus(m.into()))));
         subs
     }
 }

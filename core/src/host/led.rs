@@ -32,8 +32,7 @@ impl HostCore {
         if self.heads.contains_key(&name) || self.registry.replica(&name).is_some_and(|r| r.config().is_some()) {
             return out.push(Command::Reply { query, result: Err(format!("mission {name:?} is already hosted here").into()) });
         }
-        self.foreign.retain(|_, (t, _)| now - *t < FOREIGN_CHAIN_S);
-        if let Some((_, node)) = self.foreign.get(&name) {
+        if let Some(node) = self.trust.chain_elsewhere(now, &name) {
             return out
                 .push(Command::Reply { query, result: Err(format!("mission {name:?} still has a chain ({node} replicates it): not started anew").into()) });
         }

@@ -29,6 +29,7 @@ mod robots;
 #[cfg(test)]
 mod tests;
 mod ticks;
+mod trust;
 mod watch;
 
 pub use egress::egress;
@@ -141,15 +142,6 @@ pub enum Command {
     Persist { mission: MissionName, disk: Box<chain::Disk<MissionSnapshot>> },
 }
 
-/// What a host knows of its own node's robot.
-#[derive(Debug, Clone, PartialEq)]
-enum Local {
-    /// Central or a mission host: no robot here.
-    NoRobot,
-    /// A robot node: the missions its robot is in or admitted to, each with whom it trusts.
-    Robot(Vec<(String, Vec<String>)>),
-}
-
 /// The mission host of one node.
 #[derive(Debug, Clone)]
 pub struct HostCore {
@@ -160,14 +152,9 @@ pub struct HostCore {
     robots: Robots,
     /// Planner services alive: (kind, zid).
     planners: BTreeSet<(String, String)>,
-    /// This node's own robot, if it has one: its mission and teammates.
-    local: Local,
-    /// The chain of each of our robot's missions, as a head our robot trusts last published it.
-    trusted_chain: BTreeMap<MissionName, Vec<NodeId>>,
-    /// Missions this node holds nothing of whose chain messages it hears: when, and from whom.
-    /// A start of such a mission (central starting it again from its journal) is refused while
-    /// they come: its old chain lives, and may take over again.
-    foreign: BTreeMap<MissionName, (f64, NodeId)>,
+    /// Whom it takes chain messages from: its own robot's team, if it has one; a start of a
+    /// mission whose old chain is heard elsewhere is refused.
+    trust: trust::Trust,
 }
 
 /// For this long after the last chain message of a mission this node holds nothing of, it
@@ -187,9 +174,7 @@ impl HostCore {
             heads: BTreeMap::new(),
             robots: Robots::default(),
             planners: BTreeSet::new(),
-            local: Local::NoRobot,
-            trusted_chain: BTreeMap::new(),
-            foreign: BTreeMap::new(),
+            trust: trust::Trust::new(false),
         }
     }
 
@@ -204,45 +189,24 @@ impl HostCore {
 
     /// The host of a robot node: it learns its robot's team from [`Event::LocalTeam`].
     pub fn with_robot(mut self) -> Self {
-        self.local = Local::Robot(Vec::new());
+        self.trust = trust::Trust::new(true);
         self
     }
 
-    /// Whether `from` may send chain messages about `mission` to this node. Central and mission
-    /// hosts may. A robot may when this node already counts it in the mission (in the chain or
-    /// the team of its replica); else, when this node's own robot is in the mission, if it is a
-    /// teammate (by the robot's plan and admission); else if its own telemetry says it runs
-    /// the mission and this node holds nothing of it yet.
+    /// Whether `from` may send chain messages about `mission` to this node (see `trust.rs`): by
+    /// what this node holds of the mission, and what the sender's telemetry says it runs.
     fn may_chain(&self, mission: &str, from: &Sender) -> bool {
-        match from.role {
-            Role::Central | Role::Host => return true,
-            Role::Robot => {}
-            Role::Operator | Role::Planner | Role::Router => return false,
-        }
+        let replica = self.registry.replica(mission);
         let id = &from.id;
-        if let Some(r) = self.registry.replica(mission) {
-            let in_chain = r.config().is_some_and(|c| c.chain.iter().any(|n| n == id));
-            let in_team = r.state().is_some_and(|s| s.members.iter().chain(&s.lost).any(|m| m.spec.id == *id));
-            if in_chain || in_team {
-                return true;
-            }
-        }
-        let ours = match &self.local {
-            Local::Robot(teams) => teams.iter().find(|(m, _)| m == mission).map(|(_, members)| members),
-            Local::NoRobot => None,
+        let holding = trust::Holding {
+            counts_sender: replica.is_some_and(|r| {
+                r.config().is_some_and(|c| c.chain.iter().any(|n| n == id))
+                    || r.state().is_some_and(|s| s.members.iter().chain(&s.lost).any(|m| m.spec.id == *id))
+            }),
+            holds: replica.is_some_and(|r| r.config().is_some() || r.state().is_some()),
+            sender_runs: self.robots.runs(id, mission),
         };
-        match ours {
-            // Our robot is in the mission: only its team (as its plan and admission say) speaks,
-            // and the chain a head of that team last published.
-            Some(members) => members.contains(id) || self.trusted_chain.get(mission).is_some_and(|chain| chain.iter().any(|n| n == id)),
-            // Our robot is not in it (it left, or never was) or there is none: go by what the
-            // sender's own telemetry says it runs, and only for a mission this node holds nothing
-            // of yet — a node outside a mission can still be asked to hold a replica of it.
-            _ => {
-                let holds = self.registry.replica(mission).is_some_and(|r| r.config().is_some() || r.state().is_some());
-                !holds && self.robots.runs(id, mission)
-            }
-        }
+        self.trust.may_chain(mission, from, holding)
     }
 
     pub fn node(&self) -> &str {
@@ -285,13 +249,8 @@ impl HostCore {
             }
             Event::Start { query, start, .. } => self.start(now, query, *start, &mut out),
             Event::Ctl { query, mission, ctl, .. } => self.ctl(now, query, &mission, ctl, &mut out),
-            Event::LocalTeam(teams) => {
-                if let Local::Robot(t) = &mut self.local {
-                    self.trusted_chain.retain(|m, _| teams.iter().any(|(tm, _)| tm == m));
-                    *t = teams;
-                }
-            }
-            Event::MissionStatus { view, from } => self.mission_status(&view, &from),
+            Event::LocalTeam(teams) => self.trust.handle(trust::Heard::LocalTeam(teams)),
+            Event::MissionStatus { view, from } => self.trust.handle(trust::Heard::Status { view: &view, from: &from }),
             Event::View { query, mission } => {
                 let result = self.view(now, &mission, true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
                 out.push(Command::Reply { query, result: result.map_err(ErrorReply::from) });
@@ -327,19 +286,6 @@ impl HostCore {
             }
         }
         out
-    }
-
-    /// A mission's status, heard on a robot's node: its head's chain is trusted if the head is
-    /// a teammate (or not a robot).
-    fn mission_status(&mut self, view: &MissionView, from: &Sender) {
-        if let Local::Robot(teams) = &self.local {
-            if let Some((_, members)) = teams.iter().find(|(m, _)| *m == view.name) {
-                let head_trusted = from.role != Role::Robot || members.contains(&from.id);
-                if view.manager.node == from.id && head_trusted {
-                    self.trusted_chain.insert(view.name.clone(), view.manager.chain.clone());
-                }
-            }
-        }
     }
 
     /// A robot's telemetry. Of a robot whose liveliness is gone it is stale (the driver's queues

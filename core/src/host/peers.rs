@@ -5,7 +5,7 @@
 use mrmm_proto::edge::Refused;
 use mrmm_proto::{ChainEnvelope, MissionSnapshot, Sender};
 
-use super::{Command, HostCore};
+use super::{trust, Command, HostCore};
 use crate::chain;
 
 impl HostCore {
@@ -13,8 +13,8 @@ impl HostCore {
     pub(super) fn chain_message(&mut self, now: f64, envelope: ChainEnvelope, sender: Sender, out: &mut Vec<Command>) {
         let ChainEnvelope { mission, from, msg } = envelope;
         let holds = self.registry.replica(&mission).is_some_and(|r| r.config().is_some());
-        if !holds && !self.heads.contains_key(&mission) && self.foreign.len() < 1024 {
-            self.foreign.insert(mission.clone(), (now, from.clone()));
+        if !holds && !self.heads.contains_key(&mission) {
+            self.trust.handle(trust::Heard::Foreign { now, mission: mission.clone(), from: from.clone() });
         }
         if sender.id == from && !self.may_chain(&mission, &sender) && self.awaits_telemetry(now, &mission, &sender) {
             tracing::debug!(%mission, %from, "chain message held back until its sender's telemetry is heard");

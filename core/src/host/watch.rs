@@ -47,7 +47,7 @@ impl HostCore {
         if from.role != Role::Robot {
             return false;
         }
-        let ours = matches!(&self.local, Local::Robot(teams) if teams.iter().any(|(m, _)| m == mission));
+        let ours = self.trust.ours(mission);
         let holds = self.registry.replica(mission).is_some_and(|r| r.config().is_some() || r.state().is_some());
         if ours || holds {
             return false;

@@ -120,7 +120,7 @@ impl SystemManager {
         let answer =
             json!({ "ok": true, "mission": name, "paused": spec.paused, "params": params, "map": spec.map.as_ref().map(|m| m.name.clone()), "changed": true });
         tracing::info!(mission = %name, paused = spec.paused, "mission changed by the operator");
-        self.ctls.push(name, MissionCtl::Update { spec }, vec![]);
+        self.controls.push(name, MissionCtl::Update { spec }, vec![]);
         answer
     }
 }

@@ -11,7 +11,7 @@ use mrmm_proto::{
 use serde_json::{json, Value};
 
 use super::dry_runs::Checking;
-use super::{to_value, Command, Ctls, MissionDef, MissionRecord, PendingStart, Released, Req, SystemManager, RESTART_RETRY_S};
+use super::{recovery, to_value, Command, MissionDef, MissionRecord, PendingStart, Req, SystemManager, RESTART_RETRY_S};
 use crate::mission::MissionSpec;
 use crate::wire;
 use crate::Failure;
@@ -128,13 +128,10 @@ impl SystemManager {
             leaving.entry(from).or_default().push(id);
         }
         for (from, ids) in leaving {
-            let ctl = self.ctls.push(&from, MissionCtl::Left { ids: ids.clone() }, vec![]);
-            for id in ids {
-                self.release(&id, &from, ctl);
-            }
+            self.controls.let_go(&from, ids, vec![]);
         }
         // After every mission its robots are being let go by (just now, or earlier).
-        let mut after: Vec<u64> = robots.iter().flat_map(|r| self.pending_releases(&r.id)).collect();
+        let mut after: Vec<u64> = robots.iter().flat_map(|r| self.controls.pending_for(&r.id)).collect();
         after.sort_unstable();
         after.dedup();
         let members = robots.iter().filter_map(|r| self.member(&r.id)).collect();
@@ -147,7 +144,7 @@ impl SystemManager {
         let def =
             MissionDef { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), spec: Some(wire.clone()), lineage: 0 };
         self.missions.insert(name.clone(), MissionRecord::new(std::sync::Arc::new(def), None, false, self.now));
-        self.restarts.remove(&name);
+        self.recovery.handle(self.now, recovery::Event::Settled(&name));
         self.note_command(&req, "mission create", &c_json);
         self.pending_create.insert(name, req);
         self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: wire, members, anew: false, lineage: 0 }), after });
@@ -262,25 +259,6 @@ impl SystemManager {
         Ok(Checked { spec, host, robots: specs, steal, dry, planner_robots, caps, map: held.map(|h| h.map.clone()) })
     }
 
-    /// The controls letting `id` go from missions, while not yet acknowledged (a robot moved
-    /// on before its first mission let it go is let go by several).
-    pub(super) fn pending_releases(&self, id: &str) -> Vec<u64> {
-        let mine = self.released.range((RobotId::from(id), MissionName::default())..).take_while(|((r, _), _)| r == id);
-        mine.map(|(_, r)| r.ctl).filter(|c| self.ctls.is_pending(*c)).collect()
-    }
-
-    /// Whether `mission` let `id` go within the grace period or is letting it go; with
-    /// `pending`, only while its head has not acknowledged. (On the fields, so that it can be
-    /// asked while a robot's record is borrowed.)
-    pub(super) fn released_by(released: &BTreeMap<(RobotId, MissionName), Released>, ctls: &Ctls, id: &str, mission: &str, pending: bool) -> bool {
-        released.get(&(RobotId::from(id), MissionName::from(mission))).is_some_and(|r| !pending || ctls.is_pending(r.ctl))
-    }
-
-    /// Records that `mission` is letting `id` go with control `ctl`.
-    pub(super) fn release(&mut self, id: &str, mission: &str, ctl: u64) {
-        self.released.insert((RobotId::from(id), MissionName::from(mission)), Released { ctl, acked: None });
-    }
-
     /// Alive, registered robots in no mission and running no plan, by id. A robot that runs a
     /// plan of a mission this manager does not know belongs to a mission whose head has not
     /// reported yet (after a restart of central, or a partition): it is not free.
@@ -363,8 +341,8 @@ impl SystemManager {
         }
         let robots: Vec<RobotId> = self.assignment.iter().filter(|(_, m)| **m == t.name).map(|(r, _)| r.clone()).collect();
         self.terminated.insert(t.name.clone());
-        self.ctls.cancel(&t.name);
-        self.ctls.push(&t.name, MissionCtl::Terminate, vec![]);
+        self.controls.cancel(&t.name);
+        self.controls.push(&t.name, MissionCtl::Terminate, vec![]);
         self.starts.retain(|s| s.start.spec.name != t.name);
         let mut out = Vec::new();
         for id in &robots {
@@ -374,7 +352,7 @@ impl SystemManager {
         if let Some(pending) = self.pending_create.remove(&t.name) {
             out.push(Command::Reply { req: pending, result: Err(format!("mission {} was terminated", t.name)) });
         }
-        self.restarts.remove(&t.name);
+        self.recovery.handle(self.now, recovery::Event::Settled(&t.name));
         self.note_command(&req, "mission terminate", &serde_json::to_value(&t).unwrap_or(Value::Null));
         tracing::info!(mission = %t.name, "mission terminated");
         out.push(Command::Reply { req, result: Ok(json!({"ok": true, "mission": t.name, "robots": robots})) });
@@ -425,14 +403,13 @@ impl SystemManager {
     /// leave) and into `to` with its member record, once every mission it was in let it go.
     pub(super) fn apply_move(&mut self, robot: &str, from: Option<MissionName>, to: Option<(MissionName, Member)>, alive: bool) -> Vec<Command> {
         let mut out = Vec::new();
-        let mut left = self.pending_releases(robot);
+        let mut left = self.controls.pending_for(robot);
         if let Some(f) = &from {
             self.assignment.remove(robot);
             // After the release still pending from the mission before (whose head may still
             // count it: found by the system sim, seed 375 with digest beats), so that it joins
             // its next mission only once every mission it was in let it go.
-            let ctl = self.ctls.push(f, MissionCtl::Left { ids: vec![RobotId::from(robot)] }, left.clone());
-            self.release(robot, f, ctl);
+            let ctl = self.controls.let_go(f, vec![RobotId::from(robot)], left.clone());
             left.push(ctl);
             if to.is_none() && alive {
                 out.push(Command::SendToRobot { req: None, robot: RobotId::from(robot), cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX } });
@@ -441,7 +418,7 @@ impl SystemManager {
         if let Some((to, member)) = to {
             self.assignment.insert(RobotId::from(robot), to.clone());
             // It joins once its old mission let it go: never in two teams.
-            self.ctls.push(&to, MissionCtl::Joined { member }, left);
+            self.controls.push(&to, MissionCtl::Joined { member }, left);
         }
         out
     }
@@ -457,23 +434,19 @@ impl SystemManager {
 
     /// The first plans of a mission are out, or its planning failed, or its host did not answer.
     pub(super) fn started(&mut self, name: &str, result: Result<Box<MissionView>, Failure>) -> Vec<Command> {
-        if let Some(r) = self.restarts.get_mut(name) {
+        let answered = recovery::Event::Answered { mission: name, ok: result.is_ok() };
+        if self.recovery.handle(self.now, answered).contains(&recovery::Decision::Restarted) {
             // A journaled mission started again: it is never forgotten for failing; tried again.
-            r.inflight = false;
             match result {
                 Ok(view) => {
                     tracing::info!(mission = %name, "mission running again");
-                    self.restarts.remove(name);
                     if let Some(rec) = self.missions.get_mut(name) {
                         rec.view = Some(*view);
                         rec.reported_at = self.now;
                     }
                     self.resync(name);
                 }
-                Err(f) => {
-                    r.next = self.now + RESTART_RETRY_S;
-                    tracing::warn!(mission = %name, "starting the mission again failed ({}); trying again in {RESTART_RETRY_S} s", f.error);
-                }
+                Err(f) => tracing::warn!(mission = %name, "starting the mission again failed ({}); trying again in {RESTART_RETRY_S} s", f.error),
             }
             return vec![];
         }
@@ -502,19 +475,14 @@ impl SystemManager {
                 self.terminated.insert(MissionName::from(name));
                 // What waited for this mission's controls (a robot moved out of it, released by
                 // it before joining another) now waits for its end.
-                let gone = self.ctls.cancel_ids(name);
-                let end = self.ctls.push(name, MissionCtl::Terminate, vec![]);
-                self.ctls.wait_instead(&gone, end);
-                for r in self.released.values_mut().filter(|r| gone.contains(&r.ctl)) {
-                    r.ctl = end;
-                }
+                let end = self.controls.end(name);
                 let robots: Vec<RobotId> = self.assignment.iter().filter(|(_, m)| *m == name).map(|(r, _)| r.clone()).collect();
                 let mut out = Vec::new();
                 for id in robots {
                     self.assignment.remove(&id);
                     // Held until the end is acknowledged (and by any release still pending from a
                     // mission it was moved out of: its head may still count it; system sim, seed 3516).
-                    self.release(&id, name, end);
+                    self.controls.hold(id.clone(), name, end);
                     out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: MissionName::from(name), epoch: u64::MAX } });
                 }
                 out.extend(reply(Err(format!("mission {name} did not start: {}; it was ended in case it had", f.error))));
@@ -524,7 +492,7 @@ impl SystemManager {
                 // The mission never ran: forget it, free its robots.
                 self.missions.remove(name);
                 self.assignment.retain(|_, m| m != name);
-                self.ctls.cancel(name);
+                self.controls.cancel(name);
                 tracing::warn!(mission = %name, "mission failed: {}", f.error);
                 reply(Err(f.error))
             }

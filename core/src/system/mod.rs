@@ -9,6 +9,7 @@
 pub mod asks;
 mod capabilities;
 mod changes;
+mod controls;
 mod ctl;
 mod dry_runs;
 pub mod durable;
@@ -19,6 +20,7 @@ pub mod ingress;
 mod journal;
 pub mod missions;
 mod recovery;
+mod replay;
 mod reports;
 mod steer;
 mod touched;
@@ -109,15 +111,6 @@ impl MissionRecord {
     }
 }
 
-/// A robot this manager took out of a mission: until the mission acknowledged it (and for a
-/// grace period after), that mission's reports listing it are older than the order. Keyed by
-/// (robot, mission): a robot moved on again before the first mission let it go is held by both.
-#[derive(Debug, Clone)]
-struct Released {
-    ctl: u64,
-    acked: Option<f64>,
-}
-
 /// A mission start waiting for the missions its robots come from to let them go.
 #[derive(Debug, Clone)]
 struct PendingStart {
@@ -126,7 +119,11 @@ struct PendingStart {
     after: Vec<u64>,
 }
 
-/// The registry of robots and missions, and the operator-facing logic.
+/// The system manager: the missions' lifecycle and the operator's commands, over three machines
+/// with state of their own — the registry of robots and hosts ([`Fleet`], `fleet.rs`), the
+/// controls waiting for heads and the robots being let go ([`controls::Controls`]), and recovery
+/// of journaled missions no live manager runs ([`recovery::Recovery`]) — whose decisions it
+/// carries out.
 #[derive(Debug, Clone)]
 pub struct SystemManager {
     node: NodeId,
@@ -142,8 +139,8 @@ pub struct SystemManager {
     /// Missions terminated here: robots still running them are ordered out, heads still
     /// reporting them are told again.
     terminated: touched::Touched<BTreeSet<MissionName>>,
-    released: BTreeMap<(RobotId, MissionName), Released>,
-    ctls: Ctls,
+    /// Controls waiting for heads, and the robots missions are letting go.
+    controls: controls::Controls,
     /// Commands held while the manager learns the fleet after starting.
     held: Vec<(Req, Request)>,
     /// What the driver refused and took at the node's edge, as it last said.
@@ -152,8 +149,8 @@ pub struct SystemManager {
     dry_runs: dry_runs::DryRuns,
     /// What the journal holds, and the history to add to it.
     journal: Journal,
-    /// Journaled missions being started again, and those waiting for members with a state dir.
-    restarts: recovery::Restarts,
+    /// Journaled missions no live manager runs, started anew.
+    recovery: recovery::Recovery,
     /// The maps missions may plan on, by name (central's config).
     maps: BTreeMap<String, Arc<crate::maps::Held>>,
 }
@@ -171,13 +168,12 @@ impl SystemManager {
             pending_create: BTreeMap::new(),
             starts: Vec::new(),
             terminated: touched::Touched::default(),
-            released: BTreeMap::new(),
-            ctls: Ctls::default(),
+            controls: controls::Controls::default(),
             held: Vec::new(),
             edge: views::EdgeCounts::default(),
             dry_runs: dry_runs::DryRuns::default(),
             journal: Journal::default(),
-            restarts: recovery::Restarts::default(),
+            recovery: recovery::Recovery::new(now),
             maps: BTreeMap::new(),
         }
     }
@@ -216,12 +212,7 @@ impl SystemManager {
             Event::MissionStarted { mission, result } => self.started(&mission, result),
             Event::Forwarded { req, result } => vec![Command::Reply { req, result }],
             Event::CtlDone { id, result } => {
-                self.ctls.done(now, id, result);
-                for r in self.released.values_mut().filter(|r| r.ctl == id && r.acked.is_none()) {
-                    if !self.ctls.is_pending(id) {
-                        r.acked = Some(now);
-                    }
-                }
+                self.controls.handle(now, controls::Event::Answered { id, result });
                 vec![]
             }
             Event::MissionStatus { view, from } => self.mission_status(*view, from),
@@ -317,8 +308,7 @@ impl SystemManager {
     }
 
     fn tick(&mut self, now: f64) -> Vec<Command> {
-        let grace = |r: &Released| r.acked.is_none_or(|t| now - t < RELEASE_GRACE_S);
-        self.released.retain(|_, r| grace(r));
+        self.controls.handle(now, controls::Event::Tick);
         let mut out = Vec::new();
         if now - self.started >= ADOPT_S {
             for (req, request) in std::mem::take(&mut self.held) {
@@ -328,7 +318,7 @@ impl SystemManager {
         // Robots alive that never answered their info query are asked again (bounded per tick).
         out.extend(self.registry(now, Heard::Tick));
         if now - self.started >= RESTART_S {
-            self.restart_orphans(now);
+            self.recover(now);
         }
         out
     }

@@ -45,10 +45,10 @@ impl SystemManager {
         let mut leave = Vec::new();
         for admitted in t.admitted.iter().filter(|a| t.mission.as_ref() != Some(*a)) {
             let known = self.missions.contains_key(admitted) || self.terminated.contains(admitted);
-            let releasing = Self::released_by(&self.released, &self.ctls, &t.id, admitted, true);
+            let releasing = self.controls.letting_go(&t.id, admitted, true);
             // A join or leave of this robot still on its way to that mission's head: the head
             // may be taking it into its chain; its admission must hold until the leave is done.
-            let in_transit = self.ctls.has(admitted, |c| match c {
+            let in_transit = self.controls.has(admitted, |c| match c {
                 MissionCtl::Joined { member } => member.spec.id == t.id,
                 MissionCtl::Left { ids } => ids.contains(&t.id),
                 _ => false,
@@ -93,7 +93,7 @@ impl SystemManager {
             let assigned = self.assignment.get(&t.id);
             // Looked up in the head's list (O(team)) only for a robot in no mission here.
             let listed = || self.missions.get(running).filter(|m| m.adopted).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
-            let released = Self::released_by(&self.released, &self.ctls, &t.id, running, false);
+            let released = self.controls.letting_go(&t.id, running, false);
             if assigned.is_none() && !released && !self.terminated.contains(running) && listed() {
                 tracing::info!(mission = %running, robot = %t.id, "robot recorded in the mission it runs and its head lists");
                 let (id, mission) = (t.id.clone(), running.clone());
@@ -105,7 +105,7 @@ impl SystemManager {
             let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
             // Moved out of `running` but not yet let go by it: its head still counts on it, so
             // it keeps its plan until the head has replanned without it.
-            let releasing = Self::released_by(&self.released, &self.ctls, &t.id, running, true);
+            let releasing = self.controls.letting_go(&t.id, running, true);
             if assigned != Some(running) && known && retry && !releasing {
                 rec.leave_sent = Some(now);
                 let epoch = t.progress.as_ref().map_or(u64::MAX, |p| p.epoch);
@@ -147,9 +147,9 @@ impl SystemManager {
             })];
         }
         if self.terminated.contains(&view.name) {
-            if !self.ctls.has(&view.name, |c| *c == MissionCtl::Terminate) {
+            if !self.controls.has(&view.name, |c| *c == MissionCtl::Terminate) {
                 tracing::warn!(mission = %view.name, node = %view.manager.node, "a terminated mission still runs: ending it again");
-                self.ctls.push(&view.name, MissionCtl::Terminate, vec![]);
+                self.controls.push(&view.name, MissionCtl::Terminate, vec![]);
             }
             return vec![];
         }
@@ -244,7 +244,7 @@ impl SystemManager {
         for id in robots.iter().chain(lost) {
             // A robot being let go (by this mission or another) is in transit: this manager
             // moved it, and decides where it goes.
-            if Self::released_by(&self.released, &self.ctls, id, name, false) || !self.pending_releases(id).is_empty() {
+            if self.controls.letting_go(id, name, false) || !self.controls.pending_for(id).is_empty() {
                 continue;
             }
             // A robot that says it runs this mission, or nothing (it restarted and forgot):
@@ -264,11 +264,8 @@ impl SystemManager {
             }
         }
         if !strangers.is_empty() {
-            let ctl = self.ctls.push(name, MissionCtl::Left { ids: strangers.clone() }, vec![]);
             // Until the head lets them go they are still its members: not free for a create.
-            for id in strangers {
-                self.release(&id, name, ctl);
-            }
+            self.controls.let_go(name, strangers, vec![]);
         }
         // Recorded here: admitted too (this manager may have restarted; they may have too).
         self.admit(name, &recorded)
@@ -302,14 +299,14 @@ impl SystemManager {
     /// on its way; whether one was ordered. Never in two teams: if another mission is still
     /// letting it go, after that.
     fn join(&mut self, name: &str, id: &str, why: &str) -> bool {
-        let pending = self.ctls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
+        let pending = self.controls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
         let alive = self.fleet.ready(id);
         let Some(member) = self.member(id).filter(|_| alive && !pending) else {
             return false;
         };
         tracing::info!(mission = %name, robot = %id, "{why}");
-        let after = self.pending_releases(id);
-        self.ctls.push(name, MissionCtl::Joined { member }, after);
+        let after = self.controls.pending_for(id);
+        self.controls.push(name, MissionCtl::Joined { member }, after);
         true
     }
 

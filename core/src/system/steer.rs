@@ -7,7 +7,7 @@ impl SystemManager {
     /// Controls and starts that can go out now.
     pub(super) fn due(&mut self, now: f64) -> Vec<Command> {
         let mut out = Vec::new();
-        for (id, mission, ctl) in self.ctls.due(now) {
+        for (id, mission, ctl) in self.controls.due(now) {
             let managers = self.managers(&mission);
             if let MissionCtl::Joined { member } = &ctl {
                 // A robot leading the mission may plan for the newcomer only once it is admitted,
@@ -25,9 +25,9 @@ impl SystemManager {
             }
             out.push(Command::Ctl { id, mission, ctl, managers });
         }
-        let ctls = &self.ctls;
+        let controls = &self.controls;
         let (ready, waiting): (Vec<PendingStart>, Vec<PendingStart>) =
-            std::mem::take(&mut self.starts).into_iter().partition(|s| s.after.iter().all(|id| !ctls.is_pending(*id)));
+            std::mem::take(&mut self.starts).into_iter().partition(|s| s.after.iter().all(|id| !controls.is_pending(*id)));
         self.starts = waiting;
         for s in ready {
             let members: Vec<RobotId> = s.start.members.iter().map(|m| m.spec.id.clone()).collect();
