@@ -6,6 +6,7 @@
 pub mod bridge;
 pub mod map;
 pub mod paths;
+mod view;
 
 use thiserror::Error;
 
