@@ -27,12 +27,8 @@ const TELEMETRY_QUEUE: usize = 1024;
 /// Feeds `tx` until `shutdown`.
 pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, maps: Layers, shutdown: CancellationToken) -> Result<(), ConsoleError> {
     let mesh = client.mesh().clone();
-    let telemetry = client
-        .session()
-        .declare_subscriber(Pattern::AllTelemetry.to_string())
-        .with(RingChannel::new(TELEMETRY_QUEUE))
-        .await
-        .map_err(|e| ConsoleError::Zenoh(e.to_string()))?;
+    let telemetry =
+        client.session().declare_subscriber(Pattern::AllTelemetry.to_string()).with(RingChannel::new(TELEMETRY_QUEUE)).await.map_err(ConsoleError::Zenoh)?;
     let mut fleet = Fleet::default();
     let mut poll = tokio::time::interval(POLL);
     let mut publish = tokio::time::interval(PUBLISH);

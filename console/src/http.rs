@@ -8,9 +8,9 @@ use std::convert::Infallible;
 use std::sync::Arc;
 
 use axum::extract::rejection::JsonRejection;
-use axum::extract::{DefaultBodyLimit, Path, Request, State};
-use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
-use axum::middleware::{self, Next};
+use axum::extract::{DefaultBodyLimit, Path, State};
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::middleware;
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
@@ -24,6 +24,14 @@ use serde_json::{json, Value};
 use tokio::sync::watch;
 
 use crate::model::Snapshot;
+
+mod guard;
+mod maps;
+
+use guard::guard;
+pub use guard::host_ok;
+#[cfg(test)]
+use guard::{presented, same};
 
 /// Largest request body: a mission create with a few thousand waypoints fits.
 pub const MAX_BODY: usize = 256 * 1024;
@@ -56,8 +64,8 @@ pub fn router(state: AppState) -> Router {
         .route("/api/events", get(events))
         .route("/api/cmd/{group}/{verb}", post(command))
         .route("/api/assign", post(assign))
-        .route("/api/map/{hash}", get(map_layer))
-        .route("/api/map/{hash}/png", get(map_png))
+        .route("/api/map/{hash}", get(maps::layer))
+        .route("/api/map/{hash}/png", get(maps::png))
         .layer(middleware::from_fn_with_state(state.clone(), guard))
         .layer(DefaultBodyLimit::max(MAX_BODY))
         .with_state(state)
@@ -79,35 +87,6 @@ fn page(body: &'static str, kind: &'static str) -> Response {
 
 fn error(status: StatusCode, msg: impl Into<String>) -> Response {
     (status, Json(json!({ "error": msg.into() }))).into_response()
-}
-
-/// Whether `Host` names this server by a loopback address.
-pub fn host_ok(headers: &HeaderMap, port: u16) -> bool {
-    let Some(host) = headers.get(header::HOST).and_then(|h| h.to_str().ok()) else { return false };
-    [format!("127.0.0.1:{port}"), format!("localhost:{port}"), format!("[::1]:{port}")].iter().any(|ok| ok.eq_ignore_ascii_case(host))
-}
-
-/// The token a request presents: `Authorization: Bearer …`, else the `token` query parameter.
-fn presented<'a>(headers: &'a HeaderMap, query: Option<&'a str>) -> Option<&'a str> {
-    if let Some(v) = headers.get(header::AUTHORIZATION).and_then(|h| h.to_str().ok()) {
-        return v.strip_prefix("Bearer ");
-    }
-    query?.split('&').find_map(|kv| kv.strip_prefix("token="))
-}
-
-/// Compares in time that does not depend on where the two differ.
-fn same(a: &str, b: &str) -> bool {
-    a.len() == b.len() && a.bytes().zip(b.bytes()).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
-}
-
-async fn guard(State(st): State<AppState>, req: Request, next: Next) -> Response {
-    if !host_ok(req.headers(), st.port) {
-        return error(StatusCode::FORBIDDEN, format!("this console answers only as 127.0.0.1:{} (or localhost)", st.port));
-    }
-    if req.uri().path().starts_with("/api/") && !presented(req.headers(), req.uri().query()).is_some_and(|t| same(t, &st.token)) {
-        return error(StatusCode::UNAUTHORIZED, "missing or wrong console token: open the URL `mrmm console` printed");
-    }
-    next.run(req).await
 }
 
 async fn state_now(State(st): State<AppState>) -> Json<Snapshot> {
@@ -167,28 +146,6 @@ async fn command(State(st): State<AppState>, Path((group, verb)): Path<(String, 
     match forward(&st.client, cmd, &body).await {
         Ok(v) => Json(v).into_response(),
         Err((status, msg)) => error(status, msg),
-    }
-}
-
-/// `GET /api/map/<hash>`: where a map lies and, for a graph, its lanes (404 while it is being
-/// fetched).
-async fn map_layer(State(st): State<AppState>, Path(hash): Path<String>) -> Response {
-    match st.maps.lock().ok().and_then(|m| m.get(&hash).map(|l| l.json.clone())) {
-        Some(v) => Json(v).into_response(),
-        None => error(StatusCode::NOT_FOUND, format!("no map {hash} (yet)")),
-    }
-}
-
-/// `GET /api/map/<hash>/png`: a grid map's image.
-async fn map_png(State(st): State<AppState>, Path(hash): Path<String>) -> Response {
-    match st.maps.lock().ok().and_then(|m| m.get(&hash).and_then(|l| l.png.clone())) {
-        Some(png) => {
-            let mut r = (*png).clone().into_response();
-            r.headers_mut().insert(header::CONTENT_TYPE, HeaderValue::from_static("image/png"));
-            r.headers_mut().insert(header::CACHE_CONTROL, HeaderValue::from_static("no-store"));
-            r
-        }
-        None => error(StatusCode::NOT_FOUND, format!("no image of map {hash} (yet)")),
     }
 }
 

@@ -27,7 +27,9 @@ pub enum ConsoleError {
     #[error("console listener: {0}")]
     Io(#[from] std::io::Error),
     #[error("zenoh: {0}")]
-    Zenoh(String),
+    Zenoh(#[source] mrmm_proto::BoxError),
+    #[error("the console's feed stopped: {0}")]
+    Feed(#[source] tokio::task::JoinError),
 }
 
 /// A fresh access token: 128 random bits, hex. The page's URL carries it (after `#`, so it is
@@ -63,7 +65,7 @@ pub async fn run(client: Client, listener: TcpListener, token: String, shutdown:
     let stop = shutdown.clone();
     let served = axum::serve(listener, app).with_graceful_shutdown(async move { stop.cancelled().await }).await;
     shutdown.cancel();
-    let fed = feed.await.map_err(|e| ConsoleError::Zenoh(format!("the console's feed stopped: {e}")))?;
+    let fed = feed.await.map_err(ConsoleError::Feed)?;
     served?;
     fed
 }

@@ -14,14 +14,24 @@ pub enum ManagerError {
     #[error(transparent)]
     Proto(#[from] mrmm_proto::ProtoError),
     #[error("zenoh: {0}")]
-    Zenoh(String),
-    /// The journal on disk could not be opened, read or written; the message names the file.
-    #[error("{0}")]
-    Journal(String),
+    Zenoh(#[source] mrmm_proto::BoxError),
+    /// The journal or the chain state on disk could not be opened, read or written: `what` names
+    /// the file and what was done.
+    #[error("{what}: {source}")]
+    Journal {
+        what: String,
+        #[source]
+        source: mrmm_proto::BoxError,
+    },
 }
 
 impl ManagerError {
-    pub fn zenoh(e: impl std::fmt::Display) -> Self {
-        ManagerError::Zenoh(e.to_string())
+    /// What went wrong with a file on disk (`what` names it), and why.
+    pub fn journal(what: impl Into<String>, source: impl Into<mrmm_proto::BoxError>) -> Self {
+        ManagerError::Journal { what: what.into(), source: source.into() }
+    }
+
+    pub fn zenoh(e: impl Into<mrmm_proto::BoxError>) -> Self {
+        ManagerError::Zenoh(e.into())
     }
 }

@@ -40,25 +40,25 @@ impl Journal {
     /// Opens (or creates) the journal in `dir` and replays it: the durable state it holds, and
     /// how many entries it has. A damaged file or entry stops here with a readable error.
     pub fn open(dir: &Path) -> Result<(Journal, Durable), ManagerError> {
-        std::fs::create_dir_all(dir).map_err(|e| ManagerError::Journal(format!("state dir {}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|e| ManagerError::journal(format!("state dir {}", dir.display()), e))?;
         let path = dir.join(FILE);
-        let err = |what: &str, e: &dyn std::fmt::Display| ManagerError::Journal(format!("journal {}: {what}: {e}", path.display()));
+        let err = |what: &str, e: mrmm_proto::BoxError| ManagerError::journal(format!("journal {}: {what}", path.display()), e);
         let db = Database::create(&path).map_err(|e| match e {
-            redb::DatabaseError::DatabaseAlreadyOpen => err("open", &"another central uses this state dir"),
-            e => err("open", &e),
+            redb::DatabaseError::DatabaseAlreadyOpen => err("open", "another central uses this state dir".into()),
+            e => err("open", e.into()),
         })?;
         // The table exists from the start, so readers never miss it.
-        let w = db.begin_write().map_err(|e| err("write", &e))?;
-        w.open_table(ENTRIES).map_err(|e| err("write", &e))?;
-        w.commit().map_err(|e| err("commit", &e))?;
-        let r = db.begin_read().map_err(|e| err("read", &e))?;
-        let table = r.open_table(ENTRIES).map_err(|e| err("read", &e))?;
+        let w = db.begin_write().map_err(|e| err("write", e.into()))?;
+        w.open_table(ENTRIES).map_err(|e| err("write", e.into()))?;
+        w.commit().map_err(|e| err("commit", e.into()))?;
+        let r = db.begin_read().map_err(|e| err("read", e.into()))?;
+        let table = r.open_table(ENTRIES).map_err(|e| err("read", e.into()))?;
         let mut state = Durable::default();
         let mut last = 0;
-        for item in table.iter().map_err(|e| err("read", &e))? {
-            let (k, v) = item.map_err(|e| err("read", &e))?;
+        for item in table.iter().map_err(|e| err("read", e.into()))? {
+            let (k, v) = item.map_err(|e| err("read", e.into()))?;
             let seq = k.value();
-            let entry: JournalEntry = serde_json::from_slice(v.value()).map_err(|e| err(&format!("entry {seq}"), &e))?;
+            let entry: JournalEntry = serde_json::from_slice(v.value()).map_err(|e| err(&format!("entry {seq}"), e.into()))?;
             state.apply(&entry.event);
             last = seq;
         }
@@ -75,34 +75,35 @@ impl Journal {
     /// Commits `events` as one transaction, durable (fsync) when this returns; `at_ms` is the
     /// wall-clock time stamped on them.
     pub fn append(&mut self, events: &[JournalEvent], at_ms: u64) -> Result<u64, ManagerError> {
-        let err = |what: &str, e: &dyn std::fmt::Display| ManagerError::Journal(format!("journal {}: {what}: {e}", self.path.display()));
-        let w = self.db.begin_write().map_err(|e| err("write", &e))?;
+        let err = |what: &str, e: mrmm_proto::BoxError| ManagerError::journal(format!("journal {}: {what}", self.path.display()), e);
+        let w = self.db.begin_write().map_err(|e| err("write", e.into()))?;
         let mut seq = self.last;
         {
-            let mut table = w.open_table(ENTRIES).map_err(|e| err("write", &e))?;
+            let mut table = w.open_table(ENTRIES).map_err(|e| err("write", e.into()))?;
             for event in events {
-                seq = seq.checked_add(1).ok_or_else(|| err("write", &"sequence numbers exhausted"))?;
+                seq = seq.checked_add(1).ok_or_else(|| err("write", "sequence numbers exhausted".into()))?;
                 let entry = JournalEntry { seq, at_ms, event: event.clone() };
-                let bytes = serde_json::to_vec(&entry).map_err(|e| err("encode", &e))?;
-                table.insert(seq, bytes.as_slice()).map_err(|e| err("write", &e))?;
+                let bytes = serde_json::to_vec(&entry).map_err(|e| err("encode", e.into()))?;
+                table.insert(seq, bytes.as_slice()).map_err(|e| err("write", e.into()))?;
             }
         }
-        w.commit().map_err(|e| err("commit", &e))?;
+        w.commit().map_err(|e| err("commit", e.into()))?;
         self.last = seq;
         Ok(seq)
     }
 
     /// Entries after `since`, oldest first, at most `limit` (capped at [`JOURNAL_PAGE`]).
     pub fn page(&self, since: u64, limit: usize) -> Result<JournalPage, ManagerError> {
-        let err = |e: &dyn std::fmt::Display| ManagerError::Journal(format!("journal {}: read: {e}", self.path.display()));
+        let err = |e: mrmm_proto::BoxError| ManagerError::journal(format!("journal {}: read", self.path.display()), e);
         let limit = limit.clamp(1, JOURNAL_PAGE);
-        let r = self.db.begin_read().map_err(|e| err(&e))?;
-        let table = r.open_table(ENTRIES).map_err(|e| err(&e))?;
+        let r = self.db.begin_read().map_err(|e| err(e.into()))?;
+        let table = r.open_table(ENTRIES).map_err(|e| err(e.into()))?;
         let mut entries = Vec::new();
         let from = since.saturating_add(1);
-        for item in table.range(from..).map_err(|e| err(&e))?.take(limit) {
-            let (k, v) = item.map_err(|e| err(&e))?;
-            let entry: JournalEntry = serde_json::from_slice(v.value()).map_err(|e| err(&format!("entry {}: {e}", k.value())))?;
+        for item in table.range(from..).map_err(|e| err(e.into()))?.take(limit) {
+            let (k, v) = item.map_err(|e| err(e.into()))?;
+            let entry: JournalEntry = serde_json::from_slice(v.value())
+                .map_err(|e| ManagerError::journal(format!("journal {}: read: entry {}", self.path.display(), k.value()), e))?;
             entries.push(entry);
         }
         let next = entries.last().map_or(since, |e| e.seq);

@@ -43,7 +43,7 @@ impl Client {
         // as the caller is willing to wait for an answer.
         let ms = u64::try_from(timeout.as_millis()).unwrap_or(u64::MAX).max(1);
         config.insert_json5("connect/timeout_ms", &ms.to_string()).map_err(|e| ProtoError::Config(format!("zenoh config connect/timeout_ms: {e}")))?;
-        let session = zenoh::open(config).await.map_err(|e| ProtoError::Zenoh(format!("cannot reach central at {}: {e}", endpoints.join(", "))))?;
+        let session = zenoh::open(config).await.map_err(|source| ProtoError::Unreachable { at: endpoints.join(", "), source })?;
         Ok(Client { mesh: Mesh::from_parts(session, sealer, verifier), timeout })
     }
 
@@ -76,7 +76,7 @@ impl Client {
         let body = body.map(to_json).transpose()?;
         match self.mesh.query(selector, body, self.timeout, accept).await {
             Ok((v, _)) => Ok(v),
-            Err(QueryError::NoAnswer { key, ms }) => Err(ProtoError::Zenoh(format!("no answer on {key} within {ms} ms: is central running?"))),
+            Err(QueryError::NoAnswer { key, ms }) => Err(ProtoError::zenoh(format!("no answer on {key} within {ms} ms: is central running?"))),
             Err(other) => Err(ProtoError::Query(other)),
         }
     }

@@ -14,7 +14,7 @@ pub enum PeerError {
     #[error(transparent)]
     Proto(#[from] mrmm_proto::ProtoError),
     #[error("zenoh: {0}")]
-    Zenoh(String),
+    Zenoh(#[source] mrmm_proto::BoxError),
     /// A simulated robot crashed on the operator's order (`mrmm op crash`).
     #[error("robot {0} crashed on the operator's order")]
     Crashed(String),
@@ -25,7 +25,7 @@ pub enum PeerError {
 
 impl PeerError {
     /// Wraps a zenoh error (zenoh's errors are boxed trait objects).
-    pub fn zenoh(e: impl std::fmt::Display) -> Self {
-        PeerError::Zenoh(e.to_string())
+    pub fn zenoh(e: impl Into<mrmm_proto::BoxError>) -> Self {
+        PeerError::Zenoh(e.into())
     }
 }

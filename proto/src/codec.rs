@@ -25,14 +25,14 @@ pub fn from_json<T: DeserializeOwned>(what: &str, bytes: &[u8]) -> Result<T, Pro
 /// Parses a JSON payload of at most `max` bytes.
 pub fn from_json_max<T: DeserializeOwned>(what: &str, bytes: &[u8], max: usize) -> Result<T, ProtoError> {
     if bytes.len() > max {
-        return Err(ProtoError::Decode(format!("{what}: {} bytes, more than the {max} accepted", bytes.len())));
+        return Err(ProtoError::decode(what, format!("{} bytes, more than the {max} accepted", bytes.len())));
     }
-    serde_json::from_slice(bytes).map_err(|e| ProtoError::Decode(format!("{what}: {e}")))
+    serde_json::from_slice(bytes).map_err(|e| ProtoError::decode(what, e))
 }
 
 /// Serialises to JSON. Our wire types always serialise; a failure is reported, not unwrapped.
 pub fn to_json<T: Serialize>(v: &T) -> Result<Vec<u8>, ProtoError> {
-    serde_json::to_vec(v).map_err(|e| ProtoError::Encode(e.to_string()))
+    serde_json::to_vec(v).map_err(ProtoError::encode)
 }
 
 fn wire_config() -> impl bincode::config::Config {
@@ -42,7 +42,7 @@ fn wire_config() -> impl bincode::config::Config {
 /// Encodes telemetry: magic, then bincode (standard config, size-limited).
 pub fn encode_telemetry(t: &Telemetry) -> Result<Vec<u8>, ProtoError> {
     let mut out = TELEMETRY_MAGIC.to_vec();
-    let body = bincode::serde::encode_to_vec(t, wire_config()).map_err(|e| ProtoError::Encode(e.to_string()))?;
+    let body = bincode::serde::encode_to_vec(t, wire_config()).map_err(ProtoError::encode)?;
     out.extend_from_slice(&body);
     Ok(out)
 }
@@ -50,17 +50,17 @@ pub fn encode_telemetry(t: &Telemetry) -> Result<Vec<u8>, ProtoError> {
 /// Decodes telemetry; any foreign or corrupt payload is an error, never a panic.
 pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
     if bytes.len() > TELEMETRY_MAX_BYTES {
-        return Err(ProtoError::Decode(format!("telemetry: {} bytes", bytes.len())));
+        return Err(ProtoError::decode("telemetry", format!("{} bytes", bytes.len())));
     }
-    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::Decode("telemetry without the MRM3 prefix".into()))?;
-    let (t, used): (Telemetry, usize) = bincode::serde::decode_from_slice(body, wire_config()).map_err(|e| ProtoError::Decode(format!("telemetry: {e}")))?;
+    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::decode("telemetry", "no MRM3 prefix"))?;
+    let (t, used): (Telemetry, usize) = bincode::serde::decode_from_slice(body, wire_config()).map_err(|e| ProtoError::decode("telemetry", e))?;
     if used != body.len() {
-        return Err(ProtoError::Decode(format!("telemetry: {} trailing bytes", body.len() - used)));
+        return Err(ProtoError::decode("telemetry", format!("{} trailing bytes", body.len() - used)));
     }
     if !(t.pose.x.is_finite() && t.pose.y.is_finite() && t.pose.theta.is_finite()) {
-        return Err(ProtoError::Decode("telemetry: non-finite pose".into()));
+        return Err(ProtoError::decode("telemetry", "non-finite pose"));
     }
-    crate::keys::validate_id(&t.id).map_err(|e| ProtoError::Decode(format!("telemetry: {e}")))?;
+    crate::keys::validate_id(&t.id).map_err(|e| ProtoError::decode("telemetry", e))?;
     Ok(t)
 }
 

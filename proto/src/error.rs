@@ -2,6 +2,9 @@
 
 use thiserror::Error;
 
+/// An underlying error of any kind, kept as the source of ours (zenoh's errors are of this type).
+pub type BoxError = Box<dyn std::error::Error + Send + Sync + 'static>;
+
 /// Everything that can go wrong on the wire or while reading a config.
 #[derive(Debug, Error)]
 pub enum ProtoError {
@@ -10,21 +13,43 @@ pub enum ProtoError {
     Config(String),
     #[error("invalid id {0:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -")]
     BadId(String),
-    #[error("cannot decode payload: {0}")]
-    Decode(String),
+    /// A payload that is not what its key promises: `what` it should be, and why not.
+    #[error("cannot decode payload: {what}: {source}")]
+    Decode {
+        what: String,
+        #[source]
+        source: BoxError,
+    },
     #[error("cannot encode payload: {0}")]
-    Encode(String),
+    Encode(#[source] BoxError),
     #[error("zenoh: {0}")]
-    Zenoh(String),
+    Zenoh(#[source] BoxError),
+    /// Central's routers cannot be reached at `at`.
+    #[error("zenoh: cannot reach central at {at}: {source}")]
+    Unreachable {
+        at: String,
+        #[source]
+        source: BoxError,
+    },
     /// A query got no usable answer.
     #[error(transparent)]
     Query(#[from] QueryError),
 }
 
 impl ProtoError {
-    /// Wraps a zenoh error (zenoh's errors are boxed trait objects).
-    pub fn zenoh(e: impl std::fmt::Display) -> Self {
-        ProtoError::Zenoh(e.to_string())
+    /// Wraps a zenoh error (zenoh's errors are boxed trait objects), or says what went wrong.
+    pub fn zenoh(e: impl Into<BoxError>) -> Self {
+        ProtoError::Zenoh(e.into())
+    }
+
+    /// A payload that is not `what` it should be, and why (an error of its own, or words).
+    pub fn decode(what: impl Into<String>, why: impl Into<BoxError>) -> Self {
+        ProtoError::Decode { what: what.into(), source: why.into() }
+    }
+
+    /// A value that could not be encoded.
+    pub fn encode(e: impl Into<BoxError>) -> Self {
+        ProtoError::Encode(e.into())
     }
 }
 

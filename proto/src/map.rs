@@ -72,21 +72,21 @@ pub struct MapChunk {
 impl MapChunk {
     pub fn encode(&self) -> Result<Vec<u8>, ProtoError> {
         let mut out = MAGIC.to_vec();
-        out.extend(bincode::serde::encode_to_vec(self, bincode::config::standard()).map_err(|e| ProtoError::Encode(e.to_string()))?);
+        out.extend(bincode::serde::encode_to_vec(self, bincode::config::standard()).map_err(ProtoError::encode)?);
         Ok(out)
     }
 
     /// Decodes and checks a chunk: index below total, total at most [`MAX_CHUNKS`], at most
     /// [`CHUNK_BYTES`] of data.
     pub fn decode(bytes: &[u8]) -> Result<Self, ProtoError> {
-        let body = bytes.strip_prefix(MAGIC.as_slice()).ok_or_else(|| ProtoError::Decode("map chunk: no MRMP magic".into()))?;
+        let body = bytes.strip_prefix(MAGIC.as_slice()).ok_or_else(|| ProtoError::decode("map chunk", "no MRMP magic"))?;
         if body.len() > CHUNK_BYTES + 64 {
-            return Err(ProtoError::Decode(format!("map chunk: {} bytes, at most {}", body.len(), CHUNK_BYTES)));
+            return Err(ProtoError::decode("map chunk", format!("{} bytes, at most {}", body.len(), CHUNK_BYTES)));
         }
         let cfg = bincode::config::standard().with_limit::<{ CHUNK_BYTES + 64 }>();
-        let (c, used): (MapChunk, usize) = bincode::serde::decode_from_slice(body, cfg).map_err(|e| ProtoError::Decode(format!("map chunk: {e}")))?;
+        let (c, used): (MapChunk, usize) = bincode::serde::decode_from_slice(body, cfg).map_err(|e| ProtoError::decode("map chunk", e))?;
         if used != body.len() || c.total == 0 || c.total > MAX_CHUNKS || c.index >= c.total || c.data.len() > CHUNK_BYTES {
-            return Err(ProtoError::Decode(format!("map chunk {} of {} with {} bytes does not fit", c.index, c.total, c.data.len())));
+            return Err(ProtoError::decode("map chunk", format!("chunk {} of {} with {} bytes does not fit", c.index, c.total, c.data.len())));
         }
         Ok(c)
     }

@@ -22,7 +22,7 @@ pub fn encode<T: RosMessage>(msg: &T) -> Result<Vec<u8>, Ros2Error> {
 
 /// [`encode`] for a type without a fixed hash (an action's service messages); `name` is for errors.
 pub fn encode_named<T: Serialize>(name: &str, msg: &T) -> Result<Vec<u8>, Ros2Error> {
-    let body = to_vec::<T, byteorder::LittleEndian>(msg).map_err(|e| Ros2Error::Encode(format!("{name}: {e}")))?;
+    let body = to_vec::<T, byteorder::LittleEndian>(msg).map_err(|e| Ros2Error::Encode { name: name.into(), source: e.into() })?;
     let mut out = Vec::with_capacity(CDR_LE.len() + body.len());
     out.extend_from_slice(&CDR_LE);
     out.extend_from_slice(&body);
@@ -39,7 +39,7 @@ pub fn decode<T: RosMessage>(bytes: &[u8]) -> Result<T, Ros2Error> {
 /// are ignored, so a prefix of a longer message can be read (the first fields of a result whose
 /// tail differs between releases).
 pub fn decode_named<T: DeserializeOwned>(name: &str, bytes: &[u8]) -> Result<T, Ros2Error> {
-    let bad = |why: String| Ros2Error::Decode(format!("{name}: {why}"));
+    let bad = |why: String| Ros2Error::Decode { name: name.into(), source: why.into() };
     if bytes.len() > MAX_PAYLOAD {
         return Err(bad(format!("{} bytes (at most {MAX_PAYLOAD})", bytes.len())));
     }
@@ -54,7 +54,7 @@ pub fn decode_named<T: DeserializeOwned>(name: &str, bytes: &[u8]) -> Result<T, 
     } else {
         return Err(bad(format!("unknown encapsulation {:02x}{:02x} (plain CDR only)", header[0], header[1])));
     };
-    decoded.map(|(msg, _)| msg).map_err(|e| bad(e.to_string()))
+    decoded.map(|(msg, _)| msg).map_err(|e| Ros2Error::Decode { name: name.into(), source: e.into() })
 }
 
 #[cfg(test)]

@@ -178,7 +178,7 @@ pub struct CancelGoalReturn {
 /// The send-goal request for a goal at (`x`, `y`) facing `yaw`, in `frame_id`, stamped `stamp`.
 pub fn goal_request(goal_id: GoalId, frame_id: &str, stamp: Time, x: f64, y: f64, yaw: f64) -> Result<Vec<u8>, Ros2Error> {
     if !(x.is_finite() && y.is_finite() && yaw.is_finite()) {
-        return Err(Ros2Error::Encode("NavigateToPose goal: non-finite pose".into()));
+        return Err(Ros2Error::Encode { name: "NavigateToPose goal".into(), source: "non-finite pose".into() });
     }
     let pose = PoseStamped {
         header: Header { stamp, frame_id: frame_id.to_string() },

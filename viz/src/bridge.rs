@@ -29,8 +29,8 @@ pub enum Sink {
     Spawn,
 }
 
-fn rr(e: impl std::fmt::Display) -> VizError {
-    VizError::Rerun(e.to_string())
+fn rr(e: impl Into<mrmm_proto::BoxError>) -> VizError {
+    VizError::Rerun(e.into())
 }
 
 /// Streams the fleet seen on `mesh` to `sink` until `shutdown`; flushes before returning. Only

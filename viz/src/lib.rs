@@ -16,9 +16,9 @@ pub use bridge::{run, Sink};
 #[derive(Debug, Error)]
 pub enum VizError {
     #[error("rerun: {0}")]
-    Rerun(String),
+    Rerun(#[source] mrmm_proto::BoxError),
     #[error("zenoh: {0}")]
-    Zenoh(String),
+    Zenoh(#[source] mrmm_proto::BoxError),
     #[error("{0}")]
     Config(String),
 }

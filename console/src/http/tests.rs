@@ -1,6 +1,7 @@
 //! The request checks: the `Host` a request names, the token it presents, the command it asks for.
 
 use super::*;
+use axum::http::HeaderMap;
 
 fn headers(pairs: &[(&'static str, &str)]) -> HeaderMap {
     let mut h = HeaderMap::new();

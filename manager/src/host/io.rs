@@ -28,7 +28,7 @@ pub(super) async fn carry_out(io: &mut Io, store: Option<&Store>, commands: Vec<
         if let Command::Persist { mission, disk } = &c {
             let written = match store {
                 Some(store) => tokio::task::block_in_place(|| store.write(mission, disk)),
-                None => Err(ManagerError::Journal("no state dir, but the chain asked to persist".into())),
+                None => Err(ManagerError::journal("chain state", "no state dir, but the chain asked to persist")),
             };
             if let Err(e) = written {
                 tracing::error!("{e}; the mission host stops");

@@ -39,23 +39,23 @@ impl Store {
     /// entry that does not decode, or another process using the directory stops here with a
     /// readable error.
     pub fn open(dir: &Path) -> Result<Opened, ManagerError> {
-        std::fs::create_dir_all(dir).map_err(|e| ManagerError::Journal(format!("state dir {}: {e}", dir.display())))?;
+        std::fs::create_dir_all(dir).map_err(|e| ManagerError::journal(format!("state dir {}", dir.display()), e))?;
         let path = dir.join(FILE);
-        let err = |what: &str, e: &dyn std::fmt::Display| ManagerError::Journal(format!("chain state {}: {what}: {e}", path.display()));
+        let err = |what: &str, e: mrmm_proto::BoxError| ManagerError::journal(format!("chain state {}: {what}", path.display()), e);
         let db = Database::create(&path).map_err(|e| match e {
-            redb::DatabaseError::DatabaseAlreadyOpen => err("open", &"another process uses this state dir"),
-            e => err("open", &e),
+            redb::DatabaseError::DatabaseAlreadyOpen => err("open", "another process uses this state dir".into()),
+            e => err("open", e.into()),
         })?;
-        let w = db.begin_write().map_err(|e| err("write", &e))?;
-        w.open_table(CHAIN).map_err(|e| err("write", &e))?;
-        w.commit().map_err(|e| err("commit", &e))?;
-        let r = db.begin_read().map_err(|e| err("read", &e))?;
-        let table = r.open_table(CHAIN).map_err(|e| err("read", &e))?;
+        let w = db.begin_write().map_err(|e| err("write", e.into()))?;
+        w.open_table(CHAIN).map_err(|e| err("write", e.into()))?;
+        w.commit().map_err(|e| err("commit", e.into()))?;
+        let r = db.begin_read().map_err(|e| err("read", e.into()))?;
+        let table = r.open_table(CHAIN).map_err(|e| err("read", e.into()))?;
         let mut entries = Vec::new();
-        for item in table.iter().map_err(|e| err("read", &e))? {
-            let (k, v) = item.map_err(|e| err("read", &e))?;
+        for item in table.iter().map_err(|e| err("read", e.into()))? {
+            let (k, v) = item.map_err(|e| err("read", e.into()))?;
             let name = k.value().to_string();
-            let disk: Disk<MissionSnapshot> = serde_json::from_slice(v.value()).map_err(|e| err(&format!("mission {name:?}"), &e))?;
+            let disk: Disk<MissionSnapshot> = serde_json::from_slice(v.value()).map_err(|e| err(&format!("mission {name:?}"), e.into()))?;
             entries.push((name, disk));
         }
         drop(table);
@@ -65,21 +65,21 @@ impl Store {
 
     /// Writes what `mission`'s replica must keep (or forgets it), synced to disk on return.
     pub fn write(&self, mission: &str, disk: &Disk<MissionSnapshot>) -> Result<(), ManagerError> {
-        let err = |what: &str, e: &dyn std::fmt::Display| ManagerError::Journal(format!("chain state {}: {what}: {e}", self.path.display()));
-        let w = self.db.begin_write().map_err(|e| err("write", &e))?;
+        let err = |what: &str, e: mrmm_proto::BoxError| ManagerError::journal(format!("chain state {}: {what}", self.path.display()), e);
+        let w = self.db.begin_write().map_err(|e| err("write", e.into()))?;
         {
-            let mut t = w.open_table(CHAIN).map_err(|e| err("write", &e))?;
+            let mut t = w.open_table(CHAIN).map_err(|e| err("write", e.into()))?;
             match disk {
                 Disk::Forget => {
-                    t.remove(mission).map_err(|e| err("write", &e))?;
+                    t.remove(mission).map_err(|e| err("write", e.into()))?;
                 }
                 d => {
-                    let bytes = serde_json::to_vec(d).map_err(|e| err("encode", &e))?;
-                    t.insert(mission, bytes.as_slice()).map_err(|e| err("write", &e))?;
+                    let bytes = serde_json::to_vec(d).map_err(|e| err("encode", e.into()))?;
+                    t.insert(mission, bytes.as_slice()).map_err(|e| err("write", e.into()))?;
                 }
             }
         }
-        w.commit().map_err(|e| err("commit", &e))
+        w.commit().map_err(|e| err("commit", e.into()))
     }
 }
 
