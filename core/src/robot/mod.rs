@@ -90,8 +90,9 @@ pub enum Command {
     Drive(mrmm_proto::Velocity),
     /// Send Nav2 a goal or cancel one.
     Nav(NavCommand),
-    /// Keep these capabilities, changed from the config's `configured`, in the state dir
-    /// ([`crate::kept`]); only for a robot with one.
+    /// Keep these capabilities, changed from the config's `configured`, in the state dir; only
+    /// for a robot with one. Carried out (written and synced) before the commands after it: the
+    /// reply acknowledging the change comes after.
     KeepCapabilities { configured: Vec<String>, now: Vec<String> },
     /// Stop at once, as a crashed computer would (a simulated robot, on the operator's word):
     /// nothing more is sent, no team is told goodbye.
@@ -118,7 +119,7 @@ pub struct Robot {
     capabilities: Vec<String>,
     /// Revision of its info: +1 per change of `capabilities` (telemetry carries it).
     info_rev: u32,
-    /// Pending [`Command::KeepCapabilities`] (out with the reply to the change).
+    /// Pending [`Command::KeepCapabilities`] (out before the reply to the change).
     keep: bool,
     /// The rest of a goto's route: driven to one by one once the body is idle.
     route: std::collections::VecDeque<(f64, f64)>,
@@ -231,6 +232,11 @@ impl Robot {
                 match self.command(&cmd) {
                     Ok(change) => {
                         out.extend(change);
+                        // What it must keep goes to disk before the change is acknowledged: an
+                        // operator told it is done must not lose it to a power cut right after.
+                        if std::mem::take(&mut self.keep) && self.cfg.durable {
+                            out.push(Command::KeepCapabilities { configured: self.cfg.capabilities.clone(), now: self.capabilities.clone() });
+                        }
                         let mut ack = self.ack();
                         if matches!(cmd, RobotCommand::Capabilities { .. }) {
                             ack.capabilities = Some(self.capabilities.clone());
@@ -240,9 +246,6 @@ impl Robot {
                             // Answered first (the operator learns it was done), then nothing more.
                             out.push(Command::Crash);
                             return out;
-                        }
-                        if std::mem::take(&mut self.keep) && self.cfg.durable {
-                            out.push(Command::KeepCapabilities { configured: self.cfg.capabilities.clone(), now: self.capabilities.clone() });
                         }
                         // Tell the fleet at once, not at the next telemetry tick.
                         out.push(Command::Telemetry(self.telemetry()));

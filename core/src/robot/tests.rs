@@ -231,6 +231,11 @@ fn a_robot_with_a_state_dir_keeps_changed_capabilities() {
     let mut r = Robot::new(with_capabilities(&["camera"], true));
     let out = r.handle(0.0, Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") });
     assert_eq!(keeps(&out), Some((vec!["camera".to_string()], vec![])));
+    // Kept before it is acknowledged: an operator told it is done does not lose it if the robot
+    // dies right after (the flake of tests/capabilities.rs, which kills the robot at the ack).
+    let kept_at = out.iter().position(|c| matches!(c, Command::KeepCapabilities { .. }));
+    let acked_at = out.iter().position(|c| matches!(c, Command::Reply(Ok(_))));
+    assert!(kept_at < acked_at && acked_at.is_some(), "{out:?}");
     // No change, nothing to keep.
     assert_eq!(keeps(&r.handle(0.1, Event::Command { cmd: change, from: Sender::new(Role::Central, "central") })), None);
     // After a restart, what was kept replaces the config's list.
