@@ -18,10 +18,6 @@ pub(super) struct Record {
     pub(super) last: Option<Telemetry>,
     /// When the last info request went out (seconds, driver clock).
     pub(super) info_asked: Option<f64>,
-    /// It answered its info query since its token last appeared: until then it is asked again
-    /// (a robot back from a restart may have changed type or capabilities, and the answer to
-    /// the first question may be lost, leaving the record it had before).
-    pub(super) answered: bool,
     /// Set when the robot (re)appears: its sequence numbers may restart from 1.
     pub(super) fresh: bool,
     /// When we last ordered it out of a plan it should not run.
@@ -102,6 +98,11 @@ pub(super) struct Fleet {
     hosts: BTreeSet<NodeId>,
     /// New robot ids ignored because the registry is full.
     ignored: u64,
+    /// Robots alive that have not answered their info query since their token appeared: asked
+    /// again until they do (a robot back from a restart may have changed type or capabilities,
+    /// and the answer to the first question may be lost, leaving the record it had before). What
+    /// a tick looks through, not the whole fleet.
+    unanswered: BTreeSet<RobotId>,
 }
 
 impl Fleet {
@@ -189,7 +190,6 @@ impl Fleet {
             alive: false,
             last: None,
             info_asked: None,
-            answered: false,
             fresh: true,
             leave_sent: None,
             admit_sent: None,
@@ -201,13 +201,14 @@ impl Fleet {
         rec.alive_at = now;
         rec.fresh = true;
         rec.info_asked = Some(now);
-        rec.answered = false;
+        self.unanswered.insert(RobotId::from(id));
         seen
     }
 
     /// A robot's token disappeared: whether it was alive until now. Its record (and its place
     /// in a mission, which the missions keep) stays.
     fn disappeared(&mut self, id: &str) -> bool {
+        self.unanswered.remove(id);
         self.robots.get_mut(id).is_some_and(|r| std::mem::replace(&mut r.alive, false))
     }
 
@@ -224,8 +225,8 @@ impl Fleet {
             }
             Some(_) => {}
         }
+        self.unanswered.remove(&info.id);
         rec.info = Some(info);
-        rec.answered = true;
         true
     }
 
@@ -233,16 +234,18 @@ impl Fleet {
     /// asked again: at most [`FETCH_PER_TICK`] (a flood of tokens costs a bounded number of
     /// queries).
     fn fetch_due(&mut self, now: f64) -> Vec<RobotId> {
-        self.robots
-            .iter_mut()
-            .filter(|(_, r)| r.alive && !r.answered)
-            .filter(|(_, r)| r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S))
-            .take(FETCH_PER_TICK)
-            .map(|(id, r)| {
+        let mut due = Vec::new();
+        for id in &self.unanswered {
+            if due.len() == FETCH_PER_TICK {
+                break;
+            }
+            let Some(r) = self.robots.get_mut(id) else { continue };
+            if r.info_asked.is_none_or(|t| now - t >= INFO_RETRY_S) {
                 r.info_asked = Some(now);
-                id.clone()
-            })
-            .collect()
+                due.push(id.clone());
+            }
+        }
+        due
     }
 
     pub(super) fn get(&self, id: &str) -> Option<&Record> {
