@@ -30,16 +30,20 @@
 
 use std::collections::HashMap;
 use std::fmt;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::Ordering;
 use std::sync::Mutex;
-use std::time::Instant;
 
 use ring::digest;
 use ring::signature::{UnparsedPublicKey, ED25519};
-use x509_parser::prelude::*;
 
 use super::pair::{self, KeyId, Pairs};
 use super::{Identity, Role, Sender};
+
+mod cert;
+mod counts;
+
+pub use cert::{check_cert, parse_ca, Ca, Proven};
+pub use counts::{Proofs, Refused};
 
 const MAGIC: &[u8; 3] = b"MS1";
 const DOMAIN: &[u8] = b"mrmm-seal/1\0";
@@ -329,116 +333,6 @@ impl SignCadence {
                 true
             }
         }
-    }
-}
-
-/// A CA parsed once: its public key (SubjectPublicKeyInfo DER).
-#[derive(Debug, Clone)]
-pub struct Ca {
-    spki_der: Vec<u8>,
-}
-
-/// Parses the fleet CA certificate (it must be a CA).
-pub fn parse_ca(der: &[u8]) -> Result<Ca, String> {
-    let (_, cert) = X509Certificate::from_der(der).map_err(|e| format!("not an X.509 certificate: {e}"))?;
-    if !cert.is_ca() {
-        return Err("not a CA certificate (use the ca.crt of `mrmm pki init`)".into());
-    }
-    Ok(Ca { spki_der: cert.public_key().raw.to_vec() })
-}
-
-/// A certificate proven to be this fleet's.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Proven {
-    pub sender: Sender,
-    /// Raw Ed25519 public key.
-    pub public_key: Vec<u8>,
-    /// Unix seconds after which it is no longer valid.
-    pub not_after: i64,
-}
-
-/// Checks that `der` is a leaf certificate signed by `ca`, valid at `now_s`, with an Ed25519 key
-/// and a common name `<role>:<id>`.
-pub fn check_cert(ca: &Ca, der: &[u8], now_s: i64) -> Result<Proven, String> {
-    let (_, cert) = X509Certificate::from_der(der).map_err(|e| format!("not an X.509 certificate: {e}"))?;
-    let (_, ca_spki) = SubjectPublicKeyInfo::from_der(&ca.spki_der).map_err(|e| format!("CA key: {e}"))?;
-    cert.verify_signature(Some(&ca_spki)).map_err(|_| "not signed by this fleet's CA".to_string())?;
-    let at = ASN1Time::from_timestamp(now_s).map_err(|e| format!("clock: {e}"))?;
-    if !cert.validity().is_valid_at(at) {
-        return Err(format!("not valid now (valid from {} to {})", cert.validity().not_before, cert.validity().not_after));
-    }
-    if cert.is_ca() {
-        return Err("a CA certificate cannot be a node's".into());
-    }
-    let spki = cert.public_key();
-    if spki.algorithm.algorithm != x509_parser::oid_registry::OID_SIG_ED25519 {
-        return Err("not an Ed25519 key (issue certificates with `mrmm pki issue`)".into());
-    }
-    let cn = cert.subject().iter_common_name().next().and_then(|a| a.as_str().ok()).ok_or_else(|| "no common name".to_string())?;
-    let sender = Sender::from_common_name(cn).ok_or_else(|| format!("common name {cn:?} is not <role>:<id>"))?;
-    Ok(Proven { sender, public_key: spki.subject_public_key.data.to_vec(), not_after: cert.validity().not_after.timestamp() })
-}
-
-/// Counters of refused messages, by kind.
-#[derive(Debug, Default)]
-pub struct Refused {
-    counts: Mutex<std::collections::BTreeMap<&'static str, u64>>,
-    logged: AtomicU64,
-    window: Mutex<Option<Instant>>,
-}
-
-/// Refusals logged at most this many times per 10 s window (the rest are counted).
-const LOG_BURST: u64 = 20;
-
-impl Refused {
-    /// Counts (and logs, rate-limited; not an unaddressed message) a refusal of `what`.
-    pub fn record(&self, what: &str, r: &Refusal) {
-        if let Ok(mut c) = self.counts.lock() {
-            let n = c.entry(r.kind()).or_insert(0);
-            *n = n.saturating_add(1);
-        }
-        // Messages tagged for other receivers are an everyday sight for a subscriber that is not
-        // one, and so are a stream's messages naming a certificate a receiver that just joined
-        // has not seen yet (counted only).
-        if matches!(r, Refusal::Unaddressed { .. } | Refusal::Unseen { .. }) {
-            return;
-        }
-        let fresh = match self.window.lock() {
-            Ok(mut w) => {
-                if w.is_none_or(|t| t.elapsed().as_secs() >= 10) {
-                    *w = Some(Instant::now());
-                    self.logged.store(0, Ordering::Relaxed);
-                }
-                true
-            }
-            Err(_) => false,
-        };
-        if fresh && self.logged.fetch_add(1, Ordering::Relaxed) < LOG_BURST {
-            tracing::warn!(kind = r.kind(), "refused {what}: {r}");
-        }
-    }
-
-    /// Refusals so far, by kind.
-    pub fn counts(&self) -> std::collections::BTreeMap<String, u64> {
-        self.counts.lock().map(|c| c.iter().map(|(k, v)| (k.to_string(), *v)).collect()).unwrap_or_default()
-    }
-
-    pub fn total(&self) -> u64 {
-        self.counts.lock().map(|c| c.values().sum()).unwrap_or(0)
-    }
-}
-
-/// Messages taken, by how their sender was proven.
-#[derive(Debug, Default)]
-pub struct Proofs {
-    tag: AtomicU64,
-    signature: AtomicU64,
-}
-
-impl Proofs {
-    /// `tag` and `signature` counts.
-    pub fn counts(&self) -> std::collections::BTreeMap<String, u64> {
-        [("tag", &self.tag), ("signature", &self.signature)].into_iter().map(|(k, v)| (k.to_string(), v.load(Ordering::Relaxed))).collect()
     }
 }
 
