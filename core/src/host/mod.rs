@@ -196,15 +196,17 @@ impl HostCore {
     /// Whether `from` may send chain messages about `mission` to this node (see `trust.rs`): by
     /// what this node holds of the mission, and what the sender's telemetry says it runs.
     fn may_chain(&self, mission: &str, from: &Sender) -> bool {
-        let replica = self.registry.replica(mission);
-        let id = &from.id;
-        let holding = trust::Holding {
-            counts_sender: replica.is_some_and(|r| {
-                r.config().is_some_and(|c| c.chain.iter().any(|n| n == id))
-                    || r.state().is_some_and(|s| s.members.iter().chain(&s.lost).any(|m| m.spec.id == *id))
-            }),
-            holds: replica.is_some_and(|r| r.config().is_some() || r.state().is_some()),
-            sender_runs: self.robots.runs(id, mission),
+        let holding = || {
+            let replica = self.registry.replica(mission);
+            let id = &from.id;
+            trust::Holding {
+                counts_sender: replica.is_some_and(|r| {
+                    r.config().is_some_and(|c| c.chain.iter().any(|n| n == id))
+                        || r.state().is_some_and(|s| s.members.iter().chain(&s.lost).any(|m| m.spec.id == *id))
+                }),
+                holds: replica.is_some_and(|r| r.config().is_some() || r.state().is_some()),
+                sender_runs: self.robots.runs(id, mission),
+            }
         };
         self.trust.may_chain(mission, from, holding)
     }

@@ -111,13 +111,15 @@ impl Trust {
     }
 
     /// Whether `from` may send chain messages about `mission` to this node, given what this node
-    /// holds of the mission.
-    pub(super) fn may_chain(&self, mission: &str, from: &Sender, holding: Holding) -> bool {
+    /// holds of the mission (looked at only for a robot: central's and hosts' messages, the most
+    /// frequent, need no look through the team).
+    pub(super) fn may_chain(&self, mission: &str, from: &Sender, holding: impl FnOnce() -> Holding) -> bool {
         match from.role {
             Role::Central | Role::Host => return true,
             Role::Robot => {}
             Role::Operator | Role::Planner | Role::Router => return false,
         }
+        let holding = holding();
         if holding.counts_sender {
             return true;
         }
@@ -147,34 +149,34 @@ mod tests {
         let mut t = Trust::new(true);
         t.handle(Heard::LocalTeam(vec![("m".into(), vec!["r1".into(), "r2".into()])]));
         let none = Holding::default();
-        assert!(t.may_chain("m", &robot("r2"), none));
-        assert!(!t.may_chain("m", &robot("r9"), none), "a stranger to our robot's team");
+        assert!(t.may_chain("m", &robot("r2"), || none));
+        assert!(!t.may_chain("m", &robot("r9"), || none), "a stranger to our robot's team");
         // Even one that says it runs the mission: our robot's team decides.
-        assert!(!t.may_chain("m", &robot("r9"), Holding { sender_runs: true, ..none }));
+        assert!(!t.may_chain("m", &robot("r9"), || Holding { sender_runs: true, ..none }));
         // A head that is not a teammate publishes a chain with r9: not trusted.
         let mut view = MissionView::running("m", "patrol", "r8", 1, &["r1"]);
         view.manager.chain = vec!["r8".into(), "r9".into()];
         t.handle(Heard::Status { view: &view, from: &robot("r8") });
-        assert!(!t.may_chain("m", &robot("r9"), none));
+        assert!(!t.may_chain("m", &robot("r9"), || none));
         // A teammate heading the mission (or central) does.
         view.manager.node = "r2".into();
         t.handle(Heard::Status { view: &view, from: &robot("r2") });
-        assert!(t.may_chain("m", &robot("r9"), none));
+        assert!(t.may_chain("m", &robot("r9"), || none));
         // Our robot left: its chain is forgotten.
         t.handle(Heard::LocalTeam(vec![]));
-        assert!(!t.may_chain("m", &robot("r9"), none) && !t.ours("m"));
-        assert!(t.may_chain("m", &Sender::new(Role::Host, "h".to_string()), none));
-        assert!(!t.may_chain("m", &Sender::new(Role::Operator, "o".to_string()), Holding { counts_sender: true, ..none }));
+        assert!(!t.may_chain("m", &robot("r9"), || none) && !t.ours("m"));
+        assert!(t.may_chain("m", &Sender::new(Role::Host, "h".to_string()), || none));
+        assert!(!t.may_chain("m", &Sender::new(Role::Operator, "o".to_string()), || Holding { counts_sender: true, ..none }));
     }
 
     #[test]
     fn elsewhere_a_robot_speaks_for_a_mission_it_runs_until_this_node_holds_some_of_it() {
         let t = Trust::new(false);
         let runs = Holding { sender_runs: true, ..Holding::default() };
-        assert!(t.may_chain("m", &robot("r1"), runs));
-        assert!(!t.may_chain("m", &robot("r1"), Holding::default()));
-        assert!(!t.may_chain("m", &robot("r1"), Holding { holds: true, ..runs }));
-        assert!(t.may_chain("m", &robot("r1"), Holding { holds: true, counts_sender: true, sender_runs: false }));
+        assert!(t.may_chain("m", &robot("r1"), || runs));
+        assert!(!t.may_chain("m", &robot("r1"), Holding::default));
+        assert!(!t.may_chain("m", &robot("r1"), || Holding { holds: true, ..runs }));
+        assert!(t.may_chain("m", &robot("r1"), || Holding { holds: true, counts_sender: true, sender_runs: false }));
     }
 
     #[test]
