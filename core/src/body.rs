@@ -5,6 +5,7 @@
 
 use nalgebra::{Rotation2, Vector2};
 
+use mrmm_planner::corner::Blend;
 use mrmm_proto::{Pose, Velocity};
 
 /// Physical limits of a robot.
@@ -38,7 +39,38 @@ pub struct Body {
     /// With no goal: a point to turn on the spot to face (the next one of the plan, while the
     /// robot waits at a barrier).
     facing: Option<Vector2<f64>>,
+    /// The arc through the goal towards the point after it, when the plan drives on from there
+    /// ([`Body::navigate_through`]).
+    corner: Option<Corner>,
 }
+
+/// Where a plan drives on to from a goal without stopping there, and how fast.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Onward {
+    pub x: f64,
+    pub y: f64,
+    /// Speed cap of the leg from the goal on (None: the robot's maximum).
+    pub speed: Option<f64>,
+}
+
+/// A corner the body rounds instead of stopping at it.
+#[derive(Debug, Clone, Copy)]
+struct Corner {
+    blend: Blend,
+    /// The heading of the leg after the corner.
+    out: f64,
+    /// The room the arc has on the legs before and after the corner, metres: all that is left
+    /// of the leg the body is on (a corner before it took its part already), half of the next.
+    legs: (f64, f64),
+    /// The speeds of the legs before and after the corner, m/s.
+    speeds: (f64, f64),
+    /// Set once the body is on the arc: the heading change left to turn.
+    left: Option<f64>,
+}
+
+/// The body rounds a corner only if it comes to the arc's start heading along its leg within
+/// this angle, radians (otherwise it stops at the corner and turns there).
+const BLEND_ALIGN: f64 = 0.05;
 
 impl Body {
     pub fn new(start: Pose, limits: Limits) -> Self {
@@ -50,6 +82,7 @@ impl Body {
             goal: None,
             cap: None,
             facing: None,
+            corner: None,
         }
     }
 
@@ -75,12 +108,38 @@ impl Body {
         self.goal = Some(Vector2::new(x, y));
         self.cap = speed.filter(|s| s.is_finite() && *s > 0.0);
         self.facing = None;
+        self.corner = None;
+    }
+
+    /// Drive to (x, y) no faster than `speed` and, when `then` is given (the plan drives on
+    /// from there), round the corner on an arc ([`Blend`]) instead of stopping and turning at
+    /// it: the goal counts as reached at the arc's end, facing the next point.
+    pub fn navigate_through(&mut self, x: f64, y: f64, then: Option<Onward>, speed: Option<f64>) {
+        self.navigate_capped(x, y, speed);
+        let Some(then) = then else { return };
+        let (goal, next) = (Vector2::new(x, y), Vector2::new(then.x, then.y));
+        let (leg_in, leg_out) = (goal - self.pos, next - goal);
+        let a_in = leg_in.y.atan2(leg_in.x);
+        let out = leg_out.y.atan2(leg_out.x);
+        let angle = wrap_angle(out - a_in).abs();
+        let legs = (leg_in.norm(), leg_out.norm() / 2.0);
+        let speeds = (self.top_speed(), self.capped(then.speed.filter(|s| s.is_finite() && *s > 0.0)));
+        self.corner = Blend::through(angle, legs.0, legs.1, speeds, self.limits.max_turn_rate).map(|blend| Corner { blend, out, legs, speeds, left: None });
+    }
+
+    fn top_speed(&self) -> f64 {
+        self.capped(self.cap)
+    }
+
+    fn capped(&self, cap: Option<f64>) -> f64 {
+        cap.map_or(self.limits.max_speed, |c| c.min(self.limits.max_speed))
     }
 
     /// Stop now.
     pub fn hold(&mut self) {
         self.goal = None;
         self.facing = None;
+        self.corner = None;
         self.velocity = Velocity::default();
     }
 
@@ -117,6 +176,10 @@ impl Body {
         if dt <= 0.0 {
             return false;
         }
+        let dt = match self.approach_corner(goal, dt) {
+            Approach::Arc(dt) => return self.round_corner(dt),
+            Approach::Drive(dt) => dt,
+        };
         let to_goal = goal - self.pos;
         let dist = to_goal.norm();
         if dist <= ARRIVAL_TOLERANCE {
@@ -129,7 +192,7 @@ impl Body {
         let turn = err.clamp(-max_turn, max_turn);
         self.heading = wrap_angle(self.heading + turn);
         let left = (err - turn).abs();
-        let max = self.cap.map_or(self.limits.max_speed, |c| c.min(self.limits.max_speed));
+        let max = self.top_speed();
         // Near the goal (within two turning radii) a unicycle that drives while misaligned can
         // orbit the goal for ever: turn in place until facing it, then close in. Further away,
         // slow down in proportion to the heading error, to a stop at FAR_ALIGN.
@@ -152,6 +215,87 @@ impl Body {
             self.hold();
             return true;
         }
+        false
+    }
+}
+
+/// What a step does about a corner ahead.
+enum Approach {
+    /// Drive to the goal as usual for this many seconds.
+    Drive(f64),
+    /// Go on (or start) round the corner's arc for this many seconds.
+    Arc(f64),
+}
+
+impl Body {
+    /// With a corner to round ahead: while the body is short of the arc's start, or not lined
+    /// up with its leg, it drives on as usual (a body off its leg at the arc's start gives the
+    /// arc up and stops at the corner); once it reaches the start lined up, the rest of the step
+    /// goes on the arc.
+    fn approach_corner(&mut self, goal: Vector2<f64>, dt: f64) -> Approach {
+        let Some(c) = self.corner else { return Approach::Drive(dt) };
+        if c.left.is_some() {
+            return Approach::Arc(dt);
+        }
+        let to_goal = goal - self.pos;
+        if to_goal.norm() <= ARRIVAL_TOLERANCE {
+            self.corner = None;
+            return Approach::Drive(dt);
+        }
+        let short = to_goal.norm() - c.blend.tangent;
+        let speed = self.top_speed();
+        if short > speed * dt {
+            return Approach::Drive(dt);
+        }
+        let err = wrap_angle(to_goal.y.atan2(to_goal.x) - self.heading);
+        if err.abs() > BLEND_ALIGN {
+            self.corner = None;
+            return Approach::Drive(dt);
+        }
+        // The arc for the heading change left from here (the body may be a little off its leg).
+        let heading = to_goal.y.atan2(to_goal.x);
+        let left = wrap_angle(c.out - heading);
+        let Some(blend) = Blend::through(left.abs(), c.legs.0, c.legs.1, c.speeds, self.limits.max_turn_rate) else {
+            self.corner = None;
+            return Approach::Drive(dt);
+        };
+        let ahead = (to_goal.norm() - blend.tangent).max(0.0);
+        if ahead > speed * dt {
+            self.corner = Some(Corner { blend, ..c });
+            return Approach::Drive(dt);
+        }
+        self.pos += to_goal.normalize() * ahead;
+        self.heading = heading;
+        self.corner = Some(Corner { blend, left: Some(left), ..c });
+        Approach::Arc(dt - ahead / speed)
+    }
+
+    /// Drives `dt` seconds along the corner's arc (its first half at the leg before's speed,
+    /// its second at the next leg's); true when its end is reached (the goal, then, counts as
+    /// reached).
+    fn round_corner(&mut self, dt: f64) -> bool {
+        let Some(c @ Corner { left: Some(mut left), .. }) = self.corner else { return false };
+        let (mut time, mut turned) = (dt.max(0.0), 0.0);
+        while time > 0.0 && left.abs() > 1e-9 {
+            let rate = c.blend.turn_rate(left.abs());
+            // Up to the arc's middle, where the speed changes, or its end.
+            let piece = if left.abs() > c.blend.angle / 2.0 + 1e-12 { left.abs() - c.blend.angle / 2.0 } else { left.abs() };
+            let turn = piece.min(rate * time).copysign(left);
+            // Exact on a circle: the chord of the turned angle, along the mean heading.
+            let chord = 2.0 * c.blend.radius * (turn.abs() / 2.0).sin();
+            self.pos += Rotation2::new(self.heading + turn / 2.0) * Vector2::x() * chord;
+            self.heading = wrap_angle(self.heading + turn);
+            time -= turn.abs() / rate;
+            left -= turn;
+            turned += turn;
+        }
+        let used = dt - time.max(0.0);
+        self.velocity = if used > 0.0 { Velocity { v: c.blend.radius * turned.abs() / used, omega: turned / used } } else { Velocity::default() };
+        if left.abs() <= 1e-9 {
+            self.hold();
+            return true;
+        }
+        self.corner = Some(Corner { left: Some(left), ..c });
         false
     }
 }
@@ -275,6 +419,53 @@ mod tests {
             }
         }
         assert!(worst < 0.1, "strayed {worst} m off the second leg");
+    }
+
+    /// Driving through a right-angle corner (the plan goes on from it), the body rounds it on the
+    /// arc the planner times: it never comes further than the cut inside the corner, it is
+    /// never off the route by more, and it takes the arc's time, quicker than stopping to turn.
+    #[test]
+    fn a_corner_driven_through_is_rounded_within_the_cut() {
+        use mrmm_planner::corner::CORNER_CUT;
+        let lim = Limits { max_speed: 1.0, max_turn_rate: 3.0 };
+        let drive = |through: bool| {
+            let mut b = Body::new(Pose::default(), lim);
+            let then = through.then_some(Onward { x: 10.0, y: 10.0, speed: None });
+            b.navigate_through(10.0, 0.0, then, None);
+            let (mut t, mut off, mut legs) = (0.0, 0.0f64, 0);
+            while legs < 2 && t < 100.0 {
+                if b.step(0.01) {
+                    legs += 1;
+                    b.navigate_to(10.0, 10.0);
+                }
+                t += 0.01;
+                let p = b.pose();
+                // Distance from the route: the nearer of its two legs.
+                let d1 = if p.x <= 10.0 { p.y.abs() } else { (p.x - 10.0).hypot(p.y) };
+                let d2 = if p.y >= 0.0 { (p.x - 10.0).abs() } else { (p.x - 10.0).hypot(p.y) };
+                off = off.max(d1.min(d2));
+            }
+            (t, off, b.pose())
+        };
+        let (rounded, off, end) = drive(true);
+        let (stopping, _, _) = drive(false);
+        assert!(off <= CORNER_CUT + 1e-6, "{off} m off the route");
+        assert!(off > CORNER_CUT / 2.0, "it did cut the corner: {off}");
+        let b = Blend::through(std::f64::consts::FRAC_PI_2, 10.0, 5.0, (1.0, 1.0), 3.0).expect("rounded");
+        let planned = 20.0 - 2.0 * b.tangent + b.seconds();
+        assert!((rounded - planned).abs() < 0.05, "{rounded} s, planned {planned} s");
+        assert!(rounded < stopping - 0.25, "rounded {rounded} s, stopping to turn {stopping} s");
+        assert!((end.x - 10.0).abs() <= ARRIVAL_TOLERANCE && (end.y - 10.0).abs() <= ARRIVAL_TOLERANCE);
+    }
+
+    /// A U-turn cannot be rounded within the cut: the body stops at the point and turns there.
+    #[test]
+    fn a_u_turn_is_turned_on_the_spot() {
+        let mut b = Body::new(Pose::default(), Limits { max_speed: 1.0, max_turn_rate: 3.0 });
+        b.navigate_through(5.0, 0.0, Some(Onward { x: 0.0, y: 0.0, speed: None }), None);
+        let steps = run_until_arrival(&mut b, 0.01, 10_000).expect("arrives");
+        assert!((steps as f64 * 0.01 - 5.0).abs() < 0.05);
+        assert!((b.pose().x - 5.0).abs() <= ARRIVAL_TOLERANCE && b.pose().theta.abs() < 1e-9, "at the point, not turned yet");
     }
 
     #[test]

@@ -3,12 +3,12 @@
 
 use mrmm_proto::{Pose, Velocity};
 
-use crate::body::Body;
+use crate::body::{Body, Onward};
 use crate::ros_body::{RosDrive, Step};
 
 #[derive(Debug, Clone)]
 pub enum Drive {
-    Sim(Body),
+    Sim(Box<Body>),
     Ros(Box<RosDrive>),
 }
 
@@ -35,8 +35,15 @@ impl Drive {
     }
 
     pub fn navigate_capped(&mut self, x: f64, y: f64, speed: Option<f64>) {
+        self.navigate_through(x, y, None, speed);
+    }
+
+    /// Drives to (x, y), no faster than `speed`; `then`, the point the plan drives on to from
+    /// there: the simulated body rounds the corner on an arc; a ROS 2 body stops at each goal
+    /// (its own controller, or Nav2, drives the goals it is sent).
+    pub fn navigate_through(&mut self, x: f64, y: f64, then: Option<Onward>, speed: Option<f64>) {
         match self {
-            Drive::Sim(b) => b.navigate_capped(x, y, speed),
+            Drive::Sim(b) => b.navigate_through(x, y, then, speed),
             Drive::Ros(r) => r.navigate_capped(x, y, speed),
         }
     }

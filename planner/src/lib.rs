@@ -2,6 +2,7 @@
 //! Plain data in, plain data out: no I/O, no clock, seeded randomness.
 
 pub mod assign;
+pub mod corner;
 pub mod coverage;
 pub mod coverage_map;
 pub mod error;

@@ -452,16 +452,19 @@ mod tests {
         let robots = vec![robot("a", 0.0, 0.0, 1.0), robot("b", 40.0, -40.0, 1.0)];
         let mut params = PatrolParams::new(wps);
         let by_arc = plan(&params, &robots).expect("plan");
-        params.turn_rate = Some(1.0);
+        params.turn_rate = Some(0.2);
         let by_time = plan(&params, &robots).expect("plan");
         assert!((by_time.length - by_arc.length).abs() < 1e-9, "the route is the same");
         let round = by_time.predicted_worst_idleness * 2.0;
-        assert!(round > by_arc.length + 8.0, "the zigzag's turns take time: {round} s for {} m", by_arc.length);
+        // Each of the 8 corners (62°) is rounded at 0.12 m/s: 5.4 s on the arc for 0.72 m of legs.
+        assert!(round > by_arc.length + 8.0 * 4.0, "the zigzag's turns take time: {round} s for {} m", by_arc.length);
         // Time from each robot's start to the other's, along the timed route.
-        let timed = Polyline::closed(&by_time.tour).with_turns(1.0, 1.0);
+        let timed = Polyline::closed(&by_time.tour).with_turns(1.0, 0.2);
         let starts: Vec<f64> = by_time.assignments.iter().map(|a| timed.project(a.start)).collect();
         let gap = (starts[1] - starts[0]).rem_euclid(timed.length);
-        assert!((gap - timed.length / 2.0).abs() < 0.5, "half a round apart in time: {gap} of {}", timed.length);
+        // (A start on a corner projects to where the robot reaches it, before the time it spends
+        // rounding it: up to half a corner's 4.7 s off.)
+        assert!((gap - timed.length / 2.0).abs() < 2.5, "half a round apart in time: {gap} of {}", timed.length);
         // By arc length they are not: the same gap in metres is not half the time.
         let arc = Polyline::closed(&by_arc.tour);
         let (a0, a1) = (timed.project(by_arc.assignments[0].start), timed.project(by_arc.assignments[1].start));

@@ -7,6 +7,9 @@ use std::collections::BTreeMap;
 use mrmm_proto::{BarrierMode, PlanAssignment, Progress, RobotId, Step, SyncArrival, SyncRelease};
 
 use crate::barrier::Barrier;
+use crate::body::Onward;
+
+mod ahead;
 
 /// Wall seconds between two re-publications of an arrival while waiting at a barrier, for
 /// members that subscribed after the first one (a network matter: it does not speed up with
@@ -41,8 +44,9 @@ pub enum Event {
 /// What the robot must do.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {
-    /// Drive to (x, y), speed capped at `speed` (None: the robot's maximum).
-    Navigate { x: f64, y: f64, speed: Option<f64> },
+    /// Drive to (x, y), speed capped at `speed` (None: the robot's maximum); `then`: where the
+    /// plan drives on to from there without stopping (the body may round the corner).
+    Navigate { x: f64, y: f64, then: Option<Onward>, speed: Option<f64> },
     /// Stop.
     Hold,
     /// Stop and turn on the spot to face (x, y), the plan's next point: sent when the robot
@@ -309,7 +313,7 @@ impl Executor {
     /// whose scope has no members listed (refused when the plan comes in) passes at once.
     fn wide_sync(&mut self, now: f64, team: &str, point: u32, out: &mut Vec<Command>) -> bool {
         let (me, epoch, round, republish) = (self.assignment.plan.robot.clone(), self.assignment.epoch, self.round, self.republish);
-        let next = self.next_point();
+        let next = ahead::next_point(&self.assignment.plan.steps, self.pc);
         let Some(w) = self.wide.get_mut(team) else { return true };
         let at = (round, point);
         let arrival = SyncArrival { robot: me, epoch, point, round };
@@ -406,7 +410,7 @@ impl Executor {
             Step::Navigate { x, y, speed } => {
                 if !self.navigating {
                     self.navigating = true;
-                    out.push(Command::Navigate { x, y, speed });
+                    out.push(Command::Navigate { x, y, then: ahead::onward(&self.assignment.plan.steps, self.pc, &self.loops), speed });
                     return false;
                 }
                 if !body_idle {
@@ -449,22 +453,6 @@ impl Executor {
         true
     }
 
-    /// The point the plan drives to next after the current step (through its loop), if it drives
-    /// somewhere before it holds.
-    fn next_point(&self) -> Option<(f64, f64)> {
-        let steps = &self.assignment.plan.steps;
-        let mut pc = self.pc + 1;
-        for _ in 0..=steps.len() {
-            match steps.get(pc)? {
-                Step::Navigate { x, y, .. } => return Some((*x, *y)),
-                Step::Hold { .. } => return None,
-                Step::Loop { to, .. } => pc = *to,
-                Step::Stream | Step::Sync { .. } => pc += 1,
-            }
-        }
-        None
-    }
-
     /// This robot is at barrier `point` of its own team's current round: publishes its arrival
     /// (again while it waits, backing off); whether the barrier released.
     fn own_sync(&mut self, now: f64, point: u32, out: &mut Vec<Command>) -> bool {
@@ -477,7 +465,7 @@ impl Executor {
             self.gap = self.republish;
             self.publish(now, (self.round, point), out);
             out.extend(self.lead(now));
-            out.extend(self.next_point().map(|(x, y)| Command::Face { x, y }));
+            out.extend(ahead::next_point(&self.assignment.plan.steps, self.pc).map(|(x, y)| Command::Face { x, y }));
         }
         if !self.barrier.released(point, self.round) {
             if now - self.last_publish >= self.gap {

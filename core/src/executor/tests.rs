@@ -63,7 +63,7 @@ fn a_team_barrier_waits_only_on_its_team_and_a_mission_barrier_on_everyone() {
     // The team's barrier: b alone completes it; c and d (the other team) are never waited for.
     a.handle(0.5, Event::Heard(arrival("b", 1)));
     let out = a.handle(0.6, Event::Tick { body_idle: true });
-    assert_eq!(out, vec![Command::Navigate { x: 5.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(out, vec![Command::Navigate { x: 5.0, y: 0.0, then: None, speed: Some(1.0) }]);
     assert_eq!(a.progress().syncs_passed, 2);
     // A member of the other team that is gone no longer holds the mission's barrier up.
     let steps = vec![Step::Sync { point: 0, scope: mission }, nav(1.0)];
@@ -74,7 +74,7 @@ fn a_team_barrier_waits_only_on_its_team_and_a_mission_barrier_on_everyone() {
     }
     assert!(c.handle(0.2, Event::Tick { body_idle: true }).is_empty());
     c.handle(0.3, Event::MemberGone("d".into()));
-    assert_eq!(c.handle(0.4, Event::Tick { body_idle: true }), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(c.handle(0.4, Event::Tick { body_idle: true }), vec![Command::Navigate { x: 1.0, y: 0.0, then: None, speed: Some(1.0) }]);
 }
 
 fn nav(x: f64) -> Step {
@@ -84,12 +84,36 @@ fn nav(x: f64) -> Step {
 #[test]
 fn navigates_step_by_step_then_holds_at_the_end() {
     let mut e = exec(vec![Step::Stream, nav(1.0), nav(2.0)], &["a"]);
-    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    // It drives on from the first point to the second: the body may round that corner.
+    let onward = Some(Onward { x: 2.0, y: 0.0, speed: Some(1.0) });
+    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Navigate { x: 1.0, y: 0.0, then: onward, speed: Some(1.0) }]);
     assert!(tick(&mut e, 0.1, false).is_empty(), "still driving");
-    assert_eq!(tick(&mut e, 0.2, true), vec![Command::Navigate { x: 2.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(tick(&mut e, 0.2, true), vec![Command::Navigate { x: 2.0, y: 0.0, then: None, speed: Some(1.0) }]);
     assert_eq!(tick(&mut e, 0.3, true), vec![Command::Hold]);
     assert!(e.progress().done);
     assert!(tick(&mut e, 0.4, true).is_empty());
+}
+
+/// A point the plan drives on from is rounded; one it stops at (a barrier, a hold, the plan's
+/// end, a loop's last round) is not; a loop drives on to its first point.
+#[test]
+fn the_body_is_told_where_the_plan_drives_on_to() {
+    let then = |cmds: Vec<Command>| match cmds.as_slice() {
+        [Command::Navigate { then, .. }] => then.map(|o| o.x),
+        other => panic!("{other:?}"),
+    };
+    let steps = vec![nav(1.0), nav(2.0), Step::Loop { to: 0, rounds: Some(2) }];
+    let mut e = exec(steps, &["a"]);
+    assert_eq!(then(tick(&mut e, 0.0, true)), Some(2.0));
+    assert_eq!(then(tick(&mut e, 0.1, true)), Some(1.0), "through the loop, first round");
+    assert_eq!(then(tick(&mut e, 0.2, true)), Some(2.0));
+    assert_eq!(then(tick(&mut e, 0.3, true)), None, "the last round ends there");
+    let mut e = exec(vec![nav(1.0), Step::Sync { point: 1, scope: None }, nav(2.0)], &["a"]);
+    assert_eq!(then(tick(&mut e, 0.0, true)), None, "a barrier: it stops");
+    let mut e = exec(vec![nav(1.0), Step::Hold { seconds: Some(1.0) }, nav(2.0)], &["a"]);
+    assert_eq!(then(tick(&mut e, 0.0, true)), None, "a hold: it stops");
+    let mut e = exec(vec![nav(1.0), Step::Stream, nav(2.0)], &["a"]);
+    assert_eq!(then(tick(&mut e, 0.0, true)), Some(2.0), "streaming does not stop it");
 }
 
 #[test]
@@ -102,7 +126,7 @@ fn barrier_waits_republishes_and_releases() {
     assert!(tick(&mut e, 0.1, true).is_empty());
     assert_eq!(tick(&mut e, 0.6, true).len(), 1, "re-published while waiting");
     e.handle(0.65, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point: 0, round: 0 }));
-    assert_eq!(tick(&mut e, 0.7, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(tick(&mut e, 0.7, true), vec![Command::Navigate { x: 1.0, y: 0.0, then: None, speed: Some(1.0) }]);
     let p = e.progress();
     assert_eq!((p.syncs_passed, p.sync_msgs, p.waiting), (1, 2, None));
     assert_eq!(p.sync_wait_s, 0.0, "the first barrier is the formation's");
@@ -211,7 +235,7 @@ fn the_leader_hears_every_arrival_and_announces_the_release_once() {
     assert_eq!(a.progress().waiting, Some((0, 0)));
     assert!(a.handle(0.1, Event::Heard(arrival("b", 0, 0))).is_empty(), "c is missing");
     assert_eq!(a.handle(0.2, Event::Heard(arrival("c", 0, 0))), vec![Command::Release(release("a", 0, 0))], "at once, not at the next tick");
-    assert_eq!(tick(&mut a, 0.3, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(tick(&mut a, 0.3, true), vec![Command::Navigate { x: 1.0, y: 0.0, then: None, speed: Some(1.0) }]);
     assert_eq!(a.progress().sync_msgs, 1, "the leader sends one message per barrier");
     // b missed the release and asks again: the leader repeats it, at most every REPUBLISH_S.
     assert_eq!(a.handle(0.8, Event::Heard(arrival("b", 0, 0))), vec![Command::Release(release("a", 0, 0))]);
@@ -234,7 +258,7 @@ fn a_member_publishes_to_the_leader_waits_for_its_release_and_is_quiet_after() {
     b.handle(0.7, Event::Released(SyncRelease { epoch: 1, ..release("a", 0, 0) }));
     assert!(tick(&mut b, 0.8, true).is_empty(), "foreign releases release nothing");
     b.handle(0.9, Event::Released(release("a", 0, 0)));
-    assert_eq!(tick(&mut b, 1.0, true), vec![Command::Navigate { x: 1.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(tick(&mut b, 1.0, true), vec![Command::Navigate { x: 1.0, y: 0.0, then: None, speed: Some(1.0) }]);
     // Driving to the next barrier, the leader has our arrival: nothing more to say.
     for t in [1.5, 2.0, 3.0] {
         assert!(tick(&mut b, t, false).is_empty());
@@ -290,7 +314,7 @@ fn a_lone_survivor_leads_and_releases_itself() {
 fn a_robot_waiting_at_a_barrier_faces_where_it_goes_next() {
     let looped = vec![Step::Stream, nav(3.0), Step::Sync { point: 0, scope: None }, Step::Loop { to: 1, rounds: None }];
     let mut e = exec(looped, &["a", "b"]);
-    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Navigate { x: 3.0, y: 0.0, speed: Some(1.0) }]);
+    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Navigate { x: 3.0, y: 0.0, then: None, speed: Some(1.0) }]);
     let out = tick(&mut e, 0.1, true);
     assert!(out.contains(&Command::Face { x: 3.0, y: 0.0 }), "through the loop: {out:?}");
     let held = vec![Step::Sync { point: 0, scope: None }, Step::Hold { seconds: None }];

@@ -128,7 +128,7 @@ pub struct Robot {
 impl Robot {
     pub fn new(cfg: RobotSetup) -> Self {
         let body = match &cfg.body {
-            BodyKind::Sim => Drive::Sim(Body::new(cfg.start, cfg.limits)),
+            BodyKind::Sim => Drive::Sim(Box::new(Body::new(cfg.start, cfg.limits))),
             BodyKind::Ros { odom_timeout_s, stop_on_fleet_loss, localised, nav2 } => {
                 let d = RosDrive::new(cfg.start, cfg.limits, *odom_timeout_s, *stop_on_fleet_loss, *localised);
                 Drive::Ros(Box::new(match nav2 {
@@ -561,7 +561,7 @@ impl Robot {
         let mut out = Vec::new();
         for c in cmds {
             match c {
-                executor::Command::Navigate { x, y, speed } => self.body.navigate_capped(x, y, speed),
+                executor::Command::Navigate { x, y, then, speed } => self.body.navigate_through(x, y, then, speed),
                 executor::Command::Hold => self.body.hold(),
                 executor::Command::Face { x, y } => self.body.face(x, y),
                 executor::Command::Publish(s) => out.push(Command::Publish(s)),

@@ -16,7 +16,7 @@ use crate::region::Region;
 use mrmm_maps::{Map, Space};
 
 /// Radius of a robot, metres, unless the recipe's `robot_radius` says otherwise: obstacles of a
-/// map are inflated by it.
+/// map are inflated by it (by [`crate::corner::CORNER_CUT`] at least).
 pub const DEFAULT_ROBOT_RADIUS: f64 = 0.25;
 
 /// A planned mission: the planner's figures and one plan per robot.
@@ -152,8 +152,11 @@ fn build_leaf(r: &Recipe, overrides: &BTreeMap<String, String>, robots: &[RobotS
         }
     }
     let scalars = Scalars(scalars);
+    // A robot rounds a corner it drives through by up to the corner cut: the walls are kept at
+    // least that far from the routes, whatever the radius given.
+    let radius = scalars.num("robot_radius").unwrap_or(DEFAULT_ROBOT_RADIUS).max(crate::corner::CORNER_CUT);
     let space = match map {
-        Some(m) => Some(Space::new(m, scalars.num("robot_radius").unwrap_or(DEFAULT_ROBOT_RADIUS))?),
+        Some(m) => Some(Space::new(m, radius)?),
         None => None,
     };
     for rb in robots {

@@ -72,13 +72,18 @@ fn a_patrol_turns_at_its_slowest_robots_rate() {
         MissionPlan::Patrol(p) => p.predicted_worst_idleness,
         _ => panic!("patrol"),
     };
-    // Four quarter turns at 1 rad/s (the slower robot) add 2π s to the 40 s round.
+    // Four quarter turns rounded at 1 rad/s (the slower robot) add their arcs' time less the
+    // legs' ends they cut to the 40 s round.
+    let corner = |w: f64| {
+        let b = crate::corner::Blend::through(std::f64::consts::FRAC_PI_2, 5.0, 5.0, (1.0, 1.0), w).expect("rounded");
+        b.seconds() - 2.0 * b.tangent
+    };
     let slowest = predicted(&square, [Some(2.0), Some(1.0)]);
-    assert!((slowest - (40.0 + std::f64::consts::TAU) / 2.0).abs() < 1e-6, "{slowest}");
+    assert!((slowest - (40.0 + 4.0 * corner(1.0)) / 2.0).abs() < 1e-6, "{slowest}");
     assert!((predicted(&square, [None, None]) - 20.0).abs() < 1e-6, "turns unknown take no time");
     let mut given = square.clone();
     given.insert("turn_rate".into(), "4".into());
-    assert!((predicted(&given, [Some(2.0), Some(1.0)]) - (40.0 + std::f64::consts::PI / 2.0) / 2.0).abs() < 1e-6);
+    assert!((predicted(&given, [Some(2.0), Some(1.0)]) - (40.0 + 4.0 * corner(4.0)) / 2.0).abs() < 1e-6);
     let e = build(&r, &square, &team([Some(0.0), Some(1.0)])).unwrap_err().to_string();
     assert!(e.contains("robot r1 turn_rate: 0 is not a turn rate"), "{e}");
     let e = build(&r, &parse_overrides(&["turn_rate=0.001".into()]).expect("o"), &team([None, None])).unwrap_err().to_string();
