@@ -85,10 +85,12 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     })
     .await?;
     let summary = p.summary.as_ref().and_then(|s| s.patrol()).cloned().ok_or_else(|| anyhow::anyhow!("no patrol summary"))?;
-    // Spaced a third of a round apart in time: 40 m and four quarter turns at the robots' 2 rad/s
-    // (the robots say their turn rate when they register; the planner counts the turns).
+    // Spaced a third of a round apart in time: 40 m and four right-angle corners rounded at the
+    // robots' 2 rad/s (the robots say their turn rate when they register; the planner counts
+    // each corner's arc, less the legs' ends it cuts).
     let (length, spacing) = (summary.length, summary.spacing);
-    let round = 40.0 + 4.0 * std::f64::consts::FRAC_PI_2 / 2.0;
+    let corner = mrmm_planner::corner::Blend::through(std::f64::consts::FRAC_PI_2, 5.0, 5.0, (1.0, 1.0), 2.0).expect("rounded");
+    let round = 40.0 + 4.0 * (corner.seconds() - 2.0 * corner.tangent);
     assert!((length - 40.0).abs() < 1e-6 && (spacing - round / 3.0).abs() < 1e-6, "L {length}, spacing {spacing}");
     assert!((summary.predicted_worst_idleness - round / 3.0).abs() < 1e-6, "{}", summary.predicted_worst_idleness);
     let c = eventually("coverage replanned for 3", Duration::from_secs(10), || async {
