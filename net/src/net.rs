@@ -45,6 +45,33 @@ pub struct ZenohSection {
     /// only: it opens the admin space to reads from the mesh).
     #[serde(default)]
     pub wire_stats: bool,
+    /// How the robot joins: `peer` (default) or `client` of a router (docs/deployment.md).
+    #[serde(default)]
+    pub mode: JoinMode,
+}
+
+/// How a robot joins the mesh (`zenoh.mode`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JoinMode {
+    /// Links to every robot of its router's region (a clique) and to its `connect` endpoints:
+    /// robots of a site keep talking with their router gone.
+    #[default]
+    Peer,
+    /// One link, to the first `connect` endpoint that answers (its site's router); when that link
+    /// drops, the others are tried in order (e.g. central). A site of N robots keeps N links
+    /// instead of N(N−1)/2, and everything between them goes through the router.
+    Client,
+}
+
+impl JoinMode {
+    /// The Zenoh mode of a node that joins this way.
+    pub fn zenoh_mode(self) -> Mode {
+        match self {
+            JoinMode::Peer => Mode::Peer,
+            JoinMode::Client => Mode::Attached,
+        }
+    }
 }
 
 impl Default for ZenohSection {
@@ -55,6 +82,7 @@ impl Default for ZenohSection {
             lease_ms: DEFAULT_LEASE_MS,
             max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
             wire_stats: false,
+            mode: JoinMode::Peer,
         }
     }
 }
@@ -90,8 +118,11 @@ pub enum Mode {
     Router,
     /// Robots and managers: link directly to each other (gossip) and to the router.
     Peer,
-    /// Short-lived operator tools.
+    /// Short-lived operator tools: one link, fail at once when it cannot be opened.
     Client,
+    /// A robot as a client of a router ([`JoinMode::Client`]): one link, to the first of its
+    /// connect endpoints that answers, retried in order (not only at start) when it drops.
+    Attached,
 }
 
 impl Mode {
@@ -99,7 +130,7 @@ impl Mode {
         match self {
             Mode::Router => "router",
             Mode::Peer => "peer",
-            Mode::Client => "client",
+            Mode::Client | Mode::Attached => "client",
         }
     }
 }
@@ -198,15 +229,19 @@ pub fn zenoh_config_with(
     let mut c = zenoh::Config::default();
     let set = |c: &mut zenoh::Config, key: &str, value: String| c.insert_json5(key, &value).map_err(|e| ProtoError::Config(format!("zenoh config {key}: {e}")));
     set(&mut c, "mode", json(mode.as_str()))?;
+    // A robot attached to a router listens on nothing: no one links to it.
+    let listen: &[String] = if mode == Mode::Attached { &[] } else { listen };
     set(&mut c, "listen/endpoints", json(listen))?;
     set(&mut c, "connect/endpoints", json(connect))?;
     set(&mut c, "scouting/multicast/enabled", "false".into())?;
-    set(&mut c, "scouting/gossip/enabled", "true".into())?;
+    set(&mut c, "scouting/gossip/enabled", (mode != Mode::Attached).to_string())?;
     set(&mut c, "transport/link/tx/lease", lease_ms.to_string())?;
     set(&mut c, "transport/link/tx/keep_alive", keep_alives_per_lease(lease_ms).to_string())?;
-    if mode == Mode::Peer {
-        // Peers keep retrying their connect endpoints (central may be down or restarting).
+    if matches!(mode, Mode::Peer | Mode::Attached) {
+        // Robots keep retrying their connect endpoints (central may be down or restarting).
         set(&mut c, "connect/exit_on_failure", "false".into())?;
+    }
+    if mode == Mode::Peer {
         // Of two peers that learn of each other by gossip, only one connects: with both
         // connecting, a fleet kept two links per pair (twice the keep-alives of a clique).
         set(&mut c, "scouting/gossip/autoconnect_strategy", r#"{ peer: { to_router: "always", to_peer: "greater-zid" } }"#.into())?;
@@ -384,5 +419,20 @@ mod tests {
         let c = zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[DEFAULT_CENTRAL.into()], 4000).expect("config");
         assert_eq!(c.get_json("transport/link/tx/keep_alive").expect("key"), "2", "a keep-alive every 2 s on a 4 s lease");
         assert!(c.get_json("listen/endpoints").expect("key").contains("127.0.0.1:0"));
+    }
+
+    #[test]
+    fn an_attached_robot_is_a_client_that_keeps_retrying() {
+        let c = zenoh_config(JoinMode::Client.zenoh_mode(), &["tcp/127.0.0.1:0".into()], &["tcp/127.0.0.1:7448".into(), DEFAULT_CENTRAL.into()], 4000)
+            .expect("config");
+        assert_eq!(c.get_json("mode").expect("key"), "\"client\"");
+        assert_eq!(c.get_json("listen/endpoints").expect("key"), "[]", "no one links to a client");
+        assert_eq!(c.get_json("connect/endpoints").expect("key"), r#"["tcp/127.0.0.1:7448","tcp/127.0.0.1:7447"]"#, "its router first");
+        assert_eq!(c.get_json("connect/exit_on_failure").expect("key"), "false");
+        assert_eq!(c.get_json("scouting/gossip/enabled").expect("key"), "false");
+        assert_eq!(c.get_json("scouting/multicast/enabled").expect("key"), "false");
+        // An operator tool is a client too, but fails at once when central is not there.
+        let tool = zenoh_config(Mode::Client, &[], &[DEFAULT_CENTRAL.into()], 4000).expect("config");
+        assert_ne!(tool.get_json("connect/exit_on_failure").expect("key"), "false");
     }
 }

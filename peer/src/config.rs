@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use mrmm_net::net::{validate_endpoints_for, validate_max_message_size, ZenohSection};
+use mrmm_net::net::{validate_endpoints_for, validate_max_message_size, JoinMode, ZenohSection};
 use mrmm_proto::config::{load_json5, parse_json5, positive, within};
 use mrmm_proto::{validate_id, Pose, SecuritySection};
 use serde::Deserialize;
@@ -152,6 +152,11 @@ impl RobotConfig {
         validate_endpoints_for("zenoh.listen", &self.zenoh.listen, secure)?;
         validate_endpoints_for("zenoh.connect", &self.zenoh.connect, secure)?;
         validate_max_message_size("zenoh.max_message_size", self.zenoh.max_message_size)?;
+        if self.zenoh.mode == JoinMode::Client && self.zenoh.connect.is_empty() {
+            return Err(
+                "zenoh.connect: a client (zenoh.mode: client) needs a router to connect to: its site's router first, then fallbacks such as central".into()
+            );
+        }
         if let Some(sec) = &self.security {
             sec.validate("security")?;
             if !sec.operators.is_empty() {
@@ -257,6 +262,17 @@ mod tests {
         let wildcard = ["0", "0", "0", "0"].join(".");
         let e = err(&GOOD.replace("127.0.0.1:7501", &format!("{wildcard}:7501")));
         assert!(e.contains("zenoh.listen[0]"), "{e}");
+    }
+
+    #[test]
+    fn a_client_robot_names_its_router() {
+        assert_eq!(RobotConfig::from_json5("r", GOOD).expect("valid").zenoh.mode, JoinMode::Peer);
+        let client = GOOD.replace("connect: [", "mode: \"client\", connect: [");
+        assert_eq!(RobotConfig::from_json5("r", &client).expect("valid").zenoh.mode, JoinMode::Client);
+        let e = err(&client.replace("[\"tcp/127.0.0.1:7447\"]", "[]"));
+        assert!(e.starts_with("robot.json5: zenoh.connect: a client (zenoh.mode: client) needs a router"), "{e}");
+        let e = err(&GOOD.replace("connect: [", "mode: \"router\", connect: ["));
+        assert!(e.contains("zenoh.mode") && e.contains("unknown variant `router`") && !e.contains('\n'), "{e}");
     }
 
     #[test]

@@ -12,7 +12,7 @@ mod team;
 
 use std::time::{Duration, Instant};
 
-use mrmm_net::net::{self, Mode};
+use mrmm_net::net;
 use mrmm_net::security::seal::SignCadence;
 use mrmm_net::{Mesh, NodeNet};
 use mrmm_proto::{self as proto, Key, Role, Sender};
@@ -62,7 +62,7 @@ pub type LocalTeam = Vec<(String, Vec<String>)>;
 pub fn node_net(cfg: &RobotConfig) -> NodeNet {
     let z = &cfg.zenoh;
     NodeNet {
-        mode: Mode::Peer,
+        mode: z.mode.zenoh_mode(),
         listen: z.listen.clone(),
         connect: z.connect.clone(),
         lease_ms: z.lease_ms,

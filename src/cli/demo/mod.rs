@@ -62,6 +62,12 @@ pub struct Args {
     /// i mod SITES. Default 1: one clique.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
     sites: u32,
+    /// How each robot joins the mesh: `peer` (a link to every robot of its site, which goes on
+    /// without its router) or `client` (one link, to its site's router, then central or another
+    /// site's router if that drops). Default: `client` beyond 40 robots in several sites, `peer`
+    /// otherwise (docs/deployment.md).
+    #[arg(long, value_enum)]
+    join: Option<Join>,
     /// Keep central's journal here, so the demo's missions survive a restart of it (default: the
     /// demo's scratch directory, removed when the demo ends).
     #[arg(long)]
@@ -81,6 +87,19 @@ pub struct Args {
 }
 
 const TYPES: [&str; 2] = ["ground", "aerial"];
+
+/// `--join`: how the robots join the mesh (a robot config's `zenoh.mode`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Join {
+    Peer,
+    Client,
+}
+
+/// How the demo's robots join: as asked, or clients of their site's router in a large fleet of
+/// several sites (a site of 50 peers keeps 1 225 links; 50 clients, 50).
+fn join(args: &Args) -> Join {
+    args.join.unwrap_or(if args.robots as usize > LARGE_FLEET && args.sites > 1 { Join::Client } else { Join::Peer })
+}
 
 pub async fn run(mut args: Args) -> anyhow::Result<()> {
     let listen = args.listen.take().unwrap_or_else(|| if args.insecure { "tcp/127.0.0.1:7447" } else { "quic/127.0.0.1:7447" }.to_string());

@@ -8,7 +8,7 @@ use anyhow::{anyhow, Context};
 use mrmm_proto as proto;
 use tokio::process::Child;
 
-use super::{lease, map, Args, LARGE_FLEET, TYPES};
+use super::{join, lease, map, Args, Join, LARGE_FLEET, TYPES};
 use crate::cli::procs;
 
 /// A throw-away fleet PKI in `pki`: the CA, central, the operator (this demo and your tools),
@@ -140,12 +140,15 @@ pub(super) fn robots(
     pki: Option<&Path>,
 ) -> anyhow::Result<()> {
     let n = args.robots as usize;
-    let lease = lease(args);
+    let net = Net { scheme, lease_ms: lease(args), join: join(args), pki };
+    if net.join == Join::Client {
+        println!("mrmm demo: robots are clients of their site's router (--join client)");
+    }
     let mut per_site: Vec<Vec<PathBuf>> = vec![Vec::new(); sites.len()];
     for i in 0..n {
         let id = format!("r{}", i + 1);
         let at = starts.map(|s| s[i]);
-        let cfg = robot_config(&id, i, n, at, &sites[i % sites.len()], scheme, args.time_scale, lease, pki);
+        let cfg = robot_config(&id, i, n, at, &connect(sites, i % sites.len(), net.join), args.time_scale, &net);
         let path = dir.join(format!("{id}.json5"));
         std::fs::write(&path, cfg).with_context(|| format!("cannot write {}", path.display()))?;
         per_site[i % sites.len()].push(path);
@@ -171,24 +174,33 @@ pub(super) fn robots(
     Ok(())
 }
 
-/// A robot's config; it starts `at` (x, y), or else on a line.
-#[allow(clippy::too_many_arguments)]
-fn robot_config(
-    id: &str,
-    i: usize,
-    n: usize,
-    at: Option<(f64, f64)>,
-    central: &str,
-    scheme: &str,
-    time_scale: f64,
+/// How the demo's robots join the mesh.
+struct Net<'a> {
+    scheme: &'a str,
     lease_ms: u64,
-    pki: Option<&Path>,
-) -> String {
+    join: Join,
+    pki: Option<&'a Path>,
+}
+
+/// Where a robot of site `k` connects: its site's router (central for site 0); a client then
+/// the next site's, which it falls back to when its own drops (a peer would link to both).
+fn connect(sites: &[String], k: usize, join: Join) -> Vec<String> {
+    let mut eps = vec![sites[k].clone()];
+    if join == Join::Client && sites.len() > 1 {
+        eps.push(sites[(k + 1) % sites.len()].clone());
+    }
+    eps
+}
+
+/// A robot's config; it starts `at` (x, y), or else on a line.
+fn robot_config(id: &str, i: usize, n: usize, at: Option<(f64, f64)>, connect: &[String], time_scale: f64, net: &Net<'_>) -> String {
+    let Net { scheme, lease_ms, join, pki } = *net;
     let kind = TYPES[i % TYPES.len()];
     let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
     // Rows of at most 20, 1.5 m apart, from y = -12 down (into the coverage region).
     let cols = n.min(20);
     let (x, y) = at.unwrap_or((((i % cols) as f64 - (cols as f64 - 1.0) / 2.0) * 1.5, -12.0 - (i / cols) as f64 * 1.5));
+    let mode = if join == Join::Client { "client" } else { "peer" };
     let security = match pki {
         Some(d) => {
             let f = |name: &str| format!("{:?}", d.join(name).display().to_string());
@@ -202,7 +214,7 @@ fn robot_config(
   kinematics: {{ max_speed: {speed}, max_turn_rate: {turn} }},
   start: {{ x: {x}, y: {y}, theta: 1.5708 }},
   time_scale: {time_scale}, telemetry_hz: 5,
-  zenoh: {{ listen: ["{scheme}/127.0.0.1:0"], connect: ["{central}"], lease_ms: {lease_ms} }},
+  zenoh: {{ mode: "{mode}", listen: ["{scheme}/127.0.0.1:0"], connect: {connect:?}, lease_ms: {lease_ms} }},
 {security}}}
 "#
     )
@@ -214,14 +226,20 @@ mod tests {
 
     #[test]
     fn generated_configs_are_valid() {
+        let plain = Net { scheme: "tcp", lease_ms: 1000, join: Join::Peer, pki: None };
         for i in 0..4 {
-            let text = robot_config(&format!("r{i}"), i, 4, None, "tcp/127.0.0.1:7447", "tcp", 2.0, 1000, None);
+            let text = robot_config(&format!("r{i}"), i, 4, None, &["tcp/127.0.0.1:7447".into()], 2.0, &plain);
             let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
-            assert_eq!(cfg.time_scale, 2.0);
+            assert_eq!((cfg.time_scale, cfg.zenoh.mode), (2.0, mrmm_net::net::JoinMode::Peer));
         }
-        let text = robot_config("r1", 0, 4, Some((3.5, -2.0)), "quic/127.0.0.1:7447", "quic", 1.0, 1000, Some(std::path::Path::new("/p")));
+        let sites = ["quic/127.0.0.1:7447".to_string(), "quic/127.0.0.1:7500".into(), "quic/127.0.0.1:7501".into()];
+        assert_eq!(connect(&sites, 1, Join::Peer), &sites[1..2], "a peer: its site only");
+        assert_eq!(connect(&sites, 2, Join::Client), [sites[2].clone(), sites[0].clone()], "a client: its site, then the next");
+        let secure = Net { scheme: "quic", lease_ms: 4000, join: Join::Client, pki: Some(std::path::Path::new("/p")) };
+        let text = robot_config("r1", 0, 4, Some((3.5, -2.0)), &connect(&sites, 0, Join::Client), 1.0, &secure);
         let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid secure config");
         assert_eq!(cfg.security.map(|s| s.cert), Some(std::path::PathBuf::from("/p/r1.crt")));
+        assert_eq!((cfg.zenoh.mode, cfg.zenoh.connect), (mrmm_net::net::JoinMode::Client, sites[..2].to_vec()));
         let (x, y) = super::super::watch::circle_point(1, 4, 2.0);
         assert!((x - 0.0).abs() < 1e-9 && (y - 2.0).abs() < 1e-9);
     }
