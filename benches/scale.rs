@@ -33,7 +33,10 @@
 //! With `--sim-fleet`: the robots of each site in one `mrmm sim-fleet` process (memory per robot
 //! is the process's over its robots; a member is crashed in its process instead of SIGKILLed).
 //!
-//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--run S] [--insecure] [--tls [--quic-uplinks]] [--sim-fleet]` (sizes, default
+//! With `--clients`: every robot a client of its site's router (`zenoh.mode: client`, the next
+//! site's router as fallback) instead of a peer of its site's clique.
+//!
+//! `cargo bench --bench scale -- 25 50 100 [--lease MS] [--rate R] [--sites K] [--run S] [--insecure] [--tls [--quic-uplinks]] [--sim-fleet] [--clients]` (sizes, default
 //! 10 25; the robots' lease, default as `mrmm demo` sets it: 1000 ms, 4000 ms beyond 40 robots;
 //! robots started R per second, default 20 as the demo does, 0 = all at once; default 1 site).
 
@@ -89,7 +92,12 @@ fn main() -> anyhow::Result<()> {
         "\n### Scale: {} ({cpu}, {} cores; {}; lease {}; robots started {}{})\n",
         if sim_fleet() { "one sim-fleet process per site" } else { "one process per robot" },
         std::thread::available_parallelism().map_or(0, |n| n.get()),
-        if sites == 1 { "one clique".to_string() } else { format!("{sites} sites") },
+        match (sites, clients()) {
+            (1, false) => "one clique".to_string(),
+            (1, true) => "robots clients of central".to_string(),
+            (k, false) => format!("{k} sites"),
+            (k, true) => format!("{k} sites, robots clients of their router"),
+        },
         lease.map_or("as the demo: 1000 ms, 4000 ms beyond 40 robots".to_string(), |l| format!("{l} ms")),
         if rate == 0 { "at once".to_string() } else { format!("{rate} per second") },
         if insecure {
@@ -255,6 +263,11 @@ fn sim_fleet() -> bool {
     std::env::args().any(|a| a == "--sim-fleet")
 }
 
+/// `--clients`: robots are clients of their site's router (one link each), not peers.
+fn clients() -> bool {
+    std::env::args().any(|a| a == "--clients")
+}
+
 /// `--tls`: the secure links over Zenoh's TLS link (TLS over TCP) instead of QUIC (mutual TLS
 /// 1.3 over UDP, what a secure fleet uses: the TLS link races under load, docs/zenoh.md).
 fn args_tls() -> bool {
@@ -396,13 +409,18 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
         let cfg = format!(
             r#"{{ id: "{id}", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1.0, max_turn_rate: 1.5 }},
                  start: {{ x: {x}, y: {y}, theta: 1.5708 }}, time_scale: 5, telemetry_hz: 5,
-                 zenoh: {{ listen: ["{listen}"], connect: ["{site}"], lease_ms: {lease} }},
+                 zenoh: {{ mode: "{mode}", listen: ["{listen}"], connect: {connect}, lease_ms: {lease} }},
                  {security} }}"#,
             // Rows of 20, 1.5 m apart: on one line, 200 robots would span 300 m and the
             // farthest would not reach the tour (nor its first barrier) in the measured window.
             x = (((i - 1) % 20) as f64 - 9.5) * 1.5,
             y = -12.0 - ((i - 1) / 20) as f64 * 1.5,
-            site = site_eps[i % sites],
+            mode = if clients() { "client" } else { "peer" },
+            connect = serde_json::to_string(&if clients() && sites > 1 {
+                vec![&site_eps[i % sites], &site_eps[(i + 1) % sites]]
+            } else {
+                vec![&site_eps[i % sites]]
+            })?,
         );
         let path = dir.path(&format!("{id}.json5"));
         std::fs::write(&path, cfg)?;

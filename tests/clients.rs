@@ -1,5 +1,6 @@
-//! Robots as clients of their site's router (`zenoh.mode: client`, docs/deployment.md): each
-//! keeps one link, to the router, not one to every robot of its site; central registers and
+//! Robots as clients of their site's router (`zenoh.mode: client`, docs/deployment.md): one
+//! started before any router tries its endpoints again until its own answers; each keeps one link, to the router, not one to every
+//! robot of its site; central registers and
 //! commands them through the router, and their patrol's barriers pass through it. When the
 //! router is SIGKILLed, each robot opens its next connect endpoint (central), is registered
 //! again, and the patrol goes on with the same three robots.
@@ -10,7 +11,7 @@ use std::process::Command;
 use std::time::Duration;
 
 use anyhow::{anyhow, ensure, Context};
-use common::{eventually, start, start_central, Proc, Scratch};
+use common::{eventually, start, Proc, Scratch};
 use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionView, RobotStatus, RobotView};
 
@@ -28,13 +29,11 @@ fn addr(ep: &str) -> &str {
     ep.trim_start_matches("tcp/")
 }
 
-/// A site router linked to central.
-fn router(dir: &Scratch, central: &str) -> anyhow::Result<(Proc, String)> {
+/// A site router on `listen`, linked to central.
+fn router(dir: &Scratch, central: &str, listen: &str) -> anyhow::Result<Proc> {
     let path = dir.path("site1.json5");
-    std::fs::write(&path, format!(r#"{{ id: "site1", listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }}"#))?;
-    let p = start("site1", &["router", "--config", &path.display().to_string()], &dir.path("site1.log"), "router ready", Duration::from_secs(20))?;
-    let ep = p.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow!("no endpoint in {:?}", p.ready))?;
-    Ok((p, ep))
+    std::fs::write(&path, format!(r#"{{ id: "site1", listen: ["{listen}"], connect: ["{central}"], lease_ms: 1000 }}"#))?;
+    start("site1", &["router", "--config", &path.display().to_string()], &dir.path("site1.log"), "router ready", Duration::from_secs(20))
 }
 
 /// A robot that is a client of `connect[0]`, falling back to the others.
@@ -57,10 +56,28 @@ async fn mission(client: &Client) -> Option<MissionView> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn client_robots_link_to_their_router_only_and_fall_back_to_central() -> anyhow::Result<()> {
     let dir = Scratch::new("clients");
-    let (_central, central_ep) = start_central(&dir)?;
-    let (mut site, site_ep) = router(&dir, &central_ep)?;
-    let robots: Vec<Proc> =
-        (1..=3).map(|i| client_robot(&dir, &format!("r{i}"), &[&site_ep, &central_ep], f64::from(i) * 2.0)).collect::<anyhow::Result<_>>()?;
+    let free = || -> anyhow::Result<String> { Ok(format!("tcp/{}", std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?)) };
+    let (site_ep, central_ep) = (free()?, free()?);
+    // r1 starts before any router is up: it tries its endpoints again until one answers, its
+    // site's router; central comes up after that.
+    let (mut site, first) = std::thread::scope(|s| -> anyhow::Result<(Proc, Proc)> {
+        let first = s.spawn(|| client_robot(&dir, "r1", &[&site_ep, &central_ep], 2.0));
+        let retried = || std::fs::read_to_string(dir.path("r1.log")).is_ok_and(|l| l.contains("answers yet; trying again"));
+        let t = std::time::Instant::now();
+        while !retried() {
+            ensure!(t.elapsed() < Duration::from_secs(20) && !first.is_finished(), "r1 never tried its routers again");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let site = router(&dir, &central_ep, &site_ep)?;
+        Ok((site, first.join().map_err(|_| anyhow!("r1's start panicked"))??))
+    })?;
+    let state = dir.path("central-state").display().to_string();
+    let _central =
+        start("central", &["central", "--listen", &central_ep, "--state-dir", &state], &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
+    let mut robots = vec![first];
+    for i in 2..=3 {
+        robots.push(client_robot(&dir, &format!("r{i}"), &[&site_ep, &central_ep], f64::from(i) * 2.0)?);
+    }
     let client = Client::connect(std::slice::from_ref(&central_ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 3).await?;
 

@@ -18,6 +18,9 @@ pub enum PeerError {
     /// A simulated robot crashed on the operator's order (`mrmm op crash`).
     #[error("robot {0} crashed on the operator's order")]
     Crashed(String),
+    /// Stopped (a signal) before it was on the mesh.
+    #[error("{0}")]
+    Stopped(String),
     /// The ROS 2 body could not start.
     #[error(transparent)]
     Ros2(#[from] mrmm_ros2::Ros2Error),

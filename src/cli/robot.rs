@@ -83,7 +83,7 @@ pub async fn start(cfg: RobotConfig, shutdown: CancellationToken) -> anyhow::Res
         Some(dir) => Some(mrmm_manager::host::store::Store::open(dir).map_err(|e| anyhow::anyhow!("state_dir: {e}"))?),
         None => None,
     };
-    let mesh = mrmm_peer::runtime::open(&cfg).await?;
+    let mesh = mrmm_peer::runtime::open(&cfg, &shutdown).await?;
     let session = mesh.session().clone();
     // Every robot is also a mission host: it replicates the managers of its missions and takes
     // one over when its head dies. It learns its robot's team through `team`.

@@ -50,7 +50,7 @@ pub struct Ready {
 /// Runs a robot peer until `shutdown` is cancelled. `ready` is told once the robot is registered
 /// on the network (queryables and liveliness token declared).
 pub async fn run(cfg: RobotConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), PeerError> {
-    let mesh = open(&cfg).await?;
+    let mesh = open(&cfg, &shutdown).await?;
     run_on(mesh, cfg, shutdown, ready, None).await
 }
 
@@ -74,8 +74,39 @@ pub fn node_net(cfg: &RobotConfig) -> NodeNet {
 }
 
 /// Opens the robot's session as its config says (secure with a `security` section).
-pub async fn open(cfg: &RobotConfig) -> Result<Mesh, PeerError> {
-    Ok(Mesh::open(&node_net(cfg)).await?)
+///
+/// A client ([`net::JoinMode::Client`]) opens a link to the first of its `connect` endpoints that
+/// answers, and while none does it tries them again, in order, until one does or `shutdown`
+/// (Zenoh alone would either fail at once or wait for the first endpoint only).
+pub async fn open(cfg: &RobotConfig, shutdown: &CancellationToken) -> Result<Mesh, PeerError> {
+    let node = node_net(cfg);
+    if cfg.zenoh.mode != net::JoinMode::Client {
+        return Ok(Mesh::open(&node).await?);
+    }
+    tracing::info!(robot = %cfg.id, connect = ?cfg.zenoh.connect, "a client: waiting for the first of its routers that answers");
+    let mut wait = CLIENT_RETRY_FIRST;
+    loop {
+        match Mesh::open(&node).await {
+            Ok(mesh) => return Ok(mesh),
+            Err(e) if unreachable(&e) => tracing::warn!(robot = %cfg.id, "none of {:?} answers yet; trying again in {wait:?}", cfg.zenoh.connect),
+            Err(e) => return Err(e.into()),
+        }
+        tokio::select! {
+            _ = shutdown.cancelled() => return Err(PeerError::Stopped(format!("robot {}: stopped before any of {:?} answered", cfg.id, cfg.zenoh.connect))),
+            _ = tokio::time::sleep(wait) => {}
+        }
+        wait = (wait * 2).min(CLIENT_RETRY_MAX);
+    }
+}
+
+/// A client's first wait between two rounds of its connect endpoints, and the longest.
+const CLIENT_RETRY_FIRST: std::time::Duration = std::time::Duration::from_millis(250);
+const CLIENT_RETRY_MAX: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// Whether opening a session failed because no connect endpoint answered (Zenoh 1.10's words;
+/// any other failure, such as a certificate Zenoh cannot read, stops start-up).
+fn unreachable(e: &mrmm_proto::ProtoError) -> bool {
+    matches!(e, mrmm_proto::ProtoError::Zenoh(_)) && e.to_string().contains("Unable to connect to any of")
 }
 
 /// Refuses to start a second node under a name the mesh already knows alive: two robots (or two

@@ -8,7 +8,7 @@ use anyhow::{anyhow, Context};
 use mrmm_proto as proto;
 use tokio::process::Child;
 
-use super::{join, lease, map, Args, Join, LARGE_FLEET, TYPES};
+use super::{join, lease, map, start_rate, Args, Join, LARGE_FLEET, TYPES};
 use crate::cli::procs;
 
 /// A throw-away fleet PKI in `pki`: the CA, central, the operator (this demo and your tools),
@@ -163,7 +163,7 @@ pub(super) fn robots(
     // A large fleet starts gradually, `--start-rate` robots a second in all (one per site at least):
     // every robot's declarations invalidate every route the routers cached, and a faster start
     // loaded this 2-core machine until links expired and robots flapped (docs/scale.md).
-    let rate = (args.start_rate as usize / sites.len()).max(1);
+    let rate = (start_rate(args) as usize / sites.len()).max(1);
     for (k, paths) in per_site.iter().enumerate().filter(|(_, p)| !p.is_empty()) {
         let mut argv = vec!["sim-fleet".to_string(), "--rate".into(), rate.to_string()];
         argv.extend(paths.iter().flat_map(|p| ["--config".to_string(), p.display().to_string()]));
