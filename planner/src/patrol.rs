@@ -237,14 +237,8 @@ fn slots(robots: &[RobotSpec], approach: &Approach, path: &Polyline, spacing: f6
 fn slots_among(robots: &[RobotSpec], approach: &Approach, path: &Polyline, spacing: f64, max_offsets: usize) -> Result<(f64, assign::Assignment), PlanError> {
     let n = robots.len();
     let here = |r: &RobotSpec| Point::new(r.x, r.y);
-    let mut candidates = vec![0.0];
-    candidates.extend(robots.iter().map(|r| path.project(here(r)) % spacing));
-    if candidates.len() > max_offsets {
-        // 0, then a spread of the robots' own offsets over [0, spacing).
-        candidates[1..].sort_by(f64::total_cmp);
-        let step = (candidates.len() - 1) as f64 / (max_offsets - 1) as f64;
-        candidates = std::iter::once(0.0).chain((0..max_offsets - 1).map(|k| candidates[1 + (k as f64 * step) as usize])).collect();
-    }
+    let own: Vec<f64> = robots.iter().map(|r| path.project(here(r)) % spacing).collect();
+    let candidates = offsets(own, max_offsets);
     let mut best: Option<(f64, assign::Assignment)> = None;
     for &offset in &candidates {
         let mut rows = Vec::with_capacity(n);
@@ -263,6 +257,17 @@ fn slots_among(robots: &[RobotSpec], approach: &Approach, path: &Polyline, spaci
         return Err(PlanError::Invalid(format!("robot {r} cannot reach the patrol's route on the map")));
     }
     Ok((offset, a))
+}
+
+/// The offsets to try: 0 and the robots' own, or 0 and a spread of `max` − 1 (≥ 1) of them over
+/// their sorted order (evenly through [0, spacing) as the robots are).
+fn offsets(mut own: Vec<f64>, max: usize) -> Vec<f64> {
+    if own.len() + 1 > max {
+        own.sort_by(f64::total_cmp);
+        let step = own.len() as f64 / (max - 1) as f64;
+        own = (0..max - 1).map(|k| own[(k as f64 * step) as usize]).collect();
+    }
+    std::iter::once(0.0).chain(own).collect()
 }
 
 /// Where one robot starts and what one round is for it.
@@ -425,6 +430,20 @@ mod tests {
         assert!(spread.max <= all.max + spacing + 1e-9, "spread {} against every offset {} (spacing {spacing})", spread.max, all.max);
         // Not all 61 candidates were needed to get close: within a fifth of a slot here.
         assert!(spread.max - all.max < spacing / 5.0, "spread {} against {}", spread.max, all.max);
+    }
+
+    #[test]
+    fn the_offsets_tried_spread_over_the_robots() {
+        // 100 robots' offsets through [0, 1): the 16 tried leave no gap wider than 2/15.
+        let own: Vec<f64> = (0..100).map(|i| f64::from((i * 37) % 100) / 100.0).collect();
+        let mut tried = offsets(own.clone(), 16);
+        assert_eq!((tried.len(), tried[0]), (16, 0.0));
+        tried.sort_by(f64::total_cmp);
+        let widest = tried.windows(2).map(|w| w[1] - w[0]).chain([1.0 - tried[15]]).fold(0.0, f64::max);
+        assert!(widest <= 2.0 / 15.0, "a gap of {widest} between offsets tried: {tried:?}");
+        assert!(tried[1..].iter().all(|o| own.contains(o)), "only the robots' own");
+        // A small team: every robot's own, and 0.
+        assert_eq!(offsets(vec![0.5, 0.25], 16), [0.0, 0.5, 0.25]);
     }
 
     #[test]
