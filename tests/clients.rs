@@ -1,28 +1,18 @@
 //! Robots as clients of their site's router (`zenoh.mode: client`, docs/deployment.md): one
-//! started before any router tries its endpoints again until its own answers; each keeps one link, to the router, not one to every
-//! robot of its site; central registers and
-//! commands them through the router, and their patrol's barriers pass through it. When the
-//! router is SIGKILLed, each robot opens its next connect endpoint (central), is registered
-//! again, and the patrol goes on with the same three robots.
+//! started before any router tries its endpoints again until its own answers; each keeps one
+//! link, to the router, not one to every robot of its site; central registers and commands them
+//! through the router, and their patrol's barriers pass through it. When the router is
+//! SIGKILLed, each robot opens its next connect endpoint (central), is registered again, and the
+//! patrol goes on with the same three robots.
 
 mod common;
 
-use std::process::Command;
 use std::time::Duration;
 
-use anyhow::{anyhow, ensure, Context};
-use common::{eventually, start, Proc, Scratch};
+use anyhow::{anyhow, ensure};
+use common::{eventually, start, tcp_peers, Proc, Scratch};
 use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, MissionView, RobotStatus, RobotView};
-
-/// The remote addresses of the established TCP connections of process `pid`.
-fn tcp_peers(pid: i32) -> anyhow::Result<Vec<String>> {
-    let out = Command::new("ss").args(["-Htnp", "state", "established"]).output().context("ss")?;
-    ensure!(out.status.success(), "ss: {}", String::from_utf8_lossy(&out.stderr).trim());
-    let tag = format!("pid={pid},");
-    let text = String::from_utf8_lossy(&out.stdout);
-    Ok(text.lines().filter(|l| l.contains(&tag)).filter_map(|l| l.split_whitespace().nth(3).map(String::from)).collect())
-}
 
 /// The `host:port` of a `tcp/host:port` endpoint.
 fn addr(ep: &str) -> &str {
@@ -83,7 +73,7 @@ async fn client_robots_link_to_their_router_only_and_fall_back_to_central() -> a
 
     // One link each, to the router: no clique among them, none to central.
     for r in &robots {
-        let peers = tcp_peers(r.pid())?;
+        let peers = tcp_peers(None, r.pid())?;
         ensure!(peers == [addr(&site_ep)], "{} links to {peers:?}; a client links to its router {site_ep} only", r.name);
     }
     let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&common::square_patrol(3, None))).await?;
@@ -96,7 +86,7 @@ async fn client_robots_link_to_their_router_only_and_fall_back_to_central() -> a
     site.kill();
     for r in &robots {
         eventually(&format!("{} linked to central", r.name), Duration::from_secs(30), || async {
-            (tcp_peers(r.pid()).ok()? == [addr(&central_ep)]).then_some(())
+            (tcp_peers(None, r.pid()).ok()? == [addr(&central_ep)]).then_some(())
         })
         .await?;
     }

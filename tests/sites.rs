@@ -20,12 +20,11 @@
 mod common;
 
 use std::collections::BTreeSet;
-use std::process::Command;
 use std::time::{Duration, Instant};
 
-use anyhow::{ensure, Context};
+use anyhow::ensure;
 use common::netns::{drain, eventually, ip, namespaces, op, start_tap, tap_until};
-use common::{start_wrapped, Proc, Scratch};
+use common::{start_wrapped, tcp_peers, Proc, Scratch};
 use mrmm_proto::{Key, MissionView, RobotStatus, RobotView};
 use serde_json::Value;
 
@@ -116,15 +115,6 @@ fn router(dir: &Scratch, ns: &str, i: usize) -> anyhow::Result<Proc> {
     )
 }
 
-/// The remote addresses of the established TCP connections of process `pid` in namespace `ns`.
-fn tcp_peers(ns: &str, pid: i32) -> anyhow::Result<Vec<String>> {
-    let out = Command::new("ip").args(["netns", "exec", ns, "ss", "-Htnp", "state", "established"]).output().context("ss")?;
-    ensure!(out.status.success(), "ss: {}", String::from_utf8_lossy(&out.stderr).trim());
-    let text = String::from_utf8_lossy(&out.stdout);
-    let tag = format!("pid={pid},");
-    Ok(text.lines().filter(|l| l.contains(&tag)).filter_map(|l| l.split_whitespace().nth(3).map(String::from)).collect())
-}
-
 /// Sync points passed by mission `m` according to a status line of the tap, with its head.
 fn status_syncs(v: &Value, m: &str) -> Option<(u64, String)> {
     let key = Key::parse(v["key"].as_str()?)?;
@@ -175,12 +165,12 @@ fn scenario(sites: &Sites, dir: &Scratch) -> anyhow::Result<()> {
     // Robots link inside their site only: every TCP connection of a robot is on its site's
     // loopback; only the routers hold the WAN links.
     for (id, site, proc) in &robots {
-        let remote = tcp_peers(&sites.sites[*site], proc.pid())?;
+        let remote = tcp_peers(Some(&sites.sites[*site]), proc.pid())?;
         ensure!(!remote.is_empty(), "{id}: no links at all");
         ensure!(remote.iter().all(|r| r.starts_with("127.0.0.1:")), "{id} links outside its site: {remote:?}");
     }
     for (i, r) in routers.iter().enumerate() {
-        let remote = tcp_peers(&sites.sites[i + 1], r.pid())?;
+        let remote = tcp_peers(Some(&sites.sites[i + 1]), r.pid())?;
         ensure!(remote.iter().any(|r| r.starts_with("10.200.0.")), "router of site {} has no WAN link: {remote:?}", i + 1);
     }
 

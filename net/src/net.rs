@@ -241,7 +241,6 @@ pub fn zenoh_config_with(
         // Robots keep retrying their connect endpoints (central may be down or restarting).
         set(&mut c, "connect/exit_on_failure", "false".into())?;
     }
-
     if mode == Mode::Peer {
         // Of two peers that learn of each other by gossip, only one connects: with both
         // connecting, a fleet kept two links per pair (twice the keep-alives of a clique).

@@ -155,6 +155,24 @@ fn spawn_lines(
     }
 }
 
+/// The remote addresses of the established TCP connections of process `pid`, read with `ss`
+/// (inside network namespace `ns` if given).
+pub fn tcp_peers(ns: Option<&str>, pid: i32) -> anyhow::Result<Vec<String>> {
+    let mut cmd = match ns {
+        Some(ns) => {
+            let mut c = Command::new("ip");
+            c.args(["netns", "exec", ns, "ss"]);
+            c
+        }
+        None => Command::new("ss"),
+    };
+    let out = cmd.args(["-Htnp", "state", "established"]).output().context("ss")?;
+    anyhow::ensure!(out.status.success(), "ss: {}", String::from_utf8_lossy(&out.stderr).trim());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let tag = format!("pid={pid},");
+    Ok(text.lines().filter(|l| l.contains(&tag)).filter_map(|l| l.split_whitespace().nth(3).map(String::from)).collect())
+}
+
 /// Starts central on a free loopback port; returns it and its endpoint.
 pub fn start_central(dir: &Scratch) -> anyhow::Result<(Proc, String)> {
     let p = start("central", &["central", "--listen", "tcp/127.0.0.1:0"], &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
