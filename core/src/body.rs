@@ -98,6 +98,11 @@ impl Body {
         self.goal.map(|g| (g.x, g.y))
     }
 
+    /// Neither driving to a goal nor turning to face a point.
+    pub fn idle(&self) -> bool {
+        self.goal.is_none() && self.facing.is_none()
+    }
+
     /// Start driving to (x, y). Non-finite goals are ignored by the caller's validation.
     pub fn navigate_to(&mut self, x: f64, y: f64) {
         self.navigate_capped(x, y, None);

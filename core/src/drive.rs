@@ -34,6 +34,15 @@ impl Drive {
         }
     }
 
+    /// Neither driving to a goal nor turning on the spot (a ROS 2 body does not turn at
+    /// barriers: idle once it has no goal).
+    pub fn idle(&self) -> bool {
+        match self {
+            Drive::Sim(b) => b.idle(),
+            Drive::Ros(r) => r.goal().is_none(),
+        }
+    }
+
     pub fn navigate_capped(&mut self, x: f64, y: f64, speed: Option<f64>) {
         self.navigate_through(x, y, None, speed);
     }

@@ -147,6 +147,7 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
                 slot,
                 start: path.at(start_arc),
                 approach: approach.route(i, here(r), &path, start_arc),
+                start_hold: round_cm(path.still_at(start_arc) / team_speed),
                 round: round_steps(&path, start_arc, q, team_speed),
             }
         })
@@ -281,6 +282,11 @@ pub struct PatrolAssignment {
     /// The points the robot drives through to its slot, the slot last (straight in the plane;
     /// the route's corners on a map).
     pub approach: Vec<Point>,
+    /// Seconds the robot holds after the start barrier: the part of a turn at its slot that the
+    /// team's timing counts after the start. It faced its way before it said it was there (the
+    /// executor's first barrier), so without the hold it would be that much ahead of its slot's
+    /// time for the whole first leg, and the gap behind it that much longer.
+    pub start_hold: f64,
     /// One round of the tour from the slot: navigation at team speed with the sync points.
     pub round: Vec<Step>,
 }
@@ -291,10 +297,16 @@ impl PatrolAssignment {
         let mut steps = vec![Step::Stream];
         steps.extend(navigate_through(&self.approach, None));
         steps.push(Step::Sync { point: 0, scope: None });
+        steps.extend(self.start_hold());
         let to = steps.len();
         steps.extend(self.round.iter().cloned());
         steps.push(Step::Loop { to, rounds });
         RobotPlan { robot: self.robot.clone(), robot_type: self.robot_type.clone(), slot: self.slot, steps, team: String::new() }
+    }
+
+    /// The hold after the start barrier, if any ([`Self::start_hold`]).
+    pub fn start_hold(&self) -> Option<Step> {
+        (self.start_hold > 0.0).then_some(Step::Hold { seconds: Some(self.start_hold) })
     }
 }
 
@@ -494,6 +506,26 @@ mod tests {
 
     /// With a turn rate, robots are spaced by time: on a route whose corners all lie on one side,
     /// two robots start half a round's time apart, not half its length.
+    #[test]
+    fn a_robot_whose_slot_is_in_a_turn_holds_the_rest_of_it_after_the_start() {
+        // Out and back: a U-turn (π s at 1 rad/s) at each end, where the robots stand.
+        let robots = vec![robot("a", 0.0, 0.0, 1.0), robot("b", 10.0, 0.0, 1.0)];
+        let mut params = PatrolParams::new(vec![Point::new(0.0, 0.0), Point::new(10.0, 0.0)]);
+        params.turn_rate = Some(1.0);
+        let p = plan(&params, &robots).expect("plan");
+        for (a, plan) in p.assignments.iter().zip(&p.plans) {
+            assert!((a.start_hold - std::f64::consts::PI).abs() < 0.01, "{}: {}", a.robot, a.start_hold);
+            let start = plan.steps.iter().position(|s| matches!(s, Step::Sync { point: 0, .. })).expect("start barrier");
+            assert_eq!(plan.steps[start + 1], Step::Hold { seconds: Some(a.start_hold) }, "{:?}", plan.steps);
+            assert!(matches!(plan.steps.last(), Some(Step::Loop { to, .. }) if *to == start + 2), "the hold is not looped");
+        }
+        // Turns that take no time: nothing to hold.
+        params.turn_rate = None;
+        let p = plan(&params, &robots).expect("plan");
+        assert!(p.assignments.iter().all(|a| a.start_hold == 0.0));
+        assert!(!p.plans.iter().any(|plan| plan.steps.iter().any(|s| matches!(s, Step::Hold { .. }))));
+    }
+
     #[test]
     fn robots_are_spaced_by_time_when_turns_take_time() {
         // A 40 m straight back edge and a 40 m zigzag with 8 corners.

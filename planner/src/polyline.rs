@@ -50,6 +50,21 @@ impl Polyline {
         Point::new(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y))
     }
 
+    /// The arc length left at `s` (modulo the length) along a segment whose ends are the same
+    /// point — a corner's turn on a route timed [`with_turns`](Self::with_turns) —, 0 elsewhere.
+    pub fn still_at(&self, s: f64) -> f64 {
+        if self.length <= 0.0 {
+            return 0.0;
+        }
+        let s = s.rem_euclid(self.length);
+        let i = self.arcs.partition_point(|a| *a <= s).saturating_sub(1).min(self.points.len() - 1);
+        let (a, b) = (self.points[i], self.points[(i + 1) % self.points.len()]);
+        if a.dist(b) > 1e-9 {
+            return 0.0;
+        }
+        (self.arcs[i + 1] - s).max(0.0)
+    }
+
     /// The same closed route timed for a robot driving at `speed` m/s that turns at most
     /// `turn_rate` rad/s: it rounds a corner on an arc where it can ([`Blend`]) and turns on the
     /// spot where it cannot (a U-turn). Each corner appears twice, joined by a segment of
@@ -144,6 +159,18 @@ struct Corner {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_time_left_in_a_turn() {
+        // Out and back at 1 m/s, turning at 1 rad/s: π at each end, where the position stays.
+        let timed = Polyline::closed(&[Point::new(0.0, 0.0), Point::new(10.0, 0.0)]).with_turns(1.0, 1.0);
+        let pi = std::f64::consts::PI;
+        assert!((timed.length - (20.0 + 2.0 * pi)).abs() < 1e-9);
+        for (s, left) in [(0.0, pi), (1.0, pi - 1.0), (pi, 0.0), (5.0, 0.0), (10.0 + pi, pi), (10.0 + 1.5 * pi, 0.5 * pi), (15.0 + 2.0 * pi, 0.0)] {
+            assert!((timed.still_at(s) - left).abs() < 1e-9, "at {s}: {} not {left}", timed.still_at(s));
+        }
+        assert!((timed.still_at(timed.length + 1.0) - (pi - 1.0)).abs() < 1e-9, "modulo the length");
+    }
 
     #[test]
     fn a_square_timed_with_its_rounded_corners() {

@@ -7,14 +7,15 @@ use mrmm_proto::Step;
 
 use crate::body::Onward;
 
-/// The point the plan drives to next after step `pc` (through its loop), if it drives somewhere
-/// before it holds.
+/// The point the plan drives to next after step `pc` (through its loop and timed holds), if it
+/// drives somewhere before it holds for good.
 pub(super) fn next_point(steps: &[Step], pc: usize) -> Option<(f64, f64)> {
     let mut pc = pc + 1;
     for _ in 0..=steps.len() {
         match steps.get(pc)? {
             Step::Navigate { x, y, .. } => return Some((*x, *y)),
-            Step::Hold { .. } => return None,
+            Step::Hold { seconds: None } => return None,
+            Step::Hold { seconds: Some(_) } => pc += 1,
             Step::Loop { to, .. } => pc = *to,
             Step::Stream | Step::Sync { .. } => pc += 1,
         }

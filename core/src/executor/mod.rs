@@ -73,6 +73,9 @@ pub struct Executor {
     syncs_passed: u32,
     sync_msgs: u32,
     waiting: Option<(u32, u32)>,
+    /// At the barrier it waits at, the robot still turns to face its next point: its arrival
+    /// is published once it faces it.
+    turning: bool,
     /// When the robot arrived at the barrier it waits at (simulated seconds).
     waiting_since: f64,
     /// Simulated seconds spent waiting at barriers that released since the first (the
@@ -108,6 +111,8 @@ pub struct Executor {
 struct Wide {
     barrier: Barrier,
     waiting: Option<(u32, u32)>,
+    /// As [`Executor::turning`], for this barrier.
+    turning: bool,
     last_publish: f64,
     /// As [`Executor::gap`], for this barrier.
     gap: f64,
@@ -124,7 +129,10 @@ impl Executor {
             .filter(|s| s.team != assignment.team)
             .map(|s| {
                 let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &s.members);
-                (s.team.clone(), Wide { barrier, waiting: None, last_publish: 0.0, gap: REPUBLISH_S, echo_due: false, last_echo: f64::NEG_INFINITY })
+                (
+                    s.team.clone(),
+                    Wide { barrier, waiting: None, turning: false, last_publish: 0.0, gap: REPUBLISH_S, echo_due: false, last_echo: f64::NEG_INFINITY },
+                )
             })
             .collect();
         Executor {
@@ -137,6 +145,7 @@ impl Executor {
             syncs_passed: 0,
             sync_msgs: 0,
             waiting: None,
+            turning: false,
             waiting_since: 0.0,
             sync_wait: 0.0,
             last_publish: 0.0,
@@ -311,22 +320,40 @@ impl Executor {
     /// This robot is at barrier `point` of the current round of wider team `team`: publishes its
     /// arrival (again every `REPUBLISH_S` while it waits); whether the barrier released. A plan
     /// whose scope has no members listed (refused when the plan comes in) passes at once.
-    fn wide_sync(&mut self, now: f64, team: &str, point: u32, out: &mut Vec<Command>) -> bool {
+    fn wide_sync(&mut self, now: f64, team: &str, point: u32, body_idle: bool, out: &mut Vec<Command>) -> bool {
         let (me, epoch, round, republish) = (self.assignment.plan.robot.clone(), self.assignment.epoch, self.round, self.republish);
         let next = ahead::next_point(&self.assignment.plan.steps, self.pc);
+        let first = self.syncs_passed == 0;
         let Some(w) = self.wide.get_mut(team) else { return true };
         let at = (round, point);
         let arrival = SyncArrival { robot: me, epoch, point, round };
         let fresh = w.waiting != Some(at);
-        if fresh {
+        // As at the team's own barriers: at the first, the arrival waits for the turn.
+        let announce = if fresh {
             w.waiting = Some(at);
-            w.gap = republish;
             self.waiting_since = now;
+            w.turning = first && next.is_some();
+            if w.turning {
+                out.extend(next.map(|(x, y)| Command::Face { x, y }));
+                return false;
+            }
+            true
+        } else if w.turning {
+            if !body_idle {
+                return false;
+            }
+            w.turning = false;
+            true
+        } else {
+            false
+        };
+        if announce {
+            w.gap = republish;
             w.barrier.arrival(&arrival);
         }
         if !w.barrier.released(point, round) {
-            if fresh || now - w.last_publish >= w.gap {
-                if !fresh {
+            if announce || now - w.last_publish >= w.gap {
+                if !announce {
                     w.gap = (w.gap * 2.0).min(republish * REPUBLISH_BACKOFF);
                 }
                 w.last_publish = now;
@@ -420,12 +447,12 @@ impl Executor {
             }
             Step::Sync { point, scope: Some(scope) } if self.assignment.scope_path(Some(&scope)) != self.assignment.team => {
                 let team = self.assignment.scope_path(Some(&scope));
-                if !self.wide_sync(now, &team, point, out) {
+                if !self.wide_sync(now, &team, point, body_idle, out) {
                     return false;
                 }
             }
             Step::Sync { point, .. } => {
-                if !self.own_sync(now, point, out) {
+                if !self.own_sync(now, point, body_idle, out) {
                     return false;
                 }
             }
@@ -453,19 +480,40 @@ impl Executor {
         true
     }
 
-    /// This robot is at barrier `point` of its own team's current round: publishes its arrival
-    /// (again while it waits, backing off); whether the barrier released.
-    fn own_sync(&mut self, now: f64, point: u32, out: &mut Vec<Command>) -> bool {
+    /// Our arrival at barrier `point` of the current round: counted, published, led.
+    fn announce(&mut self, now: f64, point: u32, out: &mut Vec<Command>) {
+        let arrival = SyncArrival { robot: self.assignment.plan.robot.clone(), epoch: self.assignment.epoch, point, round: self.round };
+        self.barrier.arrival(&arrival);
+        self.gap = self.republish;
+        self.publish(now, (self.round, point), out);
+        out.extend(self.lead(now));
+    }
+
+    /// This robot is at barrier `point` of its own team's current round: turns to face the
+    /// plan's next point, then publishes its arrival (again while it waits, backing off);
+    /// whether the barrier released. The arrival waits for the turn (`body_idle` again): a
+    /// member that came last and announced itself before turning would leave after the others
+    /// and stay behind its slot's time for the whole leg, the gap in front of it grown by the
+    /// turn (at the start barrier, where robots come from anywhere, up to a U-turn).
+    fn own_sync(&mut self, now: f64, point: u32, body_idle: bool, out: &mut Vec<Command>) -> bool {
         let at = (point, self.round);
         if self.waiting != Some(at) {
             self.waiting = Some(at);
             self.waiting_since = now;
-            let arrival = SyncArrival { robot: self.assignment.plan.robot.clone(), epoch: self.assignment.epoch, point, round: self.round };
-            self.barrier.arrival(&arrival);
-            self.gap = self.republish;
-            self.publish(now, (self.round, point), out);
-            out.extend(self.lead(now));
-            out.extend(ahead::next_point(&self.assignment.plan.steps, self.pc).map(|(x, y)| Command::Face { x, y }));
+            let next = ahead::next_point(&self.assignment.plan.steps, self.pc);
+            self.turning = next.is_some() && self.syncs_passed == 0;
+            if self.turning {
+                out.extend(next.map(|(x, y)| Command::Face { x, y }));
+                return false;
+            }
+            self.announce(now, point, out);
+            out.extend(next.map(|(x, y)| Command::Face { x, y }));
+        } else if self.turning {
+            if !body_idle {
+                return false;
+            }
+            self.turning = false;
+            self.announce(now, point, out);
         }
         if !self.barrier.released(point, self.round) {
             if now - self.last_publish >= self.gap {

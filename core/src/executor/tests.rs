@@ -47,10 +47,12 @@ fn a_team_barrier_waits_only_on_its_team_and_a_mission_barrier_on_everyone() {
     let mission = Some(String::new());
     let steps = vec![Step::Sync { point: 0, scope: mission.clone() }, Step::Sync { point: 1, scope: None }, nav(5.0)];
     let mut a = exec_in_team("a", "fast", steps, &["a", "b"], &["a", "b", "c", "d"]);
-    let out = a.handle(0.0, Event::Tick { body_idle: true });
     let arrival = |r: &str, point: u32| SyncArrival { robot: r.into(), epoch: 2, point, round: 0 };
-    // The mission's barrier: published for the mission, not the team; the robot faces its next point.
-    assert_eq!(out, vec![Command::PublishIn("m".into(), arrival("a", 0)), Command::Face { x: 5.0, y: 0.0 }]);
+    // The mission's barrier, the plan's first: the robot faces its next point, then its arrival
+    // is published for the mission, not the team.
+    assert_eq!(a.handle(0.0, Event::Tick { body_idle: true }), vec![Command::Face { x: 5.0, y: 0.0 }]);
+    assert!(a.handle(0.02, Event::Tick { body_idle: false }).is_empty(), "turning");
+    assert_eq!(a.handle(0.05, Event::Tick { body_idle: true }), vec![Command::PublishIn("m".into(), arrival("a", 0))]);
     for r in ["b", "c"] {
         a.handle(0.1, Event::HeardIn("m".into(), arrival(r, 0)));
     }
@@ -69,6 +71,7 @@ fn a_team_barrier_waits_only_on_its_team_and_a_mission_barrier_on_everyone() {
     let steps = vec![Step::Sync { point: 0, scope: mission }, nav(1.0)];
     let mut c = exec_in_team("c", "slow", steps, &["c", "d"], &["a", "b", "c", "d"]);
     c.handle(0.0, Event::Tick { body_idle: true });
+    c.handle(0.05, Event::Tick { body_idle: true });
     for r in ["a", "b"] {
         c.handle(0.1, Event::HeardIn("m".into(), arrival(r, 0)));
     }
@@ -116,14 +119,37 @@ fn the_body_is_told_where_the_plan_drives_on_to() {
     assert_eq!(then(tick(&mut e, 0.0, true)), Some(2.0), "streaming does not stop it");
 }
 
+/// The team leaves its first barrier together: a member that came last announces itself only
+/// once it faces its way (a robot comes to its slot from anywhere, up to a U-turn away from it).
+/// Later barriers are reached driving the plan's way: arrival is announced at once and the turn
+/// at a sync point's corner is made while waiting, as the plan's timing counts it.
+#[test]
+fn only_the_first_barrier_waits_for_the_turn_before_the_arrival() {
+    let steps = vec![Step::Sync { point: 0, scope: None }, nav(1.0), Step::Sync { point: 1, scope: None }, nav(2.0)];
+    let mut e = exec(steps, &["a"]);
+    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Face { x: 1.0, y: 0.0 }]);
+    for t in [0.05, 0.1, 0.9] {
+        assert!(tick(&mut e, t, false).is_empty(), "turning at {t}: not yet there");
+    }
+    assert_eq!(e.progress().syncs_passed, 0);
+    let out = tick(&mut e, 1.0, true);
+    assert_eq!(out.first(), Some(&Command::Publish(arrival("a", 0, 0))), "{out:?}");
+    assert_eq!(e.progress().syncs_passed, 1);
+    assert!(tick(&mut e, 1.5, false).is_empty(), "driving");
+    let out = tick(&mut e, 2.0, true);
+    assert_eq!(out[..2], [Command::Publish(arrival("a", 1, 0)), Command::Face { x: 2.0, y: 0.0 }], "announced and turning at once");
+    assert_eq!(e.progress().syncs_passed, 2);
+}
+
 #[test]
 fn barrier_waits_republishes_and_releases() {
     let mut e = exec(vec![Step::Sync { point: 0, scope: None }, nav(1.0)], &["a", "b"]);
-    let acts = tick(&mut e, 0.0, true);
-    // It faces the plan's next point while it waits.
-    assert_eq!(acts, vec![Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 }), Command::Face { x: 1.0, y: 0.0 }]);
+    // At the team's first barrier it turns to face the plan's next point, then says it is there.
+    assert_eq!(tick(&mut e, 0.0, true), vec![Command::Face { x: 1.0, y: 0.0 }]);
+    assert!(tick(&mut e, 0.05, false).is_empty(), "still turning");
+    assert_eq!(tick(&mut e, 0.1, true), vec![Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 0, round: 0 })]);
     assert_eq!(e.progress().waiting, Some((0, 0)));
-    assert!(tick(&mut e, 0.1, true).is_empty());
+    assert!(tick(&mut e, 0.2, true).is_empty());
     assert_eq!(tick(&mut e, 0.6, true).len(), 1, "re-published while waiting");
     e.handle(0.65, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point: 0, round: 0 }));
     assert_eq!(tick(&mut e, 0.7, true), vec![Command::Navigate { x: 1.0, y: 0.0, then: None, speed: Some(1.0) }]);
@@ -232,6 +258,7 @@ fn the_leader_hears_every_arrival_and_announces_the_release_once() {
     let mut a = exec_as("a", BarrierMode::Leader, steps.clone(), &["a", "b", "c"]);
     // Leading: the runtime starts hearing arrivals; its own arrival is not published.
     assert_eq!(tick(&mut a, 0.0, true), vec![Command::Lead(true), Command::Face { x: 1.0, y: 0.0 }]);
+    assert!(tick(&mut a, 0.05, true).is_empty(), "facing its way: its arrival counts, unpublished");
     assert_eq!(a.progress().waiting, Some((0, 0)));
     assert!(a.handle(0.1, Event::Heard(arrival("b", 0, 0))).is_empty(), "c is missing");
     assert_eq!(a.handle(0.2, Event::Heard(arrival("c", 0, 0))), vec![Command::Release(release("a", 0, 0))], "at once, not at the next tick");
@@ -249,7 +276,8 @@ fn the_leader_hears_every_arrival_and_announces_the_release_once() {
 fn a_member_publishes_to_the_leader_waits_for_its_release_and_is_quiet_after() {
     let steps = vec![Step::Sync { point: 0, scope: None }, nav(1.0), Step::Sync { point: 1, scope: None }];
     let mut b = exec_as("b", BarrierMode::Leader, steps, &["a", "b", "c"]);
-    assert_eq!(tick(&mut b, 0.0, true), vec![Command::Publish(arrival("b", 0, 0)), Command::Face { x: 1.0, y: 0.0 }], "not leading: no Lead");
+    assert_eq!(tick(&mut b, 0.0, true), vec![Command::Face { x: 1.0, y: 0.0 }]);
+    assert_eq!(tick(&mut b, 0.05, true), vec![Command::Publish(arrival("b", 0, 0))], "not leading: no Lead");
     assert!(tick(&mut b, 0.1, true).is_empty());
     assert_eq!(tick(&mut b, 0.6, true), vec![Command::Publish(arrival("b", 0, 0))], "re-published while waiting");
     // Arrivals reach a member only when it leads; one that did would count, but c is missing.

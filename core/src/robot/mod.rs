@@ -539,7 +539,7 @@ impl Robot {
                 None => tracing::info!(robot = %self.cfg.id, "ROS 2 body driving"),
             }
         }
-        let mut body_idle = self.body.goal().is_none();
+        let mut body_idle = self.body.idle();
         // A goto's route: on to its next point.
         if body_idle && self.exec.is_none() {
             if let Some((x, y)) = self.route.pop_front() {

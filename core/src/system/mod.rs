@@ -89,6 +89,12 @@ pub(crate) struct MissionRecord {
     def: Arc<MissionDef>,
     /// The head's latest view.
     view: Option<MissionView>,
+    /// The managers before the latest change of them ([`SystemManager::managers`] then): one
+    /// of them heading a newer chain epoch than the latest view's may report. A takeover
+    /// reported here before its chain took it may lose its election to a manager it dropped
+    /// (membership sim, seed 926: central, seeing its head gone, reported itself head of a
+    /// chain without it; the head was alive, won the next epoch, and was refused for ever).
+    former: Vec<NodeId>,
     /// When a manager last reported it (or it was defined here): a mission none reports for
     /// [`RUNNING_WAIT_S`] while robots still run it has lost its chain (`recovery.rs`).
     reported_at: f64,
@@ -107,7 +113,20 @@ impl MissionRecord {
             Some(v) if def.spec.is_none() => capabilities::reported(v),
             _ => capabilities::requirements(&def),
         };
-        MissionRecord { host: def.host.clone(), def, view, adopted, reported_at: now, requires }
+        MissionRecord { host: def.host.clone(), def, view, former: Vec::new(), adopted, reported_at: now, requires }
+    }
+
+    /// Its host, then the head and chain of its latest view.
+    fn managers(&self) -> Vec<NodeId> {
+        let mut out = vec![self.host.clone()];
+        if let Some(v) = &self.view {
+            for n in std::iter::once(&v.manager.node).chain(&v.manager.chain) {
+                if !out.contains(n) {
+                    out.push(n.clone());
+                }
+            }
+        }
+        out
     }
 }
 

@@ -19,7 +19,9 @@ impl SystemManager {
         match self.missions.get(&view.name).and_then(|r| r.view.as_ref()) {
             Some(known) => {
                 let id = &from.id;
-                self.managers(&view.name).iter().any(|n| n == id) || known.robots.iter().any(|r| r == id) || known.lost.iter().any(|r| r == id)
+                let former =
+                    || view.manager.chain_epoch > known.manager.chain_epoch && self.missions.get(&view.name).is_some_and(|r| r.former.iter().any(|n| n == id));
+                self.managers(&view.name).iter().any(|n| n == id) || known.robots.iter().any(|r| r == id) || known.lost.iter().any(|r| r == id) || former()
             }
             // Not known here (this manager restarted): what the report says of other robots
             // is checked against their own telemetry in `reconcile`.
@@ -164,6 +166,7 @@ impl SystemManager {
     fn reported(&mut self, view: MissionView, from: Sender) -> Vec<Command> {
         let Some(rec) = self.missions.get_mut(&view.name) else { return vec![] };
         rec.reported_at = self.now;
+        let before = rec.managers();
         let moved = rec.host != view.manager.node;
         if moved {
             tracing::info!(mission = %view.name, from = %rec.host, to = %view.manager.node, "mission manager moved");
@@ -190,6 +193,9 @@ impl SystemManager {
             rec.requires = super::capabilities::reported(&view);
         }
         rec.view = Some(view);
+        if rec.managers() != before {
+            rec.former = before;
+        }
         let mut out = self.reconcile(&name, &robots, &lost, &from);
         if moved {
             // Its members may know only the managers they were admitted under (a robot that

@@ -82,17 +82,6 @@ impl SystemManager {
     /// The nodes that may manage `mission` as this manager knows it: its host and its chain (as
     /// last reported), head first.
     pub fn managers(&self, mission: &str) -> Vec<NodeId> {
-        let Some(rec) = self.missions.get(mission) else {
-            return vec![];
-        };
-        let mut out = vec![rec.host.clone()];
-        if let Some(v) = &rec.view {
-            for n in std::iter::once(&v.manager.node).chain(&v.manager.chain) {
-                if !out.contains(n) {
-                    out.push(n.clone());
-                }
-            }
-        }
-        out
+        self.missions.get(mission).map_or_else(Vec::new, MissionRecord::managers)
     }
 }

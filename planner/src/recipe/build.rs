@@ -251,7 +251,7 @@ impl Leaf<'_> {
             .iter()
             .zip(self.robots)
             .map(|(a, rb)| {
-                let x = Expand { approach: &a.approach, round: &a.round, rounds: self.rounds, space: self.space.as_ref() };
+                let x = Expand { approach: &a.approach, round: &a.round, start_hold: a.start_hold(), rounds: self.rounds, space: self.space.as_ref() };
                 Ok(RobotPlan { robot: a.robot.clone(), robot_type: a.robot_type.clone(), slot: a.slot, steps: expand_for(r, rb, &x)?, team: String::new() })
             })
             .collect::<Result<_, PlanError>>()?;
@@ -293,7 +293,7 @@ impl Leaf<'_> {
             }
         };
         for ((p, route), rb) in plan.plans.iter_mut().zip(&routes).zip(self.robots) {
-            p.steps = expand_for(r, rb, &Expand { approach: route, round: &[], rounds: self.rounds, space: self.space.as_ref() })?;
+            p.steps = expand_for(r, rb, &Expand { approach: route, round: &[], start_hold: None, rounds: self.rounds, space: self.space.as_ref() })?;
         }
         Ok(MissionPlan::Coverage(plan))
     }
@@ -320,6 +320,8 @@ struct Expand<'a> {
     /// The points the robot drives through to its slot, the slot last.
     approach: &'a [Point],
     round: &'a [Step],
+    /// After the start barrier ([`crate::patrol::PatrolAssignment::start_hold`]).
+    start_hold: Option<Step>,
     rounds: Option<u32>,
     /// The mission's map: a fixed `<navigate x y>` follows a route on it.
     space: Option<&'a Space>,
@@ -357,7 +359,10 @@ fn expand(templates: &[Template], x: &Expand, path: &str, at: &mut Point, out: &
                 out.extend(crate::patrol::navigate_through(&route, *speed));
                 *at = target;
             }
-            Template::SyncStart(scope) => out.push(Step::Sync { point: 0, scope: scope.resolve(path) }),
+            Template::SyncStart(scope) => {
+                out.push(Step::Sync { point: 0, scope: scope.resolve(path) });
+                out.extend(x.start_hold.clone());
+            }
             Template::Hold { seconds } => out.push(Step::Hold { seconds: *seconds }),
             Template::Round(_) => {
                 out.extend(x.round.iter().cloned());

@@ -218,7 +218,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
     while t < horizon {
         let mut heard = Vec::new();
         for (i, e) in execs.iter_mut().enumerate() {
-            for c in e.handle(t, Event::Tick { body_idle: bodies[i].goal().is_none() }) {
+            for c in e.handle(t, Event::Tick { body_idle: bodies[i].idle() }) {
                 match c {
                     Exec::Navigate { x, y, then, speed } => bodies[i].navigate_through(x, y, then, speed),
                     Exec::Hold => bodies[i].hold(),
@@ -435,6 +435,22 @@ mod tests {
         let best = best_tour(&g, 1).expect("tour");
         let team = one("ctcv", &g, 12, best, 1, 3.0).expect("run");
         assert!(team.turn_ratio() <= 1.10, "12 robots: {:.3} of the bound with turns", team.turn_ratio());
+    }
+
+    /// The team leaves its start barrier on its slots' times: a member announces itself once it
+    /// faces its way, and one whose slot is in a turn then holds for the part of the turn the
+    /// timing counts after the start. On move_base_arena (many leaves) at 3 rad/s, 12 robots
+    /// were 1.23 of the bound with turns (the last to arrive, a U-turn from its way, left a
+    /// second late; one that turned at its leaf while waiting drove a second early), and are
+    /// within 1.10 of it now.
+    #[test]
+    fn the_team_leaves_its_start_on_its_slots_times() {
+        let g = graph("move_base_arena");
+        let best = best_tour(&g, 1).expect("tour");
+        for n in [8, 12] {
+            let team = one("move_base_arena", &g, n, best, 1, 3.0).expect("run");
+            assert!(team.turn_ratio() <= 1.10, "{n} robots: {:.3} of the bound with turns", team.turn_ratio());
+        }
     }
 
     /// A robot rounds the corners it drives through, as the planner times them: alone, it patrols

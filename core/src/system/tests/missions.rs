@@ -419,6 +419,44 @@ fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
     assert!(!again.iter().any(|c| matches!(c, Command::SendToRobot { cmd: RobotCommand::Admit { .. }, .. })), "{again:?}");
 }
 
+/// Central, seeing p's head r3 gone (it was not), takes p over and reports a chain without r3
+/// before that chain took: r3 wins the next chain epoch and reports. It was a manager before the
+/// last change, and its epoch is newer: taken (membership sim, seed 926, refused it for ever).
+/// A robot never among p's managers is refused whatever epoch it claims, and so is a former one
+/// reporting no newer epoch.
+#[test]
+fn a_head_dropped_by_a_takeover_that_lost_its_election_reports_again() {
+    let mut sm = with_host(&["r1", "r2", "r3", "r4"]);
+    create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
+    let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
+    let at = |node: &str, chain_epoch: u64, chain: &[&str]| ManagerView {
+        node: node.into(),
+        epoch: 1,
+        chain_epoch,
+        chain: chain.iter().map(|&n| n.into()).collect(),
+        uncommitted_s: None,
+    };
+    let refused = |cmds: &[Command]| cmds.iter().any(|c| matches!(c, Command::Refused(_)));
+    let as_robot = |id: &str| mrmm_proto::Sender::new(mrmm_proto::Role::Robot, id);
+    // Central's host replicates p on r3, which takes over.
+    v.manager = at("central", 1, &["central", "r3"]);
+    sm.drive(1.5, status(v.clone()));
+    v.manager = at("r3", 8, &["r3", "central"]);
+    assert!(!refused(&sm.drive(2.0, Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") })));
+    v.manager = at("central", 9, &["central"]);
+    sm.drive(2.5, status(v.clone()));
+    assert!(!sm.managers("p").iter().any(|n| n == "r3"));
+    // r4 was never a manager of p.
+    v.manager = at("r4", 12, &["r4", "r3"]);
+    assert!(refused(&sm.drive(2.8, Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r4") })));
+    v.manager = at("r3", 9, &["r3"]);
+    assert!(refused(&sm.drive(2.9, Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") })), "no newer epoch");
+    v.manager = at("r3", 12, &["r3"]);
+    let cmds = sm.drive(3.0, Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") });
+    assert!(!refused(&cmds), "{cmds:?}");
+    assert_eq!(sm.managers("p").first().map(|n| n.to_string()).as_deref(), Some("r3"), "r3 heads p here again");
+}
+
 /// p's head stops reporting while central runs (its chain lost its majority) and its robots run
 /// on: after `RUNNING_WAIT_S` without a report, p is started anew (next lineage) with them — but
 /// not while reports come, and not by a central that hears none of p's robots (cut off itself).
