@@ -240,15 +240,22 @@ fn slots_among(robots: &[RobotSpec], approach: &Approach, path: &Polyline, spaci
     let here = |r: &RobotSpec| Point::new(r.x, r.y);
     let own: Vec<f64> = robots.iter().map(|r| path.project(here(r)) % spacing).collect();
     let candidates = offsets(own, max_offsets);
+    let costs = |offset: f64| -> Result<Costs, PlanError> {
+        let rows: Vec<Vec<f64>> = robots
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (0..n).map(|k| approach.cost(i, here(r), path, offset + k as f64 * spacing).0 / r.speed).collect())
+            .collect();
+        Costs::from_rows(&rows)
+    };
+    // The smallest worst time of each candidate, then the assignment (least total among the
+    // worst's) only for the candidates that tie on it: one assignment problem, not one each.
+    let worst: Vec<f64> = candidates.iter().map(|&o| costs(o).map(|c| assign::bottleneck_value(&c))).collect::<Result<_, _>>()?;
+    let least = worst.iter().copied().fold(f64::INFINITY, f64::min);
     let mut best: Option<(f64, assign::Assignment)> = None;
-    for &offset in &candidates {
-        let mut rows = Vec::with_capacity(n);
-        for (i, r) in robots.iter().enumerate() {
-            rows.push((0..n).map(|k| approach.cost(i, here(r), path, offset + k as f64 * spacing).0 / r.speed).collect());
-        }
-        let a = assign::bottleneck(&Costs::from_rows(&rows)?);
-        let better = best.as_ref().is_none_or(|(_, b)| a.max < b.max - 1e-9 || (a.max <= b.max + 1e-9 && a.total < b.total - 1e-9));
-        if better {
+    for (&offset, _) in candidates.iter().zip(&worst).filter(|(_, &w)| w <= least + 1e-9) {
+        let a = assign::bottleneck(&costs(offset)?);
+        if best.as_ref().is_none_or(|(_, b)| a.total < b.total - 1e-9) {
             best = Some((offset, a));
         }
     }
