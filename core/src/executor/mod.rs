@@ -489,12 +489,13 @@ impl Executor {
         out.extend(self.lead(now));
     }
 
-    /// This robot is at barrier `point` of its own team's current round: turns to face the
-    /// plan's next point, then publishes its arrival (again while it waits, backing off);
-    /// whether the barrier released. The arrival waits for the turn (`body_idle` again): a
-    /// member that came last and announced itself before turning would leave after the others
-    /// and stay behind its slot's time for the whole leg, the gap in front of it grown by the
-    /// turn (at the start barrier, where robots come from anywhere, up to a U-turn).
+    /// This robot is at barrier `point` of its own team's current round: publishes its arrival
+    /// (again while it waits, backing off) and turns to face the plan's next point; whether the
+    /// barrier released. At the plan's first barrier the arrival waits for the turn (`body_idle`
+    /// again): robots come to their slots from anywhere, and one that came last, up to a U-turn
+    /// from its way, and announced itself before turning would leave after the others and stay
+    /// behind its slot's time for the whole first leg. Later barriers are reached driving the
+    /// plan's way: the turn there is made while waiting, as the plan's timing counts it.
     fn own_sync(&mut self, now: f64, point: u32, body_idle: bool, out: &mut Vec<Command>) -> bool {
         let at = (point, self.round);
         if self.waiting != Some(at) {
