@@ -26,7 +26,17 @@ impl Out {
     /// `body` as JSON on `key`, for `to`; `None` (logged) if it cannot be encoded, which no type
     /// of the protocol does.
     pub fn json<T: serde::Serialize>(key: Key, body: &T, to: Audience) -> Option<Out> {
-        match mrmm_proto::to_json(body) {
+        Out::encoded(key, mrmm_proto::to_json(body), to)
+    }
+
+    /// `body` as JSON on `key`, compressed when large ([`mrmm_proto::to_json_packed`]): for what
+    /// only the fleet reads, as chain messages carrying a mission's plans.
+    pub fn packed<T: serde::Serialize>(key: Key, body: &T, to: Audience) -> Option<Out> {
+        Out::encoded(key, mrmm_proto::to_json_packed(body), to)
+    }
+
+    fn encoded(key: Key, payload: Result<Vec<u8>, mrmm_proto::ProtoError>, to: Audience) -> Option<Out> {
+        match payload {
             Ok(payload) => Some(Out { key, payload, to }),
             Err(e) => {
                 tracing::warn!("cannot encode for {key}: {e}");

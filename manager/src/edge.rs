@@ -7,7 +7,6 @@ use mrmm_core::ask::Ask;
 use mrmm_core::egress::{Audience, Out};
 use mrmm_net::Mesh;
 use serde_json::Value;
-use zenoh::bytes::Encoding;
 
 use crate::Failure;
 
@@ -15,8 +14,14 @@ use crate::Failure;
 pub async fn publish(mesh: &Mesh, out: Out) {
     let key = out.key.to_string();
     match out.to {
-        Audience::Fleet => mesh.put(&key, out.payload, Encoding::APPLICATION_JSON).await,
-        Audience::Only(to) => mesh.put_for(&key, out.payload, Encoding::APPLICATION_JSON, &to).await,
+        Audience::Fleet => {
+            let encoding = mrmm_net::encoding_of(&out.payload);
+            mesh.put(&key, out.payload, encoding).await
+        }
+        Audience::Only(to) => {
+            let encoding = mrmm_net::encoding_of(&out.payload);
+            mesh.put_for(&key, out.payload, encoding, &to).await
+        }
     }
 }
 

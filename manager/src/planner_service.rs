@@ -103,7 +103,7 @@ async fn answer(mesh: Mesh, maps: MapStore, kind: PlannerKind, q: Query, _slot: 
     let result = plan_fetching(&mesh, &maps, kind, req).await;
     tracing::info!(kind = kind.as_str(), ms = started.elapsed().as_millis() as u64, ok = result.is_ok(), "planned");
     match result {
-        Ok(p) => mesh.reply_json(&q, &p).await,
+        Ok(p) => mesh.reply_packed(&q, &p).await,
         Err(e) => mesh.reply_error(&q, &e).await,
     }
 }

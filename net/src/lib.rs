@@ -17,3 +17,4 @@ pub mod security;
 
 pub use follow::Following;
 pub use mesh::{Mesh, NodeNet};
+pub use net::encoding_of;

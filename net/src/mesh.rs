@@ -14,7 +14,7 @@ use zenoh::Session;
 
 use crate::net::{self, Mode, QueryError};
 use crate::security::{acl, Identity, Refusal, Sealer, SecuritySection, Sender, Verifier};
-use mrmm_proto::codec::{from_json, to_json};
+use mrmm_proto::codec::{from_json, to_json, to_json_packed, to_json_packed_over, ANSWER_PACK_OVER};
 use mrmm_proto::edge::{Incoming, Proof, Refused};
 use mrmm_proto::error::ProtoError;
 use mrmm_proto::operator::{ErrorCode, ErrorReply};
@@ -403,13 +403,26 @@ impl Mesh {
         self.seal_tagged_as(key, bytes, asker.as_slice(), false, by_id)
     }
 
-    /// Replies to a query with a JSON value on the query's own key, sealed.
+    /// Replies to a query with a JSON value on the query's own key, sealed; compressed only when
+    /// it would come near the message limit ([`ANSWER_PACK_OVER`]: a mission's plans of hundreds
+    /// of robots).
     pub async fn reply_json<T: Serialize>(&self, query: &Query, value: &T) {
-        match to_json(value) {
+        self.reply_encoded(query, to_json_packed_over(value, ANSWER_PACK_OVER)).await
+    }
+
+    /// Replies to a query with a JSON value, compressed when large
+    /// ([`mrmm_proto::to_json_packed`]): a planner's answer, a plan of hundreds of robots.
+    pub async fn reply_packed<T: Serialize>(&self, query: &Query, value: &T) {
+        self.reply_encoded(query, to_json_packed(value)).await
+    }
+
+    async fn reply_encoded(&self, query: &Query, payload: Result<Vec<u8>, ProtoError>) {
+        match payload {
             Ok(bytes) => {
                 let key = query.key_expr().clone();
                 let att = self.seal_reply(query, key.as_str(), &bytes);
-                if let Err(e) = query.reply(key, bytes).encoding(Encoding::APPLICATION_JSON).attachment(att).await {
+                let encoding = net::encoding_of(&bytes);
+                if let Err(e) = query.reply(key, bytes).encoding(encoding).attachment(att).await {
                     tracing::warn!("reply on {} failed: {e}", query.key_expr());
                 }
             }

@@ -299,12 +299,24 @@ pub async fn listening_endpoints(session: &zenoh::Session) -> Vec<String> {
     session.info().locators().await.iter().map(|l| l.to_string()).collect()
 }
 
-/// Replies to a query with a JSON value on the query's own key.
+/// The Zenoh encoding of a JSON payload as sent: `application/json`, or `application/zstd` when
+/// it is packed ([`mrmm_proto::to_json_packed`]).
+pub fn encoding_of(payload: &[u8]) -> Encoding {
+    if mrmm_proto::codec::is_packed(payload) {
+        Encoding::from(mrmm_proto::codec::PACKED)
+    } else {
+        Encoding::APPLICATION_JSON
+    }
+}
+
+/// Replies to a query with a JSON value on the query's own key; compressed only when it would
+/// come near the message limit ([`mrmm_proto::codec::ANSWER_PACK_OVER`]).
 pub async fn reply_json<T: Serialize>(query: &Query, value: &T) {
-    match to_json(value) {
+    match mrmm_proto::codec::to_json_packed_over(value, mrmm_proto::codec::ANSWER_PACK_OVER) {
         Ok(bytes) => {
             let key = query.key_expr().clone();
-            if let Err(e) = query.reply(key, bytes).encoding(Encoding::APPLICATION_JSON).await {
+            let encoding = encoding_of(&bytes);
+            if let Err(e) = query.reply(key, bytes).encoding(encoding).await {
                 tracing::warn!("reply on {} failed: {e}", query.key_expr());
             }
         }

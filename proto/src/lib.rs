@@ -28,7 +28,7 @@ pub mod team;
 
 pub use agent::*;
 pub use chain::ChainEnvelope;
-pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to_json};
+pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to_json, to_json_packed};
 pub use error::{BoxError, ProtoError, QueryError};
 pub use ids::{MissionName, NodeId, RobotId};
 pub use journal::{JournalEntry, JournalEvent, JournalPage};

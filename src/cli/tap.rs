@@ -31,12 +31,12 @@ pub struct Args {
     duration: Option<f64>,
 }
 
-/// A sample as one JSON value: telemetry decoded, JSON parsed, anything else by size; `from` is
-/// its proven sender (`null` when its seal is refused).
+/// A sample as one JSON value: telemetry decoded, JSON parsed (unpacked first if compressed),
+/// anything else by size; `from` is its proven sender (`null` when its seal is refused).
 fn line(t: f64, key: &str, bytes: &[u8], from: Option<String>) -> Value {
     let payload = match Key::parse(key) {
         Some(Key::RobotTelemetry(_)) => proto::decode_telemetry(bytes).ok().and_then(|t| serde_json::to_value(t).ok()),
-        _ => serde_json::from_slice::<Value>(bytes).ok(),
+        _ => proto::from_json::<Value>(key, bytes).ok(),
     };
     json!({"t": t, "key": key, "bytes": bytes.len(), "from": from, "payload": payload})
 }

@@ -8,7 +8,6 @@ use mrmm_net::Mesh;
 use mrmm_proto::{self as proto, Key, Role, Sender};
 use mrmm_ros2::msgs::Twist;
 use mrmm_ros2::RosLink;
-use zenoh::bytes::Encoding;
 use zenoh::query::Query;
 
 use super::team::TeamLink;
@@ -109,8 +108,14 @@ impl Io {
     async fn publish(&mut self, out: Out) {
         match (&out.key, out.to) {
             (Key::RobotTelemetry(_), _) => self.publish_telemetry(out.payload).await,
-            (key, Audience::Only(to)) => self.mesh.put_for(&key.to_string(), out.payload, Encoding::APPLICATION_JSON, &to).await,
-            (key, Audience::Fleet) => self.mesh.put(&key.to_string(), out.payload, Encoding::APPLICATION_JSON).await,
+            (key, Audience::Only(to)) => {
+                let encoding = mrmm_net::encoding_of(&out.payload);
+                self.mesh.put_for(&key.to_string(), out.payload, encoding, &to).await
+            }
+            (key, Audience::Fleet) => {
+                let encoding = mrmm_net::encoding_of(&out.payload);
+                self.mesh.put(&key.to_string(), out.payload, encoding).await
+            }
         }
     }
 
