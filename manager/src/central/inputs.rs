@@ -29,15 +29,25 @@ pub(super) struct Held {
     queryables: Vec<zenoh::query::Queryable<()>>,
 }
 
+/// Central's inboxes, by priority (see [`crate::inbox`]).
+pub(super) struct Inboxes {
+    pub(super) live: Inbox<Input>,
+    pub(super) control: Inbox<Input>,
+    pub(super) telemetry: Inbox<Input>,
+}
+
 /// Robots' and hosts' liveliness (on their own inbox: a flood of data must not push out the
-/// news that a robot died), telemetry, mission status, the operator API and the advice.
-pub(super) async fn declare_inputs(session: &zenoh::Session, live: &Inbox<Input>, net: &Inbox<Input>) -> Result<Held, ManagerError> {
+/// news that a robot died), telemetry (on its own: shed first), mission status, the operator API
+/// and the advice.
+pub(super) async fn declare_inputs(session: &zenoh::Session, inboxes: &Inboxes) -> Result<Held, ManagerError> {
+    let Inboxes { live, control: net, telemetry } = inboxes;
     let mut held = Held::default();
     for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
         held.subs.push(live.liveliness(session, pattern.to_string(), Input::Sample).await?);
     }
     for sub in system::subscriptions() {
-        held.subs.push(net.subscribe(session, sub.expr, Input::Sample).await?);
+        let inbox = if sub.expr == Pattern::AllTelemetry.to_string() { telemetry } else { net };
+        held.subs.push(inbox.subscribe(session, sub.expr, Input::Sample).await?);
     }
     let wraps: [fn(Query) -> Input; 2] = [Input::Operator, Input::Advice];
     for (key, wrap) in [Pattern::SystemAll.to_string(), Key::AgentAdvice.to_string()].into_iter().zip(wraps) {

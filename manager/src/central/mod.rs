@@ -17,18 +17,20 @@ use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
 
 pub use self::config::CentralConfig;
-use self::inputs::{declare_inputs, decode, Input, SealCounts};
+use self::inputs::{declare_inputs, decode, Inboxes, Input, SealCounts};
 use self::io::{answer_journal, carry_out, Io};
 use self::start::{load_maps, node_net, open_state};
 use crate::error::ManagerError;
-use crate::inbox::Inbox;
+use crate::inbox::{Inbox, Lanes};
 use crate::system;
 pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
 
 /// Liveliness changes waiting for central's loop, at most.
 const LIVELINESS_QUEUE: usize = 65_536;
-/// Publications and queries waiting for central's loop, at most.
+/// Publications (but telemetry) and queries waiting for central's loop, at most.
 const NET_QUEUE: usize = 8_192;
+/// Telemetry samples waiting for central's loop, at most (a second of 1 600 robots').
+const TELEMETRY_QUEUE: usize = 8_192;
 /// Period of the manager's housekeeping tick.
 const TICK: Duration = Duration::from_millis(250);
 /// How long a create's dry-run plan may take (the planner's limits keep it far shorter).
@@ -51,11 +53,13 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let endpoints = net::listening_endpoints(&session).await;
     let zid = session.zid().to_string();
     // Our own tasks' answers; and, bounded, what the network sends (liveliness apart: a flood
-    // of data must not push out the news that a robot died).
-    let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
-    let (live, mut live_rx) = Inbox::new("liveliness", LIVELINESS_QUEUE);
-    let (net, mut net_rx) = Inbox::new("publications and queries", NET_QUEUE);
-    let held = declare_inputs(&session, &live, &net).await?;
+    // of data must not push out the news that a robot died; telemetry apart: shed first).
+    let (tx, rx) = mpsc::unbounded_channel::<Input>();
+    let (live, live_rx) = Inbox::new("central: liveliness", LIVELINESS_QUEUE);
+    let (control, control_rx) = Inbox::new("central: publications and queries", NET_QUEUE);
+    let (telemetry, telemetry_rx) = Inbox::new("central: telemetry", TELEMETRY_QUEUE);
+    let held = declare_inputs(&session, &Inboxes { live, control, telemetry }).await?;
+    let mut lanes = Lanes { live: live_rx, own: rx, control: control_rx, telemetry: telemetry_rx };
     // The default planner service and mission host live here too.
     let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), maps.clone(), shutdown.child_token()));
     let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, chain, maps.clone(), shutdown.child_token()));
@@ -80,13 +84,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
                 }
                 Event::System(system::Event::Tick)
             }
-            i = async {
-                tokio::select! {
-                    i = live_rx.recv() => i,
-                    i = rx.recv() => i,
-                    i = net_rx.recv() => i,
-                }
-            } => match i {
+            i = lanes.recv() => match i {
                 Some(Input::Operator(q)) if Key::parse(q.key_expr().as_str()) == Some(Key::SystemJournal) => {
                     answer_journal(&mesh, journal.as_ref(), q).await;
                     continue;

@@ -18,7 +18,7 @@ use self::inputs::{decode, local_changed, Input};
 use self::io::{carry_out, Io};
 use crate::chain::Params;
 use crate::error::ManagerError;
-use crate::inbox::Inbox;
+use crate::inbox::{Inbox, Lanes};
 use crate::maps::MapStore;
 pub use mrmm_core::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
 
@@ -68,14 +68,16 @@ pub async fn serve_with(
         tracing::info!(%node, ?store, missions = entries.len(), "chain state restored from disk");
     }
     // Our own tasks' answers; and, bounded, what the network sends (liveliness apart).
-    let (tx, mut rx) = mpsc::unbounded_channel::<Input>();
-    let (live, mut live_rx) = Inbox::new("liveliness", LIVELINESS_QUEUE);
-    let (net, mut net_rx) = Inbox::new("publications and queries", NET_QUEUE);
+    let (tx, rx) = mpsc::unbounded_channel::<Input>();
+    let (live, live_rx) = Inbox::new("host: liveliness", LIVELINESS_QUEUE);
+    let (net, net_rx) = Inbox::new("host: publications and queries", NET_QUEUE);
+    let (telemetry, telemetry_rx) = Inbox::new("host: telemetry", NET_QUEUE);
+    let mut lanes = Lanes { live: live_rx, own: rx, control: net_rx, telemetry: telemetry_rx };
     // Its chain key, the telemetry of the robots the core watches and (robot nodes: they learn
     // their mission's chain from the head's status) the status of the robot's missions: what
     // the core says it listens to, subscribed one by one.
     let n = net.clone();
-    let mut follow = Following::new(session.clone(), move |s| n.push(Input::Sample(s)));
+    let mut follow = Following::new(session.clone(), move |s| crate::inbox::sort(&n, &telemetry, s, Input::Sample));
     let _held = inputs::declare(&session, &node, &live, &net).await?;
     tracing::info!(%node, "mission host up");
     let t0 = Instant::now();
@@ -103,13 +105,7 @@ pub async fn serve_with(
                     continue;
                 }
             },
-            i = async {
-                tokio::select! {
-                    i = live_rx.recv() => i,
-                    i = rx.recv() => i,
-                    i = net_rx.recv() => i,
-                }
-            } => match i {
+            i = lanes.recv() => match i {
                 Some(Input::Query(q)) => match io.query(q).await {
                     Some(e) => e,
                     None => continue,
