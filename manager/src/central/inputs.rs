@@ -11,7 +11,7 @@ use zenoh::query::Query;
 use zenoh::sample::Sample;
 
 use crate::error::ManagerError;
-use crate::inbox::Inbox;
+use crate::inbox::{Inbox, Latest};
 use crate::system;
 
 /// What the Zenoh callbacks and central's own tasks hand its loop.
@@ -33,7 +33,7 @@ pub(super) struct Held {
 pub(super) struct Inboxes {
     pub(super) live: Inbox<Input>,
     pub(super) control: Inbox<Input>,
-    pub(super) telemetry: Inbox<Input>,
+    pub(super) telemetry: Latest<Input>,
 }
 
 /// Robots' and hosts' liveliness (on their own inbox: a flood of data must not push out the
@@ -46,8 +46,12 @@ pub(super) async fn declare_inputs(session: &zenoh::Session, inboxes: &Inboxes) 
         held.subs.push(live.liveliness(session, pattern.to_string(), Input::Sample).await?);
     }
     for sub in system::subscriptions() {
-        let inbox = if sub.expr == Pattern::AllTelemetry.to_string() { telemetry } else { net };
-        held.subs.push(inbox.subscribe(session, sub.expr, Input::Sample).await?);
+        let sub = if sub.expr == Pattern::AllTelemetry.to_string() {
+            telemetry.subscribe(session, sub.expr, Input::Sample).await?
+        } else {
+            net.subscribe(session, sub.expr, Input::Sample).await?
+        };
+        held.subs.push(sub);
     }
     let wraps: [fn(Query) -> Input; 2] = [Input::Operator, Input::Advice];
     for (key, wrap) in [Pattern::SystemAll.to_string(), Key::AgentAdvice.to_string()].into_iter().zip(wraps) {

@@ -21,7 +21,7 @@ use self::inputs::{declare_inputs, decode, Inboxes, Input, SealCounts};
 use self::io::{answer_journal, carry_out, Io};
 use self::start::{load_maps, node_net, open_state};
 use crate::error::ManagerError;
-use crate::inbox::{Inbox, Lanes};
+use crate::inbox::{Inbox, Lanes, Latest};
 use crate::system;
 pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
 
@@ -29,7 +29,7 @@ pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
 const LIVELINESS_QUEUE: usize = 65_536;
 /// Publications (but telemetry) and queries waiting for central's loop, at most.
 const NET_QUEUE: usize = 8_192;
-/// Telemetry samples waiting for central's loop, at most (a second of 1 600 robots').
+/// Robots whose latest telemetry sample may wait for central's loop, at most.
 const TELEMETRY_QUEUE: usize = 8_192;
 /// Period of the manager's housekeeping tick.
 const TICK: Duration = Duration::from_millis(250);
@@ -57,7 +57,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let (tx, rx) = mpsc::unbounded_channel::<Input>();
     let (live, live_rx) = Inbox::new("central: liveliness", LIVELINESS_QUEUE);
     let (control, control_rx) = Inbox::new("central: publications and queries", NET_QUEUE);
-    let (telemetry, telemetry_rx) = Inbox::new("central: telemetry", TELEMETRY_QUEUE);
+    let (telemetry, telemetry_rx) = Latest::new("central: telemetry", TELEMETRY_QUEUE);
     let held = declare_inputs(&session, &Inboxes { live, control, telemetry }).await?;
     let mut lanes = Lanes { live: live_rx, own: rx, control: control_rx, telemetry: telemetry_rx };
     // The default planner service and mission host live here too.

@@ -18,7 +18,7 @@ use self::inputs::{decode, local_changed, Input};
 use self::io::{carry_out, Io};
 use crate::chain::Params;
 use crate::error::ManagerError;
-use crate::inbox::{Inbox, Lanes};
+use crate::inbox::{Inbox, Lanes, Latest};
 use crate::maps::MapStore;
 pub use mrmm_core::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
 
@@ -71,7 +71,7 @@ pub async fn serve_with(
     let (tx, rx) = mpsc::unbounded_channel::<Input>();
     let (live, live_rx) = Inbox::new("host: liveliness", LIVELINESS_QUEUE);
     let (net, net_rx) = Inbox::new("host: publications and queries", NET_QUEUE);
-    let (telemetry, telemetry_rx) = Inbox::new("host: telemetry", NET_QUEUE);
+    let (telemetry, telemetry_rx) = Latest::new("host: telemetry", NET_QUEUE);
     let mut lanes = Lanes { live: live_rx, own: rx, control: net_rx, telemetry: telemetry_rx };
     // Its chain key, the telemetry of the robots the core watches and (robot nodes: they learn
     // their mission's chain from the head's status) the status of the robot's missions: what

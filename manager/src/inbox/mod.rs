@@ -7,9 +7,11 @@
 //! A node's loop takes its input from three inboxes, in order of priority: liveliness (a robot's
 //! death must not wait behind data), control (chain messages, queries, statuses), then telemetry
 //! ([`is_telemetry`]). Telemetry is most of what a node hears and the only input a newer sample
-//! replaces, so an overloaded node sheds it first: a full telemetry inbox never drops a chain
-//! acknowledgement (a 450-robot mission's head, starved of CPU, once could not commit for 20 s
-//! and its mission was started anew).
+//! replaces, so an overloaded node sheds it first: its inbox keeps each robot's latest sample
+//! ([`Latest`]), and a flood of it never drops a chain acknowledgement (a 450-robot mission's
+//! head, starved of CPU, once could not commit for 20 s and its mission was started anew).
+
+mod latest;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -20,6 +22,7 @@ use zenoh::sample::Sample;
 use zenoh::Session;
 
 use crate::error::ManagerError;
+pub use latest::{Latest, LatestRx};
 
 /// The sending side of a bounded queue.
 #[derive(Debug)]
@@ -99,7 +102,7 @@ pub struct Lanes<T> {
     pub live: mpsc::Receiver<T>,
     pub own: mpsc::UnboundedReceiver<T>,
     pub control: mpsc::Receiver<T>,
-    pub telemetry: mpsc::Receiver<T>,
+    pub telemetry: LatestRx<T>,
 }
 
 impl<T> Lanes<T> {
@@ -110,7 +113,7 @@ impl<T> Lanes<T> {
             i = self.live.recv() => i,
             i = self.own.recv() => i,
             i = self.control.recv() => i,
-            i = self.telemetry.recv() => i,
+            i = self.telemetry.recv() => Some(i),
         }
     }
 }
@@ -120,11 +123,29 @@ pub fn is_telemetry(key: &str) -> bool {
     matches!(mrmm_proto::Key::parse(key), Some(mrmm_proto::Key::RobotTelemetry(_)))
 }
 
-/// Puts a sample on the inbox of its kind: telemetry, or control.
-pub fn sort<T>(control: &Inbox<T>, telemetry: &Inbox<T>, s: Sample, wrap: fn(Sample) -> T) {
+/// Puts a sample on the inbox of its kind: telemetry (its robot's latest), or control.
+pub fn sort<T>(control: &Inbox<T>, telemetry: &Latest<T>, s: Sample, wrap: fn(Sample) -> T) {
     let key = s.key_expr().clone();
-    let inbox = if is_telemetry(key.as_str()) { telemetry } else { control };
-    inbox.push_from(key.as_str(), wrap(s));
+    if is_telemetry(key.as_str()) {
+        telemetry.push(key.as_str(), wrap(s));
+    } else {
+        control.push_from(key.as_str(), wrap(s));
+    }
+}
+
+impl<T: Send + 'static> Latest<T> {
+    /// Subscribes to `key`: each sample is queued as `wrap(sample)`, the latest of its key.
+    pub async fn subscribe(&self, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ManagerError> {
+        let t = self.clone();
+        session
+            .declare_subscriber(key)
+            .callback(move |s| {
+                let key = s.key_expr().clone();
+                t.push(key.as_str(), wrap(s))
+            })
+            .await
+            .map_err(ManagerError::zenoh)
+    }
 }
 
 #[cfg(test)]
@@ -146,14 +167,14 @@ mod tests {
         let (_live, live) = Inbox::<&str>::new("live", 4);
         let (own_tx, own) = mpsc::unbounded_channel();
         let (control, control_rx) = Inbox::new("control", 4);
-        let (telemetry, telemetry_rx) = Inbox::new("telemetry", 4);
+        let (telemetry, telemetry_rx) = Latest::new("telemetry", 4);
         let mut lanes = Lanes { live, own, control: control_rx, telemetry: telemetry_rx };
-        for _ in 0..100 {
-            telemetry.push("telemetry");
+        for i in 0..100 {
+            telemetry.push(&format!("r{}", i % 8), "telemetry");
         }
         control.push("chain ack");
         own_tx.send("planned").expect("open");
-        assert_eq!((telemetry.dropped(), control.dropped()), (96, 0));
+        assert_eq!((telemetry.dropped(), control.dropped()), (48, 0));
         assert_eq!(lanes.recv().await, Some("planned"));
         assert_eq!(lanes.recv().await, Some("chain ack"));
         assert_eq!(lanes.recv().await, Some("telemetry"));
