@@ -1,5 +1,7 @@
 //! A burst of member losses, planned around once: the replan waits [`LOSS_BURST_S`] after the
 //! first loss, [`LOSS_QUIET_S`] after the last, and [`LOSS_BURST_MAX_S`] after the first at most.
+//! A member joining while such a replan is held is part of the burst (a robot lost and back
+//! within it, as links flap on a loaded machine, costs no plan of its own).
 
 /// Members lost within this long of the first of a burst are planned around in one replan,
 /// seconds (a site's robots lost together cost one plan, not one each).
@@ -36,6 +38,16 @@ impl LossBurst {
                 false
             }
         }
+    }
+
+    /// A member joined at `now`: whether a replan is held for a burst, which then takes it in (held
+    /// as for a loss, within the same bound); otherwise it is for the caller to plan.
+    pub(super) fn join(&mut self, now: f64) -> bool {
+        if self.due.is_none() {
+            return false;
+        }
+        self.loss(now);
+        true
     }
 
     /// When the held replan is due, if one is.

@@ -265,6 +265,9 @@ impl MissionManager {
                     return vec![]; // already in: nothing changes
                 }
                 self.members.insert(member.spec.id.clone(), member);
+                if self.burst.join(now) {
+                    return vec![]; // in the replan held for a burst of losses
+                }
                 self.replan()
             }
             Event::Absent(member) => {

@@ -430,6 +430,26 @@ fn a_burst_of_losses_costs_one_replan() {
     assert_ne!(again.snapshot().plan.map(|(e, _)| e), Some(again.epoch()));
 }
 
+/// A member lost and back within a burst (links flapping on a loaded machine) costs no plan of its
+/// own: the replan held for the burst takes it in.
+#[test]
+fn a_member_back_within_a_burst_is_planned_with_it() {
+    let mut m = MissionManager::new(spec(), "node".into(), (0..6).map(|i| robot(&format!("r{i}"), "ground", i as f64)).collect());
+    let (epoch, plan) = plan_for(&m.handle(0.0, Event::Start));
+    m.handle(0.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    let asked = |out: &[Command]| {
+        out.iter()
+            .filter_map(|c| if let Command::RequestPlan { epoch, request, .. } = c { Some((*epoch, request.robots.len())) } else { None })
+            .collect::<Vec<_>>()
+    };
+    m.handle(1.0, Event::Lost { ids: vec!["r1".into(), "r2".into()] });
+    assert!(asked(&m.handle(1.4, Event::Joined(robot("r1", "ground", 1.0)))).is_empty(), "held with the burst");
+    assert!(asked(&m.handle(1.95, Event::Tick)).is_empty(), "a second after the first loss");
+    assert_eq!(asked(&m.handle(2.0, Event::Tick)), [(2, 5)], "one plan: r1 in, r2 out");
+    // With no burst held, a join is planned at once.
+    assert_eq!(asked(&m.handle(5.0, Event::Joined(robot("r2", "ground", 2.0)))), [(3, 6)]);
+}
+
 /// Losses noticed one after another (each within half a second of the last) are one burst, and
 /// the replan is held at most three seconds after the first.
 #[test]
