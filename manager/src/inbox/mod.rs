@@ -4,9 +4,9 @@
 //! new input is dropped, counted and logged (rate-limited); the senders' own retries (plans,
 //! controls, re-published arrivals, periodic telemetry) make up for it.
 //!
-//! A node's loop takes its input from three inboxes, in order of priority: liveliness (a robot's
-//! death must not wait behind data), control (chain messages, queries, statuses), then telemetry
-//! ([`is_telemetry`]). Telemetry is most of what a node hears and the only input a newer sample
+//! A node's loop takes its input by priority ([`Lanes`]): liveliness (a robot's death must not
+//! wait behind data), its own tasks' answers, control (chain messages, queries, statuses), then
+//! telemetry ([`is_telemetry`]). Telemetry is most of what a node hears and the only input a newer sample
 //! replaces, so an overloaded node sheds it first: its inbox keeps each robot's latest sample
 //! ([`Latest`]), and a flood of it never drops a chain acknowledgement (a 450-robot mission's
 //! head, starved of CPU, once could not commit for 20 s and its mission was started anew).
@@ -184,9 +184,12 @@ mod tests {
 
     #[test]
     fn telemetry_is_told_from_control_by_its_key() {
-        assert!(is_telemetry("mrmm/robots/r1/telemetry"));
-        for key in ["mrmm/hosts/r1/chain", "mrmm/missions/p/status", "mrmm/robots/r1/info", "mrmm/team/p/sync/0/1", "garbage"] {
-            assert!(!is_telemetry(key), "{key}");
+        use mrmm_proto::Key;
+        assert!(is_telemetry(&Key::RobotTelemetry("r1".into()).to_string()));
+        let others =
+            [Key::HostChain("r1".into()), Key::MissionStatus("p".into()), Key::RobotInfo("r1".into()), Key::TeamSync { team: "p".into(), point: 0, round: 1 }];
+        for key in others.iter().map(Key::to_string).chain(["garbage".to_string()]) {
+            assert!(!is_telemetry(&key), "{key}");
         }
     }
 }
