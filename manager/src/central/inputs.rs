@@ -11,7 +11,7 @@ use zenoh::query::Query;
 use zenoh::sample::Sample;
 
 use crate::error::ManagerError;
-use crate::inbox::{Inbox, Latest};
+use crate::inbox::{self, Inbox, Latest};
 use crate::system;
 
 /// What the Zenoh callbacks and central's own tasks hand its loop.
@@ -47,9 +47,9 @@ pub(super) async fn declare_inputs(session: &zenoh::Session, inboxes: &Inboxes) 
     }
     for sub in system::subscriptions() {
         let sub = if sub.expr == Pattern::AllTelemetry.to_string() {
-            telemetry.subscribe(session, sub.expr, Input::Sample).await?
+            inbox::subscribe(telemetry, session, sub.expr, Input::Sample).await?
         } else {
-            net.subscribe(session, sub.expr, Input::Sample).await?
+            inbox::subscribe(net, session, sub.expr, Input::Sample).await?
         };
         held.subs.push(sub);
     }

@@ -73,20 +73,44 @@ impl<T> Inbox<T> {
     }
 }
 
-impl<T: Send + 'static> Inbox<T> {
-    /// Subscribes to `key`: each sample is queued as `wrap(sample)`.
-    pub async fn subscribe(&self, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ManagerError> {
-        let t = self.clone();
-        session
-            .declare_subscriber(key)
-            .callback(move |s| {
-                let key = s.key_expr().clone();
-                t.push_from(key.as_str(), wrap(s))
-            })
-            .await
-            .map_err(ManagerError::zenoh)
-    }
+/// A queue a sample goes on by the key it came on: an [`Inbox`] (in order) or a [`Latest`] (each
+/// key's latest).
+pub trait Keyed<T>: Clone + Send + Sync + 'static {
+    /// Queues `v`, received on `key`; never blocks.
+    fn push_keyed(&self, key: &str, v: T);
+}
 
+impl<T: Send + 'static> Keyed<T> for Inbox<T> {
+    fn push_keyed(&self, key: &str, v: T) {
+        self.push_from(key, v)
+    }
+}
+
+impl<T: Send + 'static> Keyed<T> for Latest<T> {
+    fn push_keyed(&self, key: &str, v: T) {
+        self.push(key, v)
+    }
+}
+
+/// Subscribes to `key`: each sample is queued on `queue` as `wrap(sample)`.
+pub async fn subscribe<T: Send + 'static>(
+    queue: &impl Keyed<T>,
+    session: &Session,
+    key: String,
+    wrap: fn(Sample) -> T,
+) -> Result<Subscriber<()>, ManagerError> {
+    let q = queue.clone();
+    session
+        .declare_subscriber(key)
+        .callback(move |s| {
+            let key = s.key_expr().clone();
+            q.push_keyed(key.as_str(), wrap(s))
+        })
+        .await
+        .map_err(ManagerError::zenoh)
+}
+
+impl<T: Send + 'static> Inbox<T> {
     /// Follows the liveliness tokens on `key`, those alive already included: each appearance and
     /// disappearance is queued as `wrap(sample)`.
     pub async fn liveliness(&self, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ManagerError> {
@@ -130,21 +154,6 @@ pub fn sort<T>(control: &Inbox<T>, telemetry: &Latest<T>, s: Sample, wrap: fn(Sa
         telemetry.push(key.as_str(), wrap(s));
     } else {
         control.push_from(key.as_str(), wrap(s));
-    }
-}
-
-impl<T: Send + 'static> Latest<T> {
-    /// Subscribes to `key`: each sample is queued as `wrap(sample)`, the latest of its key.
-    pub async fn subscribe(&self, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ManagerError> {
-        let t = self.clone();
-        session
-            .declare_subscriber(key)
-            .callback(move |s| {
-                let key = s.key_expr().clone();
-                t.push(key.as_str(), wrap(s))
-            })
-            .await
-            .map_err(ManagerError::zenoh)
     }
 }
 
