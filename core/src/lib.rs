@@ -14,6 +14,7 @@
 //! | [`host::HostCore`] | the missions a node replicates and leads; whom it trusts with their chains (`host/trust.rs`) | `mrmm_manager::host` |
 //! | [`robot::Robot`] | one robot: commands, plans, its body | `mrmm_peer::runtime` |
 //! | [`executor::Executor`] | a plan's steps and team barriers ([`barrier`]) | [`robot::Robot`] |
+//! | [`traffic::Traffic`] | who may drive which lanes of a navigation graph: grants, deadlocks broken | [`traffic::sim`] (not yet the fleet) |
 
 pub mod agent;
 pub mod ask;
@@ -35,6 +36,7 @@ pub mod robot;
 pub mod ros_body;
 pub mod system;
 pub mod timeouts;
+pub mod traffic;
 pub mod viewers;
 pub mod wire;
 

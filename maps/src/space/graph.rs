@@ -77,6 +77,18 @@ impl GraphSpace {
         Field { dist, owner }
     }
 
+    /// The shortest path along the directed edges from vertex `a` to vertex `b`, as vertices
+    /// (both ends included), or none if `b` cannot be reached.
+    pub fn vertex_path(&self, a: u32, b: u32) -> Option<Vec<u32>> {
+        let n = self.nodes() as u32;
+        if a >= n || b >= n {
+            return None;
+        }
+        let to = NodeIndex::new(b as usize);
+        let (_, path) = petgraph::algo::astar(&self.g, NodeIndex::new(a as usize), |x| x == to, |e| *e.weight(), |_| 0.0)?;
+        Some(path.iter().map(|x| x.index() as u32).collect())
+    }
+
     /// The shortest path along the edges: a's point, the vertices, b's point; with the length of
     /// each segment (an edge's own length, the leads' straight lines).
     pub fn route(&self, a: &Node, b: &Node) -> Option<(Vec<Point>, Vec<f64>)> {

@@ -1,0 +1,218 @@
+//! Robots waiting for each other: cycles of waits broken by one robot stepping aside, and parked
+//! robots making way.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use mrmm_proto::RobotId;
+
+use super::{Command, Traffic, Why};
+
+/// How many vertices of a waiting robot's route (from where it stands) a robot stepping aside
+/// keeps clear of.
+const CLEAR_AHEAD: usize = 6;
+/// A robot steps aside at most this many hops.
+const ASIDE_HOPS: usize = 4;
+
+impl Traffic {
+    /// Who each robot that stands waiting waits for.
+    fn waits(&self) -> BTreeMap<RobotId, BTreeSet<RobotId>> {
+        let mut waits = BTreeMap::new();
+        for (id, r) in &self.robots {
+            if r.lost || !(r.stands_waiting() || (r.granted.is_none() && !r.route.is_empty())) {
+                continue;
+            }
+            let i = r.granted.map_or(0, |g| g + 1);
+            let by = self.grantable(id, r, i).err().unwrap_or_default();
+            if !by.is_empty() {
+                waits.insert(id.clone(), by);
+            }
+        }
+        waits
+    }
+
+    /// Breaks one cycle of waits, or makes a parked robot give way: whether a route changed.
+    pub(super) fn resolve(&mut self, now: f64, out: &mut Vec<Command>) -> bool {
+        let waits = self.waits();
+        if let Some(cycle) = find_cycle(&waits) {
+            let avoid = self.ahead_of(cycle.iter());
+            // The robot that asked for its way last gives way first.
+            let mut by_age = cycle.clone();
+            by_age.sort_by(|a, b| {
+                let asked = |id: &RobotId| self.robots.get(id).map_or(f64::INFINITY, |r| r.asked);
+                asked(b).total_cmp(&asked(a)).then_with(|| b.cmp(a))
+            });
+            for m in &by_age {
+                if self.step_aside(m, &avoid, Why::Deadlock, out) {
+                    return true;
+                }
+            }
+            // None can: one that waits for them may make room next to them.
+            let tail: Vec<RobotId> =
+                waits.iter().filter(|(w, by)| !cycle.contains(w) && by.iter().any(|b| cycle.contains(b))).map(|(w, _)| w.clone()).collect();
+            for t in &tail {
+                if self.step_aside(t, &avoid, Why::Deadlock, out) {
+                    return true;
+                }
+            }
+            for m in &cycle {
+                let by = waits.get(m).cloned().unwrap_or_default();
+                self.report_blocked(m, by, out);
+            }
+            return false;
+        }
+        for (id, by) in &waits {
+            let long = self.robots.get(id).and_then(|r| r.waiting).is_some_and(|since| now - since >= self.params.yield_after);
+            if !long {
+                continue;
+            }
+            let mut stuck = BTreeSet::new();
+            for b in by {
+                let Some(rb) = self.robots.get(b) else { continue };
+                if rb.stands_waiting() || (!rb.lost && !rb.parked()) {
+                    continue; // it moves, or waits itself: not in the way for good
+                }
+                if !rb.lost && self.step_aside(b, &self.ahead_of([id].into_iter()), Why::Yield, out) {
+                    return true;
+                }
+                stuck.insert(b.clone());
+            }
+            if !stuck.is_empty() {
+                self.report_blocked(id, stuck, out);
+            }
+        }
+        false
+    }
+
+    /// The next vertices of these robots' routes, from where each stands.
+    fn ahead_of<'a>(&self, ids: impl Iterator<Item = &'a RobotId>) -> BTreeSet<u32> {
+        let mut avoid = BTreeSet::new();
+        for id in ids {
+            if let Some(r) = self.robots.get(id) {
+                let from = r.reached.unwrap_or(0);
+                avoid.extend(r.route.iter().skip(from).take(CLEAR_AHEAD + 1));
+            }
+        }
+        avoid
+    }
+
+    /// Sends a standing robot to the nearest vertex not in `avoid` it can reach over free
+    /// lanes and vertices (at most [`ASIDE_HOPS`] hops, each of which it can drive back), then
+    /// back the same way and on its route.
+    fn step_aside(&mut self, id: &RobotId, avoid: &BTreeSet<u32>, why: Why, out: &mut Vec<Command>) -> bool {
+        let Some(r) = self.robots.get(id) else { return false };
+        let Some(v) = r.standing() else { return false };
+        let Some(path) = self.aside(id, v, avoid) else { return false };
+        let Some(g) = r.granted else { return false };
+        // Back along the way it stepped aside by, as far as where its route goes on from.
+        let rest = &r.route[g + 1..];
+        let back_to = rest.first().and_then(|next| path.iter().position(|p| p == next)).map_or(0, |k| k);
+        let skip_next = usize::from(rest.first().is_some_and(|next| path[back_to] == *next));
+        let mut route = r.route[..=g].to_vec();
+        route.extend(&path[1..]);
+        route.extend(path[back_to..path.len() - 1].iter().rev());
+        route.extend(&rest[skip_next..]);
+        let mut r = self.robots.remove(id).unwrap_or_default();
+        let b = r.reached.unwrap_or(0);
+        r.route = route[b..].to_vec();
+        r.reached = r.reached.map(|p| p - b);
+        r.granted = Some(g - b);
+        self.announce(id, &mut r, why, out);
+        self.robots.insert(id.clone(), r);
+        true
+    }
+
+    /// Breadth-first over free two-way lanes from `v`: the path to the first vertex not in
+    /// `avoid` (nearest in hops, then in metres).
+    fn aside(&self, id: &RobotId, v: u32, avoid: &BTreeSet<u32>) -> Option<Vec<u32>> {
+        let mut parent: BTreeMap<u32, u32> = BTreeMap::new();
+        let mut frontier = vec![v];
+        for _ in 0..ASIDE_HOPS {
+            let mut next = Vec::new();
+            for &x in &frontier {
+                let mut out: Vec<u32> = self.layout.next(x).to_vec();
+                let here = self.layout.point(x);
+                out.sort_by(|a, b| here.dist(self.layout.point(*a)).total_cmp(&here.dist(self.layout.point(*b))));
+                for w in out {
+                    if w == v || parent.contains_key(&w) || !self.layout.is_edge(w, x) {
+                        continue;
+                    }
+                    let need: Vec<_> = self.layout.lane(x, w).into_iter().chain([w]).collect();
+                    if !self.in_the_way(id, &need).is_empty() {
+                        continue;
+                    }
+                    parent.insert(w, x);
+                    if !avoid.contains(&w) {
+                        let mut path = vec![w];
+                        while let Some(&p) = parent.get(path.last().unwrap_or(&v)) {
+                            path.push(p);
+                            if p == v {
+                                break;
+                            }
+                        }
+                        path.reverse();
+                        return Some(path);
+                    }
+                    next.push(w);
+                }
+            }
+            frontier = next;
+        }
+        None
+    }
+
+    fn report_blocked(&mut self, id: &RobotId, by: BTreeSet<RobotId>, out: &mut Vec<Command>) {
+        let Some(r) = self.robots.get_mut(id) else { return };
+        let by: Vec<RobotId> = by.into_iter().collect();
+        if r.blocked != by {
+            r.blocked.clone_from(&by);
+            out.push(Command::Blocked { robot: id.clone(), by });
+        }
+    }
+}
+
+/// A cycle of waits (each member waits for the next), the first found in id order.
+fn find_cycle(waits: &BTreeMap<RobotId, BTreeSet<RobotId>>) -> Option<Vec<RobotId>> {
+    #[derive(Clone, Copy, PartialEq)]
+    enum Mark {
+        Open,
+        Done,
+    }
+    let mut mark: BTreeMap<&RobotId, Mark> = BTreeMap::new();
+    for start in waits.keys() {
+        if mark.contains_key(start) {
+            continue;
+        }
+        // Depth-first, with an explicit stack of (robot, its successors still to try).
+        let mut path: Vec<&RobotId> = vec![start];
+        let mut stack: Vec<Vec<&RobotId>> = vec![succ(waits, start)];
+        mark.insert(start, Mark::Open);
+        while let Some(next) = stack.last_mut() {
+            match next.pop() {
+                Some(n) => match mark.get(n) {
+                    Some(Mark::Open) => {
+                        let at = path.iter().position(|p| *p == n).unwrap_or(0);
+                        return Some(path[at..].iter().map(|p| (*p).clone()).collect());
+                    }
+                    Some(Mark::Done) => {}
+                    None => {
+                        mark.insert(n, Mark::Open);
+                        path.push(n);
+                        stack.push(succ(waits, n));
+                    }
+                },
+                None => {
+                    stack.pop();
+                    if let Some(done) = path.pop() {
+                        mark.insert(done, Mark::Done);
+                    }
+                }
+            }
+        }
+    }
+    None
+}
+
+/// The robots `id` waits for that wait themselves, last first (popped in id order).
+fn succ<'a>(waits: &'a BTreeMap<RobotId, BTreeSet<RobotId>>, id: &RobotId) -> Vec<&'a RobotId> {
+    waits.get(id).map(|s| s.iter().filter(|n| waits.contains_key(*n)).rev().collect()).unwrap_or_default()
+}

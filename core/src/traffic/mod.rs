@@ -1,0 +1,433 @@
+//! Traffic on a navigation graph: robots that share corridors without meeting in them, as a pure
+//! state machine. No I/O, no clock: [`Traffic::handle`] takes the time and an [`Event`] and
+//! returns [`Command`]s.
+//!
+//! # Model
+//! Robots drive routes of vertices along the graph's directed edges. The graph's vertices and
+//! lanes are **resources** ([`Layout`]): a robot standing at a vertex holds it; a robot driving
+//! from `u` to `v` holds `u`, the lane and `v` until it reaches `v`, where it lets `u` and the
+//! lane go. A resource is held by one robot at a time, and never while another robot holds one
+//! it conflicts with (closer than the clearance). So two robots are never closer than the
+//! clearance, never on one lane (head-on or one behind the other), and never at one vertex.
+//!
+//! * **Grants.** A robot may drive its route up to the vertex it was last granted
+//!   ([`Command::Grant`]), at most `ahead` hops beyond where it stands (VDA 5050's released
+//!   nodes: the rest of the route is the horizon). Hops are granted in route order; when several
+//!   robots want one resource, the one that has waited longest gets it.
+//! * **Deadlocks.** Robots standing and waiting for each other in a cycle (two robots facing
+//!   each other across a lane, a robot coming out of a dead end meeting one going in) are found
+//!   after every event; one of them steps aside to the nearest free vertex off the others' way
+//!   (a few hops at most) and comes back ([`Command::Route`] with the new route). The one that
+//!   asked for its way last gives way first, so the oldest trip always goes on (no livelock of
+//!   robots taking turns stepping aside). When none can, they are reported
+//!   ([`Command::Blocked`]).
+//! * **Parked robots** (at the end of their route) in the way of one that has waited
+//!   `yield_after` seconds step aside and come back the same way.
+//! * **Lost robots** keep what they stood on (they may still be there); only their grants ahead
+//!   are let go. A robot removed from traffic lets everything go.
+//!
+//! Routes that do not follow the graph's edges, or that start elsewhere than where the robot
+//! is, are refused ([`Command::Refused`]); reports of vertices a robot was not granted are
+//! ignored. Every decision is deterministic (robots in id order, waits by age).
+
+mod deadlock;
+pub mod layout;
+pub mod sim;
+#[cfg(test)]
+mod tests;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+
+use mrmm_proto::RobotId;
+
+pub use layout::{Layout, Res};
+
+/// Longest route taken, in vertices.
+pub const MAX_ROUTE: usize = 10_000;
+
+/// How traffic is run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Params {
+    /// Hops a robot may be granted beyond the vertex it stands at.
+    pub ahead: usize,
+    /// A parked robot in the way of one that waited this long (seconds) steps aside.
+    pub yield_after: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params { ahead: 2, yield_after: 3.0 }
+    }
+}
+
+/// Something that happened.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// `robot` will drive `route` (vertices along directed edges). A robot new to traffic enters
+    /// the graph at `route[0]` (once granted); one already in it must start where it stands, or,
+    /// while it drives a hop, at the vertex the hop goes to. Replaces the robot's route.
+    Route { robot: RobotId, route: Vec<u32> },
+    /// `robot` reached `vertex`, the next vertex of its route.
+    Reached { robot: RobotId, vertex: u32 },
+    /// The robot's liveliness was lost: it keeps what it stood on.
+    Lost { robot: RobotId },
+    /// The robot is out of traffic (left the map, taken away): everything it held is free.
+    Remove { robot: RobotId },
+    /// Time passed.
+    Tick,
+}
+
+/// Why a robot's route was changed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Why {
+    /// The robot asked for it.
+    Asked,
+    /// It was in a cycle of robots waiting for each other.
+    Deadlock,
+    /// It was parked in the way of a robot.
+    Yield,
+}
+
+/// What the drivers must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// The route `robot` drives, version `version`: the one it asked for, joined behind what it
+    /// was already granted, or one traffic made (a step aside, then the rest of its way). It
+    /// last reached position `reached` of it (none: it is not at `route[0]` yet) and may drive
+    /// up to position `upto` (none: it waits to enter at `route[0]`). Supersedes every earlier
+    /// version.
+    Route { robot: RobotId, version: u64, route: Vec<u32>, reached: Option<usize>, upto: Option<usize>, why: Why },
+    /// `robot` may drive route `version` up to position `upto` of it (vertex `vertex`).
+    Grant { robot: RobotId, version: u64, upto: usize, vertex: u32 },
+    /// `robot` has waited for `by` (lost, or with nowhere to make way) and cannot go on.
+    Blocked { robot: RobotId, by: Vec<RobotId> },
+    /// The route was not taken.
+    Refused { robot: RobotId, why: String },
+}
+
+/// One robot in traffic.
+#[derive(Debug, Clone, Default)]
+struct Robot {
+    route: Vec<u32>,
+    /// Position in `route` of the vertex the robot last reached (none: not on the graph yet).
+    reached: Option<usize>,
+    /// Position in `route` up to which it may drive (none: not even its entry).
+    granted: Option<usize>,
+    /// Version of the route, +1 each time it changes.
+    version: u64,
+    /// When it asked for the way it is on: the longer ago, the less it gives way.
+    asked: f64,
+    /// Resources held, with how many granted hops need each.
+    held: BTreeMap<Res, u32>,
+    /// Since when it stands waiting for a grant.
+    waiting: Option<f64>,
+    lost: bool,
+    /// Robots it was reported blocked by (reported once).
+    blocked: Vec<RobotId>,
+}
+
+impl Robot {
+    /// Whether it stands still wanting to go on.
+    fn stands_waiting(&self) -> bool {
+        !self.lost && self.granted == self.reached && self.wants_more()
+    }
+
+    fn wants_more(&self) -> bool {
+        self.granted.map_or(!self.route.is_empty(), |g| g + 1 < self.route.len())
+    }
+
+    /// At the end of its route, holding its last vertex.
+    fn parked(&self) -> bool {
+        self.reached.is_some_and(|r| r + 1 == self.route.len())
+    }
+
+    /// The vertex it stands at, if it stands (not driving a hop).
+    fn standing(&self) -> Option<u32> {
+        match (self.reached, self.granted) {
+            (Some(r), Some(g)) if r == g => Some(self.route[r]),
+            _ => None,
+        }
+    }
+}
+
+/// Traffic on one graph.
+#[derive(Debug, Clone)]
+pub struct Traffic {
+    layout: Arc<Layout>,
+    params: Params,
+    robots: BTreeMap<RobotId, Robot>,
+    /// Who holds each resource.
+    holder: Vec<Option<RobotId>>,
+}
+
+impl Traffic {
+    pub fn new(layout: Arc<Layout>, params: Params) -> Traffic {
+        let holder = vec![None; layout.resources()];
+        Traffic { layout, params, robots: BTreeMap::new(), holder }
+    }
+
+    pub fn layout(&self) -> &Layout {
+        &self.layout
+    }
+
+    /// Who holds resource `r`.
+    pub fn holder(&self, r: Res) -> Option<&RobotId> {
+        self.holder.get(r as usize).and_then(Option::as_ref)
+    }
+
+    /// The resources `robot` holds.
+    pub fn held(&self, robot: &RobotId) -> Vec<Res> {
+        self.robots.get(robot).map(|r| r.held.keys().copied().collect()).unwrap_or_default()
+    }
+
+    /// `robot`'s route and the position in it it may drive to.
+    pub fn route(&self, robot: &RobotId) -> Option<(&[u32], Option<usize>)> {
+        self.robots.get(robot).map(|r| (r.route.as_slice(), r.granted))
+    }
+
+    /// One line on a robot: its route, how far it got and may go, what it holds, whom it waits
+    /// for (for logs and failed simulations).
+    pub fn describe(&self, robot: &RobotId) -> String {
+        let Some(r) = self.robots.get(robot) else { return format!("{robot}: not in traffic") };
+        let next = r.granted.map_or(0, |g| g + 1);
+        let by = if next < r.route.len() { self.grantable(robot, r, next).err().unwrap_or_default() } else { BTreeSet::new() };
+        format!(
+            "{robot}: route {:?}, reached {:?}, granted {:?}, holds {:?}, waits since {:?} for {by:?}{}",
+            r.route,
+            r.reached,
+            r.granted,
+            r.held,
+            r.waiting,
+            if r.lost { ", lost" } else { "" }
+        )
+    }
+
+    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+        let mut out = Vec::new();
+        match event {
+            Event::Route { robot, route } => self.set_route(now, robot, route, &mut out),
+            Event::Reached { robot, vertex } => self.reached(&robot, vertex),
+            Event::Lost { robot } => self.lost(&robot),
+            Event::Remove { robot } => {
+                if let Some(mut r) = self.robots.remove(&robot) {
+                    self.release_all(&robot, &mut r);
+                }
+            }
+            Event::Tick => {}
+        }
+        // Deadlocks are broken before anything freed is granted: a robot that steps aside into
+        // a vertex just let go keeps its place in the queue.
+        let stepped = self.resolve(now, &mut out);
+        self.grant_all(now, &mut out);
+        if self.resolve(now, &mut out) || stepped {
+            self.grant_all(now, &mut out);
+        }
+        out
+    }
+
+    fn set_route(&mut self, now: f64, id: RobotId, mut route: Vec<u32>, out: &mut Vec<Command>) {
+        route.dedup();
+        if let Err(why) = self.check_route(&route) {
+            out.push(Command::Refused { robot: id, why });
+            return;
+        }
+        let mut r = self.robots.remove(&id).unwrap_or_default();
+        let joined = match r.granted {
+            None => {
+                self.release_all(&id, &mut r);
+                r.reached = None;
+                Ok(route)
+            }
+            Some(g) => self.join(&r, g, &route),
+        };
+        match joined {
+            Ok(joined) => {
+                // What was driven before the robot's last vertex is dropped from the route.
+                let b = r.reached.unwrap_or(0);
+                r.route = joined[b..].to_vec();
+                r.reached = r.reached.map(|p| p - b);
+                r.granted = r.granted.map(|g| g - b);
+                r.lost = false;
+                r.waiting = None;
+                r.asked = now;
+                self.announce(&id, &mut r, Why::Asked, out);
+            }
+            Err(why) => out.push(Command::Refused { robot: id.clone(), why }),
+        }
+        self.robots.insert(id, r);
+    }
+
+    /// The robot's route up to what it was granted (position `g`), then `route` — which must
+    /// start at a vertex it will be at: one at or after `g`, or one it passed since it last
+    /// stood (it drives back to it along the granted way, lane by lane).
+    fn join(&self, r: &Robot, g: usize, route: &[u32]) -> Result<Vec<u32>, String> {
+        let b = r.reached.unwrap_or(0);
+        let s = route[0];
+        if let Some(k) = (g..r.route.len()).find(|&k| r.route[k] == s) {
+            return Ok(r.route[..=k].iter().chain(&route[1..]).copied().collect());
+        }
+        if let Some(k) = (b..g).rev().find(|&k| r.route[k] == s) {
+            let mut joined = r.route[..=g].to_vec();
+            joined.extend(r.route[k..g].iter().rev());
+            if joined[g..].windows(2).all(|w| self.layout.is_edge(w[0], w[1])) {
+                joined.extend(&route[1..]);
+                return Ok(joined);
+            }
+        }
+        let here = match r.reached {
+            Some(p) if p == g => format!("stands at vertex {}", r.route[p]),
+            _ => format!("may drive on to vertex {}", r.route[g]),
+        };
+        Err(format!("the route starts at vertex {s}, but the robot {here} and cannot get back to it along its way"))
+    }
+
+    /// Tells the robot its route changed (a new version).
+    fn announce(&self, id: &RobotId, r: &mut Robot, why: Why, out: &mut Vec<Command>) {
+        r.version += 1;
+        out.push(Command::Route { robot: id.clone(), version: r.version, route: r.route.clone(), reached: r.reached, upto: r.granted, why });
+    }
+
+    fn check_route(&self, route: &[u32]) -> Result<(), String> {
+        if route.is_empty() {
+            return Err("the route is empty".into());
+        }
+        if route.len() > MAX_ROUTE {
+            return Err(format!("{} vertices; at most {MAX_ROUTE}", route.len()));
+        }
+        let n = self.layout.vertices() as u32;
+        if let Some(v) = route.iter().find(|&&v| v >= n) {
+            return Err(format!("vertex {v} is not on the map ({n} vertices)"));
+        }
+        if let Some(w) = route.windows(2).find(|w| !self.layout.is_edge(w[0], w[1])) {
+            return Err(format!("no lane leads from vertex {} to {}", w[0], w[1]));
+        }
+        Ok(())
+    }
+
+    fn reached(&mut self, id: &RobotId, vertex: u32) {
+        let Some(mut r) = self.robots.remove(id) else { return };
+        let next = r.reached.map_or(0, |p| p + 1);
+        if r.granted.is_some_and(|g| g >= next) && r.route.get(next) == Some(&vertex) {
+            if let Some(p) = r.reached {
+                let from = r.route[p];
+                for res in std::iter::once(from).chain(self.layout.lane(from, vertex)) {
+                    self.release(id, &mut r, res);
+                }
+            }
+            r.reached = Some(next);
+            r.lost = false;
+        }
+        self.robots.insert(id.clone(), r);
+    }
+
+    /// A lost robot keeps what it stood on or the hop it drove (it may still be there); its
+    /// grants beyond are let go.
+    fn lost(&mut self, id: &RobotId) {
+        let Some(mut r) = self.robots.remove(id) else { return };
+        let keep = match r.reached {
+            Some(p) => r.granted.map(|g| g.min(p + 1)),
+            None => r.granted.map(|_| 0),
+        };
+        while r.granted > keep {
+            let g = r.granted.unwrap_or(0);
+            for res in self.hop(&r.route, g) {
+                self.release(id, &mut r, res);
+            }
+            r.granted = g.checked_sub(1);
+        }
+        r.lost = true;
+        r.waiting = None;
+        self.robots.insert(id.clone(), r);
+    }
+
+    fn release(&mut self, id: &RobotId, r: &mut Robot, res: Res) {
+        if let Some(c) = r.held.get_mut(&res) {
+            *c -= 1;
+            if *c == 0 {
+                r.held.remove(&res);
+                if self.holder[res as usize].as_ref() == Some(id) {
+                    self.holder[res as usize] = None;
+                }
+            }
+        }
+    }
+
+    fn release_all(&mut self, id: &RobotId, r: &mut Robot) {
+        for res in std::mem::take(&mut r.held).into_keys() {
+            if self.holder[res as usize].as_ref() == Some(id) {
+                self.holder[res as usize] = None;
+            }
+        }
+    }
+
+    /// The resources hop `i` of a route needs (its entry when `i` is 0).
+    fn hop(&self, route: &[u32], i: usize) -> Vec<Res> {
+        let v = route[i];
+        match i.checked_sub(1).map(|p| route[p]) {
+            Some(u) => self.layout.lane(u, v).into_iter().chain([v]).collect(),
+            None => vec![v],
+        }
+    }
+
+    /// The robots that hold `res` or a resource in conflict with it, other than `id`.
+    fn in_the_way(&self, id: &RobotId, res: &[Res]) -> BTreeSet<RobotId> {
+        let mut by = BTreeSet::new();
+        for &r in res {
+            for &c in std::iter::once(&r).chain(self.layout.conflicts(r)) {
+                if let Some(h) = &self.holder[c as usize] {
+                    if h != id {
+                        by.insert(h.clone());
+                    }
+                }
+            }
+        }
+        by
+    }
+
+    /// What hop `i` of robot `id`'s route needs, if it can be granted now; else the robots in
+    /// its way. A vertex or lane the robot comes back to is granted again only once it has let
+    /// it go (else a robot stepping aside would never make way). And don't block the box: a
+    /// robot stops on a junction only where its route ends, or if it can leave it at once.
+    fn grantable(&self, id: &RobotId, r: &Robot, i: usize) -> Result<Vec<Res>, BTreeSet<RobotId>> {
+        let need = self.hop(&r.route, i);
+        let mut by = self.in_the_way(id, &need);
+        let own = need.iter().any(|x| r.held.contains_key(x));
+        if i + 1 < r.route.len() && self.layout.is_junction(r.route[i]) {
+            by.extend(self.in_the_way(id, &self.hop(&r.route, i + 1)));
+        }
+        if by.is_empty() && !own {
+            Ok(need)
+        } else {
+            Err(by)
+        }
+    }
+
+    /// Grants every hop it can, longest-waiting robots first.
+    fn grant_all(&mut self, now: f64, out: &mut Vec<Command>) {
+        let mut order: Vec<(f64, RobotId)> =
+            self.robots.iter().filter(|(_, r)| !r.lost && r.wants_more()).map(|(id, r)| (r.waiting.unwrap_or(f64::INFINITY), id.clone())).collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
+        for (_, id) in order {
+            let Some(mut r) = self.robots.remove(&id) else { continue };
+            let before = r.granted;
+            let limit = r.reached.map_or(0, |p| p + self.params.ahead).min(r.route.len() - 1);
+            while r.granted.is_none_or(|g| g < limit) {
+                let i = r.granted.map_or(0, |g| g + 1);
+                let Ok(need) = self.grantable(&id, &r, i) else { break };
+                for res in need {
+                    *r.held.entry(res).or_insert(0) += 1;
+                    self.holder[res as usize] = Some(id.clone());
+                }
+                r.granted = Some(i);
+            }
+            if r.granted != before {
+                let g = r.granted.unwrap_or(0);
+                out.push(Command::Grant { robot: id.clone(), version: r.version, upto: g, vertex: r.route[g] });
+                r.blocked.clear();
+            }
+            r.waiting = if r.stands_waiting() || r.granted.is_none() { r.waiting.or(Some(now)) } else { None };
+            self.robots.insert(id, r);
+        }
+    }
+}

@@ -1,0 +1,229 @@
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use mrmm_maps::graph::{Edge, Vertex};
+use mrmm_maps::{NavGraph, Point};
+use mrmm_proto::RobotId;
+
+use super::*;
+
+/// A graph of two-way lanes between points.
+fn graph(points: &[(f64, f64)], lanes: &[(u32, u32)]) -> NavGraph {
+    let vertices = points.iter().enumerate().map(|(i, &(x, y))| Vertex { name: format!("v{i}"), at: Point::new(x, y) }).collect();
+    let mut edges = Vec::new();
+    for &(a, b) in lanes {
+        let length = Point::new(points[a as usize].0, points[a as usize].1).dist(Point::new(points[b as usize].0, points[b as usize].1));
+        edges.push(Edge { from: a, to: b, length });
+        edges.push(Edge { from: b, to: a, length });
+    }
+    NavGraph { vertices, edges }
+}
+
+/// A corridor 0 – 1 – 2, 2 m a lane, with a pocket 3 off its middle.
+fn corridor_with_pocket() -> Traffic {
+    let g = graph(&[(0.0, 0.0), (2.0, 0.0), (4.0, 0.0), (2.0, 2.0)], &[(0, 1), (1, 2), (1, 3)]);
+    Traffic::new(Arc::new(Layout::new(&g, 0.6)), Params::default())
+}
+
+fn id(s: &str) -> RobotId {
+    RobotId::from(s)
+}
+
+/// What a driver knows of its robot: its route, the position it last reached, the one it may
+/// drive to.
+type Driven = (Vec<u32>, Option<usize>, Option<usize>);
+
+/// Plays the robots' drivers: each follows its latest route, one granted vertex at a time, in
+/// turn; checks after each step that no resource (or two in conflict) is held twice. Returns the
+/// commands seen and whether every robot reached the end of its route.
+fn drive(t: &mut Traffic, first: Vec<Command>, steps: usize) -> (Vec<Command>, bool) {
+    let mut seen = first.clone();
+    let mut routes: BTreeMap<RobotId, Driven> = BTreeMap::new();
+    let mut pending = first;
+    let mut now = 0.0;
+    for _ in 0..steps {
+        for c in std::mem::take(&mut pending) {
+            match c {
+                Command::Route { robot, route, reached, upto, .. } => {
+                    routes.insert(robot, (route, reached, upto));
+                }
+                Command::Grant { robot, upto, .. } => {
+                    if let Some(r) = routes.get_mut(&robot) {
+                        r.2 = Some(upto);
+                    }
+                }
+                _ => {}
+            }
+        }
+        let movers: Vec<RobotId> =
+            routes.iter().filter(|(_, (_, reached, upto))| upto.is_some_and(|u| reached.is_none_or(|p| u > p))).map(|(k, _)| k.clone()).collect();
+        if movers.is_empty() && routes.values().all(|(route, reached, _)| *reached == Some(route.len() - 1)) {
+            return (seen, true);
+        }
+        now += 1.0;
+        for robot in movers {
+            let (route, reached, _) = routes.get_mut(&robot).unwrap();
+            let next = reached.map_or(0, |p| p + 1);
+            *reached = Some(next);
+            let out = t.handle(now, Event::Reached { robot: robot.clone(), vertex: route[next] });
+            check_exclusive(t);
+            seen.extend(out.clone());
+            pending.extend(out);
+        }
+        let out = t.handle(now, Event::Tick);
+        seen.extend(out.clone());
+        pending.extend(out);
+    }
+    (seen, false)
+}
+
+fn check_exclusive(t: &Traffic) {
+    for r in 0..t.layout().resources() as u32 {
+        let Some(h) = t.holder(r) else { continue };
+        for &c in t.layout().conflicts(r) {
+            if let Some(o) = t.holder(c) {
+                assert_eq!(o, h, "{h} holds {r} and {o} holds {c}, which conflict");
+            }
+        }
+    }
+}
+
+#[test]
+fn robots_meeting_head_on_pass_by_a_pocket() {
+    let mut t = corridor_with_pocket();
+    let mut first = t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    first.extend(t.handle(1.0, Event::Route { robot: id("b"), route: vec![2, 1, 0] }));
+    let (seen, done) = drive(&mut t, first, 50);
+    assert!(done, "both got through: {seen:?}");
+    // b asked last: it made way, into the pocket and back.
+    let aside: Vec<_> = seen.iter().filter(|c| matches!(c, Command::Route { why: Why::Deadlock, .. })).collect();
+    assert_eq!(aside.len(), 1, "{seen:?}");
+    assert!(matches!(aside[0], Command::Route { robot, route, .. } if robot == &id("b") && route.contains(&3)), "{aside:?}");
+}
+
+#[test]
+fn with_nowhere_to_go_robots_are_reported_blocked() {
+    // A bare corridor: no pocket, no way round.
+    let g = graph(&[(0.0, 0.0), (2.0, 0.0), (4.0, 0.0)], &[(0, 1), (1, 2)]);
+    let mut t = Traffic::new(Arc::new(Layout::new(&g, 0.6)), Params::default());
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    t.handle(0.0, Event::Route { robot: id("b"), route: vec![2, 1, 0] });
+    let mut out = t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    out.extend(t.handle(0.0, Event::Reached { robot: id("b"), vertex: 2 }));
+    // One of them got the middle; the other waits. Moving on, they face each other.
+    let first = if t.holder(1) == Some(&id("a")) { ("a", 1, "b") } else { ("b", 1, "a") };
+    out.extend(t.handle(1.0, Event::Reached { robot: id(first.0), vertex: first.1 }));
+    assert!(out.iter().any(|c| matches!(c, Command::Blocked { .. })), "{out:?}");
+    check_exclusive(&t);
+}
+
+#[test]
+fn crossing_lanes_without_a_vertex_conflict() {
+    // Two lanes crossing in an X, their ends far apart.
+    let g = graph(&[(-3.0, 0.0), (3.0, 0.0), (0.0, -3.0), (0.0, 3.0)], &[(0, 1), (2, 3)]);
+    let layout = Layout::new(&g, 0.6);
+    let (l01, l23) = (layout.lane(0, 1).unwrap(), layout.lane(2, 3).unwrap());
+    assert!(layout.conflicts(l01).contains(&l23));
+    let mut t = Traffic::new(Arc::new(layout), Params::default());
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1] });
+    t.handle(0.0, Event::Route { robot: id("b"), route: vec![2, 3] });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(0.0, Event::Reached { robot: id("b"), vertex: 2 });
+    let (a, b) = (t.route(&id("a")).unwrap().1, t.route(&id("b")).unwrap().1);
+    assert_eq!((a, b), (Some(1), Some(0)), "a drives across, b waits at its end");
+    t.handle(1.0, Event::Reached { robot: id("a"), vertex: 1 });
+    assert_eq!(t.route(&id("b")).unwrap().1, Some(1), "b goes once a is across");
+}
+
+#[test]
+fn vertices_closer_than_the_clearance_are_held_together() {
+    let g = graph(&[(0.0, 0.0), (0.4, 0.0), (5.0, 0.0)], &[(0, 2), (1, 2)]);
+    let layout = Layout::new(&g, 0.6);
+    assert!(layout.conflicts(0).contains(&1));
+    assert!(!layout.conflicts(0).contains(&2));
+}
+
+#[test]
+fn bad_routes_are_refused_and_change_nothing() {
+    let mut t = corridor_with_pocket();
+    for (route, says) in [
+        (vec![], "empty"),
+        (vec![0, 2], "no lane leads from vertex 0 to 2"),
+        (vec![0, 9], "vertex 9 is not on the map"),
+        (vec![1; MAX_ROUTE + 1].iter().enumerate().map(|(i, _)| (i % 2) as u32).collect(), "at most"),
+    ] {
+        let out = t.handle(0.0, Event::Route { robot: id("a"), route });
+        assert!(matches!(&out[..], [Command::Refused { why, .. }] if why.contains(says)), "{says}: {out:?}");
+    }
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1] });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    // It stands at 0 (granted on to 1): a route from 2 is nowhere it will be.
+    let out = t.handle(0.0, Event::Route { robot: id("a"), route: vec![2, 1] });
+    assert!(matches!(&out[..], [Command::Refused { why, .. }] if why.contains("starts at vertex 2")), "{out:?}");
+    assert_eq!(t.route(&id("a")).unwrap().0, &[0, 1]);
+}
+
+#[test]
+fn reports_of_vertices_not_granted_are_ignored() {
+    let mut t = corridor_with_pocket();
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    t.handle(0.0, Event::Route { robot: id("b"), route: vec![3, 1] });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(0.0, Event::Reached { robot: id("b"), vertex: 3 });
+    // b claims it reached 1 without a grant, and a vertex off its route: nothing changes.
+    let held = t.held(&id("b"));
+    t.handle(1.0, Event::Reached { robot: id("b"), vertex: 2 });
+    t.handle(1.0, Event::Reached { robot: id("nobody"), vertex: 2 });
+    assert_eq!(t.held(&id("b")), held);
+    check_exclusive(&t);
+}
+
+#[test]
+fn a_lost_robot_keeps_where_it_stood_until_removed() {
+    let mut t = corridor_with_pocket();
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![1, 2] });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 1 });
+    assert_eq!(t.route(&id("a")).unwrap().1, Some(1), "granted on to 2");
+    t.handle(0.5, Event::Lost { robot: id("a") });
+    // Lost while it may have started the hop: it keeps both ends and the lane.
+    assert!(t.held(&id("a")).contains(&1) && t.held(&id("a")).contains(&2));
+    t.handle(1.0, Event::Route { robot: id("b"), route: vec![0, 1] });
+    t.handle(1.0, Event::Reached { robot: id("b"), vertex: 0 });
+    assert_eq!(t.route(&id("b")).unwrap().1, Some(0), "b waits for the lost robot's vertex");
+    t.handle(2.0, Event::Remove { robot: id("a") });
+    assert_eq!(t.route(&id("b")).unwrap().1, Some(1), "b goes once it is removed");
+}
+
+#[test]
+fn a_new_route_is_joined_behind_what_was_granted() {
+    let mut t = corridor_with_pocket();
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    assert_eq!(t.route(&id("a")).unwrap().1, Some(2));
+    // Still at 0, granted to 2: a route from 1 is joined at 1, the grant kept to 1 (the pocket
+    // is let go as granted).
+    let out = t.handle(1.0, Event::Route { robot: id("a"), route: vec![1, 3] });
+    let Some(Command::Route { route, reached, upto, .. }) = out.first() else { panic!("{out:?}") };
+    assert_eq!((route.as_slice(), *reached), (&[0, 1, 2, 1, 3][..], Some(0)), "drives back from 2 along its way");
+    assert_eq!(*upto, Some(2));
+    // Asked from where it stands: joined at once.
+    let mut t = corridor_with_pocket();
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1] });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 1 });
+    let out = t.handle(1.0, Event::Route { robot: id("a"), route: vec![1, 3] });
+    assert!(matches!(&out[0], Command::Route { route, reached: Some(0), .. } if route == &vec![1, 3]), "{out:?}");
+}
+
+#[test]
+fn a_parked_robot_makes_way_after_a_while() {
+    let mut t = corridor_with_pocket();
+    // b parks at 1, the junction, which a must cross.
+    t.handle(0.0, Event::Route { robot: id("b"), route: vec![1] });
+    t.handle(0.0, Event::Reached { robot: id("b"), vertex: 1 });
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    let out = t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    assert!(!out.iter().any(|c| matches!(c, Command::Route { .. })), "not at once: {out:?}");
+    let out = t.handle(Params::default().yield_after + 0.1, Event::Tick);
+    assert!(out.iter().any(|c| matches!(c, Command::Route { robot, why: Why::Yield, route, .. } if robot == &id("b") && route == &vec![1, 3, 1])), "{out:?}");
+}
