@@ -116,3 +116,28 @@ fn every_experiment_runs_tiny_and_writes_rows_figures_and_summary() -> anyhow::R
     }
     Ok(())
 }
+
+/// `mrmm experiment traffic` on one team size: a row per map with two robots, robots under
+/// traffic never closer than the clearance while blind ones meet, and the summary written.
+#[test]
+fn the_traffic_experiment_writes_a_row_per_map() -> anyhow::Result<()> {
+    let dir = Scratch::new("evaluation-traffic");
+    let out = dir.path("results");
+    let run = Command::new(EXE).args(["experiment", "traffic", "--sizes", "2", "--out"]).arg(&out).output()?;
+    anyhow::ensure!(run.status.success(), "experiment failed: {}", String::from_utf8_lossy(&run.stderr));
+    let csv = std::fs::read_to_string(out.join("results-traffic.csv"))?;
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+    let rows: Vec<BTreeMap<&str, &str>> = lines.map(|l| header.iter().copied().zip(l.split(',')).collect()).collect();
+    let num = |r: &BTreeMap<&str, &str>, k: &str| -> f64 { r.get(k).and_then(|v| v.parse().ok()).unwrap_or(f64::NAN) };
+    let maps: Vec<&str> = rows.iter().map(|r| r["map"]).collect();
+    assert_eq!(maps, ["1r5", "DIAG_floor1", "DIAG_labs", "broughton", "ctcv", "cumberland", "example", "grid", "move_base_arena", "office"], "{csv}");
+    for r in &rows {
+        assert!(num(r, "closest_m") >= 0.6 && num(r, "too_close") == 0.0, "{r:?}");
+        assert!(num(r, "trips") > 0.0 && num(r, "trips") <= num(r, "blind_trips"), "{r:?}");
+    }
+    assert!(rows.iter().map(|r| num(r, "blind_runs_met")).sum::<f64>() > 0.0, "{csv}");
+    let summary = std::fs::read_to_string(out.join("summary-traffic.md"))?;
+    assert!(summary.contains("| office | 29 | 2 |"), "{summary}");
+    Ok(())
+}

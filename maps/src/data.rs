@@ -1,5 +1,6 @@
 //! Maps shipped with mrmm (`maps/data/`, sources and licences in its README): patrolling_sim's
-//! navigation graphs, embedded for `mrmm experiment maps` and the tests.
+//! and Open-RMF's navigation graphs, embedded for `mrmm experiment maps`, `mrmm experiment
+//! traffic` and the tests.
 
 /// patrolling_sim's floor plans as navigation graphs: (name, `.graph` text).
 pub const PATROLLING_SIM: [(&str, &str); 9] = [
@@ -13,3 +14,6 @@ pub const PATROLLING_SIM: [(&str, &str); 9] = [
     ("grid", include_str!("../data/patrolling_sim/grid.graph")),
     ("move_base_arena", include_str!("../data/patrolling_sim/move_base_arena.graph")),
 ];
+
+/// Open-RMF's office demo as a navigation graph: (name, `nav_graphs/<n>.yaml` text).
+pub const OPEN_RMF: [(&str, &str); 1] = [("office", include_str!("../data/open_rmf/office.nav_graph.yaml"))];

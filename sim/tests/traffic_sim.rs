@@ -17,15 +17,9 @@ use mrmm_maps::NavGraph;
 const CLEARANCE: f64 = 0.6;
 
 fn maps() -> Vec<(&'static str, NavGraph)> {
-    macro_rules! ps {
-        ($($name:literal),*) => {
-            vec![$(($name, mrmm_maps::patrolling_sim::parse($name, include_str!(concat!("../../maps/data/patrolling_sim/", $name, ".graph"))).expect($name))),*]
-        };
-    }
-    let mut maps = ps!("1r5", "DIAG_floor1", "DIAG_labs", "broughton", "ctcv", "cumberland", "example", "grid", "move_base_arena");
-    let office = include_str!("../../maps/data/open_rmf/office.nav_graph.yaml");
-    maps.push(("office", mrmm_maps::rmf::parse("office", office).expect("office")));
-    maps
+    let ps = mrmm_maps::data::PATROLLING_SIM.iter().map(|(name, text)| (*name, mrmm_maps::patrolling_sim::parse(name, text).expect(name)));
+    let rmf = mrmm_maps::data::OPEN_RMF.iter().map(|(name, text)| (*name, mrmm_maps::rmf::parse(name, text).expect(name)));
+    ps.chain(rmf).collect()
 }
 
 fn env_u64(name: &str) -> Option<u64> {

@@ -70,6 +70,8 @@ pub struct Report {
     pub waited: f64,
     /// Metres driven, summed.
     pub driven: f64,
+    /// Events traffic handled.
+    pub events: u64,
     /// Every event and command, when the world asks for it.
     pub trace: Vec<String>,
 }
@@ -175,6 +177,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
             for e in events {
                 if world.controlled {
                     let out = traffic.handle(now, e.clone());
+                    report.events += 1;
                     if world.trace {
                         report.trace.push(format!("{now:.2} {e:?} → {out:?}"));
                     }
@@ -184,6 +187,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
         }
         if world.controlled {
             let out = traffic.handle(now, Event::Tick);
+            report.events += 1;
             if world.trace && !out.is_empty() {
                 report.trace.push(format!("{now:.2} Tick → {out:?}"));
             }

@@ -8,6 +8,7 @@ mod maps;
 mod plot;
 mod report;
 mod run;
+mod traffic;
 mod wire;
 
 use std::path::PathBuf;
@@ -54,6 +55,10 @@ pub enum Kind {
     /// The patrolling benchmark: every vertex of patrolling_sim's maps, 1 to 12 robots, idleness
     /// against L*/(n·v) (simulated time, no fleet; not part of `all`).
     Maps,
+    /// Robots sharing the corridors of the same floor plans and Open-RMF's office under traffic
+    /// and blind: trips, closest approach, waits, gridlocks (simulated time, no fleet; not part
+    /// of `all`).
+    Traffic,
 }
 
 #[derive(Debug, clap::Args)]
@@ -104,6 +109,7 @@ impl Kind {
             Kind::All => "all",
             Kind::Maps => "maps",
             Kind::Teams => "teams",
+            Kind::Traffic => "traffic",
         }
     }
 }
@@ -178,7 +184,7 @@ fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
             }
             v
         }
-        Kind::All | Kind::Maps => bail!("internal: `{}` is not a fleet experiment", kind.name()),
+        Kind::All | Kind::Maps | Kind::Traffic => bail!("internal: `{}` is not a fleet experiment", kind.name()),
     })
 }
 
@@ -191,6 +197,14 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
     }
     if a.kind == Kind::Maps {
         return run_maps(&a);
+    }
+    if a.kind == Kind::Traffic {
+        let sizes: Vec<usize> = a.sizes.as_deref().map_or_else(|| traffic::SIZES.to_vec(), |s| s.iter().map(|&n| n as usize).collect());
+        let started = std::time::Instant::now();
+        let rows = traffic::run(&a.out, &sizes, a.seed)?;
+        traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64())?;
+        println!("results in {}: results-traffic.csv, summary-traffic.md", a.out.display());
+        return Ok(());
     }
     let kinds = if a.kind == Kind::All { vec![Kind::Messages, Kind::Idleness, Kind::Environment, Kind::CommLoss] } else { vec![a.kind] };
     let mut plans = Vec::new();
@@ -298,6 +312,13 @@ async fn run_group(a: &Args, kind: Kind, scale: f64, group: &[&Spec], bar: &indi
 /// The command that reproduces this run, every setting spelled out.
 fn command_line(a: &Args) -> String {
     let list = |v: &[String]| v.join(",");
+    if a.kind == Kind::Traffic {
+        let mut c = format!("mrmm experiment traffic --out {} --seed {}", a.out.display(), a.seed);
+        if let Some(s) = &a.sizes {
+            c.push_str(&format!(" --sizes {}", list(&s.iter().map(u32::to_string).collect::<Vec<_>>())));
+        }
+        return c;
+    }
     if a.kind == Kind::Maps {
         let mut c = format!("mrmm experiment maps --out {} --seed {} --turn-rate {}", a.out.display(), a.seed, a.turn_rate);
         if let Some(s) = &a.sizes {
