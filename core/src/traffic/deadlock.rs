@@ -5,7 +5,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::RobotId;
 
-use super::{Command, Traffic, Why};
+use super::{Command, Robot, Traffic, Why, MAX_ROUTE};
 
 /// How many vertices of a waiting robot's route (from where it stands) a robot stepping aside
 /// keeps clear of.
@@ -111,11 +111,15 @@ impl Traffic {
         route.extend(&path[1..]);
         route.extend(path[back_to..path.len() - 1].iter().rev());
         route.extend(&rest[skip_next..]);
-        let mut r = self.robots.remove(id).unwrap_or_default();
         let b = r.reached.unwrap_or(0);
-        r.route = route[b..].to_vec();
-        r.reached = r.reached.map(|p| p - b);
-        r.granted = Some(g - b);
+        let moved = Robot { route: route[b..].to_vec(), reached: r.reached.map(|p| p - b), granted: Some(g - b), ..r.clone() };
+        // Only a step it can take at once: a robot that stayed where it is would be sent aside
+        // again at the next event, its route longer each time.
+        if moved.route.len() > MAX_ROUTE || self.grantable(id, &moved, g - b + 1).is_err() {
+            return false;
+        }
+        let mut r = moved;
+        self.robots.remove(id);
         self.announce(id, &mut r, why, out);
         self.robots.insert(id.clone(), r);
         true

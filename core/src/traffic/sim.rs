@@ -168,7 +168,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
     let mut stalled = vec![false; bots.len()];
     let mut now = 0.0;
     while now < world.duration {
-        if let Err(v) = apply(&mut bots, &index, std::mem::take(&mut cmds), &mut report, now) {
+        if let Err(v) = apply(&mut bots, &index, std::mem::take(&mut cmds), &mut report, now, layout.vertices()) {
             return Err(annotate(v, &traffic, &bots, &report, &world));
         }
         for i in 0..bots.len() {
@@ -213,7 +213,7 @@ fn annotate(mut v: Violation, traffic: &Traffic, bots: &[Bot], report: &Report, 
 }
 
 /// Takes traffic's commands as the robots' drivers would.
-fn apply(bots: &mut [Bot], index: &BTreeMap<RobotId, usize>, cmds: Vec<Command>, report: &mut Report, now: f64) -> Result<(), Violation> {
+fn apply(bots: &mut [Bot], index: &BTreeMap<RobotId, usize>, cmds: Vec<Command>, report: &mut Report, now: f64, vertices: usize) -> Result<(), Violation> {
     for c in cmds {
         match c {
             Command::Grant { robot, version, upto, vertex } => {
@@ -229,6 +229,11 @@ fn apply(bots: &mut [Bot], index: &BTreeMap<RobotId, usize>, cmds: Vec<Command>,
             }
             Command::Route { robot, version, route, reached, upto, why } => {
                 let b = &mut bots[index[&robot]];
+                // A route is a shortest path, joined behind what was granted, with steps aside of a
+                // few hops: one longer than twice the graph has grown by repeated steps aside.
+                if route.len() > 2 * vertices + 64 {
+                    return Err(Violation { seed: report.seed, at: now, what: format!("{robot}'s route grew to {} vertices", route.len()) });
+                }
                 let here = b.reached.map(|p| b.route[p]);
                 let next = b.reached.and_then(|p| b.route.get(p + 1)).filter(|_| b.along > 0.0);
                 let (there, ahead) = (reached.map(|p| route[p]), reached.and_then(|p| route.get(p + 1)));
