@@ -43,8 +43,10 @@ use mrmm_proto::RobotId;
 
 pub use layout::{Layout, Res};
 
-/// Longest route taken, in vertices.
+/// Longest route taken, in vertices (a route asked for, or joined behind what was granted).
 pub const MAX_ROUTE: usize = 10_000;
+/// Most robots in traffic on one graph.
+pub const MAX_ROBOTS: usize = 20_000;
 
 /// How traffic is run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -232,6 +234,10 @@ impl Traffic {
             out.push(Command::Refused { robot: id, why });
             return;
         }
+        if !self.robots.contains_key(&id) && self.robots.len() >= MAX_ROBOTS {
+            out.push(Command::Refused { robot: id, why: format!("{MAX_ROBOTS} robots are in traffic already") });
+            return;
+        }
         let mut r = self.robots.remove(&id).unwrap_or_default();
         let joined = match r.granted {
             None => {
@@ -264,15 +270,22 @@ impl Traffic {
     fn join(&self, r: &Robot, g: usize, route: &[u32]) -> Result<Vec<u32>, String> {
         let b = r.reached.unwrap_or(0);
         let s = route[0];
+        let fits = |joined: Vec<u32>| {
+            if joined.len() - b > MAX_ROUTE {
+                Err(format!("joined behind what the robot was granted, the route would be {} vertices; at most {MAX_ROUTE}", joined.len() - b))
+            } else {
+                Ok(joined)
+            }
+        };
         if let Some(k) = (g..r.route.len()).find(|&k| r.route[k] == s) {
-            return Ok(r.route[..=k].iter().chain(&route[1..]).copied().collect());
+            return fits(r.route[..=k].iter().chain(&route[1..]).copied().collect());
         }
         if let Some(k) = (b..g).rev().find(|&k| r.route[k] == s) {
             let mut joined = r.route[..=g].to_vec();
             joined.extend(r.route[k..g].iter().rev());
             if joined[g..].windows(2).all(|w| self.layout.is_edge(w[0], w[1])) {
                 joined.extend(&route[1..]);
-                return Ok(joined);
+                return fits(joined);
             }
         }
         let here = match r.reached {

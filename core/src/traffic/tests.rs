@@ -227,3 +227,22 @@ fn a_parked_robot_makes_way_after_a_while() {
     let out = t.handle(Params::default().yield_after + 0.1, Event::Tick);
     assert!(out.iter().any(|c| matches!(c, Command::Route { robot, why: Why::Yield, route, .. } if robot == &id("b") && route == &vec![1, 3, 1])), "{out:?}");
 }
+
+#[test]
+fn routes_joined_again_and_again_stay_bounded() {
+    // A robot that never moves asks, again and again, for a long route starting at the end of
+    // the one it has: joined behind its grant each time, it would grow without bound.
+    let mut t = corridor_with_pocket();
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1] });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    let long: Vec<u32> = (0..MAX_ROUTE).map(|i| (i % 2) as u32).collect();
+    let mut refused = 0;
+    for k in 0..5 {
+        let end = *t.route(&id("a")).unwrap().0.last().unwrap();
+        let route: Vec<u32> = if end == 0 { long.clone() } else { long.iter().map(|v| 1 - v).collect() };
+        let out = t.handle(f64::from(k), Event::Route { robot: id("a"), route });
+        refused += out.iter().filter(|c| matches!(c, Command::Refused { why, .. } if why.contains("at most"))).count();
+        assert!(t.route(&id("a")).unwrap().0.len() <= MAX_ROUTE);
+    }
+    assert!(refused > 0);
+}
