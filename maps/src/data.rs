@@ -17,3 +17,10 @@ pub const PATROLLING_SIM: [(&str, &str); 9] = [
 
 /// Open-RMF's office demo as a navigation graph: (name, `nav_graphs/<n>.yaml` text).
 pub const OPEN_RMF: [(&str, &str); 1] = [("office", include_str!("../data/open_rmf/office.nav_graph.yaml"))];
+
+/// Every shipped navigation graph, read: patrolling_sim's, then Open-RMF's.
+pub fn graphs() -> Result<Vec<(&'static str, crate::NavGraph)>, crate::MapError> {
+    let ps = PATROLLING_SIM.iter().map(|(name, text)| crate::patrolling_sim::parse(name, text).map(|g| (*name, g)));
+    let rmf = OPEN_RMF.iter().map(|(name, text)| crate::rmf::parse(name, text).map(|g| (*name, g)));
+    ps.chain(rmf).collect()
+}

@@ -11,16 +11,9 @@ use std::sync::Arc;
 use mrmm_core::traffic::sim::{run, Report, World};
 use mrmm_core::traffic::Layout;
 use mrmm_maps::space::GraphSpace;
-use mrmm_maps::NavGraph;
 
 /// Robots are 0.25 m in radius: centres stay 0.6 m apart.
 const CLEARANCE: f64 = 0.6;
-
-fn maps() -> Vec<(&'static str, NavGraph)> {
-    let ps = mrmm_maps::data::PATROLLING_SIM.iter().map(|(name, text)| (*name, mrmm_maps::patrolling_sim::parse(name, text).expect(name)));
-    let rmf = mrmm_maps::data::OPEN_RMF.iter().map(|(name, text)| (*name, mrmm_maps::rmf::parse(name, text).expect(name)));
-    ps.chain(rmf).collect()
-}
 
 fn env_u64(name: &str) -> Option<u64> {
     std::env::var(name).ok().and_then(|v| v.parse().ok())
@@ -35,7 +28,7 @@ fn runs(mut world: World) -> Vec<(&'static str, Report)> {
         None => (0..env_u64("MRMM_SIM_SEEDS").unwrap_or(20)).collect(),
     };
     let mut out = Vec::new();
-    for (name, graph) in maps() {
+    for (name, graph) in mrmm_maps::data::graphs().expect("shipped maps read") {
         let per = env_u64("MRMM_TRAFFIC_PER").unwrap_or(10) as usize;
         let world = World { robots: world.robots.min(graph.vertices.len() / per).max(2), ..world };
         let layout = Arc::new(Layout::new(&graph, CLEARANCE));

@@ -158,9 +158,11 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
         });
     }
     let mut cmds = Vec::new();
+    let mut goals: Vec<u32> = bots.iter().map(|b| b.route[0]).collect();
     for i in 0..bots.len() {
-        let route = random_goal(&mut rng, space, bots[i].route[0], n, &goals(&bots, i));
+        let route = random_goal(&mut rng, space, bots[i].route[0], n, &goals);
         bots[i].route.clone_from(&route);
+        goals[i] = route[route.len() - 1];
         cmds.extend(traffic.handle(0.0, Event::Route { robot: bots[i].id.clone(), route }));
     }
     let index: BTreeMap<RobotId, usize> = bots.iter().enumerate().map(|(i, b)| (b.id.clone(), i)).collect();
@@ -171,9 +173,12 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
         if let Err(v) = apply(&mut bots, &index, std::mem::take(&mut cmds), &mut report, now, layout.vertices()) {
             return Err(annotate(v, &traffic, &bots, &report, &world));
         }
+        // Where every robot is going (its own goal is where it stands when it draws a new one).
+        goals.clear();
+        goals.extend(bots.iter().map(|b| b.route[b.route.len() - 1]));
         for i in 0..bots.len() {
-            let taken = goals(&bots, i);
-            let events = step(&mut bots[i], layout, space, &world, &mut rng, now, &mut report, &taken);
+            let events = step(&mut bots[i], layout, space, &world, &mut rng, now, &mut report, &goals);
+            goals[i] = bots[i].route[bots[i].route.len() - 1];
             for e in events {
                 if world.controlled {
                     let out = traffic.handle(now, e.clone());
@@ -305,11 +310,6 @@ fn step(b: &mut Bot, layout: &Layout, space: &GraphSpace, world: &World, rng: &m
     let stands = b.along == 0.0 && budget > 0.0 && p + 1 < b.route.len();
     b.stuck = if stands { b.stuck.or(Some(now)) } else { None };
     events
-}
-
-/// Where every robot but `i` is going.
-fn goals(bots: &[Bot], i: usize) -> Vec<u32> {
-    bots.iter().enumerate().filter(|(j, _)| *j != i).filter_map(|(_, b)| b.route.last().copied()).collect()
 }
 
 /// A shortest route from `from` to a random other vertex it can reach that no other robot is

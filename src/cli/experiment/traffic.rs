@@ -12,7 +12,6 @@ use anyhow::{anyhow, Context};
 use mrmm_core::traffic::sim::{self, Report, World};
 use mrmm_core::traffic::Layout;
 use mrmm_maps::space::GraphSpace;
-use mrmm_maps::NavGraph;
 
 /// Team sizes by default (each map takes those of at most a third of its vertices).
 pub const SIZES: [usize; 4] = [2, 4, 8, 12];
@@ -46,13 +45,7 @@ pub struct Row {
 /// Every map with every team size that fits it.
 pub fn run(out: &Path, sizes: &[usize], seed: u64) -> anyhow::Result<Vec<Row>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let mut maps: Vec<(&str, NavGraph)> = Vec::new();
-    for (name, text) in mrmm_maps::data::PATROLLING_SIM {
-        maps.push((name, mrmm_maps::patrolling_sim::parse(name, text).map_err(|e| anyhow!("{e}"))?));
-    }
-    for (name, text) in mrmm_maps::data::OPEN_RMF {
-        maps.push((name, mrmm_maps::rmf::parse(name, text).map_err(|e| anyhow!("{e}"))?));
-    }
+    let maps = mrmm_maps::data::graphs().map_err(|e| anyhow!("{e}"))?;
     let mut rows = Vec::new();
     for (name, graph) in &maps {
         let layout = Arc::new(Layout::new(graph, CLEARANCE));
