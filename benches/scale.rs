@@ -261,7 +261,7 @@ fn run_secs() -> u64 {
 /// Robots central's journal records as lost so far.
 async fn lost_so_far(client: &Client) -> anyhow::Result<usize> {
     let entries = common::journal(client).await?;
-    Ok(entries.iter().filter(|e| matches!(e.event, proto::JournalEvent::RobotLost { .. })).count())
+    Ok(entries.iter().map(|e| e.event.losses() as usize).sum())
 }
 
 /// `--sim-fleet`: the robots of a site in one `mrmm sim-fleet` process (each still its own

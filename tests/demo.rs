@@ -112,35 +112,40 @@ async fn demo_runs_a_fleet_of_several_sites() -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `mrmm demo` beyond 40 robots: one `mrmm sim-fleet` process per site runs the site's robots
-/// (not a process per robot); every robot registers through its site, both missions of half the
-/// fleet run (the patrol through barriers), and no robot is ever lost.
+/// `mrmm demo --robots 100` with its defaults (issue 55: one site of 100 peers flapped on a
+/// 2-core machine, its creates timed out or were refused for a robot lost meanwhile). The demo
+/// chooses its layout — two sites, robots clients of their site's router, one `mrmm sim-fleet`
+/// process per site — every robot registers, both missions of 50 run (the patrol through
+/// barriers), and no robot is ever lost.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn demo_beyond_forty_robots_runs_a_process_per_site() -> anyhow::Result<()> {
+async fn the_hundred_robot_demo_holds_with_its_defaults() -> anyhow::Result<()> {
     let dir = Scratch::new("demo-many");
-    let (mut demo, ep, operator) =
-        common::start_demo(&dir, &["--robots", "48", "--sites", "2", "--duration", "150", "--listen", "quic/127.0.0.1:0", "--time-scale", "5"])?;
+    let (mut demo, ep, operator) = common::start_demo(&dir, &["--robots", "100", "--duration", "240", "--listen", "quic/127.0.0.1:0", "--time-scale", "5"])?;
     let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
-    eventually("48 robots registered", Duration::from_secs(60), || async {
+    eventually("100 robots registered", Duration::from_secs(90), || async {
         let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
-        (v.len() == 48).then_some(())
+        (v.len() == 100).then_some(())
     })
     .await?;
-    // The demo's children: central's sites' router and one sim-fleet per site, not 48 robots.
+    // The demo's children: the second site's router and one sim-fleet per site, not 100 robots.
     let children = std::fs::read_to_string(format!("/proc/{0}/task/{0}/children", demo.pid()))?;
-    let fleets = children
-        .split_whitespace()
-        .filter(|pid| std::fs::read(format!("/proc/{pid}/cmdline")).is_ok_and(|c| String::from_utf8_lossy(&c).contains("sim-fleet")))
-        .count();
-    assert_eq!(fleets, 2, "one sim-fleet per site among the demo's children {children:?}");
-    let missions = eventually("both missions of 24 running, the patrol past two barriers", Duration::from_secs(60), || async {
+    let running = |what: &str| {
+        children
+            .split_whitespace()
+            .filter(|pid| std::fs::read(format!("/proc/{pid}/cmdline")).is_ok_and(|c| String::from_utf8_lossy(&c).contains(what)))
+            .count()
+    };
+    assert_eq!((running("sim-fleet"), running("router")), (2, 1), "two sites: one sim-fleet each, one router, among {children:?}");
+    let cfg = std::fs::read_to_string(std::env::temp_dir().join(format!("mrmm-demo-{}/r7.json5", demo.pid())))?;
+    assert!(cfg.contains(r#"mode: "client""#), "robots are clients of their site's router: {cfg}");
+    let missions = eventually("both missions of 50 running, the patrol past two barriers", Duration::from_secs(90), || async {
         let m: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
-        let running = m.iter().filter(|m| m.status == MissionStatus::Running && m.robots.len() == 24).count();
+        let running = m.iter().filter(|m| m.status == MissionStatus::Running && m.robots.len() == 50).count();
         (running == 2 && m.iter().any(|m| m.planner == "patrol" && m.metrics.sync_points_passed >= 2)).then_some(m)
     })
     .await?;
     assert_eq!(missions.len(), 2);
-    let lost = common::journal(&client).await?.into_iter().filter(|e| matches!(e.event, proto::JournalEvent::RobotLost { .. })).count();
+    let lost: u64 = common::journal(&client).await?.into_iter().map(|e| e.event.losses()).sum();
     assert_eq!(lost, 0, "no robot lost");
     client.close().await;
     demo.signal("INT")?;

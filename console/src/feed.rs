@@ -102,7 +102,7 @@ async fn poll_central(client: &Client) -> Polled {
 /// Fetches map `r` from the fleet and makes its layer; on failure it is asked again at a later
 /// poll.
 async fn fetch_layer(client: Arc<Client>, r: MapRef, maps: Layers, asked: Arc<std::sync::Mutex<std::collections::BTreeSet<String>>>) {
-    let made = match mrmm_net::map::fetch(client.session(), &r).await {
+    let made = match mrmm_net::map::fetch(client.mesh(), &r).await {
         Ok(bytes) => {
             mrmm_maps::Bundle::decode(&r.name, &bytes).and_then(|b| b.load()).map_err(|e| e.to_string()).and_then(|(_, m)| layers::layer(&r.name, &r.hash, &m))
         }

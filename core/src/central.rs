@@ -66,6 +66,18 @@ impl CentralCore {
         self
     }
 
+    /// Former versions of the maps that journaled missions plan on.
+    pub fn with_superseded(mut self, maps: Vec<std::sync::Arc<crate::maps::Held>>) -> Self {
+        self.system = self.system.with_superseded(maps);
+        self
+    }
+
+    /// Robots lost this long (seconds) and in no mission leave the registry.
+    pub fn forgetting_lost_after(mut self, s: f64) -> Self {
+        self.system = self.system.forgetting_lost_after(s);
+        self
+    }
+
     pub fn system(&self) -> &SystemManager {
         &self.system
     }

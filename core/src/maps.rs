@@ -30,6 +30,20 @@ impl Held {
         Ok(Held { info, map: Arc::new(map), chunks, space: std::sync::OnceLock::new() })
     }
 
+    /// About how many bytes it takes: its bundle's chunks and the map read from it (a grid's
+    /// cells, a graph's vertices and edges; the routing space made on first use is not counted).
+    pub fn weight(&self) -> u64 {
+        let chunks: usize = self.chunks.iter().map(Vec::len).sum();
+        let map = match self.map.as_ref() {
+            mrmm_maps::Map::Grid(g) => g.data.len(),
+            mrmm_maps::Map::Graph(g) => {
+                g.vertices.iter().map(|v| v.name.len() + std::mem::size_of_val(v)).sum::<usize>()
+                    + g.edges.len() * std::mem::size_of::<mrmm_maps::graph::Edge>()
+            }
+        };
+        (chunks + map) as u64
+    }
+
     /// The map prepared for robots of the default radius.
     pub fn space(&self) -> Result<&mrmm_maps::Space, String> {
         self.space
@@ -58,5 +72,6 @@ pub fn info(name: &str, hash: &str, bytes: u64, s: &MapSummary) -> MapInfo {
         size,
         min: Point { x: s.min.x, y: s.min.y },
         max: Point { x: s.max.x, y: s.max.y },
+        superseded: false,
     }
 }

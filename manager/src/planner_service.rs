@@ -26,15 +26,30 @@ pub fn kind(name: &str) -> Option<PlannerKind> {
 pub use mrmm_core::planning::{plan, plan_on};
 
 /// Plans `req` off the async runtime, with its map from `maps` (fetched from the fleet if this
-/// node does not hold it yet).
+/// node does not hold it yet): a mission host planning its own mission.
 pub async fn plan_fetching(mesh: &Mesh, maps: &MapStore, kind: PlannerKind, req: PlanRequest) -> Result<MissionPlan, String> {
     let held = match &req.map {
         Some(r) => Some(maps.fetch(mesh, r).await?),
         None => None,
     };
+    plan_held(kind, req, held).await
+}
+
+/// Plans `req` off the async runtime on `held`, its map.
+async fn plan_held(kind: PlannerKind, req: PlanRequest, held: Option<Arc<crate::maps::Held>>) -> Result<MissionPlan, String> {
     tokio::task::spawn_blocking(move || plan_on(kind, &req, held.as_ref().map(|h| h.map.as_ref())))
         .await
         .unwrap_or_else(|e| Err(format!("planner crashed: {e}")))
+}
+
+/// Plans a request that came to the service: only on a map central publishes (held here, or
+/// listed by central and fetched), never on one the requester names and serves itself.
+async fn plan_published(mesh: &Mesh, maps: &MapStore, kind: PlannerKind, req: PlanRequest) -> Result<MissionPlan, String> {
+    let held = match &req.map {
+        Some(r) => Some(maps.published(mesh, r).await?),
+        None => None,
+    };
+    plan_held(kind, req, held).await
 }
 
 /// Plans computed at once at most; a request beyond that (and a waiting line as long) is told
@@ -100,7 +115,7 @@ async fn answer(mesh: Mesh, maps: MapStore, kind: PlannerKind, q: Query, _slot: 
     };
     let Ok(_run) = running.acquire_owned().await else { return };
     let started = std::time::Instant::now();
-    let result = plan_fetching(&mesh, &maps, kind, req).await;
+    let result = plan_published(&mesh, &maps, kind, req).await;
     tracing::info!(kind = kind.as_str(), ms = started.elapsed().as_millis() as u64, ok = result.is_ok(), "planned");
     match result {
         Ok(p) => mesh.reply_packed(&q, &p).await,

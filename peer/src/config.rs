@@ -139,14 +139,14 @@ impl RobotConfig {
         for (i, c) in self.capabilities.iter().enumerate() {
             mrmm_proto::validate_capability(c).map_err(|e| format!("capabilities[{i}]: {e}"))?;
         }
-        positive("kinematics.max_speed", self.kinematics.max_speed, 1e3)?;
+        within("kinematics.max_speed", self.kinematics.max_speed, mrmm_proto::MIN_SPEED, mrmm_proto::MAX_SPEED)?;
         within("kinematics.max_turn_rate", self.kinematics.max_turn_rate, mrmm_proto::MIN_TURN_RATE, mrmm_proto::MAX_TURN_RATE)?;
         for (name, v) in [("start.x", self.start.x), ("start.y", self.start.y), ("start.theta", self.start.theta)] {
             if !v.is_finite() {
                 return Err(format!("{name}: must be a finite number (got {v})"));
             }
         }
-        positive("time_scale", self.time_scale, 1e3)?;
+        within("time_scale", self.time_scale, *mrmm_proto::TIME_SCALES.start(), *mrmm_proto::TIME_SCALES.end())?;
         positive("telemetry_hz", self.telemetry_hz, 100.0)?;
         let secure = self.security.is_some();
         validate_endpoints_for("zenoh.listen", &self.zenoh.listen, secure)?;

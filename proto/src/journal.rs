@@ -78,6 +78,14 @@ pub enum JournalEvent {
     RobotBack {
         robot: RobotId,
     },
+    /// A robot lost and back more often than the journal records one by one
+    /// (`FLAP_ENTRIES` in `FLAP_WINDOW_S`, in the system manager): the losses left out, and
+    /// whether it was alive when it went quiet.
+    RobotFlapping {
+        robot: RobotId,
+        losses: u32,
+        alive: bool,
+    },
     /// Another node manages a mission now (a replica took over, or central adopted it).
     ManagerChanged {
         mission: MissionName,
@@ -104,6 +112,15 @@ pub enum JournalEvent {
 }
 
 impl JournalEvent {
+    /// The robot losses it records: one for a loss, those left out for a flapping robot.
+    pub fn losses(&self) -> u64 {
+        match self {
+            JournalEvent::RobotLost { .. } => 1,
+            JournalEvent::RobotFlapping { losses, .. } => u64::from(*losses),
+            _ => 0,
+        }
+    }
+
     /// Whether central replays it (the others are history only).
     pub fn is_state(&self) -> bool {
         matches!(

@@ -53,6 +53,11 @@ pub struct MapInfo {
     /// The box it covers, metres.
     pub min: Point,
     pub max: Point,
+    /// A former version of a map central publishes under this name (its file changed since): kept
+    /// in central's state dir and served for the missions journaled on it; new missions plan on
+    /// the current one.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub superseded: bool,
 }
 
 impl MapInfo {
@@ -101,6 +106,36 @@ impl MapChunk {
                 data: bytes[(i as usize * CHUNK_BYTES).min(bytes.len())..((i as usize + 1) * CHUNK_BYTES).min(bytes.len())].to_vec(),
             })
             .collect()
+    }
+}
+
+/// The answer to `mrmm/maps/<hash>/manifest`, from central only (sealed): the SHA-256 of each
+/// chunk's data, in order. With it an asker checks every chunk as it arrives and takes it from
+/// another holder when one answers with a bad one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MapManifest {
+    pub hash: String,
+    pub chunks: Vec<String>,
+}
+
+impl MapManifest {
+    /// The manifest of the bundle `bytes` (whose hash is `hash`).
+    pub fn of(hash: &str, bytes: &[u8]) -> MapManifest {
+        MapManifest { hash: hash.to_string(), chunks: MapChunk::split(bytes).iter().map(|c| content_hash(&c.data)).collect() }
+    }
+
+    /// The manifest from its chunks as they travel (each [`MapChunk::encode`]d).
+    pub fn of_encoded(hash: &str, chunks: &[Vec<u8>]) -> Result<MapManifest, ProtoError> {
+        let chunks = chunks.iter().map(|c| MapChunk::decode(c).map(|c| content_hash(&c.data))).collect::<Result<_, _>>()?;
+        Ok(MapManifest { hash: hash.to_string(), chunks })
+    }
+
+    /// Whether it can be a manifest of map `hash`: that hash, 1 to [`MAX_CHUNKS`] chunk hashes.
+    pub fn check(&self, hash: &str) -> Result<(), String> {
+        if self.hash != hash || self.chunks.is_empty() || self.chunks.len() > MAX_CHUNKS as usize || self.chunks.iter().any(|c| c.len() != 64) {
+            return Err(format!("not a manifest of map {hash}"));
+        }
+        Ok(())
     }
 }
 

@@ -110,6 +110,14 @@ pub struct Progress {
     pub done: bool,
 }
 
+/// Slowest top speed a robot may say it has, m/s: a plan's times are distances over speeds, and
+/// a speed of 5e-324 made them infinite.
+pub const MIN_SPEED: f64 = 0.01;
+/// Fastest top speed a robot may say it has, m/s.
+pub const MAX_SPEED: f64 = 1e3;
+/// Time scales a robot may run at (simulated seconds per wall second).
+pub const TIME_SCALES: std::ops::RangeInclusive<f64> = 1e-3..=1e3;
+
 /// Slowest turn rate a robot may have, rad/s (half a turn in 314 s).
 pub const MIN_TURN_RATE: f64 = 0.01;
 /// Fastest turn rate a robot may say it has, rad/s.
@@ -161,16 +169,16 @@ impl RobotInfo {
     }
 
     /// Checks what a robot says about itself before anyone relies on it: its names, a bounded
-    /// list of valid capabilities, speeds and time scale that are positive numbers.
+    /// list of valid capabilities, speeds and a time scale within bounds that keep plans finite.
     pub fn check(&self) -> Result<(), String> {
         crate::validate_id(&self.id).map_err(|e| e.to_string())?;
         crate::validate_id(&self.robot_type).map_err(|_| format!("type {:?}: not an id", self.robot_type))?;
         check_capabilities(&self.capabilities)?;
-        if !(self.max_speed.is_finite() && self.max_speed > 0.0) {
-            return Err(format!("max_speed {}: not a positive number", self.max_speed));
+        if !(self.max_speed.is_finite() && (MIN_SPEED..=MAX_SPEED).contains(&self.max_speed)) {
+            return Err(format!("max_speed {}: not a speed from {MIN_SPEED} to {MAX_SPEED} m/s", self.max_speed));
         }
-        if !(self.time_scale.is_finite() && self.time_scale > 0.0) {
-            return Err(format!("time_scale {}: not a positive number", self.time_scale));
+        if !(self.time_scale.is_finite() && TIME_SCALES.contains(&self.time_scale)) {
+            return Err(format!("time_scale {}: not a time scale from {} to {}", self.time_scale, TIME_SCALES.start(), TIME_SCALES.end()));
         }
         if let Some(w) = self.max_turn_rate.filter(|w| !(w.is_finite() && (crate::MIN_TURN_RATE..=crate::MAX_TURN_RATE).contains(w))) {
             return Err(format!("max_turn_rate {w}: not a turn rate from {} to {} rad/s", crate::MIN_TURN_RATE, crate::MAX_TURN_RATE));
@@ -375,5 +383,18 @@ mod tests {
         // The wire form of an older robot (no max_turn_rate) still reads.
         let old: RobotInfo = serde_json::from_str(r#"{"id":"r1","type":"ground","capabilities":[],"max_speed":1.0,"endpoints":[]}"#).expect("old");
         assert_eq!(old.max_turn_rate, None);
+    }
+
+    /// Issue 50: a max speed of 5e-324 passed the check and made plans infinite.
+    #[test]
+    fn a_robot_info_with_a_speed_or_time_scale_that_makes_plans_infinite_is_refused() {
+        let ok = RobotInfo::new("r1", "ground", 1.0);
+        for v in [5e-324, 0.0, 0.001, -1.0, f64::NAN, f64::INFINITY, 1e4] {
+            let e = RobotInfo { max_speed: v, ..ok.clone() }.check().unwrap_err();
+            assert!(e.starts_with("max_speed"), "{v}: {e}");
+            let e = RobotInfo { time_scale: if v == 0.001 { 1e-9 } else { v }, ..ok.clone() }.check().unwrap_err();
+            assert!(e.starts_with("time_scale"), "{v}: {e}");
+        }
+        assert_eq!(RobotInfo { max_speed: MIN_SPEED, time_scale: 100.0, ..ok }.check(), Ok(()));
     }
 }

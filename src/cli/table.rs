@@ -52,7 +52,7 @@ pub fn maps(maps: &[MapInfo]) -> String {
         .iter()
         .map(|m| {
             vec![
-                m.name.clone(),
+                if m.superseded { format!("{} (superseded)", m.name) } else { m.name.clone() },
                 m.format.clone(),
                 m.size.clone(),
                 format!("{} KiB", m.bytes.div_ceil(1024)),

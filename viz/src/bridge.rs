@@ -92,7 +92,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                     Some(Seen::Telemetry(t)) => view.robot(&t),
                     Some(Seen::Mission(m)) => {
                         if let Some(r) = m.map.clone().filter(|r| maps_asked.insert(r.hash.clone())) {
-                            fetch_map(session.clone(), r, maps_tx.clone());
+                            fetch_map(mesh.clone(), r, maps_tx.clone());
                         }
                         view.mission(&m)
                     }
@@ -124,9 +124,9 @@ fn seen(mesh: &Mesh, s: &Sample) -> Option<Seen> {
 }
 
 /// Fetches map `r` from the fleet and hands it to the loop.
-fn fetch_map(session: zenoh::Session, r: proto::MapRef, to: tokio::sync::mpsc::UnboundedSender<(proto::MapRef, Result<mrmm_maps::Map, String>)>) {
+fn fetch_map(mesh: Mesh, r: proto::MapRef, to: tokio::sync::mpsc::UnboundedSender<(proto::MapRef, Result<mrmm_maps::Map, String>)>) {
     tokio::spawn(async move {
-        let loaded = match mrmm_net::map::fetch(&session, &r).await {
+        let loaded = match mrmm_net::map::fetch(&mesh, &r).await {
             Ok(bytes) => mrmm_maps::Bundle::decode(&r.name, &bytes).and_then(|b| b.load()).map(|(_, m)| m).map_err(|e| e.to_string()),
             Err(e) => Err(e),
         };

@@ -3,16 +3,20 @@
 //! replaced (journaled) and its head told ([`MissionCtl::Update`], re-sent until acknowledged);
 //! the head replans its members as the next epoch, or holds them where they are while paused.
 //! Its members stay members throughout.
+//!
+//! The definition is what the journal holds: a head whose reports disagree with it (central
+//! acknowledged a change, then restarted before the head heard of it) is sent it again
+//! ([`SystemManager::sync_spec`]) until they agree.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use mrmm_planner::recipe;
-use mrmm_proto::{MissionCtl, MissionSpecWire, MissionUpdate, RobotId};
+use mrmm_proto::{MissionCtl, MissionSpecWire, MissionStatus, MissionUpdate, MissionView, RobotId};
 use serde_json::{json, Value};
 
 use super::missions::{cheap, param_strings, DryRun};
-use super::{Command, Req, SystemManager};
+use super::{Command, Req, SystemManager, SPEC_SYNC_S};
 use crate::wire;
 
 impl SystemManager {
@@ -69,7 +73,8 @@ impl SystemManager {
                 spec.map = Some(h.map_ref());
                 Some(h.map.clone())
             }
-            None => spec.map.as_ref().and_then(|m| self.maps.get(&m.name).filter(|h| h.info.hash == m.hash)).map(|h| h.map.clone()),
+            // The mission's own map, by its hash (a superseded version if the file changed).
+            None => spec.map.as_ref().and_then(|m| self.map_of(m)).map(|h| h.map.clone()),
         };
         let ids: Vec<&RobotId> = self.assignment.iter().filter(|(id, m)| *m == &u.name && self.fleet.alive(id)).map(|(id, _)| id).collect();
         let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id)).map(|s| wire::robot_spec(&s)).collect();
@@ -95,6 +100,30 @@ impl SystemManager {
         spec.paused = paused;
         let answer = self.apply_spec(name, spec);
         vec![Command::Reply { req, result: Ok(answer) }]
+    }
+
+    /// `name`'s head reported: if what it runs (parameters, map, paused) has disagreed with the
+    /// mission's definition for [`SPEC_SYNC_S`] with no update on its way (or answered), the
+    /// definition is sent again — an update, pause or resume acknowledged to the operator is
+    /// carried out even if central restarted before the head heard of it. An update the head
+    /// already runs changes nothing there.
+    pub(super) fn sync_spec(&mut self, name: &str) {
+        let now = self.now;
+        let pending = self.controls.has(name, |c| matches!(c, MissionCtl::Update { .. })) || self.pending_create.contains_key(name);
+        let Some(rec) = self.missions.get_mut(name) else { return };
+        let (Some(spec), Some(view)) = (rec.def.spec.as_ref(), rec.view.as_ref()) else { return };
+        if !disagrees(spec, view) || pending {
+            rec.spec_differs_since = None;
+            return;
+        }
+        let since = *rec.spec_differs_since.get_or_insert(now);
+        if now - since < SPEC_SYNC_S {
+            return;
+        }
+        tracing::warn!(mission = %name, paused = spec.paused, "the mission's head runs another definition than the journal's: sent it again");
+        rec.spec_differs_since = None;
+        let spec = spec.clone();
+        self.controls.push(name, MissionCtl::Update { spec }, vec![]);
     }
 
     /// The definition of a mission this manager can change.
@@ -123,4 +152,15 @@ impl SystemManager {
         self.controls.push(name, MissionCtl::Update { spec }, vec![]);
         answer
     }
+}
+
+/// Whether a head's report shows another definition than `spec`: other parameters or map, or
+/// running while paused (and the other way round).
+fn disagrees(spec: &MissionSpecWire, view: &MissionView) -> bool {
+    let paused = match view.status {
+        MissionStatus::Paused => !spec.paused,
+        MissionStatus::Running => spec.paused,
+        _ => false,
+    };
+    paused || view.params != spec.params || view.map != spec.map
 }

@@ -8,6 +8,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::{Member, NodeId, RobotId, RobotInfo, RobotSpec, Telemetry};
 
+use super::candidates::Candidates;
 use super::{FETCH_PER_TICK, INFO_RETRY_S, MAX_FLEET};
 
 /// One robot as the system manager knows it.
@@ -29,6 +30,8 @@ pub(super) struct Record {
     pub(super) back: bool,
     /// When its liveliness last appeared.
     pub(super) alive_at: f64,
+    /// When its liveliness last went away.
+    pub(super) lost_at: f64,
 }
 
 impl Record {
@@ -41,14 +44,12 @@ impl Record {
 /// What a robot's token appearing meant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Appeared {
-    /// A robot never seen (or seen and forgotten).
-    New,
+    /// An id not registered: a candidate until it answers who it is (asked now, or later).
+    Candidate { ask: bool },
     /// A robot that was lost.
     Back,
     /// Alive already (a repeated token).
     Again,
-    /// The registry is full ([`MAX_FLEET`]): a new id is ignored.
-    Ignored,
 }
 
 /// What the registry hears: the robot and host events of the system manager.
@@ -96,7 +97,9 @@ pub(super) struct Fleet {
     robots: BTreeMap<RobotId, Record>,
     /// Mission hosts alive.
     hosts: BTreeSet<NodeId>,
-    /// New robot ids ignored because the registry is full.
+    /// Ids heard of that have not registered yet (`candidates.rs`): not in `robots`.
+    candidates: Candidates,
+    /// New robots not registered because the registry is full.
     ignored: u64,
     /// Robots alive that have not answered their info query since their token appeared: asked
     /// again until they do (a robot back from a restart may have changed type or capabilities,
@@ -110,18 +113,20 @@ impl Fleet {
     pub(super) fn handle(&mut self, now: f64, heard: Heard) -> Vec<Fact> {
         match heard {
             Heard::Alive(id) => match self.appeared(&id, now) {
-                Appeared::Ignored => vec![],
+                Appeared::Candidate { ask: false } => vec![],
                 Appeared::Back => vec![Fact::Back(id.clone()), Fact::Fetch(id)],
-                Appeared::New | Appeared::Again => vec![Fact::Fetch(id)],
+                Appeared::Candidate { ask: true } | Appeared::Again => vec![Fact::Fetch(id)],
             },
-            Heard::Gone(id) => match self.disappeared(&id) {
+            Heard::Gone(id) => match self.disappeared(&id, now) {
                 true => vec![Fact::Lost(id)],
                 false => vec![],
             },
             Heard::Info(info) => {
                 let id = info.id.clone();
-                self.registered(info);
-                vec![Fact::Registered(id)]
+                match self.registered(info, now) {
+                    true => vec![Fact::Registered(id)],
+                    false => vec![],
+                }
             }
             Heard::InfoFailed { id, reason } => {
                 tracing::debug!(robot = %id, "info request failed: {reason}");
@@ -145,7 +150,11 @@ impl Fleet {
     /// did) is asked again, at most once per [`INFO_RETRY_S`].
     fn telemetry(&mut self, now: f64, t: Box<Telemetry>) -> Vec<Fact> {
         let Some(rec) = self.robots.get_mut(&t.id) else {
-            return vec![];
+            // Not registered: its own sealed telemetry vouches for it, and it is asked first.
+            return match self.candidates.vouched(&t.id, now) {
+                true => vec![Fact::Fetch(t.id.clone())],
+                false => vec![],
+            };
         };
         let newer = rec.fresh || rec.last.as_ref().is_none_or(|old| t.seq > old.seq);
         if !newer {
@@ -169,33 +178,14 @@ impl Fleet {
         }
     }
 
-    /// A robot's token appeared at `now`: it is alive, and asked who it is (again: a restarted
-    /// robot may have changed type or endpoints). A flood of made-up tokens does not grow the
-    /// registry without bound: past [`MAX_FLEET`] robots a new id is ignored.
+    /// A robot's token appeared at `now`: a registered robot is alive, and asked who it is again
+    /// (a restarted robot may have changed type or endpoints); any other id is a candidate until
+    /// it answers (`candidates.rs`): a flood of made-up tokens never enters the registry.
     fn appeared(&mut self, id: &str, now: f64) -> Appeared {
-        let seen = match self.robots.get(id) {
-            None if self.robots.len() >= MAX_FLEET => {
-                self.ignored = self.ignored.saturating_add(1);
-                if self.ignored.is_power_of_two() {
-                    tracing::warn!(robot = %id, ignored = self.ignored, "fleet registry full ({MAX_FLEET} robots): new robots ignored");
-                }
-                return Appeared::Ignored;
-            }
-            None => Appeared::New,
-            Some(r) if r.alive => Appeared::Again,
-            Some(_) => Appeared::Back,
+        let Some(rec) = self.robots.get_mut(id) else {
+            return Appeared::Candidate { ask: self.candidates.appeared(id, now) };
         };
-        let rec = self.robots.entry(RobotId::from(id)).or_insert(Record {
-            info: None,
-            alive: false,
-            last: None,
-            info_asked: None,
-            fresh: true,
-            leave_sent: None,
-            admit_sent: None,
-            back: true,
-            alive_at: now,
-        });
+        let seen = if rec.alive { Appeared::Again } else { Appeared::Back };
         rec.back |= seen == Appeared::Back;
         rec.alive = true;
         rec.alive_at = now;
@@ -206,18 +196,61 @@ impl Fleet {
     }
 
     /// A robot's token disappeared: whether it was alive until now. Its record (and its place
-    /// in a mission, which the missions keep) stays.
-    fn disappeared(&mut self, id: &str) -> bool {
+    /// in a mission, which the missions keep) stays; a candidate is forgotten.
+    fn disappeared(&mut self, id: &str, now: f64) -> bool {
         self.unanswered.remove(id);
-        self.robots.get_mut(id).is_some_and(|r| std::mem::replace(&mut r.alive, false))
+        self.candidates.gone(id);
+        let Some(r) = self.robots.get_mut(id) else { return false };
+        if r.alive {
+            r.lost_at = now;
+        }
+        std::mem::replace(&mut r.alive, false)
     }
 
-    /// What a robot said of itself; false if no token of it was ever seen (then ignored).
-    fn registered(&mut self, info: RobotInfo) -> bool {
-        let Some(rec) = self.robots.get_mut(&info.id) else {
-            tracing::debug!(robot = %info.id, "info from a robot with no liveliness: ignored");
-            return false;
-        };
+    /// Robots lost for `after` seconds or more that `keep` does not keep (those in a mission
+    /// keep their place) leave the registry: a fleet that saw thousands of robots come and go
+    /// holds the ones it has. Returns how many went.
+    pub(super) fn forget_lost(&mut self, now: f64, after: f64, keep: impl Fn(&RobotId) -> bool) -> usize {
+        let before = self.robots.len();
+        self.robots.retain(|id, r| r.alive || now - r.lost_at < after || keep(id));
+        let gone = before - self.robots.len();
+        if gone > 0 {
+            tracing::info!(robots = gone, after_s = after, "robots lost that long and in no mission forgotten");
+        }
+        gone
+    }
+
+    /// What a robot said of itself (its sealed answer to the info question): a candidate enters
+    /// the registry (unless it holds [`MAX_FLEET`] robots already); false if neither a record
+    /// nor a candidate of it is alive (then ignored).
+    fn registered(&mut self, info: RobotInfo, now: f64) -> bool {
+        if !self.robots.contains_key(&info.id) {
+            let Some(since) = self.candidates.take(&info.id) else {
+                tracing::debug!(robot = %info.id, "info from a robot with no liveliness: ignored");
+                return false;
+            };
+            if self.robots.len() >= MAX_FLEET {
+                self.ignored = self.ignored.saturating_add(1);
+                if self.ignored.is_power_of_two() {
+                    tracing::warn!(robot = %info.id, ignored = self.ignored, "fleet registry full ({MAX_FLEET} robots): new robots ignored");
+                }
+                return false;
+            }
+            let rec = Record {
+                info: None,
+                alive: true,
+                last: None,
+                info_asked: Some(now),
+                fresh: true,
+                leave_sent: None,
+                admit_sent: None,
+                back: true,
+                alive_at: since,
+                lost_at: since,
+            };
+            self.robots.insert(info.id.clone(), rec);
+        }
+        let Some(rec) = self.robots.get_mut(&info.id) else { return false };
         match &rec.info {
             None => tracing::info!(robot = %info.id, r#type = %info.robot_type, "robot registered"),
             Some(old) if old.capabilities != info.capabilities => {
@@ -231,9 +264,17 @@ impl Fleet {
     }
 
     /// Robots alive that have not answered their info query since their token appeared, to be
-    /// asked again: at most [`FETCH_PER_TICK`] (a flood of tokens costs a bounded number of
-    /// queries).
+    /// asked again, then candidates (vouched ones first): at most [`FETCH_PER_TICK`] (a flood of
+    /// tokens costs a bounded number of queries).
     fn fetch_due(&mut self, now: f64) -> Vec<RobotId> {
+        let mut due = self.known_due(now);
+        let budget = FETCH_PER_TICK.saturating_sub(due.len());
+        due.extend(self.candidates.due(now, budget));
+        due
+    }
+
+    /// Registered robots back that have not answered since, due to be asked again.
+    fn known_due(&mut self, now: f64) -> Vec<RobotId> {
         let mut due = Vec::new();
         for id in &self.unanswered {
             if due.len() == FETCH_PER_TICK {
@@ -363,38 +404,88 @@ mod tests {
     #[test]
     fn a_robot_appears_registers_goes_and_comes_back() {
         let mut f = Fleet::default();
-        assert!(!f.registered(info("r1")), "no token seen: ignored");
-        assert_eq!(f.appeared("r1", 0.0), Appeared::New);
-        assert!(f.alive("r1") && !f.ready("r1"));
-        assert!(f.registered(info("r1")));
+        assert!(!f.registered(info("r1"), 0.0), "no token seen: ignored");
+        assert_eq!(f.appeared("r1", 0.0), Appeared::Candidate { ask: true });
+        assert!(!f.alive("r1") && f.get("r1").is_none(), "not in the registry before it answers");
+        assert!(f.registered(info("r1"), 0.1));
         assert!(f.ready("r1") && f.live_robot("r1").is_ok());
+        assert_eq!(f.get("r1").map(|r| r.alive_at), Some(0.0), "alive since its token appeared");
         assert_eq!(f.appeared("r1", 1.0), Appeared::Again);
-        assert!(f.disappeared("r1") && !f.disappeared("r1"), "alive until now, then not");
+        assert!(f.disappeared("r1", 1.5) && !f.disappeared("r1", 1.5), "alive until now, then not");
         assert_eq!(f.live_robot("r1").unwrap_err(), "robot \"r1\" is lost");
         assert_eq!(f.appeared("r1", 2.0), Appeared::Back);
         assert!(f.get("r1").is_some_and(|r| r.back && r.fresh && r.alive_at == 2.0));
+        // A token that goes before its robot answers leaves nothing behind.
+        f.appeared("ghost", 3.0);
+        f.disappeared("ghost", 3.0);
+        assert!(!f.registered(info("ghost"), 3.1) && f.get("ghost").is_none());
     }
 
     #[test]
     fn unanswered_info_queries_are_asked_again_bounded_per_tick() {
         let mut f = Fleet::default();
         for i in 0..FETCH_PER_TICK + 10 {
-            f.appeared(&format!("r{i}"), 0.0);
+            let id = format!("r{i}");
+            f.appeared(&id, 0.0);
+            f.registered(info(&id), 0.0);
+            f.disappeared(&id, 0.0);
+            assert_eq!(f.appeared(&id, 0.0), Appeared::Back);
         }
         assert!(f.fetch_due(0.5).is_empty(), "asked when they appeared");
         assert_eq!(f.fetch_due(INFO_RETRY_S).len(), FETCH_PER_TICK);
         assert_eq!(f.fetch_due(INFO_RETRY_S).len(), 10, "the rest at the next tick");
     }
 
+    /// Issue 50: 3 000 made-up tokens appearing and going were journaled and logged one by one;
+    /// they now never enter the registry, and a real robot vouched for by its own telemetry
+    /// registers first.
+    #[test]
+    fn made_up_tokens_never_enter_the_registry() {
+        let mut f = Fleet::default();
+        let mut asked = 0;
+        for i in 0..10_000 {
+            asked += f.handle(0.0, Heard::Alive(format!("ghost{i}").into())).len();
+        }
+        assert_eq!(asked, super::super::candidates::ASK_AT_ONCE_BELOW, "a bounded number asked at once");
+        assert_eq!(f.iter().count(), 0, "none in the registry");
+        let r1 = RobotId::from("r1");
+        f.handle(0.1, Heard::Alive(r1.clone()));
+        assert_eq!(seen(&mut f, 0.2, "r1", 1, 0), vec![Fact::Fetch(r1.clone())], "its telemetry vouches for it: asked at once");
+        assert_eq!(f.handle(0.3, Heard::Info(info("r1"))), vec![Fact::Registered(r1.clone())]);
+        for i in 0..10_000 {
+            assert!(f.handle(1.0, Heard::Gone(format!("ghost{i}").into())).is_empty(), "no loss of a ghost");
+        }
+        assert_eq!(f.iter().map(|(id, _)| id.clone()).collect::<Vec<_>>(), [r1]);
+    }
+
+    #[test]
+    fn robots_lost_long_ago_and_in_no_mission_are_forgotten() {
+        let mut f = Fleet::default();
+        for id in ["r1", "r2", "r3"] {
+            f.appeared(id, 0.0);
+            f.registered(info(id), 0.0);
+        }
+        f.disappeared("r1", 10.0);
+        f.disappeared("r2", 10.0);
+        assert_eq!(f.forget_lost(100.0, 100.0, |_| false), 0, "not long enough");
+        assert_eq!(f.forget_lost(110.0, 100.0, |id| id == "r2"), 1, "r2 is kept (in a mission)");
+        assert!(f.get("r1").is_none() && f.get("r2").is_some() && f.get("r3").is_some());
+        // Back, it registers again as a new robot.
+        assert_eq!(f.appeared("r1", 120.0), Appeared::Candidate { ask: true });
+    }
+
     #[test]
     fn a_full_registry_ignores_new_ids_and_keeps_the_known_ones() {
         let mut f = Fleet::default();
         for i in 0..MAX_FLEET {
-            f.appeared(&format!("r{i}"), 0.0);
+            let id = format!("r{i}");
+            f.appeared(&id, 0.0);
+            f.registered(info(&id), 0.0);
         }
-        assert_eq!(f.appeared("intruder", 0.0), Appeared::Ignored);
+        f.appeared("intruder", 0.0);
+        assert!(!f.registered(info("intruder"), 0.0));
         assert!(f.get("intruder").is_none());
-        f.disappeared("r0");
+        f.disappeared("r0", 0.5);
         assert_eq!(f.appeared("r0", 1.0), Appeared::Back, "a known robot still comes back");
     }
 

@@ -7,6 +7,7 @@
 //! time and an [`Event`] and returns the [`Command`]s the driver must carry out.
 
 pub mod asks;
+mod candidates;
 mod capabilities;
 mod changes;
 mod controls;
@@ -15,6 +16,7 @@ mod dry_runs;
 pub mod durable;
 pub mod egress;
 mod events;
+mod flaps;
 mod fleet;
 pub mod ingress;
 mod journal;
@@ -43,6 +45,17 @@ use fleet::{Fact, Fleet, Heard};
 pub use ingress::{ingress, sealed};
 use journal::Journal;
 
+/// Missions adopted from their heads' reports at most (a journal lost, a fleet of missions that
+/// ran on): beyond, reports of unknown missions are not adopted.
+pub const MAX_ADOPTED: usize = 1_000;
+/// A robot lost this long (seconds) and in no mission leaves the registry (default; central's
+/// `forget_lost_s`).
+pub const FORGET_LOST_S: f64 = 86_400.0;
+/// Seconds between two looks for long-lost robots to forget.
+const FORGET_EVERY_S: f64 = 60.0;
+/// A head's report disagreeing with its mission's definition this long, with no update on its
+/// way, has the definition sent again (`changes.rs`).
+pub const SPEC_SYNC_S: f64 = 2.0;
 /// Seconds between two info requests to a robot that is alive but not yet registered.
 pub const INFO_RETRY_S: f64 = 1.0;
 /// Robots the registry holds at most.
@@ -105,6 +118,8 @@ pub(crate) struct MissionRecord {
     /// from reports. Otherwise (created here, or restored from the journal) this manager's
     /// assignment is the truth and heads are corrected.
     adopted: bool,
+    /// Since when its head's reports show another definition than `def`'s (`changes.rs`).
+    spec_differs_since: Option<f64>,
 }
 
 impl MissionRecord {
@@ -113,7 +128,7 @@ impl MissionRecord {
             Some(v) if def.spec.is_none() => capabilities::reported(v),
             _ => capabilities::requirements(&def),
         };
-        MissionRecord { host: def.host.clone(), def, view, former: Vec::new(), adopted, reported_at: now, requires }
+        MissionRecord { host: def.host.clone(), def, view, former: Vec::new(), adopted, reported_at: now, requires, spec_differs_since: None }
     }
 
     /// Its host, then the head and chain of its latest view.
@@ -172,6 +187,16 @@ pub struct SystemManager {
     recovery: recovery::Recovery,
     /// The maps missions may plan on, by name (central's config).
     maps: BTreeMap<String, Arc<crate::maps::Held>>,
+    /// Former versions of those maps that journaled missions still plan on, by hash.
+    superseded: BTreeMap<String, Arc<crate::maps::Held>>,
+    /// Robots' recent losses and returns: a flapping robot is journaled as one entry.
+    flaps: flaps::Flaps,
+    /// Robots lost this long and in no mission are forgotten; when that was last looked at.
+    forget_lost_s: f64,
+    forgot_at: f64,
+    /// Senders whose report of an unknown mission was not adopted (logged once each; at most
+    /// [`MAX_ADOPTED`]).
+    adoptions_refused: BTreeSet<Sender>,
 }
 
 impl SystemManager {
@@ -194,6 +219,11 @@ impl SystemManager {
             journal: Journal::default(),
             recovery: recovery::Recovery::new(now),
             maps: BTreeMap::new(),
+            superseded: BTreeMap::new(),
+            adoptions_refused: BTreeSet::new(),
+            flaps: flaps::Flaps::default(),
+            forget_lost_s: FORGET_LOST_S,
+            forgot_at: now,
         }
     }
 
@@ -201,6 +231,24 @@ impl SystemManager {
     pub fn with_maps(mut self, maps: BTreeMap<String, Arc<crate::maps::Held>>) -> Self {
         self.maps = maps;
         self
+    }
+
+    /// Robots lost `s` seconds and in no mission leave the registry.
+    pub fn forgetting_lost_after(mut self, s: f64) -> Self {
+        self.forget_lost_s = s;
+        self
+    }
+
+    /// Former versions of the maps (their files changed) that journaled missions plan on: kept
+    /// for them, listed as superseded.
+    pub fn with_superseded(mut self, maps: Vec<Arc<crate::maps::Held>>) -> Self {
+        self.superseded = maps.into_iter().map(|h| (h.info.hash.clone(), h)).collect();
+        self
+    }
+
+    /// The map of `r`, by its hash: a current one or a superseded one.
+    fn map_of(&self, r: &mrmm_proto::MapRef) -> Option<&Arc<crate::maps::Held>> {
+        self.maps.get(&r.name).filter(|h| h.info.hash == r.hash).or_else(|| self.superseded.get(&r.hash))
     }
 
     /// Handles one event.
@@ -253,12 +301,18 @@ impl SystemManager {
         for fact in self.fleet.handle(now, heard) {
             match fact {
                 Fact::Fetch(id) => out.push(Command::FetchInfo { id }),
-                Fact::Back(robot) => self.journal.note(JournalEvent::RobotBack { robot }),
+                Fact::Back(robot) => {
+                    if let Some(e) = self.flaps.changed(now, &robot, true) {
+                        self.journal.note(e);
+                    }
+                }
                 Fact::Lost(robot) => {
                     // Its mission's head plans around it and takes it back when it returns; its
                     // place is kept, so no other mission takes it meanwhile.
-                    tracing::warn!(robot = %robot, "robot lost");
-                    self.journal.note(JournalEvent::RobotLost { robot });
+                    if let Some(e) = self.flaps.changed(now, &robot, false) {
+                        tracing::warn!(robot = %robot, "robot lost");
+                        self.journal.note(e);
+                    }
                 }
                 Fact::Registered(id) => out.extend(self.registered(&id)),
                 Fact::Heard(t) => out.extend(self.heard(now, *t)),
@@ -336,6 +390,18 @@ impl SystemManager {
         }
         // Robots alive that never answered their info query are asked again (bounded per tick).
         out.extend(self.registry(now, Heard::Tick));
+        if now - self.forgot_at >= FORGET_EVERY_S {
+            self.forgot_at = now;
+            let assignment = &self.assignment;
+            let controls = &self.controls;
+            self.fleet.forget_lost(now, self.forget_lost_s, |id| assignment.contains_key(id) || !controls.pending_for(id).is_empty());
+        }
+        for e in self.flaps.due(now) {
+            if let JournalEvent::RobotFlapping { robot, losses, alive } = &e {
+                tracing::warn!(%robot, losses, alive, "robot flapped lost/back: journaled as one entry");
+            }
+            self.journal.note(e);
+        }
         if now - self.started >= RESTART_S {
             self.recover(now);
         }
@@ -360,7 +426,10 @@ impl SystemManager {
                 None => reply(req, Err(format!("unknown robot {id:?}"))),
             },
             Request::Missions => reply(req, to_value(&self.mission_views())),
-            Request::Maps => reply(req, to_value(&self.maps.values().map(|h| h.info.clone()).collect::<Vec<_>>())),
+            Request::Maps => {
+                let old = self.superseded.values().map(|h| mrmm_proto::MapInfo { superseded: true, ..h.info.clone() });
+                reply(req, to_value(&self.maps.values().map(|h| h.info.clone()).chain(old).collect::<Vec<_>>()))
+            }
             Request::Mission(name) => match self.missions.get(&name) {
                 Some(r) if r.view.as_ref().is_some_and(|v| v.status != MissionStatus::Stalled) => {
                     let managers = self.managers(&name);

@@ -208,13 +208,34 @@ impl SystemManager {
         if first && !self.pending_create.contains_key(&name) {
             self.resync(&name);
         }
+        self.sync_spec(&name);
         out
     }
 
     /// A mission this manager does not know, reported by a live host (central restarted while
     /// the head kept running it): adopted — record, host and membership from the report.
+    ///
+    /// A robot's say-so alone adopts nothing: a robot heading a mission (after a takeover) is
+    /// believed only when another robot it lists says in its own telemetry that it runs that
+    /// mission — a robot certificate cannot invent a mission and take idle robots with it.
+    /// Adoptions are bounded ([`MAX_ADOPTED`]); a refused one is logged once per sender.
     fn adopt(&mut self, view: MissionView, from: Sender) -> Vec<Command> {
         if !self.fleet.has_host(&view.manager.node) || self.pending_create.contains_key(&view.name) {
+            return vec![];
+        }
+        let vouched =
+            || view.robots.iter().chain(&view.lost).any(|id| *id != from.id && self.fleet.last(id).is_some_and(|t| t.mission.as_ref() == Some(&view.name)));
+        let why = if from.role == Role::Robot && !vouched() {
+            Some("a robot's report of a mission no other robot says it runs")
+        } else if self.missions.values().filter(|m| m.adopted).count() >= MAX_ADOPTED {
+            Some("too many adopted missions")
+        } else {
+            None
+        };
+        if let Some(why) = why {
+            if self.adoptions_refused.len() < MAX_ADOPTED && self.adoptions_refused.insert(from.clone()) {
+                tracing::warn!(mission = %view.name, %from, robots = view.robots.len(), "mission not adopted: {why} (logged once per sender)");
+            }
             return vec![];
         }
         tracing::info!(mission = %view.name, host = %view.manager.node, robots = view.robots.len(), "mission adopted from its head's report");
@@ -239,12 +260,14 @@ impl SystemManager {
     /// it; robots in another mission are taken out of it. Robots missing from the lists are left
     /// alone — the report may predate a join this manager ordered.
     ///
-    /// A robot reporting as a head (after a takeover) cannot claim robots of other missions: a
-    /// robot in no mission is recorded from its report only when its own telemetry says it runs
-    /// that mission or none. Central's and mission hosts' reports are trusted.
+    /// A robot reporting as a head (after a takeover) cannot claim robots of other missions or
+    /// idle ones: a robot in no mission is recorded from its report only when its own telemetry
+    /// says it runs that mission. Central's and mission hosts' reports are trusted.
     pub(super) fn reconcile(&mut self, name: &str, robots: &[RobotId], lost: &[RobotId], reporter: &Sender) -> Vec<Command> {
         let trusted = matches!(reporter.role, Role::Central | Role::Host);
         let adopted = self.missions.get(name).is_some_and(|r| r.adopted);
+        // A robot's report is believed of another robot only where that robot's own telemetry
+        // names the mission: an idle robot is never taken on a robot's word.
         let mut strangers = Vec::new();
         let mut recorded = Vec::new();
         for id in robots.iter().chain(lost) {
@@ -255,7 +278,9 @@ impl SystemManager {
             }
             // A robot that says it runs this mission, or nothing (it restarted and forgot):
             // never one that says it runs another.
-            let confirmed = trusted || *id == reporter.id || self.fleet.last(id).is_some_and(|t| t.mission.is_none() || t.mission.as_deref() == Some(name));
+            let runs = |t: &Telemetry| t.mission.as_deref() == Some(name);
+            let confirmed =
+                trusted || *id == reporter.id || self.fleet.last(id).is_some_and(|t| runs(t) || (t.mission.is_none() && reporter.role != Role::Robot));
             match self.assignment.get(id) {
                 Some(m) if m == name => {}
                 Some(_) => strangers.push(id.clone()),

@@ -116,24 +116,44 @@ impl Layout {
         }
     }
 
-    /// Every pair closer than the clearance, found through a grid of buckets.
+    /// Every pair closer than the clearance, found through a grid of buckets: each resource is
+    /// filed under the buckets of points sampled along it (half a bucket apart), and looks for
+    /// others in the buckets around its own samples. Memory and time grow with the lanes' total
+    /// length over the bucket size, which is chosen so that this stays bounded
+    /// ([`MAX_SAMPLES`]) however long and diagonal the lanes are.
     fn find_conflicts(&self) -> Vec<Vec<Res>> {
         let n = self.resources() as u32;
         let mut conflicts = vec![Vec::new(); n as usize];
         if self.points.is_empty() || !self.clearance.is_finite() || self.clearance <= 0.0 {
             return conflicts;
         }
-        let grid = Buckets::new(&self.points, self.clearance);
+        let segments: Vec<(Point, Point)> = (0..n).map(|r| self.segment(r)).collect();
+        let grid = Buckets::new(&self.points, &segments, self.clearance);
         let mut cells: HashMap<(i64, i64), Vec<Res>> = HashMap::new();
-        for r in 0..n {
-            let (a, b) = self.segment(r);
-            for cell in grid.cells(a, b, 0.0) {
-                cells.entry(cell).or_default().push(r);
+        for (r, &(a, b)) in segments.iter().enumerate() {
+            let mut last = None;
+            for cell in grid.samples(a, b) {
+                if last != Some(cell) {
+                    cells.entry(cell).or_default().push(r as Res);
+                    last = Some(cell);
+                }
             }
         }
-        for r in 0..n {
-            let (a, b) = self.segment(r);
-            let mut near: Vec<Res> = grid.cells(a, b, self.clearance).filter_map(|c| cells.get(&c)).flatten().copied().filter(|&o| o != r).collect();
+        // A point of one resource is within a quarter bucket of one of its samples: two
+        // resources closer than the clearance have samples within clearance + half a bucket.
+        let reach = (self.clearance / grid.size).ceil() as i64 + 1;
+        for (r, &(a, b)) in segments.iter().enumerate() {
+            let r = r as Res;
+            let mut near: Vec<Res> = Vec::new();
+            for (cx, cy) in grid.samples(a, b) {
+                for x in cx - reach..=cx + reach {
+                    for y in cy - reach..=cy + reach {
+                        if let Some(list) = cells.get(&(x, y)) {
+                            near.extend(list.iter().copied().filter(|&o| o != r));
+                        }
+                    }
+                }
+            }
             near.sort_unstable();
             near.dedup();
             let (ra, rb) = self.ends(r);
@@ -142,7 +162,7 @@ impl Layout {
                 if ra == oa || ra == ob || rb == oa || rb == ob {
                     continue;
                 }
-                let (c, d) = self.segment(o);
+                let (c, d) = segments[o as usize];
                 if segment_distance(a, b, c, d) < self.clearance {
                     conflicts[r as usize].push(o);
                 }
@@ -152,8 +172,26 @@ impl Layout {
     }
 }
 
-/// Square buckets over the graph's extent, about a clearance wide (wider on a large map, so a
-/// long lane covers a bounded number of them).
+#[cfg(test)]
+impl Layout {
+    /// Whether `r` and `o` conflict, by their distance alone (what the buckets must find).
+    pub(super) fn brute_conflict(&self, r: Res, o: Res) -> bool {
+        let ((ra, rb), (oa, ob)) = (self.ends(r), self.ends(o));
+        let shared = ra == oa || ra == ob || rb == oa || rb == ob;
+        let ((a, b), (c, d)) = (self.segment(r), self.segment(o));
+        !shared && segment_distance(a, b, c, d) < self.clearance
+    }
+
+    /// How many samples the buckets took along every resource.
+    pub(super) fn samples(&self) -> usize {
+        let segments: Vec<(Point, Point)> = (0..self.resources() as Res).map(|r| self.segment(r)).collect();
+        let grid = Buckets::new(&self.points, &segments, self.clearance);
+        segments.iter().map(|&(a, b)| grid.samples(a, b).count()).sum()
+    }
+}
+
+/// Square buckets over the graph's extent, at least a clearance wide, and wider on a large map
+/// or one of long lanes, so that the samples along every lane stay within [`MAX_SAMPLES`].
 struct Buckets {
     origin: Point,
     size: f64,
@@ -161,27 +199,35 @@ struct Buckets {
 
 /// At most this many buckets across a map.
 const MAX_BUCKETS_ACROSS: f64 = 2048.0;
+/// About this many samples along all resources together at most (two per bucket a lane
+/// crosses, one per vertex): a 2 km map of long diagonal lanes costs megabytes, not the billions
+/// of entries that filing every lane under each bucket of its bounding box cost.
+pub const MAX_SAMPLES: f64 = 2_000_000.0;
 
 impl Buckets {
-    fn new(points: &[Point], clearance: f64) -> Buckets {
+    fn new(points: &[Point], segments: &[(Point, Point)], clearance: f64) -> Buckets {
         let (mut min, mut max) = (points[0], points[0]);
         for p in points {
             min = Point::new(min.x.min(p.x), min.y.min(p.y));
             max = Point::new(max.x.max(p.x), max.y.max(p.y));
         }
         let span = (max.x - min.x).max(max.y - min.y);
-        Buckets { origin: min, size: clearance.max(span / MAX_BUCKETS_ACROSS) }
+        let length: f64 = segments.iter().map(|(a, b)| a.dist(*b)).sum();
+        let size = clearance.max(span / MAX_BUCKETS_ACROSS).max(2.0 * length / MAX_SAMPLES);
+        Buckets { origin: min, size }
     }
 
     fn cell(&self, p: Point) -> (i64, i64) {
         (((p.x - self.origin.x) / self.size).floor() as i64, ((p.y - self.origin.y) / self.size).floor() as i64)
     }
 
-    /// The buckets the box around segment `a`–`b`, grown by `margin`, covers.
-    fn cells(&self, a: Point, b: Point, margin: f64) -> impl Iterator<Item = (i64, i64)> {
-        let lo = self.cell(Point::new(a.x.min(b.x) - margin, a.y.min(b.y) - margin));
-        let hi = self.cell(Point::new(a.x.max(b.x) + margin, a.y.max(b.y) + margin));
-        (lo.0..=hi.0).flat_map(move |x| (lo.1..=hi.1).map(move |y| (x, y)))
+    /// The buckets of points along `a`–`b`, half a bucket apart, both ends included.
+    fn samples(&self, a: Point, b: Point) -> impl Iterator<Item = (i64, i64)> + '_ {
+        let steps = (a.dist(b) / (self.size / 2.0)).ceil().max(1.0) as usize;
+        (0..=steps).map(move |k| {
+            let t = k as f64 / steps as f64;
+            self.cell(Point::new(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)))
+        })
     }
 }
 

@@ -246,3 +246,42 @@ fn routes_joined_again_and_again_stay_bounded() {
     }
     assert!(refused > 0);
 }
+
+/// The conflicts found through the buckets are exactly those of comparing every pair, on random
+/// graphs of short and long lanes (long ones make the buckets wider than the clearance).
+#[test]
+fn conflicts_found_through_buckets_are_those_of_every_pair() {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(50);
+    for case in 0..40 {
+        let span = if case % 2 == 0 { 20.0 } else { 3_000.0 };
+        let n = rng.gen_range(2..40);
+        let points: Vec<(f64, f64)> = (0..n).map(|_| (rng.gen_range(0.0..span), rng.gen_range(0.0..span))).collect();
+        let lanes: Vec<(u32, u32)> = (0..n).map(|_| (rng.gen_range(0..n as u32), rng.gen_range(0..n as u32))).filter(|(a, b)| a != b).collect();
+        let g = graph(&points, &lanes);
+        let layout = Layout::new(&g, 0.6);
+        for r in 0..layout.resources() as Res {
+            let mut want: Vec<Res> = (0..layout.resources() as Res).filter(|&o| o != r && layout.brute_conflict(r, o)).collect();
+            want.sort_unstable();
+            let mut got = layout.conflicts(r).to_vec();
+            got.sort_unstable();
+            assert_eq!(got, want, "case {case}, resource {r}");
+        }
+    }
+}
+
+/// Issue 50: a 2 km graph of long diagonal lanes filed every lane under each bucket of its
+/// bounding box (10⁸–10⁹ entries). Now the samples along its lanes are bounded.
+#[test]
+fn a_large_graph_of_long_diagonal_lanes_is_laid_out_in_bounded_memory() {
+    let n = 400u32;
+    // Points on two opposite sides of a 2 km square, every one linked to four across.
+    let points: Vec<(f64, f64)> = (0..n).map(|i| if i % 2 == 0 { (0.0, 5.0 * f64::from(i)) } else { (2_000.0, 2_000.0 - 5.0 * f64::from(i)) }).collect();
+    let lanes: Vec<(u32, u32)> = (0..n).flat_map(|i| (1..=4).map(move |k| (i, (i + 2 * k + 1) % n))).collect();
+    let layout = Layout::new(&graph(&points, &lanes), 0.6);
+    let samples = layout.samples();
+    assert!(samples as f64 <= layout::MAX_SAMPLES + 2.0 * layout.resources() as f64, "{samples} samples");
+    // Long lanes crossing in the middle conflict.
+    let l = layout.lane(0, 3).expect("lane");
+    assert!(!layout.conflicts(l).is_empty());
+}

@@ -46,6 +46,14 @@ pub struct CentralConfig {
     /// patrolling_sim `.graph` or an Open-RMF navigation graph). Relative to the config file.
     #[serde(default)]
     pub maps: std::collections::BTreeMap<String, PathBuf>,
+    /// A robot lost this long (seconds) and in no mission leaves the registry (it registers
+    /// again if it comes back). Default a day; 60 to 31 536 000.
+    #[serde(default = "default_forget_lost")]
+    pub forget_lost_s: f64,
+}
+
+fn default_forget_lost() -> f64 {
+    mrmm_core::system::FORGET_LOST_S
 }
 
 fn default_max_message_size() -> usize {
@@ -74,6 +82,7 @@ impl Default for CentralConfig {
             state_dir: None,
             wire_stats: false,
             maps: Default::default(),
+            forget_lost_s: default_forget_lost(),
         }
     }
 }
@@ -128,6 +137,9 @@ impl CentralConfig {
         }
         if !(100..=60_000).contains(&self.lease_ms) {
             return Err(format!("lease_ms: must be 100..=60000 (got {})", self.lease_ms));
+        }
+        if !(self.forget_lost_s.is_finite() && (60.0..=31_536_000.0).contains(&self.forget_lost_s)) {
+            return Err(format!("forget_lost_s: must be 60..=31536000 seconds (got {})", self.forget_lost_s));
         }
         if !(10..=60_000).contains(&self.query_timeout_ms) {
             return Err(format!("query_timeout_ms: must be 10..=60000 (got {})", self.query_timeout_ms));

@@ -47,7 +47,7 @@ pub struct Ready {
 pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), ManagerError> {
     cfg.validate().map_err(ManagerError::Config)?;
     let (mut journal, state, chain) = open_state(&cfg)?;
-    let maps = load_maps(&cfg)?;
+    let maps = load_maps(&cfg, &state)?;
     let mesh = Mesh::open(&node_net(&cfg)).await?;
     let session = mesh.session().clone();
     let endpoints = net::listening_endpoints(&session).await;
@@ -69,7 +69,10 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     }
 
     let t0 = Instant::now();
-    let mut core = CentralCore::restore(zid.into(), cfg.agent.clone(), 0.0, state).with_maps(maps.by_name());
+    let mut core = CentralCore::restore(zid.into(), cfg.agent.clone(), 0.0, state)
+        .with_maps(maps.by_name())
+        .with_superseded(maps.superseded())
+        .forgetting_lost_after(cfg.forget_lost_s);
     let mut io = Io::new(mesh.clone(), Duration::from_millis(cfg.query_timeout_ms), tx);
     let mut tick = tokio::time::interval(TICK);
     let mut seals = SealCounts { refused: 0, proofs_at: Instant::now() };

@@ -49,13 +49,11 @@ pub(super) fn open_state(cfg: &CentralConfig) -> Result<State, ManagerError> {
     })
 }
 
-/// The maps central offers: one that cannot be read stops start-up with one line naming it.
-pub(super) fn load_maps(cfg: &CentralConfig) -> Result<crate::maps::MapStore, ManagerError> {
-    let maps = crate::maps::MapStore::default();
-    for (name, path) in &cfg.maps {
-        let held = tokio::task::block_in_place(|| crate::maps::load_file(name, path))?;
-        tracing::info!(map = %name, format = %held.info.format, size = %held.info.size, hash = %held.info.hash, "map loaded");
-        maps.insert(held);
-    }
-    Ok(maps)
+/// The maps central offers (its config's, kept in its state dir by content), and the former
+/// versions of them that missions of its journal plan on: one that cannot be read stops start-up
+/// with one line naming it.
+pub(super) fn load_maps(cfg: &CentralConfig, state: &system::Durable) -> Result<crate::maps::MapStore, ManagerError> {
+    let archive = cfg.state_dir.as_deref().map(crate::maps::MapArchive::new);
+    let journaled: Vec<proto::MapRef> = state.missions.values().filter_map(|d| d.spec.as_ref().and_then(|s| s.map.clone())).collect();
+    tokio::task::block_in_place(|| crate::maps::load_central(&cfg.maps, archive.as_ref(), &journaled))
 }

@@ -1,7 +1,9 @@
 //! The fleet PKI in two commands: `mrmm pki init DIR` makes the fleet CA (`DIR/ca.crt`,
 //! `DIR/ca.key`); `mrmm pki issue DIR --role R --id NAME` makes a node's certificate and key
 //! (`DIR/NAME.crt`, `DIR/NAME.key`), with common name `<role>:<id>`. Ed25519 keys, PEM files,
-//! generated with `rcgen`. Keys are written readable by their owner only.
+//! generated with `rcgen`. Keys are written readable by their owner only, as PKCS#8 v1 (RFC 8410's
+//! usual form, without the public key), which OpenSSL and Python's `cryptography` read; keys of
+//! either version are read.
 
 use std::path::{Path, PathBuf};
 
@@ -41,6 +43,25 @@ fn write_file(path: &Path, text: &str, private: bool) -> Result<(), ProtoError> 
     f.write_all(text.as_bytes()).map_err(|e| err(format!("{}: cannot write: {e}", path.display())))
 }
 
+/// `key` as a PEM PKCS#8 **v1** document (RFC 8410, section 7: version 0, the algorithm, the
+/// 32-byte seed; no public key). `ring` makes v2 (with the public key), which OpenSSL 3.0
+/// (`openssl pkey`: "unsupported") and Python's `cryptography` ("extra data") refuse.
+fn ed25519_v1_pem(key: &KeyPair) -> Result<String, ProtoError> {
+    /// SEQUENCE (46) { INTEGER 0, SEQUENCE { OID 1.3.101.112 }, OCTET STRING (34) { OCTET STRING (32) … } }.
+    const V1_HEADER: [u8; 16] = [0x30, 0x2e, 0x02, 0x01, 0x00, 0x30, 0x05, 0x06, 0x03, 0x2b, 0x65, 0x70, 0x04, 0x22, 0x04, 0x20];
+    let der = key.serialized_der();
+    // v1 or v2: the algorithm and the seed's header follow the same 5 bytes (sequence, version).
+    let seed = match (der.first(), der.get(5..16), der.get(16..48)) {
+        (Some(0x30), Some(header), Some(seed)) if header == &V1_HEADER[5..] => seed,
+        _ => return Err(err("the generated key is not an Ed25519 PKCS#8 document")),
+    };
+    let mut v1 = V1_HEADER.to_vec();
+    v1.extend_from_slice(seed);
+    // rcgen keeps the document it was given and writes it back as PEM.
+    let v1 = KeyPair::try_from(v1).map_err(|e| err(format!("cannot re-encode the key as PKCS#8 v1: {e}")))?;
+    Ok(v1.serialize_pem())
+}
+
 fn validity(params: &mut CertificateParams, days: u32) {
     let now = time::OffsetDateTime::now_utc();
     // A little back-dating tolerates clocks a few minutes apart.
@@ -64,7 +85,7 @@ pub fn init(dir: &Path) -> Result<(PathBuf, PathBuf), ProtoError> {
     if crt.exists() || kp.exists() {
         return Err(err(format!("{}: a CA already exists here (not overwritten)", dir.display())));
     }
-    write_file(&kp, &key.serialize_pem(), true)?;
+    write_file(&kp, &ed25519_v1_pem(&key)?, true)?;
     write_file(&crt, &cert.pem(), false)?;
     Ok((crt, kp))
 }
@@ -109,7 +130,7 @@ pub fn issue(dir: &Path, role: Role, id: &str, sans: &[String], days: u32) -> Re
     if crt.exists() || kp.exists() {
         return Err(err(format!("{}: {id} already has a certificate here (not overwritten)", dir.display())));
     }
-    write_file(&kp, &key.serialize_pem(), true)?;
+    write_file(&kp, &ed25519_v1_pem(&key)?, true)?;
     write_file(&crt, &cert.pem(), false)?;
     Ok((crt, kp))
 }
@@ -143,5 +164,35 @@ mod tests {
             assert_eq!(mode & 0o077, 0, "keys are private");
         }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn keys_are_written_as_pkcs8_v1_and_both_versions_are_read() {
+        let dir = tempfile_dir("v1");
+        init(&dir).expect("init");
+        issue(&dir, Role::Robot, "r1", &[], 10).expect("issue");
+        for name in ["ca.key", "r1.key"] {
+            let text = std::fs::read_to_string(dir.join(name)).expect("key");
+            let (_, doc) = x509_parser::pem::parse_x509_pem(text.as_bytes()).expect("pem");
+            assert_eq!(doc.label, "PRIVATE KEY");
+            // RFC 8410's v1: 48 bytes, version 0, no public key.
+            assert_eq!((doc.contents.len(), &doc.contents[..5]), (48, &[0x30, 0x2e, 0x02, 0x01, 0x00][..]), "{name}");
+        }
+        // The CA key is read back to issue more; a v2 key (as earlier versions wrote) still loads.
+        issue(&dir, Role::Operator, "op", &[], 10).expect("issue with a v1 CA key");
+        let v2 = ring::signature::Ed25519KeyPair::generate_pkcs8(&ring::rand::SystemRandom::new()).expect("v2");
+        assert_eq!(v2.as_ref()[4], 1, "ring writes v2");
+        let kp = KeyPair::try_from(v2.as_ref()).expect("v2 key");
+        let v1 = ed25519_v1_pem(&kp).expect("v1");
+        let back = KeyPair::from_pem(&v1).expect("v1 back");
+        assert_eq!(back.public_key_raw(), kp.public_key_raw(), "the same key in both versions");
+        assert!(Identity::load("security", &SecuritySection::from_dir(&dir, "r1")).is_ok());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    fn tempfile_dir(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("mrmm-pki-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        dir
     }
 }

@@ -28,6 +28,7 @@
 //! | `mrmm/system/journal?since=SEQ` | queryable on the system manager | [`crate::JournalPage`] |
 //! | `mrmm/system/maps` | queryable on the system manager | [`crate::MapInfo`] list |
 //! | `mrmm/maps/<hash>/<chunk>` | queryable on every node holding the map | [`crate::MapChunk`] (bincode behind `MRMP`) |
+//! | `mrmm/maps/<hash>/manifest` | queryable on central, for the maps it publishes | [`crate::map::MapManifest`] (JSON, sealed by central) |
 //! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | [`crate::GotoRequest`] |
 //! | `mrmm/system/cmd/robot/move` | queryable on the system manager | [`crate::RobotMove`] |
 //! | `mrmm/system/cmd/robot/capabilities` | queryable on the system manager | [`crate::CapabilitiesRequest`] |
@@ -206,6 +207,10 @@ pub enum Key {
         hash: String,
         index: u32,
     },
+    /// The chunk hashes of the map bundle whose SHA-256 is `hash` (answered by central).
+    MapManifest {
+        hash: String,
+    },
     SystemCmd(SystemCmd),
 }
 
@@ -244,6 +249,7 @@ declare_keys! {
     SystemJournal => "mrmm" / "system" / "journal";
     SystemMaps => "mrmm" / "system" / "maps";
     MapChunk { hash, index } => "mrmm" / "maps" / {hash: hash} / {index: num};
+    MapManifest { hash } => "mrmm" / "maps" / {hash: hash} / "manifest";
     SystemCmd(cmd) => "mrmm" / "system" / "cmd" / {cmd: cmd};
 }
 

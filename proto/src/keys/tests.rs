@@ -56,6 +56,7 @@ fn all_keys() -> Vec<Key> {
         Key::SystemJournal,
         Key::SystemMaps,
         Key::MapChunk { hash: "0f".repeat(32), index: 3 },
+        Key::MapManifest { hash: "0f".repeat(32) },
         Key::SystemCmd(SystemCmd::Goto),
         Key::SystemCmd(SystemCmd::Move),
         Key::SystemCmd(SystemCmd::Capabilities),

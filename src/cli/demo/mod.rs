@@ -58,10 +58,11 @@ pub struct Args {
     #[arg(long)]
     viewer: Option<String>,
     /// Split the fleet into this many sites (docs/deployment.md): one `mrmm router` per site
-    /// beyond central's, linked to central (over QUIC when secure), robot i a peer of site
-    /// i mod SITES. Default 1: one clique.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=16))]
-    sites: u32,
+    /// beyond central's, linked to central (over QUIC when secure), robot i in site i mod SITES.
+    /// Default: one site up to 40 robots; beyond, a site per 50 robots (2 to 10), which holds on
+    /// a 2-core machine (docs/scale.md). The demo says which layout it chose.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    sites: Option<u32>,
     /// How each robot joins the mesh: `peer` (a link to every robot of its site, which goes on
     /// without its router) or `client` (one link, to its site's router, then central or another
     /// site's router if that drops). Default: `client` beyond 40 robots in several sites, `peer`
@@ -104,8 +105,58 @@ fn start_rate(args: &Args) -> u32 {
 /// How the demo's robots join: as asked, or clients of their site's router in a large fleet of
 /// several sites (a site of 50 peers keeps 1 225 links; 50 clients, 50).
 fn join(args: &Args) -> Join {
-    args.join.unwrap_or(if args.robots as usize > LARGE_FLEET && args.sites > 1 { Join::Client } else { Join::Peer })
+    args.join.unwrap_or(if args.robots as usize > LARGE_FLEET && sites(args) > 1 { Join::Client } else { Join::Peer })
 }
+
+/// Robots per site the demo plans for beyond [`LARGE_FLEET`] robots.
+const ROBOTS_PER_SITE: usize = 50;
+/// The most sites the demo chooses by itself (`--sites` goes to 16).
+const MAX_AUTO_SITES: usize = 10;
+
+/// How many sites the fleet runs in: as asked, or one up to [`LARGE_FLEET`] robots and a site
+/// per [`ROBOTS_PER_SITE`] beyond (2 to [`MAX_AUTO_SITES`]). One site of 100 peers on a 2-core
+/// machine flapped lost/back and its creates timed out; 300 robots in six sites as clients hold
+/// with no robot lost (docs/scale.md).
+fn sites(args: &Args) -> u32 {
+    args.sites.unwrap_or_else(|| auto_sites(args.robots as usize))
+}
+
+fn auto_sites(robots: usize) -> u32 {
+    if robots <= LARGE_FLEET {
+        1
+    } else {
+        robots.div_ceil(ROBOTS_PER_SITE).clamp(2, MAX_AUTO_SITES) as u32
+    }
+}
+
+/// The layout chosen, in one line: what `--sites`, `--join`, `--start-rate` and `--lease-ms`
+/// came to.
+fn layout_line(args: &Args) -> String {
+    let n = args.robots as usize;
+    let k = sites(args);
+    let place = if k == 1 { "one site (central's)".to_string() } else { format!("{k} sites (central and {} routers)", k - 1) };
+    let how = match join(args) {
+        Join::Client => "each a client of its site's router",
+        Join::Peer if k == 1 => "peers of one clique",
+        Join::Peer => "peers of their site's clique",
+    };
+    let procs = if n > LARGE_FLEET { format!(", a sim-fleet process per site starting {} a second", start_rate(args)) } else { ", a process each".to_string() };
+    let chosen = if args.sites.is_none() && k > 1 { " (chosen for the fleet's size; --sites N to change)" } else { "" };
+    let mut line = format!("mrmm demo: {n} robots in {place}, {how}{procs}, lease {} ms{chosen}", lease(args));
+    let cores = std::thread::available_parallelism().map_or(1, |c| c.get());
+    if n > ROBOTS_PER_CORE * cores {
+        line.push_str(&format!(
+            "\nmrmm demo: more than this {cores}-core machine is known to hold ({} robots: {ROBOTS_PER_CORE} a core, docs/scale.md); robots may be lost",
+            ROBOTS_PER_CORE * cores
+        ));
+    }
+    line
+}
+
+/// Simulated robots (with central, routers and two missions) a core was seen to hold: 300 in six
+/// sites on 2 cores with no robot lost; 1 000 in ten sites on 16 cores did not hold (central's
+/// router, docs/scale.md).
+const ROBOTS_PER_CORE: usize = 150;
 
 pub async fn run(mut args: Args) -> anyhow::Result<()> {
     let listen = args.listen.take().unwrap_or_else(|| if args.insecure { "tcp/127.0.0.1:7447" } else { "quic/127.0.0.1:7447" }.to_string());
@@ -142,6 +193,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     };
     // Every node of the demo listens with the scheme of central's endpoint (quic, tls or tcp).
     let scheme = args.listen.as_deref().and_then(|l| l.split('/').next()).unwrap_or("tcp").to_string();
+    println!("{}", layout_line(args));
     let pki = (!args.insecure).then(|| dir.join("pki"));
     if let Some(pki) = &pki {
         start::issue_pki(args, pki)?;

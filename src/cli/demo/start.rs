@@ -8,7 +8,7 @@ use anyhow::{anyhow, Context};
 use mrmm_proto as proto;
 use tokio::process::Child;
 
-use super::{join, lease, map, start_rate, Args, Join, LARGE_FLEET, TYPES};
+use super::{join, lease, map, sites as site_count, start_rate, Args, Join, LARGE_FLEET, TYPES};
 use crate::cli::procs;
 
 /// A throw-away fleet PKI in `pki`: the CA, central, the operator (this demo and your tools),
@@ -21,7 +21,7 @@ pub(super) fn issue_pki(args: &Args, pki: &Path) -> anyhow::Result<()> {
     for i in 0..args.robots {
         p::issue(pki, Role::Robot, &format!("r{}", i + 1), &[], 30)?;
     }
-    for s in 1..args.sites {
+    for s in 1..site_count(args) {
         p::issue(pki, Role::Router, &format!("site{s}"), &[], 30)?;
     }
     Ok(())
@@ -64,7 +64,7 @@ pub(super) async fn central(
     }
     if let Some(pki) = pki {
         central_args.extend(["--pki".into(), pki.display().to_string(), "--operator".into(), "operator".into()]);
-        if args.sites > 1 && scheme != "quic" {
+        if site_count(args) > 1 && scheme != "quic" {
             // The routers' uplinks: QUIC (Zenoh's TLS link closes under heavy load, docs/zenoh.md).
             central_args.extend(["--listen".into(), "quic/127.0.0.1:0".into()]);
         }
@@ -104,7 +104,7 @@ pub(super) async fn routers(
     pki: Option<&Path>,
 ) -> anyhow::Result<Vec<String>> {
     let mut sites = vec![central.to_string()];
-    for s in 1..args.sites {
+    for s in 1..site_count(args) {
         let id = format!("site{s}");
         let path = dir.join(format!("{id}.json5"));
         std::fs::write(&path, format!("{{ id: {id:?}, listen: [\"{scheme}/127.0.0.1:0\"], connect: [{uplink:?}], lease_ms: {} }}\n", lease(args)))
@@ -120,9 +120,6 @@ pub(super) async fn routers(
         let line = line.with_context(|| format!("router {id} did not start"))?;
         let ep = procs::field(&line, "listening").and_then(|l| l.split(',').next()).ok_or_else(|| anyhow!("router ready line without endpoint: {line}"))?;
         sites.push(ep.to_string());
-    }
-    if args.sites > 1 {
-        println!("mrmm demo: {} sites: central and {} routers, robot i in site i mod {}", args.sites, args.sites - 1, args.sites);
     }
     Ok(sites)
 }
@@ -141,9 +138,6 @@ pub(super) fn robots(
 ) -> anyhow::Result<()> {
     let n = args.robots as usize;
     let net = Net { scheme, lease_ms: lease(args), join: join(args), pki };
-    if net.join == Join::Client {
-        println!("mrmm demo: robots are clients of their site's router (--join client)");
-    }
     let mut per_site: Vec<Vec<PathBuf>> = vec![Vec::new(); sites.len()];
     for i in 0..n {
         let id = format!("r{}", i + 1);

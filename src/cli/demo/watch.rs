@@ -172,7 +172,6 @@ fn summary(views: &[RobotView]) -> String {
 /// The demo's two missions: a patrol of the north waypoints with half the fleet (rounded up) and
 /// a coverage of the southern field with the rest; on a map, of its northern and southern halves.
 async fn start_missions(client: &Client, n: usize, building: Option<&map::DemoMap>) {
-    let ids: Vec<String> = (1..=n).map(|i| format!("r{i}")).collect();
     let half = n.div_ceil(2);
     let (waypoints, region) = match building.map(map::DemoMap::params) {
         Some(Ok((w, r))) => (w, r),
@@ -183,10 +182,9 @@ async fn start_missions(client: &Client, n: usize, building: Option<&map::DemoMa
         None => (json!([[-15, 4], [-6, 14], [5, 17], [15, 9], [11, 1], [0, 0]]), Some(json!([[-20, -34], [20, -34], [20, -18], [-20, -18]]))),
     };
     let map = building.map(|_| map::NAME.to_string());
-    let mut wanted = vec![MissionCreate {
+    let patrol = MissionCreate {
         name: "patrol-1".into(),
         recipe: "patrol".into(),
-        robots: Some(ids[..half].iter().map(Into::into).collect()),
         params: [
             ("waypoints".to_string(), waypoints),
             // The mission's standard: the advising agent speaks up when the patrol misses it.
@@ -195,20 +193,47 @@ async fn start_missions(client: &Client, n: usize, building: Option<&map::DemoMa
         .into(),
         map: map.clone(),
         ..MissionCreate::default()
-    }];
+    };
+    create(client, patrol, |idle| idle.iter().take(half).cloned().collect()).await;
     if n > half {
-        wanted.push(MissionCreate {
+        let coverage = MissionCreate {
             name: "coverage-1".into(),
             recipe: "coverage".into(),
-            robots: Some(ids[half..].iter().map(Into::into).collect()),
             params: region.map(|r| [("region".to_string(), r)].into()).unwrap_or_default(),
             map,
             ..MissionCreate::default()
-        });
+        };
+        create(client, coverage, |idle| idle.to_vec()).await;
     }
-    for m in wanted {
-        if let Err(e) = client.query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await {
-            eprintln!("cannot create mission {}: {e}", m.name);
+}
+
+/// Creates `m` with the robots `pick` chooses among the live robots in no mission (in id order),
+/// choosing again if one of them was lost meanwhile: in a fleet of hundreds a robot may be lost
+/// between the fleet's answer and the mission's plan. A create whose answer timed out on a
+/// loaded machine may still have been carried out: its name taken means it was.
+async fn create(client: &Client, mut m: MissionCreate, pick: impl Fn(&[proto::RobotId]) -> Vec<proto::RobotId>) {
+    const TRIES: usize = 4;
+    for attempt in 1..=TRIES {
+        let views: Vec<RobotView> = match client.query(proto::Key::SystemRobots, None::<&()>).await {
+            Ok(v) => v,
+            Err(e) => {
+                eprintln!("fleet query failed: {e}");
+                continue;
+            }
+        };
+        let mut idle: Vec<proto::RobotId> = views.iter().filter(|v| v.status != RobotStatus::Lost && v.mission.is_none()).map(|v| v.id.clone()).collect();
+        idle.sort_by_key(|id| (id.len(), id.clone()));
+        let robots = pick(&idle);
+        if robots.is_empty() {
+            eprintln!("cannot create mission {}: no idle robot left", m.name);
+            return;
+        }
+        m.robots = Some(robots);
+        match client.query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await {
+            Ok(_) => return,
+            Err(e) if attempt > 1 && e.to_string().contains("already exists") => return,
+            Err(e) if attempt < TRIES => eprintln!("mission {} not created ({e}): choosing its robots again", m.name),
+            Err(e) => eprintln!("cannot create mission {}: {e}", m.name),
         }
     }
 }

@@ -47,6 +47,9 @@ pub fn line(e: &JournalEntry) -> String {
         JournalEvent::Command { by, command, request } => format!("{by}: {command} {request}"),
         JournalEvent::RobotLost { robot } => format!("robot {robot} lost"),
         JournalEvent::RobotBack { robot } => format!("robot {robot} back"),
+        JournalEvent::RobotFlapping { robot, losses, alive } => {
+            format!("robot {robot} lost {losses} more times, then quiet ({})", if *alive { "alive" } else { "lost" })
+        }
         JournalEvent::ManagerChanged { mission, manager, chain_epoch } => format!("mission {mission} managed by {manager} (chain epoch {chain_epoch})"),
         JournalEvent::Replanned { mission, plan_epoch, robots } => format!("mission {mission} replanned (epoch {plan_epoch}) for {}", robots.join(", ")),
         JournalEvent::MissionRestarted { mission, robots } => format!("mission {mission} started again with {}", robots.join(", ")),

@@ -390,6 +390,37 @@ fn a_report_cannot_claim_robots_nor_speak_for_another_manager() {
     assert!(matches!(cmds.as_slice(), [Command::Refused(mrmm_proto::edge::Refused::NotEntitled { from: f, .. })] if *f == from), "{cmds:?}");
 }
 
+/// Issue 50: a robot's certificate published a status of a mission nobody created, naming
+/// itself its head and four idle robots; central adopted it, journaled it and admitted the idle
+/// robots under the robot, which then drove them. Now nothing is adopted on a robot's word.
+#[test]
+fn a_robot_cannot_invent_a_mission_with_idle_robots() {
+    let mut sm = with_host(&["r1", "r2", "r3", "r4"]);
+    sm.drive(0.0, Event::HostAlive { node: "r1".into() });
+    let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r1");
+    let mut evil = MissionViewBuilder::running("evil", "r1", &["r1", "r2", "r3", "r4"]);
+    evil.manager.node = "r1".into();
+    for t in [1.0, 2.0, 3.0] {
+        let cmds = sm.handle(t, Event::MissionStatus { view: Box::new(evil.clone()), from: from.clone() });
+        assert!(cmds.is_empty(), "nothing journaled, admitted or said: {cmds:?}");
+    }
+    assert_eq!(["r2", "r3", "r4"].map(|r| mission_of(&sm, r)), [None, None, None], "idle robots stay idle");
+    assert_eq!(sm.status(3.0).missions, 0);
+    assert_eq!(sm.adoptions_refused.len(), 1, "logged once for the sender");
+    // Its own telemetry naming the mission changes nothing: it speaks only for itself.
+    let mut t = telemetry("r1", 9, Behaviour::Hold);
+    t.mission = Some("evil".into());
+    sm.drive(3.5, Event::Telemetry(Box::new(t)));
+    assert!(sm.handle(4.0, Event::MissionStatus { view: Box::new(evil.clone()), from: from.clone() }).is_empty());
+    // A robot heading a mission after a takeover is believed once a member it lists runs it by
+    // its own telemetry, and only such members are recorded.
+    let mut t = telemetry("r2", 9, Behaviour::Hold);
+    t.mission = Some("evil".into());
+    sm.drive(4.5, Event::Telemetry(Box::new(t)));
+    sm.drive(5.0, Event::MissionStatus { view: Box::new(evil), from });
+    assert_eq!(["r1", "r2", "r3", "r4"].map(|r| mission_of(&sm, r)), [Some("evil".into()), Some("evil".into()), None, None]);
+}
+
 #[test]
 fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
     let mut sm = with_host(&["r1", "r2", "r3"]);

@@ -320,3 +320,46 @@ fn a_mission_robots_run_but_no_manager_reports_is_started_anew_after_a_while() {
     }
     assert_eq!(starts(sm.handle(RUNNING_WAIT_S + 0.1, Event::Tick)), [(vec!["r1".to_string(), "r2".to_string()], 1)]);
 }
+
+/// Issue 50: a pause acknowledged to the operator was held only in memory until the head
+/// acknowledged it; a central killed in between came back with the journal saying paused while
+/// the mission ran. The journaled definition is now sent again until the head agrees.
+#[test]
+fn a_pause_acknowledged_before_a_restart_reaches_the_head_after_it() {
+    let (mut sm, mut disk) = with_journal(&["r1", "r2", "r3"]);
+    let cmds = drive_journaled(&mut sm, &mut disk, 3.0, Event::Operator { req: Req::Query(9), request: Request::Pause(decode(r#"{"name": "p1"}"#)) });
+    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Ok(_), .. })), "acknowledged: {cmds:?}");
+    assert!(disk.missions.get("p1").and_then(|d| d.spec.as_ref()).is_some_and(|s| s.paused), "paused on disk");
+    // Central dies before the head hears of it, and comes back from its journal.
+    let mut sm = restored(&disk, &["r1", "r2"]);
+    let mut running = *started_view("p1", "central", &["r1".into(), "r2".into()]);
+    // The head runs the mission's parameters, not paused.
+    running.params = disk.missions.get("p1").and_then(|d| d.spec.as_ref()).map(|s| s.params.clone()).unwrap_or_default();
+    let updates = |cmds: &[Command]| -> Vec<u64> {
+        cmds.iter()
+            .filter_map(|c| match c {
+                Command::Ctl { id, mission, ctl: MissionCtl::Update { spec }, .. } if mission == "p1" && spec.paused => Some(*id),
+                _ => None,
+            })
+            .collect()
+    };
+    let mut sent = Vec::new();
+    let mut t = 1.0;
+    while t < 6.0 {
+        sent.extend(updates(&sm.handle(t, status(running.clone()))));
+        sent.extend(updates(&sm.handle(t, Event::Tick)));
+        t += 0.5;
+    }
+    assert_eq!(sent.len(), 1, "the pause is sent again, once while it is on its way");
+    // The head acknowledges, and runs paused: nothing more is sent.
+    sm.handle(6.0, Event::CtlDone { id: sent[0], result: Ok(()) });
+    let mut paused = running;
+    paused.status = MissionStatus::Paused;
+    paused.manager.epoch = 2;
+    let mut again = 0;
+    for k in 0..20 {
+        again += updates(&sm.handle(6.5 + f64::from(k), status(paused.clone()))).len();
+        again += updates(&sm.handle(6.5 + f64::from(k), Event::Tick)).len();
+    }
+    assert_eq!(again, 0);
+}
