@@ -164,7 +164,7 @@ async fn plan_requests_for_maps_central_never_published_cost_central_nothing() -
         let bytes = bundle.encode();
         let hash = mrmm_maps::bundle::content_hash(&bytes);
         let chunks: Vec<Vec<u8>> = proto::map::MapChunk::split(&bytes).iter().map(|c| c.encode()).collect::<Result<_, _>>()?;
-        let key = format!("mrmm/maps/{hash}/*");
+        let key = proto::Pattern::MapChunks(hash.clone()).to_string();
         let q = rogue
             .session()
             .declare_queryable(key)
@@ -304,7 +304,7 @@ async fn a_holder_serving_bad_map_chunks_is_passed_over() -> anyhow::Result<()> 
     let rogue = node(&pki, "r9", vec![ep.clone()]).await?;
     let _bad = rogue
         .session()
-        .declare_queryable(format!("mrmm/maps/{}/*", r.hash))
+        .declare_queryable(proto::Pattern::MapChunks(r.hash.clone()).to_string())
         .callback(|q| {
             let Some(Key::MapChunk { index, .. }) = Key::parse(q.key_expr().as_str()) else { return };
             let chunk = proto::map::MapChunk { index, total: 1, data: vec![0; 100] };

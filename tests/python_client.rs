@@ -123,14 +123,14 @@ async fn standard_tools_read_the_fleets_keys_and_a_python_client_seals_with_them
     let (_tap, lines) = common::start_lines(
         &[],
         "tap",
-        &["tap", "mrmm/test/**", "--connect", &ep, "--pki", &pki.display().to_string(), "--as", "op", "--duration", "60"],
+        &["tap", "sealtest/**", "--connect", &ep, "--pki", &pki.display().to_string(), "--as", "op", "--duration", "60"],
         &dir.path("tap.log"),
         "{\"tap\"",
         Duration::from_secs(20),
     )?;
     let seal = |signing: &str, payload: &str| -> anyhow::Result<Value> {
         let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/py/seal_client.py");
-        let args = [&ep, &f("ca.crt"), &f("r1.crt"), &f("r1.key"), "robot", "r1", "mrmm/test/hello", payload, &f(signing)];
+        let args = [&ep, &f("ca.crt"), &f("r1.crt"), &f("r1.key"), "robot", "r1", "sealtest/hello", payload, &f(signing)];
         let out = Command::new(&py).arg(script).args(args).output()?;
         anyhow::ensure!(out.status.success(), "seal_client.py: {}", String::from_utf8_lossy(&out.stderr));
         Ok(serde_json::from_str(String::from_utf8_lossy(&out.stdout).trim())?)

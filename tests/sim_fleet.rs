@@ -160,7 +160,7 @@ fn a_bad_sim_fleet_command_line_stops_start_up_with_one_line() -> anyhow::Result
     let d = dir.path("d.json5");
     std::fs::write(&d, r#"{ id: "slow", type: "ground", kinematics: { max_speed: -1, max_turn_rate: 1 } }"#)?;
     let d = d.display().to_string();
-    let bad_speed = format!("{d}: robot slow: kinematics.max_speed: must be a number in (0, 1000] (got -1)");
+    let bad_speed = format!("{d}: robot slow: kinematics.max_speed: must be a number in [0.01, 1000] (got -1)");
     for (args, wanted) in [
         (vec!["--config", &d], bad_speed.as_str()),
         (vec!["--config", &a, "--config", &b], "robot same: two configs give this id; every robot needs its own"),

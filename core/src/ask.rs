@@ -43,7 +43,7 @@ impl Answerer {
             Answerer::Robot(id) => s.is(Role::Robot, id),
             Answerer::Host(node) => s.id == *node && s.role.hosts_missions(),
             Answerer::Managers(nodes) => s.role.hosts_missions() && nodes.iter().any(|n| *n == s.id),
-            Answerer::Planner => matches!(s.role, Role::Planner | Role::Central),
+            Answerer::Planner => mrmm_proto::policy::allows(mrmm_proto::policy::Act::PlanAnswer, s.role, mrmm_proto::policy::Relation::Stranger),
         }
     }
 }

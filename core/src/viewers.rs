@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{Role, Sender};
+use mrmm_proto::Sender;
 
 /// Viewers a robot tags its telemetry for at most (each costs a tag per message).
 pub const MAX_VIEWERS: usize = 8;
@@ -37,7 +37,7 @@ impl Viewers {
 
     /// A proven announcement from `who` at `now_ms`.
     pub fn heard(&mut self, now_ms: u64, who: Sender) -> Heard {
-        if !matches!(who.role, Role::Operator | Role::Central) {
+        if !mrmm_proto::policy::allows(mrmm_proto::policy::Act::Viewer, who.role, mrmm_proto::policy::Relation::Stranger) {
             return Heard::NotAViewer;
         }
         self.forget_old(now_ms);
@@ -62,6 +62,7 @@ impl Viewers {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use mrmm_proto::Role;
 
     #[test]
     fn viewers_are_operators_tools_or_central_kept_while_they_announce_and_bounded() {

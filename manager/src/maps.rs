@@ -323,7 +323,7 @@ impl MapStore {
             if served.contains_key(&held.info.hash) {
                 continue;
             }
-            let key = format!("{}/*", Key::MapChunk { hash: held.info.hash.clone(), index: 0 }.to_string().trim_end_matches("/0"));
+            let key = mrmm_proto::Pattern::MapChunks(held.info.hash.clone()).to_string();
             // Central answers for a map it publishes with its manifest too (sealed): askers check
             // each chunk against it.
             let manifest = match self.publisher {

@@ -90,7 +90,7 @@ pub async fn serve(mesh: Mesh, maps: MapStore, shutdown: CancellationToken) -> R
                 continue;
             }
         };
-        if !from.role.hosts_missions() {
+        if !proto::policy::allows(proto::policy::Act::PlanRequest, from.role, proto::policy::Relation::Stranger) {
             mesh.refuse("ask for plans", &from);
             mesh.reply_error(&q, &format!("refused: {from} may not ask for plans")).await;
             continue;

@@ -33,8 +33,10 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
                 return Err(malformed("chain message", "a bad mission or node name".into()));
             }
             let from = proven("chain message")?;
-            if !from.role.hosts_missions() {
-                return Err(Refused::NotEntitled { from, what: "send chain messages".into() });
+            // Whether the sender is the mission's to speak of is the host's to say (`trust.rs`);
+            // a role the policy never lets send chain messages is refused here.
+            if proto::policy::need(proto::policy::Act::Chain, from.role) == proto::policy::Need::Never {
+                return Err(Refused::NotEntitled { from, what: proto::policy::row(proto::policy::Act::Chain).what.into() });
             }
             Ok(Event::Chain { envelope: Box::new(env), from })
         }

@@ -242,7 +242,7 @@ impl HostCore {
         match ev {
             Event::Tick => self.tick(now, &mut out),
             Event::StatusTick => self.status_tick(now, &mut out),
-            Event::Start { from, query, .. } | Event::Ctl { from, query, .. } if from.role != Role::Central => {
+            Event::Start { from, query, .. } | Event::Ctl { from, query, .. } if !steers(&from) => {
                 out.push(Command::Reply {
                     query,
                     result: Err(ErrorReply::coded(ErrorCode::Refused, format!("refused: {from} may not steer missions (only central does)"))),
@@ -353,4 +353,10 @@ impl HostCore {
             self.run(now, &name, ev, out);
         }
     }
+}
+
+/// Whether `from` may start and control missions here ([`mrmm_proto::policy::POLICY`]).
+fn steers(from: &mrmm_proto::Sender) -> bool {
+    use mrmm_proto::policy::{allows, Act, Relation};
+    allows(Act::Start, from.role, Relation::Stranger) && allows(Act::Control, from.role, Relation::Stranger)
 }

@@ -77,7 +77,8 @@ impl Trust {
                 let Local::Robot(teams) = &self.local else { return };
                 let Some((_, members)) = teams.iter().find(|(m, _)| *m == view.name) else { return };
                 let head_trusted = from.role != Role::Robot || members.contains(&from.id);
-                if view.manager.node == from.id && head_trusted {
+                let status = mrmm_proto::policy::Publication::Status { manager: &view.manager.node };
+                if mrmm_proto::policy::may_publish(status, from).is_ok() && head_trusted {
                     self.trusted_chain.insert(view.name.clone(), view.manager.chain.clone());
                 }
             }
@@ -114,24 +115,33 @@ impl Trust {
     /// holds of the mission (looked at only for a robot: central's and hosts' messages, the most
     /// frequent, need no look through the team).
     pub(super) fn may_chain(&self, mission: &str, from: &Sender, holding: impl FnOnce() -> Holding) -> bool {
-        match from.role {
-            Role::Central | Role::Host => return true,
-            Role::Robot => {}
-            Role::Operator | Role::Planner | Role::Router => return false,
+        use mrmm_proto::policy::{allows, need, Act, Need};
+        match need(Act::Chain, from.role) {
+            Need::Always => return true,
+            Need::Never => return false,
+            Need::Any(_) => {}
         }
+        allows(Act::Chain, from.role, self.chain_relation(mission, from, holding))
+    }
+
+    /// What `from` is to `mission` for this node: counted in its replica's chain or team, a
+    /// member of its own robot's team of it (its plan and admission) or of the chain a head of
+    /// that team last published; or — for a mission this node holds nothing of and its robot is
+    /// not in — running it by its own telemetry (a node outside a mission can still be asked to
+    /// hold a replica of it).
+    fn chain_relation(&self, mission: &str, from: &Sender, holding: impl FnOnce() -> Holding) -> mrmm_proto::policy::Relation {
+        use mrmm_proto::policy::Relation;
         let holding = holding();
         if holding.counts_sender {
-            return true;
+            return Relation::Member;
         }
         let id = &from.id;
         match self.teams().iter().find(|(m, _)| m == mission).map(|(_, members)| members) {
-            // Our robot is in the mission: only its team (as its plan and admission say) speaks,
-            // and the chain a head of that team last published.
-            Some(members) => members.contains(id) || self.trusted_chain.get(mission).is_some_and(|chain| chain.iter().any(|n| n == id)),
-            // Our robot is not in it (it left, or never was) or there is none: go by what the
-            // sender's own telemetry says it runs, and only for a mission this node holds nothing
-            // of yet — a node outside a mission can still be asked to hold a replica of it.
-            None => !holding.holds && holding.sender_runs,
+            Some(members) if members.contains(id) => Relation::Member,
+            Some(_) if self.trusted_chain.get(mission).is_some_and(|chain| chain.iter().any(|n| n == id)) => Relation::Manager,
+            Some(_) => Relation::Stranger,
+            None if !holding.holds && holding.sender_runs => Relation::Runs,
+            None => Relation::Stranger,
         }
     }
 }

@@ -3,7 +3,7 @@
 //! [`Command`]s the runtime (`runtime.rs`) or a simulation carries out.
 
 use mrmm_proto::{
-    self as proto, BarrierMode, Behaviour, CommandAck, MissionName, NodeId, PlanAssignment, RobotCommand, RobotId, RobotInfo, Role, Sender, Step, SyncArrival,
+    self as proto, BarrierMode, Behaviour, CommandAck, MissionName, NodeId, PlanAssignment, RobotCommand, RobotId, RobotInfo, Sender, Step, SyncArrival,
     SyncRelease, Telemetry,
 };
 
@@ -319,53 +319,47 @@ impl Robot {
         }
     }
 
-    /// Whether `from` may give this robot `cmd`: direct orders and admissions come from central
-    /// only; plans from central, mission hosts, or a robot of this robot's mission (a teammate in
-    /// its current plan of that mission, or a manager or member of the admission central gave it).
+    /// Whether `from` may give this robot `cmd` ([`mrmm_proto::policy::POLICY`]): direct orders and
+    /// admissions come from central only; plans from central, mission hosts, or a robot of this
+    /// robot's mission (a teammate in its current plan of that mission, or a manager or member of
+    /// the admission central gave it), or — central unreachable and this robot idle — the robot
+    /// leading it.
     fn entitled(&self, cmd: &RobotCommand, from: &Sender) -> Result<(), String> {
-        let refuse = |what: &str| Err(format!("refused: {from} may not {what}"));
-        match cmd {
-            RobotCommand::Goto { .. }
-            | RobotCommand::Hold
-            | RobotCommand::Leave { .. }
-            | RobotCommand::Admit { .. }
-            | RobotCommand::Capabilities { .. }
-            | RobotCommand::Crash => {
-                if from.role == Role::Central {
-                    Ok(())
-                } else {
-                    refuse("give this robot direct orders (only central does)")
-                }
-            }
-            RobotCommand::Plan(a) => match from.role {
-                Role::Central | Role::Host => Ok(()),
-                Role::Robot => {
-                    let teammate = self.exec.as_ref().is_some_and(|e| {
-                        e.mission() == a.mission && (e.assignment.members.iter().any(|m| *m == from.id) || e.assignment.managers.iter().any(|m| *m == from.id))
-                    });
-                    // Any robot of the admission may come to lead the mission (its chain is made of
-                    // its members).
-                    let admitted = self
-                        .admitted
-                        .iter()
-                        .any(|(m, managers, members)| *m == a.mission && (managers.iter().any(|m| *m == from.id) || members.iter().any(|m| *m == from.id)));
-                    // While central is unreachable nobody can admit this robot: an idle robot
-                    // (restarted, say) takes its mission's plan from the robot leading it, as the
-                    // paper's robots rejoin without central. A stranger with a fleet certificate
-                    // could do the same then; see docs/security.md.
-                    let unattended = !self.central_up && self.exec.is_none();
-                    if teammate || admitted || from.id == self.cfg.id || unattended {
-                        if unattended && !teammate && !admitted {
-                            tracing::info!(robot = %self.cfg.id, from = %from, mission = %a.mission, "central unreachable: taking a plan from a robot leading the mission");
-                        }
-                        Ok(())
-                    } else {
-                        refuse(&format!("plan mission {} for this robot (neither a teammate nor a manager it was admitted under)", a.mission))
-                    }
-                }
-                Role::Operator | Role::Planner | Role::Router => refuse("send plans"),
-            },
+        use mrmm_proto::policy::{may, Act, Relation};
+        let refuse = |what: String| format!("refused: {from} may not {what}");
+        let RobotCommand::Plan(a) = cmd else {
+            return may(Act::Order, from, Relation::Stranger).map_err(|w| refuse(format!("{w} (only central does)")));
+        };
+        let relation = self.plan_relation(&a.mission, from);
+        if relation == Relation::Unattended {
+            tracing::info!(robot = %self.cfg.id, from = %from, mission = %a.mission, "central unreachable: taking a plan from a robot leading the mission");
         }
+        may(Act::Plan, from, relation).map_err(|w| refuse(format!("{w} of mission {} (neither a teammate nor a manager it was admitted under)", a.mission)))
+    }
+
+    /// What `from` is to `mission` for this robot: itself; a manager or teammate in its current
+    /// plan of it; a manager or member of the admission central gave it (any of them may come to
+    /// lead the mission: its chain is made of its members); the robot leading it while central is
+    /// unreachable and this robot runs nothing (the paper's robots rejoin without central; a
+    /// stranger with a fleet certificate could do the same then, see docs/security.md).
+    fn plan_relation(&self, mission: &str, from: &Sender) -> mrmm_proto::policy::Relation {
+        use mrmm_proto::policy::Relation;
+        if from.id == self.cfg.id {
+            return Relation::Itself;
+        }
+        let planned = self.exec.as_ref().filter(|e| e.mission() == mission).map(|e| &e.assignment);
+        let admitted = self.admitted.iter().filter(|(m, _, _)| m.as_str() == mission);
+        if planned.is_some_and(|a| a.managers.iter().any(|m| *m == from.id)) || admitted.clone().any(|(_, managers, _)| managers.iter().any(|m| *m == from.id))
+        {
+            return Relation::Manager;
+        }
+        if planned.is_some_and(|a| a.members.iter().any(|m| *m == from.id)) || admitted.clone().any(|(_, _, members)| members.iter().any(|m| *m == from.id)) {
+            return Relation::Member;
+        }
+        if !self.central_up && self.exec.is_none() {
+            return Relation::Unattended;
+        }
+        Relation::Stranger
     }
 
     /// Applies a command; returns the team change it makes. Direct orders (goto, hold) end any plan.

@@ -9,24 +9,31 @@ use mrmm_proto::Role;
 use super::*;
 
 impl SystemManager {
-    /// Whether `from` may report on `view`'s mission: central and mission hosts may; a robot
-    /// only if this manager knows it as one of the mission's managers or members (a successor
-    /// taking over comes from the chain, and the chain is made of members).
+    /// Whether `from` may report on `view`'s mission ([`mrmm_proto::policy::POLICY`],
+    /// `Act::Report`): central and mission hosts may; a robot only if this manager knows it as
+    /// one of the mission's managers or members (a successor taking over comes from the chain,
+    /// and the chain is made of members). A mission this manager does not know is for
+    /// [`Self::adopt`] to judge.
     pub(super) fn may_report(&self, view: &MissionView, from: &Sender) -> bool {
-        if matches!(from.role, Role::Central | Role::Host) {
-            return true;
-        }
-        match self.missions.get(&view.name).and_then(|r| r.view.as_ref()) {
+        use mrmm_proto::policy::{allows, Act, Relation};
+        let relation = match self.missions.get(&view.name).and_then(|r| r.view.as_ref()) {
             Some(known) => {
                 let id = &from.id;
                 let former =
                     || view.manager.chain_epoch > known.manager.chain_epoch && self.missions.get(&view.name).is_some_and(|r| r.former.iter().any(|n| n == id));
-                self.managers(&view.name).iter().any(|n| n == id) || known.robots.iter().any(|r| r == id) || known.lost.iter().any(|r| r == id) || former()
+                if self.managers(&view.name).iter().any(|n| n == id) || former() {
+                    Relation::Manager
+                } else if known.robots.iter().any(|r| r == id) || known.lost.iter().any(|r| r == id) {
+                    Relation::Member
+                } else {
+                    Relation::Stranger
+                }
             }
-            // Not known here (this manager restarted): what the report says of other robots
-            // is checked against their own telemetry in `reconcile`.
-            None => true,
-        }
+            // Not known here (this manager restarted): adopted or not by its own rule; what the
+            // report says of other robots is checked against their own telemetry in `reconcile`.
+            None => return true,
+        };
+        allows(Act::Report, from.role, relation)
     }
 
     /// A robot's telemetry the registry took (newer than the last, or the first since it came
@@ -123,7 +130,8 @@ impl SystemManager {
     /// robots not already in another mission. A mission terminated here is ended again.
     pub(super) fn mission_status(&mut self, mut view: MissionView, from: Sender) -> Vec<Command> {
         view.carry_summary(self.missions.get(&view.name).and_then(|r| r.view.as_ref()));
-        if view.manager.node != from.id || !from.role.hosts_missions() {
+        let status = mrmm_proto::policy::Publication::Status { manager: &view.manager.node };
+        if mrmm_proto::policy::may_publish(status, &from).is_err() {
             return vec![Command::Refused(Refused::NotEntitled { what: format!("report mission {} as managed by {}", view.name, view.manager.node), from })];
         }
         // The head of a lineage this manager replaced (it started the mission anew while that
@@ -223,9 +231,18 @@ impl SystemManager {
         if !self.fleet.has_host(&view.manager.node) || self.pending_create.contains_key(&view.name) {
             return vec![];
         }
+        // Its team runs it, by another robot's own telemetry (a robot's say-so is not enough).
         let vouched =
             || view.robots.iter().chain(&view.lost).any(|id| *id != from.id && self.fleet.last(id).is_some_and(|t| t.mission.as_ref() == Some(&view.name)));
-        let why = if from.role == Role::Robot && !vouched() {
+        let allowed = {
+            use mrmm_proto::policy::{allows, need, Act, Need, Relation};
+            match need(Act::Adopt, from.role) {
+                Need::Always => true,
+                Need::Never => false,
+                Need::Any(_) => allows(Act::Adopt, from.role, if vouched() { Relation::Runs } else { Relation::Stranger }),
+            }
+        };
+        let why = if !allowed {
             Some("a robot's report of a mission no other robot says it runs")
         } else if self.missions.values().filter(|m| m.adopted).count() >= MAX_ADOPTED {
             Some("too many adopted missions")

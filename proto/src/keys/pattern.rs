@@ -37,6 +37,8 @@ pub enum Pattern {
     AgentAll,
     /// Every chunk of every map: `mrmm/maps/*/*`
     AllMapChunks,
+    /// Every chunk of one map, and its manifest: `mrmm/maps/<hash>/*`
+    MapChunks(String),
     /// Everything of mrmm: `mrmm/**`
     All,
 }
@@ -60,6 +62,7 @@ impl fmt::Display for Pattern {
             Pattern::SystemCmdAll => f.write_str("mrmm/system/cmd/**"),
             Pattern::AgentAll => f.write_str("mrmm/agent/**"),
             Pattern::AllMapChunks => f.write_str("mrmm/maps/*/*"),
+            Pattern::MapChunks(hash) => write!(f, "mrmm/maps/{hash}/*"),
             Pattern::All => f.write_str("mrmm/**"),
         }
     }
