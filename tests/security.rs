@@ -13,29 +13,12 @@ use std::time::{Duration, Instant};
 
 use common::{eventually, fleet_pki, start_secure_central, start_secure_robot, Scratch};
 use mrmm_net::client::Client;
-use mrmm_net::net::{Mode, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
-use mrmm_net::{Mesh, NodeNet};
 use mrmm_proto::chain::{Config, Msg};
 use mrmm_proto::{
     self as proto, ChainEnvelope, Key, MissionCreate, MissionView, PlanRequest, RobotCommand, RobotView, SecuritySection, SyncArrival, SystemStatus,
 };
 use serde_json::json;
 use zenoh::bytes::Encoding;
-
-/// A session of node `name` of `pki`, linked to `connect`.
-async fn node(pki: &std::path::Path, name: &str, connect: Vec<String>) -> anyhow::Result<Mesh> {
-    let n = NodeNet {
-        mode: Mode::Peer,
-        listen: vec!["quic/127.0.0.1:0".into()],
-        connect,
-        lease_ms: DEFAULT_LEASE_MS,
-        max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
-        security: Some(SecuritySection::from_dir(pki, name)),
-        me: None,
-        wire_stats: false,
-    };
-    Ok(Mesh::open(&n).await?)
-}
 
 /// Opening a client session to `ep` with a hand-made TLS config (`cert`: the client's own
 /// certificate and key, if any) fails.
@@ -143,7 +126,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     // 2. A rogue with a valid robot certificate (r9, in no mission).
     let mut links = eps.clone();
     links.insert(0, ep.clone());
-    let rogue = node(&pki, "r9", links).await?;
+    let rogue = common::secure_node(&pki, "r9", links).await?;
     let any = |_: &proto::Sender| true;
     let t = Duration::from_secs(2);
     // a. Operator commands: dropped by central's access control (no answer).

@@ -359,6 +359,23 @@ pub fn fleet_pki(dir: &Scratch, robots: usize) -> anyhow::Result<PathBuf> {
     Ok(p)
 }
 
+/// A secure session of node `name` of `pki` (its certificate, over QUIC), linked to `connect`:
+/// what a node — or an attacker holding that certificate — opens.
+pub async fn secure_node(pki: &Path, name: &str, connect: Vec<String>) -> anyhow::Result<mrmm_net::Mesh> {
+    use mrmm_net::net::{Mode, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE_SIZE};
+    let n = mrmm_net::NodeNet {
+        mode: Mode::Peer,
+        listen: vec!["quic/127.0.0.1:0".into()],
+        connect,
+        lease_ms: DEFAULT_LEASE_MS,
+        max_message_size: DEFAULT_MAX_MESSAGE_SIZE,
+        security: Some(mrmm_proto::SecuritySection::from_dir(pki, name)),
+        me: None,
+        wire_stats: false,
+    };
+    Ok(mrmm_net::Mesh::open(&n).await?)
+}
+
 /// Starts central over mutual TLS (Zenoh's QUIC link) with the certificates of `pki`; operator
 /// `op` may command.
 pub fn start_secure_central(dir: &Scratch, pki: &Path) -> anyhow::Result<(Proc, String)> {

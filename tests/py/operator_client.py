@@ -7,7 +7,7 @@ Prints one JSON line: {"status": <answer or null>, "goto": <answer>, "goto_error
 import json
 import sys
 
-import zenoh
+from fleet_session import open_session
 
 
 def ask(session, key, payload=None):
@@ -24,19 +24,7 @@ def ask(session, key, payload=None):
 
 def main():
     endpoint, ca, cert, key, robot = sys.argv[1:6]
-    conf = zenoh.Config()
-    for k, v in [
-        ("mode", "client"),
-        ("connect/endpoints", [endpoint]),
-        ("scouting/multicast/enabled", False),
-        ("transport/link/tls/root_ca_certificate", ca),
-        ("transport/link/tls/connect_certificate", cert),
-        ("transport/link/tls/connect_private_key", key),
-        ("transport/link/tls/enable_mtls", True),
-        ("transport/link/tls/verify_name_on_connect", False),
-    ]:
-        conf.insert_json5(k, json.dumps(v))
-    with zenoh.open(conf) as session:
+    with open_session(endpoint, ca, cert, key) as session:
         _, status = ask(session, "mrmm/system/status")
         kind, goto = ask(session, "mrmm/system/cmd/robot/goto", {"robot": robot, "x": 4.0, "y": -7.0})
         print(json.dumps({"status": status, "goto": goto if kind == "ok" else None, "goto_error": goto if kind == "error" else None}))

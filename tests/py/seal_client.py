@@ -15,9 +15,9 @@ import sys
 import threading
 import time
 
-import zenoh
 from cryptography import x509
 from cryptography.hazmat.primitives import serialization
+from fleet_session import open_session
 
 ROLES = {"operator": 0, "central": 1, "robot": 2, "host": 3, "planner": 4, "router": 5}
 
@@ -46,19 +46,7 @@ def main():
     with open(cert, "rb") as f:
         cert_der = x509.load_pem_x509_certificate(f.read()).public_bytes(serialization.Encoding.DER)
     att = seal(key, cert_der, role, node_id, key_expr, payload.encode())
-    conf = zenoh.Config()
-    for k, v in [
-        ("mode", "client"),
-        ("connect/endpoints", [endpoint]),
-        ("scouting/multicast/enabled", False),
-        ("transport/link/tls/root_ca_certificate", ca),
-        ("transport/link/tls/connect_certificate", cert),
-        ("transport/link/tls/connect_private_key", key_path),
-        ("transport/link/tls/enable_mtls", True),
-        ("transport/link/tls/verify_name_on_connect", False),
-    ]:
-        conf.insert_json5(k, json.dumps(v))
-    with zenoh.open(conf) as session:
+    with open_session(endpoint, ca, cert, key_path) as session:
         pub = session.declare_publisher(key_expr)
         # Published once a subscriber is routed to (Zenoh's matching status), within 10 s.
         matched = threading.Event()
