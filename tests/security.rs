@@ -154,6 +154,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         managers: vec!["r9".into()],
         barrier: proto::BarrierMode::Mesh,
         scopes: vec![],
+        map: None,
     };
     let r = rogue
         .query::<serde_json::Value>(&Key::RobotCmd("r1".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus.clone())))?), t, any)

@@ -8,7 +8,10 @@ use std::collections::VecDeque;
 use mrmm_proto::{AdviceEvent, NodeId};
 
 use crate::agent::{self, Agent, AgentConfig};
+use crate::edge::{Incoming, Refused};
+use crate::egress::Sub;
 use crate::system::{self, Req, Request, SystemManager};
+use crate::traffic::authority::{self, Authority};
 
 /// Seconds between two looks of the agent at the fleet.
 pub const AGENT_PERIOD_S: f64 = 1.0;
@@ -20,6 +23,8 @@ pub enum Event {
     System(system::Event),
     /// Query `query` on `mrmm/agent/advice`.
     Advice { query: u64 },
+    /// A robot's report to the traffic authority of map `map` (its sender proven to be it).
+    Traffic { map: String, report: mrmm_proto::TrafficReport },
 }
 
 impl Event {
@@ -28,6 +33,7 @@ impl Event {
         match self {
             Event::System(e) => e.kind(),
             Event::Advice { .. } => "advice",
+            Event::Traffic { .. } => "traffic",
         }
     }
 }
@@ -39,6 +45,8 @@ pub enum Command {
     System(system::Command),
     /// Publish on `mrmm/agent/advice/live`.
     Publish(AdviceEvent),
+    /// What the traffic authority decided.
+    Traffic(authority::Command),
 }
 
 /// The system manager and the advising agent.
@@ -47,29 +55,51 @@ pub struct CentralCore {
     system: SystemManager,
     agent: Agent,
     last_look: f64,
+    /// Traffic on the maps central publishes (and the former versions missions still use).
+    traffic: Authority,
+    started: f64,
 }
 
 impl CentralCore {
     /// Central on Zenoh node `node`, started at `now`.
     pub fn new(node: NodeId, agent: AgentConfig, now: f64) -> Self {
-        CentralCore { system: SystemManager::new(node, now), agent: Agent::new(agent), last_look: now }
+        CentralCore { system: SystemManager::new(node, now), agent: Agent::new(agent), last_look: now, traffic: Authority::new(now, 1, []), started: now }
     }
 
     /// Central restarted from its journal's `state`.
     pub fn restore(node: NodeId, agent: AgentConfig, now: f64, state: system::Durable) -> Self {
-        CentralCore { system: SystemManager::restore(node, now, state), agent: Agent::new(agent), last_look: now }
+        CentralCore {
+            system: SystemManager::restore(node, now, state),
+            agent: Agent::new(agent),
+            last_look: now,
+            traffic: Authority::new(now, 1, []),
+            started: now,
+        }
     }
 
     /// The maps missions may plan on, by name.
     pub fn with_maps(mut self, maps: std::collections::BTreeMap<String, std::sync::Arc<crate::maps::Held>>) -> Self {
+        self.traffic.add_maps(maps.values().map(|h| (h.info.hash.clone(), h.map.clone())));
         self.system = self.system.with_maps(maps);
         self
     }
 
     /// Former versions of the maps that journaled missions plan on.
     pub fn with_superseded(mut self, maps: Vec<std::sync::Arc<crate::maps::Held>>) -> Self {
+        self.traffic.add_maps(maps.iter().map(|h| (h.info.hash.clone(), h.map.clone())));
         self.system = self.system.with_superseded(maps);
         self
+    }
+
+    /// The traffic authority's incarnation: above every earlier central's (the driver gives its
+    /// start's wall-clock milliseconds), so that robots take its orders over theirs.
+    pub fn with_traffic_incarnation(mut self, incarnation: u64) -> Self {
+        self.traffic = self.traffic.with_incarnation(incarnation, self.started);
+        self
+    }
+
+    pub fn traffic(&self) -> &Authority {
+        &self.traffic
     }
 
     /// Robots lost this long (seconds) and in no mission leave the registry.
@@ -93,7 +123,16 @@ impl CentralCore {
                 let result = serde_json::to_value(self.agent.advice()).map_err(|e| e.to_string());
                 out.push(Command::System(system::Command::Reply { req: Req::Query(query), result }));
             }
+            Event::Traffic { map, report } => {
+                let cmds = self.traffic.handle(now, authority::Event::Report { map, report });
+                out.extend(cmds.into_iter().map(Command::Traffic));
+            }
             Event::System(ev) => {
+                match &ev {
+                    system::Event::RobotGone { id } => out.extend(self.traffic.handle(now, authority::Event::Gone(id.clone())).into_iter().map(Command::Traffic)),
+                    system::Event::Tick => out.extend(self.traffic.handle(now, authority::Event::Tick).into_iter().map(Command::Traffic)),
+                    _ => {}
+                }
                 if let system::Event::Operator { req: Req::Query(_), request } = &ev {
                     if request.is_command() {
                         self.agent.handle(now, agent::Event::OperatorCommand);
@@ -147,7 +186,46 @@ pub fn egress(c: &Command) -> Option<crate::egress::Out> {
     match c {
         Command::Publish(e) => crate::egress::Out::json(mrmm_proto::Key::AgentAdviceLive, e, crate::egress::Audience::Fleet),
         Command::System(c) => system::egress(c),
+        Command::Traffic(authority::Command::Order { map, robot, order }) => {
+            let to = crate::egress::Audience::Only(vec![mrmm_proto::Sender::new(mrmm_proto::Role::Robot, robot.to_string())]);
+            crate::egress::Out::json(mrmm_proto::Key::TrafficOrder { map: map.clone(), robot: robot.clone() }, order, to)
+        }
+        Command::Traffic(authority::Command::Blocked { .. }) => None,
     }
+}
+
+/// What a sealed message on `key` is, for the driver to prove its sender (`None`: liveliness).
+pub fn sealed(key: &str) -> Option<&'static str> {
+    match mrmm_proto::Key::parse(key) {
+        Some(mrmm_proto::Key::TrafficReport { .. }) => Some("traffic report"),
+        _ => system::sealed(key),
+    }
+}
+
+/// Translates what central hears: robots' traffic reports (each from the robot it is of), and
+/// everything the system manager hears.
+pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
+    let Some(mrmm_proto::Key::TrafficReport { map, robot }) = mrmm_proto::Key::parse(m.key) else {
+        return system::ingress(m).map(Event::System);
+    };
+    let what = "traffic report";
+    let from = m.from.cloned().ok_or(Refused::Unproven { what })?;
+    mrmm_proto::policy::may_publish(mrmm_proto::policy::Publication::TrafficReport(&robot), &from)
+        .map_err(|what| Refused::NotEntitled { from: from.clone(), what })?;
+    let report: mrmm_proto::TrafficReport = mrmm_proto::from_json_max(what, m.payload, mrmm_proto::traffic::MAX_MESSAGE)
+        .map_err(|e| Refused::Malformed { what, why: e.to_string() })?;
+    if report.robot != robot {
+        return Err(Refused::Malformed { what, why: format!("the report of {:?} published on {}", report.robot, m.key) });
+    }
+    report.check().map_err(|why| Refused::Malformed { what, why })?;
+    Ok(Event::Traffic { map, report })
+}
+
+/// What central listens to: the system manager's subscriptions and robots' traffic reports.
+pub fn subscriptions() -> Vec<Sub> {
+    let mut subs = system::subscriptions();
+    subs.push(Sub::any(mrmm_proto::Pattern::AllTrafficReports));
+    subs
 }
 
 #[cfg(test)]

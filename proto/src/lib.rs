@@ -25,6 +25,7 @@ pub mod policy;
 pub mod robot;
 pub mod security;
 pub mod team;
+pub mod traffic;
 
 pub use agent::*;
 pub use chain::ChainEnvelope;
@@ -42,6 +43,7 @@ pub use plan::{MissionPlan, PlanRequest, PlanSummary, RobotPlan, RobotSpec, Step
 pub use robot::*;
 pub use security::{Role, SecuritySection, Sender};
 pub use team::*;
+pub use traffic::{TrafficOrder, TrafficReport};
 
 #[cfg(test)]
 mod tests {

@@ -50,6 +50,10 @@ pub enum Act {
     MapChunk,
     /// `mrmm/maps/<hash>/manifest`, a map's chunk hashes.
     MapManifest,
+    /// `mrmm/traffic/<hash>/report/<id>`, a robot's word to the map's traffic authority.
+    TrafficReport,
+    /// `mrmm/traffic/<hash>/order/<id>`, the traffic authority's order to a robot.
+    TrafficOrder,
 }
 
 /// What the sender is to what it speaks of, as the receiver knows it.
@@ -117,7 +121,7 @@ use Need::{Always, Any, Never};
 use Relation::{Itself, Manager, Member, Runs, Unattended};
 
 /// The policy: every act, who may.
-pub const POLICY: [Row; 19] = [
+pub const POLICY: [Row; 21] = [
     Row { act: Act::Telemetry, key: "`mrmm/robots/<id>/telemetry`", what: "publish telemetry", need: [Never, Never, Any(&[Itself]), Never, Never, Never] },
     Row { act: Act::Arrival, key: "`mrmm/team/<m>[/<team>…]/sync/…`, `…/arrive/…`", what: "publish a barrier arrival", need: [Never, Never, Any(&[Itself]), Never, Never, Never] },
     Row {
@@ -192,6 +196,18 @@ pub const POLICY: [Row; 19] = [
         what: "answer with a map's manifest",
         need: [Never, Always, Never, Never, Never, Never],
     },
+    Row {
+        act: Act::TrafficReport,
+        key: "`mrmm/traffic/<hash>/report/<id>`",
+        what: "report to traffic",
+        need: [Never, Never, Any(&[Itself]), Never, Never, Never],
+    },
+    Row {
+        act: Act::TrafficOrder,
+        key: "`mrmm/traffic/<hash>/order/<id>` (the traffic authority)",
+        what: "give traffic orders",
+        need: [Never, Always, Never, Never, Never, Never],
+    },
 ];
 
 /// The row of `act`.
@@ -254,6 +270,10 @@ pub enum Publication<'a> {
     Advice,
     /// A mission's status, published by its head on node `manager` (as the status says).
     Status { manager: &'a str },
+    /// Robot `id`'s report to a traffic authority.
+    TrafficReport(&'a str),
+    /// A traffic authority's order.
+    TrafficOrder,
 }
 
 impl Publication<'_> {
@@ -265,6 +285,8 @@ impl Publication<'_> {
             Publication::Release(id) => format!("publish the barrier release of {id}"),
             Publication::Advice => "publish advice".to_string(),
             Publication::Status { manager } => format!("report a mission as managed by {manager}"),
+            Publication::TrafficReport(id) => format!("report to traffic for {id}"),
+            Publication::TrafficOrder => "give traffic orders".to_string(),
         }
     }
 }
@@ -280,6 +302,8 @@ pub fn may_publish(p: Publication<'_>, from: &Sender) -> Result<(), String> {
         Publication::Release(id) => (Act::Release, itself(id)),
         Publication::Advice => (Act::Advice, Relation::Stranger),
         Publication::Status { manager } => (Act::Status, itself(manager)),
+        Publication::TrafficReport(id) => (Act::TrafficReport, itself(id)),
+        Publication::TrafficOrder => (Act::TrafficOrder, Relation::Stranger),
     };
     may(act, from, relation).map_err(|_| p.what())
 }
@@ -317,14 +341,14 @@ mod tests {
         acts.sort();
         acts.dedup();
         assert_eq!(acts.len(), POLICY.len(), "one row per act");
-        for act in [Act::Start, Act::Control, Act::Order, Act::Advice, Act::MapManifest] {
+        for act in [Act::Start, Act::Control, Act::Order, Act::Advice, Act::MapManifest, Act::TrafficOrder] {
             for role in Role::ALL {
                 for rel in Relation::ALL {
                     assert_eq!(allows(act, role, rel), role == Role::Central, "{act:?} by {role} as {rel:?}");
                 }
             }
         }
-        for act in [Act::Telemetry, Act::Arrival, Act::Release] {
+        for act in [Act::Telemetry, Act::Arrival, Act::Release, Act::TrafficReport] {
             assert!(allows(act, Role::Robot, Relation::Itself));
             assert!(!allows(act, Role::Robot, Relation::Member) && !allows(act, Role::Central, Relation::Itself));
         }

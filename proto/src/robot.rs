@@ -312,6 +312,10 @@ pub struct PlanAssignment {
     /// the members that take part in them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub scopes: Vec<ScopeMembers>,
+    /// The map the plan is on: on a graph map the robot drives its navigate steps along the
+    /// lanes its traffic authority grants (`mrmm/traffic/<hash>/…`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<crate::MapRef>,
 }
 
 /// The members of a team above a robot's own that take part in its barriers.

@@ -152,6 +152,7 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
                     managers: vec![],
                     barrier: proto::BarrierMode::Mesh,
                     scopes: vec![],
+                    map: None,
                 })),
             };
             let mut r = robot_machine();
@@ -176,6 +177,15 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
             viewers::Heard::NotAViewer => Ok(()),
             other => Err(format!("a viewer: {other:?}")),
         },
+        Act::TrafficReport => {
+            let report = proto::TrafficReport { robot: VICTIM.into(), seq: 1, x: 0.0, y: 0.0, goal: None, held: None };
+            let (key, payload) = heard(Key::TrafficReport { map: "a".repeat(64), robot: VICTIM.into() }, json(&report));
+            refused(mrmm_core::central::ingress(Incoming { key: &key, payload: &payload, put: true, from: Some(from) }))
+        }
+        Act::TrafficOrder => {
+            let (key, payload) = heard(Key::TrafficOrder { map: "a".repeat(64), robot: VICTIM.into() }, json(&proto::TrafficOrder::Free));
+            refused(robot_machine().ingress(Incoming { key: &key, payload: &payload, put: true, from: Some(from) }))
+        }
         Act::Report | Act::Command | Act::PlanRequest | Act::MapManifest | Act::Read | Act::MapChunk => Ok(()),
     }
 }

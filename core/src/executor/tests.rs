@@ -22,6 +22,7 @@ fn exec_as(me: &str, barrier: BarrierMode, steps: Vec<Step>, members: &[&str]) -
         managers: vec![],
         barrier,
         scopes: vec![],
+        map: None,
     })
 }
 
@@ -39,6 +40,7 @@ fn exec_in_team(me: &str, team: &str, steps: Vec<Step>, mine: &[&str], all: &[&s
         managers: vec![],
         barrier: BarrierMode::Mesh,
         scopes: vec![mrmm_proto::ScopeMembers { team: "m".into(), members: ids(all) }],
+        map: None,
     })
 }
 

@@ -86,6 +86,7 @@ impl MissionManager {
                         managers: vec![],
                         barrier: self.barrier(),
                         scopes,
+                        map: self.spec.map.clone(),
                     }),
                 })
             })

@@ -18,6 +18,7 @@ pub fn sealed(key: &str) -> &'static str {
         Some(Key::TeamSync { .. } | Key::TeamArrive { .. }) => "barrier arrival",
         Some(Key::TeamRelease { .. }) => "barrier release",
         Some(Key::RobotCmd(_)) => "robot command",
+        Some(Key::TrafficOrder { .. }) => "traffic order",
         _ => "message",
     }
 }
@@ -46,6 +47,13 @@ impl Robot {
                 let r: SyncRelease = json("barrier release", m.payload)?;
                 entitled(Publication::Release(&r.leader), &from)?;
                 Ok(Event::Released(r))
+            }
+            Some(Key::TrafficOrder { map, robot }) if robot == self.id() => {
+                let from = proven("traffic order")?;
+                entitled(Publication::TrafficOrder, &from)?;
+                let order = proto::from_json_max("traffic order", m.payload, proto::traffic::MAX_MESSAGE)
+                    .map_err(|e| Refused::Malformed { what: "traffic order", why: e.to_string() })?;
+                Ok(Event::Traffic { map, order })
             }
             Some(Key::TeamMember { robot, .. }) => Ok(if m.put { Event::MemberAlive(robot) } else { Event::MemberGone(robot) }),
             Some(Key::HostAlive(host)) if host == proto::CENTRAL_HOST => Ok(Event::CentralAlive(m.put)),

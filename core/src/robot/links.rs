@@ -125,6 +125,7 @@ impl Links {
                     None
                 }
             },
+            Command::TrafficReport { map, report } => Out::json(Key::TrafficReport { map: map.clone(), robot: self.id.clone() }, report, Audience::Fleet),
             Command::Reply(_) | Command::Refuse(_) | Command::Drive(_) | Command::Nav(_) | Command::KeepCapabilities { .. } | Command::Crash => None,
         }
     }
@@ -133,7 +134,7 @@ impl Links {
     /// telemetry is also for). Its command and info keys are queryables, its teammates and central
     /// liveliness tokens.
     pub fn subscriptions(&self) -> Vec<Sub> {
-        let mut subs = vec![Sub::any(Pattern::AllViewers)];
+        let mut subs = vec![Sub::any(Pattern::AllViewers), Sub::any(Pattern::TrafficOrders(self.id.to_string()))];
         if let Some(t) = &self.team {
             subs.extend(t.subscriptions());
         }

@@ -17,6 +17,7 @@ use mrmm_proto::nav::{GoalEvent, GoalId};
 mod ingress;
 mod links;
 mod setup;
+pub mod traffic;
 pub use ingress::{sealed, Incoming, Refused};
 pub use links::{Links, TeamLinks};
 pub use setup::{BodyKind, Nav2Setup, RobotSetup};
@@ -58,6 +59,8 @@ pub enum Event {
     FleetLink(bool),
     /// Nav2's action server appeared in the robot's ROS graph or left it.
     Nav2Server(bool),
+    /// The traffic authority of map `map` (a bundle hash) gave this robot an order.
+    Traffic { map: String, order: mrmm_proto::TrafficOrder },
     /// What became of a goal sent to Nav2.
     Nav2Goal { id: GoalId, event: GoalEvent },
 }
@@ -94,6 +97,8 @@ pub enum Command {
     /// for a robot with one. Carried out (written and synced) before the commands after it: the
     /// reply acknowledging the change comes after.
     KeepCapabilities { configured: Vec<String>, now: Vec<String> },
+    /// Publish this report to the traffic authority of map `map` (a bundle hash).
+    TrafficReport { map: String, report: mrmm_proto::TrafficReport },
     /// Stop at once, as a crashed computer would (a simulated robot, on the operator's word):
     /// nothing more is sent, no team is told goodbye.
     Crash,
@@ -123,6 +128,8 @@ pub struct Robot {
     keep: bool,
     /// The rest of a goto's route: driven to one by one once the body is idle.
     route: std::collections::VecDeque<(f64, f64)>,
+    /// On a map: what traffic grants it (kept from plan to plan on the same map).
+    traffic: Option<traffic::Gate>,
 }
 
 impl Robot {
@@ -151,6 +158,7 @@ impl Robot {
             info_rev: 0,
             keep: false,
             route: Default::default(),
+            traffic: None,
         }
     }
 
@@ -285,6 +293,12 @@ impl Robot {
             Event::Nav2Server(up) => {
                 if let Some(n) = self.nav2() {
                     n.set_server(up);
+                }
+                vec![]
+            }
+            Event::Traffic { map, order } => {
+                if let Some(g) = self.traffic.as_mut().filter(|g| g.map().hash == map) {
+                    g.order(now, order);
                 }
                 vec![]
             }
@@ -443,6 +457,11 @@ impl Robot {
         let join =
             Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier, members: a.members.clone(), scopes: a.scopes.clone() };
         self.exec = Some(Executor::new(a.clone()).with_time_scale(self.cfg.time_scale));
+        match &a.map {
+            Some(m) if self.traffic.as_ref().is_some_and(|g| g.map() == m) => {}
+            Some(m) => self.traffic = Some(traffic::Gate::new(m.clone())),
+            None => self.traffic = None,
+        }
         Ok(Some(join))
     }
 
@@ -534,6 +553,14 @@ impl Robot {
             }
         }
         let mut body_idle = self.body.idle();
+        let mut out = Vec::new();
+        // On a map with lanes the plan's goal is reached when traffic let the robot get there.
+        if let Some(g) = self.traffic.as_mut().filter(|g| !g.free()) {
+            body_idle = g.step(now, &mut self.body);
+            if let Some(report) = g.report(now, &self.cfg.id, &self.body) {
+                out.push(Command::TrafficReport { map: g.map().hash.clone(), report });
+            }
+        }
         // A goto's route: on to its next point.
         if body_idle && self.exec.is_none() {
             if let Some((x, y)) = self.route.pop_front() {
@@ -541,7 +568,7 @@ impl Robot {
                 body_idle = false;
             }
         }
-        let mut out = self.plan_event(executor::Event::Tick { body_idle });
+        out.extend(self.plan_event(executor::Event::Tick { body_idle }));
         // (A goal the plan gives now is driven to from the next tick, 20 ms on.)
         if let Some(t) = step.twist {
             out.push(Command::Drive(t));
@@ -555,7 +582,10 @@ impl Robot {
         let mut out = Vec::new();
         for c in cmds {
             match c {
-                executor::Command::Navigate { x, y, then, speed } => self.body.navigate_through(x, y, then, speed),
+                executor::Command::Navigate { x, y, then, speed } => match self.traffic.as_mut().filter(|g| !g.free()) {
+                    Some(g) => g.navigate(x, y, speed),
+                    None => self.body.navigate_through(x, y, then, speed),
+                },
                 executor::Command::Hold => self.body.hold(),
                 executor::Command::Face { x, y } => self.body.face(x, y),
                 executor::Command::Publish(s) => out.push(Command::Publish(s)),

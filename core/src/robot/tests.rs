@@ -34,6 +34,7 @@ fn plan(mission: &str, epoch: u64) -> RobotCommand {
         managers: vec![],
         barrier: BarrierMode::Mesh,
         scopes: vec![],
+        map: None,
     }))
 }
 

@@ -30,9 +30,12 @@
 //! is, are refused ([`Command::Refused`]); reports of vertices a robot was not granted are
 //! ignored. Every decision is deterministic (robots in id order, waits by age).
 
+pub mod authority;
 mod deadlock;
 pub mod layout;
 pub mod sim;
+#[cfg(test)]
+mod fleet_tests;
 #[cfg(test)]
 mod tests;
 
@@ -47,6 +50,9 @@ pub use layout::{Layout, Res};
 pub const MAX_ROUTE: usize = 10_000;
 /// Most robots in traffic on one graph.
 pub const MAX_ROBOTS: usize = 20_000;
+/// Robots stay this far apart, centre to centre (metres): robots of the default radius, 0.25 m,
+/// with 0.1 m to spare.
+pub const CLEARANCE: f64 = 0.6;
 
 /// How traffic is run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -76,6 +82,12 @@ pub enum Event {
     Lost { robot: RobotId },
     /// The robot is out of traffic (left the map, taken away): everything it held is free.
     Remove { robot: RobotId },
+    /// What `robot` holds by its own report, to an authority that does not know it (one that
+    /// took over): `route` up to position `granted`, reached up to `reached`. The robot holds
+    /// the vertex it reached and the hops granted beyond; traffic grants nothing in conflict
+    /// with them, and holds them even where they conflict with another robot's (both robots
+    /// may be there).
+    Restore { robot: RobotId, route: Vec<u32>, reached: Option<usize>, granted: usize },
     /// Time passed.
     Tick,
 }
@@ -188,6 +200,12 @@ impl Traffic {
         self.robots.get(robot).map(|r| (r.route.as_slice(), r.granted))
     }
 
+    /// `robot`'s route, the position it last reached, the one it may drive to, and the route's
+    /// version.
+    pub fn state(&self, robot: &RobotId) -> Option<(&[u32], Option<usize>, Option<usize>, u64)> {
+        self.robots.get(robot).map(|r| (r.route.as_slice(), r.reached, r.granted, r.version))
+    }
+
     /// One line on a robot: its route, how far it got and may go, what it holds, whom it waits
     /// for (for logs and failed simulations).
     pub fn describe(&self, robot: &RobotId) -> String {
@@ -216,6 +234,7 @@ impl Traffic {
                     self.release_all(&robot, &mut r);
                 }
             }
+            Event::Restore { robot, route, reached, granted } => self.restore(now, robot, route, reached, granted, &mut out),
             Event::Tick => {}
         }
         // Deadlocks are broken before anything freed is granted: a robot that steps aside into
@@ -261,6 +280,45 @@ impl Traffic {
             }
             Err(why) => out.push(Command::Refused { robot: id.clone(), why }),
         }
+        self.robots.insert(id, r);
+    }
+
+    fn restore(&mut self, now: f64, id: RobotId, mut route: Vec<u32>, reached: Option<usize>, granted: usize, out: &mut Vec<Command>) {
+        if let Err(why) = self.check_route(&route) {
+            out.push(Command::Refused { robot: id, why });
+            return;
+        }
+        if granted >= route.len() || reached.is_some_and(|p| p > granted) {
+            out.push(Command::Refused { robot: id, why: format!("positions reached {reached:?}, granted {granted} do not fit a route of {}", route.len()) });
+            return;
+        }
+        if !self.robots.contains_key(&id) && self.robots.len() >= MAX_ROBOTS {
+            out.push(Command::Refused { robot: id, why: format!("{MAX_ROBOTS} robots are in traffic already") });
+            return;
+        }
+        if let Some(mut old) = self.robots.remove(&id) {
+            self.release_all(&id, &mut old);
+        }
+        route.truncate(granted + 1);
+        let b = reached.unwrap_or(0);
+        let route = route[b..].to_vec();
+        let (reached, granted) = (reached.map(|p| p - b), granted - b);
+        let mut r = Robot { route, reached, granted: Some(granted), version: 0, asked: now, ..Robot::default() };
+        let mut need: Vec<Res> = Vec::new();
+        match reached {
+            Some(_) => {
+                need.push(r.route[0]);
+                need.extend((1..=granted).flat_map(|i| self.hop(&r.route, i)));
+            }
+            None => need.extend((0..=granted).flat_map(|i| self.hop(&r.route, i))),
+        }
+        for res in need {
+            *r.held.entry(res).or_insert(0) += 1;
+            if self.holder[res as usize].is_none() {
+                self.holder[res as usize] = Some(id.clone());
+            }
+        }
+        self.announce(&id, &mut r, Why::Asked, out);
         self.robots.insert(id, r);
     }
 

@@ -45,7 +45,7 @@ pub(super) async fn declare_inputs(session: &zenoh::Session, inboxes: &Inboxes) 
     for pattern in [Pattern::AllRobotsAlive, Pattern::AllHostsAlive] {
         held.subs.push(live.liveliness(session, pattern.to_string(), Input::Sample).await?);
     }
-    for sub in system::subscriptions() {
+    for sub in mrmm_core::central::subscriptions() {
         let sub = if sub.expr == Pattern::AllTelemetry.to_string() {
             inbox::subscribe(telemetry, session, sub.expr, Input::Sample).await?
         } else {
@@ -64,9 +64,9 @@ pub(super) async fn declare_inputs(session: &zenoh::Session, inboxes: &Inboxes) 
 
 /// A publication or liveliness change as the system manager's event, translated by its own
 /// ingress once the seal proved its sender; `None` (refusals recorded, the rest logged) otherwise.
-pub(super) fn decode(mesh: &Mesh, s: &Sample) -> Option<system::Event> {
-    let proof = system::sealed(s.key_expr().as_str()).map(|what| (what, Proof::Own));
-    mesh.hear(s, proof, system::ingress)
+pub(super) fn decode(mesh: &Mesh, s: &Sample) -> Option<mrmm_core::central::Event> {
+    let proof = mrmm_core::central::sealed(s.key_expr().as_str()).map(|what| (what, Proof::Own));
+    mesh.hear(s, proof, mrmm_core::central::ingress)
 }
 
 /// What the seals of central's session counted, reported to the system manager: refusals as

@@ -100,6 +100,9 @@ impl Io {
         if let Some(out) = mrmm_core::central::egress(&c) {
             return crate::edge::publish(&self.mesh, out).await;
         }
+        if let Command::Traffic(mrmm_core::traffic::authority::Command::Blocked { map, robot, by }) = &c {
+            tracing::warn!(%robot, ?by, map = %&map[..8.min(map.len())], "blocked in traffic");
+        }
         let Command::System(c) = c else { return };
         if let Some(ask) = system::asks::ask(&c) {
             let (mesh, timeout) = (self.mesh.clone(), self.timeout);

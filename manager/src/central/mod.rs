@@ -72,7 +72,8 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let mut core = CentralCore::restore(zid.into(), cfg.agent.clone(), 0.0, state)
         .with_maps(maps.by_name())
         .with_superseded(maps.superseded())
-        .forgetting_lost_after(cfg.forget_lost_s);
+        .forgetting_lost_after(cfg.forget_lost_s)
+        .with_traffic_incarnation(mrmm_net::mesh::now_ms());
     let mut io = Io::new(mesh.clone(), Duration::from_millis(cfg.query_timeout_ms), tx);
     let mut tick = tokio::time::interval(TICK);
     let mut seals = SealCounts { refused: 0, proofs_at: Instant::now() };
@@ -98,7 +99,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
                 },
                 Some(Input::Advice(q)) => Event::Advice { query: io.hold(q) },
                 Some(Input::Sample(s)) => match decode(&mesh, &s) {
-                    Some(e) => Event::System(e),
+                    Some(e) => e,
                     None => continue,
                 },
                 Some(Input::Event(e)) => Event::System(e),

@@ -32,6 +32,8 @@ pub(super) struct Inputs {
     cmd_q: Queryable<RingChannelHandler<Query>>,
     /// Viewers announcing themselves: the robot's telemetry is tagged for them too.
     viewers: Subscriber<RingChannelHandler<Sample>>,
+    /// Orders of the traffic authorities (`mrmm/traffic/*/order/<id>`).
+    traffic: Subscriber<RingChannelHandler<Sample>>,
     /// Central's liveliness: while it is gone, nobody admits this robot to missions.
     central: Subscriber<RingChannelHandler<Sample>>,
     physics: tokio::time::Interval,
@@ -59,6 +61,7 @@ impl Inputs {
         let info_q = session.declare_queryable(Key::RobotInfo(id.into()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
         let cmd_q = session.declare_queryable(Key::RobotCmd(id.into()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
         let viewers = session.declare_subscriber(Pattern::AllViewers.to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
+        let traffic = session.declare_subscriber(Pattern::TrafficOrders(id.to_string()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
         let central_key = Key::HostAlive(proto::CENTRAL_HOST.into()).to_string();
         let central = session.liveliness().declare_subscriber(central_key).history(true).with(RingChannel::new(QUEUE)).await.map_err(z)?;
         Ok(Inputs {
@@ -69,6 +72,7 @@ impl Inputs {
             info_q,
             cmd_q,
             viewers,
+            traffic,
             central,
             physics: interval(PHYSICS_PERIOD),
             telemetry: interval(Duration::from_secs_f64(1.0 / telemetry_hz)),
@@ -118,6 +122,13 @@ impl Inputs {
                     Some(ev) => (ev, None),
                     None => continue,
                 },
+                s = self.traffic.recv_async() => {
+                    let Ok(s) = s else { return None };
+                    match heard(&self.mesh, robot, &s) {
+                        Some(ev) => (ev, None),
+                        None => continue,
+                    }
+                }
                 s = self.viewers.recv_async() => {
                     let Ok(s) = s else { return None };
                     self.viewer(&s, io);

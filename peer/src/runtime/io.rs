@@ -71,7 +71,7 @@ impl Io {
             Command::JoinTeam { .. } | Command::LeaveTeam => self.rejoin().await,
             Command::Lead(on) => self.lead(on).await,
             // Published below.
-            Command::Publish(_) | Command::PublishIn(..) | Command::Release(_) | Command::Telemetry(_) => {}
+            Command::Publish(_) | Command::PublishIn(..) | Command::Release(_) | Command::Telemetry(_) | Command::TrafficReport { .. } => {}
             Command::Nav(NavCommand::Send { id, x, y, yaw }) => {
                 if let Some(ros) = &self.ros {
                     tracing::info!(robot = %self.id, x, y, "Nav2 goal sent");

@@ -29,6 +29,8 @@
 //! | `mrmm/system/maps` | queryable on the system manager | [`crate::MapInfo`] list |
 //! | `mrmm/maps/<hash>/<chunk>` | queryable on every node holding the map | [`crate::MapChunk`] (bincode behind `MRMP`) |
 //! | `mrmm/maps/<hash>/manifest` | queryable on central, for the maps it publishes | [`crate::map::MapManifest`] (JSON, sealed by central) |
+//! | `mrmm/traffic/<hash>/report/<id>` | publication by a robot on that graph map | [`crate::TrafficReport`] |
+//! | `mrmm/traffic/<hash>/order/<id>` | publication by the map's traffic authority (central) | [`crate::TrafficOrder`] |
 //! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | [`crate::GotoRequest`] |
 //! | `mrmm/system/cmd/robot/move` | queryable on the system manager | [`crate::RobotMove`] |
 //! | `mrmm/system/cmd/robot/capabilities` | queryable on the system manager | [`crate::CapabilitiesRequest`] |
@@ -211,6 +213,16 @@ pub enum Key {
     MapManifest {
         hash: String,
     },
+    /// Robot `robot`'s report to the traffic authority of the map whose bundle hash is `map`.
+    TrafficReport {
+        map: String,
+        robot: RobotId,
+    },
+    /// The traffic authority's order to robot `robot` on map `map`.
+    TrafficOrder {
+        map: String,
+        robot: RobotId,
+    },
     SystemCmd(SystemCmd),
 }
 
@@ -250,6 +262,8 @@ declare_keys! {
     SystemMaps => "mrmm" / "system" / "maps";
     MapChunk { hash, index } => "mrmm" / "maps" / {hash: hash} / {index: num};
     MapManifest { hash } => "mrmm" / "maps" / {hash: hash} / "manifest";
+    TrafficReport { map, robot } => "mrmm" / "traffic" / {map: hash} / "report" / {robot: id};
+    TrafficOrder { map, robot } => "mrmm" / "traffic" / {map: hash} / "order" / {robot: id};
     SystemCmd(cmd) => "mrmm" / "system" / "cmd" / {cmd: cmd};
 }
 

@@ -39,6 +39,10 @@ pub enum Pattern {
     AllMapChunks,
     /// Every chunk of one map, and its manifest: `mrmm/maps/<hash>/*`
     MapChunks(String),
+    /// Every robot's report to every traffic authority: `mrmm/traffic/*/report/*`
+    AllTrafficReports,
+    /// Every traffic authority's orders to one robot: `mrmm/traffic/*/order/<id>`
+    TrafficOrders(String),
     /// Everything of mrmm: `mrmm/**`
     All,
 }
@@ -63,6 +67,8 @@ impl fmt::Display for Pattern {
             Pattern::AgentAll => f.write_str("mrmm/agent/**"),
             Pattern::AllMapChunks => f.write_str("mrmm/maps/*/*"),
             Pattern::MapChunks(hash) => write!(f, "mrmm/maps/{hash}/*"),
+            Pattern::AllTrafficReports => f.write_str("mrmm/traffic/*/report/*"),
+            Pattern::TrafficOrders(id) => write!(f, "mrmm/traffic/*/order/{id}"),
             Pattern::All => f.write_str("mrmm/**"),
         }
     }

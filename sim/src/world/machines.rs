@@ -17,7 +17,7 @@ impl World {
                 self.publish(i, out);
             }
             match cmd {
-                central::Command::Publish(_) => {}
+                central::Command::Publish(_) | central::Command::Traffic(_) => {}
                 central::Command::System(s) => self.system_command(i, s)?,
             }
         }
@@ -226,7 +226,7 @@ impl World {
                 _ => None,
             });
             match &c {
-                robot::Command::Reply(_) | robot::Command::Lead(_) | robot::Command::Telemetry(_) => {}
+                robot::Command::Reply(_) | robot::Command::Lead(_) | robot::Command::Telemetry(_) | robot::Command::TrafficReport { .. } => {}
                 // An honest head planning for a robot not admitted yet: it re-sends.
                 robot::Command::Refuse(e) => {
                     let name = self.nodes[i].name.clone();

@@ -214,6 +214,7 @@ impl World {
                 managers: vec![],
                 barrier,
                 scopes,
+                map: None,
             };
             let j = self.index(r).unwrap_or(0);
             let from = Sender::new(Role::Host, "planner");

@@ -41,7 +41,7 @@ impl World {
     pub(super) fn publish(&mut self, i: usize, out: Out) {
         self.report.sent += 1;
         let msg = Wire { key: out.key.to_string(), payload: out.payload, put: true, from: Some(self.sender(i)) };
-        let system = system::subscriptions();
+        let system = central::subscriptions();
         for j in 0..self.nodes.len() {
             let n = &self.nodes[j];
             let local = i == j;
@@ -98,8 +98,8 @@ impl World {
         if self.nodes[i].central.is_none() {
             return Ok(());
         }
-        match system::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
-            Ok(ev) => self.central(i, central::Event::System(ev)),
+        match central::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
+            Ok(ev) => self.central(i, ev),
             Err(e) => Err(format!("central refused an honest message on {}: {e}", msg.key)),
         }
     }
@@ -166,7 +166,7 @@ impl World {
         // At central: the victim's telemetry from the forger.
         if self.nodes.iter().any(|n| n.central.is_some()) {
             let msg = &at_hosts[0];
-            match system::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
+            match central::ingress(Incoming { key: &msg.key, payload: &msg.payload, put: msg.put, from: msg.from.as_ref() }) {
                 Err(Refused::NotEntitled { .. }) => self.report.forged_refused += 1,
                 other => return Err(format!("central took a forgery on {}: {other:?}", msg.key)),
             }

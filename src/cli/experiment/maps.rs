@@ -201,6 +201,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
                 managers: vec![],
                 barrier: BarrierMode::Mesh,
                 scopes: vec![],
+                map: None,
             })
         })
         .collect();

@@ -1,0 +1,220 @@
+//! A robot on a graph map drives only what traffic grants: the plan's navigate steps become
+//! goals it reports to its map's traffic authority, whose orders say the route along the lanes
+//! and how far of it the robot may drive ([`mrmm_proto::traffic`]). The [`Gate`] drives the
+//! body vertex by vertex up to the grant's end, and starts no new lane once it has heard no order
+//! for [`QUIET_S`]: a robot that lost its authority stops at the end of the lane it is on. A goal
+//! off the lanes is reached at the vertex nearest it. A map without lanes is answered
+//! [`TrafficOrder::Free`], and the plan is driven as it is.
+
+use std::collections::VecDeque;
+
+use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficHeld, TrafficReport, QUIET_S, REPORT_S};
+use mrmm_proto::{MapRef, RobotId, TrafficOrder};
+
+use crate::drive::Drive;
+
+/// A vertex counts as reached within this distance of the body (metres).
+pub const REACH: f64 = 0.15;
+/// Vertices of the route driven that the robot remembers (to match a new order to where it is).
+const TRAIL: usize = 16;
+
+/// The goal the plan drives to.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Goal {
+    id: u64,
+    x: f64,
+    y: f64,
+    speed: Option<f64>,
+}
+
+/// The order the robot drives by.
+#[derive(Debug, Clone, PartialEq)]
+struct Held {
+    goal: u64,
+    incarnation: u64,
+    version: u64,
+    route: Vec<RouteVertex>,
+    reached: Option<usize>,
+    upto: Option<usize>,
+}
+
+/// What a robot on a map does with traffic.
+#[derive(Debug, Clone)]
+pub struct Gate {
+    map: MapRef,
+    /// The map has no lanes: the plan is driven as it is.
+    free: bool,
+    goal: Option<Goal>,
+    next_goal: u64,
+    held: Option<Held>,
+    /// The vertices it reached last, oldest first.
+    trail: VecDeque<u32>,
+    /// The vertex the body drives to.
+    driving: Option<RouteVertex>,
+    /// Why the goal was refused.
+    refused: Option<String>,
+    heard: f64,
+    reported: Option<f64>,
+    changed: bool,
+    seq: u64,
+}
+
+impl Gate {
+    pub fn new(map: MapRef) -> Gate {
+        Gate {
+            map,
+            free: false,
+            goal: None,
+            next_goal: 0,
+            held: None,
+            trail: VecDeque::new(),
+            driving: None,
+            refused: None,
+            heard: f64::NEG_INFINITY,
+            reported: None,
+            changed: true,
+            seq: 0,
+        }
+    }
+
+    pub fn map(&self) -> &MapRef {
+        &self.map
+    }
+
+    /// Traffic said the map has no lanes.
+    pub fn free(&self) -> bool {
+        self.free
+    }
+
+    /// Why the last goal cannot be driven to, if it cannot.
+    pub fn refused(&self) -> Option<&str> {
+        self.refused.as_deref()
+    }
+
+    /// The plan drives to (x, y): a new goal, reported at once.
+    pub fn navigate(&mut self, x: f64, y: f64, speed: Option<f64>) {
+        self.next_goal += 1;
+        self.goal = Some(Goal { id: self.next_goal, x, y, speed });
+        self.refused = None;
+        self.changed = true;
+    }
+
+    /// An order of the map's traffic authority, heard at `now`.
+    pub fn order(&mut self, now: f64, order: TrafficOrder) {
+        if order.check().is_err() {
+            return;
+        }
+        self.heard = now;
+        let Some(goal) = self.goal else {
+            self.free |= order == TrafficOrder::Free;
+            return;
+        };
+        match order {
+            TrafficOrder::Free => self.free = true,
+            TrafficOrder::Refused { goal: g, why } if g == goal.id => self.refused = Some(why),
+            TrafficOrder::Refused { .. } => {}
+            TrafficOrder::Route { goal: g, incarnation, version, route, reached, upto } => {
+                let newer = self.held.as_ref().is_none_or(|h| (incarnation, version) > (h.incarnation, h.version));
+                let same = self.held.as_ref().is_some_and(|h| (incarnation, version) == (h.incarnation, h.version));
+                if same {
+                    // The authority's word on how far, as it is now (it only takes a grant back
+                    // from a robot it lost, which has stopped by then).
+                    if let Some(h) = self.held.as_mut() {
+                        h.upto = upto.map(|u| u as usize).filter(|&u| h.reached.is_none_or(|r| u >= r)).or(h.reached);
+                    }
+                } else if newer && (g == goal.id || self.held.is_some()) {
+                    let reached = self.where_on(&route, reached.map(|p| p as usize));
+                    let upto = upto.map(|u| u as usize).max(reached);
+                    self.held = Some(Held { goal: g, incarnation, version, route, reached, upto });
+                    self.refused = None;
+                    self.changed = true;
+                }
+            }
+        }
+    }
+
+    /// Where on `route` the robot is: the authority said `said`; the robot may have reached
+    /// vertices beyond it since (its trail goes on along the route).
+    fn where_on(&self, route: &[RouteVertex], said: Option<usize>) -> Option<usize> {
+        let start = said.or_else(|| (self.trail.back() == route.first().map(|v| &v.v)).then_some(0))?;
+        let Some(p) = self.trail.iter().rposition(|&v| v == route[start].v) else { return Some(start) };
+        let mut j = start;
+        for &v in self.trail.iter().skip(p + 1) {
+            if route.get(j + 1).is_some_and(|r| r.v == v) {
+                j += 1;
+            } else {
+                break;
+            }
+        }
+        Some(j)
+    }
+
+    /// Drives the body on at `now`; whether the goal is reached (the plan goes on).
+    pub fn step(&mut self, now: f64, body: &mut Drive) -> bool {
+        let pose = body.pose();
+        let near = |x: f64, y: f64| (pose.x - x).hypot(pose.y - y) <= REACH;
+        if let Some(v) = self.driving {
+            if !body.idle() {
+                return false;
+            }
+            if !near(v.x, v.y) {
+                // Stopped on the lane (held by the plan): on to the vertex, the lane is ours.
+                body.navigate_through(v.x, v.y, None, self.goal.and_then(|g| g.speed));
+                return false;
+            }
+            self.driving = None;
+            self.trail.push_back(v.v);
+            if self.trail.len() > TRAIL {
+                self.trail.pop_front();
+            }
+            if let Some(h) = self.held.as_mut() {
+                let next = h.reached.map_or(0, |p| p + 1);
+                if h.route.get(next).is_some_and(|r| r.v == v.v) {
+                    h.reached = Some(next);
+                }
+            }
+            self.changed = true;
+        }
+        let Some(goal) = self.goal else { return true };
+        let quiet = now - self.heard > QUIET_S;
+        let Some(h) = self.held.as_ref() else { return false };
+        let next = h.reached.map_or(0, |p| p + 1);
+        if next < h.route.len() {
+            if !quiet && h.upto.is_some_and(|u| next <= u) {
+                let v = h.route[next];
+                self.driving = Some(v);
+                body.navigate_through(v.x, v.y, None, goal.speed);
+            }
+            return false;
+        }
+        // At the route's last vertex, the one nearest the goal: a point off the lanes is not
+        // driven to (the way there is no resource traffic grants).
+        h.goal == goal.id && body.idle()
+    }
+
+    /// The report due at `now`, if one is: at every change, and every [`REPORT_S`].
+    pub fn report(&mut self, now: f64, robot: &RobotId, body: &Drive) -> Option<TrafficReport> {
+        if self.free || !(self.changed || self.reported.is_none_or(|t| now - t >= REPORT_S)) {
+            return None;
+        }
+        self.changed = false;
+        self.reported = Some(now);
+        // Wall-clock milliseconds, so that a robot restarted is not taken for a stale one.
+        self.seq = (self.seq + 1).max((now * 1000.0) as u64);
+        let pose = body.pose();
+        Some(TrafficReport {
+            robot: robot.clone(),
+            seq: self.seq,
+            x: pose.x,
+            y: pose.y,
+            goal: self.goal.map(|g| TrafficGoal { id: g.id, x: g.x, y: g.y }),
+            held: self.held.as_ref().map(|h| TrafficHeld {
+                incarnation: h.incarnation,
+                version: h.version,
+                route: h.route.iter().map(|v| v.v).collect(),
+                reached: h.reached.map(|p| p as u32),
+                upto: h.upto.map(|p| p as u32),
+            }),
+        })
+    }
+}

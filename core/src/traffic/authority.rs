@@ -1,0 +1,285 @@
+//! The fleet's traffic authority: one [`Traffic`] per graph map central publishes, told by the
+//! robots' own reports ([`TrafficReport`]) where they go and what they hold, answering each with
+//! the robot's order ([`TrafficOrder`]). No I/O: [`Authority::handle`] takes the time and an
+//! [`Event`] and returns [`Command`]s.
+//!
+//! * A robot reports the goal it drives to (the plan's point) and the order it drives by. A new
+//!   goal becomes a route along the lanes, from the vertex the robot will stand at (where its
+//!   grant ends, or the vertex nearest it when it enters the graph) to the vertex nearest the goal.
+//! * **Takeover.** An authority that starts (central restarted, or another took over) knows
+//!   nothing: for [`REBUILD_S`] it only takes in what robots report they hold — routes of another
+//!   incarnation, restored as far as they were granted ([`super::Event::Restore`]) — and grants
+//!   nothing. Robots report every [`REPORT_S`], so every robot still driving has spoken by then.
+//! * **Lost robots.** A robot whose liveliness went keeps everything it was granted for
+//!   [`LOST_GRACE_S`] — longer than a robot that hears no order takes to stop ([`QUIET_S`]) —
+//!   then what it stood on ([`super::Event::Lost`]).
+//! * Every report is answered with the robot's order, so an order lost on the way is sent again.
+//!   A map that has no lanes answers [`TrafficOrder::Free`].
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use mrmm_maps::space::GraphSpace;
+use mrmm_maps::{Map, Point};
+use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficReport, QUIET_S, REPORT_S};
+use mrmm_proto::{RobotId, TrafficOrder};
+
+use super::{Layout, Params, Traffic, CLEARANCE};
+
+/// Seconds a new authority only listens to what robots hold before it grants anything.
+pub const REBUILD_S: f64 = 2.0 * REPORT_S + 0.5;
+/// A robot new to traffic this close to a vertex (metres) stands on it.
+pub const STANDING: f64 = 0.3;
+/// Seconds a robot whose liveliness went keeps all it was granted.
+pub const LOST_GRACE_S: f64 = QUIET_S + 2.0;
+
+/// Something that happened to the authority.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// Robot `report.robot` (its sender, proven) reported on map `map` (a bundle hash).
+    Report { map: String, report: TrafficReport },
+    /// The robot's liveliness went.
+    Gone(RobotId),
+    /// Time passed.
+    Tick,
+}
+
+/// What the driver must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Publish `order` for `robot` on `map`.
+    Order { map: String, robot: RobotId, order: TrafficOrder },
+    /// `robot` waits for `by` and cannot go on (for the operator).
+    Blocked { map: String, robot: RobotId, by: Vec<RobotId> },
+}
+
+/// What the authority knows of a robot on a map beyond what traffic holds.
+#[derive(Debug, Clone, Default)]
+struct Seen {
+    seq: u64,
+    /// The goal it was routed to.
+    goal: Option<u64>,
+    /// Why its goal was refused.
+    refused: Option<String>,
+}
+
+/// Traffic on one map.
+struct OnMap {
+    /// None: the map has no lanes.
+    lanes: Option<(Traffic, GraphSpace)>,
+    robots: BTreeMap<RobotId, Seen>,
+}
+
+/// The traffic authority of every map.
+pub struct Authority {
+    incarnation: u64,
+    started: f64,
+    maps: BTreeMap<String, OnMap>,
+    /// Robots whose liveliness went, since when.
+    gone: BTreeMap<RobotId, f64>,
+}
+
+impl std::fmt::Debug for Authority {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Authority").field("incarnation", &self.incarnation).field("maps", &self.maps.len()).finish()
+    }
+}
+
+impl Authority {
+    /// An authority started at `now`, `incarnation` above every earlier one's (its orders
+    /// supersede theirs), for `maps` by bundle hash.
+    pub fn new(now: f64, incarnation: u64, maps: impl IntoIterator<Item = (String, Arc<Map>)>) -> Authority {
+        let maps = maps.into_iter().map(|(hash, map)| (hash, OnMap::new(&map))).collect();
+        Authority { incarnation, started: now, maps, gone: BTreeMap::new() }
+    }
+
+    /// Traffic on `maps` too (by bundle hash), if not already.
+    pub fn add_maps(&mut self, maps: impl IntoIterator<Item = (String, Arc<Map>)>) {
+        for (hash, map) in maps {
+            self.maps.entry(hash).or_insert_with(|| OnMap::new(&map));
+        }
+    }
+
+    /// The same authority under `incarnation`, started at `now`.
+    pub fn with_incarnation(mut self, incarnation: u64, now: f64) -> Authority {
+        self.incarnation = incarnation;
+        self.started = now;
+        self
+    }
+
+    pub fn incarnation(&self) -> u64 {
+        self.incarnation
+    }
+
+    /// Traffic on map `hash`, if it has lanes.
+    pub fn traffic(&self, hash: &str) -> Option<&Traffic> {
+        self.maps.get(hash).and_then(|m| m.lanes.as_ref()).map(|(t, _)| t)
+    }
+
+    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+        match event {
+            Event::Report { map, report } => {
+                self.gone.remove(&report.robot);
+                let rebuilding = now < self.started + REBUILD_S;
+                let incarnation = self.incarnation;
+                match self.maps.get_mut(&map) {
+                    Some(m) => m.report(now, &map, incarnation, rebuilding, report),
+                    None => Vec::new(),
+                }
+            }
+            Event::Gone(robot) => {
+                self.gone.insert(robot, now);
+                Vec::new()
+            }
+            Event::Tick => self.tick(now),
+        }
+    }
+
+    fn tick(&mut self, now: f64) -> Vec<Command> {
+        let lost: Vec<RobotId> = self.gone.iter().filter(|(_, &t)| now - t >= LOST_GRACE_S).map(|(r, _)| r.clone()).collect();
+        let mut out = Vec::new();
+        let incarnation = self.incarnation;
+        for (hash, m) in &mut self.maps {
+            let Some((t, _)) = m.lanes.as_mut() else { continue };
+            let mut cmds = Vec::new();
+            for r in &lost {
+                cmds.extend(t.handle(now, super::Event::Lost { robot: r.clone() }));
+            }
+            cmds.extend(t.handle(now, super::Event::Tick));
+            m.orders(hash, incarnation, cmds, &mut out);
+        }
+        for r in lost {
+            self.gone.remove(&r);
+        }
+        out
+    }
+}
+
+impl OnMap {
+    fn new(map: &Map) -> OnMap {
+        let lanes = map.graph().map(|g| (Traffic::new(Arc::new(Layout::new(g, CLEARANCE)), Params::default()), GraphSpace::new(g)));
+        OnMap { lanes, robots: BTreeMap::new() }
+    }
+
+    fn report(&mut self, now: f64, hash: &str, incarnation: u64, rebuilding: bool, report: TrafficReport) -> Vec<Command> {
+        let robot = report.robot.clone();
+        let Some((traffic, space)) = self.lanes.as_mut() else {
+            return vec![Command::Order { map: hash.to_string(), robot, order: TrafficOrder::Free }];
+        };
+        let seen = self.robots.entry(robot.clone()).or_default();
+        if report.seq <= seen.seq {
+            return Vec::new();
+        }
+        seen.seq = report.seq;
+        let mut cmds = Vec::new();
+        let known = traffic.state(&robot).is_some();
+        match &report.held {
+            // Held from another authority: taken in as it is, before anything is granted. Its
+            // goal is routed on from where the grant ends once the rebuild is over.
+            Some(h) if !known && h.incarnation != incarnation && h.upto.is_some() => {
+                let (reached, granted) = (h.reached.map(|p| p as usize), h.upto.unwrap_or(0) as usize);
+                cmds.extend(traffic.handle(now, super::Event::Restore { robot: robot.clone(), route: h.route.clone(), reached, granted }));
+                seen.goal = None;
+            }
+            // New to traffic, standing on a vertex: it holds it from now on (a robot routed
+            // through there would drive into it).
+            _ if !known => {
+                let (v, d) = space.graph().nearest(Point::new(report.x, report.y));
+                if d <= STANDING && space.nodes() > 0 {
+                    cmds.extend(traffic.handle(now, super::Event::Restore { robot: robot.clone(), route: vec![v], reached: Some(0), granted: 0 }));
+                }
+            }
+            // Progress along the route traffic holds for it (the same version: the same route,
+            // position for position): every vertex reached since, in order. A report of an
+            // older version is not read (its robot takes the new order and reports again).
+            Some(h) if known && h.incarnation == incarnation => {
+                if let (Some((route, at, _, version)), Some(p)) = (traffic.state(&robot), h.reached) {
+                    let from = at.map_or(0, |a| a + 1);
+                    let vs: Vec<u32> = if version == h.version { route.get(from..=p as usize).map(<[u32]>::to_vec).unwrap_or_default() } else { Vec::new() };
+                    for v in vs {
+                        cmds.extend(traffic.handle(now, super::Event::Reached { robot: robot.clone(), vertex: v }));
+                    }
+                }
+            }
+            _ => {}
+        }
+        if !rebuilding {
+            if let Some(goal) = report.goal.filter(|g| seen.goal != Some(g.id)) {
+                seen.goal = Some(goal.id);
+                seen.refused = None;
+                match route_to(traffic, space, &robot, Point::new(report.x, report.y), goal) {
+                    Ok(route) => cmds.extend(traffic.handle(now, super::Event::Route { robot: robot.clone(), route })),
+                    Err(why) => seen.refused = Some(why),
+                }
+            }
+        }
+        let mut out = Vec::new();
+        let answered = self.orders(hash, incarnation, cmds, &mut out);
+        if !answered && !rebuilding {
+            if let Some(order) = self.order_of(&robot, incarnation) {
+                out.push(Command::Order { map: hash.to_string(), robot, order });
+            }
+        }
+        out
+    }
+
+    /// Traffic's commands as orders and blocks; whether robot `robot` got one.
+    fn orders(&self, hash: &str, incarnation: u64, cmds: Vec<super::Command>, out: &mut Vec<Command>) -> bool {
+        let mut told = std::collections::BTreeSet::new();
+        for c in cmds {
+            match c {
+                super::Command::Route { robot, .. } | super::Command::Grant { robot, .. } => {
+                    told.insert(robot);
+                }
+                super::Command::Refused { robot, why } => {
+                    let goal = self.robots.get(&robot).and_then(|s| s.goal).unwrap_or(0);
+                    out.push(Command::Order { map: hash.to_string(), robot, order: TrafficOrder::Refused { goal, why } });
+                }
+                super::Command::Blocked { robot, by } => out.push(Command::Blocked { map: hash.to_string(), robot, by }),
+            }
+        }
+        let any = !told.is_empty();
+        for robot in told {
+            if let Some(order) = self.order_of(&robot, incarnation) {
+                out.push(Command::Order { map: hash.to_string(), robot, order });
+            }
+        }
+        any
+    }
+
+    /// The order robot `robot` drives by now.
+    fn order_of(&self, robot: &RobotId, incarnation: u64) -> Option<TrafficOrder> {
+        let seen = self.robots.get(robot)?;
+        let goal = seen.goal.unwrap_or(0);
+        if let Some(why) = &seen.refused {
+            return Some(TrafficOrder::Refused { goal, why: why.clone() });
+        }
+        let (traffic, _) = self.lanes.as_ref()?;
+        let (route, reached, upto, version) = traffic.state(robot)?;
+        let layout = traffic.layout();
+        let route = route
+            .iter()
+            .map(|&v| {
+                let p = layout.point(v);
+                RouteVertex { v, x: p.x, y: p.y }
+            })
+            .collect();
+        Some(TrafficOrder::Route { goal, incarnation, version, route, reached: reached.map(|p| p as u32), upto: upto.map(|p| p as u32) })
+    }
+}
+
+/// The vertex nearest the goal.
+fn space_vertex(space: &GraphSpace, goal: TrafficGoal) -> Option<u32> {
+    (space.nodes() > 0).then(|| space.graph().nearest(Point::new(goal.x, goal.y)).0)
+}
+
+/// The route to `goal`: from the vertex the robot will stand at (where its grant ends; the
+/// vertex nearest it if it holds nothing yet) to the vertex nearest the goal.
+fn route_to(traffic: &Traffic, space: &GraphSpace, robot: &RobotId, at: Point, goal: TrafficGoal) -> Result<Vec<u32>, String> {
+    let from = match traffic.state(robot) {
+        Some((route, _, Some(g), _)) => route[g],
+        _ => space.graph().nearest(at).0,
+    };
+    let to = space_vertex(space, goal).ok_or("the map has no vertices")?;
+    space.vertex_path(from, to).ok_or_else(|| format!("no lanes lead from vertex {from} to vertex {to} (nearest the goal ({}, {}))", goal.x, goal.y))
+}

@@ -1,0 +1,145 @@
+//! Traffic on a graph map, on the wire: what a robot tells its map's traffic authority
+//! ([`TrafficReport`], on `mrmm/traffic/<map hash>/report/<id>`) and what the authority tells it
+//! ([`TrafficOrder`], on `mrmm/traffic/<map hash>/order/<id>`). A robot reports where it wants to
+//! go and what it holds whenever either changes and every [`REPORT_S`]; the authority answers
+//! every report with the robot's current order. Both are JSON, sealed: a robot speaks only for
+//! itself, orders come from central. docs/traffic.md tells the whole protocol.
+
+use serde::{Deserialize, Serialize};
+
+use crate::RobotId;
+
+/// Seconds between two reports of a robot on a graph map (it also reports at every change).
+pub const REPORT_S: f64 = 1.0;
+/// A robot that heard no order for this long (seconds) starts no new hop: it stops at the end of
+/// the lane it drives.
+pub const QUIET_S: f64 = 3.0;
+/// Vertices of a route at most, in a report or an order.
+pub const MAX_ROUTE: usize = 10_000;
+/// Bytes of a report or an order at most.
+pub const MAX_MESSAGE: usize = 1 << 20;
+
+/// Where a robot goes: the plan's point it navigates to, numbered (a new number: a new goal).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TrafficGoal {
+    pub id: u64,
+    pub x: f64,
+    pub y: f64,
+}
+
+/// The order a robot drives by, as it holds it: the route's vertices, how far it got and how
+/// far it may go (positions in `route`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrafficHeld {
+    /// The authority that gave it ([`TrafficOrder::Route`]'s `incarnation`) and its version.
+    pub incarnation: u64,
+    pub version: u64,
+    pub route: Vec<u32>,
+    /// The position it last reached (none: not on the graph yet).
+    pub reached: Option<u32>,
+    /// The position it may drive to (none: not even its entry).
+    pub upto: Option<u32>,
+}
+
+/// What a robot tells its map's traffic authority.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrafficReport {
+    pub robot: RobotId,
+    /// Increases with every report (older ones arriving late are dropped).
+    pub seq: u64,
+    /// Where the robot is (map frame).
+    pub x: f64,
+    pub y: f64,
+    /// Where it goes; none: it stands where it is.
+    pub goal: Option<TrafficGoal>,
+    /// The order it drives by.
+    pub held: Option<TrafficHeld>,
+}
+
+/// A vertex of a route, with where it is.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RouteVertex {
+    pub v: u32,
+    pub x: f64,
+    pub y: f64,
+}
+
+/// What the traffic authority tells a robot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "order", rename_all = "snake_case")]
+pub enum TrafficOrder {
+    /// The map has no lanes: drive the plan's points as they are.
+    Free,
+    /// For goal `goal`: drive `route` (which supersedes every order of a lower `(incarnation,
+    /// version)`), from position `reached` (as the authority last heard) up to position `upto`.
+    Route { goal: u64, incarnation: u64, version: u64, route: Vec<RouteVertex>, reached: Option<u32>, upto: Option<u32> },
+    /// Goal `goal` cannot be driven to on the map's lanes.
+    Refused { goal: u64, why: String },
+}
+
+impl TrafficReport {
+    /// Checks what a robot may not send: non-finite positions, routes longer than [`MAX_ROUTE`],
+    /// positions beyond the route.
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.x.is_finite() && self.y.is_finite()) {
+            return Err("position is not finite".into());
+        }
+        if let Some(g) = &self.goal {
+            if !(g.x.is_finite() && g.y.is_finite()) {
+                return Err("goal is not finite".into());
+            }
+        }
+        if let Some(h) = &self.held {
+            if h.route.len() > MAX_ROUTE {
+                return Err(format!("route of {} vertices (at most {MAX_ROUTE})", h.route.len()));
+            }
+            let n = h.route.len() as u32;
+            if h.reached.is_some_and(|r| r >= n) || h.upto.is_some_and(|u| u >= n) || h.reached > h.upto {
+                return Err(format!("positions reached {:?}, upto {:?} do not fit a route of {n} vertices", h.reached, h.upto));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl TrafficOrder {
+    /// Checks what the authority may not send: routes too long, positions beyond them, points
+    /// not finite.
+    pub fn check(&self) -> Result<(), String> {
+        let Self::Route { route, reached, upto, .. } = self else { return Ok(()) };
+        if route.is_empty() || route.len() > MAX_ROUTE {
+            return Err(format!("route of {} vertices (1 to {MAX_ROUTE})", route.len()));
+        }
+        if route.iter().any(|v| !(v.x.is_finite() && v.y.is_finite())) {
+            return Err("a vertex is not finite".into());
+        }
+        let n = route.len() as u32;
+        if reached.is_some_and(|r| r >= n) || upto.is_some_and(|u| u >= n) || *reached > *upto {
+            return Err(format!("positions reached {reached:?}, upto {upto:?} do not fit a route of {n} vertices"));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reports_and_orders_that_do_not_fit_are_refused() {
+        let held = TrafficHeld { incarnation: 1, version: 1, route: vec![1, 2, 3], reached: Some(0), upto: Some(2) };
+        let mut r = TrafficReport { robot: "r1".into(), seq: 1, x: 0.0, y: 0.0, goal: Some(TrafficGoal { id: 1, x: 1.0, y: 1.0 }), held: Some(held) };
+        assert_eq!(r.check(), Ok(()));
+        r.held.as_mut().map(|h| h.upto = Some(3));
+        assert!(r.check().is_err());
+        r.held.as_mut().map(|h| (h.upto, h.reached) = (Some(0), Some(1)));
+        assert!(r.check().is_err(), "reached beyond what was granted");
+        r.held = None;
+        r.x = f64::NAN;
+        assert!(r.check().is_err());
+        let o = TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route: vec![], reached: None, upto: None };
+        assert!(o.check().is_err());
+        let json = serde_json::to_string(&TrafficOrder::Free).expect("json");
+        assert_eq!(json, r#"{"order":"free"}"#);
+    }
+}
