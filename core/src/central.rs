@@ -129,7 +129,12 @@ impl CentralCore {
             }
             Event::System(ev) => {
                 match &ev {
-                    system::Event::RobotGone { id } => out.extend(self.traffic.handle(now, authority::Event::Gone(id.clone())).into_iter().map(Command::Traffic)),
+                    system::Event::RobotGone { id } => {
+                        out.extend(self.traffic.handle(now, authority::Event::Gone(id.clone())).into_iter().map(Command::Traffic))
+                    }
+                    system::Event::RobotAlive { id } => {
+                        out.extend(self.traffic.handle(now, authority::Event::Alive(id.clone())).into_iter().map(Command::Traffic))
+                    }
                     system::Event::Tick => out.extend(self.traffic.handle(now, authority::Event::Tick).into_iter().map(Command::Traffic)),
                     _ => {}
                 }
@@ -212,8 +217,8 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
     let from = m.from.cloned().ok_or(Refused::Unproven { what })?;
     mrmm_proto::policy::may_publish(mrmm_proto::policy::Publication::TrafficReport(&robot), &from)
         .map_err(|what| Refused::NotEntitled { from: from.clone(), what })?;
-    let report: mrmm_proto::TrafficReport = mrmm_proto::from_json_max(what, m.payload, mrmm_proto::traffic::MAX_MESSAGE)
-        .map_err(|e| Refused::Malformed { what, why: e.to_string() })?;
+    let report: mrmm_proto::TrafficReport =
+        mrmm_proto::from_json_max(what, m.payload, mrmm_proto::traffic::MAX_MESSAGE).map_err(|e| Refused::Malformed { what, why: e.to_string() })?;
     if report.robot != robot {
         return Err(Refused::Malformed { what, why: format!("the report of {:?} published on {}", report.robot, m.key) });
     }

@@ -130,9 +130,13 @@ mod tests {
         let held = TrafficHeld { incarnation: 1, version: 1, route: vec![1, 2, 3], reached: Some(0), upto: Some(2) };
         let mut r = TrafficReport { robot: "r1".into(), seq: 1, x: 0.0, y: 0.0, goal: Some(TrafficGoal { id: 1, x: 1.0, y: 1.0 }), held: Some(held) };
         assert_eq!(r.check(), Ok(()));
-        r.held.as_mut().map(|h| h.upto = Some(3));
+        if let Some(h) = r.held.as_mut() {
+            h.upto = Some(3);
+        }
         assert!(r.check().is_err());
-        r.held.as_mut().map(|h| (h.upto, h.reached) = (Some(0), Some(1)));
+        if let Some(h) = r.held.as_mut() {
+            (h.upto, h.reached) = (Some(0), Some(1));
+        }
         assert!(r.check().is_err(), "reached beyond what was granted");
         r.held = None;
         r.x = f64::NAN;

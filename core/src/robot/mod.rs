@@ -180,6 +180,11 @@ impl Robot {
     }
 
     /// The plan being executed, if any.
+    /// What traffic grants it, on a map.
+    pub fn traffic(&self) -> Option<&traffic::Gate> {
+        self.traffic.as_ref()
+    }
+
     pub fn executor(&self) -> Option<&Executor> {
         self.exec.as_ref()
     }

@@ -123,6 +123,9 @@ impl Gate {
                         h.upto = upto.map(|u| u as usize).filter(|&u| h.reached.is_none_or(|r| u >= r)).or(h.reached);
                     }
                 } else if newer && (g == goal.id || self.held.is_some()) {
+                    if self.held.as_ref().is_some_and(|h| h.incarnation != incarnation) {
+                        tracing::info!(map = %self.map.name, incarnation, "a new traffic authority: driving by its orders");
+                    }
                     let reached = self.where_on(&route, reached.map(|p| p as usize));
                     let upto = upto.map(|u| u as usize).max(reached);
                     self.held = Some(Held { goal: g, incarnation, version, route, reached, upto });

@@ -8,8 +8,11 @@
 //!   grant ends, or the vertex nearest it when it enters the graph) to the vertex nearest the goal.
 //! * **Takeover.** An authority that starts (central restarted, or another took over) knows
 //!   nothing: for [`REBUILD_S`] it only takes in what robots report they hold — routes of another
-//!   incarnation, restored as far as they were granted ([`super::Event::Restore`]) — and grants
-//!   nothing. Robots report every [`REPORT_S`], so every robot still driving has spoken by then.
+//!   incarnation, restored as far as they were granted ([`super::Event::Restore`]), the vertex a
+//!   new robot stands on — and grants nothing. Robots report every [`REPORT_S`], so every robot
+//!   still driving has spoken by then. A robot whose liveliness appears and that it has not
+//!   heard yet holds grants up the same way, until it speaks or [`REBUILD_S`] passed (robots
+//!   whose sessions link again slowly after central's restart).
 //! * **Lost robots.** A robot whose liveliness went keeps everything it was granted for
 //!   [`LOST_GRACE_S`] — longer than a robot that hears no order takes to stop ([`QUIET_S`]) —
 //!   then what it stood on ([`super::Event::Lost`]).
@@ -38,6 +41,9 @@ pub const LOST_GRACE_S: f64 = QUIET_S + 2.0;
 pub enum Event {
     /// Robot `report.robot` (its sender, proven) reported on map `map` (a bundle hash).
     Report { map: String, report: TrafficReport },
+    /// The robot's liveliness appeared: until it reports (or [`REBUILD_S`] passed), nothing new
+    /// is granted — it may stand where traffic does not know yet.
+    Alive(RobotId),
     /// The robot's liveliness went.
     Gone(RobotId),
     /// Time passed.
@@ -77,6 +83,10 @@ pub struct Authority {
     maps: BTreeMap<String, OnMap>,
     /// Robots whose liveliness went, since when.
     gone: BTreeMap<RobotId, f64>,
+    /// Robots whose liveliness appeared and that it has not heard yet, since when.
+    awaiting: BTreeMap<RobotId, f64>,
+    /// Robots it heard.
+    heard: std::collections::BTreeSet<RobotId>,
 }
 
 impl std::fmt::Debug for Authority {
@@ -90,7 +100,7 @@ impl Authority {
     /// supersede theirs), for `maps` by bundle hash.
     pub fn new(now: f64, incarnation: u64, maps: impl IntoIterator<Item = (String, Arc<Map>)>) -> Authority {
         let maps = maps.into_iter().map(|(hash, map)| (hash, OnMap::new(&map))).collect();
-        Authority { incarnation, started: now, maps, gone: BTreeMap::new() }
+        Authority { incarnation, started: now, maps, gone: BTreeMap::new(), awaiting: BTreeMap::new(), heard: Default::default() }
     }
 
     /// Traffic on `maps` too (by bundle hash), if not already.
@@ -120,19 +130,37 @@ impl Authority {
         match event {
             Event::Report { map, report } => {
                 self.gone.remove(&report.robot);
-                let rebuilding = now < self.started + REBUILD_S;
+                self.awaiting.remove(&report.robot);
+                if !self.heard.contains(&report.robot) && self.heard.len() < super::MAX_ROBOTS {
+                    self.heard.insert(report.robot.clone());
+                }
+                let rebuilding = self.rebuilding(now);
                 let incarnation = self.incarnation;
                 match self.maps.get_mut(&map) {
                     Some(m) => m.report(now, &map, incarnation, rebuilding, report),
                     None => Vec::new(),
                 }
             }
+            Event::Alive(robot) => {
+                if !self.heard.contains(&robot) && self.awaiting.len() < super::MAX_ROBOTS {
+                    self.awaiting.insert(robot, now);
+                }
+                Vec::new()
+            }
             Event::Gone(robot) => {
+                self.awaiting.remove(&robot);
                 self.gone.insert(robot, now);
                 Vec::new()
             }
             Event::Tick => self.tick(now),
         }
+    }
+
+    /// Whether it is still learning what robots hold: just started, or a robot that appeared
+    /// has not spoken yet.
+    fn rebuilding(&mut self, now: f64) -> bool {
+        self.awaiting.retain(|_, t| now - *t < REBUILD_S);
+        now < self.started + REBUILD_S || !self.awaiting.is_empty()
     }
 
     fn tick(&mut self, now: f64) -> Vec<Command> {
@@ -178,6 +206,7 @@ impl OnMap {
             // goal is routed on from where the grant ends once the rebuild is over.
             Some(h) if !known && h.incarnation != incarnation && h.upto.is_some() => {
                 let (reached, granted) = (h.reached.map(|p| p as usize), h.upto.unwrap_or(0) as usize);
+                tracing::info!(%robot, route = h.route.len(), ?reached, granted, "traffic: taken in what the robot holds");
                 cmds.extend(traffic.handle(now, super::Event::Restore { robot: robot.clone(), route: h.route.clone(), reached, granted }));
                 seen.goal = None;
             }

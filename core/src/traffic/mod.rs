@@ -32,10 +32,10 @@
 
 pub mod authority;
 mod deadlock;
-pub mod layout;
-pub mod sim;
 #[cfg(test)]
 mod fleet_tests;
+pub mod layout;
+pub mod sim;
 #[cfg(test)]
 mod tests;
 
@@ -53,6 +53,9 @@ pub const MAX_ROBOTS: usize = 20_000;
 /// Robots stay this far apart, centre to centre (metres): robots of the default radius, 0.25 m,
 /// with 0.1 m to spare.
 pub const CLEARANCE: f64 = 0.6;
+
+/// A robot's route, the position it last reached, the one it may drive to, the route's version.
+pub type RouteState<'a> = (&'a [u32], Option<usize>, Option<usize>, u64);
 
 /// How traffic is run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -202,7 +205,7 @@ impl Traffic {
 
     /// `robot`'s route, the position it last reached, the one it may drive to, and the route's
     /// version.
-    pub fn state(&self, robot: &RobotId) -> Option<(&[u32], Option<usize>, Option<usize>, u64)> {
+    pub fn state(&self, robot: &RobotId) -> Option<RouteState<'_>> {
         self.robots.get(robot).map(|r| (r.route.as_slice(), r.reached, r.granted, r.version))
     }
 
