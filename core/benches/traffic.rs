@@ -16,6 +16,8 @@ use mrmm_core::traffic::authority::{self, Authority};
 use mrmm_maps::graph::{Edge, Vertex};
 use mrmm_maps::{Map, NavGraph, Point};
 use mrmm_proto::{BarrierMode, MapRef, PlanAssignment, Pose, RobotCommand, RobotPlan, Role, Sender, Step};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 const SIDE: u32 = 30;
 const SPACING: f64 = 2.0;
@@ -39,26 +41,16 @@ fn warehouse() -> NavGraph {
     NavGraph { vertices, edges }
 }
 
-struct Rng(u64);
-impl Rng {
-    fn below(&mut self, n: u32) -> u32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 % u64::from(n)) as u32
-    }
-}
-
 fn run(n: usize) -> (u64, Duration, Duration, f64) {
     let g = warehouse();
     let map = MapRef { name: "warehouse".into(), hash: "b".repeat(64) };
     let mut auth = Authority::new(-10.0, 1, [(map.hash.clone(), Arc::new(Map::Graph(g.clone())))]);
-    let mut rng = Rng(0x5eed_1234_abcd_0001);
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
     let mut used = std::collections::BTreeSet::new();
     let mut robots: Vec<Robot> = (0..n)
         .map(|i| {
             let start = loop {
-                let v = rng.below(SIDE * SIDE);
+                let v = rng.gen_range(0..SIDE * SIDE);
                 if used.insert(v) {
                     break v;
                 }
@@ -68,7 +60,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
             let mut r = Robot::new(RobotSetup::sim(&id, "ground", Limits { max_speed: 1.0, max_turn_rate: 2.0 }, Pose { x: p.x, y: p.y, theta: 0.0 }));
             let mut steps: Vec<Step> = (0..8)
                 .map(|_| {
-                    let q = g.vertices[rng.below(SIDE * SIDE) as usize].at;
+                    let q = g.vertices[rng.gen_range(0..SIDE * SIDE) as usize].at;
                     Step::Navigate { x: q.x, y: q.y, speed: None }
                 })
                 .collect();

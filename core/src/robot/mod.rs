@@ -395,6 +395,13 @@ impl Robot {
                 if self.exec.take().is_some() {
                     change = Some(Command::LeaveTeam);
                 }
+                // On a map with lanes the goto is a goal of traffic's (its route is the lanes'):
+                // the robot was there with a plan, and is still.
+                if let Some(g) = self.traffic.as_mut().filter(|g| !g.free()) {
+                    self.route.clear();
+                    g.navigate(*x, *y, None);
+                    return Ok(change);
+                }
                 self.route = via.iter().map(|p| (p[0], p[1])).chain([(*x, *y)]).collect();
                 if let Some((x, y)) = self.route.pop_front() {
                     self.body.navigate_capped(x, y, None);
@@ -406,6 +413,11 @@ impl Robot {
                 }
                 self.route.clear();
                 self.body.hold();
+                // On lanes: it stops at the vertex nearest (after the lane it is on).
+                if let Some(g) = self.traffic.as_mut().filter(|g| !g.free()) {
+                    let p = self.body.pose();
+                    g.navigate(p.x, p.y, None);
+                }
             }
             RobotCommand::Plan(a) => change = self.plan(a)?,
             RobotCommand::Admit { mission, managers, members } => self.admit(mission, managers, members)?,

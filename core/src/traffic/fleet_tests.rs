@@ -16,12 +16,7 @@ use crate::robot::{self, Robot, RobotSetup};
 
 const STEP: f64 = 0.02;
 
-fn office() -> NavGraph {
-    let (name, text) = mrmm_maps::data::OPEN_RMF[0];
-    mrmm_maps::rmf::parse(name, text).expect("office graph")
-}
-
-/// A small deterministic generator (xorshift).
+/// A small deterministic generator (xorshift): the seeds named below are its.
 struct Rng(u64);
 impl Rng {
     fn below(&mut self, n: usize) -> usize {
@@ -30,6 +25,11 @@ impl Rng {
         self.0 ^= self.0 << 17;
         (self.0 % n as u64) as usize
     }
+}
+
+fn office() -> NavGraph {
+    let (name, text) = mrmm_maps::data::OPEN_RMF[0];
+    mrmm_maps::rmf::parse(name, text).expect("office graph")
 }
 
 struct Fleet {
@@ -201,4 +201,30 @@ fn robots_driving_without_grants_meet() {
         f.closest.0 < CLEARANCE - 0.05
     });
     assert!(met, "robots ignoring their grants never met: the clearance test could not fail");
+}
+
+/// An operator's goto to a robot on the map (after its plan, or the robot let go) is driven along
+/// the lanes traffic grants too, not straight through the others.
+#[test]
+fn an_operators_goto_on_the_map_goes_through_traffic() {
+    let mut f = Fleet::new(3, 6, 6);
+    f.run(30.0);
+    // The vertex farthest from the other robots, which hold where they are.
+    let g = office();
+    let others: Vec<mrmm_maps::Point> = f.robots[1..].iter().map(|r| mrmm_maps::Point::new(r.pose().x, r.pose().y)).collect();
+    let far = |v: &mrmm_maps::graph::Vertex| others.iter().map(|o| o.dist(v.at)).fold(f64::INFINITY, f64::min);
+    let target = g.vertices.iter().max_by(|a, b| far(a).total_cmp(&far(b))).map(|v| v.at).expect("vertices");
+    for r in &mut f.robots {
+        let cmd = if r.id() == "r0" { RobotCommand::Goto { x: target.x, y: target.y, via: vec![] } } else { RobotCommand::Hold };
+        let out = r.handle(f.now, robot::Event::Command { cmd, from: Sender::new(Role::Central, "central") });
+        assert!(out.iter().any(|c| matches!(c, robot::Command::Reply(Ok(_)))), "{out:?}");
+    }
+    f.run(60.0);
+    let p = f.robots[0].pose();
+    assert!((p.x - target.x).hypot(p.y - target.y) < 0.2, "r0 at ({:.2}, {:.2}), not at its goto ({:.2}, {:.2})", p.x, p.y, target.x, target.y);
+    assert!(f.closest.0 >= CLEARANCE - 0.05, "{} were {:.2} m apart at {:.1} s", f.closest.2, f.closest.0, f.closest.1);
+    // Traffic knew where it went: it holds the goto's vertex (driven straight, it would not).
+    let (v, _) = g.nearest(target);
+    let held = f.authority.traffic(&f.map.hash).and_then(|t| t.state(&"r0".into())).map(|(route, reached, ..)| reached.map(|p| route[p]));
+    assert_eq!(held, Some(Some(v)), "traffic does not hold r0 at its goto's vertex");
 }
