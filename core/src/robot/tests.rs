@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::body::Limits;
-use mrmm_proto::{Pose, RobotPlan, Role};
+use mrmm_proto::{PlanAssignment, Pose, RobotPlan, Role, Step};
 
 fn cfg() -> RobotSetup {
     RobotSetup { time_scale: 4.0, ..RobotSetup::sim("r1", "ground", Limits { max_speed: 2.0, max_turn_rate: 3.0 }, Pose::default()) }
