@@ -1,6 +1,7 @@
 //! Router loss: central is SIGKILLed mid-patrol; the robots, linked directly to each other by
 //! gossip on their explicit loopback endpoints, keep passing their team barriers and streaming
-//! telemetry. Observed from a peer attached to one robot (central's API is gone with it).
+//! telemetry. Observed from a peer linked to the robots' own endpoints (central's API is gone
+//! with it).
 
 mod common;
 
@@ -28,14 +29,19 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     .await?;
     client.close().await;
 
-    // A peer attached to r1 only.
-    let r1_ep = robots[0].field("listening").ok_or_else(|| anyhow::anyhow!("no endpoint for r1"))?;
-    let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &[r1_ep], 1000)?).await?;
+    // A peer linked to each robot's own endpoint: peers do not forward for each other, and
+    // waiting for gossip to link the observer to r2 and r3 took over 10 s under a full suite's
+    // load (CI). The robots' links to one another are what the barriers below need.
+    let endpoints = robots
+        .iter()
+        .map(|r| r.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow::anyhow!("no endpoint for a robot")))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let observer = net::open(net::zenoh_config(Mode::Peer, &["tcp/127.0.0.1:0".into()], &endpoints, 1000)?).await?;
     // Ring channels: a full FIFO channel would block the session's receiving thread.
     let ring = || zenoh::handlers::RingChannel::new(4096);
     let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry.to_string()).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
-    eventually("telemetry of all 3 robots through r1", Duration::from_secs(10), || async {
+    eventually("telemetry of all 3 robots", Duration::from_secs(20), || async {
         let mut seen = BTreeSet::new();
         while let Ok(Some(s)) = telemetry.try_recv() {
             if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
@@ -59,7 +65,7 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     let deadline = Instant::now() + Duration::from_secs(20);
     while before.len() < 3 {
         let left = deadline.saturating_duration_since(Instant::now());
-        anyhow::ensure!(!left.is_zero(), "no arrival of every robot through r1 before the kill: {before:?}");
+        anyhow::ensure!(!left.is_zero(), "no arrival of every robot before the kill: {before:?}");
         if let Ok(Ok(s)) = tokio::time::timeout(left, arrivals.recv_async()).await {
             record(&mut before, s);
         }
