@@ -155,3 +155,112 @@ async fn robots_go_on_after_centrals_restart_and_never_meet() -> anyhow::Result<
     client.close().await;
     Ok(())
 }
+
+/// Central SIGKILLed for good while robots of two missions drive on the office graph: the robot
+/// its traffic authority named first deputy takes over (orders of a new incarnation, from a
+/// robot), and robots of both missions drive on — never closer than the clearance, as a peer
+/// linked to the robots themselves sees their telemetry (central and its API are gone).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn central_killed_for_good_a_deputy_robot_takes_traffic_over() -> anyhow::Result<()> {
+    let dir = Scratch::new("traffic-deputy");
+    let (mut central, ep) = start_central(&dir, "tcp/127.0.0.1:0", "central.log")?;
+    let robots: Vec<common::Proc> =
+        starts(6)?.iter().enumerate().map(|(i, &(x, y))| common::start_robot_scaled(&dir, &format!("r{}", i + 1), &ep, x, y, 1.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 6).await?;
+    for (name, recipe, robots, params) in
+        [("p", "patrol", ["r1", "r2", "r3"], [("waypoints".to_string(), json!("all"))].into()), ("c", "coverage", ["r4", "r5", "r6"], Default::default())]
+    {
+        let m = MissionCreate {
+            name: name.into(),
+            recipe: recipe.into(),
+            robots: Some(robots.iter().map(|r| (*r).into()).collect()),
+            params,
+            map: Some("office".into()),
+            ..Default::default()
+        };
+        let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await?;
+    }
+    client.close().await;
+
+    // A peer linked to central and to every robot's own endpoint: their telemetry and the orders
+    // on the map (central's while it lives, then a deputy's).
+    let mut endpoints: Vec<String> = robots.iter().filter_map(|r| r.field("listening").and_then(|l| l.split(',').next().map(str::to_string))).collect();
+    endpoints.push(ep.clone());
+    let observer = mrmm_net::net::open(mrmm_net::net::zenoh_config(mrmm_net::net::Mode::Peer, &["tcp/127.0.0.1:0".into()], &endpoints, 1000)?).await?;
+    let ring = || zenoh::handlers::RingChannel::new(8192);
+    let z = |e: zenoh::Error| anyhow::anyhow!("{e}");
+    let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry.to_string()).with(ring()).await.map_err(z)?;
+    let orders = observer.declare_subscriber(proto::Pattern::AllTrafficOrders.to_string()).with(ring()).await.map_err(z)?;
+    // Central's orders name the deputies (its incarnation is the one to be taken over from); they
+    // have followed long enough to take over once orders naming them came for a few seconds.
+    let named = std::cell::Cell::new(None::<Instant>);
+    let (central_incarnation, deputies) = eventually("central's orders naming deputies for a while", Duration::from_secs(40), || async {
+        while let Ok(Some(s)) = orders.try_recv() {
+            if let Ok(proto::TrafficOrder::Route { incarnation, deputies, .. }) = serde_json::from_slice(&s.payload().to_bytes()) {
+                if deputies.len() == proto::traffic::DEPUTIES {
+                    let since = named.get().unwrap_or_else(Instant::now);
+                    named.set(Some(since));
+                    if since.elapsed().as_secs_f64() > mrmm_core::traffic::deputy::FOLLOW_S + 1.0 {
+                        return Some((incarnation, deputies));
+                    }
+                }
+            }
+        }
+        None
+    })
+    .await?;
+    println!("central's traffic incarnation {central_incarnation}, deputies {deputies:?}");
+
+    central.kill();
+    let killed = Instant::now();
+    let mut took_over = None;
+    let mut last: std::collections::BTreeMap<String, (f64, f64)> = Default::default();
+    let mut moved: std::collections::BTreeMap<String, f64> = Default::default();
+    let mut closest = (f64::INFINITY, String::new());
+    while killed.elapsed() < Duration::from_secs(25) {
+        while let Ok(Some(s)) = orders.try_recv() {
+            if let Ok(proto::TrafficOrder::Route { incarnation, .. }) = serde_json::from_slice(&s.payload().to_bytes()) {
+                if incarnation > central_incarnation && took_over.is_none() {
+                    took_over = Some((killed.elapsed(), incarnation));
+                }
+            }
+        }
+        // Every robot's latest pose, compared pairwise.
+        let mut fresh = false;
+        while let Ok(Some(s)) = telemetry.try_recv() {
+            let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) else { continue };
+            let p = (t.pose.x, t.pose.y);
+            if let Some(q) = last.insert(t.id.to_string(), p) {
+                if took_over.is_some() {
+                    *moved.entry(t.id.to_string()).or_default() += (p.0 - q.0).hypot(p.1 - q.1);
+                }
+            }
+            fresh = true;
+        }
+        if fresh {
+            let all: Vec<(&String, &(f64, f64))> = last.iter().collect();
+            for (i, (a, pa)) in all.iter().enumerate() {
+                for (b, pb) in &all[i + 1..] {
+                    let d = (pa.0 - pb.0).hypot(pa.1 - pb.1);
+                    if d < closest.0 {
+                        closest = (d, format!("{a} and {b}"));
+                    }
+                }
+            }
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let _ = observer.close().await;
+    let (after, incarnation) = took_over.ok_or_else(|| anyhow::anyhow!("no deputy gave an order after central died"))?;
+    println!(
+        "a deputy's orders (incarnation {incarnation}) came {:.2} s after central's kill; closest {:.2} m ({}); moved since {moved:?}",
+        after.as_secs_f64(),
+        closest.0,
+        closest.1
+    );
+    anyhow::ensure!(closest.0 >= CLEARANCE - SAMPLING, "{} came {:.2} m apart (clearance {CLEARANCE} m)", closest.1, closest.0);
+    let went_on = |team: &[&str]| team.iter().any(|r| moved.get(*r).is_some_and(|d| *d >= 1.0));
+    anyhow::ensure!(went_on(&["r1", "r2", "r3"]) && went_on(&["r4", "r5", "r6"]), "robots of both missions did not drive on under the deputy: {moved:?}");
+    Ok(())
+}

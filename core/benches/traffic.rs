@@ -108,7 +108,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
             for c in out {
                 if let authority::Command::Order { map, robot, order } = c {
                     if let Some(r) = robots.iter_mut().find(|r| r.id() == robot.as_str()) {
-                        r.handle(now, robot::Event::Traffic { map, order });
+                        r.handle(now, robot::Event::Traffic { map, order, deputy: false });
                     }
                 }
             }

@@ -191,11 +191,7 @@ pub fn egress(c: &Command) -> Option<crate::egress::Out> {
     match c {
         Command::Publish(e) => crate::egress::Out::json(mrmm_proto::Key::AgentAdviceLive, e, crate::egress::Audience::Fleet),
         Command::System(c) => system::egress(c),
-        Command::Traffic(authority::Command::Order { map, robot, order }) => {
-            let to = crate::egress::Audience::Only(vec![mrmm_proto::Sender::new(mrmm_proto::Role::Robot, robot.to_string())]);
-            crate::egress::Out::json(mrmm_proto::Key::TrafficOrder { map: map.clone(), robot: robot.clone() }, order, to)
-        }
-        Command::Traffic(authority::Command::Blocked { .. }) => None,
+        Command::Traffic(c) => authority::egress(c),
     }
 }
 

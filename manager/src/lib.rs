@@ -7,8 +7,10 @@
 //! | `central::CentralCore` (system manager + agent) | [`central`] |
 //! | `host::HostCore` (mission managers, chain replicas) | [`host`] |
 //! | `planning::plan_on` | [`planner_service`] |
+//! | `traffic::deputy::Deputy` (on a robot's node) | [`deputy`] |
 
 pub mod central;
+pub mod deputy;
 pub mod edge;
 pub mod error;
 pub mod host;

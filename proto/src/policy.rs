@@ -75,12 +75,16 @@ pub enum Relation {
     /// It leads the mission in question while central is unreachable, and the receiver, an idle
     /// robot, runs nothing: the paper's robots rejoin without central.
     Unattended,
+    /// A robot the receiver's traffic authority named its deputy on the map in question, while
+    /// central is away (it follows the authority and takes over from it).
+    Deputy,
     /// None of these.
     Stranger,
 }
 
 impl Relation {
-    pub const ALL: [Relation; 6] = [Relation::Itself, Relation::Manager, Relation::Member, Relation::Runs, Relation::Unattended, Relation::Stranger];
+    pub const ALL: [Relation; 7] =
+        [Relation::Itself, Relation::Manager, Relation::Member, Relation::Runs, Relation::Unattended, Relation::Deputy, Relation::Stranger];
 
     fn text(self) -> &'static str {
         match self {
@@ -89,6 +93,7 @@ impl Relation {
             Relation::Member => "a member",
             Relation::Runs => "running it (by telemetry)",
             Relation::Unattended => "leading it, central away",
+            Relation::Deputy => "its traffic deputy, central away",
             Relation::Stranger => "anyone",
         }
     }
@@ -206,7 +211,7 @@ pub const POLICY: [Row; 21] = [
         act: Act::TrafficOrder,
         key: "`mrmm/traffic/<hash>/order/<id>` (the traffic authority)",
         what: "give traffic orders",
-        need: [Never, Always, Never, Never, Never, Never],
+        need: [Never, Always, Any(&[Relation::Deputy]), Never, Never, Never],
     },
 ];
 
@@ -272,8 +277,9 @@ pub enum Publication<'a> {
     Status { manager: &'a str },
     /// Robot `id`'s report to a traffic authority.
     TrafficReport(&'a str),
-    /// A traffic authority's order.
-    TrafficOrder,
+    /// A traffic authority's order; `deputy`: from a robot the receiver's authority named its
+    /// deputy on the map, with central away.
+    TrafficOrder { deputy: bool },
 }
 
 impl Publication<'_> {
@@ -286,7 +292,7 @@ impl Publication<'_> {
             Publication::Advice => "publish advice".to_string(),
             Publication::Status { manager } => format!("report a mission as managed by {manager}"),
             Publication::TrafficReport(id) => format!("report to traffic for {id}"),
-            Publication::TrafficOrder => "give traffic orders".to_string(),
+            Publication::TrafficOrder { .. } => "give traffic orders".to_string(),
         }
     }
 }
@@ -303,7 +309,7 @@ pub fn may_publish(p: Publication<'_>, from: &Sender) -> Result<(), String> {
         Publication::Advice => (Act::Advice, Relation::Stranger),
         Publication::Status { manager } => (Act::Status, itself(manager)),
         Publication::TrafficReport(id) => (Act::TrafficReport, itself(id)),
-        Publication::TrafficOrder => (Act::TrafficOrder, Relation::Stranger),
+        Publication::TrafficOrder { deputy } => (Act::TrafficOrder, if deputy { Relation::Deputy } else { Relation::Stranger }),
     };
     may(act, from, relation).map_err(|_| p.what())
 }
@@ -341,11 +347,18 @@ mod tests {
         acts.sort();
         acts.dedup();
         assert_eq!(acts.len(), POLICY.len(), "one row per act");
-        for act in [Act::Start, Act::Control, Act::Order, Act::Advice, Act::MapManifest, Act::TrafficOrder] {
+        for act in [Act::Start, Act::Control, Act::Order, Act::Advice, Act::MapManifest] {
             for role in Role::ALL {
                 for rel in Relation::ALL {
                     assert_eq!(allows(act, role, rel), role == Role::Central, "{act:?} by {role} as {rel:?}");
                 }
+            }
+        }
+        // Traffic orders: central, or a robot its deputy (named by the authority, central away).
+        for role in Role::ALL {
+            for rel in Relation::ALL {
+                let may = role == Role::Central || (role == Role::Robot && rel == Relation::Deputy);
+                assert_eq!(allows(Act::TrafficOrder, role, rel), may, "traffic orders by {role} as {rel:?}");
             }
         }
         for act in [Act::Telemetry, Act::Arrival, Act::Release, Act::TrafficReport] {

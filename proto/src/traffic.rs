@@ -3,7 +3,8 @@
 //! ([`TrafficOrder`], on `mrmm/traffic/<map hash>/order/<id>`). A robot reports where it wants to
 //! go and what it holds whenever either changes and every [`REPORT_S`]; the authority answers
 //! every report with the robot's current order. Both are JSON, sealed: a robot speaks only for
-//! itself, orders come from central. docs/traffic.md tells the whole protocol.
+//! itself, orders come from central — or, while central is away, from a deputy robot its orders
+//! named. docs/traffic.md tells the whole protocol.
 
 use serde::{Deserialize, Serialize};
 
@@ -14,6 +15,12 @@ pub const REPORT_S: f64 = 1.0;
 /// A robot that heard no order for this long (seconds) starts no new hop: it stops at the end of
 /// the lane it drives.
 pub const QUIET_S: f64 = 3.0;
+/// Robots named to follow a map's traffic authority and take over from it, at most.
+pub const DEPUTIES: usize = 2;
+/// Incarnations a deputy's order may be above the highest of central's that a robot heard: a
+/// deputy takes over as one above what it followed, so a handful of takeovers in a row fit,
+/// and a deputy cannot outbid central's next start (which counts in milliseconds).
+pub const DEPUTY_STEPS: u64 = 16;
 /// Vertices of a route at most, in a report or an order.
 pub const MAX_ROUTE: usize = 10_000;
 /// Bytes of a report or an order at most.
@@ -72,7 +79,18 @@ pub enum TrafficOrder {
     Free,
     /// For goal `goal`: drive `route` (which supersedes every order of a lower `(incarnation,
     /// version)`), from position `reached` (as the authority last heard) up to position `upto`.
-    Route { goal: u64, incarnation: u64, version: u64, route: Vec<RouteVertex>, reached: Option<u32>, upto: Option<u32> },
+    /// `deputies`: the robots that follow the authority and take over, in turn, when central
+    /// is away ([`DEPUTIES`] at most).
+    Route {
+        goal: u64,
+        incarnation: u64,
+        version: u64,
+        route: Vec<RouteVertex>,
+        reached: Option<u32>,
+        upto: Option<u32>,
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        deputies: Vec<RobotId>,
+    },
     /// Goal `goal` cannot be driven to on the map's lanes.
     Refused { goal: u64, why: String },
 }
@@ -106,7 +124,10 @@ impl TrafficOrder {
     /// Checks what the authority may not send: routes too long, positions beyond them, points
     /// not finite.
     pub fn check(&self) -> Result<(), String> {
-        let Self::Route { route, reached, upto, .. } = self else { return Ok(()) };
+        let Self::Route { route, reached, upto, deputies, .. } = self else { return Ok(()) };
+        if deputies.len() > DEPUTIES {
+            return Err(format!("{} deputies (at most {DEPUTIES})", deputies.len()));
+        }
         if route.is_empty() || route.len() > MAX_ROUTE {
             return Err(format!("route of {} vertices (1 to {MAX_ROUTE})", route.len()));
         }
@@ -141,7 +162,7 @@ mod tests {
         r.held = None;
         r.x = f64::NAN;
         assert!(r.check().is_err());
-        let o = TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route: vec![], reached: None, upto: None };
+        let o = TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route: vec![], reached: None, upto: None, deputies: vec![] };
         assert!(o.check().is_err());
         let json = serde_json::to_string(&TrafficOrder::Free).expect("json");
         assert_eq!(json, r#"{"order":"free"}"#);

@@ -60,7 +60,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     robot.finished().await
 }
 
-/// A started robot: its peer and its mission host on one session.
+/// A started robot: its peer, its mission host and its traffic deputy on one session.
 pub struct Started {
     /// What it reported once on the network (none if it stopped before).
     pub ready: Option<Ready>,
@@ -73,6 +73,7 @@ pub struct Started {
 enum Outcome {
     Robot(anyhow::Result<()>),
     Host(anyhow::Result<()>),
+    Deputy(anyhow::Result<()>),
 }
 
 /// Starts the robot of `cfg` (validated) and its mission host; returns once it is on the network
@@ -92,11 +93,18 @@ pub async fn start(cfg: RobotConfig, shutdown: CancellationToken) -> anyhow::Res
     let stop = shutdown.child_token();
     let (id, host_stop, robot_stop) = (cfg.id.clone(), stop.clone(), stop.clone());
     let mesh_host = mesh.clone();
-    tasks.spawn(async move {
-        Outcome::Host(mrmm_manager::host::serve(mesh_host, id, Some(team_rx), stored, Default::default(), host_stop).await.map_err(Into::into))
-    });
+    let maps = mrmm_manager::maps::MapStore::default();
+    let host_maps = maps.clone();
+    tasks.spawn(async move { Outcome::Host(mrmm_manager::host::serve(mesh_host, id, Some(team_rx), stored, host_maps, host_stop).await.map_err(Into::into)) });
+    // And its map's traffic deputy while the authority names it one (it follows, and takes over
+    // when central is away).
+    let (deputy_tx, deputy_rx) = watch::channel(None);
+    let (mesh_deputy, id, deputy_stop) = (mesh.clone(), cfg.id.clone(), stop.clone());
+    tasks.spawn(async move { Outcome::Deputy(mrmm_manager::deputy::serve(mesh_deputy, id, deputy_rx, maps, deputy_stop).await.map_err(Into::into)) });
     let (tx, rx) = oneshot::channel();
-    tasks.spawn(async move { Outcome::Robot(mrmm_peer::runtime::run_on(mesh, cfg, robot_stop, Some(tx), Some(team_tx)).await.map_err(Into::into)) });
+    tasks.spawn(async move {
+        Outcome::Robot(mrmm_peer::runtime::run_on(mesh, cfg, robot_stop, Some(tx), Some(team_tx), Some(deputy_tx)).await.map_err(Into::into))
+    });
     let ready = rx.await.ok();
     Ok(Started { ready, session, tasks, stop })
 }
@@ -137,6 +145,9 @@ impl Started {
                 Outcome::Host(Err(e)) if first => result = Err(anyhow::anyhow!("mission host stopped: {e}")),
                 Outcome::Host(Err(e)) => tracing::warn!("mission host: {e}"),
                 Outcome::Host(Ok(())) => {}
+                Outcome::Deputy(Err(e)) if first => result = Err(anyhow::anyhow!("traffic deputy stopped: {e}")),
+                Outcome::Deputy(Err(e)) => tracing::warn!("traffic deputy: {e}"),
+                Outcome::Deputy(Ok(())) => {}
             }
             // One stopped: the other follows.
             first = false;

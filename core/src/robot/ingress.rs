@@ -50,10 +50,15 @@ impl Robot {
             }
             Some(Key::TrafficOrder { map, robot }) if robot == self.id() => {
                 let from = proven("traffic order")?;
-                entitled(Publication::TrafficOrder, &from)?;
+                // A robot's orders count only while central is away, from a deputy the map's
+                // authority named in the orders this robot drives by.
+                let deputy = from.role == proto::Role::Robot
+                    && !self.central_up
+                    && self.traffic.as_ref().is_some_and(|g| g.map().hash == map && g.deputies().iter().any(|d| d.as_str() == from.id));
+                entitled(Publication::TrafficOrder { deputy }, &from)?;
                 let order = proto::from_json_max("traffic order", m.payload, proto::traffic::MAX_MESSAGE)
                     .map_err(|e| Refused::Malformed { what: "traffic order", why: e.to_string() })?;
-                Ok(Event::Traffic { map, order })
+                Ok(Event::Traffic { map, order, deputy })
             }
             Some(Key::TeamMember { robot, .. }) => Ok(if m.put { Event::MemberAlive(robot) } else { Event::MemberGone(robot) }),
             Some(Key::HostAlive(host)) if host == proto::CENTRAL_HOST => Ok(Event::CentralAlive(m.put)),

@@ -60,7 +60,8 @@ pub enum Event {
     /// Nav2's action server appeared in the robot's ROS graph or left it.
     Nav2Server(bool),
     /// The traffic authority of map `map` (a bundle hash) gave this robot an order.
-    Traffic { map: String, order: mrmm_proto::TrafficOrder },
+    /// An order of the map's traffic authority (`deputy`: from a deputy robot, central away).
+    Traffic { map: String, order: mrmm_proto::TrafficOrder, deputy: bool },
     /// What became of a goal sent to Nav2.
     Nav2Goal { id: GoalId, event: GoalEvent },
 }
@@ -301,9 +302,9 @@ impl Robot {
                 }
                 vec![]
             }
-            Event::Traffic { map, order } => {
+            Event::Traffic { map, order, deputy } => {
                 if let Some(g) = self.traffic.as_mut().filter(|g| g.map().hash == map) {
-                    g.order(now, order);
+                    g.order(now, order, deputy);
                 }
                 vec![]
             }

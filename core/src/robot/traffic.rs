@@ -8,7 +8,7 @@
 
 use std::collections::VecDeque;
 
-use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficHeld, TrafficReport, QUIET_S, REPORT_S};
+use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficHeld, TrafficReport, DEPUTY_STEPS, QUIET_S, REPORT_S};
 use mrmm_proto::{MapRef, RobotId, TrafficOrder};
 
 use crate::drive::Drive;
@@ -57,6 +57,11 @@ pub struct Gate {
     reported: Option<f64>,
     changed: bool,
     seq: u64,
+    /// The robots the authority named to take over from it (central away).
+    deputies: Vec<RobotId>,
+    /// The highest incarnation of central's own orders heard: a deputy's may be at most
+    /// [`DEPUTY_STEPS`] above it.
+    central_incarnation: u64,
 }
 
 impl Gate {
@@ -74,7 +79,14 @@ impl Gate {
             reported: None,
             changed: true,
             seq: 0,
+            deputies: Vec::new(),
+            central_incarnation: 0,
         }
+    }
+
+    /// The robots the authority named its deputies on this map.
+    pub fn deputies(&self) -> &[RobotId] {
+        &self.deputies
     }
 
     pub fn map(&self) -> &MapRef {
@@ -99,10 +111,23 @@ impl Gate {
         self.changed = true;
     }
 
-    /// An order of the map's traffic authority, heard at `now`.
-    pub fn order(&mut self, now: f64, order: TrafficOrder) {
+    /// An order of the map's traffic authority, heard at `now` (`deputy`: from one of its
+    /// deputies, central away).
+    pub fn order(&mut self, now: f64, order: TrafficOrder, deputy: bool) {
         if order.check().is_err() {
             return;
+        }
+        if let TrafficOrder::Route { incarnation, deputies, .. } = &order {
+            if deputy && *incarnation > self.central_incarnation.saturating_add(DEPUTY_STEPS) {
+                tracing::warn!(map = %self.map.name, incarnation, "a deputy's traffic order far above central's incarnation: ignored");
+                return;
+            }
+            if !deputy {
+                self.central_incarnation = self.central_incarnation.max(*incarnation);
+            }
+            if self.held.as_ref().is_none_or(|h| *incarnation >= h.incarnation) {
+                self.deputies.clone_from(deputies);
+            }
         }
         self.heard = now;
         let Some(goal) = self.goal else {
@@ -113,7 +138,7 @@ impl Gate {
             TrafficOrder::Free => self.free = true,
             TrafficOrder::Refused { goal: g, why } if g == goal.id => self.refused = Some(why),
             TrafficOrder::Refused { .. } => {}
-            TrafficOrder::Route { goal: g, incarnation, version, route, reached, upto } => {
+            TrafficOrder::Route { goal: g, incarnation, version, route, reached, upto, .. } => {
                 let newer = self.held.as_ref().is_none_or(|h| (incarnation, version) > (h.incarnation, h.version));
                 let same = self.held.as_ref().is_some_and(|h| (incarnation, version) == (h.incarnation, h.version));
                 if same {

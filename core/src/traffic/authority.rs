@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, Point};
-use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficReport, QUIET_S, REPORT_S};
+use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
 use mrmm_proto::{RobotId, TrafficOrder};
 
 use super::{Layout, Params, Traffic, CLEARANCE};
@@ -63,6 +63,8 @@ pub enum Command {
 #[derive(Debug, Clone, Default)]
 struct Seen {
     seq: u64,
+    /// When it last reported.
+    last: f64,
     /// The goal it was routed to.
     goal: Option<u64>,
     /// Why its goal was refused.
@@ -74,10 +76,14 @@ struct OnMap {
     /// None: the map has no lanes.
     lanes: Option<(Traffic, GraphSpace)>,
     robots: BTreeMap<RobotId, Seen>,
+    /// The robots named in every order to take over, in turn, when central is away.
+    deputies: Vec<RobotId>,
 }
 
 /// The traffic authority of every map.
 pub struct Authority {
+    /// The robot it runs on, if a deputy took over (it names others as deputies).
+    me: Option<RobotId>,
     incarnation: u64,
     started: f64,
     maps: BTreeMap<String, OnMap>,
@@ -100,7 +106,42 @@ impl Authority {
     /// supersede theirs), for `maps` by bundle hash.
     pub fn new(now: f64, incarnation: u64, maps: impl IntoIterator<Item = (String, Arc<Map>)>) -> Authority {
         let maps = maps.into_iter().map(|(hash, map)| (hash, OnMap::new(&map))).collect();
-        Authority { incarnation, started: now, maps, gone: BTreeMap::new(), awaiting: BTreeMap::new(), heard: Default::default() }
+        Authority { me: None, incarnation, started: now, maps, gone: BTreeMap::new(), awaiting: BTreeMap::new(), heard: Default::default() }
+    }
+
+    /// The authority a deputy, robot `me`, runs after it took over at `now` under
+    /// `incarnation`, from what it heard while it followed: each robot's last report, its `held`
+    /// as the robot said it or as the old authority's last order to it granted, whichever is
+    /// newer (a grant the robot did not report yet is held too). Everything heard is taken in
+    /// before anything is granted — no rebuild window: the deputy heard every robot within the
+    /// last [`REPORT_S`] — then each robot's goal is routed on and every robot answered.
+    pub fn took_over(
+        now: f64,
+        me: RobotId,
+        incarnation: u64,
+        maps: impl IntoIterator<Item = (String, Arc<Map>)>,
+        heard: Vec<(String, TrafficReport)>,
+    ) -> (Authority, Vec<Command>) {
+        let mut a = Authority::new(now, incarnation, maps);
+        a.me = Some(me);
+        let mut out = Vec::new();
+        for (map, report) in &heard {
+            out.extend(a.handle(now, Event::Report { map: map.clone(), report: report.clone() }));
+        }
+        a.started = now - REBUILD_S;
+        let me = a.me.clone();
+        for m in a.maps.values_mut() {
+            m.name_deputies(now, me.as_ref(), &a.gone);
+        }
+        for (map, report) in heard {
+            if let Some(m) = a.maps.get_mut(&map) {
+                if let Some(seen) = m.robots.get_mut(&report.robot) {
+                    seen.seq = report.seq.saturating_sub(1);
+                }
+            }
+            out.extend(a.handle(now, Event::Report { map, report }));
+        }
+        (a, out)
     }
 
     /// Traffic on `maps` too (by bundle hash), if not already.
@@ -136,8 +177,14 @@ impl Authority {
                 }
                 let rebuilding = self.rebuilding(now);
                 let incarnation = self.incarnation;
+                let me = self.me.clone();
                 match self.maps.get_mut(&map) {
-                    Some(m) => m.report(now, &map, incarnation, rebuilding, report),
+                    Some(m) => {
+                        if m.deputies.len() < DEPUTIES {
+                            m.name_deputies(now, me.as_ref(), &self.gone);
+                        }
+                        m.report(now, &map, incarnation, rebuilding, report)
+                    }
                     None => Vec::new(),
                 }
             }
@@ -168,6 +215,7 @@ impl Authority {
         let mut out = Vec::new();
         let incarnation = self.incarnation;
         for (hash, m) in &mut self.maps {
+            m.name_deputies(now, self.me.as_ref(), &self.gone);
             let Some((t, _)) = m.lanes.as_mut() else { continue };
             let mut cmds = Vec::new();
             for r in &lost {
@@ -186,7 +234,20 @@ impl Authority {
 impl OnMap {
     fn new(map: &Map) -> OnMap {
         let lanes = map.graph().map(|g| (Traffic::new(Arc::new(Layout::new(g, CLEARANCE)), Params::default()), GraphSpace::new(g)));
-        OnMap { lanes, robots: BTreeMap::new() }
+        OnMap { lanes, robots: BTreeMap::new(), deputies: Vec::new() }
+    }
+
+    /// Names the deputies: a deputy that took over (`me`) first — robots take its orders as
+    /// their deputy's — then the robots of the lowest ids that reported within
+    /// [`LOST_GRACE_S`] and whose liveliness did not go (stable while they stay: a robot of a
+    /// lower id that arrives displaces one).
+    fn name_deputies(&mut self, now: f64, me: Option<&RobotId>, gone: &BTreeMap<RobotId, f64>) {
+        if self.lanes.is_none() {
+            return;
+        }
+        let live = |(id, s): &(&RobotId, &Seen)| now - s.last <= LOST_GRACE_S && Some(*id) != me && !gone.contains_key(*id);
+        let others = self.robots.iter().filter(live).map(|(id, _)| id.clone());
+        self.deputies = me.cloned().into_iter().chain(others).take(DEPUTIES).collect();
     }
 
     fn report(&mut self, now: f64, hash: &str, incarnation: u64, rebuilding: bool, report: TrafficReport) -> Vec<Command> {
@@ -199,6 +260,7 @@ impl OnMap {
             return Vec::new();
         }
         seen.seq = report.seq;
+        seen.last = now;
         let mut cmds = Vec::new();
         let known = traffic.state(&robot).is_some();
         match &report.held {
@@ -293,8 +355,35 @@ impl OnMap {
                 RouteVertex { v, x: p.x, y: p.y }
             })
             .collect();
-        Some(TrafficOrder::Route { goal, incarnation, version, route, reached: reached.map(|p| p as u32), upto: upto.map(|p| p as u32) })
+        Some(TrafficOrder::Route {
+            goal,
+            incarnation,
+            version,
+            route,
+            reached: reached.map(|p| p as u32),
+            upto: upto.map(|p| p as u32),
+            deputies: self.deputies.clone(),
+        })
     }
+}
+
+/// Who an order to `robot` is sealed for: the robot, and the deputies it names (they follow
+/// every order on the map, and a seal tagged for the robot alone they could not check).
+pub fn audience(robot: &RobotId, order: &TrafficOrder) -> Vec<mrmm_proto::Sender> {
+    let robots = |id: &RobotId| mrmm_proto::Sender::new(mrmm_proto::Role::Robot, id.to_string());
+    let mut to = vec![robots(robot)];
+    if let TrafficOrder::Route { deputies, .. } = order {
+        to.extend(deputies.iter().filter(|d| *d != robot).map(robots));
+    }
+    to
+}
+
+/// What command `c` publishes: an order, sealed for its [`audience`] (a block is the
+/// driver's to log).
+pub fn egress(c: &Command) -> Option<crate::egress::Out> {
+    let Command::Order { map, robot, order } = c else { return None };
+    let to = crate::egress::Audience::Only(audience(robot, order));
+    crate::egress::Out::json(mrmm_proto::Key::TrafficOrder { map: map.clone(), robot: robot.clone() }, order, to)
 }
 
 /// The vertex nearest the goal.

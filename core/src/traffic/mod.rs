@@ -32,6 +32,7 @@
 
 pub mod authority;
 mod deadlock;
+pub mod deputy;
 #[cfg(test)]
 mod fleet_tests;
 pub mod layout;

@@ -51,7 +51,7 @@ pub struct Ready {
 /// on the network (queryables and liveliness token declared).
 pub async fn run(cfg: RobotConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), PeerError> {
     let mesh = open(&cfg, &shutdown).await?;
-    run_on(mesh, cfg, shutdown, ready, None).await
+    run_on(mesh, cfg, shutdown, ready, None, None).await
 }
 
 /// The missions the robot is in or admitted to, each with whom it trusts for it (what its
@@ -118,14 +118,16 @@ pub async fn refuse_taken_name(session: &Session, key: &Key, what: &str, name: &
     Ok(())
 }
 
-/// Runs a robot on an open session (shared with other services of the same process, such as
-/// a mission host, told the robot's team on `team`).
+/// Runs a robot on an open session (shared with other services of the same process: a mission
+/// host, told the robot's team on `team`; its traffic deputy, told on `deputy` the map whose
+/// authority names the robot its deputy).
 pub async fn run_on(
     mesh: Mesh,
     cfg: RobotConfig,
     shutdown: CancellationToken,
     ready: Option<oneshot::Sender<Ready>>,
     team: Option<tokio::sync::watch::Sender<LocalTeam>>,
+    deputy: Option<tokio::sync::watch::Sender<Option<proto::MapRef>>>,
 ) -> Result<(), PeerError> {
     let session = mesh.session().clone();
     let id = cfg.id.clone();
@@ -183,6 +185,16 @@ pub async fn run_on(
                 let changed = *t != now;
                 if changed {
                     *t = now;
+                }
+                changed
+            });
+        }
+        if let Some(tx) = &deputy {
+            let now = robot.traffic().filter(|g| g.deputies().iter().any(|d| d.as_str() == id)).map(|g| g.map().clone());
+            tx.send_if_modified(|d| {
+                let changed = *d != now;
+                if changed {
+                    *d = now;
                 }
                 changed
             });

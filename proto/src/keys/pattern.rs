@@ -43,6 +43,11 @@ pub enum Pattern {
     AllTrafficReports,
     /// Every traffic authority's orders to one robot: `mrmm/traffic/*/order/<id>`
     TrafficOrders(String),
+    /// Every order of every traffic authority (to watch traffic): `mrmm/traffic/*/order/*`
+    AllTrafficOrders,
+    /// Every report and every order on one map (its traffic deputies follow them):
+    /// `mrmm/traffic/<hash>/*/*`
+    MapTraffic(String),
     /// Everything of mrmm: `mrmm/**`
     All,
 }
@@ -69,6 +74,8 @@ impl fmt::Display for Pattern {
             Pattern::MapChunks(hash) => write!(f, "mrmm/maps/{hash}/*"),
             Pattern::AllTrafficReports => f.write_str("mrmm/traffic/*/report/*"),
             Pattern::TrafficOrders(id) => write!(f, "mrmm/traffic/*/order/{id}"),
+            Pattern::AllTrafficOrders => f.write_str("mrmm/traffic/*/order/*"),
+            Pattern::MapTraffic(hash) => write!(f, "mrmm/traffic/{hash}/*/*"),
             Pattern::All => f.write_str("mrmm/**"),
         }
     }

@@ -1,0 +1,345 @@
+//! A deputy of a map's traffic authority: a robot the authority names in its orders follows
+//! everything the authority hears and says on the map — every robot's report, every order — and
+//! takes over when central is away and the orders stopped. No I/O: [`Deputy::handle`] takes the
+//! time and an [`Event`] and returns [`Command`]s.
+//!
+//! * **What it keeps is what the authority's successor needs**: each robot's last report and the
+//!   last order it was given. What a robot holds is the newer of what it reported and what it was
+//!   granted (a grant the robot did not report yet is held too), so a takeover grants nothing
+//!   that robots already drive on — and needs no rebuild window ([`Authority::took_over`]).
+//! * **In turn.** The authority names [`DEPUTIES`] robots; the one named `k`-th takes over once
+//!   central's liveliness went and no order was heard for [`TAKEOVER_S`] + `k` × [`RANK_S`]: the
+//!   first deputy's orders keep the second one waiting. A deputy takes over as `1 + k`
+//!   incarnations above the highest it heard — two deputies that both took over are told apart,
+//!   and the lower steps down when it hears the higher (robots take a deputy's orders only
+//!   within [`mrmm_proto::traffic::DEPUTY_STEPS`] of central's).
+//! * **Stepping down.** When central's liveliness comes back, or orders of a higher incarnation
+//!   come (central started again, or another deputy), a deputy that took over stops giving
+//!   orders and follows again.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use mrmm_maps::Map;
+use mrmm_proto::traffic::{TrafficHeld, TrafficReport, DEPUTIES, REPORT_S};
+use mrmm_proto::{RobotId, TrafficOrder};
+
+use super::authority::{self, Authority, REBUILD_S};
+use super::MAX_ROBOTS;
+use crate::edge::{Incoming, Refused};
+
+/// Seconds without an order, central away, before the first deputy takes over: every robot
+/// reports every [`REPORT_S`] and is answered, so orders stop only when the authority did.
+pub const TAKEOVER_S: f64 = REPORT_S + 0.2;
+/// Seconds a deputy follows before it may take over: long enough to hear every robot report.
+pub const FOLLOW_S: f64 = REBUILD_S;
+/// Seconds more each deputy after the first waits: a deputy that takes over answers every robot
+/// at once, so the next hears its orders well within this.
+pub const RANK_S: f64 = 0.5 * REPORT_S;
+
+/// Something the deputy heard.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Event {
+    /// Central's liveliness appeared (`true`) or went.
+    Central(bool),
+    /// A robot's report on the map (its sender proven to be that robot).
+    Report(TrafficReport),
+    /// An order to `robot` on the map, from central or from a deputy (proven).
+    Order { robot: RobotId, order: TrafficOrder },
+    /// Time passed.
+    Tick,
+}
+
+/// What the driver must do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// The authority's command (only once it took over).
+    Authority(authority::Command),
+    /// It took over as `incarnation` (for the log).
+    TookOver { incarnation: u64 },
+    /// It stopped giving orders: central is back, or orders of `incarnation` came.
+    SteppedDown { incarnation: u64 },
+}
+
+/// A deputy of the traffic authority of one map.
+pub struct Deputy {
+    me: RobotId,
+    hash: String,
+    map: Arc<Map>,
+    central: bool,
+    /// Each robot's last report.
+    reports: BTreeMap<RobotId, TrafficReport>,
+    /// What each robot was last granted, as the orders said.
+    granted: BTreeMap<RobotId, TrafficHeld>,
+    /// When it last heard an order of another authority.
+    last_order: f64,
+    /// The highest incarnation it heard.
+    incarnation: u64,
+    /// Its place among the deputies, as the last order heard named them.
+    rank: Option<usize>,
+    /// The deputies the last order heard named.
+    named: Vec<RobotId>,
+    /// When it started following.
+    since: f64,
+    active: Option<Authority>,
+}
+
+impl std::fmt::Debug for Deputy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Deputy").field("me", &self.me).field("rank", &self.rank).field("active", &self.active.is_some()).finish()
+    }
+}
+
+impl Deputy {
+    /// Robot `me`'s deputy for map `hash` (`map`), started at `now` with central alive or not.
+    pub fn new(now: f64, me: RobotId, hash: String, map: Arc<Map>, central: bool) -> Deputy {
+        Deputy {
+            me,
+            hash,
+            map,
+            central,
+            reports: BTreeMap::new(),
+            granted: BTreeMap::new(),
+            last_order: now,
+            incarnation: 0,
+            rank: None,
+            named: Vec::new(),
+            since: now,
+            active: None,
+        }
+    }
+
+    /// What it hears on its map (`mrmm/traffic/<hash>/*/*`) as its event: a robot's report
+    /// (from that robot), an order from central, or from a deputy named in the orders it
+    /// follows while central is away (another's order could only make it step down or hold
+    /// more; still, no one else's is taken).
+    pub fn ingress(&self, m: Incoming<'_>) -> Result<Event, Refused> {
+        use mrmm_proto::policy::{may_publish, Publication};
+        let entitled = |p: Publication<'_>, from: &mrmm_proto::Sender| may_publish(p, from).map_err(|what| Refused::NotEntitled { from: from.clone(), what });
+        match mrmm_proto::Key::parse(m.key) {
+            Some(mrmm_proto::Key::TrafficReport { map, robot }) if map == self.hash => {
+                let what = "traffic report";
+                let from = m.from.ok_or(Refused::Unproven { what })?;
+                entitled(Publication::TrafficReport(&robot), from)?;
+                let report: TrafficReport = mrmm_proto::from_json_max(what, m.payload, mrmm_proto::traffic::MAX_MESSAGE)
+                    .map_err(|e| Refused::Malformed { what, why: e.to_string() })?;
+                if report.robot != robot {
+                    return Err(Refused::Malformed { what, why: format!("the report of {:?} published on {}", report.robot, m.key) });
+                }
+                report.check().map_err(|why| Refused::Malformed { what, why })?;
+                Ok(Event::Report(report))
+            }
+            Some(mrmm_proto::Key::TrafficOrder { map, robot }) if map == self.hash => {
+                let what = "traffic order";
+                let from = m.from.ok_or(Refused::Unproven { what })?;
+                let deputy = from.role == mrmm_proto::Role::Robot && !self.central && self.named.iter().any(|d| d.as_str() == from.id);
+                entitled(Publication::TrafficOrder { deputy }, from)?;
+                let order: TrafficOrder = mrmm_proto::from_json_max(what, m.payload, mrmm_proto::traffic::MAX_MESSAGE)
+                    .map_err(|e| Refused::Malformed { what, why: e.to_string() })?;
+                order.check().map_err(|why| Refused::Malformed { what, why })?;
+                Ok(Event::Order { robot, order })
+            }
+            _ => Err(Refused::Unexpected { key: m.key.chars().take(200).collect() }),
+        }
+    }
+
+    /// What command `c` publishes: the orders it gives once it took over.
+    pub fn egress(c: &Command) -> Option<crate::egress::Out> {
+        match c {
+            Command::Authority(c) => authority::egress(c),
+            _ => None,
+        }
+    }
+
+    /// Whether it took over and gives the orders now.
+    pub fn active(&self) -> bool {
+        self.active.is_some()
+    }
+
+    /// Its place among the deputies (none: not named in the last order heard).
+    pub fn rank(&self) -> Option<usize> {
+        self.rank
+    }
+
+    /// The authority it runs, once it took over.
+    pub fn authority(&self) -> Option<&Authority> {
+        self.active.as_ref()
+    }
+
+    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+        match event {
+            Event::Central(up) => {
+                self.central = up;
+                self.last_order = now;
+                match self.active.take() {
+                    Some(a) if up => vec![Command::SteppedDown { incarnation: a.incarnation() }],
+                    a => {
+                        self.active = a;
+                        Vec::new()
+                    }
+                }
+            }
+            Event::Report(report) => self.report(now, report),
+            Event::Order { robot, order } => self.order(now, robot, order),
+            Event::Tick => self.tick(now),
+        }
+    }
+
+    fn report(&mut self, now: f64, report: TrafficReport) -> Vec<Command> {
+        if report.check().is_err() {
+            return Vec::new();
+        }
+        let newer = self.reports.get(&report.robot).is_none_or(|r| report.seq > r.seq);
+        if newer && (self.reports.contains_key(&report.robot) || self.reports.len() < MAX_ROBOTS) {
+            self.reports.insert(report.robot.clone(), report.clone());
+        }
+        match self.active.as_mut() {
+            Some(a) => a.handle(now, authority::Event::Report { map: self.hash.clone(), report }).into_iter().map(Command::Authority).collect(),
+            None => Vec::new(),
+        }
+    }
+
+    fn order(&mut self, now: f64, robot: RobotId, order: TrafficOrder) -> Vec<Command> {
+        if order.check().is_err() {
+            return Vec::new();
+        }
+        let TrafficOrder::Route { incarnation, version, route, reached, upto, deputies, .. } = order else { return Vec::new() };
+        let mut out = Vec::new();
+        if let Some(a) = &self.active {
+            if incarnation == a.incarnation() {
+                return out; // its own
+            }
+            if incarnation < a.incarnation() {
+                return out; // an older authority's, still on the way
+            }
+            out.push(Command::SteppedDown { incarnation });
+            self.active = None;
+        }
+        if incarnation < self.incarnation {
+            return out;
+        }
+        self.incarnation = incarnation;
+        self.last_order = now;
+        self.rank = deputies.iter().position(|d| *d == self.me);
+        self.named.clone_from(&deputies);
+        let held = TrafficHeld { incarnation, version, route: route.iter().map(|v| v.v).collect(), reached, upto };
+        let keep = match self.granted.get(&robot) {
+            Some(g) => (incarnation, version) >= (g.incarnation, g.version),
+            None => self.granted.len() < MAX_ROBOTS,
+        };
+        if keep {
+            self.granted.insert(robot, held);
+        }
+        out
+    }
+
+    fn tick(&mut self, now: f64) -> Vec<Command> {
+        if let Some(a) = self.active.as_mut() {
+            return a.handle(now, authority::Event::Tick).into_iter().map(Command::Authority).collect();
+        }
+        let Some(rank) = self.rank.filter(|&r| r < DEPUTIES) else { return Vec::new() };
+        let (quiet, followed) = (now - self.last_order, now - self.since);
+        let turn = rank as f64 * RANK_S;
+        if self.central || quiet < TAKEOVER_S + turn || followed < FOLLOW_S + turn || self.reports.is_empty() {
+            return Vec::new();
+        }
+        // Above all it heard, and apart from every other deputy's: two that both took over
+        // (neither heard the other) are told apart, the higher one obeyed.
+        let incarnation = self.incarnation + 1 + rank as u64;
+        let heard: Vec<(String, TrafficReport)> = self.reports.values().map(|r| (self.hash.clone(), self.merged(r))).collect();
+        tracing::info!(deputy = %self.me, incarnation, robots = heard.len(), "traffic: central away and no orders for {:.1} s: taking over", now - self.last_order);
+        let (a, cmds) = Authority::took_over(now, self.me.clone(), incarnation, [(self.hash.clone(), self.map.clone())], heard);
+        self.active = Some(a);
+        self.incarnation = incarnation;
+        let mut out = vec![Command::TookOver { incarnation }];
+        out.extend(cmds.into_iter().map(Command::Authority));
+        out
+    }
+
+    /// Robot `r`'s report with what it holds as the newer of its own word and its last order.
+    fn merged(&self, r: &TrafficReport) -> TrafficReport {
+        let mut r = r.clone();
+        let Some(g) = self.granted.get(&r.robot) else { return r };
+        r.held = match r.held.take() {
+            Some(h) if (h.incarnation, h.version) > (g.incarnation, g.version) => Some(h),
+            Some(h) if (h.incarnation, h.version) == (g.incarnation, g.version) => {
+                let upto = h.upto.max(g.upto);
+                Some(TrafficHeld { upto, ..h })
+            }
+            _ => Some(g.clone()),
+        };
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use mrmm_maps::Point;
+    use mrmm_proto::traffic::TrafficGoal;
+
+    use super::*;
+
+    fn office() -> Arc<Map> {
+        let (name, text) = mrmm_maps::data::OPEN_RMF[0];
+        Arc::new(Map::Graph(mrmm_maps::rmf::parse(name, text).expect("office graph")))
+    }
+
+    fn report(robot: &str, seq: u64, at: Point, goal: Option<Point>) -> TrafficReport {
+        TrafficReport { robot: robot.into(), seq, x: at.x, y: at.y, goal: goal.map(|g| TrafficGoal { id: 1, x: g.x, y: g.y }), held: None }
+    }
+
+    /// A grant central gave that the robot had not reported yet when central died is held by
+    /// the deputy that takes over: it follows orders, not only reports. Robot b was granted a
+    /// part of its route; robot a (routed first: robots in id order), standing on the vertex
+    /// after, wants the vertex where b's grant ends.
+    #[test]
+    fn a_deputy_holds_what_central_granted_that_no_robot_reported_yet() {
+        let map = office();
+        let Map::Graph(g) = map.as_ref() else { unreachable!() };
+        let hash = "h".repeat(64);
+        let mut central = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        let mut deputy = Deputy::new(0.0, "b".into(), hash.clone(), map.clone(), true);
+        let hear = |central: &mut Authority, deputy: &mut Deputy, t: f64, r: TrafficReport| {
+            let mut granted = None;
+            deputy.handle(t, Event::Report(r.clone()));
+            for c in central.handle(t, authority::Event::Report { map: hash.clone(), report: r }) {
+                if let authority::Command::Order { robot, order, .. } = c {
+                    if let TrafficOrder::Route { route, upto, .. } = &order {
+                        let all: Vec<u32> = route.iter().map(|v| v.v).collect();
+                        granted = upto.map(|u| (all[..=u as usize].to_vec(), all));
+                    }
+                    deputy.handle(t, Event::Order { robot, order });
+                }
+            }
+            granted
+        };
+        // Robot b stands on a vertex and goes to the vertex farthest from it.
+        let start = g.vertices[0].at;
+        let far = g.vertices.iter().map(|v| v.at).max_by(|p, q| start.dist(*p).total_cmp(&start.dist(*q))).expect("vertices");
+        hear(&mut central, &mut deputy, 0.0, report("b", 1, start, None));
+        let (path, route) = hear(&mut central, &mut deputy, 0.5, report("b", 2, start, Some(far))).expect("central granted b a part of its route");
+        let end = *path.last().expect("a vertex");
+        assert!(path.len() >= 2 && route.len() > path.len(), "b was granted no lane, or all its route: {path:?} of {route:?}");
+        // Robot a stands on the vertex after b's grant's end, and goes to that end.
+        let a_at = g.vertices[route[path.len()] as usize].at;
+        hear(&mut central, &mut deputy, 0.6, report("a", 1, a_at, None));
+        hear(&mut central, &mut deputy, 0.7, report("a", 2, a_at, Some(g.vertices[end as usize].at)));
+        assert!(deputy.rank().is_some(), "b is not named a deputy");
+        // Central dies before b reports what it was granted.
+        deputy.handle(1.0, Event::Central(false));
+        let mut t = 1.0;
+        while !deputy.active() && t < 5.0 {
+            t += 0.1;
+            deputy.handle(t, Event::Tick);
+        }
+        assert!(deputy.active(), "the deputy did not take over");
+        let traffic = deputy.authority().and_then(|a| a.traffic(&hash)).expect("traffic on the map");
+        let (route, _, upto, _) = traffic.state(&"b".into()).expect("b in traffic");
+        assert!(
+            upto.is_some_and(|u| route[..=u].contains(&end)),
+            "the deputy does not hold what central granted b (up to vertex {end}): {}; {}",
+            traffic.describe(&"b".into()),
+            traffic.describe(&"a".into())
+        );
+    }
+}
