@@ -156,17 +156,39 @@ async fn robots_go_on_after_centrals_restart_and_never_meet() -> anyhow::Result<
     Ok(())
 }
 
-/// Central SIGKILLed for good while robots of two missions drive on the office graph: the robot
-/// its traffic authority named first deputy takes over (orders of a new incarnation, from a
-/// robot), and robots of both missions drive on — never closer than the clearance, as a peer
-/// linked to the robots themselves sees their telemetry (central and its API are gone).
+/// Robot `id` of the fleet `pki`, at `(x, y)`, linked to central at `ep` over QUIC.
+fn secure_robot(dir: &Scratch, pki: &std::path::Path, id: &str, ep: &str, (x, y): (f64, f64)) -> anyhow::Result<common::Proc> {
+    let f = |name: &str| serde_json::to_string(&pki.join(name).display().to_string()).unwrap_or_default();
+    let cfg = format!(
+        r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }}, start: {{ x: {x}, y: {y} }}, telemetry_hz: 10,
+             zenoh: {{ listen: ["quic/127.0.0.1:0"], connect: ["{ep}"], lease_ms: 1000 }},
+             security: {{ ca: {}, cert: {}, key: {} }} }}"#,
+        f("ca.crt"),
+        f(&format!("{id}.crt")),
+        f(&format!("{id}.key"))
+    );
+    let path = dir.path(&format!("{id}.json5"));
+    std::fs::write(&path, cfg)?;
+    start(id, &["robot", "--config", &path.display().to_string()], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))
+}
+
+/// Central SIGKILLed for good while robots of two missions of a secure fleet drive on the office
+/// graph: the robot its traffic authority named first deputy takes over (orders of a new
+/// incarnation, sealed by a robot, which the others check and obey), and robots of both missions
+/// drive on — never closer than the clearance, as a peer linked to the robots themselves sees
+/// their telemetry (central and its API are gone).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn central_killed_for_good_a_deputy_robot_takes_traffic_over() -> anyhow::Result<()> {
     let dir = Scratch::new("traffic-deputy");
-    let (mut central, ep) = start_central(&dir, "tcp/127.0.0.1:0", "central.log")?;
+    let pki = common::fleet_pki(&dir, 6)?;
+    let (map, state, pki_arg) = (format!("office={}", office().display()), dir.path("central-state").display().to_string(), pki.display().to_string());
+    let args = ["central", "--listen", "quic/127.0.0.1:0", "--pki", &pki_arg, "--operator", "op", "--map", &map, "--state-dir", &state];
+    let mut central = start("central", &args, &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
+    let ep = central.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow::anyhow!("no endpoint"))?;
     let robots: Vec<common::Proc> =
-        starts(6)?.iter().enumerate().map(|(i, &(x, y))| common::start_robot_scaled(&dir, &format!("r{}", i + 1), &ep, x, y, 1.0)).collect::<Result<_, _>>()?;
-    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+        starts(6)?.iter().enumerate().map(|(i, &at)| secure_robot(&dir, &pki, &format!("r{}", i + 1), &ep, at)).collect::<Result<_, _>>()?;
+    let operator = Some(proto::SecuritySection::from_dir(&pki, "op"));
+    let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
     common::wait_robots(&client, 6).await?;
     for (name, recipe, robots, params) in
         [("p", "patrol", ["r1", "r2", "r3"], [("waypoints".to_string(), json!("all"))].into()), ("c", "coverage", ["r4", "r5", "r6"], Default::default())]
@@ -187,7 +209,8 @@ async fn central_killed_for_good_a_deputy_robot_takes_traffic_over() -> anyhow::
     // on the map (central's while it lives, then a deputy's).
     let mut endpoints: Vec<String> = robots.iter().filter_map(|r| r.field("listening").and_then(|l| l.split(',').next().map(str::to_string))).collect();
     endpoints.push(ep.clone());
-    let observer = mrmm_net::net::open(mrmm_net::net::zenoh_config(mrmm_net::net::Mode::Peer, &["tcp/127.0.0.1:0".into()], &endpoints, 1000)?).await?;
+    let observer = common::secure_node(&pki, "op", endpoints).await?;
+    let observer = observer.session().clone();
     let ring = || zenoh::handlers::RingChannel::new(8192);
     let z = |e: zenoh::Error| anyhow::anyhow!("{e}");
     let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry.to_string()).with(ring()).await.map_err(z)?;

@@ -169,8 +169,8 @@ impl Deputy {
     pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
             Event::Central(up) => {
+                // Orders stopped when central did: the quiet is counted from the last one.
                 self.central = up;
-                self.last_order = now;
                 match self.active.take() {
                     Some(a) if up => vec![Command::SteppedDown { incarnation: a.incarnation() }],
                     a => {

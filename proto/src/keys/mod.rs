@@ -30,7 +30,7 @@
 //! | `mrmm/maps/<hash>/<chunk>` | queryable on every node holding the map | [`crate::MapChunk`] (bincode behind `MRMP`) |
 //! | `mrmm/maps/<hash>/manifest` | queryable on central, for the maps it publishes | [`crate::map::MapManifest`] (JSON, sealed by central) |
 //! | `mrmm/traffic/<hash>/report/<id>` | publication by a robot on that graph map | [`crate::TrafficReport`] |
-//! | `mrmm/traffic/<hash>/order/<id>` | publication by the map's traffic authority (central) | [`crate::TrafficOrder`] |
+//! | `mrmm/traffic/<hash>/order/<id>` | publication by the map's traffic authority (central, or a deputy robot with central away) | [`crate::TrafficOrder`] |
 //! | `mrmm/system/cmd/robot/goto` | queryable on the system manager | [`crate::GotoRequest`] |
 //! | `mrmm/system/cmd/robot/move` | queryable on the system manager | [`crate::RobotMove`] |
 //! | `mrmm/system/cmd/robot/capabilities` | queryable on the system manager | [`crate::CapabilitiesRequest`] |
