@@ -76,7 +76,24 @@ async fn the_demo_on_a_graph_map_keeps_its_robots_apart() -> anyhow::Result<()> 
     let p: MissionView = client.query(proto::Key::SystemMission("patrol-1".into()), None::<&()>).await?;
     println!("patrol-1 passed {} sync points", p.metrics.sync_points_passed);
     anyhow::ensure!(p.metrics.sync_points_passed >= 1, "the patrol passed no sync point: {:?}", p.metrics);
+    println!("patrol-1's robots waited {:.0} s for traffic", p.metrics.traffic_wait_s);
     client.close().await;
+    // The operator's view of traffic: every robot on the office graph, with its route.
+    let op = |args: &[&str]| std::process::Command::new(common::EXE).args(["op", "--connect", &ep]).args(args).output();
+    let out = op(&["--json", "traffic"])?;
+    anyhow::ensure!(out.status.success(), "mrmm op traffic: {}", String::from_utf8_lossy(&out.stderr));
+    let views: Vec<proto::traffic::TrafficView> = serde_json::from_slice(&out.stdout)?;
+    anyhow::ensure!(views.len() == 1 && views[0].robots.len() == 8, "traffic as the operator sees it: {views:?}");
+    anyhow::ensure!(views[0].robots.iter().all(|r| !r.holds.is_empty()) && views[0].deputies.len() == 2, "{views:?}");
+    // One map, named by the start of its hash.
+    let table = op(&["traffic", &views[0].map[..8]])?;
+    let text = String::from_utf8_lossy(&table.stdout);
+    println!("{text}");
+    anyhow::ensure!(
+        text.starts_with("map ") && text.lines().filter(|l| l.starts_with('r') && l[1..].starts_with(|c: char| c.is_ascii_digit())).count() == 8,
+        "mrmm op traffic: {text}{}",
+        String::from_utf8_lossy(&table.stderr)
+    );
     Ok(())
 }
 

@@ -138,6 +138,11 @@ impl CentralCore {
                     system::Event::Tick => out.extend(self.traffic.handle(now, authority::Event::Tick).into_iter().map(Command::Traffic)),
                     _ => {}
                 }
+                if let system::Event::Operator { req, request: Request::Traffic } = &ev {
+                    let views = serde_json::to_value(self.traffic.views(now)).map_err(|e| e.to_string());
+                    out.push(Command::System(system::Command::Reply { req: req.clone(), result: views }));
+                    return out;
+                }
                 if let system::Event::Operator { req: Req::Query(_), request } = &ev {
                     if request.is_command() {
                         self.agent.handle(now, agent::Event::OperatorCommand);
@@ -148,7 +153,7 @@ impl CentralCore {
                 self.route(now, cmds, &mut out);
                 if tick && now - self.last_look >= AGENT_PERIOD_S {
                     self.last_look = now;
-                    let look = agent::Event::Snapshot { robots: self.system.views(), missions: self.system.mission_views() };
+                    let look = agent::Event::Snapshot { robots: self.system.views(), missions: self.system.mission_views(), traffic: self.traffic.views(now) };
                     let cmds = self.agent.handle(now, look);
                     self.agent_commands(now, cmds, &mut out);
                 }

@@ -17,7 +17,7 @@ pub const JSON_MAX_BYTES: usize = 4 << 20;
 /// Largest telemetry payload we accept: a garbage length prefix cannot make us allocate more.
 pub const TELEMETRY_MAX_BYTES: usize = 64 * 1024;
 /// Prefix of a bincode telemetry payload: protocol name and version.
-pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM3";
+pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM4";
 /// Media type of every JSON payload.
 pub const JSON: &str = "application/json";
 
@@ -122,7 +122,7 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
     if bytes.len() > TELEMETRY_MAX_BYTES {
         return Err(ProtoError::decode("telemetry", format!("{} bytes", bytes.len())));
     }
-    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::decode("telemetry", "no MRM3 prefix"))?;
+    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::decode("telemetry", "no MRM4 prefix"))?;
     let (t, used): (Telemetry, usize) = bincode::serde::decode_from_slice(body, wire_config()).map_err(|e| ProtoError::decode("telemetry", e))?;
     if used != body.len() {
         return Err(ProtoError::decode("telemetry", format!("{} trailing bytes", body.len() - used)));
@@ -158,6 +158,7 @@ mod tests {
                 sync_msgs: 6,
                 waiting: Some((2, 1)),
                 sync_wait_s: 1.5,
+                traffic_wait_s: 2.5,
                 done: false,
             }),
             admitted: vec!["patrol-1".into()],
@@ -170,7 +171,7 @@ mod tests {
     fn telemetry_round_trips() {
         let t = sample();
         let bytes = encode_telemetry(&t).expect("encode");
-        assert_eq!(&bytes[..4], b"MRM3");
+        assert_eq!(&bytes[..4], b"MRM4");
         assert_eq!(decode_telemetry(&bytes).expect("decode"), t);
     }
 

@@ -266,6 +266,10 @@ pub struct MissionMetrics {
     /// first barrier (the formation's), summed over members (it restarts with a replan).
     #[serde(default)]
     pub sync_wait_s: f64,
+    /// Robot seconds the members spent waiting for traffic under the current plan, summed over
+    /// members (it restarts with a replan).
+    #[serde(default)]
+    pub traffic_wait_s: f64,
 }
 
 /// The mission manager's identity.

@@ -106,6 +106,10 @@ pub struct Progress {
     /// formation's): the cost of synchronisation, which the evaluation's figures show.
     #[serde(default)]
     pub sync_wait_s: f64,
+    /// Simulated seconds the plan waited for traffic (a goal on a map with lanes, the next lane
+    /// not granted yet, or no orders heard).
+    #[serde(default)]
+    pub traffic_wait_s: f64,
     /// The plan ran to its end.
     pub done: bool,
 }

@@ -95,6 +95,40 @@ pub enum TrafficOrder {
     Refused { goal: u64, why: String },
 }
 
+/// What the operator sees of traffic on one map (`mrmm/system/traffic`, `mrmm op traffic`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrafficView {
+    /// The map's bundle hash.
+    pub map: String,
+    /// The authority's incarnation.
+    pub incarnation: u64,
+    /// The deputies its orders name.
+    pub deputies: Vec<RobotId>,
+    /// Every robot in traffic on the map, by id.
+    pub robots: Vec<TrafficRobotView>,
+}
+
+/// One robot in traffic, as the authority holds it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrafficRobotView {
+    pub robot: RobotId,
+    /// Its route's vertices (the map's vertex indices).
+    pub route: Vec<u32>,
+    /// The position in `route` it last reached, and the one it may drive to.
+    pub reached: Option<u32>,
+    pub granted: Option<u32>,
+    /// The vertices it holds (those of lanes it drives, and where it stands).
+    pub holds: Vec<u32>,
+    /// Robots in the way of its next lane while it stands waiting, and for how long it waited
+    /// (seconds).
+    pub waits_for: Vec<RobotId>,
+    pub waiting_s: Option<f64>,
+    /// Robots it waits for with no way found around them (reported `Blocked`).
+    pub blocked: Vec<RobotId>,
+    /// Its liveliness went: it keeps what it held.
+    pub lost: bool,
+}
+
 impl TrafficReport {
     /// Checks what a robot may not send: non-finite positions, routes longer than [`MAX_ROUTE`],
     /// positions beyond the route.

@@ -40,11 +40,14 @@ pub struct AgentConfig {
     pub stuck_distance: f64,
     /// How long an event-like advice (manager moved) stands, seconds.
     pub event_advice_s: f64,
+    /// A robot waiting this long in traffic for the same robots is raised, seconds (one blocked
+    /// — no way around those in its way — at once).
+    pub traffic_wait_s: f64,
 }
 
 impl Default for AgentConfig {
     fn default() -> Self {
-        AgentConfig { autonomy: Autonomy::Advise, busy_window_s: 10.0, stuck_after_s: 10.0, stuck_distance: 0.2, event_advice_s: 30.0 }
+        AgentConfig { autonomy: Autonomy::Advise, busy_window_s: 10.0, stuck_after_s: 10.0, stuck_distance: 0.2, event_advice_s: 30.0, traffic_wait_s: 30.0 }
     }
 }
 
@@ -56,6 +59,7 @@ impl AgentConfig {
             ("stuck_after_s", self.stuck_after_s, 3600.0),
             ("stuck_distance", self.stuck_distance, 1000.0),
             ("event_advice_s", self.event_advice_s, 86400.0),
+            ("traffic_wait_s", self.traffic_wait_s, 3600.0),
         ] {
             if !(v.is_finite() && v >= 0.0 && v <= max) {
                 return Err(format!("agent.{name}: must be a number in [0, {max}] (got {v})"));
@@ -68,8 +72,8 @@ impl AgentConfig {
 /// What the agent is told.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
-    /// The fleet and missions now.
-    Snapshot { robots: Vec<RobotView>, missions: Vec<MissionView> },
+    /// The fleet, missions and traffic now.
+    Snapshot { robots: Vec<RobotView>, missions: Vec<MissionView>, traffic: Vec<mrmm_proto::traffic::TrafficView> },
     /// The operator issued a command.
     OperatorCommand,
     /// How a move the agent ran for advice `advice` went.
@@ -134,8 +138,8 @@ impl Agent {
                 self.last_operator = Some(now);
                 vec![]
             }
-            Event::Snapshot { robots, missions } => {
-                let fresh = rules::evaluate(&self.cfg, &mut self.memory, now, &robots, &missions);
+            Event::Snapshot { robots, missions, traffic } => {
+                let fresh = rules::evaluate(&self.cfg, &mut self.memory, now, &robots, &missions, &traffic);
                 self.reconcile(now, fresh)
             }
             Event::Acted { advice, result } => {

@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use mrmm_proto::traffic::TrafficView;
 use mrmm_proto::{Advice, MissionName, MissionStatus, MissionView, PlanSummary, Priority, RobotId, RobotMove, RobotStatus, RobotView};
 use serde_json::json;
 
@@ -92,7 +93,14 @@ fn short_teams(robots: &[RobotView], missions: &[MissionView], m: &MissionView, 
 }
 
 /// All candidate advice for this snapshot.
-pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[RobotView], missions: &[MissionView]) -> BTreeMap<String, Candidate> {
+pub(crate) fn evaluate(
+    cfg: &AgentConfig,
+    mem: &mut Memory,
+    now: f64,
+    robots: &[RobotView],
+    missions: &[MissionView],
+    traffic: &[TrafficView],
+) -> BTreeMap<String, Candidate> {
     let mut out = BTreeMap::new();
     lost_robots(cfg, mem, robots, missions, now, &mut out);
     below_standard(robots, missions, now, &mut out);
@@ -104,8 +112,57 @@ pub(crate) fn evaluate(cfg: &AgentConfig, mem: &mut Memory, now: f64, robots: &[
     }
     idle_robots(robots, missions, now, &mut out);
     managers(cfg, mem, missions, now, &mut out);
-    stuck_robots(cfg, mem, robots, now, &mut out);
+    // A robot waiting in traffic is not stuck: it is told why it waits instead.
+    let waiting: std::collections::BTreeSet<&RobotId> = traffic.iter().flat_map(|m| &m.robots).filter(|t| t.waiting_s.is_some()).map(|t| &t.robot).collect();
+    stuck_robots(cfg, mem, robots, &waiting, now, &mut out);
+    blocked_in_traffic(cfg, robots, traffic, now, &mut out);
     out
+}
+
+/// A robot blocked in traffic (no way around the robots in its way), or waiting for the same
+/// robots longer than `traffic_wait_s`: who is in the way, and the move that would clear it —
+/// a lost robot taken off the lanes, an idle one driven away, a mission's robot stepping back
+/// (its mission paused, or the robot taken out of it).
+fn blocked_in_traffic(cfg: &AgentConfig, robots: &[RobotView], traffic: &[TrafficView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+    let by_id: BTreeMap<&str, &RobotView> = robots.iter().map(|r| (r.id.as_str(), r)).collect();
+    for map in traffic {
+        for t in &map.robots {
+            let long = t.waiting_s.is_some_and(|w| w >= cfg.traffic_wait_s);
+            let by = if t.blocked.is_empty() { &t.waits_for } else { &t.blocked };
+            if by.is_empty() || (t.blocked.is_empty() && !long) {
+                continue;
+            }
+            let first = &by[0];
+            let blocker = by_id.get(first.as_str());
+            let suggestion = match blocker {
+                Some(b) if b.status == RobotStatus::Lost => {
+                    format!("robot {first} is lost where it stands: take it off the lanes and restart it there, or elsewhere")
+                }
+                Some(b) if b.mission.is_none() => format!("drive {first} out of the way: mrmm op goto {first} X Y"),
+                Some(b) => format!("mrmm op move {first} none (out of mission {}), or pause the mission", b.mission.as_deref().unwrap_or("?")),
+                None => format!("mrmm op traffic {}", &map.map[..8.min(map.map.len())]),
+            };
+            let how =
+                if t.blocked.is_empty() { format!("has waited {:.0} s in traffic", t.waiting_s.unwrap_or(0.0)) } else { "is blocked in traffic".to_string() };
+            let names: Vec<&str> = by.iter().map(RobotId::as_str).collect();
+            let reason = format!("robot {} {how} for {}", t.robot, names.join(", "));
+            let evidence = json!({"robot": t.robot, "map": map.map, "waits_for": by, "waiting_s": t.waiting_s, "blocked": !t.blocked.is_empty(),
+                                  "route": t.route, "reached": t.reached, "granted": t.granted});
+            let id = format!("traffic/{}", t.robot);
+            let advice = Advice {
+                id: id.clone(),
+                priority: Priority::Warning,
+                reason,
+                evidence,
+                suggestion: Some(suggestion),
+                action: None,
+                since: now,
+                acted: false,
+                outcome: None,
+            };
+            out.insert(id, Candidate { advice, action: None });
+        }
+    }
 }
 
 /// A robot lost, and what was done about it; a robot taken out of its mission because it no longer
@@ -229,7 +286,14 @@ fn managers(cfg: &AgentConfig, mem: &mut Memory, missions: &[MissionView], now: 
 }
 
 /// Robots driving somewhere without getting anywhere.
-fn stuck_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+fn stuck_robots(
+    cfg: &AgentConfig,
+    mem: &mut Memory,
+    robots: &[RobotView],
+    in_traffic: &std::collections::BTreeSet<&RobotId>,
+    now: f64,
+    out: &mut BTreeMap<String, Candidate>,
+) {
     for r in robots {
         if let Some(why) = &r.stuck {
             // The robot says so itself (its navigator refused or aborted the goal).
@@ -242,7 +306,7 @@ fn stuck_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], now: 
         let driving = r.status == RobotStatus::Busy && r.behaviour.as_deref().is_some_and(|b| b.contains("goto"));
         let entry = mem.last_moved.entry(r.id.clone()).or_insert((pose, now));
         let moved = (pose.x - entry.0.x).hypot(pose.y - entry.0.y) > cfg.stuck_distance;
-        if moved || !driving {
+        if moved || !driving || in_traffic.contains(&r.id) {
             *entry = (pose, now);
             continue;
         }

@@ -73,7 +73,7 @@ fn withdrawn(cmds: &[Command]) -> Vec<String> {
 }
 
 fn snap(robots: Vec<RobotView>, missions: Vec<MissionView>) -> Event {
-    Event::Snapshot { robots, missions }
+    Event::Snapshot { robots, missions, traffic: vec![] }
 }
 
 #[test]
@@ -339,4 +339,39 @@ fn a_leaf_team_below_its_minimum_is_critical_with_a_robot_that_fits_it() {
     e.team_views[0].members.push("r5".into());
     let cmds = a.handle(1.0, snap(robots, vec![e]));
     assert!(withdrawn(&cmds).contains(&"team/e/ground".to_string()), "{cmds:?}");
+}
+
+/// A robot waiting in traffic is not stuck: after `traffic_wait_s` for the same robots it is
+/// raised with who is in the way and what would clear it; blocked (no way around) at once; the
+/// advice is withdrawn when the way is free.
+#[test]
+fn robots_waiting_or_blocked_in_traffic_are_raised_with_who_is_in_the_way() {
+    use mrmm_proto::traffic::{TrafficRobotView, TrafficView};
+    let mut a = Agent::new(AgentConfig { stuck_after_s: 10.0, traffic_wait_s: 30.0, ..AgentConfig::default() });
+    let ms = vec![mission("p", "patrol", &["r1"], None, None)];
+    let robots = |x: f64| vec![robot("r1", RobotStatus::Busy, Some("p"), x, "step 4 goto(9.0,0.0)"), robot("r2", RobotStatus::Idle, None, 5.0, "idle")];
+    let view = |waiting: Option<f64>, blocked: bool| {
+        let r1 = TrafficRobotView {
+            robot: "r1".into(),
+            route: vec![1, 2, 3],
+            reached: Some(0),
+            granted: Some(0),
+            holds: vec![1],
+            waits_for: if waiting.is_some() { vec!["r2".into()] } else { vec![] },
+            waiting_s: waiting,
+            blocked: if blocked { vec!["r2".into()] } else { vec![] },
+            lost: false,
+        };
+        vec![TrafficView { map: "h".repeat(64), incarnation: 1, deputies: vec![], robots: vec![r1] }]
+    };
+    let look = |robots, traffic| Event::Snapshot { robots, missions: ms.clone(), traffic };
+    a.handle(0.0, look(robots(0.0), view(Some(0.0), false)));
+    // Waiting 20 s: not stuck (it is told why it waits), not raised yet.
+    assert!(raised(&a.handle(20.0, look(robots(0.0), view(Some(20.0), false)))).is_empty());
+    let cmds = a.handle(31.0, look(robots(0.0), view(Some(31.0), false)));
+    assert_eq!(raised(&cmds), [("traffic/r1".into(), Priority::Warning)]);
+    assert!(format!("{cmds:?}").contains("mrmm op goto r2"), "an idle robot in the way is driven away: {cmds:?}");
+    assert_eq!(withdrawn(&a.handle(32.0, look(robots(1.0), view(None, false)))), ["traffic/r1"]);
+    // Blocked: at once.
+    assert_eq!(raised(&a.handle(33.0, look(robots(1.0), view(Some(1.0), true)))), [("traffic/r1".into(), Priority::Warning)]);
 }

@@ -81,6 +81,8 @@ pub struct Executor {
     /// Simulated seconds spent waiting at barriers that released since the first (the
     /// formation's) under this plan.
     sync_wait: f64,
+    /// Simulated seconds the plan waited for traffic.
+    traffic_wait: f64,
     last_publish: f64,
     /// [`REPUBLISH_S`] in simulated seconds.
     republish: f64,
@@ -148,6 +150,7 @@ impl Executor {
             turning: false,
             waiting_since: 0.0,
             sync_wait: 0.0,
+            traffic_wait: 0.0,
             last_publish: 0.0,
             republish: REPUBLISH_S,
             gap: REPUBLISH_S,
@@ -202,6 +205,13 @@ impl Executor {
         self.wide.get(team).and_then(|w| w.waiting)
     }
 
+    /// The plan waited `dt` simulated seconds for traffic.
+    pub fn waited_for_traffic(&mut self, dt: f64) {
+        if dt.is_finite() && dt > 0.0 {
+            self.traffic_wait += dt;
+        }
+    }
+
     /// Progress for telemetry.
     pub fn progress(&self) -> Progress {
         Progress {
@@ -213,6 +223,7 @@ impl Executor {
             sync_msgs: self.sync_msgs,
             waiting: self.waiting.or_else(|| self.wide.values().find_map(|w| w.waiting).map(|(round, point)| (point, round))),
             sync_wait_s: self.sync_wait,
+            traffic_wait_s: self.traffic_wait,
             done: self.done,
         }
     }

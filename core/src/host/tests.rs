@@ -151,6 +151,7 @@ fn progress(id: &str, mission: &str, epoch: u64) -> Event {
             sync_msgs: 0,
             waiting: None,
             sync_wait_s: 0.0,
+            traffic_wait_s: 0.0,
             done: false,
         }),
         admitted: vec![],

@@ -180,6 +180,7 @@ impl Metrics {
             messages: BTreeMap::from([("plan".to_string(), plan_msgs), ("sync".to_string(), sync_msgs)]),
             // A wild value from one robot must not make the sum unrepresentable in JSON.
             sync_wait_s: current.iter().map(|p| p.sync_wait_s).filter(|w| (0.0..=1e9).contains(w)).sum(),
+            traffic_wait_s: current.iter().map(|p| p.traffic_wait_s).filter(|w| (0.0..=1e9).contains(w)).sum(),
         }
     }
 }

@@ -155,6 +155,7 @@ fn tel(id: &str, x: f64, y: f64, syncs: u32, round: u32) -> Telemetry {
             sync_msgs: syncs,
             waiting: None,
             sync_wait_s: 0.0,
+            traffic_wait_s: 0.0,
             done: false,
         }),
         admitted: vec![],

@@ -357,6 +357,11 @@ impl Robot {
         // On a map with lanes the plan's goal is reached when traffic let the robot get there.
         if let Some(g) = self.traffic.as_mut().filter(|g| !g.free()) {
             body_idle = g.step(now, &mut self.body);
+            if g.waiting() {
+                if let Some(e) = self.exec.as_mut() {
+                    e.waited_for_traffic(dt);
+                }
+            }
             if let Some(report) = g.report(now, &self.cfg.id, &self.body) {
                 out.push(Command::TrafficReport { map: g.map().hash.clone(), report });
             }

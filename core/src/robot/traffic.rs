@@ -62,6 +62,8 @@ pub struct Gate {
     /// The highest incarnation of central's own orders heard: a deputy's may be at most
     /// [`DEPUTY_STEPS`] above it.
     central_incarnation: u64,
+    /// At the last step: a goal to go to, and the robot stands waiting for traffic.
+    waiting: bool,
 }
 
 impl Gate {
@@ -81,7 +83,14 @@ impl Gate {
             seq: 0,
             deputies: Vec::new(),
             central_incarnation: 0,
+            waiting: false,
         }
+    }
+
+    /// Whether the robot stood waiting for traffic at the last step: a goal not reached, its next
+    /// lane not granted (or no route yet, or no orders heard for [`QUIET_S`]).
+    pub fn waiting(&self) -> bool {
+        self.waiting
     }
 
     /// The robots the authority named its deputies on this map.
@@ -179,6 +188,7 @@ impl Gate {
 
     /// Drives the body on at `now`; whether the goal is reached (the plan goes on).
     pub fn step(&mut self, now: f64, body: &mut Drive) -> bool {
+        self.waiting = false;
         let pose = body.pose();
         let near = |x: f64, y: f64| (pose.x - x).hypot(pose.y - y) <= REACH;
         if let Some(v) = self.driving {
@@ -205,13 +215,18 @@ impl Gate {
         }
         let Some(goal) = self.goal else { return true };
         let quiet = now - self.heard > QUIET_S;
-        let Some(h) = self.held.as_ref() else { return false };
+        let Some(h) = self.held.as_ref() else {
+            self.waiting = self.refused.is_none();
+            return false;
+        };
         let next = h.reached.map_or(0, |p| p + 1);
         if next < h.route.len() {
             if !quiet && h.upto.is_some_and(|u| next <= u) {
                 let v = h.route[next];
                 self.driving = Some(v);
                 body.navigate_through(v.x, v.y, None, goal.speed);
+            } else {
+                self.waiting = true;
             }
             return false;
         }

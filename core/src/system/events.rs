@@ -29,6 +29,8 @@ pub enum Request {
     Missions,
     Mission(MissionName),
     Maps,
+    /// Traffic on every graph map (central's traffic authority answers it).
+    Traffic,
     Goto(GotoRequest),
     Move(RobotMove),
     Capabilities(CapabilitiesRequest),
@@ -52,6 +54,7 @@ impl Request {
             Some(Key::SystemMissions) => Ok(Request::Missions),
             Some(Key::SystemMission(name)) => Ok(Request::Mission(name)),
             Some(Key::SystemMaps) => Ok(Request::Maps),
+            Some(Key::SystemTraffic) => Ok(Request::Traffic),
             Some(Key::SystemCmd(SystemCmd::Goto)) => proto::from_json("goto request", payload).map(Request::Goto),
             Some(Key::SystemCmd(SystemCmd::Move)) => proto::from_json("robot move request", payload).map(Request::Move),
             Some(Key::SystemCmd(SystemCmd::Capabilities)) => proto::from_json("robot capabilities request", payload).map(Request::Capabilities),

@@ -426,6 +426,9 @@ impl SystemManager {
                 None => reply(req, Err(format!("unknown robot {id:?}"))),
             },
             Request::Missions => reply(req, to_value(&self.mission_views())),
+            // Central's traffic authority answers it (`CentralCore`); a system manager alone
+            // holds no traffic.
+            Request::Traffic => reply(req, to_value(&Vec::<mrmm_proto::traffic::TrafficView>::new())),
             Request::Maps => {
                 let old = self.superseded.values().map(|h| mrmm_proto::MapInfo { superseded: true, ..h.info.clone() });
                 reply(req, to_value(&self.maps.values().map(|h| h.info.clone()).chain(old).collect::<Vec<_>>()))

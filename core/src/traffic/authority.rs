@@ -162,6 +162,17 @@ impl Authority {
         self.incarnation
     }
 
+    /// Traffic on every map with lanes, as the operator sees it at `now`.
+    pub fn views(&self, now: f64) -> Vec<mrmm_proto::traffic::TrafficView> {
+        self.maps
+            .iter()
+            .filter_map(|(hash, m)| {
+                let (t, _) = m.lanes.as_ref()?;
+                Some(mrmm_proto::traffic::TrafficView { map: hash.clone(), incarnation: self.incarnation, deputies: m.deputies.clone(), robots: t.views(now) })
+            })
+            .collect()
+    }
+
     /// Traffic on map `hash`, if it has lanes.
     pub fn traffic(&self, hash: &str) -> Option<&Traffic> {
         self.maps.get(hash).and_then(|m| m.lanes.as_ref()).map(|(t, _)| t)

@@ -418,3 +418,21 @@ fn an_operators_goto_on_the_map_goes_through_traffic() {
     let held = f.authority.traffic(&f.map.hash).and_then(|t| t.state(&"r0".into())).map(|(route, reached, ..)| reached.map(|p| route[p]));
     assert_eq!(held, Some(Some(v)), "traffic does not hold r0 at its goto's vertex");
 }
+
+/// The time a plan waits for traffic is counted in the robot's progress (what the mission's
+/// metrics sum): robots sharing the office wait some of the time, never more than all of it; a
+/// robot alone on the map waits far less than they do.
+#[test]
+fn the_time_plans_wait_for_traffic_is_counted() {
+    let waits = |f: &Fleet| -> Vec<f64> { f.robots.iter().filter_map(|r| r.executor()).map(|e| e.progress().traffic_wait_s).collect() };
+    let mut crowd = Fleet::new(2, 6, 6);
+    crowd.run(60.0);
+    let w = waits(&crowd);
+    assert!(w.iter().all(|&s| (0.0..=60.0).contains(&s)), "{w:?}");
+    let crowd_mean = w.iter().sum::<f64>() / w.len() as f64;
+    let mut alone = Fleet::new(2, 1, 6);
+    alone.run(60.0);
+    let alone_w = waits(&alone)[0];
+    println!("waited for traffic in 60 s: {crowd_mean:.1} s per robot of six, {alone_w:.1} s alone");
+    assert!(crowd_mean > 0.0 && alone_w < crowd_mean, "six robots wait {crowd_mean:.1} s each, one alone {alone_w:.1} s");
+}

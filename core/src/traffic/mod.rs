@@ -210,6 +210,30 @@ impl Traffic {
         self.robots.get(robot).map(|r| (r.route.as_slice(), r.reached, r.granted, r.version))
     }
 
+    /// Every robot in traffic as the operator sees it, at `now`.
+    pub fn views(&self, now: f64) -> Vec<mrmm_proto::traffic::TrafficRobotView> {
+        let vertices = self.layout.vertices() as u32;
+        self.robots
+            .iter()
+            .map(|(id, r)| {
+                let next = r.granted.map_or(0, |g| g + 1);
+                let waits_for =
+                    if r.stands_waiting() && next < r.route.len() { self.grantable(id, r, next).err().unwrap_or_default() } else { BTreeSet::new() };
+                mrmm_proto::traffic::TrafficRobotView {
+                    robot: id.clone(),
+                    route: r.route.clone(),
+                    reached: r.reached.map(|p| p as u32),
+                    granted: r.granted.map(|p| p as u32),
+                    holds: r.held.keys().copied().filter(|&x| x < vertices).collect(),
+                    waits_for: waits_for.into_iter().collect(),
+                    waiting_s: r.waiting.map(|t| (now - t).max(0.0)),
+                    blocked: r.blocked.clone(),
+                    lost: r.lost,
+                }
+            })
+            .collect()
+    }
+
     /// One line on a robot: its route, how far it got and may go, what it holds, whom it waits
     /// for (for logs and failed simulations).
     pub fn describe(&self, robot: &RobotId) -> String {

@@ -6,7 +6,7 @@
 //! |---|---|---|
 //! | `mrmm/robots/<id>/alive` | liveliness token of a robot | — |
 //! | `mrmm/robots/<id>/info` | queryable on the robot | [`crate::RobotInfo`] |
-//! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`crate::Telemetry`] (bincode behind `MRM3`) |
+//! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`crate::Telemetry`] (bincode behind `MRM4`) |
 //! | `mrmm/robots/<id>/cmd` | queryable on the robot | [`crate::RobotCommand`] → [`crate::CommandAck`] |
 //! | `mrmm/team/<team path>/<type>/member/<id>` | liveliness token of a member of a leaf team | — |
 //! | `mrmm/team/<team path>/sync/<point>/<round>` | publication by each member at a barrier of that team | [`crate::SyncArrival`] |
@@ -27,6 +27,7 @@
 //! | `mrmm/system/missions`, `…/missions/<name>` | queryable on the system manager | [`crate::MissionView`] list / one with plans |
 //! | `mrmm/system/journal?since=SEQ` | queryable on the system manager | [`crate::JournalPage`] |
 //! | `mrmm/system/maps` | queryable on the system manager | [`crate::MapInfo`] list |
+//! | `mrmm/system/traffic` | queryable on central (its traffic authority) | [`crate::traffic::TrafficView`] list |
 //! | `mrmm/maps/<hash>/<chunk>` | queryable on every node holding the map | [`crate::MapChunk`] (bincode behind `MRMP`) |
 //! | `mrmm/maps/<hash>/manifest` | queryable on central, for the maps it publishes | [`crate::map::MapManifest`] (JSON, sealed by central) |
 //! | `mrmm/traffic/<hash>/report/<id>` | publication by a robot on that graph map | [`crate::TrafficReport`] |
@@ -204,6 +205,8 @@ pub enum Key {
     SystemMission(MissionName),
     SystemJournal,
     SystemMaps,
+    /// Traffic on every graph map, as central's authority holds it.
+    SystemTraffic,
     /// Chunk `index` of the map bundle whose SHA-256 is `hash`.
     MapChunk {
         hash: String,
@@ -260,6 +263,7 @@ declare_keys! {
     SystemMission(name) => "mrmm" / "system" / "missions" / {name: id};
     SystemJournal => "mrmm" / "system" / "journal";
     SystemMaps => "mrmm" / "system" / "maps";
+    SystemTraffic => "mrmm" / "system" / "traffic";
     MapChunk { hash, index } => "mrmm" / "maps" / {hash: hash} / {index: num};
     MapManifest { hash } => "mrmm" / "maps" / {hash: hash} / "manifest";
     TrafficReport { map, robot } => "mrmm" / "traffic" / {map: hash} / "report" / {robot: id};

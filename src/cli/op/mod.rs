@@ -3,6 +3,7 @@
 pub mod journal;
 pub mod mission;
 mod robot;
+mod traffic;
 
 use std::time::Duration;
 
@@ -48,6 +49,12 @@ enum What {
     Missions,
     /// The maps missions may plan on: name, format, size, content hash (`mrmm/system/maps`).
     Maps,
+    /// Traffic on the graph maps: each robot's route, how far it got and may go, what it holds,
+    /// whom it waits for and since when, blocked or not (`mrmm/system/traffic`).
+    Traffic {
+        /// Only this map (its name, or the start of its hash).
+        map: Option<String>,
+    },
     /// The advising agent's standing advice, most urgent first (`mrmm/agent/advice`).
     Advice,
     /// Central's journal: commands, membership changes, losses, takeovers, replans
@@ -113,6 +120,7 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             let maps: Vec<proto::MapInfo> = serde_json::from_value(v)?;
             print!("{}", super::table::maps(&maps));
         }
+        What::Traffic { map } => traffic::exec(client, map, json).await?,
         What::Advice => {
             let v: Value = client.query(proto::Key::AgentAdvice, none).await?;
             if json {
