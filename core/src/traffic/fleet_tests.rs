@@ -71,23 +71,33 @@ impl Fleet {
                 starts.push(v);
             }
         }
+        let plans = starts.iter().map(|&s| (s, (0..goals).map(|_| rng.below(g.vertices.len())).collect(), true)).collect();
+        Fleet::with(g, plans, seed)
+    }
+
+    /// Robots on graph `g`, each at vertex `start` with a plan of its `goals` (vertices), looped
+    /// or not.
+    fn with(g: NavGraph, plans: Vec<(usize, Vec<usize>, bool)>, seed: u64) -> Fleet {
         let map = MapRef { name: "office".into(), hash: "a".repeat(64) };
         let graph = Arc::new(Map::Graph(g.clone()));
         let authority = Authority::new(0.0, 1, [(map.hash.clone(), graph.clone())]);
-        let robots: Vec<Robot> = starts
+        let robots: Vec<Robot> = plans
             .iter()
             .enumerate()
-            .map(|(i, &s)| {
+            .map(|(i, (s, goals, looped))| {
                 let id = format!("r{i}");
-                let at = g.vertices[s].at;
+                let at = g.vertices[*s].at;
                 let mut r = Robot::new(RobotSetup::sim(&id, "ground", Limits { max_speed: 1.0, max_turn_rate: 2.0 }, Pose { x: at.x, y: at.y, theta: 0.0 }));
-                let mut steps: Vec<Step> = (0..goals)
-                    .map(|_| {
-                        let p = g.vertices[rng.below(g.vertices.len())].at;
+                let mut steps: Vec<Step> = goals
+                    .iter()
+                    .map(|&v| {
+                        let p = g.vertices[v].at;
                         Step::Navigate { x: p.x, y: p.y, speed: None }
                     })
                     .collect();
-                steps.push(Step::Loop { to: 0, rounds: None });
+                if *looped {
+                    steps.push(Step::Loop { to: 0, rounds: None });
+                }
                 let mission = if i % 2 == 0 { "even" } else { "odd" };
                 let a = PlanAssignment {
                     mission: mission.into(),
@@ -435,4 +445,40 @@ fn the_time_plans_wait_for_traffic_is_counted() {
     let alone_w = waits(&alone)[0];
     println!("waited for traffic in 60 s: {crowd_mean:.1} s per robot of six, {alone_w:.1} s alone");
     assert!(crowd_mean > 0.0 && alone_w < crowd_mean, "six robots wait {crowd_mean:.1} s each, one alone {alone_w:.1} s");
+}
+
+/// The case: two robots of two missions meet head-on in a corridor with a pocket and
+/// wait for each other while central dies; the first deputy takes over and both arrive, never
+/// closer than the clearance. Corridor 0 – 1 – 2 – 3 – 4, 2 m a lane, pocket 5 off vertex 2.
+#[test]
+fn central_dies_while_two_robots_wait_for_each_other_in_a_corridor_and_both_arrive() {
+    let points = [(0.0, 0.0), (2.0, 0.0), (4.0, 0.0), (6.0, 0.0), (8.0, 0.0), (4.0, 2.0)];
+    let vertices = points.iter().enumerate().map(|(i, &(x, y))| mrmm_maps::graph::Vertex { name: format!("v{i}"), at: mrmm_maps::Point::new(x, y) }).collect();
+    let mut edges = Vec::new();
+    for (a, b) in [(0u32, 1u32), (1, 2), (2, 3), (3, 4), (2, 5)] {
+        edges.push(mrmm_maps::graph::Edge { from: a, to: b, length: 2.0 });
+        edges.push(mrmm_maps::graph::Edge { from: b, to: a, length: 2.0 });
+    }
+    let g = NavGraph { vertices, edges };
+    let mut f = Fleet::with(g, vec![(0, vec![4], false), (4, vec![0], false)], 1);
+    // Until they stand waiting for each other (one of them may already be stepping aside).
+    let waiting = |f: &Fleet| {
+        let t = f.authority.traffic(&f.map.hash).expect("traffic");
+        t.views(f.now).iter().filter(|r| r.waiting_s.is_some()).count()
+    };
+    while waiting(&f) == 0 && f.now < 20.0 {
+        f.step();
+    }
+    assert!(waiting(&f) > 0, "the robots never waited for each other");
+    f.kill_central();
+    let killed = f.now;
+    f.run(60.0);
+    let first = f.deputy_orders.first().map(|(t, _)| t - killed);
+    assert!(first.is_some_and(|t| t <= 2.0), "the deputy's first orders came {first:?} s after central died");
+    for (r, goal) in [(0, (8.0, 0.0)), (1, (0.0, 0.0))] {
+        let p = f.robots[r].pose();
+        assert!((p.x - goal.0).hypot(p.y - goal.1) < 0.2, "{} at ({:.2}, {:.2}), not at its goal {goal:?}", f.robots[r].id(), p.x, p.y);
+    }
+    assert!(f.closest.0 >= CLEARANCE - 0.05, "{} were {:.2} m apart at {:.1} s", f.closest.2, f.closest.0, f.closest.1);
+    println!("deputy's orders {:.2} s after central died; both arrived; closest {:.2} m", first.unwrap_or(0.0), f.closest.0);
 }
