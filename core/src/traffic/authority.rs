@@ -201,7 +201,14 @@ impl Authority {
             }
             Event::Alive(robot) => {
                 if !self.heard.contains(&robot) && self.awaiting.len() < super::MAX_ROBOTS {
-                    self.awaiting.insert(robot, now);
+                    self.awaiting.insert(robot.clone(), now);
+                }
+                // A new session of the robot (it may have restarted): its reports count again
+                // from their first.
+                for m in self.maps.values_mut() {
+                    if let Some(seen) = m.robots.get_mut(&robot) {
+                        seen.seq = 0;
+                    }
                 }
                 Vec::new()
             }
@@ -411,4 +418,32 @@ fn route_to(traffic: &Traffic, space: &GraphSpace, robot: &RobotId, at: Point, g
     };
     let to = space_vertex(space, goal).ok_or("the map has no vertices")?;
     space.vertex_path(from, to).ok_or_else(|| format!("no lanes lead from vertex {from} to vertex {to} (nearest the goal ({}, {}))", goal.x, goal.y))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn office() -> Arc<Map> {
+        let (name, text) = mrmm_maps::data::OPEN_RMF[0];
+        Arc::new(Map::Graph(mrmm_maps::rmf::parse(name, text).expect("office graph")))
+    }
+
+    /// A robot whose session is new (it restarted: its reports count from 1 again) is heard: its
+    /// goal is routed, where before its first reports were dropped as older than the last.
+    #[test]
+    fn a_restarted_robots_reports_count_from_its_first() {
+        let map = office();
+        let Map::Graph(g) = map.as_ref() else { unreachable!() };
+        let hash = "h".repeat(64);
+        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        let here = g.vertices[0].at;
+        let far = g.vertices[g.vertices.len() - 1].at;
+        let report = |seq: u64, goal: Option<TrafficGoal>| TrafficReport { robot: "r1".into(), seq, x: here.x, y: here.y, goal, held: None };
+        a.handle(0.0, Event::Report { map: hash.clone(), report: report(40, None) });
+        a.handle(2.0, Event::Gone("r1".into()));
+        a.handle(3.0, Event::Alive("r1".into()));
+        let out = a.handle(3.1, Event::Report { map: hash.clone(), report: report(1, Some(TrafficGoal { id: 1, x: far.x, y: far.y })) });
+        assert!(out.iter().any(|c| matches!(c, Command::Order { order: TrafficOrder::Route { .. }, .. })), "the restarted robot's report was dropped: {out:?}");
+    }
 }
