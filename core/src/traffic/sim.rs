@@ -38,11 +38,25 @@ pub struct World {
     pub dt: f64,
     /// Keep a trace of every event and command (for replays).
     pub trace: bool,
+    /// Robots start and go only to the first this many vertices (the map's own, when its lanes
+    /// are cut into segments); none: any vertex.
+    pub places: Option<u32>,
 }
 
 impl Default for World {
     fn default() -> Self {
-        World { robots: 8, duration: 600.0, controlled: true, params: Params::default(), speed: (0.5, 1.5), dwell: 3.0, stall: 300.0, dt: 0.05, trace: false }
+        World {
+            robots: 8,
+            duration: 600.0,
+            controlled: true,
+            params: Params::default(),
+            speed: (0.5, 1.5),
+            dwell: 3.0,
+            stall: 300.0,
+            dt: 0.05,
+            trace: false,
+            places: None,
+        }
     }
 }
 
@@ -136,7 +150,7 @@ impl Bot {
 pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) -> Result<Report, Violation> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut traffic = Traffic::new(layout.clone(), world.params);
-    let n = layout.vertices() as u32;
+    let n = world.places.map_or(layout.vertices() as u32, |p| p.min(layout.vertices() as u32));
     let mut report = Report { seed, robots: world.robots.min(n as usize), closest: f64::INFINITY, ..Report::default() };
     let mut bots: Vec<Bot> = Vec::new();
     let mut starts: Vec<u32> = (0..n).collect();
@@ -298,7 +312,8 @@ fn step(b: &mut Bot, layout: &Layout, space: &GraphSpace, world: &World, rng: &m
             b.last_trip = now;
         } else if now >= b.until {
             b.until = 0.0;
-            b.route = random_goal(rng, space, b.route[p], layout.vertices() as u32, taken);
+            let places = world.places.map_or(layout.vertices() as u32, |n| n.min(layout.vertices() as u32));
+            b.route = random_goal(rng, space, b.route[p], places, taken);
             b.reached = Some(0);
             b.granted = Some(0);
             // Traffic answers with the route it will grant (joined behind what it granted).

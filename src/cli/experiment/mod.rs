@@ -74,6 +74,10 @@ pub struct Args {
     /// comm-loss 5, the largest given).
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=200))]
     sizes: Option<Vec<u32>>,
+    /// traffic: cut lanes longer than this many metres into segments (robots follow one another
+    /// a segment apart); 0: every lane is one resource.
+    #[arg(long, default_value_t = 0.0)]
+    segment: f64,
     /// Rounds of the patrol per run (default: messages 5, idleness 3, environment 2).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     rounds: Option<u32>,
@@ -201,7 +205,10 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
     if a.kind == Kind::Traffic {
         let sizes: Vec<usize> = a.sizes.as_deref().map_or_else(|| traffic::SIZES.to_vec(), |s| s.iter().map(|&n| n as usize).collect());
         let started = std::time::Instant::now();
-        let rows = traffic::run(&a.out, &sizes, a.seed)?;
+        if !(a.segment.is_finite() && (a.segment == 0.0 || a.segment >= 0.7)) {
+            bail!("--segment: 0 (lanes whole) or a length of at least 0.7 m (got {})", a.segment);
+        }
+        let rows = traffic::run(&a.out, &sizes, a.seed, a.segment)?;
         traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64())?;
         println!("results in {}: results-traffic.csv, summary-traffic.md", a.out.display());
         return Ok(());

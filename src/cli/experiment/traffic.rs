@@ -43,13 +43,15 @@ pub struct Row {
 }
 
 /// Every map with every team size that fits it.
-pub fn run(out: &Path, sizes: &[usize], seed: u64) -> anyhow::Result<Vec<Row>> {
+pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64) -> anyhow::Result<Vec<Row>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let maps = mrmm_maps::data::graphs().map_err(|e| anyhow!("{e}"))?;
     let mut rows = Vec::new();
     for (name, graph) in &maps {
-        let layout = Arc::new(Layout::new(graph, CLEARANCE));
-        let space = GraphSpace::new(graph);
+        // Robots start and go to the map's own vertices; cut lanes add vertices after them.
+        let cut = if segment > 0.0 { mrmm_core::traffic::layout::segmented(graph, segment) } else { graph.clone() };
+        let layout = Arc::new(Layout::new(&cut, CLEARANCE));
+        let space = GraphSpace::new(&cut);
         for &n in sizes.iter().filter(|&&n| n >= 1 && n * 3 <= graph.vertices.len()) {
             let row = one(name, graph.vertices.len(), &layout, &space, n, seed)?;
             println!(
@@ -73,7 +75,7 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64) -> anyhow::Result<Vec<Row>> {
 }
 
 fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n: usize, seed: u64) -> anyhow::Result<Row> {
-    let world = World { robots: n, ..World::default() };
+    let world = World { robots: n, places: Some(vertices as u32), ..World::default() };
     let mut row = Row {
         map: name.to_string(),
         vertices,
