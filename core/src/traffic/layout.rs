@@ -65,6 +65,11 @@ pub struct Layout {
     clearance: f64,
     /// Vertices joining three or more lanes.
     junction: Vec<bool>,
+    /// Each corridor's resources (its lanes and the vertices inside it), and for each lane its
+    /// corridor with whether driving it from its lower vertex to its higher is the corridor's
+    /// forward way (none: not in a corridor of two lanes or more with two ends).
+    corridors: Vec<Vec<Res>>,
+    corridor_of: HashMap<Res, (u32, bool)>,
 }
 
 impl Layout {
@@ -86,9 +91,72 @@ impl Layout {
             degree[b as usize] += 1;
         }
         let junction = degree.iter().map(|&d| d >= 3).collect();
-        let mut layout = Layout { points, lanes, lane_of, out, conflicts: Vec::new(), clearance, junction };
+        let mut layout = Layout { points, lanes, lane_of, out, conflicts: Vec::new(), clearance, junction, corridors: Vec::new(), corridor_of: HashMap::new() };
         layout.conflicts = layout.find_conflicts();
+        layout.find_corridors(&degree);
         layout
+    }
+
+    /// Corridors: chains of two lanes or more through vertices of two lanes, walked from one
+    /// end (a vertex of one lane, or of three or more) to the other. Rings have no end: none.
+    fn find_corridors(&mut self, degree: &[u32]) {
+        let nv = self.points.len() as u32;
+        let mut by_vertex: Vec<Vec<u32>> = vec![Vec::new(); self.points.len()];
+        for (i, &(a, b)) in self.lanes.iter().enumerate() {
+            by_vertex[a as usize].push(i as u32);
+            by_vertex[b as usize].push(i as u32);
+        }
+        let mut seen = vec![false; self.lanes.len()];
+        for start in 0..self.points.len() {
+            if degree[start] == 2 {
+                continue;
+            }
+            for &first in &by_vertex[start] {
+                if seen[first as usize] {
+                    continue;
+                }
+                // Walk from `start` along the chain.
+                let (mut at, mut lane) = (start as u32, first);
+                let mut walk: Vec<(u32, u32, u32)> = Vec::new();
+                loop {
+                    seen[lane as usize] = true;
+                    let (a, b) = self.lanes[lane as usize];
+                    let to = if a == at { b } else { a };
+                    walk.push((lane, at, to));
+                    if degree[to as usize] != 2 {
+                        break;
+                    }
+                    let Some(&next) = by_vertex[to as usize].iter().find(|&&l| l != lane) else { break };
+                    at = to;
+                    lane = next;
+                }
+                if walk.len() < 2 {
+                    continue;
+                }
+                let c = self.corridors.len() as u32;
+                let mut res = Vec::new();
+                for (k, &(lane, from, to)) in walk.iter().enumerate() {
+                    self.corridor_of.insert(nv + lane, (c, from < to));
+                    res.push(nv + lane);
+                    if k + 1 < walk.len() {
+                        res.push(to);
+                    }
+                }
+                self.corridors.push(res);
+            }
+        }
+    }
+
+    /// The corridor the lane from `a` to `b` is in, and whether driving it that way is the
+    /// corridor's forward way.
+    pub fn corridor(&self, a: u32, b: u32) -> Option<(u32, bool)> {
+        let (c, low_to_high) = *self.corridor_of.get(&self.lane(a, b)?)?;
+        Some((c, low_to_high == (a < b)))
+    }
+
+    /// A corridor's resources: its lanes and the vertices inside it.
+    pub fn corridor_resources(&self, c: u32) -> &[Res] {
+        self.corridors.get(c as usize).map_or(&[], Vec::as_slice)
     }
 
     pub fn vertices(&self) -> usize {

@@ -65,11 +65,14 @@ pub struct Params {
     pub ahead: usize,
     /// A parked robot in the way of one that waited this long (seconds) steps aside.
     pub yield_after: f64,
+    /// A corridor (a chain of lanes without a junction) is held for one direction at a time: a
+    /// robot enters a lane of it only if every other robot in it drives it the same way.
+    pub corridors: bool,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { ahead: 2, yield_after: 3.0 }
+        Params { ahead: 2, yield_after: 3.0, corridors: false }
     }
 }
 
@@ -469,6 +472,28 @@ impl Traffic {
         }
     }
 
+    /// The robots other than `id` in the corridor of the lane `a` → `b` that do not drive it
+    /// the same way: one driving the other way, or standing in it (parked, or about to leave
+    /// it either way).
+    fn against(&self, id: &RobotId, a: u32, b: u32) -> BTreeSet<RobotId> {
+        let mut by = BTreeSet::new();
+        let Some((c, forward)) = self.layout.corridor(a, b) else { return by };
+        for &res in self.layout.corridor_resources(c) {
+            let Some(h) = self.holder(res).filter(|h| *h != id) else { continue };
+            if by.contains(h) {
+                continue;
+            }
+            let Some(other) = self.robots.get(h) else { continue };
+            // Its way through the corridor: the next hop of its route in it from where it is.
+            let from = other.reached.unwrap_or(0);
+            let way = other.route.windows(2).skip(from).find_map(|w| self.layout.corridor(w[0], w[1]).filter(|&(oc, _)| oc == c)).map(|(_, f)| f);
+            if way != Some(forward) {
+                by.insert(h.clone());
+            }
+        }
+        by
+    }
+
     /// The robots that hold `res` or a resource in conflict with it, other than `id`.
     fn in_the_way(&self, id: &RobotId, res: &[Res]) -> BTreeSet<RobotId> {
         let mut by = BTreeSet::new();
@@ -494,6 +519,9 @@ impl Traffic {
         let own = need.iter().any(|x| r.held.contains_key(x));
         if i + 1 < r.route.len() && self.layout.is_junction(r.route[i]) {
             by.extend(self.in_the_way(id, &self.hop(&r.route, i + 1)));
+        }
+        if self.params.corridors && i >= 1 {
+            by.extend(self.against(id, r.route[i - 1], r.route[i]));
         }
         if by.is_empty() && !own {
             Ok(need)

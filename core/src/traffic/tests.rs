@@ -285,3 +285,25 @@ fn a_large_graph_of_long_diagonal_lanes_is_laid_out_in_bounded_memory() {
     let l = layout.lane(0, 3).expect("lane");
     assert!(!layout.conflicts(l).is_empty());
 }
+
+/// A corridor of four lanes (0 – 1 – 2 – 3 – 4, 1 m apart), locked by direction: with robot a
+/// inside it driving east, robot b at the east end is not granted its way in westwards, though
+/// the lane it asks for is free; a robot following a eastwards is. Without the lock b is granted.
+#[test]
+fn a_corridor_is_held_for_one_direction_at_a_time() {
+    let g = graph(&[(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0), (4.0, 0.0), (-1.0, 0.0)], &[(0, 1), (1, 2), (2, 3), (3, 4), (5, 0)]);
+    let layout = Arc::new(Layout::new(&g, 0.6));
+    assert_eq!(layout.corridor(0, 1).map(|(c, _)| c), layout.corridor(3, 4).map(|(c, _)| c), "one corridor");
+    assert_eq!(layout.corridor(0, 1).map(|(_, f)| f), layout.corridor(3, 2).map(|(_, f)| !f), "ways opposite");
+    for locked in [true, false] {
+        let mut t = Traffic::new(layout.clone(), Params { corridors: locked, ..Params::default() });
+        // a stands at 1, inside, granted on east; b stands at 4, the east end, wants west to 2.
+        t.handle(0.0, Event::Restore { robot: id("a"), route: vec![1, 2, 3], reached: Some(0), granted: 0 });
+        t.handle(0.0, Event::Restore { robot: id("b"), route: vec![4], reached: Some(0), granted: 0 });
+        t.handle(0.0, Event::Route { robot: id("a"), route: vec![1, 2] });
+        let out = t.handle(0.1, Event::Route { robot: id("b"), route: vec![4, 3] });
+        let b_granted = out.iter().any(|c| matches!(c, Command::Grant { robot, .. } | Command::Route { robot, upto: Some(1), .. } if robot == &id("b")));
+        assert_eq!(b_granted, !locked, "locked {locked}: {out:?}");
+        check_exclusive(&t);
+    }
+}

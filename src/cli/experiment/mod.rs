@@ -78,6 +78,10 @@ pub struct Args {
     /// a segment apart); 0: every lane is one resource.
     #[arg(long, default_value_t = 0.0)]
     segment: f64,
+    /// traffic: hold each corridor (a chain of lanes without a junction) for one direction at a
+    /// time.
+    #[arg(long)]
+    corridors: bool,
     /// Rounds of the patrol per run (default: messages 5, idleness 3, environment 2).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     rounds: Option<u32>,
@@ -208,7 +212,7 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         if !(a.segment.is_finite() && (a.segment == 0.0 || a.segment >= 0.7)) {
             bail!("--segment: 0 (lanes whole) or a length of at least 0.7 m (got {})", a.segment);
         }
-        let rows = traffic::run(&a.out, &sizes, a.seed, a.segment)?;
+        let rows = traffic::run(&a.out, &sizes, a.seed, a.segment, a.corridors)?;
         traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64())?;
         println!("results in {}: results-traffic.csv, summary-traffic.md", a.out.display());
         return Ok(());

@@ -43,7 +43,7 @@ pub struct Row {
 }
 
 /// Every map with every team size that fits it.
-pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64) -> anyhow::Result<Vec<Row>> {
+pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64, corridors: bool) -> anyhow::Result<Vec<Row>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let maps = mrmm_maps::data::graphs().map_err(|e| anyhow!("{e}"))?;
     let mut rows = Vec::new();
@@ -53,7 +53,7 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64) -> anyhow::Resu
         let layout = Arc::new(Layout::new(&cut, CLEARANCE));
         let space = GraphSpace::new(&cut);
         for &n in sizes.iter().filter(|&&n| n >= 1 && n * 3 <= graph.vertices.len()) {
-            let row = one(name, graph.vertices.len(), &layout, &space, n, seed)?;
+            let row = one(name, graph.vertices.len(), &layout, &space, n, seed, corridors)?;
             println!(
                 "{name:>16} {:>3} vertices {n:>2} robots: trips {:>5} (blind {:>5}, {:.0} %), closest {:.2} m (blind robots met in {} of {} runs), waiting {:.0} %, {} steps aside, {} stalled, {:.1} µs/event",
                 row.vertices,
@@ -74,8 +74,8 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64) -> anyhow::Resu
     Ok(rows)
 }
 
-fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n: usize, seed: u64) -> anyhow::Result<Row> {
-    let world = World { robots: n, places: Some(vertices as u32), ..World::default() };
+fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n: usize, seed: u64, corridors: bool) -> anyhow::Result<Row> {
+    let world = World { robots: n, places: Some(vertices as u32), params: mrmm_core::traffic::Params { corridors, ..Default::default() }, ..World::default() };
     let mut row = Row {
         map: name.to_string(),
         vertices,
