@@ -110,18 +110,8 @@ async fn poses(client: &Client) -> Option<Vec<(String, f64, f64)>> {
     Some(v.iter().filter_map(|r| r.pose.map(|p| (r.id.to_string(), p.x, p.y))).collect())
 }
 
-/// Central SIGKILLed while robots of two missions drive on the office graph: they stop at the
-/// ends of their grants, and after central's restart its new traffic authority rebuilds what each
-/// holds from their reports and lets them go on — never closer than the clearance throughout.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn robots_go_on_after_centrals_restart_and_never_meet() -> anyhow::Result<()> {
-    let Some(py) = common::standin::python_or_skip()? else { return Ok(()) };
-    let dir = Scratch::new("traffic-restart");
-    let (mut central, ep) = start_central(&dir, "tcp/127.0.0.1:0", "central.log")?;
-    let _robots: Vec<common::Proc> =
-        starts(6)?.iter().enumerate().map(|(i, &(x, y))| common::start_robot_scaled(&dir, &format!("r{}", i + 1), &ep, x, y, 1.0)).collect::<Result<_, _>>()?;
-    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
-    common::wait_robots(&client, 6).await?;
+/// A patrol of r1–r3 and a coverage of r4–r6 on the office graph.
+async fn two_missions(client: &Client) -> anyhow::Result<()> {
     for (name, recipe, robots, params) in
         [("p", "patrol", ["r1", "r2", "r3"], [("waypoints".to_string(), json!("all"))].into()), ("c", "coverage", ["r4", "r5", "r6"], Default::default())]
     {
@@ -135,6 +125,22 @@ async fn robots_go_on_after_centrals_restart_and_never_meet() -> anyhow::Result<
         };
         let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await?;
     }
+    Ok(())
+}
+
+/// Central SIGKILLed while robots of two missions drive on the office graph: they stop at the
+/// ends of their grants, and after central's restart its new traffic authority rebuilds what each
+/// holds from their reports and lets them go on — never closer than the clearance throughout.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn robots_go_on_after_centrals_restart_and_never_meet() -> anyhow::Result<()> {
+    let Some(py) = common::standin::python_or_skip()? else { return Ok(()) };
+    let dir = Scratch::new("traffic-restart");
+    let (mut central, ep) = start_central(&dir, "tcp/127.0.0.1:0", "central.log")?;
+    let _robots: Vec<common::Proc> =
+        starts(6)?.iter().enumerate().map(|(i, &(x, y))| common::start_robot_scaled(&dir, &format!("r{}", i + 1), &ep, x, y, 1.0)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 6).await?;
+    two_missions(&client).await?;
     let before = closest(&py, &ep, 15.0)?;
     check(&before, "before central's kill")?;
     anyhow::ensure!(moving(&before) >= 3, "robots did not drive: {before}");
@@ -173,22 +179,6 @@ async fn robots_go_on_after_centrals_restart_and_never_meet() -> anyhow::Result<
     Ok(())
 }
 
-/// Robot `id` of the fleet `pki`, at `(x, y)`, linked to central at `ep` over QUIC.
-fn secure_robot(dir: &Scratch, pki: &std::path::Path, id: &str, ep: &str, (x, y): (f64, f64)) -> anyhow::Result<common::Proc> {
-    let f = |name: &str| serde_json::to_string(&pki.join(name).display().to_string()).unwrap_or_default();
-    let cfg = format!(
-        r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }}, start: {{ x: {x}, y: {y} }}, telemetry_hz: 10,
-             zenoh: {{ listen: ["quic/127.0.0.1:0"], connect: ["{ep}"], lease_ms: 1000 }},
-             security: {{ ca: {}, cert: {}, key: {} }} }}"#,
-        f("ca.crt"),
-        f(&format!("{id}.crt")),
-        f(&format!("{id}.key"))
-    );
-    let path = dir.path(&format!("{id}.json5"));
-    std::fs::write(&path, cfg)?;
-    start(id, &["robot", "--config", &path.display().to_string()], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))
-}
-
 /// Central SIGKILLed for good while robots of two missions of a secure fleet drive on the office
 /// graph: the robot its traffic authority named first deputy takes over (orders of a new
 /// incarnation, sealed by a robot, which the others check and obey), and robots of both missions
@@ -202,24 +192,15 @@ async fn central_killed_for_good_a_deputy_robot_takes_traffic_over() -> anyhow::
     let args = ["central", "--listen", "quic/127.0.0.1:0", "--pki", &pki_arg, "--operator", "op", "--map", &map, "--state-dir", &state];
     let mut central = start("central", &args, &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
     let ep = central.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow::anyhow!("no endpoint"))?;
-    let robots: Vec<common::Proc> =
-        starts(6)?.iter().enumerate().map(|(i, &at)| secure_robot(&dir, &pki, &format!("r{}", i + 1), &ep, at)).collect::<Result<_, _>>()?;
+    let robots: Vec<common::Proc> = starts(6)?
+        .iter()
+        .enumerate()
+        .map(|(i, &at)| common::start_secure_robot_at(&dir, &pki, &format!("r{}", i + 1), &ep, at, 1.0))
+        .collect::<Result<_, _>>()?;
     let operator = Some(proto::SecuritySection::from_dir(&pki, "op"));
     let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
     common::wait_robots(&client, 6).await?;
-    for (name, recipe, robots, params) in
-        [("p", "patrol", ["r1", "r2", "r3"], [("waypoints".to_string(), json!("all"))].into()), ("c", "coverage", ["r4", "r5", "r6"], Default::default())]
-    {
-        let m = MissionCreate {
-            name: name.into(),
-            recipe: recipe.into(),
-            robots: Some(robots.iter().map(|r| (*r).into()).collect()),
-            params,
-            map: Some("office".into()),
-            ..Default::default()
-        };
-        let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await?;
-    }
+    two_missions(&client).await?;
     client.close().await;
 
     // A peer linked to central and to every robot's own endpoint: their telemetry and the orders

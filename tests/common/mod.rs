@@ -393,10 +393,16 @@ pub fn start_secure_central(dir: &Scratch, pki: &Path) -> anyhow::Result<(Proc, 
 
 /// Starts robot `id` over mutual TLS (QUIC, time scale 10), its certificate from `pki`.
 pub fn start_secure_robot(dir: &Scratch, pki: &Path, id: &str, central: &str, x: f64) -> anyhow::Result<Proc> {
+    start_secure_robot_at(dir, pki, id, central, (x, -3.0), 10.0)
+}
+
+/// Robot `id` of the fleet `pki` at `(x, y)`, running `time_scale` times real time, linked to
+/// central at `central` over QUIC.
+pub fn start_secure_robot_at(dir: &Scratch, pki: &Path, id: &str, central: &str, (x, y): (f64, f64), time_scale: f64) -> anyhow::Result<Proc> {
     let f = |name: &str| serde_json::to_string(&pki.join(name).display().to_string()).unwrap_or_default();
     let cfg = format!(
         r#"{{ id: "{id}", type: "ground", kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }},
-             start: {{ x: {x}, y: -3 }}, time_scale: 10, telemetry_hz: 10,
+             start: {{ x: {x}, y: {y} }}, time_scale: {time_scale}, telemetry_hz: 10,
              zenoh: {{ listen: ["quic/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }},
              security: {{ ca: {}, cert: {}, key: {} }} }}"#,
         f("ca.crt"),
