@@ -40,6 +40,10 @@ pub struct Row {
     pub waiting: f64,
     /// Wall microseconds per event handled by traffic (this machine).
     pub us_per_event: f64,
+    /// Goals reached by lifelong PIBT on the map cut into clearance-sized moves
+    /// (`mrmm_core::traffic::pibt`), and by the same discrete robots driving blindly.
+    pub reference_trips: u64,
+    pub reference_blind: u64,
 }
 
 /// Every map with every team size that fits it.
@@ -53,9 +57,10 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64, corridors: bool
         let layout = Arc::new(Layout::new(&cut, CLEARANCE));
         let space = GraphSpace::new(&cut);
         for &n in sizes.iter().filter(|&&n| n >= 1 && n * 3 <= graph.vertices.len()) {
-            let row = one(name, graph.vertices.len(), &layout, &space, n, seed, corridors)?;
+            let mut row = one(name, graph.vertices.len(), &layout, &space, n, seed, corridors)?;
+            reference(&mut row, graph, seed)?;
             println!(
-                "{name:>16} {:>3} vertices {n:>2} robots: trips {:>5} (blind {:>5}, {:.0} %), closest {:.2} m (blind robots met in {} of {} runs), waiting {:.0} %, {} steps aside, {} stalled, {:.1} µs/event",
+                "{name:>16} {:>3} vertices {n:>2} robots: trips {:>5} (blind {:>5}, {:.0} %), closest {:.2} m (blind robots met in {} of {} runs), waiting {:.0} %, {} steps aside, {} stalled, {:.1} µs/event; PIBT keeps {:.0} %",
                 row.vertices,
                 row.trips,
                 row.blind_trips,
@@ -67,6 +72,7 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64, corridors: bool
                 row.detours,
                 row.stalled,
                 row.us_per_event,
+                100.0 * row.reference_trips as f64 / row.reference_blind.max(1) as f64,
             );
             rows.push(row);
         }
@@ -91,6 +97,8 @@ fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n:
         stalled: 0,
         waiting: 0.0,
         us_per_event: 0.0,
+        reference_trips: 0,
+        reference_blind: 0,
     };
     let (mut events, mut took) = (0u64, 0.0);
     for s in seed..seed + SEEDS {
@@ -115,6 +123,17 @@ fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n:
     Ok(row)
 }
 
+/// The lifelong PIBT reference on the same map, robots and seeds.
+fn reference(row: &mut Row, graph: &mrmm_maps::NavGraph, seed: u64) -> anyhow::Result<()> {
+    let world = World { robots: row.robots, places: Some(graph.vertices.len() as u32), ..World::default() };
+    for s in seed..seed + SEEDS {
+        let r = mrmm_core::traffic::pibt::run(graph, &world, CLEARANCE, s).map_err(|e| anyhow!("{}, PIBT reference, seed {s}: {e}", row.map))?;
+        row.reference_trips += r.trips;
+        row.reference_blind += r.blind_trips;
+    }
+    Ok(())
+}
+
 pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64) -> anyhow::Result<()> {
     std::fs::write(out.join("results-traffic.csv"), csv(rows))?;
     std::fs::write(out.join("summary-traffic.md"), summary(rows, command, elapsed))?;
@@ -123,10 +142,10 @@ pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64) -> anyhow::R
 
 fn csv(rows: &[Row]) -> String {
     let mut csv =
-        String::from("map,vertices,robots,seeds,blind_trips,blind_runs_met,trips,closest_m,too_close,steps_aside,blocked,stalled,waiting_share,us_per_event\n");
+        String::from("map,vertices,robots,seeds,blind_trips,blind_runs_met,trips,closest_m,too_close,steps_aside,blocked,stalled,waiting_share,us_per_event,pibt_trips,pibt_blind_trips\n");
     for r in rows {
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{:.3},{},{},{},{},{:.4},{:.2}\n",
+            "{},{},{},{},{},{},{},{:.3},{},{},{},{},{:.4},{:.2},{},{}\n",
             r.map,
             r.vertices,
             r.robots,
@@ -140,7 +159,9 @@ fn csv(rows: &[Row]) -> String {
             r.blocked,
             r.stalled,
             r.waiting,
-            r.us_per_event
+            r.us_per_event,
+            r.reference_trips,
+            r.reference_blind
         ));
     }
     csv
@@ -151,19 +172,21 @@ fn summary(rows: &[Row], command: &str, elapsed: f64) -> String {
         "# Traffic on real floor plans\n\n`{command}` ({elapsed:.0} s). Each line: {SEEDS} seeds of 600 simulated seconds; robots at 0.5 – 1.5 m/s \
          drive shortest routes to random vertices no other robot is going to, dwell up to 3 s and go on. *Blind*: the same robots \
          without traffic. *Stalled*: a robot stood five minutes wanting to drive. µs/event: the whole controlled run's wall time \
-         (robots' motion included) per event traffic handled.\n\n\
-         | map | vertices | robots | trips (blind) | kept | closest, m | blind runs meeting | waiting | steps aside | stalled | µs/event |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n"
+         (robots' motion included) per event traffic handled. *PIBT*: lifelong PIBT, the reference (`mrmm_core::traffic::pibt`), on the \
+         map cut into clearance-sized moves in lockstep, its goals reached against the same discrete robots driving blindly.\n\n\
+         | map | vertices | robots | trips (blind) | kept | PIBT keeps | closest, m | blind runs meeting | waiting | steps aside | stalled | µs/event |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n"
     );
     for r in rows {
         s.push_str(&format!(
-            "| {} | {} | {} | {} ({}) | {:.0} % | {:.2} | {} of {} | {:.0} % | {} | {} | {:.1} |\n",
+            "| {} | {} | {} | {} ({}) | {:.0} % | {:.0} % | {:.2} | {} of {} | {:.0} % | {} | {} | {:.1} |\n",
             r.map,
             r.vertices,
             r.robots,
             r.trips,
             r.blind_trips,
             100.0 * r.trips as f64 / r.blind_trips.max(1) as f64,
+            100.0 * r.reference_trips as f64 / r.reference_blind.max(1) as f64,
             r.closest,
             r.blind_met,
             r.seeds,
