@@ -295,8 +295,7 @@ impl Step<'_> {
             walked += 1;
         }
         let to_puller = moves.to(self.agents[puller].goal);
-        to_puller[behind as usize] < to_puller[ahead as usize]
-            && (to_pusher[behind as usize] == 0 || to_pusher[ahead as usize] < to_pusher[behind as usize])
+        to_puller[behind as usize] < to_puller[ahead as usize] && (to_pusher[behind as usize] == 0 || to_pusher[ahead as usize] < to_pusher[behind as usize])
     }
 
     /// Whether a robot at `puller_at` pulling one at `pusher_at` after it (backing away from
@@ -417,10 +416,7 @@ mod tests {
 
     #[test]
     fn the_check_sees_a_swap() {
-        let agents = vec![
-            Agent { pos: 0, goal: 1, dwell: None, priority: 0.0, tie: 0.0 },
-            Agent { pos: 1, goal: 0, dwell: None, priority: 0.0, tie: 0.0 },
-        ];
+        let agents = vec![Agent { pos: 0, goal: 1, dwell: None, priority: 0.0, tie: 0.0 }, Agent { pos: 1, goal: 0, dwell: None, priority: 0.0, tie: 0.0 }];
         assert!(check(&agents, &[1, 0]).is_err());
         assert!(check(&agents, &[1, 1]).is_err());
         assert!(check(&agents, &[0, 2]).is_ok());
