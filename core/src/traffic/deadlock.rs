@@ -10,8 +10,10 @@ use super::{Command, Robot, Traffic, Why, MAX_ROUTE};
 /// How many vertices of a waiting robot's route (from where it stands) a robot stepping aside
 /// keeps clear of.
 const CLEAR_AHEAD: usize = 6;
-/// A robot steps aside at most this many hops.
-const ASIDE_HOPS: usize = 4;
+/// A robot steps aside at most this many hops: on lanes cut into segments the nearest pocket
+/// may be a dozen segments back (4 kept `--segment 2` at 73 % of the blind robots' trips at 4
+/// robots with 68 stalls in 400 robot-runs; 12: 83 %, 9 stalls).
+const ASIDE_HOPS: usize = 12;
 
 impl Traffic {
     /// Who each robot that stands waiting waits for.

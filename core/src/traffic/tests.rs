@@ -102,6 +102,22 @@ fn robots_meeting_head_on_pass_by_a_pocket() {
 }
 
 #[test]
+fn robots_meeting_head_on_far_from_the_pocket_back_off_to_it() {
+    // A corridor cut into 1 m segments, 0 – 1 – … – 11, with a pocket 12 off vertex 1: where
+    // they meet, the pocket is eight segments back for one of them.
+    let mut points: Vec<(f64, f64)> = (0..12).map(|i| (f64::from(i), 0.0)).collect();
+    points.push((1.0, 1.0));
+    let mut lanes: Vec<(u32, u32)> = (1..12).map(|i| (i - 1, i)).collect();
+    lanes.push((1, 12));
+    let mut t = Traffic::new(Arc::new(Layout::new(&graph(&points, &lanes), 0.6)), Params::default());
+    let mut first = t.handle(0.0, Event::Route { robot: id("a"), route: (0..12).collect() });
+    first.extend(t.handle(1.0, Event::Route { robot: id("b"), route: (0..12).rev().collect() }));
+    let (seen, done) = drive(&mut t, first, 200);
+    assert!(done, "both got through: {seen:?}");
+    assert!(!seen.iter().any(|c| matches!(c, Command::Blocked { .. })), "{seen:?}");
+}
+
+#[test]
 fn with_nowhere_to_go_robots_are_reported_blocked() {
     // A bare corridor: no pocket, no way round.
     let g = graph(&[(0.0, 0.0), (2.0, 0.0), (4.0, 0.0)], &[(0, 1), (1, 2)]);
