@@ -314,3 +314,53 @@ fn plan_and_check_from_the_command_line() -> anyhow::Result<()> {
     assert!(!out.status.success() && err.contains("map b: ") && err.contains("field origin"), "{err}");
     Ok(())
 }
+
+/// `mrmm map graph` derives lanes from the demo's floor plan and writes an Open-RMF nav graph:
+/// `mrmm map check` reads it, and so does a stock YAML reader (ruamel.yaml, with networkx for its
+/// shape): one connected graph of two-way lanes, every lane in free space a robot fits.
+#[test]
+fn a_grid_maps_lanes_derived_from_the_command_line() -> anyhow::Result<()> {
+    let (_, g) = grid()?;
+    let dir = Scratch::new("maps-graph");
+    let out_file = dir.path("building.nav_graph.yaml");
+    let out =
+        std::process::Command::new(common::EXE).args(["map", "graph", &building().display().to_string(), "--out", &out_file.display().to_string()]).output()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    anyhow::ensure!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(text.contains("junctions") && text.contains("lanes both ways"), "{text}");
+    let out = std::process::Command::new(common::EXE).args(["map", "check", &out_file.display().to_string()]).output()?;
+    let check = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && check.contains("open_rmf map"), "{check}");
+    let b = Bundle::collect(&out_file.display().to_string(), |p| std::fs::read(p).map_err(|e| e.to_string())).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let Map::Graph(nav) = b.load().map_err(|e| anyhow::anyhow!("{e}"))?.1 else { anyhow::bail!("not a graph") };
+    for e in &nav.edges {
+        let (a, b) = (nav.vertices[e.from as usize].at, nav.vertices[e.to as usize].at);
+        assert!(free_route(&g, &[proto::plan::Point { x: a.x, y: a.y }, proto::plan::Point { x: b.x, y: b.y }]), "lane {e:?} leaves free space");
+    }
+    // A grid map file as input only: a graph is refused in one line.
+    let out = std::process::Command::new(common::EXE).args(["map", "graph", &out_file.display().to_string(), "--out", "/dev/null"]).output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.trim().lines().count() == 1 && err.contains("a navigation graph already"), "{err}");
+
+    let Some(py) = common::standin::python_or_skip()? else { return Ok(()) };
+    let script = r#"
+import sys, networkx
+from ruamel.yaml import YAML
+doc = YAML(typ="safe").load(open(sys.argv[1]))
+(name, level), = doc["levels"].items()
+g = networkx.DiGraph()
+for i, (x, y, props) in enumerate(level["vertices"]):
+    assert isinstance(x, float) and isinstance(y, float) and props["name"], (i, x, y, props)
+    g.add_node(i)
+for a, b, props in level["lanes"]:
+    assert props == {}, props
+    g.add_edge(a, b)
+assert all(g.has_edge(b, a) for a, b in g.edges), "a lane one way only"
+assert networkx.is_strongly_connected(g), "not connected"
+print(name, g.number_of_nodes(), g.number_of_edges())
+"#;
+    let out = std::process::Command::new(py).args(["-c", script, &out_file.display().to_string()]).output()?;
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && said.starts_with("L1 "), "{said}{}", String::from_utf8_lossy(&out.stderr));
+    Ok(())
+}

@@ -18,6 +18,7 @@ pub mod limits;
 pub mod nav2;
 pub mod patrolling_sim;
 pub mod rmf;
+pub mod roadmap;
 pub mod space;
 
 pub use bundle::{Bundle, Format};

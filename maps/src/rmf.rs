@@ -31,6 +31,26 @@ struct VertexProps {
     name: Option<String>,
 }
 
+/// Writes `graph` as an Open-RMF navigation graph of one level named `level` of building
+/// `building`: each vertex `[x, y, {name}]`, each directed edge a lane `[from, to, {}]` — what
+/// [`parse`] reads and `rmf_traffic_editor`'s nav graphs hold.
+pub fn write(graph: &NavGraph, building: &str, level: &str) -> String {
+    let quote = |s: &str| serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into());
+    let mut out = format!("building_name: {}\nlevels:\n  {}:\n    lanes:\n", quote(building), quote(level));
+    if graph.edges.is_empty() {
+        out.truncate(out.len() - 1);
+        out.push_str(" []\n");
+    }
+    for e in &graph.edges {
+        out.push_str(&format!("    - [{}, {}, {{}}]\n", e.from, e.to));
+    }
+    out.push_str("    vertices:\n");
+    for v in &graph.vertices {
+        out.push_str(&format!("    - [{:?}, {:?}, {{name: {}}}]\n", v.at.x, v.at.y, quote(&v.name)));
+    }
+    out
+}
+
 /// Reads an Open-RMF navigation graph of one level; `file` names it in errors.
 pub fn parse(file: &str, text: &str) -> Result<NavGraph, MapError> {
     let f: File = yaml(file, text)?;

@@ -1,8 +1,9 @@
-//! `mrmm map check FILE`: reads a map as the fleet would and says what it is, or what is wrong.
+//! `mrmm map check FILE`: reads a map as the fleet would and says what it is, or what is wrong;
+//! `mrmm map graph FILE --out G.yaml`: derives a navigation graph from a grid map's free space.
 
 use std::path::PathBuf;
 
-use anyhow::anyhow;
+use anyhow::{anyhow, Context};
 use mrmm_maps::Bundle;
 
 #[derive(Debug, clap::Args)]
@@ -21,6 +22,24 @@ enum What {
         #[arg(long)]
         json: bool,
     },
+    /// Derive a navigation graph from a Nav2 map's free space (lanes both ways along corridors'
+    /// middles and through doors) and write it as an Open-RMF navigation graph, for people to
+    /// check and edit, and for traffic.
+    Graph {
+        file: PathBuf,
+        /// Where the graph goes (Open-RMF nav graph YAML).
+        #[arg(long)]
+        out: PathBuf,
+        /// Robots' radius, m: lanes keep this far from every cell that is not free.
+        #[arg(long, default_value_t = mrmm_maps::roadmap::Params::default().radius)]
+        radius: f64,
+        /// Dead ends shorter than this are dropped, m.
+        #[arg(long, default_value_t = mrmm_maps::roadmap::Params::default().prune)]
+        prune: f64,
+        /// The level's name in the file.
+        #[arg(long, default_value = "L1")]
+        level: String,
+    },
 }
 
 /// Reads the map at `path` (and the image a Nav2 YAML names) into a bundle.
@@ -29,8 +48,29 @@ pub fn bundle(path: &std::path::Path) -> anyhow::Result<Bundle> {
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let What::Check { file, json } = args.what;
-    let b = bundle(&file)?;
+    match args.what {
+        What::Check { file, json } => check(&file, json),
+        What::Graph { file, out, radius, prune, level } => graph(&file, &out, radius, prune, &level),
+    }
+}
+
+fn graph(file: &std::path::Path, out: &std::path::Path, radius: f64, prune: f64, level: &str) -> anyhow::Result<()> {
+    let (_, map) = bundle(file)?.load().map_err(|e| anyhow!("{e}"))?;
+    let Some(grid) = map.grid() else {
+        anyhow::bail!("{}: a navigation graph already; `mrmm map graph` derives one from a grid map (a Nav2 map's YAML)", file.display());
+    };
+    let name = file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+    let params = mrmm_maps::roadmap::Params { radius, prune, ..Default::default() };
+    let g = mrmm_maps::roadmap::derive(&file.to_string_lossy(), grid, &params).map_err(|e| anyhow!("{e}"))?;
+    std::fs::write(out, mrmm_maps::rmf::write(&g, &name, level)).with_context(|| format!("cannot write {}", out.display()))?;
+    let metres: f64 = g.edges.iter().map(|e| e.length).sum::<f64>() / 2.0;
+    let junctions = g.vertices.iter().filter(|v| v.name.starts_with("junction")).count();
+    println!("{}: {} vertices ({junctions} junctions), {} lanes both ways, {metres:.1} m of lanes", out.display(), g.vertices.len(), g.edges.len() / 2);
+    Ok(())
+}
+
+fn check(file: &std::path::Path, json: bool) -> anyhow::Result<()> {
+    let b = bundle(file)?;
     let (format, map) = b.load().map_err(|e| anyhow!("{e}"))?;
     let s = map.summary(format);
     let info = mrmm_manager::maps::info(&file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default(), &b.hash(), b.size() as u64, &s);

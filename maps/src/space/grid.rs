@@ -286,7 +286,7 @@ impl GridSpace {
 
 /// Fine cells with no room for a robot's centre: not free, or within `radius` of a cell that is
 /// not (a disk stamped around each obstacle cell at the edge of free space).
-fn inflate(grid: &OccupancyGrid, radius: f64) -> Vec<bool> {
+pub(crate) fn inflate(grid: &OccupancyGrid, radius: f64) -> Vec<bool> {
     let (w, h) = (grid.width as i64, grid.height as i64);
     let mut blocked: Vec<bool> = grid.data.iter().map(|&v| !(0..crate::grid::FREE_BELOW).contains(&v)).collect();
     let rc = (radius / grid.resolution).ceil() as i64;

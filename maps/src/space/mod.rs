@@ -4,7 +4,7 @@
 //! a graph map along its edges.
 
 mod graph;
-mod grid;
+pub(crate) mod grid;
 
 use crate::error::MapError;
 use crate::geom::Point;
