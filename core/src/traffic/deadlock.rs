@@ -176,49 +176,46 @@ impl Traffic {
     }
 }
 
-/// A cycle of waits (each member waits for the next), the first found in id order.
+/// A cycle of waits (each member waits for the next), the first found in id order: a
+/// depth-first search over the robots by index, successors tried in id order.
 fn find_cycle(waits: &BTreeMap<RobotId, BTreeSet<RobotId>>) -> Option<Vec<RobotId>> {
-    #[derive(Clone, Copy, PartialEq)]
-    enum Mark {
-        Open,
-        Done,
-    }
-    let mut mark: BTreeMap<&RobotId, Mark> = BTreeMap::new();
-    for start in waits.keys() {
-        if mark.contains_key(start) {
+    const NEW: u8 = 0;
+    const OPEN: u8 = 1;
+    const DONE: u8 = 2;
+    let keys: Vec<&RobotId> = waits.keys().collect();
+    let index = |id: &RobotId| keys.binary_search(&id).ok();
+    // Each robot's successors that wait themselves, last first (popped in id order).
+    let succ: Vec<Vec<usize>> = waits.values().map(|by| by.iter().filter_map(index).rev().collect()).collect();
+    let mut mark = vec![NEW; keys.len()];
+    for start in 0..keys.len() {
+        if mark[start] != NEW {
             continue;
         }
-        // Depth-first, with an explicit stack of (robot, its successors still to try).
-        let mut path: Vec<&RobotId> = vec![start];
-        let mut stack: Vec<Vec<&RobotId>> = vec![succ(waits, start)];
-        mark.insert(start, Mark::Open);
+        let mut path = vec![start];
+        let mut stack: Vec<Vec<usize>> = vec![succ[start].clone()];
+        mark[start] = OPEN;
         while let Some(next) = stack.last_mut() {
             match next.pop() {
-                Some(n) => match mark.get(n) {
-                    Some(Mark::Open) => {
-                        let at = path.iter().position(|p| *p == n).unwrap_or(0);
-                        return Some(path[at..].iter().map(|p| (*p).clone()).collect());
+                Some(n) => match mark[n] {
+                    OPEN => {
+                        let at = path.iter().position(|&p| p == n).unwrap_or(0);
+                        return Some(path[at..].iter().map(|&p| keys[p].clone()).collect());
                     }
-                    Some(Mark::Done) => {}
-                    None => {
-                        mark.insert(n, Mark::Open);
+                    DONE => {}
+                    _ => {
+                        mark[n] = OPEN;
                         path.push(n);
-                        stack.push(succ(waits, n));
+                        stack.push(succ[n].clone());
                     }
                 },
                 None => {
                     stack.pop();
                     if let Some(done) = path.pop() {
-                        mark.insert(done, Mark::Done);
+                        mark[done] = DONE;
                     }
                 }
             }
         }
     }
     None
-}
-
-/// The robots `id` waits for that wait themselves, last first (popped in id order).
-fn succ<'a>(waits: &'a BTreeMap<RobotId, BTreeSet<RobotId>>, id: &RobotId) -> Vec<&'a RobotId> {
-    waits.get(id).map(|s| s.iter().filter(|n| waits.contains_key(*n)).rev().collect()).unwrap_or_default()
 }

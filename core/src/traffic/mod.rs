@@ -181,12 +181,16 @@ pub struct Traffic {
     robots: BTreeMap<RobotId, Robot>,
     /// Who holds each resource.
     holder: Vec<Option<RobotId>>,
+    /// Something happened since deadlocks and grants were last looked at.
+    dirty: bool,
+    /// When they were last looked at.
+    looked: f64,
 }
 
 impl Traffic {
     pub fn new(layout: Arc<Layout>, params: Params) -> Traffic {
         let holder = vec![None; layout.resources()];
-        Traffic { layout, params, robots: BTreeMap::new(), holder }
+        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: f64::NEG_INFINITY }
     }
 
     pub fn layout(&self) -> &Layout {
@@ -257,6 +261,7 @@ impl Traffic {
 
     pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
         let mut out = Vec::new();
+        self.dirty |= !matches!(event, Event::Tick);
         match event {
             Event::Route { robot, route } => self.set_route(now, robot, route, &mut out),
             Event::Reached { robot, vertex } => self.reached(&robot, vertex),
@@ -269,6 +274,15 @@ impl Traffic {
             Event::Restore { robot, route, reached, granted } => self.restore(now, robot, route, reached, granted, &mut out),
             Event::Tick => {}
         }
+        // With nothing new since the last look, only time can change a decision: a robot that
+        // has now waited `yield_after` for a parked one. (Grants and cycles depend on holdings
+        // and routes alone: looking again would find what the last look found.)
+        let yield_due = |r: &Robot| r.waiting.is_some_and(|since| since + self.params.yield_after <= now && since + self.params.yield_after > self.looked);
+        if !self.dirty && !self.robots.values().any(yield_due) {
+            return out;
+        }
+        self.looked = now;
+        let before = out.len();
         // Deadlocks are broken before anything freed is granted: a robot that steps aside into
         // a vertex just let go keeps its place in the queue.
         let stepped = self.resolve(now, &mut out);
@@ -276,6 +290,8 @@ impl Traffic {
         if self.resolve(now, &mut out) || stepped {
             self.grant_all(now, &mut out);
         }
+        // What this look decided may make the next one decide more.
+        self.dirty = out.len() > before;
         out
     }
 
@@ -537,25 +553,32 @@ impl Traffic {
             self.robots.iter().filter(|(_, r)| !r.lost && r.wants_more()).map(|(id, r)| (r.waiting.unwrap_or(f64::INFINITY), id.clone())).collect();
         order.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
         for (_, id) in order {
-            let Some(mut r) = self.robots.remove(&id) else { continue };
+            let Some(r) = self.robots.get(&id) else { continue };
             let before = r.granted;
             let limit = r.reached.map_or(0, |p| p + self.params.ahead).min(r.route.len() - 1);
-            while r.granted.is_none_or(|g| g < limit) {
+            loop {
+                let Some(r) = self.robots.get(&id) else { break };
+                if r.granted.is_some_and(|g| g >= limit) {
+                    break;
+                }
                 let i = r.granted.map_or(0, |g| g + 1);
-                let Ok(need) = self.grantable(&id, &r, i) else { break };
+                let Ok(need) = self.grantable(&id, r, i) else { break };
+                for &res in &need {
+                    self.holder[res as usize] = Some(id.clone());
+                }
+                let Some(r) = self.robots.get_mut(&id) else { break };
                 for res in need {
                     *r.held.entry(res).or_insert(0) += 1;
-                    self.holder[res as usize] = Some(id.clone());
                 }
                 r.granted = Some(i);
             }
+            let Some(r) = self.robots.get_mut(&id) else { continue };
             if r.granted != before {
                 let g = r.granted.unwrap_or(0);
                 out.push(Command::Grant { robot: id.clone(), version: r.version, upto: g, vertex: r.route[g] });
                 r.blocked.clear();
             }
             r.waiting = if r.stands_waiting() || r.granted.is_none() { r.waiting.or(Some(now)) } else { None };
-            self.robots.insert(id, r);
         }
     }
 }
