@@ -185,3 +185,91 @@ async fn the_console_draws_the_building_under_the_fleet() -> anyhow::Result<()> 
     assert_eq!(seen["options"], serde_json::json!(["", "building"]), "the map is offered for a new mission: {seen}");
     Ok(())
 }
+
+/// Traffic in the console: robots of a patrol on Open-RMF's office graph, the lanes each holds
+/// drawn in its colour and listed in the Traffic table; a robot killed is listed lost, and its
+/// "Take off lanes" button frees what it held (central's traffic authority no longer lists it).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_console_shows_lanes_held_and_takes_a_lost_robot_off_them() -> anyhow::Result<()> {
+    let chromium = match browser() {
+        Ok(c) => c,
+        Err(why) if std::env::var("CI").as_deref() != Ok("true") => {
+            eprintln!("skipped: {why} (`bash .ci/run` installs them)");
+            return Ok(());
+        }
+        Err(why) => anyhow::bail!("{why}: .ci/run installs Chromium and playwright-core"),
+    };
+    let dir = Scratch::new("console-traffic");
+    let office = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml");
+    let central = common::start(
+        "central",
+        &["central", "--listen", "tcp/127.0.0.1:0", "--state-dir", &dir.path("state").display().to_string(), "--map", &format!("office={}", office.display())],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let ep = central.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow!("no endpoint"))?;
+    // Three robots on vertices of the graph 2 m or more apart.
+    let g = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(&office)?)?;
+    let mut at: Vec<mrmm_maps::Point> = Vec::new();
+    for v in &g.vertices {
+        if at.len() < 3 && at.iter().all(|p| p.dist(v.at) >= 2.0) {
+            at.push(v.at);
+        }
+    }
+    let mut robots: Vec<common::Proc> =
+        at.iter().enumerate().map(|(i, p)| common::start_robot(&dir, &format!("r{}", i + 1), &ep, p.x, p.y)).collect::<Result<_, _>>()?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    common::wait_robots(&client, 3).await?;
+    let m = proto::MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        robots: Some(["r1", "r2", "r3"].iter().map(|r| (*r).into()).collect()),
+        params: [("waypoints".to_string(), serde_json::json!("all"))].into(),
+        map: Some("office".into()),
+        ..Default::default()
+    };
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await?;
+    let in_traffic = |v: &[proto::traffic::TrafficView], id: &str| v.iter().any(|t| t.robots.iter().any(|r| r.robot.as_str() == id));
+    common::eventually("the three robots in traffic", Duration::from_secs(30), || async {
+        let v: Vec<proto::traffic::TrafficView> = client.query(proto::Key::SystemTraffic, None::<&()>).await.ok()?;
+        ["r1", "r2", "r3"].iter().all(|id| in_traffic(&v, id)).then_some(())
+    })
+    .await?;
+    robots[2].kill();
+    let console = common::start(
+        "console",
+        &["console", "--listen", "127.0.0.1:0", "--connect", &ep],
+        &dir.path("console.log"),
+        "mrmm console: http://",
+        Duration::from_secs(20),
+    )?;
+    let url = console.ready.split_whitespace().find(|w| w.starts_with("http://")).ok_or_else(|| anyhow!("no URL in {:?}", console.ready))?.to_string();
+    let shot = dir.path("traffic.png");
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/browser/traffic.cjs");
+    let out = tokio::process::Command::new("node")
+        .arg(&script)
+        .arg(&url)
+        .arg(&shot)
+        .arg("r3")
+        .env("NODE_PATH", node_modules())
+        .env("MRMM_CHROMIUM", &chromium)
+        .kill_on_drop(true)
+        .output();
+    let out = tokio::time::timeout(Duration::from_secs(150), out).await.context("the browser run took over 150 s")??;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    anyhow::ensure!(out.status.success(), "browser run failed: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
+    let seen: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap_or_default()).with_context(|| format!("browser output {stdout:?}"))?;
+    assert_eq!(seen["lost_state"], "lost", "{seen}");
+    assert!(seen["message"].as_str().is_some_and(|m| m.contains("taken off the lanes")), "{seen}");
+    assert!(seen["rows"].as_array().is_some_and(|r| r.len() == 3), "{seen}");
+    assert!(seen["rows_after"].as_array().is_some_and(|r| !r.iter().any(|x| x == "r3")), "{seen}");
+    let v: Vec<proto::traffic::TrafficView> = client.query(proto::Key::SystemTraffic, None::<&()>).await?;
+    assert!(!in_traffic(&v, "r3") && in_traffic(&v, "r1"), "central's traffic: {v:?}");
+    // A robot that is there is not taken off: central refuses, the console says why.
+    let err = client
+        .query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::ClearTraffic), Some(&proto::traffic::TrafficClear { robot: "r1".into() }))
+        .await;
+    assert!(err.as_ref().is_err_and(|e| e.to_string().contains("not lost")), "{err:?}");
+    Ok(())
+}

@@ -1,4 +1,4 @@
-//! The console's Zenoh side: polls central's robot, mission and advice tables once a second,
+//! The console's Zenoh side: polls central's robot, mission, advice and traffic tables once a second,
 //! follows the robots' telemetry (announcing itself as a viewer, so that a secure fleet's robots
 //! tag their telemetry for it), and publishes a snapshot to the page at most 10 times a second.
 
@@ -8,6 +8,7 @@ use std::time::Duration;
 use mrmm_core::edge::Proof;
 use mrmm_core::observer::{self, Seen};
 use mrmm_net::client::Client;
+use mrmm_proto::traffic::TrafficView;
 use mrmm_proto::{self as proto, Advice, Key, MapInfo, MapRef, MissionView, Pattern, RobotView};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
@@ -47,8 +48,9 @@ pub async fn run(client: Arc<Client>, tx: watch::Sender<Arc<Snapshot>>, maps: La
                 polling.spawn(async move { poll_central(&c).await });
             }
             Some(done) = polling.join_next(), if !polling.is_empty() => match done {
-                Ok(Ok((robots, missions, advice, known))) => {
+                Ok(Ok((robots, missions, advice, known, traffic))) => {
                     fleet.polled(robots, missions, advice);
+                    fleet.traffic(traffic);
                     for m in &known {
                         if asked.lock().map(|mut a| a.insert(m.hash.clone())).unwrap_or(false) {
                             tokio::spawn(fetch_layer(client.clone(), m.map_ref(), maps.clone(), asked.clone()));
@@ -85,18 +87,26 @@ fn telemetry_of(mesh: &mrmm_net::Mesh, s: &zenoh::sample::Sample) -> Option<Box<
     }
 }
 
-type Polled = Result<(Vec<RobotView>, Vec<MissionView>, Vec<Advice>, Vec<MapInfo>), String>;
+type Polled = Result<(Vec<RobotView>, Vec<MissionView>, Vec<Advice>, Vec<MapInfo>, Vec<TrafficView>), String>;
 
-/// Central's tables, asked together (its maps: none from a central that has no such key).
+/// Central's tables, asked together (its maps and traffic: none from a central that has no such
+/// key).
 async fn poll_central(client: &Client) -> Polled {
     let none = None::<&()>;
-    let (robots, missions, advice, maps) = tokio::join!(
+    let (robots, missions, advice, maps, traffic) = tokio::join!(
         client.query::<Vec<RobotView>>(Key::SystemRobots, none),
         client.query::<Vec<MissionView>>(Key::SystemMissions, none),
         client.query::<Vec<Advice>>(Key::AgentAdvice, none),
         client.query::<Vec<MapInfo>>(Key::SystemMaps, none),
+        client.query::<Vec<TrafficView>>(Key::SystemTraffic, none),
     );
-    Ok((robots.map_err(|e| e.to_string())?, missions.map_err(|e| e.to_string())?, advice.map_err(|e| e.to_string())?, maps.unwrap_or_default()))
+    Ok((
+        robots.map_err(|e| e.to_string())?,
+        missions.map_err(|e| e.to_string())?,
+        advice.map_err(|e| e.to_string())?,
+        maps.unwrap_or_default(),
+        traffic.unwrap_or_default(),
+    ))
 }
 
 /// Fetches map `r` from the fleet and makes its layer; on failure it is asked again at a later

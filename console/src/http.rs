@@ -118,6 +118,7 @@ fn system_cmd(group: &str, verb: &str) -> Option<SystemCmd> {
         ("robot", "goto") => SystemCmd::Goto,
         ("robot", "capabilities") => SystemCmd::Capabilities,
         ("robot", "crash") => SystemCmd::Crash,
+        ("traffic", "clear") => SystemCmd::ClearTraffic,
         _ => return None,
     })
 }
@@ -136,7 +137,7 @@ async fn command(State(st): State<AppState>, Path((group, verb)): Path<(String, 
     let Some(cmd) = system_cmd(&group, &verb) else {
         return error(
             StatusCode::NOT_FOUND,
-            format!("no command {group}/{verb}: mission/create, mission/update, mission/pause, mission/resume, mission/terminate, robot/move, robot/goto, robot/capabilities"),
+            format!("no command {group}/{verb}: mission/create, mission/update, mission/pause, mission/resume, mission/terminate, robot/move, robot/goto, robot/capabilities, traffic/clear"),
         );
     };
     let Json(body) = match body {

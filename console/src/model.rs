@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use mrmm_proto::traffic::TrafficView;
 use mrmm_proto::{Advice, MapInfo, MissionView, Pose, RobotView, Telemetry};
 use serde::Serialize;
 
@@ -23,6 +24,8 @@ pub struct Snapshot {
     pub advice: Vec<Advice>,
     /// Central's maps; the page fetches each one's layer (`/api/map/<hash>`) once.
     pub maps: Vec<MapInfo>,
+    /// Traffic on every graph map: what each robot holds, whom it waits for.
+    pub traffic: Vec<TrafficView>,
     pub central: CentralState,
 }
 
@@ -50,6 +53,7 @@ pub struct Fleet {
     missions: Vec<MissionView>,
     advice: Vec<Advice>,
     maps: Vec<MapInfo>,
+    traffic: Vec<TrafficView>,
     live: BTreeMap<mrmm_proto::RobotId, Live>,
     central: CentralState,
     seq: u64,
@@ -61,6 +65,15 @@ impl Fleet {
     pub fn maps(&mut self, maps: Vec<MapInfo>) {
         if self.maps != maps {
             self.maps = maps;
+            self.changed = true;
+        }
+    }
+
+    /// Central's traffic (asked with the tables; none from a central without a traffic
+    /// authority).
+    pub fn traffic(&mut self, traffic: Vec<TrafficView>) {
+        if self.traffic != traffic {
+            self.traffic = traffic;
             self.changed = true;
         }
     }
@@ -127,6 +140,7 @@ impl Fleet {
             missions: self.missions.clone(),
             advice: self.advice.clone(),
             maps: self.maps.clone(),
+            traffic: self.traffic.clone(),
             central: self.central.clone(),
         })
     }

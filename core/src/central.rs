@@ -143,6 +143,19 @@ impl CentralCore {
                     out.push(Command::System(system::Command::Reply { req: req.clone(), result: views }));
                     return out;
                 }
+                if let system::Event::Operator { req, request: Request::ClearTraffic(c) } = &ev {
+                    self.agent.handle(now, agent::Event::OperatorCommand);
+                    let result = match self.traffic.clear(now, &c.robot) {
+                        Ok((cleared, cmds)) => {
+                            tracing::info!(robot = %c.robot, vertices = cleared.vertices, "traffic: the operator took a lost robot off the lanes");
+                            out.extend(cmds.into_iter().map(Command::Traffic));
+                            serde_json::to_value(cleared).map_err(|e| e.to_string())
+                        }
+                        Err(why) => Err(why),
+                    };
+                    out.push(Command::System(system::Command::Reply { req: req.clone(), result }));
+                    return out;
+                }
                 if let system::Event::Operator { req: Req::Query(_), request } = &ev {
                     if request.is_command() {
                         self.agent.handle(now, agent::Event::OperatorCommand);

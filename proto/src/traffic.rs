@@ -95,6 +95,25 @@ pub enum TrafficOrder {
     Refused { goal: u64, why: String },
 }
 
+/// The operator takes a lost robot off the lanes (`mrmm/system/cmd/traffic/clear`, `mrmm op
+/// traffic --clear ID`): every vertex and lane it held in traffic is free again. Only a robot
+/// whose liveliness went: the operator says it is no longer where it stood.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrafficClear {
+    pub robot: RobotId,
+}
+
+/// What clearing a robot freed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrafficCleared {
+    pub robot: RobotId,
+    /// The maps (bundle hashes) it was in traffic on.
+    pub maps: Vec<String>,
+    /// The vertices it held there, together.
+    pub vertices: usize,
+}
+
 /// What the operator sees of traffic on one map (`mrmm/system/traffic`, `mrmm op traffic`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrafficView {

@@ -1,5 +1,5 @@
 // mrmm console: the fleet on a map (the building's map under it, robots coloured by mission,
-// patrol tours, coverage points),
+// patrol tours, coverage points, lanes held in traffic and who waits for whom),
 // selection by click or box, and the operator's commands (assign, release, create, terminate).
 // Data arrives as server-sent events (`/api/events`); commands are POSTs to `/api/…`. Text from
 // the fleet is only ever set as text (never as HTML).
@@ -109,6 +109,7 @@
       if (sh.line.length > 1) { path(sh.line.map((p) => [p.x, p.y]), true); ctx.stroke(); }
       for (const p of sh.dots) { const [sx, sy] = toScreen(p.x, p.y); ctx.fillRect(sx - 3, sy - 3, 6, 6); }
     }
+    drawTraffic();
     if (points.length) {
       ctx.strokeStyle = '#d97706';
       ctx.fillStyle = '#d97706';
@@ -173,6 +174,51 @@
       for (const [x, y] of j.vertices) { const [sx, sy] = toScreen(x, y); ctx.fillRect(sx - 2, sy - 2, 4, 4); }
       l.drawn = true;
     }
+  }
+  // Traffic on graph maps: each robot's lanes held (from where it stands to where it may drive)
+  // thick in its own colour, the rest of its route thin and dashed; a robot waiting gets a dashed
+  // arrow to each robot in its way (red when traffic found no way round).
+  // Ids that differ in one letter get hues far apart (the golden angle).
+  const robotColour = (id) => `hsl(${Math.round((hue(id) * 137.508) % 360)},75%,42%)`;
+  let trafficDrawn = [];
+  function drawTraffic() {
+    trafficDrawn = [];
+    const poseOf = new Map(snap.robots.filter((r) => r.pose).map((r) => [r.id, r.pose]));
+    for (const t of snap.traffic || []) {
+      const l = layers[t.map];
+      if (!l || !l.json || l.json.kind !== 'graph') continue;
+      const at = (v) => l.json.vertices[v];
+      for (const r of t.robots) {
+        const col = r.lost ? '#8a93a3' : robotColour(r.robot);
+        const from = r.reached == null ? 0 : r.reached;
+        const held = r.granted == null ? [] : r.route.slice(from, r.granted + 1).map(at).filter(Boolean);
+        const ahead = r.route.slice(r.granted == null ? 0 : r.granted).map(at).filter(Boolean);
+        ctx.strokeStyle = col;
+        if (ahead.length > 1) {
+          ctx.globalAlpha = 0.6; ctx.lineWidth = 1.5; ctx.setLineDash([5, 4]);
+          path(ahead, false); ctx.stroke(); ctx.setLineDash([]);
+        }
+        ctx.globalAlpha = 0.5; ctx.lineWidth = 8;
+        if (held.length > 1) { path(held, false); ctx.stroke(); }
+        else if (held.length === 1) { const [sx, sy] = toScreen(held[0][0], held[0][1]); ctx.beginPath(); ctx.arc(sx, sy, 9, 0, 2 * Math.PI); ctx.stroke(); }
+        ctx.globalAlpha = 1;
+        const by = r.blocked.length ? r.blocked : r.waits_for;
+        const p = poseOf.get(r.robot);
+        for (const b of by) { const q = poseOf.get(b); if (p && q) arrow(p, q, r.blocked.length ? '#b42318' : '#d97706'); }
+        trafficDrawn.push({ robot: r.robot, held: held.length, ahead: Math.max(ahead.length - 1, 0), waits_for: by, blocked: r.blocked.length > 0, lost: r.lost });
+      }
+    }
+  }
+  function arrow(p, q, col) {
+    const [x1, y1] = toScreen(p.x, p.y), [x2, y2] = toScreen(q.x, q.y);
+    const a = Math.atan2(y2 - y1, x2 - x1), back = 10;
+    const ex = x2 - back * Math.cos(a), ey = y2 - back * Math.sin(a);
+    ctx.strokeStyle = col; ctx.fillStyle = col; ctx.lineWidth = 2; ctx.setLineDash([4, 3]);
+    ctx.beginPath(); ctx.moveTo(x1, y1); ctx.lineTo(ex, ey); ctx.stroke(); ctx.setLineDash([]);
+    ctx.beginPath(); ctx.moveTo(ex, ey);
+    ctx.lineTo(ex - 8 * Math.cos(a - 0.4), ey - 8 * Math.sin(a - 0.4));
+    ctx.lineTo(ex - 8 * Math.cos(a + 0.4), ey - 8 * Math.sin(a + 0.4));
+    ctx.closePath(); ctx.fill();
   }
   // Fetches the layers of maps not seen yet (asked again at a later snapshot if not ready).
   function loadLayers() {
@@ -369,6 +415,26 @@
       });
       rt.appendChild(tr);
     }
+    const tt = $('traffic').tBodies[0];
+    tt.replaceChildren();
+    for (const t of snap.traffic || []) {
+      for (const r of t.robots) {
+        const tr = document.createElement('tr');
+        tr.dataset.traffic = r.robot;
+        const name = cell(tr, '');
+        const sw = document.createElement('span'); sw.className = 'swatch'; sw.style.background = robotColour(r.robot);
+        name.append(sw, document.createTextNode(r.robot));
+        const arrived = r.reached != null && r.reached + 1 === r.route.length;
+        const state = r.lost ? 'lost' : r.blocked.length ? 'BLOCKED' : r.waiting_s != null ? `waiting ${r.waiting_s.toFixed(0)} s` : arrived ? 'arrived' : 'driving';
+        cell(tr, state, r.lost || r.blocked.length ? 'short' : undefined);
+        cell(tr, `${r.holds.length}`);
+        cell(tr, (r.blocked.length ? r.blocked : r.waits_for).join(', ') || '—');
+        const act = cell(tr, '');
+        if (r.lost) button(act, 'Take off lanes', () => clearTraffic(r.robot), ['data-clear', r.robot]).title = 'Only once the robot is gone from there: what it held is freed for the robots waiting';
+        tt.appendChild(tr);
+      }
+    }
+    $('traffic-box').hidden = !(snap.traffic || []).some((t) => t.robots.length);
     const ul = $('advice');
     ul.replaceChildren();
     for (const a of snap.advice) {
@@ -411,6 +477,12 @@
     } catch (e) { say(e.message, false); }
   }
   const assign = (name) => moveSelected(name);
+  async function clearTraffic(id) {
+    try {
+      const j = await api('/api/cmd/traffic/clear', { robot: id });
+      say(`${id} taken off the lanes: ${j.vertices} vertices freed`, true);
+    } catch (e) { say(`${id}: ${e.message}`, false); }
+  }
   async function goto(x, y) {
     const [robot] = [...selected];
     try {
@@ -519,6 +591,7 @@
     worldOnPage(x, y) { const b = canvas.getBoundingClientRect(); const [sx, sy] = toScreen(x, y); return { x: b.left + sx, y: b.top + sy }; },
     selected: () => [...selected].sort(),
     mapsDrawn: () => Object.values(layers).filter((l) => l.drawn).map((l) => l.info.name).sort(),
+    trafficDrawn: () => trafficDrawn,
     snapshot: () => snap,
   };
 })();

@@ -136,7 +136,7 @@ fn blocked_in_traffic(cfg: &AgentConfig, robots: &[RobotView], traffic: &[Traffi
             let blocker = by_id.get(first.as_str());
             let suggestion = match blocker {
                 Some(b) if b.status == RobotStatus::Lost => {
-                    format!("robot {first} is lost where it stands: take it off the lanes and restart it there, or elsewhere")
+                    format!("robot {first} is lost where it stands: restart it there, or take it away and free its lanes: mrmm op traffic --clear {first}")
                 }
                 Some(b) if b.mission.is_none() => format!("drive {first} out of the way: mrmm op goto {first} X Y"),
                 Some(b) => format!("mrmm op move {first} none (out of mission {}), or pause the mission", b.mission.as_deref().unwrap_or("?")),

@@ -31,6 +31,8 @@ pub enum Request {
     Maps,
     /// Traffic on every graph map (central's traffic authority answers it).
     Traffic,
+    /// Take a lost robot off the lanes (central's traffic authority answers it).
+    ClearTraffic(mrmm_proto::traffic::TrafficClear),
     Goto(GotoRequest),
     Move(RobotMove),
     Capabilities(CapabilitiesRequest),
@@ -64,6 +66,7 @@ impl Request {
             Some(Key::SystemCmd(SystemCmd::Update)) => proto::from_json("mission update request", payload).map(Request::Update),
             Some(Key::SystemCmd(SystemCmd::Pause)) => proto::from_json("mission pause request", payload).map(Request::Pause),
             Some(Key::SystemCmd(SystemCmd::Resume)) => proto::from_json("mission resume request", payload).map(Request::Resume),
+            Some(Key::SystemCmd(SystemCmd::ClearTraffic)) => proto::from_json("traffic clear request", payload).map(Request::ClearTraffic),
             _ => return Err(format!("unknown key {key}")),
         };
         r.map_err(|e| e.to_string())
@@ -82,6 +85,7 @@ impl Request {
                 | Request::Update(_)
                 | Request::Pause(_)
                 | Request::Resume(_)
+                | Request::ClearTraffic(_)
         )
     }
 }

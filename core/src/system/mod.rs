@@ -429,6 +429,7 @@ impl SystemManager {
             // Central's traffic authority answers it (`CentralCore`); a system manager alone
             // holds no traffic.
             Request::Traffic => reply(req, to_value(&Vec::<mrmm_proto::traffic::TrafficView>::new())),
+            Request::ClearTraffic(c) => reply(req, Err(format!("robot {} holds nothing in traffic: no traffic authority here", c.robot))),
             Request::Maps => {
                 let old = self.superseded.values().map(|h| mrmm_proto::MapInfo { superseded: true, ..h.info.clone() });
                 reply(req, to_value(&self.maps.values().map(|h| h.info.clone()).chain(old).collect::<Vec<_>>()))

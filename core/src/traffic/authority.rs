@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, Point};
-use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
+use mrmm_proto::traffic::{RouteVertex, TrafficCleared, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
 use mrmm_proto::{RobotId, TrafficOrder};
 
 use super::{Layout, Params, Traffic, CLEARANCE};
@@ -171,6 +171,36 @@ impl Authority {
                 Some(mrmm_proto::traffic::TrafficView { map: hash.clone(), incarnation: self.incarnation, deputies: m.deputies.clone(), robots: t.views(now) })
             })
             .collect()
+    }
+
+    /// Takes lost robot `robot` off the lanes of every map (the operator says it is no longer
+    /// where it stood): everything it held is free, and robots waiting for it are granted on.
+    /// Refused for a robot whose liveliness did not go, or that holds nothing.
+    pub fn clear(&mut self, now: f64, robot: &RobotId) -> Result<(TrafficCleared, Vec<Command>), String> {
+        let on: Vec<String> =
+            self.maps.iter().filter(|(_, m)| m.lanes.as_ref().is_some_and(|(t, _)| t.state(robot).is_some())).map(|(h, _)| h.clone()).collect();
+        if on.is_empty() {
+            return Err(format!("robot {robot} holds nothing in traffic"));
+        }
+        let lost = self.gone.contains_key(robot) || on.iter().all(|h| self.traffic(h).is_some_and(|t| t.is_lost(robot)));
+        if !lost {
+            return Err(format!(
+                "robot {robot} is not lost: it holds where it stands and drives what it was granted; stop it, or drive it out of the way (mrmm op goto {robot} X Y)"
+            ));
+        }
+        let (mut out, mut vertices) = (Vec::new(), 0);
+        let incarnation = self.incarnation;
+        for hash in &on {
+            let Some(m) = self.maps.get_mut(hash) else { continue };
+            let Some((t, _)) = m.lanes.as_mut() else { continue };
+            let n = t.layout().vertices() as u32;
+            vertices += t.held(robot).iter().filter(|&&r| r < n).count();
+            let cmds = t.handle(now, super::Event::Remove { robot: robot.clone() });
+            m.robots.remove(robot);
+            m.orders(hash, incarnation, cmds, &mut out);
+        }
+        self.gone.remove(robot);
+        Ok((TrafficCleared { robot: robot.clone(), maps: on, vertices }, out))
     }
 
     /// Traffic on map `hash`, if it has lanes.
@@ -445,5 +475,44 @@ mod tests {
         a.handle(3.0, Event::Alive("r1".into()));
         let out = a.handle(3.1, Event::Report { map: hash.clone(), report: report(1, Some(TrafficGoal { id: 1, x: far.x, y: far.y })) });
         assert!(out.iter().any(|c| matches!(c, Command::Order { order: TrafficOrder::Route { .. }, .. })), "the restarted robot's report was dropped: {out:?}");
+    }
+
+    /// A lost robot standing on a vertex another robot's route runs through: the other waits
+    /// until the operator takes the lost one off the lanes, then goes on. A robot still alive
+    /// is not cleared.
+    #[test]
+    fn a_lost_robot_taken_off_the_lanes_frees_the_way() {
+        let map = office();
+        let Map::Graph(g) = map.as_ref() else { unreachable!() };
+        let hash = "h".repeat(64);
+        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        // r2's way from vertex 0 to the vertex farthest from it, and r1 standing on its middle.
+        let space = GraphSpace::new(g);
+        let far = (0..g.vertices.len() as u32)
+            .max_by(|&x, &y| g.vertices[x as usize].at.dist(g.vertices[0].at).total_cmp(&g.vertices[y as usize].at.dist(g.vertices[0].at)))
+            .unwrap();
+        let way = space.vertex_path(0, far).expect("a way across the office");
+        let mid = g.vertices[way[way.len() / 2] as usize].at;
+        let (start, end) = (g.vertices[0].at, g.vertices[far as usize].at);
+        let report =
+            |robot: &str, seq: u64, at: Point, goal: Option<TrafficGoal>| TrafficReport { robot: robot.into(), seq, x: at.x, y: at.y, goal, held: None };
+        a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", 1, mid, None) });
+        let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", 1, start, Some(TrafficGoal { id: 1, x: end.x, y: end.y })) });
+        assert!(out.iter().any(|c| matches!(c, Command::Order { robot, order: TrafficOrder::Route { .. }, .. } if robot.as_str() == "r2")), "{out:?}");
+        let err = a.clear(0.2, &"r1".into()).unwrap_err();
+        assert!(err.contains("not lost"), "{err}");
+        assert!(a.clear(0.2, &"r9".into()).unwrap_err().contains("holds nothing"));
+        a.handle(1.0, Event::Gone("r1".into()));
+        a.handle(1.0 + LOST_GRACE_S + 0.1, Event::Tick);
+        let t = a.traffic(&hash).expect("lanes");
+        assert!(!t.held(&"r1".into()).is_empty(), "a lost robot keeps where it stood");
+        let (cleared, out) = a.clear(20.0, &"r1".into()).expect("cleared");
+        assert_eq!((cleared.maps.len(), cleared.vertices), (1, 1), "{cleared:?}");
+        let t = a.traffic(&hash).expect("lanes");
+        assert!(t.held(&"r1".into()).is_empty() && t.state(&"r1".into()).is_none());
+        assert!(t.holder(way[way.len() / 2]).is_none_or(|h| h.as_str() == "r2"), "r1's vertex is free");
+        // r2 was waiting for r1's vertex or had not got so far: either way nothing of r1's is
+        // held, and r2 is told its order again if it was granted on.
+        assert!(out.iter().all(|c| matches!(c, Command::Order { robot, .. } if robot.as_str() == "r2")), "{out:?}");
     }
 }

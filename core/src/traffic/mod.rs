@@ -207,6 +207,11 @@ impl Traffic {
         self.robots.get(robot).map(|r| r.held.keys().copied().collect()).unwrap_or_default()
     }
 
+    /// Whether `robot`'s liveliness went (it keeps what it stood on).
+    pub fn is_lost(&self, robot: &RobotId) -> bool {
+        self.robots.get(robot).is_some_and(|r| r.lost)
+    }
+
     /// `robot`'s route and the position in it it may drive to.
     pub fn route(&self, robot: &RobotId) -> Option<(&[u32], Option<usize>)> {
         self.robots.get(robot).map(|r| (r.route.as_slice(), r.granted))
@@ -556,8 +561,7 @@ impl Traffic {
             let Some(r) = self.robots.get(&id) else { continue };
             let before = r.granted;
             let limit = r.reached.map_or(0, |p| p + self.params.ahead).min(r.route.len() - 1);
-            loop {
-                let Some(r) = self.robots.get(&id) else { break };
+            while let Some(r) = self.robots.get(&id) {
                 if r.granted.is_some_and(|g| g >= limit) {
                     break;
                 }

@@ -141,6 +141,8 @@ pub enum SystemCmd {
     Update,
     Pause,
     Resume,
+    /// Take a lost robot off the lanes ([`crate::traffic::TrafficClear`]).
+    ClearTraffic,
 }
 
 #[macro_use]
@@ -274,7 +276,7 @@ declare_keys! {
 impl SystemCmd {
     /// Every operator command with its chunks after `mrmm/system/cmd/`: declared once, for
     /// building and parsing alike.
-    const ALL: [(SystemCmd, &'static str); 9] = [
+    const ALL: [(SystemCmd, &'static str); 10] = [
         (SystemCmd::Goto, "robot/goto"),
         (SystemCmd::Move, "robot/move"),
         (SystemCmd::Capabilities, "robot/capabilities"),
@@ -284,6 +286,7 @@ impl SystemCmd {
         (SystemCmd::Update, "mission/update"),
         (SystemCmd::Pause, "mission/pause"),
         (SystemCmd::Resume, "mission/resume"),
+        (SystemCmd::ClearTraffic, "traffic/clear"),
     ];
 
     fn chunks(self) -> &'static str {

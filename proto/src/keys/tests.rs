@@ -66,6 +66,7 @@ fn all_keys() -> Vec<Key> {
         Key::SystemCmd(SystemCmd::Update),
         Key::SystemCmd(SystemCmd::Pause),
         Key::SystemCmd(SystemCmd::Resume),
+        Key::SystemCmd(SystemCmd::ClearTraffic),
     ]
 }
 

@@ -54,6 +54,10 @@ enum What {
     Traffic {
         /// Only this map (its name, or the start of its hash).
         map: Option<String>,
+        /// Take this lost robot off the lanes instead (`mrmm/system/cmd/traffic/clear`): all it
+        /// held is freed for the robots waiting for it. Only once it is really gone from there.
+        #[arg(long, value_name = "ROBOT")]
+        clear: Option<String>,
     },
     /// The advising agent's standing advice, most urgent first (`mrmm/agent/advice`).
     Advice,
@@ -120,7 +124,8 @@ async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {
             let maps: Vec<proto::MapInfo> = serde_json::from_value(v)?;
             print!("{}", super::table::maps(&maps));
         }
-        What::Traffic { map } => traffic::exec(client, map, json).await?,
+        What::Traffic { clear: Some(robot), .. } => traffic::clear(client, &robot, json).await?,
+        What::Traffic { map, clear: None } => traffic::exec(client, map, json).await?,
         What::Advice => {
             let v: Value = client.query(proto::Key::AgentAdvice, none).await?;
             if json {

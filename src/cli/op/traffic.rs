@@ -1,6 +1,7 @@
 //! `mrmm op traffic [MAP]`: what central's traffic authority holds on each graph map — every
 //! robot's route, how far it got and may go, the vertices it holds, whom it waits for and for how
-//! long, and whether it is blocked (`mrmm/system/traffic`).
+//! long, and whether it is blocked (`mrmm/system/traffic`); `--clear ROBOT` takes a lost robot
+//! off the lanes.
 
 use mrmm_net::client::Client;
 use mrmm_proto::traffic::TrafficView;
@@ -22,6 +23,18 @@ pub async fn exec(client: &Client, map: Option<String>, json: bool) -> anyhow::R
         return super::print_json(&serde_json::to_value(&views)?);
     }
     print!("{}", table(&views, name_of));
+    Ok(())
+}
+
+/// Takes lost robot `robot` off the lanes and says what was freed.
+pub async fn clear(client: &Client, robot: &str, json: bool) -> anyhow::Result<()> {
+    let req = mrmm_proto::traffic::TrafficClear { robot: robot.into() };
+    let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::ClearTraffic), Some(&req)).await?;
+    if json {
+        return super::print_json(&v);
+    }
+    let done: mrmm_proto::traffic::TrafficCleared = serde_json::from_value(v)?;
+    println!("{} taken off the lanes: {} vertices freed on {} map(s)", done.robot, done.vertices, done.maps.len());
     Ok(())
 }
 
