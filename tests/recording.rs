@@ -117,6 +117,45 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The demo on Open-RMF's office graph, recorded (secure fleet): traffic is in the recording —
+/// each robot's lanes held, its route ahead and its waits under `fleet/traffic/<id>`, and the
+/// count of robots waiting over time — read back with Rerun's own decoder.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_recording_shows_traffic_on_a_graph_map() -> anyhow::Result<()> {
+    let dir = Scratch::new("rrd-traffic");
+    let rrd = dir.path("fleet.rrd");
+    let rrd_s = rrd.display().to_string();
+    let office = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml").display().to_string();
+    let (mut demo, ep, operator) =
+        common::start_demo(&dir, &["--robots", "4", "--map", &office, "--duration", "60", "--listen", "quic/127.0.0.1:0", "--no-console", "--rrd", &rrd_s])?;
+    let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
+    eventually("four robots in traffic for a few seconds", Duration::from_secs(40), || async {
+        let v: Vec<proto::traffic::TrafficView> = client.query(proto::Key::SystemTraffic, None::<&()>).await.ok()?;
+        v.iter().any(|m| m.robots.len() == 4).then_some(())
+    })
+    .await?;
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    client.close().await;
+    demo.signal("INT")?;
+    let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
+    assert!(status.success(), "demo exit status {status}");
+    let file = std::io::BufReader::new(std::fs::File::open(&rrd)?);
+    let mut rows: BTreeMap<String, usize> = BTreeMap::new();
+    for msg in DecoderApp::decode_lazy(file) {
+        if let LogMsg::ArrowMsg(_, arrow) = msg? {
+            let chunk = Chunk::from_arrow_msg(&arrow)?;
+            *rows.entry(chunk.entity_path().to_string()).or_default() += chunk.num_rows();
+        }
+    }
+    let keys = || rows.keys().cloned().collect::<Vec<_>>();
+    let held = rows.keys().filter(|k| k.starts_with("/fleet/traffic/") && k.ends_with("/held")).count();
+    assert_eq!(held, 4, "lanes held of every robot: {:?}", keys());
+    assert!(rows.keys().filter(|k| k.starts_with("/fleet/traffic/") && k.ends_with("/ahead")).count() == 4, "{:?}", keys());
+    assert!(rows.get("/metrics/traffic/waiting").copied().unwrap_or(0) >= 2, "{:?}", keys());
+    assert!(rows.keys().any(|k| k.starts_with("/fleet/map/")), "{:?}", keys());
+    Ok(())
+}
+
 #[test]
 fn viz_without_a_viewer_says_so_and_keeps_going() -> anyhow::Result<()> {
     let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();

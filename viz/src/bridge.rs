@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use mrmm_core::observer::{self, Seen};
 use mrmm_net::{Following, Mesh};
+use mrmm_proto::traffic::TrafficView;
 use mrmm_proto::{self as proto, Key};
 use tokio_util::sync::CancellationToken;
 use zenoh::sample::Sample;
@@ -17,6 +18,8 @@ use crate::VizError;
 const QUEUE: usize = 4096;
 /// How often to check that a viewer is reachable (`--connect`).
 const PROBE_EVERY: Duration = Duration::from_secs(5);
+/// How often central's traffic is asked for.
+const TRAFFIC_EVERY: Duration = Duration::from_secs(1);
 
 /// Where the recording goes.
 #[derive(Debug, Clone, PartialEq)]
@@ -65,6 +68,11 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     let mut hello = tokio::time::interval(Duration::from_millis(proto::VIEWER_HELLO_MS));
     let hello_key = Key::Viewer(mesh.me().id.clone()).to_string();
     let mut probe_tick = tokio::time::interval(PROBE_EVERY);
+    // Central's traffic, asked once a second (one query at a time, off the loop), drawn on the
+    // graph maps fetched so far.
+    let mut traffic_tick = tokio::time::interval(TRAFFIC_EVERY);
+    let mut asking: tokio::task::JoinSet<Option<Vec<TrafficView>>> = tokio::task::JoinSet::new();
+    let mut graphs: std::collections::BTreeMap<String, std::sync::Arc<mrmm_maps::NavGraph>> = std::collections::BTreeMap::new();
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -74,10 +82,31 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                     p.check().await;
                 }
             }
+            _ = traffic_tick.tick(), if asking.is_empty() => {
+                let m = mesh.clone();
+                asking.spawn(async move {
+                    let key = Key::SystemTraffic.to_string();
+                    m.query::<Vec<TrafficView>>(&key, None, TRAFFIC_EVERY, |s| s.role == proto::Role::Central).await.ok().map(|(v, _)| v)
+                });
+            }
+            Some(done) = asking.join_next(), if !asking.is_empty() => {
+                if let Ok(Some(views)) = done {
+                    for v in &views {
+                        if maps_asked.insert(v.map.clone()) {
+                            let name = v.map.chars().take(12).collect::<String>();
+                            fetch_map(mesh.clone(), proto::MapRef { name, hash: v.map.clone() }, maps_tx.clone());
+                        }
+                    }
+                    view.traffic(&views, &graphs);
+                }
+            }
             Some((r, map)) = maps_rx.recv() => match map {
                 Ok(map) => {
                     if let Err(e) = crate::map::log(&view.rec, &r.name, &map) {
                         tracing::warn!("rerun log of map {}: {e}", r.name);
+                    }
+                    if let mrmm_maps::Map::Graph(g) = map {
+                        graphs.insert(r.hash.clone(), std::sync::Arc::new(g));
                     }
                 }
                 Err(e) => {

@@ -1,7 +1,7 @@
 //! mrmm fleet view: subscribes to the fleet over Zenoh and streams it to Rerun — the map (patrol
 //! tours, waypoints, coverage points), each robot's pose, heading and trail coloured by mission,
-//! team membership, barrier events, the advising agent's advice, and per-mission scalars, all on
-//! one `fleet_time` timeline. Only this crate depends on rerun.
+//! team membership, barrier events, the advising agent's advice, per-mission scalars, and traffic
+//! on graph maps (lanes held, who waits for whom), all on one `fleet_time` timeline. Only this crate depends on rerun.
 
 pub mod bridge;
 pub mod map;

@@ -10,6 +10,10 @@
 //! | `fleet/missions/<name>/waypoints` | Points2D | patrol waypoints |
 //! | `fleet/missions/<name>/points` | Points2D | coverage points |
 //! | `fleet/missions/<name>/region` | LineStrips2D | coverage region: outer ring and holes |
+//! | `fleet/traffic/<id>/held` | LineStrips2D | lanes the robot holds in traffic (graph maps), its colour |
+//! | `fleet/traffic/<id>/ahead` | LineStrips2D | the rest of its route, thin |
+//! | `fleet/traffic/<id>/waits` | Arrows2D | to each robot in its way while it waits (red: blocked), labelled |
+//! | `metrics/traffic/waiting` | Scalars | robots standing waiting for traffic, all maps |
 //! | `events/teams` | TextLog | team membership changes |
 //! | `events/sync` | TextLog | barrier arrivals |
 //! | `advice` | TextLog | advising agent, level = priority |
@@ -44,6 +48,19 @@ pub fn robot_heading(id: &str) -> String {
 pub fn robot_trail(id: &str) -> String {
     format!("fleet/robots/{id}/trail")
 }
+pub fn traffic(id: &str) -> String {
+    format!("fleet/traffic/{id}")
+}
+pub fn traffic_held(id: &str) -> String {
+    format!("fleet/traffic/{id}/held")
+}
+pub fn traffic_ahead(id: &str) -> String {
+    format!("fleet/traffic/{id}/ahead")
+}
+pub fn traffic_waits(id: &str) -> String {
+    format!("fleet/traffic/{id}/waits")
+}
+pub const TRAFFIC_WAITING: &str = "metrics/traffic/waiting";
 pub fn mission_tour(name: &str) -> String {
     format!("fleet/missions/{name}/tour")
 }

@@ -6,6 +6,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
 
 use mrmm_proto::plan::Point;
+use mrmm_proto::traffic::TrafficView;
 use mrmm_proto::{self as proto, AdviceEvent, MissionView, PlanSummary, Priority, SyncArrival, SyncRelease, Telemetry};
 use rerun::RecordingStream;
 
@@ -28,10 +29,33 @@ pub(crate) struct View {
     colors: BTreeMap<String, [u8; 3]>,
     teams: BTreeMap<proto::RobotId, String>,
     messages: BTreeMap<proto::MissionName, (f64, u64)>,
+    /// Robots drawn in traffic (cleared when they leave it).
+    in_traffic: std::collections::BTreeSet<proto::RobotId>,
 }
 
 const PALETTE: [[u8; 3]; 8] = [[230, 159, 0], [86, 180, 233], [0, 158, 115], [240, 228, 66], [0, 114, 178], [213, 94, 0], [204, 121, 167], [160, 160, 160]];
 const IDLE: [u8; 3] = [200, 200, 200];
+
+/// A robot's own colour in traffic: its id hashed to a hue (ids one letter apart far apart).
+fn robot_color(id: &str) -> [u8; 3] {
+    let h = id.bytes().fold(0u32, |h, c| h.wrapping_mul(31).wrapping_add(u32::from(c)));
+    let hue = (f64::from(h) * 137.508) % 360.0;
+    // HSL with saturation 0.75, lightness 0.42, as RGB.
+    let (s, l) = (0.75, 0.42);
+    let c = (1.0 - (2.0 * l - 1.0f64).abs()) * s;
+    let x = c * (1.0 - ((hue / 60.0) % 2.0 - 1.0).abs());
+    let (r, g, b) = match (hue / 60.0) as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = l - c / 2.0;
+    let to = |v: f64| ((v + m) * 255.0).round().clamp(0.0, 255.0) as u8;
+    [to(r), to(g), to(b)]
+}
 
 impl View {
     pub(crate) fn new(rec: RecordingStream) -> Self {
@@ -43,6 +67,7 @@ impl View {
             colors: BTreeMap::new(),
             teams: BTreeMap::new(),
             messages: BTreeMap::new(),
+            in_traffic: std::collections::BTreeSet::new(),
         }
     }
 
@@ -156,6 +181,60 @@ impl View {
             }
         }
         self.missions.insert(m.name.clone(), m.clone());
+    }
+
+    /// Traffic on the graph maps drawn so far (`graphs`, by hash): each robot's lanes held,
+    /// the rest of its route, arrows to the robots it waits for; robots gone from traffic are
+    /// cleared.
+    pub(crate) fn traffic(&mut self, views: &[TrafficView], graphs: &BTreeMap<String, std::sync::Arc<mrmm_maps::NavGraph>>) {
+        self.now();
+        let mut drawn = std::collections::BTreeSet::new();
+        let mut waiting = 0usize;
+        for v in views {
+            let Some(g) = graphs.get(&v.map) else { continue };
+            let at = |i: &u32| g.vertices.get(*i as usize).map(|x| [x.at.x as f32, x.at.y as f32]);
+            for r in &v.robots {
+                let [cr, cg, cb] = robot_color(&r.robot);
+                let color = rerun::Color::from_rgb(cr, cg, cb);
+                let from = r.reached.unwrap_or(0) as usize;
+                let held: Vec<[f32; 2]> = r.granted.map(|g| r.route.iter().take(g as usize + 1).skip(from).filter_map(at).collect()).unwrap_or_default();
+                let ahead: Vec<[f32; 2]> = r.route.iter().skip(r.granted.unwrap_or(0) as usize).filter_map(at).collect();
+                let label = if r.lost { format!("{} (lost)", r.robot) } else { r.robot.to_string() };
+                let held = if held.len() == 1 { vec![held[0], held[0]] } else { held };
+                self.log(
+                    &paths::traffic_held(&r.robot),
+                    &rerun::LineStrips2D::new([held]).with_colors([color]).with_radii([0.25]).with_labels([label]).with_draw_order(5.0),
+                );
+                self.log(&paths::traffic_ahead(&r.robot), &rerun::LineStrips2D::new([ahead]).with_colors([color]).with_radii([0.05]).with_draw_order(4.0));
+                let by = if r.blocked.is_empty() { &r.waits_for } else { &r.blocked };
+                let me = self.trails.get(&r.robot).and_then(|t| t.back().copied());
+                let arrows: Vec<([f32; 2], [f32; 2], String)> = by
+                    .iter()
+                    .filter_map(|b| {
+                        let (p, q) = (me?, self.trails.get(b).and_then(|t| t.back().copied())?);
+                        let how = if r.blocked.is_empty() { format!("waits {:.0} s", r.waiting_s.unwrap_or(0.0)) } else { "blocked".to_string() };
+                        Some((p, [q[0] - p[0], q[1] - p[1]], format!("{} {how} for {b}", r.robot)))
+                    })
+                    .collect();
+                let red = if r.blocked.is_empty() { rerun::Color::from_rgb(217, 119, 6) } else { rerun::Color::from_rgb(180, 35, 24) };
+                self.log(
+                    &paths::traffic_waits(&r.robot),
+                    &rerun::Arrows2D::from_vectors(arrows.iter().map(|a| a.1))
+                        .with_origins(arrows.iter().map(|a| a.0))
+                        .with_labels(arrows.iter().map(|a| a.2.clone()))
+                        .with_colors([red]),
+                );
+                waiting += usize::from(r.waiting_s.is_some());
+                drawn.insert(r.robot.clone());
+            }
+        }
+        for gone in self.in_traffic.difference(&drawn) {
+            if let Err(e) = self.rec.log(paths::traffic(gone).as_str(), &rerun::Clear::recursive()) {
+                tracing::warn!("rerun clear {gone}: {e}");
+            }
+        }
+        self.in_traffic = drawn;
+        self.log(paths::TRAFFIC_WAITING, &rerun::Scalars::new([waiting as f64]));
     }
 
     pub(crate) fn advice(&mut self, a: &AdviceEvent) {
