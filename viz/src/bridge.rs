@@ -44,12 +44,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
         Sink::Connect(url) => Some(Probe { addr: viewer_addr(url)?, reachable: None }),
         _ => None,
     };
-    let builder = rerun::RecordingStreamBuilder::new("mrmm_fleet");
-    let rec = match &sink {
-        Sink::Save(p) => builder.save(p).map_err(rr)?,
-        Sink::Spawn => builder.spawn().map_err(rr)?,
-        Sink::Connect(url) => builder.connect_grpc_opts(url.clone()).map_err(|e| VizError::Config(format!("viewer URL {url:?}: {e}")))?,
-    };
+    let rec = recording(&sink)?;
     // What an observer hears (telemetry, missions' status, advice, barriers), in one queue.
     let (tx, mut heard) = tokio::sync::mpsc::channel::<Sample>(QUEUE);
     let mut follow = Following::new(session.clone(), move |s| {
@@ -60,9 +55,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
         tracing::warn!("the viewer's layout was not sent: {e}");
     }
     let mut view = View::new(rec.clone());
-    // Maps arrive from the fleet (fetched by hash in the background), each drawn once.
-    let (maps_tx, mut maps_rx) = tokio::sync::mpsc::unbounded_channel::<(proto::MapRef, Result<mrmm_maps::Map, String>)>();
-    let mut maps_asked = std::collections::BTreeSet::new();
+    let mut maps = Maps::new(mesh.clone());
     // Announces itself to the robots, which tag their telemetry for it (otherwise it could
     // check only their signed messages: one per `TELEMETRY_SIGN_MS`).
     let mut hello = tokio::time::interval(Duration::from_millis(proto::VIEWER_HELLO_MS));
@@ -72,7 +65,6 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     // graph maps fetched so far.
     let mut traffic_tick = tokio::time::interval(TRAFFIC_EVERY);
     let mut asking: tokio::task::JoinSet<Option<Vec<TrafficView>>> = tokio::task::JoinSet::new();
-    let mut graphs: std::collections::BTreeMap<String, std::sync::Arc<mrmm_maps::NavGraph>> = std::collections::BTreeMap::new();
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -92,36 +84,19 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
             Some(done) = asking.join_next(), if !asking.is_empty() => {
                 if let Ok(Some(views)) = done {
                     for v in &views {
-                        if maps_asked.insert(v.map.clone()) {
-                            let name = v.map.chars().take(12).collect::<String>();
-                            fetch_map(mesh.clone(), proto::MapRef { name, hash: v.map.clone() }, maps_tx.clone());
-                        }
+                        maps.want(proto::MapRef { name: v.map.chars().take(12).collect(), hash: v.map.clone() });
                     }
-                    view.traffic(&views, &graphs);
+                    view.traffic(&views, &maps.graphs);
                 }
             }
-            Some((r, map)) = maps_rx.recv() => match map {
-                Ok(map) => {
-                    if let Err(e) = crate::map::log(&view.rec, &r.name, &map) {
-                        tracing::warn!("rerun log of map {}: {e}", r.name);
-                    }
-                    if let mrmm_maps::Map::Graph(g) = map {
-                        graphs.insert(r.hash.clone(), std::sync::Arc::new(g));
-                    }
-                }
-                Err(e) => {
-                    // Asked again at the mission's next status.
-                    tracing::warn!(map = %r.name, "cannot draw the map yet: {e}");
-                    maps_asked.remove(&r.hash);
-                }
-            },
+            Some((r, map)) = maps.rx.recv() => maps.arrived(&view, r, map),
             s = heard.recv() => {
                 let Some(s) = s else { break };
                 match seen(&mesh, &s) {
                     Some(Seen::Telemetry(t)) => view.robot(&t),
                     Some(Seen::Mission(m)) => {
-                        if let Some(r) = m.map.clone().filter(|r| maps_asked.insert(r.hash.clone())) {
-                            fetch_map(mesh.clone(), r, maps_tx.clone());
+                        if let Some(r) = m.map.clone() {
+                            maps.want(r);
                         }
                         view.mission(&m)
                     }
@@ -133,15 +108,73 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
             }
         }
     }
-    match (rec.flush_blocking(), &sink) {
+    finish(&rec, &sink)
+}
+
+/// The recording stream `sink` takes.
+fn recording(sink: &Sink) -> Result<rerun::RecordingStream, VizError> {
+    let builder = rerun::RecordingStreamBuilder::new("mrmm_fleet");
+    Ok(match sink {
+        Sink::Save(p) => builder.save(p).map_err(rr)?,
+        Sink::Spawn => builder.spawn().map_err(rr)?,
+        Sink::Connect(url) => builder.connect_grpc_opts(url.clone()).map_err(|e| VizError::Config(format!("viewer URL {url:?}: {e}")))?,
+    })
+}
+
+/// Flushes what was drawn; a viewer that never came is said, not a failure of the bridge.
+fn finish(rec: &rerun::RecordingStream, sink: &Sink) -> Result<(), VizError> {
+    match (rec.flush_blocking(), sink) {
         (Ok(()), _) => Ok(()),
-        // A viewer that never came: say so, it is not a failure of the bridge.
         (Err(e), Sink::Connect(url)) => {
             tracing::warn!("the fleet view was not delivered to {url}: {e}");
             eprintln!("mrmm viz: no Rerun viewer took the recording at {url}");
             Ok(())
         }
         (Err(e), _) => Err(rr(e)),
+    }
+}
+
+type Fetched = (proto::MapRef, Result<mrmm_maps::Map, String>);
+
+/// Maps arrive from the fleet (fetched by hash in the background), each drawn once; graph maps
+/// kept for traffic.
+struct Maps {
+    mesh: Mesh,
+    tx: tokio::sync::mpsc::UnboundedSender<Fetched>,
+    rx: tokio::sync::mpsc::UnboundedReceiver<Fetched>,
+    asked: std::collections::BTreeSet<String>,
+    graphs: std::collections::BTreeMap<String, std::sync::Arc<mrmm_maps::NavGraph>>,
+}
+
+impl Maps {
+    fn new(mesh: Mesh) -> Maps {
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        Maps { mesh, tx, rx, asked: Default::default(), graphs: Default::default() }
+    }
+
+    /// Fetches map `r` unless it was asked for already.
+    fn want(&mut self, r: proto::MapRef) {
+        if self.asked.insert(r.hash.clone()) {
+            fetch_map(self.mesh.clone(), r, self.tx.clone());
+        }
+    }
+
+    fn arrived(&mut self, view: &View, r: proto::MapRef, map: Result<mrmm_maps::Map, String>) {
+        match map {
+            Ok(map) => {
+                if let Err(e) = crate::map::log(&view.rec, &r.name, &map) {
+                    tracing::warn!("rerun log of map {}: {e}", r.name);
+                }
+                if let mrmm_maps::Map::Graph(g) = map {
+                    self.graphs.insert(r.hash.clone(), std::sync::Arc::new(g));
+                }
+            }
+            Err(e) => {
+                // Asked again at the mission's next status.
+                tracing::warn!(map = %r.name, "cannot draw the map yet: {e}");
+                self.asked.remove(&r.hash);
+            }
+        }
     }
 }
 
@@ -153,7 +186,7 @@ fn seen(mesh: &Mesh, s: &Sample) -> Option<Seen> {
 }
 
 /// Fetches map `r` from the fleet and hands it to the loop.
-fn fetch_map(mesh: Mesh, r: proto::MapRef, to: tokio::sync::mpsc::UnboundedSender<(proto::MapRef, Result<mrmm_maps::Map, String>)>) {
+fn fetch_map(mesh: Mesh, r: proto::MapRef, to: tokio::sync::mpsc::UnboundedSender<Fetched>) {
     tokio::spawn(async move {
         let loaded = match mrmm_net::map::fetch(&mesh, &r).await {
             Ok(bytes) => mrmm_maps::Bundle::decode(&r.name, &bytes).and_then(|b| b.load()).map(|(_, m)| m).map_err(|e| e.to_string()),
