@@ -494,13 +494,16 @@ impl Traffic {
         }
     }
 
-    /// The robots other than `id` in the corridor of the lane `a` → `b` that do not drive it
-    /// the same way: one driving the other way, or standing in it (parked, or about to leave
-    /// it either way).
+    /// The robots other than `id` ahead of it in the corridor of the lane `a` → `b` that do not
+    /// drive it the same way: one driving the other way, or standing in it (parked, or about to
+    /// leave it either way). Robots behind it going the other way drive apart: not in its way.
     fn against(&self, id: &RobotId, a: u32, b: u32) -> BTreeSet<RobotId> {
         let mut by = BTreeSet::new();
         let Some((c, forward)) = self.layout.corridor(a, b) else { return by };
-        for &res in self.layout.corridor_resources(c) {
+        let along = self.layout.corridor_resources(c);
+        let Some(me) = self.layout.lane(a, b).and_then(|l| along.iter().position(|&r| r == l)) else { return by };
+        let ahead: &[Res] = if forward { &along[me + 1..] } else { &along[..me] };
+        for &res in ahead {
             let Some(h) = self.holder(res).filter(|h| *h != id) else { continue };
             if by.contains(h) {
                 continue;

@@ -322,4 +322,14 @@ fn a_corridor_is_held_for_one_direction_at_a_time() {
         assert_eq!(b_granted, !locked, "locked {locked}: {out:?}");
         check_exclusive(&t);
     }
+    // Two robots driving apart in the corridor do not hold each other up: a at 2 goes east to 3,
+    // b at 1 goes west to 0 (a is behind b's way, b behind a's).
+    let mut t = Traffic::new(layout, Params { corridors: true, ..Params::default() });
+    t.handle(0.0, Event::Restore { robot: id("a"), route: vec![2], reached: Some(0), granted: 0 });
+    t.handle(0.0, Event::Restore { robot: id("b"), route: vec![1], reached: Some(0), granted: 0 });
+    let mut out = t.handle(0.1, Event::Route { robot: id("a"), route: vec![2, 3] });
+    out.extend(t.handle(0.2, Event::Route { robot: id("b"), route: vec![1, 0] }));
+    for who in ["a", "b"] {
+        assert!(out.iter().any(|c| matches!(c, Command::Grant { robot, .. } | Command::Route { robot, upto: Some(1), .. } if robot == &id(who))), "{who}: {out:?}");
+    }
 }
