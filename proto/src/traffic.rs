@@ -131,8 +131,12 @@ pub struct TrafficView {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrafficRobotView {
     pub robot: RobotId,
-    /// Its route's vertices (the map's vertex indices).
+    /// Its route's vertices (the map's vertex indices; vertices past the map's own cut its long
+    /// lanes into segments, in the order `traffic::layout::segmented` adds them).
     pub route: Vec<u32>,
+    /// Where each vertex of `route` is, metres.
+    #[serde(default)]
+    pub points: Vec<[f64; 2]>,
     /// The position in `route` it last reached, and the one it may drive to.
     pub reached: Option<u32>,
     pub granted: Option<u32>,

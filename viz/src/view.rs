@@ -192,13 +192,19 @@ impl View {
         let mut waiting = 0usize;
         for v in views {
             let Some(g) = graphs.get(&v.map) else { continue };
-            let at = |i: &u32| g.vertices.get(*i as usize).map(|x| [x.at.x as f32, x.at.y as f32]);
             for r in &v.robots {
+                // Where each vertex of its route is (traffic cuts long lanes: not all are the
+                // map's own).
+                let pts: Vec<Option<[f32; 2]>> = if r.points.len() == r.route.len() {
+                    r.points.iter().map(|p| Some([p[0] as f32, p[1] as f32])).collect()
+                } else {
+                    r.route.iter().map(|i| g.vertices.get(*i as usize).map(|x| [x.at.x as f32, x.at.y as f32])).collect()
+                };
                 let [cr, cg, cb] = robot_color(&r.robot);
                 let color = rerun::Color::from_rgb(cr, cg, cb);
                 let from = r.reached.unwrap_or(0) as usize;
-                let held: Vec<[f32; 2]> = r.granted.map(|g| r.route.iter().take(g as usize + 1).skip(from).filter_map(at).collect()).unwrap_or_default();
-                let ahead: Vec<[f32; 2]> = r.route.iter().skip(r.granted.unwrap_or(0) as usize).filter_map(at).collect();
+                let held: Vec<[f32; 2]> = r.granted.map(|g| pts.iter().take(g as usize + 1).skip(from).filter_map(|p| *p).collect()).unwrap_or_default();
+                let ahead: Vec<[f32; 2]> = pts.iter().skip(r.granted.unwrap_or(0) as usize).filter_map(|p| *p).collect();
                 let label = if r.lost { format!("{} (lost)", r.robot) } else { r.robot.to_string() };
                 let held = if held.len() == 1 { vec![held[0], held[0]] } else { held };
                 self.log(

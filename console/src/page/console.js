@@ -187,12 +187,13 @@
     for (const t of snap.traffic || []) {
       const l = layers[t.map];
       if (!l || !l.json || l.json.kind !== 'graph') continue;
-      const at = (v) => l.json.vertices[v];
       for (const r of t.robots) {
         const col = r.lost ? '#8a93a3' : robotColour(r.robot);
+        // Where each vertex of its route is (traffic cuts long lanes: not all are the map's own).
+        const pts = r.points && r.points.length === r.route.length ? r.points : r.route.map((v) => l.json.vertices[v]);
         const from = r.reached == null ? 0 : r.reached;
-        const held = r.granted == null ? [] : r.route.slice(from, r.granted + 1).map(at).filter(Boolean);
-        const ahead = r.route.slice(r.granted == null ? 0 : r.granted).map(at).filter(Boolean);
+        const held = r.granted == null ? [] : pts.slice(from, r.granted + 1).filter(Boolean);
+        const ahead = pts.slice(r.granted == null ? 0 : r.granted).filter(Boolean);
         ctx.strokeStyle = col;
         if (ahead.length > 1) {
           ctx.globalAlpha = 0.6; ctx.lineWidth = 1.5; ctx.setLineDash([5, 4]);

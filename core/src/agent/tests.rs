@@ -354,6 +354,7 @@ fn robots_waiting_or_blocked_in_traffic_are_raised_with_who_is_in_the_way() {
         let r1 = TrafficRobotView {
             robot: "r1".into(),
             route: vec![1, 2, 3],
+            points: vec![],
             reached: Some(0),
             granted: Some(0),
             holds: vec![1],

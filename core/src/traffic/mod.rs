@@ -235,6 +235,7 @@ impl Traffic {
                 mrmm_proto::traffic::TrafficRobotView {
                     robot: id.clone(),
                     route: r.route.clone(),
+                    points: r.route.iter().map(|&v| self.layout.point(v)).map(|p| [p.x, p.y]).collect(),
                     reached: r.reached.map(|p| p as u32),
                     granted: r.granted.map(|p| p as u32),
                     holds: r.held.keys().copied().filter(|&x| x < vertices).collect(),

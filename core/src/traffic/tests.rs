@@ -330,6 +330,9 @@ fn a_corridor_is_held_for_one_direction_at_a_time() {
     let mut out = t.handle(0.1, Event::Route { robot: id("a"), route: vec![2, 3] });
     out.extend(t.handle(0.2, Event::Route { robot: id("b"), route: vec![1, 0] }));
     for who in ["a", "b"] {
-        assert!(out.iter().any(|c| matches!(c, Command::Grant { robot, .. } | Command::Route { robot, upto: Some(1), .. } if robot == &id(who))), "{who}: {out:?}");
+        assert!(
+            out.iter().any(|c| matches!(c, Command::Grant { robot, .. } | Command::Route { robot, upto: Some(1), .. } if robot == &id(who))),
+            "{who}: {out:?}"
+        );
     }
 }

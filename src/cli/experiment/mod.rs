@@ -75,8 +75,8 @@ pub struct Args {
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=200))]
     sizes: Option<Vec<u32>>,
     /// traffic: cut lanes longer than this many metres into segments (robots follow one another
-    /// a segment apart); 0: every lane is one resource.
-    #[arg(long, default_value_t = 0.0)]
+    /// a segment apart; default: as the fleet's authority does); 0: every lane is one resource.
+    #[arg(long, default_value_t = mrmm_core::traffic::authority::SEGMENT_M)]
     segment: f64,
     /// traffic: hold each corridor (a chain of lanes without a junction) for one direction at a
     /// time.
@@ -213,7 +213,7 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
             bail!("--segment: 0 (lanes whole) or a length of at least 0.7 m (got {})", a.segment);
         }
         let rows = traffic::run(&a.out, &sizes, a.seed, a.segment, a.corridors)?;
-        traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64())?;
+        traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64(), (a.segment, a.corridors))?;
         println!("results in {}: results-traffic.csv, summary-traffic.md", a.out.display());
         return Ok(());
     }

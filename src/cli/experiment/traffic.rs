@@ -134,9 +134,11 @@ fn reference(row: &mut Row, graph: &mrmm_maps::NavGraph, seed: u64) -> anyhow::R
     Ok(())
 }
 
-pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64) -> anyhow::Result<()> {
+/// Writes the CSV and the summary; `how`: the lanes' segment length (0: whole) and whether
+/// corridors were locked.
+pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, how: (f64, bool)) -> anyhow::Result<()> {
     std::fs::write(out.join("results-traffic.csv"), csv(rows))?;
-    std::fs::write(out.join("summary-traffic.md"), summary(rows, command, elapsed))?;
+    std::fs::write(out.join("summary-traffic.md"), summary(rows, command, elapsed, how))?;
     Ok(())
 }
 
@@ -167,9 +169,11 @@ fn csv(rows: &[Row]) -> String {
     csv
 }
 
-fn summary(rows: &[Row], command: &str, elapsed: f64) -> String {
+fn summary(rows: &[Row], command: &str, elapsed: f64, (segment, corridors): (f64, bool)) -> String {
+    let lanes = if segment > 0.0 { format!("lanes longer than {segment} m cut into segments") } else { "every lane one resource".to_string() };
+    let locks = if corridors { ", corridors locked by direction" } else { "" };
     let mut s = format!(
-        "# Traffic on real floor plans\n\n`{command}` ({elapsed:.0} s). Each line: {SEEDS} seeds of 600 simulated seconds; robots at 0.5 – 1.5 m/s \
+        "# Traffic on real floor plans\n\n`{command}` ({elapsed:.0} s; {lanes}{locks}). Each line: {SEEDS} seeds of 600 simulated seconds; robots at 0.5 – 1.5 m/s \
          drive shortest routes to random vertices no other robot is going to, dwell up to 3 s and go on. *Blind*: the same robots \
          without traffic. *Stalled*: a robot stood five minutes wanting to drive. µs/event: the whole controlled run's wall time \
          (robots' motion included) per event traffic handled. *PIBT*: lifelong PIBT, the reference (`mrmm_core::traffic::pibt`), on the \

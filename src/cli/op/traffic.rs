@@ -106,6 +106,7 @@ mod tests {
         let r = |id: &str, waits: &[&str], blocked: bool| TrafficRobotView {
             robot: id.into(),
             route: (0..12).collect(),
+            points: vec![],
             reached: Some(2),
             granted: Some(3),
             holds: vec![2, 3],
