@@ -271,5 +271,9 @@ async fn the_console_shows_lanes_held_and_takes_a_lost_robot_off_them() -> anyho
         .query::<serde_json::Value>(proto::Key::SystemCmd(proto::SystemCmd::ClearTraffic), Some(&proto::traffic::TrafficClear { robot: "r1".into() }))
         .await;
     assert!(err.as_ref().is_err_and(|e| e.to_string().contains("not lost")), "{err:?}");
+    // The same from the command line: one line, and a failing status.
+    let out = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "traffic", "--clear", "r2"]).output()?;
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && said.contains("robot r2 is not lost") && said.trim().lines().count() == 1, "{said}");
     Ok(())
 }
