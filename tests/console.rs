@@ -41,16 +41,43 @@ fn browser() -> Result<PathBuf, String> {
     Ok(chromium)
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browser() -> anyhow::Result<()> {
-    let chromium = match browser() {
-        Ok(c) => c,
+/// Chromium and the driver, or `None` to skip (outside CI only: CI must run the browser tests).
+fn browser_or_skip() -> anyhow::Result<Option<PathBuf>> {
+    match browser() {
+        Ok(c) => Ok(Some(c)),
         Err(why) if std::env::var("CI").as_deref() != Ok("true") => {
             eprintln!("skipped: {why} (`bash .ci/run` installs them)");
-            return Ok(());
+            Ok(None)
         }
         Err(why) => anyhow::bail!("{why}: .ci/run installs Chromium and playwright-core"),
-    };
+    }
+}
+
+/// The URL (with its token) a console printed.
+fn console_url(console: &common::Proc) -> anyhow::Result<String> {
+    Ok(console.ready.split_whitespace().find(|w| w.starts_with("http://")).ok_or_else(|| anyhow!("no URL in {:?}", console.ready))?.to_string())
+}
+
+/// Runs `tests/browser/<script>.cjs` with `args` in Chromium, within `limit`: the JSON line it
+/// printed last.
+async fn run_browser(chromium: &std::path::Path, script: &str, args: &[&str], limit: Duration) -> anyhow::Result<serde_json::Value> {
+    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/browser/{script}.cjs"));
+    let out = tokio::process::Command::new("node")
+        .arg(&script)
+        .args(args)
+        .env("NODE_PATH", node_modules())
+        .env("MRMM_CHROMIUM", chromium)
+        .kill_on_drop(true)
+        .output();
+    let out = tokio::time::timeout(limit, out).await.with_context(|| format!("the browser run took over {} s", limit.as_secs()))??;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    anyhow::ensure!(out.status.success(), "browser run failed: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_str(stdout.lines().last().unwrap_or_default()).with_context(|| format!("browser output {stdout:?}"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browser() -> anyhow::Result<()> {
+    let Some(chromium) = browser_or_skip()? else { return Ok(()) };
     let dir = Scratch::new("console");
     let pki = common::fleet_pki(&dir, 4)?;
     let (_central, ep) = common::start_secure_central(&dir, &pki)?;
@@ -66,7 +93,7 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
         "mrmm console: http://",
         Duration::from_secs(20),
     )?;
-    let url = console.ready.split_whitespace().find(|w| w.starts_with("http://")).ok_or_else(|| anyhow!("no URL in {:?}", console.ready))?.to_string();
+    let url = console_url(&console)?;
     let (base, token) = url.split_once("/#token=").ok_or_else(|| anyhow!("no token in {url}"))?;
     let addr = base.trim_start_matches("http://").to_string();
 
@@ -89,19 +116,7 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
 
     // The operator, in Chromium.
     let shot = dir.path("console.png");
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/browser/console.cjs");
-    let out = tokio::process::Command::new("node")
-        .arg(&script)
-        .arg(&url)
-        .arg(&shot)
-        .env("NODE_PATH", node_modules())
-        .env("MRMM_CHROMIUM", &chromium)
-        .kill_on_drop(true)
-        .output();
-    let out = tokio::time::timeout(Duration::from_secs(150), out).await.context("the browser run took over 150 s")??;
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    anyhow::ensure!(out.status.success(), "browser run failed: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
-    let seen: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap_or_default()).with_context(|| format!("browser output {stdout:?}"))?;
+    let seen = run_browser(&chromium, "console", &[&url, &shot.display().to_string()], Duration::from_secs(150)).await?;
     assert_eq!(seen["address_without_token"], true, "{seen}");
     assert_eq!(seen["points"], "4 points", "{seen}");
     assert_eq!(seen["tour_drawn"], true, "the patrol's tour is on the map: {seen}");
@@ -138,14 +153,7 @@ async fn an_operator_selects_robots_on_the_map_and_assigns_them_in_a_real_browse
 /// corridor light where the page puts them, and the map offered in the Create dialog.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_console_draws_the_building_under_the_fleet() -> anyhow::Result<()> {
-    let chromium = match browser() {
-        Ok(c) => c,
-        Err(why) if std::env::var("CI").as_deref() != Ok("true") => {
-            eprintln!("skipped: {why} (`bash .ci/run` installs them)");
-            return Ok(());
-        }
-        Err(why) => anyhow::bail!("{why}: .ci/run installs Chromium and playwright-core"),
-    };
+    let Some(chromium) = browser_or_skip()? else { return Ok(()) };
     let dir = Scratch::new("console-map");
     let map = format!("building={}", PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/building/building.yaml").display());
     let central = common::start(
@@ -164,21 +172,9 @@ async fn the_console_draws_the_building_under_the_fleet() -> anyhow::Result<()> 
         "mrmm console: http://",
         Duration::from_secs(20),
     )?;
-    let url = console.ready.split_whitespace().find(|w| w.starts_with("http://")).ok_or_else(|| anyhow!("no URL in {:?}", console.ready))?.to_string();
+    let url = console_url(&console)?;
     let shot = dir.path("map.png");
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/browser/map.cjs");
-    let out = tokio::process::Command::new("node")
-        .arg(&script)
-        .arg(&url)
-        .arg(&shot)
-        .env("NODE_PATH", node_modules())
-        .env("MRMM_CHROMIUM", &chromium)
-        .kill_on_drop(true)
-        .output();
-    let out = tokio::time::timeout(Duration::from_secs(90), out).await.context("the browser run took over 90 s")??;
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    anyhow::ensure!(out.status.success(), "browser run failed: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
-    let seen: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap_or_default()).with_context(|| format!("browser output {stdout:?}"))?;
+    let seen = run_browser(&chromium, "map", &[&url, &shot.display().to_string()], Duration::from_secs(90)).await?;
     assert_eq!(seen["maps"], serde_json::json!(["building"]), "{seen}");
     assert!(seen["wall"].as_f64().is_some_and(|v| v < 120.0), "an office wall is dark: {seen}");
     assert!(seen["corridor"].as_f64().is_some_and(|v| v > 200.0), "the corridor is light: {seen}");
@@ -191,14 +187,7 @@ async fn the_console_draws_the_building_under_the_fleet() -> anyhow::Result<()> 
 /// "Take off lanes" button frees what it held (central's traffic authority no longer lists it).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_console_shows_lanes_held_and_takes_a_lost_robot_off_them() -> anyhow::Result<()> {
-    let chromium = match browser() {
-        Ok(c) => c,
-        Err(why) if std::env::var("CI").as_deref() != Ok("true") => {
-            eprintln!("skipped: {why} (`bash .ci/run` installs them)");
-            return Ok(());
-        }
-        Err(why) => anyhow::bail!("{why}: .ci/run installs Chromium and playwright-core"),
-    };
+    let Some(chromium) = browser_or_skip()? else { return Ok(()) };
     let dir = Scratch::new("console-traffic");
     let office = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml");
     let central = common::start(
@@ -244,22 +233,9 @@ async fn the_console_shows_lanes_held_and_takes_a_lost_robot_off_them() -> anyho
         "mrmm console: http://",
         Duration::from_secs(20),
     )?;
-    let url = console.ready.split_whitespace().find(|w| w.starts_with("http://")).ok_or_else(|| anyhow!("no URL in {:?}", console.ready))?.to_string();
+    let url = console_url(&console)?;
     let shot = dir.path("traffic.png");
-    let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/browser/traffic.cjs");
-    let out = tokio::process::Command::new("node")
-        .arg(&script)
-        .arg(&url)
-        .arg(&shot)
-        .arg("r3")
-        .env("NODE_PATH", node_modules())
-        .env("MRMM_CHROMIUM", &chromium)
-        .kill_on_drop(true)
-        .output();
-    let out = tokio::time::timeout(Duration::from_secs(150), out).await.context("the browser run took over 150 s")??;
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    anyhow::ensure!(out.status.success(), "browser run failed: {}\n{stdout}", String::from_utf8_lossy(&out.stderr));
-    let seen: serde_json::Value = serde_json::from_str(stdout.lines().last().unwrap_or_default()).with_context(|| format!("browser output {stdout:?}"))?;
+    let seen = run_browser(&chromium, "traffic", &[&url, &shot.display().to_string(), "r3"], Duration::from_secs(150)).await?;
     assert_eq!(seen["lost_state"], "lost", "{seen}");
     assert!(seen["message"].as_str().is_some_and(|m| m.contains("taken off the lanes")), "{seen}");
     assert!(seen["rows"].as_array().is_some_and(|r| r.len() == 3), "{seen}");

@@ -89,14 +89,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
     assert!(status.success(), "demo exit status {status}");
 
-    let file = std::io::BufReader::new(std::fs::File::open(&rrd)?);
-    let mut rows: BTreeMap<String, usize> = BTreeMap::new();
-    for msg in DecoderApp::decode_lazy(file) {
-        if let LogMsg::ArrowMsg(_, arrow) = msg? {
-            let chunk = Chunk::from_arrow_msg(&arrow)?;
-            *rows.entry(chunk.entity_path().to_string()).or_default() += chunk.num_rows();
-        }
-    }
+    let rows = entity_rows(&rrd)?;
     let has = |p: &str| rows.get(p).copied().unwrap_or(0);
     let keys = || rows.keys().cloned().collect::<Vec<_>>();
     for r in 1..=6 {
@@ -139,14 +132,7 @@ async fn the_recording_shows_traffic_on_a_graph_map() -> anyhow::Result<()> {
     demo.signal("INT")?;
     let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
     assert!(status.success(), "demo exit status {status}");
-    let file = std::io::BufReader::new(std::fs::File::open(&rrd)?);
-    let mut rows: BTreeMap<String, usize> = BTreeMap::new();
-    for msg in DecoderApp::decode_lazy(file) {
-        if let LogMsg::ArrowMsg(_, arrow) = msg? {
-            let chunk = Chunk::from_arrow_msg(&arrow)?;
-            *rows.entry(chunk.entity_path().to_string()).or_default() += chunk.num_rows();
-        }
-    }
+    let rows = entity_rows(&rrd)?;
     let keys = || rows.keys().cloned().collect::<Vec<_>>();
     let held = rows.keys().filter(|k| k.starts_with("/fleet/traffic/") && k.ends_with("/held")).count();
     assert_eq!(held, 4, "lanes held of every robot: {:?}", keys());
@@ -168,4 +154,17 @@ fn viz_without_a_viewer_says_so_and_keeps_going() -> anyhow::Result<()> {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("viewer URL"));
     Ok(())
+}
+
+/// Rows logged per entity path in recording `rrd`, read with Rerun's own decoder.
+fn entity_rows(rrd: &std::path::Path) -> anyhow::Result<BTreeMap<String, usize>> {
+    let file = std::io::BufReader::new(std::fs::File::open(rrd)?);
+    let mut rows: BTreeMap<String, usize> = BTreeMap::new();
+    for msg in DecoderApp::decode_lazy(file) {
+        if let LogMsg::ArrowMsg(_, arrow) = msg? {
+            let chunk = Chunk::from_arrow_msg(&arrow)?;
+            *rows.entry(chunk.entity_path().to_string()).or_default() += chunk.num_rows();
+        }
+    }
+    Ok(rows)
 }

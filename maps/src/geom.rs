@@ -21,6 +21,17 @@ impl Point {
     }
 }
 
+/// Distance from `p` to the segment `a`–`b`.
+pub fn point_segment_distance(p: Point, a: Point, b: Point) -> f64 {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let len2 = dx * dx + dy * dy;
+    if len2 == 0.0 {
+        return p.dist(a);
+    }
+    let t = (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0);
+    p.dist(Point::new(a.x + t * dx, a.y + t * dy))
+}
+
 /// Length of an open polyline.
 pub fn length(points: &[Point]) -> f64 {
     points.windows(2).map(|w| w[0].dist(w[1])).sum()

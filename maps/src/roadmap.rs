@@ -11,7 +11,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use crate::error::MapError;
-use crate::geom::Point;
+use crate::geom::{point_segment_distance, Point};
 use crate::graph::{Edge, NavGraph, Vertex};
 use crate::grid::OccupancyGrid;
 
@@ -329,12 +329,14 @@ fn prune(branches: &mut Vec<Branch>, shortest: f64) {
             break;
         }
     }
-    // Join through nodes of degree two.
-    loop {
-        let degree = degrees(branches);
-        let Some((&n, _)) = degree.iter().find(|(&n, &d)| d == 2 && branches.iter().filter(|b| b.a == n || b.b == n).all(|b| b.a != b.b)) else { break };
-        let mut two: Vec<usize> = (0..branches.len()).filter(|&i| branches[i].a == n || branches[i].b == n).collect();
-        let (j, i) = (two.pop().unwrap_or(0), two.pop().unwrap_or(0));
+    // Join through nodes of degree two, in node order (a join changes no other node's degree).
+    let through: Vec<usize> = degrees(branches).into_iter().filter(|&(_, d)| d == 2).map(|(n, _)| n).collect();
+    for n in through {
+        let two: Vec<usize> = (0..branches.len()).filter(|&i| branches[i].a == n || branches[i].b == n).collect();
+        let [i, j] = two[..] else { continue };
+        if branches[i].a == branches[i].b || branches[j].a == branches[j].b {
+            continue; // a loop back to its own node
+        }
         let mut x = branches[i].clone();
         let mut y = branches.swap_remove(j);
         if x.b != n {
@@ -457,13 +459,6 @@ fn simplify(work: &Work, pts: &[Point], tolerance: f64) -> Vec<usize> {
         out.push(k);
     }
     out
-}
-
-fn point_segment_distance(p: Point, a: Point, b: Point) -> f64 {
-    let (dx, dy) = (b.x - a.x, b.y - a.y);
-    let len2 = dx * dx + dy * dy;
-    let t = if len2 > 0.0 { (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-    p.dist(Point::new(a.x + t * dx, a.y + t * dy))
 }
 
 #[cfg(test)]

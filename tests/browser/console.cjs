@@ -5,19 +5,14 @@
 // Usage: node console.cjs URL SCREENSHOT.
 // Prints one JSON line with what it saw; exits non-zero (with the reason) on any failure.
 'use strict';
-const { chromium } = require('playwright-core');
+const { launch } = require('./launch.cjs');
 
 const [url, shot] = process.argv.slice(2);
 const LIMIT = 30000;
 
 async function main() {
-  const browser = await chromium.launch({
-    executablePath: process.env.MRMM_CHROMIUM || '/usr/bin/chromium',
-    headless: true,
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
+  const { browser, page } = await launch();
   const seen = {};
-  const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
   try {
     const errors = [];
     page.on('pageerror', (e) => errors.push(String(e)));

@@ -3,18 +3,13 @@
 // where the page puts a wall and a corridor of the demo building.
 // Usage: node map.cjs URL SCREENSHOT. Prints one JSON line with what it saw.
 'use strict';
-const { chromium } = require('playwright-core');
+const { launch } = require('./launch.cjs');
 
 const [url, shot] = process.argv.slice(2);
 
 async function main() {
-  const browser = await chromium.launch({
-    executablePath: process.env.MRMM_CHROMIUM || '/usr/bin/chromium',
-    headless: true,
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
+  const { browser, page } = await launch();
   const seen = {};
-  const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
   try {
     const errors = [];
     page.on('pageerror', (e) => errors.push(String(e)));

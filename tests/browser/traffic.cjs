@@ -4,7 +4,7 @@
 // console's answer.
 // Usage: node traffic.cjs URL SCREENSHOT LOST_ROBOT. Prints one JSON line with what it saw.
 'use strict';
-const { chromium } = require('playwright-core');
+const { launch } = require('./launch.cjs');
 
 const [url, shot, lost] = process.argv.slice(2);
 
@@ -19,13 +19,8 @@ async function until(what, ms, probe) {
 }
 
 async function main() {
-  const browser = await chromium.launch({
-    executablePath: process.env.MRMM_CHROMIUM || '/usr/bin/chromium',
-    headless: true,
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run', '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
+  const { browser, page } = await launch();
   const seen = {};
-  const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
   try {
     const errors = [];
     page.on('pageerror', (e) => errors.push(String(e)));

@@ -9,6 +9,7 @@
 
 use std::collections::HashMap;
 
+use mrmm_maps::geom::point_segment_distance;
 use mrmm_maps::{NavGraph, Point};
 
 /// A resource: a vertex or a lane.
@@ -334,17 +335,6 @@ impl Buckets {
             self.cell(Point::new(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)))
         })
     }
-}
-
-/// Distance from `p` to the segment `a`–`b`.
-pub fn point_segment_distance(p: Point, a: Point, b: Point) -> f64 {
-    let (dx, dy) = (b.x - a.x, b.y - a.y);
-    let len2 = dx * dx + dy * dy;
-    if len2 == 0.0 {
-        return p.dist(a);
-    }
-    let t = (((p.x - a.x) * dx + (p.y - a.y) * dy) / len2).clamp(0.0, 1.0);
-    p.dist(Point::new(a.x + t * dx, a.y + t * dy))
 }
 
 /// Distance between segments `a`–`b` and `c`–`d` (zero where they cross).
