@@ -3,7 +3,7 @@
 
 use mrmm_proto::{self as proto, MissionName, NodeId, PlanAssignment, RobotCommand, RobotId, Sender, Step};
 
-use super::{traffic, BodyKind, Command, Robot, MAX_ADMISSIONS, MAX_GOTO_VIA, MAX_PLAN_STEPS};
+use super::{traffic, BodyKind, Command, Robot, Unsent, MAX_ADMISSIONS, MAX_GOTO_VIA, MAX_PLAN_STEPS};
 use crate::executor::Executor;
 
 impl Robot {
@@ -66,9 +66,11 @@ impl Robot {
                 }
                 // On a map with lanes the goto is a goal of traffic's (its route is the lanes'):
                 // the robot was there with a plan, and is still.
+                self.unsent = None;
                 if let Some(g) = self.traffic.as_mut().filter(|g| !g.free()) {
                     self.route.clear();
                     g.navigate(*x, *y, None);
+                    self.unsent = Some(Unsent::Goto(via.iter().map(|p| (p[0], p[1])).chain([(*x, *y)]).collect()));
                     return Ok(change);
                 }
                 self.route = via.iter().map(|p| (p[0], p[1])).chain([(*x, *y)]).collect();
@@ -81,6 +83,7 @@ impl Robot {
                     change = Some(Command::LeaveTeam);
                 }
                 self.route.clear();
+                self.unsent = None;
                 self.body.hold();
                 // On lanes: it stops at the vertex nearest (after the lane it is on).
                 if let Some(g) = self.traffic.as_mut().filter(|g| !g.free()) {
@@ -139,6 +142,7 @@ impl Robot {
         }
         tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
         self.route.clear();
+        self.unsent = None;
         self.body.hold();
         let join =
             Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier, members: a.members.clone(), scopes: a.scopes.clone() };

@@ -105,6 +105,15 @@ pub enum Command {
     Crash,
 }
 
+/// A goal given to traffic before it said whether it routes it ([`Robot::hand_over`]).
+#[derive(Debug, Clone)]
+enum Unsent {
+    /// A navigate step of the plan.
+    Step { x: f64, y: f64, then: Option<crate::body::Onward>, speed: Option<f64> },
+    /// A goto: its points, the goal last.
+    Goto(std::collections::VecDeque<(f64, f64)>),
+}
+
 /// A robot's state, independent of the network.
 #[derive(Debug)]
 pub struct Robot {
@@ -131,6 +140,9 @@ pub struct Robot {
     route: std::collections::VecDeque<(f64, f64)>,
     /// On a map: what traffic grants it (kept from plan to plan on the same map).
     traffic: Option<traffic::Gate>,
+    /// The goal given to traffic before it said whether the map has lanes: driven as it is
+    /// once traffic says it has none.
+    unsent: Option<Unsent>,
 }
 
 impl Robot {
@@ -159,6 +171,7 @@ impl Robot {
             info_rev: 0,
             keep: false,
             route: Default::default(),
+            unsent: None,
             traffic: None,
         }
     }
@@ -305,6 +318,9 @@ impl Robot {
             Event::Traffic { map, order, deputy } => {
                 if let Some(g) = self.traffic.as_mut().filter(|g| g.map().hash == map) {
                     g.order(now, order, deputy);
+                    if g.free() {
+                        self.hand_over();
+                    }
                 }
                 vec![]
             }
@@ -382,13 +398,31 @@ impl Robot {
         out
     }
 
+    /// Traffic said the map has no lanes: the goal it was given is the body's now (the plan
+    /// waits on its step until the body gets there).
+    fn hand_over(&mut self) {
+        match self.unsent.take() {
+            Some(Unsent::Step { x, y, then, speed }) if self.exec.is_some() => self.body.navigate_through(x, y, then, speed),
+            Some(Unsent::Goto(route)) if self.exec.is_none() => {
+                self.route = route;
+                if let Some((x, y)) = self.route.pop_front() {
+                    self.body.navigate_capped(x, y, None);
+                }
+            }
+            _ => {}
+        }
+    }
+
     /// Carries out the plan's commands on the body; arrivals go out.
     fn carry_out(&mut self, cmds: Vec<executor::Command>) -> Vec<Command> {
         let mut out = Vec::new();
         for c in cmds {
             match c {
                 executor::Command::Navigate { x, y, then, speed } => match self.traffic.as_mut().filter(|g| !g.free()) {
-                    Some(g) => g.navigate(x, y, speed),
+                    Some(g) => {
+                        g.navigate(x, y, speed);
+                        self.unsent = Some(Unsent::Step { x, y, then, speed });
+                    }
                     None => self.body.navigate_through(x, y, then, speed),
                 },
                 executor::Command::Hold => self.body.hold(),

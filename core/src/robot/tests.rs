@@ -260,3 +260,49 @@ fn a_simulated_robot_crashes_on_centrals_word_after_answering_and_a_ros_robot_re
     assert!(!out.iter().any(|c| matches!(c, Command::Crash)), "a real robot is not crashed: {out:?}");
     assert!(matches!(&out[0], Command::Reply(Err(e)) if e.contains("only a simulated robot")), "{out:?}");
 }
+
+/// On a map, a plan's goal goes to traffic first; when traffic answers that the map has no lanes
+/// (a grid map), the body drives to that goal — the plan does not skip it for the next one (an
+/// aerial robot of the demo once flew straight through the building's walls so).
+#[test]
+fn a_goal_given_to_traffic_is_driven_when_the_map_has_no_lanes() {
+    let map = mrmm_proto::MapRef { name: "building".into(), hash: "ab".repeat(32) };
+    let mut r = Robot::new(cfg());
+    let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
+    a.map = Some(map.clone());
+    a.plan.steps = vec![Step::Navigate { x: 4.0, y: 0.0, speed: None }, Step::Navigate { x: 4.0, y: -4.0, speed: None }, Step::Hold { seconds: None }];
+    cmd(&mut r, RobotCommand::Plan(a)).0.expect("plan taken");
+    // Traffic has not answered yet: the robot stands, waiting for its word.
+    for i in 0..10 {
+        r.handle(i as f64 * 0.01, Event::Tick);
+    }
+    assert_eq!(r.body.goal(), None);
+    r.handle(0.1, Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
+    r.handle(0.11, Event::Tick);
+    assert_eq!(r.body.goal(), Some((4.0, 0.0)), "the first goal, not the next one");
+    // It gets there, then drives on to the next.
+    let mut seen_first = false;
+    for i in 12..400 {
+        r.handle(i as f64 * 0.01, Event::Tick);
+        let p = r.body.pose();
+        seen_first |= (p.x - 4.0).abs() < 0.2 && p.y.abs() < 0.2;
+    }
+    assert!(seen_first, "passed by (4, 0)");
+    let p = r.body.pose();
+    assert!((p.x - 4.0).abs() < 0.1 && (p.y + 4.0).abs() < 0.1, "{p:?}");
+}
+
+/// The same for a goto given to traffic before it answered: its route is driven point by point.
+#[test]
+fn a_goto_given_to_traffic_is_driven_along_its_route_when_the_map_has_no_lanes() {
+    let map = mrmm_proto::MapRef { name: "building".into(), hash: "cd".repeat(32) };
+    let mut r = Robot::new(cfg());
+    let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
+    a.map = Some(map.clone());
+    cmd(&mut r, RobotCommand::Plan(a)).0.expect("plan taken");
+    cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]] }).0.expect("goto taken");
+    r.handle(0.0, Event::Tick);
+    assert_eq!(r.body.goal(), None, "traffic's word first");
+    r.handle(0.05, Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
+    assert_eq!(r.body.goal(), Some((4.0, 0.0)), "the route's first point");
+}
