@@ -198,8 +198,11 @@ async fn a_takeover_with_central_gone_replans_on_the_map() -> anyhow::Result<()>
     Ok(())
 }
 
-/// `mrmm demo --map`: the recording (read with Rerun's own decoder) holds the building under the
-/// fleet and the layout the viewer opens on.
+/// `mrmm demo --map` on a grid map: its robots drive lanes traffic derives from the building's
+/// free space (the traffic table lists them all on the map), never into a wall and never closer
+/// to each other than the clearance (every pose an outside client hears, against the others'
+/// last within 0.3 s); the recording (read with Rerun's own decoder) holds the building under
+/// the fleet and the layout the viewer opens on.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_demo_on_a_map_records_the_building_and_its_layout() -> anyhow::Result<()> {
     use rerun::external::re_log_encoding::DecoderApp;
@@ -213,7 +216,7 @@ async fn the_demo_on_a_map_records_the_building_and_its_layout() -> anyhow::Resu
         &[
             "--insecure",
             "--robots",
-            "4",
+            "8",
             "--duration",
             "60",
             "--listen",
@@ -246,19 +249,32 @@ async fn the_demo_on_a_map_records_the_building_and_its_layout() -> anyhow::Resu
         assert!(g.is_free(Point::new(p.x, p.y)), "{} starts in a free cell: {p:?}", r.id);
     }
     // The demo fleet drives for a while (the viewer bridge meanwhile fetches and draws the map):
-    // every pose it reports is in a free cell of the building.
-    let (mut poses, until) = (0u64, Instant::now() + Duration::from_secs(8));
+    // every pose it reports is in a free cell of the building, none too near another robot.
+    let (mut poses, until) = (0u64, Instant::now() + Duration::from_secs(12));
+    let mut last: std::collections::BTreeMap<String, (Point, Instant)> = Default::default();
+    let mut closest = (f64::INFINITY, String::new());
     while Instant::now() < until {
         match tokio::time::timeout(Duration::from_millis(500), telemetry.recv_async()).await {
             Ok(Ok(s)) => {
                 let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) else { continue };
-                let v = g.at(Point::new(t.pose.x, t.pose.y));
+                let (p, now) = (Point::new(t.pose.x, t.pose.y), Instant::now());
+                let v = g.at(p);
                 assert!(matches!(v, Some(0..=49)), "{} at ({:.2}, {:.2}): occupancy {v:?}", t.id, t.pose.x, t.pose.y);
+                for (other, (q, at)) in &last {
+                    if other.as_str() != t.id.as_str() && now.duration_since(*at) < Duration::from_millis(300) && p.dist(*q) < closest.0 {
+                        closest = (p.dist(*q), format!("{} at {p:?}, {other} at {q:?}", t.id));
+                    }
+                }
+                last.insert(t.id.to_string(), (p, now));
                 poses += 1;
             }
             _ => continue,
         }
     }
+    assert!(closest.0 >= mrmm_core::traffic::CLEARANCE, "robots {:.2} m apart: {}", closest.0, closest.1);
+    let traffic: Vec<proto::traffic::TrafficView> = client.query(proto::Key::SystemTraffic, None::<&()>).await?;
+    let on_lanes = traffic.first().map_or(0, |v| v.robots.len());
+    assert_eq!(on_lanes, 8, "every robot on the building's lanes: {traffic:?}");
     assert!(poses > 100, "{poses} poses checked");
     client.close().await;
     demo.signal("INT")?;

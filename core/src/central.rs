@@ -84,6 +84,12 @@ impl CentralCore {
         self
     }
 
+    /// Robots on the maps of these bundle hashes drive without traffic (no lanes).
+    pub fn without_lanes(mut self, hashes: Vec<String>) -> Self {
+        self.traffic.without_lanes(hashes);
+        self
+    }
+
     /// Former versions of the maps that journaled missions plan on.
     pub fn with_superseded(mut self, maps: Vec<std::sync::Arc<crate::maps::Held>>) -> Self {
         self.traffic.add_maps(maps.iter().map(|h| (h.info.hash.clone(), h.map.clone())));

@@ -33,6 +33,10 @@ pub struct Args {
     /// .graph or an Open-RMF navigation graph); added to the config's `maps`.
     #[arg(long = "map", value_name = "NAME=FILE")]
     maps: Vec<String>,
+    /// A grid map (by name) whose robots drive their plans without traffic, on no lanes
+    /// (repeatable); added to the config's `no_lanes`.
+    #[arg(long = "no-lanes", value_name = "NAME")]
+    no_lanes: Vec<String>,
 }
 
 /// The per-user data directory central keeps its journal in when nothing else is said.
@@ -68,6 +72,7 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         let (name, file) = m.split_once('=').ok_or_else(|| anyhow::anyhow!("--map {m:?}: expected NAME=FILE"))?;
         cfg.maps.insert(name.to_string(), PathBuf::from(file));
     }
+    cfg.no_lanes.extend(args.no_lanes);
     if let Some(d) = args.state_dir {
         cfg.state_dir = Some(d);
     }

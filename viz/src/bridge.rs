@@ -61,8 +61,7 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
     let mut hello = tokio::time::interval(Duration::from_millis(proto::VIEWER_HELLO_MS));
     let hello_key = Key::Viewer(mesh.me().id.clone()).to_string();
     let mut probe_tick = tokio::time::interval(PROBE_EVERY);
-    // Central's traffic, asked once a second (one query at a time, off the loop), drawn on the
-    // graph maps fetched so far.
+    // Central's traffic, asked once a second (one query at a time, off the loop).
     let mut traffic_tick = tokio::time::interval(TRAFFIC_EVERY);
     let mut asking: tokio::task::JoinSet<Option<Vec<TrafficView>>> = tokio::task::JoinSet::new();
     loop {
@@ -82,10 +81,9 @@ pub async fn run(mesh: Mesh, sink: Sink, shutdown: CancellationToken) -> Result<
                 });
             }
             Some(done) = asking.join_next(), if !asking.is_empty() => {
+                // (Each view carries its vertices' points; the maps are drawn under the names
+                // the missions on them give.)
                 if let Ok(Some(views)) = done {
-                    for v in &views {
-                        maps.want(proto::MapRef { name: v.map.chars().take(12).collect(), hash: v.map.clone() });
-                    }
                     view.traffic(&views, &maps.graphs);
                 }
             }

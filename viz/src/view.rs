@@ -183,7 +183,7 @@ impl View {
         self.missions.insert(m.name.clone(), m.clone());
     }
 
-    /// Traffic on the graph maps drawn so far (`graphs`, by hash): each robot's lanes held,
+    /// Traffic on the maps (`graphs`, by hash, for views without points): each robot's lanes held,
     /// the rest of its route, arrows to the robots it waits for; robots gone from traffic are
     /// cleared.
     pub(crate) fn traffic(&mut self, views: &[TrafficView], graphs: &BTreeMap<String, std::sync::Arc<mrmm_maps::NavGraph>>) {
@@ -191,14 +191,14 @@ impl View {
         let mut drawn = std::collections::BTreeSet::new();
         let mut waiting = 0usize;
         for v in views {
-            let Some(g) = graphs.get(&v.map) else { continue };
+            let g = graphs.get(&v.map);
             for r in &v.robots {
                 // Where each vertex of its route is (traffic cuts long lanes: not all are the
                 // map's own).
-                let pts: Vec<Option<[f32; 2]>> = if r.points.len() == r.route.len() {
-                    r.points.iter().map(|p| Some([p[0] as f32, p[1] as f32])).collect()
-                } else {
-                    r.route.iter().map(|i| g.vertices.get(*i as usize).map(|x| [x.at.x as f32, x.at.y as f32])).collect()
+                let pts: Vec<Option<[f32; 2]>> = match g {
+                    _ if r.points.len() == r.route.len() => r.points.iter().map(|p| Some([p[0] as f32, p[1] as f32])).collect(),
+                    Some(g) => r.route.iter().map(|i| g.vertices.get(*i as usize).map(|x| [x.at.x as f32, x.at.y as f32])).collect(),
+                    None => continue,
                 };
                 let [cr, cg, cb] = robot_color(&r.robot);
                 let color = rerun::Color::from_rgb(cr, cg, cb);

@@ -186,11 +186,13 @@
     const poseOf = new Map(snap.robots.filter((r) => r.pose).map((r) => [r.id, r.pose]));
     for (const t of snap.traffic || []) {
       const l = layers[t.map];
-      if (!l || !l.json || l.json.kind !== 'graph') continue;
+      if (!l || !l.json) continue;
       for (const r of t.robots) {
         const col = r.lost ? '#8a93a3' : robotColour(r.robot);
-        // Where each vertex of its route is (traffic cuts long lanes: not all are the map's own).
-        const pts = r.points && r.points.length === r.route.length ? r.points : r.route.map((v) => l.json.vertices[v]);
+        // Where each vertex of its route is (traffic cuts long lanes, and derives a grid map's:
+        // not all are the map's own).
+        const own = l.json.kind === 'graph' ? l.json.vertices : [];
+        const pts = r.points && r.points.length === r.route.length ? r.points : r.route.map((v) => own[v]);
         const from = r.reached == null ? 0 : r.reached;
         const held = r.granted == null ? [] : pts.slice(from, r.granted + 1).filter(Boolean);
         const ahead = pts.slice(r.granted == null ? 0 : r.granted).filter(Boolean);

@@ -22,8 +22,11 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use std::borrow::Cow;
+
+use mrmm_maps::graph::NavGraph;
 use mrmm_maps::space::GraphSpace;
-use mrmm_maps::{Map, Point};
+use mrmm_maps::{Map, OccupancyGrid, Point};
 use mrmm_proto::traffic::{RouteVertex, TrafficCleared, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
 use mrmm_proto::{RobotId, TrafficOrder};
 
@@ -80,6 +83,9 @@ struct Seen {
 struct OnMap {
     /// None: the map has no lanes.
     lanes: Option<(Traffic, GraphSpace)>,
+    /// A grid map's cells (its lanes are derived): a robot enters the lanes, and leaves them
+    /// for a goal, at a vertex it sees from where it is.
+    grid: Option<Arc<Map>>,
     robots: BTreeMap<RobotId, Seen>,
     /// The robots named in every order to take over, in turn, when central is away.
     deputies: Vec<RobotId>,
@@ -153,6 +159,14 @@ impl Authority {
     pub fn add_maps(&mut self, maps: impl IntoIterator<Item = (String, Arc<Map>)>) {
         for (hash, map) in maps {
             self.maps.entry(hash).or_insert_with(|| OnMap::new(&map));
+        }
+    }
+
+    /// Robots on the maps of these bundle hashes drive without traffic: their reports are
+    /// answered [`TrafficOrder::Free`].
+    pub fn without_lanes(&mut self, hashes: impl IntoIterator<Item = String>) {
+        for hash in hashes {
+            self.maps.insert(hash, OnMap { lanes: None, grid: None, robots: BTreeMap::new(), deputies: Vec::new() });
         }
     }
 
@@ -285,13 +299,14 @@ impl Authority {
 }
 
 impl OnMap {
-    fn new(map: &Map) -> OnMap {
-        let lanes = map.graph().map(|g| {
+    fn new(map: &Arc<Map>) -> OnMap {
+        let lanes = lanes_of(map).map(|g| {
             // Lanes cut into segments: robots follow one another a segment apart.
-            let cut = super::layout::segmented(g, SEGMENT_M);
+            let cut = super::layout::segmented(&g, SEGMENT_M);
             (Traffic::new(Arc::new(Layout::new(&cut, CLEARANCE)), Params::default()), GraphSpace::new(&cut))
         });
-        OnMap { lanes, robots: BTreeMap::new(), deputies: Vec::new() }
+        let grid = (lanes.is_some() && matches!(**map, Map::Grid(_))).then(|| map.clone());
+        OnMap { lanes, grid, robots: BTreeMap::new(), deputies: Vec::new() }
     }
 
     /// Names the deputies: a deputy that took over (`me`) first — robots take its orders as
@@ -355,7 +370,11 @@ impl OnMap {
             if let Some(goal) = report.goal.filter(|g| seen.goal != Some(g.id)) {
                 seen.goal = Some(goal.id);
                 seen.refused = None;
-                match route_to(traffic, space, &robot, Point::new(report.x, report.y), goal) {
+                let grid = match self.grid.as_deref() {
+                    Some(Map::Grid(g)) => Some(g),
+                    _ => None,
+                };
+                match route_to(traffic, space, grid, &robot, Point::new(report.x, report.y), goal) {
                     Ok(route) => cmds.extend(traffic.handle(now, super::Event::Route { robot: robot.clone(), route })),
                     Err(why) => seen.refused = Some(why),
                 }
@@ -443,19 +462,50 @@ pub fn egress(c: &Command) -> Option<crate::egress::Out> {
     crate::egress::Out::json(mrmm_proto::Key::TrafficOrder { map: map.clone(), robot: robot.clone() }, order, to)
 }
 
-/// The vertex nearest the goal.
-fn space_vertex(space: &GraphSpace, goal: TrafficGoal) -> Option<u32> {
-    (space.nodes() > 0).then(|| space.graph().nearest(Point::new(goal.x, goal.y)).0)
+/// The lanes robots on `map` drive: a graph map's own; a grid map's derived from its free space
+/// along its corridors and through its doors ([`mrmm_maps::roadmap`], its defaults: lanes keep
+/// 0.3 m from anything not free), the same on central and on every deputy. None: no lanes (a
+/// grid with no room for a robot).
+pub fn lanes_of(map: &Map) -> Option<Cow<'_, NavGraph>> {
+    match map {
+        Map::Graph(g) => Some(Cow::Borrowed(g)),
+        Map::Grid(g) => match mrmm_maps::roadmap::derive("grid map", g, &mrmm_maps::roadmap::Params::default()) {
+            Ok(lanes) if !lanes.vertices.is_empty() => Some(Cow::Owned(lanes)),
+            Ok(_) => None,
+            Err(e) => {
+                tracing::warn!(error = %e, "no lanes derived: robots on this map drive without traffic");
+                None
+            }
+        },
+    }
 }
 
-/// The route to `goal`: from the vertex the robot will stand at (where its grant ends; the
-/// vertex nearest it if it holds nothing yet) to the vertex nearest the goal.
-fn route_to(traffic: &Traffic, space: &GraphSpace, robot: &RobotId, at: Point, goal: TrafficGoal) -> Result<Vec<u32>, String> {
+/// The vertex a robot at `p` enters the lanes at, or a goal at `p` is reached at: the nearest
+/// one, on a grid map the nearest one in sight (the straight way there crosses no cell that is
+/// not free), else the nearest.
+fn vertex_for(space: &GraphSpace, grid: Option<&OccupancyGrid>, p: Point) -> Option<u32> {
+    let g = space.graph();
+    if g.vertices.is_empty() {
+        return None;
+    }
+    let nearest = g.nearest(p).0;
+    let Some(grid) = grid else { return Some(nearest) };
+    let mut by_distance: Vec<(f64, u32)> = g.vertices.iter().enumerate().map(|(i, v)| (v.at.dist(p), i as u32)).collect();
+    by_distance.sort_by(|a, b| a.0.total_cmp(&b.0));
+    Some(by_distance.iter().take(SIGHT_TRIES).find(|(_, v)| grid.segment_free(p, g.vertices[*v as usize].at)).map_or(nearest, |&(_, v)| v))
+}
+
+/// Vertices, nearest first, tried for one in sight ([`vertex_for`]).
+const SIGHT_TRIES: usize = 64;
+
+/// The route to `goal`: from the vertex the robot will stand at (where its grant ends; where it
+/// enters the lanes if it holds nothing yet) to the vertex the goal is reached at.
+fn route_to(traffic: &Traffic, space: &GraphSpace, grid: Option<&OccupancyGrid>, robot: &RobotId, at: Point, goal: TrafficGoal) -> Result<Vec<u32>, String> {
+    let to = vertex_for(space, grid, Point::new(goal.x, goal.y)).ok_or("the map has no vertices")?;
     let from = match traffic.state(robot) {
         Some((route, _, Some(g), _)) => route[g],
-        _ => space.graph().nearest(at).0,
+        _ => vertex_for(space, grid, at).unwrap_or(to),
     };
-    let to = space_vertex(space, goal).ok_or("the map has no vertices")?;
     space.vertex_path(from, to).ok_or_else(|| format!("no lanes lead from vertex {from} to vertex {to} (nearest the goal ({}, {}))", goal.x, goal.y))
 }
 
@@ -466,6 +516,54 @@ mod tests {
     fn office() -> Arc<Map> {
         let (name, text) = mrmm_maps::data::OPEN_RMF[0];
         Arc::new(Map::Graph(mrmm_maps::rmf::parse(name, text).expect("office graph")))
+    }
+
+    /// Two rooms of 6 × 4 m side by side, a wall between them with a door 1.2 m wide, 0.1 m cells.
+    fn two_rooms() -> Arc<Map> {
+        let (w, h) = (120u32, 40u32);
+        let mut data = vec![0i8; (w * h) as usize];
+        for row in 0..h {
+            for col in 0..w {
+                let edge = row < 2 || row >= h - 2 || col < 2 || col >= w - 2;
+                let wall = (59..61).contains(&col) && !(14..26).contains(&row);
+                if edge || wall {
+                    data[(row * w + col) as usize] = 100;
+                }
+            }
+        }
+        Arc::new(Map::Grid(OccupancyGrid { width: w, height: h, resolution: 0.1, origin: [0.0, 0.0, 0.0], data }))
+    }
+
+    /// A grid map has lanes derived from its free space: a goal in the other room is routed along
+    /// them through the door, from a vertex the robot sees to one the goal sees; a map named
+    /// without lanes is answered free.
+    #[test]
+    fn a_grid_maps_robots_are_routed_on_lanes_derived_from_its_free_space() {
+        let map = two_rooms();
+        let Map::Grid(grid) = map.as_ref() else { unreachable!() };
+        let hash = "g".repeat(64);
+        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        let (here, there) = (Point::new(1.0, 0.6), Point::new(11.0, 3.4));
+        let report = TrafficReport { robot: "r1".into(), seq: 1, x: here.x, y: here.y, goal: Some(TrafficGoal { id: 1, x: there.x, y: there.y }), held: None };
+        let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report.clone() });
+        let route = out
+            .iter()
+            .find_map(|c| match c {
+                Command::Order { order: TrafficOrder::Route { route, .. }, .. } => Some(route.clone()),
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("a route on the derived lanes: {out:?}"));
+        let (first, last) = (route[0], route[route.len() - 1]);
+        assert!(grid.segment_free(here, Point::new(first.x, first.y)), "entered at a vertex in sight: {first:?}");
+        assert!(grid.segment_free(there, Point::new(last.x, last.y)), "left at a vertex in sight: {last:?}");
+        assert!(first.x < 6.0 && last.x > 6.0, "from one room to the other (every lane in free cells: through the door): {route:?}");
+        for w in route.windows(2) {
+            assert!(grid.segment_free(Point::new(w[0].x, w[0].y), Point::new(w[1].x, w[1].y)), "a lane through a wall: {w:?}");
+        }
+        let mut free = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        free.without_lanes([hash.clone()]);
+        let out = free.handle(0.0, Event::Report { map: hash.clone(), report });
+        assert!(matches!(out.as_slice(), [Command::Order { order: TrafficOrder::Free, .. }]), "{out:?}");
     }
 
     /// A robot whose session is new (it restarted: its reports count from 1 again) is heard: its

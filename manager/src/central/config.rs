@@ -46,6 +46,11 @@ pub struct CentralConfig {
     /// patrolling_sim `.graph` or an Open-RMF navigation graph). Relative to the config file.
     #[serde(default)]
     pub maps: std::collections::BTreeMap<String, PathBuf>,
+    /// Grid maps of `maps` whose robots drive their plans as they are, without traffic: no lanes
+    /// are derived from them (by default a grid map's robots drive lanes derived from its free
+    /// space, as a graph map's drive its lanes).
+    #[serde(default)]
+    pub no_lanes: Vec<String>,
     /// A robot lost this long (seconds) and in no mission leaves the registry (it registers
     /// again if it comes back). Default a day; 60 to 31 536 000.
     #[serde(default = "default_forget_lost")]
@@ -82,6 +87,7 @@ impl Default for CentralConfig {
             state_dir: None,
             wire_stats: false,
             maps: Default::default(),
+            no_lanes: Vec::new(),
             forget_lost_s: default_forget_lost(),
         }
     }
@@ -135,6 +141,9 @@ impl CentralConfig {
         for name in self.maps.keys() {
             mrmm_proto::validate_id(name).map_err(|_| format!("maps: map name {name:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -"))?;
         }
+        if let Some(n) = self.no_lanes.iter().find(|n| !self.maps.contains_key(*n)) {
+            return Err(format!("no_lanes: {n:?} is not one of the maps"));
+        }
         if !(100..=60_000).contains(&self.lease_ms) {
             return Err(format!("lease_ms: must be 100..=60000 (got {})", self.lease_ms));
         }
@@ -159,5 +168,9 @@ mod tests {
         let e = mrmm_proto::config::parse_json5::<CentralConfig>("c.json5", "{ listen: 7 }").expect_err("type");
         assert!(e.to_string().starts_with("c.json5: listen: "), "{e}");
         assert!(CentralConfig::default().validate().is_ok());
+        let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.yaml' }, no_lanes: ['a'] }").expect("parse");
+        assert_eq!(c.validate().expect_err("no_lanes"), "no_lanes: \"a\" is not one of the maps");
+        let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.yaml' }, no_lanes: ['b'] }").expect("parse");
+        assert!(c.validate().is_ok());
     }
 }

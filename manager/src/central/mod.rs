@@ -69,8 +69,11 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     }
 
     let t0 = Instant::now();
+    let by_name = maps.by_name();
+    let no_lanes: Vec<String> = cfg.no_lanes.iter().filter_map(|n| by_name.get(n).map(|h| h.info.hash.clone())).collect();
     let mut core = CentralCore::restore(zid.into(), cfg.agent.clone(), 0.0, state)
-        .with_maps(maps.by_name())
+        .with_maps(by_name)
+        .without_lanes(no_lanes)
         .with_superseded(maps.superseded())
         .forgetting_lost_after(cfg.forget_lost_s)
         .with_traffic_incarnation(mrmm_net::mesh::now_ms());

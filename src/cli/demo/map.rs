@@ -45,15 +45,27 @@ impl DemoMap {
             .ok_or_else(|| anyhow!("the map has no free space for a robot"))
     }
 
-    /// Where each of `n` robots starts.
+    /// Where each of `n` robots starts: on a graph map, vertices spread over it; on a grid map,
+    /// the vertices of the lanes traffic derives from it (a robot standing on one holds it from
+    /// the first report), else free cells side by side near the middle.
     pub fn starts(&self, n: usize) -> anyhow::Result<Vec<(f64, f64)>> {
         let middle = self.middle()?;
         let pts = match &self.map {
-            Map::Grid(_) => self.space.spread(middle, n, 0.8),
+            Map::Grid(_) => match self.on_lanes(middle, n) {
+                Some(pts) => Ok(pts),
+                None => self.space.spread(middle, n, 0.8),
+            },
             Map::Graph(_) => self.space.farthest(middle, n, |_| true),
         }
         .map_err(|e| anyhow!("--map: {e}"))?;
         Ok(pts.iter().map(|p| ((p.x * 100.0).round() / 100.0, (p.y * 100.0).round() / 100.0)).collect())
+    }
+
+    /// `n` vertices spread over the lanes derived from a grid map, if it has that many.
+    fn on_lanes(&self, middle: Point, n: usize) -> Option<Vec<Point>> {
+        let lanes = mrmm_core::traffic::authority::lanes_of(&self.map)?.into_owned();
+        let space = Space::new(&Map::Graph(lanes), mrmm_planner::recipe::DEFAULT_ROBOT_RADIUS).ok()?;
+        space.farthest(middle, n, |_| true).ok().filter(|p| p.len() == n)
     }
 
     /// The patrol's and the coverage's parameters on this map.
