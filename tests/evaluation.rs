@@ -84,7 +84,11 @@ fn every_experiment_runs_tiny_and_writes_rows_figures_and_summary() -> anyhow::R
     assert!((9.0..16.0).contains(&mesh) && (4.5..8.0).contains(&leader), "per sync point: mesh {mesh}, leader {leader}: {csv}");
     let (two, four) = (get("idleness", "2", "1").expect("row"), get("idleness", "4", "1").expect("row"));
     assert!(num(four, "avg_idleness_s") < num(two, "avg_idleness_s"), "four robots less idle than two: {csv}");
-    assert!(num(four, "msgs_sync") > num(two, "msgs_sync"), "more robots, more barrier arrivals: {csv}");
+    // Arrivals under the leader's barrier: a mesh member waiting at a barrier publishes its
+    // arrival again every 2 s of wall time, so under load two mesh robots that waited long sent
+    // more than four that did not (CI: 56 against 37); the leader's count is the arrivals.
+    let leader = |label: &str| rows.iter().find(|r| r["experiment"] == "idleness" && r["label"] == label && r["barrier"] == "leader").expect("row");
+    assert!(num(leader("4"), "msgs_sync") > num(leader("2"), "msgs_sync"), "more robots, more barrier arrivals: {csv}");
     let (small, big) = (get("environment", "2", "1").expect("row"), get("environment", "2", "2").expect("row"));
     assert!(num(big, "tour_m") > 1.9 * num(small, "tour_m"), "the environment is scaled: {csv}");
 

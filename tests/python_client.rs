@@ -62,6 +62,10 @@ async fn a_plain_zenoh_client_with_an_operator_certificate_commands_and_a_robot_
     println!("as operator op: {operator}");
     assert_eq!(operator["status"]["robots_total"], 1, "{operator}");
     assert_eq!(operator["goto"]["ok"], true, "{operator}");
+    // An error is read by its code: a goto for a robot that does not exist is `not_found`, and the
+    // client branched on that (not on the words).
+    assert_eq!(operator["unknown"]["code"], "not_found", "{operator}");
+    assert_eq!(operator["unknown"]["then"], "check the name", "{operator}");
     eventually("r1 driving to the operator's goto", Duration::from_secs(10), || async {
         let p = pose(op.query(Key::SystemRobots, None::<&()>).await.ok()?)?;
         ((p.x - before.x).abs() + (p.y - before.y).abs() > 0.05).then_some(())

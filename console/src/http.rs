@@ -18,7 +18,7 @@ use axum::{Json, Router};
 use futures_util::Stream;
 use mrmm_net::client::Client;
 use mrmm_proto::QueryError;
-use mrmm_proto::{Key, ProtoError, RobotMove, SystemCmd};
+use mrmm_proto::{ErrorCode, ErrorReply, Key, ProtoError, RobotMove, SystemCmd};
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use tokio::sync::watch;
@@ -123,13 +123,26 @@ fn system_cmd(group: &str, verb: &str) -> Option<SystemCmd> {
     })
 }
 
-/// Central's answer to a command, as an HTTP response: its JSON, or its error (400 when central
-/// refused, 502 when it could not be asked).
-async fn forward(client: &Client, cmd: SystemCmd, body: &Value) -> Result<Value, (StatusCode, String)> {
+/// Central's answer to a command, as an HTTP response: its JSON, or its error with its code
+/// (`{"error", "code"}`, the status by the code: [`status_of`]); 502, code `busy`, when central
+/// could not be asked.
+async fn forward(client: &Client, cmd: SystemCmd, body: &Value) -> Result<Value, (StatusCode, ErrorReply)> {
     match client.query::<Value>(Key::SystemCmd(cmd), Some(body)).await {
         Ok(v) => Ok(v),
-        Err(ProtoError::Query(QueryError::Remote(e))) => Err((StatusCode::BAD_REQUEST, e.error)),
-        Err(e) => Err((StatusCode::BAD_GATEWAY, e.to_string())),
+        Err(ProtoError::Query(QueryError::Remote(e))) => Err((status_of(&e), e)),
+        Err(e) => Err((StatusCode::BAD_GATEWAY, ErrorReply::busy(e.to_string()))),
+    }
+}
+
+/// The HTTP status of central's error, by its code: 404 not found, 409 conflict, 503 busy, 403
+/// forbidden, else 400.
+fn status_of(e: &ErrorReply) -> StatusCode {
+    match e.code {
+        Some(ErrorCode::NotFound) => StatusCode::NOT_FOUND,
+        Some(ErrorCode::Conflict) => StatusCode::CONFLICT,
+        Some(ErrorCode::Busy) => StatusCode::SERVICE_UNAVAILABLE,
+        Some(ErrorCode::Forbidden | ErrorCode::Refused) => StatusCode::FORBIDDEN,
+        _ => StatusCode::BAD_REQUEST,
     }
 }
 
@@ -146,7 +159,7 @@ async fn command(State(st): State<AppState>, Path((group, verb)): Path<(String, 
     };
     match forward(&st.client, cmd, &body).await {
         Ok(v) => Json(v).into_response(),
-        Err((status, msg)) => error(status, msg),
+        Err((status, e)) => (status, Json(e)).into_response(),
     }
 }
 
@@ -183,7 +196,7 @@ async fn assign(State(st): State<AppState>, body: Result<Json<Assign>, JsonRejec
             Ok(b) => b,
             Err(e) => return error(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()),
         };
-        let error = forward(&st.client, SystemCmd::Move, &body).await.err().map(|(_, msg)| msg);
+        let error = forward(&st.client, SystemCmd::Move, &body).await.err().map(|(_, e)| e.error);
         results.push(Moved { robot, ok: error.is_none(), error });
     }
     let status = if results.iter().all(|m| m.ok) { StatusCode::OK } else { StatusCode::MULTI_STATUS };

@@ -126,7 +126,7 @@ impl CentralCore {
         let mut out = Vec::new();
         match ev {
             Event::Advice { query } => {
-                let result = serde_json::to_value(self.agent.advice()).map_err(|e| e.to_string());
+                let result = system::to_value(&self.agent.advice());
                 out.push(Command::System(system::Command::Reply { req: Req::Query(query), result }));
             }
             Event::Traffic { map, report } => {
@@ -145,7 +145,7 @@ impl CentralCore {
                     _ => {}
                 }
                 if let system::Event::Operator { req, request: Request::Traffic } = &ev {
-                    let views = serde_json::to_value(self.traffic.views(now)).map_err(|e| e.to_string());
+                    let views = system::to_value(&self.traffic.views(now));
                     out.push(Command::System(system::Command::Reply { req: req.clone(), result: views }));
                     return out;
                 }
@@ -155,7 +155,7 @@ impl CentralCore {
                         Ok((cleared, cmds)) => {
                             tracing::info!(robot = %c.robot, vertices = cleared.vertices, "traffic: the operator took a lost robot off the lanes");
                             out.extend(cmds.into_iter().map(Command::Traffic));
-                            serde_json::to_value(cleared).map_err(|e| e.to_string())
+                            system::to_value(&cleared)
                         }
                         Err(why) => Err(why),
                     };
@@ -187,7 +187,7 @@ impl CentralCore {
         while let Some(c) = queue.pop_front() {
             match c {
                 system::Command::Reply { req: Req::Agent(advice), result } => {
-                    let cmds = self.agent.handle(now, agent::Event::Acted { advice, result: result.map(|_| ()) });
+                    let cmds = self.agent.handle(now, agent::Event::Acted { advice, result: result.map(|_| ()).map_err(|e| e.error) });
                     self.agent_commands(now, cmds, out);
                 }
                 other => out.push(Command::System(other)),

@@ -71,6 +71,14 @@ impl Failure {
     pub fn is(&self, code: mrmm_proto::ErrorCode) -> bool {
         self.code == Some(code)
     }
+
+    /// The failure as an answer to the operator: the other side's code as it gave it; else busy
+    /// when nobody answered (asking again may work), a conflict when the other side refused.
+    pub fn reply(self) -> mrmm_proto::ErrorReply {
+        use mrmm_proto::ErrorCode;
+        let code = self.code.unwrap_or(if self.retryable { ErrorCode::Busy } else { ErrorCode::Conflict });
+        mrmm_proto::ErrorReply::coded(code, self.error)
+    }
 }
 
 impl From<mrmm_proto::QueryError> for Failure {

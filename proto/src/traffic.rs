@@ -80,7 +80,10 @@ pub enum TrafficOrder {
     /// For goal `goal`: drive `route` (which supersedes every order of a lower `(incarnation,
     /// version)`), from position `reached` (as the authority last heard) up to position `upto`.
     /// `deputies`: the robots that follow the authority and take over, in turn, when central
-    /// is away ([`DEPUTIES`] at most).
+    /// is away ([`DEPUTIES`] at most). `off`: the goal itself, off the lanes, which the robot
+    /// drives to straight from the route's last vertex once it stands there with the whole route
+    /// granted (and back to that vertex before its next route): given only where no other robot
+    /// can come within the clearance of that way while this one holds the vertex.
     Route {
         goal: u64,
         incarnation: u64,
@@ -90,6 +93,8 @@ pub enum TrafficOrder {
         upto: Option<u32>,
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         deputies: Vec<RobotId>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        off: Option<[f64; 2]>,
     },
     /// Goal `goal` cannot be driven to on the map's lanes.
     Refused { goal: u64, why: String },
@@ -181,7 +186,10 @@ impl TrafficOrder {
     /// Checks what the authority may not send: routes too long, positions beyond them, points
     /// not finite.
     pub fn check(&self) -> Result<(), String> {
-        let Self::Route { route, reached, upto, deputies, .. } = self else { return Ok(()) };
+        let Self::Route { route, reached, upto, deputies, off, .. } = self else { return Ok(()) };
+        if off.is_some_and(|[x, y]| !(x.is_finite() && y.is_finite())) {
+            return Err("the point off the lanes is not finite".into());
+        }
         if deputies.len() > DEPUTIES {
             return Err(format!("{} deputies (at most {DEPUTIES})", deputies.len()));
         }
@@ -219,7 +227,7 @@ mod tests {
         r.held = None;
         r.x = f64::NAN;
         assert!(r.check().is_err());
-        let o = TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route: vec![], reached: None, upto: None, deputies: vec![] };
+        let o = TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route: vec![], reached: None, upto: None, deputies: vec![], off: None };
         assert!(o.check().is_err());
         let json = serde_json::to_string(&TrafficOrder::Free).expect("json");
         assert_eq!(json, r#"{"order":"free"}"#);

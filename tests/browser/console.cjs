@@ -16,9 +16,9 @@ async function main() {
   try {
     const errors = [];
     page.on('pageerror', (e) => errors.push(String(e)));
-    // A command central refuses is an HTTP 400 (the deliberate mistake below): Chromium logs
+    // A command central refuses is an HTTP 409 (the deliberate mistake below: a name taken): Chromium logs
     // it; anything else logged as an error is one.
-    page.on('console', (m) => { if (m.type() === 'error' && !m.text().includes('status of 400')) errors.push(m.text()); });
+    page.on('console', (m) => { if (m.type() === 'error' && !m.text().includes('status of 409')) errors.push(m.text()); });
     await page.goto(url);
     // The token left the address bar once read.
     seen.address_without_token = !page.url().includes('token');

@@ -306,3 +306,47 @@ fn a_goto_given_to_traffic_is_driven_along_its_route_when_the_map_has_no_lanes()
     r.handle(0.05, Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
     assert_eq!(r.body.goal(), Some((4.0, 0.0)), "the route's first point");
 }
+
+/// On a grid map traffic may give a way off the lanes to the goal (`off`): the robot drives the
+/// route, then straight to the goal; for its next goal it first drives back to the vertex it
+/// left the lanes at, never straight across.
+#[test]
+fn a_way_off_the_lanes_is_driven_there_and_back_by_the_vertex() {
+    use mrmm_proto::traffic::RouteVertex;
+    let map = mrmm_proto::MapRef { name: "building".into(), hash: "ef".repeat(32) };
+    let mut r = Robot::new(cfg());
+    let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
+    a.map = Some(map.clone());
+    a.plan.steps = vec![Step::Navigate { x: 3.0, y: 1.0, speed: None }, Step::Navigate { x: 0.0, y: -1.0, speed: None }, Step::Hold { seconds: None }];
+    cmd(&mut r, RobotCommand::Plan(a)).0.expect("plan taken");
+    let (v0, v1) = (RouteVertex { v: 0, x: 0.0, y: 0.0 }, RouteVertex { v: 1, x: 3.0, y: 0.0 });
+    let order = |goal: u64, version: u64, route: Vec<RouteVertex>, off: [f64; 2]| Event::Traffic {
+        map: map.hash.clone(),
+        order: mrmm_proto::TrafficOrder::Route { goal, incarnation: 1, version, route, reached: Some(0), upto: Some(1), deputies: vec![], off: Some(off) },
+        deputy: false,
+    };
+    r.handle(0.0, Event::Tick);
+    r.handle(0.01, order(1, 1, vec![v0, v1], [3.0, 1.0]));
+    let (mut t, mut at_goal, mut back, mut second_order) = (0.02, false, false, false);
+    while t < 12.0 {
+        r.handle(t, Event::Tick);
+        let p = r.body.pose();
+        at_goal |= (p.x - 3.0).abs() < 0.1 && (p.y - 1.0).abs() < 0.1;
+        if at_goal && !second_order {
+            // The plan went on to its next goal: the robot heads back to (3, 0) before any order.
+            back |= (p.x - 3.0).abs() < 0.16 && p.y.abs() < 0.16;
+            if back {
+                r.handle(t, order(2, 2, vec![v1, v0], [0.0, -1.0]));
+                second_order = true;
+            }
+        }
+        if at_goal {
+            // Never across: on the way back (x = 3), then on the lane (y = 0), then down (x = 0).
+            assert!((p.x - 3.0).abs() < 0.15 || p.y.abs() < 0.15 || p.x.abs() < 0.15, "off the ways: {p:?}");
+        }
+        t += 0.01;
+    }
+    assert!(at_goal && back && second_order, "at the first goal {at_goal}, back at its vertex {back}");
+    let p = r.body.pose();
+    assert!(p.x.abs() < 0.1 && (p.y + 1.0).abs() < 0.1, "at the second goal: {p:?}");
+}

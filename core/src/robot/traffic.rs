@@ -3,8 +3,10 @@
 //! and how far of it the robot may drive ([`mrmm_proto::traffic`]). The [`Gate`] drives the
 //! body vertex by vertex up to the grant's end, and starts no new lane once it has heard no order
 //! for [`QUIET_S`]: a robot that lost its authority stops at the end of the lane it is on. A goal
-//! off the lanes is reached at the vertex nearest it. A map without lanes is answered
-//! [`TrafficOrder::Free`], and the plan is driven as it is.
+//! off the lanes is reached at the vertex nearest it, or, where the order says the way there is
+//! clear (`off`), driven to straight from that vertex — and the robot drives back to the vertex
+//! before anything else. A map without lanes is answered [`TrafficOrder::Free`], and the plan is
+//! driven as it is.
 
 use std::collections::VecDeque;
 
@@ -36,6 +38,8 @@ struct Held {
     route: Vec<RouteVertex>,
     reached: Option<usize>,
     upto: Option<usize>,
+    /// The goal off the lanes, driven to from the route's last vertex.
+    off: Option<[f64; 2]>,
 }
 
 /// What a robot on a map does with traffic.
@@ -64,6 +68,9 @@ pub struct Gate {
     central_incarnation: u64,
     /// At the last step: a goal to go to, and the robot stands waiting for traffic.
     waiting: bool,
+    /// It drove off the lanes from this vertex (to the goal an order's `off` named, for goal
+    /// `.1`, at `.2`): back there before it drives anything else.
+    left: Option<(RouteVertex, u64, [f64; 2])>,
 }
 
 impl Gate {
@@ -84,6 +91,7 @@ impl Gate {
             deputies: Vec::new(),
             central_incarnation: 0,
             waiting: false,
+            left: None,
         }
     }
 
@@ -147,7 +155,7 @@ impl Gate {
             TrafficOrder::Free => self.free = true,
             TrafficOrder::Refused { goal: g, why } if g == goal.id => self.refused = Some(why),
             TrafficOrder::Refused { .. } => {}
-            TrafficOrder::Route { goal: g, incarnation, version, route, reached, upto, .. } => {
+            TrafficOrder::Route { goal: g, incarnation, version, route, reached, upto, off, .. } => {
                 let newer = self.held.as_ref().is_none_or(|h| (incarnation, version) > (h.incarnation, h.version));
                 let same = self.held.as_ref().is_some_and(|h| (incarnation, version) == (h.incarnation, h.version));
                 if same {
@@ -155,6 +163,7 @@ impl Gate {
                     // from a robot it lost, which has stopped by then).
                     if let Some(h) = self.held.as_mut() {
                         h.upto = upto.map(|u| u as usize).filter(|&u| h.reached.is_none_or(|r| u >= r)).or(h.reached);
+                        h.off = off;
                     }
                 } else if newer && (g == goal.id || self.held.is_some()) {
                     if self.held.as_ref().is_some_and(|h| h.incarnation != incarnation) {
@@ -162,7 +171,7 @@ impl Gate {
                     }
                     let reached = self.where_on(&route, reached.map(|p| p as usize));
                     let upto = upto.map(|u| u as usize).max(reached);
-                    self.held = Some(Held { goal: g, incarnation, version, route, reached, upto });
+                    self.held = Some(Held { goal: g, incarnation, version, route, reached, upto, off });
                     self.refused = None;
                     self.changed = true;
                 }
@@ -219,6 +228,21 @@ impl Gate {
             self.waiting = self.refused.is_none();
             return false;
         };
+        // Off the lanes: it stays while its order still gives that way for its goal; else back to
+        // the vertex it left from first (the way back is the way there).
+        if let Some((v, for_goal, at)) = self.left {
+            let last = h.route.len() - 1;
+            let stays = for_goal == goal.id && h.goal == goal.id && h.off == Some(at) && h.reached == Some(last) && h.route[last].v == v.v;
+            if !stays {
+                if !near(v.x, v.y) {
+                    if body.idle() || body.goal() != Some((v.x, v.y)) {
+                        body.navigate_through(v.x, v.y, None, goal.speed);
+                    }
+                    return false;
+                }
+                self.left = None;
+            }
+        }
         let next = h.reached.map_or(0, |p| p + 1);
         if next < h.route.len() {
             if !quiet && h.upto.is_some_and(|u| next <= u) {
@@ -230,9 +254,24 @@ impl Gate {
             }
             return false;
         }
-        // At the route's last vertex, the one nearest the goal: a point off the lanes is not
-        // driven to (the way there is no resource traffic grants).
-        h.goal == goal.id && body.idle()
+        // At the route's last vertex, the one nearest the goal: a point off the lanes is driven
+        // to only where the order says the way there is clear.
+        if h.goal != goal.id {
+            return false;
+        }
+        match h.off {
+            Some(at) if !quiet || self.left.is_some() => {
+                if near(at[0], at[1]) {
+                    return body.idle();
+                }
+                if body.idle() {
+                    self.left = Some((h.route[h.route.len() - 1], goal.id, at));
+                    body.navigate_through(at[0], at[1], None, goal.speed);
+                }
+                false
+            }
+            _ => body.idle(),
+        }
     }
 
     /// The report due at `now`, if one is: at every change, and every [`REPORT_S`].

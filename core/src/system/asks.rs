@@ -71,10 +71,10 @@ impl Then {
                 },
                 Err(f) => Event::InfoFailed { id, reason: f.error },
             },
-            Then::Robot { req, robot } => Event::RobotCommandDone { req, robot, result: decode::<CommandAck>(key, result).map_err(|f| f.error) },
+            Then::Robot { req, robot } => Event::RobotCommandDone { req, robot, result: decode::<CommandAck>(key, result).map_err(Failure::reply) },
             Then::Start { mission } => Event::MissionStarted { mission, result: decode::<MissionView>(key, result).map(Box::new) },
             Then::Ctl { id } => Event::CtlDone { id, result: decode::<CtlAck>(key, result).map(|_| ()) },
-            Then::Forward { req } => Event::Forwarded { req, result: result.map_err(|f| f.error) },
+            Then::Forward { req } => Event::Forwarded { req, result: result.map_err(Failure::reply) },
         }
     }
 }

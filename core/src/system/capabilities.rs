@@ -4,6 +4,7 @@
 //! requires taken out of it (the mission replans without it; the agent suggests a robot that has
 //! it).
 
+use mrmm_proto::ErrorReply;
 use serde_json::json;
 
 use super::*;
@@ -27,12 +28,12 @@ pub(super) fn reported(view: &MissionView) -> Vec<String> {
 
 /// Whether robot `id` with `has` may be in `mission`, which requires `requires`; the error names
 /// what it lacks.
-pub(super) fn capable(id: &str, has: &[String], mission: &str, requires: &[String]) -> Result<(), String> {
+pub(super) fn capable(id: &str, has: &[String], mission: &str, requires: &[String]) -> Result<(), ErrorReply> {
     let lacks = proto::lacking(has, requires);
     if lacks.is_empty() {
         Ok(())
     } else {
-        Err(format!("robot {id:?} lacks {} (mission {mission} requires {})", lacks.join(", "), requires.join(", ")))
+        Err(ErrorReply::conflict(format!("robot {id:?} lacks {} (mission {mission} requires {})", lacks.join(", "), requires.join(", "))))
     }
 }
 
@@ -43,7 +44,7 @@ impl SystemManager {
     }
 
     /// Whether robot `id` has every capability `mission` requires; the error names what it lacks.
-    pub(super) fn check_capable(&self, id: &str, mission: &str) -> Result<(), String> {
+    pub(super) fn check_capable(&self, id: &str, mission: &str) -> Result<(), ErrorReply> {
         capable(id, self.capabilities_of(id), mission, self.requires(mission))
     }
 
@@ -60,7 +61,9 @@ impl SystemManager {
     /// The operator changes a robot's capabilities: checked here, carried out by the robot, whose
     /// answer (its capabilities after the change) comes back as [`Event::RobotCommandDone`].
     pub(super) fn change_capabilities(&mut self, req: Req, c: CapabilitiesRequest) -> Vec<Command> {
-        let checked = self.live_robot(&c.robot).and_then(|info| proto::change_capabilities(&info.capabilities, &c.add, &c.remove).map(|_| ()));
+        let checked = self
+            .live_robot(&c.robot)
+            .and_then(|info| proto::change_capabilities(&info.capabilities, &c.add, &c.remove).map(|_| ()).map_err(ErrorReply::invalid));
         if let Err(e) = checked {
             return vec![Command::Reply { req, result: Err(e) }];
         }
@@ -100,7 +103,7 @@ impl SystemManager {
         };
         let alive = self.fleet.alive(id);
         tracing::warn!(robot = %id, %mission, "{why}: taken out of the mission");
-        let request = json!({"robot": id, "to": null, "reason": why});
+        let request = json!({"robot": id, "to": null, "reason": why.error});
         self.journal.note(JournalEvent::Command { by: "central".into(), command: "robot move".into(), request });
         (self.apply_move(id, Some(mission.clone()), None, alive), Some(mission))
     }

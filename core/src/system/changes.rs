@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use mrmm_planner::recipe;
-use mrmm_proto::{MissionCtl, MissionSpecWire, MissionStatus, MissionUpdate, MissionView, RobotId};
+use mrmm_proto::{ErrorReply, MissionCtl, MissionSpecWire, MissionStatus, MissionUpdate, MissionView, RobotId};
 use serde_json::{json, Value};
 
 use super::missions::{cheap, param_strings, DryRun};
@@ -35,7 +35,7 @@ impl SystemManager {
     /// answer.
     pub(super) fn update_checked(&mut self, req: Req, u: MissionUpdate, result: Result<(), String>) -> Vec<Command> {
         if let Err(e) = result {
-            return vec![Command::Reply { req, result: Err(format!("mission {}: {e}", u.name)) }];
+            return vec![Command::Reply { req, result: Err(ErrorReply::invalid(format!("mission {}: {e}", u.name))) }];
         }
         let spec = match self.check_update(&u) {
             Ok((spec, _)) => spec,
@@ -48,18 +48,18 @@ impl SystemManager {
 
     /// The mission as it would be after `u`, and the dry run that checks it; or the first
     /// problem. Changes nothing.
-    fn check_update(&self, u: &MissionUpdate) -> Result<(MissionSpecWire, DryRun), String> {
+    fn check_update(&self, u: &MissionUpdate) -> Result<(MissionSpecWire, DryRun), ErrorReply> {
         let mut spec = self.spec_of(&u.name)?;
-        let r = recipe::parse(&spec.recipe_xml).map_err(|e| format!("mission {}: its recipe: {e}", u.name))?;
+        let r = recipe::parse(&spec.recipe_xml).map_err(|e| ErrorReply::conflict(format!("mission {}: its recipe: {e}", u.name)))?;
         let mut given = param_strings(&u.params);
         for (team, params) in &u.teams {
             given.extend(param_strings(params).into_iter().map(|(k, v)| (format!("{team}/{k}"), v)));
         }
         for (k, v) in &given {
-            recipe::check_override(&r, k, v).map_err(|e| format!("mission {}: {e}", u.name))?;
+            recipe::check_override(&r, k, v).map_err(|e| ErrorReply::invalid(format!("mission {}: {e}", u.name)))?;
         }
         if given.is_empty() && u.map.is_none() {
-            return Err(format!("mission {}: nothing to change: give parameters or a map", u.name));
+            return Err(ErrorReply::invalid(format!("mission {}: nothing to change: give parameters or a map", u.name)));
         }
         spec.params.extend(given);
         let held = match u.map.as_deref() {
@@ -69,7 +69,7 @@ impl SystemManager {
                 None
             }
             Some(name) => {
-                let h = self.maps.get(name).ok_or_else(|| format!("no map {name:?}"))?;
+                let h = self.maps.get(name).ok_or_else(|| ErrorReply::not_found(format!("no map {name:?}")))?;
                 spec.map = Some(h.map_ref());
                 Some(h.map.clone())
             }
@@ -80,7 +80,7 @@ impl SystemManager {
         let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id)).map(|s| wire::robot_spec(&s)).collect();
         let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
         if robots.is_empty() {
-            return Err(format!("mission {} has no live robot to plan for: add robots first", u.name));
+            return Err(ErrorReply::conflict(format!("mission {} has no live robot to plan for: add robots first", u.name)));
         }
         let dry = DryRun { id: 0, recipe_xml: spec.recipe_xml.clone(), params: cheap(&r, &spec.params), robots, caps, map: held };
         Ok((spec, dry))
@@ -127,10 +127,12 @@ impl SystemManager {
     }
 
     /// The definition of a mission this manager can change.
-    fn spec_of(&self, name: &str) -> Result<MissionSpecWire, String> {
-        let rec = self.missions.get(name).ok_or_else(|| format!("unknown mission {name:?}"))?;
+    fn spec_of(&self, name: &str) -> Result<MissionSpecWire, ErrorReply> {
+        let rec = self.missions.get(name).ok_or_else(|| ErrorReply::not_found(format!("unknown mission {name:?}")))?;
         rec.def.spec.clone().ok_or_else(|| {
-            format!("mission {name} was adopted from its head's report: this central does not know its recipe, so it cannot change it (terminate and create it again)")
+            ErrorReply::conflict(format!(
+                "mission {name} was adopted from its head's report: this central does not know its recipe, so it cannot change it (terminate and create it again)"
+            ))
         })
     }
 

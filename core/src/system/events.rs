@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 
 use mrmm_proto::edge::Refused;
+use mrmm_proto::ErrorReply;
 use mrmm_proto::{
     self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, MissionCreate, MissionCtl, MissionName, MissionStart,
     MissionTerminate, MissionView, NodeId, RobotCommand, RobotId, RobotInfo, RobotMove, Sender, Telemetry,
@@ -118,7 +119,7 @@ pub enum Event {
     RobotCommandDone {
         req: Option<Req>,
         robot: RobotId,
-        result: Result<CommandAck, String>,
+        result: Result<CommandAck, ErrorReply>,
     },
     /// A mission host answered a start: the first plans are out, or planning failed (or, when
     /// `retryable`, nobody answered: the mission may or may not run).
@@ -129,7 +130,7 @@ pub enum Event {
     /// The answer to [`Command::Forward`], for the operator as it came.
     Forwarded {
         req: Req,
-        result: Result<Value, String>,
+        result: Result<Value, ErrorReply>,
     },
     /// The answer to [`Command::Ctl`] `id`.
     CtlDone {
@@ -195,7 +196,8 @@ pub enum Command {
     /// Send `cmd` to `robot`; answer with [`Event::RobotCommandDone`].
     SendToRobot { req: Option<Req>, robot: RobotId, cmd: RobotCommand },
     /// Answer request `req` with JSON, or with a reply error.
-    Reply { req: Req, result: Result<Value, String> },
+    /// Errors carry their code (`mrmm_proto::ErrorCode`): an operator's client acts on it.
+    Reply { req: Req, result: Result<Value, ErrorReply> },
     /// Start a mission on a host; answer with [`Event::MissionStarted`].
     StartMission { host: NodeId, start: Box<MissionStart> },
     /// Steer a mission through its head; answer with [`Event::CtlDone`]. Only an answer from

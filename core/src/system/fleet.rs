@@ -6,7 +6,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::{Member, NodeId, RobotId, RobotInfo, RobotSpec, Telemetry};
+use mrmm_proto::{ErrorReply, Member, NodeId, RobotId, RobotInfo, RobotSpec, Telemetry};
 
 use super::candidates::Candidates;
 use super::{FETCH_PER_TICK, INFO_RETRY_S, MAX_FLEET};
@@ -333,12 +333,12 @@ impl Fleet {
     }
 
     /// The robot's info if it is registered and alive; else why not, in words.
-    pub(super) fn live_robot(&self, id: &str) -> Result<&RobotInfo, String> {
-        let rec = self.robots.get(id).filter(|r| r.info.is_some()).ok_or_else(|| format!("unknown robot {id:?}"))?;
+    pub(super) fn live_robot(&self, id: &str) -> Result<&RobotInfo, ErrorReply> {
+        let rec = self.robots.get(id).filter(|r| r.info.is_some()).ok_or_else(|| ErrorReply::not_found(format!("unknown robot {id:?}")))?;
         if !rec.alive {
-            return Err(format!("robot {id:?} is lost"));
+            return Err(ErrorReply::conflict(format!("robot {id:?} is lost")));
         }
-        rec.info.as_ref().ok_or_else(|| format!("unknown robot {id:?}"))
+        rec.info.as_ref().ok_or_else(|| ErrorReply::not_found(format!("unknown robot {id:?}")))
     }
 
     /// What a planner needs to know about a robot.
@@ -412,7 +412,7 @@ mod tests {
         assert_eq!(f.get("r1").map(|r| r.alive_at), Some(0.0), "alive since its token appeared");
         assert_eq!(f.appeared("r1", 1.0), Appeared::Again);
         assert!(f.disappeared("r1", 1.5) && !f.disappeared("r1", 1.5), "alive until now, then not");
-        assert_eq!(f.live_robot("r1").unwrap_err(), "robot \"r1\" is lost");
+        assert_eq!(f.live_robot("r1").unwrap_err(), ErrorReply::conflict("robot \"r1\" is lost"));
         assert_eq!(f.appeared("r1", 2.0), Appeared::Back);
         assert!(f.get("r1").is_some_and(|r| r.back && r.fresh && r.alive_at == 2.0));
         // A token that goes before its robot answers leaves nothing behind.

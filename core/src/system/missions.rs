@@ -4,6 +4,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_planner::recipe::{self, PlannerKind};
+use mrmm_proto::ErrorReply;
 use mrmm_proto::{
     self as proto, Member, MissionCreate, MissionCtl, MissionName, MissionStart, MissionTerminate, MissionView, NodeId, RobotCommand, RobotId, RobotMove,
     RobotSpec,
@@ -112,7 +113,7 @@ impl SystemManager {
             None => return vec![],
         };
         if let Err(e) = result {
-            return vec![Command::Reply { req, result: Err(format!("mission {}: {e}", c.name)) }];
+            return vec![Command::Reply { req, result: Err(ErrorReply::invalid(format!("mission {}: {e}", c.name))) }];
         }
         let c_json = serde_json::to_value(&c).unwrap_or(Value::Null);
         let Checked { spec, host, robots, steal, .. } = match self.check_create(c) {
@@ -152,10 +153,10 @@ impl SystemManager {
     }
 
     /// A new mission's name: valid, and neither a mission's here nor one robots still run.
-    fn check_name(&self, name: &str) -> Result<(), String> {
-        proto::validate_id(name).map_err(|_| format!("mission name {name:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -"))?;
+    fn check_name(&self, name: &str) -> Result<(), ErrorReply> {
+        proto::validate_id(name).map_err(|_| ErrorReply::invalid(format!("mission name {name:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -")))?;
         if self.missions.contains_key(name) {
-            return Err(format!("mission {name:?} already exists"));
+            return Err(ErrorReply::conflict(format!("mission {name:?} already exists")));
         }
         // A mission this manager does not know (it restarted, and that mission's head is gone
         // or has not reported) may still run on robots: its name is taken.
@@ -166,7 +167,10 @@ impl SystemManager {
             .map(|(id, _)| id.as_str())
             .collect();
         if !running.is_empty() && !self.terminated.contains(name) {
-            return Err(format!("mission {name:?} still runs on robots {} though no manager of it has reported: choose another name", running.join(", ")));
+            return Err(ErrorReply::conflict(format!(
+                "mission {name:?} still runs on robots {} though no manager of it has reported: choose another name",
+                running.join(", ")
+            )));
         }
         Ok(())
     }
@@ -174,19 +178,19 @@ impl SystemManager {
     /// The robots a create asks for (listed, a count of idle ones, or the equal share) and the
     /// robots taken from other missions for it, or why not.
     #[allow(clippy::type_complexity)]
-    fn choose_robots(&self, c: &MissionCreate, r: &recipe::Recipe, requires: &[String]) -> Result<(Vec<RobotId>, Vec<(RobotId, MissionName)>), String> {
+    fn choose_robots(&self, c: &MissionCreate, r: &recipe::Recipe, requires: &[String]) -> Result<(Vec<RobotId>, Vec<(RobotId, MissionName)>), ErrorReply> {
         match (&c.robots, c.count) {
-            (Some(_), Some(_)) => Err("give robots or count, not both".into()),
+            (Some(_), Some(_)) => Err(ErrorReply::invalid("give robots or count, not both")),
             (Some(list), None) => {
                 let mut seen = BTreeSet::new();
                 for id in list {
                     let info = self.live_robot(id)?;
                     super::capabilities::capable(id, &info.capabilities, &c.name, requires)?;
                     if !seen.insert(id) {
-                        return Err(format!("robot {id:?} listed twice"));
+                        return Err(ErrorReply::invalid(format!("robot {id:?} listed twice")));
                     }
                     if let Some(m) = self.assignment.get(id) {
-                        return Err(format!("robot {id:?} is in mission {m}: move it (robot move) or leave it out"));
+                        return Err(ErrorReply::conflict(format!("robot {id:?} is in mission {m}: move it (robot move) or leave it out")));
                     }
                 }
                 Ok((list.clone(), vec![]))
@@ -195,7 +199,7 @@ impl SystemManager {
                 let idle = self.for_teams(r, self.idle_robots(requires));
                 if k == 0 || k > idle.len() {
                     let with = if requires.is_empty() { String::new() } else { format!(" with {}", requires.join(", ")) };
-                    return Err(format!("count {k}: {} idle robots{with} available", idle.len()));
+                    return Err(ErrorReply::conflict(format!("count {k}: {} idle robots{with} available", idle.len())));
                 }
                 Ok((idle.into_iter().take(k).collect(), vec![]))
             }
@@ -204,37 +208,43 @@ impl SystemManager {
     }
 
     /// Everything a create needs but its dry run, or the first problem. Changes nothing.
-    fn check_create(&self, c: MissionCreate) -> Result<Checked, String> {
+    fn check_create(&self, c: MissionCreate) -> Result<Checked, ErrorReply> {
         self.check_name(&c.name)?;
         let host = c.host.clone().unwrap_or_else(|| NodeId::from(proto::CENTRAL_HOST));
         if !self.fleet.has_host(&host) {
             let known: Vec<&str> = self.fleet.hosts().iter().map(|h| h.as_str()).collect();
-            return Err(format!("no mission host {host:?} (hosts up: {})", if known.is_empty() { "none".into() } else { known.join(", ") }));
+            return Err(ErrorReply::not_found(format!(
+                "no mission host {host:?} (hosts up: {})",
+                if known.is_empty() { "none".into() } else { known.join(", ") }
+            )));
         }
         let (recipe_name, xml) = match recipe::bank(&c.recipe) {
             Some(xml) => (c.recipe.clone(), xml.to_string()),
             None if c.recipe.trim_start().starts_with('<') => ("custom".to_string(), c.recipe.clone()),
-            None => return Err(format!("unknown recipe {:?}: give patrol, coverage, or a recipe XML document", c.recipe)),
+            None => return Err(ErrorReply::not_found(format!("unknown recipe {:?}: give patrol, coverage, or a recipe XML document", c.recipe))),
         };
-        let r = recipe::parse(&xml).map_err(|e| format!("recipe {recipe_name}: {e}"))?;
-        recipe::validate(&r).map_err(|e| format!("recipe {recipe_name}: {e}"))?;
+        let r = recipe::parse(&xml).map_err(|e| ErrorReply::invalid(format!("recipe {recipe_name}: {e}")))?;
+        recipe::validate(&r).map_err(|e| ErrorReply::invalid(format!("recipe {recipe_name}: {e}")))?;
         let params = param_strings(&c.params);
         // Every scalar the operator gave is checked as given (the dry run below replaces some).
         for (k, v) in &params {
-            recipe::check_override(&r, k, v).map_err(|e| format!("mission {}: {e}", c.name))?;
+            recipe::check_override(&r, k, v).map_err(|e| ErrorReply::invalid(format!("mission {}: {e}", c.name)))?;
         }
 
         let held = match &c.map {
             None => None,
             Some(m) => Some(self.maps.get(m).cloned().ok_or_else(|| {
                 let known: Vec<&str> = self.maps.keys().map(String::as_str).collect();
-                format!("no map {m:?} (maps: {})", if known.is_empty() { "none: give central --map NAME=FILE".into() } else { known.join(", ") })
+                ErrorReply::not_found(format!(
+                    "no map {m:?} (maps: {})",
+                    if known.is_empty() { "none: give central --map NAME=FILE".into() } else { known.join(", ") }
+                ))
             })?),
         };
         let requires = r.required();
         let (ids, steal) = self.choose_robots(&c, &r, &requires)?;
         if ids.is_empty() {
-            return Err("a mission needs at least one robot".into());
+            return Err(ErrorReply::invalid("a mission needs at least one robot"));
         }
         let specs: Vec<RobotSpec> = ids.iter().filter_map(|id| self.spec(id)).collect();
         // Dry run with little effort: catches bad waypoints, regions and parameters now.
@@ -243,7 +253,7 @@ impl SystemManager {
         let planner_robots: Vec<_> = specs.iter().map(wire::robot_spec).collect();
         let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
         if replicas > proto::MAX_REPLICAS {
-            return Err(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS));
+            return Err(ErrorReply::invalid(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS)));
         }
         let spec = MissionSpec {
             name: c.name,
@@ -303,7 +313,7 @@ impl SystemManager {
     /// Only robots with every capability of `requires` that fit a team of `r` are chosen, those its
     /// teams' minimums need first.
     #[allow(clippy::type_complexity)]
-    fn equal_share(&self, requires: &[String], r: &recipe::Recipe) -> Result<(Vec<RobotId>, Vec<(RobotId, MissionName)>), String> {
+    fn equal_share(&self, requires: &[String], r: &recipe::Recipe) -> Result<(Vec<RobotId>, Vec<(RobotId, MissionName)>), ErrorReply> {
         let fits = |id: &str| self.fits(r, id);
         let alive = self.fleet.ready_count();
         let share = (alive / (self.missions.len() + 1)).max(1);
@@ -327,17 +337,20 @@ impl SystemManager {
             steal.push((id, name.clone()));
         }
         if chosen.is_empty() && !requires.is_empty() {
-            return Err(format!("no robot with {} available: every such robot is lost or in a mission that cannot spare one", requires.join(", ")));
+            return Err(ErrorReply::conflict(format!(
+                "no robot with {} available: every such robot is lost or in a mission that cannot spare one",
+                requires.join(", ")
+            )));
         }
         if chosen.is_empty() {
-            return Err("no robot available: every robot is lost or in a mission that cannot spare one".into());
+            return Err(ErrorReply::conflict("no robot available: every robot is lost or in a mission that cannot spare one"));
         }
         Ok((chosen, steal))
     }
 
     pub(super) fn terminate(&mut self, req: Req, t: MissionTerminate) -> Vec<Command> {
         if self.missions.remove(&t.name).is_none() {
-            return vec![Command::Reply { req, result: Err(format!("unknown mission {:?}", t.name)) }];
+            return vec![Command::Reply { req, result: Err(ErrorReply::not_found(format!("unknown mission {:?}", t.name))) }];
         }
         let robots: Vec<RobotId> = self.assignment.iter().filter(|(_, m)| **m == t.name).map(|(r, _)| r.clone()).collect();
         self.terminated.insert(t.name.clone());
@@ -350,7 +363,7 @@ impl SystemManager {
             out.push(Command::SendToRobot { req: None, robot: id.clone(), cmd: RobotCommand::Leave { mission: t.name.clone(), epoch: u64::MAX } });
         }
         if let Some(pending) = self.pending_create.remove(&t.name) {
-            out.push(Command::Reply { req: pending, result: Err(format!("mission {} was terminated", t.name)) });
+            out.push(Command::Reply { req: pending, result: Err(ErrorReply::conflict(format!("mission {} was terminated", t.name))) });
         }
         self.recovery.handle(self.now, recovery::Event::Settled(&t.name));
         self.note_command(&req, "mission terminate", &serde_json::to_value(&t).unwrap_or(Value::Null));
@@ -367,28 +380,28 @@ impl SystemManager {
         let alive = match self.fleet.get(&mv.robot).filter(|r| r.info.is_some()) {
             Some(r) => r.alive,
             None if from.is_some() && mv.to.is_none() => false,
-            None => return reply(req, Err(format!("unknown robot {:?}", mv.robot))),
+            None => return reply(req, Err(ErrorReply::not_found(format!("unknown robot {:?}", mv.robot)))),
         };
         if !alive && mv.to.is_some() {
-            return reply(req, Err(format!("robot {:?} is lost", mv.robot)));
+            return reply(req, Err(ErrorReply::conflict(format!("robot {:?} is lost", mv.robot))));
         }
         if let Some(to) = &mv.to {
             if !self.missions.contains_key(to) {
-                return reply(req, Err(format!("unknown mission {to:?}")));
+                return reply(req, Err(ErrorReply::not_found(format!("unknown mission {to:?}"))));
             }
             if from.as_ref() == Some(to) {
-                return reply(req, Err(format!("robot {:?} is already in mission {to}", mv.robot)));
+                return reply(req, Err(ErrorReply::conflict(format!("robot {:?} is already in mission {to}", mv.robot))));
             }
             if let Err(e) = self.check_capable(&mv.robot, to) {
                 return reply(req, Err(e));
             }
         } else if from.is_none() {
-            return reply(req, Err(format!("robot {:?} is in no mission", mv.robot)));
+            return reply(req, Err(ErrorReply::conflict(format!("robot {:?} is in no mission", mv.robot))));
         }
         let member = match &mv.to {
             Some(_) => match self.member(&mv.robot) {
                 Some(m) => Some(m),
-                None => return reply(req, Err(format!("unknown robot {:?}", mv.robot))),
+                None => return reply(req, Err(ErrorReply::not_found(format!("unknown robot {:?}", mv.robot)))),
             },
             None => None,
         };
@@ -461,7 +474,7 @@ impl SystemManager {
                 }
                 reply(to_value(&self.mission_view(name)))
             }
-            Err(f) if !self.missions.contains_key(name) => reply(Err(f.error)),
+            Err(f) if !self.missions.contains_key(name) => reply(Err(ErrorReply::conflict(f.error))),
             Err(f) if f.is(mrmm_proto::ErrorCode::TakenOver) => {
                 // Another manager of its chain runs it: its head's reports will say which.
                 tracing::info!(mission = %name, "mission started; another of its managers took it over");
@@ -485,7 +498,7 @@ impl SystemManager {
                     self.controls.hold(id.clone(), name, end);
                     out.push(Command::SendToRobot { req: None, robot: id, cmd: RobotCommand::Leave { mission: MissionName::from(name), epoch: u64::MAX } });
                 }
-                out.extend(reply(Err(format!("mission {name} did not start: {}; it was ended in case it had", f.error))));
+                out.extend(reply(Err(ErrorReply::busy(format!("mission {name} did not start: {}; it was ended in case it had", f.error)))));
                 out
             }
             Err(f) => {
@@ -494,7 +507,7 @@ impl SystemManager {
                 self.assignment.retain(|_, m| m != name);
                 self.controls.cancel(name);
                 tracing::warn!(mission = %name, "mission failed: {}", f.error);
-                reply(Err(f.error))
+                reply(Err(f.reply()))
             }
         }
     }

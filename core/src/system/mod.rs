@@ -31,6 +31,7 @@ mod views;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
+use mrmm_proto::ErrorReply;
 use mrmm_proto::{
     self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, Member, MissionCtl, MissionName, MissionStart,
     MissionStatus, MissionView, NodeId, RobotCommand, RobotId, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
@@ -342,7 +343,7 @@ impl SystemManager {
     /// A command to a robot answered: the operator's reply (with the mission it left, if a
     /// change of capabilities made it leave one), or, for our own command that failed, the
     /// robot admitted again.
-    fn command_done(&mut self, now: f64, req: Option<Req>, robot: &str, result: Result<CommandAck, String>) -> Vec<Command> {
+    fn command_done(&mut self, now: f64, req: Option<Req>, robot: &str, result: Result<CommandAck, ErrorReply>) -> Vec<Command> {
         // The answer to a change of capabilities says what the robot has now.
         let (mut out, left) = match &result {
             Ok(CommandAck { capabilities: Some(c), .. }) => self.capabilities_now(robot, c.clone()),
@@ -357,7 +358,7 @@ impl SystemManager {
                         }
                         v
                     }),
-                    Err(e) => Err(format!("robot {robot}: {e}")),
+                    Err(e) => Err(e.context(format_args!("robot {robot}"))),
                 };
                 out.push(Command::Reply { req, result });
             }
@@ -412,7 +413,7 @@ impl SystemManager {
         if request.is_command() && now - self.started < ADOPT_S {
             // Just started: the heads have not yet said which robots are theirs.
             if self.held.len() >= MAX_HELD {
-                return vec![Command::Reply { req, result: Err("central just started and is busy: try again in a moment".into()) }];
+                return vec![Command::Reply { req, result: Err(ErrorReply::busy("central just started and is busy: try again in a moment")) }];
             }
             self.held.push((req, request));
             return vec![];
@@ -423,13 +424,15 @@ impl SystemManager {
             Request::Robots => reply(req, to_value(&self.views())),
             Request::Robot(id) => match self.view(&id) {
                 Some(v) => reply(req, to_value(&v)),
-                None => reply(req, Err(format!("unknown robot {id:?}"))),
+                None => reply(req, Err(ErrorReply::not_found(format!("unknown robot {id:?}")))),
             },
             Request::Missions => reply(req, to_value(&self.mission_views())),
             // Central's traffic authority answers it (`CentralCore`); a system manager alone
             // holds no traffic.
             Request::Traffic => reply(req, to_value(&Vec::<mrmm_proto::traffic::TrafficView>::new())),
-            Request::ClearTraffic(c) => reply(req, Err(format!("robot {} holds nothing in traffic: no traffic authority here", c.robot))),
+            Request::ClearTraffic(c) => {
+                reply(req, Err(ErrorReply::not_found(format!("robot {} holds nothing in traffic: no traffic authority here", c.robot))))
+            }
             Request::Maps => {
                 let old = self.superseded.values().map(|h| mrmm_proto::MapInfo { superseded: true, ..h.info.clone() });
                 reply(req, to_value(&self.maps.values().map(|h| h.info.clone()).chain(old).collect::<Vec<_>>()))
@@ -440,7 +443,7 @@ impl SystemManager {
                     vec![Command::Forward { req, key: Key::MissionView(name), managers }]
                 }
                 Some(_) => reply(req, to_value(&self.mission_view(&name))),
-                None => reply(req, Err(format!("unknown mission {name:?}"))),
+                None => reply(req, Err(ErrorReply::not_found(format!("unknown mission {name:?}")))),
             },
             Request::Goto(g) => match self.check_goto(&g) {
                 Ok(via) => {
@@ -475,30 +478,32 @@ impl SystemManager {
 
     /// Checks a goto; on a map (the one it names, else central's only one), the route's corner
     /// points between the robot and its goal.
-    fn check_goto(&self, g: &GotoRequest) -> Result<Vec<[f64; 2]>, String> {
+    fn check_goto(&self, g: &GotoRequest) -> Result<Vec<[f64; 2]>, ErrorReply> {
         self.live_robot(&g.robot)?;
         if let Some(m) = self.assignment.get(&g.robot) {
-            return Err(format!("robot {:?} is in mission {m}: move it out first (robot move {} none)", g.robot, g.robot));
+            return Err(ErrorReply::conflict(format!("robot {:?} is in mission {m}: move it out first (robot move {} none)", g.robot, g.robot)));
         }
         if !(g.x.is_finite() && g.y.is_finite()) {
-            return Err("x and y must be finite numbers".into());
+            return Err(ErrorReply::invalid("x and y must be finite numbers"));
         }
         let held = match &g.map {
-            Some(name) => Some(self.maps.get(name).ok_or_else(|| format!("no map {name:?}"))?),
+            Some(name) => Some(self.maps.get(name).ok_or_else(|| ErrorReply::not_found(format!("no map {name:?}")))?),
             None if self.maps.len() == 1 => self.maps.values().next(),
             None => None,
         };
         let (Some(held), Some(pose)) = (held, self.fleet.last(&g.robot).map(|t| t.pose)) else { return Ok(vec![]) };
-        let space = held.space()?;
+        let space = held.space().map_err(ErrorReply::invalid)?;
         let name = &held.info.name;
-        let from = space.locate_robot(&g.robot, 0, mrmm_maps::Point::new(pose.x, pose.y)).map_err(|e| format!("map {name}: {e}"))?;
-        let to = space.locate("goal", 0, mrmm_maps::Point::new(g.x, g.y)).map_err(|e| format!("map {name}: {e}"))?;
-        let route = space.route(&from, &to).ok_or_else(|| format!("map {name}: ({}, {}) cannot be reached from where {} is", g.x, g.y, g.robot))?;
+        let from = space.locate_robot(&g.robot, 0, mrmm_maps::Point::new(pose.x, pose.y)).map_err(|e| ErrorReply::conflict(format!("map {name}: {e}")))?;
+        let to = space.locate("goal", 0, mrmm_maps::Point::new(g.x, g.y)).map_err(|e| ErrorReply::invalid(format!("map {name}: {e}")))?;
+        let route = space
+            .route(&from, &to)
+            .ok_or_else(|| ErrorReply::invalid(format!("map {name}: ({}, {}) cannot be reached from where {} is", g.x, g.y, g.robot)))?;
         Ok(route[1..route.len() - 1].iter().map(|p| [(p.x * 100.0).round() / 100.0, (p.y * 100.0).round() / 100.0]).collect())
     }
 
     /// The robot's record if it is registered and alive.
-    fn live_robot(&self, id: &str) -> Result<&RobotInfo, String> {
+    fn live_robot(&self, id: &str) -> Result<&RobotInfo, ErrorReply> {
         self.fleet.live_robot(id)
     }
 
@@ -508,8 +513,8 @@ impl SystemManager {
     }
 }
 
-pub(crate) fn to_value<T: serde::Serialize>(v: &T) -> Result<Value, String> {
-    serde_json::to_value(v).map_err(|e| e.to_string())
+pub(crate) fn to_value<T: serde::Serialize>(v: &T) -> Result<Value, ErrorReply> {
+    serde_json::to_value(v).map_err(|e| ErrorReply::invalid(e.to_string()))
 }
 
 #[cfg(test)]

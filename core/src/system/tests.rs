@@ -73,7 +73,7 @@ fn decode_bytes<T: serde::de::DeserializeOwned>(body: &[u8]) -> T {
 
 fn reply(cmds: Vec<Command>) -> Result<Value, String> {
     match cmds.as_slice() {
-        [Command::Reply { result, .. }] => result.clone(),
+        [Command::Reply { result, .. }] => result.clone().map_err(|e| e.error),
         other => panic!("expected one reply, got {other:?}"),
     }
 }
@@ -225,7 +225,7 @@ fn commands_wait_while_a_fresh_manager_learns_the_fleet() {
         Command::Reply { req: Req::Query(1), result } => Some(result.clone()),
         _ => None,
     });
-    assert!(e.expect("answered after the adoption period").expect_err("no idle robot").contains("0 idle robots"));
+    assert!(e.expect("answered after the adoption period").expect_err("no idle robot").error.contains("0 idle robots"));
     assert_eq!(sm.assignment().get("r2").map(|m| m.as_str()), Some("p"));
 }
 

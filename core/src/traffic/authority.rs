@@ -28,7 +28,7 @@ use mrmm_maps::graph::NavGraph;
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, OccupancyGrid, Point};
 use mrmm_proto::traffic::{RouteVertex, TrafficCleared, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
-use mrmm_proto::{RobotId, TrafficOrder};
+use mrmm_proto::{ErrorReply, RobotId, TrafficOrder};
 
 use super::{Layout, Params, Traffic, CLEARANCE};
 
@@ -43,6 +43,13 @@ pub const REBUILD_S: f64 = 2.0 * REPORT_S + 0.5;
 pub const STANDING: f64 = 0.3;
 /// Seconds a robot whose liveliness went keeps all it was granted.
 pub const LOST_GRACE_S: f64 = QUIET_S + 2.0;
+/// On a grid map a goal farther than this from its route's last vertex (metres) is driven to off
+/// the lanes, when the way there is clear ([`leg_off`]); nearer, the vertex is the goal.
+pub const OFF_NEAR: f64 = 0.15;
+/// A goal farther than this from every vertex it sees (metres) is reached at the vertex.
+pub const OFF_FAR: f64 = 6.0;
+/// Room for the robot's body on each side of a way off the lanes (metres from its centre line).
+pub const OFF_MARGIN: f64 = 0.2;
 
 /// Something that happened to the authority.
 #[derive(Debug, Clone, PartialEq)]
@@ -77,6 +84,19 @@ struct Seen {
     goal: Option<u64>,
     /// Why its goal was refused.
     refused: Option<String>,
+    /// The way off the lanes to its goal, if it was given one.
+    leg: Option<Leg>,
+    /// Its way off the lanes to an earlier goal, kept from other robots' ways until it is back
+    /// at that way's vertex.
+    left: Option<Leg>,
+}
+
+/// A way off the lanes: from vertex `v`, at `from`, straight to a goal at `to`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Leg {
+    v: u32,
+    from: Point,
+    to: Point,
 }
 
 /// Traffic on one map.
@@ -195,17 +215,17 @@ impl Authority {
     /// Takes lost robot `robot` off the lanes of every map (the operator says it is no longer
     /// where it stood): everything it held is free, and robots waiting for it are granted on.
     /// Refused for a robot whose liveliness did not go, or that holds nothing.
-    pub fn clear(&mut self, now: f64, robot: &RobotId) -> Result<(TrafficCleared, Vec<Command>), String> {
+    pub fn clear(&mut self, now: f64, robot: &RobotId) -> Result<(TrafficCleared, Vec<Command>), ErrorReply> {
         let on: Vec<String> =
             self.maps.iter().filter(|(_, m)| m.lanes.as_ref().is_some_and(|(t, _)| t.state(robot).is_some())).map(|(h, _)| h.clone()).collect();
         if on.is_empty() {
-            return Err(format!("robot {robot} holds nothing in traffic"));
+            return Err(ErrorReply::not_found(format!("robot {robot} holds nothing in traffic")));
         }
         let lost = self.gone.contains_key(robot) || on.iter().all(|h| self.traffic(h).is_some_and(|t| t.is_lost(robot)));
         if !lost {
-            return Err(format!(
+            return Err(ErrorReply::conflict(format!(
                 "robot {robot} is not lost: it holds where it stands and drives what it was granted; stop it, or drive it out of the way (mrmm op goto {robot} X Y)"
-            ));
+            )));
         }
         let (mut out, mut vertices) = (Vec::new(), 0);
         let incarnation = self.incarnation;
@@ -327,12 +347,23 @@ impl OnMap {
         let Some((traffic, space)) = self.lanes.as_mut() else {
             return vec![Command::Order { map: hash.to_string(), robot, order: TrafficOrder::Free }];
         };
+        // Other robots' ways off the lanes, which a new one keeps clear of (looked up only for a
+        // goal to route).
+        let routing = !rebuilding && report.goal.is_some_and(|g| self.robots.get(&robot).is_none_or(|s| s.goal != Some(g.id)));
+        let others: Vec<Leg> = if routing && self.grid.is_some() {
+            self.robots.iter().filter(|(id, _)| **id != robot).flat_map(|(_, s)| s.leg.into_iter().chain(s.left)).collect()
+        } else {
+            Vec::new()
+        };
         let seen = self.robots.entry(robot.clone()).or_default();
         if report.seq <= seen.seq {
             return Vec::new();
         }
         seen.seq = report.seq;
         seen.last = now;
+        if seen.left.is_some_and(|l| l.from.dist(Point::new(report.x, report.y)) <= STANDING) {
+            seen.left = None;
+        }
         let mut cmds = Vec::new();
         let known = traffic.state(&robot).is_some();
         match &report.held {
@@ -375,7 +406,12 @@ impl OnMap {
                     _ => None,
                 };
                 match route_to(traffic, space, grid, &robot, Point::new(report.x, report.y), goal) {
-                    Ok(route) => cmds.extend(traffic.handle(now, super::Event::Route { robot: robot.clone(), route })),
+                    Ok(route) => {
+                        seen.left = seen.leg.take().or(seen.left);
+                        let last = route[route.len() - 1];
+                        seen.leg = grid.and_then(|g| leg_off(traffic.layout(), g, last, Point::new(goal.x, goal.y), &others));
+                        cmds.extend(traffic.handle(now, super::Event::Route { robot: robot.clone(), route }));
+                    }
                     Err(why) => seen.refused = Some(why),
                 }
             }
@@ -423,6 +459,7 @@ impl OnMap {
         }
         let (traffic, _) = self.lanes.as_ref()?;
         let (route, reached, upto, version) = traffic.state(robot)?;
+        let off = seen.leg.filter(|l| route.last() == Some(&l.v)).map(|l| [l.to.x, l.to.y]);
         let layout = traffic.layout();
         let route = route
             .iter()
@@ -439,6 +476,7 @@ impl OnMap {
             reached: reached.map(|p| p as u32),
             upto: upto.map(|p| p as u32),
             deputies: self.deputies.clone(),
+            off,
         })
     }
 }
@@ -493,6 +531,28 @@ fn vertex_for(space: &GraphSpace, grid: Option<&OccupancyGrid>, p: Point) -> Opt
     let mut by_distance: Vec<(f64, u32)> = g.vertices.iter().enumerate().map(|(i, v)| (v.at.dist(p), i as u32)).collect();
     by_distance.sort_by(|a, b| a.0.total_cmp(&b.0));
     Some(by_distance.iter().take(SIGHT_TRIES).find(|(_, v)| grid.segment_free(p, g.vertices[*v as usize].at)).map_or(nearest, |&(_, v)| v))
+}
+
+/// The way off the lanes from vertex `v` to `goal` on a grid map, if a robot may drive it: the
+/// goal is farther than [`OFF_NEAR`] and nearer than [`OFF_FAR`]; the way and [`OFF_MARGIN`] on
+/// each side of it cross only free cells; every lane and vertex within the clearance of it is in
+/// conflict with `v` (no other robot can be there while this one holds `v`); and it keeps the
+/// clearance from the other robots' ways off the lanes.
+fn leg_off(layout: &Layout, grid: &OccupancyGrid, v: u32, goal: Point, others: &[Leg]) -> Option<Leg> {
+    let from = layout.point(v);
+    let d = from.dist(goal);
+    if !(d > OFF_NEAR && d <= OFF_FAR) {
+        return None;
+    }
+    let (nx, ny) = (-(goal.y - from.y) / d * OFF_MARGIN, (goal.x - from.x) / d * OFF_MARGIN);
+    let side = |s: f64| grid.segment_free(Point::new(from.x + s * nx, from.y + s * ny), Point::new(goal.x + s * nx, goal.y + s * ny));
+    if !(grid.segment_free(from, goal) && side(1.0) && side(-1.0) && layout.covered_by(v, from, goal)) {
+        return None;
+    }
+    if others.iter().any(|o| super::layout::segment_distance(from, goal, o.from, o.to) < layout.clearance()) {
+        return None;
+    }
+    Some(Leg { v, from, to: goal })
 }
 
 /// Vertices, nearest first, tried for one in sight ([`vertex_for`]).
@@ -566,6 +626,35 @@ mod tests {
         assert!(matches!(out.as_slice(), [Command::Order { order: TrafficOrder::Free, .. }]), "{out:?}");
     }
 
+    /// On a grid map a goal off the lanes in open space is given as the order's `off`, the way
+    /// there clear of every lane and vertex another robot could hold; a second robot's goal whose
+    /// way would come within the clearance of the first one's is not (it stops at its vertex).
+    #[test]
+    fn a_goal_off_the_lanes_is_given_a_way_there_only_where_no_other_robot_can_come() {
+        let map = two_rooms();
+        let hash = "g".repeat(64);
+        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        let off_of = |out: &[Command], robot: &str| {
+            out.iter().find_map(|c| match c {
+                Command::Order { robot: r, order: TrafficOrder::Route { off, .. }, .. } if r.as_str() == robot => Some(*off),
+                _ => None,
+            })
+        };
+        let report = |robot: &str, at: Point, goal: Point| TrafficReport {
+            robot: robot.into(),
+            seq: 1,
+            x: at.x,
+            y: at.y,
+            goal: Some(TrafficGoal { id: 1, x: goal.x, y: goal.y }),
+            held: None,
+        };
+        let goal = Point::new(9.0, 3.0);
+        let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", Point::new(1.0, 0.6), goal) });
+        assert_eq!(off_of(&out, "r1"), Some(Some([goal.x, goal.y])), "a way to the goal in the room: {out:?}");
+        let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", Point::new(1.0, 3.4), Point::new(9.3, 3.2)) });
+        assert_eq!(off_of(&out, "r2"), Some(None), "no way next to r1's: {out:?}");
+    }
+
     /// A robot whose session is new (it restarted: its reports count from 1 again) is heard: its
     /// goal is routed, where before its first reports were dropped as older than the last.
     #[test]
@@ -607,8 +696,8 @@ mod tests {
         let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", 1, start, Some(TrafficGoal { id: 1, x: end.x, y: end.y })) });
         assert!(out.iter().any(|c| matches!(c, Command::Order { robot, order: TrafficOrder::Route { .. }, .. } if robot.as_str() == "r2")), "{out:?}");
         let err = a.clear(0.2, &"r1".into()).unwrap_err();
-        assert!(err.contains("not lost"), "{err}");
-        assert!(a.clear(0.2, &"r9".into()).unwrap_err().contains("holds nothing"));
+        assert!(err.error.contains("not lost"), "{err}");
+        assert!(a.clear(0.2, &"r9".into()).unwrap_err().error.contains("holds nothing"));
         a.handle(1.0, Event::Gone("r1".into()));
         a.handle(1.0 + LOST_GRACE_S + 0.1, Event::Tick);
         let t = a.traffic(&hash).expect("lanes");

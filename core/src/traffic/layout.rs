@@ -201,6 +201,21 @@ impl Layout {
         &self.conflicts[r as usize]
     }
 
+    /// Whether a robot holding vertex `v` may stand anywhere on the segment `a` – `b` too: every
+    /// resource within the clearance of it is `v`, a lane of `v`, or in conflict with `v` — no
+    /// other robot can hold one while this one holds `v`.
+    pub fn covered_by(&self, v: u32, a: Point, b: Point) -> bool {
+        let Some(conflicts) = self.conflicts.get(v as usize) else { return false };
+        (0..self.resources() as Res).all(|r| {
+            let (ra, rb) = self.ends(r);
+            if ra == v || rb == v || conflicts.contains(&r) {
+                return true;
+            }
+            let (c, d) = self.segment(r);
+            segment_distance(a, b, c, d) >= self.clearance
+        })
+    }
+
     /// The segment a resource covers (a vertex: a point).
     fn segment(&self, r: Res) -> (Point, Point) {
         let nv = self.points.len() as u32;

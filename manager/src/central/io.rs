@@ -120,7 +120,7 @@ impl Io {
                 };
                 match result {
                     Ok(v) => self.mesh.reply_json(&q, &v).await,
-                    Err(e) => self.mesh.reply_error(&q, &e).await,
+                    Err(e) => self.mesh.reply_err(&q, &e).await,
                 }
             }
             system::Command::Refused(r) => self.mesh.refused(&r),

@@ -300,6 +300,11 @@ pub fn cells_on_segment(u0: f64, v0: f64, u1: f64, v1: f64, mut ok: impl FnMut(i
         if x == ex && y == ey {
             return true;
         }
+        // The segment ends in this cell: rounding (an end on a cell's corner, a diagonal through
+        // corners) kept the walk from naming the end's cell, and it would walk on past the end.
+        if t_max_x.min(t_max_y) > 1.0 + 1e-9 {
+            break;
+        }
         if (t_max_x - t_max_y).abs() < 1e-12 {
             if !ok(x + sx, y) || !ok(x, y + sy) {
                 return false;

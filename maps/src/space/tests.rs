@@ -155,4 +155,14 @@ fn the_segment_walk_touches_every_crossed_cell() {
     });
     assert!(corner.contains(&(1, 0)) && corner.contains(&(0, 1)), "{corner:?}");
     assert!(!cells_on_segment(0.5, 0.5, 3.5, 0.5, |c, _| c != 2));
+    // A diagonal through corners ending on a corner that rounding puts a hair off (9.95, 2.05)
+    // → (9.0, 3.0) in 0.1 m cells, as a grid computes them: the walk stops at the end, it does
+    // not walk on past it (it once went on into the wall beyond and said the way was blocked).
+    let (u0, v0, u1, v1) = (9.950000000000001 / 0.1, 2.0500000000000003 / 0.1, 9.0 / 0.1, 3.0 / 0.1);
+    let mut far = Vec::new();
+    assert!(cells_on_segment(u0, v0, u1, v1, |c, r| {
+        far.push((c, r));
+        true
+    }));
+    assert!(far.iter().all(|&(c, r)| (88..=100).contains(&c) && (20..=31).contains(&r)), "walked past the end: {far:?}");
 }

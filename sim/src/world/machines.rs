@@ -87,7 +87,7 @@ impl World {
                 self.queue.push(at, Ev::LocalCentral { node: i, inc, ev: Box::new(central::Event::System(system::Event::DryRunDone { id: dry.id, result })) });
             }
             system::Command::Reply { req: Req::Query(q), result } => {
-                let short = result.as_ref().map(|_| "ok".to_string()).unwrap_or_else(|e| e.clone());
+                let short = result.as_ref().map(|_| "ok".to_string()).unwrap_or_else(|e| e.error.clone());
                 self.log(|| format!("operator request {q}: {short}"));
                 self.op.answered(q, result.is_ok())
             }

@@ -82,7 +82,19 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     let client = Client::connect_with(&connect, tool.security(&args.security, "operator"), Duration::from_millis(args.timeout_ms)).await?;
     let result = exec(&client, args.what, args.json).await;
     client.close().await;
-    result
+    result.map_err(with_code)
+}
+
+/// Central's error with its code after its words (`unknown robot "r9" [not_found]`), so that a
+/// script reading the tool's output can tell "no such thing" from "try again".
+fn with_code(e: anyhow::Error) -> anyhow::Error {
+    match e.downcast_ref::<proto::ProtoError>() {
+        Some(proto::ProtoError::Query(proto::QueryError::Remote(r))) => match r.code {
+            Some(code) => anyhow::anyhow!("{} [{}]", r.error, code.as_str()),
+            None => e,
+        },
+        _ => e,
+    }
 }
 
 async fn exec(client: &Client, what: What, json: bool) -> anyhow::Result<()> {

@@ -15,7 +15,7 @@ struct Seen {
     starts: Vec<(String, String, Vec<String>)>,
     ctls: Vec<(String, MissionCtl)>,
     leaves: Vec<String>,
-    replies: Vec<(Req, Result<Value, String>)>,
+    replies: Vec<(Req, Result<Value, mrmm_proto::ErrorReply>)>,
     forwards: Vec<String>,
 }
 
@@ -110,30 +110,34 @@ fn create_starts_on_a_host_then_terminate_frees_the_robots() {
 #[test]
 fn bad_creates_change_nothing() {
     let mut sm = with_host(&["r1", "r2"]);
+    use mrmm_proto::ErrorCode::{Conflict, Invalid, NotFound};
     let cases = [
-        (r#"{"name": "p/1", "recipe": "patrol"}"#, "mission name"),
-        (r#"{"name": "p1", "recipe": "swarm"}"#, "unknown recipe"),
-        (r#"{"name": "p1", "recipe": "patrol", "robots": ["zz"]}"#, "unknown robot"),
-        (r#"{"name": "p1", "recipe": "patrol", "robots": ["r1", "r1"]}"#, "listed twice"),
-        (r#"{"name": "p1", "recipe": "patrol", "count": 3}"#, "2 idle robots"),
-        (r#"{"name": "p1", "recipe": "patrol", "count": 1, "robots": ["r1"]}"#, "not both"),
-        (r#"{"name": "p1", "recipe": "patrol", "params": {"waypoints": [[0,0]]}}"#, "at least 2 points"),
-        (r#"{"name": "p1", "recipe": "patrol", "params": {"rounds": 0}}"#, "rounds"),
-        (r#"{"name": "p1", "recipe": "coverage", "params": {"region": [[0,0],[1,1],[0,1],[1,0]]}}"#, "self-intersecting"),
-        (r#"{"name": "p1", "recipe": "<recipe name='x' planner='patrol'><fly/></recipe>"}"#, "unknown element <fly>"),
-        (r#"{"name": "p1", "recipe": "patrol", "host": "elsewhere"}"#, "no mission host \"elsewhere\""),
+        (r#"{"name": "p/1", "recipe": "patrol"}"#, "mission name", Invalid),
+        (r#"{"name": "p1", "recipe": "swarm"}"#, "unknown recipe", NotFound),
+        (r#"{"name": "p1", "recipe": "patrol", "robots": ["zz"]}"#, "unknown robot", NotFound),
+        (r#"{"name": "p1", "recipe": "patrol", "robots": ["r1", "r1"]}"#, "listed twice", Invalid),
+        (r#"{"name": "p1", "recipe": "patrol", "count": 3}"#, "2 idle robots", Conflict),
+        (r#"{"name": "p1", "recipe": "patrol", "count": 1, "robots": ["r1"]}"#, "not both", Invalid),
+        (r#"{"name": "p1", "recipe": "patrol", "params": {"waypoints": [[0,0]]}}"#, "at least 2 points", Invalid),
+        (r#"{"name": "p1", "recipe": "patrol", "params": {"rounds": 0}}"#, "rounds", Invalid),
+        (r#"{"name": "p1", "recipe": "coverage", "params": {"region": [[0,0],[1,1],[0,1],[1,0]]}}"#, "self-intersecting", Invalid),
+        (r#"{"name": "p1", "recipe": "<recipe name='x' planner='patrol'><fly/></recipe>"}"#, "unknown element <fly>", Invalid),
+        (r#"{"name": "p1", "recipe": "patrol", "host": "elsewhere"}"#, "no mission host \"elsewhere\"", NotFound),
     ];
-    for (i, (body, want)) in cases.iter().enumerate() {
+    // Each error says what is wrong in words, and what to do about it in its code.
+    for (i, (body, want, code)) in cases.iter().enumerate() {
         let seen = create(&mut sm, i as u64, body);
         assert!(seen.starts.is_empty() && seen.ctls.is_empty(), "{body}");
         let e = seen.replies[0].1.as_ref().expect_err(body);
-        assert!(e.contains(want), "{body}: {e}");
+        assert!(e.error.contains(want), "{body}: {e}");
+        assert_eq!(e.code, Some(*code), "{body}: {e}");
     }
     assert_eq!(sm.status(1.0).missions, 0);
     assert!(sm.views().iter().all(|v| v.mission.is_none()));
     assert!(create(&mut sm, 50, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#).replies[0].1.is_ok());
     let e = create(&mut sm, 51, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#).replies[0].1.clone();
-    assert!(e.expect_err("dup").contains("already exists"));
+    let e = e.expect_err("dup");
+    assert!(e.error.contains("already exists") && e.is(Conflict), "{e:?}");
 }
 
 #[test]
@@ -183,7 +187,7 @@ fn a_start_nobody_answered_is_ended_before_its_robots_go_elsewhere() {
         _ => None,
     });
     let end = end.expect("the mission is ended in case it started");
-    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Err(e), .. } if e.contains("did not start"))));
+    assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Err(e), .. } if e.error.contains("did not start"))));
     // r1 is free, but a new mission takes it only once p's end is acknowledged.
     let cmds = sm.drive(27.0, Event::Operator { req: Req::Query(2), request: Request::Create(decode(r#"{"name": "q", "recipe": "patrol", "count": 1}"#)) });
     assert!(cmds.is_empty(), "{cmds:?}");
@@ -216,12 +220,14 @@ fn move_and_loss_steer_both_missions() {
     assert_eq!(seen.ctls[0], ("p".into(), left(&["r4"])));
     assert!(matches!(&seen.ctls[1], (m, MissionCtl::Joined { member }) if m == "c" && member.spec.id == "r4"));
     assert!(seen.leaves.is_empty(), "the new plan replaces the old one");
-    for (body, want) in [
-        (r#"{"robot": "r4", "to": "c"}"#, "already in mission c"),
-        (r#"{"robot": "r4", "to": "zz"}"#, "unknown mission"),
-        (r#"{"robot": "zz", "to": "c"}"#, "unknown robot"),
+    use mrmm_proto::ErrorCode::{Conflict, NotFound};
+    for (body, want, code) in [
+        (r#"{"robot": "r4", "to": "c"}"#, "already in mission c", Conflict),
+        (r#"{"robot": "r4", "to": "zz"}"#, "unknown mission", NotFound),
+        (r#"{"robot": "zz", "to": "c"}"#, "unknown robot", NotFound),
     ] {
-        assert!(mv(&mut sm, body).replies[0].1.as_ref().expect_err(body).contains(want), "{body}");
+        let e = mv(&mut sm, body).replies[0].1.clone().expect_err(body);
+        assert!(e.error.contains(want) && e.is(code), "{body}: {e:?}");
     }
     // A patrol robot is lost: its head plans around it on its own; it keeps its place.
     let cmds = sm.drive(6.0, Event::RobotGone { id: "r1".into() });
@@ -231,7 +237,7 @@ fn move_and_loss_steer_both_missions() {
     assert_eq!(v[1]["robots"], serde_json::json!(["r2", "r3"]));
     // No other mission can take it while it is away, and it is back in p when it returns.
     let e = mv(&mut sm, r#"{"robot": "r1", "to": "c"}"#).replies[0].1.clone().expect_err("lost");
-    assert!(e.contains("lost"), "{e}");
+    assert!(e.error.contains("lost"), "{e}");
     sm.drive(7.0, Event::RobotAlive { id: "r1".into() });
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
     // A goto on a mission robot is refused; moving it out frees it.

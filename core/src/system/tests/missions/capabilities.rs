@@ -22,7 +22,7 @@ fn caps(sm: &mut SystemManager, body: &str) -> Vec<Command> {
 }
 
 fn err_of(seen: &Seen) -> String {
-    seen.replies[0].1.clone().expect_err("refused")
+    seen.replies[0].1.clone().expect_err("refused").error
 }
 
 #[test]

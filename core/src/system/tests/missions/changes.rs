@@ -42,7 +42,7 @@ fn an_update_is_checked_then_sent_whole_to_the_head() {
         let seen = update(&mut sm, body);
         assert!(seen.ctls.is_empty(), "{body}");
         let e = seen.replies[0].1.as_ref().expect_err(body);
-        assert!(e.contains(want), "{body}: {e}");
+        assert!(e.error.contains(want), "{body}: {e}");
         assert_eq!(spec(&sm, "p1"), s, "{body} changed the mission");
     }
 }
@@ -60,7 +60,7 @@ fn pause_and_resume_go_to_the_head_and_into_the_definition() {
     let seen = pause(&mut sm, "p1", false);
     assert!(!spec(&sm, "p1").paused);
     assert!(matches!(&seen.ctls[..], [(_, MissionCtl::Update { spec })] if !spec.paused));
-    assert!(pause(&mut sm, "zz", true).replies[0].1.as_ref().is_err_and(|e| e.contains("unknown mission")));
+    assert!(pause(&mut sm, "zz", true).replies[0].1.as_ref().is_err_and(|e| e.error.contains("unknown mission")));
 }
 
 #[test]
@@ -78,7 +78,7 @@ fn a_mission_of_teams_is_updated_team_by_team() {
     ] {
         let seen = update(&mut sm, body);
         let e = seen.replies[0].1.as_ref().expect_err(body);
-        assert!(e.contains(want), "{body}: {e}");
+        assert!(e.error.contains(want), "{body}: {e}");
         assert_eq!(spec(&sm, "e"), s, "{body} changed the mission");
     }
 }
