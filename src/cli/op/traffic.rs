@@ -1,4 +1,4 @@
-//! `mrmm op traffic [MAP]`: what central's traffic authority holds on each graph map — every
+//! `mrmm op traffic [MAP]`: what central's traffic authority holds on each map with lanes — every
 //! robot's route, how far it got and may go, the vertices it holds, whom it waits for and for how
 //! long, and whether it is blocked (`mrmm/system/traffic`); `--clear ROBOT` takes a lost robot
 //! off the lanes.
@@ -8,7 +8,7 @@ use mrmm_proto::traffic::TrafficView;
 use mrmm_proto::{self as proto, MapInfo};
 use serde_json::Value;
 
-/// Prints traffic on every graph map, or on `map` only (a map's name, or the start of its hash).
+/// Prints traffic on every map with lanes, or on `map` only (a map's name, or the start of its hash).
 pub async fn exec(client: &Client, map: Option<String>, json: bool) -> anyhow::Result<()> {
     let none = None::<&()>;
     let v: Value = client.query(proto::Key::SystemTraffic, none).await?;
@@ -41,7 +41,7 @@ pub async fn clear(client: &Client, robot: &str, json: bool) -> anyhow::Result<(
 /// Traffic as a table per map.
 pub fn table(views: &[TrafficView], name_of: impl Fn(&str) -> String) -> String {
     if views.is_empty() {
-        return "no graph map has robots in traffic\n".into();
+        return "no map has robots in traffic\n".into();
     }
     let mut out = String::new();
     for v in views {
