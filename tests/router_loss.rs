@@ -41,8 +41,10 @@ async fn patrol_goes_on_when_central_dies() -> anyhow::Result<()> {
     let ring = || zenoh::handlers::RingChannel::new(4096);
     let arrivals = observer.declare_subscriber(proto::Pattern::TeamSync("p".to_string()).to_string()).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     let telemetry = observer.declare_subscriber(proto::Pattern::AllTelemetry.to_string()).with(ring()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    // Every robot heard at least once (kept across polls: the three need not speak between two).
+    let heard = std::sync::Mutex::new(BTreeSet::new());
     eventually("telemetry of all 3 robots", Duration::from_secs(20), || async {
-        let mut seen = BTreeSet::new();
+        let mut seen = heard.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
         while let Ok(Some(s)) = telemetry.try_recv() {
             if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
                 seen.insert(t.id);
