@@ -261,17 +261,29 @@ fn a_simulated_robot_crashes_on_centrals_word_after_answering_and_a_ros_robot_re
     assert!(matches!(&out[0], Command::Reply(Err(e)) if e.contains("only a simulated robot")), "{out:?}");
 }
 
+/// A robot that took a plan on a map (`steps`, else [`plan`]'s), and that map.
+fn planned_on_map(steps: Option<Vec<Step>>) -> (Robot, mrmm_proto::MapRef) {
+    let map = mrmm_proto::MapRef { name: "building".into(), hash: "ab".repeat(32) };
+    let mut r = Robot::new(cfg());
+    let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
+    a.map = Some(map.clone());
+    if let Some(steps) = steps {
+        a.plan.steps = steps;
+    }
+    cmd(&mut r, RobotCommand::Plan(a)).0.expect("plan taken");
+    (r, map)
+}
+
 /// On a map, a plan's goal goes to traffic first; when traffic answers that the map has no lanes
 /// (a grid map), the body drives to that goal — the plan does not skip it for the next one (an
 /// aerial robot of the demo once flew straight through the building's walls so).
 #[test]
 fn a_goal_given_to_traffic_is_driven_when_the_map_has_no_lanes() {
-    let map = mrmm_proto::MapRef { name: "building".into(), hash: "ab".repeat(32) };
-    let mut r = Robot::new(cfg());
-    let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
-    a.map = Some(map.clone());
-    a.plan.steps = vec![Step::Navigate { x: 4.0, y: 0.0, speed: None }, Step::Navigate { x: 4.0, y: -4.0, speed: None }, Step::Hold { seconds: None }];
-    cmd(&mut r, RobotCommand::Plan(a)).0.expect("plan taken");
+    let (mut r, map) = planned_on_map(Some(vec![
+        Step::Navigate { x: 4.0, y: 0.0, speed: None },
+        Step::Navigate { x: 4.0, y: -4.0, speed: None },
+        Step::Hold { seconds: None },
+    ]));
     // Traffic has not answered yet: the robot stands, waiting for its word.
     for i in 0..10 {
         r.handle(i as f64 * 0.01, Event::Tick);
@@ -295,11 +307,7 @@ fn a_goal_given_to_traffic_is_driven_when_the_map_has_no_lanes() {
 /// The same for a goto given to traffic before it answered: its route is driven point by point.
 #[test]
 fn a_goto_given_to_traffic_is_driven_along_its_route_when_the_map_has_no_lanes() {
-    let map = mrmm_proto::MapRef { name: "building".into(), hash: "cd".repeat(32) };
-    let mut r = Robot::new(cfg());
-    let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
-    a.map = Some(map.clone());
-    cmd(&mut r, RobotCommand::Plan(a)).0.expect("plan taken");
+    let (mut r, map) = planned_on_map(None);
     cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]] }).0.expect("goto taken");
     r.handle(0.0, Event::Tick);
     assert_eq!(r.body.goal(), None, "traffic's word first");
@@ -313,12 +321,11 @@ fn a_goto_given_to_traffic_is_driven_along_its_route_when_the_map_has_no_lanes()
 #[test]
 fn a_way_off_the_lanes_is_driven_there_and_back_by_the_vertex() {
     use mrmm_proto::traffic::RouteVertex;
-    let map = mrmm_proto::MapRef { name: "building".into(), hash: "ef".repeat(32) };
-    let mut r = Robot::new(cfg());
-    let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
-    a.map = Some(map.clone());
-    a.plan.steps = vec![Step::Navigate { x: 3.0, y: 1.0, speed: None }, Step::Navigate { x: 0.0, y: -1.0, speed: None }, Step::Hold { seconds: None }];
-    cmd(&mut r, RobotCommand::Plan(a)).0.expect("plan taken");
+    let (mut r, map) = planned_on_map(Some(vec![
+        Step::Navigate { x: 3.0, y: 1.0, speed: None },
+        Step::Navigate { x: 0.0, y: -1.0, speed: None },
+        Step::Hold { seconds: None },
+    ]));
     let (v0, v1) = (RouteVertex { v: 0, x: 0.0, y: 0.0 }, RouteVertex { v: 1, x: 3.0, y: 0.0 });
     let order = |goal: u64, version: u64, route: Vec<RouteVertex>, off: [f64; 2]| Event::Traffic {
         map: map.hash.clone(),

@@ -22,15 +22,17 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use std::borrow::Cow;
-
-use mrmm_maps::graph::NavGraph;
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, OccupancyGrid, Point};
 use mrmm_proto::traffic::{RouteVertex, TrafficCleared, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
 use mrmm_proto::{ErrorReply, RobotId, TrafficOrder};
 
 use super::{Layout, Params, Traffic, CLEARANCE};
+
+mod grid;
+
+pub use grid::{lanes_of, OFF_FAR, OFF_MARGIN, OFF_NEAR};
+use grid::{leg_off, vertex_for, Leg};
 
 /// Lanes longer than this (metres) are cut into segments ([`super::layout::segmented`]): robots
 /// follow one another along a lane a segment apart instead of a lane apart. Measured in `mrmm
@@ -43,14 +45,6 @@ pub const REBUILD_S: f64 = 2.0 * REPORT_S + 0.5;
 pub const STANDING: f64 = 0.3;
 /// Seconds a robot whose liveliness went keeps all it was granted.
 pub const LOST_GRACE_S: f64 = QUIET_S + 2.0;
-/// On a grid map a goal farther than this from its route's last vertex (metres) is driven to off
-/// the lanes, when the way there is clear ([`leg_off`]); nearer, the vertex is the goal.
-pub const OFF_NEAR: f64 = 0.15;
-/// A goal farther than this from every vertex it sees (metres) is reached at the vertex.
-pub const OFF_FAR: f64 = 6.0;
-/// Room for the robot's body on each side of a way off the lanes (metres from its centre line).
-pub const OFF_MARGIN: f64 = 0.2;
-
 /// Something that happened to the authority.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Event {
@@ -89,14 +83,6 @@ struct Seen {
     /// Its way off the lanes to an earlier goal, kept from other robots' ways until it is back
     /// at that way's vertex.
     left: Option<Leg>,
-}
-
-/// A way off the lanes: from vertex `v`, at `from`, straight to a goal at `to`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Leg {
-    v: u32,
-    from: Point,
-    to: Point,
 }
 
 /// Traffic on one map.
@@ -500,64 +486,6 @@ pub fn egress(c: &Command) -> Option<crate::egress::Out> {
     crate::egress::Out::json(mrmm_proto::Key::TrafficOrder { map: map.clone(), robot: robot.clone() }, order, to)
 }
 
-/// The lanes robots on `map` drive: a graph map's own; a grid map's derived from its free space
-/// along its corridors and through its doors ([`mrmm_maps::roadmap`], its defaults: lanes keep
-/// 0.3 m from anything not free), the same on central and on every deputy. None: no lanes (a
-/// grid with no room for a robot).
-pub fn lanes_of(map: &Map) -> Option<Cow<'_, NavGraph>> {
-    match map {
-        Map::Graph(g) => Some(Cow::Borrowed(g)),
-        Map::Grid(g) => match mrmm_maps::roadmap::derive("grid map", g, &mrmm_maps::roadmap::Params::default()) {
-            Ok(lanes) if !lanes.vertices.is_empty() => Some(Cow::Owned(lanes)),
-            Ok(_) => None,
-            Err(e) => {
-                tracing::warn!(error = %e, "no lanes derived: robots on this map drive without traffic");
-                None
-            }
-        },
-    }
-}
-
-/// The vertex a robot at `p` enters the lanes at, or a goal at `p` is reached at: the nearest
-/// one, on a grid map the nearest one in sight (the straight way there crosses no cell that is
-/// not free), else the nearest.
-fn vertex_for(space: &GraphSpace, grid: Option<&OccupancyGrid>, p: Point) -> Option<u32> {
-    let g = space.graph();
-    if g.vertices.is_empty() {
-        return None;
-    }
-    let nearest = g.nearest(p).0;
-    let Some(grid) = grid else { return Some(nearest) };
-    let mut by_distance: Vec<(f64, u32)> = g.vertices.iter().enumerate().map(|(i, v)| (v.at.dist(p), i as u32)).collect();
-    by_distance.sort_by(|a, b| a.0.total_cmp(&b.0));
-    Some(by_distance.iter().take(SIGHT_TRIES).find(|(_, v)| grid.segment_free(p, g.vertices[*v as usize].at)).map_or(nearest, |&(_, v)| v))
-}
-
-/// The way off the lanes from vertex `v` to `goal` on a grid map, if a robot may drive it: the
-/// goal is farther than [`OFF_NEAR`] and nearer than [`OFF_FAR`]; the way and [`OFF_MARGIN`] on
-/// each side of it cross only free cells; every lane and vertex within the clearance of it is in
-/// conflict with `v` (no other robot can be there while this one holds `v`); and it keeps the
-/// clearance from the other robots' ways off the lanes.
-fn leg_off(layout: &Layout, grid: &OccupancyGrid, v: u32, goal: Point, others: &[Leg]) -> Option<Leg> {
-    let from = layout.point(v);
-    let d = from.dist(goal);
-    if !(d > OFF_NEAR && d <= OFF_FAR) {
-        return None;
-    }
-    let (nx, ny) = (-(goal.y - from.y) / d * OFF_MARGIN, (goal.x - from.x) / d * OFF_MARGIN);
-    let side = |s: f64| grid.segment_free(Point::new(from.x + s * nx, from.y + s * ny), Point::new(goal.x + s * nx, goal.y + s * ny));
-    if !(grid.segment_free(from, goal) && side(1.0) && side(-1.0) && layout.covered_by(v, from, goal)) {
-        return None;
-    }
-    if others.iter().any(|o| super::layout::segment_distance(from, goal, o.from, o.to) < layout.clearance()) {
-        return None;
-    }
-    Some(Leg { v, from, to: goal })
-}
-
-/// Vertices, nearest first, tried for one in sight ([`vertex_for`]).
-const SIGHT_TRIES: usize = 64;
-
 /// The route to `goal`: from the vertex the robot will stand at (where its grant ends; where it
 /// enters the lanes if it holds nothing yet) to the vertex the goal is reached at.
 fn route_to(traffic: &Traffic, space: &GraphSpace, grid: Option<&OccupancyGrid>, robot: &RobotId, at: Point, goal: TrafficGoal) -> Result<Vec<u32>, String> {
@@ -570,145 +498,4 @@ fn route_to(traffic: &Traffic, space: &GraphSpace, grid: Option<&OccupancyGrid>,
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn office() -> Arc<Map> {
-        let (name, text) = mrmm_maps::data::OPEN_RMF[0];
-        Arc::new(Map::Graph(mrmm_maps::rmf::parse(name, text).expect("office graph")))
-    }
-
-    /// Two rooms of 6 × 4 m side by side, a wall between them with a door 1.2 m wide, 0.1 m cells.
-    fn two_rooms() -> Arc<Map> {
-        let (w, h) = (120u32, 40u32);
-        let mut data = vec![0i8; (w * h) as usize];
-        for row in 0..h {
-            for col in 0..w {
-                let edge = row < 2 || row >= h - 2 || col < 2 || col >= w - 2;
-                let wall = (59..61).contains(&col) && !(14..26).contains(&row);
-                if edge || wall {
-                    data[(row * w + col) as usize] = 100;
-                }
-            }
-        }
-        Arc::new(Map::Grid(OccupancyGrid { width: w, height: h, resolution: 0.1, origin: [0.0, 0.0, 0.0], data }))
-    }
-
-    /// A grid map has lanes derived from its free space: a goal in the other room is routed along
-    /// them through the door, from a vertex the robot sees to one the goal sees; a map named
-    /// without lanes is answered free.
-    #[test]
-    fn a_grid_maps_robots_are_routed_on_lanes_derived_from_its_free_space() {
-        let map = two_rooms();
-        let Map::Grid(grid) = map.as_ref() else { unreachable!() };
-        let hash = "g".repeat(64);
-        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
-        let (here, there) = (Point::new(1.0, 0.6), Point::new(11.0, 3.4));
-        let report = TrafficReport { robot: "r1".into(), seq: 1, x: here.x, y: here.y, goal: Some(TrafficGoal { id: 1, x: there.x, y: there.y }), held: None };
-        let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report.clone() });
-        let route = out
-            .iter()
-            .find_map(|c| match c {
-                Command::Order { order: TrafficOrder::Route { route, .. }, .. } => Some(route.clone()),
-                _ => None,
-            })
-            .unwrap_or_else(|| panic!("a route on the derived lanes: {out:?}"));
-        let (first, last) = (route[0], route[route.len() - 1]);
-        assert!(grid.segment_free(here, Point::new(first.x, first.y)), "entered at a vertex in sight: {first:?}");
-        assert!(grid.segment_free(there, Point::new(last.x, last.y)), "left at a vertex in sight: {last:?}");
-        assert!(first.x < 6.0 && last.x > 6.0, "from one room to the other (every lane in free cells: through the door): {route:?}");
-        for w in route.windows(2) {
-            assert!(grid.segment_free(Point::new(w[0].x, w[0].y), Point::new(w[1].x, w[1].y)), "a lane through a wall: {w:?}");
-        }
-        let mut free = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
-        free.without_lanes([hash.clone()]);
-        let out = free.handle(0.0, Event::Report { map: hash.clone(), report });
-        assert!(matches!(out.as_slice(), [Command::Order { order: TrafficOrder::Free, .. }]), "{out:?}");
-    }
-
-    /// On a grid map a goal off the lanes in open space is given as the order's `off`, the way
-    /// there clear of every lane and vertex another robot could hold; a second robot's goal whose
-    /// way would come within the clearance of the first one's is not (it stops at its vertex).
-    #[test]
-    fn a_goal_off_the_lanes_is_given_a_way_there_only_where_no_other_robot_can_come() {
-        let map = two_rooms();
-        let hash = "g".repeat(64);
-        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
-        let off_of = |out: &[Command], robot: &str| {
-            out.iter().find_map(|c| match c {
-                Command::Order { robot: r, order: TrafficOrder::Route { off, .. }, .. } if r.as_str() == robot => Some(*off),
-                _ => None,
-            })
-        };
-        let report = |robot: &str, at: Point, goal: Point| TrafficReport {
-            robot: robot.into(),
-            seq: 1,
-            x: at.x,
-            y: at.y,
-            goal: Some(TrafficGoal { id: 1, x: goal.x, y: goal.y }),
-            held: None,
-        };
-        let goal = Point::new(9.0, 3.0);
-        let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", Point::new(1.0, 0.6), goal) });
-        assert_eq!(off_of(&out, "r1"), Some(Some([goal.x, goal.y])), "a way to the goal in the room: {out:?}");
-        let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", Point::new(1.0, 3.4), Point::new(9.3, 3.2)) });
-        assert_eq!(off_of(&out, "r2"), Some(None), "no way next to r1's: {out:?}");
-    }
-
-    /// A robot whose session is new (it restarted: its reports count from 1 again) is heard: its
-    /// goal is routed, where before its first reports were dropped as older than the last.
-    #[test]
-    fn a_restarted_robots_reports_count_from_its_first() {
-        let map = office();
-        let Map::Graph(g) = map.as_ref() else { unreachable!() };
-        let hash = "h".repeat(64);
-        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
-        let here = g.vertices[0].at;
-        let far = g.vertices[g.vertices.len() - 1].at;
-        let report = |seq: u64, goal: Option<TrafficGoal>| TrafficReport { robot: "r1".into(), seq, x: here.x, y: here.y, goal, held: None };
-        a.handle(0.0, Event::Report { map: hash.clone(), report: report(40, None) });
-        a.handle(2.0, Event::Gone("r1".into()));
-        a.handle(3.0, Event::Alive("r1".into()));
-        let out = a.handle(3.1, Event::Report { map: hash.clone(), report: report(1, Some(TrafficGoal { id: 1, x: far.x, y: far.y })) });
-        assert!(out.iter().any(|c| matches!(c, Command::Order { order: TrafficOrder::Route { .. }, .. })), "the restarted robot's report was dropped: {out:?}");
-    }
-
-    /// A lost robot standing on a vertex another robot's route runs through: the other waits
-    /// until the operator takes the lost one off the lanes, then goes on. A robot still alive
-    /// is not cleared.
-    #[test]
-    fn a_lost_robot_taken_off_the_lanes_frees_the_way() {
-        let map = office();
-        let Map::Graph(g) = map.as_ref() else { unreachable!() };
-        let hash = "h".repeat(64);
-        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
-        // r2's way from vertex 0 to the vertex farthest from it, and r1 standing on its middle.
-        let space = GraphSpace::new(g);
-        let far = (0..g.vertices.len() as u32)
-            .max_by(|&x, &y| g.vertices[x as usize].at.dist(g.vertices[0].at).total_cmp(&g.vertices[y as usize].at.dist(g.vertices[0].at)))
-            .unwrap();
-        let way = space.vertex_path(0, far).expect("a way across the office");
-        let mid = g.vertices[way[way.len() / 2] as usize].at;
-        let (start, end) = (g.vertices[0].at, g.vertices[far as usize].at);
-        let report =
-            |robot: &str, seq: u64, at: Point, goal: Option<TrafficGoal>| TrafficReport { robot: robot.into(), seq, x: at.x, y: at.y, goal, held: None };
-        a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", 1, mid, None) });
-        let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", 1, start, Some(TrafficGoal { id: 1, x: end.x, y: end.y })) });
-        assert!(out.iter().any(|c| matches!(c, Command::Order { robot, order: TrafficOrder::Route { .. }, .. } if robot.as_str() == "r2")), "{out:?}");
-        let err = a.clear(0.2, &"r1".into()).unwrap_err();
-        assert!(err.error.contains("not lost"), "{err}");
-        assert!(a.clear(0.2, &"r9".into()).unwrap_err().error.contains("holds nothing"));
-        a.handle(1.0, Event::Gone("r1".into()));
-        a.handle(1.0 + LOST_GRACE_S + 0.1, Event::Tick);
-        let t = a.traffic(&hash).expect("lanes");
-        assert!(!t.held(&"r1".into()).is_empty(), "a lost robot keeps where it stood");
-        let (cleared, out) = a.clear(20.0, &"r1".into()).expect("cleared");
-        assert_eq!((cleared.maps.len(), cleared.vertices), (1, 1), "{cleared:?}");
-        let t = a.traffic(&hash).expect("lanes");
-        assert!(t.held(&"r1".into()).is_empty() && t.state(&"r1".into()).is_none());
-        assert!(t.holder(way[way.len() / 2]).is_none_or(|h| h.as_str() == "r2"), "r1's vertex is free");
-        // r2 was waiting for r1's vertex or had not got so far: either way nothing of r1's is
-        // held, and r2 is told its order again if it was granted on.
-        assert!(out.iter().all(|c| matches!(c, Command::Order { robot, .. } if robot.as_str() == "r2")), "{out:?}");
-    }
-}
+mod tests;
