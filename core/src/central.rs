@@ -253,6 +253,23 @@ pub fn subscriptions() -> Vec<Sub> {
     subs
 }
 
+impl crate::machine::Machine for CentralCore {
+    type Event = Event;
+    type Command = Command;
+
+    fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+        CentralCore::handle(self, now, event)
+    }
+
+    /// The system manager's journal entries are written before anything else of their step.
+    fn effect(command: &Command) -> crate::machine::Effect {
+        match command {
+            Command::System(system::Command::Journal(_)) => crate::machine::Effect::Persist,
+            _ => crate::machine::Effect::Carry,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,7 +1,7 @@
 //! mrmm's decisions: every machine of the fleet as a pure state machine, with no I/O — no Zenoh,
 //! no async runtime, no database, no crypto, no ROS (CI checks `cargo tree -p mrmm-core`). Each
-//! machine is module `x` with `x::Event`, `x::Command` and `X::handle(now, Event) -> Vec<Command>`;
-//! the drivers (`mrmm-manager`, `mrmm-peer`) and the seeded simulations (`mrmm-sim`) run these
+//! machine is module `x` with `x::Event`, `x::Command` and `X::handle(now, Event) -> Vec<Command>`
+//! ([`machine::Machine`]); the drivers (`mrmm-manager`, `mrmm-peer`) and the seeded simulations (`mrmm-sim`) run these
 //! same machines.
 //!
 //! | machine | what it decides | driven by |
@@ -27,6 +27,7 @@ pub mod edge;
 pub mod egress;
 pub mod executor;
 pub mod host;
+pub mod machine;
 pub mod maps;
 pub mod mission;
 pub mod nav_goals;

@@ -26,6 +26,7 @@ pub mod ingress;
 mod led;
 mod peers;
 mod robots;
+
 #[cfg(test)]
 mod tests;
 mod ticks;
@@ -359,4 +360,21 @@ impl HostCore {
 fn steers(from: &mrmm_proto::Sender) -> bool {
     use mrmm_proto::policy::{allows, Act, Relation};
     allows(Act::Start, from.role, Relation::Stranger) && allows(Act::Control, from.role, Relation::Stranger)
+}
+
+impl crate::machine::Machine for HostCore {
+    type Event = Event;
+    type Command = Command;
+
+    fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+        HostCore::handle(self, now, event)
+    }
+
+    /// What a durable host's chains must remember is written before anything of its step leaves.
+    fn effect(command: &Command) -> crate::machine::Effect {
+        match command {
+            Command::Persist { .. } => crate::machine::Effect::Persist,
+            _ => crate::machine::Effect::Carry,
+        }
+    }
 }

@@ -455,5 +455,22 @@ impl Robot {
     }
 }
 
+impl crate::machine::Machine for Robot {
+    type Event = Event;
+    type Command = Command;
+
+    fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+        Robot::handle(self, now, event)
+    }
+
+    /// Capabilities changed by the operator are kept before the change is acknowledged.
+    fn effect(command: &Command) -> crate::machine::Effect {
+        match command {
+            Command::KeepCapabilities { .. } => crate::machine::Effect::Persist,
+            _ => crate::machine::Effect::Carry,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests;

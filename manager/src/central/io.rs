@@ -12,29 +12,44 @@ use tokio::sync::mpsc;
 use zenoh::query::Query;
 
 use super::inputs::Input;
-use super::{Command, Event, DRY_RUN_DEADLINE};
+use super::{CentralCore, Command, Event, DRY_RUN_DEADLINE};
 use crate::error::ManagerError;
 use crate::journal::{now_ms, Journal};
 use crate::system::{self, Req, Request};
 
-/// Carries out one event's commands: its journal entries are committed (fsync) before anything
-/// else is done or said. A journal that cannot be written stops central: it restarts from
-/// what is on disk rather than say "ok" about what is not.
-pub(super) async fn carry_out(io: &mut Io, journal: Option<&mut Journal>, cmds: Vec<Command>) -> Result<(), ManagerError> {
-    let (mut events, mut rest) = (Vec::new(), Vec::new());
-    for c in cmds {
-        match c {
-            Command::System(system::Command::Journal(e)) => events.extend(e),
-            c => rest.push(c),
+/// Central's runtime for the driver's step ([`mrmm_core::machine::step`]): its journal
+/// entries committed (fsync) before anything else of their step is done or said; the rest on
+/// the network. A journal that cannot be written stops central: it restarts from what is on
+/// disk rather than say "ok" about what is not.
+pub(super) struct Runtime<'a> {
+    pub(super) io: &'a mut Io,
+    pub(super) journal: Option<&'a mut Journal>,
+}
+
+impl mrmm_core::machine::Runtime<CentralCore> for Runtime<'_> {
+    type Error = ManagerError;
+
+    async fn persist(&mut self, batch: Vec<Command>) -> Result<(), ManagerError> {
+        let events: Vec<_> = batch
+            .into_iter()
+            .flat_map(|c| match c {
+                Command::System(system::Command::Journal(e)) => e,
+                _ => Vec::new(),
+            })
+            .collect();
+        match self.journal.as_deref_mut() {
+            Some(j) => {
+                tokio::task::block_in_place(|| j.append(&events, now_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
+                Ok(())
+            }
+            None => Ok(()),
         }
     }
-    if let (Some(j), false) = (journal, events.is_empty()) {
-        tokio::task::block_in_place(|| j.append(&events, now_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
+
+    async fn carry(&mut self, c: Command) -> Result<(), ManagerError> {
+        self.io.execute(c).await;
+        Ok(())
     }
-    for c in rest {
-        io.execute(c).await;
-    }
-    Ok(())
 }
 
 /// Answers `mrmm/system/journal?since=SEQ&limit=N` from the database.
@@ -126,7 +141,7 @@ impl Io {
             system::Command::Refused(r) => self.mesh.refused(&r),
             // Published above.
             system::Command::Chain { .. } => {}
-            // Committed by `carry_out` before anything else.
+            // Committed by the runtime before anything else of its step.
             system::Command::Journal(_) => {}
             system::Command::DryRun(dry) => self.spawn(async move {
                 let id = dry.id;

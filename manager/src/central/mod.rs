@@ -18,12 +18,13 @@ use tokio_util::sync::CancellationToken;
 
 pub use self::config::CentralConfig;
 use self::inputs::{declare_inputs, decode, Inboxes, Input, SealCounts};
-use self::io::{answer_journal, carry_out, Io};
+use self::io::{answer_journal, Io, Runtime};
 use self::start::{load_maps, node_net, open_state};
 use crate::error::ManagerError;
 use crate::inbox::{Inbox, Lanes, Latest};
 use crate::system;
 pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
+use mrmm_core::machine;
 
 /// Liveliness changes waiting for central's loop, at most.
 const LIVELINESS_QUEUE: usize = 65_536;
@@ -86,8 +87,8 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
             _ = shutdown.cancelled() => break,
             _ = tick.tick() => {
                 for e in seals.due(&mesh) {
-                    let cmds = core.handle(t0.elapsed().as_secs_f64(), Event::System(e));
-                    carry_out(&mut io, journal.as_mut(), cmds).await?;
+                    let mut rt = Runtime { io: &mut io, journal: journal.as_mut() };
+                    machine::step(&mut core, &mut rt, t0.elapsed().as_secs_f64(), Event::System(e)).await?;
                 }
                 Event::System(system::Event::Tick)
             }
@@ -112,7 +113,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         let (kind, start) = (event.kind(), Instant::now());
         let cmds = core.handle(t0.elapsed().as_secs_f64(), event);
         let decided = Instant::now();
-        carry_out(&mut io, journal.as_mut(), cmds).await?;
+        machine::carry_out::<CentralCore, _>(&mut Runtime { io: &mut io, journal: journal.as_mut() }, cmds).await?;
         load.step(kind, decided - start, decided.elapsed());
     }
     tracing::info!("central shutting down");

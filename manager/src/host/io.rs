@@ -14,19 +14,27 @@ use zenoh::query::{Query, Queryable};
 
 use super::inputs::Input;
 use super::store::Store;
-use super::{Command, Event, Question, PLAN_TIMEOUT};
+use super::{Command, Event, HostCore, Question, PLAN_TIMEOUT};
 use crate::error::ManagerError;
 use crate::inbox::Inbox;
 use crate::maps::MapStore;
 use crate::Failure;
 
-/// Carries out one event's commands. What the chain must remember is on disk before anything
-/// this change leads to leaves the node: a node that cannot keep its promises must not make any
-/// (it stops).
-pub(super) async fn carry_out(io: &mut Io, store: Option<&Store>, commands: Vec<Command>) -> Result<(), ManagerError> {
-    for c in commands {
-        if let Command::Persist { mission, disk } = &c {
-            let written = match store {
+/// A mission host's runtime for the driver's step ([`mrmm_core::machine::step`]): what its
+/// chains must remember is written and synced before anything of its step leaves the node — a
+/// node that cannot keep its promises must not make any (it stops); the rest on the network.
+pub(super) struct Runtime<'a> {
+    pub(super) io: &'a mut Io,
+    pub(super) store: Option<&'a Store>,
+}
+
+impl mrmm_core::machine::Runtime<HostCore> for Runtime<'_> {
+    type Error = ManagerError;
+
+    async fn persist(&mut self, batch: Vec<Command>) -> Result<(), ManagerError> {
+        for c in batch {
+            let Command::Persist { mission, disk } = &c else { continue };
+            let written = match self.store {
                 Some(store) => tokio::task::block_in_place(|| store.write(mission, disk)),
                 None => Err(ManagerError::journal("chain state", "no state dir, but the chain asked to persist")),
             };
@@ -34,11 +42,14 @@ pub(super) async fn carry_out(io: &mut Io, store: Option<&Store>, commands: Vec<
                 tracing::error!("{e}; the mission host stops");
                 return Err(e);
             }
-            continue;
         }
-        io.execute(c).await;
+        Ok(())
     }
-    Ok(())
+
+    async fn carry(&mut self, c: Command) -> Result<(), ManagerError> {
+        self.io.execute(c).await;
+        Ok(())
+    }
 }
 
 /// The I/O half: queries held under ids, the served mission queryables, requests in flight.
@@ -128,7 +139,7 @@ impl Io {
                 }
             }
             Command::Refused(r) => self.mesh.refused(&r),
-            // Carried out by the loop, before this.
+            // Written by the runtime before anything else of its step.
             Command::Persist { .. } => {}
             Command::Drop { query } => {
                 self.queries.remove(&query);

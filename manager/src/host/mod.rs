@@ -15,7 +15,7 @@ use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 
 use self::inputs::{decode, local_changed, Input};
-use self::io::{carry_out, Io};
+use self::io::{Io, Runtime};
 use crate::chain::Params;
 use crate::error::ManagerError;
 use crate::inbox::{Inbox, Lanes, Latest};
@@ -137,5 +137,5 @@ async fn step(core: &mut HostCore, now: f64, event: Event, io: &mut Io, follow: 
     if !telemetry {
         follow.follow(&core.subscriptions()).await;
     }
-    carry_out(io, store, commands).await
+    mrmm_core::machine::carry_out::<HostCore, _>(&mut Runtime { io, store }, commands).await
 }

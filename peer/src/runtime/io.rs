@@ -12,7 +12,7 @@ use zenoh::query::Query;
 
 use super::team::TeamLink;
 use crate::nav_goals::NavCommand;
-use crate::robot::Command;
+use crate::robot::{Command, Robot};
 use crate::viewers::Viewers;
 
 /// A robot's telemetry is signed (as well as tagged for the receivers it knows) once in this
@@ -39,6 +39,34 @@ pub(super) struct Io {
     pub(super) state_dir: Option<std::path::PathBuf>,
     /// Ordered to crash (a simulated robot): the runtime stops at once.
     pub(super) crashed: bool,
+}
+
+/// The robot's runtime for the driver's step ([`mrmm_core::machine::step`]), for one event
+/// (`query`: the operator's query it came with, answered by [`Command::Reply`]).
+pub(super) struct Runtime<'a> {
+    pub(super) io: &'a mut Io,
+    pub(super) query: Option<&'a Query>,
+}
+
+impl mrmm_core::machine::Runtime<Robot> for Runtime<'_> {
+    type Error = std::convert::Infallible;
+
+    /// What the robot keeps across a restart; one it cannot keep is said in the log (the change
+    /// holds until the robot restarts).
+    async fn persist(&mut self, batch: Vec<Command>) -> Result<(), Self::Error> {
+        for c in batch {
+            let (Command::KeepCapabilities { configured, now }, Some(dir)) = (c, &self.io.state_dir) else { continue };
+            if let Err(e) = crate::kept::save(dir, &configured, &now) {
+                tracing::warn!(robot = %self.io.id, "capabilities not kept across a restart: {e}");
+            }
+        }
+        Ok(())
+    }
+
+    async fn carry(&mut self, c: Command) -> Result<(), Self::Error> {
+        self.io.execute(c, self.query).await;
+        Ok(())
+    }
 }
 
 impl Io {
@@ -83,13 +111,8 @@ impl Io {
                     ros.cancel_goal(id);
                 }
             }
-            Command::KeepCapabilities { configured, now } => {
-                if let Some(dir) = &self.state_dir {
-                    if let Err(e) = crate::kept::save(dir, &configured, &now) {
-                        tracing::warn!(robot = %self.id, "capabilities not kept across a restart: {e}");
-                    }
-                }
-            }
+            // Written by the runtime before anything else of its step.
+            Command::KeepCapabilities { .. } => {}
             Command::Drive(v) => {
                 if let Some(ros) = self.ros.as_mut() {
                     if let Err(e) = ros.send_twist(Twist::planar(v.v, v.omega)).await {

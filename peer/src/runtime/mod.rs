@@ -171,9 +171,8 @@ pub async fn run_on(
     };
     let t0 = Instant::now();
     while let Some((event, query)) = inputs.next(&robot, &mut io).await {
-        for c in robot.handle(t0.elapsed().as_secs_f64(), event) {
-            io.execute(c, query.as_ref()).await;
-        }
+        let mut rt = io::Runtime { io: &mut io, query: query.as_ref() };
+        let Ok(()) = mrmm_core::machine::step(&mut robot, &mut rt, t0.elapsed().as_secs_f64(), event).await;
         if io.crashed {
             // No goodbye: whoever runs the robot drops its session as a crash would.
             return Err(PeerError::Crashed(id));

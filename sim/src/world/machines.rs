@@ -1,5 +1,9 @@
 //! The production machines on their nodes: central, mission hosts and robots, and what their commands do in the world.
 
+use mrmm_core::machine::{self, Effect, Machine};
+use mrmm_core::robot::Robot;
+
+use super::driver;
 use super::*;
 
 impl World {
@@ -9,18 +13,9 @@ impl World {
             return Ok(());
         };
         let cmds = c.handle(now, ev);
-        // The journal comes first, as the driver commits it before anything else.
-        let journaled = cmds.iter().any(|c| matches!(c, central::Command::System(system::Command::Journal(_))));
-        for cmd in cmds {
-            // What it publishes goes out as the driver puts it on the network.
-            if let Some(out) = central::egress(&cmd) {
-                self.publish(i, out);
-            }
-            match cmd {
-                central::Command::Publish(_) | central::Command::Traffic(_) => {}
-                central::Command::System(s) => self.system_command(i, s)?,
-            }
-        }
+        // Carried out by the production driver's step, over the simulation's runtime.
+        let journaled = cmds.iter().any(|c| CentralCore::effect(c) == Effect::Persist);
+        driver::run(machine::carry_out::<CentralCore, _>(&mut driver::OnCentral::new(self, i, journaled), cmds))?;
         if let (true, Some(c)) = (journaled, self.nodes[i].central.as_ref()) {
             let want = c.system().durable();
             if self.nodes[i].disk != want {
@@ -28,6 +23,19 @@ impl World {
             }
         }
         Ok(())
+    }
+
+    /// One command of central's, carried out as its driver does (its journal is written by
+    /// [`driver::OnCentral`] before this).
+    pub(super) fn central_command(&mut self, i: usize, cmd: central::Command) -> Result<(), String> {
+        // What it publishes goes out as the driver puts it on the network.
+        if let Some(out) = central::egress(&cmd) {
+            self.publish(i, out);
+        }
+        match cmd {
+            central::Command::Publish(_) | central::Command::Traffic(_) => Ok(()),
+            central::Command::System(s) => self.system_command(i, s),
+        }
     }
 
     pub(super) fn system_command(&mut self, i: usize, c: system::Command) -> Result<(), String> {
@@ -69,8 +77,9 @@ impl World {
                 self.log(|| format!("central -> {to}: {} {}", envelope.mission, envelope.msg.describe()));
             }
             system::Command::Journal(entries) => {
-                // Committed before anything else of this event happens, as the driver does; what
-                // is on the disk must be exactly what central holds.
+                // Committed before anything else of this event happens (the driver's order,
+                // checked by `driver::OnCentral`); what is on the disk must be exactly what
+                // central holds.
                 let disk = &mut self.nodes[i].disk;
                 for e in &entries {
                     disk.apply(e);
@@ -102,19 +111,24 @@ impl World {
             return Ok(());
         };
         let cmds = h.handle(now, ev);
-        for c in cmds {
-            if let Some(out) = host::egress(&c) {
-                self.publish(i, out);
-            }
-            if let Some(ask) = host::asks::ask(&c) {
-                self.ask_key(Some(i), &ask.key, ask.payload.as_deref(), ask.timeout_s, Ctx::Host(ask.then))?;
-            }
-            self.host_command(i, c)?;
-        }
+        // Carried out by the production driver's step, over the simulation's runtime.
+        let persists = cmds.iter().any(|c| HostCore::effect(c) == Effect::Persist);
+        driver::run(machine::carry_out::<HostCore, _>(&mut driver::OnHost::new(self, i, persists), cmds))?;
         if let Some(h) = self.nodes[i].host.as_ref() {
             self.inv.host(i, self.links.inc[i], h)?;
         }
         self.one_mission_per_robot()
+    }
+
+    /// One command of a host's, carried out as its driver does.
+    pub(super) fn host_effect(&mut self, i: usize, c: host::Command) -> Result<(), String> {
+        if let Some(out) = host::egress(&c) {
+            self.publish(i, out);
+        }
+        if let Some(ask) = host::asks::ask(&c) {
+            self.ask_key(Some(i), &ask.key, ask.payload.as_deref(), ask.timeout_s, Ctx::Host(ask.then))?;
+        }
+        self.host_command(i, c)
     }
 
     /// Invariant 3, over missions that have a head and are neither terminated by the operator
@@ -214,54 +228,59 @@ impl World {
         self.robot_commands(i, cmds)
     }
 
+    /// A robot's commands, carried out by the production driver's step over the simulation's
+    /// runtime.
     pub(super) fn robot_commands(&mut self, i: usize, cmds: Vec<robot::Command>) -> Result<(), String> {
-        for c in cmds {
-            // What it means on the network, as the driver carries it out: the links keep up
-            // with its team, and say what goes out on which key.
-            let out = self.nodes[i].links.egress(&c);
-            let team = out.as_ref().and_then(|o| match &o.key {
-                mrmm_proto::Key::TeamSync { team, .. } | mrmm_proto::Key::TeamArrive { team, .. } | mrmm_proto::Key::TeamRelease { team, .. } => {
-                    Some(team.clone())
-                }
-                _ => None,
-            });
-            match &c {
-                robot::Command::Reply(_) | robot::Command::Lead(_) | robot::Command::Telemetry(_) | robot::Command::TrafficReport { .. } => {}
-                // An honest head planning for a robot not admitted yet: it re-sends.
-                robot::Command::Refuse(e) => {
-                    let name = self.nodes[i].name.clone();
-                    self.log(|| format!("{name} refuses: {e}"));
-                }
-                robot::Command::JoinTeam { .. } | robot::Command::LeaveTeam => {
-                    self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
-                    self.liveliness(0.02);
-                    self.local_team(i)?;
-                }
-                robot::Command::Publish(a) | robot::Command::PublishIn(_, a) => {
-                    if let Some(team) = &team {
-                        self.inv.arrival(team, a);
-                    }
-                }
-                robot::Command::Release(r) => {
-                    let name = self.nodes[i].name.clone();
-                    if let (Some(_), Some(e)) = (&team, self.nodes[i].robot.as_ref().and_then(|rb| rb.executor())) {
-                        self.inv.release(&name, e, r)?;
-                    }
-                }
-                // Simulated bodies give no velocity commands, nor ROS 2 goals.
-                robot::Command::Drive(_) | robot::Command::Nav(_) => {}
-                robot::Command::KeepCapabilities { now, .. } => self.nodes[i].kept_caps = Some(now.clone()),
-                // Its last command: the node goes down as a crashed process does.
-                robot::Command::Crash => {
-                    self.crash(i);
-                    return Ok(());
+        let persists = cmds.iter().any(|c| Robot::effect(c) == Effect::Persist);
+        driver::run(machine::carry_out::<Robot, _>(&mut driver::OnRobot::new(self, i, persists), cmds))
+    }
+
+    /// One command of a robot's, as its driver carries it out; `Ok(false)`: the robot crashed
+    /// (its last command).
+    pub(super) fn robot_command(&mut self, i: usize, c: robot::Command) -> Result<bool, String> {
+        // What it means on the network, as the driver carries it out: the links keep up
+        // with its team, and say what goes out on which key.
+        let out = self.nodes[i].links.egress(&c);
+        let team = out.as_ref().and_then(|o| match &o.key {
+            mrmm_proto::Key::TeamSync { team, .. } | mrmm_proto::Key::TeamArrive { team, .. } | mrmm_proto::Key::TeamRelease { team, .. } => Some(team.clone()),
+            _ => None,
+        });
+        match &c {
+            robot::Command::Reply(_) | robot::Command::Lead(_) | robot::Command::Telemetry(_) | robot::Command::TrafficReport { .. } => {}
+            // An honest head planning for a robot not admitted yet: it re-sends.
+            robot::Command::Refuse(e) => {
+                let name = self.nodes[i].name.clone();
+                self.log(|| format!("{name} refuses: {e}"));
+            }
+            robot::Command::JoinTeam { .. } | robot::Command::LeaveTeam => {
+                self.beliefs.forget(i, |t| !matches!(t, Token::Member { .. }));
+                self.liveliness(0.02);
+                self.local_team(i)?;
+            }
+            robot::Command::Publish(a) | robot::Command::PublishIn(_, a) => {
+                if let Some(team) = &team {
+                    self.inv.arrival(team, a);
                 }
             }
-            if let Some(out) = out {
-                self.publish(i, out);
+            robot::Command::Release(r) => {
+                let name = self.nodes[i].name.clone();
+                if let (Some(_), Some(e)) = (&team, self.nodes[i].robot.as_ref().and_then(|rb| rb.executor())) {
+                    self.inv.release(&name, e, r)?;
+                }
+            }
+            // Simulated bodies give no velocity commands, nor ROS 2 goals.
+            robot::Command::Drive(_) | robot::Command::Nav(_) => {}
+            robot::Command::KeepCapabilities { now, .. } => self.nodes[i].kept_caps = Some(now.clone()),
+            // Its last command: the node goes down as a crashed process does.
+            robot::Command::Crash => {
+                self.crash(i);
+                return Ok(false);
             }
         }
-        Ok(())
+        if let Some(out) = out {
+            self.publish(i, out);
+        }
+        Ok(true)
     }
 
     /// The robot of node `i` changed team: its host hears of it at once (same process).

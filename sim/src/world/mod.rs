@@ -25,6 +25,7 @@ use crate::net::{Beliefs, Change, Links, Queue, Token};
 use crate::ops::{cheap_params, Operator};
 use crate::{Config, Ops, Report, Violation};
 
+mod driver;
 mod end;
 mod faults;
 mod machines;

@@ -1,0 +1,159 @@
+//! The contract between a pure machine and the driver that runs it: [`Machine::handle`] decides,
+//! [`step`] carries the decision out through a [`Runtime`] — the production one (Zenoh, redb, the
+//! chain store: `mrmm-manager`) or the simulation's (`mrmm-sim`), which run this same code.
+//!
+//! # Order
+//! A step's commands are of two kinds ([`Effect`]): what the node must **persist**, and what it
+//! **carries out** (publishes, replies, asks, timers). Everything one step persists is written
+//! and synced before anything of that step leaves the node, in one batch, in the machine's order
+//! (raft-rs's `Ready`: a node that said "ok" must still know it after a crash). The rest follows
+//! in the machine's order. A runtime that cannot persist stops the step, and its node: it must
+//! restart from what is on disk rather than say what is not there.
+
+use std::future::Future;
+
+/// A pure state machine: no I/O, no clock; time comes with each event.
+pub trait Machine {
+    type Event;
+    type Command;
+
+    fn handle(&mut self, now: f64, event: Self::Event) -> Vec<Self::Command>;
+
+    /// What `command` is to the driver (default: carried out).
+    fn effect(command: &Self::Command) -> Effect {
+        let _ = command;
+        Effect::Carry
+    }
+}
+
+/// What a command is to the driver.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Effect {
+    /// Written and synced before anything of its step leaves the node.
+    Persist,
+    /// Carried out after the step's persists, in the machine's order.
+    Carry,
+}
+
+/// One step's commands in the contract's order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ready<C> {
+    /// What must be durable first, in the machine's order.
+    pub persist: Vec<C>,
+    /// The rest, in the machine's order.
+    pub carry: Vec<C>,
+}
+
+impl<C> Ready<C> {
+    /// Sorts a machine's commands by [`Machine::effect`], keeping their order within each kind.
+    pub fn of<M: Machine<Command = C>>(commands: Vec<C>) -> Ready<C> {
+        let (persist, carry) = commands.into_iter().partition(|c| M::effect(c) == Effect::Persist);
+        Ready { persist, carry }
+    }
+}
+
+/// Where a machine's commands take effect.
+pub trait Runtime<M: Machine> {
+    type Error;
+
+    /// Writes and syncs `batch` (never empty); nothing of the step is carried out before it
+    /// returns `Ok`.
+    fn persist(&mut self, batch: Vec<M::Command>) -> impl Future<Output = Result<(), Self::Error>>;
+
+    /// Carries out one command (publish, reply, ask, start a timer).
+    fn carry(&mut self, command: M::Command) -> impl Future<Output = Result<(), Self::Error>>;
+}
+
+/// One step of the driver: `event` handled at `now`, its commands carried out in order.
+pub async fn step<M: Machine, R: Runtime<M>>(machine: &mut M, runtime: &mut R, now: f64, event: M::Event) -> Result<(), R::Error> {
+    let commands = machine.handle(now, event);
+    carry_out::<M, R>(runtime, commands).await
+}
+
+/// Carries out commands a machine decided, in the contract's order: what must be durable
+/// first, then the rest. (For drivers that look at the machine between its decision and the
+/// effects, as the simulation does; else [`step`].)
+pub async fn carry_out<M: Machine, R: Runtime<M>>(runtime: &mut R, commands: Vec<M::Command>) -> Result<(), R::Error> {
+    let Ready { persist, carry } = Ready::of::<M>(commands);
+    if !persist.is_empty() {
+        runtime.persist(persist).await?;
+    }
+    for c in carry {
+        runtime.carry(c).await?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::pin::pin;
+    use std::task::{Context, Poll, Waker};
+
+    /// Echoes its event's numbers as commands; negative ones are to persist.
+    struct Echo;
+
+    impl Machine for Echo {
+        type Event = Vec<i32>;
+        type Command = i32;
+        fn handle(&mut self, _now: f64, event: Vec<i32>) -> Vec<i32> {
+            event
+        }
+        fn effect(c: &i32) -> Effect {
+            if *c < 0 {
+                Effect::Persist
+            } else {
+                Effect::Carry
+            }
+        }
+    }
+
+    #[derive(Default)]
+    struct Log {
+        done: Vec<String>,
+        fail_persist: bool,
+    }
+
+    impl Runtime<Echo> for Log {
+        type Error = String;
+        async fn persist(&mut self, batch: Vec<i32>) -> Result<(), String> {
+            if self.fail_persist {
+                return Err("disk full".into());
+            }
+            self.done.push(format!("persist {batch:?}"));
+            Ok(())
+        }
+        async fn carry(&mut self, c: i32) -> Result<(), String> {
+            self.done.push(format!("carry {c}"));
+            Ok(())
+        }
+    }
+
+    fn ready<F: Future>(f: F) -> F::Output {
+        match pin!(f).poll(&mut Context::from_waker(Waker::noop())) {
+            Poll::Ready(v) => v,
+            Poll::Pending => panic!("the test runtime never waits"),
+        }
+    }
+
+    #[test]
+    fn persists_come_first_in_one_batch_then_the_rest_in_order() {
+        let mut log = Log::default();
+        ready(step(&mut Echo, &mut log, 0.0, vec![1, -1, 2, -2, 3])).unwrap();
+        assert_eq!(log.done, ["persist [-1, -2]", "carry 1", "carry 2", "carry 3"]);
+    }
+
+    #[test]
+    fn nothing_is_carried_out_when_the_persist_fails() {
+        let mut log = Log { fail_persist: true, ..Log::default() };
+        assert_eq!(ready(step(&mut Echo, &mut log, 0.0, vec![1, -1, 2])), Err("disk full".to_string()));
+        assert!(log.done.is_empty(), "{:?}", log.done);
+    }
+
+    #[test]
+    fn a_step_without_persists_writes_nothing() {
+        let mut log = Log::default();
+        ready(step(&mut Echo, &mut log, 0.0, vec![4, 5])).unwrap();
+        assert_eq!(log.done, ["carry 4", "carry 5"]);
+    }
+}
