@@ -42,7 +42,7 @@ fn start_central(dir: &Scratch) -> anyhow::Result<(common::Proc, String)> {
 }
 
 /// Whether every segment of the closed route is free on the map.
-fn free_route(g: &OccupancyGrid, tour: &[proto::plan::Point]) -> bool {
+fn free_route(g: &OccupancyGrid, tour: &[proto::geom::Point]) -> bool {
     (0..tour.len()).all(|k| {
         let (a, b) = (tour[k], tour[(k + 1) % tour.len()]);
         g.segment_free(Point::new(a.x, a.y), Point::new(b.x, b.y))
@@ -310,7 +310,7 @@ fn plan_and_check_from_the_command_line() -> anyhow::Result<()> {
         .output()?;
     anyhow::ensure!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let plan: serde_json::Value = serde_json::from_slice(&out.stdout)?;
-    let tour: Vec<proto::plan::Point> = serde_json::from_value(plan["tour"].clone())?;
+    let tour: Vec<proto::geom::Point> = serde_json::from_value(plan["tour"].clone())?;
     assert!(tour.len() > 4 && free_route(&g, &tour), "{tour:?}");
     assert!(plan["length"].as_f64().is_some_and(|l| l > 60.0), "{}", plan["length"]);
 
@@ -351,7 +351,7 @@ fn a_grid_maps_lanes_derived_from_the_command_line() -> anyhow::Result<()> {
     let Map::Graph(nav) = b.load().map_err(|e| anyhow::anyhow!("{e}"))?.1 else { anyhow::bail!("not a graph") };
     for e in &nav.edges {
         let (a, b) = (nav.vertices[e.from as usize].at, nav.vertices[e.to as usize].at);
-        assert!(free_route(&g, &[proto::plan::Point { x: a.x, y: a.y }, proto::plan::Point { x: b.x, y: b.y }]), "lane {e:?} leaves free space");
+        assert!(free_route(&g, &[proto::geom::Point { x: a.x, y: a.y }, proto::geom::Point { x: b.x, y: b.y }]), "lane {e:?} leaves free space");
     }
     // A grid map file as input only: a graph is refused in one line.
     let out = std::process::Command::new(common::EXE).args(["map", "graph", &out_file.display().to_string(), "--out", "/dev/null"]).output()?;

@@ -5,8 +5,8 @@
 use std::sync::Arc;
 
 use mrmm_maps::{Bundle, Map, MapSummary};
+use mrmm_proto::geom::Point;
 use mrmm_proto::map::MapChunk;
-use mrmm_proto::plan::Point;
 use mrmm_proto::{MapInfo, MapRef};
 
 /// A map a node holds: what it is, the map itself, and its bundle's chunks as served.

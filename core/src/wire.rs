@@ -4,7 +4,8 @@
 use mrmm_planner::geom::Point as PPoint;
 use mrmm_planner::plan::{RobotPlan as PRobotPlan, RobotSpec as PRobotSpec, Step as PStep};
 use mrmm_planner::recipe::MissionPlan as PMissionPlan;
-use mrmm_proto::plan::{CoverageSummary, MissionPlan, PatrolSummary, PlanSummary, Point, Region, RobotPlan, RobotSpec, Step, TeamSummary};
+use mrmm_proto::geom::Point;
+use mrmm_proto::plan::{CoverageSummary, MissionPlan, PatrolSummary, PlanSummary, Region, RobotPlan, RobotSpec, Step, TeamSummary};
 
 fn point(p: PPoint) -> Point {
     Point { x: p.x, y: p.y }

@@ -116,25 +116,45 @@ async fn follow(
                 Event::Central(s.kind() == SampleKind::Put)
             }
         };
-        for c in deputy.handle(now(), event) {
-            if let Some(out) = Deputy::egress(&c) {
-                crate::edge::publish(mesh, out).await;
-                continue;
-            }
-            match c {
-                Command::TookOver { incarnation } => {
-                    tracing::warn!(deputy = %me, map = %map.name, incarnation, "central away and no traffic orders: this robot's node gives them now")
-                }
-                Command::SteppedDown { incarnation } => {
-                    tracing::info!(deputy = %me, map = %map.name, incarnation, "traffic orders given by another again: following")
-                }
-                Command::Authority(mrmm_core::traffic::authority::Command::Blocked { robot, by, .. }) => {
-                    tracing::warn!(%robot, ?by, map = %map.name, "blocked in traffic")
-                }
-                Command::Authority(_) => {}
-            }
-        }
+        let mut rt = Runtime { mesh, me, map: &map.name };
+        let Ok(()) = mrmm_core::machine::step(&mut deputy, &mut rt, now(), event).await;
     }
     tracing::info!(deputy = %me, map = %map.name, "no longer following the map's traffic");
     Ok(())
+}
+
+/// A deputy's runtime for the driver's step ([`mrmm_core::machine::step`]): it keeps nothing on
+/// disk (a deputy that restarts follows anew); orders and reports on the network, the rest in
+/// the log.
+struct Runtime<'a> {
+    mesh: &'a Mesh,
+    me: &'a str,
+    map: &'a str,
+}
+
+impl mrmm_core::machine::Runtime<Deputy> for Runtime<'_> {
+    type Error = std::convert::Infallible;
+
+    async fn persist(&mut self, _: Vec<Command>) -> Result<(), Self::Error> {
+        Ok(())
+    }
+
+    async fn carry(&mut self, c: Command) -> Result<(), Self::Error> {
+        let (me, map) = (self.me, self.map);
+        if let Some(out) = Deputy::egress(&c) {
+            crate::edge::publish(self.mesh, out).await;
+            return Ok(());
+        }
+        match c {
+            Command::TookOver { incarnation } => {
+                tracing::warn!(deputy = %me, %map, incarnation, "central away and no traffic orders: this robot's node gives them now")
+            }
+            Command::SteppedDown { incarnation } => tracing::info!(deputy = %me, %map, incarnation, "traffic orders given by another again: following"),
+            Command::Authority(mrmm_core::traffic::authority::Command::Blocked { robot, by, .. }) => {
+                tracing::warn!(%robot, ?by, %map, "blocked in traffic")
+            }
+            Command::Authority(_) => {}
+        }
+        Ok(())
+    }
 }

@@ -17,7 +17,7 @@ use crate::security::{acl, Identity, Refusal, Sealer, SecuritySection, Sender, V
 use mrmm_proto::codec::{from_json, to_json, to_json_packed, to_json_packed_over, ANSWER_PACK_OVER};
 use mrmm_proto::edge::{Incoming, Proof, Refused};
 use mrmm_proto::error::ProtoError;
-use mrmm_proto::operator::{ErrorCode, ErrorReply};
+use mrmm_proto::{ErrorCode, ErrorReply};
 
 /// How one round of a query ended without an accepted answer.
 enum Asked {

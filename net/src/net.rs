@@ -12,7 +12,7 @@ use zenoh::Session;
 
 use mrmm_proto::codec::{from_json, to_json};
 use mrmm_proto::error::ProtoError;
-use mrmm_proto::operator::ErrorReply;
+use mrmm_proto::ErrorReply;
 
 /// Default address of the central router.
 pub const DEFAULT_CENTRAL: &str = "tcp/127.0.0.1:7447";

@@ -12,6 +12,7 @@ pub mod codec;
 pub mod config;
 pub mod edge;
 pub mod error;
+pub mod geom;
 pub mod ids;
 pub mod journal;
 pub mod keys;
@@ -30,11 +31,13 @@ pub mod traffic;
 pub use agent::*;
 pub use chain::ChainEnvelope;
 pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to_json, to_json_packed};
-pub use error::{BoxError, ProtoError, QueryError};
+pub use error::{BoxError, ErrorCode, ErrorReply, ProtoError, QueryError};
+pub use geom::Point;
 pub use ids::{MissionName, NodeId, RobotId};
 pub use journal::{JournalEntry, JournalEvent, JournalPage};
 pub use keys::{
-    is_team_name, natural_cmp, team_within, validate_id, validate_subteam, validate_team_path, Key, Pattern, SystemCmd, MAX_TEAM_DEPTH, RESERVED_TEAM_NAMES,
+    is_hash, is_team_name, natural_cmp, team_within, validate_id, validate_subteam, validate_team_path, Key, Pattern, SystemCmd, MAX_TEAM_DEPTH,
+    RESERVED_TEAM_NAMES,
 };
 pub use map::{MapChunk, MapInfo, MapRef};
 pub use mission::*;

@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::ProtoError;
-use crate::plan::Point;
+use crate::geom::Point;
 
 /// Bytes of one chunk of a map bundle.
 pub const CHUNK_BYTES: usize = 512 * 1024;
@@ -26,17 +26,12 @@ impl MapRef {
     /// Checks the name (one key chunk) and the hash (64 lower-case hex digits).
     pub fn check(&self) -> Result<(), ProtoError> {
         crate::keys::validate_id(&self.name)?;
-        if is_hash(&self.hash) {
+        if crate::keys::is_hash(&self.hash) {
             Ok(())
         } else {
             Err(ProtoError::BadId(self.hash.clone()))
         }
     }
-}
-
-/// Whether `h` is a map hash: 64 lower-case hexadecimal digits.
-pub fn is_hash(h: &str) -> bool {
-    h.len() == 64 && h.bytes().all(|c| c.is_ascii_digit() || (b'a'..=b'f').contains(&c))
 }
 
 /// One row of `mrmm/system/maps`.
@@ -168,7 +163,7 @@ mod tests {
         assert!(MapChunk::decode(&bad).is_err());
         assert!(MapChunk::decode(b"MRMP\xff\xff\xff\xff\xff").is_err());
         assert!(MapChunk::decode(b"nope").is_err());
-        assert!(is_hash(&"ab".repeat(32)) && !is_hash(&"AB".repeat(32)) && !is_hash("ab"));
+        assert!(crate::keys::is_hash(&"ab".repeat(32)) && !crate::keys::is_hash(&"AB".repeat(32)) && !crate::keys::is_hash("ab"));
         // The SHA-256 of "abc" (FIPS 180-2's example).
         assert_eq!(content_hash(b"abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
     }

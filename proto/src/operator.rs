@@ -100,115 +100,6 @@ pub struct SystemStatus {
     pub proven: std::collections::BTreeMap<String, u64>,
 }
 
-/// Error payload of every reply error: what went wrong in words, and for the errors an asker acts
-/// on, a code — so that no node decides anything from the words.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ErrorReply {
-    pub error: String,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub code: Option<ErrorCode>,
-}
-
-/// What an asker does about an error, as its code says. Every error central answers an
-/// operator with carries one (docs/api.md lists them).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ErrorCode {
-    /// What the request names (a robot, a mission, a map, a host) does not exist: do not ask
-    /// again as it is.
-    NotFound,
-    /// The request itself is wrong (a malformed field, a recipe that does not parse, a value out
-    /// of bounds): fix it.
-    Invalid,
-    /// The request is well formed but the fleet's state refuses it now (the name is taken, the
-    /// robot is lost or in another mission, too few robots are idle): change the state or the
-    /// request.
-    Conflict,
-    /// Central (or the node it asked) cannot answer now (just started, a robot or host did not
-    /// answer in time): the same request may succeed if asked again in a moment.
-    Busy,
-    /// The sender may not ask this.
-    Forbidden,
-    /// The sender may not give this (yet): a robot refusing a plan from a head it was not
-    /// admitted under. The head keeps re-sending.
-    Refused,
-    /// The query's seal was not proven (its tag was for an older certificate): ask again, signed.
-    Unproven,
-    /// The mission was taken over by another of its managers before its start was confirmed: it
-    /// runs, elsewhere.
-    TakenOver,
-}
-
-impl ErrorCode {
-    /// Its name on the wire (`not_found`, `busy`, …).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            ErrorCode::NotFound => "not_found",
-            ErrorCode::Invalid => "invalid",
-            ErrorCode::Conflict => "conflict",
-            ErrorCode::Busy => "busy",
-            ErrorCode::Forbidden => "forbidden",
-            ErrorCode::Refused => "refused",
-            ErrorCode::Unproven => "unproven",
-            ErrorCode::TakenOver => "taken_over",
-        }
-    }
-}
-
-impl ErrorReply {
-    /// An error with a code.
-    pub fn coded(code: ErrorCode, error: impl Into<String>) -> ErrorReply {
-        ErrorReply { error: error.into(), code: Some(code) }
-    }
-
-    pub fn is(&self, code: ErrorCode) -> bool {
-        self.code == Some(code)
-    }
-
-    /// [`ErrorCode::NotFound`].
-    pub fn not_found(error: impl Into<String>) -> ErrorReply {
-        ErrorReply::coded(ErrorCode::NotFound, error)
-    }
-
-    /// [`ErrorCode::Invalid`].
-    pub fn invalid(error: impl Into<String>) -> ErrorReply {
-        ErrorReply::coded(ErrorCode::Invalid, error)
-    }
-
-    /// [`ErrorCode::Conflict`].
-    pub fn conflict(error: impl Into<String>) -> ErrorReply {
-        ErrorReply::coded(ErrorCode::Conflict, error)
-    }
-
-    /// [`ErrorCode::Busy`].
-    pub fn busy(error: impl Into<String>) -> ErrorReply {
-        ErrorReply::coded(ErrorCode::Busy, error)
-    }
-
-    /// The same error, its words prefixed by `context` (`"{context}: {error}"`), its code kept.
-    pub fn context(self, context: impl std::fmt::Display) -> ErrorReply {
-        ErrorReply { error: format!("{context}: {}", self.error), code: self.code }
-    }
-}
-
-impl From<String> for ErrorReply {
-    fn from(error: String) -> ErrorReply {
-        ErrorReply { error, code: None }
-    }
-}
-
-impl From<&str> for ErrorReply {
-    fn from(error: &str) -> ErrorReply {
-        ErrorReply { error: error.to_string(), code: None }
-    }
-}
-
-impl std::fmt::Display for ErrorReply {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.error)
-    }
-}
-
 /// `mrmm/system/cmd/mission/create`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -481,17 +372,6 @@ pub struct Marginal {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A code's name is its name on the wire.
-    #[test]
-    fn error_codes_are_named_as_on_the_wire() {
-        use ErrorCode::*;
-        for c in [NotFound, Invalid, Conflict, Busy, Forbidden, Refused, Unproven, TakenOver] {
-            assert_eq!(serde_json::to_value(c).expect("json"), serde_json::Value::String(c.as_str().into()));
-        }
-        let e: ErrorReply = serde_json::from_str(r#"{"error": "unknown robot \"r9\"", "code": "not_found"}"#).expect("reply");
-        assert!(e.is(NotFound));
-    }
 
     #[test]
     fn a_left_out_summary_is_carried_from_the_last_view() {

@@ -5,7 +5,7 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
 
-use mrmm_proto::plan::Point;
+use mrmm_proto::geom::Point;
 use mrmm_proto::traffic::TrafficView;
 use mrmm_proto::{self as proto, AdviceEvent, MissionView, PlanSummary, Priority, SyncArrival, SyncRelease, Telemetry};
 use rerun::RecordingStream;

@@ -249,7 +249,8 @@ impl Head {
 
 #[cfg(test)]
 mod tests {
-    use mrmm_proto::plan::{CoverageSummary, Point, Region};
+    use mrmm_proto::geom::Point;
+    use mrmm_proto::plan::{CoverageSummary, Region};
 
     use super::*;
 

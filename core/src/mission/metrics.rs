@@ -3,7 +3,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::plan::Point;
+use mrmm_proto::geom::Point;
 use mrmm_proto::RobotId;
 use mrmm_proto::{MetricsTally, MissionMetrics, Progress, Telemetry};
 

@@ -12,7 +12,8 @@ mod view;
 use std::collections::BTreeMap;
 
 use mrmm_planner::recipe::PlannerKind;
-use mrmm_proto::plan::{MissionPlan, PlanSummary, Point, RobotSpec};
+use mrmm_proto::geom::Point;
+use mrmm_proto::plan::{MissionPlan, PlanSummary, RobotSpec};
 use mrmm_proto::{self as proto, Member, MissionSnapshot, MissionStatus, NodeId, PlanAssignment, PlanRequest, RobotId, Telemetry};
 
 pub use burst::{LOSS_BURST_MAX_S, LOSS_BURST_S, LOSS_QUIET_S};

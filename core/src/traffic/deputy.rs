@@ -272,6 +272,15 @@ impl Deputy {
     }
 }
 
+impl crate::machine::Machine for Deputy {
+    type Event = Event;
+    type Command = Command;
+
+    fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+        Deputy::handle(self, now, event)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use mrmm_maps::Point;

@@ -104,7 +104,7 @@ pub(super) fn num(s: &[&str]) -> Option<u32> {
 /// A map bundle's hash chunk.
 pub(super) fn hash(s: &[&str]) -> Option<String> {
     let [s] = s else { return None };
-    crate::map::is_hash(s).then(|| s.to_string())
+    super::is_hash(s).then(|| s.to_string())
 }
 
 /// A team path from key chunks, checked.

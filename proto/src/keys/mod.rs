@@ -52,6 +52,11 @@ use std::fmt;
 use crate::error::ProtoError;
 use crate::ids::{MissionName, NodeId, RobotId};
 
+/// Whether `h` is a map hash: 64 lower-case hexadecimal digits.
+pub fn is_hash(h: &str) -> bool {
+    h.len() == 64 && h.bytes().all(|c| c.is_ascii_digit() || (b'a'..=b'f').contains(&c))
+}
+
 /// Checks that `id` can be a robot id, mission name, host name or robot type (one key chunk, no
 /// wildcard).
 pub fn validate_id(id: &str) -> Result<(), ProtoError> {
