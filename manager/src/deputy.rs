@@ -6,12 +6,12 @@
 use std::time::{Duration, Instant};
 
 use mrmm_core::traffic::deputy::{Command, Deputy, Event};
+use mrmm_net::inbox::{self, Inbox};
 use mrmm_net::Mesh;
 use mrmm_proto::edge::Proof;
 use mrmm_proto::{Key, MapRef, Pattern};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
-use zenoh::handlers::RingChannel;
 use zenoh::sample::SampleKind;
 
 use crate::error::ManagerError;
@@ -86,10 +86,10 @@ async fn follow(
         }
     };
     let session = mesh.session().clone();
-    let z = ManagerError::zenoh;
-    let traffic = session.declare_subscriber(Pattern::MapTraffic(map.hash.clone()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
-    let central_key = Key::HostAlive(mrmm_proto::CENTRAL_HOST.into()).to_string();
-    let central = session.liveliness().declare_subscriber(central_key).history(true).with(RingChannel::new(16)).await.map_err(z)?;
+    let (orders, mut traffic) = Inbox::new("deputy: traffic", QUEUE);
+    let _traffic = inbox::subscribe(&orders, &session, Pattern::MapTraffic(map.hash.clone()).to_string(), |s| s).await?;
+    let (live, mut central) = Inbox::new("deputy: central's liveliness", 16);
+    let _central = live.liveliness(&session, Key::HostAlive(mrmm_proto::CENTRAL_HOST.into()).to_string(), |s| s).await?;
     let t0 = Instant::now();
     let now = || t0.elapsed().as_secs_f64();
     // Central counts as away until its token is heard (at once, from the history, if it is up):
@@ -103,16 +103,16 @@ async fn follow(
             _ = shutdown.cancelled() => break,
             _ = unnamed(named, map) => break,
             _ = tick.tick() => Event::Tick,
-            s = traffic.recv_async() => {
-                let Ok(s) = s else { break };
+            s = traffic.recv() => {
+                let Some(s) = s else { break };
                 let what = if Key::parse(s.key_expr().as_str()).is_some_and(|k| matches!(k, Key::TrafficOrder { .. })) { "traffic order" } else { "traffic report" };
                 match mesh.hear(&s, Some((what, Proof::Own)), |m| deputy.ingress(m)) {
                     Some(ev) => ev,
                     None => continue,
                 }
             }
-            s = central.recv_async() => {
-                let Ok(s) = s else { break };
+            s = central.recv() => {
+                let Some(s) = s else { break };
                 Event::Central(s.kind() == SampleKind::Put)
             }
         };

@@ -14,7 +14,6 @@ pub mod deputy;
 pub mod edge;
 pub mod error;
 pub mod host;
-pub mod inbox;
 pub mod journal;
 pub mod load;
 pub mod maps;

@@ -5,11 +5,14 @@
 //!   TCP for development), sealing what it sends and proving who sent what it receives;
 //! - [`security`]: certificates, seals, pair keys and the PKI;
 //! - [`net`]: queries, liveliness checks and wire statistics;
+//! - [`inbox`]: the bounded queues from Zenoh's callbacks to a node's loop, every node's one
+//!   discipline;
 //! - [`client`]: the operator's client of central;
 //! - [`map`]: map bundles fetched chunk by chunk.
 
 pub mod client;
 pub mod follow;
+pub mod inbox;
 pub mod map;
 pub mod mesh;
 pub mod net;

@@ -11,8 +11,8 @@ use zenoh::query::Query;
 use zenoh::sample::Sample;
 
 use crate::error::ManagerError;
-use crate::inbox::{self, Inbox, Latest};
 use crate::system;
+use mrmm_net::inbox::{self, Inbox, Latest};
 
 /// What the Zenoh callbacks and central's own tasks hand its loop.
 pub(super) enum Input {
@@ -29,7 +29,7 @@ pub(super) struct Held {
     queryables: Vec<zenoh::query::Queryable<()>>,
 }
 
-/// Central's inboxes, by priority (see [`crate::inbox`]).
+/// Central's inboxes, by priority (see [`mrmm_net::inbox`]).
 pub(super) struct Inboxes {
     pub(super) live: Inbox<Input>,
     pub(super) control: Inbox<Input>,

@@ -15,7 +15,7 @@ use zenoh::Session;
 
 use super::{Event, LocalTeam};
 use crate::error::ManagerError;
-use crate::inbox::Inbox;
+use mrmm_net::inbox::Inbox;
 
 /// A second host under a name the mesh already knows alive would break the chains' majorities:
 /// refused with one line, as a bad name is.

@@ -16,9 +16,9 @@ use super::inputs::Input;
 use super::store::Store;
 use super::{Command, Event, HostCore, Question, PLAN_TIMEOUT};
 use crate::error::ManagerError;
-use crate::inbox::Inbox;
 use crate::maps::MapStore;
 use crate::Failure;
+use mrmm_net::inbox::Inbox;
 
 /// A mission host's runtime for the driver's step ([`mrmm_core::machine::step`]): what its
 /// chains must remember is written and synced before anything of its step leaves the node — a

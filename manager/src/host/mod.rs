@@ -18,9 +18,9 @@ use self::inputs::{decode, local_changed, Input};
 use self::io::{Io, Runtime};
 use crate::chain::Params;
 use crate::error::ManagerError;
-use crate::inbox::{Inbox, Lanes, Latest};
 use crate::maps::MapStore;
 pub use mrmm_core::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
+use mrmm_net::inbox::{Inbox, Lanes, Latest};
 
 /// How long a planner service may take.
 pub const PLAN_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::PLAN_S as u64);
@@ -77,7 +77,7 @@ pub async fn serve_with(
     // their mission's chain from the head's status) the status of the robot's missions: what
     // the core says it listens to, subscribed one by one.
     let n = net.clone();
-    let mut follow = Following::new(session.clone(), move |s| crate::inbox::sort(&n, &telemetry, s, Input::Sample));
+    let mut follow = Following::new(session.clone(), move |s| mrmm_net::inbox::sort(&n, &telemetry, s, Input::Sample));
     let _held = inputs::declare(&session, &node, &live, &net).await?;
     tracing::info!(%node, "mission host up");
     let t0 = Instant::now();

@@ -4,11 +4,12 @@
 
 use std::time::Duration;
 
+use mrmm_net::inbox::{self, Inbox};
 use mrmm_net::net;
 use mrmm_net::Mesh;
 use mrmm_proto::{self as proto, Key, Pattern};
+use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
-use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::pubsub::Subscriber;
 use zenoh::query::{Query, Queryable};
 use zenoh::sample::{Sample, SampleKind};
@@ -28,14 +29,17 @@ pub(super) struct Inputs {
     mesh: Mesh,
     id: String,
     shutdown: CancellationToken,
-    info_q: Queryable<RingChannelHandler<Query>>,
-    cmd_q: Queryable<RingChannelHandler<Query>>,
+    /// Its queryables and subscriptions (each into an [`Inbox`]: a full one drops what comes).
+    _queryables: [Queryable<()>; 2],
+    _subscribers: [Subscriber<()>; 3],
+    info_q: mpsc::Receiver<Query>,
+    cmd_q: mpsc::Receiver<Query>,
     /// Viewers announcing themselves: the robot's telemetry is tagged for them too.
-    viewers: Subscriber<RingChannelHandler<Sample>>,
+    viewers: mpsc::Receiver<Sample>,
     /// Orders of the traffic authorities (`mrmm/traffic/*/order/<id>`).
-    traffic: Subscriber<RingChannelHandler<Sample>>,
+    traffic: mpsc::Receiver<Sample>,
     /// Central's liveliness: while it is gone, nobody admits this robot to missions.
-    central: Subscriber<RingChannelHandler<Sample>>,
+    central: mpsc::Receiver<Sample>,
     physics: tokio::time::Interval,
     telemetry: tokio::time::Interval,
     /// Whether the robot's session has a link to any other fleet node (a ROS 2 body stops
@@ -57,18 +61,23 @@ impl Inputs {
     /// Declares the robot's queryables (info, commands), then the subscriptions it hears.
     pub(super) async fn declare(mesh: &Mesh, id: &str, telemetry_hz: f64, endpoints: Vec<String>, shutdown: CancellationToken) -> Result<Inputs, PeerError> {
         let session = mesh.session().clone();
-        let z = PeerError::zenoh;
-        let info_q = session.declare_queryable(Key::RobotInfo(id.into()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
-        let cmd_q = session.declare_queryable(Key::RobotCmd(id.into()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
-        let viewers = session.declare_subscriber(Pattern::AllViewers.to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
-        let traffic = session.declare_subscriber(Pattern::TrafficOrders(id.to_string()).to_string()).with(RingChannel::new(QUEUE)).await.map_err(z)?;
-        let central_key = Key::HostAlive(proto::CENTRAL_HOST.into()).to_string();
-        let central = session.liveliness().declare_subscriber(central_key).history(true).with(RingChannel::new(QUEUE)).await.map_err(z)?;
+        let (info, info_q) = Inbox::new("robot: info queries", QUEUE);
+        let info_d = inbox::queryable(&info, &session, Key::RobotInfo(id.into()).to_string(), |q| q).await?;
+        let (cmd, cmd_q) = Inbox::new("robot: commands", QUEUE);
+        let cmd_d = inbox::queryable(&cmd, &session, Key::RobotCmd(id.into()).to_string(), |q| q).await?;
+        let (view, viewers) = Inbox::new("robot: viewers", QUEUE);
+        let view_d = inbox::subscribe(&view, &session, Pattern::AllViewers.to_string(), |s| s).await?;
+        let (orders, traffic) = Inbox::new("robot: traffic orders", QUEUE);
+        let orders_d = inbox::subscribe(&orders, &session, Pattern::TrafficOrders(id.to_string()).to_string(), |s| s).await?;
+        let (live, central) = Inbox::new("robot: central's liveliness", QUEUE);
+        let central_d = live.liveliness(&session, Key::HostAlive(proto::CENTRAL_HOST.into()).to_string(), |s| s).await?;
         Ok(Inputs {
             mesh: mesh.clone(),
             session,
             id: id.to_string(),
             shutdown,
+            _queryables: [info_d, cmd_d],
+            _subscribers: [view_d, orders_d, central_d],
             info_q,
             cmd_q,
             viewers,
@@ -106,13 +115,13 @@ impl Inputs {
                     Some(ev) => (ev, None),
                     None => continue,
                 },
-                q = self.info_q.recv_async() => {
-                    let Ok(q) = q else { return None };
+                q = self.info_q.recv() => {
+                    let q = q?;
                     self.mesh.reply_json(&q, &robot.info(self.endpoints.clone())).await;
                     continue;
                 }
-                q = self.cmd_q.recv_async() => {
-                    let Ok(q) = q else { return None };
+                q = self.cmd_q.recv() => {
+                    let q = q?;
                     match self.command(robot, &q).await {
                         Some(ev) => (ev, Some(q)),
                         None => continue,
@@ -122,24 +131,21 @@ impl Inputs {
                     Some(ev) => (ev, None),
                     None => continue,
                 },
-                s = self.traffic.recv_async() => {
-                    let Ok(s) = s else { return None };
+                s = self.traffic.recv() => {
+                    let s = s?;
                     match heard(&self.mesh, robot, &s) {
                         Some(ev) => (ev, None),
                         None => continue,
                     }
                 }
-                s = self.viewers.recv_async() => {
-                    let Ok(s) = s else { return None };
+                s = self.viewers.recv() => {
+                    let s = s?;
                     self.viewer(&s, io);
                     continue;
                 }
-                s = self.central.recv_async() => match s {
-                    Ok(s) => match liveliness(robot, &s) {
-                        Some(ev) => (ev, None),
-                        None => continue,
-                    },
-                    Err(_) => return None,
+                s = self.central.recv() => match liveliness(robot, &s?) {
+                    Some(ev) => (ev, None),
+                    None => continue,
                 },
                 s = recv_members(&io.team) => match liveliness(robot, &s) {
                     Some(ev) => (ev, None),

@@ -5,10 +5,10 @@
 
 use mrmm_core::edge::Proof;
 use mrmm_core::robot::{Event, Robot, TeamLinks};
+use mrmm_net::inbox::Inbox;
 use mrmm_net::{Following, Mesh};
 use mrmm_proto::{Key, Pattern};
 use tokio::sync::{mpsc, Mutex};
-use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::Subscriber;
 use zenoh::sample::Sample;
@@ -21,7 +21,8 @@ use crate::error::PeerError;
 pub(super) struct TeamLink {
     _token: LivelinessToken,
     /// Membership tokens of the widest team the plan has barriers with.
-    members: Subscriber<RingChannelHandler<Sample>>,
+    _members: Subscriber<()>,
+    members_rx: Mutex<mpsc::Receiver<Sample>>,
     /// The barrier subscriptions, all into one queue (a full queue drops what comes, as the
     /// barriers re-publish while they wait). Its own barrier messages are not heard (the robot
     /// counts its own arrivals before publishing them, which also saves a signature check each).
@@ -33,21 +34,14 @@ impl TeamLink {
     /// Joins the team `links` describes: member token, teammates' liveliness, its subscriptions.
     pub(super) async fn join(session: &Session, id: &str, links: &TeamLinks) -> Result<Self, PeerError> {
         let member = Key::team_member(&links.subteam, id)?;
-        let members = session
-            .liveliness()
-            .declare_subscriber(Pattern::TeamMembers(links.widest().to_string()).to_string())
-            .history(true)
-            .with(RingChannel::new(QUEUE))
-            .await
-            .map_err(PeerError::zenoh)?;
-        let (tx, rx) = mpsc::channel(QUEUE);
-        let mut data = Following::new(session.clone(), move |s| {
-            let _ = tx.try_send(s);
-        });
+        let (live, members_rx) = Inbox::new("robot: teammates' liveliness", QUEUE);
+        let members = live.liveliness(session, Pattern::TeamMembers(links.widest().to_string()).to_string(), |s| s).await?;
+        let (barriers, rx) = Inbox::new("robot: barrier messages", QUEUE);
+        let mut data = Following::new(session.clone(), move |s| barriers.push_from(&s.key_expr().clone(), s));
         data.follow(&links.subscriptions()).await;
         // Declared last: once teammates see it, this robot hears their barriers.
         let token = session.liveliness().declare_token(member.to_string()).await.map_err(PeerError::zenoh)?;
-        let link = TeamLink { _token: token, members, data, rx: Mutex::new(rx) };
+        let link = TeamLink { _token: token, _members: members, members_rx: Mutex::new(members_rx), data, rx: Mutex::new(rx) };
         Ok(link)
     }
 
@@ -71,9 +65,9 @@ pub(super) async fn recv_data(team: &Option<TeamLink>) -> Sample {
 /// The next change of a teammate's liveliness; pending when not in a team.
 pub(super) async fn recv_members(team: &Option<TeamLink>) -> Sample {
     match team.as_ref() {
-        Some(t) => match t.members.recv_async().await {
-            Ok(s) => s,
-            Err(_) => std::future::pending().await,
+        Some(t) => match t.members_rx.lock().await.recv().await {
+            Some(s) => s,
+            None => std::future::pending().await,
         },
         None => std::future::pending().await,
     }

@@ -1,4 +1,5 @@
-//! Bounded queues from Zenoh callbacks to a node's loop. A callback runs on Zenoh's receiving
+//! Bounded queues from Zenoh callbacks to a node's loop: every node's one discipline (central,
+//! the mission hosts, the robots, the traffic deputies). A callback runs on Zenoh's receiving
 //! thread and must never block it; a remote must not be able to grow a node's memory by sending
 //! faster than the loop handles. So input goes through an [`Inbox`]: when the loop falls behind,
 //! new input is dropped, counted and logged (rate-limited); the senders' own retries (plans,
@@ -18,11 +19,12 @@ use std::sync::Arc;
 
 use tokio::sync::mpsc;
 use zenoh::pubsub::Subscriber;
+use zenoh::query::{Query, Queryable};
 use zenoh::sample::Sample;
 use zenoh::Session;
 
-use crate::error::ManagerError;
 pub use latest::{Latest, LatestRx};
+use mrmm_proto::ProtoError;
 
 /// The sending side of a bounded queue.
 #[derive(Debug)]
@@ -93,12 +95,7 @@ impl<T: Send + 'static> Keyed<T> for Latest<T> {
 }
 
 /// Subscribes to `key`: each sample is queued on `queue` as `wrap(sample)`.
-pub async fn subscribe<T: Send + 'static>(
-    queue: &impl Keyed<T>,
-    session: &Session,
-    key: String,
-    wrap: fn(Sample) -> T,
-) -> Result<Subscriber<()>, ManagerError> {
+pub async fn subscribe<T: Send + 'static>(queue: &impl Keyed<T>, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ProtoError> {
     let q = queue.clone();
     session
         .declare_subscriber(key)
@@ -107,15 +104,21 @@ pub async fn subscribe<T: Send + 'static>(
             q.push_keyed(key.as_str(), wrap(s))
         })
         .await
-        .map_err(ManagerError::zenoh)
+        .map_err(ProtoError::zenoh)
+}
+
+/// Serves the queryable `key`: each query is queued on `queue` as `wrap(query)`.
+pub async fn queryable<T: Send + 'static>(queue: &Inbox<T>, session: &Session, key: String, wrap: fn(Query) -> T) -> Result<Queryable<()>, ProtoError> {
+    let q = queue.clone();
+    session.declare_queryable(key).callback(move |query| q.push(wrap(query))).await.map_err(ProtoError::zenoh)
 }
 
 impl<T: Send + 'static> Inbox<T> {
     /// Follows the liveliness tokens on `key`, those alive already included: each appearance and
     /// disappearance is queued as `wrap(sample)`.
-    pub async fn liveliness(&self, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ManagerError> {
+    pub async fn liveliness(&self, session: &Session, key: String, wrap: fn(Sample) -> T) -> Result<Subscriber<()>, ProtoError> {
         let t = self.clone();
-        session.liveliness().declare_subscriber(key).history(true).callback(move |s| t.push(wrap(s))).await.map_err(ManagerError::zenoh)
+        session.liveliness().declare_subscriber(key).history(true).callback(move |s| t.push(wrap(s))).await.map_err(ProtoError::zenoh)
     }
 }
 
