@@ -14,7 +14,7 @@
 //! | [`host::HostCore`] | the missions a node replicates and leads; whom it trusts with their chains (`host/trust.rs`) | `mrmm_manager::host` |
 //! | [`robot::Robot`] | one robot: commands, plans, its body | `mrmm_peer::runtime` |
 //! | [`executor::Executor`] | a plan's steps and team barriers ([`barrier`]) | [`robot::Robot`] |
-//! | [`traffic::Traffic`] | who may drive which lanes of a navigation graph: grants, deadlocks broken | [`traffic::authority::Authority`] (in [`central::CentralCore`] and [`traffic::deputy::Deputy`]), [`traffic::sim`] |
+//! | [`traffic::Traffic`] | who may drive which lanes of a navigation graph: grants, deadlocks broken | [`traffic::authority::Authority`] (in [`central::CentralCore`] and [`traffic::deputy::Deputy`]), `mrmm_sim::traffic` |
 
 pub mod agent;
 pub mod ask;

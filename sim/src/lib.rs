@@ -7,13 +7,20 @@
 //! tokens); every decision is the machines'. After every event it checks the invariants
 //! (`invariants.rs`); a run returns the first violation with the seed that replays it.
 //!
+//! Two smaller simulations of one machine each live here too: chain replication alone
+//! ([`chain`]: the production `Registry` over a lossy network) and traffic on a floor plan
+//! ([`traffic`]: the production `Traffic` with robots driving its grants, and the lifelong-PIBT
+//! reference [`traffic::pibt`]).
+//!
 //! [`CentralCore`]: mrmm_core::central::CentralCore
 //! [`HostCore`]: mrmm_core::host::HostCore
 //! [`Robot`]: mrmm_core::robot::Robot
 
+pub mod chain;
 mod invariants;
 mod net;
 mod ops;
+pub mod traffic;
 mod world;
 
 use rand::{Rng, SeedableRng};

@@ -1,4 +1,4 @@
-//! Seeded simulation of traffic (`mrmm_core::traffic::sim`): robots driving random routes on real
+//! Seeded simulation of traffic (`mrmm_sim::traffic`): robots driving random routes on real
 //! floor plans — patrolling_sim's nine navigation graphs and Open-RMF's office graph, as shipped in
 //! `maps/data` — never come closer than the clearance, and every robot keeps finishing routes.
 //! Blind, the same robots meet: the check can see a meeting.
@@ -8,9 +8,9 @@
 
 use std::sync::Arc;
 
-use mrmm_core::traffic::sim::{run, Report, World};
 use mrmm_core::traffic::Layout;
 use mrmm_maps::space::GraphSpace;
+use mrmm_sim::traffic::{run, Report, World};
 
 /// Robots are 0.25 m in radius: centres stay 0.6 m apart.
 const CLEARANCE: f64 = 0.6;

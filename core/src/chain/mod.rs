@@ -52,7 +52,6 @@
 
 mod registry;
 mod replica;
-pub mod sim;
 #[cfg(test)]
 mod tests;
 

@@ -36,8 +36,6 @@ pub mod deputy;
 #[cfg(test)]
 mod fleet_tests;
 pub mod layout;
-pub mod pibt;
-pub mod sim;
 #[cfg(test)]
 mod tests;
 

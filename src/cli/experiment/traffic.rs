@@ -1,6 +1,6 @@
 //! `mrmm experiment traffic`: robots sharing the corridors of real floor plans — patrolling_sim's
 //! nine navigation graphs and Open-RMF's office — under traffic (`mrmm_core::traffic`) and
-//! blind, in the seeded simulation `mrmm_core::traffic::sim`: trips driven, how close robots
+//! blind, in the seeded simulation `mrmm_sim::traffic`: trips driven, how close robots
 //! came, how long they waited, how often traffic made one step aside or could not break a
 //! gridlock, and what an event costs the machine.
 
@@ -9,9 +9,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{anyhow, Context};
-use mrmm_core::traffic::sim::{self, Report, World};
 use mrmm_core::traffic::Layout;
 use mrmm_maps::space::GraphSpace;
+use mrmm_sim::traffic::{self as sim, Report, World};
 
 /// Team sizes by default (each map takes those of at most a third of its vertices).
 pub const SIZES: [usize; 4] = [2, 4, 8, 12];
@@ -41,7 +41,7 @@ pub struct Row {
     /// Wall microseconds per event handled by traffic (this machine).
     pub us_per_event: f64,
     /// Goals reached by lifelong PIBT on the map cut into clearance-sized moves
-    /// (`mrmm_core::traffic::pibt`), and by the same discrete robots driving blindly.
+    /// (`mrmm_sim::traffic::pibt`), and by the same discrete robots driving blindly.
     pub reference_trips: u64,
     pub reference_blind: u64,
 }
@@ -127,7 +127,7 @@ fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n:
 fn reference(row: &mut Row, graph: &mrmm_maps::NavGraph, seed: u64) -> anyhow::Result<()> {
     let world = World { robots: row.robots, places: Some(graph.vertices.len() as u32), ..World::default() };
     for s in seed..seed + SEEDS {
-        let r = mrmm_core::traffic::pibt::run(graph, &world, CLEARANCE, s).map_err(|e| anyhow!("{}, PIBT reference, seed {s}: {e}", row.map))?;
+        let r = mrmm_sim::traffic::pibt::run(graph, &world, CLEARANCE, s).map_err(|e| anyhow!("{}, PIBT reference, seed {s}: {e}", row.map))?;
         row.reference_trips += r.trips;
         row.reference_blind += r.blind_trips;
     }
@@ -176,7 +176,7 @@ fn summary(rows: &[Row], command: &str, elapsed: f64, (segment, corridors): (f64
         "# Traffic on real floor plans\n\n`{command}` ({elapsed:.0} s; {lanes}{locks}). Each line: {SEEDS} seeds of 600 simulated seconds; robots at 0.5 – 1.5 m/s \
          drive shortest routes to random vertices no other robot is going to, dwell up to 3 s and go on. *Blind*: the same robots \
          without traffic. *Stalled*: a robot stood five minutes wanting to drive. µs/event: the whole controlled run's wall time \
-         (robots' motion included) per event traffic handled. *PIBT*: lifelong PIBT, the reference (`mrmm_core::traffic::pibt`), on the \
+         (robots' motion included) per event traffic handled. *PIBT*: lifelong PIBT, the reference (`mrmm_sim::traffic::pibt`), on the \
          map cut into clearance-sized moves in lockstep, its goals reached against the same discrete robots driving blindly.\n\n\
          | map | vertices | robots | trips (blind) | kept | PIBT keeps | closest, m | blind runs meeting | waiting | steps aside | stalled | µs/event |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|\n"

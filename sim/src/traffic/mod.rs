@@ -16,7 +16,9 @@ use mrmm_maps::space::GraphSpace;
 use mrmm_maps::Point;
 use mrmm_proto::RobotId;
 
-use super::{Command, Event, Layout, Params, Traffic, Why};
+use mrmm_core::traffic::{Command, Event, Layout, Params, Traffic, Why};
+
+pub mod pibt;
 
 /// The simulated world.
 #[derive(Debug, Clone, Copy)]

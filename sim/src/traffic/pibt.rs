@@ -25,8 +25,9 @@ use rand_chacha::ChaCha8Rng;
 
 use mrmm_maps::NavGraph;
 
-use super::layout::segmented;
-use super::sim::World;
+use mrmm_core::traffic::layout::segmented;
+
+use super::World;
 
 /// What a run of the reference did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

@@ -1,13 +1,13 @@
 //! The seeded message-level simulation of chain-replicated mission managers (issue 5): random
 //! crashes and restarts, message loss, delay and duplication, partitions. Every seed must keep
-//! the invariants (see `mrmm_manager::chain::sim::Invariants`).
+//! the invariants (see `mrmm_sim::chain::Invariants`).
 //!
-//! `cargo test -p mrmm-manager --test chain_sim` runs 1 000 seeds. More:
-//! `MRMM_SIM_SEEDS=100000 cargo test --release -p mrmm-manager --test chain_sim -- --nocapture`.
-//! Replay one seed with its trace: `MRMM_SIM_SEED=1234 cargo test -p mrmm-manager --test chain_sim -- --nocapture`.
+//! `cargo test -p mrmm-sim --test replica_sim` runs 1 000 seeds. More:
+//! `MRMM_SIM_SEEDS=100000 cargo test --release -p mrmm-sim --test replica_sim -- --nocapture`.
+//! Replay one seed with its trace: `MRMM_SIM_SEED=1234 cargo test -p mrmm-sim --test replica_sim -- --nocapture`.
 
-use mrmm_manager::chain::sim::{Sim, World};
-use mrmm_manager::chain::Params;
+use mrmm_core::chain::Params;
+use mrmm_sim::chain::{Sim, World};
 
 fn env_u64(name: &str) -> Option<u64> {
     std::env::var(name).ok().and_then(|v| v.parse().ok())
