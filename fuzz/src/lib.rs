@@ -10,8 +10,9 @@
 use std::collections::VecDeque;
 
 use mrmm_manager::host::{self, HostCore};
-use mrmm_manager::system::{self, SystemManager};
-use mrmm_manager::{chain, planner_service};
+use mrmm_core::system::{self, SystemManager};
+use mrmm_core::chain;
+use mrmm_manager::planner_service;
 use mrmm_peer::config::RobotConfig;
 use mrmm_peer::robot::{self, Robot};
 use mrmm_proto::{CommandAck, Member, MissionStart, MissionView, RobotInfo, RobotSpec, Role, Sender, Telemetry};
@@ -257,7 +258,7 @@ impl Host {
                                 }
                             })
                             .map(Box::new)
-                            .map_err(mrmm_manager::Failure::fatal);
+                            .map_err(mrmm_core::Failure::fatal);
                         queue.push_back(host::Event::Planned { mission, epoch, result });
                     }
                     host::Command::SendPlan { mission, robot, assignment } => {

@@ -8,7 +8,7 @@ use mrmm_core::egress::{Audience, Out};
 use mrmm_net::Mesh;
 use serde_json::Value;
 
-use crate::Failure;
+use mrmm_core::Failure;
 
 /// Puts a machine's publication on the network, sealed (for its receivers, if it names them).
 pub async fn publish(mesh: &Mesh, out: Out) {

@@ -21,7 +21,3 @@ pub mod planner_service;
 pub mod site_router;
 
 pub use error::ManagerError;
-/// The machines these drivers run (`mrmm-core`), under the names the drivers always used.
-pub use mrmm_core::{agent, chain, mission, system, wire};
-
-pub use mrmm_core::Failure;

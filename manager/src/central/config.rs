@@ -7,7 +7,7 @@ use mrmm_net::net::{self, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE
 use mrmm_proto::SecuritySection;
 use serde::Deserialize;
 
-use crate::agent::AgentConfig;
+use mrmm_core::agent::AgentConfig;
 use crate::error::ManagerError;
 
 /// Config of `mrmm central` (JSON5).

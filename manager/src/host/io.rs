@@ -17,7 +17,7 @@ use super::store::Store;
 use super::{Command, Event, HostCore, Question, PLAN_TIMEOUT};
 use crate::error::ManagerError;
 use crate::maps::MapStore;
-use crate::Failure;
+use mrmm_core::Failure;
 use mrmm_net::inbox::Inbox;
 
 /// A mission host's runtime for the driver's step ([`mrmm_core::machine::step`]): what its

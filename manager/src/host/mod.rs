@@ -16,7 +16,7 @@ use tokio_util::sync::CancellationToken;
 
 use self::inputs::{decode, local_changed, Input};
 use self::io::{Io, Runtime};
-use crate::chain::Params;
+use mrmm_core::chain::Params;
 use crate::error::ManagerError;
 use crate::maps::MapStore;
 pub use mrmm_core::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};

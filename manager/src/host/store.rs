@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use mrmm_proto::MissionSnapshot;
 use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition};
 
-use crate::chain::Disk;
+use mrmm_core::chain::Disk;
 use crate::error::ManagerError;
 
 const CHAIN: TableDefinition<&str, &[u8]> = TableDefinition::new("chain");
@@ -86,7 +86,7 @@ impl Store {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::chain::{Config, Stored, Tomb};
+    use mrmm_core::chain::{Config, Stored, Tomb};
 
     #[test]
     fn what_is_written_is_read_back_and_a_second_opener_is_refused() {

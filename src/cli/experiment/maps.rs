@@ -134,7 +134,7 @@ fn one(name: &str, graph: &NavGraph, n: usize, best: f64, seed: u64, turn: f64) 
     let recipe::MissionPlan::Patrol(p) = &planned else { anyhow::bail!("a patrol plan") };
     let tour = p.length;
     let bound = best / (n as f64 * SPEED);
-    let mut wire = mrmm_manager::wire::mission_plan(&planned);
+    let mut wire = mrmm_core::wire::mission_plan(&planned);
     for (plan, r) in wire.plans.iter_mut().zip(&robots) {
         pace(graph, &mut plan.steps, (r.x, r.y));
     }
