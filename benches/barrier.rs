@@ -9,8 +9,8 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use mrmm_core::barrier::Barrier;
 use mrmm_net::net::{self, Mode};
-use mrmm_peer::barrier::Barrier;
 use mrmm_proto::{self as proto, SyncArrival};
 use rand::{Rng, SeedableRng};
 use tokio::sync::{mpsc, Barrier as Gate};

@@ -19,10 +19,10 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
+use mrmm_core::barrier::Barrier;
 use mrmm_net::net::{self, Mode};
 use mrmm_net::security::pki;
 use mrmm_net::{Mesh, NodeNet};
-use mrmm_peer::barrier::Barrier;
 use mrmm_proto::{self as proto, Role, SecuritySection, Sender, SyncArrival};
 use rand::{Rng, SeedableRng};
 

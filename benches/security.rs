@@ -24,11 +24,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use mrmm_core::barrier::Barrier;
 use mrmm_net::net::{self, Mode};
 use mrmm_net::security::pki;
 use mrmm_net::security::seal::{self, SignCadence};
 use mrmm_net::{Mesh, NodeNet};
-use mrmm_peer::barrier::Barrier;
 use mrmm_proto::{self as proto, Key, Role, SecuritySection, Sender, SyncArrival};
 use rand::{Rng, SeedableRng};
 use tokio::sync::{mpsc, Barrier as Gate};
@@ -306,9 +306,9 @@ async fn telemetry(sec: Sec<'_>) -> anyhow::Result<f64> {
     });
     // A robot's real telemetry (from the robot machine).
     let cfg = mrmm_peer::config::RobotConfig::from_json5("bench", r#"{ id: "p0", type: "ground", kinematics: { max_speed: 2, max_turn_rate: 3 } }"#)?;
-    let mut r = mrmm_peer::robot::Robot::new(cfg.setup());
-    let Some(template) = r.handle(0.0, mrmm_peer::robot::Event::TelemetryDue).into_iter().find_map(|c| match c {
-        mrmm_peer::robot::Command::Telemetry(t) => Some(t),
+    let mut r = mrmm_core::robot::Robot::new(cfg.setup());
+    let Some(template) = r.handle(0.0, mrmm_core::robot::Event::TelemetryDue).into_iter().find_map(|c| match c {
+        mrmm_core::robot::Command::Telemetry(t) => Some(t),
         _ => None,
     }) else {
         anyhow::bail!("the robot machine gave no telemetry");

@@ -4,7 +4,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use mrmm_fuzz::{frames, robot, sender};
-use mrmm_peer::robot::Event;
+use mrmm_core::robot::Event;
 use mrmm_proto::{self as proto, RobotCommand, SyncArrival};
 
 fuzz_target!(|data: &[u8]| {

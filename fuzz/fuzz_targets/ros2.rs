@@ -6,7 +6,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use mrmm_fuzz::{frames, ros_robot_driven, sender};
-use mrmm_peer::robot::Event;
+use mrmm_core::robot::Event;
 use mrmm_proto::{self as proto, Pose, RobotCommand, Velocity};
 use mrmm_ros2::nav2::{self, GoalEvent};
 use mrmm_ros2::{cdr, link, msgs, Input};

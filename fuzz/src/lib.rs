@@ -14,7 +14,7 @@ use mrmm_core::system::{self, SystemManager};
 use mrmm_core::chain;
 use mrmm_manager::planner_service;
 use mrmm_peer::config::RobotConfig;
-use mrmm_peer::robot::{self, Robot};
+use mrmm_core::robot::{self, Robot};
 use mrmm_proto::{CommandAck, Member, MissionStart, MissionView, RobotInfo, RobotSpec, Role, Sender, Telemetry};
 
 /// The frames of an input: (selector, payload).

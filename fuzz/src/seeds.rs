@@ -6,7 +6,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use mrmm_fuzz::{fixture_dir, robot, started_view, telemetry, Host};
-use mrmm_peer::robot::Event as RobotEvent;
+use mrmm_core::robot::Event as RobotEvent;
 use mrmm_net::security::{pki, seal::Sealer, Identity, Role, SecuritySection};
 use mrmm_proto::{MissionCtl, RobotCommand, SyncArrival};
 

@@ -6,11 +6,11 @@ use mrmm_proto::{
     self as proto, BarrierMode, Behaviour, CommandAck, MissionName, NodeId, RobotCommand, RobotId, RobotInfo, Sender, SyncArrival, SyncRelease, Telemetry,
 };
 
+use crate::body::drive::Drive;
+use crate::body::nav_goals::{Nav2Goals, NavCommand};
+use crate::body::ros::RosDrive;
 use crate::body::Body;
-use crate::drive::Drive;
 use crate::executor::{self, Executor};
-use crate::nav_goals::{Nav2Goals, NavCommand};
-use crate::ros_body::RosDrive;
 use mrmm_proto::nav::{GoalEvent, GoalId};
 
 mod commands;

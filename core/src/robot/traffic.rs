@@ -13,7 +13,7 @@ use std::collections::VecDeque;
 use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficHeld, TrafficReport, DEPUTY_STEPS, QUIET_S, REPORT_S};
 use mrmm_proto::{MapRef, RobotId, TrafficOrder};
 
-use crate::drive::Drive;
+use crate::body::drive::Drive;
 
 /// A vertex counts as reached within this distance of the body (metres).
 pub const REACH: f64 = 0.15;

@@ -7,8 +7,8 @@ use mrmm_net::net::{self, DEFAULT_CENTRAL, DEFAULT_LEASE_MS, DEFAULT_MAX_MESSAGE
 use mrmm_proto::SecuritySection;
 use serde::Deserialize;
 
-use mrmm_core::agent::AgentConfig;
 use crate::error::ManagerError;
+use mrmm_core::agent::AgentConfig;
 
 /// Config of `mrmm central` (JSON5).
 #[derive(Debug, Clone, Deserialize)]

@@ -16,9 +16,9 @@ use tokio_util::sync::CancellationToken;
 
 use self::inputs::{decode, local_changed, Input};
 use self::io::{Io, Runtime};
-use mrmm_core::chain::Params;
 use crate::error::ManagerError;
 use crate::maps::MapStore;
+use mrmm_core::chain::Params;
 pub use mrmm_core::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
 use mrmm_net::inbox::{Inbox, Lanes, Latest};
 

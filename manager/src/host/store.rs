@@ -9,8 +9,8 @@ use std::path::{Path, PathBuf};
 use mrmm_proto::MissionSnapshot;
 use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition};
 
-use mrmm_core::chain::Disk;
 use crate::error::ManagerError;
+use mrmm_core::chain::Disk;
 
 const CHAIN: TableDefinition<&str, &[u8]> = TableDefinition::new("chain");
 

@@ -11,9 +11,9 @@ use mrmm_ros2::RosLink;
 use zenoh::query::Query;
 
 use super::team::TeamLink;
-use crate::nav_goals::NavCommand;
-use crate::robot::{Command, Robot};
-use crate::viewers::Viewers;
+use mrmm_core::body::nav_goals::NavCommand;
+use mrmm_core::robot::{Command, Robot};
+use mrmm_core::viewers::Viewers;
 
 /// A robot's telemetry is signed (as well as tagged for the receivers it knows) once in this
 /// many milliseconds: receivers it does not know yet check one message in that time (one in ten

@@ -2,8 +2,8 @@
 //! ([`inputs`]: queries, publications, liveliness, timers) become [`Event`]s through the robot's
 //! own ingress, and its [`Command`]s are carried out ([`io`]; the team's side in [`team`]).
 //!
-//! [`Event`]: crate::robot::Event
-//! [`Command`]: crate::robot::Command
+//! [`Event`]: mrmm_core::robot::Event
+//! [`Command`]: mrmm_core::robot::Command
 
 mod inputs;
 mod io;
@@ -26,8 +26,8 @@ use self::inputs::Inputs;
 use self::io::Io;
 use crate::config::{BodySection, RobotConfig};
 use crate::error::PeerError;
-use crate::robot::Robot;
-use crate::viewers::Viewers;
+use mrmm_core::robot::Robot;
+use mrmm_core::viewers::Viewers;
 
 pub use self::io::TELEMETRY_SIGN_MS;
 

@@ -5,7 +5,7 @@ use mrmm_proto::{self as proto, Velocity};
 use mrmm_ros2::nav2::GoalEvent;
 use mrmm_ros2::{Input as RosInput, RosLink};
 
-use crate::robot::Event;
+use mrmm_core::robot::Event;
 
 /// Inputs of a ROS 2 body that could not be taken, counted (logged at powers of two).
 pub(super) struct RosCounts {

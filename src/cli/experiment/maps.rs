@@ -11,9 +11,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{anyhow, Context};
+use mrmm_core::body::{Body, Limits};
+use mrmm_core::executor::{Command as Exec, Event, Executor};
 use mrmm_maps::{patrolling_sim, Map, NavGraph, Node, Point, Space};
-use mrmm_peer::body::{Body, Limits};
-use mrmm_peer::executor::{Command as Exec, Event, Executor};
 use mrmm_planner::plan::RobotSpec;
 use mrmm_planner::recipe;
 use mrmm_planner::tsp::{self, Budget, Instance};

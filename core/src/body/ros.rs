@@ -5,8 +5,8 @@
 
 use mrmm_proto::{Pose, Velocity};
 
+use crate::body::nav_goals::{Nav2Goals, NavCommand};
 use crate::body::{wrap_angle, Limits, ARRIVAL_TOLERANCE};
-use crate::nav_goals::{Nav2Goals, NavCommand};
 
 /// Turn rate per radian of heading error, 1/s.
 const TURN_GAIN: f64 = 2.0;

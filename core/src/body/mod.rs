@@ -1,7 +1,13 @@
-//! The simulated robot body: unicycle kinematics with speed and turn-rate limits.
+//! Robot bodies: the simulated one here (unicycle kinematics with speed and turn-rate limits), a
+//! ROS 2 robot's ([`ros`]: mrmm's own controller over `cmd_vel`, or Nav2 goals, [`nav_goals`]),
+//! and the one interface the robot drives either through ([`drive`]).
 //!
-//! The body integrates in simulated time; the caller scales wall time by the robot's
+//! The simulated body integrates in simulated time; the caller scales wall time by the robot's
 //! `time_scale` before calling [`Body::step`].
+
+pub mod drive;
+pub mod nav_goals;
+pub mod ros;
 
 use nalgebra::{Rotation2, Vector2};
 

@@ -3,8 +3,8 @@
 
 use mrmm_proto::{Pose, Velocity};
 
+use crate::body::ros::{RosDrive, Step};
 use crate::body::{Body, Onward};
-use crate::ros_body::{RosDrive, Step};
 
 #[derive(Debug, Clone)]
 pub enum Drive {
