@@ -9,7 +9,7 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use mrmm_core::barrier::Barrier;
+use mrmm_core::robot::barrier::Barrier;
 use mrmm_net::net::{self, Mode};
 use mrmm_proto::{self as proto, SyncArrival};
 use rand::{Rng, SeedableRng};

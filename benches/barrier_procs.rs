@@ -19,7 +19,7 @@ use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
-use mrmm_core::barrier::Barrier;
+use mrmm_core::robot::barrier::Barrier;
 use mrmm_net::net::{self, Mode};
 use mrmm_net::security::pki;
 use mrmm_net::{Mesh, NodeNet};

@@ -24,7 +24,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use mrmm_core::barrier::Barrier;
+use mrmm_core::robot::barrier::Barrier;
 use mrmm_net::net::{self, Mode};
 use mrmm_net::security::pki;
 use mrmm_net::security::seal::{self, SignCadence};

@@ -230,7 +230,7 @@ fn scenario(net: &Net, dir: &Scratch) -> anyhow::Result<()> {
     // Side B cannot make a head: while the tap inside B hears both of B's robots for longer
     // than any replica of theirs waits before standing (silence × its place in the chain, plus
     // the votes), no head of theirs ever publishes the mission's status.
-    let stand_by = 2.0 * mrmm_core::chain::Params::default().silence + 2.0;
+    let stand_by = 2.0 * mrmm_core::mission::chain::Params::default().silence + 2.0;
     let (mut b_heads, mut first, mut heard) = (Vec::new(), None::<f64>, std::collections::BTreeMap::<String, f64>::new());
     tap_until(&tap, "side B heard for longer than it takes a replica to stand", Duration::from_secs(40), |v| {
         let t = v["t"].as_f64().unwrap_or(0.0);

@@ -9,7 +9,7 @@
 
 use std::time::Instant;
 
-use mrmm_core::system::{Event, Req, Request, SystemManager, ADOPT_S};
+use mrmm_core::central::system::{Event, Req, Request, SystemManager, ADOPT_S};
 use mrmm_proto::{Behaviour, MissionView, Pose, RobotInfo, Role, Sender, Telemetry};
 
 /// A system manager with `n` robots registered and two missions of n/2 run by host `h1`.

@@ -2,40 +2,35 @@
 //! no async runtime, no database, no crypto, no ROS (CI checks `cargo tree -p mrmm-core`). Each
 //! machine is module `x` with `x::Event`, `x::Command` and `X::handle(now, Event) -> Vec<Command>`
 //! ([`machine::Machine`]); the drivers (`mrmm-manager`, `mrmm-peer`) and the seeded simulations (`mrmm-sim`) run these
-//! same machines.
+//! same machines. The machines live in wings by the node that runs them: [`robot`] (the robot,
+//! its plan executor and barriers), [`mission`] (mission managers, their chain replication and
+//! the host that runs them), [`central`] (system manager and advising agent), [`traffic`]; the
+//! bodies in [`body`]; the edges every node shares beside them ([`edge`], [`egress`], [`ask`]).
 //!
 //! | machine | what it decides | driven by |
 //! |---|---|---|
-//! | [`system::SystemManager`] | membership, operator commands, mission lifecycle; composes three machines of its own: the registry (`system/fleet.rs`), controls and releases (`system/controls.rs`), recovery (`system/recovery.rs`) | `mrmm_manager::central` |
-//! | [`agent::Agent`] | advice to the operator, its own moves (`act`) | `mrmm_manager::central` |
+//! | [`central::system::SystemManager`] | membership, operator commands, mission lifecycle; composes three machines of its own: the registry (`central/system/fleet.rs`), controls and releases (`central/system/controls.rs`), recovery (`central/system/recovery.rs`) | `mrmm_manager::central` |
+//! | [`central::agent::Agent`] | advice to the operator, its own moves (`act`) | `mrmm_manager::central` |
 //! | [`central::CentralCore`] | the two above, composed | `mrmm_manager::central` |
 //! | [`mission::MissionManager`] | one mission's teams, plans, metrics | `mrmm_manager::host` |
-//! | [`chain::Replica`], [`chain::Registry`] | chain replication of mission managers | `mrmm_manager::host` |
-//! | [`host::HostCore`] | the missions a node replicates and leads; whom it trusts with their chains (`host/trust.rs`) | `mrmm_manager::host` |
+//! | [`mission::chain::Replica`], [`mission::chain::Registry`] | chain replication of mission managers | `mrmm_manager::host` |
+//! | [`mission::host::HostCore`] | the missions a node replicates and leads; whom it trusts with their chains (`mission/host/trust.rs`) | `mrmm_manager::host` |
 //! | [`robot::Robot`] | one robot: commands, plans, its body | `mrmm_peer::runtime` |
-//! | [`executor::Executor`] | a plan's steps and team barriers ([`barrier`]) | [`robot::Robot`] |
+//! | [`robot::executor::Executor`] | a plan's steps and team barriers ([`robot::barrier`]) | [`robot::Robot`] |
 //! | [`traffic::Traffic`] | who may drive which lanes of a navigation graph: grants, deadlocks broken | [`traffic::authority::Authority`] (in [`central::CentralCore`] and [`traffic::deputy::Deputy`]), `mrmm_sim::traffic` |
 
-pub mod agent;
 pub mod ask;
-pub mod barrier;
 pub mod body;
 pub mod central;
-pub mod chain;
 pub mod edge;
 pub mod egress;
-pub mod executor;
-pub mod host;
 pub mod machine;
 pub mod maps;
 pub mod mission;
 pub mod observer;
-pub mod planning;
 pub mod robot;
-pub mod system;
 pub mod timeouts;
 pub mod traffic;
-pub mod viewers;
 pub mod wire;
 
 /// Why a request to another node has no result.

@@ -4,7 +4,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use mrmm_fuzz::{central, frames, sender};
-use mrmm_core::system::{Event, Request};
+use mrmm_core::central::system::{Event, Request};
 use mrmm_proto::{self as proto, Key, MissionView, SystemCmd};
 
 fuzz_target!(|data: &[u8]| {

@@ -10,8 +10,8 @@
 use std::collections::VecDeque;
 
 use mrmm_manager::host::{self, HostCore};
-use mrmm_core::system::{self, SystemManager};
-use mrmm_core::chain;
+use mrmm_core::central::system::{self, SystemManager};
+use mrmm_core::mission::chain;
 use mrmm_manager::planner_service;
 use mrmm_peer::config::RobotConfig;
 use mrmm_core::robot::{self, Robot};

@@ -19,7 +19,7 @@ use mrmm_proto::{JournalEntry, JournalEvent, JournalPage};
 use redb::{Database, ReadableDatabase, TableDefinition};
 
 use crate::error::ManagerError;
-use mrmm_core::system::Durable;
+use mrmm_core::central::system::Durable;
 
 const ENTRIES: TableDefinition<u64, &[u8]> = TableDefinition::new("entries");
 /// One row, key 0: the [`Snapshot`].

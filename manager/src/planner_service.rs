@@ -23,7 +23,7 @@ pub fn kind(name: &str) -> Option<PlannerKind> {
     KINDS.into_iter().find(|k| k.as_str() == name)
 }
 
-pub use mrmm_core::planning::{plan, plan_on};
+pub use mrmm_core::mission::planning::{plan, plan_on};
 
 /// Plans `req` off the async runtime, with its map from `maps` (fetched from the fleet if this
 /// node does not hold it yet): a mission host planning its own mission.

@@ -11,7 +11,7 @@ use std::collections::{BTreeMap, BTreeSet, BinaryHeap};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use mrmm_core::chain::{Command, Config, Disk, Event, Msg, Params, Registry, Replica, Version};
+use mrmm_core::mission::chain::{Command, Config, Disk, Event, Msg, Params, Registry, Replica, Version};
 use mrmm_proto::{MissionName, NodeId};
 
 /// The value replicated in the simulation: the ids of every update, in order.

@@ -20,8 +20,8 @@ use std::collections::hash_map::DefaultHasher;
 use std::collections::{BTreeMap, BTreeSet};
 use std::hash::{Hash, Hasher};
 
-use mrmm_core::executor::Executor;
-use mrmm_core::host::HostCore;
+use mrmm_core::mission::host::HostCore;
+use mrmm_core::robot::executor::Executor;
 use mrmm_proto::chain::{lineage_of, Version};
 use mrmm_proto::{MissionName, MissionSnapshot, NodeId, RobotId, SyncArrival, SyncRelease};
 

@@ -13,7 +13,7 @@
 //! reference [`traffic::pibt`]).
 //!
 //! [`CentralCore`]: mrmm_core::central::CentralCore
-//! [`HostCore`]: mrmm_core::host::HostCore
+//! [`HostCore`]: mrmm_core::mission::host::HostCore
 //! [`Robot`]: mrmm_core::robot::Robot
 
 pub mod chain;

@@ -2,7 +2,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_core::system::Request;
+use mrmm_core::central::system::Request;
 use mrmm_proto::{CapabilitiesRequest, MissionCreate, MissionName, MissionPause, MissionTerminate, MissionUpdate, RobotId, RobotMove};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;

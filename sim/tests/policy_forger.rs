@@ -7,8 +7,11 @@
 //! or the other.
 
 use mrmm_core::body::Limits;
+use mrmm_core::central::system;
+use mrmm_core::mission::host;
+use mrmm_core::robot::viewers;
 use mrmm_core::robot::{self, Robot, RobotSetup};
-use mrmm_core::{ask, host, observer, system, viewers};
+use mrmm_core::{ask, observer};
 use mrmm_proto::edge::{Incoming, Refused};
 use mrmm_proto::policy::{self, Act, Relation, POLICY};
 use mrmm_proto::{self as proto, ChainEnvelope, Key, MissionCtl, MissionSpecWire, MissionStart, MissionView, Pose, Role, Sender, SyncArrival, SyncRelease};

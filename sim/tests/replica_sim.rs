@@ -6,7 +6,7 @@
 //! `MRMM_SIM_SEEDS=100000 cargo test --release -p mrmm-sim --test replica_sim -- --nocapture`.
 //! Replay one seed with its trace: `MRMM_SIM_SEED=1234 cargo test -p mrmm-sim --test replica_sim -- --nocapture`.
 
-use mrmm_core::chain::Params;
+use mrmm_core::mission::chain::Params;
 use mrmm_sim::chain::{Sim, World};
 
 fn env_u64(name: &str) -> Option<u64> {

@@ -121,7 +121,7 @@ fn spawn_lines(
     let mut child = Command::new(program)
         .args(pre)
         .args(args)
-        .env("RUST_LOG", std::env::var("MRMM_TEST_LOG").unwrap_or_else(|_| "info,zenoh=warn,mrmm_core::chain=debug,mrmm_manager::host=trace".into()))
+        .env("RUST_LOG", std::env::var("MRMM_TEST_LOG").unwrap_or_else(|_| "info,zenoh=warn,mrmm_core::mission::chain=debug,mrmm_manager::host=trace".into()))
         // Central's default state dir is per user: each test has its own (a central restarted in
         // a test finds its journal there).
         .env("XDG_DATA_HOME", log.parent().unwrap_or(Path::new(".")).join("data"))

@@ -4,7 +4,10 @@
 //! [`Command`]s; the replicated part of its state is a [`MissionSnapshot`].
 
 mod burst;
+pub mod chain;
+pub mod host;
 mod metrics;
+pub mod planning;
 mod spec;
 mod teams;
 mod view;

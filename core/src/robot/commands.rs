@@ -4,7 +4,7 @@
 use mrmm_proto::{self as proto, MissionName, NodeId, PlanAssignment, RobotCommand, RobotId, Sender, Step};
 
 use super::{traffic, BodyKind, Command, Robot, Unsent, MAX_ADMISSIONS, MAX_GOTO_VIA, MAX_PLAN_STEPS};
-use crate::executor::Executor;
+use crate::robot::executor::Executor;
 
 impl Robot {
     /// Whether `from` may give this robot `cmd` ([`mrmm_proto::policy::POLICY`]): direct orders and

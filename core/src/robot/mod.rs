@@ -6,18 +6,21 @@ use mrmm_proto::{
     self as proto, BarrierMode, Behaviour, CommandAck, MissionName, NodeId, RobotCommand, RobotId, RobotInfo, Sender, SyncArrival, SyncRelease, Telemetry,
 };
 
+use self::executor::Executor;
 use crate::body::drive::Drive;
 use crate::body::nav_goals::{Nav2Goals, NavCommand};
 use crate::body::ros::RosDrive;
 use crate::body::Body;
-use crate::executor::{self, Executor};
 use mrmm_proto::nav::{GoalEvent, GoalId};
 
+pub mod barrier;
 mod commands;
+pub mod executor;
 mod ingress;
 mod links;
 mod setup;
 pub mod traffic;
+pub mod viewers;
 pub use ingress::{sealed, Incoming, Refused};
 pub use links::{Links, TeamLinks};
 pub use setup::{BodyKind, Nav2Setup, RobotSetup};
@@ -226,7 +229,7 @@ impl Robot {
         out
     }
 
-    /// Capabilities kept from before a restart (see [`crate::kept`]) replace the config's.
+    /// Capabilities kept from before a restart (`mrmm_peer::kept`) replace the config's.
     pub fn restore_capabilities(&mut self, now: Vec<String>) {
         tracing::info!(robot = %self.cfg.id, configured = ?self.cfg.capabilities, now = ?now, "capabilities as changed before the restart");
         self.capabilities = now;

@@ -8,7 +8,7 @@ use mrmm_proto::SecuritySection;
 use serde::Deserialize;
 
 use crate::error::ManagerError;
-use mrmm_core::agent::AgentConfig;
+use mrmm_core::central::agent::AgentConfig;
 
 /// Config of `mrmm central` (JSON5).
 #[derive(Debug, Clone, Deserialize)]
@@ -58,7 +58,7 @@ pub struct CentralConfig {
 }
 
 fn default_forget_lost() -> f64 {
-    mrmm_core::system::FORGET_LOST_S
+    mrmm_core::central::system::FORGET_LOST_S
 }
 
 fn default_max_message_size() -> usize {

@@ -11,7 +11,7 @@ use zenoh::query::Query;
 use zenoh::sample::Sample;
 
 use crate::error::ManagerError;
-use mrmm_core::system;
+use mrmm_core::central::system;
 use mrmm_net::inbox::{self, Inbox, Latest};
 
 /// What the Zenoh callbacks and central's own tasks hand its loop.

@@ -15,7 +15,7 @@ use super::inputs::Input;
 use super::{CentralCore, Command, Event, DRY_RUN_DEADLINE};
 use crate::error::ManagerError;
 use crate::journal::{now_ms, Journal};
-use mrmm_core::system::{self, Req, Request};
+use mrmm_core::central::system::{self, Req, Request};
 
 /// Central's runtime for the driver's step ([`mrmm_core::machine::step`]): its journal
 /// entries committed (fsync) before anything else of their step is done or said; the rest on

@@ -21,9 +21,9 @@ use self::inputs::{declare_inputs, decode, Inboxes, Input, SealCounts};
 use self::io::{answer_journal, Io, Runtime};
 use self::start::{load_maps, node_net, open_state};
 use crate::error::ManagerError;
+use mrmm_core::central::system;
 pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
 use mrmm_core::machine;
-use mrmm_core::system;
 use mrmm_net::inbox::{Inbox, Lanes, Latest};
 
 /// Liveliness changes waiting for central's loop, at most.

@@ -8,7 +8,7 @@ use mrmm_proto::{self as proto, Role, Sender};
 use super::CentralConfig;
 use crate::error::ManagerError;
 use crate::journal::Journal;
-use mrmm_core::system;
+use mrmm_core::central::system;
 
 /// Central's session: the fleet's router, listening where its config says.
 pub(super) fn node_net(cfg: &CentralConfig) -> NodeNet {

@@ -74,6 +74,6 @@ pub(super) async fn local_changed(local: &mut Option<watch::Receiver<LocalTeam>>
 /// A publication or liveliness change as the core's event, translated by the host's own ingress
 /// once the seal proved its sender; `None` (refusals recorded, the rest logged) otherwise.
 pub(super) fn decode(mesh: &Mesh, s: &Sample) -> Option<Event> {
-    let proof = mrmm_core::host::sealed(s.key_expr().as_str()).map(|what| (what, Proof::Own));
-    mesh.hear(s, proof, mrmm_core::host::ingress)
+    let proof = mrmm_core::mission::host::sealed(s.key_expr().as_str()).map(|what| (what, Proof::Own));
+    mesh.hear(s, proof, mrmm_core::mission::host::ingress)
 }

@@ -79,7 +79,7 @@ impl Io {
     /// proven (where it must be) or that is malformed is answered here.
     pub(super) async fn query(&mut self, q: Query) -> Option<Event> {
         let key = q.key_expr().as_str();
-        let from = match mrmm_core::host::question_sealed(key) {
+        let from = match mrmm_core::mission::host::question_sealed(key) {
             Some(what) => match self.mesh.try_sender_of_query(&q) {
                 Ok(s) => Some(s),
                 Err(r) => {
@@ -92,7 +92,7 @@ impl Io {
         };
         let payload = net::query_payload(&q);
         let question = Question { key, params: q.parameters().as_str(), payload: &payload, from: from.as_ref(), query: self.next };
-        match mrmm_core::host::question(question) {
+        match mrmm_core::mission::host::question(question) {
             Ok(e) => {
                 self.queries.insert(self.next, q);
                 self.next += 1;
@@ -113,10 +113,10 @@ impl Io {
     }
 
     pub(super) async fn execute(&mut self, c: Command) {
-        if let Some(out) = mrmm_core::host::egress(&c) {
+        if let Some(out) = mrmm_core::mission::host::egress(&c) {
             return self.publish(out).await;
         }
-        if let Some(ask) = mrmm_core::host::asks::ask(&c) {
+        if let Some(ask) = mrmm_core::mission::host::asks::ask(&c) {
             let (mesh, tx) = (self.mesh.clone(), self.tx.clone());
             tokio::spawn(async move {
                 let key = ask.key.to_string();

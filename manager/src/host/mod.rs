@@ -18,8 +18,8 @@ use self::inputs::{decode, local_changed, Input};
 use self::io::{Io, Runtime};
 use crate::error::ManagerError;
 use crate::maps::MapStore;
-use mrmm_core::chain::Params;
-pub use mrmm_core::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
+use mrmm_core::mission::chain::Params;
+pub use mrmm_core::mission::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
 use mrmm_net::inbox::{Inbox, Lanes, Latest};
 
 /// How long a planner service may take.

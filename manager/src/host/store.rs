@@ -10,7 +10,7 @@ use mrmm_proto::MissionSnapshot;
 use redb::{Database, ReadableDatabase, ReadableTable, TableDefinition};
 
 use crate::error::ManagerError;
-use mrmm_core::chain::Disk;
+use mrmm_core::mission::chain::Disk;
 
 const CHAIN: TableDefinition<&str, &[u8]> = TableDefinition::new("chain");
 
@@ -86,7 +86,7 @@ impl Store {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mrmm_core::chain::{Config, Stored, Tomb};
+    use mrmm_core::mission::chain::{Config, Stored, Tomb};
 
     #[test]
     fn what_is_written_is_read_back_and_a_second_opener_is_refused() {

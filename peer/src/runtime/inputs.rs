@@ -20,8 +20,8 @@ use super::ros::{recv_ros, RosCounts};
 use super::team::{heard, recv_data, recv_members};
 use super::{FLEET_CHECK_PERIOD, PHYSICS_PERIOD, QUEUE};
 use crate::error::PeerError;
+use mrmm_core::robot::viewers::{Heard, MAX_VIEWERS};
 use mrmm_core::robot::{Event, Incoming, Robot};
-use mrmm_core::viewers::{Heard, MAX_VIEWERS};
 
 /// Where the robot's events come from, besides its team's subscriptions (in [`Io`]).
 pub(super) struct Inputs {

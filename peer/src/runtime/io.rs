@@ -12,8 +12,8 @@ use zenoh::query::Query;
 
 use super::team::TeamLink;
 use mrmm_core::body::nav_goals::NavCommand;
+use mrmm_core::robot::viewers::Viewers;
 use mrmm_core::robot::{Command, Robot};
-use mrmm_core::viewers::Viewers;
 
 /// A robot's telemetry is signed (as well as tagged for the receivers it knows) once in this
 /// many milliseconds: receivers it does not know yet check one message in that time (one in ten

@@ -26,8 +26,8 @@ use self::inputs::Inputs;
 use self::io::Io;
 use crate::config::{BodySection, RobotConfig};
 use crate::error::PeerError;
+use mrmm_core::robot::viewers::Viewers;
 use mrmm_core::robot::Robot;
-use mrmm_core::viewers::Viewers;
 
 pub use self::io::TELEMETRY_SIGN_MS;
 

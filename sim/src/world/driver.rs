@@ -8,8 +8,8 @@ use std::pin::pin;
 use std::task::{Context, Poll, Waker};
 
 use mrmm_core::central::{self, CentralCore};
-use mrmm_core::host::{self, HostCore};
 use mrmm_core::machine::Runtime;
+use mrmm_core::mission::host::{self, HostCore};
 use mrmm_core::robot::{self, Robot};
 
 use super::World;

@@ -7,7 +7,7 @@ use super::*;
 impl World {
     /// Whether a majority of `mission`'s newest chain still holds its state.
     pub(super) fn recoverable(&self, mission: &str) -> bool {
-        let replicas: Vec<(&String, &mrmm_core::chain::Replica<mrmm_proto::MissionSnapshot>)> =
+        let replicas: Vec<(&String, &mrmm_core::mission::chain::Replica<mrmm_proto::MissionSnapshot>)> =
             self.nodes.iter().filter_map(|n| Some((&n.name, n.host.as_ref()?.replica(mission)?))).collect();
         let Some(newest) = replicas.iter().filter_map(|(_, r)| r.config()).max_by_key(|c| c.epoch) else {
             return false;

@@ -165,7 +165,7 @@ impl World {
                     return Err(format!("{} has no disk but was asked to persist {mission}", self.nodes[i].name));
                 }
                 match *disk {
-                    mrmm_core::chain::Disk::Forget => self.nodes[i].chain_disk.remove(&mission),
+                    mrmm_core::mission::chain::Disk::Forget => self.nodes[i].chain_disk.remove(&mission),
                     d => self.nodes[i].chain_disk.insert(mission, d),
                 };
             }
@@ -194,7 +194,7 @@ impl World {
             }
             // Planned here, as the driver does when no planner service is alive.
             host::Command::RequestPlan { mission, epoch, kind, request, local: true } => {
-                let result = mrmm_core::planning::plan(kind, &request).map(Box::new).map_err(Failure::fatal);
+                let result = mrmm_core::mission::planning::plan(kind, &request).map(Box::new).map_err(Failure::fatal);
                 let at = self.now + self.rng.gen_range(0.01..0.2);
                 let inc = self.links.inc[i];
                 self.queue.push(at, Ev::Local { node: i, inc, ev: Box::new(host::Event::Planned { mission, epoch, result }) });

@@ -4,14 +4,14 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_core::agent::{AgentConfig, Autonomy};
 use mrmm_core::body::Limits;
+use mrmm_core::central::agent::{AgentConfig, Autonomy};
+use mrmm_core::central::system::{self, Ctls, Req};
 use mrmm_core::central::{self, CentralCore};
-use mrmm_core::chain::Params;
-use mrmm_core::host::{self, HostCore};
+use mrmm_core::mission::chain::Params;
+use mrmm_core::mission::host::{self, HostCore};
 use mrmm_core::robot::RobotSetup;
 use mrmm_core::robot::{self, Robot};
-use mrmm_core::system::{self, Ctls, Req};
 use mrmm_core::Failure;
 use mrmm_proto::{
     CtlAck, Member, MissionCtl, MissionName, MissionSpecWire, MissionStart, NodeId, PlanAssignment, PlanRequest, RobotCommand, RobotId, RobotPlan, RobotSpec,
@@ -74,9 +74,9 @@ struct Node {
     /// The robot's team as the network sees it (what it publishes on, what it hears).
     links: robot::Links,
     /// Central's journal: what it committed, kept across crashes (the disk).
-    disk: mrmm_core::system::Durable,
+    disk: mrmm_core::central::system::Durable,
     /// A robot's or mission host's chain state on disk ([`Config::disks`]), kept across crashes.
-    chain_disk: BTreeMap<MissionName, mrmm_core::chain::Disk<mrmm_proto::MissionSnapshot>>,
+    chain_disk: BTreeMap<MissionName, mrmm_core::mission::chain::Disk<mrmm_proto::MissionSnapshot>>,
     /// A robot's capabilities as changed at runtime, kept in its state dir ([`Config::disks`]).
     kept_caps: Option<Vec<String>>,
 }

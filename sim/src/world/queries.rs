@@ -109,7 +109,7 @@ impl World {
             }
             Payload::Planner(request, kind) => {
                 if self.nodes[s].kind == Kind::Central {
-                    let result = mrmm_core::planning::plan(kind, &request)
+                    let result = mrmm_core::mission::planning::plan(kind, &request)
                         .map_err(Failure::fatal)
                         .and_then(|p| serde_json::to_value(p).map(Answer::Json).map_err(|e| Failure::fatal(e.to_string())));
                     self.reply(qid, result);

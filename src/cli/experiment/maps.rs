@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use anyhow::{anyhow, Context};
 use mrmm_core::body::{Body, Limits};
-use mrmm_core::executor::{Command as Exec, Event, Executor};
+use mrmm_core::robot::executor::{Command as Exec, Event, Executor};
 use mrmm_maps::{patrolling_sim, Map, NavGraph, Node, Point, Space};
 use mrmm_planner::plan::RobotSpec;
 use mrmm_planner::recipe;

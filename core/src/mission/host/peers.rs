@@ -6,7 +6,7 @@ use mrmm_proto::edge::Refused;
 use mrmm_proto::{ChainEnvelope, MissionSnapshot, Sender};
 
 use super::{trust, Command, HostCore};
-use crate::chain;
+use crate::mission::chain;
 
 impl HostCore {
     /// A chain message `envelope` from proven sender `sender`.

@@ -3,14 +3,17 @@
 //! system manager like an operator's, and their results go back to the agent, which records
 //! them on its advice. No I/O: [`CentralCore::handle`] returns [`Command`]s.
 
+pub mod agent;
+pub mod system;
+
 use std::collections::VecDeque;
 
 use mrmm_proto::{AdviceEvent, NodeId};
 
-use crate::agent::{self, Agent, AgentConfig};
+use self::agent::{Agent, AgentConfig};
+use self::system::{Req, Request, SystemManager};
 use crate::edge::{Incoming, Refused};
 use crate::egress::Sub;
-use crate::system::{self, Req, Request, SystemManager};
 use crate::traffic::authority::{self, Authority};
 
 /// Seconds between two looks of the agent at the fleet.
@@ -273,7 +276,7 @@ impl crate::machine::Machine for CentralCore {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::agent::Autonomy;
+    use crate::central::agent::Autonomy;
     use mrmm_proto::{RobotInfo, Telemetry};
 
     fn info(id: &str) -> RobotInfo {

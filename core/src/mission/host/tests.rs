@@ -7,7 +7,7 @@ use mrmm_planner::recipe;
 use mrmm_proto::{Behaviour, Member, MissionCtl, MissionSpecWire, MissionStart, Pose, Progress, RobotSpec, Telemetry, Velocity};
 
 use super::*;
-use crate::chain::Params;
+use crate::mission::chain::Params;
 
 fn member(id: &str, x: f64) -> Member {
     Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 1.0, turn_rate: None }, time_scale: 1.0, capabilities: vec![] }
@@ -109,7 +109,7 @@ fn planned(cmds: &[Command]) -> Option<Event> {
         Command::RequestPlan { mission, epoch, kind, request, .. } => Some(Event::Planned {
             mission: mission.clone(),
             epoch: *epoch,
-            result: crate::planning::plan(*kind, request).map(Box::new).map_err(Failure::fatal),
+            result: crate::mission::planning::plan(*kind, request).map(Box::new).map_err(Failure::fatal),
         }),
         _ => None,
     })

@@ -14,7 +14,7 @@ impl HostCore {
         let name = spec.name.clone();
         // Central starts anew a mission whose head reported it could not commit: if that head
         // is this node's, it gives the mission up for the new lineage.
-        let stuck = crate::system::UNCOMMITTED_WAIT_S / 2.0;
+        let stuck = crate::central::system::UNCOMMITTED_WAIT_S / 2.0;
         if start.anew && self.heads.contains_key(&name) && self.registry.replica(&name).and_then(|r| r.uncommitted_for(now)).is_some_and(|s| s >= stuck) {
             tracing::warn!(mission = %name, "giving up this node's head of the mission, which could not commit: the mission starts anew");
             self.step_down(&name, "it could not commit, and the mission starts anew", out);

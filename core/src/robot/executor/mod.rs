@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 
 use mrmm_proto::{BarrierMode, PlanAssignment, Progress, RobotId, Step, SyncArrival, SyncRelease};
 
-use crate::barrier::Barrier;
 use crate::body::Onward;
+use crate::robot::barrier::Barrier;
 
 mod ahead;
 

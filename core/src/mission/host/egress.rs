@@ -72,7 +72,7 @@ mod tests {
         let Some(mission::Command::RequestPlan { epoch, kind, request }) = m.handle(0.0, mission::Event::Start).into_iter().next() else {
             panic!("a plan request")
         };
-        let plan = crate::planning::plan(kind, &request).expect("plan");
+        let plan = crate::mission::planning::plan(kind, &request).expect("plan");
         m.handle(0.0, mission::Event::PlanReady { epoch, plan: Box::new(plan) });
         m
     }

@@ -15,7 +15,7 @@ use serde_json::Value;
 
 use self::head::Head;
 use self::robots::Robots;
-use crate::chain::{self, Params, Registry};
+use crate::mission::chain::{self, Params, Registry};
 use crate::mission::{self, MissionManager, MissionSpec};
 use crate::Failure;
 
