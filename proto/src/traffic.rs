@@ -98,6 +98,10 @@ pub enum TrafficOrder {
     },
     /// Goal `goal` cannot be driven to on the map's lanes.
     Refused { goal: u64, why: String },
+    /// The operator took this robot off the map's lanes ([`TrafficClear`]) while authority
+    /// `incarnation` led: it holds nothing. Its deputies forget it (a takeover must not hand it
+    /// back what it held); the robot, should it come back, stops and asks for its way anew.
+    Cleared { incarnation: u64 },
 }
 
 /// The operator takes a lost robot off the lanes (`mrmm/system/cmd/traffic/clear`, `mrmm op

@@ -13,8 +13,6 @@ use tokio::sync::oneshot;
 use tokio::task::JoinSet;
 use tokio_util::sync::CancellationToken;
 
-use super::robot;
-
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Robot config (repeatable): one robot per file. With --robots, the one file is a template.
@@ -272,7 +270,7 @@ async fn one(
     ready: tokio::sync::mpsc::UnboundedSender<String>,
 ) -> anyhow::Result<()> {
     let id = cfg.id.clone();
-    let mut started = robot::start(cfg, shutdown).await?;
+    let mut started = mrmm_node::robot::start(cfg, shutdown).await?;
     started.announce();
     if started.ready.is_some() {
         let _ = ready.send(id.clone());
@@ -283,11 +281,11 @@ async fn one(
     };
     match crashed {
         // Crashed on the operator's order (`mrmm op crash`): as from stdin; `start` brings it back.
-        Some(Err(e)) if robot::crashed(&e) => {
+        Some(Err(e)) if e.crashed() => {
             println!("robot crashed id={id}");
             Ok(())
         }
-        Some(r) => r,
+        Some(r) => Ok(r?),
         None => {
             started.kill().await;
             println!("robot killed id={id}");

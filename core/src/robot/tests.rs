@@ -357,3 +357,39 @@ fn a_way_off_the_lanes_is_driven_there_and_back_by_the_vertex() {
     let p = r.body.pose();
     assert!(p.x.abs() < 0.1 && (p.y + 1.0).abs() < 0.1, "at the second goal: {p:?}");
 }
+
+/// A robot the operator took off the lanes while it was away (central's `cleared` order) holds
+/// nothing: it stops where it is and asks for its way anew. A deputy's word to that effect is not
+/// taken (only central clears).
+#[test]
+fn a_robot_taken_off_the_lanes_stops_and_asks_anew() {
+    use mrmm_proto::traffic::RouteVertex;
+    use mrmm_proto::TrafficOrder;
+    let (mut r, map) = planned_on_map(Some(vec![Step::Navigate { x: 100.0, y: 0.0, speed: None }, Step::Hold { seconds: None }]));
+    let (v0, v1) = (RouteVertex { v: 0, x: 0.0, y: 0.0 }, RouteVertex { v: 1, x: 100.0, y: 0.0 });
+    let order = |order: TrafficOrder, deputy: bool| Event::Traffic { map: map.hash.clone(), order, deputy };
+    r.handle(0.0, Event::Tick);
+    let route = TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route: vec![v0, v1], reached: Some(0), upto: Some(1), deputies: vec![], off: None };
+    r.handle(0.01, order(route, false));
+    let mut t = 0.02;
+    // Ticks until `until`: whether the robot asked for its way without holding any.
+    let mut drive = |r: &mut Robot, until: f64| {
+        let mut asked = false;
+        while t < until {
+            let out = r.handle(t, Event::Tick);
+            asked |= out.iter().any(|c| matches!(c, Command::TrafficReport { report, .. } if report.held.is_none() && report.goal.is_some()));
+            t += 0.01;
+        }
+        asked
+    };
+    drive(&mut r, 0.5);
+    let x = r.body.pose().x;
+    assert!(x > 0.3, "it drives what it was granted: {x}");
+    r.handle(0.5, order(TrafficOrder::Cleared { incarnation: 1 }, true));
+    drive(&mut r, 1.0);
+    assert!(r.body.pose().x > x + 0.3, "a deputy cannot clear it: {x} then {}", r.body.pose().x);
+    let x = r.body.pose().x;
+    r.handle(1.0, order(TrafficOrder::Cleared { incarnation: 1 }, false));
+    assert!(drive(&mut r, 3.0), "it asks for its way anew");
+    assert!(r.body.pose().x < x + 0.5, "it drove on after it was cleared: from {x} to {}", r.body.pose().x);
+}

@@ -71,6 +71,8 @@ pub struct Gate {
     /// It drove off the lanes from this vertex (to the goal an order's `off` named, for goal
     /// `.1`, at `.2`): back there before it drives anything else.
     left: Option<(RouteVertex, u64, [f64; 2])>,
+    /// Taken off the lanes: it stops at its next step, even on a lane (it holds nothing).
+    halt: bool,
 }
 
 impl Gate {
@@ -92,6 +94,7 @@ impl Gate {
             central_incarnation: 0,
             waiting: false,
             left: None,
+            halt: false,
         }
     }
 
@@ -155,6 +158,16 @@ impl Gate {
             TrafficOrder::Free => self.free = true,
             TrafficOrder::Refused { goal: g, why } if g == goal.id => self.refused = Some(why),
             TrafficOrder::Refused { .. } => {}
+            // Taken off the lanes while it was away: what it held is others' now. It stops and
+            // asks for its way anew.
+            TrafficOrder::Cleared { .. } if !deputy => {
+                if self.held.take().is_some() {
+                    tracing::warn!(map = %self.map.name, "taken off the lanes by the operator: asking for the way anew");
+                    self.changed = true;
+                    self.halt = true;
+                }
+            }
+            TrafficOrder::Cleared { .. } => {}
             TrafficOrder::Route { goal: g, incarnation, version, route, reached, upto, off, .. } => {
                 let newer = self.held.as_ref().is_none_or(|h| (incarnation, version) > (h.incarnation, h.version));
                 let same = self.held.as_ref().is_some_and(|h| (incarnation, version) == (h.incarnation, h.version));
@@ -198,6 +211,10 @@ impl Gate {
     /// Drives the body on at `now`; whether the goal is reached (the plan goes on).
     pub fn step(&mut self, now: f64, body: &mut Drive) -> bool {
         self.waiting = false;
+        if std::mem::take(&mut self.halt) {
+            body.hold();
+            (self.driving, self.left) = (None, None);
+        }
         let pose = body.pose();
         let near = |x: f64, y: f64| (pose.x - x).hypot(pose.y - y) <= REACH;
         if let Some(v) = self.driving {

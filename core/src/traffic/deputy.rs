@@ -203,7 +203,10 @@ impl Deputy {
         if order.check().is_err() {
             return Vec::new();
         }
-        let TrafficOrder::Route { incarnation, version, route, reached, upto, deputies, .. } = order else { return Vec::new() };
+        let incarnation = match &order {
+            TrafficOrder::Route { incarnation, .. } | TrafficOrder::Cleared { incarnation } => *incarnation,
+            TrafficOrder::Free | TrafficOrder::Refused { .. } => return Vec::new(),
+        };
         let mut out = Vec::new();
         if let Some(a) = &self.active {
             if incarnation == a.incarnation() {
@@ -220,6 +223,12 @@ impl Deputy {
         }
         self.incarnation = incarnation;
         self.last_order = now;
+        let TrafficOrder::Route { version, route, reached, upto, deputies, .. } = order else {
+            // Cleared by the operator: nothing of it is handed back at a takeover.
+            self.reports.remove(&robot);
+            self.granted.remove(&robot);
+            return out;
+        };
         self.rank = deputies.iter().position(|d| *d == self.me);
         self.named.clone_from(&deputies);
         let held = TrafficHeld { incarnation, version, route: route.iter().map(|v| v.v).collect(), reached, upto };
@@ -352,5 +361,54 @@ mod tests {
             traffic.describe(&"b".into()),
             traffic.describe(&"a".into())
         );
+    }
+
+    /// A robot the operator took off the lanes at central is not handed back what it held when a
+    /// deputy takes over: the deputy heard it cleared.
+    #[test]
+    fn a_robot_cleared_at_central_stays_cleared_after_a_takeover() {
+        let map = office();
+        let Map::Graph(g) = map.as_ref() else { unreachable!() };
+        let hash = "h".repeat(64);
+        let mut central = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        let mut deputy = Deputy::new(0.0, "b".into(), hash.clone(), map.clone(), true);
+        let tell = |deputy: &mut Deputy, t: f64, cmds: Vec<authority::Command>| {
+            for c in cmds {
+                if let authority::Command::Order { robot, order, .. } = c {
+                    deputy.handle(t, Event::Order { robot, order });
+                }
+            }
+        };
+        let hear = |central: &mut Authority, deputy: &mut Deputy, t: f64, r: TrafficReport| {
+            deputy.handle(t, Event::Report(r.clone()));
+            let cmds = central.handle(t, authority::Event::Report { map: hash.clone(), report: r });
+            tell(deputy, t, cmds);
+        };
+        // r1 stands on one vertex; b stands on another and drives to a third.
+        let (v0, v1, v2) = (g.vertices[0].at, g.vertices[g.vertices.len() / 2].at, g.vertices[g.vertices.len() - 1].at);
+        hear(&mut central, &mut deputy, 0.0, report("r1", 1, v1, None));
+        hear(&mut central, &mut deputy, 0.1, report("b", 1, v0, None));
+        hear(&mut central, &mut deputy, 0.2, report("b", 2, v0, Some(v2)));
+        assert!(central.traffic(&hash).is_some_and(|t| !t.held(&"r1".into()).is_empty()), "r1 holds its vertex");
+        // r1's liveliness goes; the operator clears it at central.
+        central.handle(1.0, authority::Event::Gone("r1".into()));
+        let cmds = central.handle(1.0 + authority::LOST_GRACE_S + 0.1, authority::Event::Tick);
+        tell(&mut deputy, 1.0 + authority::LOST_GRACE_S + 0.1, cmds);
+        let (_, cmds) = central.clear(10.0, &"r1".into()).expect("cleared");
+        tell(&mut deputy, 10.0, cmds);
+        // b reports on, as robots do (a robot is named once it was heard lately).
+        hear(&mut central, &mut deputy, 10.1, report("b", 3, v0, Some(v2)));
+        hear(&mut central, &mut deputy, 10.2, report("b", 4, v0, Some(v2)));
+        assert!(deputy.rank().is_some(), "b is not named a deputy");
+        // Central dies; b's deputy takes over.
+        deputy.handle(10.3, Event::Central(false));
+        let mut t = 10.3;
+        while !deputy.active() && t < 20.0 {
+            t += 0.1;
+            deputy.handle(t, Event::Tick);
+        }
+        assert!(deputy.active(), "the deputy did not take over");
+        let traffic = deputy.authority().and_then(|a| a.traffic(&hash)).expect("traffic on the map");
+        assert!(traffic.state(&"r1".into()).is_none(), "the cleared robot was handed back what it held: {}", traffic.describe(&"r1".into()));
     }
 }

@@ -222,6 +222,8 @@ impl Authority {
             vertices += t.held(robot).iter().filter(|&&r| r < n).count();
             let cmds = t.handle(now, super::Event::Remove { robot: robot.clone() });
             m.robots.remove(robot);
+            // Said on the map, so that its deputies forget it too.
+            out.push(Command::Order { map: hash.clone(), robot: robot.clone(), order: TrafficOrder::Cleared { incarnation } });
             m.orders(hash, incarnation, cmds, &mut out);
         }
         self.gone.remove(robot);

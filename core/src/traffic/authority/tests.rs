@@ -136,6 +136,8 @@ fn a_lost_robot_taken_off_the_lanes_frees_the_way() {
     assert!(t.held(&"r1".into()).is_empty() && t.state(&"r1".into()).is_none());
     assert!(t.holder(way[way.len() / 2]).is_none_or(|h| h.as_str() == "r2"), "r1's vertex is free");
     // r2 was waiting for r1's vertex or had not got so far: either way nothing of r1's is
-    // held, and r2 is told its order again if it was granted on.
-    assert!(out.iter().all(|c| matches!(c, Command::Order { robot, .. } if robot.as_str() == "r2")), "{out:?}");
+    // held, and r2 is told its order again if it was granted on; r1's deputies hear it cleared.
+    let cleared = |c: &Command| matches!(c, Command::Order { robot, order: TrafficOrder::Cleared { incarnation: 1 }, .. } if robot.as_str() == "r1");
+    assert_eq!(out.iter().filter(|c| cleared(c)).count(), 1, "{out:?}");
+    assert!(out.iter().all(|c| cleared(c) || matches!(c, Command::Order { robot, .. } if robot.as_str() == "r2")), "{out:?}");
 }

@@ -1,0 +1,30 @@
+//! What stops a node.
+
+use mrmm_manager::ManagerError;
+use mrmm_peer::PeerError;
+
+#[derive(Debug, thiserror::Error)]
+pub enum NodeError {
+    /// The robot's driver stopped (or was ordered to crash: [`NodeError::crashed`]).
+    #[error(transparent)]
+    Robot(#[from] PeerError),
+    /// The chain state in `state_dir` could not be opened (locked by another process, damaged).
+    #[error("state_dir: {0}")]
+    StateDir(#[source] ManagerError),
+    /// The robot's mission host stopped: its chain state could not be written.
+    #[error("mission host stopped: {0}")]
+    Host(#[source] ManagerError),
+    /// The robot's traffic deputy stopped.
+    #[error("traffic deputy stopped: {0}")]
+    Deputy(#[source] ManagerError),
+    /// A task of the node panicked.
+    #[error("robot task: {0}")]
+    Task(#[source] tokio::task::JoinError),
+}
+
+impl NodeError {
+    /// Whether the robot stopped because it was ordered to crash.
+    pub fn crashed(&self) -> bool {
+        matches!(self, NodeError::Robot(PeerError::Crashed(_)))
+    }
+}

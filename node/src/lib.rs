@@ -1,0 +1,10 @@
+//! mrmm's nodes composed from their drivers, so that each `mrmm` subcommand only reads its
+//! arguments and config (tokio's mini-redis: `server::run(listener, shutdown)`). Central, mission
+//! hosts and site routers are one driver each (`mrmm_manager::central::run`,
+//! `mrmm_manager::host::serve`, `mrmm_manager::site_router`); a robot's node is three on one
+//! session ([`robot`]).
+
+pub mod error;
+pub mod robot;
+
+pub use error::NodeError;
