@@ -306,6 +306,17 @@ mod tests {
         TrafficReport { robot: robot.into(), seq, x: at.x, y: at.y, goal: goal.map(|g| TrafficGoal { id: 1, x: g.x, y: g.y }), held: None }
     }
 
+    /// Central's liveliness goes at `at`: the deputy takes over within `within` seconds.
+    fn central_dies(deputy: &mut Deputy, at: f64, within: f64) {
+        deputy.handle(at, Event::Central(false));
+        let mut t = at;
+        while !deputy.active() && t < at + within {
+            t += 0.1;
+            deputy.handle(t, Event::Tick);
+        }
+        assert!(deputy.active(), "the deputy did not take over");
+    }
+
     /// A grant central gave that the robot had not reported yet when central died is held by
     /// the deputy that takes over: it follows orders, not only reports. Robot b was granted a
     /// part of its route; robot a (routed first: robots in id order), standing on the vertex
@@ -346,13 +357,7 @@ mod tests {
         hear(&mut central, &mut deputy, 0.7, report("a", 2, a_at, Some(at[path.len() - 1])));
         assert!(deputy.rank().is_some(), "b is not named a deputy");
         // Central dies before b reports what it was granted.
-        deputy.handle(1.0, Event::Central(false));
-        let mut t = 1.0;
-        while !deputy.active() && t < 5.0 {
-            t += 0.1;
-            deputy.handle(t, Event::Tick);
-        }
-        assert!(deputy.active(), "the deputy did not take over");
+        central_dies(&mut deputy, 1.0, 4.0);
         let traffic = deputy.authority().and_then(|a| a.traffic(&hash)).expect("traffic on the map");
         let (route, _, upto, _) = traffic.state(&"b".into()).expect("b in traffic");
         assert!(
@@ -401,13 +406,7 @@ mod tests {
         hear(&mut central, &mut deputy, 10.2, report("b", 4, v0, Some(v2)));
         assert!(deputy.rank().is_some(), "b is not named a deputy");
         // Central dies; b's deputy takes over.
-        deputy.handle(10.3, Event::Central(false));
-        let mut t = 10.3;
-        while !deputy.active() && t < 20.0 {
-            t += 0.1;
-            deputy.handle(t, Event::Tick);
-        }
-        assert!(deputy.active(), "the deputy did not take over");
+        central_dies(&mut deputy, 10.3, 9.7);
         let traffic = deputy.authority().and_then(|a| a.traffic(&hash)).expect("traffic on the map");
         assert!(traffic.state(&"r1".into()).is_none(), "the cleared robot was handed back what it held: {}", traffic.describe(&"r1".into()));
     }

@@ -38,11 +38,11 @@ impl mrmm_core::machine::Runtime<CentralCore> for Runtime<'_> {
             })
             .collect();
         match self.journal.as_deref_mut() {
-            Some(j) => {
+            Some(j) if !events.is_empty() => {
                 tokio::task::block_in_place(|| j.append(&events, now_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
                 Ok(())
             }
-            None => Ok(()),
+            _ => Ok(()),
         }
     }
 

@@ -1,135 +1,114 @@
-//! The production driver's step ([`mrmm_core::machine`]) over the simulation's runtimes: what
-//! central and the mission hosts persist goes to their simulated disks, the rest into the world
-//! (publications, replies, questions). Each runtime checks the driver's order: nothing of a step
-//! leaves its node before what the step persists is written.
+//! The production driver's step ([`mrmm_core::machine`]) over the simulation's runtime: what a
+//! node persists goes to its simulated disk, the rest into the world (publications, replies,
+//! questions). The runtime checks the driver's order: nothing of a step leaves its node before
+//! what the step persists is written.
 
 use std::future::Future;
+use std::marker::PhantomData;
 use std::pin::pin;
 use std::task::{Context, Poll, Waker};
 
 use mrmm_core::central::{self, CentralCore};
-use mrmm_core::machine::Runtime;
+use mrmm_core::machine::{self, Effect, Machine, Runtime};
 use mrmm_core::mission::host::{self, HostCore};
 use mrmm_core::robot::{self, Robot};
 
 use super::World;
 
-/// Runs a step of the driver to its end: the simulation's runtimes never wait.
-pub(super) fn run<F: Future<Output = Result<(), String>>>(step: F) -> Result<(), String> {
-    match pin!(step).poll(&mut Context::from_waker(Waker::noop())) {
+/// A machine of the world's nodes, as its driver carries its commands out there.
+pub(super) trait OnNode: Machine {
+    /// What a carry before the step's persists broke: "its step's … written".
+    const KEPT: &'static str;
+    /// Writes a command to persist to node `node`'s disk.
+    fn persist(world: &mut World, node: usize, c: Self::Command) -> Result<(), String>;
+    /// Carries out a command on node `node`; `Ok(false)`: the node went down (its last command).
+    fn carry(world: &mut World, node: usize, c: Self::Command) -> Result<bool, String>;
+}
+
+/// Carries out one step's commands of node `node`'s machine `M` through the production driver.
+pub(super) fn carry_out<M: OnNode>(world: &mut World, node: usize, commands: Vec<M::Command>) -> Result<(), String>
+where
+    M::Command: std::fmt::Debug,
+{
+    let unwritten = commands.iter().any(|c| M::effect(c) == Effect::Persist);
+    let mut on = On::<M> { world, node, unwritten, down: false, machine: PhantomData };
+    let polled = pin!(machine::carry_out::<M, _>(&mut on, commands)).poll(&mut Context::from_waker(Waker::noop()));
+    match polled {
         Poll::Ready(r) => r,
         Poll::Pending => Err("a step of the driver waited on the simulation's runtime, which never makes it wait".into()),
     }
 }
 
-/// Central's node in the world, for one step.
-pub(super) struct OnCentral<'w> {
+/// A node of the world, for one step of its machine `M`.
+struct On<'w, M> {
     world: &'w mut World,
     node: usize,
-    /// The step has journal entries, and they are not written yet.
+    /// The step has something to persist, and it is not written yet.
     unwritten: bool,
+    /// The node went down: nothing more of the step happens.
+    down: bool,
+    machine: PhantomData<M>,
 }
 
-impl<'w> OnCentral<'w> {
-    pub(super) fn new(world: &'w mut World, node: usize, journaled: bool) -> Self {
-        OnCentral { world, node, unwritten: journaled }
-    }
-}
-
-impl Runtime<CentralCore> for OnCentral<'_> {
+impl<M: OnNode> Runtime<M> for On<'_, M>
+where
+    M::Command: std::fmt::Debug,
+{
     type Error = String;
 
-    async fn persist(&mut self, batch: Vec<central::Command>) -> Result<(), String> {
+    async fn persist(&mut self, batch: Vec<M::Command>) -> Result<(), String> {
         for c in batch {
-            self.world.central_command(self.node, c)?;
+            M::persist(self.world, self.node, c)?;
         }
         self.unwritten = false;
         Ok(())
     }
 
-    async fn carry(&mut self, c: central::Command) -> Result<(), String> {
-        if self.unwritten {
-            return Err(format!("central carried out {} before its step's journal entries were written", describe(&c)));
-        }
-        self.world.central_command(self.node, c)
-    }
-}
-
-/// A mission host's node in the world, for one step.
-pub(super) struct OnHost<'w> {
-    world: &'w mut World,
-    node: usize,
-    /// The step has chain state to persist, and it is not written yet.
-    unwritten: bool,
-}
-
-impl<'w> OnHost<'w> {
-    pub(super) fn new(world: &'w mut World, node: usize, persists: bool) -> Self {
-        OnHost { world, node, unwritten: persists }
-    }
-}
-
-impl Runtime<HostCore> for OnHost<'_> {
-    type Error = String;
-
-    async fn persist(&mut self, batch: Vec<host::Command>) -> Result<(), String> {
-        for c in batch {
-            self.world.host_command(self.node, c)?;
-        }
-        self.unwritten = false;
-        Ok(())
-    }
-
-    async fn carry(&mut self, c: host::Command) -> Result<(), String> {
-        if self.unwritten {
-            let name = &self.world.nodes[self.node].name;
-            let what: String = format!("{c:?}").chars().take(80).collect();
-            return Err(format!("{name} carried out {what} before its step's chain state was written"));
-        }
-        self.world.host_effect(self.node, c)
-    }
-}
-
-/// A robot's node in the world, for one step.
-pub(super) struct OnRobot<'w> {
-    world: &'w mut World,
-    node: usize,
-    /// The step keeps capabilities, and they are not written yet.
-    unwritten: bool,
-    /// The robot crashed: nothing more of the step happens.
-    crashed: bool,
-}
-
-impl<'w> OnRobot<'w> {
-    pub(super) fn new(world: &'w mut World, node: usize, persists: bool) -> Self {
-        OnRobot { world, node, unwritten: persists, crashed: false }
-    }
-}
-
-impl Runtime<Robot> for OnRobot<'_> {
-    type Error = String;
-
-    async fn persist(&mut self, batch: Vec<robot::Command>) -> Result<(), String> {
-        for c in batch {
-            self.world.robot_command(self.node, c)?;
-        }
-        self.unwritten = false;
-        Ok(())
-    }
-
-    async fn carry(&mut self, c: robot::Command) -> Result<(), String> {
-        if self.crashed {
+    async fn carry(&mut self, c: M::Command) -> Result<(), String> {
+        if self.down {
             return Ok(());
         }
         if self.unwritten {
-            let name = &self.world.nodes[self.node].name;
-            return Err(format!("{name} carried out {} before its step's capabilities were kept", format!("{c:?}").chars().take(80).collect::<String>()));
+            let what: String = format!("{c:?}").chars().take(80).collect();
+            return Err(format!("{} carried out {what} before {}", self.world.nodes[self.node].name, M::KEPT));
         }
-        self.crashed = !self.world.robot_command(self.node, c)?;
+        self.down = !M::carry(self.world, self.node, c)?;
         Ok(())
     }
 }
 
-fn describe(c: &central::Command) -> String {
-    format!("{c:?}").chars().take(80).collect()
+impl OnNode for CentralCore {
+    const KEPT: &'static str = "its step's journal entries were written";
+
+    fn persist(world: &mut World, node: usize, c: central::Command) -> Result<(), String> {
+        world.central_command(node, c)
+    }
+
+    fn carry(world: &mut World, node: usize, c: central::Command) -> Result<bool, String> {
+        world.central_command(node, c).map(|()| true)
+    }
+}
+
+impl OnNode for HostCore {
+    const KEPT: &'static str = "its step's chain state was written";
+
+    fn persist(world: &mut World, node: usize, c: host::Command) -> Result<(), String> {
+        world.host_command(node, c)
+    }
+
+    fn carry(world: &mut World, node: usize, c: host::Command) -> Result<bool, String> {
+        world.host_effect(node, c).map(|()| true)
+    }
+}
+
+impl OnNode for Robot {
+    const KEPT: &'static str = "its step's capabilities were kept";
+
+    fn persist(world: &mut World, node: usize, c: robot::Command) -> Result<(), String> {
+        world.robot_command(node, c).map(|_| ())
+    }
+
+    fn carry(world: &mut World, node: usize, c: robot::Command) -> Result<bool, String> {
+        world.robot_command(node, c)
+    }
 }

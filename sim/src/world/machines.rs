@@ -1,6 +1,6 @@
 //! The production machines on their nodes: central, mission hosts and robots, and what their commands do in the world.
 
-use mrmm_core::machine::{self, Effect, Machine};
+use mrmm_core::machine::{Effect, Machine};
 use mrmm_core::robot::Robot;
 
 use super::driver;
@@ -15,7 +15,7 @@ impl World {
         let cmds = c.handle(now, ev);
         // Carried out by the production driver's step, over the simulation's runtime.
         let journaled = cmds.iter().any(|c| CentralCore::effect(c) == Effect::Persist);
-        driver::run(machine::carry_out::<CentralCore, _>(&mut driver::OnCentral::new(self, i, journaled), cmds))?;
+        driver::carry_out::<CentralCore>(self, i, cmds)?;
         if let (true, Some(c)) = (journaled, self.nodes[i].central.as_ref()) {
             let want = c.system().durable();
             if self.nodes[i].disk != want {
@@ -26,7 +26,7 @@ impl World {
     }
 
     /// One command of central's, carried out as its driver does (its journal is written by
-    /// [`driver::OnCentral`] before this).
+    /// the driver before this).
     pub(super) fn central_command(&mut self, i: usize, cmd: central::Command) -> Result<(), String> {
         // What it publishes goes out as the driver puts it on the network.
         if let Some(out) = central::egress(&cmd) {
@@ -78,7 +78,7 @@ impl World {
             }
             system::Command::Journal(entries) => {
                 // Committed before anything else of this event happens (the driver's order,
-                // checked by `driver::OnCentral`); what is on the disk must be exactly what
+                // checked by the simulation's runtime, `driver.rs`); what is on the disk must be exactly what
                 // central holds.
                 let disk = &mut self.nodes[i].disk;
                 for e in &entries {
@@ -112,8 +112,7 @@ impl World {
         };
         let cmds = h.handle(now, ev);
         // Carried out by the production driver's step, over the simulation's runtime.
-        let persists = cmds.iter().any(|c| HostCore::effect(c) == Effect::Persist);
-        driver::run(machine::carry_out::<HostCore, _>(&mut driver::OnHost::new(self, i, persists), cmds))?;
+        driver::carry_out::<HostCore>(self, i, cmds)?;
         if let Some(h) = self.nodes[i].host.as_ref() {
             self.inv.host(i, self.links.inc[i], h)?;
         }
@@ -231,8 +230,7 @@ impl World {
     /// A robot's commands, carried out by the production driver's step over the simulation's
     /// runtime.
     pub(super) fn robot_commands(&mut self, i: usize, cmds: Vec<robot::Command>) -> Result<(), String> {
-        let persists = cmds.iter().any(|c| Robot::effect(c) == Effect::Persist);
-        driver::run(machine::carry_out::<Robot, _>(&mut driver::OnRobot::new(self, i, persists), cmds))
+        driver::carry_out::<Robot>(self, i, cmds)
     }
 
     /// One command of a robot's, as its driver carries it out; `Ok(false)`: the robot crashed
