@@ -334,7 +334,8 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
     let dir = Scratch::new(&format!("bench-scale-{n}"));
     let pki = dir.path("pki");
     {
-        use mrmm_net::security::{pki as p, Role};
+        use mrmm_net::security::pki as p;
+        use mrmm_proto::Role;
         p::init(&pki)?;
         p::issue(&pki, Role::Central, "central", &[], 2)?;
         p::issue(&pki, Role::Operator, "op", &[], 2)?;

@@ -24,7 +24,8 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use mrmm_net::net::{self, Mode, Tls};
-use mrmm_net::security::{pki, Role};
+use mrmm_net::security::pki;
+use mrmm_proto::Role;
 
 #[tokio::main(flavor = "multi_thread", worker_threads = 2)]
 async fn main() -> anyhow::Result<()> {

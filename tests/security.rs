@@ -219,7 +219,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         while let Ok(q) = fake.recv_async().await {
             let Ok(mut req) = proto::from_json::<PlanRequest>("plan request", &mrmm_net::net::query_payload(&q)) else { continue };
             req.params.insert("max_kicks".into(), "0".into());
-            if let Ok(mut plan) = mrmm_manager::planner_service::plan(mrmm_planner::recipe::PlannerKind::Patrol, &req) {
+            if let Ok(mut plan) = mrmm_core::mission::planning::plan(mrmm_planner::recipe::PlannerKind::Patrol, &req) {
                 plan.plans.clear();
                 fake_mesh.reply_json(&q, &plan).await;
                 count.fetch_add(1, std::sync::atomic::Ordering::SeqCst);

@@ -64,6 +64,43 @@ pub trait Runtime<M: Machine> {
     fn carry(&mut self, command: M::Command) -> impl Future<Output = Result<(), Self::Error>>;
 }
 
+/// A node around its machine: where its events come from (and when), what it does between the
+/// machine's decision and its effects, and after them. With [`Runtime`] it is everything one
+/// node's driver is; [`drive`] is the loop every node runs.
+pub trait Node<M: Machine>: Runtime<M> {
+    /// The node's next event for `machine` and the time it is handled at, once one comes;
+    /// `None` stops the node. Input that needs no decision of the machine (a refused sender, a
+    /// malformed payload, a question the node answers alone) is dealt with here.
+    fn next(&mut self, machine: &M) -> impl Future<Output = Result<Option<(f64, M::Event)>, Self::Error>>;
+
+    /// Between the machine's decision and its effects: what the node follows of the machine's
+    /// new state before anything of the step leaves (its subscriptions, say).
+    fn decided(&mut self, machine: &M) -> impl Future<Output = Result<(), Self::Error>> {
+        let _ = machine;
+        async { Ok(()) }
+    }
+
+    /// After the step's effects: what the node tells others of the machine's new state.
+    fn stepped(&mut self, machine: &M) -> impl Future<Output = Result<(), Self::Error>> {
+        let _ = machine;
+        async { Ok(()) }
+    }
+}
+
+/// The driver loop — the one of every node (central, mission hosts, robots, traffic deputies):
+/// the node's next event, the machine's decision, the node's look at it, the decision carried
+/// out in the contract's order, the node's look after. Returns when the node has no more
+/// events, or with the first error of the node (a persist that failed stops it).
+pub async fn drive<M: Machine, N: Node<M>>(machine: &mut M, node: &mut N) -> Result<(), N::Error> {
+    while let Some((now, event)) = node.next(machine).await? {
+        let commands = machine.handle(now, event);
+        node.decided(machine).await?;
+        carry_out::<M, N>(node, commands).await?;
+        node.stepped(machine).await?;
+    }
+    Ok(())
+}
+
 /// One step of the driver: `event` handled at `now`, its commands carried out in order.
 pub async fn step<M: Machine, R: Runtime<M>>(machine: &mut M, runtime: &mut R, now: f64, event: M::Event) -> Result<(), R::Error> {
     let commands = machine.handle(now, event);
@@ -148,6 +185,51 @@ mod tests {
         let mut log = Log { fail_persist: true, ..Log::default() };
         assert_eq!(ready(step(&mut Echo, &mut log, 0.0, vec![1, -1, 2])), Err("disk full".to_string()));
         assert!(log.done.is_empty(), "{:?}", log.done);
+    }
+
+    /// A node of scripted events around [`Echo`], noting what the loop does when.
+    struct Script {
+        log: Log,
+        events: Vec<Vec<i32>>,
+    }
+
+    impl Runtime<Echo> for Script {
+        type Error = String;
+        async fn persist(&mut self, batch: Vec<i32>) -> Result<(), String> {
+            self.log.persist(batch).await
+        }
+        async fn carry(&mut self, c: i32) -> Result<(), String> {
+            self.log.carry(c).await
+        }
+    }
+
+    impl Node<Echo> for Script {
+        async fn next(&mut self, _: &Echo) -> Result<Option<(f64, Vec<i32>)>, String> {
+            Ok((!self.events.is_empty()).then(|| (0.0, self.events.remove(0))))
+        }
+        async fn decided(&mut self, _: &Echo) -> Result<(), String> {
+            self.log.done.push("decided".into());
+            Ok(())
+        }
+        async fn stepped(&mut self, _: &Echo) -> Result<(), String> {
+            self.log.done.push("stepped".into());
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn the_loop_looks_at_the_decision_before_its_effects_and_after_them() {
+        let mut node = Script { log: Log::default(), events: vec![vec![1, -1], vec![2]] };
+        ready(drive(&mut Echo, &mut node)).unwrap();
+        assert_eq!(node.log.done, ["decided", "persist [-1]", "carry 1", "stepped", "decided", "carry 2", "stepped"]);
+    }
+
+    #[test]
+    fn the_loop_stops_at_a_failed_persist() {
+        let mut node = Script { log: Log { fail_persist: true, ..Log::default() }, events: vec![vec![-1, 1], vec![2]] };
+        assert_eq!(ready(drive(&mut Echo, &mut node)), Err("disk full".to_string()));
+        assert_eq!(node.log.done, ["decided"]);
+        assert_eq!(node.events, [vec![2]], "no event after the failed step is taken");
     }
 
     #[test]

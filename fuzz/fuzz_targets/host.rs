@@ -4,7 +4,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use mrmm_fuzz::{frames, hosts, sender};
-use mrmm_manager::host::Event;
+use mrmm_core::mission::host::Event;
 use mrmm_proto::{self as proto, ChainEnvelope, MissionCtl, MissionPlan, MissionStart, MissionView};
 
 fuzz_target!(|data: &[u8]| {

@@ -9,10 +9,10 @@
 
 use std::collections::VecDeque;
 
-use mrmm_manager::host::{self, HostCore};
+use mrmm_core::mission::host::{self, HostCore};
 use mrmm_core::central::system::{self, SystemManager};
 use mrmm_core::mission::chain;
-use mrmm_manager::planner_service;
+use mrmm_core::mission::planning as planner_service;
 use mrmm_peer::config::RobotConfig;
 use mrmm_core::robot::{self, Robot};
 use mrmm_proto::{CommandAck, Member, MissionStart, MissionView, RobotInfo, RobotSpec, Role, Sender, Telemetry};

@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use mrmm_fuzz::{fixture_dir, robot, started_view, telemetry, Host};
 use mrmm_core::robot::Event as RobotEvent;
-use mrmm_net::security::{pki, seal::Sealer, Identity, Role, SecuritySection};
+use mrmm_net::security::{pki, seal::Sealer, Identity};
+use mrmm_proto::security::{Role, SecuritySection};
 use mrmm_proto::{MissionCtl, RobotCommand, SyncArrival};
 
 fn json<T: serde::Serialize>(v: &T) -> Vec<u8> {
@@ -60,7 +61,7 @@ fn main() {
     solo.start_patrol(0);
     for i in 1..=20 {
         head.now = f64::from(i) * 0.1;
-        head.feed(mrmm_manager::host::Event::Tick);
+        head.feed(mrmm_core::mission::host::Event::Tick);
     }
     let mut r1 = robot("r1");
     let t = telemetry(&mut r1, 0.0).map(|t| json(&t)).unwrap_or_default();

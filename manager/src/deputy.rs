@@ -12,7 +12,7 @@ use mrmm_proto::edge::Proof;
 use mrmm_proto::{Key, MapRef, Pattern};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
-use zenoh::sample::SampleKind;
+use zenoh::sample::{Sample, SampleKind};
 
 use crate::error::ManagerError;
 use crate::maps::MapStore;
@@ -86,53 +86,64 @@ async fn follow(
         }
     };
     let session = mesh.session().clone();
-    let (orders, mut traffic) = Inbox::new("deputy: traffic", QUEUE);
+    let (orders, traffic) = Inbox::new("deputy: traffic", QUEUE);
     let _traffic = inbox::subscribe(&orders, &session, Pattern::MapTraffic(map.hash.clone()).to_string(), |s| s).await?;
-    let (live, mut central) = Inbox::new("deputy: central's liveliness", 16);
+    let (live, central) = Inbox::new("deputy: central's liveliness", 16);
     let _central = live.liveliness(&session, Key::HostAlive(mrmm_proto::CENTRAL_HOST.into()).to_string(), |s| s).await?;
     let t0 = Instant::now();
-    let now = || t0.elapsed().as_secs_f64();
     // Central counts as away until its token is heard (at once, from the history, if it is up):
     // no takeover comes before the deputy followed for a while anyway.
-    let mut deputy = Deputy::new(now(), me.into(), map.hash.clone(), held.map.clone(), false);
+    let mut deputy = Deputy::new(0.0, me.into(), map.hash.clone(), held.map.clone(), false);
     tracing::info!(deputy = %me, map = %map.name, "following the map's traffic authority as its deputy");
     let mut tick = tokio::time::interval(TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    loop {
-        let event = tokio::select! {
-            _ = shutdown.cancelled() => break,
-            _ = unnamed(named, map) => break,
-            _ = tick.tick() => Event::Tick,
-            s = traffic.recv() => {
-                let Some(s) = s else { break };
-                let what = if Key::parse(s.key_expr().as_str()).is_some_and(|k| matches!(k, Key::TrafficOrder { .. })) { "traffic order" } else { "traffic report" };
-                match mesh.hear(&s, Some((what, Proof::Own)), |m| deputy.ingress(m)) {
-                    Some(ev) => ev,
-                    None => continue,
-                }
-            }
-            s = central.recv() => {
-                let Some(s) = s else { break };
-                Event::Central(s.kind() == SampleKind::Put)
-            }
-        };
-        let mut rt = Runtime { mesh, me, map: &map.name };
-        let Ok(()) = mrmm_core::machine::step(&mut deputy, &mut rt, now(), event).await;
-    }
+    let mut node = Node { mesh, me, map, named, shutdown, t0, tick, traffic, central };
+    let Ok(()) = mrmm_core::machine::drive(&mut deputy, &mut node).await;
     tracing::info!(deputy = %me, map = %map.name, "no longer following the map's traffic");
     Ok(())
 }
 
-/// A deputy's runtime for the driver's step ([`mrmm_core::machine::step`]): it keeps nothing on
-/// disk (a deputy that restarts follows anew); orders and reports on the network, the rest in
-/// the log.
-struct Runtime<'a> {
+/// A deputy's node for the driver loop ([`mrmm_core::machine::drive`]): the map's reports and
+/// orders, central's liveliness and its own time in; it keeps nothing on disk (a deputy that
+/// restarts follows anew); orders and reports on the network, the rest in the log.
+struct Node<'a> {
     mesh: &'a Mesh,
     me: &'a str,
-    map: &'a str,
+    map: &'a MapRef,
+    named: &'a mut watch::Receiver<Option<MapRef>>,
+    shutdown: &'a CancellationToken,
+    t0: Instant,
+    tick: tokio::time::Interval,
+    traffic: tokio::sync::mpsc::Receiver<Sample>,
+    central: tokio::sync::mpsc::Receiver<Sample>,
 }
 
-impl mrmm_core::machine::Runtime<Deputy> for Runtime<'_> {
+impl mrmm_core::machine::Node<Deputy> for Node<'_> {
+    async fn next(&mut self, deputy: &Deputy) -> Result<Option<(f64, Event)>, Self::Error> {
+        loop {
+            let event = tokio::select! {
+                _ = self.shutdown.cancelled() => return Ok(None),
+                _ = unnamed(self.named, self.map) => return Ok(None),
+                _ = self.tick.tick() => Event::Tick,
+                s = self.traffic.recv() => {
+                    let Some(s) = s else { return Ok(None) };
+                    let what = if Key::parse(s.key_expr().as_str()).is_some_and(|k| matches!(k, Key::TrafficOrder { .. })) { "traffic order" } else { "traffic report" };
+                    match self.mesh.hear(&s, Some((what, Proof::Own)), |m| deputy.ingress(m)) {
+                        Some(ev) => ev,
+                        None => continue,
+                    }
+                }
+                s = self.central.recv() => {
+                    let Some(s) = s else { return Ok(None) };
+                    Event::Central(s.kind() == SampleKind::Put)
+                }
+            };
+            return Ok(Some((self.t0.elapsed().as_secs_f64(), event)));
+        }
+    }
+}
+
+impl mrmm_core::machine::Runtime<Deputy> for Node<'_> {
     type Error = std::convert::Infallible;
 
     async fn persist(&mut self, _: Vec<Command>) -> Result<(), Self::Error> {
@@ -140,7 +151,7 @@ impl mrmm_core::machine::Runtime<Deputy> for Runtime<'_> {
     }
 
     async fn carry(&mut self, c: Command) -> Result<(), Self::Error> {
-        let (me, map) = (self.me, self.map);
+        let (me, map) = (self.me, &self.map.name);
         if let Some(out) = Deputy::egress(&c) {
             crate::edge::publish(self.mesh, out).await;
             return Ok(());

@@ -22,7 +22,7 @@ use zenoh::query::Queryable;
 
 use crate::error::ManagerError;
 
-pub use mrmm_core::maps::{info, Held};
+use mrmm_core::maps::Held;
 
 /// Reads the map at `path` for the fleet under `name`: one readable line if it cannot be.
 pub fn load_file(name: &str, path: &Path) -> Result<Held, ManagerError> {

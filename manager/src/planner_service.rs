@@ -23,7 +23,8 @@ pub fn kind(name: &str) -> Option<PlannerKind> {
     KINDS.into_iter().find(|k| k.as_str() == name)
 }
 
-pub use mrmm_core::mission::planning::{plan, plan_on};
+use mrmm_core::maps::Held;
+use mrmm_core::mission::planning::plan_on;
 
 /// Plans `req` off the async runtime, with its map from `maps` (fetched from the fleet if this
 /// node does not hold it yet): a mission host planning its own mission.
@@ -36,7 +37,7 @@ pub async fn plan_fetching(mesh: &Mesh, maps: &MapStore, kind: PlannerKind, req:
 }
 
 /// Plans `req` off the async runtime on `held`, its map.
-async fn plan_held(kind: PlannerKind, req: PlanRequest, held: Option<Arc<crate::maps::Held>>) -> Result<MissionPlan, String> {
+async fn plan_held(kind: PlannerKind, req: PlanRequest, held: Option<Arc<Held>>) -> Result<MissionPlan, String> {
     tokio::task::spawn_blocking(move || plan_on(kind, &req, held.as_ref().map(|h| h.map.as_ref())))
         .await
         .unwrap_or_else(|e| Err(format!("planner crashed: {e}")))

@@ -342,7 +342,7 @@ pub fn query_payload(query: &Query) -> Vec<u8> {
     query.payload().map(|p| p.to_bytes().into_owned()).unwrap_or_default()
 }
 
-pub use mrmm_proto::QueryError;
+pub(crate) use mrmm_proto::QueryError;
 
 /// A reply error's payload as its server sent it (its first 200 characters, when not JSON).
 pub fn error_reply(selector: &str, bytes: &[u8]) -> ErrorReply {

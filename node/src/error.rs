@@ -28,3 +28,20 @@ impl NodeError {
         matches!(self, NodeError::Robot(PeerError::Crashed(_)))
     }
 }
+
+/// What goes wrong with a node started as a child process ([`crate::procs`]).
+#[derive(Debug, thiserror::Error)]
+pub enum ProcError {
+    #[error("cannot locate the mrmm executable: {0}")]
+    NoExe(#[source] std::io::Error),
+    #[error("cannot create {}: {source}", path.display())]
+    Log { path: std::path::PathBuf, source: std::io::Error },
+    #[error("cannot start a child mrmm process: {0}")]
+    Spawn(#[source] std::io::Error),
+    #[error("child stdout not captured")]
+    NoStdout,
+    #[error("child exited before it was ready: {0}")]
+    Exited(String),
+    #[error("child not ready after {0} s: {1}")]
+    NotReady(u64, String),
+}

@@ -2,9 +2,10 @@
 //! arguments and config (tokio's mini-redis: `server::run(listener, shutdown)`). Central, mission
 //! hosts and site routers are one driver each (`mrmm_manager::central::run`,
 //! `mrmm_manager::host::serve`, `mrmm_manager::site_router`); a robot's node is three on one
-//! session ([`robot`]).
+//! session ([`robot`]). [`procs`] starts nodes as child processes (the demo's, the experiments').
 
 pub mod error;
+pub mod procs;
 pub mod robot;
 
-pub use error::NodeError;
+pub use error::{NodeError, ProcError};

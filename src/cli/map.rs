@@ -73,7 +73,7 @@ fn check(file: &std::path::Path, json: bool) -> anyhow::Result<()> {
     let b = bundle(file)?;
     let (format, map) = b.load().map_err(|e| anyhow!("{e}"))?;
     let s = map.summary(format);
-    let info = mrmm_manager::maps::info(&file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default(), &b.hash(), b.size() as u64, &s);
+    let info = mrmm_core::maps::info(&file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default(), &b.hash(), b.size() as u64, &s);
     if json {
         println!("{}", serde_json::to_string_pretty(&serde_json::json!({ "summary": s, "hash": info.hash, "bytes": info.bytes }))?);
         return Ok(());

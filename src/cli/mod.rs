@@ -4,14 +4,12 @@ mod assign;
 mod central;
 mod console;
 mod demo;
-mod experiment;
 mod map;
 mod mission_host;
 pub mod op;
 mod pki;
 mod plan;
 mod planner_service;
-mod procs;
 mod robot;
 mod router;
 mod security;
@@ -54,7 +52,7 @@ enum Cmd {
     Demo(demo::Args),
     /// The paper's evaluation on the real system: messages, idleness, environment (figures,
     /// results.csv, summary.md).
-    Experiment(experiment::Args),
+    Experiment(mrmm_experiments::Args),
     /// Near-optimal closed tour through a TSPLIB instance.
     Tour(tour::Args),
     /// Optimal assignment from a CSV cost matrix (rows: robots, columns: slots).
@@ -113,7 +111,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Op(a) => op::run(a).await,
         Cmd::Console(a) => console::run(a).await,
         Cmd::Demo(a) => demo::run(a).await,
-        Cmd::Experiment(a) => experiment::run(a).await,
+        Cmd::Experiment(a) => mrmm_experiments::run(a).await,
         Cmd::Tour(a) => tour::run(a),
         Cmd::Assign(a) => assign::run(a),
         Cmd::Plan(a) => plan::run(a),

@@ -3,7 +3,8 @@
 
 use std::path::PathBuf;
 
-use mrmm_net::security::{pki, Role};
+use mrmm_net::security::pki;
+use mrmm_proto::Role;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

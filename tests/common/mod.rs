@@ -347,7 +347,8 @@ pub fn start_host(dir: &Scratch, name: &str, central: &str) -> anyhow::Result<Pr
 /// A fleet PKI in `dir/pki`: the CA, `central`, operator `op`, robots `r1..=rn`, and a robot `r9`
 /// (a rogue: a valid robot certificate of a robot not in the fleet's missions).
 pub fn fleet_pki(dir: &Scratch, robots: usize) -> anyhow::Result<PathBuf> {
-    use mrmm_net::security::{pki, Role};
+    use mrmm_net::security::pki;
+    use mrmm_proto::Role;
     let p = dir.path("pki");
     pki::init(&p)?;
     pki::issue(&p, Role::Central, "central", &[], 2)?;

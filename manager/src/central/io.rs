@@ -17,16 +17,11 @@ use crate::error::ManagerError;
 use crate::journal::{now_ms, Journal};
 use mrmm_core::central::system::{self, Req, Request};
 
-/// Central's runtime for the driver's step ([`mrmm_core::machine::step`]): its journal
+/// Central's runtime for the driver loop ([`mrmm_core::machine::drive`]): its journal
 /// entries committed (fsync) before anything else of their step is done or said; the rest on
 /// the network. A journal that cannot be written stops central: it restarts from what is on
 /// disk rather than say "ok" about what is not.
-pub(super) struct Runtime<'a> {
-    pub(super) io: &'a mut Io,
-    pub(super) journal: Option<&'a mut Journal>,
-}
-
-impl mrmm_core::machine::Runtime<CentralCore> for Runtime<'_> {
+impl mrmm_core::machine::Runtime<CentralCore> for super::node::Node {
     type Error = ManagerError;
 
     async fn persist(&mut self, batch: Vec<Command>) -> Result<(), ManagerError> {
@@ -37,7 +32,7 @@ impl mrmm_core::machine::Runtime<CentralCore> for Runtime<'_> {
                 _ => Vec::new(),
             })
             .collect();
-        match self.journal.as_deref_mut() {
+        match self.journal.as_mut() {
             Some(j) if !events.is_empty() => {
                 tokio::task::block_in_place(|| j.append(&events, now_ms())).inspect_err(|e| tracing::error!("{e}: central stops"))?;
                 Ok(())

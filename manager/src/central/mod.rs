@@ -6,23 +6,25 @@
 mod config;
 mod inputs;
 mod io;
+mod node;
 mod start;
 
+use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use mrmm_net::net;
 use mrmm_net::Mesh;
-use mrmm_proto::{self as proto, Key};
+use mrmm_proto as proto;
 use tokio::sync::{mpsc, oneshot};
 use tokio_util::sync::CancellationToken;
 
 pub use self::config::CentralConfig;
-use self::inputs::{declare_inputs, decode, Inboxes, Input, SealCounts};
-use self::io::{answer_journal, Io, Runtime};
+use self::inputs::{declare_inputs, Inboxes, Input, SealCounts};
+use self::io::Io;
+use self::node::Node;
 use self::start::{load_maps, node_net, open_state};
 use crate::error::ManagerError;
-use mrmm_core::central::system;
-pub use mrmm_core::central::{CentralCore, Command, Event, AGENT_PERIOD_S};
+use mrmm_core::central::{CentralCore, Command, Event};
 use mrmm_core::machine;
 use mrmm_net::inbox::{Inbox, Lanes, Latest};
 
@@ -47,7 +49,7 @@ pub struct Ready {
 /// Runs central until `shutdown` is cancelled.
 pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), ManagerError> {
     cfg.validate().map_err(ManagerError::Config)?;
-    let (mut journal, state, chain) = open_state(&cfg)?;
+    let (journal, state, chain) = open_state(&cfg)?;
     let maps = load_maps(&cfg, &state)?;
     let mesh = Mesh::open(&node_net(&cfg)).await?;
     let session = mesh.session().clone();
@@ -60,7 +62,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let (control, control_rx) = Inbox::new("central: publications and queries", NET_QUEUE);
     let (telemetry, telemetry_rx) = Latest::new("central: telemetry", TELEMETRY_QUEUE);
     let held = declare_inputs(&session, &Inboxes { live, control, telemetry }).await?;
-    let mut lanes = Lanes { live: live_rx, own: rx, control: control_rx, telemetry: telemetry_rx };
+    let lanes = Lanes { live: live_rx, own: rx, control: control_rx, telemetry: telemetry_rx };
     // The default planner service and mission host live here too.
     let planners = tokio::spawn(crate::planner_service::serve(mesh.clone(), maps.clone(), shutdown.child_token()));
     let missions = tokio::spawn(crate::host::serve(mesh.clone(), proto::CENTRAL_HOST.to_string(), None, chain, maps.clone(), shutdown.child_token()));
@@ -78,44 +80,12 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         .with_superseded(maps.superseded())
         .forgetting_lost_after(cfg.forget_lost_s)
         .with_traffic_incarnation(mrmm_net::mesh::now_ms());
-    let mut io = Io::new(mesh.clone(), Duration::from_millis(cfg.query_timeout_ms), tx);
-    let mut tick = tokio::time::interval(TICK);
-    let mut seals = SealCounts { refused: 0, proofs_at: Instant::now() };
-    let mut load = crate::load::LoopLoad::new(proto::CENTRAL_HOST);
-    loop {
-        let event = tokio::select! {
-            _ = shutdown.cancelled() => break,
-            _ = tick.tick() => {
-                for e in seals.due(&mesh) {
-                    let mut rt = Runtime { io: &mut io, journal: journal.as_mut() };
-                    machine::step(&mut core, &mut rt, t0.elapsed().as_secs_f64(), Event::System(e)).await?;
-                }
-                Event::System(system::Event::Tick)
-            }
-            i = lanes.recv() => match i {
-                Some(Input::Operator(q)) if Key::parse(q.key_expr().as_str()) == Some(Key::SystemJournal) => {
-                    answer_journal(&mesh, journal.as_ref(), q).await;
-                    continue;
-                }
-                Some(Input::Operator(q)) => match io.operator(q).await {
-                    Some(e) => e,
-                    None => continue,
-                },
-                Some(Input::Advice(q)) => Event::Advice { query: io.hold(q) },
-                Some(Input::Sample(s)) => match decode(&mesh, &s) {
-                    Some(e) => e,
-                    None => continue,
-                },
-                Some(Input::Event(e)) => Event::System(e),
-                None => break,
-            },
-        };
-        let (kind, start) = (event.kind(), Instant::now());
-        let cmds = core.handle(t0.elapsed().as_secs_f64(), event);
-        let decided = Instant::now();
-        machine::carry_out::<CentralCore, _>(&mut Runtime { io: &mut io, journal: journal.as_mut() }, cmds).await?;
-        load.step(kind, decided - start, decided.elapsed());
-    }
+    let io = Io::new(mesh.clone(), Duration::from_millis(cfg.query_timeout_ms), tx);
+    let seals = SealCounts { refused: 0, proofs_at: Instant::now() };
+    let load = crate::load::LoopLoad::new(proto::CENTRAL_HOST);
+    let tick = tokio::time::interval(TICK);
+    let mut node = Node { mesh: mesh.clone(), io, journal, lanes, tick, seals, load, shutdown, t0, due: VecDeque::new(), step: None };
+    machine::drive(&mut core, &mut node).await?;
     tracing::info!("central shutting down");
     drop(held);
     let _ = planners.await;

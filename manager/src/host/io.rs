@@ -13,28 +13,22 @@ use zenoh::bytes::Encoding;
 use zenoh::query::{Query, Queryable};
 
 use super::inputs::Input;
-use super::store::Store;
 use super::{Command, Event, HostCore, Question, PLAN_TIMEOUT};
 use crate::error::ManagerError;
 use crate::maps::MapStore;
 use mrmm_core::Failure;
 use mrmm_net::inbox::Inbox;
 
-/// A mission host's runtime for the driver's step ([`mrmm_core::machine::step`]): what its
+/// A mission host's runtime for the driver loop ([`mrmm_core::machine::drive`]): what its
 /// chains must remember is written and synced before anything of its step leaves the node — a
 /// node that cannot keep its promises must not make any (it stops); the rest on the network.
-pub(super) struct Runtime<'a> {
-    pub(super) io: &'a mut Io,
-    pub(super) store: Option<&'a Store>,
-}
-
-impl mrmm_core::machine::Runtime<HostCore> for Runtime<'_> {
+impl mrmm_core::machine::Runtime<HostCore> for super::node::Node {
     type Error = ManagerError;
 
     async fn persist(&mut self, batch: Vec<Command>) -> Result<(), ManagerError> {
         for c in batch {
             let Command::Persist { mission, disk } = &c else { continue };
-            let written = match self.store {
+            let written = match &self.store {
                 Some(store) => tokio::task::block_in_place(|| store.write(mission, disk)),
                 None => Err(ManagerError::journal("chain state", "no state dir, but the chain asked to persist")),
             };

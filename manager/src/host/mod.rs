@@ -6,6 +6,7 @@
 
 mod inputs;
 mod io;
+mod node;
 pub mod store;
 
 use std::time::{Duration, Instant};
@@ -14,12 +15,13 @@ use mrmm_net::{Following, Mesh};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 
-use self::inputs::{decode, local_changed, Input};
-use self::io::{Io, Runtime};
+use self::inputs::Input;
+use self::io::Io;
+use self::node::Node;
 use crate::error::ManagerError;
 use crate::maps::MapStore;
 use mrmm_core::mission::chain::Params;
-pub use mrmm_core::mission::host::{Command, Event, HostCore, Question, PLAN_RETRIES, REDELIVER_S, UNJUDGED_S};
+use mrmm_core::mission::host::{Command, Event, HostCore, Question};
 use mrmm_net::inbox::{Inbox, Lanes, Latest};
 
 /// How long a planner service may take.
@@ -56,7 +58,7 @@ pub async fn serve_with(
     mesh: Mesh,
     node: String,
     params: Params,
-    mut local: Option<watch::Receiver<LocalTeam>>,
+    local: Option<watch::Receiver<LocalTeam>>,
     stored: Option<store::Opened>,
     maps: MapStore,
     shutdown: CancellationToken,
@@ -72,7 +74,7 @@ pub async fn serve_with(
     let (live, live_rx) = Inbox::new("host: liveliness", LIVELINESS_QUEUE);
     let (net, net_rx) = Inbox::new("host: publications and queries", NET_QUEUE);
     let (telemetry, telemetry_rx) = Latest::new("host: telemetry", NET_QUEUE);
-    let mut lanes = Lanes { live: live_rx, own: rx, control: net_rx, telemetry: telemetry_rx };
+    let lanes = Lanes { live: live_rx, own: rx, control: net_rx, telemetry: telemetry_rx };
     // Its chain key, the telemetry of the robots the core watches and (robot nodes: they learn
     // their mission's chain from the head's status) the status of the robot's missions: what
     // the core says it listens to, subscribed one by one.
@@ -89,53 +91,10 @@ pub async fn serve_with(
         core = core.with_robot();
     }
     follow.follow(&core.subscriptions()).await;
-    let mut io = Io::new(mesh.clone(), tx, net, maps);
-    let mut status = tokio::time::interval(STATUS_PERIOD);
+    let io = Io::new(mesh.clone(), tx, net, maps);
+    let status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    loop {
-        let event = tokio::select! {
-            _ = shutdown.cancelled() => break,
-            _ = status.tick() => Event::StatusTick,
-            _ = tick.tick() => Event::Tick,
-            changed = local_changed(&mut local) => match changed {
-                Some(team) => Event::LocalTeam(team),
-                None => {
-                    local = None;
-                    continue;
-                }
-            },
-            i = lanes.recv() => match i {
-                Some(Input::Query(q)) => match io.query(q).await {
-                    Some(e) => e,
-                    None => continue,
-                },
-                Some(Input::Sample(s)) => match decode(&mesh, &s) {
-                    Some(e) => e,
-                    None => continue,
-                },
-                Some(Input::Event(e)) => e,
-                None => break,
-            },
-        };
-        step(&mut core, t0.elapsed().as_secs_f64(), event, &mut io, &mut follow, store.as_ref()).await?;
-    }
-    Ok(())
-}
-
-/// One event through the core, and what follows: its commands carried out, the subscriptions
-/// following what the core listens to now, and (once a second) the maps of every mission this
-/// node leads or replicates fetched before a takeover needs them (central may be gone by then).
-async fn step(core: &mut HostCore, now: f64, event: Event, io: &mut Io, follow: &mut Following, store: Option<&store::Store>) -> Result<(), ManagerError> {
-    // Telemetry does not change what the core listens to; everything else may.
-    let telemetry = matches!(event, Event::Telemetry(_));
-    let status_tick = matches!(event, Event::StatusTick);
-    let commands = core.handle(now, event);
-    if status_tick {
-        io.prefetch_maps(&core.maps());
-    }
-    if !telemetry {
-        follow.follow(&core.subscriptions()).await;
-    }
-    mrmm_core::machine::carry_out::<HostCore, _>(&mut Runtime { io, store }, commands).await
+    let mut node = Node { mesh, io, store, follow, lanes, status, tick, local, shutdown, t0, telemetry: false, status_tick: false };
+    mrmm_core::machine::drive(&mut core, &mut node).await
 }

@@ -25,7 +25,7 @@ use std::path::Path;
 
 use mrmm_proto::ProtoError;
 
-pub use mrmm_proto::security::*;
+pub(crate) use mrmm_proto::security::*;
 pub use seal::{Refusal, Sealer, Verifier};
 
 /// This node's proven identity: its certificate (checked against the fleet CA), its key, and the

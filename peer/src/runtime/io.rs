@@ -41,15 +41,10 @@ pub(super) struct Io {
     pub(super) crashed: bool,
 }
 
-/// The robot's runtime for the driver's step ([`mrmm_core::machine::step`]), for one event
-/// (`query`: the operator's query it came with, answered by [`Command::Reply`]).
-pub(super) struct Runtime<'a> {
-    pub(super) io: &'a mut Io,
-    pub(super) query: Option<&'a Query>,
-}
-
-impl mrmm_core::machine::Runtime<Robot> for Runtime<'_> {
-    type Error = std::convert::Infallible;
+/// The robot's runtime for the driver loop ([`mrmm_core::machine::drive`]): a reply answers the
+/// query its step's event came with.
+impl mrmm_core::machine::Runtime<Robot> for super::node::Node {
+    type Error = crate::error::PeerError;
 
     /// What the robot keeps across a restart; one it cannot keep is said in the log (the change
     /// holds until the robot restarts).
@@ -64,7 +59,7 @@ impl mrmm_core::machine::Runtime<Robot> for Runtime<'_> {
     }
 
     async fn carry(&mut self, c: Command) -> Result<(), Self::Error> {
-        self.io.execute(c, self.query).await;
+        self.io.execute(c, self.query.as_ref()).await;
         Ok(())
     }
 }

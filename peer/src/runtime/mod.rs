@@ -7,6 +7,7 @@
 
 mod inputs;
 mod io;
+mod node;
 mod ros;
 mod team;
 
@@ -24,6 +25,7 @@ use zenoh::Session;
 
 use self::inputs::Inputs;
 use self::io::Io;
+use self::node::Node;
 use crate::config::{BodySection, RobotConfig};
 use crate::error::PeerError;
 use mrmm_core::robot::viewers::Viewers;
@@ -147,7 +149,7 @@ pub async fn run_on(
         robot.restore_capabilities(now);
     }
     let endpoints = net::listening_endpoints(&session).await;
-    let mut inputs = Inputs::declare(&mesh, &id, cfg.telemetry_hz, endpoints.clone(), shutdown).await?;
+    let inputs = Inputs::declare(&mesh, &id, cfg.telemetry_hz, endpoints.clone(), shutdown).await?;
     let telemetry_key = Key::RobotTelemetry(id.as_str().into()).to_string();
     let publisher = session.declare_publisher(telemetry_key.clone()).encoding(Encoding::APPLICATION_OCTET_STREAM).await.map_err(PeerError::zenoh)?;
     // Declared last: once others see the token, the queryables answer.
@@ -156,7 +158,7 @@ pub async fn run_on(
     if let Some(tx) = ready {
         let _ = tx.send(Ready { id: id.clone(), zid: session.zid().to_string(), endpoints });
     }
-    let mut io = Io {
+    let io = Io {
         mesh: mesh.clone(),
         id: id.clone(),
         links: mrmm_core::robot::Links::new(&id),
@@ -169,36 +171,10 @@ pub async fn run_on(
         state_dir: cfg.state_dir.clone(),
         crashed: false,
     };
-    let t0 = Instant::now();
-    while let Some((event, query)) = inputs.next(&robot, &mut io).await {
-        let mut rt = io::Runtime { io: &mut io, query: query.as_ref() };
-        let Ok(()) = mrmm_core::machine::step(&mut robot, &mut rt, t0.elapsed().as_secs_f64(), event).await;
-        if io.crashed {
-            // No goodbye: whoever runs the robot drops its session as a crash would.
-            return Err(PeerError::Crashed(id));
-        }
-        // The mission host of this process learns whom the robot trusts for which mission.
-        if let Some(tx) = &team {
-            let now: LocalTeam = robot.team();
-            tx.send_if_modified(|t| {
-                let changed = *t != now;
-                if changed {
-                    *t = now;
-                }
-                changed
-            });
-        }
-        if let Some(tx) = &deputy {
-            let now = robot.traffic().filter(|g| g.deputies().iter().any(|d| d.as_str() == id)).map(|g| g.map().clone());
-            tx.send_if_modified(|d| {
-                let changed = *d != now;
-                if changed {
-                    *d = now;
-                }
-                changed
-            });
-        }
-    }
+    let mut node = Node { inputs, io, query: None, t0: Instant::now(), team, deputy };
+    let driven = mrmm_core::machine::drive(&mut robot, &mut node).await;
+    let Node { inputs, mut io, .. } = node;
+    driven?;
     tracing::info!(robot = %id, "shutting down");
     if let Some(ros) = io.ros.take() {
         ros.close().await;

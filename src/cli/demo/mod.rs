@@ -9,7 +9,7 @@ use anyhow::{anyhow, Context};
 use mrmm_net::client::Client;
 use tokio::process::Child;
 
-use super::procs;
+use mrmm_node::procs;
 
 mod map;
 mod start;

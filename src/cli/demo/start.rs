@@ -9,12 +9,13 @@ use mrmm_proto as proto;
 use tokio::process::Child;
 
 use super::{join, lease, map, sites as site_count, start_rate, Args, Join, LARGE_FLEET, TYPES};
-use crate::cli::procs;
+use mrmm_node::procs;
 
 /// A throw-away fleet PKI in `pki`: the CA, central, the operator (this demo and your tools),
 /// each robot and each site router.
 pub(super) fn issue_pki(args: &Args, pki: &Path) -> anyhow::Result<()> {
-    use mrmm_net::security::{pki as p, Role};
+    use mrmm_net::security::pki as p;
+    use mrmm_proto::Role;
     p::init(pki)?;
     p::issue(pki, Role::Central, proto::CENTRAL_HOST, &[], 30)?;
     p::issue(pki, Role::Operator, "operator", &[], 30)?;

@@ -1,6 +1,7 @@
-//! `mrmm experiment`: the paper's evaluation on the real system — real `mrmm` processes with
-//! time-scaled simulated bodies — one command per figure, written to a directory as
-//! `results.csv`, one PNG per experiment and `summary.md`.
+//! mrmm's research harness, run by `mrmm experiment`: the paper's evaluation on the real system —
+//! real `mrmm` processes with time-scaled simulated bodies — one command per figure, written to a
+//! directory as `results.csv`, one PNG per experiment and `summary.md`; and the patrolling and
+//! traffic benchmarks, simulated in this process.
 
 mod comm_loss;
 mod fleet;

@@ -8,8 +8,8 @@ use anyhow::Context;
 
 use mrmm_proto::BarrierMode;
 
-use super::plot::{self, Bars, Group};
-use super::run::Row;
+use crate::plot::{self, Bars, Group};
+use crate::run::Row;
 
 const HEADER: &str = "experiment,label,barrier,robots,robots_after,extracted,env_scale,rounds,time_scale,seed,tour_m,sync_per_round,wall_s,avg_idleness_s,worst_idleness_s,bound_s,sync_points,sync_wait_per_round_s,msgs_plan,msgs_sync,msgs_total,wire_command,wire_barrier,wire_barrier_to_central,wire_telemetry,wire_chain,wire_mission,wire_system,wire_total";
 
@@ -212,10 +212,10 @@ fn environment(rows: &[&Row], draw: &mut Draw) -> anyhow::Result<()> {
 
 /// The communication-loss run's timeline: `comm-loss-timeline.csv` and `comm-loss.png`;
 /// returns the figure's file name.
-pub fn timeline(dir: &Path, t: &super::comm_loss::Timeline) -> anyhow::Result<Vec<String>> {
+pub fn timeline(dir: &Path, t: &crate::comm_loss::Timeline) -> anyhow::Result<Vec<String>> {
     let csv = dir.join("comm-loss-timeline.csv");
-    std::fs::write(&csv, super::comm_loss::timeline_csv(t)).with_context(|| format!("cannot write {}", csv.display()))?;
-    let series = |f: &dyn Fn(&super::comm_loss::Point) -> Option<f64>| -> Vec<(f64, f64)> { t.points.iter().filter_map(|p| f(p).map(|v| (p.t, v))).collect() };
+    std::fs::write(&csv, crate::comm_loss::timeline_csv(t)).with_context(|| format!("cannot write {}", csv.display()))?;
+    let series = |f: &dyn Fn(&crate::comm_loss::Point) -> Option<f64>| -> Vec<(f64, f64)> { t.points.iter().filter_map(|p| f(p).map(|v| (p.t, v))).collect() };
     let file = "comm-loss.png".to_string();
     plot::timeline(
         &dir.join(&file),
@@ -492,7 +492,7 @@ fn fig6_claims(env: &[&Row], out: &mut Vec<String>) {
     let (sizes, scales) = sizes_and_scales(env);
     if let ([first, .., last], [small, .., big]) = (scales.as_slice(), sizes.as_slice()) {
         let at = |n: usize, s: f64| env.iter().find(|r| r.spec.robots == n && r.spec.env_scale == s);
-        let share = |r: &Row| r.sync_wait_per_round_s / (r.tour_m / super::fleet::SPEED);
+        let share = |r: &Row| r.sync_wait_per_round_s / (r.tour_m / crate::fleet::SPEED);
         if let (Some(a0), Some(b0), Some(a1), Some(b1)) = (at(*small, *first), at(*big, *first), at(*small, *last), at(*big, *last)) {
             out.push(format!(
                 "Fig. 6 — in a larger environment synchronisation becomes negligible: {} (barrier wait per round / tour time at ×{first}: {:.1} %, at ×{last}: {:.1} %, {big} robots).",

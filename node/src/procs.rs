@@ -1,18 +1,19 @@
-//! Child `mrmm` processes for the demo: spawn with logs to files, wait for their ready line, stop
-//! them gracefully.
+//! Nodes as child processes of this `mrmm` (the demo's fleet, the experiments'): spawned with
+//! their logs in files, waited for until their ready line, stopped gracefully.
 
 use std::path::Path;
 use std::process::Stdio;
 use std::time::Duration;
 
-use anyhow::{anyhow, Context};
 use tokio::io::{AsyncBufReadExt, BufReader};
 use tokio::process::{Child, Command};
 
+use crate::error::ProcError;
+
 /// Spawns `mrmm <args>` with stderr to `log`; the child dies with us (PR_SET_PDEATHSIG).
-pub fn spawn(args: &[String], log: &Path) -> anyhow::Result<Child> {
-    let exe = std::env::current_exe().context("cannot locate the mrmm executable")?;
-    let log_file = std::fs::File::create(log).with_context(|| format!("cannot create {}", log.display()))?;
+pub fn spawn(args: &[String], log: &Path) -> Result<Child, ProcError> {
+    let exe = std::env::current_exe().map_err(ProcError::NoExe)?;
+    let log_file = std::fs::File::create(log).map_err(|source| ProcError::Log { path: log.to_path_buf(), source })?;
     let mut cmd = Command::new(exe);
     cmd.args(args).stdin(Stdio::null()).stdout(Stdio::piped()).stderr(log_file).kill_on_drop(true);
     // SAFETY: prctl is async-signal-safe; it only sets the parent-death signal of the child.
@@ -22,13 +23,13 @@ pub fn spawn(args: &[String], log: &Path) -> anyhow::Result<Child> {
             Ok(())
         });
     }
-    cmd.spawn().context("cannot start a child mrmm process")
+    cmd.spawn().map_err(ProcError::Spawn)
 }
 
 /// Waits for the child's stdout line starting with `prefix` and returns it; the rest of its
 /// stdout is drained in the background.
-pub async fn ready_line(child: &mut Child, prefix: &str, timeout: Duration, log: &Path) -> anyhow::Result<String> {
-    let out = child.stdout.take().ok_or_else(|| anyhow!("child stdout not captured"))?;
+pub async fn ready_line(child: &mut Child, prefix: &str, timeout: Duration, log: &Path) -> Result<String, ProcError> {
+    let out = child.stdout.take().ok_or(ProcError::NoStdout)?;
     let mut lines = BufReader::new(out).lines();
     let found = tokio::time::timeout(timeout, async {
         while let Some(line) = lines.next_line().await? {
@@ -45,8 +46,8 @@ pub async fn ready_line(child: &mut Child, prefix: &str, timeout: Duration, log:
             drain(lines);
             Ok(line)
         }
-        Ok(Ok(None)) | Ok(Err(_)) => Err(anyhow!("child exited before it was ready: {}", tail())),
-        Err(_) => Err(anyhow!("child not ready after {} s: {}", timeout.as_secs(), tail())),
+        Ok(Ok(None)) | Ok(Err(_)) => Err(ProcError::Exited(tail())),
+        Err(_) => Err(ProcError::NotReady(timeout.as_secs(), tail())),
     }
 }
 

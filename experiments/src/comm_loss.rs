@@ -16,9 +16,9 @@ use zenoh::handlers::{RingChannel, RingChannelHandler};
 use zenoh::pubsub::Subscriber;
 use zenoh::sample::Sample;
 
-use super::fleet::{Fleet, SPEED};
-use super::run::{tour_length, Row, Spec, WAYPOINTS};
-use super::wire::Wire;
+use crate::fleet::{Fleet, SPEED};
+use crate::run::{tour_length, Row, Spec, WAYPOINTS};
+use crate::wire::Wire;
 
 /// One status publication of the mission, as the timeline keeps it.
 #[derive(Debug, Clone)]

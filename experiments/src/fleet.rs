@@ -10,7 +10,7 @@ use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, RobotStatus, RobotView};
 use tokio::process::Child;
 
-use super::super::procs;
+use mrmm_node::procs;
 
 /// Every robot's top speed, m/s: the idleness bound is L / (n · SPEED).
 pub const SPEED: f64 = 1.0;
@@ -152,7 +152,7 @@ async fn start_central(dir: &Path, listen: &str, log: &str) -> anyhow::Result<(C
 fn start_robot(dir: &Path, id: &str, i: usize, connect: &[String], time_scale: f64, lease_ms: u64, log: &str) -> anyhow::Result<Child> {
     let path = dir.join(format!("{id}.json5"));
     std::fs::write(&path, robot_config(id, i, connect, time_scale, lease_ms)).with_context(|| format!("cannot write {}", path.display()))?;
-    procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &dir.join(log))
+    Ok(procs::spawn(&["robot".into(), "--config".into(), path.display().to_string()], &dir.join(log))?)
 }
 
 /// Waits until `n` robots are idle; on timeout, how many were.

@@ -9,8 +9,8 @@ use mrmm_proto::BarrierMode;
 use mrmm_proto::{self as proto, MissionCreate, MissionStatus, MissionTerminate, MissionView, RobotMove};
 use serde_json::json;
 
-use super::fleet::{Fleet, SPEED};
-use super::wire::{self, Wire};
+use crate::fleet::{Fleet, SPEED};
+use crate::wire::{self, Wire};
 
 /// The patrolled environment at scale 1: a closed loop of eight waypoints around a 16 m × 10 m
 /// field (tour ≈ 50 m); the environment experiment multiplies every coordinate.

@@ -315,15 +315,15 @@ fn plot(out: &Path, rows: &[Row]) -> anyhow::Result<()> {
     let series: Vec<&str> = labels.iter().map(String::as_str).collect();
     let groups = maps
         .iter()
-        .map(|m| super::plot::Group {
+        .map(|m| crate::plot::Group {
             label: m.to_string(),
             values: sizes.iter().map(|&n| rows.iter().find(|r| r.map == *m && r.robots == n).map_or(f64::NAN, Row::worst_ratio)).collect(),
             note: None,
         })
         .collect();
-    super::plot::bars(
+    crate::plot::bars(
         &out.join("maps.png"),
-        &super::plot::Bars {
+        &crate::plot::Bars {
             title: "patrolling_sim maps: worst idleness ÷ L*/(n·v)",
             y_label: "worst idleness ÷ bound",
             x_label: "map",

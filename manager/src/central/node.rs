@@ -1,0 +1,102 @@
+//! Central as a node of the driver loop ([`mrmm_core::machine::drive`]): what it hears becomes
+//! [`Event`]s of its core (the journal's pages and malformed input answered here), its commands
+//! are carried out by [`Io`] after the journal's entries are synced, and each step's cost is
+//! counted ([`LoopLoad`]).
+
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+use mrmm_net::inbox::Lanes;
+use mrmm_net::Mesh;
+use mrmm_proto::Key;
+use tokio_util::sync::CancellationToken;
+
+use super::inputs::{decode, Input, SealCounts};
+use super::io::{answer_journal, Io};
+use super::{CentralCore, Event};
+use crate::error::ManagerError;
+use crate::journal::Journal;
+use crate::load::LoopLoad;
+use mrmm_core::central::system;
+
+/// Everything central's driver holds around its core.
+pub(super) struct Node {
+    pub(super) mesh: Mesh,
+    pub(super) io: Io,
+    pub(super) journal: Option<Journal>,
+    pub(super) lanes: Lanes<Input>,
+    pub(super) tick: tokio::time::Interval,
+    pub(super) seals: SealCounts,
+    pub(super) load: LoopLoad,
+    pub(super) shutdown: CancellationToken,
+    pub(super) t0: Instant,
+    /// Events already due (the seal counts a tick brings), handled before anything new.
+    pub(super) due: VecDeque<Event>,
+    /// The step under way: its kind, when its event came and when the core had decided.
+    pub(super) step: Option<(&'static str, Instant, Duration)>,
+}
+
+impl Node {
+    /// The next event of the network, the tick or central's own tasks; `None` at shutdown.
+    async fn heard(&mut self) -> Option<Event> {
+        loop {
+            let event = tokio::select! {
+                _ = self.shutdown.cancelled() => return None,
+                _ = self.tick.tick() => {
+                    self.due.extend(self.seals.due(&self.mesh).into_iter().map(Event::System));
+                    Event::System(system::Event::Tick)
+                }
+                i = self.lanes.recv() => match i? {
+                    Input::Operator(q) if Key::parse(q.key_expr().as_str()) == Some(Key::SystemJournal) => {
+                        answer_journal(&self.mesh, self.journal.as_ref(), q).await;
+                        continue;
+                    }
+                    Input::Operator(q) => match self.io.operator(q).await {
+                        Some(e) => e,
+                        None => continue,
+                    },
+                    Input::Advice(q) => Event::Advice { query: self.io.hold(q) },
+                    Input::Sample(s) => match decode(&self.mesh, &s) {
+                        Some(e) => e,
+                        None => continue,
+                    },
+                    Input::Event(e) => Event::System(e),
+                },
+            };
+            return Some(event);
+        }
+    }
+}
+
+impl mrmm_core::machine::Node<CentralCore> for Node {
+    async fn next(&mut self, _: &CentralCore) -> Result<Option<(f64, Event)>, ManagerError> {
+        let event = match self.due.pop_front() {
+            Some(e) => e,
+            None => match self.heard().await {
+                Some(Event::System(system::Event::Tick)) if !self.due.is_empty() => {
+                    // The tick after what it made due, as the core has always seen them.
+                    self.due.push_back(Event::System(system::Event::Tick));
+                    self.due.pop_front().expect("due is not empty")
+                }
+                Some(e) => e,
+                None => return Ok(None),
+            },
+        };
+        self.step = Some((event.kind(), Instant::now(), Duration::ZERO));
+        Ok(Some((self.t0.elapsed().as_secs_f64(), event)))
+    }
+
+    async fn decided(&mut self, _: &CentralCore) -> Result<(), ManagerError> {
+        if let Some((_, start, deciding)) = &mut self.step {
+            *deciding = start.elapsed();
+        }
+        Ok(())
+    }
+
+    async fn stepped(&mut self, _: &CentralCore) -> Result<(), ManagerError> {
+        if let Some((kind, start, deciding)) = self.step.take() {
+            self.load.step(kind, deciding, start.elapsed().saturating_sub(deciding));
+        }
+        Ok(())
+    }
+}
