@@ -31,7 +31,6 @@ pub mod observer;
 pub mod robot;
 pub mod timeouts;
 pub mod traffic;
-pub mod wire;
 
 /// Why a request to another node has no result.
 #[derive(Debug, Clone, PartialEq)]

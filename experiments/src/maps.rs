@@ -14,9 +14,9 @@ use anyhow::{anyhow, Context};
 use mrmm_core::body::{Body, Limits};
 use mrmm_core::robot::executor::{Command as Exec, Event, Executor};
 use mrmm_maps::{patrolling_sim, Map, NavGraph, Node, Point, Space};
-use mrmm_planner::plan::RobotSpec;
 use mrmm_planner::recipe;
 use mrmm_planner::tsp::{self, Budget, Instance};
+use mrmm_proto::plan::RobotSpec;
 use mrmm_proto::{BarrierMode, PlanAssignment, Pose};
 
 /// Team sizes by default.
@@ -122,7 +122,7 @@ fn one(name: &str, graph: &NavGraph, n: usize, best: f64, seed: u64, turn: f64) 
     let robots: Vec<RobotSpec> = starts
         .iter()
         .enumerate()
-        .map(|(i, p)| RobotSpec { id: format!("r{}", i + 1), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED, turn_rate: None })
+        .map(|(i, p)| RobotSpec { id: format!("r{}", i + 1).into(), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED, turn_rate: None })
         .collect();
     let r = recipe::parse(recipe::bank("patrol").unwrap_or_default())?;
     // The robots turn on the spot at `turn` rad/s: the plan spaces them by time, turns counted.
@@ -134,7 +134,7 @@ fn one(name: &str, graph: &NavGraph, n: usize, best: f64, seed: u64, turn: f64) 
     let recipe::MissionPlan::Patrol(p) = &planned else { anyhow::bail!("a patrol plan") };
     let tour = p.length;
     let bound = best / (n as f64 * SPEED);
-    let mut wire = mrmm_core::wire::mission_plan(&planned);
+    let mut wire = planned.to_wire();
     for (plan, r) in wire.plans.iter_mut().zip(&robots) {
         pace(graph, &mut plan.steps, (r.x, r.y));
     }
@@ -187,7 +187,7 @@ fn on_segment(p: Point, u: Point, v: Point) -> bool {
 /// (the mean over vertices of each one's mean time between visits) and worst idleness (the
 /// longest time between two visits of a vertex), both from the start barrier on.
 fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::RobotPlan>, period: f64, turn: f64) -> anyhow::Result<(f64, f64)> {
-    let ids: Vec<String> = robots.iter().map(|r| r.id.clone()).collect();
+    let ids: Vec<String> = robots.iter().map(|r| r.id.to_string()).collect();
     let mut execs: Vec<Executor> = plans
         .into_iter()
         .map(|plan| {

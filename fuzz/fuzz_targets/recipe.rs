@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mrmm_planner::plan::RobotSpec;
+use mrmm_proto::plan::RobotSpec;
 use mrmm_planner::recipe;
 
 fuzz_target!(|data: &[u8]| {

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use mrmm_planner::geom::Point;
 use mrmm_planner::patrol::{self, PatrolParams};
-use mrmm_planner::plan::RobotSpec;
+use mrmm_proto::plan::RobotSpec;
 
 fn main() {
     let mut sizes: Vec<usize> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
@@ -21,7 +21,7 @@ fn main() {
     for n in sizes {
         let robots: Vec<RobotSpec> = (0..n)
             .map(|i| RobotSpec {
-                id: format!("r{}", i + 1),
+                id: format!("r{}", i + 1).into(),
                 robot_type: "ground".into(),
                 x: ((i % 20) as f64 - 9.5) * 1.5,
                 y: -12.0 - (i / 20) as f64 * 1.5,

@@ -17,8 +17,8 @@ use crate::assign::{self, Costs};
 use crate::error::PlanError;
 use crate::geom::Point;
 use crate::limits;
-use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::region::Region;
+use mrmm_proto::plan::{RobotPlan, RobotSpec, Step};
 
 /// Coverage parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -91,7 +91,7 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
         limits::coordinate("region vertex", p.x, p.y)?;
     }
     let region = params.region.clone().validated()?;
-    RobotSpec::check(robots)?;
+    crate::plan::check(robots)?;
     let (points, radius) = place(&region, robots.len(), params)?;
     let rows: Vec<Vec<f64>> = robots.iter().map(|r| points.iter().map(|p| p.dist(Point::new(r.x, r.y)) / r.speed).collect()).collect();
     let a = assign::bottleneck(&Costs::from_rows(&rows)?);
@@ -291,7 +291,7 @@ mod tests {
     }
 
     fn robots(n: usize) -> Vec<RobotSpec> {
-        (0..n).map(|i| RobotSpec { id: format!("r{i}"), robot_type: "ground".into(), x: i as f64, y: -5.0, speed: 1.0, turn_rate: None }).collect()
+        (0..n).map(|i| RobotSpec { id: format!("r{i}").into(), robot_type: "ground".into(), x: i as f64, y: -5.0, speed: 1.0, turn_rate: None }).collect()
     }
 
     #[test]

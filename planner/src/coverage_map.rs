@@ -12,12 +12,12 @@ use crate::coverage::{hexagonal_bound, CoverageParams, CoveragePlan};
 use crate::error::PlanError;
 use crate::geom::Point;
 use crate::patrol::navigate_through;
-use crate::plan::{RobotPlan, RobotSpec, Step};
+use mrmm_proto::plan::{RobotPlan, RobotSpec, Step};
 
 /// Plans coverage of the map's free space in `params.region` by `robots`; with the plan, each
 /// robot's route to its point (the corners it drives through, its point last).
 pub fn plan_on(params: &CoverageParams, robots: &[RobotSpec], space: &Space) -> Result<(CoveragePlan, Vec<Vec<Point>>), PlanError> {
-    RobotSpec::check(robots)?;
+    crate::plan::check(robots)?;
     let region = params.region.clone().validated()?;
     let robot_nodes = robots.iter().enumerate().map(|(i, r)| space.locate_robot(&r.id, i, Point::new(r.x, r.y))).collect::<Result<Vec<_>, _>>()?;
     // The free space the robots can get to: closed rooms and pockets between walls are not theirs

@@ -65,8 +65,8 @@ pub fn at_most(what: &str, got: usize, max: usize) -> Result<(), PlanError> {
 mod tests {
     use crate::coverage::{self, CoverageParams};
     use crate::geom::Point;
-    use crate::plan::RobotSpec;
     use crate::region::Region;
+    use mrmm_proto::plan::RobotSpec;
 
     /// Found by the `recipe` fuzz target: a region vertex at y = -7.7e76 held the planner for
     /// minutes (precision lost in the geometry); points beyond a million metres are refused.

@@ -6,9 +6,9 @@ use mrmm_maps::{MapError, Node, Space};
 
 use crate::error::PlanError;
 use crate::geom::Point;
-use crate::plan::RobotSpec;
 use crate::polyline::Polyline;
 use crate::tsp::{self, Budget, Instance};
+use mrmm_proto::plan::RobotSpec;
 
 /// A patrol tour on a map.
 #[derive(Debug, Clone)]

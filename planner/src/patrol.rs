@@ -22,9 +22,9 @@ use crate::error::PlanError;
 use crate::geom::{check_distinct, check_finite, Point};
 use crate::limits;
 use crate::onmap::{self, Approach};
-use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::tsp::{self, Budget, Instance, Metric};
 use mrmm_maps::Space;
+use mrmm_proto::plan::{RobotPlan, RobotSpec, Step};
 
 pub use crate::polyline::Polyline;
 
@@ -142,7 +142,7 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
         .map(|((i, r), &slot)| {
             let start_arc = offset + slot as f64 * spacing;
             PatrolAssignment {
-                robot: r.id.clone(),
+                robot: r.id.to_string(),
                 robot_type: r.robot_type.clone(),
                 slot,
                 start: path.at(start_arc),
@@ -185,7 +185,7 @@ fn check_params(params: &PatrolParams, robots: &[RobotSpec]) -> Result<(), PlanE
         return Err(PlanError::TooFewPoints { min: 2, got: wps.len() });
     }
     check_distinct(wps)?;
-    RobotSpec::check(robots)?;
+    crate::plan::check(robots)?;
     if !(params.sync_spacing_max.is_finite() && params.sync_spacing_max > 0.0) {
         return Err(PlanError::Invalid(format!("sync_spacing_max must be positive (got {})", params.sync_spacing_max)));
     }
@@ -308,7 +308,7 @@ impl PatrolAssignment {
         let to = steps.len();
         steps.extend(self.round.iter().cloned());
         steps.push(Step::Loop { to, rounds });
-        RobotPlan { robot: self.robot.clone(), robot_type: self.robot_type.clone(), slot: self.slot, steps, team: String::new() }
+        RobotPlan { robot: self.robot.as_str().into(), robot_type: self.robot_type.clone(), slot: self.slot, steps, team: String::new() }
     }
 
     /// The hold after the start barrier, if any ([`Self::start_hold`]).

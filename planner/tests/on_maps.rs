@@ -7,10 +7,10 @@ use std::path::PathBuf;
 use mrmm_maps::{Bundle, Map, Space};
 use mrmm_planner::coverage::CoverageParams;
 use mrmm_planner::patrol::{self, PatrolParams};
-use mrmm_planner::plan::{RobotSpec, Step};
 use mrmm_planner::recipe::{self, MissionPlan};
 use mrmm_planner::region::Region;
 use mrmm_planner::{coverage_map, Point};
+use mrmm_proto::plan::{RobotSpec, Step};
 use proptest::prelude::*;
 
 fn load(rel: &str) -> Map {

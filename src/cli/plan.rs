@@ -3,8 +3,8 @@
 use std::path::Path;
 
 use anyhow::{anyhow, Context};
-use mrmm_planner::plan::RobotSpec;
 use mrmm_planner::recipe;
+use mrmm_proto::plan::RobotSpec;
 
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -5,8 +5,6 @@ use mrmm_maps::Map;
 use mrmm_planner::recipe::{self, PlannerKind};
 use mrmm_proto::{MissionPlan, PlanRequest};
 
-use crate::wire;
-
 /// Plans a request with the planner library, checking that the recipe is of `kind`; a request
 /// that names a map needs [`plan_on`].
 pub fn plan(kind: PlannerKind, req: &PlanRequest) -> Result<MissionPlan, String> {
@@ -23,9 +21,8 @@ pub fn plan_on(kind: PlannerKind, req: &PlanRequest, map: Option<&Map>) -> Resul
     if r.planner != kind {
         return Err(format!("this is the {} planner; the recipe needs {}", kind.as_str(), r.planner.as_str()));
     }
-    let robots: Vec<_> = req.robots.iter().map(wire::robot_spec).collect();
     let bounds = if req.relax_bounds { recipe::Bounds::Relaxed } else { recipe::Bounds::Strict };
     let caps = req.capabilities.iter().map(|(id, c)| (id.to_string(), c.clone())).collect();
-    let planned = recipe::build_with(&r, &req.params, &robots, &caps, map, bounds).map_err(|e| e.to_string())?;
-    Ok(wire::mission_plan(&planned))
+    let planned = recipe::build_with(&r, &req.params, &req.robots, &caps, map, bounds).map_err(|e| e.to_string())?;
+    Ok(planned.to_wire())
 }

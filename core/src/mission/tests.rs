@@ -31,20 +31,18 @@ fn plan_for(cmds: &[Command]) -> (u64, MissionPlan) {
     };
     let xml = recipe::bank(&request.recipe).unwrap_or(&request.recipe);
     let r = recipe::parse(xml).expect("recipe");
-    let robots: Vec<_> = request.robots.iter().map(crate::wire::robot_spec).collect();
     (
         *epoch,
-        crate::wire::mission_plan(
-            &recipe::build_with(
-                &r,
-                &request.params,
-                &robots,
-                &request.capabilities.iter().map(|(k, v)| (k.to_string(), v.clone())).collect(),
-                None,
-                recipe::Bounds::Relaxed,
-            )
-            .expect("plan"),
-        ),
+        recipe::build_with(
+            &r,
+            &request.params,
+            &request.robots,
+            &request.capabilities.iter().map(|(k, v)| (k.to_string(), v.clone())).collect(),
+            None,
+            recipe::Bounds::Relaxed,
+        )
+        .expect("plan")
+        .to_wire(),
     )
 }
 

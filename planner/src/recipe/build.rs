@@ -11,9 +11,9 @@ use crate::coverage_map;
 use crate::error::PlanError;
 use crate::geom::Point;
 use crate::patrol::{self, PatrolParams, PatrolPlan};
-use crate::plan::{RobotPlan, RobotSpec, Step};
 use crate::region::Region;
 use mrmm_maps::{Map, Space};
+use mrmm_proto::plan::{RobotPlan, RobotSpec, Step};
 
 /// Radius of a robot, metres, unless the recipe's `robot_radius` says otherwise: obstacles of a
 /// map are inflated by it (by [`crate::corner::CORNER_CUT`] at least).
@@ -252,7 +252,13 @@ impl Leaf<'_> {
             .zip(self.robots)
             .map(|(a, rb)| {
                 let x = Expand { approach: &a.approach, round: &a.round, start_hold: a.start_hold(), rounds: self.rounds, space: self.space.as_ref() };
-                Ok(RobotPlan { robot: a.robot.clone(), robot_type: a.robot_type.clone(), slot: a.slot, steps: expand_for(r, rb, &x)?, team: String::new() })
+                Ok(RobotPlan {
+                    robot: a.robot.as_str().into(),
+                    robot_type: a.robot_type.clone(),
+                    slot: a.slot,
+                    steps: expand_for(r, rb, &x)?,
+                    team: String::new(),
+                })
             })
             .collect::<Result<_, PlanError>>()?;
         Ok(MissionPlan::Patrol(plan))

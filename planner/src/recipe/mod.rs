@@ -7,6 +7,7 @@
 mod build;
 mod dom;
 mod teams;
+mod wire;
 
 use std::collections::BTreeMap;
 

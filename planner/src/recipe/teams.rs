@@ -9,7 +9,7 @@ use pathfinding::directed::edmonds_karp::edmonds_karp_sparse;
 use super::dom::{Element, Pos};
 use super::{is_capability, parse_body, parse_requires, planner_kind, Recipe};
 use crate::error::PlanError;
-use crate::plan::RobotSpec;
+use mrmm_proto::plan::RobotSpec;
 
 /// Teams nest at most this deep below the mission (the protocol's `MAX_TEAM_DEPTH`).
 pub const MAX_TEAM_DEPTH: usize = 8;
@@ -280,7 +280,7 @@ pub fn assign_as(r: &Recipe, robots: &[RobotSpec], caps: &BTreeMap<String, Vec<S
     let fits: Vec<Vec<usize>> = robots
         .iter()
         .map(|rb| {
-            let c = caps.get(&rb.id).unwrap_or(&none);
+            let c = caps.get(rb.id.as_str()).unwrap_or(&none);
             (0..leaves.len()).filter(|&l| leaves[l].fits(&rb.robot_type, c)).collect()
         })
         .collect();

@@ -3,13 +3,13 @@
 use std::collections::BTreeMap;
 
 use super::super::*;
-use crate::plan::{RobotSpec, Step};
+use mrmm_proto::plan::{RobotSpec, Step};
 
 fn robots(types: &[&str]) -> Vec<RobotSpec> {
     types
         .iter()
         .enumerate()
-        .map(|(i, t)| RobotSpec { id: format!("r{}", i + 1), robot_type: t.to_string(), x: i as f64 * 2.0, y: -2.0, speed: 1.0, turn_rate: None })
+        .map(|(i, t)| RobotSpec { id: format!("r{}", i + 1).into(), robot_type: t.to_string(), x: i as f64 * 2.0, y: -2.0, speed: 1.0, turn_rate: None })
         .collect()
 }
 

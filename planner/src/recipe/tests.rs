@@ -1,7 +1,7 @@
 //! Recipe tests: the shipped bank, every error with its position, and random input.
 
 use super::*;
-use crate::plan::{RobotSpec, Step};
+use mrmm_proto::plan::{RobotSpec, Step};
 
 const PATROL: &str = include_str!("../../../recipes/patrol.xml");
 const COVERAGE: &str = include_str!("../../../recipes/coverage.xml");
@@ -11,7 +11,7 @@ fn robots(types: &[&str]) -> Vec<RobotSpec> {
         .iter()
         .enumerate()
         .map(|(i, t)| RobotSpec {
-            id: format!("r{}", i + 1),
+            id: format!("r{}", i + 1).into(),
             robot_type: t.to_string(),
             x: i as f64 * 3.0,
             y: -3.0,

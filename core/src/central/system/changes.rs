@@ -17,7 +17,6 @@ use serde_json::{json, Value};
 
 use super::missions::{cheap, param_strings, DryRun};
 use super::{Command, Req, SystemManager, SPEC_SYNC_S};
-use crate::wire;
 
 impl SystemManager {
     /// An update: checked here, dry-run planned by the driver, applied on
@@ -77,7 +76,7 @@ impl SystemManager {
             None => spec.map.as_ref().and_then(|m| self.map_of(m)).map(|h| h.map.clone()),
         };
         let ids: Vec<&RobotId> = self.assignment.iter().filter(|(id, m)| *m == &u.name && self.fleet.alive(id)).map(|(id, _)| id).collect();
-        let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id)).map(|s| wire::robot_spec(&s)).collect();
+        let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id)).collect();
         let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
         if robots.is_empty() {
             return Err(ErrorReply::conflict(format!("mission {} has no live robot to plan for: add robots first", u.name)));

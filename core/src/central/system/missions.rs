@@ -14,7 +14,6 @@ use serde_json::{json, Value};
 use super::dry_runs::Checking;
 use super::{recovery, to_value, Command, MissionDef, MissionRecord, PendingStart, Req, SystemManager, RESTART_RETRY_S};
 use crate::mission::MissionSpec;
-use crate::wire;
 use crate::Failure;
 
 /// The parameters of a dry run: `params` with little planning effort.
@@ -59,7 +58,7 @@ struct Checked {
     steal: Vec<(RobotId, MissionName)>,
     /// The parameters of the dry run (little effort) and its robots.
     dry: BTreeMap<String, String>,
-    planner_robots: Vec<mrmm_planner::plan::RobotSpec>,
+    planner_robots: Vec<mrmm_proto::plan::RobotSpec>,
     caps: BTreeMap<String, Vec<String>>,
     map: Option<std::sync::Arc<mrmm_maps::Map>>,
 }
@@ -77,7 +76,7 @@ pub struct DryRun {
     pub id: u64,
     pub recipe_xml: String,
     pub params: BTreeMap<String, String>,
-    pub robots: Vec<mrmm_planner::plan::RobotSpec>,
+    pub robots: Vec<mrmm_proto::plan::RobotSpec>,
     /// The robots' capabilities (what puts them in a recipe's teams).
     pub caps: BTreeMap<String, Vec<String>>,
     /// The mission's map.
@@ -250,7 +249,7 @@ impl SystemManager {
         // Dry run with little effort: catches bad waypoints, regions and parameters now.
         let dry = cheap(&r, &params);
         let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
-        let planner_robots: Vec<_> = specs.iter().map(wire::robot_spec).collect();
+        let planner_robots = specs.clone();
         let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
         if replicas > proto::MAX_REPLICAS {
             return Err(ErrorReply::invalid(format!("replicas: at most {} (got {replicas})", proto::MAX_REPLICAS)));
