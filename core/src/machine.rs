@@ -3,11 +3,13 @@
 //! chain store: `mrmm-manager`) or the simulation's (`mrmm-sim`), which run this same code.
 //!
 //! # Order
-//! A step's commands are of two kinds ([`Effect`]): what the node must **persist**, and what it
-//! **carries out** (publishes, replies, asks, timers). Everything one step persists is written
-//! and synced before anything of that step leaves the node, in one batch, in the machine's order
-//! (raft-rs's `Ready`: a node that said "ok" must still know it after a crash). The rest follows
-//! in the machine's order. A runtime that cannot persist stops the step, and its node: it must
+//! Every command has a typed effect ([`Effect`]): what the node must **persist**, what it
+//! **publishes**, **asks** another node, **replies** to a question it was asked, and what stays
+//! in the node (**local**: its body, its declarations, its log, a job off its loop whose result
+//! comes back as an event). Everything one step persists is written and synced before anything
+//! of that step leaves the node, in one batch, in the machine's order (raft-rs's `Ready`: a node
+//! that said "ok" must still know it after a crash). The rest follows in the machine's order.
+//! No machine sets a timer: time reaches it as events (ticks) its node makes. A runtime that cannot persist stops the step, and its node: it must
 //! restart from what is on disk rather than say what is not there.
 
 use std::future::Future;
@@ -19,20 +21,30 @@ pub trait Machine {
 
     fn handle(&mut self, now: f64, event: Self::Event) -> Vec<Self::Command>;
 
-    /// What `command` is to the driver (default: carried out).
-    fn effect(command: &Self::Command) -> Effect {
-        let _ = command;
-        Effect::Carry
-    }
+    /// What `command` does (the simulation checks that it does nothing else).
+    fn effect(command: &Self::Command) -> Effect;
 }
 
-/// What a command is to the driver.
+/// What a command does, to the driver.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Effect {
     /// Written and synced before anything of its step leaves the node.
     Persist,
-    /// Carried out after the step's persists, in the machine's order.
-    Carry,
+    /// A publication on a key (whoever subscribes hears it).
+    Publish,
+    /// A question to another node; its answer (or its failure) comes back as an event.
+    Ask,
+    /// The answer to a question this node was asked (or the question let go).
+    Reply,
+    /// What stays in the node: its body, its declarations, its log, a job off its loop.
+    Local,
+}
+
+impl Effect {
+    /// Whether the command leaves the node on the network.
+    pub fn leaves(self) -> bool {
+        matches!(self, Effect::Publish | Effect::Ask | Effect::Reply)
+    }
 }
 
 /// One step's commands in the contract's order.
@@ -140,7 +152,7 @@ mod tests {
             if *c < 0 {
                 Effect::Persist
             } else {
-                Effect::Carry
+                Effect::Publish
             }
         }
     }

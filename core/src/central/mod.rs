@@ -266,9 +266,17 @@ impl crate::machine::Machine for CentralCore {
 
     /// The system manager's journal entries are written before anything else of their step.
     fn effect(command: &Command) -> crate::machine::Effect {
+        use crate::machine::Effect;
+        use system::Command as S;
         match command {
-            Command::System(system::Command::Journal(_)) => crate::machine::Effect::Persist,
-            _ => crate::machine::Effect::Carry,
+            Command::System(S::Journal(_)) => Effect::Persist,
+            Command::System(S::FetchInfo { .. } | S::SendToRobot { .. } | S::StartMission { .. } | S::Ctl { .. } | S::Forward { .. }) => Effect::Ask,
+            Command::System(S::Reply { .. }) => Effect::Reply,
+            Command::System(S::Chain { .. }) | Command::Publish(_) => Effect::Publish,
+            // A refusal is logged; a dry run is planned off the loop, its result an event.
+            Command::System(S::Refused(_) | S::DryRun(_)) => Effect::Local,
+            Command::Traffic(authority::Command::Order { .. }) => Effect::Publish,
+            Command::Traffic(authority::Command::Blocked { .. }) => Effect::Local,
         }
     }
 }

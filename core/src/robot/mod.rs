@@ -468,9 +468,14 @@ impl crate::machine::Machine for Robot {
 
     /// Capabilities changed by the operator are kept before the change is acknowledged.
     fn effect(command: &Command) -> crate::machine::Effect {
+        use crate::machine::Effect;
         match command {
-            Command::KeepCapabilities { .. } => crate::machine::Effect::Persist,
-            _ => crate::machine::Effect::Carry,
+            Command::KeepCapabilities { .. } => Effect::Persist,
+            // A refusal is answered too (and counted).
+            Command::Reply(_) | Command::Refuse(_) => Effect::Reply,
+            Command::Publish(_) | Command::PublishIn(..) | Command::Release(_) | Command::Telemetry(_) | Command::TrafficReport { .. } => Effect::Publish,
+            // The team's subscriptions, the body, the log, the process.
+            Command::JoinTeam { .. } | Command::LeaveTeam | Command::Lead(_) | Command::Drive(_) | Command::Nav(_) | Command::Crash => Effect::Local,
         }
     }
 }

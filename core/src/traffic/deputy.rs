@@ -288,6 +288,14 @@ impl crate::machine::Machine for Deputy {
     fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
         Deputy::handle(self, now, event)
     }
+
+    /// A deputy keeps nothing: it publishes the orders it gives; the rest is its log.
+    fn effect(command: &Command) -> crate::machine::Effect {
+        match command {
+            Command::Authority(authority::Command::Order { .. }) => crate::machine::Effect::Publish,
+            Command::Authority(authority::Command::Blocked { .. }) | Command::TookOver { .. } | Command::SteppedDown { .. } => crate::machine::Effect::Local,
+        }
+    }
 }
 
 #[cfg(test)]

@@ -1,7 +1,8 @@
 //! The production driver's step ([`mrmm_core::machine`]) over the simulation's runtime: what a
 //! node persists goes to its simulated disk, the rest into the world (publications, replies,
-//! questions). The runtime checks the driver's order: nothing of a step leaves its node before
-//! what the step persists is written.
+//! questions). The runtime checks the driver's order — nothing of a step leaves its node before
+//! what the step persists is written — and each command's typed effect: one the machine says
+//! does not publish (or ask) publishes (or asks) nothing.
 
 use std::future::Future;
 use std::marker::PhantomData;
@@ -72,7 +73,15 @@ where
             let what: String = format!("{c:?}").chars().take(80).collect();
             return Err(format!("{} carried out {what} before {}", self.world.nodes[self.node].name, M::KEPT));
         }
+        let effect = M::effect(&c);
+        let before = (self.world.published, self.world.next_qid);
+        let what: String = format!("{c:?}").chars().take(80).collect();
         self.down = !M::carry(self.world, self.node, c)?;
+        let (published, asked) = (self.world.published > before.0, self.world.next_qid > before.1);
+        if (published && effect != Effect::Publish) || (asked && effect != Effect::Ask) {
+            let did = if published { "published" } else { "asked" };
+            return Err(format!("{} {did} on {what}, a command whose effect is {effect:?}", self.world.nodes[self.node].name));
+        }
         Ok(())
     }
 }

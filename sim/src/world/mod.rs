@@ -193,6 +193,9 @@ pub struct World {
     queue: Queue<Ev>,
     queries: BTreeMap<u64, Pending>,
     next_qid: u64,
+    /// Publications made, lost or not (what a command classified as no publication must not
+    /// change: `driver.rs`).
+    published: u64,
     inv: Invariants,
     op: Operator,
     /// OneMission: the operator's controls, and the team it wants.
@@ -268,6 +271,7 @@ impl World {
             queue: Queue::new(),
             queries: BTreeMap::new(),
             next_qid: 0,
+            published: 0,
             inv: Invariants::default(),
             op: Operator::default(),
             ctls: Ctls::default(),

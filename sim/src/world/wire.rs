@@ -40,6 +40,7 @@ impl World {
     /// (after the network's delay, unless the network loses it), as Zenoh would deliver it.
     pub(super) fn publish(&mut self, i: usize, out: Out) {
         self.report.sent += 1;
+        self.published += 1;
         let msg = Wire { key: out.key.to_string(), payload: out.payload, put: true, from: Some(self.sender(i)) };
         let system = central::subscriptions();
         for j in 0..self.nodes.len() {

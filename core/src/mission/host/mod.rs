@@ -372,9 +372,14 @@ impl crate::machine::Machine for HostCore {
 
     /// What a durable host's chains must remember is written before anything of its step leaves.
     fn effect(command: &Command) -> crate::machine::Effect {
+        use crate::machine::Effect;
         match command {
-            Command::Persist { .. } => crate::machine::Effect::Persist,
-            _ => crate::machine::Effect::Carry,
+            Command::Persist { .. } => Effect::Persist,
+            Command::Chain { .. } | Command::Status(_) => Effect::Publish,
+            Command::RequestPlan { .. } | Command::SendPlan { .. } => Effect::Ask,
+            Command::Reply { .. } | Command::Drop { .. } => Effect::Reply,
+            // Queryables declared or undeclared; a refusal logged.
+            Command::Serve { .. } | Command::Unserve { .. } | Command::Refused(_) => Effect::Local,
         }
     }
 }
