@@ -208,7 +208,7 @@ async fn child(a: &[String]) -> anyhow::Result<()> {
                     // As robots do: sealed by the robot it names, or dropped.
                     let Some(from) = m.sender_of("sync arrival", &s) else { continue };
                     if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &s.payload().to_bytes()) {
-                        if from.is(Role::Robot, &a.robot) {
+                        if from.is(Role::Robot, a.robot.as_str()) {
                             barrier.arrival(&a);
                         }
                     }

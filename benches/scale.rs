@@ -541,7 +541,7 @@ async fn run(n: usize, lease: u64, rate: u64, sites: usize, insecure: bool, quic
             // Moving, or already at a goal it stood next to (a coverage point by its start): its
             // plan is past the first step.
             let started = t.behaviour != proto::Behaviour::Hold || t.progress.as_ref().is_some_and(|p| p.step > 0);
-            if members.contains(t.id.as_str()) && t.mission.as_deref().is_some_and(|m| missions.contains(&m)) && started {
+            if members.contains(t.id.as_str()) && t.mission.as_ref().map(|x| x.as_str()).is_some_and(|m| missions.contains(&m)) && started {
                 moving.insert(t.id.to_string());
             }
         }

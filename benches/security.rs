@@ -203,7 +203,7 @@ async fn barrier(sec: Sec<'_>, n: usize, rounds: u32) -> anyhow::Result<(f64, f6
                         // As robots do: sealed by the robot it names, or dropped.
                         let Some(from) = m.sender_of("sync arrival", &smp) else { continue };
                         if let Ok(a) = proto::from_json::<SyncArrival>("arrival", &smp.payload().to_bytes()) {
-                            if from.is(Role::Robot, &a.robot) {
+                            if from.is(Role::Robot, a.robot.as_str()) {
                                 barrier.arrival(&a);
                             }
                         }
@@ -298,7 +298,7 @@ async fn telemetry(sec: Sec<'_>) -> anyhow::Result<f64> {
         while let Ok(s) = sub.recv_async().await {
             let Some(from) = h.sender_of("telemetry", &s) else { continue };
             if let Ok(t) = proto::decode_telemetry(&s.payload().to_bytes()) {
-                if from.is(Role::Robot, &t.id) {
+                if from.is(Role::Robot, t.id.as_str()) {
                     c.fetch_add(1, Ordering::Relaxed);
                 }
             }

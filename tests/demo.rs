@@ -103,7 +103,7 @@ async fn demo_runs_a_fleet_of_several_sites() -> anyhow::Result<()> {
         m.into_iter().find(|m| m.planner == "patrol" && m.metrics.sync_points_passed >= 2)
     })
     .await?;
-    let sites: std::collections::BTreeSet<String> = patrol.robots.iter().map(|r| connect(r)).collect();
+    let sites: std::collections::BTreeSet<String> = patrol.robots.iter().map(|r| connect(r.as_str())).collect();
     assert!(sites.len() >= 2, "the patrol spans sites: {:?} → {sites:?}", patrol.robots);
     client.close().await;
     demo.signal("INT")?;

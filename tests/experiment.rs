@@ -140,7 +140,7 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     // 6. The robot restarts, connecting to its peers only (central is still down), and rejoins.
     let mut connect: Vec<String> = robots.iter().filter(|r| r.name != victim).filter_map(|r| r.field("listening")).collect();
     connect.push(ep.clone());
-    robots[i] = common::start_robot_with(&dir, &victim, &connect, 3.0, -3.0, 10.0)?;
+    robots[i] = common::start_robot_with(&dir, victim.as_str(), &connect, 3.0, -3.0, 10.0)?;
     let v = status_where(&statuses, "the robot back in the mission", Duration::from_secs(20), |v| {
         v.robots.iter().any(|r| *r == victim.as_str()) && v.manager.epoch > short_epoch && v.status == MissionStatus::Running
     })
@@ -161,7 +161,7 @@ async fn the_papers_seven_steps() -> anyhow::Result<()> {
     assert_eq!(m.manager.epoch, v.manager.epoch, "central's return does not disturb the running plans");
     let rv = eventually("central seeing every robot in the mission", Duration::from_secs(20), || async {
         let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
-        (v.len() == 4 && v.iter().all(|r| r.mission.as_deref() == Some("p"))).then_some(v)
+        (v.len() == 4 && v.iter().all(|r| r.mission.as_ref().map(|x| x.as_str()) == Some("p"))).then_some(v)
     })
     .await?;
     println!("step 7: central back; robots {:?}", rv.iter().map(|r| &r.id).collect::<Vec<_>>());

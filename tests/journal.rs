@@ -187,7 +187,7 @@ async fn a_power_cycle_with_a_robot_that_stays_down_runs_its_mission_with_the_ot
         let m = p(missions(&client).await)?;
         let moving = robots(&client).await.iter().any(|r| {
             r.id == "r3"
-                && r.mission.as_deref() == Some("p")
+                && r.mission.as_ref().map(|x| x.as_str()) == Some("p")
                 && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync") || b.contains("step"))
         });
         (m.robots == ["r1", "r2", "r3"] && moving).then_some(())
@@ -449,7 +449,7 @@ async fn robots_with_state_dirs_all_killed_at_once_bring_back_the_mission_they_l
     let mut all: Vec<&mut Proc> = rs.iter_mut().collect();
     kill_all(&mut all)?;
     eventually("central to see p without a manager", Duration::from_secs(10), || async {
-        missions(&client).await.into_iter().find(|m| m.name == "p" && m.manager.node.is_empty()).map(|_| ())
+        missions(&client).await.into_iter().find(|m| m.name == "p" && m.manager.node.as_str().is_empty()).map(|_| ())
     })
     .await
     .ok();
@@ -472,7 +472,7 @@ async fn robots_with_state_dirs_all_killed_at_once_bring_back_the_mission_they_l
     let after = eventually("p running again under a chain of its robots", Duration::from_secs(30), || async {
         missions(&client).await.into_iter().find(|m| {
             m.name == "p"
-                && !m.manager.node.is_empty()
+                && !m.manager.node.as_str().is_empty()
                 && m.manager.chain_epoch > before.manager.chain_epoch
                 && m.robots.len() == 3
                 && m.metrics.sync_points_passed >= 1
@@ -523,7 +523,7 @@ async fn inner_two_node_chain() -> anyhow::Result<()> {
     let after = eventually("p managed again under a newer chain epoch, past more barriers", Duration::from_secs(30), || async {
         missions(&client).await.into_iter().find(|m| {
             m.name == "p"
-                && !m.manager.node.is_empty()
+                && !m.manager.node.as_str().is_empty()
                 && m.manager.chain_epoch > before.manager.chain_epoch
                 && m.robots == ["r1"]
                 && m.metrics.sync_points_passed > before.metrics.sync_points_passed

@@ -128,7 +128,7 @@ async fn a_restarted_central_adopts_the_missions_of_surviving_hosts() -> anyhow:
     .await?;
     assert_eq!(m.manager.node, "h2");
     let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
-    assert!(v.iter().all(|r| r.mission.as_deref() == Some("p")), "{v:?}");
+    assert!(v.iter().all(|r| r.mission.as_ref().map(|x| x.as_str()) == Some("p")), "{v:?}");
     let before = m.metrics.sync_points_passed;
     eventually("the team still passing barriers", Duration::from_secs(20), || async {
         let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
@@ -162,7 +162,7 @@ async fn a_mission_whose_chain_lost_its_majority_while_central_runs_is_started_a
     })
     .await?;
     let replica = before.manager.chain[1].clone();
-    let i: usize = replica.strip_prefix('r').and_then(|n| n.parse().ok()).ok_or_else(|| anyhow::anyhow!("replica {replica} is not a robot"))?;
+    let i: usize = replica.as_str().strip_prefix('r').and_then(|n| n.parse().ok()).ok_or_else(|| anyhow::anyhow!("replica {replica} is not a robot"))?;
     let mut alive: Vec<String> = ["r1", "r2", "r3"].iter().filter(|r| **r != replica).map(|r| r.to_string()).collect();
     alive.sort();
     host.kill();

@@ -48,8 +48,10 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     assert_eq!(created.robots, ["r1", "r2", "r3", "r4"]);
     eventually("all patrol robots moving", Duration::from_secs(10), || async {
         let v = robots(&client).await;
-        let moving =
-            v.iter().filter(|r| r.mission.as_deref() == Some("p") && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync"))).count();
+        let moving = v
+            .iter()
+            .filter(|r| r.mission.as_ref().map(|x| x.as_str()) == Some("p") && r.behaviour.as_deref().is_some_and(|b| b.contains("goto") || b.contains("sync")))
+            .count();
         (moving == 4).then_some(())
     })
     .await?;
@@ -101,7 +103,7 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     assert_eq!(c.manager.epoch, 2);
     eventually("r4 executing the coverage plan", Duration::from_secs(10), || async {
         let v: RobotView = client.query(proto::Key::SystemRobot("r4".into()), None::<&()>).await.ok()?;
-        (v.mission.as_deref() == Some("c") && v.behaviour.as_deref().is_some_and(|b| b.starts_with("step"))).then_some(())
+        (v.mission.as_ref().map(|x| x.as_str()) == Some("c") && v.behaviour.as_deref().is_some_and(|b| b.starts_with("step"))).then_some(())
     })
     .await?;
 

@@ -258,7 +258,7 @@ fn scenario(net: &Net, dir: &Scratch) -> anyhow::Result<()> {
     let epoch = m.manager.epoch;
     let robots = eventually("every robot in the mission", Duration::from_secs(20), || {
         let v: Vec<RobotView> = op(&net.a, &central_ep, &["robots"]).ok()?;
-        v.iter().all(|r| r.mission.as_deref() == Some("p")).then_some(v)
+        v.iter().all(|r| r.mission.as_ref().map(|x| x.as_str()) == Some("p")).then_some(v)
     })?;
     assert_eq!(robots.len(), 4);
     // Barriers counted for the team only count when every member reports progress on this epoch.

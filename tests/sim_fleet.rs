@@ -59,8 +59,10 @@ async fn robots_of_one_process_are_peers_of_their_own_and_crash_one_by_one() -> 
     writeln!(stdin, "kill {victim}")?;
     let killed = lines.recv_timeout(Duration::from_secs(10))?;
     assert_eq!(killed, format!("robot killed id={victim}"));
-    eventually("the crashed robot lost", Duration::from_secs(10), || async { (status_of(&client, &victim).await == Some(RobotStatus::Lost)).then_some(()) })
-        .await?;
+    eventually("the crashed robot lost", Duration::from_secs(10), || async {
+        (status_of(&client, victim.as_str()).await == Some(RobotStatus::Lost)).then_some(())
+    })
+    .await?;
     eventually("the patrol planned without it", Duration::from_secs(30), || async {
         let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
         (m.plans.as_ref().is_some_and(|p| p.len() == 2 && p.iter().all(|r| r.robot != victim)) && m.manager.epoch > before.manager.epoch).then_some(())
@@ -71,8 +73,10 @@ async fn robots_of_one_process_are_peers_of_their_own_and_crash_one_by_one() -> 
     writeln!(stdin, "start {victim}")?;
     let again = lines.recv_timeout(Duration::from_secs(20))?;
     assert!(again.starts_with(&format!("robot ready id={victim} ")), "{again}");
-    eventually("the robot back", Duration::from_secs(15), || async { status_of(&client, &victim).await.is_some_and(|s| s != RobotStatus::Lost).then_some(()) })
-        .await?;
+    eventually("the robot back", Duration::from_secs(15), || async {
+        status_of(&client, victim.as_str()).await.is_some_and(|s| s != RobotStatus::Lost).then_some(())
+    })
+    .await?;
     let lost: Vec<String> = common::journal(&client)
         .await?
         .into_iter()

@@ -257,7 +257,7 @@ fn scenario(sites: &Sites, dir: &Scratch) -> anyhow::Result<()> {
             "r_a" => None,
             _ => Some("span"),
         };
-        ensure!(r.mission.as_deref() == want, "{} is in {:?} after the heal, not {want:?}", r.id, r.mission);
+        ensure!(r.mission.as_ref().map(|x| x.as_str()) == want, "{} is in {:?} after the heal, not {want:?}", r.id, r.mission);
     }
     Ok(())
 }

@@ -83,7 +83,7 @@ impl Fleet {
         robots.sort_by(|a, b| a.id.cmp(&b.id));
         robots.truncate(MAX_ROBOTS);
         // Live poses of robots central no longer lists are forgotten.
-        self.live.retain(|id, _| robots.binary_search_by(|r| r.id.as_str().cmp(id)).is_ok());
+        self.live.retain(|id, _| robots.binary_search_by(|r| r.id.as_str().cmp(id.as_str())).is_ok());
         self.robots = robots;
         self.missions = missions;
         self.advice = advice;
@@ -103,7 +103,7 @@ impl Fleet {
     /// A robot's telemetry (its sender already proven to be that robot). Kept only for robots
     /// central lists, and only when newer than what is kept.
     pub fn telemetry(&mut self, t: &Telemetry) {
-        if self.robots.binary_search_by(|r| r.id.as_str().cmp(&t.id)).is_err() {
+        if self.robots.binary_search_by(|r| r.id.as_str().cmp(t.id.as_str())).is_err() {
             return;
         }
         if !(t.pose.x.is_finite() && t.pose.y.is_finite() && t.pose.theta.is_finite()) {

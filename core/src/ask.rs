@@ -40,7 +40,7 @@ impl Answerer {
     /// Whether an answer proven from `s` counts.
     pub fn admits(&self, s: &Sender) -> bool {
         match self {
-            Answerer::Robot(id) => s.is(Role::Robot, id),
+            Answerer::Robot(id) => s.is(Role::Robot, id.as_str()),
             Answerer::Host(node) => s.id == *node && s.role.hosts_missions(),
             Answerer::Managers(nodes) => s.role.hosts_missions() && nodes.iter().any(|n| *n == s.id),
             Answerer::Planner => mrmm_proto::policy::allows(mrmm_proto::policy::Act::PlanAnswer, s.role, mrmm_proto::policy::Relation::Stranger),

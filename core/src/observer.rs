@@ -56,10 +56,10 @@ pub fn observe(m: Incoming<'_>) -> Result<Seen, Refused> {
     let proven = |what: &'static str| m.from.cloned().ok_or(Refused::Unproven { what });
     let entitled = |p: Publication<'_>, from: mrmm_proto::Sender| may_publish(p, &from).map_err(|what| Refused::NotEntitled { from, what });
     match Key::parse(m.key) {
-        Some(Key::RobotTelemetry(id)) => Ok(Seen::Telemetry(Box::new(edge::telemetry(&m, &id)?))),
+        Some(Key::RobotTelemetry(id)) => Ok(Seen::Telemetry(Box::new(edge::telemetry(&m, id.as_str())?))),
         Some(Key::MissionStatus(name)) => {
-            let (view, from) = edge::mission_status(&m, &name)?;
-            entitled(Publication::Status { manager: &view.manager.node }, from)?;
+            let (view, from) = edge::mission_status(&m, name.as_str())?;
+            entitled(Publication::Status { manager: view.manager.node.as_str() }, from)?;
             Ok(Seen::Mission(Box::new(view)))
         }
         Some(Key::AgentAdviceLive) => {
@@ -71,13 +71,13 @@ pub fn observe(m: Incoming<'_>) -> Result<Seen, Refused> {
         Some(Key::TeamSync { team, .. }) => {
             let from = proven("barrier arrival")?;
             let arrival: SyncArrival = json("barrier arrival", m.payload)?;
-            entitled(Publication::Arrival(&arrival.robot), from)?;
+            entitled(Publication::Arrival(arrival.robot.as_str()), from)?;
             Ok(Seen::Arrival { team, arrival })
         }
         Some(Key::TeamRelease { team, .. }) => {
             let from = proven("barrier release")?;
             let release: SyncRelease = json("barrier release", m.payload)?;
-            entitled(Publication::Release(&release.leader), from)?;
+            entitled(Publication::Release(release.leader.as_str()), from)?;
             Ok(Seen::Release { team, release })
         }
         _ => Err(Refused::Unexpected { key: m.key.chars().take(200).collect() }),

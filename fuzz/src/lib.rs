@@ -128,7 +128,7 @@ impl Central {
                 match c {
                     system::Command::StartMission { host, start } => queue.push_back(system::Event::MissionStarted {
                         mission: start.spec.name.clone(),
-                        result: Ok(Box::new(started_view(&host, &start))),
+                        result: Ok(Box::new(started_view(host.as_str(), &start))),
                     }),
                     system::Command::Ctl { id, .. } => queue.push_back(system::Event::CtlDone { id, result: Ok(()) }),
                     system::Command::DryRun(dry) => queue.push_back(system::Event::DryRunDone { id: dry.id, result: dry.run() }),

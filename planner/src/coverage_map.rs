@@ -19,7 +19,7 @@ use mrmm_proto::plan::{RobotPlan, RobotSpec, Step};
 pub fn plan_on(params: &CoverageParams, robots: &[RobotSpec], space: &Space) -> Result<(CoveragePlan, Vec<Vec<Point>>), PlanError> {
     crate::plan::check(robots)?;
     let region = params.region.clone().validated()?;
-    let robot_nodes = robots.iter().enumerate().map(|(i, r)| space.locate_robot(&r.id, i, Point::new(r.x, r.y))).collect::<Result<Vec<_>, _>>()?;
+    let robot_nodes = robots.iter().enumerate().map(|(i, r)| space.locate_robot(r.id.as_str(), i, Point::new(r.x, r.y))).collect::<Result<Vec<_>, _>>()?;
     // The free space the robots can get to: closed rooms and pockets between walls are not theirs
     // to cover.
     let reach = space.field_of(&robot_nodes);

@@ -109,7 +109,7 @@ impl<'a> Approach<'a> {
     /// Prepares the distances from every robot to every corner of `path` (one search per robot).
     pub fn new(space: Option<&'a Space>, robots: &[RobotSpec], path: &Polyline) -> Result<Self, PlanError> {
         let Some(space) = space else { return Ok(Approach::Plane) };
-        let nodes = robots.iter().enumerate().map(|(i, r)| space.locate_robot(&r.id, i, Point::new(r.x, r.y))).collect::<Result<Vec<_>, _>>()?;
+        let nodes = robots.iter().enumerate().map(|(i, r)| space.locate_robot(r.id.as_str(), i, Point::new(r.x, r.y))).collect::<Result<Vec<_>, _>>()?;
         let corners = path.points.iter().enumerate().map(|(i, &p)| space.locate_robot("corner", i, p)).collect::<Result<Vec<_>, _>>()?;
         let d = space.distances(&nodes, &corners);
         Ok(Approach::Map { space, robots: nodes, corners, d })

@@ -45,7 +45,7 @@ impl Config {
     }
     /// Whether `votes` hold a strict majority of this chain.
     pub fn majority(&self, votes: impl Fn(&str) -> bool) -> bool {
-        2 * self.chain.iter().filter(|n| votes(n)).count() > self.chain.len()
+        2 * self.chain.iter().filter(|n| votes(n.as_str())).count() > self.chain.len()
     }
 }
 

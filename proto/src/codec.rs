@@ -130,7 +130,7 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
     if !(t.pose.x.is_finite() && t.pose.y.is_finite() && t.pose.theta.is_finite()) {
         return Err(ProtoError::decode("telemetry", "non-finite pose"));
     }
-    crate::keys::validate_id(&t.id).map_err(|e| ProtoError::decode("telemetry", e))?;
+    crate::keys::validate_id(t.id.as_str()).map_err(|e| ProtoError::decode("telemetry", e))?;
     Ok(t)
 }
 

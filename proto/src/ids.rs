@@ -1,11 +1,12 @@
 //! Typed ids: a robot's id, a mission's name and a node's Zenoh id are different things that
 //! happen to be spelled as strings. Each is a newtype over `String`, serialized as the bare
-//! string (the wire is unchanged), borrowed as `&str` (a map keyed by one is searched with a
-//! `&str`) and compared with strings, so that tables and tests read naturally.
+//! string (the wire is unchanged) and compared with strings, so that tables and tests read
+//! naturally; a map keyed by one is searched with a `&str` (`Borrow<str>`). An id is not a
+//! string: it does not dereference to one (`as_str()` says where a string is wanted), so a
+//! robot's id cannot be passed where a mission's name is expected without anyone writing it.
 
 use std::borrow::Borrow;
 use std::fmt;
-use std::ops::Deref;
 
 use serde::{Deserialize, Serialize};
 
@@ -39,13 +40,6 @@ macro_rules! id_type {
         impl fmt::Display for $name {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 f.write_str(&self.0)
-            }
-        }
-
-        impl Deref for $name {
-            type Target = str;
-            fn deref(&self) -> &str {
-                &self.0
             }
         }
 

@@ -175,7 +175,7 @@ impl RobotInfo {
     /// Checks what a robot says about itself before anyone relies on it: its names, a bounded
     /// list of valid capabilities, speeds and a time scale within bounds that keep plans finite.
     pub fn check(&self) -> Result<(), String> {
-        crate::validate_id(&self.id).map_err(|e| e.to_string())?;
+        crate::validate_id(self.id.as_str()).map_err(|e| e.to_string())?;
         crate::validate_id(&self.robot_type).map_err(|_| format!("type {:?}: not an id", self.robot_type))?;
         check_capabilities(&self.capabilities)?;
         if !(self.max_speed.is_finite() && (MIN_SPEED..=MAX_SPEED).contains(&self.max_speed)) {

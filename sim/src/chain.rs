@@ -446,7 +446,7 @@ impl Sim {
         for c in cmds {
             match c {
                 Command::Send { to, msg } => {
-                    let Some(j) = to.strip_prefix('n').and_then(|s| s.parse::<usize>().ok()).filter(|j| *j < self.nodes.len()) else {
+                    let Some(j) = to.as_str().strip_prefix('n').and_then(|s| s.parse::<usize>().ok()).filter(|j| *j < self.nodes.len()) else {
                         return Err(format!("message to unknown node {to}"));
                     };
                     if self.rng.gen_bool(self.w.loss.min(1.0)) {

@@ -61,7 +61,7 @@ impl Invariants {
         let name = core.node();
         let mut now_leading = BTreeSet::new();
         for (mission, _) in core.heads() {
-            let Some(r) = core.replica(mission) else { continue };
+            let Some(r) = core.replica(mission.as_str()) else { continue };
             let (Some(config), Some(state)) = (r.config(), r.state()) else { continue };
             if r.is_head() {
                 let key = (mission.clone(), config.epoch);
@@ -175,7 +175,7 @@ impl Invariants {
             } else {
                 self.arrivals.get(&(a.team.clone(), a.epoch, m.clone())).is_some_and(|f| *f >= at)
             };
-            if !there && !e.barrier().is_gone(m) {
+            if !there && !e.barrier().is_gone(m.as_str()) {
                 return Err(format!("{leader} released barrier (round {}, point {}) of {} epoch {} before {m} arrived there", at.0, at.1, a.team, a.epoch));
             }
         }
@@ -202,7 +202,7 @@ impl Invariants {
             }
             for m in members.iter().filter(|m| *m != robot) {
                 let there = self.arrivals.get(&(team.to_string(), a.epoch, m.clone())).is_some_and(|f| *f >= mine);
-                if !there && !b.is_gone(m) {
+                if !there && !b.is_gone(m.as_str()) {
                     return Err(format!("{robot} passed barrier (round {}, point {}) of {team} epoch {} before {m} arrived there", mine.0, mine.1, a.epoch));
                 }
             }

@@ -33,7 +33,7 @@ pub fn robots(views: &[RobotView]) -> String {
                 v.id.to_string(),
                 v.robot_type.clone(),
                 v.status.as_str().to_string(),
-                v.mission.as_deref().unwrap_or("-").to_string(),
+                v.mission.as_ref().map(|x| x.as_str()).unwrap_or("-").to_string(),
                 v.behaviour.clone().unwrap_or_else(|| "-".into()),
                 pose,
                 v.capabilities.join(","),

@@ -89,7 +89,7 @@ impl View {
 
     pub(crate) fn robot(&mut self, t: &Telemetry) {
         self.now();
-        let [r, g, b] = self.color(t.mission.as_deref());
+        let [r, g, b] = self.color(t.mission.as_ref().map(|x| x.as_str()));
         let color = rerun::Color::from_rgb(r, g, b);
         let p = [t.pose.x as f32, t.pose.y as f32];
         let team = self.teams.get(&t.id).cloned();
@@ -98,16 +98,16 @@ impl View {
             (Some(m), None) => format!("{} · {m}", t.id),
             _ => t.id.to_string(),
         };
-        self.log(&paths::robot(&t.id), &rerun::Points2D::new([p]).with_colors([color]).with_radii([0.5]).with_labels([label]));
+        self.log(&paths::robot(t.id.as_str()), &rerun::Points2D::new([p]).with_colors([color]).with_radii([0.5]).with_labels([label]));
         let dir = [(t.pose.theta.cos() * 1.2) as f32, (t.pose.theta.sin() * 1.2) as f32];
-        self.log(&paths::robot_heading(&t.id), &rerun::Arrows2D::from_vectors([dir]).with_origins([p]).with_colors([color]));
+        self.log(&paths::robot_heading(t.id.as_str()), &rerun::Arrows2D::from_vectors([dir]).with_origins([p]).with_colors([color]));
         let trail = self.trails.entry(t.id.clone()).or_default();
         trail.push_back(p);
         while trail.len() > TRAIL {
             trail.pop_front();
         }
         let strip: Vec<[f32; 2]> = trail.iter().copied().collect();
-        self.log(&paths::robot_trail(&t.id), &rerun::LineStrips2D::new([strip]).with_colors([color]).with_radii([0.08]));
+        self.log(&paths::robot_trail(t.id.as_str()), &rerun::LineStrips2D::new([strip]).with_colors([color]).with_radii([0.08]));
     }
 
     pub(crate) fn mission(&mut self, m: &MissionView) {
@@ -121,7 +121,7 @@ impl View {
             m
         };
         self.now();
-        let [r, g, b] = self.color(Some(&m.name));
+        let [r, g, b] = self.color(Some(m.name.as_str()));
         let color = rerun::Color::from_rgb(r, g, b);
         let changed = self.missions.get(&m.name).is_none_or(|old| old.summary != m.summary || old.manager != m.manager || old.teams != m.teams);
         if changed {
@@ -131,10 +131,10 @@ impl View {
                     let mut closed = tour.clone();
                     closed.push(tour[0]);
                     self.log(
-                        &paths::mission_tour(&m.name),
+                        &paths::mission_tour(m.name.as_str()),
                         &rerun::LineStrips2D::new([closed]).with_colors([color]).with_radii([0.12]).with_labels([m.name.to_string()]),
                     );
-                    self.log(&paths::mission_waypoints(&m.name), &rerun::Points2D::new(tour).with_colors([color]).with_radii([0.3]));
+                    self.log(&paths::mission_waypoints(m.name.as_str()), &rerun::Points2D::new(tour).with_colors([color]).with_radii([0.3]));
                 }
                 Some(PlanSummary::Coverage(c)) => {
                     let ring = |pts: &[Point]| {
@@ -148,11 +148,11 @@ impl View {
                     rings.extend(c.region.holes.iter().map(|h| ring(h)));
                     rings.retain(|r| r.len() > 2);
                     if !rings.is_empty() {
-                        self.log(&paths::mission_region(&m.name), &rerun::LineStrips2D::new(rings).with_colors([color]).with_radii([0.1]));
+                        self.log(&paths::mission_region(m.name.as_str()), &rerun::LineStrips2D::new(rings).with_colors([color]).with_radii([0.1]));
                     }
                     if !c.points.is_empty() {
                         self.log(
-                            &paths::mission_points(&m.name),
+                            &paths::mission_points(m.name.as_str()),
                             &rerun::Points2D::new(xy(&c.points)).with_colors([color]).with_radii([0.35]).with_labels([m.name.to_string()]),
                         );
                     }
@@ -168,16 +168,16 @@ impl View {
             }
         }
         if let Some(w) = m.metrics.worst_idleness {
-            self.log(&paths::metric(&m.name, "worst_idleness"), &rerun::Scalars::new([w]));
+            self.log(&paths::metric(m.name.as_str(), "worst_idleness"), &rerun::Scalars::new([w]));
         }
         if let Some(a) = m.metrics.avg_idleness {
-            self.log(&paths::metric(&m.name, "avg_idleness"), &rerun::Scalars::new([a]));
+            self.log(&paths::metric(m.name.as_str(), "avg_idleness"), &rerun::Scalars::new([a]));
         }
         let total: u64 = m.metrics.messages.values().sum();
         let now = self.t0.elapsed().as_secs_f64();
         if let Some((t, n)) = self.messages.insert(m.name.clone(), (now, total)) {
             if now > t && total >= n {
-                self.log(&paths::metric(&m.name, "coordination_msgs_per_s"), &rerun::Scalars::new([(total - n) as f64 / (now - t)]));
+                self.log(&paths::metric(m.name.as_str(), "coordination_msgs_per_s"), &rerun::Scalars::new([(total - n) as f64 / (now - t)]));
             }
         }
         self.missions.insert(m.name.clone(), m.clone());
@@ -200,7 +200,7 @@ impl View {
                     Some(g) => r.route.iter().map(|i| g.vertices.get(*i as usize).map(|x| [x.at.x as f32, x.at.y as f32])).collect(),
                     None => continue,
                 };
-                let [cr, cg, cb] = robot_color(&r.robot);
+                let [cr, cg, cb] = robot_color(r.robot.as_str());
                 let color = rerun::Color::from_rgb(cr, cg, cb);
                 let from = r.reached.unwrap_or(0) as usize;
                 let held: Vec<[f32; 2]> = r.granted.map(|g| pts.iter().take(g as usize + 1).skip(from).filter_map(|p| *p).collect()).unwrap_or_default();
@@ -208,10 +208,13 @@ impl View {
                 let label = if r.lost { format!("{} (lost)", r.robot) } else { r.robot.to_string() };
                 let held = if held.len() == 1 { vec![held[0], held[0]] } else { held };
                 self.log(
-                    &paths::traffic_held(&r.robot),
+                    &paths::traffic_held(r.robot.as_str()),
                     &rerun::LineStrips2D::new([held]).with_colors([color]).with_radii([0.25]).with_labels([label]).with_draw_order(5.0),
                 );
-                self.log(&paths::traffic_ahead(&r.robot), &rerun::LineStrips2D::new([ahead]).with_colors([color]).with_radii([0.05]).with_draw_order(4.0));
+                self.log(
+                    &paths::traffic_ahead(r.robot.as_str()),
+                    &rerun::LineStrips2D::new([ahead]).with_colors([color]).with_radii([0.05]).with_draw_order(4.0),
+                );
                 let by = if r.blocked.is_empty() { &r.waits_for } else { &r.blocked };
                 let me = self.trails.get(&r.robot).and_then(|t| t.back().copied());
                 let arrows: Vec<([f32; 2], [f32; 2], String)> = by
@@ -224,7 +227,7 @@ impl View {
                     .collect();
                 let red = if r.blocked.is_empty() { rerun::Color::from_rgb(217, 119, 6) } else { rerun::Color::from_rgb(180, 35, 24) };
                 self.log(
-                    &paths::traffic_waits(&r.robot),
+                    &paths::traffic_waits(r.robot.as_str()),
                     &rerun::Arrows2D::from_vectors(arrows.iter().map(|a| a.1))
                         .with_origins(arrows.iter().map(|a| a.0))
                         .with_labels(arrows.iter().map(|a| a.2.clone()))
@@ -235,7 +238,7 @@ impl View {
             }
         }
         for gone in self.in_traffic.difference(&drawn) {
-            if let Err(e) = self.rec.log(paths::traffic(gone).as_str(), &rerun::Clear::recursive()) {
+            if let Err(e) = self.rec.log(paths::traffic(gone.as_str()).as_str(), &rerun::Clear::recursive()) {
                 tracing::warn!("rerun clear {gone}: {e}");
             }
         }

@@ -238,7 +238,7 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
     };
     let what = "traffic report";
     let from = m.from.cloned().ok_or(Refused::Unproven { what })?;
-    mrmm_proto::policy::may_publish(mrmm_proto::policy::Publication::TrafficReport(&robot), &from)
+    mrmm_proto::policy::may_publish(mrmm_proto::policy::Publication::TrafficReport(robot.as_str()), &from)
         .map_err(|what| Refused::NotEntitled { from: from.clone(), what })?;
     let report: mrmm_proto::TrafficReport =
         mrmm_proto::from_json_max(what, m.payload, mrmm_proto::traffic::MAX_MESSAGE).map_err(|e| Refused::Malformed { what, why: e.to_string() })?;

@@ -206,10 +206,10 @@ impl MissionManager {
     }
 
     pub fn name(&self) -> &str {
-        &self.spec.name
+        self.spec.name.as_str()
     }
     pub fn node(&self) -> &str {
-        &self.node
+        self.node.as_str()
     }
     /// Replicas of this manager's state after the head.
     pub fn replicas(&self) -> usize {
@@ -371,9 +371,9 @@ impl MissionManager {
         if self.spec.paused {
             return;
         }
-        let robot_now = now * self.time_scale(&t.id);
+        let robot_now = now * self.time_scale(t.id.as_str());
         let tour = self.plan.as_ref().map(|(_, p)| tour(p)).unwrap_or(&[]);
-        let carried = self.metrics.telemetry(&self.spec.name, self.epoch, tour, robot_now, t);
+        let carried = self.metrics.telemetry(self.spec.name.as_str(), self.epoch, tour, robot_now, t);
         self.sync_msgs_left = self.sync_msgs_left.saturating_add(carried);
     }
 
@@ -475,7 +475,7 @@ impl MissionManager {
             self.stuck.remove(&id);
             if self.members.remove(&id).is_some() {
                 any = true;
-                if let Some(p) = self.metrics.forget(&id) {
+                if let Some(p) = self.metrics.forget(id.as_str()) {
                     self.sync_msgs_left = self.sync_msgs_left.saturating_add(u64::from(p.sync_msgs));
                 }
             }

@@ -44,7 +44,7 @@ impl MissionSpec {
             "coverage" => PlannerKind::Coverage,
             other => return Err(format!("unknown planner {other:?}")),
         };
-        proto::validate_id(&w.name).map_err(|e| e.to_string())?;
+        proto::validate_id(w.name.as_str()).map_err(|e| e.to_string())?;
         if w.replicas > proto::MAX_REPLICAS {
             return Err(format!("replicas: at most {} (got {})", proto::MAX_REPLICAS, w.replicas));
         }

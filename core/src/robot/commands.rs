@@ -18,7 +18,7 @@ impl Robot {
         let RobotCommand::Plan(a) = cmd else {
             return may(Act::Order, from, Relation::Stranger).map_err(|w| refuse(format!("{w} (only central does)")));
         };
-        let relation = self.plan_relation(&a.mission, from);
+        let relation = self.plan_relation(a.mission.as_str(), from);
         if relation == Relation::Unattended {
             tracing::info!(robot = %self.cfg.id, from = %from, mission = %a.mission, "central unreachable: taking a plan from a robot leading the mission");
         }
@@ -92,7 +92,7 @@ impl Robot {
                 }
             }
             RobotCommand::Plan(a) => change = self.plan(a)?,
-            RobotCommand::Admit { mission, managers, members } => self.admit(mission, managers, members)?,
+            RobotCommand::Admit { mission, managers, members } => self.admit(mission.as_str(), managers, members)?,
             RobotCommand::Leave { mission, epoch } => {
                 // Out of the mission: its admission goes too.
                 self.admitted.retain(|(m, _, _)| m != mission);
@@ -158,10 +158,10 @@ impl Robot {
     /// Central admits this robot to `mission`: whom to trust as its managers and teammates.
     fn admit(&mut self, mission: &str, managers: &[NodeId], members: &[RobotId]) -> Result<(), String> {
         proto::validate_id(mission).map_err(|e| e.to_string())?;
-        if managers.len() > proto::MAX_REPLICAS + 2 || managers.iter().any(|m| proto::validate_id(m).is_err()) {
+        if managers.len() > proto::MAX_REPLICAS + 2 || managers.iter().any(|m| proto::validate_id(m.as_str()).is_err()) {
             return Err("admit: bad manager list".into());
         }
-        if members.len() > proto::MAX_MISSION_ROBOTS || members.iter().any(|m| proto::validate_id(m).is_err()) {
+        if members.len() > proto::MAX_MISSION_ROBOTS || members.iter().any(|m| proto::validate_id(m.as_str()).is_err()) {
             return Err("admit: bad member list".into());
         }
         // The newest admission to a mission replaces the older one; the oldest of other
@@ -180,9 +180,9 @@ impl Robot {
         if a.plan.robot != self.cfg.id {
             return Err(format!("plan is for robot {:?}, this is {:?}", a.plan.robot, self.cfg.id));
         }
-        proto::validate_id(&a.mission).map_err(|e| e.to_string())?;
+        proto::validate_id(a.mission.as_str()).map_err(|e| e.to_string())?;
         proto::validate_team_path(&a.team).map_err(|_| format!("bad team path {:?}", a.team))?;
-        if !proto::team_within(&a.team, &a.mission) {
+        if !proto::team_within(&a.team, a.mission.as_str()) {
             return Err(format!("team {:?} is not in mission {:?}", a.team, a.mission));
         }
         proto::validate_subteam(&a.subteam).map_err(|_| format!("bad sub-team path {:?}", a.subteam))?;
@@ -194,10 +194,13 @@ impl Robot {
         }
         for sc in &a.scopes {
             proto::validate_team_path(&sc.team).map_err(|_| format!("bad team path {:?}", sc.team))?;
-            if !proto::team_within(&sc.team, &a.mission) || !proto::team_within(&a.team, &sc.team) || sc.team == a.team {
+            if !proto::team_within(&sc.team, a.mission.as_str()) || !proto::team_within(&a.team, &sc.team) || sc.team == a.team {
                 return Err(format!("team {:?} is not a team above {:?} in mission {:?}", sc.team, a.team, a.mission));
             }
-            if sc.members.len() > proto::MAX_MISSION_ROBOTS || !sc.members.contains(&self.cfg.id) || sc.members.iter().any(|m| proto::validate_id(m).is_err()) {
+            if sc.members.len() > proto::MAX_MISSION_ROBOTS
+                || !sc.members.contains(&self.cfg.id)
+                || sc.members.iter().any(|m| proto::validate_id(m.as_str()).is_err())
+            {
                 return Err(format!("bad member list for team {:?}", sc.team));
             }
         }

@@ -39,13 +39,13 @@ impl Robot {
             Some(Key::TeamSync { team, .. } | Key::TeamArrive { team, .. }) => {
                 let from = proven("barrier arrival")?;
                 let a: SyncArrival = json("barrier arrival", m.payload)?;
-                entitled(Publication::Arrival(&a.robot), &from)?;
+                entitled(Publication::Arrival(a.robot.as_str()), &from)?;
                 Ok(if self.own_team() == Some(team.as_str()) { Event::Heard(a) } else { Event::HeardIn(team, a) })
             }
             Some(Key::TeamRelease { .. }) => {
                 let from = proven("barrier release")?;
                 let r: SyncRelease = json("barrier release", m.payload)?;
-                entitled(Publication::Release(&r.leader), &from)?;
+                entitled(Publication::Release(r.leader.as_str()), &from)?;
                 Ok(Event::Released(r))
             }
             Some(Key::TrafficOrder { map, robot }) if robot == self.id() => {

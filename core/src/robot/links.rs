@@ -92,7 +92,7 @@ impl Links {
     pub fn egress(&mut self, c: &Command) -> Option<Out> {
         match c {
             Command::JoinTeam { team, subteam, barrier, members, scopes } => {
-                self.team = Some(TeamLinks::new(&self.id, team, subteam, *barrier, members, scopes));
+                self.team = Some(TeamLinks::new(self.id.as_str(), team, subteam, *barrier, members, scopes));
                 None
             }
             Command::LeaveTeam => {

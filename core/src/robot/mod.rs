@@ -180,7 +180,7 @@ impl Robot {
     }
 
     pub fn id(&self) -> &str {
-        &self.cfg.id
+        self.cfg.id.as_str()
     }
 
     /// What the robot is doing now.

@@ -120,7 +120,7 @@ impl Deputy {
             Some(mrmm_proto::Key::TrafficReport { map, robot }) if map == self.hash => {
                 let what = "traffic report";
                 let from = m.from.ok_or(Refused::Unproven { what })?;
-                entitled(Publication::TrafficReport(&robot), from)?;
+                entitled(Publication::TrafficReport(robot.as_str()), from)?;
                 let report: TrafficReport = mrmm_proto::from_json_max(what, m.payload, mrmm_proto::traffic::MAX_MESSAGE)
                     .map_err(|e| Refused::Malformed { what, why: e.to_string() })?;
                 if report.robot != robot {

@@ -29,7 +29,7 @@ impl mrmm_core::machine::Runtime<HostCore> for super::node::Node {
         for c in batch {
             let Command::Persist { mission, disk } = &c else { continue };
             let written = match &self.store {
-                Some(store) => tokio::task::block_in_place(|| store.write(mission, disk)),
+                Some(store) => tokio::task::block_in_place(|| store.write(mission.as_str(), disk)),
                 None => Err(ManagerError::journal("chain state", "no state dir, but the chain asked to persist")),
             };
             if let Err(e) = written {

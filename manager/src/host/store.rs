@@ -112,7 +112,7 @@ mod tests {
         let (_s, got) = Store::open(&dir).expect("reopen");
         let names: Vec<&str> = got.iter().map(|(n, _)| n.as_str()).collect();
         assert_eq!(names, ["p", "q"]);
-        assert!(matches!(&got[0].1, Disk::Replica(s) if s.promised == 7 && s.voted_for.as_deref() == Some("r2")));
+        assert!(matches!(&got[0].1, Disk::Replica(s) if s.promised == 7 && s.voted_for.as_ref().map(|x| x.as_str()) == Some("r2")));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -44,7 +44,7 @@ impl World {
             }
         }
         for (m, hs) in &heads {
-            if !self.recoverable(m) {
+            if !self.recoverable(m.as_str()) {
                 // With disks (central's host keeps its chain state beside its journal) a chain
                 // never loses its memory.
                 if self.cfg.disks {
@@ -60,7 +60,7 @@ impl World {
                 return Err(format!("{} heads of {m} after healing: {names:?}", hs.len()));
             }
             if !self.op.terminated.contains(m) {
-                self.members_after_healing(m, &hs[0])?;
+                self.members_after_healing(m.as_str(), &hs[0])?;
             }
         }
         self.central_missions_led(&heads)?;
@@ -94,7 +94,7 @@ impl World {
         if view.as_ref().is_some_and(|v| v.status == mrmm_proto::MissionStatus::Paused) {
             self.report.paused_at_end += 1;
             for r in members {
-                let Some(i) = self.index(r).filter(|i| self.links.up[*i]) else { continue };
+                let Some(i) = self.index(r.as_str()).filter(|i| self.links.up[*i]) else { continue };
                 let steps = self.nodes[i].robot.as_ref().and_then(|rb| rb.executor()).map(|e| e.assignment.plan.steps.clone());
                 let holds =
                     steps.as_deref().is_some_and(|s| s.iter().all(|s| matches!(s, mrmm_proto::Step::Stream | mrmm_proto::Step::Hold { seconds: None })));
@@ -106,7 +106,7 @@ impl World {
         // Every live member has what its mission requires (a member that lost it was taken out).
         let requires = view.map(|v| v.requires);
         for r in members {
-            let Some(i) = self.index(r) else { continue };
+            let Some(i) = self.index(r.as_str()) else { continue };
             let has = self.nodes[i].robot.as_ref().map(|rb| rb.info(vec![]).capabilities).unwrap_or_default();
             if let Some(lacks) = requires.iter().flatten().find(|c| !has.contains(c)).filter(|_| self.links.up[i]) {
                 return Err(format!("live member {r} of {m} lacks {lacks}, which {m} requires, after healing"));
@@ -132,7 +132,7 @@ impl World {
             durable.missions.keys().filter(|m| self.op.created.contains(*m) && !durable.terminated.contains(*m) && !heads.contains_key(*m)).collect();
         if self.cfg.disks {
             if let Some(m) = unled.first() {
-                return Err(format!("{m} is in central's journal but nobody leads it after healing; replicas: {:?}", self.replicas_of(m)));
+                return Err(format!("{m} is in central's journal but nobody leads it after healing; replicas: {:?}", self.replicas_of(m.as_str())));
             }
         } else {
             self.report.headless = u32::try_from(unled.len()).unwrap_or(u32::MAX);

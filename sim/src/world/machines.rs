@@ -137,7 +137,7 @@ impl World {
         for (r, a, b) in self.inv.in_two_missions() {
             let led = |m: &str| self.nodes.iter().any(|n| n.host.as_ref().is_some_and(|h| h.heads().any(|(x, _)| x == m)));
             let counts = |m: &str| !self.op.terminated.contains(m) && led(m) && self.recoverable(m);
-            if counts(&a) && counts(&b) {
+            if counts(a.as_str()) && counts(b.as_str()) {
                 return Err(format!("robot {r} is a member of {a} and of {b}"));
             }
         }
@@ -175,9 +175,9 @@ impl World {
                     let mission = mission.clone();
                     let host = self.nodes[i].host.as_ref();
                     let revision = host.and_then(|h| h.heads().find(|(m, _)| **m == mission).map(|(_, mm)| mm.revision()));
-                    let lineage = host.and_then(|h| h.replica(&mission)).and_then(|r| r.config()).map_or(0, |c| mrmm_proto::chain::lineage_of(c.epoch));
+                    let lineage = host.and_then(|h| h.replica(mission.as_str())).and_then(|r| r.config()).map_or(0, |c| mrmm_proto::chain::lineage_of(c.epoch));
                     if let Some(r) = revision {
-                        self.inv.acked(&mission, lineage, r);
+                        self.inv.acked(mission.as_str(), lineage, r);
                         self.report.acked += 1;
                     }
                 }

@@ -30,7 +30,7 @@ impl World {
                     return Ok(());
                 }
                 for (id, mission, ctl) in self.ctls.due(self.now) {
-                    self.ask_mission(None, &mission.clone(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id), mrmm_core::timeouts::QUERY_S);
+                    self.ask_mission(None, mission.clone().as_str(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id), mrmm_core::timeouts::QUERY_S);
                 }
                 Ok(())
             }

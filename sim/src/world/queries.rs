@@ -13,20 +13,20 @@ impl World {
         let body = body.unwrap_or_default();
         let decode = |what: &'static str| format!("{what} on {key} does not decode");
         match key {
-            Key::RobotInfo(id) => self.ask(asker, id, Payload::RobotInfo, ctx, wait),
+            Key::RobotInfo(id) => self.ask(asker, id.as_str(), Payload::RobotInfo, ctx, wait),
             Key::RobotCmd(id) => {
                 let cmd = mrmm_proto::from_json("robot command", body).map_err(|_| decode("robot command"))?;
-                self.ask(asker, id, Payload::RobotCmd(cmd), ctx, wait)
+                self.ask(asker, id.as_str(), Payload::RobotCmd(cmd), ctx, wait)
             }
             Key::HostStart(host) => {
                 let start = mrmm_proto::from_json("mission start", body).map_err(|_| decode("mission start"))?;
-                self.ask(asker, host, Payload::HostStart(Box::new(start)), ctx, wait)
+                self.ask(asker, host.as_str(), Payload::HostStart(Box::new(start)), ctx, wait)
             }
             Key::MissionCtl(mission) => {
                 let ctl = mrmm_proto::from_json("mission control", body).map_err(|_| decode("mission control"))?;
-                self.ask_mission(asker, mission, Payload::Ctl { mission: mission.clone(), ctl }, ctx, wait)
+                self.ask_mission(asker, mission.as_str(), Payload::Ctl { mission: mission.clone(), ctl }, ctx, wait)
             }
-            Key::MissionView(mission) => self.ask_mission(asker, mission, Payload::View(mission.clone()), ctx, wait),
+            Key::MissionView(mission) => self.ask_mission(asker, mission.as_str(), Payload::View(mission.clone()), ctx, wait),
             Key::Planner(kind) => {
                 let kind = [mrmm_planner::recipe::PlannerKind::Patrol, mrmm_planner::recipe::PlannerKind::Coverage]
                     .into_iter()
@@ -154,7 +154,7 @@ impl World {
     /// a newer) one — an older lineage's replicas are fenced off by the new lineage's epochs.
     fn serve_host_start(&mut self, qid: u64, s: usize, start: &MissionStart, from: &Sender) -> Result<(), String> {
         let mission = start.spec.name.clone();
-        let again = self.nodes.iter().any(|n| n.central.as_ref().is_some_and(|c| c.system().restarting(&mission)));
+        let again = self.nodes.iter().any(|n| n.central.as_ref().is_some_and(|c| c.system().restarting(mission.as_str())));
         let leads = |w: &World| w.nodes[s].host.as_ref().is_some_and(|h| h.heads().any(|(m, _)| *m == mission));
         let before = leads(self);
         let lineage = start.lineage;
@@ -164,13 +164,13 @@ impl World {
                 self.nodes[*n]
                     .host
                     .as_ref()
-                    .and_then(|h| h.replica(&mission))
+                    .and_then(|h| h.replica(mission.as_str()))
                     .is_some_and(|r| r.state().is_some() && mrmm_proto::chain::lineage_of(r.version().0) >= lineage)
             })
             .map(|n| self.nodes[n].name.clone())
             .collect();
         if again && !before {
-            self.inv.lineage_started(&mission, lineage);
+            self.inv.lineage_started(mission.as_str(), lineage);
         }
         let key = Key::HostStart(self.nodes[s].name.clone().into());
         let ev = self.host_question(s, qid, &key, Some(start), from)?;

@@ -149,7 +149,7 @@ fn summary(views: &[RobotView]) -> String {
     let count = |s: RobotStatus| views.iter().filter(|v| v.status == s).count();
     let mut per_mission: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
     for v in views {
-        *per_mission.entry(v.mission.as_deref().unwrap_or("(none)")).or_default() += 1;
+        *per_mission.entry(v.mission.as_ref().map(|x| x.as_str()).unwrap_or("(none)")).or_default() += 1;
     }
     let mut out = format!(
         "robots: {} registered — {} busy, {} idle, {} lost\n",
@@ -222,7 +222,7 @@ async fn create(client: &Client, mut m: MissionCreate, pick: impl Fn(&[proto::Ro
             }
         };
         let mut idle: Vec<proto::RobotId> = views.iter().filter(|v| v.status != RobotStatus::Lost && v.mission.is_none()).map(|v| v.id.clone()).collect();
-        idle.sort_by_key(|id| (id.len(), id.clone()));
+        idle.sort_by_key(|id| (id.as_str().len(), id.clone()));
         let robots = pick(&idle);
         if robots.is_empty() {
             eprintln!("cannot create mission {}: no idle robot left", m.name);

@@ -10,7 +10,7 @@ use serde_json::json;
 use super::{AgentConfig, Candidate, Memory};
 
 fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
-    let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_deref().unwrap_or("none")));
+    let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_ref().map(|x| x.as_str()).unwrap_or("none")));
     Candidate { advice: Advice { id, priority, reason, evidence, suggestion, action: action.clone(), since: now, acted: false, outcome: None }, action }
 }
 
@@ -51,7 +51,7 @@ fn unfit(robots: &[RobotView], missions: &[MissionView], r: &RobotView, m: &Miss
     if lacks.is_empty() {
         return None;
     }
-    let give = donor(robots, missions, &m.name);
+    let give = donor(robots, missions, m.name.as_str());
     let then = match &give {
         Some((id, from)) => format!(": add {id}{}, which has {}", from.as_ref().map(|f| format!(" from {f}")).unwrap_or_default(), lacks.join(", ")),
         None => format!(", and no robot with {} can be spared", lacks.join(", ")),
@@ -139,7 +139,9 @@ fn blocked_in_traffic(cfg: &AgentConfig, robots: &[RobotView], traffic: &[Traffi
                     format!("robot {first} is lost where it stands: restart it there, or take it away and free its lanes: mrmm op traffic --clear {first}")
                 }
                 Some(b) if b.mission.is_none() => format!("drive {first} out of the way: mrmm op goto {first} X Y"),
-                Some(b) => format!("mrmm op move {first} none (out of mission {}), or pause the mission", b.mission.as_deref().unwrap_or("?")),
+                Some(b) => {
+                    format!("mrmm op move {first} none (out of mission {}), or pause the mission", b.mission.as_ref().map(|x| x.as_str()).unwrap_or("?"))
+                }
                 None => format!("mrmm op traffic {}", &map.map[..8.min(map.map.len())]),
             };
             let how =
@@ -186,7 +188,7 @@ fn lost_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], missio
             continue;
         }
         let was_in = r.last_mission.clone().or_else(|| mem.last_mission.get(&r.id).cloned());
-        let (reason, evidence, action) = match was_in.as_deref().and_then(|m| by_name.get(m).map(|v| (m, v))) {
+        let (reason, evidence, action) = match was_in.as_ref().map(|x| x.as_str()).and_then(|m| by_name.get(m).map(|v| (m, v))) {
             Some((m, v)) => {
                 let action = donor(robots, missions, m).filter(|(_, from)| from.is_none()).map(|(id, _)| RobotMove { robot: id, to: Some(m.into()) });
                 (
@@ -213,7 +215,7 @@ fn below_standard(robots: &[RobotView], missions: &[MissionView], now: f64, out:
         let n = m.robots.len();
         let predicted = patrol_prediction(m, n + 1);
         let predicted_now = patrol_prediction(m, n);
-        let give = donor(robots, missions, &m.name);
+        let give = donor(robots, missions, m.name.as_str());
         let reason = match (&give, predicted_now, predicted) {
             (Some((id, from)), Some(now_p), Some(p)) => format!(
                 "{} below standard (worst idleness {worst:.0} s > {limit:.0} s): move {id}{} to {}: predicted worst idleness {now_p:.0} s → {p:.0} s",

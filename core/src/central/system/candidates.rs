@@ -151,7 +151,7 @@ mod tests {
         let due = c.due(0.5 + INFO_RETRY_S, 64);
         assert_eq!(due.len(), 1 + UNVOUCHED_PER_TICK);
         assert_eq!(due[0], RobotId::from("r1"), "the vouched robot first");
-        assert!(due[1..].iter().all(|id| id.starts_with("ghost")));
+        assert!(due[1..].iter().all(|id| id.as_str().starts_with("ghost")));
         // Asked ones wait their turn: the next tick asks others.
         let next = c.due(0.6 + INFO_RETRY_S, 64);
         assert!(next.iter().all(|id| !due.contains(id)), "{next:?}");

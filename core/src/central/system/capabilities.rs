@@ -62,7 +62,7 @@ impl SystemManager {
     /// answer (its capabilities after the change) comes back as [`Event::RobotCommandDone`].
     pub(super) fn change_capabilities(&mut self, req: Req, c: CapabilitiesRequest) -> Vec<Command> {
         let checked = self
-            .live_robot(&c.robot)
+            .live_robot(c.robot.as_str())
             .and_then(|info| proto::change_capabilities(&info.capabilities, &c.add, &c.remove).map(|_| ()).map_err(ErrorReply::invalid));
         if let Err(e) = checked {
             return vec![Command::Reply { req, result: Err(e) }];
@@ -98,7 +98,7 @@ impl SystemManager {
             // Not heard what it has yet.
             return (vec![], None);
         }
-        let Err(why) = self.check_capable(id, &mission) else {
+        let Err(why) = self.check_capable(id, mission.as_str()) else {
             return (vec![], None);
         };
         let alive = self.fleet.alive(id);

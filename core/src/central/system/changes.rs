@@ -41,14 +41,14 @@ impl SystemManager {
             Err(e) => return vec![Command::Reply { req, result: Err(e) }],
         };
         self.note_command(&req, "mission update", &serde_json::to_value(&u).unwrap_or(Value::Null));
-        let answer = self.apply_spec(&u.name, spec);
+        let answer = self.apply_spec(u.name.as_str(), spec);
         vec![Command::Reply { req, result: Ok(answer) }]
     }
 
     /// The mission as it would be after `u`, and the dry run that checks it; or the first
     /// problem. Changes nothing.
     fn check_update(&self, u: &MissionUpdate) -> Result<(MissionSpecWire, DryRun), ErrorReply> {
-        let mut spec = self.spec_of(&u.name)?;
+        let mut spec = self.spec_of(u.name.as_str())?;
         let r = recipe::parse(&spec.recipe_xml).map_err(|e| ErrorReply::conflict(format!("mission {}: its recipe: {e}", u.name)))?;
         let mut given = param_strings(&u.params);
         for (team, params) in &u.teams {
@@ -75,9 +75,9 @@ impl SystemManager {
             // The mission's own map, by its hash (a superseded version if the file changed).
             None => spec.map.as_ref().and_then(|m| self.map_of(m)).map(|h| h.map.clone()),
         };
-        let ids: Vec<&RobotId> = self.assignment.iter().filter(|(id, m)| *m == &u.name && self.fleet.alive(id)).map(|(id, _)| id).collect();
-        let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id)).collect();
-        let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
+        let ids: Vec<&RobotId> = self.assignment.iter().filter(|(id, m)| *m == &u.name && self.fleet.alive(id.as_str())).map(|(id, _)| id).collect();
+        let robots: Vec<_> = ids.iter().filter_map(|id| self.spec(id.as_str())).collect();
+        let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id.as_str()).to_vec())).collect();
         if robots.is_empty() {
             return Err(ErrorReply::conflict(format!("mission {} has no live robot to plan for: add robots first", u.name)));
         }

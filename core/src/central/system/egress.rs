@@ -9,7 +9,7 @@ use crate::egress::{Out, Sub};
 /// down (requests, replies and the journal are the driver's).
 pub fn egress(c: &Command) -> Option<Out> {
     match c {
-        Command::Chain { to, envelope } => crate::mission::host::egress::chain(to, envelope),
+        Command::Chain { to, envelope } => crate::mission::host::egress::chain(to.as_str(), envelope),
         _ => None,
     }
 }

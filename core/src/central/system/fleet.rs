@@ -112,12 +112,12 @@ impl Fleet {
     /// Takes one thing heard of a robot or a host at `now`; returns what it decided.
     pub(super) fn handle(&mut self, now: f64, heard: Heard) -> Vec<Fact> {
         match heard {
-            Heard::Alive(id) => match self.appeared(&id, now) {
+            Heard::Alive(id) => match self.appeared(id.as_str(), now) {
                 Appeared::Candidate { ask: false } => vec![],
                 Appeared::Back => vec![Fact::Back(id.clone()), Fact::Fetch(id)],
                 Appeared::Candidate { ask: true } | Appeared::Again => vec![Fact::Fetch(id)],
             },
-            Heard::Gone(id) => match self.disappeared(&id, now) {
+            Heard::Gone(id) => match self.disappeared(id.as_str(), now) {
                 true => vec![Fact::Lost(id)],
                 false => vec![],
             },
@@ -138,7 +138,7 @@ impl Fleet {
                 vec![]
             }
             Heard::HostGone(node) => {
-                self.host_down(&node);
+                self.host_down(node.as_str());
                 vec![Fact::HostLost(node)]
             }
             Heard::Tick => self.fetch_due(now).into_iter().map(Fact::Fetch).collect(),
@@ -151,7 +151,7 @@ impl Fleet {
     fn telemetry(&mut self, now: f64, t: Box<Telemetry>) -> Vec<Fact> {
         let Some(rec) = self.robots.get_mut(&t.id) else {
             // Not registered: its own sealed telemetry vouches for it, and it is asked first.
-            return match self.candidates.vouched(&t.id, now) {
+            return match self.candidates.vouched(t.id.as_str(), now) {
                 true => vec![Fact::Fetch(t.id.clone())],
                 false => vec![],
             };
@@ -225,7 +225,7 @@ impl Fleet {
     /// nor a candidate of it is alive (then ignored).
     fn registered(&mut self, info: RobotInfo, now: f64) -> bool {
         if !self.robots.contains_key(&info.id) {
-            let Some(since) = self.candidates.take(&info.id) else {
+            let Some(since) = self.candidates.take(info.id.as_str()) else {
                 tracing::debug!(robot = %info.id, "info from a robot with no liveliness: ignored");
                 return false;
             };

@@ -24,9 +24,9 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
     match Key::parse(m.key) {
         Some(Key::RobotAlive(id)) => Ok(if m.put { Event::RobotAlive { id } } else { Event::RobotGone { id } }),
         Some(Key::HostAlive(node)) => Ok(if m.put { Event::HostAlive { node } } else { Event::HostGone { node } }),
-        Some(Key::RobotTelemetry(id)) => Ok(Event::Telemetry(Box::new(edge::telemetry(&m, &id)?))),
+        Some(Key::RobotTelemetry(id)) => Ok(Event::Telemetry(Box::new(edge::telemetry(&m, id.as_str())?))),
         Some(Key::MissionStatus(name)) => {
-            let (view, from) = edge::mission_status(&m, &name)?;
+            let (view, from) = edge::mission_status(&m, name.as_str())?;
             Ok(Event::MissionStatus { view: Box::new(view), from })
         }
         _ => Err(Refused::Unexpected { key: m.key.chars().take(200).collect() }),

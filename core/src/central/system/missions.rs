@@ -128,13 +128,13 @@ impl SystemManager {
             leaving.entry(from).or_default().push(id);
         }
         for (from, ids) in leaving {
-            self.controls.let_go(&from, ids, vec![]);
+            self.controls.let_go(from.as_str(), ids, vec![]);
         }
         // After every mission its robots are being let go by (just now, or earlier).
-        let mut after: Vec<u64> = robots.iter().flat_map(|r| self.controls.pending_for(&r.id)).collect();
+        let mut after: Vec<u64> = robots.iter().flat_map(|r| self.controls.pending_for(r.id.as_str())).collect();
         after.sort_unstable();
         after.dedup();
-        let members = robots.iter().filter_map(|r| self.member(&r.id)).collect();
+        let members = robots.iter().filter_map(|r| self.member(r.id.as_str())).collect();
         for r in &robots {
             self.assignment.insert(r.id.clone(), name.clone());
         }
@@ -144,7 +144,7 @@ impl SystemManager {
         let def =
             MissionDef { host: host.clone(), recipe: spec.recipe_name.clone(), planner: spec.planner.as_str().into(), spec: Some(wire.clone()), lineage: 0 };
         self.missions.insert(name.clone(), MissionRecord::new(std::sync::Arc::new(def), None, false, self.now));
-        self.recovery.handle(self.now, recovery::Event::Settled(&name));
+        self.recovery.handle(self.now, recovery::Event::Settled(name.as_str()));
         self.note_command(&req, "mission create", &c_json);
         self.pending_create.insert(name, req);
         self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec: wire, members, anew: false, lineage: 0 }), after });
@@ -162,7 +162,7 @@ impl SystemManager {
         let running: Vec<&str> = self
             .fleet
             .iter()
-            .filter(|(_, r)| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name)))
+            .filter(|(_, r)| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_ref().map(|x| x.as_str()) == Some(name)))
             .map(|(id, _)| id.as_str())
             .collect();
         if !running.is_empty() && !self.terminated.contains(name) {
@@ -183,8 +183,8 @@ impl SystemManager {
             (Some(list), None) => {
                 let mut seen = BTreeSet::new();
                 for id in list {
-                    let info = self.live_robot(id)?;
-                    super::capabilities::capable(id, &info.capabilities, &c.name, requires)?;
+                    let info = self.live_robot(id.as_str())?;
+                    super::capabilities::capable(id.as_str(), &info.capabilities, c.name.as_str(), requires)?;
                     if !seen.insert(id) {
                         return Err(ErrorReply::invalid(format!("robot {id:?} listed twice")));
                     }
@@ -208,9 +208,9 @@ impl SystemManager {
 
     /// Everything a create needs but its dry run, or the first problem. Changes nothing.
     fn check_create(&self, c: MissionCreate) -> Result<Checked, ErrorReply> {
-        self.check_name(&c.name)?;
+        self.check_name(c.name.as_str())?;
         let host = c.host.clone().unwrap_or_else(|| NodeId::from(proto::CENTRAL_HOST));
-        if !self.fleet.has_host(&host) {
+        if !self.fleet.has_host(host.as_str()) {
             let known: Vec<&str> = self.fleet.hosts().iter().map(|h| h.as_str()).collect();
             return Err(ErrorReply::not_found(format!(
                 "no mission host {host:?} (hosts up: {})",
@@ -245,10 +245,10 @@ impl SystemManager {
         if ids.is_empty() {
             return Err(ErrorReply::invalid("a mission needs at least one robot"));
         }
-        let specs: Vec<RobotSpec> = ids.iter().filter_map(|id| self.spec(id)).collect();
+        let specs: Vec<RobotSpec> = ids.iter().filter_map(|id| self.spec(id.as_str())).collect();
         // Dry run with little effort: catches bad waypoints, regions and parameters now.
         let dry = cheap(&r, &params);
-        let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id).to_vec())).collect();
+        let caps = ids.iter().map(|id| (id.to_string(), self.capabilities_of(id.as_str()).to_vec())).collect();
         let planner_robots = specs.clone();
         let replicas = c.replicas.unwrap_or(proto::DEFAULT_REPLICAS);
         if replicas > proto::MAX_REPLICAS {
@@ -283,11 +283,14 @@ impl SystemManager {
         if !r.has_teams() {
             return ids;
         }
-        let mut rest: Vec<RobotId> = ids.into_iter().filter(|id| self.fits(r, id)).collect();
+        let mut rest: Vec<RobotId> = ids.into_iter().filter(|id| self.fits(r, id.as_str())).collect();
         let mut first = Vec::new();
         for leaf in r.leaves() {
             for _ in 0..leaf.min {
-                let Some(at) = rest.iter().position(|id| self.spec(id).is_some_and(|s| leaf.fits(&s.robot_type, self.capabilities_of(id)))) else { break };
+                let Some(at) = rest.iter().position(|id| self.spec(id.as_str()).is_some_and(|s| leaf.fits(&s.robot_type, self.capabilities_of(id.as_str()))))
+                else {
+                    break;
+                };
                 first.push(rest.remove(at));
             }
         }
@@ -299,7 +302,7 @@ impl SystemManager {
         self.fleet
             .iter()
             .filter(|(id, r)| r.ready() && !self.assignment.contains_key(*id))
-            .filter(|(id, _)| self.has_all(id, requires))
+            .filter(|(id, _)| self.has_all(id.as_str(), requires))
             // Running no plan, and not admitted to a mission that may still count on it (a
             // central that restarted may not know that mission yet).
             .filter(|(_, r)| r.last.as_ref().is_some_and(|t| t.mission.is_none() && t.admitted.iter().all(|m| self.terminated.contains(m))))
@@ -321,16 +324,18 @@ impl SystemManager {
         let mut steal = Vec::new();
         let mut sizes: BTreeMap<MissionName, Vec<RobotId>> = BTreeMap::new();
         for (robot, m) in self.assignment.iter() {
-            if self.fleet.alive(robot) {
+            if self.fleet.alive(robot.as_str()) {
                 sizes.entry(m.clone()).or_default().push(robot.clone());
             }
         }
         let capable = |id: &str| self.has_all(id, requires) && fits(id);
         while chosen.len() < share {
-            let Some((name, members)) = sizes.iter_mut().filter(|(_, v)| v.len() > share && v.iter().any(|id| capable(id))).max_by_key(|(_, v)| v.len()) else {
+            let Some((name, members)) =
+                sizes.iter_mut().filter(|(_, v)| v.len() > share && v.iter().any(|id| capable(id.as_str()))).max_by_key(|(_, v)| v.len())
+            else {
                 break;
             };
-            let Some(at) = members.iter().rposition(|id| capable(id)) else { break };
+            let Some(at) = members.iter().rposition(|id| capable(id.as_str())) else { break };
             let id = members.remove(at);
             chosen.push(id.clone());
             steal.push((id, name.clone()));
@@ -353,8 +358,8 @@ impl SystemManager {
         }
         let robots: Vec<RobotId> = self.assignment.iter().filter(|(_, m)| **m == t.name).map(|(r, _)| r.clone()).collect();
         self.terminated.insert(t.name.clone());
-        self.controls.cancel(&t.name);
-        self.controls.push(&t.name, MissionCtl::Terminate, vec![]);
+        self.controls.cancel(t.name.as_str());
+        self.controls.push(t.name.as_str(), MissionCtl::Terminate, vec![]);
         self.starts.retain(|s| s.start.spec.name != t.name);
         let mut out = Vec::new();
         for id in &robots {
@@ -364,7 +369,7 @@ impl SystemManager {
         if let Some(pending) = self.pending_create.remove(&t.name) {
             out.push(Command::Reply { req: pending, result: Err(ErrorReply::conflict(format!("mission {} was terminated", t.name))) });
         }
-        self.recovery.handle(self.now, recovery::Event::Settled(&t.name));
+        self.recovery.handle(self.now, recovery::Event::Settled(t.name.as_str()));
         self.note_command(&req, "mission terminate", &serde_json::to_value(&t).unwrap_or(Value::Null));
         tracing::info!(mission = %t.name, "mission terminated");
         out.push(Command::Reply { req, result: Ok(json!({"ok": true, "mission": t.name, "robots": robots})) });
@@ -376,7 +381,7 @@ impl SystemManager {
         let reply = |req: Req, result| vec![Command::Reply { req, result }];
         let from = self.assignment.get(&mv.robot).cloned();
         // A robot of a mission that has not come back since central restarted may be freed too.
-        let alive = match self.fleet.get(&mv.robot).filter(|r| r.info.is_some()) {
+        let alive = match self.fleet.get(mv.robot.as_str()).filter(|r| r.info.is_some()) {
             Some(r) => r.alive,
             None if from.is_some() && mv.to.is_none() => false,
             None => return reply(req, Err(ErrorReply::not_found(format!("unknown robot {:?}", mv.robot)))),
@@ -391,20 +396,20 @@ impl SystemManager {
             if from.as_ref() == Some(to) {
                 return reply(req, Err(ErrorReply::conflict(format!("robot {:?} is already in mission {to}", mv.robot))));
             }
-            if let Err(e) = self.check_capable(&mv.robot, to) {
+            if let Err(e) = self.check_capable(mv.robot.as_str(), to.as_str()) {
                 return reply(req, Err(e));
             }
         } else if from.is_none() {
             return reply(req, Err(ErrorReply::conflict(format!("robot {:?} is in no mission", mv.robot))));
         }
         let member = match &mv.to {
-            Some(_) => match self.member(&mv.robot) {
+            Some(_) => match self.member(mv.robot.as_str()) {
                 Some(m) => Some(m),
                 None => return reply(req, Err(ErrorReply::not_found(format!("unknown robot {:?}", mv.robot)))),
             },
             None => None,
         };
-        let mut out = self.apply_move(&mv.robot, from.clone(), mv.to.clone().zip(member), alive);
+        let mut out = self.apply_move(mv.robot.as_str(), from.clone(), mv.to.clone().zip(member), alive);
         self.note_command(&req, "robot move", &serde_json::to_value(&mv).unwrap_or(Value::Null));
         tracing::info!(robot = %mv.robot, ?from, to = ?mv.to, "robot moved");
         out.push(Command::Reply { req, result: to_value(&json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to})) });
@@ -421,7 +426,7 @@ impl SystemManager {
             // After the release still pending from the mission before (whose head may still
             // count it: found by the system sim, seed 375 with digest beats), so that it joins
             // its next mission only once every mission it was in let it go.
-            let ctl = self.controls.let_go(f, vec![RobotId::from(robot)], left.clone());
+            let ctl = self.controls.let_go(f.as_str(), vec![RobotId::from(robot)], left.clone());
             left.push(ctl);
             if to.is_none() && alive {
                 out.push(Command::SendToRobot { req: None, robot: RobotId::from(robot), cmd: RobotCommand::Leave { mission: f.clone(), epoch: u64::MAX } });
@@ -430,7 +435,7 @@ impl SystemManager {
         if let Some((to, member)) = to {
             self.assignment.insert(RobotId::from(robot), to.clone());
             // It joins once its old mission let it go: never in two teams.
-            self.controls.push(&to, MissionCtl::Joined { member }, left);
+            self.controls.push(to.as_str(), MissionCtl::Joined { member }, left);
         }
         out
     }

@@ -276,8 +276,8 @@ impl SystemManager {
             Event::HostGone { node } => self.registry(now, Heard::HostGone(node)),
             Event::Tick => self.tick(now),
             Event::Operator { req, request } => self.operator(now, req, request),
-            Event::RobotCommandDone { req, robot, result } => self.command_done(now, req, &robot, result),
-            Event::MissionStarted { mission, result } => self.started(&mission, result),
+            Event::RobotCommandDone { req, robot, result } => self.command_done(now, req, robot.as_str(), result),
+            Event::MissionStarted { mission, result } => self.started(mission.as_str(), result),
             Event::Forwarded { req, result } => vec![Command::Reply { req, result }],
             Event::CtlDone { id, result } => {
                 self.controls.handle(now, controls::Event::Answered { id, result });
@@ -317,7 +317,7 @@ impl SystemManager {
                 }
                 Fact::Registered(id) => out.extend(self.registered(&id)),
                 Fact::Heard(t) => out.extend(self.heard(now, *t)),
-                Fact::HostLost(node) => self.host_gone(&node),
+                Fact::HostLost(node) => self.host_gone(node.as_str()),
             }
         }
         out
@@ -327,17 +327,17 @@ impl SystemManager {
     /// leaves it; a lost member back is taken again by its mission, on our order — and admitted
     /// again (it may have restarted and forgotten).
     fn registered(&mut self, id: &RobotId) -> Vec<Command> {
-        let (out, left) = self.unfit(id);
+        let (out, left) = self.unfit(id.as_str());
         if left.is_some() {
             return out;
         }
         let Some(m) = self.assignment.get(id).cloned() else { return vec![] };
-        self.rejoin(&m);
+        self.rejoin(m.as_str());
         // Down when its mission was started again: its head never knew it.
         if self.missions.get(&m).is_some_and(|r| !r.adopted) {
-            self.resync(&m);
+            self.resync(m.as_str());
         }
-        self.admit(&m, std::slice::from_ref(id))
+        self.admit(m.as_str(), std::slice::from_ref(id))
     }
 
     /// A command to a robot answered: the operator's reply (with the mission it left, if a
@@ -395,7 +395,7 @@ impl SystemManager {
             self.forgot_at = now;
             let assignment = &self.assignment;
             let controls = &self.controls;
-            self.fleet.forget_lost(now, self.forget_lost_s, |id| assignment.contains_key(id) || !controls.pending_for(id).is_empty());
+            self.fleet.forget_lost(now, self.forget_lost_s, |id| assignment.contains_key(id) || !controls.pending_for(id.as_str()).is_empty());
         }
         for e in self.flaps.due(now) {
             if let JournalEvent::RobotFlapping { robot, losses, alive } = &e {
@@ -422,7 +422,7 @@ impl SystemManager {
         match request {
             Request::Status => reply(req, to_value(&self.status(now))),
             Request::Robots => reply(req, to_value(&self.views())),
-            Request::Robot(id) => match self.view(&id) {
+            Request::Robot(id) => match self.view(id.as_str()) {
                 Some(v) => reply(req, to_value(&v)),
                 None => reply(req, Err(ErrorReply::not_found(format!("unknown robot {id:?}")))),
             },
@@ -439,10 +439,10 @@ impl SystemManager {
             }
             Request::Mission(name) => match self.missions.get(&name) {
                 Some(r) if r.view.as_ref().is_some_and(|v| v.status != MissionStatus::Stalled) => {
-                    let managers = self.managers(&name);
+                    let managers = self.managers(name.as_str());
                     vec![Command::Forward { req, key: Key::MissionView(name), managers }]
                 }
-                Some(_) => reply(req, to_value(&self.mission_view(&name))),
+                Some(_) => reply(req, to_value(&self.mission_view(name.as_str()))),
                 None => reply(req, Err(ErrorReply::not_found(format!("unknown mission {name:?}")))),
             },
             Request::Goto(g) => match self.check_goto(&g) {
@@ -455,11 +455,11 @@ impl SystemManager {
             Request::Create(c) => self.create(req, c),
             Request::Terminate(t) => self.terminate(req, t),
             Request::Update(u) => self.update(req, u),
-            Request::Pause(p) => self.pause(req, &p.name, true),
-            Request::Resume(p) => self.pause(req, &p.name, false),
+            Request::Pause(p) => self.pause(req, p.name.as_str(), true),
+            Request::Resume(p) => self.pause(req, p.name.as_str(), false),
             Request::Move(m) => self.move_robot(req, m),
             Request::Capabilities(c) => self.change_capabilities(req, c),
-            Request::Crash(c) => match self.live_robot(&c.robot) {
+            Request::Crash(c) => match self.live_robot(c.robot.as_str()) {
                 // The robot decides whether it can be crashed (a ROS 2 robot refuses); its loss is
                 // then seen as any other's.
                 Ok(_) => {
@@ -479,7 +479,7 @@ impl SystemManager {
     /// Checks a goto; on a map (the one it names, else central's only one), the route's corner
     /// points between the robot and its goal.
     fn check_goto(&self, g: &GotoRequest) -> Result<Vec<[f64; 2]>, ErrorReply> {
-        self.live_robot(&g.robot)?;
+        self.live_robot(g.robot.as_str())?;
         if let Some(m) = self.assignment.get(&g.robot) {
             return Err(ErrorReply::conflict(format!("robot {:?} is in mission {m}: move it out first (robot move {} none)", g.robot, g.robot)));
         }
@@ -491,10 +491,11 @@ impl SystemManager {
             None if self.maps.len() == 1 => self.maps.values().next(),
             None => None,
         };
-        let (Some(held), Some(pose)) = (held, self.fleet.last(&g.robot).map(|t| t.pose)) else { return Ok(vec![]) };
+        let (Some(held), Some(pose)) = (held, self.fleet.last(g.robot.as_str()).map(|t| t.pose)) else { return Ok(vec![]) };
         let space = held.space().map_err(ErrorReply::invalid)?;
         let name = &held.info.name;
-        let from = space.locate_robot(&g.robot, 0, mrmm_maps::Point::new(pose.x, pose.y)).map_err(|e| ErrorReply::conflict(format!("map {name}: {e}")))?;
+        let from =
+            space.locate_robot(g.robot.as_str(), 0, mrmm_maps::Point::new(pose.x, pose.y)).map_err(|e| ErrorReply::conflict(format!("map {name}: {e}")))?;
         let to = space.locate("goal", 0, mrmm_maps::Point::new(g.x, g.y)).map_err(|e| ErrorReply::invalid(format!("map {name}: {e}")))?;
         let route = space
             .route(&from, &to)

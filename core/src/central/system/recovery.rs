@@ -139,7 +139,7 @@ impl Recovery {
         for (name, rec) in look.missions {
             let stuck = rec.view.as_ref().and_then(|v| v.manager.uncommitted_s).is_some_and(|s| s >= UNCOMMITTED_WAIT_S);
             let orphaned = rec.view.is_none() || now - rec.reported_at >= RUNNING_WAIT_S || stuck;
-            if !orphaned || rec.def.spec.is_none() || look.busy.contains(name.as_str()) || !self.may_start(name, now) {
+            if !orphaned || rec.def.spec.is_none() || look.busy.contains(name.as_str()) || !self.may_start(name.as_str(), now) {
                 continue;
             }
             if let Some(anew) = self.anew(now, look, name, rec, stuck) {
@@ -157,7 +157,7 @@ impl Recovery {
         // A robot runs it: its managers may be alive somewhere and report soon. If none has
         // reported for this long, its chain lost its majority: the mission is started anew,
         // with those robots too (the new lineage's plans win at them).
-        let runs = fleet.iter().any(|(_, r)| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_deref() == Some(name.as_str())));
+        let runs = fleet.iter().any(|(_, r)| r.alive && r.last.as_ref().is_some_and(|t| t.mission.as_ref().map(|x| x.as_str()) == Some(name.as_str())));
         if runs && now - self.started < RUNNING_WAIT_S {
             return None;
         }
@@ -179,7 +179,8 @@ impl Recovery {
         // The members back (a member still away may be cut off with the mission's chain: the
         // new lineage's epochs are above all of that chain's, and its head is fenced when it
         // reports). The others rejoin as they come back.
-        let members: Vec<Member> = look.assignment.iter().filter(|(id, m)| *m == name && fleet.ready(id)).filter_map(|(id, _)| fleet.member(id)).collect();
+        let members: Vec<Member> =
+            look.assignment.iter().filter(|(id, m)| *m == name && fleet.ready(id.as_str())).filter_map(|(id, _)| fleet.member(id.as_str())).collect();
         if members.is_empty() {
             return None;
         }

@@ -19,7 +19,7 @@ impl SystemManager {
         // Robots whose head had not let them go yet: told again, and held until it does.
         for (robot, mission) in &state.releasing {
             if m.missions.contains_key(mission) {
-                m.controls.let_go(mission, vec![robot.clone()], vec![]);
+                m.controls.let_go(mission.as_str(), vec![robot.clone()], vec![]);
             }
         }
         let started = JournalEvent::CentralStarted { missions: state.missions.len(), robots: state.assignment.len(), terminated: state.terminated.len() };
@@ -80,7 +80,7 @@ impl SystemManager {
         // The new lineage is journaled before the start goes out (the journal comes first).
         rec.def = Arc::new(MissionDef { lineage, ..(*rec.def).clone() });
         let robots: Vec<RobotId> = members.iter().map(|m| m.spec.id.clone()).collect();
-        let after = robots.iter().flat_map(|id| self.controls.pending_for(id)).collect();
+        let after = robots.iter().flat_map(|id| self.controls.pending_for(id.as_str())).collect();
         self.journal.note(JournalEvent::MissionRestarted { mission, robots });
         self.starts.push(PendingStart { host, start: Box::new(MissionStart { spec, members, anew: true, lineage }), after });
     }

@@ -21,7 +21,7 @@ impl SystemManager {
                 let id = &from.id;
                 let former =
                     || view.manager.chain_epoch > known.manager.chain_epoch && self.missions.get(&view.name).is_some_and(|r| r.former.iter().any(|n| n == id));
-                if self.managers(&view.name).iter().any(|n| n == id) || former() {
+                if self.managers(view.name.as_str()).iter().any(|n| n == id) || former() {
                     Relation::Manager
                 } else if known.robots.iter().any(|r| r == id) || known.lost.iter().any(|r| r == id) {
                     Relation::Member
@@ -50,14 +50,14 @@ impl SystemManager {
     /// missed, or it was moved: told to leave it, which clears the admission. After a restart of
     /// central, missions it never heard of keep running.
     fn leave_admissions(&mut self, now: f64, t: &Telemetry) -> Vec<Command> {
-        let retry = self.fleet.get(&t.id).is_some_and(|r| r.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S));
+        let retry = self.fleet.get(t.id.as_str()).is_some_and(|r| r.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S));
         let mut leave = Vec::new();
         for admitted in t.admitted.iter().filter(|a| t.mission.as_ref() != Some(*a)) {
             let known = self.missions.contains_key(admitted) || self.terminated.contains(admitted);
-            let releasing = self.controls.letting_go(&t.id, admitted, true);
+            let releasing = self.controls.letting_go(t.id.as_str(), admitted.as_str(), true);
             // A join or leave of this robot still on its way to that mission's head: the head
             // may be taking it into its chain; its admission must hold until the leave is done.
-            let in_transit = self.controls.has(admitted, |c| match c {
+            let in_transit = self.controls.has(admitted.as_str(), |c| match c {
                 MissionCtl::Joined { member } => member.spec.id == t.id,
                 MissionCtl::Left { ids } => ids.contains(&t.id),
                 _ => false,
@@ -66,7 +66,7 @@ impl SystemManager {
                 leave.push(admitted.clone());
             }
         }
-        if let Some(rec) = self.fleet.get_mut(&t.id).filter(|_| !leave.is_empty()) {
+        if let Some(rec) = self.fleet.get_mut(t.id.as_str()).filter(|_| !leave.is_empty()) {
             rec.leave_sent = Some(now);
         }
         leave
@@ -80,10 +80,10 @@ impl SystemManager {
     fn admit_forgetful(&mut self, now: f64, t: &Telemetry) -> Vec<Command> {
         let Some(m) = self.assignment.get(&t.id).filter(|m| self.missions.contains_key(*m)).cloned() else { return vec![] };
         let forgot = t.mission.as_ref() != Some(&m) && !t.admitted.contains(&m);
-        match self.fleet.get_mut(&t.id) {
+        match self.fleet.get_mut(t.id.as_str()) {
             Some(rec) if forgot && rec.admit_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S) => {
                 rec.admit_sent = Some(now);
-                self.admit(&m, std::slice::from_ref(&t.id))
+                self.admit(m.as_str(), std::slice::from_ref(&t.id))
             }
             _ => vec![],
         }
@@ -95,26 +95,26 @@ impl SystemManager {
     /// telemetry is kept as its latest.
     fn runs(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
         let mut out = Vec::new();
-        let Some(rec) = self.fleet.get_mut(&t.id) else {
+        let Some(rec) = self.fleet.get_mut(t.id.as_str()) else {
             return out;
         };
         if let Some(running) = &t.mission {
             let assigned = self.assignment.get(&t.id);
             // Looked up in the head's list (O(team)) only for a robot in no mission here.
             let listed = || self.missions.get(running).filter(|m| m.adopted).and_then(|m| m.view.as_ref()).is_some_and(|v| v.robots.contains(&t.id));
-            let released = self.controls.letting_go(&t.id, running, false);
+            let released = self.controls.letting_go(t.id.as_str(), running.as_str(), false);
             if assigned.is_none() && !released && !self.terminated.contains(running) && listed() {
                 tracing::info!(mission = %running, robot = %t.id, "robot recorded in the mission it runs and its head lists");
                 let (id, mission) = (t.id.clone(), running.clone());
                 self.assignment.insert(id.clone(), mission.clone());
                 self.fleet.keep(t);
-                return self.admit(&mission, &[id]);
+                return self.admit(mission.as_str(), &[id]);
             }
             let known = self.missions.contains_key(running) || self.terminated.contains(running);
             let retry = rec.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S);
             // Moved out of `running` but not yet let go by it: its head still counts on it, so
             // it keeps its plan until the head has replanned without it.
-            let releasing = self.controls.letting_go(&t.id, running, true);
+            let releasing = self.controls.letting_go(t.id.as_str(), running.as_str(), true);
             if assigned != Some(running) && known && retry && !releasing {
                 rec.leave_sent = Some(now);
                 let epoch = t.progress.as_ref().map_or(u64::MAX, |p| p.epoch);
@@ -130,7 +130,7 @@ impl SystemManager {
     /// robots not already in another mission. A mission terminated here is ended again.
     pub(super) fn mission_status(&mut self, mut view: MissionView, from: Sender) -> Vec<Command> {
         view.carry_summary(self.missions.get(&view.name).and_then(|r| r.view.as_ref()));
-        let status = mrmm_proto::policy::Publication::Status { manager: &view.manager.node };
+        let status = mrmm_proto::policy::Publication::Status { manager: view.manager.node.as_str() };
         if mrmm_proto::policy::may_publish(status, &from).is_err() {
             return vec![Command::Refused(Refused::NotEntitled { what: format!("report mission {} as managed by {}", view.name, view.manager.node), from })];
         }
@@ -157,9 +157,9 @@ impl SystemManager {
             })];
         }
         if self.terminated.contains(&view.name) {
-            if !self.controls.has(&view.name, |c| *c == MissionCtl::Terminate) {
+            if !self.controls.has(view.name.as_str(), |c| *c == MissionCtl::Terminate) {
                 tracing::warn!(mission = %view.name, node = %view.manager.node, "a terminated mission still runs: ending it again");
-                self.controls.push(&view.name, MissionCtl::Terminate, vec![]);
+                self.controls.push(view.name.as_str(), MissionCtl::Terminate, vec![]);
             }
             return vec![];
         }
@@ -204,19 +204,19 @@ impl SystemManager {
         if rec.managers() != before {
             rec.former = before;
         }
-        let mut out = self.reconcile(&name, &robots, &lost, &from);
+        let mut out = self.reconcile(name.as_str(), &robots, &lost, &from);
         if moved {
             // Its members may know only the managers they were admitted under (a robot that
             // restarted while central was away was admitted under the host alone, found by
             // the system sim, seed 3928): the new head may plan for them only once they know it.
             let members: Vec<RobotId> = robots.iter().chain(&lost).filter(|id| self.assignment.get(*id).is_some_and(|m| *m == name)).cloned().collect();
-            out.extend(self.admit(&name, &members));
+            out.extend(self.admit(name.as_str(), &members));
         }
-        self.rejoin(&name);
+        self.rejoin(name.as_str());
         if first && !self.pending_create.contains_key(&name) {
-            self.resync(&name);
+            self.resync(name.as_str());
         }
-        self.sync_spec(&name);
+        self.sync_spec(name.as_str());
         out
     }
 
@@ -228,12 +228,16 @@ impl SystemManager {
     /// mission — a robot certificate cannot invent a mission and take idle robots with it.
     /// Adoptions are bounded ([`MAX_ADOPTED`]); a refused one is logged once per sender.
     fn adopt(&mut self, view: MissionView, from: Sender) -> Vec<Command> {
-        if !self.fleet.has_host(&view.manager.node) || self.pending_create.contains_key(&view.name) {
+        if !self.fleet.has_host(view.manager.node.as_str()) || self.pending_create.contains_key(&view.name) {
             return vec![];
         }
         // Its team runs it, by another robot's own telemetry (a robot's say-so is not enough).
-        let vouched =
-            || view.robots.iter().chain(&view.lost).any(|id| *id != from.id && self.fleet.last(id).is_some_and(|t| t.mission.as_ref() == Some(&view.name)));
+        let vouched = || {
+            view.robots
+                .iter()
+                .chain(&view.lost)
+                .any(|id| *id != from.id && self.fleet.last(id.as_str()).is_some_and(|t| t.mission.as_ref() == Some(&view.name)))
+        };
         let allowed = {
             use mrmm_proto::policy::{allows, need, Act, Need, Relation};
             match need(Act::Adopt, from.role) {
@@ -267,8 +271,8 @@ impl SystemManager {
             lineage: lineage_of(view.manager.chain_epoch),
         };
         self.missions.insert(name.clone(), MissionRecord::new(std::sync::Arc::new(def), Some(view), true, self.now));
-        let out = self.reconcile(&name, &robots, &lost, &from);
-        self.rejoin(&name);
+        let out = self.reconcile(name.as_str(), &robots, &lost, &from);
+        self.rejoin(name.as_str());
         out
     }
 
@@ -290,14 +294,14 @@ impl SystemManager {
         for id in robots.iter().chain(lost) {
             // A robot being let go (by this mission or another) is in transit: this manager
             // moved it, and decides where it goes.
-            if self.controls.letting_go(id, name, false) || !self.controls.pending_for(id).is_empty() {
+            if self.controls.letting_go(id.as_str(), name, false) || !self.controls.pending_for(id.as_str()).is_empty() {
                 continue;
             }
             // A robot that says it runs this mission, or nothing (it restarted and forgot):
             // never one that says it runs another.
-            let runs = |t: &Telemetry| t.mission.as_deref() == Some(name);
+            let runs = |t: &Telemetry| t.mission.as_ref().map(|x| x.as_str()) == Some(name);
             let confirmed =
-                trusted || *id == reporter.id || self.fleet.last(id).is_some_and(|t| runs(t) || (t.mission.is_none() && reporter.role != Role::Robot));
+                trusted || *id == reporter.id || self.fleet.last(id.as_str()).is_some_and(|t| runs(t) || (t.mission.is_none() && reporter.role != Role::Robot));
             match self.assignment.get(id) {
                 Some(m) if m == name => {}
                 Some(_) => strangers.push(id.clone()),
@@ -326,7 +330,7 @@ impl SystemManager {
         // A report listing it present well after it (re)appeared has seen it back.
         let now = self.now;
         for id in &present {
-            if let Some(r) = self.fleet.get_mut(id).filter(|r| now - r.alive_at > SEEN_BACK_S) {
+            if let Some(r) = self.fleet.get_mut(id.as_str()).filter(|r| now - r.alive_at > SEEN_BACK_S) {
                 r.back = false;
             }
         }
@@ -334,9 +338,9 @@ impl SystemManager {
             let ours = self.assignment.get(&id).is_some_and(|m| m == name);
             // Seen coming back since its head counted it present: a head that saw the loss
             // before this manager did is not answered with a rejoin of a dead robot.
-            let alive = self.fleet.get(&id).is_some_and(|r| r.ready() && r.back);
-            if ours && alive && self.join(name, &id, "lost member back: its mission takes it again") {
-                if let Some(r) = self.fleet.get_mut(&id) {
+            let alive = self.fleet.get(id.as_str()).is_some_and(|r| r.ready() && r.back);
+            if ours && alive && self.join(name, id.as_str(), "lost member back: its mission takes it again") {
+                if let Some(r) = self.fleet.get_mut(id.as_str()) {
                     r.back = false;
                 }
             }
@@ -373,7 +377,7 @@ impl SystemManager {
             .map(|(id, _)| id.clone())
             .collect();
         for id in missing {
-            self.join(name, &id, "in the mission by the journal, unknown to its head: it joins");
+            self.join(name, id.as_str(), "in the mission by the journal, unknown to its head: it joins");
         }
     }
 }

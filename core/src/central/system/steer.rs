@@ -8,7 +8,7 @@ impl SystemManager {
     pub(super) fn due(&mut self, now: f64) -> Vec<Command> {
         let mut out = Vec::new();
         for (id, mission, ctl) in self.controls.due(now) {
-            let managers = self.managers(&mission);
+            let managers = self.managers(mission.as_str());
             if let MissionCtl::Joined { member } = &ctl {
                 // A robot leading the mission may plan for the newcomer only once it is admitted,
                 // and the members take the newcomer's chain messages only once they know it: every
@@ -55,7 +55,7 @@ impl SystemManager {
             return vec![];
         }
         rec.admit_sent = Some(now);
-        self.admit(&mission, &[RobotId::from(robot)])
+        self.admit(mission.as_str(), &[RobotId::from(robot)])
     }
 
     /// Admissions of `robots` to `mission`, naming its managers and members as known here.

@@ -7,7 +7,7 @@ impl SystemManager {
     /// A mission as the operator sees it: the head's latest view, with the (live) members this
     /// manager holds; a placeholder while the host is planning.
     pub(super) fn mission_view(&self, name: &str) -> MissionView {
-        let robots: Vec<RobotId> = self.assignment.iter().filter(|(id, m)| *m == name && self.fleet.alive(id)).map(|(r, _)| r.clone()).collect();
+        let robots: Vec<RobotId> = self.assignment.iter().filter(|(id, m)| *m == name && self.fleet.alive(id.as_str())).map(|(r, _)| r.clone()).collect();
         let rec = self.missions.get(name);
         match rec.and_then(|r| r.view.clone()) {
             Some(mut v) => {
@@ -17,7 +17,7 @@ impl SystemManager {
             }
             None => {
                 let (planner, host) = (rec.map(|r| r.def.planner.clone()).unwrap_or_default(), rec.map(|r| r.host.clone()).unwrap_or_default());
-                let mut v = MissionView::running(name, &planner, &host, 0, &[]);
+                let mut v = MissionView::running(name, &planner, host.as_str(), 0, &[]);
                 v.recipe = rec.map(|r| r.def.recipe.clone()).unwrap_or_default();
                 v.requires = rec.map(|r| r.requires.clone()).unwrap_or_default();
                 v.status = MissionStatus::Planning;
@@ -31,13 +31,13 @@ impl SystemManager {
 
     /// Every mission as the operator sees it, by name.
     pub fn mission_views(&self) -> Vec<MissionView> {
-        self.missions.keys().map(|n| self.mission_view(n)).collect()
+        self.missions.keys().map(|n| self.mission_view(n.as_str())).collect()
     }
 
     /// Registered robots, sorted by id (naturally: r2 before r10).
     pub fn views(&self) -> Vec<RobotView> {
-        let mut v: Vec<RobotView> = self.fleet.iter().map(|(id, _)| id).filter_map(|id| self.view(id)).collect();
-        v.sort_by(|a, b| proto::natural_cmp(&a.id, &b.id));
+        let mut v: Vec<RobotView> = self.fleet.iter().map(|(id, _)| id).filter_map(|id| self.view(id.as_str())).collect();
+        v.sort_by(|a, b| proto::natural_cmp(a.id.as_str(), b.id.as_str()));
         v
     }
 

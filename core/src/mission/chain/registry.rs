@@ -95,7 +95,7 @@ impl<S: Clone> Registry<S> {
     }
 
     pub fn me(&self) -> &str {
-        &self.me
+        self.me.as_str()
     }
     pub fn replica(&self, name: &str) -> Option<&Replica<S>> {
         self.replicas.get(name)
@@ -116,7 +116,7 @@ impl<S: Clone> Registry<S> {
         let promised = self.tombs.get(name).map_or(0, |t| t.promised);
         let (me, p, born, alive, durable) = (&self.me, self.p, self.born, &self.alive, self.durable);
         self.replicas.entry(name.into()).or_insert_with(|| {
-            let mut r = Replica::new(me, p, born, now, promised);
+            let mut r = Replica::new(me.as_str(), p, born, now, promised);
             if durable {
                 r = r.durable();
             }
@@ -254,9 +254,9 @@ impl<S: Clone> Registry<S> {
         let names: Vec<MissionName> = self.replicas.keys().cloned().collect();
         let mut out = Vec::new();
         for name in names {
-            let before = self.mark(&name);
+            let before = self.mark(name.as_str());
             let cmds = self.replicas.get_mut(&name).map(|r| r.handle(now, ev(node))).unwrap_or_default();
-            let cmds = self.settle(now, &name, before, cmds);
+            let cmds = self.settle(now, name.as_str(), before, cmds);
             if !cmds.is_empty() {
                 out.push((name, cmds));
             }
@@ -403,7 +403,7 @@ mod tests {
         let mut disk = BTreeMap::new();
         let mut r = Reg::restore("b", Params::default(), 0.0, 0.0, disk.clone());
         let out = r.receive(0.1, "m", "a".into(), vote(5));
-        assert!(matches!(&out[0], Command::Persist(Disk::Replica(s)) if s.promised == 5 && s.voted_for.as_deref() == Some("a")), "{out:?}");
+        assert!(matches!(&out[0], Command::Persist(Disk::Replica(s)) if s.promised == 5 && s.voted_for.as_ref().map(|x| x.as_str()) == Some("a")), "{out:?}");
         assert_eq!(out[1], Command::Send { to: "a".into(), msg: Msg::Grant { epoch: 5 } });
         write(&mut disk, "m", &out);
         // Crash, restart at once: the promise and the vote came back; another candidate of

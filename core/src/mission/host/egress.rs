@@ -10,7 +10,7 @@ use crate::egress::{Audience, Out, Sub};
 /// What command `c` publishes, if anything (queries, replies and the disk are the driver's).
 pub fn egress(c: &Command) -> Option<Out> {
     match c {
-        Command::Chain { to, envelope } => chain(to, envelope),
+        Command::Chain { to, envelope } => chain(to.as_str(), envelope),
         Command::Status(view) => Out::json(Key::MissionStatus(view.name.clone()), view, Audience::Fleet),
         _ => None,
     }

@@ -175,10 +175,13 @@ impl Head {
     /// Deliveries to robots no longer members are dropped.
     pub fn redeliver(&mut self, now: f64, alive: impl Fn(&str) -> bool) -> Vec<(RobotId, Box<PlanAssignment>)> {
         let mm = &self.mm;
-        self.deliveries.retain(|robot, d| mm.has(robot) && d.assignment.epoch == mm.epoch());
+        self.deliveries.retain(|robot, d| mm.has(robot.as_str()) && d.assignment.epoch == mm.epoch());
         let mut places = DELIVERY_WINDOW.saturating_sub(self.in_flight(now));
-        let mut due: Vec<(&RobotId, &mut Delivery)> =
-            self.deliveries.iter_mut().filter(|(r, d)| !d.holds_place(now) && d.last_sent.is_none_or(|t| now - t >= REDELIVER_S) && alive(r)).collect();
+        let mut due: Vec<(&RobotId, &mut Delivery)> = self
+            .deliveries
+            .iter_mut()
+            .filter(|(r, d)| !d.holds_place(now) && d.last_sent.is_none_or(|t| now - t >= REDELIVER_S) && alive(r.as_str()))
+            .collect();
         // Never sent first.
         due.sort_by_key(|(_, d)| d.last_sent.is_some());
         let mut out = Vec::new();
@@ -221,10 +224,10 @@ impl Head {
     pub fn telemetry(&mut self, now: f64, t: &Telemetry) {
         let runs = t.progress.as_ref().filter(|p| p.mission == self.mm.name()).map(|p| p.epoch);
         if let Some(epoch) = runs {
-            self.delivered(&t.id, epoch);
+            self.delivered(t.id.as_str(), epoch);
         }
         let current = runs.is_some_and(|e| e >= self.mm.epoch());
-        if current || !self.mm.has(&t.id) || self.deliveries.contains_key(&t.id) {
+        if current || !self.mm.has(t.id.as_str()) || self.deliveries.contains_key(&t.id) {
             self.astray.remove(&t.id);
             return;
         }

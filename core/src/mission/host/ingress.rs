@@ -26,10 +26,10 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
     let proven = |what: &'static str| m.from.cloned().ok_or(Refused::Unproven { what });
     let malformed = |what: &'static str, why: String| Refused::Malformed { what, why };
     match Key::parse(m.key) {
-        Some(Key::RobotTelemetry(id)) => Ok(Event::Telemetry(Box::new(edge::telemetry(&m, &id)?))),
+        Some(Key::RobotTelemetry(id)) => Ok(Event::Telemetry(Box::new(edge::telemetry(&m, id.as_str())?))),
         Some(Key::HostChain(_)) => {
             let env: ChainEnvelope = json("chain message", m.payload)?;
-            if proto::validate_id(&env.mission).is_err() || proto::validate_id(&env.from).is_err() {
+            if proto::validate_id(env.mission.as_str()).is_err() || proto::validate_id(env.from.as_str()).is_err() {
                 return Err(malformed("chain message", "a bad mission or node name".into()));
             }
             let from = proven("chain message")?;
@@ -41,7 +41,7 @@ pub fn ingress(m: Incoming<'_>) -> Result<Event, Refused> {
             Ok(Event::Chain { envelope: Box::new(env), from })
         }
         Some(Key::MissionStatus(name)) => {
-            let (view, from) = edge::mission_status(&m, &name)?;
+            let (view, from) = edge::mission_status(&m, name.as_str())?;
             Ok(Event::MissionStatus { view: Box::new(view), from })
         }
         Some(Key::HostAlive(node)) => Ok(if m.put { Event::HostAlive(node) } else { Event::HostGone(node) }),

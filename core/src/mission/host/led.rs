@@ -15,24 +15,25 @@ impl HostCore {
         // Central starts anew a mission whose head reported it could not commit: if that head
         // is this node's, it gives the mission up for the new lineage.
         let stuck = crate::central::system::UNCOMMITTED_WAIT_S / 2.0;
-        if start.anew && self.heads.contains_key(&name) && self.registry.replica(&name).and_then(|r| r.uncommitted_for(now)).is_some_and(|s| s >= stuck) {
+        if start.anew && self.heads.contains_key(&name) && self.registry.replica(name.as_str()).and_then(|r| r.uncommitted_for(now)).is_some_and(|s| s >= stuck)
+        {
             tracing::warn!(mission = %name, "giving up this node's head of the mission, which could not commit: the mission starts anew");
-            self.step_down(&name, "it could not commit, and the mission starts anew", out);
-            let cmds = self.registry.abandon(now, &name, stuck);
-            self.apply(now, &name, cmds, out);
+            self.step_down(name.as_str(), "it could not commit, and the mission starts anew", out);
+            let cmds = self.registry.abandon(now, name.as_str(), stuck);
+            self.apply(now, name.as_str(), cmds, out);
         }
-        let replaced = start.anew && !self.heads.contains_key(&name) && self.registry.replica(&name).is_some_and(|r| !r.leads());
+        let replaced = start.anew && !self.heads.contains_key(&name) && self.registry.replica(name.as_str()).is_some_and(|r| !r.leads());
         if replaced {
             // Central made sure nobody else can replicate it: what this node kept from before
             // is outdated.
             tracing::info!(mission = %name, "replacing the outdated replica kept from before: the mission starts anew");
-            let cmds = self.registry.discard(now, &name);
-            self.apply(now, &name, cmds, out);
+            let cmds = self.registry.discard(now, name.as_str());
+            self.apply(now, name.as_str(), cmds, out);
         }
-        if self.heads.contains_key(&name) || self.registry.replica(&name).is_some_and(|r| r.config().is_some()) {
+        if self.heads.contains_key(&name) || self.registry.replica(name.as_str()).is_some_and(|r| r.config().is_some()) {
             return out.push(Command::Reply { query, result: Err(format!("mission {name:?} is already hosted here").into()) });
         }
-        if let Some(node) = self.trust.chain_elsewhere(now, &name) {
+        if let Some(node) = self.trust.chain_elsewhere(now, name.as_str()) {
             return out
                 .push(Command::Reply { query, result: Err(format!("mission {name:?} still has a chain ({node} replicates it): not started anew").into()) });
         }
@@ -48,10 +49,10 @@ impl HostCore {
         let state = mm.changes().unwrap_or_else(|| mm.snapshot());
         self.heads.insert(name.clone(), Head::new(mm, Some(query)));
         out.push(Command::Serve { mission: name.clone() });
-        let cmds = self.registry.create(now, &name, replicas, state, floor);
-        self.apply(now, &name, cmds, out);
-        self.set_pool(now, &name);
-        self.run(now, &name, mission::Event::Start, out);
+        let cmds = self.registry.create(now, name.as_str(), replicas, state, floor);
+        self.apply(now, name.as_str(), cmds, out);
+        self.set_pool(now, name.as_str());
+        self.run(now, name.as_str(), mission::Event::Start, out);
     }
 
     pub(super) fn ctl(&mut self, now: f64, query: u64, name: &str, ctl: MissionCtl, out: &mut Vec<Command>) {
@@ -63,7 +64,7 @@ impl HostCore {
             // Only a robot whose liveliness this node sees joins the team: one that is gone (the
             // order came from a report older than its loss) would hold every barrier of the new
             // plan (its teammates wait for a member they never saw leave).
-            MissionCtl::Joined { member } if !self.robots.alive(&member.spec.id) => {
+            MissionCtl::Joined { member } if !self.robots.alive(member.spec.id.as_str()) => {
                 tracing::info!(mission = %name, robot = %member.spec.id, "told to take back a robot that is gone here: kept as lost");
                 self.run(now, name, mission::Event::Absent(member), out)
             }
@@ -176,8 +177,9 @@ impl HostCore {
         tracing::info!(mission = %name, chain_epoch = config.epoch, chain = ?config.chain, "took over the mission");
         // Robots already running the committed plans go on; those that missed them get them.
         let resend = mm.current_assignments();
-        let lost: Vec<RobotId> = mm.members().filter(|id| !self.robots.alive(id)).cloned().collect();
-        let back: Vec<Member> = if self.central_reachable() { vec![] } else { self.robots.alive_ids().iter().filter_map(|id| mm.lost(id).cloned()).collect() };
+        let lost: Vec<RobotId> = mm.members().filter(|id| !self.robots.alive(id.as_str())).cloned().collect();
+        let back: Vec<Member> =
+            if self.central_reachable() { vec![] } else { self.robots.alive_ids().iter().filter_map(|id| mm.lost(id.as_str()).cloned()).collect() };
         let mut head = Head::new(mm, None);
         head.defer(resend);
         self.heads.insert(name.into(), head);
@@ -230,7 +232,7 @@ impl HostCore {
             match c {
                 mission::Command::SendPlan { robot, mut assignment } => {
                     assignment.managers = managers.clone();
-                    if h.sending(now, &robot, assignment.clone()) {
+                    if h.sending(now, robot.as_str(), assignment.clone()) {
                         out.push(Command::SendPlan { mission: name.into(), robot, assignment });
                     }
                 }

@@ -213,7 +213,7 @@ impl HostCore {
     }
 
     pub fn node(&self) -> &str {
-        &self.node
+        self.node.as_str()
     }
     /// The missions this node leads.
     pub fn heads(&self) -> impl Iterator<Item = (&MissionName, &MissionManager)> {
@@ -222,7 +222,7 @@ impl HostCore {
     /// The maps of the missions this node leads or replicates.
     pub fn maps(&self) -> Vec<mrmm_proto::MapRef> {
         let mut out: Vec<mrmm_proto::MapRef> = self.heads.values().filter_map(|h| h.mm.map().cloned()).collect();
-        out.extend(self.registry.names().filter_map(|n| self.registry.replica(n)?.state()?.spec.map.clone()));
+        out.extend(self.registry.names().filter_map(|n| self.registry.replica(n.as_str())?.state()?.spec.map.clone()));
         out.sort();
         out.dedup();
         out
@@ -251,11 +251,11 @@ impl HostCore {
                 out.push(Command::Refused(Refused::NotEntitled { what: "steer a mission (start or control)".into(), from }));
             }
             Event::Start { query, start, .. } => self.start(now, query, *start, &mut out),
-            Event::Ctl { query, mission, ctl, .. } => self.ctl(now, query, &mission, ctl, &mut out),
+            Event::Ctl { query, mission, ctl, .. } => self.ctl(now, query, mission.as_str(), ctl, &mut out),
             Event::LocalTeam(teams) => self.trust.handle(trust::Heard::LocalTeam(teams)),
             Event::MissionStatus { view, from } => self.trust.handle(trust::Heard::Status { view: &view, from: &from }),
             Event::View { query, mission } => {
-                let result = self.view(now, &mission, true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
+                let result = self.view(now, mission.as_str(), true).ok_or_else(|| format!("mission {mission:?} is not managed here")).and_then(|v| json(&v));
                 out.push(Command::Reply { query, result: result.map_err(ErrorReply::from) });
             }
             Event::Marginal { query, mission, add } => {
@@ -267,19 +267,19 @@ impl HostCore {
                 out.push(Command::Reply { query, result: result.and_then(|m| json(&m)).map_err(ErrorReply::from) });
             }
             Event::Telemetry(t) => self.telemetry(now, &t, &mut out),
-            Event::Planned { mission, epoch, result } => self.planned(now, &mission, epoch, result, &mut out),
-            Event::PlanDelivered { mission, robot, epoch, result } => self.plan_delivered(now, &mission, &robot, epoch, result, &mut out),
+            Event::Planned { mission, epoch, result } => self.planned(now, mission.as_str(), epoch, result, &mut out),
+            Event::PlanDelivered { mission, robot, epoch, result } => self.plan_delivered(now, mission.as_str(), robot.as_str(), epoch, result, &mut out),
             Event::Chain { envelope, from } => self.chain_message(now, *envelope, from, &mut out),
             Event::HostAlive(node) | Event::HostGone(node) if node == self.node => {}
-            Event::HostAlive(node) => self.host(now, &node, true, &mut out),
-            Event::HostGone(node) => self.host(now, &node, false, &mut out),
+            Event::HostAlive(node) => self.host(now, node.as_str(), true, &mut out),
+            Event::HostGone(node) => self.host(now, node.as_str(), false, &mut out),
             Event::RobotAlive(id) => {
-                self.robots.up(&id);
-                self.robot(now, &id, true, &mut out);
+                self.robots.up(id.as_str());
+                self.robot(now, id.as_str(), true, &mut out);
             }
             Event::RobotGone(id) => {
-                self.robots.down(&id);
-                self.robot(now, &id, false, &mut out);
+                self.robots.down(id.as_str());
+                self.robot(now, id.as_str(), false, &mut out);
             }
             Event::PlannerAlive { kind, zid } => {
                 self.planners.insert((kind, zid));
@@ -300,26 +300,26 @@ impl HostCore {
         // A lost member heard again while central is away may rejoin now that it says
         // where it belongs.
         if !self.central_reachable() {
-            self.robot(now, &t.id, true, out);
+            self.robot(now, t.id.as_str(), true, out);
         }
-        let names: Vec<MissionName> = self.heads.iter().filter(|(_, h)| h.mm.has(&t.id)).map(|(n, _)| n.clone()).collect();
+        let names: Vec<MissionName> = self.heads.iter().filter(|(_, h)| h.mm.has(t.id.as_str())).map(|(n, _)| n.clone()).collect();
         for name in names {
             if let Some(h) = self.heads.get_mut(&name) {
                 h.telemetry(now, t);
             }
-            self.run(now, &name, mission::Event::Telemetry(Box::new(t.clone())), out);
+            self.run(now, name.as_str(), mission::Event::Telemetry(Box::new(t.clone())), out);
         }
     }
 
     fn host(&mut self, now: f64, node: &str, up: bool, out: &mut Vec<Command>) {
         for (name, cmds) in self.registry.liveliness(now, node, up) {
-            self.apply(now, &name, cmds, out);
+            self.apply(now, name.as_str(), cmds, out);
         }
         if node == CENTRAL_HOST && !up {
             // Nobody orders lost members back now: take back those alive.
             let back: Vec<RobotId> = self.robots.alive_ids().iter().cloned().collect();
             for id in back {
-                self.robot(now, &id, true, out);
+                self.robot(now, id.as_str(), true, out);
             }
         }
     }
@@ -340,7 +340,7 @@ impl HostCore {
         let names: Vec<MissionName> = self
             .heads
             .iter()
-            .filter(|(n, h)| if up { h.mm.lost(id).is_some() && self.robots.free_for(id, n) } else { h.mm.has(id) })
+            .filter(|(n, h)| if up { h.mm.lost(id).is_some() && self.robots.free_for(id, n.as_str()) } else { h.mm.has(id) })
             .map(|(n, _)| n.clone())
             .collect();
         for name in names {
@@ -351,7 +351,7 @@ impl HostCore {
                 }
                 _ => mission::Event::Lost { ids: vec![id.into()] },
             };
-            self.run(now, &name, ev, out);
+            self.run(now, name.as_str(), ev, out);
         }
     }
 }

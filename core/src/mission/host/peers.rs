@@ -12,17 +12,17 @@ impl HostCore {
     /// A chain message `envelope` from proven sender `sender`.
     pub(super) fn chain_message(&mut self, now: f64, envelope: ChainEnvelope, sender: Sender, out: &mut Vec<Command>) {
         let ChainEnvelope { mission, from, msg } = envelope;
-        let holds = self.registry.replica(&mission).is_some_and(|r| r.config().is_some());
+        let holds = self.registry.replica(mission.as_str()).is_some_and(|r| r.config().is_some());
         if !holds && !self.heads.contains_key(&mission) {
             self.trust.handle(trust::Heard::Foreign { now, mission: mission.clone(), from: from.clone() });
         }
-        if sender.id == from && !self.may_chain(&mission, &sender) && self.awaits_telemetry(now, &mission, &sender) {
+        if sender.id == from && !self.may_chain(mission.as_str(), &sender) && self.awaits_telemetry(now, mission.as_str(), &sender) {
             tracing::debug!(%mission, %from, "chain message held back until its sender's telemetry is heard");
             return;
         }
-        if sender.id != from || !self.may_chain(&mission, &sender) {
+        if sender.id != from || !self.may_chain(mission.as_str(), &sender) {
             if sender.id == from {
-                if let Some(answer) = self.answer_outsider(&mission, &from, &msg) {
+                if let Some(answer) = self.answer_outsider(mission.as_str(), from.as_str(), &msg) {
                     out.push(answer);
                 }
             }
@@ -30,8 +30,8 @@ impl HostCore {
             return;
         }
         tracing::trace!(%mission, %from, msg = msg.describe(), "chain: received");
-        let cmds = self.registry.receive(now, &mission, from, msg);
-        self.apply(now, &mission, cmds, out);
+        let cmds = self.registry.receive(now, mission.as_str(), from, msg);
+        self.apply(now, mission.as_str(), cmds, out);
     }
 
     /// What a node this one no longer counts in the mission (it left the chain while cut off,
@@ -57,7 +57,7 @@ impl HostCore {
             return Some(to_them(from, chain::Msg::Stale { promised: r.promised(), last: r.version() }));
         }
         match msg {
-            chain::Msg::Update { config, .. } | chain::Msg::Beat { config, .. } if config.contains(&self.node) && config.head() != self.node => {
+            chain::Msg::Update { config, .. } | chain::Msg::Beat { config, .. } if config.contains(self.node.as_str()) && config.head() != self.node => {
                 Some(to_them(config.head(), chain::Msg::Decline { epoch: config.epoch }))
             }
             _ => None,

@@ -112,7 +112,7 @@ impl Robots {
     /// said may be outdated by the time it matters again).
     pub(super) fn prune(&mut self, now: f64, member: impl Fn(&str) -> bool) {
         self.unjudged.retain(|_, since| now - *since < 2.0 * UNJUDGED_S);
-        let gone: Vec<RobotId> = self.admitted.keys().filter(|id| !self.unjudged.contains_key(*id) && !member(id)).cloned().collect();
+        let gone: Vec<RobotId> = self.admitted.keys().filter(|id| !self.unjudged.contains_key(*id) && !member(id.as_str())).cloned().collect();
         for id in gone {
             self.admitted.remove(&id);
             self.missions.remove(&id);

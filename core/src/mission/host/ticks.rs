@@ -13,17 +13,17 @@ impl HostCore {
     pub(super) fn tick(&mut self, now: f64, out: &mut Vec<Command>) {
         self.prune_unwatched(now);
         for (name, cmds) in self.registry.tick(now) {
-            self.apply(now, &name, cmds, out);
+            self.apply(now, name.as_str(), cmds, out);
         }
         let due: Vec<MissionName> = self.heads.iter().filter(|(_, h)| h.mm.replan_due().is_some_and(|d| now >= d)).map(|(n, _)| n.clone()).collect();
         for name in due {
-            self.run(now, &name, mission::Event::Tick, out);
+            self.run(now, name.as_str(), mission::Event::Tick, out);
         }
         let (robots, registry) = (&self.robots, &self.registry);
         for (name, h) in self.heads.iter_mut() {
-            let managers = registry.replica(name).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
+            let managers = registry.replica(name.as_str()).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
             for (robot, assignment) in h.redeliver(now, |r| robots.alive(r)) {
-                out.push(send_plan(name, robot, assignment, &managers));
+                out.push(send_plan(name.as_str(), robot, assignment, &managers));
             }
         }
     }
@@ -34,10 +34,10 @@ impl HostCore {
         let names: Vec<MissionName> = self.heads.keys().cloned().collect();
         for name in names {
             let before = out.len();
-            self.run(now, &name, mission::Event::Checkpoint, out);
+            self.run(now, name.as_str(), mission::Event::Checkpoint, out);
             if !out[before..].iter().any(|c| matches!(c, Command::Status(_))) {
-                self.set_pool(now, &name);
-                self.status(now, &name, out);
+                self.set_pool(now, name.as_str());
+                self.status(now, name.as_str(), out);
             }
         }
     }

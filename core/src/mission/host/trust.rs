@@ -77,7 +77,7 @@ impl Trust {
                 let Local::Robot(teams) = &self.local else { return };
                 let Some((_, members)) = teams.iter().find(|(m, _)| *m == view.name) else { return };
                 let head_trusted = from.role != Role::Robot || members.contains(&from.id);
-                let status = mrmm_proto::policy::Publication::Status { manager: &view.manager.node };
+                let status = mrmm_proto::policy::Publication::Status { manager: view.manager.node.as_str() };
                 if mrmm_proto::policy::may_publish(status, from).is_ok() && head_trusted {
                     self.trusted_chain.insert(view.name.clone(), view.manager.chain.clone());
                 }

@@ -36,7 +36,7 @@ impl HostCore {
     }
 
     fn replicated(&self) -> impl Iterator<Item = &MissionSnapshot> {
-        self.registry.names().filter_map(|n| self.registry.replica(n)).filter_map(|r| r.state())
+        self.registry.names().filter_map(|n| self.registry.replica(n.as_str())).filter_map(|r| r.state())
     }
 
     /// Whether a chain message about `mission` from robot `from` can only be judged by the

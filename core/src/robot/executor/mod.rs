@@ -124,13 +124,13 @@ struct Wide {
 
 impl Executor {
     pub fn new(assignment: PlanAssignment) -> Self {
-        let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &assignment.members).with_mode(assignment.barrier);
+        let barrier = Barrier::new(assignment.plan.robot.as_str(), assignment.epoch, &assignment.members).with_mode(assignment.barrier);
         let wide = assignment
             .scopes
             .iter()
             .filter(|s| s.team != assignment.team)
             .map(|s| {
-                let barrier = Barrier::new(&assignment.plan.robot, assignment.epoch, &s.members);
+                let barrier = Barrier::new(assignment.plan.robot.as_str(), assignment.epoch, &s.members);
                 (
                     s.team.clone(),
                     Wide { barrier, waiting: None, turning: false, last_publish: 0.0, gap: REPUBLISH_S, echo_due: false, last_echo: f64::NEG_INFINITY },
@@ -179,7 +179,7 @@ impl Executor {
     }
 
     pub fn mission(&self) -> &str {
-        &self.assignment.mission
+        self.assignment.mission.as_str()
     }
 
     pub fn epoch(&self) -> u64 {
@@ -251,17 +251,17 @@ impl Executor {
                 vec![]
             }
             Event::MemberAlive(id) => {
-                self.barrier.member_alive(&id);
+                self.barrier.member_alive(id.as_str());
                 self.gap = self.republish;
                 for w in self.wide.values_mut() {
-                    w.barrier.member_alive(&id);
+                    w.barrier.member_alive(id.as_str());
                     w.gap = self.republish;
                 }
                 self.lead(now)
             }
             Event::MemberGone(id) => {
-                self.barrier.member_gone(&id);
-                self.wide.values_mut().for_each(|w| w.barrier.member_gone(&id));
+                self.barrier.member_gone(id.as_str());
+                self.wide.values_mut().for_each(|w| w.barrier.member_gone(id.as_str()));
                 self.lead(now)
             }
         }
@@ -413,7 +413,7 @@ impl Executor {
         if self.barrier.mode() == BarrierMode::Leader
             && !self.barrier.leading()
             && self.waiting.is_none()
-            && self.acked_by.as_deref() != Some(self.barrier.leader())
+            && self.acked_by.as_ref().map(|x| x.as_str()) != Some(self.barrier.leader())
             && now - self.last_publish >= self.republish
         {
             if let Some(at) = self.barrier.mine() {

@@ -204,7 +204,7 @@ fn default_split_is_equal_and_takes_from_running_missions() {
     assert!(seen.replies[0].1.is_ok());
     assert_eq!(seen.starts[0].2, ["r6", "r5", "r4"]);
     assert_eq!(seen.ctls, [("a".into(), left(&["r6", "r5", "r4"]))], "one replan for all three");
-    let count = |m: &str| sm.views().into_iter().filter(|v| v.mission.as_deref() == Some(m)).count();
+    let count = |m: &str| sm.views().into_iter().filter(|v| v.mission.as_ref().map(|x| x.as_str()) == Some(m)).count();
     assert_eq!((count("a"), count("b")), (3, 3));
 }
 
@@ -232,7 +232,7 @@ fn move_and_loss_steer_both_missions() {
     // A patrol robot is lost: its head plans around it on its own; it keeps its place.
     let cmds = sm.drive(6.0, Event::RobotGone { id: "r1".into() });
     assert!(settle(&mut sm, cmds).ctls.is_empty());
-    assert_eq!(sm.view("r1").and_then(|v| v.last_mission).as_deref(), Some("p"));
+    assert_eq!(sm.view("r1").and_then(|v| v.last_mission).as_ref().map(|x| x.as_str()), Some("p"));
     let v = reply(sm.drive(6.5, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
     assert_eq!(v[1]["robots"], serde_json::json!(["r2", "r3"]));
     // No other mission can take it while it is away, and it is back in p when it returns.

@@ -293,7 +293,7 @@ impl<S: Clone> Replica<S> {
             Role::Candidate { .. } => vec![],
             Role::Follower => self.maybe_stand(now),
             Role::Ending { epoch, last_sent, since } => {
-                let next = self.config.as_ref().and_then(|c| c.next(&self.me)).map(NodeId::from);
+                let next = self.config.as_ref().and_then(|c| c.next(self.me.as_str())).map(NodeId::from);
                 match next {
                     Some(_) if now - since > 4.0 * self.p.silence => self.retire(),
                     Some(n) if now - last_sent >= self.p.beat => {
@@ -312,7 +312,7 @@ impl<S: Clone> Replica<S> {
         let Some(((e, seq), state)) = self.state.clone() else { return vec![] };
         let mut out = Vec::new();
         if now - last_sent >= self.p.beat {
-            match config.next(&self.me) {
+            match config.next(self.me.as_str()) {
                 // Once the whole chain holds the state, beats go without it.
                 Some(n) if committed == Some(seq) => out.push(Command::Send { to: n.into(), msg: Msg::Beat { config: config.clone(), seq } }),
                 Some(n) => out.push(Command::Send { to: n.into(), msg: Msg::Update { config: config.clone(), seq, state } }),
@@ -342,7 +342,7 @@ impl<S: Clone> Replica<S> {
     fn vote_timeout(&self, epoch: u64) -> f64 {
         let pos = self.config.as_ref().and_then(|c| c.chain.iter().position(|n| *n == self.me)).unwrap_or(0);
         let mut h: u64 = 0xcbf2_9ce4_8422_2325 ^ epoch.wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        for b in self.me.bytes() {
+        for b in self.me.as_str().bytes() {
             h = (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
         }
         let jitter = (h >> 11) as f64 / (1u64 << 53) as f64;

@@ -57,7 +57,7 @@ impl<S: Clone> Replica<S> {
     /// A node of our chain will never acknowledge: without a new chain nothing would ever
     /// commit. Stand at once for one without it (safe as any election).
     fn on_decline(&mut self, now: f64, from: NodeId, epoch: u64) -> Vec<Command<S>> {
-        let Some(config) = self.config.clone().filter(|c| c.epoch == epoch && c.contains(&from)) else { return vec![] };
+        let Some(config) = self.config.clone().filter(|c| c.epoch == epoch && c.contains(from.as_str())) else { return vec![] };
         if from == self.me || !matches!(self.role, Role::Head { .. }) || !self.declined.insert(from.clone()) {
             return vec![];
         }
@@ -71,7 +71,7 @@ impl<S: Clone> Replica<S> {
     fn on_behind(&self, epoch: u64) -> Vec<Command<S>> {
         if let (Role::Head { .. }, Some(config), Some(((e, seq), state))) = (&self.role, &self.config, &self.state) {
             if config.epoch == epoch && *e == epoch {
-                if let Some(n) = config.next(&self.me) {
+                if let Some(n) = config.next(self.me.as_str()) {
                     return vec![Command::Send { to: n.into(), msg: Msg::Update { config: config.clone(), seq: *seq, state: state.clone() } }];
                 }
             }
@@ -107,7 +107,7 @@ impl<S: Clone> Replica<S> {
         let mut out = Vec::new();
         self.ended = true;
         if let Some(c) = &self.config {
-            match c.next(&self.me) {
+            match c.next(self.me.as_str()) {
                 Some(n) => out.push(Command::Send { to: n.into(), msg: Msg::End { epoch } }),
                 None => out.push(Command::Send { to: c.head().into(), msg: Msg::EndAck { epoch } }),
             }
@@ -129,7 +129,7 @@ impl<S: Clone> Replica<S> {
             };
             return vec![Command::Send { to: from, msg }];
         }
-        let epoch_ok = e > self.promised || (e == self.promised && self.voted_for.as_deref() == Some(from.as_str()));
+        let epoch_ok = e > self.promised || (e == self.promised && self.voted_for.as_ref().map(|x| x.as_str()) == Some(from.as_str()));
         // A member of the candidate's chain that holds nothing lost its state (restart): its vote
         // must not count as that of the member who held it. Except for the head of a chain of
         // two, standing again: every change of a two-node chain needs both votes, so no newer
@@ -139,7 +139,7 @@ impl<S: Clone> Replica<S> {
         let lost = self.state.is_none() && base.contains(&self.me) && !head_of_two;
         // A new chain keeps a majority of the current one, so a later candidate that missed this
         // change always meets a node that holds a newer state than its own.
-        let keeps = 2 * base.iter().filter(|n| proposal.contains(n)).count() > base.len();
+        let keeps = 2 * base.iter().filter(|n| proposal.contains(n.as_str())).count() > base.len();
         let grant = epoch_ok && !lost && keeps && last >= self.version() && now - self.born >= self.p.quarantine;
         if !grant {
             return vec![Command::Send { to: from, msg: Msg::Refuse { epoch: e, promised: self.promised, last: self.version() } }];
@@ -176,7 +176,7 @@ impl<S: Clone> Replica<S> {
             self.promised = e;
             self.voted_for = None;
         }
-        if !config.contains(&self.me) {
+        if !config.contains(self.me.as_str()) {
             out.extend(self.retire());
             return out;
         }
@@ -197,7 +197,7 @@ impl<S: Clone> Replica<S> {
         if se != e {
             return out;
         }
-        match config.next(&self.me) {
+        match config.next(self.me.as_str()) {
             Some(n) if beat && sseq == seq => out.push(Command::Send { to: n.into(), msg: Msg::Beat { config: config.clone(), seq } }),
             Some(n) => out.push(Command::Send { to: n.into(), msg: Msg::Update { config: config.clone(), seq: sseq, state: s } }),
             None => out.push(Command::Send { to: config.head().into(), msg: Msg::Ack { epoch: e, seq: sseq } }),
