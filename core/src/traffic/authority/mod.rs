@@ -245,14 +245,9 @@ impl Authority {
                 }
                 let rebuilding = self.rebuilding(now);
                 let incarnation = self.incarnation;
-                let me = self.me.clone();
+                let named = Naming { me: self.me.as_ref(), gone: &self.gone };
                 match self.maps.get_mut(&map) {
-                    Some(m) => {
-                        if m.deputies.len() < DEPUTIES {
-                            m.name_deputies(now, me.as_ref(), &self.gone);
-                        }
-                        m.report(now, &map, incarnation, rebuilding, report)
-                    }
+                    Some(m) => m.report(now, &map, incarnation, rebuilding, report, named),
                     None => Vec::new(),
                 }
             }
@@ -330,7 +325,10 @@ impl OnMap {
         self.deputies = me.cloned().into_iter().chain(others).take(DEPUTIES).collect();
     }
 
-    fn report(&mut self, now: f64, hash: &str, incarnation: u64, rebuilding: bool, report: TrafficReport) -> Vec<Command> {
+    /// A robot's report on the map: what it holds and reached taken in, its goal routed, and
+    /// its order (naming the deputies, the reporting robot counted among them, since it just
+    /// spoke) given.
+    fn report(&mut self, now: f64, hash: &str, incarnation: u64, rebuilding: bool, report: TrafficReport, named: Naming<'_>) -> Vec<Command> {
         let robot = report.robot.clone();
         let Some((traffic, space)) = self.lanes.as_mut() else {
             return vec![Command::Order { map: hash.to_string(), robot, order: TrafficOrder::Free }];
@@ -403,6 +401,9 @@ impl OnMap {
                     Err(why) => seen.refused = Some(why),
                 }
             }
+        }
+        if self.deputies.len() < DEPUTIES {
+            self.name_deputies(now, named.me, named.gone);
         }
         let mut out = Vec::new();
         let answered = self.orders(hash, incarnation, cmds, &mut out);
@@ -497,6 +498,14 @@ fn route_to(traffic: &Traffic, space: &GraphSpace, grid: Option<&OccupancyGrid>,
         _ => vertex_for(space, grid, at).unwrap_or(to),
     };
     space.vertex_path(from, to).ok_or_else(|| format!("no lanes lead from vertex {from} to vertex {to} (nearest the goal ({}, {}))", goal.x, goal.y))
+}
+
+/// Who may be named a deputy: not the deputy that took over (`me`, named first anyway), not a
+/// robot whose liveliness went.
+#[derive(Clone, Copy)]
+struct Naming<'a> {
+    me: Option<&'a RobotId>,
+    gone: &'a BTreeMap<RobotId, f64>,
 }
 
 #[cfg(test)]

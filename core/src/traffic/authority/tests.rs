@@ -141,3 +141,39 @@ fn a_lost_robot_taken_off_the_lanes_frees_the_way() {
     assert_eq!(out.iter().filter(|c| cleared(c)).count(), 1, "{out:?}");
     assert!(out.iter().all(|c| cleared(c) || matches!(c, Command::Order { robot, .. } if robot.as_str() == "r2")), "{out:?}");
 }
+
+/// A robot's first report on a map counts it among the deputies its own order names: it has
+/// just spoken. (Before, the deputies were named before the report was taken in, so the first
+/// order of the second robot on a map named only the first: one deputy where two were due, and
+/// none at all for the first robot's first order.)
+#[test]
+fn a_robots_first_order_names_it_among_the_deputies() {
+    let map = office();
+    let Map::Graph(g) = map.as_ref() else { unreachable!() };
+    let hash = "h".repeat(64);
+    let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+    let (here, there) = (g.vertices[0].at, g.vertices[3].at);
+    let far = g.vertices[g.vertices.len() - 1].at;
+    let report = |robot: &str, at: Point| TrafficReport {
+        robot: robot.into(),
+        seq: 1,
+        x: at.x,
+        y: at.y,
+        goal: Some(TrafficGoal { id: 1, x: far.x, y: far.y }),
+        held: None,
+    };
+    let deputies = |out: &[Command], robot: &str| -> Vec<String> {
+        out.iter()
+            .find_map(|c| match c {
+                Command::Order { robot: r, order: TrafficOrder::Route { deputies, .. }, .. } if r.as_str() == robot => {
+                    Some(deputies.iter().map(|d| d.to_string()).collect())
+                }
+                _ => None,
+            })
+            .unwrap_or_else(|| panic!("no route for {robot}: {out:?}"))
+    };
+    let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", here) });
+    assert_eq!(deputies(&out, "r1"), ["r1"]);
+    let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", there) });
+    assert_eq!(deputies(&out, "r2"), ["r1", "r2"]);
+}
