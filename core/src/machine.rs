@@ -1,6 +1,7 @@
 //! The contract between a pure machine and the driver that runs it: [`Machine::handle`] decides,
-//! [`step`] carries the decision out through a [`Runtime`] — the production one (Zenoh, redb, the
-//! chain store: `mrmm-manager`) or the simulation's (`mrmm-sim`), which run this same code.
+//! [`carry_out`] carries the decision out through a [`Runtime`] — the production one (Zenoh,
+//! redb, the chain store: `mrmm-manager`) or the simulation's (`mrmm-sim`), which run this same
+//! code — and [`drive`] is the loop of every production node around the two.
 //!
 //! # Order
 //! Every command has a typed effect ([`Effect`]): what the node must **persist**, what it
@@ -9,8 +10,9 @@
 //! comes back as an event). Everything one step persists is written and synced before anything
 //! of that step leaves the node, in one batch, in the machine's order (raft-rs's `Ready`: a node
 //! that said "ok" must still know it after a crash). The rest follows in the machine's order.
-//! No machine sets a timer: time reaches it as events (ticks) its node makes. A runtime that cannot persist stops the step, and its node: it must
-//! restart from what is on disk rather than say what is not there.
+//! No machine sets a timer: time reaches it as events (ticks) its node makes. A runtime that
+//! cannot persist stops the step, and its node: it must restart from what is on disk rather than
+//! say what is not there.
 
 use std::future::Future;
 
@@ -38,13 +40,6 @@ pub enum Effect {
     Reply,
     /// What stays in the node: its body, its declarations, its log, a job off its loop.
     Local,
-}
-
-impl Effect {
-    /// Whether the command leaves the node on the network.
-    pub fn leaves(self) -> bool {
-        matches!(self, Effect::Publish | Effect::Ask | Effect::Reply)
-    }
 }
 
 /// One step's commands in the contract's order.
@@ -113,15 +108,9 @@ pub async fn drive<M: Machine, N: Node<M>>(machine: &mut M, node: &mut N) -> Res
     Ok(())
 }
 
-/// One step of the driver: `event` handled at `now`, its commands carried out in order.
-pub async fn step<M: Machine, R: Runtime<M>>(machine: &mut M, runtime: &mut R, now: f64, event: M::Event) -> Result<(), R::Error> {
-    let commands = machine.handle(now, event);
-    carry_out::<M, R>(runtime, commands).await
-}
-
 /// Carries out commands a machine decided, in the contract's order: what must be durable
-/// first, then the rest. (For drivers that look at the machine between its decision and the
-/// effects, as the simulation does; else [`step`].)
+/// first, then the rest. [`drive`] takes this step for every event of a node; the simulation,
+/// which interleaves many machines in one world, takes it for each of their decisions.
 pub async fn carry_out<M: Machine, R: Runtime<M>>(runtime: &mut R, commands: Vec<M::Command>) -> Result<(), R::Error> {
     let Ready { persist, carry } = Ready::of::<M>(commands);
     if !persist.is_empty() {
@@ -188,14 +177,14 @@ mod tests {
     #[test]
     fn persists_come_first_in_one_batch_then_the_rest_in_order() {
         let mut log = Log::default();
-        ready(step(&mut Echo, &mut log, 0.0, vec![1, -1, 2, -2, 3])).unwrap();
+        ready(carry_out::<Echo, _>(&mut log, Echo.handle(0.0, vec![1, -1, 2, -2, 3]))).unwrap();
         assert_eq!(log.done, ["persist [-1, -2]", "carry 1", "carry 2", "carry 3"]);
     }
 
     #[test]
     fn nothing_is_carried_out_when_the_persist_fails() {
         let mut log = Log { fail_persist: true, ..Log::default() };
-        assert_eq!(ready(step(&mut Echo, &mut log, 0.0, vec![1, -1, 2])), Err("disk full".to_string()));
+        assert_eq!(ready(carry_out::<Echo, _>(&mut log, Echo.handle(0.0, vec![1, -1, 2]))), Err("disk full".to_string()));
         assert!(log.done.is_empty(), "{:?}", log.done);
     }
 
@@ -247,7 +236,7 @@ mod tests {
     #[test]
     fn a_step_without_persists_writes_nothing() {
         let mut log = Log::default();
-        ready(step(&mut Echo, &mut log, 0.0, vec![4, 5])).unwrap();
+        ready(carry_out::<Echo, _>(&mut log, Echo.handle(0.0, vec![4, 5]))).unwrap();
         assert_eq!(log.done, ["carry 4", "carry 5"]);
     }
 }

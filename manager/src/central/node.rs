@@ -37,14 +37,21 @@ pub(super) struct Node {
 }
 
 impl Node {
-    /// The next event of the network, the tick or central's own tasks; `None` at shutdown.
+    /// The next event: one already due, else of the network, the tick or central's own tasks;
+    /// `None` at shutdown.
     async fn heard(&mut self) -> Option<Event> {
         loop {
+            if let Some(e) = self.due.pop_front() {
+                return Some(e);
+            }
             let event = tokio::select! {
                 _ = self.shutdown.cancelled() => return None,
                 _ = self.tick.tick() => {
+                    // The seal counts the tick makes due, then the tick, as the core has always
+                    // seen them.
                     self.due.extend(self.seals.due(&self.mesh).into_iter().map(Event::System));
-                    Event::System(system::Event::Tick)
+                    self.due.push_back(Event::System(system::Event::Tick));
+                    continue;
                 }
                 i = self.lanes.recv() => match i? {
                     Input::Operator(q) if Key::parse(q.key_expr().as_str()) == Some(Key::SystemJournal) => {
@@ -70,18 +77,7 @@ impl Node {
 
 impl mrmm_core::machine::Node<CentralCore> for Node {
     async fn next(&mut self, _: &CentralCore) -> Result<Option<(f64, Event)>, ManagerError> {
-        let event = match self.due.pop_front() {
-            Some(e) => e,
-            None => match self.heard().await {
-                Some(Event::System(system::Event::Tick)) if !self.due.is_empty() => {
-                    // The tick after what it made due, as the core has always seen them.
-                    self.due.push_back(Event::System(system::Event::Tick));
-                    self.due.pop_front().expect("due is not empty")
-                }
-                Some(e) => e,
-                None => return Ok(None),
-            },
-        };
+        let Some(event) = self.heard().await else { return Ok(None) };
         self.step = Some((event.kind(), Instant::now(), Duration::ZERO));
         Ok(Some((self.t0.elapsed().as_secs_f64(), event)))
     }

@@ -70,12 +70,13 @@ where
             return Ok(());
         }
         if self.unwritten {
-            let what: String = format!("{c:?}").chars().take(80).collect();
-            return Err(format!("{} carried out {what} before {}", self.world.nodes[self.node].name, M::KEPT));
+            return Err(format!("{} carried out {} before {}", self.world.nodes[self.node].name, brief(&c), M::KEPT));
         }
         let effect = M::effect(&c);
         let before = (self.world.published, self.world.next_qid);
-        let what: String = format!("{c:?}").chars().take(80).collect();
+        // Written before the command is gone, for the violation's message: its first 80
+        // characters only (formatting a whole plan on every command would slow every seed).
+        let what = brief(&c);
         self.down = !M::carry(self.world, self.node, c)?;
         let (published, asked) = (self.world.published > before.0, self.world.next_qid > before.1);
         if (published && effect != Effect::Publish) || (asked && effect != Effect::Ask) {
@@ -84,6 +85,25 @@ where
         }
         Ok(())
     }
+}
+
+/// The first 80 characters of `c`'s `Debug` form; the formatting stops there.
+fn brief(c: &impl std::fmt::Debug) -> String {
+    use std::fmt::Write;
+    struct Upto80(String);
+    impl Write for Upto80 {
+        fn write_str(&mut self, s: &str) -> std::fmt::Result {
+            let room = 80 - self.0.chars().count();
+            self.0.extend(s.chars().take(room));
+            if self.0.chars().count() >= 80 {
+                return Err(std::fmt::Error);
+            }
+            Ok(())
+        }
+    }
+    let mut out = Upto80(String::new());
+    let _ = write!(out, "{c:?}");
+    out.0
 }
 
 impl OnNode for CentralCore {
