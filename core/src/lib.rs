@@ -29,6 +29,7 @@ pub mod maps;
 pub mod mission;
 pub mod observer;
 pub mod robot;
+pub mod roll_call;
 pub mod timeouts;
 pub mod traffic;
 

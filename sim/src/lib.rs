@@ -81,6 +81,10 @@ pub struct Config {
     /// anew by central — a new lineage beside the old one until the partition heals. Drawn from
     /// a random stream of its own, so seeds without such a power cycle run as before.
     pub side_cycles: bool,
+    /// Probability that central's system manager misses a liveliness change (its inbox dropped
+    /// it, or a router withdrew a token another link still holds): only its roll call
+    /// (`roll_call.rs` in the core) can correct it. Drawn from a random stream of its own.
+    pub missed_live: f64,
 }
 
 impl Config {
@@ -106,6 +110,7 @@ impl Config {
             lease: 1.0,
             disks: r.gen_bool(0.5),
             side_cycles: false,
+            missed_live: 0.0,
         }
     }
 
@@ -136,6 +141,7 @@ impl Config {
             lease: 1.0,
             disks: false,
             side_cycles: false,
+            missed_live: 0.0,
         }
     }
 
@@ -172,6 +178,7 @@ impl Config {
             lease: 1.0,
             disks: false,
             side_cycles: false,
+            missed_live: [0.0, 0.2][r.gen_range(0..2)],
         }
     }
 
@@ -196,6 +203,7 @@ impl Config {
             lease: 1.0,
             disks: r.gen_bool(0.5),
             side_cycles: true,
+            missed_live: [0.0, 0.2][r.gen_range(0..2)],
         }
     }
 }

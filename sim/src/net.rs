@@ -138,6 +138,12 @@ impl Beliefs {
         self.next.retain(|(o, t), _| *o != observer || keep(t));
     }
 
+    /// The tokens `observer` holds up (what its Zenoh tables hold: changes scheduled for it
+    /// included).
+    pub fn up_for(&self, observer: usize) -> impl Iterator<Item = &Token> {
+        self.seen.iter().filter(move |((o, _), up)| *o == observer && **up).map(|((_, t), _)| t)
+    }
+
     /// The changes to deliver so that every live observer ends up seeing what it watches
     /// (`watches`) of the `present` tokens (token, holder) it can see now, each `delay` from `now`.
     pub fn update(&mut self, now: f64, delay: f64, links: &Links, present: &[(Token, usize)], watches: impl Fn(usize, &Token) -> bool) -> Vec<Change> {

@@ -36,7 +36,7 @@ macro_rules! seeds {
 
 seeds! {
     seed_0 = 0: "chain: a replica's state parsed from a chain message's JSON differed from the head's by a float's last bit (serde_json without `float_roundtrip`)";
-    seed_18 = 18: "chain: catches a head elected without Raft's up-to-date rule (when `Replica::on_vote` drops it)";
+    seed_18 = 18: "chain: catches a head elected without Raft's up-to-date rule (when `Replica::on_vote` drops it); membership: catches a robot shown lost for good when central missed its token's return (without central's roll call)";
     seed_44 = 44: "system: catches a member left on an old epoch when an unacknowledged plan is never re-sent";
     seed_159 = 159: "system: kept from the issue's list of seeds that found bugs";
     seed_166 = 166: "system: kept from the issue's list of seeds that found bugs";
@@ -55,5 +55,6 @@ seeds! {
     seed_7682 = 7682: "system: a two-node chain stalled after central restarted without its chain state";
     seed_7743 = 7743: "system: central forgot a release it still owed after a restart";
     seed_926 = 926: "membership: central, seeing a head gone that was alive, reported itself head of a chain without it; the head won the next chain epoch and every report of it was refused";
+    seed_843 = 843: "membership: catches a mission head that missed a member's return and never took it back (without the mission host's roll call)";
     seed_1389 = 1389: "barrier: two robots, the leader crashed while the network lost every (backed-off) re-publication of the other's arrival — no message delivered, barriers passed alone; the harness took it for a world that did nothing";
 }

@@ -270,7 +270,9 @@ impl crate::machine::Machine for CentralCore {
         use system::Command as S;
         match command {
             Command::System(S::Journal(_)) => Effect::Persist,
-            Command::System(S::FetchInfo { .. } | S::SendToRobot { .. } | S::StartMission { .. } | S::Ctl { .. } | S::Forward { .. }) => Effect::Ask,
+            Command::System(S::FetchInfo { .. } | S::SendToRobot { .. } | S::StartMission { .. } | S::Ctl { .. } | S::Forward { .. } | S::RollCall) => {
+                Effect::Ask
+            }
             Command::System(S::Reply { .. }) => Effect::Reply,
             Command::System(S::Chain { .. }) | Command::Publish(_) => Effect::Publish,
             // A refusal is logged; a dry run is planned off the loop, its result an event.

@@ -134,6 +134,11 @@ impl Io {
                 }
             }
             system::Command::Refused(r) => self.mesh.refused(&r),
+            system::Command::RollCall => {
+                let mesh = self.mesh.clone();
+                let patterns = [proto::Pattern::AllRobotsAlive, proto::Pattern::AllHostsAlive];
+                self.spawn(async move { system::Event::RollCall(crate::edge::roll_call(&mesh, &patterns).await) })
+            }
             // Published above.
             system::Command::Chain { .. } => {}
             // Committed by the runtime before anything else of its step.

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use mrmm_core::egress::Out;
 use mrmm_net::net;
 use mrmm_net::Mesh;
-use mrmm_proto::Key;
+use mrmm_proto::{Key, Pattern};
 use tokio::sync::mpsc;
 use zenoh::bytes::Encoding;
 use zenoh::query::{Query, Queryable};
@@ -133,6 +133,14 @@ impl Io {
                 }
             }
             Command::Refused(r) => self.mesh.refused(&r),
+            Command::RollCall => {
+                let (mesh, tx) = (self.mesh.clone(), self.tx.clone());
+                tokio::spawn(async move {
+                    let patterns = [Pattern::AllHostsAlive, Pattern::AllRobotsAlive, Pattern::AllPlannersAlive];
+                    let result = crate::edge::roll_call(&mesh, &patterns).await;
+                    let _ = tx.send(Input::Event(Event::RollCall(result)));
+                });
+            }
             // Written by the runtime before anything else of its step.
             Command::Persist { .. } => {}
             Command::Drop { query } => {

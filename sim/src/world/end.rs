@@ -33,6 +33,7 @@ impl World {
             self.nodes.iter().filter_map(|n| n.host.as_ref()).flat_map(|h| h.heads().map(|(m, _)| m.clone()).collect::<Vec<_>>()).collect();
         self.inv.forget_missions(&alive);
         self.one_mission_per_robot()?;
+        self.central_knows_who_is_up()?;
         if let Ops::Barriers { .. } = self.cfg.ops {
             return self.plans_finished();
         }
@@ -66,6 +67,21 @@ impl World {
         self.central_missions_led(&heads)?;
         self.report.missions_at_end = heads.len();
         self.report.commands_ok = self.op.ok;
+        Ok(())
+    }
+
+    /// Central shows lost exactly the registered robots whose tokens its node does not hold up,
+    /// whatever liveliness changes its system manager missed (`Config::missed_live`).
+    fn central_knows_who_is_up(&self) -> Result<(), String> {
+        for (i, n) in self.nodes.iter().enumerate() {
+            let Some(c) = n.central.as_ref().filter(|_| self.links.up[i]) else { continue };
+            for v in c.system().views() {
+                let up = self.beliefs.up_for(i).any(|t| *t == Token::Robot(v.id.as_str().to_string()));
+                if up == (v.status == mrmm_proto::RobotStatus::Lost) {
+                    return Err(format!("after healing, central shows {} {:?} while its token is {}", v.id, v.status, if up { "up" } else { "gone" }));
+                }
+            }
+        }
         Ok(())
     }
 

@@ -165,31 +165,38 @@ impl World {
         }
     }
 
-    /// A liveliness change reaches the machines of `node` that watch it.
-    pub(super) fn tell(&mut self, node: usize, token: &Token, up: bool) -> Result<(), String> {
+    /// A liveliness change reaches the machines of `node` that watch it; its system manager and
+    /// mission host, if they `missed` it (`Config::missed_live`), learn it from their roll calls
+    /// only.
+    pub(super) fn tell(&mut self, node: usize, token: &Token, up: bool, missed: bool) -> Result<(), String> {
+        let missed = missed && !matches!(token, Token::Member { .. });
         if !matches!(token, Token::Member { .. }) {
             let name = self.nodes[node].name.clone();
-            self.log(|| format!("{name} sees {token:?} {}", if up { "up" } else { "gone" }));
+            let how = if missed { "misses" } else { "sees" };
+            self.log(|| format!("{name} {how} {token:?} {}", if up { "up" } else { "gone" }));
+        }
+        let keys: Vec<mrmm_proto::Key> = match token {
+            Token::Robot(id) => vec![mrmm_proto::Key::RobotAlive(id.clone().into())],
+            Token::Host(name) => vec![mrmm_proto::Key::HostAlive(name.clone().into())],
+            Token::Planner => {
+                ["patrol", "coverage"].map(|kind| mrmm_proto::Key::PlannerAlive { kind: kind.to_string(), zid: CENTRAL_HOST.to_string() }).to_vec()
+            }
+            Token::Member { .. } => vec![],
+        };
+        for key in keys {
+            if !missed && !matches!(token, Token::Planner) {
+                self.central_hears(node, Wire::token(key.clone(), up))?;
+            }
+            // A robot follows central's host token (not a machine with a roll call).
+            if matches!(token, Token::Host(name) if name == CENTRAL_HOST) {
+                self.robot_hears(node, Wire::token(key.clone(), up))?;
+            }
+            if !missed {
+                self.host_hears(node, Wire::token(key, up))?;
+            }
         }
         match token {
-            Token::Robot(id) => {
-                self.central_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone().into()), up))?;
-                self.host_hears(node, Wire::token(mrmm_proto::Key::RobotAlive(id.clone().into()), up))
-            }
-            Token::Host(name) => {
-                self.central_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone().into()), up))?;
-                if name == CENTRAL_HOST {
-                    self.robot_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone().into()), up))?;
-                }
-                self.host_hears(node, Wire::token(mrmm_proto::Key::HostAlive(name.clone().into()), up))
-            }
-            Token::Planner => {
-                for kind in ["patrol", "coverage"] {
-                    let (kind, zid) = (kind.to_string(), CENTRAL_HOST.to_string());
-                    self.host_hears(node, Wire::token(mrmm_proto::Key::PlannerAlive { kind, zid }, up))?;
-                }
-                Ok(())
-            }
+            Token::Robot(_) | Token::Host(_) | Token::Planner => Ok(()),
             Token::Member { subteam, robot } => {
                 self.robot_hears(node, Wire::token(mrmm_proto::Key::TeamMember { subteam: subteam.clone(), robot: robot.clone().into() }, up))
             }

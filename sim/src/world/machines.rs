@@ -88,6 +88,11 @@ impl World {
                     self.log(|| format!("journal: {e:?}"));
                 }
             }
+            system::Command::RollCall => {
+                // Central's liveliness queries, answered from what its Zenoh tables hold, a little later.
+                let (inc, present) = (self.links.inc[i], self.present(i));
+                self.queue.push(self.now + 0.01, Ev::LocalCentral { node: i, inc, ev: Box::new(central::Event::System(system::Event::RollCall(Ok(present)))) });
+            }
             system::Command::DryRun(dry) => {
                 // Off central's loop in the driver: here, answered a little later.
                 let result = dry.run();
@@ -103,6 +108,25 @@ impl World {
             system::Command::Reply { req: Req::Agent(_), .. } => return Err("an answer to the agent left central".into()),
         }
         Ok(())
+    }
+
+    /// The answer to node `i`'s roll call: the tokens its Zenoh tables hold up (of robots, hosts
+    /// and planners; team members are not called).
+    fn present(&self, i: usize) -> mrmm_core::roll_call::Present {
+        let mut present = mrmm_core::roll_call::Present::default();
+        for t in self.beliefs.up_for(i) {
+            match t {
+                Token::Robot(id) => present.take(&mrmm_proto::Key::RobotAlive(id.clone().into()).to_string()),
+                Token::Host(name) => present.take(&mrmm_proto::Key::HostAlive(name.clone().into()).to_string()),
+                Token::Planner => {
+                    for kind in ["patrol", "coverage"] {
+                        present.take(&mrmm_proto::Key::PlannerAlive { kind: kind.into(), zid: CENTRAL_HOST.into() }.to_string());
+                    }
+                }
+                Token::Member { .. } => {}
+            }
+        }
+        present
     }
 
     pub(super) fn host(&mut self, i: usize, ev: host::Event) -> Result<(), String> {
@@ -159,6 +183,11 @@ impl World {
             }
         }
         match c {
+            host::Command::RollCall => {
+                // The host's liveliness queries, as central's.
+                let (inc, present) = (self.links.inc[i], self.present(i));
+                self.queue.push(self.now + 0.01, Ev::Local { node: i, inc, ev: Box::new(host::Event::RollCall(Ok(present))) });
+            }
             host::Command::Persist { mission, disk } => {
                 if !self.nodes[i].kind.keeps_chain_state(self.cfg.disks) {
                     return Err(format!("{} has no disk but was asked to persist {mission}", self.nodes[i].name));

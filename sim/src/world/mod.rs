@@ -184,6 +184,8 @@ pub struct World {
     /// The operator's changes of robots' capabilities, drawn from a stream of their own so that
     /// the other draws of a seed stay as they were.
     caps_rng: ChaCha8Rng,
+    /// The stream of central's missed liveliness changes (`Config::missed_live`).
+    miss_rng: ChaCha8Rng,
     /// The forger's stream ([`wire`]).
     forge_rng: ChaCha8Rng,
     now: f64,
@@ -263,6 +265,7 @@ impl World {
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
             fault_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x51de_c1c1e),
             caps_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xca9a_b1e5),
+            miss_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x0_1055),
             forge_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xf0_29e5),
             now: 0.0,
             nodes,
@@ -433,7 +436,8 @@ impl World {
             }
             Ev::Live(c, inc) => {
                 if self.links.up[c.observer] && self.links.inc[c.observer] == inc {
-                    self.tell(c.observer, &c.token, c.up)?;
+                    let missed = self.cfg.missed_live > 0.0 && self.miss_rng.gen_bool(self.cfg.missed_live);
+                    self.tell(c.observer, &c.token, c.up, missed)?;
                 }
             }
             Ev::Crash => self.random_crash(),

@@ -90,6 +90,11 @@ impl Candidates {
         self.by_id.remove(id).map(|c| c.since)
     }
 
+    /// The candidates' ids.
+    pub(super) fn ids(&self) -> impl Iterator<Item = &RobotId> {
+        self.by_id.keys()
+    }
+
     #[cfg(test)]
     fn contains(&self, id: &str) -> bool {
         self.by_id.contains_key(id)

@@ -159,6 +159,8 @@ pub enum Event {
         id: u64,
         result: Result<(), String>,
     },
+    /// The answer to [`Command::RollCall`]: the tokens up, or why there is no answer.
+    RollCall(Result<crate::roll_call::Present, String>),
     /// Periodic tick.
     Tick,
 }
@@ -183,6 +185,7 @@ impl Event {
             Event::Refusals(_) => "refusals",
             Event::Proofs(_) => "proofs",
             Event::DryRunDone { .. } => "dry run done",
+            Event::RollCall(_) => "roll call",
             Event::Tick => "tick",
         }
     }
@@ -214,6 +217,9 @@ pub enum Command {
     /// Commit these entries to the journal (fsync) before carrying out any command after this
     /// one: it always comes first, so nothing of a change is said or done before it is on disk.
     Journal(Vec<JournalEvent>),
+    /// Ask the network which robots' and mission hosts' liveliness tokens are up (a liveliness
+    /// query on both); answer with [`Event::RollCall`] (`mrmm_core::roll_call`).
+    RollCall,
     /// Send a chain message to host `to` (on `mrmm/hosts/<to>/chain`): the head of a lineage
     /// that was replaced is told that a newer one runs the mission, and steps down.
     Chain { to: NodeId, envelope: Box<ChainEnvelope> },

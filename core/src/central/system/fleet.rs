@@ -6,7 +6,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::{ErrorReply, Member, NodeId, RobotId, RobotInfo, RobotSpec, Telemetry};
+use mrmm_proto::{ErrorReply, Key, Member, NodeId, RobotId, RobotInfo, RobotSpec, Telemetry};
 
 use super::candidates::Candidates;
 use super::{FETCH_PER_TICK, INFO_RETRY_S, MAX_FLEET};
@@ -385,6 +385,14 @@ impl Fleet {
 
     pub(super) fn has_host(&self, node: &str) -> bool {
         self.hosts.contains(node)
+    }
+
+    /// The keys of the liveliness tokens the registry holds up: robots alive (registered or
+    /// candidates) and mission hosts (what a roll call is compared with).
+    pub(super) fn tokens_up(&self) -> BTreeSet<String> {
+        let robots = self.robots.iter().filter(|(_, r)| r.alive).map(|(id, _)| id).chain(self.candidates.ids());
+        let robots = robots.map(|id| Key::RobotAlive(id.clone()).to_string());
+        robots.chain(self.hosts.iter().map(|n| Key::HostAlive(n.clone()).to_string())).collect()
     }
 
     /// The mission hosts alive, by node id.

@@ -192,6 +192,8 @@ pub struct SystemManager {
     superseded: BTreeMap<String, Arc<crate::maps::Held>>,
     /// Robots' recent losses and returns: a flapping robot is journaled as one entry.
     flaps: flaps::Flaps,
+    /// What the network says is up, now and then: liveliness events the registry missed.
+    roll: crate::roll_call::RollCall,
     /// Robots lost this long and in no mission are forgotten; when that was last looked at.
     forget_lost_s: f64,
     forgot_at: f64,
@@ -223,6 +225,7 @@ impl SystemManager {
             superseded: BTreeMap::new(),
             adoptions_refused: BTreeSet::new(),
             flaps: flaps::Flaps::default(),
+            roll: crate::roll_call::RollCall::default(),
             forget_lost_s: FORGET_LOST_S,
             forgot_at: now,
         }
@@ -267,13 +270,26 @@ impl SystemManager {
 
     fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
-            Event::RobotAlive { id } => self.registry(now, Heard::Alive(id)),
-            Event::RobotGone { id } => self.registry(now, Heard::Gone(id)),
+            Event::RobotAlive { id } => {
+                self.roll.heard(&Key::RobotAlive(id.clone()).to_string());
+                self.registry(now, Heard::Alive(id))
+            }
+            Event::RobotGone { id } => {
+                self.roll.heard(&Key::RobotAlive(id.clone()).to_string());
+                self.registry(now, Heard::Gone(id))
+            }
             Event::RobotRegistered(info) => self.registry(now, Heard::Info(info)),
             Event::InfoFailed { id, reason } => self.registry(now, Heard::InfoFailed { id, reason }),
             Event::Telemetry(t) => self.registry(now, Heard::Telemetry(t)),
-            Event::HostAlive { node } => self.registry(now, Heard::HostAlive(node)),
-            Event::HostGone { node } => self.registry(now, Heard::HostGone(node)),
+            Event::HostAlive { node } => {
+                self.roll.heard(&Key::HostAlive(node.clone()).to_string());
+                self.registry(now, Heard::HostAlive(node))
+            }
+            Event::HostGone { node } => {
+                self.roll.heard(&Key::HostAlive(node.clone()).to_string());
+                self.registry(now, Heard::HostGone(node))
+            }
+            Event::RollCall(result) => self.roll_call(now, result),
             Event::Tick => self.tick(now),
             Event::Operator { req, request } => self.operator(now, req, request),
             Event::RobotCommandDone { req, robot, result } => self.command_done(now, req, robot.as_str(), result),
@@ -294,6 +310,22 @@ impl SystemManager {
             }
             Event::DryRunDone { id, result } => self.dry_run_done(id, result),
         }
+    }
+
+    /// The answer to a roll call: the liveliness changes the registry missed, translated by the
+    /// system manager's own ingress into the events it missed, and handled as those.
+    fn roll_call(&mut self, now: f64, result: Result<crate::roll_call::Present, String>) -> Vec<Command> {
+        let held = self.fleet.tokens_up();
+        let mut out = Vec::new();
+        for m in self.roll.answered(result, &held) {
+            match ingress(crate::edge::Incoming { key: &m.key, payload: &[], put: m.up, from: None }) {
+                Ok(e @ (Event::RobotAlive { .. } | Event::RobotGone { .. } | Event::HostAlive { .. } | Event::HostGone { .. })) => {
+                    out.extend(self.event(now, e))
+                }
+                _ => tracing::debug!(key = %m.key.chars().take(200).collect::<String>(), "roll call: not a robot's or a host's token"),
+            }
+        }
+        out
     }
 
     /// Hands what was heard of a robot or a host to the registry, and acts on what it decided.
@@ -391,6 +423,9 @@ impl SystemManager {
         }
         // Robots alive that never answered their info query are asked again (bounded per tick).
         out.extend(self.registry(now, Heard::Tick));
+        if self.roll.due(now) {
+            out.push(Command::RollCall);
+        }
         if now - self.forgot_at >= FORGET_EVERY_S {
             self.forgot_at = now;
             let assignment = &self.assignment;

@@ -98,12 +98,89 @@ fn unregistered_robots_are_not_listed_and_info_is_retried() {
     let mut sm = SystemManager::new("n".into(), 0.0);
     sm.drive(0.0, Event::RobotAlive { id: "r1".into() });
     assert!(sm.views().is_empty());
-    assert!(sm.drive(0.5, Event::Tick).is_empty());
+    // The first tick asks the roll call too.
+    assert_eq!(sm.drive(0.5, Event::Tick), vec![Command::RollCall]);
     assert_eq!(sm.drive(1.2, Event::Tick), vec![Command::FetchInfo { id: "r1".into() }]);
     assert!(sm.drive(1.5, Event::Tick).is_empty());
     // Info from a robot never seen alive is ignored.
     sm.drive(2.0, Event::RobotRegistered(info("ghost")));
     assert!(sm.view("ghost").is_none());
+}
+
+/// A roll call's answer: these robots' tokens up, and the hosts'.
+fn present(robots: &[&str], hosts: &[&str], complete: bool) -> Event {
+    let robots = robots.iter().map(|r| Key::RobotAlive((*r).into()).to_string());
+    let hosts = hosts.iter().map(|h| Key::HostAlive((*h).into()).to_string());
+    Event::RollCall(Ok(crate::roll_call::Present { up: robots.chain(hosts).collect(), complete }))
+}
+
+/// A roll call asked at `now`.
+fn roll_call(sm: &mut SystemManager, now: f64) {
+    assert!(sm.drive(now, Event::Tick).contains(&Command::RollCall), "a roll call is due at {now}");
+}
+
+#[test]
+fn a_return_the_liveliness_events_missed_is_taken_from_the_roll_call() {
+    let mut sm = registered(&["r1", "r2"]);
+    sm.drive(1.0, Event::RobotGone { id: "r2".into() });
+    // Its token came back, but the event was lost: the roll call lists it.
+    roll_call(&mut sm, 2.0);
+    assert_eq!(sm.drive(2.1, present(&["r1", "r2"], &[], true)), vec![Command::FetchInfo { id: "r2".into() }]);
+    assert_eq!(sm.view("r2").map(|v| v.status), Some(RobotStatus::Idle));
+    // Not asked again before its period.
+    assert!(!sm.drive(3.0, Event::Tick).contains(&Command::RollCall));
+}
+
+#[test]
+fn a_loss_the_liveliness_events_missed_counts_when_two_roll_calls_miss_it() {
+    let mut sm = registered(&["r1", "r2"]);
+    roll_call(&mut sm, 1.0);
+    sm.drive(1.1, present(&["r1"], &[], true));
+    assert_eq!(sm.view("r2").map(|v| v.status), Some(RobotStatus::Idle), "missed once: not lost yet");
+    // An answer cut short never counts against a robot.
+    roll_call(&mut sm, 1.0 + crate::roll_call::ROLL_CALL_S);
+    sm.drive(4.1, present(&["r1"], &[], false));
+    assert_eq!(sm.view("r2").map(|v| v.status), Some(RobotStatus::Idle));
+    roll_call(&mut sm, 1.0 + 2.0 * crate::roll_call::ROLL_CALL_S);
+    sm.drive(7.1, present(&["r1"], &[], true));
+    assert_eq!(sm.view("r2").map(|v| v.status), Some(RobotStatus::Lost), "missed twice running");
+    assert_eq!(sm.view("r1").map(|v| v.status), Some(RobotStatus::Idle));
+}
+
+#[test]
+fn a_liveliness_event_after_the_question_wins_over_the_answer() {
+    let mut sm = registered(&["r1", "r2"]);
+    // Asked while r2 was up; it went before the answer came, which still lists it.
+    roll_call(&mut sm, 1.0);
+    sm.drive(1.05, Event::RobotGone { id: "r2".into() });
+    assert!(sm.drive(1.1, present(&["r1", "r2"], &[], true)).is_empty());
+    assert_eq!(sm.view("r2").map(|v| v.status), Some(RobotStatus::Lost));
+    // Asked while r1 was down; it came back before the answer, which misses it, twice.
+    sm.drive(2.0, Event::RobotGone { id: "r1".into() });
+    for k in 1..=2 {
+        let at = 1.0 + f64::from(k) * crate::roll_call::ROLL_CALL_S;
+        roll_call(&mut sm, at);
+        sm.drive(at + 0.05, Event::RobotAlive { id: "r1".into() });
+        sm.drive(at + 0.1, present(&[], &[], true));
+    }
+    assert_eq!(sm.view("r1").map(|v| v.status), Some(RobotStatus::Idle));
+    // An answer with no question out (a late one) is not acted on.
+    assert!(sm.drive(8.0, present(&["r2"], &[], true)).is_empty());
+    assert_eq!(sm.view("r2").map(|v| v.status), Some(RobotStatus::Lost));
+}
+
+#[test]
+fn mission_hosts_the_liveliness_events_missed_are_taken_from_the_roll_call() {
+    let mut sm = registered(&[]);
+    roll_call(&mut sm, 1.0);
+    sm.drive(1.1, present(&[], &["h1", "h2"], true));
+    assert!(sm.fleet.has_host("h1") && sm.fleet.has_host("h2"));
+    for k in 1..=2 {
+        let at = 1.0 + f64::from(k) * crate::roll_call::ROLL_CALL_S;
+        roll_call(&mut sm, at);
+        sm.drive(at + 0.1, present(&[], &["h1"], true));
+    }
+    assert!(sm.fleet.has_host("h1") && !sm.fleet.has_host("h2"));
 }
 
 #[test]

@@ -56,7 +56,15 @@ pub struct Head {
     sent: BTreeMap<RobotId, Box<PlanAssignment>>,
     /// What the mission's status last carried of the planner's summary.
     summary: SummaryGate,
+    /// Lost members central ordered back while their token was gone here, and when: one whose
+    /// token comes up within [`ORDERED_BACK_S`] is taken back then (central orders only once,
+    /// and this host may hear the robot come back after central did).
+    pub ordered_back: BTreeMap<RobotId, f64>,
 }
+
+/// How long an order to take back a member whose token was gone here holds (two roll calls
+/// and their answers: `crate::roll_call`).
+pub const ORDERED_BACK_S: f64 = 2.0 * (crate::roll_call::ROLL_CALL_S + crate::roll_call::ANSWER_S);
 
 /// Decides which statuses carry the planner's summary (the tour, the coverage points: O(team)
 /// bytes): the one after it changed, and one every [`SUMMARY_REFRESH_S`] seconds for subscribers
@@ -93,6 +101,7 @@ impl Head {
             astray: BTreeMap::new(),
             sent: BTreeMap::new(),
             summary: SummaryGate::default(),
+            ordered_back: BTreeMap::new(),
         }
     }
 

@@ -5,6 +5,10 @@ use mrmm_proto::chain::lineage_floor;
 
 use super::*;
 
+/// Orders to take back members gone here kept per mission at most (central sends one per lost
+/// member back; bounded whatever it sends).
+const MAX_ORDERED_BACK: usize = 1_024;
+
 impl HostCore {
     pub(super) fn start(&mut self, now: f64, query: u64, start: MissionStart, out: &mut Vec<Command>) {
         let spec = match MissionSpec::from_wire(start.spec) {
@@ -65,13 +69,21 @@ impl HostCore {
             // order came from a report older than its loss) would hold every barrier of the new
             // plan (its teammates wait for a member they never saw leave).
             MissionCtl::Joined { member } if !self.robots.alive(member.spec.id.as_str()) => {
-                tracing::info!(mission = %name, robot = %member.spec.id, "told to take back a robot that is gone here: kept as lost");
+                tracing::info!(mission = %name, robot = %member.spec.id, "told to take back a robot that is gone here: kept as lost until its token comes up");
+                if let Some(h) = self.heads.get_mut(name).filter(|h| h.ordered_back.len() < MAX_ORDERED_BACK) {
+                    h.ordered_back.insert(member.spec.id.clone(), now);
+                }
                 self.run(now, name, mission::Event::Absent(member), out)
             }
             MissionCtl::Joined { member } => self.run(now, name, mission::Event::Joined(member), out),
             // The system manager took these robots out (moved elsewhere or freed): out for good,
             // alive or not — a robot lost now and back later must not come back into this team.
-            MissionCtl::Left { ids } => self.run(now, name, mission::Event::Left { ids }, out),
+            MissionCtl::Left { ids } => {
+                if let Some(h) = self.heads.get_mut(name) {
+                    h.ordered_back.retain(|id, _| !ids.contains(id));
+                }
+                self.run(now, name, mission::Event::Left { ids }, out)
+            }
             MissionCtl::Update { spec } => match crate::mission::MissionSpec::from_wire(spec) {
                 Ok(spec) if spec.name == name => self.run(now, name, mission::Event::Update(Box::new(spec)), out),
                 Ok(spec) => return out.push(Command::Reply { query, result: Err(format!("an update of mission {:?} sent to {name}", spec.name).into()) }),

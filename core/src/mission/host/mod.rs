@@ -7,6 +7,7 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::edge::Refused;
+use mrmm_proto::Key;
 use mrmm_proto::{
     ChainEnvelope, CtlAck, ErrorCode, ErrorReply, Member, MissionCtl, MissionName, MissionPlan, MissionSnapshot, MissionStart, MissionView, NodeId,
     PlanAssignment, PlanRequest, RobotId, Role, Sender, Telemetry, CENTRAL_HOST,
@@ -113,6 +114,8 @@ pub enum Event {
         kind: String,
         zid: String,
     },
+    /// The answer to [`Command::RollCall`]: the tokens up, or why there is no answer.
+    RollCall(Result<crate::roll_call::Present, String>),
 }
 
 /// What the driver must do.
@@ -128,6 +131,9 @@ pub enum Command {
     Serve { mission: MissionName },
     /// Stop serving them.
     Unserve { mission: MissionName },
+    /// Ask the network which hosts', robots' and planners' liveliness tokens are up (a
+    /// liveliness query on each); answer with [`Event::RollCall`] ([`crate::roll_call`]).
+    RollCall,
     /// Ask for a plan: of a planner service, or (`local`, none alive) with the library here.
     /// Answer with [`Event::Planned`].
     RequestPlan { mission: MissionName, epoch: u64, kind: PlannerKind, request: PlanRequest, local: bool },
@@ -153,6 +159,8 @@ pub struct HostCore {
     robots: Robots,
     /// Planner services alive: (kind, zid).
     planners: BTreeSet<(String, String)>,
+    /// What the network says is up, now and then: liveliness events this host missed.
+    roll: crate::roll_call::RollCall,
     /// Whom it takes chain messages from: its own robot's team, if it has one; a start of a
     /// mission whose old chain is heard elsewhere is refused.
     trust: trust::Trust,
@@ -175,6 +183,7 @@ impl HostCore {
             heads: BTreeMap::new(),
             robots: Robots::default(),
             planners: BTreeSet::new(),
+            roll: crate::roll_call::RollCall::default(),
             trust: trust::Trust::new(false),
         }
     }
@@ -270,25 +279,58 @@ impl HostCore {
             Event::Planned { mission, epoch, result } => self.planned(now, mission.as_str(), epoch, result, &mut out),
             Event::PlanDelivered { mission, robot, epoch, result } => self.plan_delivered(now, mission.as_str(), robot.as_str(), epoch, result, &mut out),
             Event::Chain { envelope, from } => self.chain_message(now, *envelope, from, &mut out),
+            Event::RollCall(result) => self.roll_call(now, result, &mut out),
             Event::HostAlive(node) | Event::HostGone(node) if node == self.node => {}
-            Event::HostAlive(node) => self.host(now, node.as_str(), true, &mut out),
-            Event::HostGone(node) => self.host(now, node.as_str(), false, &mut out),
+            Event::HostAlive(node) => {
+                self.roll.heard(&Key::HostAlive(node.clone()).to_string());
+                self.host(now, node.as_str(), true, &mut out)
+            }
+            Event::HostGone(node) => {
+                self.roll.heard(&Key::HostAlive(node.clone()).to_string());
+                self.host(now, node.as_str(), false, &mut out)
+            }
             Event::RobotAlive(id) => {
+                self.roll.heard(&Key::RobotAlive(id.clone()).to_string());
                 self.robots.up(id.as_str());
                 self.robot(now, id.as_str(), true, &mut out);
             }
             Event::RobotGone(id) => {
+                self.roll.heard(&Key::RobotAlive(id.clone()).to_string());
                 self.robots.down(id.as_str());
                 self.robot(now, id.as_str(), false, &mut out);
             }
             Event::PlannerAlive { kind, zid } => {
+                self.roll.heard(&Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string());
                 self.planners.insert((kind, zid));
             }
             Event::PlannerGone { kind, zid } => {
+                self.roll.heard(&Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string());
                 self.planners.remove(&(kind, zid));
             }
         }
         out
+    }
+
+    /// The answer to a roll call: the liveliness changes this host missed, translated by its own
+    /// ingress into the events it missed, and handled as those.
+    fn roll_call(&mut self, now: f64, result: Result<crate::roll_call::Present, String>, out: &mut Vec<Command>) {
+        let mut held: BTreeSet<String> = self.robots.alive_ids().iter().map(|id| Key::RobotAlive(id.clone()).to_string()).collect();
+        // Its own token is up whatever it heard of it.
+        held.extend(self.registry.alive().iter().chain([&self.node]).map(|n| Key::HostAlive(n.clone()).to_string()));
+        held.extend(self.planners.iter().map(|(kind, zid)| Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string()));
+        for m in self.roll.answered(result, &held) {
+            match ingress(crate::edge::Incoming { key: &m.key, payload: &[], put: m.up, from: None }) {
+                Ok(
+                    e @ (Event::HostAlive(_)
+                    | Event::HostGone(_)
+                    | Event::RobotAlive(_)
+                    | Event::RobotGone(_)
+                    | Event::PlannerAlive { .. }
+                    | Event::PlannerGone { .. }),
+                ) => out.extend(self.handle(now, e)),
+                _ => tracing::debug!(key = %m.key.chars().take(200).collect::<String>(), "roll call: not a host's, robot's or planner's token"),
+            }
+        }
     }
 
     /// A robot's telemetry. Of a robot whose liveliness is gone it is stale (the driver's queues
@@ -297,9 +339,9 @@ impl HostCore {
         if !self.robots.heard(t) {
             return;
         }
-        // A lost member heard again while central is away may rejoin now that it says
-        // where it belongs.
-        if !self.central_reachable() {
+        // A lost member heard again while central is away (or that central ordered back) may
+        // rejoin now that it says where it belongs.
+        if !self.central_reachable() || self.heads.values().any(|h| h.ordered_back.contains_key(t.id.as_str())) {
             self.robot(now, t.id.as_str(), true, out);
         }
         let names: Vec<MissionName> = self.heads.iter().filter(|(_, h)| h.mm.has(t.id.as_str())).map(|(n, _)| n.clone()).collect();
@@ -334,15 +376,25 @@ impl HostCore {
     /// A member lost is taken out (the team goes on without it); a lost member back rejoins,
     /// on its own while central is unreachable.
     fn robot(&mut self, now: f64, id: &str, up: bool, out: &mut Vec<Command>) {
-        if up && self.central_reachable() {
-            return;
-        }
+        // While central is reachable, a member back rejoins only on its order: one it gave
+        // while the token was still gone here.
+        let central = up && self.central_reachable();
+        let ordered = |h: &Head| h.ordered_back.get(id).is_some_and(|t| now - t < head::ORDERED_BACK_S);
         let names: Vec<MissionName> = self
             .heads
             .iter()
-            .filter(|(n, h)| if up { h.mm.lost(id).is_some() && self.robots.free_for(id, n.as_str()) } else { h.mm.has(id) })
+            .filter(|(n, h)| match up {
+                true => h.mm.lost(id).is_some() && self.robots.free_for(id, n.as_str()) && (!central || ordered(h)),
+                false => h.mm.has(id),
+            })
             .map(|(n, _)| n.clone())
             .collect();
+        for (n, h) in self.heads.iter_mut() {
+            // Gone again: central orders it back again when it returns.
+            if !up || names.contains(n) {
+                h.ordered_back.remove(id);
+            }
+        }
         for name in names {
             let ev = match self.heads.get(&name).and_then(|h| h.mm.lost(id).cloned()) {
                 Some(member) if up => {
@@ -380,6 +432,7 @@ impl crate::machine::Machine for HostCore {
             Command::Reply { .. } | Command::Drop { .. } => Effect::Reply,
             // Queryables declared or undeclared; a refusal logged.
             Command::Serve { .. } | Command::Unserve { .. } | Command::Refused(_) => Effect::Local,
+            Command::RollCall => Effect::Ask,
         }
     }
 }

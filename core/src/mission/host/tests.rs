@@ -228,11 +228,34 @@ fn a_robot_central_takes_back_while_it_is_gone_here_is_kept_lost_until_it_is_bac
     assert_eq!(replies(&cmds), [8], "answered: the change is committed");
     let v = m.nodes["central"].view(m.now, "p", false).expect("led");
     assert_eq!((v.robots, v.lost), (vec!["r1".into(), "r2".into()], vec!["r3".into()]));
-    // r3 is back: central's next order takes it in, and the team is replanned with it.
+    // r3 is back here too late for that order: central's next order takes it in, and the team
+    // is replanned with it.
+    m.tick(super::head::ORDERED_BACK_S);
     m.to("central", Event::RobotAlive("r3".into()));
+    m.to("central", progress("r3", "p", 1));
+    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.lost), Some(vec!["r3".into()]), "an order that old no longer holds");
     let cmds = m.to("central", joined(9));
     assert!(matches!(cmds.iter().find(|c| matches!(c, Command::RequestPlan { .. })), Some(Command::RequestPlan { epoch: 2, .. })), "{cmds:?}");
     assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.robots), Some(vec!["r1".into(), "r2".into(), "r3".into()]));
+}
+
+#[test]
+fn a_robot_central_took_back_before_this_host_heard_it_come_back_rejoins_when_it_does() {
+    let mut m = running();
+    m.to("central", Event::RobotGone("r2".into()));
+    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.lost), Some(vec!["r2".into()]));
+    // Central heard r2 come back first (its own event, or its roll call) and ordered it back;
+    // this host has not heard it yet: kept lost.
+    let cmds = m.to("central", Event::Ctl { query: 8, mission: "p".into(), ctl: MissionCtl::Joined { member: member("r2", 1.0) }, from: central() });
+    assert_eq!(replies(&cmds), [8]);
+    assert_eq!(m.nodes["central"].view(m.now, "p", false).map(|v| v.lost), Some(vec!["r2".into()]));
+    // This host hears it (event or roll call) soon after: the order holds, r2 rejoins — central
+    // does not order twice.
+    m.tick(1.0);
+    m.to("central", Event::RobotAlive("r2".into()));
+    m.to("central", progress("r2", "p", 1));
+    let v = m.nodes["central"].view(m.now, "p", false).expect("led");
+    assert_eq!((v.robots, v.lost), (vec!["r1".into(), "r2".into()], vec![]));
 }
 
 #[test]

@@ -31,6 +31,12 @@ impl HostCore {
     /// Once a second: each led mission's metrics into its chain (replicated only if they
     /// changed, and then its status is published with the change); else its pool and status.
     pub(super) fn status_tick(&mut self, now: f64, out: &mut Vec<Command>) {
+        // Only a host that leads or replicates a mission acts on liveliness: a fleet of idle
+        // robot nodes asks nothing.
+        let involved = !self.heads.is_empty() || self.registry.names().next().is_some();
+        if involved && self.roll.due(now) {
+            out.push(Command::RollCall);
+        }
         let names: Vec<MissionName> = self.heads.keys().cloned().collect();
         for name in names {
             let before = out.len();
