@@ -21,6 +21,10 @@ pub const ROLL_CALL_S: f64 = 3.0;
 /// Seconds a driver waits for the answers to one liveliness query of a roll call; one that
 /// took this long is not complete.
 pub const ANSWER_S: f64 = 2.0;
+/// A roll call waits until no liveliness event was heard for this long: asked in a storm of
+/// them (thousands of tokens declared at once) its answer, as long as the storm, held central's
+/// loop up for seconds, and the events will have said most of it anyway.
+pub const QUIET_S: f64 = 1.0;
 /// A roll call not answered after this long is asked again.
 pub const ROLL_CALL_STALE_S: f64 = 30.0;
 /// Tokens whose events are remembered between a question and its answer; past this (a flood of
@@ -28,6 +32,12 @@ pub const ROLL_CALL_STALE_S: f64 = 30.0;
 pub const MAX_TOUCHED: usize = 65_536;
 /// Tokens an answer holds at most; past it the answer is cut short (and not complete).
 pub const MAX_PRESENT: usize = 32_768;
+/// Tokens up that an answer shows and the machine has no record of (not in its `known`), taken
+/// per answer at most: a flood of made-up tokens (any fleet certificate can declare them) costs a
+/// bounded number of events per roll call, not one per token.
+pub const NEW_PER_ANSWER: usize = 16;
+/// Missed changes named one by one in the log per answer; the rest are counted.
+const LOGGED: usize = 4;
 
 /// The tokens up, as the network answered a roll call: their keys.
 #[derive(Debug, Clone, PartialEq)]
@@ -76,13 +86,16 @@ pub struct RollCall {
     flooded: bool,
     /// Tokens up for the machine that the last complete answer missed.
     missing: BTreeSet<String>,
+    /// When a liveliness event was last heard.
+    heard_at: Option<f64>,
 }
 
 impl RollCall {
     /// Whether to ask now: [`ROLL_CALL_S`] after the last question, unless one is out (and not
-    /// stale).
+    /// stale), or a liveliness event was heard within [`QUIET_S`].
     pub fn due(&mut self, now: f64) -> bool {
-        if self.asked.is_some_and(|a| now - a < ROLL_CALL_STALE_S) || self.last.is_some_and(|l| now - l < ROLL_CALL_S) {
+        let busy = self.heard_at.is_some_and(|t| now - t < QUIET_S);
+        if busy || self.asked.is_some_and(|a| now - a < ROLL_CALL_STALE_S) || self.last.is_some_and(|l| now - l < ROLL_CALL_S) {
             return false;
         }
         self.asked = Some(now);
@@ -92,8 +105,9 @@ impl RollCall {
         true
     }
 
-    /// A liveliness event of the token on `key` was heard.
-    pub fn heard(&mut self, key: &str) {
+    /// A liveliness event of the token on `key` was heard at `now`.
+    pub fn heard(&mut self, now: f64, key: &str) {
+        self.heard_at = Some(now);
         self.missing.remove(key);
         if self.asked.is_none() {
             return;
@@ -106,9 +120,10 @@ impl RollCall {
     }
 
     /// The answer to the question out, against `held`, the keys of the tokens the machine
-    /// holds up: the changes it missed. An answer with no question out (a stale one), a failed
-    /// one, or one after a flood of events is not acted on.
-    pub fn answered(&mut self, result: Result<Present, String>, held: &BTreeSet<String>) -> Vec<Missed> {
+    /// holds up, and `known`, those it has a record of (a registered robot): the changes it
+    /// missed — of known tokens all, of others at most [`NEW_PER_ANSWER`]. An answer with no
+    /// question out (a stale one), a failed one, or one after a flood of events is not acted on.
+    pub fn answered(&mut self, result: Result<Present, String>, held: &BTreeSet<String>, known: &BTreeSet<String>) -> Vec<Missed> {
         if self.asked.take().is_none() {
             return vec![];
         }
@@ -121,21 +136,35 @@ impl RollCall {
             }
         };
         let touched = std::mem::take(&mut self.touched);
-        let mut out: Vec<Missed> = present.up.difference(held).filter(|k| !touched.contains(*k)).map(|k| Missed { key: k.clone(), up: true }).collect();
+        let (mut out, mut new, mut skipped) = (Vec::new(), 0, 0usize);
+        for k in present.up.difference(held).filter(|k| !touched.contains(*k)) {
+            if known.contains(k) || new < NEW_PER_ANSWER {
+                new += usize::from(!known.contains(k));
+                out.push(Missed { key: k.clone(), up: true });
+            } else {
+                skipped += 1;
+            }
+        }
+        let ups = out.len();
         if present.complete {
             let missing: BTreeSet<String> = held.difference(&present.up).filter(|k| !touched.contains(*k)).cloned().collect();
             out.extend(missing.intersection(&self.missing).map(|k| Missed { key: k.clone(), up: false }));
             self.missing = missing;
         }
-        for m in &out {
-            let key: String = m.key.chars().take(200).collect();
-            match m.up {
-                true => tracing::warn!(token = %key, "roll call: a token is up whose appearance was never heard"),
-                false => tracing::warn!(token = %key, "roll call: a token is gone, twice running, whose disappearance was never heard"),
-            }
-        }
+        log(&out[..ups], skipped, "up, whose appearance was never heard");
+        log(&out[ups..], 0, "gone twice running, whose disappearance was never heard");
         out
     }
+}
+
+/// Says which tokens a roll call found `what` (the first few by name), and how many more were left
+/// for later answers.
+fn log(missed: &[Missed], skipped: usize, what: &str) {
+    if missed.is_empty() && skipped == 0 {
+        return;
+    }
+    let first: Vec<String> = missed.iter().take(LOGGED).map(|m| m.key.chars().take(100).collect()).collect();
+    tracing::warn!(tokens = missed.len(), first = ?first, left_for_later = skipped, "roll call: tokens {what}");
 }
 
 #[cfg(test)]
@@ -159,28 +188,30 @@ mod tests {
         let mut rc = RollCall::default();
         assert!(rc.due(0.0));
         assert!(!rc.due(1.0), "one question at a time");
-        assert_eq!(rc.answered(present(&["a", "b"], true), &keys(&["b", "c"])), vec![up("a")]);
+        assert_eq!(rc.answered(present(&["a", "b"], true), &keys(&["b", "c"]), &keys(&[])), vec![up("a")]);
         assert!(!rc.due(2.0), "not before its period");
         assert!(rc.due(ROLL_CALL_S));
-        assert!(rc.answered(present(&["a", "b"], false), &keys(&["a", "b", "c"])).is_empty(), "an answer cut short counts nothing against c");
+        assert!(rc.answered(present(&["a", "b"], false), &keys(&["a", "b", "c"]), &keys(&[])).is_empty(), "an answer cut short counts nothing against c");
         assert!(rc.due(2.0 * ROLL_CALL_S));
-        assert_eq!(rc.answered(present(&["a", "b"], true), &keys(&["a", "b", "c"])), vec![Missed { key: "c".into(), up: false }]);
+        assert_eq!(rc.answered(present(&["a", "b"], true), &keys(&["a", "b", "c"]), &keys(&[])), vec![Missed { key: "c".into(), up: false }]);
     }
 
     #[test]
     fn an_event_after_the_question_wins_and_a_late_answer_is_dropped() {
         let mut rc = RollCall::default();
         assert!(rc.due(0.0));
-        rc.heard("a");
-        assert!(rc.answered(present(&["a"], true), &keys(&["c"])).is_empty(), "a was heard of after the question; c missed once");
+        rc.heard(0.0, "a");
+        assert!(rc.answered(present(&["a"], true), &keys(&["c"]), &keys(&[])).is_empty(), "a was heard of after the question; c missed once");
         assert!(rc.due(ROLL_CALL_S));
-        rc.heard("c");
-        assert!(rc.answered(present(&[], true), &keys(&["c"])).is_empty(), "c was heard of: its first miss no longer counts");
-        assert!(rc.answered(present(&["z"], true), &keys(&[])).is_empty(), "no question out");
+        rc.heard(0.0, "c");
+        assert!(rc.answered(present(&[], true), &keys(&["c"]), &keys(&[])).is_empty(), "c was heard of: its first miss no longer counts");
+        assert!(rc.answered(present(&["z"], true), &keys(&[]), &keys(&[])).is_empty(), "no question out");
         // A question never answered is asked again once stale.
-        assert!(rc.due(10.0));
+        rc.heard(9.5, "b");
+        assert!(!rc.due(10.0), "events still coming: not asked in a storm");
+        assert!(rc.due(10.5));
         assert!(!rc.due(10.0 + ROLL_CALL_STALE_S - 1.0));
-        assert!(rc.due(10.0 + ROLL_CALL_STALE_S));
+        assert!(rc.due(10.5 + ROLL_CALL_STALE_S));
     }
 
     #[test]
@@ -188,9 +219,17 @@ mod tests {
         let mut rc = RollCall::default();
         assert!(rc.due(0.0));
         for k in 0..=MAX_TOUCHED {
-            rc.heard(&format!("t{k}"));
+            rc.heard(0.0, &format!("t{k}"));
         }
-        assert!(rc.answered(present(&["a"], true), &keys(&[])).is_empty(), "after a flood the answer is not acted on");
+        assert!(rc.answered(present(&["a"], true), &keys(&[]), &keys(&[])).is_empty(), "after a flood the answer is not acted on");
+        // 1 000 made-up tokens up: a few taken per answer; a known one always.
+        assert!(rc.due(ROLL_CALL_S));
+        let made_up: Vec<String> = (0..1_000).map(|k| format!("ghost{k:04}")).collect();
+        let mut up: Vec<&str> = made_up.iter().map(String::as_str).collect();
+        up.push("zz-known");
+        let missed = rc.answered(present(&up, true), &keys(&[]), &keys(&["zz-known"]));
+        assert_eq!(missed.len(), NEW_PER_ANSWER + 1);
+        assert!(missed.contains(&self::up("zz-known")));
         let mut p = Present::default();
         for k in 0..=MAX_PRESENT {
             p.take(&format!("t{k}"));

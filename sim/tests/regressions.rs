@@ -55,6 +55,6 @@ seeds! {
     seed_7682 = 7682: "system: a two-node chain stalled after central restarted without its chain state";
     seed_7743 = 7743: "system: central forgot a release it still owed after a restart";
     seed_926 = 926: "membership: central, seeing a head gone that was alive, reported itself head of a chain without it; the head won the next chain epoch and every report of it was refused";
-    seed_843 = 843: "membership: catches a mission head that missed a member's return and never took it back (without the mission host's roll call)";
+    seed_843 = 843: "membership: a mission head that missed a member's return never took it back (found without the mission host's roll call, before roll calls waited for a quiet second)";
     seed_1389 = 1389: "barrier: two robots, the leader crashed while the network lost every (backed-off) re-publication of the other's arrival — no message delivered, barriers passed alone; the harness took it for a world that did nothing";
 }

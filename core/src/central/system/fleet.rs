@@ -387,6 +387,12 @@ impl Fleet {
         self.hosts.contains(node)
     }
 
+    /// The keys of the tokens of every registered robot, up or not (whose missed returns a roll
+    /// call always takes).
+    pub(super) fn tokens_registered(&self) -> BTreeSet<String> {
+        self.robots.keys().map(|id| Key::RobotAlive(id.clone()).to_string()).collect()
+    }
+
     /// The keys of the liveliness tokens the registry holds up: robots alive (registered or
     /// candidates) and mission hosts (what a roll call is compared with).
     pub(super) fn tokens_up(&self) -> BTreeSet<String> {

@@ -271,22 +271,22 @@ impl SystemManager {
     fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
         match event {
             Event::RobotAlive { id } => {
-                self.roll.heard(&Key::RobotAlive(id.clone()).to_string());
+                self.roll.heard(now, &Key::RobotAlive(id.clone()).to_string());
                 self.registry(now, Heard::Alive(id))
             }
             Event::RobotGone { id } => {
-                self.roll.heard(&Key::RobotAlive(id.clone()).to_string());
+                self.roll.heard(now, &Key::RobotAlive(id.clone()).to_string());
                 self.registry(now, Heard::Gone(id))
             }
             Event::RobotRegistered(info) => self.registry(now, Heard::Info(info)),
             Event::InfoFailed { id, reason } => self.registry(now, Heard::InfoFailed { id, reason }),
             Event::Telemetry(t) => self.registry(now, Heard::Telemetry(t)),
             Event::HostAlive { node } => {
-                self.roll.heard(&Key::HostAlive(node.clone()).to_string());
+                self.roll.heard(now, &Key::HostAlive(node.clone()).to_string());
                 self.registry(now, Heard::HostAlive(node))
             }
             Event::HostGone { node } => {
-                self.roll.heard(&Key::HostAlive(node.clone()).to_string());
+                self.roll.heard(now, &Key::HostAlive(node.clone()).to_string());
                 self.registry(now, Heard::HostGone(node))
             }
             Event::RollCall(result) => self.roll_call(now, result),
@@ -315,9 +315,9 @@ impl SystemManager {
     /// The answer to a roll call: the liveliness changes the registry missed, translated by the
     /// system manager's own ingress into the events it missed, and handled as those.
     fn roll_call(&mut self, now: f64, result: Result<crate::roll_call::Present, String>) -> Vec<Command> {
-        let held = self.fleet.tokens_up();
+        let (held, known) = (self.fleet.tokens_up(), self.fleet.tokens_registered());
         let mut out = Vec::new();
-        for m in self.roll.answered(result, &held) {
+        for m in self.roll.answered(result, &held, &known) {
             match ingress(crate::edge::Incoming { key: &m.key, payload: &[], put: m.up, from: None }) {
                 Ok(e @ (Event::RobotAlive { .. } | Event::RobotGone { .. } | Event::HostAlive { .. } | Event::HostGone { .. })) => {
                     out.extend(self.event(now, e))

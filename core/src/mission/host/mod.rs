@@ -282,29 +282,29 @@ impl HostCore {
             Event::RollCall(result) => self.roll_call(now, result, &mut out),
             Event::HostAlive(node) | Event::HostGone(node) if node == self.node => {}
             Event::HostAlive(node) => {
-                self.roll.heard(&Key::HostAlive(node.clone()).to_string());
+                self.roll.heard(now, &Key::HostAlive(node.clone()).to_string());
                 self.host(now, node.as_str(), true, &mut out)
             }
             Event::HostGone(node) => {
-                self.roll.heard(&Key::HostAlive(node.clone()).to_string());
+                self.roll.heard(now, &Key::HostAlive(node.clone()).to_string());
                 self.host(now, node.as_str(), false, &mut out)
             }
             Event::RobotAlive(id) => {
-                self.roll.heard(&Key::RobotAlive(id.clone()).to_string());
+                self.roll.heard(now, &Key::RobotAlive(id.clone()).to_string());
                 self.robots.up(id.as_str());
                 self.robot(now, id.as_str(), true, &mut out);
             }
             Event::RobotGone(id) => {
-                self.roll.heard(&Key::RobotAlive(id.clone()).to_string());
+                self.roll.heard(now, &Key::RobotAlive(id.clone()).to_string());
                 self.robots.down(id.as_str());
                 self.robot(now, id.as_str(), false, &mut out);
             }
             Event::PlannerAlive { kind, zid } => {
-                self.roll.heard(&Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string());
+                self.roll.heard(now, &Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string());
                 self.planners.insert((kind, zid));
             }
             Event::PlannerGone { kind, zid } => {
-                self.roll.heard(&Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string());
+                self.roll.heard(now, &Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string());
                 self.planners.remove(&(kind, zid));
             }
         }
@@ -318,7 +318,9 @@ impl HostCore {
         // Its own token is up whatever it heard of it.
         held.extend(self.registry.alive().iter().chain([&self.node]).map(|n| Key::HostAlive(n.clone()).to_string()));
         held.extend(self.planners.iter().map(|(kind, zid)| Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string()));
-        for m in self.roll.answered(result, &held) {
+        // A host keeps no registry: any token up it never heard of counts as new, a few per
+        // answer.
+        for m in self.roll.answered(result, &held, &BTreeSet::new()) {
             match ingress(crate::edge::Incoming { key: &m.key, payload: &[], put: m.up, from: None }) {
                 Ok(
                     e @ (Event::HostAlive(_)
