@@ -166,6 +166,16 @@ pub enum Event {
 }
 
 impl Event {
+    /// The key of the liveliness token this event is a change of, if it is one (what a roll
+    /// call compares, `mrmm_core::roll_call`).
+    pub fn token(&self) -> Option<Key> {
+        match self {
+            Event::RobotAlive { id } | Event::RobotGone { id } => Some(Key::RobotAlive(id.clone())),
+            Event::HostAlive { node } | Event::HostGone { node } => Some(Key::HostAlive(node.clone())),
+            _ => None,
+        }
+    }
+
     /// What kind of event this is, for logs and the driver's load figures.
     pub fn kind(&self) -> &'static str {
         match self {

@@ -269,26 +269,17 @@ impl SystemManager {
     }
 
     fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
+        if let Some(token) = event.token() {
+            self.roll.heard(now, &token.to_string());
+        }
         match event {
-            Event::RobotAlive { id } => {
-                self.roll.heard(now, &Key::RobotAlive(id.clone()).to_string());
-                self.registry(now, Heard::Alive(id))
-            }
-            Event::RobotGone { id } => {
-                self.roll.heard(now, &Key::RobotAlive(id.clone()).to_string());
-                self.registry(now, Heard::Gone(id))
-            }
+            Event::RobotAlive { id } => self.registry(now, Heard::Alive(id)),
+            Event::RobotGone { id } => self.registry(now, Heard::Gone(id)),
             Event::RobotRegistered(info) => self.registry(now, Heard::Info(info)),
             Event::InfoFailed { id, reason } => self.registry(now, Heard::InfoFailed { id, reason }),
             Event::Telemetry(t) => self.registry(now, Heard::Telemetry(t)),
-            Event::HostAlive { node } => {
-                self.roll.heard(now, &Key::HostAlive(node.clone()).to_string());
-                self.registry(now, Heard::HostAlive(node))
-            }
-            Event::HostGone { node } => {
-                self.roll.heard(now, &Key::HostAlive(node.clone()).to_string());
-                self.registry(now, Heard::HostGone(node))
-            }
+            Event::HostAlive { node } => self.registry(now, Heard::HostAlive(node)),
+            Event::HostGone { node } => self.registry(now, Heard::HostGone(node)),
             Event::RollCall(result) => self.roll_call(now, result),
             Event::Tick => self.tick(now),
             Event::Operator { req, request } => self.operator(now, req, request),
@@ -319,9 +310,7 @@ impl SystemManager {
         let mut out = Vec::new();
         for m in self.roll.answered(result, &held, &known) {
             match ingress(crate::edge::Incoming { key: &m.key, payload: &[], put: m.up, from: None }) {
-                Ok(e @ (Event::RobotAlive { .. } | Event::RobotGone { .. } | Event::HostAlive { .. } | Event::HostGone { .. })) => {
-                    out.extend(self.event(now, e))
-                }
+                Ok(e) if e.token().is_some() => out.extend(self.event(now, e)),
                 _ => tracing::debug!(key = %m.key.chars().take(200).collect::<String>(), "roll call: not a robot's or a host's token"),
             }
         }

@@ -118,6 +118,19 @@ pub enum Event {
     RollCall(Result<crate::roll_call::Present, String>),
 }
 
+impl Event {
+    /// The key of the liveliness token this event is a change of, if it is one (what a roll
+    /// call compares, [`crate::roll_call`]).
+    pub fn token(&self) -> Option<Key> {
+        match self {
+            Event::HostAlive(node) | Event::HostGone(node) => Some(Key::HostAlive(node.clone())),
+            Event::RobotAlive(id) | Event::RobotGone(id) => Some(Key::RobotAlive(id.clone())),
+            Event::PlannerAlive { kind, zid } | Event::PlannerGone { kind, zid } => Some(Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }),
+            _ => None,
+        }
+    }
+}
+
 /// What the driver must do.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {
@@ -249,6 +262,9 @@ impl HostCore {
     /// Handles one event at `now` (seconds).
     pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
         let mut out = Vec::new();
+        if let Some(token) = ev.token() {
+            self.roll.heard(now, &token.to_string());
+        }
         match ev {
             Event::Tick => self.tick(now, &mut out),
             Event::StatusTick => self.status_tick(now, &mut out),
@@ -281,30 +297,20 @@ impl HostCore {
             Event::Chain { envelope, from } => self.chain_message(now, *envelope, from, &mut out),
             Event::RollCall(result) => self.roll_call(now, result, &mut out),
             Event::HostAlive(node) | Event::HostGone(node) if node == self.node => {}
-            Event::HostAlive(node) => {
-                self.roll.heard(now, &Key::HostAlive(node.clone()).to_string());
-                self.host(now, node.as_str(), true, &mut out)
-            }
-            Event::HostGone(node) => {
-                self.roll.heard(now, &Key::HostAlive(node.clone()).to_string());
-                self.host(now, node.as_str(), false, &mut out)
-            }
+            Event::HostAlive(node) => self.host(now, node.as_str(), true, &mut out),
+            Event::HostGone(node) => self.host(now, node.as_str(), false, &mut out),
             Event::RobotAlive(id) => {
-                self.roll.heard(now, &Key::RobotAlive(id.clone()).to_string());
                 self.robots.up(id.as_str());
                 self.robot(now, id.as_str(), true, &mut out);
             }
             Event::RobotGone(id) => {
-                self.roll.heard(now, &Key::RobotAlive(id.clone()).to_string());
                 self.robots.down(id.as_str());
                 self.robot(now, id.as_str(), false, &mut out);
             }
             Event::PlannerAlive { kind, zid } => {
-                self.roll.heard(now, &Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string());
                 self.planners.insert((kind, zid));
             }
             Event::PlannerGone { kind, zid } => {
-                self.roll.heard(now, &Key::PlannerAlive { kind: kind.clone(), zid: zid.clone() }.to_string());
                 self.planners.remove(&(kind, zid));
             }
         }
@@ -322,14 +328,7 @@ impl HostCore {
         // answer.
         for m in self.roll.answered(result, &held, &BTreeSet::new()) {
             match ingress(crate::edge::Incoming { key: &m.key, payload: &[], put: m.up, from: None }) {
-                Ok(
-                    e @ (Event::HostAlive(_)
-                    | Event::HostGone(_)
-                    | Event::RobotAlive(_)
-                    | Event::RobotGone(_)
-                    | Event::PlannerAlive { .. }
-                    | Event::PlannerGone { .. }),
-                ) => out.extend(self.handle(now, e)),
+                Ok(e) if e.token().is_some() => out.extend(self.handle(now, e)),
                 _ => tracing::debug!(key = %m.key.chars().take(200).collect::<String>(), "roll call: not a host's, robot's or planner's token"),
             }
         }
