@@ -23,7 +23,7 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let rrd_s = rrd.display().to_string();
     let started = Instant::now();
     let (mut demo, ep, operator) =
-        common::start_demo(&dir, &["--robots", "6", "--duration", "40", "--listen", "quic/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s])?;
+        common::start_demo(&dir, &["--robots", "6", "--duration", "40", "--listen", "quic/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s, "--battery-life", "900"])?;
     let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
     let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("two running missions", Duration::from_secs(20), || async {
@@ -107,6 +107,12 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     assert!(has("/advice") >= 2, "advice log: {:?}", keys());
     assert!(has("/events/teams") > 0 && has("/events/sync") > 0);
     assert!(has("/metrics/patrol-1/worst_idleness") > 0, "{:?}", keys());
+    // Batteries (`--battery-life`): each robot's charge over time, and all of them as bars.
+    for r in 1..=6 {
+        let n = has(&format!("/batteries/robots/r{r}"));
+        assert!(n > 0 && (r == 2 || n as f64 >= 2.0 * ran_s), "r{r}'s battery: {n} rows in {ran_s:.1} s, {:?}", keys());
+    }
+    assert!(has("/batteries/all") as f64 >= ran_s / 2.0, "the bars, about once a second: {:?}", keys());
     Ok(())
 }
 

@@ -163,6 +163,7 @@ mod tests {
             behaviour: Some("hold".into()),
             last_mission: None,
             stuck: None,
+            battery: None,
         }
     }
 

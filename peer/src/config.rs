@@ -8,6 +8,7 @@ use mrmm_proto::{validate_id, Pose, SecuritySection};
 use serde::Deserialize;
 
 use crate::error::PeerError;
+use mrmm_core::body::battery::{Battery, BatteryModel};
 use mrmm_core::body::Limits;
 use mrmm_core::robot::{BodyKind, Nav2Setup, RobotSetup};
 use mrmm_proto::nav::DriveMode;
@@ -48,6 +49,56 @@ pub struct RobotConfig {
     /// (a ROS 2 robot reached over rmw_zenoh, see docs/ros2.md).
     #[serde(default)]
     pub body: BodySection,
+    /// The simulated body's battery (left out: it never runs out; a ROS 2 robot reports its own).
+    #[serde(default)]
+    pub battery: Option<BatterySection>,
+}
+
+/// A simulated battery: `{ life_s: 600 }` (a full charge drives 600 s at top speed), or its model
+/// in full; `charge` (0–1, default 1) is where it starts.
+#[derive(Debug, Clone, Copy, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BatterySection {
+    pub life_s: Option<f64>,
+    pub capacity_wh: Option<f64>,
+    #[serde(default)]
+    pub per_metre_wh: f64,
+    #[serde(default)]
+    pub per_radian_wh: f64,
+    #[serde(default)]
+    pub idle_w: f64,
+    pub charge_w: Option<f64>,
+    #[serde(default = "full")]
+    pub charge: f64,
+}
+
+fn full() -> f64 {
+    1.0
+}
+
+impl BatterySection {
+    /// The model it describes at top speed `speed`; the error is `battery.field: problem`.
+    pub fn model(&self, speed: f64) -> Result<BatteryModel, String> {
+        if !(self.charge.is_finite() && (0.0..=1.0).contains(&self.charge)) {
+            return Err(format!("battery.charge: must be within 0–1 (got {})", self.charge));
+        }
+        let model = match (self.life_s, self.capacity_wh, self.charge_w) {
+            (Some(life), None, None) => {
+                if self.per_metre_wh != 0.0 || self.per_radian_wh != 0.0 || self.idle_w != 0.0 {
+                    return Err("battery: give life_s or the model (capacity_wh, per_metre_wh, idle_w, charge_w), not both".into());
+                }
+                positive("battery.life_s", life, 1e7)?;
+                BatteryModel::lasting(life, speed)
+            }
+            (None, Some(capacity_wh), Some(charge_w)) => {
+                BatteryModel { capacity_wh, per_metre_wh: self.per_metre_wh, per_radian_wh: self.per_radian_wh, idle_w: self.idle_w, charge_w }
+            }
+            (None, None, _) | (None, _, None) => return Err("battery: give life_s, or capacity_wh and charge_w with per_metre_wh or idle_w".into()),
+            _ => return Err("battery: give life_s or the model (capacity_wh, per_metre_wh, idle_w, charge_w), not both".into()),
+        };
+        model.check().map_err(|e| format!("battery.{e}"))?;
+        Ok(model)
+    }
 }
 
 /// Which body the robot drives.
@@ -177,6 +228,12 @@ impl RobotConfig {
                 return Err(format!("time_scale: a ROS 2 body runs in real time: leave time_scale out or set it to 1 (got {})", self.time_scale));
             }
         }
+        if let Some(b) = &self.battery {
+            if matches!(self.body, BodySection::Ros2(_)) {
+                return Err("battery: a ROS 2 robot reports its own battery (sensor_msgs/BatteryState): leave the section out".into());
+            }
+            b.model(self.kinematics.max_speed)?;
+        }
         if self.zenoh.lease_ms < 100 || self.zenoh.lease_ms > 60_000 {
             return Err(format!("zenoh.lease_ms: must be 100..=60000 (got {})", self.zenoh.lease_ms));
         }
@@ -212,6 +269,8 @@ impl RobotConfig {
             time_scale: self.time_scale,
             durable: self.state_dir.is_some(),
             body,
+            // Validated: a model that does not work never gets here.
+            battery: self.battery.and_then(|b| b.model(self.kinematics.max_speed).ok().map(|m| Battery::new(m, b.charge))),
         }
     }
 }
@@ -297,6 +356,33 @@ mod tests {
         }
         let e = err(&ros(r#"{ kind: "ros2" }"#).replace("start:", "time_scale: 4, start:"));
         assert!(e.contains("time_scale: a ROS 2 body runs in real time"), "{e}");
+    }
+
+    #[test]
+    fn a_battery_is_a_life_or_a_model_and_errors_name_its_field() {
+        let with = |battery: &str| GOOD.replace("start: { x: 1, y: 2 },", &format!("start: {{ x: 1, y: 2 }}, battery: {battery},"));
+        let c = RobotConfig::from_json5("robot.json5", &with("{ life_s: 600, charge: 0.5 }")).expect("valid");
+        let b = c.setup().battery.expect("a battery");
+        assert_eq!(b.charge(), 0.5);
+        // A full charge drives 600 s at the top speed, 1.2 m/s.
+        assert!((b.reach_m(1.2) - 0.5 * 720.0).abs() < 1e-6, "{}", b.reach_m(1.2));
+        let c = RobotConfig::from_json5("r", &with("{ capacity_wh: 400, per_metre_wh: 0.1, idle_w: 20, charge_w: 200 }")).expect("valid");
+        assert_eq!(c.setup().battery.expect("a battery").model().capacity_wh, 400.0);
+        assert!(RobotConfig::from_json5("r", GOOD).expect("valid").setup().battery.is_none());
+        for (battery, expect) in [
+            ("{ life_s: -5 }", "battery.life_s:"),
+            ("{ life_s: 600, charge: 1.5 }", "battery.charge:"),
+            ("{ life_s: 600, idle_w: 3 }", "not both"),
+            ("{ capacity_wh: 400, charge_w: 100 }", "never drains"),
+            ("{ capacity_wh: 400, idle_w: 10 }", "battery: give life_s"),
+            ("{ capacity_wh: 0, idle_w: 10, charge_w: 5 }", "battery.capacity_wh:"),
+            ("{ life_s: 60, lifetime: 3 }", "lifetime"),
+        ] {
+            let e = err(&with(battery));
+            assert!(e.contains(expect) && !e.contains('\n'), "{battery}: {e}");
+        }
+        let ros = with("{ life_s: 60 }").replace("start:", r#"body: { kind: "ros2" }, start:"#);
+        assert!(err(&ros).contains("a ROS 2 robot reports its own battery"));
     }
 
     #[test]

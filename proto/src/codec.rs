@@ -17,7 +17,7 @@ pub const JSON_MAX_BYTES: usize = 4 << 20;
 /// Largest telemetry payload we accept: a garbage length prefix cannot make us allocate more.
 pub const TELEMETRY_MAX_BYTES: usize = 64 * 1024;
 /// Prefix of a bincode telemetry payload: protocol name and version.
-pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM4";
+pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM5";
 /// Media type of every JSON payload.
 pub const JSON: &str = "application/json";
 
@@ -122,7 +122,7 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
     if bytes.len() > TELEMETRY_MAX_BYTES {
         return Err(ProtoError::decode("telemetry", format!("{} bytes", bytes.len())));
     }
-    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::decode("telemetry", "no MRM4 prefix"))?;
+    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::decode("telemetry", "no MRM5 prefix"))?;
     let (t, used): (Telemetry, usize) = bincode::serde::decode_from_slice(body, wire_config()).map_err(|e| ProtoError::decode("telemetry", e))?;
     if used != body.len() {
         return Err(ProtoError::decode("telemetry", format!("{} trailing bytes", body.len() - used)));
@@ -131,6 +131,9 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
         return Err(ProtoError::decode("telemetry", "non-finite pose"));
     }
     crate::keys::validate_id(t.id.as_str()).map_err(|e| ProtoError::decode("telemetry", e))?;
+    if let Some(b) = &t.battery {
+        b.check().map_err(|e| ProtoError::decode("telemetry", e))?;
+    }
     Ok(t)
 }
 
@@ -164,6 +167,7 @@ mod tests {
             admitted: vec!["patrol-1".into()],
             stuck: Some("Nav2 rejected the goal".into()),
             info_rev: 0,
+            battery: Some(crate::robot::BatteryState { charge: 0.5, charging: true, reach_m: Some(120.0) }),
         }
     }
 
@@ -171,7 +175,7 @@ mod tests {
     fn telemetry_round_trips() {
         let t = sample();
         let bytes = encode_telemetry(&t).expect("encode");
-        assert_eq!(&bytes[..4], b"MRM4");
+        assert_eq!(&bytes[..4], b"MRM5");
         assert_eq!(decode_telemetry(&bytes).expect("decode"), t);
     }
 
@@ -189,6 +193,17 @@ mod tests {
         let mut bad = sample();
         bad.id = "a/b".into();
         assert!(decode_telemetry(&encode_telemetry(&bad).expect("encode")).is_err());
+        // A battery state no battery has: refused with what is wrong.
+        for (charge, reach) in [(1.5, Some(1.0)), (f64::NAN, None), (0.5, Some(-1.0)), (0.5, Some(f64::INFINITY))] {
+            let mut bad = sample();
+            bad.battery = Some(crate::robot::BatteryState { charge, charging: false, reach_m: reach });
+            let e = decode_telemetry(&encode_telemetry(&bad).expect("encode")).expect_err("refused");
+            assert!(e.to_string().contains("battery"), "{e}");
+        }
+        // An older robot's telemetry (the version before batteries) is named as foreign.
+        let mut old = bytes.clone();
+        old[..4].copy_from_slice(b"MRM4");
+        assert!(decode_telemetry(&old).expect_err("old").to_string().contains("MRM5"));
     }
 
     #[test]

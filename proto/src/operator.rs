@@ -76,6 +76,9 @@ pub struct RobotView {
     /// or aborted the goal, or is not running).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stuck: Option<String>,
+    /// The robot's battery as it last reported it, if it has one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery: Option<crate::robot::BatteryState>,
 }
 
 /// Fleet summary (`mrmm/system/status`).

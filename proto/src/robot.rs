@@ -66,6 +66,38 @@ pub struct Telemetry {
     /// capabilities change, so whoever holds an older record asks `mrmm/robots/<id>/info` again.
     #[serde(default)]
     pub info_rev: u32,
+    /// The robot's battery, when it has one that it knows of.
+    #[serde(default)]
+    pub battery: Option<BatteryState>,
+}
+
+/// Farthest a robot may say its battery takes it, metres (a reach past it is shown as this).
+pub const MAX_REACH_M: f64 = 1e7;
+
+/// A robot's battery as it reports it (telemetry; `battery` in the robots' view).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BatteryState {
+    /// State of charge, 0 (empty) to 1 (full).
+    pub charge: f64,
+    /// Standing at a charger, charging.
+    pub charging: bool,
+    /// How far the charge left takes it at its top speed, metres; None where the robot cannot
+    /// tell (a ROS 2 battery reports its charge only).
+    #[serde(default)]
+    pub reach_m: Option<f64>,
+}
+
+impl BatteryState {
+    /// Checks what a robot says: a charge in 0–1, a reach in 0–[`MAX_REACH_M`].
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.charge.is_finite() && (0.0..=1.0).contains(&self.charge)) {
+            return Err(format!("battery charge {} is not within 0–1", self.charge));
+        }
+        match self.reach_m {
+            Some(r) if !(r.is_finite() && (0.0..=MAX_REACH_M).contains(&r)) => Err(format!("battery reach {r} m is not within 0–{MAX_REACH_M}")),
+            _ => Ok(()),
+        }
+    }
 }
 
 impl Telemetry {
@@ -83,6 +115,7 @@ impl Telemetry {
             admitted: vec![],
             stuck: None,
             info_rev: 0,
+            battery: None,
         }
     }
 }

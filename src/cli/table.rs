@@ -33,6 +33,7 @@ pub fn robots(views: &[RobotView]) -> String {
                 v.id.to_string(),
                 v.robot_type.clone(),
                 v.status.as_str().to_string(),
+                battery(v.battery.as_ref()),
                 v.mission.as_ref().map(|x| x.as_str()).unwrap_or("-").to_string(),
                 v.behaviour.clone().unwrap_or_else(|| "-".into()),
                 pose,
@@ -40,7 +41,18 @@ pub fn robots(views: &[RobotView]) -> String {
             ]
         })
         .collect();
-    render(&["ID", "TYPE", "STATUS", "MISSION", "BEHAVIOUR", "POSE (x, y) heading", "CAPABILITIES"], &rows)
+    render(&["ID", "TYPE", "STATUS", "BATTERY", "MISSION", "BEHAVIOUR", "POSE (x, y) heading", "CAPABILITIES"], &rows)
+}
+
+/// A battery's cell: `73% 410 m`, `40% charging`, `-` without one.
+fn battery(b: Option<&mrmm_proto::BatteryState>) -> String {
+    let Some(b) = b else { return "-".into() };
+    let charge = format!("{:.0}%", b.charge * 100.0);
+    match (b.charging, b.reach_m) {
+        (true, _) => format!("{charge} charging"),
+        (false, Some(r)) => format!("{charge} {r:.0} m"),
+        (false, None) => charge,
+    }
 }
 
 /// The maps table: the hash abbreviated to 12 digits (`--json` shows it whole).
@@ -72,5 +84,34 @@ mod tests {
     fn pads_columns() {
         let t = render(&["A", "BB"], &[vec!["xxx".into(), "y".into()]]);
         assert_eq!(t, "A    BB\nxxx  y\n");
+    }
+
+    #[test]
+    fn the_fleet_table_shows_batteries() {
+        use mrmm_proto::{BatteryState, RobotStatus};
+        let view = |id: &str, battery| RobotView {
+            id: id.into(),
+            robot_type: "ground".into(),
+            capabilities: vec![],
+            status: RobotStatus::Idle,
+            mission: None,
+            pose: None,
+            behaviour: None,
+            last_mission: None,
+            stuck: None,
+            battery,
+        };
+        let t = robots(&[
+            view("r1", Some(BatteryState { charge: 0.734, charging: false, reach_m: Some(410.4) })),
+            view("r2", Some(BatteryState { charge: 0.4, charging: true, reach_m: Some(1.0) })),
+            view("r3", Some(BatteryState { charge: 0.05, charging: false, reach_m: None })),
+            view("r4", None),
+        ]);
+        let lines: Vec<&str> = t.lines().collect();
+        assert!(lines[0].contains("STATUS  BATTERY"), "{t}");
+        assert!(lines[1].contains("idle    73% 410 m"), "{t}");
+        assert!(lines[2].contains("40% charging"), "{t}");
+        assert!(lines[3].contains(" 5% "), "{t}");
+        assert!(lines[4].contains("idle    -"), "{t}");
     }
 }

@@ -6,16 +6,16 @@ use rerun::RecordingStream;
 use crate::paths;
 
 /// The viewer's layout: one large fleet map, and beside it the text logs (advice, teams,
-/// barriers) above the missions' time series.
+/// barriers) above the missions' time series, the batteries' and a bar of each robot's charge.
 pub fn blueprint() -> rerun::blueprint::Blueprint {
-    use rerun::blueprint::{Blueprint, Horizontal, Spatial2DView, TextLogView, TimeSeriesView, Vertical};
+    use rerun::blueprint::{BarChartView, Blueprint, Horizontal, Spatial2DView, TextLogView, TimeSeriesView, Vertical};
     let fleet = Spatial2DView::new("fleet").with_origin(format!("/{}", paths::FLEET));
     let logs = TextLogView::new("advice and events").with_contents([format!("/{}", paths::ADVICE_LOG), format!("/{}/**", paths::EVENTS)]);
     let series = TimeSeriesView::new("missions").with_origin(format!("/{}", paths::METRICS));
-    Blueprint::new(
-        Horizontal::new([fleet.into(), Vertical::new([logs.into(), series.into()]).with_row_shares([1.0, 1.0]).into()]).with_column_shares([3.0, 1.0]),
-    )
-    .with_auto_views(false)
+    let charges = TimeSeriesView::new("batteries").with_origin(format!("/{}/robots", paths::BATTERY_ROOT));
+    let bars = BarChartView::new("charge per robot").with_origin(format!("/{}", paths::BATTERIES));
+    let side = Vertical::new([logs.into(), series.into(), charges.into(), bars.into()]).with_row_shares([1.0, 1.0, 1.0, 0.6]);
+    Blueprint::new(Horizontal::new([fleet.into(), side.into()]).with_column_shares([3.0, 1.0])).with_auto_views(false)
 }
 
 /// Logs `map` (static) under `fleet/map/<name>`: a grid as a grey image placed in metres (free

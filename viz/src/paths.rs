@@ -14,6 +14,8 @@
 //! | `fleet/traffic/<id>/ahead` | LineStrips2D | the rest of its route, thin |
 //! | `fleet/traffic/<id>/waits` | Arrows2D | to each robot in its way while it waits (red: blocked), labelled |
 //! | `metrics/traffic/waiting` | Scalars | robots standing waiting for traffic, all maps |
+//! | `batteries/robots/<id>` | Scalars | the robot's battery charge, percent |
+//! | `batteries/all` | BarChart | every robot's charge, percent, in id order (at most once a second) |
 //! | `events/teams` | TextLog | team membership changes |
 //! | `events/sync` | TextLog | barrier arrivals |
 //! | `advice` | TextLog | advising agent, level = priority |
@@ -61,6 +63,12 @@ pub fn traffic_waits(id: &str) -> String {
     format!("fleet/traffic/{id}/waits")
 }
 pub const TRAFFIC_WAITING: &str = "metrics/traffic/waiting";
+/// Where the batteries' views are rooted.
+pub const BATTERY_ROOT: &str = "batteries";
+pub const BATTERIES: &str = "batteries/all";
+pub fn battery(id: &str) -> String {
+    format!("batteries/robots/{id}")
+}
 pub fn mission_tour(name: &str) -> String {
     format!("fleet/missions/{name}/tour")
 }

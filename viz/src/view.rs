@@ -31,7 +31,14 @@ pub(crate) struct View {
     messages: BTreeMap<proto::MissionName, (f64, u64)>,
     /// Robots drawn in traffic (cleared when they leave it).
     in_traffic: std::collections::BTreeSet<proto::RobotId>,
+    /// Each robot's last battery charge, percent, and when the bar chart of them was drawn.
+    batteries: BTreeMap<proto::RobotId, f64>,
+    bars_at: Option<Instant>,
 }
+
+/// The bar chart of every robot's charge is drawn at most this often, seconds (telemetry comes
+/// at 5 Hz from each robot).
+const BARS_EVERY_S: f64 = 1.0;
 
 const PALETTE: [[u8; 3]; 8] = [[230, 159, 0], [86, 180, 233], [0, 158, 115], [240, 228, 66], [0, 114, 178], [213, 94, 0], [204, 121, 167], [160, 160, 160]];
 const IDLE: [u8; 3] = [200, 200, 200];
@@ -68,6 +75,8 @@ impl View {
             teams: BTreeMap::new(),
             messages: BTreeMap::new(),
             in_traffic: std::collections::BTreeSet::new(),
+            batteries: BTreeMap::new(),
+            bars_at: None,
         }
     }
 
@@ -108,6 +117,23 @@ impl View {
         }
         let strip: Vec<[f32; 2]> = trail.iter().copied().collect();
         self.log(&paths::robot_trail(t.id.as_str()), &rerun::LineStrips2D::new([strip]).with_colors([color]).with_radii([0.08]));
+        if let Some(b) = &t.battery {
+            self.battery(t.id.clone(), b);
+        }
+    }
+
+    /// A robot's charge as a time series, and (at most once a second) every robot's as bars in
+    /// id order.
+    fn battery(&mut self, id: proto::RobotId, b: &proto::BatteryState) {
+        let percent = b.charge * 100.0;
+        self.log(&paths::battery(id.as_str()), &rerun::Scalars::new([percent]));
+        self.batteries.insert(id, percent);
+        if self.bars_at.is_some_and(|t| t.elapsed().as_secs_f64() < BARS_EVERY_S) {
+            return;
+        }
+        self.bars_at = Some(Instant::now());
+        let values: Vec<f64> = self.batteries.values().copied().collect();
+        self.log(paths::BATTERIES, &rerun::BarChart::new(values.as_slice()));
     }
 
     pub(crate) fn mission(&mut self, m: &MissionView) {

@@ -409,7 +409,11 @@
       tr.dataset.robot = r.id;
       if (selected.has(r.id)) tr.className = 'selected';
       cell(tr, r.id); cell(tr, r.type); cell(tr, (r.capabilities || []).join(', ') || '—', 'caps');
-      cell(tr, r.stuck ? `${r.status} (stuck)` : r.status); cell(tr, teamOf.get(r.id) || r.mission || '—');
+      cell(tr, r.stuck ? `${r.status} (stuck)` : r.status);
+      const b = r.battery;
+      cell(tr, b ? `${Math.round(b.charge * 100)}%${b.charging ? ' charging' : ''}` : '—', b && b.charge < 0.2 && !b.charging ? 'short' : undefined).title =
+        b && b.reach_m != null ? `reaches ${Math.round(b.reach_m)} m` : '';
+      cell(tr, teamOf.get(r.id) || r.mission || '—');
       cell(tr, r.stuck || r.behaviour || '', 'doing').title = r.stuck || r.behaviour || '';
       tr.addEventListener('click', (e) => {
         if (!(e.shiftKey || e.ctrlKey || e.metaKey)) { const had = selected.has(r.id) && selected.size === 1; selected.clear(); if (!had) selected.add(r.id); }

@@ -57,9 +57,20 @@ impl Drive {
         }
     }
 
-    /// Why a ROS 2 body cannot get to its goal (Nav2 rejected or aborted it, no Nav2 server).
+    /// The battery's state, if the body has one it knows of: the simulated body's model at its
+    /// top speed; a ROS 2 robot's last `sensor_msgs/BatteryState`.
+    pub fn battery(&self) -> Option<mrmm_proto::BatteryState> {
+        match self {
+            Drive::Sim(b) => b.battery().map(|bat| bat.state(b.limits().max_speed)),
+            Drive::Ros(r) => r.battery(),
+        }
+    }
+
+    /// Why the body cannot get to its goal: the simulated one's battery is empty; a ROS 2 body's
+    /// Nav2 rejected or aborted it, or has no server.
     pub fn stuck(&self) -> Option<&str> {
         match self {
+            Drive::Sim(b) if b.goal().is_some() && b.battery().is_some_and(|b| b.empty()) => Some("its battery is empty"),
             Drive::Sim(_) => None,
             Drive::Ros(r) => r.stuck(),
         }

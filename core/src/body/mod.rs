@@ -5,12 +5,14 @@
 //! The simulated body integrates in simulated time; the caller scales wall time by the robot's
 //! `time_scale` before calling [`Body::step`].
 
+pub mod battery;
 pub mod drive;
 pub mod nav_goals;
 pub mod ros;
 
 use nalgebra::{Rotation2, Vector2};
 
+use self::battery::Battery;
 use mrmm_planner::corner::Blend;
 use mrmm_proto::{Pose, Velocity};
 
@@ -48,6 +50,8 @@ pub struct Body {
     /// The arc through the goal towards the point after it, when the plan drives on from there
     /// ([`Body::navigate_through`]).
     corner: Option<Corner>,
+    /// Its battery, if it has one: empty, the body does not move.
+    battery: Option<Battery>,
 }
 
 /// Where a plan drives on to from a goal without stopping there, and how fast.
@@ -89,7 +93,26 @@ impl Body {
             cap: None,
             facing: None,
             corner: None,
+            battery: None,
         }
+    }
+
+    /// The body with a battery.
+    pub fn with_battery(mut self, battery: Battery) -> Self {
+        self.battery = Some(battery);
+        self
+    }
+
+    pub fn battery(&self) -> Option<&Battery> {
+        self.battery.as_ref()
+    }
+
+    pub fn battery_mut(&mut self) -> Option<&mut Battery> {
+        self.battery.as_mut()
+    }
+
+    pub fn limits(&self) -> Limits {
+        self.limits
     }
 
     pub fn pose(&self) -> Pose {
@@ -117,6 +140,9 @@ impl Body {
     /// Drive to (x, y) no faster than `speed` (m/s).
     pub fn navigate_capped(&mut self, x: f64, y: f64, speed: Option<f64>) {
         self.goal = Some(Vector2::new(x, y));
+        if let Some(b) = &mut self.battery {
+            b.set_charging(false);
+        }
         self.cap = speed.filter(|s| s.is_finite() && *s > 0.0);
         self.facing = None;
         self.corner = None;
@@ -178,8 +204,27 @@ impl Body {
     }
 
     /// Advances the body by `dt` seconds of simulated time. Returns true when it reached its goal
-    /// during this step (the goal is then cleared).
+    /// during this step (the goal is then cleared). With a battery, the step drains it by the
+    /// time, the distance and the turn; a body whose battery is empty, or charging (plugged in),
+    /// stands where it is, its goal kept (a new goal unplugs it).
     pub fn step(&mut self, dt: f64) -> bool {
+        if self.battery.as_ref().is_some_and(|b| b.empty() || b.charging()) {
+            self.velocity = Velocity::default();
+            if let Some(b) = &mut self.battery {
+                b.pass(dt, 0.0, 0.0);
+            }
+            return false;
+        }
+        let (pos, heading) = (self.pos, self.heading);
+        let arrived = self.move_for(dt);
+        if let Some(b) = &mut self.battery {
+            b.pass(dt, (self.pos - pos).norm(), wrap_angle(self.heading - heading));
+        }
+        arrived
+    }
+
+    /// [`Body::step`] without the battery.
+    fn move_for(&mut self, dt: f64) -> bool {
         let Some(goal) = self.goal else {
             self.turn_to_face(dt);
             return false;
@@ -477,6 +522,29 @@ mod tests {
         let steps = run_until_arrival(&mut b, 0.01, 10_000).expect("arrives");
         assert!((steps as f64 * 0.01 - 5.0).abs() < 0.05);
         assert!((b.pose().x - 5.0).abs() <= ARRIVAL_TOLERANCE && b.pose().theta.abs() < 1e-9, "at the point, not turned yet");
+    }
+
+    /// An empty battery stops the body short of its goal; charged, it drives on to it.
+    #[test]
+    fn an_empty_battery_stops_the_body_until_charged() {
+        use battery::BatteryModel;
+        // 5 s of driving at 1 m/s in a full charge.
+        let mut b = Body::new(Pose::default(), LIM).with_battery(Battery::new(BatteryModel::lasting(5.0, 1.0), 1.0));
+        b.navigate_to(10.0, 0.0);
+        assert!(run_until_arrival(&mut b, 0.01, 2_000).is_none(), "it cannot get there");
+        let stopped = b.pose();
+        assert!((stopped.x - 5.0).abs() < 0.05, "{stopped:?}");
+        assert!(b.battery().expect("battery").empty());
+        assert_eq!(b.velocity(), Velocity::default());
+        assert_eq!(b.goal(), Some((10.0, 0.0)), "the goal is kept");
+        b.battery_mut().expect("battery").set_charging(true);
+        for _ in 0..300 {
+            b.step(0.01);
+        }
+        assert_eq!(b.pose(), stopped, "plugged in, it does not drive");
+        assert_eq!(b.battery().expect("battery").charge(), 1.0);
+        b.battery_mut().expect("battery").set_charging(false);
+        assert!(run_until_arrival(&mut b, 0.01, 2_000).is_some(), "charged, it gets there");
     }
 
     #[test]

@@ -57,6 +57,8 @@ pub struct RosDrive {
     halt: Option<Halt>,
     /// With `drive: "nav2"`: Nav2 drives, mrmm sends it goals (and zero twists to stop).
     nav2: Option<Nav2Goals>,
+    /// The robot's last battery report (`sensor_msgs/BatteryState`), if any.
+    battery: Option<mrmm_proto::BatteryState>,
 }
 
 impl RosDrive {
@@ -76,6 +78,7 @@ impl RosDrive {
             zeros_left: 0,
             halt: None,
             nav2: None,
+            battery: None,
         }
     }
 
@@ -88,6 +91,15 @@ impl RosDrive {
     /// The Nav2 goals, with `drive: "nav2"`.
     pub fn nav2_mut(&mut self) -> Option<&mut Nav2Goals> {
         self.nav2.as_mut()
+    }
+
+    /// The robot's battery reported: kept as the state telemetry carries.
+    pub fn on_battery(&mut self, state: mrmm_proto::BatteryState) {
+        self.battery = Some(state);
+    }
+
+    pub fn battery(&self) -> Option<mrmm_proto::BatteryState> {
+        self.battery
     }
 
     /// Why the robot cannot get to its goal, while that lasts.

@@ -159,6 +159,7 @@ fn tel(id: &str, x: f64, y: f64, syncs: u32, round: u32) -> Telemetry {
         admitted: vec![],
         stuck: None,
         info_rev: 0,
+        battery: None,
     }
 }
 

@@ -60,6 +60,8 @@ pub enum Event {
     LocalisedPose(mrmm_proto::Pose),
     /// The robot's session has links to other fleet nodes (`true`) or none left.
     FleetLink(bool),
+    /// A ROS 2 body's battery report (checked by the driver).
+    Battery(mrmm_proto::BatteryState),
     /// Nav2's action server appeared in the robot's ROS graph or left it.
     Nav2Server(bool),
     /// The traffic authority of map `map` (a bundle hash) gave this robot an order.
@@ -151,7 +153,13 @@ pub struct Robot {
 impl Robot {
     pub fn new(cfg: RobotSetup) -> Self {
         let body = match &cfg.body {
-            BodyKind::Sim => Drive::Sim(Box::new(Body::new(cfg.start, cfg.limits))),
+            BodyKind::Sim => {
+                let body = Body::new(cfg.start, cfg.limits);
+                Drive::Sim(Box::new(match &cfg.battery {
+                    Some(b) => body.with_battery(b.clone()),
+                    None => body,
+                }))
+            }
             BodyKind::Ros { odom_timeout_s, stop_on_fleet_loss, localised, nav2 } => {
                 let d = RosDrive::new(cfg.start, cfg.limits, *odom_timeout_s, *stop_on_fleet_loss, *localised);
                 Drive::Ros(Box::new(match nav2 {
@@ -306,6 +314,12 @@ impl Robot {
                 }
                 vec![]
             }
+            Event::Battery(state) => {
+                if let (Drive::Ros(r), Ok(())) = (&mut self.body, state.check()) {
+                    r.on_battery(state);
+                }
+                vec![]
+            }
             Event::FleetLink(up) => {
                 if let Drive::Ros(r) = &mut self.body {
                     r.set_fleet(up);
@@ -454,6 +468,7 @@ impl Robot {
             admitted: self.admitted.iter().map(|(m, _, _)| m.clone()).collect(),
             stuck: self.body.stuck().map(str::to_string),
             info_rev: self.info_rev,
+            battery: self.body.battery(),
         }
     }
 }

@@ -21,6 +21,8 @@ pub struct RobotSetup {
     /// are then kept ([`crate::robot::Command::KeepCapabilities`]).
     pub durable: bool,
     pub body: BodyKind,
+    /// A simulated body's battery, as it starts (None: it never runs out).
+    pub battery: Option<crate::body::battery::Battery>,
 }
 
 /// The body the machine drives.
@@ -61,6 +63,7 @@ impl RobotSetup {
             time_scale: 1.0,
             durable: false,
             body: BodyKind::Sim,
+            battery: None,
         }
     }
 }

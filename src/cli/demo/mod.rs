@@ -85,6 +85,20 @@ pub struct Args {
     /// missions plan routes along the corridors.
     #[arg(long)]
     map: Option<std::path::PathBuf>,
+    /// Give every robot a battery that a full charge lets drive this many simulated seconds at
+    /// its top speed (they start between half and fully charged), to watch batteries run down in
+    /// minutes (docs/operating.md).
+    #[arg(long, value_parser = positive_seconds)]
+    battery_life: Option<f64>,
+}
+
+/// A positive, finite number of seconds.
+fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 1e7 => Ok(v),
+        Ok(v) => Err(format!("{v} is not a number of seconds within (0, 10000000]")),
+        Err(e) => Err(format!("{s:?} is not a number: {e}")),
+    }
 }
 
 const TYPES: [&str; 2] = ["ground", "aerial"];

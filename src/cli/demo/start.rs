@@ -138,7 +138,7 @@ pub(super) fn robots(
     pki: Option<&Path>,
 ) -> anyhow::Result<()> {
     let n = args.robots as usize;
-    let net = Net { scheme, lease_ms: lease(args), join: join(args), pki };
+    let net = Net { scheme, lease_ms: lease(args), join: join(args), pki, battery_life: args.battery_life };
     let mut per_site: Vec<Vec<PathBuf>> = vec![Vec::new(); sites.len()];
     for i in 0..n {
         let id = format!("r{}", i + 1);
@@ -175,6 +175,8 @@ struct Net<'a> {
     lease_ms: u64,
     join: Join,
     pki: Option<&'a Path>,
+    /// `--battery-life`: seconds a full charge drives.
+    battery_life: Option<f64>,
 }
 
 /// Where a robot of site `k` connects: its site's router (central for site 0); a client then
@@ -189,7 +191,7 @@ fn connect(sites: &[String], k: usize, join: Join) -> Vec<String> {
 
 /// A robot's config; it starts `at` (x, y), or else on a line.
 fn robot_config(id: &str, i: usize, n: usize, at: Option<(f64, f64)>, connect: &[String], time_scale: f64, net: &Net<'_>) -> String {
-    let Net { scheme, lease_ms, join, pki } = *net;
+    let Net { scheme, lease_ms, join, pki, battery_life } = *net;
     let kind = TYPES[i % TYPES.len()];
     let (speed, turn, caps) = if kind == "aerial" { (2.0, 3.0, r#"["camera", "fly"]"#) } else { (1.0, 1.5, r#"["camera", "lidar"]"#) };
     // Rows of at most 20, 1.5 m apart, from y = -12 down (into the coverage region).
@@ -203,6 +205,11 @@ fn robot_config(id: &str, i: usize, n: usize, at: Option<(f64, f64)>, connect: &
         }
         None => String::new(),
     };
+    // Charges spread from full (r1) down to half, so that they do not all run out at once.
+    let battery = match battery_life {
+        Some(life) => format!("  battery: {{ life_s: {life}, charge: {:.3} }},\n", 1.0 - 0.5 * i as f64 / n.max(2) as f64),
+        None => String::new(),
+    };
     format!(
         r#"{{
   id: "{id}", type: "{kind}", capabilities: {caps},
@@ -210,7 +217,7 @@ fn robot_config(id: &str, i: usize, n: usize, at: Option<(f64, f64)>, connect: &
   start: {{ x: {x}, y: {y}, theta: 1.5708 }},
   time_scale: {time_scale}, telemetry_hz: 5,
   zenoh: {{ mode: "{mode}", listen: ["{scheme}/127.0.0.1:0"], connect: {connect:?}, lease_ms: {lease_ms} }},
-{security}}}
+{security}{battery}}}
 "#
     )
 }
@@ -221,16 +228,23 @@ mod tests {
 
     #[test]
     fn generated_configs_are_valid() {
-        let plain = Net { scheme: "tcp", lease_ms: 1000, join: Join::Peer, pki: None };
+        let plain = Net { scheme: "tcp", lease_ms: 1000, join: Join::Peer, pki: None, battery_life: None };
         for i in 0..4 {
             let text = robot_config(&format!("r{i}"), i, 4, None, &["tcp/127.0.0.1:7447".into()], 2.0, &plain);
             let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid");
             assert_eq!((cfg.time_scale, cfg.zenoh.mode), (2.0, mrmm_net::net::JoinMode::Peer));
+            assert!(cfg.battery.is_none());
+        }
+        let batteries = Net { battery_life: Some(90.0), ..plain };
+        for i in 0..4 {
+            let text = robot_config(&format!("r{i}"), i, 4, None, &["tcp/127.0.0.1:7447".into()], 2.0, &batteries);
+            let b = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid").setup().battery.expect("a battery");
+            assert!((b.charge() - (1.0 - 0.5 * i as f64 / 4.0)).abs() < 1e-3, "r{i}: {}", b.charge());
         }
         let sites = ["quic/127.0.0.1:7447".to_string(), "quic/127.0.0.1:7500".into(), "quic/127.0.0.1:7501".into()];
         assert_eq!(connect(&sites, 1, Join::Peer), &sites[1..2], "a peer: its site only");
         assert_eq!(connect(&sites, 2, Join::Client), [sites[2].clone(), sites[0].clone()], "a client: its site, then the next");
-        let secure = Net { scheme: "quic", lease_ms: 4000, join: Join::Client, pki: Some(std::path::Path::new("/p")) };
+        let secure = Net { scheme: "quic", lease_ms: 4000, join: Join::Client, pki: Some(std::path::Path::new("/p")), battery_life: None };
         let text = robot_config("r1", 0, 4, Some((3.5, -2.0)), &connect(&sites, 0, Join::Client), 1.0, &secure);
         let cfg = mrmm_peer::config::RobotConfig::from_json5("gen", &text).expect("valid secure config");
         assert_eq!(cfg.security.map(|s| s.cert), Some(std::path::PathBuf::from("/p/r1.crt")));

@@ -43,11 +43,22 @@ pub struct AgentConfig {
     /// A robot waiting this long in traffic for the same robots is raised, seconds (one blocked
     /// — no way around those in its way — at once).
     pub traffic_wait_s: f64,
+    /// A robot whose battery is below this charge (0–1) and not charging is raised (Open-RMF's
+    /// default recharge threshold, 0.2).
+    pub battery_low: f64,
 }
 
 impl Default for AgentConfig {
     fn default() -> Self {
-        AgentConfig { autonomy: Autonomy::Advise, busy_window_s: 10.0, stuck_after_s: 10.0, stuck_distance: 0.2, event_advice_s: 30.0, traffic_wait_s: 30.0 }
+        AgentConfig {
+            autonomy: Autonomy::Advise,
+            busy_window_s: 10.0,
+            stuck_after_s: 10.0,
+            stuck_distance: 0.2,
+            event_advice_s: 30.0,
+            traffic_wait_s: 30.0,
+            battery_low: 0.2,
+        }
     }
 }
 
@@ -60,6 +71,7 @@ impl AgentConfig {
             ("stuck_distance", self.stuck_distance, 1000.0),
             ("event_advice_s", self.event_advice_s, 86400.0),
             ("traffic_wait_s", self.traffic_wait_s, 3600.0),
+            ("battery_low", self.battery_low, 1.0),
         ] {
             if !(v.is_finite() && v >= 0.0 && v <= max) {
                 return Err(format!("agent.{name}: must be a number in [0, {max}] (got {v})"));

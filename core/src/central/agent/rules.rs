@@ -116,7 +116,31 @@ pub(crate) fn evaluate(
     let waiting: std::collections::BTreeSet<&RobotId> = traffic.iter().flat_map(|m| &m.robots).filter(|t| t.waiting_s.is_some()).map(|t| &t.robot).collect();
     stuck_robots(cfg, mem, robots, &waiting, now, &mut out);
     blocked_in_traffic(cfg, robots, traffic, now, &mut out);
+    batteries(cfg, robots, now, &mut out);
     out
+}
+
+/// A charge below this counts as empty (the robot cannot drive).
+const EMPTY: f64 = 0.005;
+
+/// Robots whose battery is empty (critical: it stands where it died) or low, not charging.
+fn batteries(cfg: &AgentConfig, robots: &[RobotView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+    for r in robots.iter().filter(|r| r.status != RobotStatus::Lost) {
+        let Some(b) = r.battery.filter(|b| !b.charging && b.charge < cfg.battery_low.max(EMPTY)) else { continue };
+        // Two ids: an advice keeps its priority, and empty is news after low.
+        let at = r.pose.map(|p| format!(" at ({:.1}, {:.1})", p.x, p.y)).unwrap_or_default();
+        let (id, priority, reason) = if b.charge < EMPTY {
+            (format!("battery/{}/empty", r.id), Priority::Critical, format!("robot {}'s battery is empty: it stands{at}", r.id))
+        } else {
+            let reach = b.reach_m.map(|m| format!(", {m:.0} m left")).unwrap_or_default();
+            (
+                format!("battery/{}/low", r.id),
+                Priority::Warning,
+                format!("robot {}'s battery is at {:.0} %{reach}, and it is not charging", r.id, b.charge * 100.0),
+            )
+        };
+        out.insert(id.clone(), candidate(id, priority, reason, json!({"robot": r.id, "charge": b.charge, "reach_m": b.reach_m}), now, None));
+    }
 }
 
 /// A robot blocked in traffic (no way around the robots in its way), or waiting for the same
@@ -297,6 +321,10 @@ fn stuck_robots(
     out: &mut BTreeMap<String, Candidate>,
 ) {
     for r in robots {
+        if r.battery.is_some_and(|b| b.charge < EMPTY) {
+            // Its battery is empty: the battery rule says so.
+            continue;
+        }
         if let Some(why) = &r.stuck {
             // The robot says so itself (its navigator refused or aborted the goal).
             let id = format!("stuck/{}", r.id);

@@ -15,6 +15,7 @@ fn robot(id: &str, status: RobotStatus, mission: Option<&str>, x: f64, behaviour
         behaviour: Some(behaviour.into()),
         last_mission: None,
         stuck: None,
+        battery: None,
     }
 }
 
@@ -375,4 +376,36 @@ fn robots_waiting_or_blocked_in_traffic_are_raised_with_who_is_in_the_way() {
     assert_eq!(withdrawn(&a.handle(32.0, look(robots(1.0), view(None, false)))), ["traffic/r1"]);
     // Blocked: at once.
     assert_eq!(raised(&a.handle(33.0, look(robots(1.0), view(Some(1.0), true)))), [("traffic/r1".into(), Priority::Warning)]);
+}
+
+/// A battery below the low mark, not charging, is a warning; empty, critical (and not also
+/// "stuck"); charging, or charged again, it is withdrawn.
+#[test]
+fn low_and_empty_batteries_are_raised_and_withdrawn_once_charging() {
+    use mrmm_proto::BatteryState;
+    let mut a = Agent::new(AgentConfig::default());
+    let with = |charge: f64, charging: bool| {
+        let mut r = robot("r1", RobotStatus::Busy, Some("p"), 1.0, "step 2 goto(9.0,0.0)");
+        r.battery = Some(BatteryState { charge, charging, reach_m: Some(charge * 1000.0) });
+        vec![r]
+    };
+    assert!(raised(&a.handle(1.0, snap(with(0.5, false), vec![]))).is_empty());
+    let low = a.handle(2.0, snap(with(0.15, false), vec![]));
+    assert_eq!(raised(&low), [("battery/r1/low".into(), Priority::Warning)]);
+    assert!(format!("{low:?}").contains("15 %, 150 m left"), "{low:?}");
+    // Empty and stuck at its goal: one critical advice, not a stuck one besides.
+    let mut empty = with(0.0, false);
+    empty[0].stuck = Some("its battery is empty".into());
+    let cmds = a.handle(3.0, snap(empty.clone(), vec![]));
+    assert_eq!(raised(&cmds), [("battery/r1/empty".into(), Priority::Critical)]);
+    assert_eq!(withdrawn(&cmds), ["battery/r1/low"]);
+    let cmds = a.handle(30.0, snap(empty, vec![]));
+    assert!(!format!("{cmds:?}").contains("stuck/r1"), "{cmds:?}");
+    assert_eq!(withdrawn(&a.handle(31.0, snap(with(0.0, true), vec![]))), ["battery/r1/empty"]);
+    let charged = a.handle(32.0, snap(with(0.9, false), vec![]));
+    assert!(!format!("{charged:?}").contains("battery/"), "{charged:?}");
+    // A lost robot's battery is not raised (the loss is).
+    let mut lost = with(0.1, false);
+    lost[0].status = RobotStatus::Lost;
+    assert!(!format!("{:?}", a.handle(40.0, snap(lost, vec![]))).contains("battery/r1"));
 }

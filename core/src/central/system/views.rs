@@ -76,6 +76,7 @@ impl SystemManager {
             behaviour,
             last_mission,
             stuck: rec.last.as_ref().and_then(|t| t.stuck.clone()).filter(|_| rec.alive),
+            battery: rec.last.as_ref().and_then(|t| t.battery),
         })
     }
 

@@ -120,7 +120,7 @@ mod tests {
         assert!(matches!(heard(&telemetry("r1"), Some(&r2)), Err(Refused::NotEntitled { .. })));
         assert!(matches!(heard(&telemetry("r1"), None), Err(Refused::Unproven { .. })));
         assert!(matches!(heard(&telemetry("r2"), Some(&r2)), Err(Refused::Malformed { .. })));
-        assert!(matches!(heard(b"MRM4\xff", Some(&r1)), Err(Refused::Malformed { .. })));
+        assert!(matches!(heard(b"MRM5\xff", Some(&r1)), Err(Refused::Malformed { .. })));
         // Chain messages only from nodes that host missions.
         let env = ChainEnvelope { mission: "p".into(), from: "op".into(), msg: mrmm_proto::chain::Msg::Grant { epoch: 1 } };
         let payload = serde_json::to_vec(&env).expect("json");

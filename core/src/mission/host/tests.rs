@@ -157,6 +157,7 @@ fn progress(id: &str, mission: &str, epoch: u64) -> Event {
         admitted: vec![],
         stuck: None,
         info_rev: 0,
+        battery: None,
     }))
 }
 

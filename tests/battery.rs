@@ -1,0 +1,72 @@
+//! Batteries with real processes: a robot whose config gives it a battery reports its charge
+//! and reach to central (the robots' view, `mrmm op robots`); sent further than its charge
+//! takes it, it stops where the battery runs out, says why, and the agent raises it as
+//! critical; a robot without a battery shows none.
+
+mod common;
+
+use std::time::Duration;
+
+use common::{eventually, Scratch};
+use mrmm_net::client::Client;
+use mrmm_proto::{self as proto, GotoRequest, Priority, RobotView};
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_runs_its_battery_down_and_the_fleet_sees_it() -> anyhow::Result<()> {
+    let dir = Scratch::new("battery");
+    let state = dir.path("central-state").display().to_string();
+    let central = common::start(
+        "central",
+        &["central", "--listen", "tcp/127.0.0.1:0", "--state-dir", &state],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let ep = central
+        .field("listening")
+        .and_then(|l| l.split(',').next().map(str::to_string))
+        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", central.ready))?;
+    // r1: half a battery that drives 40 simulated seconds at 1 m/s when full — about 20 m less
+    // what standing still draws; r2: no battery.
+    let cfg = common::robot_config(&dir, "r1", std::slice::from_ref(&ep), 0.0, 0.0, 5.0)?;
+    let text = std::fs::read_to_string(&cfg)?.replacen("time_scale:", "battery: { life_s: 40, charge: 0.5 }, time_scale:", 1);
+    std::fs::write(&cfg, text)?;
+    let cfg = cfg.display().to_string();
+    let _r1 = common::start("r1", &["robot", "--config", &cfg], &dir.path("r1.log"), "robot ready", Duration::from_secs(20))?;
+    let _r2 = common::start_robot(&dir, "r2", &ep, 0.0, 5.0)?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    let views = common::wait_robots(&client, 2).await?;
+    let b = views[0].battery.ok_or_else(|| anyhow::anyhow!("r1 shows no battery: {:?}", views[0]))?;
+    // It drains standing still too (a fifth of its power): a little less than half by now.
+    assert!(b.charge <= 0.5 && b.charge > 0.2 && !b.charging, "{b:?}");
+    let reach = b.reach_m.ok_or_else(|| anyhow::anyhow!("no reach: {b:?}"))?;
+    assert!((reach - b.charge * 40.0).abs() < 0.01, "a full charge drives 40 s at 1 m/s: {reach} m at {b:?}");
+    assert!(views[1].battery.is_none(), "r2 has no battery: {:?}", views[1]);
+
+    // Sent 60 m away, r1 gets as far as its charge takes it and stops there.
+    let _: serde_json::Value =
+        client.query(proto::Key::SystemCmd(proto::SystemCmd::Goto), Some(&GotoRequest { robot: "r1".into(), x: 60.0, y: 0.0, map: None })).await?;
+    let advice = common::wait_raised(&live, "battery/r1/empty", Duration::from_secs(30)).await?;
+    assert_eq!(advice.priority, Priority::Critical, "{advice:?}");
+    let r1 = eventually("r1 stopped, out of charge", Duration::from_secs(10), || async {
+        let v: RobotView = client.query(proto::Key::SystemRobot("r1".into()), None::<&()>).await.ok()?;
+        (v.stuck.as_deref() == Some("its battery is empty")).then_some(v)
+    })
+    .await?;
+    let x = r1.pose.map_or(f64::NAN, |p| p.x);
+    assert!(x > reach / 2.0 && x < reach + 0.5, "r1 stopped at x = {x}, its reach was {reach} m");
+    assert_eq!(r1.battery.map(|b| b.charge), Some(0.0));
+    assert!(r1.behaviour.as_deref().is_some_and(|b| b.contains("goto(60.0")), "its goal is kept: {r1:?}");
+
+    // The terminal's fleet table, through the real binary.
+    let out = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "robots"]).output()?;
+    anyhow::ensure!(out.status.success(), "mrmm op robots: {}", String::from_utf8_lossy(&out.stderr));
+    let table = String::from_utf8_lossy(&out.stdout);
+    let row = |id: &str| table.lines().find(|l| l.starts_with(&format!("{id} "))).unwrap_or_default().to_string();
+    assert!(table.lines().next().is_some_and(|h| h.contains("BATTERY")), "{table}");
+    assert!(row("r1").contains(" 0% 0 m "), "{table}");
+    assert!(row("r2").contains(" - "), "{table}");
+    client.close().await;
+    Ok(())
+}
