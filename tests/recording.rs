@@ -22,8 +22,10 @@ async fn scripted_run_advice_and_recording() -> anyhow::Result<()> {
     let rrd = dir.path("fleet.rrd");
     let rrd_s = rrd.display().to_string();
     let started = Instant::now();
-    let (mut demo, ep, operator) =
-        common::start_demo(&dir, &["--robots", "6", "--duration", "40", "--listen", "quic/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s, "--battery-life", "900"])?;
+    let (mut demo, ep, operator) = common::start_demo(
+        &dir,
+        &["--robots", "6", "--duration", "40", "--listen", "quic/127.0.0.1:0", "--time-scale", "5", "--rrd", &rrd_s, "--battery-life", "900"],
+    )?;
     let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
     let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
     eventually("two running missions", Duration::from_secs(20), || async {

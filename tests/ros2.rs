@@ -75,13 +75,14 @@ async fn a_ros2_robot_drives_patrols_with_simulated_ones_and_stops_without_its_f
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
     common::wait_robots(&client, 3).await?;
 
-    // mrmm's node is in the robot's ROS graph: publisher of /cmd_vel, subscriber of /odom.
+    // mrmm's node is in the robot's ROS graph: publisher of /cmd_vel, subscriber of /odom and
+    // /battery_state.
     let graph = {
         let deadline = Instant::now() + Duration::from_secs(10);
         loop {
             let g = standin.ask("graph", "graph")?;
             let has = |topic: &str, side: &str| g[topic][side].as_array().is_some_and(|v| v.iter().any(|e| e["node"] == "mrmm_r3"));
-            if has("cmd_vel", "publishers") && has("odom", "subscribers") {
+            if has("cmd_vel", "publishers") && has("odom", "subscribers") && has("battery_state", "subscribers") {
                 break g;
             }
             anyhow::ensure!(Instant::now() < deadline, "mrmm_r3 not in the ROS graph: {g}");
@@ -99,6 +100,21 @@ async fn a_ros2_robot_drives_patrols_with_simulated_ones_and_stops_without_its_f
     eventually("mrmm reporting r3 at its goal", Duration::from_secs(10), || async {
         let p = robot(&client, "r3").await?.pose?;
         ((p.x - 1.5).hypot(p.y - 0.5) < 0.15).then_some(())
+    })
+    .await?;
+
+    // The robot's battery, as its driver publishes it (sensor_msgs/BatteryState), is the fleet's:
+    // its charge, and whether it charges; a percentage out of 0–1 is dropped and logged.
+    standin.ask("battery 0.63 2", "battery")?;
+    let b = eventually("r3's battery at 63 %", Duration::from_secs(10), || async {
+        robot(&client, "r3").await?.battery.filter(|b| (b.charge - 0.63).abs() < 1e-6)
+    })
+    .await?;
+    assert!(!b.charging && b.reach_m.is_none(), "{b:?}");
+    standin.ask("battery 87 1", "battery")?;
+    standin.ask("battery 0.64 1", "battery")?;
+    eventually("r3 charging", Duration::from_secs(10), || async {
+        robot(&client, "r3").await?.battery.filter(|b| b.charging && (b.charge - 0.64).abs() < 1e-6)
     })
     .await?;
 
@@ -126,6 +142,7 @@ async fn a_ros2_robot_drives_patrols_with_simulated_ones_and_stops_without_its_f
     let log = std::fs::read_to_string(dir.path("r3.log"))?;
     assert!(log.contains("dropped a malformed ROS 2 message"), "no trace of the malformed payloads in r3's log");
     assert!(log.contains("old_distro_odometry has /odom with type hash RIHS01_000"), "no warning about the other type hash in r3's log");
+    assert!(log.contains("percentage 87 is not within 0–1"), "no trace of the battery's bad percentage in r3's log");
 
     // The fleet goes (central and both teammates SIGKILLed) while r3 is driving: r3 has no fleet
     // link left and stops its robot — a zero twist on /cmd_vel.

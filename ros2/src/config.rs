@@ -35,6 +35,9 @@ pub struct Ros2Body {
     pub pose_topic: Option<String>,
     #[serde(default = "default_cmd_vel")]
     pub cmd_vel_topic: String,
+    /// The robot's battery (`sensor_msgs/BatteryState`); `null` for a robot without one.
+    #[serde(default = "default_battery")]
+    pub battery_topic: Option<String>,
     #[serde(default = "default_nav2_action")]
     pub nav2_action: String,
     /// The frame goals and poses are given in.
@@ -59,6 +62,9 @@ fn default_drive() -> DriveMode {
 }
 fn default_odom() -> String {
     "/odom".into()
+}
+fn default_battery() -> Option<String> {
+    Some("/battery_state".into())
 }
 fn default_cmd_vel() -> String {
     "/cmd_vel".into()
@@ -106,6 +112,9 @@ impl Ros2Body {
         validate_name("body.nav2_action", &self.nav2_action)?;
         if let Some(p) = &self.pose_topic {
             validate_name("body.pose_topic", p)?;
+        }
+        if let Some(b) = &self.battery_topic {
+            validate_name("body.battery_topic", b)?;
         }
         if self.frame_id.is_empty() || self.frame_id.len() > 100 || !self.frame_id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '/') {
             return Err(cfg(format!("body.frame_id: {:?} must be 1 to 100 characters of A-Z a-z 0-9 _ /", self.frame_id)));

@@ -18,7 +18,7 @@ use crate::config::DriveMode;
 use crate::config::Ros2Body;
 use crate::error::Ros2Error;
 use crate::graph::{mismatch, parse_endpoint, qualify, EntityKind, Node, Qos, ADMIN_SPACE};
-use crate::msgs::{Odometry, PoseWithCovarianceStamped, RosMessage, Twist};
+use crate::msgs::{BatteryState, Odometry, PoseWithCovarianceStamped, RosMessage, Twist};
 use crate::nav2::{GoalEvent, GoalId};
 
 /// Samples waiting per subscription at most (the newest win: only the latest pose matters).
@@ -39,6 +39,8 @@ pub enum Input {
     Odometry { pose: Pose2, v: f64, omega: f64 },
     /// The localiser's pose.
     Pose(Pose2),
+    /// The battery's charge (0–1) and whether it is charging.
+    Battery { charge: f64, charging: bool },
     /// A payload that could not be read (logged and dropped by the caller).
     Malformed { topic: String, error: String },
     /// A node of the graph has one of our topics with another type or type hash: nothing flows
@@ -59,12 +61,14 @@ pub struct RosLink {
     seq: i64,
     odom: Subscriber<RingChannelHandler<Sample>>,
     pose: Option<Subscriber<RingChannelHandler<Sample>>>,
+    battery: Option<Subscriber<RingChannelHandler<Sample>>>,
     odom_topic: String,
     pose_topic: Option<String>,
+    battery_topic: Option<String>,
     /// The graph's tokens, to spot peers that speak another type on our topics.
     graph: Subscriber<RingChannelHandler<Sample>>,
-    /// Our topics, fully qualified: cmd_vel, odometry, pose.
-    topics: (String, String, Option<String>),
+    /// Our topics, fully qualified: cmd_vel, odometry, pose, battery.
+    topics: (String, String, Option<String>, Option<String>),
     /// The Nav2 action client, with `drive: "nav2"`.
     nav: Option<NavClient>,
     _tokens: Vec<LivelinessToken>,
@@ -114,6 +118,14 @@ impl RosLink {
             }
             None => None,
         };
+        let battery = match &body.battery_topic {
+            Some(t) => {
+                let sub = session.declare_subscriber(node.topic_key::<BatteryState>(t)).with(RingChannel::new(QUEUE)).await.map_err(Ros2Error::zenoh)?;
+                tokens.push(token(node.entity_token::<BatteryState>(4, EntityKind::Subscription, t, Qos::DEFAULT)).await?);
+                Some(sub)
+            }
+            None => None,
+        };
         let graph = session
             .liveliness()
             .declare_subscriber(format!("{ADMIN_SPACE}/{}/**", body.domain_id))
@@ -125,6 +137,7 @@ impl RosLink {
             qualify(&node.namespace, &body.cmd_vel_topic),
             qualify(&node.namespace, &body.odom_topic),
             body.pose_topic.as_ref().map(|t| qualify(&node.namespace, t)),
+            body.battery_topic.as_ref().map(|t| qualify(&node.namespace, t)),
         );
         let nav = match body.drive {
             DriveMode::Nav2 => Some(NavClient::new(session.clone(), node.clone(), &body.nav2_action, &body.frame_id).await?),
@@ -139,8 +152,10 @@ impl RosLink {
             seq: 0,
             odom,
             pose,
+            battery,
             odom_topic: body.odom_topic.clone(),
             pose_topic: body.pose_topic.clone(),
+            battery_topic: body.battery_topic.clone(),
             graph,
             topics,
             nav,
@@ -191,6 +206,12 @@ impl RosLink {
                 None => std::future::pending().await,
             }
         };
+        let battery = async {
+            match &self.battery {
+                Some(s) => s.recv_async().await.ok(),
+                None => std::future::pending().await,
+            }
+        };
         let goal = async {
             match &self.nav {
                 Some(n) => n.next().await,
@@ -207,6 +228,7 @@ impl RosLink {
                 Ok(p) => pose2(&p.pose.pose).map(Input::Pose).unwrap_or_else(|error| Input::Malformed { topic: self.pose_topic.clone().unwrap_or_default(), error }),
                 Err(e) => Input::Malformed { topic: self.pose_topic.clone().unwrap_or_default(), error: e.to_string() },
             },
+            Some(s) = battery => decode_battery(&s.payload().to_bytes()).unwrap_or_else(|error| Input::Malformed { topic: self.battery_topic.clone().unwrap_or_default(), error }),
             s = self.graph.recv_async() => {
                 let Ok(s) = s else { return std::future::pending().await };
                 let e = parse_endpoint(self.node.domain_id, s.key_expr().as_str())?;
@@ -219,10 +241,11 @@ impl RosLink {
                 if gone {
                     return None;
                 }
-                let (cmd_vel, odom, pose) = &self.topics;
+                let (cmd_vel, odom, pose, battery) = &self.topics;
                 let why = mismatch::<Twist>(cmd_vel, &e)
                     .or_else(|| mismatch::<Odometry>(odom, &e))
-                    .or_else(|| pose.as_ref().and_then(|p| mismatch::<PoseWithCovarianceStamped>(p, &e)))?;
+                    .or_else(|| pose.as_ref().and_then(|p| mismatch::<PoseWithCovarianceStamped>(p, &e)))
+                    .or_else(|| battery.as_ref().and_then(|b| mismatch::<BatteryState>(b, &e)))?;
                 Input::Mismatch(why)
             }
         })
@@ -249,6 +272,13 @@ pub fn decode_odometry(bytes: &[u8]) -> Result<Input, String> {
     Ok(Input::Odometry { pose, v, omega })
 }
 
+/// Decodes a battery's state into its charge (0–1) and whether it charges.
+pub fn decode_battery(bytes: &[u8]) -> Result<Input, String> {
+    let b = cdr::decode::<BatteryState>(bytes).map_err(|e| e.to_string())?;
+    let charge = b.fraction()?;
+    Ok(Input::Battery { charge, charging: b.power_supply_status == BatteryState::CHARGING })
+}
+
 fn pose2(p: &crate::msgs::Pose) -> Result<Pose2, String> {
     let q = p.orientation;
     let out = Pose2 { x: p.position.x, y: p.position.y, theta: q.yaw() };
@@ -264,6 +294,11 @@ pub(crate) fn now_ns() -> i64 {
 }
 
 /// Type names and hashes of what the link speaks (for `mrmm` diagnostics and tests).
-pub fn spoken_types() -> [(&'static str, &'static str); 3] {
-    [(Twist::TYPE, Twist::HASH), (Odometry::TYPE, Odometry::HASH), (PoseWithCovarianceStamped::TYPE, PoseWithCovarianceStamped::HASH)]
+pub fn spoken_types() -> [(&'static str, &'static str); 4] {
+    [
+        (Twist::TYPE, Twist::HASH),
+        (Odometry::TYPE, Odometry::HASH),
+        (PoseWithCovarianceStamped::TYPE, PoseWithCovarianceStamped::HASH),
+        (BatteryState::TYPE, BatteryState::HASH),
+    ]
 }

@@ -164,6 +164,59 @@ impl RosMessage for PoseWithCovarianceStamped {
     const HASH: &'static str = "RIHS01_26432f9803e43727d3c8f668d1fdb3c630f548af631e2f4e31382371bfea3b6e";
 }
 
+/// `sensor_msgs/msg/BatteryState`: what a robot's battery driver publishes (`/battery_state`).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct BatteryState {
+    pub header: Header,
+    pub voltage: f32,
+    pub temperature: f32,
+    pub current: f32,
+    /// Charge left, Ah (NaN if not measured).
+    pub charge: f32,
+    /// Capacity when full, Ah (NaN if not measured).
+    pub capacity: f32,
+    pub design_capacity: f32,
+    /// Charge left, 0–1 (NaN if not measured).
+    pub percentage: f32,
+    pub power_supply_status: u8,
+    pub power_supply_health: u8,
+    pub power_supply_technology: u8,
+    pub present: bool,
+    pub cell_voltage: Vec<f32>,
+    pub cell_temperature: Vec<f32>,
+    pub location: String,
+    pub serial_number: String,
+}
+
+impl BatteryState {
+    /// `power_supply_status` of a battery that is charging.
+    pub const CHARGING: u8 = 1;
+    /// `power_supply_status` of a full battery (on its charger).
+    pub const FULL: u8 = 4;
+
+    /// Its charge, 0–1: `percentage`, else `charge / capacity`; an error says why neither
+    /// gives one.
+    pub fn fraction(&self) -> Result<f64, String> {
+        let p = f64::from(self.percentage);
+        if p.is_finite() {
+            if !(0.0..=1.0).contains(&p) {
+                return Err(format!("{}: percentage {p} is not within 0–1", Self::TYPE));
+            }
+            return Ok(p);
+        }
+        let (c, cap) = (f64::from(self.charge), f64::from(self.capacity));
+        if c.is_finite() && cap.is_finite() && cap > 0.0 && c >= 0.0 {
+            return Ok((c / cap).min(1.0));
+        }
+        Err(format!("{}: neither percentage nor charge and capacity measured", Self::TYPE))
+    }
+}
+
+impl RosMessage for BatteryState {
+    const TYPE: &'static str = "sensor_msgs/msg/BatteryState";
+    const HASH: &'static str = "RIHS01_4bee5dfce981c98faa6828b868307a0a73f992ed0789f374ee96c8f840e69741";
+}
+
 /// The DDS name of a ROS type, as rmw_zenoh puts it in key expressions:
 /// `geometry_msgs/msg/Twist` → `geometry_msgs::msg::dds_::Twist_`.
 pub fn dds_type_name(ros_type: &str) -> String {
@@ -175,7 +228,12 @@ pub fn dds_type_name(ros_type: &str) -> String {
 
 /// Every message type of this crate: (type, hash), for checks against other implementations.
 pub fn known_types() -> Vec<(&'static str, &'static str)> {
-    vec![(Twist::TYPE, Twist::HASH), (Odometry::TYPE, Odometry::HASH), (PoseWithCovarianceStamped::TYPE, PoseWithCovarianceStamped::HASH)]
+    vec![
+        (Twist::TYPE, Twist::HASH),
+        (Odometry::TYPE, Odometry::HASH),
+        (PoseWithCovarianceStamped::TYPE, PoseWithCovarianceStamped::HASH),
+        (BatteryState::TYPE, BatteryState::HASH),
+    ]
 }
 
 #[cfg(test)]
@@ -186,6 +244,22 @@ mod tests {
     fn dds_names() {
         assert_eq!(dds_type_name("geometry_msgs/msg/Twist"), "geometry_msgs::msg::dds_::Twist_");
         assert_eq!(dds_type_name("nav_msgs/msg/Odometry"), "nav_msgs::msg::dds_::Odometry_");
+    }
+
+    #[test]
+    fn a_battery_state_gives_its_charge_or_says_why_not() {
+        let b = BatteryState { percentage: 0.42, charge: f32::NAN, capacity: f32::NAN, ..BatteryState::default() };
+        assert!((b.fraction().expect("percentage") - 0.42).abs() < 1e-6);
+        let b = BatteryState { percentage: f32::NAN, charge: 5.0, capacity: 20.0, ..BatteryState::default() };
+        assert!((b.fraction().expect("charge over capacity") - 0.25).abs() < 1e-9);
+        let b = BatteryState { percentage: 85.0, ..BatteryState::default() };
+        assert!(b.fraction().expect_err("a percent").contains("not within 0–1"));
+        let b = BatteryState { percentage: f32::NAN, charge: f32::NAN, capacity: 20.0, ..BatteryState::default() };
+        assert!(b.fraction().expect_err("unmeasured").contains("neither"));
+        // A CDR round trip, sequences and strings included.
+        let b = BatteryState { percentage: 0.5, cell_voltage: vec![3.7, 3.8], location: "slot 1".into(), power_supply_status: 1, ..BatteryState::default() };
+        let bytes = crate::cdr::encode(&b).expect("encode");
+        assert_eq!(crate::cdr::decode::<BatteryState>(&bytes).expect("decode"), b);
     }
 
     #[test]

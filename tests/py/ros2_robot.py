@@ -303,7 +303,7 @@ def main():
     # The SDK's own session (peer, connecting to the router above), loopback only.
     os.environ["ZENOH_CONFIG_OVERRIDE"] = 'scouting/multicast/enabled=false;listen/endpoints=["tcp/127.0.0.1:0"]'
     msgdir = tempfile.mkdtemp(prefix="ros2-msgs-")
-    write_definitions(msgdir, ["geometry_msgs/msg/Twist", "nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseWithCovarianceStamped"])
+    write_definitions(msgdir, ["geometry_msgs/msg/Twist", "nav_msgs/msg/Odometry", "geometry_msgs/msg/PoseWithCovarianceStamped", "sensor_msgs/msg/BatteryState"])
     if args.nav2:
         write_definitions(msgdir, ["geometry_msgs/msg/PoseStamped", "action_msgs/msg/GoalInfo", "unique_identifier_msgs/msg/UUID", "builtin_interfaces/msg/Duration"])
         write_nav2_definitions(msgdir)
@@ -315,7 +315,7 @@ def main():
 
     lock = threading.Lock()
     st = {"x": args.x, "y": args.y, "theta": args.theta, "v": 0.0, "omega": 0.0, "twists": 0, "zeros": 0, "moving": False, "odom": True,
-          "goal": None, "nav2": "ok", "goals": 0, "cancels": 0}
+          "goal": None, "nav2": "ok", "goals": 0, "cancels": 0, "battery": None}
 
     def on_twist(msg):
         v, w = float(msg.linear.x), float(msg.angular.z)
@@ -333,6 +333,8 @@ def main():
 
     sub = ROS2Subscriber(topic="/cmd_vel", msg_type="geometry_msgs/msg/Twist", callback=on_twist, node_name="standin_base", **at)
     odom = ROS2Publisher(topic="/odom", msg_type="nav_msgs/msg/Odometry", node_name="standin_odometry", **at)
+    # The robot's battery driver: sensor_msgs/BatteryState once a second, once told its state.
+    batt = ROS2Publisher(topic="/battery_state", msg_type="sensor_msgs/msg/BatteryState", node_name="standin_battery", **at)
     types = odom.session_mgr.store.types
     Header, Time = types["std_msgs/msg/Header"], types["builtin_interfaces/msg/Time"]
     PoseWC, Pose = types["geometry_msgs/msg/PoseWithCovariance"], types["geometry_msgs/msg/Pose"]
@@ -341,10 +343,23 @@ def main():
 
     stop = threading.Event()
 
+    def publish_battery(percentage, status):
+        now = time.time()
+        none = np.zeros(0, dtype=np.float32)
+        batt.publish(header=Header(stamp=Time(sec=int(now), nanosec=int((now % 1) * 1e9)), frame_id="base_link"), voltage=24.5, temperature=float("nan"),
+                     current=-1.5, charge=float("nan"), capacity=float("nan"), design_capacity=20.0, percentage=percentage, power_supply_status=status,
+                     power_supply_health=1, power_supply_technology=2, present=True, cell_voltage=none, cell_temperature=none, location="base", serial_number="standin-1")
+
     def physics():
         dt = 1.0 / args.odom_hz
         nxt = time.monotonic()
+        ticks = 0
         while not stop.is_set():
+            ticks += 1
+            with lock:
+                battery = st["battery"]
+            if battery is not None and ticks % max(1, int(args.odom_hz)) == 0:
+                publish_battery(*battery)
             with lock:
                 if st["goal"] is not None:
                     nav2_control(st, dt)
@@ -380,7 +395,7 @@ def main():
         if not cmd:
             continue
         if cmd[0] == "graph":
-            emit(event="graph", cmd_vel=info("/cmd_vel"), odom=info("/odom"))
+            emit(event="graph", cmd_vel=info("/cmd_vel"), odom=info("/odom"), battery_state=info("/battery_state"))
         elif cmd[0] == "state":
             with lock:
                 emit(event="state", **{k: st[k] for k in ("x", "y", "theta", "v", "omega", "twists", "zeros", "goals", "cancels")})
@@ -401,6 +416,12 @@ def main():
             with lock:
                 st["odom"] = True
             emit(event="odom_resumed")
+        elif cmd[0] == "battery" and len(cmd) == 3:
+            # battery PERCENTAGE STATUS: published from now on, once a second (STATUS 1: charging).
+            with lock:
+                st["battery"] = (float(cmd[1]), int(cmd[2]))
+            publish_battery(float(cmd[1]), int(cmd[2]))
+            emit(event="battery", percentage=float(cmd[1]), status=int(cmd[2]))
         elif cmd[0] == "tokens":
             keys = [str(r.ok.key_expr) for r in router.liveliness().get("@ros2_lv/**", timeout=2.0) if r.ok is not None]
             emit(event="tokens", keys=keys)

@@ -25,6 +25,7 @@ impl RosCounts {
         match input {
             RosInput::Odometry { pose, v, omega } => Some(Event::Odometry { pose: ros_pose(pose), velocity: Velocity { v, omega } }),
             RosInput::Pose(pose) => Some(Event::LocalisedPose(ros_pose(pose))),
+            RosInput::Battery { charge, charging } => Some(Event::Battery(proto::BatteryState { charge, charging, reach_m: None })),
             RosInput::Nav2Server(up) => {
                 if !up {
                     tracing::warn!(robot = %self.id, "ROS 2 graph: Nav2's action server left");
