@@ -70,3 +70,53 @@ async fn a_robot_runs_its_battery_down_and_the_fleet_sees_it() -> anyhow::Result
     client.close().await;
     Ok(())
 }
+
+/// Chargers: Open-RMF's office graph brings its own two (`is_charger`); central's config adds a
+/// vertex of it by name and a free point of the building's grid; the operator sees them all in
+/// `mrmm/system/maps` and `mrmm op maps`. A charger in a wall stops central with one line.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn chargers_come_from_the_map_and_from_centrals_config() -> anyhow::Result<()> {
+    let dir = Scratch::new("chargers");
+    let data = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data");
+    let (office, building) = (data.join("open_rmf/office.nav_graph.yaml"), data.join("building/building.yaml"));
+    let config = |chargers: &str| -> anyhow::Result<String> {
+        let path = dir.path("central.json5");
+        let text =
+            format!("{{ maps: {{ office: {:?}, building: {:?} }}, chargers: {chargers} }}", office.display().to_string(), building.display().to_string());
+        std::fs::write(&path, text)?;
+        Ok(path.display().to_string())
+    };
+    let state = dir.path("central-state").display().to_string();
+    let cfg = config(r#"{ office: ["patrol_D2"], building: [[-16, 0]] }"#)?;
+    let central = common::start(
+        "central",
+        &["central", "--config", &cfg, "--listen", "tcp/127.0.0.1:0", "--state-dir", &state],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let ep = central
+        .field("listening")
+        .and_then(|l| l.split(',').next().map(str::to_string))
+        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", central.ready))?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+    let maps: Vec<proto::MapInfo> = client.query(proto::Key::SystemMaps, None::<&()>).await?;
+    let chargers = |name: &str| maps.iter().find(|m| m.name == name).map(|m| m.chargers.clone()).unwrap_or_default();
+    let names: Vec<String> = chargers("office").into_iter().map(|c| c.name).collect();
+    assert_eq!(names, ["tinyRobot1_charger", "tinyRobot2_charger", "patrol_D2"]);
+    assert_eq!(chargers("building"), [proto::map::Charger { name: "charger-1".into(), at: proto::geom::Point { x: -16.0, y: 0.0 } }]);
+    let out = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "maps"]).output()?;
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && table.lines().next().is_some_and(|h| h.contains("CHARGERS")), "{table}");
+    assert!(table.lines().any(|l| l.starts_with("office ") && l.contains(" 3 ")), "{table}");
+    client.close().await;
+    drop(central);
+
+    // A charger in a wall: central does not start, and says why in one line.
+    let cfg = config(r#"{ building: [[-16, 0], [500, 500]] }"#)?;
+    let out = std::process::Command::new(common::EXE).args(["central", "--config", &cfg, "--listen", "tcp/127.0.0.1:0", "--state-dir", &state]).output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    let said: Vec<&str> = err.lines().filter(|l| l.starts_with("mrmm: ")).collect();
+    assert!(!out.status.success() && said.len() == 1 && said[0].contains("chargers.building[1]: (500, 500) is not free space"), "{err}");
+    Ok(())
+}

@@ -147,6 +147,8 @@ async fn the_recording_shows_traffic_on_a_graph_map() -> anyhow::Result<()> {
     assert!(rows.keys().filter(|k| k.starts_with("/fleet/traffic/") && k.ends_with("/ahead")).count() == 4, "{:?}", keys());
     assert!(rows.get("/metrics/traffic/waiting").copied().unwrap_or(0) >= 2, "{:?}", keys());
     assert!(rows.keys().any(|k| k.starts_with("/fleet/map/")), "{:?}", keys());
+    // The office's two chargers, drawn with the map.
+    assert!(rows.keys().any(|k| k.starts_with("/fleet/map/") && k.ends_with("/chargers")), "{:?}", keys());
     Ok(())
 }
 

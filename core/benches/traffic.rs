@@ -25,7 +25,7 @@ const STEP: f64 = 0.05;
 
 fn warehouse() -> NavGraph {
     let at = |i: u32, j: u32| Point::new(f64::from(i) * SPACING, f64::from(j) * SPACING);
-    let vertices = (0..SIDE * SIDE).map(|k| Vertex { name: format!("v{k}"), at: at(k % SIDE, k / SIDE) }).collect();
+    let vertices = (0..SIDE * SIDE).map(|k| Vertex { charger: false, name: format!("v{k}"), at: at(k % SIDE, k / SIDE) }).collect();
     let mut edges = Vec::new();
     for j in 0..SIDE {
         for i in 0..SIDE {

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use mrmm_maps::{Bundle, Map, MapSummary};
 use mrmm_proto::geom::Point;
-use mrmm_proto::map::MapChunk;
+use mrmm_proto::map::{Charger, MapChunk};
 use mrmm_proto::{MapInfo, MapRef};
 
 /// A map a node holds: what it is, the map itself, and its bundle's chunks as served.
@@ -25,7 +25,11 @@ impl Held {
         let (format, map) = bundle.load()?;
         let encoded = bundle.encode();
         let hash = mrmm_maps::bundle::content_hash(&encoded);
-        let info = info(name, &hash, encoded.len() as u64, &map.summary(format));
+        let mut info = info(name, &hash, encoded.len() as u64, &map.summary(format));
+        if let Map::Graph(g) = &map {
+            info.chargers =
+                g.chargers().take(mrmm_proto::map::MAX_CHARGERS).map(|v| Charger { name: v.name.clone(), at: Point { x: v.at.x, y: v.at.y } }).collect();
+        }
         let chunks = MapChunk::split(&encoded).iter().filter_map(|c| c.encode().ok()).collect();
         Ok(Held { info, map: Arc::new(map), chunks, space: std::sync::OnceLock::new() })
     }
@@ -55,6 +59,56 @@ impl Held {
     pub fn map_ref(&self) -> MapRef {
         self.info.map_ref()
     }
+
+    /// Adds the chargers central's config names for this map: a graph's vertex by name (or by
+    /// its position, within [`ON_VERTEX`]), a grid's free point. The error names the entry and
+    /// the problem.
+    pub fn with_chargers(mut self, specs: &[ChargerSpec]) -> Result<Held, String> {
+        for (i, spec) in specs.iter().enumerate() {
+            let at = |why: String| format!("[{i}]: {why}");
+            let charger = match (spec, self.map.as_ref()) {
+                (ChargerSpec::Vertex(name), Map::Graph(g)) => {
+                    let v = g.vertices.iter().find(|v| &v.name == name).ok_or_else(|| at(format!("the graph has no vertex {name:?}")))?;
+                    Charger { name: v.name.clone(), at: Point { x: v.at.x, y: v.at.y } }
+                }
+                (ChargerSpec::Vertex(name), Map::Grid(_)) => return Err(at(format!("{name:?}: a grid map has no vertices: give [x, y]"))),
+                (ChargerSpec::At([x, y]), Map::Graph(g)) => {
+                    let p = mrmm_maps::Point::new(*x, *y);
+                    let v = g
+                        .vertices
+                        .iter()
+                        .find(|v| v.at.dist(p) <= ON_VERTEX)
+                        .ok_or_else(|| at(format!("({x}, {y}) is on no vertex of the graph: a charger is a vertex")))?;
+                    Charger { name: v.name.clone(), at: Point { x: v.at.x, y: v.at.y } }
+                }
+                (ChargerSpec::At([x, y]), Map::Grid(g)) => {
+                    if !(x.is_finite() && y.is_finite() && g.is_free(mrmm_maps::Point::new(*x, *y))) {
+                        return Err(at(format!("({x}, {y}) is not free space of the map")));
+                    }
+                    Charger { name: format!("charger-{}", self.info.chargers.len() + 1), at: Point { x: *x, y: *y } }
+                }
+            };
+            if self.info.chargers.iter().any(|c| c.name == charger.name) {
+                return Err(at(format!("{} is a charger already", charger.name)));
+            }
+            if self.info.chargers.len() >= mrmm_proto::map::MAX_CHARGERS {
+                return Err(at(format!("more than {} chargers", mrmm_proto::map::MAX_CHARGERS)));
+            }
+            self.info.chargers.push(charger);
+        }
+        Ok(self)
+    }
+}
+
+/// A point of central's config is a graph's vertex if it is this close to it, metres.
+pub const ON_VERTEX: f64 = 0.5;
+
+/// A charger as central's config names it: `[x, y]` or a graph vertex's name.
+#[derive(Debug, Clone, PartialEq, serde::Deserialize)]
+#[serde(untagged)]
+pub enum ChargerSpec {
+    At([f64; 2]),
+    Vertex(String),
 }
 
 /// What the operator sees of a map.
@@ -73,5 +127,55 @@ pub fn info(name: &str, hash: &str, bytes: u64, s: &MapSummary) -> MapInfo {
         min: Point { x: s.min.x, y: s.min.y },
         max: Point { x: s.max.x, y: s.max.y },
         superseded: false,
+        chargers: Vec::new(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn held(file: &str) -> Held {
+        let path = format!("{}/../maps/data/{file}", env!("CARGO_MANIFEST_DIR"));
+        let bundle = Bundle::collect(&path, |p| std::fs::read(p).map_err(|e| e.to_string())).expect("bundle");
+        Held::new("m", &bundle).expect("map")
+    }
+
+    /// Open-RMF's office graph brings its two chargers; central's config adds vertices (by name
+    /// or position) on a graph and free points on a grid, and names what it cannot take.
+    #[test]
+    fn chargers_come_from_the_graph_and_from_central_config() {
+        let office = held("open_rmf/office.nav_graph.yaml");
+        let names = |h: &Held| h.info.chargers.iter().map(|c| c.name.clone()).collect::<Vec<_>>();
+        assert_eq!(names(&office), ["tinyRobot1_charger", "tinyRobot2_charger"]);
+        let d2 = ChargerSpec::Vertex("patrol_D2".into());
+        let near_d2 = ChargerSpec::At([10.3, -3.1]);
+        let office = office.with_chargers(std::slice::from_ref(&d2)).expect("a vertex by name");
+        assert_eq!(names(&office).last().map(String::as_str), Some("patrol_D2"));
+        let e = office.with_chargers(&[near_d2]).map(|_| ()).expect_err("the same vertex twice");
+        assert!(e.starts_with("[0]: patrol_D2 is a charger already"), "{e}");
+        for (spec, want) in
+            [(ChargerSpec::Vertex("nowhere".into()), "the graph has no vertex \"nowhere\""), (ChargerSpec::At([500.0, 500.0]), "is on no vertex")]
+        {
+            let e = held("open_rmf/office.nav_graph.yaml").with_chargers(&[spec]).map(|_| ()).expect_err("refused");
+            assert!(e.contains(want), "{e}");
+        }
+        let building = held("building/building.yaml");
+        assert!(building.info.chargers.is_empty());
+        let (lo, hi) = (building.info.min, building.info.max);
+        let e = held("building/building.yaml").with_chargers(&[ChargerSpec::At([hi.x + 10.0, hi.y])]).map(|_| ()).expect_err("outside");
+        assert!(e.contains("is not free space"), "{e}");
+        assert!(held("building/building.yaml").with_chargers(&[ChargerSpec::Vertex("a".into())]).map(|_| ()).expect_err("no vertices").contains("grid"));
+        // A free point of the building: the first free cell's centre on its middle row.
+        let Map::Grid(g) = building.map.as_ref() else { panic!("a grid") };
+        let row = g.height / 2;
+        let col = (0..g.width).find(|&c| g.free(c, row)).expect("a free cell");
+        let p = g.center(col, row);
+        assert!(p.x >= lo.x && p.x <= hi.x);
+        let building = building.with_chargers(&[ChargerSpec::At([p.x, p.y])]).expect("a free point");
+        assert_eq!(building.info.chargers, [Charger { name: "charger-1".into(), at: Point { x: p.x, y: p.y } }]);
+        // The config's JSON5: points and names side by side.
+        let specs: Vec<ChargerSpec> = serde_json::from_str(r#"[[1.5, 2], "dock"]"#).expect("specs");
+        assert_eq!(specs, [ChargerSpec::At([1.5, 2.0]), ChargerSpec::Vertex("dock".into())]);
     }
 }

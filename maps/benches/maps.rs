@@ -74,8 +74,9 @@ fn storey() -> Bundle {
 /// A 10 × 20 lattice of vertices 3 m apart with both diagonals in every other cell: 200 vertices.
 fn lattice() -> NavGraph {
     let (cols, rows) = (20u32, 10u32);
-    let vertices =
-        (0..rows * cols).map(|i| Vertex { name: i.to_string(), at: Point::new((i % cols) as f64 * 3.0, (i / cols) as f64 * 3.0) }).collect::<Vec<_>>();
+    let vertices = (0..rows * cols)
+        .map(|i| Vertex { charger: false, name: i.to_string(), at: Point::new((i % cols) as f64 * 3.0, (i / cols) as f64 * 3.0) })
+        .collect::<Vec<_>>();
     let mut edges = Vec::new();
     let mut join = |a: u32, b: u32, vs: &[Vertex]| {
         let l = vs[a as usize].at.dist(vs[b as usize].at);

@@ -10,6 +10,8 @@ use crate::{limits, GraphSummary};
 pub struct Vertex {
     pub name: String,
     pub at: Point,
+    /// A robot charges here (Open-RMF's `is_charger`).
+    pub charger: bool,
 }
 
 /// A directed edge of a length in metres.
@@ -28,6 +30,11 @@ pub struct NavGraph {
 }
 
 impl NavGraph {
+    /// The vertices where robots charge.
+    pub fn chargers(&self) -> impl Iterator<Item = &Vertex> {
+        self.vertices.iter().filter(|v| v.charger)
+    }
+
     /// Checks sizes, coordinates, ends and lengths; `file` names the graph in errors.
     pub fn checked(self, file: &str) -> Result<Self, MapError> {
         if self.vertices.is_empty() {

@@ -90,7 +90,7 @@ pub fn parse(file: &str, text: &str) -> Result<NavGraph, MapError> {
             let cost = t.whole("a cost")?;
             edges.push(Edge { from: i as u32, to: to as u32, length: cost as f64 * res });
         }
-        vertices.push(Vertex { name: i.to_string(), at: Point::new(x * res + ox, y * res + oy) });
+        vertices.push(Vertex { charger: false, name: i.to_string(), at: Point::new(x * res + ox, y * res + oy) });
     }
     if let Some((line, extra)) = t.it.next() {
         return Err(MapError::malformed(file, format!("line {line}"), format!("{extra:?} after the last of the {n} vertices")));

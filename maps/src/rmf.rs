@@ -29,10 +29,13 @@ struct Level {
 struct VertexProps {
     #[serde(default)]
     name: Option<String>,
+    /// A charger (rmf_building_map_tools writes it only where true).
+    #[serde(default)]
+    is_charger: bool,
 }
 
 /// Writes `graph` as an Open-RMF navigation graph of one level named `level` of building
-/// `building`: each vertex `[x, y, {name}]`, each directed edge a lane `[from, to, {}]` — what
+/// `building`: each vertex `[x, y, {name}]` (`is_charger: true` on a charger), each directed edge a lane `[from, to, {}]` — what
 /// [`parse`] reads and `rmf_traffic_editor`'s nav graphs hold.
 pub fn write(graph: &NavGraph, building: &str, level: &str) -> String {
     let quote = |s: &str| serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into());
@@ -46,7 +49,8 @@ pub fn write(graph: &NavGraph, building: &str, level: &str) -> String {
     }
     out.push_str("    vertices:\n");
     for v in &graph.vertices {
-        out.push_str(&format!("    - [{:?}, {:?}, {{name: {}}}]\n", v.at.x, v.at.y, quote(&v.name)));
+        let charger = if v.charger { ", is_charger: true" } else { "" };
+        out.push_str(&format!("    - [{:?}, {:?}, {{name: {}{charger}}}]\n", v.at.x, v.at.y, quote(&v.name)));
     }
     out
 }
@@ -66,7 +70,7 @@ pub fn parse(file: &str, text: &str) -> Result<NavGraph, MapError> {
         if !name.is_empty() && !names.insert(name.clone()) {
             return Err(MapError::malformed(file, format!("levels.{level_name}.vertices[{i}]"), format!("a second vertex named {name:?}")));
         }
-        vertices.push(Vertex { name: if name.is_empty() { i.to_string() } else { name }, at: Point::new(x, y) });
+        vertices.push(Vertex { charger: props.is_charger, name: if name.is_empty() { i.to_string() } else { name }, at: Point::new(x, y) });
     }
     let n = vertices.len() as u64;
     let mut edges = Vec::with_capacity(level.lanes.len());

@@ -369,7 +369,7 @@ fn lanes(file: &str, work: &Work, branches: &[Branch], tolerance: f64) -> Result
     let mut g = NavGraph { vertices: Vec::new(), edges: Vec::new() };
     let mut of_node: BTreeMap<usize, u32> = BTreeMap::new();
     let vertex = |g: &mut NavGraph, at: Point, name: String| -> u32 {
-        g.vertices.push(Vertex { name, at });
+        g.vertices.push(Vertex { name, at, charger: false });
         g.vertices.len() as u32 - 1
     };
     for b in branches {

@@ -100,6 +100,12 @@ fn open_rmf_office_graph_loads() {
     assert!((d2.at.x - 10.247854072726847).abs() < 1e-9 && (d2.at.y + 3.09205587858002).abs() < 1e-9);
     // Lanes are one way each; the generator writes both directions.
     assert!(g.edges.iter().any(|e| e.from == 0 && e.to == 1) && g.edges.iter().any(|e| e.from == 1 && e.to == 0));
+    // Its two chargers (is_charger), as the Open-RMF demo building marks them; written back and
+    // read again, they stay chargers.
+    let chargers: Vec<&str> = g.chargers().map(|v| v.name.as_str()).collect();
+    assert_eq!(chargers, ["tinyRobot1_charger", "tinyRobot2_charger"]);
+    let again = rmf::parse("again", &rmf::write(&g, "office", "L1")).expect("written");
+    assert_eq!(again.chargers().map(|v| v.name.as_str()).collect::<Vec<_>>(), chargers);
     let (format, map) = bundle("open_rmf/office.nav_graph.yaml").load().unwrap();
     assert_eq!(format, Format::OpenRmf);
     assert!(matches!(map, Map::Graph(_)));

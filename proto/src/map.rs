@@ -53,6 +53,21 @@ pub struct MapInfo {
     /// the current one.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub superseded: bool,
+    /// Where robots charge: a graph's vertices marked so (Open-RMF's `is_charger`) and those
+    /// central's config names (`chargers`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub chargers: Vec<Charger>,
+}
+
+/// Chargers a map may have at most (central's config and the map's own together).
+pub const MAX_CHARGERS: usize = 1024;
+
+/// A place on a map where a robot charges.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Charger {
+    /// The vertex's name on a graph map; `charger-<n>` for a point of a grid map.
+    pub name: String,
+    pub at: Point,
 }
 
 impl MapInfo {

@@ -69,11 +69,12 @@ pub fn maps(maps: &[MapInfo]) -> String {
                 m.size.clone(),
                 format!("{} KiB", m.bytes.div_ceil(1024)),
                 format!("({:.1}, {:.1}) – ({:.1}, {:.1})", m.min.x, m.min.y, m.max.x, m.max.y),
+                m.chargers.len().to_string(),
                 m.hash.chars().take(12).collect(),
             ]
         })
         .collect();
-    render(&["NAME", "FORMAT", "SIZE", "BYTES", "EXTENT (m)", "HASH"], &rows)
+    render(&["NAME", "FORMAT", "SIZE", "BYTES", "EXTENT (m)", "CHARGERS", "HASH"], &rows)
 }
 
 #[cfg(test)]

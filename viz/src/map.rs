@@ -51,5 +51,14 @@ fn graph(rec: &RecordingStream, name: &str, g: &NavGraph) -> Result<(), rerun::R
     let grey = rerun::Color::from_rgb(150, 150, 150);
     rec.log_static(paths::map(name).as_str(), &rerun::LineStrips2D::new(lanes).with_colors([grey]).with_radii([0.05]).with_draw_order(-10.0))?;
     let vertices: Vec<[f32; 2]> = (0..g.vertices.len() as u32).map(at).collect();
-    rec.log_static(paths::map_vertices(name).as_str(), &rerun::Points2D::new(vertices).with_colors([grey]).with_radii([0.12]).with_draw_order(-9.0))
+    rec.log_static(paths::map_vertices(name).as_str(), &rerun::Points2D::new(vertices).with_colors([grey]).with_radii([0.12]).with_draw_order(-9.0))?;
+    let (points, labels): (Vec<[f32; 2]>, Vec<String>) = g.chargers().map(|v| ([v.at.x as f32, v.at.y as f32], v.name.clone())).unzip();
+    if points.is_empty() {
+        return Ok(());
+    }
+    let green = rerun::Color::from_rgb(26, 127, 55);
+    rec.log_static(
+        paths::map_chargers(name).as_str(),
+        &rerun::Points2D::new(points).with_colors([green]).with_radii([0.3]).with_labels(labels).with_draw_order(-8.0),
+    )
 }

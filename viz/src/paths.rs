@@ -3,6 +3,7 @@
 //! | path | archetype | what |
 //! |---|---|---|
 //! | `fleet/map/<name>` | Image (grid map, rows from the bottom, placed in metres) or LineStrips2D + Points2D (graph map: lanes, vertices) | a mission's map, logged once (static) |
+//! | `fleet/map/<name>/chargers` | Points2D | a graph map's chargers (Open-RMF's `is_charger`), named, static |
 //! | `fleet/robots/<id>` | Points2D | robot position, coloured by mission, labelled `id · mission/type` |
 //! | `fleet/robots/<id>/heading` | Arrows2D | heading |
 //! | `fleet/robots/<id>/trail` | LineStrips2D | last positions |
@@ -40,6 +41,9 @@ pub fn map(name: &str) -> String {
 }
 pub fn map_vertices(name: &str) -> String {
     format!("fleet/map/{name}/vertices")
+}
+pub fn map_chargers(name: &str) -> String {
+    format!("fleet/map/{name}/chargers")
 }
 pub fn robot(id: &str) -> String {
     format!("fleet/robots/{id}")

@@ -174,6 +174,16 @@
       for (const [x, y] of j.vertices) { const [sx, sy] = toScreen(x, y); ctx.fillRect(sx - 2, sy - 2, 4, 4); }
       l.drawn = true;
     }
+    // Its chargers: a green square each, named.
+    if (l.drawn) {
+      ctx.font = '11px sans-serif';
+      for (const c of l.info.chargers || []) {
+        const [sx, sy] = toScreen(c.at.x, c.at.y);
+        ctx.fillStyle = '#1a7f37'; ctx.fillRect(sx - 5, sy - 5, 10, 10);
+        ctx.fillStyle = '#fff'; ctx.fillText('+', sx - 3, sy + 4);
+        ctx.fillStyle = '#1a7f37'; ctx.fillText(c.name, sx + 7, sy + 4);
+      }
+    }
   }
   // Traffic on graph maps: each robot's lanes held (from where it stands to where it may drive)
   // thick in its own colour, the rest of its route thin and dashed; a robot waiting gets a dashed

@@ -453,7 +453,11 @@ fn the_time_plans_wait_for_traffic_is_counted() {
 #[test]
 fn central_dies_while_two_robots_wait_for_each_other_in_a_corridor_and_both_arrive() {
     let points = [(0.0, 0.0), (2.0, 0.0), (4.0, 0.0), (6.0, 0.0), (8.0, 0.0), (4.0, 2.0)];
-    let vertices = points.iter().enumerate().map(|(i, &(x, y))| mrmm_maps::graph::Vertex { name: format!("v{i}"), at: mrmm_maps::Point::new(x, y) }).collect();
+    let vertices = points
+        .iter()
+        .enumerate()
+        .map(|(i, &(x, y))| mrmm_maps::graph::Vertex { charger: false, name: format!("v{i}"), at: mrmm_maps::Point::new(x, y) })
+        .collect();
     let mut edges = Vec::new();
     for (a, b) in [(0u32, 1u32), (1, 2), (2, 3), (3, 4), (2, 5)] {
         edges.push(mrmm_maps::graph::Edge { from: a, to: b, length: 2.0 });

@@ -33,6 +33,7 @@ pub fn segmented(graph: &NavGraph, longest: f64) -> NavGraph {
                 .map(|k| {
                     let t = f64::from(k) / f64::from(pieces);
                     g.vertices.push(Vertex {
+                        charger: false,
                         name: format!("{}~{}/{k}", graph.vertices[a as usize].name, graph.vertices[b as usize].name),
                         at: Point::new(pa.x + t * (pb.x - pa.x), pa.y + t * (pb.y - pa.y)),
                     });
@@ -372,7 +373,7 @@ mod segment_tests {
     /// vertices (after the graph's own); a short lane stays whole.
     #[test]
     fn long_lanes_are_cut_into_segments_both_ways_through_the_same_vertices() {
-        let v = |name: &str, x: f64| Vertex { name: name.into(), at: Point::new(x, 0.0) };
+        let v = |name: &str, x: f64| Vertex { charger: false, name: name.into(), at: Point::new(x, 0.0) };
         let e = |from: u32, to: u32, length: f64| Edge { from, to, length };
         let g = NavGraph { vertices: vec![v("a", 0.0), v("b", 5.0), v("c", 6.0)], edges: vec![e(0, 1, 5.0), e(1, 0, 5.0), e(1, 2, 1.0)] };
         let s = segmented(&g, 2.0);

@@ -9,7 +9,7 @@ use super::*;
 
 /// A graph of two-way lanes between points.
 fn graph(points: &[(f64, f64)], lanes: &[(u32, u32)]) -> NavGraph {
-    let vertices = points.iter().enumerate().map(|(i, &(x, y))| Vertex { name: format!("v{i}"), at: Point::new(x, y) }).collect();
+    let vertices = points.iter().enumerate().map(|(i, &(x, y))| Vertex { charger: false, name: format!("v{i}"), at: Point::new(x, y) }).collect();
     let mut edges = Vec::new();
     for &(a, b) in lanes {
         let length = Point::new(points[a as usize].0, points[a as usize].1).dist(Point::new(points[b as usize].0, points[b as usize].1));

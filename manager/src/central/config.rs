@@ -51,6 +51,10 @@ pub struct CentralConfig {
     /// space, as a graph map's drive its lanes).
     #[serde(default)]
     pub no_lanes: Vec<String>,
+    /// Chargers of `maps` besides those a graph marks (Open-RMF's `is_charger`):
+    /// `{ NAME: [[x, y], "vertex name", …] }`: on a graph, its vertices; on a grid, free points.
+    #[serde(default)]
+    pub chargers: std::collections::BTreeMap<String, Vec<mrmm_core::maps::ChargerSpec>>,
     /// A robot lost this long (seconds) and in no mission leaves the registry (it registers
     /// again if it comes back). Default a day; 60 to 31 536 000.
     #[serde(default = "default_forget_lost")]
@@ -88,6 +92,7 @@ impl Default for CentralConfig {
             wire_stats: false,
             maps: Default::default(),
             no_lanes: Vec::new(),
+            chargers: Default::default(),
             forget_lost_s: default_forget_lost(),
         }
     }
@@ -144,6 +149,12 @@ impl CentralConfig {
         if let Some(n) = self.no_lanes.iter().find(|n| !self.maps.contains_key(*n)) {
             return Err(format!("no_lanes: {n:?} is not one of the maps"));
         }
+        if let Some(n) = self.chargers.keys().find(|n| !self.maps.contains_key(*n)) {
+            return Err(format!("chargers: {n:?} is not one of the maps"));
+        }
+        if let Some((n, c)) = self.chargers.iter().find(|(_, c)| c.len() > mrmm_proto::map::MAX_CHARGERS) {
+            return Err(format!("chargers.{n}: {} chargers, at most {}", c.len(), mrmm_proto::map::MAX_CHARGERS));
+        }
         if !(100..=60_000).contains(&self.lease_ms) {
             return Err(format!("lease_ms: must be 100..=60000 (got {})", self.lease_ms));
         }
@@ -172,5 +183,11 @@ mod tests {
         assert_eq!(c.validate().expect_err("no_lanes"), "no_lanes: \"a\" is not one of the maps");
         let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.yaml' }, no_lanes: ['b'] }").expect("parse");
         assert!(c.validate().is_ok());
+        let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.yaml' }, chargers: { a: [[1, 2]] } }").expect("parse");
+        assert_eq!(c.validate().expect_err("chargers"), "chargers: \"a\" is not one of the maps");
+        let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.yaml' }, chargers: { b: [[1, 2], 'dock'] } }").expect("parse");
+        assert!(c.validate().is_ok());
+        let e = mrmm_proto::config::parse_json5::<CentralConfig>("c.json5", "{ chargers: { b: [[1, 2, 3]] } }").expect_err("three numbers");
+        assert!(e.to_string().starts_with("c.json5: chargers"), "{e}");
     }
 }

@@ -112,7 +112,7 @@ fn square_graph() -> NavGraph {
     // |   |
     // 3 — 2, plus a one-way shortcut 0 → 2.
     let at = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0)];
-    let vertices = at.iter().enumerate().map(|(i, &(x, y))| Vertex { name: format!("v{i}"), at: Point::new(x, y) }).collect();
+    let vertices = at.iter().enumerate().map(|(i, &(x, y))| Vertex { charger: false, name: format!("v{i}"), at: Point::new(x, y) }).collect();
     let mut edges = Vec::new();
     for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 0)] {
         edges.push(Edge { from: a, to: b, length: 10.0 });

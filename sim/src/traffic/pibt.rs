@@ -357,7 +357,7 @@ mod tests {
     use mrmm_maps::Point;
 
     fn line(n: u32, pocket: bool) -> NavGraph {
-        let mut vertices: Vec<Vertex> = (0..n).map(|i| Vertex { name: format!("v{i}"), at: Point::new(f64::from(i), 0.0) }).collect();
+        let mut vertices: Vec<Vertex> = (0..n).map(|i| Vertex { charger: false, name: format!("v{i}"), at: Point::new(f64::from(i), 0.0) }).collect();
         let mut edges = Vec::new();
         let two_way = |a: u32, b: u32, edges: &mut Vec<Edge>| {
             edges.push(Edge { from: a, to: b, length: 1.0 });
@@ -367,7 +367,7 @@ mod tests {
             two_way(i - 1, i, &mut edges);
         }
         if pocket {
-            vertices.push(Vertex { name: "pocket".into(), at: Point::new(f64::from(n / 2), 1.0) });
+            vertices.push(Vertex { charger: false, name: "pocket".into(), at: Point::new(f64::from(n / 2), 1.0) });
             two_way(n / 2, n, &mut edges);
         }
         NavGraph { vertices, edges }
@@ -376,7 +376,7 @@ mod tests {
     /// A `w` × `h` grid of two-way lanes 1 m long: every lane on a cycle, where PIBT brings
     /// every robot to its goal.
     fn grid(w: u32, h: u32) -> NavGraph {
-        let vertices = (0..w * h).map(|i| Vertex { name: format!("v{i}"), at: Point::new(f64::from(i % w), f64::from(i / w)) }).collect();
+        let vertices = (0..w * h).map(|i| Vertex { charger: false, name: format!("v{i}"), at: Point::new(f64::from(i % w), f64::from(i / w)) }).collect();
         let mut edges = Vec::new();
         for i in 0..w * h {
             for j in [(i % w + 1 < w).then_some(i + 1), (i / w + 1 < h).then_some(i + w)].into_iter().flatten() {
