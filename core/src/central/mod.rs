@@ -4,6 +4,7 @@
 //! them on its advice. No I/O: [`CentralCore::handle`] returns [`Command`]s.
 
 pub mod agent;
+pub mod charging;
 pub mod system;
 
 use std::collections::VecDeque;

@@ -1,0 +1,238 @@
+//! The charging policy, as a pure machine over what central sees of the fleet: a robot whose
+//! battery falls below its threshold leaves its mission (a fitting idle robot moved in when its
+//! team would fall below `min`), drives to the nearest free charger of its map, is plugged in on
+//! arrival, and when charged is unplugged and goes back to the mission it left if that mission
+//! still wants it, else to the pool. One robot per charger: a charger is reserved from the moment
+//! a robot is sent to it. A robot sent to charge is never lost for it: only a lost robot gives
+//! its charger up.
+//!
+//! Not wired into central yet (issue 53): [`Charging::handle`] decides; the commands it returns
+//! are central's existing moves and gotos, and a plug command robots do not have yet.
+
+use std::collections::BTreeMap;
+
+use mrmm_proto::map::Charger;
+use mrmm_proto::{MapInfo, MissionName, MissionStatus, MissionView, RobotId, RobotStatus, RobotView};
+
+/// When robots go and charge and when they are done (Open-RMF's defaults: 0.2 and 1.0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChargingConfig {
+    /// A robot below this charge (0–1) goes and charges.
+    pub go_below: f64,
+    /// A charging robot at or above this charge is done.
+    pub done_above: f64,
+}
+
+impl Default for ChargingConfig {
+    fn default() -> Self {
+        // Full is 1.0 in Open-RMF; a battery model's last percent takes as long as any other.
+        ChargingConfig { go_below: 0.2, done_above: 0.99 }
+    }
+}
+
+/// A robot within this distance of its charger, standing, has arrived, metres.
+pub const ARRIVED_M: f64 = 0.3;
+/// A robot standing away from its charger is sent to it again after this long, seconds.
+pub const RESEND_S: f64 = 10.0;
+/// A spare moved in for a charging robot needs at least this charge.
+pub const SPARE_ABOVE: f64 = 0.5;
+
+/// What the policy has a robot do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Move the robot to a mission, or out of its mission to the pool (`to: None`): central's
+    /// own move (`mrmm/system/cmd/robot/move`).
+    Move { robot: RobotId, to: Option<MissionName> },
+    /// Drive to (x, y) on map `map` (a name central publishes): central's goto.
+    Goto { robot: RobotId, map: String, x: f64, y: f64 },
+    /// Start (`true`) or stop charging: the robot stands at its charger.
+    Plug { robot: RobotId, on: bool },
+}
+
+/// A robot's charging errand.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Errand {
+    /// The map (its name) and the charger reserved for the robot.
+    pub map: String,
+    pub charger: Charger,
+    /// The mission it left, to go back to when charged, and how many robots it had then.
+    pub left: Option<(MissionName, usize)>,
+    pub plugged: bool,
+    /// When it was last sent to the charger.
+    pub sent: f64,
+}
+
+/// The policy's state: every robot's errand.
+#[derive(Debug, Clone, Default)]
+pub struct Charging {
+    cfg: ChargingConfig,
+    errands: BTreeMap<RobotId, Errand>,
+    /// Robots the operator gave a mission while on their errand: not sent again until they
+    /// are above the threshold once more (charged some other way).
+    excused: std::collections::BTreeSet<RobotId>,
+}
+
+/// What central sees of the fleet now.
+#[derive(Debug, Clone, Copy)]
+pub struct Fleet<'a> {
+    pub robots: &'a [RobotView],
+    pub missions: &'a [MissionView],
+    pub maps: &'a [MapInfo],
+}
+
+impl Charging {
+    pub fn new(cfg: ChargingConfig) -> Self {
+        Charging { cfg, errands: BTreeMap::new(), excused: Default::default() }
+    }
+
+    /// Robots on a charging errand.
+    pub fn errands(&self) -> &BTreeMap<RobotId, Errand> {
+        &self.errands
+    }
+
+    /// Looks at the fleet at `now` (seconds): errands ended, robots arrived or charged, robots
+    /// to send.
+    pub fn handle(&mut self, now: f64, fleet: Fleet<'_>) -> Vec<Command> {
+        let by_id: BTreeMap<&RobotId, &RobotView> = fleet.robots.iter().map(|r| (&r.id, r)).collect();
+        // A robot lost, or gone from the registry, gives its charger up.
+        self.errands.retain(|id, _| by_id.get(id).is_some_and(|r| r.status != RobotStatus::Lost));
+        let go_below = self.cfg.go_below;
+        self.excused.retain(|id| by_id.get(id).is_some_and(|r| r.battery.is_some_and(|b| b.charge < go_below)));
+        let mut out = Vec::new();
+        let ids: Vec<RobotId> = self.errands.keys().cloned().collect();
+        for id in ids {
+            self.follow(now, by_id[&id], fleet, &mut out);
+        }
+        let mut low: Vec<&RobotView> = fleet.robots.iter().filter(|r| self.needs_charge(r)).collect();
+        // The emptiest first when chargers are short.
+        low.sort_by(|a, b| charge(a).total_cmp(&charge(b)).then(a.id.cmp(&b.id)));
+        for r in low {
+            self.send(now, r, fleet, &mut out);
+        }
+        out
+    }
+
+    fn needs_charge(&self, r: &RobotView) -> bool {
+        r.status != RobotStatus::Lost
+            && !self.errands.contains_key(&r.id)
+            && !self.excused.contains(&r.id)
+            && r.battery.is_some_and(|b| !b.charging && b.charge < self.cfg.go_below)
+    }
+
+    /// An errand under way: plugged in on arrival, sent again if it stands elsewhere, back to
+    /// work once charged.
+    fn follow(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) {
+        let Some(e) = self.errands.get_mut(&r.id) else { return };
+        if r.mission.is_some() {
+            // The operator (or central) gave it a mission meanwhile: their word goes.
+            if e.plugged {
+                out.push(Command::Plug { robot: r.id.clone(), on: false });
+            }
+            self.errands.remove(&r.id);
+            self.excused.insert(r.id.clone());
+            return;
+        }
+        let standing = r.behaviour.as_deref().is_none_or(|b| b == "hold");
+        let near = r.pose.is_some_and(|p| (p.x - e.charger.at.x).hypot(p.y - e.charger.at.y) <= ARRIVED_M);
+        if !e.plugged {
+            if near && standing {
+                e.plugged = true;
+                out.push(Command::Plug { robot: r.id.clone(), on: true });
+            } else if standing && now - e.sent >= RESEND_S {
+                e.sent = now;
+                out.push(Command::Goto { robot: r.id.clone(), map: e.map.clone(), x: e.charger.at.x, y: e.charger.at.y });
+            }
+            return;
+        }
+        if r.battery.is_some_and(|b| b.charge >= self.cfg.done_above) {
+            let left = e.left.clone();
+            self.errands.remove(&r.id);
+            out.push(Command::Plug { robot: r.id.clone(), on: false });
+            // Back to the mission it left if it is short of a robot like it.
+            if let Some(m) = left.and_then(|(m, had)| fleet.missions.iter().find(|v| v.name == m).filter(|m| wants(m, r, had))) {
+                out.push(Command::Move { robot: r.id.clone(), to: Some(m.name.clone()) });
+            }
+        }
+    }
+
+    /// Sends a low robot to the nearest free charger of its map, out of its mission, a spare in
+    /// its place where its team would fall short; none free: it waits (the next look tries again).
+    fn send(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) {
+        let mission = r.mission.as_ref().and_then(|m| fleet.missions.iter().find(|v| &v.name == m));
+        let Some(map) = map_of(mission, fleet.maps) else { return };
+        let Some(pose) = r.pose else { return };
+        let taken = |c: &Charger| self.errands.values().any(|e| e.map == map.name && e.charger.name == c.name);
+        let nearest = map
+            .chargers
+            .iter()
+            .filter(|c| !taken(c))
+            .min_by(|a, b| (a.at.x - pose.x).hypot(a.at.y - pose.y).total_cmp(&(b.at.x - pose.x).hypot(b.at.y - pose.y)));
+        let Some(charger) = nearest.cloned() else { return };
+        if let Some(m) = mission {
+            out.push(Command::Move { robot: r.id.clone(), to: None });
+            if let Some(spare) = self.spare(fleet, m, r) {
+                out.push(Command::Move { robot: spare, to: Some(m.name.clone()) });
+            }
+        }
+        out.push(Command::Goto { robot: r.id.clone(), map: map.name.clone(), x: charger.at.x, y: charger.at.y });
+        let left = mission.map(|m| (m.name.clone(), m.robots.len()));
+        self.errands.insert(r.id.clone(), Errand { map: map.name.clone(), charger, left, plugged: false, sent: now });
+    }
+
+    /// An idle robot, charged enough and on no errand, to take the place of `leaving` in
+    /// mission `m`: in a recipe of teams, when its team falls below `min` without it, one that
+    /// fits the team; in a mission of one team, always (the mission keeps its count), one of the
+    /// same type.
+    fn spare(&self, fleet: Fleet<'_>, m: &MissionView, leaving: &RobotView) -> Option<RobotId> {
+        let (robot_type, requires) = if m.team_views.is_empty() {
+            (Some(&leaving.robot_type), &[][..])
+        } else {
+            let team = m.team_views.iter().find(|t| t.members.contains(&leaving.id))?;
+            if team.members.len() > team.min {
+                return None;
+            }
+            (team.robot_type.as_ref(), &team.requires[..])
+        };
+        let fit = |r: &&RobotView| {
+            r.status == RobotStatus::Idle
+                && !self.errands.contains_key(&r.id)
+                && r.battery.is_none_or(|b| !b.charging && b.charge >= SPARE_ABOVE)
+                && robot_type.is_none_or(|ty| *ty == r.robot_type)
+                && mrmm_proto::lacking(&r.capabilities, requires).is_empty()
+                && mrmm_proto::lacking(&r.capabilities, &m.requires).is_empty()
+        };
+        fleet.robots.iter().filter(fit).max_by(|a, b| charge(a).total_cmp(&charge(b)).then(b.id.cmp(&a.id))).map(|r| r.id.clone())
+    }
+}
+
+/// A robot's charge, full when it has no battery.
+fn charge(r: &RobotView) -> f64 {
+    r.battery.map_or(1.0, |b| b.charge)
+}
+
+/// The map a robot charges on: its mission's; a robot in none, the only map with chargers.
+fn map_of<'a>(mission: Option<&MissionView>, maps: &'a [MapInfo]) -> Option<&'a MapInfo> {
+    let current = |m: &&MapInfo| !m.superseded && !m.chargers.is_empty();
+    match mission.and_then(|m| m.map.as_ref()) {
+        Some(r) => maps.iter().filter(current).find(|m| m.hash == r.hash),
+        None if mission.is_some() => None,
+        None => {
+            let mut with = maps.iter().filter(current);
+            let only = with.next();
+            with.next().map_or(only, |_| None)
+        }
+    }
+}
+
+/// Whether mission `m` still runs and is short of a robot like `r`: a team of it below its
+/// `min` that `r` fits, or, a mission of one team, fewer robots than the `had` it had.
+fn wants(m: &MissionView, r: &RobotView, had: usize) -> bool {
+    let fits_team = |t: &mrmm_proto::TeamView| {
+        t.members.len() < t.min && t.robot_type.as_ref().is_none_or(|ty| *ty == r.robot_type) && mrmm_proto::lacking(&r.capabilities, &t.requires).is_empty()
+    };
+    let short = if m.team_views.is_empty() { m.robots.len() < had } else { m.team_views.iter().any(fits_team) };
+    matches!(m.status, MissionStatus::Running | MissionStatus::Stalled) && mrmm_proto::lacking(&r.capabilities, &m.requires).is_empty() && short
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,187 @@
+//! The charging policy against fleets written out by hand: who goes, where, who takes their
+//! place, when they come back.
+
+use mrmm_proto::geom::Point;
+use mrmm_proto::{BatteryState, MapRef, Pose, TeamView};
+
+use super::*;
+
+fn robot(id: &str, charge: f64, mission: Option<&str>, (x, y): (f64, f64)) -> RobotView {
+    RobotView {
+        id: id.into(),
+        robot_type: "ground".into(),
+        capabilities: vec!["camera".into()],
+        status: if mission.is_some() { RobotStatus::Busy } else { RobotStatus::Idle },
+        mission: mission.map(Into::into),
+        pose: Some(Pose { x, y, theta: 0.0 }),
+        behaviour: Some(if mission.is_some() { "step 2 goto(9.0,0.0)".into() } else { "hold".into() }),
+        last_mission: None,
+        stuck: None,
+        battery: Some(BatteryState { charge, charging: false, reach_m: None }),
+    }
+}
+
+fn office(chargers: &[(&str, f64, f64)]) -> MapInfo {
+    MapInfo {
+        name: "office".into(),
+        format: "open_rmf".into(),
+        bytes: 1,
+        hash: "h1".into(),
+        size: String::new(),
+        min: Point { x: -50.0, y: -50.0 },
+        max: Point { x: 50.0, y: 50.0 },
+        superseded: false,
+        chargers: chargers.iter().map(|&(name, x, y)| Charger { name: name.into(), at: Point { x, y } }).collect(),
+    }
+}
+
+fn patrol(robots: &[&str]) -> MissionView {
+    MissionView { map: Some(MapRef { name: "office".into(), hash: "h1".into() }), ..MissionView::running("p", "patrol", "central", 1, robots) }
+}
+
+fn look(c: &mut Charging, now: f64, robots: &[RobotView], missions: &[MissionView], maps: &[MapInfo]) -> Vec<Command> {
+    c.handle(now, Fleet { robots, missions, maps })
+}
+
+fn mv(robot: &str, to: Option<&str>) -> Command {
+    Command::Move { robot: robot.into(), to: to.map(Into::into) }
+}
+
+fn goto(robot: &str, x: f64, y: f64) -> Command {
+    Command::Goto { robot: robot.into(), map: "office".into(), x, y }
+}
+
+fn plug(robot: &str, on: bool) -> Command {
+    Command::Plug { robot: robot.into(), on }
+}
+
+/// A patrol robot below 20 % leaves its mission for the nearest charger, an idle robot taking
+/// its place; it is plugged in where it stands at the charger, unplugged when charged, and goes
+/// back to the patrol if the patrol is short of it.
+#[test]
+fn a_low_robot_charges_and_comes_back_while_a_spare_keeps_the_count() {
+    let maps = [office(&[("c1", 0.0, 0.0), ("c2", 20.0, 0.0)])];
+    let mut c = Charging::new(ChargingConfig::default());
+    let mut r1 = robot("r1", 0.5, Some("p"), (18.0, 1.0));
+    let r2 = robot("r2", 0.9, Some("p"), (5.0, 5.0));
+    let spare = robot("r3", 0.8, None, (-5.0, 0.0));
+    let fleet = |r1: &RobotView, missions: &[MissionView]| (vec![r1.clone(), r2.clone(), spare.clone()], missions.to_vec());
+    let (robots, missions) = fleet(&r1, &[patrol(&["r1", "r2"])]);
+    assert!(look(&mut c, 0.0, &robots, &missions, &maps).is_empty(), "nobody low");
+    r1.battery = Some(BatteryState { charge: 0.19, charging: false, reach_m: None });
+    let (robots, missions) = fleet(&r1, &[patrol(&["r1", "r2"])]);
+    assert_eq!(look(&mut c, 1.0, &robots, &missions, &maps), [mv("r1", None), mv("r3", Some("p")), goto("r1", 20.0, 0.0)]);
+    assert_eq!(c.errands()["r1"].charger.name, "c2", "the nearest");
+    // On its way (moved out, spare in): nothing new; standing short of the charger for 10 s, it
+    // is sent again.
+    r1.mission = None;
+    r1.status = RobotStatus::Idle;
+    r1.behaviour = Some("goto(20.0,0.0)".into());
+    let (robots, missions) = fleet(&r1, &[patrol(&["r2", "r3"])]);
+    assert!(look(&mut c, 2.0, &robots, &missions, &maps).is_empty());
+    r1.behaviour = Some("hold".into());
+    let (robots, missions) = fleet(&r1, &[patrol(&["r2", "r3"])]);
+    assert!(look(&mut c, 5.0, &robots, &missions, &maps).is_empty(), "not 10 s yet");
+    assert_eq!(look(&mut c, 11.0, &robots, &missions, &maps), [goto("r1", 20.0, 0.0)]);
+    // There: plugged in.
+    r1.pose = Some(Pose { x: 20.1, y: 0.1, theta: 0.0 });
+    let (robots, missions) = fleet(&r1, &[patrol(&["r2", "r3"])]);
+    assert_eq!(look(&mut c, 12.0, &robots, &missions, &maps), [plug("r1", true)]);
+    r1.battery = Some(BatteryState { charge: 0.6, charging: true, reach_m: None });
+    let (robots, missions) = fleet(&r1, &[patrol(&["r2", "r3"])]);
+    assert!(look(&mut c, 13.0, &robots, &missions, &maps).is_empty(), "charging");
+    // Charged while the patrol has its count: unplugged, to the pool.
+    r1.battery = Some(BatteryState { charge: 0.995, charging: true, reach_m: None });
+    let (robots, missions) = fleet(&r1, &[patrol(&["r2", "r3"])]);
+    assert_eq!(look(&mut c, 14.0, &robots, &missions, &maps), [plug("r1", false)]);
+    assert!(c.errands().is_empty());
+}
+
+/// Charged while its mission is short (its spare was lost): it goes back.
+#[test]
+fn a_charged_robot_goes_back_to_a_mission_short_of_it() {
+    let maps = [office(&[("c1", 0.0, 0.0)])];
+    let mut c = Charging::new(ChargingConfig::default());
+    let mut r1 = robot("r1", 0.1, Some("p"), (0.0, 0.0));
+    let r2 = robot("r2", 0.9, Some("p"), (5.0, 5.0));
+    let cmds = look(&mut c, 0.0, &[r1.clone(), r2.clone()], &[patrol(&["r1", "r2"])], &maps);
+    assert_eq!(cmds, [mv("r1", None), goto("r1", 0.0, 0.0)], "no spare to move in: it goes anyway");
+    r1.mission = None;
+    r1.status = RobotStatus::Idle;
+    r1.behaviour = Some("hold".into());
+    assert_eq!(look(&mut c, 1.0, &[r1.clone(), r2.clone()], &[patrol(&["r2"])], &maps), [plug("r1", true)]);
+    r1.battery = Some(BatteryState { charge: 1.0, charging: true, reach_m: None });
+    assert_eq!(look(&mut c, 2.0, &[r1.clone(), r2.clone()], &[patrol(&["r2"])], &maps), [plug("r1", false), mv("r1", Some("p"))]);
+}
+
+/// Chargers are reserved: two low robots, one charger — the emptier goes, the other waits until
+/// it is free (and never takes a reserved one); a lost robot frees its charger.
+#[test]
+fn one_robot_per_charger_the_emptiest_first_and_a_lost_one_frees_it() {
+    let maps = [office(&[("c1", 0.0, 0.0)])];
+    let mut c = Charging::new(ChargingConfig::default());
+    let a = robot("a", 0.15, None, (3.0, 0.0));
+    let mut b = robot("b", 0.05, None, (30.0, 0.0));
+    assert_eq!(look(&mut c, 0.0, &[a.clone(), b.clone()], &[], &maps), [goto("b", 0.0, 0.0)]);
+    assert!(look(&mut c, 1.0, &[a.clone(), b.clone()], &[], &maps).is_empty(), "a waits: the charger is b's");
+    b.status = RobotStatus::Lost;
+    assert_eq!(look(&mut c, 2.0, &[a.clone(), b.clone()], &[], &maps), [goto("a", 0.0, 0.0)]);
+    assert_eq!(c.errands().keys().map(|k| k.as_str()).collect::<Vec<_>>(), ["a"]);
+}
+
+/// In a recipe of teams a spare must fit the team (type, capabilities) and is moved in only
+/// when the team falls below its `min`; a robot that is charging, low, or on an errand is no
+/// spare.
+#[test]
+fn a_spare_fits_the_team_and_comes_only_below_min() {
+    let maps = [office(&[("c1", 0.0, 0.0), ("c2", 9.0, 0.0)])];
+    let team = |members: &[&str], min: usize| TeamView {
+        team: "p/ground".into(),
+        planner: "patrol".into(),
+        members: members.iter().map(|m| RobotId::from(*m)).collect(),
+        barriers_passed: 0,
+        min,
+        wants: "type ground".into(),
+        robot_type: Some("ground".into()),
+        requires: vec!["lidar".into()],
+    };
+    let teams = |min| MissionView { team_views: vec![team(&["r1", "r2"], min)], ..patrol(&["r1", "r2"]) };
+    let r1 = robot("r1", 0.1, Some("p"), (1.0, 0.0));
+    let r2 = robot("r2", 0.9, Some("p"), (2.0, 0.0));
+    let no_lidar = robot("s1", 0.9, None, (5.0, 5.0));
+    let aerial = RobotView { robot_type: "aerial".into(), capabilities: vec!["lidar".into()], ..robot("s2", 0.9, None, (5.0, 5.0)) };
+    let low = RobotView { capabilities: vec!["lidar".into()], ..robot("s3", 0.3, None, (5.0, 5.0)) };
+    let fit = RobotView { capabilities: vec!["lidar".into()], ..robot("s4", 0.7, None, (5.0, 5.0)) };
+    let robots = vec![r1.clone(), r2.clone(), no_lidar, aerial, low, fit];
+    let cmds = look(&mut Charging::new(ChargingConfig::default()), 0.0, &robots, &[teams(1)], &maps);
+    assert_eq!(cmds, [mv("r1", None), goto("r1", 0.0, 0.0)], "two members, min 1: no spare");
+    let cmds = look(&mut Charging::new(ChargingConfig::default()), 0.0, &robots, &[teams(2)], &maps);
+    assert_eq!(cmds, [mv("r1", None), mv("s4", Some("p")), goto("r1", 0.0, 0.0)], "the only robot that fits");
+}
+
+/// The operator's word goes: a robot given a mission while on its errand is left to it (and
+/// unplugged); a robot on no mission is sent on the only map with chargers, none with two; a
+/// robot already charging, or without a battery, is left alone.
+#[test]
+fn the_operator_wins_and_maps_are_chosen_only_when_clear() {
+    let mut c = Charging::new(ChargingConfig::default());
+    let maps = [office(&[("c1", 0.0, 0.0)])];
+    let mut r = robot("r1", 0.1, None, (0.0, 0.0));
+    assert_eq!(look(&mut c, 0.0, std::slice::from_ref(&r), &[], &maps), [goto("r1", 0.0, 0.0)], "idle: the only map with chargers");
+    assert_eq!(look(&mut c, 1.0, std::slice::from_ref(&r), &[], &maps), [plug("r1", true)]);
+    r.mission = Some("p".into());
+    assert_eq!(look(&mut c, 2.0, std::slice::from_ref(&r), &[patrol(&["r1"])], &maps), [plug("r1", false)]);
+    assert!(c.errands().is_empty());
+    assert!(look(&mut c, 3.0, std::slice::from_ref(&r), &[patrol(&["r1"])], &maps).is_empty(), "not taken out again while it stays low");
+    // Charged some other way, then low again: the policy takes it once more.
+    r.battery = Some(BatteryState { charge: 0.5, charging: false, reach_m: None });
+    assert!(look(&mut c, 4.0, std::slice::from_ref(&r), &[patrol(&["r1"])], &maps).is_empty());
+    r.battery = Some(BatteryState { charge: 0.1, charging: false, reach_m: None });
+    assert_eq!(look(&mut c, 5.0, std::slice::from_ref(&r), &[patrol(&["r1"])], &maps), [mv("r1", None), goto("r1", 0.0, 0.0)]);
+    let two = [office(&[("c1", 0.0, 0.0)]), MapInfo { name: "lab".into(), hash: "h2".into(), ..office(&[("c9", 1.0, 1.0)]) }];
+    let idle = robot("r2", 0.1, None, (0.0, 0.0));
+    assert!(look(&mut Charging::new(ChargingConfig::default()), 0.0, &[idle], &[], &two).is_empty(), "which map? none chosen");
+    let charging = RobotView { battery: Some(BatteryState { charge: 0.1, charging: true, reach_m: None }), ..robot("r3", 0.1, None, (0.0, 0.0)) };
+    let none = RobotView { battery: None, ..robot("r4", 0.0, None, (0.0, 0.0)) };
+    assert!(look(&mut Charging::new(ChargingConfig::default()), 0.0, &[charging, none], &[], &maps).is_empty());
+}
