@@ -120,3 +120,82 @@ async fn chargers_come_from_the_map_and_from_centrals_config() -> anyhow::Result
     assert!(!out.status.success() && said.len() == 1 && said[0].contains("chargers.building[1]: (500, 500) is not free space"), "{err}");
     Ok(())
 }
+
+/// The charging policy with real processes on Open-RMF's office graph: r1 of a patrol of two
+/// runs low; central takes it out for the nearest charger the graph marks, moves the idle r3 in
+/// (the patrol keeps its two robots), plugs r1 in on arrival and lets it go when charged.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> anyhow::Result<()> {
+    let dir = Scratch::new("charging");
+    let office = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml");
+    let graph = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(&office)?)?;
+    let (map, state) = (format!("office={}", office.display()), dir.path("central-state").display().to_string());
+    let central = common::start(
+        "central",
+        &["central", "--listen", "tcp/127.0.0.1:0", "--map", &map, "--state-dir", &state],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let ep = central
+        .field("listening")
+        .and_then(|l| l.split(',').next().map(str::to_string))
+        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", central.ready))?;
+    // Three vertices far from the chargers; a full charge drives 300 s, r1 starts at 21 %.
+    let chargers: Vec<mrmm_maps::Point> = graph.chargers().map(|v| v.at).collect();
+    let starts: Vec<mrmm_maps::Point> =
+        graph.vertices.iter().map(|v| v.at).filter(|p| chargers.iter().all(|c| c.dist(*p) > 5.0)).fold(Vec::new(), |mut picked, p| {
+            if picked.iter().all(|q: &mrmm_maps::Point| q.dist(p) >= 2.0) {
+                picked.push(p);
+            }
+            picked
+        });
+    let mut robots = Vec::new();
+    for (i, (id, charge)) in [("r1", 0.21), ("r2", 1.0), ("r3", 1.0)].into_iter().enumerate() {
+        let cfg = common::robot_config(&dir, id, std::slice::from_ref(&ep), starts[i].x, starts[i].y, 5.0)?;
+        let text = std::fs::read_to_string(&cfg)?.replacen("time_scale:", &format!("battery: {{ life_s: 300, charge: {charge} }}, time_scale:"), 1);
+        std::fs::write(&cfg, text)?;
+        let cfg = cfg.display().to_string();
+        robots.push(common::start(id, &["robot", "--config", &cfg], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))?);
+    }
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+    common::wait_robots(&client, 3).await?;
+    let patrol = proto::MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        robots: Some(vec!["r1".into(), "r2".into()]),
+        params: [("waypoints".to_string(), serde_json::json!("all"))].into(),
+        map: Some("office".into()),
+        ..Default::default()
+    };
+    let _: proto::MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol)).await?;
+    let robot = |id: &'static str| {
+        let client = &client;
+        async move { client.query::<RobotView>(proto::Key::SystemRobot(id.into()), None::<&()>).await.ok() }
+    };
+    // r1 falls below 20 %: out of the patrol, r3 in its place.
+    eventually("r3 in the patrol in r1's place", Duration::from_secs(60), || async {
+        let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
+        (m.robots.iter().any(|r| r == "r3") && !m.robots.iter().any(|r| r == "r1")).then_some(())
+    })
+    .await?;
+    // r1 at a charger, charging.
+    let plugged = eventually("r1 charging at a charger", Duration::from_secs(90), || async {
+        let v = robot("r1").await?;
+        v.battery.filter(|b| b.charging).and(v.pose)
+    })
+    .await?;
+    let at = mrmm_maps::Point::new(plugged.x, plugged.y);
+    assert!(chargers.iter().any(|c| c.dist(at) <= 0.35), "r1 charges at ({}, {}), chargers at {chargers:?}", at.x, at.y);
+    // Charged: unplugged, in the pool (the patrol has its two robots).
+    let done = eventually("r1 charged and unplugged", Duration::from_secs(90), || async {
+        let v = robot("r1").await?;
+        v.battery.filter(|b| !b.charging && b.charge >= 0.98).map(|_| v)
+    })
+    .await?;
+    assert!(done.mission.is_none(), "{done:?}");
+    let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
+    assert_eq!(m.robots.len(), 2, "the patrol kept its count: {:?}", m.robots);
+    client.close().await;
+    Ok(())
+}

@@ -321,6 +321,11 @@ pub enum RobotCommand {
     /// its computer died (no goodbye to its teams; its links drop, its missions replan without
     /// it). A robot with a ROS 2 body refuses: a real robot is not crashed from the fleet.
     Crash,
+    /// From the system manager's charging policy: start (`on`) or stop charging where the robot
+    /// stands (at a charger). A simulated robot with a battery plugs in (it does not drive while
+    /// plugged; a new goal unplugs it); a robot without one, or a ROS 2 robot (its own dock
+    /// charges it), refuses.
+    Charge { on: bool },
 }
 
 /// A plan as delivered to a robot.

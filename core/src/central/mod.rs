@@ -12,6 +12,7 @@ use std::collections::VecDeque;
 use mrmm_proto::{AdviceEvent, NodeId};
 
 use self::agent::{Agent, AgentConfig};
+use self::charging::{Charging, ChargingConfig};
 use self::system::{Req, Request, SystemManager};
 use crate::edge::{Incoming, Refused};
 use crate::egress::Sub;
@@ -58,6 +59,8 @@ pub enum Command {
 pub struct CentralCore {
     system: SystemManager,
     agent: Agent,
+    /// The charging policy (with the agent's `charging`).
+    charging: Charging,
     last_look: f64,
     /// Traffic on the maps central publishes (and the former versions missions still use).
     traffic: Authority,
@@ -67,13 +70,21 @@ pub struct CentralCore {
 impl CentralCore {
     /// Central on Zenoh node `node`, started at `now`.
     pub fn new(node: NodeId, agent: AgentConfig, now: f64) -> Self {
-        CentralCore { system: SystemManager::new(node, now), agent: Agent::new(agent), last_look: now, traffic: Authority::new(now, 1, []), started: now }
+        CentralCore {
+            system: SystemManager::new(node, now),
+            charging: Charging::new(charging_config(&agent)),
+            agent: Agent::new(agent),
+            last_look: now,
+            traffic: Authority::new(now, 1, []),
+            started: now,
+        }
     }
 
     /// Central restarted from its journal's `state`.
     pub fn restore(node: NodeId, agent: AgentConfig, now: f64, state: system::Durable) -> Self {
         CentralCore {
             system: SystemManager::restore(node, now, state),
+            charging: Charging::new(charging_config(&agent)),
             agent: Agent::new(agent),
             last_look: now,
             traffic: Authority::new(now, 1, []),
@@ -176,7 +187,13 @@ impl CentralCore {
                 self.route(now, cmds, &mut out);
                 if tick && now - self.last_look >= AGENT_PERIOD_S {
                     self.last_look = now;
-                    let look = agent::Event::Snapshot { robots: self.system.views(), missions: self.system.mission_views(), traffic: self.traffic.views(now) };
+                    let (robots, missions) = (self.system.views(), self.system.mission_views());
+                    if self.agent.config().charging {
+                        let maps = self.system.map_infos();
+                        let cmds = self.charging.handle(now, charging::Fleet { robots: &robots, missions: &missions, maps: &maps });
+                        self.charging_commands(now, cmds, &mut out);
+                    }
+                    let look = agent::Event::Snapshot { robots, missions, traffic: self.traffic.views(now) };
                     let cmds = self.agent.handle(now, look);
                     self.agent_commands(now, cmds, &mut out);
                 }
@@ -199,6 +216,26 @@ impl CentralCore {
         }
     }
 
+    /// The charging policy's moves and gotos go through the system manager as the agent's do
+    /// (journaled as the agent's, answers back to it under `charging/<robot>`); its plugs go to
+    /// the robot.
+    fn charging_commands(&mut self, now: f64, cmds: Vec<charging::Command>, out: &mut Vec<Command>) {
+        for c in cmds {
+            let (robot, request) = match c {
+                charging::Command::Move { robot, to } => (robot.clone(), Request::Move(mrmm_proto::RobotMove { robot, to })),
+                charging::Command::Goto { robot, map, x, y } => (robot.clone(), Request::Goto(mrmm_proto::GotoRequest { robot, x, y, map: Some(map) })),
+                charging::Command::Plug { robot, on } => {
+                    tracing::info!(%robot, on, "charging: plug");
+                    out.push(Command::System(system::Command::SendToRobot { req: None, robot, cmd: mrmm_proto::RobotCommand::Charge { on } }));
+                    continue;
+                }
+            };
+            tracing::info!(%robot, ?request, "charging");
+            let cmds = self.system.handle(now, system::Event::Operator { req: Req::Agent(format!("charging/{robot}")), request });
+            self.route(now, cmds, out);
+        }
+    }
+
     fn agent_commands(&mut self, now: f64, cmds: Vec<agent::Command>, out: &mut Vec<Command>) {
         for c in cmds {
             match c {
@@ -211,6 +248,11 @@ impl CentralCore {
             }
         }
     }
+}
+
+/// The charging policy's thresholds: the agent's.
+fn charging_config(agent: &AgentConfig) -> ChargingConfig {
+    ChargingConfig { go_below: agent.battery_low, done_above: agent.charged }
 }
 
 /// What command `c` publishes, if anything: the agent's advice as it changes, the system

@@ -4,6 +4,7 @@
 use mrmm_proto::{self as proto, MissionName, NodeId, PlanAssignment, RobotCommand, RobotId, Sender, Step};
 
 use super::{traffic, BodyKind, Command, Robot, Unsent, MAX_ADMISSIONS, MAX_GOTO_VIA, MAX_PLAN_STEPS};
+use crate::body::drive::Drive;
 use crate::robot::executor::Executor;
 
 impl Robot {
@@ -103,6 +104,25 @@ impl Robot {
                     self.body.hold();
                     change = Some(Command::LeaveTeam);
                 }
+            }
+            RobotCommand::Charge { on } => {
+                let Drive::Sim(body) = &mut self.body else {
+                    return Err("charge: a ROS 2 robot charges at its own dock, not on the fleet's word".into());
+                };
+                if body.battery().is_none() {
+                    return Err(format!("charge: robot {} has no battery", self.cfg.id));
+                }
+                if *on && self.exec.is_some() {
+                    return Err(format!("charge: robot {} is running a plan: it leaves its mission first", self.cfg.id));
+                }
+                if *on {
+                    self.route.clear();
+                    body.hold();
+                }
+                if let Some(b) = body.battery_mut() {
+                    b.set_charging(*on);
+                }
+                tracing::info!(robot = %self.cfg.id, on, "charging");
             }
             RobotCommand::Crash => {
                 if !matches!(self.cfg.body, BodyKind::Sim) {

@@ -393,3 +393,30 @@ fn a_robot_taken_off_the_lanes_stops_and_asks_anew() {
     assert!(drive(&mut r, 3.0), "it asks for its way anew");
     assert!(r.body.pose().x < x + 0.5, "it drove on after it was cleared: from {x} to {}", r.body.pose().x);
 }
+
+/// Central plugs a simulated robot with a battery in where it stands: it charges and does not
+/// drive until a new goal unplugs it; a robot without a battery, one running a plan, and anyone
+/// but central are refused.
+#[test]
+fn a_robot_with_a_battery_charges_on_centrals_word() {
+    use crate::body::battery::{Battery, BatteryModel};
+    let mut r = Robot::new(RobotSetup { battery: Some(Battery::new(BatteryModel::lasting(100.0, 2.0), 0.5)), ..cfg() });
+    assert!(cmd(&mut Robot::new(cfg()), RobotCommand::Charge { on: true }).0.unwrap_err().contains("has no battery"));
+    assert!(cmd_from(&mut r, RobotCommand::Charge { on: true }, Sender::new(Role::Robot, "r2")).0.unwrap_err().contains("may not"));
+    cmd(&mut r, plan("m", 1)).0.expect("plan");
+    assert!(cmd(&mut r, RobotCommand::Charge { on: true }).0.unwrap_err().contains("running a plan"));
+    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![] }).0.expect("goto");
+    cmd(&mut r, RobotCommand::Charge { on: true }).0.expect("plugged");
+    let before = r.pose();
+    for k in 0..50 {
+        r.handle(f64::from(k) * 0.1, Event::Tick);
+    }
+    assert_eq!(r.pose(), before, "plugged in, it stands");
+    let b = telemetry(&mut r, 5.0).battery.expect("battery");
+    assert!(b.charging && b.charge > 0.6, "{b:?}");
+    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![] }).0.expect("goto");
+    r.handle(5.1, Event::Tick);
+    r.handle(5.3, Event::Tick);
+    assert!(r.pose().x > before.x, "a new goal unplugs it");
+    assert!(!telemetry(&mut r, 5.4).battery.expect("battery").charging);
+}

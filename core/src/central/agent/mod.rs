@@ -44,8 +44,13 @@ pub struct AgentConfig {
     /// — no way around those in its way — at once).
     pub traffic_wait_s: f64,
     /// A robot whose battery is below this charge (0–1) and not charging is raised (Open-RMF's
-    /// default recharge threshold, 0.2).
+    /// default recharge threshold, 0.2); with `charging`, it is sent to charge.
     pub battery_low: f64,
+    /// The charging policy (`mrmm_core::central::charging`): robots below `battery_low` go to
+    /// the nearest free charger of their map, and back to work at `charged`.
+    pub charging: bool,
+    /// A charging robot is done at this charge (0–1).
+    pub charged: f64,
 }
 
 impl Default for AgentConfig {
@@ -58,6 +63,8 @@ impl Default for AgentConfig {
             event_advice_s: 30.0,
             traffic_wait_s: 30.0,
             battery_low: 0.2,
+            charging: true,
+            charged: 0.99,
         }
     }
 }
@@ -72,10 +79,14 @@ impl AgentConfig {
             ("event_advice_s", self.event_advice_s, 86400.0),
             ("traffic_wait_s", self.traffic_wait_s, 3600.0),
             ("battery_low", self.battery_low, 1.0),
+            ("charged", self.charged, 1.0),
         ] {
             if !(v.is_finite() && v >= 0.0 && v <= max) {
                 return Err(format!("agent.{name}: must be a number in [0, {max}] (got {v})"));
             }
+        }
+        if self.charged <= self.battery_low {
+            return Err(format!("agent.charged: must be above battery_low ({}), got {}", self.battery_low, self.charged));
         }
         Ok(())
     }
@@ -132,6 +143,10 @@ pub struct Agent {
 }
 
 impl Agent {
+    pub fn config(&self) -> &AgentConfig {
+        &self.cfg
+    }
+
     pub fn new(cfg: AgentConfig) -> Self {
         Agent { cfg, standing: BTreeMap::new(), queued: BTreeMap::new(), acted: Default::default(), last_operator: None, memory: Memory::default() }
     }

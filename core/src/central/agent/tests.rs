@@ -227,6 +227,8 @@ fn config_is_validated() {
     assert!(AgentConfig::default().validate().is_ok());
     let bad = AgentConfig { stuck_after_s: f64::NAN, ..AgentConfig::default() };
     assert!(bad.validate().expect_err("nan").starts_with("agent.stuck_after_s"));
+    let bad = AgentConfig { battery_low: 0.5, charged: 0.4, ..AgentConfig::default() };
+    assert!(bad.validate().expect_err("charged below low").starts_with("agent.charged: must be above battery_low"));
 }
 
 #[test]

@@ -35,6 +35,11 @@ impl SystemManager {
     }
 
     /// Registered robots, sorted by id (naturally: r2 before r10).
+    /// What the operator sees of the maps central publishes now (not their former versions).
+    pub fn map_infos(&self) -> Vec<mrmm_proto::MapInfo> {
+        self.maps.values().map(|h| h.info.clone()).collect()
+    }
+
     pub fn views(&self) -> Vec<RobotView> {
         let mut v: Vec<RobotView> = self.fleet.iter().map(|(id, _)| id).filter_map(|id| self.view(id.as_str())).collect();
         v.sort_by(|a, b| proto::natural_cmp(a.id.as_str(), b.id.as_str()));
