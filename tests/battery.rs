@@ -196,6 +196,17 @@ async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> any
     assert!(done.mission.is_none(), "{done:?}");
     let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
     assert_eq!(m.robots.len(), 2, "the patrol kept its count: {:?}", m.robots);
+
+    // The operator sends r2 (full) to charge, then releases it, through the terminal.
+    let op = |args: &[&str]| std::process::Command::new(common::EXE).args(["op", "--connect", &ep]).args(args).output();
+    let out = op(&["charge", "r2"])?;
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && said.starts_with("r2: to charger ") && said.contains("of map office"), "{said}{}", String::from_utf8_lossy(&out.stderr));
+    eventually("r2 out of the patrol", Duration::from_secs(20), || async { robot("r2").await.filter(|v| v.mission.is_none()).map(|_| ()) }).await?;
+    let out = op(&["release", "r2"])?;
+    assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("r2: released"), "{out:?}");
+    let out = op(&["release", "r2"])?;
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("on no charging errand"), "{out:?}");
     client.close().await;
     Ok(())
 }

@@ -118,6 +118,8 @@ fn system_cmd(group: &str, verb: &str) -> Option<SystemCmd> {
         ("robot", "goto") => SystemCmd::Goto,
         ("robot", "capabilities") => SystemCmd::Capabilities,
         ("robot", "crash") => SystemCmd::Crash,
+        ("robot", "charge") => SystemCmd::Charge,
+        ("robot", "release") => SystemCmd::Release,
         ("traffic", "clear") => SystemCmd::ClearTraffic,
         _ => return None,
     })

@@ -33,6 +33,15 @@ pub struct CrashRequest {
     pub robot: RobotId,
 }
 
+/// `mrmm/system/cmd/robot/charge` (send the robot to charge now, whatever its charge) and
+/// `mrmm/system/cmd/robot/release` (end its charging errand: unplugged, back to its mission if
+/// that mission is short of it).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChargeRequest {
+    pub robot: RobotId,
+}
+
 /// Registry status of a robot as the operator sees it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -508,6 +508,23 @@
     } catch (e) { say(e.message, false); }
     render();
   }
+  // Charge: the selected robot to a charger now; one charging (or on its way), released.
+  async function charge() {
+    if (selected.size !== 1) return say('Select one robot, then click Charge.', false);
+    const [robot] = [...selected];
+    const r = snap.robots.find((x) => x.id === robot);
+    const charging = r && r.battery && r.battery.charging;
+    try {
+      if (charging) {
+        await api('/api/cmd/robot/release', { robot });
+        say(`${robot} released from charging`, true);
+      } else {
+        const j = await api('/api/cmd/robot/charge', { robot });
+        say(`${robot} → charger ${j.charger.name}`, true);
+      }
+    } catch (e) { say(`${robot}: ${e.message}`, false); }
+    render();
+  }
   async function capabilities() {
     if (selected.size !== 1) return say('Select one robot, then click Capabilities… to say what it can do now.', false);
     const [robot] = [...selected];
@@ -582,6 +599,7 @@
     render();
   });
   $('caps').addEventListener('click', capabilities);
+  $('charge').addEventListener('click', charge);
   $('undo-point').addEventListener('click', () => { points.pop(); render(); });
   $('clear-points').addEventListener('click', () => { points.length = 0; render(); });
   $('create').addEventListener('click', create);

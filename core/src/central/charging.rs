@@ -6,13 +6,15 @@
 //! a robot is sent to it. A robot sent to charge is never lost for it: only a lost robot gives
 //! its charger up.
 //!
-//! Not wired into central yet (issue 53): [`Charging::handle`] decides; the commands it returns
-//! are central's existing moves and gotos, and a plug command robots do not have yet.
+//! Central runs it at the agent's look ([`crate::central::CentralCore`]): the commands it returns
+//! are central's own moves and gotos, and the plug command of simulated robots with a battery.
+//! The operator sends a robot to charge ([`Charging::charge`]) or ends its errand
+//! ([`Charging::release`]).
 
 use std::collections::BTreeMap;
 
 use mrmm_proto::map::Charger;
-use mrmm_proto::{MapInfo, MissionName, MissionStatus, MissionView, RobotId, RobotStatus, RobotView};
+use mrmm_proto::{ErrorReply, MapInfo, MissionName, MissionStatus, MissionView, RobotId, RobotStatus, RobotView};
 
 /// When robots go and charge and when they are done (Open-RMF's defaults: 0.2 and 1.0).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,7 +52,7 @@ pub enum Command {
 }
 
 /// A robot's charging errand.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Errand {
     /// The map (its name) and the charger reserved for the robot.
     pub map: String,
@@ -158,16 +160,26 @@ impl Charging {
     /// Sends a low robot to the nearest free charger of its map, out of its mission, a spare in
     /// its place where its team would fall short; none free: it waits (the next look tries again).
     fn send(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) {
+        if let Err(why) = self.dispatch(now, r, fleet, out) {
+            tracing::debug!(robot = %r.id, "charging: not sent yet: {why}");
+        }
+    }
+
+    /// Sends `r` to the nearest free charger of its map; why not, if it cannot.
+    fn dispatch(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) -> Result<Charger, String> {
         let mission = r.mission.as_ref().and_then(|m| fleet.missions.iter().find(|v| &v.name == m));
-        let Some(map) = map_of(mission, fleet.maps) else { return };
-        let Some(pose) = r.pose else { return };
+        let map = map_of(mission, fleet.maps).ok_or_else(|| match mission {
+            Some(m) => format!("mission {} is on no map with chargers", m.name),
+            None => "it is in no mission, and central has not exactly one map with chargers".to_string(),
+        })?;
+        let pose = r.pose.ok_or("it has not said where it is")?;
         let taken = |c: &Charger| self.errands.values().any(|e| e.map == map.name && e.charger.name == c.name);
         let nearest = map
             .chargers
             .iter()
             .filter(|c| !taken(c))
             .min_by(|a, b| (a.at.x - pose.x).hypot(a.at.y - pose.y).total_cmp(&(b.at.x - pose.x).hypot(b.at.y - pose.y)));
-        let Some(charger) = nearest.cloned() else { return };
+        let charger = nearest.cloned().ok_or_else(|| format!("every charger of map {} is taken", map.name))?;
         if let Some(m) = mission {
             out.push(Command::Move { robot: r.id.clone(), to: None });
             if let Some(spare) = self.spare(fleet, m, r) {
@@ -176,7 +188,46 @@ impl Charging {
         }
         out.push(Command::Goto { robot: r.id.clone(), map: map.name.clone(), x: charger.at.x, y: charger.at.y });
         let left = mission.map(|m| (m.name.clone(), m.robots.len()));
-        self.errands.insert(r.id.clone(), Errand { map: map.name.clone(), charger, left, plugged: false, sent: now });
+        self.excused.remove(&r.id);
+        self.errands.insert(r.id.clone(), Errand { map: map.name.clone(), charger: charger.clone(), left, plugged: false, sent: now });
+        Ok(charger)
+    }
+
+    /// The operator sends `robot` to charge now, whatever its charge: the charger it goes to and
+    /// what to do, or why it cannot.
+    pub fn charge(&mut self, now: f64, robot: &str, fleet: Fleet<'_>) -> Result<(Errand, Vec<Command>), ErrorReply> {
+        let r = fleet.robots.iter().find(|r| r.id == robot).ok_or_else(|| ErrorReply::not_found(format!("unknown robot {robot:?}")))?;
+        if r.status == RobotStatus::Lost {
+            return Err(ErrorReply::conflict(format!("robot {robot} is lost")));
+        }
+        if r.battery.is_none() {
+            return Err(ErrorReply::conflict(format!("robot {robot} reports no battery")));
+        }
+        if let Some(e) = self.errands.get(&r.id) {
+            return Err(ErrorReply::conflict(format!("robot {robot} is charging at {} already (or on its way)", e.charger.name)));
+        }
+        let mut out = Vec::new();
+        self.dispatch(now, r, fleet, &mut out).map_err(|why| ErrorReply::conflict(format!("robot {robot} cannot go and charge: {why}")))?;
+        Ok((self.errands[&r.id].clone(), out))
+    }
+
+    /// The operator ends `robot`'s errand: unplugged, back to the mission it left if that
+    /// mission is short of it; not sent again while its charge stays below the threshold.
+    pub fn release(&mut self, robot: &str, fleet: Fleet<'_>) -> Result<Vec<Command>, ErrorReply> {
+        let e = self.errands.remove(robot).ok_or_else(|| ErrorReply::conflict(format!("robot {robot} is on no charging errand")))?;
+        let id = RobotId::from(robot);
+        let mut out = Vec::new();
+        if e.plugged {
+            out.push(Command::Plug { robot: id.clone(), on: false });
+        }
+        let r = fleet.robots.iter().find(|r| r.id == robot);
+        if let (Some(r), Some((m, had))) = (r, e.left) {
+            if fleet.missions.iter().any(|v| v.name == m && wants(v, r, had)) {
+                out.push(Command::Move { robot: id.clone(), to: Some(m) });
+            }
+        }
+        self.excused.insert(id);
+        Ok(out)
     }
 
     /// An idle robot, charged enough and on no errand, to take the place of `leaving` in

@@ -177,6 +177,12 @@ impl CentralCore {
                     out.push(Command::System(system::Command::Reply { req: req.clone(), result }));
                     return out;
                 }
+                if let system::Event::Operator { req, request: request @ (Request::Charge(_) | Request::Release(_)) } = &ev {
+                    self.agent.handle(now, agent::Event::OperatorCommand);
+                    let result = self.charging_order(now, request, &mut out);
+                    out.push(Command::System(system::Command::Reply { req: req.clone(), result }));
+                    return out;
+                }
                 if let system::Event::Operator { req: Req::Query(_), request } = &ev {
                     if request.is_command() {
                         self.agent.handle(now, agent::Event::OperatorCommand);
@@ -214,6 +220,27 @@ impl CentralCore {
                 other => out.push(Command::System(other)),
             }
         }
+    }
+
+    /// The operator's charge or release of a robot: the policy's answer, its commands carried out.
+    fn charging_order(&mut self, now: f64, request: &Request, out: &mut Vec<Command>) -> Result<serde_json::Value, mrmm_proto::ErrorReply> {
+        let (robots, missions, maps) = (self.system.views(), self.system.mission_views(), self.system.map_infos());
+        let fleet = charging::Fleet { robots: &robots, missions: &missions, maps: &maps };
+        let (answer, cmds) = match request {
+            Request::Charge(c) => {
+                let (errand, cmds) = self.charging.charge(now, c.robot.as_str(), fleet)?;
+                tracing::info!(robot = %c.robot, charger = %errand.charger.name, map = %errand.map, "the operator sends a robot to charge");
+                (serde_json::json!({"robot": c.robot, "map": errand.map, "charger": errand.charger}), cmds)
+            }
+            Request::Release(c) => {
+                let cmds = self.charging.release(c.robot.as_str(), fleet)?;
+                tracing::info!(robot = %c.robot, "the operator ends a robot's charging");
+                (serde_json::json!({"robot": c.robot, "released": true}), cmds)
+            }
+            _ => return Err(mrmm_proto::ErrorReply::invalid("not a charging order")),
+        };
+        self.charging_commands(now, cmds, out);
+        Ok(answer)
     }
 
     /// The charging policy's moves and gotos go through the system manager as the agent's do

@@ -148,6 +148,10 @@ pub enum SystemCmd {
     Resume,
     /// Take a lost robot off the lanes ([`crate::traffic::TrafficClear`]).
     ClearTraffic,
+    /// Send a robot to charge now ([`crate::ChargeRequest`]).
+    Charge,
+    /// End a robot's charging errand ([`crate::ChargeRequest`]).
+    Release,
 }
 
 #[macro_use]
@@ -281,7 +285,7 @@ declare_keys! {
 impl SystemCmd {
     /// Every operator command with its chunks after `mrmm/system/cmd/`: declared once, for
     /// building and parsing alike.
-    const ALL: [(SystemCmd, &'static str); 10] = [
+    const ALL: [(SystemCmd, &'static str); 12] = [
         (SystemCmd::Goto, "robot/goto"),
         (SystemCmd::Move, "robot/move"),
         (SystemCmd::Capabilities, "robot/capabilities"),
@@ -292,6 +296,8 @@ impl SystemCmd {
         (SystemCmd::Pause, "mission/pause"),
         (SystemCmd::Resume, "mission/resume"),
         (SystemCmd::ClearTraffic, "traffic/clear"),
+        (SystemCmd::Charge, "robot/charge"),
+        (SystemCmd::Release, "robot/release"),
     ];
 
     fn chunks(self) -> &'static str {

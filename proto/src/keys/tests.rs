@@ -67,6 +67,8 @@ fn all_keys() -> Vec<Key> {
         Key::SystemCmd(SystemCmd::Pause),
         Key::SystemCmd(SystemCmd::Resume),
         Key::SystemCmd(SystemCmd::ClearTraffic),
+        Key::SystemCmd(SystemCmd::Charge),
+        Key::SystemCmd(SystemCmd::Release),
     ]
 }
 

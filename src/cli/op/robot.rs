@@ -1,4 +1,5 @@
-//! `mrmm op goto | move | capabilities | crash`: orders about one robot, through central.
+//! `mrmm op goto | move | capabilities | crash | charge | release`: orders about one robot,
+//! through central.
 
 use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, CapabilitiesRequest, CommandAck, GotoRequest, RobotMove};
@@ -36,6 +37,13 @@ pub(super) enum Order {
     /// (`mrmm/system/cmd/robot/crash`; `start ID` on its `mrmm sim-fleet` brings it back). A
     /// robot with a ROS 2 body refuses.
     Crash { robot: String },
+    /// Send a robot to charge now, whatever its charge: out of its mission (a spare moved in
+    /// where its team would fall short) to the nearest free charger of its map
+    /// (`mrmm/system/cmd/robot/charge`).
+    Charge { robot: String },
+    /// End a robot's charging: unplugged, back to the mission it left if that mission is short of
+    /// it (`mrmm/system/cmd/robot/release`).
+    Release { robot: String },
 }
 
 pub(super) async fn exec(client: &Client, order: Order, json: bool) -> anyhow::Result<()> {
@@ -81,6 +89,28 @@ pub(super) async fn exec(client: &Client, order: Order, json: bool) -> anyhow::R
             }
             let ack: CommandAck = serde_json::from_value(v)?;
             println!("{}: crashed", ack.robot);
+        }
+        Order::Charge { robot } => {
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Charge), Some(&proto::ChargeRequest { robot: robot.into() })).await?;
+            if json {
+                return print_json(&v);
+            }
+            let at = &v["charger"]["at"];
+            println!(
+                "{}: to charger {} of map {} at ({}, {})",
+                v["robot"].as_str().unwrap_or("?"),
+                v["charger"]["name"].as_str().unwrap_or("?"),
+                v["map"].as_str().unwrap_or("?"),
+                at["x"],
+                at["y"]
+            );
+        }
+        Order::Release { robot } => {
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Release), Some(&proto::ChargeRequest { robot: robot.into() })).await?;
+            if json {
+                return print_json(&v);
+            }
+            println!("{}: released from charging", v["robot"].as_str().unwrap_or("?"));
         }
     }
     Ok(())

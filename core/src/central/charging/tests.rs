@@ -185,3 +185,36 @@ fn the_operator_wins_and_maps_are_chosen_only_when_clear() {
     let none = RobotView { battery: None, ..robot("r4", 0.0, None, (0.0, 0.0)) };
     assert!(look(&mut Charging::new(ChargingConfig::default()), 0.0, &[charging, none], &[], &maps).is_empty());
 }
+
+/// The operator sends a robot to charge whatever its charge, and ends an errand; both say why
+/// they cannot.
+#[test]
+fn the_operator_sends_a_robot_to_charge_and_releases_it() {
+    let maps = [office(&[("c1", 0.0, 0.0)])];
+    let mut c = Charging::new(ChargingConfig::default());
+    let mut r1 = robot("r1", 0.9, Some("p"), (4.0, 0.0));
+    let r2 = robot("r2", 0.9, None, (8.0, 0.0));
+    let fleet = |r1: &RobotView| (vec![r1.clone(), r2.clone()], vec![patrol(&["r1"])]);
+    let (robots, missions) = fleet(&r1);
+    let f = Fleet { robots: &robots, missions: &missions, maps: &maps };
+    let (errand, cmds) = c.charge(0.0, "r1", f).expect("sent");
+    assert_eq!(errand.charger.name, "c1");
+    assert_eq!(cmds, [mv("r1", None), mv("r2", Some("p")), goto("r1", 0.0, 0.0)]);
+    assert!(c.charge(0.0, "r1", f).expect_err("twice").error.contains("already"));
+    assert!(c.charge(0.0, "r2", f).expect_err("no charger left").error.contains("every charger of map office is taken"));
+    assert!(c.charge(0.0, "r9", f).expect_err("unknown").is(mrmm_proto::ErrorCode::NotFound));
+    // Plugged in, then released: unplugged; the patrol has its count (r2), so r1 stays idle.
+    r1.mission = None;
+    r1.pose = Some(Pose { x: 0.0, y: 0.0, theta: 0.0 });
+    r1.behaviour = Some("hold".into());
+    let (robots, _) = fleet(&r1);
+    let missions = [patrol(&["r2"])];
+    assert_eq!(look(&mut c, 1.0, &robots, &missions, &maps), [plug("r1", true)]);
+    let f = Fleet { robots: &robots, missions: &missions, maps: &maps };
+    assert_eq!(c.release("r1", f).expect("released"), [plug("r1", false)]);
+    assert!(c.release("r1", f).expect_err("no errand").error.contains("on no charging errand"));
+    // A robot without a battery cannot be sent.
+    let none = RobotView { battery: None, ..robot("r3", 0.0, None, (0.0, 0.0)) };
+    let f = Fleet { robots: std::slice::from_ref(&none), missions: &[], maps: &maps };
+    assert!(c.charge(2.0, "r3", f).expect_err("no battery").error.contains("no battery"));
+}

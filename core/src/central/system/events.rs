@@ -38,6 +38,10 @@ pub enum Request {
     Move(RobotMove),
     Capabilities(CapabilitiesRequest),
     Crash(proto::CrashRequest),
+    /// Send a robot to charge now (central's charging policy answers it).
+    Charge(proto::ChargeRequest),
+    /// End a robot's charging errand (central's charging policy answers it).
+    Release(proto::ChargeRequest),
     Create(MissionCreate),
     Terminate(MissionTerminate),
     Update(mrmm_proto::MissionUpdate),
@@ -62,6 +66,8 @@ impl Request {
             Some(Key::SystemCmd(SystemCmd::Move)) => proto::from_json("robot move request", payload).map(Request::Move),
             Some(Key::SystemCmd(SystemCmd::Capabilities)) => proto::from_json("robot capabilities request", payload).map(Request::Capabilities),
             Some(Key::SystemCmd(SystemCmd::Crash)) => proto::from_json("robot crash request", payload).map(Request::Crash),
+            Some(Key::SystemCmd(SystemCmd::Charge)) => proto::from_json("robot charge request", payload).map(Request::Charge),
+            Some(Key::SystemCmd(SystemCmd::Release)) => proto::from_json("robot release request", payload).map(Request::Release),
             Some(Key::SystemCmd(SystemCmd::Create)) => proto::from_json("mission create request", payload).map(Request::Create),
             Some(Key::SystemCmd(SystemCmd::Terminate)) => proto::from_json("mission terminate request", payload).map(Request::Terminate),
             Some(Key::SystemCmd(SystemCmd::Update)) => proto::from_json("mission update request", payload).map(Request::Update),
@@ -87,6 +93,8 @@ impl Request {
                 | Request::Pause(_)
                 | Request::Resume(_)
                 | Request::ClearTraffic(_)
+                | Request::Charge(_)
+                | Request::Release(_)
         )
     }
 }

@@ -457,6 +457,8 @@ impl SystemManager {
             Request::ClearTraffic(c) => {
                 reply(req, Err(ErrorReply::not_found(format!("robot {} holds nothing in traffic: no traffic authority here", c.robot))))
             }
+            // Central's charging policy answers them (`CentralCore`).
+            Request::Charge(c) | Request::Release(c) => reply(req, Err(ErrorReply::not_found(format!("robot {}: no charging policy here", c.robot)))),
             Request::Maps => {
                 let old = self.superseded.values().map(|h| mrmm_proto::MapInfo { superseded: true, ..h.info.clone() });
                 reply(req, to_value(&self.maps.values().map(|h| h.info.clone()).chain(old).collect::<Vec<_>>()))
