@@ -11,21 +11,23 @@ use common::{eventually, Scratch};
 use mrmm_net::client::Client;
 use mrmm_proto::{self as proto, GotoRequest, Priority, RobotView};
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_robot_runs_its_battery_down_and_the_fleet_sees_it() -> anyhow::Result<()> {
-    let dir = Scratch::new("battery");
+/// Central with a state dir of its own in the scratch dir, and these arguments; its endpoint.
+fn start_central(dir: &Scratch, args: &[&str]) -> anyhow::Result<(common::Proc, String)> {
     let state = dir.path("central-state").display().to_string();
-    let central = common::start(
-        "central",
-        &["central", "--listen", "tcp/127.0.0.1:0", "--state-dir", &state],
-        &dir.path("central.log"),
-        "central ready",
-        Duration::from_secs(20),
-    )?;
+    let mut argv = vec!["central", "--state-dir", &state];
+    argv.extend_from_slice(args);
+    let central = common::start("central", &argv, &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
     let ep = central
         .field("listening")
         .and_then(|l| l.split(',').next().map(str::to_string))
         .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", central.ready))?;
+    Ok((central, ep))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_runs_its_battery_down_and_the_fleet_sees_it() -> anyhow::Result<()> {
+    let dir = Scratch::new("battery");
+    let (_central, ep) = start_central(&dir, &["--listen", "tcp/127.0.0.1:0"])?;
     // r1: half a battery that drives 40 simulated seconds at 1 m/s when full — about 20 m less
     // what standing still draws; r2: no battery.
     let cfg = common::robot_config(&dir, "r1", std::slice::from_ref(&ep), 0.0, 0.0, 5.0)?;
@@ -88,17 +90,7 @@ async fn chargers_come_from_the_map_and_from_centrals_config() -> anyhow::Result
     };
     let state = dir.path("central-state").display().to_string();
     let cfg = config(r#"{ office: ["patrol_D2"], building: [[-16, 0]] }"#)?;
-    let central = common::start(
-        "central",
-        &["central", "--config", &cfg, "--listen", "tcp/127.0.0.1:0", "--state-dir", &state],
-        &dir.path("central.log"),
-        "central ready",
-        Duration::from_secs(20),
-    )?;
-    let ep = central
-        .field("listening")
-        .and_then(|l| l.split(',').next().map(str::to_string))
-        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", central.ready))?;
+    let (central, ep) = start_central(&dir, &["--config", &cfg, "--listen", "tcp/127.0.0.1:0"])?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
     let maps: Vec<proto::MapInfo> = client.query(proto::Key::SystemMaps, None::<&()>).await?;
     let chargers = |name: &str| maps.iter().find(|m| m.name == name).map(|m| m.chargers.clone()).unwrap_or_default();
@@ -129,18 +121,8 @@ async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> any
     let dir = Scratch::new("charging");
     let office = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml");
     let graph = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(&office)?)?;
-    let (map, state) = (format!("office={}", office.display()), dir.path("central-state").display().to_string());
-    let central = common::start(
-        "central",
-        &["central", "--listen", "tcp/127.0.0.1:0", "--map", &map, "--state-dir", &state],
-        &dir.path("central.log"),
-        "central ready",
-        Duration::from_secs(20),
-    )?;
-    let ep = central
-        .field("listening")
-        .and_then(|l| l.split(',').next().map(str::to_string))
-        .ok_or_else(|| anyhow::anyhow!("no endpoint in {:?}", central.ready))?;
+    let map = format!("office={}", office.display());
+    let (_central, ep) = start_central(&dir, &["--listen", "tcp/127.0.0.1:0", "--map", &map])?;
     // Three vertices far from the chargers; a full charge drives 300 s, r1 starts at 21 %.
     let chargers: Vec<mrmm_maps::Point> = graph.chargers().map(|v| v.at).collect();
     let starts: Vec<mrmm_maps::Point> =

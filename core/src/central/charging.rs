@@ -62,6 +62,9 @@ pub struct Errand {
     pub plugged: bool,
     /// When it was last sent to the charger.
     pub sent: f64,
+    /// Where it was sent from: where it goes back to when charged, unless its mission takes it
+    /// back (a charged robot does not stay on the charger).
+    pub from: Option<(f64, f64)>,
 }
 
 /// The policy's state: every robot's errand.
@@ -100,6 +103,7 @@ impl Charging {
         self.errands.retain(|id, _| by_id.get(id).is_some_and(|r| r.status != RobotStatus::Lost));
         let go_below = self.cfg.go_below;
         self.excused.retain(|id| by_id.get(id).is_some_and(|r| r.battery.is_some_and(|b| b.charge < go_below)));
+        self.adopt(now, fleet);
         let mut out = Vec::new();
         let ids: Vec<RobotId> = self.errands.keys().cloned().collect();
         for id in ids {
@@ -112,6 +116,27 @@ impl Charging {
             self.send(now, r, fleet, &mut out);
         }
         out
+    }
+
+    /// Robots charging at a charger that no errand holds (a central that restarted lost its
+    /// errands; the robots kept charging): their errands again, plugged, so that they are let go
+    /// when charged and nobody else is sent to their charger.
+    fn adopt(&mut self, now: f64, fleet: Fleet<'_>) {
+        for r in fleet.robots.iter().filter(|r| r.status != RobotStatus::Lost && r.mission.is_none()) {
+            let (Some(b), Some(p)) = (r.battery, r.pose) else { continue };
+            if !b.charging || self.errands.contains_key(&r.id) {
+                continue;
+            }
+            let taken = |map: &str, c: &Charger| self.errands.values().any(|e| e.map == map && e.charger.name == c.name);
+            let at = fleet.maps.iter().filter(|m| !m.superseded).find_map(|m| {
+                let c = m.chargers.iter().find(|c| (c.at.x - p.x).hypot(c.at.y - p.y) <= ARRIVED_M && !taken(&m.name, c))?;
+                Some((m.name.clone(), c.clone()))
+            });
+            if let Some((map, charger)) = at {
+                tracing::info!(robot = %r.id, charger = %charger.name, "charging: a robot charging at a charger, taken back as an errand");
+                self.errands.insert(r.id.clone(), Errand { map, charger, left: None, plugged: true, sent: now, from: None });
+            }
+        }
     }
 
     fn needs_charge(&self, r: &RobotView) -> bool {
@@ -147,12 +172,8 @@ impl Charging {
             return;
         }
         if r.battery.is_some_and(|b| b.charge >= self.cfg.done_above) {
-            let left = e.left.clone();
-            self.errands.remove(&r.id);
-            out.push(Command::Plug { robot: r.id.clone(), on: false });
-            // Back to the mission it left if it is short of a robot like it.
-            if let Some(m) = left.and_then(|(m, had)| fleet.missions.iter().find(|v| v.name == m).filter(|m| wants(m, r, had))) {
-                out.push(Command::Move { robot: r.id.clone(), to: Some(m.name.clone()) });
+            if let Some(e) = self.errands.remove(&r.id) {
+                out.extend(back_to_work(r, e, fleet));
             }
         }
     }
@@ -189,7 +210,8 @@ impl Charging {
         out.push(Command::Goto { robot: r.id.clone(), map: map.name.clone(), x: charger.at.x, y: charger.at.y });
         let left = mission.map(|m| (m.name.clone(), m.robots.len()));
         self.excused.remove(&r.id);
-        self.errands.insert(r.id.clone(), Errand { map: map.name.clone(), charger: charger.clone(), left, plugged: false, sent: now });
+        let from = Some((pose.x, pose.y));
+        self.errands.insert(r.id.clone(), Errand { map: map.name.clone(), charger: charger.clone(), left, plugged: false, sent: now, from });
         Ok(charger)
     }
 
@@ -212,20 +234,15 @@ impl Charging {
     }
 
     /// The operator ends `robot`'s errand: unplugged, back to the mission it left if that
-    /// mission is short of it; not sent again while its charge stays below the threshold.
+    /// mission is short of it, else to where it came from; not sent again while its charge stays
+    /// below the threshold.
     pub fn release(&mut self, robot: &str, fleet: Fleet<'_>) -> Result<Vec<Command>, ErrorReply> {
         let e = self.errands.remove(robot).ok_or_else(|| ErrorReply::conflict(format!("robot {robot} is on no charging errand")))?;
         let id = RobotId::from(robot);
-        let mut out = Vec::new();
-        if e.plugged {
-            out.push(Command::Plug { robot: id.clone(), on: false });
-        }
-        let r = fleet.robots.iter().find(|r| r.id == robot);
-        if let (Some(r), Some((m, had))) = (r, e.left) {
-            if fleet.missions.iter().any(|v| v.name == m && wants(v, r, had)) {
-                out.push(Command::Move { robot: id.clone(), to: Some(m) });
-            }
-        }
+        let out = match fleet.robots.iter().find(|r| r.id == robot) {
+            Some(r) => back_to_work(r, e, fleet),
+            None => vec![],
+        };
         self.excused.insert(id);
         Ok(out)
     }
@@ -254,6 +271,24 @@ impl Charging {
         };
         fleet.robots.iter().filter(fit).max_by(|a, b| charge(a).total_cmp(&charge(b)).then(b.id.cmp(&a.id))).map(|r| r.id.clone())
     }
+}
+
+/// An errand over: unplugged (if it was), back to the mission it left if that mission is short
+/// of a robot like it, else back where it came from.
+fn back_to_work(r: &RobotView, e: Errand, fleet: Fleet<'_>) -> Vec<Command> {
+    let mut out = Vec::new();
+    if e.plugged {
+        out.push(Command::Plug { robot: r.id.clone(), on: false });
+    }
+    match e.left.and_then(|(m, had)| fleet.missions.iter().find(|v| v.name == m).filter(|m| wants(m, r, had))) {
+        Some(m) => out.push(Command::Move { robot: r.id.clone(), to: Some(m.name.clone()) }),
+        None => {
+            if let Some((x, y)) = e.from {
+                out.push(Command::Goto { robot: r.id.clone(), map: e.map, x, y });
+            }
+        }
+    }
+    out
 }
 
 /// A robot's charge, full when it has no battery.

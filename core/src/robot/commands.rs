@@ -52,6 +52,28 @@ impl Robot {
     }
 
     /// Applies a command; returns the team change it makes. Direct orders (goto, hold) end any plan.
+    /// Plugs the simulated body's battery in where it stands (it holds), or out.
+    fn charge(&mut self, on: bool) -> Result<(), String> {
+        let Drive::Sim(body) = &mut self.body else {
+            return Err("charge: a ROS 2 robot charges at its own dock, not on the fleet's word".into());
+        };
+        if body.battery().is_none() {
+            return Err(format!("charge: robot {} has no battery", self.cfg.id));
+        }
+        if on && self.exec.is_some() {
+            return Err(format!("charge: robot {} is running a plan: it leaves its mission first", self.cfg.id));
+        }
+        if on {
+            self.route.clear();
+            body.hold();
+        }
+        if let Some(b) = body.battery_mut() {
+            b.set_charging(on);
+        }
+        tracing::info!(robot = %self.cfg.id, on, "charging");
+        Ok(())
+    }
+
     pub(super) fn command(&mut self, cmd: &RobotCommand) -> Result<Option<Command>, String> {
         let mut change = None;
         match cmd {
@@ -105,25 +127,7 @@ impl Robot {
                     change = Some(Command::LeaveTeam);
                 }
             }
-            RobotCommand::Charge { on } => {
-                let Drive::Sim(body) = &mut self.body else {
-                    return Err("charge: a ROS 2 robot charges at its own dock, not on the fleet's word".into());
-                };
-                if body.battery().is_none() {
-                    return Err(format!("charge: robot {} has no battery", self.cfg.id));
-                }
-                if *on && self.exec.is_some() {
-                    return Err(format!("charge: robot {} is running a plan: it leaves its mission first", self.cfg.id));
-                }
-                if *on {
-                    self.route.clear();
-                    body.hold();
-                }
-                if let Some(b) = body.battery_mut() {
-                    b.set_charging(*on);
-                }
-                tracing::info!(robot = %self.cfg.id, on, "charging");
-            }
+            RobotCommand::Charge { on } => self.charge(*on)?,
             RobotCommand::Crash => {
                 if !matches!(self.cfg.body, BodyKind::Sim) {
                     return Err("crash: only a simulated robot is crashed from the fleet (this one has a ROS 2 body)".into());

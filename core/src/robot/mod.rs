@@ -302,34 +302,8 @@ impl Robot {
                 vec![]
             }
             Event::TelemetryDue => vec![Command::Telemetry(self.telemetry())],
-            Event::Odometry { pose, velocity } => {
-                if let Drive::Ros(r) = &mut self.body {
-                    r.on_odometry(now, pose, velocity);
-                }
-                vec![]
-            }
-            Event::LocalisedPose(pose) => {
-                if let Drive::Ros(r) = &mut self.body {
-                    r.on_pose(pose);
-                }
-                vec![]
-            }
-            Event::Battery(state) => {
-                if let (Drive::Ros(r), Ok(())) = (&mut self.body, state.check()) {
-                    r.on_battery(state);
-                }
-                vec![]
-            }
-            Event::FleetLink(up) => {
-                if let Drive::Ros(r) = &mut self.body {
-                    r.set_fleet(up);
-                }
-                vec![]
-            }
-            Event::Nav2Server(up) => {
-                if let Some(n) = self.nav2() {
-                    n.set_server(up);
-                }
+            Event::Odometry { .. } | Event::LocalisedPose(_) | Event::Battery(_) | Event::FleetLink(_) | Event::Nav2Server(_) | Event::Nav2Goal { .. } => {
+                self.body_event(now, ev);
                 vec![]
             }
             Event::Traffic { map, order, deputy } => {
@@ -341,12 +315,44 @@ impl Robot {
                 }
                 vec![]
             }
+        }
+    }
+
+    /// What a ROS 2 body's graph says (odometry, the localiser's pose, the battery, the fleet
+    /// link, Nav2's server and goals); a simulated body ignores it.
+    fn body_event(&mut self, now: f64, ev: Event) {
+        match ev {
+            Event::Odometry { pose, velocity } => {
+                if let Drive::Ros(r) = &mut self.body {
+                    r.on_odometry(now, pose, velocity);
+                }
+            }
+            Event::LocalisedPose(pose) => {
+                if let Drive::Ros(r) = &mut self.body {
+                    r.on_pose(pose);
+                }
+            }
+            Event::Battery(state) => {
+                if let (Drive::Ros(r), Ok(())) = (&mut self.body, state.check()) {
+                    r.on_battery(state);
+                }
+            }
+            Event::FleetLink(up) => {
+                if let Drive::Ros(r) = &mut self.body {
+                    r.set_fleet(up);
+                }
+            }
+            Event::Nav2Server(up) => {
+                if let Some(n) = self.nav2() {
+                    n.set_server(up);
+                }
+            }
             Event::Nav2Goal { id, event } => {
                 if let Some(n) = self.nav2() {
                     n.on_event(now, id, event);
                 }
-                vec![]
             }
+            _ => {}
         }
     }
 

@@ -90,10 +90,11 @@ fn a_low_robot_charges_and_comes_back_while_a_spare_keeps_the_count() {
     r1.battery = Some(BatteryState { charge: 0.6, charging: true, reach_m: None });
     let (robots, missions) = fleet(&r1, &[patrol(&["r2", "r3"])]);
     assert!(look(&mut c, 13.0, &robots, &missions, &maps).is_empty(), "charging");
-    // Charged while the patrol has its count: unplugged, to the pool.
+    // Charged while the patrol has its count: unplugged, to the pool, back where it came from
+    // (off the charger).
     r1.battery = Some(BatteryState { charge: 0.995, charging: true, reach_m: None });
     let (robots, missions) = fleet(&r1, &[patrol(&["r2", "r3"])]);
-    assert_eq!(look(&mut c, 14.0, &robots, &missions, &maps), [plug("r1", false)]);
+    assert_eq!(look(&mut c, 14.0, &robots, &missions, &maps), [plug("r1", false), goto("r1", 18.0, 1.0)]);
     assert!(c.errands().is_empty());
 }
 
@@ -211,10 +212,24 @@ fn the_operator_sends_a_robot_to_charge_and_releases_it() {
     let missions = [patrol(&["r2"])];
     assert_eq!(look(&mut c, 1.0, &robots, &missions, &maps), [plug("r1", true)]);
     let f = Fleet { robots: &robots, missions: &missions, maps: &maps };
-    assert_eq!(c.release("r1", f).expect("released"), [plug("r1", false)]);
+    assert_eq!(c.release("r1", f).expect("released"), [plug("r1", false), goto("r1", 4.0, 0.0)]);
     assert!(c.release("r1", f).expect_err("no errand").error.contains("on no charging errand"));
     // A robot without a battery cannot be sent.
     let none = RobotView { battery: None, ..robot("r3", 0.0, None, (0.0, 0.0)) };
     let f = Fleet { robots: std::slice::from_ref(&none), missions: &[], maps: &maps };
     assert!(c.charge(2.0, "r3", f).expect_err("no battery").error.contains("no battery"));
+}
+
+/// A central that restarted knows no errand: a robot it finds charging at a charger is taken
+/// back as one (let go when charged; its charger not given to another robot).
+#[test]
+fn a_robot_found_charging_at_a_charger_is_taken_back() {
+    let maps = [office(&[("c1", 0.0, 0.0)])];
+    let mut c = Charging::new(ChargingConfig::default());
+    let mut plugged = RobotView { battery: Some(BatteryState { charge: 0.5, charging: true, reach_m: None }), ..robot("r1", 0.5, None, (0.1, 0.0)) };
+    let low = robot("r2", 0.1, None, (9.0, 0.0));
+    assert!(look(&mut c, 0.0, &[plugged.clone(), low.clone()], &[], &maps).is_empty(), "r2 waits: c1 is r1's");
+    assert!(c.errands()["r1"].plugged);
+    plugged.battery = Some(BatteryState { charge: 1.0, charging: true, reach_m: None });
+    assert_eq!(look(&mut c, 1.0, &[plugged.clone(), low.clone()], &[], &maps), [plug("r1", false), goto("r2", 0.0, 0.0)]);
 }
