@@ -27,8 +27,7 @@ impl Held {
         let hash = mrmm_maps::bundle::content_hash(&encoded);
         let mut info = info(name, &hash, encoded.len() as u64, &map.summary(format));
         if let Map::Graph(g) = &map {
-            info.chargers =
-                g.chargers().take(mrmm_proto::map::MAX_CHARGERS).map(|v| Charger { name: v.name.clone(), at: Point { x: v.at.x, y: v.at.y } }).collect();
+            info.chargers = g.chargers().take(mrmm_proto::map::MAX_CHARGERS).map(charger_at).collect();
         }
         let chunks = MapChunk::split(&encoded).iter().filter_map(|c| c.encode().ok()).collect();
         Ok(Held { info, map: Arc::new(map), chunks, space: std::sync::OnceLock::new() })
@@ -69,7 +68,7 @@ impl Held {
             let charger = match (spec, self.map.as_ref()) {
                 (ChargerSpec::Vertex(name), Map::Graph(g)) => {
                     let v = g.vertices.iter().find(|v| &v.name == name).ok_or_else(|| at(format!("the graph has no vertex {name:?}")))?;
-                    Charger { name: v.name.clone(), at: Point { x: v.at.x, y: v.at.y } }
+                    charger_at(v)
                 }
                 (ChargerSpec::Vertex(name), Map::Grid(_)) => return Err(at(format!("{name:?}: a grid map has no vertices: give [x, y]"))),
                 (ChargerSpec::At([x, y]), Map::Graph(g)) => {
@@ -79,7 +78,7 @@ impl Held {
                         .iter()
                         .find(|v| v.at.dist(p) <= ON_VERTEX)
                         .ok_or_else(|| at(format!("({x}, {y}) is on no vertex of the graph: a charger is a vertex")))?;
-                    Charger { name: v.name.clone(), at: Point { x: v.at.x, y: v.at.y } }
+                    charger_at(v)
                 }
                 (ChargerSpec::At([x, y]), Map::Grid(g)) => {
                     if !(x.is_finite() && y.is_finite() && g.is_free(mrmm_maps::Point::new(*x, *y))) {
@@ -98,6 +97,11 @@ impl Held {
         }
         Ok(self)
     }
+}
+
+/// The charger a graph's vertex is.
+fn charger_at(v: &mrmm_maps::graph::Vertex) -> Charger {
+    Charger { name: v.name.clone(), at: Point { x: v.at.x, y: v.at.y } }
 }
 
 /// A point of central's config is a graph's vertex if it is this close to it, metres.

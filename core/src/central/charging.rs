@@ -127,9 +127,8 @@ impl Charging {
             if !b.charging || self.errands.contains_key(&r.id) {
                 continue;
             }
-            let taken = |map: &str, c: &Charger| self.errands.values().any(|e| e.map == map && e.charger.name == c.name);
             let at = fleet.maps.iter().filter(|m| !m.superseded).find_map(|m| {
-                let c = m.chargers.iter().find(|c| (c.at.x - p.x).hypot(c.at.y - p.y) <= ARRIVED_M && !taken(&m.name, c))?;
+                let c = m.chargers.iter().find(|c| away(p, c) <= ARRIVED_M && !self.taken(&m.name, c))?;
                 Some((m.name.clone(), c.clone()))
             });
             if let Some((map, charger)) = at {
@@ -137,6 +136,11 @@ impl Charging {
                 self.errands.insert(r.id.clone(), Errand { map, charger, left: None, plugged: true, sent: now, from: None });
             }
         }
+    }
+
+    /// Whether charger `c` of map `map` is reserved for a robot.
+    fn taken(&self, map: &str, c: &Charger) -> bool {
+        self.errands.values().any(|e| e.map == map && e.charger.name == c.name)
     }
 
     fn needs_charge(&self, r: &RobotView) -> bool {
@@ -160,7 +164,7 @@ impl Charging {
             return;
         }
         let standing = r.behaviour.as_deref().is_none_or(|b| b == "hold");
-        let near = r.pose.is_some_and(|p| (p.x - e.charger.at.x).hypot(p.y - e.charger.at.y) <= ARRIVED_M);
+        let near = r.pose.is_some_and(|p| away(p, &e.charger) <= ARRIVED_M);
         if !e.plugged {
             if near && standing {
                 e.plugged = true;
@@ -194,12 +198,7 @@ impl Charging {
             None => "it is in no mission, and central has not exactly one map with chargers".to_string(),
         })?;
         let pose = r.pose.ok_or("it has not said where it is")?;
-        let taken = |c: &Charger| self.errands.values().any(|e| e.map == map.name && e.charger.name == c.name);
-        let nearest = map
-            .chargers
-            .iter()
-            .filter(|c| !taken(c))
-            .min_by(|a, b| (a.at.x - pose.x).hypot(a.at.y - pose.y).total_cmp(&(b.at.x - pose.x).hypot(b.at.y - pose.y)));
+        let nearest = map.chargers.iter().filter(|c| !self.taken(&map.name, c)).min_by(|a, b| away(pose, a).total_cmp(&away(pose, b)));
         let charger = nearest.cloned().ok_or_else(|| format!("every charger of map {} is taken", map.name))?;
         if let Some(m) = mission {
             out.push(Command::Move { robot: r.id.clone(), to: None });
@@ -265,8 +264,7 @@ impl Charging {
             r.status == RobotStatus::Idle
                 && !self.errands.contains_key(&r.id)
                 && r.battery.is_none_or(|b| !b.charging && b.charge >= SPARE_ABOVE)
-                && robot_type.is_none_or(|ty| *ty == r.robot_type)
-                && mrmm_proto::lacking(&r.capabilities, requires).is_empty()
+                && fits(r, robot_type, requires)
                 && mrmm_proto::lacking(&r.capabilities, &m.requires).is_empty()
         };
         fleet.robots.iter().filter(fit).max_by(|a, b| charge(a).total_cmp(&charge(b)).then(b.id.cmp(&a.id))).map(|r| r.id.clone())
@@ -291,6 +289,16 @@ fn back_to_work(r: &RobotView, e: Errand, fleet: Fleet<'_>) -> Vec<Command> {
     out
 }
 
+/// Whether `r` is of `robot_type` (if one) and has every capability of `requires`.
+fn fits(r: &RobotView, robot_type: Option<&String>, requires: &[String]) -> bool {
+    robot_type.is_none_or(|ty| *ty == r.robot_type) && mrmm_proto::lacking(&r.capabilities, requires).is_empty()
+}
+
+/// How far `p` is from charger `c`, metres.
+fn away(p: mrmm_proto::Pose, c: &Charger) -> f64 {
+    (p.x - c.at.x).hypot(p.y - c.at.y)
+}
+
 /// A robot's charge, full when it has no battery.
 fn charge(r: &RobotView) -> f64 {
     r.battery.map_or(1.0, |b| b.charge)
@@ -313,10 +321,11 @@ fn map_of<'a>(mission: Option<&MissionView>, maps: &'a [MapInfo]) -> Option<&'a 
 /// Whether mission `m` still runs and is short of a robot like `r`: a team of it below its
 /// `min` that `r` fits, or, a mission of one team, fewer robots than the `had` it had.
 fn wants(m: &MissionView, r: &RobotView, had: usize) -> bool {
-    let fits_team = |t: &mrmm_proto::TeamView| {
-        t.members.len() < t.min && t.robot_type.as_ref().is_none_or(|ty| *ty == r.robot_type) && mrmm_proto::lacking(&r.capabilities, &t.requires).is_empty()
+    let short = if m.team_views.is_empty() {
+        m.robots.len() < had
+    } else {
+        m.team_views.iter().any(|t| t.members.len() < t.min && fits(r, t.robot_type.as_ref(), &t.requires))
     };
-    let short = if m.team_views.is_empty() { m.robots.len() < had } else { m.team_views.iter().any(fits_team) };
     matches!(m.status, MissionStatus::Running | MissionStatus::Stalled) && mrmm_proto::lacking(&r.capabilities, &m.requires).is_empty() && short
 }
 
