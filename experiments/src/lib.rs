@@ -1,9 +1,10 @@
 //! mrmm's research harness, run by `mrmm experiment`: the paper's evaluation on the real system —
 //! real `mrmm` processes with time-scaled simulated bodies — one command per figure, written to a
-//! directory as `results.csv`, one PNG per experiment and `summary.md`; and the patrolling and
-//! traffic benchmarks, simulated in this process.
+//! directory as `results.csv`, one PNG per experiment and `summary.md`; and the patrolling,
+//! traffic and energy benchmarks, simulated in this process.
 
 mod comm_loss;
+mod energy;
 mod fleet;
 mod maps;
 mod plot;
@@ -60,6 +61,10 @@ pub enum Kind {
     /// and blind: trips, closest approach, waits, gridlocks (simulated time, no fleet; not part
     /// of `all`).
     Traffic,
+    /// A patrol's working day on batteries: no charging, naive charging and mrmm's charging
+    /// policy with spares against no batteries at all (simulated time, no fleet; not part of
+    /// `all`).
+    Energy,
 }
 
 #[derive(Debug, clap::Args)]
@@ -119,6 +124,7 @@ impl Kind {
             Kind::Maps => "maps",
             Kind::Teams => "teams",
             Kind::Traffic => "traffic",
+            Kind::Energy => "energy",
         }
     }
 }
@@ -193,7 +199,7 @@ fn plan(kind: Kind, a: &Args) -> anyhow::Result<Vec<Spec>> {
             }
             v
         }
-        Kind::All | Kind::Maps | Kind::Traffic => bail!("internal: `{}` is not a fleet experiment", kind.name()),
+        Kind::All | Kind::Maps | Kind::Traffic | Kind::Energy => bail!("internal: `{}` is not a fleet experiment", kind.name()),
     })
 }
 
@@ -206,6 +212,9 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
     }
     if a.kind == Kind::Maps {
         return run_maps(&a);
+    }
+    if a.kind == Kind::Energy {
+        return run_energy(&a);
     }
     if a.kind == Kind::Traffic {
         let sizes: Vec<usize> = a.sizes.as_deref().map_or_else(|| traffic::SIZES.to_vec(), |s| s.iter().map(|&n| n as usize).collect());
@@ -270,6 +279,16 @@ fn run_maps(a: &Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `mrmm experiment energy`: a patrol's day on batteries, simulated in this process.
+fn run_energy(a: &Args) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
+    let day = energy::Day { seed: a.seed, ..energy::Day::default() };
+    let runs = energy::run(&day)?;
+    energy::write(&a.out, &day, &runs, &command_line(a), started.elapsed().as_secs_f64())?;
+    println!("results in {}: results-energy.csv, energy.png, summary-energy.md", a.out.display());
+    Ok(())
+}
+
 /// What the runs so far produced.
 struct Done<'a> {
     rows: &'a mut Vec<Row>,
@@ -330,6 +349,9 @@ fn command_line(a: &Args) -> String {
             c.push_str(&format!(" --sizes {}", list(&s.iter().map(u32::to_string).collect::<Vec<_>>())));
         }
         return c;
+    }
+    if a.kind == Kind::Energy {
+        return format!("mrmm experiment energy --out {} --seed {}", a.out.display(), a.seed);
     }
     if a.kind == Kind::Maps {
         let mut c = format!("mrmm experiment maps --out {} --seed {} --turn-rate {}", a.out.display(), a.seed, a.turn_rate);

@@ -38,6 +38,13 @@ pub const ARRIVED_M: f64 = 0.3;
 pub const RESEND_S: f64 = 10.0;
 /// A spare moved in for a charging robot needs at least this charge.
 pub const SPARE_ABOVE: f64 = 0.5;
+/// A low robot and the spare sent to relieve it swap once this close, metres: on a map with
+/// traffic a robot held behind a standing one waits a lane segment back (cut at 3 m).
+pub const MEET_M: f64 = 4.0;
+/// A low robot is relieved at the latest this long after its spare was sent, seconds, or at
+/// once below this share of its threshold.
+pub const RELIEF_S: f64 = 300.0;
+pub const RELIEF_CRITICAL: f64 = 0.5;
 
 /// What the policy has a robot do.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,8 +64,12 @@ pub struct Errand {
     /// The map (its name) and the charger reserved for the robot.
     pub map: String,
     pub charger: Charger,
-    /// The mission it left, to go back to when charged, and how many robots it had then.
+    /// The mission it left, to go back to when charged, and how many robots it had then —
+    /// counting those still away charging that no spare replaced (they are missing from it too).
     pub left: Option<(MissionName, usize)>,
+    /// The idle robot moved into the mission in its place, if one was.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spare: Option<RobotId>,
     pub plugged: bool,
     /// When it was last sent to the charger.
     pub sent: f64,
@@ -67,14 +78,30 @@ pub struct Errand {
     pub from: Option<(f64, f64)>,
 }
 
+/// A spare on its way to relieve a low robot where it stood: the two swap where they meet (the
+/// spare takes over the mission where the low robot is, so its manager's new plan is the old
+/// one nearly unchanged), or when the low robot cannot wait any longer.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Relief {
+    pub spare: RobotId,
+    /// When the spare was sent.
+    pub since: f64,
+}
+
 /// The policy's state: every robot's errand.
 #[derive(Debug, Clone, Default)]
 pub struct Charging {
     cfg: ChargingConfig,
     errands: BTreeMap<RobotId, Errand>,
+    /// Low robots still at work, by the spare coming to relieve them.
+    reliefs: BTreeMap<RobotId, Relief>,
     /// Robots the operator gave a mission while on their errand: not sent again until they
     /// are above the threshold once more (charged some other way).
     excused: std::collections::BTreeSet<RobotId>,
+    /// Robots unplugged and sent back to the pool, until they stand again: the fleet's view
+    /// shows them charging at first, then busy on the way back, but they are the best spares
+    /// there are.
+    returning: std::collections::BTreeSet<RobotId>,
 }
 
 /// What central sees of the fleet now.
@@ -87,12 +114,17 @@ pub struct Fleet<'a> {
 
 impl Charging {
     pub fn new(cfg: ChargingConfig) -> Self {
-        Charging { cfg, errands: BTreeMap::new(), excused: Default::default() }
+        Charging { cfg, errands: BTreeMap::new(), reliefs: BTreeMap::new(), excused: Default::default(), returning: Default::default() }
     }
 
     /// Robots on a charging errand.
     pub fn errands(&self) -> &BTreeMap<RobotId, Errand> {
         &self.errands
+    }
+
+    /// Low robots waiting at work for the spare coming to relieve them.
+    pub fn reliefs(&self) -> &BTreeMap<RobotId, Relief> {
+        &self.reliefs
     }
 
     /// Looks at the fleet at `now` (seconds): errands ended, robots arrived or charged, robots
@@ -105,11 +137,14 @@ impl Charging {
         self.excused.retain(|id| by_id.get(id).is_some_and(|r| r.battery.is_some_and(|b| b.charge < go_below)));
         self.adopt(now, fleet);
         let mut out = Vec::new();
+        self.returning.retain(|id| by_id.get(id).is_some_and(|r| r.status == RobotStatus::Busy && r.mission.is_none()));
         let ids: Vec<RobotId> = self.errands.keys().cloned().collect();
         for id in ids {
             self.follow(now, by_id[&id], fleet, &mut out);
         }
         let mut low: Vec<&RobotView> = fleet.robots.iter().filter(|r| self.needs_charge(r)).collect();
+        // A relief for a robot that no longer needs one (charged some other way, lost) is over.
+        self.reliefs.retain(|id, _| low.iter().any(|r| &r.id == id));
         // The emptiest first when chargers are short.
         low.sort_by(|a, b| charge(a).total_cmp(&charge(b)).then(a.id.cmp(&b.id)));
         for r in low {
@@ -133,9 +168,14 @@ impl Charging {
             });
             if let Some((map, charger)) = at {
                 tracing::info!(robot = %r.id, charger = %charger.name, "charging: a robot charging at a charger, taken back as an errand");
-                self.errands.insert(r.id.clone(), Errand { map, charger, left: None, plugged: true, sent: now, from: None });
+                self.errands.insert(r.id.clone(), Errand { map, charger, left: None, spare: None, plugged: true, sent: now, from: None });
             }
         }
+    }
+
+    /// Robots away charging from mission `m` that no spare replaced: the mission misses them.
+    fn away_from(&self, m: &MissionName) -> usize {
+        self.errands.values().filter(|e| e.spare.is_none() && e.left.as_ref().is_some_and(|(l, _)| l == m)).count()
     }
 
     /// Whether charger `c` of map `map` is reserved for a robot.
@@ -177,7 +217,11 @@ impl Charging {
         }
         if r.battery.is_some_and(|b| b.charge >= self.cfg.done_above) {
             if let Some(e) = self.errands.remove(&r.id) {
-                out.extend(back_to_work(r, e, fleet));
+                let cmds = back_to_work(r, e, fleet);
+                if !cmds.iter().any(|c| matches!(c, Command::Move { .. })) {
+                    self.returning.insert(r.id.clone());
+                }
+                out.extend(cmds);
             }
         }
     }
@@ -185,13 +229,57 @@ impl Charging {
     /// Sends a low robot to the nearest free charger of its map, out of its mission, a spare in
     /// its place where its team would fall short; none free: it waits (the next look tries again).
     fn send(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) {
-        if let Err(why) = self.dispatch(now, r, fleet, out) {
-            tracing::debug!(robot = %r.id, "charging: not sent yet: {why}");
+        if !self.relieved(now, r, fleet, out) {
+            return;
+        }
+        let spare = self.reliefs.get(&r.id).map(|rel| rel.spare.clone());
+        match self.dispatch(now, r, fleet, spare, out) {
+            Ok(_) => {
+                self.reliefs.remove(&r.id);
+            }
+            Err(why) => tracing::debug!(robot = %r.id, "charging: not sent yet: {why}"),
         }
     }
 
+    /// Whether low robot `r` may leave now: it is in no mission, or no spare can come (it goes
+    /// and its mission does without it), or its spare has come within [`MEET_M`], or it waited
+    /// [`RELIEF_S`], or it is below [`RELIEF_CRITICAL`] of its threshold. Else a spare is sent
+    /// to where it stands (once), and it works on meanwhile.
+    fn relieved(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) -> bool {
+        let by_id = |id: &RobotId| fleet.robots.iter().find(|v| &v.id == id);
+        // A spare lost, or given other work meanwhile, relieves nobody (on its way it is busy).
+        if let Some(rel) = self.reliefs.get(&r.id) {
+            let ready = by_id(&rel.spare).is_some_and(|s| s.status != RobotStatus::Lost && s.mission.is_none() && !self.errands.contains_key(&s.id));
+            if !ready {
+                self.reliefs.remove(&r.id);
+            }
+        }
+        let Some(m) = r.mission.as_ref().and_then(|m| fleet.missions.iter().find(|v| &v.name == m)) else { return true };
+        if charge(r) < RELIEF_CRITICAL * self.cfg.go_below {
+            return true;
+        }
+        if let Some(rel) = self.reliefs.get(&r.id) {
+            let met = match (by_id(&rel.spare).and_then(|s| s.pose), r.pose) {
+                (Some(a), Some(b)) => (a.x - b.x).hypot(a.y - b.y) <= MEET_M,
+                _ => true,
+            };
+            return met || now - rel.since >= RELIEF_S;
+        }
+        let (Some(spare), Some(map), Some(p)) = (self.spare(fleet, m, r), map_of(Some(m), fleet.maps), r.pose) else { return true };
+        if self.charger_free(&map.name, map) {
+            out.push(Command::Goto { robot: spare.clone(), map: map.name.clone(), x: p.x, y: p.y });
+            self.reliefs.insert(r.id.clone(), Relief { spare, since: now });
+        }
+        false
+    }
+
+    /// Whether map `map` has a charger no robot holds.
+    fn charger_free(&self, name: &str, map: &MapInfo) -> bool {
+        map.chargers.iter().any(|c| !self.taken(name, c))
+    }
+
     /// Sends `r` to the nearest free charger of its map; why not, if it cannot.
-    fn dispatch(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) -> Result<Charger, String> {
+    fn dispatch(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, relief: Option<RobotId>, out: &mut Vec<Command>) -> Result<Charger, String> {
         let mission = r.mission.as_ref().and_then(|m| fleet.missions.iter().find(|v| &v.name == m));
         let map = map_of(mission, fleet.maps).ok_or_else(|| match mission {
             Some(m) => format!("mission {} is on no map with chargers", m.name),
@@ -200,17 +288,20 @@ impl Charging {
         let pose = r.pose.ok_or("it has not said where it is")?;
         let nearest = map.chargers.iter().filter(|c| !self.taken(&map.name, c)).min_by(|a, b| away(pose, a).total_cmp(&away(pose, b)));
         let charger = nearest.cloned().ok_or_else(|| format!("every charger of map {} is taken", map.name))?;
+        let mut spare = None;
         if let Some(m) = mission {
             out.push(Command::Move { robot: r.id.clone(), to: None });
-            if let Some(spare) = self.spare(fleet, m, r) {
-                out.push(Command::Move { robot: spare, to: Some(m.name.clone()) });
+            spare = relief.or_else(|| self.spare(fleet, m, r));
+            if let Some(s) = &spare {
+                out.push(Command::Move { robot: s.clone(), to: Some(m.name.clone()) });
             }
         }
         out.push(Command::Goto { robot: r.id.clone(), map: map.name.clone(), x: charger.at.x, y: charger.at.y });
-        let left = mission.map(|m| (m.name.clone(), m.robots.len()));
+        let left = mission.map(|m| (m.name.clone(), m.robots.len() + self.away_from(&m.name)));
         self.excused.remove(&r.id);
         let from = Some((pose.x, pose.y));
-        self.errands.insert(r.id.clone(), Errand { map: map.name.clone(), charger: charger.clone(), left, plugged: false, sent: now, from });
+        let errand = Errand { map: map.name.clone(), charger: charger.clone(), left, spare, plugged: false, sent: now, from };
+        self.errands.insert(r.id.clone(), errand);
         Ok(charger)
     }
 
@@ -228,7 +319,8 @@ impl Charging {
             return Err(ErrorReply::conflict(format!("robot {robot} is charging at {} already (or on its way)", e.charger.name)));
         }
         let mut out = Vec::new();
-        self.dispatch(now, r, fleet, &mut out).map_err(|why| ErrorReply::conflict(format!("robot {robot} cannot go and charge: {why}")))?;
+        self.reliefs.remove(&r.id);
+        self.dispatch(now, r, fleet, None, &mut out).map_err(|why| ErrorReply::conflict(format!("robot {robot} cannot go and charge: {why}")))?;
         Ok((self.errands[&r.id].clone(), out))
     }
 
@@ -261,9 +353,11 @@ impl Charging {
             (team.robot_type.as_ref(), &team.requires[..])
         };
         let fit = |r: &&RobotView| {
-            r.status == RobotStatus::Idle
+            let back = self.returning.contains(&r.id);
+            (r.status == RobotStatus::Idle || back)
                 && !self.errands.contains_key(&r.id)
-                && r.battery.is_none_or(|b| !b.charging && b.charge >= SPARE_ABOVE)
+                && !self.reliefs.values().any(|rel| rel.spare == r.id)
+                && r.battery.is_none_or(|b| (!b.charging || back) && b.charge >= SPARE_ABOVE)
                 && fits(r, robot_type, requires)
                 && mrmm_proto::lacking(&r.capabilities, &m.requires).is_empty()
         };

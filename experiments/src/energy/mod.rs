@@ -1,0 +1,535 @@
+//! `mrmm experiment energy`: a patrol's working day on batteries. Six robots patrol every vertex
+//! of Open-RMF's office graph (two chargers) for eight simulated hours, driven by the robots' own
+//! executors and bodies (batteries included) as in `mrmm experiment maps`; central's charging
+//! policy is the production machine (`mrmm_core::central::charging`), looked at once a second
+//! as central does, its moves replanning the patrol as the mission's manager does (the patrol
+//! planner, from where the robots stand). Four runs: no batteries (the reference), batteries
+//! without charging (robots die), naive charging (each robot leaves when low and comes back when
+//! charged, no spares), and mrmm's policy with two spares.
+
+mod report;
+
+use std::collections::{BTreeMap, VecDeque};
+
+use anyhow::{anyhow, Context};
+use mrmm_core::body::battery::{Battery, BatteryModel};
+use mrmm_core::body::{Body, Limits};
+use mrmm_core::central::charging::{self, Charging, ChargingConfig};
+use mrmm_core::robot::executor::{Command as Exec, Event, Executor};
+use mrmm_maps::{Map, NavGraph, Point, Space};
+use mrmm_planner::recipe::{self, Recipe};
+use mrmm_proto::map::Charger;
+use mrmm_proto::plan::RobotSpec;
+use mrmm_proto::{BarrierMode, MapInfo, MapRef, MissionView, PlanAssignment, Pose, RobotId, RobotStatus, RobotView};
+
+pub use report::write;
+
+/// The robots' top speed, m/s, and turn rate, rad/s.
+const SPEED: f64 = 1.0;
+const TURN: f64 = crate::maps::TURN;
+/// Simulation step, s.
+const DT: f64 = 0.05;
+/// How often central's charging policy looks, s (the agent's look).
+const LOOK_S: f64 = 1.0;
+/// How often the figures' time series are sampled, s.
+const SAMPLE_S: f64 = 60.0;
+/// A robot within this distance of a vertex visits it, m.
+const VISIT_R: f64 = 0.3;
+/// The map: the shipped floor plan with two chargers.
+const MAP: &str = "office";
+
+/// How the fleet treats its batteries in a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Policy {
+    /// No batteries: the reference the others are measured against.
+    Unlimited,
+    /// Batteries and no charging: a robot that runs dry stops, and the patrol goes on without
+    /// it (its manager replans at once: the kindest reading).
+    None,
+    /// Each robot leaves the patrol when low, charges, and comes back when charged; no spare
+    /// takes its place (mrmm's policy with no idle robot in the fleet).
+    Naive,
+    /// mrmm's charging policy with the spares in the fleet: one takes the place of a robot that
+    /// leaves to charge.
+    Mrmm,
+}
+
+impl Policy {
+    pub const ALL: [Policy; 4] = [Policy::Unlimited, Policy::None, Policy::Naive, Policy::Mrmm];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Policy::Unlimited => "no batteries",
+            Policy::None => "no charging",
+            Policy::Naive => "naive charging",
+            Policy::Mrmm => "mrmm (spares)",
+        }
+    }
+
+    fn batteries(self) -> bool {
+        self != Policy::Unlimited
+    }
+
+    fn charges(self) -> bool {
+        matches!(self, Policy::Naive | Policy::Mrmm)
+    }
+}
+
+/// The day: how long, the team, the batteries.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Day {
+    /// Simulated seconds.
+    pub length_s: f64,
+    /// Robots patrolling; the patrol's `min` is this too (the policy must keep it whole).
+    pub team: usize,
+    /// Idle robots in the fleet for mrmm's policy.
+    pub spares: usize,
+    /// A full charge drives this long at top speed, s.
+    pub life_s: f64,
+    /// A charger fills an empty battery in this long, s.
+    pub charge_s: f64,
+    /// The patrol's robots start with charges evenly spread from 1 down to this (robots come
+    /// off their chargers in turn); spares start full.
+    pub lowest_start: f64,
+    pub charging: ChargingConfig,
+    pub seed: u64,
+}
+
+impl Default for Day {
+    fn default() -> Self {
+        Day {
+            length_s: 8.0 * 3600.0,
+            team: 6,
+            spares: 2,
+            life_s: 2.0 * 3600.0,
+            charge_s: 0.5 * 3600.0,
+            lowest_start: 0.5,
+            charging: ChargingConfig::default(),
+            seed: 1,
+        }
+    }
+}
+
+impl Day {
+    /// The batteries' model: [`BatteryModel::lasting`] the day's life, charged in `charge_s`.
+    fn model(&self) -> BatteryModel {
+        let m = BatteryModel::lasting(self.life_s, SPEED);
+        BatteryModel { charge_w: m.capacity_wh * 3600.0 / self.charge_s, ..m }
+    }
+}
+
+/// One run's figures.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    pub policy: Policy,
+    pub robots: usize,
+    /// Idleness over the day (patrolling_sim's: average of each vertex's mean time between
+    /// visits; worst: the longest), the time since its last visit at the day's end counted, s.
+    pub avg_s: f64,
+    pub worst_s: f64,
+    /// Seconds the patrol had fewer robots than its team (its `min`).
+    pub short_s: f64,
+    /// The lowest charge any robot had, 0–1; robots ever below 5 %; robots that ran dry.
+    pub lowest: f64,
+    pub under_5: usize,
+    pub died: usize,
+    /// Charging errands started, and times the patrol was replanned.
+    pub errands: usize,
+    pub replans: usize,
+    /// Simulated seconds robots stood plugged in, all robots together.
+    pub charging_s: f64,
+}
+
+/// One run's time series, sampled every minute: robots patrolling and the lowest charge.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trace {
+    pub policy: Policy,
+    pub team: Vec<(f64, f64)>,
+    pub lowest: Vec<(f64, f64)>,
+}
+
+/// Runs the day under every policy.
+pub fn run(day: &Day) -> anyhow::Result<Vec<(Row, Trace)>> {
+    let (name, text) = mrmm_maps::data::OPEN_RMF.iter().find(|(n, _)| *n == MAP).ok_or_else(|| anyhow!("the {MAP} graph is not shipped"))?;
+    let graph = mrmm_maps::rmf::parse(name, text).map_err(|e| anyhow!("{e}"))?;
+    let recipe = recipe::parse(recipe::bank("patrol").unwrap_or_default())?;
+    let mut out = Vec::new();
+    for policy in Policy::ALL {
+        let started = std::time::Instant::now();
+        let (row, trace) = one(day, &graph, &recipe, policy).with_context(|| policy.name())?;
+        println!(
+            "{:>15}: {} robots, idleness avg {:6.1} s worst {:6.1} s, short {:6.0} s, lowest charge {:4.2}, {} under 5 %, {} died, {} errands, {} replans ({:.1} s)",
+            policy.name(),
+            row.robots,
+            row.avg_s,
+            row.worst_s,
+            row.short_s,
+            row.lowest,
+            row.under_5,
+            row.died,
+            row.errands,
+            row.replans,
+            started.elapsed().as_secs_f64()
+        );
+        out.push((row, trace));
+    }
+    Ok(out)
+}
+
+/// One policy's day.
+pub fn one(day: &Day, graph: &NavGraph, recipe: &Recipe, policy: Policy) -> anyhow::Result<(Row, Trace)> {
+    let mut w = World::new(day, graph, recipe, policy)?;
+    w.replan()?;
+    let steps = (day.length_s / DT).round() as u64;
+    let every = |s: f64| (s / DT).round() as u64;
+    for k in 0..steps {
+        let t = k as f64 * DT;
+        w.tick(t);
+        w.step(t);
+        if policy.charges() && k % every(LOOK_S) == 0 {
+            w.look(t)?;
+        }
+        if w.changed {
+            w.replan()?;
+        }
+        if k % every(SAMPLE_S) == 0 {
+            w.sample(t);
+        }
+    }
+    Ok(w.finish(day.length_s))
+}
+
+/// The simulated fleet: bodies, the patrol's executors, the policy, and what is measured.
+struct World<'a> {
+    day: &'a Day,
+    graph: &'a NavGraph,
+    map: Map,
+    space: Space,
+    recipe: &'a Recipe,
+    policy: Policy,
+    charging: Charging,
+    info: MapInfo,
+    ids: Vec<RobotId>,
+    bodies: Vec<Body>,
+    /// The patrol's robots (indices), in the order they were planned.
+    members: Vec<usize>,
+    execs: BTreeMap<usize, Executor>,
+    /// Where a robot off the patrol still drives (a route along the lanes).
+    legs: Vec<VecDeque<Point>>,
+    dead: Vec<bool>,
+    epoch: u64,
+    /// The patrol's members changed: replan.
+    changed: bool,
+    m: Measures,
+}
+
+/// What a run measures.
+#[derive(Default)]
+struct Measures {
+    /// Per vertex: when last visited, and the gaps between visits.
+    last: Vec<Option<f64>>,
+    gaps: Vec<Vec<f64>>,
+    /// The vertex each robot is at.
+    at: Vec<Option<usize>>,
+    started: bool,
+    short_s: f64,
+    lowest: Vec<f64>,
+    errands: usize,
+    replans: usize,
+    charging_s: f64,
+    team: Vec<(f64, f64)>,
+    lowest_series: Vec<(f64, f64)>,
+}
+
+impl<'a> World<'a> {
+    fn new(day: &'a Day, graph: &'a NavGraph, recipe: &'a Recipe, policy: Policy) -> anyhow::Result<World<'a>> {
+        let map = Map::Graph(graph.clone());
+        let space = Space::new(&map, 0.0).map_err(|e| anyhow!("{e}"))?;
+        let n = day.team + if policy == Policy::Mrmm { day.spares } else { 0 };
+        let starts = space.farthest(graph.vertices[0].at, n, |_| true).map_err(|e| anyhow!("{e}"))?;
+        let ids: Vec<RobotId> = (1..=n).map(|i| RobotId::from(format!("r{i}"))).collect();
+        let model = day.model();
+        let bodies = starts
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let body = Body::new(Pose { x: p.x, y: p.y, theta: 0.0 }, Limits { max_speed: SPEED, max_turn_rate: TURN });
+                if !policy.batteries() {
+                    return body;
+                }
+                let spread = if day.team > 1 { i as f64 / (day.team - 1) as f64 } else { 0.0 };
+                let charge = if i < day.team { 1.0 - (1.0 - day.lowest_start) * spread } else { 1.0 };
+                body.with_battery(Battery::new(model, charge))
+            })
+            .collect();
+        let chargers = graph.chargers().map(|v| Charger { name: v.name.clone(), at: mrmm_proto::geom::Point { x: v.at.x, y: v.at.y } }).collect();
+        let (min, max) = graph.bounds();
+        let info = MapInfo {
+            name: MAP.into(),
+            format: "open_rmf".into(),
+            bytes: 0,
+            hash: MAP.into(),
+            size: String::new(),
+            min: mrmm_proto::geom::Point { x: min.x, y: min.y },
+            max: mrmm_proto::geom::Point { x: max.x, y: max.y },
+            superseded: false,
+            chargers,
+        };
+        let nv = graph.vertices.len();
+        let m = Measures { last: vec![None; nv], gaps: vec![Vec::new(); nv], at: vec![None; n], lowest: vec![1.0; n], ..Measures::default() };
+        Ok(World {
+            day,
+            graph,
+            map,
+            space,
+            recipe,
+            policy,
+            charging: Charging::new(day.charging),
+            info,
+            ids,
+            bodies,
+            members: (0..day.team).collect(),
+            execs: BTreeMap::new(),
+            legs: vec![VecDeque::new(); n],
+            dead: vec![false; n],
+            epoch: 0,
+            changed: false,
+            m,
+        })
+    }
+
+    /// A new plan for the patrol's members from where they stand, as its manager replans on a
+    /// leave or a join.
+    fn replan(&mut self) -> anyhow::Result<()> {
+        self.changed = false;
+        self.epoch += 1;
+        self.execs.clear();
+        if self.members.is_empty() {
+            return Ok(());
+        }
+        self.m.replans += 1;
+        let specs: Vec<RobotSpec> = self
+            .members
+            .iter()
+            .map(|&i| {
+                let p = self.bodies[i].pose();
+                RobotSpec { id: self.ids[i].clone(), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED, turn_rate: None }
+            })
+            .collect();
+        let params = BTreeMap::from([
+            ("waypoints".to_string(), "all".to_string()),
+            ("seed".to_string(), self.day.seed.to_string()),
+            ("turn_rate".to_string(), TURN.to_string()),
+        ]);
+        let planned = recipe::build_on(self.recipe, &params, &specs, Some(&self.map)).map_err(|e| anyhow!("replanning {} robots: {e}", specs.len()))?;
+        let members: Vec<RobotId> = self.members.iter().map(|&i| self.ids[i].clone()).collect();
+        for (plan, &i) in planned.to_wire().plans.into_iter().zip(&self.members) {
+            self.legs[i].clear();
+            self.execs.insert(
+                i,
+                Executor::new(PlanAssignment {
+                    mission: "patrol".into(),
+                    epoch: self.epoch,
+                    team: "patrol".into(),
+                    subteam: "patrol/ground".into(),
+                    members: members.clone(),
+                    plan,
+                    managers: vec![],
+                    barrier: BarrierMode::Mesh,
+                    scopes: vec![],
+                    map: None,
+                }),
+            );
+        }
+        Ok(())
+    }
+
+    /// The patrol's executors: a tick each, their barrier announcements heard by the others.
+    fn tick(&mut self, t: f64) {
+        let mut heard = Vec::new();
+        for (&i, e) in &mut self.execs {
+            for c in e.handle(t, Event::Tick { body_idle: self.bodies[i].idle() }) {
+                match c {
+                    Exec::Navigate { x, y, then, speed } => self.bodies[i].navigate_through(x, y, then, speed),
+                    Exec::Hold => self.bodies[i].hold(),
+                    Exec::Face { x, y } => self.bodies[i].face(x, y),
+                    Exec::Publish(a) => heard.push((i, a)),
+                    Exec::Release(_) | Exec::Lead(_) | Exec::PublishIn(..) => {}
+                }
+            }
+        }
+        for (from, a) in heard {
+            for (&j, e) in &mut self.execs {
+                if j != from {
+                    e.handle(t, Event::Heard(a.clone()));
+                }
+            }
+        }
+        if !self.m.started && !self.execs.is_empty() && self.execs.values().all(|e| e.progress().syncs_passed >= 1) {
+            self.m.started = true;
+        }
+    }
+
+    /// Bodies move (batteries drain, or charge); robots off the patrol drive their legs; visits,
+    /// charges and the dead are counted.
+    fn step(&mut self, t: f64) {
+        for i in 0..self.bodies.len() {
+            if !self.execs.contains_key(&i) && self.bodies[i].idle() {
+                if let Some(p) = self.legs[i].pop_front() {
+                    self.bodies[i].navigate_to(p.x, p.y);
+                }
+            }
+            self.bodies[i].step(DT);
+            let battery = self.bodies[i].battery().map(|b| (b.charge(), b.charging(), b.empty()));
+            if let Some((charge, charging, empty)) = battery {
+                self.m.lowest[i] = self.m.lowest[i].min(charge);
+                if charging {
+                    self.m.charging_s += DT;
+                }
+                if empty && !self.dead[i] {
+                    self.dead[i] = true;
+                    tracing::info!(robot = %self.ids[i], t, "ran dry");
+                    if let Some(k) = self.members.iter().position(|&m| m == i) {
+                        self.members.remove(k);
+                        self.changed = true;
+                    }
+                }
+            }
+            self.visit(t, i);
+        }
+        if self.members.len() < self.day.team {
+            self.m.short_s += DT;
+        }
+    }
+
+    /// A patrol member at a vertex visits it (and every vertex drawn on the same spot).
+    fn visit(&mut self, t: f64, i: usize) {
+        let p = self.bodies[i].pose();
+        let here = self.graph.vertices.iter().position(|v| (v.at.x - p.x).hypot(v.at.y - p.y) <= VISIT_R);
+        if here != self.m.at[i] && self.m.started && self.execs.contains_key(&i) {
+            if let Some(v) = here {
+                let spot = self.graph.vertices[v].at;
+                for w in (0..self.graph.vertices.len()).filter(|&w| self.graph.vertices[w].at == spot) {
+                    if let Some(l) = self.m.last[w] {
+                        self.m.gaps[w].push(t - l);
+                    }
+                    self.m.last[w] = Some(t);
+                }
+            }
+        }
+        self.m.at[i] = here;
+    }
+
+    /// Central's look: the charging policy over the fleet as central sees it, its commands
+    /// carried out.
+    fn look(&mut self, t: f64) -> anyhow::Result<()> {
+        let robots: Vec<RobotView> = (0..self.ids.len()).map(|i| self.view(i)).collect();
+        let members: Vec<&str> = self.members.iter().map(|&i| self.ids[i].as_str()).collect();
+        let patrol = MissionView {
+            map: Some(MapRef { name: MAP.into(), hash: MAP.into() }),
+            ..MissionView::running("patrol", "patrol", "central", self.epoch, &members)
+        };
+        let fleet = charging::Fleet { robots: &robots, missions: std::slice::from_ref(&patrol), maps: std::slice::from_ref(&self.info) };
+        let before: Vec<RobotId> = self.charging.errands().keys().cloned().collect();
+        for c in self.charging.handle(t, fleet) {
+            self.carry_out(c)?;
+        }
+        self.m.errands += self.charging.errands().keys().filter(|id| !before.contains(id)).count();
+        Ok(())
+    }
+
+    /// Robot `i` as central's robots view shows it.
+    fn view(&self, i: usize) -> RobotView {
+        let member = self.members.contains(&i);
+        let standing = self.bodies[i].idle() && self.legs[i].is_empty();
+        RobotView {
+            id: self.ids[i].clone(),
+            robot_type: "ground".into(),
+            capabilities: vec![],
+            status: if member || !standing { RobotStatus::Busy } else { RobotStatus::Idle },
+            mission: member.then(|| "patrol".into()),
+            pose: Some(self.bodies[i].pose()),
+            behaviour: Some(if member {
+                "plan".into()
+            } else if standing {
+                "hold".into()
+            } else {
+                "goto".into()
+            }),
+            last_mission: None,
+            stuck: None,
+            battery: self.bodies[i].battery().map(|b| b.state(SPEED)),
+        }
+    }
+
+    fn carry_out(&mut self, c: charging::Command) -> anyhow::Result<()> {
+        let index = |id: &RobotId| self.ids.iter().position(|r| r == id).ok_or_else(|| anyhow!("the policy named robot {id}, not in the fleet"));
+        match c {
+            charging::Command::Move { robot, to } => {
+                let i = index(&robot)?;
+                self.members.retain(|&m| m != i);
+                if to.is_some() {
+                    self.members.push(i);
+                }
+                self.execs.remove(&i);
+                self.bodies[i].hold();
+                self.changed = true;
+            }
+            charging::Command::Goto { robot, x, y, .. } => {
+                let i = index(&robot)?;
+                let from = self.space.locate_robot(robot.as_str(), i, to_point(self.bodies[i].pose())).map_err(|e| anyhow!("{e}"))?;
+                let to = self.space.locate("goal", 0, Point::new(x, y)).map_err(|e| anyhow!("{e}"))?;
+                let route = self.space.route(&from, &to).ok_or_else(|| anyhow!("no way from robot {robot} to ({x}, {y})"))?;
+                self.legs[i] = route.into_iter().chain([Point::new(x, y)]).collect();
+                self.bodies[i].hold();
+            }
+            charging::Command::Plug { robot, on } => {
+                let i = index(&robot)?;
+                if on {
+                    self.legs[i].clear();
+                    self.bodies[i].hold();
+                }
+                if let Some(b) = self.bodies[i].battery_mut() {
+                    b.set_charging(on);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn sample(&mut self, t: f64) {
+        let lowest = self.bodies.iter().filter_map(|b| b.battery().map(Battery::charge)).fold(1.0, f64::min);
+        self.m.team.push((t / 3600.0, self.members.len() as f64));
+        self.m.lowest_series.push((t / 3600.0, lowest));
+    }
+
+    fn finish(self, end: f64) -> (Row, Trace) {
+        let m = self.m;
+        // The time since a vertex's last visit at the day's end is one more gap (a patrol that
+        // stopped leaves its vertices unvisited; the day's end must show it).
+        let gaps: Vec<Vec<f64>> = m.gaps.iter().zip(&m.last).map(|(g, l)| g.iter().copied().chain(Some(end - l.unwrap_or(0.0))).collect()).collect();
+        let avg = gaps.iter().map(|g| g.iter().sum::<f64>() / g.len() as f64).sum::<f64>() / gaps.len().max(1) as f64;
+        let worst = gaps.iter().flatten().copied().fold(0.0, f64::max);
+        let row = Row {
+            policy: self.policy,
+            robots: self.ids.len(),
+            avg_s: avg,
+            worst_s: worst,
+            short_s: m.short_s,
+            lowest: m.lowest.iter().copied().fold(1.0, f64::min),
+            under_5: m.lowest.iter().filter(|&&c| c < 0.05).count(),
+            died: self.dead.iter().filter(|&&d| d).count(),
+            errands: m.errands,
+            replans: m.replans,
+            charging_s: m.charging_s,
+        };
+        (row, Trace { policy: self.policy, team: m.team, lowest: m.lowest_series })
+    }
+}
+
+fn to_point(p: Pose) -> Point {
+    Point::new(p.x, p.y)
+}
+
+#[cfg(test)]
+mod tests;
