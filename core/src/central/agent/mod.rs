@@ -9,6 +9,7 @@
 //! robot moves and says so, and records how each went. No I/O: [`Agent::handle`] takes the time
 //! and an [`Event`] and returns [`Command`]s.
 
+mod forecast;
 mod rules;
 
 use std::collections::BTreeMap;
@@ -51,6 +52,9 @@ pub struct AgentConfig {
     pub charging: bool,
     /// A charging robot is done at this charge (0–1).
     pub charged: f64,
+    /// The energy forecast looks this far ahead, seconds: a mission whose robots will need
+    /// charging sooner than fitting spares are ready is raised (0: off).
+    pub forecast_s: f64,
 }
 
 impl Default for AgentConfig {
@@ -65,6 +69,7 @@ impl Default for AgentConfig {
             battery_low: 0.2,
             charging: true,
             charged: 0.99,
+            forecast_s: 900.0,
         }
     }
 }
@@ -80,6 +85,7 @@ impl AgentConfig {
             ("traffic_wait_s", self.traffic_wait_s, 3600.0),
             ("battery_low", self.battery_low, 1.0),
             ("charged", self.charged, 1.0),
+            ("forecast_s", self.forecast_s, 86400.0),
         ] {
             if !(v.is_finite() && v >= 0.0 && v <= max) {
                 return Err(format!("agent.{name}: must be a number in [0, {max}] (got {v})"));
@@ -129,6 +135,8 @@ pub(crate) struct Memory {
     /// Last manager (node, epoch) of each mission, and event advice with its expiry.
     pub managers: BTreeMap<MissionName, NodeId>,
     pub events: BTreeMap<String, (Candidate, f64)>,
+    /// How each robot's charge moves (the energy forecast).
+    pub drains: BTreeMap<RobotId, forecast::Drain>,
 }
 
 /// The advising agent.

@@ -9,7 +9,7 @@ use serde_json::json;
 
 use super::{AgentConfig, Candidate, Memory};
 
-fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
+pub(super) fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
     let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_ref().map(|x| x.as_str()).unwrap_or("none")));
     Candidate { advice: Advice { id, priority, reason, evidence, suggestion, action: action.clone(), since: now, acted: false, outcome: None }, action }
 }
@@ -23,7 +23,7 @@ fn patrol_prediction(m: &MissionView, n: usize) -> Option<f64> {
 }
 
 /// Whether robot `r` has every capability mission `m` requires.
-fn fits(r: &RobotView, m: &MissionView) -> bool {
+pub(super) fn fits(r: &RobotView, m: &MissionView) -> bool {
     mrmm_proto::lacking(&r.capabilities, &m.requires).is_empty()
 }
 
@@ -117,6 +117,8 @@ pub(crate) fn evaluate(
     stuck_robots(cfg, mem, robots, &waiting, now, &mut out);
     blocked_in_traffic(cfg, robots, traffic, now, &mut out);
     batteries(cfg, robots, now, &mut out);
+    super::forecast::measure(&mut mem.drains, robots, now);
+    super::forecast::forecast(cfg, &mem.drains, robots, missions, now, &mut out);
     out
 }
 

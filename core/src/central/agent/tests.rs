@@ -2,7 +2,7 @@
 
 use super::*;
 use mrmm_proto::plan::PatrolSummary;
-use mrmm_proto::{ManagerView, MissionMetrics, MissionStatus, PlanSummary, RobotStatus};
+use mrmm_proto::{BatteryState, ManagerView, MissionMetrics, MissionStatus, PlanSummary, RobotStatus};
 
 fn robot(id: &str, status: RobotStatus, mission: Option<&str>, x: f64, behaviour: &str) -> RobotView {
     RobotView {
@@ -384,7 +384,6 @@ fn robots_waiting_or_blocked_in_traffic_are_raised_with_who_is_in_the_way() {
 /// "stuck"); charging, or charged again, it is withdrawn.
 #[test]
 fn low_and_empty_batteries_are_raised_and_withdrawn_once_charging() {
-    use mrmm_proto::BatteryState;
     let mut a = Agent::new(AgentConfig::default());
     let with = |charge: f64, charging: bool| {
         let mut r = robot("r1", RobotStatus::Busy, Some("p"), 1.0, "step 2 goto(9.0,0.0)");
@@ -410,4 +409,50 @@ fn low_and_empty_batteries_are_raised_and_withdrawn_once_charging() {
     let mut lost = with(0.1, false);
     lost[0].status = RobotStatus::Lost;
     assert!(!format!("{:?}", a.handle(40.0, snap(lost, vec![]))).contains("battery/r1"));
+}
+
+/// The energy forecast: two robots of a mission draining 0.1 % a second (low in 5 and 12 minutes) and
+/// no spare — the mission will be short in 5 minutes; one idle spare charged enough covers the
+/// first, a second spare charging and done in time covers the second, and the advice goes.
+#[test]
+fn a_mission_that_will_run_short_of_charged_spares_is_forecast() {
+    let mut a = Agent::new(AgentConfig::default());
+    let with = |mut r: RobotView, charge: f64, charging: bool| {
+        r.battery = Some(BatteryState { charge, charging, reach_m: None });
+        r
+    };
+    let fleet = |t: f64, spares: usize| {
+        let mut v = vec![
+            with(robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), 0.5 - 0.001 * t, false),
+            with(robot("r2", RobotStatus::Busy, Some("p"), 5.0, "step 1"), 0.9 - 0.001 * t, false),
+        ];
+        if spares >= 1 {
+            v.push(with(robot("s1", RobotStatus::Idle, None, 9.0, "hold"), 0.8, false));
+        }
+        if spares >= 2 {
+            v.push(with(robot("s2", RobotStatus::Idle, None, 9.0, "hold"), 0.5 + 0.002 * t, true));
+        }
+        v
+    };
+    let forecasts = |cmds: &[Command]| raised(cmds).into_iter().filter(|(id, _)| id.starts_with("forecast/")).collect::<Vec<_>>();
+    let p = || mission("p", "coverage", &["r1", "r2"], None, None);
+    assert!(forecasts(&a.handle(0.0, snap(fleet(0.0, 0), vec![p()]))).is_empty(), "no rate measured yet");
+    let cmds = a.handle(30.0, snap(fleet(30.0, 0), vec![p()]));
+    assert_eq!(forecasts(&cmds), [("forecast/p".into(), Priority::Warning)]);
+    let advice = a.advice().into_iter().find(|x| x.id == "forecast/p").expect("standing");
+    assert!(advice.reason.contains("short of robots in about 4 min") && advice.reason.contains("2 of its robots"), "{}", advice.reason);
+    assert!((advice.evidence["short_in_s"].as_f64().expect("seconds") - 270.0).abs() < 1.0, "{}", advice.evidence);
+    assert_eq!(advice.evidence["needs"][0]["robot"], "r1");
+    // One spare charged enough: r1 is covered, r2 is not (still standing, now about r2).
+    a.handle(40.0, snap(fleet(40.0, 1), vec![p()]));
+    let advice = a.advice().into_iter().find(|x| x.id == "forecast/p").expect("still short");
+    assert_eq!(advice.evidence["short_by"], 1);
+    // A second spare, charging at 0.2 % a second: done in about 3 minutes, before r2 is low.
+    a.handle(50.0, snap(fleet(50.0, 2), vec![p()]));
+    let cmds = a.handle(80.0, snap(fleet(80.0, 2), vec![p()]));
+    assert_eq!(withdrawn(&cmds), ["forecast/p"]);
+    // Off: nothing.
+    let mut off = Agent::new(AgentConfig { forecast_s: 0.0, ..AgentConfig::default() });
+    off.handle(0.0, snap(fleet(0.0, 0), vec![p()]));
+    assert!(forecasts(&off.handle(30.0, snap(fleet(30.0, 0), vec![p()]))).is_empty());
 }
