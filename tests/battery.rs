@@ -140,7 +140,8 @@ async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> any
         let cfg = cfg.display().to_string();
         robots.push(common::start(id, &["robot", "--config", &cfg], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))?);
     }
-    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(2)).await?;
+    // Creating a patrol of every vertex plans it first: more than a default query's 2 s at times.
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(10)).await?;
     common::wait_robots(&client, 3).await?;
     let patrol = proto::MissionCreate {
         name: "p".into(),
@@ -189,6 +190,55 @@ async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> any
     assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("r2: released"), "{out:?}");
     let out = op(&["release", "r2"])?;
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("on no charging errand"), "{out:?}");
+    client.close().await;
+    Ok(())
+}
+
+/// A mission's `charging` parameter, through central: with `ask`, a low robot of it stays at
+/// work and the agent suggests the order that sends it; the operator turns it to `auto` with
+/// `mrmm op mission update` and the policy sends the robot.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_mission_that_charges_on_the_operators_word_keeps_its_low_robot_until_told() -> anyhow::Result<()> {
+    let dir = Scratch::new("charging-ask");
+    let office = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml");
+    let graph = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(&office)?)?;
+    let map = format!("office={}", office.display());
+    let (_central, ep) = start_central(&dir, &["--listen", "tcp/127.0.0.1:0", "--map", &map])?;
+    // r1 at 25 % on a vertex of the graph, a full charge driving 120 s: standing (a fifth of the
+    // power) it stays above 20 % for 30 simulated seconds, patrolling it falls below in 6 (idle
+    // and low, the policy would send it before it is in the mission).
+    let at = graph.vertices.iter().find(|v| !v.charger).map(|v| v.at).ok_or_else(|| anyhow::anyhow!("no vertex"))?;
+    let cfg = common::robot_config(&dir, "r1", std::slice::from_ref(&ep), at.x, at.y, 2.0)?;
+    let text = std::fs::read_to_string(&cfg)?.replacen("time_scale:", "battery: { life_s: 120, charge: 0.25 }, time_scale:", 1);
+    std::fs::write(&cfg, text)?;
+    let cfg = cfg.display().to_string();
+    let _r1 = common::start("r1", &["robot", "--config", &cfg], &dir.path("r1.log"), "robot ready", Duration::from_secs(20))?;
+    // Creating a patrol of every vertex plans it first: more than a default query's 2 s at times.
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(10)).await?;
+    let live = client.session().declare_subscriber(proto::Key::AgentAdviceLive.to_string()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    common::wait_robots(&client, 1).await?;
+    let patrol = proto::MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        robots: Some(vec!["r1".into()]),
+        params: [("waypoints".to_string(), serde_json::json!("all")), ("charging".to_string(), serde_json::json!("ask"))].into(),
+        map: Some("office".into()),
+        ..Default::default()
+    };
+    let _: proto::MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol)).await?;
+    // The agent and the policy look at the same fleet at the same moment: raised, not sent.
+    let advice = common::wait_raised(&live, "battery/r1/low", Duration::from_secs(20)).await?;
+    assert_eq!(advice.suggestion.as_deref(), Some("mrmm op charge r1"), "{advice:?}");
+    assert!(advice.reason.contains("on the operator's word"), "{advice:?}");
+    let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
+    assert_eq!(m.robots, ["r1"], "r1 stays at work");
+    let out = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "mission", "update", "p", "--param", "charging=auto"]).output()?;
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    eventually("r1 sent to charge", Duration::from_secs(20), || async {
+        let v: RobotView = client.query(proto::Key::SystemRobot("r1".into()), None::<&()>).await.ok()?;
+        v.mission.is_none().then_some(())
+    })
+    .await?;
     client.close().await;
     Ok(())
 }

@@ -46,6 +46,38 @@ pub const MEET_M: f64 = 4.0;
 pub const RELIEF_S: f64 = 300.0;
 pub const RELIEF_CRITICAL: f64 = 0.5;
 
+/// How a mission wants its robots charged (its `charging` parameter).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Mode {
+    /// The policy sends them (the default).
+    #[default]
+    Auto,
+    /// The operator decides (`mrmm op charge`); the advising agent suggests it.
+    Ask,
+    /// Never sent; the agent still warns.
+    Off,
+}
+
+impl Mode {
+    /// Mission `m`'s mode: its `charging` parameter (checked when the mission was created or
+    /// updated; anything else counts as the default).
+    pub fn of(m: &MissionView) -> Mode {
+        match m.params.get("charging").map(String::as_str) {
+            Some("ask") => Mode::Ask,
+            Some("off") => Mode::Off,
+            _ => Mode::Auto,
+        }
+    }
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Mode::Auto => "auto",
+            Mode::Ask => "ask",
+            Mode::Off => "off",
+        }
+    }
+}
+
 /// What the policy has a robot do.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Command {
@@ -142,7 +174,9 @@ impl Charging {
         for id in ids {
             self.follow(now, by_id[&id], fleet, &mut out);
         }
-        let mut low: Vec<&RobotView> = fleet.robots.iter().filter(|r| self.needs_charge(r)).collect();
+        // Robots of a mission that charges on the operator's word, or never, are not sent.
+        let auto = |r: &RobotView| r.mission.as_ref().and_then(|m| fleet.missions.iter().find(|v| &v.name == m)).is_none_or(|m| Mode::of(m) == Mode::Auto);
+        let mut low: Vec<&RobotView> = fleet.robots.iter().filter(|r| self.needs_charge(r) && auto(r)).collect();
         // A relief for a robot that no longer needs one (charged some other way, lost) is over.
         self.reliefs.retain(|id, _| low.iter().any(|r| &r.id == id));
         // The emptiest first when chargers are short.

@@ -55,8 +55,10 @@ impl PlannerKind {
     /// Scalar parameters the planner understands.
     pub fn scalar_params(self) -> &'static [&'static str] {
         match self {
-            PlannerKind::Patrol => &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness", "barrier", "robot_radius", "turn_rate"],
-            PlannerKind::Coverage => &["samples", "lloyd_iterations", "minimax_iterations", "seed", "robot_radius"],
+            PlannerKind::Patrol => {
+                &["sync_spacing_max", "rounds", "seed", "max_kicks", "max_worst_idleness", "barrier", "robot_radius", "turn_rate", "charging"]
+            }
+            PlannerKind::Coverage => &["samples", "lloyd_iterations", "minimax_iterations", "seed", "robot_radius", "charging"],
         }
     }
 }
@@ -502,6 +504,15 @@ pub fn check_param(planner: PlannerKind, name: &str, value: &str) -> Result<(), 
         (PlannerKind::Coverage, "samples") => whole(100, limits::MAX_SAMPLES),
         (PlannerKind::Coverage, "lloyd_iterations" | "minimax_iterations") => whole(0, limits::MAX_ITERATIONS),
         (_, "seed") => whole(0, u64::MAX),
+        // Whether central's charging policy sends the mission's robots to charge (its own, not
+        // the planner's): `auto`, `ask` (the operator decides) or `off`.
+        (_, "charging") => {
+            if matches!(v, "auto" | "ask" | "off") {
+                Ok(())
+            } else {
+                Err(format!("parameter {name}: {value:?} is none of \"auto\", \"ask\", \"off\""))
+            }
+        }
         // Obstacles of the mission's map are inflated by it (metres; at most 10).
         (_, "robot_radius") => v
             .parse::<f64>()

@@ -106,6 +106,10 @@ fn overrides_replace_parameters() {
     assert!(build(&r, &parse_overrides(&["barrier=leader".into()]).expect("o"), &robots(&["ground"])).is_ok());
     let e = build(&r, &parse_overrides(&["barrier=ring".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
     assert!(e.contains("neither \"mesh\" nor \"leader\""), "{e}");
+    // So is central's charging mode.
+    assert!(build(&r, &parse_overrides(&["charging=ask".into()]).expect("o"), &robots(&["ground"])).is_ok());
+    let e = build(&r, &parse_overrides(&["charging=sometimes".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
+    assert!(e.contains("parameter charging: \"sometimes\" is none of \"auto\", \"ask\", \"off\""), "{e}");
     let e = build(&r, &parse_overrides(&["waypoints=[[0,0]]".into()]).expect("o"), &robots(&["ground"])).unwrap_err().to_string();
     assert!(e.contains("at least 2 points"), "{e}");
     assert!(parse_overrides(&["novalue".into()]).is_err());

@@ -8,6 +8,7 @@ use mrmm_proto::{Advice, MissionName, MissionStatus, MissionView, PlanSummary, P
 use serde_json::json;
 
 use super::{AgentConfig, Candidate, Memory};
+use crate::central::charging::Mode;
 
 pub(super) fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
     let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_ref().map(|x| x.as_str()).unwrap_or("none")));
@@ -116,7 +117,7 @@ pub(crate) fn evaluate(
     let waiting: std::collections::BTreeSet<&RobotId> = traffic.iter().flat_map(|m| &m.robots).filter(|t| t.waiting_s.is_some()).map(|t| &t.robot).collect();
     stuck_robots(cfg, mem, robots, &waiting, now, &mut out);
     blocked_in_traffic(cfg, robots, traffic, now, &mut out);
-    batteries(cfg, robots, now, &mut out);
+    batteries(cfg, robots, missions, now, &mut out);
     super::forecast::measure(&mut mem.drains, robots, now);
     super::forecast::forecast(cfg, &mem.drains, robots, missions, now, &mut out);
     out
@@ -125,23 +126,35 @@ pub(crate) fn evaluate(
 /// A charge below this counts as empty (the robot cannot drive).
 const EMPTY: f64 = 0.005;
 
-/// Robots whose battery is empty (critical: it stands where it died) or low, not charging.
-fn batteries(cfg: &AgentConfig, robots: &[RobotView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+/// Robots whose battery is empty (critical: it stands where it died) or low, not charging. A low
+/// robot of a mission that charges on the operator's word (`charging=ask`) comes with the order
+/// that sends it; one of a mission that never charges (`off`) says so.
+fn batteries(cfg: &AgentConfig, robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
     for r in robots.iter().filter(|r| r.status != RobotStatus::Lost) {
         let Some(b) = r.battery.filter(|b| !b.charging && b.charge < cfg.battery_low.max(EMPTY)) else { continue };
         // Two ids: an advice keeps its priority, and empty is news after low.
         let at = r.pose.map(|p| format!(" at ({:.1}, {:.1})", p.x, p.y)).unwrap_or_default();
+        let mode = r.mission.as_ref().and_then(|m| missions.iter().find(|v| &v.name == m)).map(|m| (m.name.clone(), Mode::of(m)));
         let (id, priority, reason) = if b.charge < EMPTY {
             (format!("battery/{}/empty", r.id), Priority::Critical, format!("robot {}'s battery is empty: it stands{at}", r.id))
         } else {
             let reach = b.reach_m.map(|m| format!(", {m:.0} m left")).unwrap_or_default();
+            let why = match &mode {
+                Some((m, Mode::Ask)) => format!(": mission {m} charges its robots on the operator's word"),
+                Some((m, Mode::Off)) => format!(": mission {m} does not charge its robots (charging=off)"),
+                _ => String::new(),
+            };
             (
                 format!("battery/{}/low", r.id),
                 Priority::Warning,
-                format!("robot {}'s battery is at {:.0} %{reach}, and it is not charging", r.id, b.charge * 100.0),
+                format!("robot {}'s battery is at {:.0} %{reach}, and it is not charging{why}", r.id, b.charge * 100.0),
             )
         };
-        out.insert(id.clone(), candidate(id, priority, reason, json!({"robot": r.id, "charge": b.charge, "reach_m": b.reach_m}), now, None));
+        let mut c = candidate(id.clone(), priority, reason, json!({"robot": r.id, "charge": b.charge, "reach_m": b.reach_m}), now, None);
+        if matches!(mode, Some((_, Mode::Ask))) && b.charge >= EMPTY {
+            c.advice.suggestion = Some(format!("mrmm op charge {}", r.id));
+        }
+        out.insert(id, c);
     }
 }
 

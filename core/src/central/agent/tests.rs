@@ -456,3 +456,21 @@ fn a_mission_that_will_run_short_of_charged_spares_is_forecast() {
     off.handle(0.0, snap(fleet(0.0, 0), vec![p()]));
     assert!(forecasts(&off.handle(30.0, snap(fleet(30.0, 0), vec![p()]))).is_empty());
 }
+
+/// A low robot of a mission with `charging=ask` comes with the order that sends it; with `off`
+/// the advice says the mission does not charge its robots.
+#[test]
+fn low_robots_of_missions_that_do_not_charge_automatically_say_so() {
+    let mut r1 = robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1");
+    r1.battery = Some(BatteryState { charge: 0.1, charging: false, reach_m: None });
+    for (mode, says, suggests) in [("ask", "on the operator's word", Some("mrmm op charge r1")), ("off", "charging=off", None), ("auto", "not charging", None)]
+    {
+        let mut a = Agent::new(AgentConfig::default());
+        let mut p = mission("p", "coverage", &["r1"], None, None);
+        p.params.insert("charging".into(), mode.into());
+        a.handle(0.0, snap(vec![r1.clone()], vec![p]));
+        let advice = a.advice().into_iter().find(|x| x.id == "battery/r1/low").expect("raised");
+        assert!(advice.reason.contains(says), "{mode}: {}", advice.reason);
+        assert_eq!(advice.suggestion.as_deref(), suggests, "{mode}");
+    }
+}

@@ -201,6 +201,25 @@ fn a_robot_just_charged_is_a_spare_at_once() {
     assert_eq!(cmds, [plug("s1", false), goto("s1", 10.0, 0.0), mv("r2", None), mv("s1", Some("p")), goto("r2", 0.0, 0.0)]);
 }
 
+/// A mission's `charging` parameter: `off` and `ask` keep the policy from sending its robots
+/// (the operator still can: `ask` is for them); `auto`, or none, lets it.
+#[test]
+fn a_mission_that_charges_on_the_operators_word_or_never_is_left_alone() {
+    let maps = [office(&[("c1", 0.0, 0.0)])];
+    let r1 = robot("r1", 0.1, Some("p"), (5.0, 0.0));
+    let with = |mode: &str| MissionView { params: [("charging".to_string(), mode.to_string())].into(), ..patrol(&["r1"]) };
+    for mode in ["off", "ask"] {
+        let mut c = Charging::new(ChargingConfig::default());
+        assert!(look(&mut c, 0.0, std::slice::from_ref(&r1), &[with(mode)], &maps).is_empty(), "{mode}");
+        assert_eq!(Mode::of(&with(mode)).as_str(), mode);
+    }
+    let mut c = Charging::new(ChargingConfig::default());
+    let fleet = Fleet { robots: std::slice::from_ref(&r1), missions: &[with("ask")], maps: &maps };
+    assert_eq!(c.charge(0.0, "r1", fleet).expect("the operator sends it").1, [mv("r1", None), goto("r1", 0.0, 0.0)]);
+    let mut c = Charging::new(ChargingConfig::default());
+    assert_eq!(look(&mut c, 0.0, std::slice::from_ref(&r1), &[with("auto")], &maps), [mv("r1", None), goto("r1", 0.0, 0.0)]);
+}
+
 /// Chargers are reserved: two low robots, one charger — the emptier goes, the other waits until
 /// it is free (and never takes a reserved one); a lost robot frees its charger.
 #[test]
