@@ -36,6 +36,8 @@ impl Default for ChargingConfig {
 pub const ARRIVED_M: f64 = 0.3;
 /// A robot standing away from its charger is sent to it again after this long, seconds.
 pub const RESEND_S: f64 = 10.0;
+/// A robot plugged in says it charges within this long, seconds (its telemetry's delay).
+pub const PLUG_GRACE_S: f64 = 3.0;
 /// A spare moved in for a charging robot needs at least this charge.
 pub const SPARE_ABOVE: f64 = 0.5;
 /// A low robot and the spare sent to relieve it swap once this close, metres: on a map with
@@ -242,6 +244,7 @@ impl Charging {
         if !e.plugged {
             if near && standing {
                 e.plugged = true;
+                e.sent = now;
                 out.push(Command::Plug { robot: r.id.clone(), on: true });
             } else if standing && now - e.sent >= RESEND_S {
                 e.sent = now;
@@ -257,6 +260,14 @@ impl Charging {
                 }
                 out.extend(cmds);
             }
+            return;
+        }
+        // Plugged in, yet it says it is not charging: something else unplugged it (traffic had
+        // it make way, a goal of its own): plugged in again where it stands, else sent back.
+        if r.battery.is_some_and(|b| !b.charging) && now - e.sent >= PLUG_GRACE_S {
+            tracing::info!(robot = %r.id, charger = %e.charger.name, "charging: unplugged by something else; plugged in again");
+            e.plugged = false;
+            e.sent = now - RESEND_S;
         }
     }
 

@@ -220,6 +220,31 @@ fn a_mission_that_charges_on_the_operators_word_or_never_is_left_alone() {
     assert_eq!(look(&mut c, 0.0, std::slice::from_ref(&r1), &[with("auto")], &maps), [mv("r1", None), goto("r1", 0.0, 0.0)]);
 }
 
+/// A robot plugged in that stops charging without being told (traffic had it make way; the new
+/// goal unplugged it) is plugged in again when it stands at its charger, sent back when it stands
+/// elsewhere; never before its telemetry had time to say it charges. Before, its errand waited
+/// for a charge that never came.
+#[test]
+fn a_robot_unplugged_by_something_else_is_plugged_in_again() {
+    let maps = [office(&[("c1", 0.0, 0.0)])];
+    let mut c = Charging::new(ChargingConfig::default());
+    let mut r1 = robot("r1", 0.1, None, (0.0, 0.0));
+    assert_eq!(look(&mut c, 0.0, std::slice::from_ref(&r1), &[], &maps), [goto("r1", 0.0, 0.0)]);
+    assert_eq!(look(&mut c, 1.0, std::slice::from_ref(&r1), &[], &maps), [plug("r1", true)]);
+    assert!(look(&mut c, 2.0, std::slice::from_ref(&r1), &[], &maps).is_empty(), "its telemetry has not said so yet");
+    r1.battery = Some(BatteryState { charge: 0.3, charging: true, reach_m: None });
+    assert!(look(&mut c, 5.0, std::slice::from_ref(&r1), &[], &maps).is_empty(), "charging");
+    // Made way in traffic: off the charger, not charging.
+    r1.battery = Some(BatteryState { charge: 0.3, charging: false, reach_m: None });
+    r1.pose = Some(Pose { x: 3.0, y: 0.0, theta: 0.0 });
+    r1.behaviour = Some("goto(3.0,0.0)".into());
+    assert!(look(&mut c, 6.0, std::slice::from_ref(&r1), &[], &maps).is_empty(), "driving: left alone");
+    r1.behaviour = Some("hold".into());
+    assert_eq!(look(&mut c, 7.0, std::slice::from_ref(&r1), &[], &maps), [goto("r1", 0.0, 0.0)], "standing elsewhere: sent back");
+    r1.pose = Some(Pose { x: 0.0, y: 0.0, theta: 0.0 });
+    assert_eq!(look(&mut c, 9.0, std::slice::from_ref(&r1), &[], &maps), [plug("r1", true)], "back: plugged in again");
+}
+
 /// Chargers are reserved: two low robots, one charger — the emptier goes, the other waits until
 /// it is free (and never takes a reserved one); a lost robot frees its charger.
 #[test]
