@@ -177,7 +177,7 @@ impl Charging {
             self.follow(now, by_id[&id], fleet, &mut out);
         }
         // Robots of a mission that charges on the operator's word, or never, are not sent.
-        let auto = |r: &RobotView| r.mission.as_ref().and_then(|m| fleet.missions.iter().find(|v| &v.name == m)).is_none_or(|m| Mode::of(m) == Mode::Auto);
+        let auto = |r: &RobotView| mission_of(r, fleet.missions).is_none_or(|m| Mode::of(m) == Mode::Auto);
         let mut low: Vec<&RobotView> = fleet.robots.iter().filter(|r| self.needs_charge(r) && auto(r)).collect();
         // A relief for a robot that no longer needs one (charged some other way, lost) is over.
         self.reliefs.retain(|id, _| low.iter().any(|r| &r.id == id));
@@ -299,7 +299,7 @@ impl Charging {
                 self.reliefs.remove(&r.id);
             }
         }
-        let Some(m) = r.mission.as_ref().and_then(|m| fleet.missions.iter().find(|v| &v.name == m)) else { return true };
+        let Some(m) = mission_of(r, fleet.missions) else { return true };
         if charge(r) < RELIEF_CRITICAL * self.cfg.go_below {
             return true;
         }
@@ -311,7 +311,7 @@ impl Charging {
             return met || now - rel.since >= RELIEF_S;
         }
         let (Some(spare), Some(map), Some(p)) = (self.spare(fleet, m, r), map_of(Some(m), fleet.maps), r.pose) else { return true };
-        if self.charger_free(&map.name, map) {
+        if self.charger_free(map) {
             out.push(Command::Goto { robot: spare.clone(), map: map.name.clone(), x: p.x, y: p.y });
             self.reliefs.insert(r.id.clone(), Relief { spare, since: now });
         }
@@ -319,13 +319,13 @@ impl Charging {
     }
 
     /// Whether map `map` has a charger no robot holds.
-    fn charger_free(&self, name: &str, map: &MapInfo) -> bool {
-        map.chargers.iter().any(|c| !self.taken(name, c))
+    fn charger_free(&self, map: &MapInfo) -> bool {
+        map.chargers.iter().any(|c| !self.taken(&map.name, c))
     }
 
     /// Sends `r` to the nearest free charger of its map; why not, if it cannot.
     fn dispatch(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, relief: Option<RobotId>, out: &mut Vec<Command>) -> Result<Charger, String> {
-        let mission = r.mission.as_ref().and_then(|m| fleet.missions.iter().find(|v| &v.name == m));
+        let mission = mission_of(r, fleet.missions);
         let map = map_of(mission, fleet.maps).ok_or_else(|| match mission {
             Some(m) => format!("mission {} is on no map with chargers", m.name),
             None => "it is in no mission, and central has not exactly one map with chargers".to_string(),
@@ -436,6 +436,11 @@ fn fits(r: &RobotView, robot_type: Option<&String>, requires: &[String]) -> bool
 /// How far `p` is from charger `c`, metres.
 fn away(p: mrmm_proto::Pose, c: &Charger) -> f64 {
     (p.x - c.at.x).hypot(p.y - c.at.y)
+}
+
+/// The mission robot `r` is in, as central sees it.
+pub(crate) fn mission_of<'a>(r: &RobotView, missions: &'a [MissionView]) -> Option<&'a MissionView> {
+    r.mission.as_ref().and_then(|m| missions.iter().find(|v| &v.name == m))
 }
 
 /// A robot's charge, full when it has no battery.

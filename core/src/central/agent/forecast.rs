@@ -12,13 +12,12 @@ use serde_json::json;
 
 use super::rules::{candidate, fits};
 use super::{AgentConfig, Candidate};
+use crate::central::charging::SPARE_ABOVE;
 
 /// A rate is measured over at least this long, seconds, and its window restarts after
 /// [`WINDOW_S`] (the rate follows a robot's work as it changes).
 const MEASURE_S: f64 = 30.0;
 const WINDOW_S: f64 = 300.0;
-/// A spare needs at least this charge (the charging policy's [`crate::central::charging::SPARE_ABOVE`]).
-const SPARE_ABOVE: f64 = crate::central::charging::SPARE_ABOVE;
 
 /// How a robot's charge moves: a window's first sample and the rate last measured (charge per
 /// second; negative while it charges).

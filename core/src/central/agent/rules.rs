@@ -8,7 +8,7 @@ use mrmm_proto::{Advice, MissionName, MissionStatus, MissionView, PlanSummary, P
 use serde_json::json;
 
 use super::{AgentConfig, Candidate, Memory};
-use crate::central::charging::Mode;
+use crate::central::charging::{mission_of, Mode};
 
 pub(super) fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
     let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_ref().map(|x| x.as_str()).unwrap_or("none")));
@@ -134,7 +134,7 @@ fn batteries(cfg: &AgentConfig, robots: &[RobotView], missions: &[MissionView], 
         let Some(b) = r.battery.filter(|b| !b.charging && b.charge < cfg.battery_low.max(EMPTY)) else { continue };
         // Two ids: an advice keeps its priority, and empty is news after low.
         let at = r.pose.map(|p| format!(" at ({:.1}, {:.1})", p.x, p.y)).unwrap_or_default();
-        let mode = r.mission.as_ref().and_then(|m| missions.iter().find(|v| &v.name == m)).map(|m| (m.name.clone(), Mode::of(m)));
+        let mode = mission_of(r, missions).map(|m| (m.name.clone(), Mode::of(m)));
         let (id, priority, reason) = if b.charge < EMPTY {
             (format!("battery/{}/empty", r.id), Priority::Critical, format!("robot {}'s battery is empty: it stands{at}", r.id))
         } else {
