@@ -73,13 +73,15 @@ async fn latency(moves: usize, creates: usize) -> anyhow::Result<()> {
         let robot = format!("r{}", 3 + i % 6);
         let to = if (i / 6) % 2 == 0 { "a" } else { "b" };
         let t = Instant::now();
-        let _: serde_json::Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.into(), to: Some(to.into()) })).await?;
+        let _: serde_json::Value =
+            client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.into(), to: Some(to.into()), replaces: None })).await?;
         ms.push(t.elapsed().as_secs_f64() * 1000.0);
     }
     stats("robot move", ms);
     // Creates take free robots: the six movers are freed first.
     for i in 3..=8 {
-        let _: serde_json::Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: format!("r{i}").into(), to: None })).await?;
+        let _: serde_json::Value =
+            client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: format!("r{i}").into(), to: None, replaces: None })).await?;
     }
     eventually("six idle robots", Duration::from_secs(20), || async {
         let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;

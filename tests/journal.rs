@@ -91,7 +91,7 @@ async fn a_power_cycle_brings_the_missions_back_as_they_were() -> anyhow::Result
         ..MissionCreate::default()
     };
     let _: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&coverage)).await?;
-    let _: Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: "r3".into(), to: Some("c".into()) })).await?;
+    let _: Value = client.query(cmd(proto::SystemCmd::Move), Some(&RobotMove { robot: "r3".into(), to: Some("c".into()), replaces: None })).await?;
     // A third mission takes its share (one robot, from the larger mission), and is terminated.
     let third = MissionCreate { name: "t".into(), robots: None, ..patrol("t", &[]) };
     let t: MissionView = client.query(cmd(proto::SystemCmd::Create), Some(&third)).await?;
@@ -313,7 +313,11 @@ fn apply(model: &mut Model, op: &Op, _answer: &Value) {
 async fn send(c: &Client, op: &Op) -> Result<Value, String> {
     let r = match op {
         Op::Move { robot, to } => {
-            c.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.clone().into(), to: to.clone().map(Into::into) })).await
+            c.query(
+                proto::Key::SystemCmd(proto::SystemCmd::Move),
+                Some(&RobotMove { robot: robot.clone().into(), to: to.clone().map(Into::into), replaces: None }),
+            )
+            .await
         }
         Op::Terminate { name } => c.query(proto::Key::SystemCmd(proto::SystemCmd::Terminate), Some(&MissionTerminate { name: name.clone().into() })).await,
     };

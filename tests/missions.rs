@@ -79,7 +79,8 @@ async fn two_missions_repartitioned_live() -> anyhow::Result<()> {
     println!("patrol round: worst idleness {:?} s, average {:?} s, predicted {predicted} s", p.metrics.worst_idleness, p.metrics.avg_idleness);
 
     // Move r4 to the coverage: patrol replanned to 3 evenly spaced, coverage to 3 points.
-    let moved: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: "r4".into(), to: Some("c".into()) })).await?;
+    let moved: Value =
+        client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: "r4".into(), to: Some("c".into()), replaces: None })).await?;
     assert_eq!(moved["from"], "p");
     let p = eventually("patrol replanned for 3", Duration::from_secs(10), || async {
         let m = mission(&client, "p").await?;

@@ -139,6 +139,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
     }
     // b. A plan with a huge epoch for r1: refused by r1 (r9 is not a manager of p).
     let mut bogus = proto::PlanAssignment {
+        handover: None,
         mission: "p".into(),
         epoch: u64::MAX,
         team: "p".into(),

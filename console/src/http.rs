@@ -193,7 +193,7 @@ async fn assign(State(st): State<AppState>, body: Result<Json<Assign>, JsonRejec
     // One at a time, in order: central replans the mission after each move anyway.
     let mut results = Vec::with_capacity(a.robots.len());
     for robot in a.robots {
-        let mv = RobotMove { robot: robot.as_str().into(), to: a.to.as_deref().map(Into::into) };
+        let mv = RobotMove { robot: robot.as_str().into(), to: a.to.as_deref().map(Into::into), replaces: None };
         let body = match serde_json::to_value(&mv) {
             Ok(b) => b,
             Err(e) => return error(StatusCode::INTERNAL_SERVER_ERROR, e.to_string()),

@@ -66,6 +66,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
                 .collect();
             steps.push(Step::Loop { to: 0, rounds: None });
             let a = PlanAssignment {
+                handover: None,
                 mission: "m".into(),
                 epoch: 1,
                 team: "m".into(),

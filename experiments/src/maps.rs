@@ -192,6 +192,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
         .into_iter()
         .map(|plan| {
             Executor::new(PlanAssignment {
+                handover: None,
                 mission: "m".into(),
                 epoch: 1,
                 team: "m".into(),

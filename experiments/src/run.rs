@@ -116,7 +116,7 @@ async fn measure(fleet: &Fleet, name: &str, spec: &Spec) -> anyhow::Result<Row> 
         // The leave flow for each (a create does not take robots from a running mission), then
         // the coverage mission with them.
         for r in &out {
-            command(fleet, proto::SystemCmd::Move, &RobotMove { robot: r.clone().into(), to: None }).await?;
+            command(fleet, proto::SystemCmd::Move, &RobotMove { robot: r.clone().into(), to: None, replaces: None }).await?;
         }
         let coverage = MissionCreate {
             name: format!("{name}-coverage").into(),

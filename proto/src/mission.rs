@@ -79,6 +79,9 @@ pub enum MissionCtl {
     Joined { member: Member },
     /// Robots leave the team (replan without them).
     Left { ids: Vec<crate::ids::RobotId> },
+    /// A robot takes the place of member `out` (a hand-over): `out` leaves, `member` carries on
+    /// its plan from where it was, the other members go on with theirs.
+    Replaced { out: crate::ids::RobotId, member: Member },
     /// The mission is now `spec` (new parameters or map: replanned as the next epoch; paused or
     /// resumed); its members stay.
     Update { spec: MissionSpecWire },
@@ -116,6 +119,10 @@ pub struct MissionSnapshot {
     /// The patrol metrics as last checkpointed (once a second): a new head goes on counting.
     #[serde(default)]
     pub tally: Option<MetricsTally>,
+    /// The current plan's epoch carries on an earlier one (hand-overs): where each member
+    /// starts if it does not run that plan already.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub handover: Option<crate::robot::HandoverState>,
 }
 
 /// What a mission's visit metrics have accumulated, replicated with its state so a takeover does

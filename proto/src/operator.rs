@@ -177,6 +177,11 @@ pub struct MissionPause {
 pub struct RobotMove {
     pub robot: RobotId,
     pub to: Option<MissionName>,
+    /// A member of mission `to` whose place the robot takes (a hand-over): the member leaves
+    /// and the robot carries on its plan from where it was, the other members going on with
+    /// theirs (no replan). The leaver is freed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replaces: Option<RobotId>,
 }
 
 /// `mrmm/system/cmd/robot/capabilities`: the robot's capabilities change (names to add and to

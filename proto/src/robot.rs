@@ -358,6 +358,32 @@ pub struct PlanAssignment {
     /// lanes its traffic authority grants (`mrmm/traffic/<hash>/…`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub map: Option<crate::MapRef>,
+    /// The plan carries on an earlier epoch's (a member was replaced, the others go on): a
+    /// robot running the same plan of that lineage keeps its place in it; one that does not
+    /// (the member that came in) starts where this says.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub handover: Option<Handover>,
+}
+
+/// How a plan carries on an earlier one after a hand-over.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Handover {
+    /// The epoch the plan was made for (by a planner); hand-overs since keep it.
+    pub planned: u64,
+    /// The step a robot not running the plan yet starts at, and the round it is in.
+    pub step: u32,
+    pub round: u32,
+}
+
+/// A mission manager's record of the hand-overs since its plan was made: the epoch it was made
+/// for, and where each member that came in (or any member, if it did not run the plan) starts.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HandoverState {
+    pub planned: u64,
+    /// Per member: (step, round).
+    pub starts: std::collections::BTreeMap<crate::ids::RobotId, (u32, u32)>,
 }
 
 /// The members of a team above a robot's own that take part in its barriers.
@@ -397,6 +423,12 @@ impl PlanAssignment {
             && self.barrier == other.barrier
             && self.plan == other.plan
             && self.scopes == other.scopes
+            && self.handover == other.handover
+    }
+
+    /// The epoch of the plan this one is a copy of: its own, or the one it carries on.
+    pub fn planned(&self) -> u64 {
+        self.handover.map_or(self.epoch, |h| h.planned)
     }
 }
 

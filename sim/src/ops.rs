@@ -89,8 +89,8 @@ impl Operator {
                 1 => Request::Pause(MissionPause { name }),
                 _ => Request::Resume(MissionPause { name }),
             },
-            (4..=6, Some(name)) => Request::Move(RobotMove { robot, to: Some(name) }),
-            (7, _) => Request::Move(RobotMove { robot, to: None }),
+            (4..=6, Some(name)) => Request::Move(RobotMove { robot, to: Some(name), replaces: None }),
+            (7, _) => Request::Move(RobotMove { robot, to: None, replaces: None }),
             (_, Some(name)) => Request::Terminate(MissionTerminate { name }),
         };
         self.next_req += 1;
@@ -103,6 +103,14 @@ impl Operator {
         let camera = vec!["camera".to_string()];
         let (add, remove) = if has { (vec![], camera) } else { (camera, vec![]) };
         let request = Request::Capabilities(CapabilitiesRequest { robot: robot.into(), add, remove });
+        self.next_req += 1;
+        self.pending.insert(self.next_req, request.clone());
+        (self.next_req, request)
+    }
+
+    /// `robot` takes `out`'s place in mission `to` (a hand-over).
+    pub fn replace(&mut self, robot: String, to: MissionName, out: RobotId) -> (u64, Request) {
+        let request = Request::Move(RobotMove { robot: robot.into(), to: Some(to), replaces: Some(out) });
         self.next_req += 1;
         self.pending.insert(self.next_req, request.clone());
         (self.next_req, request)

@@ -140,6 +140,7 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
             let cmd = match act {
                 Act::Order => proto::RobotCommand::Goto { x: 5.0, y: 5.0, via: vec![] },
                 _ => proto::RobotCommand::Plan(Box::new(proto::PlanAssignment {
+                    handover: None,
                     mission: "m".into(),
                     epoch: 1,
                     team: "m".into(),

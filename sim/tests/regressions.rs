@@ -36,10 +36,12 @@ macro_rules! seeds {
 
 seeds! {
     seed_0 = 0: "chain: a replica's state parsed from a chain message's JSON differed from the head's by a float's last bit (serde_json without `float_roundtrip`)";
+    seed_1 = 1: "system (with hand-overs): a carried-on leader announced, under the new epoch, a release it knew from the old one before the newcomer arrived there";
     seed_18 = 18: "chain: catches a head elected without Raft's up-to-date rule (when `Replica::on_vote` drops it); membership: catches a robot shown lost for good when central missed its token's return (without central's roll call)";
     seed_44 = 44: "system: catches a member left on an old epoch when an unacknowledged plan is never re-sent";
     seed_159 = 159: "system: kept from the issue's list of seeds that found bugs";
     seed_166 = 166: "system: kept from the issue's list of seeds that found bugs";
+    seed_176 = 176: "system (with hand-overs): a lost member replaced stayed among the mission's lost, came back into it and was in two missions";
     seed_375 = 375: "system: a robot moved out of a mission whose start was never answered joined a third mission";
     seed_890 = 890: "system: a release waiting for another mission's control held up unrelated robots";
     seed_1473 = 1473: "system: an old head told of a higher promise re-elected itself into the new lineage's epochs with the old state";

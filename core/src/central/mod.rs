@@ -249,7 +249,10 @@ impl CentralCore {
     fn charging_commands(&mut self, now: f64, cmds: Vec<charging::Command>, out: &mut Vec<Command>) {
         for c in cmds {
             let (robot, request) = match c {
-                charging::Command::Move { robot, to } => (robot.clone(), Request::Move(mrmm_proto::RobotMove { robot, to })),
+                charging::Command::Move { robot, to } => (robot.clone(), Request::Move(mrmm_proto::RobotMove { robot, to, replaces: None })),
+                charging::Command::Replace { robot, to, out } => {
+                    (robot.clone(), Request::Move(mrmm_proto::RobotMove { robot, to: Some(to), replaces: Some(out) }))
+                }
                 charging::Command::Goto { robot, map, x, y } => (robot.clone(), Request::Goto(mrmm_proto::GotoRequest { robot, x, y, map: Some(map) })),
                 charging::Command::Plug { robot, on } => {
                     tracing::info!(%robot, on, "charging: plug");

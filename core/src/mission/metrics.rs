@@ -77,6 +77,11 @@ impl Metrics {
         self.ages = Some(t.since_visit.clone());
     }
 
+    /// A member's progress as it last reported it.
+    pub fn progress_of(&self, id: &str) -> Option<&Progress> {
+        self.progress.get(id)
+    }
+
     /// A member left: its progress is no longer part of the team's.
     pub fn forget(&mut self, id: &str) -> Option<Progress> {
         for p in &mut self.present {

@@ -17,7 +17,7 @@ use std::collections::BTreeMap;
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::geom::Point;
 use mrmm_proto::plan::{MissionPlan, PlanSummary, RobotSpec};
-use mrmm_proto::{self as proto, Member, MissionSnapshot, MissionStatus, NodeId, PlanAssignment, PlanRequest, RobotId, Telemetry};
+use mrmm_proto::{self as proto, HandoverState, Member, MissionSnapshot, MissionStatus, NodeId, PlanAssignment, PlanRequest, RobotId, Telemetry};
 
 pub use burst::{LOSS_BURST_MAX_S, LOSS_BURST_S, LOSS_QUIET_S};
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
@@ -46,6 +46,14 @@ pub enum Event {
     /// Robots leave (moved out, ordered out); one replan for all of them.
     Left {
         ids: Vec<RobotId>,
+    },
+    /// A robot takes member `out`'s place (a hand-over): `out` leaves, the robot carries on its
+    /// plan from where `out` was, the other members go on with theirs — a new epoch, no replan.
+    /// Without a plan to carry on (none yet, paused, a replan pending, `out` not in it or not
+    /// heard from on it) it is a leave and a join: one replan.
+    Replaced {
+        out: RobotId,
+        by: Member,
     },
     /// Robots were lost (liveliness): like `Left`, but they are remembered and may rejoin.
     Lost {
@@ -114,6 +122,8 @@ pub struct MissionManager {
     burst: burst::LossBurst,
     /// The recipe's leaf teams (none for a recipe planned as a whole).
     shapes: Vec<teams::TeamShape>,
+    /// The current plan carries on an earlier epoch's (hand-overs since it was planned).
+    handover: Option<HandoverState>,
 }
 
 impl MissionManager {
@@ -137,6 +147,7 @@ impl MissionManager {
             tally: None,
             stuck: BTreeMap::new(),
             burst: burst::LossBurst::default(),
+            handover: None,
         }
     }
 
@@ -167,6 +178,7 @@ impl MissionManager {
         mm.plan_msgs = snap.plan_msgs;
         mm.sync_msgs_left = snap.sync_msgs_left;
         mm.revision = snap.revision;
+        mm.handover.clone_from(&snap.handover);
         mm.replicated = Some(snap);
         Ok(mm)
     }
@@ -186,6 +198,7 @@ impl MissionManager {
             sync_msgs_left: self.sync_msgs_left,
             revision: self.revision,
             tally: self.tally.clone(),
+            handover: self.handover.clone(),
         }
     }
 
@@ -282,6 +295,7 @@ impl MissionManager {
             }
             Event::Left { ids } | Event::Lost { ids } if ids.is_empty() => vec![],
             Event::Lost { ids } => self.members_lost(now, ids),
+            Event::Replaced { out, by } => self.replaced(out, by),
             Event::Tick => match self.burst.due() {
                 Some(due) if now >= due => self.plan_current(),
                 _ => vec![],
@@ -459,6 +473,62 @@ impl MissionManager {
         }
     }
 
+    /// `by` takes `out`'s place in the current plan ([`Event::Replaced`]): the plan is the same
+    /// with `by` for `out`, under a new epoch; `by` starts where `out` last said it was, every
+    /// other member goes on where it is (or, not running the plan, starts where it last said).
+    fn replaced(&mut self, out: RobotId, by: Member) -> Vec<Command> {
+        self.lost.remove(&by.spec.id);
+        // Out for good, as with `Left`: a lost leaver coming back must not rejoin (found by the
+        // system sim, seed 176 with hand-overs).
+        self.lost.remove(&out);
+        let id = by.spec.id.clone();
+        let Some((mut plan, handover)) = self.handover_of(&out, &id) else {
+            tracing::info!(mission = %self.spec.name, %out, by = %id, "no plan to hand over: replanning");
+            self.take_out(vec![out]);
+            self.members.insert(id, by);
+            return self.replan();
+        };
+        for rp in plan.plans.iter_mut().filter(|rp| rp.robot == out) {
+            rp.robot = id.clone();
+            rp.robot_type.clone_from(&by.spec.robot_type);
+        }
+        self.take_out(vec![out.clone()]);
+        self.members.insert(id.clone(), by);
+        self.epoch = self.epoch.saturating_add(1);
+        let epoch = self.epoch;
+        tracing::info!(mission = %self.spec.name, epoch, %out, by = %id, "hand-over: the plan goes on");
+        self.handover = Some(handover);
+        let cmds = self.assignments(epoch, &plan);
+        self.plan_msgs = self.plan_msgs.saturating_add(cmds.len() as u64);
+        self.plan = Some((epoch, plan));
+        cmds
+    }
+
+    /// What a hand-over of `out`'s place to `by` carries on: the current plan, and the epoch it
+    /// was planned for with where each member starts (`by` where `out` was). `None` if there is
+    /// no plan to carry on.
+    fn handover_of(&self, out: &RobotId, by: &RobotId) -> Option<(MissionPlan, HandoverState)> {
+        let (epoch, plan) = self.plan.as_ref().filter(|(e, _)| *e == self.epoch)?;
+        let usable = self.members.contains_key(out) && !self.members.contains_key(by) && !self.spec.paused && self.burst.due().is_none();
+        if !usable || !plan.plans.iter().any(|rp| &rp.robot == out) {
+            return None;
+        }
+        let at = |id: &RobotId| self.metrics.progress_of(id.as_str()).filter(|p| p.epoch == *epoch && p.mission == self.spec.name).map(|p| (p.step, p.round));
+        let from = at(out)?;
+        let mut starts: std::collections::BTreeMap<RobotId, (u32, u32)> =
+            self.members.keys().filter(|m| *m != out).filter_map(|m| Some((m.clone(), at(m)?))).collect();
+        starts.insert(by.clone(), from);
+        let planned = self.handover.as_ref().map_or(*epoch, |h| h.planned);
+        Some((plan.clone(), HandoverState { planned, starts }))
+    }
+
+    /// The hand-over a member's plan of the current epoch carries, if the plan carries on one.
+    pub(crate) fn handover_for(&self, robot: &RobotId) -> Option<proto::Handover> {
+        let h = self.handover.as_ref()?;
+        let (step, round) = h.starts.get(robot).copied().unwrap_or((0, 0));
+        Some(proto::Handover { planned: h.planned, step, round })
+    }
+
     /// Takes members out; one replan if any was in.
     fn remove(&mut self, ids: Vec<RobotId>) -> Vec<Command> {
         if self.take_out(ids) {
@@ -492,6 +562,7 @@ impl MissionManager {
     /// A plan of the current epoch for the current members (a replan held back is no longer).
     fn plan_current(&mut self) -> Vec<Command> {
         self.burst.clear();
+        self.handover = None;
         if self.members.is_empty() {
             self.status = MissionStatus::Stalled;
             return vec![];

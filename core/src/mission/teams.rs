@@ -87,6 +87,7 @@ impl MissionManager {
                         barrier: self.barrier(),
                         scopes,
                         map: self.spec.map.clone(),
+                        handover: self.handover_for(&rp.robot),
                     }),
                 })
             })

@@ -119,6 +119,61 @@ fn joining_replans_including_the_newcomer() {
     assert_eq!(m.view(false).teams["p1/ground"], ["a", "b", "d"]);
 }
 
+/// The plans sent, by robot.
+fn plans_sent(cmds: &[Command]) -> BTreeMap<String, PlanAssignment> {
+    cmds.iter()
+        .filter_map(|c| match c {
+            Command::SendPlan { robot, assignment } => Some((robot.to_string(), (**assignment).clone())),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_hand_over_carries_the_plan_on_without_a_replan() {
+    let mut m = started();
+    let before = plans_sent(&m.current_assignments());
+    m.handle(1.0, Event::Telemetry(Box::new(tel("a", 0.0, 0.0, 4, 2))));
+    m.handle(1.0, Event::Telemetry(Box::new(tel("b", 5.0, 0.0, 4, 2))));
+    let cmds = m.handle(2.0, Event::Replaced { out: "b".into(), by: robot("d", "ground", 6.0) });
+    assert!(!cmds.iter().any(|c| matches!(c, Command::RequestPlan { .. })), "no planner asked: {cmds:?}");
+    let sent = plans_sent(&cmds);
+    assert_eq!(sent.keys().collect::<Vec<_>>(), ["a", "c", "d"]);
+    let (a, d) = (&sent["a"], &sent["d"]);
+    assert_eq!(a.epoch, 2);
+    assert_eq!(a.plan, before["a"].plan, "the others' plans are the same");
+    assert_eq!(a.members, ["a", "d", "c"], "the team has the newcomer instead");
+    assert_eq!(d.plan.steps, before["b"].plan.steps, "the newcomer has the leaver's plan");
+    assert_eq!((d.plan.robot.as_str(), d.plan.slot), ("d", before["b"].plan.slot));
+    assert_eq!(d.handover, Some(proto::Handover { planned: 1, step: 3, round: 2 }), "from where the leaver was");
+    assert_eq!(a.handover.map(|h| h.planned), Some(1));
+    assert_eq!(sent["c"].handover.map(|h| (h.step, h.round)), Some((0, 0)), "c never said where it is");
+    assert_eq!(m.view(false).teams["p1/ground"], ["a", "d"]);
+
+    // A second hand-over keeps the lineage; a new head re-sends the same.
+    m.handle(
+        3.0,
+        Event::Telemetry(Box::new(Telemetry {
+            progress: Some(Progress { epoch: 2, ..tel("d", 6.0, 0.0, 1, 3).progress.expect("p") }),
+            ..tel("d", 6.0, 0.0, 1, 3)
+        })),
+    );
+    let cmds = m.handle(4.0, Event::Replaced { out: "d".into(), by: robot("e", "ground", 6.0) });
+    let e = &plans_sent(&cmds)["e"];
+    assert_eq!((e.epoch, e.handover), (3, Some(proto::Handover { planned: 1, step: 3, round: 3 })));
+    let snap = m.snapshot();
+    let again = MissionManager::restore(snap, "other".into()).expect("restore");
+    assert_eq!(plans_sent(&again.current_assignments())["e"].handover, e.handover);
+
+    // Without word from the leaver on the current plan: a leave and a join, one replan.
+    let cmds = m.handle(5.0, Event::Replaced { out: "a".into(), by: robot("f", "ground", 1.0) });
+    let (epoch, plan) = plan_for(&cmds);
+    assert_eq!(epoch, 4);
+    let cmds = m.handle(5.0, Event::PlanReady { epoch, plan: Box::new(plan) });
+    assert!(plans_sent(&cmds).values().all(|a| a.handover.is_none()), "a planned plan carries nothing on");
+    assert_eq!(m.view(false).teams["p1/ground"], ["e", "f"]);
+}
+
 #[test]
 fn losing_everyone_stalls_and_a_failed_first_plan_fails() {
     let mut m = started();

@@ -44,6 +44,26 @@ impl Barrier {
         }
     }
 
+    /// This robot's barriers carried into epoch `epoch` with `members` (a hand-over: the plan
+    /// goes on): its own furthest arrival stays (echoed to a member that waits behind it), and
+    /// whom it saw gone among those who stay. Nothing counts as released under the new epoch
+    /// until every member of it arrived there: the others' arrivals are heard again.
+    pub fn carried_into(&self, epoch: u64, members: &[RobotId], mode: BarrierMode) -> Self {
+        let mut b = Barrier::new(self.me.as_str(), epoch, members).with_mode(mode);
+        if let Some(mine) = self.mine() {
+            b.arrived(mine);
+        }
+        b.gone = self.gone.iter().filter(|g| b.members.contains(*g)).cloned().collect();
+        b
+    }
+
+    /// This robot stands for an arrival at `at` (round, point) it did not announce under this
+    /// epoch: the barrier it carried on from, or the one the member it replaced passed last.
+    pub fn arrived(&mut self, at: (u32, u32)) {
+        let e = self.furthest.entry(self.me.clone()).or_insert(at);
+        *e = (*e).max(at);
+    }
+
     /// The same barrier run in `mode`.
     pub fn with_mode(mut self, mode: BarrierMode) -> Self {
         self.mode = mode;
@@ -202,6 +222,28 @@ mod tests {
 
     fn rel(leader: &str, epoch: u64, point: u32, round: u32) -> SyncRelease {
         SyncRelease { leader: leader.into(), epoch, point, round }
+    }
+
+    #[test]
+    fn a_barrier_carried_into_a_new_epoch_keeps_what_this_robot_reached_and_waits_for_the_newcomer() {
+        let mut b = team();
+        for r in ["a", "b", "c"] {
+            b.arrival(&arr(r, 1, 2, 0));
+        }
+        b.passed((0, 2));
+        b.member_gone("b");
+        // c handed its place to d.
+        let mut n = b.carried_into(2, &["a".into(), "b".into(), "d".into()], BarrierMode::Mesh);
+        assert_eq!(n.mine(), Some((0, 2)));
+        assert!(!n.released(2, 0), "released under the new epoch only once everyone arrived there");
+        assert!(n.at_or_behind_us(&arr("d", 2, 2, 0)), "a member waiting there hears our arrival again");
+        assert!(n.is_gone("b") && !n.is_gone("c"));
+        assert!(!n.arrival(&arr("c", 2, 3, 0)), "the leaver is no member");
+        assert!(!n.arrival(&arr("d", 1, 3, 0)), "the old epoch's arrivals do not count");
+        n.arrival(&arr("a", 2, 3, 0));
+        assert!(!n.released(3, 0) && !n.released(2, 0), "the newcomer holds the barriers");
+        n.arrival(&arr("d", 2, 3, 0));
+        assert!(n.released(3, 0));
     }
 
     #[test]

@@ -164,13 +164,23 @@ impl Robot {
                 return Ok(None);
             }
         }
+        let join =
+            Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier, members: a.members.clone(), scopes: a.scopes.clone() };
+        if let Some(e) = self.exec.as_mut().filter(|e| e.carried_on_by(a)) {
+            // A hand-over: the same plan goes on with a new team, the body on its way.
+            tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, "plan carried on");
+            e.carry_on(a.clone());
+            return Ok(Some(join));
+        }
         tracing::info!(robot = %self.cfg.id, mission = %a.mission, epoch = a.epoch, steps = a.plan.steps.len(), "new plan");
         self.route.clear();
         self.unsent = None;
         self.body.hold();
-        let join =
-            Command::JoinTeam { team: a.team.clone(), subteam: a.subteam.clone(), barrier: a.barrier, members: a.members.clone(), scopes: a.scopes.clone() };
-        self.exec = Some(Executor::new(a.clone()).with_time_scale(self.cfg.time_scale));
+        let exec = match a.handover {
+            Some(h) => Executor::taking_over(a.clone(), h.step, h.round),
+            None => Executor::new(a.clone()),
+        };
+        self.exec = Some(exec.with_time_scale(self.cfg.time_scale));
         match &a.map {
             Some(m) if self.traffic.as_ref().is_some_and(|g| g.map() == m) => {}
             Some(m) => self.traffic = Some(traffic::Gate::new(m.clone())),

@@ -19,6 +19,7 @@ fn with_capabilities(capabilities: &[&str], durable: bool) -> RobotSetup {
 
 fn plan(mission: &str, epoch: u64) -> RobotCommand {
     RobotCommand::Plan(Box::new(PlanAssignment {
+        handover: None,
         mission: mission.into(),
         epoch,
         team: mission.into(),
@@ -118,6 +119,33 @@ fn rejects_non_finite_goal_and_hostile_plans() {
         assert!(reply.is_err(), "{bad:?} accepted");
         assert!(change.is_none());
     }
+}
+
+#[test]
+fn a_plan_carried_on_after_a_hand_over_keeps_the_robot_driving() {
+    let mut r = Robot::new(cfg());
+    assert!(cmd(&mut r, plan("m", 2)).0.is_ok());
+    r.handle(0.01, Event::Tick);
+    r.handle(0.2, Event::Tick);
+    let moving = telemetry(&mut r, 0.2);
+    assert!(moving.velocity.v > 0.0, "on its way to (4, 0)");
+    // Another member was replaced: the same plan under epoch 3, with the newcomer.
+    let RobotCommand::Plan(mut a) = plan("m", 3) else { unreachable!() };
+    a.members.push("r9".into());
+    a.handover = Some(mrmm_proto::Handover { planned: 2, step: 0, round: 0 });
+    let (ack, change) = cmd(&mut r, RobotCommand::Plan(a.clone()));
+    assert!(ack.is_ok());
+    assert!(matches!(change, Some(Command::JoinTeam { ref members, .. }) if members.len() == 2), "its team has the newcomer: {change:?}");
+    r.handle(0.25, Event::Tick);
+    let t = telemetry(&mut r, 0.25);
+    assert!(t.velocity.v > 0.0, "not stopped by the new epoch");
+    assert_eq!(t.progress.as_ref().map(|p| (p.epoch, p.step)), Some((3, 0)));
+    // The robot that comes in with a plan of that lineage starts where the handover says.
+    let mut n = Robot::new(cfg());
+    a.handover = Some(mrmm_proto::Handover { planned: 2, step: 1, round: 7 });
+    assert!(cmd(&mut n, RobotCommand::Plan(a)).0.is_ok());
+    n.handle(0.01, Event::Tick);
+    assert_eq!(telemetry(&mut n, 0.01).progress.map(|p| (p.step, p.round)), Some((0, 7)), "on the leg to step 1's barrier-less hold: the navigate before it");
 }
 
 #[test]

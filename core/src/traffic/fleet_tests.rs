@@ -100,6 +100,7 @@ impl Fleet {
                 }
                 let mission = if i % 2 == 0 { "even" } else { "odd" };
                 let a = PlanAssignment {
+                    handover: None,
                     mission: mission.into(),
                     epoch: 1,
                     team: mission.into(),

@@ -2,8 +2,9 @@
 //! of Open-RMF's office graph (two chargers) for eight simulated hours, driven by the robots' own
 //! executors and bodies (batteries included) as in `mrmm experiment maps`; central's charging
 //! policy is the production machine (`mrmm_core::central::charging`), looked at once a second
-//! as central does, its moves replanning the patrol as the mission's manager does (the patrol
-//! planner, from where the robots stand). Four runs: no batteries (the reference), batteries
+//! as central does, its swaps handing the leaver's plan to the spare and its other moves
+//! replanning the patrol as the mission's manager does (the patrol planner, from where the robots
+//! stand). Four runs: no batteries (the reference), batteries
 //! without charging (robots die), naive charging (each robot leaves when low and comes back when
 //! charged, no spares), and mrmm's policy with two spares.
 
@@ -20,7 +21,7 @@ use mrmm_maps::{Map, NavGraph, Point, Space};
 use mrmm_planner::recipe::{self, Recipe};
 use mrmm_proto::map::Charger;
 use mrmm_proto::plan::RobotSpec;
-use mrmm_proto::{BarrierMode, MapInfo, MapRef, MissionView, PlanAssignment, Pose, RobotId, RobotStatus, RobotView};
+use mrmm_proto::{BarrierMode, Handover, MapInfo, MapRef, MissionView, PlanAssignment, Pose, RobotId, RobotStatus, RobotView};
 
 pub use report::write;
 
@@ -133,9 +134,11 @@ pub struct Row {
     pub lowest: f64,
     pub under_5: usize,
     pub died: usize,
-    /// Charging errands started, and times the patrol was replanned.
+    /// Charging errands started, times the patrol was replanned, and hand-overs (a spare took a
+    /// leaving robot's plan, the others going on).
     pub errands: usize,
     pub replans: usize,
+    pub handovers: usize,
     /// Simulated seconds robots stood plugged in, all robots together.
     pub charging_s: f64,
 }
@@ -158,7 +161,7 @@ pub fn run(day: &Day) -> anyhow::Result<Vec<(Row, Trace)>> {
         let started = std::time::Instant::now();
         let (row, trace) = one(day, &graph, &recipe, policy).with_context(|| policy.name())?;
         println!(
-            "{:>15}: {} robots, idleness avg {:6.1} s worst {:6.1} s, short {:6.0} s, lowest charge {:4.2}, {} under 5 %, {} died, {} errands, {} replans ({:.1} s)",
+            "{:>15}: {} robots, idleness avg {:6.1} s worst {:6.1} s, short {:6.0} s, lowest charge {:4.2}, {} under 5 %, {} died, {} errands, {} replans, {} hand-overs ({:.1} s)",
             policy.name(),
             row.robots,
             row.avg_s,
@@ -169,6 +172,7 @@ pub fn run(day: &Day) -> anyhow::Result<Vec<(Row, Trace)>> {
             row.died,
             row.errands,
             row.replans,
+            row.handovers,
             started.elapsed().as_secs_f64()
         );
         out.push((row, trace));
@@ -236,6 +240,7 @@ struct Measures {
     lowest: Vec<f64>,
     errands: usize,
     replans: usize,
+    handovers: usize,
     charging_s: f64,
     team: Vec<(f64, f64)>,
     lowest_series: Vec<(f64, f64)>,
@@ -328,6 +333,7 @@ impl<'a> World<'a> {
             self.execs.insert(
                 i,
                 Executor::new(PlanAssignment {
+                    handover: None,
                     mission: "patrol".into(),
                     epoch: self.epoch,
                     team: "patrol".into(),
@@ -475,10 +481,15 @@ impl<'a> World<'a> {
                 self.bodies[i].hold();
                 self.changed = true;
             }
+            charging::Command::Replace { robot, out, .. } => {
+                let (by, out) = (index(&robot)?, index(&out)?);
+                self.hand_over(out, by);
+            }
             charging::Command::Goto { robot, x, y, .. } => {
                 let i = index(&robot)?;
                 let from = self.space.locate_robot(robot.as_str(), i, to_point(self.bodies[i].pose())).map_err(|e| anyhow!("{e}"))?;
-                let to = self.space.locate("goal", 0, Point::new(x, y)).map_err(|e| anyhow!("{e}"))?;
+                // A relief goes to where the low robot stands, on a lane between vertices: the way ends there.
+                let to = self.space.locate_robot("goal", 0, Point::new(x, y)).map_err(|e| anyhow!("{e}"))?;
                 let route = self.space.route(&from, &to).ok_or_else(|| anyhow!("no way from robot {robot} to ({x}, {y})"))?;
                 self.legs[i] = route.into_iter().chain([Point::new(x, y)]).collect();
                 self.bodies[i].hold();
@@ -495,6 +506,35 @@ impl<'a> World<'a> {
             }
         }
         Ok(())
+    }
+
+    /// Robot `by` takes member `out`'s place as the mission's manager hands it over: the same
+    /// plans under a new epoch, `by` on `out`'s from where `out` is, the others going on where
+    /// they are (`out` without a plan: a leave and a join, replanned).
+    fn hand_over(&mut self, out: usize, by: usize) {
+        self.members.retain(|&m| m != out);
+        self.members.push(by);
+        self.bodies[out].hold();
+        self.legs[by].clear();
+        self.bodies[by].hold();
+        let Some(old) = self.execs.remove(&out) else {
+            self.execs.remove(&by);
+            self.changed = true;
+            return;
+        };
+        self.epoch += 1;
+        let members: Vec<RobotId> = self.members.iter().map(|&i| self.ids[i].clone()).collect();
+        let at = old.progress();
+        let handover = Some(Handover { planned: old.assignment.planned(), step: at.step, round: at.round });
+        for e in self.execs.values_mut() {
+            let a = PlanAssignment { epoch: self.epoch, members: members.clone(), handover, ..e.assignment.clone() };
+            e.carry_on(a);
+        }
+        let mut plan = old.assignment.plan.clone();
+        plan.robot = self.ids[by].clone();
+        let a = PlanAssignment { epoch: self.epoch, members, handover, plan, ..old.assignment };
+        self.execs.insert(by, Executor::taking_over(a, at.step, at.round));
+        self.m.handovers += 1;
     }
 
     fn sample(&mut self, t: f64) {
@@ -521,6 +561,7 @@ impl<'a> World<'a> {
             died: self.dead.iter().filter(|&&d| d).count(),
             errands: m.errands,
             replans: m.replans,
+            handovers: m.handovers,
             charging_s: m.charging_s,
         };
         (row, Trace { policy: self.policy, team: m.team, lowest: m.lowest_series })

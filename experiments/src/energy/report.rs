@@ -14,11 +14,12 @@ pub fn write(out: &Path, day: &Day, runs: &[(Row, Trace)], command: &str, elapse
 }
 
 fn csv(runs: &[(Row, Trace)]) -> String {
-    let mut csv =
-        String::from("policy,robots,avg_idleness_s,worst_idleness_s,short_of_team_s,lowest_charge,robots_under_5pct,robots_dry,errands,replans,charging_s\n");
+    let mut csv = String::from(
+        "policy,robots,avg_idleness_s,worst_idleness_s,short_of_team_s,lowest_charge,robots_under_5pct,robots_dry,errands,replans,handovers,charging_s\n",
+    );
     for (r, _) in runs {
         csv.push_str(&format!(
-            "{},{},{:.2},{:.2},{:.1},{:.4},{},{},{},{},{:.0}\n",
+            "{},{},{:.2},{:.2},{:.1},{:.4},{},{},{},{},{},{:.0}\n",
             r.policy.name(),
             r.robots,
             r.avg_s,
@@ -29,6 +30,7 @@ fn csv(runs: &[(Row, Trace)]) -> String {
             r.died,
             r.errands,
             r.replans,
+            r.handovers,
             r.charging_s
         ));
     }
@@ -70,13 +72,14 @@ fn summary(day: &Day, runs: &[(Row, Trace)], command: &str, elapsed: f64) -> Str
          drives {life:.1} h at top speed (1 m/s; standing draws a fifth of that power), a charger fills an \
          empty battery in {charge:.1} h; the patrol's robots start with charges spread from 100 to {low:.0} %, \
          spares full. Central's charging policy (`mrmm_core::central::charging`, thresholds {go:.0} → {done:.0} %) \
-         looks every {LOOK_S} s; its moves replan the patrol from where the robots stand, as the mission's \
-         manager does. A robot that runs dry stops, and the patrol is replanned without it. Idleness as \
+         looks every {LOOK_S} s; a spare that relieves a robot takes its plan from where it is and the others go \
+         on (a hand-over, as the mission's manager does it); other moves replan the patrol from where the robots \
+         stand. A robot that runs dry stops, and the patrol is replanned without it. Idleness as \
          patrolling_sim measures it, from the first start barrier, visits by the patrol's robots only, the \
          time since a vertex's last visit at the day's end counted. Robots drive through each other here \
          (no traffic).\n\n![energy](energy.png)\n\n\
-         | policy | robots | avg idleness s | worst idleness s | short of the team s | lowest charge | under 5 % | ran dry | errands | replans |\n\
-         |---|---|---|---|---|---|---|---|---|---|\n",
+         | policy | robots | avg idleness s | worst idleness s | short of the team s | lowest charge | under 5 % | ran dry | errands | replans | hand-overs |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
         team = day.team,
         hours = day.length_s / 3600.0,
         life = day.life_s / 3600.0,
@@ -87,7 +90,7 @@ fn summary(day: &Day, runs: &[(Row, Trace)], command: &str, elapsed: f64) -> Str
     );
     for (r, _) in runs {
         md.push_str(&format!(
-            "| {} | {} | {:.1} | {:.1} | {:.0} | {:.1} % | {} | {} | {} | {} |\n",
+            "| {} | {} | {:.1} | {:.1} | {:.0} | {:.1} % | {} | {} | {} | {} | {} |\n",
             r.policy.name(),
             r.robots,
             r.avg_s,
@@ -97,7 +100,8 @@ fn summary(day: &Day, runs: &[(Row, Trace)], command: &str, elapsed: f64) -> Str
             r.under_5,
             r.died,
             r.errands,
-            r.replans
+            r.replans,
+            r.handovers
         ));
     }
     md.push_str("\nTargets (issue 53), mrmm's policy:\n\n");

@@ -184,6 +184,8 @@ pub struct World {
     /// The operator's changes of robots' capabilities, drawn from a stream of their own so that
     /// the other draws of a seed stay as they were.
     caps_rng: ChaCha8Rng,
+    /// The operator's hand-overs (a robot takes a member's place), a stream of their own too.
+    swap_rng: ChaCha8Rng,
     /// The stream of central's missed liveliness changes (`Config::missed_live`).
     miss_rng: ChaCha8Rng,
     /// The forger's stream ([`wire`]).
@@ -265,6 +267,7 @@ impl World {
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
             fault_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x51de_c1c1e),
             caps_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xca9a_b1e5),
+            swap_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x5a4d_0e12),
             miss_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x0_1055),
             forge_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xf0_29e5),
             now: 0.0,

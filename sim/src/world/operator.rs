@@ -52,6 +52,9 @@ impl World {
         let (req, request) = self.op.command(&mut self.rng, &robots);
         self.log(|| format!("operator: {request:?}"));
         self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
+        if self.swap_rng.gen_bool(0.2) {
+            self.hand_over(c)?;
+        }
         if self.caps_rng.gen_bool(0.3) {
             let robot = robots[self.caps_rng.gen_range(0..robots.len())].clone();
             let has = self.index(&robot).and_then(|i| self.nodes[i].robot.as_ref()).is_some_and(|r| r.info(vec![]).capabilities.iter().any(|c| c == "camera"));
@@ -60,6 +63,29 @@ impl World {
             self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))?;
         }
         Ok(())
+    }
+
+    /// A robot not in a mission takes the place of one of its members, as central's charging
+    /// policy has a spare relieve a low robot (a hand-over: one control, the plan carried on),
+    /// drawn from a stream of its own.
+    fn hand_over(&mut self, c: usize) -> Result<(), String> {
+        let Some(sys) = self.nodes[c].central.as_ref().map(|n| n.system()) else { return Ok(()) };
+        let assignment = sys.durable().assignment;
+        let missions: Vec<MissionName> = assignment.values().cloned().collect::<BTreeSet<_>>().into_iter().collect();
+        if missions.is_empty() {
+            return Ok(());
+        }
+        let to = missions[self.swap_rng.gen_range(0..missions.len())].clone();
+        let members: Vec<RobotId> = assignment.iter().filter(|(_, m)| **m == to).map(|(r, _)| r.clone()).collect();
+        let others: Vec<String> = self.robot_names().into_iter().filter(|r| assignment.get(r.as_str()) != Some(&to)).collect();
+        if members.is_empty() || others.is_empty() {
+            return Ok(());
+        }
+        let out = members[self.swap_rng.gen_range(0..members.len())].clone();
+        let robot = others[self.swap_rng.gen_range(0..others.len())].clone();
+        let (req, request) = self.op.replace(robot, to, out);
+        self.log(|| format!("operator: {request:?}"));
+        self.central(c, central::Event::System(system::Event::Operator { req: Req::Query(req), request }))
     }
 
     /// OneMission, as central does for members that join or come back: a robot the mission's
@@ -205,6 +231,7 @@ impl World {
             steps.push(Step::Loop { to: first + 1, rounds: Some(rounds) });
             let team = team_of(i);
             let assignment = PlanAssignment {
+                handover: None,
                 mission: "b".into(),
                 epoch: 1,
                 subteam: format!("{team}/ground"),

@@ -21,7 +21,14 @@ pub(super) enum Order {
     },
     /// Move a robot to another mission, or out of its mission with `none`
     /// (`mrmm/system/cmd/robot/move`).
-    Move { robot: String, to: String },
+    Move {
+        robot: String,
+        to: String,
+        /// Take this member's place (a hand-over): it is freed, the robot carries on its plan
+        /// from where it is, the other members go on without a replan.
+        #[arg(long, value_name = "MEMBER")]
+        replacing: Option<String>,
+    },
     /// Change what a robot can do (a sensor broke, a tool was fitted); it leaves a mission that
     /// requires what it no longer has (`mrmm/system/cmd/robot/capabilities`).
     Capabilities {
@@ -57,14 +64,15 @@ pub(super) async fn exec(client: &Client, order: Order, json: bool) -> anyhow::R
             let ack: CommandAck = serde_json::from_value(v)?;
             println!("{}: {}", ack.robot, ack.behaviour.describe());
         }
-        Order::Move { robot, to } => {
+        Order::Move { robot, to, replacing } => {
             let to = (to != "none").then_some(to);
-            let v: Value =
-                client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&RobotMove { robot: robot.into(), to: to.map(Into::into) })).await?;
+            let mv = RobotMove { robot: robot.into(), to: to.map(Into::into), replaces: replacing.clone().map(Into::into) };
+            let v: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Move), Some(&mv)).await?;
             if json {
                 return print_json(&v);
             }
-            println!("{}: {} → {}", v["robot"].as_str().unwrap_or("?"), v["from"].as_str().unwrap_or("none"), v["to"].as_str().unwrap_or("none"));
+            let instead = replacing.map(|r| format!(" (in place of {r})")).unwrap_or_default();
+            println!("{}: {} → {}{instead}", v["robot"].as_str().unwrap_or("?"), v["from"].as_str().unwrap_or("none"), v["to"].as_str().unwrap_or("none"));
         }
         Order::Capabilities { robot, add, remove } => {
             if add.is_empty() && remove.is_empty() {

@@ -58,7 +58,7 @@ fn unfit(robots: &[RobotView], missions: &[MissionView], r: &RobotView, m: &Miss
         None => format!(", and no robot with {} can be spared", lacks.join(", ")),
     };
     let reason = format!("robot {} no longer has {}, which mission {} requires: it left the mission{then}", r.id, lacks.join(", "), m.name);
-    let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()) });
+    let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()), replaces: None });
     let evidence = json!({"robot": r.id, "mission": m.name, "lacks": lacks, "robots": m.robots.len(), "donor": give.as_ref().map(|g| &g.0)});
     Some(candidate(format!("capability/{}", r.id), Priority::Warning, reason, evidence, now, action))
 }
@@ -86,7 +86,7 @@ fn short_teams(robots: &[RobotView], missions: &[MissionView], m: &MissionView, 
             None => format!(", and no robot that fits it ({}) can be spared", t.wants),
         };
         let reason = format!("team {} of mission {} has {} of the {} members it needs{then}", t.team, m.name, t.members.len(), t.min);
-        let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()) });
+        let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()), replaces: None });
         let evidence = json!({"mission": m.name, "team": t.team, "members": t.members, "min": t.min, "donor": give.as_ref().map(|g| &g.0)});
         out.push(candidate(format!("team/{}", t.team), Priority::Critical, reason, evidence, now, action));
     }
@@ -229,7 +229,8 @@ fn lost_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], missio
         let was_in = r.last_mission.clone().or_else(|| mem.last_mission.get(&r.id).cloned());
         let (reason, evidence, action) = match was_in.as_ref().map(|x| x.as_str()).and_then(|m| by_name.get(m).map(|v| (m, v))) {
             Some((m, v)) => {
-                let action = donor(robots, missions, m).filter(|(_, from)| from.is_none()).map(|(id, _)| RobotMove { robot: id, to: Some(m.into()) });
+                let action =
+                    donor(robots, missions, m).filter(|(_, from)| from.is_none()).map(|(id, _)| RobotMove { robot: id, to: Some(m.into()), replaces: None });
                 (
                     format!("robot {} lost; mission {m} replanned for its {} remaining robots", r.id, v.robots.len()),
                     json!({"robot": r.id, "mission": m, "remaining": v.robots.len(), "epoch": v.manager.epoch}),
@@ -264,7 +265,7 @@ fn below_standard(robots: &[RobotView], missions: &[MissionView], now: f64, out:
             ),
             _ => format!("{} below standard (worst idleness {worst:.0} s > {limit:.0} s) and no robot to spare", m.name),
         };
-        let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()) });
+        let action = give.as_ref().map(|(id, _)| RobotMove { robot: id.clone(), to: Some(m.name.clone()), replaces: None });
         let evidence = json!({"mission": m.name, "worst_idleness": worst, "standard": limit, "robots": n,
                               "predicted": predicted_now, "predicted_with_one_more": predicted, "donor": give.as_ref().map(|g| &g.0), "donor_mission": give.and_then(|g| g.1)});
         let id = format!("standard/{}", m.name);
@@ -285,7 +286,7 @@ fn idle_robots(robots: &[RobotView], missions: &[MissionView], now: f64, out: &m
         let (reason, action, gain) = match best {
             Some((m, r, gain)) => (
                 format!("{} idle robot(s) ({}): adding {} to {} cuts its predicted worst idleness by {gain:.0} s", ids.len(), ids.join(", "), r.id, m.name),
-                Some(RobotMove { robot: r.id.clone(), to: Some(m.name.clone()) }),
+                Some(RobotMove { robot: r.id.clone(), to: Some(m.name.clone()), replaces: None }),
                 Some(gain),
             ),
             None => (format!("{} idle robot(s) available ({})", ids.len(), ids.join(", ")), None, None),

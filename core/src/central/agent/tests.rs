@@ -178,7 +178,7 @@ fn act_runs_the_move_and_says_so_once() {
     let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold")];
     let ms = vec![mission("p", "patrol", &["r1"], None, None)];
     let cmds = a.handle(0.0, snap(robots.clone(), ms.clone()));
-    assert!(cmds.contains(&Command::Move { advice: "idle".into(), mv: RobotMove { robot: "r4".into(), to: Some("p".into()) } }));
+    assert!(cmds.contains(&Command::Move { advice: "idle".into(), mv: RobotMove { robot: "r4".into(), to: Some("p".into()), replaces: None } }));
     let adv = &a.advice()[0];
     assert!(adv.acted && adv.reason.starts_with("acting: "));
     assert!(!a.handle(1.0, snap(robots.clone(), ms.clone())).iter().any(|c| matches!(c, Command::Move { .. })), "acts once");
@@ -282,7 +282,7 @@ fn a_robot_that_lost_what_its_mission_requires_is_replaced_by_one_that_has_it() 
     assert!(raised(&cmds).contains(&("capability/r2".into(), Priority::Warning)), "{cmds:?}");
     let adv = a.advice().into_iter().find(|a| a.id == "capability/r2").expect("advice");
     assert_eq!(adv.reason, "robot r2 no longer has camera, which mission p requires: it left the mission: add r4, which has camera");
-    assert_eq!(adv.action, Some(RobotMove { robot: "r4".into(), to: Some("p".into()) }), "r3 is idle too but has no camera");
+    assert_eq!(adv.action, Some(RobotMove { robot: "r4".into(), to: Some("p".into()), replaces: None }), "r3 is idle too but has no camera");
     // The idle advice, too, only points a robot where it fits: r2 and r3 (no camera) go to q.
     let idle = a.advice().into_iter().find(|a| a.id == "idle").expect("idle advice");
     assert!(idle.action.as_ref().is_some_and(|m| m.to.as_ref().map(|x| x.as_str()) == Some("q") || m.robot == "r4"), "{idle:?}");
@@ -336,7 +336,7 @@ fn a_leaf_team_below_its_minimum_is_critical_with_a_robot_that_fits_it() {
     let adv = a.advice().into_iter().find(|a| a.id == "team/e/ground").expect("advice");
     assert_eq!(adv.priority, Priority::Critical);
     assert_eq!(adv.reason, "team e/ground of mission e has 1 of the 2 members it needs: add r5 (type ground)");
-    assert_eq!(adv.action, Some(RobotMove { robot: "r5".into(), to: Some("e".into()) }), "r4 is idle too but aerial");
+    assert_eq!(adv.action, Some(RobotMove { robot: "r5".into(), to: Some("e".into()), replaces: None }), "r4 is idle too but aerial");
     assert!(a.advice().iter().all(|a| a.id != "team/e/air"), "a team at its minimum is fine");
     // Filled again: withdrawn.
     e.team_views[0].members.push("r5".into());

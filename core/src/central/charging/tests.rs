@@ -43,6 +43,10 @@ fn look(c: &mut Charging, now: f64, robots: &[RobotView], missions: &[MissionVie
     c.handle(now, Fleet { robots, missions, maps })
 }
 
+fn swap(robot: &str, to: &str, out: &str) -> Command {
+    Command::Replace { robot: robot.into(), to: to.into(), out: out.into() }
+}
+
 fn mv(robot: &str, to: Option<&str>) -> Command {
     Command::Move { robot: robot.into(), to: to.map(Into::into) }
 }
@@ -76,7 +80,7 @@ fn a_low_robot_charges_and_comes_back_while_a_spare_keeps_the_count() {
     spare.behaviour = Some("goto(18.0,1.0)".into());
     spare.status = RobotStatus::Busy;
     let (robots, missions) = fleet(&r1, &spare, &[patrol(&["r1", "r2"])]);
-    assert_eq!(look(&mut c, 3.0, &robots, &missions, &maps), [mv("r1", None), mv("r3", Some("p")), goto("r1", 20.0, 0.0)]);
+    assert_eq!(look(&mut c, 3.0, &robots, &missions, &maps), [swap("r3", "p", "r1"), goto("r1", 20.0, 0.0)]);
     assert!(c.reliefs().is_empty());
     assert_eq!(c.errands()["r1"].charger.name, "c2", "the nearest");
     // On its way (moved out, spare in): nothing new; standing short of the charger for 10 s, it
@@ -168,13 +172,13 @@ fn a_relief_ends_by_time_by_charge_or_with_its_spare() {
     let p = [patrol(&["r1", "r2"])];
     assert_eq!(look(&mut c, 0.0, &robots(&r1, &s1), &p, &maps), [goto("s1", 30.0, 0.0)], "the fuller spare");
     assert!(look(&mut c, 299.0, &robots(&r1, &s1), &p, &maps).is_empty());
-    assert_eq!(look(&mut c, 300.0, &robots(&r1, &s1), &p, &maps), [mv("r1", None), mv("s1", Some("p")), goto("r1", 0.0, 0.0)], "waited long enough");
+    assert_eq!(look(&mut c, 300.0, &robots(&r1, &s1), &p, &maps), [swap("s1", "p", "r1"), goto("r1", 0.0, 0.0)], "waited long enough");
     let mut c = Charging::new(ChargingConfig::default());
     assert_eq!(look(&mut c, 0.0, &robots(&r1, &s1), &p, &maps), [goto("s1", 30.0, 0.0)]);
     let lost = RobotView { status: RobotStatus::Lost, ..s1.clone() };
     assert_eq!(look(&mut c, 1.0, &robots(&r1, &lost), &p, &maps), [goto("s2", 30.0, 0.0)], "s1 lost: s2 comes instead");
     r1.battery = Some(BatteryState { charge: 0.09, charging: false, reach_m: None });
-    assert_eq!(look(&mut c, 2.0, &robots(&r1, &lost), &p, &maps), [mv("r1", None), mv("s2", Some("p")), goto("r1", 0.0, 0.0)], "critical: at once");
+    assert_eq!(look(&mut c, 2.0, &robots(&r1, &lost), &p, &maps), [swap("s2", "p", "r1"), goto("r1", 0.0, 0.0)], "critical: at once");
     // The charger is r1's now: a second low robot gets no spare sent until it is free.
     let r2_low = robot("r2", 0.15, Some("p"), (5.0, 5.0));
     let idle = robot("s1", 0.9, None, (-5.0, 0.0));
@@ -198,7 +202,7 @@ fn a_robot_just_charged_is_a_spare_at_once() {
     done.battery = Some(BatteryState { charge: 0.995, charging: true, reach_m: None });
     let critical = robot("r2", 0.05, Some("p"), (5.0, 5.0));
     let cmds = look(&mut c, 2.0, &[done.clone(), critical], &p, &maps);
-    assert_eq!(cmds, [plug("s1", false), goto("s1", 10.0, 0.0), mv("r2", None), mv("s1", Some("p")), goto("r2", 0.0, 0.0)]);
+    assert_eq!(cmds, [plug("s1", false), goto("s1", 10.0, 0.0), swap("s1", "p", "r2"), goto("r2", 0.0, 0.0)]);
 }
 
 /// A mission's `charging` parameter: `off` and `ask` keep the policy from sending its robots
@@ -288,7 +292,7 @@ fn a_spare_fits_the_team_and_comes_only_below_min() {
     let cmds = look(&mut Charging::new(ChargingConfig::default()), 0.0, &robots, &[teams(1)], &maps);
     assert_eq!(cmds, [mv("r1", None), goto("r1", 0.0, 0.0)], "two members, min 1: no spare");
     let cmds = look(&mut Charging::new(ChargingConfig::default()), 0.0, &robots, &[teams(2)], &maps);
-    assert_eq!(cmds, [mv("r1", None), mv("s4", Some("p")), goto("r1", 0.0, 0.0)], "the only robot that fits");
+    assert_eq!(cmds, [swap("s4", "p", "r1"), goto("r1", 0.0, 0.0)], "the only robot that fits");
 }
 
 /// The operator's word goes: a robot given a mission while on its errand is left to it (and
@@ -331,7 +335,7 @@ fn the_operator_sends_a_robot_to_charge_and_releases_it() {
     let f = Fleet { robots: &robots, missions: &missions, maps: &maps };
     let (errand, cmds) = c.charge(0.0, "r1", f).expect("sent");
     assert_eq!(errand.charger.name, "c1");
-    assert_eq!(cmds, [mv("r1", None), mv("r2", Some("p")), goto("r1", 0.0, 0.0)]);
+    assert_eq!(cmds, [swap("r2", "p", "r1"), goto("r1", 0.0, 0.0)]);
     assert!(c.charge(0.0, "r1", f).expect_err("twice").error.contains("already"));
     assert!(c.charge(0.0, "r2", f).expect_err("no charger left").error.contains("every charger of map office is taken"));
     assert!(c.charge(0.0, "r9", f).expect_err("unknown").is(mrmm_proto::ErrorCode::NotFound));

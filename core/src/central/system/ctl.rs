@@ -154,6 +154,7 @@ fn robots(ctl: &MissionCtl) -> Option<Vec<&str>> {
     match ctl {
         MissionCtl::Joined { member } => Some(vec![member.spec.id.as_str()]),
         MissionCtl::Left { ids } => Some(ids.iter().map(|id| id.as_str()).collect()),
+        MissionCtl::Replaced { out, member } => Some(vec![out.as_str(), member.spec.id.as_str()]),
         MissionCtl::Terminate => None,
         // A change of the mission itself: no robot's controls wait for it, nor it for theirs.
         MissionCtl::Update { .. } => Some(vec![]),

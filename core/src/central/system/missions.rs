@@ -379,6 +379,9 @@ impl SystemManager {
     /// Moves a robot to mission `to`, or frees it (`to: null`; a lost robot may be freed too).
     pub(super) fn move_robot(&mut self, req: Req, mv: RobotMove) -> Vec<Command> {
         let reply = |req: Req, result| vec![Command::Reply { req, result }];
+        if mv.replaces.is_some() && mv.to.is_none() {
+            return reply(req, Err(ErrorReply::invalid("a robot replaces a member of the mission it moves to: `to` is needed")));
+        }
         let from = self.assignment.get(&mv.robot).cloned();
         // A robot of a mission that has not come back since central restarted may be freed too.
         let alive = match self.fleet.get(mv.robot.as_str()).filter(|r| r.info.is_some()) {
@@ -409,10 +412,20 @@ impl SystemManager {
             },
             None => None,
         };
-        let mut out = self.apply_move(mv.robot.as_str(), from.clone(), mv.to.clone().zip(member), alive);
+        let mut out = match (&mv.replaces, mv.to.clone().zip(member)) {
+            (Some(gone), Some((to, member))) => match self.check_replace(mv.robot.as_str(), gone, &to) {
+                Ok(gone_alive) => self.apply_replace(mv.robot.as_str(), from.clone(), (&to, member), gone, gone_alive),
+                Err(e) => return reply(req, Err(e)),
+            },
+            (_, to) => self.apply_move(mv.robot.as_str(), from.clone(), to, alive),
+        };
         self.note_command(&req, "robot move", &serde_json::to_value(&mv).unwrap_or(Value::Null));
         tracing::info!(robot = %mv.robot, ?from, to = ?mv.to, "robot moved");
-        out.push(Command::Reply { req, result: to_value(&json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to})) });
+        let answer = match &mv.replaces {
+            Some(gone) => json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to, "replaces": gone}),
+            None => json!({"ok": true, "robot": mv.robot, "from": from, "to": mv.to}),
+        };
+        out.push(Command::Reply { req, result: to_value(&answer) });
         out
     }
 
@@ -436,6 +449,47 @@ impl SystemManager {
             self.assignment.insert(RobotId::from(robot), to.clone());
             // It joins once its old mission let it go: never in two teams.
             self.controls.push(to.as_str(), MissionCtl::Joined { member }, left);
+        }
+        out
+    }
+
+    /// Whether `robot` may take `gone`'s place in mission `to`: `gone` is another robot, a
+    /// member of `to`. Answers whether `gone` is alive.
+    fn check_replace(&self, robot: &str, gone: &RobotId, to: &MissionName) -> Result<bool, ErrorReply> {
+        if gone.as_str() == robot {
+            return Err(ErrorReply::invalid(format!("robot {robot:?} cannot replace itself")));
+        }
+        if self.assignment.get(gone) != Some(to) {
+            return Err(ErrorReply::conflict(format!("robot {gone:?} is not in mission {to}")));
+        }
+        Ok(self.fleet.get(gone.as_str()).is_some_and(|r| r.alive))
+    }
+
+    /// `robot` takes `gone`'s place in mission `to` (a hand-over): one control takes `gone` out
+    /// and `robot` in, so the head carries its plan on instead of replanning twice; `gone` is
+    /// held by the mission until the head acknowledged, and told to leave if alive; `robot` is
+    /// let go first by a mission it was in.
+    fn apply_replace(
+        &mut self,
+        robot: &str,
+        from: Option<MissionName>,
+        (to, member): (&MissionName, Member),
+        gone: &RobotId,
+        gone_alive: bool,
+    ) -> Vec<Command> {
+        let mut out = Vec::new();
+        let mut after = self.controls.pending_for(robot);
+        after.extend(self.controls.pending_for(gone.as_str()));
+        if let Some(f) = &from {
+            self.assignment.remove(robot);
+            after.push(self.controls.let_go(f.as_str(), vec![RobotId::from(robot)], after.clone()));
+        }
+        self.assignment.remove(gone);
+        self.assignment.insert(RobotId::from(robot), to.clone());
+        let ctl = self.controls.push(to.as_str(), MissionCtl::Replaced { out: gone.clone(), member }, after);
+        self.controls.hold(gone.clone(), to.as_str(), ctl);
+        if gone_alive {
+            out.push(Command::SendToRobot { req: None, robot: gone.clone(), cmd: RobotCommand::Leave { mission: to.clone(), epoch: u64::MAX } });
         }
         out
     }

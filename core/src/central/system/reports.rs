@@ -60,6 +60,7 @@ impl SystemManager {
             let in_transit = self.controls.has(admitted.as_str(), |c| match c {
                 MissionCtl::Joined { member } => member.spec.id == t.id,
                 MissionCtl::Left { ids } => ids.contains(&t.id),
+                MissionCtl::Replaced { out, member } => *out == t.id || member.spec.id == t.id,
                 _ => false,
             });
             if known && self.assignment.get(&t.id) != Some(admitted) && !releasing && !in_transit && retry {
@@ -351,7 +352,7 @@ impl SystemManager {
     /// on its way; whether one was ordered. Never in two teams: if another mission is still
     /// letting it go, after that.
     fn join(&mut self, name: &str, id: &str, why: &str) -> bool {
-        let pending = self.controls.has(name, |c| matches!(c, MissionCtl::Joined { member } if member.spec.id == id));
+        let pending = self.controls.has(name, |c| matches!(c, MissionCtl::Joined { member } | MissionCtl::Replaced { member, .. } if member.spec.id == id));
         let alive = self.fleet.ready(id);
         let Some(member) = self.member(id).filter(|_| alive && !pending) else {
             return false;

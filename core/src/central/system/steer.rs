@@ -9,12 +9,15 @@ impl SystemManager {
         let mut out = Vec::new();
         for (id, mission, ctl) in self.controls.due(now) {
             let managers = self.managers(mission.as_str());
-            if let MissionCtl::Joined { member } = &ctl {
+            if let MissionCtl::Joined { member } | MissionCtl::Replaced { member, .. } = &ctl {
                 // A robot leading the mission may plan for the newcomer only once it is admitted,
                 // and the members take the newcomer's chain messages only once they know it: every
                 // member hears of the new membership.
                 let view = self.missions.get(&mission).and_then(|r| r.view.as_ref());
                 let mut members: Vec<RobotId> = view.map(|v| v.robots.iter().chain(&v.lost).cloned().collect()).unwrap_or_default();
+                if let MissionCtl::Replaced { out, .. } = &ctl {
+                    members.retain(|m| m != out);
+                }
                 if !members.contains(&member.spec.id) {
                     members.push(member.spec.id.clone());
                 }

@@ -76,6 +76,20 @@ impl HostCore {
                 self.run(now, name, mission::Event::Absent(member), out)
             }
             MissionCtl::Joined { member } => self.run(now, name, mission::Event::Joined(member), out),
+            // A hand-over to a robot gone here: `out` leaves, the robot is kept as lost (as above).
+            MissionCtl::Replaced { out: gone, member } if !self.robots.alive(member.spec.id.as_str()) => {
+                if let Some(h) = self.heads.get_mut(name) {
+                    h.ordered_back.remove(&gone);
+                }
+                self.run(now, name, mission::Event::Left { ids: vec![gone] }, out);
+                self.run(now, name, mission::Event::Absent(member), out)
+            }
+            MissionCtl::Replaced { out: gone, member } => {
+                if let Some(h) = self.heads.get_mut(name) {
+                    h.ordered_back.remove(&gone);
+                }
+                self.run(now, name, mission::Event::Replaced { out: gone, by: member }, out)
+            }
             // The system manager took these robots out (moved elsewhere or freed): out for good,
             // alive or not — a robot lost now and back later must not come back into this team.
             MissionCtl::Left { ids } => {

@@ -13,6 +13,7 @@ fn exec(steps: Vec<Step>, members: &[&str]) -> Executor {
 
 fn exec_as(me: &str, barrier: BarrierMode, steps: Vec<Step>, members: &[&str]) -> Executor {
     Executor::new(PlanAssignment {
+        handover: None,
         mission: "m".into(),
         epoch: 2,
         team: "m".into(),
@@ -31,6 +32,7 @@ fn exec_as(me: &str, barrier: BarrierMode, steps: Vec<Step>, members: &[&str]) -
 fn exec_in_team(me: &str, team: &str, steps: Vec<Step>, mine: &[&str], all: &[&str]) -> Executor {
     let ids = |v: &[&str]| v.iter().map(RobotId::from).collect::<Vec<_>>();
     Executor::new(PlanAssignment {
+        handover: None,
         mission: "m".into(),
         epoch: 2,
         team: format!("m/{team}"),
@@ -350,4 +352,79 @@ fn a_robot_waiting_at_a_barrier_faces_where_it_goes_next() {
     let held = vec![Step::Sync { point: 0, scope: None }, Step::Hold { seconds: None }];
     let mut e = exec(held, &["a", "b"]);
     assert!(!tick(&mut e, 0.0, true).iter().any(|c| matches!(c, Command::Face { .. })), "nowhere to go next");
+}
+
+/// A patrol's plan: to the slot, the formation barrier, then a round of two legs with a barrier
+/// after each, looped.
+fn round_steps() -> Vec<Step> {
+    vec![
+        nav(0.0),
+        Step::Sync { point: 0, scope: None },
+        nav(10.0),
+        Step::Sync { point: 1, scope: None },
+        nav(20.0),
+        Step::Sync { point: 2, scope: None },
+        Step::Loop { to: 2, rounds: None },
+    ]
+}
+
+/// Drives `e` through ticks until it waits at a barrier or asks to navigate (the body arriving
+/// at once); what it published.
+fn run_until_waiting(e: &mut Executor, now: f64) -> Vec<Command> {
+    let mut all = Vec::new();
+    for k in 0..20 {
+        let out = tick(e, now + f64::from(k) * 0.01, true);
+        let waiting = e.progress().waiting.is_some() && out.is_empty();
+        all.extend(out);
+        if waiting {
+            break;
+        }
+    }
+    all
+}
+
+#[test]
+fn a_plan_carried_on_keeps_its_place_and_a_robot_taking_over_starts_on_the_leavers_leg() {
+    let handover = Some(mrmm_proto::Handover { planned: 2, step: 3, round: 4 });
+    let mut a = exec_as("a", BarrierMode::Mesh, round_steps(), &["a", "b"]);
+    // a is past the formation, waiting at barrier 1 of round 0 for b.
+    run_until_waiting(&mut a, 0.0);
+    a.handle(0.1, Event::Heard(SyncArrival { robot: "b".into(), epoch: 2, point: 0, round: 0 }));
+    let out = run_until_waiting(&mut a, 0.2);
+    assert!(out.contains(&Command::Publish(SyncArrival { robot: "a".into(), epoch: 2, point: 1, round: 0 })), "{out:?}");
+    let before = a.progress();
+    assert_eq!((before.step, before.waiting), (3, Some((1, 0))));
+
+    // b hands its place to c: a carries on under epoch 3, waiting where it was, and says so again.
+    let next = PlanAssignment { epoch: 3, members: vec!["a".into(), "c".into()], handover, ..a.assignment.clone() };
+    assert!(a.carried_on_by(&next));
+    let other_lineage = PlanAssignment { handover: Some(mrmm_proto::Handover { planned: 1, step: 0, round: 0 }), ..next.clone() };
+    assert!(!a.carried_on_by(&other_lineage), "a plan of another lineage is a new plan");
+    assert!(!a.carried_on_by(&PlanAssignment { handover: None, ..next.clone() }), "a replan is a new plan");
+    a.carry_on(next);
+    let out = tick(&mut a, 1.0, true);
+    assert_eq!(out.first(), Some(&Command::Publish(SyncArrival { robot: "a".into(), epoch: 3, point: 1, round: 0 })), "its arrival again, under the new epoch");
+    let p = a.progress();
+    assert_eq!((p.epoch, p.step, p.round, p.syncs_passed, p.sync_msgs), (3, 3, 0, 1, 1));
+    assert!(tick(&mut a, 1.1, true).is_empty(), "c has not arrived");
+    a.handle(1.2, Event::Heard(SyncArrival { robot: "b".into(), epoch: 3, point: 1, round: 0 }));
+    assert!(tick(&mut a, 1.3, true).is_empty(), "b is no member now");
+    a.handle(1.4, Event::Heard(SyncArrival { robot: "c".into(), epoch: 3, point: 1, round: 0 }));
+    let out = tick(&mut a, 1.5, true);
+    assert!(matches!(out.first(), Some(Command::Navigate { x, .. }) if *x == 20.0), "released by the newcomer: {out:?}");
+
+    // c takes b's plan where b was: step 3 (a barrier) is reached by the leg before it, in b's
+    // round, past the formation.
+    let plan = RobotPlan { robot: "c".into(), robot_type: "ground".into(), slot: 1, steps: round_steps(), team: String::new() };
+    let mut c = Executor::taking_over(PlanAssignment { epoch: 3, members: vec!["a".into(), "c".into()], handover, plan, ..a.assignment.clone() }, 3, 4);
+    let p = c.progress();
+    assert_eq!((p.step, p.round, p.syncs_passed), (2, 4, 1));
+    let out = tick(&mut c, 0.0, true);
+    assert!(matches!(out.as_slice(), [Command::Navigate { x, .. }] if *x == 10.0), "{out:?}");
+    let out = tick(&mut c, 0.1, true);
+    assert!(out.contains(&Command::Publish(SyncArrival { robot: "c".into(), epoch: 3, point: 1, round: 4 })), "{out:?}");
+    // Still in the formation: it starts at its slot like any member.
+    let plan = RobotPlan { robot: "c".into(), robot_type: "ground".into(), slot: 1, steps: round_steps(), team: String::new() };
+    let c = Executor::taking_over(PlanAssignment { epoch: 3, members: vec!["a".into(), "c".into()], handover, plan, ..a.assignment.clone() }, 1, 0);
+    assert_eq!((c.progress().step, c.progress().syncs_passed), (0, 0));
 }

@@ -255,6 +255,28 @@ fn move_and_loss_steer_both_missions() {
 }
 
 #[test]
+fn a_robot_takes_a_members_place_with_one_control_and_the_member_is_freed() {
+    let mut sm = with_host(&["r1", "r2", "r3", "r4"]);
+    create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1","r2"], {WAYPOINTS}}}"#));
+    create(&mut sm, 2, r#"{"name": "c", "recipe": "coverage", "robots": ["r4"]}"#);
+    let refused = |sm: &mut SystemManager, body: &str| mv(sm, body).replies[0].1.clone().expect_err("refused").error;
+    assert!(refused(&mut sm, r#"{"robot": "r3", "to": "p", "replaces": "r4"}"#).contains("not in mission p"));
+    assert!(refused(&mut sm, r#"{"robot": "r3", "to": null, "replaces": "r1"}"#).contains("`to` is needed"));
+    assert!(refused(&mut sm, r#"{"robot": "r1", "to": "p", "replaces": "r1"}"#).contains("already in mission p"));
+    let seen = mv(&mut sm, r#"{"robot": "r3", "to": "p", "replaces": "r1"}"#);
+    let Some((mission, MissionCtl::Replaced { out, member })) = seen.ctls.first() else { panic!("one control: {:?}", seen.ctls) };
+    assert_eq!((mission.as_str(), out.as_str(), member.spec.id.as_str(), seen.ctls.len()), ("p", "r1", "r3", 1));
+    assert_eq!(seen.leaves, ["r1 p"], "the member freed is told to leave");
+    assert_eq!(seen.replies[0].1.as_ref().expect("moved")["replaces"], "r1");
+    assert_eq!(mission_of(&sm, "r3").as_deref(), Some("p"));
+    assert_eq!(mission_of(&sm, "r1"), None);
+    // From another mission: that one lets it go first.
+    let seen = mv(&mut sm, r#"{"robot": "r4", "to": "p", "replaces": "r2"}"#);
+    assert_eq!(seen.ctls.iter().map(|(m, c)| (m.as_str(), matches!(c, MissionCtl::Replaced { .. }))).collect::<Vec<_>>(), [("c", false), ("p", true)]);
+    assert_eq!(seen.ctls[0].1, left(&["r4"]));
+}
+
+#[test]
 fn controls_are_sent_again_until_acknowledged_and_in_order() {
     let mut sm = with_host(&["r1", "r2", "r3"]);
     create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1","r2"], {WAYPOINTS}}}"#));
