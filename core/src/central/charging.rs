@@ -42,10 +42,12 @@ pub const PLUG_GRACE_S: f64 = 3.0;
 pub const SPARE_ABOVE: f64 = 0.5;
 /// A low robot and the spare sent to relieve it swap once this close, metres. The spare takes
 /// the low robot's plan from the leg it is on, and the team waits at its next barrier for the
-/// metres between them: in `mrmm experiment energy` (seeds 1–4) 4 m made the day's worst
-/// idleness 1.27–1.35 × its value with no batteries, 3 m 1.17–1.24 ×. On a map with traffic a
-/// robot held behind a standing one waits a lane segment back (cut at 3 m): still this close.
-pub const MEET_M: f64 = 3.0;
+/// metres between them; a smaller radius makes the spare wait longer for the low robot to come
+/// round. In `mrmm experiment energy` (seeds 1–4) the day's worst idleness was 1.27–1.35 × its
+/// value with no batteries at 4 m, 1.20–1.36 × at 3.5 m, 1.17–1.24 × at 3 m — but at 3 m its
+/// hour with 20-minute batteries went a robot short for 61 s (both spares busy). On a map with
+/// traffic a robot held behind a standing one waits a lane segment back (cut at 3 m).
+pub const MEET_M: f64 = 3.5;
 /// A low robot is relieved at the latest this long after its spare was sent, seconds, or at
 /// once below this share of its threshold.
 pub const RELIEF_S: f64 = 300.0;
