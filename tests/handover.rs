@@ -2,7 +2,8 @@
 //! --replacing r1`, what central's charging policy does when a spare relieves a low robot). The
 //! member that stays carries its plan on — its rounds and barriers go on counting, no replan
 //! sends it back to the formation — the newcomer starts on the leaver's leg in the leaver's
-//! round, the team keeps passing barriers with it, and the leaver is freed.
+//! round, the team keeps passing barriers with it, the member that stays keeps its member token up
+//! throughout, and the leaver is freed.
 
 mod common;
 
@@ -67,6 +68,15 @@ async fn a_robot_takes_a_members_place_and_the_team_goes_on_without_a_replan() -
     })
     .await?;
 
+    // The teammates' tokens from here on: r2's must stay up through the hand-over (a token gone
+    // and back is a member gone for its teammates' barriers).
+    let tokens = client
+        .session()
+        .liveliness()
+        .declare_subscriber(proto::Pattern::TeamMembers("p".into()).to_string())
+        .with(zenoh::handlers::RingChannel::new(256))
+        .await
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let out = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "move", "r3", "p", "--replacing", "r1"]).output()?;
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && said.contains("r3: none → p (in place of r1)"), "{said}{}", String::from_utf8_lossy(&out.stderr));
@@ -99,6 +109,14 @@ async fn a_robot_takes_a_members_place_and_the_team_goes_on_without_a_replan() -
     assert!(after.1.round >= before.round, "r3 started in r1's round, not the first: {:?}", after.1);
     let m: MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
     assert_eq!(m.manager.epoch, planned + 1, "still no replan");
+    let mut gone = Vec::new();
+    while let Ok(Some(s)) = tokens.try_recv() {
+        if s.kind() == zenoh::sample::SampleKind::Delete {
+            gone.push(s.key_expr().to_string());
+        }
+    }
+    assert!(gone.iter().all(|k| !k.ends_with("/r2")), "r2's member token went down: {gone:?}");
+    assert!(gone.iter().any(|k| k.ends_with("/r1")), "r1 left the team: {gone:?}");
     let r1: RobotView = client.query(proto::Key::SystemRobot("r1".into()), None::<&()>).await?;
     assert_eq!(r1.mission, None, "the leaver is freed");
 

@@ -159,8 +159,17 @@ impl Io {
     /// A new plan's team (a fresh member token, and the teammates' liveliness heard from the
     /// start), or none.
     async fn rejoin(&mut self) {
+        let Some(links) = self.links.team().cloned() else {
+            self.team = None;
+            return;
+        };
+        // The same team again (a hand-over, a replan): its token stays up, only what it hears
+        // follows the new plan — teammates see no member go and come back.
+        if let Some(t) = self.team.as_mut().filter(|t| t.serves(&self.id, &links)) {
+            t.follow(&links).await;
+            return;
+        }
         self.team = None;
-        let Some(links) = self.links.team().cloned() else { return };
         match TeamLink::join(self.mesh.session(), &self.id, &links).await {
             Ok(link) => self.team = Some(link),
             Err(e) => tracing::warn!(robot = %self.id, "cannot join team {}: {e}", links.team),

@@ -19,6 +19,10 @@ use crate::error::PeerError;
 
 /// The Zenoh side of team membership.
 pub(super) struct TeamLink {
+    /// Its member token's key, and the widest team whose members' tokens it follows: a new plan
+    /// of the same team keeps the link (no token flap for the teammates).
+    member: String,
+    widest: String,
     _token: LivelinessToken,
     /// Membership tokens of the widest team the plan has barriers with.
     _members: Subscriber<()>,
@@ -41,8 +45,15 @@ impl TeamLink {
         data.follow(&links.subscriptions()).await;
         // Declared last: once teammates see it, this robot hears their barriers.
         let token = session.liveliness().declare_token(member.to_string()).await.map_err(PeerError::zenoh)?;
-        let link = TeamLink { _token: token, _members: members, members_rx: Mutex::new(members_rx), data, rx: Mutex::new(rx) };
+        let (member, widest) = (member.to_string(), links.widest().to_string());
+        let link = TeamLink { member, widest, _token: token, _members: members, members_rx: Mutex::new(members_rx), data, rx: Mutex::new(rx) };
         Ok(link)
+    }
+
+    /// Whether this link serves robot `id` in the team `links` describes as it is: the same member
+    /// token, the same teammates' tokens followed.
+    pub(super) fn serves(&self, id: &str, links: &TeamLinks) -> bool {
+        Key::team_member(&links.subteam, id).is_ok_and(|m| m.to_string() == self.member) && links.widest() == self.widest
     }
 
     /// Subscribes to what `links` says the robot hears now, and only that.
