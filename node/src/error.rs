@@ -17,6 +17,9 @@ pub enum NodeError {
     /// The robot's traffic deputy stopped.
     #[error("traffic deputy stopped: {0}")]
     Deputy(#[source] ManagerError),
+    /// The VDA 5050 gateway cannot start (its config names the problem).
+    #[error("vda5050: {0}")]
+    Gateway(String),
     /// A task of the node panicked.
     #[error("robot task: {0}")]
     Task(#[source] tokio::task::JoinError),

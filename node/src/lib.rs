@@ -2,10 +2,11 @@
 //! arguments and config (tokio's mini-redis: `server::run(listener, shutdown)`). Central, mission
 //! hosts and site routers are one driver each (`mrmm_manager::central::run`,
 //! `mrmm_manager::host::serve`, `mrmm_manager::site_router`); a robot's node is three on one
-//! session ([`robot`]). [`procs`] starts nodes as child processes (the demo's, the experiments').
+//! session ([`robot`]); the VDA 5050 gateway runs one robot per vehicle ([`vda5050`]). [`procs`] starts nodes as child processes (the demo's, the experiments').
 
 pub mod error;
 pub mod procs;
 pub mod robot;
+pub mod vda5050;
 
 pub use error::{NodeError, ProcError};

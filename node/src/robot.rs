@@ -29,6 +29,11 @@ enum Outcome {
 /// Starts the robot of `cfg` (validated) and its mission host; returns once it is on the network
 /// (or has stopped). It runs until `shutdown` is cancelled or it fails.
 pub async fn start(cfg: RobotConfig, shutdown: CancellationToken) -> Result<Started, NodeError> {
+    start_with(cfg, shutdown, None).await
+}
+
+/// [`start`], for a robot whose body is a VDA 5050 vehicle: `vda` is its link to the gateway.
+pub async fn start_with(cfg: RobotConfig, shutdown: CancellationToken, vda: Option<mrmm_peer::runtime::VdaLink>) -> Result<Started, NodeError> {
     // The chain state is opened before anything starts: a locked or damaged one stops start-up.
     let stored = match &cfg.state_dir {
         Some(dir) => Some(mrmm_manager::host::store::Store::open(dir).map_err(NodeError::StateDir)?),
@@ -52,7 +57,8 @@ pub async fn start(cfg: RobotConfig, shutdown: CancellationToken) -> Result<Star
     let (mesh_deputy, id, deputy_stop) = (mesh.clone(), cfg.id.clone(), stop.clone());
     tasks.spawn(async move { Outcome::Deputy(mrmm_manager::deputy::serve(mesh_deputy, id, deputy_rx, maps, deputy_stop).await) });
     let (tx, rx) = oneshot::channel();
-    tasks.spawn(async move { Outcome::Robot(mrmm_peer::runtime::run_on(mesh, cfg, robot_stop, Some(tx), Some(team_tx), Some(deputy_tx)).await) });
+    let services = mrmm_peer::runtime::Services { team: Some(team_tx), deputy: Some(deputy_tx), vda };
+    tasks.spawn(async move { Outcome::Robot(mrmm_peer::runtime::run_on(mesh, cfg, robot_stop, Some(tx), services).await) });
     let ready = rx.await.ok();
     Ok(Started { ready, session, tasks, stop })
 }

@@ -110,6 +110,15 @@ pub enum BodySection {
     Sim,
     /// A ROS 2 robot: its graph over rmw_zenoh.
     Ros2(Box<mrmm_ros2::Ros2Body>),
+    /// A VDA 5050 vehicle, driven through the gateway that runs its robot (`mrmm vda5050`): not
+    /// for config files.
+    #[serde(skip)]
+    Vda5050 {
+        /// Order ids begin with this.
+        order_prefix: String,
+        /// The `mapId` of its orders' nodes.
+        map_id: String,
+    },
 }
 
 /// Makes the paths of a `security` section relative to the directory of the file it was read from.
@@ -253,6 +262,7 @@ impl RobotConfig {
     pub fn setup(&self) -> RobotSetup {
         let body = match &self.body {
             BodySection::Sim => BodyKind::Sim,
+            BodySection::Vda5050 { order_prefix, map_id } => BodyKind::Vda { order_prefix: order_prefix.clone(), map_id: map_id.clone() },
             BodySection::Ros2(b) => BodyKind::Ros {
                 odom_timeout_s: b.odom_timeout_ms as f64 / 1000.0,
                 stop_on_fleet_loss: b.stop_on_fleet_loss,

@@ -19,6 +19,7 @@ mod table;
 mod tap;
 pub mod threads;
 mod tour;
+mod vda5050;
 mod viz;
 
 use clap::{Parser, Subcommand};
@@ -44,6 +45,9 @@ enum Cmd {
     /// Run many simulated robots in one process (each its own identity and session); crash and
     /// start them one by one from stdin (`kill ID…`, `start ID…`, `list`) or SIGUSR1.
     SimFleet(sim_fleet::Args),
+    /// Run the VDA 5050 gateway: every vehicle on an MQTT broker joins the fleet as a robot.
+    #[command(name = "vda5050")]
+    Vda5050(vda5050::Args),
     /// Run a site router of a multi-site fleet (robots of the site are its peers).
     Router(router::Args),
     /// Operator commands against a running fleet.
@@ -107,6 +111,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Central(a) => central::run(a).await,
         Cmd::Robot(a) => robot::run(a).await,
         Cmd::SimFleet(a) => sim_fleet::run(a).await,
+        Cmd::Vda5050(a) => vda5050::run(a).await,
         Cmd::Router(a) => router::run(a).await,
         Cmd::Op(a) => op::run(a).await,
         Cmd::Console(a) => console::run(a).await,

@@ -6,7 +6,7 @@ pub mod msg;
 pub mod order;
 pub mod topic;
 
-pub use msg::{Action, BlockingType, Connection, ConnectionState, Factsheet, InstantActions, Order, State};
+pub use msg::{Action, BlockingType, Connection, ConnectionState, Factsheet, FromVehicle, InstantActions, Order, State, Visualization};
 pub use order::{OrderBook, Waypoint};
 pub use topic::{Subtopic, Topics, VehicleId};
 
@@ -41,6 +41,23 @@ pub fn parse<T: serde::de::DeserializeOwned>(topic: Subtopic, bytes: &[u8]) -> R
     serde_json::from_slice(bytes).map_err(|source| Vda5050Error::Json { topic: name, source })
 }
 
+impl Visualization {
+    /// Whether it can be acted on: numbers finite.
+    pub fn check(&self) -> Result<(), Vda5050Error> {
+        check_motion(self.agv_position.as_ref(), self.velocity.as_ref())
+    }
+}
+
+fn check_motion(p: Option<&msg::AgvPosition>, v: Option<&msg::AgvVelocity>) -> Result<(), Vda5050Error> {
+    if p.is_some_and(|p| ![p.x, p.y, p.theta].iter().all(|v| v.is_finite())) {
+        return Err(Vda5050Error::State("agvPosition: not finite".into()));
+    }
+    if v.is_some_and(|v| ![v.vx, v.vy, v.omega].iter().flatten().all(|v| v.is_finite())) {
+        return Err(Vda5050Error::State("velocity: not finite".into()));
+    }
+    Ok(())
+}
+
 impl State {
     /// Whether the state can be acted on: lists bounded, numbers finite, charge 0–100.
     pub fn check(&self) -> Result<(), Vda5050Error> {
@@ -53,16 +70,7 @@ impl State {
         if let Some((what, n)) = lists.iter().find(|(_, n)| *n > MAX_LIST) {
             return Err(Vda5050Error::State(format!("{what}: {n} entries, over {MAX_LIST}")));
         }
-        if let Some(p) = &self.agv_position {
-            if ![p.x, p.y, p.theta].iter().all(|v| v.is_finite()) {
-                return Err(Vda5050Error::State("agvPosition: not finite".into()));
-            }
-        }
-        if let Some(v) = &self.velocity {
-            if ![v.vx, v.vy, v.omega].iter().flatten().all(|v| v.is_finite()) {
-                return Err(Vda5050Error::State("velocity: not finite".into()));
-            }
-        }
+        check_motion(self.agv_position.as_ref(), self.velocity.as_ref())?;
         if let Some(b) = &self.battery_state {
             if !(0.0..=100.0).contains(&b.battery_charge) {
                 return Err(Vda5050Error::State(format!("batteryState.batteryCharge: {} is not a percentage", b.battery_charge)));

@@ -261,3 +261,20 @@ pub struct ProtocolFeatures {
 pub struct FactsheetAction {
     pub action_type: String,
 }
+
+/// `visualization`: where the vehicle is, more often than its state says.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", default)]
+pub struct Visualization {
+    #[serde(flatten)]
+    pub header: Header,
+    pub agv_position: Option<AgvPosition>,
+    pub velocity: Option<AgvVelocity>,
+}
+
+/// What a vehicle says that its robot takes.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FromVehicle {
+    State(Box<State>),
+    Visualization(Visualization),
+}

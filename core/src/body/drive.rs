@@ -1,15 +1,19 @@
-//! The robot's body, whichever it is: the simulated unicycle ([`Body`]) or a ROS 2 robot
-//! ([`RosDrive`]). The robot's state machine talks to this, not to either body.
+//! The robot's body, whichever it is: the simulated unicycle ([`Body`]), a ROS 2 robot
+//! ([`RosDrive`]) or a VDA 5050 vehicle ([`VdaDrive`]). The robot's state machine talks to this,
+//! not to any one body.
 
 use mrmm_proto::{Pose, Velocity};
 
 use crate::body::ros::{RosDrive, Step};
+use crate::body::vda::VdaDrive;
 use crate::body::{Body, Onward};
+use mrmm_proto::traffic::RouteVertex;
 
 #[derive(Debug, Clone)]
 pub enum Drive {
     Sim(Box<Body>),
     Ros(Box<RosDrive>),
+    Vda(Box<VdaDrive>),
 }
 
 impl Drive {
@@ -17,6 +21,7 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.pose(),
             Drive::Ros(r) => r.pose(),
+            Drive::Vda(d) => d.pose(),
         }
     }
 
@@ -24,6 +29,7 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.velocity(),
             Drive::Ros(r) => r.velocity(),
+            Drive::Vda(d) => d.velocity(),
         }
     }
 
@@ -31,6 +37,7 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.goal(),
             Drive::Ros(r) => r.goal(),
+            Drive::Vda(d) => d.goal(),
         }
     }
 
@@ -40,6 +47,7 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.idle(),
             Drive::Ros(r) => r.goal().is_none(),
+            Drive::Vda(d) => d.goal().is_none(),
         }
     }
 
@@ -54,6 +62,16 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.navigate_through(x, y, then, speed),
             Drive::Ros(r) => r.navigate_capped(x, y, speed),
+            Drive::Vda(d) => d.navigate(x, y, None, speed),
+        }
+    }
+
+    /// Drives to the map's vertex `v` (traffic granted the lane to it): a VDA 5050 vehicle's
+    /// order names the vertex's node.
+    pub fn navigate_vertex(&mut self, v: RouteVertex, speed: Option<f64>) {
+        match self {
+            Drive::Vda(d) => d.navigate(v.x, v.y, Some(v.v), speed),
+            _ => self.navigate_through(v.x, v.y, None, speed),
         }
     }
 
@@ -63,6 +81,7 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.battery().map(|bat| bat.state(b.limits().max_speed)),
             Drive::Ros(r) => r.battery(),
+            Drive::Vda(d) => d.battery(),
         }
     }
 
@@ -73,6 +92,7 @@ impl Drive {
             Drive::Sim(b) if b.goal().is_some() && b.battery().is_some_and(|b| b.empty()) => Some("its battery is empty"),
             Drive::Sim(_) => None,
             Drive::Ros(r) => r.stuck(),
+            Drive::Vda(d) => d.stuck(),
         }
     }
 
@@ -80,6 +100,7 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.hold(),
             Drive::Ros(r) => r.hold(),
+            Drive::Vda(d) => d.hold(),
         }
     }
 
@@ -89,16 +110,17 @@ impl Drive {
     pub fn face(&mut self, x: f64, y: f64) {
         match self {
             Drive::Sim(b) => b.face(x, y),
-            Drive::Ros(_) => {}
+            Drive::Ros(_) | Drive::Vda(_) => {}
         }
     }
 
     /// Advances the body: the simulated one by `dt` simulated seconds, the ROS one's controller
-    /// at wall time `now` (its twist, if any, is returned).
+    /// at wall time `now` (its twist, if any, is returned); a VDA 5050 vehicle's messages due.
     pub fn step(&mut self, now: f64, dt: f64) -> Step {
         match self {
             Drive::Sim(b) => Step { arrived: b.step(dt), ..Step::default() },
             Drive::Ros(r) => r.step(now),
+            Drive::Vda(d) => Step { vda: d.take(), ..Step::default() },
         }
     }
 }

@@ -1,6 +1,7 @@
 //! Robot bodies: the simulated one here (unicycle kinematics with speed and turn-rate limits), a
 //! ROS 2 robot's ([`ros`]: mrmm's own controller over `cmd_vel`, or Nav2 goals, [`nav_goals`]),
-//! and the one interface the robot drives either through ([`drive`]).
+//! a VDA 5050 vehicle's ([`vda`]: orders), and the one interface the robot drives any of them
+//! through ([`drive`]).
 //!
 //! The simulated body integrates in simulated time; the caller scales wall time by the robot's
 //! `time_scale` before calling [`Body::step`].
@@ -9,6 +10,7 @@ pub mod battery;
 pub mod drive;
 pub mod nav_goals;
 pub mod ros;
+pub mod vda;
 
 use nalgebra::{Rotation2, Vector2};
 

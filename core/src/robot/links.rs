@@ -126,7 +126,13 @@ impl Links {
                 }
             },
             Command::TrafficReport { map, report } => Out::json(Key::TrafficReport { map: map.clone(), robot: self.id.clone() }, report, Audience::Fleet),
-            Command::Reply(_) | Command::Refuse(_) | Command::Drive(_) | Command::Nav(_) | Command::KeepCapabilities { .. } | Command::Crash => None,
+            Command::Reply(_)
+            | Command::Refuse(_)
+            | Command::Drive(_)
+            | Command::Nav(_)
+            | Command::Vda(_)
+            | Command::KeepCapabilities { .. }
+            | Command::Crash => None,
         }
     }
 

@@ -69,6 +69,8 @@ pub enum Event {
     Traffic { map: String, order: mrmm_proto::TrafficOrder, deputy: bool },
     /// What became of a goal sent to Nav2.
     Nav2Goal { id: GoalId, event: GoalEvent },
+    /// What a VDA 5050 vehicle said: its state or where it is.
+    Vda(Box<mrmm_vda5050::FromVehicle>),
 }
 
 /// What the runtime must do.
@@ -99,6 +101,8 @@ pub enum Command {
     Drive(mrmm_proto::Velocity),
     /// Send Nav2 a goal or cancel one.
     Nav(NavCommand),
+    /// Send a VDA 5050 vehicle an order or instant actions.
+    Vda(crate::body::vda::VdaOut),
     /// Keep these capabilities, changed from the config's `configured`, in the state dir; only
     /// for a robot with one. Carried out (written and synced) before the commands after it: the
     /// reply acknowledging the change comes after.
@@ -167,6 +171,7 @@ impl Robot {
                     None => d,
                 }))
             }
+            BodyKind::Vda { order_prefix, map_id } => Drive::Vda(Box::new(crate::body::vda::VdaDrive::new(cfg.start, cfg.limits, order_prefix, map_id))),
         };
         let capabilities = cfg.capabilities.clone();
         Robot {
@@ -302,7 +307,13 @@ impl Robot {
                 vec![]
             }
             Event::TelemetryDue => vec![Command::Telemetry(self.telemetry())],
-            Event::Odometry { .. } | Event::LocalisedPose(_) | Event::Battery(_) | Event::FleetLink(_) | Event::Nav2Server(_) | Event::Nav2Goal { .. } => {
+            Event::Odometry { .. }
+            | Event::LocalisedPose(_)
+            | Event::Battery(_)
+            | Event::FleetLink(_)
+            | Event::Nav2Server(_)
+            | Event::Nav2Goal { .. }
+            | Event::Vda(_) => {
                 self.body_event(now, ev);
                 vec![]
             }
@@ -352,6 +363,15 @@ impl Robot {
                     n.on_event(now, id, event);
                 }
             }
+            Event::Vda(msg) => {
+                let checked = match msg.as_ref() {
+                    mrmm_vda5050::FromVehicle::State(s) => s.check(),
+                    mrmm_vda5050::FromVehicle::Visualization(v) => v.check(),
+                };
+                if let (Drive::Vda(d), Ok(())) = (&mut self.body, checked) {
+                    d.on_message(&msg);
+                }
+            }
             _ => {}
         }
     }
@@ -359,7 +379,7 @@ impl Robot {
     fn nav2(&mut self) -> Option<&mut Nav2Goals> {
         match &mut self.body {
             Drive::Ros(r) => r.nav2_mut(),
-            Drive::Sim(_) => None,
+            Drive::Sim(_) | Drive::Vda(_) => None,
         }
     }
 
@@ -418,6 +438,7 @@ impl Robot {
             out.push(Command::Drive(t));
         }
         out.extend(step.nav.into_iter().map(Command::Nav));
+        out.extend(step.vda.into_iter().map(Command::Vda));
         out
     }
 
@@ -496,7 +517,9 @@ impl crate::machine::Machine for Robot {
             Command::Reply(_) | Command::Refuse(_) => Effect::Reply,
             Command::Publish(_) | Command::PublishIn(..) | Command::Release(_) | Command::Telemetry(_) | Command::TrafficReport { .. } => Effect::Publish,
             // The team's subscriptions, the body, the log, the process.
-            Command::JoinTeam { .. } | Command::LeaveTeam | Command::Lead(_) | Command::Drive(_) | Command::Nav(_) | Command::Crash => Effect::Local,
+            Command::JoinTeam { .. } | Command::LeaveTeam | Command::Lead(_) | Command::Drive(_) | Command::Nav(_) | Command::Vda(_) | Command::Crash => {
+                Effect::Local
+            }
         }
     }
 }

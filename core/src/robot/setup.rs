@@ -41,6 +41,13 @@ pub enum BodyKind {
         /// Goals go to Nav2's `NavigateToPose` action (else mrmm's own `cmd_vel` controller).
         nav2: Option<Nav2Setup>,
     },
+    /// A VDA 5050 vehicle, driven by orders through the gateway.
+    Vda {
+        /// Order ids begin with this (unique per gateway start: a vehicle keeps the ids it had).
+        order_prefix: String,
+        /// The `mapId` of the nodes of its orders.
+        map_id: String,
+    },
 }
 
 /// A Nav2 body's action and the seed of its goal ids (they must not repeat across restarts: the

@@ -223,7 +223,7 @@ impl Gate {
             }
             if !near(v.x, v.y) {
                 // Stopped on the lane (held by the plan): on to the vertex, the lane is ours.
-                body.navigate_through(v.x, v.y, None, self.goal.and_then(|g| g.speed));
+                body.navigate_vertex(v, self.goal.and_then(|g| g.speed));
                 return false;
             }
             self.driving = None;
@@ -253,7 +253,7 @@ impl Gate {
             if !stays {
                 if !near(v.x, v.y) {
                     if body.idle() || body.goal() != Some((v.x, v.y)) {
-                        body.navigate_through(v.x, v.y, None, goal.speed);
+                        body.navigate_vertex(v, goal.speed);
                     }
                     return false;
                 }
@@ -265,7 +265,7 @@ impl Gate {
             if !quiet && h.upto.is_some_and(|u| next <= u) {
                 let v = h.route[next];
                 self.driving = Some(v);
-                body.navigate_through(v.x, v.y, None, goal.speed);
+                body.navigate_vertex(v, goal.speed);
             } else {
                 self.waiting = true;
             }

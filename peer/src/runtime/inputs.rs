@@ -111,6 +111,7 @@ impl Inputs {
                     tracing::warn!(robot = %self.id, up, "fleet link changed");
                     (Event::FleetLink(up), None)
                 }
+                state = super::vda::recv(&mut io.vda) => (Event::Vda(state), None),
                 input = recv_ros(&io.ros) => match self.ros.event(input) {
                     Some(ev) => (ev, None),
                     None => continue,

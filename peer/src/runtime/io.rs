@@ -35,6 +35,8 @@ pub(super) struct Io {
     pub(super) viewers: Viewers,
     /// A ROS 2 body's link.
     pub(super) ros: Option<RosLink>,
+    /// A VDA 5050 vehicle's link to its gateway.
+    pub(super) vda: Option<super::VdaLink>,
     /// Where the robot keeps what must survive a restart.
     pub(super) state_dir: Option<std::path::PathBuf>,
     /// Ordered to crash (a simulated robot): the runtime stops at once.
@@ -104,6 +106,11 @@ impl Io {
             Command::Nav(NavCommand::Cancel(id)) => {
                 if let Some(ros) = &self.ros {
                     ros.cancel_goal(id);
+                }
+            }
+            Command::Vda(out) => {
+                if let Some(link) = &self.vda {
+                    link.send(&self.id, out);
                 }
             }
             // Written by the runtime before anything else of its step.

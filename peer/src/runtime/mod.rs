@@ -10,6 +10,7 @@ mod io;
 mod node;
 mod ros;
 mod team;
+mod vda;
 
 use std::time::{Duration, Instant};
 
@@ -32,6 +33,7 @@ use mrmm_core::robot::viewers::Viewers;
 use mrmm_core::robot::Robot;
 
 pub use self::io::TELEMETRY_SIGN_MS;
+pub use self::vda::VdaLink;
 
 /// Input waiting for the robot's loop, per kind, at most: when the loop falls behind (or is
 /// flooded), the oldest is dropped — never Zenoh's receiving thread blocked.
@@ -53,7 +55,7 @@ pub struct Ready {
 /// on the network (queryables and liveliness token declared).
 pub async fn run(cfg: RobotConfig, shutdown: CancellationToken, ready: Option<oneshot::Sender<Ready>>) -> Result<(), PeerError> {
     let mesh = open(&cfg, &shutdown).await?;
-    run_on(mesh, cfg, shutdown, ready, None, None).await
+    run_on(mesh, cfg, shutdown, ready, Services::default()).await
 }
 
 /// The missions the robot is in or admitted to, each with whom it trusts for it (what its
@@ -120,24 +122,36 @@ pub async fn refuse_taken_name(session: &Session, key: &Key, what: &str, name: &
     Ok(())
 }
 
-/// Runs a robot on an open session (shared with other services of the same process: a mission
-/// host, told the robot's team on `team`; its traffic deputy, told on `deputy` the map whose
-/// authority names the robot its deputy).
+/// The other services of the robot's process, and a body's link that is not in its config.
+#[derive(Default)]
+pub struct Services {
+    /// Its mission host, told the robot's team.
+    pub team: Option<tokio::sync::watch::Sender<LocalTeam>>,
+    /// Its traffic deputy, told the map whose authority names the robot its deputy.
+    pub deputy: Option<tokio::sync::watch::Sender<Option<proto::MapRef>>>,
+    /// A VDA 5050 vehicle's link to the gateway (`body: Vda5050`).
+    pub vda: Option<VdaLink>,
+}
+
+/// Runs a robot on an open session (shared with the other services of the same process).
 pub async fn run_on(
     mesh: Mesh,
     cfg: RobotConfig,
     shutdown: CancellationToken,
     ready: Option<oneshot::Sender<Ready>>,
-    team: Option<tokio::sync::watch::Sender<LocalTeam>>,
-    deputy: Option<tokio::sync::watch::Sender<Option<proto::MapRef>>>,
+    services: Services,
 ) -> Result<(), PeerError> {
+    let Services { team, deputy, vda } = services;
+    if matches!(cfg.body, BodySection::Vda5050 { .. }) != vda.is_some() {
+        return Err(PeerError::Stopped(format!("robot {}: a VDA 5050 body needs its gateway's link, and only it has one", cfg.id)));
+    }
     let session = mesh.session().clone();
     let id = cfg.id.clone();
     refuse_taken_name(&session, &Key::RobotAlive(id.as_str().into()), "robot", &id).await?;
     // A ROS 2 body: its own session to the robot's ROS router, opened before the robot shows up.
     let ros = match &cfg.body {
         BodySection::Ros2(b) => Some(RosLink::open(b, &id).await?),
-        BodySection::Sim => None,
+        BodySection::Sim | BodySection::Vda5050 { .. } => None,
     };
     // Capabilities changed before a restart come back (a broken camera stays broken).
     let kept = match &cfg.state_dir {
@@ -168,6 +182,7 @@ pub async fn run_on(
         telemetry_signs: SignCadence::new(TELEMETRY_SIGN_MS),
         viewers: Viewers::new(proto::VIEWER_HELLO_MS),
         ros,
+        vda,
         state_dir: cfg.state_dir.clone(),
         crashed: false,
     };

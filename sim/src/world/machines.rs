@@ -296,7 +296,7 @@ impl World {
                 }
             }
             // Simulated bodies give no velocity commands, nor ROS 2 goals.
-            robot::Command::Drive(_) | robot::Command::Nav(_) => {}
+            robot::Command::Drive(_) | robot::Command::Nav(_) | robot::Command::Vda(_) => {}
             robot::Command::KeepCapabilities { now, .. } => self.nodes[i].kept_caps = Some(now.clone()),
             // Its last command: the node goes down as a crashed process does.
             robot::Command::Crash => {

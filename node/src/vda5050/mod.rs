@@ -1,0 +1,252 @@
+//! The VDA 5050 gateway (`mrmm vda5050`): every vehicle it hears on the MQTT broker becomes a
+//! fleet robot of its own (identity, session, liveliness, mission host), run in this process
+//! with a [`VdaDrive`](mrmm_core::body::vda::VdaDrive) body — the robot's goals go out as the
+//! vehicle's orders, the vehicle's `state` comes back as the robot's pose, speed and battery. A
+//! vehicle's `connection` OFFLINE or CONNECTIONBROKEN (its last will) drops its robot as a crash
+//! would: the fleet sees it lost and its missions replan.
+
+pub mod config;
+mod mqtt;
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use mrmm_peer::config::{BodySection, RobotConfig};
+use mrmm_peer::runtime::VdaLink;
+use mrmm_vda5050::{Connection, ConnectionState, Factsheet, FromVehicle, State, Subtopic, Topics, VehicleId, Visualization};
+use tokio::sync::{mpsc, oneshot};
+use tokio::task::JoinSet;
+use tokio_util::sync::CancellationToken;
+
+pub use self::config::GatewayConfig;
+use crate::NodeError;
+
+/// States waiting for a vehicle's robot, at most (a newer one supersedes them: the rest is
+/// dropped while its loop is behind).
+const STATES: usize = 8;
+/// Messages waiting to go to one vehicle, at most.
+const OUTBOX: usize = 64;
+
+/// A vehicle the gateway heard.
+struct Vehicle {
+    robot: String,
+    /// Its robot's inbox of states (none until its robot starts, and once it is dropped).
+    states: Option<mpsc::Sender<Box<FromVehicle>>>,
+    /// Drops its robot as a crash would.
+    kill: Option<oneshot::Sender<()>>,
+}
+
+/// Input the gateway could not take, counted (logged at powers of two).
+#[derive(Default)]
+struct Refused {
+    count: u64,
+}
+
+impl Refused {
+    fn note(&mut self, why: &str) {
+        self.count += 1;
+        if self.count.is_power_of_two() {
+            tracing::warn!(count = self.count, "VDA 5050: dropped: {why}");
+        }
+    }
+}
+
+/// The gateway's state.
+struct Gateway {
+    cfg: GatewayConfig,
+    topics: Topics,
+    template: RobotConfig,
+    client: rumqttc::AsyncClient,
+    vehicles: BTreeMap<VehicleId, Vehicle>,
+    /// Top speeds from the vehicles' factsheets, m/s (their robots' kinematics).
+    speeds: BTreeMap<VehicleId, f64>,
+    robots: JoinSet<(VehicleId, Result<(), NodeError>)>,
+    shutdown: CancellationToken,
+    refused: Refused,
+    /// Makes order ids unique across the gateway's starts.
+    started_ms: u64,
+}
+
+/// Runs the gateway of `cfg` (validated; `template` the robots' config) until `shutdown`.
+pub async fn run(cfg: GatewayConfig, template: RobotConfig, shutdown: CancellationToken) -> Result<(), NodeError> {
+    let topics = cfg.topics().map_err(NodeError::Gateway)?;
+    let broker = cfg.broker().map_err(NodeError::Gateway)?;
+    let (client, mut events) = mqtt::connect(&cfg, &broker);
+    let started_ms = mqtt::unix_ms();
+    let mut gw = Gateway {
+        cfg,
+        topics,
+        template,
+        client,
+        vehicles: BTreeMap::new(),
+        speeds: BTreeMap::new(),
+        robots: JoinSet::new(),
+        shutdown: shutdown.clone(),
+        refused: Refused::default(),
+        started_ms,
+    };
+    let mut announced = false;
+    let mut backoff = Duration::from_millis(250);
+    loop {
+        tokio::select! {
+            _ = shutdown.cancelled() => break,
+            ev = events.poll() => match ev {
+                Ok(rumqttc::Event::Incoming(rumqttc::Packet::ConnAck(_))) => {
+                    backoff = Duration::from_millis(250);
+                    tracing::info!(broker = %gw.cfg.broker, "VDA 5050: connected to the broker");
+                    mqtt::subscribe(&gw.client, &gw.topics).await;
+                }
+                Ok(rumqttc::Event::Incoming(rumqttc::Packet::SubAck(_))) if !announced => {
+                    announced = true;
+                    println!("vda5050 ready broker={}:{} interface={}/{}", broker.host, broker.port, gw.topics.interface, gw.topics.major);
+                }
+                Ok(rumqttc::Event::Incoming(rumqttc::Packet::Publish(p))) => gw.heard(&p.topic, &p.payload),
+                Ok(_) => {}
+                Err(e) => {
+                    tracing::warn!(broker = %gw.cfg.broker, "VDA 5050: broker connection: {e}; trying again in {backoff:?}");
+                    tokio::select! {
+                        _ = shutdown.cancelled() => break,
+                        _ = tokio::time::sleep(backoff) => {}
+                    }
+                    backoff = (backoff * 2).min(Duration::from_secs(5));
+                }
+            },
+            Some(done) = gw.robots.join_next() => gw.robot_stopped(done),
+        }
+    }
+    let _ = gw.client.disconnect().await;
+    while gw.robots.join_next().await.is_some() {}
+    Ok(())
+}
+
+impl Gateway {
+    /// A message on one of the vehicles' topics.
+    fn heard(&mut self, topic: &str, payload: &[u8]) {
+        let (vehicle, sub) = match self.topics.parse(topic) {
+            Ok(t) => t,
+            Err(e) => return self.refused.note(&e.to_string()),
+        };
+        match sub {
+            Subtopic::State => match mrmm_vda5050::parse::<State>(sub, payload).and_then(|s| s.check().map(|()| s)) {
+                Ok(state) => self.state(vehicle, state),
+                Err(e) => self.refused.note(&format!("{vehicle}: {e}")),
+            },
+            Subtopic::Connection => match mrmm_vda5050::parse::<Connection>(sub, payload) {
+                Ok(c) if c.connection_state != ConnectionState::Online => self.gone(&vehicle, c.connection_state),
+                Ok(_) => tracing::info!(%vehicle, "VDA 5050: vehicle online"),
+                Err(e) => self.refused.note(&format!("{vehicle}: {e}")),
+            },
+            Subtopic::Factsheet => match mrmm_vda5050::parse::<Factsheet>(sub, payload) {
+                Ok(f) => {
+                    let speed = f.physical_parameters.and_then(|p| p.speed_max).filter(|s| s.is_finite() && *s > 0.0);
+                    if let Some(s) = speed.filter(|_| self.speeds.len() < self.cfg.max_vehicles || self.speeds.contains_key(&vehicle)) {
+                        self.speeds.insert(vehicle, s.clamp(mrmm_proto::MIN_SPEED, mrmm_proto::MAX_SPEED));
+                    }
+                }
+                Err(e) => self.refused.note(&format!("{vehicle}: {e}")),
+            },
+            Subtopic::Visualization => match mrmm_vda5050::parse::<Visualization>(sub, payload).and_then(|v| v.check().map(|()| v)) {
+                Ok(vis) => {
+                    if let Some(tx) = self.vehicles.get(&vehicle).and_then(|v| v.states.as_ref()) {
+                        let _ = tx.try_send(Box::new(FromVehicle::Visualization(vis)));
+                    }
+                }
+                Err(e) => self.refused.note(&format!("{vehicle}: {e}")),
+            },
+            Subtopic::Order | Subtopic::InstantActions => self.refused.note(&format!("{topic}: a master control's topic, not a vehicle's")),
+        }
+    }
+
+    /// A vehicle's state: to its robot, which starts (where the vehicle stands) at its first.
+    fn state(&mut self, vehicle: VehicleId, state: State) {
+        if let Some(v) = self.vehicles.get(&vehicle) {
+            if let Some(tx) = &v.states {
+                // Full: its robot is behind; the next state says it all again.
+                let _ = tx.try_send(Box::new(FromVehicle::State(Box::new(state))));
+            }
+            return;
+        }
+        if self.vehicles.len() >= self.cfg.max_vehicles {
+            return self.refused.note(&format!("{vehicle}: the gateway runs its {} vehicles already (max_vehicles)", self.cfg.max_vehicles));
+        }
+        let Some(p) = state.agv_position.clone().filter(|p| p.position_initialized) else {
+            return self.refused.note(&format!("{vehicle}: no initialised agvPosition yet: its robot starts once it knows where it is"));
+        };
+        let robot = self.cfg.robot_id(&vehicle);
+        let mut cfg = self.template.clone();
+        cfg.id.clone_from(&robot);
+        cfg.start = mrmm_peer::config::StartPose { x: p.x, y: p.y, theta: p.theta };
+        cfg.time_scale = 1.0;
+        if let Some(s) = self.speeds.get(&vehicle) {
+            cfg.kinematics.max_speed = *s;
+        }
+        cfg.battery = None;
+        cfg.body = BodySection::Vda5050 { order_prefix: format!("mrmm-{}", self.started_ms), map_id: self.cfg.map.clone() };
+        if let Some(sec) = cfg.security.as_mut() {
+            let dir = sec.cert.parent().map(std::path::PathBuf::from).unwrap_or_default();
+            sec.cert = dir.join(format!("{robot}.crt"));
+            sec.key = dir.join(format!("{robot}.key"));
+        }
+        if let Some(dir) = &self.template.state_dir {
+            cfg.state_dir = Some(dir.join(&robot));
+        }
+        if let Err(e) = cfg.validate() {
+            return self.refused.note(&format!("{vehicle}: its robot {robot}: {e}"));
+        }
+        let (states_tx, states_rx) = mpsc::channel(STATES);
+        let (out_tx, out_rx) = mpsc::channel(OUTBOX);
+        let (kill_tx, kill_rx) = oneshot::channel();
+        let _ = states_tx.try_send(Box::new(FromVehicle::State(Box::new(state))));
+        tokio::spawn(mqtt::forward(
+            self.client.clone(),
+            self.topics.of(&vehicle, Subtopic::Order),
+            self.topics.of(&vehicle, Subtopic::InstantActions),
+            vehicle.clone(),
+            out_rx,
+        ));
+        let link = VdaLink { states: states_rx, out: out_tx };
+        let stop = self.shutdown.child_token();
+        let who = vehicle.clone();
+        tracing::info!(%vehicle, %robot, "VDA 5050: a new vehicle: starting its robot");
+        self.robots.spawn(async move { (who, one(cfg, link, stop, kill_rx).await) });
+        self.vehicles.insert(vehicle, Vehicle { robot, states: Some(states_tx), kill: Some(kill_tx) });
+    }
+
+    /// The vehicle left the broker (or its link broke): its robot is dropped as a crash would.
+    fn gone(&mut self, vehicle: &VehicleId, how: ConnectionState) {
+        let Some(v) = self.vehicles.get_mut(vehicle) else { return };
+        tracing::warn!(%vehicle, robot = %v.robot, ?how, "VDA 5050: vehicle gone: its robot drops off the fleet");
+        v.states = None;
+        if let Some(kill) = v.kill.take() {
+            let _ = kill.send(());
+        }
+    }
+
+    fn robot_stopped(&mut self, done: Result<(VehicleId, Result<(), NodeError>), tokio::task::JoinError>) {
+        match done {
+            Ok((vehicle, result)) => {
+                if let Some(v) = self.vehicles.remove(&vehicle) {
+                    match result {
+                        Ok(()) => tracing::info!(%vehicle, robot = %v.robot, "VDA 5050: robot stopped"),
+                        Err(e) => tracing::warn!(%vehicle, robot = %v.robot, "VDA 5050: robot stopped: {e}"),
+                    }
+                    println!("vehicle gone robot={}", v.robot);
+                }
+            }
+            Err(e) => tracing::error!("VDA 5050: a robot's task failed: {e}"),
+        }
+    }
+}
+
+/// One vehicle's robot, from start until it stops, is killed or the gateway stops.
+async fn one(cfg: RobotConfig, link: VdaLink, stop: CancellationToken, kill: oneshot::Receiver<()>) -> Result<(), NodeError> {
+    let mut started = crate::robot::start_with(cfg, stop, Some(link)).await?;
+    started.announce();
+    tokio::select! {
+        r = started.finished() => r,
+        Ok(()) = kill => {
+            started.kill().await;
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,75 @@
+//! The gateway's MQTT side: its client (bounded packets, the vehicles' topics subscribed at
+//! every connection) and, per vehicle, the task that stamps and publishes what its robot sends.
+
+use std::time::Duration;
+
+use rumqttc::{AsyncClient, EventLoop, MqttOptions, QoS};
+
+use mrmm_core::body::vda::VdaOut;
+use mrmm_vda5050::msg::Header;
+use mrmm_vda5050::{InstantActions, Subtopic, Topics, VehicleId, MAX_MESSAGE};
+
+use super::config::{Broker, GatewayConfig};
+
+/// Requests waiting for the client's event loop, at most.
+const REQUESTS: usize = 256;
+
+/// The client and its event loop (connects at its first poll, reconnects at the next after an
+/// error).
+pub(super) fn connect(cfg: &GatewayConfig, broker: &Broker) -> (AsyncClient, EventLoop) {
+    let mut opts = MqttOptions::new(format!("mrmm-vda5050-{}", std::process::id()), broker.host.clone(), broker.port);
+    opts.set_keep_alive(Duration::from_secs(5));
+    opts.set_max_packet_size(MAX_MESSAGE, MAX_MESSAGE);
+    opts.set_clean_session(true);
+    if let Some(user) = &cfg.username {
+        opts.set_credentials(user.clone(), cfg.password.clone().unwrap_or_default());
+    }
+    AsyncClient::new(opts, REQUESTS)
+}
+
+/// Subscribes to what every vehicle publishes (a clean session forgets subscriptions: done at
+/// every connection).
+pub(super) async fn subscribe(client: &AsyncClient, topics: &Topics) {
+    for sub in Subtopic::FROM_VEHICLES {
+        // The standard's QoS: 1 for connection, 0 for the rest.
+        let qos = if sub == Subtopic::Connection { QoS::AtLeastOnce } else { QoS::AtMostOnce };
+        if let Err(e) = client.subscribe(topics.every(sub), qos).await {
+            tracing::warn!("VDA 5050: cannot subscribe to {}: {e}", topics.every(sub));
+        }
+    }
+}
+
+/// Milliseconds since 1970.
+pub(super) fn unix_ms() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64)
+}
+
+/// Publishes what one vehicle's robot sends, each message with its header (`headerId` +1 per
+/// topic), until the robot lets go of its link.
+pub(super) async fn forward(client: AsyncClient, order_topic: String, instant_topic: String, vehicle: VehicleId, mut out: tokio::sync::mpsc::Receiver<VdaOut>) {
+    let (mut orders, mut instants) = (0u64, 0u64);
+    while let Some(msg) = out.recv().await {
+        let (topic, payload) = match msg {
+            VdaOut::Order(mut o) => {
+                o.header = Header::new(orders, unix_ms(), &vehicle);
+                orders += 1;
+                tracing::info!(%vehicle, order = %o.order_id, update = o.order_update_id, nodes = o.nodes.len(), "VDA 5050: order");
+                (&order_topic, serde_json::to_vec(&o))
+            }
+            VdaOut::Instant(actions) => {
+                let msg = InstantActions { header: Header::new(instants, unix_ms(), &vehicle), actions };
+                instants += 1;
+                tracing::info!(%vehicle, actions = ?msg.actions.iter().map(|a| a.action_type.as_str()).collect::<Vec<_>>(), "VDA 5050: instant actions");
+                (&instant_topic, serde_json::to_vec(&msg))
+            }
+        };
+        match payload {
+            Ok(bytes) => {
+                if let Err(e) = client.publish(topic.clone(), QoS::AtMostOnce, false, bytes).await {
+                    tracing::warn!(%vehicle, "VDA 5050: cannot publish on {topic}: {e}");
+                }
+            }
+            Err(e) => tracing::error!(%vehicle, "VDA 5050: a message that does not encode: {e}"),
+        }
+    }
+}

@@ -1,0 +1,260 @@
+//! VDA 5050 vehicles in the fleet, against vehicles nobody here wrote: vda-5050-lib's virtual
+//! AGVs (Siemens, MIT; `tests/vda5050/agvs.js`, run by node) on a real mosquitto broker, through
+//! `mrmm vda5050`. `.ci/run` installs node, mosquitto and the npm package.
+//!
+//! One mission on Open-RMF's office graph with two mrmm robots and two virtual AGVs: every vehicle
+//! registers as a robot, the AGVs accept every order and update (no error in their state) and
+//! their `lastNodeId` goes along the map's vertices as their plans drive them; their process
+//! killed, the broker's last will drops them from the fleet and the mission replans without them.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context};
+use common::{eventually, start, Scratch};
+use mrmm_net::client::Client;
+use mrmm_proto::{self as proto, MissionCreate, MissionView, RobotView};
+use serde_json::{json, Value};
+
+/// A child process that is not mrmm, killed when dropped.
+struct Other(Child);
+
+impl Drop for Other {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn office() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml")
+}
+
+/// Starts mosquitto on a free loopback port (its own config: loopback only, no persistence).
+fn mosquitto(dir: &Scratch) -> anyhow::Result<(Other, u16)> {
+    let port = common::standin::free_port()?;
+    let conf = dir.path("mosquitto.conf");
+    std::fs::write(&conf, format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"))?;
+    let log = std::fs::File::create(dir.path("mosquitto.log"))?;
+    let child = Command::new("mosquitto")
+        .arg("-c")
+        .arg(&conf)
+        .stdout(Stdio::null())
+        .stderr(log)
+        .spawn()
+        .context("mosquitto is not installed (`.ci/run` installs it: apt-get install mosquitto)")?;
+    let up = Instant::now();
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        anyhow::ensure!(up.elapsed() < Duration::from_secs(10), "mosquitto not listening on {port} after 10 s");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Ok((Other(child), port))
+}
+
+/// Starts the virtual AGVs (`serial:x:y:node` each); their state changes come as JSON lines.
+fn agvs(dir: &Scratch, port: u16, specs: &[String]) -> anyhow::Result<(Other, mpsc::Receiver<Value>)> {
+    let here = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/vda5050");
+    // Where .ci/run installed the package (outside the clone), else beside the script.
+    let modules = std::env::var_os("MRMM_VDA5050_NODE_MODULES").map_or_else(|| here.join("node_modules"), PathBuf::from);
+    anyhow::ensure!(
+        modules.join("vda-5050-lib").is_dir(),
+        "vda-5050-lib is not installed in {}: `npm ci --prefix tests/vda5050` (.ci/run installs it)",
+        modules.display()
+    );
+    let log = std::fs::File::create(dir.path("agvs.log"))?;
+    let mut child = Command::new("node")
+        .current_dir(&here)
+        .env("NODE_PATH", &modules)
+        .arg("agvs.js")
+        .args([&port.to_string(), "office", "acme"])
+        .args(specs)
+        .stdout(Stdio::piped())
+        .stderr(log)
+        .spawn()
+        .context("node is not installed (`.ci/run` installs it)")?;
+    let out = child.stdout.take().context("no stdout")?;
+    let (tx, rx) = mpsc::channel();
+    let (ready_tx, ready_rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(out).lines().map_while(Result::ok) {
+            if line == "agvs ready" {
+                let _ = ready_tx.send(());
+            } else if let Ok(v) = serde_json::from_str::<Value>(&line) {
+                let _ = tx.send(v);
+            }
+        }
+    });
+    let agvs = Other(child);
+    if ready_rx.recv_timeout(Duration::from_secs(20)).is_err() {
+        bail!("virtual AGVs not ready in 20 s: {}", std::fs::read_to_string(dir.path("agvs.log")).unwrap_or_default());
+    }
+    Ok((agvs, rx))
+}
+
+/// The gateway's config and its vehicles' robot config.
+fn gateway_config(dir: &Scratch, port: u16, central: &str) -> anyhow::Result<String> {
+    std::fs::write(
+        dir.path("agv.json5"),
+        format!(
+            r#"{{ id: "agv", type: "ground", capabilities: ["camera"], kinematics: {{ max_speed: 1.0, max_turn_rate: 2.0 }}, telemetry_hz: 10,
+                 zenoh: {{ listen: ["tcp/127.0.0.1:0"], connect: ["{central}"], lease_ms: 1000 }} }}"#
+        ),
+    )?;
+    let path = dir.path("gateway.json5");
+    std::fs::write(&path, format!(r#"{{ broker: "mqtt://127.0.0.1:{port}", map: "office", robot: "agv.json5" }}"#))?;
+    Ok(path.display().to_string())
+}
+
+/// The office graph's vertices: index and position.
+fn vertices() -> anyhow::Result<Vec<(usize, f64, f64)>> {
+    let g = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(office())?)?;
+    Ok(g.vertices.iter().enumerate().map(|(i, v)| (i, v.at.x, v.at.y)).collect())
+}
+
+/// `n` vertices at least 2 m from each other.
+fn spread(n: usize) -> anyhow::Result<Vec<(usize, f64, f64)>> {
+    let mut picked: Vec<(usize, f64, f64)> = Vec::new();
+    for (i, x, y) in vertices()? {
+        if picked.iter().all(|&(_, a, b)| (x - a).hypot(y - b) >= 2.0) {
+            picked.push((i, x, y));
+        }
+    }
+    anyhow::ensure!(picked.len() >= n, "only {} vertices 2 m apart", picked.len());
+    Ok(picked.into_iter().take(n).collect())
+}
+
+fn start_central(dir: &Scratch) -> anyhow::Result<(common::Proc, String)> {
+    let (map, state) = (format!("office={}", office().display()), dir.path("central-state").display().to_string());
+    let p = start(
+        "central",
+        &["central", "--listen", "tcp/127.0.0.1:0", "--map", &map, "--state-dir", &state],
+        &dir.path("central.log"),
+        "central ready",
+        Duration::from_secs(20),
+    )?;
+    let ep = p.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).context("no endpoint")?;
+    Ok((p, ep))
+}
+
+fn robots_view(v: &[RobotView], id: &str) -> Option<RobotView> {
+    v.iter().find(|r| r.id.as_str() == id).cloned()
+}
+
+/// The AGVs' state lines so far, per serial: the vertices (`v<k>`) they passed, in order, and any
+/// error they reported.
+#[derive(Default)]
+struct Seen {
+    nodes: std::collections::BTreeMap<String, Vec<String>>,
+    errors: Vec<Value>,
+}
+
+impl Seen {
+    fn take(&mut self, rx: &mpsc::Receiver<Value>) {
+        while let Ok(v) = rx.try_recv() {
+            let serial = v["serial"].as_str().unwrap_or_default().to_string();
+            if v["errors"].as_array().is_some_and(|e| !e.is_empty()) {
+                self.errors.push(v.clone());
+            }
+            let node = v["lastNodeId"].as_str().unwrap_or_default().to_string();
+            let passed = self.nodes.entry(serial).or_default();
+            if passed.last() != Some(&node) {
+                passed.push(node);
+            }
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed() -> anyhow::Result<()> {
+    let dir = Scratch::new("vda5050");
+    let (_broker, port) = mosquitto(&dir)?;
+    let (_central, ep) = start_central(&dir)?;
+    let spots = spread(4)?;
+    let _robots: Vec<common::Proc> = spots[..2]
+        .iter()
+        .enumerate()
+        .map(|(i, &(_, x, y))| common::start_robot_scaled(&dir, &format!("r{}", i + 1), &ep, x, y, 1.0))
+        .collect::<Result<_, _>>()?;
+    let cfg = gateway_config(&dir, port, &ep)?;
+    let _gateway = start("vda5050", &["vda5050", "--config", &cfg], &dir.path("gateway.log"), "vda5050 ready", Duration::from_secs(20))?;
+    let specs: Vec<String> = spots[2..].iter().enumerate().map(|(i, &(v, x, y))| format!("agv{}:{x}:{y}:v{v}", i + 1)).collect();
+    let (mut agv_proc, lines) = agvs(&dir, port, &specs)?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+
+    // Every vehicle a robot of the fleet, where it stands.
+    let t0 = Instant::now();
+    let view = common::wait_robots(&client, 4).await?;
+    println!("4 robots registered {:.2} s after the AGVs started", t0.elapsed().as_secs_f64());
+    for (i, &(_, x, y)) in spots[2..].iter().enumerate() {
+        let r = robots_view(&view, &format!("acme-agv{}", i + 1)).context("AGV not in the fleet")?;
+        let p = r.pose.context("no pose")?;
+        anyhow::ensure!((p.x - x).hypot(p.y - y) < 0.2, "{} at {p:?}, its AGV at ({x}, {y})", r.id);
+    }
+
+    // One patrol of all four on the office graph.
+    let m = MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        robots: Some(["r1", "r2", "acme-agv1", "acme-agv2"].iter().map(|r| (*r).into()).collect()),
+        params: [("waypoints".to_string(), json!("all"))].into(),
+        map: Some("office".into()),
+        ..Default::default()
+    };
+    let created: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await?;
+    let epoch = created.manager.epoch;
+    let mut seen = Seen::default();
+    // Both AGVs drive their plans along the map's vertices: each passes at least three of them.
+    eventually("each AGV past 3 of the map's vertices", Duration::from_secs(60), || {
+        seen.take(&lines);
+        let far = |s: &str| seen.nodes.get(s).map_or(0, |n| n.iter().filter(|id| id.starts_with('v')).count());
+        std::future::ready((far("agv1") >= 3 && far("agv2") >= 3).then_some(()))
+    })
+    .await?;
+    println!("AGVs' vertices: {:?}", seen.nodes);
+    anyhow::ensure!(seen.errors.is_empty(), "an AGV reported errors (an order or update refused?): {:?}", seen.errors);
+    // Their passed vertices are traffic's (the map's, and the points its lanes are cut at), in an
+    // order the lanes allow (each next one a neighbour of the one before): the orders follow the
+    // lanes traffic granted.
+    let map = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(office())?)?;
+    let g = mrmm_core::traffic::layout::segmented(&map, mrmm_core::traffic::authority::SEGMENT_M);
+    for (serial, nodes) in &seen.nodes {
+        let idx: Vec<usize> = nodes.iter().filter_map(|n| n.strip_prefix('v')?.parse().ok()).collect();
+        for w in idx.windows(2) {
+            let adjacent = g.edges.iter().any(|l| (l.from as usize, l.to as usize) == (w[0], w[1]) || (l.from as usize, l.to as usize) == (w[1], w[0]));
+            anyhow::ensure!(adjacent, "{serial} went from v{} to v{}: not a lane of the map ({nodes:?})", w[0], w[1]);
+        }
+    }
+    // The mrmm robots of the mission drive too.
+    let moving = eventually("the mrmm robots driving", Duration::from_secs(30), || async {
+        let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
+        let moved = spots[..2]
+            .iter()
+            .enumerate()
+            .filter(|(i, &(_, x, y))| robots_view(&v, &format!("r{}", i + 1)).and_then(|r| r.pose).is_some_and(|p| (p.x - x).hypot(p.y - y) > 1.0));
+        (moved.count() == 2).then_some(())
+    });
+    moving.await?;
+
+    let before: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await?;
+    let members: Vec<String> = before.iter().find(|m| m.name.as_str() == "p").context("no mission p")?.robots.iter().map(|r| r.to_string()).collect();
+    anyhow::ensure!(members.iter().filter(|r| r.starts_with("acme-")).count() == 2, "the AGVs are not members before the kill: {members:?}");
+    let epoch = before.iter().find(|m| m.name.as_str() == "p").map_or(epoch, |m| m.manager.epoch);
+    // The AGVs' process killed: the broker's last will (CONNECTIONBROKEN) drops both robots, and
+    // the mission goes on with the two mrmm robots.
+    agv_proc.0.kill()?;
+    let killed = Instant::now();
+    let replanned = eventually("the patrol replanned without the AGVs", Duration::from_secs(30), || async {
+        let v: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await.ok()?;
+        let p = v.into_iter().find(|m| m.name.as_str() == "p")?;
+        let members: Vec<String> = p.robots.iter().map(|r| r.to_string()).collect();
+        (p.manager.epoch > epoch && !members.iter().any(|r| r.starts_with("acme-"))).then_some(members)
+    })
+    .await?;
+    println!("AGVs killed: mission replanned with {replanned:?} after {:.2} s", killed.elapsed().as_secs_f64());
+    Ok(())
+}
