@@ -14,6 +14,10 @@ fn shipped_configs_are_valid() {
     assert!(matches!(ros.body, mrmm_peer::config::BodySection::Ros2(_)));
     let c = CentralConfig::load(&root.join("config/central.json5")).expect("central.json5");
     assert_eq!(c.listen, ["tcp/127.0.0.1:7447"]);
+    let gw = mrmm_node::vda5050::GatewayConfig::read(&root.join("config/vda5050.json5")).expect("vda5050.json5");
+    gw.validate().expect("vda5050.json5 valid");
+    let agv = RobotConfig::load(&gw.robot).expect("agv.json5, the gateway's robot");
+    assert_eq!(agv.capabilities, ["tow"]);
     let s = RouterConfig::load(&root.join("config/router.json5")).expect("router.json5");
     assert_eq!(s.connect, ["tcp/127.0.0.1:7447"]);
 }

@@ -41,13 +41,7 @@ fn mosquitto(dir: &Scratch) -> anyhow::Result<(Other, u16)> {
     let conf = dir.path("mosquitto.conf");
     std::fs::write(&conf, format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"))?;
     let log = std::fs::File::create(dir.path("mosquitto.log"))?;
-    let child = Command::new("mosquitto")
-        .arg("-c")
-        .arg(&conf)
-        .stdout(Stdio::null())
-        .stderr(log)
-        .spawn()
-        .context("mosquitto is not installed (`.ci/run` installs it: apt-get install mosquitto)")?;
+    let child = Command::new("mosquitto").arg("-c").arg(&conf).stdout(Stdio::null()).stderr(log).spawn().context("cannot start mosquitto")?;
     let up = Instant::now();
     while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
         anyhow::ensure!(up.elapsed() < Duration::from_secs(10), "mosquitto not listening on {port} after 10 s");
@@ -57,26 +51,19 @@ fn mosquitto(dir: &Scratch) -> anyhow::Result<(Other, u16)> {
 }
 
 /// Starts the virtual AGVs (`serial:x:y:node` each); their state changes come as JSON lines.
-fn agvs(dir: &Scratch, port: u16, specs: &[String]) -> anyhow::Result<(Other, mpsc::Receiver<Value>)> {
+fn agvs(dir: &Scratch, modules: &std::path::Path, port: u16, specs: &[String]) -> anyhow::Result<(Other, mpsc::Receiver<Value>)> {
     let here = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/vda5050");
-    // Where .ci/run installed the package (outside the clone), else beside the script.
-    let modules = std::env::var_os("MRMM_VDA5050_NODE_MODULES").map_or_else(|| here.join("node_modules"), PathBuf::from);
-    anyhow::ensure!(
-        modules.join("vda-5050-lib").is_dir(),
-        "vda-5050-lib is not installed in {}: `npm ci --prefix tests/vda5050` (.ci/run installs it)",
-        modules.display()
-    );
     let log = std::fs::File::create(dir.path("agvs.log"))?;
     let mut child = Command::new("node")
         .current_dir(&here)
-        .env("NODE_PATH", &modules)
+        .env("NODE_PATH", modules)
         .arg("agvs.js")
         .args([&port.to_string(), "office", "acme"])
         .args(specs)
         .stdout(Stdio::piped())
         .stderr(log)
         .spawn()
-        .context("node is not installed (`.ci/run` installs it)")?;
+        .context("cannot start node")?;
     let out = child.stdout.take().context("no stdout")?;
     let (tx, rx) = mpsc::channel();
     let (ready_tx, ready_rx) = mpsc::channel();
@@ -169,8 +156,27 @@ impl Seen {
     }
 }
 
+/// Where vda-5050-lib is installed (`.ci/run`'s copy outside the clone, else beside the script),
+/// if it is and mosquitto and node are; without them the test is skipped — and fails under CI.
+fn installed() -> anyhow::Result<Option<PathBuf>> {
+    let here = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/vda5050");
+    let modules = std::env::var_os("MRMM_VDA5050_NODE_MODULES").map_or_else(|| here.join("node_modules"), PathBuf::from);
+    let has = |cmd: &str| Command::new(cmd).arg(if cmd == "node" { "--version" } else { "-h" }).stdout(Stdio::null()).stderr(Stdio::null()).status().is_ok();
+    let missing: Vec<&str> = [("mosquitto", has("mosquitto")), ("node", has("node")), ("vda-5050-lib", modules.join("vda-5050-lib").is_dir())]
+        .into_iter()
+        .filter_map(|(what, ok)| (!ok).then_some(what))
+        .collect();
+    if missing.is_empty() {
+        return Ok(Some(modules));
+    }
+    anyhow::ensure!(std::env::var("CI").as_deref() != Ok("true"), "{missing:?} not installed under CI: .ci/run installs them");
+    println!("SKIPPED: {missing:?} not installed (run .ci/run once, or `npm ci --prefix tests/vda5050` and install mosquitto)");
+    Ok(None)
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed() -> anyhow::Result<()> {
+    let Some(modules) = installed()? else { return Ok(()) };
     let dir = Scratch::new("vda5050");
     let (_broker, port) = mosquitto(&dir)?;
     let (_central, ep) = start_central(&dir)?;
@@ -183,7 +189,7 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
     let cfg = gateway_config(&dir, port, &ep)?;
     let _gateway = start("vda5050", &["vda5050", "--config", &cfg], &dir.path("gateway.log"), "vda5050 ready", Duration::from_secs(20))?;
     let specs: Vec<String> = spots[2..].iter().enumerate().map(|(i, &(v, x, y))| format!("agv{}:{x}:{y}:v{v}", i + 1)).collect();
-    let (mut agv_proc, lines) = agvs(&dir, port, &specs)?;
+    let (mut agv_proc, lines) = agvs(&dir, &modules, port, &specs)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
 
     // Every vehicle a robot of the fleet, where it stands.
