@@ -138,6 +138,9 @@ fn robots_view(v: &[RobotView], id: &str) -> Option<RobotView> {
 struct Seen {
     nodes: std::collections::BTreeMap<String, Vec<String>>,
     errors: Vec<Value>,
+    /// Most nodes an AGV had yet to pass, released (traffic's grant) and not (the horizon).
+    base: u64,
+    horizon: u64,
 }
 
 impl Seen {
@@ -147,6 +150,8 @@ impl Seen {
             if v["errors"].as_array().is_some_and(|e| !e.is_empty()) {
                 self.errors.push(v.clone());
             }
+            self.base = self.base.max(v["base"].as_u64().unwrap_or(0));
+            self.horizon = self.horizon.max(v["horizon"].as_u64().unwrap_or(0));
             let node = v["lastNodeId"].as_str().unwrap_or_default().to_string();
             let passed = self.nodes.entry(serial).or_default();
             if passed.last() != Some(&node) {
@@ -221,8 +226,12 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
         std::future::ready((far("agv1") >= 3 && far("agv2") >= 3).then_some(()))
     })
     .await?;
-    println!("AGVs' vertices: {:?}", seen.nodes);
+    println!("AGVs' vertices: {:?}; at most {} released and {} horizon nodes ahead of one", seen.nodes, seen.base, seen.horizon);
     anyhow::ensure!(seen.errors.is_empty(), "an AGV reported errors (an order or update refused?): {:?}", seen.errors);
+    // Orders carry what traffic granted as their base: more than the next vertex (the vehicles
+    // drive on through a grant instead of stopping at each vertex). The horizon is checked in
+    // the body's unit tests: a patrol's legs here are shorter than a grant.
+    anyhow::ensure!(seen.base >= 2, "orders released {} node ahead at most: the vehicles stop at every vertex", seen.base);
     // Their passed vertices are traffic's (the map's, and the points its lanes are cut at), in an
     // order the lanes allow (each next one a neighbour of the one before): the orders follow the
     // lanes traffic granted.

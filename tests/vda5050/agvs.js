@@ -3,8 +3,10 @@
 //
 //   node agvs.js BROKER_PORT MAP_ID MANUFACTURER SERIAL:X:Y:NODE [SERIAL:X:Y:NODE …]
 //
-// Prints one JSON line per AGV whenever its lastNodeId, driving, paused, orderId or errors change
-// ({"serial", "lastNodeId", "driving", "paused", "orderId", "orderUpdateId", "x", "y", "errors"}),
+// Prints one JSON line per AGV whenever its lastNodeId, driving, paused, orderId, errors or the
+// nodes it has yet to pass change ({"serial", "lastNodeId", "driving", "paused", "orderId",
+// "orderUpdateId", "base", "horizon", "x", "y", "errors"}; base and horizon: the released and the
+// unreleased nodes of its nodeStates),
 // and "agvs ready" once every AGV is started.
 const { AgvController, VirtualAgvAdapter } = require("vda-5050-lib");
 
@@ -30,6 +32,8 @@ async function main() {
             const line = {
                 serial: a.serial, lastNodeId: s.lastNodeId, driving: s.driving, paused: s.paused,
                 orderId: s.orderId, orderUpdateId: s.orderUpdateId,
+                base: (s.nodeStates || []).filter(n => n.released).length,
+                horizon: (s.nodeStates || []).filter(n => !n.released).length,
                 errors: (s.errors || []).map(e => `${e.errorType}: ${e.errorDescription || ""}`),
             };
             const key = JSON.stringify(line);

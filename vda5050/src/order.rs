@@ -99,10 +99,12 @@ impl OrderBook {
         self.current = None;
     }
 
-    /// Follows the vehicle's state: an order that is not the book's (the vehicle restarted, or
-    /// someone else gave it one) makes the next release a new order.
+    /// Follows the vehicle's state: an order that is not one of the book's (someone else gave
+    /// it one, or it restarted with another) makes the next release a new order. An earlier
+    /// order of the book's is a state older than the book's last order, not news.
     pub fn observe(&mut self, state: &State) {
-        if self.current.as_ref().is_some_and(|c| !state.order_id.is_empty() && state.order_id != c.order_id) {
+        let ours = state.order_id.strip_prefix(&self.prefix).is_some_and(|rest| rest.starts_with('-'));
+        if self.current.is_some() && !state.order_id.is_empty() && !ours {
             self.current = None;
         }
     }
@@ -153,6 +155,9 @@ mod tests {
         book.forget();
         let o = book.release(&w("b", 1.0), &[w("c", 2.0)], &[], None);
         assert_eq!((o.order_id.as_str(), o.order_update_id, o.nodes[0].sequence_id), ("gw-2", 0, 0));
+        let late = State { order_id: "gw-1".into(), ..State::default() };
+        book.observe(&late);
+        assert_eq!(book.order_id(), Some("gw-2"), "a late state of an earlier order of ours is not news");
         let foreign = State { order_id: "someone-else".into(), ..State::default() };
         book.observe(&foreign);
         assert_eq!(book.order_id(), None);

@@ -62,17 +62,38 @@ impl Drive {
         match self {
             Drive::Sim(b) => b.navigate_through(x, y, then, speed),
             Drive::Ros(r) => r.navigate_capped(x, y, speed),
-            Drive::Vda(d) => d.navigate(x, y, None, speed),
+            Drive::Vda(d) => d.navigate(x, y, speed),
         }
     }
 
-    /// Drives to the map's vertex `v` (traffic granted the lane to it): a VDA 5050 vehicle's
-    /// order names the vertex's node.
+    /// Drives to the lanes' vertex `v` (traffic granted the lane to it).
     pub fn navigate_vertex(&mut self, v: RouteVertex, speed: Option<f64>) {
+        self.navigate_lane(v, &[], &[], speed);
+    }
+
+    /// Drives to the lanes' vertex `v`, with `granted` the vertices traffic granted after it and
+    /// `then` the rest of the route: a VDA 5050 vehicle is released all it was granted (it drives
+    /// on through them) and told the rest as its order's horizon; any other body drives to `v`.
+    pub fn navigate_lane(&mut self, v: RouteVertex, granted: &[RouteVertex], then: &[RouteVertex], speed: Option<f64>) {
         match self {
-            Drive::Vda(d) => d.navigate(v.x, v.y, Some(v.v), speed),
+            Drive::Vda(d) => d.navigate_lane(v, granted, then, speed),
             _ => self.navigate_through(v.x, v.y, None, speed),
         }
+    }
+
+    /// Whether the body said it passed the lanes' vertex `v` last (a VDA 5050 vehicle, which
+    /// drives on through it; any other body stops at a vertex, and is there or not).
+    pub fn passed(&self, v: u32) -> bool {
+        match self {
+            Drive::Vda(d) => d.passed(v),
+            _ => false,
+        }
+    }
+
+    /// Whether the body drives on through the vertices it was granted (a VDA 5050 vehicle), so
+    /// that it says when it passed a vertex instead of stopping at it.
+    pub fn drives_on(&self) -> bool {
+        matches!(self, Drive::Vda(_))
     }
 
     /// The battery's state, if the body has one it knows of: the simulated body's model at its

@@ -1,9 +1,15 @@
-//! A VDA 5050 vehicle as the robot's body, without I/O: every goal the robot drives to becomes
-//! an order (or an update of the one it drives, stitched at its last base node), a stop is a
-//! `cancelOrder`, and the vehicle's `state` says where it is, how fast it goes, its battery, and
-//! whether it passed the goal's node. The messages go out through [`VdaDrive::take`]; the gateway
-//! adds their headers and publishes them.
+//! A VDA 5050 vehicle as the robot's body, without I/O: what the robot drives to becomes an
+//! order (or an update of the one the vehicle drives, stitched at its last base node). On lanes,
+//! the **base** released is exactly what traffic granted (the goal vertex and the granted ones
+//! after it) and the rest of the route is the **horizon**, so the vehicle drives on through a
+//! grant without stopping at each vertex, and stops at the grant's end if no more is granted. A
+//! stop is a `cancelOrder` (a new order waits until the vehicle says it ended). The vehicle's
+//! `state` says where it is, how fast it goes, its battery, and which released node it passed
+//! last. The messages go out through [`VdaDrive::take`]; the gateway adds their headers.
 
+use std::collections::VecDeque;
+
+use mrmm_proto::traffic::RouteVertex;
 use mrmm_proto::{BatteryState, Pose, Velocity};
 use mrmm_vda5050::{instant, Action, BlockingType, FromVehicle, Order, OrderBook, State, Visualization, Waypoint};
 
@@ -16,10 +22,31 @@ pub enum VdaOut {
     Instant(Vec<Action>),
 }
 
-/// The goal being driven to: its node.
+/// What the robot drives to: its node, the nodes it may drive on through (granted), and those
+/// it is expected to drive to after them (the horizon).
 #[derive(Debug, Clone, PartialEq)]
 struct Target {
+    want: Vec<Waypoint>,
+    horizon: Vec<Waypoint>,
+    speed: Option<f64>,
+    /// The vehicle passed the goal's node (it is reached once the vehicle drives on, or stands).
+    passed: bool,
+}
+
+impl Target {
+    fn node(&self) -> &Waypoint {
+        &self.want[0]
+    }
+}
+
+/// Nodes passed that the body remembers (to know a goal it is given was passed already).
+const BEHIND: usize = 16;
+
+/// A node released to the vehicle that it has not passed yet.
+#[derive(Debug, Clone, PartialEq)]
+struct Released {
     node: Waypoint,
+    seq: u64,
 }
 
 /// The state of a VDA 5050 body.
@@ -33,11 +60,17 @@ pub struct VdaDrive {
     /// The node the vehicle said it passed last.
     last_node: String,
     goal: Option<Target>,
+    /// The base released and not yet passed, in order.
+    ahead: VecDeque<Released>,
+    /// The nodes of the base the vehicle passed since its order began, the last ones, oldest
+    /// first.
+    behind: VecDeque<String>,
     /// Why the vehicle cannot get to its goal: a FATAL error, or its refusal of an order.
     stuck: Option<String>,
-    /// Whether a state was heard (before, the body does not move: orders start where it is).
-    heard: bool,
     out: Vec<VdaOut>,
+    /// A `cancelOrder` sent and not yet ended (its action id): a new order waits for it (a
+    /// vehicle refuses a new order while it still has one).
+    cancelling: Option<String>,
     /// Instant actions sent, and points off the map's vertices named: ids.
     actions: u64,
     points: u64,
@@ -56,9 +89,11 @@ impl VdaDrive {
             book: OrderBook::new(prefix, map_id),
             last_node: String::new(),
             goal: None,
+            ahead: VecDeque::new(),
+            behind: VecDeque::new(),
             stuck: None,
-            heard: false,
             out: Vec::new(),
+            cancelling: None,
             actions: 0,
             points: 0,
             prefix: prefix.to_string(),
@@ -85,45 +120,108 @@ impl VdaDrive {
         self.stuck.as_deref()
     }
 
-    /// The goal's position, while the vehicle drives to it.
+    /// The goal's position, until the vehicle passed its node.
     pub fn goal(&self) -> Option<(f64, f64)> {
-        self.goal.as_ref().map(|t| (t.node.x, t.node.y))
+        self.goal.as_ref().map(|t| (t.node().x, t.node().y))
     }
 
-    /// Drives to (`x`, `y`) — the map's vertex `vertex` when it is one (its node id is `v<index>`)
-    /// — no faster than `speed`. The vehicle goes on from the goal it drives to, if any (the
-    /// update adds to its base; a base once released is not taken back).
-    pub fn navigate(&mut self, x: f64, y: f64, vertex: Option<u32>, speed: Option<f64>) {
+    /// Drives to (`x`, `y`), a point off the lanes, no faster than `speed`.
+    pub fn navigate(&mut self, x: f64, y: f64, speed: Option<f64>) {
         if self.goal() == Some((x, y)) {
             return;
         }
-        let node_id = match vertex {
-            Some(v) => format!("v{v}"),
-            None => {
-                self.points += 1;
-                format!("{}-p{}", self.prefix, self.points)
-            }
-        };
-        let node = Waypoint { node_id, x, y };
+        self.points += 1;
+        let node = Waypoint { node_id: format!("{}-p{}", self.prefix, self.points), x, y };
+        self.drive(Target { want: vec![node], horizon: Vec::new(), speed, passed: false });
+    }
+
+    /// Drives to the lanes' vertex `v`, and on through `granted` (traffic granted them too), with
+    /// `then` the rest of the route (the horizon); nodes are `v<index>`. Called again as the
+    /// grant grows: only what is new is released (an update), nothing is taken back.
+    pub fn navigate_lane(&mut self, v: RouteVertex, granted: &[RouteVertex], then: &[RouteVertex], speed: Option<f64>) {
+        let wp = |r: &RouteVertex| Waypoint { node_id: format!("v{}", r.v), x: r.x, y: r.y };
+        let want: Vec<Waypoint> = std::iter::once(&v).chain(granted).map(wp).collect();
+        let target = Target { want, horizon: then.iter().map(wp).collect(), speed, passed: false };
+        if self.goal.as_ref().is_some_and(|g| g.want == target.want && g.speed == target.speed) {
+            return;
+        }
+        self.drive(target);
+    }
+
+    fn drive(&mut self, mut target: Target) {
+        match &self.goal {
+            Some(g) if g.node() == target.node() => target.passed = g.passed,
+            _ => self.stuck = None,
+        }
+        // Passed already: the vehicle drove on through its grant faster than the robot asked.
+        if self.passed_through(&target.want) {
+            self.goal = None;
+            return;
+        }
+        self.goal = Some(target);
+        if self.cancelling.is_none() {
+            self.release();
+        }
+    }
+
+    /// Releases what the goal wants and the vehicle was not given yet: a new order where it
+    /// stands, or an update stitched at the last base node. A goal off the base released (the
+    /// way changed) cancels the order first.
+    fn release(&mut self) {
+        let Some(t) = self.goal.clone() else { return };
+        let k = self.ahead.len();
+        if !self.ahead_leads(&t.want) {
+            self.cancel();
+            return;
+        }
+        if k == t.want.len() {
+            return;
+        }
         let here = Waypoint {
             node_id: if self.last_node.is_empty() { format!("{}-start", self.prefix) } else { self.last_node.clone() },
             x: self.pose.x,
             y: self.pose.y,
         };
-        let speed = speed.map(|s| s.min(self.limits.max_speed));
-        let order = self.book.release(&here, std::slice::from_ref(&node), &[], speed);
+        let speed = t.speed.map(|s| s.min(self.limits.max_speed));
+        let order = self.book.release(&here, &t.want[k..], &t.horizon, speed);
+        // The first node is where the vehicle stands (a new order) or the last base node, which
+        // it has already (an update).
+        for n in order.nodes.iter().skip(1).filter(|n| n.released) {
+            let (x, y) = n.node_position.as_ref().map_or((0.0, 0.0), |p| (p.x, p.y));
+            self.ahead.push_back(Released { node: Waypoint { node_id: n.node_id.clone(), x, y }, seq: n.sequence_id });
+        }
         self.out.push(VdaOut::Order(Box::new(order)));
-        self.goal = Some(Target { node });
-        self.stuck = None;
+    }
+
+    /// Whether the vehicle passed the start of `want` (its last passed nodes are that start) and
+    /// the base it has ahead goes on as `want` does.
+    fn passed_through(&self, want: &[Waypoint]) -> bool {
+        (1..=want.len().min(self.behind.len())).any(|j| {
+            let tail = self.behind.iter().skip(self.behind.len() - j);
+            tail.zip(&want[..j]).all(|(b, w)| *b == w.node_id) && self.ahead_leads(&want[j..])
+        })
+    }
+
+    /// Whether the base released and not passed is the start of `want`.
+    fn ahead_leads(&self, want: &[Waypoint]) -> bool {
+        self.ahead.len() <= want.len() && self.ahead.iter().zip(want).all(|(r, w)| r.node.node_id == w.node_id)
+    }
+
+    fn cancel(&mut self) {
+        self.actions += 1;
+        let id = format!("{}-a{}", self.prefix, self.actions);
+        self.out.push(VdaOut::Instant(vec![instant("cancelOrder", id.clone(), BlockingType::Hard)]));
+        self.cancelling = Some(id);
+        self.book.forget();
+        self.ahead.clear();
+        self.behind.clear();
     }
 
     /// Stops: the order is cancelled (the vehicle stops at once or at its next node, as it
     /// can), and the next goal is a new order from where it stands.
     pub fn hold(&mut self) {
         if self.goal.take().is_some() || self.book.order_id().is_some() {
-            self.actions += 1;
-            self.out.push(VdaOut::Instant(vec![instant("cancelOrder", format!("{}-a{}", self.prefix, self.actions), BlockingType::Hard)]));
-            self.book.forget();
+            self.cancel();
         }
     }
 
@@ -148,7 +246,6 @@ impl VdaDrive {
 
     /// The vehicle's state (checked by the caller).
     pub fn on_state(&mut self, state: &State) {
-        self.heard = true;
         self.on_visualization(&Visualization { agv_position: state.agv_position.clone(), velocity: state.velocity.clone(), ..Visualization::default() });
         if state.velocity.is_none() && !state.driving {
             self.velocity = Velocity::default();
@@ -159,18 +256,51 @@ impl VdaDrive {
         if !state.last_node_id.is_empty() {
             self.last_node.clone_from(&state.last_node_id);
         }
-        self.book.observe(state);
-        if self.goal.is_some() && self.book.base_done(state) && !state.driving {
-            self.goal = None;
-        }
-        self.stuck = state.fatal().or_else(|| state.order_refused()).filter(|_| self.goal.is_some());
-        if self.book.order_id().is_none() && self.goal.is_some() {
-            // The vehicle dropped our order (restarted, or took another): the goal is given again
-            // as a new order from where it stands.
-            if let Some(t) = self.goal.take() {
-                self.navigate(t.node.x, t.node.y, t.node.node_id.strip_prefix('v').and_then(|n| n.parse().ok()), None);
+        // The cancel ended (finished, or failed: the vehicle had no order to cancel).
+        if let Some(id) = &self.cancelling {
+            let ended = state.action_states.iter().any(|a| &a.action_id == id && matches!(a.action_status.as_str(), "FINISHED" | "FAILED"));
+            if ended {
+                self.cancelling = None;
+                self.release();
             }
         }
+        self.follow(state);
+        self.stuck = state.fatal().or_else(|| state.order_refused()).filter(|_| self.goal.is_some());
+        if self.book.order_id().is_none() && self.goal.is_some() && self.cancelling.is_none() {
+            // The vehicle dropped our order (someone else gave it one): the goal is given again
+            // as a new order from where it stands.
+            self.ahead.clear();
+            self.behind.clear();
+            self.release();
+        }
+    }
+
+    /// Follows the vehicle along the base released: the nodes it passed leave `ahead`; the goal
+    /// is reached once its node is passed (and, at the base's end, the vehicle stands).
+    fn follow(&mut self, state: &State) {
+        self.book.observe(state);
+        if self.book.order_id() != Some(state.order_id.as_str()) {
+            return;
+        }
+        while self.ahead.front().is_some_and(|r| r.seq <= state.last_node_sequence_id) {
+            let Some(r) = self.ahead.pop_front() else { break };
+            if let Some(g) = self.goal.as_mut().filter(|g| g.want[0].node_id == r.node.node_id) {
+                g.passed = true;
+            }
+            self.behind.push_back(r.node.node_id);
+            if self.behind.len() > BEHIND {
+                self.behind.pop_front();
+            }
+        }
+        if self.goal.as_ref().is_some_and(|g| g.passed) && (!self.ahead.is_empty() || !state.driving) {
+            self.goal = None;
+        }
+    }
+
+    /// Whether the vehicle passed the lanes' vertex `v` lately (since its order began).
+    pub fn passed(&self, v: u32) -> bool {
+        let id = format!("v{v}");
+        self.behind.contains(&id)
     }
 
     /// The messages to send, oldest first.
@@ -183,6 +313,10 @@ impl VdaDrive {
 mod tests {
     use super::*;
     use mrmm_vda5050::msg::AgvPosition;
+
+    fn v(v: u32, x: f64) -> RouteVertex {
+        RouteVertex { v, x, y: 0.0 }
+    }
 
     fn drive() -> VdaDrive {
         VdaDrive::new(Pose { x: 0.0, y: 0.0, theta: 0.0 }, Limits { max_speed: 1.0, max_turn_rate: 1.0 }, "gw", "m")
@@ -212,27 +346,82 @@ mod tests {
     fn goals_become_an_order_then_updates_stitched_at_the_node_reached() {
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate(1.0, 0.0, Some(1), Some(5.0));
+        d.navigate_lane(v(1, 1.0), &[], &[], Some(5.0));
         assert_eq!(orders(d.take()), [("gw-1".to_string(), 0, vec!["v0".to_string(), "v1".to_string()])]);
         d.on_state(&state("gw-1", "v0", 0, true, 0.5));
         assert_eq!(d.goal(), Some((1.0, 0.0)), "still driving");
         d.on_state(&state("gw-1", "v1", 2, false, 1.0));
         assert_eq!(d.goal(), None, "the goal's node passed and the vehicle stopped: idle");
-        d.navigate(2.0, 0.0, Some(2), None);
+        d.navigate_lane(v(2, 2.0), &[], &[], None);
         assert_eq!(orders(d.take()), [("gw-1".to_string(), 1, vec!["v1".to_string(), "v2".to_string()])]);
     }
 
+    fn nodes(out: Vec<VdaOut>) -> Vec<(String, u64, bool)> {
+        out.into_iter()
+            .flat_map(|o| match o {
+                VdaOut::Order(o) => o.nodes.into_iter().map(|n| (n.node_id, n.sequence_id, n.released)).collect(),
+                VdaOut::Instant(_) => Vec::new(),
+            })
+            .collect()
+    }
+
+    fn n(id: &str, seq: u64, released: bool) -> (String, u64, bool) {
+        (id.to_string(), seq, released)
+    }
+
     #[test]
-    fn a_stop_cancels_the_order_and_the_next_goal_is_a_new_order_from_where_the_vehicle_is() {
+    fn on_lanes_the_grant_is_the_base_the_route_the_horizon_and_a_growing_grant_an_update() {
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate(1.0, 0.0, Some(1), None);
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0), v(4, 4.0)], None);
+        assert_eq!(nodes(d.take()), [n("v0", 0, true), n("v1", 2, true), n("v2", 4, true), n("v3", 6, false), n("v4", 8, false)]);
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0), v(4, 4.0)], None);
+        assert!(d.take().is_empty(), "the same grant again: nothing to send");
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0), v(3, 3.0)], &[v(4, 4.0)], None);
+        assert_eq!(nodes(d.take()), [n("v2", 4, true), n("v3", 6, true), n("v4", 8, false)], "the grant grew: an update stitched at v2");
+        // The vehicle passes v1 and drives on: the goal is reached, the vehicle never stopped.
+        d.on_state(&state("gw-1", "v1", 2, true, 1.0));
+        assert_eq!(d.goal(), None);
+        assert!(d.passed(1));
+        d.navigate_lane(v(2, 2.0), &[v(3, 3.0)], &[v(4, 4.0)], None);
+        assert!(d.take().is_empty(), "v2 and v3 were released already");
+        assert_eq!(d.goal(), Some((2.0, 0.0)));
+        // It passes v2 and v3 between two states, and stands at v3, the grant's end.
+        d.on_state(&state("gw-1", "v3", 6, false, 3.0));
+        assert_eq!(d.goal(), None, "v2 passed");
+        d.navigate_lane(v(3, 3.0), &[], &[v(4, 4.0)], None);
+        assert_eq!(d.goal(), None, "v3 passed already");
+        assert!(d.take().is_empty());
+        d.navigate_lane(v(4, 4.0), &[], &[], None);
+        assert_eq!(nodes(d.take()), [n("v3", 6, true), n("v4", 8, true)]);
+    }
+
+    #[test]
+    fn a_way_off_the_base_released_is_a_cancel_then_a_new_order() {
+        let mut d = drive();
+        d.on_state(&state("", "v0", 0, false, 0.0));
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[], None);
+        d.take();
+        d.navigate_lane(v(5, 0.0), &[], &[], None);
+        let out = d.take();
+        assert!(matches!(out.as_slice(), [VdaOut::Instant(a)] if a[0].action_type == "cancelOrder"), "{out:?}");
+    }
+
+    #[test]
+    fn a_stop_cancels_the_order_and_the_next_goal_is_a_new_order_once_the_cancel_ended() {
+        let mut d = drive();
+        d.on_state(&state("", "v0", 0, false, 0.0));
+        d.navigate_lane(v(1, 1.0), &[], &[], None);
         d.hold();
         let out = d.take();
         assert!(matches!(&out[1], VdaOut::Instant(a) if a[0].action_type == "cancelOrder"), "{out:?}");
         assert!(d.goal().is_none());
-        d.on_state(&state("gw-1", "v0", 0, false, 0.4));
-        d.navigate(3.0, 0.0, None, None);
+        d.navigate(3.0, 0.0, None);
+        d.on_state(&state("gw-1", "v0", 0, true, 0.4));
+        assert!(d.take().is_empty(), "no new order while the vehicle still cancels the old one");
+        let mut done = state("gw-1", "v0", 0, false, 0.4);
+        done.action_states.push(mrmm_vda5050::msg::ActionState { action_id: "gw-a1".into(), action_status: "FINISHED".into(), ..Default::default() });
+        d.on_state(&done);
         let o = orders(d.take());
         assert_eq!(o[0].0, "gw-2");
         assert_eq!(o[0].2[0], "v0", "a new order starts at the vehicle's last node");
@@ -242,8 +431,10 @@ mod tests {
     fn a_vehicle_that_drops_the_order_is_given_the_goal_again_and_its_refusal_is_reported() {
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate(1.0, 0.0, Some(1), None);
+        d.navigate_lane(v(1, 1.0), &[], &[], None);
         d.take();
+        d.on_state(&state("gw-0", "v0", 0, false, 0.0));
+        assert!(d.take().is_empty(), "a late state of an earlier order of ours changes nothing");
         d.on_state(&state("theirs", "v0", 0, false, 0.0));
         let o = orders(d.take());
         assert_eq!(o.len(), 1, "{o:?}");

@@ -217,11 +217,15 @@ impl Gate {
         }
         let pose = body.pose();
         let near = |x: f64, y: f64| (pose.x - x).hypot(pose.y - y) <= REACH;
+        let quiet = now - self.heard > QUIET_S;
         if let Some(v) = self.driving {
             if !body.idle() {
+                if body.drives_on() && !quiet {
+                    self.tell_grant(v, body);
+                }
                 return false;
             }
-            if !near(v.x, v.y) {
+            if !near(v.x, v.y) && !body.passed(v.v) {
                 // Stopped on the lane (held by the plan): on to the vertex, the lane is ours.
                 body.navigate_vertex(v, self.goal.and_then(|g| g.speed));
                 return false;
@@ -240,7 +244,6 @@ impl Gate {
             self.changed = true;
         }
         let Some(goal) = self.goal else { return true };
-        let quiet = now - self.heard > QUIET_S;
         let Some(h) = self.held.as_ref() else {
             self.waiting = self.refused.is_none();
             return false;
@@ -265,7 +268,8 @@ impl Gate {
             if !quiet && h.upto.is_some_and(|u| next <= u) {
                 let v = h.route[next];
                 self.driving = Some(v);
-                body.navigate_vertex(v, goal.speed);
+                let (granted, then) = Self::beyond(h, next);
+                body.navigate_lane(v, granted, then, goal.speed);
             } else {
                 self.waiting = true;
             }
@@ -289,6 +293,22 @@ impl Gate {
             }
             _ => body.idle(),
         }
+    }
+
+    /// A body that drives on through its grant (driving to `v`) is told the grant as it grows.
+    fn tell_grant(&self, v: RouteVertex, body: &mut Drive) {
+        let (Some(h), Some(g)) = (&self.held, self.goal) else { return };
+        let next = h.reached.map_or(0, |p| p + 1);
+        if h.route.get(next).is_some_and(|r| r.v == v.v) {
+            let (granted, then) = Self::beyond(h, next);
+            body.navigate_lane(v, granted, then, g.speed);
+        }
+    }
+
+    /// The route after its vertex `next`: what traffic granted of it, and the rest.
+    fn beyond(h: &Held, next: usize) -> (&[RouteVertex], &[RouteVertex]) {
+        let end = h.upto.map_or(next, |u| u.max(next)).min(h.route.len() - 1);
+        (&h.route[next + 1..=end], &h.route[end + 1..])
     }
 
     /// The report due at `now`, if one is: at every change, and every [`REPORT_S`].
