@@ -97,6 +97,41 @@ fn gateway_config(dir: &Scratch, port: u16, central: &str) -> anyhow::Result<Str
     Ok(path.display().to_string())
 }
 
+/// Publishes what no vehicle should: malformed JSON, a state over the size limit, a battery of
+/// 250 %, a state of a vehicle that does not say where it is, names MQTT or the standard do not
+/// allow, a master control's topic.
+async fn hostile(port: u16) -> anyhow::Result<()> {
+    let mut opts = rumqttc::MqttOptions::new("hostile", "127.0.0.1", port);
+    opts.set_max_packet_size(1 << 20, 1 << 20);
+    let (client, mut events) = rumqttc::AsyncClient::new(opts, 16);
+    let big = format!(r#"{{"driving": false, "pad": "{}"}}"#, "x".repeat(300 * 1024));
+    let messages: [(&str, Vec<u8>); 6] = [
+        ("uagv/v2/acme/agv1/state", b"{not json".to_vec()),
+        ("uagv/v2/acme/agv1/state", big.into_bytes()),
+        ("uagv/v2/acme/agv2/state", br#"{"batteryState": {"batteryCharge": 250, "charging": false}}"#.to_vec()),
+        ("uagv/v2/acme/ghost/state", br#"{"driving": false}"#.to_vec()),
+        ("uagv/v2/ac%me/x/state", br#"{"driving": false}"#.to_vec()),
+        ("uagv/v2/acme/ghost/order", br#"{"orderId": "forged"}"#.to_vec()),
+    ];
+    for (topic, payload) in messages {
+        client.publish(topic, rumqttc::QoS::AtLeastOnce, false, payload).await?;
+    }
+    // Until the broker acknowledged all six.
+    let mut acked = 0;
+    tokio::time::timeout(Duration::from_secs(10), async {
+        while acked < 6 {
+            if let rumqttc::Event::Incoming(rumqttc::Packet::PubAck(_)) = events.poll().await? {
+                acked += 1;
+            }
+        }
+        anyhow::Ok(())
+    })
+    .await
+    .context("the broker did not acknowledge the hostile messages")??;
+    client.disconnect().await?;
+    Ok(())
+}
+
 /// The office graph's vertices: index and position.
 fn vertices() -> anyhow::Result<Vec<(usize, f64, f64)>> {
     let g = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(office())?)?;
@@ -192,7 +227,7 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
         .map(|(i, &(_, x, y))| common::start_robot_scaled(&dir, &format!("r{}", i + 1), &ep, x, y, 1.0))
         .collect::<Result<_, _>>()?;
     let cfg = gateway_config(&dir, port, &ep)?;
-    let _gateway = start("vda5050", &["vda5050", "--config", &cfg], &dir.path("gateway.log"), "vda5050 ready", Duration::from_secs(20))?;
+    let mut gateway = start("vda5050", &["vda5050", "--config", &cfg], &dir.path("gateway.log"), "vda5050 ready", Duration::from_secs(20))?;
     let specs: Vec<String> = spots[2..].iter().enumerate().map(|(i, &(v, x, y))| format!("agv{}:{x}:{y}:v{v}", i + 1)).collect();
     let (mut agv_proc, lines) = agvs(&dir, &modules, port, &specs)?;
     let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
@@ -206,6 +241,15 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
         let p = r.pose.context("no pose")?;
         anyhow::ensure!((p.x - x).hypot(p.y - y) < 0.2, "{} at {p:?}, its AGV at ({x}, {y})", r.id);
     }
+
+    // Hostile input on the vehicles' topics: logged and dropped, nothing started, nothing stops.
+    hostile(port).await?;
+    let gateway_log = || std::fs::read_to_string(dir.path("gateway.log")).unwrap_or_default();
+    eventually("the gateway's refusals in its log", Duration::from_secs(10), || std::future::ready(gateway_log().contains("VDA 5050: dropped").then_some(())))
+        .await?;
+    anyhow::ensure!(gateway.child.try_wait()?.is_none(), "the gateway died of hostile input: {}", gateway_log());
+    let view = common::wait_robots(&client, 4).await?;
+    anyhow::ensure!(view.len() == 4, "hostile input made robots: {:?}", view.iter().map(|r| r.id.to_string()).collect::<Vec<_>>());
 
     // One patrol of all four on the office graph.
     let m = MissionCreate {

@@ -13,13 +13,17 @@ use super::config::{Broker, GatewayConfig};
 
 /// Requests waiting for the client's event loop, at most.
 const REQUESTS: usize = 256;
+/// Largest MQTT packet taken from the broker, bytes: above the largest message a vehicle's is
+/// parsed from ([`MAX_MESSAGE`]), so that one too large is dropped and said; a packet larger
+/// still breaks the connection (the client reconnects) — cap the broker's `max_packet_size`.
+const MAX_PACKET: usize = 4 * MAX_MESSAGE;
 
 /// The client and its event loop (connects at its first poll, reconnects at the next after an
 /// error).
 pub(super) fn connect(cfg: &GatewayConfig, broker: &Broker) -> (AsyncClient, EventLoop) {
     let mut opts = MqttOptions::new(format!("mrmm-vda5050-{}", std::process::id()), broker.host.clone(), broker.port);
     opts.set_keep_alive(Duration::from_secs(5));
-    opts.set_max_packet_size(MAX_MESSAGE, MAX_MESSAGE);
+    opts.set_max_packet_size(MAX_PACKET, MAX_PACKET);
     opts.set_clean_session(true);
     if let Some(user) = &cfg.username {
         opts.set_credentials(user.clone(), cfg.password.clone().unwrap_or_default());
