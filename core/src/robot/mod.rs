@@ -439,6 +439,11 @@ impl Robot {
         }
         out.extend(step.nav.into_iter().map(Command::Nav));
         out.extend(step.vda.into_iter().map(Command::Vda));
+        // A VDA 5050 vehicle is sent what this tick gave it now, not at the next tick: a grant
+        // goes out as an order update within the tick it was driven on.
+        if let Drive::Vda(d) = &mut self.body {
+            out.extend(d.take().into_iter().map(Command::Vda));
+        }
         out
     }
 

@@ -448,3 +448,25 @@ fn a_robot_with_a_battery_charges_on_centrals_word() {
     assert!(r.pose().x > before.x, "a new goal unplugs it");
     assert!(!telemetry(&mut r, 5.4).battery.expect("battery").charging);
 }
+
+/// A VDA 5050 vehicle is sent the goal a tick gives it within that tick (a grant is on the wire
+/// at once, not a tick later), and the vehicle's state drives the robot on along its goto.
+#[test]
+fn a_vda_vehicle_is_sent_its_next_goal_in_the_tick_that_gives_it() {
+    let setup = RobotSetup {
+        body: BodyKind::Vda { order_prefix: "gw".into(), map_id: "m".into() },
+        ..RobotSetup::sim("agv", "ground", Limits { max_speed: 1.0, max_turn_rate: 1.0 }, Pose::default())
+    };
+    let mut r = Robot::new(setup);
+    let state = |last: &str, seq: u64, x: f64| {
+        let mut s = mrmm_vda5050::State { order_id: "gw-1".into(), last_node_id: last.into(), last_node_sequence_id: seq, ..Default::default() };
+        s.agv_position = Some(mrmm_vda5050::msg::AgvPosition { x, y: 0.0, theta: 0.0, map_id: "m".into(), position_initialized: true });
+        Event::Vda(Box::new(mrmm_vda5050::FromVehicle::State(Box::new(s))))
+    };
+    r.handle(0.0, state("", 0, 0.0));
+    cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]] }).0.expect("goto taken");
+    let orders = |out: Vec<Command>| out.into_iter().filter(|c| matches!(c, Command::Vda(crate::body::vda::VdaOut::Order(_)))).count();
+    assert_eq!(orders(r.handle(0.02, Event::Tick)), 1, "the first corner");
+    r.handle(0.5, state("gw-p1", 2, 4.0));
+    assert_eq!(orders(r.handle(0.52, Event::Tick)), 1, "the corner passed: the goal after it goes out in the same tick");
+}
