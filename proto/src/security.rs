@@ -145,6 +145,13 @@ impl SecuritySection {
         }
     }
 
+    /// The same section for node `name`: its certificate and key `<name>.crt`, `<name>.key`
+    /// beside this one's (a template's, for many robots from one config).
+    pub fn for_name(&self, name: &str) -> SecuritySection {
+        let dir = self.cert.parent().map(Path::to_path_buf).unwrap_or_default();
+        SecuritySection { cert: dir.join(format!("{name}.crt")), key: dir.join(format!("{name}.key")), ..self.clone() }
+    }
+
     /// Checks the numbers and names of the section (files are checked when the identity is loaded).
     pub fn validate(&self, field: &str) -> Result<(), String> {
         if !(1..=86_400).contains(&self.max_age_s) {

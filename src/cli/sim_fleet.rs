@@ -165,11 +165,7 @@ fn expand(template: &RobotConfig, n: usize, spacing: f64) -> Vec<RobotConfig> {
             if let Some(dir) = &template.state_dir {
                 cfg.state_dir = Some(dir.join(&cfg.id));
             }
-            if let Some(sec) = cfg.security.as_mut() {
-                let dir = sec.cert.parent().map(PathBuf::from).unwrap_or_default();
-                sec.cert = dir.join(format!("{}.crt", cfg.id));
-                sec.key = dir.join(format!("{}.key", cfg.id));
-            }
+            cfg.security = cfg.security.map(|sec| sec.for_name(&cfg.id));
             cfg
         })
         .collect()

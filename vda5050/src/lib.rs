@@ -41,6 +41,16 @@ pub fn parse<T: serde::de::DeserializeOwned>(topic: Subtopic, bytes: &[u8]) -> R
     serde_json::from_slice(bytes).map_err(|source| Vda5050Error::Json { topic: name, source })
 }
 
+impl msg::FromVehicle {
+    /// Whether it can be acted on ([`State::check`], [`Visualization::check`]).
+    pub fn check(&self) -> Result<(), Vda5050Error> {
+        match self {
+            msg::FromVehicle::State(s) => s.check(),
+            msg::FromVehicle::Visualization(v) => v.check(),
+        }
+    }
+}
+
 impl Visualization {
     /// Whether it can be acted on: numbers finite.
     pub fn check(&self) -> Result<(), Vda5050Error> {

@@ -108,13 +108,6 @@ impl OrderBook {
             self.current = None;
         }
     }
-
-    /// Whether the vehicle reports it has passed the last node released to it.
-    pub fn base_done(&self, state: &State) -> bool {
-        self.current
-            .as_ref()
-            .is_some_and(|c| state.order_id == c.order_id && state.last_node_id == c.last_base.0.node_id && state.last_node_sequence_id == c.last_base.1)
-    }
 }
 
 #[cfg(test)]
@@ -161,15 +154,5 @@ mod tests {
         let foreign = State { order_id: "someone-else".into(), ..State::default() };
         book.observe(&foreign);
         assert_eq!(book.order_id(), None);
-    }
-
-    #[test]
-    fn the_base_is_done_when_the_vehicle_reports_its_last_node_and_sequence_id() {
-        let mut book = OrderBook::new("gw", "m");
-        book.release(&w("a", 0.0), &[w("b", 1.0), w("a", 0.0)], &[], None);
-        let mut s = State { order_id: "gw-1".into(), last_node_id: "a".into(), last_node_sequence_id: 0, ..State::default() };
-        assert!(!book.base_done(&s), "the same node passed earlier is not the base's end");
-        s.last_node_sequence_id = 4;
-        assert!(book.base_done(&s));
     }
 }

@@ -136,12 +136,12 @@ impl Drive {
     }
 
     /// Advances the body: the simulated one by `dt` simulated seconds, the ROS one's controller
-    /// at wall time `now` (its twist, if any, is returned); a VDA 5050 vehicle's messages due.
+    /// at wall time `now` (its twist, if any, is returned); a VDA 5050 vehicle moves by itself.
     pub fn step(&mut self, now: f64, dt: f64) -> Step {
         match self {
             Drive::Sim(b) => Step { arrived: b.step(dt), ..Step::default() },
             Drive::Ros(r) => r.step(now),
-            Drive::Vda(d) => Step { vda: d.take(), ..Step::default() },
+            Drive::Vda(_) => Step::default(),
         }
     }
 }

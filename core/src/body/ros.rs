@@ -33,8 +33,6 @@ pub struct Step {
     pub twist: Option<Velocity>,
     /// Goals to send to Nav2 or cancel (`drive: "nav2"`).
     pub nav: Vec<NavCommand>,
-    /// Messages to a VDA 5050 vehicle.
-    pub vda: Vec<crate::body::vda::VdaOut>,
     /// The goal was reached at this tick.
     pub arrived: bool,
     /// The drive started or stopped a halt at this tick (for the log).

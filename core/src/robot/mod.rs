@@ -364,11 +364,7 @@ impl Robot {
                 }
             }
             Event::Vda(msg) => {
-                let checked = match msg.as_ref() {
-                    mrmm_vda5050::FromVehicle::State(s) => s.check(),
-                    mrmm_vda5050::FromVehicle::Visualization(v) => v.check(),
-                };
-                if let (Drive::Vda(d), Ok(())) = (&mut self.body, checked) {
+                if let (Drive::Vda(d), Ok(())) = (&mut self.body, msg.check()) {
                     d.on_message(&msg);
                 }
             }
@@ -438,9 +434,8 @@ impl Robot {
             out.push(Command::Drive(t));
         }
         out.extend(step.nav.into_iter().map(Command::Nav));
-        out.extend(step.vda.into_iter().map(Command::Vda));
-        // A VDA 5050 vehicle is sent what this tick gave it now, not at the next tick: a grant
-        // goes out as an order update within the tick it was driven on.
+        // A VDA 5050 vehicle is sent what it was given since the last tick and in this one: a
+        // grant goes out as an order update within the tick it was driven on.
         if let Drive::Vda(d) = &mut self.body {
             out.extend(d.take().into_iter().map(Command::Vda));
         }

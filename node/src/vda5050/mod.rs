@@ -182,11 +182,7 @@ impl Gateway {
         }
         cfg.battery = None;
         cfg.body = BodySection::Vda5050 { order_prefix: format!("mrmm-{}", self.started_ms), map_id: self.cfg.map.clone() };
-        if let Some(sec) = cfg.security.as_mut() {
-            let dir = sec.cert.parent().map(std::path::PathBuf::from).unwrap_or_default();
-            sec.cert = dir.join(format!("{robot}.crt"));
-            sec.key = dir.join(format!("{robot}.key"));
-        }
+        cfg.security = cfg.security.map(|sec| sec.for_name(&robot));
         if let Some(dir) = &self.template.state_dir {
             cfg.state_dir = Some(dir.join(&robot));
         }
