@@ -4,7 +4,8 @@
 //!
 //! One mission on Open-RMF's office graph with two mrmm robots and two virtual AGVs: every vehicle
 //! registers as a robot, the AGVs accept every order and update (no error in their state) and
-//! their `lastNodeId` goes along the map's vertices as their plans drive them; their process
+//! their `lastNodeId` goes along the map's vertices as their plans drive them; the mission paused
+//! and resumed, they pause (`startPause`) and go on (`stopPause`); their process
 //! killed, the broker's last will drops them from the fleet and the mission replans without them.
 
 mod common;
@@ -176,6 +177,8 @@ struct Seen {
     /// Most nodes an AGV had yet to pass, released (traffic's grant) and not (the horizon).
     base: u64,
     horizon: u64,
+    /// Each AGV's last state line.
+    last: std::collections::BTreeMap<String, Value>,
 }
 
 impl Seen {
@@ -188,6 +191,7 @@ impl Seen {
             self.base = self.base.max(v["base"].as_u64().unwrap_or(0));
             self.horizon = self.horizon.max(v["horizon"].as_u64().unwrap_or(0));
             let node = v["lastNodeId"].as_str().unwrap_or_default().to_string();
+            self.last.insert(serial.clone(), v.clone());
             let passed = self.nodes.entry(serial).or_default();
             if passed.last() != Some(&node) {
                 passed.push(node);
@@ -299,6 +303,28 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
     });
     moving.await?;
 
+    // The mission paused: each AGV is paused (startPause) where it is, or stands at the end of
+    // what it was released; resumed, both are not paused and pass vertices again.
+    let pause = proto::MissionPause { name: "p".into() };
+    let _: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Pause), Some(&pause)).await?;
+    eventually("both AGVs paused or standing", Duration::from_secs(15), || {
+        seen.take(&lines);
+        let held = |s: &str| seen.last.get(s).is_some_and(|v| v["paused"] == json!(true) || (v["driving"] == json!(false) && v["base"] == json!(0)));
+        std::future::ready((held("agv1") && held("agv2")).then_some(()))
+    })
+    .await?;
+    let paused: Vec<bool> = ["agv1", "agv2"].iter().map(|s| seen.last.get(*s).is_some_and(|v| v["paused"] == json!(true))).collect();
+    let passed: Vec<usize> = ["agv1", "agv2"].iter().map(|s| seen.nodes.get(*s).map_or(0, Vec::len)).collect();
+    let _: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Resume), Some(&pause)).await?;
+    eventually("both AGVs driving on", Duration::from_secs(40), || {
+        seen.take(&lines);
+        let on = |i: usize, s: &str| seen.nodes.get(s).map_or(0, Vec::len) > passed[i] && seen.last.get(s).is_some_and(|v| v["paused"] != json!(true));
+        std::future::ready((on(0, "agv1") && on(1, "agv2")).then_some(()))
+    })
+    .await?;
+    println!("paused (startPause) {paused:?}; both resumed");
+    anyhow::ensure!(seen.errors.is_empty(), "an AGV reported errors around the pause: {:?}", seen.errors);
+
     let before: Vec<MissionView> = client.query(proto::Key::SystemMissions, None::<&()>).await?;
     let members: Vec<String> = before.iter().find(|m| m.name.as_str() == "p").context("no mission p")?.robots.iter().map(|r| r.to_string()).collect();
     anyhow::ensure!(members.iter().filter(|r| r.starts_with("acme-")).count() == 2, "the AGVs are not members before the kill: {members:?}");
@@ -315,5 +341,81 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
     })
     .await?;
     println!("AGVs killed: mission replanned with {replanned:?} after {:.2} s", killed.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// The poses of `ids` in the fleet view, if all have one.
+async fn poses(client: &Client, ids: &[&str]) -> Option<Vec<(f64, f64)>> {
+    let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
+    ids.iter().map(|id| robots_view(&v, id).and_then(|r| r.pose).map(|p| (p.x, p.y))).collect()
+}
+
+/// `mrmm vda5050-sim`'s vehicles on its embedded broker (what `mrmm demo --vda5050 N` runs, no
+/// broker installed): they join through the gateway, drive a patrol on the office graph with no
+/// order refused, stop when the mission is paused (`startPause`) and drive on when it resumes
+/// (`stopPause`), and drop out of the fleet when their process is killed (the broker's last
+/// will). Needs neither node nor mosquitto.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn simulated_vehicles_on_the_embedded_broker_drive_a_mission_pause_with_it_and_drop_out_when_killed() -> anyhow::Result<()> {
+    let dir = Scratch::new("vda5050-sim");
+    let (_central, ep) = start_central(&dir)?;
+    let spots = spread(2)?;
+    let at: Vec<String> = spots.iter().map(|&(_, x, y)| format!("{x},{y}")).collect();
+    let sim_args = ["vda5050-sim", "--vehicles", "2", "--listen", "127.0.0.1:0", "--manufacturer", "sim", "--map-id", "office", "--at", &at[0], "--at", &at[1]];
+    let mut sim = start("vda5050-sim", &sim_args, &dir.path("sim.log"), "vda5050-sim ready", Duration::from_secs(20))?;
+    let broker = sim.field("broker").context("no broker in the ready line")?;
+    let port: u16 = broker.rsplit(':').next().and_then(|p| p.parse().ok()).context("no port")?;
+    let cfg = gateway_config(&dir, port, &ep)?;
+    let gateway = start("vda5050", &["vda5050", "--config", &cfg], &dir.path("gateway.log"), "vda5050 ready", Duration::from_secs(20))?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let ids = ["sim-agv1", "sim-agv2"];
+    let view = common::wait_robots(&client, 2).await?;
+    for (id, &(_, x, y)) in ids.iter().zip(&spots) {
+        let p = robots_view(&view, id).and_then(|r| r.pose).with_context(|| format!("{id} not in the fleet"))?;
+        anyhow::ensure!((p.x - x).hypot(p.y - y) < 0.2, "{id} at {p:?}, its vehicle at ({x}, {y})");
+    }
+    let m = MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        robots: Some(ids.iter().map(|r| (*r).into()).collect()),
+        params: [("waypoints".to_string(), json!("all"))].into(),
+        map: Some("office".into()),
+        ..Default::default()
+    };
+    let _: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await?;
+    let start_at: Vec<(f64, f64)> = spots.iter().map(|&(_, x, y)| (x, y)).collect();
+    let moved = |from: &[(f64, f64)], now: &[(f64, f64)], d: f64| from.iter().zip(now).all(|(a, b)| (a.0 - b.0).hypot(a.1 - b.1) > d);
+    eventually("both vehicles driving their plans", Duration::from_secs(30), || async { poses(&client, &ids).await.filter(|p| moved(&start_at, p, 1.0)) })
+        .await?;
+
+    // Paused: the vehicles are told startPause and stand.
+    let pause = proto::MissionPause { name: "p".into() };
+    let _: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Pause), Some(&pause)).await?;
+    let gateway_log = || std::fs::read_to_string(dir.path("gateway.log")).unwrap_or_default();
+    let said = |what: &str| gateway_log().lines().filter(|l| l.contains(what)).count();
+    eventually("startPause to both vehicles", Duration::from_secs(15), || std::future::ready((said("startPause") >= 2).then_some(()))).await?;
+    let paused_at = eventually("the vehicles standing", Duration::from_secs(15), || async {
+        let a = poses(&client, &ids).await?;
+        tokio::time::sleep(Duration::from_millis(600)).await;
+        let b = poses(&client, &ids).await?;
+        (!moved(&a, &b, 0.02) && a.iter().zip(&b).all(|(p, q)| (p.0 - q.0).hypot(p.1 - q.1) < 0.02)).then_some(b)
+    })
+    .await?;
+    // Resumed: stopPause, and they drive on.
+    let _: Value = client.query(proto::Key::SystemCmd(proto::SystemCmd::Resume), Some(&pause)).await?;
+    eventually("both vehicles driving again", Duration::from_secs(30), || async { poses(&client, &ids).await.filter(|p| moved(&paused_at, p, 0.5)) }).await?;
+    anyhow::ensure!(said("stopPause") >= 1 || said("cancelOrder") >= 1, "resumed without stopPause or a new order: {}", gateway_log());
+    let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await?;
+    let stuck: Vec<String> = v.iter().filter_map(|r| r.stuck.as_ref().map(|s| format!("{}: {s}", r.id))).collect();
+    anyhow::ensure!(stuck.is_empty(), "a vehicle refused an order: {stuck:?}");
+
+    // The vehicles' process killed: their last will drops both robots.
+    sim.child.kill()?;
+    eventually("both vehicles lost", Duration::from_secs(20), || async {
+        let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
+        ids.iter().all(|id| robots_view(&v, id).is_none_or(|r| r.status == proto::RobotStatus::Lost)).then_some(())
+    })
+    .await?;
+    drop(gateway);
     Ok(())
 }

@@ -20,6 +20,7 @@ mod tap;
 pub mod threads;
 mod tour;
 mod vda5050;
+mod vda5050_sim;
 mod viz;
 
 use clap::{Parser, Subcommand};
@@ -48,6 +49,9 @@ enum Cmd {
     /// Run the VDA 5050 gateway: every vehicle on an MQTT broker joins the fleet as a robot.
     #[command(name = "vda5050")]
     Vda5050(vda5050::Args),
+    /// Run simulated VDA 5050 vehicles, on an MQTT broker of their own unless one is given.
+    #[command(name = "vda5050-sim")]
+    Vda5050Sim(vda5050_sim::Args),
     /// Run a site router of a multi-site fleet (robots of the site are its peers).
     Router(router::Args),
     /// Operator commands against a running fleet.
@@ -101,6 +105,8 @@ impl Cli {
             | Cmd::Map(_)
             | Cmd::Tap(_)
             | Cmd::Pki(_) => "warn,zenoh_link_commons::quic::utils=error,zenoh_link_tls::utils=error",
+            // The embedded broker says every connection and subscription at info.
+            Cmd::Vda5050Sim(_) => "info,rumqttd=warn",
             _ => "info,zenoh=warn,zenoh_link_commons::quic::utils=error,zenoh_link_tls::utils=error",
         }
     }
@@ -112,6 +118,7 @@ pub async fn run(cli: Cli) -> anyhow::Result<()> {
         Cmd::Robot(a) => robot::run(a).await,
         Cmd::SimFleet(a) => sim_fleet::run(a).await,
         Cmd::Vda5050(a) => vda5050::run(a).await,
+        Cmd::Vda5050Sim(a) => vda5050_sim::run(a).await,
         Cmd::Router(a) => router::run(a).await,
         Cmd::Op(a) => op::run(a).await,
         Cmd::Console(a) => console::run(a).await,

@@ -4,6 +4,7 @@
 
 pub mod msg;
 pub mod order;
+pub mod sim;
 pub mod topic;
 
 pub use msg::{Action, BlockingType, Connection, ConnectionState, Factsheet, FromVehicle, InstantActions, Order, State, Visualization};

@@ -113,12 +113,50 @@ pub struct ActionParameter {
 }
 
 /// `instantActions`: actions a vehicle carries out at once (pause, cancel the order, charge).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "camelCase")]
+///
+/// VDA 5050 2.0 names the list twice over: its JSON schema (and 2.1) `actions`, its text (and
+/// 1.1, and vehicles built to it such as vda-5050-lib's) `instantActions`. Neither schema forbids
+/// other fields, so the list is sent under both names and read from either.
+#[derive(Debug, Clone, PartialEq)]
 pub struct InstantActions {
-    #[serde(flatten)]
     pub header: Header,
     pub actions: Vec<Action>,
+}
+
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct InstantActionsOut<'a> {
+    #[serde(flatten)]
+    header: &'a Header,
+    actions: &'a [Action],
+    instant_actions: &'a [Action],
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "camelCase")]
+struct InstantActionsIn {
+    #[serde(flatten)]
+    header: Header,
+    #[serde(default)]
+    actions: Option<Vec<Action>>,
+    #[serde(default)]
+    instant_actions: Option<Vec<Action>>,
+}
+
+impl Serialize for InstantActions {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        InstantActionsOut { header: &self.header, actions: &self.actions, instant_actions: &self.actions }.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for InstantActions {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<InstantActions, D::Error> {
+        let m = InstantActionsIn::deserialize(d)?;
+        match m.actions.or(m.instant_actions) {
+            Some(actions) => Ok(InstantActions { header: m.header, actions }),
+            None => Err(serde::de::Error::missing_field("actions")),
+        }
+    }
 }
 
 /// `connection`: ONLINE when a vehicle connects, OFFLINE when it leaves, CONNECTIONBROKEN as its
@@ -153,13 +191,29 @@ pub struct State {
     pub node_states: Vec<NodeState>,
     pub edge_states: Vec<EdgeState>,
     pub driving: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub paused: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub agv_position: Option<AgvPosition>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub velocity: Option<AgvVelocity>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub battery_state: Option<BatteryState>,
     pub operating_mode: String,
     pub errors: Vec<VehicleError>,
     pub action_states: Vec<ActionState>,
+    /// Required by the standard in what a vehicle sends; mrmm does not act on it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub safety_state: Option<SafetyState>,
+}
+
+/// `safetyState`: the vehicle's emergency stop and protective fields.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "camelCase", default)]
+pub struct SafetyState {
+    /// `AUTOACK`, `MANUAL`, `REMOTE` or `NONE`.
+    pub e_stop: String,
+    pub field_violation: bool,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -191,8 +245,11 @@ pub struct AgvPosition {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct AgvVelocity {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub vx: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub vy: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub omega: Option<f64>,
 }
 
@@ -203,6 +260,7 @@ pub struct BatteryState {
     pub battery_charge: f64,
     pub charging: bool,
     /// Metres the vehicle can still drive, if it says.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub reach: Option<f64>,
 }
 
@@ -212,6 +270,7 @@ pub struct VehicleError {
     pub error_type: String,
     /// `WARNING` or `FATAL`.
     pub error_level: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub error_description: Option<String>,
 }
 
@@ -219,9 +278,11 @@ pub struct VehicleError {
 #[serde(rename_all = "camelCase", default)]
 pub struct ActionState {
     pub action_id: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub action_type: Option<String>,
     /// WAITING, INITIALIZING, RUNNING, PAUSED, FINISHED or FAILED.
     pub action_status: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub result_description: Option<String>,
 }
 
@@ -268,7 +329,9 @@ pub struct FactsheetAction {
 pub struct Visualization {
     #[serde(flatten)]
     pub header: Header,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub agv_position: Option<AgvPosition>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub velocity: Option<AgvVelocity>,
 }
 

@@ -71,3 +71,54 @@ fn the_schema_check_catches_a_message_that_breaks_the_standard() {
     let v = schema("2.0.0", "order.schema");
     assert!(v.iter_errors(&o).count() >= 2, "{o:#}");
 }
+
+#[test]
+fn what_the_simulated_vehicle_sends_validates_against_the_official_schemas() {
+    use mrmm_vda5050::sim::{SimIn, SimOut, SimVehicle};
+    let mut v = SimVehicle::new(vehicle(), "office", (1.0, 2.0, 0.0), 1.2);
+    let mut out = v.connect(1_700_000_000_000);
+    let mut book = OrderBook::new("mrmm-gw", "office");
+    let order = book.release(&w("v3", 1.0, 2.0), &[w("v4", 3.0, 2.0)], &[w("v5", 3.0, 5.0)], Some(0.8));
+    out.extend(v.handle(1_700_000_000_050, SimIn::Order(Box::new(order))));
+    let cancel = InstantActions {
+        header: Header::default(),
+        actions: vec![instant("startPause", "a1".into(), BlockingType::Hard), instant("dance", "a2".into(), BlockingType::None)],
+    };
+    out.extend(v.handle(1_700_000_000_100, SimIn::Instant(cancel)));
+    for t in 1..40 {
+        out.extend(v.handle(1_700_000_000_100 + t * 50, SimIn::Tick));
+    }
+    let resume = InstantActions { header: Header::default(), actions: vec![instant("stopPause", "a3".into(), BlockingType::Hard)] };
+    out.extend(v.handle(1_700_000_002_100, SimIn::Instant(resume)));
+    for t in 1..20 {
+        out.extend(v.handle(1_700_000_002_100 + t * 50, SimIn::Tick));
+    }
+    let kinds: std::collections::BTreeSet<&str> = out
+        .iter()
+        .map(|o| match o {
+            SimOut::State(_) => "state",
+            SimOut::Visualization(_) => "visualization",
+            SimOut::Connection(_) => "connection",
+            SimOut::Factsheet(_) => "factsheet",
+        })
+        .collect();
+    assert_eq!(kinds.len(), 4, "every kind of message is checked: {kinds:?}");
+    for version in ["2.0.0", "2.1.0"] {
+        let (state, vis, conn) = (schema(version, "state.schema"), schema(version, "visualization.schema"), schema(version, "connection.schema"));
+        for (i, o) in out.iter().enumerate() {
+            match o {
+                SimOut::State(s) => assert_valid(&state, &format!("state {i} under {version}"), &serde_json::to_value(s).unwrap()),
+                SimOut::Visualization(m) => assert_valid(&vis, &format!("visualization {i} under {version}"), &serde_json::to_value(m).unwrap()),
+                SimOut::Connection(c) => assert_valid(&conn, &format!("connection {i} under {version}"), &serde_json::to_value(c).unwrap()),
+                // The factsheet's schema came with 2.1 (2.0.0's factsheet.json is not one).
+                SimOut::Factsheet(f) if version == "2.1.0" => assert_valid(&schema(version, "factsheet.schema"), "factsheet", f),
+                SimOut::Factsheet(_) => {}
+            }
+        }
+    }
+    let errors: Vec<&str> = match out.iter().rev().find_map(|o| if let SimOut::State(s) = o { Some(s) } else { None }) {
+        Some(s) => s.errors.iter().map(|e| e.error_type.as_str()).collect(),
+        None => Vec::new(),
+    };
+    assert_eq!(errors, ["actionError"], "the unknown action is reported, and validates");
+}

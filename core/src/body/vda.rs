@@ -3,9 +3,13 @@
 //! the **base** released is exactly what traffic granted (the goal vertex and the granted ones
 //! after it) and the rest of the route is the **horizon**, so the vehicle drives on through a
 //! grant without stopping at each vertex, and stops at the grant's end if no more is granted. A
-//! stop is a `cancelOrder` (a new order waits until the vehicle says it ended). The vehicle's
+//! way off the released base is a `cancelOrder` (a new order waits until the vehicle says it
+//! ended). The vehicle's
 //! `state` says where it is, how fast it goes, its battery, and which released node it passed
-//! last. The messages go out through [`VdaDrive::take`]; the gateway adds their headers.
+//! last. A hold (a mission paused, a new plan, traffic's halt) of a vehicle with released nodes
+//! still ahead is a `startPause`: it stops where it is and keeps its order. The next goal resumes
+//! it (`stopPause`) and, if the way goes on as released, is an update of the same order; a way off
+//! it is a `cancelOrder` first. The messages go out through [`VdaDrive::take`]; the gateway adds their headers.
 
 use std::collections::VecDeque;
 
@@ -71,6 +75,8 @@ pub struct VdaDrive {
     /// A `cancelOrder` sent and not yet ended (its action id): a new order waits for it (a
     /// vehicle refuses a new order while it still has one).
     cancelling: Option<String>,
+    /// A `startPause` sent and no `stopPause` since.
+    paused: bool,
     /// Instant actions sent, and points off the map's vertices named: ids.
     actions: u64,
     points: u64,
@@ -94,6 +100,7 @@ impl VdaDrive {
             stuck: None,
             out: Vec::new(),
             cancelling: None,
+            paused: false,
             actions: 0,
             points: 0,
             prefix: prefix.to_string(),
@@ -174,6 +181,12 @@ impl VdaDrive {
             self.cancel();
             return;
         }
+        if self.paused {
+            // The way goes on as released: the vehicle drives on.
+            self.paused = false;
+            let id = self.action_id();
+            self.out.push(VdaOut::Instant(vec![instant("stopPause", id, BlockingType::Hard)]));
+        }
         if k == t.want.len() {
             return;
         }
@@ -207,22 +220,50 @@ impl VdaDrive {
         self.ahead.len() <= want.len() && self.ahead.iter().zip(want).all(|(r, w)| r.node.node_id == w.node_id)
     }
 
-    fn cancel(&mut self) {
+    fn action_id(&mut self) -> String {
         self.actions += 1;
-        let id = format!("{}-a{}", self.prefix, self.actions);
-        self.out.push(VdaOut::Instant(vec![instant("cancelOrder", id.clone(), BlockingType::Hard)]));
+        format!("{}-a{}", self.prefix, self.actions)
+    }
+
+    /// Cancels the order (and ends a pause: the next order is to be driven).
+    fn cancel(&mut self) {
+        let id = self.action_id();
+        let mut actions = vec![instant("cancelOrder", id.clone(), BlockingType::Hard)];
+        if std::mem::take(&mut self.paused) {
+            actions.push(instant("stopPause", self.action_id(), BlockingType::Hard));
+        }
+        self.out.push(VdaOut::Instant(actions));
         self.cancelling = Some(id);
         self.book.forget();
         self.ahead.clear();
         self.behind.clear();
     }
 
-    /// Stops: the order is cancelled (the vehicle stops at once or at its next node, as it
-    /// can), and the next goal is a new order from where it stands.
+    /// Stops where it is: a vehicle with released nodes still ahead is paused (it keeps its
+    /// order); one that stands at the end of its base already is left as it is. The next goal
+    /// resumes it.
     pub fn hold(&mut self) {
-        if self.goal.take().is_some() || self.book.order_id().is_some() {
-            self.cancel();
+        self.goal = None;
+        if !self.ahead.is_empty() && !self.paused && self.cancelling.is_none() {
+            self.paused = true;
+            let id = self.action_id();
+            self.out.push(VdaOut::Instant(vec![instant("startPause", id, BlockingType::Hard)]));
         }
+    }
+
+    /// Starts charging where it stands (it holds first), or stops: `startCharging` or
+    /// `stopCharging`. Its state says whether it charges.
+    pub fn charge(&mut self, on: bool) {
+        if on {
+            self.hold();
+        }
+        let id = self.action_id();
+        self.out.push(VdaOut::Instant(vec![instant(if on { "startCharging" } else { "stopCharging" }, id, BlockingType::Hard)]));
+    }
+
+    /// Whether the vehicle was told to pause and not yet to go on.
+    pub fn paused(&self) -> bool {
+        self.paused
     }
 
     /// What the vehicle said (checked by the caller).
@@ -408,23 +449,37 @@ mod tests {
     }
 
     #[test]
-    fn a_stop_cancels_the_order_and_the_next_goal_is_a_new_order_once_the_cancel_ended() {
+    fn a_hold_pauses_the_vehicle_and_the_next_goal_resumes_it_on_its_order_or_cancels_it_first() {
+        let pause_of = |out: &[VdaOut]| out.iter().any(|o| matches!(o, VdaOut::Instant(a) if a[0].action_type == "startPause"));
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate_lane(v(1, 1.0), &[], &[], None);
+        d.hold();
+        assert!(d.take().is_empty(), "a vehicle with nothing released ahead is left as it stands");
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0)], None);
         d.hold();
         let out = d.take();
-        assert!(matches!(&out[1], VdaOut::Instant(a) if a[0].action_type == "cancelOrder"), "{out:?}");
-        assert!(d.goal().is_none());
-        d.navigate(3.0, 0.0, None);
-        d.on_state(&state("gw-1", "v0", 0, true, 0.4));
+        assert!(pause_of(&out) && d.paused() && d.goal().is_none(), "{out:?}");
+        d.hold();
+        assert!(d.take().is_empty(), "paused once");
+        // Resumed on the way released: stopPause, and the order goes on (an update).
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0), v(3, 3.0)], &[], None);
+        let out = d.take();
+        assert!(matches!(&out[0], VdaOut::Instant(a) if a[0].action_type == "stopPause"), "{out:?}");
+        assert_eq!(orders(out[1..].to_vec()), [("gw-1".to_string(), 1, vec!["v2".to_string(), "v3".to_string()])]);
+        // Paused, then sent elsewhere: cancel and end the pause, then a new order once it ended.
+        d.hold();
+        d.take();
+        d.navigate(3.0, 5.0, None);
+        let out = d.take();
+        assert!(matches!(out.as_slice(), [VdaOut::Instant(a)] if a[0].action_type == "cancelOrder" && a[1].action_type == "stopPause"), "{out:?}");
+        d.on_state(&state("gw-1", "v1", 2, false, 1.4));
         assert!(d.take().is_empty(), "no new order while the vehicle still cancels the old one");
-        let mut done = state("gw-1", "v0", 0, false, 0.4);
-        done.action_states.push(mrmm_vda5050::msg::ActionState { action_id: "gw-a1".into(), action_status: "FINISHED".into(), ..Default::default() });
+        let mut done = state("gw-1", "v1", 2, false, 1.4);
+        let cancel = "gw-a4";
+        done.action_states.push(mrmm_vda5050::msg::ActionState { action_id: cancel.into(), action_status: "FINISHED".into(), ..Default::default() });
         d.on_state(&done);
         let o = orders(d.take());
-        assert_eq!(o[0].0, "gw-2");
-        assert_eq!(o[0].2[0], "v0", "a new order starts at the vehicle's last node");
+        assert_eq!((o[0].0.as_str(), o[0].2[0].as_str()), ("gw-2", "v1"), "a new order from the vehicle's last node: {o:?}");
     }
 
     #[test]

@@ -54,6 +54,17 @@ impl Robot {
     /// Applies a command; returns the team change it makes. Direct orders (goto, hold) end any plan.
     /// Plugs the simulated body's battery in where it stands (it holds), or out.
     fn charge(&mut self, on: bool) -> Result<(), String> {
+        if let Drive::Vda(vehicle) = &mut self.body {
+            if on && self.exec.is_some() {
+                return Err(format!("charge: robot {} is running a plan: it leaves its mission first", self.cfg.id));
+            }
+            if on {
+                self.route.clear();
+            }
+            vehicle.charge(on);
+            tracing::info!(robot = %self.cfg.id, on, "charging (VDA 5050 startCharging/stopCharging)");
+            return Ok(());
+        }
         let Drive::Sim(body) = &mut self.body else {
             return Err("charge: a ROS 2 robot charges at its own dock, not on the fleet's word".into());
         };

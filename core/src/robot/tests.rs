@@ -470,3 +470,27 @@ fn a_vda_vehicle_is_sent_its_next_goal_in_the_tick_that_gives_it() {
     r.handle(0.5, state("gw-p1", 2, 4.0));
     assert_eq!(orders(r.handle(0.52, Event::Tick)), 1, "the corner passed: the goal after it goes out in the same tick");
 }
+
+/// The fleet's charging policy plugs a VDA 5050 vehicle in by `startCharging` (and out by
+/// `stopCharging`), not on a plan.
+#[test]
+fn a_vda_vehicle_is_charged_by_instant_actions() {
+    let setup = RobotSetup {
+        body: BodyKind::Vda { order_prefix: "gw".into(), map_id: "m".into() },
+        ..RobotSetup::sim("agv", "ground", Limits { max_speed: 1.0, max_turn_rate: 1.0 }, Pose::default())
+    };
+    let mut r = Robot::new(setup);
+    let actions = |out: Vec<Command>| -> Vec<String> {
+        out.into_iter()
+            .filter_map(|c| match c {
+                Command::Vda(crate::body::vda::VdaOut::Instant(a)) => Some(a.into_iter().map(|a| a.action_type)),
+                _ => None,
+            })
+            .flatten()
+            .collect()
+    };
+    cmd(&mut r, RobotCommand::Charge { on: true }).0.expect("plugged");
+    assert_eq!(actions(r.handle(0.02, Event::Tick)), ["startCharging"]);
+    cmd(&mut r, RobotCommand::Charge { on: false }).0.expect("unplugged");
+    assert_eq!(actions(r.handle(0.04, Event::Tick)), ["stopCharging"]);
+}

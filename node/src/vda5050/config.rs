@@ -10,6 +10,7 @@
 //!                                          // top speed, zenoh and security (its id is ignored)
 //!   ids: { "acme/0042": "agv-42" },        // fleet ids (default <manufacturer>-<serialNumber>)
 //!   max_vehicles: 200,
+//!   silence_s: 35,                         // a vehicle not heard for this long is gone
 //! }
 //! ```
 
@@ -19,6 +20,10 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use mrmm_vda5050::{Topics, VehicleId};
+
+/// Seconds without a word from a vehicle before it is taken as gone, unless the config says (the
+/// standard has a vehicle state at least every 30 s).
+pub const SILENCE_S: f64 = 35.0;
 
 /// Vehicles one gateway takes at most, unless its config says.
 pub const MAX_VEHICLES: usize = 200;
@@ -42,6 +47,13 @@ pub struct GatewayConfig {
     pub ids: BTreeMap<String, String>,
     #[serde(default = "max_vehicles")]
     pub max_vehicles: usize,
+    /// A vehicle heard of for this long (no state, no visualization) is gone, seconds.
+    #[serde(default = "silence_s")]
+    pub silence_s: f64,
+}
+
+fn silence_s() -> f64 {
+    SILENCE_S
 }
 
 fn interface() -> String {
@@ -61,6 +73,26 @@ fn max_vehicles() -> usize {
 pub struct Broker {
     pub host: String,
     pub port: u16,
+}
+
+impl Broker {
+    /// From `mqtt://host:port` (or `host:port`; port 1883 when left out); the error is
+    /// `broker: problem`.
+    pub fn parse(url: &str) -> Result<Broker, String> {
+        let rest = match url.split_once("://") {
+            Some(("mqtt" | "tcp", rest)) => rest,
+            Some((scheme, _)) => return Err(format!("broker: {:?}: only mqtt:// is supported (TLS to the broker is not yet)", format!("{scheme}://"))),
+            None => url,
+        };
+        let (host, port) = match rest.rsplit_once(':') {
+            Some((h, p)) => (h, p.parse::<u16>().map_err(|_| format!("broker: {:?}: the port is not a number 1–65535", url))?),
+            None => (rest, 1883),
+        };
+        if host.is_empty() || port == 0 {
+            return Err(format!("broker: {url:?}: give host:port"));
+        }
+        Ok(Broker { host: host.to_string(), port })
+    }
 }
 
 impl GatewayConfig {
@@ -86,6 +118,9 @@ impl GatewayConfig {
         if !(1..=10_000).contains(&self.max_vehicles) {
             return Err(format!("max_vehicles: 1 to 10000 (got {})", self.max_vehicles));
         }
+        if !(self.silence_s.is_finite() && (1.0..=3600.0).contains(&self.silence_s)) {
+            return Err(format!("silence_s: 1 to 3600 seconds (got {})", self.silence_s));
+        }
         if self.username.is_none() && self.password.is_some() {
             return Err("password: given without a username".into());
         }
@@ -98,19 +133,7 @@ impl GatewayConfig {
     }
 
     pub fn broker(&self) -> Result<Broker, String> {
-        let rest = match self.broker.split_once("://") {
-            Some(("mqtt" | "tcp", rest)) => rest,
-            Some((scheme, _)) => return Err(format!("broker: {:?}: only mqtt:// is supported (TLS to the broker is not yet)", format!("{scheme}://"))),
-            None => self.broker.as_str(),
-        };
-        let (host, port) = match rest.rsplit_once(':') {
-            Some((h, p)) => (h, p.parse::<u16>().map_err(|_| format!("broker: {:?}: the port is not a number 1–65535", self.broker))?),
-            None => (rest, 1883),
-        };
-        if host.is_empty() || port == 0 {
-            return Err(format!("broker: {:?}: give host:port", self.broker));
-        }
-        Ok(Broker { host: host.to_string(), port })
+        Broker::parse(&self.broker)
     }
 
     pub fn topics(&self) -> Result<Topics, String> {

@@ -5,8 +5,10 @@
 //! vehicle's `connection` OFFLINE or CONNECTIONBROKEN (its last will) drops its robot as a crash
 //! would: the fleet sees it lost and its missions replan.
 
+pub mod broker;
 pub mod config;
 mod mqtt;
+pub mod sim;
 
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -30,6 +32,8 @@ const OUTBOX: usize = 64;
 /// A vehicle the gateway heard.
 struct Vehicle {
     robot: String,
+    /// When its last state or visualization came.
+    heard: tokio::time::Instant,
     /// Its robot's inbox of states (none until its robot starts, and once it is dropped).
     states: Option<mpsc::Sender<Box<FromVehicle>>>,
     /// Drops its robot as a crash would.
@@ -87,6 +91,8 @@ pub async fn run(cfg: GatewayConfig, template: RobotConfig, shutdown: Cancellati
     };
     let mut announced = false;
     let mut backoff = Duration::from_millis(250);
+    let mut check = tokio::time::interval(Duration::from_secs(1));
+    check.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     loop {
         tokio::select! {
             _ = shutdown.cancelled() => break,
@@ -104,6 +110,9 @@ pub async fn run(cfg: GatewayConfig, template: RobotConfig, shutdown: Cancellati
                 Ok(_) => {}
                 Err(e) => {
                     tracing::warn!(broker = %gw.cfg.broker, "VDA 5050: broker connection: {e}; trying again in {backoff:?}");
+                    // Out of reach, the vehicles cannot be driven: their robots drop off the fleet
+                    // (and come back with the vehicles' next states once the broker is back).
+                    gw.all_gone("the broker connection broke");
                     tokio::select! {
                         _ = shutdown.cancelled() => break,
                         _ = tokio::time::sleep(backoff) => {}
@@ -112,6 +121,7 @@ pub async fn run(cfg: GatewayConfig, template: RobotConfig, shutdown: Cancellati
                 }
             },
             Some(done) = gw.robots.join_next() => gw.robot_stopped(done),
+            _ = check.tick() => gw.silent(),
         }
     }
     let _ = gw.client.disconnect().await;
@@ -147,8 +157,11 @@ impl Gateway {
             },
             Subtopic::Visualization => match mrmm_vda5050::parse::<Visualization>(sub, payload).and_then(|v| v.check().map(|()| v)) {
                 Ok(vis) => {
-                    if let Some(tx) = self.vehicles.get(&vehicle).and_then(|v| v.states.as_ref()) {
-                        let _ = tx.try_send(Box::new(FromVehicle::Visualization(vis)));
+                    if let Some(v) = self.vehicles.get_mut(&vehicle) {
+                        v.heard = tokio::time::Instant::now();
+                        if let Some(tx) = &v.states {
+                            let _ = tx.try_send(Box::new(FromVehicle::Visualization(vis)));
+                        }
                     }
                 }
                 Err(e) => self.refused.note(&format!("{vehicle}: {e}")),
@@ -157,9 +170,33 @@ impl Gateway {
         }
     }
 
+    /// Every vehicle's robot drops off the fleet.
+    fn all_gone(&mut self, why: &str) {
+        let live: Vec<VehicleId> = self.vehicles.iter().filter(|(_, v)| v.states.is_some()).map(|(k, _)| k.clone()).collect();
+        if !live.is_empty() {
+            tracing::warn!(vehicles = live.len(), "VDA 5050: {why}: every vehicle's robot drops off the fleet");
+        }
+        for vehicle in live {
+            self.gone(&vehicle, ConnectionState::ConnectionBroken);
+        }
+    }
+
+    /// Vehicles silent longer than the config's `silence_s` are gone (a vehicle states at least
+    /// every 30 s as the standard asks; one that stopped without its last will is not heard).
+    fn silent(&mut self) {
+        let limit = Duration::from_secs_f64(self.cfg.silence_s);
+        let now = tokio::time::Instant::now();
+        let quiet: Vec<VehicleId> = self.vehicles.iter().filter(|(_, v)| v.states.is_some() && now - v.heard > limit).map(|(k, _)| k.clone()).collect();
+        for vehicle in quiet {
+            tracing::warn!(%vehicle, "VDA 5050: nothing heard for {} s", self.cfg.silence_s);
+            self.gone(&vehicle, ConnectionState::ConnectionBroken);
+        }
+    }
+
     /// A vehicle's state: to its robot, which starts (where the vehicle stands) at its first.
     fn state(&mut self, vehicle: VehicleId, state: State) {
-        if let Some(v) = self.vehicles.get(&vehicle) {
+        if let Some(v) = self.vehicles.get_mut(&vehicle) {
+            v.heard = tokio::time::Instant::now();
             if let Some(tx) = &v.states {
                 // Full: its robot is behind; the next state says it all again.
                 let _ = tx.try_send(Box::new(FromVehicle::State(Box::new(state))));
@@ -205,7 +242,7 @@ impl Gateway {
         let who = vehicle.clone();
         tracing::info!(%vehicle, %robot, "VDA 5050: a new vehicle: starting its robot");
         self.robots.spawn(async move { (who, one(cfg, link, stop, kill_rx).await) });
-        self.vehicles.insert(vehicle, Vehicle { robot, states: Some(states_tx), kill: Some(kill_tx) });
+        self.vehicles.insert(vehicle, Vehicle { robot, heard: tokio::time::Instant::now(), states: Some(states_tx), kill: Some(kill_tx) });
     }
 
     /// The vehicle left the broker (or its link broke): its robot is dropped as a crash would.
