@@ -153,3 +153,37 @@ async fn the_hundred_robot_demo_holds_with_its_defaults() -> anyhow::Result<()> 
     assert!(status.success(), "demo exit status {status}");
     Ok(())
 }
+
+/// `mrmm demo --vda5050 2`: with no MQTT broker installed, the demo's own broker, two simulated
+/// VDA 5050 vehicles and the gateway; the vehicles register as robots agv1 and agv2, are put in
+/// the demo's missions beside the robots and drive in them; the demo stops them all on Ctrl-C.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_demo_runs_vda5050_vehicles_in_its_missions_on_a_broker_of_its_own() -> anyhow::Result<()> {
+    let dir = Scratch::new("demo-vda5050");
+    let (mut demo, ep, operator) = common::start_demo(&dir, &["--robots", "2", "--vda5050", "2", "--duration", "90", "--listen", "quic/127.0.0.1:0"])?;
+    let client = Client::connect_with(std::slice::from_ref(&ep), operator, Duration::from_secs(5)).await?;
+    let start = common::wait_robots(&client, 4).await?;
+    let at = |v: &[RobotView], id: &str| v.iter().find(|r| r.id.as_str() == id).and_then(|r| r.pose).map(|p| (p.x, p.y));
+    let from: Vec<(f64, f64)> =
+        ["agv1", "agv2"].iter().map(|id| at(&start, id)).collect::<Option<_>>().ok_or_else(|| anyhow::anyhow!("no vehicle robots: {start:?}"))?;
+    eventually("both vehicles in a mission, driving", Duration::from_secs(40), || async {
+        let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
+        let driving = ["agv1", "agv2"].iter().zip(&from).all(|(id, f)| {
+            let r = v.iter().find(|r| r.id.as_str() == *id);
+            r.is_some_and(|r| r.mission.is_some()) && at(&v, id).is_some_and(|p| (p.0 - f.0).hypot(p.1 - f.1) > 1.0)
+        });
+        driving.then_some(())
+    })
+    .await?;
+    let pid = demo.pid();
+    let children = std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/children"))?;
+    client.close().await;
+    demo.signal("INT")?;
+    let status = common::wait_exit(&mut demo, Duration::from_secs(20)).await?;
+    assert!(status.success(), "demo exit status {status}");
+    for child in children.split_whitespace() {
+        let gone = std::fs::read(format!("/proc/{child}/cmdline")).map_or(true, |c| !String::from_utf8_lossy(&c).contains("mrmm"));
+        assert!(gone, "the demo left child {child} running");
+    }
+    Ok(())
+}

@@ -26,7 +26,7 @@ pub struct Args {
     #[arg(long, default_value = "mrmm")]
     map_id: String,
     /// Where vehicle i starts, `x,y` (repeat for each; default: a row along y = -16).
-    #[arg(long = "at", value_parser = point)]
+    #[arg(long = "at", value_parser = point, allow_hyphen_values = true)]
     at: Vec<(f64, f64)>,
     /// Top speed, m/s.
     #[arg(long, default_value_t = 1.0)]

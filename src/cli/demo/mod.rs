@@ -90,6 +90,16 @@ pub struct Args {
     /// minutes (docs/operating.md).
     #[arg(long, value_parser = positive_seconds)]
     battery_life: Option<f64>,
+    /// Add N simulated VDA 5050 vehicles (agv1 … agvN) beside the robots: an MQTT broker of the
+    /// demo's own (nothing to install), the vehicles on it, and the VDA 5050 gateway that makes
+    /// each a fleet robot; they take part in the same missions (docs/vda5050.md).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=200))]
+    vda5050: Option<u32>,
+}
+
+/// Robots and VDA 5050 vehicles together.
+fn fleet(args: &Args) -> usize {
+    args.robots as usize + args.vda5050.unwrap_or(0) as usize
 }
 
 /// A positive, finite number of seconds.
@@ -202,7 +212,7 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     let started = Instant::now();
     let building = args.map.as_deref().map(map::DemoMap::load).transpose()?;
     let starts = match &building {
-        Some(b) => Some(b.starts(args.robots as usize)?),
+        Some(b) => Some(b.starts(fleet(args))?),
         None => None,
     };
     // Every node of the demo listens with the scheme of central's endpoint (quic, tls or tcp).
@@ -215,6 +225,11 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     let at = start::central(args, dir, children, &scheme, pki.as_deref(), building.as_ref()).await?;
     let sites = start::routers(args, dir, children, &at.endpoint, &at.uplink, &scheme, pki.as_deref()).await?;
     start::robots(args, dir, children, &sites, starts.as_deref(), &scheme, pki.as_deref())?;
+    if let Some(n) = args.vda5050 {
+        let spots = starts.as_ref().map(|s| s[args.robots as usize..].to_vec());
+        let vehicles = start::Vehicles { n: n as usize, map_id: if building.is_some() { map::NAME } else { "demo" }, at: spots.as_deref() };
+        start::vda5050(args, dir, children, &at.endpoint, pki.as_deref(), &vehicles).await?;
+    }
 
     let operator = pki.as_ref().map(|d| mrmm_proto::SecuritySection::from_dir(d, "operator"));
     let client = Client::connect_with(std::slice::from_ref(&at.endpoint), operator.clone(), Duration::from_secs(10)).await?;

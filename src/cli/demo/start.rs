@@ -25,6 +25,9 @@ pub(super) fn issue_pki(args: &Args, pki: &Path) -> anyhow::Result<()> {
     for s in 1..site_count(args) {
         p::issue(pki, Role::Router, &format!("site{s}"), &[], 30)?;
     }
+    for i in 0..args.vda5050.unwrap_or(0) {
+        p::issue(pki, Role::Robot, &format!("agv{}", i + 1), &[], 30)?;
+    }
     Ok(())
 }
 
@@ -166,6 +169,68 @@ pub(super) fn robots(
         procs::drain_stdout(&mut child);
         children.push(child);
     }
+    Ok(())
+}
+
+/// The demo's VDA 5050 vehicles: how many, the map they report on, where they start.
+pub(super) struct Vehicles<'a> {
+    pub n: usize,
+    pub map_id: &'a str,
+    pub at: Option<&'a [(f64, f64)]>,
+}
+
+/// `--vda5050 N`: N simulated VDA 5050 vehicles on an MQTT broker of their own (`mrmm
+/// vda5050-sim`), starting `at` (else in a row below the robots), and the gateway that makes
+/// each a robot of the fleet (`mrmm vda5050`), its robots clients of central.
+pub(super) async fn vda5050(
+    args: &Args,
+    dir: &Path,
+    children: &mut Vec<Child>,
+    central: &str,
+    pki: Option<&Path>,
+    vehicles: &Vehicles<'_>,
+) -> anyhow::Result<()> {
+    let Vehicles { n, map_id, at } = *vehicles;
+    let mut sim =
+        vec!["vda5050-sim".to_string(), "--vehicles".into(), n.to_string(), "--listen".into(), "127.0.0.1:0".into(), "--map-id".into(), map_id.into()];
+    // Below the robots' rows (20 a row, 1.5 m apart, from y = -12 down).
+    let below = -12.0 - (args.robots as usize).div_ceil(20) as f64 * 1.5 - 1.5;
+    for i in 0..n {
+        let (x, y) = at.and_then(|a| a.get(i).copied()).unwrap_or(((i as f64 - (n as f64 - 1.0) / 2.0) * 1.5, below));
+        sim.push(format!("--at={x},{y}"));
+    }
+    let log = dir.join("vda5050-sim.log");
+    let mut child = procs::spawn(&sim, &log)?;
+    let line = procs::ready_line(&mut child, "vda5050-sim ready", Duration::from_secs(20), &log).await;
+    children.push(child);
+    let line = line.context("the simulated VDA 5050 vehicles did not start")?;
+    let broker = procs::field(&line, "broker").ok_or_else(|| anyhow!("vda5050-sim ready line without broker: {line}"))?.to_string();
+    let robot = dir.join("agv.json5");
+    let scheme = central.split('/').next().unwrap_or("tcp");
+    std::fs::write(
+        &robot,
+        format!(
+            r#"{{ id: "agv", type: "ground", capabilities: ["camera", "lidar"], kinematics: {{ max_speed: 1.0, max_turn_rate: 1.5 }}, telemetry_hz: 5,
+  zenoh: {{ mode: "client", listen: ["{scheme}/127.0.0.1:0"], connect: [{central:?}], lease_ms: {} }} }}
+"#,
+            lease(args)
+        ),
+    )
+    .with_context(|| format!("cannot write {}", robot.display()))?;
+    let ids: Vec<String> = (1..=n).map(|i| format!("\"mrmm/agv{i}\": \"agv{i}\"")).collect();
+    let cfg = dir.join("vda5050.json5");
+    std::fs::write(&cfg, format!("{{ broker: {broker:?}, map: {map_id:?}, robot: \"agv.json5\", ids: {{ {} }} }}\n", ids.join(", ")))
+        .with_context(|| format!("cannot write {}", cfg.display()))?;
+    let mut gw = vec!["vda5050".to_string(), "--config".into(), cfg.display().to_string()];
+    if let Some(pki) = pki {
+        gw.extend(["--pki".into(), pki.display().to_string()]);
+    }
+    let log = dir.join("vda5050.log");
+    let mut child = procs::spawn(&gw, &log)?;
+    let line = procs::ready_line(&mut child, "vda5050 ready", Duration::from_secs(20), &log).await;
+    children.push(child);
+    line.context("the VDA 5050 gateway did not start")?;
+    println!("mrmm demo: {n} VDA 5050 vehicles on {broker} (the demo's own broker), in the fleet through `mrmm vda5050`");
     Ok(())
 }
 

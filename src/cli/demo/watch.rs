@@ -37,7 +37,7 @@ struct Progress {
 impl Watch<'_> {
     /// Runs until `shutdown` or the demo's `--duration`.
     pub(super) async fn run(&self, shutdown: &CancellationToken) {
-        let n = self.args.robots as usize;
+        let n = super::fleet(self.args);
         let deadline = self.args.duration.map(|d| self.started + Duration::from_secs_f64(d));
         let mut ticker = tokio::time::interval(Duration::from_millis(500));
         let registering = progress(n, "robots registered");
@@ -80,7 +80,7 @@ impl Watch<'_> {
         if !self.args.formation {
             if all_in && !at.missions_started {
                 at.missions_started = true;
-                start_missions(self.client, self.args.robots as usize, self.building).await;
+                start_missions(self.client, super::fleet(self.args), self.building).await;
             }
             return;
         }
