@@ -253,11 +253,13 @@ impl SimVehicle {
                 self.speed = 0.0;
                 Ok(())
             }
+            "startPause" if self.paused => Err("already paused"),
             "startPause" => {
                 self.paused = true;
                 self.speed = 0.0;
                 Ok(())
             }
+            "stopPause" if !self.paused => Err("not paused"),
             "stopPause" => {
                 self.paused = false;
                 Ok(())

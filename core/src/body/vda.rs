@@ -6,10 +6,10 @@
 //! way off the released base is a `cancelOrder` (a new order waits until the vehicle says it
 //! ended). The vehicle's
 //! `state` says where it is, how fast it goes, its battery, and which released node it passed
-//! last. A hold (a mission paused, a new plan, traffic's halt) of a vehicle with released nodes
-//! still ahead is a `startPause`: it stops where it is and keeps its order. The next goal resumes
-//! it (`stopPause`) and, if the way goes on as released, is an update of the same order; a way off
-//! it is a `cancelOrder` first. The messages go out through [`VdaDrive::take`]; the gateway adds their headers.
+//! last. A hold (a mission paused, a new plan, traffic's halt) that lasts to the end of the tick,
+//! of a vehicle with released nodes still ahead, is a `startPause`: it stops where it is and keeps
+//! its order. The next goal resumes it (`stopPause`, once the vehicle said it paused) and, if the
+//! way goes on as released, is an update of the same order; a way off it is a `cancelOrder` first. The messages go out through [`VdaDrive::take`]; the gateway adds their headers.
 
 use std::collections::VecDeque;
 
@@ -77,6 +77,15 @@ pub struct VdaDrive {
     cancelling: Option<String>,
     /// A `startPause` sent and no `stopPause` since.
     paused: bool,
+    /// A hold not yet carried out: at the end of the tick (`take`) it pauses the vehicle, unless
+    /// a goal came after it in the same tick (a new plan's first goal).
+    pause_due: bool,
+    /// A `startPause` sent that the vehicle has not yet said ended (its action id): a vehicle
+    /// refuses `stopPause` (and a robot may not change its order) until it is paused.
+    pausing: Option<String>,
+    /// A `stopPause` sent that the vehicle has not yet said ended: a vehicle may refuse a
+    /// `startPause` until it is driving again.
+    unpausing: Option<String>,
     /// Instant actions sent, and points off the map's vertices named: ids.
     actions: u64,
     points: u64,
@@ -101,6 +110,9 @@ impl VdaDrive {
             out: Vec::new(),
             cancelling: None,
             paused: false,
+            pause_due: false,
+            pausing: None,
+            unpausing: None,
             actions: 0,
             points: 0,
             prefix: prefix.to_string(),
@@ -156,6 +168,7 @@ impl VdaDrive {
     }
 
     fn drive(&mut self, mut target: Target) {
+        self.pause_due = false;
         match &self.goal {
             Some(g) if g.node() == target.node() => target.passed = g.passed,
             _ => self.stuck = None,
@@ -175,6 +188,9 @@ impl VdaDrive {
     /// stands, or an update stitched at the last base node. A goal off the base released (the
     /// way changed) cancels the order first.
     fn release(&mut self) {
+        if self.pausing.is_some() || self.unpausing.is_some() {
+            return; // once the vehicle says it paused, or drives again (`on_state`)
+        }
         let Some(t) = self.goal.clone() else { return };
         let k = self.ahead.len();
         if !self.ahead_leads(&t.want) {
@@ -185,7 +201,8 @@ impl VdaDrive {
             // The way goes on as released: the vehicle drives on.
             self.paused = false;
             let id = self.action_id();
-            self.out.push(VdaOut::Instant(vec![instant("stopPause", id, BlockingType::Hard)]));
+            self.out.push(VdaOut::Instant(vec![instant("stopPause", id.clone(), BlockingType::Hard)]));
+            self.unpausing = Some(id);
         }
         if k == t.want.len() {
             return;
@@ -225,14 +242,11 @@ impl VdaDrive {
         format!("{}-a{}", self.prefix, self.actions)
     }
 
-    /// Cancels the order (and ends a pause: the next order is to be driven).
+    /// Cancels the order (a pause is ended with the next order, if the vehicle is still paused
+    /// once the cancel ended).
     fn cancel(&mut self) {
         let id = self.action_id();
-        let mut actions = vec![instant("cancelOrder", id.clone(), BlockingType::Hard)];
-        if std::mem::take(&mut self.paused) {
-            actions.push(instant("stopPause", self.action_id(), BlockingType::Hard));
-        }
-        self.out.push(VdaOut::Instant(actions));
+        self.out.push(VdaOut::Instant(vec![instant("cancelOrder", id.clone(), BlockingType::Hard)]));
         self.cancelling = Some(id);
         self.book.forget();
         self.ahead.clear();
@@ -244,10 +258,19 @@ impl VdaDrive {
     /// resumes it.
     pub fn hold(&mut self) {
         self.goal = None;
-        if !self.ahead.is_empty() && !self.paused && self.cancelling.is_none() {
+        self.pause_due = true;
+    }
+
+    /// A hold that lasted to the end of the tick pauses a vehicle that has released nodes ahead.
+    fn pause_if_due(&mut self) {
+        if self.unpausing.is_some() {
+            return; // the hold waits for the vehicle to say it drives again
+        }
+        if std::mem::take(&mut self.pause_due) && !self.ahead.is_empty() && !self.paused && self.cancelling.is_none() && self.pausing.is_none() {
             self.paused = true;
             let id = self.action_id();
-            self.out.push(VdaOut::Instant(vec![instant("startPause", id, BlockingType::Hard)]));
+            self.out.push(VdaOut::Instant(vec![instant("startPause", id.clone(), BlockingType::Hard)]));
+            self.pausing = Some(id);
         }
     }
 
@@ -256,6 +279,7 @@ impl VdaDrive {
     pub fn charge(&mut self, on: bool) {
         if on {
             self.hold();
+            self.pause_if_due();
         }
         let id = self.action_id();
         self.out.push(VdaOut::Instant(vec![instant(if on { "startCharging" } else { "stopCharging" }, id, BlockingType::Hard)]));
@@ -296,6 +320,33 @@ impl VdaDrive {
         }
         if !state.last_node_id.is_empty() {
             self.last_node.clone_from(&state.last_node_id);
+        }
+        // Paused or not, as the vehicle says (unless a pause or its end is on its way).
+        if let (None, None, Some(p)) = (&self.pausing, &self.unpausing, state.paused) {
+            self.paused = p;
+        }
+        // The pause (or its end) came about, or failed; what waited goes out.
+        let ended = |id: &Option<String>| {
+            let id = id.as_deref()?;
+            state
+                .action_states
+                .iter()
+                .find(|a| a.action_id == id && matches!(a.action_status.as_str(), "FINISHED" | "FAILED"))
+                .map(|a| a.action_status == "FINISHED")
+        };
+        if let Some(done) = ended(&self.pausing) {
+            self.paused = done;
+            self.pausing = None;
+            if self.cancelling.is_none() {
+                self.release();
+            }
+        }
+        if ended(&self.unpausing).is_some() {
+            self.unpausing = None;
+            self.paused = state.paused.unwrap_or(false);
+            if self.cancelling.is_none() {
+                self.release();
+            }
         }
         // The cancel ended (finished, or failed: the vehicle had no order to cancel).
         if let Some(id) = &self.cancelling {
@@ -346,6 +397,7 @@ impl VdaDrive {
 
     /// The messages to send, oldest first.
     pub fn take(&mut self) -> Vec<VdaOut> {
+        self.pause_if_due();
         std::mem::take(&mut self.out)
     }
 }
@@ -448,6 +500,13 @@ mod tests {
         assert!(matches!(out.as_slice(), [VdaOut::Instant(a)] if a[0].action_type == "cancelOrder"), "{out:?}");
     }
 
+    /// A state of `order` with action `id` ended as `status`.
+    fn ended(order: &str, last: &str, seq: u64, x: f64, id: &str, status: &str) -> State {
+        let mut s = state(order, last, seq, false, x);
+        s.action_states.push(mrmm_vda5050::msg::ActionState { action_id: id.into(), action_status: status.into(), ..Default::default() });
+        s
+    }
+
     #[test]
     fn a_hold_pauses_the_vehicle_and_the_next_goal_resumes_it_on_its_order_or_cancels_it_first() {
         let pause_of = |out: &[VdaOut]| out.iter().any(|o| matches!(o, VdaOut::Instant(a) if a[0].action_type == "startPause"));
@@ -456,30 +515,61 @@ mod tests {
         d.hold();
         assert!(d.take().is_empty(), "a vehicle with nothing released ahead is left as it stands");
         d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0)], None);
+        d.take();
+        // A hold and a goal in the same tick (a new plan's first): no pause.
+        d.hold();
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0)], None);
+        assert!(d.take().is_empty(), "the same way again: nothing to send");
         d.hold();
         let out = d.take();
         assert!(pause_of(&out) && d.paused() && d.goal().is_none(), "{out:?}");
         d.hold();
         assert!(d.take().is_empty(), "paused once");
-        // Resumed on the way released: stopPause, and the order goes on (an update).
+        // Resumed on the way released: nothing until the vehicle said it paused; then stopPause,
+        // and the order goes on (an update).
         d.navigate_lane(v(1, 1.0), &[v(2, 2.0), v(3, 3.0)], &[], None);
+        assert!(d.take().is_empty(), "no stopPause before the vehicle paused (it would refuse it)");
+        let mut paused = ended("gw-1", "v0", 0, 0.2, "gw-a1", "FINISHED");
+        paused.paused = Some(true);
+        d.on_state(&paused);
         let out = d.take();
         assert!(matches!(&out[0], VdaOut::Instant(a) if a[0].action_type == "stopPause"), "{out:?}");
         assert_eq!(orders(out[1..].to_vec()), [("gw-1".to_string(), 1, vec!["v2".to_string(), "v3".to_string()])]);
-        // Paused, then sent elsewhere: cancel and end the pause, then a new order once it ended.
         d.hold();
-        d.take();
+        assert!(d.take().is_empty(), "no startPause before the vehicle said it drives again");
+        d.on_state(&ended("gw-1", "v0", 0, 0.3, "gw-a2", "FINISHED"));
+        assert!(pause_of(&d.take()), "now the hold pauses it");
+        // Paused, then sent elsewhere: cancel, then (still paused) stopPause and a new order once
+        // the cancel ended.
+        let mut paused = ended("gw-1", "v0", 0, 0.4, "gw-a3", "FINISHED");
+        paused.paused = Some(true);
+        d.on_state(&paused);
         d.navigate(3.0, 5.0, None);
         let out = d.take();
-        assert!(matches!(out.as_slice(), [VdaOut::Instant(a)] if a[0].action_type == "cancelOrder" && a[1].action_type == "stopPause"), "{out:?}");
+        assert!(matches!(out.as_slice(), [VdaOut::Instant(a)] if a.len() == 1 && a[0].action_type == "cancelOrder"), "{out:?}");
         d.on_state(&state("gw-1", "v1", 2, false, 1.4));
         assert!(d.take().is_empty(), "no new order while the vehicle still cancels the old one");
-        let mut done = state("gw-1", "v1", 2, false, 1.4);
-        let cancel = "gw-a4";
-        done.action_states.push(mrmm_vda5050::msg::ActionState { action_id: cancel.into(), action_status: "FINISHED".into(), ..Default::default() });
-        d.on_state(&done);
-        let o = orders(d.take());
+        let mut cancelled = ended("gw-1", "v1", 2, 1.4, "gw-a4", "FINISHED");
+        cancelled.paused = Some(true);
+        d.on_state(&cancelled);
+        let out = d.take();
+        assert!(matches!(&out[0], VdaOut::Instant(a) if a[0].action_type == "stopPause"), "{out:?}");
+        let o = orders(out[1..].to_vec());
         assert_eq!((o[0].0.as_str(), o[0].2[0].as_str()), ("gw-2", "v1"), "a new order from the vehicle's last node: {o:?}");
+    }
+
+    #[test]
+    fn a_pause_the_vehicle_refused_needs_no_stop_pause() {
+        let mut d = drive();
+        d.on_state(&state("", "v0", 0, false, 0.0));
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[], None);
+        d.take();
+        d.hold();
+        d.take();
+        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[], None);
+        d.on_state(&ended("gw-1", "v0", 0, 0.2, "gw-a1", "FAILED"));
+        let out = d.take();
+        assert!(!d.paused() && out.iter().all(|o| !matches!(o, VdaOut::Instant(_))), "{out:?}");
     }
 
     #[test]

@@ -18,7 +18,7 @@ use zenoh::Session;
 use super::io::Io;
 use super::ros::{recv_ros, RosCounts};
 use super::team::{heard, recv_data, recv_members};
-use super::{FLEET_CHECK_PERIOD, PHYSICS_PERIOD, QUEUE};
+use super::{FLEET_CHECK_PERIOD, QUEUE};
 use crate::error::PeerError;
 use mrmm_core::robot::viewers::{Heard, MAX_VIEWERS};
 use mrmm_core::robot::{Event, Incoming, Robot};
@@ -58,8 +58,15 @@ fn interval(period: Duration) -> tokio::time::Interval {
 }
 
 impl Inputs {
-    /// Declares the robot's queryables (info, commands), then the subscriptions it hears.
-    pub(super) async fn declare(mesh: &Mesh, id: &str, telemetry_hz: f64, endpoints: Vec<String>, shutdown: CancellationToken) -> Result<Inputs, PeerError> {
+    /// Declares the robot's queryables (info, commands), then the subscriptions it hears; it
+    /// ticks every `period` and is due telemetry `telemetry_hz` times a second.
+    pub(super) async fn declare(
+        mesh: &Mesh,
+        id: &str,
+        (period, telemetry_hz): (Duration, f64),
+        endpoints: Vec<String>,
+        shutdown: CancellationToken,
+    ) -> Result<Inputs, PeerError> {
         let session = mesh.session().clone();
         let (info, info_q) = Inbox::new("robot: info queries", QUEUE);
         let info_d = inbox::queryable(&info, &session, Key::RobotInfo(id.into()).to_string(), |q| q).await?;
@@ -83,7 +90,7 @@ impl Inputs {
             viewers,
             traffic,
             central,
-            physics: interval(PHYSICS_PERIOD),
+            physics: interval(period),
             telemetry: interval(Duration::from_secs_f64(1.0 / telemetry_hz)),
             fleet_check: interval(FLEET_CHECK_PERIOD),
             fleet_up: true,

@@ -40,6 +40,9 @@ pub use self::vda::VdaLink;
 const QUEUE: usize = 256;
 /// Physics step period (wall time); a ROS 2 body's control period.
 const PHYSICS_PERIOD: Duration = Duration::from_millis(20);
+/// A VDA 5050 vehicle's robot's tick period: the vehicle drives itself, and the robot ticks at
+/// once after every event that may change what the vehicle is to do (see `Node::next`).
+const VDA_PERIOD: Duration = Duration::from_millis(100);
 /// How often a ROS 2 body's robot checks that it still has fleet links.
 const FLEET_CHECK_PERIOD: Duration = Duration::from_millis(100);
 
@@ -163,7 +166,8 @@ pub async fn run_on(
         robot.restore_capabilities(now);
     }
     let endpoints = net::listening_endpoints(&session).await;
-    let inputs = Inputs::declare(&mesh, &id, cfg.telemetry_hz, endpoints.clone(), shutdown).await?;
+    let period = if vda.is_some() { VDA_PERIOD } else { PHYSICS_PERIOD };
+    let inputs = Inputs::declare(&mesh, &id, (period, cfg.telemetry_hz), endpoints.clone(), shutdown).await?;
     let telemetry_key = Key::RobotTelemetry(id.as_str().into()).to_string();
     let publisher = session.declare_publisher(telemetry_key.clone()).encoding(Encoding::APPLICATION_OCTET_STREAM).await.map_err(PeerError::zenoh)?;
     // Declared last: once others see the token, the queryables answer.
@@ -186,7 +190,7 @@ pub async fn run_on(
         state_dir: cfg.state_dir.clone(),
         crashed: false,
     };
-    let mut node = Node { inputs, io, query: None, t0: Instant::now(), team, deputy };
+    let mut node = Node { inputs, io, query: None, t0: Instant::now(), team, deputy, tick_now: false };
     let driven = mrmm_core::machine::drive(&mut robot, &mut node).await;
     let Node { inputs, mut io, .. } = node;
     driven?;

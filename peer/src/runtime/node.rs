@@ -26,12 +26,22 @@ pub(super) struct Node {
     pub(super) team: Option<watch::Sender<LocalTeam>>,
     /// The traffic deputy of this process, told the map whose authority names the robot.
     pub(super) deputy: Option<watch::Sender<Option<MapRef>>>,
+    /// A tick is due at once (a VDA 5050 vehicle's robot, after an event that may give its
+    /// vehicle something to do).
+    pub(super) tick_now: bool,
 }
 
 impl mrmm_core::machine::Node<Robot> for Node {
     async fn next(&mut self, robot: &Robot) -> Result<Option<(f64, Event)>, PeerError> {
+        if std::mem::take(&mut self.tick_now) {
+            return Ok(Some((self.t0.elapsed().as_secs_f64(), Event::Tick)));
+        }
         let Some((event, query)) = self.inputs.next(robot, &mut self.io).await else { return Ok(None) };
         self.query = query;
+        // A vehicle's robot ticks slowly (there is nothing to integrate: the vehicle drives
+        // itself), and at once after anything that may give it a goal or take one (a grant, a
+        // command, the vehicle's state), so that what it is to be sent goes out now.
+        self.tick_now = self.io.vda.is_some() && !matches!(event, Event::Tick | Event::TelemetryDue);
         Ok(Some((self.t0.elapsed().as_secs_f64(), event)))
     }
 

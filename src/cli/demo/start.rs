@@ -172,6 +172,9 @@ pub(super) fn robots(
     Ok(())
 }
 
+/// The demo's vehicles' manufacturer (the topics' third level).
+const MANUFACTURER: &str = "mrmm";
+
 /// The demo's VDA 5050 vehicles: how many, the map they report on, where they start.
 pub(super) struct Vehicles<'a> {
     pub n: usize,
@@ -217,7 +220,8 @@ pub(super) async fn vda5050(
         ),
     )
     .with_context(|| format!("cannot write {}", robot.display()))?;
-    let ids: Vec<String> = (1..=n).map(|i| format!("\"mrmm/agv{i}\": \"agv{i}\"")).collect();
+    // The fleet ids: agvK for the vehicle of serial number agvK.
+    let ids: Vec<String> = (1..=n).map(|i| format!("\"{MANUFACTURER}/agv{i}\": \"agv{i}\"")).collect();
     let cfg = dir.join("vda5050.json5");
     std::fs::write(&cfg, format!("{{ broker: {broker:?}, map: {map_id:?}, robot: \"agv.json5\", ids: {{ {} }} }}\n", ids.join(", ")))
         .with_context(|| format!("cannot write {}", cfg.display()))?;

@@ -95,6 +95,8 @@ fn cancel_pause_and_charging_are_carried_out_and_said_in_the_action_states() {
     run(&mut v, &mut t, 1.0);
     assert_eq!(v.pose().0, at, "paused, it stands");
     v.handle(t, act("stopPause", "p2"));
+    let s = state_after(&mut v, t, act("stopPause", "p3"));
+    assert_eq!(s.action_states.last().map(|a| a.action_status.as_str()), Some("FAILED"), "not paused: nothing to stop (as vda-5050-lib says)");
     run(&mut v, &mut t, 1.0);
     assert!(v.pose().0 > at + 0.5, "resumed, it drives on");
     let s = state_after(&mut v, t, act("startCharging", "c1"));
