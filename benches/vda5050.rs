@@ -119,7 +119,9 @@ impl Heard {
 
     fn order(&mut self, robot: &str, order: &mrmm_vda5050::Order, at: Instant) {
         self.orders += 1;
-        for n in order.nodes.iter().filter(|n| n.released) {
+        // The first node is where the vehicle stands (a new order) or the last base node it has
+        // (an update): released before, not by this order.
+        for n in order.nodes.iter().skip(1).filter(|n| n.released) {
             let Some(v) = n.node_id.strip_prefix('v').and_then(|v| v.parse::<u32>().ok()) else { continue };
             if let Some(t) = self.granted.remove(&(robot.to_string(), v)) {
                 let ms = at.saturating_duration_since(t).as_secs_f64() * 1000.0;
