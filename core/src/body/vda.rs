@@ -4,12 +4,11 @@
 //! after it) and the rest of the route is the **horizon**, so the vehicle drives on through a
 //! grant without stopping at each vertex, and stops at the grant's end if no more is granted. A
 //! way off the released base is a `cancelOrder` (a new order waits until the vehicle says it
-//! ended). The vehicle's
-//! `state` says where it is, how fast it goes, its battery, and which released node it passed
-//! last. A hold (a mission paused, a new plan, traffic's halt) that lasts to the end of the tick,
-//! of a vehicle with released nodes still ahead, is a `startPause`: it stops where it is and keeps
-//! its order. The next goal resumes it (`stopPause`, once the vehicle said it paused) and, if the
-//! way goes on as released, is an update of the same order; a way off it is a `cancelOrder` first. The messages go out through [`VdaDrive::take`]; the gateway adds their headers.
+//! ended). A hold (a mission paused, a new plan, traffic's halt) that lasts to the end of the
+//! tick, of a vehicle with released nodes still ahead, is a `startPause`: it stops where it is and
+//! keeps its order; the next goal resumes it (`stopPause`, once the vehicle said it paused). The
+//! vehicle's `state` says where it is, how fast it goes, its battery, and which released node it
+//! passed last. The messages go out through [`VdaDrive::take`]; the gateway adds their headers.
 
 use std::collections::VecDeque;
 
@@ -326,22 +325,14 @@ impl VdaDrive {
             self.paused = p;
         }
         // The pause (or its end) came about, or failed; what waited goes out.
-        let ended = |id: &Option<String>| {
-            let id = id.as_deref()?;
-            state
-                .action_states
-                .iter()
-                .find(|a| a.action_id == id && matches!(a.action_status.as_str(), "FINISHED" | "FAILED"))
-                .map(|a| a.action_status == "FINISHED")
-        };
-        if let Some(done) = ended(&self.pausing) {
+        if let Some(done) = action_ended(state, &self.pausing) {
             self.paused = done;
             self.pausing = None;
             if self.cancelling.is_none() {
                 self.release();
             }
         }
-        if ended(&self.unpausing).is_some() {
+        if action_ended(state, &self.unpausing).is_some() {
             self.unpausing = None;
             self.paused = state.paused.unwrap_or(false);
             if self.cancelling.is_none() {
@@ -349,12 +340,9 @@ impl VdaDrive {
             }
         }
         // The cancel ended (finished, or failed: the vehicle had no order to cancel).
-        if let Some(id) = &self.cancelling {
-            let ended = state.action_states.iter().any(|a| &a.action_id == id && matches!(a.action_status.as_str(), "FINISHED" | "FAILED"));
-            if ended {
-                self.cancelling = None;
-                self.release();
-            }
+        if action_ended(state, &self.cancelling).is_some() {
+            self.cancelling = None;
+            self.release();
         }
         self.follow(state);
         self.stuck = state.fatal().or_else(|| state.order_refused()).filter(|_| self.goal.is_some());
@@ -400,6 +388,13 @@ impl VdaDrive {
         self.pause_if_due();
         std::mem::take(&mut self.out)
     }
+}
+
+/// Whether the vehicle's state says instant action `id` ended: `Some(true)` finished,
+/// `Some(false)` failed, `None` not yet (or no action awaited).
+fn action_ended(state: &State, id: &Option<String>) -> Option<bool> {
+    let id = id.as_deref()?;
+    state.action_states.iter().find(|a| a.action_id == id && matches!(a.action_status.as_str(), "FINISHED" | "FAILED")).map(|a| a.action_status == "FINISHED")
 }
 
 #[cfg(test)]
@@ -507,6 +502,11 @@ mod tests {
         s
     }
 
+    /// [`ended`] FINISHED, the vehicle saying it is paused.
+    fn paused(order: &str, last: &str, seq: u64, x: f64, id: &str) -> State {
+        State { paused: Some(true), ..ended(order, last, seq, x, id, "FINISHED") }
+    }
+
     #[test]
     fn a_hold_pauses_the_vehicle_and_the_next_goal_resumes_it_on_its_order_or_cancels_it_first() {
         let pause_of = |out: &[VdaOut]| out.iter().any(|o| matches!(o, VdaOut::Instant(a) if a[0].action_type == "startPause"));
@@ -529,9 +529,7 @@ mod tests {
         // and the order goes on (an update).
         d.navigate_lane(v(1, 1.0), &[v(2, 2.0), v(3, 3.0)], &[], None);
         assert!(d.take().is_empty(), "no stopPause before the vehicle paused (it would refuse it)");
-        let mut paused = ended("gw-1", "v0", 0, 0.2, "gw-a1", "FINISHED");
-        paused.paused = Some(true);
-        d.on_state(&paused);
+        d.on_state(&paused("gw-1", "v0", 0, 0.2, "gw-a1"));
         let out = d.take();
         assert!(matches!(&out[0], VdaOut::Instant(a) if a[0].action_type == "stopPause"), "{out:?}");
         assert_eq!(orders(out[1..].to_vec()), [("gw-1".to_string(), 1, vec!["v2".to_string(), "v3".to_string()])]);
@@ -541,17 +539,13 @@ mod tests {
         assert!(pause_of(&d.take()), "now the hold pauses it");
         // Paused, then sent elsewhere: cancel, then (still paused) stopPause and a new order once
         // the cancel ended.
-        let mut paused = ended("gw-1", "v0", 0, 0.4, "gw-a3", "FINISHED");
-        paused.paused = Some(true);
-        d.on_state(&paused);
+        d.on_state(&paused("gw-1", "v0", 0, 0.4, "gw-a3"));
         d.navigate(3.0, 5.0, None);
         let out = d.take();
         assert!(matches!(out.as_slice(), [VdaOut::Instant(a)] if a.len() == 1 && a[0].action_type == "cancelOrder"), "{out:?}");
         d.on_state(&state("gw-1", "v1", 2, false, 1.4));
         assert!(d.take().is_empty(), "no new order while the vehicle still cancels the old one");
-        let mut cancelled = ended("gw-1", "v1", 2, 1.4, "gw-a4", "FINISHED");
-        cancelled.paused = Some(true);
-        d.on_state(&cancelled);
+        d.on_state(&paused("gw-1", "v1", 2, 1.4, "gw-a4"));
         let out = d.take();
         assert!(matches!(&out[0], VdaOut::Instant(a) if a[0].action_type == "stopPause"), "{out:?}");
         let o = orders(out[1..].to_vec());

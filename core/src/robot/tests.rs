@@ -449,15 +449,19 @@ fn a_robot_with_a_battery_charges_on_centrals_word() {
     assert!(!telemetry(&mut r, 5.4).battery.expect("battery").charging);
 }
 
+/// A robot whose body is a VDA 5050 vehicle.
+fn vda_robot() -> Robot {
+    Robot::new(RobotSetup {
+        body: BodyKind::Vda { order_prefix: "gw".into(), map_id: "m".into() },
+        ..RobotSetup::sim("agv", "ground", Limits { max_speed: 1.0, max_turn_rate: 1.0 }, Pose::default())
+    })
+}
+
 /// A VDA 5050 vehicle is sent the goal a tick gives it within that tick (a grant is on the wire
 /// at once, not a tick later), and the vehicle's state drives the robot on along its goto.
 #[test]
 fn a_vda_vehicle_is_sent_its_next_goal_in_the_tick_that_gives_it() {
-    let setup = RobotSetup {
-        body: BodyKind::Vda { order_prefix: "gw".into(), map_id: "m".into() },
-        ..RobotSetup::sim("agv", "ground", Limits { max_speed: 1.0, max_turn_rate: 1.0 }, Pose::default())
-    };
-    let mut r = Robot::new(setup);
+    let mut r = vda_robot();
     let state = |last: &str, seq: u64, x: f64| {
         let mut s = mrmm_vda5050::State { order_id: "gw-1".into(), last_node_id: last.into(), last_node_sequence_id: seq, ..Default::default() };
         s.agv_position = Some(mrmm_vda5050::msg::AgvPosition { x, y: 0.0, theta: 0.0, map_id: "m".into(), position_initialized: true });
@@ -475,11 +479,7 @@ fn a_vda_vehicle_is_sent_its_next_goal_in_the_tick_that_gives_it() {
 /// `stopCharging`), not on a plan.
 #[test]
 fn a_vda_vehicle_is_charged_by_instant_actions() {
-    let setup = RobotSetup {
-        body: BodyKind::Vda { order_prefix: "gw".into(), map_id: "m".into() },
-        ..RobotSetup::sim("agv", "ground", Limits { max_speed: 1.0, max_turn_rate: 1.0 }, Pose::default())
-    };
-    let mut r = Robot::new(setup);
+    let mut r = vda_robot();
     let actions = |out: Vec<Command>| -> Vec<String> {
         out.into_iter()
             .filter_map(|c| match c {

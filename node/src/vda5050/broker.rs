@@ -8,11 +8,8 @@ use std::time::{Duration, Instant};
 
 use rumqttd::{Broker, Config, ConnectionSettings, RouterConfig, ServerSettings};
 
+use super::mqtt::MAX_PACKET;
 use crate::NodeError;
-
-/// Largest packet the broker takes, bytes: above the largest message a vehicle's or the
-/// gateway's is parsed from (as the gateway's client).
-const MAX_PACKET: usize = 4 * mrmm_vda5050::MAX_MESSAGE;
 
 /// Starts a broker on `listen` (a loopback address; port 0 picks a free one) in a thread of its
 /// own, and returns once it takes connections: the address it listens on.

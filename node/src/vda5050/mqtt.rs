@@ -13,10 +13,11 @@ use super::config::{Broker, GatewayConfig};
 
 /// Requests waiting for the client's event loop, at most.
 const REQUESTS: usize = 256;
-/// Largest MQTT packet taken from the broker, bytes: above the largest message a vehicle's is
-/// parsed from ([`MAX_MESSAGE`]), so that one too large is dropped and said; a packet larger
-/// still breaks the connection (the client reconnects) — cap the broker's `max_packet_size`.
-const MAX_PACKET: usize = 4 * MAX_MESSAGE;
+/// Largest MQTT packet taken, bytes (the gateway's client, the simulated vehicles' and the
+/// embedded broker): above the largest message parsed ([`MAX_MESSAGE`]), so that one too large
+/// is dropped and said; a packet larger still breaks the connection (the client reconnects) —
+/// cap the broker's `max_packet_size`.
+pub(super) const MAX_PACKET: usize = 4 * MAX_MESSAGE;
 
 /// The client and its event loop (connects at its first poll, reconnects at the next after an
 /// error).

@@ -14,7 +14,7 @@ use tokio::task::JoinSet;
 use tokio_util::sync::CancellationToken;
 
 use super::config::Broker;
-use super::mqtt::unix_ms;
+use super::mqtt::{unix_ms, MAX_PACKET};
 use crate::NodeError;
 
 /// How often a vehicle moves and reports.
@@ -84,7 +84,7 @@ async fn one(mut v: SimVehicle, broker: Broker, topics: Topics, ready: mpsc::Sen
     let mut opts = MqttOptions::new(format!("mrmm-sim-{}-{}", id.manufacturer, id.serial_number), broker.host.clone(), broker.port);
     opts.set_keep_alive(Duration::from_secs(5));
     opts.set_clean_session(true);
-    opts.set_max_packet_size(4 * mrmm_vda5050::MAX_MESSAGE, 4 * mrmm_vda5050::MAX_MESSAGE);
+    opts.set_max_packet_size(MAX_PACKET, MAX_PACKET);
     opts.set_last_will(LastWill::new(topic(Subtopic::Connection), will, QoS::AtLeastOnce, true));
     let (client, mut events) = AsyncClient::new(opts, REQUESTS);
     let (heard_tx, mut heard) = mpsc::channel(REQUESTS);
