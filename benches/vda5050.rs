@@ -88,13 +88,14 @@ async fn idle(n: usize) -> anyhow::Result<(f64, f64)> {
 /// What the observer heard in phase 2.
 #[derive(Default)]
 struct Heard {
-    /// (robot, vertex) granted and not yet released to the vehicle: when the grant came.
-    granted: BTreeMap<(String, u32), Instant>,
+    /// (robot, vertex's node id) granted and not yet released to the vehicle: when the grant
+    /// came.
+    granted: BTreeMap<(String, String), Instant>,
     /// Per robot, the vertices of its last grant (what is new in the next one).
-    last_grant: BTreeMap<String, Vec<u32>>,
+    last_grant: BTreeMap<String, Vec<String>>,
     latencies_ms: Vec<f64>,
-    /// The slowest: latency, robot, vertex.
-    slow: Vec<(f64, String, u32)>,
+    /// The slowest: latency, robot, node.
+    slow: Vec<(f64, String, String)>,
     orders: usize,
     /// Grants taken back before their vertex was released (the route changed).
     superseded: usize,
@@ -105,9 +106,9 @@ impl Heard {
         let proto::TrafficOrder::Route { route, reached, upto, .. } = order else { return };
         let from = reached.map_or(0, |r| r as usize + 1);
         let to = upto.map_or(0, |u| u as usize + 1).min(route.len());
-        let now: Vec<u32> = route.get(from.min(to)..to).unwrap_or_default().iter().map(|v| v.v).collect();
+        let now: Vec<String> = route.get(from.min(to)..to).unwrap_or_default().iter().map(proto::traffic::RouteVertex::node_id).collect();
         let before = self.last_grant.insert(robot.to_string(), now.clone()).unwrap_or_default();
-        let gone: Vec<(String, u32)> = self.granted.keys().filter(|(r, v)| r == robot && !now.contains(v)).cloned().collect();
+        let gone: Vec<(String, String)> = self.granted.keys().filter(|(r, v)| r == robot && !now.contains(v)).cloned().collect();
         self.superseded += gone.len();
         for k in gone {
             self.granted.remove(&k);
@@ -122,12 +123,11 @@ impl Heard {
         // The first node is where the vehicle stands (a new order) or the last base node it has
         // (an update): released before, not by this order.
         for n in order.nodes.iter().skip(1).filter(|n| n.released) {
-            let Some(v) = n.node_id.strip_prefix('v').and_then(|v| v.parse::<u32>().ok()) else { continue };
-            if let Some(t) = self.granted.remove(&(robot.to_string(), v)) {
+            if let Some(t) = self.granted.remove(&(robot.to_string(), n.node_id.clone())) {
                 let ms = at.saturating_duration_since(t).as_secs_f64() * 1000.0;
                 self.latencies_ms.push(ms);
                 if ms > 100.0 {
-                    self.slow.push((ms, robot.to_string(), v));
+                    self.slow.push((ms, robot.to_string(), n.node_id.clone()));
                 }
             }
         }

@@ -10,6 +10,7 @@
 
 mod common;
 
+use std::collections::HashMap;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -267,10 +268,16 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
     let created: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await?;
     let epoch = created.manager.epoch;
     let mut seen = Seen::default();
+    // Traffic's vertices (the map's, and the points its lanes are cut at) by their node ids: the
+    // map's names where a vertex has one of its own, else `v<index>`.
+    let map = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(office())?)?;
+    let g = mrmm_core::traffic::layout::segmented(&map, mrmm_core::traffic::authority::SEGMENT_M);
+    let layout = mrmm_core::traffic::layout::Layout::new(&g, 1.0);
+    let index: HashMap<String, usize> = (0..layout.vertices() as u32).map(|v| (layout.route_vertex(v).node_id(), v as usize)).collect();
     // Both AGVs drive their plans along the map's vertices: each passes at least three of them.
     eventually("each AGV past 3 of the map's vertices", Duration::from_secs(60), || {
         seen.take(&lines);
-        let far = |s: &str| seen.nodes.get(s).map_or(0, |n| n.iter().filter(|id| id.starts_with('v')).count());
+        let far = |s: &str| seen.nodes.get(s).map_or(0, |n| n.iter().filter(|id| index.contains_key(*id)).count());
         std::future::ready((far("agv1") >= 3 && far("agv2") >= 3).then_some(()))
     })
     .await?;
@@ -283,15 +290,16 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
     // Their passed vertices are traffic's (the map's, and the points its lanes are cut at), in an
     // order the lanes allow (each next one a neighbour of the one before): the orders follow the
     // lanes traffic granted.
-    let map = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(office())?)?;
-    let g = mrmm_core::traffic::layout::segmented(&map, mrmm_core::traffic::authority::SEGMENT_M);
     for (serial, nodes) in &seen.nodes {
-        let idx: Vec<usize> = nodes.iter().filter_map(|n| n.strip_prefix('v')?.parse().ok()).collect();
+        let idx: Vec<usize> = nodes.iter().filter_map(|n| index.get(n).copied()).collect();
         for w in idx.windows(2) {
             let adjacent = g.edges.iter().any(|l| (l.from as usize, l.to as usize) == (w[0], w[1]) || (l.from as usize, l.to as usize) == (w[1], w[0]));
             anyhow::ensure!(adjacent, "{serial} went from v{} to v{}: not a lane of the map ({nodes:?})", w[0], w[1]);
         }
     }
+    // The vertices the map names (pantry, patrol_A1, …) are the nodes of those names.
+    let named: Vec<&String> = seen.nodes.values().flatten().filter(|n| index.get(*n).is_some_and(|&v| layout.route_vertex(v as u32).name.is_some())).collect();
+    anyhow::ensure!(!named.is_empty(), "no AGV passed a vertex by the map's name for it: {:?}", seen.nodes);
     // The mrmm robots of the mission drive too.
     let moving = eventually("the mrmm robots driving", Duration::from_secs(30), || async {
         let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;

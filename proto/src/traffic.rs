@@ -64,11 +64,37 @@ pub struct TrafficReport {
 }
 
 /// A vertex of a route, with where it is.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RouteVertex {
     pub v: u32,
     pub x: f64,
     pub y: f64,
+    /// Its name on the map, where the map gives it one that names it alone
+    /// ([`RouteVertex::may_name`]): what a VDA 5050 vehicle knows the node by.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+}
+
+/// The longest vertex name a route carries (a longer one: the vertex goes by its index).
+pub const MAX_VERTEX_NAME: usize = 64;
+
+impl RouteVertex {
+    /// Vertex `v` at (`x`, `y`), without a name.
+    pub fn at(v: u32, x: f64, y: f64) -> RouteVertex {
+        RouteVertex { v, x, y, name: None }
+    }
+
+    /// What the vertex is called as a node of an order: its name, else `v<index>`.
+    pub fn node_id(&self) -> String {
+        self.name.clone().unwrap_or_else(|| format!("v{}", self.v))
+    }
+
+    /// Whether `name`, given to one vertex of a map alone, may name it in routes: not empty, at
+    /// most [`MAX_VERTEX_NAME`] bytes, and not `v<digits>` (which names vertices by index).
+    pub fn may_name(name: &str) -> bool {
+        let by_index = name.strip_prefix('v').is_some_and(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()));
+        !name.is_empty() && name.len() <= MAX_VERTEX_NAME && !by_index
+    }
 }
 
 /// What the traffic authority tells a robot.

@@ -67,14 +67,14 @@ impl Drive {
     }
 
     /// Drives to the lanes' vertex `v` (traffic granted the lane to it).
-    pub fn navigate_vertex(&mut self, v: RouteVertex, speed: Option<f64>) {
+    pub fn navigate_vertex(&mut self, v: &RouteVertex, speed: Option<f64>) {
         self.navigate_lane(v, &[], &[], speed);
     }
 
     /// Drives to the lanes' vertex `v`, with `granted` the vertices traffic granted after it and
     /// `then` the rest of the route: a VDA 5050 vehicle is released all it was granted (it drives
     /// on through them) and told the rest as its order's horizon; any other body drives to `v`.
-    pub fn navigate_lane(&mut self, v: RouteVertex, granted: &[RouteVertex], then: &[RouteVertex], speed: Option<f64>) {
+    pub fn navigate_lane(&mut self, v: &RouteVertex, granted: &[RouteVertex], then: &[RouteVertex], speed: Option<f64>) {
         match self {
             Drive::Vda(d) => d.navigate_lane(v, granted, then, speed),
             _ => self.navigate_through(v.x, v.y, None, speed),
@@ -83,7 +83,7 @@ impl Drive {
 
     /// Whether the body said it passed the lanes' vertex `v` last (a VDA 5050 vehicle, which
     /// drives on through it; any other body stops at a vertex, and is there or not).
-    pub fn passed(&self, v: u32) -> bool {
+    pub fn passed(&self, v: &RouteVertex) -> bool {
         match self {
             Drive::Vda(d) => d.passed(v),
             _ => false,

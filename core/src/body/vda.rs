@@ -154,11 +154,12 @@ impl VdaDrive {
     }
 
     /// Drives to the lanes' vertex `v`, and on through `granted` (traffic granted them too), with
-    /// `then` the rest of the route (the horizon); nodes are `v<index>`. Called again as the
+    /// `then` the rest of the route (the horizon); nodes are the vertices' names on the map, else
+    /// `v<index>` ([`RouteVertex::node_id`]). Called again as the
     /// grant grows: only what is new is released (an update), nothing is taken back.
-    pub fn navigate_lane(&mut self, v: RouteVertex, granted: &[RouteVertex], then: &[RouteVertex], speed: Option<f64>) {
-        let wp = |r: &RouteVertex| Waypoint { node_id: format!("v{}", r.v), x: r.x, y: r.y };
-        let want: Vec<Waypoint> = std::iter::once(&v).chain(granted).map(wp).collect();
+    pub fn navigate_lane(&mut self, v: &RouteVertex, granted: &[RouteVertex], then: &[RouteVertex], speed: Option<f64>) {
+        let wp = |r: &RouteVertex| Waypoint { node_id: r.node_id(), x: r.x, y: r.y };
+        let want: Vec<Waypoint> = std::iter::once(v).chain(granted).map(wp).collect();
         let target = Target { want, horizon: then.iter().map(wp).collect(), speed, passed: false };
         if self.goal.as_ref().is_some_and(|g| g.want == target.want && g.speed == target.speed) {
             return;
@@ -378,8 +379,8 @@ impl VdaDrive {
     }
 
     /// Whether the vehicle passed the lanes' vertex `v` lately (since its order began).
-    pub fn passed(&self, v: u32) -> bool {
-        let id = format!("v{v}");
+    pub fn passed(&self, v: &RouteVertex) -> bool {
+        let id = v.node_id();
         self.behind.contains(&id)
     }
 
@@ -403,7 +404,7 @@ mod tests {
     use mrmm_vda5050::msg::AgvPosition;
 
     fn v(v: u32, x: f64) -> RouteVertex {
-        RouteVertex { v, x, y: 0.0 }
+        RouteVertex::at(v, x, 0.0)
     }
 
     fn drive() -> VdaDrive {
@@ -434,13 +435,13 @@ mod tests {
     fn goals_become_an_order_then_updates_stitched_at_the_node_reached() {
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate_lane(v(1, 1.0), &[], &[], Some(5.0));
+        d.navigate_lane(&v(1, 1.0), &[], &[], Some(5.0));
         assert_eq!(orders(d.take()), [("gw-1".to_string(), 0, vec!["v0".to_string(), "v1".to_string()])]);
         d.on_state(&state("gw-1", "v0", 0, true, 0.5));
         assert_eq!(d.goal(), Some((1.0, 0.0)), "still driving");
         d.on_state(&state("gw-1", "v1", 2, false, 1.0));
         assert_eq!(d.goal(), None, "the goal's node passed and the vehicle stopped: idle");
-        d.navigate_lane(v(2, 2.0), &[], &[], None);
+        d.navigate_lane(&v(2, 2.0), &[], &[], None);
         assert_eq!(orders(d.take()), [("gw-1".to_string(), 1, vec!["v1".to_string(), "v2".to_string()])]);
     }
 
@@ -461,36 +462,48 @@ mod tests {
     fn on_lanes_the_grant_is_the_base_the_route_the_horizon_and_a_growing_grant_an_update() {
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0), v(4, 4.0)], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0), v(4, 4.0)], None);
         assert_eq!(nodes(d.take()), [n("v0", 0, true), n("v1", 2, true), n("v2", 4, true), n("v3", 6, false), n("v4", 8, false)]);
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0), v(4, 4.0)], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0), v(4, 4.0)], None);
         assert!(d.take().is_empty(), "the same grant again: nothing to send");
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0), v(3, 3.0)], &[v(4, 4.0)], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0), v(3, 3.0)], &[v(4, 4.0)], None);
         assert_eq!(nodes(d.take()), [n("v2", 4, true), n("v3", 6, true), n("v4", 8, false)], "the grant grew: an update stitched at v2");
         // The vehicle passes v1 and drives on: the goal is reached, the vehicle never stopped.
         d.on_state(&state("gw-1", "v1", 2, true, 1.0));
         assert_eq!(d.goal(), None);
-        assert!(d.passed(1));
-        d.navigate_lane(v(2, 2.0), &[v(3, 3.0)], &[v(4, 4.0)], None);
+        assert!(d.passed(&v(1, 1.0)));
+        d.navigate_lane(&v(2, 2.0), &[v(3, 3.0)], &[v(4, 4.0)], None);
         assert!(d.take().is_empty(), "v2 and v3 were released already");
         assert_eq!(d.goal(), Some((2.0, 0.0)));
         // It passes v2 and v3 between two states, and stands at v3, the grant's end.
         d.on_state(&state("gw-1", "v3", 6, false, 3.0));
         assert_eq!(d.goal(), None, "v2 passed");
-        d.navigate_lane(v(3, 3.0), &[], &[v(4, 4.0)], None);
+        d.navigate_lane(&v(3, 3.0), &[], &[v(4, 4.0)], None);
         assert_eq!(d.goal(), None, "v3 passed already");
         assert!(d.take().is_empty());
-        d.navigate_lane(v(4, 4.0), &[], &[], None);
+        d.navigate_lane(&v(4, 4.0), &[], &[], None);
         assert_eq!(nodes(d.take()), [n("v3", 6, true), n("v4", 8, true)]);
+    }
+
+    /// A vertex the map names alone is the node of that name; the others go by index.
+    #[test]
+    fn a_named_vertex_is_the_node_of_its_name() {
+        let mut d = drive();
+        d.on_state(&state("", "v0", 0, false, 0.0));
+        let named = |v: u32, x: f64, name: &str| RouteVertex { name: Some(name.into()), ..RouteVertex::at(v, x, 0.0) };
+        d.navigate_lane(&named(1, 1.0, "dock-1"), &[v(2, 2.0)], &[named(3, 3.0, "N3")], None);
+        assert_eq!(nodes(d.take()), [n("v0", 0, true), n("dock-1", 2, true), n("v2", 4, true), n("N3", 6, false)]);
+        d.on_state(&state("gw-1", "dock-1", 2, true, 1.0));
+        assert!(d.passed(&named(1, 1.0, "dock-1")) && !d.passed(&v(1, 1.0)));
     }
 
     #[test]
     fn a_way_off_the_base_released_is_a_cancel_then_a_new_order() {
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0)], &[], None);
         d.take();
-        d.navigate_lane(v(5, 0.0), &[], &[], None);
+        d.navigate_lane(&v(5, 0.0), &[], &[], None);
         let out = d.take();
         assert!(matches!(out.as_slice(), [VdaOut::Instant(a)] if a[0].action_type == "cancelOrder"), "{out:?}");
     }
@@ -514,11 +527,11 @@ mod tests {
         d.on_state(&state("", "v0", 0, false, 0.0));
         d.hold();
         assert!(d.take().is_empty(), "a vehicle with nothing released ahead is left as it stands");
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0)], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0)], None);
         d.take();
         // A hold and a goal in the same tick (a new plan's first): no pause.
         d.hold();
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0)], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0)], &[v(3, 3.0)], None);
         assert!(d.take().is_empty(), "the same way again: nothing to send");
         d.hold();
         let out = d.take();
@@ -527,7 +540,7 @@ mod tests {
         assert!(d.take().is_empty(), "paused once");
         // Resumed on the way released: nothing until the vehicle said it paused; then stopPause,
         // and the order goes on (an update).
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0), v(3, 3.0)], &[], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0), v(3, 3.0)], &[], None);
         assert!(d.take().is_empty(), "no stopPause before the vehicle paused (it would refuse it)");
         d.on_state(&paused("gw-1", "v0", 0, 0.2, "gw-a1"));
         let out = d.take();
@@ -556,11 +569,11 @@ mod tests {
     fn a_pause_the_vehicle_refused_needs_no_stop_pause() {
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0)], &[], None);
         d.take();
         d.hold();
         d.take();
-        d.navigate_lane(v(1, 1.0), &[v(2, 2.0)], &[], None);
+        d.navigate_lane(&v(1, 1.0), &[v(2, 2.0)], &[], None);
         d.on_state(&ended("gw-1", "v0", 0, 0.2, "gw-a1", "FAILED"));
         let out = d.take();
         assert!(!d.paused() && out.iter().all(|o| !matches!(o, VdaOut::Instant(_))), "{out:?}");
@@ -570,7 +583,7 @@ mod tests {
     fn a_vehicle_that_drops_the_order_is_given_the_goal_again_and_its_refusal_is_reported() {
         let mut d = drive();
         d.on_state(&state("", "v0", 0, false, 0.0));
-        d.navigate_lane(v(1, 1.0), &[], &[], None);
+        d.navigate_lane(&v(1, 1.0), &[], &[], None);
         d.take();
         d.on_state(&state("gw-0", "v0", 0, false, 0.0));
         assert!(d.take().is_empty(), "a late state of an earlier order of ours changes nothing");

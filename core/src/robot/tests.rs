@@ -291,8 +291,12 @@ fn a_simulated_robot_crashes_on_centrals_word_after_answering_and_a_ros_robot_re
 
 /// A robot that took a plan on a map (`steps`, else [`plan`]'s), and that map.
 fn planned_on_map(steps: Option<Vec<Step>>) -> (Robot, mrmm_proto::MapRef) {
+    plan_on_map(Robot::new(cfg()), steps)
+}
+
+/// Robot `r` given a plan on a map (`steps`, else [`plan`]'s), and that map.
+fn plan_on_map(mut r: Robot, steps: Option<Vec<Step>>) -> (Robot, mrmm_proto::MapRef) {
     let map = mrmm_proto::MapRef { name: "building".into(), hash: "ab".repeat(32) };
-    let mut r = Robot::new(cfg());
     let RobotCommand::Plan(mut a) = plan("m", 1) else { unreachable!() };
     a.map = Some(map.clone());
     if let Some(steps) = steps {
@@ -354,14 +358,14 @@ fn a_way_off_the_lanes_is_driven_there_and_back_by_the_vertex() {
         Step::Navigate { x: 0.0, y: -1.0, speed: None },
         Step::Hold { seconds: None },
     ]));
-    let (v0, v1) = (RouteVertex { v: 0, x: 0.0, y: 0.0 }, RouteVertex { v: 1, x: 3.0, y: 0.0 });
+    let (v0, v1) = (RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 3.0, 0.0));
     let order = |goal: u64, version: u64, route: Vec<RouteVertex>, off: [f64; 2]| Event::Traffic {
         map: map.hash.clone(),
         order: mrmm_proto::TrafficOrder::Route { goal, incarnation: 1, version, route, reached: Some(0), upto: Some(1), deputies: vec![], off: Some(off) },
         deputy: false,
     };
     r.handle(0.0, Event::Tick);
-    r.handle(0.01, order(1, 1, vec![v0, v1], [3.0, 1.0]));
+    r.handle(0.01, order(1, 1, vec![v0.clone(), v1.clone()], [3.0, 1.0]));
     let (mut t, mut at_goal, mut back, mut second_order) = (0.02, false, false, false);
     while t < 12.0 {
         r.handle(t, Event::Tick);
@@ -371,7 +375,7 @@ fn a_way_off_the_lanes_is_driven_there_and_back_by_the_vertex() {
             // The plan went on to its next goal: the robot heads back to (3, 0) before any order.
             back |= (p.x - 3.0).abs() < 0.16 && p.y.abs() < 0.16;
             if back {
-                r.handle(t, order(2, 2, vec![v1, v0], [0.0, -1.0]));
+                r.handle(t, order(2, 2, vec![v1.clone(), v0.clone()], [0.0, -1.0]));
                 second_order = true;
             }
         }
@@ -394,10 +398,19 @@ fn a_robot_taken_off_the_lanes_stops_and_asks_anew() {
     use mrmm_proto::traffic::RouteVertex;
     use mrmm_proto::TrafficOrder;
     let (mut r, map) = planned_on_map(Some(vec![Step::Navigate { x: 100.0, y: 0.0, speed: None }, Step::Hold { seconds: None }]));
-    let (v0, v1) = (RouteVertex { v: 0, x: 0.0, y: 0.0 }, RouteVertex { v: 1, x: 100.0, y: 0.0 });
+    let (v0, v1) = (RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 100.0, 0.0));
     let order = |order: TrafficOrder, deputy: bool| Event::Traffic { map: map.hash.clone(), order, deputy };
     r.handle(0.0, Event::Tick);
-    let route = TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route: vec![v0, v1], reached: Some(0), upto: Some(1), deputies: vec![], off: None };
+    let route = TrafficOrder::Route {
+        goal: 1,
+        incarnation: 1,
+        version: 1,
+        route: vec![v0.clone(), v1.clone()],
+        reached: Some(0),
+        upto: Some(1),
+        deputies: vec![],
+        off: None,
+    };
     r.handle(0.01, order(route, false));
     let mut t = 0.02;
     // Ticks until `until`: whether the robot asked for its way without holding any.
@@ -453,7 +466,7 @@ fn a_robot_with_a_battery_charges_on_centrals_word() {
 fn vda_robot() -> Robot {
     Robot::new(RobotSetup {
         body: BodyKind::Vda { order_prefix: "gw".into(), map_id: "m".into() },
-        ..RobotSetup::sim("agv", "ground", Limits { max_speed: 1.0, max_turn_rate: 1.0 }, Pose::default())
+        ..RobotSetup::sim("r1", "ground", Limits { max_speed: 1.0, max_turn_rate: 1.0 }, Pose::default())
     })
 }
 
@@ -493,4 +506,94 @@ fn a_vda_vehicle_is_charged_by_instant_actions() {
     assert_eq!(actions(r.handle(0.02, Event::Tick)), ["startCharging"]);
     cmd(&mut r, RobotCommand::Charge { on: false }).0.expect("unplugged");
     assert_eq!(actions(r.handle(0.04, Event::Tick)), ["stopCharging"]);
+}
+
+/// A VDA 5050 vehicle driving back from a goal off the lanes to the vertex it left them at is
+/// sent its next route from that vertex in the tick traffic grants it, as an update of the order
+/// it drives back by: it drives on through that vertex (the ~1 s grant → order waits the bench
+/// found were vehicles sent their next route only once back), never across, no order refused.
+/// Driven against the simulated vehicle of `mrmm-vda5050`.
+#[test]
+fn a_vda_vehicle_driving_back_to_the_lanes_is_sent_its_next_grant_on_the_way() {
+    use crate::body::vda::VdaOut;
+    use mrmm_proto::traffic::RouteVertex;
+    use mrmm_vda5050::sim::{SimIn, SimOut, SimVehicle};
+    use mrmm_vda5050::{FromVehicle, InstantActions, VehicleId};
+    let (mut r, map) = plan_on_map(
+        vda_robot(),
+        Some(vec![Step::Navigate { x: 3.0, y: 1.0, speed: None }, Step::Navigate { x: 0.0, y: -1.0, speed: None }, Step::Hold { seconds: None }]),
+    );
+    let mut vehicle = SimVehicle::new(VehicleId::new("mrmm", "agv1").unwrap(), "m", (0.0, 0.0, 0.0), 1.0);
+    let (v0, v1) = (RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 3.0, 0.0));
+    let order = |goal: u64, route: Vec<RouteVertex>, off: [f64; 2]| Event::Traffic {
+        map: map.hash.clone(),
+        order: mrmm_proto::TrafficOrder::Route {
+            goal,
+            incarnation: 1,
+            version: goal,
+            route,
+            reached: Some(0),
+            upto: Some(1),
+            deputies: vec![],
+            off: Some(off),
+        },
+        deputy: false,
+    };
+    let mut to_robot: Vec<SimOut> = vehicle.connect(0);
+    // The authority's order, which it sends again in answer to every report.
+    let mut current = (1, vec![v0.clone(), v1.clone()], [3.0, 1.0]);
+    r.handle(0.0, Event::Tick);
+    r.handle(0.0, order(current.0, current.1.clone(), current.2));
+    let (mut at_goal, mut granted, mut released, mut cancels) = (false, None, None, 0);
+    for k in 1..1500u64 {
+        let t = k as f64 * 0.01;
+        for out in to_robot.drain(..) {
+            let msg = match out {
+                SimOut::State(s) => {
+                    assert!(s.errors.is_empty(), "the vehicle refused: {:?}", s.errors);
+                    FromVehicle::State(s)
+                }
+                SimOut::Visualization(v) => FromVehicle::Visualization(v),
+                _ => continue,
+            };
+            r.handle(t, Event::Vda(Box::new(msg)));
+        }
+        let p = r.body.pose();
+        at_goal |= (p.x - 3.0).abs() < 0.1 && (p.y - 1.0).abs() < 0.1;
+        if at_goal && granted.is_none() && p.y < 0.6 {
+            // On its way back to (3, 0): traffic grants the next route, from there.
+            current = (2, vec![v1.clone(), v0.clone()], [0.0, -1.0]);
+            r.handle(t, order(current.0, current.1.clone(), current.2));
+            granted = Some(t);
+        }
+        if at_goal {
+            assert!((p.x - 3.0).abs() < 0.15 || p.y.abs() < 0.15 || p.x.abs() < 0.15, "off the ways: {p:?}");
+        }
+        for c in r.handle(t, Event::Tick) {
+            let input = match c {
+                Command::TrafficReport { .. } => {
+                    r.handle(t, order(current.0, current.1.clone(), current.2));
+                    continue;
+                }
+                Command::Vda(VdaOut::Order(o)) => {
+                    if granted.is_some() && released.is_none() && o.nodes.iter().any(|n| n.released && n.node_id == "v0") {
+                        released = Some(t);
+                    }
+                    SimIn::Order(o)
+                }
+                Command::Vda(VdaOut::Instant(actions)) => {
+                    cancels += actions.iter().filter(|a| a.action_type == "cancelOrder").count();
+                    SimIn::Instant(InstantActions { header: Default::default(), actions })
+                }
+                _ => continue,
+            };
+            to_robot.extend(vehicle.handle(k * 10, input));
+        }
+        to_robot.extend(vehicle.handle(k * 10, SimIn::Tick));
+    }
+    let (granted, released) = (granted.expect("back from the goal off the lanes"), released.expect("the next route released"));
+    assert!(released - granted < 0.02, "the grant at {granted:.2} s went out at {released:.2} s");
+    assert_eq!(cancels, 0, "no order cancelled");
+    let p = r.body.pose();
+    assert!(p.x.abs() < 0.1 && (p.y + 1.0).abs() < 0.1, "at the second goal: {p:?}");
 }

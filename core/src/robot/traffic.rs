@@ -218,16 +218,16 @@ impl Gate {
         let pose = body.pose();
         let near = |x: f64, y: f64| (pose.x - x).hypot(pose.y - y) <= REACH;
         let quiet = now - self.heard > QUIET_S;
-        if let Some(v) = self.driving {
+        if let Some(v) = self.driving.clone() {
             if !body.idle() {
                 if body.drives_on() && !quiet {
-                    self.tell_grant(v, body);
+                    self.tell_grant(&v, body);
                 }
                 return false;
             }
-            if !near(v.x, v.y) && !body.passed(v.v) {
+            if !near(v.x, v.y) && !body.passed(&v) {
                 // Stopped on the lane (held by the plan): on to the vertex, the lane is ours.
-                body.navigate_vertex(v, self.goal.and_then(|g| g.speed));
+                body.navigate_vertex(&v, self.goal.and_then(|g| g.speed));
                 return false;
             }
             self.driving = None;
@@ -250,13 +250,16 @@ impl Gate {
         };
         // Off the lanes: it stays while its order still gives that way for its goal; else back to
         // the vertex it left from first (the way back is the way there).
-        if let Some((v, for_goal, at)) = self.left {
+        if let Some((v, for_goal, at)) = self.left.clone() {
             let last = h.route.len() - 1;
             let stays = for_goal == goal.id && h.goal == goal.id && h.off == Some(at) && h.reached == Some(last) && h.route[last].v == v.v;
             if !stays {
                 if !near(v.x, v.y) {
+                    if self.drive_back_on(&v, goal, quiet, body) {
+                        return false;
+                    }
                     if body.idle() || body.goal() != Some((v.x, v.y)) {
-                        body.navigate_vertex(v, goal.speed);
+                        body.navigate_vertex(&v, goal.speed);
                     }
                     return false;
                 }
@@ -266,8 +269,8 @@ impl Gate {
         let next = h.reached.map_or(0, |p| p + 1);
         if next < h.route.len() {
             if !quiet && h.upto.is_some_and(|u| next <= u) {
-                let v = h.route[next];
-                self.driving = Some(v);
+                let v = &h.route[next];
+                self.driving = Some(v.clone());
                 let (granted, then) = Self::beyond(h, next);
                 body.navigate_lane(v, granted, then, goal.speed);
             } else {
@@ -286,7 +289,7 @@ impl Gate {
                     return body.idle();
                 }
                 if body.idle() {
-                    self.left = Some((h.route[h.route.len() - 1], goal.id, at));
+                    self.left = Some((h.route[h.route.len() - 1].clone(), goal.id, at));
                     body.navigate_through(at[0], at[1], None, goal.speed);
                 }
                 false
@@ -295,14 +298,36 @@ impl Gate {
         }
     }
 
-    /// A body that drives on through its grant (driving to `v`) is told the grant as it grows.
-    fn tell_grant(&self, v: RouteVertex, body: &mut Drive) {
+    /// A body that drives on through its grant, on its way back from off the lanes to vertex `v`,
+    /// whose order for `goal` goes on from `v` with more granted: it is told that way at once, to
+    /// drive back to `v` and on through it (`v` is still the first vertex it drives to, as
+    /// traffic's rule wants, and what lies past it is granted). Whether it was.
+    fn drive_back_on(&mut self, v: &RouteVertex, goal: Goal, quiet: bool, body: &mut Drive) -> bool {
+        let Some(h) = self.held.as_ref() else { return false };
+        let from_v = h.reached.is_some_and(|r| h.route.get(r).is_some_and(|x| x.v == v.v) && h.upto.is_some_and(|u| u > r));
+        if !body.drives_on() || quiet || h.goal != goal.id || !from_v {
+            return false;
+        }
+        self.left = None;
+        self.driving = Some(v.clone());
+        self.tell_grant(v, body);
+        true
+    }
+
+    /// A body that drives on through its grant (driving to `v`: the route's next vertex, or the
+    /// one it reached in traffic's eyes, when it drives back there) is told the grant as it grows.
+    fn tell_grant(&self, v: &RouteVertex, body: &mut Drive) {
         let (Some(h), Some(g)) = (&self.held, self.goal) else { return };
         let next = h.reached.map_or(0, |p| p + 1);
-        if h.route.get(next).is_some_and(|r| r.v == v.v) {
-            let (granted, then) = Self::beyond(h, next);
-            body.navigate_lane(v, granted, then, g.speed);
-        }
+        let at = if h.route.get(next).is_some_and(|r| r.v == v.v) {
+            next
+        } else if let Some(r) = h.reached.filter(|&r| h.route.get(r).is_some_and(|x| x.v == v.v)) {
+            r
+        } else {
+            return;
+        };
+        let (granted, then) = Self::beyond(h, at);
+        body.navigate_lane(v, granted, then, g.speed);
     }
 
     /// The route after its vertex `next`: what traffic granted of it, and the rest.

@@ -11,6 +11,7 @@ use std::collections::HashMap;
 
 use mrmm_maps::geom::point_segment_distance;
 use mrmm_maps::{NavGraph, Point};
+use mrmm_proto::traffic::RouteVertex;
 
 /// A resource: a vertex or a lane.
 pub type Res = u32;
@@ -57,6 +58,8 @@ pub fn segmented(graph: &NavGraph, longest: f64) -> NavGraph {
 #[derive(Debug, Clone)]
 pub struct Layout {
     points: Vec<Point>,
+    /// Each vertex's name where it names that vertex alone ([`RouteVertex::may_name`]).
+    names: Vec<Option<String>>,
     /// Lanes, each `(a, b)` with `a < b`.
     lanes: Vec<(u32, u32)>,
     lane_of: HashMap<(u32, u32), Res>,
@@ -72,6 +75,16 @@ pub struct Layout {
     /// forward way (none: not in a corridor of two lanes or more with two ends).
     corridors: Vec<Vec<Res>>,
     corridor_of: HashMap<Res, (u32, bool)>,
+}
+
+/// Each vertex's name, where no other vertex of `graph` has it and it may name a vertex in a
+/// route ([`RouteVertex::may_name`]).
+fn own_names(graph: &NavGraph) -> Vec<Option<String>> {
+    let mut count: HashMap<&str, u32> = HashMap::new();
+    for v in &graph.vertices {
+        *count.entry(v.name.as_str()).or_default() += 1;
+    }
+    graph.vertices.iter().map(|v| (count[v.name.as_str()] == 1 && RouteVertex::may_name(&v.name)).then(|| v.name.clone())).collect()
 }
 
 impl Layout {
@@ -93,7 +106,18 @@ impl Layout {
             degree[b as usize] += 1;
         }
         let junction = degree.iter().map(|&d| d >= 3).collect();
-        let mut layout = Layout { points, lanes, lane_of, out, conflicts: Vec::new(), clearance, junction, corridors: Vec::new(), corridor_of: HashMap::new() };
+        let mut layout = Layout {
+            points,
+            names: own_names(graph),
+            lanes,
+            lane_of,
+            out,
+            conflicts: Vec::new(),
+            clearance,
+            junction,
+            corridors: Vec::new(),
+            corridor_of: HashMap::new(),
+        };
         layout.conflicts = layout.find_conflicts();
         layout.find_corridors(&degree);
         layout
@@ -175,6 +199,12 @@ impl Layout {
 
     pub fn point(&self, v: u32) -> Point {
         self.points[v as usize]
+    }
+
+    /// Vertex `v` as a route names it: where it is, and its own name if it has one.
+    pub fn route_vertex(&self, v: u32) -> RouteVertex {
+        let p = self.point(v);
+        RouteVertex { v, x: p.x, y: p.y, name: self.names.get(v as usize).cloned().flatten() }
     }
 
     /// Vertices a directed edge leads to from `v`.

@@ -336,3 +336,20 @@ fn a_corridor_is_held_for_one_direction_at_a_time() {
         );
     }
 }
+
+/// A route names a vertex by the map's name where that name is its alone (a VDA 5050 vehicle's
+/// node id): not a name two vertices share, an empty one, one of `v<digits>` (names by index)
+/// or one longer than a route carries.
+#[test]
+fn a_route_names_a_vertex_by_a_name_of_its_own() {
+    let mut g = graph(&[(0.0, 0.0), (2.0, 0.0), (4.0, 0.0), (6.0, 0.0), (8.0, 0.0), (10.0, 0.0)], &[(0, 1), (1, 2), (2, 3), (3, 4), (4, 5)]);
+    let long = "n".repeat(mrmm_proto::traffic::MAX_VERTEX_NAME + 1);
+    for (v, name) in [(0, "dock"), (1, "lobby"), (2, "lobby"), (3, ""), (4, long.as_str()), (5, "v3")] {
+        g.vertices[v].name = name.to_string();
+    }
+    let layout = Layout::new(&g, 0.6);
+    let names: Vec<String> = (0..6).map(|v| layout.route_vertex(v).node_id()).collect();
+    assert_eq!(names, ["dock", "v1", "v2", "v3", "v4", "v5"]);
+    assert_eq!(layout.route_vertex(5).name, None, "\"v3\" would be vertex 3's node");
+    assert_eq!(layout.route_vertex(0).x, 0.0);
+}

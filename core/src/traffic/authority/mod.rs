@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, OccupancyGrid, Point};
-use mrmm_proto::traffic::{RouteVertex, TrafficCleared, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
+use mrmm_proto::traffic::{TrafficCleared, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
 use mrmm_proto::{ErrorReply, RobotId, TrafficOrder};
 
 use super::{Layout, Params, Traffic, CLEARANCE};
@@ -450,13 +450,7 @@ impl OnMap {
         let (route, reached, upto, version) = traffic.state(robot)?;
         let off = seen.leg.filter(|l| route.last() == Some(&l.v)).map(|l| [l.to.x, l.to.y]);
         let layout = traffic.layout();
-        let route = route
-            .iter()
-            .map(|&v| {
-                let p = layout.point(v);
-                RouteVertex { v, x: p.x, y: p.y }
-            })
-            .collect();
+        let route = route.iter().map(|&v| layout.route_vertex(v)).collect();
         Some(TrafficOrder::Route {
             goal,
             incarnation,

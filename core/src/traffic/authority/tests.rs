@@ -42,7 +42,7 @@ fn a_grid_maps_robots_are_routed_on_lanes_derived_from_its_free_space() {
             _ => None,
         })
         .unwrap_or_else(|| panic!("a route on the derived lanes: {out:?}"));
-    let (first, last) = (route[0], route[route.len() - 1]);
+    let (first, last) = (&route[0], &route[route.len() - 1]);
     assert!(grid.segment_free(here, Point::new(first.x, first.y)), "entered at a vertex in sight: {first:?}");
     assert!(grid.segment_free(there, Point::new(last.x, last.y)), "left at a vertex in sight: {last:?}");
     assert!(first.x < 6.0 && last.x > 6.0, "from one room to the other (every lane in free cells: through the door): {route:?}");
