@@ -7,6 +7,8 @@
 //! their `lastNodeId` goes along the map's vertices as their plans drive them; the mission paused
 //! and resumed, they pause (`startPause`) and go on (`stopPause`); their process
 //! killed, the broker's last will drops them from the fleet and the mission replans without them.
+//! Besides: `mrmm vda5050-sim`'s vehicles on their embedded broker, and the gateway on mosquitto's
+//! TLS listener.
 
 mod common;
 
@@ -40,16 +42,50 @@ fn office() -> PathBuf {
 /// Starts mosquitto on a free loopback port (its own config: loopback only, no persistence).
 fn mosquitto(dir: &Scratch) -> anyhow::Result<(Other, u16)> {
     let port = common::standin::free_port()?;
-    let conf = dir.path("mosquitto.conf");
-    std::fs::write(&conf, format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"))?;
+    let broker = mosquitto_with(dir, &format!("listener {port} 127.0.0.1\nallow_anonymous true\npersistence false\n"), &[port])?;
+    Ok((broker, port))
+}
+
+/// Starts mosquitto with config `conf` and waits until it listens on every port of `ports`.
+fn mosquitto_with(dir: &Scratch, conf: &str, ports: &[u16]) -> anyhow::Result<Other> {
+    let path = dir.path("mosquitto.conf");
+    std::fs::write(&path, conf)?;
     let log = std::fs::File::create(dir.path("mosquitto.log"))?;
-    let child = Command::new("mosquitto").arg("-c").arg(&conf).stdout(Stdio::null()).stderr(log).spawn().context("cannot start mosquitto")?;
+    let child = Other(Command::new("mosquitto").arg("-c").arg(&path).stdout(Stdio::null()).stderr(log).spawn().context("cannot start mosquitto")?);
     let up = Instant::now();
-    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
-        anyhow::ensure!(up.elapsed() < Duration::from_secs(10), "mosquitto not listening on {port} after 10 s");
-        std::thread::sleep(Duration::from_millis(50));
+    for &port in ports {
+        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+            anyhow::ensure!(up.elapsed() < Duration::from_secs(10), "mosquitto not listening on {port} after 10 s");
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
-    Ok((Other(child), port))
+    Ok(child)
+}
+
+/// A CA of its own (`<name>-ca.pem`) and, signed by it, a certificate for a broker on 127.0.0.1
+/// (`<name>-broker.pem`, `.key`) and one for a client (`<name>-gateway.pem`, `.key`): ECDSA
+/// P-256, PEM, as mosquitto (OpenSSL) and the gateway (rustls) both read them.
+fn test_pki(dir: &Scratch, name: &str) -> anyhow::Result<()> {
+    use rcgen::{BasicConstraints, CertificateParams, DnType, ExtendedKeyUsagePurpose, IsCa, Issuer, KeyPair, KeyUsagePurpose, SanType};
+    let ca_key = KeyPair::generate()?;
+    let mut ca = CertificateParams::new(Vec::<String>::new())?;
+    ca.is_ca = IsCa::Ca(BasicConstraints::Unconstrained);
+    ca.key_usages = vec![KeyUsagePurpose::KeyCertSign, KeyUsagePurpose::CrlSign];
+    ca.distinguished_name.push(DnType::CommonName, format!("{name} test CA"));
+    std::fs::write(dir.path(&format!("{name}-ca.pem")), ca.self_signed(&ca_key)?.pem())?;
+    let issuer = Issuer::new(ca, ca_key);
+    for (who, usage) in [("broker", ExtendedKeyUsagePurpose::ServerAuth), ("gateway", ExtendedKeyUsagePurpose::ClientAuth)] {
+        let key = KeyPair::generate()?;
+        let mut params = CertificateParams::new(if who == "broker" { vec!["localhost".to_string()] } else { vec![] })?;
+        if who == "broker" {
+            params.subject_alt_names.push(SanType::IpAddress("127.0.0.1".parse()?));
+        }
+        params.extended_key_usages = vec![usage];
+        params.distinguished_name.push(DnType::CommonName, format!("{name} {who}"));
+        std::fs::write(dir.path(&format!("{name}-{who}.pem")), params.signed_by(&key, &issuer)?.pem())?;
+        std::fs::write(dir.path(&format!("{name}-{who}.key")), key.serialize_pem())?;
+    }
+    Ok(())
 }
 
 /// Starts the virtual AGVs (`serial:x:y:node` each); their state changes come as JSON lines.
@@ -427,5 +463,85 @@ async fn simulated_vehicles_on_the_embedded_broker_drive_a_mission_pause_with_it
     })
     .await?;
     drop(gateway);
+    Ok(())
+}
+
+/// The gateway reaches its broker over TLS — mosquitto's TLS listener, which asks for the
+/// gateway's own certificate — and the vehicles (on the broker's plain listener) join the fleet
+/// through it. A gateway that does not trust the broker's CA says why and joins no vehicle; a
+/// TLS file that cannot be read stops start-up with one line that names it. Needs mosquitto, not
+/// node.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_gateway_reaches_a_tls_broker_with_a_certificate_of_its_own() -> anyhow::Result<()> {
+    let dir = Scratch::new("vda5050-tls");
+    test_pki(&dir, "fleet")?;
+    test_pki(&dir, "other")?;
+    let (plain, tls) = (common::standin::free_port()?, common::standin::free_port()?);
+    let file = |name: &str| dir.path(name).display().to_string();
+    let conf = format!(
+        "per_listener_settings true\npersistence false\nlistener {plain} 127.0.0.1\nallow_anonymous true\nlistener {tls} 127.0.0.1\nallow_anonymous true\n\
+         cafile {}\ncertfile {}\nkeyfile {}\nrequire_certificate true\n",
+        file("fleet-ca.pem"),
+        file("fleet-broker.pem"),
+        file("fleet-broker.key")
+    );
+    let _broker = mosquitto_with(&dir, &conf, &[plain, tls])?;
+    let (_central, ep) = start_central(&dir)?;
+    let spots = spread(2)?;
+    let at: Vec<String> = spots.iter().map(|&(_, x, y)| format!("{x},{y}")).collect();
+    let on_plain = format!("mqtt://127.0.0.1:{plain}");
+    let sim_args = ["vda5050-sim", "--vehicles", "2", "--broker", &on_plain, "--manufacturer", "sim", "--map-id", "office", "--at", &at[0], "--at", &at[1]];
+    let _sim = start("vda5050-sim", &sim_args, &dir.path("sim.log"), "vda5050-sim ready", Duration::from_secs(20))?;
+    gateway_config(&dir, plain, &ep)?;
+    let tls_config = |name: &str, ca: &str| -> anyhow::Result<String> {
+        let path = dir.path(name);
+        let text = format!(
+            r#"{{ broker: "mqtts://127.0.0.1:{tls}", map: "office", robot: "agv.json5", tls: {{ ca: "{ca}", cert: "fleet-gateway.pem", key: "fleet-gateway.key" }} }}"#
+        );
+        std::fs::write(&path, text)?;
+        Ok(path.display().to_string())
+    };
+
+    // A TLS file that cannot be read: start-up stops with one line naming the field and file.
+    let log = dir.path("missing.log");
+    let mut missing = Other(
+        Command::new(env!("CARGO_BIN_EXE_mrmm"))
+            .args(["vda5050", "--config", &tls_config("missing.json5", "nowhere.pem")?])
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log)?)
+            .spawn()?,
+    );
+    let status =
+        eventually("the gateway with a missing CA file stopping", Duration::from_secs(20), || std::future::ready(missing.0.try_wait().ok().flatten())).await?;
+    let said = std::fs::read_to_string(&log)?;
+    anyhow::ensure!(!status.success() && said.contains("tls.ca") && said.contains("nowhere.pem"), "a missing CA file: {said}");
+
+    // A gateway that trusts another CA: it says the broker's certificate is not trusted.
+    let log = dir.path("untrusting.log");
+    let untrusting = Other(
+        Command::new(env!("CARGO_BIN_EXE_mrmm"))
+            .args(["vda5050", "--config", &tls_config("untrusting.json5", "other-ca.pem")?])
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log)?)
+            .spawn()?,
+    );
+    eventually("the untrusting gateway saying why", Duration::from_secs(20), || {
+        let text = std::fs::read_to_string(&log).unwrap_or_default();
+        std::future::ready((text.contains("UnknownIssuer") || text.contains("invalid peer certificate")).then_some(()))
+    })
+    .await?;
+    drop(untrusting);
+
+    // The gateway with the fleet's CA and its own certificate: both vehicles join.
+    let cfg = tls_config("gateway-tls.json5", "fleet-ca.pem")?;
+    let gateway = start("vda5050", &["vda5050", "--config", &cfg], &dir.path("gateway.log"), "vda5050 ready", Duration::from_secs(20))?;
+    anyhow::ensure!(gateway.field("broker").as_deref() == Some(format!("mqtts://127.0.0.1:{tls}").as_str()), "{}", gateway.ready);
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let view = common::wait_robots(&client, 2).await?;
+    for (id, &(_, x, y)) in ["sim-agv1", "sim-agv2"].iter().zip(&spots) {
+        let p = robots_view(&view, id).and_then(|r| r.pose).with_context(|| format!("{id} not in the fleet: {view:?}"))?;
+        anyhow::ensure!((p.x - x).hypot(p.y - y) < 0.2, "{id} at {p:?}, its vehicle at ({x}, {y})");
+    }
     Ok(())
 }

@@ -12,7 +12,7 @@ pub struct Args {
     /// JSON5 gateway config (broker, interface, map, the vehicles' robot config, ids).
     #[arg(long)]
     config: PathBuf,
-    /// Override the broker: mqtt://host:port.
+    /// Override the broker: mqtt://host:port, or mqtts://host:port (TLS: `tls` in the config).
     #[arg(long)]
     broker: Option<String>,
     /// Override the topics' interface name (`uagv`).

@@ -48,10 +48,13 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
         return Err(anyhow!("--at: {} positions for {n} vehicles", args.at.len()));
     }
     let broker = match &args.broker {
-        Some(b) => Broker::parse(b).map_err(|e| anyhow!("--{e}"))?,
+        Some(b) => match Broker::parse(b).map_err(|e| anyhow!("--{e}"))? {
+            b if b.tls => return Err(anyhow!("--broker: {:?}: the simulated vehicles speak mqtt:// only", b.url())),
+            b => b,
+        },
         None => {
             let at = mrmm_node::vda5050::broker::start(args.listen)?;
-            Broker { host: at.ip().to_string(), port: at.port() }
+            Broker { host: at.ip().to_string(), port: at.port(), tls: false }
         }
     };
     let mut vehicles = Vec::with_capacity(n);

@@ -116,6 +116,18 @@ pub fn instant(action_type: &str, id: String, blocking: BlockingType) -> Action 
 mod tests {
     use super::*;
 
+    /// A factsheet's actions but the master control's are the vehicle's work.
+    #[test]
+    fn a_factsheets_work_is_its_actions_but_those_of_control() {
+        let f: Factsheet = parse(
+            Subtopic::Factsheet,
+            br#"{"protocolFeatures": {"agvActions": [{"actionType": "startPause"}, {"actionType": "pick"}, {"actionType": "drop"}, {"actionType": "pick"}, {"actionType": "cancelOrder"}, {"actionType": "acmeLift"}]}}"#,
+        )
+        .unwrap();
+        assert_eq!(f.work(), ["pick", "drop", "acmeLift"]);
+        assert!(Factsheet::default().work().is_empty());
+    }
+
     #[test]
     fn a_hostile_state_is_refused_with_the_reason_not_acted_on() {
         let big = vec![b' '; MAX_MESSAGE + 1];

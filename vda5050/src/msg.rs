@@ -297,6 +297,26 @@ pub struct Factsheet {
     pub protocol_features: Option<ProtocolFeatures>,
 }
 
+/// The standard's actions a master control runs a vehicle by (pause, charge, cancel, ask), not
+/// work the vehicle does for a mission.
+pub const CONTROL_ACTIONS: [&str; 9] =
+    ["startPause", "stopPause", "startCharging", "stopCharging", "initPosition", "stateRequest", "logReport", "cancelOrder", "factsheetRequest"];
+
+impl Factsheet {
+    /// The work the vehicle says it does (`pick`, `drop`, `detectObject`, its maker's own
+    /// actions): its actions but [`CONTROL_ACTIONS`], in its order, each once.
+    pub fn work(&self) -> Vec<&str> {
+        let mut work: Vec<&str> = Vec::new();
+        for a in self.protocol_features.iter().flat_map(|p| &p.agv_actions) {
+            let t = a.action_type.as_str();
+            if !t.is_empty() && !CONTROL_ACTIONS.contains(&t) && !work.contains(&t) {
+                work.push(t);
+            }
+        }
+        work
+    }
+}
+
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "camelCase", default)]
 pub struct TypeSpecification {

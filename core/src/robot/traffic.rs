@@ -244,28 +244,14 @@ impl Gate {
             self.changed = true;
         }
         let Some(goal) = self.goal else { return true };
-        let Some(h) = self.held.as_ref() else {
+        if self.held.is_none() {
             self.waiting = self.refused.is_none();
             return false;
-        };
-        // Off the lanes: it stays while its order still gives that way for its goal; else back to
-        // the vertex it left from first (the way back is the way there).
-        if let Some((v, for_goal, at)) = self.left.clone() {
-            let last = h.route.len() - 1;
-            let stays = for_goal == goal.id && h.goal == goal.id && h.off == Some(at) && h.reached == Some(last) && h.route[last].v == v.v;
-            if !stays {
-                if !near(v.x, v.y) {
-                    if self.drive_back_on(&v, goal, quiet, body) {
-                        return false;
-                    }
-                    if body.idle() || body.goal() != Some((v.x, v.y)) {
-                        body.navigate_vertex(&v, goal.speed);
-                    }
-                    return false;
-                }
-                self.left = None;
-            }
         }
+        if self.on_way_back(goal, quiet, body) {
+            return false;
+        }
+        let Some(h) = self.held.as_ref() else { return false };
         let next = h.reached.map_or(0, |p| p + 1);
         if next < h.route.len() {
             if !quiet && h.upto.is_some_and(|u| next <= u) {
@@ -296,6 +282,27 @@ impl Gate {
             }
             _ => body.idle(),
         }
+    }
+
+    /// Off the lanes: it stays while its order still gives that way for its goal; else it drives
+    /// back to the vertex it left them at first (the way back is the way there). Whether it is on
+    /// its way back there (the step ends).
+    fn on_way_back(&mut self, goal: Goal, quiet: bool, body: &mut Drive) -> bool {
+        let (Some((v, for_goal, at)), Some(h)) = (self.left.clone(), self.held.as_ref()) else { return false };
+        let last = h.route.len() - 1;
+        let stays = for_goal == goal.id && h.goal == goal.id && h.off == Some(at) && h.reached == Some(last) && h.route[last].v == v.v;
+        if stays {
+            return false;
+        }
+        let pose = body.pose();
+        if (pose.x - v.x).hypot(pose.y - v.y) <= REACH {
+            self.left = None;
+            return false;
+        }
+        if !self.drive_back_on(&v, goal, quiet, body) && (body.idle() || body.goal() != Some((v.x, v.y))) {
+            body.navigate_vertex(&v, goal.speed);
+        }
+        true
     }
 
     /// A body that drives on through its grant, on its way back from off the lanes to vertex `v`,

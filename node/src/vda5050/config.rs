@@ -2,8 +2,10 @@
 //!
 //! ```json5
 //! {
-//!   broker: "mqtt://127.0.0.1:1883",      // the vehicles' MQTT broker (mqtt:// only)
+//!   broker: "mqtt://127.0.0.1:1883",      // the vehicles' MQTT broker: mqtt:// or mqtts://
 //!   // username: "mrmm", password: "…",   // when the broker asks for them
+//!   // tls: { ca: "ca.pem",                // an mqtts:// broker: the CAs its certificate
+//!   //        cert: "gw.pem", key: "gw.key" },  // chains to; the gateway's own, if asked
 //!   interface: "uagv", version: "v2",      // the topics' first two levels
 //!   map: "office",                         // the mapId of every order's nodes
 //!   robot: "agv.json5",                    // a robot config: every vehicle's type, capabilities,
@@ -36,6 +38,9 @@ pub struct GatewayConfig {
     pub username: Option<String>,
     #[serde(default)]
     pub password: Option<String>,
+    /// TLS to an `mqtts://` broker.
+    #[serde(default)]
+    pub tls: Option<BrokerTls>,
     #[serde(default = "interface")]
     pub interface: String,
     #[serde(default = "major")]
@@ -50,6 +55,20 @@ pub struct GatewayConfig {
     /// A vehicle heard of for this long (no state, no visualization) is gone, seconds.
     #[serde(default = "silence_s")]
     pub silence_s: f64,
+}
+
+/// TLS to the broker: PEM files (relative to the gateway's config).
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BrokerTls {
+    /// The CA certificates the broker's certificate must chain to (a public broker's: the
+    /// system's bundle, e.g. `/etc/ssl/certs/ca-certificates.crt`).
+    pub ca: PathBuf,
+    /// The gateway's own certificate chain and its key, for a broker that asks for one.
+    #[serde(default)]
+    pub cert: Option<PathBuf>,
+    #[serde(default)]
+    pub key: Option<PathBuf>,
 }
 
 fn silence_s() -> f64 {
@@ -68,30 +87,38 @@ fn max_vehicles() -> usize {
     MAX_VEHICLES
 }
 
-/// The broker's address, from `mqtt://host:port` (or `host:port`; port 1883 when left out).
+/// The broker's address, from `mqtt://host:port` or `mqtts://host:port` (TLS), or `host:port`;
+/// port 1883 (8883 with TLS) when left out.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Broker {
     pub host: String,
     pub port: u16,
+    pub tls: bool,
 }
 
 impl Broker {
-    /// From `mqtt://host:port` (or `host:port`; port 1883 when left out); the error is
-    /// `broker: problem`.
+    /// From `mqtt://host:port`, `mqtts://host:port` or `host:port`; the error is `broker:
+    /// problem`.
     pub fn parse(url: &str) -> Result<Broker, String> {
-        let rest = match url.split_once("://") {
-            Some(("mqtt" | "tcp", rest)) => rest,
-            Some((scheme, _)) => return Err(format!("broker: {:?}: only mqtt:// is supported (TLS to the broker is not yet)", format!("{scheme}://"))),
-            None => url,
+        let (rest, tls) = match url.split_once("://") {
+            Some(("mqtt" | "tcp", rest)) => (rest, false),
+            Some(("mqtts" | "ssl", rest)) => (rest, true),
+            Some((scheme, _)) => return Err(format!("broker: {:?}: give mqtt://host:port, or mqtts://host:port for TLS", format!("{scheme}://"))),
+            None => (url, false),
         };
         let (host, port) = match rest.rsplit_once(':') {
             Some((h, p)) => (h, p.parse::<u16>().map_err(|_| format!("broker: {:?}: the port is not a number 1–65535", url))?),
-            None => (rest, 1883),
+            None => (rest, if tls { 8883 } else { 1883 }),
         };
         if host.is_empty() || port == 0 {
             return Err(format!("broker: {url:?}: give host:port"));
         }
-        Ok(Broker { host: host.to_string(), port })
+        Ok(Broker { host: host.to_string(), port, tls })
+    }
+
+    /// `mqtt://host:port` or `mqtts://host:port`.
+    pub fn url(&self) -> String {
+        format!("{}://{}:{}", if self.tls { "mqtts" } else { "mqtt" }, self.host, self.port)
     }
 }
 
@@ -100,9 +127,17 @@ impl GatewayConfig {
     pub fn read(path: &Path) -> Result<GatewayConfig, String> {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let mut cfg: GatewayConfig = json5::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-        if cfg.robot.is_relative() {
-            if let Some(dir) = path.parent() {
-                cfg.robot = dir.join(&cfg.robot);
+        if let Some(dir) = path.parent() {
+            let rel = |p: &mut PathBuf| {
+                if p.is_relative() {
+                    *p = dir.join(&*p);
+                }
+            };
+            rel(&mut cfg.robot);
+            if let Some(tls) = &mut cfg.tls {
+                rel(&mut tls.ca);
+                tls.cert.as_mut().map(rel);
+                tls.key.as_mut().map(rel);
             }
         }
         Ok(cfg)
@@ -123,6 +158,12 @@ impl GatewayConfig {
         }
         if self.username.is_none() && self.password.is_some() {
             return Err("password: given without a username".into());
+        }
+        match (self.broker()?.tls, &self.tls) {
+            (true, None) => return Err("tls: an mqtts:// broker needs tls.ca, the CA certificates (PEM) its certificate chains to".into()),
+            (false, Some(_)) => return Err("tls: given for an mqtt:// broker (a TLS broker is mqtts://)".into()),
+            (_, Some(t)) if t.cert.is_some() != t.key.is_some() => return Err("tls: cert and key go together".into()),
+            _ => {}
         }
         for (vehicle, id) in &self.ids {
             let (m, s) = vehicle.split_once('/').ok_or_else(|| format!("ids: {vehicle:?} is not <manufacturer>/<serialNumber>"))?;
@@ -163,7 +204,8 @@ mod tests {
     fn a_config_reads_with_defaults_and_names_vehicles() {
         let c = cfg(r#"{ broker: "mqtt://127.0.0.1:1884", map: "office", robot: "agv.json5", ids: { "acme/0042": "agv-42" } }"#);
         c.validate().unwrap();
-        assert_eq!(c.broker().unwrap(), Broker { host: "127.0.0.1".into(), port: 1884 });
+        assert_eq!(c.broker().unwrap(), Broker { host: "127.0.0.1".into(), port: 1884, tls: false });
+        assert_eq!(Broker::parse("mqtts://broker.example").unwrap().url(), "mqtts://broker.example:8883");
         assert_eq!((c.interface.as_str(), c.version.as_str(), c.max_vehicles), ("uagv", "v2", MAX_VEHICLES));
         assert_eq!(c.robot_id(&VehicleId::new("acme", "0042").unwrap()), "agv-42");
         assert_eq!(c.robot_id(&VehicleId::new("acme", "a.b:1").unwrap()), "acme-a_b_1");
@@ -172,7 +214,10 @@ mod tests {
     #[test]
     fn a_bad_config_says_which_field_and_why() {
         let bad = |text: &str| cfg(text).validate().unwrap_err();
-        assert!(bad(r#"{ broker: "mqtts://h:1", map: "m", robot: "r" }"#).starts_with("broker: \"mqtts://\": only mqtt://"));
+        assert!(bad(r#"{ broker: "ws://h:1", map: "m", robot: "r" }"#).starts_with("broker: \"ws://\": give mqtt://"));
+        assert!(bad(r#"{ broker: "mqtts://h:1", map: "m", robot: "r" }"#).starts_with("tls: an mqtts:// broker needs tls.ca"));
+        assert!(bad(r#"{ broker: "mqtt://h:1", map: "m", robot: "r", tls: { ca: "ca.pem" } }"#).starts_with("tls: given for an mqtt://"));
+        assert!(bad(r#"{ broker: "mqtts://h", map: "m", robot: "r", tls: { ca: "ca.pem", cert: "c.pem" } }"#).starts_with("tls: cert and key"));
         assert!(bad(r#"{ broker: "h:x", map: "m", robot: "r" }"#).contains("port is not a number"));
         assert!(bad(r#"{ broker: "h", map: "", robot: "r" }"#).starts_with("map:"));
         assert!(bad(r#"{ broker: "h", map: "m", robot: "r", ids: { "acme": "x" } }"#).contains("not <manufacturer>/<serialNumber>"));

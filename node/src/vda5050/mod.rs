@@ -62,8 +62,9 @@ struct Gateway {
     template: RobotConfig,
     client: rumqttc::AsyncClient,
     vehicles: BTreeMap<VehicleId, Vehicle>,
-    /// Top speeds from the vehicles' factsheets, m/s (their robots' kinematics).
-    speeds: BTreeMap<VehicleId, f64>,
+    /// What the vehicles' factsheets say: top speed, work (their robots' kinematics and
+    /// capabilities).
+    sheets: BTreeMap<VehicleId, Sheet>,
     robots: JoinSet<(VehicleId, Result<(), NodeError>)>,
     shutdown: CancellationToken,
     refused: Refused,
@@ -75,7 +76,7 @@ struct Gateway {
 pub async fn run(cfg: GatewayConfig, template: RobotConfig, shutdown: CancellationToken) -> Result<(), NodeError> {
     let topics = cfg.topics().map_err(NodeError::Gateway)?;
     let broker = cfg.broker().map_err(NodeError::Gateway)?;
-    let (client, mut events) = mqtt::connect(&cfg, &broker);
+    let (client, mut events) = mqtt::connect(&cfg, &broker).map_err(NodeError::Gateway)?;
     let started_ms = mqtt::unix_ms();
     let mut gw = Gateway {
         cfg,
@@ -83,7 +84,7 @@ pub async fn run(cfg: GatewayConfig, template: RobotConfig, shutdown: Cancellati
         template,
         client,
         vehicles: BTreeMap::new(),
-        speeds: BTreeMap::new(),
+        sheets: BTreeMap::new(),
         robots: JoinSet::new(),
         shutdown: shutdown.clone(),
         refused: Refused::default(),
@@ -104,7 +105,7 @@ pub async fn run(cfg: GatewayConfig, template: RobotConfig, shutdown: Cancellati
                 }
                 Ok(rumqttc::Event::Incoming(rumqttc::Packet::SubAck(_))) if !announced => {
                     announced = true;
-                    println!("vda5050 ready broker={}:{} interface={}/{}", broker.host, broker.port, gw.topics.interface, gw.topics.major);
+                    println!("vda5050 ready broker={} interface={}/{}", broker.url(), gw.topics.interface, gw.topics.major);
                 }
                 Ok(rumqttc::Event::Incoming(rumqttc::Packet::Publish(p))) => gw.heard(&p.topic, &p.payload),
                 Ok(_) => {}
@@ -147,12 +148,10 @@ impl Gateway {
                 Err(e) => self.refused.note(&format!("{vehicle}: {e}")),
             },
             Subtopic::Factsheet => match mrmm_vda5050::parse::<Factsheet>(sub, payload) {
-                Ok(f) => {
-                    let speed = f.physical_parameters.and_then(|p| p.speed_max).filter(|s| s.is_finite() && *s > 0.0);
-                    if let Some(s) = speed.filter(|_| self.speeds.len() < self.cfg.max_vehicles || self.speeds.contains_key(&vehicle)) {
-                        self.speeds.insert(vehicle, s.clamp(mrmm_proto::MIN_SPEED, mrmm_proto::MAX_SPEED));
-                    }
+                Ok(f) if self.sheets.len() < self.cfg.max_vehicles || self.sheets.contains_key(&vehicle) => {
+                    self.sheets.insert(vehicle, Sheet::of(&f));
                 }
+                Ok(_) => {}
                 Err(e) => self.refused.note(&format!("{vehicle}: {e}")),
             },
             Subtopic::Visualization => match mrmm_vda5050::parse::<Visualization>(sub, payload).and_then(|v| v.check().map(|()| v)) {
@@ -214,8 +213,8 @@ impl Gateway {
         cfg.id.clone_from(&robot);
         cfg.start = mrmm_peer::config::StartPose { x: p.x, y: p.y, theta: p.theta };
         cfg.time_scale = 1.0;
-        if let Some(s) = self.speeds.get(&vehicle) {
-            cfg.kinematics.max_speed = *s;
+        if let Some(sheet) = self.sheets.get(&vehicle) {
+            sheet.apply(&mut cfg);
         }
         cfg.battery = None;
         cfg.body = BodySection::Vda5050 { order_prefix: format!("mrmm-{}", self.started_ms), map_id: self.cfg.map.clone() };
@@ -272,6 +271,36 @@ impl Gateway {
 }
 
 /// One vehicle's robot, from start until it stops, is killed or the gateway stops.
+/// What a vehicle's factsheet says that its robot takes: its top speed, and its work (`pick`,
+/// `drop`, …) as capabilities beside the robot config's.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Sheet {
+    speed: Option<f64>,
+    work: Vec<String>,
+}
+
+impl Sheet {
+    fn of(f: &Factsheet) -> Sheet {
+        let speed = f.physical_parameters.as_ref().and_then(|p| p.speed_max).filter(|s| s.is_finite() && *s > 0.0);
+        // Those a capability can be named, as many as a robot may have.
+        let work = f.work().into_iter().filter(|w| mrmm_proto::validate_capability(w).is_ok()).take(mrmm_proto::MAX_CAPABILITIES).map(str::to_string).collect();
+        Sheet { speed: speed.map(|s| s.clamp(mrmm_proto::MIN_SPEED, mrmm_proto::MAX_SPEED)), work }
+    }
+
+    /// Into the vehicle's robot config: its top speed, and its work added to its capabilities
+    /// (up to as many as a robot may have).
+    fn apply(&self, cfg: &mut RobotConfig) {
+        if let Some(s) = self.speed {
+            cfg.kinematics.max_speed = s;
+        }
+        for w in &self.work {
+            if cfg.capabilities.len() < mrmm_proto::MAX_CAPABILITIES && !cfg.capabilities.contains(w) {
+                cfg.capabilities.push(w.clone());
+            }
+        }
+    }
+}
+
 async fn one(cfg: RobotConfig, link: VdaLink, stop: CancellationToken, kill: oneshot::Receiver<()>) -> Result<(), NodeError> {
     let mut started = crate::robot::start_with(cfg, stop, Some(link)).await?;
     started.announce();
@@ -281,5 +310,28 @@ async fn one(cfg: RobotConfig, link: VdaLink, stop: CancellationToken, kill: one
             started.kill().await;
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A factsheet's top speed and work go into its vehicle's robot: capabilities beside the
+    /// config's, each once, never more than a robot may have, none a capability cannot be named.
+    #[test]
+    fn a_factsheet_gives_the_robot_its_speed_and_its_work_as_capabilities() {
+        let f: Factsheet = serde_json::from_str(
+            r#"{"physicalParameters": {"speedMax": 1.5}, "protocolFeatures": {"agvActions": [{"actionType": "pick"}, {"actionType": "camera"}, {"actionType": "startPause"}, {"actionType": "no way"}]}}"#,
+        )
+        .unwrap();
+        let mut cfg: RobotConfig =
+            json5::from_str(r#"{ id: "agv", type: "ground", capabilities: ["camera"], kinematics: { max_speed: 1.0, max_turn_rate: 2.0 } }"#).unwrap();
+        Sheet::of(&f).apply(&mut cfg);
+        assert_eq!(cfg.capabilities, ["camera", "pick"]);
+        assert_eq!(cfg.kinematics.max_speed, 1.5);
+        let many = Sheet { speed: None, work: (0..40).map(|i| format!("a{i}")).collect() };
+        many.apply(&mut cfg);
+        assert_eq!(cfg.capabilities.len(), mrmm_proto::MAX_CAPABILITIES);
     }
 }

@@ -1,15 +1,19 @@
-//! The gateway's MQTT side: its client (bounded packets, the vehicles' topics subscribed at
-//! every connection) and, per vehicle, the task that stamps and publishes what its robot sends.
+//! The gateway's MQTT side: its client (bounded packets, TLS to an `mqtts://` broker, the
+//! vehicles' topics subscribed at every connection) and, per vehicle, the task that stamps and publishes what its robot sends.
 
+use std::path::Path;
+use std::sync::Arc;
 use std::time::Duration;
 
-use rumqttc::{AsyncClient, EventLoop, MqttOptions, QoS};
+use rumqttc::{AsyncClient, EventLoop, MqttOptions, QoS, TlsConfiguration, Transport};
+use rustls::pki_types::pem::PemObject;
+use rustls::pki_types::{CertificateDer, PrivateKeyDer};
 
 use mrmm_core::body::vda::VdaOut;
 use mrmm_vda5050::msg::Header;
 use mrmm_vda5050::{InstantActions, Subtopic, Topics, VehicleId, MAX_MESSAGE};
 
-use super::config::{Broker, GatewayConfig};
+use super::config::{Broker, BrokerTls, GatewayConfig};
 
 /// Requests waiting for the client's event loop, at most.
 const REQUESTS: usize = 256;
@@ -20,8 +24,9 @@ const REQUESTS: usize = 256;
 pub(super) const MAX_PACKET: usize = 4 * MAX_MESSAGE;
 
 /// The client and its event loop (connects at its first poll, reconnects at the next after an
-/// error).
-pub(super) fn connect(cfg: &GatewayConfig, broker: &Broker) -> (AsyncClient, EventLoop) {
+/// error); TLS to an `mqtts://` broker. The error (a TLS file that cannot be read) names the
+/// config's field, the file and what is wrong with it.
+pub(super) fn connect(cfg: &GatewayConfig, broker: &Broker) -> Result<(AsyncClient, EventLoop), String> {
     let mut opts = MqttOptions::new(format!("mrmm-vda5050-{}", std::process::id()), broker.host.clone(), broker.port);
     opts.set_keep_alive(Duration::from_secs(5));
     opts.set_max_packet_size(MAX_PACKET, MAX_PACKET);
@@ -29,7 +34,43 @@ pub(super) fn connect(cfg: &GatewayConfig, broker: &Broker) -> (AsyncClient, Eve
     if let Some(user) = &cfg.username {
         opts.set_credentials(user.clone(), cfg.password.clone().unwrap_or_default());
     }
-    AsyncClient::new(opts, REQUESTS)
+    if let (true, Some(tls)) = (broker.tls, &cfg.tls) {
+        let client = tls_client(tls)?;
+        opts.set_transport(Transport::tls_with_config(TlsConfiguration::Rustls(Arc::new(client))));
+    }
+    Ok(AsyncClient::new(opts, REQUESTS))
+}
+
+/// The TLS side of the client: the broker's certificate must chain to the config's CAs (and name
+/// the broker's host); the gateway shows its own certificate where the config names one.
+fn tls_client(tls: &BrokerTls) -> Result<rustls::ClientConfig, String> {
+    let mut roots = rustls::RootCertStore::empty();
+    for cert in certificates(&tls.ca, "ca")? {
+        roots.add(cert).map_err(|e| format!("tls.ca: {}: {e}", tls.ca.display()))?;
+    }
+    let provider = Arc::new(rustls::crypto::ring::default_provider());
+    let config = rustls::ClientConfig::builder_with_provider(provider)
+        .with_safe_default_protocol_versions()
+        .map_err(|e| format!("tls: {e}"))?
+        .with_root_certificates(roots);
+    match (&tls.cert, &tls.key) {
+        (Some(cert), Some(key)) => {
+            let chain = certificates(cert, "cert")?;
+            let key = PrivateKeyDer::from_pem_file(key).map_err(|e| format!("tls.key: {}: {e}", key.display()))?;
+            config.with_client_auth_cert(chain, key).map_err(|e| format!("tls.cert: {}: {e}", cert.display()))
+        }
+        _ => Ok(config.with_no_client_auth()),
+    }
+}
+
+/// The PEM certificates of file `path` (config field `field`): at least one.
+fn certificates(path: &Path, field: &str) -> Result<Vec<CertificateDer<'static>>, String> {
+    let said = |e: &dyn std::fmt::Display| format!("tls.{field}: {}: {e}", path.display());
+    let list = CertificateDer::pem_file_iter(path).map_err(|e| said(&e))?.collect::<Result<Vec<_>, _>>().map_err(|e| said(&e))?;
+    if list.is_empty() {
+        return Err(said(&"no PEM certificate in it"));
+    }
+    Ok(list)
 }
 
 /// Subscribes to what every vehicle publishes (a clean session forgets subscriptions: done at
