@@ -182,6 +182,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         stuck: None,
         info_rev: 0,
         battery: None,
+        vehicle: None,
     };
     rogue.put(&Key::RobotTelemetry("r2".into()).to_string(), proto::encode_telemetry(&forged)?, Encoding::APPLICATION_OCTET_STREAM).await;
     rogue.session().put(Key::RobotTelemetry("r2".into()).to_string(), proto::encode_telemetry(&forged)?).await.map_err(|e| anyhow::anyhow!("{e}"))?;

@@ -188,6 +188,17 @@ fn spread(n: usize) -> anyhow::Result<Vec<(usize, f64, f64)>> {
     Ok(picked.into_iter().take(n).collect())
 }
 
+/// Traffic's graph of the office (the map's vertices, and the points its lanes are cut at), laid
+/// out, and its vertices by their node ids: the map's names where a vertex has one of its own,
+/// else `v<index>`.
+fn traffic_nodes() -> anyhow::Result<(mrmm_maps::NavGraph, mrmm_core::traffic::layout::Layout, HashMap<String, usize>)> {
+    let map = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(office())?)?;
+    let g = mrmm_core::traffic::layout::segmented(&map, mrmm_core::traffic::authority::SEGMENT_M);
+    let layout = mrmm_core::traffic::layout::Layout::new(&g, 1.0);
+    let index = (0..layout.vertices() as u32).map(|v| (layout.route_vertex(v).node_id(), v as usize)).collect();
+    Ok((g, layout, index))
+}
+
 fn start_central(dir: &Scratch) -> anyhow::Result<(common::Proc, String)> {
     let (map, state) = (format!("office={}", office().display()), dir.path("central-state").display().to_string());
     let p = start(
@@ -304,12 +315,7 @@ async fn virtual_agvs_join_a_mission_follow_their_plans_and_drop_out_when_killed
     let created: MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&m)).await?;
     let epoch = created.manager.epoch;
     let mut seen = Seen::default();
-    // Traffic's vertices (the map's, and the points its lanes are cut at) by their node ids: the
-    // map's names where a vertex has one of its own, else `v<index>`.
-    let map = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(office())?)?;
-    let g = mrmm_core::traffic::layout::segmented(&map, mrmm_core::traffic::authority::SEGMENT_M);
-    let layout = mrmm_core::traffic::layout::Layout::new(&g, 1.0);
-    let index: HashMap<String, usize> = (0..layout.vertices() as u32).map(|v| (layout.route_vertex(v).node_id(), v as usize)).collect();
+    let (g, layout, index) = traffic_nodes()?;
     // Both AGVs drive their plans along the map's vertices: each passes at least three of them.
     eventually("each AGV past 3 of the map's vertices", Duration::from_secs(60), || {
         seen.take(&lines);
@@ -431,6 +437,16 @@ async fn simulated_vehicles_on_the_embedded_broker_drive_a_mission_pause_with_it
     let moved = |from: &[(f64, f64)], now: &[(f64, f64)], d: f64| from.iter().zip(now).all(|(a, b)| (a.0 - b.0).hypot(a.1 - b.1) > d);
     eventually("both vehicles driving their plans", Duration::from_secs(30), || async { poses(&client, &ids).await.filter(|p| moved(&start_at, p, 1.0)) })
         .await?;
+    // What each vehicle says of itself is in the robots' view: the last node it passed, one of
+    // traffic's (by the map's name, or its index), and that it drives.
+    let (_, _, index) = traffic_nodes()?;
+    let said = |v: &[RobotView]| -> Vec<proto::VehicleState> { ids.iter().filter_map(|id| robots_view(v, id)?.vehicle).collect() };
+    eventually("each vehicle's last node and driving in the robots' view", Duration::from_secs(30), || async {
+        let v: Vec<RobotView> = client.query(proto::Key::SystemRobots, None::<&()>).await.ok()?;
+        let s = said(&v);
+        (s.len() == 2 && s.iter().all(|s| index.contains_key(&s.last_node) && s.driving && s.errors.is_empty())).then_some(())
+    })
+    .await?;
 
     // Paused: the vehicles are told startPause and stand.
     let pause = proto::MissionPause { name: "p".into() };

@@ -164,6 +164,7 @@ mod tests {
             last_mission: None,
             stuck: None,
             battery: None,
+            vehicle: None,
         }
     }
 

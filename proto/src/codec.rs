@@ -17,7 +17,7 @@ pub const JSON_MAX_BYTES: usize = 4 << 20;
 /// Largest telemetry payload we accept: a garbage length prefix cannot make us allocate more.
 pub const TELEMETRY_MAX_BYTES: usize = 64 * 1024;
 /// Prefix of a bincode telemetry payload: protocol name and version.
-pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM5";
+pub const TELEMETRY_MAGIC: [u8; 4] = *b"MRM6";
 /// Media type of every JSON payload.
 pub const JSON: &str = "application/json";
 
@@ -122,7 +122,7 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
     if bytes.len() > TELEMETRY_MAX_BYTES {
         return Err(ProtoError::decode("telemetry", format!("{} bytes", bytes.len())));
     }
-    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::decode("telemetry", "no MRM5 prefix"))?;
+    let body = bytes.strip_prefix(&TELEMETRY_MAGIC[..]).ok_or_else(|| ProtoError::decode("telemetry", "no MRM6 prefix"))?;
     let (t, used): (Telemetry, usize) = bincode::serde::decode_from_slice(body, wire_config()).map_err(|e| ProtoError::decode("telemetry", e))?;
     if used != body.len() {
         return Err(ProtoError::decode("telemetry", format!("{} trailing bytes", body.len() - used)));
@@ -133,6 +133,9 @@ pub fn decode_telemetry(bytes: &[u8]) -> Result<Telemetry, ProtoError> {
     crate::keys::validate_id(t.id.as_str()).map_err(|e| ProtoError::decode("telemetry", e))?;
     if let Some(b) = &t.battery {
         b.check().map_err(|e| ProtoError::decode("telemetry", e))?;
+    }
+    if let Some(v) = &t.vehicle {
+        v.check().map_err(|e| ProtoError::decode("telemetry", e))?;
     }
     Ok(t)
 }
@@ -168,6 +171,13 @@ mod tests {
             stuck: Some("Nav2 rejected the goal".into()),
             info_rev: 0,
             battery: Some(crate::robot::BatteryState { charge: 0.5, charging: true, reach_m: Some(120.0) }),
+            vehicle: Some(Box::new(crate::robot::VehicleState {
+                last_node: "pantry".into(),
+                driving: true,
+                paused: false,
+                errors: vec![crate::robot::VehicleError { kind: "noRouteError".into(), level: "WARNING".into(), description: None }],
+                actions: vec![crate::robot::VehicleAction { id: "a1".into(), kind: Some("startPause".into()), status: "RUNNING".into() }],
+            })),
         }
     }
 
@@ -175,7 +185,7 @@ mod tests {
     fn telemetry_round_trips() {
         let t = sample();
         let bytes = encode_telemetry(&t).expect("encode");
-        assert_eq!(&bytes[..4], b"MRM5");
+        assert_eq!(&bytes[..4], b"MRM6");
         assert_eq!(decode_telemetry(&bytes).expect("decode"), t);
     }
 
@@ -200,10 +210,21 @@ mod tests {
             let e = decode_telemetry(&encode_telemetry(&bad).expect("encode")).expect_err("refused");
             assert!(e.to_string().contains("battery"), "{e}");
         }
-        // An older robot's telemetry (the version before batteries) is named as foreign.
+        // A vehicle's state over its bounds: refused.
+        let mut bad = sample();
+        if let Some(v) = bad.vehicle.as_mut() {
+            v.last_node = "n".repeat(crate::robot::MAX_VEHICLE_WORD + 1);
+        }
+        assert!(decode_telemetry(&encode_telemetry(&bad).expect("encode")).expect_err("refused").to_string().contains("vehicle"));
+        let mut bad = sample();
+        if let Some(v) = bad.vehicle.as_mut() {
+            v.errors = vec![v.errors[0].clone(); crate::robot::MAX_VEHICLE_ITEMS + 1];
+        }
+        assert!(decode_telemetry(&encode_telemetry(&bad).expect("encode")).expect_err("refused").to_string().contains("vehicle"));
+        // An older robot's telemetry (the version before vehicles' states) is named as foreign.
         let mut old = bytes.clone();
-        old[..4].copy_from_slice(b"MRM4");
-        assert!(decode_telemetry(&old).expect_err("old").to_string().contains("MRM5"));
+        old[..4].copy_from_slice(b"MRM5");
+        assert!(decode_telemetry(&old).expect_err("old").to_string().contains("MRM6"));
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! every payload type, the codecs with their size limits ([`codec`]) and the publication policy
 //! ([`policy`]). No I/O: sessions are `mrmm-net`'s.
 //!
-//! Payloads are JSON (`application/json`) except telemetry, which is bincode behind the `MRM5`
+//! Payloads are JSON (`application/json`) except telemetry, which is bincode behind the `MRM6`
 //! prefix. Every error reply on an operator key is a Zenoh reply error whose payload is
 //! [`ErrorReply`] (`{"error": "…"}`). The key space is tabled in [`keys`].
 

@@ -88,6 +88,9 @@ pub struct RobotView {
     /// The robot's battery as it last reported it, if it has one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub battery: Option<crate::robot::BatteryState>,
+    /// A VDA 5050 vehicle's own word on itself, as its robot last reported it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<crate::robot::VehicleState>,
 }
 
 /// Fleet summary (`mrmm/system/status`).

@@ -69,6 +69,79 @@ pub struct Telemetry {
     /// The robot's battery, when it has one that it knows of.
     #[serde(default)]
     pub battery: Option<BatteryState>,
+    /// A VDA 5050 vehicle's own word on itself, beyond pose, speed and battery (boxed: most
+    /// robots have none, and telemetry travels by value).
+    #[serde(default)]
+    pub vehicle: Option<Box<VehicleState>>,
+}
+
+/// Errors, and actions, a vehicle's state carries at most in telemetry and the robots' view.
+pub const MAX_VEHICLE_ITEMS: usize = 8;
+/// Characters of a vehicle's node id, error or action type, level or status at most (longer is
+/// cut).
+pub const MAX_VEHICLE_WORD: usize = 64;
+/// Characters of a vehicle's error description at most (longer is cut).
+pub const MAX_VEHICLE_TEXT: usize = 256;
+
+/// What a VDA 5050 vehicle says of itself in its `state`, beyond pose, speed and battery
+/// (telemetry; `vehicle` in the robots' view).
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct VehicleState {
+    /// The node it passed last (`lastNodeId`; empty before its first).
+    pub last_node: String,
+    pub driving: bool,
+    pub paused: bool,
+    /// Its errors, FATAL first, at most [`MAX_VEHICLE_ITEMS`].
+    #[serde(default)]
+    pub errors: Vec<VehicleError>,
+    /// Its actions, those not yet ended first, at most [`MAX_VEHICLE_ITEMS`].
+    #[serde(default)]
+    pub actions: Vec<VehicleAction>,
+}
+
+/// An error a vehicle reports (`errors[]`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct VehicleError {
+    /// `errorType`: `orderError`, `noRouteError`, the maker's own.
+    pub kind: String,
+    /// `errorLevel`: `WARNING` or `FATAL`.
+    pub level: String,
+    /// (No `skip_serializing_if` here or below: telemetry is bincode, which must see every field.)
+    #[serde(default)]
+    pub description: Option<String>,
+}
+
+/// An action a vehicle reports the state of (`actionStates[]`).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct VehicleAction {
+    pub id: String,
+    /// `actionType`, where the vehicle says it.
+    #[serde(default)]
+    pub kind: Option<String>,
+    /// `WAITING`, `INITIALIZING`, `RUNNING`, `PAUSED`, `FINISHED` or `FAILED`.
+    pub status: String,
+}
+
+impl VehicleState {
+    /// Checks what a robot says: at most [`MAX_VEHICLE_ITEMS`] errors and actions, no word over
+    /// [`MAX_VEHICLE_WORD`] characters, no description over [`MAX_VEHICLE_TEXT`].
+    pub fn check(&self) -> Result<(), String> {
+        if self.errors.len() > MAX_VEHICLE_ITEMS || self.actions.len() > MAX_VEHICLE_ITEMS {
+            return Err(format!("vehicle: more than {MAX_VEHICLE_ITEMS} errors or actions"));
+        }
+        let words = std::iter::once(&self.last_node)
+            .chain(self.errors.iter().flat_map(|e| [&e.kind, &e.level]))
+            .chain(self.actions.iter().flat_map(|a| std::iter::once(&a.id).chain(&a.kind).chain(std::iter::once(&a.status))));
+        for w in words {
+            if w.chars().count() > MAX_VEHICLE_WORD {
+                return Err(format!("vehicle: a word of more than {MAX_VEHICLE_WORD} characters"));
+            }
+        }
+        if self.errors.iter().filter_map(|e| e.description.as_ref()).any(|d| d.chars().count() > MAX_VEHICLE_TEXT) {
+            return Err(format!("vehicle: an error description of more than {MAX_VEHICLE_TEXT} characters"));
+        }
+        Ok(())
+    }
 }
 
 /// Farthest a robot may say its battery takes it, metres (a reach past it is shown as this).
@@ -116,6 +189,7 @@ impl Telemetry {
             stuck: None,
             info_rev: 0,
             battery: None,
+            vehicle: None,
         }
     }
 }

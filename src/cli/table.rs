@@ -23,13 +23,14 @@ pub fn render(header: &[&str], rows: &[Vec<String>]) -> String {
     out
 }
 
-/// The fleet table.
+/// The fleet table; with a VEHICLE column where a robot is a VDA 5050 vehicle.
 pub fn robots(views: &[RobotView]) -> String {
+    let vehicles = views.iter().any(|v| v.vehicle.is_some());
     let rows: Vec<Vec<String>> = views
         .iter()
         .map(|v| {
             let pose = v.pose.map(|p| format!("({:7.2}, {:7.2}) {:5.0}°", p.x, p.y, p.theta.to_degrees())).unwrap_or_else(|| "-".into());
-            vec![
+            let mut row = vec![
                 v.id.to_string(),
                 v.robot_type.clone(),
                 v.status.as_str().to_string(),
@@ -38,10 +39,37 @@ pub fn robots(views: &[RobotView]) -> String {
                 v.behaviour.clone().unwrap_or_else(|| "-".into()),
                 pose,
                 v.capabilities.join(","),
-            ]
+            ];
+            if vehicles {
+                row.push(vehicle(v.vehicle.as_ref()));
+            }
+            row
         })
         .collect();
-    render(&["ID", "TYPE", "STATUS", "BATTERY", "MISSION", "BEHAVIOUR", "POSE (x, y) heading", "CAPABILITIES"], &rows)
+    let mut header = vec!["ID", "TYPE", "STATUS", "BATTERY", "MISSION", "BEHAVIOUR", "POSE (x, y) heading", "CAPABILITIES"];
+    if vehicles {
+        header.push("VEHICLE");
+    }
+    render(&header, &rows)
+}
+
+/// A VDA 5050 vehicle's cell: `@pantry driving`, `@v12 paused FATAL orderError (+1)`, `-` for
+/// another robot.
+fn vehicle(v: Option<&mrmm_proto::VehicleState>) -> String {
+    let Some(v) = v else { return "-".into() };
+    let mut cell = if v.last_node.is_empty() { "@-".to_string() } else { format!("@{}", v.last_node) };
+    if v.paused {
+        cell.push_str(" paused");
+    } else if v.driving {
+        cell.push_str(" driving");
+    }
+    if let Some(e) = v.errors.first() {
+        cell.push_str(&format!(" {} {}", e.level, e.kind));
+        if v.errors.len() > 1 {
+            cell.push_str(&format!(" (+{})", v.errors.len() - 1));
+        }
+    }
+    cell
 }
 
 /// A battery's cell: `73% 410 m`, `40% charging`, `-` without one.
@@ -101,6 +129,7 @@ mod tests {
             last_mission: None,
             stuck: None,
             battery,
+            vehicle: None,
         };
         let t = robots(&[
             view("r1", Some(BatteryState { charge: 0.734, charging: false, reach_m: Some(410.4) })),
@@ -114,5 +143,35 @@ mod tests {
         assert!(lines[2].contains("40% charging"), "{t}");
         assert!(lines[3].contains(" 5% "), "{t}");
         assert!(lines[4].contains("idle    -"), "{t}");
+        assert!(!lines[0].contains("VEHICLE"), "no vehicle, no column: {t}");
+    }
+
+    #[test]
+    fn the_fleet_table_shows_what_a_vehicle_says_of_itself() {
+        use mrmm_proto::{RobotStatus, VehicleError, VehicleState};
+        let mut agv = RobotView {
+            id: "agv1".into(),
+            robot_type: "ground".into(),
+            capabilities: vec![],
+            status: RobotStatus::Busy,
+            mission: None,
+            pose: None,
+            behaviour: None,
+            last_mission: None,
+            stuck: None,
+            battery: None,
+            vehicle: Some(VehicleState { last_node: "pantry".into(), driving: true, ..VehicleState::default() }),
+        };
+        let robot = RobotView { id: "r1".into(), vehicle: None, ..agv.clone() };
+        let t = robots(&[agv.clone(), robot.clone()]);
+        assert!(t.lines().next().is_some_and(|h| h.ends_with("VEHICLE")) && t.contains("@pantry driving"), "{t}");
+        let error = |level: &str, kind: &str| VehicleError { kind: kind.into(), level: level.into(), description: None };
+        agv.vehicle = Some(VehicleState {
+            last_node: "v12".into(),
+            paused: true,
+            errors: vec![error("FATAL", "orderError"), error("WARNING", "x")],
+            ..VehicleState::default()
+        });
+        assert!(robots(&[agv, robot]).contains("@v12 paused FATAL orderError (+1)"));
     }
 }

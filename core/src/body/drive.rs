@@ -117,6 +117,14 @@ impl Drive {
         }
     }
 
+    /// A VDA 5050 vehicle's own word on itself (telemetry's `vehicle`); other bodies have none.
+    pub fn vehicle(&self) -> Option<&mrmm_proto::VehicleState> {
+        match self {
+            Drive::Vda(d) => d.said(),
+            _ => None,
+        }
+    }
+
     pub fn hold(&mut self) {
         match self {
             Drive::Sim(b) => b.hold(),

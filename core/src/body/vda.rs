@@ -13,7 +13,7 @@
 use std::collections::VecDeque;
 
 use mrmm_proto::traffic::RouteVertex;
-use mrmm_proto::{BatteryState, Pose, Velocity};
+use mrmm_proto::{BatteryState, Pose, VehicleState, Velocity, MAX_VEHICLE_ITEMS, MAX_VEHICLE_TEXT, MAX_VEHICLE_WORD};
 use mrmm_vda5050::{instant, Action, BlockingType, FromVehicle, Order, OrderBook, State, Visualization, Waypoint};
 
 use crate::body::Limits;
@@ -85,6 +85,8 @@ pub struct VdaDrive {
     /// A `stopPause` sent that the vehicle has not yet said ended: a vehicle may refuse a
     /// `startPause` until it is driving again.
     unpausing: Option<String>,
+    /// What the vehicle's last state said of it beyond pose, speed and battery.
+    said: Option<VehicleState>,
     /// Instant actions sent, and points off the map's vertices named: ids.
     actions: u64,
     points: u64,
@@ -112,6 +114,7 @@ impl VdaDrive {
             pause_due: false,
             pausing: None,
             unpausing: None,
+            said: None,
             actions: 0,
             points: 0,
             prefix: prefix.to_string(),
@@ -136,6 +139,12 @@ impl VdaDrive {
 
     pub fn stuck(&self) -> Option<&str> {
         self.stuck.as_deref()
+    }
+
+    /// What the vehicle's last state said of it beyond pose, speed and battery (its last node,
+    /// errors, actions), cut to what telemetry carries.
+    pub fn said(&self) -> Option<&VehicleState> {
+        self.said.as_ref()
     }
 
     /// The goal's position, until the vehicle passed its node.
@@ -321,6 +330,7 @@ impl VdaDrive {
         if !state.last_node_id.is_empty() {
             self.last_node.clone_from(&state.last_node_id);
         }
+        self.said = Some(summary(state));
         // Paused or not, as the vehicle says (unless a pause or its end is on its way).
         if let (None, None, Some(p)) = (&self.pausing, &self.unpausing, state.paused) {
             self.paused = p;
@@ -388,6 +398,35 @@ impl VdaDrive {
     pub fn take(&mut self) -> Vec<VdaOut> {
         self.pause_if_due();
         std::mem::take(&mut self.out)
+    }
+}
+
+/// What a vehicle's state says of it beyond pose, speed and battery, cut to what telemetry
+/// carries: FATAL errors first, actions not yet ended first.
+fn summary(state: &State) -> VehicleState {
+    let word = |s: &str| s.chars().take(MAX_VEHICLE_WORD).collect::<String>();
+    let mut errors: Vec<_> = state.errors.iter().collect();
+    errors.sort_by_key(|e| e.error_level != "FATAL");
+    let mut actions: Vec<_> = state.action_states.iter().collect();
+    actions.sort_by_key(|a| matches!(a.action_status.as_str(), "FINISHED" | "FAILED"));
+    VehicleState {
+        last_node: word(&state.last_node_id),
+        driving: state.driving,
+        paused: state.paused.unwrap_or(false),
+        errors: errors
+            .into_iter()
+            .take(MAX_VEHICLE_ITEMS)
+            .map(|e| mrmm_proto::VehicleError {
+                kind: word(&e.error_type),
+                level: word(&e.error_level),
+                description: e.error_description.as_ref().map(|d| d.chars().take(MAX_VEHICLE_TEXT).collect()),
+            })
+            .collect(),
+        actions: actions
+            .into_iter()
+            .take(MAX_VEHICLE_ITEMS)
+            .map(|a| mrmm_proto::VehicleAction { id: word(&a.action_id), kind: a.action_type.as_deref().map(word), status: word(&a.action_status) })
+            .collect(),
     }
 }
 
@@ -483,6 +522,32 @@ mod tests {
         assert!(d.take().is_empty());
         d.navigate_lane(&v(4, 4.0), &[], &[], None);
         assert_eq!(nodes(d.take()), [n("v3", 6, true), n("v4", 8, true)]);
+    }
+
+    /// What the vehicle's state says goes to telemetry cut to its bounds: FATAL errors first,
+    /// actions not yet ended first, no more than telemetry carries.
+    #[test]
+    fn the_vehicles_own_word_is_kept_within_telemetrys_bounds() {
+        use mrmm_vda5050::msg::{ActionState, VehicleError};
+        let mut d = drive();
+        let mut s = state("gw-1", "pantry", 2, true, 1.0);
+        s.paused = Some(true);
+        let error = |level: &str, text: String| VehicleError { error_type: "noRouteError".into(), error_level: level.into(), error_description: Some(text) };
+        s.errors = (0..20).map(|_| error("WARNING", "w".into())).chain([error("FATAL", "x".repeat(1000))]).collect();
+        let action = |id: &str, status: &str| ActionState {
+            action_id: id.into(),
+            action_type: Some("startPause".into()),
+            action_status: status.into(),
+            ..Default::default()
+        };
+        s.action_states = (0..10).map(|i| action(&format!("a{i}"), "FINISHED")).chain([action(&"b".repeat(100), "RUNNING")]).collect();
+        d.on_state(&s);
+        let said = d.said().expect("said").clone();
+        assert_eq!((said.last_node.as_str(), said.driving, said.paused), ("pantry", true, true));
+        assert_eq!((said.errors.len(), said.errors[0].level.as_str()), (MAX_VEHICLE_ITEMS, "FATAL"));
+        assert_eq!(said.errors[0].description.as_ref().map(|d| d.len()), Some(MAX_VEHICLE_TEXT));
+        assert_eq!((said.actions.len(), said.actions[0].status.as_str(), said.actions[0].id.len()), (MAX_VEHICLE_ITEMS, "RUNNING", MAX_VEHICLE_WORD));
+        said.check().expect("within telemetry's bounds");
     }
 
     /// A vertex the map names alone is the node of that name; the others go by index.

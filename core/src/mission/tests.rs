@@ -215,6 +215,7 @@ fn tel(id: &str, x: f64, y: f64, syncs: u32, round: u32) -> Telemetry {
         stuck: None,
         info_rev: 0,
         battery: None,
+        vehicle: None,
     }
 }
 

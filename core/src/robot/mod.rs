@@ -469,7 +469,12 @@ impl Robot {
                     }
                     None => self.body.navigate_through(x, y, then, speed),
                 },
-                executor::Command::Hold => self.body.hold(),
+                executor::Command::Hold => {
+                    self.body.hold();
+                    if let Some(g) = self.traffic.as_mut() {
+                        g.stop();
+                    }
+                }
                 executor::Command::Face { x, y } => self.body.face(x, y),
                 executor::Command::Publish(s) => out.push(Command::Publish(s)),
                 executor::Command::PublishIn(team, s) => out.push(Command::PublishIn(team, s)),
@@ -496,6 +501,7 @@ impl Robot {
             stuck: self.body.stuck().map(str::to_string),
             info_rev: self.info_rev,
             battery: self.body.battery(),
+            vehicle: self.body.vehicle().cloned().map(Box::new),
         }
     }
 }

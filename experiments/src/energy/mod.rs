@@ -465,6 +465,7 @@ impl<'a> World<'a> {
             last_mission: None,
             stuck: None,
             battery: self.bodies[i].battery().map(|b| b.state(SPEED)),
+            vehicle: None,
         }
     }
 

@@ -6,7 +6,7 @@
 //! |---|---|---|
 //! | `mrmm/robots/<id>/alive` | liveliness token of a robot | — |
 //! | `mrmm/robots/<id>/info` | queryable on the robot | [`crate::RobotInfo`] |
-//! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`crate::Telemetry`] (bincode behind `MRM5`) |
+//! | `mrmm/robots/<id>/telemetry` | publication by the robot | [`crate::Telemetry`] (bincode behind `MRM6`) |
 //! | `mrmm/robots/<id>/cmd` | queryable on the robot | [`crate::RobotCommand`] → [`crate::CommandAck`] |
 //! | `mrmm/team/<team path>/<type>/member/<id>` | liveliness token of a member of a leaf team | — |
 //! | `mrmm/team/<team path>/sync/<point>/<round>` | publication by each member at a barrier of that team | [`crate::SyncArrival`] |

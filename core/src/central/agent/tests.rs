@@ -16,6 +16,7 @@ fn robot(id: &str, status: RobotStatus, mission: Option<&str>, x: f64, behaviour
         last_mission: None,
         stuck: None,
         battery: None,
+        vehicle: None,
     }
 }
 

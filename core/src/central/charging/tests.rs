@@ -18,6 +18,7 @@ fn robot(id: &str, charge: f64, mission: Option<&str>, (x, y): (f64, f64)) -> Ro
         last_mission: None,
         stuck: None,
         battery: Some(BatteryState { charge, charging: false, reach_m: None }),
+        vehicle: None,
     }
 }
 

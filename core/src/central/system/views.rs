@@ -82,6 +82,7 @@ impl SystemManager {
             last_mission,
             stuck: rec.last.as_ref().and_then(|t| t.stuck.clone()).filter(|_| rec.alive),
             battery: rec.last.as_ref().and_then(|t| t.battery),
+            vehicle: rec.last.as_ref().and_then(|t| t.vehicle.as_deref().cloned()),
         })
     }
 

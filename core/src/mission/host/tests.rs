@@ -158,6 +158,7 @@ fn progress(id: &str, mission: &str, epoch: u64) -> Event {
         stuck: None,
         info_rev: 0,
         battery: None,
+        vehicle: None,
     }))
 }
 
