@@ -187,9 +187,6 @@ impl Robot {
         self.route.clear();
         self.unsent = None;
         self.body.hold();
-        if let Some(g) = self.traffic.as_mut() {
-            g.stop();
-        }
         let exec = match a.handover {
             Some(h) => Executor::taking_over(a.clone(), h.step, h.round),
             None => Executor::new(a.clone()),

@@ -469,12 +469,7 @@ impl Robot {
                     }
                     None => self.body.navigate_through(x, y, then, speed),
                 },
-                executor::Command::Hold => {
-                    self.body.hold();
-                    if let Some(g) = self.traffic.as_mut() {
-                        g.stop();
-                    }
-                }
+                executor::Command::Hold => self.body.hold(),
                 executor::Command::Face { x, y } => self.body.face(x, y),
                 executor::Command::Publish(s) => out.push(Command::Publish(s)),
                 executor::Command::PublishIn(team, s) => out.push(Command::PublishIn(team, s)),

@@ -598,91 +598,43 @@ fn a_vda_vehicle_driving_back_to_the_lanes_is_sent_its_next_grant_on_the_way() {
     assert!(p.x.abs() < 0.1 && (p.y + 1.0).abs() < 0.1, "at the second goal: {p:?}");
 }
 
-/// The plan paused (a hold plan, as a paused mission sends) while the robot drives a lane of a
-/// long grant: it stops at the end of that lane and drives no further toward its old goal, and
-/// asks traffic for nothing more.
+/// A way off the lanes given, and traffic quiet by the time the robot stands at the route's last
+/// vertex: it waits there (the goal is not reached, the plan does not go on) until traffic speaks
+/// again, then drives off to the goal.
 #[test]
-fn a_robot_paused_on_the_lanes_stops_at_the_end_of_its_lane() {
+fn a_way_off_the_lanes_waits_for_traffic_gone_quiet() {
     use mrmm_proto::traffic::RouteVertex;
-    let (mut r, map) = planned_on_map(Some(vec![Step::Navigate { x: 100.0, y: 0.0, speed: None }, Step::Hold { seconds: None }]));
-    let route = vec![RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 2.0, 0.0), RouteVertex::at(2, 4.0, 0.0), RouteVertex::at(3, 100.0, 0.0)];
-    let order = mrmm_proto::TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route, reached: Some(0), upto: Some(3), deputies: vec![], off: None };
+    let (mut r, map) = planned_on_map(Some(vec![Step::Navigate { x: 40.0, y: 1.0, speed: None }, Step::Hold { seconds: None }]));
+    let order = || Event::Traffic {
+        map: map.hash.clone(),
+        order: mrmm_proto::TrafficOrder::Route {
+            goal: 1,
+            incarnation: 1,
+            version: 1,
+            route: vec![RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 40.0, 0.0)],
+            reached: Some(0),
+            upto: Some(1),
+            deputies: vec![],
+            off: Some([40.0, 1.0]),
+        },
+        deputy: false,
+    };
+    // 40 m at 8 m/s (2 m/s, time scale 4): at the vertex after traffic's 3 s of quiet.
     r.handle(0.0, Event::Tick);
-    let mut t = 0.01;
-    let mut asked_after = false;
-    let mut paused = false;
-    while t < 20.0 {
-        // The authority answers every report with the same order.
-        let out = r.handle(t, Event::Tick);
-        if out.iter().any(|c| matches!(c, Command::TrafficReport { .. })) {
-            r.handle(t, Event::Traffic { map: map.hash.clone(), order: order.clone(), deputy: false });
-        }
-        asked_after |= paused && out.iter().any(|c| matches!(c, Command::TrafficReport { report, .. } if report.goal.is_some()));
-        if !paused && r.body.pose().x > 1.0 {
-            let RobotCommand::Plan(mut a) = plan("m", 2) else { unreachable!() };
-            a.map = Some(map.clone());
-            a.plan.steps = vec![Step::Stream, Step::Hold { seconds: None }];
-            cmd(&mut r, RobotCommand::Plan(a)).0.expect("the hold plan taken");
-            paused = true;
-        }
+    r.handle(0.01, order());
+    let mut t = 0.02;
+    while t < 10.0 {
+        r.handle(t, Event::Tick);
         t += 0.01;
     }
-    let x = r.body.pose().x;
-    assert!(paused && (x - 2.0).abs() < 0.1, "stopped at the lane's end (2, 0), not on toward its old goal: x = {x}");
-    assert!(!asked_after, "asked traffic for its old goal after the pause");
-}
-
-/// The same for a VDA 5050 vehicle (against the simulated one): paused on a lane it is told
-/// `startPause` and stands where it is, with its order kept — no `cancelOrder`.
-#[test]
-fn a_vda_vehicle_paused_on_the_lanes_is_paused_where_it_is() {
-    use crate::body::vda::VdaOut;
-    use mrmm_proto::traffic::RouteVertex;
-    use mrmm_vda5050::sim::{SimIn, SimOut, SimVehicle};
-    use mrmm_vda5050::{FromVehicle, InstantActions, VehicleId};
-    let (mut r, map) = plan_on_map(vda_robot(), Some(vec![Step::Navigate { x: 100.0, y: 0.0, speed: None }, Step::Hold { seconds: None }]));
-    let mut vehicle = SimVehicle::new(VehicleId::new("mrmm", "agv1").unwrap(), "m", (0.0, 0.0, 0.0), 1.0);
-    let route = vec![RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 2.0, 0.0), RouteVertex::at(2, 4.0, 0.0), RouteVertex::at(3, 100.0, 0.0)];
-    let order = mrmm_proto::TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route, reached: Some(0), upto: Some(3), deputies: vec![], off: None };
-    let mut to_robot: Vec<SimOut> = vehicle.connect(0);
-    r.handle(0.0, Event::Tick);
-    let (mut paused, mut sent) = (None, Vec::new());
-    for k in 1..1000u64 {
-        let t = k as f64 * 0.01;
-        for out in to_robot.drain(..) {
-            let msg = match out {
-                SimOut::State(s) => FromVehicle::State(s),
-                SimOut::Visualization(v) => FromVehicle::Visualization(v),
-                _ => continue,
-            };
-            r.handle(t, Event::Vda(Box::new(msg)));
-        }
-        if paused.is_none() && r.body.pose().x > 1.0 {
-            let RobotCommand::Plan(mut a) = plan("m", 2) else { unreachable!() };
-            a.map = Some(map.clone());
-            a.plan.steps = vec![Step::Stream, Step::Hold { seconds: None }];
-            cmd(&mut r, RobotCommand::Plan(a)).0.expect("the hold plan taken");
-            paused = Some(r.body.pose().x);
-        }
-        for c in r.handle(t, Event::Tick) {
-            let input = match c {
-                Command::TrafficReport { .. } => {
-                    r.handle(t, Event::Traffic { map: map.hash.clone(), order: order.clone(), deputy: false });
-                    continue;
-                }
-                Command::Vda(VdaOut::Order(o)) => SimIn::Order(o),
-                Command::Vda(VdaOut::Instant(actions)) => {
-                    sent.extend(actions.iter().map(|a| a.action_type.clone()));
-                    SimIn::Instant(InstantActions { header: Default::default(), actions })
-                }
-                _ => continue,
-            };
-            to_robot.extend(vehicle.handle(k * 10, input));
-        }
-        to_robot.extend(vehicle.handle(k * 10, SimIn::Tick));
+    let p = r.body.pose();
+    assert!((p.x - 40.0).abs() < 0.1 && p.y.abs() < 0.1, "waits at the vertex: {p:?}");
+    assert_eq!(telemetry(&mut r, t).progress.map(|p| p.step), Some(0), "the goal off the lanes is not reached");
+    r.handle(t, order());
+    while t < 13.0 {
+        r.handle(t, Event::Tick);
+        t += 0.01;
     }
-    let (at, x) = (paused.expect("paused on the lane"), vehicle.pose().0);
-    assert_eq!(sent, ["startPause"], "paused, its order kept");
-    assert!(x < 2.0 && x - at < 0.3, "stands where it was paused ({at:.2}), on the lane: x = {x:.2}");
-    assert!(vehicle.state().paused == Some(true));
+    let p = r.body.pose();
+    assert!((p.x - 40.0).abs() < 0.1 && (p.y - 1.0).abs() < 0.1, "at the goal once traffic spoke again: {p:?}");
 }

@@ -131,15 +131,6 @@ impl Gate {
         self.changed = true;
     }
 
-    /// The plan holds (a hold step, a new plan, the mission paused): no goal; the robot stops at
-    /// the end of the lane it drives (a body that drives on through its grant — a VDA 5050
-    /// vehicle — stops where it is, paused, keeping the lane) and asks for nothing more.
-    pub fn stop(&mut self) {
-        if self.goal.take().is_some() {
-            self.changed = true;
-        }
-    }
-
     /// An order of the map's traffic authority, heard at `now` (`deputy`: from one of its
     /// deputies, central away).
     pub fn order(&mut self, now: f64, order: TrafficOrder, deputy: bool) {
@@ -235,9 +226,6 @@ impl Gate {
                 return false;
             }
             if !near(v.x, v.y) && !body.passed(&v) {
-                if body.drives_on() && self.goal.is_none() {
-                    return true; // paused on the lane, which it holds, until its next goal
-                }
                 // Stopped on the lane (held by the plan): on to the vertex, the lane is ours.
                 body.navigate_vertex(&v, self.goal.and_then(|g| g.speed));
                 return false;
@@ -292,7 +280,13 @@ impl Gate {
                 }
                 false
             }
-            _ => body.idle(),
+            // A way off the lanes was given, but traffic went quiet before the robot set out on
+            // it: it waits at the vertex for traffic's word (the goal is not reached).
+            Some(_) => {
+                self.waiting = true;
+                false
+            }
+            None => body.idle(),
         }
     }
 

@@ -11,6 +11,8 @@
 //!   robot: "agv.json5",                    // a robot config: every vehicle's type, capabilities,
 //!                                          // top speed, zenoh and security (its id is ignored)
 //!   ids: { "acme/0042": "agv-42" },        // fleet ids (default <manufacturer>-<serialNumber>)
+//!   types: { FORKLIFT: "forklift" },       // robot types by the factsheet's agvClass (default:
+//!                                          // the robot config's type)
 //!   max_vehicles: 200,
 //!   silence_s: 35,                         // a vehicle not heard for this long is gone
 //! }
@@ -50,6 +52,10 @@ pub struct GatewayConfig {
     pub robot: PathBuf,
     #[serde(default)]
     pub ids: BTreeMap<String, String>,
+    /// Robot types by the factsheet's `typeSpecification.agvClass` (`FORKLIFT`, `CARRIER`, …);
+    /// a class not named here (or no factsheet) keeps the robot config's type.
+    #[serde(default)]
+    pub types: BTreeMap<String, String>,
     #[serde(default = "max_vehicles")]
     pub max_vehicles: usize,
     /// A vehicle heard of for this long (no state, no visualization) is gone, seconds.
@@ -165,6 +171,9 @@ impl GatewayConfig {
             (_, Some(t)) if t.cert.is_some() != t.key.is_some() => return Err("tls: cert and key go together".into()),
             _ => {}
         }
+        for (class, t) in &self.types {
+            mrmm_proto::validate_id(t).map_err(|_| format!("types.{class}: invalid robot type {t:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -"))?;
+        }
         for (vehicle, id) in &self.ids {
             let (m, s) = vehicle.split_once('/').ok_or_else(|| format!("ids: {vehicle:?} is not <manufacturer>/<serialNumber>"))?;
             VehicleId::new(m, s).map_err(|e| format!("ids: {e}"))?;
@@ -222,6 +231,7 @@ mod tests {
         assert!(bad(r#"{ broker: "h", map: "", robot: "r" }"#).starts_with("map:"));
         assert!(bad(r#"{ broker: "h", map: "m", robot: "r", ids: { "acme": "x" } }"#).contains("not <manufacturer>/<serialNumber>"));
         assert!(bad(r#"{ broker: "h", map: "m", robot: "r", ids: { "a/b": "no way" } }"#).contains("invalid robot id"));
+        assert!(bad(r#"{ broker: "h", map: "m", robot: "r", types: { FORKLIFT: "fork lift" } }"#).starts_with("types.FORKLIFT: invalid robot type"));
         assert!(bad(r#"{ broker: "h", map: "m", robot: "r", interface: "u/agv" }"#).contains("interface"));
         assert!(json5::from_str::<GatewayConfig>(r#"{ broker: "h", map: "m", robot: "r", brokr: 1 }"#).unwrap_err().to_string().contains("brokr"));
     }

@@ -149,7 +149,7 @@ impl Gateway {
             },
             Subtopic::Factsheet => match mrmm_vda5050::parse::<Factsheet>(sub, payload) {
                 Ok(f) if self.sheets.len() < self.cfg.max_vehicles || self.sheets.contains_key(&vehicle) => {
-                    self.sheets.insert(vehicle, Sheet::of(&f));
+                    self.sheets.insert(vehicle, Sheet::of(&f, &self.cfg.types));
                 }
                 Ok(_) => {}
                 Err(e) => self.refused.note(&format!("{vehicle}: {e}")),
@@ -271,27 +271,34 @@ impl Gateway {
 }
 
 /// One vehicle's robot, from start until it stops, is killed or the gateway stops.
-/// What a vehicle's factsheet says that its robot takes: its top speed, and its work (`pick`,
-/// `drop`, …) as capabilities beside the robot config's.
+/// What a vehicle's factsheet says that its robot takes: its top speed, its type (by the
+/// gateway config's `types`), and its work (`pick`, `drop`, …) as capabilities beside the robot
+/// config's.
 #[derive(Debug, Clone, Default, PartialEq)]
 struct Sheet {
     speed: Option<f64>,
+    robot_type: Option<String>,
     work: Vec<String>,
 }
 
 impl Sheet {
-    fn of(f: &Factsheet) -> Sheet {
+    /// What factsheet `f` says, with `types` the robot types by `agvClass`.
+    fn of(f: &Factsheet, types: &BTreeMap<String, String>) -> Sheet {
         let speed = f.physical_parameters.as_ref().and_then(|p| p.speed_max).filter(|s| s.is_finite() && *s > 0.0);
+        let robot_type = f.type_specification.as_ref().and_then(|t| types.get(&t.agv_class)).cloned();
         // Those a capability can be named, as many as a robot may have.
         let work = f.work().into_iter().filter(|w| mrmm_proto::validate_capability(w).is_ok()).take(mrmm_proto::MAX_CAPABILITIES).map(str::to_string).collect();
-        Sheet { speed: speed.map(|s| s.clamp(mrmm_proto::MIN_SPEED, mrmm_proto::MAX_SPEED)), work }
+        Sheet { speed: speed.map(|s| s.clamp(mrmm_proto::MIN_SPEED, mrmm_proto::MAX_SPEED)), robot_type, work }
     }
 
-    /// Into the vehicle's robot config: its top speed, and its work added to its capabilities
-    /// (up to as many as a robot may have).
+    /// Into the vehicle's robot config: its top speed, its type, and its work added to its
+    /// capabilities (up to as many as a robot may have).
     fn apply(&self, cfg: &mut RobotConfig) {
         if let Some(s) = self.speed {
             cfg.kinematics.max_speed = s;
+        }
+        if let Some(t) = &self.robot_type {
+            cfg.robot_type.clone_from(t);
         }
         for w in &self.work {
             if cfg.capabilities.len() < mrmm_proto::MAX_CAPABILITIES && !cfg.capabilities.contains(w) {
@@ -320,17 +327,22 @@ mod tests {
     /// A factsheet's top speed and work go into its vehicle's robot: capabilities beside the
     /// config's, each once, never more than a robot may have, none a capability cannot be named.
     #[test]
-    fn a_factsheet_gives_the_robot_its_speed_and_its_work_as_capabilities() {
+    fn a_factsheet_gives_the_robot_its_speed_type_and_work_as_capabilities() {
         let f: Factsheet = serde_json::from_str(
-            r#"{"physicalParameters": {"speedMax": 1.5}, "protocolFeatures": {"agvActions": [{"actionType": "pick"}, {"actionType": "camera"}, {"actionType": "startPause"}, {"actionType": "no way"}]}}"#,
+            r#"{"typeSpecification": {"agvClass": "FORKLIFT"}, "physicalParameters": {"speedMax": 1.5}, "protocolFeatures": {"agvActions": [{"actionType": "pick"}, {"actionType": "camera"}, {"actionType": "startPause"}, {"actionType": "no way"}]}}"#,
         )
         .unwrap();
-        let mut cfg: RobotConfig =
+        let template: RobotConfig =
             json5::from_str(r#"{ id: "agv", type: "ground", capabilities: ["camera"], kinematics: { max_speed: 1.0, max_turn_rate: 2.0 } }"#).unwrap();
-        Sheet::of(&f).apply(&mut cfg);
+        let mut cfg = template.clone();
+        let types: BTreeMap<String, String> = [("FORKLIFT".to_string(), "forklift".to_string())].into();
+        Sheet::of(&f, &types).apply(&mut cfg);
         assert_eq!(cfg.capabilities, ["camera", "pick"]);
-        assert_eq!(cfg.kinematics.max_speed, 1.5);
-        let many = Sheet { speed: None, work: (0..40).map(|i| format!("a{i}")).collect() };
+        assert_eq!((cfg.kinematics.max_speed, cfg.robot_type.as_str()), (1.5, "forklift"));
+        let mut cfg = template.clone();
+        Sheet::of(&f, &BTreeMap::new()).apply(&mut cfg);
+        assert_eq!(cfg.robot_type, "ground", "a class the config does not name: the config's type");
+        let many = Sheet { speed: None, robot_type: None, work: (0..40).map(|i| format!("a{i}")).collect() };
         many.apply(&mut cfg);
         assert_eq!(cfg.capabilities.len(), mrmm_proto::MAX_CAPABILITIES);
     }
