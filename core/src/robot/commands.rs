@@ -119,10 +119,9 @@ impl Robot {
                 self.route.clear();
                 self.unsent = None;
                 self.body.hold();
-                // On lanes: it stops at the vertex nearest (after the lane it is on).
-                if let Some(g) = self.traffic.as_mut().filter(|g| !g.free()) {
-                    let p = self.body.pose();
-                    g.navigate(p.x, p.y, None);
+                // On lanes: it stops at the end of the one it drives, and gives back the rest.
+                if let Some(g) = self.traffic.as_mut() {
+                    g.stop();
                 }
             }
             RobotCommand::Plan(a) => change = self.plan(a)?,
@@ -187,6 +186,10 @@ impl Robot {
         self.route.clear();
         self.unsent = None;
         self.body.hold();
+        // On lanes: it stops at the end of the one it drives until the new plan gives a goal.
+        if let Some(g) = self.traffic.as_mut() {
+            g.stop();
+        }
         let exec = match a.handover {
             Some(h) => Executor::taking_over(a.clone(), h.step, h.round),
             None => Executor::new(a.clone()),

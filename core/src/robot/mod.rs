@@ -469,7 +469,14 @@ impl Robot {
                     }
                     None => self.body.navigate_through(x, y, then, speed),
                 },
-                executor::Command::Hold => self.body.hold(),
+                executor::Command::Hold => {
+                    self.body.hold();
+                    self.unsent = None;
+                    // On lanes: it stops at the end of the one it drives, and gives back the rest.
+                    if let Some(g) = self.traffic.as_mut() {
+                        g.stop();
+                    }
+                }
                 executor::Command::Face { x, y } => self.body.face(x, y),
                 executor::Command::Publish(s) => out.push(Command::Publish(s)),
                 executor::Command::PublishIn(team, s) => out.push(Command::PublishIn(team, s)),

@@ -131,6 +131,25 @@ impl Gate {
         self.changed = true;
     }
 
+    /// The plan holds (a hold step, its mission paused, the plan over) or the operator holds the
+    /// robot: it has no goal, stops at the end of the lane it drives (a body that drives on
+    /// through its grant — a VDA 5050 vehicle — where its hold paused it) and gives back what it
+    /// was granted beyond: it reports that it holds no further, and traffic cuts its route there
+    /// (answering with goal 0). Grants of that route heard meanwhile do not take it further; a
+    /// new route of traffic's for it (a step aside for another robot) it drives.
+    pub fn stop(&mut self) {
+        if self.goal.take().is_none() {
+            return;
+        }
+        self.changed = true;
+        self.waiting = false;
+        if let Some(h) = self.held.as_mut() {
+            let next = h.reached.map_or(0, |p| p + 1);
+            let on_lane = self.driving.as_ref().is_some_and(|v| h.route.get(next).is_some_and(|r| r.v == v.v));
+            h.upto = h.upto.min(if on_lane { Some(next) } else { h.reached });
+        }
+    }
+
     /// An order of the map's traffic authority, heard at `now` (`deputy`: from one of its
     /// deputies, central away).
     pub fn order(&mut self, now: f64, order: TrafficOrder, deputy: bool) {
@@ -150,13 +169,11 @@ impl Gate {
             }
         }
         self.heard = now;
-        let Some(goal) = self.goal else {
-            self.free |= order == TrafficOrder::Free;
-            return;
-        };
+        // Stopped, it takes routes of traffic's that know it stopped (goal 0) and no grant further.
+        let goal = self.goal.map_or(0, |g| g.id);
         match order {
             TrafficOrder::Free => self.free = true,
-            TrafficOrder::Refused { goal: g, why } if g == goal.id => self.refused = Some(why),
+            TrafficOrder::Refused { goal: g, why } if g == goal && goal != 0 => self.refused = Some(why),
             TrafficOrder::Refused { .. } => {}
             // Taken off the lanes while it was away: what it held is others' now. It stops and
             // asks for its way anew.
@@ -171,14 +188,16 @@ impl Gate {
             TrafficOrder::Route { goal: g, incarnation, version, route, reached, upto, off, .. } => {
                 let newer = self.held.as_ref().is_none_or(|h| (incarnation, version) > (h.incarnation, h.version));
                 let same = self.held.as_ref().is_some_and(|h| (incarnation, version) == (h.incarnation, h.version));
+                let stopped = self.goal.is_none();
                 if same {
                     // The authority's word on how far, as it is now (it only takes a grant back
                     // from a robot it lost, which has stopped by then).
                     if let Some(h) = self.held.as_mut() {
-                        h.upto = upto.map(|u| u as usize).filter(|&u| h.reached.is_none_or(|r| u >= r)).or(h.reached);
+                        let upto = upto.map(|u| u as usize).filter(|&u| h.reached.is_none_or(|r| u >= r)).or(h.reached);
+                        h.upto = if stopped { upto.min(h.upto) } else { upto };
                         h.off = off;
                     }
-                } else if newer && (g == goal.id || self.held.is_some()) {
+                } else if newer && (g == goal || (!stopped && self.held.is_some())) {
                     if self.held.as_ref().is_some_and(|h| h.incarnation != incarnation) {
                         tracing::info!(map = %self.map.name, incarnation, "a new traffic authority: driving by its orders");
                     }
@@ -226,6 +245,9 @@ impl Gate {
                 return false;
             }
             if !near(v.x, v.y) && !body.passed(&v) {
+                if body.drives_on() && self.goal.is_none() {
+                    return true; // paused on the lane, which it holds, until its next goal
+                }
                 // Stopped on the lane (held by the plan): on to the vertex, the lane is ours.
                 body.navigate_vertex(&v, self.goal.and_then(|g| g.speed));
                 return false;
@@ -243,7 +265,7 @@ impl Gate {
             }
             self.changed = true;
         }
-        let Some(goal) = self.goal else { return true };
+        let Some(goal) = self.goal else { return self.step_stopped(quiet, body) };
         if self.held.is_none() {
             self.waiting = self.refused.is_none();
             return false;
@@ -290,6 +312,21 @@ impl Gate {
         }
     }
 
+    /// Stopped (no goal): it drives only a new route of traffic's (a step aside), as far as
+    /// granted; whether it stands.
+    fn step_stopped(&mut self, quiet: bool, body: &mut Drive) -> bool {
+        let Some(h) = self.held.as_ref().filter(|_| self.left.is_none()) else { return body.idle() };
+        let next = h.reached.map_or(0, |p| p + 1);
+        if quiet || next >= h.route.len() || h.upto.is_none_or(|u| next > u) {
+            return body.idle();
+        }
+        let v = &h.route[next];
+        self.driving = Some(v.clone());
+        let (granted, then) = Self::beyond(h, next);
+        body.navigate_lane(v, granted, then, None);
+        false
+    }
+
     /// Off the lanes: it stays while its order still gives that way for its goal; else it drives
     /// back to the vertex it left them at first (the way back is the way there). Whether it is on
     /// its way back there (the step ends).
@@ -330,7 +367,7 @@ impl Gate {
     /// A body that drives on through its grant (driving to `v`: the route's next vertex, or the
     /// one it reached in traffic's eyes, when it drives back there) is told the grant as it grows.
     fn tell_grant(&self, v: &RouteVertex, body: &mut Drive) {
-        let (Some(h), Some(g)) = (&self.held, self.goal) else { return };
+        let Some(h) = &self.held else { return };
         let next = h.reached.map_or(0, |p| p + 1);
         let at = if h.route.get(next).is_some_and(|r| r.v == v.v) {
             next
@@ -340,7 +377,7 @@ impl Gate {
             return;
         };
         let (granted, then) = Self::beyond(h, at);
-        body.navigate_lane(v, granted, then, g.speed);
+        body.navigate_lane(v, granted, then, self.goal.and_then(|g| g.speed));
     }
 
     /// The route after its vertex `next`: what traffic granted of it, and the rest.

@@ -36,6 +36,29 @@ fn office() -> NavGraph {
     mrmm_maps::rmf::parse(name, text).expect("office graph")
 }
 
+/// Robot `id`'s plan of `steps` in `mission` (a team of its own) on `map`.
+fn assignment(id: &str, mission: &str, epoch: u64, steps: Vec<Step>, map: &MapRef) -> PlanAssignment {
+    PlanAssignment {
+        handover: None,
+        mission: mission.into(),
+        epoch,
+        team: mission.into(),
+        subteam: format!("{mission}/ground"),
+        members: vec![id.into()],
+        plan: RobotPlan { robot: id.into(), robot_type: "ground".into(), slot: 0, steps, team: String::new() },
+        managers: vec![],
+        barrier: BarrierMode::Mesh,
+        scopes: vec![],
+        map: Some(map.clone()),
+    }
+}
+
+/// Central gives robot `r` plan `a` at `now`.
+fn give(r: &mut Robot, now: f64, a: PlanAssignment) {
+    let out = r.handle(now, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(a)), from: Sender::new(Role::Central, "central") });
+    assert!(out.iter().any(|c| matches!(c, robot::Command::Reply(Ok(_)))), "plan refused: {out:?}");
+}
+
 struct Fleet {
     graph: Arc<Map>,
     map: MapRef,
@@ -99,22 +122,9 @@ impl Fleet {
                     steps.push(Step::Loop { to: 0, rounds: None });
                 }
                 let mission = if i % 2 == 0 { "even" } else { "odd" };
-                let a = PlanAssignment {
-                    handover: None,
-                    mission: mission.into(),
-                    epoch: 1,
-                    team: mission.into(),
-                    subteam: format!("{mission}/ground"),
-                    members: vec![id.clone().into()],
-                    plan: RobotPlan { robot: id.clone().into(), robot_type: "ground".into(), slot: 0, steps, team: String::new() },
-                    managers: vec![],
-                    barrier: BarrierMode::Mesh,
-                    scopes: vec![],
-                    map: Some(map.clone()),
-                };
+                let a = assignment(&id, mission, 1, steps, &map);
                 r.handle(0.0, robot::Event::CentralAlive(true));
-                let out = r.handle(0.0, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(a)), from: Sender::new(Role::Central, "central") });
-                assert!(out.iter().any(|c| matches!(c, robot::Command::Reply(Ok(_)))), "plan refused: {out:?}");
+                give(&mut r, 0.0, a);
                 r
             })
             .collect();
@@ -262,7 +272,13 @@ impl Fleet {
 
     /// Goals reached by all robots (plan steps passed).
     fn progress(&self) -> u64 {
-        self.robots.iter().filter_map(|r| r.executor()).map(|e| u64::from(e.progress().step) + 100 * u64::from(e.progress().round)).sum()
+        self.progress_of(|_| true)
+    }
+
+    /// Goals reached by the robots `which` picks by index.
+    fn progress_of(&self, which: impl Fn(usize) -> bool) -> u64 {
+        let of = |e: &crate::robot::executor::Executor| u64::from(e.progress().step) + 100 * u64::from(e.progress().round);
+        self.robots.iter().enumerate().filter(|(i, _)| which(*i)).filter_map(|(_, r)| r.executor()).map(of).sum()
     }
 
     /// Central killed and started again: a new authority, which hears the robots after `down`
@@ -486,4 +502,46 @@ fn central_dies_while_two_robots_wait_for_each_other_in_a_corridor_and_both_arri
     }
     assert!(f.closest.0 >= CLEARANCE - 0.05, "{} were {:.2} m apart at {:.1} s", f.closest.2, f.closest.0, f.closest.1);
     println!("deputy's orders {:.2} s after central died; both arrived; closest {:.2} m", first.unwrap_or(0.0), f.closest.0);
+}
+
+/// A mission paused while robots of two missions drive the office (its robots given the hold
+/// plan, as its manager pauses it): each of its robots stops at the end of the lane it drives and
+/// gives back what it was granted beyond (5 s on it stands within a lane of where it was) while
+/// the other mission's robots go on (a paused robot parked in their way steps aside); resumed,
+/// they go on too. Never closer than the clearance. (Before, a paused robot drove on toward its
+/// last goal as far as traffic granted, and traffic went on granting it.)
+#[test]
+fn a_paused_missions_robots_stop_where_they_are_and_the_others_go_on() {
+    for seed in 1..=10 {
+        let mut f = Fleet::new(seed, 6, 6);
+        f.run(30.0);
+        let even = |i: usize| i.is_multiple_of(2);
+        let paused: Vec<usize> = (0..f.robots.len()).filter(|&i| even(i)).collect();
+        let plans: Vec<PlanAssignment> = paused.iter().map(|&i| f.robots[i].executor().expect("a plan").assignment().clone()).collect();
+        let at: Vec<Pose> = paused.iter().map(|&i| f.robots[i].pose()).collect();
+        for &i in &paused {
+            let id = f.robots[i].id().to_string();
+            let hold = assignment(&id, "even", 2, vec![Step::Stream, Step::Hold { seconds: None }], &f.map);
+            give(&mut f.robots[i], f.now, hold);
+        }
+        let others = f.progress_of(|i| !even(i));
+        f.run(5.0);
+        let traffic = f.authority.traffic(&f.map.hash).expect("traffic");
+        for (k, &i) in paused.iter().enumerate() {
+            let (id, p) = (f.robots[i].id(), f.robots[i].pose());
+            let moved = (p.x - at[k].x).hypot(p.y - at[k].y);
+            assert!(moved <= authority::SEGMENT_M + 0.2, "seed {seed}: paused {id} drove {moved:.2} m on: {}", traffic.describe(&id.into()));
+        }
+        f.run(60.0);
+        assert!(f.progress_of(|i| !even(i)) > others, "seed {seed}: the other mission stood still while this one was paused");
+        for (k, &i) in paused.iter().enumerate() {
+            let mut resumed = plans[k].clone();
+            resumed.epoch = 3;
+            give(&mut f.robots[i], f.now, resumed);
+        }
+        f.run(60.0);
+        assert!(f.progress_of(even) > 0, "seed {seed}: the resumed mission's robots did not go on");
+        assert!(f.closest.0 >= CLEARANCE - 0.05, "seed {seed}: {} were {:.2} m apart at {:.1} s", f.closest.2, f.closest.0, f.closest.1);
+        println!("seed {seed}: closest {:.2} m; the other mission {others} → {}", f.closest.0, f.progress_of(|i| !even(i)));
+    }
 }

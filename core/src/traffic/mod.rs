@@ -89,7 +89,8 @@ pub enum Event {
     /// The robot is out of traffic (left the map, taken away): everything it held is free.
     Remove { robot: RobotId },
     /// What `robot` holds by its own report, to an authority that does not know it (one that
-    /// took over): `route` up to position `granted`, reached up to `reached`. The robot holds
+    /// took over), or to its own that it stopped (it drives no further, the rest of its route
+    /// is let go): `route` up to position `granted`, reached up to `reached`. The robot holds
     /// the vertex it reached and the hops granted beyond; traffic grants nothing in conflict
     /// with them, and holds them even where they conflict with another robot's (both robots
     /// may be there).
@@ -348,14 +349,19 @@ impl Traffic {
             out.push(Command::Refused { robot: id, why: format!("{MAX_ROBOTS} robots are in traffic already") });
             return;
         }
-        if let Some(mut old) = self.robots.remove(&id) {
-            self.release_all(&id, &mut old);
-        }
+        // A robot traffic knows (it stopped) goes on counting its route's versions.
+        let version = match self.robots.remove(&id) {
+            Some(mut old) => {
+                self.release_all(&id, &mut old);
+                old.version
+            }
+            None => 0,
+        };
         route.truncate(granted + 1);
         let b = reached.unwrap_or(0);
         let route = route[b..].to_vec();
         let (reached, granted) = (reached.map(|p| p - b), granted - b);
-        let mut r = Robot { route, reached, granted: Some(granted), version: 0, asked: now, ..Robot::default() };
+        let mut r = Robot { route, reached, granted: Some(granted), version, asked: now, ..Robot::default() };
         let mut need: Vec<Res> = Vec::new();
         match reached {
             Some(_) => {

@@ -179,6 +179,11 @@ impl Executor {
         self
     }
 
+    /// The plan it runs, as central gave it.
+    pub fn assignment(&self) -> &PlanAssignment {
+        &self.assignment
+    }
+
     pub fn mission(&self) -> &str {
         self.assignment.mission.as_str()
     }

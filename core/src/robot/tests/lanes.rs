@@ -171,3 +171,37 @@ fn a_way_off_the_lanes_waits_for_traffic_gone_quiet() {
     let p = r.body.pose();
     assert!((p.x - 40.0).abs() < 0.1 && (p.y - 1.0).abs() < 0.1, "at the goal once traffic spoke again: {p:?}");
 }
+
+/// The plan paused (a hold plan, as a paused mission sends) while the robot drives a lane of a
+/// long grant: it stops at the end of that lane and drives no further toward its old goal, and
+/// asks traffic for nothing more.
+#[test]
+fn a_robot_paused_on_the_lanes_stops_at_the_end_of_its_lane() {
+    use mrmm_proto::traffic::RouteVertex;
+    let (mut r, map) = planned_on_map(Some(vec![Step::Navigate { x: 100.0, y: 0.0, speed: None }, Step::Hold { seconds: None }]));
+    let route = vec![RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 2.0, 0.0), RouteVertex::at(2, 4.0, 0.0), RouteVertex::at(3, 100.0, 0.0)];
+    let order = mrmm_proto::TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route, reached: Some(0), upto: Some(3), deputies: vec![], off: None };
+    r.handle(0.0, Event::Tick);
+    let mut t = 0.01;
+    let mut asked_after = false;
+    let mut paused = false;
+    while t < 20.0 {
+        // The authority answers every report with the same order.
+        let out = r.handle(t, Event::Tick);
+        if out.iter().any(|c| matches!(c, Command::TrafficReport { .. })) {
+            r.handle(t, Event::Traffic { map: map.hash.clone(), order: order.clone(), deputy: false });
+        }
+        asked_after |= paused && out.iter().any(|c| matches!(c, Command::TrafficReport { report, .. } if report.goal.is_some()));
+        if !paused && r.body.pose().x > 1.0 {
+            let RobotCommand::Plan(mut a) = plan("m", 2) else { unreachable!() };
+            a.map = Some(map.clone());
+            a.plan.steps = vec![Step::Stream, Step::Hold { seconds: None }];
+            cmd(&mut r, RobotCommand::Plan(a)).0.expect("the hold plan taken");
+            paused = true;
+        }
+        t += 0.01;
+    }
+    let x = r.body.pose().x;
+    assert!(paused && (x - 2.0).abs() < 0.1, "stopped at the lane's end (2, 0), not on toward its old goal: x = {x}");
+    assert!(!asked_after, "asked traffic for its old goal after the pause");
+}

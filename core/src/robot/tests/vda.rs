@@ -129,3 +129,58 @@ fn a_vda_vehicle_driving_back_to_the_lanes_is_sent_its_next_grant_on_the_way() {
     let p = r.body.pose();
     assert!(p.x.abs() < 0.1 && (p.y + 1.0).abs() < 0.1, "at the second goal: {p:?}");
 }
+
+/// A VDA 5050 vehicle (against the simulated one) paused on a lane (a hold plan) is told
+/// `startPause` and stands where it is, with its order kept — no `cancelOrder`.
+#[test]
+fn a_vda_vehicle_paused_on_the_lanes_is_paused_where_it_is() {
+    use crate::body::vda::VdaOut;
+    use mrmm_proto::traffic::RouteVertex;
+    use mrmm_vda5050::sim::{SimIn, SimOut, SimVehicle};
+    use mrmm_vda5050::{FromVehicle, InstantActions, VehicleId};
+    let (mut r, map) = plan_on_map(vda_robot(), Some(vec![Step::Navigate { x: 100.0, y: 0.0, speed: None }, Step::Hold { seconds: None }]));
+    let mut vehicle = SimVehicle::new(VehicleId::new("mrmm", "agv1").unwrap(), "m", (0.0, 0.0, 0.0), 1.0);
+    let route = vec![RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 2.0, 0.0), RouteVertex::at(2, 4.0, 0.0), RouteVertex::at(3, 100.0, 0.0)];
+    let order = mrmm_proto::TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route, reached: Some(0), upto: Some(3), deputies: vec![], off: None };
+    let mut to_robot: Vec<SimOut> = vehicle.connect(0);
+    r.handle(0.0, Event::Tick);
+    let (mut paused, mut sent) = (None, Vec::new());
+    for k in 1..1000u64 {
+        let t = k as f64 * 0.01;
+        for out in to_robot.drain(..) {
+            let msg = match out {
+                SimOut::State(s) => FromVehicle::State(s),
+                SimOut::Visualization(v) => FromVehicle::Visualization(v),
+                _ => continue,
+            };
+            r.handle(t, Event::Vda(Box::new(msg)));
+        }
+        if paused.is_none() && r.body.pose().x > 1.0 {
+            let RobotCommand::Plan(mut a) = plan("m", 2) else { unreachable!() };
+            a.map = Some(map.clone());
+            a.plan.steps = vec![Step::Stream, Step::Hold { seconds: None }];
+            cmd(&mut r, RobotCommand::Plan(a)).0.expect("the hold plan taken");
+            paused = Some(r.body.pose().x);
+        }
+        for c in r.handle(t, Event::Tick) {
+            let input = match c {
+                Command::TrafficReport { .. } => {
+                    r.handle(t, Event::Traffic { map: map.hash.clone(), order: order.clone(), deputy: false });
+                    continue;
+                }
+                Command::Vda(VdaOut::Order(o)) => SimIn::Order(o),
+                Command::Vda(VdaOut::Instant(actions)) => {
+                    sent.extend(actions.iter().map(|a| a.action_type.clone()));
+                    SimIn::Instant(InstantActions { header: Default::default(), actions })
+                }
+                _ => continue,
+            };
+            to_robot.extend(vehicle.handle(k * 10, input));
+        }
+        to_robot.extend(vehicle.handle(k * 10, SimIn::Tick));
+    }
+    let (at, x) = (paused.expect("paused on the lane"), vehicle.pose().0);
+    assert_eq!(sent, ["startPause"], "paused, its order kept");
+    assert!(x < 2.0 && x - at < 0.3, "stands where it was paused ({at:.2}), on the lane: x = {x:.2}");
+    assert!(vehicle.state().paused == Some(true));
+}

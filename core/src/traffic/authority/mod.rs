@@ -351,6 +351,9 @@ impl OnMap {
             seen.left = None;
         }
         let mut cmds = Vec::new();
+        if !rebuilding && report.goal.is_none() && seen.goal.is_some() && traffic.state(&robot).is_some() {
+            cmds.extend(stopped(now, traffic, seen, &report, incarnation));
+        }
         let known = traffic.state(&robot).is_some();
         match &report.held {
             // Held from another authority: taken in as it is, before anything is granted. Its
@@ -481,6 +484,25 @@ pub fn egress(c: &Command) -> Option<crate::egress::Out> {
     let Command::Order { map, robot, order } = c else { return None };
     let to = crate::egress::Audience::Only(audience(robot, order));
     crate::egress::Out::json(mrmm_proto::Key::TrafficOrder { map: map.clone(), robot: robot.clone() }, order, to)
+}
+
+/// A robot traffic routes reports no goal: it stopped (a hold, its mission paused, its plan
+/// over). It drives no further than it says it holds of this authority's route, and the rest is
+/// let go (its route ends there, its orders say goal 0); holding nothing of it, it is taken out,
+/// and in anew as one new to traffic.
+fn stopped(now: f64, traffic: &mut Traffic, seen: &mut Seen, report: &TrafficReport, incarnation: u64) -> Vec<super::Command> {
+    seen.goal = None;
+    seen.refused = None;
+    seen.left = seen.leg.take().or(seen.left);
+    let robot = report.robot.clone();
+    let event = match &report.held {
+        Some(h) if h.incarnation == incarnation && h.upto.is_some() => {
+            let (reached, granted) = (h.reached.map(|p| p as usize), h.upto.unwrap_or(0) as usize);
+            super::Event::Restore { robot, route: h.route.clone(), reached, granted }
+        }
+        _ => super::Event::Remove { robot },
+    };
+    traffic.handle(now, event)
 }
 
 /// The route to `goal`: from the vertex the robot will stand at (where its grant ends; where it
