@@ -113,16 +113,14 @@ async fn chargers_come_from_the_map_and_from_centrals_config() -> anyhow::Result
     Ok(())
 }
 
-/// The charging policy with real processes on Open-RMF's office graph: r1 of a patrol of two
-/// runs low; central takes it out for the nearest charger the graph marks, moves the idle r3 in
-/// (the patrol keeps its two robots), plugs r1 in on arrival and lets it go when charged.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> anyhow::Result<()> {
-    let dir = Scratch::new("charging");
+/// Central (its state in the scratch dir) on Open-RMF's office graph, robots r1 (21 %), r2 and r3
+/// (full; a full charge drives 300 s, time scale 5) at vertices far from the chargers, and a
+/// patrol of r1 and r2.
+async fn patrol_with_a_low_robot(dir: &Scratch) -> anyhow::Result<Patrol> {
     let office = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml");
     let graph = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(&office)?)?;
     let map = format!("office={}", office.display());
-    let (_central, ep) = start_central(&dir, &["--listen", "tcp/127.0.0.1:0", "--map", &map])?;
+    let (central, ep) = start_central(dir, &["--listen", "tcp/127.0.0.1:0", "--map", &map])?;
     // Three vertices far from the chargers; a full charge drives 300 s, r1 starts at 21 %.
     let chargers: Vec<mrmm_maps::Point> = graph.chargers().map(|v| v.at).collect();
     let starts: Vec<mrmm_maps::Point> =
@@ -134,7 +132,7 @@ async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> any
         });
     let mut robots = Vec::new();
     for (i, (id, charge)) in [("r1", 0.21), ("r2", 1.0), ("r3", 1.0)].into_iter().enumerate() {
-        let cfg = common::robot_config(&dir, id, std::slice::from_ref(&ep), starts[i].x, starts[i].y, 5.0)?;
+        let cfg = common::robot_config(dir, id, std::slice::from_ref(&ep), starts[i].x, starts[i].y, 5.0)?;
         let text = std::fs::read_to_string(&cfg)?.replacen("time_scale:", &format!("battery: {{ life_s: 300, charge: {charge} }}, time_scale:"), 1);
         std::fs::write(&cfg, text)?;
         let cfg = cfg.display().to_string();
@@ -152,6 +150,32 @@ async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> any
         ..Default::default()
     };
     let _: proto::MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol)).await?;
+    Ok(Patrol { central, ep, map, _robots: robots, client, chargers })
+}
+
+/// Robot `id` as central sees it, if it answers.
+async fn robot_view(client: &Client, id: &str) -> Option<RobotView> {
+    client.query::<RobotView>(proto::Key::SystemRobot(id.into()), None::<&()>).await.ok()
+}
+
+/// What [`patrol_with_a_low_robot`] started.
+struct Patrol {
+    central: common::Proc,
+    ep: String,
+    /// Central's `--map` argument.
+    map: String,
+    _robots: Vec<common::Proc>,
+    client: Client,
+    chargers: Vec<mrmm_maps::Point>,
+}
+
+/// The charging policy with real processes on Open-RMF's office graph: r1 of a patrol of two
+/// runs low; central takes it out for the nearest charger the graph marks, moves the idle r3 in
+/// (the patrol keeps its two robots), plugs r1 in on arrival and lets it go when charged.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> anyhow::Result<()> {
+    let dir = Scratch::new("charging");
+    let Patrol { central: _central, ep, map: _, _robots, client, chargers } = patrol_with_a_low_robot(&dir).await?;
     let robot = |id: &'static str| {
         let client = &client;
         async move { client.query::<RobotView>(proto::Key::SystemRobot(id.into()), None::<&()>).await.ok() }
@@ -190,6 +214,47 @@ async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> any
     assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("r2: released"), "{out:?}");
     let out = op(&["release", "r2"])?;
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("on no charging errand"), "{out:?}");
+    client.close().await;
+    Ok(())
+}
+
+/// The same errand with central SIGKILLed while r1 drives to its charger and started again on
+/// its journal: r1 is plugged in at the charger, let go when charged and drives back to where
+/// it was sent from (its errand journaled: a central that only found it charging there would
+/// not know where that is, and left it on the charger), and the patrol keeps its two robots.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_charging_errand_goes_on_after_central_is_killed() -> anyhow::Result<()> {
+    let dir = Scratch::new("charging-kill");
+    let Patrol { mut central, ep, map, _robots, client, chargers } = patrol_with_a_low_robot(&dir).await?;
+    // Out of the patrol, on its way: where it was sent from.
+    let from = eventually("r1 out of the patrol, on its way to a charger", Duration::from_secs(60), || async {
+        let v = robot_view(&client, "r1").await?;
+        v.mission.is_none().then_some(v.pose).flatten()
+    })
+    .await?;
+    client.close().await;
+    central.kill();
+    let state = dir.path("central-state").display().to_string();
+    let args = ["central", "--state-dir", &state, "--listen", &ep, "--map", &map];
+    let _central = common::start("central", &args, &dir.path("central2.log"), "central ready", Duration::from_secs(20))?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(10)).await?;
+    let plugged = eventually("r1 charging at a charger", Duration::from_secs(90), || async {
+        let v = robot_view(&client, "r1").await?;
+        v.battery.filter(|b| b.charging).and(v.pose)
+    })
+    .await?;
+    let at = mrmm_maps::Point::new(plugged.x, plugged.y);
+    assert!(chargers.iter().any(|c| c.dist(at) <= 0.35), "r1 charges at ({}, {}), chargers at {chargers:?}", at.x, at.y);
+    let back = eventually("r1 charged and back where it was sent from", Duration::from_secs(120), || async {
+        let v = robot_view(&client, "r1").await?;
+        let p = v.pose?;
+        let charged = v.battery.is_some_and(|b| !b.charging && b.charge >= 0.98);
+        (charged && (p.x - from.x).hypot(p.y - from.y) <= 0.5).then_some(v)
+    })
+    .await?;
+    assert!(back.mission.is_none(), "{back:?}");
+    let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
+    assert_eq!(m.robots.len(), 2, "the patrol kept its count: {:?}", m.robots);
     client.close().await;
     Ok(())
 }

@@ -71,6 +71,13 @@ pub enum JournalEvent {
         robot: RobotId,
         mission: MissionName,
     },
+    /// A robot is on a charging errand from now on, or on none (`errand` null): what a
+    /// restarted central needs to follow it — its charger, the mission it left and the spare
+    /// that took its place, where it was sent from.
+    RobotErrand {
+        robot: RobotId,
+        errand: Option<Box<ErrandRecord>>,
+    },
     /// A robot's liveliness went away, or came back.
     RobotLost {
         robot: RobotId,
@@ -130,8 +137,23 @@ impl JournalEvent {
                 | JournalEvent::RobotAssigned { .. }
                 | JournalEvent::RobotReleasing { .. }
                 | JournalEvent::RobotLetGo { .. }
+                | JournalEvent::RobotErrand { .. }
         )
     }
+}
+
+/// A charging errand as the journal keeps it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ErrandRecord {
+    /// The map (its name) and the charger reserved for the robot.
+    pub map: String,
+    pub charger: crate::map::Charger,
+    /// The mission it left, and how many robots that mission had then.
+    pub left: Option<(MissionName, usize)>,
+    /// The robot moved into that mission in its place.
+    pub spare: Option<RobotId>,
+    /// Where it was sent from.
+    pub from: Option<(f64, f64)>,
 }
 
 /// The answer on `mrmm/system/journal?since=SEQ`: entries after `since`, oldest first, at most

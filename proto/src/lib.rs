@@ -34,7 +34,7 @@ pub use codec::{decode_telemetry, encode_telemetry, from_json, from_json_max, to
 pub use error::{BoxError, ErrorCode, ErrorReply, ProtoError, QueryError};
 pub use geom::Point;
 pub use ids::{MissionName, NodeId, RobotId};
-pub use journal::{JournalEntry, JournalEvent, JournalPage};
+pub use journal::{ErrandRecord, JournalEntry, JournalEvent, JournalPage};
 pub use keys::{
     is_hash, is_team_name, natural_cmp, team_within, validate_id, validate_subteam, validate_team_path, Key, Pattern, SystemCmd, MAX_TEAM_DEPTH,
     RESERVED_TEAM_NAMES,

@@ -61,6 +61,10 @@ pub struct TrafficReport {
     pub goal: Option<TrafficGoal>,
     /// The order it drives by.
     pub held: Option<TrafficHeld>,
+    /// It stands charging at a charger: a parking spot it does not leave to make way (others are
+    /// routed round it where they can be).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub docked: bool,
 }
 
 /// A vertex of a route, with where it is.
@@ -185,6 +189,9 @@ pub struct TrafficRobotView {
     pub blocked: Vec<RobotId>,
     /// Its liveliness went: it keeps what it held.
     pub lost: bool,
+    /// It stands charging at a charger: it does not make way.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub docked: bool,
 }
 
 impl TrafficReport {
@@ -244,7 +251,8 @@ mod tests {
     #[test]
     fn reports_and_orders_that_do_not_fit_are_refused() {
         let held = TrafficHeld { incarnation: 1, version: 1, route: vec![1, 2, 3], reached: Some(0), upto: Some(2) };
-        let mut r = TrafficReport { robot: "r1".into(), seq: 1, x: 0.0, y: 0.0, goal: Some(TrafficGoal { id: 1, x: 1.0, y: 1.0 }), held: Some(held) };
+        let mut r =
+            TrafficReport { robot: "r1".into(), seq: 1, x: 0.0, y: 0.0, goal: Some(TrafficGoal { id: 1, x: 1.0, y: 1.0 }), held: Some(held), docked: false };
         assert_eq!(r.check(), Ok(()));
         if let Some(h) = r.held.as_mut() {
             h.upto = Some(3);

@@ -182,7 +182,7 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
             other => Err(format!("a viewer: {other:?}")),
         },
         Act::TrafficReport => {
-            let report = proto::TrafficReport { robot: VICTIM.into(), seq: 1, x: 0.0, y: 0.0, goal: None, held: None };
+            let report = proto::TrafficReport { robot: VICTIM.into(), seq: 1, x: 0.0, y: 0.0, goal: None, held: None, docked: false };
             let (key, payload) = heard(Key::TrafficReport { map: "a".repeat(64), robot: VICTIM.into() }, json(&report));
             refused(mrmm_core::central::ingress(Incoming { key: &key, payload: &payload, put: true, from: Some(from) }))
         }

@@ -14,7 +14,7 @@
 use std::collections::BTreeMap;
 
 use mrmm_proto::map::Charger;
-use mrmm_proto::{ErrorReply, MapInfo, MissionName, MissionStatus, MissionView, RobotId, RobotStatus, RobotView};
+use mrmm_proto::{ErrandRecord, ErrorReply, MapInfo, MissionName, MissionStatus, MissionView, RobotId, RobotStatus, RobotView};
 
 /// When robots go and charge and when they are done (Open-RMF's defaults: 0.2 and 1.0).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -159,9 +159,26 @@ impl Charging {
         Charging { cfg, errands: BTreeMap::new(), reliefs: BTreeMap::new(), excused: Default::default(), returning: Default::default() }
     }
 
+    /// The policy of a central restarted from its journal: the errands it journaled go on
+    /// (each robot plugged in again where it stands at its charger, or sent there again).
+    pub fn restored(cfg: ChargingConfig, now: f64, records: &BTreeMap<RobotId, ErrandRecord>) -> Self {
+        let mut c = Charging::new(cfg);
+        for (robot, r) in records {
+            let ErrandRecord { map, charger, left, spare, from } = r.clone();
+            c.errands.insert(robot.clone(), Errand { map, charger, left, spare, plugged: false, sent: now, from });
+        }
+        c
+    }
+
     /// Robots on a charging errand.
     pub fn errands(&self) -> &BTreeMap<RobotId, Errand> {
         &self.errands
+    }
+
+    /// The errands as the journal keeps them.
+    pub fn records(&self) -> BTreeMap<RobotId, ErrandRecord> {
+        let record = |e: &Errand| ErrandRecord { map: e.map.clone(), charger: e.charger.clone(), left: e.left.clone(), spare: e.spare.clone(), from: e.from };
+        self.errands.iter().map(|(id, e)| (id.clone(), record(e))).collect()
     }
 
     /// Low robots waiting at work for the spare coming to relieve them.

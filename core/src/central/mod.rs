@@ -83,8 +83,8 @@ impl CentralCore {
     /// Central restarted from its journal's `state`.
     pub fn restore(node: NodeId, agent: AgentConfig, now: f64, state: system::Durable) -> Self {
         CentralCore {
+            charging: Charging::restored(charging_config(&agent), now, &state.errands),
             system: SystemManager::restore(node, now, state),
-            charging: Charging::new(charging_config(&agent)),
             agent: Agent::new(agent),
             last_look: now,
             traffic: Authority::new(now, 1, []),
@@ -197,6 +197,7 @@ impl CentralCore {
                     if self.agent.config().charging {
                         let maps = self.system.map_infos();
                         let cmds = self.charging.handle(now, charging::Fleet { robots: &robots, missions: &missions, maps: &maps });
+                        self.system.keep_errands(self.charging.records());
                         self.charging_commands(now, cmds, &mut out);
                     }
                     let look = agent::Event::Snapshot { robots, missions, traffic: self.traffic.views(now) };
@@ -239,6 +240,7 @@ impl CentralCore {
             }
             _ => return Err(mrmm_proto::ErrorReply::invalid("not a charging order")),
         };
+        self.system.keep_errands(self.charging.records());
         self.charging_commands(now, cmds, out);
         Ok(answer)
     }

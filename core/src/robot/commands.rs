@@ -60,6 +60,9 @@ impl Robot {
             }
             if on {
                 self.route.clear();
+                if let Some(g) = self.traffic.as_mut() {
+                    g.stop();
+                }
             }
             vehicle.charge(on);
             tracing::info!(robot = %self.cfg.id, on, "charging (VDA 5050 startCharging/stopCharging)");
@@ -77,6 +80,10 @@ impl Robot {
         if on {
             self.route.clear();
             body.hold();
+            // On lanes it has no goal now, and stands docked at its charger.
+            if let Some(g) = self.traffic.as_mut() {
+                g.stop();
+            }
         }
         if let Some(b) = body.battery_mut() {
             b.set_charging(on);

@@ -396,6 +396,8 @@ impl Gate {
         // Wall-clock milliseconds, so that a robot restarted is not taken for a stale one.
         self.seq = (self.seq + 1).max((now * 1000.0) as u64);
         let pose = body.pose();
+        // Plugged in, it stopped (`Robot::charge`): docked until a goal takes it away.
+        let docked = self.goal.is_none() && self.driving.is_none() && body.battery().is_some_and(|b| b.charging);
         Some(TrafficReport {
             robot: robot.clone(),
             seq: self.seq,
@@ -409,6 +411,7 @@ impl Gate {
                 reached: h.reached.map(|p| p as u32),
                 upto: h.upto.map(|p| p as u32),
             }),
+            docked,
         })
     }
 }

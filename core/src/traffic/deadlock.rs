@@ -73,7 +73,8 @@ impl Traffic {
                 if rb.stands_waiting() || (!rb.lost && !rb.parked()) {
                     continue; // it moves, or waits itself: not in the way for good
                 }
-                if !rb.lost && self.step_aside(b, &self.ahead_of([id].into_iter()), Why::Yield, out) {
+                // A robot docked at a charger does not leave it: others go round it, or wait.
+                if !rb.lost && !rb.docked && self.step_aside(b, &self.ahead_of([id].into_iter()), Why::Yield, out) {
                     return true;
                 }
                 stuck.insert(b.clone());

@@ -311,7 +311,7 @@ mod tests {
     }
 
     fn report(robot: &str, seq: u64, at: Point, goal: Option<Point>) -> TrafficReport {
-        TrafficReport { robot: robot.into(), seq, x: at.x, y: at.y, goal: goal.map(|g| TrafficGoal { id: 1, x: g.x, y: g.y }), held: None }
+        TrafficReport { robot: robot.into(), seq, x: at.x, y: at.y, goal: goal.map(|g| TrafficGoal { id: 1, x: g.x, y: g.y }), held: None, docked: false }
     }
 
     /// Central's liveliness goes at `at`: the deputy takes over within `within` seconds.

@@ -86,6 +86,9 @@ pub enum Event {
     Reached { robot: RobotId, vertex: u32 },
     /// The robot's liveliness was lost: it keeps what it stood on.
     Lost { robot: RobotId },
+    /// The robot stands charging at a charger (`on`), or no longer: a docked robot is a parked
+    /// one that does not make way.
+    Dock { robot: RobotId, on: bool },
     /// The robot is out of traffic (left the map, taken away): everything it held is free.
     Remove { robot: RobotId },
     /// What `robot` holds by its own report, to an authority that does not know it (one that
@@ -144,6 +147,8 @@ struct Robot {
     /// Since when it stands waiting for a grant.
     waiting: Option<f64>,
     lost: bool,
+    /// Parked at a charger: it does not make way.
+    docked: bool,
     /// Robots it was reported blocked by (reported once).
     blocked: Vec<RobotId>,
 }
@@ -206,6 +211,17 @@ impl Traffic {
         self.robots.get(robot).map(|r| r.held.keys().copied().collect()).unwrap_or_default()
     }
 
+    /// Whether `robot` stands docked at a charger (it does not make way).
+    pub fn is_docked(&self, robot: &RobotId) -> bool {
+        self.robots.get(robot).is_some_and(|r| r.docked)
+    }
+
+    /// The vertices robots other than `robot` stand docked at: routes go round them where they
+    /// can.
+    pub fn docked_vertices(&self, robot: &RobotId) -> BTreeSet<u32> {
+        self.robots.iter().filter(|(id, r)| r.docked && *id != robot).filter_map(|(_, r)| r.standing()).collect()
+    }
+
     /// Whether `robot`'s liveliness went (it keeps what it stood on).
     pub fn is_lost(&self, robot: &RobotId) -> bool {
         self.robots.get(robot).is_some_and(|r| r.lost)
@@ -242,6 +258,7 @@ impl Traffic {
                     waiting_s: r.waiting.map(|t| (now - t).max(0.0)),
                     blocked: r.blocked.clone(),
                     lost: r.lost,
+                    docked: r.docked,
                 }
             })
             .collect()
@@ -271,6 +288,11 @@ impl Traffic {
             Event::Route { robot, route } => self.set_route(now, robot, route, &mut out),
             Event::Reached { robot, vertex } => self.reached(&robot, vertex),
             Event::Lost { robot } => self.lost(&robot),
+            Event::Dock { robot, on } => {
+                if let Some(r) = self.robots.get_mut(&robot) {
+                    r.docked = on;
+                }
+            }
             Event::Remove { robot } => {
                 if let Some(mut r) = self.robots.remove(&robot) {
                     self.release_all(&robot, &mut r);
@@ -327,6 +349,7 @@ impl Traffic {
                 r.reached = r.reached.map(|p| p - b);
                 r.granted = r.granted.map(|g| g - b);
                 r.lost = false;
+                r.docked = false;
                 r.waiting = None;
                 r.asked = now;
                 self.announce(&id, &mut r, Why::Asked, out);

@@ -353,3 +353,23 @@ fn a_route_names_a_vertex_by_a_name_of_its_own() {
     assert_eq!(layout.route_vertex(5).name, None, "\"v3\" would be vertex 3's node");
     assert_eq!(layout.route_vertex(0).x, 0.0);
 }
+
+/// A robot docked at a charger is a parking spot: parked in another's way it does not make way
+/// (the robot waiting for it is reported blocked by it), where the same robot undocked does.
+#[test]
+fn a_robot_docked_at_a_charger_does_not_make_way() {
+    let mut t = corridor_with_pocket();
+    // b charges at 1, the junction, which a must cross.
+    t.handle(0.0, Event::Route { robot: id("b"), route: vec![1] });
+    t.handle(0.0, Event::Reached { robot: id("b"), vertex: 1 });
+    t.handle(0.0, Event::Dock { robot: id("b"), on: true });
+    assert!(t.is_docked(&id("b")));
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    let after = Params::default().yield_after + 0.1;
+    let out = t.handle(after, Event::Tick);
+    assert!(!out.iter().any(|c| matches!(c, Command::Route { robot, .. } if robot == &id("b"))), "a docked robot sent aside: {out:?}");
+    assert!(out.iter().any(|c| matches!(c, Command::Blocked { robot, by } if robot == &id("a") && by == &vec![id("b")])), "{out:?}");
+    let out = t.handle(after + 0.1, Event::Dock { robot: id("b"), on: false });
+    assert!(out.iter().any(|c| matches!(c, Command::Route { robot, why: Why::Yield, .. } if robot == &id("b"))), "undocked, it makes way: {out:?}");
+}

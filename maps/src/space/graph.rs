@@ -8,6 +8,10 @@ use crate::geom::Point;
 use crate::graph::NavGraph;
 use crate::space::{Field, Node};
 
+/// What a path through a vertex to avoid costs beyond its length, metres: longer than any way
+/// round on a floor plan.
+pub const AVOIDED_M: f64 = 1.0e6;
+
 /// A graph map ready for planning.
 #[derive(Debug, Clone)]
 pub struct GraphSpace {
@@ -80,12 +84,23 @@ impl GraphSpace {
     /// The shortest path along the directed edges from vertex `a` to vertex `b`, as vertices
     /// (both ends included), or none if `b` cannot be reached.
     pub fn vertex_path(&self, a: u32, b: u32) -> Option<Vec<u32>> {
+        self.vertex_path_avoiding(a, b, |_| false)
+    }
+
+    /// [`GraphSpace::vertex_path`], through no vertex `avoid` names (but `b`) where another way
+    /// exists: each such vertex costs [`AVOIDED_M`] more.
+    pub fn vertex_path_avoiding(&self, a: u32, b: u32, avoid: impl Fn(u32) -> bool) -> Option<Vec<u32>> {
+        use petgraph::visit::EdgeRef;
         let n = self.nodes() as u32;
         if a >= n || b >= n {
             return None;
         }
         let to = NodeIndex::new(b as usize);
-        let (_, path) = petgraph::algo::astar(&self.g, NodeIndex::new(a as usize), |x| x == to, |e| *e.weight(), |_| 0.0)?;
+        let cost = |e: petgraph::graph::EdgeReference<'_, f64>| {
+            let v = e.target().index() as u32;
+            *e.weight() + if v != b && avoid(v) { AVOIDED_M } else { 0.0 }
+        };
+        let (_, path) = petgraph::algo::astar(&self.g, NodeIndex::new(a as usize), |x| x == to, cost, |_| 0.0)?;
         Some(path.iter().map(|x| x.index() as u32).collect())
     }
 

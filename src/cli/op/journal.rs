@@ -44,6 +44,12 @@ pub fn line(e: &JournalEntry) -> String {
         JournalEvent::RobotReleasing { robot, mission: Some(m) } => format!("robot {robot} being let go by {m}"),
         JournalEvent::RobotReleasing { robot, mission: None } => format!("robot {robot} let go"),
         JournalEvent::RobotLetGo { robot, mission } => format!("robot {robot} let go by {mission}"),
+        JournalEvent::RobotErrand { robot, errand: Some(e) } => {
+            let left = e.left.as_ref().map(|(m, _)| format!(", left mission {m}")).unwrap_or_default();
+            let spare = e.spare.as_ref().map(|s| format!(", {s} in its place")).unwrap_or_default();
+            format!("robot {robot} to charge at {} of map {}{left}{spare}", e.charger.name, e.map)
+        }
+        JournalEvent::RobotErrand { robot, errand: None } => format!("robot {robot}: charging errand over"),
         JournalEvent::Command { by, command, request } => format!("{by}: {command} {request}"),
         JournalEvent::RobotLost { robot } => format!("robot {robot} lost"),
         JournalEvent::RobotBack { robot } => format!("robot {robot} back"),

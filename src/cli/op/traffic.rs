@@ -57,6 +57,8 @@ pub fn table(views: &[TrafficView], name_of: impl Fn(&str) -> String) -> String 
                     "BLOCKED".to_string()
                 } else if r.waiting_s.is_some() {
                     "waiting".to_string()
+                } else if r.docked {
+                    "docked".to_string()
                 } else if r.reached.is_some_and(|p| p as usize + 1 == r.route.len()) {
                     "arrived".to_string()
                 } else {
@@ -114,6 +116,7 @@ mod tests {
             waiting_s: (!waits.is_empty()).then_some(12.4),
             blocked: if blocked { waits.iter().map(|w| (*w).into()).collect() } else { vec![] },
             lost: false,
+            docked: false,
         };
         let v = TrafficView {
             map: "ab".repeat(32),

@@ -366,6 +366,7 @@ fn robots_waiting_or_blocked_in_traffic_are_raised_with_who_is_in_the_way() {
             waiting_s: waiting,
             blocked: if blocked { vec!["r2".into()] } else { vec![] },
             lost: false,
+            docked: false,
         };
         vec![TrafficView { map: "h".repeat(64), incarnation: 1, deputies: vec![], robots: vec![r1] }]
     };

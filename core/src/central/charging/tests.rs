@@ -369,3 +369,34 @@ fn a_robot_found_charging_at_a_charger_is_taken_back() {
     plugged.battery = Some(BatteryState { charge: 1.0, charging: true, reach_m: None });
     assert_eq!(look(&mut c, 1.0, &[plugged.clone(), low.clone()], &[], &maps), [plug("r1", false), goto("r2", 0.0, 0.0)]);
 }
+
+/// Errands go to the journal (as the system manager's durable state) and a central restarted
+/// from it goes on with them: r1, sent from its patrol with no spare to move in, is plugged in
+/// when it stands at the charger and, charged, goes back to the patrol it left — which a central
+/// that only found it charging there (`adopt`) would not know.
+#[test]
+fn errands_journaled_go_on_after_a_restart() {
+    use crate::central::system::Durable;
+    let maps = [office(&[("c1", 0.0, 0.0)])];
+    let mut c = Charging::new(ChargingConfig::default());
+    let mut r1 = robot("r1", 0.1, Some("p"), (5.0, 0.0));
+    let r2 = robot("r2", 0.9, Some("p"), (5.0, 5.0));
+    assert_eq!(look(&mut c, 0.0, &[r1.clone(), r2.clone()], &[patrol(&["r1", "r2"])], &maps), [mv("r1", None), goto("r1", 0.0, 0.0)]);
+    let journal = Durable::default().diff(&Durable { errands: c.records(), ..Durable::default() });
+    assert!(journal.iter().all(mrmm_proto::JournalEvent::is_state), "{journal:?}");
+    let mut restarted = Charging::restored(ChargingConfig::default(), 10.0, &Durable::replay(&journal).errands);
+    assert_eq!(restarted.records(), c.records());
+    // Central died while r1 drove; it stands at the charger now.
+    r1.mission = None;
+    r1.status = RobotStatus::Idle;
+    r1.behaviour = Some("hold".into());
+    r1.pose = Some(Pose { x: 0.1, y: 0.0, theta: 0.0 });
+    assert_eq!(look(&mut restarted, 11.0, &[r1.clone(), r2.clone()], &[patrol(&["r2"])], &maps), [plug("r1", true)]);
+    r1.battery = Some(BatteryState { charge: 1.0, charging: true, reach_m: None });
+    assert_eq!(look(&mut restarted, 12.0, &[r1.clone(), r2.clone()], &[patrol(&["r2"])], &maps), [plug("r1", false), mv("r1", Some("p"))]);
+    // Without the journal: taken back as found, it does not know the patrol it left.
+    let mut adopted = Charging::new(ChargingConfig::default());
+    let found = RobotView { battery: Some(BatteryState { charge: 0.6, charging: true, reach_m: None }), ..r1.clone() };
+    assert!(look(&mut adopted, 11.0, &[found, r2.clone()], &[patrol(&["r2"])], &maps).is_empty());
+    assert_eq!(look(&mut adopted, 12.0, &[r1.clone(), r2.clone()], &[patrol(&["r2"])], &maps), [plug("r1", false)]);
+}

@@ -1,5 +1,5 @@
 //! What of the system manager survives a restart — missions as defined, the mission each robot
-//! is in, missions terminated, robots being let go — as a value ([`Durable`]), the journal entries that take one such
+//! is in, missions terminated, robots being let go, robots on charging errands — as a value ([`Durable`]), the journal entries that take one such
 //! value to another ([`Durable::diff`]) and their replay ([`Durable::apply`]). The system
 //! manager diffs after every event, so whatever changed is committed before anything of it is
 //! said or done (see [`super::Command::Journal`]).
@@ -7,7 +7,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
-use mrmm_proto::{JournalEvent, MissionName, MissionSpecWire, NodeId, RobotId};
+use mrmm_proto::{ErrandRecord, JournalEvent, MissionName, MissionSpecWire, NodeId, RobotId};
 
 /// A mission as it was defined: where it was created and, when central created it, its whole
 /// spec (recipe XML and parameters) — what it takes to start it again.
@@ -34,6 +34,9 @@ pub struct Durable {
     /// (Robot, the mission letting it go), until its head acknowledges: a robot moved on again
     /// before its first mission let it go is held by both.
     pub releasing: BTreeSet<(RobotId, MissionName)>,
+    /// Robots on a charging errand (the charging policy's, kept here to be journaled with the
+    /// rest).
+    pub errands: BTreeMap<RobotId, ErrandRecord>,
 }
 
 impl Durable {
@@ -68,6 +71,12 @@ impl Durable {
             }
             JournalEvent::RobotLetGo { robot, mission } => {
                 self.releasing.remove(&(robot.clone(), mission.clone()));
+            }
+            JournalEvent::RobotErrand { robot, errand: Some(e) } => {
+                self.errands.insert(robot.clone(), (**e).clone());
+            }
+            JournalEvent::RobotErrand { robot, errand: None } => {
+                self.errands.remove(robot);
             }
             _ => {}
         }
@@ -113,6 +122,13 @@ impl Durable {
         }
         for (robot, mission) in new.releasing.difference(&self.releasing) {
             out.push(JournalEvent::RobotReleasing { robot: robot.clone(), mission: Some(mission.clone()) });
+        }
+        let robots: BTreeSet<&RobotId> = self.errands.keys().chain(new.errands.keys()).collect();
+        for robot in robots {
+            let now = new.errands.get(robot);
+            if self.errands.get(robot) != now {
+                out.push(JournalEvent::RobotErrand { robot: robot.clone(), errand: now.cloned().map(Box::new) });
+            }
         }
         out
     }
@@ -162,6 +178,12 @@ mod tests {
                 if rng.gen_bool(0.15) {
                     d.releasing.insert((format!("r{r}").into(), n.into()));
                 }
+            }
+            if rng.gen_bool(0.3) {
+                let charger = mrmm_proto::map::Charger { name: format!("c{}", rng.gen_range(0..2)), at: mrmm_proto::geom::Point { x: 1.0, y: 2.0 } };
+                let left = rng.gen_bool(0.5).then(|| (names[rng.gen_range(0..names.len())].into(), rng.gen_range(1..4)));
+                let e = ErrandRecord { map: "office".into(), charger, left, spare: None, from: Some((0.5, 1.5)) };
+                d.errands.insert(format!("r{r}").into(), e);
             }
         }
         d

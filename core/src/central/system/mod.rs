@@ -174,6 +174,8 @@ pub struct SystemManager {
     /// Missions terminated here: robots still running them are ordered out, heads still
     /// reporting them are told again.
     terminated: touched::Touched<BTreeSet<MissionName>>,
+    /// Robots on charging errands, as central's charging policy has them (journaled here).
+    errands: BTreeMap<RobotId, mrmm_proto::ErrandRecord>,
     /// Controls waiting for heads, and the robots missions are letting go.
     controls: controls::Controls,
     /// Commands held while the manager learns the fleet after starting.
@@ -215,6 +217,7 @@ impl SystemManager {
             pending_create: BTreeMap::new(),
             starts: Vec::new(),
             terminated: touched::Touched::default(),
+            errands: BTreeMap::new(),
             controls: controls::Controls::default(),
             held: Vec::new(),
             edge: views::EdgeCounts::default(),

@@ -16,6 +16,7 @@ impl SystemManager {
         }
         m.assignment = touched::Touched::new(state.assignment.clone());
         m.terminated = touched::Touched::new(state.terminated.clone());
+        m.errands.clone_from(&state.errands);
         // Robots whose head had not let them go yet: told again, and held until it does.
         for (robot, mission) in &state.releasing {
             if m.missions.contains_key(mission) {
@@ -35,7 +36,14 @@ impl SystemManager {
             assignment: (*self.assignment).clone(),
             terminated: (*self.terminated).clone(),
             releasing: self.controls.releasing(),
+            errands: self.errands.clone(),
         }
+    }
+
+    /// Robots on charging errands as the charging policy has them now: journaled with the next
+    /// commit, before anything that event sends.
+    pub fn keep_errands(&mut self, errands: BTreeMap<RobotId, mrmm_proto::ErrandRecord>) {
+        self.errands = errands;
     }
 
     /// Whether the durable part differs from what the journal holds (cheap: no copies; the
@@ -45,6 +53,7 @@ impl SystemManager {
         (self.assignment.touched() && *self.assignment != j.assignment)
             || (self.terminated.touched() && *self.terminated != j.terminated)
             || self.controls.releasing() != j.releasing
+            || self.errands != j.errands
             || self.missions.len() != j.missions.len()
             || self.missions.iter().zip(&j.missions).any(|((n, r), (jn, jd))| n != jn || !Arc::ptr_eq(&r.def, jd))
     }

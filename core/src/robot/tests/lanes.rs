@@ -205,3 +205,25 @@ fn a_robot_paused_on_the_lanes_stops_at_the_end_of_its_lane() {
     assert!(paused && (x - 2.0).abs() < 0.1, "stopped at the lane's end (2, 0), not on toward its old goal: x = {x}");
     assert!(!asked_after, "asked traffic for its old goal after the pause");
 }
+
+/// A robot plugged in at a charger on the lanes tells traffic it stands docked (a parking spot
+/// it does not leave to make way); unplugged by a new goal, it no longer does.
+#[test]
+fn a_robot_charging_on_the_lanes_reports_itself_docked() {
+    use crate::body::battery::{Battery, BatteryModel};
+    let r = Robot::new(RobotSetup { battery: Some(Battery::new(BatteryModel::lasting(100.0, 2.0), 0.5)), ..cfg() });
+    let (mut r, _) = plan_on_map(r, Some(vec![Step::Hold { seconds: None }]));
+    cmd(&mut r, RobotCommand::Hold).0.expect("held");
+    cmd(&mut r, RobotCommand::Charge { on: true }).0.expect("plugged");
+    let docked = |out: Vec<Command>| out.iter().rev().find_map(|c| if let Command::TrafficReport { report, .. } = c { Some(report.docked) } else { None });
+    let mut said = None;
+    for k in 0..30 {
+        said = docked(r.handle(f64::from(k) * 0.1, Event::Tick)).or(said);
+    }
+    assert_eq!(said, Some(true), "charging, it says it is docked");
+    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![] }).0.expect("goto");
+    for k in 30..60 {
+        said = docked(r.handle(f64::from(k) * 0.1, Event::Tick)).or(said);
+    }
+    assert_eq!(said, Some(false), "given a goal, it is no longer docked");
+}

@@ -386,6 +386,7 @@ impl OnMap {
             }
             _ => {}
         }
+        cmds.extend(docked(now, traffic, &report));
         if !rebuilding {
             if let Some(goal) = report.goal.filter(|g| seen.goal != Some(g.id)) {
                 seen.goal = Some(goal.id);
@@ -505,6 +506,14 @@ fn stopped(now: f64, traffic: &mut Traffic, seen: &mut Seen, report: &TrafficRep
     traffic.handle(now, event)
 }
 
+/// A robot in traffic says whether it stands docked at a charger (it makes no way then).
+fn docked(now: f64, traffic: &mut Traffic, report: &TrafficReport) -> Vec<super::Command> {
+    if traffic.state(&report.robot).is_none() || traffic.is_docked(&report.robot) == report.docked {
+        return Vec::new();
+    }
+    traffic.handle(now, super::Event::Dock { robot: report.robot.clone(), on: report.docked })
+}
+
 /// The route to `goal`: from the vertex the robot will stand at (where its grant ends; where it
 /// enters the lanes if it holds nothing yet) to the vertex the goal is reached at.
 fn route_to(traffic: &Traffic, space: &GraphSpace, grid: Option<&OccupancyGrid>, robot: &RobotId, at: Point, goal: TrafficGoal) -> Result<Vec<u32>, String> {
@@ -513,7 +522,11 @@ fn route_to(traffic: &Traffic, space: &GraphSpace, grid: Option<&OccupancyGrid>,
         Some((route, _, Some(g), _)) => route[g],
         _ => vertex_for(space, grid, at).unwrap_or(to),
     };
-    space.vertex_path(from, to).ok_or_else(|| format!("no lanes lead from vertex {from} to vertex {to} (nearest the goal ({}, {}))", goal.x, goal.y))
+    // Round robots docked at chargers, where there is a way round.
+    let docked = traffic.docked_vertices(robot);
+    space
+        .vertex_path_avoiding(from, to, |v| docked.contains(&v))
+        .ok_or_else(|| format!("no lanes lead from vertex {from} to vertex {to} (nearest the goal ({}, {}))", goal.x, goal.y))
 }
 
 /// Who may be named a deputy: not the deputy that took over (`me`, named first anyway), not a

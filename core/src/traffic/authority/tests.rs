@@ -33,7 +33,15 @@ fn a_grid_maps_robots_are_routed_on_lanes_derived_from_its_free_space() {
     let hash = "g".repeat(64);
     let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
     let (here, there) = (Point::new(1.0, 0.6), Point::new(11.0, 3.4));
-    let report = TrafficReport { robot: "r1".into(), seq: 1, x: here.x, y: here.y, goal: Some(TrafficGoal { id: 1, x: there.x, y: there.y }), held: None };
+    let report = TrafficReport {
+        robot: "r1".into(),
+        seq: 1,
+        x: here.x,
+        y: here.y,
+        goal: Some(TrafficGoal { id: 1, x: there.x, y: there.y }),
+        held: None,
+        docked: false,
+    };
     let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report.clone() });
     let route = out
         .iter()
@@ -76,6 +84,7 @@ fn a_goal_off_the_lanes_is_given_a_way_there_only_where_no_other_robot_can_come(
         y: at.y,
         goal: Some(TrafficGoal { id: 1, x: goal.x, y: goal.y }),
         held: None,
+        docked: false,
     };
     let goal = Point::new(9.0, 3.0);
     let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", Point::new(1.0, 0.6), goal) });
@@ -94,7 +103,7 @@ fn a_restarted_robots_reports_count_from_its_first() {
     let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
     let here = g.vertices[0].at;
     let far = g.vertices[g.vertices.len() - 1].at;
-    let report = |seq: u64, goal: Option<TrafficGoal>| TrafficReport { robot: "r1".into(), seq, x: here.x, y: here.y, goal, held: None };
+    let report = |seq: u64, goal: Option<TrafficGoal>| TrafficReport { robot: "r1".into(), seq, x: here.x, y: here.y, goal, held: None, docked: false };
     a.handle(0.0, Event::Report { map: hash.clone(), report: report(40, None) });
     a.handle(2.0, Event::Gone("r1".into()));
     a.handle(3.0, Event::Alive("r1".into()));
@@ -119,7 +128,15 @@ fn a_lost_robot_taken_off_the_lanes_frees_the_way() {
     let way = space.vertex_path(0, far).expect("a way across the office");
     let mid = g.vertices[way[way.len() / 2] as usize].at;
     let (start, end) = (g.vertices[0].at, g.vertices[far as usize].at);
-    let report = |robot: &str, seq: u64, at: Point, goal: Option<TrafficGoal>| TrafficReport { robot: robot.into(), seq, x: at.x, y: at.y, goal, held: None };
+    let report = |robot: &str, seq: u64, at: Point, goal: Option<TrafficGoal>| TrafficReport {
+        robot: robot.into(),
+        seq,
+        x: at.x,
+        y: at.y,
+        goal,
+        held: None,
+        docked: false,
+    };
     a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", 1, mid, None) });
     let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", 1, start, Some(TrafficGoal { id: 1, x: end.x, y: end.y })) });
     assert!(out.iter().any(|c| matches!(c, Command::Order { robot, order: TrafficOrder::Route { .. }, .. } if robot.as_str() == "r2")), "{out:?}");
@@ -161,6 +178,7 @@ fn a_robots_first_order_names_it_among_the_deputies() {
         y: at.y,
         goal: Some(TrafficGoal { id: 1, x: far.x, y: far.y }),
         held: None,
+        docked: false,
     };
     let deputies = |out: &[Command], robot: &str| -> Vec<String> {
         out.iter()
@@ -176,4 +194,44 @@ fn a_robots_first_order_names_it_among_the_deputies() {
     assert_eq!(deputies(&out, "r1"), ["r1"]);
     let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", there) });
     assert_eq!(deputies(&out, "r2"), ["r1", "r2"]);
+}
+
+/// Routes go round a robot docked at a charger where there is a way round: from 0 to 2 the
+/// short way is through 1, where r1 charges; r2 is routed through 3. Undocked, r1 is driven
+/// past (it makes way when asked).
+#[test]
+fn routes_go_round_a_robot_docked_at_a_charger() {
+    use mrmm_maps::graph::{Edge, Vertex};
+    let points = [(0.0, 0.0), (3.0, 0.0), (6.0, 0.0), (3.0, 4.0)];
+    let vertices = points.iter().enumerate().map(|(i, &(x, y))| Vertex { charger: i == 1, name: format!("v{i}"), at: Point::new(x, y) }).collect();
+    let mut edges = Vec::new();
+    for (a, b) in [(0u32, 1u32), (1, 2), (0, 3), (3, 2)] {
+        let length = Point::new(points[a as usize].0, points[a as usize].1).dist(Point::new(points[b as usize].0, points[b as usize].1));
+        edges.push(Edge { from: a, to: b, length });
+        edges.push(Edge { from: b, to: a, length });
+    }
+    let map = Arc::new(Map::Graph(mrmm_maps::NavGraph { vertices, edges }));
+    let hash = "h".repeat(64);
+    let route_of = |docked: bool| {
+        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        let charging = TrafficReport { robot: "r1".into(), seq: 1, x: 3.0, y: 0.0, goal: None, held: None, docked };
+        a.handle(0.0, Event::Report { map: hash.clone(), report: charging });
+        let goal = Some(TrafficGoal { id: 1, x: 6.0, y: 0.0 });
+        let out = a.handle(
+            0.1,
+            Event::Report { map: hash.clone(), report: TrafficReport { robot: "r2".into(), seq: 1, x: 0.0, y: 0.0, goal, held: None, docked: false } },
+        );
+        out.iter()
+            .find_map(|c| match c {
+                Command::Order { robot, order: TrafficOrder::Route { route, .. }, .. } if robot.as_str() == "r2" => {
+                    Some(route.iter().map(|v| v.v).collect::<Vec<u32>>())
+                }
+                _ => None,
+            })
+            .expect("r2 routed")
+    };
+    let round = route_of(true);
+    assert!(!round.contains(&1) && round.contains(&3) && round.last() == Some(&2), "{round:?}");
+    let through = route_of(false);
+    assert!(through.contains(&1), "{through:?}");
 }
