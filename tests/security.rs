@@ -166,7 +166,7 @@ async fn strangers_cannot_connect_and_a_rogue_robot_cannot_act() -> anyhow::Resu
         .query::<serde_json::Value>(&Key::RobotCmd("r4".into()).to_string(), Some(serde_json::to_vec(&RobotCommand::Plan(Box::new(bogus)))?), t, any)
         .await;
     assert!(r.is_err(), "idle r4 took a rogue's plan while central is up: {r:?}");
-    let goto = serde_json::to_vec(&RobotCommand::Goto { x: 99.0, y: 99.0, via: vec![] })?;
+    let goto = serde_json::to_vec(&RobotCommand::Goto { x: 99.0, y: 99.0, via: vec![], map: None })?;
     assert!(rogue.query::<serde_json::Value>(&Key::RobotCmd("r2".into()).to_string(), Some(goto), t, any).await.is_err(), "r2 obeyed a robot's goto");
     // c. Forged telemetry and arrivals of r2.
     let forged = proto::Telemetry {

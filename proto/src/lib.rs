@@ -55,7 +55,7 @@ mod tests {
     #[test]
     fn commands_are_tagged_json() {
         let c: RobotCommand = from_json("cmd", br#"{"cmd":"goto","x":1,"y":2}"#).expect("goto");
-        assert_eq!(c, RobotCommand::Goto { x: 1.0, y: 2.0, via: vec![] });
+        assert_eq!(c, RobotCommand::Goto { x: 1.0, y: 2.0, via: vec![], map: None });
         assert!(from_json::<RobotCommand>("cmd", br#"{"cmd":"fly"}"#).is_err());
         assert!(from_json::<GotoRequest>("goto", br#"{"robot":"r1","x":1}"#).is_err());
         let plan = r#"{"cmd":"plan","mission":"m","epoch":1,"team":"m","subteam":"m/ground","members":["r1"],

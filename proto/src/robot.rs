@@ -1,6 +1,7 @@
 //! Robot-side payloads: telemetry, registration, commands and plans.
 
 use crate::ids::{MissionName, NodeId, RobotId};
+use crate::map::MapRef;
 use crate::plan::RobotPlan;
 use serde::{Deserialize, Serialize};
 
@@ -358,12 +359,15 @@ fn one() -> f64 {
 #[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
 pub enum RobotCommand {
     /// Drive to (x, y) through the points of `via` (a route on the fleet's map), and hold there
-    /// (leaves any plan).
+    /// (leaves any plan). On `map` (central names the map the goal is on): a goal of that map's
+    /// traffic, driven as traffic grants where the map has lanes.
     Goto {
         x: f64,
         y: f64,
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         via: Vec<[f64; 2]>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        map: Option<MapRef>,
     },
     /// Stop where you are (leaves any plan).
     Hold,

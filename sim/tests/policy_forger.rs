@@ -138,7 +138,7 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
         }
         Act::Order | Act::Plan => {
             let cmd = match act {
-                Act::Order => proto::RobotCommand::Goto { x: 5.0, y: 5.0, via: vec![] },
+                Act::Order => proto::RobotCommand::Goto { x: 5.0, y: 5.0, via: vec![], map: None },
                 _ => proto::RobotCommand::Plan(Box::new(proto::PlanAssignment {
                     handover: None,
                     mission: "m".into(),

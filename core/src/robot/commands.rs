@@ -95,7 +95,7 @@ impl Robot {
     pub(super) fn command(&mut self, cmd: &RobotCommand) -> Result<Option<Command>, String> {
         let mut change = None;
         match cmd {
-            RobotCommand::Goto { x, y, via } => {
+            RobotCommand::Goto { x, y, via, map } => {
                 if !(x.is_finite() && y.is_finite()) {
                     return Err(format!("goto: coordinates must be finite (got {x}, {y})"));
                 }
@@ -106,8 +106,11 @@ impl Robot {
                     change = Some(Command::LeaveTeam);
                 }
                 // On a map with lanes the goto is a goal of traffic's (its route is the lanes'):
-                // the robot was there with a plan, and is still.
+                // the goal's map as central names it, else the one its last plan was on.
                 self.unsent = None;
+                if let Some(m) = map.as_ref().filter(|m| self.traffic.as_ref().is_none_or(|g| g.map() != *m)) {
+                    self.traffic = Some(traffic::Gate::new(m.clone()));
+                }
                 if let Some(g) = self.traffic.as_mut().filter(|g| !g.free()) {
                     self.route.clear();
                     g.navigate(*x, *y, None);

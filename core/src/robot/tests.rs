@@ -68,7 +68,7 @@ fn telemetry(r: &mut Robot, now: f64) -> Telemetry {
 #[test]
 fn goto_then_arrive_with_time_scale() {
     let mut r = Robot::new(cfg());
-    let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 8.0, y: 0.0, via: vec![] });
+    let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 8.0, y: 0.0, via: vec![], map: None });
     assert_eq!(ack.expect("ack").behaviour, Behaviour::Navigate { x: 8.0, y: 0.0 });
     // 8 m at 2 m/s = 4 simulated s = 1 wall s at time scale 4.
     for i in 0..=110 {
@@ -85,7 +85,7 @@ fn goto_then_arrive_with_time_scale() {
 #[test]
 fn goto_follows_its_route() {
     let mut r = Robot::new(cfg());
-    let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]] });
+    let (ack, _) = cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]], map: None });
     assert_eq!(ack.expect("ack").behaviour, Behaviour::Navigate { x: 4.0, y: 0.0 }, "the first corner first");
     let mut farthest_x_before_turn: f64 = 0.0;
     for i in 0..=400 {
@@ -102,13 +102,13 @@ fn goto_follows_its_route() {
     assert!((t.pose.x - 4.0).abs() <= 0.1 && (t.pose.y - 4.0).abs() <= crate::body::ARRIVAL_TOLERANCE, "{:?}", t.pose);
     assert!(farthest_x_before_turn > 3.9);
     let too_many = vec![[0.0, 0.0]; MAX_GOTO_VIA + 1];
-    assert!(cmd(&mut r, RobotCommand::Goto { x: 0.0, y: 0.0, via: too_many }).0.is_err());
+    assert!(cmd(&mut r, RobotCommand::Goto { x: 0.0, y: 0.0, via: too_many, map: None }).0.is_err());
 }
 
 #[test]
 fn rejects_non_finite_goal_and_hostile_plans() {
     let mut r = Robot::new(cfg());
-    assert!(cmd(&mut r, RobotCommand::Goto { x: f64::NAN, y: 0.0, via: vec![] }).0.is_err());
+    assert!(cmd(&mut r, RobotCommand::Goto { x: f64::NAN, y: 0.0, via: vec![], map: None }).0.is_err());
     assert_eq!(r.behaviour(), Behaviour::Hold);
     for bad in [
         Step::Navigate { x: 1.0, y: 0.0, speed: Some(f64::NAN) },
@@ -182,7 +182,7 @@ fn only_central_orders_and_only_managers_of_the_mission_plan() {
     let mut r = Robot::new(cfg());
     r.handle(0.0, Event::CentralAlive(true));
     let rogue = Sender::new(Role::Robot, "r9");
-    assert!(cmd_from(&mut r, RobotCommand::Goto { x: 1.0, y: 1.0, via: vec![] }, rogue.clone()).0.unwrap_err().contains("robot:r9 may not"));
+    assert!(cmd_from(&mut r, RobotCommand::Goto { x: 1.0, y: 1.0, via: vec![], map: None }, rogue.clone()).0.unwrap_err().contains("robot:r9 may not"));
     assert!(cmd_from(&mut r, RobotCommand::Hold, Sender::new(Role::Operator, "op")).0.is_err());
     // A robot that is not a teammate cannot plan for an idle robot, nor for one in a mission.
     assert!(cmd_from(&mut r, plan("m", u64::MAX), rogue.clone()).0.is_err());
@@ -320,7 +320,7 @@ fn a_robot_with_a_battery_charges_on_centrals_word() {
     assert!(cmd_from(&mut r, RobotCommand::Charge { on: true }, Sender::new(Role::Robot, "r2")).0.unwrap_err().contains("may not"));
     cmd(&mut r, plan("m", 1)).0.expect("plan");
     assert!(cmd(&mut r, RobotCommand::Charge { on: true }).0.unwrap_err().contains("running a plan"));
-    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![] }).0.expect("goto");
+    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![], map: None }).0.expect("goto");
     cmd(&mut r, RobotCommand::Charge { on: true }).0.expect("plugged");
     let before = r.pose();
     for k in 0..50 {
@@ -329,7 +329,7 @@ fn a_robot_with_a_battery_charges_on_centrals_word() {
     assert_eq!(r.pose(), before, "plugged in, it stands");
     let b = telemetry(&mut r, 5.0).battery.expect("battery");
     assert!(b.charging && b.charge > 0.6, "{b:?}");
-    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![] }).0.expect("goto");
+    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![], map: None }).0.expect("goto");
     r.handle(5.1, Event::Tick);
     r.handle(5.3, Event::Tick);
     assert!(r.pose().x > before.x, "a new goal unplugs it");

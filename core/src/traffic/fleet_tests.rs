@@ -432,7 +432,7 @@ fn an_operators_goto_on_the_map_goes_through_traffic() {
     let far = |v: &mrmm_maps::graph::Vertex| others.iter().map(|o| o.dist(v.at)).fold(f64::INFINITY, f64::min);
     let target = g.vertices.iter().max_by(|a, b| far(a).total_cmp(&far(b))).map(|v| v.at).expect("vertices");
     for r in &mut f.robots {
-        let cmd = if r.id() == "r0" { RobotCommand::Goto { x: target.x, y: target.y, via: vec![] } } else { RobotCommand::Hold };
+        let cmd = if r.id() == "r0" { RobotCommand::Goto { x: target.x, y: target.y, via: vec![], map: None } } else { RobotCommand::Hold };
         let out = r.handle(f.now, robot::Event::Command { cmd, from: Sender::new(Role::Central, "central") });
         assert!(out.iter().any(|c| matches!(c, robot::Command::Reply(Ok(_)))), "{out:?}");
     }

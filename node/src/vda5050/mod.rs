@@ -62,8 +62,8 @@ struct Gateway {
     template: RobotConfig,
     client: rumqttc::AsyncClient,
     vehicles: BTreeMap<VehicleId, Vehicle>,
-    /// What the vehicles' factsheets say: top speed, work (their robots' kinematics and
-    /// capabilities).
+    /// What the vehicles' factsheets say: top speed, type, work (their robots' kinematics,
+    /// robot type and capabilities).
     sheets: BTreeMap<VehicleId, Sheet>,
     robots: JoinSet<(VehicleId, Result<(), NodeError>)>,
     shutdown: CancellationToken,
@@ -270,7 +270,6 @@ impl Gateway {
     }
 }
 
-/// One vehicle's robot, from start until it stops, is killed or the gateway stops.
 /// What a vehicle's factsheet says that its robot takes: its top speed, its type (by the
 /// gateway config's `types`), and its work (`pick`, `drop`, …) as capabilities beside the robot
 /// config's.
@@ -308,6 +307,7 @@ impl Sheet {
     }
 }
 
+/// One vehicle's robot, from start until it stops, is killed or the gateway stops.
 async fn one(cfg: RobotConfig, link: VdaLink, stop: CancellationToken, kill: oneshot::Receiver<()>) -> Result<(), NodeError> {
     let mut started = crate::robot::start_with(cfg, stop, Some(link)).await?;
     started.announce();

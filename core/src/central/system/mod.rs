@@ -475,9 +475,9 @@ impl SystemManager {
                 None => reply(req, Err(ErrorReply::not_found(format!("unknown mission {name:?}")))),
             },
             Request::Goto(g) => match self.check_goto(&g) {
-                Ok(via) => {
+                Ok((via, map)) => {
                     self.note_command(&req, "robot goto", &serde_json::to_value(&g).unwrap_or(Value::Null));
-                    vec![Command::SendToRobot { req: Some(req), robot: g.robot, cmd: RobotCommand::Goto { x: g.x, y: g.y, via } }]
+                    vec![Command::SendToRobot { req: Some(req), robot: g.robot, cmd: RobotCommand::Goto { x: g.x, y: g.y, via, map } }]
                 }
                 Err(e) => reply(req, Err(e)),
             },
@@ -507,7 +507,7 @@ impl SystemManager {
 
     /// Checks a goto; on a map (the one it names, else central's only one), the route's corner
     /// points between the robot and its goal.
-    fn check_goto(&self, g: &GotoRequest) -> Result<Vec<[f64; 2]>, ErrorReply> {
+    fn check_goto(&self, g: &GotoRequest) -> Result<(Vec<[f64; 2]>, Option<mrmm_proto::MapRef>), ErrorReply> {
         self.live_robot(g.robot.as_str())?;
         if let Some(m) = self.assignment.get(&g.robot) {
             return Err(ErrorReply::conflict(format!("robot {:?} is in mission {m}: move it out first (robot move {} none)", g.robot, g.robot)));
@@ -520,7 +520,7 @@ impl SystemManager {
             None if self.maps.len() == 1 => self.maps.values().next(),
             None => None,
         };
-        let (Some(held), Some(pose)) = (held, self.fleet.last(g.robot.as_str()).map(|t| t.pose)) else { return Ok(vec![]) };
+        let (Some(held), Some(pose)) = (held, self.fleet.last(g.robot.as_str()).map(|t| t.pose)) else { return Ok((vec![], None)) };
         let space = held.space().map_err(ErrorReply::invalid)?;
         let name = &held.info.name;
         let from =
@@ -529,7 +529,8 @@ impl SystemManager {
         let route = space
             .route(&from, &to)
             .ok_or_else(|| ErrorReply::invalid(format!("map {name}: ({}, {}) cannot be reached from where {} is", g.x, g.y, g.robot)))?;
-        Ok(route[1..route.len() - 1].iter().map(|p| [(p.x * 100.0).round() / 100.0, (p.y * 100.0).round() / 100.0]).collect())
+        let via = route[1..route.len() - 1].iter().map(|p| [(p.x * 100.0).round() / 100.0, (p.y * 100.0).round() / 100.0]).collect();
+        Ok((via, Some(held.info.map_ref())))
     }
 
     /// The robot's record if it is registered and alive.

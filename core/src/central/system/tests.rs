@@ -205,7 +205,7 @@ fn goto_is_validated_then_relayed() {
     let go = |sm: &mut SystemManager, body: &str| sm.drive(1.0, Event::Operator { req: Req::Query(7), request: Request::Goto(decode(body)) });
     assert_eq!(
         go(&mut sm, r#"{"robot":"r1","x":3,"y":4}"#),
-        vec![Command::SendToRobot { req: Some(Req::Query(7)), robot: "r1".into(), cmd: RobotCommand::Goto { x: 3.0, y: 4.0, via: vec![] } }]
+        vec![Command::SendToRobot { req: Some(Req::Query(7)), robot: "r1".into(), cmd: RobotCommand::Goto { x: 3.0, y: 4.0, via: vec![], map: None } }]
     );
     let e = reply(go(&mut sm, r#"{"robot":"nope","x":3,"y":4}"#)).expect_err("unknown");
     assert!(e.contains("unknown robot \"nope\""), "{e}");
@@ -247,8 +247,9 @@ fn a_goto_on_a_map_follows_a_route() {
     let go = |sm: &mut SystemManager, body: &str| sm.drive(1.0, Event::Operator { req: Req::Query(7), request: Request::Goto(decode(body)) });
     // From the corridor (0, 0) into an office: through its door, never through a wall.
     let out = go(&mut sm, r#"{"robot":"r1","x":-8,"y":8}"#);
-    let [Command::SendToRobot { cmd: RobotCommand::Goto { x, y, via }, .. }] = out.as_slice() else { panic!("a goto: {out:?}") };
+    let [Command::SendToRobot { cmd: RobotCommand::Goto { x, y, via, map }, .. }] = out.as_slice() else { panic!("a goto: {out:?}") };
     assert!(!via.is_empty(), "a route, not a straight line");
+    assert_eq!(map.as_ref().map(|m| m.name.as_str()), Some("building"), "the goal's map, for its traffic");
     let mut pts = vec![mrmm_maps::Point::new(0.0, 0.0)];
     pts.extend(via.iter().map(|p| mrmm_maps::Point::new(p[0], p[1])));
     pts.push(mrmm_maps::Point::new(*x, *y));

@@ -36,11 +36,28 @@ fn a_goal_given_to_traffic_is_driven_when_the_map_has_no_lanes() {
 #[test]
 fn a_goto_given_to_traffic_is_driven_along_its_route_when_the_map_has_no_lanes() {
     let (mut r, map) = planned_on_map(None);
-    cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]] }).0.expect("goto taken");
+    cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]], map: None }).0.expect("goto taken");
     r.handle(0.0, Event::Tick);
     assert_eq!(r.body.goal(), None, "traffic's word first");
     r.handle(0.05, Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
     assert_eq!(r.body.goal(), Some((4.0, 0.0)), "the route's first point");
+}
+
+/// A robot that never had a plan on the map, given a goto central says is on it, asks the map's
+/// traffic for its way before it drives (before, it drove straight, outside traffic); where the
+/// map has no lanes it drives the goto's route.
+#[test]
+fn a_goto_on_a_map_goes_to_its_traffic_without_a_plan_before() {
+    let mut r = Robot::new(cfg());
+    let map = mrmm_proto::MapRef { name: "office".into(), hash: "cd".repeat(32) };
+    cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]], map: Some(map.clone()) }).0.expect("goto taken");
+    let out = r.handle(0.0, Event::Tick);
+    let asked =
+        out.iter().any(|c| matches!(c, Command::TrafficReport { map: m, report } if *m == map.hash && report.goal.is_some_and(|g| (g.x, g.y) == (4.0, 4.0))));
+    assert!(asked, "the goal told to the map's traffic: {out:?}");
+    assert_eq!(r.body.goal(), None, "traffic's word first");
+    r.handle(0.05, Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
+    assert_eq!(r.body.goal(), Some((4.0, 0.0)), "no lanes: the route's first point");
 }
 
 /// On a grid map traffic may give a way off the lanes to the goal (`off`): the robot drives the
@@ -221,7 +238,7 @@ fn a_robot_charging_on_the_lanes_reports_itself_docked() {
         said = docked(r.handle(f64::from(k) * 0.1, Event::Tick)).or(said);
     }
     assert_eq!(said, Some(true), "charging, it says it is docked");
-    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![] }).0.expect("goto");
+    cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![], map: None }).0.expect("goto");
     for k in 30..60 {
         said = docked(r.handle(f64::from(k) * 0.1, Event::Tick)).or(said);
     }

@@ -13,7 +13,7 @@ fn a_vda_vehicle_is_sent_its_next_goal_in_the_tick_that_gives_it() {
         Event::Vda(Box::new(mrmm_vda5050::FromVehicle::State(Box::new(s))))
     };
     r.handle(0.0, state("", 0, 0.0));
-    cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]] }).0.expect("goto taken");
+    cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]], map: None }).0.expect("goto taken");
     let orders = |out: Vec<Command>| out.into_iter().filter(|c| matches!(c, Command::Vda(crate::body::vda::VdaOut::Order(_)))).count();
     assert_eq!(orders(r.handle(0.02, Event::Tick)), 1, "the first corner");
     r.handle(0.5, state("gw-p1", 2, 4.0));
