@@ -113,10 +113,10 @@ async fn chargers_come_from_the_map_and_from_centrals_config() -> anyhow::Result
     Ok(())
 }
 
-/// Central (its state in the scratch dir) on Open-RMF's office graph, robots r1 (21 %), r2 and r3
-/// (full; a full charge drives 300 s, time scale 5) at vertices far from the chargers, and a
-/// patrol of r1 and r2.
-async fn patrol_with_a_low_robot(dir: &Scratch) -> anyhow::Result<Patrol> {
+/// Central (its state in the scratch dir) on Open-RMF's office graph, robots r1 (21 %; a full
+/// charge drives 300 s), r2 and r3 (full; `others_life_s`) at vertices far from the chargers,
+/// time scale 5, and a patrol of r1 and r2.
+async fn patrol_with_a_low_robot(dir: &Scratch, others_life_s: u32) -> anyhow::Result<Patrol> {
     let office = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml");
     let graph = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(&office)?)?;
     let map = format!("office={}", office.display());
@@ -133,7 +133,8 @@ async fn patrol_with_a_low_robot(dir: &Scratch) -> anyhow::Result<Patrol> {
     let mut robots = Vec::new();
     for (i, (id, charge)) in [("r1", 0.21), ("r2", 1.0), ("r3", 1.0)].into_iter().enumerate() {
         let cfg = common::robot_config(dir, id, std::slice::from_ref(&ep), starts[i].x, starts[i].y, 5.0)?;
-        let text = std::fs::read_to_string(&cfg)?.replacen("time_scale:", &format!("battery: {{ life_s: 300, charge: {charge} }}, time_scale:"), 1);
+        let life = if id == "r1" { 300 } else { others_life_s };
+        let text = std::fs::read_to_string(&cfg)?.replacen("time_scale:", &format!("battery: {{ life_s: {life}, charge: {charge} }}, time_scale:"), 1);
         std::fs::write(&cfg, text)?;
         let cfg = cfg.display().to_string();
         robots.push(common::start(id, &["robot", "--config", &cfg], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))?);
@@ -175,7 +176,7 @@ struct Patrol {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> anyhow::Result<()> {
     let dir = Scratch::new("charging");
-    let Patrol { central: _central, ep, map: _, _robots, client, chargers } = patrol_with_a_low_robot(&dir).await?;
+    let Patrol { central: _central, ep, map: _, _robots, client, chargers } = patrol_with_a_low_robot(&dir, 300).await?;
     let robot = |id: &'static str| {
         let client = &client;
         async move { client.query::<RobotView>(proto::Key::SystemRobot(id.into()), None::<&()>).await.ok() }
@@ -226,7 +227,9 @@ async fn a_low_robot_charges_at_a_charger_while_a_spare_takes_its_place() -> any
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_charging_errand_goes_on_after_central_is_killed() -> anyhow::Result<()> {
     let dir = Scratch::new("charging-kill");
-    let Patrol { mut central, ep, map, _robots, client, chargers } = patrol_with_a_low_robot(&dir).await?;
+    // r2 and r3 do not run low meanwhile (a robot just charged is the first spare sent to
+    // relieve one: it would not drive back).
+    let Patrol { mut central, ep, map, _robots, client, chargers } = patrol_with_a_low_robot(&dir, 3000).await?;
     // Out of the patrol, on its way; the journal says where it was sent from.
     eventually("r1 out of the patrol, on its way to a charger", Duration::from_secs(60), || async {
         robot_view(&client, "r1").await.filter(|v| v.mission.is_none()).map(|_| ())
@@ -251,7 +254,7 @@ async fn a_charging_errand_goes_on_after_central_is_killed() -> anyhow::Result<(
     .await?;
     let at = mrmm_maps::Point::new(plugged.x, plugged.y);
     assert!(chargers.iter().any(|c| c.dist(at) <= 0.35), "r1 charges at ({}, {}), chargers at {chargers:?}", at.x, at.y);
-    let back = eventually("r1 charged and back where it was sent from", Duration::from_secs(120), || async {
+    let back = match eventually("r1 charged and back where it was sent from", Duration::from_secs(120), || async {
         let v = robot_view(&client, "r1").await?;
         let p = v.pose?;
         let charged = v.battery.is_some_and(|b| !b.charging && b.charge >= 0.98);
@@ -259,7 +262,11 @@ async fn a_charging_errand_goes_on_after_central_is_killed() -> anyhow::Result<(
         // (lanes cut into segments of at most 3 m).
         (charged && (p.x - fx).hypot(p.y - fy) <= 1.6).then_some(v)
     })
-    .await?;
+    .await
+    {
+        Ok(v) => v,
+        Err(e) => anyhow::bail!("{e}: r1 now {:?}, sent from ({fx:.2}, {fy:.2})", robot_view(&client, "r1").await),
+    };
     assert!(back.mission.is_none(), "{back:?}");
     let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
     assert_eq!(m.robots.len(), 2, "the patrol kept its count: {:?}", m.robots);
