@@ -265,14 +265,16 @@ impl Deputy {
         out
     }
 
-    /// Robot `r`'s report with what it holds as the newer of its own word and its last order.
+    /// Robot `r`'s report with what it holds as the newer of its own word and its last order
+    /// (a robot that stopped — no goal — drives no further than it says: it gave the rest back).
     fn merged(&self, r: &TrafficReport) -> TrafficReport {
         let mut r = r.clone();
         let Some(g) = self.granted.get(&r.robot) else { return r };
+        let stopped = r.goal.is_none();
         r.held = match r.held.take() {
             Some(h) if (h.incarnation, h.version) > (g.incarnation, g.version) => Some(h),
             Some(h) if (h.incarnation, h.version) == (g.incarnation, g.version) => {
-                let upto = h.upto.max(g.upto);
+                let upto = if stopped { h.upto } else { h.upto.max(g.upto) };
                 Some(TrafficHeld { upto, ..h })
             }
             _ => Some(g.clone()),
@@ -314,6 +316,14 @@ mod tests {
         TrafficReport { robot: robot.into(), seq, x: at.x, y: at.y, goal: goal.map(|g| TrafficGoal { id: 1, x: g.x, y: g.y }), held: None, docked: false }
     }
 
+    /// Central's traffic authority on `map` (by its hash) and robot b's deputy following it.
+    fn central_and_deputy(map: &Arc<Map>) -> (String, Authority, Deputy) {
+        let hash = "h".repeat(64);
+        let central = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        let deputy = Deputy::new(0.0, "b".into(), hash.clone(), map.clone(), true);
+        (hash, central, deputy)
+    }
+
     /// Central's liveliness goes at `at`: the deputy takes over within `within` seconds.
     fn central_dies(deputy: &mut Deputy, at: f64, within: f64) {
         deputy.handle(at, Event::Central(false));
@@ -333,9 +343,7 @@ mod tests {
     fn a_deputy_holds_what_central_granted_that_no_robot_reported_yet() {
         let map = office();
         let Map::Graph(g) = map.as_ref() else { unreachable!() };
-        let hash = "h".repeat(64);
-        let mut central = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
-        let mut deputy = Deputy::new(0.0, "b".into(), hash.clone(), map.clone(), true);
+        let (hash, mut central, mut deputy) = central_and_deputy(&map);
         let hear = |central: &mut Authority, deputy: &mut Deputy, t: f64, r: TrafficReport| {
             let mut granted = None;
             deputy.handle(t, Event::Report(r.clone()));
@@ -376,15 +384,45 @@ mod tests {
         );
     }
 
+    /// A robot that stopped (its mission paused) while central's answer to that was lost, central
+    /// dying: the deputy that takes over holds for it only what it says it holds, not the rest of
+    /// central's last grant (which the robot gave back, and would drive again were it granted).
+    #[test]
+    fn a_deputy_takes_a_stopped_robots_word_over_centrals_last_grant() {
+        let map = office();
+        let Map::Graph(g) = map.as_ref() else { unreachable!() };
+        let (hash, mut central, mut deputy) = central_and_deputy(&map);
+        let mut last = None;
+        let start = g.vertices[0].at;
+        let far = g.vertices.iter().map(|v| v.at).max_by(|p, q| start.dist(*p).total_cmp(&start.dist(*q))).expect("vertices");
+        for (t, seq, goal) in [(0.0, 1, None), (0.5, 2, Some(far)), (0.6, 3, Some(far))] {
+            let r = report("b", seq, start, goal);
+            deputy.handle(t, Event::Report(r.clone()));
+            for c in central.handle(t, authority::Event::Report { map: hash.clone(), report: r }) {
+                if let authority::Command::Order { robot, order, .. } = c {
+                    last = Some(order.clone());
+                    deputy.handle(t, Event::Order { robot, order });
+                }
+            }
+        }
+        let Some(TrafficOrder::Route { incarnation, version, route, reached, upto, .. }) = last else { panic!("b was not routed: {last:?}") };
+        assert!(upto > reached, "b was granted nothing beyond where it stands");
+        // b stops where it stands: its report says so; central's answer never comes.
+        let held = TrafficHeld { incarnation, version, route: route.iter().map(|v| v.v).collect(), reached, upto: reached };
+        deputy.handle(0.7, Event::Report(TrafficReport { held: Some(held), ..report("b", 4, start, None) }));
+        central_dies(&mut deputy, 1.0, 4.0);
+        let traffic = deputy.authority().and_then(|a| a.traffic(&hash)).expect("traffic on the map");
+        let (_, at, granted, _) = traffic.state(&"b".into()).expect("b in traffic");
+        assert_eq!(granted, at, "the deputy holds more than the stopped robot does: {}", traffic.describe(&"b".into()));
+    }
+
     /// A robot the operator took off the lanes at central is not handed back what it held when a
     /// deputy takes over: the deputy heard it cleared.
     #[test]
     fn a_robot_cleared_at_central_stays_cleared_after_a_takeover() {
         let map = office();
         let Map::Graph(g) = map.as_ref() else { unreachable!() };
-        let hash = "h".repeat(64);
-        let mut central = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
-        let mut deputy = Deputy::new(0.0, "b".into(), hash.clone(), map.clone(), true);
+        let (hash, mut central, mut deputy) = central_and_deputy(&map);
         let tell = |deputy: &mut Deputy, t: f64, cmds: Vec<authority::Command>| {
             for c in cmds {
                 if let authority::Command::Order { robot, order, .. } = c {
