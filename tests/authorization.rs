@@ -194,7 +194,7 @@ struct PlanRequestBody(proto::PlanRequest);
 
 impl PlanRequestBody {
     fn new(r: proto::MapRef) -> Self {
-        let robot = proto::RobotSpec { id: "r9".into(), robot_type: "ground".into(), x: 1.0, y: 1.0, speed: 1.0, turn_rate: Some(1.0) };
+        let robot = proto::RobotSpec { id: "r9".into(), robot_type: "ground".into(), x: 1.0, y: 1.0, speed: 1.0, turn_rate: Some(1.0), reach_m: None };
         PlanRequestBody(proto::PlanRequest {
             recipe: "coverage".into(),
             params: [("region".to_string(), "[[0,0],[10,0],[10,10],[0,10]]".to_string())].into(),

@@ -326,3 +326,77 @@ async fn a_mission_that_charges_on_the_operators_word_keeps_its_low_robot_until_
     client.close().await;
     Ok(())
 }
+
+/// Planning by reach with real processes: r1's battery (35 % of a charge that drives 80 s)
+/// takes it about 28 m, short of any slot of a patrol of every vertex of the office graph for
+/// two (30 m from a slot to the first sync point, turns counted) though above the 20 % threshold. Its manager
+/// plans the patrol for r2 alone and holds r1 (the mission's `held`); with `charging: ask` it
+/// stays held; turned to `auto`, central sends it to charge before it is low — the idle r3
+/// moved in — and it charges at a charger.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_robot_short_of_reach_is_held_out_of_the_plan_and_sent_to_charge() -> anyhow::Result<()> {
+    let dir = Scratch::new("reach");
+    let office = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/open_rmf/office.nav_graph.yaml");
+    let graph = mrmm_maps::rmf::parse("office", &std::fs::read_to_string(&office)?)?;
+    let chargers: Vec<mrmm_maps::Point> = graph.chargers().map(|v| v.at).collect();
+    let map = format!("office={}", office.display());
+    let (_central, ep) = start_central(&dir, &["--listen", "tcp/127.0.0.1:0", "--map", &map])?;
+    // r1 on the vertex nearest the first charger but not at it (it drives there on its reach);
+    // time scale 1: standing, r1 stays above 20 % for 60 s.
+    let near =
+        graph.vertices.iter().filter(|v| !v.charger && v.at.dist(chargers[0]) > 2.0).min_by(|a, b| a.at.dist(chargers[0]).total_cmp(&b.at.dist(chargers[0])));
+    let far = graph.vertices.iter().filter(|v| chargers.iter().all(|c| c.dist(v.at) > 5.0));
+    let starts: Vec<mrmm_maps::Point> = near.into_iter().chain(far).map(|v| v.at).collect();
+    let mut robots = Vec::new();
+    for (i, (id, battery)) in [("r1", "{ life_s: 80, charge: 0.35 }"), ("r2", "{ life_s: 3000 }"), ("r3", "{ life_s: 3000 }")].into_iter().enumerate() {
+        let cfg = common::robot_config(&dir, id, std::slice::from_ref(&ep), starts[i * 2].x, starts[i * 2].y, 1.0)?;
+        let text = std::fs::read_to_string(&cfg)?.replacen("time_scale:", &format!("battery: {battery}, time_scale:"), 1);
+        std::fs::write(&cfg, text)?;
+        let cfg = cfg.display().to_string();
+        robots.push(common::start(id, &["robot", "--config", &cfg], &dir.path(&format!("{id}.log")), "robot ready", Duration::from_secs(20))?);
+    }
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(10)).await?;
+    common::wait_robots(&client, 3).await?;
+    eventually("central knows r1's reach", Duration::from_secs(10), || async { robot_view(&client, "r1").await?.battery?.reach_m.map(|_| ()) }).await?;
+    let patrol = proto::MissionCreate {
+        name: "p".into(),
+        recipe: "patrol".into(),
+        robots: Some(vec!["r1".into(), "r2".into()]),
+        params: [("waypoints".to_string(), serde_json::json!("all")), ("charging".to_string(), serde_json::json!("ask"))].into(),
+        map: Some("office".into()),
+        ..Default::default()
+    };
+    let _: proto::MissionView = client.query(proto::Key::SystemCmd(proto::SystemCmd::Create), Some(&patrol)).await?;
+    let m = eventually("p holds r1 out of its plan", Duration::from_secs(30), || async {
+        let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
+        (m.held == ["r1"]).then_some(m)
+    })
+    .await?;
+    assert_eq!(m.robots, ["r1", "r2"], "held, r1 is still a member");
+    let planned: Vec<&str> = m.plans.iter().flatten().map(|p| p.robot.as_str()).collect();
+    assert_eq!(planned, ["r2"], "the patrol is r2's alone");
+    let b = robot_view(&client, "r1").await.and_then(|v| v.battery).ok_or_else(|| anyhow::anyhow!("r1's battery"))?;
+    assert!(b.charge > 0.25 && !b.charging, "{b:?}");
+    let out = std::process::Command::new(common::EXE).args(["op", "--connect", &ep, "mission", "update", "p", "--param", "charging=auto"]).output()?;
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // Sent for its reach, not its charge: out of the patrol while still above 20 %, r3 in.
+    let (robots_then, charge) = eventually("r1 out of the patrol and r3 in", Duration::from_secs(20), || async {
+        let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await.ok()?;
+        let r1 = robot_view(&client, "r1").await?;
+        (r1.mission.is_none() && m.robots.iter().any(|r| r == "r3")).then(|| (m.robots, r1.battery.map_or(0.0, |b| b.charge)))
+    })
+    .await?;
+    assert!(charge > 0.2, "r1 went at {charge}: at the threshold, not for its reach");
+    assert!(!robots_then.iter().any(|r| r == "r1"), "{robots_then:?}");
+    let at = eventually("r1 charging at a charger", Duration::from_secs(60), || async {
+        let v = robot_view(&client, "r1").await?;
+        v.battery.filter(|b| b.charging).and(v.pose)
+    })
+    .await?;
+    let at = mrmm_maps::Point::new(at.x, at.y);
+    assert!(chargers.iter().any(|c| c.dist(at) <= 0.35), "r1 charges at ({}, {}), chargers at {chargers:?}", at.x, at.y);
+    let m: proto::MissionView = client.query(proto::Key::SystemMission("p".into()), None::<&()>).await?;
+    assert!(m.held.is_empty(), "r3 has the reach: {:?}", m.held);
+    client.close().await;
+    Ok(())
+}

@@ -25,6 +25,7 @@ fn request(n: usize) -> PlanRequest {
             y: (i / 25) as f64 * 2.0,
             speed: 1.0,
             turn_rate: None,
+            reach_m: None,
         })
         .collect();
     PlanRequest { recipe: "patrol".into(), params: Default::default(), robots, map: None, capabilities: Default::default(), relax_bounds: false }

@@ -122,7 +122,7 @@ fn one(name: &str, graph: &NavGraph, n: usize, best: f64, seed: u64, turn: f64) 
     let robots: Vec<RobotSpec> = starts
         .iter()
         .enumerate()
-        .map(|(i, p)| RobotSpec { id: format!("r{}", i + 1).into(), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED, turn_rate: None })
+        .map(|(i, p)| RobotSpec { id: format!("r{}", i + 1).into(), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED, turn_rate: None, reach_m: None })
         .collect();
     let r = recipe::parse(recipe::bank("patrol").unwrap_or_default())?;
     // The robots turn on the spot at `turn` rad/s: the plan spaces them by time, turns counted.

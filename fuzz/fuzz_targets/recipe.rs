@@ -15,7 +15,7 @@ fuzz_target!(|data: &[u8]| {
     let robots: Vec<RobotSpec> = ["r1", "r2", "r3"]
         .iter()
         .enumerate()
-        .map(|(i, id)| RobotSpec { id: (*id).into(), robot_type: "ground".into(), x: i as f64, y: 0.0, speed: 1.0, turn_rate: Some(1.0 + i as f64) })
+        .map(|(i, id)| RobotSpec { id: (*id).into(), robot_type: "ground".into(), x: i as f64, y: 0.0, speed: 1.0, turn_rate: Some(1.0 + i as f64), reach_m: None })
         .collect();
     let _ = recipe::build(&r, &Default::default(), &robots);
 });

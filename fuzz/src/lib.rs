@@ -166,6 +166,7 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
         robots: start.members.iter().map(|m| m.spec.id.clone()).collect(),
         lost: vec![],
         stuck: Default::default(),
+        held: vec![],
         teams: Default::default(),
         team_views: vec![],
         manager: mrmm_proto::ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![host.into()], uncommitted_s: None },
@@ -182,7 +183,7 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
 
 /// A member record of a fixture robot.
 pub fn member(id: &str, x: f64) -> Member {
-    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 2.0, turn_rate: None }, time_scale: 4.0, capabilities: vec![] }
+    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 2.0, turn_rate: None, reach_m: None }, time_scale: 4.0, capabilities: vec![] }
 }
 
 /// A mission host (`node`) running a patrol `p` of r1 and r2 that central started, with plans

@@ -27,6 +27,7 @@ fn main() {
                 y: -12.0 - (i / 20) as f64 * 1.5,
                 speed: 1.0,
                 turn_rate: None,
+                reach_m: None,
             })
             .collect();
         let t = Instant::now();

@@ -70,6 +70,10 @@ pub struct CoveragePlan {
     /// Time until the last robot is in place, s.
     pub formation_time: f64,
     pub plans: Vec<RobotPlan>,
+    /// Robots left out: no point is within their battery's reach (`RobotSpec::reach_m`). The
+    /// points are the others'.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub held: Vec<mrmm_proto::RobotId>,
 }
 
 /// Plans coverage of `params.region` by `robots`.
@@ -92,12 +96,61 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
     }
     let region = params.region.clone().validated()?;
     crate::plan::check(robots)?;
-    let (points, radius) = place(&region, robots.len(), params)?;
-    let rows: Vec<Vec<f64>> = robots.iter().map(|r| points.iter().map(|p| p.dist(Point::new(r.x, r.y)) / r.speed).collect()).collect();
-    let a = assign::bottleneck(&Costs::from_rows(&rows)?);
-    let plans = robots
+    let mut team = robots.to_vec();
+    let mut held = Vec::new();
+    loop {
+        let (points, radius) = place(&region, team.len(), params)?;
+        let (a, short) = assign_points(&team, &points)?;
+        let everyone = short.len() == team.len();
+        held.extend(short.iter().map(|&i| team[i].id.clone()));
+        if !short.is_empty() && !everyone {
+            let mut i = 0;
+            team.retain(|_| {
+                i += 1;
+                !short.contains(&(i - 1))
+            });
+            continue;
+        }
+        let plans = if everyone { vec![] } else { plans_to(&team, &a.slot, &points) };
+        let formation_time = if everyone { 0.0 } else { a.max };
+        return Ok(CoveragePlan {
+            hexagonal_bound: hexagonal_bound(region.area(), team.len()),
+            region,
+            points,
+            coverage_radius: radius,
+            formation_time,
+            plans,
+            held,
+        });
+    }
+}
+
+/// The robots assigned to the points (bottleneck of driving times, a point beyond a robot's
+/// reach costing [`crate::plan::BEYOND_REACH_S`] more), and which robots got a point beyond
+/// their reach.
+fn assign_points(robots: &[RobotSpec], points: &[Point]) -> Result<(assign::Assignment, Vec<usize>), PlanError> {
+    let rows: Vec<Vec<f64>> = robots
         .iter()
-        .zip(&a.slot)
+        .map(|r| {
+            points
+                .iter()
+                .map(|p| {
+                    let d = p.dist(Point::new(r.x, r.y));
+                    d / r.speed + if r.reach_m.is_some_and(|m| d > m) { crate::plan::BEYOND_REACH_S } else { 0.0 }
+                })
+                .collect()
+        })
+        .collect();
+    let a = assign::bottleneck(&Costs::from_rows(&rows)?);
+    let short = a.slot.iter().enumerate().filter(|&(i, &k)| rows[i][k] >= crate::plan::BEYOND_REACH_S).map(|(i, _)| i).collect();
+    Ok((a, short))
+}
+
+/// Each robot drives to its point and holds there.
+fn plans_to(robots: &[RobotSpec], slots: &[usize], points: &[Point]) -> Vec<RobotPlan> {
+    robots
+        .iter()
+        .zip(slots)
         .map(|(r, &slot)| RobotPlan {
             robot: r.id.clone(),
             robot_type: r.robot_type.clone(),
@@ -105,15 +158,7 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
             steps: vec![Step::Stream, Step::Navigate { x: points[slot].x, y: points[slot].y, speed: None }, Step::Hold { seconds: None }],
             team: String::new(),
         })
-        .collect();
-    Ok(CoveragePlan {
-        hexagonal_bound: hexagonal_bound(region.area(), robots.len()),
-        region: region.clone(),
-        points,
-        coverage_radius: radius,
-        formation_time: a.max,
-        plans,
-    })
+        .collect()
 }
 
 /// The covering radius of a hexagonal arrangement of n disks over area `area`.
@@ -291,7 +336,9 @@ mod tests {
     }
 
     fn robots(n: usize) -> Vec<RobotSpec> {
-        (0..n).map(|i| RobotSpec { id: format!("r{i}").into(), robot_type: "ground".into(), x: i as f64, y: -5.0, speed: 1.0, turn_rate: None }).collect()
+        (0..n)
+            .map(|i| RobotSpec { id: format!("r{i}").into(), robot_type: "ground".into(), x: i as f64, y: -5.0, speed: 1.0, turn_rate: None, reach_m: None })
+            .collect()
     }
 
     #[test]

@@ -28,18 +28,67 @@ pub fn plan_on(params: &CoverageParams, robots: &[RobotSpec], space: &Space) -> 
     if pts.is_empty() {
         return Err(PlanError::Invalid("the region holds none of the map's free space that the robots can reach".into()));
     }
+    let mut team: Vec<usize> = (0..robots.len()).collect();
+    let mut held = Vec::new();
+    loop {
+        let specs: Vec<RobotSpec> = team.iter().map(|&i| robots[i].clone()).collect();
+        let nodes: Vec<Node> = team.iter().map(|&i| robot_nodes[i]).collect();
+        let Covered { mut plan, routes, short } = cover(params, space, &region, &pts, &specs, &nodes)?;
+        let everyone = short.len() == team.len();
+        held.extend(short.iter().map(|&k| specs[k].id.clone()));
+        if short.is_empty() || everyone {
+            if everyone {
+                plan.plans.clear();
+                plan.formation_time = 0.0;
+            }
+            plan.held = held;
+            return Ok((plan, if everyone { vec![] } else { routes }));
+        }
+        let mut k = 0;
+        team.retain(|_| {
+            k += 1;
+            !short.contains(&(k - 1))
+        });
+    }
+}
+
+/// One placement: the plan, each robot's route to its point, and which robots (indices) got a
+/// point beyond their reach.
+struct Covered {
+    plan: CoveragePlan,
+    routes: Vec<Vec<Point>>,
+    short: Vec<usize>,
+}
+
+/// Places one point per robot and sends each to one (bottleneck of driving times, a point
+/// beyond a robot's reach costing [`crate::plan::BEYOND_REACH_S`] more); the plan, each robot's
+/// route, and which robots (indices) got a point beyond their reach.
+fn cover(
+    params: &CoverageParams,
+    space: &Space,
+    region: &crate::region::Region,
+    pts: &[Node],
+    robots: &[RobotSpec],
+    robot_nodes: &[Node],
+) -> Result<Covered, PlanError> {
     let n = robots.len();
-    let (centers, radius) = place(space, &pts, n, params.lloyd_iterations.min(30), params.minimax_iterations.min(30));
+    let (centers, radius) = place(space, pts, n, params.lloyd_iterations.min(30), params.minimax_iterations.min(30));
     if !radius.is_finite() {
         return Err(PlanError::Invalid(format!("the region's free space falls in parts that do not connect on the map: {n} robots cannot cover them all")));
     }
-    let d = space.distances(&robot_nodes, &centers);
-    let rows: Vec<Vec<f64>> = robots.iter().enumerate().map(|(i, r)| (0..n).map(|j| d[i * n + j] / r.speed).collect()).collect();
+    let d = space.distances(robot_nodes, &centers);
+    let beyond = |i: usize, j: usize| robots[i].reach_m.is_some_and(|m| d[i * n + j] > m);
+    let rows: Vec<Vec<f64>> = robots
+        .iter()
+        .enumerate()
+        .map(|(i, r)| (0..n).map(|j| d[i * n + j] / r.speed + if beyond(i, j) { crate::plan::BEYOND_REACH_S } else { 0.0 }).collect())
+        .collect();
     let a = assign::bottleneck(&Costs::from_rows(&rows)?);
     if !a.max.is_finite() {
         let r = robots.iter().enumerate().find(|(i, _)| !d[i * n + a.slot[*i]].is_finite()).map(|(_, r)| r.id.clone()).unwrap_or_default();
         return Err(PlanError::Invalid(format!("robot {r} cannot reach its point of the coverage on the map")));
     }
+    let short: Vec<usize> = (0..n).filter(|&i| beyond(i, a.slot[i])).collect();
     let mut routes = Vec::with_capacity(n);
     let plans = robots
         .iter()
@@ -55,15 +104,17 @@ pub fn plan_on(params: &CoverageParams, robots: &[RobotSpec], space: &Space) -> 
             RobotPlan { robot: r.id.clone(), robot_type: r.robot_type.clone(), slot, steps, team: String::new() }
         })
         .collect();
+    let within = (0..n).filter(|i| !short.contains(i)).map(|i| rows[i][a.slot[i]]).fold(0.0, f64::max);
     let plan = CoveragePlan {
         hexagonal_bound: if space.is_graph() { 0.0 } else { hexagonal_bound(pts.len() as f64 * space.node_area(), n) },
-        region,
+        region: region.clone(),
         points: centers.iter().map(|c| c.at).collect(),
         coverage_radius: radius,
-        formation_time: a.max,
+        formation_time: within,
         plans,
+        held: vec![],
     };
-    Ok((plan, routes))
+    Ok(Covered { plan, routes, short })
 }
 
 /// Places `n` points on the free nodes `pts`; returns them and their coverage radius (the

@@ -74,10 +74,10 @@ mod tests {
     fn far_away_coordinates_are_refused_at_once() {
         let region = Region { outer: vec![Point::new(-20.0, -20.0), Point::new(20.0, -1e30), Point::new(20.0, 30.0), Point::new(-66.0, 20.0)], holes: vec![] };
         let params = CoverageParams { samples: 1532, ..CoverageParams::new(region) };
-        let robots = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None }];
+        let robots = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None, reach_m: None }];
         let e = coverage::plan(&params, &robots).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("region vertex") && e.contains("1000000"), "{e}");
-        let far = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 2e6, y: 0.0, speed: 1.0, turn_rate: None }];
+        let far = [RobotSpec { id: "r1".into(), robot_type: "ground".into(), x: 2e6, y: 0.0, speed: 1.0, turn_rate: None, reach_m: None }];
         let square = Region { outer: vec![Point::new(0.0, 0.0), Point::new(10.0, 0.0), Point::new(10.0, 10.0), Point::new(0.0, 10.0)], holes: vec![] };
         let e = coverage::plan(&CoverageParams::new(square), &far).err().map(|e| e.to_string()).unwrap_or_default();
         assert!(e.contains("robot r1 position"), "{e}");

@@ -17,7 +17,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::assign::{self, Costs};
 use crate::error::PlanError;
 use crate::geom::{check_distinct, check_finite, Point};
 use crate::limits;
@@ -27,6 +26,10 @@ use mrmm_maps::Space;
 use mrmm_proto::plan::{RobotPlan, RobotSpec, Step};
 
 pub use crate::polyline::Polyline;
+
+mod slots;
+
+use slots::{slots, Slots};
 
 /// Patrol parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -98,6 +101,10 @@ pub struct PatrolPlan {
     pub assignments: Vec<PatrolAssignment>,
     /// Plans with the default behaviour ([`PatrolAssignment::default_plan`]).
     pub plans: Vec<RobotPlan>,
+    /// Robots left out: their battery's reach (`RobotSpec::reach_m`) is short of the way to every
+    /// slot and on to the round's first sync point. The figures are the others'.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub held: Vec<mrmm_proto::RobotId>,
 }
 
 /// Plans a patrol of `robots` through `params.waypoints` in the plane.
@@ -108,9 +115,39 @@ pub fn plan(params: &PatrolParams, robots: &[RobotSpec]) -> Result<PatrolPlan, P
 /// Plans a patrol of `robots` through `params.waypoints`: on `map` (if given) the tour is solved
 /// on shortest-path distances and follows the corridors, robots reach their slots along
 /// shortest paths; without a map, everything is straight lines in the plane.
+///
+/// A robot that says how far its battery takes it (`reach_m`) is given no slot it cannot reach
+/// and then drive on to the round's first sync point from; one that fits no slot is left out
+/// and the patrol planned for the others ([`PatrolPlan::held`]; every robot, with no plans, when
+/// none fits).
 pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>) -> Result<PatrolPlan, PlanError> {
     check_params(params, robots)?;
     let (waypoints, tour, route) = route(params, map)?;
+    let mut team = robots.to_vec();
+    let mut held = Vec::new();
+    loop {
+        let (mut plan, short) = formation(params, &team, map, &route)?;
+        let everyone = short.len() == team.len();
+        held.extend(short.iter().map(|&i| team[i].id.clone()));
+        if short.is_empty() || everyone {
+            if everyone {
+                plan.plans.clear();
+                plan.assignments.clear();
+            }
+            return Ok(PatrolPlan { waypoints, tour, held, ..plan });
+        }
+        let mut i = 0;
+        team.retain(|_| {
+            i += 1;
+            !short.contains(&(i - 1))
+        });
+    }
+}
+
+/// The team's formation on `route`: slots, sync points, each robot's assignment and plan (the
+/// tour's own points are left for the caller); and which robots (indices into `robots`) were
+/// given a slot beyond their reach.
+fn formation(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>, route: &Polyline) -> Result<(PatrolPlan, Vec<usize>), PlanError> {
     let team_speed = robots.iter().map(|r| r.speed).fold(f64::INFINITY, f64::min);
     // Everything below is spaced along the route timed at the team's speed (its arc length is
     // time × speed): with a turn rate, a corner takes the time of turning there.
@@ -133,12 +170,13 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
 
     // Slot offset and assignment: travel times to the slots, straight or along the map.
     let approach = Approach::new(map, robots, &path)?;
-    let (offset, a) = slots(robots, &approach, &path, spacing)?;
+    let placed = slots(robots, &approach, &path, Slots { spacing, leg: l / q as f64 })?;
+    let offset = placed.offset;
     let here = |r: &RobotSpec| Point::new(r.x, r.y);
     let assignments: Vec<PatrolAssignment> = robots
         .iter()
         .enumerate()
-        .zip(&a.slot)
+        .zip(&placed.slot)
         .map(|((i, r), &slot)| {
             let start_arc = offset + slot as f64 * spacing;
             PatrolAssignment {
@@ -153,20 +191,22 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
         })
         .collect();
     let plans = assignments.iter().map(|a| a.default_plan(params.rounds)).collect();
-    Ok(PatrolPlan {
+    let plan = PatrolPlan {
         length: route.length,
-        tour,
-        waypoints,
+        tour: vec![],
+        waypoints: vec![],
         offset,
         spacing,
         team_speed,
         sync_per_round: q as u32,
-        formation_time: a.max,
+        formation_time: placed.formation_time,
         predicted_worst_idleness: l / (n as f64 * team_speed),
         idleness_lower_bound: route.length / robots.iter().map(|r| r.speed).sum::<f64>(),
         assignments,
         plans,
-    })
+        held: vec![],
+    };
+    Ok((plan, placed.short))
 }
 
 /// The patrol's parameters and team, within the planner's limits.
@@ -219,63 +259,6 @@ fn route(params: &PatrolParams, map: Option<&Space>) -> Result<(Vec<Point>, Vec<
         None => Polyline::closed(&tour),
     };
     Ok((waypoints, tour, path))
-}
-
-/// Candidate slot offsets tried at most. Each costs a bottleneck assignment of the team to the
-/// slots (O(n³); on a map n² route lookups too), and every offset of the team is within one slot
-/// spacing `L/n` of another: trying each robot's own made planning O(n⁴) — 20 s for 225 robots,
-/// past the planner's timeout — for a worst approach time better by less than `L/(n·v)`.
-const MAX_OFFSETS: usize = 16;
-
-/// The slot offset along the route and the robots' slots: the bottleneck assignment of travel
-/// times over candidate offsets (0, and each robot's own projection, or a spread of
-/// [`MAX_OFFSETS`] of them), the smallest worst time first, then the smallest total.
-fn slots(robots: &[RobotSpec], approach: &Approach, path: &Polyline, spacing: f64) -> Result<(f64, assign::Assignment), PlanError> {
-    slots_among(robots, approach, path, spacing, MAX_OFFSETS)
-}
-
-/// [`slots`], trying at most `max_offsets` (≥ 2) candidate offsets.
-fn slots_among(robots: &[RobotSpec], approach: &Approach, path: &Polyline, spacing: f64, max_offsets: usize) -> Result<(f64, assign::Assignment), PlanError> {
-    let n = robots.len();
-    let here = |r: &RobotSpec| Point::new(r.x, r.y);
-    let own: Vec<f64> = robots.iter().map(|r| path.project(here(r)) % spacing).collect();
-    let candidates = offsets(own, max_offsets);
-    let costs = |offset: f64| -> Result<Costs, PlanError> {
-        let rows: Vec<Vec<f64>> = robots
-            .iter()
-            .enumerate()
-            .map(|(i, r)| (0..n).map(|k| approach.cost(i, here(r), path, offset + k as f64 * spacing).0 / r.speed).collect())
-            .collect();
-        Costs::from_rows(&rows)
-    };
-    // The smallest worst time of each candidate, then the assignment (least total among the
-    // worst's) only for the candidates that tie on it: one assignment problem, not one each.
-    let worst: Vec<f64> = candidates.iter().map(|&o| costs(o).map(|c| assign::bottleneck_value(&c))).collect::<Result<_, _>>()?;
-    let least = worst.iter().copied().fold(f64::INFINITY, f64::min);
-    let mut best: Option<(f64, assign::Assignment)> = None;
-    for (&offset, _) in candidates.iter().zip(&worst).filter(|(_, &w)| w <= least + 1e-9) {
-        let a = assign::bottleneck(&costs(offset)?);
-        if best.as_ref().is_none_or(|(_, b)| a.total < b.total - 1e-9) {
-            best = Some((offset, a));
-        }
-    }
-    let (offset, a) = best.ok_or_else(|| PlanError::Invalid("no slot offset".into()))?;
-    if !a.max.is_finite() {
-        let r = robots.iter().enumerate().find(|(i, r)| !approach.cost(*i, here(r), path, offset).0.is_finite()).map(|(_, r)| r.id.clone()).unwrap_or_default();
-        return Err(PlanError::Invalid(format!("robot {r} cannot reach the patrol's route on the map")));
-    }
-    Ok((offset, a))
-}
-
-/// The offsets to try: 0 and the robots' own, or 0 and a spread of `max` − 1 (≥ 1) of them over
-/// their sorted order (evenly through [0, spacing) as the robots are).
-fn offsets(mut own: Vec<f64>, max: usize) -> Vec<f64> {
-    if own.len() + 1 > max {
-        own.sort_by(f64::total_cmp);
-        let step = own.len() as f64 / (max - 1) as f64;
-        own = (0..max - 1).map(|k| own[(k as f64 * step) as usize]).collect();
-    }
-    std::iter::once(0.0).chain(own).collect()
 }
 
 /// Where one robot starts and what one round is for it.
@@ -377,15 +360,15 @@ fn round_cm(v: f64) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn square() -> Vec<Point> {
+    pub(super) fn square() -> Vec<Point> {
         vec![Point::new(0.0, 0.0), Point::new(40.0, 0.0), Point::new(40.0, 40.0), Point::new(0.0, 40.0)]
     }
 
-    fn robot(id: &str, x: f64, y: f64, speed: f64) -> RobotSpec {
-        RobotSpec { id: id.into(), robot_type: "ground".into(), x, y, speed, turn_rate: None }
+    pub(super) fn robot(id: &str, x: f64, y: f64, speed: f64) -> RobotSpec {
+        RobotSpec { id: id.into(), robot_type: "ground".into(), x, y, speed, turn_rate: None, reach_m: None }
     }
 
     #[test]
@@ -427,42 +410,6 @@ mod tests {
         // Teams up to the cap keep one per slot (the paper's figures are unchanged).
         assert_eq!(sync_points_per_round(12, 1, 160.0, 50.0), 12);
         assert_eq!(sync_points_per_round(3, 4, 160.0, 15.0), 12);
-    }
-
-    #[test]
-    fn a_spread_of_offsets_is_within_one_slot_spacing_of_trying_every_robots() {
-        // 60 robots scattered around the square: every robot's offset tried against a spread of
-        // 16. Shifting the slots by δ along the tour moves each by at most δ, so the worst
-        // approach time can only be worse by the largest gap between two tried offsets (< L/n).
-        let robots: Vec<RobotSpec> = (0..60)
-            .map(|i| {
-                let a = f64::from(i) * 2.399_963;
-                robot(&format!("r{i}"), 20.0 + (10.0 + f64::from(i % 7) * 4.0) * a.cos(), 20.0 + (10.0 + f64::from(i % 5) * 5.0) * a.sin(), 1.0)
-            })
-            .collect();
-        let path = Polyline::closed(&square());
-        let spacing = path.length / robots.len() as f64;
-        let approach = Approach::Plane;
-        let (_, all) = slots_among(&robots, &approach, &path, spacing, usize::MAX).expect("all");
-        let (_, spread) = slots(&robots, &approach, &path, spacing).expect("spread");
-        assert!(spread.max >= all.max - 1e-9, "trying every offset is never worse");
-        assert!(spread.max <= all.max + spacing + 1e-9, "spread {} against every offset {} (spacing {spacing})", spread.max, all.max);
-        // Not all 61 candidates were needed to get close: within a fifth of a slot here.
-        assert!(spread.max - all.max < spacing / 5.0, "spread {} against {}", spread.max, all.max);
-    }
-
-    #[test]
-    fn the_offsets_tried_spread_over_the_robots() {
-        // 100 robots' offsets through [0, 1): the 16 tried leave no gap wider than 2/15.
-        let own: Vec<f64> = (0..100).map(|i| f64::from((i * 37) % 100) / 100.0).collect();
-        let mut tried = offsets(own.clone(), 16);
-        assert_eq!((tried.len(), tried[0]), (16, 0.0));
-        tried.sort_by(f64::total_cmp);
-        let widest = tried.windows(2).map(|w| w[1] - w[0]).chain([1.0 - tried[15]]).fold(0.0, f64::max);
-        assert!(widest <= 2.0 / 15.0, "a gap of {widest} between offsets tried: {tried:?}");
-        assert!(tried[1..].iter().all(|o| own.contains(o)), "only the robots' own");
-        // A small team: every robot's own, and 0.
-        assert_eq!(offsets(vec![0.5, 0.25], 16), [0.0, 0.5, 0.25]);
     }
 
     #[test]

@@ -4,8 +4,12 @@
 
 use mrmm_proto::plan::RobotSpec;
 
+/// Added to the time of a slot beyond a robot's reach (`RobotSpec::reach_m`): the bottleneck
+/// assignment gives one only when there is no other way, and the robot given it is left out.
+pub(crate) const BEYOND_REACH_S: f64 = 1e9;
+
 /// Rejects no robots, a robot at a non-finite or far position, a speed that is not positive, a
-/// turn rate out of bounds, and one robot given twice.
+/// turn rate out of bounds, a reach that is not a distance, and one robot given twice.
 pub(crate) fn check(robots: &[RobotSpec]) -> Result<(), crate::PlanError> {
     if robots.is_empty() {
         return Err(crate::PlanError::Invalid("no robots".into()));
@@ -14,6 +18,11 @@ pub(crate) fn check(robots: &[RobotSpec]) -> Result<(), crate::PlanError> {
         crate::limits::coordinate(&format!("robot {} position", r.id), r.x, r.y)?;
         if !(r.speed.is_finite() && r.speed > 0.0) {
             return Err(crate::PlanError::Invalid(format!("robot {}: speed must be positive (got {})", r.id, r.speed)));
+        }
+        if let Some(m) = r.reach_m {
+            if !(m.is_finite() && m >= 0.0) {
+                return Err(crate::PlanError::Invalid(format!("robot {}: reach_m must be a distance of 0 or more (got {m})", r.id)));
+            }
         }
         if let Some(w) = r.turn_rate {
             crate::limits::turn_rate(&format!("robot {} turn_rate", r.id), w)?;

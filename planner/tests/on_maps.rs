@@ -19,7 +19,7 @@ fn load(rel: &str) -> Map {
 }
 
 fn robot(id: &str, x: f64, y: f64) -> RobotSpec {
-    RobotSpec { id: id.into(), robot_type: "ground".into(), x, y, speed: 1.0, turn_rate: None }
+    RobotSpec { id: id.into(), robot_type: "ground".into(), x, y, speed: 1.0, turn_rate: None, reach_m: None }
 }
 
 /// Eight rooms of patrolling_sim's broughton floor plan (100 × 80 m, 0.1 m cells).

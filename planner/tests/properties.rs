@@ -25,7 +25,7 @@ fn robots() -> impl Strategy<Value = Vec<RobotSpec>> {
     prop::collection::vec((coord(), coord(), prop_oneof![Just(0.0), 0.1..5.0f64, Just(-1.0)]), 0..6).prop_map(|v| {
         v.into_iter()
             .enumerate()
-            .map(|(i, (x, y, speed))| RobotSpec { id: format!("r{i}").into(), robot_type: "ground".into(), x, y, speed, turn_rate: None })
+            .map(|(i, (x, y, speed))| RobotSpec { id: format!("r{i}").into(), robot_type: "ground".into(), x, y, speed, turn_rate: None, reach_m: None })
             .collect()
     })
 }
@@ -103,7 +103,7 @@ proptest! {
             params.samples = 300;
             params.lloyd_iterations = 3;
             params.minimax_iterations = 3;
-            let rs: Vec<RobotSpec> = (0..n).map(|i| RobotSpec { id: format!("r{i}").into(), robot_type: "g".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None }).collect();
+            let rs: Vec<RobotSpec> = (0..n).map(|i| RobotSpec { id: format!("r{i}").into(), robot_type: "g".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None, reach_m: None }).collect();
             match coverage::plan(&params, &rs) {
                 Ok(p) => {
                     prop_assert_eq!(p.points.len(), n);

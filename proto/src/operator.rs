@@ -280,6 +280,11 @@ pub struct MissionView {
     /// (move them out and the mission replans without them).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub stuck: BTreeMap<RobotId, String>,
+    /// Members its plan leaves out for want of reach (their battery's reach is short of every leg
+    /// the planner could give them): they hold where they are; central sends them to charge
+    /// where the mission's `charging` is `auto`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub held: Vec<RobotId>,
     /// Team path → members: each leaf team's (`escort/ground`) in a recipe of teams, the
     /// sub-teams by robot type (`patrol-1/ground`) otherwise.
     pub teams: BTreeMap<String, Vec<RobotId>>,
@@ -324,6 +329,7 @@ impl MissionView {
             robots: robots.iter().map(|r| RobotId::from(*r)).collect(),
             lost: vec![],
             stuck: BTreeMap::new(),
+            held: vec![],
             teams: BTreeMap::new(),
             team_views: vec![],
             manager: ManagerView { node: manager.into(), epoch, chain_epoch: 1, chain: vec![], uncommitted_s: None },

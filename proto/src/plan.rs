@@ -22,6 +22,10 @@ pub struct RobotSpec {
     /// Maximum turn rate, rad/s (None: not known; turns then take no time in its plans).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub turn_rate: Option<f64>,
+    /// How far its battery takes it now, metres (None: no battery it knows of). Planners give
+    /// a robot no leg longer than this; one that fits none is left out of the plan ([`MissionPlan::held`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reach_m: Option<f64>,
 }
 
 /// One step of a robot plan. JSON is externally tagged: `{"navigate": {"x": 1, "y": 2,
@@ -158,6 +162,10 @@ pub struct MissionPlan {
     pub plans: Vec<RobotPlan>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub teams: Vec<TeamSummary>,
+    /// Robots the plan leaves out because their battery's reach is short of every leg it could
+    /// give them: they hold where they are (and charge, where the mission lets central send them).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub held: Vec<crate::ids::RobotId>,
 }
 
 impl MissionPlan {
@@ -222,6 +230,7 @@ mod tests {
                 team: String::new(),
             }],
             teams: vec![],
+            held: vec![],
         };
         let v = serde_json::to_value(&plan).expect("json");
         assert_eq!(v["planner"], "coverage");

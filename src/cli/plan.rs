@@ -10,7 +10,7 @@ use mrmm_proto::plan::RobotSpec;
 pub struct Args {
     /// Recipe file, or the name of a recipe of the bank (patrol, coverage).
     recipe: String,
-    /// JSON file: [{"id", "type", "x", "y", "speed"}, …].
+    /// JSON file: [{"id", "type", "x", "y", "speed"}, …]; a robot's "reach_m" (metres its battery takes it) keeps it from legs longer than that, and one that fits none is listed in "held".
     #[arg(long)]
     robots: std::path::PathBuf,
     /// Override a recipe parameter (repeatable): key=value; waypoints and region take JSON

@@ -1,6 +1,6 @@
 //! The charging policy, as a pure machine over what central sees of the fleet: a robot whose
-//! battery falls below its threshold leaves its mission (a fitting idle robot moved in when its
-//! team would fall below `min`), drives to the nearest free charger of its map, is plugged in on
+//! battery falls below its threshold, or whose mission's plan left it out for want of reach,
+//! leaves its mission (a fitting idle robot moved in when its team would fall below `min`), drives to the nearest free charger of its map, is plugged in on
 //! arrival, and when charged is unplugged and goes back to the mission it left if that mission
 //! still wants it, else to the pool. One robot per charger: a charger is reserved from the moment
 //! a robot is sent to it. A robot sent to charge is never lost for it: only a lost robot gives
@@ -203,7 +203,7 @@ impl Charging {
         }
         // Robots of a mission that charges on the operator's word, or never, are not sent.
         let auto = |r: &RobotView| mission_of(r, fleet.missions).is_none_or(|m| Mode::of(m) == Mode::Auto);
-        let mut low: Vec<&RobotView> = fleet.robots.iter().filter(|r| self.needs_charge(r) && auto(r)).collect();
+        let mut low: Vec<&RobotView> = fleet.robots.iter().filter(|r| self.needs_charge(r, fleet) && auto(r)).collect();
         // A relief for a robot that no longer needs one (charged some other way, lost) is over.
         self.reliefs.retain(|id, _| low.iter().any(|r| &r.id == id));
         // The emptiest first when chargers are short.
@@ -244,11 +244,13 @@ impl Charging {
         self.errands.values().any(|e| e.map == map && e.charger.name == c.name)
     }
 
-    fn needs_charge(&self, r: &RobotView) -> bool {
+    /// Whether `r` should go and charge: below the threshold, or held out of its mission's plan
+    /// for want of reach ([`held`]), and not charging, sent, or let off by the operator.
+    fn needs_charge(&self, r: &RobotView, fleet: Fleet<'_>) -> bool {
         r.status != RobotStatus::Lost
             && !self.errands.contains_key(&r.id)
             && !self.excused.contains(&r.id)
-            && r.battery.is_some_and(|b| !b.charging && b.charge < self.cfg.go_below)
+            && r.battery.is_some_and(|b| !b.charging && (b.charge < self.cfg.go_below || held(r, fleet.missions)))
     }
 
     /// An errand under way: plugged in on arrival, sent again if it stands elsewhere, back to
@@ -325,7 +327,8 @@ impl Charging {
             }
         }
         let Some(m) = mission_of(r, fleet.missions) else { return true };
-        if charge(r) < RELIEF_CRITICAL * self.cfg.go_below {
+        // Held out of the plan, it does no work a spare must take over where it stands.
+        if charge(r) < RELIEF_CRITICAL * self.cfg.go_below || held(r, fleet.missions) {
             return true;
         }
         if let Some(rel) = self.reliefs.get(&r.id) {
@@ -361,10 +364,17 @@ impl Charging {
         let mut spare = None;
         if let Some(m) = mission {
             spare = relief.or_else(|| self.spare(fleet, m, r));
-            out.push(match &spare {
-                Some(s) => Command::Replace { robot: s.clone(), to: m.name.clone(), out: r.id.clone() },
-                None => Command::Move { robot: r.id.clone(), to: None },
-            });
+            if held(r, fleet.missions) {
+                // Its plan was a hold: the spare joins and the mission replans with it, rather
+                // than taking that hold over.
+                out.push(Command::Move { robot: r.id.clone(), to: None });
+                out.extend(spare.iter().map(|s| Command::Move { robot: s.clone(), to: Some(m.name.clone()) }));
+            } else {
+                out.push(match &spare {
+                    Some(s) => Command::Replace { robot: s.clone(), to: m.name.clone(), out: r.id.clone() },
+                    None => Command::Move { robot: r.id.clone(), to: None },
+                });
+            }
         }
         out.push(Command::Goto { robot: r.id.clone(), map: map.name.clone(), x: charger.at.x, y: charger.at.y });
         let left = mission.map(|m| (m.name.clone(), m.robots.len() + self.away_from(&m.name)));
@@ -466,6 +476,11 @@ fn away(p: mrmm_proto::Pose, c: &Charger) -> f64 {
 /// The mission robot `r` is in, as central sees it.
 pub(crate) fn mission_of<'a>(r: &RobotView, missions: &'a [MissionView]) -> Option<&'a MissionView> {
     r.mission.as_ref().and_then(|m| missions.iter().find(|v| &v.name == m))
+}
+
+/// Whether `r`'s mission left it out of its plan for want of reach (`MissionView::held`).
+fn held(r: &RobotView, missions: &[MissionView]) -> bool {
+    mission_of(r, missions).is_some_and(|m| m.held.contains(&r.id))
 }
 
 /// A robot's charge, full when it has no battery.

@@ -369,6 +369,7 @@ impl MissionManager {
         let Some(m) = self.members.get_mut(&t.id) else { return };
         m.spec.x = t.pose.x;
         m.spec.y = t.pose.y;
+        m.spec.reach_m = t.battery.and_then(|b| b.reach_m);
         match &t.stuck {
             Some(why) if self.stuck.get(&t.id) != Some(why) => {
                 if !self.stuck.contains_key(&t.id) {
@@ -445,7 +446,7 @@ impl MissionManager {
                 team: planned.get(m.spec.id.as_str()).map(|t| t.to_string()).unwrap_or_default(),
             })
             .collect();
-        MissionPlan { summary, plans, teams: vec![] }
+        MissionPlan { summary, plans, teams: vec![], held: vec![] }
     }
 
     fn plan_ready(&mut self, epoch: u64, plan: MissionPlan) -> Vec<Command> {

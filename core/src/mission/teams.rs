@@ -91,7 +91,44 @@ impl MissionManager {
                     }),
                 })
             })
+            .chain(self.holds(epoch, plan))
             .collect()
+    }
+
+    /// For each member the plan leaves out for want of reach ([`MissionPlan::held`]): a plan
+    /// that holds it where it is, in a team of its own (no barrier of the others waits on it).
+    fn holds<'a>(&'a self, epoch: u64, plan: &'a MissionPlan) -> impl Iterator<Item = Command> + 'a {
+        plan.held.iter().filter_map(move |id| {
+            let m = self.members.get(id)?;
+            let team = self.spec.name.to_string();
+            Some(Command::SendPlan {
+                robot: id.clone(),
+                assignment: Box::new(PlanAssignment {
+                    mission: self.spec.name.clone(),
+                    epoch,
+                    subteam: format!("{team}/{}", m.spec.robot_type),
+                    team,
+                    members: vec![id.clone()],
+                    plan: proto::RobotPlan {
+                        robot: id.clone(),
+                        robot_type: m.spec.robot_type.clone(),
+                        slot: 0,
+                        steps: vec![proto::Step::Stream, proto::Step::Hold { seconds: None }],
+                        team: String::new(),
+                    },
+                    managers: vec![],
+                    barrier: self.barrier(),
+                    scopes: vec![],
+                    map: self.spec.map.clone(),
+                    handover: None,
+                }),
+            })
+        })
+    }
+
+    /// The members the current plan leaves out for want of reach.
+    pub(super) fn held(&self) -> Vec<RobotId> {
+        self.plan.as_ref().map(|(_, p)| p.held.iter().filter(|id| self.members.contains_key(*id)).cloned().collect()).unwrap_or_default()
     }
 
     /// How the mission's team runs its barriers: the patrol parameter `barrier` (checked on

@@ -21,7 +21,11 @@ fn spec() -> MissionSpec {
 }
 
 fn robot(id: &str, t: &str, x: f64) -> Member {
-    Member { spec: RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0, turn_rate: None }, time_scale: 1.0, capabilities: vec![] }
+    Member {
+        spec: RobotSpec { id: id.into(), robot_type: t.into(), x, y: -2.0, speed: 1.0, turn_rate: None, reach_m: None },
+        time_scale: 1.0,
+        capabilities: vec![],
+    }
 }
 
 /// Runs the planner as a planner service would.
@@ -574,3 +578,5 @@ fn a_recipe_of_teams_gives_each_robot_its_leaf_team_and_the_mission_barrier() {
     assert_eq!(v.teams["e/ground"], ["a", "b"]);
     assert_eq!(v.teams["e/air"], ["c"]);
 }
+
+mod reach;

@@ -22,6 +22,7 @@ impl MissionManager {
             robots: self.members.keys().cloned().collect(),
             lost: self.lost.keys().cloned().collect(),
             stuck: self.stuck.clone(),
+            held: self.held(),
             teams: self.teams(),
             team_views: self.team_views(),
             manager: ManagerView { node: self.node.clone(), epoch: self.epoch, chain_epoch: 0, chain: vec![], uncommitted_s: None },

@@ -217,6 +217,8 @@ struct World<'a> {
     bodies: Vec<Body>,
     /// The patrol's robots (indices), in the order they were planned.
     members: Vec<usize>,
+    /// Members the last plan left out for want of reach.
+    held: Vec<RobotId>,
     execs: BTreeMap<usize, Executor>,
     /// Where a robot off the patrol still drives (a route along the lanes).
     legs: Vec<VecDeque<Point>>,
@@ -294,6 +296,7 @@ impl<'a> World<'a> {
             ids,
             bodies,
             members: (0..day.team).collect(),
+            held: vec![],
             execs: BTreeMap::new(),
             legs: vec![VecDeque::new(); n],
             dead: vec![false; n],
@@ -318,7 +321,9 @@ impl<'a> World<'a> {
             .iter()
             .map(|&i| {
                 let p = self.bodies[i].pose();
-                RobotSpec { id: self.ids[i].clone(), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED, turn_rate: None }
+                // What its battery reports, as the manager has it from telemetry.
+                let reach_m = self.bodies[i].battery().and_then(|b| b.state(SPEED).reach_m);
+                RobotSpec { id: self.ids[i].clone(), robot_type: "ground".into(), x: p.x, y: p.y, speed: SPEED, turn_rate: None, reach_m }
             })
             .collect();
         let params = BTreeMap::from([
@@ -326,9 +331,12 @@ impl<'a> World<'a> {
             ("seed".to_string(), self.day.seed.to_string()),
             ("turn_rate".to_string(), TURN.to_string()),
         ]);
-        let planned = recipe::build_on(self.recipe, &params, &specs, Some(&self.map)).map_err(|e| anyhow!("replanning {} robots: {e}", specs.len()))?;
-        let members: Vec<RobotId> = self.members.iter().map(|&i| self.ids[i].clone()).collect();
-        for (plan, &i) in planned.to_wire().plans.into_iter().zip(&self.members) {
+        let planned = recipe::build_on(self.recipe, &params, &specs, Some(&self.map)).map_err(|e| anyhow!("replanning {} robots: {e}", specs.len()))?.to_wire();
+        // Members left out for want of reach hold (no executor) and are no barrier's members.
+        self.held = planned.held.clone();
+        let members: Vec<RobotId> = planned.plans.iter().map(|p| p.robot.clone()).collect();
+        for plan in planned.plans {
+            let i = self.ids.iter().position(|id| *id == plan.robot).ok_or_else(|| anyhow!("the planner placed robot {}, not in the fleet", plan.robot))?;
             self.legs[i].clear();
             self.execs.insert(
                 i,
@@ -403,7 +411,9 @@ impl<'a> World<'a> {
             }
             self.visit(t, i);
         }
-        if self.members.len() < self.day.team {
+        // A member held out of the plan for want of reach patrols nothing.
+        let working = self.members.iter().filter(|&&i| !self.held.contains(&self.ids[i])).count();
+        if working < self.day.team {
             self.m.short_s += DT;
         }
     }
@@ -433,6 +443,7 @@ impl<'a> World<'a> {
         let members: Vec<&str> = self.members.iter().map(|&i| self.ids[i].as_str()).collect();
         let patrol = MissionView {
             map: Some(MapRef { name: MAP.into(), hash: MAP.into() }),
+            held: self.held.iter().filter(|id| members.contains(&id.as_str())).cloned().collect(),
             ..MissionView::running("patrol", "patrol", "central", self.epoch, &members)
         };
         let fleet = charging::Fleet { robots: &robots, missions: std::slice::from_ref(&patrol), maps: std::slice::from_ref(&self.info) };

@@ -50,6 +50,16 @@ impl MissionPlan {
         }
     }
 
+    /// The robots left out for want of reach ([`PatrolPlan::held`], [`CoveragePlan::held`]),
+    /// team after team.
+    pub fn held(&self) -> Vec<mrmm_proto::RobotId> {
+        match self {
+            MissionPlan::Patrol(p) => p.held.clone(),
+            MissionPlan::Coverage(c) => c.held.clone(),
+            MissionPlan::Teams { teams } => teams.iter().flat_map(|t| t.plan.held()).collect(),
+        }
+    }
+
     fn plans_mut(&mut self) -> Vec<&mut RobotPlan> {
         match self {
             MissionPlan::Patrol(p) => p.plans.iter_mut().collect(),
@@ -226,6 +236,11 @@ impl Leaf<'_> {
         }
     }
 
+    /// Member `id` (a robot the planner was given).
+    fn robot(&self, id: &str) -> Result<&RobotSpec, PlanError> {
+        self.robots.iter().find(|r| r.id.as_str() == id).ok_or_else(|| PlanError::Invalid(format!("the planner placed robot {id}, which it was not given")))
+    }
+
     fn patrol(&self) -> Result<MissionPlan, PlanError> {
         let (r, s) = (self.r, &self.scalars);
         let mut params = PatrolParams::new(self.waypoints()?);
@@ -249,8 +264,8 @@ impl Leaf<'_> {
         plan.plans = plan
             .assignments
             .iter()
-            .zip(self.robots)
-            .map(|(a, rb)| {
+            .map(|a| {
+                let rb = self.robot(&a.robot)?;
                 let x = Expand { approach: &a.approach, round: &a.round, start_hold: a.start_hold(), rounds: self.rounds, space: self.space.as_ref() };
                 Ok(RobotPlan {
                     robot: a.robot.as_str().into(),
@@ -298,7 +313,8 @@ impl Leaf<'_> {
                 (plan, routes)
             }
         };
-        for ((p, route), rb) in plan.plans.iter_mut().zip(&routes).zip(self.robots) {
+        for (p, route) in plan.plans.iter_mut().zip(&routes) {
+            let rb = self.robot(p.robot.as_str())?;
             p.steps = expand_for(r, rb, &Expand { approach: route, round: &[], start_hold: None, rounds: self.rounds, space: self.space.as_ref() })?;
         }
         Ok(MissionPlan::Coverage(plan))

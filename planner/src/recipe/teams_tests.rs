@@ -9,7 +9,15 @@ fn robots(types: &[&str]) -> Vec<RobotSpec> {
     types
         .iter()
         .enumerate()
-        .map(|(i, t)| RobotSpec { id: format!("r{}", i + 1).into(), robot_type: t.to_string(), x: i as f64 * 2.0, y: -2.0, speed: 1.0, turn_rate: None })
+        .map(|(i, t)| RobotSpec {
+            id: format!("r{}", i + 1).into(),
+            robot_type: t.to_string(),
+            x: i as f64 * 2.0,
+            y: -2.0,
+            speed: 1.0,
+            turn_rate: None,
+            reach_m: None,
+        })
         .collect()
 }
 

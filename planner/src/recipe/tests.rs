@@ -17,6 +17,7 @@ fn robots(types: &[&str]) -> Vec<RobotSpec> {
             y: -3.0,
             speed: 1.0 + i as f64 * 0.1,
             turn_rate: None,
+            reach_m: None,
         })
         .collect()
 }

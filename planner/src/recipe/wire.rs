@@ -22,13 +22,14 @@ impl MissionPlan {
     /// `teams` and the first one's in `summary`.
     pub fn to_wire(&self) -> Wire {
         let plans = self.plans().into_iter().cloned().collect();
+        let held = self.held();
         match self {
             MissionPlan::Teams { teams } => {
                 let teams: Vec<TeamSummary> = teams.iter().map(|t| TeamSummary { team: t.team.clone(), summary: summary(&t.plan) }).collect();
                 let first = teams.first().map(|t| t.summary.clone()).unwrap_or_else(|| summary(self));
-                Wire { summary: first, plans, teams }
+                Wire { summary: first, plans, teams, held }
             }
-            _ => Wire { summary: summary(self), plans, teams: vec![] },
+            _ => Wire { summary: summary(self), plans, teams: vec![], held },
         }
     }
 }
@@ -74,7 +75,7 @@ mod tests {
     #[test]
     fn a_planned_patrol_keeps_its_figures_and_steps_on_the_wire() {
         let r = recipe::parse(recipe::bank("patrol").expect("bank")).expect("recipe");
-        let robots = [RobotSpec { id: "a".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None }];
+        let robots = [RobotSpec { id: "a".into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None, reach_m: None }];
         let params = [("waypoints".to_string(), "[[0,0],[10,0],[10,10]]".to_string())].into();
         let planned = recipe::build(&r, &params, &robots).expect("plan");
         let wire = planned.to_wire();

@@ -135,7 +135,7 @@ impl World {
         } else if !self.team.contains(&r) {
             self.team.insert(r.clone());
             self.admit_one(&r);
-            let spec = RobotSpec { id: r.into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None };
+            let spec = RobotSpec { id: r.into(), robot_type: "ground".into(), x: 0.0, y: 0.0, speed: 1.0, turn_rate: None, reach_m: None };
             MissionCtl::Joined { member: Member { spec, time_scale: TIME_SCALE, capabilities: vec![] } }
         } else {
             return false;
@@ -152,7 +152,7 @@ impl World {
             .iter()
             .enumerate()
             .map(|(i, r)| Member {
-                spec: RobotSpec { id: r.clone().into(), robot_type: "ground".into(), x: i as f64 * 2.0, y: -3.0, speed: 1.0, turn_rate: None },
+                spec: RobotSpec { id: r.clone().into(), robot_type: "ground".into(), x: i as f64 * 2.0, y: -3.0, speed: 1.0, turn_rate: None, reach_m: None },
                 time_scale: TIME_SCALE,
                 capabilities: vec![],
             })

@@ -118,6 +118,7 @@ pub(crate) fn evaluate(
     stuck_robots(cfg, mem, robots, &waiting, now, &mut out);
     blocked_in_traffic(cfg, robots, traffic, now, &mut out);
     batteries(cfg, robots, missions, now, &mut out);
+    short_of_reach(robots, missions, now, &mut out);
     super::forecast::measure(&mut mem.drains, robots, now);
     super::forecast::forecast(cfg, &mem.drains, robots, missions, now, &mut out);
     out
@@ -155,6 +156,34 @@ fn batteries(cfg: &AgentConfig, robots: &[RobotView], missions: &[MissionView], 
             c.advice.suggestion = Some(format!("mrmm op charge {}", r.id));
         }
         out.insert(id, c);
+    }
+}
+
+/// Members a mission's plan holds for want of reach (`MissionView::held`), where the mission
+/// does not send its robots to charge by itself (`charging=ask`, with the order that sends it;
+/// `off`): they stand idle in the mission until the operator acts. With `auto` central sends
+/// them at its next look, and nothing is raised.
+fn short_of_reach(robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+    for m in missions {
+        let mode = Mode::of(m);
+        if mode == Mode::Auto {
+            continue;
+        }
+        for r in robots.iter().filter(|r| m.held.contains(&r.id) && r.status != RobotStatus::Lost) {
+            let reach = r.battery.and_then(|b| b.reach_m);
+            let left = reach.map(|v| format!(" (its battery takes it {v:.0} m)")).unwrap_or_default();
+            let why = match mode {
+                Mode::Ask => "it charges on the operator's word",
+                _ => "it does not charge its robots (charging=off)",
+            };
+            let id = format!("reach/{}", r.id);
+            let reason = format!("robot {} stands idle in mission {}: its reach is short of every leg of the plan{left}, and {why}", r.id, m.name);
+            let mut c = candidate(id.clone(), Priority::Warning, reason, json!({"robot": r.id, "mission": m.name, "reach_m": reach}), now, None);
+            if mode == Mode::Ask {
+                c.advice.suggestion = Some(format!("mrmm op charge {}", r.id));
+            }
+            out.insert(id, c);
+        }
     }
 }
 

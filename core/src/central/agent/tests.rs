@@ -29,6 +29,7 @@ fn mission(name: &str, planner: &str, robots: &[&str], worst: Option<f64>, stand
         robots: robots.iter().map(|s| s.into()).collect(),
         lost: vec![],
         stuck: Default::default(),
+        held: vec![],
         teams: Default::default(),
         team_views: vec![],
         manager: ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },
@@ -475,4 +476,26 @@ fn low_robots_of_missions_that_do_not_charge_automatically_say_so() {
         assert!(advice.reason.contains(says), "{mode}: {}", advice.reason);
         assert_eq!(advice.suggestion.as_deref(), suggests, "{mode}");
     }
+}
+
+/// A member its mission's plan holds for want of reach, in a mission that charges on the
+/// operator's word, is raised with the order that sends it; with `auto` (central sends it) it
+/// is not; out of the held list, withdrawn.
+#[test]
+fn a_robot_held_for_want_of_reach_where_the_operator_decides_is_raised() {
+    let mut a = Agent::new(AgentConfig::default());
+    let mut r1 = robot("r1", RobotStatus::Busy, Some("p"), 0.0, "hold");
+    r1.battery = Some(BatteryState { charge: 0.4, charging: false, reach_m: Some(35.0) });
+    let p = |mode: &str, held: &[&str]| MissionView {
+        params: [("charging".to_string(), mode.to_string())].into(),
+        held: held.iter().map(|&h| h.into()).collect(),
+        ..mission("p", "patrol", &["r1", "r2"], None, None)
+    };
+    assert!(raised(&a.handle(1.0, snap(vec![r1.clone()], vec![p("auto", &["r1"])]))).is_empty(), "auto: central sends it");
+    let cmds = a.handle(2.0, snap(vec![r1.clone()], vec![p("ask", &["r1"])]));
+    assert_eq!(raised(&cmds), [("reach/r1".into(), Priority::Warning)]);
+    let advice = a.advice().into_iter().find(|x| x.id == "reach/r1").expect("standing");
+    assert_eq!(advice.suggestion.as_deref(), Some("mrmm op charge r1"));
+    assert!(advice.reason.contains("35 m") && advice.reason.contains("mission p"), "{}", advice.reason);
+    assert_eq!(withdrawn(&a.handle(3.0, snap(vec![r1], vec![p("ask", &[])]))), ["reach/r1"]);
 }

@@ -400,3 +400,25 @@ fn errands_journaled_go_on_after_a_restart() {
     assert!(look(&mut adopted, 11.0, &[found, r2.clone()], &[patrol(&["r2"])], &maps).is_empty());
     assert_eq!(look(&mut adopted, 12.0, &[r1.clone(), r2.clone()], &[patrol(&["r2"])], &maps), [plug("r1", false)]);
 }
+
+/// A robot its mission's plan left out for want of reach goes and charges though it is above
+/// the threshold; the spare is moved in (the mission replans with it) rather than taking over
+/// the held robot's hold where it stands; a held robot of a mission that charges on the
+/// operator's word stays.
+#[test]
+fn a_robot_held_out_of_its_plan_for_want_of_reach_goes_and_charges() {
+    let maps = [office(&[("c1", 0.0, 0.0), ("c2", 20.0, 0.0)])];
+    let mut c = Charging::new(ChargingConfig::default());
+    let r1 = robot("r1", 0.35, Some("p"), (18.0, 1.0));
+    let r2 = robot("r2", 0.9, Some("p"), (5.0, 5.0));
+    let spare = robot("r3", 0.8, None, (-5.0, 0.0));
+    let robots = [r1, r2, spare];
+    let planned = patrol(&["r1", "r2"]);
+    assert!(look(&mut c, 0.0, &robots, std::slice::from_ref(&planned), &maps).is_empty(), "r1 at 35 % works on");
+    let held = MissionView { held: vec!["r1".into()], ..planned.clone() };
+    let manual = MissionView { params: [("charging".to_string(), "ask".to_string())].into(), ..held.clone() };
+    assert!(look(&mut c, 1.0, &robots, &[manual], &maps).is_empty(), "charging: ask");
+    let out = look(&mut c, 2.0, &robots, &[held], &maps);
+    assert_eq!(out, vec![mv("r1", None), mv("r3", Some("p")), goto("r1", 20.0, 0.0)]);
+    assert_eq!(c.errands()["r1"].spare.as_ref().map(|s| s.as_str()), Some("r3"));
+}

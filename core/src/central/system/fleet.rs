@@ -353,6 +353,7 @@ impl Fleet {
             y: pose.y,
             speed: info.max_speed,
             turn_rate: info.max_turn_rate,
+            reach_m: rec.last.as_ref().and_then(|t| t.battery).and_then(|b| b.reach_m),
         })
     }
 

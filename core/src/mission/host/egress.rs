@@ -66,6 +66,7 @@ mod tests {
             y: -1.0 - (i / 50) as f64,
             speed: 1.0,
             turn_rate: None,
+            reach_m: None,
         };
         let members = (0..n).map(|i| Member { spec: spec_of(i), time_scale: 1.0, capabilities: vec![] }).collect();
         let mut m = MissionManager::new(spec, "h1".into(), members);

@@ -10,7 +10,11 @@ use super::*;
 use crate::mission::chain::Params;
 
 fn member(id: &str, x: f64) -> Member {
-    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 1.0, turn_rate: None }, time_scale: 1.0, capabilities: vec![] }
+    Member {
+        spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 1.0, turn_rate: None, reach_m: None },
+        time_scale: 1.0,
+        capabilities: vec![],
+    }
 }
 
 fn start(name: &str, ids: &[&str]) -> Box<MissionStart> {

@@ -42,6 +42,7 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                     robots: robots.iter().map(Into::into).collect(),
                     lost: vec![],
                     stuck: Default::default(),
+                    held: vec![],
                     teams: Default::default(),
                     team_views: vec![],
                     manager: ManagerView { node: host, epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },

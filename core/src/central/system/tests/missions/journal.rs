@@ -37,6 +37,7 @@ fn started_view(name: &str, host: &str, robots: &[String]) -> Box<MissionView> {
         robots: robots.iter().map(Into::into).collect(),
         lost: vec![],
         stuck: Default::default(),
+        held: vec![],
         teams: Default::default(),
         team_views: vec![],
         manager: ManagerView { node: host.into(), epoch: 1, chain_epoch: 1, chain: vec![], uncommitted_s: None },
