@@ -46,7 +46,10 @@ pub const SPARE_ABOVE: f64 = 0.5;
 /// round. In `mrmm experiment energy` (seeds 1–4) the day's worst idleness was 1.27–1.35 × its
 /// value with no batteries at 4 m, 1.20–1.36 × at 3.5 m, 1.17–1.24 × at 3 m — but at 3 m its
 /// hour with 20-minute batteries went a robot short for 61 s (both spares busy). On a map with
-/// traffic a robot held behind a standing one waits a lane segment back (cut at 3 m).
+/// traffic a robot held behind a standing one waits a lane segment back (cut at 3 m). Swapping
+/// only with the spare ahead of the low robot (its heading) was tried: 1.19–1.31 × at 3.5 m,
+/// and at 3 m or less some seeds' swaps never came (1.95–2.04 ×): the cost left is the spare
+/// driving back to the low robot's next vertex, which lies between the two.
 pub const MEET_M: f64 = 3.5;
 /// A low robot is relieved at the latest this long after its spare was sent, seconds, or at
 /// once below this share of its threshold.

@@ -427,6 +427,9 @@ impl<'a> World<'a> {
                 let spot = self.graph.vertices[v].at;
                 for w in (0..self.graph.vertices.len()).filter(|&w| self.graph.vertices[w].at == spot) {
                     if let Some(l) = self.m.last[w] {
+                        if self.m.gaps.iter().flatten().all(|&g| g < t - l) {
+                            tracing::debug!(vertex = w, t, gap = t - l, by = %self.ids[i], "the day's longest gap yet");
+                        }
                         self.m.gaps[w].push(t - l);
                     }
                     self.m.last[w] = Some(t);
@@ -495,6 +498,8 @@ impl<'a> World<'a> {
             }
             charging::Command::Replace { robot, out, .. } => {
                 let (by, out) = (index(&robot)?, index(&out)?);
+                let (a, b) = (self.bodies[by].pose(), self.bodies[out].pose());
+                tracing::debug!(by = %robot, out = %self.ids[out], apart = (a.x - b.x).hypot(a.y - b.y), "hand-over");
                 self.hand_over(out, by);
             }
             charging::Command::Goto { robot, x, y, .. } => {
