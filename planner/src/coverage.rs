@@ -104,11 +104,7 @@ pub fn plan(params: &CoverageParams, robots: &[RobotSpec]) -> Result<CoveragePla
         let everyone = short.len() == team.len();
         held.extend(short.iter().map(|&i| team[i].id.clone()));
         if !short.is_empty() && !everyone {
-            let mut i = 0;
-            team.retain(|_| {
-                i += 1;
-                !short.contains(&(i - 1))
-            });
+            crate::plan::drop_at(&mut team, &short);
             continue;
         }
         let plans = if everyone { vec![] } else { plans_to(&team, &a.slot, &points) };

@@ -44,11 +44,7 @@ pub fn plan_on(params: &CoverageParams, robots: &[RobotSpec], space: &Space) -> 
             plan.held = held;
             return Ok((plan, if everyone { vec![] } else { routes }));
         }
-        let mut k = 0;
-        team.retain(|_| {
-            k += 1;
-            !short.contains(&(k - 1))
-        });
+        crate::plan::drop_at(&mut team, &short);
     }
 }
 

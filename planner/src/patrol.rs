@@ -136,11 +136,7 @@ pub fn plan_on(params: &PatrolParams, robots: &[RobotSpec], map: Option<&Space>)
             }
             return Ok(PatrolPlan { waypoints, tour, held, ..plan });
         }
-        let mut i = 0;
-        team.retain(|_| {
-            i += 1;
-            !short.contains(&(i - 1))
-        });
+        crate::plan::drop_at(&mut team, &short);
     }
 }
 

@@ -8,6 +8,16 @@ use mrmm_proto::plan::RobotSpec;
 /// assignment gives one only when there is no other way, and the robot given it is left out.
 pub(crate) const BEYOND_REACH_S: f64 = 1e9;
 
+/// Removes the items at positions `at` (of `v` as it is) from `v`: the robots a plan leaves out,
+/// before it is made again for the others.
+pub(crate) fn drop_at<T>(v: &mut Vec<T>, at: &[usize]) {
+    let mut i = 0;
+    v.retain(|_| {
+        i += 1;
+        !at.contains(&(i - 1))
+    });
+}
+
 /// Rejects no robots, a robot at a non-finite or far position, a speed that is not positive, a
 /// turn rate out of bounds, a reach that is not a distance, and one robot given twice.
 pub(crate) fn check(robots: &[RobotSpec]) -> Result<(), crate::PlanError> {
