@@ -161,6 +161,7 @@ mod tests {
             mission: None,
             pose: Some(Pose { x, y: 0.0, theta: 0.0 }),
             behaviour: Some("hold".into()),
+            goal: None,
             last_mission: None,
             stuck: None,
             battery: None,

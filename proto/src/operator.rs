@@ -78,6 +78,9 @@ pub struct RobotView {
     /// What the robot reported doing last (`hold`, `goto(x,y)`, `plan step 4`).
     #[serde(default)]
     pub behaviour: Option<String>,
+    /// Where the robot drives to now (the goal of its behaviour), while it drives.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal: Option<crate::geom::Point>,
     /// For a lost robot: the mission it was taken out of.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub last_mission: Option<MissionName>,

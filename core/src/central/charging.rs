@@ -13,6 +13,7 @@
 
 use std::collections::BTreeMap;
 
+use mrmm_proto::geom::Point;
 use mrmm_proto::map::Charger;
 use mrmm_proto::{ErrandRecord, ErrorReply, MapInfo, MissionName, MissionStatus, MissionView, RobotId, RobotStatus, RobotView};
 
@@ -40,16 +41,14 @@ pub const RESEND_S: f64 = 10.0;
 pub const PLUG_GRACE_S: f64 = 3.0;
 /// A spare moved in for a charging robot needs at least this charge.
 pub const SPARE_ABOVE: f64 = 0.5;
-/// A low robot and the spare sent to relieve it swap once this close, metres. The spare takes
-/// the low robot's plan from the leg it is on, and the team waits at its next barrier for the
-/// metres between them; a smaller radius makes the spare wait longer for the low robot to come
-/// round. In `mrmm experiment energy` (seeds 1–4) the day's worst idleness was 1.27–1.35 × its
-/// value with no batteries at 4 m, 1.20–1.36 × at 3.5 m, 1.17–1.24 × at 3 m — but at 3 m its
-/// hour with 20-minute batteries went a robot short for 61 s (both spares busy). On a map with
-/// traffic a robot held behind a standing one waits a lane segment back (cut at 3 m). Swapping
-/// only with the spare ahead of the low robot (its heading) was tried: 1.19–1.31 × at 3.5 m,
-/// and at 3 m or less some seeds' swaps never came (1.95–2.04 ×): the cost left is the spare
-/// driving back to the low robot's next vertex, which lies between the two.
+/// A low robot and the spare sent to relieve it swap once this close, metres, and the spare no
+/// farther from the end of the low robot's leg than the low robot is. The spare is sent to that
+/// leg's end (sent on as the low robot starts the next), so it mostly waits there as the low
+/// robot comes and takes the leg over with nothing to drive back. On a map with traffic a robot
+/// held behind a standing one waits a lane segment back (cut at 3 m), within this radius. In
+/// `mrmm experiment energy` (seeds 1–8) the day's worst idleness is 1.19–1.28 × its value with no
+/// batteries; swapping at 3.5 m wherever the two met (the spare sent to where the low robot
+/// stood) gave up to 1.36 ×, the spare driving back the part of the leg the low robot had done.
 pub const MEET_M: f64 = 3.5;
 /// A low robot is relieved at the latest this long after its spare was sent, seconds, or at
 /// once below this share of its threshold.
@@ -131,6 +130,8 @@ pub struct Relief {
     pub spare: RobotId,
     /// When the spare was sent.
     pub since: f64,
+    /// Where it was sent: the end of the leg the low robot drove then, or where it stood.
+    pub to: Point,
 }
 
 /// The policy's state: every robot's errand.
@@ -317,9 +318,10 @@ impl Charging {
     }
 
     /// Whether low robot `r` may leave now: it is in no mission, or no spare can come (it goes
-    /// and its mission does without it), or its spare has come within [`MEET_M`], or it waited
+    /// and its mission does without it), or its spare has met it ([`MEET_M`]), or it waited
     /// [`RELIEF_S`], or it is below [`RELIEF_CRITICAL`] of its threshold. Else a spare is sent
-    /// to where it stands (once), and it works on meanwhile.
+    /// to where its leg ends (where it stands, standing; sent on as it starts a new leg), and it
+    /// works on meanwhile.
     fn relieved(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) -> bool {
         let by_id = |id: &RobotId| fleet.robots.iter().find(|v| &v.id == id);
         // A spare lost, or given other work meanwhile, relieves nobody (on its way it is busy).
@@ -334,17 +336,32 @@ impl Charging {
         if charge(r) < RELIEF_CRITICAL * self.cfg.go_below || held(r, fleet.missions) {
             return true;
         }
-        if let Some(rel) = self.reliefs.get(&r.id) {
-            let met = match (by_id(&rel.spare).and_then(|s| s.pose), r.pose) {
-                (Some(a), Some(b)) => (a.x - b.x).hypot(a.y - b.y) <= MEET_M,
-                _ => true,
+        let (Some(map), Some(p)) = (map_of(Some(m), fleet.maps), r.pose) else { return true };
+        // The spare waits where the low robot's leg ends: the low robot drives on to it, and the
+        // spare takes that leg over with nothing left to drive back.
+        let to = r.goal.unwrap_or(Point { x: p.x, y: p.y });
+        if let Some(rel) = self.reliefs.get_mut(&r.id) {
+            // Close, and no farther from where the low robot drives than it is: the spare
+            // drives none of the leg back.
+            let met = match by_id(&rel.spare).and_then(|s| s.pose) {
+                Some(a) => {
+                    (a.x - p.x).hypot(a.y - p.y) <= MEET_M && r.goal.is_none_or(|g| g.dist(Point { x: a.x, y: a.y }) <= g.dist(Point { x: p.x, y: p.y }))
+                }
+                None => true,
             };
-            return met || now - rel.since >= RELIEF_S;
+            if met || now - rel.since >= RELIEF_S {
+                return true;
+            }
+            if rel.to.dist(to) > ARRIVED_M {
+                out.push(Command::Goto { robot: rel.spare.clone(), map: map.name.clone(), x: to.x, y: to.y });
+                rel.to = to;
+            }
+            return false;
         }
-        let (Some(spare), Some(map), Some(p)) = (self.spare(fleet, m, r), map_of(Some(m), fleet.maps), r.pose) else { return true };
+        let Some(spare) = self.spare(fleet, m, r) else { return true };
         if self.charger_free(map) {
-            out.push(Command::Goto { robot: spare.clone(), map: map.name.clone(), x: p.x, y: p.y });
-            self.reliefs.insert(r.id.clone(), Relief { spare, since: now });
+            out.push(Command::Goto { robot: spare.clone(), map: map.name.clone(), x: to.x, y: to.y });
+            self.reliefs.insert(r.id.clone(), Relief { spare, since: now, to });
         }
         false
     }

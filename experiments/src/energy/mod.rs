@@ -476,6 +476,7 @@ impl<'a> World<'a> {
             } else {
                 "goto".into()
             }),
+            goal: self.bodies[i].goal().map(|(x, y)| mrmm_proto::geom::Point { x, y }),
             last_mission: None,
             stuck: None,
             battery: self.bodies[i].battery().map(|b| b.state(SPEED)),
@@ -499,7 +500,9 @@ impl<'a> World<'a> {
             charging::Command::Replace { robot, out, .. } => {
                 let (by, out) = (index(&robot)?, index(&out)?);
                 let (a, b) = (self.bodies[by].pose(), self.bodies[out].pose());
-                tracing::debug!(by = %robot, out = %self.ids[out], apart = (a.x - b.x).hypot(a.y - b.y), "hand-over");
+                let goal = self.bodies[out].goal().unwrap_or((b.x, b.y));
+                let (ahead, behind) = ((a.x - goal.0).hypot(a.y - goal.1), (b.x - goal.0).hypot(b.y - goal.1));
+                tracing::debug!(by = %robot, out = %self.ids[out], apart = (a.x - b.x).hypot(a.y - b.y), by_to_goal = ahead, out_to_goal = behind, "hand-over");
                 self.hand_over(out, by);
             }
             charging::Command::Goto { robot, x, y, .. } => {
@@ -532,6 +535,8 @@ impl<'a> World<'a> {
         self.members.retain(|&m| m != out);
         self.members.push(by);
         self.bodies[out].hold();
+        // Standing on a vertex already, it visits it as a member now.
+        self.m.at[by] = None;
         self.legs[by].clear();
         self.bodies[by].hold();
         let Some(old) = self.execs.remove(&out) else {

@@ -72,7 +72,7 @@ fn summary(day: &Day, runs: &[(Row, Trace)], command: &str, elapsed: f64) -> Str
          drives {life:.1} h at top speed (1 m/s; standing draws a fifth of that power), a charger fills an \
          empty battery in {charge:.1} h; the patrol's robots start with charges spread from 100 to {low:.0} %, \
          spares full. Central's charging policy (`mrmm_core::central::charging`, thresholds {go:.0} → {done:.0} %) \
-         looks every {LOOK_S} s; a spare that relieves a robot takes its plan from where it is and the others go \
+         looks every {LOOK_S} s; a spare, sent to wait where the low robot's leg ends, takes its plan from where it is and the others go \
          on (a hand-over, as the mission's manager does it); other moves replan the patrol from where the robots \
          stand. A robot that runs dry stops, and the patrol is replanned without it. Idleness as \
          patrolling_sim measures it, from the first start barrier, visits by the patrol's robots only, the \

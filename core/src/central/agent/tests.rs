@@ -13,6 +13,7 @@ fn robot(id: &str, status: RobotStatus, mission: Option<&str>, x: f64, behaviour
         mission: mission.map(Into::into),
         pose: Some(Pose { x, y: 0.0, theta: 0.0 }),
         behaviour: Some(behaviour.into()),
+        goal: None,
         last_mission: None,
         stuck: None,
         battery: None,
