@@ -14,6 +14,8 @@ const CLEAR_AHEAD: usize = 6;
 /// may be a dozen segments back (4 kept `--segment 2` at 73 % of the blind robots' trips at 4
 /// robots with 68 stalls in 400 robot-runs; 12: 83 %, 9 stalls).
 const ASIDE_HOPS: usize = 12;
+/// How many robots queued behind a cycle of waits are tried for making room, at most.
+const BEHIND: usize = 32;
 
 impl Traffic {
     /// Who each robot that stands waiting waits for.
@@ -48,10 +50,8 @@ impl Traffic {
                     return true;
                 }
             }
-            // None can: one that waits for them may make room next to them.
-            let tail: Vec<RobotId> =
-                waits.iter().filter(|(w, by)| !cycle.contains(w) && by.iter().any(|b| cycle.contains(b))).map(|(w, _)| w.clone()).collect();
-            for t in &tail {
+            // None can: one that waits for them, or for one of those, may make room behind them.
+            for t in &behind(&waits, &cycle) {
                 if self.step_aside(t, &avoid, Why::Deadlock, out) {
                     return true;
                 }
@@ -175,6 +175,26 @@ impl Traffic {
             out.push(Command::Blocked { robot: id.clone(), by });
         }
     }
+}
+
+/// The robots that wait for a member of `cycle`, directly or through others that do (at most
+/// [`BEHIND`]), the farthest first: in a queue behind a robot of the cycle, the last one is the
+/// one free to make room, and then the one before it (only the nearest ones were tried before:
+/// a queue in one of DIAG's corridors stalled its robots for good).
+fn behind(waits: &BTreeMap<RobotId, BTreeSet<RobotId>>, cycle: &[RobotId]) -> Vec<RobotId> {
+    let mut queue: Vec<RobotId> = Vec::new();
+    let mut grew = true;
+    while grew {
+        grew = false;
+        for (w, by) in waits {
+            if queue.len() < BEHIND && !cycle.contains(w) && !queue.contains(w) && by.iter().any(|b| cycle.contains(b) || queue.contains(b)) {
+                queue.push(w.clone());
+                grew = true;
+            }
+        }
+    }
+    queue.reverse();
+    queue
 }
 
 /// A cycle of waits (each member waits for the next), the first found in id order: a

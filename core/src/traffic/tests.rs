@@ -118,6 +118,24 @@ fn robots_meeting_head_on_far_from_the_pocket_back_off_to_it() {
 }
 
 #[test]
+fn a_queue_behind_robots_facing_each_other_backs_off_from_its_far_end() {
+    // A corridor 0 – 1 – … – 5, 2 m a lane, with a pocket 6 off vertex 3. a (at 3) and b (at 4)
+    // face each other; b's goal is the pocket, so a must back off, but c waits behind a and d
+    // behind c. Only d is free to make room, then c, then a: b gets through, and they go on.
+    let points = [(0.0, 0.0), (2.0, 0.0), (4.0, 0.0), (6.0, 0.0), (8.0, 0.0), (10.0, 0.0), (6.0, 2.0)];
+    let g = graph(&points, &[(0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (3, 6)]);
+    let mut t = Traffic::new(Arc::new(Layout::new(&g, 0.6)), Params::default());
+    let mut first = Vec::new();
+    for (robot, route) in [("a", vec![3, 4, 5]), ("b", vec![4, 3, 6]), ("c", vec![2, 3, 4]), ("d", vec![1, 2, 3])] {
+        first.extend(t.handle(0.0, Event::Route { robot: id(robot), route }));
+    }
+    let (seen, done) = drive(&mut t, first, 200);
+    assert!(done, "all got through: {seen:?}");
+    let aside: Vec<&RobotId> = seen.iter().filter_map(|c| if let Command::Route { robot, why: Why::Deadlock, .. } = c { Some(robot) } else { None }).collect();
+    assert_eq!(aside, [&id("d"), &id("c"), &id("a")], "the queue's far end first");
+}
+
+#[test]
 fn with_nowhere_to_go_robots_are_reported_blocked() {
     // A bare corridor: no pocket, no way round.
     let g = graph(&[(0.0, 0.0), (2.0, 0.0), (4.0, 0.0)], &[(0, 1), (1, 2)]);
