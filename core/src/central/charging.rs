@@ -197,7 +197,10 @@ impl Charging {
         // A robot lost, or gone from the registry, gives its charger up.
         self.errands.retain(|id, _| by_id.get(id).is_some_and(|r| r.status != RobotStatus::Lost));
         let go_below = self.cfg.go_below;
-        self.excused.retain(|id| by_id.get(id).is_some_and(|r| r.battery.is_some_and(|b| b.charge < go_below)));
+        // The operator's release stands while the robot would be sent again: below the threshold,
+        // or held out of its mission's plan for want of reach (before, a held robot released was
+        // sent again at the next look).
+        self.excused.retain(|id| by_id.get(id).is_some_and(|r| r.battery.is_some_and(|b| b.charge < go_below) || held(r, fleet.missions)));
         self.adopt(now, fleet);
         let mut out = Vec::new();
         self.returning.retain(|id| by_id.get(id).is_some_and(|r| r.status == RobotStatus::Busy && r.mission.is_none()));

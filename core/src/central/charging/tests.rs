@@ -457,7 +457,15 @@ fn a_robot_held_out_of_its_plan_for_want_of_reach_goes_and_charges() {
     let held = MissionView { held: vec!["r1".into()], ..planned.clone() };
     let manual = MissionView { params: [("charging".to_string(), "ask".to_string())].into(), ..held.clone() };
     assert!(look(&mut c, 1.0, &robots, &[manual], &maps).is_empty(), "charging: ask");
-    let out = look(&mut c, 2.0, &robots, &[held], &maps);
+    let out = look(&mut c, 2.0, &robots, std::slice::from_ref(&held), &maps);
     assert_eq!(out, vec![mv("r1", None), mv("r3", Some("p")), goto("r1", 20.0, 0.0)]);
     assert_eq!(c.errands()["r1"].spare.as_ref().map(|s| s.as_str()), Some("r3"));
+    // The operator releases it; put back in the patrol, it is held again (still short of
+    // reach): it stays, on the operator's word, until it is no longer held.
+    let f = Fleet { robots: &robots, missions: std::slice::from_ref(&held), maps: &maps };
+    assert_eq!(c.release("r1", f).expect("released"), [goto("r1", 18.0, 1.0)]);
+    let held_again = MissionView { held: vec!["r1".into()], ..patrol(&["r1", "r2", "r3"]) };
+    assert!(look(&mut c, 3.0, &robots, std::slice::from_ref(&held_again), &maps).is_empty(), "released: not sent again");
+    assert!(look(&mut c, 4.0, &robots, &[patrol(&["r1", "r2", "r3"])], &maps).is_empty(), "planned again");
+    assert!(!look(&mut c, 5.0, &robots, &[held_again], &maps).is_empty(), "held anew later: the policy's again");
 }
