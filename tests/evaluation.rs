@@ -139,9 +139,12 @@ fn the_traffic_experiment_writes_a_row_per_map() -> anyhow::Result<()> {
     for r in &rows {
         assert!(num(r, "closest_m") >= 0.6 && num(r, "too_close") == 0.0, "{r:?}");
         assert!(num(r, "trips") > 0.0 && num(r, "trips") <= num(r, "blind_trips"), "{r:?}");
+        // Every second waited has a cause.
+        let causes: f64 = ["parked", "queued", "oncoming", "ahead", "other"].iter().map(|c| num(r, &format!("waiting_{c}"))).sum();
+        assert!((causes - num(r, "waiting_share")).abs() < 0.001, "{r:?}");
     }
     assert!(rows.iter().map(|r| num(r, "blind_runs_met")).sum::<f64>() > 0.0, "{csv}");
     let summary = std::fs::read_to_string(out.join("summary-traffic.md"))?;
-    assert!(summary.contains("| office | 29 | 2 |"), "{summary}");
+    assert!(summary.contains("| office | 29 | 2 |") && summary.contains("| office | 2 |"), "{summary}");
     Ok(())
 }

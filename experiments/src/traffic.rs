@@ -38,6 +38,9 @@ pub struct Row {
     pub stalled: u64,
     /// Share of the robots' time spent standing for a grant.
     pub waiting: f64,
+    /// Of it, what they waited for (shares of the robots' time): parked robots, queued ones,
+    /// oncoming ones, ones ahead or crossing, anything else.
+    pub waited_for: [f64; 5],
     /// Wall microseconds per event handled by traffic (this machine).
     pub us_per_event: f64,
     /// Goals reached by lifelong PIBT on the map cut into clearance-sized moves
@@ -96,6 +99,7 @@ fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n:
         blocked: 0,
         stalled: 0,
         waiting: 0.0,
+        waited_for: [0.0; 5],
         us_per_event: 0.0,
         reference_trips: 0,
         reference_blind: 0,
@@ -115,9 +119,20 @@ fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n:
         row.detours += r.detours;
         row.blocked += r.blocked;
         row.stalled += r.stalled;
-        row.waiting += r.waited / (n as f64 * world.duration);
+        let robot_s = n as f64 * world.duration;
+        row.waiting += r.waited / robot_s;
+        // Once more counting what the robots waited for, outside the timed run (the same run).
+        let counted = sim::run(layout, space, World { causes: true, ..world }, s).map_err(|v| anyhow!("{name}: {v}"))?;
+        anyhow::ensure!(counted.trips == r.trips, "{name} seed {s}: the run counting waits drove {} trips, not {}", counted.trips, r.trips);
+        let w = counted.waited_for;
+        for (into, s) in row.waited_for.iter_mut().zip([w.parked, w.queued, w.oncoming, w.ahead, w.other]) {
+            *into += s / robot_s;
+        }
     }
     row.waiting /= SEEDS as f64;
+    for w in &mut row.waited_for {
+        *w /= SEEDS as f64;
+    }
     // The whole controlled run, robots' motion included, per event: an upper bound.
     row.us_per_event = took * 1e6 / events.max(1) as f64;
     Ok(row)
@@ -144,10 +159,10 @@ pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, how: (f64, b
 
 fn csv(rows: &[Row]) -> String {
     let mut csv =
-        String::from("map,vertices,robots,seeds,blind_trips,blind_runs_met,trips,closest_m,too_close,steps_aside,blocked,stalled,waiting_share,us_per_event,pibt_trips,pibt_blind_trips\n");
+        String::from("map,vertices,robots,seeds,blind_trips,blind_runs_met,trips,closest_m,too_close,steps_aside,blocked,stalled,waiting_share,us_per_event,pibt_trips,pibt_blind_trips,waiting_parked,waiting_queued,waiting_oncoming,waiting_ahead,waiting_other\n");
     for r in rows {
         csv.push_str(&format!(
-            "{},{},{},{},{},{},{},{:.3},{},{},{},{},{:.4},{:.2},{},{}\n",
+            "{},{},{},{},{},{},{},{:.3},{},{},{},{},{:.4},{:.2},{},{},{:.4},{:.4},{:.4},{:.4},{:.4}\n",
             r.map,
             r.vertices,
             r.robots,
@@ -163,7 +178,12 @@ fn csv(rows: &[Row]) -> String {
             r.waiting,
             r.us_per_event,
             r.reference_trips,
-            r.reference_blind
+            r.reference_blind,
+            r.waited_for[0],
+            r.waited_for[1],
+            r.waited_for[2],
+            r.waited_for[3],
+            r.waited_for[4]
         ));
     }
     csv
@@ -198,6 +218,22 @@ fn summary(rows: &[Row], command: &str, elapsed: f64, (segment, corridors): (f64
             r.detours,
             r.stalled,
             r.us_per_event
+        ));
+    }
+    s.push_str(
+        "\nWhat the robots stood waiting for, as shares of their time (the first that applies): a robot *parked* at the end of \
+         its route; robots that stand waiting themselves (*queued*: a queue, or a gridlock); a robot whose way runs through \
+         where the waiting one stands (*oncoming*); one whose way runs through its next vertex (*ahead* of it the same way, or \
+         crossing there); anything else.\n\n\
+         | map | robots | waiting | parked | queued | oncoming | ahead | other |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let [parked, queued, oncoming, ahead, other] = r.waited_for.map(|w| 100.0 * w);
+        s.push_str(&format!(
+            "| {} | {} | {:.0} % | {parked:.0} % | {queued:.0} % | {oncoming:.0} % | {ahead:.0} % | {other:.0} % |\n",
+            r.map,
+            r.robots,
+            100.0 * r.waiting
         ));
     }
     s

@@ -245,9 +245,7 @@ impl Traffic {
         self.robots
             .iter()
             .map(|(id, r)| {
-                let next = r.granted.map_or(0, |g| g + 1);
-                let waits_for =
-                    if r.stands_waiting() && next < r.route.len() { self.grantable(id, r, next).err().unwrap_or_default() } else { BTreeSet::new() };
+                let waits_for = self.waits_for(id);
                 mrmm_proto::traffic::TrafficRobotView {
                     robot: id.clone(),
                     route: r.route.clone(),
@@ -263,6 +261,18 @@ impl Traffic {
                 }
             })
             .collect()
+    }
+
+    /// The robots in the way of `robot`'s next hop while it stands waiting for it (none when it
+    /// drives, or is not in traffic).
+    pub fn waits_for(&self, robot: &RobotId) -> BTreeSet<RobotId> {
+        let Some(r) = self.robots.get(robot) else { return BTreeSet::new() };
+        let next = r.granted.map_or(0, |g| g + 1);
+        if r.stands_waiting() && next < r.route.len() {
+            self.grantable(robot, r, next).err().unwrap_or_default()
+        } else {
+            BTreeSet::new()
+        }
     }
 
     /// One line on a robot: its route, how far it got and may go, what it holds, whom it waits

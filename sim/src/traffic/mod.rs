@@ -40,6 +40,8 @@ pub struct World {
     pub dt: f64,
     /// Keep a trace of every event and command (for replays).
     pub trace: bool,
+    /// Count what robots wait for ([`Report::waited_for`]; it costs time per step).
+    pub causes: bool,
     /// Robots start and go only to the first this many vertices (the map's own, when its lanes
     /// are cut into segments); none: any vertex.
     pub places: Option<u32>,
@@ -57,6 +59,7 @@ impl Default for World {
             stall: 300.0,
             dt: 0.05,
             trace: false,
+            causes: false,
             places: None,
         }
     }
@@ -90,6 +93,25 @@ pub struct Report {
     pub events: u64,
     /// Every event and command, when the world asks for it.
     pub trace: Vec<String>,
+    /// Of `waited`: what the robots stood waiting for (when the world counts it).
+    pub waited_for: WaitedFor,
+}
+
+/// Seconds robots stood waiting for a grant, by what was in their way (the first that applies,
+/// in this order).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct WaitedFor {
+    /// A robot parked at the end of its route.
+    pub parked: f64,
+    /// Robots that stand waiting themselves: a queue, or a gridlock.
+    pub queued: f64,
+    /// A robot whose way ahead runs through where the waiting one stands: coming the other way.
+    pub oncoming: f64,
+    /// A robot whose way ahead runs through the waiting one's next vertex: ahead of it the same
+    /// way, or crossing there.
+    pub ahead: f64,
+    /// Anything else (a resource in conflict nearby; a grant not given yet).
+    pub other: f64,
 }
 
 /// A run that broke what traffic guarantees.
@@ -126,6 +148,8 @@ struct Bot {
     last_trip: f64,
     /// Since when it stands wanting to drive (none: it drives, dwells or is parked).
     stuck: Option<f64>,
+    /// It stood for a grant this step (counted in [`Report::waited`]).
+    waited: bool,
 }
 
 impl Bot {
@@ -171,6 +195,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
             until: 0.0,
             last_trip: 0.0,
             stuck: None,
+            waited: false,
         });
     }
     let mut cmds = Vec::new();
@@ -213,6 +238,9 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
                 report.trace.push(format!("{now:.2} Tick → {out:?}"));
             }
             cmds.extend(out);
+        }
+        if world.controlled && world.causes {
+            count_waits(&bots, &traffic, world.dt, &mut report.waited_for);
         }
         if let Err(v) = check(&bots, layout, &world, now, &mut close, &mut stalled, &mut report, seed) {
             return Err(annotate(v, &traffic, &bots, &report, &world));
@@ -306,7 +334,8 @@ fn step(b: &mut Bot, layout: &Layout, space: &GraphSpace, world: &World, rng: &m
         }
     }
     let p = b.reached.unwrap_or(0);
-    if p + 1 == b.route.len() {
+    let at_end = p + 1 == b.route.len();
+    if at_end {
         if b.until == 0.0 {
             b.until = now + rng.gen_range(0.0..=world.dwell);
             report.trips += 1;
@@ -321,12 +350,41 @@ fn step(b: &mut Bot, layout: &Layout, space: &GraphSpace, world: &World, rng: &m
             // Traffic answers with the route it will grant (joined behind what it granted).
             events.push(Event::Route { robot: b.id.clone(), route: b.route.clone() });
         }
-    } else if budget > 0.0 && b.along == 0.0 {
+    }
+    b.waited = !at_end && budget > 0.0 && b.along == 0.0;
+    if b.waited {
         report.waited += world.dt;
     }
     let stands = b.along == 0.0 && budget > 0.0 && p + 1 < b.route.len();
     b.stuck = if stands { b.stuck.or(Some(now)) } else { None };
     events
+}
+
+/// Adds a step's waiting, by what each robot standing for a grant waits for.
+fn count_waits(bots: &[Bot], traffic: &Traffic, dt: f64, into: &mut WaitedFor) {
+    for b in bots.iter().filter(|b| b.waited) {
+        let by = traffic.waits_for(&b.id);
+        let Some(p) = b.reached.filter(|_| !by.is_empty()) else {
+            into.other += dt;
+            continue;
+        };
+        let (here, next) = (b.route[p], b.route.get(p + 1).copied());
+        let ways: Vec<(&[u32], Option<usize>, Option<usize>)> =
+            by.iter().filter_map(|o| traffic.state(o)).map(|(r, reached, granted, _)| (r, reached, granted)).collect();
+        let rests: Vec<&[u32]> = ways.iter().map(|(r, reached, _)| &r[reached.unwrap_or(0)..]).collect();
+        let slot = if ways.iter().any(|w| w.1.is_some_and(|x| x + 1 == w.0.len())) {
+            &mut into.parked
+        } else if ways.iter().all(|w| w.1 == w.2) {
+            &mut into.queued
+        } else if rests.iter().any(|r| r.contains(&here)) {
+            &mut into.oncoming
+        } else if rests.iter().any(|r| next.is_some_and(|n| r.contains(&n))) {
+            &mut into.ahead
+        } else {
+            &mut into.other
+        };
+        *slot += dt;
+    }
 }
 
 /// A shortest route from `from` to a random other vertex it can reach that no other robot is
