@@ -88,6 +88,10 @@ pub struct Args {
     /// time.
     #[arg(long)]
     corridors: bool,
+    /// traffic: robots tell traffic when they are clear of the vertex behind them, so that a
+    /// robot following closes up to it (the fleet's robots do not yet).
+    #[arg(long)]
+    release_behind: bool,
     /// Rounds of the patrol per run (default: messages 5, idleness 3, environment 2).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     rounds: Option<u32>,
@@ -222,8 +226,9 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         if !(a.segment.is_finite() && (a.segment == 0.0 || a.segment >= 0.7)) {
             bail!("--segment: 0 (lanes whole) or a length of at least 0.7 m (got {})", a.segment);
         }
-        let rows = traffic::run(&a.out, &sizes, a.seed, a.segment, a.corridors)?;
-        traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64(), (a.segment, a.corridors))?;
+        let lanes = traffic::Lanes { segment: a.segment, corridors: a.corridors, release: a.release_behind };
+        let rows = traffic::run(&a.out, &sizes, a.seed, lanes)?;
+        traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64(), lanes)?;
         println!("results in {}: results-traffic.csv, summary-traffic.md", a.out.display());
         return Ok(());
     }
@@ -347,6 +352,11 @@ fn command_line(a: &Args) -> String {
         let mut c = format!("mrmm experiment traffic --out {} --seed {}", a.out.display(), a.seed);
         if let Some(s) = &a.sizes {
             c.push_str(&format!(" --sizes {}", list(&s.iter().map(u32::to_string).collect::<Vec<_>>())));
+        }
+        for (on, flag) in [(a.corridors, " --corridors"), (a.release_behind, " --release-behind")] {
+            if on {
+                c.push_str(flag);
+            }
         }
         return c;
     }

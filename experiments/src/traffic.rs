@@ -20,6 +20,15 @@ const SEEDS: u64 = 10;
 /// Robots 0.25 m in radius keep their centres this far apart, m.
 const CLEARANCE: f64 = 0.6;
 
+/// How the lanes are held: cut into segments of at most `segment` metres (0: whole), corridors
+/// locked by direction, the vertex behind a robot let go once it is clear of it.
+#[derive(Debug, Clone, Copy)]
+pub struct Lanes {
+    pub segment: f64,
+    pub corridors: bool,
+    pub release: bool,
+}
+
 /// One map and team size, over the seeds.
 pub struct Row {
     pub map: String,
@@ -50,17 +59,17 @@ pub struct Row {
 }
 
 /// Every map with every team size that fits it.
-pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64, corridors: bool) -> anyhow::Result<Vec<Row>> {
+pub fn run(out: &Path, sizes: &[usize], seed: u64, lanes: Lanes) -> anyhow::Result<Vec<Row>> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let maps = mrmm_maps::data::graphs().map_err(|e| anyhow!("{e}"))?;
     let mut rows = Vec::new();
     for (name, graph) in &maps {
         // Robots start and go to the map's own vertices; cut lanes add vertices after them.
-        let cut = if segment > 0.0 { mrmm_core::traffic::layout::segmented(graph, segment) } else { graph.clone() };
+        let cut = if lanes.segment > 0.0 { mrmm_core::traffic::layout::segmented(graph, lanes.segment) } else { graph.clone() };
         let layout = Arc::new(Layout::new(&cut, CLEARANCE));
         let space = GraphSpace::new(&cut);
         for &n in sizes.iter().filter(|&&n| n >= 1 && n * 3 <= graph.vertices.len()) {
-            let mut row = one(name, graph.vertices.len(), &layout, &space, n, seed, corridors)?;
+            let mut row = one(name, graph.vertices.len(), &layout, &space, n, seed, lanes)?;
             reference(&mut row, graph, seed)?;
             println!(
                 "{name:>16} {:>3} vertices {n:>2} robots: trips {:>5} (blind {:>5}, {:.0} %), closest {:.2} m (blind robots met in {} of {} runs), waiting {:.0} %, {} steps aside, {} stalled, {:.1} µs/event; PIBT keeps {:.0} %",
@@ -83,8 +92,9 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64, segment: f64, corridors: bool
     Ok(rows)
 }
 
-fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n: usize, seed: u64, corridors: bool) -> anyhow::Result<Row> {
-    let world = World { robots: n, places: Some(vertices as u32), params: mrmm_core::traffic::Params { corridors, ..Default::default() }, ..World::default() };
+fn one(name: &str, vertices: usize, layout: &Arc<Layout>, space: &GraphSpace, n: usize, seed: u64, lanes: Lanes) -> anyhow::Result<Row> {
+    let params = mrmm_core::traffic::Params { corridors: lanes.corridors, ..Default::default() };
+    let world = World { robots: n, places: Some(vertices as u32), params, release: lanes.release, ..World::default() };
     let mut row = Row {
         map: name.to_string(),
         vertices,
@@ -149,11 +159,10 @@ fn reference(row: &mut Row, graph: &mrmm_maps::NavGraph, seed: u64) -> anyhow::R
     Ok(())
 }
 
-/// Writes the CSV and the summary; `how`: the lanes' segment length (0: whole) and whether
-/// corridors were locked.
-pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, how: (f64, bool)) -> anyhow::Result<()> {
+/// Writes the CSV and the summary; `lanes`: how the run held them.
+pub fn write(out: &Path, rows: &[Row], command: &str, elapsed: f64, lanes: Lanes) -> anyhow::Result<()> {
     std::fs::write(out.join("results-traffic.csv"), csv(rows))?;
-    std::fs::write(out.join("summary-traffic.md"), summary(rows, command, elapsed, how))?;
+    std::fs::write(out.join("summary-traffic.md"), summary(rows, command, elapsed, lanes))?;
     Ok(())
 }
 
@@ -189,9 +198,15 @@ fn csv(rows: &[Row]) -> String {
     csv
 }
 
-fn summary(rows: &[Row], command: &str, elapsed: f64, (segment, corridors): (f64, bool)) -> String {
+fn summary(rows: &[Row], command: &str, elapsed: f64, how: Lanes) -> String {
+    let segment = how.segment;
     let lanes = if segment > 0.0 { format!("lanes longer than {segment} m cut into segments") } else { "every lane one resource".to_string() };
-    let locks = if corridors { ", corridors locked by direction" } else { "" };
+    let locks = match (how.corridors, how.release) {
+        (false, false) => "",
+        (true, false) => ", corridors locked by direction",
+        (false, true) => ", the vertex behind a robot let go once it is clear of it",
+        (true, true) => ", corridors locked by direction, the vertex behind a robot let go once it is clear of it",
+    };
     let mut s = format!(
         "# Traffic on real floor plans\n\n`{command}` ({elapsed:.0} s; {lanes}{locks}). Each line: {SEEDS} seeds of 600 simulated seconds; robots at 0.5 – 1.5 m/s \
          drive shortest routes to random vertices no other robot is going to, dwell up to 3 s and go on. *Blind*: the same robots \

@@ -54,6 +54,10 @@ pub fn segmented(graph: &NavGraph, longest: f64) -> NavGraph {
     g
 }
 
+/// Beyond the distance at which a robot leaving a vertex is clear of it, how much farther it
+/// drives before traffic lets the vertex go, metres (the robot's report of its position lags).
+pub const RELEASE_MARGIN_M: f64 = 0.05;
+
 /// A graph prepared for traffic.
 #[derive(Debug, Clone)]
 pub struct Layout {
@@ -75,6 +79,9 @@ pub struct Layout {
     /// forward way (none: not in a corridor of two lanes or more with two ends).
     corridors: Vec<Vec<Res>>,
     corridor_of: HashMap<Res, (u32, bool)>,
+    /// For each lane driven from `u` to `v`, how far along it `u` may be let go
+    /// ([`Layout::release_after`]).
+    behind: HashMap<(u32, u32), f64>,
 }
 
 /// Each vertex's name, where no other vertex of `graph` has it and it may name a vertex in a
@@ -117,10 +124,43 @@ impl Layout {
             junction,
             corridors: Vec::new(),
             corridor_of: HashMap::new(),
+            behind: HashMap::new(),
         };
         layout.conflicts = layout.find_conflicts();
+        layout.behind = layout.find_behind();
         layout.find_corridors(&degree);
         layout
+    }
+
+    /// Where along each lane, each way, its start may be let go ([`Layout::release_after`]).
+    fn find_behind(&self) -> HashMap<(u32, u32), f64> {
+        let mut by_vertex: Vec<Vec<u32>> = vec![Vec::new(); self.points.len()];
+        for &(a, b) in &self.lanes {
+            by_vertex[a as usize].push(b);
+            by_vertex[b as usize].push(a);
+        }
+        let mut behind = HashMap::new();
+        for &(a, b) in &self.lanes {
+            for (u, v) in [(a, b), (b, a)] {
+                let (pu, pv) = (self.point(u), self.point(v));
+                let len = pu.dist(pv);
+                // The smallest sine of the angle to another lane of `u` leaving less than square.
+                let mut sine: f64 = 1.0;
+                for &x in by_vertex[u as usize].iter().filter(|&&x| x != v) {
+                    let px = self.point(x);
+                    let (d1, d2) = ((pv.x - pu.x, pv.y - pu.y), (px.x - pu.x, px.y - pu.y));
+                    let cos = (d1.0 * d2.0 + d1.1 * d2.1) / (len * pu.dist(px)).max(1e-12);
+                    if cos > 0.0 {
+                        sine = sine.min((1.0 - cos * cos).max(0.0).sqrt());
+                    }
+                }
+                let d = self.clearance / sine.max(1e-9) + RELEASE_MARGIN_M;
+                if d + self.clearance <= len {
+                    behind.insert((u, v), d);
+                }
+            }
+        }
+        behind
     }
 
     /// Corridors: chains of two lanes or more through vertices of two lanes, walked from one
@@ -225,6 +265,15 @@ impl Layout {
     /// The lane between `a` and `b`, either way.
     pub fn lane(&self, a: u32, b: u32) -> Option<Res> {
         self.lane_of.get(&(a.min(b), a.max(b))).copied()
+    }
+
+    /// How far along its lane from `u` to `v` a robot must be for `u` to be let go, metres
+    /// (none: not before it reaches `v`). A robot then at `u`, or on any other lane of `u`, is
+    /// at least the clearance from it: the clearance, or more where another lane leaves `u` at
+    /// less than a right angle to this one (the clearance over the sine of that angle), short
+    /// of the lane's far end by the clearance.
+    pub fn release_after(&self, u: u32, v: u32) -> Option<f64> {
+        self.behind.get(&(u, v)).copied()
     }
 
     /// Resources `r` conflicts with (not itself).

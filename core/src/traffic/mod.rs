@@ -99,6 +99,10 @@ pub enum Event {
     /// with them, and holds them even where they conflict with another robot's (both robots
     /// may be there).
     Restore { robot: RobotId, route: Vec<u32>, reached: Option<usize>, granted: usize },
+    /// `robot`, driving the hop from `vertex`, is far enough along it for `vertex` to be let go
+    /// ([`Layout::release_after`]): a robot following it may close up to that vertex. Ignored
+    /// unless `vertex` is the one it last reached and it drives on from it.
+    Left { robot: RobotId, vertex: u32 },
     /// Time passed.
     Tick,
 }
@@ -152,6 +156,8 @@ struct Robot {
     docked: bool,
     /// Robots it was reported blocked by (reported once).
     blocked: Vec<RobotId>,
+    /// It let go of the vertex it last reached, driving on from it ([`Event::Left`]).
+    left: bool,
 }
 
 impl Robot {
@@ -310,6 +316,7 @@ impl Traffic {
                 }
             }
             Event::Restore { robot, route, reached, granted } => self.restore(now, robot, route, reached, granted, &mut out),
+            Event::Left { robot, vertex } => self.left(&robot, vertex),
             Event::Tick => {}
         }
         // With nothing new since the last look, only time can change a decision: a robot that
@@ -474,12 +481,26 @@ impl Traffic {
         if r.granted.is_some_and(|g| g >= next) && r.route.get(next) == Some(&vertex) {
             if let Some(p) = r.reached {
                 let from = r.route[p];
-                for res in std::iter::once(from).chain(self.layout.lane(from, vertex)) {
+                let left = std::mem::take(&mut r.left);
+                for res in std::iter::once(from).filter(|_| !left).chain(self.layout.lane(from, vertex)) {
                     self.release(id, &mut r, res);
                 }
             }
             r.reached = Some(next);
             r.lost = false;
+        }
+        self.robots.insert(id.clone(), r);
+    }
+
+    /// The robot drives on from the vertex it last reached and is clear of it: that vertex is let
+    /// go (once; the lane and the vertex ahead stay held).
+    fn left(&mut self, id: &RobotId, vertex: u32) {
+        let Some(mut r) = self.robots.remove(id) else { return };
+        if let Some(p) = r.reached {
+            if !r.left && !r.lost && r.route.get(p) == Some(&vertex) && r.granted.is_some_and(|g| g > p) {
+                r.left = true;
+                self.release(id, &mut r, vertex);
+            }
         }
         self.robots.insert(id.clone(), r);
     }

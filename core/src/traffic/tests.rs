@@ -135,6 +135,47 @@ fn a_queue_behind_robots_facing_each_other_backs_off_from_its_far_end() {
     assert_eq!(aside, [&id("d"), &id("c"), &id("a")], "the queue's far end first");
 }
 
+/// A lane's start is let go once its robot is the clearance past it (more where another lane
+/// leaves at a sharp angle), never on a lane too short to gain from it.
+#[test]
+fn how_far_along_a_lane_its_start_is_let_go() {
+    // 0 – 1 – 2 along x, 3 m lanes; from 1 a lane to 3 at 30° off the lane to 2; 4 a metre from 2.
+    let at30 = (3.0 + 3.0 * 30f64.to_radians().cos(), 3.0 * 30f64.to_radians().sin());
+    let g = graph(&[(0.0, 0.0), (3.0, 0.0), (6.0, 0.0), at30, (7.0, 0.0)], &[(0, 1), (1, 2), (1, 3), (2, 4)]);
+    let layout = Layout::new(&g, 0.6);
+    let near = |got: Option<f64>, want: f64| got.is_some_and(|d| (d - want).abs() < 1e-9);
+    assert!(near(layout.release_after(0, 1), 0.6 + layout::RELEASE_MARGIN_M), "a straight lane: the clearance");
+    assert!(near(layout.release_after(1, 2), 0.6 / 0.5 + layout::RELEASE_MARGIN_M), "the lane to 3 at 30°: clearance / sin 30°");
+    assert!(near(layout.release_after(2, 1), 0.6 + layout::RELEASE_MARGIN_M), "the lane to 4 goes straight back: no nearer");
+    assert_eq!(layout.release_after(2, 4), None, "1 m: too short");
+}
+
+/// A robot following another closes up to the vertex the one ahead left, once that one says it
+/// is clear of it — not before, and not onto the lane it still drives.
+#[test]
+fn a_follower_closes_up_to_the_vertex_the_robot_ahead_left() {
+    let g = graph(&[(0.0, 0.0), (3.0, 0.0), (6.0, 0.0), (9.0, 0.0)], &[(0, 1), (1, 2), (2, 3)]);
+    let mut t = Traffic::new(Arc::new(Layout::new(&g, 0.6)), Params::default());
+    t.handle(0.0, Event::Restore { robot: id("a"), route: vec![1], reached: Some(0), granted: 0 });
+    t.handle(0.0, Event::Restore { robot: id("b"), route: vec![0], reached: Some(0), granted: 0 });
+    t.handle(0.0, Event::Route { robot: id("a"), route: vec![1, 2, 3] });
+    let out = t.handle(0.1, Event::Route { robot: id("b"), route: vec![0, 1, 2, 3] });
+    assert!(!out.iter().any(|c| matches!(c, Command::Grant { robot, .. } if robot == &id("b"))), "a holds 1: {out:?}");
+    // Said of a vertex it did not last reach, or by a robot standing: nothing.
+    assert!(t.handle(0.2, Event::Left { robot: id("a"), vertex: 2 }).is_empty());
+    assert!(t.handle(0.2, Event::Left { robot: id("b"), vertex: 0 }).is_empty());
+    let out = t.handle(1.0, Event::Left { robot: id("a"), vertex: 1 });
+    assert!(matches!(&out[..], [Command::Grant { robot, upto: 1, vertex: 1, .. }] if robot == &id("b")), "up to 1, not onto a's lane: {out:?}");
+    check_exclusive(&t);
+    // a reaches 2: the lane behind it is let go, and b may drive on to 2 once a left it too.
+    let out = t.handle(2.0, Event::Reached { robot: id("a"), vertex: 2 });
+    assert!(!out.iter().any(|c| matches!(c, Command::Grant { robot, upto: 2, .. } if robot == &id("b"))), "{out:?}");
+    t.handle(2.5, Event::Reached { robot: id("b"), vertex: 1 });
+    let out = t.handle(3.0, Event::Left { robot: id("a"), vertex: 2 });
+    assert!(out.iter().any(|c| matches!(c, Command::Grant { robot, upto: 2, .. } if robot == &id("b"))), "{out:?}");
+    check_exclusive(&t);
+}
+
 #[test]
 fn with_nowhere_to_go_robots_are_reported_blocked() {
     // A bare corridor: no pocket, no way round.

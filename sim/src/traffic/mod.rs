@@ -42,6 +42,9 @@ pub struct World {
     pub trace: bool,
     /// Count what robots wait for ([`Report::waited_for`]; it costs time per step).
     pub causes: bool,
+    /// Robots tell traffic when they are clear of the vertex behind them ([`Event::Left`]), so
+    /// that robots following close up (the fleet's robots do not yet).
+    pub release: bool,
     /// Robots start and go only to the first this many vertices (the map's own, when its lanes
     /// are cut into segments); none: any vertex.
     pub places: Option<u32>,
@@ -60,6 +63,7 @@ impl Default for World {
             dt: 0.05,
             trace: false,
             causes: false,
+            release: false,
             places: None,
         }
     }
@@ -150,6 +154,8 @@ struct Bot {
     stuck: Option<f64>,
     /// It stood for a grant this step (counted in [`Report::waited`]).
     waited: bool,
+    /// It told traffic it is clear of the vertex it last reached ([`Event::Left`]).
+    left: bool,
 }
 
 impl Bot {
@@ -196,6 +202,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
             last_trip: 0.0,
             stuck: None,
             waited: false,
+            left: false,
         });
     }
     let mut cmds = Vec::new();
@@ -327,7 +334,12 @@ fn step(b: &mut Bot, layout: &Layout, space: &GraphSpace, world: &World, rng: &m
         b.along += go;
         budget -= go;
         report.driven += go;
+        if world.release && !b.left && b.along < len - 1e-9 && layout.release_after(b.route[p], b.route[p + 1]).is_some_and(|d| b.along >= d) {
+            b.left = true;
+            events.push(Event::Left { robot: b.id.clone(), vertex: b.route[p] });
+        }
         if b.along >= len - 1e-9 {
+            b.left = false;
             b.reached = Some(p + 1);
             b.along = 0.0;
             events.push(Event::Reached { robot: b.id.clone(), vertex: b.route[p + 1] });
