@@ -1,5 +1,6 @@
 //! Robot-side payloads: telemetry, registration, commands and plans.
 
+use crate::geom::Point;
 use crate::ids::{MissionName, NodeId, RobotId};
 use crate::map::MapRef;
 use crate::plan::RobotPlan;
@@ -11,6 +12,13 @@ pub struct Pose {
     pub x: f64,
     pub y: f64,
     pub theta: f64,
+}
+
+impl Pose {
+    /// Where the robot is, without its heading.
+    pub fn point(self) -> Point {
+        Point { x: self.x, y: self.y }
+    }
 }
 
 /// Linear (m/s) and angular (rad/s) velocity.
@@ -37,6 +45,14 @@ impl Behaviour {
         match self {
             Behaviour::Hold => "hold".to_string(),
             Behaviour::Navigate { x, y } => format!("goto({x:.1},{y:.1})"),
+        }
+    }
+
+    /// Where it drives to, while it drives.
+    pub fn goal(&self) -> Option<Point> {
+        match *self {
+            Behaviour::Hold => None,
+            Behaviour::Navigate { x, y } => Some(Point { x, y }),
         }
     }
 }

@@ -342,14 +342,13 @@ impl Charging {
         let (Some(map), Some(p)) = (map_of(Some(m), fleet.maps), r.pose) else { return true };
         // The spare waits where the low robot's leg ends: the low robot drives on to it, and the
         // spare takes that leg over with nothing left to drive back.
-        let to = r.goal.unwrap_or(Point { x: p.x, y: p.y });
+        let here = p.point();
+        let to = r.goal.unwrap_or(here);
         if let Some(rel) = self.reliefs.get_mut(&r.id) {
             // Close, and no farther from where the low robot drives than it is: the spare
             // drives none of the leg back.
-            let met = match by_id(&rel.spare).and_then(|s| s.pose) {
-                Some(a) => {
-                    (a.x - p.x).hypot(a.y - p.y) <= MEET_M && r.goal.is_none_or(|g| g.dist(Point { x: a.x, y: a.y }) <= g.dist(Point { x: p.x, y: p.y }))
-                }
+            let met = match by_id(&rel.spare).and_then(|s| s.pose).map(|s| s.point()) {
+                Some(a) => a.dist(here) <= MEET_M && r.goal.is_none_or(|g| g.dist(a) <= g.dist(here)),
                 None => true,
             };
             if met || now - rel.since >= RELIEF_S {

@@ -235,6 +235,8 @@ struct Measures {
     /// Per vertex: when last visited, and the gaps between visits.
     last: Vec<Option<f64>>,
     gaps: Vec<Vec<f64>>,
+    /// The longest of those gaps yet.
+    longest: f64,
     /// The vertex each robot is at.
     at: Vec<Option<usize>>,
     started: bool,
@@ -427,7 +429,8 @@ impl<'a> World<'a> {
                 let spot = self.graph.vertices[v].at;
                 for w in (0..self.graph.vertices.len()).filter(|&w| self.graph.vertices[w].at == spot) {
                     if let Some(l) = self.m.last[w] {
-                        if self.m.gaps.iter().flatten().all(|&g| g < t - l) {
+                        if t - l > self.m.longest {
+                            self.m.longest = t - l;
                             tracing::debug!(vertex = w, t, gap = t - l, by = %self.ids[i], "the day's longest gap yet");
                         }
                         self.m.gaps[w].push(t - l);

@@ -79,10 +79,7 @@ impl SystemManager {
             mission,
             pose: rec.last.as_ref().map(|t| t.pose),
             behaviour,
-            goal: rec.last.as_ref().filter(|_| rec.alive).and_then(|t| match t.behaviour {
-                proto::Behaviour::Navigate { x, y } => Some(proto::geom::Point { x, y }),
-                proto::Behaviour::Hold => None,
-            }),
+            goal: rec.last.as_ref().filter(|_| rec.alive).and_then(|t| t.behaviour.goal()),
             last_mission,
             stuck: rec.last.as_ref().and_then(|t| t.stuck.clone()).filter(|_| rec.alive),
             battery: rec.last.as_ref().and_then(|t| t.battery),
