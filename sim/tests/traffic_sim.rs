@@ -103,3 +103,21 @@ fn robots_letting_go_behind_them_never_meet() {
         assert!(reports.iter().map(|(_, r)| r.trips).sum::<u64>() > robot_runs * 5);
     }
 }
+
+/// Seeds whose robots stalled for good in corridor gridlocks no single robot could step out of
+/// (12 robots, lanes cut at 3 m as the fleet cuts them, start and goals on the map's own
+/// vertices, as `mrmm experiment traffic` runs them): the cycle's oldest robot now pushes the
+/// queue in its way back as a train (`traffic/push.rs`). Each stalled without it.
+#[test]
+fn queues_in_corridors_are_pushed_back_as_trains() {
+    let maps = mrmm_maps::data::graphs().expect("shipped maps read");
+    for (map, seed) in [("DIAG_floor1", 12), ("DIAG_floor1", 14), ("DIAG_floor1", 18), ("cumberland", 6)] {
+        let (_, graph) = maps.iter().find(|(name, _)| *name == map).expect("the map is shipped");
+        let cut = mrmm_core::traffic::layout::segmented(graph, 3.0);
+        let layout = Arc::new(Layout::new(&cut, CLEARANCE));
+        let world = World { robots: 12, places: Some(graph.vertices.len() as u32), ..World::default() };
+        let r = run(&layout, &GraphSpace::new(&cut), world, seed).unwrap_or_else(|v| panic!("{map}: {v}"));
+        assert_eq!(r.stalled, 0, "{map} seed {seed}: {r:?}", r = Report { trace: vec![], ..r.clone() });
+        assert!(r.closest >= CLEARANCE - 1e-6, "{map} seed {seed}: {}", r.closest);
+    }
+}

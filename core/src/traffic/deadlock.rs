@@ -51,10 +51,17 @@ impl Traffic {
                 }
             }
             // None can: one that waits for them, or for one of those, may make room behind them.
-            for t in &behind(&waits, &cycle) {
+            let queued = behind(&waits, &cycle);
+            for t in &queued {
                 if self.step_aside(t, &avoid, Why::Deadlock, out) {
                     return true;
                 }
+            }
+            // None can step aside: the oldest pushes the ones in its way back, and they the ones
+            // behind them.
+            let stuck: Vec<RobotId> = cycle.iter().chain(&queued).cloned().collect();
+            if self.push_through(&stuck, &waits, out) {
+                return true;
             }
             for m in &cycle {
                 let by = waits.get(m).cloned().unwrap_or_default();
@@ -105,7 +112,23 @@ impl Traffic {
         let Some(r) = self.robots.get(id) else { return false };
         let Some(v) = r.standing() else { return false };
         let Some(path) = self.aside(id, v, avoid) else { return false };
-        let Some(g) = r.granted else { return false };
+        // Only a step it can take at once: a robot that stayed where it is would be sent aside
+        // again at the next event, its route longer each time.
+        match self.diverted(id, &path, true) {
+            Some(moved) => {
+                self.divert(id, moved, why, out);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The robot standing at `path[0]`, sent along `path`, then back the same way and on its
+    /// route; none if the route would be too long or (`at_once`) its first hop cannot be granted
+    /// now.
+    pub(super) fn diverted(&self, id: &RobotId, path: &[u32], at_once: bool) -> Option<Robot> {
+        let r = self.robots.get(id)?;
+        let g = r.granted?;
         // Back along the way it stepped aside by, as far as where its route goes on from.
         let rest = &r.route[g + 1..];
         let back_to = rest.first().and_then(|next| path.iter().position(|p| p == next)).map_or(0, |k| k);
@@ -116,16 +139,17 @@ impl Traffic {
         route.extend(&rest[skip_next..]);
         let b = r.reached.unwrap_or(0);
         let moved = Robot { route: route[b..].to_vec(), reached: r.reached.map(|p| p - b), granted: Some(g - b), ..r.clone() };
-        // Only a step it can take at once: a robot that stayed where it is would be sent aside
-        // again at the next event, its route longer each time.
-        if moved.route.len() > MAX_ROUTE || self.grantable(id, &moved, g - b + 1).is_err() {
-            return false;
+        if moved.route.len() > MAX_ROUTE || (at_once && self.grantable(id, &moved, g - b + 1).is_err()) {
+            return None;
         }
-        let mut r = moved;
+        Some(moved)
+    }
+
+    /// Gives the robot its new route and tells it.
+    pub(super) fn divert(&mut self, id: &RobotId, mut r: Robot, why: Why, out: &mut Vec<Command>) {
         self.robots.remove(id);
         self.announce(id, &mut r, why, out);
         self.robots.insert(id.clone(), r);
-        true
     }
 
     /// Breadth-first over free two-way lanes from `v`: the path to the first vertex not in

@@ -276,6 +276,21 @@ impl Layout {
         self.behind.get(&(u, v)).copied()
     }
 
+    /// Whether a robot at `at`, driving the lane from `u` to `v`, is clear of `u`: at least
+    /// [`Layout::release_after`] along the lane, more by what it is off the lane's line (over the
+    /// sine the release distance was made for), and not yet at `v`.
+    pub fn clear_of(&self, u: u32, v: u32, at: Point) -> bool {
+        let Some(d) = self.release_after(u, v) else { return false };
+        let (pu, pv) = (self.point(u), self.point(v));
+        let len = pu.dist(pv);
+        let (dx, dy) = ((pv.x - pu.x) / len, (pv.y - pu.y) / len);
+        let along = (at.x - pu.x) * dx + (at.y - pu.y) * dy;
+        let off = ((at.x - pu.x) * dy - (at.y - pu.y) * dx).abs();
+        // d = clearance / sine + margin: a robot `off` the line needs `off / sine` more.
+        let sine = self.clearance / (d - RELEASE_MARGIN_M).max(1e-9);
+        along >= d + off / sine && along < len
+    }
+
     /// Resources `r` conflicts with (not itself).
     pub fn conflicts(&self, r: Res) -> &[Res] {
         &self.conflicts[r as usize]

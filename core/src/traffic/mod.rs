@@ -37,6 +37,7 @@ pub mod deputy;
 mod fleet_tests;
 mod grants;
 pub mod layout;
+mod push;
 #[cfg(test)]
 mod tests;
 

@@ -131,7 +131,12 @@ fn a_queue_behind_robots_facing_each_other_backs_off_from_its_far_end() {
     }
     let (seen, done) = drive(&mut t, first, 200);
     assert!(done, "all got through: {seen:?}");
-    let aside: Vec<&RobotId> = seen.iter().filter_map(|c| if let Command::Route { robot, why: Why::Deadlock, .. } = c { Some(robot) } else { None }).collect();
+    // (b may be pushed a hop back first, while d still drives up: `push.rs`.)
+    let aside: Vec<&RobotId> = seen
+        .iter()
+        .filter_map(|c| if let Command::Route { robot, why: Why::Deadlock, .. } = c { Some(robot) } else { None })
+        .filter(|r| *r != &id("b"))
+        .collect();
     assert_eq!(aside, [&id("d"), &id("c"), &id("a")], "the queue's far end first");
 }
 

@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, OccupancyGrid, Point};
-use mrmm_proto::traffic::{TrafficCleared, TrafficGoal, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
+use mrmm_proto::traffic::{TrafficCleared, TrafficGoal, TrafficHeld, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
 use mrmm_proto::{ErrorReply, RobotId, TrafficOrder};
 
 use super::{Layout, Params, Traffic, CLEARANCE};
@@ -372,18 +372,8 @@ impl OnMap {
                     cmds.extend(traffic.handle(now, super::Event::Restore { robot: robot.clone(), route: vec![v], reached: Some(0), granted: 0 }));
                 }
             }
-            // Progress along the route traffic holds for it (the same version: the same route,
-            // position for position): every vertex reached since, in order. A report of an
-            // older version is not read (its robot takes the new order and reports again).
-            Some(h) if known && h.incarnation == incarnation => {
-                if let (Some((route, at, _, version)), Some(p)) = (traffic.state(&robot), h.reached) {
-                    let from = at.map_or(0, |a| a + 1);
-                    let vs: Vec<u32> = if version == h.version { route.get(from..=p as usize).map(<[u32]>::to_vec).unwrap_or_default() } else { Vec::new() };
-                    for v in vs {
-                        cmds.extend(traffic.handle(now, super::Event::Reached { robot: robot.clone(), vertex: v }));
-                    }
-                }
-            }
+            // Progress along the route traffic holds for it.
+            Some(h) if known && h.incarnation == incarnation => cmds.extend(progress(now, traffic, &report, h)),
             _ => {}
         }
         cmds.extend(docked(now, traffic, &report));
@@ -507,6 +497,37 @@ fn stopped(now: f64, traffic: &mut Traffic, seen: &mut Seen, report: &TrafficRep
 }
 
 /// A robot in traffic says whether it stands docked at a charger (it makes no way then).
+/// Progress along the route traffic holds for the robot (the same version: the same route,
+/// position for position): every vertex reached since, in order, and the one it last reached
+/// let go once it is clear of it. A report of an older version is not read (its robot takes the
+/// new order and reports again).
+fn progress(now: f64, traffic: &mut Traffic, report: &TrafficReport, h: &TrafficHeld) -> Vec<super::Command> {
+    let robot = &report.robot;
+    let mut cmds = Vec::new();
+    if let (Some((route, at, _, version)), Some(p)) = (traffic.state(robot), h.reached) {
+        let from = at.map_or(0, |a| a + 1);
+        let vs: Vec<u32> = if version == h.version { route.get(from..=p as usize).map(<[u32]>::to_vec).unwrap_or_default() } else { Vec::new() };
+        for v in vs {
+            cmds.extend(traffic.handle(now, super::Event::Reached { robot: robot.clone(), vertex: v }));
+        }
+    }
+    if let Some(vertex) = clear_behind(traffic, report, h) {
+        cmds.extend(traffic.handle(now, super::Event::Left { robot: robot.clone(), vertex }));
+    }
+    cmds
+}
+
+/// The vertex the robot last reached, when its report puts it clear of it on the hop it drives
+/// on from there (the same route as traffic's, granted beyond): a robot following may close up
+/// to it ([`super::Event::Left`]).
+fn clear_behind(traffic: &Traffic, report: &TrafficReport, h: &TrafficHeld) -> Option<u32> {
+    let (route, reached, granted, version) = traffic.state(&report.robot)?;
+    let p = reached?;
+    let driving = version == h.version && h.reached == Some(p as u32) && granted.is_some_and(|g| g > p);
+    let clear = driving && traffic.layout().clear_of(route[p], route[p + 1], Point::new(report.x, report.y));
+    clear.then_some(route[p])
+}
+
 fn docked(now: f64, traffic: &mut Traffic, report: &TrafficReport) -> Vec<super::Command> {
     if traffic.state(&report.robot).is_none() || traffic.is_docked(&report.robot) == report.docked {
         return Vec::new();
