@@ -3,7 +3,7 @@
 //! (priority inheritance, as in PIBT: Okumura et al., *Artificial Intelligence* 2022), so that
 //! a queue in a corridor backs off as a train until it reaches a branch.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::RobotId;
 
@@ -26,7 +26,7 @@ impl Traffic {
     /// Makes the robots in the way of the oldest of `stuck` (a cycle of waits and the robots
     /// queued behind it) back off one hop each, pushing the ones behind them: whether any route
     /// changed.
-    pub(super) fn push_through(&mut self, stuck: &[RobotId], waits: &BTreeMap<RobotId, std::collections::BTreeSet<RobotId>>, out: &mut Vec<Command>) -> bool {
+    pub(super) fn push_through(&mut self, stuck: &[RobotId], waits: &BTreeMap<RobotId, BTreeSet<RobotId>>, out: &mut Vec<Command>) -> bool {
         let asked = |id: &RobotId| self.robots.get(id).map_or(f64::INFINITY, |r| r.asked);
         let Some(p) = stuck.iter().min_by(|a, b| asked(a).total_cmp(&asked(b)).then_with(|| a.cmp(b))) else { return false };
         let Some(pr) = self.robots.get(p) else { return false };
@@ -35,7 +35,8 @@ impl Traffic {
         let from = pr.reached.unwrap_or(0);
         let way: Vec<u32> = pr.route.iter().skip(from).take(8).copied().collect();
         // Every robot in its way (two, where it must not stop on a junction) backs off together,
-        // off the hops the pusher needs.
+        // none onto the vertex the pusher stands at (keeping them off its next hops too stalled
+        // more: docs/traffic.md).
         let mut plan = Plan { moves: Vec::new(), taken: vec![vp], budget: BUDGET };
         for b in waits.get(p).into_iter().flatten() {
             if !self.push(b, vp, &way, DEPTH, &mut plan) {

@@ -496,7 +496,6 @@ fn stopped(now: f64, traffic: &mut Traffic, seen: &mut Seen, report: &TrafficRep
     traffic.handle(now, event)
 }
 
-/// A robot in traffic says whether it stands docked at a charger (it makes no way then).
 /// Progress along the route traffic holds for the robot (the same version: the same route,
 /// position for position): every vertex reached since, in order, and the one it last reached
 /// let go once it is clear of it. A report of an older version is not read (its robot takes the
@@ -528,6 +527,7 @@ fn clear_behind(traffic: &Traffic, report: &TrafficReport, h: &TrafficHeld) -> O
     clear.then_some(route[p])
 }
 
+/// A robot in traffic says whether it stands docked at a charger (it makes no way then).
 fn docked(now: f64, traffic: &mut Traffic, report: &TrafficReport) -> Vec<super::Command> {
     if traffic.state(&report.robot).is_none() || traffic.is_docked(&report.robot) == report.docked {
         return Vec::new();
