@@ -88,10 +88,10 @@ pub struct Args {
     /// time.
     #[arg(long)]
     corridors: bool,
-    /// traffic: robots tell traffic when they are clear of the vertex behind them, so that a
-    /// robot following closes up to it (the fleet's robots do not yet).
+    /// traffic: robots hold the vertex behind them until they reach the next (the fleet's robots
+    /// report as they are clear of it, and it is let go: this is for comparison).
     #[arg(long)]
-    release_behind: bool,
+    hold_behind: bool,
     /// Rounds of the patrol per run (default: messages 5, idleness 3, environment 2).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     rounds: Option<u32>,
@@ -226,7 +226,7 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         if !(a.segment.is_finite() && (a.segment == 0.0 || a.segment >= 0.7)) {
             bail!("--segment: 0 (lanes whole) or a length of at least 0.7 m (got {})", a.segment);
         }
-        let lanes = traffic::Lanes { segment: a.segment, corridors: a.corridors, release: a.release_behind };
+        let lanes = traffic::Lanes { segment: a.segment, corridors: a.corridors, release: !a.hold_behind };
         let rows = traffic::run(&a.out, &sizes, a.seed, lanes)?;
         traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64(), lanes)?;
         println!("results in {}: results-traffic.csv, summary-traffic.md", a.out.display());
@@ -353,7 +353,7 @@ fn command_line(a: &Args) -> String {
         if let Some(s) = &a.sizes {
             c.push_str(&format!(" --sizes {}", list(&s.iter().map(u32::to_string).collect::<Vec<_>>())));
         }
-        for (on, flag) in [(a.corridors, " --corridors"), (a.release_behind, " --release-behind")] {
+        for (on, flag) in [(a.corridors, " --corridors"), (a.hold_behind, " --hold-behind")] {
             if on {
                 c.push_str(flag);
             }

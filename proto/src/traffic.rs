@@ -77,6 +77,12 @@ pub struct RouteVertex {
     /// ([`RouteVertex::may_name`]): what a VDA 5050 vehicle knows the node by.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
+    /// How far along the lane to the route's next vertex the robot must be for this vertex to
+    /// be let go, metres (none: not before the next vertex). A robot reports as it passes it, so
+    /// that the robot behind closes up at once rather than at its next periodic report; the
+    /// authority checks the reported position itself.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub release: Option<f64>,
 }
 
 /// The longest vertex name a route carries (a longer one: the vertex goes by its index).
@@ -85,7 +91,7 @@ pub const MAX_VERTEX_NAME: usize = 64;
 impl RouteVertex {
     /// Vertex `v` at (`x`, `y`), without a name.
     pub fn at(v: u32, x: f64, y: f64) -> RouteVertex {
-        RouteVertex { v, x, y, name: None }
+        RouteVertex { v, x, y, name: None, release: None }
     }
 
     /// What the vertex is called as a node of an order: its name, else `v<index>`.

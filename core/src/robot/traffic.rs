@@ -73,6 +73,9 @@ pub struct Gate {
     left: Option<(RouteVertex, u64, [f64; 2])>,
     /// Taken off the lanes: it stops at its next step, even on a lane (it holds nothing).
     halt: bool,
+    /// The hop (incarnation, version, position of the vertex behind) on which it passed the point
+    /// where that vertex is let go ([`RouteVertex::release`]), and reported it.
+    released: Option<(u64, u64, usize)>,
 }
 
 impl Gate {
@@ -95,6 +98,7 @@ impl Gate {
             waiting: false,
             left: None,
             halt: false,
+            released: None,
         }
     }
 
@@ -242,6 +246,7 @@ impl Gate {
                 if body.drives_on() && !quiet {
                     self.tell_grant(&v, body);
                 }
+                self.passing(&v, pose.x, pose.y);
                 return false;
             }
             if !near(v.x, v.y) && !body.passed(&v) {
@@ -378,6 +383,23 @@ impl Gate {
         };
         let (granted, then) = Self::beyond(h, at);
         body.navigate_lane(v, granted, then, self.goal.and_then(|g| g.speed));
+    }
+
+    /// Driving to `v` from the vertex it reached last, at (`x`, `y`): a report as it passes the
+    /// point where that vertex is let go (once per hop), so that the robot following closes up
+    /// at once. Off the lane's line, the authority may find it not yet clear; its next periodic
+    /// report tells again.
+    fn passing(&mut self, v: &RouteVertex, x: f64, y: f64) {
+        let Some(h) = &self.held else { return };
+        let Some(p) = h.reached else { return };
+        let (Some(u), Some(n)) = (h.route.get(p), h.route.get(p + 1)) else { return };
+        let hop = (h.incarnation, h.version, p);
+        let Some(d) = u.release.filter(|_| n.v == v.v && self.released != Some(hop)) else { return };
+        let len = (n.x - u.x).hypot(n.y - u.y);
+        if len > 0.0 && ((x - u.x) * (n.x - u.x) + (y - u.y) * (n.y - u.y)) / len >= d {
+            self.released = Some(hop);
+            self.changed = true;
+        }
     }
 
     /// The route after its vertex `next`: what traffic granted of it, and the rest.

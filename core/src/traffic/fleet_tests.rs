@@ -545,3 +545,53 @@ fn a_paused_missions_robots_stop_where_they_are_and_the_others_go_on() {
         println!("seed {seed}: closest {:.2} m; the other mission {others} → {}", f.closest.0, f.progress_of(|i| !even(i)));
     }
 }
+
+/// Two robots in one direction down a corridor, the second following the first: the robot ahead
+/// reports as it passes the point where the vertex behind it may be let go
+/// ([`mrmm_proto::traffic::RouteVertex::release`]), so traffic lets go of it within a step or
+/// two of the robot being clear of it, not at the robot's next periodic report (up to
+/// [`mrmm_proto::traffic::REPORT_S`] later), and the robot following closes up at once.
+#[test]
+fn the_robot_ahead_reports_as_it_passes_the_release_point_and_the_vertex_behind_goes_at_once() {
+    let vertices =
+        (0..8).map(|i| mrmm_maps::graph::Vertex { charger: false, name: format!("v{i}"), at: mrmm_maps::Point::new(2.0 * f64::from(i), 0.0) }).collect();
+    let mut edges = Vec::new();
+    for a in 0u32..7 {
+        edges.push(mrmm_maps::graph::Edge { from: a, to: a + 1, length: 2.0 });
+        edges.push(mrmm_maps::graph::Edge { from: a + 1, to: a, length: 2.0 });
+    }
+    let mut f = Fleet::with(NavGraph { vertices, edges }, vec![(1, vec![7], false), (0, vec![6], false)], 1);
+    let leader = mrmm_proto::RobotId::from("r0");
+    // The vertex behind the leader, since when the leader is clear of it, and whether traffic
+    // let go of it since.
+    let mut behind: Option<(u32, Option<f64>, bool)> = None;
+    let mut delays = Vec::new();
+    while f.now < 30.0 {
+        f.step();
+        let t = f.authority.traffic(&f.map.hash).expect("traffic");
+        let Some((route, Some(p), _, _)) = t.state(&leader) else { continue };
+        let Some(&next) = route.get(p + 1) else { continue };
+        let (u, pose) = (route[p], f.robots[0].pose());
+        if let Some((v, Some(since), false)) = behind.filter(|b| b.0 != u) {
+            delays.push((v, f.now - since)); // reached the next vertex still holding it
+        }
+        let b = behind.get_or_insert((u, None, false));
+        if b.0 != u {
+            *b = (u, None, false);
+        }
+        if b.1.is_none() && t.layout().clear_of(u, next, mrmm_maps::Point::new(pose.x, pose.y)) {
+            b.1 = Some(f.now);
+        }
+        if let (Some(since), false) = (b.1, b.2) {
+            if !t.held(&leader).contains(&u) {
+                delays.push((u, f.now - since));
+                b.2 = true;
+            }
+        }
+    }
+    assert!(delays.len() >= 5, "the leader let go of {} vertices: {delays:?}", delays.len());
+    let worst = delays.iter().map(|d| d.1).fold(0.0, f64::max);
+    assert!(worst <= 2.0 * STEP + 1e-9, "the vertex behind the leader went up to {worst:.2} s after it was clear of it: {delays:?}");
+    assert!(f.closest.0 >= CLEARANCE - 0.05, "{} were {:.2} m apart at {:.1} s", f.closest.2, f.closest.0, f.closest.1);
+    println!("vertices let go after {delays:?} s; closest {:.2} m", f.closest.0);
+}

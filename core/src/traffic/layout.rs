@@ -244,7 +244,7 @@ impl Layout {
     /// Vertex `v` as a route names it: where it is, and its own name if it has one.
     pub fn route_vertex(&self, v: u32) -> RouteVertex {
         let p = self.point(v);
-        RouteVertex { v, x: p.x, y: p.y, name: self.names.get(v as usize).cloned().flatten() }
+        RouteVertex { v, x: p.x, y: p.y, name: self.names.get(v as usize).cloned().flatten(), release: None }
     }
 
     /// Vertices a directed edge leads to from `v`.

@@ -43,7 +43,8 @@ pub struct World {
     /// Count what robots wait for ([`Report::waited_for`]; it costs time per step).
     pub causes: bool,
     /// Robots tell traffic when they are clear of the vertex behind them ([`Event::Left`]), so
-    /// that robots following close up (the fleet's robots do not yet).
+    /// that robots following close up: as the fleet's robots do, which report as they pass the
+    /// point ([`mrmm_proto::traffic::RouteVertex::release`]).
     pub release: bool,
     /// Robots start and go only to the first this many vertices (the map's own, when its lanes
     /// are cut into segments); none: any vertex.

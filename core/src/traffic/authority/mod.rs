@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, OccupancyGrid, Point};
-use mrmm_proto::traffic::{TrafficCleared, TrafficGoal, TrafficHeld, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
+use mrmm_proto::traffic::{RouteVertex, TrafficCleared, TrafficGoal, TrafficHeld, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
 use mrmm_proto::{ErrorReply, RobotId, TrafficOrder};
 
 use super::{Layout, Params, Traffic, CLEARANCE};
@@ -444,7 +444,8 @@ impl OnMap {
         let (route, reached, upto, version) = traffic.state(robot)?;
         let off = seen.leg.filter(|l| route.last() == Some(&l.v)).map(|l| [l.to.x, l.to.y]);
         let layout = traffic.layout();
-        let route = route.iter().map(|&v| layout.route_vertex(v)).collect();
+        let release = |i: usize| route.get(i + 1).and_then(|&n| layout.release_after(route[i], n));
+        let route = (0..route.len()).map(|i| RouteVertex { release: release(i), ..layout.route_vertex(route[i]) }).collect();
         Some(TrafficOrder::Route {
             goal,
             incarnation,
