@@ -121,3 +121,22 @@ fn queues_in_corridors_are_pushed_back_as_trains() {
         assert!(r.closest >= CLEARANCE - 1e-6, "{map} seed {seed}: {}", r.closest);
     }
 }
+
+/// Seeds whose robots stepped back and forth for good: two cycles of waits round a junction,
+/// each broken by a step aside that recreated the other (office: a robot sent into a pocket
+/// and out again while three robots held the three ends of the junction beside it). A step
+/// aside a robot made twice on one way is now tried after every other robot's. Robots report
+/// as they pass the release point (as the fleet's do). Each stalled without it.
+#[test]
+fn cycles_undoing_each_others_steps_aside_are_broken_another_way() {
+    let maps = mrmm_maps::data::graphs().expect("shipped maps read");
+    for (map, robots, seed) in [("office", 8, 9), ("cumberland", 12, 6)] {
+        let (_, graph) = maps.iter().find(|(name, _)| *name == map).expect("the map is shipped");
+        let cut = mrmm_core::traffic::layout::segmented(graph, 3.0);
+        let layout = Arc::new(Layout::new(&cut, CLEARANCE));
+        let world = World { robots, places: Some(graph.vertices.len() as u32), release: true, ..World::default() };
+        let r = run(&layout, &GraphSpace::new(&cut), world, seed).unwrap_or_else(|v| panic!("{map}: {v}"));
+        assert_eq!(r.stalled, 0, "{map} seed {seed}: {r:?}", r = Report { trace: vec![], ..r.clone() });
+        assert!(r.closest >= CLEARANCE - 1e-6, "{map} seed {seed}: {}", r.closest);
+    }
+}

@@ -16,6 +16,9 @@ const CLEAR_AHEAD: usize = 6;
 const ASIDE_HOPS: usize = 12;
 /// How many robots queued behind a cycle of waits are tried for making room, at most.
 const BEHIND: usize = 32;
+/// A step aside a robot made this many times on one way is tried after every other robot's of
+/// its cycle (or of the queue behind it).
+pub(super) const REPEATS: u32 = 2;
 
 impl Traffic {
     /// Who each robot that stands waiting waits for.
@@ -45,16 +48,17 @@ impl Traffic {
                 let asked = |id: &RobotId| self.robots.get(id).map_or(f64::INFINITY, |r| r.asked);
                 asked(b).total_cmp(&asked(a)).then_with(|| b.cmp(a))
             });
-            for m in &by_age {
-                if self.step_aside(m, &avoid, Why::Deadlock, out) {
-                    return true;
-                }
-            }
-            // None can: one that waits for them, or for one of those, may make room behind them.
+            // If none of the cycle can, one that waits for them, or for one of those, may make
+            // room behind them. Steps aside made often on this way come last: two cycles can
+            // undo each other's steps (a robot sent into a pocket and out again, for good).
             let queued = behind(&waits, &cycle);
-            for t in &queued {
-                if self.step_aside(t, &avoid, Why::Deadlock, out) {
-                    return true;
+            for group in [&by_age, &queued] {
+                for fresh in [true, false] {
+                    for m in group {
+                        if self.step_aside(m, &avoid, Why::Deadlock, fresh, out) {
+                            return true;
+                        }
+                    }
                 }
             }
             // None can step aside: the oldest pushes the ones in its way back, and they the ones
@@ -81,7 +85,7 @@ impl Traffic {
                     continue; // it moves, or waits itself: not in the way for good
                 }
                 // A robot docked at a charger does not leave it: others go round it, or wait.
-                if !rb.lost && !rb.docked && self.step_aside(b, &self.ahead_of([id].into_iter()), Why::Yield, out) {
+                if !rb.lost && !rb.docked && self.step_aside(b, &self.ahead_of([id].into_iter()), Why::Yield, false, out) {
                     return true;
                 }
                 stuck.insert(b.clone());
@@ -107,15 +111,24 @@ impl Traffic {
 
     /// Sends a standing robot to the nearest vertex not in `avoid` it can reach over free
     /// lanes and vertices (at most [`ASIDE_HOPS`] hops, each of which it can drive back), then
-    /// back the same way and on its route.
-    fn step_aside(&mut self, id: &RobotId, avoid: &BTreeSet<u32>, why: Why, out: &mut Vec<Command>) -> bool {
+    /// back the same way and on its route; only a step it made fewer than [`REPEATS`] times on
+    /// this way, if `fresh`.
+    fn step_aside(&mut self, id: &RobotId, avoid: &BTreeSet<u32>, why: Why, fresh: bool, out: &mut Vec<Command>) -> bool {
         let Some(r) = self.robots.get(id) else { return false };
         let Some(v) = r.standing() else { return false };
         let Some(path) = self.aside(id, v, avoid) else { return false };
+        let step = (path[0], path[1]);
+        let made = r.asides.get(&step).copied().unwrap_or(0);
+        if fresh && made >= REPEATS {
+            return false;
+        }
         // Only a step it can take at once: a robot that stayed where it is would be sent aside
         // again at the next event, its route longer each time.
         match self.diverted(id, &path, true) {
-            Some(moved) => {
+            Some(mut moved) => {
+                if why == Why::Deadlock {
+                    moved.asides.insert(step, made + 1);
+                }
                 self.divert(id, moved, why, out);
                 true
             }

@@ -159,6 +159,11 @@ struct Robot {
     blocked: Vec<RobotId>,
     /// It let go of the vertex it last reached, driving on from it ([`Event::Left`]).
     left: bool,
+    /// The steps aside it made out of cycles of waits on the way it asked for (from where, to
+    /// which next vertex, how often): a step made [`deadlock::REPEATS`] times is tried after
+    /// the other robots' (two cycles undoing each other's steps kept robots stepping back and
+    /// forth for good).
+    asides: BTreeMap<(u32, u32), u32>,
 }
 
 impl Robot {
@@ -371,6 +376,7 @@ impl Traffic {
                 r.docked = false;
                 r.waiting = None;
                 r.asked = now;
+                r.asides.clear();
                 self.announce(&id, &mut r, Why::Asked, out);
             }
             Err(why) => out.push(Command::Refused { robot: id.clone(), why }),
