@@ -307,7 +307,7 @@ async fn telemetry(sec: Sec<'_>) -> anyhow::Result<f64> {
     // A robot's real telemetry (from the robot machine).
     let cfg = mrmm_peer::config::RobotConfig::from_json5("bench", r#"{ id: "p0", type: "ground", kinematics: { max_speed: 2, max_turn_rate: 3 } }"#)?;
     let mut r = mrmm_core::robot::Robot::new(cfg.setup());
-    let Some(template) = r.handle(0.0, mrmm_core::robot::Event::TelemetryDue).into_iter().find_map(|c| match c {
+    let Some(template) = r.handle(mrmm_proto::Time::ZERO, mrmm_core::robot::Event::TelemetryDue).into_iter().find_map(|c| match c {
         mrmm_core::robot::Command::Telemetry(t) => Some(t),
         _ => None,
     }) else {

@@ -10,22 +10,22 @@
 use std::time::Instant;
 
 use mrmm_core::central::system::{Event, Req, Request, SystemManager, ADOPT_S};
-use mrmm_proto::{Behaviour, MissionView, Pose, RobotInfo, Role, Sender, Telemetry};
+use mrmm_proto::{Behaviour, MissionView, Pose, RobotInfo, Role, Sender, Telemetry, Time};
 
 /// A system manager with `n` robots registered and two missions of n/2 run by host `h1`.
 fn fleet(n: usize) -> (SystemManager, Vec<String>) {
-    let mut sm = SystemManager::new("central".into(), -ADOPT_S);
-    sm.handle(0.0, Event::HostAlive { node: "central".into() });
-    sm.handle(0.0, Event::HostAlive { node: "h1".into() });
+    let mut sm = SystemManager::new("central".into(), Time::from_secs(-ADOPT_S));
+    sm.handle(Time::from_secs(0.0), Event::HostAlive { node: "central".into() });
+    sm.handle(Time::from_secs(0.0), Event::HostAlive { node: "h1".into() });
     let ids: Vec<String> = (1..=n).map(|i| format!("r{i}")).collect();
     for (i, id) in ids.iter().enumerate() {
-        sm.handle(0.0, Event::RobotAlive { id: id.into() });
-        sm.handle(0.0, Event::RobotRegistered(RobotInfo { capabilities: vec!["camera".into()], ..RobotInfo::new(id, "ground", 1.0) }));
-        sm.handle(0.0, Event::Telemetry(Box::new(running(id, 1, mission_of(i, n)))));
+        sm.handle(Time::from_secs(0.0), Event::RobotAlive { id: id.into() });
+        sm.handle(Time::from_secs(0.0), Event::RobotRegistered(RobotInfo { capabilities: vec!["camera".into()], ..RobotInfo::new(id, "ground", 1.0) }));
+        sm.handle(Time::from_secs(0.0), Event::Telemetry(Box::new(running(id, 1, mission_of(i, n)))));
     }
     for (name, members) in [("a", &ids[..n / 2]), ("b", &ids[n / 2..])] {
         let members: Vec<&str> = members.iter().map(String::as_str).collect();
-        sm.handle(0.5, report(name, &members));
+        sm.handle(Time::from_secs(0.5), report(name, &members));
     }
     (sm, ids)
 }
@@ -68,27 +68,27 @@ fn main() {
                 seq += 1;
                 now += 0.2;
             }
-            sm.handle(now, Event::Telemetry(Box::new(running(&ids[i], seq, mission_of(i, n)))));
+            sm.handle(Time::from_secs(now), Event::Telemetry(Box::new(running(&ids[i], seq, mission_of(i, n)))));
         });
         // Central ticks 4 times a second (controls and starts due, info asked again, recovery,
         // the agent's look once a second): every robot answered, nothing due.
         let tick = time(20_000, |_| {
             now += 0.25;
-            sm.handle(now, Event::Tick);
+            sm.handle(Time::from_secs(now), Event::Tick);
         });
         let half: Vec<&str> = ids[..n / 2].iter().map(String::as_str).collect();
         let reports = time(2_000, |_| {
             now += 0.001;
-            sm.handle(now, report("a", &half));
+            sm.handle(Time::from_secs(now), report("a", &half));
         });
         let churn = time(2_000, |k| {
             let id = &ids[(k * 7919) % n];
             now += 0.001;
-            sm.handle(now, Event::RobotGone { id: id.into() });
-            sm.handle(now, Event::RobotAlive { id: id.into() });
+            sm.handle(Time::from_secs(now), Event::RobotGone { id: id.into() });
+            sm.handle(Time::from_secs(now), Event::RobotAlive { id: id.into() });
         });
         let table = time(200, |k| {
-            sm.handle(now, Event::Operator { req: Req::Query(k as u64), request: Request::Robots });
+            sm.handle(Time::from_secs(now), Event::Operator { req: Req::Query(k as u64), request: Request::Robots });
         });
         println!("| {n} | {telemetry:.2} | {tick:.1} | {reports:.1} | {churn:.2} | {table:.0} |");
     }

@@ -15,7 +15,7 @@ use mrmm_core::robot::{self, Robot, RobotSetup};
 use mrmm_core::traffic::authority::{self, Authority};
 use mrmm_maps::graph::{Edge, Vertex};
 use mrmm_maps::{Map, NavGraph, Point};
-use mrmm_proto::{BarrierMode, MapRef, PlanAssignment, Pose, RobotCommand, RobotPlan, Role, Sender, Step};
+use mrmm_proto::{BarrierMode, MapRef, PlanAssignment, Pose, RobotCommand, RobotPlan, Role, Sender, Step, Time};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -44,7 +44,7 @@ fn warehouse() -> NavGraph {
 fn run(n: usize) -> (u64, Duration, Duration, f64) {
     let g = warehouse();
     let map = MapRef { name: "warehouse".into(), hash: "b".repeat(64) };
-    let mut auth = Authority::new(-10.0, 1, [(map.hash.clone(), Arc::new(Map::Graph(g.clone())))]);
+    let mut auth = Authority::new(Time::from_secs(-10.0), 1, [(map.hash.clone(), Arc::new(Map::Graph(g.clone())))]);
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let mut used = std::collections::BTreeSet::new();
     let mut robots: Vec<Robot> = (0..n)
@@ -78,7 +78,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
                 scopes: vec![],
                 map: Some(map.clone()),
             };
-            r.handle(0.0, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(a)), from: Sender::new(Role::Central, "central") });
+            r.handle(Time::from_secs(0.0), robot::Event::Command { cmd: RobotCommand::Plan(Box::new(a)), from: Sender::new(Role::Central, "central") });
             r
         })
         .collect();
@@ -89,7 +89,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
         now += STEP;
         let mut heard = Vec::new();
         for r in &mut robots {
-            for c in r.handle(now, robot::Event::Tick) {
+            for c in r.handle(Time::from_secs(now), robot::Event::Tick) {
                 if let robot::Command::TrafficReport { map, report } = c {
                     heard.push(authority::Event::Report { map, report });
                 }
@@ -99,7 +99,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
         for ev in heard {
             let tick = ev == authority::Event::Tick;
             let t = Instant::now();
-            let out = auth.handle(now, ev);
+            let out = auth.handle(Time::from_secs(now), ev);
             let dt = t.elapsed();
             if tick {
                 ticks.0 += 1;
@@ -109,7 +109,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
             for c in out {
                 if let authority::Command::Order { map, robot, order } = c {
                     if let Some(r) = robots.iter_mut().find(|r| r.id() == robot.as_str()) {
-                        r.handle(now, robot::Event::Traffic { map, order, deputy: false });
+                        r.handle(Time::from_secs(now), robot::Event::Traffic { map, order, deputy: false });
                     }
                 }
             }

@@ -83,6 +83,12 @@ impl From<mrmm_proto::QueryError> for Failure {
     }
 }
 
+/// The instant `secs` seconds after the epoch: tests write their times as numbers.
+#[cfg(test)]
+pub(crate) fn at(secs: f64) -> mrmm_proto::Time {
+    mrmm_proto::Time::from_secs(secs)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

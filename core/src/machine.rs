@@ -16,12 +16,14 @@
 
 use std::future::Future;
 
+use mrmm_proto::Time;
+
 /// A pure state machine: no I/O, no clock; time comes with each event.
 pub trait Machine {
     type Event;
     type Command;
 
-    fn handle(&mut self, now: f64, event: Self::Event) -> Vec<Self::Command>;
+    fn handle(&mut self, now: Time, event: Self::Event) -> Vec<Self::Command>;
 
     /// What `command` does (the simulation checks that it does nothing else).
     fn effect(command: &Self::Command) -> Effect;
@@ -78,7 +80,7 @@ pub trait Node<M: Machine>: Runtime<M> {
     /// The node's next event for `machine` and the time it is handled at, once one comes;
     /// `None` stops the node. Input that needs no decision of the machine (a refused sender, a
     /// malformed payload, a question the node answers alone) is dealt with here.
-    fn next(&mut self, machine: &M) -> impl Future<Output = Result<Option<(f64, M::Event)>, Self::Error>>;
+    fn next(&mut self, machine: &M) -> impl Future<Output = Result<Option<(Time, M::Event)>, Self::Error>>;
 
     /// Between the machine's decision and its effects: what the node follows of the machine's
     /// new state before anything of the step leaves (its subscriptions, say).
@@ -125,6 +127,7 @@ pub async fn carry_out<M: Machine, R: Runtime<M>>(runtime: &mut R, commands: Vec
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
     use std::pin::pin;
     use std::task::{Context, Poll, Waker};
 
@@ -134,7 +137,7 @@ mod tests {
     impl Machine for Echo {
         type Event = Vec<i32>;
         type Command = i32;
-        fn handle(&mut self, _now: f64, event: Vec<i32>) -> Vec<i32> {
+        fn handle(&mut self, _now: Time, event: Vec<i32>) -> Vec<i32> {
             event
         }
         fn effect(c: &i32) -> Effect {
@@ -177,14 +180,14 @@ mod tests {
     #[test]
     fn persists_come_first_in_one_batch_then_the_rest_in_order() {
         let mut log = Log::default();
-        ready(carry_out::<Echo, _>(&mut log, Echo.handle(0.0, vec![1, -1, 2, -2, 3]))).unwrap();
+        ready(carry_out::<Echo, _>(&mut log, Echo.handle(at(0.0), vec![1, -1, 2, -2, 3]))).unwrap();
         assert_eq!(log.done, ["persist [-1, -2]", "carry 1", "carry 2", "carry 3"]);
     }
 
     #[test]
     fn nothing_is_carried_out_when_the_persist_fails() {
         let mut log = Log { fail_persist: true, ..Log::default() };
-        assert_eq!(ready(carry_out::<Echo, _>(&mut log, Echo.handle(0.0, vec![1, -1, 2]))), Err("disk full".to_string()));
+        assert_eq!(ready(carry_out::<Echo, _>(&mut log, Echo.handle(at(0.0), vec![1, -1, 2]))), Err("disk full".to_string()));
         assert!(log.done.is_empty(), "{:?}", log.done);
     }
 
@@ -205,8 +208,8 @@ mod tests {
     }
 
     impl Node<Echo> for Script {
-        async fn next(&mut self, _: &Echo) -> Result<Option<(f64, Vec<i32>)>, String> {
-            Ok((!self.events.is_empty()).then(|| (0.0, self.events.remove(0))))
+        async fn next(&mut self, _: &Echo) -> Result<Option<(Time, Vec<i32>)>, String> {
+            Ok((!self.events.is_empty()).then(|| (Time::ZERO, self.events.remove(0))))
         }
         async fn decided(&mut self, _: &Echo) -> Result<(), String> {
             self.log.done.push("decided".into());
@@ -236,7 +239,7 @@ mod tests {
     #[test]
     fn a_step_without_persists_writes_nothing() {
         let mut log = Log::default();
-        ready(carry_out::<Echo, _>(&mut log, Echo.handle(0.0, vec![4, 5]))).unwrap();
+        ready(carry_out::<Echo, _>(&mut log, Echo.handle(at(0.0), vec![4, 5]))).unwrap();
         assert_eq!(log.done, ["carry 4", "carry 5"]);
     }
 }

@@ -16,6 +16,8 @@
 
 use std::collections::BTreeSet;
 
+use mrmm_proto::Time;
+
 /// Seconds between two roll calls.
 pub const ROLL_CALL_S: f64 = 3.0;
 /// Seconds a driver waits for the answers to one liveliness query of a roll call; one that
@@ -77,9 +79,9 @@ pub struct Missed {
 #[derive(Debug, Clone, Default)]
 pub struct RollCall {
     /// When the question out was asked.
-    asked: Option<f64>,
+    asked: Option<Time>,
     /// When the last one was.
-    last: Option<f64>,
+    last: Option<Time>,
     /// Tokens a liveliness event was heard of since the question.
     touched: BTreeSet<String>,
     /// More than [`MAX_TOUCHED`] were.
@@ -87,13 +89,13 @@ pub struct RollCall {
     /// Tokens up for the machine that the last complete answer missed.
     missing: BTreeSet<String>,
     /// When a liveliness event was last heard.
-    heard_at: Option<f64>,
+    heard_at: Option<Time>,
 }
 
 impl RollCall {
     /// Whether to ask now: [`ROLL_CALL_S`] after the last question, unless one is out (and not
     /// stale), or a liveliness event was heard within [`QUIET_S`].
-    pub fn due(&mut self, now: f64) -> bool {
+    pub fn due(&mut self, now: Time) -> bool {
         let busy = self.heard_at.is_some_and(|t| now - t < QUIET_S);
         if busy || self.asked.is_some_and(|a| now - a < ROLL_CALL_STALE_S) || self.last.is_some_and(|l| now - l < ROLL_CALL_S) {
             return false;
@@ -106,7 +108,7 @@ impl RollCall {
     }
 
     /// A liveliness event of the token on `key` was heard at `now`.
-    pub fn heard(&mut self, now: f64, key: &str) {
+    pub fn heard(&mut self, now: Time, key: &str) {
         self.heard_at = Some(now);
         self.missing.remove(key);
         if self.asked.is_none() {
@@ -170,6 +172,7 @@ fn log(missed: &[Missed], skipped: usize, what: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     fn keys(k: &[&str]) -> BTreeSet<String> {
         k.iter().map(|s| s.to_string()).collect()
@@ -186,44 +189,44 @@ mod tests {
     #[test]
     fn an_appearance_counts_at_once_a_disappearance_after_two_complete_answers() {
         let mut rc = RollCall::default();
-        assert!(rc.due(0.0));
-        assert!(!rc.due(1.0), "one question at a time");
+        assert!(rc.due(at(0.0)));
+        assert!(!rc.due(at(1.0)), "one question at a time");
         assert_eq!(rc.answered(present(&["a", "b"], true), &keys(&["b", "c"]), &keys(&[])), vec![up("a")]);
-        assert!(!rc.due(2.0), "not before its period");
-        assert!(rc.due(ROLL_CALL_S));
+        assert!(!rc.due(at(2.0)), "not before its period");
+        assert!(rc.due(at(ROLL_CALL_S)));
         assert!(rc.answered(present(&["a", "b"], false), &keys(&["a", "b", "c"]), &keys(&[])).is_empty(), "an answer cut short counts nothing against c");
-        assert!(rc.due(2.0 * ROLL_CALL_S));
+        assert!(rc.due(at(2.0 * ROLL_CALL_S)));
         assert_eq!(rc.answered(present(&["a", "b"], true), &keys(&["a", "b", "c"]), &keys(&[])), vec![Missed { key: "c".into(), up: false }]);
     }
 
     #[test]
     fn an_event_after_the_question_wins_and_a_late_answer_is_dropped() {
         let mut rc = RollCall::default();
-        assert!(rc.due(0.0));
-        rc.heard(0.0, "a");
+        assert!(rc.due(at(0.0)));
+        rc.heard(at(0.0), "a");
         assert!(rc.answered(present(&["a"], true), &keys(&["c"]), &keys(&[])).is_empty(), "a was heard of after the question; c missed once");
-        assert!(rc.due(ROLL_CALL_S));
-        rc.heard(0.0, "c");
+        assert!(rc.due(at(ROLL_CALL_S)));
+        rc.heard(at(0.0), "c");
         assert!(rc.answered(present(&[], true), &keys(&["c"]), &keys(&[])).is_empty(), "c was heard of: its first miss no longer counts");
         assert!(rc.answered(present(&["z"], true), &keys(&[]), &keys(&[])).is_empty(), "no question out");
         // A question never answered is asked again once stale.
-        rc.heard(9.5, "b");
-        assert!(!rc.due(10.0), "events still coming: not asked in a storm");
-        assert!(rc.due(10.5));
-        assert!(!rc.due(10.0 + ROLL_CALL_STALE_S - 1.0));
-        assert!(rc.due(10.5 + ROLL_CALL_STALE_S));
+        rc.heard(at(9.5), "b");
+        assert!(!rc.due(at(10.0)), "events still coming: not asked in a storm");
+        assert!(rc.due(at(10.5)));
+        assert!(!rc.due(at(10.0 + ROLL_CALL_STALE_S - 1.0)));
+        assert!(rc.due(at(10.5 + ROLL_CALL_STALE_S)));
     }
 
     #[test]
     fn a_flood_of_events_or_tokens_is_bounded() {
         let mut rc = RollCall::default();
-        assert!(rc.due(0.0));
+        assert!(rc.due(at(0.0)));
         for k in 0..=MAX_TOUCHED {
-            rc.heard(0.0, &format!("t{k}"));
+            rc.heard(at(0.0), &format!("t{k}"));
         }
         assert!(rc.answered(present(&["a"], true), &keys(&[]), &keys(&[])).is_empty(), "after a flood the answer is not acted on");
         // 1 000 made-up tokens up: a few taken per answer; a known one always.
-        assert!(rc.due(ROLL_CALL_S));
+        assert!(rc.due(at(ROLL_CALL_S)));
         let made_up: Vec<String> = (0..1_000).map(|k| format!("ghost{k:04}")).collect();
         let mut up: Vec<&str> = made_up.iter().map(String::as_str).collect();
         up.push("zz-known");

@@ -17,7 +17,7 @@ use mrmm_maps::{patrolling_sim, Map, NavGraph, Node, Point, Space};
 use mrmm_planner::recipe;
 use mrmm_planner::tsp::{self, Budget, Instance};
 use mrmm_proto::plan::RobotSpec;
-use mrmm_proto::{BarrierMode, PlanAssignment, Pose};
+use mrmm_proto::{BarrierMode, PlanAssignment, Pose, Time};
 
 /// Team sizes by default.
 pub const SIZES: [usize; 6] = [1, 2, 4, 6, 8, 12];
@@ -220,7 +220,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
     while t < horizon {
         let mut heard = Vec::new();
         for (i, e) in execs.iter_mut().enumerate() {
-            for c in e.handle(t, Event::Tick { body_idle: bodies[i].idle() }) {
+            for c in e.handle(Time::from_secs(t), Event::Tick { body_idle: bodies[i].idle() }) {
                 match c {
                     Exec::Navigate { x, y, then, speed } => bodies[i].navigate_through(x, y, then, speed),
                     Exec::Hold => bodies[i].hold(),
@@ -233,7 +233,7 @@ fn simulate(graph: &NavGraph, robots: &[RobotSpec], plans: Vec<mrmm_proto::Robot
         for (from, a) in heard {
             for (j, e) in execs.iter_mut().enumerate() {
                 if j != from {
-                    e.handle(t, Event::Heard(a.clone()));
+                    e.handle(Time::from_secs(t), Event::Heard(a.clone()));
                 }
             }
         }

@@ -5,11 +5,11 @@
 use libfuzzer_sys::fuzz_target;
 use mrmm_fuzz::{frames, robot, sender};
 use mrmm_core::robot::Event;
-use mrmm_proto::{self as proto, RobotCommand, SyncArrival};
+use mrmm_proto::{self as proto, RobotCommand, SyncArrival, Time};
 
 fuzz_target!(|data: &[u8]| {
     let mut r = robot("r1");
-    let mut now = 0.0;
+    let mut now = Time::ZERO;
     for (sel, payload) in frames(data) {
         let ev = match sel % 8 {
             0..=2 => match proto::from_json::<RobotCommand>("robot command", payload) {

@@ -7,13 +7,13 @@
 use libfuzzer_sys::fuzz_target;
 use mrmm_fuzz::{frames, ros_robot_driven, sender};
 use mrmm_core::robot::Event;
-use mrmm_proto::{self as proto, Pose, RobotCommand, Velocity};
+use mrmm_proto::{self as proto, Pose, RobotCommand, Time, Velocity};
 use mrmm_ros2::nav2::{self, GoalEvent};
 use mrmm_ros2::{cdr, link, msgs, Input};
 
 fuzz_target!(|data: &[u8]| {
     let mut r = ros_robot_driven("r1", if data.first().is_some_and(|b| b % 2 == 1) { "nav2" } else { "cmd_vel" });
-    let mut now = 0.0;
+    let mut now = Time::ZERO;
     for (sel, payload) in frames(data) {
         let ev = match sel % 8 {
             6 => Event::Nav2Server(sel / 8 % 2 == 0),

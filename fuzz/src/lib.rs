@@ -15,7 +15,7 @@ use mrmm_core::mission::chain;
 use mrmm_core::mission::planning as planner_service;
 use mrmm_peer::config::RobotConfig;
 use mrmm_core::robot::{self, Robot};
-use mrmm_proto::{CommandAck, Member, MissionStart, MissionView, RobotInfo, RobotSpec, Role, Sender, Telemetry};
+use mrmm_proto::{CommandAck, Member, MissionStart, MissionView, RobotInfo, RobotSpec, Role, Sender, Telemetry, Time};
 
 /// The frames of an input: (selector, payload).
 pub fn frames(data: &[u8]) -> impl Iterator<Item = (u8, &[u8])> {
@@ -69,7 +69,7 @@ pub fn info(id: &str) -> RobotInfo {
 }
 
 /// A robot's current telemetry, from the robot machine itself.
-pub fn telemetry(r: &mut Robot, now: f64) -> Option<Telemetry> {
+pub fn telemetry(r: &mut Robot, now: Time) -> Option<Telemetry> {
     r.handle(now, robot::Event::TelemetryDue).into_iter().find_map(|c| match c {
         robot::Command::Telemetry(t) => Some(t),
         _ => None,
@@ -81,24 +81,24 @@ pub fn telemetry(r: &mut Robot, now: f64) -> Option<Telemetry> {
 #[derive(Clone)]
 pub struct Central {
     pub sm: SystemManager,
-    pub now: f64,
+    pub now: Time,
     next_query: u64,
 }
 
 impl Central {
     pub fn new() -> Central {
-        let mut c = Central { sm: SystemManager::new("central".into(), 0.0), now: 0.0, next_query: 0 };
+        let mut c = Central { sm: SystemManager::new("central".into(), Time::ZERO), now: Time::ZERO, next_query: 0 };
         c.feed(system::Event::HostAlive { node: "central".into() });
         for id in ROBOTS {
             c.feed(system::Event::RobotAlive { id: id.into() });
             c.feed(system::Event::RobotRegistered(info(id)));
             let mut r = robot(id);
-            if let Some(t) = telemetry(&mut r, 0.0) {
+            if let Some(t) = telemetry(&mut r, Time::ZERO) {
                 c.feed(system::Event::Telemetry(Box::new(t)));
             }
         }
         // Past the adoption period, so commands are carried out at once.
-        c.now = system_adopt_s() + 0.1;
+        c.now = Time::from_secs(system_adopt_s() + 0.1);
         c.feed(system::Event::Tick);
         let create = br#"{"name": "p", "recipe": "patrol", "robots": ["r1", "r2"], "params": {"waypoints": [[0,0],[10,0],[10,10],[0,10]]}}"#;
         if let Ok(request) = system::Request::decode(&mrmm_proto::Key::SystemCmd(mrmm_proto::SystemCmd::Create).to_string(), create) {
@@ -191,7 +191,7 @@ pub fn member(id: &str, x: f64) -> Member {
 #[derive(Clone)]
 pub struct Host {
     pub core: HostCore,
-    pub now: f64,
+    pub now: Time,
     next_query: u64,
     /// The last planning request: (mission, epoch).
     pub last_plan: Option<(String, u64)>,
@@ -204,7 +204,7 @@ pub struct Host {
 
 impl Host {
     pub fn new(node: &str) -> Host {
-        let mut h = Host { core: HostCore::new(node, chain::Params::default(), 0.0), now: 0.0, next_query: 0, last_plan: None, sent: vec![], plans: vec![], assignments: vec![] };
+        let mut h = Host { core: HostCore::new(node, chain::Params::default(), Time::ZERO), now: Time::ZERO, next_query: 0, last_plan: None, sent: vec![], plans: vec![], assignments: vec![] };
         for n in ["central", "r1", "r2", "r3"] {
             h.feed(host::Event::HostAlive(n.into()));
             h.feed(host::Event::RobotAlive(n.into()));

@@ -9,7 +9,7 @@ use mrmm_fuzz::{fixture_dir, robot, started_view, telemetry, Host};
 use mrmm_core::robot::Event as RobotEvent;
 use mrmm_net::security::{pki, seal::Sealer, Identity};
 use mrmm_proto::security::{Role, SecuritySection};
-use mrmm_proto::{MissionCtl, RobotCommand, SyncArrival};
+use mrmm_proto::{MissionCtl, RobotCommand, SyncArrival, Time};
 
 fn json<T: serde::Serialize>(v: &T) -> Vec<u8> {
     match mrmm_proto::to_json(v) {
@@ -60,11 +60,11 @@ fn main() {
     let mut solo = Host::new("central");
     solo.start_patrol(0);
     for i in 1..=20 {
-        head.now = f64::from(i) * 0.1;
+        head.now = Time::from_secs(f64::from(i) * 0.1);
         head.feed(mrmm_core::mission::host::Event::Tick);
     }
     let mut r1 = robot("r1");
-    let t = telemetry(&mut r1, 0.0).map(|t| json(&t)).unwrap_or_default();
+    let t = telemetry(&mut r1, Time::ZERO).map(|t| json(&t)).unwrap_or_default();
     let start = mrmm_proto::MissionStart {
         spec: mrmm_proto::MissionSpecWire {
             name: "q".into(),
@@ -114,7 +114,7 @@ fn main() {
     frames.push((0, json(&RobotCommand::Leave { mission: "p".into(), epoch: 1 })));
     frames.push((7, vec![]));
     write(&corpus, "robot", "plans", &input(&frames));
-    let _ = r1.handle(1.0, RobotEvent::Tick);
+    let _ = r1.handle(Time::from_secs(1.0), RobotEvent::Tick);
 
     // seal: a fixture fleet, and a robot's sealed telemetry.
     let dir = fixture_dir();

@@ -9,7 +9,7 @@ use mrmm_core::traffic::deputy::{Command, Deputy, Event};
 use mrmm_net::inbox::{self, Inbox};
 use mrmm_net::Mesh;
 use mrmm_proto::edge::Proof;
-use mrmm_proto::{Key, MapRef, Pattern};
+use mrmm_proto::{Key, MapRef, Pattern, Time};
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
 use zenoh::sample::{Sample, SampleKind};
@@ -93,7 +93,7 @@ async fn follow(
     let t0 = Instant::now();
     // Central counts as away until its token is heard (at once, from the history, if it is up):
     // no takeover comes before the deputy followed for a while anyway.
-    let mut deputy = Deputy::new(0.0, me.into(), map.hash.clone(), held.map.clone(), false);
+    let mut deputy = Deputy::new(Time::ZERO, me.into(), map.hash.clone(), held.map.clone(), false);
     tracing::info!(deputy = %me, map = %map.name, "following the map's traffic authority as its deputy");
     let mut tick = tokio::time::interval(TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -119,7 +119,7 @@ struct Node<'a> {
 }
 
 impl mrmm_core::machine::Node<Deputy> for Node<'_> {
-    async fn next(&mut self, deputy: &Deputy) -> Result<Option<(f64, Event)>, Self::Error> {
+    async fn next(&mut self, deputy: &Deputy) -> Result<Option<(Time, Event)>, Self::Error> {
         loop {
             let event = tokio::select! {
                 _ = self.shutdown.cancelled() => return Ok(None),
@@ -138,7 +138,7 @@ impl mrmm_core::machine::Node<Deputy> for Node<'_> {
                     Event::Central(s.kind() == SampleKind::Put)
                 }
             };
-            return Ok(Some((self.t0.elapsed().as_secs_f64(), event)));
+            return Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), event)));
         }
     }
 }

@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::time::Time;
+
 /// How urgent a piece of advice is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -28,7 +30,7 @@ pub struct Advice {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub action: Option<crate::RobotMove>,
     /// Raised at (seconds since central started).
-    pub since: f64,
+    pub since: Time,
     /// `act` autonomy ran the suggestion.
     #[serde(default)]
     pub acted: bool,

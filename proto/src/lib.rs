@@ -26,6 +26,7 @@ pub mod policy;
 pub mod robot;
 pub mod security;
 pub mod team;
+pub mod time;
 pub mod traffic;
 
 pub use agent::*;
@@ -46,6 +47,7 @@ pub use plan::{MissionPlan, PlanRequest, PlanSummary, RobotPlan, RobotSpec, Step
 pub use robot::*;
 pub use security::{Role, SecuritySection, Sender};
 pub use team::*;
+pub use time::Time;
 pub use traffic::{TrafficOrder, TrafficReport};
 
 #[cfg(test)]

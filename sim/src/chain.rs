@@ -12,7 +12,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use mrmm_core::mission::chain::{Command, Config, Disk, Event, Msg, Params, Registry, Replica, Version};
-use mrmm_proto::{MissionName, NodeId};
+use mrmm_proto::{MissionName, NodeId, Time};
 
 /// The value replicated in the simulation: the ids of every update, in order.
 pub type Log = Vec<u64>;
@@ -176,7 +176,11 @@ impl Sim {
                 name: format!("n{i}"),
                 up: true,
                 born: -10.0,
-                registry: if w.durable { Registry::restore(&format!("n{i}"), p, -10.0, 0.0, []) } else { Registry::new(&format!("n{i}"), p, -10.0) },
+                registry: if w.durable {
+                    Registry::restore(&format!("n{i}"), p, Time::from_secs(-10.0), Time::ZERO, [])
+                } else {
+                    Registry::new(&format!("n{i}"), p, Time::from_secs(-10.0))
+                },
                 history: BTreeMap::new(),
                 next_proposal: 0.0,
                 disk: BTreeMap::new(),
@@ -186,7 +190,7 @@ impl Sim {
         let names: Vec<String> = nodes.iter().map(|n| n.name.clone()).collect();
         for n in nodes.iter_mut() {
             for other in &names {
-                let _ = n.registry.liveliness(0.0, other, true);
+                let _ = n.registry.liveliness(Time::ZERO, other, true);
             }
         }
         Sim {
@@ -266,7 +270,7 @@ impl Sim {
     fn run_inner(&mut self) -> Result<(), String> {
         let end = self.w.duration + self.w.quiet;
         let first: Vec<NodeId> = self.nodes.iter().skip(1).take(self.p.k).map(|n| NodeId::from(&n.name)).collect();
-        let cmds = self.nodes[0].registry.create(0.0, MISSION, first, vec![], 0);
+        let cmds = self.nodes[0].registry.create(Time::ZERO, MISSION, first, vec![], 0);
         self.apply(0, cmds)?;
         let mut next_crash = self.draw(self.w.crash_every);
         let mut next_partition = self.draw(self.w.partition_every);
@@ -324,7 +328,7 @@ impl Sim {
                 if !self.nodes[i].up {
                     continue;
                 }
-                for (_, cmds) in self.nodes[i].registry.tick(self.now) {
+                for (_, cmds) in self.nodes[i].registry.tick(Time::from_secs(self.now)) {
                     self.apply(i, cmds)?;
                 }
                 self.maybe_propose(i)?;
@@ -358,7 +362,7 @@ impl Sim {
         self.report.crashes += 1;
         let n = &mut self.nodes[i];
         n.up = false;
-        n.registry = Registry::new(&n.name, self.p, f64::NAN);
+        n.registry = Registry::new(&n.name, self.p, Time::from_secs(f64::NAN));
         n.history.clear();
         let name = n.name.clone();
         self.log(|| format!("crash {name}"));
@@ -377,7 +381,7 @@ impl Sim {
                     t.push(format!("{:8.3} {from_name} -> n{to}: {}", self.now, short(&msg)));
                 }
                 let now = self.now;
-                let cmds = self.nodes[to].registry.receive(now, MISSION, from_name.into(), msg);
+                let cmds = self.nodes[to].registry.receive(Time::from_secs(now), MISSION, from_name.into(), msg);
                 self.apply(to, cmds)
             }
             Delivery::Live { at, about, up } => {
@@ -386,7 +390,7 @@ impl Sim {
                 }
                 let name = self.nodes[about].name.clone();
                 let now = self.now;
-                for (_, cmds) in self.nodes[at].registry.liveliness(now, &name, up) {
+                for (_, cmds) in self.nodes[at].registry.liveliness(Time::from_secs(now), &name, up) {
                     self.apply(at, cmds)?;
                 }
                 Ok(())
@@ -397,13 +401,17 @@ impl Sim {
                 let n = &mut self.nodes[i];
                 n.up = true;
                 n.born = now;
-                n.registry = if self.w.durable { Registry::restore(&n.name, p, now, now, n.disk.clone()) } else { Registry::new(&n.name, p, now) };
+                n.registry = if self.w.durable {
+                    Registry::restore(&n.name, p, Time::from_secs(now), Time::from_secs(now), n.disk.clone())
+                } else {
+                    Registry::new(&n.name, p, Time::from_secs(now))
+                };
                 let name = n.name.clone();
                 self.log(|| format!("restart {name}"));
                 for j in 0..self.nodes.len() {
                     if j != i && self.connected(i, j) {
                         let other = self.nodes[j].name.clone();
-                        let _ = self.nodes[i].registry.liveliness(now, &other, true);
+                        let _ = self.nodes[i].registry.liveliness(Time::from_secs(now), &other, true);
                     }
                 }
                 self.liveliness_changed(0.05);
@@ -430,7 +438,7 @@ impl Sim {
         self.next_id += 1;
         let mut log = self.nodes[i].replica().and_then(|r| r.state()).cloned().unwrap_or_default();
         log.push(id);
-        let cmds = self.nodes[i].registry.handle(now, MISSION, Event::Propose(log));
+        let cmds = self.nodes[i].registry.handle(Time::from_secs(now), MISSION, Event::Propose(log));
         self.apply(i, cmds)
     }
 
@@ -465,7 +473,7 @@ impl Sim {
                     self.inv.lead(&name, &config, &state)?;
                     // Heads learn the pool from the system: every node but themselves.
                     let pool: Vec<NodeId> = (0..self.nodes.len()).filter(|j| *j != i).map(|j| NodeId::from(format!("n{j}"))).collect();
-                    let _ = self.nodes[i].registry.handle(self.now, MISSION, Event::Pool { nodes: pool, k: self.p.k });
+                    let _ = self.nodes[i].registry.handle(Time::from_secs(self.now), MISSION, Event::Pool { nodes: pool, k: self.p.k });
                 }
                 Command::Committed { epoch, seq } => {
                     self.report.commits += 1;

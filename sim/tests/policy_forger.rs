@@ -14,7 +14,9 @@ use mrmm_core::robot::{self, Robot, RobotSetup};
 use mrmm_core::{ask, observer};
 use mrmm_proto::edge::{Incoming, Refused};
 use mrmm_proto::policy::{self, Act, Relation, POLICY};
-use mrmm_proto::{self as proto, ChainEnvelope, Key, MissionCtl, MissionSpecWire, MissionStart, MissionView, Pose, Role, Sender, SyncArrival, SyncRelease};
+use mrmm_proto::{
+    self as proto, ChainEnvelope, Key, MissionCtl, MissionSpecWire, MissionStart, MissionView, Pose, Role, Sender, SyncArrival, SyncRelease, Time,
+};
 
 /// Acts judged by a node's driver, and the real-process test that tries each as a forger.
 const DRIVER_JUDGED: [(Act, &str); 4] = [
@@ -72,8 +74,8 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
             let view = MissionView::running("m", "patrol", VICTIM, 1, &[VICTIM]);
             let (key, payload) = heard(Key::MissionStatus("m".into()), json(&view));
             refused(observer::observe(Incoming { key: &key, payload: &payload, put: true, from: Some(from) }))?;
-            let mut sm = system::SystemManager::new("central".into(), -10.0);
-            let out = sm.handle(0.0, system::Event::MissionStatus { view: Box::new(view), from: from.clone() });
+            let mut sm = system::SystemManager::new("central".into(), Time::from_secs(-10.0));
+            let out = sm.handle(Time::ZERO, system::Event::MissionStatus { view: Box::new(view), from: from.clone() });
             match out.as_slice() {
                 [system::Command::Refused(Refused::NotEntitled { .. })] => Ok(()),
                 other => Err(format!("taken by central: {other:?}")),
@@ -81,13 +83,13 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
         }
         Act::Adopt => {
             // A mission nobody created, the forger its head, an idle robot in it.
-            let mut sm = system::SystemManager::new("central".into(), -10.0);
-            sm.handle(0.0, system::Event::HostAlive { node: from.id.as_str().into() });
+            let mut sm = system::SystemManager::new("central".into(), Time::from_secs(-10.0));
+            sm.handle(Time::ZERO, system::Event::HostAlive { node: from.id.as_str().into() });
             let mut view = MissionView::running("evil", "patrol", &from.id, 1, &[&from.id, VICTIM]);
             view.manager.chain = vec![from.id.as_str().into()];
-            let cmds = sm.handle(1.0, system::Event::MissionStatus { view: Box::new(view), from: from.clone() });
+            let cmds = sm.handle(Time::from_secs(1.0), system::Event::MissionStatus { view: Box::new(view), from: from.clone() });
             let taken = cmds.iter().any(|c| !matches!(c, system::Command::Refused(_)));
-            if taken || sm.status(1.0).missions > 0 {
+            if taken || sm.status(Time::from_secs(1.0)).missions > 0 {
                 return Err(format!("adopted: {cmds:?}"));
             }
             Ok(())
@@ -100,9 +102,9 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
                 Ok(ev) => {
                     // A robot the host knows nothing of is first held back a few seconds while its
                     // telemetry may come to say it runs the mission; then refused.
-                    let mut h = host::HostCore::new("h", Default::default(), 0.0);
-                    let held = h.handle(0.0, ev.clone());
-                    let out = h.handle(60.0, ev);
+                    let mut h = host::HostCore::new("h", Default::default(), Time::ZERO);
+                    let held = h.handle(Time::ZERO, ev.clone());
+                    let out = h.handle(Time::from_secs(60.0), ev);
                     let refused = |cmds: &[host::Command]| cmds.iter().any(|c| matches!(c, host::Command::Refused(_)));
                     match (held.is_empty() && refused(&out)) || refused(&held) {
                         true => Ok(()),
@@ -113,7 +115,7 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
             }
         }
         Act::Start | Act::Control => {
-            let mut h = host::HostCore::new("h", Default::default(), 0.0);
+            let mut h = host::HostCore::new("h", Default::default(), Time::ZERO);
             let ev = match act {
                 Act::Start => {
                     let spec = MissionSpecWire {
@@ -130,7 +132,7 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
                 }
                 _ => host::Event::Ctl { query: 1, mission: "m".into(), ctl: MissionCtl::Terminate, from: from.clone() },
             };
-            let out = h.handle(0.0, ev);
+            let out = h.handle(Time::ZERO, ev);
             match out.iter().any(|c| matches!(c, host::Command::Refused(_))) && h.heads().next().is_none() {
                 true => Ok(()),
                 false => Err(format!("taken by the host: {out:?}")),
@@ -161,8 +163,8 @@ fn forge(act: Act, from: &Sender) -> Result<(), String> {
             };
             let mut r = robot_machine();
             // Central reachable: no idle robot takes a plan from a stranger then.
-            r.handle(0.0, robot::Event::CentralAlive(true));
-            let out = r.handle(0.0, robot::Event::Command { cmd, from: from.clone() });
+            r.handle(Time::ZERO, robot::Event::CentralAlive(true));
+            let out = r.handle(Time::ZERO, robot::Event::Command { cmd, from: from.clone() });
             match out.as_slice() {
                 [robot::Command::Refuse(_)] => Ok(()),
                 other => Err(format!("taken by the robot: {other:?}")),

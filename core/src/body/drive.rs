@@ -2,7 +2,7 @@
 //! ([`RosDrive`]) or a VDA 5050 vehicle ([`VdaDrive`]). The robot's state machine talks to this,
 //! not to any one body.
 
-use mrmm_proto::{Pose, Velocity};
+use mrmm_proto::{Pose, Time, Velocity};
 
 use crate::body::ros::{RosDrive, Step};
 use crate::body::vda::VdaDrive;
@@ -145,7 +145,7 @@ impl Drive {
 
     /// Advances the body: the simulated one by `dt` simulated seconds, the ROS one's controller
     /// at wall time `now` (its twist, if any, is returned); a VDA 5050 vehicle moves by itself.
-    pub fn step(&mut self, now: f64, dt: f64) -> Step {
+    pub fn step(&mut self, now: Time, dt: f64) -> Step {
         match self {
             Drive::Sim(b) => Step { arrived: b.step(dt), ..Step::default() },
             Drive::Ros(r) => r.step(now),

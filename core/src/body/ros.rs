@@ -3,7 +3,7 @@
 //! the robot stops (zero twist) when odometry goes stale or the fleet link is lost, and goes on
 //! when both are back.
 
-use mrmm_proto::{Pose, Velocity};
+use mrmm_proto::{Pose, Time, Velocity};
 
 use crate::body::nav_goals::{Nav2Goals, NavCommand};
 use crate::body::{wrap_angle, Limits, ARRIVAL_TOLERANCE};
@@ -49,7 +49,7 @@ pub struct RosDrive {
     localised: bool,
     pose: Pose,
     velocity: Velocity,
-    odom_at: Option<f64>,
+    odom_at: Option<Time>,
     goal: Option<(f64, f64)>,
     cap: Option<f64>,
     fleet_up: bool,
@@ -124,7 +124,7 @@ impl RosDrive {
     }
 
     /// Odometry arrived at wall time `now`.
-    pub fn on_odometry(&mut self, now: f64, pose: Pose, velocity: Velocity) {
+    pub fn on_odometry(&mut self, now: Time, pose: Pose, velocity: Velocity) {
         self.odom_at = Some(now);
         self.velocity = velocity;
         if !self.localised {
@@ -156,7 +156,7 @@ impl RosDrive {
     }
 
     /// One control tick at wall time `now`.
-    pub fn step(&mut self, now: f64) -> Step {
+    pub fn step(&mut self, now: Time) -> Step {
         let stale = self.odom_at.is_none_or(|t| now - t > self.odom_timeout);
         let halt = if stale {
             Some(Halt::StaleOdometry)
@@ -231,6 +231,7 @@ impl RosDrive {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     const LIM: Limits = Limits { max_speed: 1.0, max_turn_rate: 2.0 };
 
@@ -241,8 +242,8 @@ mod tests {
         d.navigate_capped(x, y, None);
         for i in 0..ticks {
             let now = i as f64 * dt;
-            d.on_odometry(now, p, Velocity::default());
-            let s = d.step(now);
+            d.on_odometry(at(now), p, Velocity::default());
+            let s = d.step(at(now));
             if s.arrived {
                 return (p, Some(i));
             }
@@ -264,7 +265,7 @@ mod tests {
                 let (p, arrived) = drive_to(&mut d, r * a.cos(), r * a.sin(), 3000);
                 assert!(arrived.is_some(), "bearing {a:.2}, {r} m: stuck at {p:?}");
                 assert!(d.goal().is_none());
-                assert_eq!(d.step(100.0).twist, Some(Velocity::default()), "a zero twist after arriving");
+                assert_eq!(d.step(at(100.0)).twist, Some(Velocity::default()), "a zero twist after arriving");
             }
         }
     }
@@ -273,44 +274,44 @@ mod tests {
     fn stale_odometry_and_a_lost_fleet_stop_the_robot_until_they_are_back() {
         let mut d = RosDrive::new(Pose::default(), LIM, 0.5, true, false);
         d.navigate_capped(5.0, 0.0, None);
-        assert_eq!(d.step(0.0).twist, Some(Velocity::default()), "no odometry yet: no motion");
-        d.on_odometry(1.0, Pose::default(), Velocity::default());
-        let s = d.step(1.1);
+        assert_eq!(d.step(at(0.0)).twist, Some(Velocity::default()), "no odometry yet: no motion");
+        d.on_odometry(at(1.0), Pose::default(), Velocity::default());
+        let s = d.step(at(1.1));
         assert!(s.twist.is_some_and(|t| t.v > 0.0), "{s:?}");
         assert_eq!(s.halt_changed, Some(None));
-        let s = d.step(1.6);
+        let s = d.step(at(1.6));
         assert_eq!((s.twist, s.halt_changed), (Some(Velocity::default()), Some(Some(Halt::StaleOdometry))), "odometry 0.6 s old");
-        d.on_odometry(1.7, Pose::default(), Velocity::default());
-        assert!(d.step(1.7).twist.is_some_and(|t| t.v > 0.0));
+        d.on_odometry(at(1.7), Pose::default(), Velocity::default());
+        assert!(d.step(at(1.7)).twist.is_some_and(|t| t.v > 0.0));
         d.set_fleet(false);
-        let s = d.step(1.72);
+        let s = d.step(at(1.72));
         assert_eq!((s.twist, s.halt_changed), (Some(Velocity::default()), Some(Some(Halt::FleetLost))));
         assert_eq!(d.goal(), Some((5.0, 0.0)), "the goal stays");
         d.set_fleet(true);
-        assert!(d.step(1.74).twist.is_some_and(|t| t.v > 0.0));
+        assert!(d.step(at(1.74)).twist.is_some_and(|t| t.v > 0.0));
         // Configured to drive on without the fleet.
         let mut free = RosDrive::new(Pose::default(), LIM, 0.5, false, false);
         free.navigate_capped(5.0, 0.0, None);
-        free.on_odometry(0.0, Pose::default(), Velocity::default());
+        free.on_odometry(at(0.0), Pose::default(), Velocity::default());
         free.set_fleet(false);
-        assert!(free.step(0.1).twist.is_some_and(|t| t.v > 0.0));
+        assert!(free.step(at(0.1)).twist.is_some_and(|t| t.v > 0.0));
     }
 
     #[test]
     fn hold_sends_a_few_zero_twists_then_nothing() {
         let mut d = RosDrive::new(Pose::default(), LIM, 0.5, true, false);
-        d.on_odometry(0.0, Pose::default(), Velocity::default());
+        d.on_odometry(at(0.0), Pose::default(), Velocity::default());
         d.navigate_capped(5.0, 0.0, None);
-        assert!(d.step(0.0).twist.is_some());
+        assert!(d.step(at(0.0)).twist.is_some());
         d.hold();
-        let zeros: Vec<_> = (0..5).map(|i| d.step(0.02 * f64::from(i)).twist).collect();
+        let zeros: Vec<_> = (0..5).map(|i| d.step(at(0.02 * f64::from(i))).twist).collect();
         assert_eq!(zeros, vec![Some(Velocity::default()); 3].into_iter().chain([None, None]).collect::<Vec<_>>());
     }
 
     #[test]
     fn a_localiser_pose_wins_over_odometry() {
         let mut d = RosDrive::new(Pose::default(), LIM, 0.5, true, true);
-        d.on_odometry(0.0, Pose { x: 9.0, y: 9.0, theta: 0.0 }, Velocity { v: 0.3, omega: 0.0 });
+        d.on_odometry(at(0.0), Pose { x: 9.0, y: 9.0, theta: 0.0 }, Velocity { v: 0.3, omega: 0.0 });
         assert_eq!(d.pose(), Pose::default());
         d.on_pose(Pose { x: 1.0, y: 2.0, theta: 0.5 });
         assert_eq!(d.pose(), Pose { x: 1.0, y: 2.0, theta: 0.5 });

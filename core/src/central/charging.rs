@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 
 use mrmm_proto::geom::Point;
 use mrmm_proto::map::Charger;
-use mrmm_proto::{ErrandRecord, ErrorReply, MapInfo, MissionName, MissionStatus, MissionView, RobotId, RobotStatus, RobotView};
+use mrmm_proto::{ErrandRecord, ErrorReply, MapInfo, MissionName, MissionStatus, MissionView, RobotId, RobotStatus, RobotView, Time};
 
 /// When robots go and charge and when they are done (Open-RMF's defaults: 0.2 and 1.0).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -116,7 +116,7 @@ pub struct Errand {
     pub spare: Option<RobotId>,
     pub plugged: bool,
     /// When it was last sent to the charger.
-    pub sent: f64,
+    pub sent: Time,
     /// Where it was sent from: where it goes back to when charged, unless its mission takes it
     /// back (a charged robot does not stay on the charger).
     pub from: Option<(f64, f64)>,
@@ -129,7 +129,7 @@ pub struct Errand {
 pub struct Relief {
     pub spare: RobotId,
     /// When the spare was sent.
-    pub since: f64,
+    pub since: Time,
     /// Where it was sent: the end of the leg the low robot drove then, or where it stood.
     pub to: Point,
 }
@@ -165,7 +165,7 @@ impl Charging {
 
     /// The policy of a central restarted from its journal: the errands it journaled go on
     /// (each robot plugged in again where it stands at its charger, or sent there again).
-    pub fn restored(cfg: ChargingConfig, now: f64, records: &BTreeMap<RobotId, ErrandRecord>) -> Self {
+    pub fn restored(cfg: ChargingConfig, now: Time, records: &BTreeMap<RobotId, ErrandRecord>) -> Self {
         let mut c = Charging::new(cfg);
         for (robot, r) in records {
             let ErrandRecord { map, charger, left, spare, from } = r.clone();
@@ -192,7 +192,7 @@ impl Charging {
 
     /// Looks at the fleet at `now` (seconds): errands ended, robots arrived or charged, robots
     /// to send.
-    pub fn handle(&mut self, now: f64, fleet: Fleet<'_>) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, fleet: Fleet<'_>) -> Vec<Command> {
         let by_id: BTreeMap<&RobotId, &RobotView> = fleet.robots.iter().map(|r| (&r.id, r)).collect();
         // A robot lost, or gone from the registry, gives its charger up.
         self.errands.retain(|id, _| by_id.get(id).is_some_and(|r| r.status != RobotStatus::Lost));
@@ -224,7 +224,7 @@ impl Charging {
     /// Robots charging at a charger that no errand holds (a central that restarted lost its
     /// errands; the robots kept charging): their errands again, plugged, so that they are let go
     /// when charged and nobody else is sent to their charger.
-    fn adopt(&mut self, now: f64, fleet: Fleet<'_>) {
+    fn adopt(&mut self, now: Time, fleet: Fleet<'_>) {
         for r in fleet.robots.iter().filter(|r| r.status != RobotStatus::Lost && r.mission.is_none()) {
             let (Some(b), Some(p)) = (r.battery, r.pose) else { continue };
             if !b.charging || self.errands.contains_key(&r.id) {
@@ -262,7 +262,7 @@ impl Charging {
 
     /// An errand under way: plugged in on arrival, sent again if it stands elsewhere, back to
     /// work once charged.
-    fn follow(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) {
+    fn follow(&mut self, now: Time, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) {
         let Some(e) = self.errands.get_mut(&r.id) else { return };
         if r.mission.is_some() {
             // The operator (or central) gave it a mission meanwhile: their word goes.
@@ -307,7 +307,7 @@ impl Charging {
 
     /// Sends a low robot to the nearest free charger of its map, out of its mission, a spare in
     /// its place where its team would fall short; none free: it waits (the next look tries again).
-    fn send(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) {
+    fn send(&mut self, now: Time, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) {
         if !self.relieved(now, r, fleet, out) {
             return;
         }
@@ -325,7 +325,7 @@ impl Charging {
     /// [`RELIEF_S`], or it is below [`RELIEF_CRITICAL`] of its threshold. Else a spare is sent
     /// to where its leg ends (where it stands, standing; sent on as it starts a new leg), and it
     /// works on meanwhile.
-    fn relieved(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) -> bool {
+    fn relieved(&mut self, now: Time, r: &RobotView, fleet: Fleet<'_>, out: &mut Vec<Command>) -> bool {
         let by_id = |id: &RobotId| fleet.robots.iter().find(|v| &v.id == id);
         // A spare lost, or given other work meanwhile, relieves nobody (on its way it is busy).
         if let Some(rel) = self.reliefs.get(&r.id) {
@@ -374,7 +374,7 @@ impl Charging {
     }
 
     /// Sends `r` to the nearest free charger of its map; why not, if it cannot.
-    fn dispatch(&mut self, now: f64, r: &RobotView, fleet: Fleet<'_>, relief: Option<RobotId>, out: &mut Vec<Command>) -> Result<Charger, String> {
+    fn dispatch(&mut self, now: Time, r: &RobotView, fleet: Fleet<'_>, relief: Option<RobotId>, out: &mut Vec<Command>) -> Result<Charger, String> {
         let mission = mission_of(r, fleet.missions);
         let map = map_of(mission, fleet.maps).ok_or_else(|| match mission {
             Some(m) => format!("mission {} is on no map with chargers", m.name),
@@ -409,7 +409,7 @@ impl Charging {
 
     /// The operator sends `robot` to charge now, whatever its charge: the charger it goes to and
     /// what to do, or why it cannot.
-    pub fn charge(&mut self, now: f64, robot: &str, fleet: Fleet<'_>) -> Result<(Errand, Vec<Command>), ErrorReply> {
+    pub fn charge(&mut self, now: Time, robot: &str, fleet: Fleet<'_>) -> Result<(Errand, Vec<Command>), ErrorReply> {
         let r = fleet.robots.iter().find(|r| r.id == robot).ok_or_else(|| ErrorReply::not_found(format!("unknown robot {robot:?}")))?;
         if r.status == RobotStatus::Lost {
             return Err(ErrorReply::conflict(format!("robot {robot} is lost")));

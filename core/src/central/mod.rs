@@ -9,7 +9,7 @@ pub mod system;
 
 use std::collections::VecDeque;
 
-use mrmm_proto::{AdviceEvent, NodeId};
+use mrmm_proto::{AdviceEvent, NodeId, Time};
 
 use self::agent::{Agent, AgentConfig};
 use self::charging::{Charging, ChargingConfig};
@@ -61,15 +61,15 @@ pub struct CentralCore {
     agent: Agent,
     /// The charging policy (with the agent's `charging`).
     charging: Charging,
-    last_look: f64,
+    last_look: Time,
     /// Traffic on the maps central publishes (and the former versions missions still use).
     traffic: Authority,
-    started: f64,
+    started: Time,
 }
 
 impl CentralCore {
     /// Central on Zenoh node `node`, started at `now`.
-    pub fn new(node: NodeId, agent: AgentConfig, now: f64) -> Self {
+    pub fn new(node: NodeId, agent: AgentConfig, now: Time) -> Self {
         CentralCore {
             system: SystemManager::new(node, now),
             charging: Charging::new(charging_config(&agent)),
@@ -81,7 +81,7 @@ impl CentralCore {
     }
 
     /// Central restarted from its journal's `state`.
-    pub fn restore(node: NodeId, agent: AgentConfig, now: f64, state: system::Durable) -> Self {
+    pub fn restore(node: NodeId, agent: AgentConfig, now: Time, state: system::Durable) -> Self {
         CentralCore {
             charging: Charging::restored(charging_config(&agent), now, &state.errands),
             system: SystemManager::restore(node, now, state),
@@ -137,7 +137,7 @@ impl CentralCore {
     }
 
     /// Handles one event at `now` (seconds).
-    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, ev: Event) -> Vec<Command> {
         let mut out = Vec::new();
         match ev {
             Event::Advice { query } => {
@@ -210,7 +210,7 @@ impl CentralCore {
     }
 
     /// System commands go out, except answers to the agent, which go back to it.
-    fn route(&mut self, now: f64, cmds: Vec<system::Command>, out: &mut Vec<Command>) {
+    fn route(&mut self, now: Time, cmds: Vec<system::Command>, out: &mut Vec<Command>) {
         let mut queue: VecDeque<system::Command> = cmds.into();
         while let Some(c) = queue.pop_front() {
             match c {
@@ -224,7 +224,7 @@ impl CentralCore {
     }
 
     /// The operator's charge or release of a robot: the policy's answer, its commands carried out.
-    fn charging_order(&mut self, now: f64, request: &Request, out: &mut Vec<Command>) -> Result<serde_json::Value, mrmm_proto::ErrorReply> {
+    fn charging_order(&mut self, now: Time, request: &Request, out: &mut Vec<Command>) -> Result<serde_json::Value, mrmm_proto::ErrorReply> {
         let (robots, missions, maps) = (self.system.views(), self.system.mission_views(), self.system.map_infos());
         let fleet = charging::Fleet { robots: &robots, missions: &missions, maps: &maps };
         let (answer, cmds) = match request {
@@ -248,7 +248,7 @@ impl CentralCore {
     /// The charging policy's moves and gotos go through the system manager as the agent's do
     /// (journaled as the agent's, answers back to it under `charging/<robot>`); its plugs go to
     /// the robot.
-    fn charging_commands(&mut self, now: f64, cmds: Vec<charging::Command>, out: &mut Vec<Command>) {
+    fn charging_commands(&mut self, now: Time, cmds: Vec<charging::Command>, out: &mut Vec<Command>) {
         for c in cmds {
             let (robot, request) = match c {
                 charging::Command::Move { robot, to } => (robot.clone(), Request::Move(mrmm_proto::RobotMove { robot, to, replaces: None })),
@@ -268,7 +268,7 @@ impl CentralCore {
         }
     }
 
-    fn agent_commands(&mut self, now: f64, cmds: Vec<agent::Command>, out: &mut Vec<Command>) {
+    fn agent_commands(&mut self, now: Time, cmds: Vec<agent::Command>, out: &mut Vec<Command>) {
         for c in cmds {
             match c {
                 agent::Command::Publish(e) => out.push(Command::Publish(e)),
@@ -335,7 +335,7 @@ impl crate::machine::Machine for CentralCore {
     type Event = Event;
     type Command = Command;
 
-    fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         CentralCore::handle(self, now, event)
     }
 
@@ -361,6 +361,7 @@ impl crate::machine::Machine for CentralCore {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
     use crate::central::agent::Autonomy;
     use mrmm_proto::{RobotInfo, Telemetry};
 
@@ -370,14 +371,14 @@ mod tests {
 
     #[test]
     fn the_agents_moves_go_through_the_system_manager_and_their_results_are_recorded() {
-        let mut c = CentralCore::new("n".into(), AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() }, -system::ADOPT_S);
+        let mut c = CentralCore::new("n".into(), AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() }, at(-system::ADOPT_S));
         for id in ["r1", "r2"] {
-            c.handle(0.0, Event::System(system::Event::RobotAlive { id: id.into() }));
-            c.handle(0.0, Event::System(system::Event::RobotRegistered(info(id))));
+            c.handle(at(0.0), Event::System(system::Event::RobotAlive { id: id.into() }));
+            c.handle(at(0.0), Event::System(system::Event::RobotRegistered(info(id))));
             let t = Telemetry { seq: 1, ..Telemetry::resting(id, 0.0) };
-            c.handle(0.0, Event::System(system::Event::Telemetry(Box::new(t))));
+            c.handle(at(0.0), Event::System(system::Event::Telemetry(Box::new(t))));
         }
-        c.handle(0.0, Event::System(system::Event::HostAlive { node: "central".into() }));
+        c.handle(at(0.0), Event::System(system::Event::HostAlive { node: "central".into() }));
         let create = mrmm_proto::MissionCreate {
             name: "p".into(),
             recipe: "patrol".into(),
@@ -388,11 +389,11 @@ mod tests {
         // Without the journal entries, which come first in every batch that has them.
         let no_journal =
             |out: Vec<Command>| -> Vec<Command> { out.into_iter().filter(|c| !matches!(c, Command::System(system::Command::Journal(_)))).collect() };
-        let out = no_journal(c.handle(0.1, Event::System(system::Event::Operator { req: Req::Query(1), request: Request::Create(create) })));
+        let out = no_journal(c.handle(at(0.1), Event::System(system::Event::Operator { req: Req::Query(1), request: Request::Create(create) })));
         // The dry run, as the driver makes it off the loop.
         let [Command::System(system::Command::DryRun(dry))] = out.as_slice() else { panic!("a dry run first: {out:?}") };
         let result = dry.run();
-        let out = c.handle(0.1, Event::System(system::Event::DryRunDone { id: dry.id, result }));
+        let out = c.handle(at(0.1), Event::System(system::Event::DryRunDone { id: dry.id, result }));
         assert!(
             matches!(out.first(), Some(Command::System(system::Command::Journal(e))) if e.iter().any(|e| matches!(e, mrmm_proto::JournalEvent::MissionDefined { .. }))),
             "{out:?}"
@@ -416,10 +417,10 @@ mod tests {
             predicted_worst_idleness: 30.0,
             idleness_lower_bound: 30.0,
         }));
-        c.handle(0.2, Event::System(system::Event::MissionStarted { mission: "p".into(), result: Ok(view) }));
+        c.handle(at(0.2), Event::System(system::Event::MissionStarted { mission: "p".into(), result: Ok(view) }));
         // After the operator's busy window the agent sees r2 idle and moves it into p itself:
         // the move goes to p's head like an operator's, and its answer never leaves central.
-        let out = no_journal(c.handle(11.0, Event::System(system::Event::Tick)));
+        let out = no_journal(c.handle(at(11.0), Event::System(system::Event::Tick)));
         assert!(out.iter().any(|c| matches!(c, Command::Publish(AdviceEvent::Raised(a)) if a.acted)), "{out:?}");
         assert!(out.iter().any(|c| matches!(c, Command::System(system::Command::Ctl { mission, .. }) if mission == "p")), "{out:?}");
         assert!(!out.iter().any(|c| matches!(c, Command::System(system::Command::Reply { .. }))), "{out:?}");

@@ -3,6 +3,8 @@
 //! A member joining while such a replan is held is part of the burst (a robot lost and back
 //! within it, as links flap on a loaded machine, costs no plan of its own).
 
+use mrmm_proto::Time;
+
 /// Members lost within this long of the first of a burst are planned around in one replan,
 /// seconds (a site's robots lost together cost one plan, not one each).
 pub const LOSS_BURST_S: f64 = 1.0;
@@ -19,14 +21,14 @@ pub const LOSS_BURST_MAX_S: f64 = 3.0;
 #[derive(Debug, Clone, Default)]
 pub(super) struct LossBurst {
     /// When the replan is due.
-    due: Option<f64>,
+    due: Option<Time>,
     /// When the burst began.
-    started: f64,
+    started: Time,
 }
 
 impl LossBurst {
     /// A loss at `now`: whether it begins a burst (the plan is outdated from now on).
-    pub(super) fn loss(&mut self, now: f64) -> bool {
+    pub(super) fn loss(&mut self, now: Time) -> bool {
         match self.due {
             None => {
                 self.started = now;
@@ -42,7 +44,7 @@ impl LossBurst {
 
     /// A member joined at `now`: whether a replan is held for a burst, which then takes it in (held
     /// as for a loss, within the same bound); otherwise it is for the caller to plan.
-    pub(super) fn join(&mut self, now: f64) -> bool {
+    pub(super) fn join(&mut self, now: Time) -> bool {
         if self.due.is_none() {
             return false;
         }
@@ -51,7 +53,7 @@ impl LossBurst {
     }
 
     /// When the held replan is due, if one is.
-    pub(super) fn due(&self) -> Option<f64> {
+    pub(super) fn due(&self) -> Option<Time> {
         self.due
     }
 

@@ -4,8 +4,8 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::geom::Point;
-use mrmm_proto::RobotId;
 use mrmm_proto::{MetricsTally, MissionMetrics, Progress, Telemetry};
+use mrmm_proto::{RobotId, Time};
 
 /// A waypoint counts as visited by a robot passing within this distance, metres.
 pub const VISIT_RADIUS: f64 = 1.5;
@@ -19,7 +19,7 @@ pub const VISIT_DEBOUNCE_S: f64 = 1.0;
 /// What the metrics remember.
 #[derive(Debug, Clone, Default)]
 pub struct Metrics {
-    last_visit: Vec<Option<(f64, RobotId)>>,
+    last_visit: Vec<Option<(Time, RobotId)>>,
     /// The robots at each waypoint (seen within reach of it, not seen away since).
     present: Vec<BTreeSet<RobotId>>,
     visits: Vec<u32>,
@@ -27,7 +27,7 @@ pub struct Metrics {
     count: u64,
     worst: f64,
     /// Latest robot time seen.
-    last_now: f64,
+    last_now: Time,
     /// Each member's progress on the current epoch.
     progress: BTreeMap<RobotId, Progress>,
     /// Ages of the last visits a predecessor checkpointed, placed on this clock at the next
@@ -57,7 +57,7 @@ impl Metrics {
     pub fn tally(&self) -> MetricsTally {
         MetricsTally {
             visits: self.visits.clone(),
-            since_visit: self.last_visit.iter().map(|v| v.as_ref().map(|(when, _)| (self.last_now - when).max(0.0))).collect(),
+            since_visit: self.last_visit.iter().map(|v| v.as_ref().map(|(when, _)| (self.last_now - *when).max(0.0))).collect(),
             gap_sum: self.sum,
             gaps: self.count,
             worst_gap: self.worst,
@@ -94,7 +94,7 @@ impl Metrics {
     /// `tour` the patrol's waypoints (empty for other missions). Returns the barrier messages
     /// the member had sent under an earlier plan, now replaced by its progress on this one (the
     /// caller keeps them: the mission's count must not fall with a replan).
-    pub fn telemetry(&mut self, mission: &str, epoch: u64, tour: &[Point], now: f64, t: &Telemetry) -> u64 {
+    pub fn telemetry(&mut self, mission: &str, epoch: u64, tour: &[Point], now: Time, t: &Telemetry) -> u64 {
         let mut carried = 0;
         if let Some(ages) = self.ages.take() {
             self.last_visit = ages.into_iter().map(|a| a.map(|a| (now - a, RobotId::default()))).collect();
@@ -130,9 +130,9 @@ impl Metrics {
             }
             match &self.last_visit[i] {
                 // Another robot came at the same instant: one visit.
-                Some((when, _)) if now - when < VISIT_DEBOUNCE_S => {}
+                Some((when, _)) if now - *when < VISIT_DEBOUNCE_S => {}
                 Some((when, _)) => {
-                    let gap = now - when;
+                    let gap = now - *when;
                     self.sum += gap;
                     self.count += 1;
                     self.worst = self.worst.max(gap);
@@ -169,7 +169,7 @@ impl Metrics {
             .enumerate()
             .filter(|(i, _)| self.present.get(*i).is_none_or(BTreeSet::is_empty))
             .filter_map(|(_, v)| v.as_ref())
-            .map(|(w, _)| self.last_now - w)
+            .map(|(w, _)| self.last_now - *w)
             .fold(0.0, f64::max);
         let any = self.visits.iter().any(|&v| v > 0);
         let members: Vec<&RobotId> = members.collect();

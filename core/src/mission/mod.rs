@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::geom::Point;
 use mrmm_proto::plan::{MissionPlan, PlanSummary, RobotSpec};
-use mrmm_proto::{self as proto, HandoverState, Member, MissionSnapshot, MissionStatus, NodeId, PlanAssignment, PlanRequest, RobotId, Telemetry};
+use mrmm_proto::{self as proto, HandoverState, Member, MissionSnapshot, MissionStatus, NodeId, PlanAssignment, PlanRequest, RobotId, Telemetry, Time};
 
 pub use burst::{LOSS_BURST_MAX_S, LOSS_BURST_S, LOSS_QUIET_S};
 pub use metrics::{VISIT_DEBOUNCE_S, VISIT_RADIUS};
@@ -238,7 +238,7 @@ impl MissionManager {
         self.epoch
     }
     /// When a replan held back for a burst of losses is due.
-    pub fn replan_due(&self) -> Option<f64> {
+    pub fn replan_due(&self) -> Option<Time> {
         self.burst.due()
     }
     pub fn revision(&self) -> u64 {
@@ -266,7 +266,7 @@ impl MissionManager {
     }
 
     /// Handles one event at `now` (wall seconds).
-    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         match event {
             Event::Start => self.replan(),
             Event::Resume => {
@@ -329,7 +329,7 @@ impl MissionManager {
     /// outdated from now (the epoch says so, and a successor taking over replans), asked for
     /// once the burst is over: [`LOSS_BURST_S`] after its first loss, [`LOSS_QUIET_S`] after its
     /// last, [`LOSS_BURST_MAX_S`] after its first at most.
-    fn members_lost(&mut self, now: f64, ids: Vec<RobotId>) -> Vec<Command> {
+    fn members_lost(&mut self, now: Time, ids: Vec<RobotId>) -> Vec<Command> {
         for id in &ids {
             if let Some(m) = self.members.get(id) {
                 self.lost.insert(id.clone(), m.clone());
@@ -365,7 +365,7 @@ impl MissionManager {
 
     /// A member's telemetry: where it is (for the next plan), whether it is stuck, and its visits
     /// (the idleness clock; none while paused).
-    fn telemetry(&mut self, now: f64, t: &Telemetry) {
+    fn telemetry(&mut self, now: Time, t: &Telemetry) {
         let Some(m) = self.members.get_mut(&t.id) else { return };
         m.spec.x = t.pose.x;
         m.spec.y = t.pose.y;
@@ -387,7 +387,7 @@ impl MissionManager {
         if self.spec.paused {
             return;
         }
-        let robot_now = now * self.time_scale(t.id.as_str());
+        let robot_now = Time::from_secs(now.secs() * self.time_scale(t.id.as_str()));
         let tour = self.plan.as_ref().map(|(_, p)| tour(p)).unwrap_or(&[]);
         let carried = self.metrics.telemetry(self.spec.name.as_str(), self.epoch, tour, robot_now, t);
         self.sync_msgs_left = self.sync_msgs_left.saturating_add(carried);

@@ -3,7 +3,7 @@
 //! [`Command`]s the runtime (`runtime.rs`) or a simulation carries out.
 
 use mrmm_proto::{
-    self as proto, BarrierMode, Behaviour, CommandAck, MissionName, NodeId, RobotCommand, RobotId, RobotInfo, Sender, SyncArrival, SyncRelease, Telemetry,
+    self as proto, BarrierMode, Behaviour, CommandAck, MissionName, NodeId, RobotCommand, RobotId, RobotInfo, Sender, SyncArrival, SyncRelease, Telemetry, Time,
 };
 
 use self::executor::Executor;
@@ -130,9 +130,9 @@ pub struct Robot {
     body: Drive,
     seq: u64,
     /// Simulated seconds since start.
-    sim_t: f64,
+    sim_t: Time,
     /// Wall-clock time of the last tick.
-    last_tick: Option<f64>,
+    last_tick: Option<Time>,
     exec: Option<Executor>,
     /// The missions the system manager admitted this robot to, oldest first: (mission, managers,
     /// members). More than one while it moves between missions; at most [`MAX_ADMISSIONS`].
@@ -178,7 +178,7 @@ impl Robot {
             cfg,
             body,
             seq: 0,
-            sim_t: 0.0,
+            sim_t: Time::ZERO,
             last_tick: None,
             exec: None,
             admitted: Vec::new(),
@@ -264,7 +264,7 @@ impl Robot {
     }
 
     /// Handles one event at wall-clock time `now` (seconds, any origin, never going back).
-    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, ev: Event) -> Vec<Command> {
         match ev {
             Event::Tick => self.tick(now),
             Event::Command { cmd, from } => {
@@ -331,7 +331,7 @@ impl Robot {
 
     /// What a ROS 2 body's graph says (odometry, the localiser's pose, the battery, the fleet
     /// link, Nav2's server and goals); a simulated body ignores it.
-    fn body_event(&mut self, now: f64, ev: Event) {
+    fn body_event(&mut self, now: Time, ev: Event) {
         match ev {
             Event::Odometry { pose, velocity } => {
                 if let Drive::Ros(r) = &mut self.body {
@@ -395,7 +395,7 @@ impl Robot {
     }
 
     /// Advances the body by the wall time since the last tick (scaled by `time_scale`) and the plan.
-    fn tick(&mut self, now: f64) -> Vec<Command> {
+    fn tick(&mut self, now: Time) -> Vec<Command> {
         let wall_dt = self.last_tick.map_or(0.0, |t| (now - t).max(0.0));
         self.last_tick = Some(now);
         let dt = wall_dt * self.cfg.time_scale;
@@ -493,7 +493,7 @@ impl Robot {
         Telemetry {
             id: self.cfg.id.clone(),
             seq: self.seq,
-            t: self.sim_t,
+            t: self.sim_t.secs(),
             pose: self.body.pose(),
             velocity: self.body.velocity(),
             behaviour: self.behaviour(),
@@ -512,7 +512,7 @@ impl crate::machine::Machine for Robot {
     type Event = Event;
     type Command = Command;
 
-    fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         Robot::handle(self, now, event)
     }
 

@@ -1,8 +1,9 @@
 //! Unit tests of the robot machine: commands and who may give them, plans, telemetry.
 
 use super::*;
+use crate::at;
 use crate::body::Limits;
-use mrmm_proto::{PlanAssignment, Pose, RobotPlan, Role, Step};
+use mrmm_proto::{PlanAssignment, Pose, RobotPlan, Role, Step, Time};
 
 mod lanes;
 mod vda;
@@ -48,7 +49,7 @@ fn cmd(r: &mut Robot, c: RobotCommand) -> (Result<CommandAck, String>, Option<Co
 }
 
 fn cmd_from(r: &mut Robot, c: RobotCommand, from: Sender) -> (Result<CommandAck, String>, Option<Command>) {
-    let out = r.handle(0.0, Event::Command { cmd: c, from });
+    let out = r.handle(at(0.0), Event::Command { cmd: c, from });
     let reply = out.iter().find_map(|c| match c {
         Command::Reply(r) => Some(r.clone()),
         Command::Refuse(e) => Some(Err(e.clone())),
@@ -58,7 +59,7 @@ fn cmd_from(r: &mut Robot, c: RobotCommand, from: Sender) -> (Result<CommandAck,
     (reply.expect("a reply"), change)
 }
 
-fn telemetry(r: &mut Robot, now: f64) -> Telemetry {
+fn telemetry(r: &mut Robot, now: Time) -> Telemetry {
     match r.handle(now, Event::TelemetryDue).pop() {
         Some(Command::Telemetry(t)) => t,
         other => panic!("no telemetry: {other:?}"),
@@ -72,9 +73,9 @@ fn goto_then_arrive_with_time_scale() {
     assert_eq!(ack.expect("ack").behaviour, Behaviour::Navigate { x: 8.0, y: 0.0 });
     // 8 m at 2 m/s = 4 simulated s = 1 wall s at time scale 4.
     for i in 0..=110 {
-        r.handle(i as f64 * 0.01, Event::Tick);
+        r.handle(at(i as f64 * 0.01), Event::Tick);
     }
-    let t = telemetry(&mut r, 1.1);
+    let t = telemetry(&mut r, at(1.1));
     assert_eq!(t.behaviour, Behaviour::Hold);
     assert!((t.pose.x - 8.0).abs() <= crate::body::ARRIVAL_TOLERANCE);
     assert!((t.t - 4.4).abs() < 1e-9);
@@ -89,7 +90,7 @@ fn goto_follows_its_route() {
     assert_eq!(ack.expect("ack").behaviour, Behaviour::Navigate { x: 4.0, y: 0.0 }, "the first corner first");
     let mut farthest_x_before_turn: f64 = 0.0;
     for i in 0..=400 {
-        r.handle(i as f64 * 0.01, Event::Tick);
+        r.handle(at(i as f64 * 0.01), Event::Tick);
         let p = r.telemetry().pose;
         if p.y < 0.5 {
             farthest_x_before_turn = farthest_x_before_turn.max(p.x);
@@ -97,7 +98,7 @@ fn goto_follows_its_route() {
             assert!(p.x > 3.5, "cut the corner: {p:?}");
         }
     }
-    let t = telemetry(&mut r, 4.1);
+    let t = telemetry(&mut r, at(4.1));
     assert_eq!(t.behaviour, Behaviour::Hold);
     assert!((t.pose.x - 4.0).abs() <= 0.1 && (t.pose.y - 4.0).abs() <= crate::body::ARRIVAL_TOLERANCE, "{:?}", t.pose);
     assert!(farthest_x_before_turn > 3.9);
@@ -128,9 +129,9 @@ fn rejects_non_finite_goal_and_hostile_plans() {
 fn a_plan_carried_on_after_a_hand_over_keeps_the_robot_driving() {
     let mut r = Robot::new(cfg());
     assert!(cmd(&mut r, plan("m", 2)).0.is_ok());
-    r.handle(0.01, Event::Tick);
-    r.handle(0.2, Event::Tick);
-    let moving = telemetry(&mut r, 0.2);
+    r.handle(at(0.01), Event::Tick);
+    r.handle(at(0.2), Event::Tick);
+    let moving = telemetry(&mut r, at(0.2));
     assert!(moving.velocity.v > 0.0, "on its way to (4, 0)");
     // Another member was replaced: the same plan under epoch 3, with the newcomer.
     let RobotCommand::Plan(mut a) = plan("m", 3) else { unreachable!() };
@@ -139,16 +140,20 @@ fn a_plan_carried_on_after_a_hand_over_keeps_the_robot_driving() {
     let (ack, change) = cmd(&mut r, RobotCommand::Plan(a.clone()));
     assert!(ack.is_ok());
     assert!(matches!(change, Some(Command::JoinTeam { ref members, .. }) if members.len() == 2), "its team has the newcomer: {change:?}");
-    r.handle(0.25, Event::Tick);
-    let t = telemetry(&mut r, 0.25);
+    r.handle(at(0.25), Event::Tick);
+    let t = telemetry(&mut r, at(0.25));
     assert!(t.velocity.v > 0.0, "not stopped by the new epoch");
     assert_eq!(t.progress.as_ref().map(|p| (p.epoch, p.step)), Some((3, 0)));
     // The robot that comes in with a plan of that lineage starts where the handover says.
     let mut n = Robot::new(cfg());
     a.handover = Some(mrmm_proto::Handover { planned: 2, step: 1, round: 7 });
     assert!(cmd(&mut n, RobotCommand::Plan(a)).0.is_ok());
-    n.handle(0.01, Event::Tick);
-    assert_eq!(telemetry(&mut n, 0.01).progress.map(|p| (p.step, p.round)), Some((0, 7)), "on the leg to step 1's barrier-less hold: the navigate before it");
+    n.handle(at(0.01), Event::Tick);
+    assert_eq!(
+        telemetry(&mut n, at(0.01)).progress.map(|p| (p.step, p.round)),
+        Some((0, 7)),
+        "on the leg to step 1's barrier-less hold: the navigate before it"
+    );
 }
 
 #[test]
@@ -159,8 +164,8 @@ fn plans_epochs_and_leaving() {
         change,
         Some(Command::JoinTeam { team: "m".into(), subteam: "m/ground".into(), barrier: BarrierMode::Mesh, members: vec!["r1".into()], scopes: vec![] })
     );
-    r.handle(0.01, Event::Tick);
-    assert_eq!(telemetry(&mut r, 0.01).mission.as_ref().map(|x| x.as_str()), Some("m"));
+    r.handle(at(0.01), Event::Tick);
+    assert_eq!(telemetry(&mut r, at(0.01)).mission.as_ref().map(|x| x.as_str()), Some("m"));
     assert!(cmd(&mut r, plan("m", 1)).0.unwrap_err().contains("stale epoch"));
     // The same plan again changes nothing.
     assert_eq!(cmd(&mut r, plan("m", 2)), (Ok(r.ack()), None));
@@ -170,7 +175,7 @@ fn plans_epochs_and_leaving() {
     // Another mission's plan replaces this one (a move).
     assert!(matches!(cmd(&mut r, plan("n", 1)).1, Some(Command::JoinTeam { .. })));
     assert_eq!(cmd(&mut r, RobotCommand::Leave { mission: "n".into(), epoch: 1 }).1, Some(Command::LeaveTeam));
-    assert_eq!(telemetry(&mut r, 0.02).mission, None);
+    assert_eq!(telemetry(&mut r, at(0.02)).mission, None);
     // A plan for somebody else is refused.
     let RobotCommand::Plan(mut a) = plan("m", 3) else { unreachable!() };
     a.plan.robot = "r2".into();
@@ -180,7 +185,7 @@ fn plans_epochs_and_leaving() {
 #[test]
 fn only_central_orders_and_only_managers_of_the_mission_plan() {
     let mut r = Robot::new(cfg());
-    r.handle(0.0, Event::CentralAlive(true));
+    r.handle(at(0.0), Event::CentralAlive(true));
     let rogue = Sender::new(Role::Robot, "r9");
     assert!(cmd_from(&mut r, RobotCommand::Goto { x: 1.0, y: 1.0, via: vec![], map: None }, rogue.clone()).0.unwrap_err().contains("robot:r9 may not"));
     assert!(cmd_from(&mut r, RobotCommand::Hold, Sender::new(Role::Operator, "op")).0.is_err());
@@ -211,10 +216,10 @@ fn only_central_orders_and_only_managers_of_the_mission_plan() {
 #[test]
 fn an_idle_robot_takes_a_robot_heads_plan_only_while_central_is_unreachable() {
     let mut r = Robot::new(cfg());
-    r.handle(0.0, Event::CentralAlive(true));
+    r.handle(at(0.0), Event::CentralAlive(true));
     let head = Sender::new(Role::Robot, "r2");
     assert!(cmd_from(&mut r, plan("m", 3), head.clone()).0.is_err(), "central admits robots while it is up");
-    r.handle(0.0, Event::CentralAlive(false));
+    r.handle(at(0.0), Event::CentralAlive(false));
     assert!(cmd_from(&mut r, plan("m", 3), head).0.is_ok(), "without central, a restarted robot rejoins");
     // Busy in a mission, it stays deaf to strangers even then.
     assert!(cmd_from(&mut r, plan("n", 9), Sender::new(Role::Robot, "r9")).0.is_err());
@@ -223,7 +228,7 @@ fn an_idle_robot_takes_a_robot_heads_plan_only_while_central_is_unreachable() {
 #[test]
 fn capabilities_change_on_centrals_word_and_telemetry_says_so() {
     let mut r = Robot::new(with_capabilities(&["camera", "lidar"], false));
-    assert_eq!((r.info(vec![]).rev, telemetry(&mut r, 0.0).info_rev), (0, 0));
+    assert_eq!((r.info(vec![]).rev, telemetry(&mut r, at(0.0)).info_rev), (0, 0));
     let change = |add: &[&str], remove: &[&str]| RobotCommand::Capabilities {
         add: add.iter().map(|s| s.to_string()).collect(),
         remove: remove.iter().map(|s| s.to_string()).collect(),
@@ -236,7 +241,7 @@ fn capabilities_change_on_centrals_word_and_telemetry_says_so() {
     assert_eq!(ack.capabilities.as_deref(), Some(&["gripper".to_string(), "lidar".to_string()][..]));
     let info = r.info(vec![]);
     assert_eq!((info.capabilities.clone(), info.rev), (vec!["gripper".to_string(), "lidar".to_string()], 1));
-    assert_eq!(telemetry(&mut r, 0.1).info_rev, 1);
+    assert_eq!(telemetry(&mut r, at(0.1)).info_rev, 1);
     // No change, no new revision; bad names are refused and change nothing.
     cmd(&mut r, change(&["lidar"], &["camera"])).0.expect("ack");
     assert_eq!(r.info(vec![]).rev, 1);
@@ -259,9 +264,9 @@ fn a_robot_with_a_state_dir_keeps_changed_capabilities() {
         })
     };
     let mut stateless = Robot::new(with_capabilities(&["camera"], false));
-    assert_eq!(keeps(&stateless.handle(0.0, Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") })), None);
+    assert_eq!(keeps(&stateless.handle(at(0.0), Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") })), None);
     let mut r = Robot::new(with_capabilities(&["camera"], true));
-    let out = r.handle(0.0, Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") });
+    let out = r.handle(at(0.0), Event::Command { cmd: change.clone(), from: Sender::new(Role::Central, "central") });
     assert_eq!(keeps(&out), Some((vec!["camera".to_string()], vec![])));
     // Kept before it is acknowledged: an operator told it is done does not lose it if the robot
     // dies right after (the flake of tests/capabilities.rs, which kills the robot at the ack).
@@ -269,7 +274,7 @@ fn a_robot_with_a_state_dir_keeps_changed_capabilities() {
     let acked_at = out.iter().position(|c| matches!(c, Command::Reply(Ok(_))));
     assert!(kept_at < acked_at && acked_at.is_some(), "{out:?}");
     // No change, nothing to keep.
-    assert_eq!(keeps(&r.handle(0.1, Event::Command { cmd: change, from: Sender::new(Role::Central, "central") })), None);
+    assert_eq!(keeps(&r.handle(at(0.1), Event::Command { cmd: change, from: Sender::new(Role::Central, "central") })), None);
     // After a restart, what was kept replaces the config's list.
     let mut again = Robot::new(with_capabilities(&["camera"], true));
     again.restore_capabilities(vec!["lidar".into()]);
@@ -282,12 +287,12 @@ fn a_simulated_robot_crashes_on_centrals_word_after_answering_and_a_ros_robot_re
     // Only central orders it (the operator's word reaches the robot through central).
     assert!(cmd_from(&mut r, RobotCommand::Crash, Sender::new(Role::Operator, "op")).0.unwrap_err().contains("only central"));
     assert!(cmd_from(&mut r, RobotCommand::Crash, Sender::new(Role::Robot, "r2")).0.is_err());
-    let out = r.handle(0.0, Event::Command { cmd: RobotCommand::Crash, from: Sender::new(Role::Central, "central") });
+    let out = r.handle(at(0.0), Event::Command { cmd: RobotCommand::Crash, from: Sender::new(Role::Central, "central") });
     assert!(matches!(out.as_slice(), [Command::Reply(Ok(_)), Command::Crash]), "answered, then crashed, nothing else: {out:?}");
 
     let ros = RobotSetup { body: BodyKind::Ros { odom_timeout_s: 1.0, stop_on_fleet_loss: true, localised: false, nav2: None }, ..cfg() };
     let mut r = Robot::new(ros);
-    let out = r.handle(0.0, Event::Command { cmd: RobotCommand::Crash, from: Sender::new(Role::Central, "central") });
+    let out = r.handle(at(0.0), Event::Command { cmd: RobotCommand::Crash, from: Sender::new(Role::Central, "central") });
     assert!(!out.iter().any(|c| matches!(c, Command::Crash)), "a real robot is not crashed: {out:?}");
     assert!(matches!(&out[0], Command::Reply(Err(e)) if e.contains("only a simulated robot")), "{out:?}");
 }
@@ -324,16 +329,16 @@ fn a_robot_with_a_battery_charges_on_centrals_word() {
     cmd(&mut r, RobotCommand::Charge { on: true }).0.expect("plugged");
     let before = r.pose();
     for k in 0..50 {
-        r.handle(f64::from(k) * 0.1, Event::Tick);
+        r.handle(at(f64::from(k) * 0.1), Event::Tick);
     }
     assert_eq!(r.pose(), before, "plugged in, it stands");
-    let b = telemetry(&mut r, 5.0).battery.expect("battery");
+    let b = telemetry(&mut r, at(5.0)).battery.expect("battery");
     assert!(b.charging && b.charge > 0.6, "{b:?}");
     cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![], map: None }).0.expect("goto");
-    r.handle(5.1, Event::Tick);
-    r.handle(5.3, Event::Tick);
+    r.handle(at(5.1), Event::Tick);
+    r.handle(at(5.3), Event::Tick);
     assert!(r.pose().x > before.x, "a new goal unplugs it");
-    assert!(!telemetry(&mut r, 5.4).battery.expect("battery").charging);
+    assert!(!telemetry(&mut r, at(5.4)).battery.expect("battery").charging);
 }
 
 /// A robot whose body is a VDA 5050 vehicle.

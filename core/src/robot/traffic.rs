@@ -11,7 +11,7 @@
 use std::collections::VecDeque;
 
 use mrmm_proto::traffic::{RouteVertex, TrafficGoal, TrafficHeld, TrafficReport, DEPUTY_STEPS, QUIET_S, REPORT_S};
-use mrmm_proto::{MapRef, RobotId, TrafficOrder};
+use mrmm_proto::{MapRef, RobotId, Time, TrafficOrder};
 
 use crate::body::drive::Drive;
 
@@ -57,8 +57,8 @@ pub struct Gate {
     driving: Option<RouteVertex>,
     /// Why the goal was refused.
     refused: Option<String>,
-    heard: f64,
-    reported: Option<f64>,
+    heard: Time,
+    reported: Option<Time>,
     changed: bool,
     seq: u64,
     /// The robots the authority named to take over from it (central away).
@@ -89,7 +89,7 @@ impl Gate {
             trail: VecDeque::new(),
             driving: None,
             refused: None,
-            heard: f64::NEG_INFINITY,
+            heard: Time::LONG_AGO,
             reported: None,
             changed: true,
             seq: 0,
@@ -156,7 +156,7 @@ impl Gate {
 
     /// An order of the map's traffic authority, heard at `now` (`deputy`: from one of its
     /// deputies, central away).
-    pub fn order(&mut self, now: f64, order: TrafficOrder, deputy: bool) {
+    pub fn order(&mut self, now: Time, order: TrafficOrder, deputy: bool) {
         if order.check().is_err() {
             return;
         }
@@ -232,7 +232,7 @@ impl Gate {
     }
 
     /// Drives the body on at `now`; whether the goal is reached (the plan goes on).
-    pub fn step(&mut self, now: f64, body: &mut Drive) -> bool {
+    pub fn step(&mut self, now: Time, body: &mut Drive) -> bool {
         self.waiting = false;
         if std::mem::take(&mut self.halt) {
             body.hold();
@@ -409,14 +409,14 @@ impl Gate {
     }
 
     /// The report due at `now`, if one is: at every change, and every [`REPORT_S`].
-    pub fn report(&mut self, now: f64, robot: &RobotId, body: &Drive) -> Option<TrafficReport> {
+    pub fn report(&mut self, now: Time, robot: &RobotId, body: &Drive) -> Option<TrafficReport> {
         if self.free || !(self.changed || self.reported.is_none_or(|t| now - t >= REPORT_S)) {
             return None;
         }
         self.changed = false;
         self.reported = Some(now);
         // Wall-clock milliseconds, so that a robot restarted is not taken for a stale one.
-        self.seq = (self.seq + 1).max((now * 1000.0) as u64);
+        self.seq = (self.seq + 1).max((now.secs() * 1000.0) as u64);
         let pose = body.pose();
         // Plugged in, it stopped (`Robot::charge`): docked until a goal takes it away.
         let docked = self.goal.is_none() && self.driving.is_none() && body.battery().is_some_and(|b| b.charging);

@@ -3,7 +3,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::RobotId;
+use mrmm_proto::{RobotId, Time};
 
 use super::{Command, Robot, Traffic, Why, MAX_ROUTE};
 
@@ -38,14 +38,14 @@ impl Traffic {
     }
 
     /// Breaks one cycle of waits, or makes a parked robot give way: whether a route changed.
-    pub(super) fn resolve(&mut self, now: f64, out: &mut Vec<Command>) -> bool {
+    pub(super) fn resolve(&mut self, now: Time, out: &mut Vec<Command>) -> bool {
         let waits = self.waits();
         if let Some(cycle) = find_cycle(&waits) {
             let avoid = self.ahead_of(cycle.iter());
             // The robot that asked for its way last gives way first.
             let mut by_age = cycle.clone();
             by_age.sort_by(|a, b| {
-                let asked = |id: &RobotId| self.robots.get(id).map_or(f64::INFINITY, |r| r.asked);
+                let asked = |id: &RobotId| self.robots.get(id).map_or(Time::NEVER, |r| r.asked);
                 asked(b).total_cmp(&asked(a)).then_with(|| b.cmp(a))
             });
             // If none of the cycle can, one that waits for them, or for one of those, may make

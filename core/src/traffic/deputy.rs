@@ -22,7 +22,7 @@ use std::sync::Arc;
 
 use mrmm_maps::Map;
 use mrmm_proto::traffic::{TrafficHeld, TrafficReport, DEPUTIES, REPORT_S};
-use mrmm_proto::{RobotId, TrafficOrder};
+use mrmm_proto::{RobotId, Time, TrafficOrder};
 
 use super::authority::{self, Authority, REBUILD_S};
 use super::MAX_ROBOTS;
@@ -72,7 +72,7 @@ pub struct Deputy {
     /// What each robot was last granted, as the orders said.
     granted: BTreeMap<RobotId, TrafficHeld>,
     /// When it last heard an order of another authority.
-    last_order: f64,
+    last_order: Time,
     /// The highest incarnation it heard.
     incarnation: u64,
     /// Its place among the deputies, as the last order heard named them.
@@ -80,7 +80,7 @@ pub struct Deputy {
     /// The deputies the last order heard named.
     named: Vec<RobotId>,
     /// When it started following.
-    since: f64,
+    since: Time,
     active: Option<Authority>,
 }
 
@@ -92,7 +92,7 @@ impl std::fmt::Debug for Deputy {
 
 impl Deputy {
     /// Robot `me`'s deputy for map `hash` (`map`), started at `now` with central alive or not.
-    pub fn new(now: f64, me: RobotId, hash: String, map: Arc<Map>, central: bool) -> Deputy {
+    pub fn new(now: Time, me: RobotId, hash: String, map: Arc<Map>, central: bool) -> Deputy {
         Deputy {
             me,
             hash,
@@ -166,7 +166,7 @@ impl Deputy {
         self.active.as_ref()
     }
 
-    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         match event {
             Event::Central(up) => {
                 // Orders stopped when central did: the quiet is counted from the last one.
@@ -185,7 +185,7 @@ impl Deputy {
         }
     }
 
-    fn report(&mut self, now: f64, report: TrafficReport) -> Vec<Command> {
+    fn report(&mut self, now: Time, report: TrafficReport) -> Vec<Command> {
         if report.check().is_err() {
             return Vec::new();
         }
@@ -199,7 +199,7 @@ impl Deputy {
         }
     }
 
-    fn order(&mut self, now: f64, robot: RobotId, order: TrafficOrder) -> Vec<Command> {
+    fn order(&mut self, now: Time, robot: RobotId, order: TrafficOrder) -> Vec<Command> {
         if order.check().is_err() {
             return Vec::new();
         }
@@ -242,7 +242,7 @@ impl Deputy {
         out
     }
 
-    fn tick(&mut self, now: f64) -> Vec<Command> {
+    fn tick(&mut self, now: Time) -> Vec<Command> {
         if let Some(a) = self.active.as_mut() {
             return a.handle(now, authority::Event::Tick).into_iter().map(Command::Authority).collect();
         }
@@ -287,7 +287,7 @@ impl crate::machine::Machine for Deputy {
     type Event = Event;
     type Command = Command;
 
-    fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         Deputy::handle(self, now, event)
     }
 
@@ -306,6 +306,7 @@ mod tests {
     use mrmm_proto::traffic::TrafficGoal;
 
     use super::*;
+    use crate::at;
 
     fn office() -> Arc<Map> {
         let (name, text) = mrmm_maps::data::OPEN_RMF[0];
@@ -319,18 +320,18 @@ mod tests {
     /// Central's traffic authority on `map` (by its hash) and robot b's deputy following it.
     fn central_and_deputy(map: &Arc<Map>) -> (String, Authority, Deputy) {
         let hash = "h".repeat(64);
-        let central = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
-        let deputy = Deputy::new(0.0, "b".into(), hash.clone(), map.clone(), true);
+        let central = Authority::new(at(-10.0), 1, [(hash.clone(), map.clone())]);
+        let deputy = Deputy::new(at(0.0), "b".into(), hash.clone(), map.clone(), true);
         (hash, central, deputy)
     }
 
-    /// Central's liveliness goes at `at`: the deputy takes over within `within` seconds.
-    fn central_dies(deputy: &mut Deputy, at: f64, within: f64) {
-        deputy.handle(at, Event::Central(false));
-        let mut t = at;
-        while !deputy.active() && t < at + within {
+    /// Central's liveliness goes at `gone`: the deputy takes over within `within` seconds.
+    fn central_dies(deputy: &mut Deputy, gone: f64, within: f64) {
+        deputy.handle(at(gone), Event::Central(false));
+        let mut t = gone;
+        while !deputy.active() && t < gone + within {
             t += 0.1;
-            deputy.handle(t, Event::Tick);
+            deputy.handle(at(t), Event::Tick);
         }
         assert!(deputy.active(), "the deputy did not take over");
     }
@@ -346,15 +347,15 @@ mod tests {
         let (hash, mut central, mut deputy) = central_and_deputy(&map);
         let hear = |central: &mut Authority, deputy: &mut Deputy, t: f64, r: TrafficReport| {
             let mut granted = None;
-            deputy.handle(t, Event::Report(r.clone()));
-            for c in central.handle(t, authority::Event::Report { map: hash.clone(), report: r }) {
+            deputy.handle(at(t), Event::Report(r.clone()));
+            for c in central.handle(at(t), authority::Event::Report { map: hash.clone(), report: r }) {
                 if let authority::Command::Order { robot, order, .. } = c {
                     if let TrafficOrder::Route { route, upto, .. } = &order {
                         let all: Vec<u32> = route.iter().map(|v| v.v).collect();
                         let at: Vec<Point> = route.iter().map(|v| Point::new(v.x, v.y)).collect();
                         granted = upto.map(|u| (all[..=u as usize].to_vec(), all, at));
                     }
-                    deputy.handle(t, Event::Order { robot, order });
+                    deputy.handle(at(t), Event::Order { robot, order });
                 }
             }
             granted
@@ -397,11 +398,11 @@ mod tests {
         let far = g.vertices.iter().map(|v| v.at).max_by(|p, q| start.dist(*p).total_cmp(&start.dist(*q))).expect("vertices");
         for (t, seq, goal) in [(0.0, 1, None), (0.5, 2, Some(far)), (0.6, 3, Some(far))] {
             let r = report("b", seq, start, goal);
-            deputy.handle(t, Event::Report(r.clone()));
-            for c in central.handle(t, authority::Event::Report { map: hash.clone(), report: r }) {
+            deputy.handle(at(t), Event::Report(r.clone()));
+            for c in central.handle(at(t), authority::Event::Report { map: hash.clone(), report: r }) {
                 if let authority::Command::Order { robot, order, .. } = c {
                     last = Some(order.clone());
-                    deputy.handle(t, Event::Order { robot, order });
+                    deputy.handle(at(t), Event::Order { robot, order });
                 }
             }
         }
@@ -409,7 +410,7 @@ mod tests {
         assert!(upto > reached, "b was granted nothing beyond where it stands");
         // b stops where it stands: its report says so; central's answer never comes.
         let held = TrafficHeld { incarnation, version, route: route.iter().map(|v| v.v).collect(), reached, upto: reached };
-        deputy.handle(0.7, Event::Report(TrafficReport { held: Some(held), ..report("b", 4, start, None) }));
+        deputy.handle(at(0.7), Event::Report(TrafficReport { held: Some(held), ..report("b", 4, start, None) }));
         central_dies(&mut deputy, 1.0, 4.0);
         let traffic = deputy.authority().and_then(|a| a.traffic(&hash)).expect("traffic on the map");
         let (_, at, granted, _) = traffic.state(&"b".into()).expect("b in traffic");
@@ -426,13 +427,13 @@ mod tests {
         let tell = |deputy: &mut Deputy, t: f64, cmds: Vec<authority::Command>| {
             for c in cmds {
                 if let authority::Command::Order { robot, order, .. } = c {
-                    deputy.handle(t, Event::Order { robot, order });
+                    deputy.handle(at(t), Event::Order { robot, order });
                 }
             }
         };
         let hear = |central: &mut Authority, deputy: &mut Deputy, t: f64, r: TrafficReport| {
-            deputy.handle(t, Event::Report(r.clone()));
-            let cmds = central.handle(t, authority::Event::Report { map: hash.clone(), report: r });
+            deputy.handle(at(t), Event::Report(r.clone()));
+            let cmds = central.handle(at(t), authority::Event::Report { map: hash.clone(), report: r });
             tell(deputy, t, cmds);
         };
         // r1 stands on one vertex; b stands on another and drives to a third.
@@ -442,10 +443,10 @@ mod tests {
         hear(&mut central, &mut deputy, 0.2, report("b", 2, v0, Some(v2)));
         assert!(central.traffic(&hash).is_some_and(|t| !t.held(&"r1".into()).is_empty()), "r1 holds its vertex");
         // r1's liveliness goes; the operator clears it at central.
-        central.handle(1.0, authority::Event::Gone("r1".into()));
-        let cmds = central.handle(1.0 + authority::LOST_GRACE_S + 0.1, authority::Event::Tick);
+        central.handle(at(1.0), authority::Event::Gone("r1".into()));
+        let cmds = central.handle(at(1.0 + authority::LOST_GRACE_S + 0.1), authority::Event::Tick);
         tell(&mut deputy, 1.0 + authority::LOST_GRACE_S + 0.1, cmds);
-        let (_, cmds) = central.clear(10.0, &"r1".into()).expect("cleared");
+        let (_, cmds) = central.clear(at(10.0), &"r1".into()).expect("cleared");
         tell(&mut deputy, 10.0, cmds);
         // b reports on, as robots do (a robot is named once it was heard lately).
         hear(&mut central, &mut deputy, 10.1, report("b", 3, v0, Some(v2)));

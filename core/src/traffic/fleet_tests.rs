@@ -7,10 +7,11 @@
 //! through the robot's own ingress (the policy: a robot's orders count only from a deputy, with
 //! central away), and reports and orders are lost at random where a test says so.
 
+use crate::at;
 use std::sync::Arc;
 
 use mrmm_maps::{Map, NavGraph};
-use mrmm_proto::{BarrierMode, MapRef, PlanAssignment, Pose, RobotCommand, RobotPlan, Role, Sender, Step};
+use mrmm_proto::{BarrierMode, MapRef, PlanAssignment, Pose, RobotCommand, RobotPlan, Role, Sender, Step, Time};
 
 use super::authority::{self, Authority};
 use super::deputy::{self, Deputy};
@@ -54,7 +55,7 @@ fn assignment(id: &str, mission: &str, epoch: u64, steps: Vec<Step>, map: &MapRe
 }
 
 /// Central gives robot `r` plan `a` at `now`.
-fn give(r: &mut Robot, now: f64, a: PlanAssignment) {
+fn give(r: &mut Robot, now: Time, a: PlanAssignment) {
     let out = r.handle(now, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(a)), from: Sender::new(Role::Central, "central") });
     assert!(out.iter().any(|c| matches!(c, robot::Command::Reply(Ok(_)))), "plan refused: {out:?}");
 }
@@ -64,8 +65,8 @@ struct Fleet {
     map: MapRef,
     authority: Authority,
     robots: Vec<Robot>,
-    now: f64,
-    closest: (f64, f64, String),
+    now: Time,
+    closest: (f64, Time, String),
     /// Whether orders reach the robots (false: the authority is down).
     up: bool,
     /// Robots drive on without grants (to show the test fails then).
@@ -78,7 +79,7 @@ struct Fleet {
     loss: usize,
     rng: Rng,
     /// Orders given by deputies, with when (the first after a kill: grants resumed).
-    deputy_orders: Vec<(f64, usize)>,
+    deputy_orders: Vec<(Time, usize)>,
 }
 
 impl Fleet {
@@ -103,14 +104,15 @@ impl Fleet {
     fn with(g: NavGraph, plans: Vec<(usize, Vec<usize>, bool)>, seed: u64) -> Fleet {
         let map = MapRef { name: "office".into(), hash: "a".repeat(64) };
         let graph = Arc::new(Map::Graph(g.clone()));
-        let authority = Authority::new(0.0, 1, [(map.hash.clone(), graph.clone())]);
+        let authority = Authority::new(at(0.0), 1, [(map.hash.clone(), graph.clone())]);
         let robots: Vec<Robot> = plans
             .iter()
             .enumerate()
             .map(|(i, (s, goals, looped))| {
                 let id = format!("r{i}");
-                let at = g.vertices[*s].at;
-                let mut r = Robot::new(RobotSetup::sim(&id, "ground", Limits { max_speed: 1.0, max_turn_rate: 2.0 }, Pose { x: at.x, y: at.y, theta: 0.0 }));
+                let start = g.vertices[*s].at;
+                let mut r =
+                    Robot::new(RobotSetup::sim(&id, "ground", Limits { max_speed: 1.0, max_turn_rate: 2.0 }, Pose { x: start.x, y: start.y, theta: 0.0 }));
                 let mut steps: Vec<Step> = goals
                     .iter()
                     .map(|&v| {
@@ -123,20 +125,20 @@ impl Fleet {
                 }
                 let mission = if i % 2 == 0 { "even" } else { "odd" };
                 let a = assignment(&id, mission, 1, steps, &map);
-                r.handle(0.0, robot::Event::CentralAlive(true));
-                give(&mut r, 0.0, a);
+                r.handle(at(0.0), robot::Event::CentralAlive(true));
+                give(&mut r, at(0.0), a);
                 r
             })
             .collect();
-        let deputies = robots.iter().map(|r| Deputy::new(0.0, r.id().into(), map.hash.clone(), graph.clone(), true)).collect();
+        let deputies = robots.iter().map(|r| Deputy::new(at(0.0), r.id().into(), map.hash.clone(), graph.clone(), true)).collect();
         let crashed = vec![false; robots.len()];
         Fleet {
             graph,
             map,
             authority,
             robots,
-            now: 0.0,
-            closest: (f64::INFINITY, 0.0, String::new()),
+            now: at(0.0),
+            closest: (f64::INFINITY, Time::ZERO, String::new()),
             up: true,
             ignore_grants: false,
             deputies,
@@ -228,7 +230,7 @@ impl Fleet {
                 }
             }
         }
-        if ((self.now / STEP).round() as u64).is_multiple_of(5) {
+        if ((self.now.secs() / STEP).round() as u64).is_multiple_of(5) {
             if self.up {
                 let cmds = self.authority.handle(self.now, authority::Event::Tick);
                 self.deliver(cmds, None);
@@ -487,14 +489,14 @@ fn central_dies_while_two_robots_wait_for_each_other_in_a_corridor_and_both_arri
         let t = f.authority.traffic(&f.map.hash).expect("traffic");
         t.views(f.now).iter().filter(|r| r.waiting_s.is_some()).count()
     };
-    while waiting(&f) == 0 && f.now < 20.0 {
+    while waiting(&f) == 0 && f.now < at(20.0) {
         f.step();
     }
     assert!(waiting(&f) > 0, "the robots never waited for each other");
     f.kill_central();
     let killed = f.now;
     f.run(60.0);
-    let first = f.deputy_orders.first().map(|(t, _)| t - killed);
+    let first = f.deputy_orders.first().map(|(t, _)| *t - killed);
     assert!(first.is_some_and(|t| t <= 2.0), "the deputy's first orders came {first:?} s after central died");
     for (r, goal) in [(0, (8.0, 0.0)), (1, (0.0, 0.0))] {
         let p = f.robots[r].pose();
@@ -564,9 +566,9 @@ fn the_robot_ahead_reports_as_it_passes_the_release_point_and_the_vertex_behind_
     let leader = mrmm_proto::RobotId::from("r0");
     // The vertex behind the leader, since when the leader is clear of it, and whether traffic
     // let go of it since.
-    let mut behind: Option<(u32, Option<f64>, bool)> = None;
+    let mut behind: Option<(u32, Option<Time>, bool)> = None;
     let mut delays = Vec::new();
-    while f.now < 30.0 {
+    while f.now < at(30.0) {
         f.step();
         let t = f.authority.traffic(&f.map.hash).expect("traffic");
         let Some((route, Some(p), _, _)) = t.state(&leader) else { continue };

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeSet;
 
-use mrmm_proto::RobotId;
+use mrmm_proto::{RobotId, Time};
 
 use super::layout::Res;
 use super::{Command, Robot, Traffic};
@@ -72,9 +72,9 @@ impl Traffic {
     }
 
     /// Grants every hop it can, longest-waiting robots first.
-    pub(super) fn grant_all(&mut self, now: f64, out: &mut Vec<Command>) {
-        let mut order: Vec<(f64, RobotId)> =
-            self.robots.iter().filter(|(_, r)| !r.lost && r.wants_more()).map(|(id, r)| (r.waiting.unwrap_or(f64::INFINITY), id.clone())).collect();
+    pub(super) fn grant_all(&mut self, now: Time, out: &mut Vec<Command>) {
+        let mut order: Vec<(Time, RobotId)> =
+            self.robots.iter().filter(|(_, r)| !r.lost && r.wants_more()).map(|(id, r)| (r.waiting.unwrap_or(Time::NEVER), id.clone())).collect();
         order.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
         for (_, id) in order {
             let Some(r) = self.robots.get(&id) else { continue };

@@ -44,7 +44,7 @@ mod tests;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
-use mrmm_proto::RobotId;
+use mrmm_proto::{RobotId, Time};
 
 pub use layout::{Layout, Res};
 
@@ -147,11 +147,11 @@ struct Robot {
     /// Version of the route, +1 each time it changes.
     version: u64,
     /// When it asked for the way it is on: the longer ago, the less it gives way.
-    asked: f64,
+    asked: Time,
     /// Resources held, with how many granted hops need each.
     held: BTreeMap<Res, u32>,
     /// Since when it stands waiting for a grant.
-    waiting: Option<f64>,
+    waiting: Option<Time>,
     lost: bool,
     /// Parked at a charger: it does not make way.
     docked: bool,
@@ -201,13 +201,13 @@ pub struct Traffic {
     /// Something happened since deadlocks and grants were last looked at.
     dirty: bool,
     /// When they were last looked at.
-    looked: f64,
+    looked: Time,
 }
 
 impl Traffic {
     pub fn new(layout: Arc<Layout>, params: Params) -> Traffic {
         let holder = vec![None; layout.resources()];
-        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: f64::NEG_INFINITY }
+        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: Time::LONG_AGO }
     }
 
     pub fn layout(&self) -> &Layout {
@@ -252,7 +252,7 @@ impl Traffic {
     }
 
     /// Every robot in traffic as the operator sees it, at `now`.
-    pub fn views(&self, now: f64) -> Vec<mrmm_proto::traffic::TrafficRobotView> {
+    pub fn views(&self, now: Time) -> Vec<mrmm_proto::traffic::TrafficRobotView> {
         let vertices = self.layout.vertices() as u32;
         self.robots
             .iter()
@@ -304,7 +304,7 @@ impl Traffic {
         )
     }
 
-    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         let mut out = Vec::new();
         self.dirty |= !matches!(event, Event::Tick);
         match event {
@@ -346,7 +346,7 @@ impl Traffic {
         out
     }
 
-    fn set_route(&mut self, now: f64, id: RobotId, mut route: Vec<u32>, out: &mut Vec<Command>) {
+    fn set_route(&mut self, now: Time, id: RobotId, mut route: Vec<u32>, out: &mut Vec<Command>) {
         route.dedup();
         if let Err(why) = self.check_route(&route) {
             out.push(Command::Refused { robot: id, why });
@@ -384,7 +384,7 @@ impl Traffic {
         self.robots.insert(id, r);
     }
 
-    fn restore(&mut self, now: f64, id: RobotId, mut route: Vec<u32>, reached: Option<usize>, granted: usize, out: &mut Vec<Command>) {
+    fn restore(&mut self, now: Time, id: RobotId, mut route: Vec<u32>, reached: Option<usize>, granted: usize, out: &mut Vec<Command>) {
         if let Err(why) = self.check_route(&route) {
             out.push(Command::Refused { robot: id, why });
             return;

@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::RobotId;
+use mrmm_proto::{RobotId, Time};
 
 use super::{Command, Robot, Traffic, Why};
 
@@ -27,7 +27,7 @@ impl Traffic {
     /// queued behind it) back off one hop each, pushing the ones behind them: whether any route
     /// changed.
     pub(super) fn push_through(&mut self, stuck: &[RobotId], waits: &BTreeMap<RobotId, BTreeSet<RobotId>>, out: &mut Vec<Command>) -> bool {
-        let asked = |id: &RobotId| self.robots.get(id).map_or(f64::INFINITY, |r| r.asked);
+        let asked = |id: &RobotId| self.robots.get(id).map_or(Time::NEVER, |r| r.asked);
         let Some(p) = stuck.iter().min_by(|a, b| asked(a).total_cmp(&asked(b)).then_with(|| a.cmp(b))) else { return false };
         let Some(pr) = self.robots.get(p) else { return false };
         let Some(vp) = pr.standing() else { return false };

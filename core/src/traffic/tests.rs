@@ -6,6 +6,7 @@ use mrmm_maps::{NavGraph, Point};
 use mrmm_proto::RobotId;
 
 use super::*;
+use crate::at;
 
 /// A graph of two-way lanes between points.
 fn graph(points: &[(f64, f64)], lanes: &[(u32, u32)]) -> NavGraph {
@@ -65,12 +66,12 @@ fn drive(t: &mut Traffic, first: Vec<Command>, steps: usize) -> (Vec<Command>, b
             let (route, reached, _) = routes.get_mut(&robot).unwrap();
             let next = reached.map_or(0, |p| p + 1);
             *reached = Some(next);
-            let out = t.handle(now, Event::Reached { robot: robot.clone(), vertex: route[next] });
+            let out = t.handle(at(now), Event::Reached { robot: robot.clone(), vertex: route[next] });
             check_exclusive(t);
             seen.extend(out.clone());
             pending.extend(out);
         }
-        let out = t.handle(now, Event::Tick);
+        let out = t.handle(at(now), Event::Tick);
         seen.extend(out.clone());
         pending.extend(out);
     }
@@ -91,8 +92,8 @@ fn check_exclusive(t: &Traffic) {
 #[test]
 fn robots_meeting_head_on_pass_by_a_pocket() {
     let mut t = corridor_with_pocket();
-    let mut first = t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
-    first.extend(t.handle(1.0, Event::Route { robot: id("b"), route: vec![2, 1, 0] }));
+    let mut first = t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    first.extend(t.handle(at(1.0), Event::Route { robot: id("b"), route: vec![2, 1, 0] }));
     let (seen, done) = drive(&mut t, first, 50);
     assert!(done, "both got through: {seen:?}");
     // b asked last: it made way, into the pocket and back.
@@ -110,8 +111,8 @@ fn robots_meeting_head_on_far_from_the_pocket_back_off_to_it() {
     let mut lanes: Vec<(u32, u32)> = (1..12).map(|i| (i - 1, i)).collect();
     lanes.push((1, 12));
     let mut t = Traffic::new(Arc::new(Layout::new(&graph(&points, &lanes), 0.6)), Params::default());
-    let mut first = t.handle(0.0, Event::Route { robot: id("a"), route: (0..12).collect() });
-    first.extend(t.handle(1.0, Event::Route { robot: id("b"), route: (0..12).rev().collect() }));
+    let mut first = t.handle(at(0.0), Event::Route { robot: id("a"), route: (0..12).collect() });
+    first.extend(t.handle(at(1.0), Event::Route { robot: id("b"), route: (0..12).rev().collect() }));
     let (seen, done) = drive(&mut t, first, 200);
     assert!(done, "both got through: {seen:?}");
     assert!(!seen.iter().any(|c| matches!(c, Command::Blocked { .. })), "{seen:?}");
@@ -127,7 +128,7 @@ fn a_queue_behind_robots_facing_each_other_backs_off_from_its_far_end() {
     let mut t = Traffic::new(Arc::new(Layout::new(&g, 0.6)), Params::default());
     let mut first = Vec::new();
     for (robot, route) in [("a", vec![3, 4, 5]), ("b", vec![4, 3, 6]), ("c", vec![2, 3, 4]), ("d", vec![1, 2, 3])] {
-        first.extend(t.handle(0.0, Event::Route { robot: id(robot), route }));
+        first.extend(t.handle(at(0.0), Event::Route { robot: id(robot), route }));
     }
     let (seen, done) = drive(&mut t, first, 200);
     assert!(done, "all got through: {seen:?}");
@@ -161,22 +162,22 @@ fn how_far_along_a_lane_its_start_is_let_go() {
 fn a_follower_closes_up_to_the_vertex_the_robot_ahead_left() {
     let g = graph(&[(0.0, 0.0), (3.0, 0.0), (6.0, 0.0), (9.0, 0.0)], &[(0, 1), (1, 2), (2, 3)]);
     let mut t = Traffic::new(Arc::new(Layout::new(&g, 0.6)), Params::default());
-    t.handle(0.0, Event::Restore { robot: id("a"), route: vec![1], reached: Some(0), granted: 0 });
-    t.handle(0.0, Event::Restore { robot: id("b"), route: vec![0], reached: Some(0), granted: 0 });
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![1, 2, 3] });
-    let out = t.handle(0.1, Event::Route { robot: id("b"), route: vec![0, 1, 2, 3] });
+    t.handle(at(0.0), Event::Restore { robot: id("a"), route: vec![1], reached: Some(0), granted: 0 });
+    t.handle(at(0.0), Event::Restore { robot: id("b"), route: vec![0], reached: Some(0), granted: 0 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![1, 2, 3] });
+    let out = t.handle(at(0.1), Event::Route { robot: id("b"), route: vec![0, 1, 2, 3] });
     assert!(!out.iter().any(|c| matches!(c, Command::Grant { robot, .. } if robot == &id("b"))), "a holds 1: {out:?}");
     // Said of a vertex it did not last reach, or by a robot standing: nothing.
-    assert!(t.handle(0.2, Event::Left { robot: id("a"), vertex: 2 }).is_empty());
-    assert!(t.handle(0.2, Event::Left { robot: id("b"), vertex: 0 }).is_empty());
-    let out = t.handle(1.0, Event::Left { robot: id("a"), vertex: 1 });
+    assert!(t.handle(at(0.2), Event::Left { robot: id("a"), vertex: 2 }).is_empty());
+    assert!(t.handle(at(0.2), Event::Left { robot: id("b"), vertex: 0 }).is_empty());
+    let out = t.handle(at(1.0), Event::Left { robot: id("a"), vertex: 1 });
     assert!(matches!(&out[..], [Command::Grant { robot, upto: 1, vertex: 1, .. }] if robot == &id("b")), "up to 1, not onto a's lane: {out:?}");
     check_exclusive(&t);
     // a reaches 2: the lane behind it is let go, and b may drive on to 2 once a left it too.
-    let out = t.handle(2.0, Event::Reached { robot: id("a"), vertex: 2 });
+    let out = t.handle(at(2.0), Event::Reached { robot: id("a"), vertex: 2 });
     assert!(!out.iter().any(|c| matches!(c, Command::Grant { robot, upto: 2, .. } if robot == &id("b"))), "{out:?}");
-    t.handle(2.5, Event::Reached { robot: id("b"), vertex: 1 });
-    let out = t.handle(3.0, Event::Left { robot: id("a"), vertex: 2 });
+    t.handle(at(2.5), Event::Reached { robot: id("b"), vertex: 1 });
+    let out = t.handle(at(3.0), Event::Left { robot: id("a"), vertex: 2 });
     assert!(out.iter().any(|c| matches!(c, Command::Grant { robot, upto: 2, .. } if robot == &id("b"))), "{out:?}");
     check_exclusive(&t);
 }
@@ -186,13 +187,13 @@ fn with_nowhere_to_go_robots_are_reported_blocked() {
     // A bare corridor: no pocket, no way round.
     let g = graph(&[(0.0, 0.0), (2.0, 0.0), (4.0, 0.0)], &[(0, 1), (1, 2)]);
     let mut t = Traffic::new(Arc::new(Layout::new(&g, 0.6)), Params::default());
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
-    t.handle(0.0, Event::Route { robot: id("b"), route: vec![2, 1, 0] });
-    let mut out = t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
-    out.extend(t.handle(0.0, Event::Reached { robot: id("b"), vertex: 2 }));
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    t.handle(at(0.0), Event::Route { robot: id("b"), route: vec![2, 1, 0] });
+    let mut out = t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
+    out.extend(t.handle(at(0.0), Event::Reached { robot: id("b"), vertex: 2 }));
     // One of them got the middle; the other waits. Moving on, they face each other.
     let first = if t.holder(1) == Some(&id("a")) { ("a", 1, "b") } else { ("b", 1, "a") };
-    out.extend(t.handle(1.0, Event::Reached { robot: id(first.0), vertex: first.1 }));
+    out.extend(t.handle(at(1.0), Event::Reached { robot: id(first.0), vertex: first.1 }));
     assert!(out.iter().any(|c| matches!(c, Command::Blocked { .. })), "{out:?}");
     check_exclusive(&t);
 }
@@ -205,13 +206,13 @@ fn crossing_lanes_without_a_vertex_conflict() {
     let (l01, l23) = (layout.lane(0, 1).unwrap(), layout.lane(2, 3).unwrap());
     assert!(layout.conflicts(l01).contains(&l23));
     let mut t = Traffic::new(Arc::new(layout), Params::default());
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1] });
-    t.handle(0.0, Event::Route { robot: id("b"), route: vec![2, 3] });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
-    t.handle(0.0, Event::Reached { robot: id("b"), vertex: 2 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1] });
+    t.handle(at(0.0), Event::Route { robot: id("b"), route: vec![2, 3] });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(at(0.0), Event::Reached { robot: id("b"), vertex: 2 });
     let (a, b) = (t.route(&id("a")).unwrap().1, t.route(&id("b")).unwrap().1);
     assert_eq!((a, b), (Some(1), Some(0)), "a drives across, b waits at its end");
-    t.handle(1.0, Event::Reached { robot: id("a"), vertex: 1 });
+    t.handle(at(1.0), Event::Reached { robot: id("a"), vertex: 1 });
     assert_eq!(t.route(&id("b")).unwrap().1, Some(1), "b goes once a is across");
 }
 
@@ -232,13 +233,13 @@ fn bad_routes_are_refused_and_change_nothing() {
         (vec![0, 9], "vertex 9 is not on the map"),
         (vec![1; MAX_ROUTE + 1].iter().enumerate().map(|(i, _)| (i % 2) as u32).collect(), "at most"),
     ] {
-        let out = t.handle(0.0, Event::Route { robot: id("a"), route });
+        let out = t.handle(at(0.0), Event::Route { robot: id("a"), route });
         assert!(matches!(&out[..], [Command::Refused { why, .. }] if why.contains(says)), "{says}: {out:?}");
     }
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1] });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1] });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
     // It stands at 0 (granted on to 1): a route from 2 is nowhere it will be.
-    let out = t.handle(0.0, Event::Route { robot: id("a"), route: vec![2, 1] });
+    let out = t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![2, 1] });
     assert!(matches!(&out[..], [Command::Refused { why, .. }] if why.contains("starts at vertex 2")), "{out:?}");
     assert_eq!(t.route(&id("a")).unwrap().0, &[0, 1]);
 }
@@ -246,14 +247,14 @@ fn bad_routes_are_refused_and_change_nothing() {
 #[test]
 fn reports_of_vertices_not_granted_are_ignored() {
     let mut t = corridor_with_pocket();
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
-    t.handle(0.0, Event::Route { robot: id("b"), route: vec![3, 1] });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
-    t.handle(0.0, Event::Reached { robot: id("b"), vertex: 3 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    t.handle(at(0.0), Event::Route { robot: id("b"), route: vec![3, 1] });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(at(0.0), Event::Reached { robot: id("b"), vertex: 3 });
     // b claims it reached 1 without a grant, and a vertex off its route: nothing changes.
     let held = t.held(&id("b"));
-    t.handle(1.0, Event::Reached { robot: id("b"), vertex: 2 });
-    t.handle(1.0, Event::Reached { robot: id("nobody"), vertex: 2 });
+    t.handle(at(1.0), Event::Reached { robot: id("b"), vertex: 2 });
+    t.handle(at(1.0), Event::Reached { robot: id("nobody"), vertex: 2 });
     assert_eq!(t.held(&id("b")), held);
     check_exclusive(&t);
 }
@@ -261,37 +262,37 @@ fn reports_of_vertices_not_granted_are_ignored() {
 #[test]
 fn a_lost_robot_keeps_where_it_stood_until_removed() {
     let mut t = corridor_with_pocket();
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![1, 2] });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 1 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![1, 2] });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 1 });
     assert_eq!(t.route(&id("a")).unwrap().1, Some(1), "granted on to 2");
-    t.handle(0.5, Event::Lost { robot: id("a") });
+    t.handle(at(0.5), Event::Lost { robot: id("a") });
     // Lost while it may have started the hop: it keeps both ends and the lane.
     assert!(t.held(&id("a")).contains(&1) && t.held(&id("a")).contains(&2));
-    t.handle(1.0, Event::Route { robot: id("b"), route: vec![0, 1] });
-    t.handle(1.0, Event::Reached { robot: id("b"), vertex: 0 });
+    t.handle(at(1.0), Event::Route { robot: id("b"), route: vec![0, 1] });
+    t.handle(at(1.0), Event::Reached { robot: id("b"), vertex: 0 });
     assert_eq!(t.route(&id("b")).unwrap().1, Some(0), "b waits for the lost robot's vertex");
-    t.handle(2.0, Event::Remove { robot: id("a") });
+    t.handle(at(2.0), Event::Remove { robot: id("a") });
     assert_eq!(t.route(&id("b")).unwrap().1, Some(1), "b goes once it is removed");
 }
 
 #[test]
 fn a_new_route_is_joined_behind_what_was_granted() {
     let mut t = corridor_with_pocket();
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
     assert_eq!(t.route(&id("a")).unwrap().1, Some(2));
     // Still at 0, granted to 2: a route from 1 is joined at 1, the grant kept to 1 (the pocket
     // is let go as granted).
-    let out = t.handle(1.0, Event::Route { robot: id("a"), route: vec![1, 3] });
+    let out = t.handle(at(1.0), Event::Route { robot: id("a"), route: vec![1, 3] });
     let Some(Command::Route { route, reached, upto, .. }) = out.first() else { panic!("{out:?}") };
     assert_eq!((route.as_slice(), *reached), (&[0, 1, 2, 1, 3][..], Some(0)), "drives back from 2 along its way");
     assert_eq!(*upto, Some(2));
     // Asked from where it stands: joined at once.
     let mut t = corridor_with_pocket();
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1] });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 1 });
-    let out = t.handle(1.0, Event::Route { robot: id("a"), route: vec![1, 3] });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1] });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 1 });
+    let out = t.handle(at(1.0), Event::Route { robot: id("a"), route: vec![1, 3] });
     assert!(matches!(&out[0], Command::Route { route, reached: Some(0), .. } if route == &vec![1, 3]), "{out:?}");
 }
 
@@ -299,12 +300,12 @@ fn a_new_route_is_joined_behind_what_was_granted() {
 fn a_parked_robot_makes_way_after_a_while() {
     let mut t = corridor_with_pocket();
     // b parks at 1, the junction, which a must cross.
-    t.handle(0.0, Event::Route { robot: id("b"), route: vec![1] });
-    t.handle(0.0, Event::Reached { robot: id("b"), vertex: 1 });
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
-    let out = t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(at(0.0), Event::Route { robot: id("b"), route: vec![1] });
+    t.handle(at(0.0), Event::Reached { robot: id("b"), vertex: 1 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    let out = t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
     assert!(!out.iter().any(|c| matches!(c, Command::Route { .. })), "not at once: {out:?}");
-    let out = t.handle(Params::default().yield_after + 0.1, Event::Tick);
+    let out = t.handle(at(Params::default().yield_after + 0.1), Event::Tick);
     assert!(out.iter().any(|c| matches!(c, Command::Route { robot, why: Why::Yield, route, .. } if robot == &id("b") && route == &vec![1, 3, 1])), "{out:?}");
 }
 
@@ -313,14 +314,14 @@ fn routes_joined_again_and_again_stay_bounded() {
     // A robot that never moves asks, again and again, for a long route starting at the end of
     // the one it has: joined behind its grant each time, it would grow without bound.
     let mut t = corridor_with_pocket();
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1] });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1] });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
     let long: Vec<u32> = (0..MAX_ROUTE).map(|i| (i % 2) as u32).collect();
     let mut refused = 0;
     for k in 0..5 {
         let end = *t.route(&id("a")).unwrap().0.last().unwrap();
         let route: Vec<u32> = if end == 0 { long.clone() } else { long.iter().map(|v| 1 - v).collect() };
-        let out = t.handle(f64::from(k), Event::Route { robot: id("a"), route });
+        let out = t.handle(at(f64::from(k)), Event::Route { robot: id("a"), route });
         refused += out.iter().filter(|c| matches!(c, Command::Refused { why, .. } if why.contains("at most"))).count();
         assert!(t.route(&id("a")).unwrap().0.len() <= MAX_ROUTE);
     }
@@ -378,10 +379,10 @@ fn a_corridor_is_held_for_one_direction_at_a_time() {
     for locked in [true, false] {
         let mut t = Traffic::new(layout.clone(), Params { corridors: locked, ..Params::default() });
         // a stands at 1, inside, granted on east; b stands at 4, the east end, wants west to 2.
-        t.handle(0.0, Event::Restore { robot: id("a"), route: vec![1, 2, 3], reached: Some(0), granted: 0 });
-        t.handle(0.0, Event::Restore { robot: id("b"), route: vec![4], reached: Some(0), granted: 0 });
-        t.handle(0.0, Event::Route { robot: id("a"), route: vec![1, 2] });
-        let out = t.handle(0.1, Event::Route { robot: id("b"), route: vec![4, 3] });
+        t.handle(at(0.0), Event::Restore { robot: id("a"), route: vec![1, 2, 3], reached: Some(0), granted: 0 });
+        t.handle(at(0.0), Event::Restore { robot: id("b"), route: vec![4], reached: Some(0), granted: 0 });
+        t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![1, 2] });
+        let out = t.handle(at(0.1), Event::Route { robot: id("b"), route: vec![4, 3] });
         let b_granted = out.iter().any(|c| matches!(c, Command::Grant { robot, .. } | Command::Route { robot, upto: Some(1), .. } if robot == &id("b")));
         assert_eq!(b_granted, !locked, "locked {locked}: {out:?}");
         check_exclusive(&t);
@@ -389,10 +390,10 @@ fn a_corridor_is_held_for_one_direction_at_a_time() {
     // Two robots driving apart in the corridor do not hold each other up: a at 2 goes east to 3,
     // b at 1 goes west to 0 (a is behind b's way, b behind a's).
     let mut t = Traffic::new(layout, Params { corridors: true, ..Params::default() });
-    t.handle(0.0, Event::Restore { robot: id("a"), route: vec![2], reached: Some(0), granted: 0 });
-    t.handle(0.0, Event::Restore { robot: id("b"), route: vec![1], reached: Some(0), granted: 0 });
-    let mut out = t.handle(0.1, Event::Route { robot: id("a"), route: vec![2, 3] });
-    out.extend(t.handle(0.2, Event::Route { robot: id("b"), route: vec![1, 0] }));
+    t.handle(at(0.0), Event::Restore { robot: id("a"), route: vec![2], reached: Some(0), granted: 0 });
+    t.handle(at(0.0), Event::Restore { robot: id("b"), route: vec![1], reached: Some(0), granted: 0 });
+    let mut out = t.handle(at(0.1), Event::Route { robot: id("a"), route: vec![2, 3] });
+    out.extend(t.handle(at(0.2), Event::Route { robot: id("b"), route: vec![1, 0] }));
     for who in ["a", "b"] {
         assert!(
             out.iter().any(|c| matches!(c, Command::Grant { robot, .. } | Command::Route { robot, upto: Some(1), .. } if robot == &id(who))),
@@ -424,16 +425,16 @@ fn a_route_names_a_vertex_by_a_name_of_its_own() {
 fn a_robot_docked_at_a_charger_does_not_make_way() {
     let mut t = corridor_with_pocket();
     // b charges at 1, the junction, which a must cross.
-    t.handle(0.0, Event::Route { robot: id("b"), route: vec![1] });
-    t.handle(0.0, Event::Reached { robot: id("b"), vertex: 1 });
-    t.handle(0.0, Event::Dock { robot: id("b"), on: true });
+    t.handle(at(0.0), Event::Route { robot: id("b"), route: vec![1] });
+    t.handle(at(0.0), Event::Reached { robot: id("b"), vertex: 1 });
+    t.handle(at(0.0), Event::Dock { robot: id("b"), on: true });
     assert!(t.is_docked(&id("b")));
-    t.handle(0.0, Event::Route { robot: id("a"), route: vec![0, 1, 2] });
-    t.handle(0.0, Event::Reached { robot: id("a"), vertex: 0 });
+    t.handle(at(0.0), Event::Route { robot: id("a"), route: vec![0, 1, 2] });
+    t.handle(at(0.0), Event::Reached { robot: id("a"), vertex: 0 });
     let after = Params::default().yield_after + 0.1;
-    let out = t.handle(after, Event::Tick);
+    let out = t.handle(at(after), Event::Tick);
     assert!(!out.iter().any(|c| matches!(c, Command::Route { robot, .. } if robot == &id("b"))), "a docked robot sent aside: {out:?}");
     assert!(out.iter().any(|c| matches!(c, Command::Blocked { robot, by } if robot == &id("a") && by == &vec![id("b")])), "{out:?}");
-    let out = t.handle(after + 0.1, Event::Dock { robot: id("b"), on: false });
+    let out = t.handle(at(after + 0.1), Event::Dock { robot: id("b"), on: false });
     assert!(out.iter().any(|c| matches!(c, Command::Route { robot, why: Why::Yield, .. } if robot == &id("b"))), "undocked, it makes way: {out:?}");
 }

@@ -13,7 +13,7 @@ use mrmm_maps::{Map, NavGraph, Point, Space};
 use mrmm_planner::recipe::{self, Recipe};
 use mrmm_proto::map::Charger;
 use mrmm_proto::plan::RobotSpec;
-use mrmm_proto::{BarrierMode, Handover, MapInfo, MapRef, MissionView, PlanAssignment, Pose, RobotId, RobotStatus, RobotView};
+use mrmm_proto::{BarrierMode, Handover, MapInfo, MapRef, MissionView, PlanAssignment, Pose, RobotId, RobotStatus, RobotView, Time};
 
 use super::{Day, Policy, Row, Trace, DT, MAP, SPEED, TURN, VISIT_R};
 
@@ -178,7 +178,7 @@ impl<'a> World<'a> {
     pub(super) fn tick(&mut self, t: f64) {
         let mut heard = Vec::new();
         for (&i, e) in &mut self.execs {
-            for c in e.handle(t, Event::Tick { body_idle: self.bodies[i].idle() }) {
+            for c in e.handle(Time::from_secs(t), Event::Tick { body_idle: self.bodies[i].idle() }) {
                 match c {
                     Exec::Navigate { x, y, then, speed } => self.bodies[i].navigate_through(x, y, then, speed),
                     Exec::Hold => self.bodies[i].hold(),
@@ -191,7 +191,7 @@ impl<'a> World<'a> {
         for (from, a) in heard {
             for (&j, e) in &mut self.execs {
                 if j != from {
-                    e.handle(t, Event::Heard(a.clone()));
+                    e.handle(Time::from_secs(t), Event::Heard(a.clone()));
                 }
             }
         }
@@ -268,7 +268,7 @@ impl<'a> World<'a> {
         };
         let fleet = charging::Fleet { robots: &robots, missions: std::slice::from_ref(&patrol), maps: std::slice::from_ref(&self.info) };
         let before: Vec<RobotId> = self.charging.errands().keys().cloned().collect();
-        for c in self.charging.handle(t, fleet) {
+        for c in self.charging.handle(Time::from_secs(t), fleet) {
             self.carry_out(c)?;
         }
         self.m.errands += self.charging.errands().keys().filter(|id| !before.contains(id)).count();

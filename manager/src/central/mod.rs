@@ -74,7 +74,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let t0 = Instant::now();
     let by_name = maps.by_name();
     let no_lanes: Vec<String> = cfg.no_lanes.iter().filter_map(|n| by_name.get(n).map(|h| h.info.hash.clone())).collect();
-    let mut core = CentralCore::restore(zid.into(), cfg.agent.clone(), 0.0, state)
+    let mut core = CentralCore::restore(zid.into(), cfg.agent.clone(), proto::Time::ZERO, state)
         .with_maps(by_name)
         .without_lanes(no_lanes)
         .with_superseded(maps.superseded())

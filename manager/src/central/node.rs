@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use mrmm_net::inbox::Lanes;
 use mrmm_net::Mesh;
-use mrmm_proto::Key;
+use mrmm_proto::{Key, Time};
 use tokio_util::sync::CancellationToken;
 
 use super::inputs::{decode, Input, SealCounts};
@@ -76,10 +76,10 @@ impl Node {
 }
 
 impl mrmm_core::machine::Node<CentralCore> for Node {
-    async fn next(&mut self, _: &CentralCore) -> Result<Option<(f64, Event)>, ManagerError> {
+    async fn next(&mut self, _: &CentralCore) -> Result<Option<(Time, Event)>, ManagerError> {
         let Some(event) = self.heard().await else { return Ok(None) };
         self.step = Some((event.kind(), Instant::now(), Duration::ZERO));
-        Ok(Some((self.t0.elapsed().as_secs_f64(), event)))
+        Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), event)))
     }
 
     async fn decided(&mut self, _: &CentralCore) -> Result<(), ManagerError> {

@@ -23,6 +23,7 @@ use crate::maps::MapStore;
 use mrmm_core::mission::chain::Params;
 use mrmm_core::mission::host::{Command, Event, HostCore, Question};
 use mrmm_net::inbox::{Inbox, Lanes, Latest};
+use mrmm_proto::Time;
 
 /// How long a planner service may take.
 pub const PLAN_TIMEOUT: Duration = Duration::from_secs(mrmm_core::timeouts::PLAN_S as u64);
@@ -84,8 +85,8 @@ pub async fn serve_with(
     tracing::info!(%node, "mission host up");
     let t0 = Instant::now();
     let (store, mut core) = match stored {
-        Some((store, entries)) => (Some(store), HostCore::restore(&node, params, 0.0, entries.into_iter().map(|(m, d)| (m.into(), d)).collect())),
-        None => (None, HostCore::new(&node, params, 0.0)),
+        Some((store, entries)) => (Some(store), HostCore::restore(&node, params, Time::ZERO, entries.into_iter().map(|(m, d)| (m.into(), d)).collect())),
+        None => (None, HostCore::new(&node, params, Time::ZERO)),
     };
     if local.is_some() {
         core = core.with_robot();

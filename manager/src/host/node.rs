@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use mrmm_net::inbox::Lanes;
 use mrmm_net::{Following, Mesh};
+use mrmm_proto::Time;
 use tokio::sync::watch;
 use tokio_util::sync::CancellationToken;
 
@@ -67,11 +68,11 @@ impl Node {
 }
 
 impl mrmm_core::machine::Node<HostCore> for Node {
-    async fn next(&mut self, _: &HostCore) -> Result<Option<(f64, Event)>, ManagerError> {
+    async fn next(&mut self, _: &HostCore) -> Result<Option<(Time, Event)>, ManagerError> {
         let Some(event) = self.heard().await else { return Ok(None) };
         self.telemetry = matches!(event, Event::Telemetry(_));
         self.status_tick = matches!(event, Event::StatusTick);
-        Ok(Some((self.t0.elapsed().as_secs_f64(), event)))
+        Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), event)))
     }
 
     /// The maps of every mission this node leads or replicates fetched before a takeover needs

@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use mrmm_proto::MapRef;
+use mrmm_proto::{MapRef, Time};
 use tokio::sync::watch;
 use zenoh::query::Query;
 
@@ -32,9 +32,9 @@ pub(super) struct Node {
 }
 
 impl mrmm_core::machine::Node<Robot> for Node {
-    async fn next(&mut self, robot: &Robot) -> Result<Option<(f64, Event)>, PeerError> {
+    async fn next(&mut self, robot: &Robot) -> Result<Option<(Time, Event)>, PeerError> {
         if std::mem::take(&mut self.tick_now) {
-            return Ok(Some((self.t0.elapsed().as_secs_f64(), Event::Tick)));
+            return Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), Event::Tick)));
         }
         let Some((event, query)) = self.inputs.next(robot, &mut self.io).await else { return Ok(None) };
         self.query = query;
@@ -42,7 +42,7 @@ impl mrmm_core::machine::Node<Robot> for Node {
         // itself), and at once after anything that may give it a goal or take one (a grant, a
         // command, the vehicle's state), so that what it is to be sent goes out now.
         self.tick_now = self.io.vda.is_some() && !matches!(event, Event::Tick | Event::TelemetryDue);
-        Ok(Some((self.t0.elapsed().as_secs_f64(), event)))
+        Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), event)))
     }
 
     async fn stepped(&mut self, robot: &Robot) -> Result<(), PeerError> {

@@ -14,7 +14,7 @@ use rand_chacha::ChaCha8Rng;
 
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::Point;
-use mrmm_proto::RobotId;
+use mrmm_proto::{RobotId, Time};
 
 use mrmm_core::traffic::{Command, Event, Layout, Params, Traffic, Why};
 
@@ -212,7 +212,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
         let route = random_goal(&mut rng, space, bots[i].route[0], n, &goals);
         bots[i].route.clone_from(&route);
         goals[i] = route[route.len() - 1];
-        cmds.extend(traffic.handle(0.0, Event::Route { robot: bots[i].id.clone(), route }));
+        cmds.extend(traffic.handle(Time::from_secs(0.0), Event::Route { robot: bots[i].id.clone(), route }));
     }
     let index: BTreeMap<RobotId, usize> = bots.iter().enumerate().map(|(i, b)| (b.id.clone(), i)).collect();
     let mut close: BTreeMap<(usize, usize), bool> = BTreeMap::new();
@@ -230,7 +230,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
             goals[i] = bots[i].route[bots[i].route.len() - 1];
             for e in events {
                 if world.controlled {
-                    let out = traffic.handle(now, e.clone());
+                    let out = traffic.handle(Time::from_secs(now), e.clone());
                     report.events += 1;
                     if world.trace {
                         report.trace.push(format!("{now:.2} {e:?} → {out:?}"));
@@ -240,7 +240,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
             }
         }
         if world.controlled {
-            let out = traffic.handle(now, Event::Tick);
+            let out = traffic.handle(Time::from_secs(now), Event::Tick);
             report.events += 1;
             if world.trace && !out.is_empty() {
                 report.trace.push(format!("{now:.2} Tick → {out:?}"));

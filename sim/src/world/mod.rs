@@ -15,7 +15,7 @@ use mrmm_core::robot::{self, Robot};
 use mrmm_core::Failure;
 use mrmm_proto::{
     CtlAck, Member, MissionCtl, MissionName, MissionSpecWire, MissionStart, NodeId, PlanAssignment, PlanRequest, RobotCommand, RobotId, RobotPlan, RobotSpec,
-    Role, Sender, Step, CENTRAL_HOST,
+    Role, Sender, Step, Time, CENTRAL_HOST,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -319,9 +319,9 @@ impl World {
         // A node's host: from its disk when it has one.
         let host = |n: &Node| {
             if n.kind.keeps_chain_state(disks) {
-                HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())
+                HostCore::restore(&n.name, params, Time::from_secs(now), n.chain_disk.clone().into_iter().collect())
             } else {
-                HostCore::new(&n.name, params, now)
+                HostCore::new(&n.name, params, Time::from_secs(now))
             }
         };
         let n = &mut self.nodes[i];
@@ -331,7 +331,7 @@ impl World {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
                 // The sim's clock is central's: its last sign of life is when it crashed.
-                n.central = Some(CentralCore::restore(n.name.clone().into(), agent, now, n.disk.clone()));
+                n.central = Some(CentralCore::restore(n.name.clone().into(), agent, Time::from_secs(now), n.disk.clone()));
                 n.host = Some(host(n));
             }
             Kind::Host => n.host = Some(host(n)),

@@ -29,7 +29,7 @@ impl World {
                 if self.now >= 0.6 && active && self.rng.gen_bool(0.15) && !self.random_ctl() {
                     return Ok(());
                 }
-                for (id, mission, ctl) in self.ctls.due(self.now) {
+                for (id, mission, ctl) in self.ctls.due(Time::from_secs(self.now)) {
                     self.ask_mission(None, mission.clone().as_str(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id), mrmm_core::timeouts::QUERY_S);
                 }
                 Ok(())
@@ -248,7 +248,7 @@ impl World {
             let cmds = self.nodes[j]
                 .robot
                 .as_mut()
-                .map(|rb| rb.handle(0.0, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(assignment)), from }))
+                .map(|rb| rb.handle(Time::from_secs(0.0), robot::Event::Command { cmd: RobotCommand::Plan(Box::new(assignment)), from }))
                 .unwrap_or_default();
             let _ = self.robot_commands(j, cmds);
         }

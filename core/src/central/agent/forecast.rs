@@ -7,7 +7,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{MissionStatus, MissionView, Priority, RobotId, RobotStatus, RobotView};
+use mrmm_proto::{MissionStatus, MissionView, Priority, RobotId, RobotStatus, RobotView, Time};
 use serde_json::json;
 
 use super::rules::{candidate, fits};
@@ -23,14 +23,14 @@ const WINDOW_S: f64 = 300.0;
 /// second; negative while it charges).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Drain {
-    t0: f64,
+    t0: Time,
     c0: f64,
     charging: bool,
     rate: Option<f64>,
 }
 
 /// Follows every robot's charge: a new window when it starts or stops charging.
-pub(crate) fn measure(rates: &mut BTreeMap<RobotId, Drain>, robots: &[RobotView], now: f64) {
+pub(crate) fn measure(rates: &mut BTreeMap<RobotId, Drain>, robots: &[RobotView], now: Time) {
     rates.retain(|id, _| robots.iter().any(|r| &r.id == id && r.battery.is_some()));
     for r in robots {
         let Some(b) = r.battery else { continue };
@@ -72,7 +72,7 @@ pub(crate) fn forecast(
     rates: &BTreeMap<RobotId, Drain>,
     robots: &[RobotView],
     missions: &[MissionView],
-    now: f64,
+    now: Time,
     out: &mut BTreeMap<String, Candidate>,
 ) {
     if cfg.forecast_s <= 0.0 {

@@ -14,7 +14,7 @@ mod rules;
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{Advice, AdviceEvent, MissionName, MissionView, NodeId, Pose, Priority, RobotId, RobotMove, RobotView};
+use mrmm_proto::{Advice, AdviceEvent, MissionName, MissionView, NodeId, Pose, Priority, RobotId, RobotMove, RobotView, Time};
 use serde::{Deserialize, Serialize};
 
 /// How far the agent may go.
@@ -131,10 +131,10 @@ pub(crate) struct Memory {
     /// Last mission of every robot seen alive in one.
     pub last_mission: BTreeMap<RobotId, MissionName>,
     /// Where each robot was when it last moved, and when.
-    pub last_moved: BTreeMap<RobotId, (Pose, f64)>,
+    pub last_moved: BTreeMap<RobotId, (Pose, Time)>,
     /// Last manager (node, epoch) of each mission, and event advice with its expiry.
     pub managers: BTreeMap<MissionName, NodeId>,
-    pub events: BTreeMap<String, (Candidate, f64)>,
+    pub events: BTreeMap<String, (Candidate, Time)>,
     /// How each robot's charge moves (the energy forecast).
     pub drains: BTreeMap<RobotId, forecast::Drain>,
 }
@@ -146,7 +146,7 @@ pub struct Agent {
     standing: BTreeMap<String, Advice>,
     queued: BTreeMap<String, Candidate>,
     acted: std::collections::BTreeSet<String>,
-    last_operator: Option<f64>,
+    last_operator: Option<Time>,
     memory: Memory,
 }
 
@@ -167,7 +167,7 @@ impl Agent {
     }
 
     /// Handles one event at `now` (seconds).
-    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, ev: Event) -> Vec<Command> {
         match ev {
             Event::OperatorCommand => {
                 self.last_operator = Some(now);
@@ -193,12 +193,12 @@ impl Agent {
         }
     }
 
-    fn busy(&self, now: f64) -> bool {
+    fn busy(&self, now: Time) -> bool {
         self.last_operator.is_some_and(|t| now - t < self.cfg.busy_window_s)
     }
 
     /// Raises what is new (or queues it while the operator is busy), withdraws what is over.
-    fn reconcile(&mut self, now: f64, fresh: BTreeMap<String, Candidate>) -> Vec<Command> {
+    fn reconcile(&mut self, now: Time, fresh: BTreeMap<String, Candidate>) -> Vec<Command> {
         let mut out = Vec::new();
         let over: Vec<String> = self.standing.keys().filter(|id| !fresh.contains_key(*id)).cloned().collect();
         for id in over {

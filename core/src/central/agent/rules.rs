@@ -4,13 +4,13 @@
 use std::collections::BTreeMap;
 
 use mrmm_proto::traffic::TrafficView;
-use mrmm_proto::{Advice, MissionName, MissionStatus, MissionView, PlanSummary, Priority, RobotId, RobotMove, RobotStatus, RobotView};
+use mrmm_proto::{Advice, MissionName, MissionStatus, MissionView, PlanSummary, Priority, RobotId, RobotMove, RobotStatus, RobotView, Time};
 use serde_json::json;
 
 use super::{AgentConfig, Candidate, Memory};
 use crate::central::charging::{mission_of, Mode};
 
-pub(super) fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: f64, action: Option<RobotMove>) -> Candidate {
+pub(super) fn candidate(id: String, priority: Priority, reason: String, evidence: serde_json::Value, now: Time, action: Option<RobotMove>) -> Candidate {
     let suggestion = action.as_ref().map(|m| format!("mrmm op move {} {}", m.robot, m.to.as_ref().map(|x| x.as_str()).unwrap_or("none")));
     Candidate { advice: Advice { id, priority, reason, evidence, suggestion, action: action.clone(), since: now, acted: false, outcome: None }, action }
 }
@@ -47,7 +47,7 @@ fn donor(robots: &[RobotView], missions: &[MissionView], target: &str) -> Option
 
 /// Advice when robot `r`, out of mission `m` now, lacks what `m` requires: it was taken out for
 /// that; a robot that has it is suggested.
-fn unfit(robots: &[RobotView], missions: &[MissionView], r: &RobotView, m: &MissionView, now: f64) -> Option<Candidate> {
+fn unfit(robots: &[RobotView], missions: &[MissionView], r: &RobotView, m: &MissionView, now: Time) -> Option<Candidate> {
     let lacks = mrmm_proto::lacking(&r.capabilities, &m.requires);
     if lacks.is_empty() {
         return None;
@@ -66,7 +66,7 @@ fn unfit(robots: &[RobotView], missions: &[MissionView], r: &RobotView, m: &Miss
 /// Advice for each leaf team of mission `m` below its `min` (after a loss: the mission goes on
 /// with the members it has): critical, with a robot that fits the team — an idle one, else one
 /// from the largest other running mission that keeps at least one.
-fn short_teams(robots: &[RobotView], missions: &[MissionView], m: &MissionView, now: f64) -> Vec<Candidate> {
+fn short_teams(robots: &[RobotView], missions: &[MissionView], m: &MissionView, now: Time) -> Vec<Candidate> {
     let mut out = Vec::new();
     for t in m.team_views.iter().filter(|t| t.members.len() < t.min) {
         let fit = |r: &RobotView| t.robot_type.as_ref().is_none_or(|ty| *ty == r.robot_type) && mrmm_proto::lacking(&r.capabilities, &t.requires).is_empty();
@@ -97,7 +97,7 @@ fn short_teams(robots: &[RobotView], missions: &[MissionView], m: &MissionView, 
 pub(crate) fn evaluate(
     cfg: &AgentConfig,
     mem: &mut Memory,
-    now: f64,
+    now: Time,
     robots: &[RobotView],
     missions: &[MissionView],
     traffic: &[TrafficView],
@@ -130,7 +130,7 @@ const EMPTY: f64 = 0.005;
 /// Robots whose battery is empty (critical: it stands where it died) or low, not charging. A low
 /// robot of a mission that charges on the operator's word (`charging=ask`) comes with the order
 /// that sends it; one of a mission that never charges (`off`) says so.
-fn batteries(cfg: &AgentConfig, robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+fn batteries(cfg: &AgentConfig, robots: &[RobotView], missions: &[MissionView], now: Time, out: &mut BTreeMap<String, Candidate>) {
     for r in robots.iter().filter(|r| r.status != RobotStatus::Lost) {
         let Some(b) = r.battery.filter(|b| !b.charging && b.charge < cfg.battery_low.max(EMPTY)) else { continue };
         // Two ids: an advice keeps its priority, and empty is news after low.
@@ -163,7 +163,7 @@ fn batteries(cfg: &AgentConfig, robots: &[RobotView], missions: &[MissionView], 
 /// does not send its robots to charge by itself (`charging=ask`, with the order that sends it;
 /// `off`): they stand idle in the mission until the operator acts. With `auto` central sends
 /// them at its next look, and nothing is raised.
-fn short_of_reach(robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+fn short_of_reach(robots: &[RobotView], missions: &[MissionView], now: Time, out: &mut BTreeMap<String, Candidate>) {
     for m in missions {
         let mode = Mode::of(m);
         if mode == Mode::Auto {
@@ -191,7 +191,7 @@ fn short_of_reach(robots: &[RobotView], missions: &[MissionView], now: f64, out:
 /// robots longer than `traffic_wait_s`: who is in the way, and the move that would clear it —
 /// a lost robot taken off the lanes, an idle one driven away, a mission's robot stepping back
 /// (its mission paused, or the robot taken out of it).
-fn blocked_in_traffic(cfg: &AgentConfig, robots: &[RobotView], traffic: &[TrafficView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+fn blocked_in_traffic(cfg: &AgentConfig, robots: &[RobotView], traffic: &[TrafficView], now: Time, out: &mut BTreeMap<String, Candidate>) {
     let by_id: BTreeMap<&str, &RobotView> = robots.iter().map(|r| (r.id.as_str(), r)).collect();
     for map in traffic {
         for t in &map.robots {
@@ -237,7 +237,7 @@ fn blocked_in_traffic(cfg: &AgentConfig, robots: &[RobotView], traffic: &[Traffi
 
 /// A robot lost, and what was done about it; a robot taken out of its mission because it no longer
 /// has what the mission requires (an event).
-fn lost_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+fn lost_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], missions: &[MissionView], now: Time, out: &mut BTreeMap<String, Candidate>) {
     let by_name: BTreeMap<&str, &MissionView> = missions.iter().map(|m| (m.name.as_str(), m)).collect();
     // Robot lost, and what was done about it; a robot taken out of its mission because it no
     // longer has what the mission requires (an event).
@@ -273,7 +273,7 @@ fn lost_robots(cfg: &AgentConfig, mem: &mut Memory, robots: &[RobotView], missio
 }
 
 /// A mission below its standard, with the predicted benefit of one more robot.
-fn below_standard(robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+fn below_standard(robots: &[RobotView], missions: &[MissionView], now: Time, out: &mut BTreeMap<String, Candidate>) {
     for m in missions {
         let (Some(limit), Some(worst)) = (m.params.get("max_worst_idleness").and_then(|v| v.parse::<f64>().ok()), m.metrics.worst_idleness) else {
             continue;
@@ -303,7 +303,7 @@ fn below_standard(robots: &[RobotView], missions: &[MissionView], now: f64, out:
 }
 
 /// Idle robots while missions run: where one would help most.
-fn idle_robots(robots: &[RobotView], missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+fn idle_robots(robots: &[RobotView], missions: &[MissionView], now: Time, out: &mut BTreeMap<String, Candidate>) {
     let idle: Vec<&RobotView> = robots.iter().filter(|r| r.status == RobotStatus::Idle).collect();
     let running: Vec<&MissionView> = missions.iter().filter(|m| m.status == MissionStatus::Running).collect();
     if !idle.is_empty() && !running.is_empty() {
@@ -325,7 +325,7 @@ fn idle_robots(robots: &[RobotView], missions: &[MissionView], now: f64, out: &m
 }
 
 /// Mission managers: host lost (stands while stalled), or moved to another node (an event).
-fn managers(cfg: &AgentConfig, mem: &mut Memory, missions: &[MissionView], now: f64, out: &mut BTreeMap<String, Candidate>) {
+fn managers(cfg: &AgentConfig, mem: &mut Memory, missions: &[MissionView], now: Time, out: &mut BTreeMap<String, Candidate>) {
     for m in missions {
         if m.status == MissionStatus::Stalled {
             if let Some(e) = &m.error {
@@ -362,7 +362,7 @@ fn stuck_robots(
     mem: &mut Memory,
     robots: &[RobotView],
     in_traffic: &std::collections::BTreeSet<&RobotId>,
-    now: f64,
+    now: Time,
     out: &mut BTreeMap<String, Candidate>,
 ) {
     for r in robots {

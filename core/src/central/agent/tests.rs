@@ -1,6 +1,7 @@
 //! Agent rules and attention management, asserting the emitted commands.
 
 use super::*;
+use crate::at;
 use mrmm_proto::plan::PatrolSummary;
 use mrmm_proto::{BatteryState, ManagerView, MissionMetrics, MissionStatus, PlanSummary, RobotStatus};
 
@@ -85,7 +86,7 @@ fn robot_lost_is_critical_once_and_withdrawn_when_back() {
     let mut a = Agent::new(AgentConfig::default());
     let p = || mission("p", "patrol", &["r1", "r2"], None, None);
     a.handle(
-        0.0,
+        at(0.0),
         snap(
             vec![
                 robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"),
@@ -100,7 +101,7 @@ fn robot_lost_is_critical_once_and_withdrawn_when_back() {
         robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"),
         robot("r3", RobotStatus::Lost, None, 2.0, "step 1"),
     ];
-    let cmds = a.handle(1.0, snap(lost.clone(), vec![p()]));
+    let cmds = a.handle(at(1.0), snap(lost.clone(), vec![p()]));
     assert_eq!(raised(&cmds), [("lost/r3".into(), Priority::Critical)]);
     let adv = a.advice();
     assert_eq!(adv[0].reason, "robot r3 lost; mission p replanned for its 2 remaining robots");
@@ -108,7 +109,7 @@ fn robot_lost_is_critical_once_and_withdrawn_when_back() {
     // Not repeated while it stands; its text follows the situation quietly.
     let mut shrunk = p();
     shrunk.robots.pop();
-    assert!(a.handle(2.0, snap(lost, vec![shrunk])).is_empty());
+    assert!(a.handle(at(2.0), snap(lost, vec![shrunk])).is_empty());
     assert_eq!(a.advice()[0].reason, "robot r3 lost; mission p replanned for its 1 remaining robots");
     // Back: withdrawn.
     let back = vec![
@@ -116,7 +117,7 @@ fn robot_lost_is_critical_once_and_withdrawn_when_back() {
         robot("r2", RobotStatus::Busy, Some("p"), 1.0, "step 1"),
         robot("r3", RobotStatus::Idle, None, 2.0, "hold"),
     ];
-    let cmds = a.handle(3.0, snap(back, vec![p()]));
+    let cmds = a.handle(at(3.0), snap(back, vec![p()]));
     assert_eq!(withdrawn(&cmds), ["lost/r3"]);
 }
 
@@ -125,7 +126,7 @@ fn a_robot_lost_before_the_agent_ever_saw_it_working_still_says_what_was_done() 
     let mut a = Agent::new(AgentConfig::default());
     let mut r3 = robot("r3", RobotStatus::Lost, None, 2.0, "step 1");
     r3.last_mission = Some("p".into());
-    a.handle(0.0, snap(vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), r3], vec![mission("p", "patrol", &["r1"], None, None)]));
+    a.handle(at(0.0), snap(vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 1"), r3], vec![mission("p", "patrol", &["r1"], None, None)]));
     assert_eq!(a.advice()[0].reason, "robot r3 lost; mission p replanned for its 1 remaining robots");
 }
 
@@ -139,7 +140,7 @@ fn below_standard_names_the_donor_and_the_predicted_gain() {
         robot("r7", RobotStatus::Busy, Some("c"), 6.0, "hold"),
     ];
     let missions = vec![mission("p", "patrol", &["r1", "r2"], Some(70.0), Some(50.0)), mission("c", "coverage", &["r6", "r7"], None, None)];
-    let cmds = a.handle(0.0, snap(robots, missions));
+    let cmds = a.handle(at(0.0), snap(robots, missions));
     assert_eq!(raised(&cmds), [("standard/p".into(), Priority::Warning)]);
     let adv = &a.advice()[0];
     assert_eq!(adv.reason, "p below standard (worst idleness 70 s > 50 s): move r7 from c to p: predicted worst idleness 60 s → 40 s");
@@ -151,7 +152,7 @@ fn below_standard_names_the_donor_and_the_predicted_gain() {
 fn idle_robots_are_pointed_where_they_help_most() {
     let mut a = Agent::new(AgentConfig::default());
     let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold")];
-    let cmds = a.handle(0.0, snap(robots, vec![mission("p", "patrol", &["r1"], None, None), mission("c", "coverage", &[], None, None)]));
+    let cmds = a.handle(at(0.0), snap(robots, vec![mission("p", "patrol", &["r1"], None, None), mission("c", "coverage", &[], None, None)]));
     assert_eq!(raised(&cmds), [("idle".into(), Priority::Info)]);
     let adv = &a.advice()[0];
     assert_eq!(adv.reason, "1 idle robot(s) (r4): adding r4 to p cuts its predicted worst idleness by 60 s");
@@ -161,18 +162,18 @@ fn idle_robots_are_pointed_where_they_help_most() {
 #[test]
 fn while_the_operator_is_busy_only_critical_advice_interrupts() {
     let mut a = Agent::new(AgentConfig { busy_window_s: 10.0, ..AgentConfig::default() });
-    a.handle(0.0, Event::OperatorCommand);
+    a.handle(at(0.0), Event::OperatorCommand);
     let robots = vec![
         robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"),
         robot("r4", RobotStatus::Idle, None, 3.0, "hold"),
         robot("r5", RobotStatus::Lost, None, 9.0, "hold"),
     ];
     let ms = vec![mission("p", "patrol", &["r1"], None, None)];
-    let cmds = a.handle(1.0, snap(robots.clone(), ms.clone()));
+    let cmds = a.handle(at(1.0), snap(robots.clone(), ms.clone()));
     assert_eq!(raised(&cmds), [("lost/r5".into(), Priority::Critical)], "info waits");
-    assert!(raised(&a.handle(5.0, snap(robots.clone(), ms.clone()))).is_empty());
+    assert!(raised(&a.handle(at(5.0), snap(robots.clone(), ms.clone()))).is_empty());
     // The operator is done: the queued advice comes out.
-    assert_eq!(raised(&a.handle(11.0, snap(robots, ms))), [("idle".into(), Priority::Info)]);
+    assert_eq!(raised(&a.handle(at(11.0), snap(robots, ms))), [("idle".into(), Priority::Info)]);
 }
 
 #[test]
@@ -180,17 +181,17 @@ fn act_runs_the_move_and_says_so_once() {
     let mut a = Agent::new(AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() });
     let robots = vec![robot("r1", RobotStatus::Busy, Some("p"), 0.0, "step 2"), robot("r4", RobotStatus::Idle, None, 3.0, "hold")];
     let ms = vec![mission("p", "patrol", &["r1"], None, None)];
-    let cmds = a.handle(0.0, snap(robots.clone(), ms.clone()));
+    let cmds = a.handle(at(0.0), snap(robots.clone(), ms.clone()));
     assert!(cmds.contains(&Command::Move { advice: "idle".into(), mv: RobotMove { robot: "r4".into(), to: Some("p".into()), replaces: None } }));
     let adv = &a.advice()[0];
     assert!(adv.acted && adv.reason.starts_with("acting: "));
-    assert!(!a.handle(1.0, snap(robots.clone(), ms.clone())).iter().any(|c| matches!(c, Command::Move { .. })), "acts once");
+    assert!(!a.handle(at(1.0), snap(robots.clone(), ms.clone())).iter().any(|c| matches!(c, Command::Move { .. })), "acts once");
     // The move's result is recorded on the advice and published.
-    let cmds = a.handle(1.5, Event::Acted { advice: "idle".into(), result: Err("robot \"r4\" is lost".into()) });
+    let cmds = a.handle(at(1.5), Event::Acted { advice: "idle".into(), result: Err("robot \"r4\" is lost".into()) });
     let [Command::Publish(AdviceEvent::Raised(adv))] = cmds.as_slice() else { panic!("{cmds:?}") };
     assert!(!adv.acted && !adv.reason.starts_with("acting: "));
     assert_eq!(adv.outcome.as_deref(), Some("failed: robot \"r4\" is lost"));
-    assert!(!a.handle(2.0, snap(robots, ms)).iter().any(|c| matches!(c, Command::Move { .. })), "a failed move is not retried on its own");
+    assert!(!a.handle(at(2.0), snap(robots, ms)).iter().any(|c| matches!(c, Command::Move { .. })), "a failed move is not retried on its own");
 }
 
 #[test]
@@ -198,11 +199,11 @@ fn manager_loss_and_failover_and_stuck_robots() {
     let mut a = Agent::new(AgentConfig { stuck_after_s: 10.0, event_advice_s: 30.0, ..AgentConfig::default() });
     let mut p = mission("p", "patrol", &["r1"], None, None);
     let r = |x: f64| vec![robot("r1", RobotStatus::Busy, Some("p"), x, "step 4 goto(9.0,0.0)")];
-    a.handle(0.0, snap(r(0.0), vec![p.clone()]));
+    a.handle(at(0.0), snap(r(0.0), vec![p.clone()]));
     // Stuck: not moving for 10 s while driving.
-    assert!(raised(&a.handle(5.0, snap(r(0.05), vec![p.clone()]))).is_empty());
-    assert_eq!(raised(&a.handle(10.5, snap(r(0.1), vec![p.clone()]))), [("stuck/r1".into(), Priority::Warning)]);
-    assert_eq!(withdrawn(&a.handle(11.0, snap(r(3.0), vec![p.clone()]))), ["stuck/r1"]);
+    assert!(raised(&a.handle(at(5.0), snap(r(0.05), vec![p.clone()]))).is_empty());
+    assert_eq!(raised(&a.handle(at(10.5), snap(r(0.1), vec![p.clone()]))), [("stuck/r1".into(), Priority::Warning)]);
+    assert_eq!(withdrawn(&a.handle(at(11.0), snap(r(3.0), vec![p.clone()]))), ["stuck/r1"]);
     // A robot that says it is stuck (its navigator refused the goal) is raised at once, with its
     // reason, and withdrawn when it no longer says so.
     let says = |x: f64| {
@@ -211,18 +212,18 @@ fn manager_loss_and_failover_and_stuck_robots() {
             ..robot("r1", RobotStatus::Busy, Some("p"), x, "goto(3.00,0.00)")
         }]
     };
-    let cmds = a.handle(11.5, snap(says(3.5), vec![p.clone()]));
+    let cmds = a.handle(at(11.5), snap(says(3.5), vec![p.clone()]));
     assert_eq!(raised(&cmds), [("stuck/r1".into(), Priority::Warning)]);
     assert!(format!("{cmds:?}").contains("rejected the goal"), "{cmds:?}");
-    assert_eq!(withdrawn(&a.handle(12.0, snap(r(3.6), vec![p.clone()]))), ["stuck/r1"]);
+    assert_eq!(withdrawn(&a.handle(at(12.0), snap(r(3.6), vec![p.clone()]))), ["stuck/r1"]);
     // The manager moves: an event advice that stands for a while.
     p.manager = ManagerView { node: "r2".into(), epoch: 2, chain_epoch: 1, chain: vec![], uncommitted_s: None };
-    assert_eq!(raised(&a.handle(12.0, snap(r(4.0), vec![p.clone()]))), [("failover/p".into(), Priority::Warning)]);
-    assert_eq!(withdrawn(&a.handle(43.0, snap(r(5.0), vec![p.clone()]))), ["failover/p"]);
+    assert_eq!(raised(&a.handle(at(12.0), snap(r(4.0), vec![p.clone()]))), [("failover/p".into(), Priority::Warning)]);
+    assert_eq!(withdrawn(&a.handle(at(43.0), snap(r(5.0), vec![p.clone()]))), ["failover/p"]);
     // The manager's host is lost: critical while stalled.
     p.status = MissionStatus::Stalled;
     p.error = Some("mission host r2 lost; its robots keep their last plans".into());
-    assert_eq!(raised(&a.handle(44.0, snap(r(6.0), vec![p]))), [("manager/p".into(), Priority::Critical)]);
+    assert_eq!(raised(&a.handle(at(44.0), snap(r(6.0), vec![p]))), [("manager/p".into(), Priority::Critical)]);
 }
 
 #[test]
@@ -247,7 +248,7 @@ fn one_robot_is_moved_once_per_look() {
         robot("r5", RobotStatus::Idle, None, 4.0, "hold"),
     ];
     let ms = vec![mission("p", "patrol", &["r3"], None, None), mission("q", "patrol", &["r4"], None, None)];
-    let cmds = a.handle(0.0, snap(robots, ms));
+    let cmds = a.handle(at(0.0), snap(robots, ms));
     let moves: Vec<&RobotMove> = cmds
         .iter()
         .filter_map(|c| match c {
@@ -276,12 +277,12 @@ fn a_robot_that_lost_what_its_mission_requires_is_replaced_by_one_that_has_it() 
         robot("r5", RobotStatus::Busy, Some("q"), 4.0, "step 1"),
         robot("r6", RobotStatus::Busy, Some("q"), 5.0, "step 1"),
     ];
-    a.handle(0.0, snap(before.clone(), vec![p.clone(), q.clone()]));
+    a.handle(at(0.0), snap(before.clone(), vec![p.clone(), q.clone()]));
     // r2's camera is gone: central took it out of p.
     let mut after = before.clone();
     after[1] = with(robot("r2", RobotStatus::Idle, None, 1.0, "hold"), &[]);
     p.robots = vec!["r1".into()];
-    let cmds = a.handle(20.0, snap(after.clone(), vec![p.clone(), q.clone()]));
+    let cmds = a.handle(at(20.0), snap(after.clone(), vec![p.clone(), q.clone()]));
     assert!(raised(&cmds).contains(&("capability/r2".into(), Priority::Warning)), "{cmds:?}");
     let adv = a.advice().into_iter().find(|a| a.id == "capability/r2").expect("advice");
     assert_eq!(adv.reason, "robot r2 no longer has camera, which mission p requires: it left the mission: add r4, which has camera");
@@ -295,7 +296,7 @@ fn a_robot_that_lost_what_its_mission_requires_is_replaced_by_one_that_has_it() 
     q2.robots = vec!["r4".into(), "r5".into(), "r6".into()];
     let mut b = Agent::new(AgentConfig::default());
     b.handle(
-        0.0,
+        at(0.0),
         snap(
             before.iter().cloned().map(|r| if r.id == "r4" { after[3].clone() } else { r }).collect(),
             vec![mission("p", "patrol", &["r1", "r2"], None, None), q2.clone()],
@@ -303,11 +304,11 @@ fn a_robot_that_lost_what_its_mission_requires_is_replaced_by_one_that_has_it() 
     );
     let mut p2 = p.clone();
     p2.robots = vec!["r1".into()];
-    b.handle(1.0, snap(after.clone(), vec![p2, q2]));
+    b.handle(at(1.0), snap(after.clone(), vec![p2, q2]));
     let adv = b.advice().into_iter().find(|a| a.id == "capability/r2").expect("advice");
     assert!(adv.reason.ends_with("add r4 from q, which has camera"), "{}", adv.reason);
     // It is an event: gone after a while.
-    let cmds = a.handle(60.0, snap(after, vec![p, q]));
+    let cmds = a.handle(at(60.0), snap(after, vec![p, q]));
     assert!(withdrawn(&cmds).contains(&"capability/r2".to_string()), "{cmds:?}");
 }
 
@@ -335,7 +336,7 @@ fn a_leaf_team_below_its_minimum_is_critical_with_a_robot_that_fits_it() {
         aerial,
         robot("r5", RobotStatus::Idle, None, 5.0, "hold"),
     ];
-    a.handle(0.0, snap(robots.clone(), vec![e.clone()]));
+    a.handle(at(0.0), snap(robots.clone(), vec![e.clone()]));
     let adv = a.advice().into_iter().find(|a| a.id == "team/e/ground").expect("advice");
     assert_eq!(adv.priority, Priority::Critical);
     assert_eq!(adv.reason, "team e/ground of mission e has 1 of the 2 members it needs: add r5 (type ground)");
@@ -343,7 +344,7 @@ fn a_leaf_team_below_its_minimum_is_critical_with_a_robot_that_fits_it() {
     assert!(a.advice().iter().all(|a| a.id != "team/e/air"), "a team at its minimum is fine");
     // Filled again: withdrawn.
     e.team_views[0].members.push("r5".into());
-    let cmds = a.handle(1.0, snap(robots, vec![e]));
+    let cmds = a.handle(at(1.0), snap(robots, vec![e]));
     assert!(withdrawn(&cmds).contains(&"team/e/ground".to_string()), "{cmds:?}");
 }
 
@@ -373,15 +374,15 @@ fn robots_waiting_or_blocked_in_traffic_are_raised_with_who_is_in_the_way() {
         vec![TrafficView { map: "h".repeat(64), incarnation: 1, deputies: vec![], robots: vec![r1] }]
     };
     let look = |robots, traffic| Event::Snapshot { robots, missions: ms.clone(), traffic };
-    a.handle(0.0, look(robots(0.0), view(Some(0.0), false)));
+    a.handle(at(0.0), look(robots(0.0), view(Some(0.0), false)));
     // Waiting 20 s: not stuck (it is told why it waits), not raised yet.
-    assert!(raised(&a.handle(20.0, look(robots(0.0), view(Some(20.0), false)))).is_empty());
-    let cmds = a.handle(31.0, look(robots(0.0), view(Some(31.0), false)));
+    assert!(raised(&a.handle(at(20.0), look(robots(0.0), view(Some(20.0), false)))).is_empty());
+    let cmds = a.handle(at(31.0), look(robots(0.0), view(Some(31.0), false)));
     assert_eq!(raised(&cmds), [("traffic/r1".into(), Priority::Warning)]);
     assert!(format!("{cmds:?}").contains("mrmm op goto r2"), "an idle robot in the way is driven away: {cmds:?}");
-    assert_eq!(withdrawn(&a.handle(32.0, look(robots(1.0), view(None, false)))), ["traffic/r1"]);
+    assert_eq!(withdrawn(&a.handle(at(32.0), look(robots(1.0), view(None, false)))), ["traffic/r1"]);
     // Blocked: at once.
-    assert_eq!(raised(&a.handle(33.0, look(robots(1.0), view(Some(1.0), true)))), [("traffic/r1".into(), Priority::Warning)]);
+    assert_eq!(raised(&a.handle(at(33.0), look(robots(1.0), view(Some(1.0), true)))), [("traffic/r1".into(), Priority::Warning)]);
 }
 
 /// A battery below the low mark, not charging, is a warning; empty, critical (and not also
@@ -394,25 +395,25 @@ fn low_and_empty_batteries_are_raised_and_withdrawn_once_charging() {
         r.battery = Some(BatteryState { charge, charging, reach_m: Some(charge * 1000.0) });
         vec![r]
     };
-    assert!(raised(&a.handle(1.0, snap(with(0.5, false), vec![]))).is_empty());
-    let low = a.handle(2.0, snap(with(0.15, false), vec![]));
+    assert!(raised(&a.handle(at(1.0), snap(with(0.5, false), vec![]))).is_empty());
+    let low = a.handle(at(2.0), snap(with(0.15, false), vec![]));
     assert_eq!(raised(&low), [("battery/r1/low".into(), Priority::Warning)]);
     assert!(format!("{low:?}").contains("15 %, 150 m left"), "{low:?}");
     // Empty and stuck at its goal: one critical advice, not a stuck one besides.
     let mut empty = with(0.0, false);
     empty[0].stuck = Some("its battery is empty".into());
-    let cmds = a.handle(3.0, snap(empty.clone(), vec![]));
+    let cmds = a.handle(at(3.0), snap(empty.clone(), vec![]));
     assert_eq!(raised(&cmds), [("battery/r1/empty".into(), Priority::Critical)]);
     assert_eq!(withdrawn(&cmds), ["battery/r1/low"]);
-    let cmds = a.handle(30.0, snap(empty, vec![]));
+    let cmds = a.handle(at(30.0), snap(empty, vec![]));
     assert!(!format!("{cmds:?}").contains("stuck/r1"), "{cmds:?}");
-    assert_eq!(withdrawn(&a.handle(31.0, snap(with(0.0, true), vec![]))), ["battery/r1/empty"]);
-    let charged = a.handle(32.0, snap(with(0.9, false), vec![]));
+    assert_eq!(withdrawn(&a.handle(at(31.0), snap(with(0.0, true), vec![]))), ["battery/r1/empty"]);
+    let charged = a.handle(at(32.0), snap(with(0.9, false), vec![]));
     assert!(!format!("{charged:?}").contains("battery/"), "{charged:?}");
     // A lost robot's battery is not raised (the loss is).
     let mut lost = with(0.1, false);
     lost[0].status = RobotStatus::Lost;
-    assert!(!format!("{:?}", a.handle(40.0, snap(lost, vec![]))).contains("battery/r1"));
+    assert!(!format!("{:?}", a.handle(at(40.0), snap(lost, vec![]))).contains("battery/r1"));
 }
 
 /// The energy forecast: two robots of a mission draining 0.1 % a second (low in 5 and 12 minutes) and
@@ -440,25 +441,25 @@ fn a_mission_that_will_run_short_of_charged_spares_is_forecast() {
     };
     let forecasts = |cmds: &[Command]| raised(cmds).into_iter().filter(|(id, _)| id.starts_with("forecast/")).collect::<Vec<_>>();
     let p = || mission("p", "coverage", &["r1", "r2"], None, None);
-    assert!(forecasts(&a.handle(0.0, snap(fleet(0.0, 0), vec![p()]))).is_empty(), "no rate measured yet");
-    let cmds = a.handle(30.0, snap(fleet(30.0, 0), vec![p()]));
+    assert!(forecasts(&a.handle(at(0.0), snap(fleet(0.0, 0), vec![p()]))).is_empty(), "no rate measured yet");
+    let cmds = a.handle(at(30.0), snap(fleet(30.0, 0), vec![p()]));
     assert_eq!(forecasts(&cmds), [("forecast/p".into(), Priority::Warning)]);
     let advice = a.advice().into_iter().find(|x| x.id == "forecast/p").expect("standing");
     assert!(advice.reason.contains("short of robots in about 4 min") && advice.reason.contains("2 of its robots"), "{}", advice.reason);
     assert!((advice.evidence["short_in_s"].as_f64().expect("seconds") - 270.0).abs() < 1.0, "{}", advice.evidence);
     assert_eq!(advice.evidence["needs"][0]["robot"], "r1");
     // One spare charged enough: r1 is covered, r2 is not (still standing, now about r2).
-    a.handle(40.0, snap(fleet(40.0, 1), vec![p()]));
+    a.handle(at(40.0), snap(fleet(40.0, 1), vec![p()]));
     let advice = a.advice().into_iter().find(|x| x.id == "forecast/p").expect("still short");
     assert_eq!(advice.evidence["short_by"], 1);
     // A second spare, charging at 0.2 % a second: done in about 3 minutes, before r2 is low.
-    a.handle(50.0, snap(fleet(50.0, 2), vec![p()]));
-    let cmds = a.handle(80.0, snap(fleet(80.0, 2), vec![p()]));
+    a.handle(at(50.0), snap(fleet(50.0, 2), vec![p()]));
+    let cmds = a.handle(at(80.0), snap(fleet(80.0, 2), vec![p()]));
     assert_eq!(withdrawn(&cmds), ["forecast/p"]);
     // Off: nothing.
     let mut off = Agent::new(AgentConfig { forecast_s: 0.0, ..AgentConfig::default() });
-    off.handle(0.0, snap(fleet(0.0, 0), vec![p()]));
-    assert!(forecasts(&off.handle(30.0, snap(fleet(30.0, 0), vec![p()]))).is_empty());
+    off.handle(at(0.0), snap(fleet(0.0, 0), vec![p()]));
+    assert!(forecasts(&off.handle(at(30.0), snap(fleet(30.0, 0), vec![p()]))).is_empty());
 }
 
 /// A low robot of a mission with `charging=ask` comes with the order that sends it; with `off`
@@ -472,7 +473,7 @@ fn low_robots_of_missions_that_do_not_charge_automatically_say_so() {
         let mut a = Agent::new(AgentConfig::default());
         let mut p = mission("p", "coverage", &["r1"], None, None);
         p.params.insert("charging".into(), mode.into());
-        a.handle(0.0, snap(vec![r1.clone()], vec![p]));
+        a.handle(at(0.0), snap(vec![r1.clone()], vec![p]));
         let advice = a.advice().into_iter().find(|x| x.id == "battery/r1/low").expect("raised");
         assert!(advice.reason.contains(says), "{mode}: {}", advice.reason);
         assert_eq!(advice.suggestion.as_deref(), suggests, "{mode}");
@@ -492,11 +493,11 @@ fn a_robot_held_for_want_of_reach_where_the_operator_decides_is_raised() {
         held: held.iter().map(|&h| h.into()).collect(),
         ..mission("p", "patrol", &["r1", "r2"], None, None)
     };
-    assert!(raised(&a.handle(1.0, snap(vec![r1.clone()], vec![p("auto", &["r1"])]))).is_empty(), "auto: central sends it");
-    let cmds = a.handle(2.0, snap(vec![r1.clone()], vec![p("ask", &["r1"])]));
+    assert!(raised(&a.handle(at(1.0), snap(vec![r1.clone()], vec![p("auto", &["r1"])]))).is_empty(), "auto: central sends it");
+    let cmds = a.handle(at(2.0), snap(vec![r1.clone()], vec![p("ask", &["r1"])]));
     assert_eq!(raised(&cmds), [("reach/r1".into(), Priority::Warning)]);
     let advice = a.advice().into_iter().find(|x| x.id == "reach/r1").expect("standing");
     assert_eq!(advice.suggestion.as_deref(), Some("mrmm op charge r1"));
     assert!(advice.reason.contains("35 m") && advice.reason.contains("mission p"), "{}", advice.reason);
-    assert_eq!(withdrawn(&a.handle(3.0, snap(vec![r1], vec![p("ask", &[])]))), ["reach/r1"]);
+    assert_eq!(withdrawn(&a.handle(at(3.0), snap(vec![r1], vec![p("ask", &[])]))), ["reach/r1"]);
 }

@@ -8,7 +8,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::RobotId;
+use mrmm_proto::{RobotId, Time};
 
 use super::INFO_RETRY_S;
 
@@ -24,9 +24,9 @@ pub const UNVOUCHED_PER_TICK: usize = 8;
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Candidate {
     /// When its token appeared (or its telemetry first came).
-    since: f64,
+    since: Time,
     /// When it was last asked who it is.
-    asked: Option<f64>,
+    asked: Option<Time>,
     /// Its own sealed telemetry came.
     vouched: bool,
 }
@@ -41,7 +41,7 @@ pub(super) struct Candidates {
 
 impl Candidates {
     /// Its token appeared at `now`; whether to ask it at once.
-    pub(super) fn appeared(&mut self, id: &str, now: f64) -> bool {
+    pub(super) fn appeared(&mut self, id: &str, now: Time) -> bool {
         if let Some(c) = self.by_id.get_mut(id) {
             c.since = now;
             return false;
@@ -57,13 +57,13 @@ impl Candidates {
 
     /// Its sealed telemetry came at `now`: vouched, and whether to ask it now (not asked within
     /// [`INFO_RETRY_S`]). A vouched id takes the place of an unvouched one if none is free.
-    pub(super) fn vouched(&mut self, id: &str, now: f64) -> bool {
+    pub(super) fn vouched(&mut self, id: &str, now: Time) -> bool {
         if !self.by_id.contains_key(id) && self.by_id.len() >= MAX_CANDIDATES {
             let Some(evicted) = self
                 .by_id
                 .iter()
                 .filter(|(_, c)| !c.vouched)
-                .min_by(|a, b| a.1.asked.unwrap_or(f64::MAX).total_cmp(&b.1.asked.unwrap_or(f64::MAX)))
+                .min_by(|a, b| a.1.asked.unwrap_or(Time::NEVER).total_cmp(&b.1.asked.unwrap_or(Time::NEVER)))
                 .map(|(id, _)| id.clone())
             else {
                 self.ignore(id);
@@ -86,7 +86,7 @@ impl Candidates {
     }
 
     /// It answered: no longer a candidate; when it appeared, if it was one.
-    pub(super) fn take(&mut self, id: &str) -> Option<f64> {
+    pub(super) fn take(&mut self, id: &str) -> Option<Time> {
         self.by_id.remove(id).map(|c| c.since)
     }
 
@@ -108,13 +108,13 @@ impl Candidates {
     /// Candidates to ask again at `now`: every vouched one not asked within [`INFO_RETRY_S`]
     /// (at most `budget`), then at most [`UNVOUCHED_PER_TICK`] unvouched ones, those asked
     /// longest ago first.
-    pub(super) fn due(&mut self, now: f64, budget: usize) -> Vec<RobotId> {
+    pub(super) fn due(&mut self, now: Time, budget: usize) -> Vec<RobotId> {
         let ready = |c: &Candidate| c.asked.is_none_or(|a| now - a >= INFO_RETRY_S);
         let mut due: Vec<RobotId> = self.by_id.iter().filter(|(_, c)| c.vouched && ready(c)).map(|(id, _)| id.clone()).take(budget).collect();
         let room = budget.saturating_sub(due.len()).min(UNVOUCHED_PER_TICK);
         if room > 0 {
-            let mut waiting: Vec<(f64, &RobotId)> =
-                self.by_id.iter().filter(|(_, c)| !c.vouched && ready(c)).map(|(id, c)| (c.asked.unwrap_or(f64::MIN), id)).collect();
+            let mut waiting: Vec<(Time, &RobotId)> =
+                self.by_id.iter().filter(|(_, c)| !c.vouched && ready(c)).map(|(id, c)| (c.asked.unwrap_or(Time::LONG_AGO), id)).collect();
             if waiting.len() > room {
                 waiting.select_nth_unstable_by(room - 1, |a, b| a.0.total_cmp(&b.0));
                 waiting.truncate(room);
@@ -140,27 +140,28 @@ impl Candidates {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     #[test]
     fn a_flood_of_tokens_is_bounded_and_a_vouched_robot_goes_first() {
         let mut c = Candidates::default();
         let mut at_once = 0;
         for i in 0..10_000 {
-            at_once += usize::from(c.appeared(&format!("ghost{i}"), 0.0));
+            at_once += usize::from(c.appeared(&format!("ghost{i}"), at(0.0)));
         }
         assert_eq!((c.len(), at_once), (MAX_CANDIDATES, ASK_AT_ONCE_BELOW), "bounded; the first asked at once");
         // The real robot's token was ignored (full), but its sealed telemetry vouches for it.
-        assert!(c.vouched("r1", 0.5), "asked at once");
+        assert!(c.vouched("r1", at(0.5)), "asked at once");
         assert!(c.contains("r1") && c.len() == MAX_CANDIDATES);
-        assert!(!c.vouched("r1", 0.7), "not again within the retry period");
-        let due = c.due(0.5 + INFO_RETRY_S, 64);
+        assert!(!c.vouched("r1", at(0.7)), "not again within the retry period");
+        let due = c.due(at(0.5 + INFO_RETRY_S), 64);
         assert_eq!(due.len(), 1 + UNVOUCHED_PER_TICK);
         assert_eq!(due[0], RobotId::from("r1"), "the vouched robot first");
         assert!(due[1..].iter().all(|id| id.as_str().starts_with("ghost")));
         // Asked ones wait their turn: the next tick asks others.
-        let next = c.due(0.6 + INFO_RETRY_S, 64);
+        let next = c.due(at(0.6 + INFO_RETRY_S), 64);
         assert!(next.iter().all(|id| !due.contains(id)), "{next:?}");
-        assert_eq!(c.take("r1"), Some(0.5));
+        assert_eq!(c.take("r1"), Some(at(0.5)));
         c.gone("ghost1");
         assert!(!c.contains("ghost1") && !c.contains("r1"));
     }

@@ -7,7 +7,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::{MissionCtl, MissionName, RobotId};
+use mrmm_proto::{MissionCtl, MissionName, RobotId, Time};
 
 use super::{Ctls, RELEASE_GRACE_S};
 use crate::Failure;
@@ -25,7 +25,7 @@ pub(super) enum Event {
 #[derive(Debug, Clone)]
 struct Released {
     ctl: u64,
-    acked: Option<f64>,
+    acked: Option<Time>,
 }
 
 /// The controls waiting for heads, and the robots being let go, keyed by (robot, mission): a
@@ -37,7 +37,7 @@ pub(super) struct Controls {
 }
 
 impl Controls {
-    pub(super) fn handle(&mut self, now: f64, event: Event) {
+    pub(super) fn handle(&mut self, now: Time, event: Event) {
         match event {
             Event::Answered { id, result } => {
                 self.ctls.done(now, id, result);
@@ -119,7 +119,7 @@ impl Controls {
     }
 
     /// The controls to send now (see [`Ctls::due`]).
-    pub(super) fn due(&mut self, now: f64) -> Vec<(u64, MissionName, MissionCtl)> {
+    pub(super) fn due(&mut self, now: Time) -> Vec<(u64, MissionName, MissionCtl)> {
         self.ctls.due(now)
     }
 }
@@ -127,6 +127,7 @@ impl Controls {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     fn ack() -> Result<(), Failure> {
         Ok(())
@@ -140,13 +141,13 @@ mod tests {
         assert_eq!(c.pending_for("r1"), [ctl]);
         assert_eq!(c.releasing(), BTreeSet::from([("r1".into(), "a".into())]));
         assert!(!c.letting_go("r1", "b", false) && c.pending_for("r2").is_empty());
-        c.handle(10.0, Event::Answered { id: ctl, result: ack() });
+        c.handle(at(10.0), Event::Answered { id: ctl, result: ack() });
         // Acknowledged: no longer pending, still held for the grace period.
         assert!(!c.letting_go("r1", "a", true) && c.letting_go("r1", "a", false));
         assert!(c.pending_for("r1").is_empty() && c.releasing().is_empty());
-        c.handle(10.0 + RELEASE_GRACE_S - 0.1, Event::Tick);
+        c.handle(at(10.0 + RELEASE_GRACE_S - 0.1), Event::Tick);
         assert!(c.letting_go("r1", "a", false));
-        c.handle(10.0 + RELEASE_GRACE_S, Event::Tick);
+        c.handle(at(10.0 + RELEASE_GRACE_S), Event::Tick);
         assert!(!c.letting_go("r1", "a", false));
     }
 
@@ -160,8 +161,8 @@ mod tests {
         let end = c.end("b");
         assert_eq!(c.pending_for("r1"), [first, end]);
         assert!(c.has("b", |x| *x == MissionCtl::Terminate));
-        c.handle(1.0, Event::Answered { id: first, result: ack() });
-        c.handle(1.0, Event::Answered { id: end, result: ack() });
+        c.handle(at(1.0), Event::Answered { id: first, result: ack() });
+        c.handle(at(1.0), Event::Answered { id: end, result: ack() });
         assert!(c.pending_for("r1").is_empty());
         let left = c.push("c", MissionCtl::Left { ids: vec!["r2".into()] }, vec![]);
         c.hold("r2".into(), "c", left);

@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 
-use mrmm_proto::{MissionCtl, MissionName};
+use mrmm_proto::{MissionCtl, MissionName, Time};
 
 use crate::Failure;
 
@@ -22,9 +22,9 @@ struct Pending {
     after: Vec<u64>,
     in_flight: bool,
     /// First sent at.
-    first: Option<f64>,
+    first: Option<Time>,
     /// Not sent again before.
-    retry_at: f64,
+    retry_at: Time,
 }
 
 /// Controls waiting to be acknowledged, per mission.
@@ -45,7 +45,7 @@ impl Ctls {
             after,
             in_flight: false,
             first: None,
-            retry_at: f64::NEG_INFINITY,
+            retry_at: Time::LONG_AGO,
         });
         id
     }
@@ -64,7 +64,7 @@ impl Ctls {
     /// another control and concerns no robot of a waiting one before it (a control waiting for
     /// another mission does not hold up the controls of other robots behind it), if none is in
     /// flight and it is due.
-    pub fn due(&mut self, now: f64) -> Vec<(u64, MissionName, MissionCtl)> {
+    pub fn due(&mut self, now: Time) -> Vec<(u64, MissionName, MissionCtl)> {
         let pending: std::collections::BTreeSet<u64> = self.queues.values().flatten().map(|p| p.id).collect();
         let mut out = Vec::new();
         for (mission, q) in self.queues.iter_mut() {
@@ -102,7 +102,7 @@ impl Ctls {
     }
 
     /// The answer to control `id`: done (acknowledged, or refused for good), or to be sent again.
-    pub fn done(&mut self, now: f64, id: u64, result: Result<(), Failure>) {
+    pub fn done(&mut self, now: Time, id: u64, result: Result<(), Failure>) {
         let Some((mission, q)) = self.queues.iter_mut().find(|(_, q)| q.iter().any(|p| p.id == id)) else { return };
         let mission = mission.clone();
         let Some(at) = q.iter().position(|p| p.id == id) else { return };
@@ -164,6 +164,7 @@ fn robots(ctl: &MissionCtl) -> Option<Vec<&str>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     fn left(id: &str) -> MissionCtl {
         MissionCtl::Left { ids: vec![id.into()] }
@@ -177,15 +178,15 @@ mod tests {
         let mut c = Ctls::default();
         let a = c.push("m", left("r1"), vec![]);
         let b = c.push("m", left("r2"), vec![]);
-        assert_eq!(c.due(0.0), vec![(a, "m".into(), left("r1"))]);
-        assert!(c.due(0.1).is_empty(), "in flight");
-        c.done(2.0, a, no_answer());
-        assert!(c.due(2.5).is_empty(), "not before the retry delay");
-        assert_eq!(c.due(3.0).len(), 1);
-        c.done(3.1, a, Ok(()));
-        assert_eq!(c.due(3.1), vec![(b, "m".into(), left("r2"))]);
-        c.done(3.2, b, Err(Failure::fatal("refused")));
-        assert!(c.due(10.0).is_empty());
+        assert_eq!(c.due(at(0.0)), vec![(a, "m".into(), left("r1"))]);
+        assert!(c.due(at(0.1)).is_empty(), "in flight");
+        c.done(at(2.0), a, no_answer());
+        assert!(c.due(at(2.5)).is_empty(), "not before the retry delay");
+        assert_eq!(c.due(at(3.0)).len(), 1);
+        c.done(at(3.1), a, Ok(()));
+        assert_eq!(c.due(at(3.1)), vec![(b, "m".into(), left("r2"))]);
+        c.done(at(3.2), b, Err(Failure::fatal("refused")));
+        assert!(c.due(at(10.0)).is_empty());
     }
 
     #[test]
@@ -193,13 +194,13 @@ mod tests {
         let mut c = Ctls::default();
         let l = c.push("m1", left("r1"), vec![]);
         let j = c.push("m2", MissionCtl::Terminate, vec![l]);
-        assert_eq!(c.due(0.0).iter().map(|d| d.0).collect::<Vec<_>>(), [l]);
-        c.done(1.0, l, no_answer());
-        assert!(c.due(2.0).iter().all(|d| d.0 == l), "m2 still waits");
-        c.done(61.0, l, no_answer());
-        assert_eq!(c.due(61.0).iter().map(|d| d.0).collect::<Vec<_>>(), [j], "given up after a minute");
+        assert_eq!(c.due(at(0.0)).iter().map(|d| d.0).collect::<Vec<_>>(), [l]);
+        c.done(at(1.0), l, no_answer());
+        assert!(c.due(at(2.0)).iter().all(|d| d.0 == l), "m2 still waits");
+        c.done(at(61.0), l, no_answer());
+        assert_eq!(c.due(at(61.0)).iter().map(|d| d.0).collect::<Vec<_>>(), [j], "given up after a minute");
         c.cancel("m2");
-        assert!(c.due(70.0).is_empty());
+        assert!(c.due(at(70.0)).is_empty());
     }
 
     #[test]
@@ -210,17 +211,17 @@ mod tests {
         let b = c.push("m", left("r1"), vec![]);
         let d = c.push("m", left("r2"), vec![]);
         let due = |c: &mut Ctls, now| c.due(now).iter().map(|d| d.0).collect::<Vec<_>>();
-        assert_eq!(due(&mut c, 0.0), [d, x], "r2's control goes past r1's waiting ones");
-        c.done(0.1, d, Ok(()));
-        assert!(due(&mut c, 0.2).is_empty(), "b stays behind a (same robot)");
+        assert_eq!(due(&mut c, at(0.0)), [d, x], "r2's control goes past r1's waiting ones");
+        c.done(at(0.1), d, Ok(()));
+        assert!(due(&mut c, at(0.2)).is_empty(), "b stays behind a (same robot)");
         // The other mission is gone; its end (answered at once here) stands in for its control.
         let gone = c.cancel_ids("other");
         let end = c.push("other", MissionCtl::Terminate, vec![]);
         c.wait_instead(&gone, end);
-        assert_eq!(due(&mut c, 0.3), [end]);
-        c.done(0.4, end, Ok(()));
-        assert_eq!(due(&mut c, 0.5), [a]);
-        c.done(0.6, a, Ok(()));
-        assert_eq!(due(&mut c, 0.7), [b]);
+        assert_eq!(due(&mut c, at(0.3)), [end]);
+        c.done(at(0.4), end, Ok(()));
+        assert_eq!(due(&mut c, at(0.5)), [a]);
+        c.done(at(0.6), a, Ok(()));
+        assert_eq!(due(&mut c, at(0.7)), [b]);
     }
 }

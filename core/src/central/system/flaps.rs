@@ -5,7 +5,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{JournalEvent, RobotId};
+use mrmm_proto::{JournalEvent, RobotId, Time};
 
 /// Losses and returns of one robot journaled one by one within a window at most.
 pub const FLAP_ENTRIES: u8 = 4;
@@ -15,12 +15,12 @@ pub const FLAP_WINDOW_S: f64 = 10.0;
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Window {
-    start: f64,
+    start: Time,
     entries: u8,
     /// Losses not journaled one by one.
     losses: u32,
     /// Its last loss or return.
-    last: f64,
+    last: Time,
     alive: bool,
 }
 
@@ -32,7 +32,7 @@ pub(super) struct Flaps {
 
 impl Flaps {
     /// `robot` was lost (`alive` false) or came back at `now`: the entry to journal now, if any.
-    pub(super) fn changed(&mut self, now: f64, robot: &RobotId, alive: bool) -> Option<JournalEvent> {
+    pub(super) fn changed(&mut self, now: Time, robot: &RobotId, alive: bool) -> Option<JournalEvent> {
         let w = self.windows.entry(robot.clone()).or_insert(Window { start: now, entries: 0, losses: 0, last: now, alive });
         if now - w.start >= FLAP_WINDOW_S && w.losses == 0 {
             *w = Window { start: now, entries: 0, losses: 0, last: now, alive };
@@ -51,7 +51,7 @@ impl Flaps {
 
     /// The robots quiet for [`FLAP_WINDOW_S`] since their last change: one entry each for what
     /// was not journaled; windows of quiet robots are dropped.
-    pub(super) fn due(&mut self, now: f64) -> Vec<JournalEvent> {
+    pub(super) fn due(&mut self, now: Time) -> Vec<JournalEvent> {
         let mut out = Vec::new();
         self.windows.retain(|robot, w| {
             if now - w.last < FLAP_WINDOW_S {
@@ -69,6 +69,7 @@ impl Flaps {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     fn lost(r: &str) -> JournalEvent {
         JournalEvent::RobotLost { robot: r.into() }
@@ -78,19 +79,19 @@ mod tests {
     fn a_few_losses_are_journaled_one_by_one_and_flapping_as_one_entry() {
         let mut f = Flaps::default();
         let r1 = RobotId::from("r1");
-        assert_eq!(f.changed(0.0, &r1, false), Some(lost("r1")));
-        assert_eq!(f.changed(1.0, &r1, true), Some(JournalEvent::RobotBack { robot: r1.clone() }));
-        assert!(f.due(5.0).is_empty(), "not quiet yet");
-        assert!(f.due(11.0).is_empty(), "quiet, nothing left out");
+        assert_eq!(f.changed(at(0.0), &r1, false), Some(lost("r1")));
+        assert_eq!(f.changed(at(1.0), &r1, true), Some(JournalEvent::RobotBack { robot: r1.clone() }));
+        assert!(f.due(at(5.0)).is_empty(), "not quiet yet");
+        assert!(f.due(at(11.0)).is_empty(), "quiet, nothing left out");
         // 100 000 losses and returns in 50 s: four entries, then one when it is quiet.
         let mut entries = 0;
         for k in 0..100_000 {
-            entries += usize::from(f.changed(20.0 + f64::from(k) * 5e-4, &r1, k % 2 == 1).is_some());
-            entries += f.due(20.0 + f64::from(k) * 5e-4).len();
+            entries += usize::from(f.changed(at(20.0 + f64::from(k) * 5e-4), &r1, k % 2 == 1).is_some());
+            entries += f.due(at(20.0 + f64::from(k) * 5e-4)).len();
         }
         assert_eq!(entries, usize::from(FLAP_ENTRIES));
-        assert!(f.due(75.0).is_empty(), "not quiet yet");
-        assert_eq!(f.due(90.0), vec![JournalEvent::RobotFlapping { robot: r1.clone(), losses: 49_998, alive: true }]);
+        assert!(f.due(at(75.0)).is_empty(), "not quiet yet");
+        assert_eq!(f.due(at(90.0)), vec![JournalEvent::RobotFlapping { robot: r1.clone(), losses: 49_998, alive: true }]);
         assert!(f.windows.is_empty());
     }
 }

@@ -6,7 +6,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::{ErrorReply, Key, Member, NodeId, RobotId, RobotInfo, RobotSpec, Telemetry};
+use mrmm_proto::{ErrorReply, Key, Member, NodeId, RobotId, RobotInfo, RobotSpec, Telemetry, Time};
 
 use super::candidates::Candidates;
 use super::{FETCH_PER_TICK, INFO_RETRY_S, MAX_FLEET};
@@ -18,20 +18,20 @@ pub(super) struct Record {
     pub(super) alive: bool,
     pub(super) last: Option<Telemetry>,
     /// When the last info request went out (seconds, driver clock).
-    pub(super) info_asked: Option<f64>,
+    pub(super) info_asked: Option<Time>,
     /// Set when the robot (re)appears: its sequence numbers may restart from 1.
     pub(super) fresh: bool,
     /// When we last ordered it out of a plan it should not run.
-    pub(super) leave_sent: Option<f64>,
+    pub(super) leave_sent: Option<Time>,
     /// When it was last admitted again to its mission (it restarted and forgot).
-    pub(super) admit_sent: Option<f64>,
+    pub(super) admit_sent: Option<Time>,
     /// Seen coming (back) since a head last listed it as present: only such a robot is taken
     /// back when its head reports it lost (a head may see a loss before this manager does).
     pub(super) back: bool,
     /// When its liveliness last appeared.
-    pub(super) alive_at: f64,
+    pub(super) alive_at: Time,
     /// When its liveliness last went away.
-    pub(super) lost_at: f64,
+    pub(super) lost_at: Time,
 }
 
 impl Record {
@@ -110,7 +110,7 @@ pub(super) struct Fleet {
 
 impl Fleet {
     /// Takes one thing heard of a robot or a host at `now`; returns what it decided.
-    pub(super) fn handle(&mut self, now: f64, heard: Heard) -> Vec<Fact> {
+    pub(super) fn handle(&mut self, now: Time, heard: Heard) -> Vec<Fact> {
         match heard {
             Heard::Alive(id) => match self.appeared(id.as_str(), now) {
                 Appeared::Candidate { ask: false } => vec![],
@@ -148,7 +148,7 @@ impl Fleet {
     /// A robot's telemetry: only one newer than the last counts (a robot that came back counts
     /// again from its first); a robot whose info changed since it was asked (its capabilities
     /// did) is asked again, at most once per [`INFO_RETRY_S`].
-    fn telemetry(&mut self, now: f64, t: Box<Telemetry>) -> Vec<Fact> {
+    fn telemetry(&mut self, now: Time, t: Box<Telemetry>) -> Vec<Fact> {
         let Some(rec) = self.robots.get_mut(&t.id) else {
             // Not registered: its own sealed telemetry vouches for it, and it is asked first.
             return match self.candidates.vouched(t.id.as_str(), now) {
@@ -181,7 +181,7 @@ impl Fleet {
     /// A robot's token appeared at `now`: a registered robot is alive, and asked who it is again
     /// (a restarted robot may have changed type or endpoints); any other id is a candidate until
     /// it answers (`candidates.rs`): a flood of made-up tokens never enters the registry.
-    fn appeared(&mut self, id: &str, now: f64) -> Appeared {
+    fn appeared(&mut self, id: &str, now: Time) -> Appeared {
         let Some(rec) = self.robots.get_mut(id) else {
             return Appeared::Candidate { ask: self.candidates.appeared(id, now) };
         };
@@ -197,7 +197,7 @@ impl Fleet {
 
     /// A robot's token disappeared: whether it was alive until now. Its record (and its place
     /// in a mission, which the missions keep) stays; a candidate is forgotten.
-    fn disappeared(&mut self, id: &str, now: f64) -> bool {
+    fn disappeared(&mut self, id: &str, now: Time) -> bool {
         self.unanswered.remove(id);
         self.candidates.gone(id);
         let Some(r) = self.robots.get_mut(id) else { return false };
@@ -210,7 +210,7 @@ impl Fleet {
     /// Robots lost for `after` seconds or more that `keep` does not keep (those in a mission
     /// keep their place) leave the registry: a fleet that saw thousands of robots come and go
     /// holds the ones it has. Returns how many went.
-    pub(super) fn forget_lost(&mut self, now: f64, after: f64, keep: impl Fn(&RobotId) -> bool) -> usize {
+    pub(super) fn forget_lost(&mut self, now: Time, after: f64, keep: impl Fn(&RobotId) -> bool) -> usize {
         let before = self.robots.len();
         self.robots.retain(|id, r| r.alive || now - r.lost_at < after || keep(id));
         let gone = before - self.robots.len();
@@ -223,7 +223,7 @@ impl Fleet {
     /// What a robot said of itself (its sealed answer to the info question): a candidate enters
     /// the registry (unless it holds [`MAX_FLEET`] robots already); false if neither a record
     /// nor a candidate of it is alive (then ignored).
-    fn registered(&mut self, info: RobotInfo, now: f64) -> bool {
+    fn registered(&mut self, info: RobotInfo, now: Time) -> bool {
         if !self.robots.contains_key(&info.id) {
             let Some(since) = self.candidates.take(info.id.as_str()) else {
                 tracing::debug!(robot = %info.id, "info from a robot with no liveliness: ignored");
@@ -266,7 +266,7 @@ impl Fleet {
     /// Robots alive that have not answered their info query since their token appeared, to be
     /// asked again, then candidates (vouched ones first): at most [`FETCH_PER_TICK`] (a flood of
     /// tokens costs a bounded number of queries).
-    fn fetch_due(&mut self, now: f64) -> Vec<RobotId> {
+    fn fetch_due(&mut self, now: Time) -> Vec<RobotId> {
         let mut due = self.known_due(now);
         let budget = FETCH_PER_TICK.saturating_sub(due.len());
         due.extend(self.candidates.due(now, budget));
@@ -274,7 +274,7 @@ impl Fleet {
     }
 
     /// Registered robots back that have not answered since, due to be asked again.
-    fn known_due(&mut self, now: f64) -> Vec<RobotId> {
+    fn known_due(&mut self, now: Time) -> Vec<RobotId> {
         let mut due = Vec::new();
         for id in &self.unanswered {
             if due.len() == FETCH_PER_TICK {
@@ -411,6 +411,7 @@ impl Fleet {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     fn info(id: &str) -> RobotInfo {
         RobotInfo::new(id, "ground", 1.0)
@@ -419,21 +420,21 @@ mod tests {
     #[test]
     fn a_robot_appears_registers_goes_and_comes_back() {
         let mut f = Fleet::default();
-        assert!(!f.registered(info("r1"), 0.0), "no token seen: ignored");
-        assert_eq!(f.appeared("r1", 0.0), Appeared::Candidate { ask: true });
+        assert!(!f.registered(info("r1"), at(0.0)), "no token seen: ignored");
+        assert_eq!(f.appeared("r1", at(0.0)), Appeared::Candidate { ask: true });
         assert!(!f.alive("r1") && f.get("r1").is_none(), "not in the registry before it answers");
-        assert!(f.registered(info("r1"), 0.1));
+        assert!(f.registered(info("r1"), at(0.1)));
         assert!(f.ready("r1") && f.live_robot("r1").is_ok());
-        assert_eq!(f.get("r1").map(|r| r.alive_at), Some(0.0), "alive since its token appeared");
-        assert_eq!(f.appeared("r1", 1.0), Appeared::Again);
-        assert!(f.disappeared("r1", 1.5) && !f.disappeared("r1", 1.5), "alive until now, then not");
+        assert_eq!(f.get("r1").map(|r| r.alive_at), Some(at(0.0)), "alive since its token appeared");
+        assert_eq!(f.appeared("r1", at(1.0)), Appeared::Again);
+        assert!(f.disappeared("r1", at(1.5)) && !f.disappeared("r1", at(1.5)), "alive until now, then not");
         assert_eq!(f.live_robot("r1").unwrap_err(), ErrorReply::conflict("robot \"r1\" is lost"));
-        assert_eq!(f.appeared("r1", 2.0), Appeared::Back);
-        assert!(f.get("r1").is_some_and(|r| r.back && r.fresh && r.alive_at == 2.0));
+        assert_eq!(f.appeared("r1", at(2.0)), Appeared::Back);
+        assert!(f.get("r1").is_some_and(|r| r.back && r.fresh && r.alive_at == at(2.0)));
         // A token that goes before its robot answers leaves nothing behind.
-        f.appeared("ghost", 3.0);
-        f.disappeared("ghost", 3.0);
-        assert!(!f.registered(info("ghost"), 3.1) && f.get("ghost").is_none());
+        f.appeared("ghost", at(3.0));
+        f.disappeared("ghost", at(3.0));
+        assert!(!f.registered(info("ghost"), at(3.1)) && f.get("ghost").is_none());
     }
 
     #[test]
@@ -441,14 +442,14 @@ mod tests {
         let mut f = Fleet::default();
         for i in 0..FETCH_PER_TICK + 10 {
             let id = format!("r{i}");
-            f.appeared(&id, 0.0);
-            f.registered(info(&id), 0.0);
-            f.disappeared(&id, 0.0);
-            assert_eq!(f.appeared(&id, 0.0), Appeared::Back);
+            f.appeared(&id, at(0.0));
+            f.registered(info(&id), at(0.0));
+            f.disappeared(&id, at(0.0));
+            assert_eq!(f.appeared(&id, at(0.0)), Appeared::Back);
         }
-        assert!(f.fetch_due(0.5).is_empty(), "asked when they appeared");
-        assert_eq!(f.fetch_due(INFO_RETRY_S).len(), FETCH_PER_TICK);
-        assert_eq!(f.fetch_due(INFO_RETRY_S).len(), 10, "the rest at the next tick");
+        assert!(f.fetch_due(at(0.5)).is_empty(), "asked when they appeared");
+        assert_eq!(f.fetch_due(at(INFO_RETRY_S)).len(), FETCH_PER_TICK);
+        assert_eq!(f.fetch_due(at(INFO_RETRY_S)).len(), 10, "the rest at the next tick");
     }
 
     /// Issue 50: 3 000 made-up tokens appearing and going were journaled and logged one by one;
@@ -459,16 +460,16 @@ mod tests {
         let mut f = Fleet::default();
         let mut asked = 0;
         for i in 0..10_000 {
-            asked += f.handle(0.0, Heard::Alive(format!("ghost{i}").into())).len();
+            asked += f.handle(at(0.0), Heard::Alive(format!("ghost{i}").into())).len();
         }
         assert_eq!(asked, super::super::candidates::ASK_AT_ONCE_BELOW, "a bounded number asked at once");
         assert_eq!(f.iter().count(), 0, "none in the registry");
         let r1 = RobotId::from("r1");
-        f.handle(0.1, Heard::Alive(r1.clone()));
-        assert_eq!(seen(&mut f, 0.2, "r1", 1, 0), vec![Fact::Fetch(r1.clone())], "its telemetry vouches for it: asked at once");
-        assert_eq!(f.handle(0.3, Heard::Info(info("r1"))), vec![Fact::Registered(r1.clone())]);
+        f.handle(at(0.1), Heard::Alive(r1.clone()));
+        assert_eq!(seen(&mut f, at(0.2), "r1", 1, 0), vec![Fact::Fetch(r1.clone())], "its telemetry vouches for it: asked at once");
+        assert_eq!(f.handle(at(0.3), Heard::Info(info("r1"))), vec![Fact::Registered(r1.clone())]);
         for i in 0..10_000 {
-            assert!(f.handle(1.0, Heard::Gone(format!("ghost{i}").into())).is_empty(), "no loss of a ghost");
+            assert!(f.handle(at(1.0), Heard::Gone(format!("ghost{i}").into())).is_empty(), "no loss of a ghost");
         }
         assert_eq!(f.iter().map(|(id, _)| id.clone()).collect::<Vec<_>>(), [r1]);
     }
@@ -477,16 +478,16 @@ mod tests {
     fn robots_lost_long_ago_and_in_no_mission_are_forgotten() {
         let mut f = Fleet::default();
         for id in ["r1", "r2", "r3"] {
-            f.appeared(id, 0.0);
-            f.registered(info(id), 0.0);
+            f.appeared(id, at(0.0));
+            f.registered(info(id), at(0.0));
         }
-        f.disappeared("r1", 10.0);
-        f.disappeared("r2", 10.0);
-        assert_eq!(f.forget_lost(100.0, 100.0, |_| false), 0, "not long enough");
-        assert_eq!(f.forget_lost(110.0, 100.0, |id| id == "r2"), 1, "r2 is kept (in a mission)");
+        f.disappeared("r1", at(10.0));
+        f.disappeared("r2", at(10.0));
+        assert_eq!(f.forget_lost(at(100.0), 100.0, |_| false), 0, "not long enough");
+        assert_eq!(f.forget_lost(at(110.0), 100.0, |id| id == "r2"), 1, "r2 is kept (in a mission)");
         assert!(f.get("r1").is_none() && f.get("r2").is_some() && f.get("r3").is_some());
         // Back, it registers again as a new robot.
-        assert_eq!(f.appeared("r1", 120.0), Appeared::Candidate { ask: true });
+        assert_eq!(f.appeared("r1", at(120.0)), Appeared::Candidate { ask: true });
     }
 
     #[test]
@@ -494,18 +495,18 @@ mod tests {
         let mut f = Fleet::default();
         for i in 0..MAX_FLEET {
             let id = format!("r{i}");
-            f.appeared(&id, 0.0);
-            f.registered(info(&id), 0.0);
+            f.appeared(&id, at(0.0));
+            f.registered(info(&id), at(0.0));
         }
-        f.appeared("intruder", 0.0);
-        assert!(!f.registered(info("intruder"), 0.0));
+        f.appeared("intruder", at(0.0));
+        assert!(!f.registered(info("intruder"), at(0.0)));
         assert!(f.get("intruder").is_none());
-        f.disappeared("r0", 0.5);
-        assert_eq!(f.appeared("r0", 1.0), Appeared::Back, "a known robot still comes back");
+        f.disappeared("r0", at(0.5));
+        assert_eq!(f.appeared("r0", at(1.0)), Appeared::Back, "a known robot still comes back");
     }
 
-    fn seen(f: &mut Fleet, now: f64, id: &str, seq: u64, info_rev: u32) -> Vec<Fact> {
-        let t = Telemetry { seq, info_rev, ..Telemetry::resting(id, now) };
+    fn seen(f: &mut Fleet, now: Time, id: &str, seq: u64, info_rev: u32) -> Vec<Fact> {
+        let t = Telemetry { seq, info_rev, ..Telemetry::resting(id, now.secs()) };
         let facts = f.handle(now, Heard::Telemetry(Box::new(t.clone())));
         if facts.iter().any(|x| matches!(x, Fact::Heard(_))) {
             f.keep(t);
@@ -519,25 +520,25 @@ mod tests {
     fn the_registry_decides_what_a_robot_heard_of_means() {
         let mut f = Fleet::default();
         let r1 = RobotId::from("r1");
-        assert_eq!(f.handle(0.0, Heard::Alive(r1.clone())), vec![Fact::Fetch(r1.clone())]);
-        assert_eq!(f.handle(0.1, Heard::Info(info("r1"))), vec![Fact::Registered(r1.clone())]);
-        assert!(matches!(seen(&mut f, 0.2, "r1", 5, 0).as_slice(), [Fact::Heard(t)] if t.seq == 5));
-        assert!(seen(&mut f, 0.3, "r1", 4, 0).is_empty(), "older telemetry is not news");
+        assert_eq!(f.handle(at(0.0), Heard::Alive(r1.clone())), vec![Fact::Fetch(r1.clone())]);
+        assert_eq!(f.handle(at(0.1), Heard::Info(info("r1"))), vec![Fact::Registered(r1.clone())]);
+        assert!(matches!(seen(&mut f, at(0.2), "r1", 5, 0).as_slice(), [Fact::Heard(t)] if t.seq == 5));
+        assert!(seen(&mut f, at(0.3), "r1", 4, 0).is_empty(), "older telemetry is not news");
         // Its info changed (a capability): asked again, once per retry period.
-        assert!(matches!(seen(&mut f, 1.5, "r1", 6, 1).as_slice(), [Fact::Fetch(id), Fact::Heard(_)] if *id == r1));
-        assert!(matches!(seen(&mut f, 1.6, "r1", 7, 1).as_slice(), [Fact::Heard(_)]));
-        assert_eq!(f.handle(2.0, Heard::Gone(r1.clone())), vec![Fact::Lost(r1.clone())]);
-        assert!(f.handle(2.1, Heard::Gone(r1.clone())).is_empty(), "lost once");
-        assert_eq!(f.handle(3.0, Heard::Alive(r1.clone())), vec![Fact::Back(r1.clone()), Fact::Fetch(r1.clone())]);
+        assert!(matches!(seen(&mut f, at(1.5), "r1", 6, 1).as_slice(), [Fact::Fetch(id), Fact::Heard(_)] if *id == r1));
+        assert!(matches!(seen(&mut f, at(1.6), "r1", 7, 1).as_slice(), [Fact::Heard(_)]));
+        assert_eq!(f.handle(at(2.0), Heard::Gone(r1.clone())), vec![Fact::Lost(r1.clone())]);
+        assert!(f.handle(at(2.1), Heard::Gone(r1.clone())).is_empty(), "lost once");
+        assert_eq!(f.handle(at(3.0), Heard::Alive(r1.clone())), vec![Fact::Back(r1.clone()), Fact::Fetch(r1.clone())]);
         // Back, it counts again from its first telemetry (a restart starts its sequence anew).
-        assert!(matches!(seen(&mut f, 3.1, "r1", 1, 1).as_slice(), [Fact::Heard(_)]));
+        assert!(matches!(seen(&mut f, at(3.1), "r1", 1, 1).as_slice(), [Fact::Heard(_)]));
         assert!(f.last("r1").is_some_and(|t| t.seq == 1));
-        f.handle(3.2, Heard::Info(info("r1")));
+        f.handle(at(3.2), Heard::Info(info("r1")));
         // Hosts, and the tick that asks again what was not answered.
-        assert!(f.handle(4.0, Heard::HostAlive("h1".into())).is_empty() && f.has_host("h1"));
-        assert_eq!(f.handle(4.1, Heard::HostGone("h1".into())), vec![Fact::HostLost("h1".into())]);
-        f.handle(4.2, Heard::Alive("r2".into()));
-        assert_eq!(f.handle(4.2 + INFO_RETRY_S, Heard::Tick), vec![Fact::Fetch("r2".into())]);
+        assert!(f.handle(at(4.0), Heard::HostAlive("h1".into())).is_empty() && f.has_host("h1"));
+        assert_eq!(f.handle(at(4.1), Heard::HostGone("h1".into())), vec![Fact::HostLost("h1".into())]);
+        f.handle(at(4.2), Heard::Alive("r2".into()));
+        assert_eq!(f.handle(at(4.2 + INFO_RETRY_S), Heard::Tick), vec![Fact::Fetch("r2".into())]);
     }
 
     /// A robot back whose first info answer is lost is asked again: the record from before its
@@ -546,13 +547,13 @@ mod tests {
     fn a_robot_back_is_asked_again_until_it_answers() {
         let mut f = Fleet::default();
         let r1 = RobotId::from("r1");
-        f.handle(0.0, Heard::Alive(r1.clone()));
-        f.handle(0.1, Heard::Info(info("r1")));
-        f.handle(1.0, Heard::Gone(r1.clone()));
-        assert_eq!(f.handle(2.0, Heard::Alive(r1.clone())), vec![Fact::Back(r1.clone()), Fact::Fetch(r1.clone())]);
-        assert!(f.handle(2.5, Heard::InfoFailed { id: r1.clone(), reason: "timeout".into() }).is_empty());
-        assert_eq!(f.handle(2.0 + INFO_RETRY_S, Heard::Tick), vec![Fact::Fetch(r1.clone())], "asked again");
-        f.handle(3.1, Heard::Info(info("r1")));
-        assert!(f.handle(5.0, Heard::Tick).is_empty(), "answered: not asked again");
+        f.handle(at(0.0), Heard::Alive(r1.clone()));
+        f.handle(at(0.1), Heard::Info(info("r1")));
+        f.handle(at(1.0), Heard::Gone(r1.clone()));
+        assert_eq!(f.handle(at(2.0), Heard::Alive(r1.clone())), vec![Fact::Back(r1.clone()), Fact::Fetch(r1.clone())]);
+        assert!(f.handle(at(2.5), Heard::InfoFailed { id: r1.clone(), reason: "timeout".into() }).is_empty());
+        assert_eq!(f.handle(at(2.0 + INFO_RETRY_S), Heard::Tick), vec![Fact::Fetch(r1.clone())], "asked again");
+        f.handle(at(3.1), Heard::Info(info("r1")));
+        assert!(f.handle(at(5.0), Heard::Tick).is_empty(), "answered: not asked again");
     }
 }

@@ -31,11 +31,11 @@ mod views;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 
-use mrmm_proto::ErrorReply;
 use mrmm_proto::{
     self as proto, CapabilitiesRequest, ChainEnvelope, CommandAck, GotoRequest, JournalEvent, Key, Member, MissionCtl, MissionName, MissionStart,
     MissionStatus, MissionView, NodeId, RobotCommand, RobotId, RobotInfo, RobotSpec, RobotStatus, RobotView, Sender, SystemStatus, Telemetry,
 };
+use mrmm_proto::{ErrorReply, Time};
 use serde_json::Value;
 
 pub use ctl::{Ctls, CTL_GIVE_UP_S, CTL_RETRY_S};
@@ -111,7 +111,7 @@ pub(crate) struct MissionRecord {
     former: Vec<NodeId>,
     /// When a manager last reported it (or it was defined here): a mission none reports for
     /// [`RUNNING_WAIT_S`] while robots still run it has lost its chain (`recovery.rs`).
-    reported_at: f64,
+    reported_at: Time,
     /// Capabilities every member must have (from its recipe; for an adopted mission, from its
     /// head's reports).
     requires: Vec<String>,
@@ -120,11 +120,11 @@ pub(crate) struct MissionRecord {
     /// assignment is the truth and heads are corrected.
     adopted: bool,
     /// Since when its head's reports show another definition than `def`'s (`changes.rs`).
-    spec_differs_since: Option<f64>,
+    spec_differs_since: Option<Time>,
 }
 
 impl MissionRecord {
-    fn new(def: Arc<MissionDef>, view: Option<MissionView>, adopted: bool, now: f64) -> MissionRecord {
+    fn new(def: Arc<MissionDef>, view: Option<MissionView>, adopted: bool, now: Time) -> MissionRecord {
         let requires = match &view {
             Some(v) if def.spec.is_none() => capabilities::reported(v),
             _ => capabilities::requirements(&def),
@@ -162,8 +162,8 @@ struct PendingStart {
 #[derive(Debug, Clone)]
 pub struct SystemManager {
     node: NodeId,
-    started: f64,
-    now: f64,
+    started: Time,
+    now: Time,
     fleet: Fleet,
     missions: BTreeMap<MissionName, MissionRecord>,
     /// Robot → mission: every robot is in at most one mission (a lost one keeps its place).
@@ -198,7 +198,7 @@ pub struct SystemManager {
     roll: crate::roll_call::RollCall,
     /// Robots lost this long and in no mission are forgotten; when that was last looked at.
     forget_lost_s: f64,
-    forgot_at: f64,
+    forgot_at: Time,
     /// Senders whose report of an unknown mission was not adopted (logged once each; at most
     /// [`MAX_ADOPTED`]).
     adoptions_refused: BTreeSet<Sender>,
@@ -206,7 +206,7 @@ pub struct SystemManager {
 
 impl SystemManager {
     /// `node` is the Zenoh id shown to operators; `now` the driver clock in seconds.
-    pub fn new(node: NodeId, now: f64) -> Self {
+    pub fn new(node: NodeId, now: Time) -> Self {
         SystemManager {
             node,
             started: now,
@@ -259,7 +259,7 @@ impl SystemManager {
     }
 
     /// Handles one event.
-    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         self.now = self.now.max(now);
         let mut out = self.event(now, event);
         out.extend(self.due(now));
@@ -271,7 +271,7 @@ impl SystemManager {
         out
     }
 
-    fn event(&mut self, now: f64, event: Event) -> Vec<Command> {
+    fn event(&mut self, now: Time, event: Event) -> Vec<Command> {
         if let Some(token) = event.token() {
             self.roll.heard(now, &token.to_string());
         }
@@ -308,7 +308,7 @@ impl SystemManager {
 
     /// The answer to a roll call: the liveliness changes the registry missed, translated by the
     /// system manager's own ingress into the events it missed, and handled as those.
-    fn roll_call(&mut self, now: f64, result: Result<crate::roll_call::Present, String>) -> Vec<Command> {
+    fn roll_call(&mut self, now: Time, result: Result<crate::roll_call::Present, String>) -> Vec<Command> {
         let (held, known) = (self.fleet.tokens_up(), self.fleet.tokens_registered());
         let mut out = Vec::new();
         for m in self.roll.answered(result, &held, &known) {
@@ -321,7 +321,7 @@ impl SystemManager {
     }
 
     /// Hands what was heard of a robot or a host to the registry, and acts on what it decided.
-    fn registry(&mut self, now: f64, heard: Heard) -> Vec<Command> {
+    fn registry(&mut self, now: Time, heard: Heard) -> Vec<Command> {
         let mut out = Vec::new();
         for fact in self.fleet.handle(now, heard) {
             match fact {
@@ -367,7 +367,7 @@ impl SystemManager {
     /// A command to a robot answered: the operator's reply (with the mission it left, if a
     /// change of capabilities made it leave one), or, for our own command that failed, the
     /// robot admitted again.
-    fn command_done(&mut self, now: f64, req: Option<Req>, robot: &str, result: Result<CommandAck, ErrorReply>) -> Vec<Command> {
+    fn command_done(&mut self, now: Time, req: Option<Req>, robot: &str, result: Result<CommandAck, ErrorReply>) -> Vec<Command> {
         // The answer to a change of capabilities says what the robot has now.
         let (mut out, left) = match &result {
             Ok(CommandAck { capabilities: Some(c), .. }) => self.capabilities_now(robot, c.clone()),
@@ -405,7 +405,7 @@ impl SystemManager {
         }
     }
 
-    fn tick(&mut self, now: f64) -> Vec<Command> {
+    fn tick(&mut self, now: Time) -> Vec<Command> {
         self.controls.handle(now, controls::Event::Tick);
         let mut out = Vec::new();
         if now - self.started >= ADOPT_S {
@@ -436,7 +436,7 @@ impl SystemManager {
         out
     }
 
-    fn operator(&mut self, now: f64, req: Req, request: Request) -> Vec<Command> {
+    fn operator(&mut self, now: Time, req: Req, request: Request) -> Vec<Command> {
         if request.is_command() && now - self.started < ADOPT_S {
             // Just started: the heads have not yet said which robots are theirs.
             if self.held.len() >= MAX_HELD {

@@ -7,7 +7,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::{self as proto, Member, MissionName, NodeId, RobotId};
+use mrmm_proto::{self as proto, Member, MissionName, NodeId, RobotId, Time};
 
 use super::fleet::Fleet;
 use super::{MissionRecord, DURABLE_WAIT_S, RESTART_RETRY_S, RUNNING_WAIT_S, UNCOMMITTED_WAIT_S};
@@ -71,14 +71,14 @@ struct Restart {
     /// A start is out.
     inflight: bool,
     /// Not before this time.
-    next: f64,
+    next: Time,
 }
 
 /// Journaled missions being started again, and those held for members with a state dir.
 #[derive(Debug, Clone)]
 pub(super) struct Recovery {
     /// When the system manager started.
-    started: f64,
+    started: Time,
     /// Missions being started again.
     inflight: BTreeMap<MissionName, Restart>,
     /// Missions said to wait for members with a state dir (said once each).
@@ -86,7 +86,7 @@ pub(super) struct Recovery {
 }
 
 impl Recovery {
-    pub(super) fn new(started: f64) -> Self {
+    pub(super) fn new(started: Time) -> Self {
         Recovery { started, inflight: BTreeMap::new(), held: BTreeSet::new() }
     }
 
@@ -95,7 +95,7 @@ impl Recovery {
         self.inflight.contains_key(mission)
     }
 
-    pub(super) fn handle(&mut self, now: f64, event: Event<'_>) -> Vec<Decision> {
+    pub(super) fn handle(&mut self, now: Time, event: Event<'_>) -> Vec<Decision> {
         match event {
             Event::Tick(look) => self.orphans(now, &look).into_iter().map(Decision::Anew).collect(),
             Event::Answered { mission, ok } => {
@@ -117,7 +117,7 @@ impl Recovery {
     }
 
     /// Whether `mission` may be started (again) at `now`: no start of it out, none too recent.
-    fn may_start(&self, mission: &str, now: f64) -> bool {
+    fn may_start(&self, mission: &str, now: Time) -> bool {
         self.inflight.get(mission).is_none_or(|r| !r.inflight && now >= r.next)
     }
 
@@ -131,7 +131,7 @@ impl Recovery {
     /// this manager still hears. A central cut off alone hears none, and leaves every mission
     /// alone. And one whose head reports it could not commit for [`UNCOMMITTED_WAIT_S`] (its
     /// chain lost the memory of a majority of its nodes: it never commits again).
-    fn orphans(&mut self, now: f64, look: &Look<'_>) -> Vec<Anew> {
+    fn orphans(&mut self, now: Time, look: &Look<'_>) -> Vec<Anew> {
         // A robot up since before the previous manager went down may replicate a mission, and
         // its chain may take over again: a new lineage wins over it wherever they meet, and its
         // head is fenced when it reports — so that does not hold a start back.
@@ -152,7 +152,7 @@ impl Recovery {
     }
 
     /// Whether orphaned mission `name` is started anew now, and how.
-    fn anew(&mut self, now: f64, look: &Look<'_>, name: &MissionName, rec: &MissionRecord, stuck: bool) -> Option<Anew> {
+    fn anew(&mut self, now: Time, look: &Look<'_>, name: &MissionName, rec: &MissionRecord, stuck: bool) -> Option<Anew> {
         let fleet = look.fleet;
         // A robot runs it: its managers may be alive somewhere and report soon. If none has
         // reported for this long, its chain lost its majority: the mission is started anew,
@@ -222,6 +222,7 @@ mod tests {
     use super::super::fleet::Heard;
     use super::super::MissionDef;
     use super::*;
+    use crate::at;
 
     /// A journaled mission of `host` (no view: no manager reported it since central started).
     fn journaled(host: &str) -> BTreeMap<MissionName, MissionRecord> {
@@ -236,12 +237,12 @@ mod tests {
             paused: false,
         };
         let def = MissionDef { host: host.into(), recipe: "patrol".into(), planner: "patrol".into(), spec: Some(spec), lineage: 3 };
-        BTreeMap::from([("p1".into(), MissionRecord::new(Arc::new(def), None, false, 0.0))])
+        BTreeMap::from([("p1".into(), MissionRecord::new(Arc::new(def), None, false, at(0.0)))])
     }
 
     /// Central's host up, and robots `ids` alive and registered at `now` (`durable`: with a
     /// state dir).
-    fn fleet(now: f64, ids: &[&str], durable: bool) -> Fleet {
+    fn fleet(now: Time, ids: &[&str], durable: bool) -> Fleet {
         let mut f = Fleet::default();
         f.handle(now, Heard::HostAlive(proto::CENTRAL_HOST.into()));
         for id in ids {
@@ -251,7 +252,7 @@ mod tests {
         f
     }
 
-    fn tick(r: &mut Recovery, now: f64, missions: &BTreeMap<MissionName, MissionRecord>, fleet: &Fleet, busy: &[&str]) -> Vec<Decision> {
+    fn tick(r: &mut Recovery, now: Time, missions: &BTreeMap<MissionName, MissionRecord>, fleet: &Fleet, busy: &[&str]) -> Vec<Decision> {
         let assignment = BTreeMap::from([("r1".into(), "p1".into()), ("r2".into(), "p1".into())]);
         let look = Look { missions, assignment: &assignment, fleet, busy: busy.iter().copied().collect() };
         r.handle(now, Event::Tick(look))
@@ -268,76 +269,76 @@ mod tests {
     #[test]
     fn a_mission_no_manager_runs_is_started_anew_once_at_a_time_and_again_after_a_failure() {
         let missions = journaled("gone-host");
-        let fleet = fleet(0.0, &["r1", "r2"], false);
-        let mut r = Recovery::new(0.0);
+        let fleet = fleet(at(0.0), &["r1", "r2"], false);
+        let mut r = Recovery::new(at(0.0));
         // Its host is gone: central's own host starts it, as the next lineage, with both members.
-        let d = tick(&mut r, 5.0, &missions, &fleet, &[]);
+        let d = tick(&mut r, at(5.0), &missions, &fleet, &[]);
         let a = anew(&d).expect("started anew");
         assert_eq!((a.host.as_str(), a.lineage, a.why), (proto::CENTRAL_HOST, 4, Why::Orphaned));
         assert_eq!(a.members.iter().map(|m| m.spec.id.as_str()).collect::<Vec<_>>(), ["r1", "r2"]);
         assert!(r.restarting("p1"));
         // One start out at a time.
-        assert!(anew(&tick(&mut r, 6.0, &missions, &fleet, &[])).is_none());
+        assert!(anew(&tick(&mut r, at(6.0), &missions, &fleet, &[])).is_none());
         // It failed: tried again, not before the retry period.
-        assert_eq!(r.handle(7.0, Event::Answered { mission: "p1", ok: false }), [Decision::Restarted]);
-        assert!(anew(&tick(&mut r, 7.0 + RESTART_RETRY_S - 0.1, &missions, &fleet, &[])).is_none());
-        assert!(anew(&tick(&mut r, 7.0 + RESTART_RETRY_S, &missions, &fleet, &[])).is_some());
+        assert_eq!(r.handle(at(7.0), Event::Answered { mission: "p1", ok: false }), [Decision::Restarted]);
+        assert!(anew(&tick(&mut r, at(7.0 + RESTART_RETRY_S - 0.1), &missions, &fleet, &[])).is_none());
+        assert!(anew(&tick(&mut r, at(7.0 + RESTART_RETRY_S), &missions, &fleet, &[])).is_some());
         // It runs: recovery is done with it; a start that is not recovery's is none of its business.
-        assert_eq!(r.handle(13.0, Event::Answered { mission: "p1", ok: true }), [Decision::Restarted]);
+        assert_eq!(r.handle(at(13.0), Event::Answered { mission: "p1", ok: true }), [Decision::Restarted]);
         assert!(!r.restarting("p1"));
-        assert!(r.handle(14.0, Event::Answered { mission: "p1", ok: true }).is_empty());
+        assert!(r.handle(at(14.0), Event::Answered { mission: "p1", ok: true }).is_empty());
     }
 
     #[test]
     fn a_mission_is_left_alone_while_it_may_still_come_back_on_its_own() {
         let missions = journaled("central");
         // Busy: a start of it is already queued.
-        let mut r = Recovery::new(0.0);
-        assert!(anew(&tick(&mut r, 5.0, &missions, &fleet(0.0, &["r1"], false), &["p1"])).is_none());
+        let mut r = Recovery::new(at(0.0));
+        assert!(anew(&tick(&mut r, at(5.0), &missions, &fleet(at(0.0), &["r1"], false), &["p1"])).is_none());
         // A robot says it runs it: its managers may report, for a while after central started.
-        let mut f = fleet(0.0, &["r1"], false);
+        let mut f = fleet(at(0.0), &["r1"], false);
         let mut t = Telemetry::resting("r1", 1.0);
         t.mission = Some("p1".into());
         t.seq = 1;
         f.keep(t);
-        assert!(anew(&tick(&mut r, RUNNING_WAIT_S - 0.1, &missions, &f, &[])).is_none());
-        assert!(anew(&tick(&mut r, RUNNING_WAIT_S, &missions, &f, &[])).is_some());
+        assert!(anew(&tick(&mut r, at(RUNNING_WAIT_S - 0.1), &missions, &f, &[])).is_none());
+        assert!(anew(&tick(&mut r, at(RUNNING_WAIT_S), &missions, &f, &[])).is_some());
         // A member with a state dir came up lately: its chain may come back from its disk.
-        let mut r = Recovery::new(0.0);
-        let f = fleet(10.0, &["r1"], true);
-        assert!(anew(&tick(&mut r, 10.0 + DURABLE_WAIT_S - 0.1, &missions, &f, &[])).is_none());
-        assert!(anew(&tick(&mut r, 10.0 + DURABLE_WAIT_S, &missions, &f, &[])).is_some());
+        let mut r = Recovery::new(at(0.0));
+        let f = fleet(at(10.0), &["r1"], true);
+        assert!(anew(&tick(&mut r, at(10.0 + DURABLE_WAIT_S - 0.1), &missions, &f, &[])).is_none());
+        assert!(anew(&tick(&mut r, at(10.0 + DURABLE_WAIT_S), &missions, &f, &[])).is_some());
         // No member back, or no host to start it on: nothing to do.
-        let mut r = Recovery::new(0.0);
-        assert!(anew(&tick(&mut r, 5.0, &missions, &fleet(0.0, &[], false), &[])).is_none());
+        let mut r = Recovery::new(at(0.0));
+        assert!(anew(&tick(&mut r, at(5.0), &missions, &fleet(at(0.0), &[], false), &[])).is_none());
         let mut no_host = Fleet::default();
-        no_host.handle(0.0, Heard::Alive("r1".into()));
-        no_host.handle(0.0, Heard::Info(RobotInfo::new("r1", "ground", 1.0)));
-        assert!(anew(&tick(&mut r, 5.0, &missions, &no_host, &[])).is_none());
+        no_host.handle(at(0.0), Heard::Alive("r1".into()));
+        no_host.handle(at(0.0), Heard::Info(RobotInfo::new("r1", "ground", 1.0)));
+        assert!(anew(&tick(&mut r, at(5.0), &missions, &no_host, &[])).is_none());
     }
 
     #[test]
     fn a_mission_whose_head_stopped_reporting_or_cannot_commit_is_started_anew_for_that_reason() {
         let mut missions = journaled("central");
-        let fleet = fleet(0.0, &["r1"], false);
+        let fleet = fleet(at(0.0), &["r1"], false);
         let rec = missions.get_mut("p1").expect("journaled");
         let mut view = MissionView::running("p1", "patrol", "central", 1, &["r1"]);
         view.manager.uncommitted_s = Some(UNCOMMITTED_WAIT_S - 1.0);
         rec.view = Some(view);
-        rec.reported_at = 30.0;
-        let mut r = Recovery::new(0.0);
+        rec.reported_at = at(30.0);
+        let mut r = Recovery::new(at(0.0));
         // Reported lately, committing: running.
-        assert!(anew(&tick(&mut r, 31.0, &missions, &fleet, &[])).is_none());
+        assert!(anew(&tick(&mut r, at(31.0), &missions, &fleet, &[])).is_none());
         let rec = missions.get_mut("p1").expect("journaled");
         if let Some(v) = rec.view.as_mut() {
             v.manager.uncommitted_s = Some(UNCOMMITTED_WAIT_S);
         }
-        assert_eq!(anew(&tick(&mut r, 31.0, &missions, &fleet, &[])).map(|a| a.why), Some(Why::Uncommitted));
-        let mut r = Recovery::new(0.0);
+        assert_eq!(anew(&tick(&mut r, at(31.0), &missions, &fleet, &[])).map(|a| a.why), Some(Why::Uncommitted));
+        let mut r = Recovery::new(at(0.0));
         if let Some(v) = missions.get_mut("p1").and_then(|r| r.view.as_mut()) {
             v.manager.uncommitted_s = None;
         }
-        assert!(anew(&tick(&mut r, 30.0 + RUNNING_WAIT_S - 0.1, &missions, &fleet, &[])).is_none());
-        assert_eq!(anew(&tick(&mut r, 30.0 + RUNNING_WAIT_S, &missions, &fleet, &[])).map(|a| a.why), Some(Why::Silent));
+        assert!(anew(&tick(&mut r, at(30.0 + RUNNING_WAIT_S - 0.1), &missions, &fleet, &[])).is_none());
+        assert_eq!(anew(&tick(&mut r, at(30.0 + RUNNING_WAIT_S), &missions, &fleet, &[])).map(|a| a.why), Some(Why::Silent));
     }
 }

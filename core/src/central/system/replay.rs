@@ -4,12 +4,13 @@
 //! (a mission of the journal started anew: journaled before its start goes out).
 
 use super::*;
+use mrmm_proto::Time;
 
 impl SystemManager {
     /// A system manager that starts from what its journal holds: the missions it defined are
     /// known (those no live manager reports are started again after [`RESTART_S`]), robots are
     /// in the missions the journal says, terminated missions stay terminated.
-    pub fn restore(node: NodeId, now: f64, state: Durable) -> Self {
+    pub fn restore(node: NodeId, now: Time, state: Durable) -> Self {
         let mut m = SystemManager::new(node, now);
         for (name, def) in &state.missions {
             m.missions.insert(name.clone(), MissionRecord::new(def.clone(), None, false, now));
@@ -72,7 +73,7 @@ impl SystemManager {
     /// Recovery looks for journaled missions that no live manager runs, and those it starts anew
     /// are journaled as their new lineage, then started (once the missions their robots come
     /// from let them go).
-    pub(super) fn recover(&mut self, now: f64) {
+    pub(super) fn recover(&mut self, now: Time) {
         let busy = self.pending_create.keys().map(MissionName::as_str).chain(self.starts.iter().map(|s| s.start.spec.name.as_str())).collect();
         let look = recovery::Look { missions: &self.missions, assignment: &self.assignment, fleet: &self.fleet, busy };
         for decision in self.recovery.handle(now, recovery::Event::Tick(look)) {

@@ -4,7 +4,7 @@
 
 use mrmm_proto::chain::{lineage_floor, lineage_of};
 use mrmm_proto::edge::Refused;
-use mrmm_proto::Role;
+use mrmm_proto::{Role, Time};
 
 use super::*;
 
@@ -39,7 +39,7 @@ impl SystemManager {
     /// A robot's telemetry the registry took (newer than the last, or the first since it came
     /// up): the robot steered where it runs or is admitted to what it should not be; then the
     /// registry keeps it as the robot's latest.
-    pub(super) fn heard(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
+    pub(super) fn heard(&mut self, now: Time, t: Telemetry) -> Vec<Command> {
         let mut out = self.leave_admissions(now, &t);
         out.extend(self.admit_forgetful(now, &t));
         out.extend(self.runs(now, t));
@@ -49,7 +49,7 @@ impl SystemManager {
     /// Admitted to a mission this manager knows (or terminated) it is not in — a leave order it
     /// missed, or it was moved: told to leave it, which clears the admission. After a restart of
     /// central, missions it never heard of keep running.
-    fn leave_admissions(&mut self, now: f64, t: &Telemetry) -> Vec<Command> {
+    fn leave_admissions(&mut self, now: Time, t: &Telemetry) -> Vec<Command> {
         let retry = self.fleet.get(t.id.as_str()).is_some_and(|r| r.leave_sent.is_none_or(|s| now - s >= LEAVE_RETRY_S));
         let mut leave = Vec::new();
         for admitted in t.admitted.iter().filter(|a| t.mission.as_ref() != Some(*a)) {
@@ -78,7 +78,7 @@ impl SystemManager {
 
     /// In a mission here, but neither running it nor admitted to it (it restarted and forgot
     /// its admission): admitted again, so it trusts the mission's managers when they call.
-    fn admit_forgetful(&mut self, now: f64, t: &Telemetry) -> Vec<Command> {
+    fn admit_forgetful(&mut self, now: Time, t: &Telemetry) -> Vec<Command> {
         let Some(m) = self.assignment.get(&t.id).filter(|m| self.missions.contains_key(*m)).cloned() else { return vec![] };
         let forgot = t.mission.as_ref() != Some(&m) && !t.admitted.contains(&m);
         match self.fleet.get_mut(t.id.as_str()) {
@@ -94,7 +94,7 @@ impl SystemManager {
     /// (the head's report and its own telemetry agree, see `reconcile`); running a mission this
     /// manager knows it is not in (and not being let go by it), it is told to leave. The
     /// telemetry is kept as its latest.
-    fn runs(&mut self, now: f64, t: Telemetry) -> Vec<Command> {
+    fn runs(&mut self, now: Time, t: Telemetry) -> Vec<Command> {
         let mut out = Vec::new();
         let Some(rec) = self.fleet.get_mut(t.id.as_str()) else {
             return out;

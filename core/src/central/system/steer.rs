@@ -2,10 +2,11 @@
 //! admissions robots need first), admissions, and who may manage a mission.
 
 use super::*;
+use mrmm_proto::Time;
 
 impl SystemManager {
     /// Controls and starts that can go out now.
-    pub(super) fn due(&mut self, now: f64) -> Vec<Command> {
+    pub(super) fn due(&mut self, now: Time) -> Vec<Command> {
         let mut out = Vec::new();
         for (id, mission, ctl) in self.controls.due(now) {
             let managers = self.managers(mission.as_str());
@@ -47,7 +48,7 @@ impl SystemManager {
     /// an alive member is admitted to its mission again, as managers and members are known now —
     /// else it may refuse the plans of a head it was never told of, for ever (found by the system
     /// sim, seed 166 with capability changes). At most once per [`LEAVE_RETRY_S`].
-    pub(super) fn admit_again(&mut self, now: f64, robot: &str) -> Vec<Command> {
+    pub(super) fn admit_again(&mut self, now: Time, robot: &str) -> Vec<Command> {
         let Some(mission) = self.assignment.get(robot).filter(|m| self.missions.contains_key(*m)).cloned() else {
             return vec![];
         };

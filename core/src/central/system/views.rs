@@ -2,6 +2,7 @@
 //! status.
 
 use super::*;
+use mrmm_proto::Time;
 
 impl SystemManager {
     /// A mission as the operator sees it: the head's latest view, with the (live) members this
@@ -88,7 +89,7 @@ impl SystemManager {
     }
 
     /// Fleet summary.
-    pub fn status(&self, now: f64) -> SystemStatus {
+    pub fn status(&self, now: Time) -> SystemStatus {
         let views = self.views();
         let count = |s| views.iter().filter(|v| v.status == s).count();
         SystemStatus {

@@ -6,7 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 
 use mrmm_proto::chain::lineage_of;
-use mrmm_proto::{MissionName, NodeId};
+use mrmm_proto::{MissionName, NodeId, Time};
 
 use super::replica::Fingerprint;
 use super::{Command, Event, Msg, Params, Replica, Stored};
@@ -38,11 +38,11 @@ pub struct Registry<S> {
     me: NodeId,
     p: Params,
     /// When this node (process) started: its replicas do not vote during `p.quarantine`.
-    born: f64,
+    born: Time,
     replicas: BTreeMap<MissionName, Replica<S>>,
     tombs: BTreeMap<MissionName, Tomb>,
     /// When each tomb was last written: tombs are forgotten after [`TOMB_LIFETIME_S`].
-    tomb_since: BTreeMap<MissionName, f64>,
+    tomb_since: BTreeMap<MissionName, Time>,
     /// Other nodes whose liveliness is up.
     alive: BTreeSet<NodeId>,
     /// Whether every change of what a replica must remember is put out as [`Command::Persist`].
@@ -50,7 +50,7 @@ pub struct Registry<S> {
 }
 
 impl<S: Clone> Registry<S> {
-    pub fn new(me: &str, p: Params, born: f64) -> Self {
+    pub fn new(me: &str, p: Params, born: Time) -> Self {
         Registry {
             me: me.into(),
             p,
@@ -66,7 +66,7 @@ impl<S: Clone> Registry<S> {
     /// A durable registry brought back from what it persisted (empty on a first start): every
     /// change it makes from now on is put out as [`Command::Persist`] before what it leads to.
     /// Its replicas vote at once: their promises were on disk, so `p.quarantine` is not needed.
-    pub fn restore(me: &str, p: Params, born: f64, now: f64, disk: impl IntoIterator<Item = (MissionName, Disk<S>)>) -> Self {
+    pub fn restore(me: &str, p: Params, born: Time, now: Time, disk: impl IntoIterator<Item = (MissionName, Disk<S>)>) -> Self {
         let p = Params { quarantine: 0.0, ..p };
         let mut reg = Registry::new(me, p, born);
         reg.durable = true;
@@ -112,7 +112,7 @@ impl<S: Clone> Registry<S> {
     }
 
     /// The replica of `name`, created with what this node remembers of it.
-    fn replica_mut(&mut self, now: f64, name: &str) -> &mut Replica<S> {
+    fn replica_mut(&mut self, now: Time, name: &str) -> &mut Replica<S> {
         let promised = self.tombs.get(name).map_or(0, |t| t.promised);
         let (me, p, born, alive, durable) = (&self.me, self.p, self.born, &self.alive, self.durable);
         self.replicas.entry(name.into()).or_insert_with(|| {
@@ -131,7 +131,7 @@ impl<S: Clone> Registry<S> {
     /// first epoch at least `floor`.
     /// The first epoch is also above the promise this node remembers of an earlier value of that
     /// name (a replica it discarded, a tomb).
-    pub fn create(&mut self, now: f64, name: &str, replicas: Vec<NodeId>, state: S, floor: u64) -> Vec<Command<S>> {
+    pub fn create(&mut self, now: Time, name: &str, replicas: Vec<NodeId>, state: S, floor: u64) -> Vec<Command<S>> {
         let promised = self.tombs.remove(name).map_or(0, |t| t.promised).max(self.replicas.remove(name).map_or(0, |r| r.promised()));
         let floor = floor.max(promised.saturating_add(1));
         let before = self.mark(name);
@@ -163,7 +163,7 @@ impl<S: Clone> Registry<S> {
     /// replica only for a vote or an update (it is being asked to join a chain); a vote for a
     /// value that ended here is answered with the end; anything else for a value it does not
     /// hold is dropped. (A beat counts as an update: the node then asks for the state.)
-    pub fn receive(&mut self, now: f64, name: &str, from: NodeId, msg: Msg<S>) -> Vec<Command<S>> {
+    pub fn receive(&mut self, now: Time, name: &str, from: NodeId, msg: Msg<S>) -> Vec<Command<S>> {
         if !self.replicas.contains_key(name) {
             if let Some(answer) = self.tomb_answer(name, &msg) {
                 return vec![Command::Send { to: from, msg: answer }];
@@ -183,7 +183,7 @@ impl<S: Clone> Registry<S> {
     }
 
     /// An event for the existing replica of `name` (`Propose`, `Pool`, `End`); nothing if none.
-    pub fn handle(&mut self, now: f64, name: &str, ev: Event<S>) -> Vec<Command<S>> {
+    pub fn handle(&mut self, now: Time, name: &str, ev: Event<S>) -> Vec<Command<S>> {
         let ended = matches!(ev, Event::End);
         let before = self.mark(name);
         let Some(r) = self.replicas.get_mut(name) else { return vec![] };
@@ -199,7 +199,7 @@ impl<S: Clone> Registry<S> {
     /// Throws away this node's replica of `name` (not while it leads): it is outdated, and a new
     /// chain is about to be created here. Its promise stays, as a tomb, so the new chain's
     /// epochs are above every one it took part in.
-    pub fn discard(&mut self, now: f64, name: &str) -> Vec<Command<S>> {
+    pub fn discard(&mut self, now: Time, name: &str) -> Vec<Command<S>> {
         if self.replicas.get(name).is_none_or(|r| r.leads()) {
             return vec![];
         }
@@ -210,14 +210,14 @@ impl<S: Clone> Registry<S> {
     /// to commit for `at_least` seconds (see [`Replica::uncommitted_for`]): its chain lost the
     /// memory of a majority of its nodes, and the value is started anew here, as its next
     /// lineage. Such a head acted on nothing it could not commit. Its promise stays, as a tomb.
-    pub fn abandon(&mut self, now: f64, name: &str, at_least: f64) -> Vec<Command<S>> {
+    pub fn abandon(&mut self, now: Time, name: &str, at_least: f64) -> Vec<Command<S>> {
         if self.replicas.get(name).and_then(|r| r.uncommitted_for(now)).is_none_or(|s| s < at_least) {
             return vec![];
         }
         self.throw_away(now, name)
     }
 
-    fn throw_away(&mut self, now: f64, name: &str) -> Vec<Command<S>> {
+    fn throw_away(&mut self, now: Time, name: &str) -> Vec<Command<S>> {
         let before = self.mark(name);
         if let Some(r) = self.replicas.remove(name) {
             let t = self.tombs.entry(name.into()).or_default();
@@ -228,7 +228,7 @@ impl<S: Clone> Registry<S> {
     }
 
     /// Another node's liveliness changed: every replica hears of it.
-    pub fn liveliness(&mut self, now: f64, node: &str, up: bool) -> Vec<(MissionName, Vec<Command<S>>)> {
+    pub fn liveliness(&mut self, now: Time, node: &str, up: bool) -> Vec<(MissionName, Vec<Command<S>>)> {
         if node == self.me {
             return vec![];
         }
@@ -241,7 +241,7 @@ impl<S: Clone> Registry<S> {
     }
 
     /// Time passes for every replica (and old tombs are forgotten).
-    pub fn tick(&mut self, now: f64) -> Vec<(MissionName, Vec<Command<S>>)> {
+    pub fn tick(&mut self, now: Time) -> Vec<(MissionName, Vec<Command<S>>)> {
         let forgotten = self.prune_tombs(now);
         let mut out = self.each(now, |_| Event::Tick, "");
         if self.durable {
@@ -250,7 +250,7 @@ impl<S: Clone> Registry<S> {
         out
     }
 
-    fn each(&mut self, now: f64, ev: impl Fn(&str) -> Event<S>, node: &str) -> Vec<(MissionName, Vec<Command<S>>)> {
+    fn each(&mut self, now: Time, ev: impl Fn(&str) -> Event<S>, node: &str) -> Vec<(MissionName, Vec<Command<S>>)> {
         let names: Vec<MissionName> = self.replicas.keys().cloned().collect();
         let mut out = Vec::new();
         for name in names {
@@ -283,7 +283,7 @@ impl<S: Clone> Registry<S> {
     /// Bookkeeping the commands call for: a retired replica becomes a tomb (its promise kept,
     /// and whether it was retired by an end). A durable registry puts what changed first, as
     /// [`Command::Persist`]; the commands follow as they are.
-    fn settle(&mut self, now: f64, name: &str, before: Option<(Fingerprint, Option<Tomb>)>, mut cmds: Vec<Command<S>>) -> Vec<Command<S>> {
+    fn settle(&mut self, now: Time, name: &str, before: Option<(Fingerprint, Option<Tomb>)>, mut cmds: Vec<Command<S>>) -> Vec<Command<S>> {
         if cmds.iter().any(|c| matches!(c, Command::Retired)) {
             if let Some(r) = self.replicas.remove(name) {
                 let t = self.tombs.entry(name.into()).or_default();
@@ -307,10 +307,10 @@ impl<S: Clone> Registry<S> {
 
     /// Forgets tombs older than [`TOMB_LIFETIME_S`], and the oldest beyond [`MAX_TOMBS`]; returns
     /// the names forgotten.
-    fn prune_tombs(&mut self, now: f64) -> Vec<MissionName> {
+    fn prune_tombs(&mut self, now: Time) -> Vec<MissionName> {
         self.tomb_since.retain(|_, t| now - *t < TOMB_LIFETIME_S);
         if self.tomb_since.len() > MAX_TOMBS {
-            let mut by_age: Vec<(f64, MissionName)> = self.tomb_since.iter().map(|(n, t)| (*t, n.clone())).collect();
+            let mut by_age: Vec<(Time, MissionName)> = self.tomb_since.iter().map(|(n, t)| (*t, n.clone())).collect();
             by_age.sort_by(|a, b| a.0.total_cmp(&b.0));
             for (_, n) in by_age.into_iter().take(self.tomb_since.len() - MAX_TOMBS) {
                 self.tomb_since.remove(&n);
@@ -332,6 +332,7 @@ impl<S: Clone> Registry<S> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     type Reg = Registry<Vec<u32>>;
 
@@ -341,38 +342,38 @@ mod tests {
 
     #[test]
     fn only_votes_and_updates_create_a_replica() {
-        let mut r = Reg::new("b", p(), 0.0);
-        assert!(r.receive(0.0, "m", "a".into(), Msg::Ack { epoch: 1, seq: 1 }).is_empty());
+        let mut r = Reg::new("b", p(), at(0.0));
+        assert!(r.receive(at(0.0), "m", "a".into(), Msg::Ack { epoch: 1, seq: 1 }).is_empty());
         assert!(r.replica("m").is_none());
         let cfg = super::super::Config { epoch: 1, chain: vec!["a".into(), "b".into()] };
-        let out = r.receive(0.0, "m", "a".into(), Msg::Update { config: cfg, seq: 0, state: vec![1] });
+        let out = r.receive(at(0.0), "m", "a".into(), Msg::Update { config: cfg, seq: 0, state: vec![1] });
         assert_eq!(out, vec![Command::Send { to: "a".into(), msg: Msg::Ack { epoch: 1, seq: 0 } }]);
         assert_eq!(r.replica("m").and_then(|x| x.state()), Some(&vec![1]));
     }
 
     #[test]
     fn an_ended_value_is_ended_again_for_stragglers_and_its_promise_kept() {
-        let mut r = Reg::new("b", p(), 0.0);
+        let mut r = Reg::new("b", p(), at(0.0));
         let cfg = super::super::Config { epoch: 3, chain: vec!["a".into(), "b".into()] };
-        r.receive(0.0, "m", "a".into(), Msg::Update { config: cfg, seq: 0, state: vec![1] });
-        let out = r.receive(0.1, "m", "a".into(), Msg::End { epoch: 3 });
+        r.receive(at(0.0), "m", "a".into(), Msg::Update { config: cfg, seq: 0, state: vec![1] });
+        let out = r.receive(at(0.1), "m", "a".into(), Msg::End { epoch: 3 });
         assert!(out.contains(&Command::Retired));
         assert!(r.replica("m").is_none());
         assert_eq!(r.tomb("m"), Some(Tomb { promised: 3, ended: true }));
         let vote = Msg::Vote { proposal: super::super::Config { epoch: 4, chain: vec!["c".into(), "b".into()] }, base: vec![], last: (3, 0) };
-        assert_eq!(r.receive(0.2, "m", "c".into(), vote), vec![Command::Send { to: "c".into(), msg: Msg::End { epoch: u64::MAX } }]);
+        assert_eq!(r.receive(at(0.2), "m", "c".into(), vote), vec![Command::Send { to: "c".into(), msg: Msg::End { epoch: u64::MAX } }]);
         assert!(r.replica("m").is_none(), "no replica for a straggler's vote");
     }
 
     #[test]
     fn tombs_are_forgotten_after_their_lifetime() {
-        let mut r = Reg::new("b", p(), 0.0);
+        let mut r = Reg::new("b", p(), at(0.0));
         let cfg = super::super::Config { epoch: 3, chain: vec!["a".into(), "b".into()] };
-        r.receive(0.0, "m", "a".into(), Msg::Update { config: cfg, seq: 0, state: vec![1] });
-        r.receive(0.1, "m", "a".into(), Msg::End { epoch: 3 });
-        r.tick(100.0);
+        r.receive(at(0.0), "m", "a".into(), Msg::Update { config: cfg, seq: 0, state: vec![1] });
+        r.receive(at(0.1), "m", "a".into(), Msg::End { epoch: 3 });
+        r.tick(at(100.0));
         assert!(r.tomb("m").is_some(), "kept while stragglers may come");
-        r.tick(0.1 + TOMB_LIFETIME_S);
+        r.tick(at(0.1 + TOMB_LIFETIME_S));
         assert_eq!(r.tomb("m"), None);
     }
 
@@ -401,67 +402,67 @@ mod tests {
     fn a_durable_node_writes_before_it_grants_and_after_a_restart_never_votes_twice_in_an_epoch() {
         // Default parameters: a stateless node would wait out its 2 s quarantine.
         let mut disk = BTreeMap::new();
-        let mut r = Reg::restore("b", Params::default(), 0.0, 0.0, disk.clone());
-        let out = r.receive(0.1, "m", "a".into(), vote(5));
+        let mut r = Reg::restore("b", Params::default(), at(0.0), at(0.0), disk.clone());
+        let out = r.receive(at(0.1), "m", "a".into(), vote(5));
         assert!(matches!(&out[0], Command::Persist(Disk::Replica(s)) if s.promised == 5 && s.voted_for.as_ref().map(|x| x.as_str()) == Some("a")), "{out:?}");
         assert_eq!(out[1], Command::Send { to: "a".into(), msg: Msg::Grant { epoch: 5 } });
         write(&mut disk, "m", &out);
         // Crash, restart at once: the promise and the vote came back; another candidate of
         // epoch 5 is refused, the same one granted again (its grant may have been lost).
-        let mut r = Reg::restore("b", Params::default(), 0.2, 0.2, disk.clone());
-        let out = r.receive(0.2, "m", "c".into(), vote(5));
+        let mut r = Reg::restore("b", Params::default(), at(0.2), at(0.2), disk.clone());
+        let out = r.receive(at(0.2), "m", "c".into(), vote(5));
         assert!(matches!(out.last(), Some(Command::Send { msg: Msg::Refuse { promised: 5, .. }, .. })), "{out:?}");
-        let out = r.receive(0.2, "m", "a".into(), vote(5));
+        let out = r.receive(at(0.2), "m", "a".into(), vote(5));
         assert!(matches!(out.last(), Some(Command::Send { msg: Msg::Grant { epoch: 5 }, .. })), "{out:?}");
         // The stateless node refuses in its quarantine: what the disk replaces.
-        let mut fresh = Reg::new("b", Params::default(), 0.2);
-        let out = fresh.receive(0.3, "m", "a".into(), vote(6));
+        let mut fresh = Reg::new("b", Params::default(), at(0.2));
+        let out = fresh.receive(at(0.3), "m", "a".into(), vote(6));
         assert!(matches!(out.last(), Some(Command::Send { msg: Msg::Refuse { .. }, .. })), "{out:?}");
     }
 
     #[test]
     fn a_durable_node_keeps_what_it_acknowledged_and_counts_as_the_member_it_was() {
         let mut disk = BTreeMap::new();
-        let mut r = Reg::restore("c", Params::default(), 0.0, 0.0, disk.clone());
+        let mut r = Reg::restore("c", Params::default(), at(0.0), at(0.0), disk.clone());
         let cfg = super::super::Config { epoch: 3, chain: vec!["a".into(), "b".into(), "c".into()] };
-        let out = r.receive(0.0, "m", "b".into(), Msg::Update { config: cfg, seq: 4, state: vec![1, 2] });
+        let out = r.receive(at(0.0), "m", "b".into(), Msg::Update { config: cfg, seq: 4, state: vec![1, 2] });
         assert!(matches!(&out[0], Command::Persist(Disk::Replica(s)) if s.state == Some(((3, 4), vec![1, 2]))), "{out:?}");
         assert_eq!(out.last(), Some(&Command::Send { to: "a".into(), msg: Msg::Ack { epoch: 3, seq: 4 } }));
         write(&mut disk, "m", &out);
         // A beat of the same state writes nothing.
         let cfg = super::super::Config { epoch: 3, chain: vec!["a".into(), "b".into(), "c".into()] };
-        let out = r.receive(0.1, "m", "b".into(), Msg::Update { config: cfg, seq: 4, state: vec![1, 2] });
+        let out = r.receive(at(0.1), "m", "b".into(), Msg::Update { config: cfg, seq: 4, state: vec![1, 2] });
         assert!(!out.iter().any(|c| matches!(c, Command::Persist(_))), "{out:?}");
         // Restarted, it still holds (3, 4): a candidate with less is refused, and one of its
         // chain with as much is granted (a stateless restart would refuse it as lost).
-        let mut r = Reg::restore("c", Params::default(), 1.0, 1.0, disk.clone());
+        let mut r = Reg::restore("c", Params::default(), at(1.0), at(1.0), disk.clone());
         assert_eq!(r.replica("m").map(|x| x.version()), Some((3, 4)));
         let behind = Msg::Vote {
             proposal: super::super::Config { epoch: 4, chain: vec!["b".into(), "c".into()] },
             base: vec!["a".into(), "b".into(), "c".into()],
             last: (3, 2),
         };
-        assert!(matches!(r.receive(1.0, "m", "b".into(), behind).last(), Some(Command::Send { msg: Msg::Refuse { .. }, .. })));
+        assert!(matches!(r.receive(at(1.0), "m", "b".into(), behind).last(), Some(Command::Send { msg: Msg::Refuse { .. }, .. })));
         let even = Msg::Vote {
             proposal: super::super::Config { epoch: 5, chain: vec!["b".into(), "c".into()] },
             base: vec!["a".into(), "b".into(), "c".into()],
             last: (3, 4),
         };
-        assert!(matches!(r.receive(1.0, "m", "b".into(), even).last(), Some(Command::Send { msg: Msg::Grant { epoch: 5 }, .. })));
+        assert!(matches!(r.receive(at(1.0), "m", "b".into(), even).last(), Some(Command::Send { msg: Msg::Grant { epoch: 5 }, .. })));
     }
 
     #[test]
     fn an_ending_durable_replica_comes_back_as_an_ended_tomb() {
         let mut disk = BTreeMap::new();
-        let mut r = Reg::restore("a", Params::default(), 0.0, 0.0, disk.clone());
-        let out = r.create(0.0, "m", vec!["b".into()], vec![1], 0);
+        let mut r = Reg::restore("a", Params::default(), at(0.0), at(0.0), disk.clone());
+        let out = r.create(at(0.0), "m", vec!["b".into()], vec![1], 0);
         write(&mut disk, "m", &out);
-        let out = r.handle(0.1, "m", Event::End);
+        let out = r.handle(at(0.1), "m", Event::End);
         write(&mut disk, "m", &out);
         assert!(matches!(disk.get("m"), Some(Disk::Replica(s)) if s.ended), "{disk:?}");
-        let mut r = Reg::restore("a", Params::default(), 1.0, 1.0, disk.clone());
+        let mut r = Reg::restore("a", Params::default(), at(1.0), at(1.0), disk.clone());
         assert!(r.replica("m").is_none());
         assert_eq!(r.tomb("m"), Some(Tomb { promised: 1, ended: true }));
-        assert!(matches!(r.receive(1.0, "m", "b".into(), vote(9)).as_slice(), [Command::Send { msg: Msg::End { .. }, .. }]));
+        assert!(matches!(r.receive(at(1.0), "m", "b".into(), vote(9)).as_slice(), [Command::Send { msg: Msg::End { .. }, .. }]));
     }
 }

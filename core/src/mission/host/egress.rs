@@ -36,6 +36,8 @@ impl HostCore {
 mod tests {
     use std::collections::BTreeMap;
 
+    use crate::at;
+
     use mrmm_planner::recipe::{self, PlannerKind};
     use mrmm_proto::chain::{Config, Msg};
     use mrmm_proto::{ChainEnvelope, Member, RobotSpec};
@@ -70,11 +72,11 @@ mod tests {
         };
         let members = (0..n).map(|i| Member { spec: spec_of(i), time_scale: 1.0, capabilities: vec![] }).collect();
         let mut m = MissionManager::new(spec, "h1".into(), members);
-        let Some(mission::Command::RequestPlan { epoch, kind, request }) = m.handle(0.0, mission::Event::Start).into_iter().next() else {
+        let Some(mission::Command::RequestPlan { epoch, kind, request }) = m.handle(at(0.0), mission::Event::Start).into_iter().next() else {
             panic!("a plan request")
         };
         let plan = crate::mission::planning::plan(kind, &request).expect("plan");
-        m.handle(0.0, mission::Event::PlanReady { epoch, plan: Box::new(plan) });
+        m.handle(at(0.0), mission::Event::PlanReady { epoch, plan: Box::new(plan) });
         m
     }
 

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{CtlAck, PlanAssignment, PlanSummary, RobotId, Telemetry, SUMMARY_REFRESH_S};
+use mrmm_proto::{CtlAck, PlanAssignment, PlanSummary, RobotId, Telemetry, Time, SUMMARY_REFRESH_S};
 
 use crate::mission::{self, MissionManager};
 
@@ -24,13 +24,13 @@ const IN_FLIGHT_STALE_S: f64 = crate::timeouts::ROBOT_PLAN_S + REDELIVER_S;
 pub struct Delivery {
     pub assignment: Box<PlanAssignment>,
     /// When it was last sent (`None`: waiting for a place in the window).
-    pub last_sent: Option<f64>,
+    pub last_sent: Option<Time>,
     /// Sent and not answered yet: it holds a place in the window.
     pub in_flight: bool,
 }
 
 impl Delivery {
-    fn holds_place(&self, now: f64) -> bool {
+    fn holds_place(&self, now: Time) -> bool {
         self.in_flight && self.last_sent.is_some_and(|t| now - t < IN_FLIGHT_STALE_S)
     }
 }
@@ -51,7 +51,7 @@ pub struct Head {
     requested: Option<(u64, u32)>,
     /// Members whose telemetry shows they do not run the current plan (they restarted, say),
     /// and since when.
-    astray: BTreeMap<RobotId, f64>,
+    astray: BTreeMap<RobotId, Time>,
     /// The last plan sent to each robot (sent only once committed).
     sent: BTreeMap<RobotId, Box<PlanAssignment>>,
     /// What the mission's status last carried of the planner's summary.
@@ -59,7 +59,7 @@ pub struct Head {
     /// Lost members central ordered back while their token was gone here, and when: one whose
     /// token comes up within [`ORDERED_BACK_S`] is taken back then (central orders only once,
     /// and this host may hear the robot come back after central did).
-    pub ordered_back: BTreeMap<RobotId, f64>,
+    pub ordered_back: BTreeMap<RobotId, Time>,
 }
 
 /// How long an order to take back a member whose token was gone here holds (two roll calls
@@ -70,17 +70,17 @@ pub const ORDERED_BACK_S: f64 = 2.0 * (crate::roll_call::ROLL_CALL_S + crate::ro
 /// bytes): the one after it changed, and one every [`SUMMARY_REFRESH_S`] seconds for subscribers
 /// that came later. Holds the summary last carried and when.
 #[derive(Debug, Clone, Default)]
-pub struct SummaryGate(Option<(PlanSummary, f64)>);
+pub struct SummaryGate(Option<(PlanSummary, Time)>);
 
 impl SummaryGate {
     /// Whether the status published at `now`, whose summary is `summary`, carries it.
-    pub fn carries(&mut self, now: f64, summary: Option<&PlanSummary>) -> bool {
+    pub fn carries(&mut self, now: Time, summary: Option<&PlanSummary>) -> bool {
         let Some(s) = summary else {
             self.0 = None;
             return true;
         };
         match &self.0 {
-            Some((last, at)) if last == s && now - at < SUMMARY_REFRESH_S => false,
+            Some((last, at)) if last == s && now - *at < SUMMARY_REFRESH_S => false,
             _ => {
                 self.0 = Some((s.clone(), now));
                 true
@@ -106,13 +106,13 @@ impl Head {
     }
 
     /// Whether the mission's status published at `now` carries the planner's summary.
-    pub fn carries_summary(&mut self, now: f64, summary: Option<&PlanSummary>) -> bool {
+    pub fn carries_summary(&mut self, now: Time, summary: Option<&PlanSummary>) -> bool {
         self.summary.carries(now, summary)
     }
 
     /// Runs one mission event; returns the plan requests to make now (everything else waits for
     /// the commit).
-    pub fn run(&mut self, now: f64, ev: mission::Event) -> Vec<mission::Command> {
+    pub fn run(&mut self, now: Time, ev: mission::Event) -> Vec<mission::Command> {
         let cmds = self.mm.handle(now, ev);
         self.defer(cmds)
     }
@@ -167,7 +167,7 @@ impl Head {
 
     /// A plan for `robot` is to go out now: whether it goes at once (`false`: it waits for a
     /// place in the window, and goes out from [`Head::redeliver`] or [`Head::answered`]).
-    pub fn sending(&mut self, now: f64, robot: &str, assignment: Box<PlanAssignment>) -> bool {
+    pub fn sending(&mut self, now: Time, robot: &str, assignment: Box<PlanAssignment>) -> bool {
         self.sent.insert(robot.into(), assignment.clone());
         let go = self.in_flight(now) < DELIVERY_WINDOW;
         self.deliveries.insert(robot.into(), Delivery { assignment, last_sent: go.then_some(now), in_flight: go });
@@ -175,14 +175,14 @@ impl Head {
     }
 
     /// Plans on their way that hold a place in the window.
-    fn in_flight(&self, now: f64) -> usize {
+    fn in_flight(&self, now: Time) -> usize {
         self.deliveries.values().filter(|d| d.holds_place(now)).count()
     }
 
     /// Plans due now, as many as the window has places for: those waiting for a place, then
     /// members that have not shown their plan for `REDELIVER_S` — alive ones (`alive`).
     /// Deliveries to robots no longer members are dropped.
-    pub fn redeliver(&mut self, now: f64, alive: impl Fn(&str) -> bool) -> Vec<(RobotId, Box<PlanAssignment>)> {
+    pub fn redeliver(&mut self, now: Time, alive: impl Fn(&str) -> bool) -> Vec<(RobotId, Box<PlanAssignment>)> {
         let mm = &self.mm;
         self.deliveries.retain(|robot, d| mm.has(robot.as_str()) && d.assignment.epoch == mm.epoch());
         let mut places = DELIVERY_WINDOW.saturating_sub(self.in_flight(now));
@@ -215,7 +215,7 @@ impl Head {
 
     /// Any answer to a delivery of `epoch` to `robot` (taken, refused, or none in time): its
     /// place in the window is free; the plans waiting for one go out (at most one per place).
-    pub fn answered(&mut self, now: f64, robot: &str, epoch: u64, alive: impl Fn(&str) -> bool) -> Vec<(RobotId, Box<PlanAssignment>)> {
+    pub fn answered(&mut self, now: Time, robot: &str, epoch: u64, alive: impl Fn(&str) -> bool) -> Vec<(RobotId, Box<PlanAssignment>)> {
         if let Some(d) = self.deliveries.get_mut(robot).filter(|d| d.assignment.epoch == epoch) {
             d.in_flight = false;
         }
@@ -230,7 +230,7 @@ impl Head {
     /// Telemetry of a member at `now`: it shows the plan it runs. A member that runs none of
     /// this mission's current plan for [`REDELIVER_S`] while no delivery is on its way (it
     /// restarted and forgot it, say) is handed its plan again.
-    pub fn telemetry(&mut self, now: f64, t: &Telemetry) {
+    pub fn telemetry(&mut self, now: Time, t: &Telemetry) {
         let runs = t.progress.as_ref().filter(|p| p.mission == self.mm.name()).map(|p| p.epoch);
         if let Some(epoch) = runs {
             self.delivered(t.id.as_str(), epoch);
@@ -265,6 +265,7 @@ mod tests {
     use mrmm_proto::plan::{CoverageSummary, Region};
 
     use super::*;
+    use crate::at;
 
     fn summary(points: usize) -> PlanSummary {
         let points = (0..points).map(|i| Point { x: i as f64, y: 0.0 }).collect();
@@ -281,13 +282,13 @@ mod tests {
     fn the_status_carries_the_summary_when_it_changes_and_every_refresh_period() {
         let (a, b) = (summary(2), summary(3));
         let mut h = SummaryGate::default();
-        assert!(h.carries(0.0, Some(&a)), "the first status carries it");
-        assert!(!h.carries(1.0, Some(&a)), "unchanged: left out");
-        assert!(!h.carries(SUMMARY_REFRESH_S - 0.1, Some(&a)));
-        assert!(h.carries(SUMMARY_REFRESH_S, Some(&a)), "due again for late subscribers");
-        assert!(h.carries(SUMMARY_REFRESH_S + 1.0, Some(&b)), "a new plan: carried at once");
-        assert!(!h.carries(SUMMARY_REFRESH_S + 2.0, Some(&b)));
-        assert!(h.carries(SUMMARY_REFRESH_S + 3.0, None), "no plan: nothing to leave out");
-        assert!(h.carries(SUMMARY_REFRESH_S + 4.0, Some(&b)), "after no plan, the plan again");
+        assert!(h.carries(at(0.0), Some(&a)), "the first status carries it");
+        assert!(!h.carries(at(1.0), Some(&a)), "unchanged: left out");
+        assert!(!h.carries(at(SUMMARY_REFRESH_S - 0.1), Some(&a)));
+        assert!(h.carries(at(SUMMARY_REFRESH_S), Some(&a)), "due again for late subscribers");
+        assert!(h.carries(at(SUMMARY_REFRESH_S + 1.0), Some(&b)), "a new plan: carried at once");
+        assert!(!h.carries(at(SUMMARY_REFRESH_S + 2.0), Some(&b)));
+        assert!(h.carries(at(SUMMARY_REFRESH_S + 3.0), None), "no plan: nothing to leave out");
+        assert!(h.carries(at(SUMMARY_REFRESH_S + 4.0), Some(&b)), "after no plan, the plan again");
     }
 }

@@ -2,6 +2,7 @@
 //! carried out (lead, step down, flush updates, end), and its view.
 
 use mrmm_proto::chain::lineage_floor;
+use mrmm_proto::Time;
 
 use super::*;
 
@@ -10,7 +11,7 @@ use super::*;
 const MAX_ORDERED_BACK: usize = 1_024;
 
 impl HostCore {
-    pub(super) fn start(&mut self, now: f64, query: u64, start: MissionStart, out: &mut Vec<Command>) {
+    pub(super) fn start(&mut self, now: Time, query: u64, start: MissionStart, out: &mut Vec<Command>) {
         let spec = match MissionSpec::from_wire(start.spec) {
             Ok(s) => s,
             Err(e) => return out.push(Command::Reply { query, result: Err(e.into()) }),
@@ -59,7 +60,7 @@ impl HostCore {
         self.run(now, name.as_str(), mission::Event::Start, out);
     }
 
-    pub(super) fn ctl(&mut self, now: f64, query: u64, name: &str, ctl: MissionCtl, out: &mut Vec<Command>) {
+    pub(super) fn ctl(&mut self, now: Time, query: u64, name: &str, ctl: MissionCtl, out: &mut Vec<Command>) {
         if !self.heads.contains_key(name) {
             // Not (or no longer) the head: the system manager asks again, of the new head.
             return out.push(Command::Drop { query });
@@ -120,7 +121,7 @@ impl HostCore {
         self.flush(now, name, out);
     }
 
-    pub(super) fn planned(&mut self, now: f64, name: &str, epoch: u64, result: Result<Box<MissionPlan>, Failure>, out: &mut Vec<Command>) {
+    pub(super) fn planned(&mut self, now: Time, name: &str, epoch: u64, result: Result<Box<MissionPlan>, Failure>, out: &mut Vec<Command>) {
         let ev = match result {
             Ok(plan) => mission::Event::PlanReady { epoch, plan },
             Err(f) if f.retryable && self.heads.get_mut(name).is_some_and(|h| h.retry_plan(epoch)) => {
@@ -149,7 +150,7 @@ impl HostCore {
     }
 
     /// Runs one event of a led mission, hands the new state to the chain, acts on what is committed.
-    pub(super) fn run(&mut self, now: f64, name: &str, ev: mission::Event, out: &mut Vec<Command>) {
+    pub(super) fn run(&mut self, now: Time, name: &str, ev: mission::Event, out: &mut Vec<Command>) {
         let telemetry = matches!(ev, mission::Event::Telemetry(_));
         let Some(h) = self.heads.get_mut(name) else {
             return;
@@ -174,7 +175,7 @@ impl HostCore {
     }
 
     /// Carries out a replica's commands (and those they lead to).
-    pub(super) fn apply(&mut self, now: f64, name: &str, cmds: Vec<ChainCmd>, out: &mut Vec<Command>) {
+    pub(super) fn apply(&mut self, now: Time, name: &str, cmds: Vec<ChainCmd>, out: &mut Vec<Command>) {
         let mut queue: VecDeque<ChainCmd> = cmds.into();
         while let Some(c) = queue.pop_front() {
             match c {
@@ -192,7 +193,7 @@ impl HostCore {
     }
 
     /// This node won the mission's chain: go on from the replicated state.
-    pub(super) fn lead(&mut self, now: f64, name: &str, config: chain::Config, state: MissionSnapshot, out: &mut Vec<Command>) {
+    pub(super) fn lead(&mut self, now: Time, name: &str, config: chain::Config, state: MissionSnapshot, out: &mut Vec<Command>) {
         if self.heads.contains_key(name) {
             return;
         }
@@ -240,7 +241,7 @@ impl HostCore {
     }
 
     /// Carries out what waited for the commit, once everything proposed is committed.
-    pub(super) fn flush(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
+    pub(super) fn flush(&mut self, now: Time, name: &str, out: &mut Vec<Command>) {
         let committed = self.registry.replica(name).is_some_and(|r| r.committed().is_some_and(|c| c == r.version().1));
         if !committed {
             return;
@@ -279,7 +280,7 @@ impl HostCore {
     }
 
     /// Ends a led mission; the chain carries the end to every node of its chain.
-    pub(super) fn end(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
+    pub(super) fn end(&mut self, now: Time, name: &str, out: &mut Vec<Command>) {
         if self.heads.remove(name).is_some() {
             out.push(Command::Unserve { mission: name.into() });
         }
@@ -288,7 +289,7 @@ impl HostCore {
     }
 
     /// Tells a led mission's replica which nodes may join its chain: members with a host up.
-    pub(super) fn set_pool(&mut self, now: f64, name: &str) {
+    pub(super) fn set_pool(&mut self, now: Time, name: &str) {
         let Some(h) = self.heads.get(name) else {
             return;
         };
@@ -299,7 +300,7 @@ impl HostCore {
     }
 
     /// The mission's status, with the planner's summary only when it changed (or is due again).
-    pub(super) fn status(&mut self, now: f64, name: &str, out: &mut Vec<Command>) {
+    pub(super) fn status(&mut self, now: Time, name: &str, out: &mut Vec<Command>) {
         let Some(mut v) = self.view(now, name, false) else { return };
         if let Some(h) = self.heads.get_mut(name) {
             if !h.carries_summary(now, v.summary.as_ref()) {
@@ -312,7 +313,7 @@ impl HostCore {
 
     /// A led mission as the operator sees it at `now`, with its chain (and how long its head
     /// could not commit, if it cannot).
-    pub fn view(&self, now: f64, name: &str, with_plans: bool) -> Option<MissionView> {
+    pub fn view(&self, now: Time, name: &str, with_plans: bool) -> Option<MissionView> {
         let h = self.heads.get(name)?;
         let mut v = h.mm.view(with_plans);
         if let Some(r) = self.registry.replica(name) {

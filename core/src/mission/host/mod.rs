@@ -7,11 +7,11 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use mrmm_planner::recipe::PlannerKind;
 use mrmm_proto::edge::Refused;
-use mrmm_proto::Key;
 use mrmm_proto::{
     ChainEnvelope, CtlAck, ErrorCode, ErrorReply, Member, MissionCtl, MissionName, MissionPlan, MissionSnapshot, MissionStart, MissionView, NodeId,
     PlanAssignment, PlanRequest, RobotId, Role, Sender, Telemetry, CENTRAL_HOST,
 };
+use mrmm_proto::{Key, Time};
 use serde_json::Value;
 
 use self::head::Head;
@@ -189,7 +189,7 @@ fn json<T: serde::Serialize>(v: &T) -> Result<Value, String> {
 
 impl HostCore {
     /// The host of `node`, started at `now` (its replicas do not vote for `params.quarantine`).
-    pub fn new(node: &str, params: Params, now: f64) -> Self {
+    pub fn new(node: &str, params: Params, now: Time) -> Self {
         HostCore {
             node: node.into(),
             registry: Registry::new(node, params, now),
@@ -204,7 +204,7 @@ impl HostCore {
     /// A durable host of `node`, started at `now`, going on from what it persisted (nothing on a
     /// first start): its chain replicas come back as they were and vote at once, and it puts out
     /// [`Command::Persist`] for every change they must remember.
-    pub fn restore(node: &str, params: Params, now: f64, disk: Vec<(MissionName, chain::Disk<MissionSnapshot>)>) -> Self {
+    pub fn restore(node: &str, params: Params, now: Time, disk: Vec<(MissionName, chain::Disk<MissionSnapshot>)>) -> Self {
         let mut h = HostCore::new(node, params, now);
         h.registry = Registry::restore(node, params, now, now, disk);
         h
@@ -260,7 +260,7 @@ impl HostCore {
     }
 
     /// Handles one event at `now` (seconds).
-    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, ev: Event) -> Vec<Command> {
         let mut out = Vec::new();
         if let Some(token) = ev.token() {
             self.roll.heard(now, &token.to_string());
@@ -319,7 +319,7 @@ impl HostCore {
 
     /// The answer to a roll call: the liveliness changes this host missed, translated by its own
     /// ingress into the events it missed, and handled as those.
-    fn roll_call(&mut self, now: f64, result: Result<crate::roll_call::Present, String>, out: &mut Vec<Command>) {
+    fn roll_call(&mut self, now: Time, result: Result<crate::roll_call::Present, String>, out: &mut Vec<Command>) {
         let mut held: BTreeSet<String> = self.robots.alive_ids().iter().map(|id| Key::RobotAlive(id.clone()).to_string()).collect();
         // Its own token is up whatever it heard of it.
         held.extend(self.registry.alive().iter().chain([&self.node]).map(|n| Key::HostAlive(n.clone()).to_string()));
@@ -336,7 +336,7 @@ impl HostCore {
 
     /// A robot's telemetry. Of a robot whose liveliness is gone it is stale (the driver's queues
     /// do not order it against liveliness): a lost member must not seem back.
-    fn telemetry(&mut self, now: f64, t: &Telemetry, out: &mut Vec<Command>) {
+    fn telemetry(&mut self, now: Time, t: &Telemetry, out: &mut Vec<Command>) {
         if !self.robots.heard(t) {
             return;
         }
@@ -354,7 +354,7 @@ impl HostCore {
         }
     }
 
-    fn host(&mut self, now: f64, node: &str, up: bool, out: &mut Vec<Command>) {
+    fn host(&mut self, now: Time, node: &str, up: bool, out: &mut Vec<Command>) {
         for (name, cmds) in self.registry.liveliness(now, node, up) {
             self.apply(now, name.as_str(), cmds, out);
         }
@@ -376,11 +376,11 @@ impl HostCore {
 
     /// A member lost is taken out (the team goes on without it); a lost member back rejoins,
     /// on its own while central is unreachable.
-    fn robot(&mut self, now: f64, id: &str, up: bool, out: &mut Vec<Command>) {
+    fn robot(&mut self, now: Time, id: &str, up: bool, out: &mut Vec<Command>) {
         // While central is reachable, a member back rejoins only on its order: one it gave
         // while the token was still gone here.
         let central = up && self.central_reachable();
-        let ordered = |h: &Head| h.ordered_back.get(id).is_some_and(|t| now - t < head::ORDERED_BACK_S);
+        let ordered = |h: &Head| h.ordered_back.get(id).is_some_and(|t| now - *t < head::ORDERED_BACK_S);
         let names: Vec<MissionName> = self
             .heads
             .iter()
@@ -419,7 +419,7 @@ impl crate::machine::Machine for HostCore {
     type Event = Event;
     type Command = Command;
 
-    fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         HostCore::handle(self, now, event)
     }
 

@@ -3,14 +3,14 @@
 //! is behind, or this node is not in its chain).
 
 use mrmm_proto::edge::Refused;
-use mrmm_proto::{ChainEnvelope, MissionSnapshot, Sender};
+use mrmm_proto::{ChainEnvelope, MissionSnapshot, Sender, Time};
 
 use super::{trust, Command, HostCore};
 use crate::mission::chain;
 
 impl HostCore {
     /// A chain message `envelope` from proven sender `sender`.
-    pub(super) fn chain_message(&mut self, now: f64, envelope: ChainEnvelope, sender: Sender, out: &mut Vec<Command>) {
+    pub(super) fn chain_message(&mut self, now: Time, envelope: ChainEnvelope, sender: Sender, out: &mut Vec<Command>) {
         let ChainEnvelope { mission, from, msg } = envelope;
         let holds = self.registry.replica(mission.as_str()).is_some_and(|r| r.config().is_some());
         if !holds && !self.heads.contains_key(&mission) {

@@ -4,7 +4,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use mrmm_proto::{MissionName, RobotId, Telemetry};
+use mrmm_proto::{MissionName, RobotId, Telemetry, Time};
 
 /// For this long after a chain message it could not judge, a host listens to its sender's
 /// telemetry; once heard, the sender's next message is judged by it.
@@ -24,7 +24,7 @@ pub(super) struct Robots {
     admitted: BTreeMap<RobotId, Vec<MissionName>>,
     /// Robots whose chain messages this node judges by their telemetry, and when it last needed
     /// it (see `watch.rs`).
-    unjudged: BTreeMap<RobotId, f64>,
+    unjudged: BTreeMap<RobotId, Time>,
 }
 
 impl Robots {
@@ -89,7 +89,7 @@ impl Robots {
     /// A chain message from robot `id` that only its telemetry can judge: whether to drop it
     /// while that telemetry is awaited (for [`UNJUDGED_S`] at least, and as long as the robot
     /// keeps sending such messages; at most [`UNJUDGED_MAX`] robots at once).
-    pub(super) fn awaits_telemetry(&mut self, now: f64, id: &str) -> bool {
+    pub(super) fn awaits_telemetry(&mut self, now: Time, id: &str) -> bool {
         let heard = self.admitted.contains_key(id);
         let room = self.unjudged.len() < UNJUDGED_MAX;
         match self.unjudged.get_mut(id) {
@@ -110,7 +110,7 @@ impl Robots {
     /// Forgets robots that stopped sending what only their telemetry can judge, then what it
     /// heard of robots neither awaiting judgement nor `member` of a mission it watches (what they
     /// said may be outdated by the time it matters again).
-    pub(super) fn prune(&mut self, now: f64, member: impl Fn(&str) -> bool) {
+    pub(super) fn prune(&mut self, now: Time, member: impl Fn(&str) -> bool) {
         self.unjudged.retain(|_, since| now - *since < 2.0 * UNJUDGED_S);
         let gone: Vec<RobotId> = self.admitted.keys().filter(|id| !self.unjudged.contains_key(*id) && !member(id.as_str())).cloned().collect();
         for id in gone {
@@ -123,6 +123,7 @@ impl Robots {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     fn telemetry(id: &str, mission: Option<&str>, admitted: &[&str]) -> Telemetry {
         let mut t = Telemetry::resting(id, 0.0);
@@ -155,15 +156,15 @@ mod tests {
     fn unjudged_senders_are_bounded_and_judged_once_heard() {
         let mut r = Robots::default();
         for i in 0..UNJUDGED_MAX {
-            assert!(r.awaits_telemetry(0.0, &format!("r{i}")));
+            assert!(r.awaits_telemetry(at(0.0), &format!("r{i}")));
         }
-        assert!(!r.awaits_telemetry(0.0, "one-too-many"), "no room: judged as it is");
-        assert!(r.awaits_telemetry(1.0, "r0"), "still waiting");
-        assert!(!r.awaits_telemetry(UNJUDGED_S, "r0"), "waited long enough");
+        assert!(!r.awaits_telemetry(at(0.0), "one-too-many"), "no room: judged as it is");
+        assert!(r.awaits_telemetry(at(1.0), "r0"), "still waiting");
+        assert!(!r.awaits_telemetry(at(UNJUDGED_S), "r0"), "waited long enough");
         r.up("r1");
         r.heard(&telemetry("r1", Some("p"), &[]));
-        assert!(!r.awaits_telemetry(1.0, "r1"), "heard: judged by its telemetry");
-        r.prune(3.0 * UNJUDGED_S, |_| false);
+        assert!(!r.awaits_telemetry(at(1.0), "r1"), "heard: judged by its telemetry");
+        r.prune(at(3.0 * UNJUDGED_S), |_| false);
         assert_eq!(r.unjudged().count(), 0);
         assert!(!r.runs("r1", "p"), "not watched: forgotten");
     }

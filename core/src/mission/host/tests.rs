@@ -4,9 +4,10 @@
 use std::collections::BTreeMap;
 
 use mrmm_planner::recipe;
-use mrmm_proto::{Behaviour, Member, MissionCtl, MissionSpecWire, MissionStart, Pose, Progress, RobotSpec, Telemetry, Velocity};
+use mrmm_proto::{Behaviour, Member, MissionCtl, MissionSpecWire, MissionStart, Pose, Progress, RobotSpec, Telemetry, Time, Velocity};
 
 use super::*;
+use crate::at;
 use crate::mission::chain::Params;
 
 fn member(id: &str, x: f64) -> Member {
@@ -52,7 +53,7 @@ fn central() -> mrmm_proto::Sender {
 /// Nodes wired together: chain messages are delivered at once, in order.
 struct Mesh {
     nodes: BTreeMap<String, HostCore>,
-    now: f64,
+    now: Time,
     /// Every command that is not a chain message, with the node that gave it.
     out: Vec<(String, Command)>,
 }
@@ -60,7 +61,7 @@ struct Mesh {
 impl Mesh {
     fn new(names: &[&str], robots: &[&str]) -> Mesh {
         let p = Params { quarantine: 0.0, ..Params::default() };
-        let mut m = Mesh { nodes: names.iter().map(|n| (n.to_string(), HostCore::new(n, p, 0.0))).collect(), now: 0.0, out: vec![] };
+        let mut m = Mesh { nodes: names.iter().map(|n| (n.to_string(), HostCore::new(n, p, at(0.0)))).collect(), now: at(0.0), out: vec![] };
         for a in names {
             for b in names {
                 m.to(a, Event::HostAlive(b.into()));

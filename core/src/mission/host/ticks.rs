@@ -1,7 +1,7 @@
 //! Time passing on a mission host: its ticks (chains, replans held back for a burst of losses,
 //! plan re-deliveries), its status ticks, and the answers to the plans it sent.
 
-use mrmm_proto::{MissionName, NodeId, PlanAssignment, RobotId};
+use mrmm_proto::{MissionName, NodeId, PlanAssignment, RobotId, Time};
 
 use super::{Command, HostCore};
 use crate::mission;
@@ -10,7 +10,7 @@ use crate::Failure;
 impl HostCore {
     /// Every few tens of milliseconds: chains, replans held back for a burst of losses that are
     /// due, plans to send again.
-    pub(super) fn tick(&mut self, now: f64, out: &mut Vec<Command>) {
+    pub(super) fn tick(&mut self, now: Time, out: &mut Vec<Command>) {
         self.prune_unwatched(now);
         for (name, cmds) in self.registry.tick(now) {
             self.apply(now, name.as_str(), cmds, out);
@@ -30,7 +30,7 @@ impl HostCore {
 
     /// Once a second: each led mission's metrics into its chain (replicated only if they
     /// changed, and then its status is published with the change); else its pool and status.
-    pub(super) fn status_tick(&mut self, now: f64, out: &mut Vec<Command>) {
+    pub(super) fn status_tick(&mut self, now: Time, out: &mut Vec<Command>) {
         // Only a host that leads or replicates a mission acts on liveliness: a fleet of idle
         // robot nodes asks nothing.
         let involved = !self.heads.is_empty() || self.registry.names().next().is_some();
@@ -50,7 +50,7 @@ impl HostCore {
 
     /// A robot answered the plan of `mission`'s `epoch`: delivered, refused for good, or to be
     /// tried again; its place in the delivery window goes to the next plan waiting.
-    pub(super) fn plan_delivered(&mut self, now: f64, mission: &str, robot: &str, epoch: u64, result: Result<(), Failure>, out: &mut Vec<Command>) {
+    pub(super) fn plan_delivered(&mut self, now: Time, mission: &str, robot: &str, epoch: u64, result: Result<(), Failure>, out: &mut Vec<Command>) {
         let managers = self.registry.replica(mission).and_then(|r| r.config()).map(|c| c.chain.clone()).unwrap_or_default();
         let robots = &self.robots;
         let Some(h) = self.heads.get_mut(mission) else { return };

@@ -7,7 +7,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{MissionName, MissionView, NodeId, Role, Sender};
+use mrmm_proto::{MissionName, MissionView, NodeId, Role, Sender, Time};
 
 use super::FOREIGN_CHAIN_S;
 
@@ -31,7 +31,7 @@ pub(super) enum Heard<'a> {
     /// A mission's head published its status (proven sender `from`).
     Status { view: &'a MissionView, from: &'a Sender },
     /// A chain message of `mission` from node `from`, which this node holds nothing of.
-    Foreign { now: f64, mission: MissionName, from: NodeId },
+    Foreign { now: Time, mission: MissionName, from: NodeId },
 }
 
 /// What this node holds of a mission, for judging a robot's chain message about it.
@@ -52,7 +52,7 @@ pub(super) struct Trust {
     /// The chain of each of our robot's missions, as a head our robot trusts last published it.
     trusted_chain: BTreeMap<MissionName, Vec<NodeId>>,
     /// Missions this node holds nothing of whose chain messages it hears: when, and from whom.
-    foreign: BTreeMap<MissionName, (f64, NodeId)>,
+    foreign: BTreeMap<MissionName, (Time, NodeId)>,
 }
 
 impl Trust {
@@ -106,7 +106,7 @@ impl Trust {
 
     /// A node that sent chain messages of `mission` within [`FOREIGN_CHAIN_S`] while this node
     /// held nothing of it: the mission's old chain lives, and may take over again.
-    pub(super) fn chain_elsewhere(&mut self, now: f64, mission: &str) -> Option<&NodeId> {
+    pub(super) fn chain_elsewhere(&mut self, now: Time, mission: &str) -> Option<&NodeId> {
         self.foreign.retain(|_, (t, _)| now - *t < FOREIGN_CHAIN_S);
         self.foreign.get(mission).map(|(_, node)| node)
     }
@@ -149,6 +149,7 @@ impl Trust {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::at;
 
     fn robot(id: &str) -> Sender {
         Sender::new(Role::Robot, id.to_string())
@@ -192,11 +193,11 @@ mod tests {
     #[test]
     fn a_foreign_chain_holds_a_start_back_for_a_while_and_is_bounded() {
         let mut t = Trust::new(false);
-        t.handle(Heard::Foreign { now: 1.0, mission: "m".into(), from: "r1".into() });
-        assert_eq!(t.chain_elsewhere(1.0 + FOREIGN_CHAIN_S - 0.1, "m").map(|n| n.as_str()), Some("r1"));
-        assert!(t.chain_elsewhere(1.0 + FOREIGN_CHAIN_S, "m").is_none());
+        t.handle(Heard::Foreign { now: at(1.0), mission: "m".into(), from: "r1".into() });
+        assert_eq!(t.chain_elsewhere(at(1.0 + FOREIGN_CHAIN_S - 0.1), "m").map(|n| n.as_str()), Some("r1"));
+        assert!(t.chain_elsewhere(at(1.0 + FOREIGN_CHAIN_S), "m").is_none());
         for i in 0..2 * MAX_FOREIGN {
-            t.handle(Heard::Foreign { now: 10.0, mission: format!("m{i}").into(), from: "r1".into() });
+            t.handle(Heard::Foreign { now: at(10.0), mission: format!("m{i}").into(), from: "r1".into() });
         }
         assert_eq!(t.foreign.len(), MAX_FOREIGN);
     }

@@ -6,6 +6,7 @@
 //! sent it chain messages about a mission it knows nothing of: its telemetry says whether it runs
 //! that mission ([`HostCore::may_chain`]'s last resort).
 
+use mrmm_proto::Time;
 use std::collections::BTreeSet;
 
 use super::*;
@@ -43,7 +44,7 @@ impl HostCore {
     /// robot's own telemetry, which this host has not heard yet: it then listens for it (for
     /// [`super::UNJUDGED_S`] at least, and as long as the robot keeps sending such messages) and drops
     /// the message meanwhile (the head sends again).
-    pub(super) fn awaits_telemetry(&mut self, now: f64, mission: &str, from: &Sender) -> bool {
+    pub(super) fn awaits_telemetry(&mut self, now: Time, mission: &str, from: &Sender) -> bool {
         if from.role != Role::Robot {
             return false;
         }
@@ -58,7 +59,7 @@ impl HostCore {
     /// Forgets what it heard of robots it no longer watches (what they said may be outdated by
     /// the time it matters again), and robots that stopped sending what only their telemetry
     /// can judge.
-    pub(super) fn prune_unwatched(&mut self, now: f64) {
+    pub(super) fn prune_unwatched(&mut self, now: Time) {
         let mut robots = std::mem::take(&mut self.robots);
         robots.prune(now, |id| self.watches_member(id));
         self.robots = robots;

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use mrmm_proto::{BarrierMode, PlanAssignment, Progress, RobotId, Step, SyncArrival, SyncRelease};
+use mrmm_proto::{BarrierMode, PlanAssignment, Progress, RobotId, Step, SyncArrival, SyncRelease, Time};
 
 use crate::body::Onward;
 use crate::robot::barrier::Barrier;
@@ -78,28 +78,28 @@ pub struct Executor {
     /// is published once it faces it.
     turning: bool,
     /// When the robot arrived at the barrier it waits at (simulated seconds).
-    waiting_since: f64,
+    waiting_since: Time,
     /// Simulated seconds spent waiting at barriers that released since the first (the
     /// formation's) under this plan.
     sync_wait: f64,
     /// Simulated seconds the plan waited for traffic.
     traffic_wait: f64,
-    last_publish: f64,
+    last_publish: Time,
     /// [`REPUBLISH_S`] in simulated seconds.
     republish: f64,
     /// The gap before the next re-publication while waiting ([`REPUBLISH_BACKOFF`]).
     gap: f64,
     /// A teammate seems to wait for an arrival of ours it missed: publish our furthest again.
     echo_due: bool,
-    last_echo: f64,
-    hold_until: Option<f64>,
+    last_echo: Time,
+    hold_until: Option<Time>,
     navigating: bool,
     done: bool,
     /// What the runtime was last told by [`Command::Lead`].
     leading: bool,
     /// The furthest release this robot announced as leader, and when it last announced one.
     announced: Option<(u32, u32)>,
-    last_release: f64,
+    last_release: Time,
     /// A member asked for a barrier already released: announce it again.
     release_echo_due: bool,
     /// The leader known to have our furthest arrival (it released up to it).
@@ -116,11 +116,11 @@ struct Wide {
     waiting: Option<(u32, u32)>,
     /// As [`Executor::turning`], for this barrier.
     turning: bool,
-    last_publish: f64,
+    last_publish: Time,
     /// As [`Executor::gap`], for this barrier.
     gap: f64,
     echo_due: bool,
-    last_echo: f64,
+    last_echo: Time,
 }
 
 impl Executor {
@@ -134,7 +134,7 @@ impl Executor {
                 let barrier = Barrier::new(assignment.plan.robot.as_str(), assignment.epoch, &s.members);
                 (
                     s.team.clone(),
-                    Wide { barrier, waiting: None, turning: false, last_publish: 0.0, gap: REPUBLISH_S, echo_due: false, last_echo: f64::NEG_INFINITY },
+                    Wide { barrier, waiting: None, turning: false, last_publish: Time::ZERO, gap: REPUBLISH_S, echo_due: false, last_echo: Time::LONG_AGO },
                 )
             })
             .collect();
@@ -149,20 +149,20 @@ impl Executor {
             sync_msgs: 0,
             waiting: None,
             turning: false,
-            waiting_since: 0.0,
+            waiting_since: Time::ZERO,
             sync_wait: 0.0,
             traffic_wait: 0.0,
-            last_publish: 0.0,
+            last_publish: Time::ZERO,
             republish: REPUBLISH_S,
             gap: REPUBLISH_S,
             echo_due: false,
-            last_echo: f64::NEG_INFINITY,
+            last_echo: Time::LONG_AGO,
             hold_until: None,
             navigating: false,
             done: false,
             leading: false,
             announced: None,
-            last_release: f64::NEG_INFINITY,
+            last_release: Time::LONG_AGO,
             release_echo_due: false,
             acked_by: None,
         }
@@ -235,7 +235,7 @@ impl Executor {
     }
 
     /// Handles one event at `now` (the robot's simulated seconds).
-    pub fn handle(&mut self, now: f64, ev: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, ev: Event) -> Vec<Command> {
         match ev {
             Event::Tick { body_idle } => self.tick(now, body_idle),
             Event::Heard(a) => {
@@ -276,7 +276,7 @@ impl Executor {
     /// The leader's part ([`BarrierMode::Leader`]): tells the runtime when this robot starts or
     /// stops leading, and announces every barrier it knows released — once when it is, and again
     /// (at most every `REPUBLISH_S`) when a member asks for one already released.
-    fn lead(&mut self, now: f64) -> Vec<Command> {
+    fn lead(&mut self, now: Time) -> Vec<Command> {
         let mut out = Vec::new();
         if self.barrier.mode() != BarrierMode::Leader {
             return out;
@@ -325,7 +325,7 @@ impl Executor {
 
     /// Publishes our arrival `at` (round, point) unless we lead (the leader's own arrival is
     /// counted where it is heard: here).
-    fn publish(&mut self, now: f64, at: (u32, u32), out: &mut Vec<Command>) {
+    fn publish(&mut self, now: Time, at: (u32, u32), out: &mut Vec<Command>) {
         self.last_publish = now;
         if self.barrier.leading() {
             return;
@@ -337,7 +337,7 @@ impl Executor {
     /// This robot is at barrier `point` of the current round of wider team `team`: publishes its
     /// arrival (again every `REPUBLISH_S` while it waits); whether the barrier released. A plan
     /// whose scope has no members listed (refused when the plan comes in) passes at once.
-    fn wide_sync(&mut self, now: f64, team: &str, point: u32, body_idle: bool, out: &mut Vec<Command>) -> bool {
+    fn wide_sync(&mut self, now: Time, team: &str, point: u32, body_idle: bool, out: &mut Vec<Command>) -> bool {
         let (me, epoch, round, republish) = (self.assignment.plan.robot.clone(), self.assignment.epoch, self.round, self.republish);
         let next = ahead::next_point(&self.assignment.plan.steps, self.pc);
         let first = self.syncs_passed == 0;
@@ -393,7 +393,7 @@ impl Executor {
     }
 
     /// Advances the plan. `now`: simulated seconds; `body_idle`: the body has no goal (arrived).
-    fn tick(&mut self, now: f64, body_idle: bool) -> Vec<Command> {
+    fn tick(&mut self, now: Time, body_idle: bool) -> Vec<Command> {
         let mut out = self.lead(now);
         self.resend(now, &mut out);
         for _ in 0..MAX_STEPS_PER_TICK {
@@ -415,7 +415,7 @@ impl Executor {
     /// What is said again at this tick: a member whose leader changed re-sends its furthest
     /// arrival until the new leader has released up to it (the new leader may need it for a
     /// barrier others still wait at); echoes of our furthest arrival to teammates behind us.
-    fn resend(&mut self, now: f64, out: &mut Vec<Command>) {
+    fn resend(&mut self, now: Time, out: &mut Vec<Command>) {
         if self.barrier.mode() == BarrierMode::Leader
             && !self.barrier.leading()
             && self.waiting.is_none()
@@ -448,7 +448,7 @@ impl Executor {
     }
 
     /// Takes the plan's current step; false while it is not done (the tick ends there).
-    fn step(&mut self, now: f64, body_idle: bool, step: Step, out: &mut Vec<Command>) -> bool {
+    fn step(&mut self, now: Time, body_idle: bool, step: Step, out: &mut Vec<Command>) -> bool {
         match step {
             Step::Stream => {}
             Step::Navigate { x, y, speed } => {
@@ -476,7 +476,7 @@ impl Executor {
             Step::Hold { seconds } => {
                 let until = *self.hold_until.get_or_insert_with(|| {
                     out.push(Command::Hold);
-                    seconds.map_or(f64::INFINITY, |s| now + s)
+                    seconds.map_or(Time::NEVER, |s| now + s)
                 });
                 if now < until {
                     return false;
@@ -498,7 +498,7 @@ impl Executor {
     }
 
     /// Our arrival at barrier `point` of the current round: counted, published, led.
-    fn announce(&mut self, now: f64, point: u32, out: &mut Vec<Command>) {
+    fn announce(&mut self, now: Time, point: u32, out: &mut Vec<Command>) {
         let arrival = SyncArrival { robot: self.assignment.plan.robot.clone(), epoch: self.assignment.epoch, point, round: self.round };
         self.barrier.arrival(&arrival);
         self.gap = self.republish;
@@ -513,7 +513,7 @@ impl Executor {
     /// from its way, and announced itself before turning would leave after the others and stay
     /// behind its slot's time for the whole first leg. Later barriers are reached driving the
     /// plan's way: the turn there is made while waiting, as the plan's timing counts it.
-    fn own_sync(&mut self, now: f64, point: u32, body_idle: bool, out: &mut Vec<Command>) -> bool {
+    fn own_sync(&mut self, now: Time, point: u32, body_idle: bool, out: &mut Vec<Command>) -> bool {
         let at = (point, self.round);
         if self.waiting != Some(at) {
             self.waiting = Some(at);

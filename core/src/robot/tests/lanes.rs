@@ -1,6 +1,7 @@
 //! A robot on a map: its goals given to traffic, driven on lanes and off them.
 
 use super::*;
+use crate::at;
 
 /// On a map, a plan's goal goes to traffic first; when traffic answers that the map has no lanes
 /// (a grid map), the body drives to that goal — the plan does not skip it for the next one (an
@@ -14,16 +15,16 @@ fn a_goal_given_to_traffic_is_driven_when_the_map_has_no_lanes() {
     ]));
     // Traffic has not answered yet: the robot stands, waiting for its word.
     for i in 0..10 {
-        r.handle(i as f64 * 0.01, Event::Tick);
+        r.handle(at(i as f64 * 0.01), Event::Tick);
     }
     assert_eq!(r.body.goal(), None);
-    r.handle(0.1, Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
-    r.handle(0.11, Event::Tick);
+    r.handle(at(0.1), Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
+    r.handle(at(0.11), Event::Tick);
     assert_eq!(r.body.goal(), Some((4.0, 0.0)), "the first goal, not the next one");
     // It gets there, then drives on to the next.
     let mut seen_first = false;
     for i in 12..400 {
-        r.handle(i as f64 * 0.01, Event::Tick);
+        r.handle(at(i as f64 * 0.01), Event::Tick);
         let p = r.body.pose();
         seen_first |= (p.x - 4.0).abs() < 0.2 && p.y.abs() < 0.2;
     }
@@ -37,9 +38,9 @@ fn a_goal_given_to_traffic_is_driven_when_the_map_has_no_lanes() {
 fn a_goto_given_to_traffic_is_driven_along_its_route_when_the_map_has_no_lanes() {
     let (mut r, map) = planned_on_map(None);
     cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]], map: None }).0.expect("goto taken");
-    r.handle(0.0, Event::Tick);
+    r.handle(at(0.0), Event::Tick);
     assert_eq!(r.body.goal(), None, "traffic's word first");
-    r.handle(0.05, Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
+    r.handle(at(0.05), Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
     assert_eq!(r.body.goal(), Some((4.0, 0.0)), "the route's first point");
 }
 
@@ -51,12 +52,12 @@ fn a_goto_on_a_map_goes_to_its_traffic_without_a_plan_before() {
     let mut r = Robot::new(cfg());
     let map = mrmm_proto::MapRef { name: "office".into(), hash: "cd".repeat(32) };
     cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]], map: Some(map.clone()) }).0.expect("goto taken");
-    let out = r.handle(0.0, Event::Tick);
+    let out = r.handle(at(0.0), Event::Tick);
     let asked =
         out.iter().any(|c| matches!(c, Command::TrafficReport { map: m, report } if *m == map.hash && report.goal.is_some_and(|g| (g.x, g.y) == (4.0, 4.0))));
     assert!(asked, "the goal told to the map's traffic: {out:?}");
     assert_eq!(r.body.goal(), None, "traffic's word first");
-    r.handle(0.05, Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
+    r.handle(at(0.05), Event::Traffic { map: map.hash.clone(), order: mrmm_proto::TrafficOrder::Free, deputy: false });
     assert_eq!(r.body.goal(), Some((4.0, 0.0)), "no lanes: the route's first point");
 }
 
@@ -77,18 +78,18 @@ fn a_way_off_the_lanes_is_driven_there_and_back_by_the_vertex() {
         order: mrmm_proto::TrafficOrder::Route { goal, incarnation: 1, version, route, reached: Some(0), upto: Some(1), deputies: vec![], off: Some(off) },
         deputy: false,
     };
-    r.handle(0.0, Event::Tick);
-    r.handle(0.01, order(1, 1, vec![v0.clone(), v1.clone()], [3.0, 1.0]));
+    r.handle(at(0.0), Event::Tick);
+    r.handle(at(0.01), order(1, 1, vec![v0.clone(), v1.clone()], [3.0, 1.0]));
     let (mut t, mut at_goal, mut back, mut second_order) = (0.02, false, false, false);
     while t < 12.0 {
-        r.handle(t, Event::Tick);
+        r.handle(at(t), Event::Tick);
         let p = r.body.pose();
         at_goal |= (p.x - 3.0).abs() < 0.1 && (p.y - 1.0).abs() < 0.1;
         if at_goal && !second_order {
             // The plan went on to its next goal: the robot heads back to (3, 0) before any order.
             back |= (p.x - 3.0).abs() < 0.16 && p.y.abs() < 0.16;
             if back {
-                r.handle(t, order(2, 2, vec![v1.clone(), v0.clone()], [0.0, -1.0]));
+                r.handle(at(t), order(2, 2, vec![v1.clone(), v0.clone()], [0.0, -1.0]));
                 second_order = true;
             }
         }
@@ -113,7 +114,7 @@ fn a_robot_taken_off_the_lanes_stops_and_asks_anew() {
     let (mut r, map) = planned_on_map(Some(vec![Step::Navigate { x: 100.0, y: 0.0, speed: None }, Step::Hold { seconds: None }]));
     let (v0, v1) = (RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 100.0, 0.0));
     let order = |order: TrafficOrder, deputy: bool| Event::Traffic { map: map.hash.clone(), order, deputy };
-    r.handle(0.0, Event::Tick);
+    r.handle(at(0.0), Event::Tick);
     let route = TrafficOrder::Route {
         goal: 1,
         incarnation: 1,
@@ -124,13 +125,13 @@ fn a_robot_taken_off_the_lanes_stops_and_asks_anew() {
         deputies: vec![],
         off: None,
     };
-    r.handle(0.01, order(route, false));
+    r.handle(at(0.01), order(route, false));
     let mut t = 0.02;
     // Ticks until `until`: whether the robot asked for its way without holding any.
     let mut drive = |r: &mut Robot, until: f64| {
         let mut asked = false;
         while t < until {
-            let out = r.handle(t, Event::Tick);
+            let out = r.handle(at(t), Event::Tick);
             asked |= out.iter().any(|c| matches!(c, Command::TrafficReport { report, .. } if report.held.is_none() && report.goal.is_some()));
             t += 0.01;
         }
@@ -139,11 +140,11 @@ fn a_robot_taken_off_the_lanes_stops_and_asks_anew() {
     drive(&mut r, 0.5);
     let x = r.body.pose().x;
     assert!(x > 0.3, "it drives what it was granted: {x}");
-    r.handle(0.5, order(TrafficOrder::Cleared { incarnation: 1 }, true));
+    r.handle(at(0.5), order(TrafficOrder::Cleared { incarnation: 1 }, true));
     drive(&mut r, 1.0);
     assert!(r.body.pose().x > x + 0.3, "a deputy cannot clear it: {x} then {}", r.body.pose().x);
     let x = r.body.pose().x;
-    r.handle(1.0, order(TrafficOrder::Cleared { incarnation: 1 }, false));
+    r.handle(at(1.0), order(TrafficOrder::Cleared { incarnation: 1 }, false));
     assert!(drive(&mut r, 3.0), "it asks for its way anew");
     assert!(r.body.pose().x < x + 0.5, "it drove on after it was cleared: from {x} to {}", r.body.pose().x);
 }
@@ -170,19 +171,19 @@ fn a_way_off_the_lanes_waits_for_traffic_gone_quiet() {
         deputy: false,
     };
     // 40 m at 8 m/s (2 m/s, time scale 4): at the vertex after traffic's 3 s of quiet.
-    r.handle(0.0, Event::Tick);
-    r.handle(0.01, order());
+    r.handle(at(0.0), Event::Tick);
+    r.handle(at(0.01), order());
     let mut t = 0.02;
     while t < 10.0 {
-        r.handle(t, Event::Tick);
+        r.handle(at(t), Event::Tick);
         t += 0.01;
     }
     let p = r.body.pose();
     assert!((p.x - 40.0).abs() < 0.1 && p.y.abs() < 0.1, "waits at the vertex: {p:?}");
-    assert_eq!(telemetry(&mut r, t).progress.map(|p| p.step), Some(0), "the goal off the lanes is not reached");
-    r.handle(t, order());
+    assert_eq!(telemetry(&mut r, at(t)).progress.map(|p| p.step), Some(0), "the goal off the lanes is not reached");
+    r.handle(at(t), order());
     while t < 13.0 {
-        r.handle(t, Event::Tick);
+        r.handle(at(t), Event::Tick);
         t += 0.01;
     }
     let p = r.body.pose();
@@ -198,15 +199,15 @@ fn a_robot_paused_on_the_lanes_stops_at_the_end_of_its_lane() {
     let (mut r, map) = planned_on_map(Some(vec![Step::Navigate { x: 100.0, y: 0.0, speed: None }, Step::Hold { seconds: None }]));
     let route = vec![RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 2.0, 0.0), RouteVertex::at(2, 4.0, 0.0), RouteVertex::at(3, 100.0, 0.0)];
     let order = mrmm_proto::TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route, reached: Some(0), upto: Some(3), deputies: vec![], off: None };
-    r.handle(0.0, Event::Tick);
+    r.handle(at(0.0), Event::Tick);
     let mut t = 0.01;
     let mut asked_after = false;
     let mut paused = false;
     while t < 20.0 {
         // The authority answers every report with the same order.
-        let out = r.handle(t, Event::Tick);
+        let out = r.handle(at(t), Event::Tick);
         if out.iter().any(|c| matches!(c, Command::TrafficReport { .. })) {
-            r.handle(t, Event::Traffic { map: map.hash.clone(), order: order.clone(), deputy: false });
+            r.handle(at(t), Event::Traffic { map: map.hash.clone(), order: order.clone(), deputy: false });
         }
         asked_after |= paused && out.iter().any(|c| matches!(c, Command::TrafficReport { report, .. } if report.goal.is_some()));
         if !paused && r.body.pose().x > 1.0 {
@@ -235,12 +236,12 @@ fn a_robot_charging_on_the_lanes_reports_itself_docked() {
     let docked = |out: Vec<Command>| out.iter().rev().find_map(|c| if let Command::TrafficReport { report, .. } = c { Some(report.docked) } else { None });
     let mut said = None;
     for k in 0..30 {
-        said = docked(r.handle(f64::from(k) * 0.1, Event::Tick)).or(said);
+        said = docked(r.handle(at(f64::from(k) * 0.1), Event::Tick)).or(said);
     }
     assert_eq!(said, Some(true), "charging, it says it is docked");
     cmd(&mut r, RobotCommand::Goto { x: 10.0, y: 0.0, via: vec![], map: None }).0.expect("goto");
     for k in 30..60 {
-        said = docked(r.handle(f64::from(k) * 0.1, Event::Tick)).or(said);
+        said = docked(r.handle(at(f64::from(k) * 0.1), Event::Tick)).or(said);
     }
     assert_eq!(said, Some(false), "given a goal, it is no longer docked");
 }

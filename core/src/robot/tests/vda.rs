@@ -1,6 +1,7 @@
 //! A robot whose body is a VDA 5050 vehicle: what it sends, and driven against the simulated one.
 
 use super::*;
+use crate::at;
 
 /// A VDA 5050 vehicle is sent the goal a tick gives it within that tick (a grant is on the wire
 /// at once, not a tick later), and the vehicle's state drives the robot on along its goto.
@@ -12,12 +13,12 @@ fn a_vda_vehicle_is_sent_its_next_goal_in_the_tick_that_gives_it() {
         s.agv_position = Some(mrmm_vda5050::msg::AgvPosition { x, y: 0.0, theta: 0.0, map_id: "m".into(), position_initialized: true });
         Event::Vda(Box::new(mrmm_vda5050::FromVehicle::State(Box::new(s))))
     };
-    r.handle(0.0, state("", 0, 0.0));
+    r.handle(at(0.0), state("", 0, 0.0));
     cmd(&mut r, RobotCommand::Goto { x: 4.0, y: 4.0, via: vec![[4.0, 0.0]], map: None }).0.expect("goto taken");
     let orders = |out: Vec<Command>| out.into_iter().filter(|c| matches!(c, Command::Vda(crate::body::vda::VdaOut::Order(_)))).count();
-    assert_eq!(orders(r.handle(0.02, Event::Tick)), 1, "the first corner");
-    r.handle(0.5, state("gw-p1", 2, 4.0));
-    assert_eq!(orders(r.handle(0.52, Event::Tick)), 1, "the corner passed: the goal after it goes out in the same tick");
+    assert_eq!(orders(r.handle(at(0.02), Event::Tick)), 1, "the first corner");
+    r.handle(at(0.5), state("gw-p1", 2, 4.0));
+    assert_eq!(orders(r.handle(at(0.52), Event::Tick)), 1, "the corner passed: the goal after it goes out in the same tick");
 }
 
 /// The fleet's charging policy plugs a VDA 5050 vehicle in by `startCharging` (and out by
@@ -35,9 +36,9 @@ fn a_vda_vehicle_is_charged_by_instant_actions() {
             .collect()
     };
     cmd(&mut r, RobotCommand::Charge { on: true }).0.expect("plugged");
-    assert_eq!(actions(r.handle(0.02, Event::Tick)), ["startCharging"]);
+    assert_eq!(actions(r.handle(at(0.02), Event::Tick)), ["startCharging"]);
     cmd(&mut r, RobotCommand::Charge { on: false }).0.expect("unplugged");
-    assert_eq!(actions(r.handle(0.04, Event::Tick)), ["stopCharging"]);
+    assert_eq!(actions(r.handle(at(0.04), Event::Tick)), ["stopCharging"]);
 }
 
 /// A VDA 5050 vehicle driving back from a goal off the lanes to the vertex it left them at is
@@ -74,8 +75,8 @@ fn a_vda_vehicle_driving_back_to_the_lanes_is_sent_its_next_grant_on_the_way() {
     let mut to_robot: Vec<SimOut> = vehicle.connect(0);
     // The authority's order, which it sends again in answer to every report.
     let mut current = (1, vec![v0.clone(), v1.clone()], [3.0, 1.0]);
-    r.handle(0.0, Event::Tick);
-    r.handle(0.0, order(current.0, current.1.clone(), current.2));
+    r.handle(at(0.0), Event::Tick);
+    r.handle(at(0.0), order(current.0, current.1.clone(), current.2));
     let (mut at_goal, mut granted, mut released, mut cancels) = (false, None, None, 0);
     for k in 1..1500u64 {
         let t = k as f64 * 0.01;
@@ -88,23 +89,23 @@ fn a_vda_vehicle_driving_back_to_the_lanes_is_sent_its_next_grant_on_the_way() {
                 SimOut::Visualization(v) => FromVehicle::Visualization(v),
                 _ => continue,
             };
-            r.handle(t, Event::Vda(Box::new(msg)));
+            r.handle(at(t), Event::Vda(Box::new(msg)));
         }
         let p = r.body.pose();
         at_goal |= (p.x - 3.0).abs() < 0.1 && (p.y - 1.0).abs() < 0.1;
         if at_goal && granted.is_none() && p.y < 0.6 {
             // On its way back to (3, 0): traffic grants the next route, from there.
             current = (2, vec![v1.clone(), v0.clone()], [0.0, -1.0]);
-            r.handle(t, order(current.0, current.1.clone(), current.2));
+            r.handle(at(t), order(current.0, current.1.clone(), current.2));
             granted = Some(t);
         }
         if at_goal {
             assert!((p.x - 3.0).abs() < 0.15 || p.y.abs() < 0.15 || p.x.abs() < 0.15, "off the ways: {p:?}");
         }
-        for c in r.handle(t, Event::Tick) {
+        for c in r.handle(at(t), Event::Tick) {
             let input = match c {
                 Command::TrafficReport { .. } => {
-                    r.handle(t, order(current.0, current.1.clone(), current.2));
+                    r.handle(at(t), order(current.0, current.1.clone(), current.2));
                     continue;
                 }
                 Command::Vda(VdaOut::Order(o)) => {
@@ -143,7 +144,7 @@ fn a_vda_vehicle_paused_on_the_lanes_is_paused_where_it_is() {
     let route = vec![RouteVertex::at(0, 0.0, 0.0), RouteVertex::at(1, 2.0, 0.0), RouteVertex::at(2, 4.0, 0.0), RouteVertex::at(3, 100.0, 0.0)];
     let order = mrmm_proto::TrafficOrder::Route { goal: 1, incarnation: 1, version: 1, route, reached: Some(0), upto: Some(3), deputies: vec![], off: None };
     let mut to_robot: Vec<SimOut> = vehicle.connect(0);
-    r.handle(0.0, Event::Tick);
+    r.handle(at(0.0), Event::Tick);
     let (mut paused, mut sent) = (None, Vec::new());
     for k in 1..1000u64 {
         let t = k as f64 * 0.01;
@@ -153,7 +154,7 @@ fn a_vda_vehicle_paused_on_the_lanes_is_paused_where_it_is() {
                 SimOut::Visualization(v) => FromVehicle::Visualization(v),
                 _ => continue,
             };
-            r.handle(t, Event::Vda(Box::new(msg)));
+            r.handle(at(t), Event::Vda(Box::new(msg)));
         }
         if paused.is_none() && r.body.pose().x > 1.0 {
             let RobotCommand::Plan(mut a) = plan("m", 2) else { unreachable!() };
@@ -162,10 +163,10 @@ fn a_vda_vehicle_paused_on_the_lanes_is_paused_where_it_is() {
             cmd(&mut r, RobotCommand::Plan(a)).0.expect("the hold plan taken");
             paused = Some(r.body.pose().x);
         }
-        for c in r.handle(t, Event::Tick) {
+        for c in r.handle(at(t), Event::Tick) {
             let input = match c {
                 Command::TrafficReport { .. } => {
-                    r.handle(t, Event::Traffic { map: map.hash.clone(), order: order.clone(), deputy: false });
+                    r.handle(at(t), Event::Traffic { map: map.hash.clone(), order: order.clone(), deputy: false });
                     continue;
                 }
                 Command::Vda(VdaOut::Order(o)) => SimIn::Order(o),

@@ -25,7 +25,7 @@ use std::sync::Arc;
 use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, OccupancyGrid, Point};
 use mrmm_proto::traffic::{RouteVertex, TrafficCleared, TrafficGoal, TrafficHeld, TrafficReport, DEPUTIES, QUIET_S, REPORT_S};
-use mrmm_proto::{ErrorReply, RobotId, TrafficOrder};
+use mrmm_proto::{ErrorReply, RobotId, Time, TrafficOrder};
 
 use super::{Layout, Params, Traffic, CLEARANCE};
 
@@ -73,7 +73,7 @@ pub enum Command {
 struct Seen {
     seq: u64,
     /// When it last reported.
-    last: f64,
+    last: Time,
     /// The goal it was routed to.
     goal: Option<u64>,
     /// Why its goal was refused.
@@ -102,12 +102,12 @@ pub struct Authority {
     /// The robot it runs on, if a deputy took over (it names others as deputies).
     me: Option<RobotId>,
     incarnation: u64,
-    started: f64,
+    started: Time,
     maps: BTreeMap<String, OnMap>,
     /// Robots whose liveliness went, since when.
-    gone: BTreeMap<RobotId, f64>,
+    gone: BTreeMap<RobotId, Time>,
     /// Robots whose liveliness appeared and that it has not heard yet, since when.
-    awaiting: BTreeMap<RobotId, f64>,
+    awaiting: BTreeMap<RobotId, Time>,
     /// Robots it heard.
     heard: std::collections::BTreeSet<RobotId>,
 }
@@ -121,7 +121,7 @@ impl std::fmt::Debug for Authority {
 impl Authority {
     /// An authority started at `now`, `incarnation` above every earlier one's (its orders
     /// supersede theirs), for `maps` by bundle hash.
-    pub fn new(now: f64, incarnation: u64, maps: impl IntoIterator<Item = (String, Arc<Map>)>) -> Authority {
+    pub fn new(now: Time, incarnation: u64, maps: impl IntoIterator<Item = (String, Arc<Map>)>) -> Authority {
         let maps = maps.into_iter().map(|(hash, map)| (hash, OnMap::new(&map))).collect();
         Authority { me: None, incarnation, started: now, maps, gone: BTreeMap::new(), awaiting: BTreeMap::new(), heard: Default::default() }
     }
@@ -133,7 +133,7 @@ impl Authority {
     /// before anything is granted — no rebuild window: the deputy heard every robot within the
     /// last [`REPORT_S`] — then each robot's goal is routed on and every robot answered.
     pub fn took_over(
-        now: f64,
+        now: Time,
         me: RobotId,
         incarnation: u64,
         maps: impl IntoIterator<Item = (String, Arc<Map>)>,
@@ -177,7 +177,7 @@ impl Authority {
     }
 
     /// The same authority under `incarnation`, started at `now`.
-    pub fn with_incarnation(mut self, incarnation: u64, now: f64) -> Authority {
+    pub fn with_incarnation(mut self, incarnation: u64, now: Time) -> Authority {
         self.incarnation = incarnation;
         self.started = now;
         self
@@ -188,7 +188,7 @@ impl Authority {
     }
 
     /// Traffic on every map with lanes, as the operator sees it at `now`.
-    pub fn views(&self, now: f64) -> Vec<mrmm_proto::traffic::TrafficView> {
+    pub fn views(&self, now: Time) -> Vec<mrmm_proto::traffic::TrafficView> {
         self.maps
             .iter()
             .filter_map(|(hash, m)| {
@@ -201,7 +201,7 @@ impl Authority {
     /// Takes lost robot `robot` off the lanes of every map (the operator says it is no longer
     /// where it stood): everything it held is free, and robots waiting for it are granted on.
     /// Refused for a robot whose liveliness did not go, or that holds nothing.
-    pub fn clear(&mut self, now: f64, robot: &RobotId) -> Result<(TrafficCleared, Vec<Command>), ErrorReply> {
+    pub fn clear(&mut self, now: Time, robot: &RobotId) -> Result<(TrafficCleared, Vec<Command>), ErrorReply> {
         let on: Vec<String> =
             self.maps.iter().filter(|(_, m)| m.lanes.as_ref().is_some_and(|(t, _)| t.state(robot).is_some())).map(|(h, _)| h.clone()).collect();
         if on.is_empty() {
@@ -235,7 +235,7 @@ impl Authority {
         self.maps.get(hash).and_then(|m| m.lanes.as_ref()).map(|(t, _)| t)
     }
 
-    pub fn handle(&mut self, now: f64, event: Event) -> Vec<Command> {
+    pub fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         match event {
             Event::Report { map, report } => {
                 self.gone.remove(&report.robot);
@@ -275,12 +275,12 @@ impl Authority {
 
     /// Whether it is still learning what robots hold: just started, or a robot that appeared
     /// has not spoken yet.
-    fn rebuilding(&mut self, now: f64) -> bool {
+    fn rebuilding(&mut self, now: Time) -> bool {
         self.awaiting.retain(|_, t| now - *t < REBUILD_S);
         now < self.started + REBUILD_S || !self.awaiting.is_empty()
     }
 
-    fn tick(&mut self, now: f64) -> Vec<Command> {
+    fn tick(&mut self, now: Time) -> Vec<Command> {
         let lost: Vec<RobotId> = self.gone.iter().filter(|(_, &t)| now - t >= LOST_GRACE_S).map(|(r, _)| r.clone()).collect();
         let mut out = Vec::new();
         let incarnation = self.incarnation;
@@ -316,7 +316,7 @@ impl OnMap {
     /// their deputy's — then the robots of the lowest ids that reported within
     /// [`LOST_GRACE_S`] and whose liveliness did not go (stable while they stay: a robot of a
     /// lower id that arrives displaces one).
-    fn name_deputies(&mut self, now: f64, me: Option<&RobotId>, gone: &BTreeMap<RobotId, f64>) {
+    fn name_deputies(&mut self, now: Time, me: Option<&RobotId>, gone: &BTreeMap<RobotId, Time>) {
         if self.lanes.is_none() {
             return;
         }
@@ -328,7 +328,7 @@ impl OnMap {
     /// A robot's report on the map: what it holds and reached taken in, its goal routed, and
     /// its order (naming the deputies, the reporting robot counted among them, since it just
     /// spoke) given.
-    fn report(&mut self, now: f64, hash: &str, incarnation: u64, rebuilding: bool, report: TrafficReport, named: Naming<'_>) -> Vec<Command> {
+    fn report(&mut self, now: Time, hash: &str, incarnation: u64, rebuilding: bool, report: TrafficReport, named: Naming<'_>) -> Vec<Command> {
         let robot = report.robot.clone();
         let Some((traffic, space)) = self.lanes.as_mut() else {
             return vec![Command::Order { map: hash.to_string(), robot, order: TrafficOrder::Free }];
@@ -482,7 +482,7 @@ pub fn egress(c: &Command) -> Option<crate::egress::Out> {
 /// over). It drives no further than it says it holds of this authority's route, and the rest is
 /// let go (its route ends there, its orders say goal 0); holding nothing of it, it is taken out,
 /// and in anew as one new to traffic.
-fn stopped(now: f64, traffic: &mut Traffic, seen: &mut Seen, report: &TrafficReport, incarnation: u64) -> Vec<super::Command> {
+fn stopped(now: Time, traffic: &mut Traffic, seen: &mut Seen, report: &TrafficReport, incarnation: u64) -> Vec<super::Command> {
     seen.goal = None;
     seen.refused = None;
     seen.left = seen.leg.take().or(seen.left);
@@ -501,7 +501,7 @@ fn stopped(now: f64, traffic: &mut Traffic, seen: &mut Seen, report: &TrafficRep
 /// position for position): every vertex reached since, in order, and the one it last reached
 /// let go once it is clear of it. A report of an older version is not read (its robot takes the
 /// new order and reports again).
-fn progress(now: f64, traffic: &mut Traffic, report: &TrafficReport, h: &TrafficHeld) -> Vec<super::Command> {
+fn progress(now: Time, traffic: &mut Traffic, report: &TrafficReport, h: &TrafficHeld) -> Vec<super::Command> {
     let robot = &report.robot;
     let mut cmds = Vec::new();
     if let (Some((route, at, _, version)), Some(p)) = (traffic.state(robot), h.reached) {
@@ -529,7 +529,7 @@ fn clear_behind(traffic: &Traffic, report: &TrafficReport, h: &TrafficHeld) -> O
 }
 
 /// A robot in traffic says whether it stands docked at a charger (it makes no way then).
-fn docked(now: f64, traffic: &mut Traffic, report: &TrafficReport) -> Vec<super::Command> {
+fn docked(now: Time, traffic: &mut Traffic, report: &TrafficReport) -> Vec<super::Command> {
     if traffic.state(&report.robot).is_none() || traffic.is_docked(&report.robot) == report.docked {
         return Vec::new();
     }
@@ -556,7 +556,7 @@ fn route_to(traffic: &Traffic, space: &GraphSpace, grid: Option<&OccupancyGrid>,
 #[derive(Clone, Copy)]
 struct Naming<'a> {
     me: Option<&'a RobotId>,
-    gone: &'a BTreeMap<RobotId, f64>,
+    gone: &'a BTreeMap<RobotId, Time>,
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! The authority's unit tests: maps, rebuilds, lost robots, grid maps.
 
 use super::*;
+use crate::at;
 
 fn office() -> Arc<Map> {
     let (name, text) = mrmm_maps::data::OPEN_RMF[0];
@@ -31,7 +32,7 @@ fn a_grid_maps_robots_are_routed_on_lanes_derived_from_its_free_space() {
     let map = two_rooms();
     let Map::Grid(grid) = map.as_ref() else { unreachable!() };
     let hash = "g".repeat(64);
-    let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+    let mut a = Authority::new(at(-10.0), 1, [(hash.clone(), map.clone())]);
     let (here, there) = (Point::new(1.0, 0.6), Point::new(11.0, 3.4));
     let report = TrafficReport {
         robot: "r1".into(),
@@ -42,7 +43,7 @@ fn a_grid_maps_robots_are_routed_on_lanes_derived_from_its_free_space() {
         held: None,
         docked: false,
     };
-    let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report.clone() });
+    let out = a.handle(at(0.0), Event::Report { map: hash.clone(), report: report.clone() });
     let route = out
         .iter()
         .find_map(|c| match c {
@@ -57,9 +58,9 @@ fn a_grid_maps_robots_are_routed_on_lanes_derived_from_its_free_space() {
     for w in route.windows(2) {
         assert!(grid.segment_free(Point::new(w[0].x, w[0].y), Point::new(w[1].x, w[1].y)), "a lane through a wall: {w:?}");
     }
-    let mut free = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+    let mut free = Authority::new(at(-10.0), 1, [(hash.clone(), map.clone())]);
     free.without_lanes([hash.clone()]);
-    let out = free.handle(0.0, Event::Report { map: hash.clone(), report });
+    let out = free.handle(at(0.0), Event::Report { map: hash.clone(), report });
     assert!(matches!(out.as_slice(), [Command::Order { order: TrafficOrder::Free, .. }]), "{out:?}");
 }
 
@@ -70,7 +71,7 @@ fn a_grid_maps_robots_are_routed_on_lanes_derived_from_its_free_space() {
 fn a_goal_off_the_lanes_is_given_a_way_there_only_where_no_other_robot_can_come() {
     let map = two_rooms();
     let hash = "g".repeat(64);
-    let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+    let mut a = Authority::new(at(-10.0), 1, [(hash.clone(), map.clone())]);
     let off_of = |out: &[Command], robot: &str| {
         out.iter().find_map(|c| match c {
             Command::Order { robot: r, order: TrafficOrder::Route { off, .. }, .. } if r.as_str() == robot => Some(*off),
@@ -87,9 +88,9 @@ fn a_goal_off_the_lanes_is_given_a_way_there_only_where_no_other_robot_can_come(
         docked: false,
     };
     let goal = Point::new(9.0, 3.0);
-    let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", Point::new(1.0, 0.6), goal) });
+    let out = a.handle(at(0.0), Event::Report { map: hash.clone(), report: report("r1", Point::new(1.0, 0.6), goal) });
     assert_eq!(off_of(&out, "r1"), Some(Some([goal.x, goal.y])), "a way to the goal in the room: {out:?}");
-    let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", Point::new(1.0, 3.4), Point::new(9.3, 3.2)) });
+    let out = a.handle(at(0.1), Event::Report { map: hash.clone(), report: report("r2", Point::new(1.0, 3.4), Point::new(9.3, 3.2)) });
     assert_eq!(off_of(&out, "r2"), Some(None), "no way next to r1's: {out:?}");
 }
 
@@ -100,14 +101,14 @@ fn a_restarted_robots_reports_count_from_its_first() {
     let map = office();
     let Map::Graph(g) = map.as_ref() else { unreachable!() };
     let hash = "h".repeat(64);
-    let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+    let mut a = Authority::new(at(-10.0), 1, [(hash.clone(), map.clone())]);
     let here = g.vertices[0].at;
     let far = g.vertices[g.vertices.len() - 1].at;
     let report = |seq: u64, goal: Option<TrafficGoal>| TrafficReport { robot: "r1".into(), seq, x: here.x, y: here.y, goal, held: None, docked: false };
-    a.handle(0.0, Event::Report { map: hash.clone(), report: report(40, None) });
-    a.handle(2.0, Event::Gone("r1".into()));
-    a.handle(3.0, Event::Alive("r1".into()));
-    let out = a.handle(3.1, Event::Report { map: hash.clone(), report: report(1, Some(TrafficGoal { id: 1, x: far.x, y: far.y })) });
+    a.handle(at(0.0), Event::Report { map: hash.clone(), report: report(40, None) });
+    a.handle(at(2.0), Event::Gone("r1".into()));
+    a.handle(at(3.0), Event::Alive("r1".into()));
+    let out = a.handle(at(3.1), Event::Report { map: hash.clone(), report: report(1, Some(TrafficGoal { id: 1, x: far.x, y: far.y })) });
     assert!(out.iter().any(|c| matches!(c, Command::Order { order: TrafficOrder::Route { .. }, .. })), "the restarted robot's report was dropped: {out:?}");
 }
 
@@ -119,7 +120,7 @@ fn a_lost_robot_taken_off_the_lanes_frees_the_way() {
     let map = office();
     let Map::Graph(g) = map.as_ref() else { unreachable!() };
     let hash = "h".repeat(64);
-    let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+    let mut a = Authority::new(at(-10.0), 1, [(hash.clone(), map.clone())]);
     // r2's way from vertex 0 to the vertex farthest from it, and r1 standing on its middle.
     let space = GraphSpace::new(g);
     let far = (0..g.vertices.len() as u32)
@@ -137,17 +138,17 @@ fn a_lost_robot_taken_off_the_lanes_frees_the_way() {
         held: None,
         docked: false,
     };
-    a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", 1, mid, None) });
-    let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", 1, start, Some(TrafficGoal { id: 1, x: end.x, y: end.y })) });
+    a.handle(at(0.0), Event::Report { map: hash.clone(), report: report("r1", 1, mid, None) });
+    let out = a.handle(at(0.1), Event::Report { map: hash.clone(), report: report("r2", 1, start, Some(TrafficGoal { id: 1, x: end.x, y: end.y })) });
     assert!(out.iter().any(|c| matches!(c, Command::Order { robot, order: TrafficOrder::Route { .. }, .. } if robot.as_str() == "r2")), "{out:?}");
-    let err = a.clear(0.2, &"r1".into()).unwrap_err();
+    let err = a.clear(at(0.2), &"r1".into()).unwrap_err();
     assert!(err.error.contains("not lost"), "{err}");
-    assert!(a.clear(0.2, &"r9".into()).unwrap_err().error.contains("holds nothing"));
-    a.handle(1.0, Event::Gone("r1".into()));
-    a.handle(1.0 + LOST_GRACE_S + 0.1, Event::Tick);
+    assert!(a.clear(at(0.2), &"r9".into()).unwrap_err().error.contains("holds nothing"));
+    a.handle(at(1.0), Event::Gone("r1".into()));
+    a.handle(at(1.0 + LOST_GRACE_S + 0.1), Event::Tick);
     let t = a.traffic(&hash).expect("lanes");
     assert!(!t.held(&"r1".into()).is_empty(), "a lost robot keeps where it stood");
-    let (cleared, out) = a.clear(20.0, &"r1".into()).expect("cleared");
+    let (cleared, out) = a.clear(at(20.0), &"r1".into()).expect("cleared");
     assert_eq!((cleared.maps.len(), cleared.vertices), (1, 1), "{cleared:?}");
     let t = a.traffic(&hash).expect("lanes");
     assert!(t.held(&"r1".into()).is_empty() && t.state(&"r1".into()).is_none());
@@ -168,7 +169,7 @@ fn a_robots_first_order_names_it_among_the_deputies() {
     let map = office();
     let Map::Graph(g) = map.as_ref() else { unreachable!() };
     let hash = "h".repeat(64);
-    let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+    let mut a = Authority::new(at(-10.0), 1, [(hash.clone(), map.clone())]);
     let (here, there) = (g.vertices[0].at, g.vertices[3].at);
     let far = g.vertices[g.vertices.len() - 1].at;
     let report = |robot: &str, at: Point| TrafficReport {
@@ -190,9 +191,9 @@ fn a_robots_first_order_names_it_among_the_deputies() {
             })
             .unwrap_or_else(|| panic!("no route for {robot}: {out:?}"))
     };
-    let out = a.handle(0.0, Event::Report { map: hash.clone(), report: report("r1", here) });
+    let out = a.handle(at(0.0), Event::Report { map: hash.clone(), report: report("r1", here) });
     assert_eq!(deputies(&out, "r1"), ["r1"]);
-    let out = a.handle(0.1, Event::Report { map: hash.clone(), report: report("r2", there) });
+    let out = a.handle(at(0.1), Event::Report { map: hash.clone(), report: report("r2", there) });
     assert_eq!(deputies(&out, "r2"), ["r1", "r2"]);
 }
 
@@ -213,12 +214,12 @@ fn routes_go_round_a_robot_docked_at_a_charger() {
     let map = Arc::new(Map::Graph(mrmm_maps::NavGraph { vertices, edges }));
     let hash = "h".repeat(64);
     let route_of = |docked: bool| {
-        let mut a = Authority::new(-10.0, 1, [(hash.clone(), map.clone())]);
+        let mut a = Authority::new(at(-10.0), 1, [(hash.clone(), map.clone())]);
         let charging = TrafficReport { robot: "r1".into(), seq: 1, x: 3.0, y: 0.0, goal: None, held: None, docked };
-        a.handle(0.0, Event::Report { map: hash.clone(), report: charging });
+        a.handle(at(0.0), Event::Report { map: hash.clone(), report: charging });
         let goal = Some(TrafficGoal { id: 1, x: 6.0, y: 0.0 });
         let out = a.handle(
-            0.1,
+            at(0.1),
             Event::Report { map: hash.clone(), report: TrafficReport { robot: "r2".into(), seq: 1, x: 0.0, y: 0.0, goal, held: None, docked: false } },
         );
         out.iter()
@@ -250,7 +251,7 @@ fn a_robots_report_clear_of_the_vertex_behind_lets_the_one_following_close_up() 
     }
     let map = Arc::new(Map::Graph(mrmm_maps::NavGraph { vertices: (0..4).map(vertex).collect(), edges }));
     let hash = "c".repeat(64);
-    let mut a = Authority::new(-10.0, 1, [(hash.clone(), map)]);
+    let mut a = Authority::new(at(-10.0), 1, [(hash.clone(), map)]);
     let goal = Some(TrafficGoal { id: 1, x: 8.7, y: 0.0 });
     let report = |robot: &str, seq: u64, x: f64, y: f64, held: Option<TrafficHeld>| TrafficReport { robot: robot.into(), seq, x, y, goal, held, docked: false };
     let route_of = |out: &[Command], robot: &str| {
@@ -261,21 +262,23 @@ fn a_robots_report_clear_of_the_vertex_behind_lets_the_one_following_close_up() 
             _ => None,
         })
     };
-    a.handle(0.0, Event::Report { map: hash.clone(), report: report("a", 1, 2.9, 0.0, None) });
-    a.handle(0.0, Event::Report { map: hash.clone(), report: report("b", 1, 0.0, 0.0, None) });
-    let (version, route, upto) = route_of(&a.handle(0.1, Event::Report { map: hash.clone(), report: report("a", 2, 2.9, 0.0, None) }), "a").expect("a routed");
+    a.handle(at(0.0), Event::Report { map: hash.clone(), report: report("a", 1, 2.9, 0.0, None) });
+    a.handle(at(0.0), Event::Report { map: hash.clone(), report: report("b", 1, 0.0, 0.0, None) });
+    let (version, route, upto) =
+        route_of(&a.handle(at(0.1), Event::Report { map: hash.clone(), report: report("a", 2, 2.9, 0.0, None) }), "a").expect("a routed");
     assert_eq!((route.as_slice(), upto), ([1, 2, 3].as_slice(), Some(2)));
-    let (_, b_route, b_upto) = route_of(&a.handle(0.2, Event::Report { map: hash.clone(), report: report("b", 2, 0.0, 0.0, None) }), "b").expect("b routed");
+    let (_, b_route, b_upto) =
+        route_of(&a.handle(at(0.2), Event::Report { map: hash.clone(), report: report("b", 2, 0.0, 0.0, None) }), "b").expect("b routed");
     assert_eq!((b_route.as_slice(), b_upto), ([0, 1, 2, 3].as_slice(), Some(0)), "a stands on 1");
     let held = Some(TrafficHeld { incarnation: 1, version, route: route.clone(), reached: Some(0), upto: Some(2) });
     let b_upto = |out: &[Command]| route_of(out, "b").and_then(|(_, _, upto)| upto);
     // 0.5 m along: not clear (0.65 m needed); 0.7 m along but 0.2 m off the line: not clear.
     for (seq, x, y) in [(3, 3.4, 0.0), (4, 3.6, 0.2)] {
-        let out = a.handle(0.3, Event::Report { map: hash.clone(), report: report("a", seq, x, y, held.clone()) });
+        let out = a.handle(at(0.3), Event::Report { map: hash.clone(), report: report("a", seq, x, y, held.clone()) });
         assert!(b_upto(&out).is_none_or(|u| u == 0), "b granted 1 with a {:.1} m along: {out:?}", x - 2.9);
         assert!(a.traffic(&hash).is_some_and(|t| t.holder(1).is_some()), "vertex 1 let go too early");
     }
-    let out = a.handle(0.4, Event::Report { map: hash.clone(), report: report("a", 5, 3.6, 0.0, held) });
-    let b = a.handle(0.5, Event::Report { map: hash.clone(), report: report("b", 3, 0.0, 0.0, None) });
+    let out = a.handle(at(0.4), Event::Report { map: hash.clone(), report: report("a", 5, 3.6, 0.0, held) });
+    let b = a.handle(at(0.5), Event::Report { map: hash.clone(), report: report("b", 3, 0.0, 0.0, None) });
     assert_eq!(b_upto(&out).or(b_upto(&b)), Some(1), "b closes up to vertex 1, not onto a's lane: {out:?} {b:?}");
 }

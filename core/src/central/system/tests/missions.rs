@@ -1,6 +1,7 @@
 //! Operator commands on missions — create, terminate, move — against fake hosts that start and acknowledge at once; and the journal (`journal.rs`).
 
 use super::*;
+use crate::at;
 
 mod admit;
 mod capabilities;
@@ -21,7 +22,7 @@ struct Seen {
 
 fn with_host(ids: &[&str]) -> SystemManager {
     let mut sm = registered(ids);
-    assert!(sm.drive(0.0, Event::HostAlive { node: "central".into() }).is_empty());
+    assert!(sm.drive(at(0.0), Event::HostAlive { node: "central".into() }).is_empty());
     sm
 }
 
@@ -55,11 +56,11 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
                     map: None,
                     requires: vec![],
                 };
-                cmds.extend(sm.drive(2.0, Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
+                cmds.extend(sm.drive(at(2.0), Event::MissionStarted { mission: start.spec.name, result: Ok(Box::new(view)) }));
             }
             Command::Ctl { id, mission, ctl, .. } => {
                 seen.ctls.push((mission.to_string(), ctl));
-                cmds.extend(sm.drive(2.0, Event::CtlDone { id, result: Ok(()) }));
+                cmds.extend(sm.drive(at(2.0), Event::CtlDone { id, result: Ok(()) }));
             }
             Command::SendToRobot { robot, cmd: RobotCommand::Leave { mission, .. }, .. } => seen.leaves.push(format!("{robot} {mission}")),
             Command::Reply { req, result } => seen.replies.push((req, result)),
@@ -72,12 +73,12 @@ fn settle(sm: &mut SystemManager, cmds: Vec<Command>) -> Seen {
 }
 
 fn create(sm: &mut SystemManager, req: u64, body: &str) -> Seen {
-    let cmds = sm.drive(1.0, Event::Operator { req: Req::Query(req), request: Request::Create(decode(body)) });
+    let cmds = sm.drive(at(1.0), Event::Operator { req: Req::Query(req), request: Request::Create(decode(body)) });
     settle(sm, cmds)
 }
 
 fn mv(sm: &mut SystemManager, body: &str) -> Seen {
-    let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Move(decode(body)) });
+    let cmds = sm.drive(at(5.0), Event::Operator { req: Req::Query(9), request: Request::Move(decode(body)) });
     settle(sm, cmds)
 }
 
@@ -99,13 +100,13 @@ fn create_starts_on_a_host_then_terminate_frees_the_robots() {
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p1"));
     assert_eq!(sm.view("r3").map(|v| v.status), Some(RobotStatus::Idle));
 
-    let cmds = sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode_bytes(br#"{"name": "p1"}"#)) });
+    let cmds = sm.drive(at(3.0), Event::Operator { req: Req::Query(2), request: Request::Terminate(decode_bytes(br#"{"name": "p1"}"#)) });
     let seen = settle(&mut sm, cmds);
     assert_eq!(seen.ctls, [("p1".into(), MissionCtl::Terminate)]);
     assert_eq!(seen.leaves, ["r1 p1", "r2 p1"]);
     assert!(seen.replies[0].1.is_ok());
     assert_eq!(mission_of(&sm, "r1"), None);
-    assert_eq!(sm.status(3.0).missions, 0);
+    assert_eq!(sm.status(at(3.0)).missions, 0);
 }
 
 #[test]
@@ -133,7 +134,7 @@ fn bad_creates_change_nothing() {
         assert!(e.error.contains(want), "{body}: {e}");
         assert_eq!(e.code, Some(*code), "{body}: {e}");
     }
-    assert_eq!(sm.status(1.0).missions, 0);
+    assert_eq!(sm.status(at(1.0)).missions, 0);
     assert!(sm.views().iter().all(|v| v.mission.is_none()));
     assert!(create(&mut sm, 50, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#).replies[0].1.is_ok());
     let e = create(&mut sm, 51, r#"{"name": "p1", "recipe": "patrol", "count": 1}"#).replies[0].1.clone();
@@ -145,7 +146,7 @@ fn bad_creates_change_nothing() {
 fn a_failed_start_frees_the_robots() {
     let mut sm = with_host(&["r1"]);
     let cmds =
-        sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
+        sm.drive(at(1.0), Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
     // r1 is admitted (a robot may come to lead p), then the mission starts.
     assert!(
         matches!(cmds.as_slice(), [Command::SendToRobot { robot, cmd: RobotCommand::Admit { mission, managers, members }, .. }, Command::StartMission { .. }]
@@ -153,12 +154,12 @@ fn a_failed_start_frees_the_robots() {
         "{cmds:?}"
     );
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
-    let v = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
+    let v = reply(sm.drive(at(2.0), Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
     assert_eq!(v[0]["status"], "planning");
-    let r = sm.drive(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure::fatal("no planner service")) });
+    let r = sm.drive(at(3.0), Event::MissionStarted { mission: "p".into(), result: Err(Failure::fatal("no planner service")) });
     assert_eq!(reply(r).expect_err("failed"), "no planner service");
     assert_eq!(mission_of(&sm, "r1"), None);
-    assert_eq!(sm.status(3.0).missions, 0);
+    assert_eq!(sm.status(at(3.0)).missions, 0);
 }
 
 /// A start its host answers "taken over" (by its code, whatever the words) runs elsewhere: the
@@ -167,9 +168,9 @@ fn a_failed_start_frees_the_robots() {
 fn a_start_taken_over_runs_elsewhere_by_its_code_not_its_words() {
     for (code, runs) in [(Some(mrmm_proto::ErrorCode::TakenOver), true), (None, false)] {
         let mut sm = with_host(&["r1"]);
-        sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
+        sm.drive(at(1.0), Event::Operator { req: Req::Query(1), request: Request::Create(decode_bytes(br#"{"name": "p", "recipe": "patrol", "count": 1}"#)) });
         let e = mrmm_proto::ErrorReply { error: "taken over: mission p: a newer head".into(), code };
-        let r = sm.drive(3.0, Event::MissionStarted { mission: "p".into(), result: Err(Failure::answered(e)) });
+        let r = sm.drive(at(3.0), Event::MissionStarted { mission: "p".into(), result: Err(Failure::answered(e)) });
         assert_eq!(reply(r).is_ok(), runs, "code {code:?}");
         assert_eq!(mission_of(&sm, "r1").is_some(), runs, "code {code:?}");
     }
@@ -178,11 +179,12 @@ fn a_start_taken_over_runs_elsewhere_by_its_code_not_its_words() {
 #[test]
 fn a_start_nobody_answered_is_ended_before_its_robots_go_elsewhere() {
     let mut sm = with_host(&["r1"]);
-    let cmds =
-        no_admits(sm.drive(1.0, Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) }));
+    let cmds = no_admits(
+        sm.drive(at(1.0), Event::Operator { req: Req::Query(1), request: Request::Create(decode(r#"{"name": "p", "recipe": "patrol", "count": 1}"#)) }),
+    );
     assert!(matches!(cmds.as_slice(), [Command::StartMission { .. }]));
     let no_answer = Failure::retry("no answer");
-    let cmds = sm.drive(26.0, Event::MissionStarted { mission: "p".into(), result: Err(no_answer) });
+    let cmds = sm.drive(at(26.0), Event::MissionStarted { mission: "p".into(), result: Err(no_answer) });
     let end = cmds.iter().find_map(|c| match c {
         Command::Ctl { id, mission, ctl: MissionCtl::Terminate, .. } if mission == "p" => Some(*id),
         _ => None,
@@ -190,9 +192,9 @@ fn a_start_nobody_answered_is_ended_before_its_robots_go_elsewhere() {
     let end = end.expect("the mission is ended in case it started");
     assert!(cmds.iter().any(|c| matches!(c, Command::Reply { result: Err(e), .. } if e.error.contains("did not start"))));
     // r1 is free, but a new mission takes it only once p's end is acknowledged.
-    let cmds = sm.drive(27.0, Event::Operator { req: Req::Query(2), request: Request::Create(decode(r#"{"name": "q", "recipe": "patrol", "count": 1}"#)) });
+    let cmds = sm.drive(at(27.0), Event::Operator { req: Req::Query(2), request: Request::Create(decode(r#"{"name": "q", "recipe": "patrol", "count": 1}"#)) });
     assert!(cmds.is_empty(), "{cmds:?}");
-    let cmds = no_admits(sm.drive(28.0, Event::CtlDone { id: end, result: Ok(()) }));
+    let cmds = no_admits(sm.drive(at(28.0), Event::CtlDone { id: end, result: Ok(()) }));
     assert!(matches!(cmds.as_slice(), [Command::StartMission { start, .. }] if start.spec.name == "q"), "{cmds:?}");
 }
 
@@ -231,24 +233,24 @@ fn move_and_loss_steer_both_missions() {
         assert!(e.error.contains(want) && e.is(code), "{body}: {e:?}");
     }
     // A patrol robot is lost: its head plans around it on its own; it keeps its place.
-    let cmds = sm.drive(6.0, Event::RobotGone { id: "r1".into() });
+    let cmds = sm.drive(at(6.0), Event::RobotGone { id: "r1".into() });
     assert!(settle(&mut sm, cmds).ctls.is_empty());
     assert_eq!(sm.view("r1").and_then(|v| v.last_mission).as_ref().map(|x| x.as_str()), Some("p"));
-    let v = reply(sm.drive(6.5, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
+    let v = reply(sm.drive(at(6.5), Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
     assert_eq!(v[1]["robots"], serde_json::json!(["r2", "r3"]));
     // No other mission can take it while it is away, and it is back in p when it returns.
     let e = mv(&mut sm, r#"{"robot": "r1", "to": "c"}"#).replies[0].1.clone().expect_err("lost");
     assert!(e.error.contains("lost"), "{e}");
-    sm.drive(7.0, Event::RobotAlive { id: "r1".into() });
+    sm.drive(at(7.0), Event::RobotAlive { id: "r1".into() });
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
     // A goto on a mission robot is refused; moving it out frees it.
-    let g = sm.drive(7.0, Event::Operator { req: Req::Query(3), request: Request::Goto(decode(r#"{"robot":"r2","x":0,"y":0}"#)) });
+    let g = sm.drive(at(7.0), Event::Operator { req: Req::Query(3), request: Request::Goto(decode(r#"{"robot":"r2","x":0,"y":0}"#)) });
     assert!(reply(g).expect_err("in mission").contains("in mission p"));
     let seen = mv(&mut sm, r#"{"robot": "r2", "to": null}"#);
     assert_eq!(seen.leaves, ["r2 p"]);
     assert_eq!(mission_of(&sm, "r2"), None);
     // A lost robot can be freed by the operator: its head forgets it.
-    sm.drive(8.0, Event::RobotGone { id: "r3".into() });
+    sm.drive(at(8.0), Event::RobotGone { id: "r3".into() });
     let seen = mv(&mut sm, r#"{"robot": "r3", "to": null}"#);
     assert_eq!(seen.ctls, [("p".into(), left(&["r3"]))]);
     assert!(seen.leaves.is_empty(), "a lost robot is not ordered anything");
@@ -282,7 +284,7 @@ fn controls_are_sent_again_until_acknowledged_and_in_order() {
     let mut sm = with_host(&["r1", "r2", "r3"]);
     create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1","r2"], {WAYPOINTS}}}"#));
     create(&mut sm, 2, r#"{"name": "c", "recipe": "coverage", "robots": ["r3"]}"#);
-    let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Move(decode(r#"{"robot": "r2", "to": "c"}"#)) });
+    let cmds = sm.drive(at(5.0), Event::Operator { req: Req::Query(9), request: Request::Move(decode(r#"{"robot": "r2", "to": "c"}"#)) });
     let ctl = |cmds: &[Command]| -> Vec<(u64, String)> {
         cmds.iter()
             .filter_map(|c| match c {
@@ -295,14 +297,14 @@ fn controls_are_sent_again_until_acknowledged_and_in_order() {
     assert_eq!(first.iter().map(|c| c.1.as_str()).collect::<Vec<_>>(), ["p"], "c waits for p to let r2 go");
     let (id, _) = first[0].clone();
     let no_answer = || Err(Failure::retry("no answer"));
-    assert!(ctl(&sm.drive(6.0, Event::CtlDone { id, result: no_answer() })).is_empty(), "not again at once");
-    assert_eq!(ctl(&sm.drive(7.0, Event::Tick)), [(id, "p".to_string())], "sent again");
-    let joined = ctl(&sm.drive(7.5, Event::CtlDone { id, result: Ok(()) }));
+    assert!(ctl(&sm.drive(at(6.0), Event::CtlDone { id, result: no_answer() })).is_empty(), "not again at once");
+    assert_eq!(ctl(&sm.drive(at(7.0), Event::Tick)), [(id, "p".to_string())], "sent again");
+    let joined = ctl(&sm.drive(at(7.5), Event::CtlDone { id, result: Ok(()) }));
     assert_eq!(joined.iter().map(|c| c.1.as_str()).collect::<Vec<_>>(), ["c"], "then r2 joins c");
     // While p has not acknowledged, its reports still listing r2 are older than the order.
     let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
     v.robots = vec!["r1".into(), "r2".into()];
-    assert!(ctl(&sm.drive(8.0, status(v))).is_empty());
+    assert!(ctl(&sm.drive(at(8.0), status(v))).is_empty());
     assert_eq!(mission_of(&sm, "r2").as_deref(), Some("c"));
 }
 
@@ -311,12 +313,12 @@ fn a_terminated_mission_still_reporting_is_ended_again() {
     let mut sm = with_host(&["r1"]);
     create(&mut sm, 1, r#"{"name": "p", "recipe": "patrol", "robots": ["r1"]}"#);
     let view = sm.mission_views()[0].clone();
-    let cmds = sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Terminate(decode(r#"{"name": "p"}"#)) });
+    let cmds = sm.drive(at(3.0), Event::Operator { req: Req::Query(2), request: Request::Terminate(decode(r#"{"name": "p"}"#)) });
     settle(&mut sm, cmds);
-    let cmds = sm.drive(4.0, status(view.clone()));
+    let cmds = sm.drive(at(4.0), status(view.clone()));
     assert!(matches!(cmds.as_slice(), [Command::Ctl { ctl: MissionCtl::Terminate, .. }]), "{cmds:?}");
-    assert!(sm.drive(4.1, status(view)).is_empty(), "once while it is pending");
-    assert_eq!(sm.status(4.0).missions, 0);
+    assert!(sm.drive(at(4.1), status(view)).is_empty(), "once while it is pending");
+    assert_eq!(sm.status(at(4.0)).missions, 0);
 }
 
 #[test]
@@ -325,20 +327,20 @@ fn a_robot_running_a_foreign_plan_is_told_to_leave() {
     let mut t = telemetry("r1", 1, Behaviour::Hold);
     t.mission = Some("old".into());
     // A mission this manager never heard of (central restarted): left alone.
-    assert!(sm.drive(0.5, Event::Telemetry(Box::new(t.clone()))).is_empty());
+    assert!(sm.drive(at(0.5), Event::Telemetry(Box::new(t.clone()))).is_empty());
     create(&mut sm, 1, r#"{"name": "old", "recipe": "patrol", "robots": ["r2"]}"#);
     t.seq = 2;
-    let cmds = sm.drive(1.0, Event::Telemetry(Box::new(t.clone())));
+    let cmds = sm.drive(at(1.0), Event::Telemetry(Box::new(t.clone())));
     assert!(matches!(cmds.as_slice(), [Command::SendToRobot { cmd: RobotCommand::Leave { .. }, .. }]));
     t.seq = 3;
-    assert!(sm.drive(1.5, Event::Telemetry(Box::new(t.clone()))).is_empty(), "not again so soon");
+    assert!(sm.drive(at(1.5), Event::Telemetry(Box::new(t.clone()))).is_empty(), "not again so soon");
     t.seq = 4;
-    assert_eq!(sm.drive(4.0, Event::Telemetry(Box::new(t.clone()))).len(), 1);
+    assert_eq!(sm.drive(at(4.0), Event::Telemetry(Box::new(t.clone()))).len(), 1);
     // Terminated missions stay known: stragglers are still ordered out.
-    let cmds = sm.drive(5.0, Event::Operator { req: Req::Query(9), request: Request::Terminate(decode(r#"{"name": "old"}"#)) });
+    let cmds = sm.drive(at(5.0), Event::Operator { req: Req::Query(9), request: Request::Terminate(decode(r#"{"name": "old"}"#)) });
     settle(&mut sm, cmds);
     t.seq = 5;
-    assert_eq!(sm.drive(9.0, Event::Telemetry(Box::new(t))).len(), 1);
+    assert_eq!(sm.drive(at(9.0), Event::Telemetry(Box::new(t))).len(), 1);
 }
 
 #[test]
@@ -346,20 +348,20 @@ fn mission_views_follow_head_publications_and_host_loss() {
     let mut sm = with_host(&["r1", "r2"]);
     create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "count": 2, {WAYPOINTS}}}"#));
     // Details come from the head.
-    let cmds = sm.drive(2.0, Event::Operator { req: Req::Query(3), request: Request::Mission("p".into()) });
+    let cmds = sm.drive(at(2.0), Event::Operator { req: Req::Query(3), request: Request::Mission("p".into()) });
     assert_eq!(settle(&mut sm, cmds).forwards, [Key::MissionView("p".into()).to_string()]);
-    assert!(reply(sm.drive(2.0, Event::Operator { req: Req::Query(5), request: Request::Mission("q".into()) })).is_err());
+    assert!(reply(sm.drive(at(2.0), Event::Operator { req: Req::Query(5), request: Request::Mission("q".into()) })).is_err());
     // Status publications update the table.
-    let m = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("m");
+    let m = reply(sm.drive(at(2.0), Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("m");
     let mut v: MissionView = serde_json::from_value(m[0].clone()).expect("view");
     v.metrics.rounds = 7;
     v.manager.epoch = 4;
-    sm.drive(3.0, status(v));
-    let m = reply(sm.drive(3.0, Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
+    sm.drive(at(3.0), status(v));
+    let m = reply(sm.drive(at(3.0), Event::Operator { req: Req::Query(4), request: Request::Missions })).expect("missions");
     assert_eq!((m[0]["metrics"]["rounds"].as_u64(), m[0]["manager"]["epoch"].as_u64()), (Some(7), Some(4)));
     // The host dies: the mission is stalled, the operator is told why.
-    sm.drive(4.0, Event::HostGone { node: "central".into() });
-    let m = reply(sm.drive(4.0, Event::Operator { req: Req::Query(6), request: Request::Missions })).expect("missions");
+    sm.drive(at(4.0), Event::HostGone { node: "central".into() });
+    let m = reply(sm.drive(at(4.0), Event::Operator { req: Req::Query(6), request: Request::Missions })).expect("missions");
     assert_eq!(m[0]["status"], "stalled");
     assert!(m[0]["error"].as_str().is_some_and(|e| e.contains("central lost")));
 }
@@ -367,17 +369,17 @@ fn mission_views_follow_head_publications_and_host_loss() {
 #[test]
 fn a_restarted_manager_adopts_missions_its_heads_report() {
     let mut sm = with_host(&["r1", "r2", "r3"]);
-    sm.drive(0.0, Event::HostAlive { node: "h2".into() });
+    sm.drive(at(0.0), Event::HostAlive { node: "h2".into() });
     create(&mut sm, 1, r#"{"name": "mine", "recipe": "patrol", "robots": ["r3"]}"#);
     let report = MissionViewBuilder::running;
     // r1 and r2 say (in their own telemetry) they run p.
     for id in ["r1", "r2"] {
         let mut t = telemetry(id, 5, Behaviour::Hold);
         t.mission = Some("p".into());
-        sm.drive(0.5, Event::Telemetry(Box::new(t)));
+        sm.drive(at(0.5), Event::Telemetry(Box::new(t)));
     }
     // r3 is already in "mine": the head is told to let it go; r1 and r2 are adopted.
-    let cmds = sm.drive(1.0, status(report("p", "h2", &["r1", "r2", "r3"])));
+    let cmds = sm.drive(at(1.0), status(report("p", "h2", &["r1", "r2", "r3"])));
     let admitted: Vec<&str> = cmds
         .iter()
         .filter_map(|c| match c {
@@ -389,33 +391,33 @@ fn a_restarted_manager_adopts_missions_its_heads_report() {
     let cmds = no_admits(cmds);
     assert!(matches!(cmds.as_slice(), [Command::Ctl { mission, ctl, .. }] if mission == "p" && *ctl == left(&["r3"])), "{cmds:?}");
     assert_eq!((mission_of(&sm, "r1").as_deref(), mission_of(&sm, "r3").as_deref()), (Some("p"), Some("mine")));
-    let m = reply(sm.drive(2.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
+    let m = reply(sm.drive(at(2.0), Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
     assert_eq!(m[1]["manager"]["node"], "h2");
     assert_eq!(m[1]["robots"], serde_json::json!(["r1", "r2"]));
     // Reports from unknown hosts are not adopted.
-    assert!(sm.drive(3.0, status(report("q", "ghost", &["r1"]))).is_empty());
-    assert_eq!(sm.status(3.0).missions, 2);
+    assert!(sm.drive(at(3.0), status(report("q", "ghost", &["r1"]))).is_empty());
+    assert_eq!(sm.status(at(3.0)).missions, 2);
 }
 
 #[test]
 fn a_report_cannot_claim_robots_nor_speak_for_another_manager() {
     let mut sm = with_host(&["r1", "r2", "r3"]);
-    sm.drive(0.0, Event::HostAlive { node: "r3".into() });
+    sm.drive(at(0.0), Event::HostAlive { node: "r3".into() });
     let mut v = MissionViewBuilder::running("fake", "r3", &["r1", "r2", "r3"]);
     v.manager.node = "r3".into();
     // r3 reports a mission with r1 and r2 in it; their telemetry says they run another.
     for id in ["r1", "r2"] {
         let mut t = telemetry(id, 7, Behaviour::Hold);
         t.mission = Some("other".into());
-        sm.drive(0.5, Event::Telemetry(Box::new(t)));
+        sm.drive(at(0.5), Event::Telemetry(Box::new(t)));
     }
     let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r3");
-    sm.drive(1.0, Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
+    sm.drive(at(1.0), Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
     assert_eq!((mission_of(&sm, "r1"), mission_of(&sm, "r2")), (None, None), "robots are not claimed by a report");
     // Nor can a node report a mission as managed by someone else.
     let mut other = MissionViewBuilder::running("p2", "central", &["r1"]);
     other.manager.node = "central".into();
-    let cmds = sm.drive(1.1, Event::MissionStatus { view: Box::new(other), from: from.clone() });
+    let cmds = sm.drive(at(1.1), Event::MissionStatus { view: Box::new(other), from: from.clone() });
     assert!(matches!(cmds.as_slice(), [Command::Refused(mrmm_proto::edge::Refused::NotEntitled { from: f, .. })] if *f == from), "{cmds:?}");
 }
 
@@ -425,28 +427,28 @@ fn a_report_cannot_claim_robots_nor_speak_for_another_manager() {
 #[test]
 fn a_robot_cannot_invent_a_mission_with_idle_robots() {
     let mut sm = with_host(&["r1", "r2", "r3", "r4"]);
-    sm.drive(0.0, Event::HostAlive { node: "r1".into() });
+    sm.drive(at(0.0), Event::HostAlive { node: "r1".into() });
     let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r1");
     let mut evil = MissionViewBuilder::running("evil", "r1", &["r1", "r2", "r3", "r4"]);
     evil.manager.node = "r1".into();
     for t in [1.0, 2.0, 3.0] {
-        let cmds = sm.handle(t, Event::MissionStatus { view: Box::new(evil.clone()), from: from.clone() });
+        let cmds = sm.handle(at(t), Event::MissionStatus { view: Box::new(evil.clone()), from: from.clone() });
         assert!(cmds.is_empty(), "nothing journaled, admitted or said: {cmds:?}");
     }
     assert_eq!(["r2", "r3", "r4"].map(|r| mission_of(&sm, r)), [None, None, None], "idle robots stay idle");
-    assert_eq!(sm.status(3.0).missions, 0);
+    assert_eq!(sm.status(at(3.0)).missions, 0);
     assert_eq!(sm.adoptions_refused.len(), 1, "logged once for the sender");
     // Its own telemetry naming the mission changes nothing: it speaks only for itself.
     let mut t = telemetry("r1", 9, Behaviour::Hold);
     t.mission = Some("evil".into());
-    sm.drive(3.5, Event::Telemetry(Box::new(t)));
-    assert!(sm.handle(4.0, Event::MissionStatus { view: Box::new(evil.clone()), from: from.clone() }).is_empty());
+    sm.drive(at(3.5), Event::Telemetry(Box::new(t)));
+    assert!(sm.handle(at(4.0), Event::MissionStatus { view: Box::new(evil.clone()), from: from.clone() }).is_empty());
     // A robot heading a mission after a takeover is believed once a member it lists runs it by
     // its own telemetry, and only such members are recorded.
     let mut t = telemetry("r2", 9, Behaviour::Hold);
     t.mission = Some("evil".into());
-    sm.drive(4.5, Event::Telemetry(Box::new(t)));
-    sm.drive(5.0, Event::MissionStatus { view: Box::new(evil), from });
+    sm.drive(at(4.5), Event::Telemetry(Box::new(t)));
+    sm.drive(at(5.0), Event::MissionStatus { view: Box::new(evil), from });
     assert_eq!(["r1", "r2", "r3", "r4"].map(|r| mission_of(&sm, r)), [Some("evil".into()), Some("evil".into()), None, None]);
 }
 
@@ -457,11 +459,11 @@ fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
     // Central's host replicates p on r3 (not a member: a replica left in the chain) ...
     let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
     v.manager = ManagerView { node: "central".into(), epoch: 1, chain_epoch: 1, chain: vec!["central".into(), "r3".into()], uncommitted_s: None };
-    sm.drive(2.5, status(v.clone()));
+    sm.drive(at(2.5), status(v.clone()));
     // ... which takes over.
     v.manager = ManagerView { node: "r3".into(), epoch: 2, chain_epoch: 2, chain: vec!["r3".into(), "central".into()], uncommitted_s: None };
     let from = mrmm_proto::Sender::new(mrmm_proto::Role::Robot, "r3");
-    let cmds = sm.drive(3.0, Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
+    let cmds = sm.drive(at(3.0), Event::MissionStatus { view: Box::new(v.clone()), from: from.clone() });
     let admitted: Vec<(String, Vec<String>)> = cmds
         .iter()
         .filter_map(|c| match c {
@@ -475,7 +477,7 @@ fn members_learn_of_a_new_head_from_central_when_the_manager_moves() {
     assert_eq!(robots, ["r1", "r2"], "{cmds:?}");
     assert!(admitted.iter().all(|(_, m)| m.contains(&"r3".to_string())), "the new head among the managers: {admitted:?}");
     // Not again while the head stays.
-    let again = sm.drive(4.0, Event::MissionStatus { view: Box::new(v), from });
+    let again = sm.drive(at(4.0), Event::MissionStatus { view: Box::new(v), from });
     assert!(!again.iter().any(|c| matches!(c, Command::SendToRobot { cmd: RobotCommand::Admit { .. }, .. })), "{again:?}");
 }
 
@@ -489,7 +491,7 @@ fn a_head_dropped_by_a_takeover_that_lost_its_election_reports_again() {
     let mut sm = with_host(&["r1", "r2", "r3", "r4"]);
     create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
     let mut v = sm.mission_views().into_iter().find(|v| v.name == "p").expect("p");
-    let at = |node: &str, chain_epoch: u64, chain: &[&str]| ManagerView {
+    let manager = |node: &str, chain_epoch: u64, chain: &[&str]| ManagerView {
         node: node.into(),
         epoch: 1,
         chain_epoch,
@@ -499,20 +501,20 @@ fn a_head_dropped_by_a_takeover_that_lost_its_election_reports_again() {
     let refused = |cmds: &[Command]| cmds.iter().any(|c| matches!(c, Command::Refused(_)));
     let as_robot = |id: &str| mrmm_proto::Sender::new(mrmm_proto::Role::Robot, id);
     // Central's host replicates p on r3, which takes over.
-    v.manager = at("central", 1, &["central", "r3"]);
-    sm.drive(1.5, status(v.clone()));
-    v.manager = at("r3", 8, &["r3", "central"]);
-    assert!(!refused(&sm.drive(2.0, Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") })));
-    v.manager = at("central", 9, &["central"]);
-    sm.drive(2.5, status(v.clone()));
+    v.manager = manager("central", 1, &["central", "r3"]);
+    sm.drive(at(1.5), status(v.clone()));
+    v.manager = manager("r3", 8, &["r3", "central"]);
+    assert!(!refused(&sm.drive(at(2.0), Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") })));
+    v.manager = manager("central", 9, &["central"]);
+    sm.drive(at(2.5), status(v.clone()));
     assert!(!sm.managers("p").iter().any(|n| n == "r3"));
     // r4 was never a manager of p.
-    v.manager = at("r4", 12, &["r4", "r3"]);
-    assert!(refused(&sm.drive(2.8, Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r4") })));
-    v.manager = at("r3", 9, &["r3"]);
-    assert!(refused(&sm.drive(2.9, Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") })), "no newer epoch");
-    v.manager = at("r3", 12, &["r3"]);
-    let cmds = sm.drive(3.0, Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") });
+    v.manager = manager("r4", 12, &["r4", "r3"]);
+    assert!(refused(&sm.drive(at(2.8), Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r4") })));
+    v.manager = manager("r3", 9, &["r3"]);
+    assert!(refused(&sm.drive(at(2.9), Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") })), "no newer epoch");
+    v.manager = manager("r3", 12, &["r3"]);
+    let cmds = sm.drive(at(3.0), Event::MissionStatus { view: Box::new(v.clone()), from: as_robot("r3") });
     assert!(!refused(&cmds), "{cmds:?}");
     assert_eq!(sm.managers("p").first().map(|n| n.to_string()).as_deref(), Some("r3"), "r3 heads p here again");
 }
@@ -553,15 +555,15 @@ fn run_with(robots_heard: bool, reports_go_on: bool, uncommitted: impl Fn(f64) -
     {
         let mut sm = with_host(&["r1", "r2", "r3"]);
         create(&mut sm, 1, &format!(r#"{{"name": "p", "recipe": "patrol", "robots": ["r1", "r2"], {WAYPOINTS}}}"#));
-        let m = reply(sm.drive(3.0, Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
+        let m = reply(sm.drive(at(3.0), Event::Operator { req: Req::Query(2), request: Request::Missions })).expect("missions");
         let view: MissionView = serde_json::from_value(m[0].clone()).expect("view");
-        sm.drive(3.0, status(view.clone()));
+        sm.drive(at(3.0), status(view.clone()));
         for id in ["r1", "r2"] {
             let mut t = telemetry(id, 2, Behaviour::Hold);
             t.mission = Some("p".into());
-            sm.drive(3.0, Event::Telemetry(Box::new(t)));
+            sm.drive(at(3.0), Event::Telemetry(Box::new(t)));
             if !robots_heard {
-                sm.drive(3.5, Event::RobotGone { id: id.into() });
+                sm.drive(at(3.5), Event::RobotGone { id: id.into() });
             }
         }
         let mut started = vec![];
@@ -570,9 +572,9 @@ fn run_with(robots_heard: bool, reports_go_on: bool, uncommitted: impl Fn(f64) -
             if reports_go_on {
                 let mut v = view.clone();
                 v.manager.uncommitted_s = uncommitted(now);
-                sm.drive(now, status(v));
+                sm.drive(at(now), status(v));
             }
-            for c in sm.drive(now, Event::Tick) {
+            for c in sm.drive(at(now), Event::Tick) {
                 if let Command::StartMission { start, .. } = c {
                     started.push((now, start.members.iter().map(|m| m.spec.id.to_string()).collect::<Vec<_>>(), start.lineage, start.anew));
                 }

@@ -5,7 +5,7 @@ use std::collections::BTreeSet;
 mod recv;
 
 use mrmm_proto::chain::lineage_of;
-use mrmm_proto::NodeId;
+use mrmm_proto::{NodeId, Time};
 
 use super::{Command, Config, Event, Msg, Params, Stored, Version};
 
@@ -17,20 +17,20 @@ pub enum Role {
     Candidate {
         proposal: Config,
         grants: BTreeSet<NodeId>,
-        since: f64,
+        since: Time,
         was_head: bool,
     },
     /// Leading `config`; `committed` is the highest seq of this epoch on every chain node.
     Head {
         committed: Option<u64>,
-        last_sent: f64,
-        last_change: f64,
+        last_sent: Time,
+        last_change: Time,
     },
     /// Ending the value: waiting for the chain to forget it.
     Ending {
         epoch: u64,
-        last_sent: f64,
-        since: f64,
+        last_sent: Time,
+        since: Time,
     },
 }
 
@@ -40,7 +40,7 @@ pub struct Replica<S> {
     me: NodeId,
     p: Params,
     /// When this node (process) started: it does not vote during `p.quarantine`.
-    born: f64,
+    born: Time,
     /// Highest epoch voted for or followed; never goes back.
     promised: u64,
     voted_for: Option<NodeId>,
@@ -53,7 +53,7 @@ pub struct Replica<S> {
     gone: BTreeSet<NodeId>,
     pool: Vec<NodeId>,
     /// Last time a head was heard from.
-    last_heard: f64,
+    last_heard: Time,
     /// Highest promise others told us of.
     seen: u64,
     /// The value was ended (terminated), not just left.
@@ -72,7 +72,7 @@ pub struct Replica<S> {
     passed_over: u32,
     /// While leading: the last time everything this node held was committed (or when it began
     /// to lead). See [`Replica::uncommitted_for`].
-    settled_at: f64,
+    settled_at: Time,
 }
 
 /// Doublings of a passed-over replica's wait before it stands again: at most 2⁴ × `silence`.
@@ -98,7 +98,7 @@ impl Fingerprint {
 impl<S: Clone> Replica<S> {
     /// A replica on node `me`, started at `born`, that already promised `promised` (from a
     /// previous replica of the same value on this node).
-    pub fn new(me: &str, p: Params, born: f64, now: f64, promised: u64) -> Self {
+    pub fn new(me: &str, p: Params, born: Time, now: Time, promised: u64) -> Self {
         Replica {
             me: me.into(),
             p,
@@ -130,7 +130,7 @@ impl<S: Clone> Replica<S> {
     }
 
     /// The replica this node stored before it restarted: a follower, as it was.
-    pub fn restore(me: &str, p: Params, born: f64, now: f64, stored: Stored<S>) -> Self {
+    pub fn restore(me: &str, p: Params, born: Time, now: Time, stored: Stored<S>) -> Self {
         let mut r = Replica::new(me, p, born, now, stored.promised);
         r.voted_for = stored.voted_for;
         r.config = stored.config;
@@ -199,7 +199,7 @@ impl<S: Clone> Replica<S> {
     /// lead, or everything it holds is committed. A chain that lost the memory of a majority of
     /// its nodes (restarted without disks) never commits again: its head says so here, and
     /// the system manager starts the value anew.
-    pub fn uncommitted_for(&self, now: f64) -> Option<f64> {
+    pub fn uncommitted_for(&self, now: Time) -> Option<f64> {
         match &self.role {
             Role::Head { committed, .. } if *committed == Some(self.version().1) && self.queued.is_none() => None,
             Role::Head { .. } | Role::Candidate { was_head: true, .. } => Some((now - self.settled_at).max(0.0)),
@@ -208,7 +208,7 @@ impl<S: Clone> Replica<S> {
     }
 
     /// Handles one event at time `now` (seconds).
-    pub fn handle(&mut self, now: f64, ev: Event<S>) -> Vec<Command<S>> {
+    pub fn handle(&mut self, now: Time, ev: Event<S>) -> Vec<Command<S>> {
         if self.uncommitted_for(now).is_none() {
             self.settled_at = now;
         }
@@ -219,7 +219,7 @@ impl<S: Clone> Replica<S> {
         out
     }
 
-    fn step(&mut self, now: f64, ev: Event<S>) -> Vec<Command<S>> {
+    fn step(&mut self, now: Time, ev: Event<S>) -> Vec<Command<S>> {
         match ev {
             Event::Tick => self.tick(now),
             Event::Recv { from, msg } => self.recv(now, from, msg),
@@ -249,7 +249,7 @@ impl<S: Clone> Replica<S> {
                 let config = Config { epoch, chain };
                 self.config = Some(config.clone());
                 self.state = Some(((epoch, 0), state.clone()));
-                self.role = Role::Head { committed: None, last_sent: f64::NEG_INFINITY, last_change: now };
+                self.role = Role::Head { committed: None, last_sent: Time::LONG_AGO, last_change: now };
                 let mut out = vec![Command::Lead { config, state }];
                 out.extend(self.tick(now));
                 out
@@ -259,7 +259,7 @@ impl<S: Clone> Replica<S> {
                     let (e, seq) = self.version();
                     self.state = Some(((e, seq.saturating_add(1)), s));
                     if let Role::Head { last_sent, .. } = &mut self.role {
-                        *last_sent = f64::NEG_INFINITY;
+                        *last_sent = Time::LONG_AGO;
                     }
                     self.tick(now)
                 }
@@ -280,13 +280,13 @@ impl<S: Clone> Replica<S> {
                 }
                 let epoch = self.promised;
                 self.ended = true;
-                self.role = Role::Ending { epoch, last_sent: f64::NEG_INFINITY, since: now };
+                self.role = Role::Ending { epoch, last_sent: Time::LONG_AGO, since: now };
                 self.tick(now)
             }
         }
     }
 
-    fn tick(&mut self, now: f64) -> Vec<Command<S>> {
+    fn tick(&mut self, now: Time) -> Vec<Command<S>> {
         match self.role.clone() {
             Role::Head { committed, last_sent, last_change } => self.head_tick(now, committed, last_sent, last_change),
             Role::Candidate { since, ref proposal, .. } if now - since > self.vote_timeout(proposal.epoch) => self.retry(now),
@@ -307,7 +307,7 @@ impl<S: Clone> Replica<S> {
         }
     }
 
-    fn head_tick(&mut self, now: f64, committed: Option<u64>, last_sent: f64, last_change: f64) -> Vec<Command<S>> {
+    fn head_tick(&mut self, now: Time, committed: Option<u64>, last_sent: Time, last_change: Time) -> Vec<Command<S>> {
         let Some(config) = self.config.clone() else { return vec![] };
         let Some(((e, seq), state)) = self.state.clone() else { return vec![] };
         let mut out = Vec::new();
@@ -355,7 +355,7 @@ impl<S: Clone> Replica<S> {
 
     /// A follower of a chain stands when the head is gone and every node before it too, or when
     /// no head was heard from for `silence` times its position.
-    fn maybe_stand(&mut self, now: f64) -> Vec<Command<S>> {
+    fn maybe_stand(&mut self, now: Time) -> Vec<Command<S>> {
         let Some(config) = self.config.clone() else { return vec![] };
         let Some(pos) = config.chain.iter().position(|n| *n == self.me) else { return vec![] };
         if self.state.is_none() {
@@ -399,7 +399,7 @@ impl<S: Clone> Replica<S> {
     }
 
     /// Tries again with the next epoch, with the nodes that are alive now.
-    fn retry(&mut self, now: f64) -> Vec<Command<S>> {
+    fn retry(&mut self, now: Time) -> Vec<Command<S>> {
         let Role::Candidate { proposal, was_head, .. } = self.role.clone() else { return vec![] };
         let base = self.config.clone().unwrap_or(proposal);
         let chain = self.live_chain(&base, was_head);
@@ -414,7 +414,7 @@ impl<S: Clone> Replica<S> {
         out
     }
 
-    fn stand(&mut self, now: f64, proposal: Config, was_head: bool) -> Vec<Command<S>> {
+    fn stand(&mut self, now: Time, proposal: Config, was_head: bool) -> Vec<Command<S>> {
         // A state never crosses into a newer lineage: a replica that learnt of a promise of one
         // (the value was started anew without this chain) would otherwise stand above it with
         // the old lineage's state, and win against the new one (system sim seed 1473).
@@ -444,7 +444,7 @@ impl<S: Clone> Replica<S> {
         out
     }
 
-    fn check_win(&mut self, now: f64) -> Vec<Command<S>> {
+    fn check_win(&mut self, now: Time) -> Vec<Command<S>> {
         let Role::Candidate { proposal, grants, was_head, .. } = &self.role else { return vec![] };
         let base = self.config.as_ref().unwrap_or(proposal);
         if !(base.majority(|n| grants.contains(n)) && proposal.majority(|n| grants.contains(n))) {
@@ -456,7 +456,7 @@ impl<S: Clone> Replica<S> {
         let state = self.queued.take().unwrap_or(state);
         self.config = Some(config.clone());
         self.state = Some(((config.epoch, 0), state.clone()));
-        self.role = Role::Head { committed: None, last_sent: f64::NEG_INFINITY, last_change: now };
+        self.role = Role::Head { committed: None, last_sent: Time::LONG_AGO, last_change: now };
         let mut out = Vec::new();
         if !was_head {
             out.push(Command::Lead { config, state });
@@ -488,7 +488,7 @@ impl<S: Clone> Replica<S> {
     /// holding state (found by the chain simulation with power cycles); the up-to-date rule
     /// keeps its older state from winning. Except for a newer *lineage*: the value was started
     /// anew without this chain's state, which no chain of the new lineage can ever need.
-    fn outdone(&mut self, now: f64, last: Version) -> Vec<Command<S>> {
+    fn outdone(&mut self, now: Time, last: Version) -> Vec<Command<S>> {
         let mine = self.config.as_ref().map_or(0, |c| c.epoch);
         let newer_chain = last.0 > mine;
         let newer_lineage = lineage_of(last.0) > lineage_of(mine);

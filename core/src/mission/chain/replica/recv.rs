@@ -2,12 +2,12 @@
 //! updates and acknowledgements, stale notices, ends and declines.
 
 use mrmm_proto::chain::lineage_of;
-use mrmm_proto::NodeId;
+use mrmm_proto::{NodeId, Time};
 
 use super::{Command, Config, Msg, Replica, Role, Version};
 
 impl<S: Clone> Replica<S> {
-    pub(super) fn recv(&mut self, now: f64, from: NodeId, msg: Msg<S>) -> Vec<Command<S>> {
+    pub(super) fn recv(&mut self, now: Time, from: NodeId, msg: Msg<S>) -> Vec<Command<S>> {
         match msg {
             Msg::Vote { proposal, base, last } => self.on_vote(now, from, proposal, &base, last),
             Msg::Grant { epoch } => {
@@ -56,7 +56,7 @@ impl<S: Clone> Replica<S> {
 
     /// A node of our chain will never acknowledge: without a new chain nothing would ever
     /// commit. Stand at once for one without it (safe as any election).
-    fn on_decline(&mut self, now: f64, from: NodeId, epoch: u64) -> Vec<Command<S>> {
+    fn on_decline(&mut self, now: Time, from: NodeId, epoch: u64) -> Vec<Command<S>> {
         let Some(config) = self.config.clone().filter(|c| c.epoch == epoch && c.contains(from.as_str())) else { return vec![] };
         if from == self.me || !matches!(self.role, Role::Head { .. }) || !self.declined.insert(from.clone()) {
             return vec![];
@@ -81,7 +81,7 @@ impl<S: Clone> Replica<S> {
 
     /// Someone promised a higher epoch than ours: outdone by a newer state, or, as head, lead again
     /// above it.
-    fn on_stale(&mut self, now: f64, promised: u64, last: Version) -> Vec<Command<S>> {
+    fn on_stale(&mut self, now: Time, promised: u64, last: Version) -> Vec<Command<S>> {
         if !self.leads() {
             return vec![];
         }
@@ -116,7 +116,7 @@ impl<S: Clone> Replica<S> {
         out
     }
 
-    fn on_vote(&mut self, now: f64, from: NodeId, proposal: Config, base: &[NodeId], last: Version) -> Vec<Command<S>> {
+    fn on_vote(&mut self, now: Time, from: NodeId, proposal: Config, base: &[NodeId], last: Version) -> Vec<Command<S>> {
         let e = proposal.epoch;
         if let Role::Ending { epoch, .. } = self.role {
             // The value is being ended: a candidate that missed it ends too, rather than bring
@@ -155,7 +155,7 @@ impl<S: Clone> Replica<S> {
     }
 
     /// An update (`state`), or a beat (`None`: the head's state is still `(epoch, seq)`).
-    fn on_update(&mut self, now: f64, _from: NodeId, config: Config, seq: u64, state: Option<S>) -> Vec<Command<S>> {
+    fn on_update(&mut self, now: Time, _from: NodeId, config: Config, seq: u64, state: Option<S>) -> Vec<Command<S>> {
         let e = config.epoch;
         if e < self.promised {
             return vec![Command::Send { to: config.head().into(), msg: Msg::Stale { promised: self.promised, last: self.version() } }];

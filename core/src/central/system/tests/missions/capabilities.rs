@@ -2,6 +2,7 @@
 //! change (on the operator's word, or as it comes back) leaves a mission it no longer fits.
 
 use super::*;
+use crate::at;
 
 /// The bank's patrol, requiring a camera.
 fn camera_patrol(name: &str, robots: Option<&[&str]>) -> String {
@@ -14,11 +15,11 @@ fn camera_patrol(name: &str, robots: Option<&[&str]>) -> String {
 }
 
 fn without_camera(sm: &mut SystemManager, id: &str) {
-    assert!(sm.drive(0.0, Event::RobotRegistered(RobotInfo { capabilities: vec!["lidar".into()], ..info(id) })).is_empty());
+    assert!(sm.drive(at(0.0), Event::RobotRegistered(RobotInfo { capabilities: vec!["lidar".into()], ..info(id) })).is_empty());
 }
 
 fn caps(sm: &mut SystemManager, body: &str) -> Vec<Command> {
-    sm.drive(6.0, Event::Operator { req: Req::Query(20), request: Request::Capabilities(decode(body)) })
+    sm.drive(at(6.0), Event::Operator { req: Req::Query(20), request: Request::Capabilities(decode(body)) })
 }
 
 fn err_of(seen: &Seen) -> String {
@@ -68,7 +69,7 @@ fn a_member_that_loses_what_its_mission_requires_leaves_it() {
     assert!(reply(caps(&mut sm, r#"{"robot": "r2", "add": ["night vision"]}"#)).unwrap_err().contains("bad capability"));
     // Its answer says it has no camera now: it leaves p at once, and the operator is told.
     let ack = CommandAck { ok: true, robot: "r2".into(), behaviour: Behaviour::Hold, capabilities: Some(vec![]) };
-    let cmds = sm.drive(6.5, Event::RobotCommandDone { req: Some(Req::Query(20)), robot: "r2".into(), result: Ok(ack) });
+    let cmds = sm.drive(at(6.5), Event::RobotCommandDone { req: Some(Req::Query(20)), robot: "r2".into(), result: Ok(ack) });
     let seen = settle(&mut sm, cmds);
     assert_eq!(seen.ctls, [("p".into(), left(&["r2"]))]);
     assert_eq!(seen.leaves, ["r2 p"]);
@@ -78,24 +79,24 @@ fn a_member_that_loses_what_its_mission_requires_leaves_it() {
     assert_eq!(sm.view("r2").map(|v| v.capabilities), Some(vec![]));
     // Its telemetry carries the new revision of its info: asked again, once per retry period.
     let t = |seq| Event::Telemetry(Box::new(Telemetry { info_rev: 1, ..telemetry("r2", seq, Behaviour::Hold) }));
-    assert!(sm.drive(7.0, t(2)).contains(&Command::FetchInfo { id: "r2".into() }));
-    assert!(!sm.drive(7.5, t(3)).contains(&Command::FetchInfo { id: "r2".into() }));
-    assert!(sm.drive(7.6, Event::RobotRegistered(RobotInfo { capabilities: vec![], rev: 1, ..info("r2") })).is_empty());
-    assert!(!sm.drive(9.0, t(4)).contains(&Command::FetchInfo { id: "r2".into() }), "up to date");
+    assert!(sm.drive(at(7.0), t(2)).contains(&Command::FetchInfo { id: "r2".into() }));
+    assert!(!sm.drive(at(7.5), t(3)).contains(&Command::FetchInfo { id: "r2".into() }));
+    assert!(sm.drive(at(7.6), Event::RobotRegistered(RobotInfo { capabilities: vec![], rev: 1, ..info("r2") })).is_empty());
+    assert!(!sm.drive(at(9.0), t(4)).contains(&Command::FetchInfo { id: "r2".into() }), "up to date");
     // A member that comes back without it (its config changed, say) leaves too.
-    sm.drive(10.0, Event::RobotGone { id: "r3".into() });
-    sm.drive(11.0, Event::RobotAlive { id: "r3".into() });
-    let cmds = sm.drive(11.1, Event::RobotRegistered(RobotInfo { capabilities: vec![], ..info("r3") }));
+    sm.drive(at(10.0), Event::RobotGone { id: "r3".into() });
+    sm.drive(at(11.0), Event::RobotAlive { id: "r3".into() });
+    let cmds = sm.drive(at(11.1), Event::RobotRegistered(RobotInfo { capabilities: vec![], ..info("r3") }));
     let seen = settle(&mut sm, cmds);
     assert_eq!((seen.ctls, seen.leaves), (vec![("p".into(), left(&["r3"]))], vec!["r3 p".to_string()]));
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
     // A robot still with a camera stays: adding a capability changes nothing for its mission.
     let ack = CommandAck { ok: true, robot: "r1".into(), behaviour: Behaviour::Hold, capabilities: Some(vec!["camera".into(), "gripper".into()]) };
-    let cmds = sm.drive(12.0, Event::RobotCommandDone { req: Some(Req::Query(21)), robot: "r1".into(), result: Ok(ack) });
+    let cmds = sm.drive(at(12.0), Event::RobotCommandDone { req: Some(Req::Query(21)), robot: "r1".into(), result: Ok(ack) });
     assert!(reply(cmds).expect("answer").get("left").is_none());
     assert_eq!(mission_of(&sm, "r1").as_deref(), Some("p"));
     // A robot answering with a list that is not one is not believed.
     let bad = CommandAck { ok: true, robot: "r1".into(), behaviour: Behaviour::Hold, capabilities: Some(vec!["a b".into()]) };
-    sm.drive(12.5, Event::RobotCommandDone { req: None, robot: "r1".into(), result: Ok(bad) });
+    sm.drive(at(12.5), Event::RobotCommandDone { req: None, robot: "r1".into(), result: Ok(bad) });
     assert_eq!(sm.view("r1").map(|v| v.capabilities.len()), Some(2));
 }

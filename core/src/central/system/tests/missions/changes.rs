@@ -2,16 +2,17 @@
 //! the definition replaced (and journaled), the head told with the whole new spec.
 
 use super::*;
+use crate::at;
 
 fn update(sm: &mut SystemManager, body: &str) -> Seen {
-    let cmds = sm.drive(3.0, Event::Operator { req: Req::Query(20), request: Request::Update(decode(body)) });
+    let cmds = sm.drive(at(3.0), Event::Operator { req: Req::Query(20), request: Request::Update(decode(body)) });
     settle(sm, cmds)
 }
 
 fn pause(sm: &mut SystemManager, name: &str, paused: bool) -> Seen {
     let p = decode(&format!(r#"{{"name": "{name}"}}"#));
     let request = if paused { Request::Pause(p) } else { Request::Resume(p) };
-    let cmds = sm.drive(3.0, Event::Operator { req: Req::Query(21), request });
+    let cmds = sm.drive(at(3.0), Event::Operator { req: Req::Query(21), request });
     settle(sm, cmds)
 }
 
