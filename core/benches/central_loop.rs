@@ -60,7 +60,7 @@ fn main() {
     println!("|---:|---:|---:|---:|---:|---:|");
     for n in [100, 300, 1000, 3000] {
         let (mut sm, ids) = fleet(n);
-        let mut now = 1.0;
+        let mut now = Time::from_secs(1.0);
         let mut seq = 2;
         let telemetry = time(200_000, |k| {
             let i = k % n;
@@ -68,27 +68,27 @@ fn main() {
                 seq += 1;
                 now += 0.2;
             }
-            sm.handle(Time::from_secs(now), Event::Telemetry(Box::new(running(&ids[i], seq, mission_of(i, n)))));
+            sm.handle(now, Event::Telemetry(Box::new(running(&ids[i], seq, mission_of(i, n)))));
         });
         // Central ticks 4 times a second (controls and starts due, info asked again, recovery,
         // the agent's look once a second): every robot answered, nothing due.
         let tick = time(20_000, |_| {
             now += 0.25;
-            sm.handle(Time::from_secs(now), Event::Tick);
+            sm.handle(now, Event::Tick);
         });
         let half: Vec<&str> = ids[..n / 2].iter().map(String::as_str).collect();
         let reports = time(2_000, |_| {
             now += 0.001;
-            sm.handle(Time::from_secs(now), report("a", &half));
+            sm.handle(now, report("a", &half));
         });
         let churn = time(2_000, |k| {
             let id = &ids[(k * 7919) % n];
             now += 0.001;
-            sm.handle(Time::from_secs(now), Event::RobotGone { id: id.into() });
-            sm.handle(Time::from_secs(now), Event::RobotAlive { id: id.into() });
+            sm.handle(now, Event::RobotGone { id: id.into() });
+            sm.handle(now, Event::RobotAlive { id: id.into() });
         });
         let table = time(200, |k| {
-            sm.handle(Time::from_secs(now), Event::Operator { req: Req::Query(k as u64), request: Request::Robots });
+            sm.handle(now, Event::Operator { req: Req::Query(k as u64), request: Request::Robots });
         });
         println!("| {n} | {telemetry:.2} | {tick:.1} | {reports:.1} | {churn:.2} | {table:.0} |");
     }

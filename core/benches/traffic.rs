@@ -84,12 +84,12 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
         .collect();
     let (mut events, mut total, mut worst) = (0u64, Duration::ZERO, Duration::ZERO);
     let mut ticks = (0u64, Duration::ZERO);
-    let mut now = 0.0;
-    while now < 60.0 {
+    let mut now = Time::ZERO;
+    while now < Time::from_secs(60.0) {
         now += STEP;
         let mut heard = Vec::new();
         for r in &mut robots {
-            for c in r.handle(Time::from_secs(now), robot::Event::Tick) {
+            for c in r.handle(now, robot::Event::Tick) {
                 if let robot::Command::TrafficReport { map, report } = c {
                     heard.push(authority::Event::Report { map, report });
                 }
@@ -99,7 +99,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
         for ev in heard {
             let tick = ev == authority::Event::Tick;
             let t = Instant::now();
-            let out = auth.handle(Time::from_secs(now), ev);
+            let out = auth.handle(now, ev);
             let dt = t.elapsed();
             if tick {
                 ticks.0 += 1;
@@ -109,7 +109,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
             for c in out {
                 if let authority::Command::Order { map, robot, order } = c {
                     if let Some(r) = robots.iter_mut().find(|r| r.id() == robot.as_str()) {
-                        r.handle(Time::from_secs(now), robot::Event::Traffic { map, order, deputy: false });
+                        r.handle(now, robot::Event::Traffic { map, order, deputy: false });
                     }
                 }
             }
