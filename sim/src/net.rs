@@ -5,6 +5,8 @@
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BTreeSet, BinaryHeap};
 
+use mrmm_proto::Time;
+
 /// A liveliness token and who holds it.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Token {
@@ -26,8 +28,12 @@ pub struct Queue<E> {
     seq: u64,
 }
 
-fn ns(t: f64) -> u64 {
-    (t.max(0.0) * 1e9) as u64
+fn ns(t: Time) -> u64 {
+    (t.secs().max(0.0) * 1e9) as u64
+}
+
+fn at_ns(t: u64) -> Time {
+    Time::from_secs(t as f64 / 1e9)
 }
 
 impl<E> Queue<E> {
@@ -35,7 +41,7 @@ impl<E> Queue<E> {
         Queue { heap: BinaryHeap::new(), slots: Vec::new(), free: Vec::new(), seq: 0 }
     }
 
-    pub fn push(&mut self, at: f64, e: E) {
+    pub fn push(&mut self, at: Time, e: E) {
         self.seq += 1;
         let i = match self.free.pop() {
             Some(i) => {
@@ -51,15 +57,15 @@ impl<E> Queue<E> {
     }
 
     /// The next event and its time.
-    pub fn pop(&mut self) -> Option<(f64, E)> {
+    pub fn pop(&mut self) -> Option<(Time, E)> {
         let (Reverse(t), _, i) = self.heap.pop()?;
         let e = self.slots[i].take()?;
         self.free.push(i);
-        Some((t as f64 / 1e9, e))
+        Some((at_ns(t), e))
     }
 
-    pub fn peek_time(&self) -> Option<f64> {
-        self.heap.peek().map(|(Reverse(t), _, _)| *t as f64 / 1e9)
+    pub fn peek_time(&self) -> Option<Time> {
+        self.heap.peek().map(|(Reverse(t), _, _)| at_ns(*t))
     }
 }
 
@@ -118,13 +124,13 @@ impl Links {
 #[derive(Debug, Default)]
 pub struct Beliefs {
     seen: BTreeMap<(usize, Token), bool>,
-    next: BTreeMap<(usize, Token), f64>,
+    next: BTreeMap<(usize, Token), Time>,
 }
 
 /// A liveliness change to deliver.
 #[derive(Debug, Clone)]
 pub struct Change {
-    pub at: f64,
+    pub at: Time,
     pub observer: usize,
     pub token: Token,
     pub up: bool,
@@ -146,7 +152,7 @@ impl Beliefs {
 
     /// The changes to deliver so that every live observer ends up seeing what it watches
     /// (`watches`) of the `present` tokens (token, holder) it can see now, each `delay` from `now`.
-    pub fn update(&mut self, now: f64, delay: f64, links: &Links, present: &[(Token, usize)], watches: impl Fn(usize, &Token) -> bool) -> Vec<Change> {
+    pub fn update(&mut self, now: Time, delay: f64, links: &Links, present: &[(Token, usize)], watches: impl Fn(usize, &Token) -> bool) -> Vec<Change> {
         let mut out = Vec::new();
         for observer in 0..links.up.len() {
             if !links.up[observer] {
@@ -171,7 +177,7 @@ impl Beliefs {
                     continue;
                 }
                 self.seen.insert(key.clone(), up);
-                let at = (now + delay).max(self.next.get(&key).copied().unwrap_or(0.0) + 1e-6);
+                let at = (now + delay).max(self.next.get(&key).copied().unwrap_or(Time::ZERO) + 1e-6);
                 self.next.insert(key.clone(), at);
                 out.push(Change { at, observer, token: key.1, up });
             }

@@ -212,7 +212,7 @@ pub fn run(layout: &Arc<Layout>, space: &GraphSpace, world: World, seed: u64) ->
         let route = random_goal(&mut rng, space, bots[i].route[0], n, &goals);
         bots[i].route.clone_from(&route);
         goals[i] = route[route.len() - 1];
-        cmds.extend(traffic.handle(Time::from_secs(0.0), Event::Route { robot: bots[i].id.clone(), route }));
+        cmds.extend(traffic.handle(Time::ZERO, Event::Route { robot: bots[i].id.clone(), route }));
     }
     let index: BTreeMap<RobotId, usize> = bots.iter().enumerate().map(|(i, b)| (b.id.clone(), i)).collect();
     let mut close: BTreeMap<(usize, usize), bool> = BTreeMap::new();

@@ -7,19 +7,19 @@ impl World {
         let d = self.cfg.duration;
         let first = |every: f64, rng: &mut ChaCha8Rng| (every > 0.0).then(|| rng.gen_range(0.2 * every..1.8 * every)).filter(|t| *t < d);
         if let Some(t) = first(self.cfg.crash_every, &mut self.rng) {
-            self.queue.push(t + 2.0, Ev::Crash);
+            self.queue.push(Time::from_secs(t + 2.0), Ev::Crash);
         }
         if let Some(t) = first(self.cfg.partition_every, &mut self.rng) {
-            self.queue.push(t + 2.0, Ev::Partition);
+            self.queue.push(Time::from_secs(t + 2.0), Ev::Partition);
         }
         if let Some(t) = first(self.cfg.suspect_every, &mut self.rng) {
-            self.queue.push(t + 2.0, Ev::Suspect);
+            self.queue.push(Time::from_secs(t + 2.0), Ev::Suspect);
         }
     }
 
     pub(super) fn next_fault(&mut self, every: f64, ev: Ev) {
         let at = self.now + self.rng.gen_range(0.2 * every..1.8 * every);
-        if at < self.cfg.duration {
+        if at < self.end() {
             self.queue.push(at, ev);
         }
     }
@@ -63,11 +63,11 @@ impl World {
         self.log(|| format!("partition {side:?}"));
         self.links.partition(side);
         self.report.partitions += 1;
-        let mut heal = (self.now + self.rng.gen_range(0.5..6.0)).min(self.cfg.duration);
+        let mut heal = (self.now + self.rng.gen_range(0.5..6.0)).min(self.end());
         if self.cfg.side_cycles && self.fault_rng.gen_bool(0.3) {
             // Long enough for central, back, to start anew what it cannot see.
             self.queue.push(self.now + self.fault_rng.gen_range(0.3..1.0), Ev::CycleSide);
-            heal = heal.max((self.now + self.fault_rng.gen_range(9.0..15.0)).min(self.cfg.duration));
+            heal = heal.max((self.now + self.fault_rng.gen_range(9.0..15.0)).min(self.end()));
         }
         self.queue.push(heal, Ev::Heal);
         self.liveliness(self.cfg.lease);
@@ -84,7 +84,7 @@ impl World {
         self.log(|| format!("n{a} falsely loses n{b}"));
         self.report.suspicions += 1;
         self.links.suspect(a, b, true);
-        let until = (self.now + self.rng.gen_range(1.5..5.0)).min(self.cfg.duration);
+        let until = (self.now + self.rng.gen_range(1.5..5.0)).min(self.end());
         self.queue.push(until, Ev::Unsuspect(a, b));
         self.liveliness(self.cfg.lease);
     }

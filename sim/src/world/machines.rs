@@ -2,7 +2,6 @@
 
 use mrmm_core::machine::{Effect, Machine};
 use mrmm_core::robot::Robot;
-use mrmm_proto::Time;
 
 use super::driver;
 use super::*;
@@ -13,7 +12,7 @@ impl World {
         let Some(c) = self.nodes[i].central.as_mut() else {
             return Ok(());
         };
-        let cmds = c.handle(Time::from_secs(now), ev);
+        let cmds = c.handle(now, ev);
         // Carried out by the production driver's step, over the simulation's runtime.
         let journaled = cmds.iter().any(|c| CentralCore::effect(c) == Effect::Persist);
         driver::carry_out::<CentralCore>(self, i, cmds)?;
@@ -135,7 +134,7 @@ impl World {
         let Some(h) = self.nodes[i].host.as_mut() else {
             return Ok(());
         };
-        let cmds = h.handle(Time::from_secs(now), ev);
+        let cmds = h.handle(now, ev);
         // Carried out by the production driver's step, over the simulation's runtime.
         driver::carry_out::<HostCore>(self, i, cmds)?;
         if let Some(h) = self.nodes[i].host.as_ref() {
@@ -247,7 +246,7 @@ impl World {
             return Ok(());
         };
         let before = r.executor().map(|e| (e.mission().to_string(), e.epoch(), e.progress().syncs_passed));
-        let cmds = r.handle(Time::from_secs(now), ev);
+        let cmds = r.handle(now, ev);
         if let (Some((m, epoch, passed)), Some(e)) = (before, r.executor()) {
             if e.mission() == m && e.epoch() == epoch && e.progress().syncs_passed > passed {
                 self.report.barriers += e.progress().syncs_passed - passed;

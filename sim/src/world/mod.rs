@@ -190,7 +190,7 @@ pub struct World {
     miss_rng: ChaCha8Rng,
     /// The forger's stream ([`wire`]).
     forge_rng: ChaCha8Rng,
-    now: f64,
+    now: Time,
     nodes: Vec<Node>,
     links: Links,
     beliefs: Beliefs,
@@ -270,7 +270,7 @@ impl World {
             swap_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x5a4d_0e12),
             miss_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0x0_1055),
             forge_rng: ChaCha8Rng::seed_from_u64(cfg.seed ^ 0xf0_29e5),
-            now: 0.0,
+            now: Time::ZERO,
             nodes,
             links: Links::new(n),
             beliefs: Beliefs::default(),
@@ -302,13 +302,18 @@ impl World {
         self.nodes.iter().position(|n| n.name == name)
     }
 
+    /// When faults, losses and operations stop (the quiet period follows).
+    fn end(&self) -> Time {
+        Time::from_secs(self.cfg.duration)
+    }
+
     fn delay(&mut self) -> f64 {
         self.rng.gen_range(0.0..=self.cfg.max_delay)
     }
 
     /// Whether a message is lost (never in the quiet period).
     fn lost(&mut self) -> bool {
-        self.now < self.cfg.duration && self.cfg.loss > 0.0 && self.rng.gen_bool(self.cfg.loss.min(1.0))
+        self.now < self.end() && self.cfg.loss > 0.0 && self.rng.gen_bool(self.cfg.loss.min(1.0))
     }
 
     /// Starts node `i`'s process: fresh machines, its timers.
@@ -319,9 +324,9 @@ impl World {
         // A node's host: from its disk when it has one.
         let host = |n: &Node| {
             if n.kind.keeps_chain_state(disks) {
-                HostCore::restore(&n.name, params, Time::from_secs(now), n.chain_disk.clone().into_iter().collect())
+                HostCore::restore(&n.name, params, now, n.chain_disk.clone().into_iter().collect())
             } else {
-                HostCore::new(&n.name, params, Time::from_secs(now))
+                HostCore::new(&n.name, params, now)
             }
         };
         let n = &mut self.nodes[i];
@@ -331,7 +336,7 @@ impl World {
             Kind::Central => {
                 let agent = AgentConfig { autonomy: Autonomy::Act, ..AgentConfig::default() };
                 // The sim's clock is central's: its last sign of life is when it crashed.
-                n.central = Some(CentralCore::restore(n.name.clone().into(), agent, Time::from_secs(now), n.disk.clone()));
+                n.central = Some(CentralCore::restore(n.name.clone().into(), agent, now, n.disk.clone()));
                 n.host = Some(host(n));
             }
             Kind::Host => n.host = Some(host(n)),
@@ -370,17 +375,17 @@ impl World {
                 self.report.leads = self.inv.leads;
                 Ok(self.report)
             }
-            Err(what) => Err(Violation { seed: self.cfg.seed, at: self.now, what, trace: self.trace.take().unwrap_or_default() }),
+            Err(what) => Err(Violation { seed: self.cfg.seed, at: self.now.secs(), what, trace: self.trace.take().unwrap_or_default() }),
         }
     }
 
     fn run_inner(&mut self) -> Result<(), String> {
-        let end = self.cfg.duration + self.cfg.quiet;
+        let end = self.end() + self.cfg.quiet;
         self.schedule_faults();
         self.schedule_forgery();
         match self.cfg.ops {
             Ops::Barriers { points, rounds, mode, teams } => self.hand_out_barrier_plans(points, rounds, mode, teams),
-            Ops::OneMission | Ops::Random => self.queue.push(0.5, Ev::Op),
+            Ops::OneMission | Ops::Random => self.queue.push(Time::from_secs(0.5), Ev::Op),
         }
         while let Some(t) = self.queue.peek_time() {
             if t > end {

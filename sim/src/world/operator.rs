@@ -8,7 +8,7 @@ impl World {
     }
 
     pub(super) fn operate(&mut self) -> Result<(), String> {
-        let active = self.now < self.cfg.duration;
+        let active = self.now < self.end();
         match self.cfg.ops {
             Ops::Barriers { .. } => Ok(()),
             Ops::Random => self.random_command(active),
@@ -21,15 +21,15 @@ impl World {
                 // The start (a query) may be lost: asked again until some node holds the mission
                 // (a world where it never started would check nothing).
                 let started = self.nodes.iter().any(|n| n.host.as_ref().is_some_and(|h| h.replica("p").is_some()));
-                if self.now < 0.6 || (!started && self.now < 5.0) {
+                if self.now < Time::from_secs(0.6) || (!started && self.now < Time::from_secs(5.0)) {
                     self.start_one_mission();
                 } else {
                     self.admit_unaware();
                 }
-                if self.now >= 0.6 && active && self.rng.gen_bool(0.15) && !self.random_ctl() {
+                if self.now >= Time::from_secs(0.6) && active && self.rng.gen_bool(0.15) && !self.random_ctl() {
                     return Ok(());
                 }
-                for (id, mission, ctl) in self.ctls.due(Time::from_secs(self.now)) {
+                for (id, mission, ctl) in self.ctls.due(self.now) {
                     self.ask_mission(None, mission.clone().as_str(), Payload::Ctl { mission, ctl }, Ctx::OpCtl(id), mrmm_core::timeouts::QUERY_S);
                 }
                 Ok(())
@@ -248,7 +248,7 @@ impl World {
             let cmds = self.nodes[j]
                 .robot
                 .as_mut()
-                .map(|rb| rb.handle(Time::from_secs(0.0), robot::Event::Command { cmd: RobotCommand::Plan(Box::new(assignment)), from }))
+                .map(|rb| rb.handle(Time::ZERO, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(assignment)), from }))
                 .unwrap_or_default();
             let _ = self.robot_commands(j, cmds);
         }

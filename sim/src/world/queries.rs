@@ -1,6 +1,6 @@
 //! Queries: routed to whoever serves their key, served by the machines, answered to whoever asked (or timed out).
 
-use mrmm_proto::{Key, Time};
+use mrmm_proto::Key;
 
 use super::*;
 
@@ -133,7 +133,7 @@ impl World {
         let Some(r) = self.nodes[s].robot.as_mut() else {
             return Ok(());
         };
-        let cmds = r.handle(Time::from_secs(now), ev);
+        let cmds = r.handle(now, ev);
         // A refusal (its sender may not send this, yet) may be retried: as the driver does.
         let reply = cmds.iter().find_map(|c| match c {
             robot::Command::Reply(r) => Some(r.clone().map_err(Failure::fatal)),
@@ -253,7 +253,7 @@ impl World {
             }
             (Ctx::OpCtl(id), _) => {
                 let result = json::<CtlAck>(result).map(|_| ());
-                self.ctls.done(Time::from_secs(self.now), id, result);
+                self.ctls.done(self.now, id, result);
                 Ok(())
             }
             (Ctx::OpStart, _) => Ok(()),

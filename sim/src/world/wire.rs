@@ -110,7 +110,7 @@ impl World {
     pub(super) fn schedule_forgery(&mut self) {
         if self.cfg.robots > 1 {
             let at = self.now + self.forge_rng.gen_range(0.2 * FORGE_EVERY..1.8 * FORGE_EVERY);
-            if at < self.cfg.duration {
+            if at < self.end() {
                 self.queue.push(at, Ev::Forge);
             }
         }
@@ -155,7 +155,7 @@ impl World {
         ];
         self.log(|| format!("{name} forges an arrival, a release and the telemetry of {claimed}, and an operator a chain message"));
         // At every host: the victim's telemetry from the forger, a chain message from an operator.
-        let telemetry = mrmm_proto::Telemetry::resting(&claimed, self.now);
+        let telemetry = mrmm_proto::Telemetry::resting(&claimed, self.now.secs());
         let at_hosts = [
             Wire::telemetry(&telemetry, self.sender(forger)),
             Wire::json(
