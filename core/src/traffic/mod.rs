@@ -294,12 +294,12 @@ impl Traffic {
         let next = r.granted.map_or(0, |g| g + 1);
         let by = if next < r.route.len() { self.grantable(robot, r, next).err().unwrap_or_default() } else { BTreeSet::new() };
         format!(
-            "{robot}: route {:?}, reached {:?}, granted {:?}, holds {:?}, waits since {:?} for {by:?}{}",
+            "{robot}: route {:?}, reached {:?}, granted {:?}, holds {:?}, waits since {} for {by:?}{}",
             r.route,
             r.reached,
             r.granted,
             r.held,
-            r.waiting,
+            r.waiting.map_or_else(|| "-".to_string(), |t| t.to_string()),
             if r.lost { ", lost" } else { "" }
         )
     }
