@@ -15,13 +15,13 @@ use mrmm_proto::{Behaviour, MissionView, Pose, RobotInfo, Role, Sender, Telemetr
 /// A system manager with `n` robots registered and two missions of n/2 run by host `h1`.
 fn fleet(n: usize) -> (SystemManager, Vec<String>) {
     let mut sm = SystemManager::new("central".into(), Time::from_secs(-ADOPT_S));
-    sm.handle(Time::from_secs(0.0), Event::HostAlive { node: "central".into() });
-    sm.handle(Time::from_secs(0.0), Event::HostAlive { node: "h1".into() });
+    sm.handle(Time::ZERO, Event::HostAlive { node: "central".into() });
+    sm.handle(Time::ZERO, Event::HostAlive { node: "h1".into() });
     let ids: Vec<String> = (1..=n).map(|i| format!("r{i}")).collect();
     for (i, id) in ids.iter().enumerate() {
-        sm.handle(Time::from_secs(0.0), Event::RobotAlive { id: id.into() });
-        sm.handle(Time::from_secs(0.0), Event::RobotRegistered(RobotInfo { capabilities: vec!["camera".into()], ..RobotInfo::new(id, "ground", 1.0) }));
-        sm.handle(Time::from_secs(0.0), Event::Telemetry(Box::new(running(id, 1, mission_of(i, n)))));
+        sm.handle(Time::ZERO, Event::RobotAlive { id: id.into() });
+        sm.handle(Time::ZERO, Event::RobotRegistered(RobotInfo { capabilities: vec!["camera".into()], ..RobotInfo::new(id, "ground", 1.0) }));
+        sm.handle(Time::ZERO, Event::Telemetry(Box::new(running(id, 1, mission_of(i, n)))));
     }
     for (name, members) in [("a", &ids[..n / 2]), ("b", &ids[n / 2..])] {
         let members: Vec<&str> = members.iter().map(String::as_str).collect();

@@ -78,7 +78,7 @@ fn run(n: usize) -> (u64, Duration, Duration, f64) {
                 scopes: vec![],
                 map: Some(map.clone()),
             };
-            r.handle(Time::from_secs(0.0), robot::Event::Command { cmd: RobotCommand::Plan(Box::new(a)), from: Sender::new(Role::Central, "central") });
+            r.handle(Time::ZERO, robot::Event::Command { cmd: RobotCommand::Plan(Box::new(a)), from: Sender::new(Role::Central, "central") });
             r
         })
         .collect();
