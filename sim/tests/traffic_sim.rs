@@ -140,3 +140,14 @@ fn cycles_undoing_each_others_steps_aside_are_broken_another_way() {
         no_stall(map, World { robots, release: true, ..World::default() }, seed);
     }
 }
+
+/// Seeds whose gridlocks no step aside or push broke (DIAG's crowded corridor 95 – 103 with
+/// robots both ways and its pockets full; a queue in DIAG_labs): a short search over the moves of up to nine robots standing on and beside the way
+/// of the robot that waited longest clears it (`traffic/search.rs`). Robots report as they pass
+/// the release point. Each stalled without the search.
+#[test]
+fn gridlocks_no_step_or_push_breaks_are_searched_out() {
+    for (map, robots, seed) in [("DIAG_floor1", 12, 3), ("DIAG_floor1", 12, 12), ("DIAG_floor1", 12, 26), ("DIAG_labs", 8, 24)] {
+        no_stall(map, World { robots, release: true, ..World::default() }, seed);
+    }
+}

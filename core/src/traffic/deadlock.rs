@@ -67,6 +67,9 @@ impl Traffic {
             if self.push_through(&stuck, &waits, out) {
                 return true;
             }
+            if self.search_through(now, &stuck, out) {
+                return true;
+            }
             for m in &cycle {
                 let by = waits.get(m).cloned().unwrap_or_default();
                 self.report_blocked(m, by, out);

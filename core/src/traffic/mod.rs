@@ -38,6 +38,7 @@ mod fleet_tests;
 mod grants;
 pub mod layout;
 mod push;
+mod search;
 #[cfg(test)]
 mod tests;
 
@@ -202,12 +203,14 @@ pub struct Traffic {
     dirty: bool,
     /// When they were last looked at.
     looked: Time,
+    /// The robots of the last search that found no way out, where they stood.
+    searched: Option<search::Standing>,
 }
 
 impl Traffic {
     pub fn new(layout: Arc<Layout>, params: Params) -> Traffic {
         let holder = vec![None; layout.resources()];
-        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: Time::LONG_AGO }
+        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: Time::LONG_AGO, searched: None }
     }
 
     pub fn layout(&self) -> &Layout {

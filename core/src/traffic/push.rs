@@ -84,17 +84,30 @@ impl Traffic {
     }
 
     /// Sends every robot of the plan one hop aside and back on its route: whether it did (the
-    /// last of each chain must be able to go at once, else nothing moves and nothing changes).
+    /// last of each chain must be able to go at once, else nothing moves and nothing changes;
+    /// nor if each of its moves was made [`REPEATS`](super::deadlock::REPEATS) times on the
+    /// robot's way).
     fn apply(&mut self, plan: &Plan, out: &mut Vec<Command>) -> bool {
         if plan.moves.is_empty() {
             return false;
         }
         let mut moved = Vec::new();
+        let mut again = 0;
         for (id, v, w, end) in &plan.moves {
             match self.diverted(id, &[*v, *w], *end) {
-                Some(r) => moved.push((id.clone(), r)),
+                Some(mut r) => {
+                    let made = r.asides.entry((*v, *w)).or_insert(0);
+                    again += usize::from(*made >= super::deadlock::REPEATS);
+                    *made += 1;
+                    moved.push((id.clone(), r));
+                }
                 None => return false,
             }
+        }
+        // A push every robot of which was made twice already goes round in circles (robots
+        // pushed back and forth every few seconds for good): the search gets its turn.
+        if again == plan.moves.len() {
+            return false;
         }
         for (id, r) in moved {
             self.divert(&id, r, Why::Deadlock, out);
