@@ -10,6 +10,6 @@ targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(recipe central host robot seal ros2)
 for t in "${targets[@]}"; do
   mkdir -p "fuzz/corpus/$t"
-  cargo +nightly fuzz run -O --target-dir "${FUZZ_TARGET_DIR:-fuzz/target}" "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
+  cargo +nightly fuzz run -O --features libfuzzer --target-dir "${FUZZ_TARGET_DIR:-fuzz/target}" "$t" "fuzz/corpus/$t" "fuzz/seeds/$t" -- \
     -max_total_time="$secs" -runs="${FUZZ_RUNS:-10000000}" -timeout=10 -rss_limit_mb=4096 -print_final_stats=1
 done

@@ -1,4 +1,6 @@
 //! `mrmm`: one command line for the central node, robot peers, the operator and the demo.
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 mod cli;
 

@@ -18,6 +18,8 @@
 //! | [`robot::Robot`] | one robot: commands, plans, its body | `mrmm_peer::runtime` |
 //! | [`robot::executor::Executor`] | a plan's steps and team barriers ([`robot::barrier`]) | [`robot::Robot`] |
 //! | [`traffic::Traffic`] | who may drive which lanes of a navigation graph: grants, deadlocks broken | [`traffic::authority::Authority`] (in [`central::CentralCore`] and [`traffic::deputy::Deputy`]), `mrmm_sim::traffic` |
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 pub mod ask;
 pub mod body;

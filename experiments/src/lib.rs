@@ -2,6 +2,8 @@
 //! real `mrmm` processes with time-scaled simulated bodies — one command per figure, written to a
 //! directory as `results.csv`, one PNG per experiment and `summary.md`; and the patrolling,
 //! traffic and energy benchmarks, simulated in this process.
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 mod comm_loss;
 mod energy;

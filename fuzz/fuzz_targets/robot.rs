@@ -1,34 +1,6 @@
-//! A robot's machine under commands (plans, orders, admissions, leaves) from anyone, teammates'
-//! barrier arrivals, liveliness changes and time, decoded as the robot's runtime does.
+//! libFuzzer's entry for the `robot` target; the body is `mrmm_fuzz::targets::robot`.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mrmm_fuzz::{frames, robot, sender};
-use mrmm_core::robot::Event;
-use mrmm_proto::{self as proto, RobotCommand, SyncArrival, Time};
 
-fuzz_target!(|data: &[u8]| {
-    let mut r = robot("r1");
-    let mut now = Time::ZERO;
-    for (sel, payload) in frames(data) {
-        let ev = match sel % 8 {
-            0..=2 => match proto::from_json::<RobotCommand>("robot command", payload) {
-                Ok(cmd) => Event::Command { cmd, from: sender(sel / 8) },
-                Err(_) => continue,
-            },
-            3 => match proto::from_json::<SyncArrival>("sync arrival", payload) {
-                Ok(a) => Event::Heard(a),
-                Err(_) => continue,
-            },
-            4 => Event::MemberAlive(String::from_utf8_lossy(payload).into_owned().into()),
-            5 => Event::MemberGone(String::from_utf8_lossy(payload).into_owned().into()),
-            6 => Event::CentralAlive(sel / 8 % 2 == 0),
-            _ => {
-                now += f64::from(sel / 8) * 0.2 + 0.05;
-                Event::Tick
-            }
-        };
-        let _ = r.handle(now, ev);
-        let _ = r.handle(now, Event::TelemetryDue);
-    }
-});
+fuzz_target!(|data: &[u8]| mrmm_fuzz::targets::robot::run(data));

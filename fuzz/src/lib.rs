@@ -6,15 +6,19 @@
 //! rest is (which key it arrives on, from whom), the rest is the payload as it comes off the wire
 //! (JSON, or a seal). Every payload goes through the decoder the driver uses, and what decodes goes
 //! to the same `handle` the driver calls.
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
+
+pub mod targets;
 
 use std::collections::VecDeque;
 
-use mrmm_core::mission::host::{self, HostCore};
 use mrmm_core::central::system::{self, SystemManager};
 use mrmm_core::mission::chain;
+use mrmm_core::mission::host::{self, HostCore};
 use mrmm_core::mission::planning as planner_service;
-use mrmm_peer::config::RobotConfig;
 use mrmm_core::robot::{self, Robot};
+use mrmm_peer::config::RobotConfig;
 use mrmm_proto::{CommandAck, Member, MissionStart, MissionView, RobotInfo, RobotSpec, Role, Sender, Telemetry, Time};
 
 /// The frames of an input: (selector, payload).
@@ -183,7 +187,11 @@ pub fn started_view(host: &str, start: &MissionStart) -> MissionView {
 
 /// A member record of a fixture robot.
 pub fn member(id: &str, x: f64) -> Member {
-    Member { spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 2.0, turn_rate: None, reach_m: None }, time_scale: 4.0, capabilities: vec![] }
+    Member {
+        spec: RobotSpec { id: id.into(), robot_type: "ground".into(), x, y: 0.0, speed: 2.0, turn_rate: None, reach_m: None },
+        time_scale: 4.0,
+        capabilities: vec![],
+    }
 }
 
 /// A mission host (`node`) running a patrol `p` of r1 and r2 that central started, with plans
@@ -204,7 +212,15 @@ pub struct Host {
 
 impl Host {
     pub fn new(node: &str) -> Host {
-        let mut h = Host { core: HostCore::new(node, chain::Params::default(), Time::ZERO), now: Time::ZERO, next_query: 0, last_plan: None, sent: vec![], plans: vec![], assignments: vec![] };
+        let mut h = Host {
+            core: HostCore::new(node, chain::Params::default(), Time::ZERO),
+            now: Time::ZERO,
+            next_query: 0,
+            last_plan: None,
+            sent: vec![],
+            plans: vec![],
+            assignments: vec![],
+        };
         for n in ["central", "r1", "r2", "r3"] {
             h.feed(host::Event::HostAlive(n.into()));
             h.feed(host::Event::RobotAlive(n.into()));

@@ -1,12 +1,14 @@
 //! Writes the fuzz targets' starting corpora (`fuzz/seeds/<target>/`) from real messages of the
 //! production machines, and the seal target's test PKI (`fuzz/fixture/`), so that the fuzzer starts
 //! from inputs that get past the decoders. Run: `cargo run --manifest-path fuzz/Cargo.toml --bin seeds`.
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use mrmm_fuzz::{fixture_dir, robot, started_view, telemetry, Host};
 use mrmm_core::robot::Event as RobotEvent;
+use mrmm_fuzz::{fixture_dir, robot, started_view, telemetry, Host};
 use mrmm_net::security::{pki, seal::Sealer, Identity};
 use mrmm_proto::security::{Role, SecuritySection};
 use mrmm_proto::{MissionCtl, RobotCommand, SyncArrival, Time};
@@ -41,19 +43,27 @@ fn write(dir: &Path, target: &str, name: &str, bytes: &[u8]) {
 fn main() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let corpus = root.join("seeds");
+    recipes(&root, &corpus);
+    let telemetry = messages(&corpus);
+    let dir = seals(&corpus, &telemetry);
+    println!("corpora in {}, fixture in {}", corpus.display(), dir.display());
+}
 
-    // recipe: every recipe of the bank.
+/// recipe: every recipe of the bank.
+fn recipes(root: &Path, corpus: &Path) {
     for entry in fs::read_dir(root.join("../recipes")).into_iter().flatten().flatten() {
         let path = entry.path();
         if path.extension().is_some_and(|e| e == "xml") {
             if let Ok(text) = fs::read(&path) {
                 let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-                write(&corpus, "recipe", &name, &text);
+                write(corpus, "recipe", &name, &text);
             }
         }
     }
+}
 
-    // Real messages of a running patrol.
+/// central, host and robot: real messages of a running patrol. Returns a robot's telemetry.
+fn messages(corpus: &Path) -> Vec<u8> {
     let mut head = Host::new("central");
     head.start_patrol(2);
     // A head without replicas commits at once: its plans go out.
@@ -88,8 +98,13 @@ fn main() {
     let mv = br#"{"robot": "r3", "to": "p"}"#.to_vec();
     let term = br#"{"name": "p"}"#.to_vec();
     let goto = br#"{"robot": "r3", "x": 3.0, "y": 4.0}"#.to_vec();
-    write(&corpus, "central", "commands", &input(&[(7, create.clone()), (15, vec![]), (6, mv), (0, vec![]), (3, vec![]), (8, term), (5, goto), (15, vec![])]));
-    write(&corpus, "central", "reports", &input(&[(9, t.clone()), (10, view.clone()), (26, view.clone()), (11, b"r1".to_vec()), (31, vec![]), (12, b"r1".to_vec()), (4, b"p".to_vec())]));
+    write(corpus, "central", "commands", &input(&[(7, create.clone()), (15, vec![]), (6, mv), (0, vec![]), (3, vec![]), (8, term), (5, goto), (15, vec![])]));
+    write(
+        corpus,
+        "central",
+        "reports",
+        &input(&[(9, t.clone()), (10, view.clone()), (26, view.clone()), (11, b"r1".to_vec()), (31, vec![]), (12, b"r1".to_vec()), (4, b"p".to_vec())]),
+    );
 
     // host: the head's own chain messages from each node, a start, a join, telemetry, a plan.
     let mut frames = Vec::new();
@@ -98,9 +113,14 @@ fn main() {
         frames.push((sel, json(env)));
         frames.push((15, vec![]));
     }
-    write(&corpus, "host", "chain", &input(&frames));
+    write(corpus, "host", "chain", &input(&frames));
     let plan = solo.plans.first().map(json).unwrap_or_default();
-    write(&corpus, "host", "control", &input(&[(4, json(&start)), (5, joined), (7, t.clone()), (8, view), (9, plan), (14, vec![]), (15, vec![]), (13, b"p".to_vec())]));
+    write(
+        corpus,
+        "host",
+        "control",
+        &input(&[(4, json(&start)), (5, joined), (7, t.clone()), (8, view), (9, plan), (14, vec![]), (15, vec![]), (13, b"p".to_vec())]),
+    );
 
     // robot: plans as its head sends them, admissions, leaves, orders, arrivals, time.
     let mut frames = Vec::new();
@@ -113,10 +133,13 @@ fn main() {
     frames.push((6, vec![]));
     frames.push((0, json(&RobotCommand::Leave { mission: "p".into(), epoch: 1 })));
     frames.push((7, vec![]));
-    write(&corpus, "robot", "plans", &input(&frames));
+    write(corpus, "robot", "plans", &input(&frames));
     let _ = r1.handle(Time::from_secs(1.0), RobotEvent::Tick);
+    t
+}
 
-    // seal: a fixture fleet, and a robot's sealed telemetry.
+/// seal: a fixture fleet, and a robot's sealed telemetry `t`. Returns where the fixture is.
+fn seals(corpus: &Path, t: &[u8]) -> PathBuf {
     let dir = fixture_dir();
     if !dir.join("ca.crt").exists() {
         if let Err(e) = fs::create_dir_all(&dir).map_err(|e| e.to_string()).and_then(|_| pki::init(&dir).map_err(|e| e.to_string())) {
@@ -149,15 +172,14 @@ fn main() {
     let sealer = Sealer::secure(identity);
     let key = mrmm_proto::Key::RobotTelemetry("r1".into()).to_string();
     for (name, att) in [
-        ("telemetry", sealer.seal(&key, &t, now_ms)),
-        ("telemetry-tagged", sealer.seal_for(&key, &t, now_ms, &tags, false, false)),
-        ("telemetry-by-id", sealer.seal_for(&key, &t, now_ms, &tags, false, true)),
+        ("telemetry", sealer.seal(&key, t, now_ms)),
+        ("telemetry-tagged", sealer.seal_for(&key, t, now_ms, &tags, false, false)),
+        ("telemetry-by-id", sealer.seal_for(&key, t, now_ms, &tags, false, true)),
     ] {
         let mut sealed = u16::try_from(att.len()).unwrap_or(u16::MAX).to_le_bytes().to_vec();
         sealed.extend(&att);
-        sealed.extend(&t);
-        write(&corpus, "seal", name, &sealed);
+        sealed.extend(t);
+        write(corpus, "seal", name, &sealed);
     }
-    println!("corpora in {}, fixture in {}", corpus.display(), dir.display());
+    dir
 }
-

@@ -7,6 +7,8 @@
 //! planning (obstacles inflated by the robot radius, searches) and answers geodesic distances,
 //! distance fields and routes — the corner points of a path, joined by straight free segments or
 //! by graph edges.
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 pub mod bundle;
 pub mod data;

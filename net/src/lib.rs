@@ -9,6 +9,8 @@
 //!   discipline;
 //! - [`client`]: the operator's client of central;
 //! - [`map`]: map bundles fetched chunk by chunk.
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 pub mod client;
 pub mod follow;

@@ -4,6 +4,8 @@
 //!
 //! A robot is a Zenoh peer. It registers with the system manager through a liveliness token and an
 //! info queryable, streams telemetry, and executes commands (see `mrmm_proto::keys`).
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 pub mod config;
 pub mod error;

@@ -5,6 +5,8 @@
 //! Payloads are JSON (`application/json`) except telemetry, which is bincode behind the `MRM6`
 //! prefix. Every error reply on an operator key is a Zenoh reply error whose payload is
 //! [`ErrorReply`] (`{"error": "…"}`). The key space is tabled in [`keys`].
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 pub mod agent;
 pub mod chain;

@@ -3,6 +3,8 @@
 //! expressions and graph tokens, [`attachment`] what rmw_zenoh attaches to each message,
 //! [`config`] the robot config's `body` section, [`link`] the session to the robot's ROS router.
 //! [`nav2`] is Nav2's `NavigateToPose` action.
+// Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
+#![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 pub mod action;
 pub mod attachment;
