@@ -115,13 +115,18 @@ fn queues_in_corridors_are_pushed_back_as_trains() {
     }
 }
 
-/// `world` on shipped map `map`, its lanes cut at 3 m as the fleet cuts them, robots starting
-/// and going to the map's own vertices (as `mrmm experiment traffic` runs them): no robot
-/// stalls, none comes closer than the clearance.
+/// `world` on shipped map `map`, its lanes cut at 3 m (as the fleet cut them when these seeds
+/// were found), robots starting and going to the map's own vertices (as `mrmm experiment
+/// traffic` runs them): no robot stalls, none comes closer than the clearance.
 fn no_stall(map: &str, world: World, seed: u64) {
+    no_stall_cut(map, world, seed, 3.0);
+}
+
+/// [`no_stall`], the lanes cut at `cut` metres.
+fn no_stall_cut(map: &str, world: World, seed: u64, cut: f64) {
     let maps = mrmm_maps::data::graphs().expect("shipped maps read");
     let (_, graph) = maps.iter().find(|(name, _)| *name == map).expect("the map is shipped");
-    let cut = mrmm_core::traffic::layout::segmented(graph, 3.0);
+    let cut = mrmm_core::traffic::layout::segmented(graph, cut);
     let layout = Arc::new(Layout::new(&cut, CLEARANCE));
     let world = World { places: Some(graph.vertices.len() as u32), ..world };
     let r = run(&layout, &GraphSpace::new(&cut), world, seed).unwrap_or_else(|v| panic!("{map}: {v}"));
@@ -142,12 +147,37 @@ fn cycles_undoing_each_others_steps_aside_are_broken_another_way() {
 }
 
 /// Seeds whose gridlocks no step aside or push broke (DIAG's crowded corridor 95 – 103 with
-/// robots both ways and its pockets full; a queue in DIAG_labs): a short search over the moves of up to nine robots standing on and beside the way
-/// of the robot that waited longest clears it (`traffic/search.rs`). Robots report as they pass
+/// robots both ways and its pockets full; a queue in DIAG_labs): a short search over the moves
+/// of up to nine robots standing on and beside the way of the robot that waited longest clears
+/// it (`traffic/search.rs`). Robots report as they pass
 /// the release point. Each stalled without the search.
 #[test]
 fn gridlocks_no_step_or_push_breaks_are_searched_out() {
     for (map, robots, seed) in [("DIAG_floor1", 12, 3), ("DIAG_floor1", 12, 12), ("DIAG_floor1", 12, 26), ("DIAG_labs", 8, 24)] {
         no_stall(map, World { robots, release: true, ..World::default() }, seed);
+    }
+}
+
+/// Seeds whose gridlocks lay in corridors longer than a search reaches (ctcv, a line of 30
+/// segments with a dead end at its east end: three robots followed each other in while a fourth
+/// came out; DIAG_floor1's corridor at 12 robots): the robots on the oldest robot's way are sent
+/// ahead of it to free places off it (`traffic/clear.rs`). Cut at 3 m. Each stalled without it.
+#[test]
+fn corridors_are_cleared_ahead_of_the_oldest_robot() {
+    for (map, robots, seed) in [("ctcv", 4, 9), ("DIAG_floor1", 12, 18)] {
+        no_stall(map, World { robots, release: true, ..World::default() }, seed);
+    }
+}
+
+/// Seeds found with lanes cut at 1.5 m (the fleet's cut since they were found). ctcv, two
+/// robots: one stepped aside into the dead end the other was going to, and as nothing changed
+/// after that no one looked again — a gridlock is now looked at again once its robots have
+/// waited long enough for a search. move_base_arena draws one lane over another (vertices 0
+/// and 2 at one place): a robot stepped aside to a vertex beside the other's way, not off it.
+/// Each stalled without its fix.
+#[test]
+fn gridlocks_on_short_segments_are_looked_at_again_and_stepped_out_of() {
+    for (map, robots, seed) in [("ctcv", 2, 100), ("move_base_arena", 2, 8)] {
+        no_stall_cut(map, World { robots, release: true, ..World::default() }, seed, 1.5);
     }
 }

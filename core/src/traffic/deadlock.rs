@@ -67,7 +67,11 @@ impl Traffic {
             if self.push_through(&stuck, &waits, out) {
                 return true;
             }
-            if self.search_through(now, &stuck, out) {
+            // Then, if it has waited a while, a search for places that clear its way, or (a
+            // way longer than a search reaches) the robots on it sent ahead to places off it:
+            // else another's way (the oldest may be the one going into a dead end).
+            let oldest = self.oldest_waiting(now, &stuck);
+            if oldest.first().is_some_and(|p| self.search_through(p, out)) || oldest.iter().any(|p| self.clear_through(p, out)) {
                 return true;
             }
             for m in &cycle {
@@ -153,9 +157,8 @@ impl Traffic {
         route.extend(&path[1..]);
         route.extend(path[back_to..path.len() - 1].iter().rev());
         route.extend(&rest[skip_next..]);
-        let b = r.reached.unwrap_or(0);
-        let moved = Robot { route: route[b..].to_vec(), reached: r.reached.map(|p| p - b), granted: Some(g - b), ..r.clone() };
-        if moved.route.len() > MAX_ROUTE || (at_once && self.grantable(id, &moved, g - b + 1).is_err()) {
+        let moved = rerouted(r, &route)?;
+        if at_once && self.grantable(id, &moved, moved.granted? + 1).is_err() {
             return None;
         }
         Some(moved)
@@ -168,8 +171,8 @@ impl Traffic {
         self.robots.insert(id.clone(), r);
     }
 
-    /// Breadth-first over free two-way lanes from `v`: the path to the first vertex not in
-    /// `avoid` (nearest in hops, then in metres).
+    /// Breadth-first over free two-way lanes from `v`: the path to the first vertex neither in
+    /// `avoid` nor in conflict with one in it (nearest in hops, then in metres).
     fn aside(&self, id: &RobotId, v: u32, avoid: &BTreeSet<u32>) -> Option<Vec<u32>> {
         let mut parent: BTreeMap<u32, u32> = BTreeMap::new();
         let mut frontier = vec![v];
@@ -188,7 +191,9 @@ impl Traffic {
                         continue;
                     }
                     parent.insert(w, x);
-                    if !avoid.contains(&w) {
+                    // Off the way, and not beside it either (two lanes of a map drawn one over
+                    // the other: a step to the other's vertex was no step aside).
+                    if !avoid.contains(&w) && !self.layout.conflicts(w).iter().any(|c| avoid.contains(c)) {
                         let mut path = vec![w];
                         while let Some(&p) = parent.get(path.last().unwrap_or(&v)) {
                             path.push(p);
@@ -215,6 +220,14 @@ impl Traffic {
             out.push(Command::Blocked { robot: id.clone(), by });
         }
     }
+}
+
+/// Robot `r` on `route` (its own up to the position it was granted, then where traffic sends
+/// it), without what it drove before the vertex it last reached; none if too long.
+pub(super) fn rerouted(r: &Robot, route: &[u32]) -> Option<Robot> {
+    let (b, g) = (r.reached.unwrap_or(0), r.granted?);
+    let moved = Robot { route: route[b..].to_vec(), reached: r.reached.map(|p| p - b), granted: Some(g - b), ..r.clone() };
+    (moved.route.len() <= MAX_ROUTE).then_some(moved)
 }
 
 /// The robots that wait for a member of `cycle`, directly or through others that do (at most

@@ -31,6 +31,7 @@
 //! ignored. Every decision is deterministic (robots in id order, waits by age).
 
 pub mod authority;
+mod clear;
 mod deadlock;
 pub mod deputy;
 #[cfg(test)]
@@ -205,12 +206,14 @@ pub struct Traffic {
     looked: Time,
     /// The robots of the last search that found no way out, where they stood.
     searched: Option<search::Standing>,
+    /// The robots last sent ahead to clear a way, where they stood ([`Traffic::clear_through`]).
+    cleared: Option<search::Standing>,
 }
 
 impl Traffic {
     pub fn new(layout: Arc<Layout>, params: Params) -> Traffic {
         let holder = vec![None; layout.resources()];
-        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: Time::LONG_AGO, searched: None }
+        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: Time::LONG_AGO, searched: None, cleared: None }
     }
 
     pub fn layout(&self) -> &Layout {
@@ -329,10 +332,12 @@ impl Traffic {
             Event::Tick => {}
         }
         // With nothing new since the last look, only time can change a decision: a robot that
-        // has now waited `yield_after` for a parked one. (Grants and cycles depend on holdings
-        // and routes alone: looking again would find what the last look found.)
-        let yield_due = |r: &Robot| r.waiting.is_some_and(|since| since + self.params.yield_after <= now && since + self.params.yield_after > self.looked);
-        if !self.dirty && !self.robots.values().any(yield_due) {
+        // has now waited `yield_after` for a parked one, or long enough for a gridlock it is in
+        // to be searched out ([`search::AFTER`]). (Grants and cycles depend on holdings and
+        // routes alone: looking again would find what the last look found.)
+        let due = |since: Time, after: f64| since + after <= now && since + after > self.looked;
+        let time_due = |r: &Robot| r.waiting.is_some_and(|since| due(since, self.params.yield_after) || due(since, search::AFTER));
+        if !self.dirty && !self.robots.values().any(time_due) {
             return out;
         }
         self.looked = now;

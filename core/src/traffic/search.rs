@@ -4,12 +4,12 @@
 //! with others behind them, a dead end that robots followed each other into). Each robot moved
 //! drives its part of the plan, then back on its own route; grants keep them apart as always.
 
-use std::collections::{BTreeSet, HashMap, VecDeque};
+use std::collections::{BTreeSet, HashSet, VecDeque};
 
 use mrmm_proto::{RobotId, Time};
 
 use super::layout::Res;
-use super::{Command, Robot, Traffic, Why, MAX_ROUTE};
+use super::{Command, Robot, Traffic, Why};
 
 /// Robots moved in one search, the one whose way is cleared included (5 found no way out of
 /// DIAG's crowded corridor at 12 robots; 9 and 11 did as well as each other).
@@ -23,22 +23,16 @@ const WAY: usize = 16;
 const AROUND: usize = 6;
 /// A robot searched for has waited this long, seconds: the steps aside and pushes of the
 /// first seconds of a gridlock break most; searching at once moved robots for nothing.
-const AFTER: f64 = 5.0;
+pub(super) const AFTER: f64 = 5.0;
 
 /// A search's robots and where they stand (the first is the one whose way is cleared).
 pub(super) type Standing = Vec<(RobotId, u32)>;
 
 impl Traffic {
-    /// Clears the way of the oldest standing robot of `stuck` by moving the robots standing on
+    /// Clears the way of robot `p` (the oldest of a gridlock) by moving the robots standing on
     /// and beside it: whether any route changed. A search that found nothing is not run again
     /// while the same robots stand where they stood.
-    pub(super) fn search_through(&mut self, now: Time, stuck: &[RobotId], out: &mut Vec<Command>) -> bool {
-        let asked = |id: &RobotId| self.robots.get(id).map_or(Time::NEVER, |r| r.asked);
-        let standing = |id: &&RobotId| self.robots.get(*id).is_some_and(|r| !r.lost && r.standing().is_some());
-        let Some(p) = stuck.iter().filter(standing).min_by(|a, b| asked(a).total_cmp(&asked(b)).then_with(|| a.cmp(b))) else { return false };
-        if self.robots.get(p).and_then(|r| r.waiting).is_none_or(|since| now - since < AFTER) {
-            return false;
-        }
+    pub(super) fn search_through(&mut self, p: &RobotId, out: &mut Vec<Command>) -> bool {
         let Some((way, region)) = self.way_and_region(p) else { return false };
         let movers = self.movers(p, &region);
         if self.searched.as_ref() == Some(&movers) {
@@ -61,6 +55,20 @@ impl Traffic {
             self.divert(&id, r, Why::Deadlock, out);
         }
         true
+    }
+
+    /// The standing robots of `stuck`, those that asked for their way first first, if the
+    /// first has waited [`AFTER`]: the ones whose ways a search or a clearing opens.
+    pub(super) fn oldest_waiting(&self, now: Time, stuck: &[RobotId]) -> Vec<RobotId> {
+        let asked = |id: &RobotId| self.robots.get(id).map_or(Time::NEVER, |r| r.asked);
+        let standing = |id: &&RobotId| self.robots.get(*id).is_some_and(|r| !r.lost && r.standing().is_some());
+        let mut by_age: Vec<RobotId> = stuck.iter().filter(standing).cloned().collect();
+        by_age.sort_by(|a, b| asked(a).total_cmp(&asked(b)).then_with(|| a.cmp(b)));
+        let waited = by_age.first().and_then(|p| self.robots.get(p)?.waiting).is_some_and(|since| now - since >= AFTER);
+        if !waited {
+            by_age.clear();
+        }
+        by_age
     }
 
     /// The way of robot `p` from where it stands (its next vertices up to the one past its next
@@ -134,7 +142,7 @@ impl Traffic {
         }
         let mut states = vec![start.clone()];
         let mut parent: Vec<(usize, usize)> = vec![(0, 0)];
-        let mut seen: HashMap<Vec<u32>, usize> = HashMap::from([(start, 0)]);
+        let mut seen: HashSet<Vec<u32>> = HashSet::from([start]);
         let mut queue = VecDeque::from([0usize]);
         while let Some(s) = queue.pop_front() {
             for i in 1..movers.len() {
@@ -143,21 +151,21 @@ impl Traffic {
                     if !region.contains(&w) || !self.layout.is_edge(w, v) {
                         continue;
                     }
-                    let need: Vec<Res> = self.layout.lane(v, w).into_iter().chain([w]).collect();
+                    let mut need = self.layout.lane(v, w).into_iter().chain([w]);
                     let others = |x: Res| states[s].iter().enumerate().any(|(j, &u)| j != i && u == x);
-                    if need.iter().any(|&x| std::iter::once(&x).chain(self.layout.conflicts(x)).any(|&c| fixed(c) || others(c))) {
+                    if need.any(|x| std::iter::once(&x).chain(self.layout.conflicts(x)).any(|&c| fixed(c) || others(c))) {
                         continue;
                     }
                     let mut next = states[s].clone();
                     next[i] = w;
-                    if seen.contains_key(&next) {
+                    if seen.contains(&next) {
                         continue;
                     }
                     if states.len() >= STATES {
                         return None;
                     }
                     let done = clear(&next);
-                    seen.insert(next.clone(), states.len());
+                    seen.insert(next.clone());
                     states.push(next);
                     parent.push((s, i));
                     if done {
@@ -173,7 +181,7 @@ impl Traffic {
     /// The standing robot `id` driven along `path` (from where it stands), then back along it
     /// as far as the last vertex of it its route goes on from, and on along its route; none if
     /// the route would be too long.
-    fn driven_then_back(&self, id: &RobotId, path: &[u32]) -> Option<Robot> {
+    pub(super) fn driven_then_back(&self, id: &RobotId, path: &[u32]) -> Option<Robot> {
         let r = self.robots.get(id)?;
         let g = r.granted?;
         let rest = &r.route[g + 1..];
@@ -183,11 +191,7 @@ impl Traffic {
         route.extend(&path[1..]);
         route.extend(path[m..path.len() - 1].iter().rev());
         route.extend(&rest[q..]);
-        let b = r.reached.unwrap_or(0);
-        if route.len() - b > MAX_ROUTE {
-            return None;
-        }
-        Some(Robot { route: route[b..].to_vec(), reached: r.reached.map(|p| p - b), granted: Some(g - b), ..r.clone() })
+        super::deadlock::rerouted(r, &route)
     }
 }
 
