@@ -105,7 +105,7 @@ impl Traffic {
     /// found; with each vertex reached the one it was reached from.
     fn pockets(&self, way: &[u32], front: usize, train: &[(RobotId, usize)], on_way: &BTreeSet<Res>) -> Option<(Vec<u32>, Parents)> {
         let ours = |h: &RobotId| train.iter().any(|(t, _)| t == h);
-        let free = |x: Res| std::iter::once(&x).chain(self.layout.conflicts(x)).all(|&c| self.holder(c).is_none_or(|h| ours(h)));
+        let free = |x: Res| std::iter::once(&x).chain(self.layout.conflicts(x)).all(|&c| self.holder(c).is_none_or(&ours));
         let behind: BTreeSet<u32> = way[..front].iter().copied().collect();
         let root = way[front];
         let mut parent = Parents::new();
