@@ -1,9 +1,9 @@
 //! What one event costs the traffic authority as robots share one map: N robots on a warehouse
-//! floor (a 30 × 30 grid of lanes, 2 m apart) drive plans of random vertices, closed loop — every
-//! report of a robot's machine goes to the authority and every order back, as the drivers carry
-//! them — for 60 simulated seconds, the authority ticked every 50 ms. Only the authority's `handle`
-//! is timed: mean and worst µs per event (reports and ticks), and a tick's mean, for N = 50, 100,
-//! 200.
+//! floor (a 30 × 30 grid of lanes 2 m apart, which the authority cuts into segments as it cuts
+//! every map's lanes) drive plans of random vertices, closed loop — every report of a robot's
+//! machine goes to the authority and every order back, as the drivers carry them — for 60
+//! simulated seconds, the authority ticked every 50 ms. Only the authority's `handle` is timed:
+//! mean and worst µs per event (reports and ticks), and a tick's mean, for N = 50, 100, 200.
 //!
 //! `cargo bench -p mrmm-core --bench traffic`
 

@@ -1,22 +1,23 @@
 //! Typed ids: a robot's id, a mission's name and a node's Zenoh id are different things that
-//! happen to be spelled as strings. Each is a newtype over `String`, serialized as the bare
-//! string (the wire is unchanged) and compared with strings, so that tables and tests read
+//! happen to be spelled as strings. Each is a newtype over a shared `str` (a clone, which the
+//! machines make of ids at every look, costs no allocation), serialized as the bare string (the
+//! wire is unchanged) and compared with strings, so that tables and tests read
 //! naturally; a map keyed by one is searched with a `&str` (`Borrow<str>`). An id is not a
 //! string: it does not dereference to one (`as_str()` says where a string is wanted), so a
 //! robot's id cannot be passed where a mission's name is expected without anyone writing it.
 
 use std::borrow::Borrow;
 use std::fmt;
+use std::sync::Arc;
 
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 /// Declares one id type with its conversions.
 macro_rules! id_type {
     ($(#[$doc:meta])* $name:ident) => {
         $(#[$doc])*
-        #[derive(Clone, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-        #[serde(transparent)]
-        pub struct $name(String);
+        #[derive(Clone, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        pub struct $name(Arc<str>);
 
         impl $name {
             /// The id as a string slice.
@@ -26,7 +27,20 @@ macro_rules! id_type {
 
             /// The id's string.
             pub fn into_string(self) -> String {
-                self.0
+                self.0.to_string()
+            }
+        }
+
+        /// The bare string.
+        impl Serialize for $name {
+            fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                s.serialize_str(&self.0)
+            }
+        }
+
+        impl<'de> Deserialize<'de> for $name {
+            fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                String::deserialize(d).map(|s| $name(s.into()))
             }
         }
 
@@ -57,25 +71,25 @@ macro_rules! id_type {
 
         impl From<String> for $name {
             fn from(s: String) -> Self {
-                $name(s)
+                $name(s.into())
             }
         }
 
         impl From<&str> for $name {
             fn from(s: &str) -> Self {
-                $name(s.to_owned())
+                $name(s.into())
             }
         }
 
         impl From<&&str> for $name {
             fn from(s: &&str) -> Self {
-                $name((*s).to_owned())
+                $name((*s).into())
             }
         }
 
         impl From<&String> for $name {
             fn from(s: &String) -> Self {
-                $name(s.clone())
+                $name(s.as_str().into())
             }
         }
 
@@ -87,43 +101,43 @@ macro_rules! id_type {
 
         impl From<$name> for String {
             fn from(id: $name) -> String {
-                id.0
+                id.0.to_string()
             }
         }
 
         impl PartialEq<str> for $name {
             fn eq(&self, other: &str) -> bool {
-                self.0 == other
+                &*self.0 == other
             }
         }
 
         impl PartialEq<&str> for $name {
             fn eq(&self, other: &&str) -> bool {
-                self.0 == *other
+                &*self.0 == *other
             }
         }
 
         impl PartialEq<String> for $name {
             fn eq(&self, other: &String) -> bool {
-                &self.0 == other
+                &*self.0 == other.as_str()
             }
         }
 
         impl PartialEq<$name> for str {
             fn eq(&self, other: &$name) -> bool {
-                self == other.0
+                self == &*other.0
             }
         }
 
         impl PartialEq<$name> for &str {
             fn eq(&self, other: &$name) -> bool {
-                *self == other.0
+                *self == &*other.0
             }
         }
 
         impl PartialEq<$name> for String {
             fn eq(&self, other: &$name) -> bool {
-                *self == other.0
+                self.as_str() == &*other.0
             }
         }
     };

@@ -89,12 +89,12 @@ fn blind_robots_meet() {
 }
 
 /// Robots that tell traffic when they are clear of the vertex behind them (`Event::Left`), so
-/// that a follower closes up to it: still never closer than the clearance, on whole lanes and on
-/// lanes cut at 3 m as the fleet cuts them (with the clearance alone, no wider where lanes leave
-/// a vertex at a sharp angle, two came 0.596 m apart: cumberland, seed 8).
+/// that a follower closes up to it: still never closer than the clearance, on whole lanes, on
+/// lanes cut at 3 m (with the clearance alone, no wider where lanes leave a vertex at a sharp
+/// angle, two came 0.596 m apart: cumberland, seed 8) and as the fleet cuts them now.
 #[test]
 fn robots_letting_go_behind_them_never_meet() {
-    for cut in [None, Some(3.0)] {
+    for cut in [None, Some(3.0), Some(mrmm_core::traffic::authority::SEGMENT_M)] {
         let reports = runs_cut(World { robots: 12, duration: 600.0, release: true, ..World::default() }, cut);
         for (name, r) in &reports {
             assert!(r.closest >= CLEARANCE - 1e-6, "{name} seed {} (cut {cut:?}): {r:?}", r.seed);

@@ -45,7 +45,8 @@ pub const SPARE_ABOVE: f64 = 0.5;
 /// farther from the end of the low robot's leg than the low robot is. The spare is sent to that
 /// leg's end (sent on as the low robot starts the next), so it mostly waits there as the low
 /// robot comes and takes the leg over with nothing to drive back. On a map with traffic a robot
-/// held behind a standing one waits a lane segment back (cut at 3 m), within this radius. In
+/// held behind a standing one waits a lane segment back (at most
+/// [`crate::traffic::authority::SEGMENT_M`]), within this radius. In
 /// `mrmm experiment energy` (seeds 1–8) the day's worst idleness is 1.19–1.28 × its value with no
 /// batteries; swapping at 3.5 m wherever the two met (the spare sent to where the low robot
 /// stood) gave up to 1.36 ×, the spare driving back the part of the leg the low robot had done.

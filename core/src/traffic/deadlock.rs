@@ -20,9 +20,12 @@ const BEHIND: usize = 32;
 /// its cycle (or of the queue behind it).
 pub(super) const REPEATS: u32 = 2;
 
+/// Who each robot that stands waiting waits for.
+pub(super) type Waits = BTreeMap<RobotId, BTreeSet<RobotId>>;
+
 impl Traffic {
-    /// Who each robot that stands waiting waits for.
-    fn waits(&self) -> BTreeMap<RobotId, BTreeSet<RobotId>> {
+    /// Who each robot that stands waiting waits for: a function of holdings and routes alone.
+    pub(super) fn waits(&self) -> Waits {
         let mut waits = BTreeMap::new();
         for (id, r) in &self.robots {
             if r.lost || !(r.stands_waiting() || (r.granted.is_none() && !r.route.is_empty())) {
@@ -37,10 +40,10 @@ impl Traffic {
         waits
     }
 
-    /// Breaks one cycle of waits, or makes a parked robot give way: whether a route changed.
-    pub(super) fn resolve(&mut self, now: Time, out: &mut Vec<Command>) -> bool {
-        let waits = self.waits();
-        if let Some(cycle) = find_cycle(&waits) {
+    /// Breaks one cycle of `waits` (what [`Self::waits`] says now), or makes a parked robot give
+    /// way: whether a route changed.
+    pub(super) fn resolve(&mut self, now: Time, waits: &Waits, out: &mut Vec<Command>) -> bool {
+        if let Some(cycle) = find_cycle(waits) {
             let avoid = self.ahead_of(cycle.iter());
             // The robot that asked for its way last gives way first.
             let mut by_age = cycle.clone();
@@ -51,7 +54,7 @@ impl Traffic {
             // If none of the cycle can, one that waits for them, or for one of those, may make
             // room behind them. Steps aside made often on this way come last: two cycles can
             // undo each other's steps (a robot sent into a pocket and out again, for good).
-            let queued = behind(&waits, &cycle);
+            let queued = behind(waits, &cycle);
             for group in [&by_age, &queued] {
                 for fresh in [true, false] {
                     for m in group {
@@ -64,7 +67,7 @@ impl Traffic {
             // None can step aside: the oldest pushes the ones in its way back, and they the ones
             // behind them.
             let stuck: Vec<RobotId> = cycle.iter().chain(&queued).cloned().collect();
-            if self.push_through(&stuck, &waits, out) {
+            if self.push_through(&stuck, waits, out) {
                 return true;
             }
             // Then, if it has waited a while, a search for places that clear its way, or (a
@@ -80,7 +83,7 @@ impl Traffic {
             }
             return false;
         }
-        for (id, by) in &waits {
+        for (id, by) in waits {
             let long = self.robots.get(id).and_then(|r| r.waiting).is_some_and(|since| now - since >= self.params.yield_after);
             if !long {
                 continue;
@@ -158,7 +161,7 @@ impl Traffic {
         route.extend(path[back_to..path.len() - 1].iter().rev());
         route.extend(&rest[skip_next..]);
         let moved = rerouted(r, &route)?;
-        if at_once && self.grantable(id, &moved, moved.granted? + 1).is_err() {
+        if at_once && self.free_hop(id, &moved, moved.granted? + 1).is_none() {
             return None;
         }
         Some(moved)
@@ -234,7 +237,7 @@ pub(super) fn rerouted(r: &Robot, route: &[u32]) -> Option<Robot> {
 /// [`BEHIND`]), the farthest first: in a queue behind a robot of the cycle, the last one is the
 /// one free to make room, and then the one before it (only the nearest ones were tried before:
 /// a queue in one of DIAG's corridors stalled its robots for good).
-fn behind(waits: &BTreeMap<RobotId, BTreeSet<RobotId>>, cycle: &[RobotId]) -> Vec<RobotId> {
+fn behind(waits: &Waits, cycle: &[RobotId]) -> Vec<RobotId> {
     let mut queue: Vec<RobotId> = Vec::new();
     let mut grew = true;
     while grew {
@@ -252,7 +255,7 @@ fn behind(waits: &BTreeMap<RobotId, BTreeSet<RobotId>>, cycle: &[RobotId]) -> Ve
 
 /// A cycle of waits (each member waits for the next), the first found in id order: a
 /// depth-first search over the robots by index, successors tried in id order.
-fn find_cycle(waits: &BTreeMap<RobotId, BTreeSet<RobotId>>) -> Option<Vec<RobotId>> {
+fn find_cycle(waits: &Waits) -> Option<Vec<RobotId>> {
     const NEW: u8 = 0;
     const OPEN: u8 = 1;
     const DONE: u8 = 2;

@@ -556,11 +556,12 @@ fn a_paused_missions_robots_stop_where_they_are_and_the_others_go_on() {
 #[test]
 fn the_robot_ahead_reports_as_it_passes_the_release_point_and_the_vertex_behind_goes_at_once() {
     let vertices =
-        (0..8).map(|i| mrmm_maps::graph::Vertex { charger: false, name: format!("v{i}"), at: mrmm_maps::Point::new(2.0 * f64::from(i), 0.0) }).collect();
+        (0..8).map(|i| mrmm_maps::graph::Vertex { charger: false, name: format!("v{i}"), at: mrmm_maps::Point::new(1.4 * f64::from(i), 0.0) }).collect();
+    // Lanes shorter than the authority's segments: not cut.
     let mut edges = Vec::new();
     for a in 0u32..7 {
-        edges.push(mrmm_maps::graph::Edge { from: a, to: a + 1, length: 2.0 });
-        edges.push(mrmm_maps::graph::Edge { from: a + 1, to: a, length: 2.0 });
+        edges.push(mrmm_maps::graph::Edge { from: a, to: a + 1, length: 1.4 });
+        edges.push(mrmm_maps::graph::Edge { from: a + 1, to: a, length: 1.4 });
     }
     let mut f = Fleet::with(NavGraph { vertices, edges }, vec![(1, vec![7], false), (0, vec![6], false)], 1);
     let leader = mrmm_proto::RobotId::from("r0");

@@ -10,6 +10,15 @@ use super::layout::Res;
 use super::{Command, Robot, Traffic};
 
 impl Traffic {
+    /// The resources hop `i` of a route needs (its entry when `i` is 0).
+    pub(super) fn hop(&self, route: &[u32], i: usize) -> Hop {
+        let v = route[i];
+        match i.checked_sub(1).and_then(|p| self.layout.lane(route[p], v)) {
+            Some(lane) => Hop { res: [lane, v], len: 2 },
+            None => Hop { res: [v, v], len: 1 },
+        }
+    }
+
     /// The robots other than `id` ahead of it in the corridor of the lane `a` → `b` that do not
     /// drive it the same way: one driving the other way, or standing in it (parked, or about to
     /// leave it either way). Robots behind it going the other way drive apart: not in its way.
@@ -50,11 +59,29 @@ impl Traffic {
         by
     }
 
+    /// Whether a robot other than `id` holds `res` or a resource in conflict with it: whether
+    /// [`Self::in_the_way`] names anyone, without naming them.
+    fn anyone_in_the_way(&self, id: &RobotId, res: &[Res]) -> bool {
+        res.iter().any(|&r| std::iter::once(&r).chain(self.layout.conflicts(r)).any(|&c| self.holder[c as usize].as_ref().is_some_and(|h| h != id)))
+    }
+
+    /// What hop `i` of robot `id`'s route needs if it can be granted now: [`Self::grantable`]'s
+    /// answer without who is in the way (what a look at every waiting robot after each event
+    /// needs, without a set of names built for each).
+    pub(super) fn free_hop(&self, id: &RobotId, r: &Robot, i: usize) -> Option<Hop> {
+        let need = self.hop(&r.route, i);
+        let blocked = need.iter().any(|x| r.held.contains_key(x))
+            || self.anyone_in_the_way(id, &need)
+            || (i + 1 < r.route.len() && self.layout.is_junction(r.route[i]) && self.anyone_in_the_way(id, &self.hop(&r.route, i + 1)))
+            || (self.params.corridors && i >= 1 && !self.against(id, r.route[i - 1], r.route[i]).is_empty());
+        (!blocked).then_some(need)
+    }
+
     /// What hop `i` of robot `id`'s route needs, if it can be granted now; else the robots in
     /// its way. A vertex or lane the robot comes back to is granted again only once it has let
     /// it go (else a robot stepping aside would never make way). And don't block the box: a
     /// robot stops on a junction only where its route ends, or if it can leave it at once.
-    pub(super) fn grantable(&self, id: &RobotId, r: &Robot, i: usize) -> Result<Vec<Res>, BTreeSet<RobotId>> {
+    pub(super) fn grantable(&self, id: &RobotId, r: &Robot, i: usize) -> Result<Hop, BTreeSet<RobotId>> {
         let need = self.hop(&r.route, i);
         let mut by = self.in_the_way(id, &need);
         let own = need.iter().any(|x| r.held.contains_key(x));
@@ -71,22 +98,34 @@ impl Traffic {
         }
     }
 
-    /// Grants every hop it can, longest-waiting robots first.
-    pub(super) fn grant_all(&mut self, now: Time, out: &mut Vec<Command>) {
+    /// Grants every hop it can, longest-waiting robots first: whether it granted any.
+    pub(super) fn grant_all(&mut self, now: Time, out: &mut Vec<Command>) -> bool {
+        // Robots iterate in id order and the sort is stable: ties stay in id order.
         let mut order: Vec<(Time, RobotId)> =
             self.robots.iter().filter(|(_, r)| !r.lost && r.wants_more()).map(|(id, r)| (r.waiting.unwrap_or(Time::NEVER), id.clone())).collect();
-        order.sort_by(|a, b| a.0.total_cmp(&b.0).then_with(|| a.1.cmp(&b.1)));
+        order.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut any = false;
         for (_, id) in order {
             let Some(r) = self.robots.get(&id) else { continue };
             let before = r.granted;
             let limit = r.reached.map_or(0, |p| p + self.params.ahead).min(r.route.len() - 1);
+            if r.granted.is_some_and(|g| g >= limit) || self.free_hop(&id, r, r.granted.map_or(0, |g| g + 1)).is_none() {
+                // Nothing to grant (most robots at most looks): only since when it waits may change.
+                let waiting = waiting_since(now, r);
+                if waiting != r.waiting {
+                    if let Some(r) = self.robots.get_mut(&id) {
+                        r.waiting = waiting;
+                    }
+                }
+                continue;
+            }
             while let Some(r) = self.robots.get(&id) {
                 if r.granted.is_some_and(|g| g >= limit) {
                     break;
                 }
                 let i = r.granted.map_or(0, |g| g + 1);
-                let Ok(need) = self.grantable(&id, r, i) else { break };
-                for &res in &need {
+                let Some(need) = self.free_hop(&id, r, i) else { break };
+                for &res in need.iter() {
                     self.holder[res as usize] = Some(id.clone());
                 }
                 let Some(r) = self.robots.get_mut(&id) else { break };
@@ -100,8 +139,45 @@ impl Traffic {
                 let g = r.granted.unwrap_or(0);
                 out.push(Command::Grant { robot: id.clone(), version: r.version, upto: g, vertex: r.route[g] });
                 r.blocked.clear();
+                any = true;
             }
-            r.waiting = if r.stands_waiting() || r.granted.is_none() { r.waiting.or(Some(now)) } else { None };
+            r.waiting = waiting_since(now, r);
         }
+        any
+    }
+}
+
+/// Since when robot `r` waits, at `now`: since it first stood waiting (or unrouted) and not
+/// granted on, none once it drives.
+fn waiting_since(now: Time, r: &Robot) -> Option<Time> {
+    if r.stands_waiting() || r.granted.is_none() {
+        r.waiting.or(Some(now))
+    } else {
+        None
+    }
+}
+
+/// What one hop of a route needs: the lane it drives (where it has one), then the vertex it
+/// drives to; no allocation, as every look at every waiting robot takes one or two.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Hop {
+    res: [Res; 2],
+    len: usize,
+}
+
+impl std::ops::Deref for Hop {
+    type Target = [Res];
+
+    fn deref(&self) -> &[Res] {
+        &self.res[..self.len]
+    }
+}
+
+impl IntoIterator for Hop {
+    type Item = Res;
+    type IntoIter = std::iter::Take<std::array::IntoIter<Res, 2>>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.res.into_iter().take(self.len)
     }
 }

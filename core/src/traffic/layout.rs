@@ -66,7 +66,9 @@ pub struct Layout {
     names: Vec<Option<String>>,
     /// Lanes, each `(a, b)` with `a < b`.
     lanes: Vec<(u32, u32)>,
-    lane_of: HashMap<(u32, u32), Res>,
+    /// Each vertex's lanes: the vertex at the other end, and the lane (a scan of a vertex's few
+    /// lanes is cheaper than a hash of the pair, and a route's every hop looks one up).
+    lanes_at: Vec<Vec<(u32, Res)>>,
     /// Directed edges out of each vertex.
     out: Vec<Vec<u32>>,
     /// For each resource, the others it conflicts with.
@@ -100,7 +102,11 @@ impl Layout {
         let points: Vec<Point> = graph.vertices.iter().map(|v| v.at).collect();
         let lanes = graph.lanes();
         let nv = points.len() as u32;
-        let lane_of = lanes.iter().enumerate().map(|(i, &l)| (l, nv + i as u32)).collect();
+        let mut lanes_at = vec![Vec::new(); points.len()];
+        for (i, &(a, b)) in lanes.iter().enumerate() {
+            lanes_at[a as usize].push((b, nv + i as u32));
+            lanes_at[b as usize].push((a, nv + i as u32));
+        }
         let mut out = vec![Vec::new(); points.len()];
         for e in &graph.edges {
             if e.from != e.to && !out[e.from as usize].contains(&e.to) {
@@ -117,7 +123,7 @@ impl Layout {
             points,
             names: own_names(graph),
             lanes,
-            lane_of,
+            lanes_at,
             out,
             conflicts: Vec::new(),
             clearance,
@@ -264,7 +270,7 @@ impl Layout {
 
     /// The lane between `a` and `b`, either way.
     pub fn lane(&self, a: u32, b: u32) -> Option<Res> {
-        self.lane_of.get(&(a.min(b), a.max(b))).copied()
+        self.lanes_at.get(a as usize)?.iter().find(|&&(o, _)| o == b).map(|&(_, l)| l)
     }
 
     /// How far along its lane from `u` to `v` a robot must be for `u` to be let go, metres

@@ -312,25 +312,7 @@ impl Traffic {
 
     pub fn handle(&mut self, now: Time, event: Event) -> Vec<Command> {
         let mut out = Vec::new();
-        self.dirty |= !matches!(event, Event::Tick);
-        match event {
-            Event::Route { robot, route } => self.set_route(now, robot, route, &mut out),
-            Event::Reached { robot, vertex } => self.reached(&robot, vertex),
-            Event::Lost { robot } => self.lost(&robot),
-            Event::Dock { robot, on } => {
-                if let Some(r) = self.robots.get_mut(&robot) {
-                    r.docked = on;
-                }
-            }
-            Event::Remove { robot } => {
-                if let Some(mut r) = self.robots.remove(&robot) {
-                    self.release_all(&robot, &mut r);
-                }
-            }
-            Event::Restore { robot, route, reached, granted } => self.restore(now, robot, route, reached, granted, &mut out),
-            Event::Left { robot, vertex } => self.left(&robot, vertex),
-            Event::Tick => {}
-        }
+        self.dirty |= self.take_in(now, event, &mut out);
         // With nothing new since the last look, only time can change a decision: a robot that
         // has now waited `yield_after` for a parked one, or long enough for a gridlock it is in
         // to be searched out ([`search::AFTER`]). (Grants and cycles depend on holdings and
@@ -344,14 +326,55 @@ impl Traffic {
         let before = out.len();
         // Deadlocks are broken before anything freed is granted: a robot that steps aside into
         // a vertex just let go keeps its place in the queue.
-        let stepped = self.resolve(now, &mut out);
-        self.grant_all(now, &mut out);
-        if self.resolve(now, &mut out) || stepped {
-            self.grant_all(now, &mut out);
+        let waits = self.waits();
+        let stepped = self.resolve(now, &waits, &mut out);
+        let granted = self.grant_all(now, &mut out);
+        // Waits depend on holdings and routes alone: unless a route or a grant changed, a second
+        // look would find what the first found (robots that began to wait just now are in the
+        // next look's).
+        if stepped || granted {
+            let waits = self.waits();
+            if self.resolve(now, &waits, &mut out) || stepped {
+                self.grant_all(now, &mut out);
+            }
         }
         // What this look decided may make the next one decide more.
         self.dirty = out.len() > before;
         out
+    }
+
+    /// Takes `event` in: whether it changed anything (a robot reports where it is clear of the
+    /// vertex behind it at every report past that point: only the first lets it go).
+    fn take_in(&mut self, now: Time, event: Event, out: &mut Vec<Command>) -> bool {
+        match event {
+            Event::Route { robot, route } => {
+                self.set_route(now, robot, route, out);
+                true
+            }
+            Event::Reached { robot, vertex } => self.reached(&robot, vertex),
+            Event::Lost { robot } => {
+                self.lost(&robot);
+                true
+            }
+            Event::Dock { robot, on } => {
+                if let Some(r) = self.robots.get_mut(&robot) {
+                    r.docked = on;
+                }
+                true
+            }
+            Event::Remove { robot } => {
+                if let Some(mut r) = self.robots.remove(&robot) {
+                    self.release_all(&robot, &mut r);
+                }
+                true
+            }
+            Event::Restore { robot, route, reached, granted } => {
+                self.restore(now, robot, route, reached, granted, out);
+                true
+            }
+            Event::Left { robot, vertex } => self.left(&robot, vertex),
+            Event::Tick => false,
+        }
     }
 
     fn set_route(&mut self, now: Time, id: RobotId, mut route: Vec<u32>, out: &mut Vec<Command>) {
@@ -490,10 +513,11 @@ impl Traffic {
         Ok(())
     }
 
-    fn reached(&mut self, id: &RobotId, vertex: u32) {
-        let Some(mut r) = self.robots.remove(id) else { return };
+    fn reached(&mut self, id: &RobotId, vertex: u32) -> bool {
+        let Some(mut r) = self.robots.remove(id) else { return false };
         let next = r.reached.map_or(0, |p| p + 1);
-        if r.granted.is_some_and(|g| g >= next) && r.route.get(next) == Some(&vertex) {
+        let on = r.granted.is_some_and(|g| g >= next) && r.route.get(next) == Some(&vertex);
+        if on {
             if let Some(p) = r.reached {
                 let from = r.route[p];
                 let left = std::mem::take(&mut r.left);
@@ -505,19 +529,22 @@ impl Traffic {
             r.lost = false;
         }
         self.robots.insert(id.clone(), r);
+        on
     }
 
     /// The robot drives on from the vertex it last reached and is clear of it: that vertex is let
     /// go (once; the lane and the vertex ahead stay held).
-    fn left(&mut self, id: &RobotId, vertex: u32) {
-        let Some(mut r) = self.robots.remove(id) else { return };
-        if let Some(p) = r.reached {
-            if !r.left && !r.lost && r.route.get(p) == Some(&vertex) && r.granted.is_some_and(|g| g > p) {
-                r.left = true;
-                self.release(id, &mut r, vertex);
-            }
+    fn left(&mut self, id: &RobotId, vertex: u32) -> bool {
+        let Some(r) = self.robots.get_mut(id) else { return false };
+        let Some(p) = r.reached else { return false };
+        if r.left || r.lost || r.route.get(p) != Some(&vertex) || r.granted.is_none_or(|g| g <= p) {
+            return false;
         }
+        r.left = true;
+        let Some(mut r) = self.robots.remove(id) else { return false };
+        self.release(id, &mut r, vertex);
         self.robots.insert(id.clone(), r);
+        true
     }
 
     /// A lost robot keeps what it stood on or the hop it drove (it may still be there); its
@@ -557,15 +584,6 @@ impl Traffic {
             if self.holder[res as usize].as_ref() == Some(id) {
                 self.holder[res as usize] = None;
             }
-        }
-    }
-
-    /// The resources hop `i` of a route needs (its entry when `i` is 0).
-    fn hop(&self, route: &[u32], i: usize) -> Vec<Res> {
-        let v = route[i];
-        match i.checked_sub(1).map(|p| route[p]) {
-            Some(u) => self.layout.lane(u, v).into_iter().chain([v]).collect(),
-            None => vec![v],
         }
     }
 }

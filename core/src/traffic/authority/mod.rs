@@ -36,9 +36,10 @@ use grid::{leg_off, vertex_for, Leg};
 
 /// Lanes longer than this (metres) are cut into segments ([`super::layout::segmented`]): robots
 /// follow one another along a lane a segment apart instead of a lane apart. Measured in `mrmm
-/// experiment traffic` (docs/traffic.md): at 6 – 8 robots on the office graph 26 → 37 % of the
-/// blind robots' trips; 2 m gains more but gridlocks more often at that density.
-pub const SEGMENT_M: f64 = 3.0;
+/// experiment traffic` (docs/traffic.md): 3 m took the office at 6 – 8 robots from 26 to 37 % of
+/// the blind robots' trips; since corridors are cleared ahead of a gridlock's oldest robot 1.5 m
+/// keeps more still (1r5 at 4 robots 48 → 60 %, cumberland at 12 46 → 58 %) and stalls less.
+pub const SEGMENT_M: f64 = 1.5;
 /// Seconds a new authority only listens to what robots hold before it grants anything.
 pub const REBUILD_S: f64 = 2.0 * REPORT_S + 0.5;
 /// A robot new to traffic this close to a vertex (metres) stands on it.

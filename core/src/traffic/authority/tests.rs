@@ -242,17 +242,17 @@ fn routes_go_round_a_robot_docked_at_a_charger() {
 /// behind it is granted that vertex then, not before.
 #[test]
 fn a_robots_report_clear_of_the_vertex_behind_lets_the_one_following_close_up() {
-    // A corridor of three 2.9 m lanes (not cut into segments).
-    let vertex = |i: usize| mrmm_maps::graph::Vertex { charger: false, name: format!("v{i}"), at: Point::new(2.9 * i as f64, 0.0) };
+    // A corridor of three 1.4 m lanes (shorter than SEGMENT_M: not cut into segments).
+    let vertex = |i: usize| mrmm_maps::graph::Vertex { charger: false, name: format!("v{i}"), at: Point::new(1.4 * i as f64, 0.0) };
     let mut edges = Vec::new();
     for i in 0..3u32 {
-        edges.push(mrmm_maps::graph::Edge { from: i, to: i + 1, length: 2.9 });
-        edges.push(mrmm_maps::graph::Edge { from: i + 1, to: i, length: 2.9 });
+        edges.push(mrmm_maps::graph::Edge { from: i, to: i + 1, length: 1.4 });
+        edges.push(mrmm_maps::graph::Edge { from: i + 1, to: i, length: 1.4 });
     }
     let map = Arc::new(Map::Graph(mrmm_maps::NavGraph { vertices: (0..4).map(vertex).collect(), edges }));
     let hash = "c".repeat(64);
     let mut a = Authority::new(at(-10.0), 1, [(hash.clone(), map)]);
-    let goal = Some(TrafficGoal { id: 1, x: 8.7, y: 0.0 });
+    let goal = Some(TrafficGoal { id: 1, x: 4.2, y: 0.0 });
     let report = |robot: &str, seq: u64, x: f64, y: f64, held: Option<TrafficHeld>| TrafficReport { robot: robot.into(), seq, x, y, goal, held, docked: false };
     let route_of = |out: &[Command], robot: &str| {
         out.iter().find_map(|c| match c {
@@ -262,10 +262,10 @@ fn a_robots_report_clear_of_the_vertex_behind_lets_the_one_following_close_up() 
             _ => None,
         })
     };
-    a.handle(at(0.0), Event::Report { map: hash.clone(), report: report("a", 1, 2.9, 0.0, None) });
+    a.handle(at(0.0), Event::Report { map: hash.clone(), report: report("a", 1, 1.4, 0.0, None) });
     a.handle(at(0.0), Event::Report { map: hash.clone(), report: report("b", 1, 0.0, 0.0, None) });
     let (version, route, upto) =
-        route_of(&a.handle(at(0.1), Event::Report { map: hash.clone(), report: report("a", 2, 2.9, 0.0, None) }), "a").expect("a routed");
+        route_of(&a.handle(at(0.1), Event::Report { map: hash.clone(), report: report("a", 2, 1.4, 0.0, None) }), "a").expect("a routed");
     assert_eq!((route.as_slice(), upto), ([1, 2, 3].as_slice(), Some(2)));
     let (_, b_route, b_upto) =
         route_of(&a.handle(at(0.2), Event::Report { map: hash.clone(), report: report("b", 2, 0.0, 0.0, None) }), "b").expect("b routed");
@@ -273,12 +273,12 @@ fn a_robots_report_clear_of_the_vertex_behind_lets_the_one_following_close_up() 
     let held = Some(TrafficHeld { incarnation: 1, version, route: route.clone(), reached: Some(0), upto: Some(2) });
     let b_upto = |out: &[Command]| route_of(out, "b").and_then(|(_, _, upto)| upto);
     // 0.5 m along: not clear (0.65 m needed); 0.7 m along but 0.2 m off the line: not clear.
-    for (seq, x, y) in [(3, 3.4, 0.0), (4, 3.6, 0.2)] {
+    for (seq, x, y) in [(3, 1.9, 0.0), (4, 2.1, 0.2)] {
         let out = a.handle(at(0.3), Event::Report { map: hash.clone(), report: report("a", seq, x, y, held.clone()) });
-        assert!(b_upto(&out).is_none_or(|u| u == 0), "b granted 1 with a {:.1} m along: {out:?}", x - 2.9);
+        assert!(b_upto(&out).is_none_or(|u| u == 0), "b granted 1 with a {:.1} m along: {out:?}", x - 1.4);
         assert!(a.traffic(&hash).is_some_and(|t| t.holder(1).is_some()), "vertex 1 let go too early");
     }
-    let out = a.handle(at(0.4), Event::Report { map: hash.clone(), report: report("a", 5, 3.6, 0.0, held) });
+    let out = a.handle(at(0.4), Event::Report { map: hash.clone(), report: report("a", 5, 2.1, 0.0, held) });
     let b = a.handle(at(0.5), Event::Report { map: hash.clone(), report: report("b", 3, 0.0, 0.0, None) });
     assert_eq!(b_upto(&out).or(b_upto(&b)), Some(1), "b closes up to vertex 1, not onto a's lane: {out:?} {b:?}");
 }
