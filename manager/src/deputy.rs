@@ -3,7 +3,7 @@
 //! report and order on it (`mrmm/traffic/<hash>/*/*`) and central's liveliness, and — central
 //! away and the orders stopped — takes over and gives the orders itself, sealed as its robot.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use mrmm_core::traffic::deputy::{Command, Deputy, Event};
 use mrmm_net::inbox::{self, Inbox};
@@ -90,14 +90,13 @@ async fn follow(
     let _traffic = inbox::subscribe(&orders, &session, Pattern::MapTraffic(map.hash.clone()).to_string(), |s| s).await?;
     let (live, central) = Inbox::new("deputy: central's liveliness", 16);
     let _central = live.liveliness(&session, Key::HostAlive(mrmm_proto::CENTRAL_HOST.into()).to_string(), |s| s).await?;
-    let t0 = Instant::now();
     // Central counts as away until its token is heard (at once, from the history, if it is up):
     // no takeover comes before the deputy followed for a while anyway.
     let mut deputy = Deputy::new(Time::ZERO, me.into(), map.hash.clone(), held.map.clone(), false);
     tracing::info!(deputy = %me, map = %map.name, "following the map's traffic authority as its deputy");
     let mut tick = tokio::time::interval(TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut node = Node { mesh, me, map, named, shutdown, t0, tick, traffic, central };
+    let mut node = Node { mesh, me, map, named, shutdown, clock: mrmm_net::clock::Clock::start(), tick, traffic, central };
     let Ok(()) = mrmm_core::machine::drive(&mut deputy, &mut node).await;
     tracing::info!(deputy = %me, map = %map.name, "no longer following the map's traffic");
     Ok(())
@@ -112,7 +111,7 @@ struct Node<'a> {
     map: &'a MapRef,
     named: &'a mut watch::Receiver<Option<MapRef>>,
     shutdown: &'a CancellationToken,
-    t0: Instant,
+    clock: mrmm_net::clock::Clock,
     tick: tokio::time::Interval,
     traffic: tokio::sync::mpsc::Receiver<Sample>,
     central: tokio::sync::mpsc::Receiver<Sample>,
@@ -138,7 +137,7 @@ impl mrmm_core::machine::Node<Deputy> for Node<'_> {
                     Event::Central(s.kind() == SampleKind::Put)
                 }
             };
-            return Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), event)));
+            return Ok(Some((self.clock.now(), event)));
         }
     }
 }

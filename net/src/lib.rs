@@ -8,11 +8,13 @@
 //! - [`inbox`]: the bounded queues from Zenoh's callbacks to a node's loop, every node's one
 //!   discipline;
 //! - [`client`]: the operator's client of central;
-//! - [`map`]: map bundles fetched chunk by chunk.
+//! - [`map`]: map bundles fetched chunk by chunk;
+//! - [`clock`]: a live node's clock for its machine.
 // Functions outside tests are at most 80 lines (clippy.toml); tests may be longer.
 #![cfg_attr(not(test), deny(clippy::too_many_lines))]
 
 pub mod client;
+pub mod clock;
 pub mod follow;
 pub mod inbox;
 pub mod map;

@@ -181,3 +181,13 @@ fn gridlocks_on_short_segments_are_looked_at_again_and_stepped_out_of() {
         no_stall_cut(map, World { robots, release: true, ..World::default() }, seed, 1.5);
     }
 }
+
+/// A robot starved outside any cycle of waits (DIAG_labs, 8 robots, seed 6, lanes cut as the
+/// fleet cuts them): at a dead end's mouth it needed the junction and the vertex past it free at
+/// once, while the robots of the busy corridor there took them in turn for 300 s — none of them
+/// waited for it, so no cycle, push or search was ever looked for. Once it has waited
+/// `STARVED_S` the robots on its way are searched out of it or sent ahead of it. Stalled without.
+#[test]
+fn a_robot_starved_by_a_busy_corridor_has_its_way_cleared() {
+    no_stall_cut("DIAG_labs", World { robots: 8, release: true, ..World::default() }, 6, mrmm_core::traffic::authority::SEGMENT_M);
+}

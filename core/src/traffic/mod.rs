@@ -314,11 +314,13 @@ impl Traffic {
         let mut out = Vec::new();
         self.dirty |= self.take_in(now, event, &mut out);
         // With nothing new since the last look, only time can change a decision: a robot that
-        // has now waited `yield_after` for a parked one, or long enough for a gridlock it is in
-        // to be searched out ([`search::AFTER`]). (Grants and cycles depend on holdings and
-        // routes alone: looking again would find what the last look found.)
+        // has now waited `yield_after` for a parked one, long enough for a gridlock it is in to
+        // be searched out ([`search::AFTER`]), or long enough to count as starved
+        // ([`deadlock::STARVED_S`]). (Grants and cycles depend on holdings and routes alone:
+        // looking again would find what the last look found.)
         let due = |since: Time, after: f64| since + after <= now && since + after > self.looked;
-        let time_due = |r: &Robot| r.waiting.is_some_and(|since| due(since, self.params.yield_after) || due(since, search::AFTER));
+        let time_due =
+            |r: &Robot| r.waiting.is_some_and(|since| [self.params.yield_after, search::AFTER, deadlock::STARVED_S].into_iter().any(|after| due(since, after)));
         if !self.dirty && !self.robots.values().any(time_due) {
             return out;
         }

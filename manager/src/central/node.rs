@@ -29,7 +29,7 @@ pub(super) struct Node {
     pub(super) seals: SealCounts,
     pub(super) load: LoopLoad,
     pub(super) shutdown: CancellationToken,
-    pub(super) t0: Instant,
+    pub(super) clock: mrmm_net::clock::Clock,
     /// Events already due (the seal counts a tick brings), handled before anything new.
     pub(super) due: VecDeque<Event>,
     /// The step under way: its kind, when its event came and when the core had decided.
@@ -79,7 +79,7 @@ impl mrmm_core::machine::Node<CentralCore> for Node {
     async fn next(&mut self, _: &CentralCore) -> Result<Option<(Time, Event)>, ManagerError> {
         let Some(event) = self.heard().await else { return Ok(None) };
         self.step = Some((event.kind(), Instant::now(), Duration::ZERO));
-        Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), event)))
+        Ok(Some((self.clock.now(), event)))
     }
 
     async fn decided(&mut self, _: &CentralCore) -> Result<(), ManagerError> {

@@ -3,8 +3,6 @@
 //! (once a second) fetches the maps of the missions it leads or replicates; its chains' state
 //! is synced before anything of a step leaves ([`Io`] carries the rest out).
 
-use std::time::Instant;
-
 use mrmm_net::inbox::Lanes;
 use mrmm_net::{Following, Mesh};
 use mrmm_proto::Time;
@@ -29,7 +27,7 @@ pub(super) struct Node {
     /// On a robot's node: its robot's team, as its runtime says.
     pub(super) local: Option<watch::Receiver<LocalTeam>>,
     pub(super) shutdown: CancellationToken,
-    pub(super) t0: Instant,
+    pub(super) clock: mrmm_net::clock::Clock,
     /// What the event under way was: telemetry (which changes nothing the core listens to),
     /// the status tick (when the maps are fetched ahead).
     pub(super) telemetry: bool,
@@ -72,7 +70,7 @@ impl mrmm_core::machine::Node<HostCore> for Node {
         let Some(event) = self.heard().await else { return Ok(None) };
         self.telemetry = matches!(event, Event::Telemetry(_));
         self.status_tick = matches!(event, Event::StatusTick);
-        Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), event)))
+        Ok(Some((self.clock.now(), event)))
     }
 
     /// The maps of every mission this node leads or replicates fetched before a takeover needs

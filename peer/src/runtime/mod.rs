@@ -12,7 +12,7 @@ mod ros;
 mod team;
 mod vda;
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use mrmm_net::net;
 use mrmm_net::security::seal::SignCadence;
@@ -190,7 +190,7 @@ pub async fn run_on(
         state_dir: cfg.state_dir.clone(),
         crashed: false,
     };
-    let mut node = Node { inputs, io, query: None, t0: Instant::now(), team, deputy, tick_now: false };
+    let mut node = Node { inputs, io, query: None, clock: mrmm_net::clock::Clock::start(), team, deputy, tick_now: false };
     let driven = mrmm_core::machine::drive(&mut robot, &mut node).await;
     let Node { inputs, mut io, .. } = node;
     driven?;

@@ -3,8 +3,6 @@
 //! after each step the node tells the other services of its process what changed in the robot
 //! — its mission host the team, its traffic deputy the map it deputises on.
 
-use std::time::Instant;
-
 use mrmm_proto::{MapRef, Time};
 use tokio::sync::watch;
 use zenoh::query::Query;
@@ -21,7 +19,7 @@ pub(super) struct Node {
     pub(super) io: Io,
     /// The operator's query the event under way came with, answered by its reply.
     pub(super) query: Option<Query>,
-    pub(super) t0: Instant,
+    pub(super) clock: mrmm_net::clock::Clock,
     /// The mission host of this process, told whom the robot trusts for which mission.
     pub(super) team: Option<watch::Sender<LocalTeam>>,
     /// The traffic deputy of this process, told the map whose authority names the robot.
@@ -34,7 +32,7 @@ pub(super) struct Node {
 impl mrmm_core::machine::Node<Robot> for Node {
     async fn next(&mut self, robot: &Robot) -> Result<Option<(Time, Event)>, PeerError> {
         if std::mem::take(&mut self.tick_now) {
-            return Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), Event::Tick)));
+            return Ok(Some((self.clock.now(), Event::Tick)));
         }
         let Some((event, query)) = self.inputs.next(robot, &mut self.io).await else { return Ok(None) };
         self.query = query;
@@ -42,7 +40,7 @@ impl mrmm_core::machine::Node<Robot> for Node {
         // itself), and at once after anything that may give it a goal or take one (a grant, a
         // command, the vehicle's state), so that what it is to be sent goes out now.
         self.tick_now = self.io.vda.is_some() && !matches!(event, Event::Tick | Event::TelemetryDue);
-        Ok(Some((Time::from_secs(self.t0.elapsed().as_secs_f64()), event)))
+        Ok(Some((self.clock.now(), event)))
     }
 
     async fn stepped(&mut self, robot: &Robot) -> Result<(), PeerError> {
