@@ -90,13 +90,14 @@ async fn follow(
     let _traffic = inbox::subscribe(&orders, &session, Pattern::MapTraffic(map.hash.clone()).to_string(), |s| s).await?;
     let (live, central) = Inbox::new("deputy: central's liveliness", 16);
     let _central = live.liveliness(&session, Key::HostAlive(mrmm_proto::CENTRAL_HOST.into()).to_string(), |s| s).await?;
+    let clock = mrmm_net::clock::Clock::start();
     // Central counts as away until its token is heard (at once, from the history, if it is up):
     // no takeover comes before the deputy followed for a while anyway.
     let mut deputy = Deputy::new(Time::ZERO, me.into(), map.hash.clone(), held.map.clone(), false);
     tracing::info!(deputy = %me, map = %map.name, "following the map's traffic authority as its deputy");
     let mut tick = tokio::time::interval(TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut node = Node { mesh, me, map, named, shutdown, clock: mrmm_net::clock::Clock::start(), tick, traffic, central };
+    let mut node = Node { mesh, me, map, named, shutdown, clock, tick, traffic, central };
     let Ok(()) = mrmm_core::machine::drive(&mut deputy, &mut node).await;
     tracing::info!(deputy = %me, map = %map.name, "no longer following the map's traffic");
     Ok(())

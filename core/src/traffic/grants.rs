@@ -44,52 +44,49 @@ impl Traffic {
         by
     }
 
-    /// The robots that hold `res` or a resource in conflict with it, other than `id`.
-    pub(super) fn in_the_way(&self, id: &RobotId, res: &[Res]) -> BTreeSet<RobotId> {
-        let mut by = BTreeSet::new();
-        for &r in res {
-            for &c in std::iter::once(&r).chain(self.layout.conflicts(r)) {
-                if let Some(h) = &self.holder[c as usize] {
-                    if h != id {
-                        by.insert(h.clone());
-                    }
-                }
-            }
-        }
-        by
+    /// The robots other than `id` that hold `x` or a resource in conflict with it.
+    fn holders<'a>(&'a self, id: &'a RobotId, x: Res) -> impl Iterator<Item = &'a RobotId> + 'a {
+        std::iter::once(x).chain(self.layout.conflicts(x).iter().copied()).filter_map(move |c| self.holder[c as usize].as_ref()).filter(move |h| *h != id)
     }
 
-    /// Whether a robot other than `id` holds `res` or a resource in conflict with it: whether
-    /// [`Self::in_the_way`] names anyone, without naming them.
-    fn anyone_in_the_way(&self, id: &RobotId, res: &[Res]) -> bool {
-        res.iter().any(|&r| std::iter::once(&r).chain(self.layout.conflicts(r)).any(|&c| self.holder[c as usize].as_ref().is_some_and(|h| h != id)))
+    /// The robots that hold `res` or a resource in conflict with it, other than `id`.
+    pub(super) fn in_the_way(&self, id: &RobotId, res: &[Res]) -> BTreeSet<RobotId> {
+        res.iter().flat_map(|&x| self.holders(id, x)).cloned().collect()
+    }
+
+    /// What hop `i` of robot `id`'s route needs, whether the robot still holds some of it, the
+    /// robots holding what it needs (found as they are asked for: a check stops at the first),
+    /// and the lane whose corridor other robots may hold against it. A vertex or lane the robot
+    /// comes back to is granted again only once it has let it go (else a robot stepping aside
+    /// would never make way). And don't block the box: a robot stops on a junction only where
+    /// its route ends, or if it can leave it at once.
+    fn hop_and_way<'a>(&'a self, id: &'a RobotId, r: &'a Robot, i: usize) -> (Hop, bool, impl Iterator<Item = &'a RobotId> + 'a, Option<(u32, u32)>) {
+        let need = self.hop(&r.route, i);
+        let own = need.iter().any(|x| r.held.contains_key(x));
+        // The hop out of the box, looked at only if nothing of this hop is held.
+        let box_exit = (i + 1 < r.route.len() && self.layout.is_junction(r.route[i])).then_some(i + 1);
+        let exit = box_exit.into_iter().flat_map(move |j| self.hop(&r.route, j));
+        let holding = need.into_iter().chain(exit).flat_map(move |x| self.holders(id, x));
+        let corridor = (self.params.corridors && i >= 1).then(|| (r.route[i - 1], r.route[i]));
+        (need, own, holding, corridor)
     }
 
     /// What hop `i` of robot `id`'s route needs if it can be granted now: [`Self::grantable`]'s
     /// answer without who is in the way (what a look at every waiting robot after each event
     /// needs, without a set of names built for each).
     pub(super) fn free_hop(&self, id: &RobotId, r: &Robot, i: usize) -> Option<Hop> {
-        let need = self.hop(&r.route, i);
-        let blocked = need.iter().any(|x| r.held.contains_key(x))
-            || self.anyone_in_the_way(id, &need)
-            || (i + 1 < r.route.len() && self.layout.is_junction(r.route[i]) && self.anyone_in_the_way(id, &self.hop(&r.route, i + 1)))
-            || (self.params.corridors && i >= 1 && !self.against(id, r.route[i - 1], r.route[i]).is_empty());
-        (!blocked).then_some(need)
+        let (need, own, mut holding, corridor) = self.hop_and_way(id, r, i);
+        let free = !own && holding.next().is_none() && corridor.is_none_or(|(a, b)| self.against(id, a, b).is_empty());
+        free.then_some(need)
     }
 
     /// What hop `i` of robot `id`'s route needs, if it can be granted now; else the robots in
-    /// its way. A vertex or lane the robot comes back to is granted again only once it has let
-    /// it go (else a robot stepping aside would never make way). And don't block the box: a
-    /// robot stops on a junction only where its route ends, or if it can leave it at once.
+    /// its way ([`Self::hop_and_way`]).
     pub(super) fn grantable(&self, id: &RobotId, r: &Robot, i: usize) -> Result<Hop, BTreeSet<RobotId>> {
-        let need = self.hop(&r.route, i);
-        let mut by = self.in_the_way(id, &need);
-        let own = need.iter().any(|x| r.held.contains_key(x));
-        if i + 1 < r.route.len() && self.layout.is_junction(r.route[i]) {
-            by.extend(self.in_the_way(id, &self.hop(&r.route, i + 1)));
-        }
-        if self.params.corridors && i >= 1 {
-            by.extend(self.against(id, r.route[i - 1], r.route[i]));
+        let (need, own, holding, corridor) = self.hop_and_way(id, r, i);
+        let mut by: BTreeSet<RobotId> = holding.cloned().collect();
+        if let Some((a, b)) = corridor {
+            by.extend(self.against(id, a, b));
         }
         if by.is_empty() && !own {
             Ok(need)

@@ -71,6 +71,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
         let _ = tx.send(Ready { zid: zid.clone(), endpoints });
     }
 
+    let clock = mrmm_net::clock::Clock::start();
     let by_name = maps.by_name();
     let no_lanes: Vec<String> = cfg.no_lanes.iter().filter_map(|n| by_name.get(n).map(|h| h.info.hash.clone())).collect();
     let mut core = CentralCore::restore(zid.into(), cfg.agent.clone(), proto::Time::ZERO, state)
@@ -83,8 +84,7 @@ pub async fn run(cfg: CentralConfig, shutdown: CancellationToken, ready: Option<
     let seals = SealCounts { refused: 0, proofs_at: Instant::now() };
     let load = crate::load::LoopLoad::new(proto::CENTRAL_HOST);
     let tick = tokio::time::interval(TICK);
-    let mut node =
-        Node { mesh: mesh.clone(), io, journal, lanes, tick, seals, load, shutdown, clock: mrmm_net::clock::Clock::start(), due: VecDeque::new(), step: None };
+    let mut node = Node { mesh: mesh.clone(), io, journal, lanes, tick, seals, load, shutdown, clock, due: VecDeque::new(), step: None };
     machine::drive(&mut core, &mut node).await?;
     tracing::info!("central shutting down");
     drop(held);

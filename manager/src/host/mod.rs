@@ -83,6 +83,7 @@ pub async fn serve_with(
     let mut follow = Following::new(session.clone(), move |s| mrmm_net::inbox::sort(&n, &telemetry, s, Input::Sample));
     let _held = inputs::declare(&session, &node, &live, &net).await?;
     tracing::info!(%node, "mission host up");
+    let clock = mrmm_net::clock::Clock::start();
     let (store, mut core) = match stored {
         Some((store, entries)) => (Some(store), HostCore::restore(&node, params, Time::ZERO, entries.into_iter().map(|(m, d)| (m.into(), d)).collect())),
         None => (None, HostCore::new(&node, params, Time::ZERO)),
@@ -95,7 +96,6 @@ pub async fn serve_with(
     let status = tokio::time::interval(STATUS_PERIOD);
     let mut tick = tokio::time::interval(CHAIN_TICK);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut node =
-        Node { mesh, io, store, follow, lanes, status, tick, local, shutdown, clock: mrmm_net::clock::Clock::start(), telemetry: false, status_tick: false };
+    let mut node = Node { mesh, io, store, follow, lanes, status, tick, local, shutdown, clock, telemetry: false, status_tick: false };
     mrmm_core::machine::drive(&mut core, &mut node).await
 }
