@@ -138,7 +138,9 @@ fn the_traffic_experiment_writes_a_row_per_map() -> anyhow::Result<()> {
     assert_eq!(maps, ["1r5", "DIAG_floor1", "DIAG_labs", "broughton", "ctcv", "cumberland", "example", "grid", "move_base_arena", "office"], "{csv}");
     for r in &rows {
         assert!(num(r, "closest_m") >= 0.6 && num(r, "too_close") == 0.0, "{r:?}");
-        assert!(num(r, "trips") > 0.0 && num(r, "trips") <= num(r, "blind_trips"), "{r:?}");
+        // Robots under traffic draw their goals at other moments than the blind ones, so they may
+        // finish a few more by chance (broughton at 2 robots: 200 of the blind robots' 197).
+        assert!(num(r, "trips") > 0.0 && num(r, "trips") <= 1.1 * num(r, "blind_trips"), "{r:?}");
         // Every second waited has a cause.
         let causes: f64 = ["parked", "queued", "oncoming", "ahead", "other"].iter().map(|c| num(r, &format!("waiting_{c}"))).sum();
         assert!((causes - num(r, "waiting_share")).abs() < 0.001, "{r:?}");
