@@ -38,7 +38,12 @@ impl Traffic {
         let mut moved = Vec::new();
         for (id, path) in &clearing {
             let Some(r) = self.driven_then_back(id, path) else { return false };
-            moved.push((id.clone(), r));
+            if self.changes_way(id, &r) {
+                moved.push((id.clone(), r));
+            }
+        }
+        if moved.is_empty() {
+            return false;
         }
         self.cleared = Some(standing);
         for (id, r) in moved {

@@ -204,8 +204,9 @@ pub struct Traffic {
     dirty: bool,
     /// When they were last looked at.
     looked: Time,
-    /// The robots of the last search that found no way out, where they stood.
-    searched: Option<search::Standing>,
+    /// The robots of the last searches that found no way out, where they stood (at most
+    /// [`search::FAILED`], the last first).
+    searched: Vec<search::Standing>,
     /// The robots last sent ahead to clear a way, where they stood ([`Traffic::clear_through`]).
     cleared: Option<search::Standing>,
 }
@@ -213,7 +214,7 @@ pub struct Traffic {
 impl Traffic {
     pub fn new(layout: Arc<Layout>, params: Params) -> Traffic {
         let holder = vec![None; layout.resources()];
-        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: Time::LONG_AGO, searched: None, cleared: None }
+        Traffic { layout, params, robots: BTreeMap::new(), holder, dirty: false, looked: Time::LONG_AGO, searched: Vec::new(), cleared: None }
     }
 
     pub fn layout(&self) -> &Layout {

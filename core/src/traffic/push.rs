@@ -95,6 +95,8 @@ impl Traffic {
         let mut again = 0;
         for (id, v, w, end) in &plan.moves {
             match self.diverted(id, &[*v, *w], *end) {
+                // Pushed on along its own route: it goes once the robots ahead of it have.
+                Some(r) if !self.changes_way(id, &r) => {}
                 Some(mut r) => {
                     let made = r.asides.entry((*v, *w)).or_insert(0);
                     again += usize::from(*made >= super::deadlock::REPEATS);
@@ -106,7 +108,7 @@ impl Traffic {
         }
         // A push every robot of which was made twice already goes round in circles (robots
         // pushed back and forth every few seconds for good): the search gets its turn.
-        if again == plan.moves.len() {
+        if again == moved.len() {
             return false;
         }
         for (id, r) in moved {

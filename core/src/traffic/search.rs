@@ -21,6 +21,9 @@ const STATES: usize = 20_000;
 const WAY: usize = 16;
 /// Robots move within this many hops of the way (3 left too few free places in a crowd).
 const AROUND: usize = 6;
+/// Searches that found nothing remembered, so as not to run them again while their robots stand
+/// where they stood (each robot of a gridlock may be searched for in one look).
+pub(super) const FAILED: usize = 8;
 /// A robot searched for has waited this long, seconds: the steps aside and pushes of the
 /// first seconds of a gridlock break most; searching at once moved robots for nothing.
 pub(super) const AFTER: f64 = 5.0;
@@ -35,22 +38,27 @@ impl Traffic {
     pub(super) fn search_through(&mut self, p: &RobotId, out: &mut Vec<Command>) -> bool {
         let Some((way, region)) = self.way_and_region(p) else { return false };
         let movers = self.movers(p, &region);
-        if self.searched.as_ref() == Some(&movers) {
+        if self.searched.contains(&movers) {
             return false;
         }
         let plan = self.plan(&movers, &way, &region);
         let moved = plan.and_then(|paths| {
             let mut moved = Vec::new();
             for ((id, _), path) in movers.iter().zip(paths).filter(|(_, path)| path.len() > 1) {
-                moved.push((id.clone(), self.driven_then_back(id, &path)?));
+                let r = self.driven_then_back(id, &path)?;
+                // Moved on along its own route: it goes once the robots ahead of it have.
+                if self.changes_way(id, &r) {
+                    moved.push((id.clone(), r));
+                }
             }
             Some(moved).filter(|m| !m.is_empty())
         });
         let Some(moved) = moved else {
-            self.searched = Some(movers);
+            self.searched.insert(0, movers);
+            self.searched.truncate(FAILED);
             return false;
         };
-        self.searched = None;
+        self.searched.clear();
         for (id, r) in moved {
             self.divert(&id, r, Why::Deadlock, out);
         }
@@ -88,15 +96,26 @@ impl Traffic {
             }
             past |= self.layout.is_junction(w);
         }
-        let mut region: BTreeSet<u32> = way.iter().copied().chain([v]).collect();
-        let mut frontier: Vec<u32> = region.iter().copied().collect();
+        // Vertices in conflict with one of the region (a lane drawn over another: two vertices at
+        // one place) are in it too: a robot there is on the way as much as one on it.
+        let nv = self.layout.vertices() as u32;
+        let mut region: BTreeSet<u32> = BTreeSet::new();
+        let mut frontier: Vec<u32> = Vec::new();
+        let add = |w: u32, region: &mut BTreeSet<u32>, next: &mut Vec<u32>| {
+            for x in std::iter::once(w).chain(self.layout.conflicts(w).iter().copied().filter(|&c| c < nv)) {
+                if region.insert(x) {
+                    next.push(x);
+                }
+            }
+        };
+        for w in way.iter().copied().chain([v]) {
+            add(w, &mut region, &mut frontier);
+        }
         for _ in 0..AROUND {
             let mut next = Vec::new();
             for x in frontier {
                 for &w in self.layout.next(x) {
-                    if region.insert(w) {
-                        next.push(w);
-                    }
+                    add(w, &mut region, &mut next);
                 }
             }
             frontier = next;
