@@ -333,7 +333,8 @@ fn plan_and_check_from_the_command_line() -> anyhow::Result<()> {
 
 /// `mrmm map graph` derives lanes from the demo's floor plan and writes an Open-RMF nav graph:
 /// `mrmm map check` reads it, and so does a stock YAML reader (ruamel.yaml, with networkx for its
-/// shape): one connected graph of two-way lanes, every lane in free space a robot fits.
+/// shape): one connected graph of two-way lanes, every lane in free space a robot fits, the lanes
+/// of the building's wide corridors marked passing both ways (`passing: true`).
 #[test]
 fn a_grid_maps_lanes_derived_from_the_command_line() -> anyhow::Result<()> {
     let (_, g) = grid()?;
@@ -343,12 +344,13 @@ fn a_grid_maps_lanes_derived_from_the_command_line() -> anyhow::Result<()> {
         std::process::Command::new(common::EXE).args(["map", "graph", &building().display().to_string(), "--out", &out_file.display().to_string()]).output()?;
     let text = String::from_utf8_lossy(&out.stdout);
     anyhow::ensure!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(text.contains("junctions") && text.contains("lanes both ways"), "{text}");
+    assert!(text.contains("junctions") && text.contains("lanes both ways") && text.contains("passing)"), "{text}");
     let out = std::process::Command::new(common::EXE).args(["map", "check", &out_file.display().to_string()]).output()?;
     let check = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && check.contains("open_rmf map"), "{check}");
     let b = Bundle::collect(&out_file.display().to_string(), |p| std::fs::read(p).map_err(|e| e.to_string())).map_err(|e| anyhow::anyhow!("{e}"))?;
     let Map::Graph(nav) = b.load().map_err(|e| anyhow::anyhow!("{e}"))?.1 else { anyhow::bail!("not a graph") };
+    assert!(nav.edges.iter().any(|e| e.passing) && nav.edges.iter().any(|e| !e.passing), "{:?}", nav.edges);
     for e in &nav.edges {
         let (a, b) = (nav.vertices[e.from as usize].at, nav.vertices[e.to as usize].at);
         assert!(free_route(&g, &[proto::geom::Point { x: a.x, y: a.y }, proto::geom::Point { x: b.x, y: b.y }]), "lane {e:?} leaves free space");
@@ -369,11 +371,14 @@ for i, (x, y, props) in enumerate(level["vertices"]):
     assert isinstance(x, float) and isinstance(y, float) and props["name"], (i, x, y, props)
     g.add_node(i)
 for a, b, props in level["lanes"]:
-    assert props == {}, props
-    g.add_edge(a, b)
+    assert props in ({}, {"passing": True}), props
+    g.add_edge(a, b, passing=props.get("passing", False))
 assert all(g.has_edge(b, a) for a, b in g.edges), "a lane one way only"
+assert all(g.edges[a, b]["passing"] == g.edges[b, a]["passing"] for a, b in g.edges), "passing one way only"
 assert networkx.is_strongly_connected(g), "not connected"
-print(name, g.number_of_nodes(), g.number_of_edges())
+passing = sum(1 for a, b in g.edges if g.edges[a, b]["passing"])
+assert 0 < passing < g.number_of_edges(), passing
+print(name, g.number_of_nodes(), g.number_of_edges(), passing)
 "#;
     let out = std::process::Command::new(py).args(["-c", script, &out_file.display().to_string()]).output()?;
     let said = String::from_utf8_lossy(&out.stdout);

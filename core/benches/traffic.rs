@@ -32,8 +32,8 @@ fn warehouse() -> NavGraph {
             let k = j * SIDE + i;
             for (n, ok) in [(k + 1, i + 1 < SIDE), (k + SIDE, j + 1 < SIDE)] {
                 if ok {
-                    edges.push(Edge { from: k, to: n, length: SPACING });
-                    edges.push(Edge { from: n, to: k, length: SPACING });
+                    edges.push(Edge { from: k, to: n, length: SPACING, passing: false });
+                    edges.push(Edge { from: n, to: k, length: SPACING, passing: false });
                 }
             }
         }

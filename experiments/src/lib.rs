@@ -94,6 +94,10 @@ pub struct Args {
     /// report as they are clear of it, and it is let go: this is for comparison).
     #[arg(long)]
     hold_behind: bool,
+    /// traffic: mark every lane that runs both ways and is at least this many metres long
+    /// passing (wide enough for two robots side by side: a side each way); 0: as drawn.
+    #[arg(long, default_value_t = 0.0)]
+    passing: f64,
     /// Rounds of the patrol per run (default: messages 5, idleness 3, environment 2).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     rounds: Option<u32>,
@@ -228,7 +232,10 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         if !(a.segment.is_finite() && (a.segment == 0.0 || a.segment >= 0.7)) {
             bail!("--segment: 0 (lanes whole) or a length of at least 0.7 m (got {})", a.segment);
         }
-        let lanes = traffic::Lanes { segment: a.segment, corridors: a.corridors, release: !a.hold_behind };
+        if !(a.passing.is_finite() && a.passing >= 0.0) {
+            bail!("--passing: 0 (lanes as drawn) or a length in metres (got {})", a.passing);
+        }
+        let lanes = traffic::Lanes { segment: a.segment, corridors: a.corridors, release: !a.hold_behind, passing: a.passing };
         let rows = traffic::run(&a.out, &sizes, a.seed, lanes)?;
         traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64(), lanes)?;
         println!("results in {}: results-traffic.csv, summary-traffic.md", a.out.display());
@@ -359,6 +366,9 @@ fn command_line(a: &Args) -> String {
             if on {
                 c.push_str(flag);
             }
+        }
+        if a.passing > 0.0 {
+            c.push_str(&format!(" --passing {}", a.passing));
         }
         return c;
     }

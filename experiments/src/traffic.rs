@@ -21,12 +21,14 @@ const SEEDS: u64 = 10;
 const CLEARANCE: f64 = 0.6;
 
 /// How the lanes are held: cut into segments of at most `segment` metres (0: whole), corridors
-/// locked by direction, the vertex behind a robot let go once it is clear of it.
+/// locked by direction, the vertex behind a robot let go once it is clear of it; two-way lanes
+/// at least `passing` metres long marked passing (0: as the maps draw them).
 #[derive(Debug, Clone, Copy)]
 pub struct Lanes {
     pub segment: f64,
     pub corridors: bool,
     pub release: bool,
+    pub passing: f64,
 }
 
 /// One map and team size, over the seeds.
@@ -65,7 +67,8 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64, lanes: Lanes) -> anyhow::Resu
     let mut rows = Vec::new();
     for (name, graph) in &maps {
         // Robots start and go to the map's own vertices; cut lanes add vertices after them.
-        let cut = if lanes.segment > 0.0 { mrmm_core::traffic::layout::segmented(graph, lanes.segment) } else { graph.clone() };
+        let marked = if lanes.passing > 0.0 { graph.clone().with_passing(lanes.passing) } else { graph.clone() };
+        let cut = if lanes.segment > 0.0 { mrmm_core::traffic::layout::segmented(&marked, lanes.segment) } else { marked };
         let layout = Arc::new(Layout::new(&cut, CLEARANCE));
         let space = GraphSpace::new(&cut);
         for &n in sizes.iter().filter(|&&n| n >= 1 && n * 3 <= graph.vertices.len()) {
@@ -207,8 +210,9 @@ fn summary(rows: &[Row], command: &str, elapsed: f64, how: Lanes) -> String {
         (false, true) => ", the vertex behind a robot let go once it is clear of it",
         (true, true) => ", corridors locked by direction, the vertex behind a robot let go once it is clear of it",
     };
+    let passing = if how.passing > 0.0 { format!(", two-way lanes of {} m or more passing (a side each way)", how.passing) } else { String::new() };
     let mut s = format!(
-        "# Traffic on real floor plans\n\n`{command}` ({elapsed:.0} s; {lanes}{locks}). Each line: {SEEDS} seeds of 600 simulated seconds; robots at 0.5 – 1.5 m/s \
+        "# Traffic on real floor plans\n\n`{command}` ({elapsed:.0} s; {lanes}{locks}{passing}). Each line: {SEEDS} seeds of 600 simulated seconds; robots at 0.5 – 1.5 m/s \
          drive shortest routes to random vertices no other robot is going to, dwell up to 3 s and go on. *Blind*: the same robots \
          without traffic. *Stalled*: a robot stood five minutes wanting to drive. µs/event: the whole controlled run's wall time \
          (robots' motion included) per event traffic handled. *PIBT*: lifelong PIBT, the reference (`mrmm_sim::traffic::pibt`), on the \

@@ -80,8 +80,8 @@ fn lattice() -> NavGraph {
     let mut edges = Vec::new();
     let mut join = |a: u32, b: u32, vs: &[Vertex]| {
         let l = vs[a as usize].at.dist(vs[b as usize].at);
-        edges.push(Edge { from: a, to: b, length: l });
-        edges.push(Edge { from: b, to: a, length: l });
+        edges.push(Edge { from: a, to: b, length: l, passing: false });
+        edges.push(Edge { from: b, to: a, length: l, passing: false });
     };
     for r in 0..rows {
         for c in 0..cols {

@@ -20,6 +20,10 @@ pub struct Edge {
     pub from: u32,
     pub to: u32,
     pub length: f64,
+    /// The lane is wide enough for two robots side by side: where it runs both ways, robots
+    /// meeting on it pass each other, each keeping to its right (the map says so: Open-RMF's
+    /// lane property `passing: true`, or a derived roadmap's lane with room on both sides).
+    pub passing: bool,
 }
 
 /// A navigation graph.
@@ -75,6 +79,17 @@ impl NavGraph {
             max = Point::new(max.x.max(v.at.x), max.y.max(v.at.y));
         }
         (min, max)
+    }
+
+    /// `self` with every lane at least `min_m` metres long that runs both ways marked passing
+    /// ([`Edge::passing`]): for a floor plan whose corridors are known to be wide.
+    pub fn with_passing(mut self, min_m: f64) -> NavGraph {
+        let edges: std::collections::HashSet<(u32, u32)> = self.edges.iter().map(|e| (e.from, e.to)).collect();
+        for e in &mut self.edges {
+            let long = self.vertices[e.from as usize].at.dist(self.vertices[e.to as usize].at) >= min_m;
+            e.passing |= long && e.from != e.to && edges.contains(&(e.to, e.from));
+        }
+        self
     }
 
     /// Lanes drawn once: each pair of vertices joined in either direction, with its ends.

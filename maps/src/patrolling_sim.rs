@@ -88,7 +88,7 @@ pub fn parse(file: &str, text: &str) -> Result<NavGraph, MapError> {
                 return Err(t.err(format!("vertex {i}: direction {dir:?} is not one of {}", DIRECTIONS.join(" "))));
             }
             let cost = t.whole("a cost")?;
-            edges.push(Edge { from: i as u32, to: to as u32, length: cost as f64 * res });
+            edges.push(Edge { from: i as u32, to: to as u32, length: cost as f64 * res, passing: false });
         }
         vertices.push(Vertex { charger: false, name: i.to_string(), at: Point::new(x * res + ox, y * res + oy) });
     }

@@ -1,10 +1,11 @@
 //! Open-RMF navigation graphs (`nav_graphs/<n>.yaml`, as `rmf_building_map_tools` writes them):
 //! `levels.<name>.vertices` `[x, y, {name, …}]` and `levels.<name>.lanes` `[from, to, {…}]`,
-//! each lane one direction. mrmm reads graphs of one level.
+//! each lane one direction. mrmm reads graphs of one level, and one lane property of its own:
+//! `passing: true` on a lane wide enough for two robots side by side (Open-RMF's tools keep
+//! properties they do not know; mrmm ignores theirs).
 
 use std::collections::BTreeMap;
 
-use serde::de::IgnoredAny;
 use serde::Deserialize;
 
 use crate::error::MapError;
@@ -22,7 +23,14 @@ struct Level {
     #[serde(default)]
     vertices: Vec<(f64, f64, VertexProps)>,
     #[serde(default)]
-    lanes: Vec<(u64, u64, IgnoredAny)>,
+    lanes: Vec<(u64, u64, LaneProps)>,
+}
+
+#[derive(Deserialize, Default)]
+struct LaneProps {
+    /// Two robots pass each other on the lane ([`Edge::passing`]).
+    #[serde(default)]
+    passing: bool,
 }
 
 #[derive(Deserialize, Default)]
@@ -35,8 +43,9 @@ struct VertexProps {
 }
 
 /// Writes `graph` as an Open-RMF navigation graph of one level named `level` of building
-/// `building`: each vertex `[x, y, {name}]` (`is_charger: true` on a charger), each directed edge a lane `[from, to, {}]` — what
-/// [`parse`] reads and `rmf_traffic_editor`'s nav graphs hold.
+/// `building`: each vertex `[x, y, {name}]` (`is_charger: true` on a charger), each directed
+/// edge a lane `[from, to, {}]` (`{passing: true}` on a passing lane) — what [`parse`] reads and
+/// `rmf_traffic_editor`'s nav graphs hold.
 pub fn write(graph: &NavGraph, building: &str, level: &str) -> String {
     let quote = |s: &str| serde_json::to_string(s).unwrap_or_else(|_| "\"\"".into());
     let mut out = format!("building_name: {}\nlevels:\n  {}:\n    lanes:\n", quote(building), quote(level));
@@ -45,7 +54,8 @@ pub fn write(graph: &NavGraph, building: &str, level: &str) -> String {
         out.push_str(" []\n");
     }
     for e in &graph.edges {
-        out.push_str(&format!("    - [{}, {}, {{}}]\n", e.from, e.to));
+        let props = if e.passing { "{passing: true}" } else { "{}" };
+        out.push_str(&format!("    - [{}, {}, {props}]\n", e.from, e.to));
     }
     out.push_str("    vertices:\n");
     for v in &graph.vertices {
@@ -74,12 +84,12 @@ pub fn parse(file: &str, text: &str) -> Result<NavGraph, MapError> {
     }
     let n = vertices.len() as u64;
     let mut edges = Vec::with_capacity(level.lanes.len());
-    for (i, (from, to, _)) in level.lanes.into_iter().enumerate() {
+    for (i, (from, to, props)) in level.lanes.into_iter().enumerate() {
         if from >= n || to >= n {
             return Err(MapError::malformed(file, format!("levels.{level_name}.lanes[{i}]"), format!("joins {from} and {to}, but the level has {n} vertices")));
         }
         let length = vertices[from as usize].at.dist(vertices[to as usize].at);
-        edges.push(Edge { from: from as u32, to: to as u32, length });
+        edges.push(Edge { from: from as u32, to: to as u32, length, passing: props.passing });
     }
     NavGraph { vertices, edges }.checked(file)
 }

@@ -106,9 +106,26 @@ fn open_rmf_office_graph_loads() {
     assert_eq!(chargers, ["tinyRobot1_charger", "tinyRobot2_charger"]);
     let again = rmf::parse("again", &rmf::write(&g, "office", "L1")).expect("written");
     assert_eq!(again.chargers().map(|v| v.name.as_str()).collect::<Vec<_>>(), chargers);
+    // The office marks no lane passing.
+    assert!(g.edges.iter().all(|e| !e.passing));
     let (format, map) = bundle("open_rmf/office.nav_graph.yaml").load().unwrap();
     assert_eq!(format, Format::OpenRmf);
     assert!(matches!(map, Map::Graph(_)));
+}
+
+#[test]
+fn a_lane_marked_passing_is_read_among_open_rmf_properties_and_written_back() {
+    // Lane properties as rmf_building_map_tools writes them, with mrmm's own beside them.
+    let text = "levels:\n  L1:\n    vertices:\n    - [0, 0, {name: a}]\n    - [4, 0, {name: b}]\n    - [4, 3, {name: c}]\n    lanes:\n    \
+                - [0, 1, {speed_limit: 0.0, orientation_constraint: forward, passing: true}]\n    \
+                - [1, 0, {passing: true, mutex: corridor}]\n    - [1, 2, {speed_limit: 0.5}]\n    - [2, 1, {}]\n";
+    let g = rmf::parse("nav.yaml", text).expect("graph");
+    let passing: Vec<(u32, u32)> = g.edges.iter().filter(|e| e.passing).map(|e| (e.from, e.to)).collect();
+    assert_eq!(passing, [(0, 1), (1, 0)]);
+    assert_eq!(rmf::parse("again", &rmf::write(&g, "b", "L1")).expect("written"), g);
+    // Anything but a boolean is an error that names the line.
+    let e = err_text(rmf::parse("nav.yaml", &text.replace("passing: true, mutex", "passing: wide, mutex")).unwrap_err());
+    assert!(e.starts_with("nav.yaml: line 9 column 24") && e.contains("boolean"), "{e}");
 }
 
 fn err_text(e: MapError) -> String {

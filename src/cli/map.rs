@@ -36,6 +36,11 @@ enum What {
         /// Dead ends shorter than this are dropped, m.
         #[arg(long, default_value_t = mrmm_maps::roadmap::Params::default().prune)]
         prune: f64,
+        /// Lanes with room for a robot's centre this far to each side are marked passing (two
+        /// robots pass each other on them: `passing: true` among the lane's properties), m; 0:
+        /// none. The default is how far to the right of a passing lane traffic lays each way.
+        #[arg(long, default_value_t = mrmm_core::traffic::layout::PASSING_OFFSET_M)]
+        passing: f64,
         /// The level's name in the file.
         #[arg(long, default_value = "L1")]
         level: String,
@@ -50,22 +55,29 @@ pub fn bundle(path: &std::path::Path) -> anyhow::Result<Bundle> {
 pub fn run(args: Args) -> anyhow::Result<()> {
     match args.what {
         What::Check { file, json } => check(&file, json),
-        What::Graph { file, out, radius, prune, level } => graph(&file, &out, radius, prune, &level),
+        What::Graph { file, out, radius, prune, passing, level } => {
+            graph(&file, &out, mrmm_maps::roadmap::Params { radius, prune, passing, ..Default::default() }, &level)
+        }
     }
 }
 
-fn graph(file: &std::path::Path, out: &std::path::Path, radius: f64, prune: f64, level: &str) -> anyhow::Result<()> {
+fn graph(file: &std::path::Path, out: &std::path::Path, params: mrmm_maps::roadmap::Params, level: &str) -> anyhow::Result<()> {
     let (_, map) = bundle(file)?.load().map_err(|e| anyhow!("{e}"))?;
     let Some(grid) = map.grid() else {
         anyhow::bail!("{}: a navigation graph already; `mrmm map graph` derives one from a grid map (a Nav2 map's YAML)", file.display());
     };
     let name = file.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
-    let params = mrmm_maps::roadmap::Params { radius, prune, ..Default::default() };
     let g = mrmm_maps::roadmap::derive(&file.to_string_lossy(), grid, &params).map_err(|e| anyhow!("{e}"))?;
     std::fs::write(out, mrmm_maps::rmf::write(&g, &name, level)).with_context(|| format!("cannot write {}", out.display()))?;
     let metres: f64 = g.edges.iter().map(|e| e.length).sum::<f64>() / 2.0;
     let junctions = g.vertices.iter().filter(|v| v.name.starts_with("junction")).count();
-    println!("{}: {} vertices ({junctions} junctions), {} lanes both ways, {metres:.1} m of lanes", out.display(), g.vertices.len(), g.edges.len() / 2);
+    let passing = g.edges.iter().filter(|e| e.passing).count() / 2;
+    println!(
+        "{}: {} vertices ({junctions} junctions), {} lanes both ways ({passing} passing), {metres:.1} m of lanes",
+        out.display(),
+        g.vertices.len(),
+        g.edges.len() / 2
+    );
     Ok(())
 }
 

@@ -164,8 +164,8 @@ mod tests {
         let vertices = points.iter().enumerate().map(|(i, &(x, y))| Vertex { charger: false, name: format!("v{i}"), at: Point::new(x, y) }).collect();
         let mut edges = Vec::new();
         for (a, b) in (0..8u32).map(|i| (i, i + 1)).chain([(0, 9), (9, 11), (0, 10), (0, 12)]) {
-            edges.push(Edge { from: a, to: b, length: 2.0 });
-            edges.push(Edge { from: b, to: a, length: 2.0 });
+            edges.push(Edge { from: a, to: b, length: 2.0, passing: false });
+            edges.push(Edge { from: b, to: a, length: 2.0, passing: false });
         }
         Traffic::new(Arc::new(Layout::new(&NavGraph { vertices, edges }, 0.6)), Params::default())
     }

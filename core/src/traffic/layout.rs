@@ -13,46 +13,10 @@ use mrmm_maps::geom::point_segment_distance;
 use mrmm_maps::{NavGraph, Point};
 use mrmm_proto::traffic::RouteVertex;
 
+pub use super::segments::{segmented, PASSING_OFFSET_M, WRONG_SIDE};
+
 /// A resource: a vertex or a lane.
 pub type Res = u32;
-
-/// `graph` with every lane longer than `longest` metres cut into equal segments no longer than
-/// that, at vertices added after the graph's own (named `<from>~<to>/<k>`): robots then follow
-/// one another along a lane a segment apart instead of one lane apart. A lane and its way back
-/// share their cut vertices; lengths are split in proportion.
-pub fn segmented(graph: &NavGraph, longest: f64) -> NavGraph {
-    use mrmm_maps::graph::{Edge, Vertex};
-    let mut g = NavGraph { vertices: graph.vertices.clone(), edges: Vec::new() };
-    // The cut vertices of each undirected lane, from its lower end to its higher one.
-    let mut cuts: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
-    for e in &graph.edges {
-        let (a, b) = (e.from.min(e.to), e.from.max(e.to));
-        let (pa, pb) = (graph.vertices[a as usize].at, graph.vertices[b as usize].at);
-        let pieces = if longest > 0.0 && e.from != e.to { (pa.dist(pb) / longest).ceil().max(1.0) as u32 } else { 1 };
-        let inner = cuts.entry((a, b)).or_insert_with(|| {
-            (1..pieces)
-                .map(|k| {
-                    let t = f64::from(k) / f64::from(pieces);
-                    g.vertices.push(Vertex {
-                        charger: false,
-                        name: format!("{}~{}/{k}", graph.vertices[a as usize].name, graph.vertices[b as usize].name),
-                        at: Point::new(pa.x + t * (pb.x - pa.x), pa.y + t * (pb.y - pa.y)),
-                    });
-                    g.vertices.len() as u32 - 1
-                })
-                .collect()
-        });
-        let mut way: Vec<u32> = std::iter::once(a).chain(inner.iter().copied()).chain(std::iter::once(b)).collect();
-        if e.from != a {
-            way.reverse();
-        }
-        let piece = e.length / (way.len() - 1) as f64;
-        for w in way.windows(2) {
-            g.edges.push(Edge { from: w[0], to: w[1], length: piece });
-        }
-    }
-    g
-}
 
 /// Beyond the distance at which a robot leaving a vertex is clear of it, how much farther it
 /// drives before traffic lets the vertex go, metres (the robot's report of its position lags).
@@ -461,40 +425,4 @@ pub fn segment_distance(a: Point, b: Point, c: Point, d: Point) -> f64 {
         return 0.0;
     }
     point_segment_distance(a, c, d).min(point_segment_distance(b, c, d)).min(point_segment_distance(c, a, b)).min(point_segment_distance(d, a, b))
-}
-
-#[cfg(test)]
-mod segment_tests {
-    use mrmm_maps::graph::{Edge, Vertex};
-
-    use super::*;
-
-    /// A 5 m lane cut at 2 m is three segments of 5/3 m, its way back through the same two new
-    /// vertices (after the graph's own); a short lane stays whole.
-    #[test]
-    fn long_lanes_are_cut_into_segments_both_ways_through_the_same_vertices() {
-        let v = |name: &str, x: f64| Vertex { charger: false, name: name.into(), at: Point::new(x, 0.0) };
-        let e = |from: u32, to: u32, length: f64| Edge { from, to, length };
-        let g = NavGraph { vertices: vec![v("a", 0.0), v("b", 5.0), v("c", 6.0)], edges: vec![e(0, 1, 5.0), e(1, 0, 5.0), e(1, 2, 1.0)] };
-        let s = segmented(&g, 2.0);
-        assert_eq!(s.vertices.len(), 5, "{:?}", s.vertices);
-        assert_eq!(&s.vertices[..3], &g.vertices[..]);
-        assert!((s.vertices[3].at.x - 5.0 / 3.0).abs() < 1e-9 && (s.vertices[4].at.x - 10.0 / 3.0).abs() < 1e-9);
-        let way = |from: u32| -> Vec<(u32, u32)> {
-            let mut at = from;
-            let mut hops = Vec::new();
-            while let Some(e) = s.edges.iter().find(|e| e.from == at && !hops.iter().any(|&(a, _)| a == e.to) && e.to != 2) {
-                hops.push((e.from, e.to));
-                at = e.to;
-                if at == 0 || at == 1 {
-                    break;
-                }
-            }
-            hops
-        };
-        assert_eq!(way(0), [(0, 3), (3, 4), (4, 1)]);
-        assert_eq!(way(1), [(1, 4), (4, 3), (3, 0)]);
-        assert!(s.edges.iter().filter(|e| e.from != 2 && e.to != 2).all(|e| (e.length - 5.0 / 3.0).abs() < 1e-9));
-        assert!(s.edges.iter().any(|e| e.from == 1 && e.to == 2 && e.length == 1.0), "the short lane stays whole");
-    }
 }

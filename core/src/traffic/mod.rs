@@ -40,6 +40,7 @@ mod grants;
 pub mod layout;
 mod push;
 mod search;
+mod segments;
 #[cfg(test)]
 mod tests;
 

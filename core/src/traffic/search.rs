@@ -248,8 +248,8 @@ mod tests {
         let vertices = points.iter().enumerate().map(|(i, &(x, y))| Vertex { charger: false, name: format!("v{i}"), at: Point::new(x, y) }).collect();
         let mut edges = Vec::new();
         for (a, b) in [(0u32, 1u32), (1, 2), (2, 3), (0, 4), (4, 7), (0, 5), (0, 6)] {
-            edges.push(Edge { from: a, to: b, length: 2.0 });
-            edges.push(Edge { from: b, to: a, length: 2.0 });
+            edges.push(Edge { from: a, to: b, length: 2.0, passing: false });
+            edges.push(Edge { from: b, to: a, length: 2.0, passing: false });
         }
         Traffic::new(Arc::new(Layout::new(&NavGraph { vertices, edges }, 0.6)), Params::default())
     }

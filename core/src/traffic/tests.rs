@@ -14,8 +14,8 @@ fn graph(points: &[(f64, f64)], lanes: &[(u32, u32)]) -> NavGraph {
     let mut edges = Vec::new();
     for &(a, b) in lanes {
         let length = Point::new(points[a as usize].0, points[a as usize].1).dist(Point::new(points[b as usize].0, points[b as usize].1));
-        edges.push(Edge { from: a, to: b, length });
-        edges.push(Edge { from: b, to: a, length });
+        edges.push(Edge { from: a, to: b, length, passing: false });
+        edges.push(Edge { from: b, to: a, length, passing: false });
     }
     NavGraph { vertices, edges }
 }

@@ -115,10 +115,10 @@ fn square_graph() -> NavGraph {
     let vertices = at.iter().enumerate().map(|(i, &(x, y))| Vertex { charger: false, name: format!("v{i}"), at: Point::new(x, y) }).collect();
     let mut edges = Vec::new();
     for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 0)] {
-        edges.push(Edge { from: a, to: b, length: 10.0 });
-        edges.push(Edge { from: b, to: a, length: 10.0 });
+        edges.push(Edge { from: a, to: b, length: 10.0, passing: false });
+        edges.push(Edge { from: b, to: a, length: 10.0, passing: false });
     }
-    edges.push(Edge { from: 0, to: 2, length: 14.2 });
+    edges.push(Edge { from: 0, to: 2, length: 14.2, passing: false });
     NavGraph { vertices, edges }
 }
 

@@ -360,8 +360,8 @@ mod tests {
         let mut vertices: Vec<Vertex> = (0..n).map(|i| Vertex { charger: false, name: format!("v{i}"), at: Point::new(f64::from(i), 0.0) }).collect();
         let mut edges = Vec::new();
         let two_way = |a: u32, b: u32, edges: &mut Vec<Edge>| {
-            edges.push(Edge { from: a, to: b, length: 1.0 });
-            edges.push(Edge { from: b, to: a, length: 1.0 });
+            edges.push(Edge { from: a, to: b, length: 1.0, passing: false });
+            edges.push(Edge { from: b, to: a, length: 1.0, passing: false });
         };
         for i in 1..n {
             two_way(i - 1, i, &mut edges);
@@ -380,8 +380,8 @@ mod tests {
         let mut edges = Vec::new();
         for i in 0..w * h {
             for j in [(i % w + 1 < w).then_some(i + 1), (i / w + 1 < h).then_some(i + w)].into_iter().flatten() {
-                edges.push(Edge { from: i, to: j, length: 1.0 });
-                edges.push(Edge { from: j, to: i, length: 1.0 });
+                edges.push(Edge { from: i, to: j, length: 1.0, passing: false });
+                edges.push(Edge { from: j, to: i, length: 1.0, passing: false });
             }
         }
         NavGraph { vertices, edges }

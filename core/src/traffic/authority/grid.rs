@@ -9,6 +9,7 @@ use mrmm_maps::space::GraphSpace;
 use mrmm_maps::{Map, OccupancyGrid, Point};
 
 use super::Layout;
+use crate::traffic::layout::PASSING_OFFSET_M;
 
 /// On a grid map a goal farther than this from its route's last vertex (metres) is driven to off
 /// the lanes, when the way there is clear ([`leg_off`]); nearer, the vertex is the goal.
@@ -28,12 +29,13 @@ pub(super) struct Leg {
 
 /// The lanes robots on `map` drive: a graph map's own; a grid map's derived from its free space
 /// along its corridors and through its doors ([`mrmm_maps::roadmap`], its defaults: lanes keep
-/// 0.3 m from anything not free), the same on central and on every deputy. None: no lanes (a
+/// 0.3 m from anything not free; lanes with room for a robot [`PASSING_OFFSET_M`] to each side
+/// passing), the same on central and on every deputy. None: no lanes (a
 /// grid with no room for a robot).
 pub fn lanes_of(map: &Map) -> Option<Cow<'_, NavGraph>> {
     match map {
         Map::Graph(g) => Some(Cow::Borrowed(g)),
-        Map::Grid(g) => match mrmm_maps::roadmap::derive("grid map", g, &mrmm_maps::roadmap::Params::default()) {
+        Map::Grid(g) => match mrmm_maps::roadmap::derive("grid map", g, &mrmm_maps::roadmap::Params { passing: PASSING_OFFSET_M, ..Default::default() }) {
             Ok(lanes) if !lanes.vertices.is_empty() => Some(Cow::Owned(lanes)),
             Ok(_) => None,
             Err(e) => {

@@ -208,8 +208,8 @@ fn routes_go_round_a_robot_docked_at_a_charger() {
     let mut edges = Vec::new();
     for (a, b) in [(0u32, 1u32), (1, 2), (0, 3), (3, 2)] {
         let length = Point::new(points[a as usize].0, points[a as usize].1).dist(Point::new(points[b as usize].0, points[b as usize].1));
-        edges.push(Edge { from: a, to: b, length });
-        edges.push(Edge { from: b, to: a, length });
+        edges.push(Edge { from: a, to: b, length, passing: false });
+        edges.push(Edge { from: b, to: a, length, passing: false });
     }
     let map = Arc::new(Map::Graph(mrmm_maps::NavGraph { vertices, edges }));
     let hash = "h".repeat(64);
@@ -246,8 +246,8 @@ fn a_robots_report_clear_of_the_vertex_behind_lets_the_one_following_close_up() 
     let vertex = |i: usize| mrmm_maps::graph::Vertex { charger: false, name: format!("v{i}"), at: Point::new(1.4 * i as f64, 0.0) };
     let mut edges = Vec::new();
     for i in 0..3u32 {
-        edges.push(mrmm_maps::graph::Edge { from: i, to: i + 1, length: 1.4 });
-        edges.push(mrmm_maps::graph::Edge { from: i + 1, to: i, length: 1.4 });
+        edges.push(mrmm_maps::graph::Edge { from: i, to: i + 1, length: 1.4, passing: false });
+        edges.push(mrmm_maps::graph::Edge { from: i + 1, to: i, length: 1.4, passing: false });
     }
     let map = Arc::new(Map::Graph(mrmm_maps::NavGraph { vertices: (0..4).map(vertex).collect(), edges }));
     let hash = "c".repeat(64);

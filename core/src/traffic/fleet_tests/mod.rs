@@ -191,8 +191,8 @@ fn central_dies_while_two_robots_wait_for_each_other_in_a_corridor_and_both_arri
         .collect();
     let mut edges = Vec::new();
     for (a, b) in [(0u32, 1u32), (1, 2), (2, 3), (3, 4), (2, 5)] {
-        edges.push(mrmm_maps::graph::Edge { from: a, to: b, length: 2.0 });
-        edges.push(mrmm_maps::graph::Edge { from: b, to: a, length: 2.0 });
+        edges.push(mrmm_maps::graph::Edge { from: a, to: b, length: 2.0, passing: false });
+        edges.push(mrmm_maps::graph::Edge { from: b, to: a, length: 2.0, passing: false });
     }
     let g = NavGraph { vertices, edges };
     let mut f = Fleet::with(g, vec![(0, vec![4], false), (4, vec![0], false)], 1);
@@ -277,8 +277,8 @@ fn the_robot_ahead_reports_as_it_passes_the_release_point_and_the_vertex_behind_
     // Lanes shorter than the authority's segments: not cut.
     let mut edges = Vec::new();
     for a in 0u32..7 {
-        edges.push(mrmm_maps::graph::Edge { from: a, to: a + 1, length: 1.4 });
-        edges.push(mrmm_maps::graph::Edge { from: a + 1, to: a, length: 1.4 });
+        edges.push(mrmm_maps::graph::Edge { from: a, to: a + 1, length: 1.4, passing: false });
+        edges.push(mrmm_maps::graph::Edge { from: a + 1, to: a, length: 1.4, passing: false });
     }
     let mut f = Fleet::with(NavGraph { vertices, edges }, vec![(1, vec![7], false), (0, vec![6], false)], 1);
     let leader = mrmm_proto::RobotId::from("r0");
@@ -314,4 +314,42 @@ fn the_robot_ahead_reports_as_it_passes_the_release_point_and_the_vertex_behind_
     assert!(worst <= 2.0 * STEP + 1e-9, "the vertex behind the leader went up to {worst:.2} s after it was clear of it: {delays:?}");
     assert!(f.closest.0 >= CLEARANCE - 0.05, "{} were {:.2} m apart at {:.1} s", f.closest.2, f.closest.0, f.closest.1);
     println!("vertices let go after {delays:?} s; closest {:.2} m", f.closest.0);
+}
+
+/// Two robots of two missions head-on in an 8 m corridor of four lanes without a pocket: on
+/// lanes marked passing each keeps to its side and both arrive in the time the drive takes,
+/// never closer than the clearance; on the same lanes as drawn (single file) they do not get
+/// through.
+#[test]
+fn robots_meeting_head_on_in_a_passing_corridor_pass_each_other() {
+    let corridor = |passing: bool| {
+        let vertices =
+            (0..5).map(|i| mrmm_maps::graph::Vertex { charger: false, name: format!("v{i}"), at: mrmm_maps::Point::new(2.0 * f64::from(i), 0.0) }).collect();
+        let mut edges = Vec::new();
+        for a in 0..4u32 {
+            edges.push(mrmm_maps::graph::Edge { from: a, to: a + 1, length: 2.0, passing });
+            edges.push(mrmm_maps::graph::Edge { from: a + 1, to: a, length: 2.0, passing });
+        }
+        NavGraph { vertices, edges }
+    };
+    let arrived = |f: &Fleet| {
+        [(0, 8.0), (1, 0.0)].iter().all(|&(r, x): &(usize, f64)| {
+            let p = f.robots[r].pose();
+            (p.x - x).hypot(p.y) < 0.2
+        })
+    };
+    let mut f = Fleet::with(corridor(true), vec![(0, vec![4], false), (4, vec![0], false)], 1);
+    while !arrived(&f) && f.now < at(30.0) {
+        f.step();
+    }
+    assert!(arrived(&f), "r0 at {:?}, r1 at {:?}", f.robots[0].pose(), f.robots[1].pose());
+    // 8 m at 1 m/s, turns and the step onto each side included, and no wait: where the sides met
+    // at the corridor's own vertices one robot waited there for the other, and both were in at
+    // 15.2 s.
+    assert!(f.now <= at(13.0), "both arrived at {}", f.now);
+    assert!(f.closest.0 >= CLEARANCE - 0.05, "{} were {:.2} m apart at {:.1} s", f.closest.2, f.closest.0, f.closest.1);
+    let mut single = Fleet::with(corridor(false), vec![(0, vec![4], false), (4, vec![0], false)], 1);
+    single.run(15.0);
+    assert!(!arrived(&single), "single file, both got through");
+    println!("passed each other {:.2} m apart", f.closest.0);
 }

@@ -3,7 +3,9 @@
 //! its radius, thinned to a line one cell wide by Zhang and Suen's algorithm), cut at its
 //! junctions and ends into branches, short spurs pruned, each branch simplified to the fewest
 //! straight lanes that stay in that space (Douglas–Peucker, split again where a lane would leave
-//! it). Lanes run both ways along corridors' middles and through doors.
+//! it). Lanes run both ways along corridors' middles and through doors; a lane with room for a
+//! robot's centre [`Params::passing`] to each side of it all along is marked passing
+//! ([`Edge::passing`]): two robots meeting on it pass each other.
 //!
 //! Pure: a grid in, a [`NavGraph`] out; bounded by the grid's own limits (a grid above
 //! [`WORK_CELLS`] is thinned on blocks of cells).
@@ -28,11 +30,15 @@ pub struct Params {
     pub prune: f64,
     /// Lanes stray at most this far from the skeleton they follow, m.
     pub tolerance: f64,
+    /// A lane is marked passing where a robot's centre fits this far to either side of it all
+    /// along, m (mrmm's traffic lays each way of a passing lane out that far to its right:
+    /// `mrmm_core::traffic::layout::PASSING_OFFSET_M`); 0: no lane is.
+    pub passing: f64,
 }
 
 impl Default for Params {
     fn default() -> Self {
-        Params { radius: 0.3, prune: 1.0, tolerance: 0.15 }
+        Params { radius: 0.3, prune: 1.0, tolerance: 0.15, passing: 0.35 }
     }
 }
 
@@ -94,8 +100,9 @@ const RING: [(i64, i64); 8] = [(0, 1), (1, 1), (1, 0), (1, -1), (0, -1), (-1, -1
 
 /// Derives the navigation graph of `grid`'s free space; `file` names the map in errors.
 pub fn derive(file: &str, grid: &OccupancyGrid, p: &Params) -> Result<NavGraph, MapError> {
-    if !(p.radius.is_finite() && p.radius >= 0.0 && p.prune.is_finite() && p.prune >= 0.0 && p.tolerance.is_finite() && p.tolerance > 0.0) {
-        return Err(MapError::Invalid(format!("{file}: radius, prune and tolerance must be finite, ≥ 0 (tolerance > 0): {p:?}")));
+    let finite = [p.radius, p.prune, p.tolerance, p.passing].iter().all(|x| x.is_finite() && *x >= 0.0);
+    if !(finite && p.tolerance > 0.0) {
+        return Err(MapError::Invalid(format!("{file}: radius, prune, tolerance and passing must be finite, ≥ 0 (tolerance > 0): {p:?}")));
     }
     let work = work_grid(grid, p.radius);
     if !work.open.iter().any(|&o| o) {
@@ -104,7 +111,10 @@ pub fn derive(file: &str, grid: &OccupancyGrid, p: &Params) -> Result<NavGraph, 
     let skeleton = thin(&work, work.open.clone());
     let mut branches = trace(&work, &skeleton);
     prune(&mut branches, p.prune / work.cell_m());
-    let graph = lanes(file, &work, &branches, p.tolerance)?;
+    let mut graph = lanes(file, &work, &branches, p.tolerance)?;
+    if p.passing > 0.0 {
+        mark_passing(&work, &mut graph, p.passing);
+    }
     if graph.edges.is_empty() {
         return Err(MapError::Invalid(format!("{file}: the free space a robot of radius {} m fits in holds no lane of {} m or more", p.radius, p.prune)));
     }
@@ -403,8 +413,8 @@ fn lanes(file: &str, work: &Work, branches: &[Branch], tolerance: f64) -> Result
         ids.dedup();
         for w in ids.windows(2) {
             let length = g.vertices[w[0] as usize].at.dist(g.vertices[w[1] as usize].at);
-            g.edges.push(Edge { from: w[0], to: w[1], length });
-            g.edges.push(Edge { from: w[1], to: w[0], length });
+            g.edges.push(Edge { from: w[0], to: w[1], length, passing: false });
+            g.edges.push(Edge { from: w[1], to: w[0], length, passing: false });
         }
     }
     if g.vertices.len() > crate::limits::MAX_VERTICES {
@@ -427,6 +437,24 @@ fn lanes(file: &str, work: &Work, branches: &[Branch], tolerance: f64) -> Result
         v.name = format!("{kind}_{i}");
     }
     Ok(g)
+}
+
+/// Marks passing each lane of `g` both of whose sides, `offset` metres to either side of its
+/// line, stay in open work cells, and so do the lines halfway out: the lane itself is clear, and
+/// an obstacle, grown by the robot's radius in the work cells, is wider than the gaps between
+/// these lines unless that radius is under a quarter of `offset`.
+fn mark_passing(work: &Work, g: &mut NavGraph, offset: f64) {
+    let points: Vec<Point> = g.vertices.iter().map(|v| v.at).collect();
+    for e in &mut g.edges {
+        let (a, b) = (points[e.from as usize], points[e.to as usize]);
+        let len = a.dist(b);
+        if len == 0.0 {
+            continue;
+        }
+        let (nx, ny) = ((b.y - a.y) / len * offset, -(b.x - a.x) / len * offset);
+        let side = |k: f64| work.clear(Point::new(a.x + k * nx, a.y + k * ny), Point::new(b.x + k * nx, b.y + k * ny));
+        e.passing = [1.0, -1.0, 0.5, -0.5].into_iter().all(side);
+    }
 }
 
 /// Douglas–Peucker on `pts`: the positions kept, each straight piece within `tolerance` of the
@@ -462,134 +490,4 @@ fn simplify(work: &Work, pts: &[Point], tolerance: f64) -> Vec<usize> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::Bundle;
-
-    /// A grid of `w × h` cells of 5 cm, free where `free(col, row)`.
-    fn grid(w: u32, h: u32, free: impl Fn(u32, u32) -> bool) -> OccupancyGrid {
-        let data = (0..h).flat_map(|r| (0..w).map(move |c| (c, r))).map(|(c, r)| if free(c, r) { 0 } else { 100 }).collect();
-        OccupancyGrid { width: w, height: h, resolution: 0.05, origin: [0.0, 0.0, 0.0], data }
-    }
-
-    /// Every lane stays where a robot of `radius` fits, checked on the grid itself at every
-    /// centimetre.
-    fn assert_lanes_clear(g: &NavGraph, grid: &OccupancyGrid, radius: f64) {
-        let open = crate::space::grid::inflate(grid, radius - grid.resolution);
-        for e in &g.edges {
-            let (a, b) = (g.vertices[e.from as usize].at, g.vertices[e.to as usize].at);
-            let n = (a.dist(b) / 0.01).ceil().max(1.0) as usize;
-            for k in 0..=n {
-                let t = k as f64 / n as f64;
-                let p = Point::new(a.x + t * (b.x - a.x), a.y + t * (b.y - a.y));
-                let (c, r) = grid.cell_of(p).unwrap_or_else(|| panic!("lane {e:?} leaves the map at {p:?}"));
-                assert!(!open[(r * grid.width + c) as usize], "lane {e:?} passes {p:?}, closer than {radius} m to an obstacle");
-            }
-        }
-    }
-
-    fn components(g: &NavGraph) -> usize {
-        let mut seen = vec![false; g.vertices.len()];
-        let mut n = 0;
-        for s in 0..g.vertices.len() {
-            if seen[s] {
-                continue;
-            }
-            n += 1;
-            let mut stack = vec![s as u32];
-            seen[s] = true;
-            while let Some(v) = stack.pop() {
-                for e in g.edges.iter().filter(|e| e.from == v) {
-                    if !seen[e.to as usize] {
-                        seen[e.to as usize] = true;
-                        stack.push(e.to);
-                    }
-                }
-            }
-        }
-        n
-    }
-
-    #[test]
-    fn an_h_of_corridors_gives_two_junctions_and_four_ends() {
-        // Two corridors 1 m wide and 8 m long, joined at their middles by one 3 m long.
-        let g = grid(100, 180, |c, r| {
-            let left = (10..30).contains(&c) && (10..170).contains(&r);
-            let right = (70..90).contains(&c) && (10..170).contains(&r);
-            let bar = (30..70).contains(&c) && (80..100).contains(&r);
-            left || right || bar
-        });
-        let nav = derive("h", &g, &Params::default()).unwrap();
-        assert_lanes_clear(&nav, &g, 0.3);
-        assert_eq!(components(&nav), 1, "{nav:?}");
-        let names = |k: &str| nav.vertices.iter().filter(|v| v.name.starts_with(k)).count();
-        assert_eq!((names("junction"), names("end")), (2, 4), "{nav:?}");
-        // Straight corridors need no corner between their junction and end.
-        assert_eq!(nav.vertices.len(), 6, "{nav:?}");
-    }
-
-    #[test]
-    fn a_shipped_nav2_map_gets_one_connected_graph_along_its_free_space() {
-        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/data/nav2/");
-        let b = Bundle::collect(&format!("{dir}tb3_sandbox.yaml"), |p| std::fs::read(p).map_err(|e| e.to_string())).unwrap();
-        let (_, map) = b.load().unwrap();
-        let grid = map.grid().unwrap();
-        let nav = derive("tb3_sandbox", grid, &Params::default()).unwrap();
-        assert_lanes_clear(&nav, grid, 0.3);
-        assert_eq!(components(&nav), 1, "{} vertices", nav.vertices.len());
-        // Every place a robot fits is near a lane: within 1.5 m of a vertex or lane.
-        let open = crate::space::grid::inflate(grid, 0.3);
-        let (mut fits, mut near) = (0, 0);
-        for r in (0..grid.height).step_by(4) {
-            for c in (0..grid.width).step_by(4) {
-                if open[(r * grid.width + c) as usize] {
-                    continue;
-                }
-                fits += 1;
-                let p = grid.center(c, r);
-                let d = nav
-                    .edges
-                    .iter()
-                    .map(|e| point_segment_distance(p, nav.vertices[e.from as usize].at, nav.vertices[e.to as usize].at))
-                    .fold(f64::INFINITY, f64::min);
-                near += usize::from(d <= 1.5);
-            }
-        }
-        assert!(near * 100 >= fits * 95, "{near} of {fits} places a robot fits are within 1.5 m of a lane");
-        // Written as Open-RMF's nav graph and read back, it is the same graph.
-        let text = crate::rmf::write(&nav, "tb3_sandbox", "L1");
-        let back = crate::rmf::parse("back", &text).unwrap();
-        assert_eq!(back.vertices.len(), nav.vertices.len());
-        assert_eq!(back.edges.iter().map(|e| (e.from, e.to)).collect::<Vec<_>>(), nav.edges.iter().map(|e| (e.from, e.to)).collect::<Vec<_>>());
-        for (a, b) in back.vertices.iter().zip(&nav.vertices) {
-            assert!(a.at.dist(b.at) < 1e-3 && a.name == b.name);
-        }
-    }
-
-    #[test]
-    fn no_room_for_a_robot_is_a_clear_error() {
-        let g = grid(40, 40, |c, r| (15..25).contains(&c) && (5..35).contains(&r)); // 0.5 m wide
-        let e = derive("narrow", &g, &Params::default()).unwrap_err().to_string();
-        assert!(e.contains("narrow") && e.contains("radius 0.3 m"), "{e}");
-        let e = derive("bad", &g, &Params { tolerance: 0.0, ..Params::default() }).unwrap_err().to_string();
-        assert!(e.contains("tolerance"), "{e}");
-    }
-
-    #[test]
-    fn the_places_of_a_hand_drawn_graph_of_the_same_floor_plan_reach_the_derived_one() {
-        // patrolling_sim's broughton: a floor plan (map_server's YAML and PGM) and the patrol
-        // graph its authors drew on it by hand. A robot's goal at any of their 163 places joins
-        // the derived graph by a straight free line of 5 m at most.
-        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/data/patrolling_sim/");
-        let b = Bundle::collect(&format!("{dir}broughton.yaml"), |p| std::fs::read(p).map_err(|e| e.to_string())).unwrap();
-        let (_, map) = b.load().unwrap();
-        let grid = map.grid().unwrap();
-        let nav = derive("broughton", grid, &Params::default()).unwrap();
-        assert_lanes_clear(&nav, grid, 0.3);
-        let hand = crate::data::graphs().unwrap().into_iter().find(|(n, _)| *n == "broughton").unwrap().1;
-        let work = work_grid(grid, 0.3);
-        let joined: Vec<bool> = hand.vertices.iter().map(|v| nav.vertices.iter().any(|w| w.at.dist(v.at) <= 5.0 && work.clear(v.at, w.at))).collect();
-        let n = joined.iter().filter(|&&j| j).count();
-        assert!(n * 100 >= hand.vertices.len() * 98, "{n} of {} places join the derived graph", hand.vertices.len());
-    }
-}
+mod tests;
