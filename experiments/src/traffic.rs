@@ -210,7 +210,12 @@ fn summary(rows: &[Row], command: &str, elapsed: f64, how: Lanes) -> String {
         (false, true) => ", the vertex behind a robot let go once it is clear of it",
         (true, true) => ", corridors locked by direction, the vertex behind a robot let go once it is clear of it",
     };
-    let passing = if how.passing > 0.0 { format!(", two-way lanes of {} m or more passing (a side each way)", how.passing) } else { String::new() };
+    let passing = if how.passing > 0.0 {
+        let side = mrmm_core::traffic::layout::SIDE_SEGMENT_M;
+        format!(", two-way lanes of {} m or more passing (a side each way, cut at {side} m)", how.passing)
+    } else {
+        String::new()
+    };
     let mut s = format!(
         "# Traffic on real floor plans\n\n`{command}` ({elapsed:.0} s; {lanes}{locks}{passing}). Each line: {SEEDS} seeds of 600 simulated seconds; robots at 0.5 – 1.5 m/s \
          drive shortest routes to random vertices no other robot is going to, dwell up to 3 s and go on. *Blind*: the same robots \

@@ -13,7 +13,7 @@ use mrmm_maps::geom::point_segment_distance;
 use mrmm_maps::{NavGraph, Point};
 use mrmm_proto::traffic::RouteVertex;
 
-pub use super::segments::{segmented, PASSING_OFFSET_M, WRONG_SIDE};
+pub use super::segments::{segmented, PASSING_OFFSET_M, SIDE_SEGMENT_M, WRONG_SIDE};
 
 /// A resource: a vertex or a lane.
 pub type Res = u32;

@@ -14,6 +14,12 @@ pub const PASSING_OFFSET_M: f64 = super::CLEARANCE / 2.0 + 0.05;
 /// out or steps aside on it; routes take the side of their way).
 pub const WRONG_SIDE: f64 = 1.5;
 
+/// Longest segment of a passing lane's side, metres: robots on a side drive one way, so they only
+/// follow one another there, and closer the shorter its segments (on a lane driven both ways,
+/// segments this short let robots in deeper against oncoming ones, into gridlocks: lanes are cut
+/// at what the caller asks).
+pub const SIDE_SEGMENT_M: f64 = 1.0;
+
 /// Sharpest bend, as the cosine of half the turn, at which the sides of two passing lanes go on
 /// through the vertex between them (120°: the sides' corners stay within twice the offset).
 const THROUGH_COS: f64 = 0.5;
@@ -24,8 +30,9 @@ const THROUGH_COS: f64 = 0.5;
 /// share their cut vertices; lengths are split in proportion.
 ///
 /// A passing lane (one that runs both ways, marked [`Edge::passing`] either way) becomes two
-/// sides instead, one per way, each [`PASSING_OFFSET_M`] to the right of the line (cut vertices
-/// named `<from>><to>/<k>`): robots meeting on it pass each other; a robot may drive a side
+/// sides instead, one per way, each [`PASSING_OFFSET_M`] to the right of the line, cut at
+/// `longest` or [`SIDE_SEGMENT_M`], the shorter (cut vertices named `<from>><to>/<k>`): robots
+/// meeting on it pass each other; a robot may drive a side
 /// against its way at [`WRONG_SIDE`] times the cost. Where a vertex joins two passing lanes and
 /// nothing else, each side goes on through a corner of its own beside it (named
 /// `<vertex>><next>`), joined to the vertex by a short spoke both ways, so that robots pass there
@@ -37,11 +44,12 @@ pub fn segmented(graph: &NavGraph, longest: f64) -> NavGraph {
     let mut cuts: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
     for e in &graph.edges {
         let (pa, pb) = (graph.vertices[e.from as usize].at, graph.vertices[e.to as usize].at);
-        let pieces = if longest > 0.0 && e.from != e.to { (pa.dist(pb) / longest).ceil().max(1.0) as u32 } else { 1 };
+        let pieces = |longest: f64| if longest > 0.0 && e.from != e.to { (pa.dist(pb) / longest).ceil().max(1.0) as u32 } else { 1 };
         if sides.passing.contains(&(e.from.min(e.to), e.from.max(e.to))) {
-            sides.side(&mut g, e, pieces);
+            sides.side(&mut g, e, pieces(longest.min(SIDE_SEGMENT_M)));
             continue;
         }
+        let pieces = pieces(longest);
         let (a, b) = (e.from.min(e.to), e.from.max(e.to));
         let inner = cuts.entry((a, b)).or_insert_with(|| cut(graph, &mut g, (a, b), pieces, 0.0, '~'));
         let mut way: Vec<u32> = std::iter::once(a).chain(inner.iter().copied()).chain(std::iter::once(b)).collect();
@@ -184,26 +192,27 @@ mod tests {
     use crate::traffic::layout::Layout;
     use crate::traffic::CLEARANCE;
 
-    /// A 6 m lane marked passing, both ways, cut at 2 m: each way its own side of three
-    /// segments, [`PASSING_OFFSET_M`] to its right, driven back at [`WRONG_SIDE`] the cost; the
+    /// A 3 m lane marked passing, both ways, cut at 2 m: each way its own side, [`PASSING_OFFSET_M`]
+    /// to its right, of three segments ([`SIDE_SEGMENT_M`] at most; the lane single file would be
+    /// two), driven back at [`WRONG_SIDE`] the cost; the
     /// middles of the two sides do not conflict (robots pass there; at the lane's ends they meet
     /// at its vertices).
     #[test]
     fn a_passing_lane_is_two_sides_each_to_the_right_of_its_way() {
         let v = |name: &str, x: f64| Vertex { charger: false, name: name.into(), at: Point::new(x, 0.0) };
-        let e = |from: u32, to: u32| Edge { from, to, length: 6.0, passing: true };
-        let g = NavGraph { vertices: vec![v("a", 0.0), v("b", 6.0)], edges: vec![e(0, 1), e(1, 0)] };
+        let e = |from: u32, to: u32| Edge { from, to, length: 3.0, passing: true };
+        let g = NavGraph { vertices: vec![v("a", 0.0), v("b", 3.0)], edges: vec![e(0, 1), e(1, 0)] };
         let s = segmented(&g, 2.0);
         let names: Vec<&str> = s.vertices.iter().map(|v| v.name.as_str()).collect();
         assert_eq!(names, ["a", "b", "a>b/1", "a>b/2", "b>a/1", "b>a/2"]);
         // a → b drives east: its right is south; b → a's is north.
-        for (i, x, y) in [(2, 2.0, -PASSING_OFFSET_M), (3, 4.0, -PASSING_OFFSET_M), (4, 4.0, PASSING_OFFSET_M), (5, 2.0, PASSING_OFFSET_M)] {
+        for (i, x, y) in [(2, 1.0, -PASSING_OFFSET_M), (3, 2.0, -PASSING_OFFSET_M), (4, 2.0, PASSING_OFFSET_M), (5, 1.0, PASSING_OFFSET_M)] {
             assert!(s.vertices[i].at.dist(Point::new(x, y)) < 1e-9, "{:?}", s.vertices[i]);
         }
         let cost = |from: u32, to: u32| s.edges.iter().find(|e| e.from == from && e.to == to).map(|e| e.length);
-        assert_eq!((cost(0, 2), cost(2, 3), cost(3, 1)), (Some(2.0), Some(2.0), Some(2.0)));
-        assert_eq!((cost(1, 3), cost(3, 2), cost(2, 0)), (Some(3.0), Some(3.0), Some(3.0)));
-        assert_eq!((cost(1, 4), cost(4, 5), cost(5, 0)), (Some(2.0), Some(2.0), Some(2.0)));
+        assert_eq!((cost(0, 2), cost(2, 3), cost(3, 1)), (Some(1.0), Some(1.0), Some(1.0)));
+        assert_eq!((cost(1, 3), cost(3, 2), cost(2, 0)), (Some(1.5), Some(1.5), Some(1.5)));
+        assert_eq!((cost(1, 4), cost(4, 5), cost(5, 0)), (Some(1.0), Some(1.0), Some(1.0)));
         assert_eq!(cost(0, 1), None, "no lane down the middle");
         let layout = Layout::new(&s, CLEARANCE);
         let lane = |a: u32, b: u32| layout.lane(a, b).expect("lane");
@@ -250,14 +259,14 @@ mod tests {
     #[test]
     fn the_sides_of_passing_lanes_go_on_through_a_vertex_between_them() {
         let v = |name: &str, x: f64, y: f64| Vertex { charger: false, name: name.into(), at: Point::new(x, y) };
-        let e = |from: u32, to: u32| Edge { from, to, length: 4.0, passing: true };
-        let g = NavGraph { vertices: vec![v("a", 0.0, 0.0), v("b", 4.0, 0.0), v("c", 4.0, 4.0)], edges: vec![e(0, 1), e(1, 0), e(1, 2), e(2, 1)] };
+        let e = |from: u32, to: u32| Edge { from, to, length: 2.0, passing: true };
+        let g = NavGraph { vertices: vec![v("a", 0.0, 0.0), v("b", 2.0, 0.0), v("c", 2.0, 2.0)], edges: vec![e(0, 1), e(1, 0), e(1, 2), e(2, 1)] };
         let s = segmented(&g, 2.0);
         let find = |name: &str| s.vertices.iter().position(|v| v.name == name).unwrap_or_else(|| panic!("no {name}: {:?}", s.vertices)) as u32;
         let (out, inside) = (find("b>c"), find("b>a"));
         let o = PASSING_OFFSET_M;
-        assert!(s.vertices[out as usize].at.dist(Point::new(4.0 + o, -o)) < 1e-9, "{:?}", s.vertices[out as usize]);
-        assert!(s.vertices[inside as usize].at.dist(Point::new(4.0 - o, o)) < 1e-9, "{:?}", s.vertices[inside as usize]);
+        assert!(s.vertices[out as usize].at.dist(Point::new(2.0 + o, -o)) < 1e-9, "{:?}", s.vertices[out as usize]);
+        assert!(s.vertices[inside as usize].at.dist(Point::new(2.0 - o, o)) < 1e-9, "{:?}", s.vertices[inside as usize]);
         let has = |from: u32, to: u32| s.edges.iter().any(|e| e.from == from && e.to == to);
         // a → b's side ends at the corner, b → c's starts there; neither way touches b.
         assert!(has(find("a>b/1"), out) && has(out, find("b>c/1")));
@@ -268,8 +277,8 @@ mod tests {
         assert!(!layout.conflicts(out).contains(&inside));
         // A third lane at b: the sides end at b again.
         let mut three = g.clone();
-        three.vertices.push(v("d", 8.0, 0.0));
-        three.edges.push(Edge { from: 1, to: 3, length: 4.0, passing: false });
+        three.vertices.push(v("d", 4.0, 0.0));
+        three.edges.push(Edge { from: 1, to: 3, length: 2.0, passing: false });
         assert!(segmented(&three, 2.0).vertices.iter().all(|v| !v.name.contains("b>c") || v.name.contains('/')));
     }
 }

@@ -351,5 +351,5 @@ fn robots_meeting_head_on_in_a_passing_corridor_pass_each_other() {
     let mut single = Fleet::with(corridor(false), vec![(0, vec![4], false), (4, vec![0], false)], 1);
     single.run(15.0);
     assert!(!arrived(&single), "single file, both got through");
-    println!("passed each other {:.2} m apart", f.closest.0);
+    println!("passed each other {:.2} m apart, both in at {}", f.closest.0, f.now);
 }
