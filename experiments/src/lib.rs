@@ -98,6 +98,10 @@ pub struct Args {
     /// passing (wide enough for two robots side by side: a side each way); 0: as drawn.
     #[arg(long, default_value_t = 0.0)]
     passing: f64,
+    /// traffic: mark a map's two-way lanes passing where its floor plan (shipped for
+    /// patrolling_sim's maps) has room for two robots side by side, instead of by length.
+    #[arg(long, conflicts_with = "passing")]
+    passing_floor: bool,
     /// Rounds of the patrol per run (default: messages 5, idleness 3, environment 2).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     rounds: Option<u32>,
@@ -235,7 +239,7 @@ pub async fn run(a: Args) -> anyhow::Result<()> {
         if !(a.passing.is_finite() && a.passing >= 0.0) {
             bail!("--passing: 0 (lanes as drawn) or a length in metres (got {})", a.passing);
         }
-        let lanes = traffic::Lanes { segment: a.segment, corridors: a.corridors, release: !a.hold_behind, passing: a.passing };
+        let lanes = traffic::Lanes { segment: a.segment, corridors: a.corridors, release: !a.hold_behind, passing: a.passing, floor: a.passing_floor };
         let rows = traffic::run(&a.out, &sizes, a.seed, lanes)?;
         traffic::write(&a.out, &rows, &command_line(&a), started.elapsed().as_secs_f64(), lanes)?;
         println!("results in {}: results-traffic.csv, summary-traffic.md", a.out.display());
@@ -369,6 +373,9 @@ fn command_line(a: &Args) -> String {
         }
         if a.passing > 0.0 {
             c.push_str(&format!(" --passing {}", a.passing));
+        }
+        if a.passing_floor {
+            c.push_str(" --passing-floor");
         }
         return c;
     }

@@ -22,13 +22,32 @@ const CLEARANCE: f64 = 0.6;
 
 /// How the lanes are held: cut into segments of at most `segment` metres (0: whole), corridors
 /// locked by direction, the vertex behind a robot let go once it is clear of it; two-way lanes
-/// at least `passing` metres long marked passing (0: as the maps draw them).
+/// at least `passing` metres long marked passing (0: as the maps draw them); with `floor`, the
+/// lanes marked passing where the map's floor plan has room ([`floor_plan`]).
 #[derive(Debug, Clone, Copy)]
 pub struct Lanes {
     pub segment: f64,
     pub corridors: bool,
     pub release: bool,
     pub passing: f64,
+    pub floor: bool,
+}
+
+/// Where the shipped floor plans are (patrolling_sim's, beside their graphs; in the repository).
+const FLOOR_PLANS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../maps/data/patrolling_sim/");
+
+/// `graph` with its two-way lanes marked passing where map `name`'s floor plan (a Nav2 map
+/// shipped beside its graph) has room for two robots side by side; unmarked if it has none.
+fn floor_plan(name: &str, graph: &mrmm_maps::NavGraph) -> anyhow::Result<mrmm_maps::NavGraph> {
+    let yaml = format!("{FLOOR_PLANS}{name}.yaml");
+    if !Path::new(&yaml).exists() {
+        return Ok(graph.clone());
+    }
+    let bundle = mrmm_maps::Bundle::collect(&yaml, |p| std::fs::read(p).map_err(|e| e.to_string())).map_err(|e| anyhow!("{e}"))?;
+    let (_, map) = bundle.load().map_err(|e| anyhow!("{e}"))?;
+    let grid = map.grid().ok_or_else(|| anyhow!("{yaml}: not a grid map"))?;
+    let radius = CLEARANCE / 2.0;
+    Ok(mrmm_maps::roadmap::mark_passing_on(grid, graph.clone(), radius, mrmm_core::traffic::layout::PASSING_OFFSET_M))
 }
 
 /// One map and team size, over the seeds.
@@ -67,7 +86,15 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64, lanes: Lanes) -> anyhow::Resu
     let mut rows = Vec::new();
     for (name, graph) in &maps {
         // Robots start and go to the map's own vertices; cut lanes add vertices after them.
-        let marked = if lanes.passing > 0.0 { graph.clone().with_passing(lanes.passing) } else { graph.clone() };
+        let marked = if lanes.floor {
+            let g = floor_plan(name, graph)?;
+            println!("{name:>16}: {} of {} lanes passing on its floor plan", g.edges.iter().filter(|e| e.passing).count() / 2, g.lanes().len());
+            g
+        } else if lanes.passing > 0.0 {
+            graph.clone().with_passing(lanes.passing)
+        } else {
+            graph.clone()
+        };
         let cut = if lanes.segment > 0.0 { mrmm_core::traffic::layout::segmented(&marked, lanes.segment) } else { marked };
         let layout = Arc::new(Layout::new(&cut, CLEARANCE));
         let space = GraphSpace::new(&cut);
@@ -210,8 +237,10 @@ fn summary(rows: &[Row], command: &str, elapsed: f64, how: Lanes) -> String {
         (false, true) => ", the vertex behind a robot let go once it is clear of it",
         (true, true) => ", corridors locked by direction, the vertex behind a robot let go once it is clear of it",
     };
-    let passing = if how.passing > 0.0 {
-        let side = mrmm_core::traffic::layout::SIDE_SEGMENT_M;
+    let side = mrmm_core::traffic::layout::SIDE_SEGMENT_M;
+    let passing = if how.floor {
+        format!(", two-way lanes passing where the map's floor plan has room for two robots side by side (a side each way, cut at {side} m; the office has no floor plan)")
+    } else if how.passing > 0.0 {
         format!(", two-way lanes of {} m or more passing (a side each way, cut at {side} m)", how.passing)
     } else {
         String::new()

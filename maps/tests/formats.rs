@@ -82,6 +82,13 @@ fn every_patrolling_sim_graph_loads() {
         for e in &g.edges {
             assert!(g.edges.iter().any(|r| r.from == e.to && r.to == e.from), "{name}: {} → {} one way", e.from, e.to);
         }
+        // Drawn on its floor plan, shipped beside it: every vertex stands in free space of it.
+        let (format, plan) = bundle(&format!("patrolling_sim/{name}.yaml")).load().unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(format, Format::Nav2, "{name}");
+        let grid = plan.grid().expect("a grid");
+        for v in &g.vertices {
+            assert!(grid.is_free(v.at), "{name}: vertex {} at ({:.2}, {:.2}) is not in free space of its floor plan", v.name, v.at.x, v.at.y);
+        }
     }
     // broughton: vertex 0 at (173, 289) px, 0.1 m/px, offset 0; its edge to 1 costs 159 px.
     let g = patrolling_sim::parse("broughton", &String::from_utf8(read("patrolling_sim/broughton.graph")).unwrap()).unwrap();

@@ -32,11 +32,10 @@ const THROUGH_COS: f64 = 0.5;
 /// A passing lane (one that runs both ways, marked [`Edge::passing`] either way) becomes two
 /// sides instead, one per way, each [`PASSING_OFFSET_M`] to the right of the line, cut at
 /// `longest` or [`SIDE_SEGMENT_M`], the shorter (cut vertices named `<from>><to>/<k>`): robots
-/// meeting on it pass each other; a robot may drive a side
-/// against its way at [`WRONG_SIDE`] times the cost. Where a vertex joins two passing lanes and
-/// nothing else, each side goes on through a corner of its own beside it (named
-/// `<vertex>><next>`), joined to the vertex by a short spoke both ways, so that robots pass there
-/// too and still reach the vertex.
+/// meeting on it pass each other; a robot may drive a side against its way at [`WRONG_SIDE`]
+/// times the cost. Where a vertex joins two passing lanes and nothing else, each side goes on
+/// through a corner of its own beside it (named `<vertex>><next>`), joined to the vertex by a
+/// short spoke both ways, so that robots pass there too and still reach the vertex.
 pub fn segmented(graph: &NavGraph, longest: f64) -> NavGraph {
     let mut g = NavGraph { vertices: graph.vertices.clone(), edges: Vec::new() };
     let mut sides = Sides::new(graph);

@@ -439,22 +439,40 @@ fn lanes(file: &str, work: &Work, branches: &[Branch], tolerance: f64) -> Result
     Ok(g)
 }
 
-/// Marks passing each lane of `g` both of whose sides, `offset` metres to either side of its
-/// line, stay in open work cells, and so do the lines halfway out: the lane itself is clear, and
-/// an obstacle, grown by the robot's radius in the work cells, is wider than the gaps between
-/// these lines unless that radius is under a quarter of `offset`.
+/// `graph` (drawn on `grid`'s floor plan, in its frame) with each lane that runs both ways marked
+/// passing where the floor has room for it: a robot of `radius` fits `offset` metres to either
+/// side of it all along, as [`derive`] marks its own lanes. Lanes are marked as they were drawn;
+/// none is added or moved.
+pub fn mark_passing_on(grid: &OccupancyGrid, mut graph: NavGraph, radius: f64, offset: f64) -> NavGraph {
+    let work = work_grid(grid, radius);
+    let two_way: std::collections::HashSet<(u32, u32)> = graph.edges.iter().map(|e| (e.from, e.to)).collect();
+    let points: Vec<Point> = graph.vertices.iter().map(|v| v.at).collect();
+    for e in &mut graph.edges {
+        e.passing = two_way.contains(&(e.to, e.from)) && roomy(&work, points[e.from as usize], points[e.to as usize], offset);
+    }
+    graph
+}
+
+/// Marks passing each lane of `g` with room for a robot `offset` metres to either side ([`roomy`]).
 fn mark_passing(work: &Work, g: &mut NavGraph, offset: f64) {
     let points: Vec<Point> = g.vertices.iter().map(|v| v.at).collect();
     for e in &mut g.edges {
-        let (a, b) = (points[e.from as usize], points[e.to as usize]);
-        let len = a.dist(b);
-        if len == 0.0 {
-            continue;
-        }
-        let (nx, ny) = ((b.y - a.y) / len * offset, -(b.x - a.x) / len * offset);
-        let side = |k: f64| work.clear(Point::new(a.x + k * nx, a.y + k * ny), Point::new(b.x + k * nx, b.y + k * ny));
-        e.passing = [1.0, -1.0, 0.5, -0.5].into_iter().all(side);
+        e.passing = roomy(work, points[e.from as usize], points[e.to as usize], offset);
     }
+}
+
+/// Whether lane `a`–`b` and its two sides, `offset` metres to either side of its line, stay in
+/// open work cells, and so do the lines halfway out: an obstacle, grown by the robot's radius in
+/// the work cells, is wider than the gaps between these lines unless that radius is under a
+/// quarter of `offset`.
+fn roomy(work: &Work, a: Point, b: Point, offset: f64) -> bool {
+    let len = a.dist(b);
+    if len == 0.0 {
+        return false;
+    }
+    let (nx, ny) = ((b.y - a.y) / len * offset, -(b.x - a.x) / len * offset);
+    let side = |k: f64| work.clear(Point::new(a.x + k * nx, a.y + k * ny), Point::new(b.x + k * nx, b.y + k * ny));
+    [0.0, 1.0, -1.0, 0.5, -0.5].into_iter().all(side)
 }
 
 /// Douglas–Peucker on `pts`: the positions kept, each straight piece within `tolerance` of the

@@ -147,3 +147,34 @@ fn the_places_of_a_hand_drawn_graph_of_the_same_floor_plan_reach_the_derived_one
     let n = joined.iter().filter(|&&j| j).count();
     assert!(n * 100 >= hand.vertices.len() * 98, "{n} of {} places join the derived graph", hand.vertices.len());
 }
+
+#[test]
+fn a_hand_drawn_graphs_lanes_are_passing_where_its_floor_plan_has_room() {
+    // patrolling_sim's broughton graph on the floor plan its authors drew it on: some of its lanes
+    // are passing, not all; each passing lane's sides are where a robot fits, checked on the grid
+    // itself every centimetre.
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/data/patrolling_sim/");
+    let b = Bundle::collect(&format!("{dir}broughton.yaml"), |p| std::fs::read(p).map_err(|e| e.to_string())).unwrap();
+    let (_, map) = b.load().unwrap();
+    let grid = map.grid().unwrap();
+    let hand = crate::data::graphs().unwrap().into_iter().find(|(n, _)| *n == "broughton").unwrap().1;
+    let marked = mark_passing_on(grid, hand.clone(), 0.3, 0.35);
+    let passing = marked.edges.iter().filter(|e| e.passing).count();
+    assert!(passing > 0 && passing < marked.edges.len(), "{passing} of {} edges passing", marked.edges.len());
+    let mut sides = NavGraph { vertices: marked.vertices.clone(), edges: Vec::new() };
+    for e in marked.edges.iter().filter(|e| e.passing) {
+        assert!(marked.edges.iter().any(|r| r.from == e.to && r.to == e.from && r.passing), "{e:?} passing one way only");
+        let (a, b) = (marked.vertices[e.from as usize].at, marked.vertices[e.to as usize].at);
+        let (nx, ny) = ((b.y - a.y) / a.dist(b) * 0.35, -(b.x - a.x) / a.dist(b) * 0.35);
+        for k in [1.0, -1.0] {
+            let n = sides.vertices.len() as u32;
+            sides.vertices.push(Vertex { name: String::new(), at: Point::new(a.x + k * nx, a.y + k * ny), charger: false });
+            sides.vertices.push(Vertex { name: String::new(), at: Point::new(b.x + k * nx, b.y + k * ny), charger: false });
+            sides.edges.push(Edge { from: n, to: n + 1, length: 0.0, passing: false });
+        }
+    }
+    assert_lanes_clear(&sides, grid, 0.3);
+    // Unchanged otherwise: the same vertices and lanes.
+    assert_eq!(marked.vertices, hand.vertices);
+    assert_eq!(marked.edges.iter().map(|e| (e.from, e.to)).collect::<Vec<_>>(), hand.edges.iter().map(|e| (e.from, e.to)).collect::<Vec<_>>());
+}
