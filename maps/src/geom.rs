@@ -21,6 +21,15 @@ impl Point {
     }
 }
 
+/// The unit vector to the right of the way `a` → `b` (zero where they coincide).
+pub fn right_of(a: Point, b: Point) -> Point {
+    let len = a.dist(b);
+    if len == 0.0 {
+        return Point::default();
+    }
+    Point::new((b.y - a.y) / len, -(b.x - a.x) / len)
+}
+
 /// Distance from `p` to the segment `a`–`b`.
 pub fn point_segment_distance(p: Point, a: Point, b: Point) -> f64 {
     let (dx, dy) = (b.x - a.x, b.y - a.y);

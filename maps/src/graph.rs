@@ -26,6 +26,13 @@ pub struct Edge {
     pub passing: bool,
 }
 
+impl Edge {
+    /// The lane it drives, drawn once: its ends, lower first.
+    pub fn lane(&self) -> (u32, u32) {
+        (self.from.min(self.to), self.from.max(self.to))
+    }
+}
+
 /// A navigation graph.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NavGraph {
@@ -84,17 +91,23 @@ impl NavGraph {
     /// `self` with every lane at least `min_m` metres long that runs both ways marked passing
     /// ([`Edge::passing`]): for a floor plan whose corridors are known to be wide.
     pub fn with_passing(mut self, min_m: f64) -> NavGraph {
-        let edges: std::collections::HashSet<(u32, u32)> = self.edges.iter().map(|e| (e.from, e.to)).collect();
+        let two_way = self.two_way_lanes();
         for e in &mut self.edges {
             let long = self.vertices[e.from as usize].at.dist(self.vertices[e.to as usize].at) >= min_m;
-            e.passing |= long && e.from != e.to && edges.contains(&(e.to, e.from));
+            e.passing |= long && two_way.contains(&e.lane());
         }
         self
     }
 
+    /// The lanes ([`Edge::lane`]) driven both ways, between two vertices.
+    pub fn two_way_lanes(&self) -> std::collections::HashSet<(u32, u32)> {
+        let edges: std::collections::HashSet<(u32, u32)> = self.edges.iter().map(|e| (e.from, e.to)).collect();
+        self.edges.iter().filter(|e| e.from != e.to && edges.contains(&(e.to, e.from))).map(Edge::lane).collect()
+    }
+
     /// Lanes drawn once: each pair of vertices joined in either direction, with its ends.
     pub fn lanes(&self) -> Vec<(u32, u32)> {
-        let mut out: Vec<(u32, u32)> = self.edges.iter().map(|e| (e.from.min(e.to), e.from.max(e.to))).filter(|(a, b)| a != b).collect();
+        let mut out: Vec<(u32, u32)> = self.edges.iter().map(Edge::lane).filter(|(a, b)| a != b).collect();
         out.sort_unstable();
         out.dedup();
         out

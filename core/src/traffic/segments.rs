@@ -3,6 +3,7 @@
 
 use std::collections::{HashMap, HashSet};
 
+use mrmm_maps::geom::right_of;
 use mrmm_maps::graph::{Edge, Vertex};
 use mrmm_maps::{NavGraph, Point};
 
@@ -44,12 +45,12 @@ pub fn segmented(graph: &NavGraph, longest: f64) -> NavGraph {
     for e in &graph.edges {
         let (pa, pb) = (graph.vertices[e.from as usize].at, graph.vertices[e.to as usize].at);
         let pieces = |longest: f64| if longest > 0.0 && e.from != e.to { (pa.dist(pb) / longest).ceil().max(1.0) as u32 } else { 1 };
-        if sides.passing.contains(&(e.from.min(e.to), e.from.max(e.to))) {
+        if sides.passing.contains(&e.lane()) {
             sides.side(&mut g, e, pieces(longest.min(SIDE_SEGMENT_M)));
             continue;
         }
         let pieces = pieces(longest);
-        let (a, b) = (e.from.min(e.to), e.from.max(e.to));
+        let (a, b) = e.lane();
         let inner = cuts.entry((a, b)).or_insert_with(|| cut(graph, &mut g, (a, b), pieces, 0.0, '~'));
         let mut way: Vec<u32> = std::iter::once(a).chain(inner.iter().copied()).chain(std::iter::once(b)).collect();
         if e.from != a {
@@ -77,13 +78,13 @@ struct Sides<'a> {
 
 impl<'a> Sides<'a> {
     fn new(graph: &'a NavGraph) -> Sides<'a> {
-        let edges: HashSet<(u32, u32)> = graph.edges.iter().map(|e| (e.from, e.to)).collect();
+        let two_way = graph.two_way_lanes();
         let passing: HashSet<(u32, u32)> = graph
             .edges
             .iter()
-            .filter(|e| e.passing && e.from != e.to && edges.contains(&(e.to, e.from)))
+            .filter(|e| e.passing && two_way.contains(&e.lane()))
             .filter(|e| graph.vertices[e.from as usize].at.dist(graph.vertices[e.to as usize].at) > 0.0)
-            .map(|e| (e.from.min(e.to), e.from.max(e.to)))
+            .map(Edge::lane)
             .collect();
         let mut next: HashMap<u32, Vec<(u32, bool)>> = HashMap::new();
         for (a, b) in graph.lanes() {
@@ -109,11 +110,7 @@ impl<'a> Sides<'a> {
     /// Where, from vertex `v`, the side of way `p → v → n` turns: the unit vector to its right
     /// between the two lanes' and how far along it (none: a bend sharper than 120°).
     fn corner_offset(&self, p: u32, v: u32, n: u32) -> Option<(Point, f64)> {
-        let right = |a: Point, b: Point| {
-            let len = a.dist(b);
-            Point::new((b.y - a.y) / len, -(b.x - a.x) / len)
-        };
-        let (r1, r2) = (right(self.at(p), self.at(v)), right(self.at(v), self.at(n)));
+        let (r1, r2) = (right_of(self.at(p), self.at(v)), right_of(self.at(v), self.at(n)));
         let (mx, my) = (r1.x + r2.x, r1.y + r2.y);
         let m = mx.hypot(my);
         if m < 1e-9 {
@@ -173,8 +170,8 @@ impl<'a> Sides<'a> {
 fn cut(graph: &NavGraph, g: &mut NavGraph, (a, b): (u32, u32), pieces: u32, right: f64, mark: char) -> Vec<u32> {
     let (va, vb) = (&graph.vertices[a as usize], &graph.vertices[b as usize]);
     let (pa, pb) = (va.at, vb.at);
-    let len = pa.dist(pb).max(f64::MIN_POSITIVE);
-    let (nx, ny) = ((pb.y - pa.y) / len * right, -(pb.x - pa.x) / len * right);
+    let n = right_of(pa, pb);
+    let (nx, ny) = (n.x * right, n.y * right);
     (1..pieces)
         .map(|k| {
             let t = f64::from(k) / f64::from(pieces);

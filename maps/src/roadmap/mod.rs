@@ -13,7 +13,7 @@
 use std::collections::{BTreeMap, VecDeque};
 
 use crate::error::MapError;
-use crate::geom::{point_segment_distance, Point};
+use crate::geom::{point_segment_distance, right_of, Point};
 use crate::graph::{Edge, NavGraph, Vertex};
 use crate::grid::OccupancyGrid;
 
@@ -444,20 +444,17 @@ fn lanes(file: &str, work: &Work, branches: &[Branch], tolerance: f64) -> Result
 /// side of it all along, as [`derive`] marks its own lanes. Lanes are marked as they were drawn;
 /// none is added or moved.
 pub fn mark_passing_on(grid: &OccupancyGrid, mut graph: NavGraph, radius: f64, offset: f64) -> NavGraph {
-    let work = work_grid(grid, radius);
-    let two_way: std::collections::HashSet<(u32, u32)> = graph.edges.iter().map(|e| (e.from, e.to)).collect();
-    let points: Vec<Point> = graph.vertices.iter().map(|v| v.at).collect();
-    for e in &mut graph.edges {
-        e.passing = two_way.contains(&(e.to, e.from)) && roomy(&work, points[e.from as usize], points[e.to as usize], offset);
-    }
+    mark_passing(&work_grid(grid, radius), &mut graph, offset);
     graph
 }
 
-/// Marks passing each lane of `g` with room for a robot `offset` metres to either side ([`roomy`]).
+/// Marks passing each lane of `g` that runs both ways with room for a robot `offset` metres to
+/// either side ([`roomy`]).
 fn mark_passing(work: &Work, g: &mut NavGraph, offset: f64) {
+    let two_way = g.two_way_lanes();
     let points: Vec<Point> = g.vertices.iter().map(|v| v.at).collect();
     for e in &mut g.edges {
-        e.passing = roomy(work, points[e.from as usize], points[e.to as usize], offset);
+        e.passing = two_way.contains(&e.lane()) && roomy(work, points[e.from as usize], points[e.to as usize], offset);
     }
 }
 
@@ -466,11 +463,11 @@ fn mark_passing(work: &Work, g: &mut NavGraph, offset: f64) {
 /// the work cells, is wider than the gaps between these lines unless that radius is under a
 /// quarter of `offset`.
 fn roomy(work: &Work, a: Point, b: Point, offset: f64) -> bool {
-    let len = a.dist(b);
-    if len == 0.0 {
+    if a == b {
         return false;
     }
-    let (nx, ny) = ((b.y - a.y) / len * offset, -(b.x - a.x) / len * offset);
+    let n = right_of(a, b);
+    let (nx, ny) = (n.x * offset, n.y * offset);
     let side = |k: f64| work.clear(Point::new(a.x + k * nx, a.y + k * ny), Point::new(b.x + k * nx, b.y + k * ny));
     [0.0, 1.0, -1.0, 0.5, -0.5].into_iter().all(side)
 }

@@ -130,18 +130,25 @@ fn no_room_for_a_robot_is_a_clear_error() {
     assert!(e.contains("tolerance"), "{e}");
 }
 
+/// patrolling_sim's broughton: its floor plan (map_server's YAML and PGM) and the graph its
+/// authors drew on it by hand.
+fn broughton() -> (crate::Map, NavGraph) {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/data/patrolling_sim/");
+    let b = Bundle::collect(&format!("{dir}broughton.yaml"), |p| std::fs::read(p).map_err(|e| e.to_string())).unwrap();
+    let (_, map) = b.load().unwrap();
+    let hand = crate::data::graphs().unwrap().into_iter().find(|(n, _)| *n == "broughton").unwrap().1;
+    (map, hand)
+}
+
 #[test]
 fn the_places_of_a_hand_drawn_graph_of_the_same_floor_plan_reach_the_derived_one() {
     // patrolling_sim's broughton: a floor plan (map_server's YAML and PGM) and the patrol
     // graph its authors drew on it by hand. A robot's goal at any of their 163 places joins
     // the derived graph by a straight free line of 5 m at most.
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/data/patrolling_sim/");
-    let b = Bundle::collect(&format!("{dir}broughton.yaml"), |p| std::fs::read(p).map_err(|e| e.to_string())).unwrap();
-    let (_, map) = b.load().unwrap();
+    let (map, hand) = broughton();
     let grid = map.grid().unwrap();
     let nav = derive("broughton", grid, &Params::default()).unwrap();
     assert_lanes_clear(&nav, grid, 0.3);
-    let hand = crate::data::graphs().unwrap().into_iter().find(|(n, _)| *n == "broughton").unwrap().1;
     let work = work_grid(grid, 0.3);
     let joined: Vec<bool> = hand.vertices.iter().map(|v| nav.vertices.iter().any(|w| w.at.dist(v.at) <= 5.0 && work.clear(v.at, w.at))).collect();
     let n = joined.iter().filter(|&&j| j).count();
@@ -153,11 +160,8 @@ fn a_hand_drawn_graphs_lanes_are_passing_where_its_floor_plan_has_room() {
     // patrolling_sim's broughton graph on the floor plan its authors drew it on: some of its lanes
     // are passing, not all; each passing lane's sides are where a robot fits, checked on the grid
     // itself every centimetre.
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/data/patrolling_sim/");
-    let b = Bundle::collect(&format!("{dir}broughton.yaml"), |p| std::fs::read(p).map_err(|e| e.to_string())).unwrap();
-    let (_, map) = b.load().unwrap();
+    let (map, hand) = broughton();
     let grid = map.grid().unwrap();
-    let hand = crate::data::graphs().unwrap().into_iter().find(|(n, _)| *n == "broughton").unwrap().1;
     let marked = mark_passing_on(grid, hand.clone(), 0.3, 0.35);
     let passing = marked.edges.iter().filter(|e| e.passing).count();
     assert!(passing > 0 && passing < marked.edges.len(), "{passing} of {} edges passing", marked.edges.len());
