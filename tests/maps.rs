@@ -331,6 +331,29 @@ fn plan_and_check_from_the_command_line() -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Reads an Open-RMF nav graph as its own tools do (ruamel.yaml, networkx for its shape) and
+/// checks it: one connected graph of two-way lanes, passing both ways or neither, some passing
+/// and some not; prints the level's name, vertices, edges and passing edges.
+const STOCK_READER: &str = r#"
+import sys, networkx
+from ruamel.yaml import YAML
+doc = YAML(typ="safe").load(open(sys.argv[1]))
+(name, level), = doc["levels"].items()
+g = networkx.DiGraph()
+for i, (x, y, props) in enumerate(level["vertices"]):
+    assert isinstance(x, float) and isinstance(y, float) and props["name"], (i, x, y, props)
+    g.add_node(i)
+for a, b, props in level["lanes"]:
+    assert props in ({}, {"passing": True}), props
+    g.add_edge(a, b, passing=props.get("passing", False))
+assert all(g.has_edge(b, a) for a, b in g.edges), "a lane one way only"
+assert all(g.edges[a, b]["passing"] == g.edges[b, a]["passing"] for a, b in g.edges), "passing one way only"
+assert networkx.is_strongly_connected(g), "not connected"
+passing = sum(1 for a, b in g.edges if g.edges[a, b]["passing"])
+assert 0 < passing < g.number_of_edges(), passing
+print(name, g.number_of_nodes(), g.number_of_edges(), passing)
+"#;
+
 /// `mrmm map graph` derives lanes from the demo's floor plan and writes an Open-RMF nav graph:
 /// `mrmm map check` reads it, and so does a stock YAML reader (ruamel.yaml, with networkx for its
 /// shape): one connected graph of two-way lanes, every lane in free space a robot fits, the lanes
@@ -361,27 +384,72 @@ fn a_grid_maps_lanes_derived_from_the_command_line() -> anyhow::Result<()> {
     assert!(!out.status.success() && err.trim().lines().count() == 1 && err.contains("a navigation graph already"), "{err}");
 
     let Some(py) = common::standin::python_or_skip()? else { return Ok(()) };
-    let script = r#"
-import sys, networkx
-from ruamel.yaml import YAML
-doc = YAML(typ="safe").load(open(sys.argv[1]))
-(name, level), = doc["levels"].items()
-g = networkx.DiGraph()
-for i, (x, y, props) in enumerate(level["vertices"]):
-    assert isinstance(x, float) and isinstance(y, float) and props["name"], (i, x, y, props)
-    g.add_node(i)
-for a, b, props in level["lanes"]:
-    assert props in ({}, {"passing": True}), props
-    g.add_edge(a, b, passing=props.get("passing", False))
-assert all(g.has_edge(b, a) for a, b in g.edges), "a lane one way only"
-assert all(g.edges[a, b]["passing"] == g.edges[b, a]["passing"] for a, b in g.edges), "passing one way only"
-assert networkx.is_strongly_connected(g), "not connected"
-passing = sum(1 for a, b in g.edges if g.edges[a, b]["passing"])
-assert 0 < passing < g.number_of_edges(), passing
-print(name, g.number_of_nodes(), g.number_of_edges(), passing)
-"#;
+    let script = STOCK_READER;
     let out = std::process::Command::new(py).args(["-c", script, &out_file.display().to_string()]).output()?;
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && said.starts_with("L1 "), "{said}{}", String::from_utf8_lossy(&out.stderr));
+    Ok(())
+}
+
+/// A graph map drawn on a floor plan (patrolling_sim's ctcv, its plan shipped beside it): `mrmm
+/// map graph --floor-plan` writes it with lanes passing where the plan has room (a stock reader
+/// sees them, both ways); central publishes the graph with its plan, and a node that fetches it
+/// from the fleet, as a deputy does, reads the same passing lanes; another map's plan stops
+/// central in one line naming a vertex off its free space.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_graph_on_its_floor_plan_passes_where_the_plan_has_room() -> anyhow::Result<()> {
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("maps/data/patrolling_sim");
+    let (graph, plan) = (data.join("ctcv.graph").display().to_string(), data.join("ctcv.yaml").display().to_string());
+    let dir = Scratch::new("maps-floor");
+    let expect = Bundle::collect_on_plan(&graph, &plan, |p| std::fs::read(p).map_err(|e| e.to_string())).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let Map::Graph(expect) = expect.load().map_err(|e| anyhow::anyhow!("{e}"))?.1 else { anyhow::bail!("not a graph") };
+    let passing = expect.summary().passing;
+    assert!(passing > 0 && passing < expect.lanes().len(), "{passing} of {} lanes passing", expect.lanes().len());
+
+    let out_file = dir.path("ctcv.nav_graph.yaml").display().to_string();
+    let out = std::process::Command::new(common::EXE).args(["map", "graph", &graph, "--floor-plan", &plan, "--out", &out_file]).output()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    anyhow::ensure!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(text.contains(&format!("({passing} passing)")), "{text}");
+    let b = Bundle::collect(&out_file, |p| std::fs::read(p).map_err(|e| e.to_string())).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let Map::Graph(written) = b.load().map_err(|e| anyhow::anyhow!("{e}"))?.1 else { anyhow::bail!("not a graph") };
+    let lanes = |g: &mrmm_maps::NavGraph| g.edges.iter().map(|e| (e.from, e.to, e.passing)).collect::<Vec<_>>();
+    assert_eq!(lanes(&written), lanes(&expect), "the written graph's lanes are the graph's, marked as on its plan");
+    let out = std::process::Command::new(common::EXE).args(["map", "check", &graph, "--floor-plan", &plan]).output()?;
+    let check = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success() && check.contains(&format!("{passing} passing")), "{check}");
+
+    // Another map's plan: central does not start, and says why in one line.
+    let wrong = data.join("1r5.yaml").display().to_string();
+    let state = dir.path("refused").display().to_string();
+    let out = std::process::Command::new(common::EXE)
+        .args(["central", "--listen", "tcp/127.0.0.1:0", "--state-dir", &state, "--map", &format!("c={graph}"), "--floor-plan", &format!("c={wrong}")])
+        .output()?;
+    let err = String::from_utf8_lossy(&out.stderr);
+    let said = err.trim().lines().filter(|l| l.starts_with("mrmm: ")).collect::<Vec<_>>();
+    assert!(
+        !out.status.success() && said.len() == 1 && said[0].contains("map c: ctcv.graph: vertex") && said[0].contains("is not in free space of its floor plan"),
+        "{err}"
+    );
+
+    let args = ["central", "--listen", "tcp/127.0.0.1:0", "--map", &format!("ctcv={graph}"), "--floor-plan", &format!("ctcv={plan}")];
+    let central = start("central", &args, &dir.path("central.log"), "central ready", Duration::from_secs(20))?;
+    let ep = central.field("listening").and_then(|l| l.split(',').next().map(str::to_string)).ok_or_else(|| anyhow::anyhow!("no endpoint"))?;
+    let client = Client::connect(std::slice::from_ref(&ep), Duration::from_secs(5)).await?;
+    let maps: Vec<MapInfo> = client.query(proto::Key::SystemMaps, None::<&()>).await?;
+    let info = maps.iter().find(|m| m.name == "ctcv").ok_or_else(|| anyhow::anyhow!("ctcv not published: {maps:?}"))?;
+    assert!(info.size.ends_with(&format!(", {passing} passing")), "{}", info.size);
+    let fetched = mrmm_manager::maps::MapStore::with_budget(64 << 20).fetch(client.mesh(), &info.map_ref()).await.map_err(|e| anyhow::anyhow!("{e}"))?;
+    assert_eq!(fetched.map.graph(), Some(&expect), "a node fetching the map reads the lanes central lays out");
+    client.close().await;
+
+    let Some(py) = common::standin::python_or_skip()? else { return Ok(()) };
+    let out = std::process::Command::new(py).args(["-c", STOCK_READER, &out_file]).output()?;
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && said.starts_with("L1 ") && said.trim().ends_with(&format!(" {}", 2 * passing)),
+        "{said}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     Ok(())
 }

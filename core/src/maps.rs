@@ -119,6 +119,7 @@ pub enum ChargerSpec {
 pub fn info(name: &str, hash: &str, bytes: u64, s: &MapSummary) -> MapInfo {
     let size = match (&s.grid, &s.graph) {
         (Some(g), _) => format!("{} × {} cells of {} m, {:.0} m² free", g.width, g.height, g.resolution, g.free_m2),
+        (_, Some(g)) if g.passing > 0 => format!("{} vertices, {} edges, {:.0} m of lanes, {} passing", g.vertices, g.edges, g.length_m, g.passing),
         (_, Some(g)) => format!("{} vertices, {} edges, {:.0} m of lanes", g.vertices, g.edges, g.length_m),
         _ => String::new(),
     };

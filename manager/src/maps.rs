@@ -26,14 +26,19 @@ use mrmm_core::maps::Held;
 
 /// Reads the map at `path` for the fleet under `name`: one readable line if it cannot be.
 pub fn load_file(name: &str, path: &Path) -> Result<Held, ManagerError> {
-    load_file_bundle(name, path).map(|(held, _)| held)
+    load_file_bundle(name, path, None).map(|(held, _)| held)
 }
 
-/// [`load_file`], and the bundle's bytes (what its hash names).
-fn load_file_bundle(name: &str, path: &Path) -> Result<(Held, Vec<u8>), ManagerError> {
+/// [`load_file`] (a graph map on the floor plan at `plan`, if one is given: see
+/// [`Bundle::collect_on_plan`]), and the bundle's bytes (what its hash names).
+fn load_file_bundle(name: &str, path: &Path, plan: Option<&Path>) -> Result<(Held, Vec<u8>), ManagerError> {
     mrmm_proto::validate_id(name).map_err(|_| ManagerError::Config(format!("map name {name:?}: use 1 to 64 characters of A-Z a-z 0-9 _ -")))?;
-    let bundle = Bundle::collect(&path.to_string_lossy(), |p| std::fs::read(p).map_err(|e| e.to_string()))
-        .map_err(|e| ManagerError::Config(format!("map {name}: {e}")))?;
+    let read = |p: &str| std::fs::read(p).map_err(|e| e.to_string());
+    let bundle = match plan {
+        Some(plan) => Bundle::collect_on_plan(&path.to_string_lossy(), &plan.to_string_lossy(), read),
+        None => Bundle::collect(&path.to_string_lossy(), read),
+    }
+    .map_err(|e| ManagerError::Config(format!("map {name}: {e}")))?;
     let held = Held::new(name, &bundle).map_err(|e| ManagerError::Config(format!("map {name}: {e}")))?;
     Ok((held, bundle.encode()))
 }
@@ -82,20 +87,21 @@ impl MapArchive {
     }
 }
 
-/// Central's maps: those its config names (checked, and kept in `archive` when it has a state
-/// dir), then former versions of them that missions of its journal plan on (`mission_maps`),
+/// Central's maps: those its config names (checked, graph maps with the floor plans `plans`
+/// gives them, and kept in `archive` when it has a state dir), then former versions of them that missions of its journal plan on (`mission_maps`),
 /// from the archive. A map of the config that cannot be read stops start-up with one line; a
 /// journaled mission's map found nowhere is reported and left out (its mission's host may still
 /// fetch it from a node that holds it).
 pub fn load_central(
     maps: &BTreeMap<String, std::path::PathBuf>,
+    plans: &BTreeMap<String, std::path::PathBuf>,
     chargers: &BTreeMap<String, Vec<mrmm_core::maps::ChargerSpec>>,
     archive: Option<&MapArchive>,
     mission_maps: &[MapRef],
 ) -> Result<MapStore, ManagerError> {
     let store = MapStore::publisher();
     for (name, path) in maps {
-        let (held, bytes) = load_file_bundle(name, path)?;
+        let (held, bytes) = load_file_bundle(name, path, plans.get(name).map(|p| p.as_path()))?;
         let held = match chargers.get(name) {
             Some(specs) => held.with_chargers(specs).map_err(|e| ManagerError::Config(format!("chargers.{name}{e}")))?,
             None => held,
@@ -417,21 +423,21 @@ mod tests {
         std::fs::write(&file, "2 100 100 0.1 0 0\n0 10 10 1 1 E 10\n1 20 10 1 0 W 10\n").expect("v1");
         let archive = MapArchive::new(&dir.join("state"));
         let config = BTreeMap::from([("floor".to_string(), file.clone())]);
-        let v1 = load_central(&config, &BTreeMap::new(), Some(&archive), &[]).expect("load").by_name()["floor"].info.map_ref();
+        let v1 = load_central(&config, &BTreeMap::new(), &BTreeMap::new(), Some(&archive), &[]).expect("load").by_name()["floor"].info.map_ref();
         // The file changes; a mission journaled on v1 still plans on it.
         std::fs::write(&file, "2 100 100 0.1 0 0\n0 10 10 1 1 E 30\n1 40 10 1 0 W 30\n").expect("v2");
-        let store = load_central(&config, &BTreeMap::new(), Some(&archive), std::slice::from_ref(&v1)).expect("load");
+        let store = load_central(&config, &BTreeMap::new(), &BTreeMap::new(), Some(&archive), std::slice::from_ref(&v1)).expect("load");
         let v2 = store.by_name()["floor"].info.map_ref();
         assert_ne!(v1.hash, v2.hash);
         assert!(store.get(&v1.hash).is_some(), "the journaled version is held");
         let superseded: Vec<String> = store.superseded().iter().map(|h| h.info.hash.clone()).collect();
         assert_eq!(superseded, std::slice::from_ref(&v1.hash));
         // The file gone from the config, both versions still come from the archive.
-        let store = load_central(&BTreeMap::new(), &BTreeMap::new(), Some(&archive), &[v1.clone(), v2.clone()]).expect("load");
+        let store = load_central(&BTreeMap::new(), &BTreeMap::new(), &BTreeMap::new(), Some(&archive), &[v1.clone(), v2.clone()]).expect("load");
         assert!(store.get(&v1.hash).is_some() && store.get(&v2.hash).is_some() && store.by_name().is_empty());
         // A damaged archive entry is a readable error, not a wrong map.
         std::fs::write(dir.join("state/maps").join(&v1.hash), b"not the map").expect("damage");
-        let e = load_central(&BTreeMap::new(), &BTreeMap::new(), Some(&archive), &[v1]).map(|_| ()).expect_err("damaged");
+        let e = load_central(&BTreeMap::new(), &BTreeMap::new(), &BTreeMap::new(), Some(&archive), &[v1]).map(|_| ()).expect_err("damaged");
         assert!(e.to_string().contains("do not hash to its name"), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }

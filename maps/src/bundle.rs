@@ -1,5 +1,6 @@
-//! A map as fleet data: its files (a Nav2 YAML and its image, or one graph file) in one bundle,
-//! named by the SHA-256 of their contents, encoded for the wire and read back into a [`Map`].
+//! A map as fleet data: its files (a Nav2 YAML and its image, or one graph file, with the floor
+//! plan it is drawn on if it has one) in one bundle, named by the SHA-256 of their contents,
+//! encoded for the wire and read back into a [`Map`].
 
 use std::collections::BTreeMap;
 
@@ -8,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::error::MapError;
-use crate::{limits, nav2, patrolling_sim, rmf, Map};
+use crate::{limits, nav2, patrolling_sim, rmf, roadmap, Map, NavGraph, OccupancyGrid};
 
 /// The formats mrmm reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -41,6 +42,12 @@ pub struct Bundle {
 }
 
 const MAGIC: &[u8] = b"MRMMMAP1";
+
+/// Where a graph map's floor plan lies in its bundle: its Nav2 YAML under this name, its image
+/// under [`FLOOR_PLAN_DIR`] and the name the YAML gives it. A main file's name has no `/`.
+pub const FLOOR_PLAN_YAML: &str = "floor_plan/map.yaml";
+/// The folder of a floor plan's files in a bundle.
+pub const FLOOR_PLAN_DIR: &str = "floor_plan/";
 
 #[derive(Deserialize)]
 struct Sniff {
@@ -107,6 +114,30 @@ impl Bundle {
         Ok(Bundle { main, files })
     }
 
+    /// [`Bundle::collect`] for a graph map drawn on a floor plan (a Nav2 map's YAML at `plan`,
+    /// in the graph's frame): the plan's files go into the bundle under [`FLOOR_PLAN_DIR`], and
+    /// the map loads with its two-way lanes marked passing where the plan has room for two
+    /// robots side by side ([`roadmap::mark_passing_on`], [`roadmap::Params`]' defaults). The
+    /// plan is checked as [`Bundle::load`] will: every vertex stands in its free space.
+    pub fn collect_on_plan(path: &str, plan: &str, mut read: impl FnMut(&str) -> Result<Vec<u8>, String>) -> Result<Bundle, MapError> {
+        let mut bundle = Bundle::collect(path, &mut read)?;
+        if bundle.format()? == Format::Nav2 {
+            return Err(MapError::Invalid(format!("{plan}: a floor plan goes with a navigation graph; {path} is a grid map (its own floor plan)")));
+        }
+        let p = Bundle::collect(plan, &mut read)?;
+        if p.format()? != Format::Nav2 {
+            return Err(MapError::Invalid(format!("{plan}: a floor plan is a Nav2 map's YAML (with an image field), not a navigation graph")));
+        }
+        for (name, bytes) in p.files {
+            let key = if name == p.main { FLOOR_PLAN_YAML.to_string() } else { format!("{FLOOR_PLAN_DIR}{name}") };
+            if bundle.files.insert(key, bytes).is_some() {
+                return Err(MapError::Invalid(format!("{plan}: its image may not be named \"map.yaml\"")));
+            }
+        }
+        bundle.load()?;
+        Ok(bundle)
+    }
+
     /// The format of the main file.
     pub fn format(&self) -> Result<Format, MapError> {
         detect(&self.main, self.main_bytes()?)
@@ -122,8 +153,8 @@ impl Bundle {
         let format = detect(&self.main, bytes)?;
         let text = std::str::from_utf8(bytes).map_err(|e| MapError::malformed(&self.main, "text", format!("not UTF-8 ({e})")))?;
         let map = match format {
-            Format::PatrollingSim => Map::Graph(patrolling_sim::parse(&self.main, text)?),
-            Format::OpenRmf => Map::Graph(rmf::parse(&self.main, text)?),
+            Format::PatrollingSim => Map::Graph(self.on_plan(patrolling_sim::parse(&self.main, text)?)?),
+            Format::OpenRmf => Map::Graph(self.on_plan(rmf::parse(&self.main, text)?)?),
             Format::Nav2 => {
                 let meta = nav2::parse_yaml(&self.main, text)?;
                 let image = self
@@ -134,6 +165,35 @@ impl Bundle {
             }
         };
         Ok((format, map))
+    }
+
+    /// The floor plan a graph map is drawn on, if its bundle has one.
+    pub fn floor_plan(&self) -> Result<Option<OccupancyGrid>, MapError> {
+        let Some(yaml) = self.files.get(FLOOR_PLAN_YAML) else { return Ok(None) };
+        let what = format!("{}'s floor plan", self.main);
+        let text = std::str::from_utf8(yaml).map_err(|e| MapError::malformed(&what, "text", format!("not UTF-8 ({e})")))?;
+        let meta = nav2::parse_yaml(&what, text)?;
+        let key = format!("{FLOOR_PLAN_DIR}{}", meta.image);
+        let image = self
+            .files
+            .get(&key)
+            .ok_or_else(|| MapError::Missing { file: meta.image.clone(), problem: format!("the image {what} names is not in the bundle") })?;
+        nav2::grid(&meta, &meta.image, image).map(Some)
+    }
+
+    /// `graph` with its two-way lanes marked passing where its floor plan has room (those its
+    /// file marks stay marked); as it is without a plan. A vertex outside the plan's free space
+    /// means the plan is not this graph's (or not in its frame): an error naming the vertex.
+    fn on_plan(&self, graph: NavGraph) -> Result<NavGraph, MapError> {
+        let Some(grid) = self.floor_plan()? else { return Ok(graph) };
+        if let Some(v) = graph.vertices.iter().find(|v| !grid.is_free(v.at)) {
+            return Err(MapError::Invalid(format!(
+                "{}: vertex {:?} at ({:.2}, {:.2}) is not in free space of its floor plan: is the plan this graph's, in the same frame?",
+                self.main, v.name, v.at.x, v.at.y
+            )));
+        }
+        let p = roadmap::Params::default();
+        Ok(roadmap::mark_passing_on(&grid, graph, p.radius, p.passing))
     }
 
     /// Bytes of every file together.

@@ -115,7 +115,11 @@ impl NavGraph {
 
     pub fn summary(&self) -> GraphSummary {
         let length_m = self.lanes().iter().map(|&(a, b)| self.vertices[a as usize].at.dist(self.vertices[b as usize].at)).sum();
-        GraphSummary { vertices: self.vertices.len(), edges: self.edges.len(), length_m }
+        let mut passing: Vec<(u32, u32)> = self.edges.iter().filter(|e| e.passing && e.from != e.to).map(Edge::lane).collect();
+        passing.sort_unstable();
+        passing.dedup();
+        let passing = passing.len();
+        GraphSummary { vertices: self.vertices.len(), edges: self.edges.len(), length_m, passing }
     }
 
     /// The vertex nearest to `p` and how far it is.

@@ -69,6 +69,9 @@ pub struct GraphSummary {
     pub vertices: usize,
     pub edges: usize,
     pub length_m: f64,
+    /// Lanes marked passing (robots meeting on them pass each other).
+    #[serde(default)]
+    pub passing: usize,
 }
 
 impl Map {

@@ -98,6 +98,47 @@ fn every_patrolling_sim_graph_loads() {
     assert_eq!(bundle("patrolling_sim/broughton.graph").format().unwrap(), Format::PatrollingSim);
 }
 
+fn on_plan(graph: &str, plan: &str) -> Result<Bundle, MapError> {
+    Bundle::collect_on_plan(&data(graph).to_string_lossy(), &data(plan).to_string_lossy(), |p| std::fs::read(p).map_err(|e| e.to_string()))
+}
+
+#[test]
+fn a_graph_travels_with_its_floor_plan_and_loads_with_lanes_passing_where_it_has_room() {
+    let plain = bundle("patrolling_sim/ctcv.graph");
+    let b = on_plan("patrolling_sim/ctcv.graph", "patrolling_sim/ctcv.yaml").expect("ctcv on its plan");
+    assert_eq!(b.files.len(), 3, "the graph, the plan's YAML and its image: {:?}", b.files.keys().collect::<Vec<_>>());
+    assert_ne!(b.hash(), plain.hash(), "the plan is part of what the map's hash names");
+    let (format, map) = b.load().expect("load");
+    assert_eq!(format, Format::PatrollingSim);
+    let g = map.graph().expect("a graph");
+    // Marked as the roadmap marks a hand-drawn graph on its plan, and nothing else changed.
+    let Map::Graph(bare) = plain.load().expect("plain").1 else { panic!("a graph") };
+    let (_, plan) = bundle("patrolling_sim/ctcv.yaml").load().expect("plan");
+    let p = mrmm_maps::roadmap::Params::default();
+    let expect = mrmm_maps::roadmap::mark_passing_on(plan.grid().expect("grid"), bare.clone(), p.radius, p.passing);
+    assert_eq!(g, &expect);
+    let s = map.summary(format).graph.expect("graph summary");
+    assert!(s.passing > 0 && s.passing < g.lanes().len(), "{} of {} lanes passing", s.passing, g.lanes().len());
+    assert_eq!(bare.summary().passing, 0, "a .graph marks none");
+    // The same on whoever fetches it: the bundle survives the wire and loads the same.
+    let back = Bundle::decode("wire", &b.encode()).expect("decode");
+    assert_eq!((back.hash(), back.load().expect("load back").1), (b.hash(), map));
+}
+
+#[test]
+fn a_floor_plan_that_is_not_the_graphs_is_refused_naming_what_is_wrong() {
+    // Another map's plan: the graph's vertices are not in its free space.
+    let e = err_text(on_plan("patrolling_sim/broughton.graph", "patrolling_sim/1r5.yaml").expect_err("1r5's plan under broughton"));
+    assert!(e.contains("broughton.graph: vertex") && e.contains("is not in free space of its floor plan"), "{e}");
+    // A graph as the plan, and a plan for a grid map.
+    let e = err_text(on_plan("patrolling_sim/1r5.graph", "patrolling_sim/ctcv.graph").expect_err("a graph as plan"));
+    assert!(e.contains("ctcv.graph: a floor plan is a Nav2 map's YAML"), "{e}");
+    let e = err_text(on_plan("patrolling_sim/1r5.yaml", "patrolling_sim/1r5.yaml").expect_err("a grid map on a plan"));
+    assert!(e.contains("1r5.yaml is a grid map"), "{e}");
+    let e = err_text(on_plan("patrolling_sim/1r5.graph", "patrolling_sim/nowhere.yaml").expect_err("no plan"));
+    assert!(e.contains("nowhere.yaml"), "{e}");
+}
+
 #[test]
 fn open_rmf_office_graph_loads() {
     let text = String::from_utf8(read("open_rmf/office.nav_graph.yaml")).unwrap();

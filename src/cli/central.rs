@@ -37,6 +37,11 @@ pub struct Args {
     /// (repeatable); added to the config's `no_lanes`.
     #[arg(long = "no-lanes", value_name = "NAME")]
     no_lanes: Vec<String>,
+    /// The floor plan a graph map (by name) is drawn on, NAME=FILE (a Nav2 map's YAML in the
+    /// graph's frame; repeatable): lanes are marked passing where it has room for two robots
+    /// side by side; added to the config's `floor_plans`.
+    #[arg(long = "floor-plan", value_name = "NAME=FILE")]
+    floor_plans: Vec<String>,
 }
 
 /// The per-user data directory central keeps its journal in when nothing else is said.
@@ -71,6 +76,10 @@ pub async fn run(args: Args) -> anyhow::Result<()> {
     for m in &args.maps {
         let (name, file) = m.split_once('=').ok_or_else(|| anyhow::anyhow!("--map {m:?}: expected NAME=FILE"))?;
         cfg.maps.insert(name.to_string(), PathBuf::from(file));
+    }
+    for m in &args.floor_plans {
+        let (name, file) = m.split_once('=').ok_or_else(|| anyhow::anyhow!("--floor-plan {m:?}: expected NAME=FILE"))?;
+        cfg.floor_plans.insert(name.to_string(), PathBuf::from(file));
     }
     cfg.no_lanes.extend(args.no_lanes);
     if let Some(d) = args.state_dir {

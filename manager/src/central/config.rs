@@ -51,6 +51,12 @@ pub struct CentralConfig {
     /// space, as a graph map's drive its lanes).
     #[serde(default)]
     pub no_lanes: Vec<String>,
+    /// The floor plans graph maps of `maps` are drawn on: `{ NAME: "path/to/plan.yaml" }` (a
+    /// Nav2 map's YAML, in the graph's frame). The plan travels with the map; its two-way lanes
+    /// are marked passing where the plan has room for two robots side by side. Relative to the
+    /// config file.
+    #[serde(default)]
+    pub floor_plans: std::collections::BTreeMap<String, PathBuf>,
     /// Chargers of `maps` besides those a graph marks (Open-RMF's `is_charger`):
     /// `{ NAME: [[x, y], "vertex name", …] }`: on a graph, its vertices; on a grid, free points.
     #[serde(default)]
@@ -92,6 +98,7 @@ impl Default for CentralConfig {
             wire_stats: false,
             maps: Default::default(),
             no_lanes: Vec::new(),
+            floor_plans: Default::default(),
             chargers: Default::default(),
             forget_lost_s: default_forget_lost(),
         }
@@ -115,7 +122,7 @@ impl CentralConfig {
             }
         }
         if let Some(dir) = path.parent() {
-            for p in cfg.maps.values_mut() {
+            for p in cfg.maps.values_mut().chain(cfg.floor_plans.values_mut()) {
                 if p.is_relative() {
                     *p = dir.join(&*p);
                 }
@@ -149,6 +156,9 @@ impl CentralConfig {
         if let Some(n) = self.no_lanes.iter().find(|n| !self.maps.contains_key(*n)) {
             return Err(format!("no_lanes: {n:?} is not one of the maps"));
         }
+        if let Some(n) = self.floor_plans.keys().find(|n| !self.maps.contains_key(*n)) {
+            return Err(format!("floor_plans: {n:?} is not one of the maps"));
+        }
         if let Some(n) = self.chargers.keys().find(|n| !self.maps.contains_key(*n)) {
             return Err(format!("chargers: {n:?} is not one of the maps"));
         }
@@ -181,6 +191,8 @@ mod tests {
         assert!(CentralConfig::default().validate().is_ok());
         let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.yaml' }, no_lanes: ['a'] }").expect("parse");
         assert_eq!(c.validate().expect_err("no_lanes"), "no_lanes: \"a\" is not one of the maps");
+        let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.graph' }, floor_plans: { a: 'a.yaml' } }").expect("parse");
+        assert_eq!(c.validate().expect_err("floor_plans"), "floor_plans: \"a\" is not one of the maps");
         let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.yaml' }, no_lanes: ['b'] }").expect("parse");
         assert!(c.validate().is_ok());
         let c: CentralConfig = mrmm_proto::config::parse_json5("c.json5", "{ maps: { b: 'b.yaml' }, chargers: { a: [[1, 2]] } }").expect("parse");

@@ -55,5 +55,5 @@ pub(super) fn open_state(cfg: &CentralConfig) -> Result<State, ManagerError> {
 pub(super) fn load_maps(cfg: &CentralConfig, state: &system::Durable) -> Result<crate::maps::MapStore, ManagerError> {
     let archive = cfg.state_dir.as_deref().map(crate::maps::MapArchive::new);
     let journaled: Vec<proto::MapRef> = state.missions.values().filter_map(|d| d.spec.as_ref().and_then(|s| s.map.clone())).collect();
-    tokio::task::block_in_place(|| crate::maps::load_central(&cfg.maps, &cfg.chargers, archive.as_ref(), &journaled))
+    tokio::task::block_in_place(|| crate::maps::load_central(&cfg.maps, &cfg.floor_plans, &cfg.chargers, archive.as_ref(), &journaled))
 }

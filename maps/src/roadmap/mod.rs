@@ -441,20 +441,20 @@ fn lanes(file: &str, work: &Work, branches: &[Branch], tolerance: f64) -> Result
 
 /// `graph` (drawn on `grid`'s floor plan, in its frame) with each lane that runs both ways marked
 /// passing where the floor has room for it: a robot of `radius` fits `offset` metres to either
-/// side of it all along, as [`derive`] marks its own lanes. Lanes are marked as they were drawn;
-/// none is added or moved.
+/// side of it all along, as [`derive`] marks its own lanes. Lanes are marked as they were drawn
+/// (those marked passing already stay so); none is added or moved.
 pub fn mark_passing_on(grid: &OccupancyGrid, mut graph: NavGraph, radius: f64, offset: f64) -> NavGraph {
     mark_passing(&work_grid(grid, radius), &mut graph, offset);
     graph
 }
 
 /// Marks passing each lane of `g` that runs both ways with room for a robot `offset` metres to
-/// either side ([`roomy`]).
+/// either side ([`roomy`]); those marked already stay so.
 fn mark_passing(work: &Work, g: &mut NavGraph, offset: f64) {
     let two_way = g.two_way_lanes();
     let points: Vec<Point> = g.vertices.iter().map(|v| v.at).collect();
     for e in &mut g.edges {
-        e.passing = two_way.contains(&e.lane()) && roomy(work, points[e.from as usize], points[e.to as usize], offset);
+        e.passing = e.passing || (two_way.contains(&e.lane()) && roomy(work, points[e.from as usize], points[e.to as usize], offset));
     }
 }
 

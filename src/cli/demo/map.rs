@@ -16,16 +16,26 @@ pub const NAME: &str = "demo";
 pub struct DemoMap {
     /// Absolute path of the map's main file, for central's `--map`.
     pub path: PathBuf,
+    /// Absolute path of a graph map's floor plan, for central's `--floor-plan`.
+    pub plan: Option<PathBuf>,
     map: Map,
     space: Space,
 }
 
 impl DemoMap {
-    pub fn load(path: &Path) -> anyhow::Result<DemoMap> {
+    /// The map at `path`, on the floor plan at `plan` if one is given.
+    pub fn load(path: &Path, plan: Option<&Path>) -> anyhow::Result<DemoMap> {
         let path = std::fs::canonicalize(path).with_context(|| format!("--map {}", path.display()))?;
-        let (_, map) = super::super::map::bundle(&path)?.load().map_err(|e| anyhow!("{e}"))?;
+        let plan = plan.map(|p| std::fs::canonicalize(p).with_context(|| format!("--floor-plan {}", p.display()))).transpose()?;
+        let (_, map) = super::super::map::bundle_on(&path, plan.as_deref())?.load().map_err(|e| anyhow!("{e}"))?;
         let space = Space::new(&map, mrmm_planner::recipe::DEFAULT_ROBOT_RADIUS).map_err(|e| anyhow!("{e}"))?;
-        Ok(DemoMap { path, map, space })
+        Ok(DemoMap { path, plan, map, space })
+    }
+
+    /// What the floor plan gave a graph map: `on its floor plan P: N of M lanes passing`.
+    pub fn plan_line(&self) -> Option<String> {
+        let (plan, g) = (self.plan.as_ref()?, self.map.graph()?);
+        Some(format!("the map's floor plan {}: {} of {} lanes passing", plan.display(), g.summary().passing, g.lanes().len()))
     }
 
     fn bounds(&self) -> (Point, Point) {

@@ -85,6 +85,11 @@ pub struct Args {
     /// missions plan routes along the corridors.
     #[arg(long)]
     map: Option<std::path::PathBuf>,
+    /// The floor plan a graph --map is drawn on (a Nav2 map's YAML in its frame, e.g.
+    /// maps/data/patrolling_sim/DIAG_floor1.yaml beside DIAG_floor1.graph): robots pass each
+    /// other on lanes where it has room for two side by side.
+    #[arg(long, requires = "map")]
+    floor_plan: Option<std::path::PathBuf>,
     /// Give every robot a battery that a full charge lets drive this many simulated seconds at
     /// its top speed (they start between half and fully charged), to watch batteries run down in
     /// minutes (docs/operating.md).
@@ -210,7 +215,7 @@ pub async fn run(mut args: Args) -> anyhow::Result<()> {
 
 async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, shutdown: &tokio_util::sync::CancellationToken) -> anyhow::Result<()> {
     let started = Instant::now();
-    let building = args.map.as_deref().map(map::DemoMap::load).transpose()?;
+    let building = args.map.as_deref().map(|m| map::DemoMap::load(m, args.floor_plan.as_deref())).transpose()?;
     let starts = match &building {
         Some(b) => Some(b.starts(fleet(args))?),
         None => None,
@@ -218,6 +223,9 @@ async fn drive(args: &Args, dir: &std::path::Path, children: &mut Vec<Child>, sh
     // Every node of the demo listens with the scheme of central's endpoint (quic, tls or tcp).
     let scheme = args.listen.as_deref().and_then(|l| l.split('/').next()).unwrap_or("tcp").to_string();
     println!("{}", layout_line(args));
+    if let Some(line) = building.as_ref().and_then(map::DemoMap::plan_line) {
+        println!("mrmm demo: {line}");
+    }
     let pki = (!args.insecure).then(|| dir.join("pki"));
     if let Some(pki) = &pki {
         start::issue_pki(args, pki)?;

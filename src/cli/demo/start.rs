@@ -65,6 +65,9 @@ pub(super) async fn central(
     ];
     if let Some(b) = building {
         central_args.extend(["--map".into(), format!("{}={}", map::NAME, b.path.display())]);
+        if let Some(plan) = &b.plan {
+            central_args.extend(["--floor-plan".into(), format!("{}={}", map::NAME, plan.display())]);
+        }
     }
     if let Some(pki) = pki {
         central_args.extend(["--pki".into(), pki.display().to_string(), "--operator".into(), "operator".into()]);
