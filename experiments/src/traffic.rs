@@ -37,17 +37,19 @@ pub struct Lanes {
 const FLOOR_PLANS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../maps/data/patrolling_sim/");
 
 /// `graph` with its two-way lanes marked passing where map `name`'s floor plan (a Nav2 map
-/// shipped beside its graph) has room for two robots side by side; unmarked if it has none.
+/// shipped beside its graph) has room for two robots side by side, read as the fleet reads a
+/// graph central is given with its plan (`floor_plans`: [`mrmm_maps::Bundle::collect_on_plan`]);
+/// unmarked if it has none.
 fn floor_plan(name: &str, graph: &mrmm_maps::NavGraph) -> anyhow::Result<mrmm_maps::NavGraph> {
-    let yaml = format!("{FLOOR_PLANS}{name}.yaml");
+    let (path, yaml) = (format!("{FLOOR_PLANS}{name}.graph"), format!("{FLOOR_PLANS}{name}.yaml"));
     if !Path::new(&yaml).exists() {
         return Ok(graph.clone());
     }
-    let bundle = mrmm_maps::Bundle::collect(&yaml, |p| std::fs::read(p).map_err(|e| e.to_string())).map_err(|e| anyhow!("{e}"))?;
-    let (_, map) = bundle.load().map_err(|e| anyhow!("{e}"))?;
-    let grid = map.grid().ok_or_else(|| anyhow!("{yaml}: not a grid map"))?;
-    let radius = CLEARANCE / 2.0;
-    Ok(mrmm_maps::roadmap::mark_passing_on(grid, graph.clone(), radius, mrmm_core::traffic::layout::PASSING_OFFSET_M))
+    let bundle = mrmm_maps::Bundle::collect_on_plan(&path, &yaml, |p| std::fs::read(p).map_err(|e| e.to_string())).map_err(|e| anyhow!("{e}"))?;
+    match bundle.load().map_err(|e| anyhow!("{e}"))?.1 {
+        mrmm_maps::Map::Graph(g) => Ok(g),
+        mrmm_maps::Map::Grid(_) => Err(anyhow!("{path}: not a navigation graph")),
+    }
 }
 
 /// One map and team size, over the seeds.
