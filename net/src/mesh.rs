@@ -360,7 +360,11 @@ impl Mesh {
                     }
                 }
                 Err(err) => {
-                    let e = net::error_reply(selector, &err.payload().to_bytes());
+                    let bytes = err.payload().to_bytes();
+                    if net::is_zenoh_timeout(&bytes) {
+                        continue;
+                    }
+                    let e = net::error_reply(selector, &bytes);
                     unproven |= e.is(ErrorCode::Unproven);
                     failed.get_or_insert(QueryError::Remote(e));
                 }

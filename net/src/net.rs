@@ -345,12 +345,21 @@ pub fn query_payload(query: &Query) -> Vec<u8> {
 pub(crate) use mrmm_proto::QueryError;
 
 /// A reply error's payload as its server sent it (its first 200 characters, when not JSON).
+/// Whether an error reply is Zenoh's own end of a query nobody answered in time (the asker's
+/// session, or a router that forwarded the query, ends it with an error whose payload is
+/// `Timeout`): no answer, which asking again may get, not a server's refusal. mrmm's servers
+/// answer errors as JSON [`ErrorReply`]s, never this bare word.
+pub fn is_zenoh_timeout(bytes: &[u8]) -> bool {
+    bytes == b"Timeout"
+}
+
 pub fn error_reply(selector: &str, bytes: &[u8]) -> ErrorReply {
     from_json::<ErrorReply>(selector, bytes).unwrap_or_else(|_| ErrorReply::from(String::from_utf8_lossy(bytes).chars().take(200).collect::<String>()))
 }
 
 /// One query expecting one JSON answer: returns at the first reply (not at the timeout). A reply
-/// error becomes [`QueryError::Remote`] with the server's message.
+/// error becomes [`QueryError::Remote`] with the server's message; Zenoh's own timeout
+/// ([`is_zenoh_timeout`]) [`QueryError::NoAnswer`].
 pub async fn query<T: DeserializeOwned>(session: &Session, selector: &str, body: Option<Vec<u8>>, timeout: Duration) -> Result<T, QueryError> {
     let zerr = |e: zenoh::Error| QueryError::Zenoh { key: selector.to_string(), why: e.to_string() };
     let mut get = session.get(selector).timeout(timeout);
@@ -361,7 +370,13 @@ pub async fn query<T: DeserializeOwned>(session: &Session, selector: &str, body:
     let reply = replies.recv_async().await.map_err(|_| QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() })?;
     match reply.result() {
         Ok(sample) => from_json(selector, &sample.payload().to_bytes()).map_err(|e| QueryError::Decode { key: selector.to_string(), why: e.to_string() }),
-        Err(err) => Err(QueryError::Remote(error_reply(selector, &err.payload().to_bytes()))),
+        Err(err) => {
+            let bytes = err.payload().to_bytes();
+            if is_zenoh_timeout(&bytes) {
+                return Err(QueryError::NoAnswer { key: selector.to_string(), ms: timeout.as_millis() });
+            }
+            Err(QueryError::Remote(error_reply(selector, &bytes)))
+        }
     }
 }
 

@@ -139,3 +139,54 @@ async fn queries_are_tagged_once_the_server_is_known_and_signed_again_after_a_re
     asker.close().await;
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A server that holds a query past its timeout: Zenoh ends the query with its own error reply
+/// (`Timeout`), which is no answer (retryable, "no answer on … within … ms"), not a server's
+/// refusal reading "Timeout" — what `cannot create mission patrol-1: Timeout` was.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_query_nobody_answers_in_time_is_no_answer_not_a_refusal() {
+    let open = |connect: Vec<String>| {
+        let net = NodeNet {
+            mode: Mode::Peer,
+            listen: vec!["tcp/127.0.0.1:0".into()],
+            connect,
+            lease_ms: 1000,
+            max_message_size: net::DEFAULT_MAX_MESSAGE_SIZE,
+            security: None,
+            me: None,
+            wire_stats: false,
+        };
+        async move { Mesh::open(&net).await.expect("a mesh") }
+    };
+    let server = open(vec![]).await;
+    let ep = net::listening_endpoints(server.session()).await;
+    let asker = open(ep).await;
+    let key = Key::SystemMaps.to_string();
+    let q = server.session().declare_queryable(&key).await.expect("queryable");
+    let held = tokio::spawn(async move {
+        let mut kept = Vec::new();
+        while let Ok(query) = q.recv_async().await {
+            kept.push(query);
+        }
+    });
+    let mut last = None;
+    for _ in 0..50 {
+        let started = std::time::Instant::now();
+        let r = asker.query::<serde_json::Value>(&key, None, Duration::from_millis(300), |_| true).await;
+        let e = r.expect_err("nobody answers");
+        // Until the queryable is known the query ends at once with nobody to ask; then it
+        // reaches the server and ends at its timeout.
+        if started.elapsed() >= Duration::from_millis(250) {
+            last = Some(e);
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let e = last.expect("a query that reached the silent server");
+    assert!(matches!(e, QueryError::NoAnswer { .. }) && e.retryable(), "{e:?}");
+    let e = net::query::<serde_json::Value>(asker.session(), &key, None, Duration::from_millis(300)).await.expect_err("nobody answers");
+    assert!(matches!(e, QueryError::NoAnswer { .. }), "{e:?}");
+    held.abort();
+    asker.close().await;
+    server.close().await;
+}
