@@ -90,7 +90,7 @@ pub fn run(out: &Path, sizes: &[usize], seed: u64, lanes: Lanes) -> anyhow::Resu
         // Robots start and go to the map's own vertices; cut lanes add vertices after them.
         let marked = if lanes.floor {
             let g = floor_plan(name, graph)?;
-            println!("{name:>16}: {} of {} lanes passing on its floor plan", g.edges.iter().filter(|e| e.passing).count() / 2, g.lanes().len());
+            println!("{name:>16}: {} of {} lanes passing on its floor plan", g.summary().passing, g.lanes().len());
             g
         } else if lanes.passing > 0.0 {
             graph.clone().with_passing(lanes.passing)

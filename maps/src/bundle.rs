@@ -117,8 +117,8 @@ impl Bundle {
     /// [`Bundle::collect`] for a graph map drawn on a floor plan (a Nav2 map's YAML at `plan`,
     /// in the graph's frame): the plan's files go into the bundle under [`FLOOR_PLAN_DIR`], and
     /// the map loads with its two-way lanes marked passing where the plan has room for two
-    /// robots side by side ([`roadmap::mark_passing_on`], [`roadmap::Params`]' defaults). The
-    /// plan is checked as [`Bundle::load`] will: every vertex stands in its free space.
+    /// robots side by side ([`roadmap::mark_passing_on`], [`roadmap::Params`]' defaults).
+    /// [`Bundle::load`] checks the plan: every vertex stands in its free space.
     pub fn collect_on_plan(path: &str, plan: &str, mut read: impl FnMut(&str) -> Result<Vec<u8>, String>) -> Result<Bundle, MapError> {
         let mut bundle = Bundle::collect(path, &mut read)?;
         if bundle.format()? == Format::Nav2 {
@@ -134,7 +134,6 @@ impl Bundle {
                 return Err(MapError::Invalid(format!("{plan}: its image may not be named \"map.yaml\"")));
             }
         }
-        bundle.load()?;
         Ok(bundle)
     }
 

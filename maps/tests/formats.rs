@@ -98,8 +98,10 @@ fn every_patrolling_sim_graph_loads() {
     assert_eq!(bundle("patrolling_sim/broughton.graph").format().unwrap(), Format::PatrollingSim);
 }
 
+/// The bundle of `graph` on `plan`, loaded once as every node that holds it does.
 fn on_plan(graph: &str, plan: &str) -> Result<Bundle, MapError> {
-    Bundle::collect_on_plan(&data(graph).to_string_lossy(), &data(plan).to_string_lossy(), |p| std::fs::read(p).map_err(|e| e.to_string()))
+    let b = Bundle::collect_on_plan(&data(graph).to_string_lossy(), &data(plan).to_string_lossy(), |p| std::fs::read(p).map_err(|e| e.to_string()))?;
+    b.load().map(|_| b)
 }
 
 #[test]

@@ -344,7 +344,6 @@ pub fn query_payload(query: &Query) -> Vec<u8> {
 
 pub(crate) use mrmm_proto::QueryError;
 
-/// A reply error's payload as its server sent it (its first 200 characters, when not JSON).
 /// Whether an error reply is Zenoh's own end of a query nobody answered in time (the asker's
 /// session, or a router that forwarded the query, ends it with an error whose payload is
 /// `Timeout`): no answer, which asking again may get, not a server's refusal. mrmm's servers
@@ -353,6 +352,7 @@ pub fn is_zenoh_timeout(bytes: &[u8]) -> bool {
     bytes == b"Timeout"
 }
 
+/// A reply error's payload as its server sent it (its first 200 characters, when not JSON).
 pub fn error_reply(selector: &str, bytes: &[u8]) -> ErrorReply {
     from_json::<ErrorReply>(selector, bytes).unwrap_or_else(|_| ErrorReply::from(String::from_utf8_lossy(bytes).chars().take(200).collect::<String>()))
 }
